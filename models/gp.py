@@ -1,0 +1,334 @@
+"""Compact Gaussian-process regression with independent outputs (thesis Sec. 2.1, Eq. 2.9).
+
+Every output column ``c`` of ``Y`` gets its own zero-mean GP (after subtracting the column mean)
+with a squared-exponential kernel plus observation noise::
+
+    k_c(x, x') = sf2_c * exp(-0.5 * sum_d ((x_d - x'_d) / ell_cd)^2) + sn2_c * [x == x']
+
+The hyper-parameters ``theta_c = (log ell_c1..ell_cd, log sf2_c, log sn2_c)`` are fitted by
+maximising the log marginal likelihood with analytic gradients (scipy L-BFGS-B). All outputs are
+optimised jointly in one vectorised problem: the objective is the sum of the independent
+per-output objectives, so its optimum is the per-output optimum.
+
+Units: whatever the caller's ``X`` and ``Y`` are in; ``ell`` has the units of ``X``, ``sf2`` and
+``sn2`` the units of ``Y`` squared.
+
+Serialisation schema (``to_dict``)::
+
+    {"type": "GaussianProcess", "version": 1, "ard": bool, "noise_min": float,
+     "X": [[...]] (n, d), "Y": [[...]] (n, m),
+     "log_ell": [[...]] (m, d or 1), "log_sf2": [...] (m,), "log_sn2": [...] (m,)}
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.linalg import lapack
+from scipy.optimize import minimize
+
+_potrf = lapack.dpotrf
+_potri = lapack.dpotri
+
+__all__ = ["GaussianProcess"]
+
+_LOG_2PI = np.log(2.0 * np.pi)
+
+
+def _as_2d(a, name: str) -> np.ndarray:
+    a = np.asarray(a, dtype=float)
+    if a.ndim == 1:
+        a = a[:, None]
+    if a.ndim != 2:
+        raise ValueError(f"{name} must be a 2-D array (n, dims), got shape {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{name} contains NaN or inf")
+    return a
+
+
+def _batched_cholesky(K: np.ndarray) -> np.ndarray:
+    """Cholesky of a stack (m, n, n); adds growing diagonal jitter if needed."""
+    try:
+        return np.linalg.cholesky(K)
+    except np.linalg.LinAlgError:
+        pass
+    n = K.shape[-1]
+    scale = np.maximum(np.abs(np.diagonal(K, axis1=-2, axis2=-1)).mean(axis=-1), 1e-300)
+    eye = np.eye(n)
+    for rel in (1e-10, 1e-8, 1e-6, 1e-4, 1e-2):
+        try:
+            return np.linalg.cholesky(K + (rel * scale)[:, None, None] * eye)
+        except np.linalg.LinAlgError:
+            continue
+    raise np.linalg.LinAlgError("kernel matrix is not positive definite even with jitter")
+
+
+class GaussianProcess:
+    """GP regression, independent outputs, squared-exponential kernel (optionally ARD).
+
+    Args:
+        ard: one length scale per input dimension (True) or one shared length scale (False).
+    """
+
+    def __init__(self, ard: bool = True):
+        self.ard = bool(ard)
+        self._fitted = False
+
+    # ------------------------------------------------------------------ parameters
+    @property
+    def n_inputs(self) -> int:
+        return self.X.shape[1]
+
+    @property
+    def n_outputs(self) -> int:
+        return self.Y.shape[1]
+
+    @property
+    def length_scales(self) -> np.ndarray:
+        """(m, d) length scales (units of X)."""
+        ell = np.exp(self.log_ell)
+        return np.broadcast_to(ell, (self.Y.shape[1], self.X.shape[1])).copy()
+
+    @property
+    def signal_variance(self) -> np.ndarray:
+        return np.exp(self.log_sf2)
+
+    @property
+    def noise_variance(self) -> np.ndarray:
+        return np.exp(self.log_sn2)
+
+    # ------------------------------------------------------------------ core algebra
+    def _sqdist(self, A: np.ndarray, B: np.ndarray) -> np.ndarray:
+        """(d, a, b) per-dimension squared differences."""
+        diff = A.T[:, :, None] - B.T[:, None, :]
+        return diff * diff
+
+    def _kernel_noiseless(self, D2: np.ndarray, log_ell: np.ndarray, log_sf2: np.ndarray):
+        """Stack (m, a, b) of sf2 * exp(-0.5 * sum_d D2_d / ell_cd^2)."""
+        m = log_sf2.shape[0]
+        d = D2.shape[0]
+        if d == 0:
+            return np.exp(log_sf2)[:, None, None] * np.ones((m,) + D2.shape[1:])
+        inv_l2 = np.exp(-2.0 * np.broadcast_to(log_ell, (m, d)))
+        r2 = np.einsum("cd,dab->cab", inv_l2, D2, optimize=True)
+        return np.exp(log_sf2)[:, None, None] * np.exp(-0.5 * r2)
+
+    def _unpack(self, theta: np.ndarray, m: int, d_ell: int):
+        theta = theta.reshape(m, d_ell + 2)
+        return theta[:, :d_ell], theta[:, d_ell], theta[:, d_ell + 1]
+
+    def _neg_lml_and_grad(self, theta, D2, Yc, d_ell):
+        n, m = Yc.shape
+        log_ell, log_sf2, log_sn2 = self._unpack(theta, m, d_ell)
+        Kf = self._kernel_noiseless(D2, log_ell, log_sf2)
+        sn2 = np.exp(log_sn2)
+        K = Kf + sn2[:, None, None] * np.eye(n)
+        Kinv = np.empty_like(K)
+        logdet_half = np.empty(m)
+        for c in range(m):
+            Lc, info = _potrf(K[c], lower=1, clean=0)
+            if info != 0:
+                try:
+                    Lc = _batched_cholesky(K[c][None])[0]
+                except np.linalg.LinAlgError:
+                    return 1e25, np.zeros_like(theta)
+            logdet_half[c] = np.log(np.diagonal(Lc)).sum()
+            Ki, info = _potri(Lc, lower=1)
+            Kinv[c] = Ki
+        # potri fills the lower triangle only: symmetrise
+        Kinv = np.tril(Kinv)
+        Kinv += np.swapaxes(np.tril(Kinv, -1), 1, 2)
+        alpha = np.einsum("cij,jc->ci", Kinv, Yc, optimize=True)  # (m, n)
+        lml = -0.5 * np.einsum("ic,ci->c", Yc, alpha) - logdet_half - 0.5 * n * _LOG_2PI
+        W = alpha[:, :, None] * alpha[:, None, :] - Kinv  # (m, n, n)
+        WK = W * Kf
+        g = np.empty((m, d_ell + 2))
+        d = D2.shape[0]
+        if d_ell > 0:
+            inv_l2 = np.exp(-2.0 * np.broadcast_to(log_ell, (m, d)))
+            g_dims = 0.5 * np.einsum("cab,dab->cd", WK, D2, optimize=True) * inv_l2
+            if self.ard:
+                g[:, :d_ell] = g_dims
+            else:
+                g[:, 0] = g_dims.sum(axis=1)
+        g[:, d_ell] = 0.5 * WK.sum(axis=(1, 2))
+        g[:, d_ell + 1] = 0.5 * sn2 * np.trace(W, axis1=1, axis2=2)
+        return -float(lml.sum()), -g.ravel()
+
+    def _factorise(self):
+        n, m = self.Y.shape
+        D2 = self._sqdist(self.X, self.X)
+        Kf = self._kernel_noiseless(D2, self.log_ell, self.log_sf2)
+        K = Kf + np.exp(self.log_sn2)[:, None, None] * np.eye(n)
+        self._L = _batched_cholesky(K)
+        Yc = (self.Y - self.y_mean).T[:, :, None]  # (m, n, 1)
+        z = np.linalg.solve(self._L, Yc)
+        self._alpha = np.linalg.solve(np.swapaxes(self._L, 1, 2), z)[:, :, 0]  # (m, n)
+        self._lml = (
+            -0.5 * np.einsum("ci,ci->c", z[:, :, 0], z[:, :, 0])
+            - np.log(np.diagonal(self._L, axis1=1, axis2=2)).sum(axis=1)
+            - 0.5 * n * _LOG_2PI
+        )
+        self._fitted = True
+
+    # ------------------------------------------------------------------ public API
+    def fit(self, X, Y, *, optimize: bool = True, noise_min: float = 1e-6,
+            hyperparameters: dict | None = None, maxiter: int = 200) -> "GaussianProcess":
+        """Fit to training inputs ``X`` (n, d) and targets ``Y`` (n, m).
+
+        Args:
+            X: (n, d) inputs (d may be 0: the GP then estimates a constant plus noise).
+            Y: (n, m) targets; a 1-D array is treated as one output column.
+            optimize: maximise the log marginal likelihood over the hyper-parameters.
+                If False, the hyper-parameters from ``hyperparameters`` (or the data-scale
+                initialisation) are used as they are.
+            noise_min: lower bound on the noise *variance* sn2 (units of Y squared).
+            hyperparameters: optional initial values ``{"log_ell": (m, d) or (m, 1),
+                "log_sf2": (m,), "log_sn2": (m,)}`` (broadcast over outputs).
+            maxiter: iteration cap for L-BFGS-B.
+        Returns:
+            self
+        """
+        X = _as_2d(X, "X")
+        Y = _as_2d(Y, "Y")
+        if X.shape[0] != Y.shape[0]:
+            raise ValueError(f"X has {X.shape[0]} rows but Y has {Y.shape[0]}")
+        if X.shape[0] < 1:
+            raise ValueError("GaussianProcess.fit needs at least one training sample")
+        if not noise_min > 0:
+            raise ValueError(f"noise_min must be positive, got {noise_min}")
+        n, d = X.shape
+        m = Y.shape[1]
+        self.X, self.Y = X.copy(), Y.copy()
+        self.noise_min = float(noise_min)
+        self.y_mean = Y.mean(axis=0)
+        Yc = Y - self.y_mean
+        d_ell = (d if self.ard else 1) if d > 0 else 0
+
+        # data-scale initialisation and bounds
+        xs = X.std(axis=0) if n > 1 else np.ones(d)
+        xs = np.where(xs > 1e-9, xs, 1.0)
+        yvar = Yc.var(axis=0) if n > 1 else np.zeros(m)
+        yscale = np.maximum(yvar, 1e-12)
+        if hyperparameters is None:
+            log_ell0 = np.log(xs if self.ard or d == 0 else np.array([xs.mean()]))[None, :d_ell]
+            log_ell0 = np.broadcast_to(log_ell0, (m, d_ell))
+            log_sf20 = np.log(np.maximum(yvar, 1e-10))
+            log_sn20 = np.log(np.maximum(0.01 * yvar, noise_min))
+        else:
+            log_ell0 = np.broadcast_to(np.asarray(hyperparameters["log_ell"], float).reshape(
+                -1, d_ell) if d_ell else np.zeros((m, 0)), (m, d_ell))
+            log_sf20 = np.broadcast_to(np.asarray(hyperparameters["log_sf2"], float), (m,))
+            log_sn20 = np.maximum(np.broadcast_to(
+                np.asarray(hyperparameters["log_sn2"], float), (m,)), np.log(noise_min))
+        theta0 = np.concatenate(
+            [np.asarray(log_ell0, float), np.asarray(log_sf20, float)[:, None],
+             np.asarray(log_sn20, float)[:, None]], axis=1)
+
+        if optimize and n > 1:
+            if self.ard or d == 0:
+                lo_ell, hi_ell = np.log(xs * 1e-2), np.log(xs * 1e5)
+            else:
+                lo_ell = np.array([np.log(xs.min() * 1e-2)])
+                hi_ell = np.array([np.log(xs.max() * 1e5)])
+            bounds = []
+            for c in range(m):
+                bounds += list(zip(lo_ell[:d_ell], hi_ell[:d_ell]))
+                bounds.append((np.log(1e-12), np.log(1e4 * yscale[c] + 1e-8)))
+                bounds.append((np.log(noise_min), np.log(max(1e4 * yscale[c], 10 * noise_min))))
+            bounds = np.array(bounds)
+            theta0 = np.clip(theta0.ravel(), bounds[:, 0], bounds[:, 1])
+            D2 = self._sqdist(X, X)
+            res = minimize(self._neg_lml_and_grad, theta0, args=(D2, Yc, d_ell), jac=True,
+                           method="L-BFGS-B", bounds=bounds,
+                           options={"maxiter": maxiter, "ftol": 1e-9, "gtol": 1e-5})
+            theta = res.x
+        else:
+            theta = theta0.ravel()
+        self.log_ell, self.log_sf2, self.log_sn2 = (
+            np.array(a) for a in self._unpack(np.asarray(theta, float), m, d_ell))
+        self._factorise()
+        return self
+
+    def _check_fitted(self):
+        if not self._fitted:
+            raise ValueError("GaussianProcess is not fitted; call fit() first")
+
+    def _check_xs(self, Xs) -> np.ndarray:
+        Xs = np.asarray(Xs, dtype=float)
+        if Xs.ndim == 1:
+            Xs = Xs[:, None] if self.X.shape[1] == 1 else Xs[None, :]
+        if Xs.ndim != 2 or Xs.shape[1] != self.X.shape[1]:
+            raise ValueError(f"Xs must have shape (k, {self.X.shape[1]}), got {Xs.shape}")
+        if not np.all(np.isfinite(Xs)):
+            raise ValueError("Xs contains NaN or inf")
+        return Xs
+
+    def predict(self, Xs, return_var: bool = False, *, include_noise: bool = False):
+        """Predictive mean (k, m) and optionally variance (k, m) at ``Xs`` (k, d).
+
+        The variance is that of the latent function; ``include_noise=True`` adds the fitted
+        noise variance (variance of a new observation).
+        """
+        self._check_fitted()
+        Xs = self._check_xs(Xs)
+        Ks = self._kernel_noiseless(self._sqdist(Xs, self.X), self.log_ell, self.log_sf2)
+        mean = np.einsum("ckn,cn->kc", Ks, self._alpha, optimize=True) + self.y_mean
+        if not return_var:
+            return mean
+        V = np.linalg.solve(self._L, np.swapaxes(Ks, 1, 2))  # (m, n, k)
+        var = np.exp(self.log_sf2)[None, :] - np.einsum("cnk,cnk->kc", V, V, optimize=True)
+        var = np.maximum(var, 0.0)
+        if include_noise:
+            var = var + np.exp(self.log_sn2)[None, :]
+        return mean, var
+
+    def predict_jacobian(self, Xs) -> np.ndarray:
+        """Derivative of the predictive mean w.r.t. the inputs: (k, m, d)."""
+        self._check_fitted()
+        Xs = self._check_xs(Xs)
+        m, d = self.Y.shape[1], self.X.shape[1]
+        if d == 0:
+            return np.zeros((Xs.shape[0], m, 0))
+        Ks = self._kernel_noiseless(self._sqdist(Xs, self.X), self.log_ell, self.log_sf2)
+        inv_l2 = np.exp(-2.0 * np.broadcast_to(self.log_ell, (m, d)))
+        diff = Xs[:, None, :] - self.X[None, :, :]  # (k, n, d)
+        KA = Ks * self._alpha[:, None, :]  # (m, k, n)
+        return -np.einsum("ckn,knd->kcd", KA, diff, optimize=True) * inv_l2[None, :, :]
+
+    def log_marginal_likelihood(self) -> float:
+        """Log marginal likelihood of the training data, summed over outputs."""
+        self._check_fitted()
+        return float(self._lml.sum())
+
+    def log_marginal_likelihood_per_output(self) -> np.ndarray:
+        self._check_fitted()
+        return self._lml.copy()
+
+    def to_dict(self) -> dict:
+        self._check_fitted()
+        return {
+            "type": "GaussianProcess", "version": 1, "ard": self.ard,
+            "noise_min": self.noise_min,
+            "X": self.X.tolist(), "Y": self.Y.tolist(),
+            "log_ell": self.log_ell.tolist(), "log_sf2": self.log_sf2.tolist(),
+            "log_sn2": self.log_sn2.tolist(),
+        }
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "GaussianProcess":
+        if d.get("type", "GaussianProcess") != "GaussianProcess":
+            raise ValueError(f"not a GaussianProcess dict: type={d.get('type')!r}")
+        gp = cls(ard=bool(d["ard"]))
+        X = np.asarray(d["X"], float)
+        Y = np.asarray(d["Y"], float)
+        if X.ndim == 1:
+            X = X.reshape(len(Y), -1)
+        m = Y.shape[1]
+        gp.X, gp.Y = X, Y
+        gp.noise_min = float(d.get("noise_min", 1e-6))
+        gp.y_mean = Y.mean(axis=0)
+        gp.log_ell = np.asarray(d["log_ell"], float).reshape(m, -1)
+        gp.log_sf2 = np.asarray(d["log_sf2"], float).reshape(m)
+        gp.log_sn2 = np.asarray(d["log_sn2"], float).reshape(m)
+        gp._factorise()
+        return gp

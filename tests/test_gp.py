@@ -1,0 +1,126 @@
+"""Tests for mmlearn.models.gp against scikit-learn's GaussianProcessRegressor as an oracle."""
+
+import json
+
+import numpy as np
+import pytest
+from sklearn.gaussian_process import GaussianProcessRegressor
+from sklearn.gaussian_process.kernels import RBF, ConstantKernel, WhiteKernel
+
+from mmlearn.models.gp import GaussianProcess
+
+
+def _data(n=25, d=2, m=3, seed=0):
+    rng = np.random.default_rng(seed)
+    X = rng.uniform(-2, 2, size=(n, d))
+    Y = np.stack([np.sin(X[:, 0] * (c + 1)) + 0.3 * c * X[:, -1] for c in range(m)], axis=1)
+    Y += 0.05 * rng.standard_normal(Y.shape)
+    return X, Y
+
+
+def _sk_oracle(gp, c):
+    ell = gp.length_scales[c]
+    kern = (ConstantKernel(gp.signal_variance[c], "fixed") * RBF(ell, "fixed")
+            + WhiteKernel(gp.noise_variance[c], "fixed"))
+    sk = GaussianProcessRegressor(kern, alpha=0.0, optimizer=None, normalize_y=False)
+    sk.fit(gp.X, gp.Y[:, c] - gp.y_mean[c])
+    return sk
+
+
+@pytest.mark.parametrize("ard", [True, False])
+def test_matches_sklearn_oracle(ard):
+    X, Y = _data()
+    gp = GaussianProcess(ard=ard).fit(X, Y)
+    Xs = np.random.default_rng(1).uniform(-2, 2, size=(7, 2))
+    mean, var = gp.predict(Xs, return_var=True)
+    lml = 0.0
+    for c in range(Y.shape[1]):
+        sk = _sk_oracle(gp, c)
+        m_sk, s_sk = sk.predict(Xs, return_std=True)
+        np.testing.assert_allclose(mean[:, c], m_sk + gp.y_mean[c], rtol=1e-6, atol=1e-8)
+        # sklearn's std includes the WhiteKernel noise
+        np.testing.assert_allclose(var[:, c] + gp.noise_variance[c], s_sk**2, rtol=1e-5,
+                                   atol=1e-9)
+        lml += sk.log_marginal_likelihood_value_
+    np.testing.assert_allclose(gp.log_marginal_likelihood(), lml, rtol=1e-8)
+    _, var_n = gp.predict(Xs, return_var=True, include_noise=True)
+    np.testing.assert_allclose(var_n - var, np.broadcast_to(gp.noise_variance, var.shape))
+
+
+def test_optimum_is_at_least_as_good_as_sklearn():
+    X, Y = _data(n=30, d=2, m=1, seed=3)
+    gp = GaussianProcess(ard=True).fit(X, Y)
+    kern = ConstantKernel(1.0) * RBF([1.0, 1.0]) + WhiteKernel(0.01)
+    sk = GaussianProcessRegressor(kern, alpha=0.0, n_restarts_optimizer=2, random_state=0)
+    sk.fit(X, Y[:, 0] - gp.y_mean[0])
+    assert gp.log_marginal_likelihood() >= sk.log_marginal_likelihood_value_ - 1e-3
+
+
+def test_lml_gradient_matches_finite_differences():
+    X, Y = _data(n=15, d=2, m=2, seed=2)
+    gp = GaussianProcess(ard=True)
+    gp.fit(X, Y, optimize=False)
+    Yc = Y - Y.mean(axis=0)
+    D2 = gp._sqdist(X, X)
+    theta = np.random.default_rng(0).normal(0, 0.3, size=2 * 4) + np.tile([0, 0, 0, -3], 2)
+    f, g = gp._neg_lml_and_grad(theta, D2, Yc, 2)
+    eps = 1e-6
+    g_fd = np.array([(gp._neg_lml_and_grad(theta + eps * e, D2, Yc, 2)[0]
+                      - gp._neg_lml_and_grad(theta - eps * e, D2, Yc, 2)[0]) / (2 * eps)
+                     for e in np.eye(theta.size)])
+    np.testing.assert_allclose(g, g_fd, rtol=1e-5, atol=1e-6)
+
+
+def test_predict_jacobian_matches_finite_differences():
+    X, Y = _data(n=20, d=3, m=4, seed=4)
+    gp = GaussianProcess().fit(X, Y)
+    Xs = np.random.default_rng(5).uniform(-1, 1, size=(5, 3))
+    J = gp.predict_jacobian(Xs)
+    assert J.shape == (5, 4, 3)
+    eps = 1e-6
+    J_fd = np.stack([(gp.predict(Xs + eps * e) - gp.predict(Xs - eps * e)) / (2 * eps)
+                     for e in np.eye(3)], axis=-1)
+    np.testing.assert_allclose(J, J_fd, rtol=1e-5, atol=1e-7)
+
+
+def test_fits_smooth_function_and_noise_level():
+    rng = np.random.default_rng(6)
+    X = rng.uniform(-3, 3, size=(60, 1))
+    Y = np.sin(X) + 0.1 * rng.standard_normal(X.shape)
+    gp = GaussianProcess().fit(X, Y)
+    Xs = np.linspace(-2.5, 2.5, 50)[:, None]
+    assert np.max(np.abs(gp.predict(Xs) - np.sin(Xs))) < 0.1
+    assert 0.05 < np.sqrt(gp.noise_variance[0]) < 0.2
+
+
+def test_zero_inputs_and_constant_outputs():
+    rng = np.random.default_rng(7)
+    Y = np.c_[np.full(10, 2.0), 1.0 + 0.01 * rng.standard_normal(10)]
+    gp = GaussianProcess().fit(np.zeros((10, 0)), Y)
+    mean, var = gp.predict(np.zeros((3, 0)), return_var=True)
+    np.testing.assert_allclose(mean[:, 0], 2.0, atol=1e-6)
+    np.testing.assert_allclose(mean[:, 1], Y[:, 1].mean(), atol=5e-3)
+    assert np.all(var >= 0)
+    assert gp.predict_jacobian(np.zeros((3, 0))).shape == (3, 2, 0)
+
+
+def test_roundtrip_json():
+    X, Y = _data(n=12, d=2, m=2, seed=8)
+    gp = GaussianProcess().fit(X, Y)
+    gp2 = GaussianProcess.from_dict(json.loads(json.dumps(gp.to_dict())))
+    Xs = np.random.default_rng(9).uniform(-2, 2, size=(4, 2))
+    np.testing.assert_allclose(gp2.predict(Xs), gp.predict(Xs))
+    np.testing.assert_allclose(gp2.log_marginal_likelihood(), gp.log_marginal_likelihood())
+
+
+def test_bad_input_raises():
+    gp = GaussianProcess()
+    with pytest.raises(ValueError, match="NaN"):
+        gp.fit(np.array([[0.0], [np.nan]]), np.zeros((2, 1)))
+    with pytest.raises(ValueError, match="rows"):
+        gp.fit(np.zeros((3, 1)), np.zeros((2, 1)))
+    with pytest.raises(ValueError, match="not fitted"):
+        gp.predict(np.zeros((1, 1)))
+    gp.fit(np.zeros((3, 2)) + np.arange(3)[:, None], np.arange(3.0))
+    with pytest.raises(ValueError, match="shape"):
+        gp.predict(np.zeros((2, 3)))
