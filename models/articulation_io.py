@@ -1,0 +1,252 @@
+"""Saving / loading learned articulation models (YAML or JSON) and SDFormat export.
+
+File schema (YAML and JSON hold the same tree; the extension chooses the format)::
+
+    format: mmlearn.articulation
+    version: 1
+    kind: link | object
+    # kind == link:
+    link: <LinkDict>
+    # kind == object:
+    object:
+      parts: [name, ...]          # part names, index = part id
+      root: int                   # id of the root part (object frame)
+      edges:
+        - {parent: int, child: int, bic: {model: float}, model: <LinkDict>}
+
+    LinkDict:
+      type: rigid | prismatic | revolute | gp | gp2..gp5
+      obs: {sigma_pos: m, sigma_orient: rad, gamma_weight: w, outlier_volume_m3: m^3 | null}
+      obs_fit: same, with the outlier volume used in fitting
+      has_orientation: bool       # false for position-only models
+      theta: [float, ...]         # parameter vector (layout: see models/articulation.py)
+      gamma: float                # outlier ratio
+      n_train: int
+      q_min, q_max: [float] * d   # observed configuration range (m or rad)
+      log_likelihood, bic, avg_pos_error_m, avg_orient_error_rad: floats (training)
+      extra: {}                   # revolute: {q_center}; gp: {dof, reduction, R_ref,
+                                  #   f_mean, components, gp: GaussianProcess.to_dict()}
+
+Floats are written with full precision (repr), so a reloaded model predicts identically.
+Files are written atomically (temporary file in the same folder + os.replace).
+
+SDFormat export (:func:`to_sdf`): one <link> per part (unit mass, small inertia, a small box
+visual), the root link welded to the world, revolute / prismatic links as joints with the
+learned axis and observed range as limits, rigid and GP links as fixed joints (a GP link has
+no SDFormat joint type; it is frozen at the middle of its configuration range and marked in
+a comment). Link poses are those at q = 0.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from .articulation import LinkModel, link_model_from_dict
+from .articulation_structure import ArticulatedObject, LinkEdge
+
+__all__ = ["model_to_dict", "model_from_dict", "save_model", "load_model", "to_sdf",
+           "write_sdf", "atomic_write_text"]
+
+FORMAT = "mmlearn.articulation"
+VERSION = 1
+
+
+def model_to_dict(model) -> dict:
+    """Link model or ArticulatedObject -> plain dict (schema above)."""
+    if isinstance(model, LinkModel):
+        return {"format": FORMAT, "version": VERSION, "kind": "link", "link": model.to_dict()}
+    if isinstance(model, ArticulatedObject):
+        return {"format": FORMAT, "version": VERSION, "kind": "object", "object": {
+            "parts": list(model.part_names), "root": int(model.root),
+            "edges": [{"parent": int(e.parent), "child": int(e.child),
+                       "bic": {k: float(v) for k, v in e.bic.items()},
+                       "model": e.model.to_dict()} for e in model.edges]}}
+    raise ValueError(f"cannot serialise {type(model).__name__}")
+
+
+def model_from_dict(d: dict):
+    if not isinstance(d, dict) or d.get("format") != FORMAT:
+        raise ValueError(f"not an {FORMAT} document (format={d.get('format') if isinstance(d, dict) else None!r})")
+    if int(d.get("version", 0)) != VERSION:
+        raise ValueError(f"unsupported {FORMAT} version {d.get('version')}")
+    if d["kind"] == "link":
+        return link_model_from_dict(d["link"])
+    if d["kind"] == "object":
+        o = d["object"]
+        edges = [LinkEdge(int(e["parent"]), int(e["child"]), link_model_from_dict(e["model"]),
+                          dict(e.get("bic", {}))) for e in o["edges"]]
+        return ArticulatedObject(o["parts"], int(o["root"]), edges)
+    raise ValueError(f"unknown kind {d['kind']!r}")
+
+
+def atomic_write_text(path, text: str) -> None:
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "w") as f:
+            f.write(text)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
+
+
+def _is_yaml(path) -> bool:
+    suf = Path(path).suffix.lower()
+    if suf in (".yaml", ".yml"):
+        return True
+    if suf == ".json":
+        return False
+    raise ValueError(f"{path}: use a .json, .yaml or .yml extension")
+
+
+def save_model(model, path) -> None:
+    """Save a link model or ArticulatedObject as JSON or YAML (by extension), atomically."""
+    d = model_to_dict(model)
+    if _is_yaml(path):
+        import yaml
+
+        text = yaml.safe_dump(d, sort_keys=False, default_flow_style=None, width=100)
+    else:
+        text = json.dumps(d, indent=1)
+    atomic_write_text(path, text)
+
+
+def load_model(path):
+    """Load what :func:`save_model` wrote."""
+    p = Path(path)
+    if not p.exists():
+        raise ValueError(f"{p}: file not found")
+    text = p.read_text()
+    if _is_yaml(p):
+        import yaml
+
+        d = yaml.safe_load(text)
+    else:
+        d = json.loads(text)
+    return model_from_dict(d)
+
+
+# --------------------------------------------------------------------------- SDFormat
+def _pose_str(T: np.ndarray) -> str:
+    xyz = T[:3, 3]
+    rpy = Rotation.from_matrix(T[:3, :3]).as_euler("xyz")  # SDF: fixed-axis roll pitch yaw
+    return " ".join(f"{v:.9g}" for v in (*xyz, *rpy))
+
+
+def _pose_T(P, R=None) -> np.ndarray:
+    T = np.eye(4)
+    T[:3, 3] = P
+    if R is not None:
+        T[:3, :3] = R
+    return T
+
+
+def _link_xml(name: str, size: float = 0.05) -> str:
+    return f"""    <link name="{name}">
+      <inertial><mass>1.0</mass><inertia><ixx>0.001</ixx><iyy>0.001</iyy><izz>0.001</izz>
+        <ixy>0</ixy><ixz>0</ixz><iyz>0</iyz></inertia></inertial>
+      <visual name="{name}_visual"><geometry><box><size>{size} {size} {size}</size></box></geometry></visual>
+    </link>
+"""
+
+
+def _safe(name: str) -> str:
+    return "".join(c if (c.isalnum() or c == "_") else "_" for c in str(name))
+
+
+def to_sdf(model, *, model_name: str = "learned_object", weld_root: bool = True) -> str:
+    """SDFormat 1.9 text for an ArticulatedObject (or a single link model: parts "base" and
+    "part")."""
+    if isinstance(model, LinkModel):
+        model = ArticulatedObject(["base", "part"], 0, [LinkEdge(0, 1, model, {})])
+    if not isinstance(model, ArticulatedObject):
+        raise ValueError(f"cannot export {type(model).__name__} to SDFormat")
+    names = [_safe(n) for n in model.part_names]
+    out = [f'<?xml version="1.0"?>\n<sdf version="1.9">\n  <model name="{_safe(model_name)}">\n']
+    reached = {model.root}
+    out.append(_link_xml(names[model.root]))
+    if weld_root:
+        out.append(f'    <joint name="{names[model.root]}_weld" type="fixed">\n'
+                   f"      <parent>world</parent><child>{names[model.root]}</child>\n"
+                   f"    </joint>\n")
+    for e in model.edges:
+        m = e.model
+        par, ch = names[e.parent], names[e.child]
+        reached.add(e.child)
+        if m.name == "revolute":
+            from .articulation import _rv2m
+
+            Rc = _rv2m(m.theta[3:6])
+            Tc = _pose_T(m.theta[:3], Rc)
+            q0 = 0.0
+            T0 = m.forward_matrices([[q0]])[0]  # child pose at q = 0
+            if not m.has_orientation:
+                T0[:3, :3] = np.eye(3)
+            # joint frame = c, expressed relative to the child link frame
+            T_child_joint = np.linalg.inv(T0) @ Tc
+            lo, hi = float(m.q_min[0]), float(m.q_max[0])
+            out.append(_link_xml(ch).replace(
+                f'<link name="{ch}">', f'<link name="{ch}">\n      <pose relative_to="{par}">'
+                f'{_pose_str(T0)}</pose>'))
+            out.append(f"""    <joint name="{par}__{ch}" type="revolute">
+      <pose>{_pose_str(T_child_joint)}</pose>
+      <parent>{par}</parent><child>{ch}</child>
+      <axis><xyz>0 0 1</xyz><limit><lower>{lo:.9g}</lower><upper>{hi:.9g}</upper></limit></axis>
+    </joint>
+""")
+        elif m.name == "prismatic":
+            T0 = m.forward_matrices([[0.0]])[0]
+            if not m.has_orientation:
+                T0[:3, :3] = np.eye(3)
+            axis_child = T0[:3, :3].T @ m.axis
+            lo, hi = float(m.q_min[0]), float(m.q_max[0])
+            out.append(_link_xml(ch).replace(
+                f'<link name="{ch}">', f'<link name="{ch}">\n      <pose relative_to="{par}">'
+                f'{_pose_str(T0)}</pose>'))
+            out.append(f"""    <joint name="{par}__{ch}" type="prismatic">
+      <parent>{par}</parent><child>{ch}</child>
+      <axis><xyz>{axis_child[0]:.9g} {axis_child[1]:.9g} {axis_child[2]:.9g}</xyz>
+        <limit><lower>{lo:.9g}</lower><upper>{hi:.9g}</upper></limit></axis>
+    </joint>
+""")
+        else:
+            if m.dof:
+                qm = 0.5 * (m.q_min + m.q_max)
+                T0 = m.forward_matrices(qm[None])[0]
+                note = f"    <!-- {m.name} link (d={m.dof}) exported frozen at q={qm.tolist()} -->\n"
+            else:
+                T0 = m.forward_matrices(None)[0]
+                note = ""
+            if not m.has_orientation:
+                T0[:3, :3] = np.eye(3)
+            out.append(note)
+            out.append(_link_xml(ch).replace(
+                f'<link name="{ch}">', f'<link name="{ch}">\n      <pose relative_to="{par}">'
+                f'{_pose_str(T0)}</pose>'))
+            out.append(f"""    <joint name="{par}__{ch}" type="fixed">
+      <parent>{par}</parent><child>{ch}</child>
+    </joint>
+""")
+    for k in range(model.num_parts):
+        if k not in reached:
+            out.append(_link_xml(names[k]))
+    out.append("  </model>\n</sdf>\n")
+    return "".join(out)
+
+
+def write_sdf(model, path, **kw) -> None:
+    """Write :func:`to_sdf` atomically to ``path``."""
+    atomic_write_text(path, to_sdf(model, **kw))

@@ -1,0 +1,190 @@
+"""Small, vectorised SE(3) pose utilities for the articulation models.
+
+Pose conventions (see ARCHITECTURE.md): a track of poses is either
+
+- ``(n, 7)``: ``x y z qx qy qz qw`` (metres, unit quaternion in scalar-last order),
+- ``(n, 4, 4)``: homogeneous matrices, or
+- ``(n, 3)``: positions only (orientation unknown).
+
+Internally the articulation code works on a :class:`PoseArray`: positions ``(n, 3)`` plus a
+``scipy.spatial.transform.Rotation`` of length n, or ``None`` for position-only tracks.
+All functions are vectorised over the n poses.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+__all__ = [
+    "PoseArray",
+    "as_pose_array",
+    "to_xyzquat",
+    "to_matrices",
+    "relative_poses",
+    "rotation_angle",
+    "rotation_distance",
+    "matrix_to_pose7",
+    "pose7_to_matrix",
+]
+
+
+@dataclass
+class PoseArray:
+    """n poses: ``positions`` (n, 3) in metres and ``rotations`` (scipy Rotation, length n) or
+    None when the orientation is unknown (position-only track)."""
+
+    positions: np.ndarray
+    rotations: Rotation | None = None
+
+    def __len__(self) -> int:
+        return int(self.positions.shape[0])
+
+    @property
+    def has_orientation(self) -> bool:
+        return self.rotations is not None
+
+    def __getitem__(self, idx) -> "PoseArray":
+        idx = np.atleast_1d(np.arange(len(self))[idx])
+        rot = None if self.rotations is None else self.rotations[idx]
+        return PoseArray(self.positions[idx], rot)
+
+    def quaternions(self) -> np.ndarray | None:
+        """(n, 4) scalar-last quaternions or None."""
+        return None if self.rotations is None else self.rotations.as_quat()
+
+    def as_array(self) -> np.ndarray:
+        """(n, 7) or (n, 3) array (position-only)."""
+        if self.rotations is None:
+            return self.positions.copy()
+        return np.hstack([self.positions, self.rotations.as_quat()])
+
+    def as_matrices(self) -> np.ndarray:
+        """(n, 4, 4) homogeneous matrices (identity rotation for position-only tracks)."""
+        n = len(self)
+        T = np.tile(np.eye(4), (n, 1, 1))
+        T[:, :3, 3] = self.positions
+        if self.rotations is not None:
+            T[:, :3, :3] = self.rotations.as_matrix()
+        return T
+
+    def inverse(self) -> "PoseArray":
+        if self.rotations is None:
+            return PoseArray(-self.positions, None)
+        inv = self.rotations.inv()
+        return PoseArray(-inv.apply(self.positions), inv)
+
+    def compose(self, other: "PoseArray") -> "PoseArray":
+        """self (+) other, i.e. matrix product self @ other (broadcast 1 vs n allowed)."""
+        if self.rotations is None:
+            return PoseArray(self.positions + other.positions, None)
+        pos = self.positions + self.rotations.apply(other.positions)
+        rot = None if other.rotations is None else self.rotations * other.rotations
+        return PoseArray(pos, rot)
+
+
+def _check_finite(a: np.ndarray, what: str) -> None:
+    if not np.all(np.isfinite(a)):
+        bad = np.argwhere(~np.isfinite(a.reshape(a.shape[0], -1)).all(axis=1)).ravel()
+        raise ValueError(f"{what} contains NaN/inf values (rows {bad[:10].tolist()})")
+
+
+def as_pose_array(data, *, what: str = "track", allow_nan: bool = False) -> PoseArray:
+    """Convert ``(n, 3)``, ``(n, 7)``, ``(n, 4, 4)``, a single pose, or a PoseArray into a
+    PoseArray. Quaternions are normalised. Raises ValueError on wrong shapes / NaN."""
+    if isinstance(data, PoseArray):
+        return data
+    a = np.asarray(data, dtype=float)
+    if a.ndim == 1 and a.shape[0] in (3, 7):
+        a = a[None]
+    if a.ndim == 2 and a.shape == (4, 4):
+        a = a[None]
+    if a.ndim == 3:
+        if a.shape[1:] != (4, 4):
+            raise ValueError(f"{what}: expected (n, 4, 4) matrices, got shape {a.shape}")
+        if not allow_nan:
+            _check_finite(a, what)
+        return PoseArray(a[:, :3, 3].copy(), Rotation.from_matrix(a[:, :3, :3]))
+    if a.ndim != 2 or a.shape[1] not in (3, 7):
+        raise ValueError(
+            f"{what}: expected an (n, 3) position, (n, 7) x y z qx qy qz qw or (n, 4, 4) "
+            f"array, got shape {a.shape}"
+        )
+    if not allow_nan:
+        _check_finite(a, what)
+    if a.shape[1] == 3:
+        return PoseArray(a.copy(), None)
+    q = a[:, 3:]
+    norm = np.linalg.norm(q, axis=1)
+    if np.any(norm < 1e-9):
+        raise ValueError(f"{what}: zero quaternion in rows {np.flatnonzero(norm < 1e-9)[:10].tolist()}")
+    return PoseArray(a[:, :3].copy(), Rotation.from_quat(q / norm[:, None]))
+
+
+def to_xyzquat(data) -> np.ndarray:
+    """Any accepted pose input -> (n, 7) (or (n, 3) for position-only)."""
+    return as_pose_array(data).as_array()
+
+
+def to_matrices(data) -> np.ndarray:
+    """Any accepted pose input -> (n, 4, 4)."""
+    return as_pose_array(data).as_matrices()
+
+
+def pose7_to_matrix(p7) -> np.ndarray:
+    """(n, 7) -> (n, 4, 4)."""
+    return as_pose_array(p7).as_matrices()
+
+
+def matrix_to_pose7(T) -> np.ndarray:
+    """(n, 4, 4) -> (n, 7)."""
+    return as_pose_array(T).as_array()
+
+
+def relative_poses(y_i, y_j) -> PoseArray:
+    """Relative transformation z = y_i^-1 y_j (pose of part j in the frame of part i),
+    vectorised over n time steps. If either track is position-only the result is
+    position-only: z = p_j - p_i when y_i has no orientation, or R_i^T (p_j - p_i)."""
+    a = as_pose_array(y_i, what="y_i")
+    b = as_pose_array(y_j, what="y_j")
+    if len(a) != len(b):
+        raise ValueError(f"relative_poses: tracks differ in length ({len(a)} vs {len(b)})")
+    if a.rotations is None:
+        return PoseArray(b.positions - a.positions, None)
+    inv = a.rotations.inv()
+    pos = inv.apply(b.positions - a.positions)
+    rot = None if b.rotations is None else inv * b.rotations
+    return PoseArray(pos, rot)
+
+
+def rotation_angle(R: Rotation) -> np.ndarray:
+    """Rotation angle in [0, pi] of each rotation (radians)."""
+    q = R.as_quat()
+    if q.ndim == 1:
+        q = q[None]
+    return 2.0 * np.arctan2(np.linalg.norm(q[:, :3], axis=1), np.abs(q[:, 3]))
+
+
+def rotation_distance(Ra: Rotation, Rb: Rotation) -> np.ndarray:
+    """Geodesic angle between rotations (radians), vectorised (broadcast 1 vs n allowed)."""
+    qa = np.atleast_2d(Ra.as_quat())
+    qb = np.atleast_2d(Rb.as_quat())
+    d = np.abs(np.sum(qa * qb, axis=-1))
+    return 2.0 * np.arccos(np.clip(d, 0.0, 1.0))
+
+
+def quat_distance(qa: np.ndarray, qb: np.ndarray) -> np.ndarray:
+    """Geodesic angle between unit quaternion arrays (..., 4), radians (broadcasting)."""
+    d = np.abs(np.sum(qa * qb, axis=-1))
+    return 2.0 * np.arccos(np.clip(d, 0.0, 1.0))
+
+
+def orthonormalize(M: np.ndarray) -> np.ndarray:
+    """Project (..., 3, 3) matrices onto SO(3) with an SVD (determinant +1)."""
+    U, _, Vt = np.linalg.svd(M)
+    det = np.linalg.det(U @ Vt)
+    D = np.ones(M.shape[:-1])
+    D[..., 2] = det
+    return (U * D[..., None, :]) @ Vt
