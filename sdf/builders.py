@@ -280,13 +280,23 @@ def _hook_xml(parent: str, z0: float) -> tuple[str, str, str]:
     return link, joint, marker_frame
 
 
+def _model_pose(pose) -> str:
+    if pose is None:
+        return ""
+    pose = [float(v) for v in pose]
+    if len(pose) != 6 or not all(math.isfinite(v) for v in pose):
+        raise ValueError(f"model pose must be 6 finite numbers x y z roll pitch yaw, got {pose}")
+    return f"<pose>{_fmt(pose)}</pose>"
+
+
 def arm_sdf(dof: int | str = 7, *, tool: str = "gripper", mobile_base: bool = False,
-            model_name: str | None = None) -> str:
+            model_name: str | None = None, pose=None) -> str:
     """SDFormat text of an arm (optionally on a planar mobile base).
 
     The mobile base adds bodies ``base_x_carriage``, ``base_y_carriage``, ``mobile_base`` on joints
     ``base_x`` (prismatic x), ``base_y`` (prismatic y) and ``base_yaw`` (revolute z),
     all actuated, and welds the arm's x1 on top of it (0.30 m above the floor).
+    ``pose`` (x y z roll pitch yaw, m and rad) places the model frame in the world.
     """
     spec = arm_spec(dof, tool=tool)
     name = model_name or (spec.name + ("_mobile" if mobile_base else ""))
@@ -341,8 +351,8 @@ def arm_sdf(dof: int | str = 7, *, tool: str = "gripper", mobile_base: bool = Fa
         frames.append(frame)
     return (
         "<?xml version='1.0'?>\n<sdf version='1.9'>"
-        f"<model name='{name}'>" + "".join(links) + "".join(joints) + "".join(frames)
-        + "</model></sdf>\n"
+        f"<model name='{name}'>{_model_pose(pose)}" + "".join(links) + "".join(joints)
+        + "".join(frames) + "</model></sdf>\n"
     )
 
 
@@ -417,10 +427,12 @@ def _panel_inertia(mass: float, centre, size) -> str:
     )
 
 
-def cabinet_sdf(spec: CabinetSpec | None = None, *, model_name: str = "cabinet") -> str:
+def cabinet_sdf(spec: CabinetSpec | None = None, *, model_name: str = "cabinet",
+                pose=None) -> str:
     """SDFormat text of the cabinet (body ``carcass``; ``left_door`` on ``left_hinge``,
     ``right_door`` on ``right_hinge``, ``drawer`` on ``drawer_slide``; handles are part
-    of the moving bodies and their centres are frames ``<body>_handle``)."""
+    of the moving bodies and their centres are frames ``<body>_handle``). ``pose`` (x y z
+    roll pitch yaw) places the cabinet in the world."""
     s = spec or CabinetSpec()
     W, H, D, t = s.width, s.height, s.depth, s.wall
     wood = (0.72, 0.58, 0.40, 1.0)
@@ -492,7 +504,7 @@ def cabinet_sdf(spec: CabinetSpec | None = None, *, model_name: str = "cabinet")
                   f"'drawer'>{pt / 2 + 0.045:.6g} 0 {dh / 2:.6g} 0 0 0</pose></frame>")
     return (
         "<?xml version='1.0'?>\n<sdf version='1.9'>"
-        f"<model name='{model_name}'>" + "".join(links) + "".join(joints)
+        f"<model name='{model_name}'>{_model_pose(pose)}" + "".join(links) + "".join(joints)
         + "".join(frames) + "</model></sdf>\n"
     )
 

@@ -1,0 +1,68 @@
+"""Helpers shared by the apps: progress bars, Meshcat, config files, atomic writes."""
+
+from __future__ import annotations
+
+import os
+import sys
+import tempfile
+from pathlib import Path
+
+
+def progress(iterable, *, desc: str = "", unit: str = "it", enabled: bool = True,
+             total: int | None = None):
+    """A tqdm progress bar on stderr (only when stderr is a terminal and ``enabled``)."""
+    if not enabled:
+        return iterable
+    from tqdm import tqdm
+
+    return tqdm(iterable, desc=desc, unit=unit, total=total, file=sys.stderr,
+                disable=None, leave=False)
+
+
+def make_meshcat():
+    """Start a Meshcat server (local only) and print its URL to stderr."""
+    from pydrake.geometry import StartMeshcat
+
+    meshcat = StartMeshcat()
+    print(f"Meshcat: open {meshcat.web_url()} in a browser", file=sys.stderr)
+    return meshcat
+
+
+def atomic_write_text(path: str | Path, text: str) -> Path:
+    """Write ``text`` to ``path`` through a temporary file and a rename, so a reader never
+    sees a half-written file."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
+    try:
+        with os.fdopen(fd, "w") as f:
+            f.write(text)
+            f.flush()
+            os.fsync(f.fileno())
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path
+
+
+def save_html(meshcat, path: str | Path) -> Path:
+    """Write Meshcat's current scene (with its published recording) as standalone HTML."""
+    return atomic_write_text(path, meshcat.StaticHtml())
+
+
+def load_config(path: str | Path, cls):
+    """Load a dataclass config from YAML with Drake's typed loader (misspelled keys are
+    errors naming the key)."""
+    from pydrake.common.yaml import yaml_load_typed
+
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"config file not found: {path}")
+    try:
+        return yaml_load_typed(schema=cls, filename=str(path))
+    except RuntimeError as e:
+        raise ValueError(f"{path}: {e}") from None
