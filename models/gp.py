@@ -295,6 +295,12 @@ class GaussianProcess:
         KA = Ks * self._alpha[:, None, :]  # (m, k, n)
         return -np.einsum("ckn,knd->kcd", KA, diff, optimize=True) * inv_l2[None, :, :]
 
+    def hyperparameters(self) -> dict:
+        """Current hyper-parameters in log space (a ``hyperparameters=`` argument of fit)."""
+        self._check_fitted()
+        return {"log_ell": self.log_ell.copy(), "log_sf2": self.log_sf2.copy(),
+                "log_sn2": self.log_sn2.copy()}
+
     def log_marginal_likelihood(self) -> float:
         """Log marginal likelihood of the training data, summed over outputs."""
         self._check_fitted()

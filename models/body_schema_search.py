@@ -1,0 +1,338 @@
+"""Structure search for the body schema (thesis Sec. 3.2.2, Algorithm 1).
+
+Layer by layer in the complexity ``k = |Q|``, local models are trained and judged *valid* on
+observations they were not trained on (the held-out split: every ``test_every``-th sample a
+pair was seen in): a model is valid when its median translational and rotational errors on the
+held-out samples are within ``n_sigma`` times the observation noise (``sigma_pos``,
+``sigma_orient``). Its quality is ``q(M) = log p(D|M) - k log(eta |D|)`` (Eq. 3.11) with the
+data log-likelihood of Eq. 3.10 evaluated on the held-out samples and scaled to |D|. The search
+stops at the first layer whose valid models (of this and lower layers) contain a spanning tree
+over all *observed* parts and returns the minimum spanning tree on ``-q``.
+
+"Train only what is needed":
+  * at layer k only pairs that lie in *different* components of the valid-model graph of the
+    layers below are considered (a higher-k model inside a component never enters the MST:
+    a valid lower-k model always has the higher quality, Sec. 3.2.2);
+  * each candidate is first screened with a GP of fixed, data-scaled hyper-parameters (one
+    batched Cholesky per pair for all subsets Q); only candidates that pass a loose version of
+    the validity test get their hyper-parameters optimised and are tested for real.
+
+The MST orders edges by (k, -q): that is the thesis' property that any valid model of lower
+complexity has the higher quality, made explicit so that it holds for every eta.
+"""
+
+from __future__ import annotations
+
+import contextlib
+from dataclasses import dataclass, field
+from itertools import combinations
+
+import numpy as np
+
+from .body_schema_local import (
+    LocalModel,
+    log_likelihood,
+    orthonormalize,
+    pose_errors,
+    relative_poses,
+    se3_inv,
+    visible_mask,
+)
+
+__all__ = ["SearchConfig", "StructureResult", "learn_structure", "spanning_tree",
+           "check_data"]
+
+
+@dataclass
+class SearchConfig:
+    """Parameters of the structure search and of the validity test.
+
+    Attributes:
+        sigma_pos: standard deviation of the translational error of a relative observation
+            z_ij (m). Valid: median held-out error <= n_sigma * sigma_pos.
+        sigma_orient: same for the rotational error (rad).
+        n_sigma: width of the validity test (3 in the thesis).
+        eta: factor of the complexity penalty k log(eta |D|) (> 0).
+        test_every: every test_every-th sample of a pair is held out for the validity test.
+        min_train, min_test: fewest training / held-out samples a pair needs to be judged.
+        max_k: highest layer to evaluate (None: all action signals).
+        max_opt: hyper-parameters are optimised on at most this many samples.
+        max_screen: the screening GP uses at most this many training samples.
+        screen_factor: screening passes at screen_factor times the validity thresholds.
+        screen_reg: noise-to-signal ratio of the screening GP.
+        min_observations: a part seen fewer times than this is not a node (occluded).
+        noise_min: lower bound on the GP noise variance.
+    """
+
+    sigma_pos: float = 0.05
+    sigma_orient: float = np.deg2rad(15.0)
+    n_sigma: float = 3.0
+    eta: float = 1.0
+    test_every: int = 3
+    min_train: int = 3
+    min_test: int = 2
+    max_k: int | None = None
+    max_opt: int = 40
+    max_screen: int = 60
+    screen_factor: float = 1.5
+    screen_reg: float = 1e-2
+    min_observations: int = 3
+    noise_min: float = 1e-8
+
+    def __post_init__(self):
+        for name in ("sigma_pos", "sigma_orient", "n_sigma", "eta"):
+            if not getattr(self, name) > 0:
+                raise ValueError(f"SearchConfig.{name} must be positive, got {getattr(self, name)}")
+        if self.test_every < 2:
+            raise ValueError(f"SearchConfig.test_every must be >= 2, got {self.test_every}")
+
+    @property
+    def thresholds(self):
+        return self.n_sigma * self.sigma_pos, self.n_sigma * self.sigma_orient
+
+
+@dataclass
+class StructureResult:
+    """Outcome of :func:`learn_structure`.
+
+    Attributes:
+        tree: local models of the minimum spanning tree (refitted on all samples of their pair).
+        complete: True when the tree spans all observed parts.
+        nodes: the observed parts (tree nodes).
+        valid: every valid model found, with its statistics.
+        layers: the complexity layers evaluated.
+        n_screened, n_trained: candidates screened / trained with hyper-parameter optimisation.
+        stats: per tree model: dict(pos_err, rot_err, loglik, q, n_test).
+    """
+
+    tree: list
+    complete: bool
+    nodes: list
+    valid: list = field(default_factory=list)
+    layers: list = field(default_factory=list)
+    n_screened: int = 0
+    n_trained: int = 0
+    stats: list = field(default_factory=list)
+
+    def edges(self) -> set:
+        """{(i, j, Q)} of the tree (i < j)."""
+        return {(m.i, m.j, m.Q) for m in self.tree}
+
+
+def check_data(actions, poses):
+    """Validate and convert (t, m) actions and (t, p, 4, 4) poses (NaN = unobserved)."""
+    actions = np.asarray(actions, float)
+    poses = np.asarray(poses, float)
+    if actions.ndim != 2:
+        raise ValueError(f"actions must be (t, n_actions), got shape {actions.shape}")
+    if poses.ndim != 4 or poses.shape[2:] != (4, 4):
+        raise ValueError(f"poses must be (t, n_parts, 4, 4), got shape {poses.shape}")
+    if len(actions) != len(poses):
+        raise ValueError(f"{len(actions)} action rows but {len(poses)} pose rows")
+    if not np.all(np.isfinite(actions)):
+        raise ValueError("actions contain NaN or inf (actions must always be known)")
+    return actions, poses
+
+
+class _UnionFind:
+    def __init__(self, items):
+        self.parent = {x: x for x in items}
+
+    def find(self, x):
+        while self.parent[x] != x:
+            self.parent[x] = self.parent[self.parent[x]]
+            x = self.parent[x]
+        return x
+
+    def union(self, a, b) -> bool:
+        ra, rb = self.find(a), self.find(b)
+        if ra == rb:
+            return False
+        self.parent[ra] = rb
+        return True
+
+
+def spanning_tree(nodes, models, quality):
+    """Kruskal's minimum spanning tree over ``nodes`` with edge order (k, -quality).
+
+    Returns (tree models, complete?)."""
+    uf = _UnionFind(nodes)
+    order = sorted(range(len(models)), key=lambda e: (models[e].k, -quality[e]))
+    tree = []
+    for e in order:
+        m = models[e]
+        if m.i in uf.parent and m.j in uf.parent and uf.union(m.i, m.j):
+            tree.append(e)
+    return tree, len(tree) == len(nodes) - 1
+
+
+def _components(nodes, models):
+    uf = _UnionFind(nodes)
+    for m in models:
+        uf.union(m.i, m.j)
+    return {x: uf.find(x) for x in nodes}
+
+
+def _split(n: int, test_every: int):
+    idx = np.arange(n)
+    test = idx % test_every == test_every - 1
+    return idx[~test], idx[test]
+
+
+def _screen(Xall_tr, Y_tr, Xall_te, Z_te, Qs, ell, reg):
+    """Median held-out errors (nQ, 2) of a fixed-hyper-parameter GP for every subset in Qs.
+
+    Xall_*: full action rows; Y_tr: (n, 12) targets; ell: (m,) length scales."""
+    n = len(Y_tr)
+    ym = Y_tr.mean(axis=0)
+    Yc = Y_tr - ym
+    nQ = len(Qs)
+    k = len(Qs[0])
+    if k == 0:
+        pred = np.broadcast_to(ym, (len(Z_te), 12))[None]
+    else:
+        Qa = np.array(Qs)  # (nQ, k)
+        Xtr = Xall_tr[:, Qa] / ell[Qa]  # (n, nQ, k)
+        Xte = Xall_te[:, Qa] / ell[Qa]
+        Xtr = np.swapaxes(Xtr, 0, 1)  # (nQ, n, k)
+        Xte = np.swapaxes(Xte, 0, 1)
+        d2 = ((Xtr[:, :, None, :] - Xtr[:, None, :, :]) ** 2).sum(-1)
+        K = np.exp(-0.5 * d2) + reg * np.eye(n)
+        d2s = ((Xte[:, :, None, :] - Xtr[:, None, :, :]) ** 2).sum(-1)
+        Ks = np.exp(-0.5 * d2s)
+        alpha = np.linalg.solve(K, np.broadcast_to(Yc, (nQ,) + Yc.shape))
+        pred = Ks @ alpha + ym  # (nQ, nt, 12)
+    nt = len(Z_te)
+    Zp = np.zeros((nQ, nt, 4, 4))
+    Zp[..., :3, :4] = pred.reshape(nQ, nt, 3, 4)
+    Zp[..., 3, 3] = 1.0
+    Zp = orthonormalize(Zp)
+    dp, dr = pose_errors(Zp, Z_te[None])
+    return np.stack([np.median(dp, axis=1), np.median(dr, axis=1)], axis=1)
+
+
+def _evaluate(model, rows_te, actions, Z_te, config, n_total):
+    dp, dr = model.errors(actions[rows_te], Z_te)
+    ll = log_likelihood(dp, dr, config.sigma_pos, config.sigma_orient)
+    thr_p, thr_r = config.thresholds
+    mp, mr = float(np.median(dp)), float(np.median(dr))
+    valid = mp <= thr_p and mr <= thr_r
+    loglik = float(ll.mean()) * n_total
+    q = loglik - model.k * np.log(config.eta * n_total)
+    return valid, dict(pos_err=mp, rot_err=mr, loglik=loglik, q=q, n_test=len(rows_te))
+
+
+def _blas_single_thread():
+    """Limit BLAS to one thread: the matrices here are small, and on a shared machine
+    multi-threaded BLAS on 30x30 matrices is several times slower."""
+    try:
+        from threadpoolctl import threadpool_limits
+        return threadpool_limits(limits=1, user_api="blas")
+    except Exception:  # pragma: no cover - threadpoolctl is a scikit-learn dependency
+        return contextlib.nullcontext()
+
+
+def learn_structure(actions, poses, **kwargs) -> "StructureResult":
+    """Algorithm 1 (see :func:`_learn_structure` for the arguments); BLAS single-threaded."""
+    with _blas_single_thread():
+        return _learn_structure(actions, poses, **kwargs)
+
+
+def _learn_structure(actions, poses, *, config: SearchConfig | None = None,
+                    mask: np.ndarray | None = None, seed_models=(),
+                    refit: bool = True) -> StructureResult:
+    """Algorithm 1: learn the kinematic structure and the local models from data.
+
+    Args:
+        actions: (t, m) commanded action vectors.
+        poses: (t, p, 4, 4) observed part poses, NaN where a part was not seen.
+        config: :class:`SearchConfig`.
+        mask: optional (t, p) bool visibility (default: finite poses).
+        seed_models: known (e.g. engineered) local models; they count as valid models of
+            their layer with the held-out statistics computed on this data.
+        refit: refit the tree models on all samples of their pair (train + held-out) with the
+            hyper-parameters found on the training split.
+    Returns:
+        :class:`StructureResult`.
+
+    Deterministic: no randomness is involved (the held-out split is every test_every-th sample).
+    """
+    config = config or SearchConfig()
+    actions, poses = check_data(actions, poses)
+    t, m = actions.shape
+    p = poses.shape[1]
+    if mask is None:
+        mask = visible_mask(poses)
+    mask = np.asarray(mask, bool)
+    if mask.shape != (t, p):
+        raise ValueError(f"mask must be ({t}, {p}), got {mask.shape}")
+    nodes = [i for i in range(p) if mask[:, i].sum() >= config.min_observations]
+    if len(nodes) < 2:
+        raise ValueError(f"need at least 2 observed parts (seen >= {config.min_observations} "
+                         f"times), got {len(nodes)} from {t} samples")
+    max_k = m if config.max_k is None else min(config.max_k, m)
+    ell = actions.std(axis=0)
+    ell = np.where(ell > 1e-9, ell, 1.0)
+
+    # per-pair data
+    pair = {}
+    for i, j in combinations(nodes, 2):
+        rows, Z = relative_poses(poses, i, j, mask)
+        tr, te = _split(len(rows), config.test_every)
+        if len(tr) >= config.min_train and len(te) >= config.min_test:
+            pair[(i, j)] = (rows, Z, tr, te)
+
+    valid_models, valid_stats = [], []
+    for sm in seed_models:
+        key = (min(sm.i, sm.j), max(sm.i, sm.j))
+        if key in pair and sm.i in nodes and sm.j in nodes:
+            rows, Z, tr, te = pair[key]
+            Zs = Z if (sm.i, sm.j) == key else se3_inv(Z)
+            ok, st = _evaluate(sm, rows[te], actions, Zs[te], config, t)
+            if ok:
+                valid_models.append(sm)
+                valid_stats.append(st)
+
+    result = StructureResult(tree=[], complete=False, nodes=nodes)
+    thr_p, thr_r = config.thresholds
+    for k in range(0, max_k + 1):
+        result.layers.append(k)
+        comp = _components(nodes, valid_models)
+        Qs = list(combinations(range(m), k))
+        for (i, j), (rows, Z, tr, te) in pair.items():
+            if comp[i] == comp[j]:
+                continue
+            tr_s = tr
+            if len(tr_s) > config.max_screen:
+                tr_s = tr[np.unique(np.linspace(0, len(tr) - 1, config.max_screen).round()
+                                    .astype(int))]
+            Y_tr = Z[tr_s, :3, :4].reshape(len(tr_s), 12)
+            med = _screen(actions[rows[tr_s]], Y_tr, actions[rows[te]], Z[te], Qs, ell,
+                          config.screen_reg)
+            result.n_screened += len(Qs)
+            passing = np.flatnonzero((med[:, 0] <= config.screen_factor * thr_p)
+                                     & (med[:, 1] <= config.screen_factor * thr_r))
+            for qi in passing:
+                model = LocalModel(i, j, Qs[qi], m)
+                model.fit(actions[rows[tr]], Z[tr], max_opt=config.max_opt,
+                          noise_min=config.noise_min)
+                result.n_trained += 1
+                ok, st = _evaluate(model, rows[te], actions, Z[te], config, t)
+                if ok:
+                    valid_models.append(model)
+                    valid_stats.append(st)
+        idx, complete = spanning_tree(nodes, valid_models, [s["q"] for s in valid_stats])
+        if complete or k == max_k:
+            break
+
+    result.complete = complete
+    result.valid = list(zip(valid_models, valid_stats))
+    for e in idx:
+        model = valid_models[e]
+        if refit and isinstance(model, LocalModel):
+            rows, Z, _, _ = pair[(model.i, model.j)]
+            model.fit(actions[rows], Z, optimize=False,
+                      hyperparameters=model.gp.hyperparameters(), noise_min=config.noise_min)
+        result.tree.append(model)
+        result.stats.append(valid_stats[e])
+    return result
