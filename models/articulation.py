@@ -20,7 +20,7 @@ Observation model (Eq. 4.13-4.15): an inlier is the true pose plus Gaussian nois
 with standard deviation ``sigma_pos`` (metres) on the position and ``sigma_orient`` (radians)
 on the rotation vector of the orientation error; an outlier (probability gamma) is uniform over
 a position volume V (m^3, by default the cube whose side is the largest extent of the training
-positions plus 6 sigma_pos) times SO(3) (volume 8 pi^2). gamma has the prior
+positions plus 6 sigma_pos, at least 1 m^3) times SO(3) (volume 8 pi^2). gamma has the prior
 p(gamma) = w exp(-w gamma) / (1 - exp(-w)) on [0, 1] and is estimated by EM (closed-form MAP
 M-step). The data log-likelihood (Eq. 4.31-4.32) is
 
@@ -76,13 +76,18 @@ class ObservationModel:
         sigma_orient: orientation noise standard deviation, radians (per rotation-vector axis).
         gamma_weight: w of the outlier-ratio prior p(gamma) ~ exp(-w gamma) (dimensionless).
         outlier_volume_m3: volume of the uniform position-outlier distribution, m^3; None means
-            "set from the training track at fit time" (cube of the largest extent + 6 sigma).
+            "set from the training track at fit time" (cube of the largest extent + 6 sigma,
+            at least 1 m^3).
     """
 
     sigma_pos: float = 0.01
     sigma_orient: float = np.deg2rad(5.0)
     gamma_weight: float = 1.0
     outlier_volume_m3: float | None = None
+
+    #: lower bound of the automatic outlier volume (a 1 m cube: the robot's workspace); a
+    #: volume as small as a short track would make "everything is an outlier" too likely.
+    min_outlier_volume_m3 = 1.0
 
     def __post_init__(self):
         for name in ("sigma_pos", "sigma_orient"):
@@ -100,7 +105,8 @@ class ObservationModel:
             return self
         ext = float(np.max(np.ptp(positions, axis=0))) if len(positions) > 1 else 0.0
         side = ext + 6.0 * self.sigma_pos
-        return ObservationModel(self.sigma_pos, self.sigma_orient, self.gamma_weight, side**3)
+        vol = max(side**3, self.min_outlier_volume_m3)
+        return ObservationModel(self.sigma_pos, self.sigma_orient, self.gamma_weight, vol)
 
     def log_inlier(self, ep2: np.ndarray, eo: np.ndarray | None) -> np.ndarray:
         """log N for squared position errors ep2 (m^2) and orientation errors eo (rad)."""
@@ -893,7 +899,9 @@ class GPModel(LinkModel):
     R_ref^T R (3), R_ref the mean orientation of the track. This uses 6 independent GPs
     instead of the thesis' 12 (matrix entries): half the cost, and predictions are always
     valid rotations (no SVD re-orthonormalisation needed). k = 1 + d + 6n (1 + d + 3n for
-    position-only tracks).
+    position-only tracks), n = number of GP training points: for speed (GP cost O(n^3)) at
+    most ``max_train`` observations (default 100, evenly spread along the first latent
+    coordinate) train the GP; all observations enter the likelihood.
 
     f^-1 is the dimensionality reduction applied to the features [p, rotvec * sigma_pos /
     sigma_orient] (PCA: a linear projection; LLE: scikit-learn's ``transform``). q has the
@@ -903,7 +911,8 @@ class GPModel(LinkModel):
     name = "gp"
     min_samples = 3
 
-    def __init__(self, *, dof: int = 1, reduction: str = "pca", n_neighbors: int = 10, **kw):
+    def __init__(self, *, dof: int = 1, reduction: str = "pca", n_neighbors: int = 10,
+                 max_train: int | None = 100, **kw):
         if not 1 <= int(dof) <= 5:
             raise ValueError(f"GPModel: dof must be 1..5, got {dof}")
         if reduction not in ("pca", "lle"):
@@ -911,11 +920,13 @@ class GPModel(LinkModel):
         self.dof = int(dof)
         self.reduction = reduction
         self.n_neighbors = int(n_neighbors)
+        self.max_train = None if max_train is None else int(max_train)
         super().__init__(**kw)
         self.name = "gp" if self.dof == 1 else f"gp{self.dof}"
 
     def num_params(self, n=None):
         n = self.n_train if n is None else n
+        n = min(n, getattr(self, "n_gp_", n))
         return 1 + self.dof + (6 if self.has_orientation else 3) * n
 
     def _features(self, P, R):
@@ -955,6 +966,13 @@ class GPModel(LinkModel):
             Q = self._lle.fit_transform(F)
             self.components = None
         Y = self._targets(d.P, d.R)
+        if self.max_train is not None and d.n > self.max_train:
+            # GP cost is O(n^3): train on max_train observations evenly spread along the
+            # first latent coordinate (the others are still used for f^-1, likelihood, BIC)
+            order = np.argsort(Q[:, 0], kind="stable")
+            pick = order[np.round(np.linspace(0, d.n - 1, self.max_train)).astype(int)]
+            Q, Y = Q[pick], Y[pick]
+        self.n_gp_ = Q.shape[0]
         noise_min = self.obs.sigma_pos**2 * 1e-4
         self.gp = GaussianProcess(ard=True).fit(Q, Y, noise_min=noise_min)
         self.theta = np.zeros(0)
@@ -1016,7 +1034,8 @@ class GPModel(LinkModel):
         if self._lle is not None:
             raise ValueError("GP link models with LLE cannot be saved (scikit-learn's LLE "
                              "transform has no serialisable form); use reduction='pca'")
-        return {"dof": self.dof, "reduction": self.reduction, "R_ref": self.R_ref.tolist(),
+        return {"dof": self.dof, "reduction": self.reduction, "n_gp": int(self.n_gp_),
+                "R_ref": self.R_ref.tolist(),
                 "f_mean": self.f_mean.tolist(), "components": self.components.tolist(),
                 "gp": self.gp.to_dict()}
 
@@ -1026,6 +1045,7 @@ class GPModel(LinkModel):
         self.dof = int(e["dof"])
         self.name = "gp" if self.dof == 1 else f"gp{self.dof}"
         self.reduction = e["reduction"]
+        self.n_gp_ = int(e.get("n_gp", self.n_train))
         self.R_ref = np.asarray(e["R_ref"], float)
         self.f_mean = np.asarray(e["f_mean"], float)
         self.components = np.asarray(e["components"], float)
