@@ -1,6 +1,5 @@
 """The scene: floor, cabinet and a compliant arm with markers, observed by a MarkerSensor."""
 
-from __future__ import annotations
 
 from dataclasses import dataclass, field
 

@@ -22,7 +22,6 @@ Conventions
 Units: metres, kilograms, radians, newtons, seconds.
 """
 
-from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field

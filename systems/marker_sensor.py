@@ -17,7 +17,6 @@ Randomness is a pure function of (seed, frame index), so a run is reproducible a
 restarted simulation draws the same noise.
 """
 
-from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
@@ -103,6 +102,11 @@ class MarkerSensorConfig:
 
     def validate(self) -> None:
         """Raise ValueError naming the first invalid field."""
+        for k in ("rate_hz", "sigma_pos", "sigma_orient", "gamma", "dropout",
+                  "max_view_angle_deg", "occlusion_step"):
+            if not math.isfinite(getattr(self, k)):
+                raise ValueError(f"MarkerSensorConfig: {k} must be finite, got "
+                                 f"{getattr(self, k)}")
         checks = [
             (self.rate_hz > 0, f"rate_hz must be > 0, got {self.rate_hz}"),
             (self.sigma_pos >= 0, f"sigma_pos must be >= 0 (metres), got {self.sigma_pos}"),
@@ -120,9 +124,6 @@ class MarkerSensorConfig:
         for ok, msg in checks:
             if not ok:
                 raise ValueError(f"MarkerSensorConfig: {msg}")
-        vals = [self.rate_hz, self.sigma_pos, self.sigma_orient, self.gamma, self.dropout]
-        if not np.all(np.isfinite(vals)):
-            raise ValueError(f"MarkerSensorConfig: non-finite value in {vals}")
         if np.any(np.asarray(self.workspace_max) < np.asarray(self.workspace_min)):
             raise ValueError("MarkerSensorConfig: workspace_max must be >= workspace_min")
         for i, cam in enumerate(self.cameras):
@@ -272,20 +273,25 @@ class MarkerSensor(LeafSystem):
                     return True
         return False
 
-    def _update(self, context, state):
+    def observe(self, context, frame: int | None = None) -> MarkerObservations:
+        """Draw one observation frame for this system's ``context``.
+
+        ``frame`` selects the noise draw (default: the frame index of the context's time at
+        ``rate_hz``); the periodic update calls this. Never raises on a bad scene state:
+        a frame that cannot be computed sees nothing.
+        """
         cfg = self._cfg
         t = context.get_time()
-        k = int(round(t * cfg.rate_hz))
+        k = int(round(t * cfg.rate_hz)) if frame is None else int(frame)
         rng = np.random.default_rng([cfg.seed, k])
+        m = len(self._names)
         try:
             true_poses = self.true_marker_poses(context)
             query = self._query.Eval(context) if self._query.HasValue(context) else None
             visible = self._visibility(true_poses, query)
         except (RuntimeError, ValueError, FloatingPointError):
-            # a sensor never kills the simulation: a frame it cannot compute sees nothing
-            true_poses = [RigidTransform()] * len(self._names)
-            visible = np.zeros(len(self._names), bool)
-        m = len(true_poses)
+            true_poses = [RigidTransform()] * m
+            visible = np.zeros(m, bool)
         noise_p = rng.normal(0.0, 1.0, (m, 3)) * cfg.sigma_pos
         noise_r = rng.normal(0.0, 1.0, (m, 3)) * cfg.sigma_orient
         outlier = rng.random(m) < cfg.gamma
@@ -302,11 +308,14 @@ class MarkerSensor(LeafSystem):
                 poses.append(RigidTransform(RotationMatrix(_orthonormal(R)),
                                             X.translation() + noise_p[i]))
         visible = visible & ~dropped
-        obs = MarkerObservations(time=t, marker_ids=list(self._names), poses=poses,
-                                 visible=visible, outlier=outlier & visible)
+        return MarkerObservations(time=t, marker_ids=list(self._names), poses=poses,
+                                  visible=visible, outlier=outlier & visible)
+
+    def _update(self, context, state):
+        obs = self.observe(context)
         state.get_mutable_abstract_state(self._obs_index).set_value(obs)
         stats = state.get_mutable_discrete_state(self._stats_index)
-        stats.set_value(stats.get_value() + np.array([1.0, m, visible.sum()]))
+        stats.set_value(stats.get_value() + np.array([1.0, len(obs), obs.visible.sum()]))
         return EventStatus.Succeeded()
 
     def _calc_observations(self, context, output):
