@@ -530,8 +530,8 @@ class LinkModel:
         self._check_fitted()
         q = np.asarray(q, float)
         if self.dof == 0:
-            q = q.reshape(-1, 0) if q.size == 0 else q.reshape(q.shape[0] if q.ndim else 1, -1)
-            return np.zeros((max(q.shape[0], 1), 0))
+            m = q.shape[0] if q.ndim >= 1 else 1
+            return np.zeros((max(m, 1), 0))
         if q.ndim == 0:
             q = q.reshape(1, 1)
         elif q.ndim == 1:

@@ -217,6 +217,13 @@ class LocalModel(_ModelBase):
             return orthonormalize(_y_to_z(mean)), var
         return orthonormalize(_y_to_z(self.gp.predict(X)))
 
+    def loo_predict(self) -> np.ndarray:
+        """Leave-one-out predictions (n, 4, 4) at the training samples (each from the GP
+        conditioned on all other training samples), rotation orthonormalised."""
+        if self.gp is None:
+            raise ValueError(f"{self!r} is not trained")
+        return orthonormalize(_y_to_z(self.gp.loo_predict()[0]))
+
     def predict_jacobian(self, actions) -> np.ndarray:
         """d z_ij / d q (n, 4, 4, n_actions) of the raw GP mean (zero outside Q and in the
         last row)."""

@@ -1,11 +1,12 @@
 """Structure search for the body schema (thesis Sec. 3.2.2, Algorithm 1).
 
 Layer by layer in the complexity ``k = |Q|``, local models are trained and judged *valid* on
-observations they were not trained on (the held-out split: every ``test_every``-th sample a
-pair was seen in): a model is valid when its median translational and rotational errors on the
+observations they were not trained on (by default leave-one-out: each sample of a pair is
+predicted by the GP conditioned on all the pair's other samples; alternatively a fixed held-out
+split, every ``test_every``-th sample): a model is valid when its median translational and rotational errors on the
 held-out samples are within ``n_sigma`` times the observation noise (``sigma_pos``,
 ``sigma_orient``). Its quality is ``q(M) = log p(D|M) - k log(eta |D|)`` (Eq. 3.11) with the
-data log-likelihood of Eq. 3.10 evaluated on the held-out samples and scaled to |D|. The search
+data log-likelihood of Eq. 3.10 evaluated on the held-out predictions and scaled to |D|. The search
 stops at the first layer whose valid models (of this and lower layers) contain a spanning tree
 over all *observed* parts and returns the minimum spanning tree on ``-q``.
 
@@ -62,6 +63,12 @@ class SearchConfig:
         screen_reg: noise-to-signal ratio of the screening GP.
         min_observations: a part seen fewer times than this is not a node (occluded).
         noise_min: lower bound on the GP noise variance.
+        validation: "loo" (default): every sample of a pair is held out once: the model is
+            judged on its leave-one-out predictions (closed form for a GP; each prediction
+            comes from the GP conditioned on all *other* samples, with the hyper-parameters
+            fitted on the pair's data); "split": a fixed held-out split (every
+            test_every-th sample), the model is trained on the rest and refitted on all.
+            LOO uses every sample for both and decides the structure with fewer samples.
     """
 
     sigma_pos: float = 0.05
@@ -78,8 +85,12 @@ class SearchConfig:
     screen_reg: float = 1e-2
     min_observations: int = 3
     noise_min: float = 1e-8
+    validation: str = "loo"
 
     def __post_init__(self):
+        if self.validation not in ("loo", "split"):
+            raise ValueError(f"SearchConfig.validation must be 'loo' or 'split', "
+                             f"got {self.validation!r}")
         for name in ("sigma_pos", "sigma_orient", "n_sigma", "eta"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"SearchConfig.{name} must be positive, got {getattr(self, name)}")
@@ -211,15 +222,44 @@ def _screen(Xall_tr, Y_tr, Xall_te, Z_te, Qs, ell, reg):
     return np.stack([np.median(dp, axis=1), np.median(dr, axis=1)], axis=1)
 
 
-def _evaluate(model, rows_te, actions, Z_te, config, n_total):
-    dp, dr = model.errors(actions[rows_te], Z_te)
+def _screen_loo(Xall, Y, Z, Qs, ell, reg):
+    """Median leave-one-out errors (nQ, 2) of a fixed-hyper-parameter GP for every Q."""
+    n = len(Y)
+    ym = Y.mean(axis=0)
+    Yc = Y - ym
+    nQ = len(Qs)
+    if len(Qs[0]) == 0:
+        # constant model: LOO mean is the mean of the other samples
+        pred = ((Y.sum(axis=0) - Y) / (n - 1))[None]
+    else:
+        Qa = np.array(Qs)
+        Xs = np.swapaxes(Xall[:, Qa] / ell[Qa], 0, 1)  # (nQ, n, k)
+        d2 = ((Xs[:, :, None, :] - Xs[:, None, :, :]) ** 2).sum(-1)
+        K = np.exp(-0.5 * d2) + reg * np.eye(n)
+        Kinv = np.linalg.inv(K)
+        alpha = Kinv @ Yc  # (nQ, n, 12)
+        pred = Y[None] - alpha / np.diagonal(Kinv, axis1=1, axis2=2)[:, :, None]
+    Zp = np.zeros((nQ, n, 4, 4))
+    Zp[..., :3, :4] = pred.reshape(nQ, n, 3, 4)
+    Zp[..., 3, 3] = 1.0
+    Zp = orthonormalize(Zp)
+    dp, dr = pose_errors(Zp, Z[None])
+    return np.stack([np.median(dp, axis=1), np.median(dr, axis=1)], axis=1)
+
+
+def _stats(model, dp, dr, config, n_total):
     ll = log_likelihood(dp, dr, config.sigma_pos, config.sigma_orient)
     thr_p, thr_r = config.thresholds
     mp, mr = float(np.median(dp)), float(np.median(dr))
     valid = mp <= thr_p and mr <= thr_r
     loglik = float(ll.mean()) * n_total
     q = loglik - model.k * np.log(config.eta * n_total)
-    return valid, dict(pos_err=mp, rot_err=mr, loglik=loglik, q=q, n_test=len(rows_te))
+    return valid, dict(pos_err=mp, rot_err=mr, loglik=loglik, q=q, n_test=len(dp))
+
+
+def _evaluate(model, rows_te, actions, Z_te, config, n_total):
+    dp, dr = model.errors(actions[rows_te], Z_te)
+    return _stats(model, dp, dr, config, n_total)
 
 
 def _blas_single_thread():
@@ -255,7 +295,8 @@ def _learn_structure(actions, poses, *, config: SearchConfig | None = None,
     Returns:
         :class:`StructureResult`.
 
-    Deterministic: no randomness is involved (the held-out split is every test_every-th sample).
+    Deterministic: no randomness is involved (leave-one-out, or every test_every-th sample
+    held out).
     """
     config = config or SearchConfig()
     actions, poses = check_data(actions, poses)
@@ -278,8 +319,13 @@ def _learn_structure(actions, poses, *, config: SearchConfig | None = None,
     pair = {}
     for i, j in combinations(nodes, 2):
         rows, Z = relative_poses(poses, i, j, mask)
-        tr, te = _split(len(rows), config.test_every)
-        if len(tr) >= config.min_train and len(te) >= config.min_test:
+        if config.validation == "loo":
+            tr = te = np.arange(len(rows))
+            enough = len(rows) >= config.min_train + config.min_test
+        else:
+            tr, te = _split(len(rows), config.test_every)
+            enough = len(tr) >= config.min_train and len(te) >= config.min_test
+        if enough:
             pair[(i, j)] = (rows, Z, tr, te)
 
     valid_models, valid_stats = [], []
@@ -307,8 +353,12 @@ def _learn_structure(actions, poses, *, config: SearchConfig | None = None,
                 tr_s = tr[np.unique(np.linspace(0, len(tr) - 1, config.max_screen).round()
                                     .astype(int))]
             Y_tr = Z[tr_s, :3, :4].reshape(len(tr_s), 12)
-            med = _screen(actions[rows[tr_s]], Y_tr, actions[rows[te]], Z[te], Qs, ell,
-                          config.screen_reg)
+            if config.validation == "loo":
+                med = _screen_loo(actions[rows[tr_s]], Y_tr, Z[tr_s], Qs, ell,
+                                  config.screen_reg)
+            else:
+                med = _screen(actions[rows[tr_s]], Y_tr, actions[rows[te]], Z[te], Qs, ell,
+                              config.screen_reg)
             result.n_screened += len(Qs)
             passing = np.flatnonzero((med[:, 0] <= config.screen_factor * thr_p)
                                      & (med[:, 1] <= config.screen_factor * thr_r))
@@ -317,7 +367,11 @@ def _learn_structure(actions, poses, *, config: SearchConfig | None = None,
                 model.fit(actions[rows[tr]], Z[tr], max_opt=config.max_opt,
                           noise_min=config.noise_min)
                 result.n_trained += 1
-                ok, st = _evaluate(model, rows[te], actions, Z[te], config, t)
+                if config.validation == "loo":
+                    dp, dr = pose_errors(model.loo_predict(), Z)
+                    ok, st = _stats(model, dp, dr, config, t)
+                else:
+                    ok, st = _evaluate(model, rows[te], actions, Z[te], config, t)
                 if ok:
                     valid_models.append(model)
                     valid_stats.append(st)
@@ -329,7 +383,7 @@ def _learn_structure(actions, poses, *, config: SearchConfig | None = None,
     result.valid = list(zip(valid_models, valid_stats))
     for e in idx:
         model = valid_models[e]
-        if refit and isinstance(model, LocalModel):
+        if refit and isinstance(model, LocalModel) and config.validation == "split":
             rows, Z, _, _ = pair[(model.i, model.j)]
             model.fit(actions[rows], Z, optimize=False,
                       hyperparameters=model.gp.hyperparameters(), noise_min=config.noise_min)

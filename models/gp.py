@@ -295,6 +295,18 @@ class GaussianProcess:
         KA = Ks * self._alpha[:, None, :]  # (m, k, n)
         return -np.einsum("ckn,knd->kcd", KA, diff, optimize=True) * inv_l2[None, :, :]
 
+    def loo_predict(self):
+        """Leave-one-out predictive mean and variance (n, m) at the training inputs: the
+        prediction for sample i from the GP conditioned on all other samples (same
+        hyper-parameters), in closed form (Rasmussen & Williams, Eq. 5.12). The variance
+        includes the noise (it is that of a held-out observation)."""
+        self._check_fitted()
+        n = self.X.shape[0]
+        Linv = np.linalg.solve(self._L, np.broadcast_to(np.eye(n), self._L.shape))
+        kinv_diag = np.einsum("cki,cki->ci", Linv, Linv)  # (m, n)
+        mean = self.Y - (self._alpha / kinv_diag).T
+        return mean, (1.0 / kinv_diag).T
+
     def hyperparameters(self) -> dict:
         """Current hyper-parameters in log space (a ``hyperparameters=`` argument of fit)."""
         self._check_fitted()

@@ -236,6 +236,30 @@ class SimArm:
         return frozenset(self.parts[p].action for p in path
                          if self.parts[p].joint != "rigid")
 
+    def engineered_models(self, edges=None) -> list:
+        """Exact ("hand-calibrated") local models of the *current* arm, frozen against later
+        failures: by default one per parent-child edge. ``edges``: list of (i, j)."""
+        import copy
+
+        from .body_schema_local import EngineeredModel
+
+        frozen = copy.deepcopy(self)
+        if edges is None:
+            edges = [(part.parent, p) for p, part in enumerate(self.parts)
+                     if part.parent is not None]
+        out = []
+        for i, j in edges:
+            Q = tuple(sorted(self.joints_between(i, j)))
+
+            def f(qQ, i=i, j=j, Q=Q):
+                qQ = np.atleast_2d(qQ)
+                A = np.zeros((len(qQ), frozen.n_actions))
+                A[:, list(Q)] = qQ
+                return frozen.local_transform(i, j, A)
+
+            out.append(EngineeredModel(i, j, Q, self.n_actions, f))
+        return out
+
     def local_transform(self, i: int, j: int, actions) -> np.ndarray:
         """True x_i^-1 x_j (n, 4, 4) for commanded actions (n, m)."""
         X = self.forward(np.atleast_2d(actions))
