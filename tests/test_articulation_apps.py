@@ -1,0 +1,51 @@
+"""Subprocess tests of the articulation apps."""
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+DATA = Path(__file__).parent / "data" / "articulation_logs"
+ENV = {**os.environ, "DRAKE_ALLOW_NETWORK": "meshcat", "OPENBLAS_NUM_THREADS": "1"}
+
+
+def _run(args, cwd):
+    return subprocess.run([sys.executable, "-m", *args], capture_output=True, text=True,
+                          cwd=cwd, env=ENV, timeout=300)
+
+
+def test_fit_articulation_help(tmp_path):
+    r = _run(["mmlearn.apps.fit_articulation", "--help"], tmp_path)
+    assert r.returncode == 0 and "--sigma-pos" in r.stdout and "--json" in r.stdout
+
+
+def test_fit_articulation_json_real_tracks_and_bad_files(tmp_path):
+    bad1 = tmp_path / "bad_cols.log"
+    bad1.write_text("0 0 0\n0 1 0\n1 2\n0 0 1\n")
+    bad2 = tmp_path / "short.log"
+    bad2.write_text("0 0 0\n1 1 1\n")
+    missing = tmp_path / "missing.log"
+    plot = tmp_path / "fit.png"
+    r = _run(["mmlearn.apps.fit_articulation", str(DATA), str(bad1), str(bad2), str(missing),
+              "--json", "--seed", "1", "--plot", str(plot)], tmp_path)
+    assert r.returncode == 1  # some files failed
+    out = json.loads(r.stdout)
+    by = {Path(t["path"]).name: t for t in out["tracks"]}
+    assert by["drawer_001.log"]["selected"] == "prismatic"
+    assert by["left_door_001.log"]["selected"] == "revolute"
+    p = by["left_door_001.log"]["params"]
+    assert 0.3 < p["radius_m"] < 0.4 and len(p["axis"]) == 3 and len(p["center"]) == 3
+    assert by["dishwasher_005.log"]["selected"] == "revolute"
+    assert by["left_door_001.log"]["avg_orient_error_rad"] is None
+    assert by["rectangle_drawer.txt"]["avg_orient_error_rad"] is not None
+    for t in out["tracks"]:
+        assert set(t) >= {"path", "n", "selected", "bic", "gamma", "avg_pos_error_m",
+                          "avg_orient_error_rad", "params", "fit_seconds"}
+    assert "bad_cols.log:3: expected 3, 7 or 9 columns" in r.stderr
+    assert "short.log: only 2 observation" in r.stderr
+    assert "missing.log: file not found" in r.stderr
+    assert len(out["errors"]) == 3
+    assert plot.exists() and plot.stat().st_size > 1000
