@@ -248,8 +248,8 @@ class BodySchema:
 
         Args:
             actions: (m,) or (n, m) commanded actions.
-            with_jacobian: also return d pose / d q, (n, p, 4, 4, m) (raw GP derivatives
-                chained through the products; the orthonormalisation is not differentiated).
+            with_jacobian: also return d pose / d q, (n, p, 4, 4, m) (chain rule through the
+                products of the local models' derivatives).
         Returns:
             (p, 4, 4) or (n, p, 4, 4) [and the Jacobian].
         """

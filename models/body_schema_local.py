@@ -94,6 +94,27 @@ def _y_to_z(Y: np.ndarray) -> np.ndarray:
     return Z
 
 
+def _polar_derivative(M: np.ndarray, dM: np.ndarray) -> np.ndarray:
+    """Derivative of the nearest rotation R(M) (polar factor, M = R S) for M (n, 3, 3) and
+    its derivatives dM (n, 3, 3, k): dR = R [w]x with (tr(S) I - S) w = vee(R^T dM - dM^T R)."""
+    U, _, Vt = np.linalg.svd(M)
+    det = np.linalg.det(U @ Vt)
+    U = U.copy()
+    U[..., :, 2] *= det[..., None]
+    R = U @ Vt
+    S = np.swapaxes(R, 1, 2) @ M
+    S = 0.5 * (S + np.swapaxes(S, 1, 2))
+    A = np.einsum("nba,nbck->nack", R, dM) - np.einsum("nbak,nbc->nack", dM, R)
+    a = np.stack([A[:, 2, 1], A[:, 0, 2], A[:, 1, 0]], axis=1)  # (n, 3, k)
+    G = np.trace(S, axis1=1, axis2=2)[:, None, None] * np.eye(3) - S
+    w = np.linalg.solve(G, a)  # (n, 3, k)
+    W = np.zeros(w.shape[:1] + (3, 3) + w.shape[2:])
+    W[:, 0, 1], W[:, 0, 2] = -w[:, 2], w[:, 1]
+    W[:, 1, 0], W[:, 1, 2] = w[:, 2], -w[:, 0]
+    W[:, 2, 0], W[:, 2, 1] = -w[:, 1], w[:, 0]
+    return np.einsum("nab,nbck->nack", R, W)
+
+
 def _check_actions(actions, n_actions: int | None = None) -> np.ndarray:
     a = np.asarray(actions, float)
     if a.ndim == 1:
@@ -225,14 +246,17 @@ class LocalModel(_ModelBase):
         return orthonormalize(_y_to_z(self.gp.loo_predict()[0]))
 
     def predict_jacobian(self, actions) -> np.ndarray:
-        """d z_ij / d q (n, 4, 4, n_actions) of the raw GP mean (zero outside Q and in the
-        last row)."""
+        """d z_ij / d q (n, 4, 4, n_actions) of :meth:`predict` (zero outside Q): the GP mean
+        derivative chained through the SVD orthonormalisation of the rotation block."""
         actions = self._check(actions)
         n = len(actions)
         J = np.zeros((n, 4, 4, self.n_actions))
         if self.k:
-            Jq = self.gp.predict_jacobian(actions[:, list(self.Q)])  # (n, 12, k)
-            J[:, :3, :4, list(self.Q)] = Jq.reshape(n, 3, 4, self.k)
+            X = actions[:, list(self.Q)]
+            M = self.gp.predict(X).reshape(n, 3, 4)
+            dM = self.gp.predict_jacobian(X).reshape(n, 3, 4, self.k)
+            J[:, :3, 3, list(self.Q)] = dM[:, :, 3, :]
+            J[:, :3, :3, list(self.Q)] = _polar_derivative(M[:, :, :3], dM[:, :, :3, :])
         return J
 
     def log_marginal_likelihood(self) -> float:

@@ -295,7 +295,7 @@ def make_arm_4dof() -> SimArm:
 def make_arm_7dof() -> SimArm:
     """7-DOF arm of Fig. 3.11, 10 parts, 1.3 m long: base x1 rigid to shoulder x2; chain
     x2..x8 on revolute q1..q6 (axes alternating z, y, range +-pi/2); the gripper action q7
-    (range [0, 1] rad) opens the two finger links x9, x10 (0.08 m, rotating in opposite
+    (range [0, 1.5] rad) opens the two finger links x9, x10 (0.08 m, rotating in opposite
     directions about x) relative to x8. The tool part is finger x10."""
     parts = [ArmPart("x1_base", None), ArmPart("x2_shoulder", 0, A=trans(z=0.15))]
     for a in range(6):
@@ -307,5 +307,5 @@ def make_arm_7dof() -> SimArm:
     parts.append(ArmPart("x10_finger_right", 7, A=trans(y=-0.03, z=0.1), joint="revolute",
                          action=6, axis=(-1, 0, 0), B=trans(z=0.08)))
     low = np.r_[-np.pi / 2 * np.ones(6), 0.0]
-    high = np.r_[np.pi / 2 * np.ones(6), 1.0]
+    high = np.r_[np.pi / 2 * np.ones(6), 1.5]
     return SimArm(parts, low, high, tool_part=9)
