@@ -268,6 +268,13 @@ def _m2rv(M: np.ndarray) -> np.ndarray:
     return v * f[..., None]
 
 
+def _chordal_mean(R: np.ndarray) -> np.ndarray:
+    """Chordal L2 mean of rotation matrices (n, 3, 3)."""
+    U, _, Vt = np.linalg.svd(R.sum(axis=0))
+    D = np.diag([1.0, 1.0, np.linalg.det(U @ Vt)])
+    return U @ D @ Vt
+
+
 def _frame_with_z(axis: np.ndarray, xhint: np.ndarray) -> np.ndarray:
     """(H, 3, 3) rotation matrices whose z column is ``axis`` and x column lies along the
     component of ``xhint`` perpendicular to it."""
@@ -334,6 +341,14 @@ class LinkModel:
         (H, n) or None, configurations (H, n, dof)."""
         raise NotImplementedError
 
+    _rcache = None  # {slot: (H, 3, 3)} rotation matrices overriding theta (refinement)
+
+    def _rot(self, thetas: np.ndarray, s: int) -> np.ndarray:
+        """Rotation matrices (H, 3, 3) of the rotation-vector slot starting at index s."""
+        if self._rcache is not None:
+            return self._rcache[s]
+        return _rv2m(thetas[:, s:s + 3])
+
     def _rot_slots(self) -> list[int]:
         """Start indices of rotation-vector triples in theta."""
         return []
@@ -390,6 +405,20 @@ class LinkModel:
         best = int(np.argmax(score))
         theta, gamma = thetas[best].copy(), float(g[best])
         if self.refine:
+            # least-squares re-estimate on the consensus set (inlier responsibility > 0.5),
+            # kept if it explains the data better, then quasi-Newton on the full likelihood
+            inl = resp_best = None
+            _, _, resp = em_gamma(log_in[best:best + 1], log_out, w, gamma0=gamma, iters=1)
+            inl = resp[0] > 0.5
+            if inl.sum() >= max(3, self.min_samples):
+                cand = self._consensus_fit(d, inl, theta)
+                if cand is not None and np.all(np.isfinite(cand)):
+                    ep2c, eoc, _ = self._residuals_batch(cand[None], d)
+                    gc, llc, _ = em_gamma(self.obs_fit.log_inlier(ep2c, eoc), log_out, w,
+                                          gamma0=gamma, iters=15)
+                    if llc[0] + self.obs_fit.log_gamma_prior(gc[0]) > score[best]:
+                        theta, gamma = cand, float(gc[0])
+            del resp_best
             theta, gamma = self._refine(theta, gamma, d)
         self.theta = theta
         self.gamma = gamma
@@ -404,30 +433,52 @@ class LinkModel:
             scale[s:s + 3] = obs.sigma_orient if d.has_orientation else 0.05
         scale = self._param_scale(scale, d)
         theta = theta0.copy()
-        p_eye = np.vstack([np.zeros(p), np.eye(p) * 1e-6])
+        free = np.setdiff1d(np.arange(p), self._frozen())
+        p_eye = np.zeros((free.size + 1, p))
+        p_eye[np.arange(1, free.size + 1), free] = 1e-6
         for _ in range(rounds):
             base = theta.copy()
             Rb = [_rv2m(base[s:s + 3]) for s in rot]
             lg1, lg = np.log1p(-gamma), np.log(gamma)
 
-            def unpack(U, base=base, Rb=Rb):
+            def decode(U, base=base, Rb=Rb):
                 U = np.atleast_2d(U)
                 th = base[None] + U * scale[None]
-                for s, R0 in zip(rot, Rb):
-                    th[:, s:s + 3] = _m2rv(R0[None] @ _rv2m(U[:, s:s + 3] * scale[s:s + 3]))
+                cache = {s: R0[None] @ _rv2m(U[:, s:s + 3] * scale[s:s + 3])
+                         for s, R0 in zip(rot, Rb)}
+                return th, cache
+
+            def unpack(U):
+                th, cache = decode(U)
+                for s, R in cache.items():
+                    th[:, s:s + 3] = _m2rv(R)
                 return th
 
             def nll_and_grad(u):
                 # objective and forward-difference gradient in ONE batched residual call
-                ths = unpack(u[None] + p_eye)
-                ep2, eo, _ = self._residuals_batch(ths, d)
+                ths, cache = decode(u[None] + p_eye)
+                self._rcache = cache or None
+                try:
+                    ep2, eo, _ = self._residuals_batch(ths, d)
+                finally:
+                    self._rcache = None
                 li = obs.log_inlier(ep2, eo)
                 f = -np.logaddexp(lg1 + li, lg + log_out).sum(axis=1)
                 return float(f[0]), (f[1:] - f[0]) / 1e-6
 
-            res = minimize(nll_and_grad, np.zeros(p), jac=True, method="L-BFGS-B",
-                           options={"maxiter": 60, "ftol": 1e-8, "gtol": 1e-4})
-            theta = unpack(res.x)[0]
+            def fg(v):
+                u = np.zeros(p)
+                u[free] = v
+                return nll_and_grad(u)
+
+            f0 = abs(fg(np.zeros(free.size))[0])
+            # stop when an iteration gains less than ~1e-3 nats (|log L| scale-free ftol)
+            res = minimize(fg, np.zeros(free.size), jac=True, method="L-BFGS-B",
+                           options={"maxiter": 60, "ftol": 1e-3 / max(f0, 1.0),
+                                    "gtol": 1e-3})
+            u = np.zeros(p)
+            u[free] = res.x
+            theta = unpack(u)[0]
             ep2, eo, _ = self._residuals_batch(theta[None], d)
             g, _, _ = em_gamma(obs.log_inlier(ep2, eo), log_out, obs.gamma_weight,
                                gamma0=gamma, iters=30)
@@ -440,6 +491,14 @@ class LinkModel:
 
     def _param_scale(self, scale, d):
         return scale
+
+    def _frozen(self) -> list[int]:
+        """Indices of theta kept fixed in the refinement (gauge freedoms)."""
+        return []
+
+    def _consensus_fit(self, d: _Data, inl: np.ndarray, theta: np.ndarray):
+        """Closed-form least-squares parameters from the inliers (or None)."""
+        return None
 
     def _finalize(self, d: _Data):
         ep2, eo, q = self._residuals_batch(self.theta[None], d)
@@ -641,13 +700,20 @@ class RigidModel(LinkModel):
             return np.hstack([d.P[idx], _m2rv(d.R[idx])])
         return d.P[idx].copy()
 
+    def _consensus_fit(self, d, inl, theta):
+        out = theta.copy()
+        out[:3] = d.P[inl].mean(axis=0)
+        if d.has_orientation:
+            out[3:6] = _m2rv(_chordal_mean(d.R[inl]))
+        return out
+
     def _residuals_batch(self, thetas, d):
         p = thetas[:, :3]
         diff = d.P[None] - p[:, None]
         ep2 = np.einsum("hni,hni->hn", diff, diff)
         eo = None
         if d.has_orientation:
-            Rh = _rv2m(thetas[:, 3:6])
+            Rh = self._rot(thetas, 3)
             eo = _rot_err(_pair_mul(np.swapaxes(Rh, 1, 2), d.R))
         return ep2, eo, np.zeros((thetas.shape[0], d.n, 0))
 
@@ -708,6 +774,21 @@ class PrismaticModel(LinkModel):
             return np.hstack([d.P[i], _m2rv(d.R[i]), e])
         return np.hstack([d.P[i], e])
 
+    def _consensus_fit(self, d, inl, theta):
+        X = d.P[inl]
+        mu = X.mean(axis=0)
+        _, S, Vt = np.linalg.svd(X - mu, full_matrices=False)
+        e = Vt[0]
+        e_old = theta[self._eidx()]
+        if np.dot(e, e_old) < 0:
+            e = -e
+        out = theta.copy()
+        out[:3] = mu
+        out[self._eidx()] = e
+        if d.has_orientation:
+            out[3:6] = _m2rv(_chordal_mean(d.R[inl]))
+        return out
+
     def _residuals_batch(self, thetas, d):
         has_o = thetas.shape[1] == 9
         a = thetas[:, :3]
@@ -719,7 +800,7 @@ class PrismaticModel(LinkModel):
         ep2 = np.einsum("hni,hni->hn", perp, perp)
         eo = None
         if has_o and d.has_orientation:
-            Ra = _rv2m(thetas[:, 3:6])
+            Ra = self._rot(thetas, 3)
             eo = _rot_err(_pair_mul(np.swapaxes(Ra, 1, 2), d.R))
         return ep2, eo, q[..., None]
 
@@ -786,8 +867,10 @@ class RevoluteModel(LinkModel):
     def _rot_slots(self):
         return [3, 9] if self.has_orientation else [3]
 
-    def _param_scale(self, scale, d):
-        return scale
+    def _frozen(self):
+        # gauge: rotation of c about its own z axis (= shift of q), r_p's y and z components
+        # (hypotheses and refinement keep r_p = (radius, 0, 0))
+        return [5, 7, 8]
 
     def _hypotheses(self, d, rng, H):
         n = d.n
@@ -818,11 +901,43 @@ class RevoluteModel(LinkModel):
             out.append(_m2rv(Rr))
         return np.hstack(out)
 
+    def _consensus_fit(self, d, inl, theta):
+        X = d.P[inl]
+        m = X.shape[0]
+        mu = X.mean(axis=0)
+        _, S, Vt = np.linalg.svd(X - mu, full_matrices=False)
+        if S.shape[0] < 2 or S[1] < 3.0 * self.obs.sigma_pos * np.sqrt(m):
+            return None  # nearly collinear: plane undetermined, keep the sample estimate
+        Rc_old = _rv2m(theta[3:6])
+        nrm = Vt[2] if np.dot(Vt[2], Rc_old[:, 2]) >= 0 else -Vt[2]
+        # Kasa circle fit in the plane
+        u, v = Vt[0], np.cross(nrm, Vt[0])
+        x = (X - mu) @ u
+        y = (X - mu) @ v
+        A = np.stack([2 * x, 2 * y, np.ones(m)], axis=1)
+        sol, *_ = np.linalg.lstsq(A, x * x + y * y, rcond=None)
+        rho2 = sol[2] + sol[0] ** 2 + sol[1] ** 2
+        if not rho2 > 0:
+            return None
+        center = mu + sol[0] * u + sol[1] * v
+        first = X[0]
+        Rc = _frame_with_z(nrm[None], (first - center)[None])[0]
+        out = theta.copy()
+        out[:3] = center
+        out[3:6] = _m2rv(Rc)
+        out[6:9] = [np.sqrt(rho2), 0.0, 0.0]
+        if d.has_orientation and theta.shape[0] == 12:
+            pl = (X - center) @ Rc
+            q = np.arctan2(pl[:, 1], pl[:, 0])
+            Rl = np.swapaxes(_rotz(q), 1, 2) @ (Rc.T[None] @ d.R[inl])  # Rz(-q) Rc^T R
+            out[9:12] = _m2rv(_chordal_mean(Rl))
+        return out
+
     def _angles(self, thetas, d):
         """Configurations (H, n) and helper terms."""
         has_o = thetas.shape[1] == 12
         cp = thetas[:, :3]
-        Rc = _rv2m(thetas[:, 3:6])
+        Rc = self._rot(thetas, 3)
         rp = thetas[:, 6:9]
         pl = (d.P[None] - cp[:, None]) @ Rc  # local positions (H, n, 3)
         rho2 = rp[:, 0] ** 2 + rp[:, 1] ** 2
@@ -834,7 +949,7 @@ class RevoluteModel(LinkModel):
         c = wp * np.cos(q_pos)
         Ml = None
         if has_o and d.has_orientation:
-            Rr = _rv2m(thetas[:, 9:12])
+            Rr = self._rot(thetas, 9)
             # Ml = Rc^T R_z Rr^T  (= RotZ(q) for a noise-free observation)
             Ml = _pair_mul(np.swapaxes(Rc, 1, 2), d.R, np.swapaxes(Rr, 1, 2))
             q_rot = np.arctan2(Ml[..., 1, 0] - Ml[..., 0, 1], Ml[..., 0, 0] + Ml[..., 1, 1])
@@ -978,7 +1093,7 @@ class GPModel(LinkModel):
     min_samples = 3
 
     def __init__(self, *, dof: int = 1, reduction: str = "pca", n_neighbors: int = 10,
-                 max_train: int | None = 50, **kw):
+                 max_train: int | None = 50, gp_maxiter: int = 25, **kw):
         if not 1 <= int(dof) <= 5:
             raise ValueError(f"GPModel: dof must be 1..5, got {dof}")
         if reduction not in ("pca", "lle"):
@@ -987,6 +1102,7 @@ class GPModel(LinkModel):
         self.reduction = reduction
         self.n_neighbors = int(n_neighbors)
         self.max_train = None if max_train is None else int(max_train)
+        self.gp_maxiter = int(gp_maxiter)
         super().__init__(**kw)
         self.name = "gp" if self.dof == 1 else f"gp{self.dof}"
 
@@ -1040,7 +1156,15 @@ class GPModel(LinkModel):
             Q, Y = Q[pick], Y[pick]
         self.n_gp_ = Q.shape[0]
         noise_min = self.obs.sigma_pos**2 * 1e-4
-        self.gp = GaussianProcess(ard=True).fit(Q, Y, noise_min=noise_min)
+        # initial hyper-parameters from the known observation noise and the data scale
+        # (better optima than a generic start, and a capped number of L-BFGS iterations)
+        m_out = Y.shape[1]
+        sn2 = np.r_[[self.obs.sigma_pos**2] * 3, [self.obs.sigma_orient**2] * (m_out - 3)]
+        hp = {"log_ell": np.tile(np.log(np.maximum(Q.std(axis=0), 1e-6)), (m_out, 1)),
+              "log_sf2": np.log(Y.var(axis=0) + 1e-12),
+              "log_sn2": np.log(np.maximum(sn2, noise_min))}
+        self.gp = GaussianProcess(ard=True).fit(Q, Y, noise_min=noise_min, hyperparameters=hp,
+                                                maxiter=self.gp_maxiter)
         self.theta = np.zeros(0)
         self.gamma = 0.0  # provisional; EM in _finalize
         self._Q_train = Q
