@@ -1,0 +1,131 @@
+"""Speed benchmark of articulation model fitting (prints figures; never fails on time).
+
+    python benchmarks/bench_articulation.py [--repeats 7] [--seed 0] [--json]
+
+Measures (median and minimum wall-clock over repeats, single process):
+
+- fitting + selecting all four candidates (rigid, prismatic, revolute, gp) for one link of
+  n = 30 and n = 200 observations (simulated microwave door and drawer, sigma 2 mm / 2 deg);
+  targets: < 20 ms (n = 30) and < 100 ms (n = 200);
+- the per-model fit time;
+- a 6-part kinematic tree (15 pairs) at n = 100; target < 1 s;
+- one GP forward + Jacobian query (control-loop use).
+
+BLAS threads are limited to one (set before numpy is imported): with several engineers on a
+2-core machine, multi-threaded BLAS on tiny matrices only spins.
+"""
+
+from __future__ import annotations
+
+import os
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+os.environ.setdefault("MKL_NUM_THREADS", "1")
+
+import argparse
+import json
+import time
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from mmlearn.models.articulation import ObservationModel, make_model
+from mmlearn.models.articulation_sim import simulate_link
+from mmlearn.models.articulation_structure import fit_kinematic_tree, select_link_model
+
+OBS = ObservationModel(sigma_pos=0.002, sigma_orient=np.deg2rad(2.0))
+
+
+def _time(fn, repeats):
+    ts = []
+    out = None
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        out = fn()
+        ts.append(time.perf_counter() - t0)
+    return float(np.median(ts)), float(np.min(ts)), out
+
+
+def six_part_object(T: int, seed: int = 0):
+    """Synthetic 6-part object: base; drawer 1 and 2 (prismatic), door (revolute), a handle
+    rigid on the door, a knob rigid on the base. Poses (T, 7) per part, noise 2 mm / 0.3 deg."""
+    rng = np.random.default_rng(seed)
+    Rb = Rotation.from_euler("z", 0.3)
+    pb = np.array([1.0, 0.2, 0.5])
+    q1, q2, q3 = (rng.uniform(0, 0.3, T), rng.uniform(0, 0.3, T), rng.uniform(0, 1.4, T))
+    I = Rotation.identity(T)
+
+    def pose(P, R):
+        R = Rotation.from_rotvec(rng.normal(0, np.deg2rad(0.3), (T, 3))) * R
+        return np.hstack([P + rng.normal(0, 0.002, (T, 3)), R.as_quat()])
+
+    Rbs = Rb * I
+    Rd = Rbs * Rotation.from_rotvec(q3[:, None] * [0, 0, 1.0])
+    parts = [
+        pose(np.tile(pb, (T, 1)), Rbs),
+        pose(pb + Rb.apply([0.1, 0.0, 0.0] + q1[:, None] * [1.0, 0, 0]), Rbs),
+        pose(pb + Rb.apply([0.1, 0.0, -0.3] + q2[:, None] * [1.0, 0, 0]), Rbs),
+        pose(pb + Rb.apply([0.0, 0.5, 0.0]) + Rd.apply([0.4, 0, 0]), Rd),
+        pose(pb + Rb.apply([0.0, 0.5, 0.0]) + Rd.apply([0.7, 0, 0.1]), Rd),
+        pose(np.tile(pb + Rb.apply([0.0, 0.0, 0.3]), (T, 1)), Rbs),
+    ]
+    return parts
+
+
+def run(*, repeats: int = 7, seed: int = 0) -> dict:
+    res = {"select": {}, "per_model_ms": {}, "tree": {}, "gp_query_ms": None}
+    for n in (30, 200):
+        for kind in ("microwave", "drawer"):
+            tr = simulate_link(kind, n, rng=seed)
+            med, mn, sel = _time(lambda: select_link_model(tr.Z, obs=OBS, rng=seed), repeats)
+            res["select"][f"{kind}_n{n}"] = {"median_ms": 1e3 * med, "min_ms": 1e3 * mn,
+                                             "selected": sel.selected}
+            per = {}
+            for name in ("rigid", "prismatic", "revolute", "gp"):
+                m_med, _, _ = _time(lambda: make_model(name, obs=OBS).fit(tr.Z, rng=seed),
+                                    repeats)
+                per[name] = 1e3 * m_med
+            res["per_model_ms"][f"{kind}_n{n}"] = per
+    parts = six_part_object(100, seed)
+    med, mn, obj = _time(lambda: fit_kinematic_tree(parts, obs=OBS, rng=seed),
+                         max(1, repeats // 3))
+    res["tree"] = {"parts": 6, "pairs": 15, "n": 100, "median_s": med, "min_s": mn,
+                   "dof": obj.dof,
+                   "edges": [(e.parent, e.child, e.model.name) for e in obj.edges]}
+    tr = simulate_link("rollup", 100, sigma_pos=0.01, rng=seed)
+    gp = make_model("gp", obs=ObservationModel(0.01, np.deg2rad(2))).fit(tr.Z, rng=seed)
+    q = np.array([[0.5 * (gp.q_min[0] + gp.q_max[0])]])
+    med, mn, _ = _time(lambda: (gp.forward(q), gp.jacobian(q)), 50)
+    res["gp_query_ms"] = {"median_ms": 1e3 * med, "min_ms": 1e3 * mn}
+    return res
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--repeats", type=int, default=7)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--json", action="store_true")
+    args = ap.parse_args(argv)
+    res = run(repeats=args.repeats, seed=args.seed)
+    if args.json:
+        print(json.dumps(res, indent=1))
+        return 0
+    print("select all four candidates (ms)        median     min   selected   target")
+    for k, v in res["select"].items():
+        tgt = "< 20 ms" if k.endswith("n30") else "< 100 ms"
+        print(f"  {k:28s} {v['median_ms']:12.1f} {v['min_ms']:7.1f}   {v['selected']:9s}  {tgt}")
+    print("per-model fit (median ms)   rigid  prismatic  revolute      gp")
+    for k, v in res["per_model_ms"].items():
+        print(f"  {k:24s} {v['rigid']:7.1f} {v['prismatic']:10.1f} {v['revolute']:9.1f} "
+              f"{v['gp']:7.1f}")
+    t = res["tree"]
+    print(f"6-part tree (15 pairs, n = 100): median {t['median_s']:.3f} s, min "
+          f"{t['min_s']:.3f} s (target < 1 s); dof {t['dof']}; edges {t['edges']}")
+    g = res["gp_query_ms"]
+    print(f"GP link forward + Jacobian, one query: median {g['median_ms']:.3f} ms")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
