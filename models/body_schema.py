@@ -314,11 +314,17 @@ class BodySchema:
         return np.concatenate([e_p, orient_weight * e_r])
 
     def dls_step(self, q, part: int, target, *, damping: float = 0.05,
-                 orient_weight: float = 0.1, max_step: float = 0.3) -> np.ndarray:
+                 orient_weight: float = 0.1, max_step: float = 0.3, q_low=None, q_high=None,
+                 centering: float = 0.0) -> np.ndarray:
         """One damped-least-squares step ``dq = J^T (J J^T + lambda^2 I)^-1 e`` on the
         *learned* model towards ``target`` (position (3,) m, or pose (4, 4) in the root-part
         frame; orientation error weighted by ``orient_weight`` m/rad). The step is scaled to
-        at most ``max_step`` (action units, infinity norm)."""
+        at most ``max_step`` (action units, infinity norm).
+
+        With joint limits ``q_low``/``q_high`` (action units), joints at a limit whose step
+        would leave the range are frozen and the step is recomputed without them (clamping);
+        ``centering`` > 0 adds a null-space motion towards the middle of the range (useful for
+        redundant arms)."""
         q = np.asarray(q, float)
         T = self.forward_kinematics(q)[part]
         e = self._task_error(T, target, orient_weight)
@@ -327,7 +333,21 @@ class BodySchema:
             J = J[:3]
         else:
             J = np.concatenate([J[:3], orient_weight * J[3:]])
-        dq = J.T @ np.linalg.solve(J @ J.T + damping**2 * np.eye(len(e)), e)
+        lo = np.full(q.shape, -np.inf) if q_low is None else np.asarray(q_low, float)
+        hi = np.full(q.shape, np.inf) if q_high is None else np.asarray(q_high, float)
+        free = np.ones(q.shape, bool)
+        dq = np.zeros_like(q)
+        for _ in range(q.size + 1):
+            Jf = J * free
+            A = Jf @ Jf.T + damping**2 * np.eye(len(e))
+            dq = Jf.T @ np.linalg.solve(A, e)
+            if centering > 0 and np.all(np.isfinite(lo)) and np.all(np.isfinite(hi)):
+                P = np.diag(free.astype(float)) - Jf.T @ np.linalg.solve(A, Jf)
+                dq = dq + centering * P @ (0.5 * (lo + hi) - q)
+            push_out = free & (((q <= lo + 1e-9) & (dq < 0)) | ((q >= hi - 1e-9) & (dq > 0)))
+            if not np.any(push_out):
+                break
+            free &= ~push_out
         mx = np.max(np.abs(dq)) if dq.size else 0.0
         if mx > max_step:
             dq *= max_step / mx
@@ -335,12 +355,16 @@ class BodySchema:
 
     def reach(self, q0, part: int, target, *, damping: float = 0.05,
               orient_weight: float = 0.1, max_iter: int = 100, tol: float = 1e-3,
-              max_step: float = 0.3, q_low=None, q_high=None):
+              max_step: float = 0.3, q_low=None, q_high=None, centering: float = 0.0):
         """Iterate :meth:`dls_step` from ``q0`` until the predicted error of ``part`` is below
-        ``tol`` (m; for poses the weighted 6-D error norm) or ``max_iter`` steps.
+        ``tol`` (m; for poses the weighted 6-D error norm) or ``max_iter`` steps; the
+        actions stay within ``q_low``/``q_high``.
 
         Returns (q, info) with info = dict(iterations, error, converged)."""
         q = self._check_actions(q0)[0].copy()
+        lo = -np.inf if q_low is None else np.asarray(q_low, float)
+        hi = np.inf if q_high is None else np.asarray(q_high, float)
+        q = np.clip(q, lo, hi)
         err = np.inf
         it = 0
         for it in range(1, max_iter + 1):
@@ -349,11 +373,10 @@ class BodySchema:
             if err < tol:
                 it -= 1
                 break
-            q = q + self.dls_step(q, part, target, damping=damping,
-                                  orient_weight=orient_weight, max_step=max_step)
-            if q_low is not None or q_high is not None:
-                q = np.clip(q, q_low if q_low is not None else -np.inf,
-                            q_high if q_high is not None else np.inf)
+            q = np.clip(q + self.dls_step(q, part, target, damping=damping,
+                                          orient_weight=orient_weight, max_step=max_step,
+                                          q_low=q_low, q_high=q_high, centering=centering),
+                        lo, hi)
         else:
             T = self.forward_kinematics(q)[part]
             err = float(np.linalg.norm(self._task_error(T, target, orient_weight)))
