@@ -1,0 +1,119 @@
+"""Tests of the ArticulationEstimator LeafSystem."""
+
+import os
+
+os.environ.setdefault("DRAKE_ALLOW_NETWORK", "meshcat")
+
+import numpy as np
+import pytest
+from pydrake.common.value import AbstractValue
+from pydrake.math import RigidTransform, RotationMatrix
+from pydrake.systems.analysis import Simulator
+from pydrake.systems.framework import BasicVector, DiagramBuilder, LeafSystem
+
+from mmlearn.models.articulation import ObservationModel
+from mmlearn.systems.articulation_estimator import ArticulationEstimator
+from mmlearn.systems.observations import MarkerObservations
+
+RADIUS = 0.35
+RATE = 0.4  # rad/s
+
+
+def door_pose(t):
+    q = RATE * t
+    p = np.array([0.6 + RADIUS * np.cos(q), 0.1 + RADIUS * np.sin(q), 0.8])
+    return q, p, np.array([0, 0, np.sin(q / 2), np.cos(q / 2)])
+
+
+class DoorPoseSource(LeafSystem):
+    """End-effector pose on a door (7-vector); NaN at every 10th sample."""
+
+    def __init__(self, rng):
+        super().__init__()
+        self._rng = rng
+        self.DeclareVectorOutputPort("pose", 7, self._calc)
+
+    def _calc(self, context, out):
+        t = context.get_time()
+        _, p, q = door_pose(t)
+        v = np.r_[p + self._rng.normal(0, 0.002, 3), q]
+        if int(round(t / 0.05)) % 10 == 5:
+            v[0] = np.nan
+        out.SetFromVector(v)
+
+
+class CabinetMarkers(LeafSystem):
+    """MarkerObservations of a cabinet and a drawer; the drawer is hidden at some frames and
+    one frame carries a NaN pose."""
+
+    def __init__(self):
+        super().__init__()
+        self._rng = np.random.default_rng(0)
+        self.DeclareAbstractOutputPort("observations",
+                                       lambda: AbstractValue.Make(MarkerObservations()),
+                                       self._calc)
+
+    def _calc(self, context, out):
+        t = context.get_time()
+        k = int(round(t / 0.05))
+        base = RigidTransform(RotationMatrix.MakeZRotation(0.3), [1.0, 0.5, 0.3])
+        d = 0.1 * t
+        drawer = base.multiply(RigidTransform([0.1 + d + self._rng.normal(0, 0.002), 0, 0]))
+        poses = [base, drawer]
+        if k == 17:
+            poses[1] = RigidTransform(RotationMatrix(), [np.nan, 0, 0])
+        vis = np.array([True, k % 6 != 3])
+        out.set_value(MarkerObservations(time=t, marker_ids=["cabinet", "drawer"],
+                                         poses=poses, visible=vis,
+                                         outlier=np.zeros(2, bool)))
+
+
+def test_estimator_pose_mode_learns_revolute_and_counts_drops():
+    b = DiagramBuilder()
+    src = b.AddSystem(DoorPoseSource(np.random.default_rng(1)))
+    est = b.AddSystem(ArticulationEstimator(
+        mode="pose", pose_size=7, period=0.05, refit_every=20, min_observations=10,
+        obs=ObservationModel(0.003, np.deg2rad(3)), seed=0))
+    b.Connect(src.get_output_port(0), est.get_input_port_observations())
+    diagram = b.Build()
+    sim = Simulator(diagram)
+    sim.AdvanceTo(3.0)
+    ctx = est.GetMyContextFromRoot(sim.get_context())
+    sel = est.GetOutputPort("selected_models").Eval(ctx)
+    assert sel == {"fixed->moving": "revolute"}
+    model = est.GetOutputPort("object_model").Eval(ctx)
+    assert abs(model.edges[0].model.radius - RADIUS) < 0.01
+    stats = est.GetOutputPort("stats").Eval(ctx)
+    assert stats[1] == 6  # NaN samples dropped and counted (t = 0.25, 0.75, ... 2.75)
+    assert stats[0] + stats[1] in (60, 61) and stats[2] == 1
+    q = est.GetOutputPort("configuration").Eval(ctx)
+    # q = 0 at the first observation: the opening angle since t = 0
+    t_last = ctx.get_abstract_state(0).get_value().times[-1]
+    assert q[0] == pytest.approx(RATE * t_last, abs=0.02)
+    J = est.GetOutputPort("jacobian").Eval(ctx)
+    assert J.shape == (6, 1)
+    assert np.linalg.norm(J[:3, 0]) == pytest.approx(RADIUS, abs=0.01)
+
+
+def test_estimator_marker_mode_drawer_with_gaps():
+    b = DiagramBuilder()
+    src = b.AddSystem(CabinetMarkers())
+    est = b.AddSystem(ArticulationEstimator(
+        part_ids=["cabinet", "drawer"], period=0.05, refit_every=10,
+        obs=ObservationModel(0.003, np.deg2rad(2)), seed=0))
+    b.Connect(src.get_output_port(0), est.get_input_port_observations())
+    sim = Simulator(b.Build())
+    sim.AdvanceTo(2.0)
+    ctx = est.GetMyContextFromRoot(sim.get_context())
+    assert est.GetOutputPort("selected_models").Eval(ctx) == {"cabinet->drawer": "prismatic"}
+    stats = est.GetOutputPort("stats").Eval(ctx)
+    assert stats[1] == 1  # the NaN frame
+    m = est.GetOutputPort("object_model").Eval(ctx).edges[0].model
+    assert abs(abs(m.axis[0]) - 1.0) < 0.01  # along the cabinet's x axis
+
+
+def test_estimator_rejects_bad_configuration():
+    with pytest.raises(ValueError, match="part_ids"):
+        ArticulationEstimator(mode="markers")
+    with pytest.raises(ValueError, match="pose_size"):
+        ArticulationEstimator(mode="pose", pose_size=4)
