@@ -1,0 +1,107 @@
+"""Life-long adaptation of the body schema (thesis Sec. 3.3, Table 3.1)."""
+
+import numpy as np
+import pytest
+
+from mmlearn.models.body_schema import AdaptationConfig, BodySchema, SearchConfig
+from mmlearn.models.body_schema_experiments import recovery_experiment, structure_correct
+from mmlearn.models.body_schema_local import EngineeredModel, se3_inv
+from mmlearn.models.kinematic_sim import make_arm_2dof, make_arm_7dof
+
+CFG = SearchConfig(sigma_pos=0.02, sigma_orient=np.deg2rad(5.0))
+
+
+def test_engineered_seed_is_exact_and_stays_valid():
+    arm = make_arm_7dof()
+    models = arm.engineered_models()
+    assert all(isinstance(m, EngineeredModel) for m in models)
+    s = BodySchema.from_models(models, arm.n_parts, arm.n_actions, search=CFG)
+    assert s.valid and len(s.tree) == 9
+    rng = np.random.default_rng(0)
+    A = arm.sample_actions(20, rng)
+    Y, X = arm.observe(A, rng, sigma_pos=0.01, sigma_orient=np.deg2rad(2), visibility=0.9)
+    for a, y in zip(A, Y):
+        st = s.update(a, y)
+        assert st["valid"] and st["event"] is None
+    T = s.forward_kinematics(A)
+    np.testing.assert_allclose(T, se3_inv(X[:, :1]) @ X, atol=1e-9)
+    # the engineered Jacobian (finite differences) through the tree
+    J = s.jacobian(A[0], 9)
+    assert J.shape == (6, 7) and np.all(np.isfinite(J))
+
+
+def test_blocked_joint_recovery_restore_and_recall():
+    """Table 3.1, joint stuck: first occurrence bounded by patience + a few steps,
+    restore and second occurrence (history recall) within a few steps."""
+    r = recovery_experiment(make_arm_7dof, "joint", seed=3, n_block=60, visibility=0.92,
+                            search=CFG)
+    assert r["steps_invalid"][0] == 0
+    assert r["first"] <= 16.5 + 4, r  # thesis 16.50 +- 1.20
+    assert r["restore"] <= 3, r        # thesis 0.45
+    assert r["second"] <= 3, r         # thesis 0.65
+    assert any("sampled" in e for _, e in r["events"])
+    # the stale model is noticed within the sliding window (~half of it must be bad)
+    assert r["steps_stale"][2] <= 10 and r["steps_stale"][3] <= 10, r
+
+
+def test_tool_exchange_recovery():
+    r = recovery_experiment(make_arm_7dof, "tool", seed=4, n_block=60, visibility=0.79,
+                            search=CFG)
+    assert r["first"] <= 20.2 + 4, r   # thesis 20.20
+    assert r["restore"] <= 11.1, r
+    assert r["second"] <= 12.1, r
+
+
+def test_learning_from_scratch_with_updates_then_detects_change():
+    arm = make_arm_2dof()
+    rng = np.random.default_rng(5)
+    s = BodySchema(arm.n_parts, arm.n_actions,
+                   search=SearchConfig(sigma_pos=0.03, sigma_orient=np.deg2rad(5)),
+                   adapt=AdaptationConfig(relearn_every=5))
+    A = arm.sample_actions(120, rng)
+    Y, _ = arm.observe(A, rng, sigma_pos=0.01, sigma_orient=np.deg2rad(2))
+    for t in range(40):
+        st = s.update(A[t], Y[t])
+    assert st["valid"] and structure_correct(arm, s.tree, s.nodes)
+    before = {id(m) for m in s.tree}
+    # block q2: the x3-x4 model must be replaced by one trained on the new data
+    arm.block_joint(1, 0.8)
+    Y2, _ = arm.observe(A[40:], rng, sigma_pos=0.01, sigma_orient=np.deg2rad(2))
+    n_invalid = 0
+    for t in range(80):
+        st = s.update(A[40 + t], Y2[t])
+        n_invalid += not st["valid"]
+    assert st["valid"]
+    assert 5 <= n_invalid <= 25
+    replaced = [m for m in s.tree if id(m) not in before]
+    assert replaced and all(m.n_train >= 20 for m in replaced)
+    assert {(m.i, m.j) for m in replaced} <= {(2, 3), (1, 3), (2, 4), (1, 2), (0, 3), (3, 4)}
+    X = arm.forward(A[-10:])
+    T = s.forward_kinematics(A[-10:])
+    err = np.linalg.norm(T[:, 4, :3, 3] - (se3_inv(X[:, 0]) @ X[:, 4])[:, :3, 3], axis=1)
+    assert err.mean() < 0.03
+
+
+def test_candidate_order_prefers_structural_proximity():
+    arm = make_arm_2dof()
+    s = BodySchema.from_models(arm.engineered_models(), arm.n_parts, arm.n_actions,
+                               search=CFG)
+    failed = [m for m in s.tree if (m.i, m.j) == (2, 3)][0]
+    # pretend x3-x4 failed: drop its track
+    s.tracks = [t for t in s.tracks if t.model is not failed]
+    cands = s.candidate_models()
+    (i, j, Q), prox = cands[0]
+    assert (i, j, Q) == (2, 3, (1,)) and prox == 1.0
+    # all candidates bridge the two components {x1, x2, x3} and {x4, x5}
+    for (i, j, _), _ in cands:
+        assert (i <= 2) != (j <= 2)
+    proxs = [p for _, p in cands]
+    assert proxs == sorted(proxs, reverse=True)
+
+
+def test_update_rejects_bad_shapes():
+    s = BodySchema(5, 2)
+    with pytest.raises(ValueError, match="poses"):
+        s.update(np.zeros(2), np.zeros((4, 4, 4)))
+    with pytest.raises(ValueError, match="actions"):
+        s.update(np.zeros(3), np.zeros((5, 4, 4)))
