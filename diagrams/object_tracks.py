@@ -1,0 +1,164 @@
+"""Observation tracks of the simulated articulated objects (sdf/objects.py).
+
+Each object is parsed into a MultibodyPlant; for every sample the joint configuration is
+set kinematically and the pose of every ``<part>_marker`` frame is read and perturbed with
+Gaussian noise (sigma_pos m per axis, sigma_orient rad per rotation-vector axis). Parts can
+be hidden per sample (NaN rows). Scenarios reproduce the experiments of thesis 4.4.1/4.4.3.
+
+All functions return ``ObjectTrack``: ``poses`` (p, T, 7) x y z qx qy qz qw, ``q`` (T, nq)
+the joint configuration, ``parts`` and ``joints`` names.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from mmlearn.sdf.objects import (add_object, garage_door_configuration, object_parts,
+                                 yardstick_closed_configuration)
+
+__all__ = ["ObjectTrack", "ObjectKinematics", "cabinet_scenario", "yardstick_scenario",
+           "table_scenario", "car_door_scenario", "garage_door_scenario", "SCENARIOS"]
+
+
+def _gen(rng):
+    return rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
+
+
+@dataclass
+class ObjectTrack:
+    name: str
+    parts: list
+    joints: list
+    poses: np.ndarray  # (p, T, 7)
+    poses_true: np.ndarray  # (p, T, 7)
+    q: np.ndarray  # (T, nq)
+
+
+class ObjectKinematics:
+    """A finalized plant holding one object; ``marker_poses(q)`` -> (p, T, 7)."""
+
+    def __init__(self, name: str):
+        from pydrake.multibody.plant import DiscreteContactApproximation, MultibodyPlant
+
+        self.name = name
+        self.plant = MultibodyPlant(time_step=1e-3)
+        self.plant.set_discrete_contact_approximation(DiscreteContactApproximation.kSap)
+        self.instance, self.constraints = add_object(self.plant, name)
+        self.plant.Finalize()
+        self.context = self.plant.CreateDefaultContext()
+        self.parts = object_parts(name)
+        self.frames = [self.plant.GetFrameByName(f"{p}_marker", self.instance)
+                       for p in self.parts]
+        self.joints = [self.plant.get_joint(j).name()
+                       for j in self.plant.GetJointIndices(self.instance)
+                       if self.plant.get_joint(j).num_positions() == 1]
+
+    def marker_poses(self, q) -> np.ndarray:
+        q = np.atleast_2d(np.asarray(q, float))
+        nq = self.plant.num_positions(self.instance)
+        if q.shape[1] != nq:
+            raise ValueError(f"{self.name}: configurations need {nq} columns, got {q.shape[1]}")
+        out = np.zeros((len(self.parts), q.shape[0], 7))
+        for t in range(q.shape[0]):
+            self.plant.SetPositions(self.context, self.instance, q[t])
+            for k, f in enumerate(self.frames):
+                X = f.CalcPoseInWorld(self.context)
+                out[k, t, :3] = X.translation()
+                out[k, t, 3:] = Rotation.from_matrix(X.rotation().matrix()).as_quat()
+        return out
+
+
+_KIN = {}
+
+
+def _kin(name) -> ObjectKinematics:
+    if name not in _KIN:
+        _KIN[name] = ObjectKinematics(name)
+    return _KIN[name]
+
+
+def _track(name, q, sigma_pos, sigma_orient, rng, hidden=None) -> ObjectTrack:
+    kin = _kin(name)
+    true = kin.marker_poses(q)
+    p, T, _ = true.shape
+    noisy = true.copy()
+    noisy[..., :3] += rng.normal(0, sigma_pos, (p, T, 3))
+    R = Rotation.from_rotvec(rng.normal(0, sigma_orient, (p * T, 3))) * Rotation.from_quat(
+        true[..., 3:].reshape(-1, 4))
+    noisy[..., 3:] = R.as_quat().reshape(p, T, 4)
+    if hidden is not None:
+        noisy[hidden] = np.nan
+    return ObjectTrack(name, kin.parts, kin.joints, noisy, true, np.asarray(q, float))
+
+
+def cabinet_scenario(n_first: int = 20, n_both: int = 40, *, sigma_pos: float = 0.005,
+                     sigma_orient: float = np.deg2rad(3), rng=None) -> ObjectTrack:
+    """Fig. 4.8: the lower drawer alone opens and closes for ``n_first`` samples, then both
+    drawers move independently. q = (upper_slide, lower_slide) in metres."""
+    rng = _gen(rng)
+    q = np.zeros((n_first + n_both, 2))
+    q[:n_first, 1] = 0.2 - 0.2 * np.cos(np.linspace(0, 2 * np.pi, n_first))
+    q[n_first:, 0] = rng.uniform(0, 0.4, n_both)
+    q[n_first:, 1] = rng.uniform(0, 0.4, n_both)
+    return _track("two_drawer_cabinet", q, sigma_pos, sigma_orient, rng)
+
+
+def yardstick_scenario(closed: bool, n: int = 200, *, sigma_pos: float = 0.005,
+                       sigma_orient: float = np.deg2rad(3), rng=None) -> ObjectTrack:
+    """Sec. 4.4.3: open chain (3 independent hinge angles uniform in [-1.2, 1.2] rad) or the
+    closed rhombus (opening angle uniform in [0.5, 2.6] rad)."""
+    rng = _gen(rng)
+    if closed:
+        q = yardstick_closed_configuration(rng.uniform(0.5, 2.6, n))
+        name = "yardstick_closed"
+    else:
+        q = rng.uniform(-1.2, 1.2, (n, 3))
+        name = "yardstick_open"
+    return _track(name, q, sigma_pos, sigma_orient, rng)
+
+
+def table_scenario(n_per_phase: int = 15, *, sigma_pos: float = 0.01,
+                   sigma_orient: float = np.deg2rad(3), rng=None) -> ObjectTrack:
+    """Fig. 4.9: the table stands still, is pushed along x, then along a curve, then freely
+    over the floor (never turned). q = (x, y, yaw)."""
+    rng = _gen(rng)
+    m = n_per_phase
+    s = np.linspace(0, 1, m)
+    still = np.zeros((m, 2))
+    line = np.stack([0.8 * s, np.zeros(m)], 1)
+    curve = np.stack([0.8 + 0.6 * np.sin(s * np.pi / 2), 0.6 - 0.6 * np.cos(s * np.pi / 2)], 1)
+    free = np.stack([rng.uniform(-0.5, 1.5, 2 * m), rng.uniform(-0.8, 1.0, 2 * m)], 1)
+    xy = np.vstack([still, line, curve, free])
+    q = np.hstack([xy, np.zeros((xy.shape[0], 1))])
+    return _track("table", q, sigma_pos, sigma_orient, rng)
+
+
+def car_door_scenario(n_window: int = 40, n_door: int = 20, *, sigma_pos: float = 0.003,
+                      sigma_orient: float = np.deg2rad(2), rng=None) -> ObjectTrack:
+    """Fig. 4.11: the window is lowered on its curved guide (door closed), then the door
+    opens. q = (door_hinge rad, window_guide rad); window travel 0.45 m on r = 1.9 m."""
+    rng = _gen(rng)
+    w = np.concatenate([np.zeros(5), np.linspace(0, -0.24, n_window - 5)])
+    q = np.zeros((n_window + n_door, 2))
+    q[:n_window, 1] = w
+    q[n_window:, 1] = -0.24
+    q[n_window:, 0] = -np.linspace(0, 1.1, n_door)
+    return _track("car_door", q, sigma_pos, sigma_orient, rng)
+
+
+def garage_door_scenario(n: int = 60, *, sigma_pos: float = 0.01,
+                         sigma_orient: float = np.deg2rad(3), rng=None) -> ObjectTrack:
+    """Roll-up garage door opened along its whole path (Fig. 4.19)."""
+    rng = _gen(rng)
+    s = np.linspace(0, 2.2, n)
+    return _track("garage_door", garage_door_configuration(s), sigma_pos, sigma_orient, rng)
+
+
+SCENARIOS = {"two_drawer_cabinet": cabinet_scenario,
+             "yardstick_open": lambda **kw: yardstick_scenario(False, **kw),
+             "yardstick_closed": lambda **kw: yardstick_scenario(True, **kw),
+             "table": table_scenario, "car_door": car_door_scenario,
+             "garage_door": garage_door_scenario}
