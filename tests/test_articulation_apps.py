@@ -49,3 +49,27 @@ def test_fit_articulation_json_real_tracks_and_bad_files(tmp_path):
     assert "missing.log: file not found" in r.stderr
     assert len(out["errors"]) == 3
     assert plot.exists() and plot.stat().st_size > 1000
+
+
+def test_articulation_experiments_quick(tmp_path):
+    r = _run(["mmlearn.apps.articulation_experiments", "--quick", "--json", "--seed", "0",
+              "--out-dir", str(tmp_path / "plots")], tmp_path)
+    assert r.returncode == 0, r.stderr
+    res = json.loads(r.stdout)
+    out = res["outliers"]
+    for m in ("rigid", "prismatic", "revolute"):
+        # MLESAC estimators stay below the noise level at gamma = 0.5 and estimate gamma
+        assert out["error_mean"][m][out["gamma"].index(0.5)] < out["sigma_pos"]
+        assert max(out["gamma_abs_dev_mean"][m]) < 0.05
+    tab = res["table"]
+    assert tab["microwave"]["selected_counts"] == {"revolute": 3}
+    assert tab["drawer"]["selected_counts"] == {"prismatic": 3}
+    assert tab["microwave"]["models"]["revolute"]["pos_true"] < 0.002
+    assert res["bic_n"]["selected"][0] == "prismatic" and res["bic_n"]["selected"][-1] == "gp"
+    assert len(res["plots"]) == 7
+    assert all(Path(p).exists() for p in res["plots"])
+
+
+def test_articulation_experiments_help(tmp_path):
+    r = _run(["mmlearn.apps.articulation_experiments", "--help"], tmp_path)
+    assert r.returncode == 0 and "--runs" in r.stdout and "--quick" in r.stdout

@@ -1,0 +1,525 @@
+"""Reproduce the thesis' synthetic articulation analysis (Sec. 4.4.4) and Table 4.2.
+
+Usage::
+
+    python -m mmlearn.apps.articulation_experiments [--runs 100] [--quick] [--seed 0]
+        [--out-dir DIR] [--only noise,outliers,...] [--json]
+
+Experiments (ground truths: models/articulation_sim.py; rigid, prismatic and revolute
+estimators on their own ground truth, the GP on the roll-up door, Fig. 4.19):
+
+- ``noise``     (Fig. 4.20): sample error vs Gaussian noise sigma_pos, n = 100, gamma = 0.
+- ``outliers``  (Fig. 4.21): sample error vs outlier ratio gamma, sigma = 0.01 m / 3 deg.
+- ``gamma``     (Fig. 4.22): estimated vs true outlier ratio (same runs as ``outliers``).
+- ``size``      (Fig. 4.23): sample error vs training size n, sigma = 0.05 m, gamma = 0.
+- ``time``      (Fig. 4.24): fit time of each estimator vs n.
+- ``bic_n``     (Fig. 4.25): BIC and selection vs n on the roll-up door, samples presented in
+  the order of the configuration (vertical segment, quarter circle, horizontal segment).
+- ``bic_noise`` (Fig. 4.26): BIC and selection vs the assumed noise, roll-up door, n = 50,
+  true noise 0.002 m / 2 deg (assumed noise from the true level upwards).
+- ``table``     (Table 4.2): simulated microwave door and drawer (sigma 0.002 m / 2 deg) and
+  garage door (0.05 m / 5 deg), 200 samples, 10 folds, n = 20 training samples per fold;
+  prediction errors of every candidate on the held-out samples (against the noisy
+  observations, as on real data, and against the noise-free truth), gamma and the selection.
+
+The *sample error* is the mean distance between noise-free test poses and their projection
+f(f^-1(z)) onto the fitted model (thesis Sec. 4.4.4). Tables are printed; plots are written to
+``--out-dir`` (PNG per experiment); ``--json`` prints all numbers as one JSON object.
+``--quick`` uses 2 runs and small grids (seconds; used by the test suite).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from mmlearn.models.articulation import ObservationModel, make_model
+from mmlearn.models.articulation_sim import simulate_link
+from mmlearn.models.articulation_structure import DEFAULT_CANDIDATES, select_link_model
+
+__all__ = ["run", "main", "EXPERIMENTS"]
+
+EXPERIMENTS = ("noise", "outliers", "gamma", "size", "time", "bic_n", "bic_noise", "table")
+GROUND_TRUTH = {"rigid": "rigid", "prismatic": "prismatic", "revolute": "revolute",
+                "gp": "rollup"}
+MODELS = ("rigid", "prismatic", "revolute", "gp")
+
+
+def _progress(total, desc, enabled):
+    if not enabled:
+        class _N:
+            def update(self, k=1):
+                pass
+
+            def close(self):
+                pass
+        return _N()
+    from tqdm import tqdm
+
+    return tqdm(total=total, desc=desc, file=sys.stderr, leave=False)
+
+
+def _sample_error(model, kind, rng, n_test=100):
+    test = simulate_link(kind, n_test, sigma_pos=0.0, sigma_orient=0.0, rng=rng)
+    ep, eo = model.residuals(test.Z_true)
+    return float(ep.mean()), (None if eo is None else float(eo.mean()))
+
+
+def _fit_err(model_name, kind, n, sp, so, gamma, rng):
+    tr = simulate_link(kind, n, sigma_pos=sp, sigma_orient=so, gamma=gamma, rng=rng)
+    m = make_model(model_name, obs=ObservationModel(sp, so)).fit(tr.Z, rng=rng)
+    ep, _ = _sample_error(m, kind, rng)
+    return ep, m, tr
+
+
+def _mean_std(a):
+    a = np.asarray(a, float)
+    return float(np.mean(a)), float(np.std(a))
+
+
+def exp_noise(runs, rng, quick, progress):
+    sig = [0.01, 0.1, 1.0] if quick else [0.001, 0.01, 0.02, 0.05, 0.1, 0.2, 0.5, 1.0]
+    so = np.deg2rad(5.0)
+    res = {"sigma_pos": sig, "error_mean": {}, "error_std": {}}
+    bar = _progress(len(sig) * len(MODELS) * runs, "noise", progress)
+    for mname in MODELS:
+        mu, sd = [], []
+        for s in sig:
+            e = []
+            for _ in range(runs):
+                e.append(_fit_err(mname, GROUND_TRUTH[mname], 100, s, so, 0.0, rng)[0])
+                bar.update()
+            m_, s_ = _mean_std(e)
+            mu.append(m_)
+            sd.append(s_)
+        res["error_mean"][mname], res["error_std"][mname] = mu, sd
+    bar.close()
+    return res
+
+
+def exp_outliers(runs, rng, quick, progress):
+    gam = [0.0, 0.5, 0.8] if quick else [0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.65, 0.7, 0.8,
+                                         0.9, 0.95]
+    sp, so = 0.01, np.deg2rad(3.0)
+    res = {"gamma": gam, "sigma_pos": sp, "error_mean": {}, "error_std": {},
+           "gamma_est_mean": {}, "gamma_true_mean": {}, "gamma_abs_dev_mean": {},
+           "below_noise_up_to": {}}
+    bar = _progress(len(gam) * len(MODELS) * runs, "outliers", progress)
+    for mname in MODELS:
+        mu, sd, gest, gtrue, gdev = [], [], [], [], []
+        for g in gam:
+            e, ge, gt = [], [], []
+            for _ in range(runs):
+                ep, m, tr = _fit_err(mname, GROUND_TRUTH[mname], 100, sp, so, g, rng)
+                e.append(ep)
+                ge.append(m.gamma)
+                gt.append(float(tr.outlier.mean()))
+                bar.update()
+            mu.append(float(np.mean(e)))
+            sd.append(float(np.std(e)))
+            gest.append(float(np.mean(ge)))
+            gtrue.append(float(np.mean(gt)))
+            gdev.append(float(np.mean(np.abs(np.subtract(ge, gt)))))
+        res["error_mean"][mname], res["error_std"][mname] = mu, sd
+        res["gamma_est_mean"][mname], res["gamma_true_mean"][mname] = gest, gtrue
+        res["gamma_abs_dev_mean"][mname] = gdev
+        below = [g for g, v in zip(gam, mu) if v < sp]
+        # largest gamma such that all gammas up to it are below the noise level
+        up = None
+        for g, v in zip(gam, mu):
+            if v < sp:
+                up = g
+            else:
+                break
+        res["below_noise_up_to"][mname] = up
+        del below
+    bar.close()
+    return res
+
+
+def exp_size(runs, rng, quick, progress):
+    ns = [3, 6, 10, 20] if quick else [3, 4, 5, 6, 8, 10, 15, 20, 30, 50, 100]
+    sp, so = 0.05, np.deg2rad(5.0)
+    res = {"n": ns, "sigma_pos": sp, "error_mean": {}, "error_std": {}, "converged_n": {}}
+    bar = _progress(len(ns) * len(MODELS) * runs, "size", progress)
+    for mname in MODELS:
+        mu, sd = [], []
+        for n in ns:
+            e = []
+            for _ in range(runs):
+                try:
+                    e.append(_fit_err(mname, GROUND_TRUTH[mname], n, sp, so, 0.0, rng)[0])
+                except ValueError:
+                    e.append(np.nan)
+                bar.update()
+            mu.append(float(np.nanmean(e)) if np.any(np.isfinite(e)) else None)
+            sd.append(float(np.nanstd(e)) if np.any(np.isfinite(e)) else None)
+        res["error_mean"][mname], res["error_std"][mname] = mu, sd
+        conv = None
+        for n, v in zip(ns, mu):
+            if v is not None and v < sp:
+                conv = n
+                break
+        res["converged_n"][mname] = conv
+    bar.close()
+    return res
+
+
+def exp_time(runs, rng, quick, progress):
+    ns = [10, 30, 100] if quick else [10, 20, 30, 40, 50, 100, 200]
+    res = {"n": ns, "seconds": {m: [] for m in MODELS}, "all_four_seconds": []}
+    obs = ObservationModel(0.002, np.deg2rad(2.0))
+    bar = _progress(len(ns) * runs, "time", progress)
+    for n in ns:
+        per = {m: [] for m in MODELS}
+        tot = []
+        for _ in range(runs):
+            tr = simulate_link("revolute", n, rng=rng)
+            t_all = 0.0
+            for m in MODELS:
+                t0 = time.perf_counter()
+                make_model(m, obs=obs).fit(tr.Z, rng=rng)
+                dt = time.perf_counter() - t0
+                per[m].append(dt)
+                t_all += dt
+            tot.append(t_all)
+            bar.update()
+        for m in MODELS:
+            res["seconds"][m].append(float(np.median(per[m])))
+        res["all_four_seconds"].append(float(np.median(tot)))
+    bar.close()
+    return res
+
+
+def _rollup_sequence(n_total, sp, so, rng):
+    from mmlearn.models.articulation_sim import _q_range
+
+    lo, hi = _q_range("rollup")
+    q = np.linspace(lo, hi, n_total)
+    return simulate_link("rollup", n_total, sigma_pos=sp, sigma_orient=so, rng=rng, q=q)
+
+
+def exp_bic_n(runs, rng, quick, progress):
+    n_total = 30 if quick else 50
+    ns = list(range(3, n_total + 1, 3 if quick else 1))
+    sp, so = 0.01, np.deg2rad(2.0)
+    runs = max(1, runs // 10) if not quick else 1
+    bic = {m: np.zeros((runs, len(ns))) for m in MODELS}
+    sel = np.empty((runs, len(ns)), dtype=object)
+    bar = _progress(runs * len(ns), "bic_n", progress)
+    for r in range(runs):
+        tr = _rollup_sequence(n_total, sp, so, rng)
+        for k, n in enumerate(ns):
+            s = select_link_model(tr.Z[:n], obs=ObservationModel(sp, so), rng=rng)
+            for m in MODELS:
+                bic[m][r, k] = s.bic.get(m, np.inf)
+            sel[r, k] = s.selected
+            bar.update()
+    bar.close()
+    majority = []
+    for k in range(len(ns)):
+        vals, cnt = np.unique(sel[:, k].astype(str), return_counts=True)
+        majority.append(str(vals[np.argmax(cnt)]))
+    return {"n": ns, "sigma_pos": sp, "runs": runs,
+            "bic_mean": {m: np.mean(np.where(np.isfinite(b), b, np.nan), axis=0).tolist()
+                         for m, b in bic.items()},
+            "selected": majority}
+
+
+def exp_bic_noise(runs, rng, quick, progress):
+    sig = [0.002, 0.02, 0.2, 1.0] if quick else [0.002, 0.005, 0.01, 0.02, 0.05, 0.1, 0.2,
+                                                  0.5, 1.0]
+    true_sp, so = 0.002, np.deg2rad(2.0)
+    runs = max(1, runs // 10) if not quick else 1
+    n = 50
+    bic = {m: np.zeros((runs, len(sig))) for m in MODELS}
+    sel = np.empty((runs, len(sig)), dtype=object)
+    bar = _progress(runs * len(sig), "bic_noise", progress)
+    for r in range(runs):
+        tr = _rollup_sequence(n, true_sp, so, rng)
+        for k, s_ass in enumerate(sig):
+            s = select_link_model(tr.Z, obs=ObservationModel(s_ass, max(so, s_ass)), rng=rng)
+            for m in MODELS:
+                bic[m][r, k] = s.bic.get(m, np.inf)
+            sel[r, k] = s.selected
+            bar.update()
+    bar.close()
+    majority = []
+    for k in range(len(sig)):
+        vals, cnt = np.unique(sel[:, k].astype(str), return_counts=True)
+        majority.append(str(vals[np.argmax(cnt)]))
+    return {"assumed_sigma_pos": sig, "true_sigma_pos": true_sp, "n": n, "runs": runs,
+            "bic_mean": {m: np.mean(np.where(np.isfinite(b), b, np.nan), axis=0).tolist()
+                         for m, b in bic.items()},
+            "selected": majority}
+
+
+def exp_table(runs, rng, quick, progress):
+    objects = [("microwave", "microwave", 0.002, 2.0), ("drawer", "drawer", 0.002, 2.0),
+               ("garage door", "garage", 0.05, 5.0)]
+    folds = 3 if quick else 10
+    out = {}
+    bar = _progress(len(objects) * folds, "table 4.2", progress)
+    for label, kind, sp, so_deg in objects:
+        so = np.deg2rad(so_deg)
+        obs = ObservationModel(sp, so)
+        data = simulate_link(kind, 200, sigma_pos=sp, sigma_orient=so, rng=rng)
+        acc = {m: {"pos": [], "ori": [], "pos_true": [], "ori_true": [], "gamma": []}
+               for m in MODELS}
+        selected = []
+        for _ in range(folds):
+            idx = rng.permutation(200)
+            tr_i, te_i = idx[:20], idx[20:]
+            s = select_link_model(data.Z[tr_i], obs=obs, rng=rng)
+            selected.append(s.selected)
+            for m in MODELS:
+                if m not in s.candidates:
+                    continue
+                mod = s.candidates[m]
+                ep, eo = mod.residuals(data.Z[te_i])
+                acc[m]["pos"].append(float(np.mean(ep)))
+                acc[m]["ori"].append(float(np.degrees(np.mean(eo))))
+                ept, eot = mod.residuals(data.Z_true[te_i])
+                acc[m]["pos_true"].append(float(np.mean(ept)))
+                acc[m]["ori_true"].append(float(np.degrees(np.mean(eot))))
+                acc[m]["gamma"].append(float(mod.gamma))
+            bar.update()
+        vals, cnt = np.unique(selected, return_counts=True)
+        out[label] = {
+            "sigma_pos": sp, "sigma_orient_deg": so_deg, "folds": folds,
+            "selected_counts": {str(v): int(c) for v, c in zip(vals, cnt)},
+            "models": {m: {k: float(np.mean(v)) for k, v in a.items() if v}
+                       for m, a in acc.items()},
+        }
+    bar.close()
+    return out
+
+
+def _plots(res, out_dir: Path):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    out_dir.mkdir(parents=True, exist_ok=True)
+    written = []
+
+    def save(fig, name):
+        p = out_dir / name
+        fig.tight_layout()
+        fig.savefig(p, dpi=100)
+        plt.close(fig)
+        written.append(str(p))
+
+    if "noise" in res:
+        r = res["noise"]
+        fig, ax = plt.subplots(figsize=(5, 3.5))
+        for m in MODELS:
+            mu, sd = np.array(r["error_mean"][m]), np.array(r["error_std"][m])
+            ax.plot(r["sigma_pos"], mu, "o-", label=m)
+            ax.fill_between(r["sigma_pos"], mu - sd, mu + sd, alpha=0.15)
+        ax.plot(r["sigma_pos"], r["sigma_pos"], "k--", lw=0.8, label="noise level")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("sigma_pos [m]")
+        ax.set_ylabel("sample error [m]")
+        ax.set_title("Fig. 4.20: error vs Gaussian noise")
+        ax.legend(fontsize=7)
+        save(fig, "fig4_20_noise.png")
+    if "outliers" in res:
+        r = res["outliers"]
+        fig, ax = plt.subplots(figsize=(5, 3.5))
+        for m in MODELS:
+            ax.plot(r["gamma"], r["error_mean"][m], "o-", label=m)
+        ax.axhline(r["sigma_pos"], color="k", ls="--", lw=0.8, label="noise level")
+        ax.set_yscale("log")
+        ax.set_xlabel("outlier ratio gamma")
+        ax.set_ylabel("sample error [m]")
+        ax.set_title("Fig. 4.21: error vs outlier ratio")
+        ax.legend(fontsize=7)
+        save(fig, "fig4_21_outliers.png")
+        fig, ax = plt.subplots(figsize=(4.5, 4))
+        for m in MODELS:
+            ax.plot(r["gamma_true_mean"][m], r["gamma_est_mean"][m], "o-", label=m)
+        ax.plot([0, 1], [0, 1], "k--", lw=0.8)
+        ax.set_xlabel("true gamma")
+        ax.set_ylabel("estimated gamma")
+        ax.set_title("Fig. 4.22: estimated vs true outlier ratio")
+        ax.legend(fontsize=7)
+        save(fig, "fig4_22_gamma.png")
+    if "size" in res:
+        r = res["size"]
+        fig, ax = plt.subplots(figsize=(5, 3.5))
+        for m in MODELS:
+            ax.plot(r["n"], [np.nan if v is None else v for v in r["error_mean"][m]], "o-",
+                    label=m)
+        ax.axhline(r["sigma_pos"], color="k", ls="--", lw=0.8, label="noise level")
+        ax.set_yscale("log")
+        ax.set_xlabel("training size n")
+        ax.set_ylabel("sample error [m]")
+        ax.set_title("Fig. 4.23: error vs training size")
+        ax.legend(fontsize=7)
+        save(fig, "fig4_23_size.png")
+    if "time" in res:
+        r = res["time"]
+        fig, ax = plt.subplots(figsize=(5, 3.5))
+        for m in MODELS:
+            ax.plot(r["n"], r["seconds"][m], "o-", label=m)
+        ax.plot(r["n"], r["all_four_seconds"], "k-", label="all four")
+        ax.set_xlabel("training size n")
+        ax.set_ylabel("time [s]")
+        ax.set_title("Fig. 4.24: fit time")
+        ax.legend(fontsize=7)
+        save(fig, "fig4_24_time.png")
+    for key, xk, title, fname in [("bic_n", "n", "Fig. 4.25: BIC vs n (roll-up door)",
+                                   "fig4_25_bic_n.png"),
+                                  ("bic_noise", "assumed_sigma_pos",
+                                   "Fig. 4.26: BIC vs assumed noise (n = 50)",
+                                   "fig4_26_bic_noise.png")]:
+        if key not in res:
+            continue
+        r = res[key]
+        fig, ax = plt.subplots(figsize=(5.5, 3.8))
+        for m in MODELS:
+            ax.plot(r[xk], r["bic_mean"][m], ".-", label=m)
+        if key == "bic_noise":
+            ax.set_xscale("log")
+        ax.set_xlabel(xk)
+        ax.set_ylabel("BIC")
+        ax.set_title(title, fontsize=9)
+        ax.legend(fontsize=7)
+        save(fig, fname)
+    return written
+
+
+def _print(res, file=sys.stdout):
+    p = lambda *a: print(*a, file=file)  # noqa: E731
+    if "noise" in res:
+        r = res["noise"]
+        p("\nFig. 4.20  sample error [m] vs Gaussian noise sigma_pos (n = 100, gamma = 0)")
+        p("sigma_pos " + " ".join(f"{s:>9.3f}" for s in r["sigma_pos"]))
+        for m in MODELS:
+            p(f"{m:9s} " + " ".join(f"{v:9.4f}" for v in r["error_mean"][m]))
+    if "outliers" in res:
+        r = res["outliers"]
+        p(f"\nFig. 4.21  sample error [m] vs outlier ratio (sigma_pos = {r['sigma_pos']} m)")
+        p("gamma     " + " ".join(f"{g:>7.2f}" for g in r["gamma"]))
+        for m in MODELS:
+            p(f"{m:9s} " + " ".join(f"{v:7.4f}" for v in r["error_mean"][m])
+              + f"   below noise up to gamma = {r['below_noise_up_to'][m]}")
+        p("\nFig. 4.22  estimated gamma (mean) / mean |estimated - true|")
+        for m in MODELS:
+            p(f"{m:9s} " + " ".join(f"{v:7.3f}" for v in r["gamma_est_mean"][m]))
+            p(f"{'  |dev|':9s} " + " ".join(f"{v:7.3f}" for v in r["gamma_abs_dev_mean"][m]))
+    if "size" in res:
+        r = res["size"]
+        p(f"\nFig. 4.23  sample error [m] vs training size (sigma_pos = {r['sigma_pos']} m)")
+        p("n         " + " ".join(f"{n:>7d}" for n in r["n"]))
+        for m in MODELS:
+            p(f"{m:9s} " + " ".join("    n/a" if v is None else f"{v:7.4f}"
+                                    for v in r["error_mean"][m])
+              + f"   below noise from n = {r['converged_n'][m]}")
+    if "time" in res:
+        r = res["time"]
+        p("\nFig. 4.24  median fit time [ms] vs n")
+        p("n         " + " ".join(f"{n:>7d}" for n in r["n"]))
+        for m in MODELS:
+            p(f"{m:9s} " + " ".join(f"{1e3 * v:7.1f}" for v in r["seconds"][m]))
+        p(f"{'all four':9s} " + " ".join(f"{1e3 * v:7.1f}" for v in r["all_four_seconds"]))
+    for key, xk, title in [("bic_n", "n", "Fig. 4.25  selection vs n (roll-up door)"),
+                           ("bic_noise", "assumed_sigma_pos",
+                            "Fig. 4.26  selection vs assumed sigma_pos (roll-up door, n = 50)")]:
+        if key not in res:
+            continue
+        r = res[key]
+        p(f"\n{title}")
+        runs_ = []
+        cur, start = None, None
+        for x, s in zip(r[xk], r["selected"]):
+            if s != cur:
+                if cur is not None:
+                    runs_.append(f"{cur} [{start}..{prev}]")
+                cur, start = s, x
+            prev = x
+        runs_.append(f"{cur} [{start}..{prev}]")
+        p("  " + ", ".join(runs_))
+    if "table" in res:
+        p("\nTable 4.2  held-out prediction error (vs noisy obs. | vs truth), 10-fold, n = 20")
+        for obj, r in res["table"].items():
+            p(f"{obj} (sigma {r['sigma_pos']} m / {r['sigma_orient_deg']} deg), selected: "
+              f"{r['selected_counts']}")
+            for m in MODELS:
+                a = r["models"].get(m, {})
+                if not a:
+                    continue
+                p(f"  {m:9s} pos {a['pos']:.4f} | {a['pos_true']:.4f} m   orient "
+                  f"{a['ori']:6.2f} | {a['ori_true']:6.2f} deg   gamma {a['gamma']:.3f}")
+
+
+def run(*, runs: int = 100, seed: int = 0, quick: bool = False, only=EXPERIMENTS,
+        out_dir: str | None = "articulation_experiments_out", progress: bool = True) -> dict:
+    """Run the selected experiments; returns a dict of results (plus "plots": written
+    files)."""
+    if quick:
+        runs = min(runs, 2)
+    rng = np.random.default_rng(seed)
+    only = [o.strip() for o in (only.split(",") if isinstance(only, str) else only)]
+    bad = [o for o in only if o not in EXPERIMENTS]
+    if bad:
+        raise ValueError(f"unknown experiment(s) {bad}; choose from {EXPERIMENTS}")
+    res = {"runs": runs, "seed": seed, "quick": quick}
+    if "noise" in only:
+        res["noise"] = exp_noise(runs, rng, quick, progress)
+    if "outliers" in only or "gamma" in only:
+        res["outliers"] = exp_outliers(runs, rng, quick, progress)
+    if "size" in only:
+        res["size"] = exp_size(runs, rng, quick, progress)
+    if "time" in only:
+        res["time"] = exp_time(runs, rng, quick, progress)
+    if "bic_n" in only:
+        res["bic_n"] = exp_bic_n(runs, rng, quick, progress)
+    if "bic_noise" in only:
+        res["bic_noise"] = exp_bic_noise(runs, rng, quick, progress)
+    if "table" in only:
+        res["table"] = exp_table(runs, rng, quick, progress)
+    res["plots"] = _plots(res, Path(out_dir)) if out_dir else []
+    return res
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(
+        prog="python -m mmlearn.apps.articulation_experiments",
+        description="Synthetic robustness / convergence analysis of the articulation models "
+                    "(thesis Sec. 4.4.4, Fig. 4.20-4.26) and Table 4.2.")
+    ap.add_argument("--runs", type=int, default=100, help="repetitions (thesis: 100)")
+    ap.add_argument("--quick", action="store_true", help="2 runs, small grids (seconds)")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--only", default=",".join(EXPERIMENTS),
+                    help=f"comma-separated subset of {','.join(EXPERIMENTS)}")
+    ap.add_argument("--out-dir", default="articulation_experiments_out",
+                    help="folder for the plots ('' for none)")
+    ap.add_argument("--json", action="store_true", help="print all results as JSON")
+    args = ap.parse_args(argv)
+    if args.runs < 1:
+        ap.error("--runs must be >= 1")
+    try:
+        res = run(runs=args.runs, seed=args.seed, quick=args.quick, only=args.only,
+                  out_dir=args.out_dir or None, progress=not args.json)
+    except ValueError as e:
+        ap.error(str(e))
+    if args.json:
+        print(json.dumps(res, indent=1, default=float))
+    else:
+        _print(res)
+        if res["plots"]:
+            print("\nplots: " + ", ".join(res["plots"]))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
