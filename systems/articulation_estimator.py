@@ -226,7 +226,7 @@ class ArticulationEstimator(LeafSystem):
             rng = np.random.default_rng(self._seed + total)
             try:
                 model = self._fit(poses, rng)
-            except (ValueError, np.linalg.LinAlgError, FloatingPointError):
+            except Exception:  # noqa: BLE001 - never stop the simulation; keep the old model
                 fails += 1
             last = total
         new = ArticulationEstimatorState(poses, times, s.num_dropped, fails, model, last, total)
@@ -238,7 +238,7 @@ class ArticulationEstimator(LeafSystem):
             return s, None
         try:
             q = s.model.configuration(s.poses[-1])
-        except ValueError:
+        except Exception:  # noqa: BLE001
             q = np.full(s.model.dof, np.nan)
         return s, q
 
