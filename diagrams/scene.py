@@ -15,6 +15,7 @@ from pydrake.systems.primitives import MatrixGain
 
 from mmlearn.sdf import add_package
 from mmlearn.sdf.builders import CabinetSpec, arm_sdf, arm_spec, cabinet_sdf, floor_sdf
+from mmlearn.sdf.mechanisms import MechanismSpec, mechanism_sdf
 from mmlearn.systems import GravityCompensation, JointFriction, MarkerSensor, \
     MarkerSensorConfig
 
@@ -32,6 +33,8 @@ class SceneConfig:
         cabinet: add the cabinet.
         cabinet_pose: x, y, yaw of the cabinet (its front face is its local x = 0 plane).
         cabinet_spec: geometry and joint dynamics of the cabinet.
+        mechanism: a single-mechanism piece of furniture (door, drawer, ...) to add, with
+            its own pose (None = none); its joint is ``mechanism``.
         time_step: plant discrete time step, s.
         kp_revolute, kd_revolute: PD gains of the arm's revolute joints (N*m/rad, N*m*s/rad).
         kp_prismatic, kd_prismatic: PD gains of prismatic joints (fingers), N/m and N*s/m.
@@ -47,6 +50,7 @@ class SceneConfig:
     cabinet: bool = True
     cabinet_pose: list[float] = field(default_factory=lambda: [-1.5, 0.0, 0.0])
     cabinet_spec: CabinetSpec = field(default_factory=CabinetSpec)
+    mechanism: MechanismSpec | None = None
     time_step: float = 0.001
     kp_revolute: float = 400.0
     kd_revolute: float = 40.0
@@ -89,6 +93,7 @@ class Scene:
     scene_graph: object
     robot: object
     cabinet: object | None
+    mechanism: object | None
     sensor: MarkerSensor
     visualizer: object | None
     command_names: list[str]
@@ -122,8 +127,8 @@ def MakeSceneDiagram(config: SceneConfig | None = None, *, meshcat=None):
 
     Exported ports: input ``command`` (commanded joint positions, see
     :class:`Scene`); outputs ``observations`` (MarkerObservations), ``marker_stats``,
-    ``robot_state``, ``cabinet_state`` (when there is a cabinet), ``body_poses``,
-    ``query_object``.
+    ``robot_state``, ``cabinet_state`` / ``mechanism_state`` (when there is one),
+    ``body_poses``, ``reaction_forces``, ``query_object``.
 
     Returns:
         a :class:`Scene`.
@@ -148,6 +153,10 @@ def MakeSceneDiagram(config: SceneConfig | None = None, *, meshcat=None):
         cx, cy, cyaw = cfg.cabinet_pose
         cabinet = parser.AddModelsFromString(
             cabinet_sdf(cfg.cabinet_spec, pose=(cx, cy, 0, 0, 0, cyaw)), "sdf")[0]
+    mechanism = None
+    if cfg.mechanism is not None:
+        mechanism = parser.AddModelsFromString(mechanism_sdf(cfg.mechanism), "sdf")[0]
+    furniture = [m for m in (cabinet, mechanism) if m is not None]
 
     # implicit PD on every actuator of the robot
     # (GetJointActuatorIndices(instance) is empty before Finalize: scan all actuators)
@@ -165,18 +174,15 @@ def MakeSceneDiagram(config: SceneConfig | None = None, *, meshcat=None):
         act.set_controller_gains(gains)
     plant.Finalize()
 
-    # collisions: nothing within the robot, nothing within the cabinet, arm not with floor
-    robot_geoms = GeometrySet([g for b in plant.GetBodyIndices(robot)
-                               for g in plant.GetCollisionGeometriesForBody(plant.get_body(b))])
-    floor_geoms = GeometrySet([g for b in plant.GetBodyIndices(
-        plant.GetModelInstanceByName("floor"))
-        for g in plant.GetCollisionGeometriesForBody(plant.get_body(b))])
-    decl = CollisionFilterDeclaration().ExcludeWithin(robot_geoms).ExcludeBetween(
-        robot_geoms, floor_geoms)
-    if cabinet is not None:
-        cab_geoms = GeometrySet([g for b in plant.GetBodyIndices(cabinet)
-                                 for g in plant.GetCollisionGeometriesForBody(plant.get_body(b))])
-        decl = decl.ExcludeWithin(cab_geoms).ExcludeBetween(cab_geoms, floor_geoms)
+    # collisions: nothing within the robot or a piece of furniture, nothing with the floor
+    def geoms(instance):
+        return GeometrySet([g for b in plant.GetBodyIndices(instance)
+                            for g in plant.GetCollisionGeometriesForBody(plant.get_body(b))])
+
+    floor_geoms = geoms(plant.GetModelInstanceByName("floor"))
+    decl = CollisionFilterDeclaration()
+    for inst in [robot] + furniture:
+        decl = decl.ExcludeWithin(geoms(inst)).ExcludeBetween(geoms(inst), floor_geoms)
     scene_graph.collision_filter_manager().Apply(decl)
 
     # command vector -> desired state [qd; vd] of the robot's actuators
@@ -212,18 +218,24 @@ def MakeSceneDiagram(config: SceneConfig | None = None, *, meshcat=None):
         zero = builder.AddNamedSystem("zero_actuation", ConstantVectorSource(np.zeros(nu)))
         builder.Connect(zero.get_output_port(), plant.get_actuation_input_port(robot))
 
+    fr = {}
     if cabinet is not None:
         s = cfg.cabinet_spec
-        fr = {plant.GetJointByName(n, cabinet).velocity_start(): mu for n, mu in (
+        fr.update({plant.GetJointByName(n, cabinet).velocity_start(): mu for n, mu in (
             ("left_hinge", s.door_friction), ("right_hinge", s.door_friction),
-            ("drawer_slide", s.drawer_friction))}
-        friction = builder.AddNamedSystem("cabinet_friction", JointFriction(
+            ("drawer_slide", s.drawer_friction))})
+        builder.ExportOutput(plant.get_state_output_port(cabinet), "cabinet_state")
+    if mechanism is not None:
+        fr[plant.GetJointByName("mechanism", mechanism).velocity_start()] = \
+            cfg.mechanism.friction
+        builder.ExportOutput(plant.get_state_output_port(mechanism), "mechanism_state")
+    if fr:
+        friction = builder.AddNamedSystem("furniture_friction", JointFriction(
             num_positions=plant.num_positions(), num_velocities=plant.num_velocities(),
             joints=fr))
         builder.Connect(plant.get_state_output_port(), friction.get_state_input_port())
         builder.Connect(friction.get_generalized_force_output_port(),
                         plant.get_applied_generalized_force_input_port())
-        builder.ExportOutput(plant.get_state_output_port(cabinet), "cabinet_state")
 
     sensor = builder.AddNamedSystem("marker_sensor", MarkerSensor(
         plant=plant, config=cfg.sensor, model_instance=robot))
@@ -233,6 +245,7 @@ def MakeSceneDiagram(config: SceneConfig | None = None, *, meshcat=None):
     builder.ExportOutput(sensor.get_stats_output_port(), "marker_stats")
     builder.ExportOutput(plant.get_state_output_port(robot), "robot_state")
     builder.ExportOutput(plant.get_body_poses_output_port(), "body_poses")
+    builder.ExportOutput(plant.get_reaction_forces_output_port(), "reaction_forces")
     builder.ExportOutput(scene_graph.get_query_output_port(), "query_object")
 
     visualizer = None
@@ -242,6 +255,6 @@ def MakeSceneDiagram(config: SceneConfig | None = None, *, meshcat=None):
     diagram = builder.Build()
     diagram.set_name("scene")
     return Scene(diagram=diagram, plant=plant, scene_graph=scene_graph, robot=robot,
-                 cabinet=cabinet, sensor=sensor, visualizer=visualizer,
+                 cabinet=cabinet, mechanism=mechanism, sensor=sensor, visualizer=visualizer,
                  command_names=command_names, command_lower=lower, command_upper=upper,
                  arm_actions=list(spec.actions), joint_command=joint_command)

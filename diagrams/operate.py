@@ -1,0 +1,150 @@
+"""Opening a door or drawer: mobile robot with a hook, a randomised mechanism, a wrist
+force sensor, the ArticulationEstimator learning the mechanism online from the hook's
+trajectory, and the EpcController moving along the learned model (thesis 4.3, 4.4.2)."""
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from pydrake.systems.framework import DiagramBuilder
+
+from mmlearn.models.articulation import ObservationModel
+from mmlearn.sdf.mechanisms import KINDS, MechanismSpec, sample_mechanism
+from mmlearn.systems import MarkerSensorConfig
+from mmlearn.systems.articulation_estimator import ArticulationEstimator
+from mmlearn.systems.epc_controller import EpcConfig, EpcController, EpcTask
+from mmlearn.systems.wrist_force_sensor import WristForceSensor
+
+from .scene import MakeSceneDiagram, SceneConfig
+
+
+@dataclass
+class OperateConfig:
+    """One trial of the opening task.
+
+    Attributes:
+        kind: mechanism kind (left_door, right_door, dishwasher, drawer, sliding_door).
+        seed: draws the mechanism, the handle-click error and the robot's start.
+        click_error: largest error of the clicked handle position, m.
+        start_distance: distance of the robot's start from the handle, m.
+        sigma_pos: position noise the estimator assumes for the hook trajectory, m
+            (thesis: 0.05 m).
+        estimator_period: hook positions are sampled at this period, s.
+        refit_every: the estimator refits after this many new samples.
+        sigma_force: wrist force sensor noise, N.
+        epc: the controller's parameters.
+        mechanism: the mechanism (None = drawn from kind and seed).
+    """
+
+    kind: str = "left_door"
+    seed: int = 0
+    click_error: float = 0.02
+    start_distance: float = 1.0
+    sigma_pos: float = 0.01
+    estimator_period: float = 0.03
+    refit_every: int = 10
+    sigma_force: float = 0.3
+    epc: EpcConfig = field(default_factory=EpcConfig)
+    mechanism: MechanismSpec | None = None
+
+    def validate(self):
+        if self.kind not in KINDS:
+            raise ValueError(f"kind must be one of {KINDS}, got {self.kind!r}")
+        if not 0 <= self.click_error < 0.1:
+            raise ValueError(f"click_error must be in [0, 0.1) m, got {self.click_error}")
+        if not self.sigma_pos > 0:
+            raise ValueError(f"sigma_pos must be > 0, got {self.sigma_pos}")
+
+
+@dataclass
+class Operate:
+    """The built diagram and its parts."""
+
+    diagram: object
+    scene: object
+    mechanism: MechanismSpec
+    task: EpcTask
+    controller: EpcController
+    estimator: ArticulationEstimator
+    force_sensor: WristForceSensor
+    start_command: np.ndarray
+
+
+def make_task(spec: MechanismSpec, rng: np.random.Generator, click_error: float) -> EpcTask:
+    """What the robot is told: a noisy handle click plus the front's orientation."""
+    p, n, b = spec.handle_world(0.0)
+    err = rng.normal(size=3)
+    err *= rng.uniform(0, click_error) / max(np.linalg.norm(err), 1e-12)
+    R_WF = spec.X_WF()[:3, :3]
+    if spec.kind == "left_door":
+        side = R_WF @ np.array([0, 1.0, 0])   # towards the free edge
+    elif spec.kind == "right_door":
+        side = R_WF @ np.array([0, -1.0, 0])
+    elif spec.kind == "sliding_door":
+        side = R_WF @ np.array([0, 1.0, 0])   # the rod pushes the bar towards -y
+    else:
+        side = np.array([0, 0, 1.0])           # horizontal bar: from above
+    pull = -side if spec.kind == "sliding_door" else n
+    return EpcTask(handle=p + err, normal=n, bar=b, pull=pull, side=side)
+
+
+def MakeOperateDiagram(config: OperateConfig | None = None, *, meshcat=None) -> Operate:
+    """Build the opening-task diagram (see the module docstring).
+
+    Exported outputs: ``mechanism_state``, ``robot_state``, ``phase``, ``status``,
+    ``hook_position``, ``force_W``, ``estimator_stats``.
+    """
+    cfg = config or OperateConfig()
+    cfg.validate()
+    rng = np.random.default_rng([cfg.seed, KINDS.index(cfg.kind)])
+    spec = cfg.mechanism or sample_mechanism(cfg.kind, rng)
+    task = make_task(spec, rng, cfg.click_error)
+    scene_cfg = SceneConfig(arm="7dof", tool="hook", mobile_base=True, cabinet=False,
+                            mechanism=spec,
+                            sensor=MarkerSensorConfig(rate_hz=5.0, cameras=[],
+                                                      seed=cfg.seed))
+    scene = MakeSceneDiagram(scene_cfg, meshcat=meshcat)
+    plant = scene.plant
+    builder = DiagramBuilder()
+    sd = builder.AddNamedSystem("scene", scene.diagram)
+    force = builder.AddNamedSystem("wrist_force_sensor", WristForceSensor(
+        plant=plant, mount_joint=plant.GetJointByName("hook_mount", scene.robot),
+        sigma_force=cfg.sigma_force, seed=cfg.seed))
+    builder.Connect(sd.GetOutputPort("reaction_forces"), force.get_reaction_forces_input_port())
+    builder.Connect(sd.GetOutputPort("body_poses"), force.get_body_poses_input_port())
+    estimator = builder.AddNamedSystem("articulation_estimator", ArticulationEstimator(
+        mode="pose", pose_size=3, period=cfg.estimator_period, refit_every=cfg.refit_every,
+        min_observations=10, max_observations=400,
+        obs=ObservationModel(sigma_pos=cfg.sigma_pos),
+        models=("rigid", "prismatic", "revolute"), seed=cfg.seed))
+    epc = builder.AddNamedSystem("epc_controller", EpcController(
+        plant=plant, robot=scene.robot, task=task, config=cfg.epc,
+        command_names=scene.command_names))
+    builder.Connect(sd.GetOutputPort("robot_state"), epc.get_robot_state_input_port())
+    builder.Connect(force.get_force_output_port(), epc.get_force_input_port())
+    builder.Connect(estimator.GetOutputPort("object_model"), epc.get_object_model_input_port())
+    builder.Connect(epc.get_hook_position_output_port(),
+                    estimator.get_input_port_observations())
+    builder.Connect(epc.get_command_output_port(), sd.GetInputPort("command"))
+    builder.ExportOutput(sd.GetOutputPort("mechanism_state"), "mechanism_state")
+    builder.ExportOutput(sd.GetOutputPort("robot_state"), "robot_state")
+    builder.ExportOutput(epc.GetOutputPort("phase"), "phase")
+    builder.ExportOutput(epc.GetOutputPort("status"), "status")
+    builder.ExportOutput(epc.get_hook_position_output_port(), "hook_position")
+    builder.ExportOutput(force.get_force_output_port(), "force_W")
+    builder.ExportOutput(estimator.GetOutputPort("stats"), "estimator_stats")
+    diagram = builder.Build()
+    diagram.set_name("operate")
+    # the robot starts about start_distance in front of the handle, roughly facing it
+    n = task.normal.copy()
+    n[2] = 0
+    n /= np.linalg.norm(n)
+    lateral = np.array([-n[1], n[0], 0.0]) * rng.uniform(-0.2, 0.2)
+    p0 = spec.handle_world(0.0)[0] + cfg.start_distance * n + lateral
+    yaw0 = math.atan2(-n[1], -n[0]) + rng.uniform(-0.3, 0.3)
+    start = np.zeros(len(scene.command_names))
+    start[:3] = [p0[0], p0[1], yaw0]
+    start[3:] = [0.0, 0.3, 0.0, 1.2, 0.0, 0.0][: len(start) - 3]
+    return Operate(diagram=diagram, scene=scene, mechanism=spec, task=task, controller=epc,
+                   estimator=estimator, force_sensor=force, start_command=start)

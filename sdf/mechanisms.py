@@ -1,0 +1,255 @@
+"""Randomised single-mechanism furniture for the door/drawer opening task (thesis 4.3, 4.4.2).
+
+Five kinds, as in the thesis' experiment with the robot Cody: a cabinet door opening to the
+left (hinge on the left edge as seen from the robot), one opening to the right, a dishwasher
+door (horizontal hinge at its bottom, folding down), a drawer, and a sliding door.
+
+Frame of the furniture (model frame F): the front face is the plane x = 0, the carcass
+extends to -x, the robot stands on the +x side, z is up. Each model has a fixed body
+``carcass`` and a moving body ``front`` on the joint ``mechanism`` (positive q opens); the
+handle is a bar standing ``handle_standoff`` m off the front, with posts at its ends, and the
+frame ``handle`` at its centre (x: out of the front, z: along the bar).
+
+:func:`sample_mechanism` draws the geometry from a seed (door width 0.3-0.6 m, handle
+offset, hinge damping and friction, drawer depth, placement of the furniture in the room).
+"""
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .builders import _box, _fmt, _material, _model_pose, _panel_inertia, _slab
+
+KINDS = ("left_door", "right_door", "dishwasher", "drawer", "sliding_door")
+REVOLUTE = ("left_door", "right_door", "dishwasher")
+_AXES = {"left_door": (0, 0, -1), "right_door": (0, 0, 1), "dishwasher": (0, 1, 0),
+         "drawer": (1, 0, 0), "sliding_door": (0, -1, 0)}
+
+
+@dataclass
+class MechanismSpec:
+    """Geometry and dynamics of one mechanism (m, rad, N*m*s/rad or N*s/m, N*m or N).
+
+    Attributes:
+        kind: one of ``KINDS``.
+        width, height: size of the moving front, m.
+        depth: carcass depth (drawer depth for a drawer), m.
+        bottom: height of the front's lower edge above the floor, m.
+        handle_offset: distance of the handle from the front's free edge (doors) or its
+            centre height offset (drawer), m.
+        handle_height: height of the handle centre above the front's lower edge, m.
+        handle_standoff: distance of the bar's centre from the front surface, m.
+        damping, friction: joint damping and Coulomb friction.
+        limit: upper joint limit (rad or m).
+        pose: x, y, yaw of the furniture in the world (m, m, rad).
+    """
+
+    kind: str = "left_door"
+    width: float = 0.45
+    height: float = 0.60
+    depth: float = 0.45
+    bottom: float = 0.25
+    handle_offset: float = 0.07
+    handle_height: float = 0.35
+    handle_standoff: float = 0.07
+    damping: float = 0.5
+    friction: float = 0.3
+    limit: float = math.radians(100)
+    pose: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
+
+    def __post_init__(self):
+        if self.kind not in KINDS:
+            raise ValueError(f"mechanism kind must be one of {KINDS}, got {self.kind!r}")
+        for k in ("width", "height", "depth", "handle_standoff", "limit"):
+            if not getattr(self, k) > 0:
+                raise ValueError(f"MechanismSpec.{k} must be > 0, got {getattr(self, k)}")
+        if self.damping < 0 or self.friction < 0:
+            raise ValueError("MechanismSpec damping and friction must be >= 0")
+        if len(self.pose) != 3:
+            raise ValueError("MechanismSpec.pose is [x, y, yaw]")
+
+    @property
+    def is_revolute(self) -> bool:
+        return self.kind in REVOLUTE
+
+    # -- ground truth in the furniture frame F ---------------------------------------------
+    def joint_axis_F(self) -> np.ndarray:
+        """Joint axis in F (positive q opens)."""
+        return np.array(_AXES[self.kind], float)
+
+    def front_origin_F(self) -> np.ndarray:
+        """Origin of the moving body (on the joint axis for revolute joints), in F."""
+        g, pt = 0.004, 0.02
+        x = g + pt / 2
+        if self.kind == "left_door":
+            return np.array([x, -self.width / 2, self.bottom])
+        if self.kind == "right_door":
+            return np.array([x, self.width / 2, self.bottom])
+        if self.kind == "dishwasher":
+            return np.array([x, 0.0, self.bottom])
+        if self.kind == "sliding_door":
+            return np.array([x + pt + 0.004, 0.0, self.bottom])
+        return np.array([x, 0.0, self.bottom])
+
+    def handle_in_front(self) -> tuple[np.ndarray, np.ndarray]:
+        """Handle centre and bar direction in the moving body's frame."""
+        pt = 0.02
+        xs = pt / 2 + self.handle_standoff
+        w, h = self.width, self.height
+        if self.kind == "left_door":
+            return np.array([xs, w - self.handle_offset, self.handle_height]), np.array([0, 0, 1.0])
+        if self.kind == "right_door":
+            return (np.array([xs, -(w - self.handle_offset), self.handle_height]),
+                    np.array([0, 0, 1.0]))
+        if self.kind == "dishwasher":
+            return np.array([xs, 0.0, h - self.handle_offset]), np.array([0, 1.0, 0])
+        if self.kind == "sliding_door":
+            return (np.array([xs, w / 2 - self.handle_offset, self.handle_height]),
+                    np.array([0, 0, 1.0]))
+        return np.array([xs, 0.0, h / 2]), np.array([0, 1.0, 0])  # drawer
+
+    def X_WF(self) -> np.ndarray:
+        x, y, yaw = self.pose
+        c, s = math.cos(yaw), math.sin(yaw)
+        T = np.eye(4)
+        T[:3, :3] = [[c, -s, 0], [s, c, 0], [0, 0, 1]]
+        T[:3, 3] = [x, y, 0]
+        return T
+
+    def handle_world(self, q: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Handle centre, front normal (out of the front) and bar direction in the world
+        at joint position q."""
+        p, bar = self.handle_in_front()
+        R = _axis_angle(self.joint_axis_F(), q) if self.is_revolute else np.eye(3)
+        t = np.zeros(3) if self.is_revolute else self.joint_axis_F() * q
+        T = self.X_WF()
+        o = self.front_origin_F()
+        p_F = o + R @ p + t
+        n_F = R @ np.array([1.0, 0, 0])
+        b_F = R @ bar
+        return (T[:3, :3] @ p_F + T[:3, 3], T[:3, :3] @ n_F, T[:3, :3] @ b_F)
+
+    def axis_world(self) -> tuple[np.ndarray, np.ndarray]:
+        """Joint axis direction and a point on it (the hinge line for revolute), world."""
+        T = self.X_WF()
+        return T[:3, :3] @ self.joint_axis_F(), T[:3, :3] @ self.front_origin_F() + T[:3, 3]
+
+
+def _axis_angle(axis, angle) -> np.ndarray:
+    a = np.asarray(axis, float) / np.linalg.norm(axis)
+    K = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
+    return np.eye(3) + math.sin(angle) * K + (1 - math.cos(angle)) * K @ K
+
+
+def sample_mechanism(kind: str, rng: np.random.Generator | int | None = None) -> MechanismSpec:
+    """Draw a random mechanism of the given kind (thesis 4.4.2 variety)."""
+    if kind not in KINDS:
+        raise ValueError(f"mechanism kind must be one of {KINDS}, got {kind!r}")
+    rng = np.random.default_rng(rng)
+    u = rng.uniform
+    yaw = u(-0.15, 0.15)
+    pose = [u(-0.1, 0.1), u(-0.1, 0.1), yaw]
+    if kind in ("left_door", "right_door"):
+        return MechanismSpec(kind=kind, width=u(0.3, 0.6), height=u(0.5, 0.7),
+                             depth=u(0.35, 0.5), bottom=u(0.25, 0.4),
+                             handle_offset=u(0.05, 0.09), handle_height=u(0.25, 0.4),
+                             damping=u(0.2, 1.5), friction=u(0.1, 0.6),
+                             limit=math.radians(120), pose=pose)
+    if kind == "dishwasher":
+        return MechanismSpec(kind=kind, width=u(0.45, 0.6), height=u(0.5, 0.65),
+                             depth=u(0.5, 0.6), bottom=u(0.1, 0.15),
+                             handle_offset=u(0.05, 0.08), damping=u(0.5, 2.0),
+                             friction=u(0.2, 0.8), limit=math.radians(90), pose=pose)
+    if kind == "drawer":
+        depth = u(0.4, 0.55)
+        return MechanismSpec(kind=kind, width=u(0.35, 0.6), height=u(0.15, 0.25),
+                             depth=depth, bottom=u(0.55, 0.75), damping=u(2.0, 8.0),
+                             friction=u(0.5, 2.0), limit=0.9 * depth, pose=pose)
+    return MechanismSpec(kind=kind, width=u(0.4, 0.6), height=u(0.5, 0.7),
+                         depth=u(0.35, 0.5), bottom=u(0.25, 0.4),
+                         handle_offset=u(0.05, 0.09), handle_height=u(0.25, 0.4),
+                         damping=u(2.0, 8.0), friction=u(0.5, 2.0),
+                         limit=0.8 * u(0.4, 0.6), pose=pose)
+
+
+def _handle_geometry(centre, bar, standoff, length=0.20, r=0.01) -> str:
+    """Bar (radius r) of the given length along ``bar`` at ``centre`` plus two posts back
+    to the front surface (along -x)."""
+    cx, cy, cz = centre
+    vertical = abs(bar[2]) > 0.5
+    size = (2 * r, 2 * r, length) if vertical else (2 * r, length, 2 * r)
+    grey = (0.75, 0.75, 0.78, 1)
+    out = [f"<visual name='handle_bar'><pose>{cx:.6g} {cy:.6g} {cz:.6g} 0 0 0</pose>"
+           f"{_box(size)}{_material(grey)}</visual>",
+           f"<collision name='handle_bar_collision'><pose>{cx:.6g} {cy:.6g} {cz:.6g} 0 0 0"
+           f"</pose>{_box(size)}</collision>"]
+    post_len = standoff
+    for s, sign in (("a", -1), ("b", 1)):
+        d = sign * (length / 2 - r)
+        px = cx - standoff / 2
+        py, pz = (cy, cz + d) if vertical else (cy + d, cz)
+        out.append(f"<visual name='handle_post_{s}'><pose>{px:.6g} {py:.6g} {pz:.6g} 0 0 0"
+                   f"</pose>{_box((post_len, 2 * r, 2 * r))}{_material(grey)}</visual>")
+        out.append(f"<collision name='handle_post_{s}_collision'><pose>{px:.6g} {py:.6g} "
+                   f"{pz:.6g} 0 0 0</pose>{_box((post_len, 2 * r, 2 * r))}</collision>")
+    return "".join(out)
+
+
+def mechanism_sdf(spec: MechanismSpec, *, model_name: str = "mechanism") -> str:
+    """SDFormat text of the furniture with one mechanism (see the module docstring)."""
+    s = spec
+    W, H, D, t, pt = s.width, s.height, s.depth, 0.02, 0.02
+    wood = (0.72, 0.58, 0.40, 1.0)
+    front_rgba = (0.85, 0.80, 0.70, 1.0)
+    # carcass around the front opening
+    cw = W + 2 * t + (0.02 if s.kind != "sliding_door" else W)
+    ch = s.bottom + H + t
+    carcass = "".join([
+        _slab("top", (-D / 2, 0, ch - t / 2), (D, cw, t), wood),
+        _slab("floor_plate", (-D / 2, 0, s.bottom - t / 2), (D, cw, t), wood),
+        _slab("left", (-D / 2, -cw / 2 + t / 2, ch / 2), (D, t, ch), wood),
+        _slab("right", (-D / 2, cw / 2 - t / 2, ch / 2), (D, t, ch), wood),
+        _slab("back", (-D + t / 2, 0, ch / 2), (t, cw, ch), wood),
+        _slab("plinth", (-t, 0, s.bottom / 2), (2 * t, cw, s.bottom), wood),
+    ])
+    if s.kind == "sliding_door":  # the fixed half of the front, behind the sliding panel
+        carcass += _slab("fixed_panel", (pt / 2 + 0.004, -W / 2, s.bottom + H / 2),
+                         (pt, W, H), front_rgba)
+    links = [f"<link name='carcass'>{_panel_inertia(30.0, (-D / 2, 0, ch / 2), (D, cw, ch))}"
+             f"{carcass}</link>"]
+    o = s.front_origin_F()
+    hp, bar = s.handle_in_front()
+    if s.kind == "left_door":
+        pc = (0.0, W / 2, H / 2)
+    elif s.kind == "right_door":
+        pc = (0.0, -W / 2, H / 2)
+    elif s.kind == "sliding_door":
+        pc = (0.0, W / 2, H / 2)
+    else:
+        pc = (0.0, 0.0, H / 2)
+    geo = _slab("front_panel", pc, (pt, W - 0.008, H - 0.008), front_rgba)
+    mass = 4.0
+    if s.kind == "drawer":
+        iw, idp = W - 0.03, D - 0.04
+        geo += _slab("drawer_bottom", (-idp / 2, 0, 0.02), (idp, iw, 0.01), wood, False)
+        geo += _slab("drawer_back", (-idp, 0, H / 2), (0.01, iw, H - 0.04), wood, False)
+        mass = 3.0
+    geo += _handle_geometry(hp, bar, s.handle_standoff)
+    links.append(f"<link name='front'><pose>{_fmt(o)} 0 0 0</pose>"
+                 f"{_panel_inertia(mass, pc, (pt, W, H))}{geo}</link>")
+    jtype = "revolute" if s.is_revolute else "prismatic"
+    joint = (
+        f"<joint name='mechanism' type='{jtype}'><parent>carcass</parent><child>front</child>"
+        f"<axis><xyz>{_fmt(s.joint_axis_F())}</xyz><limit><lower>0</lower>"
+        f"<upper>{s.limit:.6g}</upper><effort>0</effort></limit>"
+        f"<dynamics><damping>{s.damping:.6g}</damping></dynamics></axis></joint>"
+        "<joint name='carcass_weld' type='fixed'><parent>world</parent><child>carcass</child>"
+        "</joint>"
+    )
+    frame = (f"<frame name='handle' attached_to='front'><pose relative_to='front'>"
+             f"{_fmt(hp)} 0 0 0</pose></frame>")
+    x, y, yaw = s.pose
+    return ("<?xml version='1.0'?>\n<sdf version='1.9'>"
+            f"<model name='{model_name}'>{_model_pose((x, y, 0, 0, 0, yaw))}"
+            + "".join(links) + joint + frame + "</model></sdf>\n")

@@ -1,0 +1,522 @@
+"""EpcController: open a door or drawer with a hook by equilibrium-point control along the
+*learned* articulation model (thesis Sec. 4.3, Eq. 4.57-4.59).
+
+The robot is a compliant arm with an L-shaped hook on a planar mobile base (joint
+impedance through the plant's implicit PD actuators). The controller commands joint
+positions (the equilibrium point); the hand yields to the mechanism.
+
+Phases (``phase`` output):
+
+0. DRIVE   move the base to a stance in front of the (noisy) handle position;
+1. PREHOOK put the hook in front of the handle, beside the bar;
+2. DEPTH   guarded move towards the front until the hook touches it, back off;
+3. SLIDE   guarded sideways move: the hook's finger slides behind the bar;
+4. PULL    equilibrium-point control: every period the Cartesian equilibrium point moves by
+           ``step`` along the normalised Jacobian of the currently learned model at the
+           current configuration estimate (before a model exists: along the given initial
+           direction), plus a proportional term that keeps ``force_target`` N between hook
+           and handle perpendicular to the motion; the hook's orientation turns with the
+           mechanism as the learned model predicts;
+5. RELEASE slide the hook out and back off;
+6. DONE.
+
+The hook frame: its rod is the +z axis (from the wrist to the tip), its finger points
+along +x at the rod's tip. The grip point G is the finger's centre.
+"""
+
+import math
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from pydrake.common.value import AbstractValue
+from pydrake.math import RigidTransform, RotationMatrix
+from pydrake.multibody.tree import JacobianWrtVariable
+from pydrake.systems.framework import BasicVector, EventStatus, LeafSystem
+
+DRIVE, PREHOOK, DEPTH, SLIDE, PULL, RELEASE, DONE = range(7)
+PHASE_NAMES = ["drive", "prehook", "depth", "slide", "pull", "release", "done"]
+
+#: grip point (the finger's centre) in the hook body frame, m
+P_HOOK_GRIP = np.array([0.023, 0.0, 0.128])
+
+
+@dataclass
+class EpcTask:
+    """What the robot is told about the mechanism (world frame).
+
+    Attributes:
+        handle: estimated handle centre (e.g. clicked in a point cloud; a few cm off), m.
+        normal: unit normal of the front at the handle, pointing to the robot.
+        bar: unit direction of the handle bar.
+        pull: initial pulling direction (unit).
+        side: unit direction in the front's plane, perpendicular to the bar, on which side
+            of the bar the hook's rod stays (its finger reaches behind the bar towards -side).
+    """
+
+    handle: np.ndarray
+    normal: np.ndarray
+    bar: np.ndarray
+    pull: np.ndarray
+    side: np.ndarray
+
+    def __post_init__(self):
+        for k in ("handle", "normal", "bar", "pull", "side"):
+            v = np.asarray(getattr(self, k), float).reshape(-1)
+            if v.shape != (3,) or not np.all(np.isfinite(v)):
+                raise ValueError(f"EpcTask.{k} must be 3 finite numbers, got {v}")
+            if k != "handle":
+                n = np.linalg.norm(v)
+                if n < 1e-9:
+                    raise ValueError(f"EpcTask.{k} must be non-zero")
+                v = v / n
+            setattr(self, k, v)
+
+
+@dataclass
+class EpcConfig:
+    """Parameters of :class:`EpcController` (m, s, N, rad).
+
+    Attributes:
+        period: control period, s.
+        step: s of Eq. 4.58: equilibrium point advance per period along the model, m.
+        force_target: force kept between hook and handle perpendicular to the motion, N.
+        force_gain: proportional gain of that force term, m per N per period.
+        max_lead: largest distance of the equilibrium point ahead of the hook, m.
+        stop_force: hook force that, with the hook no longer advancing, means the end of
+            the configuration range, N.
+        target_angle: stop when a revolute model says the mechanism turned this far, rad.
+        target_distance: stop when a prismatic model says it moved this far, m.
+        min_model_samples: hook positions before the learned model is trusted.
+        stance_distance, stance_side: base stance: distance in front of the handle and
+            shift towards ``side``, m.
+        approach_time, depth_time, slide_time, release_time: phase durations, s.
+        drive_speed: base speed while driving, m/s.
+        max_pull_time: give up pulling after this long, s.
+        ik_damping: damping of the damped-least-squares IK.
+        max_turn: largest change of the hook's orientation per period, rad.
+        base_weight: cost of base motion relative to arm motion in the IK while pulling.
+    """
+
+    period: float = 0.1
+    step: float = 0.01
+    force_target: float = 5.0
+    force_gain: float = 0.0015
+    max_lead: float = 0.05
+    stop_force: float = 35.0
+    target_angle: float = math.radians(85)
+    target_distance: float = 0.5
+    min_model_samples: int = 15
+    stance_distance: float = 0.78
+    stance_side: float = 0.3
+    approach_time: float = 2.0
+    depth_time: float = 2.5
+    slide_time: float = 1.5
+    release_time: float = 1.5
+    drive_speed: float = 0.5
+    max_pull_time: float = 25.0
+    ik_damping: float = 0.05
+    base_weight: float = 4.0
+    max_turn: float = 0.05
+
+    def validate(self):
+        for k in ("period", "step", "force_gain", "max_lead", "stop_force", "target_angle",
+                  "target_distance", "approach_time", "depth_time", "slide_time",
+                  "release_time", "drive_speed", "max_pull_time", "ik_damping", "base_weight",
+                  "max_turn"):
+            v = getattr(self, k)
+            if not (math.isfinite(v) and v > 0):
+                raise ValueError(f"EpcConfig.{k} must be a positive number, got {v}")
+        if self.min_model_samples < 3:
+            raise ValueError("EpcConfig.min_model_samples must be >= 3")
+
+
+@dataclass
+class _State:
+    phase: int = DRIVE
+    t_phase: float = 0.0
+    q_from: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    q_to: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    t_cmd: float = 0.0
+    start: np.ndarray = field(default_factory=lambda: np.zeros(0))  # phase start (q or G)
+    goal: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    R: np.ndarray = field(default_factory=lambda: np.eye(3))
+    cep: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    direction: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    q_hat0: float = float("nan")
+    q_hat: float = float("nan")
+    opening: float = 0.0
+    model_name: str = ""
+    stalled: int = 0
+    slack: int = 0
+    last_G: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    outcome: str = ""
+
+
+def _unit(v):
+    n = np.linalg.norm(v)
+    return v / n if n > 1e-12 else v
+
+
+def _axis_angle(axis, angle):
+    a = _unit(np.asarray(axis, float))
+    K = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
+    return np.eye(3) + math.sin(angle) * K + (1 - math.cos(angle)) * K @ K
+
+
+def hook_rotation(normal, side) -> np.ndarray:
+    """R_WHook with the rod pointing into the front (-normal) and the finger towards
+    -side (behind the bar)."""
+    z = -_unit(np.asarray(normal, float))
+    x = -_unit(np.asarray(side, float) - np.dot(side, z) * z)
+    y = np.cross(z, x)
+    return np.column_stack([x, y, z])
+
+
+class EpcController(LeafSystem):
+    """Equilibrium-point controller for opening doors and drawers with a hook.
+
+    .. pydrake_system::
+
+        name: EpcController
+        input_ports:
+        - robot_state
+        - force_W
+        - object_model
+        output_ports:
+        - command
+        - hook_position
+        - phase
+        - status
+
+    ``robot_state`` is the plant's state output for the robot instance; ``force_W`` the
+    wrist force on the hook (world, N); ``object_model`` the ArticulationEstimator's
+    ``object_model`` output (an ``ArticulatedObject`` whose first link is the handle's
+    motion relative to the world, or None). ``command`` goes to the scene's ``command`` input
+    (base x, y, yaw, then q1..q6), ``hook_position`` (grip point from the robot's own forward
+    kinematics, world, m) feeds the estimator. ``status`` is [opening estimate (rad or m),
+    configuration estimate, done flag, success-by-model flag].
+    """
+
+    def __init__(self, *, plant, robot, task: EpcTask, config: EpcConfig | None = None,
+                 command_names: list[str]):
+        super().__init__()
+        cfg = config or EpcConfig()
+        cfg.validate()
+        self._cfg, self._task = cfg, task
+        self._plant = plant
+        self._robot = robot
+        self._ctx = plant.CreateDefaultContext()
+        self._hook = plant.GetBodyByName("hook", robot).body_frame()
+        self._names = list(command_names)
+        if self._names[:3] != ["base_x", "base_y", "base_yaw"]:
+            raise ValueError("EpcController needs a mobile base (commands base_x, base_y, "
+                             "base_yaw first)")
+        joints = [plant.GetJointByName(n, robot) for n in self._names]
+        self._qidx = np.array([j.position_start() for j in joints])
+        self._lo = np.array([j.position_lower_limits()[0] for j in joints])
+        self._hi = np.array([j.position_upper_limits()[0] for j in joints])
+        self._nq_robot = plant.num_positions(robot)
+        # index of each command in the robot instance's own position vector
+        robot_q_starts = sorted(plant.get_joint(j).position_start()
+                                for j in plant.GetJointIndices(robot)
+                                if plant.get_joint(j).num_positions() == 1)
+        self._robot_local = np.array([robot_q_starts.index(i) for i in self._qidx])
+        n = len(self._names)
+        self._in_state = self.DeclareVectorInputPort(
+            "robot_state", plant.num_positions(robot) + plant.num_velocities(robot))
+        self._in_force = self.DeclareVectorInputPort("force_W", 3)
+        self._in_model = self.DeclareAbstractInputPort("object_model", AbstractValue.Make(None))
+        init = _State(q_from=np.zeros(n), q_to=np.zeros(n))
+        self._s = self.DeclareAbstractState(AbstractValue.Make(init))
+        self.DeclareInitializationUnrestrictedUpdateEvent(self._initialize)
+        self.DeclarePeriodicUnrestrictedUpdateEvent(cfg.period, 0.0, self._update)
+        # outputs depend on the state (and time) only, except the hook position, which is
+        # forward kinematics of the measured robot state: no algebraic loop through the
+        # estimator
+        state_only = {self.abstract_state_ticket(self._s), self.time_ticket()}
+        self._out_cmd = self.DeclareVectorOutputPort("command", BasicVector(n), self._calc_cmd,
+                                                     prerequisites_of_calc=state_only)
+        self._out_G = self.DeclareVectorOutputPort(
+            "hook_position", BasicVector(3), self._calc_G,
+            prerequisites_of_calc={self._in_state.ticket(),
+                                   self.abstract_state_ticket(self._s)})
+        self._out_phase = self.DeclareVectorOutputPort(
+            "phase", BasicVector(1), self._calc_phase, prerequisites_of_calc=state_only)
+        self._out_status = self.DeclareVectorOutputPort(
+            "status", BasicVector(4), self._calc_status, prerequisites_of_calc=state_only)
+
+    # ------------------------------------------------------------------ ports
+    def get_command_output_port(self):
+        return self._out_cmd
+
+    def get_hook_position_output_port(self):
+        return self._out_G
+
+    def get_robot_state_input_port(self):
+        return self._in_state
+
+    def get_force_input_port(self):
+        return self._in_force
+
+    def get_object_model_input_port(self):
+        return self._in_model
+
+    def state(self, context) -> _State:
+        return context.get_abstract_state(self._s).get_value()
+
+    # ------------------------------------------------------------------ kinematics
+    def _measured_q(self, context) -> np.ndarray:
+        x = self._in_state.Eval(context)
+        return x[: self._nq_robot][self._robot_local]
+
+    def _set(self, q):
+        full = self._plant.GetPositions(self._ctx)
+        full[self._qidx] = q
+        self._plant.SetPositions(self._ctx, full)
+
+    def grip_pose(self, q) -> RigidTransform:
+        """World pose of the grip point frame (hook orientation) for commands q."""
+        self._set(q)
+        X = self._plant.CalcRelativeTransform(self._ctx, self._plant.world_frame(), self._hook)
+        return RigidTransform(X.rotation(), X @ P_HOOK_GRIP)
+
+    def _ik(self, q0, p_des, R_des, *, base: bool, iters: int = 8) -> np.ndarray:
+        """Damped least squares on the robot's kinematics towards grip pose (p, R)."""
+        cfg = self._cfg
+        q = np.array(q0, float)
+        w = np.ones(q.size)
+        w[:3] = cfg.base_weight if base else 1e6  # base fixed unless allowed
+        Winv = 1.0 / w
+        for _ in range(iters):
+            self._set(q)
+            X = self._plant.CalcRelativeTransform(self._ctx, self._plant.world_frame(),
+                                                  self._hook)
+            p = X @ P_HOOK_GRIP
+            R = X.rotation().matrix()
+            e_p = p_des - p
+            e_R = RotationMatrix(R_des @ R.T).ToAngleAxis()
+            e_r = e_R.axis() * e_R.angle()
+            e = np.concatenate([0.5 * e_r, e_p])  # rotation error weighted: 1 rad ~ 0.5 m
+            if np.linalg.norm(e_p) < 1e-4 and e_R.angle() < 1e-3:
+                break
+            J = self._plant.CalcJacobianSpatialVelocity(
+                self._ctx, JacobianWrtVariable.kQDot, self._hook, P_HOOK_GRIP,
+                self._plant.world_frame(), self._plant.world_frame())[:, self._qidx]
+            J[:3] *= 0.5
+            JW = J * Winv
+            lam = cfg.ik_damping
+            dq = JW.T @ np.linalg.solve(JW @ J.T + lam * lam * np.eye(6), e)
+            n = np.linalg.norm(dq[3:])
+            if n > 0.3:
+                dq *= 0.3 / n
+            q = np.clip(q + dq, self._lo, self._hi)
+        return q
+
+    # ------------------------------------------------------------------ events
+    def _initialize(self, context, state):
+        q = self._measured_q(context)
+        s = _State(phase=DRIVE, t_phase=context.get_time(), q_from=q.copy(), q_to=q.copy(),
+                   t_cmd=context.get_time(), start=q.copy(), last_G=self.grip_pose(q).translation())
+        state.get_mutable_abstract_state(self._s).set_value(s)
+        return EventStatus.Succeeded()
+
+    def _stance(self) -> np.ndarray:
+        """Base pose (x, y, yaw) in front of the handle, facing it."""
+        t, cfg = self._task, self._cfg
+        n = t.normal.copy()
+        n[2] = 0.0
+        n = _unit(n)
+        side = t.side - np.dot(t.side, [0, 0, 1.0]) * np.array([0, 0, 1.0])
+        side = _unit(side) if np.linalg.norm(side) > 0.3 else np.zeros(3)
+        p = t.handle + cfg.stance_distance * n + cfg.stance_side * side
+        yaw = math.atan2(-n[1], -n[0])
+        return np.array([p[0], p[1], yaw])
+
+    def _update(self, context, state):
+        try:
+            s = self._step(context, replace(self.state(context)))
+        except (RuntimeError, ValueError, np.linalg.LinAlgError, FloatingPointError):
+            # a controller step that cannot be computed holds the last command
+            s = replace(self.state(context))
+            s.q_from = s.q_to.copy()
+            s.t_cmd = context.get_time()
+        state.get_mutable_abstract_state(self._s).set_value(s)
+        return EventStatus.Succeeded()
+
+    def _next_phase(self, s, phase, t, start):
+        s.phase, s.t_phase, s.start = phase, t, np.asarray(start, float).copy()
+
+    def _step(self, context, s: _State) -> _State:
+        cfg, task = self._cfg, self._task
+        t = context.get_time()
+        q_meas = self._measured_q(context)
+        F = np.asarray(self._in_force.Eval(context), float)
+        if not np.all(np.isfinite(F)):
+            F = np.zeros(3)
+        X_G = self.grip_pose(q_meas)
+        G = X_G.translation()
+        q_cmd = s.q_to.copy()
+        elapsed = t - s.t_phase
+        H = task.handle
+        R_hook0 = hook_rotation(task.normal, task.side)
+        if s.phase == DRIVE:
+            goal = self._stance()
+            dist = np.linalg.norm(goal[:2] - s.start[:2])
+            T = max(1.0, dist / cfg.drive_speed)
+            a = min(1.0, elapsed / T)
+            a = 0.5 - 0.5 * math.cos(math.pi * a)
+            q_cmd[:3] = (1 - a) * s.start[:3] + a * goal
+            ready = np.array([0.0, 0.5, 0.0, 1.6, 0.0, -0.5])
+            q_cmd[3:] = (1 - a) * s.start[3:] + a * ready
+            if elapsed >= T + 0.5:
+                self._next_phase(s, PREHOOK, t, G)
+        elif s.phase == PREHOOK:
+            goal = H + 0.16 * task.normal + 0.11 * task.side
+            a = min(1.0, elapsed / cfg.approach_time)
+            p = (1 - a) * s.start + a * goal
+            q_cmd = self._ik(q_cmd, p, R_hook0, base=False)
+            if elapsed >= cfg.approach_time + 0.5:
+                self._next_phase(s, DEPTH, t, goal)
+        elif s.phase == DEPTH:
+            goal = H - 0.11 * task.normal + 0.11 * task.side
+            a = min(1.0, elapsed / cfg.depth_time)
+            p = (1 - a) * s.start + a * goal
+            touching = np.dot(F, task.normal) > 3.0
+            if touching or elapsed >= cfg.depth_time:
+                # back off from the front so the finger clears it and the bar
+                p = G + 0.012 * task.normal
+                s.goal = p.copy()
+                q_cmd = self._ik(q_cmd, p, R_hook0, base=False)
+                self._next_phase(s, SLIDE, t, p)
+            else:
+                q_cmd = self._ik(q_cmd, p, R_hook0, base=False)
+        elif s.phase == SLIDE:
+            off = np.dot(s.start - H, task.side)
+            goal = s.start - (off - 0.01) * task.side
+            a = min(1.0, elapsed / cfg.slide_time)
+            p = (1 - a) * s.start + a * goal
+            contact = np.dot(F, task.side) > 3.0
+            q_cmd = self._ik(q_cmd, p, R_hook0, base=False)
+            if contact or elapsed >= cfg.slide_time + 0.3:
+                s.cep = G.copy()
+                s.direction = task.pull.copy()
+                s.R = R_hook0.copy()
+                s.last_G = G.copy()
+                self._next_phase(s, PULL, t, G)
+        elif s.phase == PULL:
+            q_cmd, s = self._pull(context, s, q_cmd, G, F, elapsed)
+        elif s.phase == RELEASE:
+            side = s.R @ (R_hook0.T @ task.side)
+            normal = s.R @ (R_hook0.T @ task.normal)
+            a = min(1.0, elapsed / cfg.release_time)
+            p = s.start + a * (0.12 * side) + max(0.0, 2 * a - 1) * 0.15 * normal
+            q_cmd = self._ik(q_cmd, p, s.R, base=False)
+            if elapsed >= cfg.release_time:
+                self._next_phase(s, DONE, t, G)
+        # DONE: hold
+        s.q_from = self._current_cmd(s, t)
+        s.q_to = np.clip(q_cmd, self._lo, self._hi)
+        s.t_cmd = t
+        s.last_G = G.copy()
+        return s
+
+    def _link_model(self, context):
+        obj = self._in_model.Eval(context) if self._in_model.HasValue(context) else None
+        if obj is None or not getattr(obj, "edges", None):
+            return None
+        link = obj.edges[0].model
+        if getattr(link, "n_train", 0) < self._cfg.min_model_samples:
+            return None
+        return link
+
+    def _pull(self, context, s: _State, q_cmd, G, F, elapsed):
+        cfg, task = self._cfg, self._task
+        R_hook0 = hook_rotation(task.normal, task.side)
+        link = self._link_model(context)
+        direction = s.direction
+        R = s.R
+        s.model_name = "" if link is None else link.name
+        if link is not None and link.name in ("prismatic", "revolute", "gp"):
+            q_hat = float(link.inverse(G[None])[0, 0])
+            J = link.jacobian(np.array([[q_hat]]))[0, :3, 0]
+            if np.linalg.norm(J) > 1e-9:
+                d = _unit(J)
+                if np.dot(d, s.direction) < 0:
+                    d = -d
+                direction = d
+            # configuration at the start of the pull, in the current model's coordinates
+            s.q_hat0 = float(link.inverse(s.start[None])[0, 0])
+            dq = q_hat - s.q_hat0
+            if link.name == "revolute":
+                dq = math.remainder(dq, 2 * math.pi)
+            sign = 1.0 if np.dot(J, direction) >= 0 else -1.0
+            s.q_hat = q_hat
+            s.opening = sign * dq
+            R_model = _axis_angle(link.axis, dq) @ R_hook0 if link.name == "revolute" \
+                else R_hook0
+            # turn the hook towards the model's prediction at a bounded rate
+            aa = RotationMatrix(R_model @ s.R.T).ToAngleAxis()
+            turn = min(aa.angle(), cfg.max_turn)
+            R = _axis_angle(aa.axis(), turn) @ s.R if turn > 1e-9 else s.R
+        # force perpendicular to the motion: the hook presses onto the handle along u
+        side = R @ (R_hook0.T @ task.side)
+        normal = R @ (R_hook0.T @ task.normal)
+        if abs(np.dot(task.pull, task.normal)) > 0.5:
+            u = -side  # pulling out of the front: the rod presses the bar's side
+        else:
+            u = normal  # sliding: the finger presses the bar's back
+        u = _unit(u - np.dot(u, direction) * direction)
+        f_perp = -np.dot(F, u)
+        v_hook = cfg.force_gain * (cfg.force_target - f_perp) * u
+        v_hook = np.clip(v_hook, -cfg.step, cfg.step)
+        cep = s.cep + cfg.step * direction + v_hook
+        lead = cep - G
+        if np.linalg.norm(lead) > cfg.max_lead:
+            cep = G + lead * (cfg.max_lead / np.linalg.norm(lead))
+        s.cep, s.direction, s.R = cep, direction, R
+        q_cmd = self._ik(q_cmd, cep, R, base=True)
+        # stop conditions
+        advanced = np.dot(G - s.last_G, direction)
+        pulling = np.dot(F, -direction)
+        s.stalled = s.stalled + 1 if (advanced < 0.2 * cfg.step
+                                      and pulling > cfg.stop_force) else 0
+        s.slack = s.slack + 1 if np.linalg.norm(F) < 1.0 else 0
+        target = cfg.target_angle if s.model_name == "revolute" else cfg.target_distance
+        done = None
+        if s.model_name in ("revolute", "prismatic") and s.opening >= target:
+            done = "target reached"
+        elif s.stalled >= 5:
+            done = "end of the configuration range"
+        elif s.slack >= 15:
+            done = "lost the handle"
+        elif elapsed > cfg.max_pull_time:
+            done = "timeout"
+        if done:
+            s.outcome = done
+            self._next_phase(s, RELEASE, context.get_time(), G)
+        return q_cmd, s
+
+    # ------------------------------------------------------------------ outputs
+    def _current_cmd(self, s: _State, t: float) -> np.ndarray:
+        a = min(1.0, max(0.0, (t - s.t_cmd) / self._cfg.period))
+        return (1 - a) * s.q_from + a * s.q_to
+
+    def _calc_cmd(self, context, output):
+        output.SetFromVector(self._current_cmd(self.state(context), context.get_time()))
+
+    def _calc_G(self, context, output):
+        # only the trajectory while the hook holds the handle is an observation of the
+        # mechanism; outside the pull phase the output is NaN (the estimator drops it)
+        if self.state(context).phase != PULL:
+            output.SetFromVector(np.full(3, np.nan))
+            return
+        output.SetFromVector(self.grip_pose(self._measured_q(context)).translation())
+
+    def _calc_phase(self, context, output):
+        output.SetFromVector([self.state(context).phase])
+
+    def _calc_status(self, context, output):
+        s = self.state(context)
+        output.SetFromVector([s.opening, s.q_hat, float(s.phase == DONE),
+                              float(s.outcome == "target reached")])
