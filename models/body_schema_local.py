@@ -189,11 +189,13 @@ class LocalModel(_ModelBase):
         return 0 if self.gp is None else self.gp.X.shape[0]
 
     def fit(self, actions, Z, *, optimize: bool = True, max_opt: int = 40,
-            hyperparameters: dict | None = None, noise_min: float = 1e-8) -> "LocalModel":
+            hyperparameters: dict | None = None, noise_min: float = 1e-8,
+            n_restarts: int = 1, ftol: float = 1e-5) -> "LocalModel":
         """Train on commanded actions (n, m) and relative poses Z (n, 4, 4).
 
         With ``optimize``, hyper-parameters are fitted by marginal likelihood on at most
-        ``max_opt`` evenly spaced samples, then the GP conditions on all n samples.
+        ``max_opt`` evenly spaced samples (``n_restarts`` extra low-noise starts, best kept per
+        output), then the GP conditions on all n samples.
         """
         actions = _check_actions(actions, self.n_actions)
         Z = np.asarray(Z, float)
@@ -210,12 +212,13 @@ class LocalModel(_ModelBase):
         if optimize and n > max_opt:
             sub = np.unique(np.linspace(0, n - 1, max_opt).round().astype(int))
             g = GaussianProcess(ard=True).fit(X[sub], Y[sub], optimize=True,
-                                              noise_min=noise_min,
-                                              hyperparameters=hyperparameters)
+                                              noise_min=noise_min, n_restarts=n_restarts,
+                                              hyperparameters=hyperparameters, ftol=ftol)
             hyperparameters = g.hyperparameters()
             optimize = False
         self.gp = GaussianProcess(ard=True).fit(X, Y, optimize=optimize, noise_min=noise_min,
-                                                hyperparameters=hyperparameters)
+                                                hyperparameters=hyperparameters,
+                                                n_restarts=n_restarts, ftol=ftol)
         return self
 
     def refit(self, actions, Z) -> "LocalModel":

@@ -79,7 +79,7 @@ class SearchConfig:
     min_train: int = 3
     min_test: int = 2
     max_k: int | None = None
-    max_opt: int = 40
+    max_opt: int = 30
     max_screen: int = 60
     screen_factor: float = 1.5
     screen_reg: float = 1e-2
@@ -290,8 +290,8 @@ def _learn_structure(actions, poses, *, config: SearchConfig | None = None,
         mask: optional (t, p) bool visibility (default: finite poses).
         seed_models: known (e.g. engineered) local models; they count as valid models of
             their layer with the held-out statistics computed on this data.
-        refit: refit the tree models on all samples of their pair (train + held-out) with the
-            hyper-parameters found on the training split.
+        refit: refit the tree models on all samples of their pair (with "split": train +
+            held-out), re-optimising the hyper-parameters with one extra low-noise start.
     Returns:
         :class:`StructureResult`.
 
@@ -365,7 +365,7 @@ def _learn_structure(actions, poses, *, config: SearchConfig | None = None,
             for qi in passing:
                 model = LocalModel(i, j, Qs[qi], m)
                 model.fit(actions[rows[tr]], Z[tr], max_opt=config.max_opt,
-                          noise_min=config.noise_min)
+                          noise_min=config.noise_min, n_restarts=0)
                 result.n_trained += 1
                 if config.validation == "loo":
                     dp, dr = pose_errors(model.loo_predict(), Z)
@@ -383,10 +383,13 @@ def _learn_structure(actions, poses, *, config: SearchConfig | None = None,
     result.valid = list(zip(valid_models, valid_stats))
     for e in idx:
         model = valid_models[e]
-        if refit and isinstance(model, LocalModel) and config.validation == "split":
+        if refit and isinstance(model, LocalModel):
+            # final fit on all samples of the pair; hyper-parameters re-optimised from the
+            # search optimum plus one low-noise start (escapes the "signal is noise" local
+            # optimum on clean data), best kept per output
             rows, Z, _, _ = pair[(model.i, model.j)]
-            model.fit(actions[rows], Z, optimize=False,
-                      hyperparameters=model.gp.hyperparameters(), noise_min=config.noise_min)
+            model.fit(actions[rows], Z, hyperparameters=model.gp.hyperparameters(),
+                      noise_min=config.noise_min, n_restarts=1, max_opt=config.max_opt)
         result.tree.append(model)
         result.stats.append(valid_stats[e])
     return result

@@ -154,6 +154,18 @@ class GaussianProcess:
         g[:, d_ell + 1] = 0.5 * sn2 * np.trace(W, axis1=1, axis2=2)
         return -float(lml.sum()), -g.ravel()
 
+    def _per_output_nlml(self, theta, D2, Yc, d_ell) -> np.ndarray:
+        n, m = Yc.shape
+        log_ell, log_sf2, log_sn2 = self._unpack(theta, m, d_ell)
+        K = self._kernel_noiseless(D2, log_ell, log_sf2) + np.exp(log_sn2)[:, None, None] * np.eye(n)
+        try:
+            L = _batched_cholesky(K)
+        except np.linalg.LinAlgError:
+            return np.full(m, np.inf)
+        z = np.linalg.solve(L, Yc.T[:, :, None])[:, :, 0]
+        return (0.5 * np.einsum("ci,ci->c", z, z)
+                + np.log(np.diagonal(L, axis1=1, axis2=2)).sum(axis=1) + 0.5 * n * _LOG_2PI)
+
     def _factorise(self):
         n, m = self.Y.shape
         D2 = self._sqdist(self.X, self.X)
@@ -172,7 +184,8 @@ class GaussianProcess:
 
     # ------------------------------------------------------------------ public API
     def fit(self, X, Y, *, optimize: bool = True, noise_min: float = 1e-6,
-            hyperparameters: dict | None = None, maxiter: int = 200) -> "GaussianProcess":
+            hyperparameters: dict | None = None, maxiter: int = 200,
+            n_restarts: int = 0, ftol: float = 1e-9) -> "GaussianProcess":
         """Fit to training inputs ``X`` (n, d) and targets ``Y`` (n, m).
 
         Args:
@@ -185,6 +198,10 @@ class GaussianProcess:
             hyperparameters: optional initial values ``{"log_ell": (m, d) or (m, 1),
                 "log_sf2": (m,), "log_sn2": (m,)}`` (broadcast over outputs).
             maxiter: iteration cap for L-BFGS-B.
+            ftol: relative tolerance on the objective for L-BFGS-B to stop.
+            n_restarts: extra optimiser starts from the data-scale initialisation with a lower
+                initial noise (1e-4, 1e-6, ... of the output variance); the best optimum is
+                kept per output.
         Returns:
             self
         """
@@ -209,10 +226,11 @@ class GaussianProcess:
         xs = np.where(xs > 1e-9, xs, 1.0)
         yvar = Yc.var(axis=0) if n > 1 else np.zeros(m)
         yscale = np.maximum(yvar, 1e-12)
+        ell_default = np.log(xs if self.ard or d == 0 else np.array([xs.mean()]))[None, :d_ell]
+        ell_default = np.broadcast_to(ell_default, (m, d_ell))
+        sf2_default = np.log(np.maximum(yvar, 1e-10))
         if hyperparameters is None:
-            log_ell0 = np.log(xs if self.ard or d == 0 else np.array([xs.mean()]))[None, :d_ell]
-            log_ell0 = np.broadcast_to(log_ell0, (m, d_ell))
-            log_sf20 = np.log(np.maximum(yvar, 1e-10))
+            log_ell0, log_sf20 = ell_default, sf2_default
             log_sn20 = np.log(np.maximum(0.01 * yvar, noise_min))
         else:
             log_ell0 = np.broadcast_to(np.asarray(hyperparameters["log_ell"], float).reshape(
@@ -238,10 +256,26 @@ class GaussianProcess:
             bounds = np.array(bounds)
             theta0 = np.clip(theta0.ravel(), bounds[:, 0], bounds[:, 1])
             D2 = self._sqdist(X, X)
-            res = minimize(self._neg_lml_and_grad, theta0, args=(D2, Yc, d_ell), jac=True,
-                           method="L-BFGS-B", bounds=bounds,
-                           options={"maxiter": maxiter, "ftol": 1e-9, "gtol": 1e-5})
-            theta = res.x
+            starts = [theta0]
+            for r in range(int(n_restarts)):
+                # further starts with a lower noise level: escapes the "signal is noise"
+                # local optimum on (nearly) noise-free data
+                t = np.concatenate([ell_default, sf2_default[:, None], np.log(np.maximum(
+                    yvar * 10.0 ** (-4 - 2 * r), noise_min))[:, None]], axis=1)
+                starts.append(np.clip(t.ravel(), bounds[:, 0], bounds[:, 1]))
+            best, best_f = None, None
+            for t0 in starts:
+                res = minimize(self._neg_lml_and_grad, t0, args=(D2, Yc, d_ell), jac=True,
+                               method="L-BFGS-B", bounds=bounds,
+                               options={"maxiter": maxiter, "ftol": ftol, "gtol": 1e-5})
+                f = self._per_output_nlml(res.x, D2, Yc, d_ell)
+                if best is None:
+                    best, best_f = res.x.reshape(m, -1).copy(), f
+                else:  # outputs are independent: keep the better optimum per output
+                    better = f < best_f
+                    best[better] = res.x.reshape(m, -1)[better]
+                    best_f = np.where(better, f, best_f)
+            theta = best.ravel()
         else:
             theta = theta0.ravel()
         self.log_ell, self.log_sf2, self.log_sn2 = (
