@@ -262,12 +262,18 @@ def _evaluate(model, rows_te, actions, Z_te, config, n_total):
     return _stats(model, dp, dr, config, n_total)
 
 
+_THREADPOOL_CONTROLLER = None
+
+
 def _blas_single_thread():
     """Limit BLAS to one thread: the matrices here are small, and on a shared machine
     multi-threaded BLAS on 30x30 matrices is several times slower."""
+    global _THREADPOOL_CONTROLLER
     try:
-        from threadpoolctl import threadpool_limits
-        return threadpool_limits(limits=1, user_api="blas")
+        if _THREADPOOL_CONTROLLER is None:
+            from threadpoolctl import ThreadpoolController
+            _THREADPOOL_CONTROLLER = ThreadpoolController()
+        return _THREADPOOL_CONTROLLER.limit(limits=1, user_api="blas")
     except Exception:  # pragma: no cover - threadpoolctl is a scikit-learn dependency
         return contextlib.nullcontext()
 

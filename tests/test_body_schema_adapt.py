@@ -105,3 +105,22 @@ def test_update_rejects_bad_shapes():
         s.update(np.zeros(2), np.zeros((4, 4, 4)))
     with pytest.raises(ValueError, match="actions"):
         s.update(np.zeros(3), np.zeros((5, 4, 4)))
+
+
+def test_engineered_models_seed_the_structure_search():
+    arm = make_arm_7dof()
+    rng = np.random.default_rng(6)
+    A = arm.sample_actions(30, rng)
+    Y, _ = arm.observe(A, rng, sigma_pos=0.01, sigma_orient=np.deg2rad(1))
+    seeds = [m for m in arm.engineered_models() if (m.i, m.j) in ((3, 4), (4, 5))]
+    from mmlearn.models.body_schema_search import learn_structure
+    res = learn_structure(A, Y, config=CFG, seed_models=seeds)
+    assert res.complete and structure_correct(arm, res.tree, res.nodes)
+    used = [m for m in res.tree if isinstance(m, EngineeredModel)]
+    assert len(used) == 2  # exact models beat the learned ones of the same complexity
+    # an engineered model that does not fit (wrong geometry) is not valid and not used
+    bent = make_arm_7dof()
+    bent.bend_link(4, np.pi / 4)
+    wrong = [m for m in bent.engineered_models() if (m.i, m.j) == (3, 4)]
+    res = learn_structure(A, Y, config=CFG, seed_models=wrong)
+    assert not any(isinstance(m, EngineeredModel) for m in res.tree)
