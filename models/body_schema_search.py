@@ -30,6 +30,7 @@ from itertools import combinations
 
 import numpy as np
 
+from .gp import blas_single_thread
 from .body_schema_local import (
     LocalModel,
     log_likelihood,
@@ -262,20 +263,8 @@ def _evaluate(model, rows_te, actions, Z_te, config, n_total):
     return _stats(model, dp, dr, config, n_total)
 
 
-_THREADPOOL_CONTROLLER = None
-
-
 def _blas_single_thread():
-    """Limit BLAS to one thread: the matrices here are small, and on a shared machine
-    multi-threaded BLAS on 30x30 matrices is several times slower."""
-    global _THREADPOOL_CONTROLLER
-    try:
-        if _THREADPOOL_CONTROLLER is None:
-            from threadpoolctl import ThreadpoolController
-            _THREADPOOL_CONTROLLER = ThreadpoolController()
-        return _THREADPOOL_CONTROLLER.limit(limits=1, user_api="blas")
-    except Exception:  # pragma: no cover - threadpoolctl is a scikit-learn dependency
-        return contextlib.nullcontext()
+    return blas_single_thread()
 
 
 def learn_structure(actions, poses, **kwargs) -> "StructureResult":

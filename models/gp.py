@@ -22,6 +22,8 @@ Serialisation schema (``to_dict``)::
 
 from __future__ import annotations
 
+import contextlib
+
 import numpy as np
 from scipy.linalg import lapack
 from scipy.optimize import minimize
@@ -32,6 +34,23 @@ _potri = lapack.dpotri
 __all__ = ["GaussianProcess"]
 
 _LOG_2PI = np.log(2.0 * np.pi)
+
+
+_THREADPOOL_CONTROLLER = None
+
+
+def blas_single_thread():
+    """Context manager limiting BLAS to one thread (via threadpoolctl, a scikit-learn
+    dependency; a no-op without it). GP matrices here are small: on a shared machine a
+    multi-threaded BLAS on 30x30 matrices is several times slower than a single thread."""
+    global _THREADPOOL_CONTROLLER
+    try:
+        if _THREADPOOL_CONTROLLER is None:
+            from threadpoolctl import ThreadpoolController
+            _THREADPOOL_CONTROLLER = ThreadpoolController()
+        return _THREADPOOL_CONTROLLER.limit(limits=1, user_api="blas")
+    except Exception:  # pragma: no cover
+        return contextlib.nullcontext()
 
 
 def _as_2d(a, name: str) -> np.ndarray:
@@ -242,6 +261,19 @@ class GaussianProcess:
             [np.asarray(log_ell0, float), np.asarray(log_sf20, float)[:, None],
              np.asarray(log_sn20, float)[:, None]], axis=1)
 
+        with blas_single_thread() if n <= 400 else contextlib.nullcontext():
+            theta = self._optimise(X, Y, Yc, theta0, optimize, noise_min, n_restarts, ftol,
+                                   maxiter, xs, yvar, yscale, ell_default, sf2_default, d_ell)
+        self.log_ell, self.log_sf2, self.log_sn2 = (
+            np.array(a) for a in self._unpack(np.asarray(theta, float), m, d_ell))
+        with blas_single_thread() if n <= 400 else contextlib.nullcontext():
+            self._factorise()
+        return self
+
+    def _optimise(self, X, Y, Yc, theta0, optimize, noise_min, n_restarts, ftol, maxiter, xs,
+                  yvar, yscale, ell_default, sf2_default, d_ell):
+        n, d = X.shape
+        m = Y.shape[1]
         if optimize and n > 1:
             if self.ard or d == 0:
                 lo_ell, hi_ell = np.log(xs * 1e-2), np.log(xs * 1e5)
@@ -275,13 +307,8 @@ class GaussianProcess:
                     better = f < best_f
                     best[better] = res.x.reshape(m, -1)[better]
                     best_f = np.where(better, f, best_f)
-            theta = best.ravel()
-        else:
-            theta = theta0.ravel()
-        self.log_ell, self.log_sf2, self.log_sn2 = (
-            np.array(a) for a in self._unpack(np.asarray(theta, float), m, d_ell))
-        self._factorise()
-        return self
+            return best.ravel()
+        return theta0.ravel()
 
     def _check_fitted(self):
         if not self._fitted:
