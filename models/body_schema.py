@@ -25,7 +25,6 @@ broken tree, ordered by structural proximity (shared Bayesian-network nodes) to 
 failed, and trained on the recent samples and then on the following ``n_train_new`` samples.
 """
 
-from __future__ import annotations
 
 import contextlib
 from collections import deque
@@ -77,7 +76,7 @@ class AdaptationConfig:
     patience: int = 15
     n_train_new: int = 30
     n_init_test: int = 3
-    reoptimize_at: tuple = (8, 15, 30)
+    reoptimize_at: list[int] = field(default_factory=lambda: [8, 15, 30])
     max_history: int = 50
     max_training: int = 1
     buffer: int = 300

@@ -22,7 +22,6 @@ The MST orders edges by (k, -q): that is the thesis' property that any valid mod
 complexity has the higher quality, made explicit so that it holds for every eta.
 """
 
-from __future__ import annotations
 
 import contextlib
 from dataclasses import dataclass, field
@@ -73,7 +72,7 @@ class SearchConfig:
     """
 
     sigma_pos: float = 0.05
-    sigma_orient: float = np.deg2rad(15.0)
+    sigma_orient: float = float(np.deg2rad(15.0))
     n_sigma: float = 3.0
     eta: float = 1.0
     test_every: int = 3

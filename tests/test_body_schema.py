@@ -222,3 +222,18 @@ def test_schema_json_roundtrip(schema_2dof):
     At = arm.sample_actions(5, 12)
     np.testing.assert_allclose(s2.forward_kinematics(At), s.forward_kinematics(At),
                                atol=1e-9)
+
+
+def test_configs_load_from_yaml_and_reject_typos():
+    from pydrake.common.yaml import yaml_load_typed
+
+    from mmlearn.models.body_schema import AdaptationConfig
+
+    c = yaml_load_typed(schema=SearchConfig, data="sigma_pos: 0.044\nmax_k: 2\n")
+    assert c.sigma_pos == 0.044 and c.max_k == 2
+    a = yaml_load_typed(schema=AdaptationConfig, data="patience: 10\nreoptimize_at: [5]\n")
+    assert a.patience == 10 and a.reoptimize_at == [5]
+    with pytest.raises(RuntimeError, match="sigma_poz"):
+        yaml_load_typed(schema=SearchConfig, data="sigma_poz: 0.1\n")
+    with pytest.raises(ValueError, match="validation"):
+        SearchConfig(validation="kfold")
