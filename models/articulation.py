@@ -142,12 +142,12 @@ def em_gamma(log_in: np.ndarray, log_out: float, w: float, *, iters: int = 30,
     """
     log_in = np.atleast_2d(log_in)
     H, n = log_in.shape
-    g = np.full(H, gamma0)
+    g = np.full(H, float(gamma0))
+    # likelihood ratio inlier / outlier, clipped (responsibilities saturate long before)
+    L = np.exp(np.clip(log_in - log_out, -700.0, 700.0))
     for _ in range(iters):
-        a = np.log1p(-g)[:, None] + log_in
-        b = np.log(g)[:, None] + log_out
-        r_out = np.exp(b - np.logaddexp(a, b))
-        A = r_out.sum(axis=1)
+        # outlier responsibility g / ((1 - g) L + g)
+        A = np.sum(g[:, None] / ((1.0 - g)[:, None] * L + g[:, None]), axis=1)
         if w > 0:
             s = n + w
             g_new = (s - np.sqrt(np.maximum(s * s - 4 * w * A, 0.0))) / (2 * w)
@@ -353,8 +353,9 @@ class LinkModel:
         """Start indices of rotation-vector triples in theta."""
         return []
 
-    def _canonicalize(self, d: _Data, inlier: np.ndarray) -> None:
-        pass
+    def _canonicalize(self, d: _Data, inlier: np.ndarray):
+        """Re-parametrise to the configuration conventions; return False if nothing changed."""
+        return False
 
     # ----- generic machinery
     def _check_fitted(self):
@@ -509,12 +510,12 @@ class LinkModel:
         inl = resp[0] > 0.5
         if not np.any(inl):
             inl = np.ones(d.n, bool)
-        self._canonicalize(d, inl)
-        ep2, eo, q = self._residuals_batch(self.theta[None], d)
+        if self._canonicalize(d, inl) is not False:
+            ep2, eo, q = self._residuals_batch(self.theta[None], d)
         if self.dof:
             self.q_min = q[0][inl].min(axis=0)
             self.q_max = q[0][inl].max(axis=0)
-        self.log_likelihood_ = self.log_likelihood(d)
+        self.log_likelihood_ = self._log_likelihood_from(ep2, eo, d.n, d.has_orientation)
         self.bic_ = -2.0 * self.log_likelihood_ + self.num_params(d.n) * np.log(d.n)
         self.avg_pos_error_ = float(np.sqrt(ep2[0][inl]).mean())
         self.avg_orient_error_ = float(eo[0][inl].mean()) if eo is not None else None
@@ -541,11 +542,15 @@ class LinkModel:
         g = self.gamma if gamma is None else float(gamma)
         g = float(np.clip(g, 1e-6, 1 - 1e-6))
         ep2, eo, _ = self._residuals_batch(self.theta[None], d)
+        return self._log_likelihood_from(ep2, eo, d.n, d.has_orientation, g)
+
+    def _log_likelihood_from(self, ep2, eo, n, has_orientation, gamma=None) -> float:
+        g = float(np.clip(self.gamma if gamma is None else gamma, 1e-6, 1 - 1e-6))
         li = self.obs_fit.log_inlier(ep2[0], None if eo is None else eo[0])
-        lo = self.obs_fit.log_outlier(d.has_orientation)
+        lo = self.obs_fit.log_outlier(has_orientation)
         ll = np.logaddexp(np.log1p(-g) + li, np.log(g) + lo).sum()
         ll += float(self.obs_fit.log_gamma_prior(g))
-        ll -= d.n * self.dof * np.log(d.n)
+        ll -= n * self.dof * np.log(n)
         return float(ll)
 
     def bic(self, Z=None) -> float:
@@ -1093,7 +1098,7 @@ class GPModel(LinkModel):
     min_samples = 3
 
     def __init__(self, *, dof: int = 1, reduction: str = "pca", n_neighbors: int = 10,
-                 max_train: int | None = 50, gp_maxiter: int = 25, **kw):
+                 max_train: int | None = 50, gp_maxiter: int = 15, **kw):
         if not 1 <= int(dof) <= 5:
             raise ValueError(f"GPModel: dof must be 1..5, got {dof}")
         if reduction not in ("pca", "lle"):
