@@ -532,6 +532,20 @@ def search_structure(evaluator: KinematicGraphEvaluator, tree_edges, *, search: 
     return cur, tree, order
 
 
+def _tree_from_links(edges, pair_models, p) -> GraphEvaluation:
+    """Tree evaluation from the link BICs alone (Eq. 4.39-4.40), used when too few time
+    steps observe all parts for a global evaluation."""
+    ms = {e: pair_models[e].best for e in edges}
+    ll = float(sum(m.log_likelihood_ for m in ms.values()))
+    k = int(sum(m.num_params_ for m in ms.values()))
+    return GraphEvaluation(
+        edges=tuple(edges), models={e: m.name for e, m in ms.items()},
+        dof=int(sum(m.dof for m in ms.values())), dof_links=int(sum(m.dof for m in ms.values())),
+        log_likelihood=ll, k=k, n=int(max(m.n_train for m in ms.values())),
+        bic=float(sum(m.bic_ for m in ms.values())), pos_error_m=float("nan"),
+        orient_error_rad=float("nan"), has_loop=False)
+
+
 def fit_structure(part_tracks, *, part_names=None, search: str = "local",
                   reduce_dofs: bool = False, models=DEFAULT_CANDIDATES,
                   obs: ObservationModel | None = None, rng=None, min_common: int = 5,
@@ -564,9 +578,18 @@ def fit_structure(part_tracks, *, part_names=None, search: str = "local",
                                       n_hypotheses=n_hypotheses)
     t1 = time.perf_counter()
     tree_edges = spanning_tree_edges(pair_models, p)
-    evaluator = KinematicGraphEvaluator(Y, pair_models, obs=obs, stiffness=stiffness)
-    best, tree, order = search_structure(evaluator, tree_edges, search=search,
-                                         reduce_dofs=reduce_dofs)
+    n_full = int(np.isfinite(Y).all(axis=2).all(axis=0).sum())
+    if n_full < 3:
+        if search != "tree":
+            raise ValueError(f"only {n_full} time steps observe every part; the {search!r} "
+                             "search evaluates whole graphs and needs at least 3 (use --search "
+                             "tree)")
+        tree = _tree_from_links(tree_edges, pair_models, p)
+        best, order = tree, [tree]
+    else:
+        evaluator = KinematicGraphEvaluator(Y, pair_models, obs=obs, stiffness=stiffness)
+        best, tree, order = search_structure(evaluator, tree_edges, search=search,
+                                             reduce_dofs=reduce_dofs)
     t2 = time.perf_counter()
     return StructureResult(best=best, tree=tree, search=search, evaluated=order,
                            search_seconds=t2 - t1, fit_seconds=t1 - t0, part_names=names,
