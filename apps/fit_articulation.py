@@ -33,7 +33,7 @@ import time
 
 import numpy as np
 
-from mmlearn.models.articulation import ObservationModel
+from mmlearn.models.articulation import ObservationModel, make_model
 from mmlearn.models.articulation_structure import DEFAULT_CANDIDATES, select_link_model
 from mmlearn.models.track_io import TrackFileError, find_track_files, read_track
 
@@ -190,8 +190,12 @@ def main(argv=None) -> int:
     ap.add_argument("--no-progress", action="store_true", help="no progress bar")
     args = ap.parse_args(argv)
     try:
-        obs_ok = ObservationModel(sigma_pos=args.sigma_pos, sigma_orient=args.sigma_orient)
-        del obs_ok
+        ObservationModel(sigma_pos=args.sigma_pos, sigma_orient=args.sigma_orient)
+        names = [m.strip() for m in args.models.split(",") if m.strip()]
+        if not names:
+            raise ValueError("--models: empty list")
+        for name in names:
+            make_model(name)
     except ValueError as e:
         ap.error(str(e))
     try:
