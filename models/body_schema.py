@@ -38,6 +38,7 @@ from .body_schema_local import (
     LocalModel,
     log_likelihood,
     orthonormalize,
+    poses_from_xyzquat,
     se3_inv,
     visible_mask,
 )
@@ -46,6 +47,7 @@ from .body_schema_search import (
     StructureResult,
     _blas_single_thread,
     _UnionFind,
+    check_data,
     learn_structure,
 )
 
@@ -172,11 +174,11 @@ class BodySchema:
         models of life-long adaptation.
         """
         actions = self._check_actions(actions)
+        actions, poses = check_data(actions, poses)
         res = learn_structure(actions, poses, config=self.search, mask=mask,
                               seed_models=seed_models)
         self.last_search = res
         self._set_tree_from_search(res)
-        poses = np.asarray(poses, float)
         if mask is not None:
             poses = poses.copy()
             poses[~np.asarray(mask, bool)] = np.nan
@@ -425,7 +427,8 @@ class BodySchema:
 
         Args:
             action: (m,) commanded action vector.
-            poses: (p, 4, 4) observed part poses (NaN where unseen).
+            poses: (p, 4, 4) observed part poses (NaN where unseen), or (p, 7) rows
+                ``x y z qx qy qz qw``.
             mask: optional (p,) visibility.
         Returns:
             dict(valid, steps_invalid, tree (list of model reprs), event or None).
@@ -436,6 +439,8 @@ class BodySchema:
     def _update(self, action, poses, mask):
         a = self._check_actions(action)[0]
         y = np.asarray(poses, float)
+        if y.shape == (self.n_parts, 7):
+            y = poses_from_xyzquat(y)
         if y.shape != (self.n_parts, 4, 4):
             raise ValueError(f"poses must be ({self.n_parts}, 4, 4), got {y.shape}")
         if mask is not None:

@@ -25,6 +25,7 @@ __all__ = [
     "log_likelihood",
     "relative_poses",
     "visible_mask",
+    "poses_from_xyzquat",
 ]
 
 
@@ -67,6 +68,31 @@ def log_likelihood(pos_err, rot_err, sigma_pos: float, sigma_orient: float) -> n
     rot_err = np.asarray(rot_err, float)
     norm = -0.5 * (6 * np.log(2 * np.pi) + 6 * np.log(sigma_pos) + 6 * np.log(sigma_orient))
     return norm - 0.5 * ((pos_err / sigma_pos) ** 2 + (rot_err / sigma_orient) ** 2)
+
+
+def poses_from_xyzquat(P) -> np.ndarray:
+    """(..., 7) poses ``x y z qx qy qz qw`` (the log format) -> (..., 4, 4); NaN stays NaN."""
+    P = np.asarray(P, float)
+    if P.shape[-1] != 7:
+        raise ValueError(f"expected (..., 7) poses x y z qx qy qz qw, got {P.shape}")
+    q = P[..., 3:]
+    q = q / np.linalg.norm(q, axis=-1, keepdims=True)
+    x, y, z, w = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
+    T = np.zeros(P.shape[:-1] + (4, 4))
+    T[..., 0, 0] = 1 - 2 * (y * y + z * z)
+    T[..., 0, 1] = 2 * (x * y - z * w)
+    T[..., 0, 2] = 2 * (x * z + y * w)
+    T[..., 1, 0] = 2 * (x * y + z * w)
+    T[..., 1, 1] = 1 - 2 * (x * x + z * z)
+    T[..., 1, 2] = 2 * (y * z - x * w)
+    T[..., 2, 0] = 2 * (x * z - y * w)
+    T[..., 2, 1] = 2 * (y * z + x * w)
+    T[..., 2, 2] = 1 - 2 * (x * x + y * y)
+    T[..., :3, 3] = P[..., :3]
+    T[..., 3, 3] = 1.0
+    bad = ~np.all(np.isfinite(P), axis=-1)
+    T[bad] = np.nan
+    return T
 
 
 def visible_mask(poses: np.ndarray) -> np.ndarray:

@@ -35,6 +35,7 @@ from .body_schema_local import (
     log_likelihood,
     orthonormalize,
     pose_errors,
+    poses_from_xyzquat,
     relative_poses,
     se3_inv,
     visible_mask,
@@ -131,9 +132,12 @@ class StructureResult:
 
 
 def check_data(actions, poses):
-    """Validate and convert (t, m) actions and (t, p, 4, 4) poses (NaN = unobserved)."""
+    """Validate and convert (t, m) actions and (t, p, 4, 4) poses (NaN = unobserved); poses
+    may also be (t, p, 7) ``x y z qx qy qz qw`` rows."""
     actions = np.asarray(actions, float)
     poses = np.asarray(poses, float)
+    if poses.ndim == 3 and poses.shape[2] == 7:
+        poses = poses_from_xyzquat(poses)
     if actions.ndim != 2:
         raise ValueError(f"actions must be (t, n_actions), got shape {actions.shape}")
     if poses.ndim != 4 or poses.shape[2:] != (4, 4):
@@ -301,6 +305,9 @@ def _learn_structure(actions, poses, *, config: SearchConfig | None = None,
     mask = np.asarray(mask, bool)
     if mask.shape != (t, p):
         raise ValueError(f"mask must be ({t}, {p}), got {mask.shape}")
+    if t < config.min_train + config.min_test:
+        raise ValueError(f"too few samples for the structure search: {t} < min_train + "
+                         f"min_test = {config.min_train + config.min_test}")
     nodes = [i for i in range(p) if mask[:, i].sum() >= config.min_observations]
     if len(nodes) < 2:
         raise ValueError(f"need at least 2 observed parts (seen >= {config.min_observations} "

@@ -74,8 +74,12 @@ def test_bad_input_raises():
         learn_structure(A, Y[:, :, :3])
     with pytest.raises(ValueError, match="rows"):
         learn_structure(A[:5], Y)
-    with pytest.raises(ValueError, match="observed parts"):
+    with pytest.raises(ValueError, match="too few samples"):
         learn_structure(A[:2], Y[:2])
+    Y_one = Y.copy()
+    Y_one[:, 1:] = np.nan
+    with pytest.raises(ValueError, match="observed parts"):
+        learn_structure(A, Y_one)
     with pytest.raises(ValueError, match="2 samples"):
         LocalModel(0, 1, (), 2).fit(A[:1], Y[:1, 0])
     with pytest.raises(ValueError, match="different parts"):
@@ -237,3 +241,23 @@ def test_configs_load_from_yaml_and_reject_typos():
         yaml_load_typed(schema=SearchConfig, data="sigma_poz: 0.1\n")
     with pytest.raises(ValueError, match="validation"):
         SearchConfig(validation="kfold")
+
+
+def test_xyzquat_input_matches_matrices():
+    from mmlearn.models.body_schema_local import poses_from_xyzquat
+
+    arm = make_arm_2dof()
+    A, Y, _ = _data(arm, 20, 13, sigma_pos=0.01, sigma_orient=np.deg2rad(2), visibility=0.9)
+    # matrices -> x y z qx qy qz qw (via the rotation vector) -> matrices
+    rv = rotation_vector(np.nan_to_num(Y[..., :3, :3]))
+    ang = np.linalg.norm(rv, axis=-1, keepdims=True)
+    axis = rv / np.where(ang > 0, ang, 1)
+    P = np.concatenate([Y[..., :3, 3], axis * np.sin(ang / 2), np.cos(ang / 2)], axis=-1)
+    P[~np.isfinite(Y[..., 0, 0])] = np.nan
+    T = poses_from_xyzquat(P)
+    np.testing.assert_allclose(T[np.isfinite(T)], Y[np.isfinite(Y)], atol=1e-9)
+    r1 = learn_structure(A, Y, config=NOISY)
+    r2 = learn_structure(A, P, config=NOISY)
+    assert r1.edges() == r2.edges()
+    with pytest.raises(ValueError, match="too few samples"):
+        learn_structure(A[:4], Y[:4], config=NOISY)
