@@ -131,7 +131,7 @@ def plot_tracks(selections, path: str) -> None:
     for i, (f, tr, sel) in enumerate(selections):
         ax = fig.add_subplot(rows, cols, i + 1, projection="3d")
         P = tr.poses[:, :3]
-        ax.scatter(P[:, 0], P[:, 1], P[:, 2], s=3, c="tab:blue", label="observations")
+        ax.scatter(P[:, 0], P[:, 1], P[:, 2], s=2, c="tab:blue", alpha=0.3, label="observations")
         m = sel.best
         if m.dof == 0:
             Q = m.forward(None)[:, :3]
@@ -142,6 +142,13 @@ def plot_tracks(selections, path: str) -> None:
             Q = m.project(tr.poses)[:, :3]
         ax.plot(Q[:, 0], Q[:, 1], Q[:, 2], "r-" if m.dof == 1 else "r.", lw=2,
                 label=f"{m.name}")
+        # equal scaling on all axes (a cube around the data), so arcs look like arcs
+        allp = np.vstack([P, Q])
+        ctr = 0.5 * (allp.min(axis=0) + allp.max(axis=0))
+        half = 0.5 * max(float(np.max(np.ptp(allp, axis=0))), 1e-3)
+        ax.set_xlim(ctr[0] - half, ctr[0] + half)
+        ax.set_ylim(ctr[1] - half, ctr[1] + half)
+        ax.set_zlim(ctr[2] - half, ctr[2] + half)
         name = "/".join(str(f).replace("\\", "/").split("/")[-2:])
         extra = f" r={m.radius:.2f} m" if m.name == "revolute" else ""
         ax.set_title(f"{name}: {m.name}{extra}", fontsize=8)
