@@ -131,7 +131,8 @@ def plot_tracks(selections, path: str) -> None:
     for i, (f, tr, sel) in enumerate(selections):
         ax = fig.add_subplot(rows, cols, i + 1, projection="3d")
         P = tr.poses[:, :3]
-        ax.scatter(P[:, 0], P[:, 1], P[:, 2], s=2, c="tab:blue", alpha=0.3, label="observations")
+        ax.scatter(P[:, 0], P[:, 1], P[:, 2], s=2, c="tab:blue", alpha=0.3,
+                   label="observations")
         m = sel.best
         if m.dof == 0:
             Q = m.forward(None)[:, :3]
