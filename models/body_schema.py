@@ -113,6 +113,10 @@ def rotation_vector(R: np.ndarray) -> np.ndarray:
     return out
 
 
+def _trained(model) -> bool:
+    return not isinstance(model, LocalModel) or model.gp is not None
+
+
 class _Track:
     """A tracked local model with its sliding test window."""
 
@@ -407,7 +411,8 @@ class BodySchema:
 
     def _best_tree(self, valid_only: bool):
         uf = _UnionFind(self.nodes)
-        cands = [t for t in self.tracks if t.status != "training" or self._track_valid(t)]
+        cands = [t for t in self.tracks if _trained(t.model)
+                 and (t.status != "training" or self._track_valid(t))]
         key = []
         for t in cands:
             v = self._track_valid(t)
@@ -451,7 +456,7 @@ class BodySchema:
         # 1. test-then-train on the new sample
         for tr in self.tracks:
             m = tr.model
-            if seen[m.i] and seen[m.j]:
+            if seen[m.i] and seen[m.j] and _trained(m):
                 z = se3_inv(y[m.i]) @ y[m.j]
                 dp, dr = m.errors(a[None], z[None])
                 tr.errors.append((float(dp[0]), float(dr[0])))
