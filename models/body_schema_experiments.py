@@ -42,10 +42,14 @@ def prediction_errors(schema: BodySchema, arm: SimArm, actions, parts=None):
 
 def accuracy_curve(arm: SimArm, sizes, *, seed, sigma_pos: float = 0.0,
                    sigma_orient: float = 0.0, search: SearchConfig | None = None,
-                   occluded=(), visibility: float = 1.0, n_test: int = 200):
-    """For each training-set size: structure correct?, prediction error, observation error.
+                   occluded=(), visibility: float = 1.0, n_test: int = 200,
+                   n_control: int = 0):
+    """For each training-set size: structure correct?, prediction error, observation error
+    and (``n_control`` > 0) the positioning error of the last part when DLS on the learned
+    model drives it to ``n_control`` random reachable targets (true error, Fig. 3.10).
 
-    Returns a list of dicts(n, complete, correct, pos_err, rot_err, obs_pos_err, seconds)."""
+    Returns a list of dicts(n, complete, correct, pos_err, rot_err, obs_pos_err, seconds
+    [, control_err])."""
     import time
 
     rng = np.random.default_rng(seed)
@@ -69,9 +73,28 @@ def accuracy_curve(arm: SimArm, sizes, *, seed, sigma_pos: float = 0.0,
         dt = time.perf_counter() - t0
         ok = structure_correct(arm, res.tree, res.nodes) and res.complete
         pe, re = prediction_errors(schema, arm, At) if res.complete else (np.nan, np.nan)
-        out.append(dict(n=n, complete=res.complete, correct=ok, pos_err=pe, rot_err=re,
-                        obs_pos_err=obs_err, seconds=dt, edges=sorted(res.edges())))
+        row = dict(n=n, complete=res.complete, correct=ok, pos_err=pe, rot_err=re,
+                   obs_pos_err=obs_err, seconds=dt, edges=sorted(res.edges()))
+        if n_control and res.complete:
+            row["control_err"] = _positioning_error(schema, arm, At[:n_control])
+        out.append(row)
     return out
+
+
+def _positioning_error(schema, arm, q_targets):
+    """Mean true distance of the last part to targets reached by DLS on the learned model."""
+    ee = arm.n_parts - 1
+    r = schema.root
+    X = arm.forward(q_targets)
+    targets = (se3_inv(X[:, r]) @ X[:, ee])[:, :3, 3]
+    mid = 0.5 * (arm.action_low + arm.action_high)
+    err = []
+    for tgt in targets:
+        q, _ = schema.reach(mid, ee, tgt, max_iter=60, tol=1e-3, q_low=arm.action_low,
+                            q_high=arm.action_high, centering=0.05)
+        Xq = arm.forward(q)
+        err.append(np.linalg.norm((se3_inv(Xq[r]) @ Xq[ee])[:3, 3] - tgt))
+    return float(np.mean(err))
 
 
 def recovery_experiment(make_arm, failure: str, *, seed, n_block: int = 100,
