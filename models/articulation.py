@@ -475,7 +475,7 @@ class LinkModel:
             f0 = abs(fg(np.zeros(free.size))[0])
             # stop when an iteration gains less than ~1e-3 nats (|log L| scale-free ftol)
             res = minimize(fg, np.zeros(free.size), jac=True, method="L-BFGS-B",
-                           options={"maxiter": 60, "ftol": 1e-3 / max(f0, 1.0),
+                           options={"maxiter": 30, "ftol": 1e-3 / max(f0, 1.0),
                                     "gtol": 1e-3})
             u = np.zeros(p)
             u[free] = res.x
