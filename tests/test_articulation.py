@@ -270,3 +270,19 @@ def test_real_tracks_select_expected_models():
     assert 0.3 < res["dishwasher_005.log"].best.radius < 0.7
     for s in res.values():
         assert s.best.avg_pos_error_ < 0.01  # near the noise level
+
+
+def test_matrix_input_and_gp_variants():
+    tr = simulate_link("microwave", 40, rng=9)
+    T = as_pose_array(tr.Z).as_matrices()
+    a = RevoluteModel(obs=OBS).fit(tr.Z, rng=0)
+    b = RevoluteModel(obs=OBS).fit(T, rng=0)
+    assert b.radius == pytest.approx(a.radius, abs=1e-6)
+    assert np.allclose(b.inverse(T), a.inverse(tr.Z), atol=1e-9)
+    roll = simulate_link("rollup", 50, sigma_pos=0.005, rng=1)
+    obs = ObservationModel(0.005, np.deg2rad(2))
+    for name, dof in [("gp2", 2), ("gp-lle", 1)]:
+        m = make_model(name, obs=obs).fit(roll.Z, rng=0)
+        assert m.dof == dof and m.num_params_ == 1 + dof + 6 * 50
+        assert m.avg_pos_error_ < 0.02
+        assert m.jacobian(m.q_min[None]).shape == (1, 6, dof)
