@@ -53,6 +53,9 @@ __all__ = [
     "fit_structure",
     "pca_projection",
     "SEARCH_MODES",
+    "read_parts_csv",
+    "write_parts_csv",
+    "CSV_HEADER",
 ]
 
 SEARCH_MODES = ("tree", "local", "exhaustive")
@@ -594,3 +597,76 @@ def fit_structure(part_tracks, *, part_names=None, search: str = "local",
     return StructureResult(best=best, tree=tree, search=search, evaluated=order,
                            search_seconds=t2 - t1, fit_seconds=t1 - t0, part_names=names,
                            pair_models=pair_models)
+
+
+# --------------------------------------------------------------------------- CSV input
+CSV_HEADER = ("t", "part", "x", "y", "z", "qx", "qy", "qz", "qw")
+
+
+def read_parts_csv(path):
+    """Read part observations from CSV with header ``t,part,x,y,z,qx,qy,qz,qw`` (t in
+    seconds, one row per observed part per time step; a missing row = not observed).
+
+    Returns (part names in order of first appearance, times (T,), poses (p, T, 7) with NaN
+    for unobserved). Raises ValueError naming the file and line on bad input and
+    FileNotFoundError for a missing file."""
+    import csv
+    from pathlib import Path
+
+    p = Path(path)
+    if not p.is_file():
+        raise FileNotFoundError(f"{p}: file not found")
+    with open(p, newline="") as f:
+        rows = list(csv.reader(f))
+    rows = [(k + 1, r) for k, r in enumerate(rows) if r and any(c.strip() for c in r)]
+    if not rows:
+        raise ValueError(f"{p}: empty file")
+    header = tuple(c.strip().lower() for c in rows[0][1])
+    if header != CSV_HEADER:
+        raise ValueError(f"{p}:1: bad header {','.join(header)!r}; expected "
+                         f"{','.join(CSV_HEADER)!r}")
+    names, times, recs = [], [], []
+    for line, r in rows[1:]:
+        if len(r) != 9:
+            raise ValueError(f"{p}:{line}: expected 9 columns, got {len(r)}")
+        try:
+            t = float(r[0])
+            vals = [float(c) for c in r[2:]]
+        except ValueError:
+            raise ValueError(f"{p}:{line}: non-numeric value in {','.join(r)!r}") from None
+        if not (np.isfinite(t) and np.all(np.isfinite(vals))):
+            raise ValueError(f"{p}:{line}: NaN or infinite value")
+        if sum(v * v for v in vals[3:]) < 1e-12:
+            raise ValueError(f"{p}:{line}: zero quaternion")
+        part = r[1].strip()
+        if not part:
+            raise ValueError(f"{p}:{line}: empty part name")
+        if part not in names:
+            names.append(part)
+        times.append(t)
+        recs.append((line, t, part, vals))
+    if not recs:
+        raise ValueError(f"{p}: no observations")
+    tu = np.unique(np.asarray(times))
+    Y = np.full((len(names), tu.size, 7), np.nan)
+    for line, t, part, vals in recs:
+        k, i = names.index(part), int(np.searchsorted(tu, t))
+        if np.isfinite(Y[k, i, 0]):
+            raise ValueError(f"{p}:{line}: part {part!r} observed twice at t = {t}")
+        q = np.asarray(vals[3:])
+        Y[k, i] = np.concatenate([vals[:3], q / np.linalg.norm(q)])
+    return names, tu, Y
+
+
+def write_parts_csv(path, part_names, times, poses) -> None:
+    """Write (p, T, 7) poses (NaN = unobserved, skipped) in the format of
+    :func:`read_parts_csv`, atomically."""
+    from .articulation_io import atomic_write_text
+
+    Y = np.asarray(poses, float)
+    lines = [",".join(CSV_HEADER)]
+    for i, t in enumerate(np.asarray(times, float)):
+        for k, nm in enumerate(part_names):
+            if np.all(np.isfinite(Y[k, i])):
+                lines.append(f"{t:.6f},{nm}," + ",".join(f"{v:.9g}" for v in Y[k, i]))
+    atomic_write_text(path, "\n".join(lines) + "\n")

@@ -142,7 +142,7 @@ def _yardstick(closed: bool):
 def _table():
     links, frames, joints = [], [], []
     x, f = _link("floor", (0, 0, 0, 0, 0, 0), [((0, 0, -0.01), (4, 4, 0.02))],
-                 marker=((1.0, -1.0, 0.001), (0, 0, 0)), mass=50, rgba=(0.6, 0.6, 0.6, 1))
+                 marker=((0.6, -0.6, 0.001), (0, 0, 0)), mass=50, rgba=(0.6, 0.6, 0.6, 1))
     links.append(x), frames.append(f)
     for h in ("table_slider_x", "table_slider_y"):
         x, _ = _link(h, (0, 0, 0, 0, 0, 0), [((0, 0, 0), (0.001, 0.001, 0.001))], mass=0.01)
