@@ -261,6 +261,13 @@ def _stats(model, dp, dr, config, n_total):
     return valid, dict(pos_err=mp, rot_err=mr, loglik=loglik, q=q, n_test=len(dp))
 
 
+def _judge(model, config, rows, te, actions, Z, n_total):
+    if config.validation == "loo":
+        dp, dr = pose_errors(model.loo_predict(), Z)
+        return _stats(model, dp, dr, config, n_total)
+    return _evaluate(model, rows[te], actions, Z[te], config, n_total)
+
+
 def _evaluate(model, rows_te, actions, Z_te, config, n_total):
     dp, dr = model.errors(actions[rows_te], Z_te)
     return _stats(model, dp, dr, config, n_total)
@@ -368,11 +375,14 @@ def _learn_structure(actions, poses, *, config: SearchConfig | None = None,
                 model.fit(actions[rows[tr]], Z[tr], max_opt=config.max_opt,
                           noise_min=config.noise_min, n_restarts=0)
                 result.n_trained += 1
-                if config.validation == "loo":
-                    dp, dr = pose_errors(model.loo_predict(), Z)
-                    ok, st = _stats(model, dp, dr, config, t)
-                else:
-                    ok, st = _evaluate(model, rows[te], actions, Z[te], config, t)
+                ok, st = _judge(model, config, rows, te, actions, Z, t)
+                if not ok:
+                    # it passed the screening: a bad local optimum of the hyper-parameters
+                    # is the likely cause; retry once with an extra low-noise start
+                    model.fit(actions[rows[tr]], Z[tr], max_opt=config.max_opt,
+                              noise_min=config.noise_min, n_restarts=1)
+                    result.n_trained += 1
+                    ok, st = _judge(model, config, rows, te, actions, Z, t)
                 if ok:
                     valid_models.append(model)
                     valid_stats.append(st)
