@@ -162,7 +162,7 @@ def sample_mechanism(kind: str, rng: np.random.Generator | int | None = None) ->
                              handle_offset=u(0.05, 0.08), damping=u(0.5, 2.0),
                              friction=u(0.2, 0.8), limit=math.radians(90), pose=pose)
     if kind == "drawer":
-        depth = u(0.4, 0.55)
+        depth = u(0.5, 0.65)
         return MechanismSpec(kind=kind, width=u(0.35, 0.6), height=u(0.15, 0.25),
                              depth=depth, bottom=u(0.55, 0.75), damping=u(2.0, 8.0),
                              friction=u(0.5, 2.0), limit=0.9 * depth, pose=pose)

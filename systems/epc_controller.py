@@ -95,6 +95,7 @@ class EpcConfig:
         max_pull_time: give up pulling after this long, s.
         ik_damping: damping of the damped-least-squares IK.
         max_turn: largest change of the hook's orientation per period, rad.
+        side_offset: distance of the grip point beside the bar before it slides behind it, m.
         base_weight: cost of base motion relative to arm motion in the IK while pulling.
     """
 
@@ -118,12 +119,13 @@ class EpcConfig:
     ik_damping: float = 0.05
     base_weight: float = 4.0
     max_turn: float = 0.05
+    side_offset: float = 0.06
 
     def validate(self):
         for k in ("period", "step", "force_gain", "max_lead", "stop_force", "target_angle",
                   "target_distance", "approach_time", "depth_time", "slide_time",
                   "release_time", "drive_speed", "max_pull_time", "ik_damping", "base_weight",
-                  "max_turn"):
+                  "max_turn", "side_offset"):
             v = getattr(self, k)
             if not (math.isfinite(v) and v > 0):
                 raise ValueError(f"EpcConfig.{k} must be a positive number, got {v}")
@@ -372,14 +374,14 @@ class EpcController(LeafSystem):
             if elapsed >= T + 0.5:
                 self._next_phase(s, PREHOOK, t, G)
         elif s.phase == PREHOOK:
-            goal = H + 0.16 * task.normal + 0.11 * task.side
+            goal = H + 0.16 * task.normal + cfg.side_offset * task.side
             a = min(1.0, elapsed / cfg.approach_time)
             p = (1 - a) * s.start + a * goal
             q_cmd = self._ik(q_cmd, p, R_hook0, base=False)
             if elapsed >= cfg.approach_time + 0.5:
                 self._next_phase(s, DEPTH, t, goal)
         elif s.phase == DEPTH:
-            goal = H - 0.11 * task.normal + 0.11 * task.side
+            goal = H - 0.10 * task.normal + cfg.side_offset * task.side
             a = min(1.0, elapsed / cfg.depth_time)
             p = (1 - a) * s.start + a * goal
             touching = np.dot(F, task.normal) > 3.0
@@ -465,7 +467,7 @@ class EpcController(LeafSystem):
         if abs(np.dot(task.pull, task.normal)) > 0.5:
             u = -side  # pulling out of the front: the rod presses the bar's side
         else:
-            u = normal  # sliding: the finger presses the bar's back
+            u = -normal  # sliding: the finger presses against the front behind the bar
         u = _unit(u - np.dot(u, direction) * direction)
         f_perp = -np.dot(F, u)
         v_hook = cfg.force_gain * (cfg.force_target - f_perp) * u
@@ -477,16 +479,17 @@ class EpcController(LeafSystem):
         s.cep, s.direction, s.R = cep, direction, R
         q_cmd = self._ik(q_cmd, cep, R, base=True)
         # stop conditions
-        advanced = np.dot(G - s.last_G, direction)
+        moved = np.linalg.norm(G - s.last_G)
         pulling = np.dot(F, -direction)
-        s.stalled = s.stalled + 1 if (advanced < 0.2 * cfg.step
-                                      and pulling > cfg.stop_force) else 0
+        held_back = pulling > cfg.stop_force or (
+            np.linalg.norm(cep - G) > 0.9 * cfg.max_lead and pulling > 0.3 * cfg.stop_force)
+        s.stalled = s.stalled + 1 if (moved < 0.2 * cfg.step and held_back) else 0
         s.slack = s.slack + 1 if np.linalg.norm(F) < 1.0 else 0
         target = cfg.target_angle if s.model_name == "revolute" else cfg.target_distance
         done = None
         if s.model_name in ("revolute", "prismatic") and s.opening >= target:
             done = "target reached"
-        elif s.stalled >= 5:
+        elif s.stalled >= 8:
             done = "end of the configuration range"
         elif s.slack >= 15:
             done = "lost the handle"

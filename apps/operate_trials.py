@@ -1,0 +1,130 @@
+"""The thesis' experiment 4.4.2: five mechanisms x eight trials of opening while learning.
+
+    python -m mmlearn.apps.operate_trials --trials 8 --json
+
+Trials are independent and run in parallel processes (``--jobs``, default: all cores).
+"""
+
+import argparse
+import json
+import math
+import os
+import sys
+import time
+from concurrent.futures import ProcessPoolExecutor, as_completed
+
+import numpy as np
+
+from mmlearn.apps._common import progress
+from mmlearn.sdf.mechanisms import KINDS
+
+
+def _one(args):
+    kind, seed, max_time = args
+    from mmlearn.apps.open_cabinet import run
+
+    try:
+        return run(kind=kind, seed=seed, max_time=max_time, show_progress=False)
+    except Exception as e:  # a crashed trial is a failed trial, reported with its reason
+        return {"object": kind, "seed": seed, "success": False, "opened": 0.0,
+                "unit": "deg" if kind in ("left_door", "right_door", "dishwasher") else "m",
+                "outcome": f"error: {type(e).__name__}: {e}", "learned_model": None,
+                "radius_error_m": None, "axis_error_deg": None, "sim_seconds": 0.0,
+                "wall_seconds": 0.0}
+
+
+def summarize(trials: list[dict]) -> dict:
+    """Per-object success rate, mean opening and mean radius error."""
+    table = {}
+    for kind in dict.fromkeys(t["object"] for t in trials):
+        ts = [t for t in trials if t["object"] == kind]
+        radius = [t["radius_error_m"] for t in ts if t.get("radius_error_m") is not None]
+        axis = [t["axis_error_deg"] for t in ts if t.get("axis_error_deg") is not None]
+        table[kind] = {
+            "trials": len(ts),
+            "successes": sum(t["success"] for t in ts),
+            "mean_opened": float(np.mean([t["opened"] for t in ts])),
+            "unit": ts[0]["unit"],
+            "mean_radius_error_m": float(np.mean(radius)) if radius else None,
+            "max_radius_error_m": float(np.max(radius)) if radius else None,
+            "mean_axis_error_deg": float(np.mean(axis)) if axis else None,
+            "models": {m: sum(t["learned_model"] == m for t in ts)
+                       for m in dict.fromkeys(t["learned_model"] for t in ts)},
+        }
+    return table
+
+
+def run(*, objects=KINDS, trials: int = 8, seed: int = 0, jobs: int | None = None,
+        max_time: float = 60.0, show_progress: bool = True) -> dict:
+    for k in objects:
+        if k not in KINDS:
+            raise ValueError(f"unknown object {k!r}; choose from {', '.join(KINDS)}")
+    if trials < 1:
+        raise ValueError("trials must be >= 1")
+    jobs = jobs or os.cpu_count() or 1
+    work = [(k, seed + i, max_time) for k in objects for i in range(trials)]
+    t0 = time.perf_counter()
+    results = []
+    with ProcessPoolExecutor(max_workers=jobs) as pool:
+        futures = [pool.submit(_one, w) for w in work]
+        for f in progress(as_completed(futures), desc="trials", unit="trial",
+                          enabled=show_progress, total=len(futures)):
+            results.append(f.result())
+    order = {(k, s): i for i, (k, s, _) in enumerate(work)}
+    results.sort(key=lambda r: order[(r["object"], r["seed"])])
+    n_ok = sum(r["success"] for r in results)
+    return {"trials": results, "success_rate": n_ok / len(results), "successes": n_ok,
+            "total": len(results), "per_object": summarize(results),
+            "wall_seconds": round(time.perf_counter() - t0, 1)}
+
+
+def format_table(res: dict) -> str:
+    lines = [f"{'object':13s} {'success':>8s} {'mean opened':>12s} {'radius err (mean/max)':>22s}"
+             f" {'axis err':>9s}  models"]
+    for kind, row in res["per_object"].items():
+        op = f"{row['mean_opened']:.1f} {row['unit']}" if row["unit"] == "deg" else \
+            f"{row['mean_opened']:.3f} m"
+        rad = (f"{row['mean_radius_error_m']:.4f}/{row['max_radius_error_m']:.4f} m"
+               if row["mean_radius_error_m"] is not None else "-")
+        ax = (f"{row['mean_axis_error_deg']:.1f} deg"
+              if row["mean_axis_error_deg"] is not None else "-")
+        models = ", ".join(f"{m}:{c}" for m, c in row["models"].items())
+        lines.append(f"{kind:13s} {row['successes']:>3d}/{row['trials']:<4d} {op:>12s} "
+                     f"{rad:>22s} {ax:>9s}  {models}")
+    lines.append(f"overall: {res['successes']}/{res['total']} "
+                 f"({100 * res['success_rate']:.1f}%) in {res['wall_seconds']} s")
+    fails = [t for t in res["trials"] if not t["success"]]
+    for t in fails:
+        lines.append(f"  failed: {t['object']} seed {t['seed']}: opened {t['opened']:.2f} "
+                     f"{t['unit']} ({t['outcome']})")
+    return "\n".join(lines)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m mmlearn.apps.operate_trials",
+                                 description="Five mechanisms x N trials of opening while "
+                                             "learning (thesis 4.4.2).")
+    ap.add_argument("--trials", type=int, default=8, help="trials per object")
+    ap.add_argument("--objects", default=",".join(KINDS),
+                    help="comma-separated objects (default: all five)")
+    ap.add_argument("--seed", type=int, default=0, help="seed of the first trial")
+    ap.add_argument("--jobs", type=int, default=None, help="parallel processes")
+    ap.add_argument("--max-time", type=float, default=60.0)
+    ap.add_argument("--json", action="store_true")
+    args = ap.parse_args(argv)
+    try:
+        res = run(objects=[o for o in args.objects.split(",") if o], trials=args.trials,
+                  seed=args.seed, jobs=args.jobs, max_time=args.max_time,
+                  show_progress=not args.json)
+    except ValueError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    if args.json:
+        print(json.dumps(res))
+    else:
+        print(format_table(res))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
