@@ -116,15 +116,20 @@ def cabinet_scenario(n_first: int = 20, n_both: int = 40, *, sigma_pos: float = 
 
 
 def yardstick_scenario(closed: bool, n: int = 200, *, sigma_pos: float = 0.005,
-                       sigma_orient: float = np.deg2rad(3), rng=None) -> ObjectTrack:
+                       sigma_orient: float = np.deg2rad(3), staged: bool = False,
+                       rng=None) -> ObjectTrack:
     """Sec. 4.4.3: open chain (3 independent hinge angles uniform in [-1.2, 1.2] rad) or the
-    closed rhombus (opening angle uniform in [0.5, 2.6] rad)."""
+    closed rhombus (opening angle uniform in [0.5, 2.6] rad). ``staged`` (open chain): the
+    hinges start moving one after the other, at 1/4, 2/4 and 3/4 of the samples (Fig. 4.17a)."""
     rng = _gen(rng)
     if closed:
         q = yardstick_closed_configuration(rng.uniform(0.5, 2.6, n))
         name = "yardstick_closed"
     else:
         q = rng.uniform(-1.2, 1.2, (n, 3))
+        if staged:
+            for k in range(3):
+                q[: (k + 1) * n // 4, k] = 0.0
         name = "yardstick_open"
     return _track(name, q, sigma_pos, sigma_orient, rng)
 
