@@ -73,7 +73,7 @@ def select_link_model(Z, *, models=DEFAULT_CANDIDATES, obs: ObservationModel | N
         m = make_model(name, obs=obs, n_hypotheses=n_hypotheses)
         try:
             m.fit(pa, rng=rng)
-        except ValueError as e:
+        except (ValueError, np.linalg.LinAlgError) as e:
             if len(pa) < 3:
                 raise
             errs[m.name] = str(e)
@@ -258,7 +258,7 @@ def fit_kinematic_tree(part_tracks, *, part_names=None, models=DEFAULT_CANDIDATE
             try:
                 s = select_link_model(z, models=models, obs=obs, rng=rng,
                                       n_hypotheses=n_hypotheses)
-            except ValueError:
+            except (ValueError, np.linalg.LinAlgError):
                 continue
             sel[(i, j)] = s
             pair_bic[(i, j)] = dict(s.bic)
