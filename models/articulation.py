@@ -484,7 +484,7 @@ class LinkModel:
             g, _, _ = em_gamma(obs.log_inlier(ep2, eo), log_out, obs.gamma_weight,
                                gamma0=gamma, iters=30)
             new_gamma = float(g[0])
-            if abs(new_gamma - gamma) < 1e-4:
+            if abs(new_gamma - gamma) < 0.01:
                 gamma = new_gamma
                 break
             gamma = new_gamma
