@@ -11,6 +11,11 @@ Typical use::
     q_goal, info = schema.reach(q, part=4, target=p_goal)   # damped least squares
     status = schema.update(q_t, poses_t)      # one new observation: monitor and adapt
 
+Module layout: :mod:`.body_schema_local` (local GP models, SE(3) helpers),
+:mod:`.body_schema_search` (Algorithm 1), this module (the schema: prediction, control,
+adaptation), :mod:`.body_schema_experiments` (thesis Sec. 3.4 experiments) and
+:mod:`.kinematic_sim` (simulated arms).
+
 Poses are homogeneous (4, 4) matrices in metres; actions in the units of the action signals
 (rad / m); invisible parts are NaN matrices (or pass ``mask``).
 
@@ -51,7 +56,8 @@ from .body_schema_search import (
     learn_structure,
 )
 
-__all__ = ["BodySchema", "AdaptationConfig", "SearchConfig", "rotation_vector"]
+__all__ = ["BodySchema", "AdaptationConfig", "SearchConfig", "StructureResult", "LocalModel",
+           "EngineeredModel", "learn_structure", "rotation_vector"]
 
 
 @dataclass
