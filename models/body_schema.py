@@ -42,7 +42,6 @@ from .body_schema_local import (
     EngineeredModel,
     LocalModel,
     log_likelihood,
-    orthonormalize,
     poses_from_xyzquat,
     se3_inv,
     visible_mask,

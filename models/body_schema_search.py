@@ -23,7 +23,6 @@ complexity has the higher quality, made explicit so that it holds for every eta.
 """
 
 
-import contextlib
 from dataclasses import dataclass, field
 from itertools import combinations
 
