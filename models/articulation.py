@@ -29,8 +29,21 @@ M-step). The data log-likelihood (Eq. 4.31-4.32) is
 and BIC = -2 log L + k log n (Eq. 4.34).
 
 Fitting (Sec. 4.1.1): MLESAC on minimal samples (rigid 1, prismatic 2, revolute 3
-observations; all hypotheses scored at once, vectorised), then quasi-Newton refinement
-(scipy L-BFGS-B) of the mixture likelihood with gamma re-estimated by EM in between.
+observations; 100 hypotheses scored at once, vectorised, gamma by EM per hypothesis), a
+closed-form least-squares re-estimate on the consensus set (mean pose / principal axis / plane
++ circle fit; kept only if it scores better), then quasi-Newton refinement (scipy L-BFGS-B,
+gradient by batched forward differences, gauge freedoms of the revolute parametrisation held
+fixed) of the mixture likelihood with gamma re-estimated by EM in between.
+
+Where this deviates from or resolves the thesis text:
+
+- p(gamma) enters the likelihood once per track (read per observation, Eq. 4.15 would pull
+  gamma far below the true outlier ratio); w = 1 by default.
+- The uniform outlier density needs a volume the thesis does not give: see above.
+- Revolute f^-1 uses position and orientation (weighted circular mean), not only Eq. 4.22;
+  this also handles position-only tracks and small radii.
+- GP: 6 outputs (position + rotation vector about the mean orientation) instead of 12 matrix
+  entries; at most ``max_train`` (50) training points (k counts those); see GPModel.
 
 Configuration conventions: q = 0 at the first inlier observation of the training track and
 increases in the direction of motion; prismatic q in metres, revolute q in radians.
