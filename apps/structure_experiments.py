@@ -163,7 +163,7 @@ def _yardstick_obs():
 def exp_yardstick(*, quick, seed, progress, seeds=10, n=200):
     from mmlearn.diagrams.object_tracks import yardstick_scenario
 
-    seeds = 2 if quick else seeds
+    seeds = min(seeds, 2) if quick else seeds
     n = 60 if quick else n
     obs = _yardstick_obs()
     rows = []
