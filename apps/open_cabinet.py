@@ -28,25 +28,22 @@ def _angle_between(a, b) -> float:
     return math.degrees(math.acos(min(1.0, c)))
 
 
-def evaluate_model(link, track: np.ndarray, spec) -> dict:
-    """Compare the learned link model with the mechanism's true joint.
-
-    The true radius is the mean distance of the tracked hook positions from the true hinge
-    line (the learned circle is that of the hook's grip point, not of the handle bar)."""
+def evaluate_model(link, spec) -> dict:
+    """Compare the learned link model with the mechanism's true joint: axis direction and,
+    for a revolute joint, the radius of the handle bar's circle (the hook's seat, which the
+    estimator tracks, holds the bar's centre)."""
     axis_true, point = spec.axis_world()
     out = {"learned_model": None if link is None else link.name, "radius_m": None,
            "true_radius_m": None, "radius_error_m": None, "axis_error_deg": None}
     if link is None:
         return out
-    if link.name == "revolute":
-        d = track - point
-        d_perp = d - np.outer(d @ axis_true, axis_true)
-        r_true = float(np.linalg.norm(d_perp, axis=1).mean())
+    if link.name in ("revolute", "prismatic"):
+        out["axis_error_deg"] = _angle_between(link.axis, axis_true)
+    if link.name == "revolute" and spec.is_revolute:
+        d = spec.handle_world(0.0)[0] - point
+        r_true = float(np.linalg.norm(d - np.dot(d, axis_true) * axis_true))
         out.update(radius_m=float(link.radius), true_radius_m=r_true,
-                   radius_error_m=abs(float(link.radius) - r_true),
-                   axis_error_deg=_angle_between(link.axis, axis_true))
-    elif link.name == "prismatic":
-        out.update(axis_error_deg=_angle_between(link.axis, axis_true))
+                   radius_error_m=abs(float(link.radius) - r_true))
     return out
 
 
@@ -108,7 +105,7 @@ def run(*, kind: str = "left_door", seed: int = 0, meshcat=None, html_out: str =
         opened, unit, success = q, "m", q > SUCCESS_DISTANCE
     result = {"object": kind, "seed": seed, "success": bool(success), "opened": opened,
               "unit": unit, "outcome": ctrl.outcome or PHASE_NAMES[phase]}
-    result.update(evaluate_model(link, track, spec))
+    result.update(evaluate_model(link, spec))
     result.update({"estimated_opening": ctrl.opening, "track_length": int(track.shape[0]),
                    "sim_seconds": float(ctx.get_time()), "wall_seconds": round(wall, 3),
                    "realtime_factor": round(float(ctx.get_time() / wall), 2),

@@ -21,7 +21,9 @@ Phases (``phase`` output):
 6. DONE.
 
 The hook frame: its rod is the +z axis (from the wrist to the tip), its finger points
-along +x at the rod's tip. The grip point G is the finger's centre.
+along +x at the rod's tip. The reference point G is the hook's *seat*: where the centre of
+a 2 cm handle bar sits when the bar rests against both the rod and the finger. Its
+trajectory is what the estimator learns from, so the learned radius is the handle's.
 """
 
 import math
@@ -37,8 +39,8 @@ from pydrake.systems.framework import BasicVector, EventStatus, LeafSystem
 DRIVE, PREHOOK, DEPTH, SLIDE, PULL, RELEASE, DONE = range(7)
 PHASE_NAMES = ["drive", "prehook", "depth", "slide", "pull", "release", "done"]
 
-#: grip point (the finger's centre) in the hook body frame, m
-P_HOOK_GRIP = np.array([0.023, 0.0, 0.128])
+#: the hook's seat (centre of a seated 2 cm bar) in the hook body frame, m
+P_HOOK_GRIP = np.array([0.022, 0.0, 0.106])
 
 
 @dataclass
@@ -119,7 +121,7 @@ class EpcConfig:
     ik_damping: float = 0.05
     base_weight: float = 4.0
     max_turn: float = 0.05
-    side_offset: float = 0.06
+    side_offset: float = 0.07
 
     def validate(self):
         for k in ("period", "step", "force_gain", "max_lead", "stop_force", "target_angle",
@@ -152,6 +154,8 @@ class _State:
     stalled: int = 0
     slack: int = 0
     last_G: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    side_extra: float = 0.0
+    retries: int = 0
     outcome: str = ""
 
 
@@ -374,18 +378,25 @@ class EpcController(LeafSystem):
             if elapsed >= T + 0.5:
                 self._next_phase(s, PREHOOK, t, G)
         elif s.phase == PREHOOK:
-            goal = H + 0.16 * task.normal + cfg.side_offset * task.side
+            goal = H + 0.18 * task.normal + (cfg.side_offset + s.side_extra) * task.side
             a = min(1.0, elapsed / cfg.approach_time)
             p = (1 - a) * s.start + a * goal
             q_cmd = self._ik(q_cmd, p, R_hook0, base=False)
             if elapsed >= cfg.approach_time + 0.5:
                 self._next_phase(s, DEPTH, t, goal)
         elif s.phase == DEPTH:
-            goal = H - 0.10 * task.normal + cfg.side_offset * task.side
+            goal = H - 0.08 * task.normal + (cfg.side_offset + s.side_extra) * task.side
             a = min(1.0, elapsed / cfg.depth_time)
             p = (1 - a) * s.start + a * goal
             touching = np.dot(F, task.normal) > 3.0
-            if touching or elapsed >= cfg.depth_time:
+            if touching and np.dot(G - H, task.normal) > -0.02 and s.retries < 2:
+                # hit something in front of the front: the bar itself (the click was off
+                # sideways). Back out and come in again further to the side.
+                s.retries += 1
+                s.side_extra += 0.03
+                q_cmd = self._ik(q_cmd, G + 0.05 * task.normal, R_hook0, base=False)
+                self._next_phase(s, PREHOOK, t, G + 0.05 * task.normal)
+            elif touching or elapsed >= cfg.depth_time:
                 # back off from the front so the finger clears it and the bar
                 p = G + 0.012 * task.normal
                 s.goal = p.copy()
@@ -394,8 +405,9 @@ class EpcController(LeafSystem):
             else:
                 q_cmd = self._ik(q_cmd, p, R_hook0, base=False)
         elif s.phase == SLIDE:
+            # slide until the rod touches the bar (up to 3 cm past the clicked position)
             off = np.dot(s.start - H, task.side)
-            goal = s.start - (off - 0.01) * task.side
+            goal = s.start - (off + 0.03) * task.side
             a = min(1.0, elapsed / cfg.slide_time)
             p = (1 - a) * s.start + a * goal
             contact = np.dot(F, task.side) > 3.0
