@@ -192,7 +192,7 @@ def spanning_tree_edges(pair_models: dict, num_parts: int) -> tuple:
     G = nx.Graph()
     G.add_nodes_from(range(num_parts))
     for (i, j), s in pair_models.items():
-        G.add_edge(i, j, weight=float(s.best.bic_))
+        G.add_edge(i, j, weight=float(getattr(s, "best", s).bic_))
     if not nx.is_connected(G):
         comps = [sorted(c) for c in nx.connected_components(G)]
         raise ValueError(f"parts cannot be connected (too few common observations): {comps}")
@@ -285,7 +285,9 @@ class StructureResult:
         return {
             "parts": list(self.part_names),
             "edges": [{"a": self.part_names[i], "b": self.part_names[j], "model": b.models[(i, j)],
-                       "bic": float(self.pair_models[(i, j)].best.bic_)} for i, j in b.edges],
+                       "bic": float(getattr(self.pair_models[(i, j)], "best",
+                                            self.pair_models[(i, j)]).bic_)}
+                      for i, j in b.edges],
             "dof": int(b.dof),
             "has_loop": bool(b.has_loop),
             "bic": float(b.bic),
@@ -328,8 +330,9 @@ class KinematicGraphEvaluator:
         self.models = {}
         for key, s in pair_models.items():
             i, j = key
-            if not (0 <= i < self.p and 0 <= j < self.p and i != j):
-                raise ValueError(f"pair {key} is not a pair of the {self.p} parts")
+            if not (0 <= i < j < self.p):
+                raise ValueError(f"pair {key} is not a pair (i, j) with i < j of the {self.p} "
+                                 "parts (the model describes part j in the frame of part i)")
             m = getattr(s, "best", s)
             if not m.has_orientation:
                 raise ValueError(f"pair {key}: position-only link model; graphs need full poses")
@@ -495,7 +498,7 @@ def search_structure(evaluator: KinematicGraphEvaluator, tree_edges, *, search: 
 
     def ev(edges):
         e = evaluator.evaluate(edges, reduce_dofs=reduce_dofs)
-        if e not in order:
+        if not any(e is o for o in order):
             order.append(e)
         return e
 
