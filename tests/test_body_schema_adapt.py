@@ -124,3 +124,16 @@ def test_engineered_models_seed_the_structure_search():
     wrong = [m for m in bent.engineered_models() if (m.i, m.j) == (3, 4)]
     res = learn_structure(A, Y, config=CFG, seed_models=wrong)
     assert not any(isinstance(m, EngineeredModel) for m in res.tree)
+
+
+def test_bent_link_control_static_vs_adaptive_small():
+    """Table 3.2 in a small setting: a 45 deg bend ruins control with the static model; the
+    adapted model controls nearly as well as before."""
+    from mmlearn.models.body_schema_experiments import control_experiment
+    from mmlearn.models.kinematic_sim import make_arm_4dof
+
+    r = control_experiment(make_arm_4dof, seed=0, n_learn=60, n_waypoints=6, n_adapt=70)
+    assert r["intact_static"][0] < 0.02, r
+    assert r["bent_static"][0] > 0.08, r
+    assert r["bent_adaptive"][0] < 0.03, r
+    assert r["valid"]
