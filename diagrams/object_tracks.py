@@ -137,15 +137,15 @@ def yardstick_scenario(closed: bool, n: int = 200, *, sigma_pos: float = 0.005,
 def table_scenario(n_per_phase: int = 15, *, sigma_pos: float = 0.01,
                    sigma_orient: float = np.deg2rad(1), root_noise_scale: float = 0.1,
                    rng=None) -> ObjectTrack:
-    """Fig. 4.9: the table stands still, is pushed along x, then along a curve, then freely
-    over the floor (never turned). q = (x, y, yaw)."""
+    """Fig. 4.9: the table stands still, is pushed 0.8 m along x, then along a quarter circle
+    (r = 0.8 m), then freely over the floor (never turned). q = (x, y, yaw)."""
     rng = _gen(rng)
     m = n_per_phase
     s = np.linspace(0, 1, m)
     still = np.zeros((m, 2))
     line = np.stack([0.8 * s, np.zeros(m)], 1)
-    curve = np.stack([0.8 + 0.6 * np.sin(s * np.pi / 2), 0.6 - 0.6 * np.cos(s * np.pi / 2)], 1)
-    free = np.stack([rng.uniform(-0.5, 1.5, 2 * m), rng.uniform(-0.8, 1.0, 2 * m)], 1)
+    curve = np.stack([0.8 + 0.8 * np.sin(s * np.pi / 2), 0.8 - 0.8 * np.cos(s * np.pi / 2)], 1)
+    free = np.stack([rng.uniform(-0.5, 1.8, 2 * m), rng.uniform(-0.8, 1.2, 2 * m)], 1)
     xy = np.vstack([still, line, curve, free])
     q = np.hstack([xy, np.zeros((xy.shape[0], 1))])
     return _track("table", q, sigma_pos, sigma_orient, rng, scale=[root_noise_scale, 1.0])
