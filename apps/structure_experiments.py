@@ -256,7 +256,7 @@ def exp_dof_progress(*, quick, seed, progress):
         tr = yardstick_scenario(closed, n, staged=not closed, rng=seed)
         dofs = []
         for m in range(step, n + 1, step):
-            r = fit_structure(tr.poses[:, :m], search="tree", reduce_dofs=True, obs=obs,
+            r = fit_structure(tr.poses[:, :m], search="local", reduce_dofs=True, obs=obs,
                               rng=seed, models=PARAMETRIC if quick else
                               ("rigid", "prismatic", "revolute", "gp"))
             dofs.append((m, r.best.dof))

@@ -7,7 +7,8 @@ graphs with closed chains are evaluated the same way:
 
 1. Link configurations: for every edge (i, j) and time step t, q_ij^t = f_ij^-1(y_i^-1 y_j).
    Stacked over the edges they form q_links^t in R^{D_links} (Eq. 4.55).
-2. Object DOFs (optional, Eq. 4.56): PCA of the stacked configurations; for a candidate
+2. Object DOFs (optional, Eq. 4.56; for graphs with closed chains - a tree's DOFs are the sum
+   of its links' DOFs, Sec. 4.2): PCA of the stacked configurations; for a candidate
    object DOF D < D_links the configurations are replaced by their projection onto the first
    D principal components, q_links ~ mean + P^T P (q_links - mean), which costs
    k_PCA = D * D_links extra parameters.
@@ -22,8 +23,9 @@ graphs with closed chains are evaluated the same way:
    (n = number of time steps used: those where every part is observed).
 
 Structure search: ``tree`` = minimum spanning tree over the pairs' BICs (Eq. 4.40);
-``local`` = from that tree, repeatedly move to the best graph that adds or removes one edge
-(staying connected) while the BIC improves (never worse than the tree); ``exhaustive`` = every
+``local`` = from that tree, repeatedly move to a graph that adds or removes one edge
+(staying connected) and lowers the BIC (first improvement, candidates ordered by their link
+BICs), until no neighbour improves (never worse than the tree); ``exhaustive`` = every
 connected edge subset (a reference for small p; 38 graphs for p = 4).
 
 Poses are (T, 7) arrays x y z qx qy qz qw (metres) or (T, 4, 4); NaN rows = not observed.
@@ -435,15 +437,17 @@ class KinematicGraphEvaluator:
         bic = -2.0 * ll + k * np.log(self.n)
         return ll, k, bic, float(np.sqrt(ep2).mean()), float(eo.mean())
 
-    def evaluate(self, edges, *, reduce_dofs: bool = False) -> GraphEvaluation:
-        """Global BIC of the graph with the given edges (Eq. 4.47-4.54); with
-        ``reduce_dofs`` every object DOF D = 0..D_links is tried by PCA (Eq. 4.55-4.56) and
-        the lowest BIC is kept. Raises ValueError for edges without a pair model or a
-        disconnected graph."""
+    def evaluate(self, edges, *, reduce_dofs: bool = False,
+                 reduce_tree_dofs: bool = False) -> GraphEvaluation:
+        """Global BIC of the graph with the given edges (Eq. 4.47-4.54). With
+        ``reduce_dofs``, for a graph with a closed chain every object DOF D = 0..D_links is
+        tried by PCA (Eq. 4.55-4.56) and the lowest BIC is kept; a tree keeps D = D_links
+        (its links can be actuated independently, Sec. 4.2) unless ``reduce_tree_dofs``.
+        Raises ValueError for edges without a pair model or a disconnected graph."""
         import networkx as nx
 
         edges = tuple(sorted((min(e), max(e)) for e in edges))
-        key = (edges, bool(reduce_dofs))
+        key = (edges, bool(reduce_dofs), bool(reduce_tree_dofs))
         if key in self._cache:
             return self._cache[key]
         for e in edges:
@@ -461,7 +465,8 @@ class KinematicGraphEvaluator:
         results = {}
         ll, k, bic, ep, eo = self._score(edges, Q, D_links, 0)
         results[D_links] = (ll, k, bic, ep, eo, None)
-        if reduce_dofs and D_links > 0:
+        loop = len(edges) > self.p - 1
+        if reduce_dofs and D_links > 0 and (loop or reduce_tree_dofs):
             for D in range(D_links - 1, -1, -1):
                 Qh, P, _, _ = pca_projection(Q, D)
                 ll, k, bic, ep, eo = self._score(edges, Qh, D, D * D_links)
@@ -488,16 +493,25 @@ def _connected(edges, p) -> bool:
 
 
 def search_structure(evaluator: KinematicGraphEvaluator, tree_edges, *, search: str = "local",
-                     reduce_dofs: bool = False, max_steps: int = 100):
+                     reduce_dofs: bool = False, reduce_tree_dofs: bool = False,
+                     strategy: str = "first", max_steps: int = 100):
     """Search the graph space from ``tree_edges``. Returns (best, tree evaluation, list of
-    evaluated graphs in order)."""
+    evaluated graphs in order).
+
+    Local search: the neighbours of the current graph (add one edge, the pairs with the
+    lowest link BIC first; remove one edge, keeping the graph connected, the highest link
+    BIC first) are evaluated in that order; ``strategy="first"`` moves to the first
+    neighbour that lowers the BIC, ``"best"`` evaluates all neighbours and moves to the
+    best. Stops when no neighbour improves, so the result is never worse than the tree."""
+    if strategy not in ("first", "best"):
+        raise ValueError(f"unknown local-search strategy {strategy!r}; use 'first' or 'best'")
     if search not in SEARCH_MODES:
         raise ValueError(f"unknown search {search!r}; choose from {', '.join(SEARCH_MODES)}")
     p = evaluator.p
     order = []
 
     def ev(edges):
-        e = evaluator.evaluate(edges, reduce_dofs=reduce_dofs)
+        e = evaluator.evaluate(edges, reduce_dofs=reduce_dofs, reduce_tree_dofs=reduce_tree_dofs)
         if not any(e is o for o in order):
             order.append(e)
         return e
@@ -516,24 +530,31 @@ def search_structure(evaluator: KinematicGraphEvaluator, tree_edges, *, search: 
                 if e.bic < best.bic:
                     best = e
         return best, tree, order
+    # neighbours: add one edge (best pair models first) or remove one edge (worst first)
+    cost = {e: float(getattr(m, "bic_", np.nan)) for e, m in evaluator.models.items()}
     cur = tree
     for _ in range(max_steps):
-        cand = []
         cur_set = set(cur.edges)
-        for e in pairs:
-            if e not in cur_set:
-                cand.append(tuple(sorted(cur_set | {e})))
-        for e in cur.edges:
+        cand = [tuple(sorted(cur_set | {e}))
+                for e in sorted((e for e in pairs if e not in cur_set), key=cost.get)]
+        for e in sorted(cur.edges, key=cost.get, reverse=True):
             rest = tuple(sorted(cur_set - {e}))
             if len(rest) >= p - 1 and _connected(rest, p):
                 cand.append(rest)
         if not cand:
             break
-        evs = [ev(c) for c in cand]
-        nb = min(evs, key=lambda x: x.bic)
-        if nb.bic < cur.bic - 1e-9:
-            cur = nb
+        moved = False
+        if strategy == "first":
+            for c in cand:
+                e = ev(c)
+                if e.bic < cur.bic - 1e-9:
+                    cur, moved = e, True
+                    break
         else:
+            nb = min((ev(c) for c in cand), key=lambda x: x.bic)
+            if nb.bic < cur.bic - 1e-9:
+                cur, moved = nb, True
+        if not moved:
             break
     return cur, tree, order
 
@@ -553,7 +574,8 @@ def _tree_from_links(edges, pair_models, p) -> GraphEvaluation:
 
 
 def fit_structure(part_tracks, *, part_names=None, search: str = "local",
-                  reduce_dofs: bool = False, models=DEFAULT_CANDIDATES,
+                  reduce_dofs: bool = False, reduce_tree_dofs: bool = False,
+                  models=DEFAULT_CANDIDATES,
                   obs: ObservationModel | None = None, rng=None, min_common: int = 5,
                   n_hypotheses: int = 100, stiffness: float = 30.0,
                   pair_models: dict | None = None) -> StructureResult:
@@ -564,7 +586,9 @@ def fit_structure(part_tracks, *, part_names=None, search: str = "local",
             unobserved).
         part_names: names of the parts (default part0, part1, ...).
         search: "tree", "local" or "exhaustive".
-        reduce_dofs: estimate the object DOFs by PCA (Eq. 4.55-4.56).
+        reduce_dofs: estimate the DOFs of graphs with closed chains by PCA (Eq. 4.55-4.56).
+        reduce_tree_dofs: also try PCA DOF reduction on trees (not in the thesis: a tree with
+            PCA-coupled links explains a loop as well as the loop graph, with fewer links).
         models: candidate link models per pair.
         obs: observation noise model (sigma_pos m, sigma_orient rad).
         rng: Generator or seed (MLESAC sampling of the link models).
@@ -595,7 +619,8 @@ def fit_structure(part_tracks, *, part_names=None, search: str = "local",
     else:
         evaluator = KinematicGraphEvaluator(Y, pair_models, obs=obs, stiffness=stiffness)
         best, tree, order = search_structure(evaluator, tree_edges, search=search,
-                                             reduce_dofs=reduce_dofs)
+                                             reduce_dofs=reduce_dofs,
+                                             reduce_tree_dofs=reduce_tree_dofs)
     t2 = time.perf_counter()
     return StructureResult(best=best, tree=tree, search=search, evaluated=order,
                            search_seconds=t2 - t1, fit_seconds=t1 - t0, part_names=names,

@@ -36,8 +36,10 @@ def test_open_yardstick_three_dof_chain(open_stick):
     assert r.best.dof == 3
     assert set(r.best.edges) == {(0, 1), (1, 2), (2, 3)}
     assert all(m == "revolute" for m in r.best.models.values())
-    # fewer DOFs cannot explain three independent hinges: BIC rises steeply
-    b = r.best.bic_per_dof
+    # PCA with fewer DOFs cannot explain three independent hinges: BIC rises steeply
+    ev = KinematicGraphEvaluator(tr.poses, pm, obs=OBS)
+    b = ev.evaluate(r.best.edges, reduce_dofs=True, reduce_tree_dofs=True).bic_per_dof
+    assert min(b, key=b.get) == 3
     assert b[2] > b[3] + 1000 and b[0] > b[2]
     # optimised poses stay within the noise of the observations
     assert r.best.pos_error_m < 3 * 0.005 * np.sqrt(3)
@@ -47,7 +49,12 @@ def test_closed_yardstick_one_dof(closed_stick):
     tr, pm = closed_stick
     r = fit_structure(tr.poses, search="local", reduce_dofs=True, obs=OBS, pair_models=pm)
     assert r.best.dof == 1
-    assert r.best.bic <= r.tree.bic  # never worse than the spanning tree
+    # the four revolute links of the loop (Fig. 4.16, right column)
+    assert r.best.has_loop
+    assert set(r.best.edges) == {(0, 1), (1, 2), (2, 3), (0, 3)}
+    assert all(m == "revolute" for m in r.best.models.values())
+    assert r.tree.dof == 3  # a tree's DOFs are the sum of its links' DOFs
+    assert r.best.bic < r.tree.bic - 1000  # never worse than the spanning tree
     # without DOF reduction the same graph needs D_links DOFs and is far worse
     ev = KinematicGraphEvaluator(tr.poses, pm, obs=OBS)
     full = ev.evaluate(r.best.edges)
@@ -64,6 +71,16 @@ def test_local_search_close_to_exhaustive(closed_stick):
     assert exh.best.bic <= loc.best.bic <= loc.tree.bic
     assert (loc.best.bic - exh.best.bic) / abs(exh.best.bic) < 0.05
     assert exh.best.dof == 1
+    # the "best" strategy evaluates whole neighbourhoods and ends at least as well
+    best = fit_structure(tr.poses, search="local", reduce_dofs=True, obs=OBS, pair_models=pm)
+    from mmlearn.models.articulation_graph import search_structure
+
+    ev = KinematicGraphEvaluator(tr.poses, pm, obs=OBS)
+    b2, _, order = search_structure(ev, loc.tree.edges, search="local", reduce_dofs=True,
+                                    strategy="best")
+    assert b2.bic <= best.best.bic + 1e-6 and len(order) >= len(loc.evaluated)
+    with pytest.raises(ValueError, match="strategy"):
+        search_structure(ev, loc.tree.edges, strategy="random")
 
 
 def test_loop_graph_with_wrong_edge_is_worse(closed_stick):

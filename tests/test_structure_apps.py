@@ -45,8 +45,8 @@ def test_fit_structure_closed_yardstick(closed_csv, tmp_path):
     out = json.loads(r.stdout)
     assert set(out) == {"parts", "edges", "dof", "has_loop", "bic", "seconds"}
     assert out["parts"] == ["seg1", "seg2", "seg3", "seg4"]
-    assert out["dof"] == 1
-    assert len(out["edges"]) >= 3
+    assert out["dof"] == 1 and out["has_loop"] is True
+    assert len(out["edges"]) == 4
     assert all(set(e) == {"a", "b", "model", "bic"} for e in out["edges"])
     assert all(e["model"] == "revolute" for e in out["edges"])
     assert png.stat().st_size > 1000
