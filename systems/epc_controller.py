@@ -121,7 +121,7 @@ class EpcConfig:
     ik_damping: float = 0.05
     base_weight: float = 4.0
     max_turn: float = 0.05
-    side_offset: float = 0.07
+    side_offset: float = 0.055
 
     def validate(self):
         for k in ("period", "step", "force_gain", "max_lead", "stop_force", "target_angle",
@@ -389,16 +389,25 @@ class EpcController(LeafSystem):
             a = min(1.0, elapsed / cfg.depth_time)
             p = (1 - a) * s.start + a * goal
             touching = np.dot(F, task.normal) > 3.0
-            if touching and np.dot(G - H, task.normal) > -0.02 and s.retries < 2:
+            # the finger touches the front with the seat ~0.036 m behind the bar's centre,
+            # the bar itself ~0.044 m in front of it (+-0.02 m click error): split at 0
+            if touching and np.dot(G - H, task.normal) > 0.0 and s.retries < 2:
                 # hit something in front of the front: the bar itself (the click was off
                 # sideways). Back out and come in again further to the side.
                 s.retries += 1
-                s.side_extra += 0.03
+                s.side_extra += 0.02
                 q_cmd = self._ik(q_cmd, G + 0.05 * task.normal, R_hook0, base=False)
                 self._next_phase(s, PREHOOK, t, G + 0.05 * task.normal)
+            elif (not touching and np.dot(G - H, task.normal) < -0.065 and s.retries < 2):
+                # deeper than the front without touching it: the finger passed the front's
+                # free edge. Back out and come in again closer to the bar.
+                s.retries += 1
+                s.side_extra -= 0.02
+                q_cmd = self._ik(q_cmd, G + 0.12 * task.normal, R_hook0, base=False)
+                self._next_phase(s, PREHOOK, t, G + 0.12 * task.normal)
             elif touching or elapsed >= cfg.depth_time:
                 # back off from the front so the finger clears it and the bar
-                p = G + 0.012 * task.normal
+                p = G + 0.018 * task.normal
                 s.goal = p.copy()
                 q_cmd = self._ik(q_cmd, p, R_hook0, base=False)
                 self._next_phase(s, SLIDE, t, p)
@@ -410,7 +419,10 @@ class EpcController(LeafSystem):
             goal = s.start - (off + 0.03) * task.side
             a = min(1.0, elapsed / cfg.slide_time)
             p = (1 - a) * s.start + a * goal
-            contact = np.dot(F, task.side) > 3.0
+            # the rod touches the bar: a side force once the seat is near the clicked bar
+            # (friction on the front while sliding also pushes along +side)
+            near = abs(np.dot(G - H, task.side)) < 0.04
+            contact = near and np.dot(F, task.side) > 3.0
             q_cmd = self._ik(q_cmd, p, R_hook0, base=False)
             if contact or elapsed >= cfg.slide_time + 0.3:
                 s.cep = G.copy()
