@@ -86,7 +86,8 @@ def main(argv=None) -> int:
     ap.add_argument("file", help="CSV file t,part,x,y,z,qx,qy,qz,qw")
     ap.add_argument("--search", default="local", choices=SEARCH_MODES,
                     help="structure search (default: local)")
-    ap.add_argument("--reduce-dofs", action="store_true", help="estimate object DOFs by PCA")
+    ap.add_argument("--reduce-dofs", action="store_true",
+                    help="estimate the DOFs of graphs with loops by PCA (Eq. 4.55-4.56)")
     ap.add_argument("--models", default=",".join(DEFAULT_CANDIDATES),
                     help="candidate link models (comma separated)")
     ap.add_argument("--sigma-pos", type=float, default=0.01, help="position noise, m")
