@@ -239,11 +239,18 @@ def mechanism_sdf(spec: MechanismSpec, *, model_name: str = "mechanism") -> str:
     links.append(f"<link name='front'><pose>{_fmt(o)} 0 0 0</pose>"
                  f"{_panel_inertia(mass, pc, (pt, W, H))}{geo}</link>")
     jtype = "revolute" if s.is_revolute else "prismatic"
+    spring = ""
+    if s.kind == "dishwasher":
+        # counterbalance springs, as real dishwasher doors have: a torsion spring that
+        # matches the door's weight torque (m g h/2 sin q) at 90 degrees
+        k = mass * 9.81 * (H / 2) / (math.pi / 2)
+        spring = (f"<spring_reference>0</spring_reference>"
+                  f"<spring_stiffness>{k:.6g}</spring_stiffness>")
     joint = (
         f"<joint name='mechanism' type='{jtype}'><parent>carcass</parent><child>front</child>"
         f"<axis><xyz>{_fmt(s.joint_axis_F())}</xyz><limit><lower>0</lower>"
         f"<upper>{s.limit:.6g}</upper><effort>0</effort></limit>"
-        f"<dynamics><damping>{s.damping:.6g}</damping></dynamics></axis></joint>"
+        f"<dynamics><damping>{s.damping:.6g}</damping>{spring}</dynamics></axis></joint>"
         "<joint name='carcass_weld' type='fixed'><parent>world</parent><child>carcass</child>"
         "</joint>"
     )
