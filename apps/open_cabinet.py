@@ -67,6 +67,11 @@ def run(*, kind: str = "left_door", seed: int = 0, meshcat=None, html_out: str =
         meshcat = make_meshcat()
     op = MakeOperateDiagram(cfg, meshcat=meshcat)
     d = op.diagram
+    if meshcat is not None:
+        # look at the mechanism from behind and beside the robot's stance
+        h, n = op.task.handle, op.task.normal
+        side = np.cross([0, 0, 1.0], n)
+        meshcat.SetCameraPose(h + 1.8 * n + 1.2 * side + np.array([0, 0, 0.9]), h)
     simulator = Simulator(d)
     ctx = simulator.get_mutable_context()
     op.scene.set_joint_positions(ctx, op.start_command)

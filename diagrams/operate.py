@@ -14,6 +14,7 @@ from mmlearn.sdf.mechanisms import KINDS, MechanismSpec, sample_mechanism
 from mmlearn.systems import MarkerSensorConfig
 from mmlearn.systems.articulation_estimator import ArticulationEstimator
 from mmlearn.systems.epc_controller import EpcConfig, EpcController, EpcTask
+from mmlearn.systems.model_visualizer import LearnedModelVisualizer
 from mmlearn.systems.wrist_force_sensor import WristForceSensor
 
 from .scene import MakeSceneDiagram, SceneConfig
@@ -127,6 +128,11 @@ def MakeOperateDiagram(config: OperateConfig | None = None, *, meshcat=None) -> 
     builder.Connect(epc.get_hook_position_output_port(),
                     estimator.get_input_port_observations())
     builder.Connect(epc.get_command_output_port(), sd.GetInputPort("command"))
+    if meshcat is not None:
+        vis = builder.AddNamedSystem("learned_model_visualizer",
+                                     LearnedModelVisualizer(meshcat=meshcat))
+        builder.Connect(estimator.GetOutputPort("object_model"),
+                        vis.get_object_model_input_port())
     builder.ExportOutput(sd.GetOutputPort("mechanism_state"), "mechanism_state")
     builder.ExportOutput(sd.GetOutputPort("robot_state"), "robot_state")
     builder.ExportOutput(epc.GetOutputPort("phase"), "phase")

@@ -125,8 +125,8 @@ def _finite_limits(lo, hi, default=2.6):
 def MakeSceneDiagram(config: SceneConfig | None = None, *, meshcat=None):
     """Build the scene diagram.
 
-    Exported ports: input ``command`` (commanded joint positions, see
-    :class:`Scene`); outputs ``observations`` (MarkerObservations), ``marker_stats``,
+    Exported ports: inputs ``command`` (commanded joint positions, see
+    :class:`Scene`) and ``applied_spatial_force`` (the plant's, optional); outputs ``observations`` (MarkerObservations), ``marker_stats``,
     ``robot_state``, ``cabinet_state`` / ``mechanism_state`` (when there is one),
     ``body_poses``, ``reaction_forces``, ``query_object``.
 
@@ -246,6 +246,7 @@ def MakeSceneDiagram(config: SceneConfig | None = None, *, meshcat=None):
     builder.ExportOutput(plant.get_state_output_port(robot), "robot_state")
     builder.ExportOutput(plant.get_body_poses_output_port(), "body_poses")
     builder.ExportOutput(plant.get_reaction_forces_output_port(), "reaction_forces")
+    builder.ExportInput(plant.get_applied_spatial_force_input_port(), "applied_spatial_force")
     builder.ExportOutput(scene_graph.get_query_output_port(), "query_object")
 
     visualizer = None
