@@ -1,0 +1,90 @@
+import json
+import math
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from mmlearn.apps import open_cabinet, operate_trials
+from mmlearn.systems.epc_controller import EpcConfig, EpcTask, hook_rotation
+
+
+def test_hook_rotation_points_the_rod_into_the_front_and_the_finger_behind_the_bar():
+    n, side = np.array([1.0, 0, 0]), np.array([0, 1.0, 0])
+    R = hook_rotation(n, side)
+    np.testing.assert_allclose(R.T @ R, np.eye(3), atol=1e-12)
+    assert np.linalg.det(R) == pytest.approx(1.0)
+    np.testing.assert_allclose(R[:, 2], -n)      # rod
+    np.testing.assert_allclose(R[:, 0], -side)   # finger
+
+
+def test_task_and_config_validation():
+    ok = dict(handle=[0, 0, 1], normal=[2, 0, 0], bar=[0, 0, 1], pull=[1, 0, 0], side=[0, 1, 0])
+    t = EpcTask(**ok)
+    np.testing.assert_allclose(t.normal, [1, 0, 0])  # normalised
+    with pytest.raises(ValueError, match="handle"):
+        EpcTask(**{**ok, "handle": [0, np.nan, 1]})
+    with pytest.raises(ValueError, match="side"):
+        EpcTask(**{**ok, "side": [0, 0, 0]})
+    with pytest.raises(ValueError, match="step"):
+        EpcConfig(step=-0.01).validate()
+
+
+@pytest.mark.parametrize("kind,seed", [("left_door", 2), ("drawer", 1)])
+def test_opens_with_the_learned_model(kind, seed):
+    r = open_cabinet.run(kind=kind, seed=seed, show_progress=False)
+    assert r["success"], r
+    if kind == "left_door":
+        assert r["learned_model"] == "revolute"
+        assert r["opened"] > 70.0                 # degrees
+        assert r["radius_error_m"] < 0.015
+        assert r["axis_error_deg"] < 3.0
+    else:
+        assert r["learned_model"] == "prismatic"
+        assert r["opened"] > 0.45                 # metres
+        assert r["axis_error_deg"] < 3.0
+    # the controller stopped by itself (target or end of the range), not by the time limit
+    assert r["outcome"] in ("target reached", "end of the configuration range")
+    assert r["sim_seconds"] < 40
+
+
+def test_open_cabinet_cli(tmp_path):
+    r = subprocess.run([sys.executable, "-m", "mmlearn.apps.open_cabinet", "--help"],
+                       capture_output=True, text=True, cwd=tmp_path)
+    assert r.returncode == 0 and "--object" in r.stdout and "sliding_door" in r.stdout
+    r = subprocess.run([sys.executable, "-m", "mmlearn.apps.open_cabinet", "--object",
+                        "sliding_door", "--seed", "1", "--json"], capture_output=True,
+                       text=True, cwd=tmp_path, timeout=600)
+    assert r.returncode == 0, r.stderr
+    res = json.loads(r.stdout)
+    for key in ("object", "success", "opened", "unit", "learned_model", "axis_error_deg",
+                "sim_seconds", "wall_seconds"):
+        assert key in res
+    assert res["object"] == "sliding_door" and res["unit"] == "m"
+    assert res["success"] and res["opened"] > 0.3
+    r = subprocess.run([sys.executable, "-m", "mmlearn.apps.open_cabinet", "--object",
+                        "trapdoor"], capture_output=True, text=True, cwd=tmp_path)
+    assert r.returncode == 2 and "trapdoor" in r.stderr
+
+
+def test_trials_summary_table():
+    trials = [
+        {"object": "left_door", "seed": 0, "success": True, "opened": 80.0, "unit": "deg",
+         "outcome": "target reached", "learned_model": "revolute", "radius_error_m": 0.004,
+         "axis_error_deg": 0.2},
+        {"object": "left_door", "seed": 1, "success": False, "opened": 20.0, "unit": "deg",
+         "outcome": "lost the handle", "learned_model": "prismatic", "radius_error_m": None,
+         "axis_error_deg": 3.0},
+    ]
+    s = operate_trials.summarize(trials)["left_door"]
+    assert s["successes"] == 1 and s["mean_opened"] == pytest.approx(50.0)
+    assert s["mean_radius_error_m"] == pytest.approx(0.004)
+    assert s["models"] == {"revolute": 1, "prismatic": 1}
+    text = operate_trials.format_table({"trials": trials, "per_object": {"left_door": s},
+                                        "successes": 1, "total": 2, "success_rate": 0.5,
+                                        "wall_seconds": 1.0})
+    assert "1/2" in text and "lost the handle" in text
+    with pytest.raises(ValueError, match="unknown object"):
+        operate_trials.run(objects=["trapdoor"], trials=1)
+    assert math.isclose(operate_trials.summarize(trials)["left_door"]["mean_axis_error_deg"], 1.6)
