@@ -2,12 +2,14 @@
 
     python benchmarks/bench_articulation.py [--repeats 7] [--seed 0] [--json]
 
-Measures (median and minimum wall-clock over repeats, single process):
+Measures (median and minimum wall-clock and process CPU time over repeats, single process;
+on a shared machine the CPU time is the figure to compare with the targets: wall-clock also
+counts the time other users' processes hold the cores):
 
 - fitting + selecting all four candidates (rigid, prismatic, revolute, gp) for one link of
   n = 30 and n = 200 observations (simulated microwave door and drawer, sigma 2 mm / 2 deg);
   targets: < 20 ms (n = 30) and < 100 ms (n = 200);
-- the per-model fit time;
+- the per-model fit (CPU) time;
 - a 6-part kinematic tree (15 pairs) at n = 100; target < 1 s;
 - one GP forward + Jacobian query (control-loop use).
 
@@ -80,7 +82,7 @@ def six_part_object(T: int, seed: int = 0):
 
 
 def run(*, repeats: int = 7, seed: int = 0) -> dict:
-    res = {"select": {}, "per_model_ms": {}, "tree": {}, "gp_query_ms": None,
+    res = {"select": {}, "per_model_cpu_ms": {}, "tree": {}, "gp_query_ms": None,
            "load_average": list(os.getloadavg()) if hasattr(os, "getloadavg") else None}
     for n in (30, 200):
         for kind in ("microwave", "drawer"):
@@ -88,18 +90,18 @@ def run(*, repeats: int = 7, seed: int = 0) -> dict:
             med, mn, sel = _time(lambda: select_link_model(tr.Z, obs=OBS, rng=seed), repeats)
             res["select"][f"{kind}_n{n}"] = {"median_ms": 1e3 * med, "min_ms": 1e3 * mn,
                                              "cpu_median_ms": 1e3 * float(np.median(_CPU)),
+                                             "cpu_min_ms": 1e3 * float(np.min(_CPU)),
                                              "selected": sel.selected}
             per = {}
             for name in ("rigid", "prismatic", "revolute", "gp"):
-                m_med, _, _ = _time(lambda: make_model(name, obs=OBS).fit(tr.Z, rng=seed),
-                                    repeats)
-                per[name] = 1e3 * m_med
-            res["per_model_ms"][f"{kind}_n{n}"] = per
+                _time(lambda: make_model(name, obs=OBS).fit(tr.Z, rng=seed), repeats)
+                per[name] = 1e3 * float(np.median(_CPU))
+            res["per_model_cpu_ms"][f"{kind}_n{n}"] = per
     parts = six_part_object(100, seed)
     med, mn, obj = _time(lambda: fit_kinematic_tree(parts, obs=OBS, rng=seed),
                          max(1, repeats // 3))
     res["tree"] = {"parts": 6, "pairs": 15, "n": 100, "median_s": med, "min_s": mn,
-                   "cpu_median_s": float(np.median(_CPU)),
+                   "cpu_median_s": float(np.median(_CPU)), "cpu_min_s": float(np.min(_CPU)),
                    "dof": obj.dof,
                    "edges": [(e.parent, e.child, e.model.name) for e in obj.edges]}
     tr = simulate_link("rollup", 100, sigma_pos=0.01, rng=seed)
@@ -124,19 +126,20 @@ def main(argv=None):
     if la:
         print(f"load average at start: {la[0]:.2f} {la[1]:.2f} {la[2]:.2f} "
               f"({os.cpu_count()} cores; other users' load inflates wall-clock times)")
-    print("select all four candidates (ms)  wall median   wall min  cpu median  selected"
-          "   target")
+    print("select all four candidates (ms)  wall median   wall min  cpu median   cpu min  "
+          "selected   target")
     for k, v in res["select"].items():
         tgt = "< 20 ms" if k.endswith("n30") else "< 100 ms"
         print(f"  {k:28s} {v['median_ms']:9.1f} {v['min_ms']:10.1f} {v['cpu_median_ms']:11.1f}"
-              f"  {v['selected']:9s}  {tgt}")
-    print("per-model fit (median ms)   rigid  prismatic  revolute      gp")
-    for k, v in res["per_model_ms"].items():
+              f" {v['cpu_min_ms']:9.1f}  {v['selected']:9s}  {tgt}")
+    print("per-model fit (cpu median ms) rigid  prismatic  revolute      gp")
+    for k, v in res["per_model_cpu_ms"].items():
         print(f"  {k:24s} {v['rigid']:7.1f} {v['prismatic']:10.1f} {v['revolute']:9.1f} "
               f"{v['gp']:7.1f}")
     t = res["tree"]
     print(f"6-part tree (15 pairs, n = 100): wall median {t['median_s']:.3f} s, min "
-          f"{t['min_s']:.3f} s, cpu median {t['cpu_median_s']:.3f} s (target < 1 s); "
+          f"{t['min_s']:.3f} s, cpu median {t['cpu_median_s']:.3f} s, cpu min "
+          f"{t['cpu_min_s']:.3f} s (target < 1 s); "
           f"dof {t['dof']}; edges {t['edges']}")
     g = res["gp_query_ms"]
     print(f"GP link forward + Jacobian, one query: median {g['median_ms']:.3f} ms")
