@@ -21,6 +21,11 @@ estimators on their own ground truth, the GP on the roll-up door, Fig. 4.19):
   garage door (0.05 m / 5 deg), 200 samples, 10 folds, n = 20 training samples per fold;
   prediction errors of every candidate on the held-out samples (against the noisy
   observations, as on real data, and against the noise-free truth), gamma and the selection.
+  The simulated garage door (the roll-up path scaled by 2) selects revolute at n = 20, where
+  the thesis selects the GP: the GP explains the 20 samples ~134 nats better than the
+  revolute model on average, but its k = 1 + d + 6n = 122 parameters cost
+  (122 - 12) log(20) / 2 = 165 nats more (BIC margin ~60 for revolute); the outlier model is
+  not the cause (the revolute model classifies ~19% of the samples as outliers).
 
 The *sample error* is the mean distance between noise-free test poses and their projection
 f(f^-1(z)) onto the fitted model (thesis Sec. 4.4.4). Tables are printed; plots are written to
