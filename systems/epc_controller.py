@@ -98,6 +98,8 @@ class EpcConfig:
         ik_damping: damping of the damped-least-squares IK.
         max_turn: largest change of the hook's orientation per period, rad.
         side_offset: distance of the grip point beside the bar before it slides behind it, m.
+        contact_force: hook positions count as observations of the mechanism only while the
+            wrist feels at least this force, N.
         base_weight: cost of base motion relative to arm motion in the IK while pulling.
     """
 
@@ -122,12 +124,13 @@ class EpcConfig:
     base_weight: float = 4.0
     max_turn: float = 0.05
     side_offset: float = 0.055
+    contact_force: float = 1.5
 
     def validate(self):
         for k in ("period", "step", "force_gain", "max_lead", "stop_force", "target_angle",
                   "target_distance", "approach_time", "depth_time", "slide_time",
                   "release_time", "drive_speed", "max_pull_time", "ik_damping", "base_weight",
-                  "max_turn", "side_offset"):
+                  "max_turn", "side_offset", "contact_force"):
             v = getattr(self, k)
             if not (math.isfinite(v) and v > 0):
                 raise ValueError(f"EpcConfig.{k} must be a positive number, got {v}")
@@ -245,7 +248,7 @@ class EpcController(LeafSystem):
                                                      prerequisites_of_calc=state_only)
         self._out_G = self.DeclareVectorOutputPort(
             "hook_position", BasicVector(3), self._calc_G,
-            prerequisites_of_calc={self._in_state.ticket(),
+            prerequisites_of_calc={self._in_state.ticket(), self._in_force.ticket(),
                                    self.abstract_state_ticket(self._s)})
         self._out_phase = self.DeclareVectorOutputPort(
             "phase", BasicVector(1), self._calc_phase, prerequisites_of_calc=state_only)
@@ -534,8 +537,10 @@ class EpcController(LeafSystem):
 
     def _calc_G(self, context, output):
         # only the trajectory while the hook holds the handle is an observation of the
-        # mechanism; outside the pull phase the output is NaN (the estimator drops it)
-        if self.state(context).phase != PULL:
+        # mechanism: outside the pull phase, or without contact force, the output is NaN
+        # (the estimator drops it)
+        if self.state(context).phase != PULL or np.linalg.norm(
+                self._in_force.Eval(context)) < self._cfg.contact_force:
             output.SetFromVector(np.full(3, np.nan))
             return
         output.SetFromVector(self.grip_pose(self._measured_q(context)).translation())
