@@ -144,7 +144,8 @@ def main(argv=None) -> int:
     ap.add_argument("--seed", type=int, default=0, help="random seed")
     ap.add_argument("--json", action="store_true", help="print JSON")
     ap.add_argument("--save", default=None, help="write the prior database (JSON)")
-    ap.add_argument("--load", default=None, help="start from a saved prior database")
+    ap.add_argument("--load", default=None,
+                    help="start from a saved prior database (its settings are kept)")
     ap.add_argument("--evaluate", action="store_true",
                     help="leave-one-out prediction experiment (Fig. 4.15)")
     ap.add_argument("--fractions", default=None,

@@ -147,3 +147,16 @@ def test_online_tracker_switches_to_the_known_model(db):
     assert k == dish and "dishwasher_002" in pdb.clusters[dish].members
     with pytest.raises(ValueError, match="3 or 7"):
         tr.add([0.0, 1.0])
+
+
+def test_learn_priors_run_save_then_load(tmp_path):
+    from mmlearn.apps.learn_priors import run
+
+    db = tmp_path / "db.json"
+    first = [str(DATA / "drawer_001.log"), str(DATA / "left_door_001.log")]
+    out = run(paths=first, save=str(db), progress=False)
+    assert len(out["clusters"]) == 2
+    out2 = run(paths=[str(DATA / "drawer_002.log")], load=str(db), progress=False)
+    assert len(out2["clusters"]) == 2
+    drawer = [c for c in out2["clusters"] if first[0] in c][0]
+    assert str(DATA / "drawer_002.log") in drawer
