@@ -128,7 +128,7 @@ class GaussianProcess:
         if d == 0:
             return np.exp(log_sf2)[:, None, None] * np.ones((m,) + D2.shape[1:])
         inv_l2 = np.exp(-2.0 * np.broadcast_to(log_ell, (m, d)))
-        r2 = np.einsum("cd,dab->cab", inv_l2, D2, optimize=True)
+        r2 = np.einsum("cd,dab->cab", inv_l2, D2)
         return np.exp(log_sf2)[:, None, None] * np.exp(-0.5 * r2)
 
     def _unpack(self, theta: np.ndarray, m: int, d_ell: int):
@@ -156,7 +156,7 @@ class GaussianProcess:
         # potri fills the lower triangle only: symmetrise
         Kinv = np.tril(Kinv)
         Kinv += np.swapaxes(np.tril(Kinv, -1), 1, 2)
-        alpha = np.einsum("cij,jc->ci", Kinv, Yc, optimize=True)  # (m, n)
+        alpha = np.einsum("cij,jc->ci", Kinv, Yc)  # (m, n)
         lml = -0.5 * np.einsum("ic,ci->c", Yc, alpha) - logdet_half - 0.5 * n * _LOG_2PI
         W = alpha[:, :, None] * alpha[:, None, :] - Kinv  # (m, n, n)
         WK = W * Kf
@@ -164,7 +164,7 @@ class GaussianProcess:
         d = D2.shape[0]
         if d_ell > 0:
             inv_l2 = np.exp(-2.0 * np.broadcast_to(log_ell, (m, d)))
-            g_dims = 0.5 * np.einsum("cab,dab->cd", WK, D2, optimize=True) * inv_l2
+            g_dims = 0.5 * np.einsum("cab,dab->cd", WK, D2) * inv_l2
             if self.ard:
                 g[:, :d_ell] = g_dims
             else:
