@@ -41,6 +41,9 @@ class SceneConfig:
         kp_base, kd_base: PD gains of the mobile base joints.
         gravity_compensation: add feed-forward gravity compensation of the arm.
         sensor: the MarkerSensor's configuration (``bodies`` empty = every part of the arm).
+        failure_joints: add the arm's hidden failure joints (a bendable middle link and a
+            tool part on hidden joints, see ``arm_sdf``); lock them with
+            :class:`mmlearn.systems.arm_failures.PlantFailures` before simulating.
     """
 
     arm: str = "7dof"
@@ -60,6 +63,7 @@ class SceneConfig:
     kd_base: float = 2000.0
     gravity_compensation: bool = True
     sensor: MarkerSensorConfig = field(default_factory=MarkerSensorConfig)
+    failure_joints: bool = False
 
     def validate(self) -> None:
         if self.tool not in ("auto", "gripper", "hook", "none"):
@@ -147,7 +151,7 @@ def MakeSceneDiagram(config: SceneConfig | None = None, *, meshcat=None):
     x, y, yaw = cfg.robot_pose
     robot = parser.AddModelsFromString(
         arm_sdf(cfg.arm, tool=tool, mobile_base=cfg.mobile_base, model_name="robot",
-                pose=(x, y, 0, 0, 0, yaw)), "sdf")[0]
+                pose=(x, y, 0, 0, 0, yaw), failure_joints=cfg.failure_joints), "sdf")[0]
     cabinet = None
     if cfg.cabinet:
         cx, cy, cyaw = cfg.cabinet_pose

@@ -288,16 +288,32 @@ def _model_pose(pose) -> str:
     return f"<pose>{_fmt(pose)}</pose>"
 
 
+#: The link a ``failure_joints`` arm can bend (thesis Table 3.2: "the middle link").
+BEND_LINK = {2: "x2", 4: "x3", 7: "x4"}
+
+
 def arm_sdf(dof: int | str = 7, *, tool: str = "gripper", mobile_base: bool = False,
-            model_name: str | None = None, pose=None) -> str:
+            model_name: str | None = None, pose=None, failure_joints: bool = False) -> str:
     """SDFormat text of an arm (optionally on a planar mobile base).
 
     The mobile base adds bodies ``base_x_carriage``, ``base_y_carriage``, ``mobile_base`` on joints
     ``base_x`` (prismatic x), ``base_y`` (prismatic y) and ``base_yaw`` (revolute z),
     all actuated, and welds the arm's x1 on top of it (0.30 m above the floor).
     ``pose`` (x y z roll pitch yaw, m and rad) places the model frame in the world.
+
+    ``failure_joints`` (default False: the arm is unchanged) adds hidden, unactuated joints
+    for failures the learner is not told about (see :mod:`mmlearn.systems.arm_failures`,
+    which locks them): the link ``BEND_LINK[dof]`` is split at half its length into the
+    part (lower half, carrying the marker at its middle) and a body ``<part>_outer`` on the
+    revolute joint ``<part>_bend`` (axis x: a bend out of the arm's pitch plane); and a
+    tool part ``x<n+1>`` (a 0.12 m rod with a marker) hangs from the tip of the serial
+    chain on the prismatic joint ``tool_length`` (along z, through the massless-ish body
+    ``tool_mount``) and the revolute joint ``tool_angle`` (about y).
     """
     spec = arm_spec(dof, tool=tool)
+    bend_link = None
+    if failure_joints:
+        bend_link = BEND_LINK[int(spec.name.split("_")[1].removesuffix("dof"))]
     name = model_name or (spec.name + ("_mobile" if mobile_base else ""))
     links, joints, frames = [], [], []
     z = 0.0
@@ -334,15 +350,50 @@ def arm_sdf(dof: int | str = 7, *, tool: str = "gripper", mobile_base: bool = Fa
             origin = (0.0, 0.0, z)
             chain_tip, chain_tip_z = lk, z
             z += lk.length
-        xml, frame = _link_xml(lk, origin)
-        links.append(xml)
-        frames.append(frame)
+        if lk.name == bend_link:
+            import dataclasses
+            half = lk.length / 2
+            xml, frame = _link_xml(dataclasses.replace(lk, length=half), origin)
+            links.append(xml)
+            frames.append(frame)
+            bname = f"{lk.name}_outer"
+            geom = _geometry(lk.shape, half, lk.radius)
+            centre = f"0 0 {half / 2:.6g} 0 0 0"
+            links.append(
+                f"<link name='{bname}'><pose>{_fmt((origin[0], origin[1], origin[2] + half))}"
+                f" 0 0 0</pose>{_inertia_xml(lk.mass / 2, lk.shape, half, lk.radius)}"
+                f"<visual name='{bname}_visual'><pose>{centre}</pose>{geom}"
+                f"{_material(lk.color)}</visual><collision name='{bname}_collision'>"
+                f"<pose>{centre}</pose>{geom}</collision></link>")
+            joints.append(_joint_xml(f"{lk.name}_bend", "revolute", lk.name, bname, (1, 0, 0),
+                                     -math.pi, math.pi, effort=0.0))
+            chain_tip = dataclasses.replace(lk, name=bname, length=half)
+            chain_tip_z = origin[2] + half
+        else:
+            xml, frame = _link_xml(lk, origin)
+            links.append(xml)
+            frames.append(frame)
         if parent is None:
             joints.append(_joint_xml(
                 "x1_mount", "fixed", "mobile_base" if mobile_base else "world", lk.name))
         else:
             joints.append(_joint_xml(lk.joint, lk.joint_type, parent, lk.name, lk.axis,
                                      lk.lower, lk.upper, damping=0.5))
+    if failure_joints:
+        tip = chain_tip.name
+        tname = f"x{len(spec.links) + 1}"
+        small = "<inertial><mass>0.01</mass><inertia><ixx>1e-5</ixx><iyy>1e-5</iyy>" \
+                "<izz>1e-5</izz><ixy>0</ixy><ixz>0</ixz><iyz>0</iyz></inertia></inertial>"
+        links.append(f"<link name='tool_mount'><pose>0 0 {chain_tip_z + chain_tip.length:.6g}"
+                     f" 0 0 0</pose>{small}</link>")
+        tool_lk = LinkSpec(tname, 0.12, 0.012, mass=0.1, color=(0.2, 0.6, 0.3, 1.0))
+        xml, frame = _link_xml(tool_lk, (0.0, 0.0, chain_tip_z + chain_tip.length))
+        links.append(xml)
+        frames.append(frame)
+        joints.append(_joint_xml("tool_length", "prismatic", tip, "tool_mount", (0, 0, 1),
+                                 -0.5, 0.5, effort=0.0))
+        joints.append(_joint_xml("tool_angle", "revolute", "tool_mount", tname, (0, 1, 0),
+                                 -math.pi, math.pi, effort=0.0))
     if tool == "hook":
         link, joint, frame = _hook_xml(spec.links[-1].name, z)
         links.append(link)

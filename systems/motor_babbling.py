@@ -29,10 +29,15 @@ class MotorBabbling(LeafSystem):
         seed: random seed.
         start: command at t = 0 (default: the middle of the range).
         hold: fraction of each period spent resting at the target, in [0, 1).
+        accept: optional predicate ``accept(q) -> bool`` (e.g. "reachable and
+            collision-free", see :func:`mmlearn.diagrams.body_schema.make_target_filter`);
+            a rejected target is redrawn (the same seed stream) up to ``max_tries`` times,
+            after which the last draw is used. None (default) accepts every target.
+        max_tries: draws per target when ``accept`` is given (>= 1).
     """
 
     def __init__(self, *, lower, upper, period: float = 1.5, seed: int = 0, start=None,
-                 hold: float = 0.3):
+                 hold: float = 0.3, accept=None, max_tries: int = 50):
         super().__init__()
         lo, hi = np.asarray(lower, float).ravel(), np.asarray(upper, float).ravel()
         if lo.shape != hi.shape or lo.size == 0:
@@ -44,6 +49,11 @@ class MotorBabbling(LeafSystem):
             raise ValueError(f"MotorBabbling: period must be > 0, got {period}")
         if not 0 <= hold < 1:
             raise ValueError(f"MotorBabbling: hold must be in [0, 1), got {hold}")
+        if accept is not None and not callable(accept):
+            raise ValueError("MotorBabbling: accept must be callable or None")
+        if int(max_tries) < 1:
+            raise ValueError(f"MotorBabbling: max_tries must be >= 1, got {max_tries}")
+        self._accept, self._max_tries = accept, int(max_tries)
         self._lo, self._hi, self._period, self._seed, self._hold = lo, hi, period, seed, hold
         self._start = (0.5 * (lo + hi) if start is None
                        else np.clip(np.asarray(start, float).ravel(), lo, hi))
@@ -63,7 +73,13 @@ class MotorBabbling(LeafSystem):
             if len(self._targets) > 64:
                 self._targets.clear()
             rng = np.random.default_rng([self._seed, k])
-            self._targets[k] = rng.uniform(self._lo, self._hi)
+            q = rng.uniform(self._lo, self._hi)
+            if self._accept is not None:
+                for _ in range(self._max_tries - 1):
+                    if self._accept(q):
+                        break
+                    q = rng.uniform(self._lo, self._hi)
+            self._targets[k] = q
         return self._targets[k].copy()
 
     def command(self, t: float) -> np.ndarray:

@@ -1,0 +1,369 @@
+"""SchemaLearner: learns a body schema (thesis ch. 3) online from commanded joint positions
+and marker observations, and adapts it life-long (Sec. 3.3).
+
+The learning itself is :class:`mmlearn.models.body_schema.BodySchema`; this system decides
+*when* a sample is taken (once per babbling target, after the command has stayed constant
+for ``settle_time``, so that the arm is at rest and the commanded action signals are the
+joint values) and feeds it to :meth:`BodySchema.update` (structure search until a first
+valid spanning tree exists, then test-then-train monitoring and model replacement).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from pydrake.common.value import AbstractValue
+from pydrake.math import RigidTransform, RotationMatrix
+from pydrake.systems.framework import BasicVector, EventStatus, LeafSystem
+
+from mmlearn.models.body_schema import AdaptationConfig, BodySchema, SearchConfig
+
+from .observations import MarkerObservations
+
+__all__ = ["SchemaLearner", "SchemaLearnerConfig", "SchemaLearnerState"]
+
+
+@dataclass
+class SchemaLearnerConfig:
+    """Configuration of a :class:`SchemaLearner` (load with ``yaml_load_typed``).
+
+    Attributes:
+        rate_hz: rate of the periodic update, Hz (> 0).
+        settle_time: the command must have been constant this long (s) before the
+            observation that is used was taken.
+        settle_tol: largest change of any command entry (rad or m) still counted as constant.
+        one_per_target: take a single sample per constant command (else one per frame).
+        min_visible: fewest visible markers for a frame to be used (>= 2).
+        search: noise levels and options of the structure search (SearchConfig).
+        adapt: life-long adaptation parameters (AdaptationConfig).
+    """
+
+    rate_hz: float = 10.0
+    settle_time: float = 0.3
+    settle_tol: float = 1e-4
+    one_per_target: bool = True
+    min_visible: int = 2
+    search: SearchConfig = field(default_factory=SearchConfig)
+    adapt: AdaptationConfig = field(default_factory=AdaptationConfig)
+
+    def validate(self) -> None:
+        checks = [(np.isfinite(self.rate_hz) and self.rate_hz > 0, "rate_hz must be > 0"),
+                  (np.isfinite(self.settle_time) and self.settle_time >= 0,
+                   "settle_time must be >= 0 s"),
+                  (np.isfinite(self.settle_tol) and self.settle_tol >= 0,
+                   "settle_tol must be >= 0"),
+                  (self.min_visible >= 2, "min_visible must be >= 2")]
+        for ok, msg in checks:
+            if not ok:
+                raise ValueError(f"SchemaLearnerConfig: {msg}")
+
+
+@dataclass
+class SchemaLearnerState:
+    """The learner's abstract state (replaced by every update that changes it).
+
+    Attributes:
+        schema: the current BodySchema.
+        n_samples: observations fed to the schema.
+        n_dropped: frames that were unusable (wrong markers, non-finite poses, too few
+            visible markers, a failed update).
+        last_command, stable_since: settling detector (command, s).
+        sampled_since: ``stable_since`` of the last constant command that was sampled.
+        last_frame_time: time of the last frame used (s).
+        command_log: recent (time, command, stable_since) per update.
+        X_WR: estimate of the root part's world pose (4, 4) (mean of its observations).
+        n_root: observations averaged into X_WR.
+        history: per sample (n, valid, tree keys ((a, b, actions), ...)).
+        update_seconds: wall time of the schema updates, per sample.
+        last_event: last adaptation event text.
+    """
+
+    schema: BodySchema
+    n_samples: int = 0
+    n_dropped: int = 0
+    last_command: np.ndarray | None = None
+    stable_since: float = 0.0
+    sampled_since: float | None = None
+    last_frame_time: float | None = None
+    command_log: list = field(default_factory=list)
+    X_WR: np.ndarray | None = None
+    n_root: int = 0
+    history: list = field(default_factory=list)
+    update_seconds: list = field(default_factory=list)
+    last_event: str | None = None
+
+
+def _mean_pose(X_old: np.ndarray | None, n: int, X_new: np.ndarray) -> np.ndarray:
+    """Running mean of poses: arithmetic mean of positions, rotation mean projected on SO(3)."""
+    if X_old is None or n == 0:
+        return X_new.copy()
+    M = (X_old * n + X_new) / (n + 1)
+    u, _, vt = np.linalg.svd(M[:3, :3])
+    R = u @ vt
+    if np.linalg.det(R) < 0:
+        u[:, -1] *= -1
+        R = u @ vt
+    out = np.eye(4)
+    out[:3, :3], out[:3, 3] = R, M[:3, 3]
+    return out
+
+
+class SchemaLearner(LeafSystem):
+    """Learns the body schema of a robot from its commanded actions and marker frames.
+
+    .. pydrake_system::
+
+        name: SchemaLearner
+        input_ports:
+        - command
+        - observations
+        output_ports:
+        - schema
+        - X_WE
+        - X_WR
+        - predicted_poses
+        - model_validity
+        - status
+
+    Inputs: ``command`` the commanded joint positions (action signals, the learner is never
+    told the real joint values); ``observations`` :class:`MarkerObservations` frames whose
+    ``marker_ids`` are ``parts``.
+
+    Outputs: ``schema`` (abstract :class:`BodySchema`, the current learned model);
+    ``X_WE`` (RigidTransform) the predicted world pose of the end-effector part for the
+    current command (identity until the part is in the tree); ``X_WR`` the estimated world
+    pose of the root part; ``predicted_poses`` (list of RigidTransform or None per part,
+    world frame); ``model_validity`` (list of dicts ``a``, ``b``, ``actions``, ``valid``,
+    ``status``, ``in_tree`` for every tracked local model); ``status`` vector
+    [samples, dropped frames, tree valid (0/1), steps invalid, tree size,
+    last update time (ms)].
+
+    Args:
+        parts: marker ids (part names) in the order the schema indexes them.
+        n_actions: length of the command.
+        config: :class:`SchemaLearnerConfig`.
+        end_effector: the part whose pose ``X_WE`` predicts (default: the last part).
+    """
+
+    def __init__(self, *, parts, n_actions: int, config: SchemaLearnerConfig | None = None,
+                 end_effector: str | None = None):
+        super().__init__()
+        cfg = config or SchemaLearnerConfig()
+        cfg.validate()
+        parts = [str(p) for p in parts]
+        if len(parts) < 2 or len(set(parts)) != len(parts):
+            raise ValueError(f"SchemaLearner: need >= 2 distinct parts, got {parts}")
+        if int(n_actions) < 1:
+            raise ValueError(f"SchemaLearner: n_actions must be >= 1, got {n_actions}")
+        ee = parts[-1] if end_effector is None else end_effector
+        if ee not in parts:
+            raise ValueError(f"SchemaLearner: end_effector {ee!r} is not one of {parts}")
+        self._cfg, self._parts, self._m = cfg, parts, int(n_actions)
+        self._ee = parts.index(ee)
+        init = SchemaLearnerState(schema=self._new_schema())
+        self._cmd = self.DeclareVectorInputPort("command", self._m)
+        self._obs = self.DeclareAbstractInputPort(
+            "observations", AbstractValue.Make(MarkerObservations()))
+        self._s = self.DeclareAbstractState(AbstractValue.Make(init))
+        self.DeclarePeriodicUnrestrictedUpdateEvent(1.0 / cfg.rate_hz, 0.0, self._update)
+        st = {self.abstract_state_ticket(self._s)}
+        self._schema_out = self.DeclareAbstractOutputPort(
+            "schema", lambda: AbstractValue.Make(self._new_schema()),
+            lambda c, o: o.set_value(self._get(c).schema), st)
+        self._ee_out = self.DeclareAbstractOutputPort(
+            "X_WE", lambda: AbstractValue.Make(RigidTransform()), self._calc_ee)
+        self._root_out = self.DeclareAbstractOutputPort(
+            "X_WR", lambda: AbstractValue.Make(RigidTransform()), self._calc_root, st)
+        self._pred_out = self.DeclareAbstractOutputPort(
+            "predicted_poses", lambda: AbstractValue.Make([None] * len(parts)),
+            self._calc_pred)
+        self._valid_out = self.DeclareAbstractOutputPort(
+            "model_validity", lambda: AbstractValue.Make([]), self._calc_validity, st)
+        self._status_out = self.DeclareVectorOutputPort(
+            "status", BasicVector(6), self._calc_status, st)
+
+    def _new_schema(self) -> BodySchema:
+        return BodySchema(len(self._parts), self._m, search=self._cfg.search,
+                          adapt=self._cfg.adapt)
+
+    # -- ports ---------------------------------------------------------------------------
+    def get_command_input_port(self):
+        return self._cmd
+
+    def get_observations_input_port(self):
+        return self._obs
+
+    def get_schema_output_port(self):
+        return self._schema_out
+
+    def get_X_WE_output_port(self):
+        return self._ee_out
+
+    def get_X_WR_output_port(self):
+        return self._root_out
+
+    def get_predicted_poses_output_port(self):
+        return self._pred_out
+
+    def get_model_validity_output_port(self):
+        return self._valid_out
+
+    def get_status_output_port(self):
+        return self._status_out
+
+    @property
+    def parts(self) -> list[str]:
+        return list(self._parts)
+
+    @property
+    def end_effector(self) -> int:
+        return self._ee
+
+    def state(self, context) -> SchemaLearnerState:
+        """The learner state in ``context`` (this system's or the root context)."""
+        try:
+            context = self.GetMyContextFromRoot(context)
+        except (RuntimeError, ValueError):
+            pass
+        return self._get(context)
+
+    def _get(self, context) -> SchemaLearnerState:
+        return context.get_abstract_state(self._s).get_value()
+
+    # -- update --------------------------------------------------------------------------
+    def _frame(self, obs) -> np.ndarray | None:
+        """(p, 4, 4) poses in the schema's part order (NaN = unseen), or None if unusable."""
+        if not isinstance(obs, MarkerObservations) or len(obs) == 0:
+            return None
+        try:
+            Y = obs.as_matrices()
+            idx = [obs.marker_ids.index(p) for p in self._parts]
+        except (ValueError, AttributeError, TypeError, IndexError):
+            return None
+        Y = Y[idx]
+        seen = np.all(np.isfinite(Y.reshape(len(idx), -1)), axis=1)
+        vis = np.asarray(obs.visible, bool)[idx]
+        if np.any(vis & ~seen):
+            return None  # a visible marker with a non-finite pose: corrupt frame
+        if seen.sum() < self._cfg.min_visible:
+            return None
+        return Y
+
+    def _update(self, context, state):
+        cfg = self._cfg
+        s: SchemaLearnerState = state.get_mutable_abstract_state(self._s).get_value()
+        t = context.get_time()
+        u = np.asarray(self._cmd.Eval(context), float)
+        if not np.all(np.isfinite(u)):
+            s.n_dropped += 1
+            return EventStatus.Succeeded()
+        if s.last_command is None or np.max(np.abs(u - s.last_command)) > cfg.settle_tol:
+            s.last_command, s.stable_since = u.copy(), t
+        # the command log pairs a frame with the command at the frame's time
+        s.command_log = (s.command_log + [(t, u.copy(), s.stable_since)])[-64:]
+        if not self._obs.HasValue(context):
+            return EventStatus.Succeeded()
+        obs = self._obs.Eval(context)
+        t_obs = getattr(obs, "time", None)
+        entry = next((e for e in reversed(s.command_log)
+                      if t_obs is not None and abs(e[0] - t_obs) < 1e-6), None)
+        if entry is None:
+            return EventStatus.Succeeded()  # no command known for that frame's time
+        _, u, since = entry
+        if t_obs < since + cfg.settle_time - 1e-9:
+            return EventStatus.Succeeded()  # the arm has not settled yet
+        if cfg.one_per_target and s.sampled_since == since:
+            return EventStatus.Succeeded()  # this target was sampled already
+        if s.last_frame_time == t_obs:
+            return EventStatus.Succeeded()  # frame used already
+        s.last_frame_time = t_obs
+        Y = self._frame(obs)
+        if Y is None:
+            s.n_dropped += 1
+            return EventStatus.Succeeded()
+        t0 = time.perf_counter()
+        try:
+            st = s.schema.update(u, Y)
+        except (ValueError, np.linalg.LinAlgError, FloatingPointError) as e:
+            s.n_dropped += 1
+            s.last_event = f"dropped sample: {e}"
+            return EventStatus.Succeeded()
+        s.update_seconds.append(time.perf_counter() - t0)
+        s.n_samples += 1
+        s.sampled_since = since
+        if st.get("event"):
+            s.last_event = st["event"]
+        r = s.schema.root
+        if np.all(np.isfinite(Y[r])):
+            s.X_WR = _mean_pose(s.X_WR, s.n_root, Y[r])
+            s.n_root += 1
+        keys = tuple(sorted((m.i, m.j, tuple(m.Q)) for m in s.schema.tree))
+        s.history.append((s.n_samples, bool(s.schema.valid), keys))
+        state.get_mutable_abstract_state(self._s).set_value(s)
+        return EventStatus.Succeeded()
+
+    # -- outputs -------------------------------------------------------------------------
+    def _world_poses(self, context):
+        s = self._get(context)
+        if s.X_WR is None or not s.schema.tree:
+            return None
+        q = np.asarray(self._cmd.Eval(context), float)
+        if not np.all(np.isfinite(q)):
+            return None
+        try:
+            T = s.schema.forward_kinematics(q)
+        except (ValueError, np.linalg.LinAlgError):
+            return None
+        return s.X_WR @ T
+
+    def _calc_ee(self, context, output):
+        W = self._world_poses(context)
+        X = RigidTransform()
+        if W is not None and np.all(np.isfinite(W[self._ee])):
+            X = RigidTransform(_rotation(W[self._ee, :3, :3]), W[self._ee, :3, 3])
+        output.set_value(X)
+
+    def _calc_root(self, context, output):
+        s = self._get(context)
+        X = RigidTransform() if s.X_WR is None else RigidTransform(
+            _rotation(s.X_WR[:3, :3]), s.X_WR[:3, 3])
+        output.set_value(X)
+
+    def _calc_pred(self, context, output):
+        W = self._world_poses(context)
+        out = [None] * len(self._parts)
+        if W is not None:
+            for i in range(len(self._parts)):
+                if np.all(np.isfinite(W[i])):
+                    out[i] = RigidTransform(_rotation(W[i, :3, :3]), W[i, :3, 3])
+        output.set_value(out)
+
+    def _calc_validity(self, context, output):
+        s = self._get(context)
+        sch = s.schema
+        in_tree = {id(m) for m in sch.tree}
+        rows = []
+        for tr in sch.tracks:
+            m = tr.model
+            rows.append(dict(a=self._parts[m.i], b=self._parts[m.j], actions=list(m.Q),
+                             valid=bool(sch._track_valid(tr)), status=tr.status,
+                             in_tree=id(m) in in_tree))
+        output.set_value(rows)
+
+    def _calc_status(self, context, output):
+        s = self._get(context)
+        ms = 1000 * s.update_seconds[-1] if s.update_seconds else 0.0
+        output.SetFromVector([s.n_samples, s.n_dropped, float(s.schema.valid),
+                              s.schema.steps_invalid, len(s.schema.tree), ms])
+
+
+def _rotation(R: np.ndarray) -> RotationMatrix:
+    u, _, vt = np.linalg.svd(R)
+    Rn = u @ vt
+    if np.linalg.det(Rn) < 0:
+        u[:, -1] *= -1
+        Rn = u @ vt
+    return RotationMatrix(Rn)
