@@ -20,11 +20,12 @@ from mmlearn.sdf.mechanisms import KINDS
 
 
 def _one(args):
-    kind, seed, max_time = args
+    kind, seed, max_time, sigma_pos = args
     from mmlearn.apps.open_cabinet import run
 
     try:
-        return run(kind=kind, seed=seed, max_time=max_time, show_progress=False)
+        return run(kind=kind, seed=seed, max_time=max_time, sigma_pos=sigma_pos,
+                   show_progress=False)
     except Exception as e:  # a crashed trial is a failed trial, reported with its reason
         return {"object": kind, "seed": seed, "success": False, "opened": 0.0,
                 "unit": "deg" if kind in ("left_door", "right_door", "dishwasher") else "m",
@@ -55,14 +56,15 @@ def summarize(trials: list[dict]) -> dict:
 
 
 def run(*, objects=KINDS, trials: int = 8, seed: int = 0, jobs: int | None = None,
-        max_time: float = 60.0, show_progress: bool = True) -> dict:
+        max_time: float = 60.0, sigma_pos: float | None = None,
+        show_progress: bool = True) -> dict:
     for k in objects:
         if k not in KINDS:
             raise ValueError(f"unknown object {k!r}; choose from {', '.join(KINDS)}")
     if trials < 1:
         raise ValueError("trials must be >= 1")
     jobs = jobs or os.cpu_count() or 1
-    work = [(k, seed + i, max_time) for k in objects for i in range(trials)]
+    work = [(k, seed + i, max_time, sigma_pos) for k in objects for i in range(trials)]
     t0 = time.perf_counter()
     results = []
     with ProcessPoolExecutor(max_workers=jobs) as pool:
@@ -70,7 +72,7 @@ def run(*, objects=KINDS, trials: int = 8, seed: int = 0, jobs: int | None = Non
         for f in progress(as_completed(futures), desc="trials", unit="trial",
                           enabled=show_progress, total=len(futures)):
             results.append(f.result())
-    order = {(k, s): i for i, (k, s, _) in enumerate(work)}
+    order = {(w[0], w[1]): i for i, w in enumerate(work)}
     results.sort(key=lambda r: order[(r["object"], r["seed"])])
     n_ok = sum(r["success"] for r in results)
     return {"trials": results, "success_rate": n_ok / len(results), "successes": n_ok,
@@ -110,12 +112,14 @@ def main(argv=None) -> int:
     ap.add_argument("--seed", type=int, default=0, help="seed of the first trial")
     ap.add_argument("--jobs", type=int, default=None, help="parallel processes")
     ap.add_argument("--max-time", type=float, default=60.0)
+    ap.add_argument("--sigma-pos", type=float, default=None,
+                    help="position noise the estimator assumes, m (default 0.01)")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     try:
         res = run(objects=[o for o in args.objects.split(",") if o], trials=args.trials,
                   seed=args.seed, jobs=args.jobs, max_time=args.max_time,
-                  show_progress=not args.json)
+                  sigma_pos=args.sigma_pos, show_progress=not args.json)
     except ValueError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
