@@ -195,6 +195,26 @@ class BodySchema:
             self._push(a, y)
         return res
 
+    def relearn(self, last: int | None = None) -> StructureResult:
+        """Re-run the structure search (Algorithm 1) on the buffered observations (the
+        ``last`` ones, default all) and, when it finds a complete tree, make it the current
+        tree (previous models stay in the history). Used to refine a schema as data
+        accumulates; the buffer is not changed."""
+        A = np.array(self._buf_actions)
+        P = np.array(self._buf_poses)
+        if last is not None:
+            A, P = A[-int(last):], P[-int(last):]
+        with _blas_single_thread():
+            res = learn_structure(A, P, config=self.search)
+        if res.complete:
+            self.last_search = res
+            for t in self.tracks:
+                if t.status == "active":
+                    t.status = "history"
+            self._set_tree_from_search(res)
+            self.steps_invalid = 0
+        return res
+
     def _set_tree_from_search(self, res: StructureResult):
         self.nodes = list(res.nodes)
         self.tracks = [t for t in self.tracks if t.status == "history"]

@@ -37,6 +37,9 @@ class SchemaLearnerConfig:
         settle_tol: largest change of any command entry (rad or m) still counted as constant.
         one_per_target: take a single sample per constant command (else one per frame).
         min_visible: fewest visible markers for a frame to be used (>= 2).
+        refit_at: numbers of samples since the tree was last invalid at which the structure
+            search is re-run on those samples (refines the local models as data
+            accumulates; between refits the models are fixed and only monitored).
         search: noise levels and options of the structure search (SearchConfig).
         adapt: life-long adaptation parameters (AdaptationConfig).
     """
@@ -46,6 +49,8 @@ class SchemaLearnerConfig:
     settle_tol: float = 1e-4
     one_per_target: bool = True
     min_visible: int = 2
+    refit_at: list[int] = field(default_factory=lambda: [10, 15, 20, 30, 40, 50, 70, 100,
+                                                         150, 200, 300])
     search: SearchConfig = field(default_factory=SearchConfig)
     adapt: AdaptationConfig = field(default_factory=AdaptationConfig)
 
@@ -78,6 +83,8 @@ class SchemaLearnerState:
         n_root: observations averaged into X_WR.
         history: per sample (n, valid, tree keys ((a, b, actions), ...)).
         update_seconds: wall time of the schema updates, per sample.
+        clean_since: sample count at which the tree was last invalid.
+        refit_seconds: wall time of each structure re-search.
         last_event: last adaptation event text.
     """
 
@@ -88,6 +95,8 @@ class SchemaLearnerState:
     stable_since: float = 0.0
     sampled_since: float | None = None
     last_frame_time: float | None = None
+    clean_since: int = 0
+    refit_seconds: list = field(default_factory=list)
     command_log: list = field(default_factory=list)
     X_WR: np.ndarray | None = None
     n_root: int = 0
@@ -294,6 +303,18 @@ class SchemaLearner(LeafSystem):
         s.update_seconds.append(time.perf_counter() - t0)
         s.n_samples += 1
         s.sampled_since = since
+        if not s.schema.valid:
+            s.clean_since = s.n_samples
+        n_clean = s.n_samples - s.clean_since
+        if s.schema.valid and n_clean in cfg.refit_at and \
+                n_clean <= s.schema.adapt.buffer:
+            t1 = time.perf_counter()
+            try:
+                s.schema.relearn(last=n_clean)
+                s.last_event = f"relearned on {n_clean} samples"
+            except (ValueError, np.linalg.LinAlgError) as e:
+                s.last_event = f"relearn failed: {e}"
+            s.refit_seconds.append(time.perf_counter() - t1)
         if st.get("event"):
             s.last_event = st["event"]
         r = s.schema.root
