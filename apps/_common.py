@@ -66,3 +66,12 @@ def load_config(path: str | Path, cls):
         return yaml_load_typed(schema=cls, filename=str(path))
     except RuntimeError as e:
         raise ValueError(f"{path}: {e}") from None
+
+
+def finish_viewing(*, html_out, live: bool) -> None:
+    """Tell where the recording went and, after a live Meshcat session in a terminal,
+    keep the server up until the user presses Enter."""
+    if html_out:
+        print(f"Meshcat recording written to {html_out}")
+    if live and sys.stdin.isatty():
+        input("Meshcat is still serving the recording; press Enter to quit. ")

@@ -15,7 +15,7 @@ import time
 
 import numpy as np
 
-from mmlearn.apps._common import make_meshcat, progress, save_html
+from mmlearn.apps._common import finish_viewing, make_meshcat, progress, save_html
 from mmlearn.sdf.mechanisms import KINDS
 
 SUCCESS_ANGLE = math.radians(60)  # thesis: opened > 60 deg (revolute) ...
@@ -159,10 +159,7 @@ def main(argv=None) -> int:
             print(f"learned axis error {r['axis_error_deg']:.1f} deg")
         print(f"{r['sim_seconds']:.1f} s simulated in {r['wall_seconds']:.1f} s "
               f"(real-time factor {r['realtime_factor']})")
-        if r["html_out"]:
-            print(f"Meshcat recording written to {r['html_out']}")
-    if args.meshcat and sys.stdin.isatty():
-        input("Meshcat is still serving the recording; press Enter to quit. ")
+    finish_viewing(html_out=None if args.json else r["html_out"], live=args.meshcat)
     return 0
 
 

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mmlearn.apps._common import load_config, make_meshcat, progress, save_html
+from mmlearn.apps._common import finish_viewing, load_config, make_meshcat, progress, save_html
 from mmlearn.diagrams import MakeSceneDiagram, SceneConfig
 
 
@@ -141,10 +141,7 @@ def main(argv=None) -> int:
         print(f"{result['frames']} frames x {result['markers']} markers = "
               f"{result['marker_observations']} marker observations, {result['visible']} "
               f"visible ({100 * result['visible_ratio']:.0f}%)")
-        if result["html_out"]:
-            print(f"Meshcat recording written to {result['html_out']}")
-    if args.meshcat and sys.stdin.isatty():
-        input("Meshcat is still serving the recording; press Enter to quit. ")
+    finish_viewing(html_out=None if args.json else result["html_out"], live=args.meshcat)
     return 0
 
 

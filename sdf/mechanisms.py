@@ -18,6 +18,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from .builders import _box, _fmt, _material, _model_pose, _panel_inertia, _slab
 
@@ -121,7 +122,8 @@ class MechanismSpec:
         """Handle centre, front normal (out of the front) and bar direction in the world
         at joint position q."""
         p, bar = self.handle_in_front()
-        R = _axis_angle(self.joint_axis_F(), q) if self.is_revolute else np.eye(3)
+        R = (Rotation.from_rotvec(self.joint_axis_F() * q).as_matrix() if self.is_revolute
+             else np.eye(3))
         t = np.zeros(3) if self.is_revolute else self.joint_axis_F() * q
         T = self.X_WF()
         o = self.front_origin_F()
@@ -134,12 +136,6 @@ class MechanismSpec:
         """Joint axis direction and a point on it (the hinge line for revolute), world."""
         T = self.X_WF()
         return T[:3, :3] @ self.joint_axis_F(), T[:3, :3] @ self.front_origin_F() + T[:3, 3]
-
-
-def _axis_angle(axis, angle) -> np.ndarray:
-    a = np.asarray(axis, float) / np.linalg.norm(axis)
-    K = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
-    return np.eye(3) + math.sin(angle) * K + (1 - math.cos(angle)) * K @ K
 
 
 def sample_mechanism(kind: str, rng: np.random.Generator | int | None = None) -> MechanismSpec:

@@ -30,6 +30,7 @@ import math
 from dataclasses import dataclass, field, replace
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from pydrake.common.value import AbstractValue
 from pydrake.math import RigidTransform, RotationMatrix
@@ -168,9 +169,8 @@ def _unit(v):
 
 
 def _axis_angle(axis, angle):
-    a = _unit(np.asarray(axis, float))
-    K = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
-    return np.eye(3) + math.sin(angle) * K + (1 - math.cos(angle)) * K @ K
+    """Rotation matrix of ``angle`` about ``axis`` (any length)."""
+    return Rotation.from_rotvec(_unit(np.asarray(axis, float)) * angle).as_matrix()
 
 
 def hook_rotation(normal, side) -> np.ndarray:
