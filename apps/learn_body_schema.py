@@ -83,7 +83,7 @@ def converged_at(history, truth, n_nodes):
     return at
 
 
-def test_commands(bs, n, rng) -> np.ndarray:
+def sample_test_commands(bs, n, rng) -> np.ndarray:
     """``n`` random reachable, collision-free commands inside the babbling range."""
     lo, hi = bs.babbling._lo, bs.babbling._hi
     out = []
@@ -203,7 +203,7 @@ def run(*, config: LearnBodySchemaConfig, meshcat=None, show_progress: bool = Tr
     st = bs.learner.state(root)
     schema = st.schema
     rng = np.random.default_rng([cfg.seed, 7])
-    Q = test_commands(bs, cfg.n_test, rng)
+    Q = sample_test_commands(bs, cfg.n_test, rng)
     n_nodes = len(schema.nodes) if schema.nodes else len(bs.parts)
     result = {
         "arm": cfg.arm,

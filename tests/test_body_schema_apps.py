@@ -1,0 +1,38 @@
+"""The body-schema apps: --help and short runs as subprocesses."""
+
+import json
+import subprocess
+
+from conftest import PYTHON
+
+
+def _run(args, cwd, timeout=300):
+    return subprocess.run([PYTHON, "-m", *args], capture_output=True, text=True, cwd=cwd,
+                          timeout=timeout)
+
+
+def test_learn_body_schema_help(tmp_path):
+    r = _run(["mmlearn.apps.learn_body_schema", "--help"], tmp_path)
+    assert r.returncode == 0 and "--occlude" in r.stdout and "--json" in r.stdout
+
+
+def test_learn_body_schema_short_run_json(tmp_path):
+    r = _run(["mmlearn.apps.learn_body_schema", "--arm", "2dof", "--samples", "14",
+              "--noise", "0.01", "--n_test", "30", "--n_control", "1", "--seed", "1",
+              "--json"], tmp_path)
+    assert r.returncode == 0, r.stderr
+    d = json.loads(r.stdout)
+    for k in ("structure", "converged_at", "pred_error_m", "pred_error_deg", "obs_noise_m",
+              "ctrl_error_m", "seconds"):
+        assert k in d
+    assert d["structure_correct"] and d["converged_at"] <= 12
+    assert {tuple(sorted((e["a"], e["b"]))) for e in d["structure"]} == \
+        {("x1", "x2"), ("x2", "x3"), ("x3", "x4")}
+    assert d["pred_error_m"] < 0.05 and d["ctrl_error_m"] < 0.1
+
+
+def test_learn_body_schema_bad_args(tmp_path):
+    r = _run(["mmlearn.apps.learn_body_schema", "--samples", "0"], tmp_path)
+    assert r.returncode == 2 and "samples" in r.stderr
+    r = _run(["mmlearn.apps.learn_body_schema", "--occlude", "x99", "--samples", "3"], tmp_path)
+    assert r.returncode == 2 and "x99" in r.stderr
