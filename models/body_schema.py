@@ -195,6 +195,14 @@ class BodySchema:
             self._push(a, y)
         return res
 
+    def buffer(self):
+        """The buffered observations: actions (n, m) and poses (n, p, 4, 4) (NaN = unseen),
+        oldest first (at most ``adapt.buffer`` of them)."""
+        m = self.n_actions
+        A = np.array(self._buf_actions).reshape(-1, m)
+        P = np.array(self._buf_poses).reshape(-1, self.n_parts, 4, 4)
+        return A, P
+
     def relearn(self, last: int | None = None) -> StructureResult:
         """Re-run the structure search (Algorithm 1) on the buffered observations (the
         ``last`` ones, default all) and, when it finds a complete tree, make it the current

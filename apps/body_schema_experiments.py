@@ -1,0 +1,320 @@
+"""Body-schema experiments of thesis Sec. 3.4: Fig. 3.10, the noise-free accuracy, the 7-DOF
+arm with an occluded part, Table 3.1 (recovery after failures) and Table 3.2 (control with a
+bent link).
+
+Where each runs:
+
+* **Drake simulation** (the arm in a MultibodyPlant with implicit PD control, observed by
+  the MarkerSensor; data gathered by motor babbling with the SchemaLearner in the loop;
+  failures in the plant: JointBlocker / hidden locked joints):
+  Fig. 3.10 (2-DOF, sigma 0.044 m; the schema is re-fitted on the first n Drake samples for
+  each n), the noise-free accuracy (2-DOF, 20 and 100 samples), the 7-DOF 10-part arm with
+  x4 occluded, one run of Table 3.1 per failure (2-DOF arm: joint q2 blocked, tool changed;
+  the schema is learned from scratch in block 1) and one run of Table 3.2 (4-DOF arm, link
+  x3 bent by 45 deg in the plant; the goal commands are solved on the learned model by the
+  SchemaController's solver and the error is measured on the plant's kinematics at those
+  commands).
+* **numpy simulation** (:mod:`mmlearn.models.kinematic_sim`) for the many-run statistics:
+  Table 3.1 (7-DOF, ``--runs`` runs of 4 x 100 samples, engineered seed model) and
+  Table 3.2 (4-DOF, 30 way points).
+
+Prediction errors are measured on independent test configurations against the true
+(noise-free) part poses, relative to the root part.
+
+    python -m mmlearn.apps.body_schema_experiments --out_dir results/   # ~15-20 min
+    python -m mmlearn.apps.body_schema_experiments --quick --json        # ~1 min
+"""
+
+from __future__ import annotations
+
+import argparse
+import copy
+import json
+import math
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from mmlearn.apps._common import atomic_write_text, progress
+from mmlearn.apps.learn_body_schema import (
+    babble,
+    converged_at,
+    is_correct,
+    observation_noise,
+    prediction_error,
+    sample_test_commands,
+)
+
+
+def _diagram(arm, noise, seed, **kw):
+    from pydrake.systems.analysis import Simulator
+
+    from mmlearn.diagrams.body_schema import BodySchemaDiagramConfig, MakeBodySchemaDiagram
+
+    # noise-free runs: a 2 mm floor on the learner's noise level (the gripper's fingers of
+    # the 7-DOF arm move only 2.4 cm in the babbling range: a 1 cm floor would call them rigid)
+    kw.setdefault("search_min_pos", 0.01 if noise > 0 else 0.002)
+    bs = MakeBodySchemaDiagram(BodySchemaDiagramConfig(
+        arm=arm, noise_pos=noise, noise_orient=0.0, seed=seed, babble_fraction=0.6, **kw))
+    sim = Simulator(bs.diagram)
+    root = sim.get_mutable_context()
+    bs.prepare(root)
+    sim.Initialize()
+    return bs, sim, root
+
+
+def _positioning_error(bs, root, schema, Q):
+    """Mean true distance of the end effector (relative to the root part) to targets, at
+    the commands the SchemaController's solver finds on ``schema``."""
+    ee, r = bs.learner.end_effector, schema.root
+    start = 0.5 * (bs.controller._lo + bs.controller._hi)
+    errs = []
+    for q in Q:
+        X = bs.true_poses(root, q)
+        tgt = (np.linalg.inv(X[r]) @ X[ee])[:3, 3]
+        qs = bs.controller._solve(schema, start, tgt)
+        Xs = bs.true_poses(root, qs)
+        errs.append(np.linalg.norm((np.linalg.inv(Xs[r]) @ Xs[ee])[:3, 3] - tgt))
+    return float(np.mean(errs))
+
+
+def drake_accuracy(arm, noise, sizes, *, seed, n_test, n_control, occlude=(), show=True):
+    """Gather max(sizes) samples in Drake, then fit the schema on the first n of them."""
+    from mmlearn.models.body_schema import BodySchema
+
+    bs, sim, root = _diagram(arm, noise, seed, occlude=list(occlude))
+    t0 = time.perf_counter()
+    babble(bs, sim, max(sizes), show_progress=show, desc=f"{arm} babbling")
+    st = bs.learner.state(root)
+    A, P = st.schema.buffer()
+    rng = np.random.default_rng([seed, 99])
+    Q = sample_test_commands(bs, n_test, rng)
+    obs = observation_noise(bs, root, Q[:30], seed)
+    rows = []
+    for n in sizes:
+        sch = BodySchema(len(bs.parts), A.shape[1], search=bs.learner._cfg.search)
+        row = dict(n=int(n))
+        try:
+            res = sch.fit(A[:n], P[:n])
+        except ValueError as e:
+            rows.append({**row, "correct": False, "error": str(e)})
+            continue
+        keys = [(m.i, m.j, m.Q) for m in res.tree]
+        row["correct"] = bool(res.complete and is_correct(keys, bs.truth, len(res.nodes)))
+        if res.complete:
+            row["pred_error_m"], row["pred_error_deg"] = prediction_error(bs, root, sch, Q)
+            if n_control:
+                row["positioning_error_m"] = _positioning_error(bs, root, sch,
+                                                                Q[:n_control])
+        rows.append(row)
+    n_nodes = len(st.schema.nodes) or len(bs.parts)
+    return dict(arm=arm, noise=noise, occluded=list(occlude), parts=bs.parts,
+                obs_noise_m=obs, rows=rows,
+                online_converged_at=converged_at(st.history, bs.truth, n_nodes),
+                update_ms_median=float(1000 * np.median(st.update_seconds)),
+                sim_seconds=float(root.get_time()), seconds=time.perf_counter() - t0)
+
+
+def drake_recovery(failure, *, n_block, seed, arm="2dof", show=True):
+    """Table 3.1 protocol in Drake: block 1 learns from scratch (intact), blocks 2 and 4
+    with the failure, block 3 restored; samples without a valid spanning tree per block."""
+    bs, sim, root = _diagram(arm, 0.01, seed, babble_period=0.7)
+    invalid = []
+    for b in range(4):
+        broken = b % 2 == 1
+        if failure == "joint":
+            if broken:
+                bs.blocker.block(root, 1)
+            else:
+                bs.blocker.unblock(root)
+        else:
+            if broken:
+                bs.failures.change_tool(root, 0.10, math.radians(30))
+            else:
+                bs.failures.reset_tool(root)
+        n_inv = 0
+        for _ in progress(range(n_block), desc=f"{failure} block {b + 1}", unit="sample",
+                          enabled=show):
+            babble(bs, sim, 1, show_progress=False)
+            n_inv += not bs.learner.state(root).schema.valid
+        invalid.append(n_inv)
+    return dict(steps_invalid=invalid, first=invalid[1], restore=invalid[2],
+                second=invalid[3], events=[e for _, e in bs.learner.state(root).schema.events])
+
+
+def drake_control(*, n_learn, n_adapt, n_waypoints, seed, show=True):
+    """Table 3.2 in Drake: 4-DOF arm, x3 bent by 45 deg in the plant."""
+    bs, sim, root = _diagram("4dof", 0.005, seed)
+    babble(bs, sim, n_learn, show_progress=show, desc="4dof learning")
+    static = copy.deepcopy(bs.learner.state(root).schema)
+    rng = np.random.default_rng([seed, 5])
+    # a smooth trajectory of way points inside the babbling range
+    lo, hi = bs.babbling._lo, bs.babbling._hi
+    s_ = np.linspace(0, 1, n_waypoints)[:, None]
+    Qw = 0.5 * (lo + hi) + 0.35 * (hi - lo) * np.sin(2 * np.pi * s_ +
+                                                     rng.uniform(0, 2 * np.pi, lo.size))
+    out = dict(intact_static=_positioning_error(bs, root, static, Qw))
+    bs.failures.bend_link(root, math.pi / 4)
+    out["bent_static"] = _positioning_error(bs, root, static, Qw)
+    babble(bs, sim, n_adapt, show_progress=show, desc="4dof adapting")
+    sch = bs.learner.state(root).schema
+    out["bent_adaptive"] = _positioning_error(bs, root, sch, Qw)
+    out["valid_after"] = bool(sch.valid)
+    return out
+
+
+def numpy_tables(*, runs, quick, seed, show=True):
+    from mmlearn.models.body_schema_experiments import control_experiment, recovery_experiment
+    from mmlearn.models.kinematic_sim import make_arm_4dof, make_arm_7dof
+
+    kw = dict(n_block=40) if quick else {}
+    t31 = {}
+    for failure, vis in (("joint", 0.919), ("tool", 0.790)):
+        rs = [recovery_experiment(make_arm_7dof, failure, seed=seed + r, visibility=vis, **kw)
+              for r in progress(range(runs), desc=f"Table 3.1 {failure}", unit="run",
+                                enabled=show)]
+        f = np.array([[r["first"], r["restore"], r["second"]] for r in rs], float)
+        t31[failure] = dict(mean=f.mean(0).tolist(), std=f.std(0).tolist(), runs=runs)
+    ckw = dict(n_learn=40, n_waypoints=8, n_adapt=60) if quick else {}
+    rs = [control_experiment(make_arm_4dof, seed=seed + r, **ckw)
+          for r in progress(range(max(1, runs // 4)), desc="Table 3.2", unit="run",
+                            enabled=show)]
+    t32 = {k: float(np.mean([r[k][0] for r in rs])) for k in
+           ("intact_static", "bent_static", "bent_adaptive")}
+    t32["runs"] = len(rs)
+    return t31, t32
+
+
+def _plot(fig310, path):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rows = [r for r in fig310["rows"] if "pred_error_m" in r]
+    fig, ax = plt.subplots(1, 2, figsize=(10, 4))
+    n = [r["n"] for r in rows]
+    ax[0].plot(n, [r["pred_error_m"] for r in rows], "o-", label="prediction (learned model)")
+    ax[0].axhline(fig310["obs_noise_m"], color="r", ls="--", label="observation noise")
+    ax[0].set_xlabel("samples")
+    ax[0].set_ylabel("mean position error [m]")
+    ax[0].set_title("Fig. 3.10: 2-DOF, sigma 0.044 m (Drake)")
+    ax[0].legend()
+    if any("positioning_error_m" in r for r in rows):
+        ax[1].plot(n, [r.get("positioning_error_m", np.nan) for r in rows], "s-")
+    ax[1].set_xlabel("samples")
+    ax[1].set_ylabel("positioning error [m]")
+    ax[1].set_title("positioning by the learned model")
+    for a in ax:
+        a.set_xscale("log")
+        a.grid(True, alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
+def run(*, quick: bool = False, runs: int = 20, seed: int = 0, out_dir: str | Path = ".",
+        show_progress: bool = True) -> dict:
+    """Run every experiment; write ``fig_3_10.png`` and ``body_schema_experiments.json`` to
+    ``out_dir``; return the results."""
+    if runs < 1:
+        raise ValueError(f"runs must be >= 1, got {runs}")
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    t0 = time.perf_counter()
+    show = show_progress
+    sizes = [5, 10, 15, 20] if quick else [5, 10, 15, 20, 30, 50, 100]
+    res = {"quick": quick, "where": {
+        "fig_3_10": "drake", "noise_free": "drake", "7dof_occluded": "drake",
+        "table_3_1": "numpy (statistics) + drake (one run per failure, 2-DOF)",
+        "table_3_2": "numpy (statistics) + drake (one run)"}}
+    res["fig_3_10"] = drake_accuracy("2dof", 0.044, sizes, seed=seed, n_test=60 if quick
+                                     else 200, n_control=3 if quick else 20, show=show)
+    res["noise_free"] = drake_accuracy("2dof", 0.0, [20] if quick else [20, 100],
+                                       seed=seed + 1, n_test=60, n_control=0, show=show)
+    res["7dof_occluded"] = drake_accuracy("7dof", 0.0, [15] if quick else [10, 15, 20, 50, 100],
+                                          seed=seed + 2, n_test=40 if quick else 100,
+                                          n_control=0, occlude=["x4"], show=show)
+    n_block = 15 if quick else 100
+    res["table_3_1_drake"] = {f: drake_recovery(f, n_block=n_block, seed=seed, show=show)
+                              for f in ("joint", "tool")}
+    res["table_3_2_drake"] = drake_control(n_learn=30 if quick else 100,
+                                           n_adapt=30 if quick else 150,
+                                           n_waypoints=6 if quick else 30, seed=seed,
+                                           show=show)
+    t31, t32 = numpy_tables(runs=1 if quick else runs, quick=quick, seed=seed, show=show)
+    res["table_3_1_numpy"], res["table_3_2_numpy"] = t31, t32
+    res["seconds"] = time.perf_counter() - t0
+    _plot(res["fig_3_10"], out / "fig_3_10.png")
+    res["plots"] = [str(out / "fig_3_10.png")]
+    atomic_write_text(out / "body_schema_experiments.json", json.dumps(res, indent=1))
+    return res
+
+
+def report(res) -> str:
+    L = []
+    f = res["fig_3_10"]
+    L.append(f"Fig. 3.10 [Drake] 2-DOF, sigma 0.044 m; observation noise (mean position "
+             f"error of a marker) {f['obs_noise_m']:.4f} m; online structure correct from "
+             f"sample {f['online_converged_at']}; schema update median "
+             f"{f['update_ms_median']:.2f} ms")
+    L.append("   n  structure  prediction [m]  [deg]  positioning [m]")
+    for r in f["rows"]:
+        L.append(f"{r['n']:4d}  {'correct' if r['correct'] else 'wrong  '}    "
+                 f"{r.get('pred_error_m', float('nan')):.4f}        "
+                 f"{r.get('pred_error_deg', float('nan')):.2f}   "
+                 f"{r.get('positioning_error_m', float('nan')):.4f}")
+    for key, title in (("noise_free", "noise-free 2-DOF"),
+                       ("7dof_occluded", "7-DOF, 10 parts, x4 occluded, noise-free")):
+        d = res[key]
+        L.append(f"{title} [Drake]:")
+        for r in d["rows"]:
+            L.append(f"  n={r['n']:3d}: structure {'correct' if r['correct'] else 'WRONG'}, "
+                     f"error {1000 * r.get('pred_error_m', float('nan')):.2f} mm / "
+                     f"{r.get('pred_error_deg', float('nan')):.3f} deg")
+    L.append("Table 3.1: samples until a valid model again (first / restore / second)")
+    for fl, name in (("joint", "joint stuck"), ("tool", "tool exchange")):
+        m = res["table_3_1_numpy"][fl]["mean"]
+        d = res["table_3_1_drake"][fl]
+        L.append(f"  {name:14s} numpy 7-DOF ({res['table_3_1_numpy'][fl]['runs']} runs): "
+                 f"{m[0]:.2f} / {m[1]:.2f} / {m[2]:.2f};  Drake 2-DOF (1 run): "
+                 f"{d['first']} / {d['restore']} / {d['second']}")
+    L.append("Table 3.2: control error [m] (intact static / bent static / bent adaptive)")
+    n = res["table_3_2_numpy"]
+    d = res["table_3_2_drake"]
+    L.append(f"  numpy 4-DOF ({n['runs']} runs): {n['intact_static']:.3f} / "
+             f"{n['bent_static']:.3f} / {n['bent_adaptive']:.3f}")
+    L.append(f"  Drake 4-DOF (1 run):  {d['intact_static']:.3f} / {d['bent_static']:.3f} / "
+             f"{d['bent_adaptive']:.3f}")
+    L.append(f"plots: {', '.join(res['plots'])}; {res['seconds']:.0f} s")
+    return "\n".join(L)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(
+        prog="python -m mmlearn.apps.body_schema_experiments",
+        description="Reproduce the body-schema experiments of thesis Sec. 3.4 (Fig. 3.10, "
+                    "noise-free accuracy, 7-DOF with an occluded part, Tables 3.1 and 3.2). "
+                    "Learning runs in the Drake simulation; the many-run statistics of the "
+                    "tables use the numpy simulation.")
+    ap.add_argument("--quick", action="store_true", help="small settings (about a minute)")
+    ap.add_argument("--runs", type=int, default=20, help="numpy runs of Table 3.1 (20)")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--out_dir", type=Path, default=Path("."),
+                    help="where plots and the JSON go (default: current directory)")
+    ap.add_argument("--json", action="store_true", help="print the results as JSON")
+    args = ap.parse_args(argv)
+    try:
+        res = run(quick=args.quick, runs=args.runs, seed=args.seed, out_dir=args.out_dir,
+                  show_progress=not args.json)
+    except ValueError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    print(json.dumps(res) if args.json else report(res))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
