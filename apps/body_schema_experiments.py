@@ -54,7 +54,7 @@ def _diagram(arm, noise, seed, **kw):
     from mmlearn.diagrams.body_schema import BodySchemaDiagramConfig, MakeBodySchemaDiagram
 
     # noise-free runs: a 2 mm floor on the learner's noise level (the gripper's fingers of
-    # the 7-DOF arm move only 2.4 cm in the babbling range: a 1 cm floor would call them rigid)
+    # the 7-DOF arm move only 4 cm: a 1 cm floor would call them rigid)
     kw.setdefault("search_min_pos", 0.01 if noise > 0 else 0.002)
     bs = MakeBodySchemaDiagram(BodySchemaDiagramConfig(
         arm=arm, noise_pos=noise, noise_orient=0.0, seed=seed, babble_fraction=0.6, **kw))

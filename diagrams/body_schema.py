@@ -54,7 +54,8 @@ class BodySchemaDiagramConfig:
             instead of the random drop-out only (slower).
         seed: seeds the sensor noise and the babbling targets.
         babble_period: s per babbling target; babble_hold: fraction of it resting there.
-        babble_fraction: fraction of each joint range the targets come from.
+        babble_fraction: fraction of each joint range the targets come from (joints with
+            a range below 0.2 rad or m, the gripper's fingers, use their full range).
         min_height: babbling targets keep every part (origin, tip and marker) at least this
             far above the floor, m.
         failure_joints: build the arm with its hidden failure joints.
@@ -301,7 +302,9 @@ def MakeBodySchemaDiagram(config: BodySchemaDiagramConfig | None = None, *, mesh
     # the scene's subsystems are added one level down; keep the scene diagram as a block
     sd = builder.AddNamedSystem("scene", scene.diagram)
     mid = 0.5 * (scene.command_lower + scene.command_upper)
-    half = 0.5 * (scene.command_upper - scene.command_lower) * cfg.babble_fraction
+    rng_ = scene.command_upper - scene.command_lower
+    # short-range joints (the gripper's 4 cm fingers) babble over their full range
+    half = 0.5 * rng_ * np.where(rng_ < 0.2, 1.0, cfg.babble_fraction)
     accept = make_target_filter(scene, min_height=cfg.min_height)
     start = mid.copy()
     babbling = builder.AddNamedSystem("motor_babbling", MotorBabbling(
