@@ -237,9 +237,9 @@ def mechanism_sdf(spec: MechanismSpec, *, model_name: str = "mechanism") -> str:
     jtype = "revolute" if s.is_revolute else "prismatic"
     spring = ""
     if s.kind == "dishwasher":
-        # counterbalance springs, as real dishwasher doors have: a torsion spring that
-        # matches the door's weight torque (m g h/2 sin q) at 90 degrees
-        k = mass * 9.81 * (H / 2) / (math.pi / 2)
+        # counterbalance springs, as real dishwasher doors have: a torsion spring k q with
+        # k = m g h/2, so k q >= m g h/2 sin q and the door never falls open by itself
+        k = mass * 9.81 * (H / 2)
         spring = (f"<spring_reference>0</spring_reference>"
                   f"<spring_stiffness>{k:.6g}</spring_stiffness>")
     joint = (
