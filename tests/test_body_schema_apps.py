@@ -36,3 +36,26 @@ def test_learn_body_schema_bad_args(tmp_path):
     assert r.returncode == 2 and "samples" in r.stderr
     r = _run(["mmlearn.apps.learn_body_schema", "--occlude", "x99", "--samples", "3"], tmp_path)
     assert r.returncode == 2 and "x99" in r.stderr
+
+
+def test_body_schema_experiments_help(tmp_path):
+    r = _run(["mmlearn.apps.body_schema_experiments", "--help"], tmp_path)
+    assert r.returncode == 0 and "--quick" in r.stdout and "numpy" in r.stdout
+
+
+def test_body_schema_experiments_quick(tmp_path):
+    r = _run(["mmlearn.apps.body_schema_experiments", "--quick", "--json", "--out_dir",
+              str(tmp_path / "out")], tmp_path, timeout=600)
+    assert r.returncode == 0, r.stderr
+    d = json.loads(r.stdout)
+    assert (tmp_path / "out" / "fig_3_10.png").stat().st_size > 1000
+    assert (tmp_path / "out" / "body_schema_experiments.json").is_file()
+    assert d["where"]["fig_3_10"] == "drake"
+    rows = {r["n"]: r for r in d["fig_3_10"]["rows"]}
+    assert rows[20]["correct"] and rows[20]["pred_error_m"] < 0.06
+    assert d["noise_free"]["rows"][0]["pred_error_m"] < 0.01  # 20 noise-free samples
+    t = d["table_3_2_drake"]
+    assert t["bent_static"] > 0.1 and t["bent_adaptive"] < 0.05  # adaptation helps
+    for f in ("joint", "tool"):
+        assert d["table_3_1_drake"][f]["first"] > 0  # the failure is noticed
+        assert len(d["table_3_1_numpy"][f]["mean"]) == 3

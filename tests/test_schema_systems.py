@@ -213,3 +213,18 @@ def test_drake_tool_change_detected_and_recovered():
         invalid.append(not bs.learner.state(root).schema.valid)
     assert any(invalid[:10])           # the failure is noticed
     assert not any(invalid[-5:])       # and a valid schema is back
+
+
+def test_meshcat_draws_learned_frames_and_tree():
+    from pydrake.geometry import StartMeshcat
+
+    meshcat = StartMeshcat()
+    bs = MakeBodySchemaDiagram(BodySchemaDiagramConfig(arm="2dof", noise_pos=0.01),
+                               meshcat=meshcat)
+    sim, root = _sim(bs)
+    babble(bs, sim, 12, show_progress=False)
+    sim.AdvanceTo(root.get_time() + 0.2)
+    assert bs.learner.state(root).schema.valid
+    for p in bs.parts:
+        assert meshcat.HasPath(f"/body_schema/parts/{p}/z")
+    assert meshcat.HasPath("/body_schema/tree")
