@@ -2,10 +2,10 @@
 
 from __future__ import annotations
 
-import os
 import sys
-import tempfile
 from pathlib import Path
+
+from mmlearn.models.fileio import atomic_write_text
 
 
 def progress(iterable, *, desc: str = "", unit: str = "it", enabled: bool = True,
@@ -26,27 +26,6 @@ def make_meshcat():
     meshcat = StartMeshcat()
     print(f"Meshcat: open {meshcat.web_url()} in a browser", file=sys.stderr)
     return meshcat
-
-
-def atomic_write_text(path: str | Path, text: str) -> Path:
-    """Write ``text`` to ``path`` through a temporary file and a rename, so a reader never
-    sees a half-written file."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w") as f:
-            f.write(text)
-            f.flush()
-            os.fsync(f.fileno())
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return path
 
 
 def save_html(meshcat, path: str | Path) -> Path:

@@ -689,7 +689,7 @@ def read_parts_csv(path):
 def write_parts_csv(path, part_names, times, poses) -> None:
     """Write (p, T, 7) poses (NaN = unobserved, skipped) in the format of
     :func:`read_parts_csv`, atomically."""
-    from .articulation_io import atomic_write_text
+    from .fileio import atomic_write_text
 
     Y = np.asarray(poses, float)
     lines = [",".join(CSV_HEADER)]

@@ -40,8 +40,6 @@ a comment). Link poses are those at q = 0.
 from __future__ import annotations
 
 import json
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -49,6 +47,7 @@ from scipy.spatial.transform import Rotation
 
 from .articulation import LinkModel, link_model_from_dict
 from .articulation_structure import ArticulatedObject, LinkEdge
+from .fileio import atomic_write_text
 
 __all__ = ["model_to_dict", "model_from_dict", "save_model", "load_model", "to_sdf",
            "write_sdf", "atomic_write_text"]
@@ -83,24 +82,6 @@ def model_from_dict(d: dict):
                           dict(e.get("bic", {}))) for e in o["edges"]]
         return ArticulatedObject(o["parts"], int(o["root"]), edges)
     raise ValueError(f"unknown kind {d['kind']!r}")
-
-
-def atomic_write_text(path, text: str) -> None:
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w") as f:
-            f.write(text)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
 
 
 def _is_yaml(path) -> bool:

@@ -53,7 +53,7 @@ from pathlib import Path
 import numpy as np
 
 from .articulation import ObservationModel, link_model_from_dict, make_model
-from .articulation_io import atomic_write_text
+from .fileio import atomic_write_text
 from .articulation_structure import DEFAULT_CANDIDATES, select_link_model
 from .se3 import as_pose_array
 
