@@ -49,18 +49,24 @@ def evaluate_model(link, spec) -> dict:
 
 def run(*, kind: str = "left_door", seed: int = 0, meshcat=None, html_out: str = "",
         max_time: float = 60.0, sigma_pos: float | None = None, show_progress: bool = True,
-        realtime: bool = False) -> dict:
-    """Run one trial and return its results (see the module docstring)."""
+        realtime: bool = False, priors: str = "", mechanism_seed: int | None = None,
+        save_track: str = "") -> dict:
+    """Run one trial and return its results (see the module docstring).
+
+    ``priors``: prior database to use (see ``learn_priors``); ``mechanism_seed``: fix the
+    mechanism's geometry while ``seed`` varies the click and the start; ``save_track``:
+    write the hook trajectory the model was learned from (x y z per line)."""
     from pydrake.systems.analysis import Simulator
 
     from mmlearn.diagrams.operate import MakeOperateDiagram, OperateConfig
-    from mmlearn.systems.epc_controller import DONE, PHASE_NAMES
+    from mmlearn.models.fileio import atomic_write_text
+    from mmlearn.systems.epc_controller import DONE, PHASE_NAMES, PULL
 
     if kind not in KINDS:
         raise ValueError(f"object must be one of {', '.join(KINDS)}; got {kind!r}")
     if not max_time > 0:
         raise ValueError(f"max_time must be > 0 s, got {max_time}")
-    cfg = OperateConfig(kind=kind, seed=seed)
+    cfg = OperateConfig(kind=kind, seed=seed, priors=priors, mechanism_seed=mechanism_seed)
     if sigma_pos is not None:
         cfg.sigma_pos = sigma_pos
     if meshcat is None and html_out:
@@ -85,12 +91,18 @@ def run(*, kind: str = "left_door", seed: int = 0, meshcat=None, html_out: str =
     bar = progress(None, desc=f"{kind} seed {seed}", unit="sim s", enabled=show_progress,
                    total=int(max_time))
     phase = 0
+    right = "revolute" if op.mechanism.is_revolute else "prismatic"
+    ctrl_ctx = op.controller.GetMyContextFromRoot(ctx)
+    model_log = []  # (true opening, model the controller used)
     while ctx.get_time() < max_time - 1e-9:
-        simulator.AdvanceTo(min(max_time, ctx.get_time() + 0.5))
+        simulator.AdvanceTo(min(max_time, ctx.get_time() + 0.25))
         if bar is not None and hasattr(bar, "update"):
-            bar.update(0.5)
+            bar.update(0.25)
             bar.set_postfix_str(PHASE_NAMES[phase])
         phase = int(d.GetOutputPort("phase").Eval(ctx)[0])
+        if phase == PULL:
+            model_log.append((float(d.GetOutputPort("mechanism_state").Eval(ctx)[0]),
+                              op.controller.state(ctrl_ctx).model_name))
         if phase == DONE:
             break
     if bar is not None and hasattr(bar, "close"):
@@ -111,6 +123,21 @@ def run(*, kind: str = "left_door", seed: int = 0, meshcat=None, html_out: str =
     result = {"object": kind, "seed": seed, "success": bool(success), "opened": opened,
               "unit": unit, "outcome": ctrl.outcome or PHASE_NAMES[phase]}
     result.update(evaluate_model(link, spec))
+    # opening at which the controller's model became the right kind for good
+    right_at = None
+    for k in range(len(model_log)):
+        if all(m == right for _, m in model_log[k:]):
+            right_at = model_log[k][0]
+            break
+    if right_at is not None and spec.is_revolute:
+        right_at = math.degrees(right_at)
+    result["right_model_at"] = right_at
+    if priors:
+        result["priors"] = priors
+    if save_track and track.shape[0]:
+        atomic_write_text(save_track, f"# hook trajectory, {kind}, seed {seed} (x y z, m)\n"
+                          + "\n".join(" ".join(f"{v:.6f}" for v in row) for row in track)
+                          + "\n")
     result.update({"estimated_opening": ctrl.opening, "track_length": int(track.shape[0]),
                    "sim_seconds": float(ctx.get_time()), "wall_seconds": round(wall, 3),
                    "realtime_factor": round(float(ctx.get_time() / wall), 2),
@@ -133,6 +160,13 @@ def main(argv=None) -> int:
     ap.add_argument("--max-time", type=float, default=60.0, help="simulated seconds at most")
     ap.add_argument("--sigma-pos", type=float, default=None,
                     help="position noise the estimator assumes, m (default 0.01)")
+    ap.add_argument("--priors", default="",
+                    help="prior database (JSON from learn_priors / operate_trials "
+                         "--save-tracks) to use while learning")
+    ap.add_argument("--mechanism-seed", type=int, default=None,
+                    help="fix the mechanism's geometry (the seed then varies the handle "
+                         "click and the robot's start)")
+    ap.add_argument("--save-track", default="", help="write the hook trajectory to a file")
     ap.add_argument("--meshcat", action="store_true", help="show the trial live in Meshcat")
     ap.add_argument("--html_out", default="", help="save the Meshcat recording as HTML")
     ap.add_argument("--json", action="store_true", help="print the result as JSON")
@@ -141,7 +175,8 @@ def main(argv=None) -> int:
     try:
         r = run(kind=args.object, seed=args.seed, meshcat=meshcat, html_out=args.html_out,
                 max_time=args.max_time, sigma_pos=args.sigma_pos,
-                show_progress=not args.json, realtime=args.meshcat)
+                show_progress=not args.json, realtime=args.meshcat, priors=args.priors,
+                mechanism_seed=args.mechanism_seed, save_track=args.save_track)
     except ValueError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
@@ -157,6 +192,9 @@ def main(argv=None) -> int:
                   f"{r['axis_error_deg']:.1f} deg")
         elif r["axis_error_deg"] is not None:
             print(f"learned axis error {r['axis_error_deg']:.1f} deg")
+        if r["right_model_at"] is not None:
+            print(f"the controller used the right model ({'revolute' if r['unit'] == 'deg' else 'prismatic'}) "
+                  f"from an opening of {r['right_model_at']:.2f} {r['unit']} on")
         print(f"{r['sim_seconds']:.1f} s simulated in {r['wall_seconds']:.1f} s "
               f"(real-time factor {r['realtime_factor']})")
     finish_viewing(html_out=None if args.json else r["html_out"], live=args.meshcat)

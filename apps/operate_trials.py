@@ -7,10 +7,10 @@ Trials are independent and run in parallel processes (``--jobs``, default: all c
 
 import argparse
 import json
-import math
 import os
 import sys
 import time
+from pathlib import Path
 from concurrent.futures import ProcessPoolExecutor, as_completed
 
 import numpy as np
@@ -20,12 +20,13 @@ from mmlearn.sdf.mechanisms import KINDS
 
 
 def _one(args):
-    kind, seed, max_time, sigma_pos = args
+    kind, seed, max_time, sigma_pos, priors, mechanism_seed, tracks = args
     from mmlearn.apps.open_cabinet import run
 
     try:
         return run(kind=kind, seed=seed, max_time=max_time, sigma_pos=sigma_pos,
-                   show_progress=False)
+                   priors=priors, mechanism_seed=mechanism_seed, show_progress=False,
+                   save_track=str(Path(tracks) / f"{kind}_{seed:03d}.log") if tracks else "")
     except Exception as e:  # a crashed trial is a failed trial, reported with its reason
         return {"object": kind, "seed": seed, "success": False, "opened": 0.0,
                 "unit": "deg" if kind in ("left_door", "right_door", "dishwasher") else "m",
@@ -40,6 +41,7 @@ def summarize(trials: list[dict]) -> dict:
     for kind in dict.fromkeys(t["object"] for t in trials):
         ts = [t for t in trials if t["object"] == kind]
         radius = [t["radius_error_m"] for t in ts if t.get("radius_error_m") is not None]
+        right_at = [t["right_model_at"] for t in ts if t.get("right_model_at") is not None]
         axis = [t["axis_error_deg"] for t in ts if t.get("axis_error_deg") is not None]
         table[kind] = {
             "trials": len(ts),
@@ -49,6 +51,7 @@ def summarize(trials: list[dict]) -> dict:
             "mean_radius_error_m": float(np.mean(radius)) if radius else None,
             "max_radius_error_m": float(np.max(radius)) if radius else None,
             "mean_axis_error_deg": float(np.mean(axis)) if axis else None,
+            "mean_right_model_at": float(np.mean(right_at)) if right_at else None,
             "models": {m: sum(t["learned_model"] == m for t in ts)
                        for m in dict.fromkeys(t["learned_model"] for t in ts)},
         }
@@ -56,15 +59,22 @@ def summarize(trials: list[dict]) -> dict:
 
 
 def run(*, objects=KINDS, trials: int = 8, seed: int = 0, jobs: int | None = None,
-        max_time: float = 60.0, sigma_pos: float | None = None,
+        max_time: float = 60.0, sigma_pos: float | None = None, priors: str = "",
+        mechanism_seed: int | None = None, save_tracks: str = "",
         show_progress: bool = True) -> dict:
+    """Run the trials; ``mechanism_seed`` fixes each object's geometry (the trials then
+    differ in the handle click and the start), ``save_tracks`` writes every trial's hook
+    trajectory into that folder, ``priors`` uses a prior database."""
     for k in objects:
         if k not in KINDS:
             raise ValueError(f"unknown object {k!r}; choose from {', '.join(KINDS)}")
     if trials < 1:
         raise ValueError("trials must be >= 1")
     jobs = jobs or os.cpu_count() or 1
-    work = [(k, seed + i, max_time, sigma_pos) for k in objects for i in range(trials)]
+    if save_tracks:
+        Path(save_tracks).mkdir(parents=True, exist_ok=True)
+    work = [(k, seed + i, max_time, sigma_pos, priors, mechanism_seed, save_tracks)
+            for k in objects for i in range(trials)]
     t0 = time.perf_counter()
     results = []
     with ProcessPoolExecutor(max_workers=jobs) as pool:
@@ -82,7 +92,7 @@ def run(*, objects=KINDS, trials: int = 8, seed: int = 0, jobs: int | None = Non
 
 def format_table(res: dict) -> str:
     lines = [f"{'object':13s} {'success':>8s} {'mean opened':>12s} {'radius err (mean/max)':>22s}"
-             f" {'axis err':>9s}  models"]
+             f" {'axis err':>9s} {'right model at':>15s}  models"]
     for kind, row in res["per_object"].items():
         op = f"{row['mean_opened']:.1f} {row['unit']}" if row["unit"] == "deg" else \
             f"{row['mean_opened']:.3f} m"
@@ -91,8 +101,10 @@ def format_table(res: dict) -> str:
         ax = (f"{row['mean_axis_error_deg']:.1f} deg"
               if row["mean_axis_error_deg"] is not None else "-")
         models = ", ".join(f"{m}:{c}" for m, c in row["models"].items())
+        ra = row.get("mean_right_model_at")
+        ra = "-" if ra is None else (f"{ra:.1f} deg" if row["unit"] == "deg" else f"{ra:.3f} m")
         lines.append(f"{kind:13s} {row['successes']:>3d}/{row['trials']:<4d} {op:>12s} "
-                     f"{rad:>22s} {ax:>9s}  {models}")
+                     f"{rad:>22s} {ax:>9s} {ra:>15s}  {models}")
     lines.append(f"overall: {res['successes']}/{res['total']} "
                  f"({100 * res['success_rate']:.1f}%) in {res['wall_seconds']} s")
     fails = [t for t in res["trials"] if not t["success"]]
@@ -114,12 +126,20 @@ def main(argv=None) -> int:
     ap.add_argument("--max-time", type=float, default=60.0)
     ap.add_argument("--sigma-pos", type=float, default=None,
                     help="position noise the estimator assumes, m (default 0.01)")
+    ap.add_argument("--mechanism-seed", type=int, default=None,
+                    help="the same mechanism per object in every trial (trials differ in "
+                         "the handle click and the robot's start)")
+    ap.add_argument("--save-tracks", default="",
+                    help="folder to write each trial's hook trajectory to (for learn_priors)")
+    ap.add_argument("--priors", default="", help="prior database to use (from learn_priors)")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     try:
         res = run(objects=[o for o in args.objects.split(",") if o], trials=args.trials,
                   seed=args.seed, jobs=args.jobs, max_time=args.max_time,
-                  sigma_pos=args.sigma_pos, show_progress=not args.json)
+                  sigma_pos=args.sigma_pos, priors=args.priors,
+                  mechanism_seed=args.mechanism_seed, save_tracks=args.save_tracks,
+                  show_progress=not args.json)
     except ValueError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2

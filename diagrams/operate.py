@@ -4,17 +4,20 @@ trajectory, and the EpcController moving along the learned model (thesis 4.3, 4.
 
 import math
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
 from pydrake.systems.framework import DiagramBuilder
 
 from mmlearn.models.articulation import ObservationModel
+from mmlearn.models.articulation_priors import PriorDatabase
 from mmlearn.sdf.mechanisms import KINDS, MechanismSpec, sample_mechanism
 from mmlearn.systems import MarkerSensorConfig
 from mmlearn.systems.articulation_estimator import ArticulationEstimator
 from mmlearn.systems.epc_controller import EpcConfig, EpcController, EpcTask
 from mmlearn.systems.model_visualizer import LearnedModelVisualizer
+from mmlearn.systems.prior_selector import PriorModelSelector
 from mmlearn.systems.wrist_force_sensor import WristForceSensor
 
 from .scene import MakeSceneDiagram, SceneConfig
@@ -35,7 +38,12 @@ class OperateConfig:
         refit_every: the estimator refits after this many new samples.
         sigma_force: wrist force sensor noise, N.
         epc: the controller's parameters.
-        mechanism: the mechanism (None = drawn from kind and seed).
+        mechanism: the mechanism (None = drawn from kind and ``mechanism_seed``).
+        mechanism_seed: seed of the mechanism's geometry (None = ``seed``); with a fixed
+            value, trials differ only in the handle click and the robot's start, as when a
+            robot operates the same door again.
+        priors: path of a prior database (JSON, see ``models/articulation_priors.py``) to
+            use while learning ("" = learn from scratch only).
     """
 
     kind: str = "left_door"
@@ -48,6 +56,8 @@ class OperateConfig:
     sigma_force: float = 0.3
     epc: EpcConfig = field(default_factory=EpcConfig)
     mechanism: MechanismSpec | None = None
+    mechanism_seed: int | None = None
+    priors: str = ""
 
     def validate(self):
         if self.kind not in KINDS:
@@ -56,6 +66,8 @@ class OperateConfig:
             raise ValueError(f"click_error must be in [0, 0.1) m, got {self.click_error}")
         if not self.sigma_pos > 0:
             raise ValueError(f"sigma_pos must be > 0, got {self.sigma_pos}")
+        if self.priors and not Path(self.priors).is_file():
+            raise ValueError(f"prior database not found: {self.priors}")
 
 
 @dataclass
@@ -70,6 +82,7 @@ class Operate:
     estimator: ArticulationEstimator
     force_sensor: WristForceSensor
     start_command: np.ndarray
+    prior_selector: PriorModelSelector | None = None
 
 
 def make_task(spec: MechanismSpec, rng: np.random.Generator, click_error: float) -> EpcTask:
@@ -99,7 +112,13 @@ def MakeOperateDiagram(config: OperateConfig | None = None, *, meshcat=None) -> 
     cfg = config or OperateConfig()
     cfg.validate()
     rng = np.random.default_rng([cfg.seed, KINDS.index(cfg.kind)])
-    spec = cfg.mechanism or sample_mechanism(cfg.kind, rng)
+    if cfg.mechanism is not None:
+        spec = cfg.mechanism
+    elif cfg.mechanism_seed is not None:
+        spec = sample_mechanism(
+            cfg.kind, np.random.default_rng([cfg.mechanism_seed, KINDS.index(cfg.kind)]))
+    else:
+        spec = sample_mechanism(cfg.kind, rng)
     task = make_task(spec, rng, cfg.click_error)
     scene_cfg = SceneConfig(arm="7dof", tool="hook", mobile_base=True, cabinet=False,
                             mechanism=spec,
@@ -124,15 +143,24 @@ def MakeOperateDiagram(config: OperateConfig | None = None, *, meshcat=None) -> 
         command_names=scene.command_names))
     builder.Connect(sd.GetOutputPort("robot_state"), epc.get_robot_state_input_port())
     builder.Connect(force.get_force_output_port(), epc.get_force_input_port())
-    builder.Connect(estimator.GetOutputPort("object_model"), epc.get_object_model_input_port())
+    model_port = estimator.GetOutputPort("object_model")
+    selector = None
+    if cfg.priors:
+        selector = builder.AddNamedSystem("prior_model_selector", PriorModelSelector(
+            db=PriorDatabase.load(cfg.priors), period=cfg.estimator_period, seed=cfg.seed))
+        builder.Connect(epc.get_hook_position_output_port(),
+                        selector.get_hook_position_input_port())
+        builder.Connect(model_port, selector.get_object_model_input_port())
+        model_port = selector.GetOutputPort("object_model")
+        builder.ExportOutput(selector.GetOutputPort("prior_cluster"), "prior_cluster")
+    builder.Connect(model_port, epc.get_object_model_input_port())
     builder.Connect(epc.get_hook_position_output_port(),
                     estimator.get_input_port_observations())
     builder.Connect(epc.get_command_output_port(), sd.GetInputPort("command"))
     if meshcat is not None:
         vis = builder.AddNamedSystem("learned_model_visualizer",
                                      LearnedModelVisualizer(meshcat=meshcat))
-        builder.Connect(estimator.GetOutputPort("object_model"),
-                        vis.get_object_model_input_port())
+        builder.Connect(model_port, vis.get_object_model_input_port())
     builder.ExportOutput(sd.GetOutputPort("mechanism_state"), "mechanism_state")
     builder.ExportOutput(sd.GetOutputPort("robot_state"), "robot_state")
     builder.ExportOutput(epc.GetOutputPort("phase"), "phase")
@@ -153,4 +181,5 @@ def MakeOperateDiagram(config: OperateConfig | None = None, *, meshcat=None) -> 
     start[:3] = [p0[0], p0[1], yaw0]
     start[3:] = [0.0, 0.3, 0.0, 1.2, 0.0, 0.0][: len(start) - 3]
     return Operate(diagram=diagram, scene=scene, mechanism=spec, task=task, controller=epc,
-                   estimator=estimator, force_sensor=force, start_command=start)
+                   estimator=estimator, force_sensor=force, start_command=start,
+                   prior_selector=selector)

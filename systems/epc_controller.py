@@ -125,16 +125,18 @@ class EpcConfig:
     base_weight: float = 4.0
     max_turn: float = 0.05
     side_offset: float = 0.055
-    contact_force: float = 1.5
+    contact_force: float = 0.5
 
     def validate(self):
         for k in ("period", "step", "force_gain", "max_lead", "stop_force", "target_angle",
                   "target_distance", "approach_time", "depth_time", "slide_time",
                   "release_time", "drive_speed", "max_pull_time", "ik_damping", "base_weight",
-                  "max_turn", "side_offset", "contact_force"):
+                  "max_turn", "side_offset"):
             v = getattr(self, k)
             if not (math.isfinite(v) and v > 0):
                 raise ValueError(f"EpcConfig.{k} must be a positive number, got {v}")
+        if not (math.isfinite(self.contact_force) and self.contact_force >= 0):
+            raise ValueError(f"EpcConfig.contact_force must be >= 0, got {self.contact_force}")
         if self.min_model_samples < 3:
             raise ValueError("EpcConfig.min_model_samples must be >= 3")
 
