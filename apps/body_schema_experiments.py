@@ -119,14 +119,15 @@ def drake_accuracy(arm, noise, sizes, *, seed, n_test, n_control, occlude=(), sh
 
 def drake_recovery(failure, *, n_block, seed, arm="2dof", show=True):
     """Table 3.1 protocol in Drake: block 1 learns from scratch (intact), blocks 2 and 4
-    with the failure, block 3 restored; samples without a valid spanning tree per block."""
+    with the failure (joint q2 stuck at 0.5 rad / a tool 0.10 m longer and tilted by
+    30 deg), block 3 restored; samples without a valid spanning tree per block."""
     bs, sim, root = _diagram(arm, 0.01, seed, babble_period=0.7)
     invalid = []
     for b in range(4):
         broken = b % 2 == 1
         if failure == "joint":
             if broken:
-                bs.blocker.block(root, 1)
+                bs.blocker.block(root, 1, value=0.5)  # q2 stuck at 0.5 rad, both times
             else:
                 bs.blocker.unblock(root)
         else:
