@@ -88,3 +88,24 @@ def test_trials_summary_table():
     with pytest.raises(ValueError, match="unknown object"):
         operate_trials.run(objects=["trapdoor"], trials=1)
     assert math.isclose(operate_trials.summarize(trials)["left_door"]["mean_axis_error_deg"], 1.6)
+
+
+def test_priors_from_an_earlier_trial_select_the_right_model_earlier(tmp_path):
+    from mmlearn.models.articulation import ObservationModel
+    from mmlearn.models.articulation_priors import PriorDatabase
+    from mmlearn.models.track_io import read_track
+
+    track = tmp_path / "drawer_first.log"
+    first = open_cabinet.run(kind="drawer", seed=0, mechanism_seed=5, save_track=str(track),
+                             show_progress=False)
+    assert first["success"] and track.is_file()
+    db = PriorDatabase(obs=ObservationModel(sigma_pos=0.01, gamma_weight=1000.0))
+    db.add(read_track(track).poses, "first")
+    db_path = tmp_path / "priors.json"
+    db.save(db_path)
+    scratch = open_cabinet.run(kind="drawer", seed=1, mechanism_seed=5, show_progress=False)
+    with_priors = open_cabinet.run(kind="drawer", seed=1, mechanism_seed=5,
+                                   priors=str(db_path), show_progress=False)
+    assert with_priors["success"] and with_priors["priors"] == str(db_path)
+    # the same drawer: the prior model is the right one after a few centimetres
+    assert with_priors["right_model_at"] < 0.75 * scratch["right_model_at"]
