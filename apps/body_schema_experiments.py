@@ -121,7 +121,7 @@ def drake_recovery(failure, *, n_block, seed, arm="2dof", show=True):
     """Table 3.1 protocol in Drake: block 1 learns from scratch (intact), blocks 2 and 4
     with the failure (joint q2 stuck at 0.5 rad / a tool 0.10 m longer and tilted by
     30 deg), block 3 restored; samples without a valid spanning tree per block."""
-    bs, sim, root = _diagram(arm, 0.01, seed, babble_period=0.7)
+    bs, sim, root = _diagram(arm, 0.01, seed)
     invalid = []
     for b in range(4):
         broken = b % 2 == 1

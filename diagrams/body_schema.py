@@ -73,8 +73,8 @@ class BodySchemaDiagramConfig:
     occlude: list[str] = field(default_factory=list)
     cameras: bool = False
     seed: int = 0
-    babble_period: float = 0.8
-    babble_hold: float = 0.5
+    babble_period: float = 1.0
+    babble_hold: float = 0.6
     babble_fraction: float = 0.85
     min_height: float = 0.05
     failure_joints: bool = True
@@ -100,6 +100,12 @@ class BodySchemaDiagramConfig:
                 not 0 < self.babble_fraction <= 1:
             raise ValueError("BodySchemaDiagramConfig: need babble_period > 0, "
                              "0 <= babble_hold < 1, 0 < babble_fraction <= 1")
+        rest = self.babble_hold * self.babble_period
+        if rest < self.learner.settle_time + 1.0 / self.learner.rate_hz:
+            raise ValueError(
+                f"BodySchemaDiagramConfig: the arm rests {rest:.2f} s at each babbling target "
+                f"(babble_hold * babble_period), less than the learner's settle_time "
+                f"{self.learner.settle_time} s plus one update: no sample would be taken")
         if len(self.draw_offset) != 3:
             raise ValueError("BodySchemaDiagramConfig.draw_offset must be [x, y, z]")
 

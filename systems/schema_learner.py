@@ -45,7 +45,7 @@ class SchemaLearnerConfig:
     """
 
     rate_hz: float = 10.0
-    settle_time: float = 0.3
+    settle_time: float = 0.5
     settle_tol: float = 1e-4
     one_per_target: bool = True
     min_visible: int = 2

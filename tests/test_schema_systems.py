@@ -88,7 +88,7 @@ def test_plant_failures_bend_and_tool_move_only_downstream_markers():
 
 
 def test_blocked_joint_stops_following_its_command_in_the_plant():
-    bs = MakeBodySchemaDiagram(BodySchemaDiagramConfig(arm="2dof", babble_period=0.5))
+    bs = MakeBodySchemaDiagram(BodySchemaDiagramConfig(arm="2dof"))
     sim, root = _sim(bs)
     sim.AdvanceTo(0.2)
     bs.blocker.block(root, 1)
@@ -113,6 +113,11 @@ def test_babbling_targets_are_accepted_by_the_filter():
 
 
 # ------------------------------------------------------------------------- learner unit
+def test_diagram_rejects_babbling_too_fast_for_settling():
+    with pytest.raises(ValueError, match="settle"):
+        MakeBodySchemaDiagram(BodySchemaDiagramConfig(arm="2dof", babble_period=0.5))
+
+
 def test_learner_bad_config_raises():
     with pytest.raises(ValueError):
         SchemaLearner(parts=["a"], n_actions=1)
@@ -201,8 +206,7 @@ def test_drake_schema_controller_positions_end_effector(learned_2dof):
 def test_drake_tool_change_detected_and_recovered():
     bs = MakeBodySchemaDiagram(BodySchemaDiagramConfig(arm="2dof", noise_pos=0.01,
                                                        noise_orient=0.0,
-                                                       babble_fraction=0.6,
-                                                       babble_period=0.7))
+                                                       babble_fraction=0.6))
     sim, root = _sim(bs)
     babble(bs, sim, 20, show_progress=False)
     assert bs.learner.state(root).schema.valid
