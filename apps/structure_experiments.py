@@ -81,25 +81,29 @@ def exp_cabinet(*, quick, seed, progress):
 
 
 def exp_table(*, quick, seed, progress):
-    from mmlearn.diagrams.object_tracks import table_scenario
+    from mmlearn.diagrams.object_tracks import table_phases, table_scenario
 
     m = 12 if quick else 20
     tr = table_scenario(m, rng=seed)
+    names = ["still", "line", "curve", "free"]
+    ends = np.cumsum([table_phases(m)[k] for k in names])
     obs = ObservationModel(sigma_pos=0.01, sigma_orient=np.deg2rad(2), gamma_weight=1000)
     models = ("rigid", "prismatic", "revolute", "gp", "gp2")
     Z = relative_poses(tr.poses[0], tr.poses[1]).as_array()
     rows = []
-    steps = list(range(5, Z.shape[0] + 1, 5))
+    # every 5 samples and at the end of each phase
+    steps = sorted(set(range(5, Z.shape[0] + 1, 5)) | {int(e) for e in ends})
     bar = _bar(len(steps), "table", progress)
     rng = np.random.default_rng(seed)
     for n in steps:
         s = select_link_model(Z[:n], models=models, obs=obs, rng=rng, n_hypotheses=60)
-        phase = ["still", "line", "curve", "free"][min((n - 1) // m, 3)]
+        phase = names[int(np.searchsorted(ends, n))]
         rows.append({"n": n, "phase": phase, "selected": s.selected,
                      "bic": {k: (v if math.isfinite(v) else None) for k, v in s.bic.items()}})
         _tick(bar)
     _close(bar)
-    lines = ["Fig. 4.9  table pushed on the floor (phases of %d samples)" % m,
+    lines = ["Fig. 4.9  table pushed on the floor (phases end at n = %s)" % ", ".join(
+        str(int(e)) for e in ends),
              "   n  phase  selected  " + "  ".join(f"{k:>8s}" for k in models)]
     for r in rows:
         lines.append(f"{r['n']:4d}  {r['phase']:5s}  {r['selected']:8s}  " + "  ".join(

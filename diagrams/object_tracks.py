@@ -23,7 +23,7 @@ from mmlearn.sdf.objects import (add_object, garage_door_configuration, object_p
                                  yardstick_closed_configuration)
 
 __all__ = ["ObjectTrack", "ObjectKinematics", "cabinet_scenario", "yardstick_scenario",
-           "table_scenario", "car_door_scenario", "garage_door_scenario", "SCENARIOS"]
+           "table_scenario", "table_phases", "car_door_scenario", "garage_door_scenario", "SCENARIOS"]
 
 
 def _gen(rng):
@@ -134,18 +134,39 @@ def yardstick_scenario(closed: bool, n: int = 200, *, sigma_pos: float = 0.005,
     return _track(name, q, sigma_pos, sigma_orient, rng)
 
 
+def table_phases(n_per_phase: int = 15, *, push_m: float = 0.8) -> dict:
+    """Sample counts of the phases of :func:`table_scenario`: ``still``, ``line`` (both
+    ``n_per_phase``), ``curve`` (quarter circle of radius ``push_m`` turning sideways, then
+    ``push_m`` straight sideways) and ``free`` (``2 n_per_phase``). The table is pushed at a
+    constant speed (one sample per ``push_m / (n_per_phase - 1)`` m of travel), so the curved
+    phase has as many samples as its path length (pi/2 + 1) push_m needs."""
+    m = int(n_per_phase)
+    if m < 2:
+        raise ValueError(f"table_scenario needs n_per_phase >= 2, got {n_per_phase}")
+    step = push_m / (m - 1)
+    return {"still": m, "line": m, "curve": int(round((np.pi / 2 + 1) * push_m / step)),
+            "free": 2 * m}
+
+
 def table_scenario(n_per_phase: int = 15, *, sigma_pos: float = 0.01,
                    sigma_orient: float = np.deg2rad(1), root_noise_scale: float = 0.1,
-                   rng=None) -> ObjectTrack:
-    """Fig. 4.9: the table stands still, is pushed 0.8 m along x, then along a quarter circle
-    (r = 0.8 m), then freely over the floor (never turned). q = (x, y, yaw)."""
+                   push_m: float = 0.8, rng=None) -> ObjectTrack:
+    """Fig. 4.9 (thesis 4.4.1): the table stands still, is pushed ``push_m`` along x
+    ("moved in one direction only"), then turns along a quarter circle (r = ``push_m``) and
+    is pushed ``push_m`` sideways along y ("after moving sideways": a curved 1-D path), then
+    moved freely over the floor (never turned). Pushing is at a constant speed: samples are
+    equally spaced along the 1-D path (:func:`table_phases`). q = (x, y, yaw)."""
     rng = _gen(rng)
-    m = n_per_phase
-    s = np.linspace(0, 1, m)
-    still = np.zeros((m, 2))
-    line = np.stack([0.8 * s, np.zeros(m)], 1)
-    curve = np.stack([0.8 + 0.8 * np.sin(s * np.pi / 2), 0.8 - 0.8 * np.cos(s * np.pi / 2)], 1)
-    free = np.stack([rng.uniform(-0.5, 1.8, 2 * m), rng.uniform(-0.8, 1.2, 2 * m)], 1)
+    ph = table_phases(n_per_phase, push_m=push_m)
+    m, L = ph["line"], push_m
+    still = np.zeros((ph["still"], 2))
+    line = np.stack([L * np.linspace(0, 1, m), np.zeros(m)], 1)
+    # curved phase parametrised by arc length u in (0, (pi/2 + 1) L]: arc, then straight
+    u = np.linspace(0, (np.pi / 2 + 1) * L, ph["curve"] + 1)[1:]
+    a = np.minimum(u / L, np.pi / 2)  # turning angle on the arc
+    side = np.maximum(u - np.pi / 2 * L, 0.0)  # straight sideways travel after the arc
+    curve = np.stack([L + L * np.sin(a), L - L * np.cos(a) + side], 1)
+    free = np.stack([rng.uniform(-0.5, 1.8, ph["free"]), rng.uniform(-0.8, 1.2, ph["free"])], 1)
     xy = np.vstack([still, line, curve, free])
     q = np.hstack([xy, np.zeros((xy.shape[0], 1))])
     return _track("table", q, sigma_pos, sigma_orient, rng, scale=[root_noise_scale, 1.0])

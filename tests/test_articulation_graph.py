@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from mmlearn.diagrams.object_tracks import (cabinet_scenario, table_scenario,
+from mmlearn.diagrams.object_tracks import (cabinet_scenario, table_phases, table_scenario,
                                             yardstick_scenario)
 from mmlearn.models.articulation import ObservationModel
 from mmlearn.models.articulation_graph import (KinematicGraphEvaluator, as_part_tracks,
@@ -199,3 +199,25 @@ def test_table_on_the_floor_needs_a_two_dof_gp():
     assert still.selected == "rigid"
     assert line.selected == "prismatic"
     assert free.selected == "gp2"
+
+
+def test_table_pushed_forward_then_sideways_selects_a_one_dof_gp():
+    # Fig. 4.9 (c): after the sideways push, the 1-D path (line, quarter circle, sideways line)
+    # is a curve that neither a prismatic nor a revolute joint explains; the table never turns.
+    ph = table_phases(12)
+    assert ph["still"] == ph["line"] == 12 and ph["free"] == 24
+    assert ph["curve"] == round((np.pi / 2 + 1) * 11)  # constant speed: 0.8/11 m per sample
+    tr = table_scenario(12, rng=2)
+    assert tr.poses.shape[1] == sum(ph.values())
+    end = ph["still"] + ph["line"] + ph["curve"]
+    xy = tr.q[:end, :2]
+    assert np.allclose(tr.q[:, 2], 0.0)
+    assert np.allclose(np.linalg.norm(np.diff(xy[ph["still"]:], axis=0), axis=1), 0.8 / 11,
+                       rtol=0.02)
+    assert np.allclose(xy[end - 1], [1.6, 1.6])
+    obs = ObservationModel(sigma_pos=0.01, sigma_orient=np.deg2rad(2), gamma_weight=1000)
+    Z = relative_poses(tr.poses[0], tr.poses[1]).as_array()
+    curve = select_link_model(Z[:end], models=("rigid", "prismatic", "revolute", "gp", "gp2"),
+                              obs=obs, rng=0)
+    assert curve.selected == "gp"
+    assert curve.bic["gp"] < min(curve.bic["prismatic"], curve.bic["revolute"], curve.bic["gp2"])
