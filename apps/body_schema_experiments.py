@@ -118,7 +118,8 @@ def drake_accuracy(arm, noise, sizes, *, seed, n_test, n_control, occlude=(), sh
 
 
 def drake_recovery(failure, *, n_block, seed, arm="2dof", show=True):
-    """Table 3.1 protocol in Drake: block 1 learns from scratch (intact), blocks 2 and 4
+    """Table 3.1 protocol in Drake: block 1 learns from scratch (intact; at least 30
+    samples), blocks 2 and 4
     with the failure (joint q2 stuck at 0.5 rad / a tool 0.10 m longer and tilted by
     30 deg), block 3 restored; samples without a valid spanning tree per block."""
     bs, sim, root = _diagram(arm, 0.01, seed)
@@ -136,7 +137,8 @@ def drake_recovery(failure, *, n_block, seed, arm="2dof", show=True):
             else:
                 bs.failures.reset_tool(root)
         n_inv = 0
-        for _ in progress(range(n_block), desc=f"{failure} block {b + 1}", unit="sample",
+        n = max(n_block, 30) if b == 0 else n_block  # block 1 also learns the schema
+        for _ in progress(range(n), desc=f"{failure} block {b + 1}", unit="sample",
                           enabled=show):
             babble(bs, sim, 1, show_progress=False)
             n_inv += not bs.learner.state(root).schema.valid

@@ -39,7 +39,10 @@ class SchemaLearnerConfig:
         min_visible: fewest visible markers for a frame to be used (>= 2).
         refit_at: numbers of samples since the tree was last invalid at which the structure
             search is re-run on those samples (refines the local models as data
-            accumulates; between refits the models are fixed and only monitored).
+            accumulates; between refits the models are fixed and only monitored); while
+            the tree is invalid, also at these numbers of consecutive invalid samples, on
+            those samples (a structure search on data after the change, alongside the
+            model replacement of Sec. 3.3).
         search: noise levels and options of the structure search (SearchConfig).
         adapt: life-long adaptation parameters (AdaptationConfig).
     """
@@ -306,15 +309,20 @@ class SchemaLearner(LeafSystem):
         if not s.schema.valid:
             s.clean_since = s.n_samples
         n_clean = s.n_samples - s.clean_since
-        if s.schema.valid and n_clean in cfg.refit_at and \
-                n_clean <= s.schema.adapt.buffer:
+        # refine a valid tree on the samples since it became valid; re-search a tree that
+        # stays invalid on the samples since it became invalid (all after any change)
+        n_relearn = n_clean if s.schema.valid else s.schema.steps_invalid
+        if s.schema.nodes and n_relearn in cfg.refit_at and \
+                n_relearn <= s.schema.adapt.buffer:
             t1 = time.perf_counter()
             try:
-                s.schema.relearn(last=n_clean)
-                s.last_event = f"relearned on {n_clean} samples"
+                res = s.schema.relearn(last=n_relearn)
+                s.last_event = f"relearned on {n_relearn} samples (complete={res.complete})"
             except (ValueError, np.linalg.LinAlgError) as e:
                 s.last_event = f"relearn failed: {e}"
             s.refit_seconds.append(time.perf_counter() - t1)
+            if not s.schema.valid:
+                s.clean_since = s.n_samples
         if st.get("event"):
             s.last_event = st["event"]
         r = s.schema.root
