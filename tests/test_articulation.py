@@ -92,6 +92,27 @@ def test_outlier_robustness_and_gamma(kind, model, gamma):
     assert abs(m.gamma - tr.outlier.mean()) < 0.05
 
 
+def test_rigid_at_95_percent_outliers_finds_exactly_the_inliers():
+    # Fig. 4.21 at gamma = 0.95: whenever the data hold more inliers than a minimal sample
+    # (k >= 2), the rigid MLESAC estimate is the mean of exactly the true inliers; runs with
+    # k <= 1 are unidentifiable (any single outlier explains the data as well).
+    sp, so = 0.01, np.deg2rad(3)
+    rng = np.random.default_rng(11)
+    errs, few = [], 0
+    for _ in range(60):
+        tr = simulate_link("rigid", 100, sigma_pos=sp, sigma_orient=so, gamma=0.95, rng=rng)
+        inl = ~tr.outlier
+        if inl.sum() <= 1:
+            few += 1
+            continue
+        m = RigidModel(obs=ObservationModel(sp, so)).fit(tr.Z, rng=rng)
+        assert np.array_equal(m.inliers_, inl)
+        assert np.allclose(m.theta[:3], tr.Z[inl, :3].mean(axis=0), atol=1e-6)
+        assert abs(m.gamma - tr.outlier.mean()) < 0.02
+        errs.append(np.linalg.norm(m.theta[:3] - tr.Z_true[0, :3]))
+    assert few < 10 and np.mean(errs) < sp  # below the noise level on identifiable runs
+
+
 def test_position_only_track():
     tr = simulate_link("microwave", 50, rng=5)
     m = RevoluteModel(obs=OBS).fit(tr.Z[:, :3], rng=0)

@@ -61,6 +61,9 @@ def test_articulation_experiments_quick(tmp_path):
         # MLESAC estimators stay below the noise level at gamma = 0.5 and estimate gamma
         assert out["error_mean"][m][out["gamma"].index(0.5)] < out["sigma_pos"]
         assert max(out["gamma_abs_dev_mean"][m]) < 0.05
+        assert out["unidentifiable_runs_pct"][m][out["gamma"].index(0.0)] == 0.0
+        assert out["error_mean_identifiable"][m][0] == pytest.approx(out["error_mean"][m][0])
+        assert out["error_median"][m][out["gamma"].index(0.5)] < out["sigma_pos"]
     tab = res["table"]
     assert tab["microwave"]["selected_counts"] == {"revolute": 3}
     assert tab["drawer"]["selected_counts"] == {"prismatic": 3}
