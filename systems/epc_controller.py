@@ -149,7 +149,6 @@ class _State:
     q_to: np.ndarray = field(default_factory=lambda: np.zeros(0))
     t_cmd: float = 0.0
     start: np.ndarray = field(default_factory=lambda: np.zeros(0))  # phase start (q or G)
-    goal: np.ndarray = field(default_factory=lambda: np.zeros(3))
     R: np.ndarray = field(default_factory=lambda: np.eye(3))
     cep: np.ndarray = field(default_factory=lambda: np.zeros(3))
     direction: np.ndarray = field(default_factory=lambda: np.zeros(3))
@@ -413,7 +412,6 @@ class EpcController(LeafSystem):
             elif touching or elapsed >= cfg.depth_time:
                 # back off from the front so the finger clears it and the bar
                 p = G + 0.018 * task.normal
-                s.goal = p.copy()
                 q_cmd = self._ik(q_cmd, p, R_hook0, base=False)
                 self._next_phase(s, SLIDE, t, p)
             else:
