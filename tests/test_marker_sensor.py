@@ -58,7 +58,7 @@ def test_outliers_appear_at_the_configured_rate_inside_the_workspace():
     cfg = MarkerSensorConfig(cameras=[], gamma=gamma, workspace_min=[-1, -1, 0],
                              workspace_max=[1, 1, 2])
     scene, ctx, sctx = _scene(cfg, cabinet=False)
-    flags, far = [], []
+    flags = []
     true = _true(scene, ctx)
     for k in range(200):
         obs = scene.sensor.observe(sctx, frame=k)
