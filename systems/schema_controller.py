@@ -8,7 +8,7 @@ import numpy as np
 
 from pydrake.common.value import AbstractValue
 from pydrake.math import RigidTransform
-from pydrake.systems.framework import BasicVector, LeafSystem
+from pydrake.systems.framework import LeafSystem
 
 from mmlearn.models.body_schema import BodySchema
 
