@@ -118,7 +118,7 @@ class EpcConfig:
     approach_time: float = 2.0
     depth_time: float = 2.5
     slide_time: float = 1.5
-    release_time: float = 1.5
+    release_time: float = 2.0
     drive_speed: float = 0.5
     max_pull_time: float = 25.0
     ik_damping: float = 0.05
@@ -439,7 +439,10 @@ class EpcController(LeafSystem):
             side = s.R @ (R_hook0.T @ task.side)
             normal = s.R @ (R_hook0.T @ task.normal)
             a = min(1.0, elapsed / cfg.release_time)
-            p = s.start + a * (0.12 * side) + max(0.0, 2 * a - 1) * 0.15 * normal
+            # unload the finger (back along the motion), slide out sideways, back off
+            p = (s.start - 0.015 * min(1.0, a / 0.25) * s.direction
+                 + 0.12 * float(np.clip((a - 0.25) / 0.4, 0, 1)) * side
+                 + 0.15 * float(np.clip((a - 0.65) / 0.35, 0, 1)) * normal)
             q_cmd = self._ik(q_cmd, p, s.R, base=False)
             if elapsed >= cfg.release_time:
                 self._next_phase(s, DONE, t, G)
