@@ -110,6 +110,9 @@ def test_structure_experiments_quick(tmp_path):
     assert s["open"]["right_dof"] == s["open"]["runs"]
     assert s["closed"]["right_dof"] == s["closed"]["runs"]
     assert s["closed"]["max_gap_local_pct"] < 5
+    for key in ("open", "closed"):  # CPU times are reported; the local search visits fewer graphs
+        assert s[key]["search_cpu_seconds_local"] > 0 and s[key]["pair_fit_cpu_seconds"] > 0
+        assert s[key]["graphs_local_mean"] < s[key]["graphs_exhaustive_mean"] == 38
     assert out["garage"]["selected"].startswith("gp")
     last = out["fig48"]["rows"][-1]
     assert sorted(m for _, _, m in last["edges"]) == ["prismatic", "prismatic"]
