@@ -1,7 +1,9 @@
 """Builders that wire plant, scene graph and mmlearn systems into Diagrams."""
 
+from .body_schema import BodySchemaDiagram, BodySchemaDiagramConfig, MakeBodySchemaDiagram
 from .operate import MakeOperateDiagram, Operate, OperateConfig
 from .scene import MakeSceneDiagram, Scene, SceneConfig
 
-__all__ = ["MakeOperateDiagram", "MakeSceneDiagram", "Operate", "OperateConfig", "Scene",
+__all__ = ["BodySchemaDiagram", "BodySchemaDiagramConfig", "MakeBodySchemaDiagram",
+           "MakeOperateDiagram", "MakeSceneDiagram", "Operate", "OperateConfig", "Scene",
            "SceneConfig"]

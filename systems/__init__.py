@@ -3,6 +3,7 @@
 Import the systems from here, e.g. ``from mmlearn.systems import MarkerSensor``.
 """
 
+from .arm_failures import JointBlocker, PlantFailures
 from .articulation_estimator import ArticulationEstimator
 from .epc_controller import EpcConfig, EpcController, EpcTask
 from .marker_sensor import CameraConfig, MarkerSensor, MarkerSensorConfig
@@ -10,6 +11,10 @@ from .model_visualizer import LearnedModelVisualizer
 from .motor_babbling import MotorBabbling
 from .observations import MarkerObservations
 from .plant_helpers import GravityCompensation, JointFriction
+from .prior_selector import PriorModelSelector
+from .schema_controller import SchemaController
+from .schema_learner import SchemaLearner, SchemaLearnerConfig, SchemaLearnerState
+from .schema_visualizer import SchemaVisualizer
 from .wrist_force_sensor import WristForceSensor
 
 __all__ = [
@@ -18,12 +23,20 @@ __all__ = [
     "EpcConfig",
     "EpcController",
     "EpcTask",
-    "LearnedModelVisualizer",
-    "WristForceSensor",
     "GravityCompensation",
+    "JointBlocker",
     "JointFriction",
+    "LearnedModelVisualizer",
     "MarkerObservations",
     "MarkerSensor",
     "MarkerSensorConfig",
     "MotorBabbling",
+    "PlantFailures",
+    "PriorModelSelector",
+    "SchemaController",
+    "SchemaLearner",
+    "SchemaLearnerConfig",
+    "SchemaLearnerState",
+    "SchemaVisualizer",
+    "WristForceSensor",
 ]
