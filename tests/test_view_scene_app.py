@@ -1,6 +1,8 @@
 import base64
 import json
+import os
 import re
+import signal
 import shutil
 import subprocess
 import sys
@@ -78,14 +80,23 @@ def test_recording_renders_in_a_headless_browser(tmp_path):
     view_scene.run(config=view_scene.ViewSceneConfig(duration=0.5, html_out=str(html)),
                    show_progress=False)
     png = tmp_path / "shot.png"
-    with tempfile.TemporaryDirectory() as profile:
-        subprocess.run([browser, "--headless=new", "--no-sandbox", "--disable-gpu",
-                        "--use-angle=swiftshader", "--enable-unsafe-swiftshader",
-                        "--disable-background-networking", "--disable-component-update",
-                        "--disable-sync", "--no-first-run", f"--user-data-dir={profile}",
-                        f"--screenshot={png}", "--window-size=800,600",
-                        "--virtual-time-budget=3000", html.as_uri()],
-                       capture_output=True, timeout=120)
+    for attempt in range(2):  # a headless browser occasionally hangs at start-up: retry once
+        with tempfile.TemporaryDirectory() as profile:
+            proc = subprocess.Popen(
+                [browser, "--headless=new", "--no-sandbox", "--disable-gpu",
+                 "--disable-dev-shm-usage", "--use-angle=swiftshader",
+                 "--enable-unsafe-swiftshader", "--disable-background-networking",
+                 "--disable-component-update", "--disable-sync", "--no-first-run",
+                 f"--user-data-dir={profile}", f"--screenshot={png}", "--window-size=800,600",
+                 "--virtual-time-budget=3000", html.as_uri()],
+                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+            try:
+                proc.wait(timeout=90)
+            except subprocess.TimeoutExpired:
+                os.killpg(proc.pid, signal.SIGKILL)
+                proc.wait()
+        if png.is_file():
+            break
     img = cv2.imread(str(png))
     assert img is not None, "the browser wrote no screenshot"
     b, g, r = (img[..., i].astype(int) for i in range(3))
