@@ -54,3 +54,23 @@ def finish_viewing(*, html_out, live: bool) -> None:
         print(f"Meshcat recording written to {html_out}")
     if live and sys.stdin.isatty():
         input("Meshcat is still serving the recording; press Enter to quit. ")
+
+
+def json_clean(v):
+    """Turn numpy scalars/arrays into plain Python and non-finite floats into None, so the
+    value can be printed with ``json.dumps`` as strict JSON."""
+    import math
+
+    import numpy as np
+
+    if isinstance(v, float):
+        return v if math.isfinite(v) else None
+    if isinstance(v, dict):
+        return {str(k): json_clean(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [json_clean(x) for x in v]
+    if isinstance(v, np.ndarray):
+        return json_clean(v.tolist())
+    if isinstance(v, np.generic):
+        return json_clean(v.item())
+    return v

@@ -33,25 +33,12 @@ import time
 
 import numpy as np
 
+from mmlearn.apps._common import json_clean
 from mmlearn.models.articulation import ObservationModel, make_model
 from mmlearn.models.articulation_structure import DEFAULT_CANDIDATES, select_link_model
 from mmlearn.models.track_io import TrackFileError, find_track_files, read_track
 
 __all__ = ["run", "main", "fit_track"]
-
-
-def _clean(v):
-    if isinstance(v, float):
-        return v if math.isfinite(v) else None
-    if isinstance(v, dict):
-        return {k: _clean(x) for k, x in v.items()}
-    if isinstance(v, (list, tuple)):
-        return [_clean(x) for x in v]
-    if isinstance(v, np.ndarray):
-        return _clean(v.tolist())
-    if isinstance(v, np.generic):
-        return _clean(v.item())
-    return v
 
 
 def fit_track(poses, *, obs: ObservationModel, models=DEFAULT_CANDIDATES, rng=None):
@@ -108,7 +95,7 @@ def run(paths, *, sigma_pos: float = 0.01, sigma_orient: float = float(np.deg2ra
             out["errors"].append({"path": f, "error": msg})
             continue
         res = {"path": f, **res}
-        out["tracks"].append(_clean(res))
+        out["tracks"].append(json_clean(res))
         selections.append((f, tr, sel))
     if plot and selections:
         plot_tracks(selections, plot)

@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mmlearn.apps._common import make_meshcat, progress, save_html
+from mmlearn.apps._common import finish_viewing, make_meshcat, progress, save_html
 
 
 @dataclass
@@ -288,10 +288,7 @@ def main(argv=None) -> int:
               f"; observation noise {f(r['obs_noise_m'], 'm')}")
         print(f"control error {f(r['ctrl_error_m'], 'm')}; schema update median "
               f"{f(r['update_ms_median'], 'ms')}")
-        if r["html_out"]:
-            print(f"Meshcat recording written to {r['html_out']}")
-    if args.meshcat and sys.stdin.isatty():
-        input("Meshcat is still serving the recording; press Enter to quit. ")
+    finish_viewing(html_out=None if args.json else r["html_out"], live=args.meshcat)
     return 0
 
 

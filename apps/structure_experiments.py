@@ -31,6 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
+from mmlearn.apps._common import json_clean
 from mmlearn.models.articulation import ObservationModel
 from mmlearn.models.articulation_graph import (KinematicGraphEvaluator, fit_pair_models,
                                                fit_structure, search_structure,
@@ -415,20 +416,6 @@ def run(*, only=EXPERIMENTS, quick: bool = False, seed: int = 0, seeds: int = 10
     return results
 
 
-def _clean(v):
-    if isinstance(v, float):
-        return v if math.isfinite(v) else None
-    if isinstance(v, dict):
-        return {str(k): _clean(x) for k, x in v.items()}
-    if isinstance(v, (list, tuple)):
-        return [_clean(x) for x in v]
-    if isinstance(v, np.ndarray):
-        return _clean(v.tolist())
-    if isinstance(v, np.generic):
-        return _clean(v.item())
-    return v
-
-
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="python -m mmlearn.apps.structure_experiments",
                                  description=__doc__.split("\n\n")[0])
@@ -454,7 +441,7 @@ def main(argv=None) -> int:
         print(f"error: {e}", file=sys.stderr)
         return 2
     if a.json:
-        print(json.dumps(_clean(res)))
+        print(json.dumps(json_clean(res)))
     elif res.get("plots"):
         print("plots: " + ", ".join(res["plots"]))
     return 0
