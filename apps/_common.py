@@ -19,6 +19,15 @@ def progress(iterable, *, desc: str = "", unit: str = "it", enabled: bool = True
                 disable=None, leave=False)
 
 
+def progress_bar(total: int, desc: str = "", *, unit: str = "it", enabled: bool = True):
+    """A manual tqdm bar on stderr (``update``, ``set_postfix_str``, ``close``); when not
+    ``enabled`` (or stderr is no terminal) the same calls do nothing."""
+    from tqdm import tqdm
+
+    return tqdm(total=total, desc=desc, unit=unit, file=sys.stderr, leave=False,
+                disable=True if not enabled else None)
+
+
 def make_meshcat():
     """Start a Meshcat server (local only) and print its URL to stderr."""
     from pydrake.geometry import StartMeshcat

@@ -51,9 +51,10 @@ from pathlib import Path
 
 import numpy as np
 
+from mmlearn.apps._common import progress_bar
 from mmlearn.models.articulation import ObservationModel, make_model
 from mmlearn.models.articulation_sim import simulate_link
-from mmlearn.models.articulation_structure import DEFAULT_CANDIDATES, select_link_model
+from mmlearn.models.articulation_structure import select_link_model
 
 __all__ = ["run", "main", "EXPERIMENTS"]
 
@@ -63,18 +64,6 @@ GROUND_TRUTH = {"rigid": "rigid", "prismatic": "prismatic", "revolute": "revolut
 MODELS = ("rigid", "prismatic", "revolute", "gp")
 
 
-def _progress(total, desc, enabled):
-    if not enabled:
-        class _N:
-            def update(self, k=1):
-                pass
-
-            def close(self):
-                pass
-        return _N()
-    from tqdm import tqdm
-
-    return tqdm(total=total, desc=desc, file=sys.stderr, leave=False)
 
 
 def _sample_error(model, kind, rng, n_test=100):
@@ -99,7 +88,7 @@ def exp_noise(runs, rng, quick, progress):
     sig = [0.01, 0.1, 1.0] if quick else [0.001, 0.01, 0.02, 0.05, 0.1, 0.2, 0.5, 1.0]
     so = np.deg2rad(5.0)
     res = {"sigma_pos": sig, "error_mean": {}, "error_std": {}}
-    bar = _progress(len(sig) * len(MODELS) * runs, "noise", progress)
+    bar = progress_bar(len(sig) * len(MODELS) * runs, "noise", enabled=progress)
     for mname in MODELS:
         mu, sd = [], []
         for s in sig:
@@ -123,7 +112,7 @@ def exp_outliers(runs, rng, quick, progress):
            "gamma_est_mean": {}, "gamma_true_mean": {}, "gamma_abs_dev_mean": {},
            "below_noise_up_to": {}, "error_median": {}, "unidentifiable_runs_pct": {},
            "error_mean_identifiable": {}}
-    bar = _progress(len(gam) * len(MODELS) * runs, "outliers", progress)
+    bar = progress_bar(len(gam) * len(MODELS) * runs, "outliers", enabled=progress)
     for mname in MODELS:
         mu, sd, gest, gtrue, gdev = [], [], [], [], []
         med, unid, mu_id = [], [], []
@@ -170,7 +159,7 @@ def exp_size(runs, rng, quick, progress):
     ns = [3, 6, 10, 20] if quick else [3, 4, 5, 6, 8, 10, 15, 20, 30, 50, 100]
     sp, so = 0.05, np.deg2rad(5.0)
     res = {"n": ns, "sigma_pos": sp, "error_mean": {}, "error_std": {}, "converged_n": {}}
-    bar = _progress(len(ns) * len(MODELS) * runs, "size", progress)
+    bar = progress_bar(len(ns) * len(MODELS) * runs, "size", enabled=progress)
     for mname in MODELS:
         mu, sd = [], []
         for n in ns:
@@ -198,7 +187,7 @@ def exp_time(runs, rng, quick, progress):
     ns = [10, 30, 100] if quick else [10, 20, 30, 40, 50, 100, 200]
     res = {"n": ns, "seconds": {m: [] for m in MODELS}, "all_four_seconds": []}
     obs = ObservationModel(0.002, np.deg2rad(2.0))
-    bar = _progress(len(ns) * runs, "time", progress)
+    bar = progress_bar(len(ns) * runs, "time", enabled=progress)
     for n in ns:
         per = {m: [] for m in MODELS}
         tot = []
@@ -235,7 +224,7 @@ def exp_bic_n(runs, rng, quick, progress):
     runs = max(1, runs // 10) if not quick else 1
     bic = {m: np.zeros((runs, len(ns))) for m in MODELS}
     sel = np.empty((runs, len(ns)), dtype=object)
-    bar = _progress(runs * len(ns), "bic_n", progress)
+    bar = progress_bar(runs * len(ns), "bic_n", enabled=progress)
     for r in range(runs):
         tr = _rollup_sequence(n_total, sp, so, rng)
         for k, n in enumerate(ns):
@@ -263,7 +252,7 @@ def exp_bic_noise(runs, rng, quick, progress):
     n = 50
     bic = {m: np.zeros((runs, len(sig))) for m in MODELS}
     sel = np.empty((runs, len(sig)), dtype=object)
-    bar = _progress(runs * len(sig), "bic_noise", progress)
+    bar = progress_bar(runs * len(sig), "bic_noise", enabled=progress)
     for r in range(runs):
         tr = _rollup_sequence(n, true_sp, so, rng)
         for k, s_ass in enumerate(sig):
@@ -288,7 +277,7 @@ def exp_table(runs, rng, quick, progress):
                ("garage door", "garage", 0.05, 5.0)]
     folds = 3 if quick else 10
     out = {}
-    bar = _progress(len(objects) * folds, "table 4.2", progress)
+    bar = progress_bar(len(objects) * folds, "table 4.2", enabled=progress)
     for label, kind, sp, so_deg in objects:
         so = np.deg2rad(so_deg)
         obs = ObservationModel(sp, so)

@@ -31,6 +31,7 @@ import sys
 
 import numpy as np
 
+from mmlearn.apps._common import progress_bar
 from mmlearn.models.articulation import ObservationModel, make_model
 from mmlearn.models.articulation_priors import PriorDatabase, evaluate_priors
 from mmlearn.models.articulation_structure import DEFAULT_CANDIDATES
@@ -39,13 +40,6 @@ from mmlearn.models.track_io import TrackFileError, find_track_files, read_track
 __all__ = ["run", "main"]
 
 
-def _progress(total, desc, enabled):
-    if not enabled:
-        return None, lambda i: None
-    from tqdm import tqdm
-
-    bar = tqdm(total=total, desc=desc, file=sys.stderr, leave=False, disable=None)
-    return bar, lambda i: bar.update(1)
 
 
 def run(*, paths, sigma_pos: float = 0.05, sigma_orient: float = float(np.deg2rad(15.0)),
@@ -76,23 +70,21 @@ def run(*, paths, sigma_pos: float = 0.05, sigma_orient: float = float(np.deg2ra
         db = PriorDatabase.load(load)
     else:
         db = PriorDatabase(**kw)
-    bar, cb = _progress(len(files), "clustering", progress)
+    bar = progress_bar(len(files), "clustering", enabled=progress)
     for f, t in zip(files, tracks):
         db.add(t, f, rng=rng)
-        cb(0)
-    if bar is not None:
-        bar.close()
+        bar.update(1)
+    bar.close()
     out = {"clusters": db.assignments(), "models": db.model_names()}
     if save:
         db.save(save)
     if evaluate:
         fr = (np.linspace(0.1, 1.0, 10) if fractions is None
               else np.asarray(fractions, float))
-        bar, cb = _progress(len(files), "leave-one-out", progress)
-        ev = evaluate_priors(tracks, files, fractions=fr, rng=rng, progress=cb,
-                             exact_loo=exact_loo, **kw)
-        if bar is not None:
-            bar.close()
+        bar = progress_bar(len(files), "leave-one-out", enabled=progress)
+        ev = evaluate_priors(tracks, files, fractions=fr, rng=rng,
+                             progress=lambda i: bar.update(1), exact_loo=exact_loo, **kw)
+        bar.close()
         wo, w = ev["error_without"].mean(axis=0), ev["error_with"].mean(axis=0)
         out["evaluation"] = {
             "fractions": [float(x) for x in fr],

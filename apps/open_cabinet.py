@@ -15,7 +15,7 @@ import time
 
 import numpy as np
 
-from mmlearn.apps._common import finish_viewing, make_meshcat, progress, save_html
+from mmlearn.apps._common import finish_viewing, make_meshcat, progress_bar, save_html
 from mmlearn.sdf.mechanisms import KINDS
 
 SUCCESS_ANGLE = math.radians(60)  # thesis: opened > 60 deg (revolute) ...
@@ -88,25 +88,23 @@ def run(*, kind: str = "left_door", seed: int = 0, meshcat=None, html_out: str =
         vis.StartRecording(False)
     simulator.Initialize()
     t0 = time.perf_counter()
-    bar = progress(None, desc=f"{kind} seed {seed}", unit="sim s", enabled=show_progress,
-                   total=int(max_time))
+    bar = progress_bar(int(max_time), f"{kind} seed {seed}", unit="sim s",
+                       enabled=show_progress)
     phase = 0
     right = "revolute" if op.mechanism.is_revolute else "prismatic"
     ctrl_ctx = op.controller.GetMyContextFromRoot(ctx)
     model_log = []  # (true opening, model the controller used)
     while ctx.get_time() < max_time - 1e-9:
         simulator.AdvanceTo(min(max_time, ctx.get_time() + 0.25))
-        if bar is not None and hasattr(bar, "update"):
-            bar.update(0.25)
-            bar.set_postfix_str(PHASE_NAMES[phase])
+        bar.update(0.25)
+        bar.set_postfix_str(PHASE_NAMES[phase])
         phase = int(d.GetOutputPort("phase").Eval(ctx)[0])
         if phase == PULL:
             model_log.append((float(d.GetOutputPort("mechanism_state").Eval(ctx)[0]),
                               op.controller.state(ctrl_ctx).model_name))
         if phase == DONE:
             break
-    if bar is not None and hasattr(bar, "close"):
-        bar.close()
+    bar.close()
     wall = time.perf_counter() - t0
     q = float(d.GetOutputPort("mechanism_state").Eval(ctx)[0])
     spec = op.mechanism

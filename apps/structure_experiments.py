@@ -31,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mmlearn.apps._common import json_clean
+from mmlearn.apps._common import json_clean, progress_bar
 from mmlearn.models.articulation import ObservationModel
 from mmlearn.models.articulation_graph import (KinematicGraphEvaluator, fit_pair_models,
                                                fit_structure, search_structure,
@@ -44,24 +44,6 @@ __all__ = ["run", "main", "EXPERIMENTS"]
 
 EXPERIMENTS = ("fig48", "fig49", "fig411", "garage", "fig416", "fig417", "fig418")
 PARAMETRIC = ("rigid", "prismatic", "revolute")
-
-
-def _bar(total, desc, enabled):
-    if not enabled:
-        return None
-    from tqdm import tqdm
-
-    return tqdm(total=total, desc=desc, file=sys.stderr, leave=False, disable=None)
-
-
-def _tick(bar):
-    if bar is not None:
-        bar.update(1)
-
-
-def _close(bar):
-    if bar is not None:
-        bar.close()
 
 
 def exp_cabinet(*, quick, seed, progress):
@@ -94,15 +76,15 @@ def exp_table(*, quick, seed, progress):
     rows = []
     # every 5 samples and at the end of each phase
     steps = sorted(set(range(5, Z.shape[0] + 1, 5)) | {int(e) for e in ends})
-    bar = _bar(len(steps), "table", progress)
+    bar = progress_bar(len(steps), "table", enabled=progress)
     rng = np.random.default_rng(seed)
     for n in steps:
         s = select_link_model(Z[:n], models=models, obs=obs, rng=rng, n_hypotheses=60)
         phase = names[int(np.searchsorted(ends, n))]
         rows.append({"n": n, "phase": phase, "selected": s.selected,
                      "bic": {k: (v if math.isfinite(v) else None) for k, v in s.bic.items()}})
-        _tick(bar)
-    _close(bar)
+        bar.update(1)
+    bar.close()
     lines = ["Fig. 4.9  table pushed on the floor (phases end at n = %s)" % ", ".join(
         str(int(e)) for e in ends),
              "   n  phase  selected  " + "  ".join(f"{k:>8s}" for k in models)]
@@ -172,7 +154,7 @@ def exp_yardstick(*, quick, seed, progress, seeds=10, n=200):
     n = 60 if quick else n
     obs = _yardstick_obs()
     rows = []
-    bar = _bar(2 * seeds, "yardstick", progress)
+    bar = progress_bar(2 * seeds, "yardstick", enabled=progress)
     for closed in (False, True):
         for k in range(seeds):
             tr = yardstick_scenario(closed, n, rng=seed + k)
@@ -209,8 +191,8 @@ def exp_yardstick(*, quick, seed, progress, seeds=10, n=200):
                 "search_cpu_seconds_exhaustive": rx.search_cpu_seconds,
                 "graphs_local": len(rl.evaluated), "graphs_exhaustive": len(rx.evaluated),
             })
-            _tick(bar)
-    _close(bar)
+            bar.update(1)
+    bar.close()
     summ = {}
     for closed, want in ((False, 3), (True, 1)):
         rr = [r for r in rows if r["closed"] == closed]
@@ -279,7 +261,7 @@ def exp_dof_progress(*, quick, seed, progress):
     step = 20 if quick else 20
     obs = _yardstick_obs()
     out, lines = {}, [f"Fig. 4.17  estimated DOFs while the data arrive (every {step} samples)"]
-    bar = _bar(2 * (n // step), "dof progress", progress)
+    bar = progress_bar(2 * (n // step), "dof progress", enabled=progress)
     for closed in (False, True):
         tr = yardstick_scenario(closed, n, staged=not closed, rng=seed)
         dofs = []
@@ -288,11 +270,11 @@ def exp_dof_progress(*, quick, seed, progress):
                               rng=seed, models=PARAMETRIC if quick else
                               ("rigid", "prismatic", "revolute", "gp"))
             dofs.append((m, r.best.dof))
-            _tick(bar)
+            bar.update(1)
         key = "closed" if closed else "open_staged"
         out[key] = dofs
         lines.append(f"{key:12s} " + "  ".join(f"n={m}:{d}" for m, d in dofs))
-    _close(bar)
+    bar.close()
     return out, lines
 
 
@@ -302,7 +284,7 @@ def exp_search_vs_n(*, quick, seed, progress):
     ns = [40, 80] if quick else [25, 50, 100, 150, 200]
     obs = _yardstick_obs()
     rows = []
-    bar = _bar(len(ns), "search vs n", progress)
+    bar = progress_bar(len(ns), "search vs n", enabled=progress)
     for n in ns:
         tr = yardstick_scenario(True, n, rng=seed)
         t0 = time.perf_counter()
@@ -319,8 +301,8 @@ def exp_search_vs_n(*, quick, seed, progress):
             if search == "exhaustive":
                 row["all_bics"] = sorted(e.bic for e in order)
         rows.append(row)
-        _tick(bar)
-    _close(bar)
+        bar.update(1)
+    bar.close()
     lines = ["Fig. 4.18  closed yardstick: BIC and search time vs n",
              "   n   BIC tree    BIC local   BIC exh.   t tree  t local  t exh. [s]  t pairs"]
     for r in rows:
