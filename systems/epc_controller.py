@@ -214,6 +214,7 @@ class EpcController(LeafSystem):
         cfg = config or EpcConfig()
         cfg.validate()
         self._cfg, self._task = cfg, task
+        self._R_hook0 = hook_rotation(task.normal, task.side)  # hook orientation at the handle
         self._plant = plant
         self._robot = robot
         self._ctx = plant.CreateDefaultContext()
@@ -369,7 +370,7 @@ class EpcController(LeafSystem):
         q_cmd = s.q_to.copy()
         elapsed = t - s.t_phase
         H = task.handle
-        R_hook0 = hook_rotation(task.normal, task.side)
+        R_hook0 = self._R_hook0
         if s.phase == DRIVE:
             goal = self._stance()
             dist = np.linalg.norm(goal[:2] - s.start[:2])
@@ -464,7 +465,7 @@ class EpcController(LeafSystem):
 
     def _pull(self, context, s: _State, q_cmd, G, F, elapsed):
         cfg, task = self._cfg, self._task
-        R_hook0 = hook_rotation(task.normal, task.side)
+        R_hook0 = self._R_hook0
         link = self._link_model(context)
         direction = s.direction
         R = s.R
