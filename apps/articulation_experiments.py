@@ -10,14 +10,14 @@ estimators on their own ground truth, the GP on the roll-up door, Fig. 4.19):
 
 - ``noise``     (Fig. 4.20): sample error vs Gaussian noise sigma_pos, n = 100, gamma = 0.
 - ``outliers``  (Fig. 4.21): sample error vs outlier ratio gamma, sigma = 0.01 m / 3 deg.
-  Each observation is an outlier with probability gamma (the mixture of Eq. 4.13-4.15), so
-  some runs have no more inliers than a minimal sample (1 rigid, 2 prismatic, 3 revolute):
-  then any minimal sample of outliers explains the data as well and no estimator can find the
-  model. At n = 100, gamma = 0.95 that is P(k <= 1) = 3.7% of the rigid runs, each with an
-  error of ~0.5 m (outliers fill a 1 m cube): ~0.017 m of mean error that no estimator can
-  avoid, while in the other runs the rigid estimate is the mean of exactly the true inliers
-  (~0.007 m). The table therefore also gives the median, the mean over the identifiable runs
-  and their share.
+  By default each training sequence has exactly round(gamma n) outliers at random positions
+  (the thesis generates "an observation sequence with outlier ratio gamma").
+  ``--outliers bernoulli`` draws each observation as an outlier with probability gamma (the
+  mixture of Eq. 4.13-4.15); then some runs have no more inliers than a minimal sample (1
+  rigid, 2 prismatic, 3 revolute) and any minimal sample of outliers explains the data as
+  well, so no estimator can find the model: at n = 100, gamma = 0.95 that is P(k <= 1) =
+  3.7% of the rigid runs, each with an error of ~0.5 m (outliers fill a 1 m cube). The table
+  therefore also gives the median, the mean over the identifiable runs and their share.
 - ``gamma``     (Fig. 4.22): estimated vs true outlier ratio (same runs as ``outliers``).
 - ``size``      (Fig. 4.23): sample error vs training size n, sigma = 0.05 m, gamma = 0.
 - ``time``      (Fig. 4.24): fit time of each estimator vs n.
@@ -72,8 +72,9 @@ def _sample_error(model, kind, rng, n_test=100):
     return float(ep.mean()), (None if eo is None else float(eo.mean()))
 
 
-def _fit_err(model_name, kind, n, sp, so, gamma, rng):
-    tr = simulate_link(kind, n, sigma_pos=sp, sigma_orient=so, gamma=gamma, rng=rng)
+def _fit_err(model_name, kind, n, sp, so, gamma, rng, exact_ratio=False):
+    tr = simulate_link(kind, n, sigma_pos=sp, sigma_orient=so, gamma=gamma, rng=rng,
+                       exact_ratio=exact_ratio)
     m = make_model(model_name, obs=ObservationModel(sp, so)).fit(tr.Z, rng=rng)
     ep, _ = _sample_error(m, kind, rng)
     return ep, m, tr
@@ -104,7 +105,7 @@ def exp_noise(runs, rng, quick, progress):
     return res
 
 
-def exp_outliers(runs, rng, quick, progress):
+def exp_outliers(runs, rng, quick, progress, exact=True):
     gam = [0.0, 0.5, 0.8] if quick else [0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.65, 0.7, 0.8,
                                          0.9, 0.95]
     sp, so = 0.01, np.deg2rad(3.0)
@@ -119,7 +120,8 @@ def exp_outliers(runs, rng, quick, progress):
         for g in gam:
             e, ge, gt, few = [], [], [], []
             for _ in range(runs):
-                ep, m, tr = _fit_err(mname, GROUND_TRUTH[mname], 100, sp, so, g, rng)
+                ep, m, tr = _fit_err(mname, GROUND_TRUTH[mname], 100, sp, so, g, rng,
+                                     exact_ratio=exact)
                 e.append(ep)
                 ge.append(m.gamma)
                 gt.append(float(tr.outlier.mean()))
@@ -483,9 +485,13 @@ def _print(res, file=sys.stdout):
 
 
 def run(*, runs: int = 100, seed: int = 0, quick: bool = False, only=EXPERIMENTS,
-        out_dir: str | None = "articulation_experiments_out", progress: bool = True) -> dict:
+        out_dir: str | None = "articulation_experiments_out", progress: bool = True,
+        outliers: str = "exact") -> dict:
     """Run the selected experiments; returns a dict of results (plus "plots": written
-    files)."""
+    files). ``outliers``: "exact" (exactly round(gamma n) outliers per training sequence) or
+    "bernoulli" (each observation an outlier with probability gamma)."""
+    if outliers not in ("exact", "bernoulli"):
+        raise ValueError(f"outliers must be 'exact' or 'bernoulli', got {outliers!r}")
     if quick:
         runs = min(runs, 2)
     rng = np.random.default_rng(seed)
@@ -497,7 +503,9 @@ def run(*, runs: int = 100, seed: int = 0, quick: bool = False, only=EXPERIMENTS
     if "noise" in only:
         res["noise"] = exp_noise(runs, rng, quick, progress)
     if "outliers" in only or "gamma" in only:
-        res["outliers"] = exp_outliers(runs, rng, quick, progress)
+        res["outliers"] = exp_outliers(runs, rng, quick, progress,
+                                       exact=(outliers == "exact"))
+        res["outliers"]["outlier_sampling"] = outliers
     if "size" in only:
         res["size"] = exp_size(runs, rng, quick, progress)
     if "time" in only:
@@ -525,12 +533,16 @@ def main(argv=None) -> int:
     ap.add_argument("--out-dir", default="articulation_experiments_out",
                     help="folder for the plots ('' for none)")
     ap.add_argument("--json", action="store_true", help="print all results as JSON")
+    ap.add_argument("--outliers", choices=("exact", "bernoulli"), default="exact",
+                    help="outlier sampling of Fig. 4.21/4.22: exactly round(gamma n) outliers "
+                         "per sequence (default) or each observation with probability gamma")
     args = ap.parse_args(argv)
     if args.runs < 1:
         ap.error("--runs must be >= 1")
     try:
         res = run(runs=args.runs, seed=args.seed, quick=args.quick, only=args.only,
-                  out_dir=args.out_dir or None, progress=not args.json)
+                  out_dir=args.out_dir or None, progress=not args.json,
+                  outliers=args.outliers)
     except ValueError as e:
         ap.error(str(e))
     if args.json:

@@ -106,9 +106,11 @@ def true_pose(kind: str, q) -> np.ndarray:
 
 def simulate_link(kind: str, n: int, *, sigma_pos: float = 0.002,
                   sigma_orient: float = np.deg2rad(2.0), gamma: float = 0.0, rng=None,
-                  q=None) -> SimulatedTrack:
+                  q=None, exact_ratio: bool = False) -> SimulatedTrack:
     """n noisy observations of a simulated link (see module docstring). ``rng``: Generator
-    or seed."""
+    or seed. Each observation is an outlier with probability ``gamma``; with
+    ``exact_ratio=True`` exactly round(gamma * n) randomly chosen observations are outliers
+    (a sequence "with outlier ratio gamma", as in the thesis' Fig. 4.21/4.22)."""
     if kind not in LINK_TYPES:
         raise ValueError(f"unknown link type {kind!r}; choose from {LINK_TYPES}")
     if n < 1:
@@ -122,7 +124,11 @@ def simulate_link(kind: str, n: int, *, sigma_pos: float = 0.002,
     P = Zt[:, :3] + rng.normal(0.0, sigma_pos, (n, 3))
     R = Rotation.from_rotvec(rng.normal(0.0, sigma_orient, (n, 3))) * Rotation.from_quat(Zt[:, 3:])
     Z = np.hstack([P, R.as_quat()])
-    out = rng.random(n) < gamma
+    if exact_ratio:
+        out = np.zeros(n, bool)
+        out[rng.choice(n, int(round(gamma * n)), replace=False)] = True
+    else:
+        out = rng.random(n) < gamma
     k = int(out.sum())
     if k:
         allP = true_pose(kind, np.linspace(lo, hi, 50))[:, :3]

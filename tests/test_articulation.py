@@ -113,6 +113,22 @@ def test_rigid_at_95_percent_outliers_finds_exactly_the_inliers():
     assert few < 10 and np.mean(errs) < sp  # below the noise level on identifiable runs
 
 
+def test_exact_outlier_ratio_rigid_below_noise_at_95_percent():
+    # Fig. 4.21 with sequences of exactly round(gamma n) outliers: the rigid MLESAC estimate
+    # stays below the noise level at gamma = 0.95 in every run (5 inliers of 100).
+    sp, so = 0.01, np.deg2rad(3)
+    rng = np.random.default_rng(3)
+    errs = []
+    for _ in range(20):
+        tr = simulate_link("rigid", 100, sigma_pos=sp, sigma_orient=so, gamma=0.95, rng=rng,
+                           exact_ratio=True)
+        assert int(tr.outlier.sum()) == 95
+        m = RigidModel(obs=ObservationModel(sp, so)).fit(tr.Z, rng=rng)
+        assert np.array_equal(m.inliers_, ~tr.outlier)
+        errs.append(np.linalg.norm(m.theta[:3] - tr.Z_true[0, :3]))
+    assert np.mean(errs) < sp  # the mean of 5 noisy inliers: ~0.007 m
+
+
 def test_position_only_track():
     tr = simulate_link("microwave", 50, rng=5)
     m = RevoluteModel(obs=OBS).fit(tr.Z[:, :3], rng=0)
