@@ -26,14 +26,20 @@ estimators on their own ground truth, the GP on the roll-up door, Fig. 4.19):
 - ``bic_noise`` (Fig. 4.26): BIC and selection vs the assumed noise, roll-up door, n = 50,
   true noise 0.002 m / 2 deg (assumed noise from the true level upwards).
 - ``table``     (Table 4.2): simulated microwave door and drawer (sigma 0.002 m / 2 deg) and
-  garage door (0.05 m / 5 deg), 200 samples, 10 folds, n = 20 training samples per fold;
+  garage door (0.05 m / 5 deg), 200 samples, 10 folds, n = 20 training samples per fold
+  (microwave and drawer also with motion-capture-level true noise, 0.3 mm / 0.3 deg, under the
+  same assumed 2 mm / 2 deg: the thesis' rows come from a motion capture studio, and its
+  0.0003 m / 0.15 deg for the microwave is below what 20 samples with 2 mm / 2 deg noise allow);
   prediction errors of every candidate on the held-out samples (against the noisy
   observations, as on real data, and against the noise-free truth), gamma and the selection.
   The simulated garage door (the roll-up path scaled by 2) selects revolute at n = 20, where
   the thesis selects the GP: the GP explains the 20 samples ~134 nats better than the
   revolute model on average, but its k = 1 + d + 6n = 122 parameters cost
   (122 - 12) log(20) / 2 = 165 nats more (BIC margin ~60 for revolute); the outlier model is
-  not the cause (the revolute model classifies ~19% of the samples as outliers).
+  not the cause (the revolute model classifies ~19% of the samples as outliers). No roll-up
+  geometry does better: a grid of vertical segment 1-2.5 m x bend radius 0.3-1 m x horizontal
+  segment 1.5-2.5 m selects revolute or prismatic in the majority of folds for every cell.
+  The same trade-off reproduces Fig. 4.26 (GP up to sigma 0.02 at n = 50, revolute above).
 
 The *sample error* is the mean distance between noise-free test poses and their projection
 f(f^-1(z)) onto the fitted model (thesis Sec. 4.4.4). Tables are printed; plots are written to
@@ -275,15 +281,22 @@ def exp_bic_noise(runs, rng, quick, progress):
 
 
 def exp_table(runs, rng, quick, progress):
-    objects = [("microwave", "microwave", 0.002, 2.0), ("drawer", "drawer", 0.002, 2.0),
-               ("garage door", "garage", 0.05, 5.0)]
+    # (label, link type, assumed sigma_pos, sigma_orient [deg], true noise pos, orient [deg]):
+    # the thesis' microwave and drawer were motion-capture recordings, whose true noise is far
+    # below the assumed 2 mm / 2 deg; the "mocap" rows simulate that (0.3 mm / 0.3 deg).
+    objects = [("microwave", "microwave", 0.002, 2.0, 0.002, 2.0),
+               ("drawer", "drawer", 0.002, 2.0, 0.002, 2.0),
+               ("microwave (mocap noise)", "microwave", 0.002, 2.0, 0.0003, 0.3),
+               ("drawer (mocap noise)", "drawer", 0.002, 2.0, 0.0003, 0.3),
+               ("garage door", "garage", 0.05, 5.0, 0.05, 5.0)]
     folds = 3 if quick else 10
     out = {}
     bar = progress_bar(len(objects) * folds, "table 4.2", enabled=progress)
-    for label, kind, sp, so_deg in objects:
+    for label, kind, sp, so_deg, true_sp, true_so_deg in objects:
         so = np.deg2rad(so_deg)
         obs = ObservationModel(sp, so)
-        data = simulate_link(kind, 200, sigma_pos=sp, sigma_orient=so, rng=rng)
+        data = simulate_link(kind, 200, sigma_pos=true_sp, sigma_orient=np.deg2rad(true_so_deg),
+                             rng=rng)
         acc = {m: {"pos": [], "ori": [], "pos_true": [], "ori_true": [], "gamma": []}
                for m in MODELS}
         selected = []
@@ -307,6 +320,7 @@ def exp_table(runs, rng, quick, progress):
         vals, cnt = np.unique(selected, return_counts=True)
         out[label] = {
             "sigma_pos": sp, "sigma_orient_deg": so_deg, "folds": folds,
+            "true_sigma_pos": true_sp, "true_sigma_orient_deg": true_so_deg,
             "selected_counts": {str(v): int(c) for v, c in zip(vals, cnt)},
             "models": {m: {k: float(np.mean(v)) for k, v in a.items() if v}
                        for m, a in acc.items()},
@@ -474,7 +488,8 @@ def _print(res, file=sys.stdout):
     if "table" in res:
         p("\nTable 4.2  held-out prediction error (vs noisy obs. | vs truth), 10-fold, n = 20")
         for obj, r in res["table"].items():
-            p(f"{obj} (sigma {r['sigma_pos']} m / {r['sigma_orient_deg']} deg), selected: "
+            p(f"{obj} (assumed sigma {r['sigma_pos']} m / {r['sigma_orient_deg']} deg, true "
+              f"{r['true_sigma_pos']} m / {r['true_sigma_orient_deg']} deg), selected: "
               f"{r['selected_counts']}")
             for m in MODELS:
                 a = r["models"].get(m, {})
