@@ -33,6 +33,11 @@ from mmlearn.systems.motor_babbling import MotorBabbling
 from mmlearn.systems.schema_controller import SchemaController
 from mmlearn.systems.schema_learner import SchemaLearner, SchemaLearnerConfig
 
+
+def _default_tool(arm) -> str:
+    """The tool of the scene's arm: the gripper on the 7-DOF arm, none on the others."""
+    return "gripper" if str(arm).lower().removesuffix("dof") == "7" else "none"
+
 __all__ = ["BodySchemaDiagramConfig", "BodySchemaDiagram", "MakeBodySchemaDiagram",
            "make_target_filter", "true_structure"]
 
@@ -85,8 +90,7 @@ class BodySchemaDiagramConfig:
     draw_offset: list[float] = field(default_factory=lambda: [0.0, 0.9, 0.0])
 
     def validate(self) -> None:
-        arm_spec(self.arm, tool="none" if str(self.arm).lower().removesuffix("dof") != "7"
-                 else "gripper")
+        arm_spec(self.arm, tool=_default_tool(self.arm))
         for k in ("noise_pos", "noise_orient", "min_height", "search_min_pos",
                   "search_min_orient"):
             v = getattr(self, k)
@@ -309,8 +313,11 @@ def MakeBodySchemaDiagram(config: BodySchemaDiagramConfig | None = None, *, mesh
     sd = builder.AddNamedSystem("scene", scene.diagram)
     mid = 0.5 * (scene.command_lower + scene.command_upper)
     rng_ = scene.command_upper - scene.command_lower
-    # short-range joints (the gripper's 4 cm fingers) babble over their full range
-    half = 0.5 * rng_ * np.where(rng_ < 0.2, 1.0, cfg.babble_fraction)
+    # the gripper (the action driving the mirrored finger) and short-range joints babble
+    # over their full range
+    grip = set(arm_spec(cfg.arm, tool=_default_tool(cfg.arm)).mimic.values())
+    full = (rng_ < 0.2) | np.isin(list(scene.command_names), list(grip))
+    half = 0.5 * rng_ * np.where(full, 1.0, cfg.babble_fraction)
     accept = make_target_filter(scene, min_height=cfg.min_height)
     start = mid.copy()
     babbling = builder.AddNamedSystem("motor_babbling", MotorBabbling(

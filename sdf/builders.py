@@ -14,8 +14,9 @@ Conventions
   with a frame ``<part>_marker`` whose +z axis is the square's outward normal. That
   frame is the pose a :class:`~mmlearn.systems.marker_sensor.MarkerSensor` observes.
 * The 7-DOF arm has the thesis' 10 parts: base x1 welded to shoulder x2, the chain
-  x2..x8 on revolute joints q1..q6, and a parallel gripper whose two fingers x9, x10
-  ride on prismatic joints ``q7`` and ``q7_mirror`` (commanded with the same value).
+  x2..x8 on revolute joints q1..q6, and an angular gripper whose two fingers x9, x10
+  swing open on revolute joints ``q7`` and ``q7_mirror`` (commanded with the same value;
+  like the fingers of the numpy arm in :mod:`mmlearn.models.kinematic_sim`).
 * Cabinet frame: the front face is the plane x = 0, the carcass extends to -x, the
   robot stands on the +x side. Door and drawer joints open with positive q.
 
@@ -93,6 +94,7 @@ class ArmSpec:
 
 _Y = (0.0, 1.0, 0.0)
 _Z = (0.0, 0.0, 1.0)
+GRIPPER_OPENING = 1.2  # rad, each finger of the 7-DOF arm's gripper (q7 in [0, 1.2])
 
 
 def arm_spec(dof: int | str, *, tool: str = "gripper") -> ArmSpec:
@@ -100,7 +102,7 @@ def arm_spec(dof: int | str, *, tool: str = "gripper") -> ArmSpec:
 
     Args:
         dof: 2, 4 or 7 (or "2dof", "4dof", "7dof").
-        tool: "gripper" (7-DOF only: the parallel gripper with fingers x9, x10),
+        tool: "gripper" (7-DOF only: the angular gripper with fingers x9, x10),
             "hook" (an L-shaped hook, as on the robot Cody, instead of the gripper) or
             "none".
     """
@@ -137,7 +139,9 @@ def arm_spec(dof: int | str, *, tool: str = "gripper") -> ArmSpec:
             LinkSpec("x5", 0.05, 0.045, "q3", axis=_Z, mass=0.6),
             LinkSpec("x6", 0.35, 0.04, "q4", axis=_Y, mass=1.5),
             LinkSpec("x7", 0.10, 0.035, "q5", axis=_Z, mass=0.5),
-            LinkSpec("x8", 0.10, 0.035, "q6", axis=_Y, mass=0.5),
+            # with the gripper's 0.08 m fingers the arm is 1.30 m long (the thesis' arm)
+            LinkSpec("x8", 0.07 if tool == "gripper" else 0.10, 0.035, "q6", axis=_Y,
+                     mass=0.5),
         ]
         actions = ["q1", "q2", "q3", "q4", "q5", "q6"]
     else:
@@ -146,13 +150,14 @@ def arm_spec(dof: int | str, *, tool: str = "gripper") -> ArmSpec:
     tip = links[-1]
     if tool == "gripper":
         if dof != 7:
-            raise ValueError("the parallel gripper is modelled on the 7-DOF arm only")
+            raise ValueError("the gripper is modelled on the 7-DOF arm only")
+        # an angular gripper: the fingers swing open about y, in opposite directions
         links += [
-            LinkSpec("x9", 0.05, 0.012, "q7", joint_type="prismatic", axis=(1, 0, 0),
-                     lower=0.0, upper=0.04, mass=0.1, shape="box",
+            LinkSpec("x9", 0.08, 0.012, "q7", axis=(0, 1, 0), lower=0.0,
+                     upper=GRIPPER_OPENING, mass=0.1, shape="box",
                      offset=(0.015, 0.0, tip.length)),
-            LinkSpec("x10", 0.05, 0.012, "q7_mirror", joint_type="prismatic",
-                     axis=(-1, 0, 0), lower=0.0, upper=0.04, mass=0.1, shape="box",
+            LinkSpec("x10", 0.08, 0.012, "q7_mirror", axis=(0, -1, 0), lower=0.0,
+                     upper=GRIPPER_OPENING, mass=0.1, shape="box",
                      offset=(-0.015, 0.0, tip.length)),
         ]
         actions.append("q7")

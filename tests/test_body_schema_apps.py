@@ -58,6 +58,10 @@ def test_body_schema_experiments_quick(tmp_path):
     assert d["noise_free"]["rows"][0]["pred_error_m"] < 0.01  # 20 noise-free samples
     t = d["table_3_2_drake"]
     assert t["bent_static"] > 0.1 and t["bent_adaptive"] < 0.05  # adaptation helps
+    st = d["7dof_structure"]
+    assert len(st) == 1 and [r["n"] for r in st[0]["rows"]] == [8, 10, 12]
+    assert st[0]["noise"] == 0.044 and st[0]["occluded"] == ["x4"]
     for f in ("joint", "tool"):
         assert d["table_3_1_drake"][f]["first"] > 0  # the failure is noticed
+        assert d["table_3_1_drake"][f]["runs"] == 1
         assert len(d["table_3_1_numpy"][f]["mean"]) == 3

