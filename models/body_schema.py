@@ -636,7 +636,7 @@ class BodySchema:
         opt = force_opt or m.gp is None or len(rows) in self.adapt.reoptimize_at
         hp = None if (opt or m.gp is None) else m.gp.hyperparameters()
         m.fit(A, Z, optimize=opt, hyperparameters=hp, max_opt=self.search.max_opt,
-              noise_min=self.search.noise_min)
+              noise_min=self.search.output_noise_min)
 
     # ------------------------------------------------------------------ I/O
     def to_dict(self) -> dict:

@@ -15,7 +15,7 @@ Units: whatever the caller's ``X`` and ``Y`` are in; ``ell`` has the units of ``
 
 Serialisation schema (``to_dict``)::
 
-    {"type": "GaussianProcess", "version": 1, "ard": bool, "noise_min": float,
+    {"type": "GaussianProcess", "version": 1, "ard": bool, "noise_min": float or [m floats],
      "X": [[...]] (n, d), "Y": [[...]] (n, m),
      "log_ell": [[...]] (m, d or 1), "log_sf2": [...] (m,), "log_sn2": [...] (m,)}
 """
@@ -213,7 +213,8 @@ class GaussianProcess:
             optimize: maximise the log marginal likelihood over the hyper-parameters.
                 If False, the hyper-parameters from ``hyperparameters`` (or the data-scale
                 initialisation) are used as they are.
-            noise_min: lower bound on the noise *variance* sn2 (units of Y squared).
+            noise_min: lower bound on the noise *variance* sn2 (units of Y squared): one
+                number, or one per output column (m,).
             hyperparameters: optional initial values ``{"log_ell": (m, d) or (m, 1),
                 "log_sf2": (m,), "log_sn2": (m,)}`` (broadcast over outputs).
             maxiter: iteration cap for L-BFGS-B.
@@ -230,12 +231,17 @@ class GaussianProcess:
             raise ValueError(f"X has {X.shape[0]} rows but Y has {Y.shape[0]}")
         if X.shape[0] < 1:
             raise ValueError("GaussianProcess.fit needs at least one training sample")
-        if not noise_min > 0:
-            raise ValueError(f"noise_min must be positive, got {noise_min}")
         n, d = X.shape
         m = Y.shape[1]
+        nm = np.asarray(noise_min, float)
+        if nm.ndim > 1 or (nm.ndim == 1 and nm.shape != (m,)):
+            raise ValueError(f"noise_min must be a number or one per output ({m},), got shape "
+                             f"{nm.shape}")
+        if not np.all(nm > 0):
+            raise ValueError(f"noise_min must be positive, got {noise_min}")
         self.X, self.Y = X.copy(), Y.copy()
-        self.noise_min = float(noise_min)
+        self.noise_min = float(nm) if nm.ndim == 0 else nm.copy()
+        noise_min = np.broadcast_to(nm, (m,))
         self.y_mean = Y.mean(axis=0)
         Yc = Y - self.y_mean
         d_ell = (d if self.ard else 1) if d > 0 else 0
@@ -284,7 +290,8 @@ class GaussianProcess:
             for c in range(m):
                 bounds += list(zip(lo_ell[:d_ell], hi_ell[:d_ell]))
                 bounds.append((np.log(1e-12), np.log(1e4 * yscale[c] + 1e-8)))
-                bounds.append((np.log(noise_min), np.log(max(1e4 * yscale[c], 10 * noise_min))))
+                bounds.append((np.log(noise_min[c]),
+                               np.log(max(1e4 * yscale[c], 10 * noise_min[c]))))
             bounds = np.array(bounds)
             theta0 = np.clip(theta0.ravel(), bounds[:, 0], bounds[:, 1])
             D2 = self._sqdist(X, X)
@@ -387,7 +394,7 @@ class GaussianProcess:
         self._check_fitted()
         return {
             "type": "GaussianProcess", "version": 1, "ard": self.ard,
-            "noise_min": self.noise_min,
+            "noise_min": np.asarray(self.noise_min).tolist(),
             "X": self.X.tolist(), "Y": self.Y.tolist(),
             "log_ell": self.log_ell.tolist(), "log_sf2": self.log_sf2.tolist(),
             "log_sn2": self.log_sn2.tolist(),
@@ -404,7 +411,8 @@ class GaussianProcess:
             X = X.reshape(len(Y), -1)
         m = Y.shape[1]
         gp.X, gp.Y = X, Y
-        gp.noise_min = float(d.get("noise_min", 1e-6))
+        nm = np.asarray(d.get("noise_min", 1e-6), float)
+        gp.noise_min = float(nm) if nm.ndim == 0 else nm
         gp.y_mean = Y.mean(axis=0)
         gp.log_ell = np.asarray(d["log_ell"], float).reshape(m, -1)
         gp.log_sf2 = np.asarray(d["log_sf2"], float).reshape(m)

@@ -1,5 +1,6 @@
 """Body schema learning (thesis ch. 3): local models, structure search, prediction, control."""
 
+import dataclasses
 import json
 
 import numpy as np
@@ -134,6 +135,27 @@ def test_7dof_structure_and_occluded_part_bridged_by_k2_model():
     assert res.complete and structure_correct(arm, res.tree, res.nodes)
     assert (2, 4, (1, 2)) in res.edges()
     assert res.layers == [0, 1, 2]
+
+
+def test_screening_misses_are_rescued_by_the_best_ranked_candidate():
+    # with a screening threshold nothing can pass, each pair's best-ranked candidate is
+    # still trained and tested: the structure is found all the same (and not without it)
+    arm = make_arm_2dof()
+    A, Y, _ = _data(arm, 15, 3, sigma_pos=0.044, sigma_orient=np.deg2rad(3))
+    strict = dataclasses.replace(NOISY, screen_factor=1e-9)
+    res = learn_structure(A, Y, config=strict)
+    assert res.complete and structure_correct(arm, res.tree, res.nodes)
+    res = learn_structure(A, Y, config=dataclasses.replace(strict, screen_top_factor=0.0))
+    assert not res.complete
+
+
+def test_output_noise_floor_layout():
+    cfg = SearchConfig(noise_min=1e-8, noise_min_pos=4e-4, noise_min_rot=1e-3)
+    nm = cfg.output_noise_min.reshape(3, 4)  # rows of [R | t]
+    np.testing.assert_allclose(nm[:, 3], 4e-4)
+    np.testing.assert_allclose(nm[:, :3], 1e-3)
+    with pytest.raises(ValueError, match="noise_min_pos"):
+        SearchConfig(noise_min_pos=float("nan"))
 
 
 def test_split_validation_also_recovers_structure():

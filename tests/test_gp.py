@@ -140,3 +140,20 @@ def test_loo_predict_matches_refit_without_the_sample():
         m_i, v_i = g.predict(X[i:i + 1], return_var=True, include_noise=True)
         np.testing.assert_allclose(mean[i], m_i[0], rtol=1e-6, atol=1e-9)
         np.testing.assert_allclose(var[i], v_i[0], rtol=1e-6, atol=1e-12)
+
+
+def test_per_output_noise_floor():
+    # a per-output floor keeps each column's noise variance at or above its own bound (the
+    # data's noise variance 0.05^2 is below the second column's floor), and survives JSON
+    X, Y = _data(n=15, d=1, m=2, seed=11)
+    floor = np.array([1e-8, 1e-2])
+    gp = GaussianProcess().fit(X, Y, noise_min=floor)
+    assert np.all(np.exp(gp.log_sn2) >= floor * (1 - 1e-9))
+    assert np.exp(gp.log_sn2[1]) == pytest.approx(1e-2, rel=1e-6)  # at the floor
+    gp2 = GaussianProcess.from_dict(json.loads(json.dumps(gp.to_dict())))
+    np.testing.assert_allclose(gp2.noise_min, floor)
+    np.testing.assert_allclose(gp2.predict(X), gp.predict(X))
+    with pytest.raises(ValueError, match="per output"):
+        GaussianProcess().fit(X, Y, noise_min=np.ones(3))
+    with pytest.raises(ValueError, match="positive"):
+        GaussianProcess().fit(X, Y, noise_min=np.array([1e-3, 0.0]))
