@@ -94,7 +94,7 @@ class ArmSpec:
 
 _Y = (0.0, 1.0, 0.0)
 _Z = (0.0, 0.0, 1.0)
-GRIPPER_OPENING = 1.2  # rad, each finger of the 7-DOF arm's gripper (q7 in [0, 1.2])
+GRIPPER_OPENING = 1.5  # rad, each finger of the 7-DOF arm's gripper (q7 in [0, 1.5])
 
 
 def arm_spec(dof: int | str, *, tool: str = "gripper") -> ArmSpec:
