@@ -8,8 +8,10 @@ Where each runs:
   the MarkerSensor; data gathered by motor babbling with the SchemaLearner in the loop;
   failures in the plant: JointBlocker / hidden locked joints):
   Fig. 3.10 (2-DOF, sigma 0.044 m; the schema is re-fitted on the first n Drake samples for
-  each n), the noise-free accuracy (2-DOF, 20 and 100 samples), the 7-DOF 10-part arm with
-  x4 occluded, one run of Table 3.1 per failure (2-DOF arm: joint q2 blocked, tool changed;
+  each n; mean of ``--fig310_runs`` runs), the noise-free accuracy (2-DOF, 20 and 100
+  samples), the 7-DOF 10-part arm with x4 occluded (noise-free accuracy, and the structure
+  convergence with the sensor noise of Fig. 3.10 over ``--structure_runs`` runs),
+  ``--drake_runs`` runs of Table 3.1 per failure (2-DOF arm: joint q2 blocked, tool changed;
   the schema is learned from scratch in block 1) and one run of Table 3.2 (4-DOF arm, link
   x3 bent by 45 deg in the plant; the goal commands are solved on the learned model by the
   SchemaController's solver and the error is measured on the plant's kinematics at those
