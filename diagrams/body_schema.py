@@ -33,13 +33,14 @@ from mmlearn.systems.motor_babbling import MotorBabbling
 from mmlearn.systems.schema_controller import SchemaController
 from mmlearn.systems.schema_learner import SchemaLearner, SchemaLearnerConfig
 
+__all__ = ["BodySchemaDiagramConfig", "BodySchemaDiagram", "MakeBodySchemaDiagram",
+           "make_target_filter", "true_structure"]
+
 
 def _default_tool(arm) -> str:
     """The tool of the scene's arm: the gripper on the 7-DOF arm, none on the others."""
     return "gripper" if str(arm).lower().removesuffix("dof") == "7" else "none"
 
-__all__ = ["BodySchemaDiagramConfig", "BodySchemaDiagram", "MakeBodySchemaDiagram",
-           "make_target_filter", "true_structure"]
 
 BABBLE, CONTROL = 1, 2  # input port indices of the PortSwitch (0 is its selector)
 
