@@ -12,10 +12,10 @@ Where each runs:
   samples), the 7-DOF 10-part arm with x4 occluded (noise-free accuracy, and the structure
   convergence with the sensor noise of Fig. 3.10 over ``--structure_runs`` runs),
   ``--drake_runs`` runs of Table 3.1 per failure (2-DOF arm: joint q2 blocked, tool changed;
-  the schema is learned from scratch in block 1) and one run of Table 3.2 (4-DOF arm, link
-  x3 bent by 45 deg in the plant; the goal commands are solved on the learned model by the
-  SchemaController's solver and the error is measured on the plant's kinematics at those
-  commands).
+  the schema is learned from scratch in block 1) and ``--drake_runs`` / 2 runs of Table 3.2
+  (4-DOF arm, link x3 bent by 45 deg in the plant; the goal commands are solved on the
+  learned model by the SchemaController's solver and the error is measured on the plant's
+  kinematics at those commands).
 * **numpy simulation** (:mod:`mmlearn.models.kinematic_sim`) for the many-run statistics:
   Table 3.1 (7-DOF, ``--runs`` runs of 4 x 100 samples, engineered seed model) and
   Table 3.2 (4-DOF, 30 way points).
@@ -149,28 +149,44 @@ def drake_recovery(failure, *, n_block, seed, arm="2dof", show=True):
                 second=invalid[3], events=[e for _, e in bs.learner.state(root).schema.events])
 
 
-def _recovery_job(args):
-    failure, n_block, seed = args
-    return drake_recovery(failure, n_block=n_block, seed=seed, show=False)
+def _call(job):
+    fn, kwargs = job
+    return fn(**kwargs, show=False)
+
+
+def _parallel(fn, kwargs_list, *, workers=2, desc="", show=True):
+    """fn(**kwargs) for every kwargs in ``workers`` processes (in order)."""
+    if workers > 1 and len(kwargs_list) > 1:
+        import multiprocessing as mp
+        from concurrent.futures import ProcessPoolExecutor
+
+        with ProcessPoolExecutor(workers, mp_context=mp.get_context("spawn")) as ex:
+            return list(progress(ex.map(_call, [(fn, k) for k in kwargs_list]),
+                                 total=len(kwargs_list), desc=desc, unit="run", enabled=show))
+    return [fn(**k, show=show) for k in kwargs_list]
 
 
 def drake_recovery_runs(failure, *, runs, n_block, seed, workers=2, show=True):
     """``runs`` independent Drake runs of :func:`drake_recovery` (seeds seed..seed+runs-1)
     in ``workers`` processes; mean and std of first / restore / second."""
-    jobs = [(failure, n_block, seed + r) for r in range(runs)]
-    if workers > 1 and runs > 1:
-        import multiprocessing as mp
-        from concurrent.futures import ProcessPoolExecutor
-
-        with ProcessPoolExecutor(workers, mp_context=mp.get_context("spawn")) as ex:
-            rs = list(progress(ex.map(_recovery_job, jobs), total=runs,
-                               desc=f"Drake Table 3.1 {failure}", unit="run", enabled=show))
-    else:
-        rs = [drake_recovery(f, n_block=n, seed=sd, show=show) for f, n, sd in jobs]
+    rs = _parallel(drake_recovery, [dict(failure=failure, n_block=n_block, seed=seed + r)
+                                    for r in range(runs)],
+                   workers=workers, desc=f"Drake Table 3.1 {failure}", show=show)
     f = np.array([[r["first"], r["restore"], r["second"]] for r in rs], float)
     return dict(mean=f.mean(0).tolist(), std=f.std(0).tolist(), runs=runs,
                 per_run=f.astype(int).tolist(), first=rs[0]["first"],
                 restore=rs[0]["restore"], second=rs[0]["second"])
+
+
+def drake_control_runs(*, runs, seed, workers=2, show=True, **kw):
+    """``runs`` independent Drake runs of :func:`drake_control`; means and per-run values."""
+    rs = _parallel(drake_control, [dict(seed=seed + r, **kw) for r in range(runs)],
+                   workers=workers, desc="Drake Table 3.2", show=show)
+    keys = ("intact_static", "bent_static", "bent_adaptive")
+    out = {k: float(np.mean([r[k] for r in rs])) for k in keys}
+    out.update(runs=runs, per_run=[[r[k] for k in keys] for r in rs],
+               valid_after=all(r["valid_after"] for r in rs))
+    return out
 
 
 def drake_control(*, n_learn, n_adapt, n_waypoints, seed, show=True):
@@ -283,7 +299,8 @@ def run(*, quick: bool = False, runs: int = 20, seed: int = 0, out_dir: str | Pa
     """Run every experiment; write ``fig_3_10.png`` and ``body_schema_experiments.json`` to
     ``out_dir``; return the results. ``structure_runs``: Drake runs of the 7-DOF structure
     convergence (sensor noise 0.044 m); ``drake_runs``: Drake runs of Table 3.1 per failure
-    (two at a time); ``fig310_runs``: Drake runs averaged in Fig. 3.10."""
+    and drake_runs // 2 of Table 3.2 (two at a time); ``fig310_runs``: Drake runs averaged
+    in Fig. 3.10."""
     if min(runs, structure_runs, drake_runs, fig310_runs) < 1:
         raise ValueError(f"runs, structure_runs, drake_runs and fig310_runs must be >= 1, "
                          f"got {runs}, {structure_runs}, {drake_runs}, {fig310_runs}")
@@ -319,10 +336,11 @@ def run(*, quick: bool = False, runs: int = 20, seed: int = 0, out_dir: str | Pa
     res["table_3_1_drake"] = {f: drake_recovery_runs(f, runs=1 if quick else drake_runs,
                                                      n_block=n_block, seed=seed, show=show)
                               for f in ("joint", "tool")}
-    res["table_3_2_drake"] = drake_control(n_learn=30 if quick else 100,
-                                           n_adapt=30 if quick else 150,
-                                           n_waypoints=6 if quick else 30, seed=seed,
-                                           show=show)
+    res["table_3_2_drake"] = drake_control_runs(runs=1 if quick else max(1, drake_runs // 2),
+                                                n_learn=30 if quick else 100,
+                                                n_adapt=30 if quick else 150,
+                                                n_waypoints=6 if quick else 30, seed=seed,
+                                                show=show)
     t31, t32 = numpy_tables(runs=1 if quick else runs, quick=quick, seed=seed, show=show)
     res["table_3_1_numpy"], res["table_3_2_numpy"] = t31, t32
     res["seconds"] = time.perf_counter() - t0
@@ -375,7 +393,8 @@ def report(res) -> str:
     d = res["table_3_2_drake"]
     L.append(f"  numpy 4-DOF ({n['runs']} runs): {n['intact_static']:.3f} / "
              f"{n['bent_static']:.3f} / {n['bent_adaptive']:.3f}")
-    L.append(f"  Drake 4-DOF (1 run):  {d['intact_static']:.3f} / {d['bent_static']:.3f} / "
+    L.append(f"  Drake 4-DOF ({d['runs']} runs): {d['intact_static']:.3f} / "
+             f"{d['bent_static']:.3f} / "
              f"{d['bent_adaptive']:.3f}")
     L.append(f"plots: {', '.join(res['plots'])}; {res['seconds']:.0f} s")
     return "\n".join(L)
@@ -394,7 +413,8 @@ def main(argv=None) -> int:
     ap.add_argument("--structure_runs", type=int, default=5,
                     help="Drake runs of the 7-DOF structure convergence (5)")
     ap.add_argument("--drake_runs", type=int, default=6,
-                    help="Drake runs of Table 3.1 per failure, two processes (6)")
+                    help="Drake runs of Table 3.1 per failure, half as many of Table 3.2; "
+                         "two processes (6)")
     ap.add_argument("--fig310_runs", type=int, default=3,
                     help="Drake runs averaged in Fig. 3.10 (3)")
     ap.add_argument("--out_dir", type=Path, default=Path("."),
