@@ -719,6 +719,23 @@ class LinkModel:
         self.avg_pos_error_ = float(np.sqrt(ep2[0][inl]).mean())
         self.avg_orient_error_ = float(eo[0][inl].mean()) if eo is not None else None
         self.inliers_ = inl
+        # per-axis rms of the inliers' residuals across the path (position, orientation):
+        # the noise the data actually show, for the identifiability test of selection
+        k = max(3 - self.dof, 1)
+        self.residual_rms_ = (float(np.sqrt(ep2[0][inl].mean() / k)),
+                              None if eo is None else float(np.sqrt((eo[0][inl] ** 2).mean() / k)))
+
+    def path_length(self) -> tuple:
+        """Length of the observed range along the first DOF: (metres of position travel,
+        radians of rotation) from the model's Jacobian (0, 0 for rigid)."""
+        if self.dof == 0:
+            return 0.0, 0.0
+        qs = self.q_min[None] + np.linspace(0.0, 1.0, 16)[:, None] * (self.q_max - self.q_min)[None]
+        J = self.jacobian(qs)[:, :, 0]
+        dq = abs(float(self.q_max[0] - self.q_min[0]))
+        lp = float(np.linalg.norm(J[:, :3], axis=1).mean()) * dq
+        lr = float(np.linalg.norm(J[:, 3:], axis=1).mean()) * dq if J.shape[1] == 6 else 0.0
+        return lp, lr
 
     # ----- evaluation
     def residuals(self, Z):
