@@ -62,9 +62,11 @@ class LinkSelection:
 
 
 def select_link_model(Z, *, models=DEFAULT_CANDIDATES, obs: ObservationModel | None = None,
-                      rng=None, n_hypotheses: int = 100) -> LinkSelection:
+                      rng=None, n_hypotheses: int = 100,
+                      identifiability: bool = True) -> LinkSelection:
     """Fit ``models`` (names, see :func:`make_model`) to the relative track Z ((n, 7),
     (n, 4, 4) or (n, 3)) and select the lowest BIC. ``rng``: Generator or seed.
+    ``identifiability=False`` selects by BIC alone (no ``_unresolved`` test; for comparisons).
     Raises ValueError if no candidate can be fitted (e.g. too short / NaN track)."""
     rng = _gen(rng)
     obs = obs if obs is not None else ObservationModel()
@@ -91,7 +93,7 @@ def select_link_model(Z, *, models=DEFAULT_CANDIDATES, obs: ObservationModel | N
             f"{k}: {v}" for k, v in errs.items()))
     demoted = {}
     for name, m in cands.items():
-        reason = _unresolved(m)
+        reason = _unresolved(m) if identifiability else None
         if reason and len(cands) > 1:
             demoted[name] = reason
     eligible = [m for k, m in cands.items() if k not in demoted] or list(cands.values())
