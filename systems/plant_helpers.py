@@ -79,7 +79,8 @@ class JointFriction(LeafSystem):
         self._vs = v_stiction
         self._state = self.DeclareVectorInputPort("state", num_positions + num_velocities)
         self._out = self.DeclareVectorOutputPort(
-            "generalized_force", BasicVector(num_velocities), self._calc)
+            "generalized_force", BasicVector(num_velocities), self._calc,
+            prerequisites_of_calc={self._state.ticket()})
 
     def get_state_input_port(self):
         return self._state
