@@ -221,3 +221,27 @@ def test_object_tracks_estimators_two_simulators(meshcat):
     assert end["marker_stats"][2] == 2 and end["pose_stats"][2] == 1  # fitted models
     assert end["prior_cluster"][0] == 0  # the door was recognised
     assert meshcat.HasPath("semantics_test")
+
+
+def test_motor_babbling_draws_its_targets_up_front():
+    from mmlearn.systems import MotorBabbling
+
+    calls = []
+
+    def accept(q):
+        calls.append(q.copy())
+        return q[0] > 0.5
+
+    b = MotorBabbling(lower=[0.0, 0.0], upper=[1.0, 1.0], period=0.5, seed=4, accept=accept,
+                      n_targets=8)
+    n_calls = len(calls)
+    assert n_calls >= 8 and b.n_targets == 8
+    assert all(b.target(k)[0] > 0.5 for k in range(1, 9))
+    np.testing.assert_array_equal(b.target(9), b.target(1))  # the sequence repeats
+    ctx = b.CreateDefaultContext()
+    for t in np.linspace(0.0, 6.0, 50):
+        ctx.SetTime(t)
+        b.get_command_output_port().Eval(ctx)
+    assert len(calls) == n_calls  # simulating never calls the predicate
+    with pytest.raises(ValueError):
+        MotorBabbling(lower=[0.0], upper=[1.0], n_targets=0)
