@@ -207,8 +207,10 @@ class RevoluteModel(LinkModel):
     dof = 1
     min_samples = 3
     #: Levenberg-Marquardt: the weighted fit of a circle and its axis has no closed form,
-    #: but the residual vectors (_residual_vectors) give Gauss-Newton steps; it needs ~3x
-    #: fewer batched residual evaluations than L-BFGS for the same optimum.
+    #: but the residual vectors (_residual_vectors) give Gauss-Newton steps, with fewer
+    #: batched residual evaluations than L-BFGS for the same or a better optimum. The
+    #: hand-written LM (articulation_refine._lm_fixed_gamma) is kept over
+    #: scipy.optimize.least_squares; see the measurement there.
     refinement = "lm"
 
     def __init__(self, **kw):
