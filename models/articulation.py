@@ -98,10 +98,7 @@ Code layout (this module is the public facade; import from here):
 - models/articulation_gp.py: GPModel.
 """
 
-
 from __future__ import annotations
-
-import numpy as np
 
 from .articulation_base import LinkModel
 # private helpers other modules and the tests import from here
@@ -109,7 +106,7 @@ from .articulation_geom import _log_rot, _m2rv, _rv2m  # noqa: F401
 from .articulation_gp import GPModel
 from .articulation_links import PrismaticModel, RevoluteModel, RigidModel
 from .articulation_obs import (DEFAULT_GAMMA_WEIGHT, GAMMA_PRIOR_MODES, ObservationModel,
-                               _obs_from_dict, em_gamma)
+                               em_gamma)
 
 __all__ = [
     "ObservationModel",
@@ -154,25 +151,4 @@ def link_model_from_dict(dct: dict) -> LinkModel:
     key = "gp" if isinstance(t, str) and t.startswith("gp") else t
     if key not in MODEL_CLASSES:
         raise ValueError(f"unknown link model type {t!r}")
-    cls = MODEL_CLASSES[key]
-    if cls is GPModel:
-        m = GPModel.__new__(GPModel)
-        m.dof = int(dct["extra"]["dof"])
-        LinkModel.__init__(m, obs=_obs_from_dict(dct["obs"]))
-        m.obs_fit = _obs_from_dict(dct["obs_fit"])
-        m.has_orientation = bool(dct["has_orientation"])
-        m.theta = np.zeros(0)
-        m.gamma = float(dct["gamma"])
-        m.n_train = int(dct["n_train"])
-        m.q_min = np.asarray(dct["q_min"], float)
-        m.q_max = np.asarray(dct["q_max"], float)
-        m.log_likelihood_ = float(dct["log_likelihood"])
-        m.bic_ = float(dct["bic"])
-        m.avg_pos_error_ = float(dct["avg_pos_error_m"])
-        m.avg_orient_error_ = dct["avg_orient_error_rad"]
-        m.n_neighbors = 10
-        m._extra_from_dict(dct["extra"])
-        m.fitted = True
-        return m
-    m = cls._from_dict(dct)
-    return m
+    return MODEL_CLASSES[key]._from_dict(dct)

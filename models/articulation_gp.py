@@ -177,6 +177,12 @@ class GPModel(LinkModel):
                 "f_mean": self.f_mean.tolist(), "components": self.components.tolist(),
                 "gp": self.gp.to_dict()}
 
+    @classmethod
+    def _from_dict(cls, dct):
+        m = super()._from_dict(dct)
+        m.n_neighbors = 10
+        return m
+
     def _extra_from_dict(self, e):
         from .gp import GaussianProcess
 
