@@ -19,7 +19,7 @@ File schema (YAML and JSON hold the same tree; the extension chooses the format)
       obs: {sigma_pos: m, sigma_orient: rad, gamma_weight: w, outlier_volume_m3: m^3 | null}
       obs_fit: same, with the outlier volume used in fitting
       has_orientation: bool       # false for position-only models
-      theta: [float, ...]         # parameter vector (layout: see models/articulation.py)
+      theta: [float, ...]         # parameter vector (layout: models/articulation_links.py)
       gamma: float                # outlier ratio
       n_train: int
       q_min, q_max: [float] * d   # observed configuration range (m or rad)
