@@ -288,6 +288,9 @@ class PriorDatabase:
             raise ValueError(f"not a prior database (format must be {FORMAT!r})")
         if int(d.get("version", -1)) != VERSION:
             raise ValueError(f"unsupported prior database version {d.get('version')!r}")
+        from .articulation_io import validate_prior_dict
+
+        validate_prior_dict(d)
         c = d["config"]
         db = cls(obs=ObservationModel(sigma_pos=c["sigma_pos"], sigma_orient=c["sigma_orient"],
                                       gamma_weight=c.get("gamma_weight", 1.0)),
@@ -314,7 +317,10 @@ class PriorDatabase:
             d = json.loads(p.read_text())
         except json.JSONDecodeError as e:
             raise ValueError(f"{p}: not valid JSON ({e})") from None
-        return cls.from_dict(d)
+        try:
+            return cls.from_dict(d)
+        except ValueError as e:
+            raise ValueError(f"{p}: {e}") from None
 
 
 class PriorTracker:
