@@ -28,12 +28,14 @@ def progress_bar(total: int, desc: str = "", *, unit: str = "it", enabled: bool 
                 disable=True if not enabled else None)
 
 
-def make_meshcat():
-    """Start a Meshcat server (local only) and print its URL to stderr."""
+def make_meshcat(*, announce: bool = True):
+    """Start a Meshcat server (local only) and, with ``announce`` (a live view), print its
+    URL to stderr; for a recording only (``--html-out``) nobody needs the URL."""
     from pydrake.geometry import StartMeshcat
 
     meshcat = StartMeshcat()
-    print(f"Meshcat: open {meshcat.web_url()} in a browser", file=sys.stderr)
+    if announce:
+        print(f"Meshcat: open {meshcat.web_url()} in a browser", file=sys.stderr)
     return meshcat
 
 
