@@ -49,13 +49,54 @@ def load_config(path: str | Path, cls):
     errors naming the key)."""
     from pydrake.common.yaml import yaml_load_typed
 
+    import yaml
+
     path = Path(path)
-    if not path.is_file():
+    if not path.exists():
         raise FileNotFoundError(f"config file not found: {path}")
+    if not path.is_file():
+        raise ValueError(f"{path}: not a file")
     try:
+        _check_config_types(yaml.safe_load(path.read_text()), cls, "")
         return yaml_load_typed(schema=cls, filename=str(path))
-    except RuntimeError as e:
-        raise ValueError(f"{path}: {e}") from None
+    except yaml.YAMLError as e:
+        raise ValueError(f"{path}: not valid YAML ({' '.join(str(e).split())})") from None
+    except AssertionError as e:
+        # Drake's loader asserts that a nested config is a mapping (``sensor: 5``)
+        raise ValueError(f"{path}: a nested config (such as 'sensor') must be a mapping of "
+                         f"keys to values, got {str(e) or 'something else'!r}") from None
+    except (RuntimeError, TypeError, ValueError) as e:
+        raise ValueError(f"{path}: {' '.join(str(e).split())}") from None
+
+
+def _check_config_types(d, cls, where: str) -> None:
+    """Name the key whose YAML value has the wrong type for the dataclass ``cls`` (Drake's
+    loader says only ``AssertionError: 5`` or ``could not convert string to float``)."""
+    import dataclasses
+    import typing
+
+    if not isinstance(d, dict) or not dataclasses.is_dataclass(cls):
+        return
+    try:
+        hints = typing.get_type_hints(cls)
+    except Exception:  # noqa: BLE001 - unresolvable annotations: leave it to Drake
+        return
+    for f in dataclasses.fields(cls):
+        if f.name not in d:
+            continue
+        v, t, key = d[f.name], hints.get(f.name), f"{where}{f.name}"
+        if dataclasses.is_dataclass(t):
+            if not isinstance(v, dict):
+                raise ValueError(f"{key}: expected a mapping of {t.__name__} keys, got {v!r}")
+            _check_config_types(v, t, key + ".")
+        elif t is float and (isinstance(v, bool) or not isinstance(v, (int, float))):
+            raise ValueError(f"{key}: expected a number, got {v!r}")
+        elif t is int and (isinstance(v, bool) or not isinstance(v, int)):
+            raise ValueError(f"{key}: expected an integer, got {v!r}")
+        elif t is bool and not isinstance(v, bool):
+            raise ValueError(f"{key}: expected true or false, got {v!r}")
+        elif t is str and not isinstance(v, str):
+            raise ValueError(f"{key}: expected a string, got {v!r}")
 
 
 def finish_viewing(*, html_out, live: bool) -> None:

@@ -351,31 +351,32 @@ def run(*, quick: bool = False, runs: int = 20, seed: int = 0, out_dir: str | Pa
         "table_3_1": "numpy (statistics) + drake (--drake-runs runs per failure, 2-DOF)",
         "table_3_2": "numpy (statistics) + drake (--drake-runs // 2 runs, 4-DOF)"}}
     res["fig_3_10"] = _average_runs([
-        drake_accuracy("2dof", 0.044, sizes, seed=seed + 100 * r, n_test=60 if quick else 200,
-                       n_control=3 if quick else 20, show=show)
+        drake_accuracy("2dof", 0.044, sizes, seed=seed + 100 * r, n_test=30 if quick else 200,
+                       n_control=1 if quick else 20, show=show)
         for r in range(1 if quick else fig310_runs)])
     res["noise_free"] = drake_accuracy("2dof", 0.0, [20] if quick else [20, 100],
-                                       seed=seed + 1, n_test=60, n_control=0, show=show)
+                                       seed=seed + 1, n_test=30 if quick else 60, n_control=0,
+                                       show=show)
     res["7dof_occluded"] = drake_accuracy("7dof", 0.0, [15] if quick else [10, 15, 20, 50, 100],
-                                          seed=seed + 2, n_test=40 if quick else 100,
+                                          seed=seed + 2, n_test=20 if quick else 100,
                                           n_control=0, occlude=["x4"], show=show)
     # structure convergence of the 7-DOF arm with the sensor noise of Fig. 3.10
     n_struct = [8, 10, 12, 15, 20, 30]
     res["7dof_structure"] = []
     for r in range(1 if quick else structure_runs):
         d = drake_accuracy("7dof", 0.044, [8, 10, 12] if quick else n_struct,
-                           seed=seed + 10 + r, n_test=20 if quick else 60, n_control=0,
+                           seed=seed + 10 + r, n_test=10 if quick else 60, n_control=0,
                            occlude=["x4"], show=show)
         d["correct_from"] = _correct_from(d["rows"])
         res["7dof_structure"].append(d)
-    n_block = 15 if quick else 100
+    n_block = 6 if quick else 100
     res["table_3_1_drake"] = {f: drake_recovery_runs(f, runs=1 if quick else drake_runs,
                                                      n_block=n_block, seed=seed, show=show)
                               for f in ("joint", "tool")}
     res["table_3_2_drake"] = drake_control_runs(runs=1 if quick else max(1, drake_runs // 2),
                                                 n_learn=30 if quick else 100,
                                                 n_adapt=30 if quick else 150,
-                                                n_waypoints=6 if quick else 30, seed=seed,
+                                                n_waypoints=4 if quick else 30, seed=seed,
                                                 show=show)
     t31, t32 = numpy_tables(runs=1 if quick else runs, quick=quick, seed=seed, show=show)
     res["table_3_1_numpy"], res["table_3_2_numpy"] = t31, t32
