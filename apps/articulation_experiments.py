@@ -470,8 +470,8 @@ def _print_failed(p, r, w):
           + f"   ({m}: runs left out of the mean, of {r.get('runs_per_point', '?')})")
 
 
-def _print(res, file=sys.stdout):
-    p = lambda *a: print(*a, file=file)  # noqa: E731
+def _print(res, file=None):
+    p = lambda *a: print(*a, file=file or sys.stdout)  # noqa: E731
     if "noise" in res:
         r = res["noise"]
         p("\nFig. 4.20  sample error [m] vs Gaussian noise sigma_pos (n = 100, gamma = 0)")

@@ -119,9 +119,9 @@ def drake_accuracy(arm, noise, sizes, *, seed, n_test, n_control, occlude=(), sh
                 sim_seconds=float(root.get_time()), seconds=time.perf_counter() - t0)
 
 
-def drake_recovery(failure, *, n_block, seed, arm="2dof", show=True):
-    """Table 3.1 protocol in Drake: block 1 learns from scratch (intact; at least 30
-    samples), blocks 2 and 4
+def drake_recovery(failure, *, n_block, seed, arm="2dof", n_first=30, show=True):
+    """Table 3.1 protocol in Drake: block 1 learns from scratch (intact; at least
+    ``n_first`` samples), blocks 2 and 4
     with the failure (joint q2 stuck at 0.5 rad / a tool 0.10 m longer and tilted by
     30 deg), block 3 restored; samples without a valid spanning tree per block."""
     bs, sim, root = _diagram(arm, 0.01, seed)
@@ -139,7 +139,7 @@ def drake_recovery(failure, *, n_block, seed, arm="2dof", show=True):
             else:
                 bs.failures.reset_tool(root)
         n_inv = 0
-        n = max(n_block, 30) if b == 0 else n_block  # block 1 also learns the schema
+        n = max(n_block, n_first) if b == 0 else n_block  # block 1 also learns the schema
         for _ in progress(range(n), desc=f"{failure} block {b + 1}", unit="sample",
                           enabled=show):
             babble(bs, sim, 1, show_progress=False)
@@ -181,11 +181,11 @@ def _parallel(fn, kwargs_list, *, workers=2, desc="", show=True):
     return [_guarded(fn, k, show=show) for k in kwargs_list]
 
 
-def drake_recovery_runs(failure, *, runs, n_block, seed, workers=2, show=True):
+def drake_recovery_runs(failure, *, runs, n_block, seed, n_first=30, workers=2, show=True):
     """``runs`` independent Drake runs of :func:`drake_recovery` (seeds seed..seed+runs-1)
     in ``workers`` processes; mean and std of first / restore / second."""
-    rs = _parallel(drake_recovery, [dict(failure=failure, n_block=n_block, seed=seed + r)
-                                    for r in range(runs)],
+    rs = _parallel(drake_recovery, [dict(failure=failure, n_block=n_block, seed=seed + r,
+                                         n_first=n_first) for r in range(runs)],
                    workers=workers, desc=f"Drake Table 3.1 {failure}", show=show)
     ok, failed, why = _ok(rs)
     f = np.array([[r["first"], r["restore"], r["second"]] for r in ok], float).reshape(-1, 3)
@@ -371,7 +371,8 @@ def run(*, quick: bool = False, runs: int = 20, seed: int = 0, out_dir: str | Pa
         res["7dof_structure"].append(d)
     n_block = 6 if quick else 100
     res["table_3_1_drake"] = {f: drake_recovery_runs(f, runs=1 if quick else drake_runs,
-                                                     n_block=n_block, seed=seed, show=show)
+                                                     n_block=n_block, seed=seed, show=show,
+                                                     n_first=20 if quick else 30)
                               for f in ("joint", "tool")}
     res["table_3_2_drake"] = drake_control_runs(runs=1 if quick else max(1, drake_runs // 2),
                                                 n_learn=30 if quick else 100,
