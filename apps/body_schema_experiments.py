@@ -265,6 +265,21 @@ def numpy_tables(*, runs, quick, seed, show=True):
     return t31, t32
 
 
+def _drake_tables(*, quick, drake_runs, seed, show):
+    """Tables 3.1 and 3.2 in Drake (``--drake-runs`` runs per failure, half as many of
+    Table 3.2; one run each with ``quick``)."""
+    n_block = 10 if quick else 100
+    out = {"table_3_1_drake": {f: drake_recovery_runs(f, runs=1 if quick else drake_runs,
+                                                      n_block=n_block, seed=seed, show=show)
+                               for f in ("joint", "tool")}}
+    out["table_3_2_drake"] = drake_control_runs(runs=1 if quick else max(1, drake_runs // 2),
+                                                n_learn=30 if quick else 100,
+                                                n_adapt=30 if quick else 150,
+                                                n_waypoints=4 if quick else 30, seed=seed,
+                                                show=show)
+    return out
+
+
 def _plot(fig310, path):
     import matplotlib
 
@@ -345,6 +360,26 @@ def run(*, quick: bool = False, runs: int = 20, seed: int = 0, out_dir: str | Pa
     t0 = time.perf_counter()
     show = show_progress
     sizes = [5, 10, 15, 20] if quick else [5, 10, 15, 20, 30, 50, 100]
+    tables = pool = None
+    if quick:
+        # one run of each Drake table in a second process while this one runs the accuracy
+        # experiments (the full setting parallelises the tables' runs instead)
+        import multiprocessing as mp
+        from concurrent.futures import ProcessPoolExecutor
+
+        pool = ProcessPoolExecutor(1, mp_context=mp.get_context("spawn"))
+        tables = pool.submit(_drake_tables, quick=True, drake_runs=1, seed=seed, show=False)
+    try:
+        return _run_rest(tables, quick=quick, runs=runs, seed=seed, out=out, t0=t0,
+                         show=show, sizes=sizes, structure_runs=structure_runs,
+                         drake_runs=drake_runs, fig310_runs=fig310_runs)
+    finally:
+        if pool is not None:
+            pool.shutdown(cancel_futures=True)
+
+
+def _run_rest(tables, *, quick, runs, seed, out, t0, show, sizes, structure_runs,
+              drake_runs, fig310_runs):
     res = {"quick": quick, "where": {
         "fig_3_10": "drake", "noise_free": "drake", "7dof_occluded": "drake",
         "7dof_structure": "drake",
@@ -369,17 +404,9 @@ def run(*, quick: bool = False, runs: int = 20, seed: int = 0, out_dir: str | Pa
                            occlude=["x4"], show=show)
         d["correct_from"] = _correct_from(d["rows"])
         res["7dof_structure"].append(d)
-    n_block = 6 if quick else 100
-    res["table_3_1_drake"] = {f: drake_recovery_runs(f, runs=1 if quick else drake_runs,
-                                                     n_block=n_block, seed=seed, show=show,
-                                                     n_first=20 if quick else 30)
-                              for f in ("joint", "tool")}
-    res["table_3_2_drake"] = drake_control_runs(runs=1 if quick else max(1, drake_runs // 2),
-                                                n_learn=30 if quick else 100,
-                                                n_adapt=30 if quick else 150,
-                                                n_waypoints=4 if quick else 30, seed=seed,
-                                                show=show)
     t31, t32 = numpy_tables(runs=1 if quick else runs, quick=quick, seed=seed, show=show)
+    res.update(tables.result() if tables is not None else
+               _drake_tables(quick=quick, drake_runs=drake_runs, seed=seed, show=show))
     res["table_3_1_numpy"], res["table_3_2_numpy"] = t31, t32
     res["seconds"] = time.perf_counter() - t0
     _plot(res["fig_3_10"], out / "fig_3_10.png")
