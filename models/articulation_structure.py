@@ -2,6 +2,8 @@
 
 - :func:`select_link_model`: fit all candidate link models (or a subset) to one relative track
   and choose the lowest BIC (Eq. 4.34-4.35); all candidates stay available for inspection.
+  A candidate whose travel is within the noise, or a revolute candidate whose bow over the
+  observed range is below sigma_pos, is not selected (see ``_unresolved``).
 - :func:`fit_kinematic_tree`: for p parts, fit every pair's relative track z_ij = y_i^-1 y_j
   (time steps where either part is unobserved are left out for that pair), edge cost = BIC of
   the best model of the pair (Eq. 4.40), minimum spanning tree (networkx, Kruskal). The result
@@ -44,12 +46,15 @@ class LinkSelection:
         candidates: name -> fitted model, for every candidate that could be fitted.
         bic: name -> BIC (inf for candidates that failed).
         errors: name -> error message for candidates that could not be fitted.
+        demoted: name -> reason, for fitted candidates that are not selected although their
+            BIC may be lowest (a revolute model whose bow is below the noise).
     """
 
     best: LinkModel
     candidates: dict
     bic: dict
     errors: dict = field(default_factory=dict)
+    demoted: dict = field(default_factory=dict)
 
     @property
     def selected(self) -> str:
@@ -57,9 +62,11 @@ class LinkSelection:
 
 
 def select_link_model(Z, *, models=DEFAULT_CANDIDATES, obs: ObservationModel | None = None,
-                      rng=None, n_hypotheses: int = 100) -> LinkSelection:
+                      rng=None, n_hypotheses: int = 100,
+                      identifiability: bool = True) -> LinkSelection:
     """Fit ``models`` (names, see :func:`make_model`) to the relative track Z ((n, 7),
     (n, 4, 4) or (n, 3)) and select the lowest BIC. ``rng``: Generator or seed.
+    ``identifiability=False`` selects by BIC alone (no ``_unresolved`` test; for comparisons).
     Raises ValueError if no candidate can be fitted (e.g. too short / NaN track)."""
     rng = _gen(rng)
     obs = obs if obs is not None else ObservationModel()
@@ -84,8 +91,61 @@ def select_link_model(Z, *, models=DEFAULT_CANDIDATES, obs: ObservationModel | N
     if not cands:
         raise ValueError("no candidate model could be fitted: " + "; ".join(
             f"{k}: {v}" for k, v in errs.items()))
-    best = min(cands.values(), key=lambda m: m.bic_)
-    return LinkSelection(best=best, candidates=cands, bic=bic, errors=errs)
+    demoted = {}
+    for name, m in cands.items():
+        reason = _unresolved(m) if identifiability else None
+        if reason and len(cands) > 1:
+            demoted[name] = reason
+    eligible = [m for k, m in cands.items() if k not in demoted] or list(cands.values())
+    best = min(eligible, key=lambda m: m.bic_)
+    return LinkSelection(best=best, candidates=cands, bic=bic, errors=errs, demoted=demoted)
+
+
+def noise_range_threshold(n: int) -> float:
+    """Largest spread, in units of the noise across the path, that n observations of a part
+    that does not move show along their principal direction (isotropic 3-D Gaussian noise,
+    ~99th percentile for n >= 12: 7.6 at n = 12, 7.8 at 100, 8.9 at 1000; measured by
+    simulation, 300 draws each): 2 sqrt(2 ln n) + 1.5 + 20 / n."""
+    n = max(int(n), 2)
+    return float(2.0 * np.sqrt(2.0 * np.log(n)) + 1.5 + 20.0 / n)
+
+
+def _unresolved(model: LinkModel) -> str | None:
+    """Why a fitted candidate cannot be told from a simpler one, or None.
+
+    - Motion below the noise: a model with DOFs whose travel over the observed range is
+      within what noise alone spreads n observations of a still part along one direction
+      (:func:`noise_range_threshold`), measured in units of the noise the data show across
+      the path (the inliers' residuals; where the assumed sigma is too small, as for two
+      noisy parts of one rigid body, the assumed sigma would turn noise into "motion"), in
+      position and in orientation, is not selected.
+    - A revolute model whose bow over the observed range (the sagitta r (1 - cos(dq / 2)))
+      stays below sigma_pos describes a path that the observation model cannot tell from a
+      straight line: its radius and centre fit systematic wobble (the robot base's motion,
+      handle play) that the assumed noise declares meaningless, so it is not selected.
+    """
+    if model.dof == 0:
+        return None
+    rms = getattr(model, "residual_rms_", None)
+    if rms is not None:
+        lp, lr = model.path_length()
+        t = noise_range_threshold(model.n_train)
+        sp = max(rms[0], 1e-9)
+        ratio = lp / sp
+        if rms[1] is not None:
+            ratio = max(ratio, lr / max(rms[1], 1e-9))
+        if ratio < t:
+            return (f"travel {lp:.4f} m / {np.degrees(lr):.2f} deg is {ratio:.1f} times the "
+                    f"noise across the path (< {t:.1f}: a still part's noise spread)")
+    if model.name != "revolute":
+        return None
+    dq = float(model.q_max[0] - model.q_min[0])
+    bow = model.radius * (1.0 - np.cos(min(dq, np.pi) / 2.0))
+    if bow < model.obs_fit.sigma_pos:
+        return (f"bow {bow:.4f} m over the observed {np.degrees(dq):.1f} deg is below "
+                f"sigma_pos {model.obs_fit.sigma_pos:g} m")
+    return None
+
 
 
 def relative_track(y_i, y_j):
