@@ -44,6 +44,22 @@ def save_html(meshcat, path: str | Path) -> Path:
     return atomic_write_text(path, meshcat.StaticHtml())
 
 
+def save_figure(fig, path, **kw) -> Path:
+    """``fig.savefig`` through a temporary file in the same folder and a rename, so an
+    interrupted run never leaves a half-written image. Returns the path."""
+    import os
+
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.tmp")
+    try:
+        fig.savefig(tmp, format=path.suffix.lstrip(".").lower() or "png", **kw)
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    return path
+
+
 def load_config(path: str | Path, cls):
     """Load a dataclass config from YAML with Drake's typed loader (misspelled keys are
     errors naming the key)."""

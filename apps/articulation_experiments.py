@@ -64,6 +64,7 @@ import numpy as np
 
 from mmlearn.apps._common import (ArgumentParser, UsageError, check_out_dir, fail, name_list,
                                   nonneg_int, pos_int, progress_bar)
+from mmlearn.apps._common import save_figure
 from mmlearn.models.articulation import ObservationModel, make_model
 from mmlearn.models.articulation_sim import simulate_link
 from mmlearn.models.articulation_structure import select_link_model
@@ -473,7 +474,7 @@ def _plots(res, out_dir: Path):
     def save(fig, name):
         p = out_dir / name
         fig.tight_layout()
-        fig.savefig(p, dpi=100)
+        save_figure(fig, p, dpi=100)
         plt.close(fig)
         written.append(str(p))
 

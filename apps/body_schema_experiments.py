@@ -40,6 +40,7 @@ import numpy as np
 
 from mmlearn.apps._common import (ArgumentParser, UsageError, atomic_write_text, check_out_dir,
                                   fail, nonneg_int, pos_int, progress)
+from mmlearn.apps._common import save_figure
 from mmlearn.apps.learn_body_schema import (
     babble,
     converged_at,
@@ -304,7 +305,7 @@ def _plot(fig310, path):
         a.set_xscale("log")
         a.grid(True, alpha=0.3)
     fig.tight_layout()
-    fig.savefig(path, dpi=100)
+    save_figure(fig, path, dpi=100)
     plt.close(fig)
 
 

@@ -35,6 +35,7 @@ import numpy as np
 
 from mmlearn.apps._common import (ArgumentParser, UsageError, check_out_file, fail,
                                   json_clean, nonneg_int, pos_float)
+from mmlearn.apps._common import save_figure
 from mmlearn.models.articulation import ObservationModel, make_model
 from mmlearn.models.articulation_structure import DEFAULT_CANDIDATES, select_link_model
 from mmlearn.models.track_io import (TRACK_SUFFIXES, TrackFileError, find_track_files,
@@ -149,7 +150,7 @@ def plot_tracks(selections, path: str) -> None:
         ax.set_zlabel("z [m]")
         ax.legend(fontsize=6)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     plt.close(fig)
 
 

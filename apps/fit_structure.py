@@ -28,6 +28,7 @@ import numpy as np
 
 from mmlearn.apps._common import (ArgumentParser, UsageError, check_in_file, check_out_file,
                                   fail, nonneg_float, nonneg_int, pos_float)
+from mmlearn.apps._common import save_figure
 from mmlearn.models.articulation import DEFAULT_GAMMA_WEIGHT, ObservationModel, make_model
 from mmlearn.models.articulation_graph import SEARCH_MODES, fit_structure, read_parts_csv
 from mmlearn.models.articulation_structure import DEFAULT_CANDIDATES
@@ -78,7 +79,7 @@ def _plot(r, Y, path):
         ax.text(m[0], m[1], m[2], r.best.models[(i, j)], fontsize=8)
     ax.set_title(f"DOF {r.best.dof}, BIC {r.best.bic:.0f}")
     ax.legend(fontsize=7)
-    fig.savefig(path, dpi=100)
+    save_figure(fig, path, dpi=100)
     plt.close(fig)
 
 

@@ -33,6 +33,7 @@ import numpy as np
 
 from mmlearn.apps._common import (ArgumentParser, UsageError, check_in_file, check_out_file,
                                   fail, nonneg_float, nonneg_int, pos_float, progress_bar)
+from mmlearn.apps._common import save_figure
 from mmlearn.models.articulation import DEFAULT_GAMMA_WEIGHT, ObservationModel, make_model
 from mmlearn.models.articulation_priors import PriorDatabase, evaluate_priors
 from mmlearn.models.articulation_structure import DEFAULT_CANDIDATES
@@ -117,7 +118,7 @@ def _plot(ev, path):
     ax.set_ylabel("prediction error on the full trajectory [m]")
     ax.legend()
     fig.tight_layout()
-    fig.savefig(path, dpi=100)
+    save_figure(fig, path, dpi=100)
     plt.close(fig)
 
 

@@ -33,6 +33,7 @@ import numpy as np
 
 from mmlearn.apps._common import (ArgumentParser, UsageError, check_out_dir, fail, json_clean,
                                   nonneg_int, pos_int, progress_bar)
+from mmlearn.apps._common import save_figure
 from mmlearn.models.articulation import ObservationModel
 from mmlearn.models.articulation_graph import (KinematicGraphEvaluator, fit_pair_models,
                                                fit_structure, search_structure,
@@ -336,7 +337,7 @@ def _plots(results, out):
         a1.legend()
         a2.set_ylabel("search time [s]")
         a2.set_xlabel("training samples n")
-        fig.savefig(out / "fig418_search.png", dpi=100)
+        save_figure(fig, out / "fig418_search.png", dpi=100)
         plt.close(fig)
         written.append(str(out / "fig418_search.png"))
     if "fig417" in results:
@@ -349,7 +350,7 @@ def _plots(results, out):
         ax.set_xlabel("training samples n")
         ax.set_ylabel("estimated DOFs")
         ax.legend()
-        fig.savefig(out / "fig417_dofs.png", dpi=100)
+        save_figure(fig, out / "fig417_dofs.png", dpi=100)
         plt.close(fig)
         written.append(str(out / "fig417_dofs.png"))
     if "fig49" in results:
@@ -362,7 +363,7 @@ def _plots(results, out):
         ax.set_xlabel("samples n")
         ax.set_ylabel("BIC")
         ax.legend()
-        fig.savefig(out / "fig49_table.png", dpi=100)
+        save_figure(fig, out / "fig49_table.png", dpi=100)
         plt.close(fig)
         written.append(str(out / "fig49_table.png"))
     return written
