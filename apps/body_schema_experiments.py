@@ -24,7 +24,7 @@ Prediction errors are measured on independent test configurations against the tr
 (noise-free) part poses, relative to the root part.
 
     python -m mmlearn.apps.body_schema_experiments --out-dir results/   # ~15-20 min
-    python -m mmlearn.apps.body_schema_experiments --quick --json        # ~1 min
+    python -m mmlearn.apps.body_schema_experiments --quick --json        # ~1 min CPU
 """
 
 from __future__ import annotations
@@ -498,7 +498,8 @@ def main(argv=None) -> int:
                     "Learning runs in the Drake simulation; the many-run statistics of the "
                     "tables use the numpy simulation. Every mean says how many runs failed "
                     "and were left out.")
-    ap.add_argument("--quick", action="store_true", help="small settings (about a minute)")
+    ap.add_argument("--quick", action="store_true", help="one run of each, fewer samples (about a minute of CPU time, in "
+                         "two processes)")
     ap.add_argument("--runs", type=pos_int, default=20, help="numpy runs of Table 3.1 (20)")
     ap.add_argument("--seed", type=nonneg_int, default=0)
     ap.add_argument("--structure-runs", type=pos_int, default=5,
