@@ -23,10 +23,11 @@ from __future__ import annotations
 
 import json
 import sys
+from pathlib import Path
 
 import numpy as np
 
-from mmlearn.apps._common import (ArgumentParser, UsageError, check_in_file, check_out_file,
+from mmlearn.apps._common import (ArgumentParser, UsageError, check_out_file,
                                   fail, nonneg_float, nonneg_int, pos_float)
 from mmlearn.apps._common import save_figure
 from mmlearn.models.articulation import DEFAULT_GAMMA_WEIGHT, ObservationModel, make_model
@@ -104,7 +105,9 @@ def main(argv=None) -> int:
     ap.add_argument("--plot", default=None, help="write a PNG of the structure")
     a = ap.parse_args(argv)
     try:
-        check_in_file("FILE", a.file)
+        if not Path(a.file).is_file():
+            raise UsageError(f"{a.file}: file not found" if not Path(a.file).exists()
+                             else f"{a.file}: not a file")
         check_out_file("--plot", a.plot)
     except UsageError as e:
         return fail(ap.prog, str(e))

@@ -155,6 +155,11 @@ def main(argv=None) -> int:
         check_in_file("--load", a.load)
         if a.plot and not a.evaluate:
             raise UsageError("--plot: needs --evaluate (it plots the leave-one-out errors)")
+        if a.load:
+            try:
+                PriorDatabase.load(a.load)
+            except ValueError as e:
+                raise UsageError(f"--load: {e}") from None
     except UsageError as e:
         return fail(ap.prog, str(e))
     try:
