@@ -27,6 +27,8 @@ __all__ = [
     "ArticulatedObject",
     "LinkEdge",
     "fit_kinematic_tree",
+    "fit_pair_models",
+    "spanning_tree_edges",
     "relative_track",
 ]
 
@@ -277,6 +279,47 @@ class ArticulatedObject:
         }
 
 
+def fit_pair_models(part_tracks, *, models=DEFAULT_CANDIDATES, obs: ObservationModel | None = None,
+                    rng=None, min_common: int = 5, n_hypotheses: int = 100) -> dict:
+    """Fit and select a link model for every pair (i < j) of parts observed together at
+    least ``min_common`` times (rows with NaN: not observed). ``part_tracks``: sequence of p
+    arrays (T, 7) / (T, 3) / (T, 4, 4) or one array (p, T, ...). Returns
+    {(i, j): LinkSelection}; the model describes part j in the frame of part i. Pairs whose
+    models cannot be fitted get no entry."""
+    rng = _gen(rng)
+    obs = obs if obs is not None else ObservationModel()
+    tracks = [np.asarray(t, float) for t in part_tracks]
+    out = {}
+    for i in range(len(tracks)):
+        for j in range(i + 1, len(tracks)):
+            z, _ = relative_track(tracks[i], tracks[j])
+            if z is None or len(z) < max(3, min_common):
+                continue
+            try:
+                out[(i, j)] = select_link_model(z, models=models, obs=obs, rng=rng,
+                                                n_hypotheses=n_hypotheses)
+            except (ValueError, np.linalg.LinAlgError):
+                continue
+    return out
+
+
+def spanning_tree_edges(pair_models: dict, num_parts: int) -> tuple:
+    """Minimum spanning tree over the pairs, edge cost = BIC of the pair's best model
+    (Eq. 4.40; networkx, Kruskal). Returns sorted (i, j) edge tuples; raises ValueError if
+    the parts are not connected."""
+    import networkx as nx
+
+    G = nx.Graph()
+    G.add_nodes_from(range(num_parts))
+    for (i, j), s in pair_models.items():
+        G.add_edge(i, j, weight=float(getattr(s, "best", s).bic_))
+    if not nx.is_connected(G):
+        comps = [sorted(c) for c in nx.connected_components(G)]
+        raise ValueError(f"parts cannot be connected (too few common observations): {comps}")
+    T = nx.minimum_spanning_tree(G, weight="weight", algorithm="kruskal")
+    return tuple(sorted((min(a, b), max(a, b)) for a, b in T.edges()))
+
+
 def fit_kinematic_tree(part_tracks, *, part_names=None, models=DEFAULT_CANDIDATES,
                        obs: ObservationModel | None = None, rng=None, root: int = 0,
                        min_common: int = 5, n_hypotheses: int = 100) -> ArticulatedObject:
@@ -312,28 +355,11 @@ def fit_kinematic_tree(part_tracks, *, part_names=None, models=DEFAULT_CANDIDATE
     if not 0 <= root < p:
         raise ValueError(f"root {root} out of range for {p} parts")
     obs = obs if obs is not None else ObservationModel()
-    G = nx.Graph()
-    G.add_nodes_from(range(p))
-    sel = {}
-    pair_bic = {}
-    for i in range(p):
-        for j in range(i + 1, p):
-            z, idx = relative_track(tracks[i], tracks[j])
-            if z is None or len(z) < max(3, min_common):
-                continue
-            try:
-                s = select_link_model(z, models=models, obs=obs, rng=rng,
-                                      n_hypotheses=n_hypotheses)
-            except (ValueError, np.linalg.LinAlgError):
-                continue
-            sel[(i, j)] = s
-            pair_bic[(i, j)] = dict(s.bic)
-            G.add_edge(i, j, weight=float(s.best.bic_))
-    if not nx.is_connected(G):
-        comps = [sorted(c) for c in nx.connected_components(G)]
-        raise ValueError(f"parts cannot be connected (too few common observations): "
-                         f"components {comps}")
-    mst = nx.minimum_spanning_tree(G, weight="weight", algorithm="kruskal")
+    sel = fit_pair_models(tracks, models=models, obs=obs, rng=rng, min_common=min_common,
+                          n_hypotheses=n_hypotheses)
+    pair_bic = {e: dict(s.bic) for e, s in sel.items()}
+    mst = nx.Graph(spanning_tree_edges(sel, p))
+    mst.add_nodes_from(range(p))
     edges = []
     for parent, child in nx.bfs_edges(mst, root):
         i, j = min(parent, child), max(parent, child)
