@@ -432,16 +432,23 @@ def exp_selection(runs, rng, quick, progress, tracks=None):
                "real": {}, "rigid_at": {}}
         for s in sigmas:
             right = {k: [0, 0] for k in kinds}
-            rigid = 0
+            rigid = failed = 0
             for i, (f, kind, t) in enumerate(data):
-                sel = select_link_model(t, obs=ObservationModel(sigma_pos=s, **kw),
-                                        rng=i, identifiability=ident)
+                try:
+                    sel = select_link_model(t, obs=ObservationModel(sigma_pos=s, **kw),
+                                            rng=i, identifiability=ident)
+                except ValueError:  # no candidate could be fitted: counted, not dropped
+                    failed += 1
+                    right[kind][1] += 1
+                    bar.update()
+                    continue
                 right[kind][0] += sel.selected == kind
                 right[kind][1] += 1
                 rigid += sel.selected == "rigid"
                 bar.update()
             row["real"][str(s)] = {k: f"{a}/{b}" for k, (a, b) in right.items()}
             row["rigid_at"][str(s)] = rigid
+            row.setdefault("failed_at", {})[str(s)] = failed
         obs_g = ObservationModel(0.05, np.deg2rad(5.0), **kw)
         sel_g = []
         for _ in range(folds):
@@ -650,7 +657,8 @@ def _print(res, file=None):
             for s_ in r["sigma_pos"]:
                 rr = v["real"][str(s_)]
                 p(f"    sigma {s_:<6g} " + "  ".join(f"{k} {rr[k]}" for k in sorted(rr))
-                  + f"   rigid {v['rigid_at'][str(s_)]}")
+                  + f"   rigid {v['rigid_at'][str(s_)]}"
+                  + f"   failed {v.get('failed_at', {}).get(str(s_), 0)}")
             p(f"    garage door {v['garage_n20']}   |gamma - 0.3| "
               f"{v['gamma_abs_dev_at_0.3']:.3f}")
     if "table" in res:
