@@ -8,11 +8,11 @@ Where each runs:
   the MarkerSensor; data gathered by motor babbling with the SchemaLearner in the loop;
   failures in the plant: JointBlocker / hidden locked joints):
   Fig. 3.10 (2-DOF, sigma 0.044 m; the schema is re-fitted on the first n Drake samples for
-  each n; mean of ``--fig310_runs`` runs), the noise-free accuracy (2-DOF, 20 and 100
+  each n; mean of ``--fig310-runs`` runs), the noise-free accuracy (2-DOF, 20 and 100
   samples), the 7-DOF 10-part arm with x4 occluded (noise-free accuracy, and the structure
-  convergence with the sensor noise of Fig. 3.10 over ``--structure_runs`` runs),
-  ``--drake_runs`` runs of Table 3.1 per failure (2-DOF arm: joint q2 blocked, tool changed;
-  the schema is learned from scratch in block 1) and ``--drake_runs`` / 2 runs of Table 3.2
+  convergence with the sensor noise of Fig. 3.10 over ``--structure-runs`` runs),
+  ``--drake-runs`` runs of Table 3.1 per failure (2-DOF arm: joint q2 blocked, tool changed;
+  the schema is learned from scratch in block 1) and ``--drake-runs`` / 2 runs of Table 3.2
   (4-DOF arm, link x3 bent by 45 deg in the plant; the goal commands are solved on the
   learned model by the SchemaController's solver and the error is measured on the plant's
   kinematics at those commands).
@@ -23,13 +23,12 @@ Where each runs:
 Prediction errors are measured on independent test configurations against the true
 (noise-free) part poses, relative to the root part.
 
-    python -m mmlearn.apps.body_schema_experiments --out_dir results/   # ~15-20 min
-    python -m mmlearn.apps.body_schema_experiments --quick --json        # ~1 min
+    python -m mmlearn.apps.body_schema_experiments --out-dir results/   # ~15-20 min
+    python -m mmlearn.apps.body_schema_experiments --quick --json        # ~1 min CPU
 """
 
 from __future__ import annotations
 
-import argparse
 import copy
 import json
 import math
@@ -39,7 +38,9 @@ from pathlib import Path
 
 import numpy as np
 
-from mmlearn.apps._common import atomic_write_text, progress
+from mmlearn.apps._common import (ArgumentParser, UsageError, atomic_write_text, check_out_dir,
+                                  fail, nonneg_int, pos_int, progress)
+from mmlearn.apps._common import save_figure
 from mmlearn.apps.learn_body_schema import (
     babble,
     converged_at,
@@ -119,9 +120,9 @@ def drake_accuracy(arm, noise, sizes, *, seed, n_test, n_control, occlude=(), sh
                 sim_seconds=float(root.get_time()), seconds=time.perf_counter() - t0)
 
 
-def drake_recovery(failure, *, n_block, seed, arm="2dof", show=True):
-    """Table 3.1 protocol in Drake: block 1 learns from scratch (intact; at least 30
-    samples), blocks 2 and 4
+def drake_recovery(failure, *, n_block, seed, arm="2dof", n_first=30, show=True):
+    """Table 3.1 protocol in Drake: block 1 learns from scratch (intact; at least
+    ``n_first`` samples), blocks 2 and 4
     with the failure (joint q2 stuck at 0.5 rad / a tool 0.10 m longer and tilted by
     30 deg), block 3 restored; samples without a valid spanning tree per block."""
     bs, sim, root = _diagram(arm, 0.01, seed)
@@ -139,7 +140,7 @@ def drake_recovery(failure, *, n_block, seed, arm="2dof", show=True):
             else:
                 bs.failures.reset_tool(root)
         n_inv = 0
-        n = max(n_block, 30) if b == 0 else n_block  # block 1 also learns the schema
+        n = max(n_block, n_first) if b == 0 else n_block  # block 1 also learns the schema
         for _ in progress(range(n), desc=f"{failure} block {b + 1}", unit="sample",
                           enabled=show):
             babble(bs, sim, 1, show_progress=False)
@@ -151,7 +152,22 @@ def drake_recovery(failure, *, n_block, seed, arm="2dof", show=True):
 
 def _call(job):
     fn, kwargs = job
-    return fn(**kwargs, show=False)
+    return _guarded(fn, kwargs, show=False)
+
+
+def _guarded(fn, kwargs, *, show):
+    """fn(**kwargs); a run that raises becomes ``{"failed": reason}`` (counted in the
+    tables, never silently dropped)."""
+    try:
+        return fn(**kwargs, show=show)
+    except (ValueError, RuntimeError, np.linalg.LinAlgError) as e:
+        return {"failed": f"{type(e).__name__}: {e}"}
+
+
+def _ok(rs):
+    """(runs that finished, their number failed, reasons)."""
+    ok = [r for r in rs if "failed" not in r]
+    return ok, len(rs) - len(ok), [r["failed"] for r in rs if "failed" in r]
 
 
 def _parallel(fn, kwargs_list, *, workers=2, desc="", show=True):
@@ -163,19 +179,23 @@ def _parallel(fn, kwargs_list, *, workers=2, desc="", show=True):
         with ProcessPoolExecutor(workers, mp_context=mp.get_context("spawn")) as ex:
             return list(progress(ex.map(_call, [(fn, k) for k in kwargs_list]),
                                  total=len(kwargs_list), desc=desc, unit="run", enabled=show))
-    return [fn(**k, show=show) for k in kwargs_list]
+    return [_guarded(fn, k, show=show) for k in kwargs_list]
 
 
-def drake_recovery_runs(failure, *, runs, n_block, seed, workers=2, show=True):
+def drake_recovery_runs(failure, *, runs, n_block, seed, n_first=30, workers=2, show=True):
     """``runs`` independent Drake runs of :func:`drake_recovery` (seeds seed..seed+runs-1)
     in ``workers`` processes; mean and std of first / restore / second."""
-    rs = _parallel(drake_recovery, [dict(failure=failure, n_block=n_block, seed=seed + r)
-                                    for r in range(runs)],
+    rs = _parallel(drake_recovery, [dict(failure=failure, n_block=n_block, seed=seed + r,
+                                         n_first=n_first) for r in range(runs)],
                    workers=workers, desc=f"Drake Table 3.1 {failure}", show=show)
-    f = np.array([[r["first"], r["restore"], r["second"]] for r in rs], float)
-    return dict(mean=f.mean(0).tolist(), std=f.std(0).tolist(), runs=runs,
-                per_run=f.astype(int).tolist(), first=rs[0]["first"],
-                restore=rs[0]["restore"], second=rs[0]["second"])
+    ok, failed, why = _ok(rs)
+    f = np.array([[r["first"], r["restore"], r["second"]] for r in ok], float).reshape(-1, 3)
+    nan3 = [float("nan")] * 3
+    return dict(mean=f.mean(0).tolist() if ok else nan3, std=f.std(0).tolist() if ok else nan3,
+                runs=runs, failed_runs=failed, failures=why,
+                per_run=f.astype(int).tolist(), first=ok[0]["first"] if ok else None,
+                restore=ok[0]["restore"] if ok else None,
+                second=ok[0]["second"] if ok else None)
 
 
 def drake_control_runs(*, runs, seed, workers=2, show=True, **kw):
@@ -183,9 +203,11 @@ def drake_control_runs(*, runs, seed, workers=2, show=True, **kw):
     rs = _parallel(drake_control, [dict(seed=seed + r, **kw) for r in range(runs)],
                    workers=workers, desc="Drake Table 3.2", show=show)
     keys = ("intact_static", "bent_static", "bent_adaptive")
-    out = {k: float(np.mean([r[k] for r in rs])) for k in keys}
-    out.update(runs=runs, per_run=[[r[k] for k in keys] for r in rs],
-               valid_after=all(r["valid_after"] for r in rs))
+    ok, failed, why = _ok(rs)
+    out = {k: float(np.mean([r[k] for r in ok])) if ok else float("nan") for k in keys}
+    out.update(runs=runs, failed_runs=failed, failures=why,
+               per_run=[[r[k] for k in keys] for r in ok],
+               valid_after=bool(ok) and all(r["valid_after"] for r in ok))
     return out
 
 
@@ -214,22 +236,49 @@ def numpy_tables(*, runs, quick, seed, show=True):
     from mmlearn.models.body_schema_experiments import control_experiment, recovery_experiment
     from mmlearn.models.kinematic_sim import make_arm_4dof, make_arm_7dof
 
-    kw = dict(n_block=40) if quick else {}
+    def guarded(fn, *a, **k):
+        try:
+            return fn(*a, **k)
+        except (ValueError, RuntimeError, np.linalg.LinAlgError) as e:
+            return {"failed": f"{type(e).__name__}: {e}"}
+
+    kw = dict(n_block=20) if quick else {}
     t31 = {}
     for failure, vis in (("joint", 0.919), ("tool", 0.790)):
-        rs = [recovery_experiment(make_arm_7dof, failure, seed=seed + r, visibility=vis, **kw)
+        rs = [guarded(recovery_experiment, make_arm_7dof, failure, seed=seed + r,
+                      visibility=vis, **kw)
               for r in progress(range(runs), desc=f"Table 3.1 {failure}", unit="run",
                                 enabled=show)]
-        f = np.array([[r["first"], r["restore"], r["second"]] for r in rs], float)
-        t31[failure] = dict(mean=f.mean(0).tolist(), std=f.std(0).tolist(), runs=runs)
-    ckw = dict(n_learn=40, n_waypoints=8, n_adapt=60) if quick else {}
-    rs = [control_experiment(make_arm_4dof, seed=seed + r, **ckw)
+        ok, failed, why = _ok(rs)
+        f = np.array([[r["first"], r["restore"], r["second"]] for r in ok], float).reshape(-1, 3)
+        nan3 = [float("nan")] * 3
+        t31[failure] = dict(mean=f.mean(0).tolist() if ok else nan3,
+                            std=f.std(0).tolist() if ok else nan3, runs=runs,
+                            failed_runs=failed, failures=why)
+    ckw = dict(n_learn=30, n_waypoints=6, n_adapt=40) if quick else {}
+    rs = [guarded(control_experiment, make_arm_4dof, seed=seed + r, **ckw)
           for r in progress(range(max(1, runs // 4)), desc="Table 3.2", unit="run",
                             enabled=show)]
-    t32 = {k: float(np.mean([r[k][0] for r in rs])) for k in
+    ok, failed, why = _ok(rs)
+    t32 = {k: float(np.mean([r[k][0] for r in ok])) if ok else float("nan") for k in
            ("intact_static", "bent_static", "bent_adaptive")}
-    t32["runs"] = len(rs)
+    t32.update(runs=len(rs), failed_runs=failed, failures=why)
     return t31, t32
+
+
+def _drake_tables(*, quick, drake_runs, seed, show):
+    """Tables 3.1 and 3.2 in Drake (``--drake-runs`` runs per failure, half as many of
+    Table 3.2; one run each with ``quick``)."""
+    n_block = 10 if quick else 100
+    out = {"table_3_1_drake": {f: drake_recovery_runs(f, runs=1 if quick else drake_runs,
+                                                      n_block=n_block, seed=seed, show=show)
+                               for f in ("joint", "tool")}}
+    out["table_3_2_drake"] = drake_control_runs(runs=1 if quick else max(1, drake_runs // 2),
+                                                n_learn=30 if quick else 100,
+                                                n_adapt=30 if quick else 150,
+                                                n_waypoints=4 if quick else 30, seed=seed,
+                                                show=show)
+    return out
 
 
 def _plot(fig310, path):
@@ -256,7 +305,7 @@ def _plot(fig310, path):
         a.set_xscale("log")
         a.grid(True, alpha=0.3)
     fig.tight_layout()
-    fig.savefig(path, dpi=100)
+    save_figure(fig, path, dpi=100)
     plt.close(fig)
 
 
@@ -273,6 +322,9 @@ def _average_runs(results):
             if v:
                 row[k] = float(np.mean(v))
                 row[k + "_runs"] = v
+        # runs whose schema was incomplete or whose fit failed have no errors: say how many
+        row["runs_in_mean"] = sum("pred_error_m" in r for r in rs)
+        row["runs_left_out"] = len(rs) - row["runs_in_mean"]
         rows.append(row)
     conv = [d["online_converged_at"] for d in results]
     return dict(results[0], rows=rows, runs=len(results),
@@ -309,39 +361,53 @@ def run(*, quick: bool = False, runs: int = 20, seed: int = 0, out_dir: str | Pa
     t0 = time.perf_counter()
     show = show_progress
     sizes = [5, 10, 15, 20] if quick else [5, 10, 15, 20, 30, 50, 100]
+    tables = pool = None
+    if quick:
+        # one run of each Drake table in a second process while this one runs the accuracy
+        # experiments (the full setting parallelises the tables' runs instead)
+        import multiprocessing as mp
+        from concurrent.futures import ProcessPoolExecutor
+
+        pool = ProcessPoolExecutor(1, mp_context=mp.get_context("spawn"))
+        tables = pool.submit(_drake_tables, quick=True, drake_runs=1, seed=seed, show=False)
+    try:
+        return _run_rest(tables, quick=quick, runs=runs, seed=seed, out=out, t0=t0,
+                         show=show, sizes=sizes, structure_runs=structure_runs,
+                         drake_runs=drake_runs, fig310_runs=fig310_runs)
+    finally:
+        if pool is not None:
+            pool.shutdown(cancel_futures=True)
+
+
+def _run_rest(tables, *, quick, runs, seed, out, t0, show, sizes, structure_runs,
+              drake_runs, fig310_runs):
     res = {"quick": quick, "where": {
         "fig_3_10": "drake", "noise_free": "drake", "7dof_occluded": "drake",
         "7dof_structure": "drake",
-        "table_3_1": "numpy (statistics) + drake (--drake_runs runs per failure, 2-DOF)",
-        "table_3_2": "numpy (statistics) + drake (--drake_runs // 2 runs, 4-DOF)"}}
+        "table_3_1": "numpy (statistics) + drake (--drake-runs runs per failure, 2-DOF)",
+        "table_3_2": "numpy (statistics) + drake (--drake-runs // 2 runs, 4-DOF)"}}
     res["fig_3_10"] = _average_runs([
-        drake_accuracy("2dof", 0.044, sizes, seed=seed + 100 * r, n_test=60 if quick else 200,
-                       n_control=3 if quick else 20, show=show)
+        drake_accuracy("2dof", 0.044, sizes, seed=seed + 100 * r, n_test=30 if quick else 200,
+                       n_control=1 if quick else 20, show=show)
         for r in range(1 if quick else fig310_runs)])
     res["noise_free"] = drake_accuracy("2dof", 0.0, [20] if quick else [20, 100],
-                                       seed=seed + 1, n_test=60, n_control=0, show=show)
+                                       seed=seed + 1, n_test=30 if quick else 60, n_control=0,
+                                       show=show)
     res["7dof_occluded"] = drake_accuracy("7dof", 0.0, [15] if quick else [10, 15, 20, 50, 100],
-                                          seed=seed + 2, n_test=40 if quick else 100,
+                                          seed=seed + 2, n_test=20 if quick else 100,
                                           n_control=0, occlude=["x4"], show=show)
     # structure convergence of the 7-DOF arm with the sensor noise of Fig. 3.10
     n_struct = [8, 10, 12, 15, 20, 30]
     res["7dof_structure"] = []
     for r in range(1 if quick else structure_runs):
         d = drake_accuracy("7dof", 0.044, [8, 10, 12] if quick else n_struct,
-                           seed=seed + 10 + r, n_test=20 if quick else 60, n_control=0,
+                           seed=seed + 10 + r, n_test=10 if quick else 60, n_control=0,
                            occlude=["x4"], show=show)
         d["correct_from"] = _correct_from(d["rows"])
         res["7dof_structure"].append(d)
-    n_block = 15 if quick else 100
-    res["table_3_1_drake"] = {f: drake_recovery_runs(f, runs=1 if quick else drake_runs,
-                                                     n_block=n_block, seed=seed, show=show)
-                              for f in ("joint", "tool")}
-    res["table_3_2_drake"] = drake_control_runs(runs=1 if quick else max(1, drake_runs // 2),
-                                                n_learn=30 if quick else 100,
-                                                n_adapt=30 if quick else 150,
-                                                n_waypoints=6 if quick else 30, seed=seed,
-                                                show=show)
     t31, t32 = numpy_tables(runs=1 if quick else runs, quick=quick, seed=seed, show=show)
+    res.update(tables.result() if tables is not None else
+               _drake_tables(quick=quick, drake_runs=drake_runs, seed=seed, show=show))
     res["table_3_1_numpy"], res["table_3_2_numpy"] = t31, t32
     res["seconds"] = time.perf_counter() - t0
     _plot(res["fig_3_10"], out / "fig_3_10.png")
@@ -350,7 +416,14 @@ def run(*, quick: bool = False, runs: int = 20, seed: int = 0, out_dir: str | Pa
     return res
 
 
+def _runs(d) -> str:
+    """"k runs" or "k runs, f failed" (failed runs are left out of the means)."""
+    f = d.get("failed_runs", 0)
+    return f"{d['runs']} runs" + (f", {f} failed: left out of the mean" if f else ", 0 failed")
+
+
 def report(res) -> str:
+    nan = float("nan")
     L = []
     f = res["fig_3_10"]
     L.append(f"Fig. 3.10 [Drake, mean of {f['runs']} runs] 2-DOF, sigma 0.044 m; "
@@ -359,75 +432,97 @@ def report(res) -> str:
              f"sample {f['online_converged_at_runs']}; "
              f"schema update median "
              f"{f['update_ms_median']:.2f} ms")
-    L.append("   n  structure  prediction [m]  [deg]  positioning [m]")
+    L.append("   n  structure  prediction [m]  [deg]  positioning [m]  runs in mean (left out: "
+             "no complete schema / fit failed)")
     for r in f["rows"]:
         L.append(f"{r['n']:4d}  {'correct' if r['correct'] else 'wrong  '}    "
-                 f"{r.get('pred_error_m', float('nan')):.4f}        "
-                 f"{r.get('pred_error_deg', float('nan')):.2f}   "
-                 f"{r.get('positioning_error_m', float('nan')):.4f}")
+                 f"{r.get('pred_error_m', nan):.4f}        "
+                 f"{r.get('pred_error_deg', nan):.2f}   "
+                 f"{r.get('positioning_error_m', nan):.4f}           "
+                 f"{r.get('runs_in_mean', f['runs'])}/{f['runs']}")
     for key, title in (("noise_free", "noise-free 2-DOF"),
                        ("7dof_occluded", "7-DOF, 10 parts, x4 occluded, noise-free")):
         d = res[key]
         L.append(f"{title} [Drake]:")
         for r in d["rows"]:
-            L.append(f"  n={r['n']:3d}: structure {'correct' if r['correct'] else 'WRONG'}, "
-                     f"error {1000 * r.get('pred_error_m', float('nan')):.2f} mm / "
-                     f"{r.get('pred_error_deg', float('nan')):.3f} deg")
+            if "error" in r:
+                L.append(f"  n={r['n']:3d}: fit failed ({r['error']})")
+            elif "pred_error_m" not in r:
+                L.append(f"  n={r['n']:3d}: structure {'correct' if r['correct'] else 'WRONG'},"
+                         f" schema incomplete: no prediction error")
+            else:
+                L.append(f"  n={r['n']:3d}: structure "
+                         f"{'correct' if r['correct'] else 'WRONG'}, error "
+                         f"{1000 * r['pred_error_m']:.2f} mm / {r['pred_error_deg']:.3f} deg")
     st = res["7dof_structure"]
     cf = [d["correct_from"] for d in st]
     ok = [c for c in cf if c is not None]
     L.append(f"7-DOF, 10 parts, x4 occluded, sigma 0.044 m [Drake, {len(st)} runs]: structure "
              f"correct from n = {cf} (median "
-             f"{'n/a' if not ok else f'{float(np.median(ok)):g}'}; tested n = "
+             f"{'n/a' if not ok else f'{float(np.median(ok)):g}'} over {len(ok)} runs; "
+             f"{len(cf) - len(ok)} never correct up to the largest n, left out; tested n = "
              f"{[r['n'] for r in st[0]['rows']]})")
     L.append("Table 3.1: samples until a valid model again (first / restore / second)")
     for fl, name in (("joint", "joint stuck"), ("tool", "tool exchange")):
-        m = res["table_3_1_numpy"][fl]["mean"]
+        nm = res["table_3_1_numpy"][fl]
+        m = nm["mean"]
         d = res["table_3_1_drake"][fl]
         dm = d["mean"]
-        L.append(f"  {name:14s} numpy 7-DOF ({res['table_3_1_numpy'][fl]['runs']} runs): "
-                 f"{m[0]:.2f} / {m[1]:.2f} / {m[2]:.2f};  Drake 2-DOF ({d['runs']} runs): "
+        L.append(f"  {name:14s} numpy 7-DOF ({_runs(nm)}): "
+                 f"{m[0]:.2f} / {m[1]:.2f} / {m[2]:.2f};  Drake 2-DOF ({_runs(d)}): "
                  f"{dm[0]:.2f} / {dm[1]:.2f} / {dm[2]:.2f}  (per run {d['per_run']})")
     L.append("Table 3.2: control error [m] (intact static / bent static / bent adaptive)")
     n = res["table_3_2_numpy"]
     d = res["table_3_2_drake"]
-    L.append(f"  numpy 4-DOF ({n['runs']} runs): {n['intact_static']:.3f} / "
+    L.append(f"  numpy 4-DOF ({_runs(n)}): {n['intact_static']:.3f} / "
              f"{n['bent_static']:.3f} / {n['bent_adaptive']:.3f}")
-    L.append(f"  Drake 4-DOF ({d['runs']} runs): {d['intact_static']:.3f} / "
+    L.append(f"  Drake 4-DOF ({_runs(d)}): {d['intact_static']:.3f} / "
              f"{d['bent_static']:.3f} / "
              f"{d['bent_adaptive']:.3f}")
+    for t in (res["table_3_1_numpy"], res["table_3_1_drake"]):
+        for fl in ("joint", "tool"):
+            for why in t[fl].get("failures", []):
+                L.append(f"  failed run (Table 3.1 {fl}): {why}")
+    for t in (n, d):
+        for why in t.get("failures", []):
+            L.append(f"  failed run (Table 3.2): {why}")
     L.append(f"plots: {', '.join(res['plots'])}; {res['seconds']:.0f} s")
     return "\n".join(L)
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(
+    ap = ArgumentParser(
         prog="python -m mmlearn.apps.body_schema_experiments",
         description="Reproduce the body-schema experiments of thesis Sec. 3.4 (Fig. 3.10, "
                     "noise-free accuracy, 7-DOF with an occluded part, Tables 3.1 and 3.2). "
                     "Learning runs in the Drake simulation; the many-run statistics of the "
-                    "tables use the numpy simulation.")
-    ap.add_argument("--quick", action="store_true", help="small settings (about a minute)")
-    ap.add_argument("--runs", type=int, default=20, help="numpy runs of Table 3.1 (20)")
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--structure_runs", type=int, default=5,
+                    "tables use the numpy simulation. Every mean says how many runs failed "
+                    "and were left out.")
+    ap.add_argument("--quick", action="store_true", help="one run of each, fewer samples (about a minute of CPU time, in "
+                         "two processes)")
+    ap.add_argument("--runs", type=pos_int, default=20, help="numpy runs of Table 3.1 (20)")
+    ap.add_argument("--seed", type=nonneg_int, default=0)
+    ap.add_argument("--structure-runs", type=pos_int, default=5,
                     help="Drake runs of the 7-DOF structure convergence (5)")
-    ap.add_argument("--drake_runs", type=int, default=6,
+    ap.add_argument("--drake-runs", type=pos_int, default=6,
                     help="Drake runs of Table 3.1 per failure, half as many of Table 3.2; "
                          "two processes (6)")
-    ap.add_argument("--fig310_runs", type=int, default=3,
+    ap.add_argument("--fig310-runs", type=pos_int, default=3,
                     help="Drake runs averaged in Fig. 3.10 (3)")
-    ap.add_argument("--out_dir", type=Path, default=Path("."),
+    ap.add_argument("--out-dir", type=Path, default=Path("."),
                     help="where plots and the JSON go (default: current directory)")
     ap.add_argument("--json", action="store_true", help="print the results as JSON")
     args = ap.parse_args(argv)
+    try:
+        check_out_dir("--out-dir", args.out_dir)
+    except UsageError as e:
+        return fail(ap.prog, str(e))
     try:
         res = run(quick=args.quick, runs=args.runs, seed=args.seed, out_dir=args.out_dir,
                   show_progress=not args.json, structure_runs=args.structure_runs,
                   drake_runs=args.drake_runs, fig310_runs=args.fig310_runs)
     except ValueError as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 2
+        return fail(ap.prog, str(e))
     print(json.dumps(res) if args.json else report(res))
     return 0
 

@@ -26,7 +26,6 @@ as inliers. Bad files are reported on stderr (file:line: reason) and skipped; th
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import sys
@@ -34,10 +33,13 @@ import time
 
 import numpy as np
 
-from mmlearn.apps._common import json_clean
+from mmlearn.apps._common import (ArgumentParser, UsageError, check_out_file, fail,
+                                  json_clean, nonneg_int, pos_float)
+from mmlearn.apps._common import save_figure
 from mmlearn.models.articulation import ObservationModel, make_model
 from mmlearn.models.articulation_structure import DEFAULT_CANDIDATES, select_link_model
-from mmlearn.models.track_io import TrackFileError, find_track_files, read_track
+from mmlearn.models.track_io import (TRACK_SUFFIXES, TrackFileError, find_track_files,
+                                     read_track)
 
 __all__ = ["run", "main", "fit_track"]
 
@@ -148,7 +150,7 @@ def plot_tracks(selections, path: str) -> None:
         ax.set_zlabel("z [m]")
         ax.legend(fontsize=6)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     plt.close(fig)
 
 
@@ -169,39 +171,48 @@ def _print_table(out, file=sys.stdout):
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(
+    ap = ArgumentParser(
         prog="python -m mmlearn.apps.fit_articulation",
         description="Fit rigid / prismatic / revolute / GP link models to articulation "
-                    "tracks and select the best by BIC (thesis Sec. 4.1).")
+                    "tracks and select the best by BIC (thesis Sec. 4.1). Exit status: 0 all "
+                    "tracks fitted, 1 some track could not be read or fitted, 2 bad input "
+                    "(including no track files at all).")
     ap.add_argument("paths", nargs="+", metavar="PATH", help="track file(s) or folder(s)")
-    ap.add_argument("--sigma-pos", type=float, default=0.01, metavar="M",
+    ap.add_argument("--sigma-pos", type=pos_float, default=0.01, metavar="M",
                     help="position noise std, metres (default 0.01)")
-    ap.add_argument("--sigma-orient", type=float, default=float(np.deg2rad(5.0)),
+    ap.add_argument("--sigma-orient", type=pos_float, default=float(np.deg2rad(5.0)),
                     metavar="RAD", help="orientation noise std, radians (default 0.087)")
     ap.add_argument("--models", default=",".join(DEFAULT_CANDIDATES),
                     help="comma-separated candidates (rigid,prismatic,revolute,gp,gp2..gp5,"
                          "gp-lle)")
-    ap.add_argument("--seed", type=int, default=0, help="random seed (MLESAC sampling)")
+    ap.add_argument("--seed", type=nonneg_int, default=0, help="random seed (MLESAC sampling)")
     ap.add_argument("--plot", metavar="OUT.png", default=None,
                     help="write a figure of the observations and fitted models")
     ap.add_argument("--json", action="store_true", help="print results as one JSON object")
     ap.add_argument("--no-progress", action="store_true", help="no progress bar")
     args = ap.parse_args(argv)
     try:
-        ObservationModel(sigma_pos=args.sigma_pos, sigma_orient=args.sigma_orient)
         names = [m.strip() for m in args.models.split(",") if m.strip()]
         if not names:
-            raise ValueError("--models: empty list")
+            raise UsageError(f"--models: expected a comma-separated list, got {args.models!r}")
         for name in names:
-            make_model(name)
-    except ValueError as e:
-        ap.error(str(e))
+            try:
+                make_model(name)
+            except ValueError as e:
+                raise UsageError(f"--models: {e}") from None
+        check_out_file("--plot", args.plot)
+        files = find_track_files(args.paths)
+        if not files:
+            raise UsageError(f"no track files (*{', *'.join(TRACK_SUFFIXES)}) in "
+                             f"{', '.join(args.paths)}")
+    except UsageError as e:
+        return fail(ap.prog, str(e))
     try:
         out = run(args.paths, sigma_pos=args.sigma_pos, sigma_orient=args.sigma_orient,
                   models=args.models, seed=args.seed, plot=args.plot,
                   progress=not args.no_progress and not args.json)
     except ValueError as e:
-        ap.error(str(e))
+        return fail(ap.prog, str(e))
     if args.json:
         print(json.dumps(out, indent=1))
     else:

@@ -21,12 +21,15 @@ Bad input prints the problem on stderr and exits with status 2.
 
 from __future__ import annotations
 
-import argparse
 import json
 import sys
+from pathlib import Path
 
 import numpy as np
 
+from mmlearn.apps._common import (ArgumentParser, UsageError, check_out_file,
+                                  fail, nonneg_float, nonneg_int, pos_float)
+from mmlearn.apps._common import save_figure
 from mmlearn.models.articulation import DEFAULT_GAMMA_WEIGHT, ObservationModel, make_model
 from mmlearn.models.articulation_graph import SEARCH_MODES, fit_structure, read_parts_csv
 from mmlearn.models.articulation_structure import DEFAULT_CANDIDATES
@@ -77,12 +80,12 @@ def _plot(r, Y, path):
         ax.text(m[0], m[1], m[2], r.best.models[(i, j)], fontsize=8)
     ax.set_title(f"DOF {r.best.dof}, BIC {r.best.bic:.0f}")
     ax.legend(fontsize=7)
-    fig.savefig(path, dpi=100)
+    save_figure(fig, path, dpi=100)
     plt.close(fig)
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m mmlearn.apps.fit_structure",
+    ap = ArgumentParser(prog="python -m mmlearn.apps.fit_structure",
                                  description=__doc__.split("\n\n")[0])
     ap.add_argument("file", help="CSV file t,part,x,y,z,qx,qy,qz,qw")
     ap.add_argument("--search", default="local", choices=SEARCH_MODES,
@@ -91,23 +94,29 @@ def main(argv=None) -> int:
                     help="estimate the DOFs of graphs with loops by PCA (Eq. 4.55-4.56)")
     ap.add_argument("--models", default=",".join(DEFAULT_CANDIDATES),
                     help="candidate link models (comma separated)")
-    ap.add_argument("--sigma-pos", type=float, default=0.01, help="position noise, m")
-    ap.add_argument("--sigma-orient", type=float, default=float(np.deg2rad(5.0)),
+    ap.add_argument("--sigma-pos", type=pos_float, default=0.01, help="position noise, m")
+    ap.add_argument("--sigma-orient", type=pos_float, default=float(np.deg2rad(5.0)),
                     help="orientation noise, rad")
-    ap.add_argument("--gamma-weight", type=float, default=DEFAULT_GAMMA_WEIGHT,
+    ap.add_argument("--gamma-weight", type=nonneg_float, default=DEFAULT_GAMMA_WEIGHT,
                     help="weight w of the outlier prior p(gamma) ~ exp(-w gamma), per "
                          "observation (default ln(100)/0.05 ~ 92)")
-    ap.add_argument("--seed", type=int, default=0, help="random seed")
+    ap.add_argument("--seed", type=nonneg_int, default=0, help="random seed")
     ap.add_argument("--json", action="store_true", help="print JSON")
     ap.add_argument("--plot", default=None, help="write a PNG of the structure")
     a = ap.parse_args(argv)
+    try:
+        if not Path(a.file).is_file():
+            raise UsageError(f"{a.file}: file not found" if not Path(a.file).exists()
+                             else f"{a.file}: not a file")
+        check_out_file("--plot", a.plot)
+    except UsageError as e:
+        return fail(ap.prog, str(e))
     try:
         out = run(path=a.file, search=a.search, reduce_dofs=a.reduce_dofs, models=a.models,
                   sigma_pos=a.sigma_pos, sigma_orient=a.sigma_orient,
                   gamma_weight=a.gamma_weight, seed=a.seed, plot=a.plot)
     except (ValueError, FileNotFoundError, OSError) as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 2
+        return fail(ap.prog, str(e))
     if a.json:
         print(json.dumps(out))
     else:

@@ -15,7 +15,6 @@ the end effector in the simulation to targets using the learned model.
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import sys
@@ -25,7 +24,9 @@ from pathlib import Path
 
 import numpy as np
 
-from mmlearn.apps._common import finish_viewing, make_meshcat, progress, save_html
+from mmlearn.apps._common import (ArgumentParser, UsageError, check_out_file, fail,
+                                  finish_viewing, make_meshcat, nonneg_float, nonneg_int,
+                                  pos_int, progress, save_html)
 
 
 @dataclass
@@ -184,7 +185,7 @@ def run(*, config: LearnBodySchemaConfig, meshcat=None, show_progress: bool = Tr
         raise ValueError("need n_test >= 1, n_control >= 0, control_time > 0")
     t_start = time.perf_counter()
     if meshcat is None and (cfg.meshcat or cfg.html_out):
-        meshcat = make_meshcat()
+        meshcat = make_meshcat(announce=cfg.meshcat)
     dcfg = BodySchemaDiagramConfig(arm=cfg.arm, noise_pos=cfg.noise,
                                    noise_orient=math.radians(cfg.noise_orient_deg),
                                    occlude=list(cfg.occlude), seed=cfg.seed,
@@ -244,27 +245,32 @@ def run(*, config: LearnBodySchemaConfig, meshcat=None, show_progress: bool = Tr
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(
+    ap = ArgumentParser(
         prog="python -m mmlearn.apps.learn_body_schema",
         description="Learn an arm's body schema from motor babbling in the Drake simulation "
                     "and report structure, prediction, observation-noise and control errors "
                     "on an independent test set.")
     ap.add_argument("--arm", default="2dof", choices=["2dof", "4dof", "7dof"])
-    ap.add_argument("--samples", type=int, default=50, help="babbling samples (default 50)")
-    ap.add_argument("--noise", type=float, default=0.044,
+    ap.add_argument("--samples", type=pos_int, default=50, help="babbling samples (default 50)")
+    ap.add_argument("--noise", type=nonneg_float, default=0.044,
                     help="RMS marker position noise, m (default 0.044)")
-    ap.add_argument("--noise_orient", type=float, default=0.0,
+    ap.add_argument("--noise-orient", type=nonneg_float, default=0.0,
                     help="RMS marker orientation noise, deg (default 0)")
     ap.add_argument("--occlude", nargs="*", default=[], metavar="PART",
                     help="parts whose markers are never seen (e.g. x4)")
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--n_test", type=int, default=100, help="test configurations")
-    ap.add_argument("--n_control", type=int, default=5, help="control targets (0 = skip)")
+    ap.add_argument("--seed", type=nonneg_int, default=0)
+    ap.add_argument("--n-test", type=pos_int, default=100, help="test configurations")
+    ap.add_argument("--n-control", type=nonneg_int, default=5,
+                    help="control targets (0 = skip)")
     ap.add_argument("--meshcat", action="store_true",
                     help="show the run live in Meshcat (prints the URL; real-time pacing)")
-    ap.add_argument("--html_out", type=Path, help="save the Meshcat recording as HTML")
+    ap.add_argument("--html-out", type=Path, help="save the Meshcat recording as HTML")
     ap.add_argument("--json", action="store_true", help="print the results as JSON")
     args = ap.parse_args(argv)
+    try:
+        check_out_file("--html-out", args.html_out)
+    except UsageError as e:
+        return fail(ap.prog, str(e))
     cfg = LearnBodySchemaConfig(arm=args.arm, samples=args.samples, noise=args.noise,
                                 noise_orient_deg=args.noise_orient, occlude=args.occlude,
                                 seed=args.seed, n_test=args.n_test, n_control=args.n_control,
@@ -272,8 +278,7 @@ def main(argv=None) -> int:
     try:
         r = run(config=cfg, show_progress=not args.json)
     except ValueError as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 2
+        return fail(ap.prog, str(e))
     if args.json:
         print(json.dumps(r))
     else:

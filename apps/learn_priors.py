@@ -11,7 +11,8 @@ columns, ``#`` comments) or a folder (its track files, sorted). Trajectories are
 the given order; each is first translated to start at the origin (the robot recorded every
 trial in its own base frame from a different stopping place).
 
-``--json`` prints ``{"clusters": [[path, ...], ...], "models": [model name per cluster]}``
+``--json`` prints ``{"clusters": [[path, ...], ...], "models": [model name per cluster],
+"tracks": number of tracks read}``
 and, with ``--evaluate``, ``"evaluation": {"fractions": [...], "error_without_m": [...],
 "error_with_m": [...], "ratio": [...], "merged_fraction": [...]}`` (mean over the
 leave-one-out trajectories). ``--evaluate`` runs the leave-one-out experiment of Fig. 4.15:
@@ -25,13 +26,14 @@ Bad input prints the problem on stderr and exits with status 2.
 
 from __future__ import annotations
 
-import argparse
 import json
 import sys
 
 import numpy as np
 
-from mmlearn.apps._common import progress_bar
+from mmlearn.apps._common import (ArgumentParser, UsageError, check_in_file, check_out_file,
+                                  fail, nonneg_float, nonneg_int, pos_float, progress_bar)
+from mmlearn.apps._common import save_figure
 from mmlearn.models.articulation import DEFAULT_GAMMA_WEIGHT, ObservationModel, make_model
 from mmlearn.models.articulation_priors import PriorDatabase, evaluate_priors
 from mmlearn.models.articulation_structure import DEFAULT_CANDIDATES
@@ -55,7 +57,9 @@ def run(*, paths, sigma_pos: float = 0.05, sigma_orient: float = float(np.deg2ra
         make_model(m)
     files = find_track_files(paths)
     if not files:
-        raise ValueError("no track files given")
+        raise ValueError(f"no track files (*.log, *.txt, *.dat, *.track) in "
+                         f"{', '.join(map(str, paths))}")
+    db = PriorDatabase.load(load) if load else None  # a bad database fails before any work
     tracks = [read_track(f).poses for f in files]
     ncol = {t.shape[1] for t in tracks}
     if len(ncol) > 1:
@@ -66,16 +70,14 @@ def run(*, paths, sigma_pos: float = 0.05, sigma_orient: float = float(np.deg2ra
                            gamma_weight=gamma_weight)
     kw = dict(obs=obs, models=models, max_points=max_points)
     rng = np.random.default_rng(seed)
-    if load:
-        db = PriorDatabase.load(load)
-    else:
+    if db is None:
         db = PriorDatabase(**kw)
     bar = progress_bar(len(files), "clustering", enabled=progress)
     for f, t in zip(files, tracks):
         db.add(t, f, rng=rng)
         bar.update(1)
     bar.close()
-    out = {"clusters": db.assignments(), "models": db.model_names()}
+    out = {"clusters": db.assignments(), "models": db.model_names(), "tracks": len(files)}
     if save:
         db.save(save)
     if evaluate:
@@ -116,24 +118,24 @@ def _plot(ev, path):
     ax.set_ylabel("prediction error on the full trajectory [m]")
     ax.legend()
     fig.tight_layout()
-    fig.savefig(path, dpi=100)
+    save_figure(fig, path, dpi=100)
     plt.close(fig)
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m mmlearn.apps.learn_priors",
+    ap = ArgumentParser(prog="python -m mmlearn.apps.learn_priors",
                                  description=__doc__.split("\n\n")[0])
     ap.add_argument("paths", nargs="+", help="track files or folders, in observation order")
-    ap.add_argument("--sigma-pos", type=float, default=0.05, help="position noise, m (0.05)")
-    ap.add_argument("--sigma-orient", type=float, default=float(np.deg2rad(15.0)),
+    ap.add_argument("--sigma-pos", type=pos_float, default=0.05, help="position noise, m (0.05)")
+    ap.add_argument("--sigma-orient", type=pos_float, default=float(np.deg2rad(15.0)),
                     help="orientation noise, rad (full-pose tracks only)")
-    ap.add_argument("--gamma-weight", type=float, default=DEFAULT_GAMMA_WEIGHT,
+    ap.add_argument("--gamma-weight", type=nonneg_float, default=DEFAULT_GAMMA_WEIGHT,
                     help="outlier prior weight w per observation (default ln(100)/0.05 ~ 92)")
-    ap.add_argument("--max-points", type=int, default=50,
+    ap.add_argument("--max-points", type=nonneg_int, default=50,
                     help="thin each trajectory to at most this many observations (0 = all)")
     ap.add_argument("--models", default=",".join(DEFAULT_CANDIDATES),
                     help="candidate link models (comma separated)")
-    ap.add_argument("--seed", type=int, default=0, help="random seed")
+    ap.add_argument("--seed", type=nonneg_int, default=0, help="random seed")
     ap.add_argument("--json", action="store_true", help="print JSON")
     ap.add_argument("--save", default=None, help="write the prior database (JSON)")
     ap.add_argument("--load", default=None,
@@ -148,23 +150,41 @@ def main(argv=None) -> int:
     ap.add_argument("--no-progress", action="store_true", help="no progress bars")
     a = ap.parse_args(argv)
     try:
+        check_out_file("--save", a.save)
+        check_out_file("--plot", a.plot)
+        check_in_file("--load", a.load)
+        if a.plot and not a.evaluate:
+            raise UsageError("--plot: needs --evaluate (it plots the leave-one-out errors)")
+        if a.load:
+            try:
+                PriorDatabase.load(a.load)
+            except ValueError as e:
+                raise UsageError(f"--load: {e}") from None
+    except UsageError as e:
+        return fail(ap.prog, str(e))
+    try:
         fr = None
         if a.fractions:
             try:
                 fr = [float(x) for x in a.fractions.split(",") if x.strip()]
             except ValueError:
                 raise ValueError(f"--fractions: not a list of numbers: {a.fractions!r}") from None
+            if not fr or not all(0.0 < x <= 1.0 for x in fr):
+                raise ValueError(f"--fractions: expected numbers in (0, 1], got {a.fractions!r}")
         out = run(paths=a.paths, sigma_pos=a.sigma_pos, sigma_orient=a.sigma_orient,
                   gamma_weight=a.gamma_weight,
                   max_points=None if a.max_points == 0 else a.max_points, models=a.models,
                   seed=a.seed, evaluate=a.evaluate, fractions=fr, exact_loo=a.exact_loo,
                   save=a.save, load=a.load, plot=a.plot, progress=not a.no_progress)
-    except (ValueError, FileNotFoundError, OSError, TrackFileError, KeyError) as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 2
+    except (ValueError, FileNotFoundError, OSError, TrackFileError) as e:
+        return fail(ap.prog, str(e))
     if a.json:
         print(json.dumps(out))
     else:
+        n_all = sum(len(c) for c in out["clusters"])
+        loaded = f" (+{n_all - out['tracks']} from --load)" if n_all > out["tracks"] else ""
+        print(f"{out['tracks']} tracks{loaded} -> {len(out['clusters'])} clusters"
+              + (f" (saved to {a.save})" if a.save else ""))
         for k, (c, m) in enumerate(zip(out["clusters"], out["models"])):
             print(f"cluster {k} ({m}, {len(c)} trajectories): {', '.join(c)}")
         ev = out.get("evaluation")

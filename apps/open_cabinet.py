@@ -7,7 +7,6 @@ mechanism's kinematic model online from its hook's trajectory.
     python -m mmlearn.apps.open_cabinet --object left_door --seed 3 --json
 """
 
-import argparse
 import json
 import math
 import sys
@@ -15,7 +14,9 @@ import time
 
 import numpy as np
 
-from mmlearn.apps._common import finish_viewing, make_meshcat, progress_bar, save_html
+from mmlearn.apps._common import (ArgumentParser, UsageError, check_in_file, check_out_file,
+                                  fail, finish_viewing, make_meshcat, nonneg_int, pos_float,
+                                  progress_bar, save_html)
 from mmlearn.sdf.mechanisms import KINDS
 
 SUCCESS_ANGLE = math.radians(60)  # thesis: opened > 60 deg (revolute) ...
@@ -64,13 +65,13 @@ def run(*, kind: str = "left_door", seed: int = 0, meshcat=None, html_out: str =
 
     if kind not in KINDS:
         raise ValueError(f"object must be one of {', '.join(KINDS)}; got {kind!r}")
-    if not max_time > 0:
-        raise ValueError(f"max_time must be > 0 s, got {max_time}")
+    if not (max_time > 0 and math.isfinite(max_time)):
+        raise ValueError(f"max_time must be a finite number of seconds > 0, got {max_time}")
     cfg = OperateConfig(kind=kind, seed=seed, priors=priors, mechanism_seed=mechanism_seed)
     if sigma_pos is not None:
         cfg.sigma_pos = sigma_pos
     if meshcat is None and html_out:
-        meshcat = make_meshcat()
+        meshcat = make_meshcat(announce=False)
     op = MakeOperateDiagram(cfg, meshcat=meshcat)
     d = op.diagram
     if meshcat is not None:
@@ -132,7 +133,9 @@ def run(*, kind: str = "left_door", seed: int = 0, meshcat=None, html_out: str =
     result["right_model_at"] = right_at
     if priors:
         result["priors"] = priors
+    result["track_saved"] = None
     if save_track and track.shape[0]:
+        result["track_saved"] = save_track
         atomic_write_text(save_track, f"# hook trajectory, {kind}, seed {seed} (x y z, m)\n"
                           + "\n".join(" ".join(f"{v:.6f}" for v in row) for row in track)
                           + "\n")
@@ -149,26 +152,39 @@ def run(*, kind: str = "left_door", seed: int = 0, meshcat=None, html_out: str =
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(
+    ap = ArgumentParser(
         prog="python -m mmlearn.apps.open_cabinet",
         description="A mobile robot with a hook opens a door or drawer while learning its "
-                    "kinematic model (equilibrium-point control along the learned model).")
+                    "kinematic model (equilibrium-point control along the learned model). "
+                    "Exit status: 0 opened, 1 not opened, 2 bad input.")
     ap.add_argument("--object", default="left_door", choices=list(KINDS))
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--max-time", type=float, default=60.0, help="simulated seconds at most")
-    ap.add_argument("--sigma-pos", type=float, default=None,
+    ap.add_argument("--seed", type=nonneg_int, default=0)
+    ap.add_argument("--max-time", type=pos_float, default=60.0,
+                    help="simulated seconds at most")
+    ap.add_argument("--sigma-pos", type=pos_float, default=None,
                     help="position noise the estimator assumes, m (default 0.01)")
     ap.add_argument("--priors", default="",
                     help="prior database (JSON from learn_priors / operate_trials "
                          "--save-tracks) to use while learning")
-    ap.add_argument("--mechanism-seed", type=int, default=None,
+    ap.add_argument("--mechanism-seed", type=nonneg_int, default=None,
                     help="fix the mechanism's geometry (the seed then varies the handle "
                          "click and the robot's start)")
     ap.add_argument("--save-track", default="", help="write the hook trajectory to a file")
     ap.add_argument("--meshcat", action="store_true", help="show the trial live in Meshcat")
-    ap.add_argument("--html_out", default="", help="save the Meshcat recording as HTML")
+    ap.add_argument("--html-out", default="", help="save the Meshcat recording as HTML")
     ap.add_argument("--json", action="store_true", help="print the result as JSON")
     args = ap.parse_args(argv)
+    try:
+        check_out_file("--html-out", args.html_out)
+        check_out_file("--save-track", args.save_track)
+        if args.priors:
+            from mmlearn.models.articulation_priors import PriorDatabase
+
+            check_in_file("--priors", args.priors)
+            PriorDatabase.load(args.priors)
+    except (UsageError, ValueError, OSError) as e:
+        msg = str(e)
+        return fail(ap.prog, msg if msg.startswith("--") else f"--priors: {msg}")
     meshcat = make_meshcat() if args.meshcat else None
     try:
         r = run(kind=args.object, seed=args.seed, meshcat=meshcat, html_out=args.html_out,
@@ -176,8 +192,10 @@ def main(argv=None) -> int:
                 show_progress=not args.json, realtime=args.meshcat, priors=args.priors,
                 mechanism_seed=args.mechanism_seed, save_track=args.save_track)
     except ValueError as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 2
+        return fail(ap.prog, str(e))
+    if args.save_track and r["track_saved"] is None:
+        print(f"--save-track: nothing written to {args.save_track}: the estimator received "
+              f"no hook observations", file=sys.stderr)
     if args.json:
         print(json.dumps(r))
     else:
@@ -196,7 +214,7 @@ def main(argv=None) -> int:
         print(f"{r['sim_seconds']:.1f} s simulated in {r['wall_seconds']:.1f} s "
               f"(real-time factor {r['realtime_factor']})")
     finish_viewing(html_out=None if args.json else r["html_out"], live=args.meshcat)
-    return 0
+    return 0 if r["success"] else 1
 
 
 if __name__ == "__main__":

@@ -5,8 +5,8 @@
 Trials are independent and run in parallel processes (``--jobs``, default: all cores).
 """
 
-import argparse
 import json
+import math
 import os
 import sys
 import time
@@ -15,7 +15,8 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 
 import numpy as np
 
-from mmlearn.apps._common import progress
+from mmlearn.apps._common import (ArgumentParser, UsageError, check_in_file, check_out_dir,
+                                  fail, name_list, nonneg_int, pos_float, pos_int, progress)
 from mmlearn.sdf.mechanisms import KINDS
 
 
@@ -27,25 +28,40 @@ def _one(args):
         return run(kind=kind, seed=seed, max_time=max_time, sigma_pos=sigma_pos,
                    priors=priors, mechanism_seed=mechanism_seed, show_progress=False,
                    save_track=str(Path(tracks) / f"{kind}_{seed:03d}.log") if tracks else "")
-    except Exception as e:  # a crashed trial is a failed trial, reported with its reason
-        return {"object": kind, "seed": seed, "success": False, "opened": 0.0,
+    except Exception as e:  # a crashed trial is an error (not a failed opening), with its reason
+        return {"object": kind, "seed": seed, "success": False, "opened": None,
                 "unit": "deg" if kind in ("left_door", "right_door", "dishwasher") else "m",
-                "outcome": f"error: {type(e).__name__}: {e}", "learned_model": None,
+                "outcome": f"error: {type(e).__name__}: {e}",
+                "error": f"{type(e).__name__}: {e}", "learned_model": None,
                 "radius_error_m": None, "axis_error_deg": None, "sim_seconds": 0.0,
                 "wall_seconds": 0.0}
 
 
 def summarize(trials: list[dict]) -> dict:
-    """Per-object success rate, mean opening and mean radius error."""
+    """Per-object success rate, mean opening and mean radius error. Trials that raised
+    (``"error"`` in the record) are counted in ``errors`` and left out of every mean and of
+    ``trials``/``successes``; ``radius_runs`` / ``axis_runs`` / ``right_model_runs`` say how
+    many trials each mean is over."""
     table = {}
     for kind in dict.fromkeys(t["object"] for t in trials):
-        ts = [t for t in trials if t["object"] == kind]
+        errors = sum(1 for t in trials if t["object"] == kind and t.get("error"))
+        ts = [t for t in trials if t["object"] == kind and not t.get("error")]
+        if not ts:
+            table[kind] = {"trials": 0, "errors": errors, "successes": 0, "mean_opened": None,
+                           "unit": next(t["unit"] for t in trials if t["object"] == kind),
+                           "mean_radius_error_m": None, "max_radius_error_m": None,
+                           "mean_axis_error_deg": None, "mean_right_model_at": None,
+                           "radius_runs": 0, "axis_runs": 0, "right_model_runs": 0,
+                           "models": {}}
+            continue
         radius = [t["radius_error_m"] for t in ts if t.get("radius_error_m") is not None]
         right_at = [t["right_model_at"] for t in ts if t.get("right_model_at") is not None]
         axis = [t["axis_error_deg"] for t in ts if t.get("axis_error_deg") is not None]
         table[kind] = {
             "trials": len(ts),
+            "errors": errors,
             "successes": sum(t["success"] for t in ts),
+            "radius_runs": len(radius), "axis_runs": len(axis), "right_model_runs": len(right_at),
             "mean_opened": float(np.mean([t["opened"] for t in ts])),
             "unit": ts[0]["unit"],
             "mean_radius_error_m": float(np.mean(radius)) if radius else None,
@@ -65,11 +81,22 @@ def run(*, objects=KINDS, trials: int = 8, seed: int = 0, jobs: int | None = Non
     """Run the trials; ``mechanism_seed`` fixes each object's geometry (the trials then
     differ in the handle click and the start), ``save_tracks`` writes every trial's hook
     trajectory into that folder, ``priors`` uses a prior database."""
+    objects = list(objects)
+    if not objects:
+        raise ValueError("objects: empty list; choose from " + ", ".join(KINDS))
     for k in objects:
         if k not in KINDS:
             raise ValueError(f"unknown object {k!r}; choose from {', '.join(KINDS)}")
     if trials < 1:
         raise ValueError("trials must be >= 1")
+    if jobs is not None and jobs < 1:
+        raise ValueError(f"jobs must be >= 1 (or None for all cores), got {jobs}")
+    if not (max_time > 0 and math.isfinite(max_time)):
+        raise ValueError(f"max_time must be a finite number of seconds > 0, got {max_time}")
+    if priors:  # a bad database is bad input, found here rather than in every trial
+        from mmlearn.models.articulation_priors import PriorDatabase
+
+        PriorDatabase.load(priors)
     jobs = jobs or os.cpu_count() or 1
     if save_tracks:
         Path(save_tracks).mkdir(parents=True, exist_ok=True)
@@ -85,17 +112,23 @@ def run(*, objects=KINDS, trials: int = 8, seed: int = 0, jobs: int | None = Non
     order = {(w[0], w[1]): i for i, w in enumerate(work)}
     results.sort(key=lambda r: order[(r["object"], r["seed"])])
     n_ok = sum(r["success"] for r in results)
-    return {"trials": results, "success_rate": n_ok / len(results), "successes": n_ok,
-            "total": len(results), "per_object": summarize(results),
+    n_err = sum(1 for r in results if r.get("error"))
+    n_run = len(results) - n_err
+    return {"trials": results, "success_rate": n_ok / n_run if n_run else None,
+            "successes": n_ok, "errors": n_err, "total": n_run,
+            "per_object": summarize(results),
             "wall_seconds": round(time.perf_counter() - t0, 1)}
 
 
 def format_table(res: dict) -> str:
-    lines = [f"{'object':13s} {'success':>8s} {'mean opened':>12s} {'radius err (mean/max)':>22s}"
-             f" {'axis err':>9s} {'right model at':>15s}  models"]
+    lines = [f"{'object':13s} {'success':>8s} {'errors':>6s} {'mean opened':>12s} "
+             f"{'radius err (mean/max)':>22s} {'axis err':>9s} {'right model at':>15s}  models"]
     for kind, row in res["per_object"].items():
-        op = f"{row['mean_opened']:.1f} {row['unit']}" if row["unit"] == "deg" else \
-            f"{row['mean_opened']:.3f} m"
+        if row["mean_opened"] is None:
+            op = "-"
+        else:
+            op = f"{row['mean_opened']:.1f} {row['unit']}" if row["unit"] == "deg" else \
+                f"{row['mean_opened']:.3f} m"
         rad = (f"{row['mean_radius_error_m']:.4f}/{row['max_radius_error_m']:.4f} m"
                if row["mean_radius_error_m"] is not None else "-")
         ax = (f"{row['mean_axis_error_deg']:.1f} deg"
@@ -103,30 +136,39 @@ def format_table(res: dict) -> str:
         models = ", ".join(f"{m}:{c}" for m, c in row["models"].items())
         ra = row.get("mean_right_model_at")
         ra = "-" if ra is None else (f"{ra:.1f} deg" if row["unit"] == "deg" else f"{ra:.3f} m")
-        lines.append(f"{kind:13s} {row['successes']:>3d}/{row['trials']:<4d} {op:>12s} "
+        lines.append(f"{kind:13s} {row['successes']:>3d}/{row['trials']:<4d} "
+                     f"{row.get('errors', 0):>6d} {op:>12s} "
                      f"{rad:>22s} {ax:>9s} {ra:>15s}  {models}")
-    lines.append(f"overall: {res['successes']}/{res['total']} "
-                 f"({100 * res['success_rate']:.1f}%) in {res['wall_seconds']} s")
-    fails = [t for t in res["trials"] if not t["success"]]
-    for t in fails:
-        lines.append(f"  failed: {t['object']} seed {t['seed']}: opened {t['opened']:.2f} "
-                     f"{t['unit']} ({t['outcome']})")
+    rate = "n/a" if res["success_rate"] is None else f"{100 * res['success_rate']:.1f}%"
+    lines.append(f"overall: {res['successes']}/{res['total']} ({rate}) in "
+                 f"{res['wall_seconds']} s; {res.get('errors', 0)} trial(s) raised an error "
+                 f"(not counted above)")
+    lines.append("means are over the trials that ran; radius and axis errors over the trials "
+                 "whose learned model had that parameter")
+    for t in res["trials"]:
+        if t.get("error"):
+            lines.append(f"  error:  {t['object']} seed {t['seed']}: {t['error']}")
+        elif not t["success"]:
+            lines.append(f"  failed: {t['object']} seed {t['seed']}: opened {t['opened']:.2f} "
+                         f"{t['unit']} ({t['outcome']})")
     return "\n".join(lines)
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m mmlearn.apps.operate_trials",
-                                 description="Five mechanisms x N trials of opening while "
-                                             "learning (thesis 4.4.2).")
-    ap.add_argument("--trials", type=int, default=8, help="trials per object")
-    ap.add_argument("--objects", default=",".join(KINDS),
+    ap = ArgumentParser(prog="python -m mmlearn.apps.operate_trials",
+                        description="Five mechanisms x N trials of opening while learning "
+                                    "(thesis 4.4.2). Exit status: 0 all trials ran (opened "
+                                    "or not), 1 a trial raised an error, 2 bad input.")
+    ap.add_argument("--trials", type=pos_int, default=8, help="trials per object")
+    ap.add_argument("--objects", type=name_list(KINDS), default=list(KINDS),
                     help="comma-separated objects (default: all five)")
-    ap.add_argument("--seed", type=int, default=0, help="seed of the first trial")
-    ap.add_argument("--jobs", type=int, default=None, help="parallel processes")
-    ap.add_argument("--max-time", type=float, default=60.0)
-    ap.add_argument("--sigma-pos", type=float, default=None,
+    ap.add_argument("--seed", type=nonneg_int, default=0, help="seed of the first trial")
+    ap.add_argument("--jobs", type=pos_int, default=None,
+                    help="parallel processes (default: all cores)")
+    ap.add_argument("--max-time", type=pos_float, default=60.0)
+    ap.add_argument("--sigma-pos", type=pos_float, default=None,
                     help="position noise the estimator assumes, m (default 0.01)")
-    ap.add_argument("--mechanism-seed", type=int, default=None,
+    ap.add_argument("--mechanism-seed", type=nonneg_int, default=None,
                     help="the same mechanism per object in every trial (trials differ in "
                          "the handle click and the robot's start)")
     ap.add_argument("--save-tracks", default="",
@@ -135,18 +177,26 @@ def main(argv=None) -> int:
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     try:
-        res = run(objects=[o for o in args.objects.split(",") if o], trials=args.trials,
+        check_out_dir("--save-tracks", args.save_tracks, create=False)
+        check_in_file("--priors", args.priors)
+    except UsageError as e:
+        return fail(ap.prog, str(e))
+    try:
+        res = run(objects=args.objects, trials=args.trials,
                   seed=args.seed, jobs=args.jobs, max_time=args.max_time,
                   sigma_pos=args.sigma_pos, priors=args.priors,
                   mechanism_seed=args.mechanism_seed, save_tracks=args.save_tracks,
                   show_progress=not args.json)
-    except ValueError as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 2
+    except (ValueError, OSError) as e:
+        return fail(ap.prog, f"--priors: {e}" if args.priors and str(args.priors) in str(e)
+                    else str(e))
     if args.json:
         print(json.dumps(res))
     else:
         print(format_table(res))
+    if res["errors"]:
+        print(f"{ap.prog}: {res['errors']} trial(s) raised an error", file=sys.stderr)
+        return 1
     return 0
 
 

@@ -3,7 +3,7 @@
 Usage::
 
     python -m mmlearn.apps.structure_experiments [--only fig48,fig49,fig411,garage,fig416,fig417,fig418]
-        [--quick] [--seeds N] [--n N] [--seed S] [--json] [--out DIR]
+        [--quick] [--seeds N] [--n N] [--seed S] [--json] [--out-dir DIR]
 
 - fig48: two-drawer cabinet, structure while the lower drawer alone moves, then both.
 - fig49: table pushed on the floor: selected link model (rigid, prismatic, gp, gp2) as the
@@ -16,7 +16,7 @@ Usage::
 - fig418: closed yardstick: BIC of the spanning tree, local search and exhaustive search and
   their run times as n grows.
 
-Tables go to stdout, ``--json`` prints all results, ``--out DIR`` writes the plots (PNG).
+Tables go to stdout, ``--json`` prints all results, ``--out-dir DIR`` writes the plots (PNG).
 ``--quick`` runs a small setting (for the test suite).
 """
 
@@ -31,7 +31,9 @@ from pathlib import Path
 
 import numpy as np
 
-from mmlearn.apps._common import json_clean, progress_bar
+from mmlearn.apps._common import (ArgumentParser, UsageError, check_out_dir, fail, json_clean,
+                                  nonneg_int, pos_int, progress_bar)
+from mmlearn.apps._common import save_figure
 from mmlearn.models.articulation import ObservationModel
 from mmlearn.models.articulation_graph import (KinematicGraphEvaluator, fit_pair_models,
                                                fit_structure, search_structure,
@@ -335,7 +337,7 @@ def _plots(results, out):
         a1.legend()
         a2.set_ylabel("search time [s]")
         a2.set_xlabel("training samples n")
-        fig.savefig(out / "fig418_search.png", dpi=100)
+        save_figure(fig, out / "fig418_search.png", dpi=100)
         plt.close(fig)
         written.append(str(out / "fig418_search.png"))
     if "fig417" in results:
@@ -348,7 +350,7 @@ def _plots(results, out):
         ax.set_xlabel("training samples n")
         ax.set_ylabel("estimated DOFs")
         ax.legend()
-        fig.savefig(out / "fig417_dofs.png", dpi=100)
+        save_figure(fig, out / "fig417_dofs.png", dpi=100)
         plt.close(fig)
         written.append(str(out / "fig417_dofs.png"))
     if "fig49" in results:
@@ -361,7 +363,7 @@ def _plots(results, out):
         ax.set_xlabel("samples n")
         ax.set_ylabel("BIC")
         ax.legend()
-        fig.savefig(out / "fig49_table.png", dpi=100)
+        save_figure(fig, out / "fig49_table.png", dpi=100)
         plt.close(fig)
         written.append(str(out / "fig49_table.png"))
     return written
@@ -399,29 +401,33 @@ def run(*, only=EXPERIMENTS, quick: bool = False, seed: int = 0, seeds: int = 10
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m mmlearn.apps.structure_experiments",
+    ap = ArgumentParser(prog="python -m mmlearn.apps.structure_experiments",
                                  description=__doc__.split("\n\n")[0])
     ap.add_argument("--only", default=",".join(EXPERIMENTS),
                     help="comma-separated experiments (default: all)")
     ap.add_argument("--quick", action="store_true", help="small, fast setting")
-    ap.add_argument("--seed", type=int, default=0, help="random seed")
-    ap.add_argument("--seeds", type=int, default=10, help="yardstick seeds (fig416)")
-    ap.add_argument("--n", type=int, default=200, help="yardstick samples (fig416)")
+    ap.add_argument("--seed", type=nonneg_int, default=0, help="random seed")
+    ap.add_argument("--seeds", type=pos_int, default=10, help="yardstick seeds (fig416)")
+    ap.add_argument("--n", type=pos_int, default=200, help="yardstick samples (fig416)")
     ap.add_argument("--json", action="store_true", help="print JSON instead of tables")
-    ap.add_argument("--out", default=None, help="folder for the plots (PNG)")
+    ap.add_argument("--out-dir", default=None, help="folder for the plots (PNG)")
+    ap.add_argument("--out", dest="out_dir", help=argparse.SUPPRESS)  # old spelling
     ap.add_argument("--no-progress", action="store_true", help="no progress bars")
     a = ap.parse_args(argv)
+    try:
+        check_out_dir("--out-dir", a.out_dir)
+    except UsageError as e:
+        return fail(ap.prog, str(e))
 
     def echo(lines):
         if not a.json:
             print("\n".join(lines) + "\n", flush=True)
 
     try:
-        res = run(only=a.only, quick=a.quick, seed=a.seed, seeds=a.seeds, n=a.n, out=a.out,
+        res = run(only=a.only, quick=a.quick, seed=a.seed, seeds=a.seeds, n=a.n, out=a.out_dir,
                   progress=not a.no_progress, echo=echo)
     except (ValueError, OSError) as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 2
+        return fail(ap.prog, str(e))
     if a.json:
         print(json.dumps(json_clean(res)))
     elif res.get("plots"):

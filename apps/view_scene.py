@@ -7,7 +7,6 @@ recording as a standalone HTML page.
 
 from __future__ import annotations
 
-import argparse
 import json
 import sys
 import time
@@ -16,7 +15,9 @@ from pathlib import Path
 
 import numpy as np
 
-from mmlearn.apps._common import finish_viewing, load_config, make_meshcat, progress, save_html
+from mmlearn.apps._common import (ArgumentParser, UsageError, check_in_file, check_out_file,
+                                  fail, finish_viewing, load_config, make_meshcat, nonneg_int,
+                                  pos_float, progress, save_html)
 from mmlearn.diagrams import MakeSceneDiagram, SceneConfig
 
 
@@ -57,7 +58,7 @@ def run(*, config: ViewSceneConfig, meshcat=None, show_progress: bool = True) ->
         raise ValueError(f"babble_fraction must be in (0, 1], got {cfg.babble_fraction}")
     cfg.scene.sensor.seed = cfg.seed
     if meshcat is None and (cfg.meshcat or cfg.html_out):
-        meshcat = make_meshcat()
+        meshcat = make_meshcat(announce=cfg.meshcat)
     scene = MakeSceneDiagram(cfg.scene, meshcat=meshcat)
     builder = DiagramBuilder()
     sd = builder.AddNamedSystem("scene", scene.diagram)
@@ -105,25 +106,29 @@ def run(*, config: ViewSceneConfig, meshcat=None, show_progress: bool = True) ->
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(
+    ap = ArgumentParser(
         prog="python -m mmlearn.apps.view_scene",
         description="Motor babbling of an arm with markers in front of a cabinet; counts "
                     "the marker observations.")
     ap.add_argument("--arm", default="7dof", choices=["2dof", "4dof", "7dof"])
-    ap.add_argument("--duration", type=float, default=10.0, help="simulated seconds")
-    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--duration", type=pos_float, default=10.0, help="simulated seconds")
+    ap.add_argument("--seed", type=nonneg_int, default=0)
     ap.add_argument("--config", type=Path,
                     help="YAML file of a SceneConfig (keys: arm, tool, cabinet, sensor, ...)")
     ap.add_argument("--meshcat", action="store_true",
                     help="show the run live in Meshcat (prints the URL; real-time pacing)")
-    ap.add_argument("--html_out", type=Path, help="save the Meshcat recording as HTML")
+    ap.add_argument("--html-out", type=Path, help="save the Meshcat recording as HTML")
     ap.add_argument("--json", action="store_true", help="print the results as JSON")
     args = ap.parse_args(argv)
     try:
+        check_in_file("--config", args.config)
+        check_out_file("--html-out", args.html_out)
+    except UsageError as e:
+        return fail(ap.prog, str(e))
+    try:
         scene_cfg = load_config(args.config, SceneConfig) if args.config else SceneConfig()
     except (OSError, RuntimeError, ValueError) as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 2
+        return fail(ap.prog, f"--config: {e}")
     if args.config is None or args.arm != "7dof":
         scene_cfg.arm = args.arm
     cfg = ViewSceneConfig(duration=args.duration, seed=args.seed, scene=scene_cfg,
@@ -131,8 +136,7 @@ def main(argv=None) -> int:
     try:
         result = run(config=cfg, show_progress=not args.json)
     except ValueError as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 2
+        return fail(ap.prog, str(e))
     if args.json:
         print(json.dumps(result))
     else:

@@ -421,6 +421,22 @@ class LinkModel:
         return as_pose_array(self.forward(q)).as_matrices()
 
     # ----- reporting / persistence
+    def __repr__(self) -> str:
+        if not self.fitted:
+            return f"{type(self).__name__}(not fitted, sigma_pos={self.obs.sigma_pos:g} m)"
+
+        def r(v):
+            if isinstance(v, float):
+                return f"{v:.4g}"
+            if isinstance(v, list):
+                return "[" + ", ".join(r(x) for x in v) + "]"
+            return repr(v)
+
+        ps = ", ".join(f"{k}={r(v)}" for k, v in self.params().items()
+                       if not isinstance(v, list) or len(v) <= 4)
+        return (f"{type(self).__name__}(n={self.n_train}, gamma={self.gamma:.3f}, "
+                f"bic={float(self.bic_):.1f}{', ' + ps if ps else ''})")
+
     def params(self) -> dict:
         """Human-readable parameters (units in the key names)."""
         return {}

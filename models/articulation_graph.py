@@ -42,7 +42,7 @@ import numpy as np
 
 from .articulation import ObservationModel
 from .articulation_structure import DEFAULT_CANDIDATES, fit_pair_models, spanning_tree_edges
-from .se3 import as_pose_array
+from .se3 import MAX_COORDINATE, as_pose_array
 
 __all__ = [
     "GraphEvaluation",
@@ -649,6 +649,11 @@ def read_parts_csv(path):
             raise ValueError(f"{p}:{line}: NaN or infinite value")
         if sum(v * v for v in vals[3:]) < 1e-12:
             raise ValueError(f"{p}:{line}: zero quaternion")
+        if not sum(v * v for v in vals[3:]) < 1e300:
+            raise ValueError(f"{p}:{line}: quaternion too long to normalise")
+        if max(abs(v) for v in vals[:3]) > MAX_COORDINATE:
+            raise ValueError(f"{p}:{line}: position beyond {MAX_COORDINATE:g} m (positions "
+                             f"must be in metres)")
         part = r[1].strip()
         if not part:
             raise ValueError(f"{p}:{line}: empty part name")

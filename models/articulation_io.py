@@ -52,7 +52,8 @@ from .articulation_structure import ArticulatedObject, LinkEdge
 from .fileio import atomic_write_text
 
 __all__ = ["model_to_dict", "model_from_dict", "save_model", "load_model", "to_sdf",
-           "write_sdf", "atomic_write_text"]
+           "write_sdf", "atomic_write_text", "validate_link_dict",
+           "validate_prior_dict"]
 
 FORMAT = "mmlearn.articulation"
 VERSION = 1
@@ -71,19 +72,106 @@ def model_to_dict(model) -> dict:
     raise ValueError(f"cannot serialise {type(model).__name__}")
 
 
+def _non_finite(v, where: str):
+    """Path of the first NaN / infinite number in a nested list/dict ``v`` (None)."""
+    if isinstance(v, bool) or v is None or isinstance(v, str):
+        return None
+    if isinstance(v, (int, float, np.number)):
+        return None if np.isfinite(float(v)) else f"{where} = {float(v)}"
+    if isinstance(v, dict):
+        for k, x in v.items():
+            r = _non_finite(x, f"{where}.{k}")
+            if r:
+                return r
+    elif isinstance(v, (list, tuple, np.ndarray)):
+        for i, x in enumerate(v):
+            r = _non_finite(x, f"{where}[{i}]")
+            if r:
+                return r
+    return None
+
+
+LINK_KEYS = ("type", "obs", "obs_fit", "has_orientation", "theta", "gamma", "n_train", "q_min",
+             "q_max", "log_likelihood", "bic", "avg_pos_error_m", "avg_orient_error_rad")
+
+
+def validate_link_dict(d, where: str = "link") -> None:
+    """Raise ValueError naming the problem if ``d`` is not a usable LinkDict (schema above):
+    a missing key, a value of the wrong type, or a NaN / infinite parameter."""
+    if not isinstance(d, dict):
+        raise ValueError(f"{where}: expected a mapping, got {type(d).__name__}")
+    missing = [k for k in LINK_KEYS if k not in d]
+    if missing:
+        raise ValueError(f"{where}: missing key(s) {', '.join(missing)}")
+    for k in ("obs", "obs_fit"):
+        if not isinstance(d[k], dict):
+            raise ValueError(f"{where}.{k}: expected a mapping, got {type(d[k]).__name__}")
+    for k in ("theta", "q_min", "q_max"):
+        if not isinstance(d[k], (list, tuple)) or not all(
+                isinstance(x, (int, float)) and not isinstance(x, bool) for x in d[k]):
+            raise ValueError(f"{where}.{k}: expected a list of numbers")
+    for k in ("gamma", "log_likelihood", "bic", "avg_pos_error_m"):
+        if not isinstance(d[k], (int, float)) or isinstance(d[k], bool):
+            raise ValueError(f"{where}.{k}: expected a number, got {d[k]!r}")
+    bad = _non_finite({k: d[k] for k in ("obs", "obs_fit", "theta", "gamma", "q_min", "q_max",
+                                         "extra") if k in d}, where)
+    if bad:
+        raise ValueError(f"{where}: non-finite value {bad}")
+    if not 0.0 <= float(d["gamma"]) <= 1.0:
+        raise ValueError(f"{where}.gamma: expected an outlier ratio in [0, 1], got {d['gamma']}")
+
+
+def _link_from_dict(d, where: str):
+    validate_link_dict(d, where)
+    try:
+        return link_model_from_dict(d)
+    except (KeyError, TypeError, IndexError, AttributeError) as e:
+        raise ValueError(f"{where}: malformed link model ({type(e).__name__}: {e})") from None
+
+
 def model_from_dict(d: dict):
+    """Inverse of :func:`model_to_dict`; raises ValueError naming the problem (missing key,
+    wrong type, NaN) on a malformed document."""
     if not isinstance(d, dict) or d.get("format") != FORMAT:
         raise ValueError(f"not an {FORMAT} document (format={d.get('format') if isinstance(d, dict) else None!r})")
-    if int(d.get("version", 0)) != VERSION:
-        raise ValueError(f"unsupported {FORMAT} version {d.get('version')}")
-    if d["kind"] == "link":
-        return link_model_from_dict(d["link"])
-    if d["kind"] == "object":
-        o = d["object"]
-        edges = [LinkEdge(int(e["parent"]), int(e["child"]), link_model_from_dict(e["model"]),
-                          dict(e.get("bic", {}))) for e in o["edges"]]
+    try:
+        version = int(d.get("version", 0))
+    except (TypeError, ValueError):
+        version = None
+    if version != VERSION:
+        raise ValueError(f"unsupported {FORMAT} version {d.get('version')!r}")
+    kind = d.get("kind")
+    if kind == "link":
+        return _link_from_dict(d.get("link"), "link")
+    if kind == "object":
+        o = d.get("object")
+        if not isinstance(o, dict):
+            raise ValueError("object: missing or not a mapping")
+        for k in ("parts", "root", "edges"):
+            if k not in o:
+                raise ValueError(f"object: missing key {k!r}")
+        if not isinstance(o["parts"], list) or not isinstance(o["edges"], list):
+            raise ValueError("object.parts and object.edges must be lists")
+        n = len(o["parts"])
+        edges = []
+        for i, e in enumerate(o["edges"]):
+            w = f"object.edges[{i}]"
+            if not isinstance(e, dict) or not {"parent", "child", "model"} <= set(e):
+                raise ValueError(f"{w}: expected a mapping with parent, child and model")
+            for k in ("parent", "child"):
+                if not isinstance(e[k], int) or isinstance(e[k], bool) or not 0 <= e[k] < n:
+                    raise ValueError(f"{w}.{k}: expected a part index 0..{n - 1}, "
+                                     f"got {e[k]!r}")
+            bic = e.get("bic", {})
+            if not isinstance(bic, dict):
+                raise ValueError(f"{w}.bic: expected a mapping")
+            edges.append(LinkEdge(e["parent"], e["child"], _link_from_dict(e["model"],
+                                                                           f"{w}.model"),
+                                  dict(bic)))
+        if not isinstance(o["root"], int) or not 0 <= o["root"] < max(n, 1):
+            raise ValueError(f"object.root: expected a part index, got {o['root']!r}")
         return ArticulatedObject(o["parts"], int(o["root"]), edges)
-    raise ValueError(f"unknown kind {d['kind']!r}")
+    raise ValueError(f"unknown kind {kind!r} (expected 'link' or 'object')")
 
 
 def _is_yaml(path) -> bool:
@@ -108,18 +196,79 @@ def save_model(model, path) -> None:
 
 
 def load_model(path):
-    """Load what :func:`save_model` wrote."""
+    """Load what :func:`save_model` wrote. Raises ValueError naming the file and the
+    problem (missing file, unparsable YAML/JSON, missing key, wrong type, NaN)."""
     p = Path(path)
     if not p.exists():
         raise ValueError(f"{p}: file not found")
-    text = p.read_text()
-    if _is_yaml(p):
+    if not p.is_file():
+        raise ValueError(f"{p}: not a file")
+    yaml_ = _is_yaml(p)
+    try:
+        text = p.read_text()
+    except (OSError, UnicodeDecodeError) as e:
+        raise ValueError(f"{p}: cannot read ({e})") from None
+    if yaml_:
         import yaml
 
-        d = yaml.safe_load(text)
+        try:
+            d = yaml.safe_load(text)
+        except yaml.YAMLError as e:
+            raise ValueError(f"{p}: not valid YAML ({' '.join(str(e).split())})") from None
     else:
-        d = json.loads(text)
-    return model_from_dict(d)
+        try:
+            d = json.loads(text)
+        except json.JSONDecodeError as e:
+            raise ValueError(f"{p}: not valid JSON ({e})") from None
+    try:
+        return model_from_dict(d)
+    except ValueError as e:
+        raise ValueError(f"{p}: {e}") from None
+
+
+def validate_prior_dict(d: dict) -> None:
+    """Raise ValueError naming the problem in a prior database document: a missing or
+    mistyped key, NaN / infinite data, members and data of different lengths."""
+    for k in ("config", "clusters"):
+        if k not in d:
+            raise ValueError(f"prior database: missing key {k!r}")
+    c = d["config"]
+    if not isinstance(c, dict):
+        raise ValueError("prior database: 'config' must be a mapping")
+    missing = [k for k in ("sigma_pos", "sigma_orient", "models", "align", "max_points",
+                           "joint_models", "n_hypotheses") if k not in c]
+    if missing:
+        raise ValueError(f"prior database: config lacks {', '.join(missing)}")
+    bad = _non_finite({k: c[k] for k in ("sigma_pos", "sigma_orient", "gamma_weight")
+                       if k in c}, "config")
+    if bad:
+        raise ValueError(f"prior database: non-finite value {bad}")
+    if not isinstance(d["clusters"], list):
+        raise ValueError("prior database: 'clusters' must be a list")
+    for i, cl in enumerate(d["clusters"]):
+        w = f"clusters[{i}]"
+        if not isinstance(cl, dict) or not {"members", "data", "model"} <= set(cl):
+            raise ValueError(f"prior database: {w} must have members, data and model")
+        if not isinstance(cl["members"], list) or not isinstance(cl["data"], list):
+            raise ValueError(f"prior database: {w}.members and .data must be lists")
+        if len(cl["data"]) != len(cl["members"]):
+            raise ValueError(f"prior database: {w}: members and data differ in length")
+        for j, x in enumerate(cl["data"]):
+            try:
+                a = np.asarray(x, float)
+            except (TypeError, ValueError):
+                raise ValueError(f"prior database: {w}.data[{j}] is not a numeric array") \
+                    from None
+            if a.ndim != 2 or a.shape[1] not in (3, 7) or a.shape[0] < 1:
+                raise ValueError(f"prior database: {w}.data[{j}] must be (n, 3) or (n, 7), "
+                                 f"got shape {a.shape}")
+        bad = _non_finite(cl["data"], f"{w}.data")
+        if bad:
+            raise ValueError(f"prior database: non-finite value {bad}")
+        try:
+            validate_link_dict(cl["model"], f"{w}.model")
+        except ValueError as e:
+            raise ValueError(f"prior database: {e}") from None
 
 
 # --------------------------------------------------------------------------- SDFormat

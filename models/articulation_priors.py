@@ -303,6 +303,9 @@ class PriorDatabase:
             raise ValueError(f"not a prior database (format must be {FORMAT!r})")
         if int(d.get("version", -1)) != VERSION:
             raise ValueError(f"unsupported prior database version {d.get('version')!r}")
+        from .articulation_io import validate_prior_dict
+
+        validate_prior_dict(d)
         c = d["config"]
         # (databases without gamma_prior / config_prior predate 2026-11: prior once per
         # track, n^-d configuration prior)
@@ -333,7 +336,10 @@ class PriorDatabase:
             d = json.loads(p.read_text())
         except json.JSONDecodeError as e:
             raise ValueError(f"{p}: not valid JSON ({e})") from None
-        return cls.from_dict(d)
+        try:
+            return cls.from_dict(d)
+        except ValueError as e:
+            raise ValueError(f"{p}: {e}") from None
 
 
 class PriorTracker:

@@ -202,6 +202,12 @@ class ArticulatedObject:
         self.edges = list(edges)
         self.pair_bic = dict(pair_bic or {})
 
+    def __repr__(self) -> str:
+        links = ", ".join(f"{self.part_names[e.parent]}-{self.part_names[e.child]}: "
+                          f"{e.model.name}" for e in self.edges)
+        return (f"ArticulatedObject(parts={self.part_names}, root={self.part_names[self.root]!r}"
+                f", dof={self.dof}, links=[{links}])")
+
     @property
     def total_bic(self) -> float:
         return float(sum(e.model.bic_ for e in self.edges))

@@ -85,10 +85,23 @@ class PoseArray:
         return PoseArray(pos, rot)
 
 
+MAX_COORDINATE = 1e6
+"""Largest accepted position coordinate, m: beyond it the squared errors of the fits
+overflow, and such a track is not in metres."""
+
+
 def _check_finite(a: np.ndarray, what: str) -> None:
     if not np.all(np.isfinite(a)):
         bad = np.argwhere(~np.isfinite(a.reshape(a.shape[0], -1)).all(axis=1)).ravel()
         raise ValueError(f"{what} contains NaN/inf values (rows {bad[:10].tolist()})")
+
+
+def _check_scale(P: np.ndarray, what: str) -> None:
+    big = np.abs(P) > MAX_COORDINATE
+    if np.any(big):
+        rows = np.flatnonzero(big.any(axis=-1))
+        raise ValueError(f"{what}: position coordinates beyond {MAX_COORDINATE:g} m (rows "
+                         f"{rows[:10].tolist()}); positions must be in metres")
 
 
 def as_pose_array(data, *, what: str = "track", allow_nan: bool = False) -> PoseArray:
@@ -106,6 +119,8 @@ def as_pose_array(data, *, what: str = "track", allow_nan: bool = False) -> Pose
             raise ValueError(f"{what}: expected (n, 4, 4) matrices, got shape {a.shape}")
         if not allow_nan:
             _check_finite(a, what)
+        with np.errstate(invalid="ignore"):
+            _check_scale(a[:, :3, 3], what)
         return PoseArray(a[:, :3, 3].copy(), Rotation.from_matrix(a[:, :3, :3]))
     if a.ndim != 2 or a.shape[1] not in (3, 7):
         raise ValueError(
@@ -114,10 +129,16 @@ def as_pose_array(data, *, what: str = "track", allow_nan: bool = False) -> Pose
         )
     if not allow_nan:
         _check_finite(a, what)
+    with np.errstate(invalid="ignore"):
+        _check_scale(a[:, :3], what)
     if a.shape[1] == 3:
         return PoseArray(a.copy(), None)
     q = a[:, 3:]
-    norm = np.linalg.norm(q, axis=1)
+    with np.errstate(over="ignore"):
+        norm = np.linalg.norm(q, axis=1)
+    if not allow_nan and not np.all(np.isfinite(norm)):
+        raise ValueError(f"{what}: quaternion too large to normalise in rows "
+                         f"{np.flatnonzero(~np.isfinite(norm))[:10].tolist()}")
     if np.any(norm < 1e-9):
         raise ValueError(f"{what}: zero quaternion in rows {np.flatnonzero(norm < 1e-9)[:10].tolist()}")
     return PoseArray(a[:, :3].copy(), Rotation.from_quat(q / norm[:, None]))

@@ -9,7 +9,7 @@ line or trailing). Every data line has the same number of columns:
   (metres); the size is kept in :attr:`Track.extra`.
 
 Errors (missing file, wrong column count, non-numeric or NaN values, fewer than
-``min_observations`` observations, zero quaternion) raise :class:`TrackFileError` (a
+``min_observations`` observations, zero quaternion, positions beyond 1e6 m) raise :class:`TrackFileError` (a
 ValueError) whose message names the file and, where applicable, the line number.
 """
 
@@ -20,6 +20,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+
+from .se3 import MAX_COORDINATE
 
 __all__ = ["Track", "TrackFileError", "read_track", "find_track_files"]
 
@@ -91,8 +93,13 @@ def read_track(path, *, min_observations: int = 3) -> Track:
             raise TrackFileError(f"{p}:{lineno}: non-numeric value in {line!r}") from None
         if not all(np.isfinite(vals)):
             raise TrackFileError(f"{p}:{lineno}: NaN or infinite value in {line!r}")
+        if max(abs(v) for v in vals[:3]) > MAX_COORDINATE:
+            raise TrackFileError(f"{p}:{lineno}: position beyond {MAX_COORDINATE:g} m "
+                                 f"(positions must be in metres)")
         if ncol >= 7 and sum(v * v for v in vals[3:7]) < 1e-12:
             raise TrackFileError(f"{p}:{lineno}: zero quaternion")
+        if ncol >= 7 and not sum(v * v for v in vals[3:7]) < 1e300:
+            raise TrackFileError(f"{p}:{lineno}: quaternion too long to normalise")
         rows.append(vals)
         lines.append(lineno)
     if len(rows) < min_observations:

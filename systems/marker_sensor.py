@@ -124,6 +124,9 @@ class MarkerSensorConfig:
         for ok, msg in checks:
             if not ok:
                 raise ValueError(f"MarkerSensorConfig: {msg}")
+        if not (isinstance(self.seed, (int, np.integer)) and self.seed >= 0):
+            raise ValueError(f"MarkerSensorConfig: seed must be an integer >= 0, got "
+                             f"{self.seed!r}")
         if np.any(np.asarray(self.workspace_max) < np.asarray(self.workspace_min)):
             raise ValueError("MarkerSensorConfig: workspace_max must be >= workspace_min")
         for i, cam in enumerate(self.cameras):
@@ -283,6 +286,8 @@ class MarkerSensor(LeafSystem):
         cfg = self._cfg
         t = context.get_time()
         k = int(round(t * cfg.rate_hz)) if frame is None else int(frame)
+        if k < 0:
+            raise ValueError(f"MarkerSensor.observe: frame must be >= 0, got {k}")
         rng = np.random.default_rng([cfg.seed, k])
         m = len(self._names)
         try:
@@ -305,6 +310,9 @@ class MarkerSensor(LeafSystem):
                 poses.append(RigidTransform(RotationMatrix(out_R[i]), out_p[i]))
             else:
                 R = X.rotation().matrix() @ dR[i]
+                if not np.all(np.isfinite(R)):  # a pose that cannot be computed: not seen
+                    visible[i] = False
+                    R = np.eye(3)
                 poses.append(RigidTransform(RotationMatrix(_orthonormal(R)),
                                             X.translation() + noise_p[i]))
         visible = visible & ~dropped

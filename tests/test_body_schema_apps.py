@@ -18,7 +18,7 @@ def test_learn_body_schema_help(tmp_path):
 
 def test_learn_body_schema_short_run_json(tmp_path):
     r = _run(["mmlearn.apps.learn_body_schema", "--arm", "2dof", "--samples", "24",
-              "--noise", "0.01", "--n_test", "30", "--n_control", "1", "--seed", "1",
+              "--noise", "0.01", "--n-test", "30", "--n-control", "1", "--seed", "1",
               "--json"], tmp_path)
     assert r.returncode == 0, r.stderr
     d = json.loads(r.stdout)
@@ -46,7 +46,7 @@ def test_body_schema_experiments_help(tmp_path):
 
 
 def test_body_schema_experiments_quick(tmp_path):
-    r = _run(["mmlearn.apps.body_schema_experiments", "--quick", "--json", "--out_dir",
+    r = _run(["mmlearn.apps.body_schema_experiments", "--quick", "--json", "--out-dir",
               str(tmp_path / "out")], tmp_path, timeout=600)
     assert r.returncode == 0, r.stderr
     d = json.loads(r.stdout)

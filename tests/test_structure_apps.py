@@ -103,7 +103,7 @@ def test_learn_priors_bad_input(tmp_path):
 
 def test_structure_experiments_quick(tmp_path):
     r = _run("mmlearn.apps.structure_experiments", "--quick", "--only", "fig48,fig416,garage", "--seeds", "1",
-             "--json", "--out", str(tmp_path), "--no-progress")
+             "--json", "--out-dir", str(tmp_path), "--no-progress")
     assert r.returncode == 0, r.stderr
     out = json.loads(r.stdout)
     s = out["fig416"]["summary"]

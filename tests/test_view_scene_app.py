@@ -22,13 +22,14 @@ def _run(args, cwd):
 def test_help(tmp_path):
     r = _run(["--help"], tmp_path)
     assert r.returncode == 0
-    assert "--html_out" in r.stdout and "--meshcat" in r.stdout
+    assert "--html-out" in r.stdout and "--meshcat" in r.stdout
 
 
 def test_json_run_with_html_recording(tmp_path):
     out = tmp_path / "rec" / "scene.html"
+    out.parent.mkdir()  # an output path into a missing folder is bad input (test_cli.py)
     # run from an unrelated working directory: the app finds its models by itself
-    r = _run(["--arm", "7dof", "--duration", "1", "--seed", "3", "--json", "--html_out",
+    r = _run(["--arm", "7dof", "--duration", "1", "--seed", "3", "--json", "--html-out",
               str(out)], tmp_path)
     assert r.returncode == 0, r.stderr
     res = json.loads(r.stdout)
@@ -53,7 +54,7 @@ def test_same_seed_same_counts():
 
 def test_bad_arguments_give_clear_errors(tmp_path):
     r = _run(["--duration", "-1"], tmp_path)
-    assert r.returncode == 2 and "duration must be > 0" in r.stderr
+    assert r.returncode == 2 and "--duration: expected a finite number > 0" in r.stderr
     bad = tmp_path / "bad.yaml"
     bad.write_text("arm: 2dof\ncabinett: false\n")
     r = _run(["--config", str(bad)], tmp_path)
