@@ -21,13 +21,11 @@ from scipy.spatial.transform import Rotation
 
 from mmlearn.sdf.objects import (add_object, garage_door_configuration, object_parts,
                                  yardstick_closed_configuration)
+from mmlearn.models.rng import as_generator as _gen
 
 __all__ = ["ObjectTrack", "ObjectKinematics", "cabinet_scenario", "yardstick_scenario",
            "table_scenario", "table_phases", "car_door_scenario", "garage_door_scenario", "SCENARIOS"]
 
-
-def _gen(rng):
-    return rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
 
 
 @dataclass

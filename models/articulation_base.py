@@ -13,7 +13,8 @@ import numpy as np
 from scipy.special import ndtr
 from scipy.spatial.transform import Rotation
 
-from .articulation_geom import _as_generator, _Data
+from .articulation_geom import _Data
+from .rng import as_generator as _as_generator
 from .articulation_obs import ObservationModel, _obs_from_dict, em_gamma
 from .articulation_refine import refine as _run_refinement
 from .se3 import as_pose_array

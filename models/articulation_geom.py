@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from .se3 import as_pose_array
+from .se3 import as_pose_array, project_to_so3
 
 # --------------------------------------------------------------------------- track data
 class _Data:
@@ -91,10 +91,8 @@ def _m2rv(M: np.ndarray) -> np.ndarray:
 
 
 def _chordal_mean(R: np.ndarray) -> np.ndarray:
-    """Chordal L2 mean of rotation matrices (n, 3, 3)."""
-    U, _, Vt = np.linalg.svd(R.sum(axis=0))
-    D = np.diag([1.0, 1.0, np.linalg.det(U @ Vt)])
-    return U @ D @ Vt
+    """Chordal L2 mean of rotation matrices (n, 3, 3) (scipy's Rotation.mean)."""
+    return Rotation.from_matrix(R).mean().as_matrix()
 
 
 def _weighted_rotation_mean(R: np.ndarray, w: np.ndarray) -> np.ndarray:
@@ -102,8 +100,7 @@ def _weighted_rotation_mean(R: np.ndarray, w: np.ndarray) -> np.ndarray:
     minimiser of sum_t w_t angle(R^T R_t)^2, i.e. the exact M-step of the orientation noise
     model. Start from the weighted chordal mean (closed form), then one Gauss-Newton step on
     the manifold (the two agree to second order in the spread)."""
-    U, _, Vt = np.linalg.svd(np.einsum("n,nij->ij", w, R))
-    R0 = U @ np.diag([1.0, 1.0, np.linalg.det(U @ Vt)]) @ Vt
+    R0 = project_to_so3(np.einsum("n,nij->ij", w, R))
     v = _log_rot(np.einsum("ba,nbc->nac", R0, R))
     return R0 @ _rv2m(w @ v / w.sum())
 
@@ -122,10 +119,6 @@ def _frame_with_z(axis: np.ndarray, xhint: np.ndarray) -> np.ndarray:
     return np.stack([x, y, z], axis=-1)
 
 
-def _as_generator(rng) -> np.random.Generator:
-    if isinstance(rng, np.random.Generator):
-        return rng
-    return np.random.default_rng(rng)
 
 
 

@@ -161,9 +161,6 @@ def as_part_tracks(part_tracks) -> np.ndarray:
     return out
 
 
-def _gen(rng):
-    return rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
-
 
 def pca_projection(Q: np.ndarray, dof: int):
     """Projection of configurations Q (n, D_links) onto their first ``dof`` principal

@@ -58,6 +58,7 @@ from .articulation import ObservationModel, link_model_from_dict, make_model
 from .fileio import atomic_write_text
 from .articulation_structure import DEFAULT_CANDIDATES, select_link_model
 from .se3 import as_pose_array
+from .rng import as_generator as _gen
 
 __all__ = [
     "align_trajectory",
@@ -76,9 +77,6 @@ FORMAT = "mmlearn.articulation_priors"
 VERSION = 1
 ALIGN_MODES = ("first", "none")
 
-
-def _gen(rng):
-    return rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
 
 
 def align_trajectory(Z, mode: str = "first") -> np.ndarray:

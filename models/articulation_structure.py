@@ -19,6 +19,7 @@ import numpy as np
 
 from .articulation import LinkModel, ObservationModel, make_model
 from .se3 import as_pose_array, relative_poses
+from .rng import as_generator as _gen
 
 __all__ = [
     "DEFAULT_CANDIDATES",
@@ -34,9 +35,6 @@ __all__ = [
 
 DEFAULT_CANDIDATES = ("rigid", "prismatic", "revolute", "gp")
 
-
-def _gen(rng):
-    return rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
 
 
 @dataclass

@@ -28,6 +28,8 @@ __all__ = [
     "rotation_distance",
     "matrix_to_pose7",
     "pose7_to_matrix",
+    "quat_distance",
+    "project_to_so3",
 ]
 
 
@@ -190,10 +192,7 @@ def rotation_angle(R: Rotation) -> np.ndarray:
 
 def rotation_distance(Ra: Rotation, Rb: Rotation) -> np.ndarray:
     """Geodesic angle between rotations (radians), vectorised (broadcast 1 vs n allowed)."""
-    qa = np.atleast_2d(Ra.as_quat())
-    qb = np.atleast_2d(Rb.as_quat())
-    d = np.abs(np.sum(qa * qb, axis=-1))
-    return 2.0 * np.arccos(np.clip(d, 0.0, 1.0))
+    return quat_distance(np.atleast_2d(Ra.as_quat()), np.atleast_2d(Rb.as_quat()))
 
 
 def quat_distance(qa: np.ndarray, qb: np.ndarray) -> np.ndarray:
@@ -202,8 +201,9 @@ def quat_distance(qa: np.ndarray, qb: np.ndarray) -> np.ndarray:
     return 2.0 * np.arccos(np.clip(d, 0.0, 1.0))
 
 
-def orthonormalize(M: np.ndarray) -> np.ndarray:
-    """Project (..., 3, 3) matrices onto SO(3) with an SVD (determinant +1)."""
+def project_to_so3(M: np.ndarray) -> np.ndarray:
+    """The nearest rotation matrices (Frobenius norm) to (..., 3, 3) matrices M: SVD with the
+    determinant fixed to +1. The one SO(3) projection of the project."""
     U, _, Vt = np.linalg.svd(M)
     det = np.linalg.det(U @ Vt)
     D = np.ones(M.shape[:-1])

@@ -28,6 +28,8 @@ from pydrake.common.value import AbstractValue
 from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.systems.framework import EventStatus, LeafSystem
 
+from mmlearn.models.se3 import project_to_so3
+
 from .observations import MarkerObservations
 
 
@@ -313,7 +315,7 @@ class MarkerSensor(LeafSystem):
                 if not np.all(np.isfinite(R)):  # a pose that cannot be computed: not seen
                     visible[i] = False
                     R = np.eye(3)
-                poses.append(RigidTransform(RotationMatrix(_orthonormal(R)),
+                poses.append(RigidTransform(RotationMatrix(project_to_so3(R)),
                                             X.translation() + noise_p[i]))
         visible = visible & ~dropped
         return MarkerObservations(time=t, marker_ids=list(self._names), poses=poses,
@@ -328,15 +330,6 @@ class MarkerSensor(LeafSystem):
 
     def _calc_observations(self, context, output):
         output.set_value(context.get_abstract_state(self._obs_index).get_value())
-
-
-def _orthonormal(R: np.ndarray) -> np.ndarray:
-    u, _, vt = np.linalg.svd(R)
-    Rn = u @ vt
-    if np.linalg.det(Rn) < 0:
-        u[:, -1] *= -1
-        Rn = u @ vt
-    return Rn
 
 
 def _query_value():
