@@ -89,6 +89,7 @@ class SearchConfig:
     screen_factor: float = 1.5
     screen_reg: float = 1e-2
     screen_top_factor: float = 3.0
+    screen_ell: float = 1.5
     min_observations: int = 3
     noise_min: float = 1e-8
     noise_min_pos: float = 0.0
@@ -340,7 +341,7 @@ def _learn_structure(actions, poses, *, config: SearchConfig | None = None,
                          f"times), got {len(nodes)} from {t} samples")
     max_k = m if config.max_k is None else min(config.max_k, m)
     ell = actions.std(axis=0)
-    ell = np.where(ell > 1e-9, ell, 1.0)
+    ell = config.screen_ell * np.where(ell > 1e-9, ell, 1.0)
 
     # per-pair data
     pair = {}

@@ -86,7 +86,9 @@ class SchemaLearnerState:
         n_root: observations averaged into X_WR.
         history: per sample (n, valid, tree keys ((a, b, actions), ...)).
         update_seconds: wall time of the schema updates, per sample.
-        clean_since: sample count at which the tree was last invalid.
+        clean_since: sample count from which on the current tree is consistent with the
+            data: the last invalid sample, or the start of the samples the tree was
+            learned from by a structure search.
         refit_seconds: wall time of each structure re-search.
         last_event: last adaptation event text.
     """
@@ -308,12 +310,17 @@ class SchemaLearner(LeafSystem):
         s.sampled_since = since
         if not s.schema.valid:
             s.clean_since = s.n_samples
+        elif st.get("event") == "structure search":
+            # a first tree found by the search on the whole buffer: all buffered samples
+            # are consistent with it (refits use them all, not only those after it)
+            s.clean_since = s.n_samples - len(s.schema.buffer()[0])
         n_clean = s.n_samples - s.clean_since
         # refine a valid tree on the samples since it became valid; re-search a tree that
         # stays invalid on the samples since it became invalid (all after any change)
         n_relearn = n_clean if s.schema.valid else s.schema.steps_invalid
         if s.schema.nodes and n_relearn in cfg.refit_at and \
                 n_relearn <= s.schema.adapt.buffer:
+            was_valid = s.schema.valid
             t1 = time.perf_counter()
             try:
                 res = s.schema.relearn(last=n_relearn)
@@ -323,6 +330,8 @@ class SchemaLearner(LeafSystem):
             s.refit_seconds.append(time.perf_counter() - t1)
             if not s.schema.valid:
                 s.clean_since = s.n_samples
+            elif not was_valid:
+                s.clean_since = s.n_samples - n_relearn  # the tree is learned from those
         if st.get("event"):
             s.last_event = st["event"]
         r = s.schema.root
