@@ -43,6 +43,11 @@ class SchemaLearnerConfig:
             the tree is invalid, also at these numbers of consecutive invalid samples, on
             those samples (a structure search on data after the change, alongside the
             model replacement of Sec. 3.3).
+        refit_every_until: while a valid tree is consistent with at least min(refit_at) and
+            at most this many samples, the structure search is re-run on them at *every*
+            sample (a search on 10-20
+            samples is cheap, and the structure found on the first few samples is often
+            still wrong, e.g. a joint barely moved so far).
         search: noise levels and options of the structure search (SearchConfig).
         adapt: life-long adaptation parameters (AdaptationConfig).
     """
@@ -54,6 +59,7 @@ class SchemaLearnerConfig:
     min_visible: int = 2
     refit_at: list[int] = field(default_factory=lambda: [10, 15, 20, 30, 40, 50, 70, 100,
                                                          150, 200, 300])
+    refit_every_until: int = 20
     search: SearchConfig = field(default_factory=SearchConfig)
     adapt: AdaptationConfig = field(default_factory=AdaptationConfig)
 
@@ -318,8 +324,10 @@ class SchemaLearner(LeafSystem):
         # refine a valid tree on the samples since it became valid; re-search a tree that
         # stays invalid on the samples since it became invalid (all after any change)
         n_relearn = n_clean if s.schema.valid else s.schema.steps_invalid
-        if s.schema.nodes and n_relearn in cfg.refit_at and \
-                n_relearn <= s.schema.adapt.buffer:
+        refit = n_relearn in cfg.refit_at or (
+            s.schema.valid and min(cfg.refit_at, default=0) <= n_relearn <= cfg.refit_every_until
+            and st.get("event") != "structure search")
+        if s.schema.nodes and refit and n_relearn <= s.schema.adapt.buffer:
             was_valid = s.schema.valid
             t1 = time.perf_counter()
             try:
