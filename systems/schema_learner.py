@@ -23,7 +23,7 @@ from mmlearn.models.body_schema import AdaptationConfig, BodySchema, SearchConfi
 
 from .observations import MarkerObservations
 
-__all__ = ["SchemaLearner", "SchemaLearnerConfig", "SchemaLearnerState"]
+__all__ = ["SchemaLearner", "SchemaLearnerConfig", "SchemaLearnerState", "learn_sample"]
 
 
 @dataclass
@@ -43,9 +43,9 @@ class SchemaLearnerConfig:
             the tree is invalid, also at these numbers of consecutive invalid samples, on
             those samples (a structure search on data after the change, alongside the
             model replacement of Sec. 3.3).
-        refit_every_until: while a valid tree is consistent with at least min(refit_at) and
-            at most this many samples, the structure search is re-run on them at *every*
-            sample (a search on 10-20
+        refit_every_until: while a valid tree is consistent with at most this many samples
+            (and at least min(refit_at), or it was found by a structure search on them), the
+            structure search is re-run on them at *every* sample (a search on 10-20
             samples is cheap, and the structure found on the first few samples is often
             still wrong, e.g. a joint barely moved so far).
         search: noise levels and options of the structure search (SearchConfig).
@@ -95,6 +95,8 @@ class SchemaLearnerState:
         clean_since: sample count from which on the current tree is consistent with the
             data: the last invalid sample, or the start of the samples the tree was
             learned from by a structure search.
+        clean_searched: the samples since ``clean_since`` are those a structure search
+            learned the current tree from.
         refit_seconds: wall time of each structure re-search.
         last_event: last adaptation event text.
     """
@@ -107,6 +109,7 @@ class SchemaLearnerState:
     sampled_since: float | None = None
     last_frame_time: float | None = None
     clean_since: int = 0
+    clean_searched: bool = False
     refit_seconds: list = field(default_factory=list)
     command_log: list = field(default_factory=list)
     X_WR: np.ndarray | None = None
@@ -114,6 +117,60 @@ class SchemaLearnerState:
     history: list = field(default_factory=list)
     update_seconds: list = field(default_factory=list)
     last_event: str | None = None
+
+
+def learn_sample(cfg: SchemaLearnerConfig, s: SchemaLearnerState, u, Y) -> bool:
+    """Feed one sample (commanded actions ``u`` (m,), part poses ``Y`` (p, 4, 4), NaN =
+    unseen) to the learner state ``s`` (modified in place): :meth:`BodySchema.update`, the
+    re-searches of ``cfg.refit_at`` / ``cfg.refit_every_until``, the root-pose estimate and
+    the history. What the system does per sample once it has decided to take one; usable
+    without a Drake context (e.g. to replay recorded data). False when the schema rejected
+    the sample (counted as dropped)."""
+    t0 = time.perf_counter()
+    try:
+        st = s.schema.update(u, Y)
+    except (ValueError, np.linalg.LinAlgError, FloatingPointError) as e:
+        s.n_dropped += 1
+        s.last_event = f"dropped sample: {e}"
+        return False
+    s.update_seconds.append(time.perf_counter() - t0)
+    s.n_samples += 1
+    searched = st.get("event") == "structure search"
+    if not s.schema.valid:
+        s.clean_since, s.clean_searched = s.n_samples, False
+    elif searched:
+        # a first tree found by the search on the whole buffer: all buffered samples
+        # are consistent with it (refits use them all, not only those after it)
+        s.clean_since, s.clean_searched = s.n_samples - len(s.schema.buffer()[0]), True
+    n_clean = s.n_samples - s.clean_since
+    # refine a valid tree on the samples since it became valid; re-search a tree that
+    # stays invalid on the samples since it became invalid (all after any change)
+    n_relearn = n_clean if s.schema.valid else s.schema.steps_invalid
+    refit = n_relearn in cfg.refit_at or (
+        s.schema.valid and not searched and n_relearn <= cfg.refit_every_until
+        and (s.clean_searched or n_relearn >= min(cfg.refit_at, default=0)))
+    if s.schema.nodes and refit and n_relearn <= s.schema.adapt.buffer:
+        was_valid = s.schema.valid
+        t1 = time.perf_counter()
+        try:
+            res = s.schema.relearn(last=n_relearn)
+            s.last_event = f"relearned on {n_relearn} samples (complete={res.complete})"
+        except (ValueError, np.linalg.LinAlgError) as e:
+            s.last_event = f"relearn failed: {e}"
+        s.refit_seconds.append(time.perf_counter() - t1)
+        if not s.schema.valid:
+            s.clean_since, s.clean_searched = s.n_samples, False
+        elif not was_valid:  # the tree is learned from those samples
+            s.clean_since, s.clean_searched = s.n_samples - n_relearn, True
+    if st.get("event"):
+        s.last_event = st["event"]
+    r = s.schema.root
+    if np.all(np.isfinite(Y[r])):
+        s.X_WR = _mean_pose(s.X_WR, s.n_root, Y[r])
+        s.n_root += 1
+    keys = tuple(sorted((m.i, m.j, tuple(m.Q)) for m in s.schema.tree))
+    s.history.append((s.n_samples, bool(s.schema.valid), keys))
+    return True
 
 
 def _mean_pose(X_old: np.ndarray | None, n: int, X_new: np.ndarray) -> np.ndarray:
@@ -304,50 +361,8 @@ class SchemaLearner(LeafSystem):
         if Y is None:
             s.n_dropped += 1
             return EventStatus.Succeeded()
-        t0 = time.perf_counter()
-        try:
-            st = s.schema.update(u, Y)
-        except (ValueError, np.linalg.LinAlgError, FloatingPointError) as e:
-            s.n_dropped += 1
-            s.last_event = f"dropped sample: {e}"
-            return EventStatus.Succeeded()
-        s.update_seconds.append(time.perf_counter() - t0)
-        s.n_samples += 1
-        s.sampled_since = since
-        if not s.schema.valid:
-            s.clean_since = s.n_samples
-        elif st.get("event") == "structure search":
-            # a first tree found by the search on the whole buffer: all buffered samples
-            # are consistent with it (refits use them all, not only those after it)
-            s.clean_since = s.n_samples - len(s.schema.buffer()[0])
-        n_clean = s.n_samples - s.clean_since
-        # refine a valid tree on the samples since it became valid; re-search a tree that
-        # stays invalid on the samples since it became invalid (all after any change)
-        n_relearn = n_clean if s.schema.valid else s.schema.steps_invalid
-        refit = n_relearn in cfg.refit_at or (
-            s.schema.valid and min(cfg.refit_at, default=0) <= n_relearn <= cfg.refit_every_until
-            and st.get("event") != "structure search")
-        if s.schema.nodes and refit and n_relearn <= s.schema.adapt.buffer:
-            was_valid = s.schema.valid
-            t1 = time.perf_counter()
-            try:
-                res = s.schema.relearn(last=n_relearn)
-                s.last_event = f"relearned on {n_relearn} samples (complete={res.complete})"
-            except (ValueError, np.linalg.LinAlgError) as e:
-                s.last_event = f"relearn failed: {e}"
-            s.refit_seconds.append(time.perf_counter() - t1)
-            if not s.schema.valid:
-                s.clean_since = s.n_samples
-            elif not was_valid:
-                s.clean_since = s.n_samples - n_relearn  # the tree is learned from those
-        if st.get("event"):
-            s.last_event = st["event"]
-        r = s.schema.root
-        if np.all(np.isfinite(Y[r])):
-            s.X_WR = _mean_pose(s.X_WR, s.n_root, Y[r])
-            s.n_root += 1
-        keys = tuple(sorted((m.i, m.j, tuple(m.Q)) for m in s.schema.tree))
-        s.history.append((s.n_samples, bool(s.schema.valid), keys))
+        if learn_sample(cfg, s, u, Y):
+            s.sampled_since = since
         state.get_mutable_abstract_state(self._s).set_value(s)
         return EventStatus.Succeeded()
 
