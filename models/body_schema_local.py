@@ -216,13 +216,12 @@ class LocalModel(_ModelBase):
 
     def fit(self, actions, Z, *, optimize: bool = True, max_opt: int = 40,
             hyperparameters: dict | None = None, noise_min: float = 1e-8,
-            n_restarts: int = 1, ftol: float = 1e-5, noise_max=None) -> "LocalModel":
+            n_restarts: int = 1, ftol: float = 1e-5) -> "LocalModel":
         """Train on commanded actions (n, m) and relative poses Z (n, 4, 4).
 
         With ``optimize``, hyper-parameters are fitted by marginal likelihood on at most
         ``max_opt`` evenly spaced samples (``n_restarts`` extra low-noise starts, best kept per
-        output), then the GP conditions on all n samples. ``noise_min`` / ``noise_max``
-        bound the noise variance of the 12 outputs (a number or (12,)).
+        output), then the GP conditions on all n samples.
         """
         actions = _check_actions(actions, self.n_actions)
         Z = np.asarray(Z, float)
@@ -240,14 +239,12 @@ class LocalModel(_ModelBase):
             sub = np.unique(np.linspace(0, n - 1, max_opt).round().astype(int))
             g = GaussianProcess(ard=True).fit(X[sub], Y[sub], optimize=True,
                                               noise_min=noise_min, n_restarts=n_restarts,
-                                              hyperparameters=hyperparameters, ftol=ftol,
-                                              noise_max=noise_max)
+                                              hyperparameters=hyperparameters, ftol=ftol)
             hyperparameters = g.hyperparameters()
             optimize = False
         self.gp = GaussianProcess(ard=True).fit(X, Y, optimize=optimize, noise_min=noise_min,
                                                 hyperparameters=hyperparameters,
-                                                n_restarts=n_restarts, ftol=ftol,
-                                                noise_max=noise_max)
+                                                n_restarts=n_restarts, ftol=ftol)
         return self
 
     def refit(self, actions, Z) -> "LocalModel":

@@ -63,6 +63,11 @@ class SearchConfig:
         screen_reg: noise-to-signal ratio of the screening GP.
         screen_top_factor: when no candidate of a pair passes the screening, its best-ranked
             one is still trained and tested if within screen_top_factor times the thresholds.
+        screen_ell: length scales of the screening GP, in standard deviations of each action
+            signal. 1.5 rather than 1: with ~10 samples the k = 2 model bridging an occluded
+            part (7-DOF arm, x3-x5 on q2, q3) screened at 2-3.3 times the thresholds with
+            length scale 1 std (so it was never trained, though its optimised model is
+            valid), and at most 1.5 times with 1.5 std (Drake 7-DOF, 10 seeds).
         min_observations: a part seen fewer times than this is not a node (occluded).
         noise_min: lower bound on the GP noise variance (all 12 outputs).
         noise_min_pos, noise_min_rot: further lower bounds for the translation outputs (m^2)

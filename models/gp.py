@@ -204,8 +204,7 @@ class GaussianProcess:
     # ------------------------------------------------------------------ public API
     def fit(self, X, Y, *, optimize: bool = True, noise_min: float = 1e-6,
             hyperparameters: dict | None = None, maxiter: int = 200,
-            n_restarts: int = 0, ftol: float = 1e-9,
-            noise_max=None) -> "GaussianProcess":
+            n_restarts: int = 0, ftol: float = 1e-9) -> "GaussianProcess":
         """Fit to training inputs ``X`` (n, d) and targets ``Y`` (n, m).
 
         Args:
@@ -216,10 +215,6 @@ class GaussianProcess:
                 initialisation) are used as they are.
             noise_min: lower bound on the noise *variance* sn2 (units of Y squared): one
                 number, or one per output column (m,).
-            noise_max: optional upper bound on the noise variance (one number or (m,);
-                inf = none). With a known observation noise it keeps the optimiser from
-                explaining a weak dependence on an input as noise (a long length scale on
-                that input) when data are few.
             hyperparameters: optional initial values ``{"log_ell": (m, d) or (m, 1),
                 "log_sf2": (m,), "log_sn2": (m,)}`` (broadcast over outputs).
             maxiter: iteration cap for L-BFGS-B.
@@ -244,11 +239,6 @@ class GaussianProcess:
                              f"{nm.shape}")
         if not np.all(nm > 0):
             raise ValueError(f"noise_min must be positive, got {noise_min}")
-        nx = np.asarray(np.inf if noise_max is None else noise_max, float)
-        if nx.ndim > 1 or (nx.ndim == 1 and nx.shape != (m,)) or np.any(np.isnan(nx)):
-            raise ValueError(f"noise_max must be a number or one per output ({m},), got "
-                             f"{noise_max!r}")
-        noise_max = np.maximum(np.broadcast_to(nx, (m,)), nm)
         self.X, self.Y = X.copy(), Y.copy()
         self.noise_min = float(nm) if nm.ndim == 0 else nm.copy()
         noise_min = np.broadcast_to(nm, (m,))
@@ -266,22 +256,20 @@ class GaussianProcess:
         sf2_default = np.log(np.maximum(yvar, 1e-10))
         if hyperparameters is None:
             log_ell0, log_sf20 = ell_default, sf2_default
-            log_sn20 = np.log(np.clip(0.01 * yvar, noise_min, noise_max))
+            log_sn20 = np.log(np.maximum(0.01 * yvar, noise_min))
         else:
             log_ell0 = np.broadcast_to(np.asarray(hyperparameters["log_ell"], float).reshape(
                 -1, d_ell) if d_ell else np.zeros((m, 0)), (m, d_ell))
             log_sf20 = np.broadcast_to(np.asarray(hyperparameters["log_sf2"], float), (m,))
-            log_sn20 = np.clip(np.broadcast_to(
-                np.asarray(hyperparameters["log_sn2"], float), (m,)), np.log(noise_min),
-                np.log(noise_max))
+            log_sn20 = np.maximum(np.broadcast_to(
+                np.asarray(hyperparameters["log_sn2"], float), (m,)), np.log(noise_min))
         theta0 = np.concatenate(
             [np.asarray(log_ell0, float), np.asarray(log_sf20, float)[:, None],
              np.asarray(log_sn20, float)[:, None]], axis=1)
 
         with blas_single_thread() if n <= 400 else contextlib.nullcontext():
             theta = self._optimise(X, Y, Yc, theta0, optimize, noise_min, n_restarts, ftol,
-                                   maxiter, xs, yvar, yscale, ell_default, sf2_default, d_ell,
-                                   noise_max)
+                                   maxiter, xs, yvar, yscale, ell_default, sf2_default, d_ell)
         self.log_ell, self.log_sf2, self.log_sn2 = (
             np.array(a) for a in self._unpack(np.asarray(theta, float), m, d_ell))
         with blas_single_thread() if n <= 400 else contextlib.nullcontext():
@@ -289,7 +277,7 @@ class GaussianProcess:
         return self
 
     def _optimise(self, X, Y, Yc, theta0, optimize, noise_min, n_restarts, ftol, maxiter, xs,
-                  yvar, yscale, ell_default, sf2_default, d_ell, noise_max):
+                  yvar, yscale, ell_default, sf2_default, d_ell):
         n, d = X.shape
         m = Y.shape[1]
         if optimize and n > 1:
@@ -303,8 +291,7 @@ class GaussianProcess:
                 bounds += list(zip(lo_ell[:d_ell], hi_ell[:d_ell]))
                 bounds.append((np.log(1e-12), np.log(1e4 * yscale[c] + 1e-8)))
                 bounds.append((np.log(noise_min[c]),
-                               np.log(min(max(1e4 * yscale[c], 10 * noise_min[c]),
-                                          noise_max[c]))))
+                               np.log(max(1e4 * yscale[c], 10 * noise_min[c]))))
             bounds = np.array(bounds)
             theta0 = np.clip(theta0.ravel(), bounds[:, 0], bounds[:, 1])
             D2 = self._sqdist(X, X)
