@@ -27,10 +27,10 @@ occluded, 10 babbling seeds, 50 samples each):
 
 Measured (``python -m mmlearn.apps.learn_body_schema --arm 7dof --occlude x4``, seeds
 1-10; before -> after): structure right within 12 samples in 6/10 -> 9/10 runs at
-sigma 0.01 m and 6/10 -> 9/10 at sigma 0.044 m; mean prediction error at 50 samples
+sigma 0.01 m and 4/10 -> 9/10 at sigma 0.044 m; mean prediction error at 50 samples
 0.024 -> 0.013 m at sigma 0.01 (observation noise 0.009 m: *not* below it -- the GP of the
 k = 2 model x3-x5 on (q2, q3) that bridges the occluded part predicts with ~0.013 m error
-from ~40 noisy samples and every part beyond it inherits that) and 0.061 -> 0.036 m at
+from ~40 noisy samples and every part beyond it inherits that) and 0.070 -> 0.036 m at
 sigma 0.044 (noise 0.041 m).
 """
 
