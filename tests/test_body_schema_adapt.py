@@ -166,3 +166,24 @@ def test_online_learner_finds_7dof_structure_within_12_samples():
         assert s.n_samples == 12 and len(s.history) == 12
         correct.append(s.schema.valid and structure_correct(arm, s.schema.tree, s.schema.nodes))
     assert sum(correct) >= 4, correct
+
+
+def test_refinement_replaces_the_tree_models_an_invalid_tree_keeps_them():
+    arm = make_arm_2dof()
+    rng = np.random.default_rng(2)
+    A = arm.sample_actions(30, rng)
+    Y, _ = arm.observe(A, rng, sigma_pos=0.01, sigma_orient=np.deg2rad(2))
+    s = BodySchema(arm.n_parts, arm.n_actions, search=CFG)
+    s.fit(A[:15], Y[:15])
+    for t in range(15, 30):
+        s.update(A[t], Y[t])
+    assert s.valid
+    old = {id(m) for m in s.tree}
+    assert s.relearn().complete
+    tracked = {id(t.model) for t in s.tracks}
+    assert not old & tracked  # superseded by the search on more data, not archived
+    assert {id(m) for m in s.tree} <= tracked and s.valid
+    s.valid = False  # an invalid tree's models go to the history (Sec. 3.3)
+    old = {id(m) for m in s.tree}
+    assert s.relearn().complete
+    assert old <= {id(t.model) for t in s.tracks if t.status == "history"}
