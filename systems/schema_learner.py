@@ -33,7 +33,11 @@ k = 2 model x3-x5 on (q2, q3) that bridges the occluded part predicts with ~0.01
 from ~40 noisy samples and every part beyond it inherits that) and 0.070 -> 0.036 m at
 sigma 0.044 (noise 0.041 m). Checked afterwards on fresh seeds 101-110: 5/10 -> 8/10
 (sigma 0.01; mean prediction error 0.027 -> 0.013 m) and 7/10 -> 9/10 (sigma 0.044; 0.057 ->
-0.036 m); seed 5502 at sigma 0.01: converged at 28 -> 11 samples, 0.025 -> 0.010 m.
+0.036 m); seed 5502 at sigma 0.01: converged at 28 -> 11 samples, 0.025 -> 0.010 m. The
+misses: a gripper finger whose q7 has barely moved yet is judged rigid (with the app's
+noise-free marker orientations the rotation threshold is 3 x the 3 deg floor of
+``BodySchemaDiagramConfig.search_min_orient``; a lower floor would reject the bridge
+model on 10-12 samples instead), and a bridge model still invalid on 12 samples.
 """
 
 from __future__ import annotations
