@@ -115,15 +115,18 @@ class BodySchemaDiagramConfig:
             raise ValueError("BodySchemaDiagramConfig.draw_offset must be [x, y, z]")
 
     def search_config(self) -> SearchConfig:
-        """The learner's SearchConfig: validity noise max(noise, floor); the local GPs' noise
-        variance is bounded below by a quarter of the known noise of a relative pose z_ij
-        (two markers, each with the sensor's per-axis variance noise**2 / 3): translation
+        """The learner's SearchConfig: validity noise max(sqrt(2) noise, floor), the noise
+        of a *relative* pose z_ij = y_i^-1 y_j (two markers, each with RMS error noise; the
+        SearchConfig's sigmas are those of z_ij); the local GPs' noise variance is bounded
+        below by a quarter of the known noise of z_ij (per axis 2 noise**2 / 3): translation
         outputs from noise_pos (m^2), rotation-matrix entries from noise_orient (rad^2). With
         10-20 samples a GP left free tends to explain the noise as signal."""
         s = self.learner.search
+        r2 = math.sqrt(2.0)
         return SearchConfig(**{**s.__dict__,
-                               "sigma_pos": max(self.noise_pos, self.search_min_pos),
-                               "sigma_orient": max(self.noise_orient, self.search_min_orient),
+                               "sigma_pos": max(r2 * self.noise_pos, self.search_min_pos),
+                               "sigma_orient": max(r2 * self.noise_orient,
+                                                   self.search_min_orient),
                                "noise_min_pos": max(s.noise_min_pos,
                                                     0.25 * 2.0 * self.noise_pos ** 2 / 3.0),
                                "noise_min_rot": max(s.noise_min_rot,

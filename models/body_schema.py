@@ -75,7 +75,8 @@ class AdaptationConfig:
         max_training: most models trained at the same time.
         buffer: recent observations kept.
         relearn_every: before a first complete tree exists, run the structure search on the
-            buffer every this many steps.
+            buffer every this many steps (from 6 samples on; 1: at every step, so that a
+            structure found by e.g. 7 samples is used at once).
     """
 
     window: int = 10
@@ -87,7 +88,7 @@ class AdaptationConfig:
     max_history: int = 50
     max_training: int = 1
     buffer: int = 300
-    relearn_every: int = 5
+    relearn_every: int = 1
 
     def __post_init__(self):
         if self.min_window < 1 or self.window < self.min_window:
@@ -206,8 +207,13 @@ class BodySchema:
     def relearn(self, last: int | None = None) -> StructureResult:
         """Re-run the structure search (Algorithm 1) on the buffered observations (the
         ``last`` ones, default all) and, when it finds a complete tree, make it the current
-        tree (previous models stay in the history). Used to refine a schema as data
-        accumulates; the buffer is not changed."""
+        tree. Used to refine a schema as data accumulates; the buffer is not changed.
+
+        When the current tree is valid (a refinement on data it is consistent with), the
+        search on more data supersedes its models: they are dropped, not kept in the
+        history (a model the larger search no longer finds valid, e.g. a rigid link judged
+        on a few samples, would otherwise be recalled from the history whenever its sliding
+        window happens to pass). Models of an invalid tree go to the history (Sec. 3.3)."""
         A = np.array(self._buf_actions)
         P = np.array(self._buf_poses)
         if last is not None:
@@ -216,9 +222,13 @@ class BodySchema:
             res = learn_structure(A, P, config=self.search)
         if res.complete:
             self.last_search = res
-            for t in self.tracks:
+            refine = self.valid
+            for t in list(self.tracks):
                 if t.status == "active":
-                    t.status = "history"
+                    if refine:
+                        self.tracks.remove(t)
+                    else:
+                        t.status = "history"
             self._set_tree_from_search(res)
             self.steps_invalid = 0
         return res

@@ -137,3 +137,54 @@ def test_bent_link_control_static_vs_adaptive_small():
     assert r["bent_static"][0] > 0.08, r
     assert r["bent_adaptive"][0] < 0.03, r
     assert r["valid"]
+
+
+def test_online_learner_finds_7dof_structure_within_12_samples():
+    # the SchemaLearner's per-sample step (search at every sample before a first tree,
+    # re-search at every sample while the tree rests on few samples) on the numpy 7-DOF
+    # arm with x4 occluded, marker noise 0.01 m, 10% drop-outs: seeds 0-4, not chosen
+    from mmlearn.systems.schema_learner import (
+        SchemaLearnerConfig,
+        SchemaLearnerState,
+        learn_sample,
+    )
+
+    arm = make_arm_7dof()
+    noise = 0.01
+    cfg = SchemaLearnerConfig(search=SearchConfig(
+        sigma_pos=np.sqrt(2) * noise, sigma_orient=np.deg2rad(3.0),
+        noise_min_pos=0.25 * 2 * noise**2 / 3))
+    correct = []
+    for seed in range(5):
+        rng = np.random.default_rng(seed)
+        A = arm.sample_actions(12, rng)
+        Y, _ = arm.observe(A, rng, sigma_pos=noise, visibility=0.9, occluded=[3])
+        s = SchemaLearnerState(schema=BodySchema(arm.n_parts, arm.n_actions,
+                                                 search=cfg.search, adapt=cfg.adapt))
+        for a, y in zip(A, Y):
+            s, accepted = learn_sample(cfg, s, a, y)
+            assert accepted
+        assert s.n_samples == 12 and len(s.history) == 12
+        correct.append(s.schema.valid and structure_correct(arm, s.schema.tree, s.schema.nodes))
+    assert sum(correct) >= 4, correct
+
+
+def test_refinement_replaces_the_tree_models_an_invalid_tree_keeps_them():
+    arm = make_arm_2dof()
+    rng = np.random.default_rng(2)
+    A = arm.sample_actions(30, rng)
+    Y, _ = arm.observe(A, rng, sigma_pos=0.01, sigma_orient=np.deg2rad(2))
+    s = BodySchema(arm.n_parts, arm.n_actions, search=CFG)
+    s.fit(A[:15], Y[:15])
+    for t in range(15, 30):
+        s.update(A[t], Y[t])
+    assert s.valid
+    old = {id(m) for m in s.tree}
+    assert s.relearn().complete
+    tracked = {id(t.model) for t in s.tracks}
+    assert not old & tracked  # superseded by the search on more data, not archived
+    assert {id(m) for m in s.tree} <= tracked and s.valid
+    s.valid = False  # an invalid tree's models go to the history (Sec. 3.3)
+    old = {id(m) for m in s.tree}
+    assert s.relearn().complete
+    assert old <= {id(t.model) for t in s.tracks if t.status == "history"}

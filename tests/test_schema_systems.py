@@ -118,6 +118,18 @@ def test_diagram_rejects_babbling_too_fast_for_settling():
         MakeBodySchemaDiagram(BodySchemaDiagramConfig(arm="2dof", babble_period=0.5))
 
 
+def test_validity_noise_is_that_of_a_relative_pose():
+    # z_ij = y_i^-1 y_j combines two markers' noise: sqrt(2) x the marker's RMS error,
+    # floored for (nearly) noise-free sensors
+    cfg = BodySchemaDiagramConfig(noise_pos=0.044, noise_orient=math.radians(3.0))
+    s = cfg.search_config()
+    assert s.sigma_pos == pytest.approx(math.sqrt(2) * 0.044)
+    assert s.sigma_orient == pytest.approx(math.sqrt(2) * math.radians(3.0))
+    s0 = BodySchemaDiagramConfig(noise_pos=0.0, noise_orient=0.0).search_config()
+    assert s0.sigma_pos == pytest.approx(0.01) and s0.sigma_orient == pytest.approx(
+        math.radians(3.0))
+
+
 def test_learner_bad_config_raises():
     with pytest.raises(ValueError):
         SchemaLearner(parts=["a"], n_actions=1)
