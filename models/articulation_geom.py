@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from .se3 import as_pose_array, project_to_so3
+from .se3 import as_pose_array, matrix_to_rotvec, project_to_so3, rotvec_to_matrix
 
 # --------------------------------------------------------------------------- track data
 class _Data:
@@ -55,15 +55,7 @@ def _rotz(q: np.ndarray) -> np.ndarray:
     return R
 
 
-def _rv2m(rv: np.ndarray) -> np.ndarray:
-    """Rotation vectors (..., 3) -> matrices (..., 3, 3) (scipy's compiled Rodrigues map:
-    ~2.5x faster than the equivalent numpy expression on the small batches used here)."""
-    rv = np.asarray(rv, float)
-    shape = rv.shape[:-1]
-    flat = rv.reshape(-1, 3)
-    if flat.shape[0] == 0:
-        return np.zeros(shape + (3, 3))
-    return Rotation.from_rotvec(flat).as_matrix().reshape(shape + (3, 3))
+_rv2m = rotvec_to_matrix  # scipy's compiled Rodrigues map (models/se3.py)
 
 
 def _log_rot(M: np.ndarray) -> np.ndarray:
@@ -79,15 +71,7 @@ def _log_rot(M: np.ndarray) -> np.ndarray:
     return np.stack([vx * f, vy * f, vz * f], axis=-1)
 
 
-def _m2rv(M: np.ndarray) -> np.ndarray:
-    """Rotation matrices (..., 3, 3) -> rotation vectors (..., 3), angle in [0, pi]
-    (scipy's compiled conversion)."""
-    M = np.asarray(M, float)
-    shape = M.shape[:-2]
-    flat = M.reshape(-1, 3, 3)
-    if flat.shape[0] == 0:
-        return np.zeros(shape + (3,))
-    return Rotation.from_matrix(flat).as_rotvec().reshape(shape + (3,))
+_m2rv = matrix_to_rotvec  # (models/se3.py)
 
 
 def _chordal_mean(R: np.ndarray) -> np.ndarray:

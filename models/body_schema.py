@@ -37,7 +37,9 @@ from dataclasses import dataclass, field
 from itertools import combinations
 
 import numpy as np
+from networkx.utils import UnionFind
 
+from .se3 import matrix_to_rotvec
 from .body_schema_local import (
     EngineeredModel,
     LocalModel,
@@ -50,7 +52,7 @@ from .body_schema_search import (
     SearchConfig,
     StructureResult,
     _blas_single_thread,
-    _UnionFind,
+    kruskal,
     check_data,
     learn_structure,
 )
@@ -99,24 +101,7 @@ class AdaptationConfig:
 
 def rotation_vector(R: np.ndarray) -> np.ndarray:
     """Rotation vector (..., 3) of rotation matrices (..., 3, 3) (radians)."""
-    c = np.clip((np.trace(R, axis1=-2, axis2=-1) - 1) / 2, -1, 1)
-    theta = np.arccos(c)
-    v = np.stack([R[..., 2, 1] - R[..., 1, 2], R[..., 0, 2] - R[..., 2, 0],
-                  R[..., 1, 0] - R[..., 0, 1]], axis=-1)
-    s = np.sin(theta)
-    small = s < 1e-6
-    scale = np.where(small, 0.5, theta / (2 * np.where(small, 1.0, s)))
-    out = v * scale[..., None]
-    # near pi: the axis is the dominant column of (R + I) / 2
-    near_pi = small & (theta > 1.0)
-    if np.any(near_pi):
-        B = (R[near_pi] + np.eye(3)) / 2
-        d = np.diagonal(B, axis1=-2, axis2=-1)
-        k = np.argmax(d, axis=-1)
-        col = np.take_along_axis(B, k[:, None, None], axis=2)[..., 0]
-        axis = col / np.sqrt(np.maximum(np.take_along_axis(d, k[:, None], 1), 1e-300))
-        out[near_pi] = np.pi * axis
-    return out
+    return matrix_to_rotvec(R)
 
 
 def _trained(model) -> bool:
@@ -250,12 +235,13 @@ class BodySchema:
         """A schema seeded with known (e.g. engineered) local models forming a tree."""
         s = cls(n_parts, n_actions, **kwargs)
         s.nodes = sorted({m.i for m in models} | {m.j for m in models})
-        uf = _UnionFind(s.nodes)
         for m in models:
             if m.n_actions != n_actions:
                 raise ValueError(f"{m!r} has n_actions={m.n_actions}, expected {n_actions}")
-            if not uf.union(m.i, m.j):
-                raise ValueError(f"seed models contain a cycle at {m!r}")
+        joined = kruskal(s.nodes, [(m.i, m.j) for m in models])
+        if len(joined) < len(models):
+            cyc = next(e for e in range(len(models)) if e not in joined)
+            raise ValueError(f"seed models contain a cycle at {models[cyc]!r}")
         s.tree = list(models)
         s.tracks = [_Track(m, "active", 0, True, s.adapt.window) for m in models]
         s.valid = len(models) == len(s.nodes) - 1
@@ -453,7 +439,6 @@ class BodySchema:
         return float(ll.mean()) * n - tr.model.k * np.log(self.search.eta * n)
 
     def _best_tree(self, valid_only: bool):
-        uf = _UnionFind(self.nodes)
         cands = [t for t in self.tracks if _trained(t.model)
                  and (t.status != "training" or self._track_valid(t))]
         key = []
@@ -463,11 +448,8 @@ class BodySchema:
                 continue
             key.append(((not v), t.model.k, -self._track_quality(t), -t.born, id(t), t))
         key.sort(key=lambda x: x[:5])
-        tree = []
-        for *_, t in key:
-            if t.model.i in uf.parent and t.model.j in uf.parent and \
-                    uf.union(t.model.i, t.model.j):
-                tree.append(t)
+        ts = [x[-1] for x in key]
+        tree = [ts[e] for e in kruskal(self.nodes, [(t.model.i, t.model.j) for t in ts])]
         return tree, len(tree) == len(self.nodes) - 1
 
     def update(self, action, poses, *, mask=None) -> dict:
@@ -578,7 +560,7 @@ class BodySchema:
         of the currently valid models, ordered by structural proximity to the failed models
         (then by complexity)."""
         valid = [t for t in self.tracks if self._track_valid(t) and t.status != "training"]
-        uf = _UnionFind(self.nodes)
+        uf = UnionFind(self.nodes)
         for t in valid:
             uf.union(t.model.i, t.model.j)
         valid_ids = {id(t.model) for t in valid}
@@ -589,7 +571,7 @@ class BodySchema:
         tracked = {t.model.key for t in self.tracks if t.status == "training"}
         out = []
         for i, j in combinations(sorted(self.nodes), 2):
-            if uf.find(i) == uf.find(j):
+            if uf[i] == uf[j]:
                 continue
             for k in range(kmax + 1):
                 for Q in combinations(range(self.n_actions), k):

@@ -15,6 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from .gp import GaussianProcess
+from .se3 import project_to_so3
 
 __all__ = [
     "LocalModel",
@@ -42,13 +43,10 @@ def se3_inv(T: np.ndarray) -> np.ndarray:
 
 
 def orthonormalize(T: np.ndarray) -> np.ndarray:
-    """Project the 3x3 block of (..., 4, 4) onto SO(3) (nearest rotation, via SVD)."""
-    U, _, Vt = np.linalg.svd(T[..., :3, :3])
-    det = np.linalg.det(U @ Vt)
-    U = U.copy()
-    U[..., :, 2] *= det[..., None]
+    """Homogeneous transforms from (..., 4, 4) matrices: the 3x3 block projected onto SO(3)
+    (se3.project_to_so3), the last row set to (0, 0, 0, 1)."""
     out = T.copy()
-    out[..., :3, :3] = U @ Vt
+    out[..., :3, :3] = project_to_so3(T[..., :3, :3])
     out[..., 3, :] = (0.0, 0.0, 0.0, 1.0)
     return out
 
@@ -123,11 +121,7 @@ def _y_to_z(Y: np.ndarray) -> np.ndarray:
 def _polar_derivative(M: np.ndarray, dM: np.ndarray) -> np.ndarray:
     """Derivative of the nearest rotation R(M) (polar factor, M = R S) for M (n, 3, 3) and
     its derivatives dM (n, 3, 3, k): dR = R [w]x with (tr(S) I - S) w = vee(R^T dM - dM^T R)."""
-    U, _, Vt = np.linalg.svd(M)
-    det = np.linalg.det(U @ Vt)
-    U = U.copy()
-    U[..., :, 2] *= det[..., None]
-    R = U @ Vt
+    R = project_to_so3(M)
     S = np.swapaxes(R, 1, 2) @ M
     S = 0.5 * (S + np.swapaxes(S, 1, 2))
     A = np.einsum("nba,nbck->nack", R, dM) - np.einsum("nbak,nbc->nack", dM, R)

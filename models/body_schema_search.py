@@ -27,6 +27,7 @@ from dataclasses import dataclass, field
 from itertools import combinations
 
 import numpy as np
+from networkx.utils import UnionFind
 
 from .gp import blas_single_thread
 from .body_schema_local import (
@@ -176,43 +177,34 @@ def check_data(actions, poses):
     return actions, poses
 
 
-class _UnionFind:
-    def __init__(self, items):
-        self.parent = {x: x for x in items}
-
-    def find(self, x):
-        while self.parent[x] != x:
-            self.parent[x] = self.parent[self.parent[x]]
-            x = self.parent[x]
-        return x
-
-    def union(self, a, b) -> bool:
-        ra, rb = self.find(a), self.find(b)
-        if ra == rb:
-            return False
-        self.parent[ra] = rb
-        return True
+def kruskal(nodes, pairs) -> list:
+    """Kruskal's greedy forest: the indices of the (i, j) ``pairs``, taken in the given
+    order, that join two components of ``nodes`` (pairs touching other nodes are skipped).
+    networkx's union-find."""
+    uf = UnionFind(nodes)
+    members = set(nodes)
+    out = []
+    for e, (i, j) in enumerate(pairs):
+        if i in members and j in members and uf[i] != uf[j]:
+            uf.union(i, j)
+            out.append(e)
+    return out
 
 
 def spanning_tree(nodes, models, quality):
     """Kruskal's minimum spanning tree over ``nodes`` with edge order (k, -quality).
 
     Returns (tree models, complete?)."""
-    uf = _UnionFind(nodes)
     order = sorted(range(len(models)), key=lambda e: (models[e].k, -quality[e]))
-    tree = []
-    for e in order:
-        m = models[e]
-        if m.i in uf.parent and m.j in uf.parent and uf.union(m.i, m.j):
-            tree.append(e)
+    tree = [order[e] for e in kruskal(nodes, [(models[e].i, models[e].j) for e in order])]
     return tree, len(tree) == len(nodes) - 1
 
 
 def _components(nodes, models):
-    uf = _UnionFind(nodes)
+    uf = UnionFind(nodes)
     for m in models:
         uf.union(m.i, m.j)
-    return {x: uf.find(x) for x in nodes}
+    return {x: uf[x] for x in nodes}
 
 
 def _split(n: int, test_every: int):

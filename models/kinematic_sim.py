@@ -26,6 +26,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .se3 import rotvec_to_matrix
+
 __all__ = [
     "ArmPart",
     "SimArm",
@@ -64,21 +66,6 @@ def trans(x=0.0, y=0.0, z=0.0) -> np.ndarray:
     T = np.eye(4)
     T[:3, 3] = (x, y, z)
     return T
-
-
-def _rotvec_to_matrix(v: np.ndarray) -> np.ndarray:
-    """(n, 3) rotation vectors -> (n, 3, 3) rotation matrices (Rodrigues)."""
-    theta = np.linalg.norm(v, axis=-1)
-    safe = np.where(theta > 1e-12, theta, 1.0)
-    k = v / safe[..., None]
-    K = np.zeros(v.shape[:-1] + (3, 3))
-    K[..., 0, 1], K[..., 0, 2] = -k[..., 2], k[..., 1]
-    K[..., 1, 0], K[..., 1, 2] = k[..., 2], -k[..., 0]
-    K[..., 2, 0], K[..., 2, 1] = -k[..., 1], k[..., 0]
-    s = np.sin(theta)[..., None, None]
-    c = (1 - np.cos(theta))[..., None, None]
-    R = np.eye(3) + s * K + c * (K @ K)
-    return np.where((theta > 1e-12)[..., None, None], R, np.eye(3))
 
 
 @dataclass
@@ -210,7 +197,7 @@ class SimArm:
         if sigma_pos > 0:
             Y[..., :3, 3] += rng.normal(0, sigma_pos / np.sqrt(3), size=(n, p, 3))
         if sigma_orient > 0:
-            dR = _rotvec_to_matrix(rng.normal(0, sigma_orient / np.sqrt(3), size=(n, p, 3)))
+            dR = rotvec_to_matrix(rng.normal(0, sigma_orient / np.sqrt(3), size=(n, p, 3)))
             Y[..., :3, :3] = Y[..., :3, :3] @ dR
         if outlier_rate > 0:
             out = rng.random((n, p)) < outlier_rate

@@ -30,6 +30,8 @@ __all__ = [
     "pose7_to_matrix",
     "quat_distance",
     "project_to_so3",
+    "rotvec_to_matrix",
+    "matrix_to_rotvec",
 ]
 
 
@@ -199,6 +201,27 @@ def quat_distance(qa: np.ndarray, qb: np.ndarray) -> np.ndarray:
     """Geodesic angle between unit quaternion arrays (..., 4), radians (broadcasting)."""
     d = np.abs(np.sum(qa * qb, axis=-1))
     return 2.0 * np.arccos(np.clip(d, 0.0, 1.0))
+
+
+def rotvec_to_matrix(rv: np.ndarray) -> np.ndarray:
+    """Rotation vectors (..., 3) (radians) -> rotation matrices (..., 3, 3) (scipy)."""
+    rv = np.asarray(rv, float)
+    shape = rv.shape[:-1]
+    flat = rv.reshape(-1, 3)
+    if flat.shape[0] == 0:
+        return np.zeros(shape + (3, 3))
+    return Rotation.from_rotvec(flat).as_matrix().reshape(shape + (3, 3))
+
+
+def matrix_to_rotvec(M: np.ndarray) -> np.ndarray:
+    """Rotation matrices (..., 3, 3) -> rotation vectors (..., 3), angle in [0, pi] (scipy;
+    exact near pi as well)."""
+    M = np.asarray(M, float)
+    shape = M.shape[:-2]
+    flat = M.reshape(-1, 3, 3)
+    if flat.shape[0] == 0:
+        return np.zeros(shape + (3,))
+    return Rotation.from_matrix(flat).as_rotvec().reshape(shape + (3,))
 
 
 def project_to_so3(M: np.ndarray) -> np.ndarray:

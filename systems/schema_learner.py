@@ -53,6 +53,7 @@ from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.systems.framework import BasicVector, EventStatus, LeafSystem, ValueProducer
 
 from mmlearn.models.body_schema import AdaptationConfig, BodySchema, SearchConfig
+from mmlearn.models.se3 import project_to_so3
 
 from .observations import MarkerObservations
 
@@ -248,13 +249,8 @@ def _mean_pose(X_old: np.ndarray | None, n: int, X_new: np.ndarray) -> np.ndarra
     if X_old is None or n == 0:
         return X_new.copy()
     M = (X_old * n + X_new) / (n + 1)
-    u, _, vt = np.linalg.svd(M[:3, :3])
-    R = u @ vt
-    if np.linalg.det(R) < 0:
-        u[:, -1] *= -1
-        R = u @ vt
     out = np.eye(4)
-    out[:3, :3], out[:3, 3] = R, M[:3, 3]
+    out[:3, :3], out[:3, 3] = project_to_so3(M[:3, :3]), M[:3, 3]
     return out
 
 
@@ -504,9 +500,4 @@ class SchemaLearner(LeafSystem):
 
 
 def _rotation(R: np.ndarray) -> RotationMatrix:
-    u, _, vt = np.linalg.svd(R)
-    Rn = u @ vt
-    if np.linalg.det(Rn) < 0:
-        u[:, -1] *= -1
-        Rn = u @ vt
-    return RotationMatrix(Rn)
+    return RotationMatrix(project_to_so3(R))
