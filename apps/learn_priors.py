@@ -32,7 +32,7 @@ import sys
 import numpy as np
 
 from mmlearn.apps._common import progress_bar
-from mmlearn.models.articulation import ObservationModel, make_model
+from mmlearn.models.articulation import DEFAULT_GAMMA_WEIGHT, ObservationModel, make_model
 from mmlearn.models.articulation_priors import PriorDatabase, evaluate_priors
 from mmlearn.models.articulation_structure import DEFAULT_CANDIDATES
 from mmlearn.models.track_io import TrackFileError, find_track_files, read_track
@@ -43,7 +43,7 @@ __all__ = ["run", "main"]
 
 
 def run(*, paths, sigma_pos: float = 0.05, sigma_orient: float = float(np.deg2rad(15.0)),
-        gamma_weight: float = 1000.0, max_points: int | None = 50, models=DEFAULT_CANDIDATES,
+        gamma_weight: float = DEFAULT_GAMMA_WEIGHT, max_points: int | None = 50, models=DEFAULT_CANDIDATES,
         seed: int = 0, evaluate: bool = False, fractions=None, exact_loo: bool = False,
         save: str | None = None, load: str | None = None, plot: str | None = None,
         progress: bool = True) -> dict:
@@ -127,8 +127,8 @@ def main(argv=None) -> int:
     ap.add_argument("--sigma-pos", type=float, default=0.05, help="position noise, m (0.05)")
     ap.add_argument("--sigma-orient", type=float, default=float(np.deg2rad(15.0)),
                     help="orientation noise, rad (full-pose tracks only)")
-    ap.add_argument("--gamma-weight", type=float, default=1000.0,
-                    help="outlier prior weight w (default 1000: hook tracks have no outliers)")
+    ap.add_argument("--gamma-weight", type=float, default=DEFAULT_GAMMA_WEIGHT,
+                    help="outlier prior weight w per observation (default ln(100)/0.05 ~ 92)")
     ap.add_argument("--max-points", type=int, default=50,
                     help="thin each trajectory to at most this many observations (0 = all)")
     ap.add_argument("--models", default=",".join(DEFAULT_CANDIDATES),

@@ -50,7 +50,7 @@ def exp_cabinet(*, quick, seed, progress):
     from mmlearn.diagrams.object_tracks import cabinet_scenario
 
     tr = cabinet_scenario(20, 20 if quick else 40, rng=seed)
-    obs = ObservationModel(sigma_pos=0.01, sigma_orient=np.deg2rad(2), gamma_weight=1000)
+    obs = ObservationModel(sigma_pos=0.01, sigma_orient=np.deg2rad(2))
     hist = incremental_structure(tr.poses, tr.parts, refit_every=5, obs=obs, rng=seed,
                                  models=PARAMETRIC if quick else ("rigid", "prismatic",
                                                                   "revolute", "gp"))
@@ -70,7 +70,7 @@ def exp_table(*, quick, seed, progress):
     tr = table_scenario(m, rng=seed)
     names = ["still", "line", "curve", "free"]
     ends = np.cumsum([table_phases(m)[k] for k in names])
-    obs = ObservationModel(sigma_pos=0.01, sigma_orient=np.deg2rad(2), gamma_weight=1000)
+    obs = ObservationModel(sigma_pos=0.01, sigma_orient=np.deg2rad(2))
     models = ("rigid", "prismatic", "revolute", "gp", "gp2")
     Z = relative_poses(tr.poses[0], tr.poses[1]).as_array()
     rows = []
@@ -107,7 +107,7 @@ def exp_car(*, quick, seed, progress):
     from mmlearn.diagrams.object_tracks import car_door_scenario
 
     tr = car_door_scenario(30 if quick else 40, 30 if quick else 40, rng=seed)
-    obs = ObservationModel(sigma_pos=0.005, sigma_orient=np.deg2rad(1), gamma_weight=1000)
+    obs = ObservationModel(sigma_pos=0.005, sigma_orient=np.deg2rad(1))
     hist = incremental_structure(tr.poses, tr.parts, refit_every=10, obs=obs, rng=seed,
                                  models=PARAMETRIC, search="local")
     rows = []
@@ -132,7 +132,7 @@ def exp_garage(*, quick, seed, progress):
     from mmlearn.diagrams.object_tracks import garage_door_scenario
 
     tr = garage_door_scenario(40 if quick else 60, rng=seed)
-    obs = ObservationModel(sigma_pos=0.01, sigma_orient=np.deg2rad(2), gamma_weight=1000)
+    obs = ObservationModel(sigma_pos=0.01, sigma_orient=np.deg2rad(2))
     Z = relative_poses(tr.poses[0], tr.poses[1])
     s = select_link_model(Z, obs=obs, rng=seed)
     res = {"selected": s.selected,

@@ -64,10 +64,11 @@ models.
 from __future__ import annotations
 
 import time
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 from scipy.optimize import minimize
+from scipy.special import ndtr
 from scipy.spatial.transform import Rotation
 
 from .se3 import PoseArray, as_pose_array
@@ -89,6 +90,15 @@ _LOG_SO3_VOLUME = float(np.log(8 * np.pi**2))
 
 
 # --------------------------------------------------------------------------- observation model
+#: default weight w of the outlier-ratio prior p(gamma) ~ exp(-w gamma), applied per
+#: observation: an outlier ratio of 0.05 costs a factor 100 per observation (w = ln(100) /
+#: 0.05 ~ 92.1), the value of the thesis' implementation (tum-vision/articulation).
+DEFAULT_GAMMA_WEIGHT = float(np.log(100.0) / 0.05)
+
+#: how p(gamma) enters the data likelihood (see ObservationModel.gamma_prior)
+GAMMA_PRIOR_MODES = ("observation", "plugin", "track")
+
+
 @dataclass
 class ObservationModel:
     """Gaussian + uniform-outlier observation model (Eq. 4.13-4.15).
@@ -100,12 +110,27 @@ class ObservationModel:
         outlier_volume_m3: volume of the uniform position-outlier distribution, m^3; None means
             "set from the training track at fit time" (cube of the largest extent + 6 sigma,
             at least 1 m^3).
+        gamma_prior: how p(gamma) of Eq. 4.15 enters the likelihood of a track of n
+            observations. ``"plugin"`` (default; the thesis' implementation,
+            tum-vision/articulation): gamma is the maximum-likelihood EM estimate of the
+            mixture, and every observation's likelihood is multiplied by p(gamma), so log L
+            gets -w gamma n. ``"observation"``: the same -w gamma n, with gamma the MAP
+            estimate under it (Eq. 4.15 read as a prior on the estimate: far below the true
+            outlier ratio, see articulation_experiments --only selection). ``"track"``
+            (mmlearn before 2026-11): the normalised prior once per track, MAP gamma.
+        config_prior: the configuration prior p(q | M) of Eq. 4.27-4.28: ``"resolved"``
+            (default) Eq. 4.26's integral over the configurations evaluated along the path
+            (LinkModel.log_config_prior: ~ min(n, c)^-d, c the number of configurations the
+            noise can tell apart over the observed range);
+            ``"n"``: n^-d as Eq. 4.27 writes it (mmlearn before 2026-11).
     """
 
     sigma_pos: float = 0.01
     sigma_orient: float = np.deg2rad(5.0)
-    gamma_weight: float = 1.0
+    gamma_weight: float = DEFAULT_GAMMA_WEIGHT
     outlier_volume_m3: float | None = None
+    gamma_prior: str = "plugin"
+    config_prior: str = "resolved"
 
     #: lower bound of the automatic outlier volume (a 1 m cube: the robot's workspace); a
     #: volume as small as a short track would make "everything is an outlier" too likely.
@@ -113,14 +138,28 @@ class ObservationModel:
 
     def __post_init__(self):
         for name in ("sigma_pos", "sigma_orient"):
-            v = float(getattr(self, name))
+            try:
+                v = float(getattr(self, name))
+            except (TypeError, ValueError):
+                raise ValueError(f"ObservationModel.{name} must be a number, got "
+                                 f"{getattr(self, name)!r}") from None
             if not (np.isfinite(v) and v > 0):
                 raise ValueError(f"ObservationModel.{name} must be positive and finite, got {v}")
             setattr(self, name, v)
+        self.gamma_weight = float(self.gamma_weight)
         if not (np.isfinite(self.gamma_weight) and self.gamma_weight >= 0):
             raise ValueError(f"gamma_weight must be >= 0, got {self.gamma_weight}")
-        if self.outlier_volume_m3 is not None and not self.outlier_volume_m3 > 0:
-            raise ValueError(f"outlier_volume_m3 must be positive, got {self.outlier_volume_m3}")
+        if self.outlier_volume_m3 is not None:
+            self.outlier_volume_m3 = float(self.outlier_volume_m3)
+            if not (np.isfinite(self.outlier_volume_m3) and self.outlier_volume_m3 > 0):
+                raise ValueError(
+                    f"outlier_volume_m3 must be positive, got {self.outlier_volume_m3}")
+        if self.config_prior not in ("resolved", "n"):
+            raise ValueError(f"config_prior must be 'resolved' or 'n', got "
+                             f"{self.config_prior!r}")
+        if self.gamma_prior not in GAMMA_PRIOR_MODES:
+            raise ValueError(f"gamma_prior must be one of {GAMMA_PRIOR_MODES}, got "
+                             f"{self.gamma_prior!r}")
 
     def with_volume_from(self, positions: np.ndarray) -> "ObservationModel":
         if self.outlier_volume_m3 is not None:
@@ -128,7 +167,7 @@ class ObservationModel:
         ext = float(np.max(np.ptp(positions, axis=0))) if len(positions) > 1 else 0.0
         side = ext + 6.0 * self.sigma_pos
         vol = max(side**3, self.min_outlier_volume_m3)
-        return ObservationModel(self.sigma_pos, self.sigma_orient, self.gamma_weight, vol)
+        return replace(self, outlier_volume_m3=vol)
 
     def log_inlier(self, ep2: np.ndarray, eo: np.ndarray | None) -> np.ndarray:
         """log N for squared position errors ep2 (m^2) and orientation errors eo (rad)."""
@@ -143,11 +182,32 @@ class ObservationModel:
         v = -float(np.log(self.outlier_volume_m3))
         return v - _LOG_SO3_VOLUME if has_orientation else v
 
-    def log_gamma_prior(self, gamma):
+    def map_weight(self, n: int) -> float:
+        """Weight of the prior in the EM M-step for a track of n observations (0: ML)."""
+        if self.gamma_prior == "observation":
+            return self.gamma_weight * n
+        if self.gamma_prior == "plugin":
+            return 0.0
+        return self.gamma_weight
+
+    def log_gamma_prior(self, gamma, n: int):
+        """log p(gamma) as it enters the log-likelihood of a track of n observations."""
+        g = np.asarray(gamma, float)
         w = self.gamma_weight
         if w <= 0:
-            return np.zeros_like(np.asarray(gamma, float))
-        return np.log(w) - w * np.asarray(gamma, float) - np.log1p(-np.exp(-w))
+            return np.zeros_like(g)
+        if self.gamma_prior == "track":
+            return np.log(w) - w * g - np.log1p(-np.exp(-w))
+        return -w * g * n
+
+
+def _obs_from_dict(d: dict) -> ObservationModel:
+    """ObservationModel from its asdict(); files saved before ``gamma_prior`` existed used
+    the prior once per track."""
+    d = dict(d)
+    d.setdefault("gamma_prior", "track")
+    d.setdefault("config_prior", "n")
+    return ObservationModel(**d)
 
 
 def em_gamma(log_in: np.ndarray, log_out: float, w: float, *, iters: int = 30,
@@ -157,7 +217,8 @@ def em_gamma(log_in: np.ndarray, log_out: float, w: float, *, iters: int = 30,
     Args:
         log_in: (H, n) inlier log densities.
         log_out: outlier log density (scalar).
-        w: prior weight of p(gamma) ~ exp(-w gamma).
+        w: weight of the prior p(gamma) ~ exp(-w gamma) in the M-step (the whole track's:
+            ObservationModel.map_weight(n); 0 for maximum likelihood).
     Returns:
         gamma (H,), mixture log-likelihood sum (H,) (without the prior), inlier
         responsibilities (H, n).
@@ -415,11 +476,11 @@ class LinkModel:
             raise ValueError(f"{self.name}: all minimal samples are degenerate (track has no "
                              "usable motion for this model)")
         log_out = self.obs_fit.log_outlier(d.has_orientation)
-        w = self.obs_fit.gamma_weight
+        w = self.obs_fit.map_weight(d.n)
         ep2, eo, _ = self._residuals_batch(thetas, d)
         log_in = self.obs_fit.log_inlier(ep2, eo)
         g, ll, _ = em_gamma(log_in, log_out, w, iters=15)
-        score = ll + self.obs_fit.log_gamma_prior(g)
+        score = ll + self.obs_fit.log_gamma_prior(g, d.n)
         best = int(np.argmax(score))
         theta, gamma = thetas[best].copy(), float(g[best])
         if self.refine:
@@ -436,7 +497,7 @@ class LinkModel:
                     ep2c, eoc, _ = self._residuals_batch(cand[None], d)
                     gc, llc, _ = em_gamma(self.obs_fit.log_inlier(ep2c, eoc), log_out, w,
                                           gamma0=gamma, iters=15)
-                    if llc[0] + self.obs_fit.log_gamma_prior(gc[0]) > score[best]:
+                    if llc[0] + self.obs_fit.log_gamma_prior(gc[0], d.n) > score[best]:
                         theta, gamma = cand, float(gc[0])
             del resp_best
             if self._has_weighted_fit():
@@ -506,7 +567,7 @@ class LinkModel:
                 u[free] = res.x
                 theta = unpack(u)[0]
             ep2, eo, _ = self._residuals_batch(theta[None], d)
-            g, _, _ = em_gamma(obs.log_inlier(ep2, eo), log_out, obs.gamma_weight,
+            g, _, _ = em_gamma(obs.log_inlier(ep2, eo), log_out, obs.map_weight(d.n),
                                gamma0=gamma, iters=30)
             new_gamma = float(g[0])
             if abs(new_gamma - gamma) < 0.01:
@@ -600,13 +661,13 @@ class LinkModel:
         quasi-Newton refinement needs ~10-20 batched finite-difference evaluations."""
         obs = self.obs_fit
         log_out = obs.log_outlier(d.has_orientation)
-        w = obs.gamma_weight
+        w = obs.map_weight(d.n)
 
         def score(th, g):
             ep2, eo, _ = self._residuals_batch(th[None], d)
             a = np.log1p(-g) + obs.log_inlier(ep2[0], None if eo is None else eo[0])
             lse = np.logaddexp(a, np.log(g) + log_out)
-            return float(lse.sum() + obs.log_gamma_prior(g)), np.exp(a - lse)
+            return float(lse.sum() + obs.log_gamma_prior(g, d.n)), np.exp(a - lse)
 
         f, r = score(theta, gamma)
         for _ in range(max_iter):
@@ -643,7 +704,7 @@ class LinkModel:
         ep2, eo, q = self._residuals_batch(self.theta[None], d)
         li = self.obs_fit.log_inlier(ep2, eo)
         g, _, resp = em_gamma(li, self.obs_fit.log_outlier(d.has_orientation),
-                              self.obs_fit.gamma_weight, gamma0=max(self.gamma, 1e-6))
+                              self.obs_fit.map_weight(d.n), gamma0=max(self.gamma, 1e-6))
         self.gamma = float(g[0])
         inl = resp[0] > 0.5
         if not np.any(inl):
@@ -653,7 +714,7 @@ class LinkModel:
         if self.dof:
             self.q_min = q[0][inl].min(axis=0)
             self.q_max = q[0][inl].max(axis=0)
-        self.log_likelihood_ = self._log_likelihood_from(ep2, eo, d.n, d.has_orientation)
+        self.log_likelihood_ = self._log_likelihood_from(ep2, eo, d.n, d.has_orientation, q=q)
         self.bic_ = -2.0 * self.log_likelihood_ + self.num_params(d.n) * np.log(d.n)
         self.avg_pos_error_ = float(np.sqrt(ep2[0][inl]).mean())
         self.avg_orient_error_ = float(eo[0][inl].mean()) if eo is not None else None
@@ -673,23 +734,125 @@ class LinkModel:
         return self.forward(self.inverse(Z))
 
     def log_likelihood(self, Z, *, gamma: float | None = None) -> float:
-        """Data log-likelihood of Eq. 4.31-4.32 including the outlier prior and the n^-d
-        configuration prior, with the model's outlier ratio (or ``gamma``)."""
+        """Data log-likelihood of Eq. 4.31-4.32 including the outlier prior and the
+        configuration prior (:meth:`log_config_prior`), with the model's outlier ratio (or
+        ``gamma``)."""
         self._check_fitted()
         d = Z if isinstance(Z, _Data) else self._data(Z)
         g = self.gamma if gamma is None else float(gamma)
         g = float(np.clip(g, 1e-6, 1 - 1e-6))
-        ep2, eo, _ = self._residuals_batch(self.theta[None], d)
-        return self._log_likelihood_from(ep2, eo, d.n, d.has_orientation, g)
+        ep2, eo, q = self._residuals_batch(self.theta[None], d)
+        return self._log_likelihood_from(ep2, eo, d.n, d.has_orientation, g, q=q)
 
-    def _log_likelihood_from(self, ep2, eo, n, has_orientation, gamma=None) -> float:
+    def _log_likelihood_from(self, ep2, eo, n, has_orientation, gamma=None, q=None) -> float:
         g = float(np.clip(self.gamma if gamma is None else gamma, 1e-6, 1 - 1e-6))
         li = self.obs_fit.log_inlier(ep2[0], None if eo is None else eo[0])
         lo = self.obs_fit.log_outlier(has_orientation)
-        ll = np.logaddexp(np.log1p(-g) + li, np.log(g) + lo).sum()
-        ll += float(self.obs_fit.log_gamma_prior(g))
-        ll -= n * self.dof * np.log(n)
+        qq = q[0] if q is not None else None
+        if self.obs_fit.config_prior == "n":  # (as before 2026-11: outside the mixture)
+            ll = np.logaddexp(np.log1p(-g) + li, np.log(g) + lo).sum()
+            ll += self.log_config_prior(qq, n)
+        else:  # the configuration is latent in the inlier component only
+            ct = self.config_terms(qq, n)
+            ll = np.logaddexp(np.log1p(-g) + li + ct, np.log(g) + lo).sum()
+        ll += float(self.obs_fit.log_gamma_prior(g, n))
         return float(ll)
+
+    def _noise_speed(self, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+        """Mean length of a unit step in q, per DOF, in noise units:
+        sqrt(|dp/dq|^2 / sigma_pos^2 + |dw/dq|^2 / sigma_orient^2) averaged over 16
+        configurations across [lo, hi] (the model's Jacobian)."""
+        qs = lo[None] + np.linspace(0.0, 1.0, 16)[:, None] * (hi - lo)[None]
+        J = self.jacobian(qs)  # (16, 3 | 6, d)
+        g = np.einsum("mid,mid->md", J[:, :3], J[:, :3]) / self.obs_fit.sigma_pos**2
+        if J.shape[1] == 6:
+            g = g + np.einsum("mid,mid->md", J[:, 3:], J[:, 3:]) / self.obs_fit.sigma_orient**2
+        return np.sqrt(g).mean(axis=0)
+
+    def config_resolution(self, q_range=None) -> np.ndarray:
+        """c per DOF: the observed range (or ``q_range`` = (q_lo, q_hi)) measured in noise
+        units (see :meth:`_noise_speed`) and divided by sqrt(2 pi): roughly the number of
+        configurations the observation noise can tell apart over the range."""
+        if self.dof == 0:
+            return np.zeros(0)
+        lo, hi = (self.q_min, self.q_max) if q_range is None else (
+            np.asarray(q_range[0], float), np.asarray(q_range[1], float))
+        return self._noise_speed(lo, hi) * np.abs(hi - lo) / np.sqrt(2.0 * np.pi)
+
+    def config_terms(self, q=None, n: int | None = None, q_range=None):
+        """log p(q | M) per observation (Eq. 4.26-4.28): how much the latent configuration
+        costs, on top of log p(z | f(q_hat)); an (n,) array, or a scalar for all of them.
+
+        ``config_prior="n"``: n^-d per observation, as Eq. 4.27 writes it.
+
+        ``"resolved"`` (default): the configurations are equally likely over the observed
+        range [q_lo, q_hi] (Eq. 4.27's assumption), and Eq. 4.26's integral over q is
+        evaluated rather than replaced by its value at q_hat (Eq. 4.29). Along the path, in
+        noise units u (Gaussian noise of unit variance), with u_t the projection of z_t and
+        U the range's length, p(z_t | M) = p(z_t | f(q_hat_t)) sqrt(2 pi) / U
+        [Phi(U - u_t) - Phi(-u_t)] per DOF: log c per observation (c = U / sqrt(2 pi),
+        config_resolution()) inside a long range, and the rigid model's likelihood (the
+        distance to the range's centre) as U -> 0, so a 1-DOF model fitted to a part that
+        never moved gains nothing from its projection. Where the n configurations are
+        farther apart than the noise (n < c: few observations of a long range) the integral
+        over the grid of n estimated configurations is its nearest term, n^-1 (Eq. 4.27).
+        The term no longer grows with more observations of the same range, as n^-d does.
+
+        Args:
+            q: (n, d) estimated configurations of the scored observations (None: treated as
+                inside a long range, i.e. the log min(n, c) limit).
+            n: number of observations (default len(q)).
+            q_range: (q_lo, q_hi) of the uniform prior (default the model's q_min, q_max).
+        """
+        if self.dof == 0:
+            return 0.0
+        if n is None:
+            n = q.shape[0]
+        if self.obs_fit.config_prior == "n":
+            return float(-self.dof * np.log(n))
+        lo, hi = (self.q_min, self.q_max) if q_range is None else (
+            np.asarray(q_range[0], float), np.asarray(q_range[1], float))
+        speed = self._noise_speed(lo, hi)
+        U = speed * np.abs(hi - lo)
+        c = U / np.sqrt(2.0 * np.pi)
+        total = 0.0
+        for j in range(self.dof):
+            if n <= c[j]:
+                total = total - np.log(n)
+                continue
+            if q is None:
+                total = total - np.log(max(c[j], 1.0))
+                continue
+            u = (q[:, j] - min(lo[j], hi[j])) * speed[j]
+            if U[j] > 1e-6:
+                mass = ndtr(U[j] - u) - ndtr(-u)
+                total = total + np.log(np.maximum(mass, 1e-300)) - np.log(c[j])
+            else:  # limit U -> 0: sqrt(2 pi) phi(u - U / 2)
+                total = total - 0.5 * (u - 0.5 * U[j]) ** 2
+        return total
+
+    def log_config_prior(self, q=None, n: int | None = None, q_range=None) -> float:
+        """Sum of :meth:`config_terms` over the observations."""
+        t = self.config_terms(q, n, q_range)
+        if np.ndim(t) == 0:
+            return float(t) * (n if n is not None else q.shape[0])
+        return float(np.sum(t))
+
+    def log_config_prior_of(self, Z) -> float:
+        """The configuration prior (:meth:`log_config_prior`) of a track Z scored as one
+        visit of the mechanism: configurations uniform over the range Z covers (its inlier
+        configurations under this model), not over the model's whole training range. Used
+        by the prior merge test, where one model explains several visits."""
+        self._check_fitted()
+        if self.dof == 0:
+            return 0.0
+        d = self._data(Z)
+        ep2, eo, q = self._residuals_batch(self.theta[None], d)
+        li = self.obs_fit.log_inlier(ep2[0], None if eo is None else eo[0])
+        g = float(np.clip(self.gamma, 1e-6, 1 - 1e-6))
+        inl = np.log1p(-g) + li > np.log(g) + self.obs_fit.log_outlier(d.has_orientation)
+        qq = q[0][inl] if inl.sum() >= 2 else q[0]
+        return self.log_config_prior(q[0], d.n, q_range=(qq.min(axis=0), qq.max(axis=0)))
 
     def bic(self, Z=None) -> float:
         """BIC = -2 log L + k log n (Eq. 4.34) on Z (default: the training track)."""
@@ -806,8 +969,8 @@ class LinkModel:
     @classmethod
     def _from_dict(cls, dct: dict) -> "LinkModel":
         m = cls.__new__(cls)
-        LinkModel.__init__(m, obs=ObservationModel(**dct["obs"]))
-        m.obs_fit = ObservationModel(**dct["obs_fit"])
+        LinkModel.__init__(m, obs=_obs_from_dict(dct["obs"]))
+        m.obs_fit = _obs_from_dict(dct["obs_fit"])
         m.has_orientation = bool(dct["has_orientation"])
         m.theta = np.asarray(dct["theta"], float)
         m.gamma = float(dct["gamma"])
@@ -1452,8 +1615,8 @@ def link_model_from_dict(dct: dict) -> LinkModel:
     if cls is GPModel:
         m = GPModel.__new__(GPModel)
         m.dof = int(dct["extra"]["dof"])
-        LinkModel.__init__(m, obs=ObservationModel(**dct["obs"]))
-        m.obs_fit = ObservationModel(**dct["obs_fit"])
+        LinkModel.__init__(m, obs=_obs_from_dict(dct["obs"]))
+        m.obs_fit = _obs_from_dict(dct["obs_fit"])
         m.has_orientation = bool(dct["has_orientation"])
         m.theta = np.zeros(0)
         m.gamma = float(dct["gamma"])

@@ -431,12 +431,27 @@ class KinematicGraphEvaluator:
                 break
         return Px, Rx
 
+    def _config_prior(self, edges, dof: int) -> float:
+        """log p(q) of the object's D = ``dof`` configurations over the n time steps, the
+        same configuration prior as link fitting (LinkModel.log_config_prior): n^-D with
+        ``config_prior="n"`` (Eq. 4.54 as written), else min(n, c)^-1 per object DOF, with
+        c the noise-resolved range of the link DOFs (the D largest when PCA keeps D of
+        them)."""
+        if dof == 0:
+            return 0.0
+        if self.obs.config_prior == "n":
+            return float(-self.n * dof * np.log(self.n))
+        c = np.concatenate([self.models[e].config_resolution() for e in edges])
+        c = np.sort(np.maximum(c, 1.0))[::-1][:dof]
+        c = np.pad(c, (0, max(0, dof - c.size)), constant_values=1.0)
+        return float(-self.n * np.sum(np.log(np.minimum(float(self.n), c))))
+
     def _score(self, edges, Q, dof, k_extra):
         dP, dR = self._predict(edges, Q)
         Px, Rx = self.optimize_poses(edges, dP, dR)
         ep2 = np.sum((Px - self.Py) ** 2, axis=-1)
         eo = _angle(np.swapaxes(self.Ry, -1, -2) @ Rx)
-        ll = float(self.obs.log_inlier(ep2, eo).sum()) - self.n * dof * np.log(self.n)
+        ll = float(self.obs.log_inlier(ep2, eo).sum()) + self._config_prior(edges, dof)
         k = int(sum(self.models[e].num_params_ for e in edges)) + int(k_extra)
         bic = -2.0 * ll + k * np.log(self.n)
         return ll, k, bic, float(np.sqrt(ep2).mean()), float(eo.mean())

@@ -12,17 +12,19 @@ lower total BIC (Eq. 4.44-4.45):
 the same test is repeated after every observation (Eq. 4.46), so the robot predicts with the
 merged model - fitted to much more data - as long as the object behaves like a known one.
 
-Merge-test BIC: with the configuration prior p(q) ~ n^-d of Eq. 4.31 inside the likelihood,
-merging can never pay off: pooling n1 + n2 observations costs (n1 + n2) d log(n1 + n2) -
-n1 d log n1 - n2 d log n2 > 0 nats even when the joint model fits both trajectories
-perfectly (measured on the Cody drawers: ~70 nats per pair, against ~20 saved by the shared
-parameters). The merge test therefore compares -2 log p(D | M, theta) + k log n, the BIC
-without the n^-d term (:func:`merge_bic`); the choice of the model *class* of a new
-trajectory still uses the full BIC of Eq. 4.34.
+Merge-test BIC: the BIC of Eq. 4.34 with the same observation model as link fitting
+(models/articulation.py: the outlier prior -w gamma n of Eq. 4.15 and the configuration prior
+p(q) ~ n_eff^-d), with one refinement: the configuration prior is that of each trajectory as
+one visit, uniform over the range that visit covers (LinkModel.log_config_prior_of). A
+partial trajectory (the first 40 % of a door's opening) is then not charged for the part of
+the range it never reached when it is scored under a cluster's model. Eq. 4.27's literal
+n^-d made merging impossible (pooling n1 + n2 observations costs
+(n1 + n2) d log(n1 + n2) - n1 d log n1 - n2 d log n2 > 0 nats even for a perfect joint fit;
+~70 nats per pair of Cody drawers against ~20 saved by the shared parameters), so mmlearn
+left it out of the merge test before 2026-11; n_eff, the number of configurations the noise
+resolves over a visit's range, does not grow with more visits.
 
-Outliers: the default observation model for priors has sigma_pos = 0.05 m (Cody) and a
-strong outlier prior (gamma_weight = 1000): at sigma = 0.05 m a position-only hook track
-of ~0.5 m is otherwise explained best as "rigid with 30-40 % outliers" (measured).
+The default observation model for priors has sigma_pos = 0.05 m (Cody's base localisation).
 
 Alignment: each trajectory is recorded in the robot's base frame from a different stopping
 place, so it is translated to start at the origin (its first observation) before any model
@@ -90,11 +92,22 @@ def align_trajectory(Z, mode: str = "first") -> np.ndarray:
     return a
 
 
-def merge_bic(model) -> float:
-    """BIC used by the merge test: -2 log p(D | M, theta) + k log n, i.e. the model's BIC
-    without the n^-d configuration prior of Eq. 4.31 (see the module notes)."""
+def merge_bic(model, trajectories=None) -> float:
+    """BIC used by the merge test: the model's BIC of Eq. 4.34 with the same observation
+    model as link fitting, except that the configuration prior is that of each trajectory
+    as one visit (LinkModel.log_config_prior_of: uniform over the range the visit covers,
+    see the module notes). ``trajectories``: the (aligned) trajectories the model was
+    fitted to, in any order; None: the training track as one visit."""
     n = int(model.n_train)
-    return float(model.bic_ - 2.0 * n * model.dof * np.log(n))
+    if getattr(model.obs_fit, "config_prior", "resolved") == "n":
+        # databases saved before 2026-11: n^-d made merging impossible, it was left out
+        return float(model.bic_ - 2.0 * n * model.dof * np.log(n))
+    if trajectories is None or model.dof == 0:
+        return float(model.bic_)
+    per_visit = sum(model.log_config_prior_of(Z) for Z in trajectories)
+    # the model's BIC has the configuration prior over its whole training range; replace it
+    ep2, eo, q = model._residuals_batch(model.theta[None], model._data(np.vstack(trajectories)))
+    return float(model.bic_ + 2.0 * model.log_config_prior(q[0]) - 2.0 * per_visit)
 
 
 def thin_trajectory(Z, max_points: int | None) -> np.ndarray:
@@ -118,7 +131,7 @@ class PriorCluster:
 
     @property
     def bic(self) -> float:
-        return merge_bic(self.model)
+        return merge_bic(self.model, self.data)
 
     @property
     def stacked(self) -> np.ndarray:
@@ -150,7 +163,8 @@ class PriorDatabase:
     """Prior models learned by sequential clustering (Algorithm 2).
 
     Args:
-        obs: observation model (default sigma_pos = 0.05 m as on Cody, gamma_weight 1000).
+        obs: observation model (default: sigma_pos = 0.05 m as on Cody, everything else the
+            link-fitting defaults).
         models: candidate link models for new trajectories.
         align: "first" (translate to the first observation) or "none".
         max_points: thin every trajectory to at most this many observations (None = all).
@@ -167,8 +181,7 @@ class PriorDatabase:
             raise ValueError(f"joint_models must be 'same' or 'all', got {joint_models!r}")
         if max_points is not None and int(max_points) < 3:
             raise ValueError(f"max_points must be >= 3, got {max_points}")
-        self.obs = obs if obs is not None else ObservationModel(sigma_pos=0.05,
-                                                                gamma_weight=1000.0)
+        self.obs = obs if obs is not None else ObservationModel(sigma_pos=0.05)
         self.models = tuple(models.split(",") if isinstance(models, str) else models)
         for m in self.models:
             make_model(m)  # validates names
@@ -211,7 +224,7 @@ class PriorDatabase:
             raise ValueError(f"trajectory has {Zp.shape[1]} columns, the database holds "
                              f"{self.clusters[0].data[0].shape[1]}-column trajectories")
         new = self._fit_new(Zp, rng)
-        new_bic = merge_bic(new)
+        new_bic = merge_bic(new, [Zp])
         best_j, best_d, best_model = None, new_bic, new
         deltas, joints = {}, {}
         for j, c in enumerate(self.clusters):
@@ -220,7 +233,7 @@ class PriorDatabase:
             except ValueError:
                 continue
             joints[j] = mj
-            deltas[j] = merge_bic(mj) - c.bic
+            deltas[j] = merge_bic(mj, c.data + [Zp]) - c.bic
             if deltas[j] < best_d:
                 best_j, best_d, best_model = j, deltas[j], mj
         return MergeDecision(best_j, best_model, new, deltas, new_bic, joints)
@@ -275,7 +288,9 @@ class PriorDatabase:
         return {
             "format": FORMAT, "version": VERSION,
             "config": {"sigma_pos": self.obs.sigma_pos, "sigma_orient": self.obs.sigma_orient,
-                       "gamma_weight": self.obs.gamma_weight, "models": list(self.models),
+                       "gamma_weight": self.obs.gamma_weight,
+                       "gamma_prior": self.obs.gamma_prior,
+                       "config_prior": self.obs.config_prior, "models": list(self.models),
                        "align": self.align, "max_points": self.max_points,
                        "joint_models": self.joint_models, "n_hypotheses": self.n_hypotheses},
             "clusters": [{"members": list(c.members), "data": [d.tolist() for d in c.data],
@@ -289,8 +304,12 @@ class PriorDatabase:
         if int(d.get("version", -1)) != VERSION:
             raise ValueError(f"unsupported prior database version {d.get('version')!r}")
         c = d["config"]
+        # (databases without gamma_prior / config_prior predate 2026-11: prior once per
+        # track, n^-d configuration prior)
         db = cls(obs=ObservationModel(sigma_pos=c["sigma_pos"], sigma_orient=c["sigma_orient"],
-                                      gamma_weight=c.get("gamma_weight", 1.0)),
+                                      gamma_weight=c.get("gamma_weight", 1.0),
+                                      gamma_prior=c.get("gamma_prior", "track"),
+                                      config_prior=c.get("config_prior", "n")),
                  models=c["models"], align=c["align"], max_points=c["max_points"],
                  joint_models=c["joint_models"], n_hypotheses=c["n_hypotheses"])
         for cl in d["clusters"]:

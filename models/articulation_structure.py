@@ -2,6 +2,8 @@
 
 - :func:`select_link_model`: fit all candidate link models (or a subset) to one relative track
   and choose the lowest BIC (Eq. 4.34-4.35); all candidates stay available for inspection.
+  A revolute candidate whose bow over the observed range is below sigma_pos is not selected
+  (it cannot be told from a straight line at the assumed noise; see ``_unresolved``).
 - :func:`fit_kinematic_tree`: for p parts, fit every pair's relative track z_ij = y_i^-1 y_j
   (time steps where either part is unobserved are left out for that pair), edge cost = BIC of
   the best model of the pair (Eq. 4.40), minimum spanning tree (networkx, Kruskal). The result
@@ -44,12 +46,15 @@ class LinkSelection:
         candidates: name -> fitted model, for every candidate that could be fitted.
         bic: name -> BIC (inf for candidates that failed).
         errors: name -> error message for candidates that could not be fitted.
+        demoted: name -> reason, for fitted candidates that are not selected although their
+            BIC may be lowest (a revolute model whose bow is below the noise).
     """
 
     best: LinkModel
     candidates: dict
     bic: dict
     errors: dict = field(default_factory=dict)
+    demoted: dict = field(default_factory=dict)
 
     @property
     def selected(self) -> str:
@@ -84,8 +89,31 @@ def select_link_model(Z, *, models=DEFAULT_CANDIDATES, obs: ObservationModel | N
     if not cands:
         raise ValueError("no candidate model could be fitted: " + "; ".join(
             f"{k}: {v}" for k, v in errs.items()))
-    best = min(cands.values(), key=lambda m: m.bic_)
-    return LinkSelection(best=best, candidates=cands, bic=bic, errors=errs)
+    demoted = {}
+    for name, m in cands.items():
+        reason = _unresolved(m)
+        if reason and len(cands) > 1:
+            demoted[name] = reason
+    eligible = [m for k, m in cands.items() if k not in demoted] or list(cands.values())
+    best = min(eligible, key=lambda m: m.bic_)
+    return LinkSelection(best=best, candidates=cands, bic=bic, errors=errs, demoted=demoted)
+
+
+def _unresolved(model: LinkModel) -> str | None:
+    """Why a fitted candidate is not distinguishable from a simpler one at the assumed noise,
+    or None. A revolute model whose bow over the observed range (the sagitta
+    r (1 - cos(dq / 2))) stays below sigma_pos describes a path that the observation model
+    cannot tell from a straight line: its radius and centre fit systematic wobble (the
+    robot base's motion, handle play) that the assumed noise declares meaningless, so the
+    prismatic model is selected instead."""
+    if model.name != "revolute":
+        return None
+    dq = float(model.q_max[0] - model.q_min[0])
+    bow = model.radius * (1.0 - np.cos(min(dq, np.pi) / 2.0))
+    if bow < model.obs_fit.sigma_pos:
+        return (f"bow {bow:.4f} m over the observed {np.degrees(dq):.1f} deg is below "
+                f"sigma_pos {model.obs_fit.sigma_pos:g} m")
+    return None
 
 
 def relative_track(y_i, y_j):

@@ -54,7 +54,7 @@ def test_closed_yardstick_one_dof(closed_stick):
     assert set(r.best.edges) == {(0, 1), (1, 2), (2, 3), (0, 3)}
     assert all(m == "revolute" for m in r.best.models.values())
     assert r.tree.dof == 3  # a tree's DOFs are the sum of its links' DOFs
-    assert r.best.bic < r.tree.bic - 1000  # never worse than the spanning tree
+    assert r.best.bic < r.tree.bic - 500  # never worse than the spanning tree
     # without DOF reduction the same graph needs D_links DOFs and is far worse
     ev = KinematicGraphEvaluator(tr.poses, pm, obs=OBS)
     full = ev.evaluate(r.best.edges)
@@ -163,7 +163,7 @@ def test_parts_csv_roundtrip_and_errors(tmp_path, open_stick):
 
 def test_cabinet_structure_changes_as_drawers_move():
     tr = cabinet_scenario(20, 30, rng=1)
-    obs = ObservationModel(sigma_pos=0.01, sigma_orient=np.deg2rad(2), gamma_weight=1000)
+    obs = ObservationModel(sigma_pos=0.01, sigma_orient=np.deg2rad(2))
     hist = incremental_structure(tr.poses, tr.parts, refit_every=10, obs=obs, rng=1,
                                  models=PARAM)
     first = {s.n: s for s in hist}[20]
@@ -190,7 +190,7 @@ def test_incremental_input_errors():
 
 def test_table_on_the_floor_needs_a_two_dof_gp():
     tr = table_scenario(12, rng=2)
-    obs = ObservationModel(sigma_pos=0.01, sigma_orient=np.deg2rad(2), gamma_weight=1000)
+    obs = ObservationModel(sigma_pos=0.01, sigma_orient=np.deg2rad(2))
     Z = relative_poses(tr.poses[0], tr.poses[1]).as_array()
     models = ("rigid", "prismatic", "gp", "gp2")
     still = select_link_model(Z[:12], models=models, obs=obs, rng=0)
@@ -215,7 +215,7 @@ def test_table_pushed_forward_then_sideways_selects_a_one_dof_gp():
     assert np.allclose(np.linalg.norm(np.diff(xy[ph["still"]:], axis=0), axis=1), 0.8 / 11,
                        rtol=0.02)
     assert np.allclose(xy[end - 1], [1.6, 1.6])
-    obs = ObservationModel(sigma_pos=0.01, sigma_orient=np.deg2rad(2), gamma_weight=1000)
+    obs = ObservationModel(sigma_pos=0.01, sigma_orient=np.deg2rad(2))
     Z = relative_poses(tr.poses[0], tr.poses[1]).as_array()
     curve = select_link_model(Z[:end], models=("rigid", "prismatic", "revolute", "gp", "gp2"),
                               obs=obs, rng=0)

@@ -73,7 +73,7 @@ def test_save_load_roundtrip(tmp_path, db):
     assert d2.model_names() == db.model_names()
     Z = db.clusters[0].data[0]
     assert np.allclose(d2.clusters[0].model.project(Z), db.clusters[0].model.project(Z))
-    assert merge_bic(d2.clusters[0].model) == pytest.approx(db.clusters[0].bic)
+    assert merge_bic(d2.clusters[0].model, d2.clusters[0].data) == pytest.approx(db.clusters[0].bic)
     bad = tmp_path / "bad.json"
     bad.write_text(json.dumps({"format": "something else"}))
     with pytest.raises(ValueError, match="not a prior database"):

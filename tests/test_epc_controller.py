@@ -99,7 +99,7 @@ def test_priors_from_an_earlier_trial_select_the_right_model_earlier(tmp_path):
     first = open_cabinet.run(kind="drawer", seed=0, mechanism_seed=5, save_track=str(track),
                              show_progress=False)
     assert first["success"] and track.is_file()
-    db = PriorDatabase(obs=ObservationModel(sigma_pos=0.01, gamma_weight=1000.0))
+    db = PriorDatabase(obs=ObservationModel(sigma_pos=0.01))
     db.add(read_track(track).poses, "first")
     db_path = tmp_path / "priors.json"
     db.save(db_path)

@@ -20,7 +20,7 @@ def _line(start, d, length, n):
 @pytest.fixture(scope="module")
 def db():
     rng = np.random.default_rng(0)
-    d = PriorDatabase(obs=ObservationModel(sigma_pos=0.01, gamma_weight=1000.0))
+    d = PriorDatabase(obs=ObservationModel(sigma_pos=0.01))
     for k in range(3):  # a door seen three times from different stopping places
         off = rng.uniform(-0.2, 0.2, 3) * [1, 1, 0]
         d.add(_arc((0, 0), 0.4, 0.0, 1.4, 60) + off + rng.normal(0, 0.002, (60, 3)), f"door{k}")
