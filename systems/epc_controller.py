@@ -89,7 +89,10 @@ class EpcConfig:
         stop_force: hook force that, with the hook no longer advancing, means the end of
             the configuration range, N.
         target_angle: stop when a revolute model says the mechanism turned this far, rad.
-        target_distance: stop when a prismatic model says it moved this far, m.
+        target_distance: stop when a prismatic model says it moved this far, m. Longer
+            than the drawers' travel (they end at their end stop): at sigma_pos = 0.05 m a
+            door's arc reads as a line for its first ~50 deg, and a shorter target would
+            stop the door there under that early prismatic model.
         min_model_samples: hook positions before the learned model is trusted.
         stance_distance, stance_side: base stance: distance in front of the handle and
             shift towards ``side``, m.
@@ -111,7 +114,7 @@ class EpcConfig:
     max_lead: float = 0.05
     stop_force: float = 35.0
     target_angle: float = math.radians(85)
-    target_distance: float = 0.5
+    target_distance: float = 0.65
     min_model_samples: int = 15
     stance_distance: float = 0.78
     stance_side: float = 0.3
@@ -157,6 +160,9 @@ class _State:
     opening: float = 0.0
     model_name: str = ""
     stalled: int = 0
+    stall_G: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    trail_G: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    motion: np.ndarray = field(default_factory=lambda: np.zeros(3))
     slack: int = 0
     last_G: np.ndarray = field(default_factory=lambda: np.zeros(3))
     side_extra: float = 0.0
@@ -172,6 +178,16 @@ def _unit(v):
 def _axis_angle(axis, angle):
     """Rotation matrix of ``angle`` about ``axis`` (any length)."""
     return Rotation.from_rotvec(_unit(np.asarray(axis, float)) * angle).as_matrix()
+
+
+def _rotation_between(a, b) -> np.ndarray:
+    """The smallest rotation taking direction a to direction b."""
+    a, b = _unit(np.asarray(a, float)), _unit(np.asarray(b, float))
+    c = np.cross(a, b)
+    angle = math.atan2(np.linalg.norm(c), float(np.dot(a, b)))
+    if np.linalg.norm(c) < 1e-9:
+        return np.eye(3)
+    return _axis_angle(c, angle)
 
 
 def hook_rotation(normal, side) -> np.ndarray:
@@ -431,17 +447,21 @@ class EpcController(LeafSystem):
             if contact or elapsed >= cfg.slide_time + 0.3:
                 s.cep = G.copy()
                 s.direction = task.pull.copy()
+                s.trail_G, s.motion = G.copy(), task.pull.copy()
                 s.R = R_hook0.copy()
                 s.last_G = G.copy()
                 self._next_phase(s, PULL, t, G)
         elif s.phase == PULL:
             q_cmd, s = self._pull(context, s, q_cmd, G, F, elapsed)
         elif s.phase == RELEASE:
-            side = s.R @ (R_hook0.T @ task.side)
-            normal = s.R @ (R_hook0.T @ task.normal)
+            # the front's current orientation from the handle's observed motion (model-free:
+            # the hook's orientation may lag behind a door whose model came late)
+            R_front = _rotation_between(task.pull, s.motion)
+            side = R_front @ task.side
+            normal = R_front @ task.normal
             a = min(1.0, elapsed / cfg.release_time)
             # unload the finger (back along the motion), slide out sideways, back off
-            p = (s.start - 0.015 * min(1.0, a / 0.25) * s.direction
+            p = (s.start - 0.015 * min(1.0, a / 0.25) * s.motion
                  + 0.12 * float(np.clip((a - 0.25) / 0.4, 0, 1)) * side
                  + 0.15 * float(np.clip((a - 0.65) / 0.35, 0, 1)) * normal)
             q_cmd = self._ik(q_cmd, p, s.R, base=False)
@@ -508,13 +528,22 @@ class EpcController(LeafSystem):
         if np.linalg.norm(lead) > cfg.max_lead:
             cep = G + lead * (cfg.max_lead / np.linalg.norm(lead))
         s.cep, s.direction, s.R = cep, direction, R
+        # direction of the handle's most recent >= 3 cm of motion
+        if np.linalg.norm(G - s.trail_G) >= 0.03:
+            s.motion, s.trail_G = _unit(G - s.trail_G), G.copy()
         q_cmd = self._ik(q_cmd, cep, R, base=True)
-        # stop conditions
-        moved = np.linalg.norm(G - s.last_G)
+        # stop conditions: held back while the hook has not advanced since the stall began
+        # (progress over the whole window, not per period: the believed hook position
+        # drifts a few millimetres per period with the base localisation)
         pulling = np.dot(F, -direction)
         held_back = pulling > cfg.stop_force or (
             np.linalg.norm(cep - G) > 0.9 * cfg.max_lead and pulling > 0.3 * cfg.stop_force)
-        s.stalled = s.stalled + 1 if (moved < 0.2 * cfg.step and held_back) else 0
+        if not held_back:
+            s.stalled = 0
+        elif s.stalled == 0 or np.linalg.norm(G - s.stall_G) > cfg.step:
+            s.stalled, s.stall_G = 1, G.copy()
+        else:
+            s.stalled += 1
         s.slack = s.slack + 1 if np.linalg.norm(F) < 1.0 else 0
         target = cfg.target_angle if s.model_name == "revolute" else cfg.target_distance
         done = None
