@@ -47,7 +47,7 @@ class OperateConfig:
             defaults: 0.05 m RMS horizontal, 1.1 deg heading, drifting with a 60 s time
             constant, plus odometry error; 0 = the robot knows its base pose exactly).
         base_localization: the error model's parameters before scaling (its seed is
-            replaced by ``seed``).
+            replaced by one drawn from ``seed`` and ``kind``).
         epc: the controller's parameters.
         mechanism: the mechanism (None = drawn from kind and ``mechanism_seed``).
         mechanism_seed: seed of the mechanism's geometry (None = ``seed``); with a fixed
@@ -150,7 +150,8 @@ def MakeOperateDiagram(config: OperateConfig | None = None, *, meshcat=None) -> 
     yaw0 = math.atan2(-n[1], -n[0]) + rng.uniform(-0.3, 0.3)
     # the click is made relative to the robot at its start and stored in its believed
     # world frame (localisation error at time 0): what the robot is told
-    loc_cfg = replace(cfg.base_localization.scaled(cfg.base_noise), seed=cfg.seed)
+    loc_cfg = replace(cfg.base_localization.scaled(cfg.base_noise),
+                      seed=cfg.seed * len(KINDS) + KINDS.index(cfg.kind))
     e0 = initial_error(loc_cfg)
     base0 = np.array([p0[0], p0[1], yaw0])
     task = EpcTask(handle=believed_from_true(true_task.handle, base0, e0),

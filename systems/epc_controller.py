@@ -102,6 +102,9 @@ class EpcConfig:
         ik_damping: damping of the damped-least-squares IK.
         max_turn: largest change of the hook's orientation per period, rad.
         side_offset: distance of the grip point beside the bar before it slides behind it, m.
+        depth_margin: the guarded move into the front goes this much deeper than the
+            clicked handle suggests before it concludes that it passed the front's edge, m.
+        slide_reach: the slide behind the bar goes this far past the clicked bar, m.
         contact_force: hook positions count as observations of the mechanism only while the
             wrist feels at least this force, N.
         base_weight: cost of base motion relative to arm motion in the IK while pulling.
@@ -128,16 +131,20 @@ class EpcConfig:
     base_weight: float = 4.0
     max_turn: float = 0.05
     side_offset: float = 0.055
+    depth_margin: float = 0.05
+    slide_reach: float = 0.06
     contact_force: float = 0.5
 
     def validate(self):
         for k in ("period", "step", "force_gain", "max_lead", "stop_force", "target_angle",
                   "target_distance", "approach_time", "depth_time", "slide_time",
                   "release_time", "drive_speed", "max_pull_time", "ik_damping", "base_weight",
-                  "max_turn", "side_offset"):
+                  "max_turn", "side_offset", "slide_reach"):
             v = getattr(self, k)
             if not (math.isfinite(v) and v > 0):
                 raise ValueError(f"EpcConfig.{k} must be a positive number, got {v}")
+        if not (math.isfinite(self.depth_margin) and self.depth_margin >= 0):
+            raise ValueError(f"EpcConfig.depth_margin must be >= 0, got {self.depth_margin}")
         if not (math.isfinite(self.contact_force) and self.contact_force >= 0):
             raise ValueError(f"EpcConfig.contact_force must be >= 0, got {self.contact_force}")
         if self.min_model_samples < 3:
@@ -166,6 +173,7 @@ class _State:
     slack: int = 0
     last_G: np.ndarray = field(default_factory=lambda: np.zeros(3))
     side_extra: float = 0.0
+    bar_depth: float = float("nan")
     retries: int = 0
     outcome: str = ""
 
@@ -406,27 +414,36 @@ class EpcController(LeafSystem):
             if elapsed >= cfg.approach_time + 0.5:
                 self._next_phase(s, DEPTH, t, goal)
         elif s.phase == DEPTH:
-            goal = H - 0.08 * task.normal + (cfg.side_offset + s.side_extra) * task.side
-            a = min(1.0, elapsed / cfg.depth_time)
+            # guarded move into the front, deeper than the clicked handle by the depth
+            # margin: the handle is only known to a few cm (click and base localisation)
+            margin = cfg.depth_margin
+            goal = (H - (0.08 + margin) * task.normal
+                    + (cfg.side_offset + s.side_extra) * task.side)
+            T = cfg.depth_time * (0.26 + margin) / 0.26  # same speed as without the margin
+            a = min(1.0, elapsed / T)
             p = (1 - a) * s.start + a * goal
             touching = np.dot(F, task.normal) > 3.0
+            depth = np.dot(G - H, task.normal)
             # the finger touches the front with the seat ~0.036 m behind the bar's centre,
-            # the bar itself ~0.044 m in front of it (+-0.02 m click error): split at 0
-            if touching and np.dot(G - H, task.normal) > 0.0 and s.retries < 2:
+            # the bar itself ~0.044 m in front of it (+-0.02 m click error): split at 0; a
+            # contact at the depth where the bar was met before is the bar again
+            on_bar = depth > 0.0 or (math.isfinite(s.bar_depth) and depth > s.bar_depth - 0.03)
+            if touching and on_bar and s.retries < 3:
                 # hit something in front of the front: the bar itself (the click was off
                 # sideways). Back out and come in again further to the side.
                 s.retries += 1
                 s.side_extra += 0.02
                 q_cmd = self._ik(q_cmd, G + 0.05 * task.normal, R_hook0, base=False)
                 self._next_phase(s, PREHOOK, t, G + 0.05 * task.normal)
-            elif (not touching and np.dot(G - H, task.normal) < -0.065 and s.retries < 2):
+            elif (not touching and depth < -0.065 - margin and s.retries < 3):
                 # deeper than the front without touching it: the finger passed the front's
                 # free edge. Back out and come in again closer to the bar.
                 s.retries += 1
                 s.side_extra -= 0.02
-                q_cmd = self._ik(q_cmd, G + 0.12 * task.normal, R_hook0, base=False)
-                self._next_phase(s, PREHOOK, t, G + 0.12 * task.normal)
-            elif touching or elapsed >= cfg.depth_time:
+                q_cmd = self._ik(q_cmd, G + (0.12 + margin) * task.normal, R_hook0,
+                                 base=False)
+                self._next_phase(s, PREHOOK, t, G + (0.12 + margin) * task.normal)
+            elif touching or elapsed >= T:
                 # back off from the front so the finger clears it and the bar
                 p = G + 0.018 * task.normal
                 q_cmd = self._ik(q_cmd, p, R_hook0, base=False)
@@ -434,17 +451,33 @@ class EpcController(LeafSystem):
             else:
                 q_cmd = self._ik(q_cmd, p, R_hook0, base=False)
         elif s.phase == SLIDE:
-            # slide until the rod touches the bar (up to 3 cm past the clicked position)
+            # slide until the rod touches the bar (up to slide_reach past the clicked
+            # position)
+            # (a sliding door moves away along -side when the rod meets its bar, so the
+            # rod feels little: there the slide ends 3 cm past the clicked bar and the pull
+            # goes on in the same direction)
+            pulling_out = abs(np.dot(task.pull, task.normal)) > 0.5
+            reach = cfg.slide_reach if pulling_out else 0.03
             off = np.dot(s.start - H, task.side)
-            goal = s.start - (off + 0.03) * task.side
-            a = min(1.0, elapsed / cfg.slide_time)
+            goal = s.start - (off + reach) * task.side
+            T = cfg.slide_time * (1.0 + max(0.0, reach - 0.03) / 0.085)
+            a = min(1.0, elapsed / T)
             p = (1 - a) * s.start + a * goal
             # the rod touches the bar: a side force once the seat is near the clicked bar
             # (friction on the front while sliding also pushes along +side)
-            near = abs(np.dot(G - H, task.side)) < 0.04
+            near = abs(np.dot(G - H, task.side)) < reach + 0.01
             contact = near and np.dot(F, task.side) > 3.0
             q_cmd = self._ik(q_cmd, p, R_hook0, base=False)
-            if contact or elapsed >= cfg.slide_time + 0.3:
+            if not contact and elapsed >= T + 0.3 and s.retries < 3 and pulling_out:
+                # slid past the bar without feeling it: the finger was in front of the bar
+                # (the contact was the bar, not the front). Back out and come in again
+                # further to the side, taking contacts at this depth for the bar.
+                s.retries += 1
+                s.side_extra += 0.02
+                s.bar_depth = float(np.dot(s.start - H, task.normal)) - 0.018
+                q_cmd = self._ik(q_cmd, G + 0.05 * task.normal, R_hook0, base=False)
+                self._next_phase(s, PREHOOK, t, G + 0.05 * task.normal)
+            elif contact or elapsed >= T + 0.3:
                 s.cep = G.copy()
                 s.direction = task.pull.copy()
                 s.trail_G, s.motion = G.copy(), task.pull.copy()
