@@ -4,6 +4,21 @@ The robot starts about 1 m away with a noisy handle location, drives to a stance
 the handle and opens the mechanism by equilibrium-point control while it learns the
 mechanism's kinematic model online from its hook's trajectory.
 
+What the robot knows: its arm's joint angles and forward kinematics exactly (the hook
+position relative to its base has no error), the front's normal and the bar's direction,
+and the handle only as a click within 2 cm. Its base pose it knows only through a
+drifting localisation and odometry (``--base-noise``, see
+``mmlearn.systems.base_localization``): the hook trajectory the estimator learns from is in
+that believed world frame, so it carries the drift; the estimator assumes sigma_pos =
+0.05 m (the thesis' value) and has the GP candidate. ``--base-noise 0`` gives the robot its
+exact base pose.
+
+Success is the thesis' criterion on the largest opening reached: more than 60 deg or
+0.3 m (``final_opening`` is the opening after the hook let go; a dishwasher's
+counterbalance spring closes it again). ``right_kind`` says whether the model at the end
+was the right kind (revolute for doors, prismatic for drawers and sliding doors) and
+``right_model_at`` the opening from which it held.
+
     python -m mmlearn.apps.open_cabinet --object left_door --seed 3 --json
 """
 
@@ -119,11 +134,13 @@ def run(*, kind: str = "left_door", seed: int = 0, meshcat=None, html_out: str =
     # the start of the pull
     model_log = []
     base_err = []  # |believed - true| base position, m
+    q_max = 0.0  # largest opening reached (the thesis: "opened it through ...")
     while ctx.get_time() < max_time - 1e-9:
         simulator.AdvanceTo(min(max_time, ctx.get_time() + 0.25))
         bar.update(0.25)
         bar.set_postfix_str(PHASE_NAMES[phase])
         phase = int(d.GetOutputPort("phase").Eval(ctx)[0])
+        q_max = max(q_max, float(d.GetOutputPort("mechanism_state").Eval(ctx)[0]))
         base_err.append(float(np.hypot(*d.GetOutputPort("base_error").Eval(ctx)[:2])))
         if phase >= PULL:
             m = model_port.Eval(ctx)
@@ -142,11 +159,13 @@ def run(*, kind: str = "left_door", seed: int = 0, meshcat=None, html_out: str =
     link = obj.edges[0].model if obj is not None else None
     track = est_state.poses[:, 1, :3] if est_state.poses.shape[0] else np.zeros((0, 3))
     ctrl = op.controller.state(op.controller.GetMyContextFromRoot(ctx))
+    q_max = max(q_max, q)
     if spec.is_revolute:
-        opened, unit, success = math.degrees(q), "deg", q > SUCCESS_ANGLE
+        opened, unit, success = math.degrees(q_max), "deg", q_max > SUCCESS_ANGLE
     else:
-        opened, unit, success = q, "m", q > SUCCESS_DISTANCE
+        opened, unit, success = q_max, "m", q_max > SUCCESS_DISTANCE
     result = {"object": kind, "seed": seed, "success": bool(success), "opened": opened,
+              "final_opening": to_unit(q),
               "unit": unit, "outcome": ctrl.outcome or PHASE_NAMES[phase]}
     result.update(evaluate_model(link, spec))
     # the model's kind over the trial, and the opening from which the final right kind held

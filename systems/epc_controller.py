@@ -397,6 +397,9 @@ class EpcController(LeafSystem):
         R_hook0 = self._R_hook0
         if s.phase == DRIVE:
             goal = self._stance()
+            # turn the short way (facing -x, the stance yaw may be +pi while the start is
+            # near -pi: a linear blend would spin the base a full turn)
+            goal[2] = s.start[2] + math.remainder(goal[2] - s.start[2], 2 * math.pi)
             dist = np.linalg.norm(goal[:2] - s.start[:2])
             T = max(1.0, dist / cfg.drive_speed)
             a = min(1.0, elapsed / T)
