@@ -467,11 +467,18 @@ class EpcController(LeafSystem):
             a = min(1.0, elapsed / T)
             p = (1 - a) * s.start + a * goal
             # the rod touches the bar: a side force once the seat is near the clicked bar
-            # (friction on the front while sliding also pushes along +side)
-            near = abs(np.dot(G - H, task.side)) < reach + 0.01
-            contact = near and np.dot(F, task.side) > 3.0
+            # (friction on the front while sliding also pushes along +side, but comes with
+            # a larger push from the front along the normal)
+            # a side force near the clicked bar, or anywhere once the hook lags 2 cm behind
+            # the commanded slide (the bar stops it where the click did not say)
+            f_side = np.dot(F, task.side)
+            near = abs(np.dot(G - H, task.side)) < 0.04
+            blocked = np.dot(G - p, task.side) > 0.02
+            contact = f_side > 3.0 and (near or blocked)
             q_cmd = self._ik(q_cmd, p, R_hook0, base=False)
-            if not contact and elapsed >= T + 0.3 and s.retries < 3 and pulling_out:
+            reached = abs(np.dot(G - goal, task.side)) < 0.015
+            if (not contact and elapsed >= T + 0.3 and reached and s.retries < 3
+                    and pulling_out):
                 # slid past the bar without feeling it: the finger was in front of the bar
                 # (the contact was the bar, not the front). Back out and come in again
                 # further to the side, taking contacts at this depth for the bar.
