@@ -14,7 +14,8 @@ The track is the pose of the moving part in a fixed frame (the robot's or the ca
 
     {"tracks": [{"path", "n", "selected", "bic": {model: value}, "gamma",
                  "avg_pos_error_m", "avg_orient_error_rad" (null for position-only),
-                 "params": {...}, "fit_seconds"}],
+                 "params": {...}, "fit_seconds", "not_selectable" (optional: candidates
+                 that cannot be told from a simpler model, with the reason)}],
      "errors": [{"path", "error"}]}
 
 Revolute params: radius_m, axis (unit 3-vector), center (m), q range (rad); prismatic: axis,
@@ -60,6 +61,8 @@ def fit_track(poses, *, obs: ObservationModel, models=DEFAULT_CANDIDATES, rng=No
     }
     if sel.errors:
         res["candidate_errors"] = dict(sel.errors)
+    if sel.demoted:
+        res["not_selectable"] = dict(sel.demoted)
     return res, sel
 
 

@@ -27,7 +27,7 @@ import sys
 
 import numpy as np
 
-from mmlearn.models.articulation import ObservationModel, make_model
+from mmlearn.models.articulation import DEFAULT_GAMMA_WEIGHT, ObservationModel, make_model
 from mmlearn.models.articulation_graph import SEARCH_MODES, fit_structure, read_parts_csv
 from mmlearn.models.articulation_structure import DEFAULT_CANDIDATES
 
@@ -36,7 +36,8 @@ __all__ = ["run", "main"]
 
 def run(*, path, search: str = "local", reduce_dofs: bool = False, models=DEFAULT_CANDIDATES,
         sigma_pos: float = 0.01, sigma_orient: float = float(np.deg2rad(5.0)),
-        gamma_weight: float = 1.0, seed: int = 0, plot: str | None = None) -> dict:
+        gamma_weight: float = DEFAULT_GAMMA_WEIGHT, seed: int = 0,
+        plot: str | None = None) -> dict:
     """Fit the structure of the object in CSV ``path``; returns the --json dictionary."""
     if search not in SEARCH_MODES:
         raise ValueError(f"unknown search {search!r}; choose from {', '.join(SEARCH_MODES)}")
@@ -93,8 +94,9 @@ def main(argv=None) -> int:
     ap.add_argument("--sigma-pos", type=float, default=0.01, help="position noise, m")
     ap.add_argument("--sigma-orient", type=float, default=float(np.deg2rad(5.0)),
                     help="orientation noise, rad")
-    ap.add_argument("--gamma-weight", type=float, default=1.0,
-                    help="weight w of the outlier prior p(gamma) ~ exp(-w gamma)")
+    ap.add_argument("--gamma-weight", type=float, default=DEFAULT_GAMMA_WEIGHT,
+                    help="weight w of the outlier prior p(gamma) ~ exp(-w gamma), per "
+                         "observation (default ln(100)/0.05 ~ 92)")
     ap.add_argument("--seed", type=int, default=0, help="random seed")
     ap.add_argument("--json", action="store_true", help="print JSON")
     ap.add_argument("--plot", default=None, help="write a PNG of the structure")

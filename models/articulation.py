@@ -20,20 +20,44 @@ Observation model (Eq. 4.13-4.15): an inlier is the true pose plus Gaussian nois
 with standard deviation ``sigma_pos`` (metres) on the position and ``sigma_orient`` (radians)
 on the rotation vector of the orientation error; an outlier (probability gamma) is uniform over
 a position volume V (m^3, by default the cube whose side is the largest extent of the training
-positions plus 6 sigma_pos, at least 1 m^3) times SO(3) (volume 8 pi^2). gamma has the prior
-p(gamma) = w exp(-w gamma) / (1 - exp(-w)) on [0, 1] and is estimated by EM (closed-form MAP
-M-step). The data log-likelihood (Eq. 4.31-4.32) is
+positions plus 6 sigma_pos, at least 1 m^3) times SO(3) (volume 8 pi^2). The data
+log-likelihood (Eq. 4.26-4.32) of a track of n observations is
 
-    log L = sum_t log[(1 - gamma) N(z_t | f(f^-1(z_t))) + gamma U] + log p(gamma) - n d log n
+    log L = sum_t log[(1 - gamma) N(z_t | f(q_t)) p(q_t | M) + gamma U] - w gamma n,
+    q_t = f^-1(z_t),
 
-and BIC = -2 log L + k log n (Eq. 4.34).
+and BIC = -2 log L + k log n (Eq. 4.34). The reading of the thesis this implements:
+
+- Outlier prior (Eq. 4.15): p(gamma) ~ exp(-w gamma) multiplies the likelihood of *every*
+  observation, so a track pays -w gamma n; w = ln(100) / 0.05 ~ 92 (an outlier ratio of 0.05
+  costs a factor 100 per observation), and gamma is the maximum-likelihood estimate of the
+  mixture by EM: the prior compares models with different outlier ratios (the thesis' words)
+  and leaves the estimate alone. This is what the thesis' implementation does
+  (tum-vision/articulation, generic_model.cpp). Read as a prior on the estimate (MAP), w n
+  pulls gamma to ~0 whatever the data (|gamma - 0.3| = 0.30 on a link with 30 % outliers);
+  applied once per track (mmlearn before 2026-11), "rigid plus a track of outliers" wins at
+  the thesis' sigma 0.05 m on every real track. ``ObservationModel.gamma_prior`` keeps both
+  for comparison (``articulation_experiments --only selection``).
+- Configuration prior (Eq. 4.26-4.28): all configurations over the observed range equally
+  likely. Eq. 4.27 writes p(q) ~ n^-d ("n estimated configurations") and Eq. 4.29-4.31
+  evaluate the integral at q_hat only; that charges d log n per observation, which grows
+  with the number of observations of the same motion: at sigma 0.1 m every real Cody track
+  selects rigid (log 265 = 5.6 nats per observation against ~1.2 nats of the rigid misfit).
+  Here the integral along the path is evaluated (:meth:`LinkModel.config_terms`): ~log c per
+  observation, c the number of configurations the noise can tell apart over the range
+  (range in noise units / sqrt(2 pi)), falling to the rigid likelihood as the range shrinks
+  to nothing, and n^-d where the n configurations are sparser than the noise (n < c).
+  ``ObservationModel.config_prior="n"`` restores n^-d.
+- Identifiability (models/articulation_structure.py): a candidate whose travel is within the
+  noise the data show across the path, or a revolute whose bow is below sigma_pos, is not
+  selected.
 
 Fitting (Sec. 4.1.1): MLESAC on minimal samples (rigid 1, prismatic 2, revolute 3
 observations; 100 hypotheses scored at once, vectorised, gamma by EM per hypothesis), then
 refinement of the mixture likelihood + log p(gamma) from the best hypothesis:
 
 - rigid, prismatic: EM with closed-form M-steps (responsibility-weighted mean position /
-  weighted principal axis, weighted geodesic mean orientation, MAP gamma): one residual
+  weighted principal axis, weighted geodesic mean orientation, gamma): one residual
   evaluation per iteration;
 - revolute: a closed-form re-estimate on the consensus set (plane + circle fit; kept only if
   it scores better), then Levenberg-Marquardt on the responsibility-weighted residuals
@@ -46,8 +70,7 @@ evaluations for the same (or a better) optimum.
 
 Where this deviates from or resolves the thesis text:
 
-- p(gamma) enters the likelihood once per track (read per observation, Eq. 4.15 would pull
-  gamma far below the true outlier ratio); w = 1 by default.
+- Outlier prior and configuration prior: see above.
 - The uniform outlier density needs a volume the thesis does not give: see above.
 - Revolute f^-1 uses position and orientation (weighted circular mean), not only Eq. 4.22;
   this also handles position-only tracks and small radii.
@@ -719,6 +742,23 @@ class LinkModel:
         self.avg_pos_error_ = float(np.sqrt(ep2[0][inl]).mean())
         self.avg_orient_error_ = float(eo[0][inl].mean()) if eo is not None else None
         self.inliers_ = inl
+        # per-axis rms of the inliers' residuals across the path (position, orientation):
+        # the noise the data actually show, for the identifiability test of selection
+        k = max(3 - self.dof, 1)
+        self.residual_rms_ = (float(np.sqrt(ep2[0][inl].mean() / k)),
+                              None if eo is None else float(np.sqrt((eo[0][inl] ** 2).mean() / k)))
+
+    def path_length(self) -> tuple:
+        """Length of the observed range along the first DOF: (metres of position travel,
+        radians of rotation) from the model's Jacobian (0, 0 for rigid)."""
+        if self.dof == 0:
+            return 0.0, 0.0
+        qs = self.q_min[None] + np.linspace(0.0, 1.0, 16)[:, None] * (self.q_max - self.q_min)[None]
+        J = self.jacobian(qs)[:, :, 0]
+        dq = abs(float(self.q_max[0] - self.q_min[0]))
+        lp = float(np.linalg.norm(J[:, :3], axis=1).mean()) * dq
+        lr = float(np.linalg.norm(J[:, 3:], axis=1).mean()) * dq if J.shape[1] == 6 else 0.0
+        return lp, lr
 
     # ----- evaluation
     def residuals(self, Z):

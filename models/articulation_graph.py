@@ -41,7 +41,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .articulation import ObservationModel
-from .articulation_structure import DEFAULT_CANDIDATES, relative_track, select_link_model
+from .articulation_structure import DEFAULT_CANDIDATES, fit_pair_models, spanning_tree_edges
 from .se3 import as_pose_array
 
 __all__ = [
@@ -163,43 +163,6 @@ def as_part_tracks(part_tracks) -> np.ndarray:
 
 def _gen(rng):
     return rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
-
-
-def fit_pair_models(part_tracks, *, models=DEFAULT_CANDIDATES, obs: ObservationModel | None = None,
-                    rng=None, min_common: int = 5, n_hypotheses: int = 100) -> dict:
-    """Fit and select a link model for every pair (i < j) observed together at least
-    ``min_common`` times. Returns {(i, j): LinkSelection}; the model describes part j in the
-    frame of part i."""
-    Y = as_part_tracks(part_tracks)
-    rng = _gen(rng)
-    obs = obs if obs is not None else ObservationModel()
-    out = {}
-    for i, j in itertools.combinations(range(Y.shape[0]), 2):
-        z, _ = relative_track(Y[i], Y[j])
-        if z is None or len(z) < max(3, min_common):
-            continue
-        try:
-            out[(i, j)] = select_link_model(z, models=models, obs=obs, rng=rng,
-                                            n_hypotheses=n_hypotheses)
-        except ValueError:
-            continue
-    return out
-
-
-def spanning_tree_edges(pair_models: dict, num_parts: int) -> tuple:
-    """Minimum spanning tree over the pairs, edge cost = BIC of the pair's best model
-    (Eq. 4.40). Returns sorted edge tuples; raises ValueError if the parts are not connected."""
-    import networkx as nx
-
-    G = nx.Graph()
-    G.add_nodes_from(range(num_parts))
-    for (i, j), s in pair_models.items():
-        G.add_edge(i, j, weight=float(getattr(s, "best", s).bic_))
-    if not nx.is_connected(G):
-        comps = [sorted(c) for c in nx.connected_components(G)]
-        raise ValueError(f"parts cannot be connected (too few common observations): {comps}")
-    T = nx.minimum_spanning_tree(G, weight="weight", algorithm="kruskal")
-    return tuple(sorted((min(a, b), max(a, b)) for a, b in T.edges()))
 
 
 def pca_projection(Q: np.ndarray, dof: int):

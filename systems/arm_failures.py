@@ -51,7 +51,9 @@ class JointBlocker(LeafSystem):
         self._n = int(size)
         self._in = self.DeclareVectorInputPort("command", self._n)
         self._state = self.DeclareDiscreteState(2 * self._n)
-        self._out = self.DeclareVectorOutputPort("command", BasicVector(self._n), self._calc)
+        self._out = self.DeclareVectorOutputPort(
+            "command", BasicVector(self._n), self._calc,
+            prerequisites_of_calc={self._in.ticket(), self.discrete_state_ticket(self._state)})
 
     def get_command_input_port(self):
         return self._in

@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from pydrake.common.value import AbstractValue
-from pydrake.systems.framework import BasicVector, LeafSystem
+from pydrake.systems.framework import BasicVector, LeafSystem, ValueProducer
 
 from mmlearn.models.articulation import ObservationModel
 from mmlearn.models.articulation_structure import (DEFAULT_CANDIDATES, ArticulatedObject,
@@ -21,9 +21,12 @@ from .observations import MarkerObservations
 __all__ = ["ArticulationEstimator", "ArticulationEstimatorState"]
 
 
-@dataclass
+@dataclass(frozen=True)
 class ArticulationEstimatorState:
     """Abstract state of the estimator (replaced, never mutated, on every update).
+
+    Immutable (read-only arrays; the model is replaced by a refit, never changed), so
+    Drake's copies of it, on every update and context clone, share it.
 
     Attributes:
         poses: (k, p, 7) buffered observations x y z qx qy qz qw (NaN = part not seen); in
@@ -44,6 +47,13 @@ class ArticulationEstimatorState:
     model: ArticulatedObject | None = None
     last_fit_count: int = 0
     total: int = 0
+
+    def __post_init__(self):
+        for a in (self.poses, self.times):
+            a.setflags(write=False)
+
+    def __deepcopy__(self, memo):
+        return self
 
 
 class ArticulationEstimator(LeafSystem):
@@ -128,15 +138,23 @@ class ArticulationEstimator(LeafSystem):
         init = ArticulationEstimatorState(poses=np.zeros((0, p, self._width)))
         self._state_index = self.DeclareAbstractState(AbstractValue.Make(init))
         self.DeclarePeriodicUnrestrictedUpdateEvent(period, 0.0, self._update)
+        # every output is a function of the state alone (not of the input, which changes
+        # every plant step); the configuration estimate is computed once per state
+        st = {self.abstract_state_ticket(self._state_index)}
+        self._estimate_cache = self.DeclareCacheEntry(
+            "estimate", ValueProducer(allocate=lambda: AbstractValue.Make(None),
+                                      calc=lambda c, v: v.set_value(self._estimate(c))), st)
+        est = {self._estimate_cache.ticket()}
         self._out_model = self.DeclareAbstractOutputPort(
-            "object_model", lambda: AbstractValue.Make(None), self._calc_model)
+            "object_model", lambda: AbstractValue.Make(None), self._calc_model, st)
         self._out_sel = self.DeclareAbstractOutputPort(
-            "selected_models", lambda: AbstractValue.Make(dict()), self._calc_selected)
+            "selected_models", lambda: AbstractValue.Make(dict()), self._calc_selected, st)
         self._out_q = self.DeclareVectorOutputPort(
-            "configuration", self._max_dof, self._calc_q)
+            "configuration", self._max_dof, self._calc_q, prerequisites_of_calc=est)
         self._out_J = self.DeclareAbstractOutputPort(
-            "jacobian", lambda: AbstractValue.Make(np.zeros((0, 0))), self._calc_J)
-        self._out_stats = self.DeclareVectorOutputPort("stats", 5, self._calc_stats)
+            "jacobian", lambda: AbstractValue.Make(np.zeros((0, 0))), self._calc_J, est)
+        self._out_stats = self.DeclareVectorOutputPort("stats", 5, self._calc_stats,
+                                                       prerequisites_of_calc=st)
 
     # ------------------------------------------------------------------ ports
     def get_input_port_observations(self):
@@ -256,14 +274,14 @@ class ArticulationEstimator(LeafSystem):
 
     def _calc_q(self, context, out):
         v = np.zeros(self._max_dof)
-        _, q = self._estimate(context)
+        _, q = self._estimate_cache.Eval(context)
         if q is not None:
             k = min(q.size, self._max_dof)
             v[:k] = q[:k]
         out.SetFromVector(v)
 
     def _calc_J(self, context, out):
-        s, q = self._estimate(context)
+        s, q = self._estimate_cache.Eval(context)
         if q is None:
             out.set_value(np.zeros((0, 0)))
             return

@@ -1,5 +1,8 @@
 """LearnedModelVisualizer: draws the currently learned articulation model in Meshcat."""
 
+import math
+from dataclasses import dataclass
+
 import numpy as np
 
 from pydrake.common.value import AbstractValue
@@ -12,13 +15,26 @@ _RANGE = Rgba(1.0, 0.15, 0.1, 1.0)
 _FAINT = Rgba(0.1, 0.4, 1.0, 0.5)
 
 
+@dataclass(frozen=True)
+class _Shown:
+    """The link model on display (a reference; models are replaced, never mutated) and
+    the time it changed, s. Immutable: Drake's copies share it."""
+
+    link: object = None
+    changed_at: float = -math.inf
+
+    def __deepcopy__(self, memo):
+        return self
+
+
 class LearnedModelVisualizer(LeafSystem):
     """Shows the learned model of the first link of an ``ArticulatedObject`` in Meshcat.
 
     Revolute: the rotation axis (blue), the circle of the tracked point (faint) and the
     observed configuration range as a red arc. Prismatic: the axis (faint) and the observed
-    range (red). Rigid: the fixed position. Redrawn every ``period`` seconds when the
-    model changed, under ``prefix`` in the Meshcat tree.
+    range (red). Rigid: the fixed position. The input is checked every ``period`` seconds;
+    a changed model is drawn half a period later (and on a forced publish), under
+    ``prefix`` in the Meshcat tree.
 
     .. pydrake_system::
 
@@ -31,22 +47,41 @@ class LearnedModelVisualizer(LeafSystem):
         super().__init__()
         if not period > 0:
             raise ValueError(f"period must be > 0, got {period}")
-        self._meshcat, self._prefix = meshcat, prefix
+        self._meshcat, self._prefix, self._period = meshcat, prefix, float(period)
         self._in = self.DeclareAbstractInputPort("object_model", AbstractValue.Make(None))
-        self._last = None
-        self.DeclarePeriodicPublishEvent(period, 0.0, self._publish)
+        # which model is shown lives in the context: every period an update records the
+        # input's link model when it changed (and when); half a period later a publish
+        # draws it if it changed at that update. A forced publish always draws.
+        self._shown = self.DeclareAbstractState(AbstractValue.Make(_Shown()))
+        self.DeclarePeriodicUnrestrictedUpdateEvent(period, 0.0, self._update)
+        self.DeclarePeriodicPublishEvent(period, 0.5 * period, self._publish)
+        self.DeclareForcedPublishEvent(self._publish_forced)
 
     def get_object_model_input_port(self):
         return self._in
 
-    def _publish(self, context):
+    def _link(self, context):
         obj = self._in.Eval(context) if self._in.HasValue(context) else None
-        link = obj.edges[0].model if obj is not None and getattr(obj, "edges", None) else None
-        if link is self._last:
+        return obj.edges[0].model if obj is not None and getattr(obj, "edges", None) else None
+
+    def _update(self, context, state):
+        link = self._link(context)
+        if link is context.get_abstract_state(self._shown).get_value().link:
             return EventStatus.DidNothing()
-        self._last = link
+        state.get_mutable_abstract_state(self._shown).set_value(
+            _Shown(link=link, changed_at=context.get_time()))
+        return EventStatus.Succeeded()
+
+    def _publish(self, context):
+        shown = context.get_abstract_state(self._shown).get_value()
+        # drawn once: by the first publish after the update that changed it
+        if not context.get_time() - shown.changed_at < 0.75 * self._period:
+            return EventStatus.DidNothing()
+        return self._publish_forced(context)
+
+    def _publish_forced(self, context):
         try:
-            self.draw(link)
+            self.draw(context.get_abstract_state(self._shown).get_value().link)
         except (RuntimeError, ValueError, AttributeError):
             return EventStatus.DidNothing()
         return EventStatus.Succeeded()

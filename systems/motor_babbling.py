@@ -34,10 +34,13 @@ class MotorBabbling(LeafSystem):
             a rejected target is redrawn (the same seed stream) up to ``max_tries`` times,
             after which the last draw is used. None (default) accepts every target.
         max_tries: draws per target when ``accept`` is given (>= 1).
+        n_targets: targets drawn in advance (>= 1); with the default period of 1.5 s,
+            512 targets last 768 s of babbling.
     """
 
     def __init__(self, *, lower, upper, period: float = 1.5, seed: int = 0, start=None,
-                 hold: float = 0.3, accept=None, max_tries: int = 50):
+                 hold: float = 0.3, accept=None, max_tries: int = 50,
+                 n_targets: int = 512):
         super().__init__()
         lo, hi = np.asarray(lower, float).ravel(), np.asarray(upper, float).ravel()
         if lo.shape != hi.shape or lo.size == 0:
@@ -53,34 +56,42 @@ class MotorBabbling(LeafSystem):
             raise ValueError("MotorBabbling: accept must be callable or None")
         if int(max_tries) < 1:
             raise ValueError(f"MotorBabbling: max_tries must be >= 1, got {max_tries}")
+        if int(n_targets) < 1:
+            raise ValueError(f"MotorBabbling: n_targets must be >= 1, got {n_targets}")
         self._accept, self._max_tries = accept, int(max_tries)
         self._lo, self._hi, self._period, self._seed, self._hold = lo, hi, period, seed, hold
         self._start = (0.5 * (lo + hi) if start is None
                        else np.clip(np.asarray(start, float).ravel(), lo, hi))
         if self._start.shape != lo.shape:
             raise ValueError("MotorBabbling: start must have the same length as the limits")
-        self._targets: dict[int, np.ndarray] = {}  # memo of the pure function target(k)
-        self._out = self.DeclareVectorOutputPort("command", BasicVector(lo.size), self._calc)
+        # targets 1..n_targets, drawn once here (read-only afterwards)
+        self._targets = np.array([self._draw(k) for k in range(1, int(n_targets) + 1)])
+        self._targets.setflags(write=False)
+        self._out = self.DeclareVectorOutputPort("command", BasicVector(lo.size), self._calc,
+                                                 prerequisites_of_calc={self.time_ticket()})
 
     def get_command_output_port(self):
         return self._out
+
+    def _draw(self, k: int) -> np.ndarray:
+        rng = np.random.default_rng([self._seed, k])
+        q = rng.uniform(self._lo, self._hi)
+        if self._accept is not None:
+            for _ in range(self._max_tries - 1):
+                if self._accept(q):
+                    break
+                q = rng.uniform(self._lo, self._hi)
+        return q
+
+    @property
+    def n_targets(self) -> int:
+        return len(self._targets)
 
     def target(self, k: int) -> np.ndarray:
         """The k-th target (k = 0 is the start)."""
         if k <= 0:
             return self._start.copy()
-        if k not in self._targets:
-            if len(self._targets) > 64:
-                self._targets.clear()
-            rng = np.random.default_rng([self._seed, k])
-            q = rng.uniform(self._lo, self._hi)
-            if self._accept is not None:
-                for _ in range(self._max_tries - 1):
-                    if self._accept(q):
-                        break
-                    q = rng.uniform(self._lo, self._hi)
-            self._targets[k] = q
-        return self._targets[k].copy()
+        return self._targets[(k - 1) % len(self._targets)].copy()
 
     def command(self, t: float) -> np.ndarray:
         k = int(np.floor(t / self._period))

@@ -4,11 +4,17 @@ from __future__ import annotations
 
 import numpy as np
 
-from pydrake.systems.framework import BasicVector, LeafSystem
+from pydrake.systems.controllers import InverseDynamics
+from pydrake.systems.framework import BasicVector, Diagram, DiagramBuilder, LeafSystem
+from pydrake.systems.primitives import MatrixGain
 
 
-class GravityCompensation(LeafSystem):
+class GravityCompensation(Diagram):
     """Feed-forward actuation that cancels gravity on one model instance's actuated joints.
+
+    Drake's ``InverseDynamics`` in ``kGravityCompensation`` mode (it keeps its plant context
+    in a cache entry of its own context) followed by a ``MatrixGain`` that picks the
+    instance's actuated velocities.
 
     .. pydrake_system::
 
@@ -19,33 +25,30 @@ class GravityCompensation(LeafSystem):
         - actuation
 
     ``state`` is the plant's full state [q; v]; ``actuation`` is ordered like the plant's
-    actuation input port for ``model_instance`` (increasing JointActuatorIndex).
+    actuation input port for ``model_instance`` (increasing JointActuatorIndex), N*m or N.
     """
 
     def __init__(self, *, plant, model_instance):
         super().__init__()
-        self._plant = plant
-        self._ctx = plant.CreateDefaultContext()
-        self._v_index = np.array([
-            plant.get_joint_actuator(a).joint().velocity_start()
-            for a in plant.GetJointActuatorIndices(model_instance)], dtype=int)
-        nx = plant.num_positions() + plant.num_velocities()
-        self._nq = plant.num_positions()
-        self._state = self.DeclareVectorInputPort("state", nx)
-        self._out = self.DeclareVectorOutputPort(
-            "actuation", BasicVector(len(self._v_index)), self._calc)
+        v_index = [plant.get_joint_actuator(a).joint().velocity_start()
+                   for a in plant.GetJointActuatorIndices(model_instance)]
+        S = np.zeros((len(v_index), plant.num_velocities()))
+        S[np.arange(len(v_index)), v_index] = 1.0
+        builder = DiagramBuilder()
+        idyn = builder.AddNamedSystem("inverse_dynamics", InverseDynamics(
+            plant=plant, mode=InverseDynamics.InverseDynamicsMode.kGravityCompensation))
+        select = builder.AddNamedSystem("select_actuated", MatrixGain(S))
+        builder.Connect(idyn.get_output_port_generalized_force(), select.get_input_port())
+        builder.ExportInput(idyn.get_input_port_estimated_state(), "state")
+        builder.ExportOutput(select.get_output_port(), "actuation")
+        builder.BuildInto(self)
+        self.set_name("gravity_compensation")
 
     def get_state_input_port(self):
-        return self._state
+        return self.get_input_port(0)
 
     def get_actuation_output_port(self):
-        return self._out
-
-    def _calc(self, context, output):
-        x = self._state.Eval(context)
-        self._plant.SetPositions(self._ctx, x[: self._nq])
-        tau_g = self._plant.CalcGravityGeneralizedForces(self._ctx)
-        output.SetFromVector(-tau_g[self._v_index])
+        return self.get_output_port(0)
 
 
 class JointFriction(LeafSystem):
@@ -76,7 +79,8 @@ class JointFriction(LeafSystem):
         self._vs = v_stiction
         self._state = self.DeclareVectorInputPort("state", num_positions + num_velocities)
         self._out = self.DeclareVectorOutputPort(
-            "generalized_force", BasicVector(num_velocities), self._calc)
+            "generalized_force", BasicVector(num_velocities), self._calc,
+            prerequisites_of_calc={self._state.ticket()})
 
     def get_state_input_port(self):
         return self._state

@@ -1,7 +1,7 @@
 """PriorModelSelector: use prior models learned from earlier objects while operating a new
 one (thesis Sec. 4.2, Algorithm 2 and Eq. 4.46)."""
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -57,12 +57,20 @@ class ShiftedLinkModel:
         return self.model.radius
 
 
-@dataclass
+@dataclass(frozen=True)
 class _PriorState:
+    """Immutable (Drake's copies share it): replaced by every update."""
+
     track: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     cluster: int | None = None
     model: object = None
     tests: int = 0
+
+    def __post_init__(self):
+        self.track.setflags(write=False)
+
+    def __deepcopy__(self, memo):
+        return self
 
 
 class PriorModelSelector(LeafSystem):
@@ -125,10 +133,9 @@ class PriorModelSelector(LeafSystem):
             try:
                 d = self._db.merge_test(new.track,
                                         rng=np.random.default_rng([self._seed, n]))
-                new.cluster = d.cluster
-                new.model = (None if d.cluster is None
-                             else ShiftedLinkModel(d.model, new.track[0]))
-                new.tests += 1
+                new = replace(new, cluster=d.cluster, tests=new.tests + 1,
+                              model=(None if d.cluster is None
+                                     else ShiftedLinkModel(d.model, new.track[0])))
             except (ValueError, np.linalg.LinAlgError, FloatingPointError):
                 pass  # keep the previous decision
         state.get_mutable_abstract_state(self._s).set_value(new)

@@ -10,14 +10,15 @@ valid spanning tree exists, then test-then-train monitoring and model replacemen
 
 from __future__ import annotations
 
+import copy
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from pydrake.common.value import AbstractValue
 from pydrake.math import RigidTransform, RotationMatrix
-from pydrake.systems.framework import BasicVector, EventStatus, LeafSystem
+from pydrake.systems.framework import BasicVector, EventStatus, LeafSystem, ValueProducer
 
 from mmlearn.models.body_schema import AdaptationConfig, BodySchema, SearchConfig
 
@@ -69,25 +70,39 @@ class SchemaLearnerConfig:
                 raise ValueError(f"SchemaLearnerConfig: {msg}")
 
 
-@dataclass
+#: entries kept in the learner's logs (``history``, ``update_seconds``, ``refit_seconds``,
+#: ``command_log`` keeps 64) and in its schema's ``events``
+LOG_SIZE = 1000
+
+
+@dataclass(frozen=True)
 class SchemaLearnerState:
-    """The learner's abstract state (replaced by every update that changes it).
+    """The learner's abstract state: immutable, replaced by every update that changes it.
+
+    Drake copies abstract state values (``copy.deepcopy``) whenever it clones a context
+    and twice around every unrestricted update. This value is immutable, so a copy is the
+    value itself: the (large) schema is shared, never copied, between the state before
+    and after an update, and between clones of a context. The contract that makes this
+    safe: nobody mutates ``schema`` or the arrays in here (they are read-only). The learner
+    learns each new sample on a private copy of the schema and stores that copy in a new
+    state; to change a schema yourself, ``copy.deepcopy(state.schema)`` first.
 
     Attributes:
-        schema: the current BodySchema.
+        schema: the current BodySchema (treat as read-only).
         n_samples: observations fed to the schema.
         n_dropped: frames that were unusable (wrong markers, non-finite poses, too few
             visible markers, a failed update).
         last_command, stable_since: settling detector (command, s).
         sampled_since: ``stable_since`` of the last constant command that was sampled.
         last_frame_time: time of the last frame used (s).
-        command_log: recent (time, command, stable_since) per update.
+        command_log: the last 64 (time, command, stable_since), one per update.
         X_WR: estimate of the root part's world pose (4, 4) (mean of its observations).
         n_root: observations averaged into X_WR.
-        history: per sample (n, valid, tree keys ((a, b, actions), ...)).
-        update_seconds: wall time of the schema updates, per sample.
+        history: per sample (n, valid, tree keys ((a, b, actions), ...)), the last
+            ``LOG_SIZE``.
+        update_seconds: wall time of the schema updates, per sample, the last ``LOG_SIZE``.
         clean_since: sample count at which the tree was last invalid.
-        refit_seconds: wall time of each structure re-search.
+        refit_seconds: wall time of each structure re-search, the last ``LOG_SIZE``.
         last_event: last adaptation event text.
     """
 
@@ -99,13 +114,25 @@ class SchemaLearnerState:
     sampled_since: float | None = None
     last_frame_time: float | None = None
     clean_since: int = 0
-    refit_seconds: list = field(default_factory=list)
-    command_log: list = field(default_factory=list)
+    refit_seconds: tuple = ()
+    command_log: tuple = ()
     X_WR: np.ndarray | None = None
     n_root: int = 0
-    history: list = field(default_factory=list)
-    update_seconds: list = field(default_factory=list)
+    history: tuple = ()
+    update_seconds: tuple = ()
     last_event: str | None = None
+
+    def __copy__(self):
+        return self
+
+    def __deepcopy__(self, memo):
+        return self  # immutable (see the class docstring)
+
+
+def _frozen(a: np.ndarray) -> np.ndarray:
+    a = np.array(a, float)
+    a.setflags(write=False)
+    return a
 
 
 def _mean_pose(X_old: np.ndarray | None, n: int, X_new: np.ndarray) -> np.ndarray:
@@ -182,16 +209,22 @@ class SchemaLearner(LeafSystem):
         self._s = self.DeclareAbstractState(AbstractValue.Make(init))
         self.DeclarePeriodicUnrestrictedUpdateEvent(1.0 / cfg.rate_hz, 0.0, self._update)
         st = {self.abstract_state_ticket(self._s)}
+        st_cmd = {self.abstract_state_ticket(self._s), self._cmd.ticket()}
         self._schema_out = self.DeclareAbstractOutputPort(
             "schema", lambda: AbstractValue.Make(self._new_schema()),
             lambda c, o: o.set_value(self._get(c).schema), st)
+        # the world poses of all parts for the current command, shared by two outputs
+        self._world_cache = self.DeclareCacheEntry(
+            "world_poses", ValueProducer(allocate=lambda: AbstractValue.Make(None),
+                                         calc=self._calc_world_poses), st_cmd)
         self._ee_out = self.DeclareAbstractOutputPort(
-            "X_WE", lambda: AbstractValue.Make(RigidTransform()), self._calc_ee)
+            "X_WE", lambda: AbstractValue.Make(RigidTransform()), self._calc_ee,
+            {self._world_cache.ticket()})
         self._root_out = self.DeclareAbstractOutputPort(
             "X_WR", lambda: AbstractValue.Make(RigidTransform()), self._calc_root, st)
         self._pred_out = self.DeclareAbstractOutputPort(
             "predicted_poses", lambda: AbstractValue.Make([None] * len(parts)),
-            self._calc_pred)
+            self._calc_pred, {self._world_cache.ticket()})
         self._valid_out = self.DeclareAbstractOutputPort(
             "model_validity", lambda: AbstractValue.Make([]), self._calc_validity, st)
         self._status_out = self.DeclareVectorOutputPort(
@@ -265,76 +298,92 @@ class SchemaLearner(LeafSystem):
         return Y
 
     def _update(self, context, state):
+        new = self._next_state(context, self._get(context))
+        state.get_mutable_abstract_state(self._s).set_value(new)
+        return EventStatus.Succeeded()
+
+    def _next_state(self, context, s: SchemaLearnerState) -> SchemaLearnerState:
+        """The state after one periodic update (``s`` itself is not changed)."""
         cfg = self._cfg
-        s: SchemaLearnerState = state.get_mutable_abstract_state(self._s).get_value()
         t = context.get_time()
         u = np.asarray(self._cmd.Eval(context), float)
         if not np.all(np.isfinite(u)):
-            s.n_dropped += 1
-            return EventStatus.Succeeded()
-        if s.last_command is None or np.max(np.abs(u - s.last_command)) > cfg.settle_tol:
-            s.last_command, s.stable_since = u.copy(), t
+            return replace(s, n_dropped=s.n_dropped + 1)
+        last_command, stable_since = s.last_command, s.stable_since
+        if last_command is None or np.max(np.abs(u - last_command)) > cfg.settle_tol:
+            last_command, stable_since = _frozen(u), t
         # the command log pairs a frame with the command at the frame's time
-        s.command_log = (s.command_log + [(t, u.copy(), s.stable_since)])[-64:]
+        s = replace(s, last_command=last_command, stable_since=stable_since,
+                    command_log=(s.command_log + ((t, _frozen(u), stable_since),))[-64:])
         if not self._obs.HasValue(context):
-            return EventStatus.Succeeded()
+            return s
         obs = self._obs.Eval(context)
         t_obs = getattr(obs, "time", None)
         entry = next((e for e in reversed(s.command_log)
                       if t_obs is not None and abs(e[0] - t_obs) < 1e-6), None)
         if entry is None:
-            return EventStatus.Succeeded()  # no command known for that frame's time
+            return s  # no command known for that frame's time
         _, u, since = entry
         if t_obs < since + cfg.settle_time - 1e-9:
-            return EventStatus.Succeeded()  # the arm has not settled yet
+            return s  # the arm has not settled yet
         if cfg.one_per_target and s.sampled_since == since:
-            return EventStatus.Succeeded()  # this target was sampled already
+            return s  # this target was sampled already
         if s.last_frame_time == t_obs:
-            return EventStatus.Succeeded()  # frame used already
-        s.last_frame_time = t_obs
+            return s  # frame used already
+        s = replace(s, last_frame_time=t_obs)
         Y = self._frame(obs)
         if Y is None:
-            s.n_dropped += 1
-            return EventStatus.Succeeded()
+            return replace(s, n_dropped=s.n_dropped + 1)
+        # the schema in ``s`` is shared with the current state (and its clones): learn on a
+        # private copy, once per sample
+        schema = copy.deepcopy(s.schema)
         t0 = time.perf_counter()
         try:
-            st = s.schema.update(u, Y)
+            st = schema.update(u, Y)
         except (ValueError, np.linalg.LinAlgError, FloatingPointError) as e:
-            s.n_dropped += 1
-            s.last_event = f"dropped sample: {e}"
-            return EventStatus.Succeeded()
-        s.update_seconds.append(time.perf_counter() - t0)
-        s.n_samples += 1
-        s.sampled_since = since
-        if not s.schema.valid:
-            s.clean_since = s.n_samples
-        n_clean = s.n_samples - s.clean_since
+            # as before this system kept its state immutable: the copy the failed update
+            # worked on is kept
+            return replace(s, schema=schema, n_dropped=s.n_dropped + 1,
+                           last_event=f"dropped sample: {e}")
+        update_seconds = (s.update_seconds + (time.perf_counter() - t0,))[-LOG_SIZE:]
+        n_samples = s.n_samples + 1
+        clean_since, last_event = s.clean_since, s.last_event
+        refit_seconds = s.refit_seconds
+        if not schema.valid:
+            clean_since = n_samples
+        n_clean = n_samples - clean_since
         # refine a valid tree on the samples since it became valid; re-search a tree that
         # stays invalid on the samples since it became invalid (all after any change)
-        n_relearn = n_clean if s.schema.valid else s.schema.steps_invalid
-        if s.schema.nodes and n_relearn in cfg.refit_at and \
-                n_relearn <= s.schema.adapt.buffer:
+        n_relearn = n_clean if schema.valid else schema.steps_invalid
+        if schema.nodes and n_relearn in cfg.refit_at and n_relearn <= schema.adapt.buffer:
             t1 = time.perf_counter()
             try:
-                res = s.schema.relearn(last=n_relearn)
-                s.last_event = f"relearned on {n_relearn} samples (complete={res.complete})"
+                res = schema.relearn(last=n_relearn)
+                last_event = f"relearned on {n_relearn} samples (complete={res.complete})"
             except (ValueError, np.linalg.LinAlgError) as e:
-                s.last_event = f"relearn failed: {e}"
-            s.refit_seconds.append(time.perf_counter() - t1)
-            if not s.schema.valid:
-                s.clean_since = s.n_samples
+                last_event = f"relearn failed: {e}"
+            refit_seconds = (refit_seconds + (time.perf_counter() - t1,))[-LOG_SIZE:]
+            if not schema.valid:
+                clean_since = n_samples
         if st.get("event"):
-            s.last_event = st["event"]
-        r = s.schema.root
+            last_event = st["event"]
+        if len(schema.events) > LOG_SIZE:  # our private copy: cap its event log
+            del schema.events[:-LOG_SIZE]
+        X_WR, n_root = s.X_WR, s.n_root
+        r = schema.root
         if np.all(np.isfinite(Y[r])):
-            s.X_WR = _mean_pose(s.X_WR, s.n_root, Y[r])
-            s.n_root += 1
-        keys = tuple(sorted((m.i, m.j, tuple(m.Q)) for m in s.schema.tree))
-        s.history.append((s.n_samples, bool(s.schema.valid), keys))
-        state.get_mutable_abstract_state(self._s).set_value(s)
-        return EventStatus.Succeeded()
+            X_WR, n_root = _frozen(_mean_pose(X_WR, n_root, Y[r])), n_root + 1
+        keys = tuple(sorted((m.i, m.j, tuple(m.Q)) for m in schema.tree))
+        history = (s.history + ((n_samples, bool(schema.valid), keys),))[-LOG_SIZE:]
+        return replace(s, schema=schema, n_samples=n_samples, sampled_since=since,
+                       clean_since=clean_since, refit_seconds=refit_seconds, X_WR=X_WR,
+                       n_root=n_root, history=history, update_seconds=update_seconds,
+                       last_event=last_event)
 
     # -- outputs -------------------------------------------------------------------------
+    def _calc_world_poses(self, context, value):
+        value.set_value(self._world_poses(context))
+
     def _world_poses(self, context):
         s = self._get(context)
         if s.X_WR is None or not s.schema.tree:
@@ -349,7 +398,7 @@ class SchemaLearner(LeafSystem):
         return s.X_WR @ T
 
     def _calc_ee(self, context, output):
-        W = self._world_poses(context)
+        W = self._world_cache.Eval(context)
         X = RigidTransform()
         if W is not None and np.all(np.isfinite(W[self._ee])):
             X = RigidTransform(_rotation(W[self._ee, :3, :3]), W[self._ee, :3, 3])
@@ -362,7 +411,7 @@ class SchemaLearner(LeafSystem):
         output.set_value(X)
 
     def _calc_pred(self, context, output):
-        W = self._world_poses(context)
+        W = self._world_cache.Eval(context)
         out = [None] * len(self._parts)
         if W is not None:
             for i in range(len(self._parts)):

@@ -1,0 +1,247 @@
+"""Drake semantics: a system keeps everything that changes in its Context.
+
+For every diagram builder in ``diagrams/``, the same Diagram object is simulated once
+alone and then twice at the same time (two Simulators, one on a default context and one
+on a clone of it, advanced alternately); both must reproduce the lone run exactly. A
+context cloned in the middle of a run must not change while the original simulates on
+(no state value shared and mutated in place). Short horizons keep this fast.
+"""
+
+import math
+
+import numpy as np
+import pytest
+from pydrake.common.value import AbstractValue
+from pydrake.systems.analysis import Simulator
+from pydrake.systems.framework import DiagramBuilder, LeafSystem, PortDataType
+
+from mmlearn.diagrams.body_schema import BodySchemaDiagramConfig, MakeBodySchemaDiagram
+from mmlearn.diagrams.object_tracks import cabinet_scenario
+from mmlearn.diagrams.operate import MakeOperateDiagram, OperateConfig
+from mmlearn.diagrams.scene import MakeSceneDiagram, SceneConfig
+from mmlearn.models.articulation import ObservationModel
+from mmlearn.models.articulation_priors import PriorDatabase
+from mmlearn.systems import ArticulationEstimator, MarkerObservations, SchemaLearnerConfig
+from mmlearn.systems.epc_controller import EpcConfig
+from mmlearn.systems.model_visualizer import LearnedModelVisualizer
+from mmlearn.systems.prior_selector import PriorModelSelector
+
+
+def _snapshot(diagram, ctx, extra=None, ignore=None):
+    """Every exported vector output (minus ``ignore`` = {port: indices}), every discrete
+    state group, and ``extra(ctx)``."""
+    out = {}
+    for i in range(diagram.num_output_ports()):
+        port = diagram.get_output_port(i)
+        if port.get_data_type() != PortDataType.kVectorValued:
+            continue
+        v = np.array(port.Eval(ctx), float, copy=True)
+        for k in (ignore or {}).get(port.get_name(), ()):
+            v[k] = 0.0
+        out[port.get_name()] = v
+    for g in range(ctx.num_discrete_state_groups()):
+        out[f"discrete_{g}"] = np.array(ctx.get_discrete_state(g).value(), copy=True)
+    if extra is not None:
+        out["extra"] = extra(ctx)
+    return out
+
+
+def _same(a, b, where):
+    assert a.keys() == b.keys(), where
+    for k in a:
+        if isinstance(a[k], np.ndarray):
+            np.testing.assert_array_equal(a[k], b[k], err_msg=f"{where}: {k}")
+        else:
+            assert a[k] == b[k], f"{where}: {k}"
+
+
+def _check(diagram, prepare, times, *, extra=None, ignore=None):
+    snap = lambda c: _snapshot(diagram, c, extra, ignore)  # noqa: E731
+    # alone
+    sim = Simulator(diagram)
+    prepare(sim.get_mutable_context())
+    sim.Initialize()
+    alone = []
+    for t in times:
+        sim.AdvanceTo(t)
+        alone.append(snap(sim.get_context()))
+    # two simulators of the same diagram, interleaved; the second on a cloned context
+    ctx_a = diagram.CreateDefaultContext()
+    prepare(ctx_a)
+    ctx_b = ctx_a.Clone()
+    sim_a, sim_b = Simulator(diagram, ctx_a), Simulator(diagram, ctx_b)
+    sim_a.Initialize()
+    sim_b.Initialize()
+    mid, mid_snap = None, None
+    for k, t in enumerate(times):
+        sim_a.AdvanceTo(t)
+        sim_b.AdvanceTo(t)
+        _same(snap(sim_a.get_context()), alone[k], f"simulator A at t={t}")
+        _same(snap(sim_b.get_context()), alone[k], f"simulator B at t={t}")
+        if k == len(times) // 2:
+            mid = sim_a.get_context().Clone()
+            mid_snap = snap(mid)
+    # the clone taken halfway did not change while A simulated on
+    _same(snap(mid), mid_snap, "context cloned halfway")
+    return alone[-1]
+
+
+def test_scene_two_simulators():
+    scene = MakeSceneDiagram(SceneConfig(arm="4dof", cabinet=True))
+    mid = 0.5 * (scene.command_lower + scene.command_upper)
+    q = mid + 0.3 * (scene.command_upper - mid)
+
+    def prepare(ctx):
+        scene.set_joint_positions(ctx, mid)
+        scene.diagram.GetInputPort("command").FixValue(ctx, q)
+
+    end = _check(scene.diagram, prepare, [0.1, 0.2, 0.3])
+    assert end["marker_stats"][0] > 0
+
+
+def test_operate_two_simulators():
+    # long enough for the drive to the stance and the start of the IK-driven approach
+    op = MakeOperateDiagram(OperateConfig(kind="left_door", seed=1,
+                                          epc=EpcConfig(approach_time=0.5)))
+
+    def prepare(ctx):
+        op.scene.set_joint_positions(ctx, op.start_command)
+
+    def extra(ctx):
+        s = op.controller.state(op.controller.GetMyContextFromRoot(ctx))
+        return (s.phase, tuple(np.round(s.q_to, 12)))
+
+    end = _check(op.diagram, prepare, [0.6, 1.2, 1.8, 2.4], extra=extra)
+    assert end["extra"][0] >= 1  # reached the approach, which runs the IK
+
+
+def test_body_schema_two_simulators():
+    # fast babbling: a first valid structure within 6 s
+    bs = MakeBodySchemaDiagram(BodySchemaDiagramConfig(
+        arm="2dof", noise_pos=0.01, babble_period=0.5, babble_hold=0.7,
+        learner=SchemaLearnerConfig(settle_time=0.2)))
+
+    def extra(ctx):
+        st = bs.learner.state(ctx)
+        return (st.n_samples, st.n_dropped, st.history, st.sampled_since,
+                tuple(st.X_WR.ravel()) if st.X_WR is not None else None)
+
+    # learner_status[5] is the wall time of the last schema update
+    end = _check(bs.diagram, bs.prepare, [1.5, 3.0, 4.5, 6.0], extra=extra,
+                 ignore={"learner_status": [5]})
+    assert end["extra"][0] >= 10 and end["extra"][2][-1][1]  # samples, a valid tree
+
+
+class _MarkerReplay(LeafSystem):
+    """Replays an ObjectTrack as MarkerObservations, one sample per ``period``."""
+
+    def __init__(self, track, period):
+        super().__init__()
+        self._track, self._period = track, period
+        self.DeclareAbstractOutputPort(
+            "observations", lambda: AbstractValue.Make(MarkerObservations()), self._calc,
+            {self.time_ticket()})
+
+    def _calc(self, context, out):
+        from pydrake.common.eigen_geometry import Quaternion
+        from pydrake.math import RigidTransform
+
+        P = self._track.poses
+        k = min(int(context.get_time() / self._period + 1e-9), P.shape[1] - 1)
+        poses = [RigidTransform(Quaternion(P[i, k, 6], *P[i, k, 3:6]), P[i, k, :3])
+                 for i in range(P.shape[0])]
+        out.set_value(MarkerObservations(time=k * self._period,
+                                         marker_ids=list(self._track.parts), poses=poses,
+                                         visible=np.ones(P.shape[0], bool)))
+
+
+class _PointReplay(LeafSystem):
+    def __init__(self, P, period):
+        super().__init__()
+        self._P, self._period = P, period
+        self.DeclareVectorOutputPort("p", 3, self._calc, {self.time_ticket()})
+
+    def _calc(self, context, out):
+        k = int(context.get_time() / self._period + 1e-9)
+        out.SetFromVector(self._P[k] if k < len(self._P) else np.full(3, np.nan))
+
+
+def _arc(r, a1, n, off=(0.0, 0.0, 0.0), z=0.7):
+    a = np.linspace(0.0, a1, n)
+    return np.c_[r * np.cos(a), r * np.sin(a), np.full(n, z)] + np.asarray(off)
+
+
+@pytest.fixture(scope="module")
+def meshcat():
+    from pydrake.geometry import StartMeshcat
+
+    return StartMeshcat()
+
+
+def test_object_tracks_estimators_two_simulators(meshcat):
+    """The estimators and the prior selector on object tracks (diagrams/object_tracks.py
+    builds tracks, not a Diagram: this wires them into one)."""
+    track = cabinet_scenario(n_first=20, n_both=20, rng=0)
+    rng = np.random.default_rng(1)
+    db = PriorDatabase(obs=ObservationModel(sigma_pos=0.01, gamma_weight=1000.0))
+    for k in range(3):
+        db.add(_arc(0.4, 1.4, 40, rng.uniform(-0.2, 0.2, 3) * [1, 1, 0])
+               + rng.normal(0, 0.002, (40, 3)), f"door{k}")
+    door = _arc(0.4, 1.2, 60) + np.random.default_rng(2).normal(0, 0.003, (60, 3))
+    builder = DiagramBuilder()
+    src = builder.AddNamedSystem("markers", _MarkerReplay(track, 0.05))
+    est = builder.AddNamedSystem("marker_estimator", ArticulationEstimator(
+        part_ids=track.parts, period=0.05, refit_every=10, min_observations=10,
+        obs=ObservationModel(sigma_pos=0.003, sigma_orient=math.radians(1)), seed=3))
+    builder.Connect(src.get_output_port(), est.get_input_port_observations())
+    hook = builder.AddNamedSystem("hook", _PointReplay(door, 0.03))
+    pest = builder.AddNamedSystem("pose_estimator", ArticulationEstimator(
+        mode="pose", pose_size=3, period=0.03, refit_every=10, min_observations=10,
+        obs=ObservationModel(sigma_pos=0.01), models=("rigid", "prismatic", "revolute")))
+    sel = builder.AddNamedSystem("prior_selector", PriorModelSelector(db=db, period=0.03))
+    vis = builder.AddNamedSystem("visualizer", LearnedModelVisualizer(
+        meshcat=meshcat, period=0.1, prefix="semantics_test"))
+    builder.Connect(hook.get_output_port(), pest.get_input_port_observations())
+    builder.Connect(hook.get_output_port(), sel.get_hook_position_input_port())
+    builder.Connect(pest.GetOutputPort("object_model"), sel.get_object_model_input_port())
+    builder.Connect(sel.GetOutputPort("object_model"), vis.get_object_model_input_port())
+    for name, port in (("marker_stats", est.GetOutputPort("stats")),
+                       ("marker_configuration", est.GetOutputPort("configuration")),
+                       ("pose_stats", pest.GetOutputPort("stats")),
+                       ("pose_configuration", pest.GetOutputPort("configuration")),
+                       ("prior_cluster", sel.GetOutputPort("prior_cluster"))):
+        builder.ExportOutput(port, name)
+    diagram = builder.Build()
+
+    def extra(ctx):
+        m = est.GetOutputPort("selected_models").Eval(est.GetMyContextFromRoot(ctx))
+        return tuple(sorted(m.items()))
+
+    end = _check(diagram, lambda ctx: None, [0.5, 1.0, 1.5, 2.0], extra=extra)
+    assert end["marker_stats"][2] == 2 and end["pose_stats"][2] == 1  # fitted models
+    assert end["prior_cluster"][0] == 0  # the door was recognised
+    assert meshcat.HasPath("semantics_test")
+
+
+def test_motor_babbling_draws_its_targets_up_front():
+    from mmlearn.systems import MotorBabbling
+
+    calls = []
+
+    def accept(q):
+        calls.append(q.copy())
+        return q[0] > 0.5
+
+    b = MotorBabbling(lower=[0.0, 0.0], upper=[1.0, 1.0], period=0.5, seed=4, accept=accept,
+                      n_targets=8)
+    n_calls = len(calls)
+    assert n_calls >= 8 and b.n_targets == 8
+    assert all(b.target(k)[0] > 0.5 for k in range(1, 9))
+    np.testing.assert_array_equal(b.target(9), b.target(1))  # the sequence repeats
+    ctx = b.CreateDefaultContext()
+    for t in np.linspace(0.0, 6.0, 50):
+        ctx.SetTime(t)
+        b.get_command_output_port().Eval(ctx)
+    assert len(calls) == n_calls  # simulating never calls the predicate
+    with pytest.raises(ValueError):
+        MotorBabbling(lower=[0.0], upper=[1.0], n_targets=0)
