@@ -152,8 +152,7 @@ def test_operate_diagram_sees_the_hook_in_the_believed_frame():
     xb = [plant.GetJointByName(n, op.scene.robot).GetOnePosition(pc)
           for n in ("base_x", "base_y", "base_yaw")]
     ctrl = op.controller
-    G_believed = ctrl.grip_pose(
-        ctrl._measured_q(ctrl.GetMyContextFromRoot(ctx))).translation()
+    G_believed = ctrl.measured_grip_pose(ctrl.GetMyContextFromRoot(ctx)).translation()
     np.testing.assert_allclose(G_believed, believed_from_true(G_true, xb, e), atol=1e-9)
     # the task the robot is told is the true one seen through its belief at time 0
     assert np.linalg.norm(op.task.handle - op.true_task.handle) > 1e-3
