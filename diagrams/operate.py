@@ -127,8 +127,8 @@ def MakeOperateDiagram(config: OperateConfig | None = None, *, meshcat=None) -> 
 
     Exported outputs: ``mechanism_state``, ``robot_state`` (true), ``phase``, ``status``,
     ``hook_position`` (in the robot's believed world frame), ``force_W`` (true world frame),
-    ``estimator_stats``, ``object_model`` (the model the controller uses), ``base_error`` (believed minus
-    true base x, y, yaw: m, m, rad).
+    ``estimator_stats``, ``object_model`` (the model the controller uses), ``base_error``
+    (believed minus true base x, y, yaw: m, m, rad).
     """
     cfg = config or OperateConfig()
     cfg.validate()
