@@ -19,7 +19,7 @@ File schema (YAML and JSON hold the same tree; the extension chooses the format)
       obs: {sigma_pos: m, sigma_orient: rad, gamma_weight: w, outlier_volume_m3: m^3 | null}
       obs_fit: same, with the outlier volume used in fitting
       has_orientation: bool       # false for position-only models
-      theta: [float, ...]         # parameter vector (layout: see models/articulation.py)
+      theta: [float, ...]         # parameter vector (layout: models/articulation_links.py)
       gamma: float                # outlier ratio
       n_train: int
       q_min, q_max: [float] * d   # observed configuration range (m or rad)
@@ -44,6 +44,8 @@ from pathlib import Path
 
 import numpy as np
 from scipy.spatial.transform import Rotation
+
+from mmlearn.sdf.sdf_writer import Box, SdfModel
 
 from .articulation import LinkModel, link_model_from_dict
 from .articulation_structure import ArticulatedObject, LinkEdge
@@ -121,10 +123,9 @@ def load_model(path):
 
 
 # --------------------------------------------------------------------------- SDFormat
-def _pose_str(T: np.ndarray) -> str:
-    xyz = T[:3, 3]
-    rpy = Rotation.from_matrix(T[:3, :3]).as_euler("xyz")  # SDF: fixed-axis roll pitch yaw
-    return " ".join(f"{v:.9g}" for v in (*xyz, *rpy))
+def _pose6(T: np.ndarray) -> tuple:
+    """4x4 pose -> x y z roll pitch yaw (SDFormat: fixed-axis roll pitch yaw)."""
+    return (*T[:3, 3], *Rotation.from_matrix(T[:3, :3]).as_euler("xyz"))
 
 
 def _pose_T(P, R=None) -> np.ndarray:
@@ -135,13 +136,12 @@ def _pose_T(P, R=None) -> np.ndarray:
     return T
 
 
-def _link_xml(name: str, size: float = 0.05) -> str:
-    return f"""    <link name="{name}">
-      <inertial><mass>1.0</mass><inertia><ixx>0.001</ixx><iyy>0.001</iyy><izz>0.001</izz>
-        <ixy>0</ixy><ixz>0</ixz><iyz>0</iyz></inertia></inertial>
-      <visual name="{name}_visual"><geometry><box><size>{size} {size} {size}</size></box></geometry></visual>
-    </link>
-"""
+def _part(m: SdfModel, name: str, pose=None, relative_to=None, size: float = 0.05):
+    """A part: unit mass, small inertia, a small box visual."""
+    link = m.link(name, pose=pose, relative_to=relative_to)
+    link.inertial(1.0, (0.001, 0.001, 0.001))
+    link.visual(f"{name}_visual", Box((size, size, size)))
+    return link
 
 
 def _safe(name: str) -> str:
@@ -156,76 +156,45 @@ def to_sdf(model, *, model_name: str = "learned_object", weld_root: bool = True)
     if not isinstance(model, ArticulatedObject):
         raise ValueError(f"cannot export {type(model).__name__} to SDFormat")
     names = [_safe(n) for n in model.part_names]
-    out = [f'<?xml version="1.0"?>\n<sdf version="1.9">\n  <model name="{_safe(model_name)}">\n']
+    m = SdfModel(_safe(model_name), digits=9)
     reached = {model.root}
-    out.append(_link_xml(names[model.root]))
+    _part(m, names[model.root])
     if weld_root:
-        out.append(f'    <joint name="{names[model.root]}_weld" type="fixed">\n'
-                   f"      <parent>world</parent><child>{names[model.root]}</child>\n"
-                   f"    </joint>\n")
+        m.joint(f"{names[model.root]}_weld", "fixed", "world", names[model.root])
     for e in model.edges:
-        m = e.model
+        lm = e.model
         par, ch = names[e.parent], names[e.child]
         reached.add(e.child)
-        if m.name == "revolute":
+        jname = f"{par}__{ch}"
+        if lm.name in ("revolute", "prismatic"):
+            T0 = lm.forward_matrices([[0.0]])[0]  # child pose at q = 0
+        elif lm.dof:
+            qm = 0.5 * (lm.q_min + lm.q_max)
+            T0 = lm.forward_matrices(qm[None])[0]
+        else:
+            T0 = lm.forward_matrices(None)[0]
+        if not lm.has_orientation:
+            T0[:3, :3] = np.eye(3)
+        link = _part(m, ch, pose=_pose6(T0), relative_to=par)
+        if lm.name == "revolute":
             from .articulation import _rv2m
 
-            Rc = _rv2m(m.theta[3:6])
-            Tc = _pose_T(m.theta[:3], Rc)
-            q0 = 0.0
-            T0 = m.forward_matrices([[q0]])[0]  # child pose at q = 0
-            if not m.has_orientation:
-                T0[:3, :3] = np.eye(3)
+            Tc = _pose_T(lm.theta[:3], _rv2m(lm.theta[3:6]))
             # joint frame = c, expressed relative to the child link frame
-            T_child_joint = np.linalg.inv(T0) @ Tc
-            lo, hi = float(m.q_min[0]), float(m.q_max[0])
-            out.append(_link_xml(ch).replace(
-                f'<link name="{ch}">', f'<link name="{ch}">\n      <pose relative_to="{par}">'
-                f'{_pose_str(T0)}</pose>'))
-            out.append(f"""    <joint name="{par}__{ch}" type="revolute">
-      <pose>{_pose_str(T_child_joint)}</pose>
-      <parent>{par}</parent><child>{ch}</child>
-      <axis><xyz>0 0 1</xyz><limit><lower>{lo:.9g}</lower><upper>{hi:.9g}</upper></limit></axis>
-    </joint>
-""")
-        elif m.name == "prismatic":
-            T0 = m.forward_matrices([[0.0]])[0]
-            if not m.has_orientation:
-                T0[:3, :3] = np.eye(3)
-            axis_child = T0[:3, :3].T @ m.axis
-            lo, hi = float(m.q_min[0]), float(m.q_max[0])
-            out.append(_link_xml(ch).replace(
-                f'<link name="{ch}">', f'<link name="{ch}">\n      <pose relative_to="{par}">'
-                f'{_pose_str(T0)}</pose>'))
-            out.append(f"""    <joint name="{par}__{ch}" type="prismatic">
-      <parent>{par}</parent><child>{ch}</child>
-      <axis><xyz>{axis_child[0]:.9g} {axis_child[1]:.9g} {axis_child[2]:.9g}</xyz>
-        <limit><lower>{lo:.9g}</lower><upper>{hi:.9g}</upper></limit></axis>
-    </joint>
-""")
+            m.joint(jname, "revolute", par, ch, pose=_pose6(np.linalg.inv(T0) @ Tc),
+                    axis=(0, 0, 1), lower=float(lm.q_min[0]), upper=float(lm.q_max[0]))
+        elif lm.name == "prismatic":
+            m.joint(jname, "prismatic", par, ch, axis=T0[:3, :3].T @ lm.axis,
+                    lower=float(lm.q_min[0]), upper=float(lm.q_max[0]))
         else:
-            if m.dof:
-                qm = 0.5 * (m.q_min + m.q_max)
-                T0 = m.forward_matrices(qm[None])[0]
-                note = f"    <!-- {m.name} link (d={m.dof}) exported frozen at q={qm.tolist()} -->\n"
-            else:
-                T0 = m.forward_matrices(None)[0]
-                note = ""
-            if not m.has_orientation:
-                T0[:3, :3] = np.eye(3)
-            out.append(note)
-            out.append(_link_xml(ch).replace(
-                f'<link name="{ch}">', f'<link name="{ch}">\n      <pose relative_to="{par}">'
-                f'{_pose_str(T0)}</pose>'))
-            out.append(f"""    <joint name="{par}__{ch}" type="fixed">
-      <parent>{par}</parent><child>{ch}</child>
-    </joint>
-""")
+            if lm.dof:
+                m.comment(link.element, f"{lm.name} link (d={lm.dof}) exported frozen at "
+                                        f"q={qm.tolist()}")
+            m.joint(jname, "fixed", par, ch)
     for k in range(model.num_parts):
         if k not in reached:
-            out.append(_link_xml(names[k]))
-    out.append("  </model>\n</sdf>\n")
-    return "".join(out)
+            _part(m, names[k])
+    return m.to_string()
 
 
 def write_sdf(model, path, **kw) -> None:

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .articulation import LinkModel, ObservationModel, make_model
-from .se3 import PoseArray, as_pose_array, relative_poses
+from .se3 import as_pose_array, relative_poses
 
 __all__ = [
     "DEFAULT_CANDIDATES",

@@ -24,9 +24,12 @@ Units: metres, kilograms, radians, newtons, seconds.
 """
 
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
+
+from .sdf_writer import Box, Cylinder, Link, SdfModel, box_inertia, cylinder_inertia
 
 _MARKER_SIZE = 0.04  # edge of the square marker, m
 _MARKER_THICKNESS = 0.002
@@ -166,131 +169,80 @@ def arm_spec(dof: int | str, *, tool: str = "gripper") -> ArmSpec:
     return ArmSpec(name=name, links=links, actions=actions, mimic=mimic)
 
 
-def _fmt(v) -> str:
-    return " ".join(f"{float(x):.6g}" for x in v)
-
-
-def _inertia_xml(mass: float, shape: str, length: float, radius: float) -> str:
-    """Inertia of a solid cylinder / box along z, centred at half its length."""
+def _moments(mass: float, shape: str, length: float, radius: float) -> tuple:
+    """Principal moments of a solid cylinder / square box (half-width ``radius``) along z."""
     if shape == "cylinder":
-        ixx = mass * (3 * radius**2 + length**2) / 12.0
-        izz = 0.5 * mass * radius**2
-    else:
-        w = 2 * radius
-        ixx = mass * (w**2 + length**2) / 12.0
-        izz = mass * (2 * w**2) / 12.0
-    return (
-        f"<inertial><pose>0 0 {length / 2:.6g} 0 0 0</pose><mass>{mass:.6g}</mass>"
-        f"<inertia><ixx>{ixx:.6g}</ixx><iyy>{ixx:.6g}</iyy><izz>{izz:.6g}</izz>"
-        "<ixy>0</ixy><ixz>0</ixz><iyz>0</iyz></inertia></inertial>"
-    )
-
-
-def _geometry(shape: str, length: float, radius: float) -> str:
-    if shape == "cylinder":
-        return (f"<geometry><cylinder><radius>{radius:.6g}</radius>"
-                f"<length>{length:.6g}</length></cylinder></geometry>")
+        return cylinder_inertia(mass, radius, length)
     w = 2 * radius
-    return f"<geometry><box><size>{w:.6g} {w:.6g} {length:.6g}</size></box></geometry>"
+    return box_inertia(mass, (w, w, length))
 
 
-def _box(size) -> str:
-    return f"<geometry><box><size>{_fmt(size)}</size></box></geometry>"
+def _geometry(shape: str, length: float, radius: float):
+    if shape == "cylinder":
+        return Cylinder(radius, length)
+    w = 2 * radius
+    return Box((w, w, length))
 
 
-def _material(rgba) -> str:
-    return f"<material><diffuse>{_fmt(rgba)}</diffuse></material>"
-
-
-def _marker_xml(part: str, pose_xyz, pose_rpy) -> tuple[str, str]:
-    """Visual of a marker square on ``part`` and its frame (returned separately).
+def _marker(m: SdfModel, link: Link, pose_xyz, pose_rpy) -> None:
+    """Marker square on ``link`` (two visuals) and its frame ``<link>_marker``.
 
     The square lies in the frame's xy plane; its +z normal points out of the surface.
     """
-    pose = f"{_fmt(pose_xyz)} {_fmt(pose_rpy)}"
-    visual = (
-        f"<visual name='{part}_marker_visual'><pose>{pose}</pose>"
-        f"{_box((_MARKER_SIZE, _MARKER_SIZE, _MARKER_THICKNESS))}"
-        f"{_material((0.05, 0.05, 0.05, 1.0))}</visual>"
-        f"<visual name='{part}_marker_dot'><pose>{pose}</pose>"
-        f"{_box((_MARKER_SIZE / 2, _MARKER_SIZE / 2, _MARKER_THICKNESS * 1.5))}"
-        f"{_material((1.0, 1.0, 1.0, 1.0))}</visual>"
-    )
-    frame = (f"<frame name='{part}_marker' attached_to='{part}'>"
-             f"<pose relative_to='{part}'>{pose}</pose></frame>")
-    return visual, frame
+    part = link.name
+    pose = (*pose_xyz, *pose_rpy)
+    link.visual(f"{part}_marker_visual", Box((_MARKER_SIZE, _MARKER_SIZE, _MARKER_THICKNESS)),
+                pose=pose, color=(0.05, 0.05, 0.05, 1.0))
+    link.visual(f"{part}_marker_dot",
+                Box((_MARKER_SIZE / 2, _MARKER_SIZE / 2, _MARKER_THICKNESS * 1.5)),
+                pose=pose, color=(1.0, 1.0, 1.0, 1.0))
+    m.frame(f"{part}_marker", attached_to=part, pose=pose, relative_to=part)
 
 
-def _link_xml(lk: LinkSpec, origin, collision: bool = True) -> tuple[str, str]:
+def _arm_link(m: SdfModel, lk: LinkSpec, origin, *, marker: bool = True) -> Link:
+    """One arm part: inertia, visual, marker (on the +x side at mid-length, normal +x) and
+    collision of its primitive, which spans z = 0..length of the link frame."""
     geom = _geometry(lk.shape, lk.length, lk.radius)
-    centre = f"0 0 {lk.length / 2:.6g} 0 0 0"
-    # marker on the +x side of the part, at mid-length, normal along +x
-    mx = lk.radius + _MARKER_THICKNESS / 2 + 0.001
-    marker_visual, marker_frame = _marker_xml(
-        lk.name, (mx, 0.0, lk.length / 2), (0.0, math.pi / 2, 0.0))
-    coll = (f"<collision name='{lk.name}_collision'><pose>{centre}</pose>{geom}</collision>"
-            if collision else "")
-    xml = (
-        f"<link name='{lk.name}'><pose>{_fmt(origin)} 0 0 0</pose>"
-        f"{_inertia_xml(lk.mass, lk.shape, lk.length, lk.radius)}"
-        f"<visual name='{lk.name}_visual'><pose>{centre}</pose>{geom}"
-        f"{_material(lk.color)}</visual>{marker_visual}{coll}</link>"
-    )
-    return xml, marker_frame
+    centre = (0.0, 0.0, lk.length / 2)
+    link = m.link(lk.name, pose=origin)
+    link.inertial(lk.mass, _moments(lk.mass, lk.shape, lk.length, lk.radius), pose=centre)
+    link.visual(f"{lk.name}_visual", geom, pose=centre, color=lk.color)
+    if marker:
+        mx = lk.radius + _MARKER_THICKNESS / 2 + 0.001
+        _marker(m, link, (mx, 0.0, lk.length / 2), (0.0, math.pi / 2, 0.0))
+    link.collision(f"{lk.name}_collision", geom, pose=centre)
+    return link
 
 
-def _joint_xml(name: str, jtype: str, parent: str, child: str, axis=None,
-               lower=None, upper=None, effort=200.0, velocity=3.0, damping=0.0,
-               pose=None) -> str:
-    pose_xml = f"<pose relative_to='{child}'>{_fmt(pose)} 0 0 0</pose>" if pose else ""
+def _joint(m: SdfModel, name: str, jtype: str, parent: str, child: str, axis=None,
+           lower=None, upper=None, effort=200.0, velocity=3.0, damping=0.0) -> None:
+    """A fixed joint, or a revolute / prismatic one with limits and damping."""
     if jtype == "fixed":
-        return (f"<joint name='{name}' type='fixed'>{pose_xml}<parent>{parent}</parent>"
-                f"<child>{child}</child></joint>")
-    return (
-        f"<joint name='{name}' type='{jtype}'>{pose_xml}<parent>{parent}</parent>"
-        f"<child>{child}</child><axis><xyz>{_fmt(axis)}</xyz>"
-        f"<limit><lower>{lower:.6g}</lower><upper>{upper:.6g}</upper>"
-        f"<effort>{effort:.6g}</effort><velocity>{velocity:.6g}</velocity></limit>"
-        f"<dynamics><damping>{damping:.6g}</damping></dynamics></axis></joint>"
-    )
+        m.joint(name, "fixed", parent, child)
+    else:
+        m.joint(name, jtype, parent, child, axis=axis, lower=lower, upper=upper,
+                effort=effort, velocity=velocity, damping=damping)
 
 
-def _hook_xml(parent: str, z0: float) -> tuple[str, str, str]:
+def _hook(m: SdfModel, parent: str, z0: float) -> None:
     """L-shaped hook welded at height ``z0`` on ``parent``: a rod along +z, then a
-    finger along +x. Returns (link xml, joint xml, marker frame)."""
+    finger along +x."""
     rod, finger, r = 0.14, 0.07, 0.012
-    coll = (
-        f"<collision name='hook_rod_collision'><pose>0 0 {rod / 2:.6g} 0 0 0</pose>"
-        f"{_box((2 * r, 2 * r, rod))}</collision>"
-        f"<collision name='hook_finger_collision'>"
-        f"<pose>{finger / 2 - r:.6g} 0 {rod - r:.6g} 0 0 0</pose>"
-        f"{_box((finger, 2 * r, 2 * r))}</collision>"
-    )
-    vis = (
-        f"<visual name='hook_rod_visual'><pose>0 0 {rod / 2:.6g} 0 0 0</pose>"
-        f"{_box((2 * r, 2 * r, rod))}{_material((0.2, 0.2, 0.25, 1))}</visual>"
-        f"<visual name='hook_finger_visual'>"
-        f"<pose>{finger / 2 - r:.6g} 0 {rod - r:.6g} 0 0 0</pose>"
-        f"{_box((finger, 2 * r, 2 * r))}{_material((0.2, 0.2, 0.25, 1))}</visual>"
-    )
-    marker_visual, marker_frame = _marker_xml(
-        "hook", (-(r + _MARKER_THICKNESS / 2 + 0.001), 0.0, rod / 2),
-        (0.0, -math.pi / 2, 0.0))
-    link = (
-        f"<link name='hook'><pose>0 0 {z0:.6g} 0 0 0</pose>"
-        f"{_inertia_xml(0.3, 'box', rod, r)}{vis}{marker_visual}{coll}</link>"
-    )
-    joint = _joint_xml("hook_mount", "fixed", parent, "hook")
-    return link, joint, marker_frame
+    link = m.link("hook", pose=(0.0, 0.0, z0))
+    link.inertial(0.3, _moments(0.3, "box", rod, r), pose=(0.0, 0.0, rod / 2))
+    parts = [("hook_rod", (0.0, 0.0, rod / 2), Box((2 * r, 2 * r, rod))),
+             ("hook_finger", (finger / 2 - r, 0.0, rod - r), Box((finger, 2 * r, 2 * r)))]
+    for name, centre, geom in parts:
+        link.visual(f"{name}_visual", geom, pose=centre, color=(0.2, 0.2, 0.25, 1))
+    _marker(m, link, (-(r + _MARKER_THICKNESS / 2 + 0.001), 0.0, rod / 2),
+            (0.0, -math.pi / 2, 0.0))
+    for name, centre, geom in parts:
+        link.collision(f"{name}_collision", geom, pose=centre)
+    _joint(m, "hook_mount", "fixed", parent, "hook")
 
 
-def _model_pose(pose) -> str:
-    if pose is None:
-        return ""
-    pose = [float(v) for v in pose]
-    if len(pose) != 6 or not all(math.isfinite(v) for v in pose):
-        raise ValueError(f"model pose must be 6 finite numbers x y z roll pitch yaw, got {pose}")
-    return f"<pose>{_fmt(pose)}</pose>"
+def _small_inertial(link: Link, mass: float, moment: float) -> None:
+    link.inertial(mass, (moment, moment, moment))
 
 
 #: The link a ``failure_joints`` arm can bend (thesis Table 3.2: "the middle link").
@@ -319,32 +271,25 @@ def arm_sdf(dof: int | str = 7, *, tool: str = "gripper", mobile_base: bool = Fa
     bend_link = None
     if failure_joints:
         bend_link = BEND_LINK[int(spec.name.split("_")[1].removesuffix("dof"))]
-    name = model_name or (spec.name + ("_mobile" if mobile_base else ""))
-    links, joints, frames = [], [], []
+    m = SdfModel(model_name or (spec.name + ("_mobile" if mobile_base else "")), pose=pose)
     z = 0.0
     base_height = 0.30
     if mobile_base:
         z = base_height
-        small = "<inertial><mass>1</mass><inertia><ixx>0.01</ixx><iyy>0.01</iyy>" \
-                "<izz>0.01</izz><ixy>0</ixy><ixz>0</ixz><iyz>0</iyz></inertia></inertial>"
-        links.append(f"<link name='base_x_carriage'>{small}</link><link name='base_y_carriage'>{small}</link>")
+        for carriage in ("base_x_carriage", "base_y_carriage"):
+            _small_inertial(m.link(carriage), 1.0, 0.01)
         body = (0.55, 0.45, base_height - 0.05)
-        links.append(
-            "<link name='mobile_base'><inertial><pose>0 0 0.15 0 0 0</pose><mass>40</mass>"
-            "<inertia><ixx>1.5</ixx><iyy>1.8</iyy><izz>2.0</izz><ixy>0</ixy><ixz>0</ixz>"
-            "<iyz>0</iyz></inertia></inertial>"
-            f"<visual name='mobile_base_visual'><pose>0 0 {0.05 + body[2] / 2:.6g} 0 0 0</pose>"
-            f"{_box(body)}{_material((0.25, 0.3, 0.45, 1))}</visual>"
-            f"<collision name='mobile_base_collision'><pose>0 0 {0.05 + body[2] / 2:.6g} 0 0 0"
-            f"</pose>{_box(body)}</collision></link>"
-        )
-        joints.append(_joint_xml("base_x", "prismatic", "world", "base_x_carriage", (1, 0, 0),
-                                 -20, 20, effort=2000, velocity=1.0, damping=50))
-        joints.append(_joint_xml("base_y", "prismatic", "base_x_carriage", "base_y_carriage", (0, 1, 0),
-                                 -20, 20, effort=2000, velocity=1.0, damping=50))
-        joints.append(_joint_xml("base_yaw", "revolute", "base_y_carriage", "mobile_base", (0, 0, 1),
-                                 -2 * math.pi, 2 * math.pi, effort=1000, velocity=1.5,
-                                 damping=20))
+        base = m.link("mobile_base")
+        base.inertial(40.0, (1.5, 1.8, 2.0), pose=(0.0, 0.0, 0.15))
+        centre = (0.0, 0.0, 0.05 + body[2] / 2)
+        base.visual("mobile_base_visual", Box(body), pose=centre, color=(0.25, 0.3, 0.45, 1))
+        base.collision("mobile_base_collision", Box(body), pose=centre)
+        _joint(m, "base_x", "prismatic", "world", "base_x_carriage", (1, 0, 0),
+               -20, 20, effort=2000, velocity=1.0, damping=50)
+        _joint(m, "base_y", "prismatic", "base_x_carriage", "base_y_carriage", (0, 1, 0),
+               -20, 20, effort=2000, velocity=1.0, damping=50)
+        _joint(m, "base_yaw", "revolute", "base_y_carriage", "mobile_base", (0, 0, 1),
+               -2 * math.pi, 2 * math.pi, effort=1000, velocity=1.5, damping=20)
     chain_tip, chain_tip_z = None, z  # last part of the serial chain, and its origin
     for lk in spec.links:
         if lk.offset is not None:  # a finger: offset from the chain tip's origin
@@ -356,59 +301,36 @@ def arm_sdf(dof: int | str = 7, *, tool: str = "gripper", mobile_base: bool = Fa
             chain_tip, chain_tip_z = lk, z
             z += lk.length
         if lk.name == bend_link:
-            import dataclasses
             half = lk.length / 2
-            xml, frame = _link_xml(dataclasses.replace(lk, length=half), origin)
-            links.append(xml)
-            frames.append(frame)
-            bname = f"{lk.name}_outer"
-            geom = _geometry(lk.shape, half, lk.radius)
-            centre = f"0 0 {half / 2:.6g} 0 0 0"
-            links.append(
-                f"<link name='{bname}'><pose>{_fmt((origin[0], origin[1], origin[2] + half))}"
-                f" 0 0 0</pose>{_inertia_xml(lk.mass / 2, lk.shape, half, lk.radius)}"
-                f"<visual name='{bname}_visual'><pose>{centre}</pose>{geom}"
-                f"{_material(lk.color)}</visual><collision name='{bname}_collision'>"
-                f"<pose>{centre}</pose>{geom}</collision></link>")
-            joints.append(_joint_xml(f"{lk.name}_bend", "revolute", lk.name, bname, (1, 0, 0),
-                                     -math.pi, math.pi, effort=0.0))
-            chain_tip = dataclasses.replace(lk, name=bname, length=half)
+            _arm_link(m, dataclasses.replace(lk, length=half), origin)
+            outer = dataclasses.replace(lk, name=f"{lk.name}_outer", length=half,
+                                        mass=lk.mass / 2)
+            _arm_link(m, outer, (origin[0], origin[1], origin[2] + half), marker=False)
+            _joint(m, f"{lk.name}_bend", "revolute", lk.name, outer.name, (1, 0, 0),
+                   -math.pi, math.pi, effort=0.0)
+            chain_tip = outer
             chain_tip_z = origin[2] + half
         else:
-            xml, frame = _link_xml(lk, origin)
-            links.append(xml)
-            frames.append(frame)
+            _arm_link(m, lk, origin)
         if parent is None:
-            joints.append(_joint_xml(
-                "x1_mount", "fixed", "mobile_base" if mobile_base else "world", lk.name))
+            _joint(m, "x1_mount", "fixed", "mobile_base" if mobile_base else "world", lk.name)
         else:
-            joints.append(_joint_xml(lk.joint, lk.joint_type, parent, lk.name, lk.axis,
-                                     lk.lower, lk.upper, damping=0.5))
+            _joint(m, lk.joint, lk.joint_type, parent, lk.name, lk.axis, lk.lower, lk.upper,
+                   damping=0.5)
     if failure_joints:
         tip = chain_tip.name
         tname = f"x{len(spec.links) + 1}"
-        small = "<inertial><mass>0.01</mass><inertia><ixx>1e-5</ixx><iyy>1e-5</iyy>" \
-                "<izz>1e-5</izz><ixy>0</ixy><ixz>0</ixz><iyz>0</iyz></inertia></inertial>"
-        links.append(f"<link name='tool_mount'><pose>0 0 {chain_tip_z + chain_tip.length:.6g}"
-                     f" 0 0 0</pose>{small}</link>")
+        tip_z = chain_tip_z + chain_tip.length
+        _small_inertial(m.link("tool_mount", pose=(0.0, 0.0, tip_z)), 0.01, 1e-5)
         tool_lk = LinkSpec(tname, 0.12, 0.012, mass=0.1, color=(0.2, 0.6, 0.3, 1.0))
-        xml, frame = _link_xml(tool_lk, (0.0, 0.0, chain_tip_z + chain_tip.length))
-        links.append(xml)
-        frames.append(frame)
-        joints.append(_joint_xml("tool_length", "prismatic", tip, "tool_mount", (0, 0, 1),
-                                 -0.5, 0.5, effort=0.0))
-        joints.append(_joint_xml("tool_angle", "revolute", "tool_mount", tname, (0, 1, 0),
-                                 -math.pi, math.pi, effort=0.0))
+        _arm_link(m, tool_lk, (0.0, 0.0, tip_z))
+        _joint(m, "tool_length", "prismatic", tip, "tool_mount", (0, 0, 1), -0.5, 0.5,
+               effort=0.0)
+        _joint(m, "tool_angle", "revolute", "tool_mount", tname, (0, 1, 0), -math.pi, math.pi,
+               effort=0.0)
     if tool == "hook":
-        link, joint, frame = _hook_xml(spec.links[-1].name, z)
-        links.append(link)
-        joints.append(joint)
-        frames.append(frame)
-    return (
-        "<?xml version='1.0'?>\n<sdf version='1.9'>"
-        f"<model name='{name}'>{_model_pose(pose)}" + "".join(links) + "".join(joints)
-        + "".join(frames) + "</model></sdf>\n"
-    )
+        _hook(m, spec.links[-1].name, z)
+    return m.to_string()
 
 
 @dataclass
@@ -444,42 +366,42 @@ class CabinetSpec:
                 raise ValueError(f"CabinetSpec.{k} must be >= 0, got {getattr(self, k)}")
 
 
-def _handle_xml(name: str, centre, vertical: bool, length: float = 0.12) -> str:
-    """A bar handle standing 0.04 m off the front (+x), with two posts."""
-    r = 0.008
-    cx, cy, cz = centre
-    bar_size = (2 * r, 2 * r, length) if vertical else (2 * r, length, 2 * r)
-    out = [f"<visual name='{name}_bar'><pose>{cx + 0.045:.6g} {cy:.6g} {cz:.6g} 0 0 0</pose>"
-           f"{_box(bar_size)}{_material((0.75, 0.75, 0.78, 1))}</visual>",
-           f"<collision name='{name}_bar_collision'><pose>{cx + 0.045:.6g} {cy:.6g} "
-           f"{cz:.6g} 0 0 0</pose>{_box(bar_size)}</collision>"]
+
+def _bar_handle(link: Link, name: str, bar_centre, *, vertical: bool, length: float, r: float,
+                standoff: float) -> None:
+    """A bar handle (square section 2r, ``length`` along z if ``vertical`` else y) centred
+    at ``bar_centre`` and two posts (``standoff`` long, along -x) back to the front
+    surface: visuals ``<name>_bar``, ``<name>_post_a/b`` and their ``..._collision``."""
+    cx, cy, cz = bar_centre
+    grey = (0.75, 0.75, 0.78, 1)
+    bar = Box((2 * r, 2 * r, length) if vertical else (2 * r, length, 2 * r))
+    link.visual(f"{name}_bar", bar, pose=(cx, cy, cz), color=grey)
+    link.collision(f"{name}_bar_collision", bar, pose=(cx, cy, cz))
+    post = Box((standoff, 2 * r, 2 * r))
     for s, sign in (("a", -1), ("b", 1)):
         d = sign * (length / 2 - r)
-        px, py, pz = (cx + 0.025, cy, cz + d) if vertical else (cx + 0.025, cy + d, cz)
-        out.append(f"<visual name='{name}_post_{s}'><pose>{px:.6g} {py:.6g} {pz:.6g} 0 0 0"
-                   f"</pose>{_box((0.04, 2 * r, 2 * r))}{_material((0.75, 0.75, 0.78, 1))}"
-                   "</visual>")
-        out.append(f"<collision name='{name}_post_{s}_collision'><pose>{px:.6g} {py:.6g} "
-                   f"{pz:.6g} 0 0 0</pose>{_box((0.04, 2 * r, 2 * r))}</collision>")
-    return "".join(out)
+        p = (cx - standoff / 2, cy, cz + d) if vertical else (cx - standoff / 2, cy + d, cz)
+        link.visual(f"{name}_post_{s}", post, pose=p, color=grey)
+        link.collision(f"{name}_post_{s}_collision", post, pose=p)
 
 
-def _slab(name: str, centre, size, rgba, collision=True) -> str:
-    pose = f"<pose>{_fmt(centre)} 0 0 0</pose>"
-    out = f"<visual name='{name}'>{pose}{_box(size)}{_material(rgba)}</visual>"
+def _handle(link: Link, name: str, centre, vertical: bool, length: float = 0.12) -> None:
+    """A bar handle standing 0.04 m off the front surface point ``centre`` (+x)."""
+    cx, cy, cz = centre
+    _bar_handle(link, name, (cx + 0.045, cy, cz), vertical=vertical, length=length, r=0.008,
+                standoff=0.04)
+
+
+def _slab(link: Link, name: str, centre, size, rgba, collision=True) -> None:
+    """A box visual ``name`` (and collision ``<name>_collision``) centred at ``centre``."""
+    link.visual(name, Box(size), pose=centre, color=rgba)
     if collision:
-        out += f"<collision name='{name}_collision'>{pose}{_box(size)}</collision>"
-    return out
+        link.collision(f"{name}_collision", Box(size), pose=centre)
 
 
-def _panel_inertia(mass: float, centre, size) -> str:
-    a, b, c = size
-    return (
-        f"<inertial><pose>{_fmt(centre)} 0 0 0</pose><mass>{mass:.6g}</mass><inertia>"
-        f"<ixx>{mass * (b * b + c * c) / 12:.6g}</ixx><iyy>{mass * (a * a + c * c) / 12:.6g}"
-        f"</iyy><izz>{mass * (a * a + b * b) / 12:.6g}</izz><ixy>0</ixy><ixz>0</ixz><iyz>0"
-        "</iyz></inertia></inertial>"
-    )
+def _panel_inertia(link: Link, mass: float, centre, size) -> None:
+    """Inertia of a solid box of ``size`` centred at ``centre``."""
+    link.inertial(mass, box_inertia(mass, size), pose=centre)
 
 
 def cabinet_sdf(spec: CabinetSpec | None = None, *, model_name: str = "cabinet",
@@ -493,21 +415,17 @@ def cabinet_sdf(spec: CabinetSpec | None = None, *, model_name: str = "cabinet",
     wood = (0.72, 0.58, 0.40, 1.0)
     front = (0.85, 0.80, 0.70, 1.0)
     door_h = H - s.drawer_height
-    carcass = "".join([
-        _slab("top", (-D / 2, 0, H - t / 2), (D, W, t), wood),
-        _slab("bottom", (-D / 2, 0, t / 2), (D, W, t), wood),
-        _slab("left", (-D / 2, -W / 2 + t / 2, H / 2), (D, t, H), wood),
-        _slab("right", (-D / 2, W / 2 - t / 2, H / 2), (D, t, H), wood),
-        _slab("back", (-D + t / 2, 0, H / 2), (t, W, H), wood),
-        _slab("shelf", (-D / 2, 0, door_h), (D, W, t), wood),
-    ])
-    links = [
-        f"<link name='carcass'>{_panel_inertia(30.0, (-D / 2, 0, H / 2), (D, W, H))}"
-        f"{carcass}</link>"
-    ]
-    joints = ["<joint name='carcass_weld' type='fixed'><parent>world</parent>"
-              "<child>carcass</child></joint>"]
-    frames = []
+    m = SdfModel(model_name, pose=pose)
+    carcass = m.link("carcass")
+    _panel_inertia(carcass, 30.0, (-D / 2, 0, H / 2), (D, W, H))
+    for args in (("top", (-D / 2, 0, H - t / 2), (D, W, t)),
+                 ("bottom", (-D / 2, 0, t / 2), (D, W, t)),
+                 ("left", (-D / 2, -W / 2 + t / 2, H / 2), (D, t, H)),
+                 ("right", (-D / 2, W / 2 - t / 2, H / 2), (D, t, H)),
+                 ("back", (-D + t / 2, 0, H / 2), (t, W, H)),
+                 ("shelf", (-D / 2, 0, door_h), (D, W, t))):
+        _slab(carcass, *args, wood)
+    m.joint("carcass_weld", "fixed", "world", "carcass")
     gap, pt = 0.004, 0.018  # door gap to the carcass front, panel thickness
     dw = W / 2 - gap  # width of one door
     dz = door_h - 2 * gap
@@ -515,65 +433,47 @@ def cabinet_sdf(spec: CabinetSpec | None = None, *, model_name: str = "cabinet",
     for side, sign in (("left", -1), ("right", 1)):
         body = f"{side}_door"
         # door frame at the hinge: the panel extends along -sign*y from it
-        hinge_y = sign * (W / 2)
         pc = (0.0, -sign * dw / 2, dz / 2)
         hy = -sign * (dw - s.handle_offset)
-        links.append(
-            f"<link name='{body}'><pose>{x_hinge:.6g} {hinge_y:.6g} {gap:.6g} 0 0 0</pose>"
-            f"{_panel_inertia(3.0, pc, (pt, dw, dz))}"
-            f"{_slab(body + '_panel', pc, (pt, dw, dz), front)}"
-            f"{_handle_xml(body + '_handle', (pt / 2, hy, dz * 0.6), vertical=True)}</link>"
-        )
+        door = m.link(body, pose=(x_hinge, sign * (W / 2), gap))
+        _panel_inertia(door, 3.0, pc, (pt, dw, dz))
+        _slab(door, body + "_panel", pc, (pt, dw, dz), front)
+        _handle(door, body + "_handle", (pt / 2, hy, dz * 0.6), vertical=True)
         axis = (0, 0, -1) if side == "left" else (0, 0, 1)
-        joints.append(_joint_xml(f"{side}_hinge", "revolute", "carcass", body, axis,
-                                 0.0, s.door_limit, effort=0, velocity=5,
-                                 damping=s.door_damping))
-        frames.append(f"<frame name='{body}_handle' attached_to='{body}'>"
-                      f"<pose relative_to='{body}'>{pt / 2 + 0.045:.6g} {hy:.6g} "
-                      f"{dz * 0.6:.6g} 0 0 0</pose></frame>")
+        _joint(m, f"{side}_hinge", "revolute", "carcass", body, axis, 0.0, s.door_limit,
+               effort=0, velocity=5, damping=s.door_damping)
+        m.frame(f"{body}_handle", attached_to=body, pose=(pt / 2 + 0.045, hy, dz * 0.6),
+                relative_to=body)
     # drawer: front panel plus a box below/behind it
     dh = s.drawer_height - 2 * gap
     fw = W - 2 * gap
     inner_w, inner_d = W - 2 * t - 0.01, D - 2 * t - 0.02
-    drawer_geo = "".join([
-        _slab("drawer_front", (0, 0, dh / 2), (pt, fw, dh), front),
-        _slab("drawer_bottom", (-inner_d / 2, 0, 0.02), (inner_d, inner_w, 0.01), wood, False),
-        _slab("drawer_side_l", (-inner_d / 2, -inner_w / 2, dh / 2 - 0.02),
-              (inner_d, 0.01, dh - 0.06), wood, False),
-        _slab("drawer_side_r", (-inner_d / 2, inner_w / 2, dh / 2 - 0.02),
-              (inner_d, 0.01, dh - 0.06), wood, False),
-        _slab("drawer_back", (-inner_d, 0, dh / 2 - 0.02), (0.01, inner_w, dh - 0.06),
-              wood, False),
-        _handle_xml("drawer_handle", (pt / 2, 0, dh / 2), vertical=False, length=0.16),
-    ])
-    z_drawer = door_h + gap
-    links.append(
-        f"<link name='drawer'><pose>{x_hinge:.6g} 0 {z_drawer:.6g} 0 0 0</pose>"
-        f"{_panel_inertia(2.5, (-inner_d / 2, 0, dh / 2), (inner_d, inner_w, dh))}"
-        f"{drawer_geo}</link>"
-    )
-    joints.append(_joint_xml("drawer_slide", "prismatic", "carcass", "drawer", (1, 0, 0),
-                             0.0, s.drawer_limit, effort=0, velocity=2,
-                             damping=s.drawer_damping))
-    frames.append(f"<frame name='drawer_handle' attached_to='drawer'><pose relative_to="
-                  f"'drawer'>{pt / 2 + 0.045:.6g} 0 {dh / 2:.6g} 0 0 0</pose></frame>")
-    return (
-        "<?xml version='1.0'?>\n<sdf version='1.9'>"
-        f"<model name='{model_name}'>{_model_pose(pose)}" + "".join(links) + "".join(joints)
-        + "".join(frames) + "</model></sdf>\n"
-    )
+    drawer = m.link("drawer", pose=(x_hinge, 0, door_h + gap))
+    _panel_inertia(drawer, 2.5, (-inner_d / 2, 0, dh / 2), (inner_d, inner_w, dh))
+    _slab(drawer, "drawer_front", (0, 0, dh / 2), (pt, fw, dh), front)
+    _slab(drawer, "drawer_bottom", (-inner_d / 2, 0, 0.02), (inner_d, inner_w, 0.01), wood,
+          False)
+    _slab(drawer, "drawer_side_l", (-inner_d / 2, -inner_w / 2, dh / 2 - 0.02),
+          (inner_d, 0.01, dh - 0.06), wood, False)
+    _slab(drawer, "drawer_side_r", (-inner_d / 2, inner_w / 2, dh / 2 - 0.02),
+          (inner_d, 0.01, dh - 0.06), wood, False)
+    _slab(drawer, "drawer_back", (-inner_d, 0, dh / 2 - 0.02), (0.01, inner_w, dh - 0.06),
+          wood, False)
+    _handle(drawer, "drawer_handle", (pt / 2, 0, dh / 2), vertical=False, length=0.16)
+    _joint(m, "drawer_slide", "prismatic", "carcass", "drawer", (1, 0, 0), 0.0,
+           s.drawer_limit, effort=0, velocity=2, damping=s.drawer_damping)
+    m.frame("drawer_handle", attached_to="drawer", pose=(pt / 2 + 0.045, 0, dh / 2),
+            relative_to="drawer")
+    return m.to_string()
 
 
 def floor_sdf(size: float = 8.0) -> str:
     """A flat floor (box top at z = 0), welded to the world."""
-    return (
-        "<?xml version='1.0'?>\n<sdf version='1.9'><model name='floor'><static>true</static>"
-        f"<link name='floor'><pose>0 0 -0.05 0 0 0</pose>"
-        f"<visual name='floor_visual'>{_box((size, size, 0.1))}"
-        f"{_material((0.55, 0.55, 0.55, 1))}</visual>"
-        f"<collision name='floor_collision'>{_box((size, size, 0.1))}</collision></link>"
-        "</model></sdf>\n"
-    )
+    m = SdfModel("floor", static=True)
+    floor = m.link("floor", pose=(0, 0, -0.05))
+    floor.visual("floor_visual", Box((size, size, 0.1)), color=(0.55, 0.55, 0.55, 1))
+    floor.collision("floor_collision", Box((size, size, 0.1)))
+    return m.to_string()
 
 
 #: Static files shipped in this folder: file name -> builder call.

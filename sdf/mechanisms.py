@@ -20,7 +20,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from .builders import _box, _fmt, _material, _model_pose, _panel_inertia, _slab
+from .builders import _bar_handle, _panel_inertia, _slab
+from .sdf_writer import SdfModel
 
 KINDS = ("left_door", "right_door", "dishwasher", "drawer", "sliding_door")
 REVOLUTE = ("left_door", "right_door", "dishwasher")
@@ -169,52 +170,29 @@ def sample_mechanism(kind: str, rng: np.random.Generator | int | None = None) ->
                          limit=0.8 * u(0.4, 0.6), pose=pose)
 
 
-def _handle_geometry(centre, bar, standoff, length=0.20, r=0.01) -> str:
-    """Bar (radius r) of the given length along ``bar`` at ``centre`` plus two posts back
-    to the front surface (along -x)."""
-    cx, cy, cz = centre
-    vertical = abs(bar[2]) > 0.5
-    size = (2 * r, 2 * r, length) if vertical else (2 * r, length, 2 * r)
-    grey = (0.75, 0.75, 0.78, 1)
-    out = [f"<visual name='handle_bar'><pose>{cx:.6g} {cy:.6g} {cz:.6g} 0 0 0</pose>"
-           f"{_box(size)}{_material(grey)}</visual>",
-           f"<collision name='handle_bar_collision'><pose>{cx:.6g} {cy:.6g} {cz:.6g} 0 0 0"
-           f"</pose>{_box(size)}</collision>"]
-    post_len = standoff
-    for s, sign in (("a", -1), ("b", 1)):
-        d = sign * (length / 2 - r)
-        px = cx - standoff / 2
-        py, pz = (cy, cz + d) if vertical else (cy + d, cz)
-        out.append(f"<visual name='handle_post_{s}'><pose>{px:.6g} {py:.6g} {pz:.6g} 0 0 0"
-                   f"</pose>{_box((post_len, 2 * r, 2 * r))}{_material(grey)}</visual>")
-        out.append(f"<collision name='handle_post_{s}_collision'><pose>{px:.6g} {py:.6g} "
-                   f"{pz:.6g} 0 0 0</pose>{_box((post_len, 2 * r, 2 * r))}</collision>")
-    return "".join(out)
-
-
 def mechanism_sdf(spec: MechanismSpec, *, model_name: str = "mechanism") -> str:
     """SDFormat text of the furniture with one mechanism (see the module docstring)."""
     s = spec
     W, H, D, t, pt = s.width, s.height, s.depth, 0.02, 0.02
     wood = (0.72, 0.58, 0.40, 1.0)
     front_rgba = (0.85, 0.80, 0.70, 1.0)
+    x, y, yaw = s.pose
+    m = SdfModel(model_name, pose=(x, y, 0, 0, 0, yaw))
     # carcass around the front opening
     cw = W + 2 * t + (0.02 if s.kind != "sliding_door" else W)
     ch = s.bottom + H + t
-    carcass = "".join([
-        _slab("top", (-D / 2, 0, ch - t / 2), (D, cw, t), wood),
-        _slab("floor_plate", (-D / 2, 0, s.bottom - t / 2), (D, cw, t), wood),
-        _slab("left", (-D / 2, -cw / 2 + t / 2, ch / 2), (D, t, ch), wood),
-        _slab("right", (-D / 2, cw / 2 - t / 2, ch / 2), (D, t, ch), wood),
-        _slab("back", (-D + t / 2, 0, ch / 2), (t, cw, ch), wood),
-        _slab("plinth", (-t, 0, s.bottom / 2), (2 * t, cw, s.bottom), wood),
-    ])
+    carcass = m.link("carcass")
+    _panel_inertia(carcass, 30.0, (-D / 2, 0, ch / 2), (D, cw, ch))
+    for args in (("top", (-D / 2, 0, ch - t / 2), (D, cw, t)),
+                 ("floor_plate", (-D / 2, 0, s.bottom - t / 2), (D, cw, t)),
+                 ("left", (-D / 2, -cw / 2 + t / 2, ch / 2), (D, t, ch)),
+                 ("right", (-D / 2, cw / 2 - t / 2, ch / 2), (D, t, ch)),
+                 ("back", (-D + t / 2, 0, ch / 2), (t, cw, ch)),
+                 ("plinth", (-t, 0, s.bottom / 2), (2 * t, cw, s.bottom))):
+        _slab(carcass, *args, wood)
     if s.kind == "sliding_door":  # the fixed half of the front, behind the sliding panel
-        carcass += _slab("fixed_panel", (pt / 2 + 0.004, -W / 2, s.bottom + H / 2),
-                         (pt, W, H), front_rgba)
-    links = [f"<link name='carcass'>{_panel_inertia(30.0, (-D / 2, 0, ch / 2), (D, cw, ch))}"
-             f"{carcass}</link>"]
-    o = s.front_origin_F()
+        _slab(carcass, "fixed_panel", (pt / 2 + 0.004, -W / 2, s.bottom + H / 2), (pt, W, H),
+              front_rgba)
     hp, bar = s.handle_in_front()
     if s.kind == "left_door":
         pc = (0.0, W / 2, H / 2)
@@ -224,35 +202,25 @@ def mechanism_sdf(spec: MechanismSpec, *, model_name: str = "mechanism") -> str:
         pc = (0.0, W / 2, H / 2)
     else:
         pc = (0.0, 0.0, H / 2)
-    geo = _slab("front_panel", pc, (pt, W - 0.008, H - 0.008), front_rgba)
-    mass = 4.0
+    mass = 3.0 if s.kind == "drawer" else 4.0
+    front = m.link("front", pose=s.front_origin_F())
+    _panel_inertia(front, mass, pc, (pt, W, H))
+    _slab(front, "front_panel", pc, (pt, W - 0.008, H - 0.008), front_rgba)
     if s.kind == "drawer":
         iw, idp = W - 0.03, D - 0.04
-        geo += _slab("drawer_bottom", (-idp / 2, 0, 0.02), (idp, iw, 0.01), wood, False)
-        geo += _slab("drawer_back", (-idp, 0, H / 2), (0.01, iw, H - 0.04), wood, False)
-        mass = 3.0
-    geo += _handle_geometry(hp, bar, s.handle_standoff)
-    links.append(f"<link name='front'><pose>{_fmt(o)} 0 0 0</pose>"
-                 f"{_panel_inertia(mass, pc, (pt, W, H))}{geo}</link>")
-    jtype = "revolute" if s.is_revolute else "prismatic"
-    spring = ""
+        _slab(front, "drawer_bottom", (-idp / 2, 0, 0.02), (idp, iw, 0.01), wood, False)
+        _slab(front, "drawer_back", (-idp, 0, H / 2), (0.01, iw, H - 0.04), wood, False)
+    # the bar (0.20 m, radius 0.01 m) at the handle centre, posts back to the front (-x)
+    _bar_handle(front, "handle", hp, vertical=abs(bar[2]) > 0.5, length=0.20, r=0.01,
+                standoff=s.handle_standoff)
+    spring = {}
     if s.kind == "dishwasher":
         # counterbalance springs, as real dishwasher doors have: a torsion spring k q with
         # k = m g h/2, so k q >= m g h/2 sin q and the door never falls open by itself
-        k = mass * 9.81 * (H / 2)
-        spring = (f"<spring_reference>0</spring_reference>"
-                  f"<spring_stiffness>{k:.6g}</spring_stiffness>")
-    joint = (
-        f"<joint name='mechanism' type='{jtype}'><parent>carcass</parent><child>front</child>"
-        f"<axis><xyz>{_fmt(s.joint_axis_F())}</xyz><limit><lower>0</lower>"
-        f"<upper>{s.limit:.6g}</upper><effort>0</effort></limit>"
-        f"<dynamics><damping>{s.damping:.6g}</damping>{spring}</dynamics></axis></joint>"
-        "<joint name='carcass_weld' type='fixed'><parent>world</parent><child>carcass</child>"
-        "</joint>"
-    )
-    frame = (f"<frame name='handle' attached_to='front'><pose relative_to='front'>"
-             f"{_fmt(hp)} 0 0 0</pose></frame>")
-    x, y, yaw = s.pose
-    return ("<?xml version='1.0'?>\n<sdf version='1.9'>"
-            f"<model name='{model_name}'>{_model_pose((x, y, 0, 0, 0, yaw))}"
-            + "".join(links) + joint + frame + "</model></sdf>\n")
+        spring = {"spring_reference": 0, "spring_stiffness": mass * 9.81 * (H / 2)}
+    m.joint("mechanism", "revolute" if s.is_revolute else "prismatic", "carcass", "front",
+            axis=s.joint_axis_F(), lower=0, upper=s.limit, effort=0, damping=s.damping,
+            **spring)
+    m.joint("carcass_weld", "fixed", "world", "carcass")
+    m.frame("handle", attached_to="front", pose=hp, relative_to="front")
+    return m.to_string()

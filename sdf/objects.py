@@ -38,6 +38,8 @@ import math
 
 import numpy as np
 
+from .sdf_writer import Box, SdfModel, box_inertia
+
 __all__ = [
     "OBJECTS",
     "object_sdf",
@@ -55,166 +57,124 @@ GARAGE_HEIGHT = 1.0  # vertical segment, m
 GARAGE_RADIUS = 0.5  # quarter circle, m
 
 
-def _f(v) -> str:
-    return " ".join(f"{float(x):.6g}" for x in v)
+_MARKER = Box((0.04, 0.04, 0.002))
 
 
-def _box_inertia(mass, size):
-    a, b, c = size
-    return (f"<inertial><mass>{mass:.6g}</mass><inertia>"
-            f"<ixx>{mass * (b * b + c * c) / 12:.6g}</ixx><iyy>{mass * (a * a + c * c) / 12:.6g}</iyy>"
-            f"<izz>{mass * (a * a + b * b) / 12:.6g}</izz><ixy>0</ixy><ixz>0</ixz><iyz>0</iyz>"
-            "</inertia></inertial>")
-
-
-def _visual(name, centre, size, rgba, rpy=(0, 0, 0)):
-    return (f"<visual name='{name}'><pose>{_f(centre)} {_f(rpy)}</pose><geometry><box><size>"
-            f"{_f(size)}</size></box></geometry><material><diffuse>{_f(rgba)}</diffuse>"
-            "</material></visual>")
-
-
-def _link(name, pose, boxes, marker=None, mass=1.0, rgba=(0.7, 0.6, 0.45, 1)):
-    """A link made of boxes [(centre, size)], with an optional marker (xyz, rpy) that adds
-    the visual square and the ``<name>_marker`` frame. Returns (link xml, frame xml)."""
-    vis = "".join(_visual(f"{name}_v{k}", c, s, rgba) for k, (c, s) in enumerate(boxes))
-    size0 = boxes[0][1] if boxes else (0.01, 0.01, 0.01)
-    frame = ""
+def _link(m: SdfModel, name, pose, boxes, marker=None, mass=1.0, rgba=(0.7, 0.6, 0.45, 1)):
+    """A link made of boxes [(centre, size)] (visuals ``<name>_v<k>``; its inertia is the
+    first box's), with an optional marker (xyz, rpy) that adds the visual square and the
+    ``<name>_marker`` frame."""
+    link = m.link(name, pose=pose)
+    link.inertial(mass, box_inertia(mass, boxes[0][1] if boxes else (0.01, 0.01, 0.01)))
+    for k, (c, size) in enumerate(boxes):
+        link.visual(f"{name}_v{k}", Box(size), pose=c, color=rgba)
     if marker is not None:
         xyz, rpy = marker
-        vis += _visual(f"{name}_marker_visual", xyz, (0.04, 0.04, 0.002), (0.05, 0.05, 0.05, 1), rpy)
-        frame = (f"<frame name='{name}_marker' attached_to='{name}'>"
-                 f"<pose relative_to='{name}'>{_f(xyz)} {_f(rpy)}</pose></frame>")
-    xml = (f"<link name='{name}'><pose>{_f(pose)}</pose>{_box_inertia(mass, size0)}{vis}</link>")
-    return xml, frame
+        link.visual(f"{name}_marker_visual", _MARKER, pose=(*xyz, *rpy),
+                    color=(0.05, 0.05, 0.05, 1))
+        m.frame(f"{name}_marker", attached_to=name, pose=(*xyz, *rpy), relative_to=name)
 
 
-def _joint(name, jtype, parent, child, axis=(0, 0, 1), lower=-1.0, upper=1.0, pose=None):
-    p = f"<pose relative_to='{child}'>{_f(pose)}</pose>" if pose is not None else ""
+def _joint(m: SdfModel, name, jtype, parent, child, axis=(0, 0, 1), lower=-1.0, upper=1.0,
+           pose=None):
+    """A fixed joint, or an unactuated (effort 0) revolute / prismatic one with limits; the
+    joint frame at ``pose`` in the child frame."""
+    where = {"pose": pose, "relative_to": None if pose is None else child}
     if jtype == "fixed":
-        return (f"<joint name='{name}' type='fixed'>{p}<parent>{parent}</parent>"
-                f"<child>{child}</child></joint>")
-    return (f"<joint name='{name}' type='{jtype}'>{p}<parent>{parent}</parent><child>{child}"
-            f"</child><axis><xyz>{_f(axis)}</xyz><limit><lower>{lower:.6g}</lower><upper>"
-            f"{upper:.6g}</upper><effort>0</effort></limit></axis></joint>")
-
-
-def _model(name, links, joints, frames):
-    return ("<?xml version='1.0'?>\n<sdf version='1.9'>"
-            f"<model name='{name}'>{''.join(links)}{''.join(frames)}{''.join(joints)}</model></sdf>\n")
+        m.joint(name, "fixed", parent, child, **where)
+    else:
+        m.joint(name, jtype, parent, child, axis=axis, lower=lower, upper=upper, effort=0,
+                **where)
 
 
 # --------------------------------------------------------------------------- objects
-def _cabinet():
+def _cabinet(m: SdfModel):
     W, D, H = 0.5, 0.45, 0.5
-    links, frames, joints = [], [], []
-    x, f = _link("cabinet", (0, 0, 0, 0, 0, 0),
-                 [((-D / 2, 0, H / 2), (D, W, H))],
-                 marker=((0.001, 0.2, H - 0.03), (0, math.pi / 2, 0)), mass=10)
-    links.append(x), frames.append(f)
+    _link(m, "cabinet", (0, 0, 0, 0, 0, 0), [((-D / 2, 0, H / 2), (D, W, H))],
+          marker=((0.001, 0.2, H - 0.03), (0, math.pi / 2, 0)), mass=10)
     for name, z in (("upper_drawer", 0.36), ("lower_drawer", 0.14)):
-        x, f = _link(name, (0, 0, z, 0, 0, 0),
-                     [((0.01, 0, 0), (0.02, W - 0.04, 0.18)),
-                      ((-D / 2 + 0.02, 0, -0.06), (D - 0.04, W - 0.06, 0.01))],
-                     marker=((0.021, 0, 0), (0, math.pi / 2, 0)), rgba=(0.85, 0.8, 0.7, 1))
-        links.append(x), frames.append(f)
-        joints.append(_joint(name.split("_")[0] + "_slide", "prismatic", "cabinet", name,
-                             axis=(1, 0, 0), lower=0.0, upper=0.4))
-    joints.append(_joint("cabinet_weld", "fixed", "world", "cabinet"))
-    return links, joints, frames
+        _link(m, name, (0, 0, z, 0, 0, 0),
+              [((0.01, 0, 0), (0.02, W - 0.04, 0.18)),
+               ((-D / 2 + 0.02, 0, -0.06), (D - 0.04, W - 0.06, 0.01))],
+              marker=((0.021, 0, 0), (0, math.pi / 2, 0)), rgba=(0.85, 0.8, 0.7, 1))
+        _joint(m, name.split("_")[0] + "_slide", "prismatic", "cabinet", name,
+               axis=(1, 0, 0), lower=0.0, upper=0.4)
+    _joint(m, "cabinet_weld", "fixed", "world", "cabinet")
 
 
-def _yardstick(closed: bool):
+def _yardstick(m: SdfModel):
+    """The open and the closed yardstick share the SDFormat (see :func:`add_object`)."""
     L = YARDSTICK_SEGMENT
-    links, frames, joints = [], [], []
     for k in range(1, 5):
-        x, f = _link(f"seg{k}", (L * (k - 1), 0, 0, 0, 0, 0),
-                     [((L / 2, 0, 0), (L, 0.02, 0.004))],
-                     marker=((L / 2, 0, 0.003), (0, 0, 0)), mass=0.05,
-                     rgba=(0.95, 0.85, 0.2, 1) if k % 2 else (0.9, 0.9, 0.9, 1))
-        links.append(x), frames.append(f)
-    joints.append(_joint("seg1_weld", "fixed", "world", "seg1"))
+        _link(m, f"seg{k}", (L * (k - 1), 0, 0, 0, 0, 0), [((L / 2, 0, 0), (L, 0.02, 0.004))],
+              marker=((L / 2, 0, 0.003), (0, 0, 0)), mass=0.05,
+              rgba=(0.95, 0.85, 0.2, 1) if k % 2 else (0.9, 0.9, 0.9, 1))
+    _joint(m, "seg1_weld", "fixed", "world", "seg1")
     for k in range(1, 4):
-        joints.append(_joint(f"hinge{k}{k + 1}", "revolute", f"seg{k}", f"seg{k + 1}",
-                             axis=(0, 0, 1), lower=-math.pi, upper=math.pi))
-    return links, joints, frames
+        _joint(m, f"hinge{k}{k + 1}", "revolute", f"seg{k}", f"seg{k + 1}",
+               axis=(0, 0, 1), lower=-math.pi, upper=math.pi)
 
 
-def _table():
-    links, frames, joints = [], [], []
-    x, f = _link("floor", (0, 0, 0, 0, 0, 0), [((0, 0, -0.01), (4, 4, 0.02))],
-                 marker=((0.6, -0.6, 0.001), (0, 0, 0)), mass=50, rgba=(0.6, 0.6, 0.6, 1))
-    links.append(x), frames.append(f)
-    for h in ("table_slider_x", "table_slider_y"):
-        x, _ = _link(h, (0, 0, 0, 0, 0, 0), [((0, 0, 0), (0.001, 0.001, 0.001))], mass=0.01)
-        links.append(x)
-    x, f = _link("table", (0, 0, 0, 0, 0, 0),
-                 [((0, 0, 0.72), (1.2, 0.8, 0.04))] + [
-                     ((sx * 0.55, sy * 0.35, 0.35), (0.04, 0.04, 0.7))
-                     for sx in (-1, 1) for sy in (-1, 1)],
-                 marker=((0.3, 0.2, 0.741), (0, 0, 0)), mass=15)
-    links.append(x), frames.append(f)
-    joints += [_joint("floor_weld", "fixed", "world", "floor"),
-               _joint("table_x", "prismatic", "floor", "table_slider_x", (1, 0, 0), -3, 3),
-               _joint("table_y", "prismatic", "table_slider_x", "table_slider_y", (0, 1, 0), -3, 3),
-               _joint("table_yaw", "revolute", "table_slider_y", "table", (0, 0, 1), -math.pi,
-                      math.pi)]
-    return links, joints, frames
+def _sliders(m: SdfModel, names) -> None:
+    """Light helper links of a planar chain."""
+    for h in names:
+        _link(m, h, (0, 0, 0, 0, 0, 0), [((0, 0, 0), (0.001, 0.001, 0.001))], mass=0.01)
 
 
-def _car():
+def _table(m: SdfModel):
+    _link(m, "floor", (0, 0, 0, 0, 0, 0), [((0, 0, -0.01), (4, 4, 0.02))],
+          marker=((0.6, -0.6, 0.001), (0, 0, 0)), mass=50, rgba=(0.6, 0.6, 0.6, 1))
+    _sliders(m, ("table_slider_x", "table_slider_y"))
+    _link(m, "table", (0, 0, 0, 0, 0, 0),
+          [((0, 0, 0.72), (1.2, 0.8, 0.04))] + [
+              ((sx * 0.55, sy * 0.35, 0.35), (0.04, 0.04, 0.7))
+              for sx in (-1, 1) for sy in (-1, 1)],
+          marker=((0.3, 0.2, 0.741), (0, 0, 0)), mass=15)
+    _joint(m, "floor_weld", "fixed", "world", "floor")
+    _joint(m, "table_x", "prismatic", "floor", "table_slider_x", (1, 0, 0), -3, 3)
+    _joint(m, "table_y", "prismatic", "table_slider_x", "table_slider_y", (0, 1, 0), -3, 3)
+    _joint(m, "table_yaw", "revolute", "table_slider_y", "table", (0, 0, 1), -math.pi, math.pi)
+
+
+def _car(m: SdfModel):
     Rg = WINDOW_GUIDE_RADIUS
-    links, frames, joints = [], [], []
-    x, f = _link("car", (0, 0, 0, 0, 0, 0), [((-1.0, 0.8, 0.7), (4.0, 1.6, 1.0))],
-                 marker=((-1.5, -0.001, 0.9), (math.pi / 2, 0, 0)), mass=1000,
-                 rgba=(0.2, 0.3, 0.7, 1))
-    links.append(x), frames.append(f)
+    _link(m, "car", (0, 0, 0, 0, 0, 0), [((-1.0, 0.8, 0.7), (4.0, 1.6, 1.0))],
+          marker=((-1.5, -0.001, 0.9), (math.pi / 2, 0, 0)), mass=1000, rgba=(0.2, 0.3, 0.7, 1))
     # door: hinge (vertical) at the car's front edge x = 0, door panel extends to -x
-    x, f = _link("door", (0, -0.05, 0, 0, 0, 0), [((-0.55, 0, 0.6), (1.1, 0.05, 0.8))],
-                 marker=((-0.3, -0.026, 0.5), (math.pi / 2, 0, 0)), mass=20,
-                 rgba=(0.25, 0.35, 0.75, 1))
-    links.append(x), frames.append(f)
+    _link(m, "door", (0, -0.05, 0, 0, 0, 0), [((-0.55, 0, 0.6), (1.1, 0.05, 0.8))],
+          marker=((-0.3, -0.026, 0.5), (math.pi / 2, 0, 0)), mass=20,
+          rgba=(0.25, 0.35, 0.75, 1))
     # window glass above the door; its guide: revolute about x, axis 1.9 m inboard (+y) at the
     # glass height, so the glass moves down on a circle of radius 1.9 m
-    x, f = _link("window", (-0.55, -0.05, 1.2, 0, 0, 0), [((0, 0, 0), (0.9, 0.006, 0.4))],
-                 marker=((0.2, -0.004, 0.1), (math.pi / 2, 0, 0)), mass=3,
-                 rgba=(0.7, 0.85, 0.95, 0.6))
-    links.append(x), frames.append(f)
-    joints += [_joint("car_weld", "fixed", "world", "car"),
-               _joint("door_hinge", "revolute", "car", "door", (0, 0, 1), -1.3, 0.0),
-               _joint("window_guide", "revolute", "door", "window", (1, 0, 0), -0.25, 0.0,
-                      pose=(0, Rg, 0, 0, 0, 0))]
-    return links, joints, frames
+    _link(m, "window", (-0.55, -0.05, 1.2, 0, 0, 0), [((0, 0, 0), (0.9, 0.006, 0.4))],
+          marker=((0.2, -0.004, 0.1), (math.pi / 2, 0, 0)), mass=3,
+          rgba=(0.7, 0.85, 0.95, 0.6))
+    _joint(m, "car_weld", "fixed", "world", "car")
+    _joint(m, "door_hinge", "revolute", "car", "door", (0, 0, 1), -1.3, 0.0)
+    _joint(m, "window_guide", "revolute", "door", "window", (1, 0, 0), -0.25, 0.0,
+           pose=(0, Rg, 0, 0, 0, 0))
 
 
-def _garage():
-    links, frames, joints = [], [], []
-    x, f = _link("frame", (0, 0, 0, 0, 0, 0),
-                 [((0, -1.2, 1.1), (0.1, 0.1, 2.2)), ((0, 1.2, 1.1), (0.1, 0.1, 2.2))],
-                 marker=((0.051, -1.2, 1.0), (0, math.pi / 2, 0)), mass=100,
-                 rgba=(0.5, 0.5, 0.5, 1))
-    links.append(x), frames.append(f)
-    for h in ("door_slider_x", "door_slider_z"):
-        x, _ = _link(h, (0, 0, 0, 0, 0, 0), [((0, 0, 0), (0.001, 0.001, 0.001))], mass=0.01)
-        links.append(x)
-    x, f = _link("door", (0, 0, 0, 0, 0, 0), [((0, 0, 0.5), (0.03, 2.3, 1.0))],
-                 marker=((0.016, 0.5, 0.3), (0, math.pi / 2, 0)), mass=30,
-                 rgba=(0.9, 0.9, 0.85, 1))
-    links.append(x), frames.append(f)
-    joints += [_joint("frame_weld", "fixed", "world", "frame"),
-               _joint("door_x", "prismatic", "frame", "door_slider_x", (1, 0, 0), -3, 3),
-               _joint("door_z", "prismatic", "door_slider_x", "door_slider_z", (0, 0, 1), -3, 3),
-               _joint("door_pitch", "revolute", "door_slider_z", "door", (0, 1, 0), -math.pi,
-                      math.pi)]
-    return links, joints, frames
+def _garage(m: SdfModel):
+    _link(m, "frame", (0, 0, 0, 0, 0, 0),
+          [((0, -1.2, 1.1), (0.1, 0.1, 2.2)), ((0, 1.2, 1.1), (0.1, 0.1, 2.2))],
+          marker=((0.051, -1.2, 1.0), (0, math.pi / 2, 0)), mass=100, rgba=(0.5, 0.5, 0.5, 1))
+    _sliders(m, ("door_slider_x", "door_slider_z"))
+    _link(m, "door", (0, 0, 0, 0, 0, 0), [((0, 0, 0.5), (0.03, 2.3, 1.0))],
+          marker=((0.016, 0.5, 0.3), (0, math.pi / 2, 0)), mass=30, rgba=(0.9, 0.9, 0.85, 1))
+    _joint(m, "frame_weld", "fixed", "world", "frame")
+    _joint(m, "door_x", "prismatic", "frame", "door_slider_x", (1, 0, 0), -3, 3)
+    _joint(m, "door_z", "prismatic", "door_slider_x", "door_slider_z", (0, 0, 1), -3, 3)
+    _joint(m, "door_pitch", "revolute", "door_slider_z", "door", (0, 1, 0), -math.pi, math.pi)
 
 
 OBJECTS = {
-    "two_drawer_cabinet": (lambda: _cabinet(), ["cabinet", "upper_drawer", "lower_drawer"]),
-    "yardstick_open": (lambda: _yardstick(False), ["seg1", "seg2", "seg3", "seg4"]),
-    "yardstick_closed": (lambda: _yardstick(True), ["seg1", "seg2", "seg3", "seg4"]),
-    "table": (lambda: _table(), ["floor", "table"]),
-    "car_door": (lambda: _car(), ["car", "door", "window"]),
-    "garage_door": (lambda: _garage(), ["frame", "door"]),
+    "two_drawer_cabinet": (_cabinet, ["cabinet", "upper_drawer", "lower_drawer"]),
+    "yardstick_open": (_yardstick, ["seg1", "seg2", "seg3", "seg4"]),
+    "yardstick_closed": (_yardstick, ["seg1", "seg2", "seg3", "seg4"]),
+    "table": (_table, ["floor", "table"]),
+    "car_door": (_car, ["car", "door", "window"]),
+    "garage_door": (_garage, ["frame", "door"]),
 }
 
 
@@ -223,11 +183,13 @@ def _check(name):
         raise ValueError(f"unknown object {name!r}; choose from {', '.join(OBJECTS)}")
 
 
-def object_sdf(name: str) -> str:
-    """SDFormat text of the object ``name`` (see the module table)."""
+def object_sdf(name: str, *, model_name: str | None = None) -> str:
+    """SDFormat text of the object ``name`` (see the module table); the model is called
+    ``model_name`` (default: ``name``)."""
     _check(name)
-    links, joints, frames = OBJECTS[name][0]()
-    return _model(name, links, joints, frames)
+    m = SdfModel(model_name or name)
+    OBJECTS[name][0](m)
+    return m.to_string()
 
 
 def object_parts(name: str) -> list:
@@ -243,9 +205,7 @@ def add_object(plant, name: str, *, model_name: str | None = None):
     (model instance, list of constraint ids)."""
     from pydrake.multibody.parsing import Parser
 
-    text = object_sdf(name)
-    if model_name is not None:
-        text = text.replace(f"<model name='{name}'>", f"<model name='{model_name}'>", 1)
+    text = object_sdf(name, model_name=model_name)
     parser = Parser(plant)
     parser.SetAutoRenaming(True)
     (inst,) = parser.AddModelsFromString(text, "sdf")

@@ -340,8 +340,7 @@ def test_fast_refinement_matches_quasi_newton(kind, model):
         for Z in (tr.Z, tr.Z[:, :3]):
             fast = make_model(model, obs=obs).fit(Z, rng=seed)
             slow = make_model(model, obs=obs)
-            slow._has_weighted_fit = lambda: False
-            slow._has_residual_vectors = lambda: False
+            slow.refinement = "lbfgs"
             slow.fit(Z, rng=seed)
             worse.append(slow.log_likelihood_ - fast.log_likelihood_)
             assert fast.log_likelihood(Z) == pytest.approx(fast.log_likelihood_, abs=1e-6)
@@ -363,3 +362,32 @@ def test_rotation_helpers_agree():
     assert np.allclose(_log_rot(R), rv, atol=1e-9)
     assert _rv2m(rv.reshape(5, 10, 3)).shape == (5, 10, 3, 3)
     assert _m2rv(R.reshape(5, 10, 3, 3)).shape == (5, 10, 3)
+
+
+def test_each_model_declares_its_refinement_and_evaluation_leaves_it_unchanged():
+    """One refinement per model class, stated (no detection of overridden methods), and a
+    fitted model assigns no members while it is evaluated."""
+    import copy
+
+    from mmlearn.models.articulation_refine import REFINEMENTS
+
+    expected = {"rigid": "em", "prismatic": "em", "revolute": "lm", "gp": None}
+    tr = simulate_link("microwave", 40, rng=3)
+    for name, ref in expected.items():
+        m = make_model(name, obs=OBS)
+        assert m.refinement == ref
+        assert ref is None or ref in REFINEMENTS
+        m.fit(tr.Z, rng=0)
+        before = copy.deepcopy({k: v for k, v in vars(m).items() if k not in ("gp", "_lle")})
+        m.log_likelihood(tr.Z), m.residuals(tr.Z), m.inverse(tr.Z), m.bic(tr.Z)
+        m.prediction_errors(tr.Z, inliers_only=True), m.log_config_prior_of(tr.Z)
+        after = {k: v for k, v in vars(m).items() if k not in ("gp", "_lle")}
+        assert after.keys() == before.keys(), name
+        for k, v in before.items():
+            same = (np.array_equal(after[k], v) if isinstance(v, np.ndarray)
+                    else after[k] == v)
+            assert same, (name, k)
+    bad = make_model("revolute", obs=OBS)
+    bad.refinement = "bfgs"
+    with pytest.raises(ValueError, match="refinement"):
+        bad.fit(tr.Z, rng=0)

@@ -77,7 +77,8 @@ def test_garage_door_path_is_continuous_and_neither_line_nor_circle():
 def test_unknown_object():
     with pytest.raises(ValueError, match="unknown object"):
         object_sdf("wardrobe")
-    assert "<model name='table'>" in object_sdf("table")
+    assert '<model name="table">' in object_sdf("table")
+    assert '<model name="table_2">' in object_sdf("table", model_name="table_2")
 
 
 def test_closed_yardstick_loop_holds_in_simulation():
