@@ -9,15 +9,19 @@ Phases (``phase`` output):
 
 0. DRIVE   move the base to a stance in front of the (noisy) handle position;
 1. PREHOOK put the hook in front of the handle, beside the bar;
-2. DEPTH   guarded move towards the front until the hook touches it, back off;
-3. SLIDE   guarded sideways move: the hook's finger slides behind the bar;
+2. DEPTH   guarded move towards the front until the hook touches it, back off (a contact
+           in front of the front is the bar: retry further to the side; no contact
+           deeper than the front: the finger passed the front's edge, retry closer);
+3. SLIDE   guarded sideways move: the hook's finger slides behind the bar (a slide that
+           meets nothing went over the bar: retry further to the side);
 4. PULL    equilibrium-point control: every period the Cartesian equilibrium point moves by
            ``step`` along the normalised Jacobian of the currently learned model at the
            current configuration estimate (before a model exists: along the given initial
            direction), plus a proportional term that keeps ``force_target`` N between hook
            and handle perpendicular to the motion; the hook's orientation turns with the
            mechanism as the learned model predicts;
-5. RELEASE slide the hook out and back off;
+5. RELEASE slide the hook out and back off, in the front's orientation as the handle's
+           last few centimetres of motion show it;
 6. DONE.
 
 The hook frame: its rod is the +z axis (from the wrist to the tip), its finger points
@@ -486,10 +490,9 @@ class EpcController(LeafSystem):
                 q_cmd = self._ik(q_cmd, p, R_hook0, base=False)
         elif s.phase == SLIDE:
             # slide until the rod touches the bar (up to slide_reach past the clicked
-            # position)
-            # (a sliding door moves away along -side when the rod meets its bar, so the
-            # rod feels little: there the slide ends 3 cm past the clicked bar and the pull
-            # goes on in the same direction)
+            # position; a sliding door moves away along -side when the rod meets its bar,
+            # so the rod feels little: there the slide ends 3 cm past the clicked bar and
+            # the pull goes on in the same direction)
             pulling_out = abs(np.dot(task.pull, task.normal)) > 0.5
             reach = cfg.slide_reach if pulling_out else 0.03
             off = np.dot(s.start - H, task.side)
@@ -498,10 +501,9 @@ class EpcController(LeafSystem):
             a = min(1.0, elapsed / T)
             p = (1 - a) * s.start + a * goal
             # the rod touches the bar: a side force once the seat is near the clicked bar
-            # (friction on the front while sliding also pushes along +side, but comes with
-            # a larger push from the front along the normal)
-            # a side force near the clicked bar, or anywhere once the hook lags 2 cm behind
-            # the commanded slide (the bar stops it where the click did not say)
+            # (friction on the front while sliding also pushes along +side), or anywhere
+            # once the hook lags 2 cm behind the commanded slide (the bar stops it where
+            # the click did not say)
             f_side = np.dot(F, task.side)
             near = abs(np.dot(G - H, task.side)) < 0.04
             blocked = np.dot(G - p, task.side) > 0.02
