@@ -82,3 +82,29 @@ def test_cli_flags(tmp_path):
     res = json.loads(r.stdout)
     assert res["base_noise"] == 0.5 and res["success"] is False
     assert res["base_error_max_m"] > 0.0
+
+
+def test_the_controller_opens_a_door_along_a_gp_model():
+    """The GP candidate is on in the online estimator: with it as the only candidate the
+    controller follows the GP's Jacobian and opens the door well past 60 deg."""
+    import math
+
+    from pydrake.systems.analysis import Simulator
+
+    from mmlearn.diagrams.operate import MakeOperateDiagram, OperateConfig
+    from mmlearn.systems.epc_controller import DONE
+
+    op = MakeOperateDiagram(OperateConfig(kind="left_door", seed=2, base_noise=0.0,
+                                          models=["gp"]))
+    sim = Simulator(op.diagram)
+    ctx = sim.get_mutable_context()
+    op.scene.set_joint_positions(ctx, op.start_command)
+    sim.Initialize()
+    cc = op.controller.GetMyContextFromRoot(ctx)
+    q_max, used = 0.0, set()
+    while ctx.get_time() < 40 and op.controller.state(cc).phase != DONE:
+        sim.AdvanceTo(ctx.get_time() + 0.5)
+        q_max = max(q_max, float(op.diagram.GetOutputPort("mechanism_state").Eval(ctx)[0]))
+        used.add(op.controller.state(cc).model_name)
+    assert "gp" in used
+    assert q_max > math.radians(60), math.degrees(q_max)
