@@ -4,6 +4,21 @@ The robot starts about 1 m away with a noisy handle location, drives to a stance
 the handle and opens the mechanism by equilibrium-point control while it learns the
 mechanism's kinematic model online from its hook's trajectory.
 
+What the robot knows: its arm's joint angles and forward kinematics exactly (the hook
+position relative to its base has no error), the front's normal and the bar's direction,
+and the handle only as a click within 2 cm. Its base pose it knows only through a
+drifting localisation and odometry (``--base-noise``, see
+``mmlearn.systems.base_localization``): the hook trajectory the estimator learns from is in
+that believed world frame, so it carries the drift; the estimator assumes sigma_pos =
+0.05 m (the thesis' value) and has the GP candidate. ``--base-noise 0`` gives the robot its
+exact base pose.
+
+Success is the thesis' criterion on the largest opening reached: more than 60 deg or
+0.3 m (``final_opening`` is the opening after the hook let go; a dishwasher's
+counterbalance spring closes it again). ``right_kind`` says whether the model at the end
+was the right kind (revolute for doors, prismatic for drawers and sliding doors) and
+``right_model_at`` the opening from which it held.
+
     python -m mmlearn.apps.open_cabinet --object left_door --seed 3 --json
 """
 
@@ -15,7 +30,8 @@ import time
 import numpy as np
 
 from mmlearn.apps._common import (ArgumentParser, UsageError, check_in_file, check_out_file,
-                                  fail, finish_viewing, make_meshcat, nonneg_int, pos_float,
+                                  fail, finish_viewing, make_meshcat, nonneg_float, nonneg_int,
+                                  pos_float,
                                   progress_bar, save_html)
 from mmlearn.sdf.mechanisms import KINDS
 
@@ -48,15 +64,34 @@ def evaluate_model(link, spec) -> dict:
     return out
 
 
+def right_kind(model_log, right: str) -> tuple[bool, float | None]:
+    """Whether the model at the end of a trial was the right kind, and from which opening on.
+
+    ``model_log``: the trial's records ``(time s, true opening, model kind or None)`` in time
+    order; ``right``: the true kind ("revolute" or "prismatic"). Returns ``(ok, opening)``:
+    ``ok`` is True when the last record has the right kind, ``opening`` the true opening at
+    the first record of the final unbroken run of right-kind records (None when not ok)."""
+    if not model_log or model_log[-1][2] != right:
+        return False, None
+    k = len(model_log) - 1
+    while k > 0 and model_log[k - 1][2] == right:
+        k -= 1
+    return True, float(model_log[k][1])
+
+
 def run(*, kind: str = "left_door", seed: int = 0, meshcat=None, html_out: str = "",
         max_time: float = 60.0, sigma_pos: float | None = None, show_progress: bool = True,
         realtime: bool = False, priors: str = "", mechanism_seed: int | None = None,
-        save_track: str = "") -> dict:
+        save_track: str = "", base_noise: float | None = None) -> dict:
     """Run one trial and return its results (see the module docstring).
 
+    ``sigma_pos``: position noise the estimator assumes, m (None = OperateConfig's 0.05);
+    ``base_noise``: scale of the base-localisation and odometry error (None = 1, the
+    defaults of ``BaseLocalizationConfig``; 0 = the base pose is known exactly);
     ``priors``: prior database to use (see ``learn_priors``); ``mechanism_seed``: fix the
     mechanism's geometry while ``seed`` varies the click and the start; ``save_track``:
-    write the hook trajectory the model was learned from (x y z per line)."""
+    write the hook trajectory the model was learned from (x y z per line, in the robot's
+    believed world frame)."""
     from pydrake.systems.analysis import Simulator
 
     from mmlearn.diagrams.operate import MakeOperateDiagram, OperateConfig
@@ -70,13 +105,15 @@ def run(*, kind: str = "left_door", seed: int = 0, meshcat=None, html_out: str =
     cfg = OperateConfig(kind=kind, seed=seed, priors=priors, mechanism_seed=mechanism_seed)
     if sigma_pos is not None:
         cfg.sigma_pos = sigma_pos
+    if base_noise is not None:
+        cfg.base_noise = base_noise
     if meshcat is None and html_out:
         meshcat = make_meshcat(announce=False)
     op = MakeOperateDiagram(cfg, meshcat=meshcat)
     d = op.diagram
     if meshcat is not None:
         # look at the mechanism from behind and beside the robot's stance
-        h, n = op.task.handle, op.task.normal
+        h, n = op.true_task.handle, op.true_task.normal
         side = np.cross([0, 0, 1.0], n)
         meshcat.SetCameraPose(h + 1.8 * n + 1.2 * side + np.array([0, 0, 0.9]), h)
     simulator = Simulator(d)
@@ -93,16 +130,25 @@ def run(*, kind: str = "left_door", seed: int = 0, meshcat=None, html_out: str =
                        enabled=show_progress)
     phase = 0
     right = "revolute" if op.mechanism.is_revolute else "prismatic"
-    ctrl_ctx = op.controller.GetMyContextFromRoot(ctx)
-    model_log = []  # (true opening, model the controller used)
+    to_unit = math.degrees if op.mechanism.is_revolute else float
+    model_port = d.GetOutputPort("object_model")
+    # (time, true opening, kind of the model the controller is given), every 0.25 s from
+    # the start of the pull
+    model_log = []
+    base_err = []  # |believed - true| base position, m
+    q_max = 0.0  # largest opening reached (the thesis: "opened it through ...")
     while ctx.get_time() < max_time - 1e-9:
         simulator.AdvanceTo(min(max_time, ctx.get_time() + 0.25))
         bar.update(0.25)
         bar.set_postfix_str(PHASE_NAMES[phase])
         phase = int(d.GetOutputPort("phase").Eval(ctx)[0])
-        if phase == PULL:
-            model_log.append((float(d.GetOutputPort("mechanism_state").Eval(ctx)[0]),
-                              op.controller.state(ctrl_ctx).model_name))
+        q_max = max(q_max, float(d.GetOutputPort("mechanism_state").Eval(ctx)[0]))
+        base_err.append(float(np.hypot(*d.GetOutputPort("base_error").Eval(ctx)[:2])))
+        if phase >= PULL:
+            m = model_port.Eval(ctx)
+            model_log.append((round(float(ctx.get_time()), 3),
+                              to_unit(float(d.GetOutputPort("mechanism_state").Eval(ctx)[0])),
+                              m.edges[0].model.name if m is not None and m.edges else None))
         if phase == DONE:
             break
     bar.close()
@@ -115,22 +161,21 @@ def run(*, kind: str = "left_door", seed: int = 0, meshcat=None, html_out: str =
     link = obj.edges[0].model if obj is not None else None
     track = est_state.poses[:, 1, :3] if est_state.poses.shape[0] else np.zeros((0, 3))
     ctrl = op.controller.state(op.controller.GetMyContextFromRoot(ctx))
+    q_max = max(q_max, q)
     if spec.is_revolute:
-        opened, unit, success = math.degrees(q), "deg", q > SUCCESS_ANGLE
+        opened, unit, success = math.degrees(q_max), "deg", q_max > SUCCESS_ANGLE
     else:
-        opened, unit, success = q, "m", q > SUCCESS_DISTANCE
+        opened, unit, success = q_max, "m", q_max > SUCCESS_DISTANCE
     result = {"object": kind, "seed": seed, "success": bool(success), "opened": opened,
+              "final_opening": to_unit(q),
               "unit": unit, "outcome": ctrl.outcome or PHASE_NAMES[phase]}
     result.update(evaluate_model(link, spec))
-    # opening at which the controller's model became the right kind for good
-    right_at = None
-    for k in range(len(model_log)):
-        if all(m == right for _, m in model_log[k:]):
-            right_at = model_log[k][0]
-            break
-    if right_at is not None and spec.is_revolute:
-        right_at = math.degrees(right_at)
-    result["right_model_at"] = right_at
+    # the model's kind over the trial, and the opening from which the final right kind held
+    ok, right_at = right_kind(model_log, right)
+    result.update({"right_kind": ok, "right_model_at": right_at, "true_kind": right,
+                   "model_log": model_log,
+                   "base_noise": cfg.base_noise, "sigma_pos": cfg.sigma_pos,
+                   "base_error_max_m": max(base_err) if base_err else 0.0})
     if priors:
         result["priors"] = priors
     result["track_saved"] = None
@@ -162,7 +207,11 @@ def main(argv=None) -> int:
     ap.add_argument("--max-time", type=pos_float, default=60.0,
                     help="simulated seconds at most")
     ap.add_argument("--sigma-pos", type=pos_float, default=None,
-                    help="position noise the estimator assumes, m (default 0.01)")
+                    help="position noise the estimator assumes, m (default 0.05, the "
+                         "thesis' value)")
+    ap.add_argument("--base-noise", type=nonneg_float, default=None,
+                    help="scale of the robot's base-localisation and odometry error (default "
+                         "1: 0.05 m RMS, 1.1 deg, drifting; 0: base pose known exactly)")
     ap.add_argument("--priors", default="",
                     help="prior database (JSON from learn_priors / operate_trials "
                          "--save-tracks) to use while learning")
@@ -190,7 +239,8 @@ def main(argv=None) -> int:
         r = run(kind=args.object, seed=args.seed, meshcat=meshcat, html_out=args.html_out,
                 max_time=args.max_time, sigma_pos=args.sigma_pos,
                 show_progress=not args.json, realtime=args.meshcat, priors=args.priors,
-                mechanism_seed=args.mechanism_seed, save_track=args.save_track)
+                mechanism_seed=args.mechanism_seed, save_track=args.save_track,
+                base_noise=args.base_noise)
     except ValueError as e:
         return fail(ap.prog, str(e))
     if args.save_track and r["track_saved"] is None:
@@ -208,9 +258,11 @@ def main(argv=None) -> int:
                   f"{r['axis_error_deg']:.1f} deg")
         elif r["axis_error_deg"] is not None:
             print(f"learned axis error {r['axis_error_deg']:.1f} deg")
-        if r["right_model_at"] is not None:
-            print(f"the controller used the right model ({'revolute' if r['unit'] == 'deg' else 'prismatic'}) "
-                  f"from an opening of {r['right_model_at']:.2f} {r['unit']} on")
+        if r["right_kind"]:
+            print(f"the model was the right kind ({r['true_kind']}) from an opening of "
+                  f"{r['right_model_at']:.2f} {r['unit']} on")
+        else:
+            print(f"the model was NOT the right kind ({r['true_kind']}) at the end")
         print(f"{r['sim_seconds']:.1f} s simulated in {r['wall_seconds']:.1f} s "
               f"(real-time factor {r['realtime_factor']})")
     finish_viewing(html_out=None if args.json else r["html_out"], live=args.meshcat)

@@ -16,32 +16,37 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 import numpy as np
 
 from mmlearn.apps._common import (ArgumentParser, UsageError, check_in_file, check_out_dir,
-                                  fail, name_list, nonneg_int, pos_float, pos_int, progress)
+                                  fail, name_list, nonneg_float, nonneg_int, pos_float, pos_int,
+                                  progress)
 from mmlearn.sdf.mechanisms import KINDS
 
 
 def _one(args):
-    kind, seed, max_time, sigma_pos, priors, mechanism_seed, tracks = args
+    kind, seed, max_time, sigma_pos, priors, mechanism_seed, tracks, base_noise = args
     from mmlearn.apps.open_cabinet import run
 
     try:
         return run(kind=kind, seed=seed, max_time=max_time, sigma_pos=sigma_pos,
                    priors=priors, mechanism_seed=mechanism_seed, show_progress=False,
-                   save_track=str(Path(tracks) / f"{kind}_{seed:03d}.log") if tracks else "")
+                   save_track=str(Path(tracks) / f"{kind}_{seed:03d}.log") if tracks else "",
+                   base_noise=base_noise)
     except Exception as e:  # a crashed trial is an error (not a failed opening), with its reason
+        revolute = kind in ("left_door", "right_door", "dishwasher")
         return {"object": kind, "seed": seed, "success": False, "opened": None,
-                "unit": "deg" if kind in ("left_door", "right_door", "dishwasher") else "m",
+                "unit": "deg" if revolute else "m",
                 "outcome": f"error: {type(e).__name__}: {e}",
                 "error": f"{type(e).__name__}: {e}", "learned_model": None,
-                "radius_error_m": None, "axis_error_deg": None, "sim_seconds": 0.0,
-                "wall_seconds": 0.0}
+                "radius_error_m": None, "axis_error_deg": None, "right_kind": False,
+                "right_model_at": None, "true_kind": "revolute" if revolute else "prismatic",
+                "model_log": [], "sim_seconds": 0.0, "wall_seconds": 0.0}
 
 
 def summarize(trials: list[dict]) -> dict:
-    """Per-object success rate, mean opening and mean radius error. Trials that raised
-    (``"error"`` in the record) are counted in ``errors`` and left out of every mean and of
-    ``trials``/``successes``; ``radius_runs`` / ``axis_runs`` / ``right_model_runs`` say how
-    many trials each mean is over."""
+    """Per-object success rate, mean opening, radius and axis errors, and how many trials
+    ended with the right kind of model (and the mean opening from which it held). Trials
+    that raised (``"error"`` in the record) are counted in ``errors`` and left out of every
+    mean and of ``trials``/``successes``/``right_kind``; ``radius_runs`` / ``axis_runs`` /
+    ``right_model_runs`` say how many trials each mean is over."""
     table = {}
     for kind in dict.fromkeys(t["object"] for t in trials):
         errors = sum(1 for t in trials if t["object"] == kind and t.get("error"))
@@ -51,6 +56,8 @@ def summarize(trials: list[dict]) -> dict:
                            "unit": next(t["unit"] for t in trials if t["object"] == kind),
                            "mean_radius_error_m": None, "max_radius_error_m": None,
                            "mean_axis_error_deg": None, "mean_right_model_at": None,
+                           "max_right_model_at": None, "right_kind": 0,
+                           "success_and_right_kind": 0,
                            "radius_runs": 0, "axis_runs": 0, "right_model_runs": 0,
                            "models": {}}
             continue
@@ -67,7 +74,11 @@ def summarize(trials: list[dict]) -> dict:
             "mean_radius_error_m": float(np.mean(radius)) if radius else None,
             "max_radius_error_m": float(np.max(radius)) if radius else None,
             "mean_axis_error_deg": float(np.mean(axis)) if axis else None,
+            "right_kind": sum(bool(t.get("right_kind")) for t in ts),
+            "success_and_right_kind": sum(bool(t["success"] and t.get("right_kind"))
+                                          for t in ts),
             "mean_right_model_at": float(np.mean(right_at)) if right_at else None,
+            "max_right_model_at": float(np.max(right_at)) if right_at else None,
             "models": {m: sum(t["learned_model"] == m for t in ts)
                        for m in dict.fromkeys(t["learned_model"] for t in ts)},
         }
@@ -77,10 +88,12 @@ def summarize(trials: list[dict]) -> dict:
 def run(*, objects=KINDS, trials: int = 8, seed: int = 0, jobs: int | None = None,
         max_time: float = 60.0, sigma_pos: float | None = None, priors: str = "",
         mechanism_seed: int | None = None, save_tracks: str = "",
-        show_progress: bool = True) -> dict:
+        show_progress: bool = True, base_noise: float | None = None) -> dict:
     """Run the trials; ``mechanism_seed`` fixes each object's geometry (the trials then
     differ in the handle click and the start), ``save_tracks`` writes every trial's hook
-    trajectory into that folder, ``priors`` uses a prior database."""
+    trajectory into that folder, ``priors`` uses a prior database, ``base_noise`` scales
+    the base-localisation error (None: 1, 0: the base pose is known exactly),
+    ``sigma_pos`` is the noise the estimator assumes (None: 0.05 m)."""
     objects = list(objects)
     if not objects:
         raise ValueError("objects: empty list; choose from " + ", ".join(KINDS))
@@ -100,7 +113,7 @@ def run(*, objects=KINDS, trials: int = 8, seed: int = 0, jobs: int | None = Non
     jobs = jobs or os.cpu_count() or 1
     if save_tracks:
         Path(save_tracks).mkdir(parents=True, exist_ok=True)
-    work = [(k, seed + i, max_time, sigma_pos, priors, mechanism_seed, save_tracks)
+    work = [(k, seed + i, max_time, sigma_pos, priors, mechanism_seed, save_tracks, base_noise)
             for k in objects for i in range(trials)]
     t0 = time.perf_counter()
     results = []
@@ -114,15 +127,21 @@ def run(*, objects=KINDS, trials: int = 8, seed: int = 0, jobs: int | None = Non
     n_ok = sum(r["success"] for r in results)
     n_err = sum(1 for r in results if r.get("error"))
     n_run = len(results) - n_err
+    n_kind = sum(bool(r.get("right_kind")) for r in results if not r.get("error"))
+    first = next((r for r in results if "sigma_pos" in r), {})
     return {"trials": results, "success_rate": n_ok / n_run if n_run else None,
             "successes": n_ok, "errors": n_err, "total": n_run,
+            "right_kind": n_kind, "right_kind_rate": n_kind / n_run if n_run else None,
             "per_object": summarize(results),
+            "sigma_pos": first.get("sigma_pos", sigma_pos),
+            "base_noise": first.get("base_noise", base_noise),
             "wall_seconds": round(time.perf_counter() - t0, 1)}
 
 
 def format_table(res: dict) -> str:
-    lines = [f"{'object':13s} {'success':>8s} {'errors':>6s} {'mean opened':>12s} "
-             f"{'radius err (mean/max)':>22s} {'axis err':>9s} {'right model at':>15s}  models"]
+    lines = [f"{'object':13s} {'success':>8s} {'errors':>6s} {'right kind':>10s} "
+             f"{'from (mean/max)':>17s} {'mean opened':>12s} {'radius err (mean/max)':>22s} "
+             f"{'axis err':>9s}  final models"]
     for kind, row in res["per_object"].items():
         if row["mean_opened"] is None:
             op = "-"
@@ -134,23 +153,33 @@ def format_table(res: dict) -> str:
         ax = (f"{row['mean_axis_error_deg']:.1f} deg"
               if row["mean_axis_error_deg"] is not None else "-")
         models = ", ".join(f"{m}:{c}" for m, c in row["models"].items())
-        ra = row.get("mean_right_model_at")
-        ra = "-" if ra is None else (f"{ra:.1f} deg" if row["unit"] == "deg" else f"{ra:.3f} m")
+        ra, rm = row.get("mean_right_model_at"), row.get("max_right_model_at")
+        ra = "-" if ra is None else (f"{ra:.0f}/{rm:.0f} deg" if row["unit"] == "deg"
+                                     else f"{ra:.2f}/{rm:.2f} m")
+        rk = f"{row.get('right_kind', 0)}/{row['trials']}"
         lines.append(f"{kind:13s} {row['successes']:>3d}/{row['trials']:<4d} "
-                     f"{row.get('errors', 0):>6d} {op:>12s} "
-                     f"{rad:>22s} {ax:>9s} {ra:>15s}  {models}")
+                     f"{row.get('errors', 0):>6d} {rk:>10s} {ra:>17s} {op:>12s} {rad:>22s} "
+                     f"{ax:>9s}  {models}")
     rate = "n/a" if res["success_rate"] is None else f"{100 * res['success_rate']:.1f}%"
-    lines.append(f"overall: {res['successes']}/{res['total']} ({rate}) in "
-                 f"{res['wall_seconds']} s; {res.get('errors', 0)} trial(s) raised an error "
-                 f"(not counted above)")
+    n_kind = res.get("right_kind", sum(bool(t.get("right_kind")) for t in res["trials"]
+                                       if not t.get("error")))
+    lines.append(f"overall: {res['successes']}/{res['total']} successes ({rate}), right kind "
+                 f"{n_kind}/{res['total']} in {res['wall_seconds']} s; "
+                 f"{res.get('errors', 0)} trial(s) raised an error (not counted above)")
+    if res.get("sigma_pos") is not None or res.get("base_noise") is not None:
+        lines.append(f"(sigma_pos {res.get('sigma_pos')} m, base noise x{res.get('base_noise')})")
     lines.append("means are over the trials that ran; radius and axis errors over the trials "
                  "whose learned model had that parameter")
     for t in res["trials"]:
         if t.get("error"):
             lines.append(f"  error:  {t['object']} seed {t['seed']}: {t['error']}")
-        elif not t["success"]:
-            lines.append(f"  failed: {t['object']} seed {t['seed']}: opened {t['opened']:.2f} "
-                         f"{t['unit']} ({t['outcome']})")
+            continue
+        if t["success"] and t.get("right_kind"):
+            continue
+        what = ("failed" if not t["success"] else "wrong kind") + (
+            ", wrong kind" if not t["success"] and not t.get("right_kind") else "")
+        lines.append(f"  {what}: {t['object']} seed {t['seed']}: opened {t['opened']:.2f} "
+                     f"{t['unit']} ({t['outcome']}), final model {t.get('learned_model')}")
     return "\n".join(lines)
 
 
@@ -167,7 +196,11 @@ def main(argv=None) -> int:
                     help="parallel processes (default: all cores)")
     ap.add_argument("--max-time", type=pos_float, default=60.0)
     ap.add_argument("--sigma-pos", type=pos_float, default=None,
-                    help="position noise the estimator assumes, m (default 0.01)")
+                    help="position noise the estimator assumes, m (default 0.05, the "
+                         "thesis' value)")
+    ap.add_argument("--base-noise", type=nonneg_float, default=None,
+                    help="scale of the robot's base-localisation and odometry error (default "
+                         "1: 0.05 m RMS, 1.1 deg, drifting; 0: base pose known exactly)")
     ap.add_argument("--mechanism-seed", type=nonneg_int, default=None,
                     help="the same mechanism per object in every trial (trials differ in "
                          "the handle click and the robot's start)")
@@ -186,7 +219,7 @@ def main(argv=None) -> int:
                   seed=args.seed, jobs=args.jobs, max_time=args.max_time,
                   sigma_pos=args.sigma_pos, priors=args.priors,
                   mechanism_seed=args.mechanism_seed, save_tracks=args.save_tracks,
-                  show_progress=not args.json)
+                  show_progress=not args.json, base_noise=args.base_noise)
     except (ValueError, OSError) as e:
         return fail(ap.prog, f"--priors: {e}" if args.priors and str(args.priors) in str(e)
                     else str(e))

@@ -3,7 +3,7 @@ force sensor, the ArticulationEstimator learning the mechanism online from the h
 trajectory, and the EpcController moving along the learned model (thesis 4.3, 4.4.2)."""
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -15,6 +15,8 @@ from mmlearn.models.articulation_priors import PriorDatabase
 from mmlearn.sdf.mechanisms import KINDS, MechanismSpec, sample_mechanism
 from mmlearn.systems import MarkerSensorConfig
 from mmlearn.systems.articulation_estimator import ArticulationEstimator
+from mmlearn.systems.base_localization import (BaseLocalization, BaseLocalizationConfig,
+                                               believed_from_true, initial_error, rotate_yaw)
 from mmlearn.systems.epc_controller import EpcConfig, EpcController, EpcTask
 from mmlearn.systems.model_visualizer import LearnedModelVisualizer
 from mmlearn.systems.prior_selector import PriorModelSelector
@@ -33,10 +35,19 @@ class OperateConfig:
         click_error: largest error of the clicked handle position, m.
         start_distance: distance of the robot's start from the handle, m.
         sigma_pos: position noise the estimator assumes for the hook trajectory, m
-            (thesis: 0.05 m).
+            (thesis: 0.05 m, which covers base localisation, hooking and forward-kinematics
+            errors).
         estimator_period: hook positions are sampled at this period, s.
         refit_every: the estimator refits after this many new samples.
+        models: the estimator's candidate link models (thesis: rigid, prismatic, revolute
+            and GP).
         sigma_force: wrist force sensor noise, N.
+        base_noise: scale of the base-localisation and odometry error (see
+            :class:`~mmlearn.systems.base_localization.BaseLocalizationConfig`; 1 = its
+            defaults: 0.05 m RMS horizontal, 1.1 deg heading, drifting with a 60 s time
+            constant, plus odometry error; 0 = the robot knows its base pose exactly).
+        base_localization: the error model's parameters before scaling (its seed is
+            replaced by one drawn from ``seed`` and ``kind``).
         epc: the controller's parameters.
         mechanism: the mechanism (None = drawn from kind and ``mechanism_seed``).
         mechanism_seed: seed of the mechanism's geometry (None = ``seed``); with a fixed
@@ -50,10 +61,13 @@ class OperateConfig:
     seed: int = 0
     click_error: float = 0.02
     start_distance: float = 1.0
-    sigma_pos: float = 0.01
+    sigma_pos: float = 0.05
     estimator_period: float = 0.03
     refit_every: int = 10
+    models: list[str] = field(default_factory=lambda: ["rigid", "prismatic", "revolute", "gp"])
     sigma_force: float = 0.3
+    base_noise: float = 1.0
+    base_localization: BaseLocalizationConfig = field(default_factory=BaseLocalizationConfig)
     epc: EpcConfig = field(default_factory=EpcConfig)
     mechanism: MechanismSpec | None = None
     mechanism_seed: int | None = None
@@ -66,6 +80,9 @@ class OperateConfig:
             raise ValueError(f"click_error must be in [0, 0.1) m, got {self.click_error}")
         if not self.sigma_pos > 0:
             raise ValueError(f"sigma_pos must be > 0, got {self.sigma_pos}")
+        if not (math.isfinite(self.base_noise) and self.base_noise >= 0):
+            raise ValueError(f"base_noise must be >= 0, got {self.base_noise}")
+        self.base_localization.validate()
         if self.priors and not Path(self.priors).is_file():
             raise ValueError(f"prior database not found: {self.priors}")
 
@@ -83,6 +100,8 @@ class Operate:
     force_sensor: WristForceSensor
     start_command: np.ndarray
     prior_selector: PriorModelSelector | None = None
+    localization: BaseLocalization | None = None
+    true_task: EpcTask | None = None
 
 
 def make_task(spec: MechanismSpec, rng: np.random.Generator, click_error: float) -> EpcTask:
@@ -106,8 +125,10 @@ def make_task(spec: MechanismSpec, rng: np.random.Generator, click_error: float)
 def MakeOperateDiagram(config: OperateConfig | None = None, *, meshcat=None) -> Operate:
     """Build the opening-task diagram (see the module docstring).
 
-    Exported outputs: ``mechanism_state``, ``robot_state``, ``phase``, ``status``,
-    ``hook_position``, ``force_W``, ``estimator_stats``.
+    Exported outputs: ``mechanism_state``, ``robot_state`` (true), ``phase``, ``status``,
+    ``hook_position`` (in the robot's believed world frame), ``force_W`` (true world frame),
+    ``estimator_stats``, ``object_model`` (the model the controller uses), ``base_error``
+    (believed minus true base x, y, yaw: m, m, rad).
     """
     cfg = config or OperateConfig()
     cfg.validate()
@@ -119,7 +140,25 @@ def MakeOperateDiagram(config: OperateConfig | None = None, *, meshcat=None) -> 
             cfg.kind, np.random.default_rng([cfg.mechanism_seed, KINDS.index(cfg.kind)]))
     else:
         spec = sample_mechanism(cfg.kind, rng)
-    task = make_task(spec, rng, cfg.click_error)
+    true_task = make_task(spec, rng, cfg.click_error)
+    # the robot starts about start_distance in front of the handle, roughly facing it
+    n = true_task.normal.copy()
+    n[2] = 0
+    n /= np.linalg.norm(n)
+    lateral = np.array([-n[1], n[0], 0.0]) * rng.uniform(-0.2, 0.2)
+    p0 = spec.handle_world(0.0)[0] + cfg.start_distance * n + lateral
+    yaw0 = math.atan2(-n[1], -n[0]) + rng.uniform(-0.3, 0.3)
+    # the click is made relative to the robot at its start and stored in its believed
+    # world frame (localisation error at time 0): what the robot is told
+    loc_cfg = replace(cfg.base_localization.scaled(cfg.base_noise),
+                      seed=cfg.seed * len(KINDS) + KINDS.index(cfg.kind))
+    e0 = initial_error(loc_cfg)
+    base0 = np.array([p0[0], p0[1], yaw0])
+    task = EpcTask(handle=believed_from_true(true_task.handle, base0, e0),
+                   normal=rotate_yaw(true_task.normal, e0[2]),
+                   bar=rotate_yaw(true_task.bar, e0[2]),
+                   pull=rotate_yaw(true_task.pull, e0[2]),
+                   side=rotate_yaw(true_task.side, e0[2]))
     scene_cfg = SceneConfig(arm="7dof", tool="hook", mobile_base=True, cabinet=False,
                             mechanism=spec,
                             sensor=MarkerSensorConfig(rate_hz=5.0, cameras=[],
@@ -136,13 +175,28 @@ def MakeOperateDiagram(config: OperateConfig | None = None, *, meshcat=None) -> 
     estimator = builder.AddNamedSystem("articulation_estimator", ArticulationEstimator(
         mode="pose", pose_size=3, period=cfg.estimator_period, refit_every=cfg.refit_every,
         min_observations=10, max_observations=400,
-        obs=ObservationModel(sigma_pos=cfg.sigma_pos),
-        models=("rigid", "prismatic", "revolute"), seed=cfg.seed))
+        obs=ObservationModel(sigma_pos=cfg.sigma_pos), models=tuple(cfg.models),
+        seed=cfg.seed))
     epc = builder.AddNamedSystem("epc_controller", EpcController(
         plant=plant, robot=scene.robot, task=task, config=cfg.epc,
         command_names=scene.command_names))
-    builder.Connect(sd.GetOutputPort("robot_state"), epc.get_robot_state_input_port())
-    builder.Connect(force.get_force_output_port(), epc.get_force_input_port())
+    # the robot's software sees its base pose, hence the hook and the wrist force in the
+    # world, through its (drifting) localisation; its base commands are realised relative
+    # to that belief
+    robot_q_starts = sorted(plant.get_joint(j).position_start()
+                            for j in plant.GetJointIndices(scene.robot)
+                            if plant.get_joint(j).num_positions() == 1)
+    base_idx = [robot_q_starts.index(plant.GetJointByName(nm, scene.robot).position_start())
+                for nm in ("base_x", "base_y", "base_yaw")]
+    loc = builder.AddNamedSystem("base_localization", BaseLocalization(
+        config=loc_cfg, base_position_indices=base_idx,
+        state_size=plant.num_positions(scene.robot) + plant.num_velocities(scene.robot),
+        num_commands=len(scene.command_names)))
+    builder.Connect(sd.GetOutputPort("robot_state"), loc.get_robot_state_input_port())
+    builder.Connect(force.get_force_output_port(), loc.get_force_input_port())
+    builder.Connect(loc.get_believed_robot_state_output_port(),
+                    epc.get_robot_state_input_port())
+    builder.Connect(loc.get_believed_force_output_port(), epc.get_force_input_port())
     model_port = estimator.GetOutputPort("object_model")
     selector = None
     if cfg.priors:
@@ -156,7 +210,8 @@ def MakeOperateDiagram(config: OperateConfig | None = None, *, meshcat=None) -> 
     builder.Connect(model_port, epc.get_object_model_input_port())
     builder.Connect(epc.get_hook_position_output_port(),
                     estimator.get_input_port_observations())
-    builder.Connect(epc.get_command_output_port(), sd.GetInputPort("command"))
+    builder.Connect(epc.get_command_output_port(), loc.get_command_input_port())
+    builder.Connect(loc.get_plant_command_output_port(), sd.GetInputPort("command"))
     if meshcat is not None:
         vis = builder.AddNamedSystem("learned_model_visualizer",
                                      LearnedModelVisualizer(meshcat=meshcat))
@@ -168,18 +223,13 @@ def MakeOperateDiagram(config: OperateConfig | None = None, *, meshcat=None) -> 
     builder.ExportOutput(epc.get_hook_position_output_port(), "hook_position")
     builder.ExportOutput(force.get_force_output_port(), "force_W")
     builder.ExportOutput(estimator.GetOutputPort("stats"), "estimator_stats")
+    builder.ExportOutput(model_port, "object_model")
+    builder.ExportOutput(loc.get_error_output_port(), "base_error")
     diagram = builder.Build()
     diagram.set_name("operate")
-    # the robot starts about start_distance in front of the handle, roughly facing it
-    n = task.normal.copy()
-    n[2] = 0
-    n /= np.linalg.norm(n)
-    lateral = np.array([-n[1], n[0], 0.0]) * rng.uniform(-0.2, 0.2)
-    p0 = spec.handle_world(0.0)[0] + cfg.start_distance * n + lateral
-    yaw0 = math.atan2(-n[1], -n[0]) + rng.uniform(-0.3, 0.3)
     start = np.zeros(len(scene.command_names))
     start[:3] = [p0[0], p0[1], yaw0]
     start[3:] = [0.0, 0.3, 0.0, 1.2, 0.0, 0.0][: len(start) - 3]
     return Operate(diagram=diagram, scene=scene, mechanism=spec, task=task, controller=epc,
                    estimator=estimator, force_sensor=force, start_command=start,
-                   prior_selector=selector)
+                   prior_selector=selector, localization=loc, true_task=true_task)

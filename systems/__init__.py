@@ -5,6 +5,7 @@ Import the systems from here, e.g. ``from mmlearn.systems import MarkerSensor``.
 
 from .arm_failures import JointBlocker, PlantFailures
 from .articulation_estimator import ArticulationEstimator
+from .base_localization import BaseLocalization, BaseLocalizationConfig
 from .epc_controller import EpcConfig, EpcController, EpcTask
 from .marker_sensor import CameraConfig, MarkerSensor, MarkerSensorConfig
 from .model_visualizer import LearnedModelVisualizer
@@ -19,6 +20,8 @@ from .wrist_force_sensor import WristForceSensor
 
 __all__ = [
     "ArticulationEstimator",
+    "BaseLocalization",
+    "BaseLocalizationConfig",
     "CameraConfig",
     "EpcConfig",
     "EpcController",

@@ -9,15 +9,19 @@ Phases (``phase`` output):
 
 0. DRIVE   move the base to a stance in front of the (noisy) handle position;
 1. PREHOOK put the hook in front of the handle, beside the bar;
-2. DEPTH   guarded move towards the front until the hook touches it, back off;
-3. SLIDE   guarded sideways move: the hook's finger slides behind the bar;
+2. DEPTH   guarded move towards the front until the hook touches it, back off (a contact
+           in front of the front is the bar: retry further to the side; no contact
+           deeper than the front: the finger passed the front's edge, retry closer);
+3. SLIDE   guarded sideways move: the hook's finger slides behind the bar (a slide that
+           meets nothing went over the bar: retry further to the side);
 4. PULL    equilibrium-point control: every period the Cartesian equilibrium point moves by
            ``step`` along the normalised Jacobian of the currently learned model at the
            current configuration estimate (before a model exists: along the given initial
            direction), plus a proportional term that keeps ``force_target`` N between hook
            and handle perpendicular to the motion; the hook's orientation turns with the
            mechanism as the learned model predicts;
-5. RELEASE slide the hook out and back off;
+5. RELEASE slide the hook out and back off, in the front's orientation as the handle's
+           last few centimetres of motion show it;
 6. DONE.
 
 The hook frame: its rod is the +z axis (from the wrist to the tip), its finger points
@@ -89,7 +93,10 @@ class EpcConfig:
         stop_force: hook force that, with the hook no longer advancing, means the end of
             the configuration range, N.
         target_angle: stop when a revolute model says the mechanism turned this far, rad.
-        target_distance: stop when a prismatic model says it moved this far, m.
+        target_distance: stop when a prismatic model says it moved this far, m. Longer
+            than the drawers' travel (they end at their end stop): at sigma_pos = 0.05 m a
+            door's arc reads as a line for its first ~50 deg, and a shorter target would
+            stop the door there under that early prismatic model.
         min_model_samples: hook positions before the learned model is trusted.
         stance_distance, stance_side: base stance: distance in front of the handle and
             shift towards ``side``, m.
@@ -99,6 +106,9 @@ class EpcConfig:
         ik_damping: damping of the damped-least-squares IK.
         max_turn: largest change of the hook's orientation per period, rad.
         side_offset: distance of the grip point beside the bar before it slides behind it, m.
+        depth_margin: the guarded move into the front goes this much deeper than the
+            clicked handle suggests before it concludes that it passed the front's edge, m.
+        slide_reach: the slide behind the bar goes this far past the clicked bar, m.
         contact_force: hook positions count as observations of the mechanism only while the
             wrist feels at least this force, N.
         base_weight: cost of base motion relative to arm motion in the IK while pulling.
@@ -111,7 +121,7 @@ class EpcConfig:
     max_lead: float = 0.05
     stop_force: float = 35.0
     target_angle: float = math.radians(85)
-    target_distance: float = 0.5
+    target_distance: float = 0.65
     min_model_samples: int = 15
     stance_distance: float = 0.78
     stance_side: float = 0.3
@@ -125,16 +135,20 @@ class EpcConfig:
     base_weight: float = 4.0
     max_turn: float = 0.05
     side_offset: float = 0.055
+    depth_margin: float = 0.05
+    slide_reach: float = 0.06
     contact_force: float = 0.5
 
     def validate(self):
         for k in ("period", "step", "force_gain", "max_lead", "stop_force", "target_angle",
                   "target_distance", "approach_time", "depth_time", "slide_time",
                   "release_time", "drive_speed", "max_pull_time", "ik_damping", "base_weight",
-                  "max_turn", "side_offset"):
+                  "max_turn", "side_offset", "slide_reach"):
             v = getattr(self, k)
             if not (math.isfinite(v) and v > 0):
                 raise ValueError(f"EpcConfig.{k} must be a positive number, got {v}")
+        if not (math.isfinite(self.depth_margin) and self.depth_margin >= 0):
+            raise ValueError(f"EpcConfig.depth_margin must be >= 0, got {self.depth_margin}")
         if not (math.isfinite(self.contact_force) and self.contact_force >= 0):
             raise ValueError(f"EpcConfig.contact_force must be >= 0, got {self.contact_force}")
         if self.min_model_samples < 3:
@@ -157,9 +171,13 @@ class _State:
     opening: float = 0.0
     model_name: str = ""
     stalled: int = 0
+    stall_G: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    trail_G: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    motion: np.ndarray = field(default_factory=lambda: np.zeros(3))
     slack: int = 0
     last_G: np.ndarray = field(default_factory=lambda: np.zeros(3))
     side_extra: float = 0.0
+    bar_depth: float = float("nan")
     retries: int = 0
     outcome: str = ""
 
@@ -172,6 +190,16 @@ def _unit(v):
 def _axis_angle(axis, angle):
     """Rotation matrix of ``angle`` about ``axis`` (any length)."""
     return Rotation.from_rotvec(_unit(np.asarray(axis, float)) * angle).as_matrix()
+
+
+def _rotation_between(a, b) -> np.ndarray:
+    """The smallest rotation taking direction a to direction b."""
+    a, b = _unit(np.asarray(a, float)), _unit(np.asarray(b, float))
+    c = np.cross(a, b)
+    angle = math.atan2(np.linalg.norm(c), float(np.dot(a, b)))
+    if np.linalg.norm(c) < 1e-9:
+        return np.eye(3)
+    return _axis_angle(c, angle)
 
 
 def hook_rotation(normal, side) -> np.ndarray:
@@ -404,6 +432,9 @@ class EpcController(LeafSystem):
         R_hook0 = self._R_hook0
         if s.phase == DRIVE:
             goal = self._stance()
+            # turn the short way (facing -x, the stance yaw may be +pi while the start is
+            # near -pi: a linear blend would spin the base a full turn)
+            goal[2] = s.start[2] + math.remainder(goal[2] - s.start[2], 2 * math.pi)
             dist = np.linalg.norm(goal[:2] - s.start[:2])
             T = max(1.0, dist / cfg.drive_speed)
             a = min(1.0, elapsed / T)
@@ -421,27 +452,36 @@ class EpcController(LeafSystem):
             if elapsed >= cfg.approach_time + 0.5:
                 self._next_phase(s, DEPTH, t, goal)
         elif s.phase == DEPTH:
-            goal = H - 0.08 * task.normal + (cfg.side_offset + s.side_extra) * task.side
-            a = min(1.0, elapsed / cfg.depth_time)
+            # guarded move into the front, deeper than the clicked handle by the depth
+            # margin: the handle is only known to a few cm (click and base localisation)
+            margin = cfg.depth_margin
+            goal = (H - (0.08 + margin) * task.normal
+                    + (cfg.side_offset + s.side_extra) * task.side)
+            T = cfg.depth_time * (0.26 + margin) / 0.26  # same speed as without the margin
+            a = min(1.0, elapsed / T)
             p = (1 - a) * s.start + a * goal
             touching = np.dot(F, task.normal) > 3.0
+            depth = np.dot(G - H, task.normal)
             # the finger touches the front with the seat ~0.036 m behind the bar's centre,
-            # the bar itself ~0.044 m in front of it (+-0.02 m click error): split at 0
-            if touching and np.dot(G - H, task.normal) > 0.0 and s.retries < 2:
+            # the bar itself ~0.044 m in front of it (+-0.02 m click error): split at 0; a
+            # contact at the depth where the bar was met before is the bar again
+            on_bar = depth > 0.0 or (math.isfinite(s.bar_depth) and depth > s.bar_depth - 0.03)
+            if touching and on_bar and s.retries < 3:
                 # hit something in front of the front: the bar itself (the click was off
                 # sideways). Back out and come in again further to the side.
                 s.retries += 1
                 s.side_extra += 0.02
                 q_cmd = self._ik(q_cmd, G + 0.05 * task.normal, R_hook0, base=False)
                 self._next_phase(s, PREHOOK, t, G + 0.05 * task.normal)
-            elif (not touching and np.dot(G - H, task.normal) < -0.065 and s.retries < 2):
+            elif (not touching and depth < -0.065 - margin and s.retries < 3):
                 # deeper than the front without touching it: the finger passed the front's
                 # free edge. Back out and come in again closer to the bar.
                 s.retries += 1
                 s.side_extra -= 0.02
-                q_cmd = self._ik(q_cmd, G + 0.12 * task.normal, R_hook0, base=False)
-                self._next_phase(s, PREHOOK, t, G + 0.12 * task.normal)
-            elif touching or elapsed >= cfg.depth_time:
+                q_cmd = self._ik(q_cmd, G + (0.12 + margin) * task.normal, R_hook0,
+                                 base=False)
+                self._next_phase(s, PREHOOK, t, G + (0.12 + margin) * task.normal)
+            elif touching or elapsed >= T:
                 # back off from the front so the finger clears it and the bar
                 p = G + 0.018 * task.normal
                 q_cmd = self._ik(q_cmd, p, R_hook0, base=False)
@@ -449,30 +489,55 @@ class EpcController(LeafSystem):
             else:
                 q_cmd = self._ik(q_cmd, p, R_hook0, base=False)
         elif s.phase == SLIDE:
-            # slide until the rod touches the bar (up to 3 cm past the clicked position)
+            # slide until the rod touches the bar (up to slide_reach past the clicked
+            # position; a sliding door moves away along -side when the rod meets its bar,
+            # so the rod feels little: there the slide ends 3 cm past the clicked bar and
+            # the pull goes on in the same direction)
+            pulling_out = abs(np.dot(task.pull, task.normal)) > 0.5
+            reach = cfg.slide_reach if pulling_out else 0.03
             off = np.dot(s.start - H, task.side)
-            goal = s.start - (off + 0.03) * task.side
-            a = min(1.0, elapsed / cfg.slide_time)
+            goal = s.start - (off + reach) * task.side
+            T = cfg.slide_time * (1.0 + max(0.0, reach - 0.03) / 0.085)
+            a = min(1.0, elapsed / T)
             p = (1 - a) * s.start + a * goal
             # the rod touches the bar: a side force once the seat is near the clicked bar
-            # (friction on the front while sliding also pushes along +side)
+            # (friction on the front while sliding also pushes along +side), or anywhere
+            # once the hook lags 2 cm behind the commanded slide (the bar stops it where
+            # the click did not say)
+            f_side = np.dot(F, task.side)
             near = abs(np.dot(G - H, task.side)) < 0.04
-            contact = near and np.dot(F, task.side) > 3.0
+            blocked = np.dot(G - p, task.side) > 0.02
+            contact = f_side > 3.0 and (near or blocked)
             q_cmd = self._ik(q_cmd, p, R_hook0, base=False)
-            if contact or elapsed >= cfg.slide_time + 0.3:
+            reached = abs(np.dot(G - goal, task.side)) < 0.015
+            if (not contact and elapsed >= T + 0.3 and reached and s.retries < 3
+                    and pulling_out):
+                # slid past the bar without feeling it: the finger was in front of the bar
+                # (the contact was the bar, not the front). Back out and come in again
+                # further to the side, taking contacts at this depth for the bar.
+                s.retries += 1
+                s.side_extra += 0.02
+                s.bar_depth = float(np.dot(s.start - H, task.normal)) - 0.018
+                q_cmd = self._ik(q_cmd, G + 0.05 * task.normal, R_hook0, base=False)
+                self._next_phase(s, PREHOOK, t, G + 0.05 * task.normal)
+            elif contact or elapsed >= T + 0.3:
                 s.cep = G.copy()
                 s.direction = task.pull.copy()
+                s.trail_G, s.motion = G.copy(), task.pull.copy()
                 s.R = R_hook0.copy()
                 s.last_G = G.copy()
                 self._next_phase(s, PULL, t, G)
         elif s.phase == PULL:
             q_cmd, s = self._pull(context, s, q_cmd, G, F, elapsed)
         elif s.phase == RELEASE:
-            side = s.R @ (R_hook0.T @ task.side)
-            normal = s.R @ (R_hook0.T @ task.normal)
+            # the front's current orientation from the handle's observed motion (model-free:
+            # the hook's orientation may lag behind a door whose model came late)
+            R_front = _rotation_between(task.pull, s.motion)
+            side = R_front @ task.side
+            normal = R_front @ task.normal
             a = min(1.0, elapsed / cfg.release_time)
             # unload the finger (back along the motion), slide out sideways, back off
-            p = (s.start - 0.015 * min(1.0, a / 0.25) * s.direction
+            p = (s.start - 0.015 * min(1.0, a / 0.25) * s.motion
                  + 0.12 * float(np.clip((a - 0.25) / 0.4, 0, 1)) * side
                  + 0.15 * float(np.clip((a - 0.65) / 0.35, 0, 1)) * normal)
             q_cmd = self._ik(q_cmd, p, s.R, base=False)
@@ -539,13 +604,22 @@ class EpcController(LeafSystem):
         if np.linalg.norm(lead) > cfg.max_lead:
             cep = G + lead * (cfg.max_lead / np.linalg.norm(lead))
         s.cep, s.direction, s.R = cep, direction, R
+        # direction of the handle's most recent >= 3 cm of motion
+        if np.linalg.norm(G - s.trail_G) >= 0.03:
+            s.motion, s.trail_G = _unit(G - s.trail_G), G.copy()
         q_cmd = self._ik(q_cmd, cep, R, base=True)
-        # stop conditions
-        moved = np.linalg.norm(G - s.last_G)
+        # stop conditions: held back while the hook has not advanced since the stall began
+        # (progress over the whole window, not per period: the believed hook position
+        # drifts a few millimetres per period with the base localisation)
         pulling = np.dot(F, -direction)
         held_back = pulling > cfg.stop_force or (
             np.linalg.norm(cep - G) > 0.9 * cfg.max_lead and pulling > 0.3 * cfg.stop_force)
-        s.stalled = s.stalled + 1 if (moved < 0.2 * cfg.step and held_back) else 0
+        if not held_back:
+            s.stalled = 0
+        elif s.stalled == 0 or np.linalg.norm(G - s.stall_G) > cfg.step:
+            s.stalled, s.stall_G = 1, G.copy()
+        else:
+            s.stalled += 1
         s.slack = s.slack + 1 if np.linalg.norm(F) < 1.0 else 0
         target = cfg.target_angle if s.model_name == "revolute" else cfg.target_distance
         done = None
