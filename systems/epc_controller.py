@@ -24,6 +24,9 @@ Phases (``phase`` output):
            last few centimetres of motion show it;
 6. DONE.
 
+Every distance, angle, force, time, gain, threshold and count of these phases is a field
+of :class:`EpcConfig` (documented there with its unit).
+
 The hook frame: its rod is the +z axis (from the wrist to the tip), its finger points
 along +x at the rod's tip. The reference point G is the hook's *seat*: where the centre of
 a 2 cm handle bar sits when the bar rests against both the rod and the finger. Its
@@ -82,77 +85,252 @@ class EpcTask:
 
 @dataclass
 class EpcConfig:
-    """Parameters of :class:`EpcController` (m, s, N, rad).
+    """Parameters of :class:`EpcController` (m, s, N, rad). Every field has its own entry
+    below (``tests/test_epc_controller.py`` checks it) and a check in :meth:`validate`.
 
     Attributes:
         period: control period, s.
-        step: s of Eq. 4.58: equilibrium point advance per period along the model, m.
+        ik_damping: damping of the damped-least-squares IK, dimensionless.
+        ik_iterations: damped-least-squares steps of the IK per call (count).
+        ik_rotation_weight: weight of the rotation error against the position error in the
+            IK (1 rad counts as this many m), m/rad.
+        ik_position_tolerance: the IK stops once the grip point is this close to its target,
+            m.
+        ik_angle_tolerance: ... and the hook's orientation this close to its target, rad.
+        ik_max_step: largest norm of the change of the arm's joints per IK step (the
+            compliant arm follows such bounded steps smoothly), rad.
+        base_weight: cost of base motion relative to arm motion in the IK while pulling,
+            dimensionless.
+        stance_distance: base stance (DRIVE): distance of the base in front of the handle,
+            m.
+        stance_side: base stance: shift of the base towards ``side`` (when ``side`` is
+            horizontal), m.
+        drive_speed: base speed while driving (DRIVE), m/s.
+        drive_min_time: shortest base drive, however close the stance, s.
+        drive_settle_time: wait after the drive before the hook approaches the handle, s.
+        ready_arm_q: arm joint positions q1..q6 the arm folds into while the base drives,
+            rad.
+        prehook_distance: PREHOOK puts the grip point this far in front of the clicked
+            handle (and ``side_offset`` beside it), m.
+        side_offset: distance of the grip point beside the bar before it slides behind it, m.
+        approach_time: duration of the PREHOOK approach, s.
+        approach_settle_time: wait after the approach before the guarded move, s.
+        depth_goal: the guarded move into the front (DEPTH) aims this far behind the
+            clicked handle (plus ``depth_margin``), m.
+        depth_margin: the guarded move into the front goes this much deeper than the
+            clicked handle suggests before it concludes that it passed the front's edge, m.
+        depth_time: duration of the guarded move over ``prehook_distance + depth_goal``
+            (stretched for ``depth_margin`` to keep the speed), s.
+        depth_contact_force: wrist force along the front's normal that counts as touching
+            during the guarded move, N.
+        bar_split_depth: a contact with the grip point more than this far in front of the
+            clicked handle is the bar, not the front (the finger meets the front with the
+            seat ~0.036 m behind the bar's centre, the bar ~0.044 m in front of it), m.
+        bar_depth_tolerance: after a slide that missed the bar, a contact less than this far
+            behind the depth where the bar was met is the bar again, m.
+        edge_depth: no contact this far behind the clicked handle (plus ``depth_margin``)
+            means the finger passed the front's free edge, m.
+        max_retries: how often the hooking (DEPTH, SLIDE) starts over with a corrected
+            side offset before it goes on regardless (count).
+        retry_side_shift: change of the side offset per retry (further from the bar after
+            hitting it or sliding past it, closer after passing the front's edge), m.
+        retry_backoff: the hook backs out this far along the normal before a retry after
+            hitting the bar or sliding past it, m.
+        edge_retry_backoff: ... and this far (plus ``depth_margin``) after passing the
+            front's edge, m.
+        front_backoff: after touching the front, the hook backs off this far along the
+            normal so the finger clears the front and the bar while it slides, m.
+        slide_reach: the slide behind the bar (SLIDE) goes this far past the clicked bar
+            when pulling out of the front, m.
+        sliding_reach: ... and this far for a sliding door (it moves away when the rod meets
+            its bar: the pull goes on in the same direction), m.
+        slide_time: duration of a slide with ``sliding_reach``, s.
+        slide_time_distance: a longer reach adds ``slide_time`` per this much extra reach
+            (the same speed as a ``slide_time`` slide over ``side_offset + sliding_reach``
+            at the defaults), m.
+        slide_contact_force: side force on the hook that counts as the rod touching the bar,
+            N.
+        slide_near_bar: ... when the grip point is this close to the clicked bar sideways,
+            m.
+        slide_blocked_lag: ... or anywhere once the hook lags this far behind the commanded
+            slide (the bar stops it where the click did not say), m.
+        slide_reached_tolerance: the slide has reached its goal when the grip point is this
+            close to it sideways, m.
+        slide_settle_time: wait after the slide's duration before giving up on a contact, s.
+        step: s of Eq. 4.58: equilibrium point advance per period along the model (PULL),
+            m; also the progress that ends a stall.
         force_target: force kept between hook and handle perpendicular to the motion, N.
         force_gain: proportional gain of that force term, m per N per period.
         max_lead: largest distance of the equilibrium point ahead of the hook, m.
-        stop_force: hook force that, with the hook no longer advancing, means the end of
-            the configuration range, N.
+        max_turn: largest change of the hook's orientation per period, rad.
+        min_model_samples: hook positions before the learned model is trusted (count).
+        contact_force: hook positions count as observations of the mechanism only while the
+            wrist feels at least this force, N.
+        motion_window: the handle's direction of motion (for RELEASE) is taken over its
+            most recent motion of at least this length, m.
+        stop_force: hook force against the pull that, with the hook no longer advancing,
+            means the end of the configuration range, N.
+        stall_lead_fraction: the hook is also held back when the equilibrium point leads it
+            by more than this fraction of ``max_lead`` (dimensionless, 0-1) ...
+        stall_force_fraction: ... and the force against the pull exceeds this fraction of
+            ``stop_force`` (dimensionless, 0-1).
+        stall_periods: periods held back without advancing by ``step`` that end the pull
+            as the end of the configuration range (count).
+        slack_force: a wrist force below this means the hook is not holding the handle, N.
+        slack_periods: consecutive periods below ``slack_force`` that end the pull as
+            "lost the handle" (count).
         target_angle: stop when a revolute model says the mechanism turned this far, rad.
         target_distance: stop when a prismatic model says it moved this far, m. Longer
             than the drawers' travel (they end at their end stop): at sigma_pos = 0.05 m a
             door's arc reads as a line for its first ~50 deg, and a shorter target would
             stop the door there under that early prismatic model.
-        min_model_samples: hook positions before the learned model is trusted.
-        stance_distance, stance_side: base stance: distance in front of the handle and
-            shift towards ``side``, m.
-        approach_time, depth_time, slide_time, release_time: phase durations, s.
-        drive_speed: base speed while driving, m/s.
         max_pull_time: give up pulling after this long, s.
-        ik_damping: damping of the damped-least-squares IK.
-        max_turn: largest change of the hook's orientation per period, rad.
-        side_offset: distance of the grip point beside the bar before it slides behind it, m.
-        depth_margin: the guarded move into the front goes this much deeper than the
-            clicked handle suggests before it concludes that it passed the front's edge, m.
-        slide_reach: the slide behind the bar goes this far past the clicked bar, m.
-        contact_force: hook positions count as observations of the mechanism only while the
-            wrist feels at least this force, N.
-        base_weight: cost of base motion relative to arm motion in the IK while pulling.
+        release_time: duration of RELEASE, s.
+        release_unload: RELEASE first moves the hook back along the handle's motion this
+            far to unload the finger, m.
+        release_slide_start: fraction of ``release_time`` at which the hook starts sliding
+            out sideways (dimensionless, 0-1).
+        release_slide: distance the hook slides out sideways, m.
+        release_backoff_start: fraction of ``release_time`` at which the hook starts
+            backing off from the front (dimensionless, 0-1).
+        release_backoff: distance the hook backs off from the front, m.
     """
 
+    # control and IK
     period: float = 0.1
+    ik_damping: float = 0.05
+    ik_iterations: int = 8
+    ik_rotation_weight: float = 0.5
+    ik_position_tolerance: float = 1e-4
+    ik_angle_tolerance: float = 1e-3
+    ik_max_step: float = 0.3
+    base_weight: float = 4.0
+    # DRIVE
+    stance_distance: float = 0.78
+    stance_side: float = 0.3
+    drive_speed: float = 0.5
+    drive_min_time: float = 1.0
+    drive_settle_time: float = 0.5
+    ready_arm_q: list[float] = field(default_factory=lambda: [0.0, 0.5, 0.0, 1.6, 0.0, -0.5])
+    # PREHOOK
+    prehook_distance: float = 0.18
+    side_offset: float = 0.055
+    approach_time: float = 2.0
+    approach_settle_time: float = 0.5
+    # DEPTH (guarded move) and retries
+    depth_goal: float = 0.08
+    depth_margin: float = 0.05
+    depth_time: float = 2.5
+    depth_contact_force: float = 3.0
+    bar_split_depth: float = 0.0
+    bar_depth_tolerance: float = 0.03
+    edge_depth: float = 0.065
+    max_retries: int = 3
+    retry_side_shift: float = 0.02
+    retry_backoff: float = 0.05
+    edge_retry_backoff: float = 0.12
+    front_backoff: float = 0.018
+    # SLIDE
+    slide_reach: float = 0.06
+    sliding_reach: float = 0.03
+    slide_time: float = 1.5
+    slide_time_distance: float = 0.085
+    slide_contact_force: float = 3.0
+    slide_near_bar: float = 0.04
+    slide_blocked_lag: float = 0.02
+    slide_reached_tolerance: float = 0.015
+    slide_settle_time: float = 0.3
+    # PULL and stop conditions
     step: float = 0.01
     force_target: float = 5.0
     force_gain: float = 0.0015
     max_lead: float = 0.05
+    max_turn: float = 0.05
+    min_model_samples: int = 15
+    contact_force: float = 0.5
+    motion_window: float = 0.03
     stop_force: float = 35.0
+    stall_lead_fraction: float = 0.9
+    stall_force_fraction: float = 0.3
+    stall_periods: int = 8
+    slack_force: float = 1.0
+    slack_periods: int = 15
     target_angle: float = math.radians(85)
     target_distance: float = 0.65
-    min_model_samples: int = 15
-    stance_distance: float = 0.78
-    stance_side: float = 0.3
-    approach_time: float = 2.0
-    depth_time: float = 2.5
-    slide_time: float = 1.5
-    release_time: float = 2.0
-    drive_speed: float = 0.5
     max_pull_time: float = 25.0
-    ik_damping: float = 0.05
-    base_weight: float = 4.0
-    max_turn: float = 0.05
-    side_offset: float = 0.055
-    depth_margin: float = 0.05
-    slide_reach: float = 0.06
-    contact_force: float = 0.5
+    # RELEASE (and back-off)
+    release_time: float = 2.0
+    release_unload: float = 0.015
+    release_slide_start: float = 0.25
+    release_slide: float = 0.12
+    release_backoff_start: float = 0.65
+    release_backoff: float = 0.15
+
+    #: fields that must be > 0
+    _POSITIVE = (
+        "period", "ik_damping", "ik_rotation_weight", "ik_position_tolerance",
+        "ik_angle_tolerance", "ik_max_step", "base_weight", "stance_distance", "drive_speed",
+        "drive_min_time", "prehook_distance", "side_offset", "approach_time", "depth_time",
+        "depth_contact_force", "edge_depth", "retry_side_shift", "retry_backoff",
+        "edge_retry_backoff", "front_backoff", "slide_reach", "sliding_reach", "slide_time",
+        "slide_time_distance", "slide_contact_force", "slide_near_bar", "slide_blocked_lag",
+        "slide_reached_tolerance", "step", "force_gain", "max_lead", "max_turn",
+        "motion_window", "stop_force", "stall_force_fraction", "slack_force",
+        "target_angle", "target_distance", "max_pull_time", "release_time")
+    #: fields that must be >= 0
+    _NON_NEGATIVE = (
+        "drive_settle_time", "approach_settle_time", "depth_goal", "depth_margin",
+        "bar_depth_tolerance", "slide_settle_time", "force_target", "contact_force",
+        "release_unload", "release_slide", "release_backoff")
+    #: fields that may take any finite value
+    _FINITE = ("stance_side", "bar_split_depth")
+    #: integer fields and their smallest value
+    _COUNTS = {"ik_iterations": 1, "max_retries": 0, "min_model_samples": 3,
+               "stall_periods": 1, "slack_periods": 1}
+    #: fields in (0, 1]
+    _FRACTIONS = ("stall_lead_fraction",)
+
+    def __post_init__(self):
+        self.validate()
 
     def validate(self):
-        for k in ("period", "step", "force_gain", "max_lead", "stop_force", "target_angle",
-                  "target_distance", "approach_time", "depth_time", "slide_time",
-                  "release_time", "drive_speed", "max_pull_time", "ik_damping", "base_weight",
-                  "max_turn", "side_offset", "slide_reach"):
+        """Raise ValueError naming the first field whose value would break the controller.
+
+        Runs on construction; ``yaml_load_typed`` sets the fields of a default-constructed
+        config, so :class:`EpcController` validates its config again.
+        """
+        def number(k):
             v = getattr(self, k)
-            if not (math.isfinite(v) and v > 0):
-                raise ValueError(f"EpcConfig.{k} must be a positive number, got {v}")
-        if not (math.isfinite(self.depth_margin) and self.depth_margin >= 0):
-            raise ValueError(f"EpcConfig.depth_margin must be >= 0, got {self.depth_margin}")
-        if not (math.isfinite(self.contact_force) and self.contact_force >= 0):
-            raise ValueError(f"EpcConfig.contact_force must be >= 0, got {self.contact_force}")
-        if self.min_model_samples < 3:
-            raise ValueError("EpcConfig.min_model_samples must be >= 3")
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+                raise ValueError(f"EpcConfig.{k} must be a finite number, got {v!r}")
+            return v
+
+        for k in self._POSITIVE:
+            if not number(k) > 0:
+                raise ValueError(f"EpcConfig.{k} must be > 0, got {getattr(self, k)!r}")
+        for k in self._NON_NEGATIVE:
+            if not number(k) >= 0:
+                raise ValueError(f"EpcConfig.{k} must be >= 0, got {getattr(self, k)!r}")
+        for k in self._FINITE:
+            number(k)
+        for k in self._FRACTIONS:
+            if not 0 < number(k) <= 1:
+                raise ValueError(f"EpcConfig.{k} must be in (0, 1], got {getattr(self, k)!r}")
+        for k, lo in self._COUNTS.items():
+            v = getattr(self, k)
+            if isinstance(v, bool) or not isinstance(v, int) or v < lo:
+                raise ValueError(f"EpcConfig.{k} must be an integer >= {lo}, got {v!r}")
+        if not 0 < number("release_slide_start") < number("release_backoff_start") < 1:
+            raise ValueError(
+                "EpcConfig.release_slide_start and release_backoff_start must satisfy "
+                f"0 < release_slide_start < release_backoff_start < 1, got "
+                f"{self.release_slide_start!r}, {self.release_backoff_start!r}")
+        q = self.ready_arm_q
+        if (not isinstance(q, (list, tuple, np.ndarray)) or len(q) == 0
+                or not all(isinstance(x, (int, float, np.floating)) and not isinstance(x, bool)
+                           and math.isfinite(x) for x in q)):
+            raise ValueError(f"EpcConfig.ready_arm_q must be a list of finite numbers (rad), "
+                             f"got {q!r}")
 
 
 @dataclass
@@ -250,6 +428,9 @@ class EpcController(LeafSystem):
         if self._names[:3] != ["base_x", "base_y", "base_yaw"]:
             raise ValueError("EpcController needs a mobile base (commands base_x, base_y, "
                              "base_yaw first)")
+        if len(cfg.ready_arm_q) != len(self._names) - 3:
+            raise ValueError(f"EpcConfig.ready_arm_q needs {len(self._names) - 3} arm joint "
+                             f"positions, got {len(cfg.ready_arm_q)}")
         joints = [plant.GetJointByName(n, robot) for n in self._names]
         self._qidx = np.array([j.position_start() for j in joints])
         self._lo = np.array([j.position_lower_limits()[0] for j in joints])
@@ -339,7 +520,7 @@ class EpcController(LeafSystem):
         self._set(plant_context, q)
         return self._grip_pose_in(plant_context)
 
-    def _ik(self, q0, p_des, R_des, *, base: bool, iters: int = 8) -> np.ndarray:
+    def _ik(self, q0, p_des, R_des, *, base: bool) -> np.ndarray:
         """Damped least squares on the robot's kinematics towards grip pose (p, R).
 
         Kept instead of Drake's DifferentialInverseKinematics / InverseKinematics, measured
@@ -349,16 +530,17 @@ class EpcController(LeafSystem):
         ``DoDifferentialInverseKinematics`` 1.6 ms. The DLS also weights base against arm
         motion (``base_weight``; Drake's differential IK has velocity bounds and a
         nullspace centering term, no per-joint cost weights) and takes bounded steps
-        (0.3 rad) that the compliant arm follows smoothly; the controller's phases are
-        tuned on that behaviour.
+        (``ik_max_step``) that the compliant arm follows smoothly; the controller's phases
+        are tuned on that behaviour.
         """
         cfg = self._cfg
         plant_context = self._plant.CreateDefaultContext()  # scratch, per call (0.2 ms)
         q = np.array(q0, float)
         w = np.ones(q.size)
-        w[:3] = cfg.base_weight if base else 1e6  # base fixed unless allowed
+        w[:3] = cfg.base_weight if base else 1e6  # base fixed (a huge cost) unless allowed
         Winv = 1.0 / w
-        for _ in range(iters):
+        wr = cfg.ik_rotation_weight
+        for _ in range(cfg.ik_iterations):
             self._set(plant_context, q)
             X = self._plant.CalcRelativeTransform(plant_context, self._plant.world_frame(),
                                                   self._hook)
@@ -367,19 +549,20 @@ class EpcController(LeafSystem):
             e_p = p_des - p
             e_R = RotationMatrix(R_des @ R.T).ToAngleAxis()
             e_r = e_R.axis() * e_R.angle()
-            e = np.concatenate([0.5 * e_r, e_p])  # rotation error weighted: 1 rad ~ 0.5 m
-            if np.linalg.norm(e_p) < 1e-4 and e_R.angle() < 1e-3:
+            e = np.concatenate([wr * e_r, e_p])  # rotation error weighted: 1 rad ~ wr m
+            if (np.linalg.norm(e_p) < cfg.ik_position_tolerance
+                    and e_R.angle() < cfg.ik_angle_tolerance):
                 break
             J = self._plant.CalcJacobianSpatialVelocity(
                 plant_context, JacobianWrtVariable.kQDot, self._hook, P_HOOK_GRIP,
                 self._plant.world_frame(), self._plant.world_frame())[:, self._qidx]
-            J[:3] *= 0.5
+            J[:3] *= wr
             JW = J * Winv
             lam = cfg.ik_damping
             dq = JW.T @ np.linalg.solve(JW @ J.T + lam * lam * np.eye(6), e)
             n = np.linalg.norm(dq[3:])
-            if n > 0.3:
-                dq *= 0.3 / n
+            if n > cfg.ik_max_step:
+                dq *= cfg.ik_max_step / n
             q = np.clip(q + dq, self._lo, self._hi)
         return q
 
@@ -399,6 +582,7 @@ class EpcController(LeafSystem):
         n[2] = 0.0
         n = _unit(n)
         side = t.side - np.dot(t.side, [0, 0, 1.0]) * np.array([0, 0, 1.0])
+        # no sideways shift when side is (nearly) vertical: a horizontal bar, hooked from above
         side = _unit(side) if np.linalg.norm(side) > 0.3 else np.zeros(3)
         p = t.handle + cfg.stance_distance * n + cfg.stance_side * side
         yaw = math.atan2(-n[1], -n[0])
@@ -436,54 +620,62 @@ class EpcController(LeafSystem):
             # near -pi: a linear blend would spin the base a full turn)
             goal[2] = s.start[2] + math.remainder(goal[2] - s.start[2], 2 * math.pi)
             dist = np.linalg.norm(goal[:2] - s.start[:2])
-            T = max(1.0, dist / cfg.drive_speed)
+            T = max(cfg.drive_min_time, dist / cfg.drive_speed)
             a = min(1.0, elapsed / T)
             a = 0.5 - 0.5 * math.cos(math.pi * a)
             q_cmd[:3] = (1 - a) * s.start[:3] + a * goal
-            ready = np.array([0.0, 0.5, 0.0, 1.6, 0.0, -0.5])
+            ready = np.array(cfg.ready_arm_q, float)
             q_cmd[3:] = (1 - a) * s.start[3:] + a * ready
-            if elapsed >= T + 0.5:
+            if elapsed >= T + cfg.drive_settle_time:
                 self._next_phase(s, PREHOOK, t, G)
         elif s.phase == PREHOOK:
-            goal = H + 0.18 * task.normal + (cfg.side_offset + s.side_extra) * task.side
+            goal = (H + cfg.prehook_distance * task.normal
+                    + (cfg.side_offset + s.side_extra) * task.side)
             a = min(1.0, elapsed / cfg.approach_time)
             p = (1 - a) * s.start + a * goal
             q_cmd = self._ik(q_cmd, p, R_hook0, base=False)
-            if elapsed >= cfg.approach_time + 0.5:
+            if elapsed >= cfg.approach_time + cfg.approach_settle_time:
                 self._next_phase(s, DEPTH, t, goal)
         elif s.phase == DEPTH:
             # guarded move into the front, deeper than the clicked handle by the depth
             # margin: the handle is only known to a few cm (click and base localisation)
             margin = cfg.depth_margin
-            goal = (H - (0.08 + margin) * task.normal
+            goal = (H - (cfg.depth_goal + margin) * task.normal
                     + (cfg.side_offset + s.side_extra) * task.side)
-            T = cfg.depth_time * (0.26 + margin) / 0.26  # same speed as without the margin
+            # the same speed as without the margin
+            nominal = cfg.prehook_distance + cfg.depth_goal
+            T = cfg.depth_time * (nominal + margin) / nominal
             a = min(1.0, elapsed / T)
             p = (1 - a) * s.start + a * goal
-            touching = np.dot(F, task.normal) > 3.0
+            touching = np.dot(F, task.normal) > cfg.depth_contact_force
             depth = np.dot(G - H, task.normal)
             # the finger touches the front with the seat ~0.036 m behind the bar's centre,
-            # the bar itself ~0.044 m in front of it (+-0.02 m click error): split at 0; a
-            # contact at the depth where the bar was met before is the bar again
-            on_bar = depth > 0.0 or (math.isfinite(s.bar_depth) and depth > s.bar_depth - 0.03)
-            if touching and on_bar and s.retries < 3:
+            # the bar itself ~0.044 m in front of it (+-0.02 m click error): split at
+            # bar_split_depth (0); a contact at the depth where the bar was met before is
+            # the bar again
+            on_bar = depth > cfg.bar_split_depth or (
+                math.isfinite(s.bar_depth) and depth > s.bar_depth - cfg.bar_depth_tolerance)
+            if touching and on_bar and s.retries < cfg.max_retries:
                 # hit something in front of the front: the bar itself (the click was off
                 # sideways). Back out and come in again further to the side.
                 s.retries += 1
-                s.side_extra += 0.02
-                q_cmd = self._ik(q_cmd, G + 0.05 * task.normal, R_hook0, base=False)
-                self._next_phase(s, PREHOOK, t, G + 0.05 * task.normal)
-            elif (not touching and depth < -0.065 - margin and s.retries < 3):
+                s.side_extra += cfg.retry_side_shift
+                q_cmd = self._ik(q_cmd, G + cfg.retry_backoff * task.normal, R_hook0,
+                                 base=False)
+                self._next_phase(s, PREHOOK, t, G + cfg.retry_backoff * task.normal)
+            elif (not touching and depth < -cfg.edge_depth - margin
+                    and s.retries < cfg.max_retries):
                 # deeper than the front without touching it: the finger passed the front's
                 # free edge. Back out and come in again closer to the bar.
                 s.retries += 1
-                s.side_extra -= 0.02
-                q_cmd = self._ik(q_cmd, G + (0.12 + margin) * task.normal, R_hook0,
-                                 base=False)
-                self._next_phase(s, PREHOOK, t, G + (0.12 + margin) * task.normal)
+                s.side_extra -= cfg.retry_side_shift
+                q_cmd = self._ik(q_cmd, G + (cfg.edge_retry_backoff + margin) * task.normal,
+                                 R_hook0, base=False)
+                self._next_phase(s, PREHOOK, t,
+                                 G + (cfg.edge_retry_backoff + margin) * task.normal)
             elif touching or elapsed >= T:
                 # back off from the front so the finger clears it and the bar
-                p = G + 0.018 * task.normal
+                p = G + cfg.front_backoff * task.normal
                 q_cmd = self._ik(q_cmd, p, R_hook0, base=False)
                 self._next_phase(s, SLIDE, t, p)
             else:
@@ -491,36 +683,38 @@ class EpcController(LeafSystem):
         elif s.phase == SLIDE:
             # slide until the rod touches the bar (up to slide_reach past the clicked
             # position; a sliding door moves away along -side when the rod meets its bar,
-            # so the rod feels little: there the slide ends 3 cm past the clicked bar and
-            # the pull goes on in the same direction)
-            pulling_out = abs(np.dot(task.pull, task.normal)) > 0.5
-            reach = cfg.slide_reach if pulling_out else 0.03
+            # so the rod feels little: there the slide ends sliding_reach past the clicked
+            # bar and the pull goes on in the same direction)
+            pulling_out = abs(np.dot(task.pull, task.normal)) > 0.5  # more out than along
+            reach = cfg.slide_reach if pulling_out else cfg.sliding_reach
             off = np.dot(s.start - H, task.side)
             goal = s.start - (off + reach) * task.side
-            T = cfg.slide_time * (1.0 + max(0.0, reach - 0.03) / 0.085)
+            T = cfg.slide_time * (1.0 + max(0.0, reach - cfg.sliding_reach)
+                                  / cfg.slide_time_distance)
             a = min(1.0, elapsed / T)
             p = (1 - a) * s.start + a * goal
             # the rod touches the bar: a side force once the seat is near the clicked bar
             # (friction on the front while sliding also pushes along +side), or anywhere
-            # once the hook lags 2 cm behind the commanded slide (the bar stops it where
-            # the click did not say)
+            # once the hook lags slide_blocked_lag behind the commanded slide (the bar
+            # stops it where the click did not say)
             f_side = np.dot(F, task.side)
-            near = abs(np.dot(G - H, task.side)) < 0.04
-            blocked = np.dot(G - p, task.side) > 0.02
-            contact = f_side > 3.0 and (near or blocked)
+            near = abs(np.dot(G - H, task.side)) < cfg.slide_near_bar
+            blocked = np.dot(G - p, task.side) > cfg.slide_blocked_lag
+            contact = f_side > cfg.slide_contact_force and (near or blocked)
             q_cmd = self._ik(q_cmd, p, R_hook0, base=False)
-            reached = abs(np.dot(G - goal, task.side)) < 0.015
-            if (not contact and elapsed >= T + 0.3 and reached and s.retries < 3
-                    and pulling_out):
+            reached = abs(np.dot(G - goal, task.side)) < cfg.slide_reached_tolerance
+            if (not contact and elapsed >= T + cfg.slide_settle_time and reached
+                    and s.retries < cfg.max_retries and pulling_out):
                 # slid past the bar without feeling it: the finger was in front of the bar
                 # (the contact was the bar, not the front). Back out and come in again
                 # further to the side, taking contacts at this depth for the bar.
                 s.retries += 1
-                s.side_extra += 0.02
-                s.bar_depth = float(np.dot(s.start - H, task.normal)) - 0.018
-                q_cmd = self._ik(q_cmd, G + 0.05 * task.normal, R_hook0, base=False)
-                self._next_phase(s, PREHOOK, t, G + 0.05 * task.normal)
-            elif contact or elapsed >= T + 0.3:
+                s.side_extra += cfg.retry_side_shift
+                s.bar_depth = float(np.dot(s.start - H, task.normal)) - cfg.front_backoff
+                q_cmd = self._ik(q_cmd, G + cfg.retry_backoff * task.normal, R_hook0,
+                                 base=False)
+                self._next_phase(s, PREHOOK, t, G + cfg.retry_backoff * task.normal)
+            elif contact or elapsed >= T + cfg.slide_settle_time:
                 s.cep = G.copy()
                 s.direction = task.pull.copy()
                 s.trail_G, s.motion = G.copy(), task.pull.copy()
@@ -537,9 +731,10 @@ class EpcController(LeafSystem):
             normal = R_front @ task.normal
             a = min(1.0, elapsed / cfg.release_time)
             # unload the finger (back along the motion), slide out sideways, back off
-            p = (s.start - 0.015 * min(1.0, a / 0.25) * s.motion
-                 + 0.12 * float(np.clip((a - 0.25) / 0.4, 0, 1)) * side
-                 + 0.15 * float(np.clip((a - 0.65) / 0.35, 0, 1)) * normal)
+            a1, a2 = cfg.release_slide_start, cfg.release_backoff_start
+            p = (s.start - cfg.release_unload * min(1.0, a / a1) * s.motion
+                 + cfg.release_slide * float(np.clip((a - a1) / (a2 - a1), 0, 1)) * side
+                 + cfg.release_backoff * float(np.clip((a - a2) / (1.0 - a2), 0, 1)) * normal)
             q_cmd = self._ik(q_cmd, p, s.R, base=False)
             if elapsed >= cfg.release_time:
                 self._next_phase(s, DONE, t, G)
@@ -591,7 +786,7 @@ class EpcController(LeafSystem):
         # force perpendicular to the motion: the hook presses onto the handle along u
         side = R @ (R_hook0.T @ task.side)
         normal = R @ (R_hook0.T @ task.normal)
-        if abs(np.dot(task.pull, task.normal)) > 0.5:
+        if abs(np.dot(task.pull, task.normal)) > 0.5:  # more out of the front than along it
             u = -side  # pulling out of the front: the rod presses the bar's side
         else:
             u = -normal  # sliding: the finger presses against the front behind the bar
@@ -604,8 +799,8 @@ class EpcController(LeafSystem):
         if np.linalg.norm(lead) > cfg.max_lead:
             cep = G + lead * (cfg.max_lead / np.linalg.norm(lead))
         s.cep, s.direction, s.R = cep, direction, R
-        # direction of the handle's most recent >= 3 cm of motion
-        if np.linalg.norm(G - s.trail_G) >= 0.03:
+        # direction of the handle's most recent >= motion_window of motion
+        if np.linalg.norm(G - s.trail_G) >= cfg.motion_window:
             s.motion, s.trail_G = _unit(G - s.trail_G), G.copy()
         q_cmd = self._ik(q_cmd, cep, R, base=True)
         # stop conditions: held back while the hook has not advanced since the stall began
@@ -613,21 +808,22 @@ class EpcController(LeafSystem):
         # drifts a few millimetres per period with the base localisation)
         pulling = np.dot(F, -direction)
         held_back = pulling > cfg.stop_force or (
-            np.linalg.norm(cep - G) > 0.9 * cfg.max_lead and pulling > 0.3 * cfg.stop_force)
+            np.linalg.norm(cep - G) > cfg.stall_lead_fraction * cfg.max_lead
+            and pulling > cfg.stall_force_fraction * cfg.stop_force)
         if not held_back:
             s.stalled = 0
         elif s.stalled == 0 or np.linalg.norm(G - s.stall_G) > cfg.step:
             s.stalled, s.stall_G = 1, G.copy()
         else:
             s.stalled += 1
-        s.slack = s.slack + 1 if np.linalg.norm(F) < 1.0 else 0
+        s.slack = s.slack + 1 if np.linalg.norm(F) < cfg.slack_force else 0
         target = cfg.target_angle if s.model_name == "revolute" else cfg.target_distance
         done = None
         if s.model_name in ("revolute", "prismatic") and s.opening >= target:
             done = "target reached"
-        elif s.stalled >= 8:
+        elif s.stalled >= cfg.stall_periods:
             done = "end of the configuration range"
-        elif s.slack >= 15:
+        elif s.slack >= cfg.slack_periods:
             done = "lost the handle"
         elif elapsed > cfg.max_pull_time:
             done = "timeout"
