@@ -89,7 +89,8 @@ class EpcConfig:
     below (``tests/test_epc_controller.py`` checks it) and a check in :meth:`validate`.
 
     Attributes:
-        period: control period, s.
+        period: control period: the controller updates its equilibrium point this often,
+            s.
         ik_damping: damping of the damped-least-squares IK, dimensionless.
         ik_iterations: damped-least-squares steps of the IK per call (count).
         ik_rotation_weight: weight of the rotation error against the position error in the

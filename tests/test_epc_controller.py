@@ -1,12 +1,17 @@
+import dataclasses
 import json
 import math
+import re
 import subprocess
 import sys
 
 import numpy as np
 import pytest
 
+from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
+
 from mmlearn.apps import open_cabinet, operate_trials
+from mmlearn.diagrams.operate import MakeOperateDiagram, OperateConfig
 from mmlearn.systems.epc_controller import EpcConfig, EpcTask, hook_rotation
 
 
@@ -112,3 +117,85 @@ def test_priors_from_an_earlier_trial_select_the_right_model_earlier(tmp_path):
     assert with_priors["success"] and with_priors["priors"] == str(db_path)
     # the same drawer: the prior model is the right one after a few centimetres
     assert with_priors["right_model_at"] < 0.75 * scratch["right_model_at"]
+
+
+def _config_docs() -> dict[str, str]:
+    """EpcConfig's ``Attributes:`` entries, name -> text."""
+    doc = EpcConfig.__doc__.split("Attributes:", 1)[1]
+    entries, name = {}, None
+    for line in doc.splitlines():
+        m = re.match(r"^ {8}(\w+): (.*)$", line)
+        if m:
+            name = m.group(1)
+            assert name not in entries, f"{name} documented twice"
+            entries[name] = m.group(2)
+        elif line.startswith(" " * 12) and name:
+            entries[name] += " " + line.strip()
+    return entries
+
+
+_UNIT = re.compile(r"(\b(m|s|N|rad|m/s|m/rad)\b|m per N per period|dimensionless|\(count\))")
+
+
+def test_every_epc_config_field_is_documented_with_its_unit():
+    docs = _config_docs()
+    names = [f.name for f in dataclasses.fields(EpcConfig)]
+    assert sorted(docs) == sorted(names)
+    for name in names:
+        text = docs[name]
+        assert len(text.split()) >= 4, f"EpcConfig.{name}: say what it does ({text!r})"
+        assert _UNIT.search(text), f"EpcConfig.{name}: no unit in {text!r}"
+
+
+def test_epc_config_yaml_round_trip():
+    cfg = EpcConfig(stop_force=30.0, max_retries=2, edge_depth=0.07,
+                    ready_arm_q=[0.0, 0.4, 0.0, 1.5, 0.0, -0.4])
+    text = yaml_dump_typed(cfg)
+    for f in dataclasses.fields(EpcConfig):
+        assert f"{f.name}:" in text
+    back = yaml_load_typed(schema=EpcConfig, data=text)
+    assert back == cfg
+    assert yaml_load_typed(schema=EpcConfig, data="{}") == EpcConfig()
+    # as the section of the operate diagram's config
+    op = yaml_load_typed(schema=OperateConfig, data="epc: {slack_periods: 20, step: 0.012}")
+    assert op.epc == EpcConfig(slack_periods=20, step=0.012)
+    with pytest.raises(RuntimeError, match="stop_forse"):     # misspelled key
+        yaml_load_typed(schema=EpcConfig, data="stop_forse: 30")
+
+
+def _bad_value(f):
+    if f.type is int or f.type == "int":
+        return -1
+    if f.name == "ready_arm_q":
+        return [0.0, math.nan]
+    return math.nan
+
+
+@pytest.mark.parametrize("name", [f.name for f in dataclasses.fields(EpcConfig)])
+def test_epc_config_bad_value_raises_naming_the_field(name):
+    f = next(f for f in dataclasses.fields(EpcConfig) if f.name == name)
+    with pytest.raises(ValueError, match=rf"EpcConfig\.{name}\b"):
+        EpcConfig(**{name: _bad_value(f)})
+
+
+def test_epc_config_bad_values():
+    with pytest.raises(ValueError, match=r"EpcConfig\.stop_force must be > 0"):
+        EpcConfig(stop_force=-35.0)
+    with pytest.raises(ValueError, match=r"EpcConfig\.force_target must be >= 0"):
+        EpcConfig(force_target=-1.0)
+    with pytest.raises(ValueError, match=r"EpcConfig\.stall_periods must be an integer"):
+        EpcConfig(stall_periods=2.5)
+    with pytest.raises(ValueError, match=r"EpcConfig\.stall_lead_fraction"):
+        EpcConfig(stall_lead_fraction=1.5)
+    with pytest.raises(ValueError, match=r"release_slide_start < release_backoff_start"):
+        EpcConfig(release_slide_start=0.7)
+    # yaml_load_typed sets the fields of a default config: validate() (which the controller
+    # runs when it is built) catches what the YAML said
+    cfg = yaml_load_typed(schema=EpcConfig, data="slide_contact_force: -3.0")
+    with pytest.raises(ValueError, match=r"EpcConfig\.slide_contact_force"):
+        cfg.validate()
+
+
+def test_ready_arm_q_must_match_the_arm():
+    with pytest.raises(ValueError, match=r"EpcConfig\.ready_arm_q needs 6"):
+        MakeOperateDiagram(OperateConfig(epc=EpcConfig(ready_arm_q=[0.0] * 5)))
