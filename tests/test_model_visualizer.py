@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 from pydrake.geometry import StartMeshcat
 
+from headless_browser import chromium, screenshot
 from mmlearn.apps import open_cabinet
 from mmlearn.apps._common import frame_camera
 from mmlearn.models.articulation import ObservationModel, make_model
@@ -124,3 +125,33 @@ def test_recording_has_a_legend_and_a_camera(drawer_recording):
     assert b"set_target" in decoded
     i = decoded.find(b"/Cameras/default/rotated/<object>\xa8property\xa8position")
     assert i >= 0, "no camera position in the recording"
+
+
+def test_recording_shows_the_legend_robot_and_cabinet_in_a_browser(drawer_recording):
+    """Rendered in a real headless browser (800 x 600), the recording shows the legend panel
+    in the top-left corner (light panel, dark text, the red swatch of the opening range) and,
+    through the camera, the robot (orange arm, blue base) and the cabinet (light wood)."""
+    browser = chromium()
+    if browser is None:
+        pytest.skip("no chromium on this machine (.ci/run installs Debian's chromium)")
+    cv2 = pytest.importorskip("cv2")
+    _, html = drawer_recording
+    png = html.with_suffix(".png")
+    assert screenshot(browser, html, png), "the browser wrote no screenshot"
+    img = cv2.imread(str(png)).astype(int)
+    b, g, r = img[..., 0], img[..., 1], img[..., 2]
+    # the legend: top-left (x 94-410, y 12-80 px at 800 x 600, see model_visualizer)
+    box = (slice(0, 110), slice(60, 460))
+    panel = (np.abs(r - g) < 6) & (np.abs(g - b) < 6) & (r > 200)
+    text = (r < 110) & (g < 110) & (b < 110)
+    red = (r > 180) & (g < 110) & (b < 110)
+    assert panel[box].sum() > 8000, f"no legend panel ({panel[box].sum()} light pixels)"
+    assert text[box].sum() > 200, f"no legend text ({text[box].sum()} dark pixels)"
+    assert red[box].sum() > 20, f"no red swatch in the legend ({red[box].sum()} pixels)"
+    # the scene, framed by the camera: the arm, the base and the cabinet are in view
+    orange = (r > 170) & (g > 80) & (g < 190) & (b < 80) & (r - g > 50)
+    wood = (r > 180) & (g > 150) & (b > 90) & (b < 200) & (r - b > 40)
+    blue_base = (b > 90) & (b - r > 40) & (g < 130)
+    assert orange.sum() > 1000, f"arm not visible ({orange.sum()} orange pixels)"
+    assert wood.sum() > 3000, f"cabinet not visible ({wood.sum()} wood pixels)"
+    assert blue_base.sum() > 3000, f"base not visible ({blue_base.sum()} blue pixels)"
