@@ -66,7 +66,8 @@ def evaluate_model(link, spec) -> dict:
 
 def scene_points(op) -> np.ndarray:
     """Points (world, m) that the camera must see: the cabinet's corners, the handle over
-    the front's whole travel and the robot at its start (its base, the arm up to 1.3 m)."""
+    the front's whole travel, the robot at its start (its base, the arm up to 1.3 m) and
+    its base where it will stand to open the mechanism."""
     spec = op.mechanism
     T = spec.X_WF()
     half = spec.width / 2 + 0.06 if spec.kind != "sliding_door" else spec.width + 0.06
@@ -82,6 +83,15 @@ def scene_points(op) -> np.ndarray:
     pts.append([[x + c * dx - s * dy, y + s * dx + c * dy, z] for dx in (-0.28, 0.28)
                 for dy in (-0.23, 0.23) for z in (0.0, 0.3)])
     pts.append([[x, y, 1.3]])
+    # ... and where it will stand, about 0.8 m in front of the handle and up to 0.3 m to
+    # its side (EpcConfig.stance_distance, stance_side), at any yaw (half-diagonal 0.36 m)
+    h, n = op.true_task.handle, op.true_task.normal
+    n = np.array([n[0], n[1], 0.0]) / max(np.hypot(n[0], n[1]), 1e-9)
+    side = np.array([-n[1], n[0], 0.0])
+    for off in (-0.3, 0.3):
+        c = np.array([h[0], h[1], 0.0]) + 0.8 * n + off * side
+        pts.append([c + [dx, dy, z] for dx in (-0.36, 0.36) for dy in (-0.36, 0.36)
+                    for z in (0.0, 0.3)])
     return np.concatenate([np.asarray(p, float) for p in pts])
 
 
