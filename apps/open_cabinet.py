@@ -30,9 +30,8 @@ import time
 import numpy as np
 
 from mmlearn.apps._common import (ArgumentParser, UsageError, check_in_file, check_out_file,
-                                  fail, finish_viewing, frame_camera, make_meshcat, nonneg_float, nonneg_int,
-                                  pos_float,
-                                  progress_bar, save_html)
+                                  fail, finish_viewing, frame_camera, make_meshcat,
+                                  nonneg_float, nonneg_int, pos_float, progress_bar, save_html)
 from mmlearn.sdf.mechanisms import KINDS
 
 SUCCESS_ANGLE = math.radians(60)  # thesis: opened > 60 deg (revolute) ...

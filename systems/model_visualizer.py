@@ -69,8 +69,8 @@ def _font(size: int, bold: bool = False):
         import matplotlib
 
         name = "DejaVuSans-Bold.ttf" if bold else "DejaVuSans.ttf"
-        return ImageFont.truetype(str(Path(matplotlib.get_data_path()) / "fonts" / "ttf" / name),
-                                  size)
+        ttf = Path(matplotlib.get_data_path()) / "fonts" / "ttf" / name
+        return ImageFont.truetype(str(ttf), size)
     except (ImportError, OSError):
         return ImageFont.load_default(size=size)
 
@@ -102,7 +102,8 @@ def _legend_png(path: Path, title: str, rows) -> tuple[int, int]:
 
 
 def draw_legend(meshcat, title: str, rows, *, path: str = LEGEND_PATH) -> None:
-    """Draw a legend panel (``title`` and rows as ``legend_entries`` makes them) at ``path``; under the default ``LEGEND_PATH`` it is fixed to the top-left corner of the
+    """Draw a legend panel (``title`` and rows as ``legend_entries`` makes them) at
+    ``path``; under the default ``LEGEND_PATH`` it is fixed to the top-left corner of the
     view, live and in a recording's standalone HTML. The panel is a textured quad (an OBJ
     with an emissive PNG texture, so the scene's lights do not dim it)."""
     with tempfile.TemporaryDirectory(prefix="mmlearn_legend_") as tmp:
