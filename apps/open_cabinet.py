@@ -30,9 +30,8 @@ import time
 import numpy as np
 
 from mmlearn.apps._common import (ArgumentParser, UsageError, check_in_file, check_out_file,
-                                  fail, finish_viewing, make_meshcat, nonneg_float, nonneg_int,
-                                  pos_float,
-                                  progress_bar, save_html)
+                                  fail, finish_viewing, frame_camera, make_meshcat,
+                                  nonneg_float, nonneg_int, pos_float, progress_bar, save_html)
 from mmlearn.sdf.mechanisms import KINDS
 
 SUCCESS_ANGLE = math.radians(60)  # thesis: opened > 60 deg (revolute) ...
@@ -62,6 +61,37 @@ def evaluate_model(link, spec) -> dict:
         out.update(radius_m=float(link.radius), true_radius_m=r_true,
                    radius_error_m=abs(float(link.radius) - r_true))
     return out
+
+
+def scene_points(op) -> np.ndarray:
+    """Points (world, m) that the camera must see: the cabinet's corners, the handle over
+    the front's whole travel, the robot at its start (its base, the arm up to 1.3 m) and
+    its base where it will stand to open the mechanism."""
+    spec = op.mechanism
+    T = spec.X_WF()
+    half = spec.width / 2 + 0.06 if spec.kind != "sliding_door" else spec.width + 0.06
+    top = spec.bottom + spec.height + 0.03
+    corners_F = np.array([[x, y, z] for x in (-spec.depth, 0.0) for y in (-half, half)
+                          for z in (0.0, top)])
+    pts = [corners_F @ T[:3, :3].T + T[:3, 3]]
+    pts.append([spec.handle_world(q)[0] for q in np.linspace(0.0, spec.limit, 5)])
+    # the mobile base (0.55 m x 0.45 m, 0.3 m high, sdf/builders.py) at its start pose and
+    # the arm above it
+    x, y, yaw = op.start_command[:3]
+    c, s = math.cos(yaw), math.sin(yaw)
+    pts.append([[x + c * dx - s * dy, y + s * dx + c * dy, z] for dx in (-0.28, 0.28)
+                for dy in (-0.23, 0.23) for z in (0.0, 0.3)])
+    pts.append([[x, y, 1.3]])
+    # ... and where it will stand, about 0.8 m in front of the handle and up to 0.3 m to
+    # its side (EpcConfig.stance_distance, stance_side), at any yaw (half-diagonal 0.36 m)
+    h, n = op.true_task.handle, op.true_task.normal
+    n = np.array([n[0], n[1], 0.0]) / max(np.hypot(n[0], n[1]), 1e-9)
+    side = np.array([-n[1], n[0], 0.0])
+    for off in (-0.3, 0.3):
+        c = np.array([h[0], h[1], 0.0]) + 0.8 * n + off * side
+        pts.append([c + [dx, dy, z] for dx in (-0.36, 0.36) for dy in (-0.36, 0.36)
+                    for z in (0.0, 0.3)])
+    return np.concatenate([np.asarray(p, float) for p in pts])
 
 
 def right_kind(model_log, right: str) -> tuple[bool, float | None]:
@@ -112,10 +142,12 @@ def run(*, kind: str = "left_door", seed: int = 0, meshcat=None, html_out: str =
     op = MakeOperateDiagram(cfg, meshcat=meshcat)
     d = op.diagram
     if meshcat is not None:
-        # look at the mechanism from behind and beside the robot's stance
-        h, n = op.true_task.handle, op.true_task.normal
+        # look at the mechanism from in front and to the side, so that the robot (which
+        # starts in front of it) does not hide the front; frame the robot at its start and
+        # the cabinet with the front's whole swing
+        n = op.true_task.normal
         side = np.cross([0, 0, 1.0], n)
-        meshcat.SetCameraPose(h + 1.8 * n + 1.2 * side + np.array([0, 0, 0.9]), h)
+        frame_camera(meshcat, scene_points(op), view_from=1.0 * n + 1.6 * side + [0, 0, 1.0])
     simulator = Simulator(d)
     ctx = simulator.get_mutable_context()
     op.scene.set_joint_positions(ctx, op.start_command)

@@ -197,7 +197,7 @@ def MakeOperateDiagram(config: OperateConfig | None = None, *, meshcat=None) -> 
     builder.Connect(loc.get_believed_robot_state_output_port(),
                     epc.get_robot_state_input_port())
     builder.Connect(loc.get_believed_force_output_port(), epc.get_force_input_port())
-    model_port = estimator.GetOutputPort("object_model")
+    model_port = estimator.get_object_model_output_port()
     selector = None
     if cfg.priors:
         selector = builder.AddNamedSystem("prior_model_selector", PriorModelSelector(
@@ -209,7 +209,7 @@ def MakeOperateDiagram(config: OperateConfig | None = None, *, meshcat=None) -> 
         builder.ExportOutput(selector.GetOutputPort("prior_cluster"), "prior_cluster")
     builder.Connect(model_port, epc.get_object_model_input_port())
     builder.Connect(epc.get_hook_position_output_port(),
-                    estimator.get_input_port_observations())
+                    estimator.get_pose_input_port())
     builder.Connect(epc.get_command_output_port(), loc.get_command_input_port())
     builder.Connect(loc.get_plant_command_output_port(), sd.GetInputPort("command"))
     if meshcat is not None:
@@ -222,7 +222,7 @@ def MakeOperateDiagram(config: OperateConfig | None = None, *, meshcat=None) -> 
     builder.ExportOutput(epc.GetOutputPort("status"), "status")
     builder.ExportOutput(epc.get_hook_position_output_port(), "hook_position")
     builder.ExportOutput(force.get_force_output_port(), "force_W")
-    builder.ExportOutput(estimator.GetOutputPort("stats"), "estimator_stats")
+    builder.ExportOutput(estimator.get_stats_output_port(), "estimator_stats")
     builder.ExportOutput(model_port, "object_model")
     builder.ExportOutput(loc.get_error_output_port(), "base_error")
     diagram = builder.Build()

@@ -5,6 +5,7 @@ Wraps models/articulation*.py (thesis Sec. 4.1) in a LeafSystem.
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -157,7 +158,48 @@ class ArticulationEstimator(LeafSystem):
                                                        prerequisites_of_calc=st)
 
     # ------------------------------------------------------------------ ports
+    # the same pattern as the other systems (MarkerSensor's get_observations_output_port):
+    # get_<port name>_input_port / get_<port name>_output_port
+    def get_observations_input_port(self):
+        """The ``observations`` input (markers mode: MarkerObservations)."""
+        if self._mode != "markers":
+            raise RuntimeError("this ArticulationEstimator is in pose mode: its input port "
+                               "is 'pose' (get_pose_input_port())")
+        return self._in
+
+    def get_pose_input_port(self):
+        """The ``pose`` input (pose mode: x y z [qx qy qz qw], m)."""
+        if self._mode != "pose":
+            raise RuntimeError("this ArticulationEstimator is in markers mode: its input "
+                               "port is 'observations' (get_observations_input_port())")
+        return self._in
+
+    def get_object_model_output_port(self):
+        """The current ArticulatedObject (None before the first fit)."""
+        return self._out_model
+
+    def get_selected_models_output_port(self):
+        """dict "parent->child" -> selected model name."""
+        return self._out_sel
+
+    def get_configuration_output_port(self):
+        """Configuration estimate (max_dof,), m / rad, NaN where unknown."""
+        return self._out_q
+
+    def get_jacobian_output_port(self):
+        """Block-diagonal Jacobian (6 * num_links, dof) at the estimate."""
+        return self._out_J
+
+    def get_stats_output_port(self):
+        """[num_observations, num_dropped, dof, total_bic, num_fit_failures]."""
+        return self._out_stats
+
     def get_input_port_observations(self):
+        """Deprecated: use get_observations_input_port() (markers mode) or
+        get_pose_input_port() (pose mode). Returns the one input port in either mode."""
+        warnings.warn("ArticulationEstimator.get_input_port_observations() is deprecated; "
+                      "use get_observations_input_port() (markers mode) or "
+                      "get_pose_input_port() (pose mode)", DeprecationWarning, stacklevel=2)
         return self._in
 
     def part_ids(self) -> list[str]:

@@ -74,23 +74,23 @@ def test_estimator_pose_mode_learns_revolute_and_counts_drops():
     est = b.AddSystem(ArticulationEstimator(
         mode="pose", pose_size=7, period=0.05, refit_every=20, min_observations=10,
         obs=ObservationModel(0.003, np.deg2rad(3)), seed=0))
-    b.Connect(src.get_output_port(0), est.get_input_port_observations())
+    b.Connect(src.get_output_port(0), est.get_pose_input_port())
     diagram = b.Build()
     sim = Simulator(diagram)
     sim.AdvanceTo(3.0)
     ctx = est.GetMyContextFromRoot(sim.get_context())
-    sel = est.GetOutputPort("selected_models").Eval(ctx)
+    sel = est.get_selected_models_output_port().Eval(ctx)
     assert sel == {"fixed->moving": "revolute"}
-    model = est.GetOutputPort("object_model").Eval(ctx)
+    model = est.get_object_model_output_port().Eval(ctx)
     assert abs(model.edges[0].model.radius - RADIUS) < 0.01
-    stats = est.GetOutputPort("stats").Eval(ctx)
+    stats = est.get_stats_output_port().Eval(ctx)
     assert stats[1] == 6  # NaN samples dropped and counted (t = 0.25, 0.75, ... 2.75)
     assert stats[0] + stats[1] in (60, 61) and stats[2] == 1
-    q = est.GetOutputPort("configuration").Eval(ctx)
+    q = est.get_configuration_output_port().Eval(ctx)
     # q = 0 at the first observation: the opening angle since t = 0
     t_last = ctx.get_abstract_state(0).get_value().times[-1]
     assert q[0] == pytest.approx(RATE * t_last, abs=0.02)
-    J = est.GetOutputPort("jacobian").Eval(ctx)
+    J = est.get_jacobian_output_port().Eval(ctx)
     assert J.shape == (6, 1)
     assert np.linalg.norm(J[:3, 0]) == pytest.approx(RADIUS, abs=0.01)
 
@@ -101,14 +101,14 @@ def test_estimator_marker_mode_drawer_with_gaps():
     est = b.AddSystem(ArticulationEstimator(
         part_ids=["cabinet", "drawer"], period=0.05, refit_every=10,
         obs=ObservationModel(0.003, np.deg2rad(2)), seed=0))
-    b.Connect(src.get_output_port(0), est.get_input_port_observations())
+    b.Connect(src.get_output_port(0), est.get_observations_input_port())
     sim = Simulator(b.Build())
     sim.AdvanceTo(2.0)
     ctx = est.GetMyContextFromRoot(sim.get_context())
-    assert est.GetOutputPort("selected_models").Eval(ctx) == {"cabinet->drawer": "prismatic"}
-    stats = est.GetOutputPort("stats").Eval(ctx)
+    assert est.get_selected_models_output_port().Eval(ctx) == {"cabinet->drawer": "prismatic"}
+    stats = est.get_stats_output_port().Eval(ctx)
     assert stats[1] == 1  # the NaN frame
-    m = est.GetOutputPort("object_model").Eval(ctx).edges[0].model
+    m = est.get_object_model_output_port().Eval(ctx).edges[0].model
     assert abs(abs(m.axis[0]) - 1.0) < 0.01  # along the cabinet's x axis
 
 
@@ -117,3 +117,23 @@ def test_estimator_rejects_bad_configuration():
         ArticulationEstimator(mode="markers")
     with pytest.raises(ValueError, match="pose_size"):
         ArticulationEstimator(mode="pose", pose_size=4)
+
+
+def test_port_accessors_follow_the_sensor_pattern_and_old_name_is_deprecated():
+    """get_<name>_input_port() / get_<name>_output_port() for every port (as MarkerSensor);
+    the old get_input_port_observations() still works, with a DeprecationWarning."""
+    markers = ArticulationEstimator(part_ids=["a", "b"])
+    pose = ArticulationEstimator(mode="pose", pose_size=3)
+    for est, inp in ((markers, "observations"), (pose, "pose")):
+        assert getattr(est, f"get_{inp}_input_port")().get_name() == inp
+        for name in ("object_model", "selected_models", "configuration", "jacobian",
+                     "stats"):
+            port = getattr(est, f"get_{name}_output_port")()
+            assert port.get_name() == name and port.get_index() == est.GetOutputPort(
+                name).get_index()
+        with pytest.warns(DeprecationWarning, match="get_input_port_observations"):
+            assert est.get_input_port_observations().get_name() == inp
+    with pytest.raises(RuntimeError, match="get_pose_input_port"):
+        pose.get_observations_input_port()
+    with pytest.raises(RuntimeError, match="get_observations_input_port"):
+        markers.get_pose_input_port()

@@ -193,7 +193,7 @@ def test_object_tracks_estimators_two_simulators(meshcat):
     est = builder.AddNamedSystem("marker_estimator", ArticulationEstimator(
         part_ids=track.parts, period=0.05, refit_every=10, min_observations=10,
         obs=ObservationModel(sigma_pos=0.003, sigma_orient=math.radians(1)), seed=3))
-    builder.Connect(src.get_output_port(), est.get_input_port_observations())
+    builder.Connect(src.get_output_port(), est.get_observations_input_port())
     hook = builder.AddNamedSystem("hook", _PointReplay(door, 0.03))
     pest = builder.AddNamedSystem("pose_estimator", ArticulationEstimator(
         mode="pose", pose_size=3, period=0.03, refit_every=10, min_observations=10,
@@ -201,20 +201,20 @@ def test_object_tracks_estimators_two_simulators(meshcat):
     sel = builder.AddNamedSystem("prior_selector", PriorModelSelector(db=db, period=0.03))
     vis = builder.AddNamedSystem("visualizer", LearnedModelVisualizer(
         meshcat=meshcat, period=0.1, prefix="semantics_test"))
-    builder.Connect(hook.get_output_port(), pest.get_input_port_observations())
+    builder.Connect(hook.get_output_port(), pest.get_pose_input_port())
     builder.Connect(hook.get_output_port(), sel.get_hook_position_input_port())
-    builder.Connect(pest.GetOutputPort("object_model"), sel.get_object_model_input_port())
+    builder.Connect(pest.get_object_model_output_port(), sel.get_object_model_input_port())
     builder.Connect(sel.GetOutputPort("object_model"), vis.get_object_model_input_port())
-    for name, port in (("marker_stats", est.GetOutputPort("stats")),
-                       ("marker_configuration", est.GetOutputPort("configuration")),
-                       ("pose_stats", pest.GetOutputPort("stats")),
-                       ("pose_configuration", pest.GetOutputPort("configuration")),
+    for name, port in (("marker_stats", est.get_stats_output_port()),
+                       ("marker_configuration", est.get_configuration_output_port()),
+                       ("pose_stats", pest.get_stats_output_port()),
+                       ("pose_configuration", pest.get_configuration_output_port()),
                        ("prior_cluster", sel.GetOutputPort("prior_cluster"))):
         builder.ExportOutput(port, name)
     diagram = builder.Build()
 
     def extra(ctx):
-        m = est.GetOutputPort("selected_models").Eval(est.GetMyContextFromRoot(ctx))
+        m = est.get_selected_models_output_port().Eval(est.GetMyContextFromRoot(ctx))
         return tuple(sorted(m.items()))
 
     end = _check(diagram, lambda ctx: None, [0.5, 1.0, 1.5, 2.0], extra=extra)

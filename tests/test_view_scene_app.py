@@ -1,16 +1,13 @@
 import base64
 import json
-import os
 import re
-import signal
-import shutil
 import subprocess
 import sys
-import tempfile
 
 import numpy as np
 import pytest
 
+from headless_browser import chromium, screenshot
 from mmlearn.apps import view_scene
 
 
@@ -63,17 +60,10 @@ def test_bad_arguments_give_clear_errors(tmp_path):
     assert r.returncode == 2 and "not found" in r.stderr
 
 
-def _chromium():
-    for name in ("chromium", "chromium-browser", "google-chrome"):
-        if shutil.which(name):
-            return shutil.which(name)
-    return None
-
-
 def test_recording_renders_in_a_headless_browser(tmp_path):
     """Open the exported HTML in a real browser; the screenshot must show the arm (orange)
     and the cabinet (light wood), not a blank page."""
-    browser = _chromium()
+    browser = chromium()
     if browser is None:
         pytest.skip("no chromium on this machine (.ci/run installs Debian's chromium)")
     cv2 = pytest.importorskip("cv2")
@@ -81,23 +71,7 @@ def test_recording_renders_in_a_headless_browser(tmp_path):
     view_scene.run(config=view_scene.ViewSceneConfig(duration=0.5, html_out=str(html)),
                    show_progress=False)
     png = tmp_path / "shot.png"
-    for attempt in range(2):  # a headless browser occasionally hangs at start-up: retry once
-        with tempfile.TemporaryDirectory() as profile:
-            proc = subprocess.Popen(
-                [browser, "--headless=new", "--no-sandbox", "--disable-gpu",
-                 "--disable-dev-shm-usage", "--use-angle=swiftshader",
-                 "--enable-unsafe-swiftshader", "--disable-background-networking",
-                 "--disable-component-update", "--disable-sync", "--no-first-run",
-                 f"--user-data-dir={profile}", f"--screenshot={png}", "--window-size=800,600",
-                 "--virtual-time-budget=3000", html.as_uri()],
-                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
-            try:
-                proc.wait(timeout=90)
-            except subprocess.TimeoutExpired:
-                os.killpg(proc.pid, signal.SIGKILL)
-                proc.wait()
-        if png.is_file():
-            break
+    screenshot(browser, html, png)
     img = cv2.imread(str(png))
     assert img is not None, "the browser wrote no screenshot"
     b, g, r = (img[..., i].astype(int) for i in range(3))
