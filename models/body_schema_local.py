@@ -13,6 +13,7 @@ Action arrays are always the *full* commanded action vector (n, m); a model pick
 from __future__ import annotations
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from .gp import GaussianProcess
 from .se3 import project_to_so3
@@ -73,23 +74,17 @@ def poses_from_xyzquat(P) -> np.ndarray:
     P = np.asarray(P, float)
     if P.shape[-1] != 7:
         raise ValueError(f"expected (..., 7) poses x y z qx qy qz qw, got {P.shape}")
-    q = P[..., 3:]
-    q = q / np.linalg.norm(q, axis=-1, keepdims=True)
-    x, y, z, w = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
-    T = np.zeros(P.shape[:-1] + (4, 4))
-    T[..., 0, 0] = 1 - 2 * (y * y + z * z)
-    T[..., 0, 1] = 2 * (x * y - z * w)
-    T[..., 0, 2] = 2 * (x * z + y * w)
-    T[..., 1, 0] = 2 * (x * y + z * w)
-    T[..., 1, 1] = 1 - 2 * (x * x + z * z)
-    T[..., 1, 2] = 2 * (y * z - x * w)
-    T[..., 2, 0] = 2 * (x * z - y * w)
-    T[..., 2, 1] = 2 * (y * z + x * w)
-    T[..., 2, 2] = 1 - 2 * (x * x + y * y)
-    T[..., :3, 3] = P[..., :3]
-    T[..., 3, 3] = 1.0
-    bad = ~np.all(np.isfinite(P), axis=-1)
-    T[bad] = np.nan
+    ok = np.all(np.isfinite(P), axis=-1)
+    T = np.full(P.shape[:-1] + (4, 4), np.nan)
+    if np.any(ok):
+        Q = P[ok]
+        n = np.linalg.norm(Q[:, 3:], axis=-1)
+        if np.any(n == 0):
+            raise ValueError("poses: zero quaternion (x y z qx qy qz qw needs a unit quaternion)")
+        T[ok] = 0.0
+        T[ok, :3, :3] = Rotation.from_quat(Q[:, 3:]).as_matrix()  # normalises
+        T[ok, :3, 3] = Q[:, :3]
+        T[ok, 3, 3] = 1.0
     return T
 
 
