@@ -205,7 +205,7 @@ class LocalModel(_ModelBase):
 
     def fit(self, actions, Z, *, optimize: bool = True, max_opt: int = 40,
             hyperparameters: dict | None = None, noise_min: float = 1e-8,
-            n_restarts: int = 1, ftol: float = 1e-5) -> "LocalModel":
+            n_restarts: int = 1, ftol: float = 1e-5, ell_starts=()) -> "LocalModel":
         """Train on commanded actions (n, m) and relative poses Z (n, 4, 4).
 
         With ``optimize``, hyper-parameters are fitted by marginal likelihood on at most
@@ -228,12 +228,14 @@ class LocalModel(_ModelBase):
             sub = np.unique(np.linspace(0, n - 1, max_opt).round().astype(int))
             g = GaussianProcess(ard=True).fit(X[sub], Y[sub], optimize=True,
                                               noise_min=noise_min, n_restarts=n_restarts,
-                                              hyperparameters=hyperparameters, ftol=ftol)
+                                              hyperparameters=hyperparameters, ftol=ftol,
+                                              ell_starts=ell_starts)
             hyperparameters = g.hyperparameters()
             optimize = False
         self.gp = GaussianProcess(ard=True).fit(X, Y, optimize=optimize, noise_min=noise_min,
                                                 hyperparameters=hyperparameters,
-                                                n_restarts=n_restarts, ftol=ftol)
+                                                n_restarts=n_restarts, ftol=ftol,
+                                                ell_starts=ell_starts if optimize else ())
         return self
 
     def refit(self, actions, Z) -> "LocalModel":
