@@ -228,14 +228,8 @@ def run(*, kind: str = "left_door", seed: int = 0, meshcat=None, html_out: str =
     return result
 
 
-def main(argv=None) -> int:
-    ap = ArgumentParser(
-        prog="python -m mmlearn.apps.open_cabinet",
-        description="A mobile robot with a hook opens a door or drawer while learning its "
-                    "kinematic model (equilibrium-point control along the learned model). "
-                    "Exit status: 0 opened, 1 not opened, 2 bad input.")
-    ap.add_argument("--object", default="left_door", choices=list(KINDS))
-    ap.add_argument("--seed", type=nonneg_int, default=0)
+def add_trial_args(ap) -> None:
+    """The flags of one opening trial that open_cabinet and operate_trials share."""
     ap.add_argument("--max-time", type=pos_float, default=60.0,
                     help="simulated seconds at most")
     ap.add_argument("--sigma-pos", type=pos_float, default=None,
@@ -244,6 +238,17 @@ def main(argv=None) -> int:
     ap.add_argument("--base-noise", type=nonneg_float, default=None,
                     help="scale of the robot's base-localisation and odometry error (default "
                          "1: 0.05 m RMS, 1.1 deg, drifting; 0: base pose known exactly)")
+
+
+def main(argv=None) -> int:
+    ap = ArgumentParser(
+        prog="python -m mmlearn.apps.open_cabinet",
+        description="A mobile robot with a hook opens a door or drawer while learning its "
+                    "kinematic model (equilibrium-point control along the learned model). "
+                    "Exit status: 0 opened, 1 not opened, 2 bad input.")
+    ap.add_argument("--object", default="left_door", choices=list(KINDS))
+    ap.add_argument("--seed", type=nonneg_int, default=0)
+    add_trial_args(ap)
     ap.add_argument("--priors", default="",
                     help="prior database (JSON from learn_priors / operate_trials "
                          "--save-tracks) to use while learning")

@@ -16,8 +16,8 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 import numpy as np
 
 from mmlearn.apps._common import (ArgumentParser, UsageError, check_in_file, check_out_dir,
-                                  fail, name_list, nonneg_float, nonneg_int, pos_float, pos_int,
-                                  progress)
+                                  fail, name_list, nonneg_int, pos_int, progress)
+from mmlearn.apps.open_cabinet import add_trial_args
 from mmlearn.sdf.mechanisms import KINDS
 
 
@@ -194,13 +194,7 @@ def main(argv=None) -> int:
     ap.add_argument("--seed", type=nonneg_int, default=0, help="seed of the first trial")
     ap.add_argument("--jobs", type=pos_int, default=None,
                     help="parallel processes (default: all cores)")
-    ap.add_argument("--max-time", type=pos_float, default=60.0)
-    ap.add_argument("--sigma-pos", type=pos_float, default=None,
-                    help="position noise the estimator assumes, m (default 0.05, the "
-                         "thesis' value)")
-    ap.add_argument("--base-noise", type=nonneg_float, default=None,
-                    help="scale of the robot's base-localisation and odometry error (default "
-                         "1: 0.05 m RMS, 1.1 deg, drifting; 0: base pose known exactly)")
+    add_trial_args(ap)
     ap.add_argument("--mechanism-seed", type=nonneg_int, default=None,
                     help="the same mechanism per object in every trial (trials differ in "
                          "the handle click and the robot's start)")
