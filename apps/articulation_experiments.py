@@ -634,7 +634,7 @@ def _print(res, file=None):
         r = res[key]
         p(f"\n{title}")
         runs_ = []
-        cur, start = None, None
+        cur, start, prev = None, None, None
         for x, s in zip(r[xk], r["selected"]):
             if s != cur:
                 if cur is not None:
