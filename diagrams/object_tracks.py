@@ -21,7 +21,6 @@ from scipy.spatial.transform import Rotation
 
 from mmlearn.sdf.objects import (add_object, garage_door_configuration, object_parts,
                                  yardstick_closed_configuration)
-from mmlearn.models.rng import as_generator as _gen
 
 __all__ = ["ObjectTrack", "ObjectKinematics", "cabinet_scenario", "yardstick_scenario",
            "table_scenario", "table_phases", "car_door_scenario", "garage_door_scenario", "SCENARIOS"]
@@ -104,7 +103,7 @@ def cabinet_scenario(n_first: int = 20, n_both: int = 40, *, sigma_pos: float = 
     drawers move independently. q = (upper_slide, lower_slide) in metres. The cabinet
     carries a larger marker (noise x ``cabinet_noise_scale``): with equal noise the trees
     {(1,2),(1,3)} and {(1,2),(2,3)} explain parallel drawers equally well."""
-    rng = _gen(rng)
+    rng = np.random.default_rng(rng)
     q = np.zeros((n_first + n_both, 2))
     q[:n_first, 1] = 0.2 - 0.2 * np.cos(np.linspace(0, 2 * np.pi, n_first))
     q[n_first:, 0] = rng.uniform(0, 0.4, n_both)
@@ -119,7 +118,7 @@ def yardstick_scenario(closed: bool, n: int = 200, *, sigma_pos: float = 0.005,
     """Sec. 4.4.3: open chain (3 independent hinge angles uniform in [-1.2, 1.2] rad) or the
     closed rhombus (opening angle uniform in [0.5, 2.6] rad). ``staged`` (open chain): the
     hinges start moving one after the other, at 1/4, 2/4 and 3/4 of the samples (Fig. 4.17a)."""
-    rng = _gen(rng)
+    rng = np.random.default_rng(rng)
     if closed:
         q = yardstick_closed_configuration(rng.uniform(0.5, 2.6, n))
         name = "yardstick_closed"
@@ -154,7 +153,7 @@ def table_scenario(n_per_phase: int = 15, *, sigma_pos: float = 0.01,
     is pushed ``push_m`` sideways along y ("after moving sideways": a curved 1-D path), then
     moved freely over the floor (never turned). Pushing is at a constant speed: samples are
     equally spaced along the 1-D path (:func:`table_phases`). q = (x, y, yaw)."""
-    rng = _gen(rng)
+    rng = np.random.default_rng(rng)
     ph = table_phases(n_per_phase, push_m=push_m)
     m, L = ph["line"], push_m
     still = np.zeros((ph["still"], 2))
@@ -175,7 +174,7 @@ def car_door_scenario(n_window: int = 40, n_door: int = 40, *, sigma_pos: float 
                       rng=None) -> ObjectTrack:
     """Fig. 4.11: the window is lowered on its curved guide (door closed), then the door
     opens. q = (door_hinge rad, window_guide rad); window travel 0.45 m on r = 1.9 m."""
-    rng = _gen(rng)
+    rng = np.random.default_rng(rng)
     w = np.concatenate([np.zeros(5), np.linspace(0, -0.24, n_window - 5)])
     q = np.zeros((n_window + n_door, 2))
     q[:n_window, 1] = w
@@ -189,7 +188,7 @@ def garage_door_scenario(n: int = 60, *, sigma_pos: float = 0.01,
                          sigma_orient: float = np.deg2rad(1), root_noise_scale: float = 0.1,
                          rng=None) -> ObjectTrack:
     """Roll-up garage door opened along its whole path (Fig. 4.19)."""
-    rng = _gen(rng)
+    rng = np.random.default_rng(rng)
     s = np.linspace(0, 2.2, n)
     return _track("garage_door", garage_door_configuration(s), sigma_pos, sigma_orient, rng,
                   scale=[root_noise_scale, 1.0])

@@ -14,7 +14,6 @@ from scipy.special import ndtr
 from scipy.spatial.transform import Rotation
 
 from .articulation_geom import _Data
-from .rng import as_generator as _as_generator
 from .articulation_obs import ObservationModel, _obs_from_dict, em_gamma
 from .articulation_refine import refine as _run_refinement
 from .se3 import as_pose_array
@@ -99,7 +98,7 @@ class LinkModel:
         """Fit to a track of relative poses ((n, 7), (n, 4, 4) or (n, 3)) by MLESAC and
         the model's refinement (``refinement``). ``rng``: numpy Generator or seed. Returns self."""
         t0 = time.perf_counter()
-        rng = _as_generator(rng)
+        rng = np.random.default_rng(rng)
         d = _Data(Z)
         if d.n < max(3, self.min_samples):
             raise ValueError(

@@ -19,7 +19,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from .articulation import ObservationModel
-from .rng import as_generator
 from .articulation_graph import SEARCH_MODES, as_part_tracks, fit_structure
 from .articulation_structure import DEFAULT_CANDIDATES
 
@@ -82,7 +81,7 @@ class IncrementalStructure:
         self.refit_every = int(refit_every)
         self.min_observations = max(3, int(min_observations))
         self.n_hypotheses = int(n_hypotheses)
-        self.rng = as_generator(rng)
+        self.rng = np.random.default_rng(rng)
         self._rows = []
         self.history: list[IncrementalStep] = []
 

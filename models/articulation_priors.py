@@ -58,7 +58,6 @@ from .articulation import ObservationModel, link_model_from_dict, make_model
 from .fileio import atomic_write_text
 from .articulation_structure import DEFAULT_CANDIDATES, select_link_model
 from .se3 import as_pose_array
-from .rng import as_generator as _gen
 
 __all__ = [
     "align_trajectory",
@@ -216,7 +215,7 @@ class PriorDatabase:
     def merge_test(self, Z, *, rng=None, prepared: bool = False) -> MergeDecision:
         """Eq. 4.44-4.46 for trajectory Z against every cluster; does not change the
         database."""
-        rng = _gen(rng)
+        rng = np.random.default_rng(rng)
         Zp = np.asarray(Z, float) if prepared else self.prepare(Z)
         if self.clusters and Zp.shape[1] != self.clusters[0].data[0].shape[1]:
             raise ValueError(f"trajectory has {Zp.shape[1]} columns, the database holds "
@@ -262,7 +261,7 @@ class PriorDatabase:
                 else:
                     J = np.vstack(c.data)
                     c.model = make_model(c.model.name, obs=self.obs,
-                                         n_hypotheses=self.n_hypotheses).fit(J, rng=_gen(rng))
+                                         n_hypotheses=self.n_hypotheses).fit(J, rng=np.random.default_rng(rng))
                 return
         raise KeyError(f"no trajectory named {name!r} in the prior database")
 
@@ -363,7 +362,7 @@ class PriorTracker:
         self.db = db
         self.min_observations = int(min_observations)
         self.every = int(every)
-        self.rng = _gen(rng)
+        self.rng = np.random.default_rng(rng)
         self._obs = []
         self.decision: MergeDecision | None = None
         self.history = []  # (n, cluster index or None)
@@ -400,7 +399,7 @@ class PriorTracker:
 def learn_priors(trajectories, names=None, *, rng=None, progress=None, **kw) -> PriorDatabase:
     """Algorithm 2 over trajectories in the given order. ``kw`` go to :class:`PriorDatabase`.
     ``progress``: optional callable(i) after each trajectory."""
-    rng = _gen(rng)
+    rng = np.random.default_rng(rng)
     trajectories = list(trajectories)
     names = list(names) if names is not None else [f"trajectory{i}" for i in range(len(trajectories))]
     if len(names) != len(trajectories):
@@ -430,7 +429,7 @@ def evaluate_priors(trajectories, names=None, *, fractions=np.linspace(0.1, 1.0,
     "merged": (H, F) bool, "names": [...], "seconds": float}.
     """
     t0 = time.perf_counter()
-    rng = _gen(rng)
+    rng = np.random.default_rng(rng)
     trajectories = list(trajectories)
     names = list(names) if names is not None else [f"trajectory{i}" for i in range(len(trajectories))]
     fractions = np.asarray(fractions, float)

@@ -23,7 +23,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.spatial.transform import Rotation
-from .rng import as_generator
 
 __all__ = ["SimulatedTrack", "simulate_link", "true_pose", "LINK_TYPES"]
 
@@ -118,7 +117,7 @@ def simulate_link(kind: str, n: int, *, sigma_pos: float = 0.002,
         raise ValueError(f"n must be >= 1, got {n}")
     if not 0.0 <= gamma <= 1.0:
         raise ValueError(f"gamma must be in [0, 1], got {gamma}")
-    rng = as_generator(rng)
+    rng = np.random.default_rng(rng)
     lo, hi = _q_range(kind)
     qs = rng.uniform(lo, hi, n) if q is None else np.asarray(q, float)
     Zt = true_pose(kind, qs)

@@ -19,7 +19,6 @@ import numpy as np
 
 from .articulation import LinkModel, ObservationModel, make_model
 from .se3 import as_pose_array, relative_poses
-from .rng import as_generator as _gen
 
 __all__ = [
     "DEFAULT_CANDIDATES",
@@ -68,7 +67,7 @@ def select_link_model(Z, *, models=DEFAULT_CANDIDATES, obs: ObservationModel | N
     (n, 4, 4) or (n, 3)) and select the lowest BIC. ``rng``: Generator or seed.
     ``identifiability=False`` selects by BIC alone (no ``_unresolved`` test; for comparisons).
     Raises ValueError if no candidate can be fitted (e.g. too short / NaN track)."""
-    rng = _gen(rng)
+    rng = np.random.default_rng(rng)
     obs = obs if obs is not None else ObservationModel()
     if isinstance(models, str):
         models = [m for m in models.split(",") if m.strip()]
@@ -284,7 +283,7 @@ def fit_pair_models(part_tracks, *, models=DEFAULT_CANDIDATES, obs: ObservationM
     arrays (T, 7) / (T, 3) / (T, 4, 4) or one array (p, T, ...). Returns
     {(i, j): LinkSelection}; the model describes part j in the frame of part i. Pairs whose
     models cannot be fitted get no entry."""
-    rng = _gen(rng)
+    rng = np.random.default_rng(rng)
     obs = obs if obs is not None else ObservationModel()
     tracks = [np.asarray(t, float) for t in part_tracks]
     out = {}
@@ -337,7 +336,7 @@ def fit_kinematic_tree(part_tracks, *, part_names=None, models=DEFAULT_CANDIDATE
     """
     import networkx as nx
 
-    rng = _gen(rng)
+    rng = np.random.default_rng(rng)
     tracks = [np.asarray(t, float) for t in part_tracks]
     p = len(tracks)
     if p < 2:
