@@ -210,8 +210,7 @@ class LinkModel:
         radians of rotation) from the model's Jacobian (0, 0 for rigid)."""
         if self.dof == 0:
             return 0.0, 0.0
-        qs = self.q_min[None] + np.linspace(0.0, 1.0, 16)[:, None] * (self.q_max - self.q_min)[None]
-        J = self.jacobian(qs)[:, :, 0]
+        J = self._range_jacobians(self.q_min, self.q_max)[:, :, 0]
         dq = abs(float(self.q_max[0] - self.q_min[0]))
         lp = float(np.linalg.norm(J[:, :3], axis=1).mean()) * dq
         lr = float(np.linalg.norm(J[:, 3:], axis=1).mean()) * dq if J.shape[1] == 6 else 0.0
@@ -255,12 +254,17 @@ class LinkModel:
         ll += float(self.obs_fit.log_gamma_prior(g, n))
         return float(ll)
 
+    def _range_jacobians(self, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+        """The model's Jacobian (16, 3 | 6, d) at 16 configurations evenly spread over
+        [lo, hi]."""
+        qs = lo[None] + np.linspace(0.0, 1.0, 16)[:, None] * (hi - lo)[None]
+        return self.jacobian(qs)
+
     def _noise_speed(self, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
         """Mean length of a unit step in q, per DOF, in noise units:
         sqrt(|dp/dq|^2 / sigma_pos^2 + |dw/dq|^2 / sigma_orient^2) averaged over 16
         configurations across [lo, hi] (the model's Jacobian)."""
-        qs = lo[None] + np.linspace(0.0, 1.0, 16)[:, None] * (hi - lo)[None]
-        J = self.jacobian(qs)  # (16, 3 | 6, d)
+        J = self._range_jacobians(lo, hi)
         g = np.einsum("mid,mid->md", J[:, :3], J[:, :3]) / self.obs_fit.sigma_pos**2
         if J.shape[1] == 6:
             g = g + np.einsum("mid,mid->md", J[:, 3:], J[:, 3:]) / self.obs_fit.sigma_orient**2
@@ -345,9 +349,7 @@ class LinkModel:
             return 0.0
         d = self._data(Z)
         ep2, eo, q = self._residuals_batch(self.theta[None], d)
-        li = self.obs_fit.log_inlier(ep2[0], None if eo is None else eo[0])
-        g = float(np.clip(self.gamma, 1e-6, 1 - 1e-6))
-        inl = np.log1p(-g) + li > np.log(g) + self.obs_fit.log_outlier(d.has_orientation)
+        inl = self._inlier_mask(ep2, eo, d.has_orientation)
         qq = q[0][inl] if inl.sum() >= 2 else q[0]
         return self.log_config_prior(q[0], d.n, q_range=(qq.min(axis=0), qq.max(axis=0)))
 
@@ -359,6 +361,13 @@ class LinkModel:
         d = self._data(Z)
         return float(-2 * self.log_likelihood(d) + self.num_params(self.n_train) * np.log(d.n))
 
+    def _inlier_mask(self, ep2, eo, has_orientation: bool) -> np.ndarray:
+        """(n,) True where the model classifies an observation as an inlier (responsibility
+        above 0.5 at its outlier ratio); ep2, eo as returned by _residuals_batch (1, n)."""
+        li = self.obs_fit.log_inlier(ep2[0], None if eo is None else eo[0])
+        g = float(np.clip(self.gamma, 1e-6, 1 - 1e-6))
+        return np.log1p(-g) + li > np.log(g) + self.obs_fit.log_outlier(has_orientation)
+
     def prediction_errors(self, Z, *, inliers_only: bool = False):
         """Averaged position (m) and orientation (rad, None for position-only) errors of
         f(f^-1(z)) against z. With inliers_only, observations the model classifies as
@@ -368,10 +377,7 @@ class LinkModel:
         ep2, eo, _ = self._residuals_batch(self.theta[None], d)
         mask = np.ones(d.n, bool)
         if inliers_only:
-            li = self.obs_fit.log_inlier(ep2, eo)[0]
-            lo = self.obs_fit.log_outlier(d.has_orientation)
-            g = np.clip(self.gamma, 1e-6, 1 - 1e-6)
-            mask = (np.log1p(-g) + li) > (np.log(g) + lo)
+            mask = self._inlier_mask(ep2, eo, d.has_orientation)
             if not mask.any():
                 mask[:] = True
         ep = float(np.sqrt(ep2[0][mask]).mean())
