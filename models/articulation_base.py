@@ -240,7 +240,8 @@ class LinkModel:
         ep2, eo, q = self._residuals_batch(self.theta[None], d)
         return self._log_likelihood_from(ep2, eo, d.n, d.has_orientation, g, q=q)
 
-    def _log_likelihood_from(self, ep2, eo, n, has_orientation, gamma=None, q=None) -> float:
+    def _log_likelihood_from(self, ep2, eo, n, has_orientation, gamma=None, q=None, *,
+                             q_range=None, gamma_prior: bool = True) -> float:
         g = float(np.clip(self.gamma if gamma is None else gamma, 1e-6, 1 - 1e-6))
         li = self.obs_fit.log_inlier(ep2[0], None if eo is None else eo[0])
         lo = self.obs_fit.log_outlier(has_orientation)
@@ -249,9 +250,10 @@ class LinkModel:
             ll = np.logaddexp(np.log1p(-g) + li, np.log(g) + lo).sum()
             ll += self.log_config_prior(qq, n)
         else:  # the configuration is latent in the inlier component only
-            ct = self.config_terms(qq, n)
+            ct = self.config_terms(qq, n, q_range)
             ll = np.logaddexp(np.log1p(-g) + li + ct, np.log(g) + lo).sum()
-        ll += float(self.obs_fit.log_gamma_prior(g, n))
+        if gamma_prior:
+            ll += float(self.obs_fit.log_gamma_prior(g, n))
         return float(ll)
 
     def _range_jacobians(self, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
@@ -339,19 +341,27 @@ class LinkModel:
             return float(t) * (n if n is not None else q.shape[0])
         return float(np.sum(t))
 
-    def log_config_prior_of(self, Z) -> float:
-        """The configuration prior (:meth:`log_config_prior`) of a track Z scored as one
-        visit of the mechanism: configurations uniform over the range Z covers (its inlier
-        configurations under this model), not over the model's whole training range. Used
-        by the prior merge test, where one model explains several visits."""
+    def log_likelihood_of_visits(self, trajectories) -> float:
+        """Data log-likelihood (Eq. 4.31-4.32, as :meth:`log_likelihood`) of several tracks
+        of the mechanism, each scored as one visit: its configurations uniform over the
+        range that track covers (its inlier configurations under this model), not over the
+        model's whole training range; the outlier prior once for all observations. Used by
+        the prior merge test, where one model explains several visits."""
         self._check_fitted()
-        if self.dof == 0:
-            return 0.0
-        d = self._data(Z)
-        ep2, eo, q = self._residuals_batch(self.theta[None], d)
-        inl = self._inlier_mask(ep2, eo, d.has_orientation)
-        qq = q[0][inl] if inl.sum() >= 2 else q[0]
-        return self.log_config_prior(q[0], d.n, q_range=(qq.min(axis=0), qq.max(axis=0)))
+        ll, n = 0.0, 0
+        for Z in trajectories:
+            d = self._data(Z)
+            ep2, eo, q = self._residuals_batch(self.theta[None], d)
+            q_range = None
+            if self.dof:
+                inl = self._inlier_mask(ep2, eo, d.has_orientation)
+                qq = q[0][inl] if inl.sum() >= 2 else q[0]
+                q_range = (qq.min(axis=0), qq.max(axis=0))
+            ll += self._log_likelihood_from(ep2, eo, d.n, d.has_orientation, q=q,
+                                            q_range=q_range, gamma_prior=False)
+            n += d.n
+        g = float(np.clip(self.gamma, 1e-6, 1 - 1e-6))
+        return float(ll + self.obs_fit.log_gamma_prior(g, n))
 
     def bic(self, Z=None) -> float:
         """BIC = -2 log L + k log n (Eq. 4.34) on Z (default: the training track)."""

@@ -15,7 +15,7 @@ merged model - fitted to much more data - as long as the object behaves like a k
 Merge-test BIC: the BIC of Eq. 4.34 with the same observation model as link fitting
 (models/articulation.py: the outlier prior -w gamma n of Eq. 4.15 and the configuration prior
 p(q) ~ n_eff^-d), with one refinement: the configuration prior is that of each trajectory as
-one visit, uniform over the range that visit covers (LinkModel.log_config_prior_of). A
+one visit, uniform over the range that visit covers (LinkModel.log_likelihood_of_visits). A
 partial trajectory (the first 40 % of a door's opening) is then not charged for the part of
 the range it never reached when it is scored under a cluster's model. Eq. 4.27's literal
 n^-d made merging impossible (pooling n1 + n2 observations costs
@@ -91,20 +91,18 @@ def align_trajectory(Z, mode: str = "first") -> np.ndarray:
 
 def merge_bic(model, trajectories=None) -> float:
     """BIC used by the merge test: the model's BIC of Eq. 4.34 with the same observation
-    model as link fitting, except that the configuration prior is that of each trajectory
-    as one visit (LinkModel.log_config_prior_of: uniform over the range the visit covers,
-    see the module notes). ``trajectories``: the (aligned) trajectories the model was
-    fitted to, in any order; None: the training track as one visit."""
+    model as link fitting, each trajectory scored as one visit
+    (LinkModel.log_likelihood_of_visits: its configurations uniform over the range it
+    covers, see the module notes). ``trajectories``: the (aligned) trajectories the model
+    was fitted to, in any order; None: the training track as one visit."""
     n = int(model.n_train)
     if getattr(model.obs_fit, "config_prior", "resolved") == "n":
         # databases saved before 2026-11: n^-d made merging impossible, it was left out
         return float(model.bic_ - 2.0 * n * model.dof * np.log(n))
     if trajectories is None or model.dof == 0:
         return float(model.bic_)
-    per_visit = sum(model.log_config_prior_of(Z) for Z in trajectories)
-    # the model's BIC has the configuration prior over its whole training range; replace it
-    ep2, eo, q = model._residuals_batch(model.theta[None], model._data(np.vstack(trajectories)))
-    return float(model.bic_ + 2.0 * model.log_config_prior(q[0]) - 2.0 * per_visit)
+    return float(-2.0 * model.log_likelihood_of_visits(trajectories)
+                 + model.num_params(n) * np.log(n))
 
 
 def thin_trajectory(Z, max_points: int | None) -> np.ndarray:
