@@ -47,38 +47,34 @@ def summarize(trials: list[dict]) -> dict:
     that raised (``"error"`` in the record) are counted in ``errors`` and left out of every
     mean and of ``trials``/``successes``/``right_kind``; ``radius_runs`` / ``axis_runs`` /
     ``right_model_runs`` say how many trials each mean is over."""
+    def mean(xs):
+        return float(np.mean(xs)) if xs else None
+
+    def largest(xs):
+        return float(np.max(xs)) if xs else None
+
     table = {}
     for kind in dict.fromkeys(t["object"] for t in trials):
-        errors = sum(1 for t in trials if t["object"] == kind and t.get("error"))
-        ts = [t for t in trials if t["object"] == kind and not t.get("error")]
-        if not ts:
-            table[kind] = {"trials": 0, "errors": errors, "successes": 0, "mean_opened": None,
-                           "unit": next(t["unit"] for t in trials if t["object"] == kind),
-                           "mean_radius_error_m": None, "max_radius_error_m": None,
-                           "mean_axis_error_deg": None, "mean_right_model_at": None,
-                           "max_right_model_at": None, "right_kind": 0,
-                           "success_and_right_kind": 0,
-                           "radius_runs": 0, "axis_runs": 0, "right_model_runs": 0,
-                           "models": {}}
-            continue
+        mine = [t for t in trials if t["object"] == kind]
+        ts = [t for t in mine if not t.get("error")]
         radius = [t["radius_error_m"] for t in ts if t.get("radius_error_m") is not None]
         right_at = [t["right_model_at"] for t in ts if t.get("right_model_at") is not None]
         axis = [t["axis_error_deg"] for t in ts if t.get("axis_error_deg") is not None]
         table[kind] = {
             "trials": len(ts),
-            "errors": errors,
+            "errors": len(mine) - len(ts),
             "successes": sum(t["success"] for t in ts),
             "radius_runs": len(radius), "axis_runs": len(axis), "right_model_runs": len(right_at),
-            "mean_opened": float(np.mean([t["opened"] for t in ts])),
-            "unit": ts[0]["unit"],
-            "mean_radius_error_m": float(np.mean(radius)) if radius else None,
-            "max_radius_error_m": float(np.max(radius)) if radius else None,
-            "mean_axis_error_deg": float(np.mean(axis)) if axis else None,
+            "mean_opened": mean([t["opened"] for t in ts]),
+            "unit": mine[0]["unit"],
+            "mean_radius_error_m": mean(radius),
+            "max_radius_error_m": largest(radius),
+            "mean_axis_error_deg": mean(axis),
             "right_kind": sum(bool(t.get("right_kind")) for t in ts),
             "success_and_right_kind": sum(bool(t["success"] and t.get("right_kind"))
                                           for t in ts),
-            "mean_right_model_at": float(np.mean(right_at)) if right_at else None,
-            "max_right_model_at": float(np.max(right_at)) if right_at else None,
+            "mean_right_model_at": mean(right_at),
+            "max_right_model_at": largest(right_at),
             "models": {m: sum(t["learned_model"] == m for t in ts)
                        for m in dict.fromkeys(t["learned_model"] for t in ts)},
         }
