@@ -19,6 +19,13 @@ from .articulation_refine import refine as _run_refinement
 from .se3 import as_pose_array
 
 # --------------------------------------------------------------------------- base class
+def distinguishable_configurations(n: int, c):
+    """Per DOF, how many of n estimated configurations the observation noise tells apart over
+    a range of c = LinkModel.config_resolution(): min(n, max(c, 1)) (the configuration
+    prior of LinkModel.config_terms is 1 / that inside a long range)."""
+    return np.minimum(float(n), np.maximum(c, 1.0))
+
+
 class LinkModel:
     """Common interface of the link models. Subclasses implement the parameter layout,
     minimal-sample hypotheses, batched residuals, forward, inverse and Jacobian.
@@ -320,11 +327,8 @@ class LinkModel:
         c = U / np.sqrt(2.0 * np.pi)
         total = 0.0
         for j in range(self.dof):
-            if n <= c[j]:
-                total = total - np.log(n)
-                continue
-            if q is None:
-                total = total - np.log(max(c[j], 1.0))
+            if n <= c[j] or q is None:  # sparse configurations, or no positions given
+                total = total - np.log(distinguishable_configurations(n, c[j]))
                 continue
             u = (q[:, j] - min(lo[j], hi[j])) * speed[j]
             if U[j] > 1e-6:

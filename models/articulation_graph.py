@@ -41,6 +41,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .articulation import ObservationModel
+from .articulation_base import distinguishable_configurations
 from .articulation_structure import DEFAULT_CANDIDATES, fit_pair_models, spanning_tree_edges
 from .se3 import MAX_COORDINATE, as_pose_array
 
@@ -402,9 +403,9 @@ class KinematicGraphEvaluator:
         if self.obs.config_prior == "n":
             return float(-self.n * dof * np.log(self.n))
         c = np.concatenate([self.models[e].config_resolution() for e in edges])
-        c = np.sort(np.maximum(c, 1.0))[::-1][:dof]
+        c = np.sort(c)[::-1][:dof]
         c = np.pad(c, (0, max(0, dof - c.size)), constant_values=1.0)
-        return float(-self.n * np.sum(np.log(np.minimum(float(self.n), c))))
+        return float(-self.n * np.sum(np.log(distinguishable_configurations(self.n, c))))
 
     def _score(self, edges, Q, dof, k_extra):
         dP, dR = self._predict(edges, Q)
