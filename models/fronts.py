@@ -1,0 +1,142 @@
+"""Cabinet fronts seen as rectangles in depth images (thesis ch. 5): the shared data types.
+
+This module holds what the detector, the tracker, the depth-noise model and the apps agree on;
+it has no pydrake.systems import (ARCHITECTURE.md: ``models/`` is plain numpy).
+
+Conventions
+-----------
+* **Depth images** are ``(H, W)`` float arrays in metres along the camera's optical axis (Drake's
+  ``ImageDepth32F`` data, squeezed). A pixel without a measurement is ``NaN`` (what the
+  depth-noise model writes, the ROS convention for 32-bit depth); every consumer also treats
+  ``0``, negative values and ``inf`` (Drake's too-close / too-far codes) as "no measurement"
+  (:func:`valid_depth_mask`).
+* **Camera frame** C is Drake's: x right, y down, z forward (optical axis). ``X_WC`` is the
+  camera pose in the world as a 4x4 homogeneous matrix at this layer.
+* **A rectangle** R (:class:`FrontRectangle`): its pose ``X_WR`` is the centre of the
+  rectangle with x along the width, y along the height and z the plane normal pointing
+  towards the camera that saw it; ``width`` >= 0 along x and ``height`` >= 0 along y, metres.
+  The same physical rectangle has 8 such parameterisations (which corner / side is "first",
+  thesis 5.1.3): the tracker resolves that ambiguity, the detector returns any one of them with
+  z towards the camera.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["PinholeIntrinsics", "FrontRectangle", "valid_depth_mask", "depth_to_points"]
+
+
+@dataclass(frozen=True)
+class PinholeIntrinsics:
+    """A pinhole camera without distortion (Drake's ``CameraInfo``).
+
+    Attributes:
+        width, height: image size, pixels.
+        fx, fy: focal lengths, pixels.
+        cx, cy: principal point, pixels (column, row of the optical axis).
+    """
+
+    width: int
+    height: int
+    fx: float
+    fy: float
+    cx: float
+    cy: float
+
+    @classmethod
+    def from_fov(cls, width: int, height: int, fov_x_deg: float) -> "PinholeIntrinsics":
+        """Square pixels, principal point in the image centre (Drake's ``CameraInfo(w, h, fov_y)``
+        convention for the centre: ``(w - 1) / 2``, ``(h - 1) / 2``), horizontal field of view in
+        degrees."""
+        if width <= 0 or height <= 0:
+            raise ValueError(f"PinholeIntrinsics: image size must be positive, got {width}x{height}")
+        if not 0.0 < fov_x_deg < 180.0:
+            raise ValueError(f"PinholeIntrinsics: fov_x_deg must be in (0, 180), got {fov_x_deg}")
+        f = 0.5 * width / np.tan(0.5 * np.deg2rad(fov_x_deg))
+        return cls(int(width), int(height), float(f), float(f),
+                   0.5 * (width - 1), 0.5 * (height - 1))
+
+    @classmethod
+    def from_camera_info(cls, info) -> "PinholeIntrinsics":
+        """From a ``pydrake.systems.sensors.CameraInfo`` (duck-typed: no import needed)."""
+        return cls(int(info.width()), int(info.height()), float(info.focal_x()),
+                   float(info.focal_y()), float(info.center_x()), float(info.center_y()))
+
+    @property
+    def fov_x_deg(self) -> float:
+        return float(np.rad2deg(2.0 * np.arctan(0.5 * self.width / self.fx)))
+
+
+@dataclass(frozen=True)
+class FrontRectangle:
+    """A planar rectangle in the world (a cabinet front), as detected in one depth image.
+
+    Attributes:
+        X_WR: (4, 4) pose of the centre: x along the width, y along the height, z the plane
+            normal towards the camera.
+        width: extent along x, m.
+        height: extent along y, m.
+        precision: share of the rectangle's projected pixels that lie in its plane (Eq. 5.4).
+        recall: share of the plane's in-plane pixels near the rectangle that it covers (Eq. 5.5).
+    """
+
+    X_WR: np.ndarray
+    width: float
+    height: float
+    precision: float = 1.0
+    recall: float = 1.0
+
+    def __post_init__(self):
+        X = np.asarray(self.X_WR, float)
+        if X.shape != (4, 4) or not np.all(np.isfinite(X)):
+            raise ValueError(f"FrontRectangle.X_WR must be a finite 4x4 matrix, got shape {X.shape}")
+        if not (np.isfinite(self.width) and np.isfinite(self.height)) or self.width < 0 or self.height < 0:
+            raise ValueError(f"FrontRectangle: width/height must be finite and >= 0, got "
+                             f"{self.width}, {self.height}")
+        object.__setattr__(self, "X_WR", X)
+
+    @property
+    def center(self) -> np.ndarray:
+        return self.X_WR[:3, 3].copy()
+
+    @property
+    def normal(self) -> np.ndarray:
+        return self.X_WR[:3, 2].copy()
+
+    def corners(self) -> np.ndarray:
+        """(4, 3) world corners, counter-clockwise seen from +z: (-w/2, -h/2), (+, -), (+, +), (-, +)."""
+        hw, hh = 0.5 * self.width, 0.5 * self.height
+        local = np.array([[-hw, -hh, 0.0], [hw, -hh, 0.0], [hw, hh, 0.0], [-hw, hh, 0.0]])
+        return local @ self.X_WR[:3, :3].T + self.X_WR[:3, 3]
+
+    def pose7(self) -> np.ndarray:
+        """(7,) x y z qx qy qz qw of ``X_WR`` (the track format of ``models/``)."""
+        from .se3 import matrix_to_pose7
+        return np.asarray(matrix_to_pose7(self.X_WR[None]), float)[0]
+
+
+def valid_depth_mask(depth: np.ndarray) -> np.ndarray:
+    """Pixels with a measurement: finite and > 0 (NaN, inf, 0 and negative mean "none")."""
+    d = np.asarray(depth)
+    return np.isfinite(d) & (d > 0.0)
+
+
+def depth_to_points(depth: np.ndarray, K: PinholeIntrinsics) -> np.ndarray:
+    """Back-project a depth image to camera-frame points, (H, W, 3), NaN where there is no
+    measurement. Raises ``ValueError`` when the image's shape is not ``(K.height, K.width)``
+    (a trailing channel axis of 1 is accepted)."""
+    d = np.asarray(depth, float)
+    if d.ndim == 3 and d.shape[2] == 1:
+        d = d[..., 0]
+    if d.shape != (K.height, K.width):
+        raise ValueError(f"depth image has shape {np.asarray(depth).shape}, expected "
+                         f"({K.height}, {K.width}) for these intrinsics")
+    d = np.where(valid_depth_mask(d), d, np.nan)
+    u = np.arange(K.width, dtype=float)[None, :]
+    v = np.arange(K.height, dtype=float)[:, None]
+    x = (u - K.cx) / K.fx * d
+    y = (v - K.cy) / K.fy * d
+    return np.stack([x, y, d], axis=-1)
