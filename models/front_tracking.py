@@ -197,9 +197,11 @@ def rectangles_from_poses(poses, sizes, *, origin: str = "centre") -> list:
     return [FrontRectangle(X[i], float(S[i, 0]), float(S[i, 1])) for i in range(len(X))]
 
 
-@dataclass(frozen=True)
+@dataclass
 class FrontTrackingConfig:
     """Association and track bookkeeping (defaults: the original system's, see module doc).
+    Load with ``yaml_load_typed``; :func:`track_frame` validates it again (YAML sets the
+    fields after construction).
 
     Attributes:
         max_distance_m: largest centre distance of a rectangle from a track observation, m.
@@ -224,16 +226,21 @@ class FrontTrackingConfig:
     min_recall: float = 0.0
 
     def __post_init__(self):
+        self.validate()
+
+    def validate(self) -> None:
+        """Raise ValueError naming the first bad field."""
         for name in ("max_distance_m", "max_angle_deg", "max_size_diff_m"):
             v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and np.isfinite(v) and v > 0):
+            if isinstance(v, bool) or not (isinstance(v, (int, float)) and np.isfinite(v)
+                                           and v > 0):
                 raise ValueError(f"FrontTrackingConfig.{name} must be a positive number, got {v!r}")
         if not self.max_angle_deg < 45.0:
             raise ValueError("FrontTrackingConfig.max_angle_deg must be < 45 (above it two of "
                              f"the 8 parameterisations could both pass), got {self.max_angle_deg}")
         for name in ("min_observations", "max_observations", "max_tracks"):
             v = getattr(self, name)
-            if not (isinstance(v, (int, np.integer)) and v >= 1):
+            if isinstance(v, bool) or not (isinstance(v, (int, np.integer)) and v >= 1):
                 raise ValueError(f"FrontTrackingConfig.{name} must be an integer >= 1, got {v!r}")
         if self.max_observations < self.min_observations:
             raise ValueError("FrontTrackingConfig.max_observations must be >= min_observations")
@@ -440,6 +447,7 @@ def track_frame(state: TrackingState, rectangles, time: float,
         (new TrackingState, FrameResult).
     """
     cfg = config if config is not None else FrontTrackingConfig()
+    cfg.validate()
     try:
         items = list(rectangles) if rectangles is not None else []
     except TypeError:
