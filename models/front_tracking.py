@@ -54,8 +54,6 @@ a 0.395 m door (the detector takes in the coplanar cabinet frame on the hinge si
 door is nearly closed), so the centre's radius is ~0.04 m short of w/2.
 """
 
-from __future__ import annotations
-
 from dataclasses import dataclass
 
 import numpy as np

@@ -16,8 +16,6 @@ still select revolute at 0.005-0.02 m. Larger sigmas cannot resolve the door's s
 whose three observations are 2 sigma apart (models/articulation_links.py) and the GP wins.
 """
 
-from __future__ import annotations
-
 from dataclasses import dataclass, field
 
 import numpy as np

@@ -1,0 +1,150 @@
+"""The FrontTracker LeafSystem (systems/front_tracker.py): tracks and link models from a stream
+of detected rectangles, under a Simulator; bad inputs; Drake semantics (state in the Context)."""
+
+import numpy as np
+import pytest
+from pydrake.common.value import AbstractValue
+from pydrake.common.yaml import yaml_load_typed
+from pydrake.systems.analysis import Simulator
+from pydrake.systems.framework import DiagramBuilder, LeafSystem
+
+from mmlearn.models.front_tracking import FrontTrackingConfig, simulate_front_rectangles
+from mmlearn.systems.front_tracker import FrontTracker, FrontTrackerConfig
+
+PERIOD = 0.1
+
+
+class RectangleReplay(LeafSystem):
+    """Outputs frames[k] (a list of rectangles, or any object) at t in [k, k+1) * PERIOD."""
+
+    def __init__(self, frames):
+        super().__init__()
+        self._frames = frames
+        self.DeclareAbstractOutputPort("rectangles", lambda: AbstractValue.Make(list()),
+                                       self._calc, {self.time_ticket()})
+
+    def _calc(self, context, out):
+        k = int(context.get_time() / PERIOD + 1e-9)
+        out.set_value(self._frames[k] if k < len(self._frames) else [])
+
+
+def _diagram(frames, config=None):
+    b = DiagramBuilder()
+    src = b.AddNamedSystem("replay", RectangleReplay(frames))
+    trk = b.AddNamedSystem("tracker", FrontTracker(config=config or FrontTrackerConfig(
+        period_s=PERIOD)))
+    b.Connect(src.get_output_port(), trk.get_rectangles_input_port())
+    b.ExportOutput(trk.get_stats_output_port(), "stats")
+    return b.Build(), trk
+
+
+def _scene(n=45, seed=0):
+    """A moving drawer, a door and a still background front, detections in random
+    parameterisations, some frames with gaps, NaN rectangles and junk."""
+    rng = np.random.default_rng(seed)
+    drawer = simulate_front_rectangles("drawer", n, rng=rng, travel=0.35)
+    X = np.eye(4)
+    X[:3, 3] = [1.0, 0.0, 0.4]
+    door = simulate_front_rectangles("door", n, rng=rng, X_WO=X, travel=1.3)
+    X = np.eye(4)
+    X[:3, 3] = [-0.8, 0.2, 0.0]
+    wall = simulate_front_rectangles("rigid", n, rng=rng, X_WO=X, width=0.6, height=0.9)
+
+    class NaNRect:
+        X_WR = np.full((4, 4), np.nan)
+        width = height = 0.4
+
+    frames = []
+    for i in range(n):
+        f = [drawer[i], door[i], wall[i]]
+        if i % 9 == 4:
+            f.append(NaNRect())
+        if i % 11 == 7:
+            f = [door[i]]  # the drawer and the wall not detected
+        frames.append(f)
+    frames[20] = []
+    frames[21] = None
+    frames[22] = "not a list"
+    return frames
+
+
+def test_tracker_learns_prismatic_and_revolute_under_a_simulator():
+    frames = _scene()
+    diagram, trk = _diagram(frames)
+    sim = Simulator(diagram)
+    sim.AdvanceTo(PERIOD * (len(frames) - 0.5))
+    ctx = trk.GetMyContextFromRoot(sim.get_context())
+    tracks = trk.get_tracks_output_port().Eval(ctx)
+    models = trk.get_models_output_port().Eval(ctx)
+    stats = trk.get_stats_output_port().Eval(ctx)
+    assert len(tracks) == 3, [t.n for t in tracks]
+    by_x = sorted(tracks, key=lambda t: t.poses[0, 0])  # wall, drawer, door
+    assert [models[t.track_id].selected for t in by_x] == ["rigid", "prismatic", "revolute"]
+    door = models[by_x[2].track_id].model
+    assert door.radius == pytest.approx(0.395 / 2, abs=0.03)
+    assert abs(door.axis[2]) > np.cos(np.radians(5))  # hinge axis vertical
+    drawer = models[by_x[1].track_id].model
+    assert abs(drawer.axis[1]) > np.cos(np.radians(5))  # pulled along the normal
+    # frames: 45 updates; the NaN rectangles counted, junk input counted, nothing raised
+    assert stats[2] == len(frames)
+    assert stats[3] == 3  # NaNRect at i = 4, 13, 31 (22 is junk, 40 holds the door only)
+    assert stats[6] == 1  # "not a list"
+    assert stats[5] == 0  # no fit failed
+
+
+def test_same_frame_twice_is_added_once_and_inputs_unconnected_do_not_crash():
+    rects = simulate_front_rectangles("drawer", 3, rng=0, travel=0.05)
+    # every frame held for two tracker periods
+    frames = [[rects[k // 2]] for k in range(6)]
+    diagram, trk = _diagram(frames)
+    sim = Simulator(diagram)
+    sim.AdvanceTo(0.55)
+    st = trk.state(trk.GetMyContextFromRoot(sim.get_context()))
+    assert [t.n for t in st.tracking.tracks] == [3]
+    # an unconnected input: counted as a bad input, the simulation goes on
+    lone = FrontTracker(config=FrontTrackerConfig(period_s=PERIOD))
+    sim = Simulator(lone)
+    sim.AdvanceTo(0.25)
+    assert lone.get_stats_output_port().Eval(sim.get_context())[6] == 3
+
+
+def test_config_from_yaml_and_validation():
+    cfg = yaml_load_typed(schema=FrontTrackerConfig, data="""
+period_s: 0.2
+sigma_pos_m: 0.01
+tracking: {max_distance_m: 0.15, min_observations: 8}
+""")
+    assert cfg.tracking.max_distance_m == 0.15 and cfg.tracking.min_observations == 8
+    FrontTracker(config=cfg)
+    with pytest.raises(Exception, match="max_distanc"):
+        yaml_load_typed(schema=FrontTrackerConfig, data="tracking: {max_distanc_m: 0.2}")
+    for bad, match in [(dict(period_s=0.0), "period_s"), (dict(models="rigid,hinge"), "hinge"),
+                       (dict(refit_every=0), "refit_every"),
+                       (dict(tracking=FrontTrackingConfig(max_angle_deg=30)), None)]:
+        if match is None:
+            FrontTracker(config=FrontTrackerConfig(**bad))
+            continue
+        with pytest.raises(ValueError, match=match):
+            FrontTracker(config=FrontTrackerConfig(**bad))
+    cfg = FrontTrackerConfig()
+    cfg.tracking.max_size_diff_m = -1.0
+    with pytest.raises(ValueError, match="max_size_diff_m"):
+        FrontTracker(config=cfg)
+
+
+def test_two_simulators_and_a_clone_reproduce_a_lone_run():
+    from test_drake_semantics import _check
+
+    frames = _scene(n=25, seed=1)
+    diagram, trk = _diagram(frames, FrontTrackerConfig(period_s=PERIOD, refit_every=4))
+
+    def extra(ctx):
+        c = trk.GetMyContextFromRoot(ctx)
+        st = trk.state(c)
+        tracks = tuple((t.track_id, t.poses.tobytes()) for t in st.tracking.tracks)
+        models = tuple(sorted((k, m.selected, m.n, round(m.model.bic_, 9))
+                              for k, m in trk.get_models_output_port().Eval(c).items()))
+        return tracks, models
+
+    end = _check(diagram, lambda ctx: None, [0.6, 1.2, 1.8, 2.45], extra=extra)
+    assert len(end["extra"][1]) == 3  # three published, fitted tracks
