@@ -4,6 +4,7 @@ Usage::
 
     python -m mmlearn.apps.fit_articulation PATH [PATH ...] [--sigma-pos M]
         [--sigma-orient RAD] [--models rigid,prismatic,revolute,gp] [--seed N]
+        [--rectangles corner|centre] [--expect MODEL [--subsample N] [--repeats R]]
         [--plot OUT.png] [--json]
 
 PATH is a track file (3, 7 or 9 whitespace columns, ``#`` comments; see
@@ -17,6 +18,27 @@ The track is the pose of the moving part in a fixed frame (the robot's or the ca
                  "params": {...}, "fit_seconds", "not_selectable" (optional: candidates
                  that cannot be told from a simpler model, with the reason)}],
      "errors": [{"path", "error"}]}
+
+``--rectangles ORIGIN`` reads 9-column files as tracks of cabinet-front rectangles (thesis ch. 5)
+whose pose sits at ORIGIN of the rectangle: ``corner`` (the original detector's convention,
+the rectangle spanning [0, w] x [0, h]; the files in shared/data/articulation_logs/
+rectangle_tracks) or ``centre``. The track is converted to centre poses and its
+observations are brought into one of the 8 parameterisations of a rectangle
+(models/front_tracking.py: align_track); each track's JSON gains ``"rectangle"``:
+{"pose_origin_in_file", "axis_error_deg" (revolute: hinge axis against the nearer edge
+direction; prismatic: axis against the front's normal), "hinge_edge", "half_size_m",
+"radius_m", "cv_pos_error_m", "cv_orient_error_rad" (5-fold cross-validated prediction
+errors of the selected model class)}. Reproduces the real-track results of
+models/front_tracking.py, e.g.::
+
+    python -m mmlearn.apps.fit_articulation tests/data/articulation_logs/rectangle_door.txt \
+        --rectangles corner --sigma-pos 0.02 --sigma-orient 0.0524 --expect revolute
+
+``--expect MODEL`` adds ``"selection_vs_n"`` (the protocol of thesis Sec. 5.2.2, see
+models/front_tracking.subsampled_selection: ``--subsample`` observations drawn in temporal
+order, a model selected on the first n = 5, 10, ... of them, ``--repeats`` draws) with
+``right_fraction`` per n, ``model_right_from`` per draw, and ``right_in_all_from`` (first n
+from which every draw selects MODEL at every later n; null if none).
 
 Revolute params: radius_m, axis (unit 3-vector), center (m), q range (rad); prismatic: axis,
 origin_m, q range (m). Errors are averages over the observations the selected model classifies
@@ -34,10 +56,12 @@ import time
 import numpy as np
 
 from mmlearn.apps._common import (ArgumentParser, UsageError, check_out_file, fail,
-                                  json_clean, nonneg_int, pos_float)
+                                  json_clean, nonneg_int, pos_float, pos_int)
 from mmlearn.apps._common import save_figure
 from mmlearn.models.articulation import ObservationModel, make_model
 from mmlearn.models.articulation_structure import DEFAULT_CANDIDATES, select_link_model
+from mmlearn.models.front_tracking import (align_track, axis_errors, cross_validated_errors,
+                                           rectangles_from_poses, subsampled_selection)
 from mmlearn.models.track_io import (TRACK_SUFFIXES, TrackFileError, find_track_files,
                                      read_track)
 
@@ -68,11 +92,24 @@ def fit_track(poses, *, obs: ObservationModel, models=DEFAULT_CANDIDATES, rng=No
     return res, sel
 
 
+def _right_in_all_from(sel: dict):
+    ns, frac = sel["n"], sel["right_fraction"]
+    out = None
+    for i in range(len(ns) - 1, -1, -1):
+        if frac[i] < 1.0:
+            break
+        out = ns[i]
+    return out
+
+
 def run(paths, *, sigma_pos: float = 0.01, sigma_orient: float = float(np.deg2rad(5.0)),
         models=DEFAULT_CANDIDATES, seed: int = 0, plot: str | None = None,
-        progress: bool = True, log=sys.stderr) -> dict:
+        progress: bool = True, log=sys.stderr, rectangles: str | None = None,
+        expect: str | None = None, subsample: int = 60, repeats: int = 50) -> dict:
     """Fit every track in ``paths`` (files or folders). Returns
-    {"tracks": [...], "errors": [...]} (see module docstring)."""
+    {"tracks": [...], "errors": [...]} (see module docstring). ``rectangles``: None or the
+    pose origin of 9-column rectangle files ("corner" / "centre"); ``expect``: a model name
+    for the selection-vs-n protocol (``subsample`` observations, ``repeats`` draws)."""
     obs = ObservationModel(sigma_pos=sigma_pos, sigma_orient=sigma_orient)
     if isinstance(models, str):
         models = [m.strip() for m in models.split(",") if m.strip()]
@@ -92,6 +129,16 @@ def run(paths, *, sigma_pos: float = 0.01, sigma_orient: float = float(np.deg2ra
             print(f"error: {e}", file=log)
             out["errors"].append({"path": f, "error": str(e)})
             continue
+        rects = None
+        if rectangles is not None:
+            if tr.extra is None:
+                msg = (f"{f}: --rectangles needs 9 columns (x y z qx qy qz qw width height), "
+                       f"the file has {tr.poses.shape[1]}")
+                print(f"error: {msg}", file=log)
+                out["errors"].append({"path": f, "error": msg})
+                continue
+            rects = align_track(rectangles_from_poses(tr.poses, tr.extra, origin=rectangles))
+            tr.poses = np.array([r.pose7() for r in rects])
         try:
             res, sel = fit_track(tr.poses, obs=obs, models=models, rng=rng)
         except ValueError as e:
@@ -99,6 +146,16 @@ def run(paths, *, sigma_pos: float = 0.01, sigma_orient: float = float(np.deg2ra
             print(f"error: {msg}", file=log)
             out["errors"].append({"path": f, "error": msg})
             continue
+        if rects is not None:
+            cv = cross_validated_errors(tr.poses, sel.best.name, obs=obs, seed=seed)
+            res["rectangle"] = {"pose_origin_in_file": rectangles,
+                                **axis_errors(sel.best, rects),
+                                "cv_pos_error_m": cv[0], "cv_orient_error_rad": cv[1]}
+        if expect is not None:
+            vs = subsampled_selection(tr.poses, expected=expect, n_sample=subsample,
+                                      repeats=repeats, obs=obs, seed=seed)
+            vs["right_in_all_from"] = _right_in_all_from(vs)
+            res["selection_vs_n"] = vs
         res = {"path": f, **res}
         out["tracks"].append(json_clean(res))
         selections.append((f, tr, sel))
@@ -168,6 +225,21 @@ def _print_table(out, file=sys.stdout):
         print(f"{t['path'][-50:]:50s} {t['n']:5d} {t['selected']:>10s} {t['gamma']:6.3f} "
               f"{t['avg_pos_error_m']:8.4f} {'-' if oe is None else f'{oe:8.4f}':>8s} {detail}",
               file=file)
+        rc = t.get("rectangle")
+        if rc:
+            ae = rc.get("axis_error_deg")
+            print(f"    rectangle (pose at the {rc['pose_origin_in_file']} in the file, fitted at "
+                  f"the centre): axis error {'-' if ae is None else f'{ae:.2f}'} deg, "
+                  f"cross-validated error {rc['cv_pos_error_m']:.4f} m / "
+                  f"{np.degrees(rc['cv_orient_error_rad']):.2f} deg"
+                  + (f", half size across the hinge {rc['half_size_m']:.3f} m"
+                     if "half_size_m" in rc else ""), file=file)
+        vs = t.get("selection_vs_n")
+        if vs:
+            print("    n:          " + " ".join(f"{n:5d}" for n in vs["n"]), file=file)
+            print("    right share:" + " ".join(f"{x:5.2f}" for x in vs["right_fraction"]),
+                  file=file)
+            print(f"    right in all draws from n = {vs['right_in_all_from']}", file=file)
 
 
 def main(argv=None) -> int:
@@ -186,6 +258,17 @@ def main(argv=None) -> int:
                     help="comma-separated candidates (rigid,prismatic,revolute,gp,gp2..gp5,"
                          "gp-lle)")
     ap.add_argument("--seed", type=nonneg_int, default=0, help="random seed (MLESAC sampling)")
+    ap.add_argument("--rectangles", choices=("corner", "centre"), default=None,
+                    help="9-column files are rectangle tracks with the pose at this point of "
+                         "the rectangle: fit the centre pose in one consistent "
+                         "parameterisation (the original detector's files: corner)")
+    ap.add_argument("--expect", metavar="MODEL", default=None,
+                    help="report model selection against the number of observations "
+                         "(thesis Sec. 5.2.2 protocol) and from which n MODEL is selected")
+    ap.add_argument("--subsample", type=pos_int, default=60, metavar="N",
+                    help="--expect: observations drawn per repeat (default 60)")
+    ap.add_argument("--repeats", type=pos_int, default=50, metavar="R",
+                    help="--expect: number of draws (default 50)")
     ap.add_argument("--plot", metavar="OUT.png", default=None,
                     help="write a figure of the observations and fitted models")
     ap.add_argument("--json", action="store_true", help="print results as one JSON object")
@@ -200,6 +283,11 @@ def main(argv=None) -> int:
                 make_model(name)
             except ValueError as e:
                 raise UsageError(f"--models: {e}") from None
+        if args.expect is not None:
+            try:
+                args.expect = make_model(args.expect).name
+            except ValueError as e:
+                raise UsageError(f"--expect: {e}") from None
         check_out_file("--plot", args.plot)
         files = find_track_files(args.paths)
         if not files:
@@ -210,7 +298,9 @@ def main(argv=None) -> int:
     try:
         out = run(args.paths, sigma_pos=args.sigma_pos, sigma_orient=args.sigma_orient,
                   models=args.models, seed=args.seed, plot=args.plot,
-                  progress=not args.no_progress and not args.json)
+                  progress=not args.no_progress and not args.json,
+                  rectangles=args.rectangles, expect=args.expect, subsample=args.subsample,
+                  repeats=args.repeats)
     except ValueError as e:
         return fail(ap.prog, str(e))
     if args.json:

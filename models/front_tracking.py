@@ -83,6 +83,10 @@ __all__ = [
     "fit_track_model",
     "selection_vs_observations",
     "simulate_front_rectangles",
+    "align_track",
+    "axis_errors",
+    "cross_validated_errors",
+    "subsampled_selection",
 ]
 
 
@@ -671,3 +675,120 @@ def simulate_front_rectangles(kind: str, n: int, *, rng=None, travel: float | No
         w, hh = (h, width) if SWAPS_SIZE[j] else (width, h)
         out.append(FrontRectangle(X, w, hh))
     return out
+
+
+def align_track(rectangles) -> list:
+    """One file's rectangles as one track: every rectangle re-parameterised to the one of its
+    8 parameterisations closest to the previous (aligned) rectangle, without gating (a
+    recorded track is already associated; its steps may exceed the tracker's gates when
+    it was sub-sampled)."""
+    out = []
+    for r in rectangles:
+        if out:
+            X, w, h, _ = align_rectangle(out[-1].X_WR, r.X_WR, r.width, r.height)
+            r = FrontRectangle(X, w, h, r.precision, r.recall)
+        out.append(r)
+    return out
+
+
+def axis_errors(model, rectangles) -> dict:
+    """Geometry of a fitted model against the rectangles it was fitted to (no ground truth
+    needed): a door's hinge lies along one of the front's edges, a drawer moves along the
+    front's normal.
+
+    Returns:
+        {"axis_error_deg": revolute: angle between the rotation axis and the nearer of the
+        rectangle's mean x / y edge directions; prismatic: angle between the axis and the
+        mean normal; None otherwise, "hinge_edge": "x" / "y" (revolute), "half_size_m": half
+        the mean extent across the hinge (revolute: the centre's radius if the hinge is on
+        the far edge), "radius_m" (revolute)}.
+    """
+    X = np.stack([r.X_WR for r in rectangles])
+    sizes = np.array([[r.width, r.height] for r in rectangles])
+    mean_axes = []
+    for k in range(3):
+        v = X[:, :3, k].mean(axis=0)
+        mean_axes.append(v / max(np.linalg.norm(v), 1e-12))
+    out = {"axis_error_deg": None}
+    if model.name == "revolute":
+        a = np.asarray(model.axis, float)
+        ang = [np.degrees(np.arccos(min(1.0, abs(float(a @ e))))) for e in mean_axes[:2]]
+        k = int(np.argmin(ang))
+        out.update(axis_error_deg=float(ang[k]), hinge_edge="xy"[k],
+                   half_size_m=float(0.5 * sizes[:, 1 - k].mean()),
+                   radius_m=float(model.radius))
+    elif model.name == "prismatic":
+        a = np.asarray(model.axis, float)
+        out["axis_error_deg"] = float(np.degrees(np.arccos(min(1.0, abs(float(a @ mean_axes[2]))))))
+    return out
+
+
+def cross_validated_errors(poses, model_name: str, *, obs=None, folds: int = 5,
+                           seed: int = 0) -> tuple:
+    """Prediction errors of ``model_name`` by k-fold cross-validation (interleaved folds:
+    observation i is in fold i mod k): mean over the held-out observations of the position
+    (m) and orientation (rad) error of f(f^-1(z)). Folds whose fit fails are skipped;
+    (nan, nan) if all fail."""
+    from .articulation import make_model
+    P = np.asarray(poses, float)
+    obs = obs if obs is not None else front_observation_model()
+    ep, eo, cnt = 0.0, 0.0, 0
+    for k in range(int(folds)):
+        test = np.arange(P.shape[0]) % folds == k
+        if test.sum() == 0 or (~test).sum() < 3:
+            continue
+        m = make_model(model_name, obs=obs)
+        try:
+            m.fit(P[~test], rng=seed)
+        except ValueError:
+            continue
+        a, b = m.prediction_errors(P[test])
+        ep += a * test.sum()
+        eo += (0.0 if b is None else b) * test.sum()
+        cnt += int(test.sum())
+    if cnt == 0:
+        return float("nan"), float("nan")
+    return ep / cnt, eo / cnt
+
+
+def subsampled_selection(poses, *, expected: str, n_sample: int = 60, repeats: int = 50,
+                         ns=None, obs=None, seed: int = 0, progress=None) -> dict:
+    """The protocol of thesis Sec. 5.2.2: draw ``n_sample`` observations uniformly from the
+    track (kept in temporal order), select a model on the first n of them for each n in
+    ``ns`` (default 5, 10, ..., n_sample), repeat ``repeats`` times.
+
+    Returns:
+        {"n": ns, "right_fraction": per n the share of repeats that select ``expected``,
+        "selected_counts": per n {model: count}, "model_right_from": per repeat the first n
+        from which every later n selects ``expected`` (None if the last does not),
+        "heldout_pos_error_m" / "heldout_orient_error_rad": per n the mean over repeats of
+        the error on the drawn observations after the first n (NaN at n = n_sample)}.
+    """
+    P = np.asarray(poses, float)
+    n_sample = min(int(n_sample), P.shape[0])
+    ns = list(range(5, n_sample + 1, 5)) if ns is None else [int(n) for n in ns]
+    rng = np.random.default_rng(seed)
+    right = np.zeros(len(ns))
+    counts = [dict() for _ in ns]
+    ep = np.zeros(len(ns))
+    eo = np.zeros(len(ns))
+    nerr = np.zeros(len(ns))
+    first = []
+    for r in range(int(repeats)):
+        idx = np.sort(rng.choice(P.shape[0], n_sample, replace=False))
+        res = selection_vs_observations(P[idx], expected=expected, ns=ns, obs=obs, seed=seed + r)
+        first.append(res["model_right_from"])
+        for i, name in enumerate(res["selected"]):
+            counts[i][str(name)] = counts[i].get(str(name), 0) + 1
+            right[i] += name == expected
+            if np.isfinite(res["heldout_pos_error_m"][i]):
+                ep[i] += res["heldout_pos_error_m"][i]
+                eo[i] += res["heldout_orient_error_rad"][i]
+                nerr[i] += 1
+        if progress is not None:
+            progress(r)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return {"n": ns, "right_fraction": (right / max(int(repeats), 1)).tolist(),
+                "selected_counts": counts, "model_right_from": first,
+                "heldout_pos_error_m": (ep / nerr).tolist(),
+                "heldout_orient_error_rad": (eo / nerr).tolist()}
