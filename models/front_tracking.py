@@ -271,6 +271,8 @@ class FrontTrack:
         times: (n,) observation times, s.
         quality: (n, 2) precision, recall of each detection.
         total: observations ever added (>= n when old ones were dropped).
+        rotations: (n, 3, 3) the orientations as matrices (computed from ``poses`` when
+            not given; kept for the association).
     """
 
     track_id: int
@@ -279,9 +281,13 @@ class FrontTrack:
     times: np.ndarray
     quality: np.ndarray
     total: int
+    rotations: np.ndarray | None = None
 
     def __post_init__(self):
-        for name in ("poses", "sizes", "times", "quality"):
+        if self.rotations is None:
+            object.__setattr__(self, "rotations",
+                               Rotation.from_quat(np.asarray(self.poses, float)[:, 3:]).as_matrix())
+        for name in ("poses", "sizes", "times", "quality", "rotations"):
             object.__setattr__(self, name, _ro(getattr(self, name)))
 
     def __deepcopy__(self, memo):
@@ -298,7 +304,7 @@ class FrontTrack:
     def matrices(self) -> np.ndarray:
         """(n, 4, 4) centre poses."""
         X = np.tile(np.eye(4), (self.n, 1, 1))
-        X[:, :3, :3] = Rotation.from_quat(self.poses[:, 3:]).as_matrix()
+        X[:, :3, :3] = self.rotations
         X[:, :3, 3] = self.poses[:, :3]
         return X
 
@@ -393,7 +399,9 @@ def _pose7(X: np.ndarray, q_prev: np.ndarray | None) -> np.ndarray:
 
 def _gate_costs(tracks, rects, cfg: FrontTrackingConfig):
     """Cost (T, k) of each rectangle against each track (inf = outside the gate) and, per
-    pair, the index of the best symmetry."""
+    pair, the index of the best symmetry. Vectorised over all stored observations of all
+    tracks; orientations and sizes are compared only where the centres pass the distance
+    gate."""
     T, k = len(tracks), len(rects)
     cost = np.full((T, k), np.inf)
     sym = np.zeros((T, k), int)
@@ -401,21 +409,31 @@ def _gate_costs(tracks, rects, cfg: FrontTrackingConfig):
         return cost, sym
     RX = np.stack([r.X_WR for r in rects])  # (k, 4, 4)
     WH = np.array([[r.width, r.height] for r in rects])  # (k, 2)
+    P = np.concatenate([t.poses[:, :3] for t in tracks])  # (M, 3)
+    owner = np.repeat(np.arange(T), [t.n for t in tracks])  # (M,)
+    d = np.linalg.norm(P[:, None] - RX[None, :, :3, 3], axis=-1)  # (M, k)
+    mi, ki = np.nonzero(d <= cfg.max_distance_m)
+    if mi.size == 0:
+        return cost, sym
+    R = np.concatenate([t.rotations for t in tracks])[mi]  # (L, 3, 3)
+    S = np.concatenate([t.sizes for t in tracks])[mi]  # (L, 2)
+    ang = _angles_to(R, RX[ki, :3, :3])  # (L, 8)
+    wh = np.where(SWAPS_SIZE[None, :, None], WH[ki][:, None, ::-1], WH[ki][:, None, :])
+    ds = np.abs(S[:, None, :] - wh).max(axis=-1)  # (L, 8)
     max_ang = np.deg2rad(cfg.max_angle_deg)
-    for ti, t in enumerate(tracks):
-        Rref = Rotation.from_quat(t.poses[:, 3:]).as_matrix()  # (m, 3, 3)
-        ang = _angles_to(Rref[:, None], RX[None, :, :3, :3])  # (m, k, 8)
-        d = np.linalg.norm(t.poses[:, None, :3] - RX[None, :, :3, 3], axis=-1)  # (m, k)
-        # size difference per symmetry: swapped sizes for odd rotations about z
-        wh = np.where(SWAPS_SIZE[None, :, None], WH[:, None, ::-1], WH[:, None, :])  # (k, 8, 2)
-        ds = np.abs(t.sizes[:, None, None, :] - wh[None]).max(axis=-1)  # (m, k, 8)
-        c = d[..., None] / cfg.max_distance_m + ang / max_ang + ds / cfg.max_size_diff_m
-        ok = (d[..., None] <= cfg.max_distance_m) & (ang <= max_ang) & (ds <= cfg.max_size_diff_m)
-        c = np.where(ok, c, np.inf)
-        flat = c.transpose(1, 0, 2).reshape(k, -1)  # (k, m * 8)
-        best = np.argmin(flat, axis=1)
-        cost[ti] = flat[np.arange(k), best]
-        sym[ti] = best % 8
+    c = d[mi, ki][:, None] / cfg.max_distance_m + ang / max_ang + ds / cfg.max_size_diff_m
+    c = np.where((ang <= max_ang) & (ds <= cfg.max_size_diff_m), c, np.inf)
+    j = np.argmin(c, axis=1)
+    cb = c[np.arange(c.shape[0]), j]
+    ok = np.isfinite(cb)
+    if not ok.any():
+        return cost, sym
+    pair = owner[mi[ok]] * k + ki[ok]
+    cb, j = cb[ok], j[ok]
+    order = np.lexsort((cb, pair))  # by pair, then cost
+    first = order[np.r_[True, pair[order][1:] != pair[order][:-1]]]
+    cost.flat[pair[first]] = cb[first]
+    sym.flat[pair[first]] = j[first]
     return cost, sym
 
 
@@ -427,7 +445,8 @@ def _append(t: FrontTrack, r: FrontRectangle, j: int, time: float, cfg) -> Front
     keep = cfg.max_observations
     return FrontTrack(t.track_id, np.vstack([t.poses, p7[None]])[-keep:],
                       np.vstack([t.sizes, [wh]])[-keep:], np.append(t.times, time)[-keep:],
-                      np.vstack([t.quality, [[r.precision, r.recall]]])[-keep:], t.total + 1)
+                      np.vstack([t.quality, [[r.precision, r.recall]]])[-keep:], t.total + 1,
+                      np.concatenate([t.rotations, X[None, :3, :3]])[-keep:])
 
 
 def _new_track(track_id: int, r: FrontRectangle, time: float) -> FrontTrack:
