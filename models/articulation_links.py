@@ -229,6 +229,42 @@ class RevoluteModel(LinkModel):
         return [5, 7, 8]
 
     def _hypotheses(self, d, rng, H):
+        th = self._point_hypotheses(d, rng, H)
+        if d.has_orientation and th.shape[0] == 0:
+            # full poses whose positions are too close together for 3 points 2 sigma_pos
+            # apart (a door seen near its hinge, a short arc at a large assumed sigma; the
+            # fit used to fail here): hypotheses from pairs of poses, whose relative
+            # rotation gives the axis. Only then, and from a generator of its own (seeded
+            # by the track's size, not drawn from ``rng``), so every fit that had 3-point
+            # hypotheses, and every later fit on the same ``rng``, is unchanged.
+            th = self._pose_pair_hypotheses(d, np.random.default_rng([d.n, H]), H)
+        return th
+
+    def _pose_pair_hypotheses(self, d, rng, H):
+        """Hypotheses from 2 full poses (minimal sample with orientation): the relative
+        rotation R_j R_i^T (rotation angle above 3 sigma_orient) is a rotation about the
+        axis, whose line holds the centre c solving (I - R_rel) c = p_j - R_rel p_i (least
+        norm; then moved along the axis to the height of p_i). Returns (h, 12)."""
+        n = d.n
+        i, j = rng.integers(0, n, H), rng.integers(0, n, H)
+        Rrel = d.R[j] @ np.swapaxes(d.R[i], 1, 2)
+        rv = _m2rv(Rrel)
+        ang = np.linalg.norm(rv, axis=1)
+        ok = (ang > 3.0 * self.obs.sigma_orient) & (ang < np.pi - 1e-3)
+        if not ok.any():
+            return np.zeros((0, 12))
+        i, j, Rrel, rv, ang = i[ok], j[ok], Rrel[ok], rv[ok], ang[ok]
+        a = rv / ang[:, None]
+        A = np.eye(3)[None] - Rrel
+        b = d.P[j] - np.einsum("hab,hb->ha", Rrel, d.P[i])
+        c = np.einsum("hab,hb->ha", np.linalg.pinv(A, rcond=1e-6), b)
+        c = c + a * np.einsum("ha,ha->h", d.P[i] - c, a)[:, None]
+        Rc = _frame_with_z(a, d.P[i] - c)
+        r_p = np.einsum("hba,hb->ha", Rc, d.P[i] - c)
+        Rr = np.einsum("hba,hbc->hac", Rc, d.R[i])
+        return np.hstack([c, _m2rv(Rc), r_p, _m2rv(Rr)])
+
+    def _point_hypotheses(self, d, rng, H):
         n = d.n
         idx = np.stack([rng.integers(0, n, H) for _ in range(3)], axis=1)
         p1, p2, p3 = d.P[idx[:, 0]], d.P[idx[:, 1]], d.P[idx[:, 2]]

@@ -121,7 +121,10 @@ def _unresolved(model: LinkModel) -> str | None:
     - A revolute model whose bow over the observed range (the sagitta r (1 - cos(dq / 2)))
       stays below sigma_pos describes a path that the observation model cannot tell from a
       straight line: its radius and centre fit systematic wobble (the robot base's motion,
-      handle play) that the assumed noise declares meaningless, so it is not selected.
+      handle play) that the assumed noise declares meaningless, so it is not selected --
+      unless the track has orientations and the rotation over the range is beyond the
+      noise spread (as in the first test, on the orientation): a prismatic or rigid part
+      cannot rotate, so the rotation resolves the hinge whatever the bow.
     """
     if model.dof == 0:
         return None
@@ -141,6 +144,15 @@ def _unresolved(model: LinkModel) -> str | None:
     dq = float(model.q_max[0] - model.q_min[0])
     bow = model.radius * (1.0 - np.cos(min(dq, np.pi) / 2.0))
     if bow < model.obs_fit.sigma_pos:
+        # with full poses the rotation itself tells a hinge from a straight path (a
+        # prismatic or rigid part keeps its orientation): a rotation over the range beyond
+        # what noise alone spreads (the test above, on the orientation alone) resolves the
+        # revolute model even where its positions bow less than sigma_pos (a door seen
+        # near its hinge, e.g. a rectangle's corner or centre tracked in depth images)
+        if rms is not None and rms[1] is not None:
+            _, lr = model.path_length()
+            if lr / max(rms[1], 1e-9) >= noise_range_threshold(model.n_train):
+                return None
         return (f"bow {bow:.4f} m over the observed {np.degrees(dq):.1f} deg is below "
                 f"sigma_pos {model.obs_fit.sigma_pos:g} m")
     return None
