@@ -8,6 +8,7 @@ from .articulation_estimator import ArticulationEstimator
 from .base_localization import BaseLocalization, BaseLocalizationConfig
 from .epc_controller import EpcConfig, EpcController, EpcTask
 from .front_tracker import FrontTracker, FrontTrackerConfig, FrontTrackerState
+from .front_visualizer import FrontTrackVisualizer
 from .marker_sensor import CameraConfig, MarkerSensor, MarkerSensorConfig
 from .model_visualizer import LearnedModelVisualizer
 from .motor_babbling import MotorBabbling
@@ -30,6 +31,7 @@ __all__ = [
     "FrontTracker",
     "FrontTrackerConfig",
     "FrontTrackerState",
+    "FrontTrackVisualizer",
     "GravityCompensation",
     "JointBlocker",
     "JointFriction",

@@ -215,30 +215,36 @@ class LearnedModelVisualizer(LeafSystem):
             draw_legend(self._meshcat, *legend_entries(link), path=self._legend_path)
 
     def _draw_model(self, link) -> None:
-        mc, pre = self._meshcat, self._prefix
-        name = link.name
-        if name == "revolute":
-            a, c = np.asarray(link.axis), np.asarray(link.center)
-            mc.SetLine(f"{pre}/axis", np.column_stack([c - 0.6 * a, c + 0.6 * a]), 3.0, _AXIS)
-            # the observed range and the full circle of the tracked point, through the
-            # model's forward kinematics
-            lo, hi = float(link.q_min[0]), float(link.q_max[0])
-            qs = np.linspace(lo, hi, 40)
-            P = np.asarray(link.forward(qs[:, None]))[:, :3]
-            mc.SetLine(f"{pre}/range", P.T, 6.0, _RANGE)
-            ring = np.asarray(link.forward(np.linspace(-np.pi, np.pi, 90)[:, None]))[:, :3]
-            mc.SetLine(f"{pre}/circle", ring.T, 1.5, _FAINT)
-            mc.SetObject(f"{pre}/center", Sphere(0.015), _AXIS)
-            mc.SetTransform(f"{pre}/center", RigidTransform(c))
-        elif name == "prismatic":
-            a = np.asarray(link.axis)
-            lo, hi = float(link.q_min[0]), float(link.q_max[0])
-            P = np.asarray(link.forward(np.array([[lo], [hi]])))[:, :3]
-            mid = P.mean(axis=0)
-            mc.SetLine(f"{pre}/axis", np.column_stack([mid - 0.8 * a, mid + 0.8 * a]), 1.5,
-                       _FAINT)
-            mc.SetLine(f"{pre}/range", P.T, 6.0, _RANGE)
-        else:
-            p = np.asarray(link.forward(np.zeros((1, link.dof)) if link.dof else None))[0, :3]
-            mc.SetObject(f"{pre}/position", Sphere(0.02), _RANGE)
-            mc.SetTransform(f"{pre}/position", RigidTransform(p))
+        draw_link_model(self._meshcat, self._prefix, link)
+
+
+def draw_link_model(meshcat, prefix: str, link) -> None:
+    """Draw a fitted link model (revolute: axis, circle, centre and observed range; prismatic:
+    axis and range; otherwise the fixed position) under ``prefix`` in ``meshcat``."""
+    mc, pre = meshcat, prefix
+    name = link.name
+    if name == "revolute":
+        a, c = np.asarray(link.axis), np.asarray(link.center)
+        mc.SetLine(f"{pre}/axis", np.column_stack([c - 0.6 * a, c + 0.6 * a]), 3.0, _AXIS)
+        # the observed range and the full circle of the tracked point, through the
+        # model's forward kinematics
+        lo, hi = float(link.q_min[0]), float(link.q_max[0])
+        qs = np.linspace(lo, hi, 40)
+        P = np.asarray(link.forward(qs[:, None]))[:, :3]
+        mc.SetLine(f"{pre}/range", P.T, 6.0, _RANGE)
+        ring = np.asarray(link.forward(np.linspace(-np.pi, np.pi, 90)[:, None]))[:, :3]
+        mc.SetLine(f"{pre}/circle", ring.T, 1.5, _FAINT)
+        mc.SetObject(f"{pre}/center", Sphere(0.015), _AXIS)
+        mc.SetTransform(f"{pre}/center", RigidTransform(c))
+    elif name == "prismatic":
+        a = np.asarray(link.axis)
+        lo, hi = float(link.q_min[0]), float(link.q_max[0])
+        P = np.asarray(link.forward(np.array([[lo], [hi]])))[:, :3]
+        mid = P.mean(axis=0)
+        mc.SetLine(f"{pre}/axis", np.column_stack([mid - 0.8 * a, mid + 0.8 * a]), 1.5,
+                   _FAINT)
+        mc.SetLine(f"{pre}/range", P.T, 6.0, _RANGE)
+    else:
+        p = np.asarray(link.forward(np.zeros((1, link.dof)) if link.dof else None))[0, :3]
+        mc.SetObject(f"{pre}/position", Sphere(0.02), _RANGE)
+        mc.SetTransform(f"{pre}/position", RigidTransform(p))

@@ -148,3 +148,40 @@ def test_two_simulators_and_a_clone_reproduce_a_lone_run():
 
     end = _check(diagram, lambda ctx: None, [0.6, 1.2, 1.8, 2.45], extra=extra)
     assert len(end["extra"][1]) == 3  # three published, fitted tracks
+
+
+def test_visualizer_draws_detections_tracks_and_models():
+    from pydrake.geometry import StartMeshcat
+
+    from mmlearn.systems.front_visualizer import FrontTrackVisualizer
+
+    meshcat = StartMeshcat()
+    frames = _scene(n=30, seed=2)
+    b = DiagramBuilder()
+    src = b.AddNamedSystem("replay", RectangleReplay(frames))
+    trk = b.AddNamedSystem("tracker", FrontTracker(config=FrontTrackerConfig(period_s=PERIOD)))
+    vis = b.AddNamedSystem("vis", FrontTrackVisualizer(meshcat=meshcat, period=PERIOD,
+                                                       prefix="front_test"))
+    b.Connect(src.get_output_port(), trk.get_rectangles_input_port())
+    b.Connect(src.get_output_port(), vis.get_rectangles_input_port())
+    b.Connect(trk.get_tracks_output_port(), vis.get_tracks_input_port())
+    b.Connect(trk.get_models_output_port(), vis.get_models_input_port())
+    diagram = b.Build()
+    sim = Simulator(diagram)
+    sim.AdvanceTo(PERIOD * 13.5)  # frame 13: drawer, door, wall and a NaN rectangle
+    ctx = trk.GetMyContextFromRoot(sim.get_context())
+    models = trk.get_models_output_port().Eval(ctx)
+    assert len(models) == 3
+    for k in range(3):
+        assert meshcat.HasPath(f"front_test/detections/{k}")
+    assert not meshcat.HasPath("front_test/detections/3")  # the NaN one is not drawn
+    for tid, m in models.items():
+        assert meshcat.HasPath(f"front_test/tracks/{tid}/rectangle")
+        assert meshcat.HasPath(f"front_test/tracks/{tid}/model/"
+                               + {"revolute": "axis", "prismatic": "range"}.get(
+                                   m.selected, "position"))
+    # unconnected inputs: nothing drawn, no error
+    lone = FrontTrackVisualizer(meshcat=meshcat, prefix="front_lone")
+    c = lone.CreateDefaultContext()
+    lone.ForcedPublish(c)
+    assert not meshcat.HasPath("front_lone/tracks/0")

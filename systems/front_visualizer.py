@@ -1,0 +1,108 @@
+"""FrontTrackVisualizer: draws detected cabinet-front rectangles, the FrontTracker's tracks
+and their learned link models in Meshcat (thesis ch. 5; the point cloud is drawn by Drake's
+own MeshcatPointCloudVisualizer)."""
+
+import numpy as np
+from pydrake.common.value import AbstractValue
+from pydrake.geometry import Rgba
+from pydrake.systems.framework import EventStatus, LeafSystem
+
+from mmlearn.models.front_tracking import as_rectangle
+
+from .model_visualizer import draw_link_model
+
+__all__ = ["FrontTrackVisualizer", "track_colour"]
+
+_DETECTION = Rgba(0.85, 0.85, 0.85, 1.0)
+_PALETTE = [(0.1, 0.7, 0.2), (1.0, 0.6, 0.0), (0.6, 0.2, 0.9), (0.0, 0.7, 0.8),
+            (0.9, 0.2, 0.5), (0.5, 0.5, 0.1)]
+
+
+def track_colour(track_id: int) -> Rgba:
+    """The colour of a track (by its id, cycling through 6 colours)."""
+    r, g, b = _PALETTE[int(track_id) % len(_PALETTE)]
+    return Rgba(r, g, b, 1.0)
+
+
+def _loop(rect) -> np.ndarray:
+    c = rect.corners()
+    return np.vstack([c, c[:1]]).T  # (3, 5) closed outline
+
+
+class FrontTrackVisualizer(LeafSystem):
+    """Shows the current frame's rectangles (grey outlines), each published track (its
+    latest rectangle outlined and the path of its centre, in the track's colour) and each
+    track's learned link model (models/model_visualizer.draw_link_model: revolute axis and
+    opening arc, prismatic axis and range) in Meshcat, under ``prefix``.
+
+    Redrawn from the inputs by a periodic publish every ``period`` seconds and on a forced
+    publish; no state (what is drawn is a function of the inputs). Unconnected inputs draw
+    nothing; a drawing error never stops the simulation.
+
+    .. pydrake_system::
+
+        name: FrontTrackVisualizer
+        input_ports:
+        - rectangles
+        - tracks
+        - models
+    """
+
+    def __init__(self, *, meshcat, period: float = 0.1, prefix: str = "fronts"):
+        super().__init__()
+        if not period > 0:
+            raise ValueError(f"period must be > 0 s, got {period}")
+        self._meshcat, self._prefix = meshcat, str(prefix)
+        self._rects = self.DeclareAbstractInputPort("rectangles", AbstractValue.Make(list()))
+        self._tracks = self.DeclareAbstractInputPort("tracks", AbstractValue.Make(tuple()))
+        self._models = self.DeclareAbstractInputPort("models", AbstractValue.Make(dict()))
+        self.DeclarePeriodicPublishEvent(period, 0.0, self._publish)
+        self.DeclareForcedPublishEvent(self._publish)
+
+    def get_rectangles_input_port(self):
+        """The current frame's rectangles (list[FrontRectangle])."""
+        return self._rects
+
+    def get_tracks_input_port(self):
+        """FrontTracker's ``tracks`` output."""
+        return self._tracks
+
+    def get_models_input_port(self):
+        """FrontTracker's ``models`` output."""
+        return self._models
+
+    @staticmethod
+    def _value(port, context, default):
+        try:
+            return port.Eval(context) if port.HasValue(context) else default
+        except Exception:  # noqa: BLE001 - a bad input draws nothing
+            return default
+
+    def _publish(self, context):
+        rects = self._value(self._rects, context, [])
+        tracks = self._value(self._tracks, context, ())
+        models = self._value(self._models, context, {})
+        try:
+            self.draw(rects, tracks, models)
+        except (RuntimeError, ValueError, TypeError, AttributeError, IndexError):
+            return EventStatus.DidNothing()  # a drawing never stops the simulation
+        return EventStatus.Succeeded()
+
+    def draw(self, rectangles, tracks, models) -> None:
+        """Draw one frame's rectangles, the tracks and their models (replacing the last
+        drawing)."""
+        mc, pre = self._meshcat, self._prefix
+        mc.Delete(f"{pre}/detections")
+        items = rectangles if isinstance(rectangles, (list, tuple)) else []
+        for i, r in enumerate(x for x in (as_rectangle(y) for y in items) if x is not None):
+            mc.SetLine(f"{pre}/detections/{i}", _loop(r), 2.0, _DETECTION)
+        mc.Delete(f"{pre}/tracks")
+        for t in tracks if isinstance(tracks, (list, tuple)) else ():
+            col = track_colour(t.track_id)
+            path = f"{pre}/tracks/{t.track_id}"
+            mc.SetLine(f"{path}/rectangle", _loop(t.rectangle(-1)), 4.0, col)
+            if t.n >= 2:
+                mc.SetLine(f"{path}/centres", np.asarray(t.poses[:, :3]).T, 1.5, col)
+            m = models.get(t.track_id) if isinstance(models, dict) else None
+            if m is not None:
+                draw_link_model(mc, f"{path}/model", m.model)
