@@ -149,9 +149,12 @@ def _unresolved(model: LinkModel) -> str | None:
         # what noise alone spreads (the test above, on the orientation alone) resolves the
         # revolute model even where its positions bow less than sigma_pos (a door seen
         # near its hinge, e.g. a rectangle's corner or centre tracked in depth images)
+        # (noise: the larger of the residuals' and the assumed sigma_orient -- on a few
+        # observations the 12 parameters fit the orientations far below their noise)
         if rms is not None and rms[1] is not None:
             _, lr = model.path_length()
-            if lr / max(rms[1], 1e-9) >= noise_range_threshold(model.n_train):
+            noise = max(rms[1], model.obs_fit.sigma_orient, 1e-9)
+            if lr / noise >= noise_range_threshold(model.n_train):
                 return None
         return (f"bow {bow:.4f} m over the observed {np.degrees(dq):.1f} deg is below "
                 f"sigma_pos {model.obs_fit.sigma_pos:g} m")

@@ -7,13 +7,15 @@ centre); the model selection is :func:`mmlearn.models.articulation_structure.sel
 on each published track (the world is the fixed part, the front the moving one).
 
 Observation noise of the fits (``FrontTrackerConfig.sigma_pos_m`` / ``sigma_orient_deg``):
-0.02 m and 3 deg by default. The thesis' detector was accurate to < 0.015 m and < 3 deg
-(Sec. 5.2.1); this project's FrontDetector aims at ~0.01 m / 2 deg; the real tracks of the
-original detector (rectangle_tracks/door.txt) scatter more than that about the fitted
-revolute model (mean errors 0.010 m / 1.5 deg at 0.02 m, with a size bias of several cm) and
-still select revolute at 0.005-0.02 m. Larger sigmas cannot resolve the door's short arc
-(the centre travels a 0.19 m chord): at 0.05 m the revolute model has no minimal sample
-whose three observations are 2 sigma apart (models/articulation_links.py) and the GP wins.
+0.02 m and 3 deg by default: the thesis' detector was accurate to < 0.015 m and < 3 deg
+(Sec. 5.2.1), this project's FrontDetector aims at ~0.01 m / 2 deg, and the real door track
+of the original detector scatters 0.010 m / 1.4 deg about its revolute model with a size
+bias of several cm; its selection is right at any sigma_pos from 0.005 to 0.05 m (measured
+in models/front_tracking.py).
+
+Each track's model is held by the tracker itself (a TrackModel per track id in its abstract
+state, fitted with models/articulation*), not by one ArticulationEstimator system per
+track: tracks appear at run time, systems cannot.
 """
 
 from dataclasses import dataclass, field
@@ -162,7 +164,8 @@ class FrontTracker(LeafSystem):
         cfg = config if config is not None else FrontTrackerConfig()
         cfg.validate()
         self._cfg = cfg
-        self._obs = front_observation_model(cfg.sigma_pos_m, float(np.deg2rad(cfg.sigma_orient_deg)))
+        self._obs = front_observation_model(cfg.sigma_pos_m,
+                                            float(np.deg2rad(cfg.sigma_orient_deg)))
         self._models = tuple(cfg.model_names())
         self._in = self.DeclareAbstractInputPort("rectangles", AbstractValue.Make(list()))
         self._state_index = self.DeclareAbstractState(AbstractValue.Make(FrontTrackerState()))
