@@ -64,8 +64,10 @@ corner --sigma-pos S --sigma-orient 0.0524 --expect revolute``):
 * centre pose: revolute at sigma_pos 0.005-0.05 m (sigma_orient 3 deg), r = 0.160-0.166 m,
   hinge axis 0.6-2.2 deg from the door's height edge, 5-fold cross-validated prediction error
   0.009-0.011 m / 1.35-2.2 deg (thesis: 0.01 m / 3.5 deg); with 60 observations drawn in
-  temporal order (the thesis' protocol, 50 draws) revolute in every draw from n = 10 on
-  (sigma 0.01-0.05; from 20 at 0.005), in 74-92 % of the draws at n = 5;
+  temporal order (the thesis' protocol, 50 draws) revolute in every draw from n = 15 on
+  (sigma 0.01-0.05; from 20 at 0.005), in 92-98 % of the draws at n = 10 and 38-44 % at
+  n = 5 (thesis: mostly rigid for the first ~10, right after 30); held-out prediction error
+  at n = 30: 0.010-0.011 m / 1.4-1.7 deg (sigma 0.01-0.05);
 * the corner pose (read as if it were the centre) now selects revolute too, r = 0.085 m, but
   predicts twice as badly (0.020 m);
 * the rectangles are 0.42-0.54 m wide for a 0.395 m door (the detector takes in the coplanar
