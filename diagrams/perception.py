@@ -57,6 +57,7 @@ from mmlearn.sdf.builders import floor_sdf
 from mmlearn.sdf.kitchen import KitchenSpec, kitchen_sdf
 from mmlearn.systems.depth_noise import DepthNoise
 from mmlearn.systems.front_pose import TrueFrontPose
+from mmlearn.systems.point_cloud_filter import FinitePointCloud
 
 __all__ = ["DepthCameraConfig", "FrontPerceptionConfig", "FrontPerception",
            "FrontPerceptionDiagram", "AddFrontPerception", "MakeFrontPerceptionDiagram",
@@ -198,6 +199,8 @@ class FrontPerceptionConfig:
         noise: the depth noise (:class:`DepthNoiseConfig`; its ``seed`` is the run's seed).
         add_noise: False = the ``depth_image`` port is the clean render (NaN where nothing).
         point_cloud: with Meshcat, also show the noisy point cloud.
+        point_cloud_stride: show every n-th measured point (>= 1; 1 = all, ~300k points per
+            frame, heavy in a recording).
     """
 
     front: str = "drawer"
@@ -207,8 +210,13 @@ class FrontPerceptionConfig:
     noise: DepthNoiseConfig = field(default_factory=DepthNoiseConfig)
     add_noise: bool = True
     point_cloud: bool = True
+    point_cloud_stride: int = 3
 
     def validate(self) -> None:
+        if (isinstance(self.point_cloud_stride, bool) or not isinstance(self.point_cloud_stride, int)
+                or self.point_cloud_stride < 1):
+            raise ValueError(f"FrontPerceptionConfig.point_cloud_stride must be an integer >= 1, "
+                             f"got {self.point_cloud_stride!r}")
         if self.front not in FRONTS:
             raise ValueError(f"FrontPerceptionConfig.front must be one of {FRONTS}, got "
                              f"{self.front!r}")
@@ -283,6 +291,23 @@ def _front_kinematics(plant, front: str, spec: KitchenSpec) -> FrontJointKinemat
     return FrontJointKinematics(kind="revolute" if front == "door" else "prismatic",
                                 axis_W=axis_W, point_W=X_WJ.translation(), X_WR0=X_WR0,
                                 width=w, height=h)
+
+
+def _draw_camera(meshcat, X_WC: np.ndarray, K: PinholeIntrinsics, depth: float = 0.25) -> None:
+    """A small box and the view frustum's edges (``depth`` m long) at the camera pose."""
+    from pydrake.geometry import Box, Rgba
+
+    meshcat.SetObject("depth_camera/body", Box(0.07, 0.03, 0.04), Rgba(0.1, 0.1, 0.1, 1))
+    c = np.array([[0.0, 0.0], [K.width - 1.0, 0.0], [K.width - 1.0, K.height - 1.0],
+                  [0.0, K.height - 1.0]])
+    corners = np.c_[(c[:, 0] - K.cx) / K.fx, (c[:, 1] - K.cy) / K.fy, np.ones(4)] * depth
+    start = np.zeros((3, 8))
+    end = np.zeros((3, 8))
+    for i in range(4):
+        end[:, i] = corners[i]
+        start[:, 4 + i], end[:, 4 + i] = corners[i], corners[(i + 1) % 4]
+    meshcat.SetLineSegments("depth_camera/frustum", start, end, 2.0, Rgba(0.1, 0.1, 0.8, 1))
+    meshcat.SetTransform("depth_camera", RigidTransform(X_WC))
 
 
 def _body_labels(plant, scene_graph, body_name: str) -> list[int]:
@@ -363,6 +388,12 @@ def AddFrontPerception(builder: DiagramBuilder, config: FrontPerceptionConfig | 
              "query_object": scene_graph.get_query_output_port()}
 
     if meshcat is not None:
+        # Meshcat's view: from behind and beside the depth camera, onto the target
+        target = kin.X_WR0[:3, 3]
+        back = X_WC[:3, 3] - target
+        eye = target + 1.4 * back + np.array([0.0, 0.0, 0.3]) + 0.25 * X_WC[:3, 0]
+        meshcat.SetCameraPose(eye, target)
+        _draw_camera(meshcat, X_WC, K)
         MeshcatVisualizer.AddToBuilder(builder, scene_graph, meshcat,
                                        MeshcatVisualizerParams(role=Role.kIllustration))
         if cfg.point_cloud:
@@ -374,7 +405,10 @@ def AddFrontPerception(builder: DiagramBuilder, config: FrontPerceptionConfig | 
                             to_cloud.camera_pose_input_port())
             cloud_vis = builder.AddNamedSystem("cloud_visualizer", MeshcatPointCloudVisualizer(
                 meshcat, "depth_cloud", 1.0 / cam.rate_hz))
-            builder.Connect(to_cloud.point_cloud_output_port(), cloud_vis.cloud_input_port())
+            finite = builder.AddNamedSystem("finite_cloud",
+                                            FinitePointCloud(stride=cfg.point_cloud_stride))
+            builder.Connect(to_cloud.point_cloud_output_port(), finite.get_cloud_input_port())
+            builder.Connect(finite.get_cloud_output_port(), cloud_vis.cloud_input_port())
             ports["_cloud_visualizer"] = cloud_vis
     return FrontPerception(plant=plant, scene_graph=scene_graph, camera=sensor, noise=noise,
                            true_pose=true_pose, trajectory=traj, intrinsics=K, X_WC=X_WC,
