@@ -15,7 +15,6 @@ the width, y along the height, z the outward normal), ``width``/``height`` of th
 ``front_labels`` (the moving front's render labels in the label image).
 """
 
-from __future__ import annotations
 
 import json
 import sys

@@ -27,7 +27,6 @@ a caller's ``DiagramBuilder`` and returns the parts (ports included) without bui
 ``Build``, to add and connect further systems (and export their ports).
 """
 
-from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field

@@ -42,7 +42,6 @@ Not modelled: the spatial correlation of the noise (the matcher's window), lens 
 the IR camera's offset from the colour camera, multi-path and reflectance effects.
 """
 
-from __future__ import annotations
 
 import math
 from dataclasses import dataclass

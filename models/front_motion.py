@@ -7,7 +7,6 @@ between them (a staircase of the joint value: linear ramps and holds), optionall
 again the same way.
 """
 
-from __future__ import annotations
 
 import math
 from dataclasses import dataclass

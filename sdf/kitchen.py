@@ -29,7 +29,6 @@ RgbdSensor's label image labels each body (``door``, ``drawer``, ``carcass``) ap
 Units: metres, kilograms, radians.
 """
 
-from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
