@@ -149,9 +149,9 @@ class DepthCameraConfig:
         if np.linalg.norm(n) < 1e-9:
             raise ValueError("DepthCameraConfig: the target's normal is vertical")
         n /= np.linalg.norm(n)
-        side = np.cross([0.0, 0.0, 1.0], n)  # horizontal, to the left of n seen from above
+        side = np.cross([0.0, 0.0, 1.0], n)  # horizontal: the kitchen's +y for n = +x
         a = math.radians(self.angle_deg)
-        horiz = math.cos(a) * n - math.sin(a) * side  # +angle towards -side
+        horiz = math.cos(a) * n + math.sin(a) * side  # +angle towards +side
         target = X_WT[:3, 3] + np.asarray(self.look_at_offset, float)
         if self.height is None:
             e = math.radians(self.elevation_deg)
@@ -361,7 +361,13 @@ def AddFrontPerception(builder: DiagramBuilder, config: FrontPerceptionConfig | 
     cam = cfg.camera
     K = cam.intrinsics()
     X_WC = cam.X_WC(kin.X_WR0)
-    core = RenderCameraCore(_RENDERER, CameraInfo(K.width, K.height, K.fx, K.fy, K.cx, K.cy),
+    # RenderEngineVtk renders pixel (u, v) along the ray through (u + 0.5, v + 0.5) of the
+    # CameraInfo it is given (measured: tests/test_front_perception.py), while Drake's
+    # CameraInfo documentation, DepthImageToPointCloud and models/fronts.py put pixel u's
+    # centre at u. Rendering with the principal point moved by half a pixel makes the image
+    # agree with K.
+    core = RenderCameraCore(_RENDERER, CameraInfo(K.width, K.height, K.fx, K.fy, K.cx + 0.5,
+                                                  K.cy + 0.5),
                             ClippingRange(cam.z_near, cam.z_far), RigidTransform())
     depth_cam = DepthRenderCamera(core, DepthRange(cam.z_near * 1.0001, cam.z_far * 0.9999))
     sensor = builder.AddNamedSystem("depth_camera", RgbdSensor(
