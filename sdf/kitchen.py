@@ -280,7 +280,7 @@ def kitchen_sdf(spec: KitchenSpec | None = None, *, model_name: str = "kitchen")
     _panel_inertia(door, 3.0, pc, (th, dw, dh))
     _slab(door, "door_front", pc, (th, dw, dh), _DOOR)
     # positive q swings the free edge towards +x: axis -z for a hinge on -y, +z on +y
-    m.joint("door_hinge", "revolute", "carcass", "door", axis=(0, 0, -sign), lower=0.0,
+    m.joint("door_hinge", "revolute", "carcass", "door", axis=(0, 0, sign), lower=0.0,
             upper=s.door_limit, effort=0, velocity=5, damping=0.5)
     m.frame("door_face", attached_to="door",
             pose=(th, -sign * dw / 2, dh / 2, math.pi / 2, 0, math.pi / 2), relative_to="door")
