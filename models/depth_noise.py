@@ -26,7 +26,8 @@ figures this model uses as its defaults:
   jump larger than ``edge_jump_px`` (and their ``edge_dilate_px`` neighbours) are missing;
 * **grazing angles**: the share of missing pixels grows linearly from 0 at an incidence
   angle (between the viewing ray and the surface normal of the clean render) of
-  ``grazing_start_deg`` to 1 at ``grazing_full_deg``;
+  ``grazing_start_deg`` to 1 at ``grazing_full_deg`` (drawn per 2 x 2 pixel block, from
+  the angle on every second row and column);
 * **range**: nothing nearer than ``min_range`` or farther than ``max_range`` (K&E: 0.5 to
   5 m); beyond ``falloff_start`` the share of drop-outs grows quadratically to 1 at
   ``max_range`` (the projector's pattern fading: the thesis' sensor lost density beyond
@@ -44,6 +45,7 @@ the IR camera's offset from the colour camera, multi-path and reflectance effect
 
 
 import math
+import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -192,18 +194,30 @@ def projector_shadow(disparity: np.ndarray, baseline_sign: float = 1.0) -> np.nd
     return shadow
 
 
-def _grazing_share(z: np.ndarray, K: PinholeIntrinsics, cfg: DepthNoiseConfig) -> np.ndarray:
-    """Share of missing pixels at each pixel's incidence angle, (H, W) float32; computed on
-    every second row and column and repeated (the angle of a surface varies slowly, and
-    where it does not, at edges, the edge band removes the pixels anyway)."""
+def _drop_share_half(z: np.ndarray, K: PinholeIntrinsics, cfg: DepthNoiseConfig) -> np.ndarray:
+    """Share of missing pixels from the grazing angle and the range fall-off, on every
+    second row and column, ((H + 1) // 2, (W + 1) // 2) float32 (the angle of a surface and
+    its depth vary slowly; where they do not, at edges, the edge band removes the pixels)."""
     H, W = z.shape
     K2 = PinholeIntrinsics(-(-W // 2), -(-H // 2), K.fx / 2, K.fy / 2, K.cx / 2, K.cy / 2)
-    cos_inc = incidence_cosine(z[::2, ::2], K2)
+    z2 = np.ascontiguousarray(z[::2, ::2])
+    cos_inc = incidence_cosine(z2, K2)
     c0 = math.cos(math.radians(cfg.grazing_start_deg))
     c1 = math.cos(math.radians(cfg.grazing_full_deg))
     p = np.clip((np.float32(c0) - np.nan_to_num(cos_inc, nan=1.0)) / np.float32(c0 - c1),
                 0.0, 1.0)
-    return np.repeat(np.repeat(p, 2, axis=0), 2, axis=1)[:H, :W]
+    if cfg.falloff_start < cfg.max_range:
+        far = np.isfinite(z2) & (z2 > cfg.falloff_start)
+        if far.any():
+            p_far = np.clip((z2[far] - cfg.falloff_start) / (cfg.max_range - cfg.falloff_start),
+                            0.0, 1.0) ** 2
+            p[far] = 1.0 - (1.0 - p[far]) * (1.0 - p_far)
+    return p
+
+
+def _up2(mask: np.ndarray, H: int, W: int) -> np.ndarray:
+    """Repeat a half-resolution bool mask to (H, W)."""
+    return np.repeat(np.repeat(mask, 2, axis=0), 2, axis=1)[:H, :W]
 
 
 def _dilate(mask: np.ndarray, r: int) -> np.ndarray:
@@ -217,7 +231,7 @@ def _dilate(mask: np.ndarray, r: int) -> np.ndarray:
 
 def apply_depth_noise(depth, K: PinholeIntrinsics, config: DepthNoiseConfig | None = None,
                       *, frame: int = 0, rng: np.random.Generator | None = None,
-                      return_masks: bool = False):
+                      return_masks: bool = False, timings: dict | None = None):
     """The noisy image of a clean depth render (see the module docstring), float32 (H, W), m,
     NaN where missing.
 
@@ -230,6 +244,8 @@ def apply_depth_noise(depth, K: PinholeIntrinsics, config: DepthNoiseConfig | No
             ``default_rng([config.seed, frame])`` unless ``rng`` is given.
         return_masks: also return a dict of the bool masks ``shadow``, ``edge``, ``grazing``,
             ``range``, ``dropout`` (pixels each cause removed; they may overlap).
+        timings: if a dict, the seconds spent per stage are added to it (``disparity``,
+            ``shadow``, ``edges``, ``grazing``, ``dropout``, ``noise``, ``compose``).
 
     Raises:
         ValueError: wrong image shape or dtype, negative frame, bad configuration.
@@ -242,6 +258,14 @@ def apply_depth_noise(depth, K: PinholeIntrinsics, config: DepthNoiseConfig | No
     if rng is None:
         rng = np.random.default_rng([int(cfg.seed), int(frame)])
     H, W = z.shape
+    clock = [time.perf_counter()]
+
+    def _tick(stage):
+        if timings is not None:
+            now = time.perf_counter()
+            timings[stage] = timings.get(stage, 0.0) + now - clock[0]
+            clock[0] = now
+
     fb = np.float32(K.fx * abs(cfg.baseline))
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         disp = fb / z  # px; inf (z = 0), NaN and negatives below mean "no surface"
@@ -250,9 +274,11 @@ def apply_depth_noise(depth, K: PinholeIntrinsics, config: DepthNoiseConfig | No
     surface = disp > 0
     in_range = (disp >= fb / np.float32(cfg.max_range)) & (
         disp <= (fb / np.float32(cfg.min_range) if cfg.min_range > 0 else np.inf))
+    _tick("disparity")
     # (a) projector shadow, (b) matcher failures at disparity jumps
     shadow = (projector_shadow(disp, math.copysign(1.0, cfg.baseline))
               if cfg.projector_shadow else np.zeros((H, W), bool))
+    _tick("shadow")
     edge = np.zeros((H, W), bool)
     if cfg.edge_jump_px > 0:
         jh = np.abs(disp[:, 1:] - disp[:, :-1]) > cfg.edge_jump_px
@@ -262,22 +288,16 @@ def apply_depth_noise(depth, K: PinholeIntrinsics, config: DepthNoiseConfig | No
         edge[1:, :] |= jv
         edge[:-1, :] |= jv
         edge = _dilate(edge, int(cfg.edge_dilate_px))
-    # grazing angles (on a 2x coarser grid: the incidence angle varies slowly on a surface)
-    p_drop = _grazing_share(z, K, cfg)
-    if cfg.falloff_start < cfg.max_range:  # range fall-off
-        far = disp < fb / np.float32(cfg.falloff_start)
-        if far.any():
-            with np.errstate(divide="ignore"):
-                zf = np.where(far, fb / np.where(far, disp, 1.0), 0.0)
-            p_far = np.clip((zf - cfg.falloff_start) / (cfg.max_range - cfg.falloff_start),
-                            0.0, 1.0) ** 2
-            p_drop = 1.0 - (1.0 - p_drop) * (1.0 - p_far)
-    u = rng.random((H, W), dtype=np.float32)
-    grazing = u < p_drop
+    _tick("edges")
+    # grazing angles and range fall-off: one draw per 2 x 2 block (blob-like losses)
+    p_half = _drop_share_half(z, K, cfg)
+    grazing = _up2(rng.random(p_half.shape, dtype=np.float32) < p_half, H, W)
+    _tick("grazing")
     # blocks of random drop-outs
     b = int(cfg.dropout_block_px)
     cells = rng.random((-(-H // b), -(-W // b))) < cfg.dropout
     dropped = np.repeat(np.repeat(cells, b, axis=0), b, axis=1)[:H, :W]
+    _tick("dropout")
 
     # noise and quantisation in disparity
     noisy = rng.standard_normal((H, W), dtype=np.float32)
@@ -288,10 +308,12 @@ def apply_depth_noise(depth, K: PinholeIntrinsics, config: DepthNoiseConfig | No
         noisy /= step
         np.round(noisy, out=noisy)
         noisy *= step
+    _tick("noise")
     keep = in_range & (noisy > 0)
     keep &= ~(shadow | edge | grazing | dropped)
     with np.errstate(divide="ignore", invalid="ignore"):
         out = np.divide(fb, noisy, out=np.full((H, W), np.nan, np.float32), where=keep)
+    _tick("compose")
     if return_masks:
         masks = {"shadow": shadow & surface, "edge": edge & surface,
                  "grazing": grazing & surface,
