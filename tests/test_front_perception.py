@@ -263,6 +263,15 @@ def test_meshcat_scene_and_cloud():
     assert meshcat.HasPath("depth_cloud") and meshcat.HasPath("depth_camera")
 
 
+def test_render_fronts_help():
+    import subprocess
+    import sys
+
+    r = subprocess.run([sys.executable, "-m", "mmlearn.apps.render_fronts", "--help"],
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0 and "--distance" in r.stdout and "--html-out" in r.stdout
+
+
 def test_render_fronts_app(tmp_path, capsys):
     from mmlearn.apps.render_fronts import main
 
