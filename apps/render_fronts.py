@@ -149,7 +149,8 @@ def main(argv=None) -> int:
     ap.add_argument("--distance", type=_float_list, default=[1.0, 1.8, 2.5],
                     help="comma-separated camera distances, m")
     ap.add_argument("--angle", type=_float_list, default=[0.0],
-                    help="comma-separated camera angles off the front's normal, deg")
+                    help="comma-separated camera angles off the front's normal, deg, positive "
+                         "towards the kitchen's +y (write --angle=-30,30 for a leading minus)")
     ap.add_argument("--frames", type=pos_int, default=3, help="frames per run")
     ap.add_argument("--seed", type=nonneg_int, default=0)
     ap.add_argument("--out-dir", type=Path, help="folder to save the frames in")

@@ -88,7 +88,7 @@ class KitchenSpec:
     countertop_thickness: float = 0.03
     countertop_overhang: float = 0.02
     wall_gap: float = 0.02
-    wall_width: float = 4.0
+    wall_width: float = 6.0
     wall_height: float = 2.4
     neighbours: bool = True
     table: bool = True
