@@ -21,6 +21,9 @@ Exported ports: ``depth_image`` (noisy ``ImageDepth32F``, m, NaN = missing),
 ``FrontRectangle``), ``front_joint`` (joint value, rad or m), ``positions`` (plant positions),
 ``query_object``.
 
+:func:`AddDepthCamera` adds the camera and its noise to any diagram with a SceneGraph (e.g.
+the arm scenes, to look at the cabinet while operating it).
+
 Hook for the detector and the tracker: :func:`AddFrontPerception` adds all of the above to
 a caller's ``DiagramBuilder`` and returns the parts (ports included) without building, and
 :func:`MakeFrontPerceptionDiagram` takes ``add_systems(builder, parts)``, called before
@@ -59,7 +62,8 @@ from mmlearn.systems.front_pose import TrueFrontPose
 from mmlearn.systems.point_cloud_filter import FinitePointCloud
 
 __all__ = ["DepthCameraConfig", "FrontPerceptionConfig", "FrontPerception",
-           "FrontPerceptionDiagram", "AddFrontPerception", "MakeFrontPerceptionDiagram",
+           "FrontPerceptionDiagram", "AddDepthCamera", "AddFrontPerception",
+           "MakeFrontPerceptionDiagram",
            "camera_pose_looking_at"]
 
 FRONTS = ("door", "drawer")
@@ -321,6 +325,45 @@ def _body_labels(plant, scene_graph, body_name: str) -> list[int]:
     return sorted(labels)
 
 
+def AddDepthCamera(builder: DiagramBuilder, scene_graph: SceneGraph, *,
+                   camera: DepthCameraConfig, X_WC: np.ndarray,
+                   noise: DepthNoiseConfig | None = None, name: str = "depth_camera"):
+    """Add a depth camera fixed in the world (an ``RgbdSensor`` rendering with
+    ``RenderEngineVtk``; the renderer is added to ``scene_graph`` when it has none of that
+    name) and, unless ``noise`` is None, a :class:`DepthNoise` on its depth image, to any
+    diagram with a SceneGraph (e.g. the operate scene). ``X_WC`` (4, 4) is the camera pose
+    (Drake camera frame: x right, y down, z forward); ``camera`` gives the image size, field
+    of view, clipping range and frame rate (its distance / angle fields are not used).
+
+    Returns ``(sensor, noise_system or None)``; the camera's intrinsics are
+    ``camera.intrinsics()`` (use these, not the sensor's own CameraInfo, see below).
+    """
+    camera.validate()
+    if not scene_graph.HasRenderer(_RENDERER):
+        scene_graph.AddRenderer(_RENDERER, MakeRenderEngineVtk(RenderEngineVtkParams()))
+    K = camera.intrinsics()
+    # RenderEngineVtk renders pixel (u, v) along the ray through (u + 0.5, v + 0.5) of the
+    # CameraInfo it is given (measured: tests/test_front_perception.py), while Drake's
+    # CameraInfo documentation, DepthImageToPointCloud and models/fronts.py put pixel u's
+    # centre at u. Rendering with the principal point moved by half a pixel makes the image
+    # agree with K.
+    core = RenderCameraCore(_RENDERER, CameraInfo(K.width, K.height, K.fx, K.fy, K.cx + 0.5,
+                                                  K.cy + 0.5),
+                            ClippingRange(camera.z_near, camera.z_far), RigidTransform())
+    depth_cam = DepthRenderCamera(core, DepthRange(camera.z_near * 1.0001,
+                                                   camera.z_far * 0.9999))
+    sensor = builder.AddNamedSystem(name, RgbdSensor(
+        scene_graph.world_frame_id(), RigidTransform(np.asarray(X_WC, float)), depth_cam))
+    builder.Connect(scene_graph.get_query_output_port(), sensor.query_object_input_port())
+    noise_sys = None
+    if noise is not None:
+        noise_sys = builder.AddNamedSystem(f"{name}_noise", DepthNoise(
+            intrinsics=K, config=noise, rate_hz=camera.rate_hz))
+        builder.Connect(sensor.depth_image_32F_output_port(),
+                        noise_sys.get_clean_depth_input_port())
+    return sensor, noise_sys
+
+
 def AddFrontPerception(builder: DiagramBuilder, config: FrontPerceptionConfig | None = None,
                        *, meshcat=None) -> FrontPerception:
     """Add the kitchen, the moving front, the camera and the noise to ``builder`` (see the
@@ -328,7 +371,6 @@ def AddFrontPerception(builder: DiagramBuilder, config: FrontPerceptionConfig | 
     cfg = config or FrontPerceptionConfig()
     cfg.validate()
     scene_graph = builder.AddNamedSystem("scene_graph", SceneGraph())
-    scene_graph.AddRenderer(_RENDERER, MakeRenderEngineVtk(RenderEngineVtkParams()))
     plant = MultibodyPlant(time_step=0.0)
     plant.set_name("kitchen_plant")
     plant.RegisterAsSourceForSceneGraph(scene_graph)
@@ -361,26 +403,10 @@ def AddFrontPerception(builder: DiagramBuilder, config: FrontPerceptionConfig | 
     cam = cfg.camera
     K = cam.intrinsics()
     X_WC = cam.X_WC(kin.X_WR0)
-    # RenderEngineVtk renders pixel (u, v) along the ray through (u + 0.5, v + 0.5) of the
-    # CameraInfo it is given (measured: tests/test_front_perception.py), while Drake's
-    # CameraInfo documentation, DepthImageToPointCloud and models/fronts.py put pixel u's
-    # centre at u. Rendering with the principal point moved by half a pixel makes the image
-    # agree with K.
-    core = RenderCameraCore(_RENDERER, CameraInfo(K.width, K.height, K.fx, K.fy, K.cx + 0.5,
-                                                  K.cy + 0.5),
-                            ClippingRange(cam.z_near, cam.z_far), RigidTransform())
-    depth_cam = DepthRenderCamera(core, DepthRange(cam.z_near * 1.0001, cam.z_far * 0.9999))
-    sensor = builder.AddNamedSystem("depth_camera", RgbdSensor(
-        scene_graph.world_frame_id(), RigidTransform(X_WC), depth_cam))
-    builder.Connect(scene_graph.get_query_output_port(), sensor.query_object_input_port())
-
-    noise = None
-    depth_port = sensor.depth_image_32F_output_port()
-    if cfg.add_noise:
-        noise = builder.AddNamedSystem("depth_noise", DepthNoise(
-            intrinsics=K, config=cfg.noise, rate_hz=cam.rate_hz))
-        builder.Connect(sensor.depth_image_32F_output_port(), noise.get_clean_depth_input_port())
-        depth_port = noise.get_depth_image_output_port()
+    sensor, noise = AddDepthCamera(builder, scene_graph, camera=cam, X_WC=X_WC,
+                                   noise=cfg.noise if cfg.add_noise else None)
+    depth_port = (noise.get_depth_image_output_port() if noise is not None
+                  else sensor.depth_image_32F_output_port())
 
     ports = {"depth_image": depth_port,
              "clean_depth": sensor.depth_image_32F_output_port(),

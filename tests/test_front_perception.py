@@ -291,3 +291,35 @@ def test_render_fronts_app(tmp_path, capsys):
         main(["--front", "window"])
     assert e.value.code == 2
     assert "window" in capsys.readouterr().err
+
+
+def test_add_depth_camera_to_another_scene():
+    """The camera and its noise on a plant of one's own: looking straight at the floor from
+    1.5 m (slightly tilted), the clean render is the plane's depth at every pixel."""
+    from pydrake.multibody.parsing import Parser
+    from pydrake.multibody.plant import AddMultibodyPlantSceneGraph
+
+    from mmlearn.diagrams.perception import AddDepthCamera, camera_pose_looking_at
+    from mmlearn.models.depth_noise import DepthNoiseConfig
+    from mmlearn.sdf.builders import floor_sdf
+
+    builder = DiagramBuilder()
+    plant, sg = AddMultibodyPlantSceneGraph(builder, time_step=0.0)
+    Parser(plant).AddModelsFromString(floor_sdf(), "sdf")
+    plant.Finalize()
+    cam = DepthCameraConfig(width=200, height_px=150)
+    X_WC = camera_pose_looking_at([0.3, 0.0, 1.5], [0.0, 0.0, 0.0])
+    sensor, noise = AddDepthCamera(builder, sg, camera=cam, X_WC=X_WC, noise=DepthNoiseConfig())
+    builder.ExportOutput(sensor.depth_image_32F_output_port(), "clean")
+    builder.ExportOutput(noise.get_depth_image_output_port(), "noisy")
+    diagram = builder.Build()
+    ctx = diagram.CreateDefaultContext()
+    clean = np.array(diagram.GetOutputPort("clean").Eval(ctx).data)[..., 0]
+    K = cam.intrinsics()
+    u, v = np.meshgrid(np.arange(K.width), np.arange(K.height))
+    r_W = X_WC[:3, :3] @ np.stack([(u - K.cx) / K.fx, (v - K.cy) / K.fy, np.ones(u.shape)]
+                                   ).reshape(3, -1)
+    z_expected = (-X_WC[2, 3] / r_W[2]).reshape(u.shape)  # ray hits z = 0 at depth t
+    np.testing.assert_allclose(clean, z_expected, atol=1e-4)
+    noisy = np.array(diagram.GetOutputPort("noisy").Eval(ctx).data)[..., 0]
+    assert 0.9 < np.isfinite(noisy).mean() < 1.0
