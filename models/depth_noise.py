@@ -185,12 +185,18 @@ def projector_shadow(disparity: np.ndarray, baseline_sign: float = 1.0) -> np.nd
     d = np.nan_to_num(np.asarray(disparity, np.float32), nan=0.0)
     if baseline_sign < 0:
         return projector_shadow(d[:, ::-1], 1.0)[:, ::-1]
+    return _shadow(d) & (d > 0)
+
+
+def _shadow(d: np.ndarray) -> np.ndarray:
+    """:func:`projector_shadow` for a clean float32 disparity (>= 0, 0 = no surface) and the
+    projector at +x; pixels without a surface may come out True."""
     H, W = d.shape
-    u = np.arange(W, dtype=np.float32)[None, :]
-    up = np.where(d > 0, u - d, np.float32(np.inf))  # surfaces-free pixels never occlude
+    up = np.arange(W, dtype=np.float32) - d  # projector column of each pixel
+    up[d <= 0] = np.inf  # surface-free pixels never occlude
     run = np.minimum.accumulate(up[:, ::-1], axis=1)[:, ::-1]  # min over columns >= u
     shadow = np.zeros((H, W), bool)
-    shadow[:, :-1] = (run[:, 1:] <= up[:, :-1] - np.float32(1e-3)) & (d[:, :-1] > 0)
+    np.less_equal(run[:, 1:], up[:, :-1] - np.float32(1e-3), out=shadow[:, :-1])
     return shadow
 
 
@@ -244,7 +250,8 @@ def apply_depth_noise(depth, K: PinholeIntrinsics, config: DepthNoiseConfig | No
             ``default_rng([config.seed, frame])`` unless ``rng`` is given.
         return_masks: also return a dict of the bool masks ``shadow``, ``edge``, ``grazing``,
             ``range``, ``dropout`` (pixels each cause removed; they may overlap).
-        timings: if a dict, the seconds spent per stage are added to it (``disparity``,
+        timings: if a dict, the CPU seconds (this thread's) spent per stage are added to it
+            (``disparity``,
             ``shadow``, ``edges``, ``grazing``, ``dropout``, ``noise``, ``compose``).
 
     Raises:
@@ -258,11 +265,11 @@ def apply_depth_noise(depth, K: PinholeIntrinsics, config: DepthNoiseConfig | No
     if rng is None:
         rng = np.random.default_rng([int(cfg.seed), int(frame)])
     H, W = z.shape
-    clock = [time.perf_counter()]
+    clock = [time.thread_time()]
 
     def _tick(stage):
         if timings is not None:
-            now = time.perf_counter()
+            now = time.thread_time()
             timings[stage] = timings.get(stage, 0.0) + now - clock[0]
             clock[0] = now
 
@@ -276,8 +283,12 @@ def apply_depth_noise(depth, K: PinholeIntrinsics, config: DepthNoiseConfig | No
         disp <= (fb / np.float32(cfg.min_range) if cfg.min_range > 0 else np.inf))
     _tick("disparity")
     # (a) projector shadow, (b) matcher failures at disparity jumps
-    shadow = (projector_shadow(disp, math.copysign(1.0, cfg.baseline))
-              if cfg.projector_shadow else np.zeros((H, W), bool))
+    if not cfg.projector_shadow:
+        shadow = np.zeros((H, W), bool)
+    elif cfg.baseline > 0:
+        shadow = _shadow(disp)
+    else:
+        shadow = _shadow(np.ascontiguousarray(disp[:, ::-1]))[:, ::-1]
     _tick("shadow")
     edge = np.zeros((H, W), bool)
     if cfg.edge_jump_px > 0:
