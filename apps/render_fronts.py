@@ -12,7 +12,9 @@ along the optical axis, NaN = no measurement), ``..._clean.npy`` (the noise-free
 y down, z forward), ``X_WR`` (4x4 true pose of the moving front's outer-face centre: x along
 the width, y along the height, z the outward normal), ``width``/``height`` of the front (m),
 ``joint_value`` (rad or m), ``time`` (s), ``frame`` (noise frame index), ``seed``,
-``front_labels`` (the moving front's render labels in the label image).
+``front_labels`` (the moving front's render labels in the label image), ``closed_fronts``
+(name -> ``X_WR``, ``width``, ``height``, ``labels`` of every front that stays closed: the
+neighbours' and the other one of door / drawer).
 """
 
 
@@ -116,6 +118,9 @@ def run(*, config: RenderFrontsConfig, meshcat=None, show_progress: bool = True)
                 "width": P.kinematics.width, "height": P.kinematics.height,
                 "joint_value": float(d.GetOutputPort("front_joint").Eval(ctx)[0]),
                 "front_labels": P.front_labels,
+                "closed_fronts": {n: {"X_WR": r.X_WR, "width": r.width, "height": r.height,
+                                      "labels": P.closed_front_labels[n]}
+                                  for n, r in P.closed_fronts.items()},
             }
             name = f"{front}_d{dist:.1f}_a{ang:+.0f}_f{k:03d}"
             if folder is not None:

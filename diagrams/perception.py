@@ -53,7 +53,7 @@ from pydrake.trajectories import PiecewisePolynomial
 
 from mmlearn.models.depth_noise import DepthNoiseConfig
 from mmlearn.models.front_motion import FrontJointKinematics, FrontMotionConfig, stepped_profile
-from mmlearn.models.fronts import PinholeIntrinsics
+from mmlearn.models.fronts import FrontRectangle, PinholeIntrinsics
 from mmlearn.sdf import add_package
 from mmlearn.sdf.builders import floor_sdf
 from mmlearn.sdf.kitchen import KitchenSpec, kitchen_sdf
@@ -253,6 +253,9 @@ class FrontPerception:
         duration: length of the opening profile, s.
         front_labels: render labels (ints) of the moving front body's geometry in the
             ``label_image`` (its pixels: ``np.isin(label, front_labels)``).
+        closed_fronts: the fronts that do not move in this run (the neighbours' and the
+            other one of door / drawer), name -> true :class:`FrontRectangle` (world).
+        closed_front_labels: their render labels, name -> list of ints.
         ports: output ports by name: ``depth_image``, ``clean_depth``, ``label_image``,
             ``X_WC``, ``X_WR``, ``front``, ``front_joint``, ``positions``, ``query_object``.
     """
@@ -269,6 +272,8 @@ class FrontPerception:
     joint_name: str
     duration: float
     front_labels: list
+    closed_fronts: dict
+    closed_front_labels: dict
     ports: dict
 
 
@@ -311,6 +316,16 @@ def _draw_camera(meshcat, X_WC: np.ndarray, K: PinholeIntrinsics, depth: float =
         start[:, 4 + i], end[:, 4 + i] = corners[i], corners[(i + 1) % 4]
     meshcat.SetLineSegments("depth_camera/frustum", start, end, 2.0, Rgba(0.1, 0.1, 0.8, 1))
     meshcat.SetTransform("depth_camera", RigidTransform(X_WC))
+
+
+def _closed_fronts(plant, spec: KitchenSpec, moving: str) -> dict:
+    """True rectangles (world) of the fronts that stay closed in this run."""
+    ctx = plant.CreateDefaultContext()
+    sizes = {name: (w, h) for name, _, _, w, h in spec.closed_fronts()}
+    other = "drawer" if moving == "door" else "door"
+    sizes[other] = spec.front_size(other)
+    return {name: FrontRectangle(plant.GetFrameByName(f"{name}_face").CalcPoseInWorld(ctx)
+                                 .GetAsMatrix4(), w, h) for name, (w, h) in sizes.items()}
 
 
 def _body_labels(plant, scene_graph, body_name: str) -> list[int]:
@@ -395,6 +410,7 @@ def AddFrontPerception(builder: DiagramBuilder, config: FrontPerceptionConfig | 
                     scene_graph.get_source_pose_port(plant.get_source_id()))
 
     kin = _front_kinematics(plant, front, cfg.kitchen)
+    closed = _closed_fronts(plant, cfg.kitchen, front)
     true_pose = builder.AddNamedSystem("true_front_pose", TrueFrontPose(
         kinematics=kin, position_index=j, num_positions=plant.num_positions()))
     builder.Connect(traj.get_output_port(), true_pose.get_positions_input_port())
@@ -445,7 +461,10 @@ def AddFrontPerception(builder: DiagramBuilder, config: FrontPerceptionConfig | 
                            true_pose=true_pose, trajectory=traj, intrinsics=K, X_WC=X_WC,
                            kinematics=kin, joint_name=joint_name,
                            duration=cfg.motion.duration(),
-                           front_labels=_body_labels(plant, scene_graph, front), ports=ports)
+                           front_labels=_body_labels(plant, scene_graph, front),
+                           closed_fronts=closed, ports=ports,
+                           closed_front_labels={n: _body_labels(plant, scene_graph, n)
+                                                for n in closed})
 
 
 def MakeFrontPerceptionDiagram(config: FrontPerceptionConfig | None = None, *, meshcat=None,

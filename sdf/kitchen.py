@@ -7,8 +7,9 @@ One model ``kitchen`` holds the room and a row of base cabinets against a wall:
   side) below its drawer (0.395 x 0.125 m, body ``drawer`` on the prismatic joint
   ``drawer_slide``, with a drawer box behind the front that shows when it is pulled out);
 * **planar distractors**: the wall behind, the countertop, the plinth (toe kick), a
-  neighbour module on each side with *closed* fronts (fixed to the carcass: a door and a
-  drawer on one side, three drawers on the other), and a table standing against the wall
+  neighbour module on each side with *closed* fronts (bodies welded to the carcass, each
+  with a frame ``<name>_face``: a door and a drawer on one side, three drawers on the other;
+  :meth:`KitchenSpec.closed_fronts`), and a table standing against the wall
   beside the cabinets. The floor is :func:`mmlearn.sdf.builders.floor_sdf`.
 
 Kitchen frame K: the carcass front face is the plane x = 0, the carcass extends to -x, the
@@ -180,6 +181,20 @@ class KitchenSpec:
             raise ValueError(f"front must be 'door' or 'drawer', got {front!r}")
         return T
 
+    def closed_fronts(self) -> list[tuple[str, float, float, float, float]]:
+        """The fixed (distractor) fronts of the neighbour modules: (name, y of the centre,
+        z of the lower edge, width, height), m, kitchen frame; empty without neighbours."""
+        if not self.neighbours:
+            return []
+        Wm, H = self.module_width, self.carcass_height
+        w = Wm - self.front_gap
+        hl = (H - self.plinth_height - self.front_gap) / 3 - self.front_gap
+        out = [(f"left_drawer{k}", -Wm, self.door_bottom + k * (hl + self.front_gap), w, hl)
+               for k in range(3)]
+        out += [("right_door", Wm, self.door_bottom, w, self.door_height),
+                ("right_drawer", Wm, self.drawer_bottom, w, self.drawer_height)]
+        return out
+
     def front_size(self, front: str) -> tuple[float, float]:
         """(width, height) of a moving front, m."""
         if front == "door":
@@ -210,13 +225,6 @@ def _carcass_box(link, name: str, y0: float, s: KitchenSpec) -> None:
         _slab(link, *args, _WOOD)
 
 
-def _front_slab(link, name: str, y: float, z_bottom: float, w: float, h: float,
-                s: KitchenSpec, rgba) -> None:
-    """A closed front fixed to the carcass: centre y, lower edge z_bottom."""
-    x = s.front_back_x + s.front_thickness / 2
-    _slab(link, name, (x, y, z_bottom + h / 2), (s.front_thickness, w, h), rgba)
-
-
 def kitchen_sdf(spec: KitchenSpec | None = None, *, model_name: str = "kitchen") -> str:
     """SDFormat text of the kitchen scene (see the module docstring)."""
     s = spec or KitchenSpec()
@@ -244,20 +252,18 @@ def kitchen_sdf(spec: KitchenSpec | None = None, *, model_name: str = "kitchen")
         _carcass_box(carcass, f"module{i + n_side}", i * Wm, s)
     rail_z = s.drawer_bottom - s.front_gap / 2
     _slab(carcass, "rail", (-0.05, 0, rail_z), (0.10, Wm - 0.036, 0.018), _WOOD)
-    # closed neighbour fronts (distractors)
-    if s.neighbours:
-        yl, yr = -Wm, Wm
-        w = Wm - s.front_gap
-        # left neighbour: three drawers of equal height
-        hl = (H - s.plinth_height - s.front_gap) / 3 - s.front_gap
-        for k in range(3):
-            zb = s.door_bottom + k * (hl + s.front_gap)
-            _front_slab(carcass, f"left_drawer{k}", yl, zb, w, hl, s, _NEIGHBOUR[k])
-        # right neighbour: a door and a drawer like the target module's, closed
-        _front_slab(carcass, "right_door", yr, s.door_bottom, w, s.door_height, s,
-                    _NEIGHBOUR[0])
-        _front_slab(carcass, "right_drawer", yr, s.drawer_bottom, w, s.drawer_height, s,
-                    _NEIGHBOUR[1])
+    # closed neighbour fronts (distractors): each its own body welded to the carcass, so the
+    # label image tells them apart, with a frame <name>_face like the moving fronts'
+    colours = {"left_drawer0": _NEIGHBOUR[0], "left_drawer1": _NEIGHBOUR[1],
+               "left_drawer2": _NEIGHBOUR[2], "right_door": _NEIGHBOUR[0],
+               "right_drawer": _NEIGHBOUR[1]}
+    for name, yc, zb, w, h in s.closed_fronts():
+        link = m.link(name, pose=(s.front_back_x, yc, zb))
+        _panel_inertia(link, 2.0, (th / 2, 0, h / 2), (th, w, h))
+        _slab(link, f"{name}_front", (th / 2, 0, h / 2), (th, w, h), colours[name])
+        m.joint(f"{name}_weld", "fixed", "carcass", name)
+        m.frame(f"{name}_face", attached_to=name,
+                pose=(th, 0, h / 2, math.pi / 2, 0, math.pi / 2), relative_to=name)
     # table against the wall beside the row
     if s.table:
         L, Wt, Ht = s.table_size

@@ -147,6 +147,31 @@ def test_true_pose_follows_the_plant_and_the_render(which, door, drawer):
         np.testing.assert_allclose(X[:3, :3], X0[:3, :3], atol=1e-9)
 
 
+def test_closed_fronts_ground_truth(door):
+    """Every closed front's true rectangle is where the render sees it, with its own label."""
+    P = door
+    assert set(P.closed_fronts) == {"left_drawer0", "left_drawer1", "left_drawer2",
+                                    "right_door", "right_drawer", "drawer"}
+    ctx = P.diagram.CreateDefaultContext()
+    depth = _eval(P, ctx, "clean_depth")
+    label = _eval(P, ctx, "label_image")
+    all_labels = [tuple(v) for v in P.closed_front_labels.values()] + [tuple(P.front_labels)]
+    assert len(set(all_labels)) == len(all_labels)  # a body (label) per front
+    K = P.intrinsics
+    X_CW = np.linalg.inv(P.X_WC)
+    for name, rect in P.closed_fronts.items():
+        n_C = X_CW[:3, :3] @ rect.normal
+        p_C = X_CW[:3, :3] @ rect.center + X_CW[:3, 3]
+        for p in _face_points(rect.X_WR, rect.width, rect.height, n=3):
+            u, v, _ = _pixel(P, p)
+            if not (0 <= u < K.width - 0.5 and 0 <= v < K.height - 0.5):
+                continue
+            ui, vi = int(round(u)), int(round(v))
+            r = np.array([(ui - K.cx) / K.fx, (vi - K.cy) / K.fy, 1.0])
+            assert depth[vi, ui] == pytest.approx((n_C @ p_C) / (n_C @ r), abs=0.002), name
+            assert label[vi, ui] in P.closed_front_labels[name], name
+
+
 def test_front_at_the_expected_depth_and_noise(drawer):
     """The closed drawer's centre is the target 1.8 m away; the noisy image there has the
     noise of the model (std over the front's inner pixels close to the prediction)."""
