@@ -180,7 +180,8 @@ def main(argv=None) -> int:
         print(json.dumps(json_clean(result)))
     else:
         for r in result["records"]:
-            print(f"{r['name']}: q = {r['joint_value']:.3f}, missing {100 * r['missing_ratio']:.1f}%"
+            print(f"{r['name']}: q = {r['joint_value']:.3f}, "
+                  f"missing {100 * r['missing_ratio']:.1f}%"
                   f", front pixels {r['front_pixels_measured']}/{r['front_pixels']} measured")
         print(f"{result['frames']} frames; {result['ms_per_frame']:.0f} ms per frame (median: "
               f"simulate, render, noise, and the Meshcat cloud if shown)"

@@ -41,7 +41,7 @@ from pydrake.geometry import (ClippingRange, DepthRange, DepthRenderCamera, Make
                               MeshcatPointCloudVisualizer, MeshcatVisualizer,
                               MeshcatVisualizerParams, RenderCameraCore, RenderEngineVtkParams,
                               Role, SceneGraph)
-from pydrake.math import RigidTransform, RotationMatrix
+from pydrake.math import RigidTransform
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.perception import BaseField, DepthImageToPointCloud
@@ -216,8 +216,8 @@ class FrontPerceptionConfig:
     point_cloud_stride: int = 3
 
     def validate(self) -> None:
-        if (isinstance(self.point_cloud_stride, bool) or not isinstance(self.point_cloud_stride, int)
-                or self.point_cloud_stride < 1):
+        stride = self.point_cloud_stride
+        if isinstance(stride, bool) or not isinstance(stride, int) or stride < 1:
             raise ValueError(f"FrontPerceptionConfig.point_cloud_stride must be an integer >= 1, "
                              f"got {self.point_cloud_stride!r}")
         if self.front not in FRONTS:
