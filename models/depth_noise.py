@@ -39,7 +39,8 @@ Missing pixels are ``NaN`` (see :mod:`mmlearn.models.fronts`). The output is a p
 of the clean image, the intrinsics, the configuration, the seed and the frame index
 (``numpy.random.default_rng([seed, frame])``), like :class:`~mmlearn.systems.MarkerSensor`.
 
-Not modelled: the spatial correlation of the noise (the matcher's window), lens distortion,
+Optional: spatially correlated noise (``noise_window_px``: the mean over a window, like a
+block matcher's; off by default). Not modelled: lens distortion,
 the IR camera's offset from the colour camera, multi-path and reflectance effects.
 """
 
@@ -64,6 +65,9 @@ class DepthNoiseConfig:
         baseline: projector-camera baseline, m (K&E 2012: 0.075). Its sign puts the
             projector on the camera's +x (positive) or -x side. Not 0.
         sigma_z_at_1m: depth noise std at 1 m, m; it grows with z^2 (K&E: 0.0016).
+        noise_window_px: the disparity noise is the mean of i.i.d. noise over a square window
+            of this many pixels (scaled back to ``sigma``): spatially correlated like a
+            block matcher's; 1 = independent per pixel (default; odd integer >= 1).
         disparity_step_px: disparity quantisation, px (Kinect: 1/8); 0 = none.
         edge_jump_px: a disparity jump between neighbouring pixels larger than this (px)
             is a depth edge whose pixels go missing; 0 = no edge drop-outs.
@@ -81,6 +85,7 @@ class DepthNoiseConfig:
 
     baseline: float = 0.075
     sigma_z_at_1m: float = 0.0016
+    noise_window_px: int = 1
     disparity_step_px: float = 0.125
     edge_jump_px: float = 0.25
     edge_dilate_px: int = 1
@@ -120,10 +125,14 @@ class DepthNoiseConfig:
         for ok, msg in checks:
             if not ok:
                 raise ValueError(f"DepthNoiseConfig: {msg}")
-        for k, lo in (("edge_dilate_px", 0), ("dropout_block_px", 1), ("seed", 0)):
+        for k, lo in (("edge_dilate_px", 0), ("dropout_block_px", 1), ("seed", 0),
+                      ("noise_window_px", 1)):
             v = getattr(self, k)
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
                 raise ValueError(f"DepthNoiseConfig.{k} must be an integer >= {lo}, got {v!r}")
+        if self.noise_window_px % 2 == 0:
+            raise ValueError(f"DepthNoiseConfig.noise_window_px must be odd, got "
+                             f"{self.noise_window_px}")
 
     def sigma_disparity_px(self, K: PinholeIntrinsics) -> float:
         """Std of the disparity noise, px, for a camera with intrinsics K."""
@@ -312,6 +321,11 @@ def apply_depth_noise(depth, K: PinholeIntrinsics, config: DepthNoiseConfig | No
 
     # noise and quantisation in disparity
     noisy = rng.standard_normal((H, W), dtype=np.float32)
+    n = int(cfg.noise_window_px)
+    if n > 1:  # window mean, scaled back to unit std (away from the border)
+        import cv2
+
+        noisy = cv2.blur(noisy, (n, n), borderType=cv2.BORDER_REFLECT) * np.float32(n)
     noisy *= np.float32(cfg.sigma_disparity_px(K))
     noisy += disp
     if cfg.disparity_step_px > 0:

@@ -47,6 +47,21 @@ def test_std_grows_with_the_square_of_the_distance():
     assert ratio == pytest.approx(2.5**2, rel=0.1)
 
 
+def test_correlated_noise_keeps_its_std():
+    cfg = DepthNoiseConfig(dropout=0.0, disparity_step_px=0.0, noise_window_px=5)
+    out = apply_depth_noise(_flat(2.0), K, cfg, frame=2)
+    r = out[10:-10, 10:-10] - 2.0
+    assert np.std(r) == pytest.approx(cfg.sigma_z_at_1m * 4.0, rel=0.1)
+    # neighbours share 4 of 5 window columns: correlation ~0.8 (independent: ~0)
+    c = np.corrcoef(r[:, 1:].ravel(), r[:, :-1].ravel())[0, 1]
+    assert 0.7 < c < 0.9
+    iid = apply_depth_noise(_flat(2.0), K, DepthNoiseConfig(dropout=0.0, disparity_step_px=0.0),
+                            frame=2) - 2.0
+    assert abs(np.corrcoef(iid[:, 1:].ravel(), iid[:, :-1].ravel())[0, 1]) < 0.02
+    with pytest.raises(ValueError, match="odd"):
+        DepthNoiseConfig(noise_window_px=4).validate()
+
+
 def test_disparity_is_quantised():
     cfg = DepthNoiseConfig(sigma_z_at_1m=0.0, dropout=0.0)
     out = apply_depth_noise(_plane([0.0, -0.3, -1.0], 1.8), K, cfg, frame=0)
