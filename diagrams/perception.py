@@ -200,7 +200,9 @@ class FrontPerceptionConfig:
         motion: the moving front's stepped opening (:class:`FrontMotionConfig`).
         camera: the depth camera (:class:`DepthCameraConfig`).
         noise: the depth noise (:class:`DepthNoiseConfig`; its ``seed`` is the run's seed).
-        add_noise: False = the ``depth_image`` port is the clean render (NaN where nothing).
+        add_noise: False = the ``depth_image`` port is the clean render (Drake's codes: inf
+            where nothing is within ``z_far``, 0 nearer than ``z_near``; both count as "no
+            measurement" in :func:`mmlearn.models.fronts.valid_depth_mask`).
         point_cloud: with Meshcat, also show the noisy point cloud.
         point_cloud_stride: show every n-th measured point (>= 1; 1 = all, ~300k points per
             frame, heavy in a recording).

@@ -348,3 +348,13 @@ def test_add_depth_camera_to_another_scene():
     np.testing.assert_allclose(clean, z_expected, atol=1e-4)
     noisy = np.array(diagram.GetOutputPort("noisy").Eval(ctx).data)[..., 0]
     assert 0.9 < np.isfinite(noisy).mean() < 1.0
+
+
+def test_without_noise_the_depth_image_is_the_render():
+    cfg = FrontPerceptionConfig(add_noise=False)
+    cfg.camera.width, cfg.camera.height_px = 160, 120
+    P = MakeFrontPerceptionDiagram(cfg)
+    assert P.noise is None
+    ctx = P.diagram.CreateDefaultContext()
+    ctx.SetTime(2.0)
+    np.testing.assert_array_equal(_eval(P, ctx, "depth_image"), _eval(P, ctx, "clean_depth"))
