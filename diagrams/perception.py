@@ -260,6 +260,7 @@ class FrontPerception:
         closed_front_labels: their render labels, name -> list of ints.
         ports: output ports by name: ``depth_image``, ``clean_depth``, ``label_image``,
             ``X_WC``, ``X_WR``, ``front``, ``front_joint``, ``positions``, ``query_object``.
+        cloud_visualizer: the MeshcatPointCloudVisualizer (None without Meshcat).
     """
 
     plant: MultibodyPlant
@@ -277,16 +278,16 @@ class FrontPerception:
     closed_fronts: dict
     closed_front_labels: dict
     ports: dict
+    cloud_visualizer: object = None
 
 
 @dataclass
 class FrontPerceptionDiagram(FrontPerception):
     """:class:`FrontPerception` plus the built ``diagram`` (all ``ports`` exported under
-    their names) and the Meshcat visualizers (None without Meshcat)."""
+    their names) and the scene's MeshcatVisualizer (None without Meshcat)."""
 
     diagram: object = None
     visualizer: object = None
-    cloud_visualizer: object = None
 
 
 def _front_kinematics(plant, front: str, spec: KitchenSpec) -> FrontJointKinematics:
@@ -436,6 +437,7 @@ def AddFrontPerception(builder: DiagramBuilder, config: FrontPerceptionConfig | 
              "positions": traj.get_output_port(),
              "query_object": scene_graph.get_query_output_port()}
 
+    cloud_vis = None
     if meshcat is not None:
         # Meshcat's view: from behind and beside the depth camera, onto the target
         target = kin.X_WR0[:3, 3]
@@ -458,7 +460,6 @@ def AddFrontPerception(builder: DiagramBuilder, config: FrontPerceptionConfig | 
                                             FinitePointCloud(stride=cfg.point_cloud_stride))
             builder.Connect(to_cloud.point_cloud_output_port(), finite.get_cloud_input_port())
             builder.Connect(finite.get_cloud_output_port(), cloud_vis.cloud_input_port())
-            ports["_cloud_visualizer"] = cloud_vis
     return FrontPerception(plant=plant, scene_graph=scene_graph, camera=sensor, noise=noise,
                            true_pose=true_pose, trajectory=traj, intrinsics=K, X_WC=X_WC,
                            kinematics=kin, joint_name=joint_name,
@@ -466,7 +467,8 @@ def AddFrontPerception(builder: DiagramBuilder, config: FrontPerceptionConfig | 
                            front_labels=_body_labels(plant, scene_graph, front),
                            closed_fronts=closed, ports=ports,
                            closed_front_labels={n: _body_labels(plant, scene_graph, n)
-                                                for n in closed})
+                                                for n in closed},
+                           cloud_visualizer=cloud_vis)
 
 
 def MakeFrontPerceptionDiagram(config: FrontPerceptionConfig | None = None, *, meshcat=None,
@@ -485,7 +487,6 @@ def MakeFrontPerceptionDiagram(config: FrontPerceptionConfig | None = None, *, m
     """
     builder = DiagramBuilder()
     parts = AddFrontPerception(builder, config, meshcat=meshcat)
-    cloud_vis = parts.ports.pop("_cloud_visualizer", None)
     for name, port in parts.ports.items():
         builder.ExportOutput(port, name)
     if add_systems is not None:
@@ -496,4 +497,4 @@ def MakeFrontPerceptionDiagram(config: FrontPerceptionConfig | None = None, *, m
     if meshcat is not None:
         vis = next((s for s in diagram.GetSystems() if isinstance(s, MeshcatVisualizer)), None)
     return FrontPerceptionDiagram(**{k: getattr(parts, k) for k in parts.__dataclass_fields__},
-                                  diagram=diagram, visualizer=vis, cloud_visualizer=cloud_vis)
+                                  diagram=diagram, visualizer=vis)
