@@ -10,13 +10,14 @@ figures this model uses as its defaults:
   (pixels, the rendered camera's) and baseline b (K&E: b ~ 7.5 cm, f ~ 580 px);
 * **random error growing with the square of the distance**: Gaussian noise of constant
   std in disparity, ``sigma_d = sigma_z_at_1m * f * b`` px, gives
-  ``sigma_z(z) = sigma_z_at_1m * z^2`` (first-order propagation, K&E Eq. 13). Default
-  ``sigma_z_at_1m = 0.0016`` m: 1.6 mm at 1 m, 1.0 cm at 2.5 m and 4 cm at 5 m (K&E: "the
-  random error ... increases quadratically ... to 4 cm at the maximum range of 5 m");
+  ``sigma_z(z) = sigma_z_at_1m * z^2`` (first-order error propagation of z = f b / d, as
+  in K&E's error model). Default ``sigma_z_at_1m = 0.0016`` m: 1.6 mm at 1 m, 1.0 cm at
+  2.5 m and 4 cm at 5 m (K&E report a random error growing quadratically with distance, from
+  a few millimetres to about 4 cm at the 5 m maximum range);
 * **disparity quantisation**: the disparity is rounded to ``disparity_step_px`` = 1/8 px
   (the Kinect's sub-pixel resolution), so depth comes in steps of ``z^2 step / (f b)``
-  (2.9 mm at 1 m, 1.8 cm at 2.5 m, 7 cm at 5 m: K&E's "depth resolution ... 7 cm at
-  the maximum range of 5 m"). Together with the noise, the std is
+  (2.9 mm at 1 m, 1.8 cm at 2.5 m, 7 cm at 5 m, the depth resolution K&E report at the
+  5 m maximum range). Together with the noise, the std is
   ``sqrt(sigma_d^2 + step^2 / 12) z^2 / (f b)`` (:func:`predicted_depth_std`): 1.8 mm at
   1 m, 1.1 cm at 2.5 m with the defaults;
 * **missing pixels at depth discontinuities**: (a) the projector's shadow, computed
@@ -24,7 +25,7 @@ figures this model uses as its defaults:
   projector (placed ``baseline`` to the camera's +x, or -x for a negative baseline) to it;
   (b) the matcher's correlation window straddling a depth edge: pixels next to a disparity
   jump larger than ``edge_jump_px`` (and their ``edge_dilate_px`` neighbours) are missing;
-* **grazing angles**: the share of missing pixels grows linearly from 0 at an incidence
+* **grazing angles** (the thresholds are this model's choice, not K&E's): the share of missing pixels grows linearly from 0 at an incidence
   angle (between the viewing ray and the surface normal of the clean render) of
   ``grazing_start_deg`` to 1 at ``grazing_full_deg`` (drawn per 2 x 2 pixel block, from
   the angle on every second row and column);
@@ -32,7 +33,7 @@ figures this model uses as its defaults:
   5 m); beyond ``falloff_start`` the share of drop-outs grows quadratically to 1 at
   ``max_range`` (the projector's pattern fading: the thesis' sensor lost density beyond
   2.2 m; set ``falloff_start = 2.2`` to imitate it);
-* **random drop-outs**: blocks of ``dropout_block_px`` x ``dropout_block_px`` pixels go
+* **random drop-outs** (1 % of 3 x 3 blocks by default, this model's choice): blocks of ``dropout_block_px`` x ``dropout_block_px`` pixels go
   missing with probability ``dropout`` each (blobs, as in real depth images).
 
 Missing pixels are ``NaN`` (see :mod:`mmlearn.models.fronts`). The output is a pure function
