@@ -3,7 +3,7 @@ scenes): the noisy depth image, the clean render, the label image and the ground
 (camera intrinsics and pose, the true front pose) of each frame, saved to a folder.
 
     python -m mmlearn.apps.render_fronts --out-dir frames --front door,drawer \\
-        --distance 1.0,1.8,2.5 --frames 4 --seed 0 --json
+        --distance 1.0,1.8,2.5 --frames 4 --seed 0 [--config scene.yaml] --json
 
 Per frame ``<front>_d<distance>_a<angle>_f<k>``: ``..._depth.npy`` (float32 (H, W), metres
 along the optical axis, NaN = no measurement), ``..._clean.npy`` (the noise-free render, inf
@@ -26,9 +26,10 @@ from pathlib import Path
 
 import numpy as np
 
-from mmlearn.apps._common import (ArgumentParser, UsageError, check_out_dir, check_out_file,
-                                  fail, finish_viewing, json_clean, make_meshcat, name_list,
-                                  nonneg_int, pos_int, progress, save_html)
+from mmlearn.apps._common import (ArgumentParser, UsageError, check_in_file, check_out_dir,
+                                  check_out_file, fail, finish_viewing, json_clean, load_config,
+                                  make_meshcat, name_list, nonneg_int, pos_int, progress,
+                                  save_html)
 from mmlearn.diagrams.perception import FrontPerceptionConfig, MakeFrontPerceptionDiagram
 
 
@@ -158,17 +159,27 @@ def main(argv=None) -> int:
                          "towards the kitchen's +y (write --angle=-30,30 for a leading minus)")
     ap.add_argument("--frames", type=pos_int, default=3, help="frames per run")
     ap.add_argument("--seed", type=nonneg_int, default=0)
+    ap.add_argument("--config", type=Path,
+                    help="YAML file of a FrontPerceptionConfig (keys: kitchen, motion, camera, "
+                         "noise, add_noise, ...); --front, --distance, --angle and --seed "
+                         "override its front, camera distance / angle and noise seed")
     ap.add_argument("--out-dir", type=Path, help="folder to save the frames in")
     ap.add_argument("--meshcat", action="store_true", help="show the first run live")
     ap.add_argument("--html-out", type=Path, help="save the first run's Meshcat recording")
     ap.add_argument("--json", action="store_true", help="print the results as JSON")
     args = ap.parse_args(argv)
     try:
+        check_in_file("--config", args.config)
         check_out_dir("--out-dir", args.out_dir)
         check_out_file("--html-out", args.html_out)
     except UsageError as e:
         return fail(ap.prog, str(e))
-    cfg = RenderFrontsConfig(fronts=args.front, distances=args.distance, angles_deg=args.angle,
+    try:
+        scene = (load_config(args.config, FrontPerceptionConfig) if args.config
+                 else FrontPerceptionConfig())
+    except (OSError, RuntimeError, ValueError) as e:
+        return fail(ap.prog, f"--config: {e}")
+    cfg = RenderFrontsConfig(scene=scene, fronts=args.front, distances=args.distance, angles_deg=args.angle,
                              frames=args.frames, seed=args.seed,
                              out_dir=str(args.out_dir or ""),
                              html_out=str(args.html_out or ""), meshcat=args.meshcat)

@@ -312,6 +312,19 @@ def test_render_fronts_app(tmp_path, capsys):
     depth = np.load(tmp_path / "f" / files[0].replace(".json", "_depth.npy")
                     if files[0].endswith(".json") else tmp_path / "f" / files[1])
     assert depth.dtype == np.float32 and depth.shape == (480, 640)
+    # a YAML FrontPerceptionConfig: no noise, a smaller image
+    yml = tmp_path / "scene.yaml"
+    yml.write_text("add_noise: false\ncamera: {width: 64, height_px: 48}\n")
+    rc = main(["--front", "door", "--distance", "1.5", "--frames", "1", "--config", str(yml),
+               "--out-dir", str(tmp_path / "g"), "--json"])
+    assert rc == 0
+    capsys.readouterr()
+    d = np.load(next((tmp_path / "g").glob("*_depth.npy")))
+    c = np.load(next((tmp_path / "g").glob("*_clean.npy")))
+    assert d.shape == (48, 64) and np.array_equal(d, c)
+    yml.write_text("camera: {distanse: 2.0}\n")
+    assert main(["--config", str(yml)]) == 2
+    assert "distanse" in capsys.readouterr().err
     with pytest.raises(SystemExit) as e:
         main(["--front", "window"])
     assert e.value.code == 2
