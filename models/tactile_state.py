@@ -66,8 +66,16 @@ class GraspFeatures:
         return {k: float(v) for k, v in zip(FEATURE_NAMES, self.values)}
 
 
+def _run_from(mask: np.ndarray, i: int) -> slice:
+    """The samples ``i, i+1, ...`` while ``mask`` holds (at least sample ``i``)."""
+    rest = mask[i + 1:]
+    stop = len(mask) if rest.all() else i + 1 + int(np.argmin(rest))
+    return slice(i, stop)
+
+
 def extract_grasp_features(grasp: TactileGrasp, *, contact_force: float,
-                           rest_velocity: float, min_fingers: int = 2) -> GraspFeatures:
+                           rest_velocity: float, min_fingers: int = 2,
+                           steady_average: bool = False) -> GraspFeatures:
     """Eq. 7.1-7.7 for one grasp.
 
     Args:
@@ -76,6 +84,10 @@ def extract_grasp_features(grasp: TactileGrasp, *, contact_force: float,
             (newtons for the simulated gripper); a finger is in contact when its force is > F.
         rest_velocity: threshold V, in the unit of ``grasp.v`` (m/s); at rest when |v| < V.
         min_fingers: how many fingers must be in contact (2 = "both fingers" of a gripper).
+        steady_average: take p_steady and f_steady as the means over the steady phase (from
+            t_steady while the fingers stay in contact; without contact: the trailing samples
+            at rest) instead of the single sample at t_steady (the thesis' reading). Lowers the
+            sensor noise in both features; dt and the rates use the same values.
     """
     if not (np.isfinite(contact_force) and contact_force >= 0):
         raise TactileDataError(f"contact_force: expected a finite number >= 0, got {contact_force!r}")
@@ -90,17 +102,26 @@ def extract_grasp_features(grasp: TactileGrasp, *, contact_force: float,
     else:
         touching = np.abs(f) > contact_force
     if not touching.any():
-        vals = np.array([p[-1], p[-1], f[-1], 0.0, 0.0, 0.0])
+        pe, fe = p[-1], f[-1]
+        if steady_average:
+            still = (np.abs(v) < rest_velocity)[::-1]
+            k = max(1, len(still) if still.all() else int(np.argmin(still)))
+            pe, fe = p[-k:].mean(), f[-k:].mean()
+        vals = np.array([pe, pe, fe, 0.0, 0.0, 0.0])
         return GraspFeatures(vals, None, None, contact=False, steady=False)
     i1 = int(np.argmax(touching))
     rest = np.abs(v) < rest_velocity
     rest[: i1 + 1] = False
     steady = bool(rest.any())
     i2 = int(np.argmax(rest)) if steady else grasp.n - 1
+    ps, fs = p[i2], f[i2]
+    if steady_average:
+        run = _run_from(touching, i2)
+        ps, fs = p[run].mean(), f[run].mean()
     dt = float(t[i2] - t[i1])
-    dp = (p[i2] - p[i1]) / dt if dt > 0 else 0.0
-    df = (f[i2] - f[i1]) / dt if dt > 0 else 0.0
-    vals = np.array([p[i1], p[i2], f[i2], dt, dp, df], dtype=float)
+    dp = (ps - p[i1]) / dt if dt > 0 else 0.0
+    df = (fs - f[i1]) / dt if dt > 0 else 0.0
+    vals = np.array([p[i1], ps, fs, dt, dp, df], dtype=float)
     return GraspFeatures(vals, i1, i2, contact=True, steady=steady)
 
 
