@@ -35,6 +35,7 @@ from mmlearn.models.tactile_recognition import (TactileRecognitionConfig, Tactil
 from mmlearn.models.tactile_synth import make_objects, sample_grasps
 
 N_HOUSE, N_IND, N_HEIGHTS, PER = 11, 5, 10, 5
+LOO = True
 
 
 def make_data(seed):
@@ -69,7 +70,7 @@ def rate_random(rec, test, objects, T, trials, rng):
 def rate_informed(rec, train, test, objects, T, trials, rng, *, weighting="belief"):
     """Rate after each grasp when every next height maximises the expected gain."""
     L = np.log(np.maximum(rec.likelihood(test), 1e-300))
-    Ltr = rec.likelihood(train)
+    Ltr = rec.likelihood_loo(train) if LOO else rec.likelihood(train)
     acts_tr = height_actions(train.height, resolution=0.01)
     acts_te = height_actions(test.height, resolution=0.01)
     cls = list(rec.classes)

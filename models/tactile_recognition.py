@@ -33,8 +33,11 @@ the finger), the grasp height h (m) and the finger distance w (m)
    observation at a counts ``1 / N_a`` (the thesis' counting estimate); with ``"belief"``
    (default) each counts in proportion to the current belief in its class, ``p(c) / N_a,c``,
    i.e. the outcomes the robot expects given what it already believes (the thesis' counting
-   weighs outcomes of objects it has already ruled out as much as the likely ones). Pick the
-   action with the largest gain (6.13).
+   weighs outcomes of objects it has already ruled out as much as the likely ones). The
+   outcome likelihoods of the training observations are computed leave-one-out (each against
+   its class histogram without itself, :meth:`TactileRecognizer.likelihood_loo`): a training
+   observation otherwise finds itself in the codebook and promises more information than a new
+   grasp delivers. Pick the action with the largest gain (6.13).
 
 Everything is vectorised over observations: the pairwise distances are a handful of
 ``scipy.spatial.distance.cdist`` calls (one per shift and pad).
@@ -257,6 +260,8 @@ class TactileRecognizer:
     s_w: float = 1.0
     length_scale: float = 1.0
     clustering_used: str = ""
+    _raw: np.ndarray | None = field(default=None, repr=False)
+    _train_key: tuple | None = field(default=None, repr=False)
 
     # ---- distances
     def _terms(self, A: TactileSet, B: TactileSet):
@@ -309,7 +314,33 @@ class TactileRecognizer:
         H = np.zeros((len(self.classes), cfg.k))
         np.add.at(H, y, Hz)
         self.codebook = H / H.sum(axis=1, keepdims=True)
+        self._raw = H
+        self._train_key = self._key(train)
         return self
+
+    @staticmethod
+    def _key(ts: TactileSet):
+        return (len(ts), float(ts.width.sum()), float(ts.left.sum()), float(ts.height.sum()))
+
+    def likelihood_loo(self, train: TactileSet) -> np.ndarray:
+        """Eq. 6.6 for the *training* observations (the set given to :meth:`fit`), each
+        against a codebook without its own contribution (leave-one-out): the class histogram
+        of z's own class is rebuilt from the other training observations. Without this, a
+        training observation always finds itself in its class histogram and looks more
+        telling than a new grasp would. (N, n)."""
+        self._check_fitted()
+        if self._key(train) != self._train_key or train.labels is None:
+            raise ValueError("likelihood_loo: pass the labelled set that fit() was given")
+        raw = np.exp(-self.distance(self.centres, train).T / self.length_scale)  # (N, k)
+        hz = raw / np.maximum(raw.sum(axis=1, keepdims=True), 1e-300)
+        L = np.minimum(hz[:, None, :], self.codebook[None, :, :]).sum(axis=2)
+        y = np.searchsorted(self.classes, train.labels)
+        own = np.maximum(self._raw[y] - raw, 0.0)
+        tot = own.sum(axis=1, keepdims=True)
+        ok = tot[:, 0] > 0
+        own_h = np.where(ok[:, None], own / np.where(tot > 0, tot, 1.0), 0.0)
+        L[np.arange(len(y)), y] = np.where(ok, np.minimum(hz, own_h).sum(axis=1), 0.0)
+        return L
 
     @staticmethod
     def _cluster(D: np.ndarray, k: int, seed: int, method: str | None = None):
@@ -372,7 +403,9 @@ class TactileRecognizer:
             train: the training observations (the outcomes to sum over), labelled.
             actions: (len(train),) action id of every training observation (e.g. its
                 discretised height, :func:`height_actions`).
-            train_likelihood: optional precomputed ``self.likelihood(train)``.
+            train_likelihood: optional precomputed outcome likelihoods ``(len(train), n)``;
+                default :meth:`likelihood_loo` (leave-one-out) when ``train`` is the fitted
+                set, else :meth:`likelihood`.
             weighting: "belief" or "count" (see the module docstring).
 
         Returns: {action: expected gain in nats}.
@@ -387,7 +420,13 @@ class TactileRecognizer:
         acts = np.asarray(actions)
         if acts.shape != (len(train),):
             raise ValueError(f"actions: expected {len(train)} entries, got shape {acts.shape}")
-        L = self.likelihood(train) if train_likelihood is None else np.asarray(train_likelihood)
+        if train_likelihood is not None:
+            L = np.asarray(train_likelihood, float)
+        elif self._key(train) == self._train_key:
+            L = self.likelihood_loo(train)
+        else:
+            L = self.likelihood(train)
+        L = np.maximum(L, 1e-300)
         post = b[None, :] * L
         post /= post.sum(axis=1, keepdims=True)
         gain = entropy(b) - entropy(post, axis=1)  # I(c; z) for every training z

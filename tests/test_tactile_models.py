@@ -151,6 +151,27 @@ def test_posterior_concentrates_on_the_right_class_with_more_grasps(easy_world):
     assert label == "obj2" and p.sum() == pytest.approx(1.0)
 
 
+def test_leave_one_out_likelihood_only_removes_the_observation_itself(easy_world):
+    rec, train, test, nc = easy_world
+    L = rec.likelihood(train)
+    Lo = rec.likelihood_loo(train)
+    y = np.searchsorted(rec.classes, train.labels)
+    own = np.zeros_like(L, dtype=bool)
+    own[np.arange(len(y)), y] = True
+    np.testing.assert_allclose(Lo[~own], L[~own])  # other classes untouched
+    assert np.mean(Lo[own]) < np.mean(L[own])  # no longer matching itself
+    # by hand for one observation: its class histogram rebuilt without it
+    i = 7
+    raw = np.exp(-rec.distance(rec.centres, train.subset([i]))[:, 0] / rec.length_scale)
+    same = np.flatnonzero(train.labels == train.labels[i])
+    others = np.setdiff1d(same, [i])
+    H = np.exp(-rec.distance(rec.centres, train.subset(others)) / rec.length_scale).sum(axis=1)
+    ref = np.minimum(raw / raw.sum(), H / H.sum()).sum()
+    assert Lo[i, y[i]] == pytest.approx(ref)
+    with pytest.raises(ValueError, match="fit"):
+        rec.likelihood_loo(test)
+
+
 def test_posterior_and_entropy_helpers():
     np.testing.assert_allclose(posterior(np.log([[0.2, 0.8], [0.5, 0.5]])), [0.2, 0.8])
     np.testing.assert_allclose(posterior(np.log([0.5, 0.5]), prior=[0.25, 0.75]), [0.25, 0.75])
