@@ -318,6 +318,56 @@ class TactileRecognizer:
         self._train_key = self._key(train)
         return self
 
+    SCHEMA = "mmlearn.tactile_recognizer/1"
+
+    def to_dict(self) -> dict:
+        """A JSON-able record of the fitted model. Schema ``mmlearn.tactile_recognizer/1``:
+        ``{"schema", "config": {k, alpha, max_shift, length_scale, clustering, seed},
+        "classes": [n names], "centres": {"left", "right": (k, rows, cols) nested lists in
+        [0, 1], "height", "width": k numbers (m)}, "codebook": (n, k), "raw_codebook": (n, k)
+        unnormalised sums of Eq. 6.4, "s_tac", "s_w" (m), "length_scale", "clustering_used",
+        "train_key": fingerprint of the training set (for likelihood_loo)}``."""
+        self._check_fitted()
+        c = self.config
+        return {"schema": self.SCHEMA,
+                "config": {"k": int(c.k), "alpha": float(c.alpha), "max_shift": int(c.max_shift),
+                           "length_scale": c.length_scale, "clustering": c.clustering,
+                           "seed": int(c.seed)},
+                "classes": [str(x) for x in self.classes],
+                "centres": {"left": self.centres.left.tolist(),
+                            "right": self.centres.right.tolist(),
+                            "height": self.centres.height.tolist(),
+                            "width": self.centres.width.tolist()},
+                "codebook": self.codebook.tolist(), "raw_codebook": self._raw.tolist(),
+                "s_tac": self.s_tac, "s_w": self.s_w, "length_scale": self.length_scale,
+                "clustering_used": self.clustering_used,
+                "train_key": list(self._train_key)}
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "TactileRecognizer":
+        """Inverse of :meth:`to_dict`; ValueError naming the missing or malformed key."""
+        if not isinstance(d, dict) or d.get("schema") != cls.SCHEMA:
+            raise ValueError(f"tactile recognizer: expected schema {cls.SCHEMA!r}")
+        try:
+            cfg = TactileRecognitionConfig(**d["config"])
+            ce = d["centres"]
+            centres = TactileSet(ce["left"], ce["right"], ce["height"], ce["width"])
+            rec = cls(cfg, np.array(d["classes"], dtype=object), centres,
+                      np.asarray(d["codebook"], float), float(d["s_tac"]), float(d["s_w"]),
+                      float(d["length_scale"]), str(d["clustering_used"]))
+            rec._raw = np.asarray(d["raw_codebook"], float)
+            rec._train_key = tuple(d["train_key"])
+        except KeyError as e:
+            raise ValueError(f"tactile recognizer: missing key {e}") from None
+        except TypeError as e:
+            raise ValueError(f"tactile recognizer: {e}") from None
+        n, k = len(rec.classes), len(centres)
+        for name, a in (("codebook", rec.codebook), ("raw_codebook", rec._raw)):
+            if a.shape != (n, k) or not np.all(np.isfinite(a)):
+                raise ValueError(f"tactile recognizer: {name} must be finite ({n}, {k}), got "
+                                 f"{a.shape}")
+        return rec
+
     @staticmethod
     def _key(ts: TactileSet):
         return (len(ts), float(ts.width.sum()), float(ts.left.sum()), float(ts.height.sum()))

@@ -172,6 +172,21 @@ def test_leave_one_out_likelihood_only_removes_the_observation_itself(easy_world
         rec.likelihood_loo(test)
 
 
+def test_recognizer_round_trips_through_json(easy_world):
+    import json
+
+    rec, train, test, _ = easy_world
+    d = json.loads(json.dumps(rec.to_dict()))
+    back = TactileRecognizer.from_dict(d)
+    np.testing.assert_allclose(back.likelihood(test), rec.likelihood(test))
+    np.testing.assert_allclose(back.likelihood_loo(train), rec.likelihood_loo(train))
+    del d["codebook"]
+    with pytest.raises(ValueError, match="missing key 'codebook'"):
+        TactileRecognizer.from_dict(d)
+    with pytest.raises(ValueError, match="schema"):
+        TactileRecognizer.from_dict({"schema": "other"})
+
+
 def test_posterior_and_entropy_helpers():
     np.testing.assert_allclose(posterior(np.log([[0.2, 0.8], [0.5, 0.5]])), [0.2, 0.8])
     np.testing.assert_allclose(posterior(np.log([0.5, 0.5]), prior=[0.25, 0.75]), [0.25, 0.75])
