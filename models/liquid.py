@@ -27,7 +27,7 @@ from scipy import signal
 from .tactile_types import TactileDataError, check_series
 
 __all__ = ["RollRecord", "highpass", "filtered_norm", "liquid_feature", "liquid_features",
-           "HIGHPASS_CUTOFF_HZ", "TACTILE_RATE_HZ"]
+           "liquid_table", "evaluate_liquid", "HIGHPASS_CUTOFF_HZ", "TACTILE_RATE_HZ"]
 
 HIGHPASS_CUTOFF_HZ = 5.0
 """Cut-off of the high-pass, Hz (thesis: 5 Hz, the lower end of the 5-50 Hz band of human
@@ -121,3 +121,41 @@ def liquid_features(records, *, with_weight: bool = False,
     if not rows:
         raise TactileDataError("liquid_features: no records")
     return np.asarray(rows, dtype=float)
+
+
+def liquid_table(records, *, cutoff_hz: float = HIGHPASS_CUTOFF_HZ) -> list[dict]:
+    """Table 7.4: per (container, liquid) the number of trials, mean weight (N) and the mean
+    and standard deviation of the tactile feature (taxel unit), sorted by container."""
+    recs = list(records)
+    if not recs:
+        raise TactileDataError("liquid_table: no records")
+    feat = liquid_features(recs, cutoff_hz=cutoff_hz)[:, 0]
+    groups: dict = {}
+    for r, v in zip(recs, feat):
+        groups.setdefault((str(r.container), r.liquid), []).append((v, r.weight))
+    rows = []
+    for (c, liq), vals in sorted(groups.items(), key=lambda kv: (kv[0][0], str(kv[0][1]))):
+        v = np.array([x for x, _ in vals])
+        w = [x for _, x in vals if x is not None]
+        rows.append({"container": c, "liquid": liq, "trials": len(v),
+                     "weight_n": float(np.mean(w)) if w else None,
+                     "feature_mean": float(v.mean()),
+                     "feature_std": float(v.std(ddof=1)) if len(v) > 1 else 0.0})
+    return rows
+
+
+def evaluate_liquid(records, *, with_weight: bool = False, classifier: str = "tree",
+                    folds: int = 10, seed: int = 0):
+    """Stratified ``folds``-fold cross-validation of liquid / no liquid from the tactile
+    feature (and the weight); returns a
+    :class:`~mmlearn.models.tactile_state.ClassificationReport` with labels "liquid" and
+    "no_liquid"."""
+    from .tactile_state import cross_validate
+
+    recs = list(records)
+    for i, r in enumerate(recs):
+        if r.liquid is None:
+            raise TactileDataError(f"record {i}: no liquid ground truth")
+    X = liquid_features(recs, with_weight=with_weight)
+    y = np.array(["liquid" if r.liquid else "no_liquid" for r in recs])
+    return cross_validate(X, y, classifier=classifier, folds=folds, seed=seed)

@@ -362,6 +362,16 @@ def test_liquid_feature_separates_sloshing_from_rigid_and_classifies():
     assert X.shape == (20, 2)
     y = np.array([r.liquid for r in recs])
     assert cross_validate(X[:, :1], y, classifier="tree", folds=10).rate >= 0.9
+    from mmlearn.models.liquid import evaluate_liquid, liquid_table
+
+    for r, k in zip(recs, range(20)):
+        r.container = f"c{k % 2}"
+    rep = evaluate_liquid(recs, with_weight=True, folds=5)
+    assert rep.labels == ["liquid", "no_liquid"] and rep.rate >= 0.9
+    tab = liquid_table(recs)
+    assert [(t["container"], t["liquid"], t["trials"]) for t in tab] == [("c0", False, 10),
+                                                                         ("c1", True, 10)]
+    assert tab[1]["feature_mean"] > 3 * tab[0]["feature_mean"] and tab[1]["weight_n"] == 3.0
     with pytest.raises(TactileDataError, match="taxels: NaN"):
         RollRecord(np.full((10, 4), np.nan))
     with pytest.raises(TactileDataError, match="weight"):
