@@ -47,7 +47,8 @@ from mmlearn.apps._common import (ArgumentParser, UsageError, check_out_file, fa
 from mmlearn.models.icub_grasp import (CONTACT_LEVEL, REST_VELOCITY, ICubFileError,
                                        load_icub_dir)
 from mmlearn.models.tactile_state import (CLASSIFIERS, FEATURE_NAMES, cross_validate,
-                                          evaluate_split, feature_matrix)
+                                          evaluate_split, extract_grasp_features,
+                                          feature_matrix)
 
 __all__ = ["run", "main"]
 
@@ -106,13 +107,17 @@ def run(*, train: str, test: str | None = None, classifier: str = "forest",
     out["no_contact"] = {lab: int(nc.get(lab, 0)) for lab in rep.labels}
     if plot:
         plot_results(rep, tr, plot, title=f"{classifier}, {out['evaluation']}: "
-                                          f"rate {rep.rate:.3f}")
+                                          f"rate {rep.rate:.3f}",
+                     feature_kw={"contact_force": contact_level,
+                                 "rest_velocity": rest_velocity})
     return json_clean(out)
 
 
-def plot_results(rep, trials, path, *, title: str = "") -> None:
+def plot_results(rep, trials, path, *, title: str = "", feature_kw=None) -> None:
     """Confusion matrix (left) and the closure p(t) and summed pressure f(t) of the first
-    trial of every class (right)."""
+    trial of every class (right), with t_first (circle) and t_steady (square) marked;
+    ``feature_kw`` are the keyword arguments of ``extract_grasp_features``."""
+    feature_kw = feature_kw or {"contact_force": CONTACT_LEVEL, "rest_velocity": REST_VELOCITY}
     import matplotlib
 
     matplotlib.use("Agg")
@@ -139,14 +144,21 @@ def plot_results(rep, trials, path, *, title: str = "") -> None:
     cmap = plt.get_cmap("tab10")
     for k, (lab, t) in enumerate(sorted(seen.items())):
         g = t.to_grasp()
-        axes[1].plot(g.t, np.rad2deg(g.p), color=cmap(k % 10), label=lab)
-        axes[2].plot(g.t, g.f, color=cmap(k % 10), label=lab)
+        col = cmap(k % 10)
+        axes[1].plot(g.t, np.rad2deg(g.p), color=col, label=lab)
+        axes[2].plot(g.t, g.f, color=col, label=lab)
+        ft = extract_grasp_features(g, **feature_kw)
+        for i, m in ((ft.i_first, "o"), (ft.i_steady, "s")):  # t_first (o), t_steady (s)
+            if i is not None:
+                axes[1].plot(g.t[i], np.rad2deg(g.p[i]), m, color=col, ms=6, mfc="none")
+                axes[2].plot(g.t[i], g.f[i], m, color=col, ms=6, mfc="none")
     axes[1].set_xlabel("time [slices]")
     axes[1].set_ylabel("closure p(t) [deg, mean flexion]")
     axes[2].set_xlabel("time [slices]")
     axes[2].set_ylabel("summed pressure f(t) [counts]")
     axes[2].legend(fontsize=7)
-    axes[1].set_title("finger closure (first trial per class)", fontsize=9)
+    axes[1].set_title("finger closure (first trial per class; o t_first, [] t_steady)",
+                      fontsize=9)
     axes[2].set_title("summed taxel pressure", fontsize=9)
     fig.tight_layout()
     save_figure(fig, path, dpi=100)
