@@ -39,6 +39,7 @@ from __future__ import annotations
 import json
 import sys
 from collections import Counter
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -50,7 +51,7 @@ from mmlearn.models.tactile_state import (CLASSIFIERS, FEATURE_NAMES, cross_vali
                                           evaluate_split, extract_grasp_features,
                                           feature_matrix)
 
-__all__ = ["run", "main"]
+__all__ = ["run", "main", "TactileStateConfig"]
 
 
 def _features(trials, *, contact_level, rest_velocity, steady_average):
@@ -61,11 +62,42 @@ def _features(trials, *, contact_level, rest_velocity, steady_average):
     return X, y, feats
 
 
-def run(*, train: str, test: str | None = None, classifier: str = "forest",
-        include_full_coke: bool = False, folds: int = 10, seed: int = 0,
-        contact_level: float = CONTACT_LEVEL, rest_velocity: float = REST_VELOCITY,
-        steady_average: bool = False, plot: str | None = None) -> dict:
+@dataclass
+class TactileStateConfig:
+    """Settings of one run (real-data mode).
+
+    Attributes:
+        train: folder of iCub grasp files to train on.
+        test: folder of files to score; None: ``folds``-fold cross-validation on ``train``.
+        classifier: "forest" or "tree".
+        include_full_coke: keep the full_coke trials.
+        folds: cross-validation folds.
+        seed: random seed (fold assignment, forest).
+        contact_level: contact threshold F on a finger's highest taxel pressure, counts.
+        rest_velocity: rest threshold V on the closure rate, rad per slice.
+        steady_average: steady-phase means instead of single samples for p/f_steady.
+        plot: image file for the confusion matrix and profiles, or None.
+    """
+
+    train: str = ""
+    test: str | None = None
+    classifier: str = "forest"
+    include_full_coke: bool = False
+    folds: int = 10
+    seed: int = 0
+    contact_level: float = CONTACT_LEVEL
+    rest_velocity: float = REST_VELOCITY
+    steady_average: bool = False
+    plot: str | None = None
+
+
+def run(*, config: TactileStateConfig) -> dict:
     """Train and evaluate on iCub grasp files (see the module docstring for the result)."""
+    c = config
+    train, test, classifier = c.train, c.test, c.classifier
+    include_full_coke, folds, seed = c.include_full_coke, c.folds, c.seed
+    contact_level, rest_velocity = c.contact_level, c.rest_velocity
+    steady_average, plot = c.steady_average, c.plot
     if classifier not in CLASSIFIERS:
         raise ValueError(f"classifier: unknown {classifier!r}; choose from {', '.join(CLASSIFIERS)}")
     tr, _ = load_icub_dir(train, include_unreliable=include_full_coke)
@@ -209,9 +241,17 @@ def main(argv=None) -> int:
                     help="random seed (fold assignment, forest)")
     ap.add_argument("--plot", metavar="FILE", default=None,
                     help="write the confusion matrix and example grasp profiles as an image")
+    ap.add_argument("--meshcat", action="store_true",
+                    help="live 3-D view (simulation mode only: not built yet)")
+    ap.add_argument("--html-out", metavar="FILE", default=None,
+                    help="Meshcat recording (simulation mode only: not built yet)")
     ap.add_argument("--json", action="store_true", help="print results as one JSON object")
     args = ap.parse_args(argv)
     try:
+        for flag, val in (("--meshcat", args.meshcat), ("--html-out", args.html_out)):
+            if val:
+                raise UsageError(f"{flag}: real-data mode has no 3-D scene to show, and the "
+                                 f"simulation mode is not built yet (use --plot FILE)")
         if args.train is None:
             if args.f_target is not None:
                 raise UsageError("simulation mode not built yet (--f-target needs the Drake "
@@ -230,10 +270,11 @@ def main(argv=None) -> int:
     except UsageError as e:
         return fail(ap.prog, str(e))
     try:
-        out = run(train=args.train, test=args.test, classifier=args.classifier,
-                  include_full_coke=args.include_full_coke, folds=args.folds, seed=args.seed,
-                  contact_level=args.contact_level, rest_velocity=args.rest_velocity,
-                  steady_average=args.steady_average, plot=args.plot)
+        out = run(config=TactileStateConfig(
+            train=args.train, test=args.test, classifier=args.classifier,
+            include_full_coke=args.include_full_coke, folds=args.folds, seed=args.seed,
+            contact_level=args.contact_level, rest_velocity=args.rest_velocity,
+            steady_average=args.steady_average, plot=args.plot))
     except (ICubFileError, ValueError) as e:
         return fail(ap.prog, str(e))
     if args.json:

@@ -143,6 +143,7 @@ def _main(argv, capsys):
     (["--train", str(DATA), "--folds", "0"], "--folds"),
     (["--train", str(DATA), "--plot", "/nonexistent/x.png"], "--plot: folder"),
     (["--train", str(DATA), "--folds", "10"], "needs at least 10 instances per class"),
+    (["--train", str(DATA), "--meshcat"], "--meshcat: real-data mode has no 3-D scene"),
 ])
 def test_cli_errors_exit_2_with_one_line(argv, needle, capsys):
     rc, out, err = _main(argv, capsys)
