@@ -470,9 +470,10 @@ def trial_specs(*, only, runs: int, seed: int, quick: bool, exact: bool = True,
 
 # ---------------------------------------------------------------------------- the tables
 
-def _point_stats(experiment, recs, grid, runs):
+def _point_stats(experiment, recs, grid, runs, raised=frozenset()):
     """noise / outliers / size: per model the statistics of every grid point (a point
-    whose trial raised counts as ``runs`` failed runs)."""
+    whose trial raised, (model, index) in ``raised``, counts as ``runs`` failed runs; one
+    not run, after an interruption, as none)."""
     res = {"error_mean": {}, "error_std": {}, "failed": {}}
     if experiment == "outliers":
         res.update({k: {} for k in ("gamma_est_mean", "gamma_true_mean", "gamma_abs_dev_mean",
@@ -484,7 +485,7 @@ def _point_stats(experiment, recs, grid, runs):
         for i in range(len(grid)):
             r = recs.get((m, i))
             e = r["errors"] if r else []
-            cols["nf"].append(r["failed"] if r else runs)
+            cols["nf"].append(r["failed"] if r else runs if (m, i) in raised else 0)
             if experiment != "outliers":
                 cols["mu"].append(float(np.mean(e)) if e else None)
                 cols["sd"].append(float(np.std(e)) if e else None)
@@ -550,21 +551,29 @@ def report(lines: list[dict]) -> dict:
     trial that raised is listed in ``errors`` (its runs count as failed)."""
     if not lines:
         raise ValueError("no trial records")
+    settings = {(bool(ln["spec"]["params"]["quick"]), int(ln["spec"]["params"]["runs"]),
+                 ln["spec"]["seed"]) for ln in lines}
+    if len(settings) > 1:
+        raise ValueError("the results file mixes settings (--quick, --runs or --seed "
+                         f"differ: {sorted(settings)}); use one results file per setting")
     p0 = lines[0]["spec"]["params"]
     quick, runs = bool(p0["quick"]), int(p0["runs"])
     res = {"runs": runs, "seed": lines[0]["spec"]["seed"], "quick": quick}
     by: dict[str, dict] = {}
+    raised: dict[str, set] = {}
     for ln in lines:
         p = ln["spec"]["params"]
+        key = (p.get("model"), p.get("i", 0))
         if ln.get("error") is None:
-            by.setdefault(p["experiment"], {})[(p.get("model"), p.get("i", 0))] = ln["record"]
+            by.setdefault(p["experiment"], {})[key] = ln["record"]
         else:
             by.setdefault(p["experiment"], {})
+            raised.setdefault(p["experiment"], set()).add(key)
     for e in ("noise", "outliers", "size"):
         if e not in by:
             continue
         grid = _grid(e, quick)
-        r = _point_stats(e, by[e], grid, runs)
+        r = _point_stats(e, by[e], grid, runs, raised.get(e, set()))
         if e == "noise":
             res[e] = {"sigma_pos": grid, **r, "runs_per_point": runs}
         elif e == "outliers":
@@ -905,7 +914,10 @@ def main(argv=None) -> int:
     except UsageError as e:
         return fail(ap.prog, str(e))
     if args.report_only:
-        res = report(lines)
+        try:
+            res = report(lines)
+        except ValueError as e:
+            return fail(ap.prog, f"--report-only: {args.report_only}: {e}")
         res["plots"] = _plots(res, Path(args.out_dir)) if args.out_dir else []
     else:
         try:

@@ -392,6 +392,9 @@ def report(lines: list[dict]) -> dict:
     """The experiments' results from results-file lines (a run or ``--report-only``).
     A trial that raised is listed in ``errors``; in Tables 3.1 / 3.2 it also counts as a
     failed run, elsewhere it is left out (the averages say over how many runs)."""
+    if len({bool(ln["spec"]["params"].get("quick")) for ln in lines}) > 1:
+        raise ValueError("the results file holds runs of --quick and of the full setting; "
+                         "use one results file per setting")
     by: dict[str, list] = {}
     for ln in lines:
         p = ln["spec"]["params"]
@@ -613,7 +616,10 @@ def main(argv=None) -> int:
     except UsageError as e:
         return fail(ap.prog, str(e))
     if args.report_only:
-        res = write_outputs(report(lines), args.out_dir)
+        try:
+            res = write_outputs(report(lines), args.out_dir)
+        except ValueError as e:
+            return fail(ap.prog, f"--report-only: {args.report_only}: {e}")
     else:
         try:
             res = run(quick=args.quick, runs=args.runs, seed=args.seed, out_dir=args.out_dir,

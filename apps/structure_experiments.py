@@ -426,7 +426,8 @@ def trial_specs(*, only=EXPERIMENTS, quick: bool = False, seed: int = 0, seeds: 
             ns, nn = (min(seeds, 2), 60) if quick else (seeds, n)
             specs += [TrialSpec(fn=fn, seed=seed + j, label=f"fig416 "
                                 f"{'closed' if closed else 'open'} seed {seed + j}",
-                                params={"experiment": k, "closed": closed, "n": nn})
+                                params={"experiment": k, "closed": closed, "n": nn,
+                                        "quick": quick})
                       for closed in (False, True) for j in range(ns)]
         elif k == "fig417":
             specs += [TrialSpec(fn=fn, seed=seed, label=f"fig417 "
@@ -435,7 +436,7 @@ def trial_specs(*, only=EXPERIMENTS, quick: bool = False, seed: int = 0, seeds: 
                       for closed in (False, True)]
         elif k == "fig418":
             specs += [TrialSpec(fn=fn, seed=seed, label=f"fig418 n {m}",
-                                params={"experiment": k, "n": m})
+                                params={"experiment": k, "n": m, "quick": quick})
                       for m in ([40, 80] if quick else [25, 50, 100, 150, 200])]
     return specs
 
@@ -444,6 +445,12 @@ def report(lines: list[dict], *, only=None) -> tuple[dict, list[str]]:
     """Every experiment's result and table lines from results-file lines (a run or
     ``--report-only``), in the order of ``only`` (default: :data:`EXPERIMENTS`). Trials that
     raised are listed in ``results["errors"]`` and left out of their experiment."""
+    settings = {(bool(ln["spec"]["params"].get("quick")),
+                 ln["spec"]["params"].get("n") if ln["spec"]["params"]["experiment"] == "fig416"
+                 else None) for ln in lines}
+    if len({q for q, _ in settings}) > 1 or len({n for _, n in settings} - {None}) > 1:
+        raise ValueError("the results file mixes settings (--quick or not, fig416 with "
+                         "different --n); use one results file per setting")
     ok = [ln for ln in lines if ln.get("error") is None]
     by = {}
     for ln in ok:
@@ -548,7 +555,10 @@ def main(argv=None) -> int:
             print("\n".join(lines) + "\n", flush=True)
 
     if a.report_only:
-        res, text = report(lines, only=only)
+        try:
+            res, text = report(lines, only=only)
+        except ValueError as e:
+            return fail(ap.prog, f"--report-only: {a.report_only}: {e}")
         echo(text)
         if a.out_dir:
             res["plots"] = _plots(res, a.out_dir)

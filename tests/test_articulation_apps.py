@@ -103,3 +103,12 @@ def test_articulation_experiments_report_only_reproduces_the_tables(tmp_path):
     d1, d2 = json.loads(one.stdout), json.loads(two.stdout)
     for k in ("size", "table", "bic_n"):
         assert d1[k] == d2[k]
+    # a results file holding two settings (here: --runs 2 and 3) is not averaged together
+    lines = res.read_text().splitlines()
+    other = json.loads(lines[0])
+    other["spec"]["params"]["runs"], other["key"] = 3, "x" * 20
+    mixed = tmp_path / "mixed.jsonl"
+    mixed.write_text("\n".join(lines) + "\n" + json.dumps(other) + "\n")
+    r = _run(["mmlearn.apps.articulation_experiments", "--report-only", str(mixed),
+              "--out-dir", ""], tmp_path)
+    assert r.returncode == 2 and "mixes settings" in r.stderr and "mixed.jsonl" in r.stderr
