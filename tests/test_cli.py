@@ -271,7 +271,10 @@ def test_articulation_experiments_count_failed_runs(monkeypatch, capsys):
         return real(model_name, *a, **k)
 
     monkeypatch.setattr(ae, "_fit_err", flaky)
-    res = ae.exp_size(2, np.random.default_rng(0), True, False)
+    # one job, no shared inputs: the sweep runs its trials in this process (the patch holds)
+    res = ae.run(runs=2, quick=True, only=["size"], out_dir=None, progress=False, jobs=1)
+    assert res["errors"] == []
+    res = res["size"]
     assert res["failed"]["gp"] == [2, 2, 2, 2] and res["error_mean"]["gp"] == [None] * 4
     assert res["failed"]["rigid"] == [0, 0, 0, 0]
     ae._print({"size": res})
@@ -289,7 +292,9 @@ def test_body_schema_experiments_count_failed_runs(monkeypatch):
         return dict(first=2, restore=1, second=3)
 
     monkeypatch.setattr(bse, "drake_recovery", recovery)
-    r = bse.drake_recovery_runs("joint", runs=3, n_block=5, seed=0, workers=1, show=False)
+    rs = [bse.trial(seed=s, block="table_3_1_drake", run=s,
+                    kwargs=dict(failure="joint", n_block=5, n_first=30)) for s in range(3)]
+    r = bse.recovery_summary(rs, drake=True)
     assert r["failed_runs"] == 1 and r["mean"] == [2.0, 1.0, 3.0] and r["runs"] == 3
     assert "solver diverged" in r["failures"][0]
     # Fig. 3.10 over runs: a run without a complete schema is counted as left out
