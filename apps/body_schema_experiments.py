@@ -25,6 +25,15 @@ Prediction errors are measured on independent test configurations against the tr
 
     python -m mmlearn.apps.body_schema_experiments --out-dir results/   # ~15-20 min
     python -m mmlearn.apps.body_schema_experiments --quick --json        # ~1 min CPU
+        [--results FILE] [--executor local|ray] [--ray-address ADDR] [--jobs N]
+    python -m mmlearn.apps.body_schema_experiments --report-only RESULTS.jsonl [--out-dir DIR]
+
+Every run (of Fig. 3.10, the 7-DOF structure convergence, each table) is a trial of the
+sweep runner (``mmlearn.apps._sweep``): run in parallel processes (``--jobs``, default all
+cores) or as Ray tasks (``--executor ray``), streamed to ``--results`` (default
+``body_schema_experiments_results.jsonl`` in ``--out-dir``); re-running the same command
+resumes, ``--report-only FILE`` redraws the tables, the plot and the JSON from a results
+file without running anything.
 """
 
 from __future__ import annotations
@@ -150,16 +159,12 @@ def drake_recovery(failure, *, n_block, seed, arm="2dof", n_first=30, show=True)
                 second=invalid[3], events=[e for _, e in bs.learner.state(root).schema.events])
 
 
-def _call(job):
-    fn, kwargs = job
-    return _guarded(fn, kwargs, show=False)
-
-
-def _guarded(fn, kwargs, *, show):
-    """fn(**kwargs); a run that raises becomes ``{"failed": reason}`` (counted in the
+def _guarded(fn, kwargs):
+    """fn(**kwargs, show=False); a run that raises ValueError, RuntimeError or LinAlgError
+    becomes ``{"failed": reason}`` (a failed run of the robot / learner: counted in the
     tables, never silently dropped)."""
     try:
-        return fn(**kwargs, show=show)
+        return fn(**kwargs, show=False)
     except (ValueError, RuntimeError, np.linalg.LinAlgError) as e:
         return {"failed": f"{type(e).__name__}: {e}"}
 
@@ -168,47 +173,6 @@ def _ok(rs):
     """(runs that finished, their number failed, reasons)."""
     ok = [r for r in rs if "failed" not in r]
     return ok, len(rs) - len(ok), [r["failed"] for r in rs if "failed" in r]
-
-
-def _parallel(fn, kwargs_list, *, workers=2, desc="", show=True):
-    """fn(**kwargs) for every kwargs in ``workers`` processes (in order)."""
-    if workers > 1 and len(kwargs_list) > 1:
-        import multiprocessing as mp
-        from concurrent.futures import ProcessPoolExecutor
-
-        with ProcessPoolExecutor(workers, mp_context=mp.get_context("spawn")) as ex:
-            return list(progress(ex.map(_call, [(fn, k) for k in kwargs_list]),
-                                 total=len(kwargs_list), desc=desc, unit="run", enabled=show))
-    return [_guarded(fn, k, show=show) for k in kwargs_list]
-
-
-def drake_recovery_runs(failure, *, runs, n_block, seed, n_first=30, workers=2, show=True):
-    """``runs`` independent Drake runs of :func:`drake_recovery` (seeds seed..seed+runs-1)
-    in ``workers`` processes; mean and std of first / restore / second."""
-    rs = _parallel(drake_recovery, [dict(failure=failure, n_block=n_block, seed=seed + r,
-                                         n_first=n_first) for r in range(runs)],
-                   workers=workers, desc=f"Drake Table 3.1 {failure}", show=show)
-    ok, failed, why = _ok(rs)
-    f = np.array([[r["first"], r["restore"], r["second"]] for r in ok], float).reshape(-1, 3)
-    nan3 = [float("nan")] * 3
-    return dict(mean=f.mean(0).tolist() if ok else nan3, std=f.std(0).tolist() if ok else nan3,
-                runs=runs, failed_runs=failed, failures=why,
-                per_run=f.astype(int).tolist(), first=ok[0]["first"] if ok else None,
-                restore=ok[0]["restore"] if ok else None,
-                second=ok[0]["second"] if ok else None)
-
-
-def drake_control_runs(*, runs, seed, workers=2, show=True, **kw):
-    """``runs`` independent Drake runs of :func:`drake_control`; means and per-run values."""
-    rs = _parallel(drake_control, [dict(seed=seed + r, **kw) for r in range(runs)],
-                   workers=workers, desc="Drake Table 3.2", show=show)
-    keys = ("intact_static", "bent_static", "bent_adaptive")
-    ok, failed, why = _ok(rs)
-    out = {k: float(np.mean([r[k] for r in ok])) if ok else float("nan") for k in keys}
-    out.update(runs=runs, failed_runs=failed, failures=why,
-               per_run=[[r[k] for k in keys] for r in ok],
-               valid_after=bool(ok) and all(r["valid_after"] for r in ok))
-    return out
 
 
 def drake_control(*, n_learn, n_adapt, n_waypoints, seed, show=True):
@@ -231,53 +195,127 @@ def drake_control(*, n_learn, n_adapt, n_waypoints, seed, show=True):
     out["valid_after"] = bool(sch.valid)
     return out
 
+def _numpy_recovery(*, failure, visibility, show=False, **kw):
+    from mmlearn.models.body_schema_experiments import recovery_experiment
+    from mmlearn.models.kinematic_sim import make_arm_7dof
 
-def numpy_tables(*, runs, quick, seed, show=True):
-    from mmlearn.models.body_schema_experiments import control_experiment, recovery_experiment
-    from mmlearn.models.kinematic_sim import make_arm_4dof, make_arm_7dof
+    return recovery_experiment(make_arm_7dof, failure, visibility=visibility, **kw)
 
-    def guarded(fn, *a, **k):
-        try:
-            return fn(*a, **k)
-        except (ValueError, RuntimeError, np.linalg.LinAlgError) as e:
-            return {"failed": f"{type(e).__name__}: {e}"}
 
-    kw = dict(n_block=20) if quick else {}
-    t31 = {}
+def _numpy_control(*, show=False, **kw):
+    from mmlearn.models.body_schema_experiments import control_experiment
+    from mmlearn.models.kinematic_sim import make_arm_4dof
+
+    return control_experiment(make_arm_4dof, **kw)
+
+
+#: the experiments' blocks: (trial function, its runs raising ValueError / RuntimeError /
+#: LinAlgError are failed runs counted in the tables (True) or trial errors (False))
+BLOCKS = {"fig_3_10": ("accuracy", False), "noise_free": ("accuracy", False),
+          "7dof_occluded": ("accuracy", False), "7dof_structure": ("accuracy", False),
+          "table_3_1_numpy": ("numpy_recovery", True), "table_3_2_numpy": ("numpy_control", True),
+          "table_3_1_drake": ("recovery", True), "table_3_2_drake": ("control", True)}
+
+
+def trial(*, seed: int, block: str, run: int = 0, kwargs: dict, quick: bool = False,
+          shared=None) -> dict:
+    """One run of one experiment (the sweep's trial function, ``mmlearn.apps._sweep``):
+    ``block`` names the experiment (:data:`BLOCKS`), ``run`` the run's index in it,
+    ``kwargs`` the keyword arguments of its function (:func:`drake_accuracy`,
+    :func:`drake_recovery`, :func:`drake_control` or the numpy simulation's
+    ``recovery_experiment`` / ``control_experiment``). A Table 3.1 / 3.2 run that raises
+    returns ``{"failed": reason}`` (counted in the table); ``quick`` only names the setting."""
+    if block not in BLOCKS:
+        raise ValueError(f"unknown block {block!r}; choose from {', '.join(BLOCKS)}")
+    fn = {"accuracy": drake_accuracy, "recovery": drake_recovery, "control": drake_control,
+          "numpy_recovery": _numpy_recovery, "numpy_control": _numpy_control}[BLOCKS[block][0]]
+    kw = dict(kwargs, seed=seed)
+    if BLOCKS[block][1]:
+        return _guarded(fn, kw)
+    if fn is drake_accuracy:
+        kw = dict(kw, sizes=list(kw["sizes"]))
+        arm, noise, sizes = kw.pop("arm"), kw.pop("noise"), kw.pop("sizes")
+        out = drake_accuracy(arm, noise, sizes, show=False, **kw)
+        if block == "7dof_structure":
+            out["correct_from"] = _correct_from(out["rows"])
+        return out
+    return fn(**kw, show=False)
+
+
+def trial_specs(*, quick: bool = False, runs: int = 20, seed: int = 0, structure_runs: int = 5,
+                drake_runs: int = 6, fig310_runs: int = 3) -> list:
+    """The sweep's trials (one per run of every experiment), with the seeds of the
+    experiments: Fig. 3.10 seed + 100 r, noise-free seed + 1, 7-DOF occluded seed + 2, 7-DOF
+    structure seed + 10 + r, the tables seed + r."""
+    from mmlearn.apps._sweep import TrialSpec
+
+    fn = "mmlearn.apps.body_schema_experiments:trial"
+
+    def spec(block, r, s, label, **kw):
+        return TrialSpec(fn=fn, seed=s, label=f"{label} run {r} seed {s}",
+                         params={"block": block, "run": r, "quick": quick, "kwargs": kw})
+
+    sizes = [5, 10, 15, 20] if quick else [5, 10, 15, 20, 30, 50, 100]
+    specs = [spec("fig_3_10", r, seed + 100 * r, "Fig. 3.10", arm="2dof", noise=0.044,
+                  sizes=sizes, n_test=30 if quick else 200, n_control=1 if quick else 20)
+             for r in range(1 if quick else fig310_runs)]
+    specs.append(spec("noise_free", 0, seed + 1, "noise-free 2-DOF", arm="2dof", noise=0.0,
+                      sizes=[20] if quick else [20, 100], n_test=30 if quick else 60,
+                      n_control=0))
+    specs.append(spec("7dof_occluded", 0, seed + 2, "7-DOF occluded", arm="7dof", noise=0.0,
+                      sizes=[15] if quick else [10, 15, 20, 50, 100],
+                      n_test=20 if quick else 100, n_control=0, occlude=["x4"]))
+    specs += [spec("7dof_structure", r, seed + 10 + r, "7-DOF structure", arm="7dof",
+                   noise=0.044, sizes=[8, 10, 12] if quick else [8, 10, 12, 15, 20, 30],
+                   n_test=10 if quick else 60, n_control=0, occlude=["x4"])
+              for r in range(1 if quick else structure_runs)]
+    nkw = dict(n_block=20) if quick else {}
     for failure, vis in (("joint", 0.919), ("tool", 0.790)):
-        rs = [guarded(recovery_experiment, make_arm_7dof, failure, seed=seed + r,
-                      visibility=vis, **kw)
-              for r in progress(range(runs), desc=f"Table 3.1 {failure}", unit="run",
-                                enabled=show)]
-        ok, failed, why = _ok(rs)
-        f = np.array([[r["first"], r["restore"], r["second"]] for r in ok], float).reshape(-1, 3)
-        nan3 = [float("nan")] * 3
-        t31[failure] = dict(mean=f.mean(0).tolist() if ok else nan3,
-                            std=f.std(0).tolist() if ok else nan3, runs=runs,
-                            failed_runs=failed, failures=why)
+        specs += [spec("table_3_1_numpy", r, seed + r, f"Table 3.1 numpy {failure}",
+                       failure=failure, visibility=vis, **nkw)
+                  for r in range(1 if quick else runs)]
     ckw = dict(n_learn=30, n_waypoints=6, n_adapt=40) if quick else {}
-    rs = [guarded(control_experiment, make_arm_4dof, seed=seed + r, **ckw)
-          for r in progress(range(max(1, runs // 4)), desc="Table 3.2", unit="run",
-                            enabled=show)]
+    specs += [spec("table_3_2_numpy", r, seed + r, "Table 3.2 numpy", **ckw)
+              for r in range(max(1, (1 if quick else runs) // 4))]
+    for failure in ("joint", "tool"):
+        specs += [spec("table_3_1_drake", r, seed + r, f"Table 3.1 Drake {failure}",
+                       failure=failure, n_block=10 if quick else 100, n_first=30)
+                  for r in range(1 if quick else drake_runs)]
+    specs += [spec("table_3_2_drake", r, seed + r, "Table 3.2 Drake",
+                   n_learn=30 if quick else 100, n_adapt=30 if quick else 150,
+                   n_waypoints=4 if quick else 30)
+              for r in range(1 if quick else max(1, drake_runs // 2))]
+    return specs
+
+
+def recovery_summary(rs, *, drake: bool) -> dict:
+    """Table 3.1 over runs (records of :func:`drake_recovery` or the numpy
+    ``recovery_experiment``, ``{"failed": reason}`` for a failed run): mean and std of
+    first / restore / second over the runs that finished; the Drake rows also per run."""
     ok, failed, why = _ok(rs)
-    t32 = {k: float(np.mean([r[k][0] for r in ok])) if ok else float("nan") for k in
-           ("intact_static", "bent_static", "bent_adaptive")}
-    t32.update(runs=len(rs), failed_runs=failed, failures=why)
-    return t31, t32
+    f = np.array([[r["first"], r["restore"], r["second"]] for r in ok], float).reshape(-1, 3)
+    nan3 = [float("nan")] * 3
+    out = dict(mean=f.mean(0).tolist() if ok else nan3, std=f.std(0).tolist() if ok else nan3,
+               runs=len(rs), failed_runs=failed, failures=why)
+    if drake:
+        out.update(per_run=f.astype(int).tolist(), first=ok[0]["first"] if ok else None,
+                   restore=ok[0]["restore"] if ok else None,
+                   second=ok[0]["second"] if ok else None)
+    return out
 
 
-def _drake_tables(*, quick, drake_runs, seed, show):
-    """Tables 3.1 and 3.2 in Drake (``--drake-runs`` runs per failure, half as many of
-    Table 3.2; one run each with ``quick``)."""
-    n_block = 10 if quick else 100
-    out = {"table_3_1_drake": {f: drake_recovery_runs(f, runs=1 if quick else drake_runs,
-                                                      n_block=n_block, seed=seed, show=show)
-                               for f in ("joint", "tool")}}
-    out["table_3_2_drake"] = drake_control_runs(runs=1 if quick else max(1, drake_runs // 2),
-                                                n_learn=30 if quick else 100,
-                                                n_adapt=30 if quick else 150,
-                                                n_waypoints=4 if quick else 30, seed=seed,
-                                                show=show)
+def control_summary(rs, *, drake: bool) -> dict:
+    """Table 3.2 over runs: mean control errors [m] over the runs that finished."""
+    keys = ("intact_static", "bent_static", "bent_adaptive")
+    ok, failed, why = _ok(rs)
+    if drake:
+        out = {k: float(np.mean([r[k] for r in ok])) if ok else float("nan") for k in keys}
+        out.update(runs=len(rs), failed_runs=failed, failures=why,
+                   per_run=[[r[k] for k in keys] for r in ok],
+                   valid_after=bool(ok) and all(r["valid_after"] for r in ok))
+    else:
+        out = {k: float(np.mean([r[k][0] for r in ok])) if ok else float("nan") for k in keys}
+        out.update(runs=len(rs), failed_runs=failed, failures=why)
     return out
 
 
@@ -344,76 +382,113 @@ def _correct_from(rows):
         n = r["n"]
     return n
 
+WHERE = {"fig_3_10": "drake", "noise_free": "drake", "7dof_occluded": "drake",
+         "7dof_structure": "drake",
+         "table_3_1": "numpy (statistics) + drake (--drake-runs runs per failure, 2-DOF)",
+         "table_3_2": "numpy (statistics) + drake (--drake-runs // 2 runs, 4-DOF)"}
+
+
+def report(lines: list[dict]) -> dict:
+    """The experiments' results from results-file lines (a run or ``--report-only``).
+    A trial that raised is listed in ``errors``; in Tables 3.1 / 3.2 it also counts as a
+    failed run, elsewhere it is left out (the averages say over how many runs)."""
+    if len({bool(ln["spec"]["params"].get("quick")) for ln in lines}) > 1:
+        raise ValueError("the results file holds runs of --quick and of the full setting; "
+                         "use one results file per setting")
+    by: dict[str, list] = {}
+    for ln in lines:
+        p = ln["spec"]["params"]
+        by.setdefault(p["block"], []).append(ln)
+    for v in by.values():
+        v.sort(key=lambda ln: ln["spec"]["params"]["run"])
+
+    def recs(block, *, failed_as_run):
+        out = []
+        for ln in by.get(block, []):
+            if ln.get("error") is None:
+                out.append(ln["record"])
+            elif failed_as_run:
+                out.append({"failed": f"trial error: {ln['error']}"})
+        return out
+
+    quick = any(ln["spec"]["params"].get("quick") for ln in lines)
+    res = {"quick": quick, "where": dict(WHERE)}
+    fig = recs("fig_3_10", failed_as_run=False)
+    if fig:
+        res["fig_3_10"] = _average_runs(fig)
+    for block in ("noise_free", "7dof_occluded"):
+        r = recs(block, failed_as_run=False)
+        if r:
+            res[block] = r[0]
+    st = recs("7dof_structure", failed_as_run=False)
+    if st:
+        res["7dof_structure"] = st
+    t31 = {f: [r for r, ln in zip(recs("table_3_1_drake", failed_as_run=True),
+                                  by.get("table_3_1_drake", []))
+               if ln["spec"]["params"]["kwargs"]["failure"] == f] for f in ("joint", "tool")}
+    if any(t31.values()):
+        res["table_3_1_drake"] = {f: recovery_summary(v, drake=True) for f, v in t31.items()}
+    c = recs("table_3_2_drake", failed_as_run=True)
+    if c:
+        res["table_3_2_drake"] = control_summary(c, drake=True)
+    t31 = {f: [r for r, ln in zip(recs("table_3_1_numpy", failed_as_run=True),
+                                  by.get("table_3_1_numpy", []))
+               if ln["spec"]["params"]["kwargs"]["failure"] == f] for f in ("joint", "tool")}
+    if any(t31.values()):
+        res["table_3_1_numpy"] = {f: recovery_summary(v, drake=False) for f, v in t31.items()}
+    c = recs("table_3_2_numpy", failed_as_run=True)
+    if c:
+        res["table_3_2_numpy"] = control_summary(c, drake=False)
+    res["seconds"] = float(sum(ln.get("wall_s") or 0.0 for ln in lines))
+    res["errors"] = [{"trial": ln["spec"].get("label") or ln["key"], "error": ln["error"]}
+                     for ln in lines if ln.get("error") is not None]
+    return res
+
+
+def write_outputs(res: dict, out_dir: str | Path) -> dict:
+    """Fig. 3.10's plot and ``body_schema_experiments.json`` in ``out_dir``."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    res["plots"] = []
+    if "fig_3_10" in res:
+        _plot(res["fig_3_10"], out / "fig_3_10.png")
+        res["plots"].append(str(out / "fig_3_10.png"))
+    atomic_write_text(out / "body_schema_experiments.json", json.dumps(res, indent=1))
+    return res
+
 
 def run(*, quick: bool = False, runs: int = 20, seed: int = 0, out_dir: str | Path = ".",
         show_progress: bool = True, structure_runs: int = 5, drake_runs: int = 6,
-        fig310_runs: int = 3) -> dict:
+        fig310_runs: int = 3, results: str | None = None, executor: str = "local",
+        jobs: int | None = None, ray_address: str | None = None) -> dict:
     """Run every experiment; write ``fig_3_10.png`` and ``body_schema_experiments.json`` to
-    ``out_dir``; return the results. ``structure_runs``: Drake runs of the 7-DOF structure
-    convergence (sensor noise 0.044 m); ``drake_runs``: Drake runs of Table 3.1 per failure
-    and drake_runs // 2 of Table 3.2 (two at a time); ``fig310_runs``: Drake runs averaged
-    in Fig. 3.10."""
+    ``out_dir``; return the results. ``runs``: numpy runs of Table 3.1 per failure (runs // 4
+    of Table 3.2); ``structure_runs``: Drake runs of the 7-DOF structure convergence (sensor
+    noise 0.044 m); ``drake_runs``: Drake runs of Table 3.1 per failure and drake_runs // 2
+    of Table 3.2; ``fig310_runs``: Drake runs averaged in Fig. 3.10.
+
+    Every run is a trial of the sweep runner (``mmlearn.apps._sweep``): streamed to
+    ``results`` (a JSON Lines file; None: a temporary one; runs already in it are not run
+    again), ``executor`` "local" (``jobs`` processes, default all cores) or "ray"
+    (``ray_address``: a cluster, None: a local Ray instance of ``jobs`` CPUs)."""
+    from mmlearn.apps._sweep import run_sweep
+
     if min(runs, structure_runs, drake_runs, fig310_runs) < 1:
         raise ValueError(f"runs, structure_runs, drake_runs and fig310_runs must be >= 1, "
                          f"got {runs}, {structure_runs}, {drake_runs}, {fig310_runs}")
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    t0 = time.perf_counter()
-    show = show_progress
-    sizes = [5, 10, 15, 20] if quick else [5, 10, 15, 20, 30, 50, 100]
-    tables = pool = None
-    if quick:
-        # one run of each Drake table in a second process while this one runs the accuracy
-        # experiments (the full setting parallelises the tables' runs instead)
-        import multiprocessing as mp
-        from concurrent.futures import ProcessPoolExecutor
-
-        pool = ProcessPoolExecutor(1, mp_context=mp.get_context("spawn"))
-        tables = pool.submit(_drake_tables, quick=True, drake_runs=1, seed=seed, show=False)
-    try:
-        return _run_rest(tables, quick=quick, runs=runs, seed=seed, out=out, t0=t0,
-                         show=show, sizes=sizes, structure_runs=structure_runs,
-                         drake_runs=drake_runs, fig310_runs=fig310_runs)
-    finally:
-        if pool is not None:
-            pool.shutdown(cancel_futures=True)
-
-
-def _run_rest(tables, *, quick, runs, seed, out, t0, show, sizes, structure_runs,
-              drake_runs, fig310_runs):
-    res = {"quick": quick, "where": {
-        "fig_3_10": "drake", "noise_free": "drake", "7dof_occluded": "drake",
-        "7dof_structure": "drake",
-        "table_3_1": "numpy (statistics) + drake (--drake-runs runs per failure, 2-DOF)",
-        "table_3_2": "numpy (statistics) + drake (--drake-runs // 2 runs, 4-DOF)"}}
-    res["fig_3_10"] = _average_runs([
-        drake_accuracy("2dof", 0.044, sizes, seed=seed + 100 * r, n_test=30 if quick else 200,
-                       n_control=1 if quick else 20, show=show)
-        for r in range(1 if quick else fig310_runs)])
-    res["noise_free"] = drake_accuracy("2dof", 0.0, [20] if quick else [20, 100],
-                                       seed=seed + 1, n_test=30 if quick else 60, n_control=0,
-                                       show=show)
-    res["7dof_occluded"] = drake_accuracy("7dof", 0.0, [15] if quick else [10, 15, 20, 50, 100],
-                                          seed=seed + 2, n_test=20 if quick else 100,
-                                          n_control=0, occlude=["x4"], show=show)
-    # structure convergence of the 7-DOF arm with the sensor noise of Fig. 3.10
-    n_struct = [8, 10, 12, 15, 20, 30]
-    res["7dof_structure"] = []
-    for r in range(1 if quick else structure_runs):
-        d = drake_accuracy("7dof", 0.044, [8, 10, 12] if quick else n_struct,
-                           seed=seed + 10 + r, n_test=10 if quick else 60, n_control=0,
-                           occlude=["x4"], show=show)
-        d["correct_from"] = _correct_from(d["rows"])
-        res["7dof_structure"].append(d)
-    t31, t32 = numpy_tables(runs=1 if quick else runs, quick=quick, seed=seed, show=show)
-    res.update(tables.result() if tables is not None else
-               _drake_tables(quick=quick, drake_runs=drake_runs, seed=seed, show=show))
-    res["table_3_1_numpy"], res["table_3_2_numpy"] = t31, t32
-    res["seconds"] = time.perf_counter() - t0
-    _plot(res["fig_3_10"], out / "fig_3_10.png")
-    res["plots"] = [str(out / "fig_3_10.png")]
-    atomic_write_text(out / "body_schema_experiments.json", json.dumps(res, indent=1))
-    return res
+    specs = trial_specs(quick=quick, runs=runs, seed=seed, structure_runs=structure_runs,
+                        drake_runs=drake_runs, fig310_runs=fig310_runs)
+    sweep = run_sweep(specs, results=results, executor=executor, jobs=jobs,
+                      ray_address=ray_address, show_progress=show_progress,
+                      desc="body-schema runs")
+    res = report(sweep.lines)
+    res["seconds"] = sweep.wall_s
+    res["sweep"] = {"results_file": str(sweep.results) if sweep.results else None,
+                    "resumed": sweep.resumed, "interrupted": sweep.interrupted,
+                    "trial_seconds": round(sum(ln.get("wall_s") or 0.0
+                                               for ln in sweep.lines), 1),
+                    "not_run": [s.label for s in sweep.missing]}
+    return write_outputs(res, out_dir)
 
 
 def _runs(d) -> str:
@@ -422,26 +497,30 @@ def _runs(d) -> str:
     return f"{d['runs']} runs" + (f", {f} failed: left out of the mean" if f else ", 0 failed")
 
 
-def report(res) -> str:
+def format_report(res) -> str:
+    """The tables of :func:`report`'s result (sections without any run are left out)."""
     nan = float("nan")
     L = []
-    f = res["fig_3_10"]
-    L.append(f"Fig. 3.10 [Drake, mean of {f['runs']} runs] 2-DOF, sigma 0.044 m; "
-             f"observation noise (mean position "
-             f"error of a marker) {f['obs_noise_m']:.4f} m; online structure correct from "
-             f"sample {f['online_converged_at_runs']}; "
-             f"schema update median "
-             f"{f['update_ms_median']:.2f} ms")
-    L.append("   n  structure  prediction [m]  [deg]  positioning [m]  runs in mean (left out: "
-             "no complete schema / fit failed)")
-    for r in f["rows"]:
-        L.append(f"{r['n']:4d}  {'correct' if r['correct'] else 'wrong  '}    "
-                 f"{r.get('pred_error_m', nan):.4f}        "
-                 f"{r.get('pred_error_deg', nan):.2f}   "
-                 f"{r.get('positioning_error_m', nan):.4f}           "
-                 f"{r.get('runs_in_mean', f['runs'])}/{f['runs']}")
+    if "fig_3_10" in res:
+        f = res["fig_3_10"]
+        L.append(f"Fig. 3.10 [Drake, mean of {f['runs']} runs] 2-DOF, sigma 0.044 m; "
+                 f"observation noise (mean position "
+                 f"error of a marker) {f['obs_noise_m']:.4f} m; online structure correct from "
+                 f"sample {f['online_converged_at_runs']}; "
+                 f"schema update median "
+                 f"{f['update_ms_median']:.2f} ms")
+        L.append("   n  structure  prediction [m]  [deg]  positioning [m]  runs in mean (left "
+                 "out: no complete schema / fit failed)")
+        for r in f["rows"]:
+            L.append(f"{r['n']:4d}  {'correct' if r['correct'] else 'wrong  '}    "
+                     f"{r.get('pred_error_m', nan):.4f}        "
+                     f"{r.get('pred_error_deg', nan):.2f}   "
+                     f"{r.get('positioning_error_m', nan):.4f}           "
+                     f"{r.get('runs_in_mean', f['runs'])}/{f['runs']}")
     for key, title in (("noise_free", "noise-free 2-DOF"),
                        ("7dof_occluded", "7-DOF, 10 parts, x4 occluded, noise-free")):
+        if key not in res:
+            continue
         d = res[key]
         L.append(f"{title} [Drake]:")
         for r in d["rows"]:
@@ -454,76 +533,107 @@ def report(res) -> str:
                 L.append(f"  n={r['n']:3d}: structure "
                          f"{'correct' if r['correct'] else 'WRONG'}, error "
                          f"{1000 * r['pred_error_m']:.2f} mm / {r['pred_error_deg']:.3f} deg")
-    st = res["7dof_structure"]
-    cf = [d["correct_from"] for d in st]
-    ok = [c for c in cf if c is not None]
-    L.append(f"7-DOF, 10 parts, x4 occluded, sigma 0.044 m [Drake, {len(st)} runs]: structure "
-             f"correct from n = {cf} (median "
-             f"{'n/a' if not ok else f'{float(np.median(ok)):g}'} over {len(ok)} runs; "
-             f"{len(cf) - len(ok)} never correct up to the largest n, left out; tested n = "
-             f"{[r['n'] for r in st[0]['rows']]})")
-    L.append("Table 3.1: samples until a valid model again (first / restore / second)")
-    for fl, name in (("joint", "joint stuck"), ("tool", "tool exchange")):
-        nm = res["table_3_1_numpy"][fl]
-        m = nm["mean"]
-        d = res["table_3_1_drake"][fl]
-        dm = d["mean"]
-        L.append(f"  {name:14s} numpy 7-DOF ({_runs(nm)}): "
-                 f"{m[0]:.2f} / {m[1]:.2f} / {m[2]:.2f};  Drake 2-DOF ({_runs(d)}): "
-                 f"{dm[0]:.2f} / {dm[1]:.2f} / {dm[2]:.2f}  (per run {d['per_run']})")
-    L.append("Table 3.2: control error [m] (intact static / bent static / bent adaptive)")
-    n = res["table_3_2_numpy"]
-    d = res["table_3_2_drake"]
-    L.append(f"  numpy 4-DOF ({_runs(n)}): {n['intact_static']:.3f} / "
-             f"{n['bent_static']:.3f} / {n['bent_adaptive']:.3f}")
-    L.append(f"  Drake 4-DOF ({_runs(d)}): {d['intact_static']:.3f} / "
-             f"{d['bent_static']:.3f} / "
-             f"{d['bent_adaptive']:.3f}")
-    for t in (res["table_3_1_numpy"], res["table_3_1_drake"]):
+    if "7dof_structure" in res:
+        st = res["7dof_structure"]
+        cf = [d["correct_from"] for d in st]
+        ok = [c for c in cf if c is not None]
+        L.append(f"7-DOF, 10 parts, x4 occluded, sigma 0.044 m [Drake, {len(st)} runs]: "
+                 f"structure correct from n = {cf} (median "
+                 f"{'n/a' if not ok else f'{float(np.median(ok)):g}'} over {len(ok)} runs; "
+                 f"{len(cf) - len(ok)} never correct up to the largest n, left out; tested n = "
+                 f"{[r['n'] for r in st[0]['rows']]})")
+    nan3 = {"mean": [nan] * 3, "runs": 0, "per_run": []}
+    t31n, t31d = res.get("table_3_1_numpy"), res.get("table_3_1_drake")
+    if t31n or t31d:
+        L.append("Table 3.1: samples until a valid model again (first / restore / second)")
+        for fl, name in (("joint", "joint stuck"), ("tool", "tool exchange")):
+            nm = (t31n or {}).get(fl, nan3)
+            m = nm["mean"]
+            d = (t31d or {}).get(fl, nan3)
+            dm = d["mean"]
+            L.append(f"  {name:14s} numpy 7-DOF ({_runs(nm)}): "
+                     f"{m[0]:.2f} / {m[1]:.2f} / {m[2]:.2f};  Drake 2-DOF ({_runs(d)}): "
+                     f"{dm[0]:.2f} / {dm[1]:.2f} / {dm[2]:.2f}  (per run {d['per_run']})")
+    n, d = res.get("table_3_2_numpy"), res.get("table_3_2_drake")
+    if n or d:
+        L.append("Table 3.2: control error [m] (intact static / bent static / bent adaptive)")
+    if n:
+        L.append(f"  numpy 4-DOF ({_runs(n)}): {n['intact_static']:.3f} / "
+                 f"{n['bent_static']:.3f} / {n['bent_adaptive']:.3f}")
+    if d:
+        L.append(f"  Drake 4-DOF ({_runs(d)}): {d['intact_static']:.3f} / "
+                 f"{d['bent_static']:.3f} / "
+                 f"{d['bent_adaptive']:.3f}")
+    for t in (t31n, t31d):
         for fl in ("joint", "tool"):
-            for why in t[fl].get("failures", []):
+            for why in (t or {}).get(fl, {}).get("failures", []):
                 L.append(f"  failed run (Table 3.1 {fl}): {why}")
     for t in (n, d):
-        for why in t.get("failures", []):
+        for why in (t or {}).get("failures", []):
             L.append(f"  failed run (Table 3.2): {why}")
-    L.append(f"plots: {', '.join(res['plots'])}; {res['seconds']:.0f} s")
+    for e in res.get("errors", []):
+        L.append(f"  error: trial {e['trial']} raised {e['error']}")
+    L.append(f"plots: {', '.join(res.get('plots', []))}; {res['seconds']:.0f} s")
     return "\n".join(L)
 
 
 def main(argv=None) -> int:
+    from mmlearn.apps._sweep import add_sweep_args, report_lines, sweep_kwargs
+
     ap = ArgumentParser(
         prog="python -m mmlearn.apps.body_schema_experiments",
         description="Reproduce the body-schema experiments of thesis Sec. 3.4 (Fig. 3.10, "
                     "noise-free accuracy, 7-DOF with an occluded part, Tables 3.1 and 3.2). "
                     "Learning runs in the Drake simulation; the many-run statistics of the "
                     "tables use the numpy simulation. Every mean says how many runs failed "
-                    "and were left out.")
-    ap.add_argument("--quick", action="store_true", help="one run of each, fewer samples (about a minute of CPU time, in "
-                         "two processes)")
-    ap.add_argument("--runs", type=pos_int, default=20, help="numpy runs of Table 3.1 (20)")
+                    "and were left out. Every run is a trial of the sweep runner (resumable, "
+                    "local processes or Ray). Exit status: 0 every trial ran, 1 a trial "
+                    "raised an error, 2 bad input.")
+    ap.add_argument("--quick", action="store_true",
+                    help="one run of each, fewer samples (about a minute of CPU time)")
+    ap.add_argument("--runs", type=pos_int, default=20,
+                    help="numpy runs of Table 3.1 per failure, a quarter as many of Table 3.2 "
+                         "(20)")
     ap.add_argument("--seed", type=nonneg_int, default=0)
     ap.add_argument("--structure-runs", type=pos_int, default=5,
                     help="Drake runs of the 7-DOF structure convergence (5)")
     ap.add_argument("--drake-runs", type=pos_int, default=6,
-                    help="Drake runs of Table 3.1 per failure, half as many of Table 3.2; "
-                         "two processes (6)")
+                    help="Drake runs of Table 3.1 per failure, half as many of Table 3.2 (6)")
     ap.add_argument("--fig310-runs", type=pos_int, default=3,
                     help="Drake runs averaged in Fig. 3.10 (3)")
     ap.add_argument("--out-dir", type=Path, default=Path("."),
-                    help="where plots and the JSON go (default: current directory)")
+                    help="where plots, the JSON and the default results file go (default: "
+                         "current directory)")
     ap.add_argument("--json", action="store_true", help="print the results as JSON")
+    add_sweep_args(ap, app="body_schema_experiments")
     args = ap.parse_args(argv)
     try:
         check_out_dir("--out-dir", args.out_dir)
+        if args.report_only:
+            lines = report_lines(args.report_only)
+        else:
+            sweep = sweep_kwargs(args, app="body_schema_experiments", out_dir=args.out_dir)
     except UsageError as e:
         return fail(ap.prog, str(e))
-    try:
-        res = run(quick=args.quick, runs=args.runs, seed=args.seed, out_dir=args.out_dir,
-                  show_progress=not args.json, structure_runs=args.structure_runs,
-                  drake_runs=args.drake_runs, fig310_runs=args.fig310_runs)
-    except ValueError as e:
-        return fail(ap.prog, str(e))
-    print(json.dumps(res) if args.json else report(res))
+    if args.report_only:
+        try:
+            res = write_outputs(report(lines), args.out_dir)
+        except ValueError as e:
+            return fail(ap.prog, f"--report-only: {args.report_only}: {e}")
+    else:
+        try:
+            res = run(quick=args.quick, runs=args.runs, seed=args.seed, out_dir=args.out_dir,
+                      show_progress=not args.json, structure_runs=args.structure_runs,
+                      drake_runs=args.drake_runs, fig310_runs=args.fig310_runs, **sweep)
+        except ValueError as e:  # UsageError included
+            return fail(ap.prog, str(e))
+    print(json.dumps(res) if args.json else format_report(res))
+    if res["errors"]:
+        print(f"{ap.prog}: {len(res['errors'])} trial(s) raised an error: "
+              + ", ".join(e["trial"] for e in res["errors"]), file=sys.stderr)
+        return 1
+    if res.get("sweep", {}).get("interrupted"):
+        return 130
     return 0
 
 

@@ -4,6 +4,8 @@ Usage::
 
     python -m mmlearn.apps.structure_experiments [--only fig48,fig49,fig411,garage,fig416,fig417,fig418]
         [--quick] [--seeds N] [--n N] [--seed S] [--json] [--out-dir DIR]
+        [--results FILE] [--executor local|ray] [--ray-address ADDR] [--jobs N]
+    python -m mmlearn.apps.structure_experiments --report-only RESULTS.jsonl [--out-dir DIR]
 
 - fig48: two-drawer cabinet, structure while the lower drawer alone moves, then both.
 - fig49: table pushed on the floor: selected link model (rigid, prismatic, gp, gp2) as the
@@ -18,6 +20,14 @@ Usage::
 
 Tables go to stdout, ``--json`` prints all results, ``--out-dir DIR`` writes the plots (PNG).
 ``--quick`` runs a small setting (for the test suite).
+
+The trials (each experiment; fig416: each yardstick run; fig417: each yardstick; fig418:
+each n) run through the sweep runner (``mmlearn.apps._sweep``): in parallel processes
+(``--jobs``, default all cores) or as Ray tasks (``--executor ray``), streamed to
+``--results`` (default ``structure_experiments_results.jsonl`` in ``--out-dir`` or the
+current folder); re-running the same command resumes, ``--report-only FILE`` redraws the
+tables and plots from a results file. Run times are those of each trial's process (with
+several jobs on few cores they include the others' load).
 """
 
 from __future__ import annotations
@@ -149,55 +159,58 @@ def _yardstick_obs():
     return ObservationModel(sigma_pos=0.005, sigma_orient=np.deg2rad(3))
 
 
-def exp_yardstick(*, quick, seed, progress, seeds=10, n=200):
+def yardstick_row(*, closed: bool, seed: int, n: int) -> dict:
+    """One yardstick run of Fig. 4.16 (a trial): the open chain (3 hinges) or the closed
+    loop (4 links) with ``n`` samples, fitted with the spanning tree, the local and the
+    exhaustive search (DOF reduction on); BICs, DOFs, run times [s] and graphs visited."""
     from mmlearn.diagrams.object_tracks import yardstick_scenario
 
-    seeds = min(seeds, 2) if quick else seeds
-    n = 60 if quick else n
     obs = _yardstick_obs()
-    rows = []
-    bar = progress_bar(2 * seeds, "yardstick", enabled=progress)
-    for closed in (False, True):
-        for k in range(seeds):
-            tr = yardstick_scenario(closed, n, rng=seed + k)
-            t0, c0 = time.perf_counter(), time.process_time()
-            pm = fit_pair_models(tr.poses, obs=obs, rng=seed + k)
-            t_pairs, c_pairs = time.perf_counter() - t0, time.process_time() - c0
-            res = {}
-            for search in ("tree", "local", "exhaustive"):
-                r = fit_structure(tr.poses, part_names=tr.parts, search=search,
-                                  reduce_dofs=True, obs=obs, pair_models=pm)
-                res[search] = r
-            rl, rx = res["local"], res["exhaustive"]
-            chain = [(0, 1), (1, 2), (2, 3)] + ([(0, 3)] if closed else [])
-            true_graph = KinematicGraphEvaluator(tr.poses, pm, obs=obs).evaluate(
-                chain, reduce_dofs=True)
-            rows.append({
-                "closed": closed, "seed": seed + k, "n": n,
-                "dof_local": rl.best.dof, "dof_exhaustive": rx.best.dof,
-                "dof_tree": res["tree"].best.dof,
-                "edges_local": [[tr.parts[i], tr.parts[j], rl.best.models[(i, j)]]
-                                for i, j in rl.best.edges],
-                "has_loop": rl.best.has_loop,
-                "bic_tree": res["tree"].best.bic, "bic_local": rl.best.bic,
-                "bic_exhaustive": rx.best.bic,
-                "gap_local_pct": 100 * (rl.best.bic - rx.best.bic) / abs(rx.best.bic),
-                "gap_tree_pct": 100 * (res["tree"].best.bic - rx.best.bic) / abs(rx.best.bic),
-                "local_optimal": bool(abs(rl.best.bic - rx.best.bic) < 1e-6),
-                "bic_true_graph": true_graph.bic, "dof_true_graph": true_graph.dof,
-                "fit_seconds": t_pairs,
-                "search_seconds_local": rl.search_seconds,
-                "search_seconds_exhaustive": rx.search_seconds,
-                "fit_cpu_seconds": c_pairs,
-                "search_cpu_seconds_local": rl.search_cpu_seconds,
-                "search_cpu_seconds_exhaustive": rx.search_cpu_seconds,
-                "graphs_local": len(rl.evaluated), "graphs_exhaustive": len(rx.evaluated),
-            })
-            bar.update(1)
-    bar.close()
+    tr = yardstick_scenario(closed, n, rng=seed)
+    t0, c0 = time.perf_counter(), time.process_time()
+    pm = fit_pair_models(tr.poses, obs=obs, rng=seed)
+    t_pairs, c_pairs = time.perf_counter() - t0, time.process_time() - c0
+    res = {}
+    for search in ("tree", "local", "exhaustive"):
+        res[search] = fit_structure(tr.poses, part_names=tr.parts, search=search,
+                                    reduce_dofs=True, obs=obs, pair_models=pm)
+    rl, rx = res["local"], res["exhaustive"]
+    chain = [(0, 1), (1, 2), (2, 3)] + ([(0, 3)] if closed else [])
+    true_graph = KinematicGraphEvaluator(tr.poses, pm, obs=obs).evaluate(
+        chain, reduce_dofs=True)
+    return {
+        "closed": closed, "seed": seed, "n": n,
+        "dof_local": rl.best.dof, "dof_exhaustive": rx.best.dof,
+        "dof_tree": res["tree"].best.dof,
+        "edges_local": [[tr.parts[i], tr.parts[j], rl.best.models[(i, j)]]
+                        for i, j in rl.best.edges],
+        "has_loop": rl.best.has_loop,
+        "bic_tree": res["tree"].best.bic, "bic_local": rl.best.bic,
+        "bic_exhaustive": rx.best.bic,
+        "gap_local_pct": 100 * (rl.best.bic - rx.best.bic) / abs(rx.best.bic),
+        "gap_tree_pct": 100 * (res["tree"].best.bic - rx.best.bic) / abs(rx.best.bic),
+        "local_optimal": bool(abs(rl.best.bic - rx.best.bic) < 1e-6),
+        "bic_true_graph": true_graph.bic, "dof_true_graph": true_graph.dof,
+        "fit_seconds": t_pairs,
+        "search_seconds_local": rl.search_seconds,
+        "search_seconds_exhaustive": rx.search_seconds,
+        "fit_cpu_seconds": c_pairs,
+        "search_cpu_seconds_local": rl.search_cpu_seconds,
+        "search_cpu_seconds_exhaustive": rx.search_cpu_seconds,
+        "graphs_local": len(rl.evaluated), "graphs_exhaustive": len(rx.evaluated),
+    }
+
+
+def yardstick_summary(rows):
+    """Fig. 4.16's summary and table lines from the runs of :func:`yardstick_row`."""
+    rows = sorted(rows, key=lambda r: (r["closed"], r["seed"]))
+    seeds = len({r["seed"] for r in rows})
+    n = rows[0]["n"] if rows else 0
     summ = {}
     for closed, want in ((False, 3), (True, 1)):
         rr = [r for r in rows if r["closed"] == closed]
+        if not rr:
+            continue
         t_l = np.mean([r["search_seconds_local"] for r in rr])
         t_x = np.mean([r["search_seconds_exhaustive"] for r in rr])
         t_f = np.mean([r["fit_seconds"] for r in rr])
@@ -214,8 +227,8 @@ def exp_yardstick(*, quick, seed, progress, seeds=10, n=200):
             "search_seconds_local": float(t_l), "search_seconds_exhaustive": float(t_x),
             "pair_fit_seconds": float(t_f),
             "speedup_search": float(t_x / t_l), "speedup_total": float((t_x + t_f) / (t_l + t_f)),
-            # CPU time of this process (wall time counts other processes' load on a shared
-            # machine); the thesis' "82.6% less time" (Fig. 4.18) compares the graph
+            # CPU time of the trial's process (wall time counts other processes' load on a
+            # shared machine); the thesis' "82.6% less time" (Fig. 4.18) compares the graph
             # search alone: both searches need every pair's link model (the spanning tree
             # of Eq. 4.40 starts from all of them)
             "search_cpu_seconds_local": float(c_l), "search_cpu_seconds_exhaustive": float(c_x),
@@ -239,7 +252,7 @@ def exp_yardstick(*, quick, seed, progress, seeds=10, n=200):
                      f"{s['mean_gap_tree_pct']:10.2f}  {s['local_optimal_pct']:15.0f}  "
                      f"{s['search_seconds_local']:8.2f} / {s['search_seconds_exhaustive']:6.2f}  "
                      f"{s['speedup_search']:8.1f} / {s['speedup_total']:4.1f}")
-    lines.append("CPU time (this process): search local / exhaustive s, pair fits s, "
+    lines.append("CPU time (the trial's process): search local / exhaustive s, pair fits s, "
                  "speed-up search / total, graphs evaluated local / exhaustive")
     for key, s in summ.items():
         lines.append(f"{key:6s}  {s['search_cpu_seconds_local']:6.2f} / "
@@ -250,61 +263,66 @@ def exp_yardstick(*, quick, seed, progress, seeds=10, n=200):
         lines.append(f"{key}: true graph (chain{' + loop' if key == 'closed' else ''}) with "
                      f"PCA DOFs: right DOF {s['true_graph_right_dof']}/{s['runs']}, BIC "
                      f"{s['mean_gap_true_graph_pct']:.2f} % above the exhaustive optimum")
-    ex = [r for r in rows if r["closed"]][0]
-    lines.append("closed, seed %d: %s" % (ex["seed"], ", ".join(
-        f"{m}({a},{b})" for a, b, m in ex["edges_local"])))
+    ex = [r for r in rows if r["closed"]]
+    if ex:
+        lines.append("closed, seed %d: %s" % (ex[0]["seed"], ", ".join(
+            f"{m}({a},{b})" for a, b, m in ex[0]["edges_local"])))
     return {"runs": rows, "summary": summ}, lines
 
 
-def exp_dof_progress(*, quick, seed, progress):
+def dof_progress(*, closed: bool, seed: int, quick: bool) -> list:
+    """Fig. 4.17 for one yardstick (a trial): the open chain opened segment by segment or the
+    closed loop; [n, estimated DOFs] every 20 samples."""
     from mmlearn.diagrams.object_tracks import yardstick_scenario
 
-    n = 80 if quick else 200
-    step = 20 if quick else 20
+    n, step = (80, 20) if quick else (200, 20)
     obs = _yardstick_obs()
-    out, lines = {}, [f"Fig. 4.17  estimated DOFs while the data arrive (every {step} samples)"]
-    bar = progress_bar(2 * (n // step), "dof progress", enabled=progress)
-    for closed in (False, True):
-        tr = yardstick_scenario(closed, n, staged=not closed, rng=seed)
-        dofs = []
-        for m in range(step, n + 1, step):
-            r = fit_structure(tr.poses[:, :m], search="local", reduce_dofs=True, obs=obs,
-                              rng=seed, models=PARAMETRIC if quick else
-                              ("rigid", "prismatic", "revolute", "gp"))
-            dofs.append((m, r.best.dof))
-            bar.update(1)
-        key = "closed" if closed else "open_staged"
-        out[key] = dofs
+    tr = yardstick_scenario(closed, n, staged=not closed, rng=seed)
+    dofs = []
+    for m in range(step, n + 1, step):
+        r = fit_structure(tr.poses[:, :m], search="local", reduce_dofs=True, obs=obs,
+                          rng=seed, models=PARAMETRIC if quick else
+                          ("rigid", "prismatic", "revolute", "gp"))
+        dofs.append([m, r.best.dof])
+    return dofs
+
+
+def dof_progress_summary(by_key: dict):
+    """Fig. 4.17's result and table lines from {"open_staged" / "closed": dofs}."""
+    step = 20
+    out = {k: by_key[k] for k in ("open_staged", "closed") if k in by_key}
+    lines = [f"Fig. 4.17  estimated DOFs while the data arrive (every {step} samples)"]
+    for key, dofs in out.items():
         lines.append(f"{key:12s} " + "  ".join(f"n={m}:{d}" for m, d in dofs))
-    bar.close()
     return out, lines
 
 
-def exp_search_vs_n(*, quick, seed, progress):
+def search_vs_n_row(*, n: int, seed: int) -> dict:
+    """Fig. 4.18 at one n (a trial): closed yardstick, BIC, DOFs, graphs visited and run
+    time [s] of the spanning tree, the local and the exhaustive search."""
     from mmlearn.diagrams.object_tracks import yardstick_scenario
 
-    ns = [40, 80] if quick else [25, 50, 100, 150, 200]
     obs = _yardstick_obs()
-    rows = []
-    bar = progress_bar(len(ns), "search vs n", enabled=progress)
-    for n in ns:
-        tr = yardstick_scenario(True, n, rng=seed)
+    tr = yardstick_scenario(True, n, rng=seed)
+    t0 = time.perf_counter()
+    pm = fit_pair_models(tr.poses, obs=obs, rng=seed)
+    t_fit = time.perf_counter() - t0
+    tree_edges = spanning_tree_edges(pm, 4)
+    row = {"n": n, "fit_seconds": t_fit}
+    for search in ("tree", "local", "exhaustive"):
+        ev = KinematicGraphEvaluator(tr.poses, pm, obs=obs)
         t0 = time.perf_counter()
-        pm = fit_pair_models(tr.poses, obs=obs, rng=seed)
-        t_fit = time.perf_counter() - t0
-        tree_edges = spanning_tree_edges(pm, 4)
-        row = {"n": n, "fit_seconds": t_fit}
-        for search in ("tree", "local", "exhaustive"):
-            ev = KinematicGraphEvaluator(tr.poses, pm, obs=obs)
-            t0 = time.perf_counter()
-            best, tree, order = search_structure(ev, tree_edges, search=search, reduce_dofs=True)
-            row[search] = {"bic": best.bic, "seconds": time.perf_counter() - t0,
-                           "graphs": len(order), "dof": best.dof}
-            if search == "exhaustive":
-                row["all_bics"] = sorted(e.bic for e in order)
-        rows.append(row)
-        bar.update(1)
-    bar.close()
+        best, tree, order = search_structure(ev, tree_edges, search=search, reduce_dofs=True)
+        row[search] = {"bic": best.bic, "seconds": time.perf_counter() - t0,
+                       "graphs": len(order), "dof": best.dof}
+        if search == "exhaustive":
+            row["all_bics"] = sorted(e.bic for e in order)
+    return row
+
+
+def search_vs_n_summary(rows):
+    """Fig. 4.18's result and table lines from the rows of :func:`search_vs_n_row`."""
+    rows = sorted(rows, key=lambda r: r["n"])
     lines = ["Fig. 4.18  closed yardstick: BIC and search time vs n",
              "   n   BIC tree    BIC local   BIC exh.   t tree  t local  t exh. [s]  t pairs"]
     for r in rows:
@@ -369,40 +387,142 @@ def _plots(results, out):
     return written
 
 
-RUNNERS = {"fig48": exp_cabinet, "fig49": exp_table, "fig411": exp_car, "garage": exp_garage,
-           "fig416": exp_yardstick, "fig417": exp_dof_progress, "fig418": exp_search_vs_n}
+RUNNERS = {"fig48": exp_cabinet, "fig49": exp_table, "fig411": exp_car, "garage": exp_garage}
+"""The experiments that are one trial each (their table is the trial's record)."""
+
+
+def trial(*, seed: int, experiment: str, quick: bool = False, closed: bool | None = None,
+          n: int | None = None, shared=None) -> dict:
+    """One trial of the sweep (``mmlearn.apps._sweep``): a whole experiment of
+    :data:`RUNNERS` (fig48, fig49, fig411, garage: its result and table lines), one yardstick
+    run of fig416 (``closed``, ``n`` samples), one yardstick of fig417 (``closed``) or one
+    ``n`` of fig418."""
+    if experiment in RUNNERS:
+        res, lines = RUNNERS[experiment](quick=quick, seed=seed, progress=False)
+        return {"experiment": experiment, "result": res, "lines": lines}
+    if experiment == "fig416":
+        return {"experiment": experiment, "row": yardstick_row(closed=closed, seed=seed, n=n)}
+    if experiment == "fig417":
+        return {"experiment": experiment, "closed": closed,
+                "dofs": dof_progress(closed=closed, seed=seed, quick=quick)}
+    if experiment == "fig418":
+        return {"experiment": experiment, "row": search_vs_n_row(n=n, seed=seed)}
+    raise ValueError(f"unknown experiment {experiment!r}; choose from {', '.join(EXPERIMENTS)}")
+
+
+def trial_specs(*, only=EXPERIMENTS, quick: bool = False, seed: int = 0, seeds: int = 10,
+                n: int = 200) -> list:
+    """The sweep's trials: one per experiment of :data:`RUNNERS`, one per yardstick run of
+    fig416 (2 x ``seeds``), one per yardstick of fig417 (2), one per n of fig418."""
+    from mmlearn.apps._sweep import TrialSpec
+
+    fn = "mmlearn.apps.structure_experiments:trial"
+    specs = []
+    for k in only:
+        if k in RUNNERS:
+            specs.append(TrialSpec(fn=fn, seed=seed, label=k,
+                                   params={"experiment": k, "quick": quick}))
+        elif k == "fig416":
+            ns, nn = (min(seeds, 2), 60) if quick else (seeds, n)
+            specs += [TrialSpec(fn=fn, seed=seed + j, label=f"fig416 "
+                                f"{'closed' if closed else 'open'} seed {seed + j}",
+                                params={"experiment": k, "closed": closed, "n": nn,
+                                        "quick": quick})
+                      for closed in (False, True) for j in range(ns)]
+        elif k == "fig417":
+            specs += [TrialSpec(fn=fn, seed=seed, label=f"fig417 "
+                                f"{'closed' if closed else 'open_staged'}",
+                                params={"experiment": k, "closed": closed, "quick": quick})
+                      for closed in (False, True)]
+        elif k == "fig418":
+            specs += [TrialSpec(fn=fn, seed=seed, label=f"fig418 n {m}",
+                                params={"experiment": k, "n": m, "quick": quick})
+                      for m in ([40, 80] if quick else [25, 50, 100, 150, 200])]
+    return specs
+
+
+def report(lines: list[dict], *, only=None) -> tuple[dict, list[str]]:
+    """Every experiment's result and table lines from results-file lines (a run or
+    ``--report-only``), in the order of ``only`` (default: :data:`EXPERIMENTS`). Trials that
+    raised are listed in ``results["errors"]`` and left out of their experiment."""
+    settings = {(bool(ln["spec"]["params"].get("quick")),
+                 ln["spec"]["params"].get("n") if ln["spec"]["params"]["experiment"] == "fig416"
+                 else None) for ln in lines}
+    if len({q for q, _ in settings}) > 1 or len({n for _, n in settings} - {None}) > 1:
+        raise ValueError("the results file mixes settings (--quick or not, fig416 with "
+                         "different --n); use one results file per setting")
+    ok = [ln for ln in lines if ln.get("error") is None]
+    by = {}
+    for ln in ok:
+        by.setdefault(ln["record"]["experiment"], []).append(ln)
+    results, text = {}, []
+    for k in (only or EXPERIMENTS):
+        mine = by.get(k)
+        if not mine:
+            continue
+        recs = [ln["record"] for ln in mine]
+        if k in RUNNERS:
+            res, tab = dict(recs[0]["result"]), recs[0]["lines"]
+        elif k == "fig416":
+            res, tab = yardstick_summary([r["row"] for r in recs])
+        elif k == "fig417":
+            res, tab = dof_progress_summary({("closed" if r["closed"] else "open_staged"):
+                                             r["dofs"] for r in recs})
+        else:
+            res, tab = search_vs_n_summary([r["row"] for r in recs])
+        res["seconds"] = float(sum(ln.get("wall_s") or 0.0 for ln in mine))
+        results[k] = res
+        text.append("\n".join(tab) + "\n")
+    results["errors"] = [{"trial": ln["spec"].get("label") or ln["key"], "error": ln["error"]}
+                         for ln in lines if ln.get("error") is not None]
+    for e in results["errors"]:
+        text.append(f"error: trial {e['trial']} raised {e['error']} (left out above)")
+    return results, text
 
 
 def run(*, only=EXPERIMENTS, quick: bool = False, seed: int = 0, seeds: int = 10, n: int = 200,
-        out: str | None = None, progress: bool = True, echo=None) -> dict:
-    """Run the selected experiments; returns {experiment: result}. ``echo``: callable taking
-    the table lines of each experiment as it finishes."""
+        out: str | None = None, progress: bool = True, echo=None, results: str | None = None,
+        executor: str = "local", jobs: int | None = None,
+        ray_address: str | None = None) -> dict:
+    """Run the selected experiments; returns {experiment: result} (plus "errors": trials
+    that raised, "plots": files written to ``out``). ``echo``: callable taking the table
+    lines of every experiment at the end.
+
+    The trials (see :func:`trial_specs`) run through the sweep runner
+    (``mmlearn.apps._sweep``): streamed to ``results`` (a JSON Lines file; None: a temporary
+    one; trials already in it are not run again), ``executor`` "local" (``jobs`` processes,
+    default all cores) or "ray" (``ray_address``: a cluster, None: a local Ray instance)."""
+    from mmlearn.apps._sweep import run_sweep
+
     if isinstance(only, str):
         only = [x.strip() for x in only.split(",") if x.strip()]
     for k in only:
-        if k not in RUNNERS:
+        if k not in EXPERIMENTS:
             raise ValueError(f"unknown experiment {k!r}; choose from {', '.join(EXPERIMENTS)}")
     if seeds < 1 or n < 20:
         raise ValueError("--seeds must be >= 1 and --n >= 20")
-    results = {}
-    for k in only:
-        t0 = time.perf_counter()
-        kw = dict(quick=quick, seed=seed, progress=progress)
-        if k == "fig416":
-            kw.update(seeds=seeds, n=n)
-        res, lines = RUNNERS[k](**kw)
-        res["seconds"] = time.perf_counter() - t0
-        results[k] = res
-        if echo is not None:
-            echo(lines)
+    specs = trial_specs(only=only, quick=quick, seed=seed, seeds=seeds, n=n)
+    sweep = run_sweep(specs, results=results, executor=executor, jobs=jobs,
+                      ray_address=ray_address, show_progress=progress,
+                      desc="structure trials")
+    res, text = report(sweep.lines, only=only)
+    res["sweep"] = {"results_file": str(sweep.results) if sweep.results else None,
+                    "resumed": sweep.resumed, "wall_seconds": round(sweep.wall_s, 1),
+                    "interrupted": sweep.interrupted,
+                    "not_run": [s.label for s in sweep.missing]}
+    if echo is not None:
+        echo(text)
     if out:
-        results["plots"] = _plots(results, out)
-    return results
+        res["plots"] = _plots(res, out)
+    return res
 
 
 def main(argv=None) -> int:
+    from mmlearn.apps._sweep import add_sweep_args, report_lines, sweep_kwargs
+
     ap = ArgumentParser(prog="python -m mmlearn.apps.structure_experiments",
-                                 description=__doc__.split("\n\n")[0])
+                        description=__doc__.split("\n\n")[0] + " Exit status: 0 every trial "
+                        "ran, 1 a trial raised an error, 2 bad input.")
     ap.add_argument("--only", default=",".join(EXPERIMENTS),
                     help="comma-separated experiments (default: all)")
     ap.add_argument("--quick", action="store_true", help="small, fast setting")
@@ -410,12 +530,23 @@ def main(argv=None) -> int:
     ap.add_argument("--seeds", type=pos_int, default=10, help="yardstick seeds (fig416)")
     ap.add_argument("--n", type=pos_int, default=200, help="yardstick samples (fig416)")
     ap.add_argument("--json", action="store_true", help="print JSON instead of tables")
-    ap.add_argument("--out-dir", default=None, help="folder for the plots (PNG)")
+    ap.add_argument("--out-dir", default=None,
+                    help="folder for the plots (PNG) and the default results file")
     ap.add_argument("--out", dest="out_dir", help=argparse.SUPPRESS)  # old spelling
     ap.add_argument("--no-progress", action="store_true", help="no progress bars")
+    add_sweep_args(ap, app="structure_experiments")
     a = ap.parse_args(argv)
     try:
         check_out_dir("--out-dir", a.out_dir)
+        if a.report_only:
+            only = [x.strip() for x in a.only.split(",") if x.strip()]
+            bad = [x for x in only if x not in EXPERIMENTS]
+            if bad:
+                raise UsageError(f"--only: unknown experiment {bad[0]!r}; choose from "
+                                 + ", ".join(EXPERIMENTS))
+            lines = report_lines(a.report_only)
+        else:
+            sweep = sweep_kwargs(a, app="structure_experiments", out_dir=a.out_dir or ".")
     except UsageError as e:
         return fail(ap.prog, str(e))
 
@@ -423,15 +554,33 @@ def main(argv=None) -> int:
         if not a.json:
             print("\n".join(lines) + "\n", flush=True)
 
-    try:
-        res = run(only=a.only, quick=a.quick, seed=a.seed, seeds=a.seeds, n=a.n, out=a.out_dir,
-                  progress=not a.no_progress, echo=echo)
-    except (ValueError, OSError) as e:
-        return fail(ap.prog, str(e))
+    if a.report_only:
+        try:
+            res, text = report(lines, only=only)
+        except ValueError as e:
+            return fail(ap.prog, f"--report-only: {a.report_only}: {e}")
+        echo(text)
+        if a.out_dir:
+            res["plots"] = _plots(res, a.out_dir)
+    else:
+        try:
+            res = run(only=a.only, quick=a.quick, seed=a.seed, seeds=a.seeds, n=a.n,
+                      out=a.out_dir, progress=not a.no_progress, echo=echo,
+                      **sweep)
+        except UsageError as e:
+            return fail(ap.prog, str(e))
+        except (ValueError, OSError) as e:
+            return fail(ap.prog, str(e))
     if a.json:
         print(json.dumps(json_clean(res)))
     elif res.get("plots"):
         print("plots: " + ", ".join(res["plots"]))
+    if res["errors"]:
+        print(f"{ap.prog}: {len(res['errors'])} trial(s) raised an error: "
+              + ", ".join(e["trial"] for e in res["errors"]), file=sys.stderr)
+        return 1
+    if res.get("sweep", {}).get("interrupted"):
+        return 130
     return 0
 
 

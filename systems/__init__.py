@@ -6,7 +6,9 @@ Import the systems from here, e.g. ``from mmlearn.systems import MarkerSensor``.
 from .arm_failures import JointBlocker, PlantFailures
 from .articulation_estimator import ArticulationEstimator
 from .base_localization import BaseLocalization, BaseLocalizationConfig
+from .depth_noise import DepthNoise
 from .epc_controller import EpcConfig, EpcController, EpcTask
+from .front_pose import TrueFrontPose
 from .front_tracker import FrontTracker, FrontTrackerConfig, FrontTrackerState
 from .front_visualizer import FrontTrackVisualizer
 from .marker_sensor import CameraConfig, MarkerSensor, MarkerSensorConfig
@@ -14,6 +16,7 @@ from .model_visualizer import LearnedModelVisualizer
 from .motor_babbling import MotorBabbling
 from .observations import MarkerObservations
 from .plant_helpers import GravityCompensation, JointFriction
+from .point_cloud_filter import FinitePointCloud
 from .prior_selector import PriorModelSelector
 from .schema_controller import SchemaController
 from .schema_learner import SchemaLearner, SchemaLearnerConfig, SchemaLearnerState
@@ -25,9 +28,11 @@ __all__ = [
     "BaseLocalization",
     "BaseLocalizationConfig",
     "CameraConfig",
+    "DepthNoise",
     "EpcConfig",
     "EpcController",
     "EpcTask",
+    "FinitePointCloud",
     "FrontTracker",
     "FrontTrackerConfig",
     "FrontTrackerState",
@@ -47,5 +52,6 @@ __all__ = [
     "SchemaLearnerConfig",
     "SchemaLearnerState",
     "SchemaVisualizer",
+    "TrueFrontPose",
     "WristForceSensor",
 ]

@@ -76,3 +76,39 @@ def test_articulation_experiments_quick(tmp_path):
 def test_articulation_experiments_help(tmp_path):
     r = _run(["mmlearn.apps.articulation_experiments", "--help"], tmp_path)
     assert r.returncode == 0 and "--runs" in r.stdout and "--quick" in r.stdout
+
+
+def test_articulation_experiments_report_only_reproduces_the_tables(tmp_path):
+    """--report-only on the results file of a quick run prints the same tables and JSON and
+    redraws the plots; every trial has its own random stream, so one or two jobs give the
+    same numbers."""
+    args = ["mmlearn.apps.articulation_experiments", "--quick", "--only", "size,table,bic_n"]
+    r = _run([*args, "--jobs", "1", "--out-dir", "a"], tmp_path)
+    assert r.returncode == 0, r.stderr
+    res = tmp_path / "a" / "articulation_experiments_results.jsonl"
+    n = len(res.read_text().splitlines())
+    assert n == 4 * 4 + 5 + 1  # (model, n) points of size, Table 4.2 objects, bic_n runs
+    ro = _run(["mmlearn.apps.articulation_experiments", "--report-only", str(res),
+               "--out-dir", "b"], tmp_path)
+    assert ro.returncode == 0, ro.stderr
+    assert ro.stdout.split("plots:")[0] == r.stdout.split("plots:")[0]
+    assert "Fig. 4.23" in ro.stdout and "Table 4.2" in ro.stdout and "Fig. 4.25" in ro.stdout
+    assert sorted(p.name for p in (tmp_path / "b").glob("*.png")) == [
+        "fig4_23_size.png", "fig4_25_bic_n.png"]
+    two = _run([*args, "--jobs", "2", "--out-dir", "", "--results", "two.jsonl", "--json"],
+               tmp_path)
+    assert two.returncode == 0, two.stderr
+    one = _run(["mmlearn.apps.articulation_experiments", "--report-only", str(res), "--json",
+                "--out-dir", ""], tmp_path)
+    d1, d2 = json.loads(one.stdout), json.loads(two.stdout)
+    for k in ("size", "table", "bic_n"):
+        assert d1[k] == d2[k]
+    # a results file holding two settings (here: --runs 2 and 3) is not averaged together
+    lines = res.read_text().splitlines()
+    other = json.loads(lines[0])
+    other["spec"]["params"]["runs"], other["key"] = 3, "x" * 20
+    mixed = tmp_path / "mixed.jsonl"
+    mixed.write_text("\n".join(lines) + "\n" + json.dumps(other) + "\n")
+    r = _run(["mmlearn.apps.articulation_experiments", "--report-only", str(mixed),
+              "--out-dir", ""], tmp_path)
+    assert r.returncode == 2 and "mixes settings" in r.stderr and "mixed.jsonl" in r.stderr

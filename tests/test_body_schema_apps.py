@@ -65,3 +65,19 @@ def test_body_schema_experiments_quick(tmp_path):
         assert d["table_3_1_drake"][f]["first"] > 0  # the failure is noticed
         assert d["table_3_1_drake"][f]["runs"] == 1
         assert len(d["table_3_1_numpy"][f]["mean"]) == 3
+    # the tables, the plot and the JSON come from the results file: --report-only on it
+    # reproduces them without running anything
+    from mmlearn.apps.body_schema_experiments import format_report
+
+    res = tmp_path / "out" / "body_schema_experiments_results.jsonl"
+    assert len(res.read_text().splitlines()) == 10  # one line per run
+    ro = _run(["mmlearn.apps.body_schema_experiments", "--report-only", str(res),
+               "--out-dir", str(tmp_path / "ro")], tmp_path)
+    assert ro.returncode == 0, ro.stderr
+    table = ro.stdout.rsplit("\nplots:", 1)[0]
+    assert "Table 3.1" in table and "Table 3.2" in table and "Fig. 3.10" in table
+    assert table == format_report(d).rsplit("\nplots:", 1)[0]
+    assert (tmp_path / "ro" / "fig_3_10.png").stat().st_size > 1000
+    ro_json = json.loads((tmp_path / "ro" / "body_schema_experiments.json").read_text())
+    for k in ("fig_3_10", "noise_free", "7dof_structure", "table_3_1_drake", "table_3_2_numpy"):
+        assert json.dumps(ro_json[k]) == json.dumps(d[k])

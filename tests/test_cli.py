@@ -153,16 +153,17 @@ def test_operate_trials_bad_input(tmp_path, capsys, prior_db):
          "--priors", "missing key 'config'")
 
 
-def test_operate_trials_counts_a_crashed_trial_as_an_error(monkeypatch, capsys):
+def test_operate_trials_counts_a_crashed_trial_as_an_error(monkeypatch, capsys, tmp_path):
     import mmlearn.apps.open_cabinet as oc
     from mmlearn.apps.operate_trials import main
 
     def boom(**kw):
         raise RuntimeError("simulated crash")
 
-    monkeypatch.setattr(oc, "run", boom)  # the forked worker sees the patched module
+    monkeypatch.setattr(oc, "run", boom)  # --jobs 1 runs the trials in this process
     rc, out, err = _exit(main, ["--objects", "drawer", "--trials", "2", "--jobs", "1",
-                                "--json"], capsys)
+                                "--json", "--results", str(tmp_path / "r.jsonl")], capsys)
+    assert "drawer seed 0, drawer seed 1" in err  # the failed trials are named
     assert rc == 1 and "raised an error" in err
     res = json.loads(out)
     assert res["errors"] == 2 and res["total"] == 0 and res["success_rate"] is None
@@ -270,7 +271,10 @@ def test_articulation_experiments_count_failed_runs(monkeypatch, capsys):
         return real(model_name, *a, **k)
 
     monkeypatch.setattr(ae, "_fit_err", flaky)
-    res = ae.exp_size(2, np.random.default_rng(0), True, False)
+    # one job, no shared inputs: the sweep runs its trials in this process (the patch holds)
+    res = ae.run(runs=2, quick=True, only=["size"], out_dir=None, progress=False, jobs=1)
+    assert res["errors"] == []
+    res = res["size"]
     assert res["failed"]["gp"] == [2, 2, 2, 2] and res["error_mean"]["gp"] == [None] * 4
     assert res["failed"]["rigid"] == [0, 0, 0, 0]
     ae._print({"size": res})
@@ -288,7 +292,9 @@ def test_body_schema_experiments_count_failed_runs(monkeypatch):
         return dict(first=2, restore=1, second=3)
 
     monkeypatch.setattr(bse, "drake_recovery", recovery)
-    r = bse.drake_recovery_runs("joint", runs=3, n_block=5, seed=0, workers=1, show=False)
+    rs = [bse.trial(seed=s, block="table_3_1_drake", run=s,
+                    kwargs=dict(failure="joint", n_block=5, n_first=30)) for s in range(3)]
+    r = bse.recovery_summary(rs, drake=True)
     assert r["failed_runs"] == 1 and r["mean"] == [2.0, 1.0, 3.0] and r["runs"] == 3
     assert "solver diverged" in r["failures"][0]
     # Fig. 3.10 over runs: a run without a complete schema is counted as left out

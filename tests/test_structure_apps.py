@@ -118,3 +118,32 @@ def test_structure_experiments_quick(tmp_path):
     assert sorted(m for _, _, m in last["edges"]) == ["prismatic", "prismatic"]
     r = _run("mmlearn.apps.structure_experiments", "--only", "fig99")
     assert r.returncode == 2 and "fig99" in r.stderr
+
+
+def test_structure_experiments_report_only_reproduces_the_tables(tmp_path):
+    """The tables and plots come from the results file: --report-only on the file of a
+    quick run prints the same tables; a trial that raised is named and exits 1."""
+    args = ["--quick", "--only", "garage,fig411,fig49", "--no-progress", "--jobs", "1"]
+    r = _run("mmlearn.apps.structure_experiments", *args, "--out-dir", str(tmp_path / "a"))
+    assert r.returncode == 0, r.stderr
+    res = tmp_path / "a" / "structure_experiments_results.jsonl"
+    lines = [json.loads(x) for x in res.read_text().splitlines()]
+    assert sorted(ln["spec"]["label"] for ln in lines) == ["fig411", "fig49", "garage"]
+    assert "Roll-up garage door: selected gp" in r.stdout and "Fig. 4.11" in r.stdout
+    ro = _run("mmlearn.apps.structure_experiments", "--report-only", str(res), "--only",
+              "garage,fig411,fig49", "--out-dir", str(tmp_path / "b"))
+    assert ro.returncode == 0, ro.stderr
+    assert ro.stdout.split("plots:")[0] == r.stdout.split("plots:")[0]
+    assert (tmp_path / "b" / "fig49_table.png").stat().st_size > 1000
+    # the same command again runs nothing (every trial is in the file)
+    again = _run("mmlearn.apps.structure_experiments", *args, "--out-dir", str(tmp_path / "a"))
+    assert again.returncode == 0 and again.stdout == r.stdout
+    assert len(res.read_text().splitlines()) == 3
+    # a trial that raised: recorded with its error, left out of the tables, named, exit 1
+    bad = dict(lines[0], record=None, error="RuntimeError: boom", traceback="...")
+    (tmp_path / "bad.jsonl").write_text(json.dumps(bad) + "\n" + json.dumps(lines[1]) + "\n")
+    ro = _run("mmlearn.apps.structure_experiments", "--report-only", str(tmp_path / "bad.jsonl"))
+    assert ro.returncode == 1 and "raised an error: " + lines[0]["spec"]["label"] in ro.stderr
+    assert "RuntimeError: boom" in ro.stdout
+    ro = _run("mmlearn.apps.structure_experiments", "--report-only", str(tmp_path / "none.jsonl"))
+    assert ro.returncode == 2 and "none.jsonl" in ro.stderr
