@@ -208,7 +208,8 @@ class NoisyTrueFront(LeafSystem):
         rng = np.random.default_rng(int(round(context.get_time() * 1000)))
         X = r.X_WR.copy()
         X[:3, 3] += rng.normal(0.0, 0.01, 3)
-        X[:3, :3] = Rotation.from_rotvec(rng.normal(0.0, np.radians(2.0), 3)).as_matrix() @ X[:3, :3]
+        dR = Rotation.from_rotvec(rng.normal(0.0, np.radians(2.0), 3)).as_matrix()
+        X[:3, :3] = dR @ X[:3, :3]
         j = int(rng.integers(0, 4))
         X[:3, :3] = X[:3, :3] @ RECTANGLE_SYMMETRIES[j]
         w, h = (r.height, r.width) if SWAPS_SIZE[j] else (r.width, r.height)
