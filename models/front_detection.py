@@ -80,6 +80,9 @@ class FrontDetectorConfig:
 
     Attributes:
         inlier_distance: L of Eq. 5.1/5.2, m: a pixel within L of a plane is in-plane.
+        inlier_distance_per_m2: L grows with the square of the pixel's depth z like the
+            noise of a stereo camera: L(z) = max(inlier_distance, inlier_distance_per_m2 *
+            z^2), m / m^2 (0.004: 2.5 sigma of the ~1.5 mm-at-1 m noise; 0 = fixed L).
         ransac_stride_px: RANSAC samples and scores every n-th pixel in rows and columns, px.
         ransac_hypotheses: plane hypotheses per extracted plane (scored all at once).
         ransac_local_radius_px: the 2nd and 3rd point of a hypothesis lie within this many
@@ -119,6 +122,7 @@ class FrontDetectorConfig:
     """
 
     inlier_distance: float = 0.02
+    inlier_distance_per_m2: float = 0.004
     ransac_stride_px: int = 8
     ransac_hypotheses: int = 200
     ransac_local_radius_px: int = 48
@@ -173,7 +177,7 @@ class FrontDetectorConfig:
             if not 0.0 <= getattr(self, k) <= 1.0:
                 raise ValueError(f"FrontDetectorConfig.{k} must be in [0, 1], got "
                                  f"{getattr(self, k)}")
-        for k in ("alpha", "recall_margin", "min_recall_margin", "border_margin_px",
+        for k in ("alpha", "inlier_distance_per_m2", "recall_margin", "min_recall_margin", "border_margin_px",
                   "duplicate_distance", "duplicate_angle_deg"):
             if getattr(self, k) < 0:
                 raise ValueError(f"FrontDetectorConfig.{k} must be >= 0, got {getattr(self, k)}")
@@ -224,7 +228,7 @@ def find_planes(pts: np.ndarray, grid_rc: np.ndarray, grid_shape, cfg: FrontDete
     """Sequential RANSAC (5.1.1) on sampled points ``pts`` (m, 3) whose sample-grid positions
     are ``grid_rc`` (m, 2) in a grid of ``grid_shape``; returns up to ``cfg.max_planes``
     planes."""
-    L = float(cfg.inlier_distance)
+    Lp = np.maximum(cfg.inlier_distance, cfg.inlier_distance_per_m2 * pts[:, 2] ** 2)
     m = len(pts)
     planes: list[Plane] = []
     if m < max(3, cfg.min_plane_points):
@@ -264,29 +268,31 @@ def find_planes(pts: np.ndarray, grid_rc: np.ndarray, grid_shape, cfg: FrontDete
         nrm = nrm[ok] / ln[ok, None]
         dd = -np.einsum("ij,ij->i", nrm, p1[ok])
         dist = np.abs(P32[idx] @ nrm.T.astype(np.float32) + dd.astype(np.float32))  # (ma, N)
-        counts = (dist <= L).sum(axis=0)
+        Li = Lp[idx].astype(np.float32)[:, None]
+        counts = (dist <= Li).sum(axis=0)
         best = int(np.argmax(counts))
         if counts[best] < cfg.min_plane_points:
             break
-        inl = idx[dist[:, best] <= L]
+        inl = idx[dist[:, best] <= Li[:, 0]]
         n, d = nrm[best], float(dd[best])
         for _ in range(2):  # least-squares refinement on the inliers, then re-select them
             n, d = _fit_plane(pts[inl])
-            inl = idx[np.abs(pts[idx] @ n + d) <= L]
+            inl = idx[np.abs(pts[idx] @ n + d) <= Lp[idx]]
             if len(inl) < 3:
                 break
         # the plane's sampled points (within removal_factor x L, so that the noise tails of a
         # far plane do not come back as a second copy of it) leave the sampling pool
-        near = idx[np.abs(pts[idx] @ n + d) <= cfg.removal_factor * L]
+        near = idx[np.abs(pts[idx] @ n + d) <= cfg.removal_factor * Lp[idx]]
         active[near] = False
-        active[idx[dist[:, best] <= L]] = False
+        active[idx[dist[:, best] <= Li[:, 0]]] = False
         if len(inl) < cfg.min_plane_points:
             continue
-        dup = any(abs(q.n @ n) > math.cos(math.radians(5.0)) and abs(q.d - d) < 2 * L
+        Lq = max(cfg.inlier_distance, cfg.inlier_distance_per_m2 * d * d)
+        dup = any(abs(q.n @ n) > math.cos(math.radians(5.0)) and abs(q.d - d) < 2 * Lq
                   for q in planes)
         if dup:
             continue
-        support = int((np.abs(pts @ n + d) <= L).sum())
+        support = int((np.abs(pts @ n + d) <= Lp).sum())
         planes.append(Plane(n=n, d=d, support=support))
     return planes
 
@@ -396,8 +402,8 @@ def _label_image(d, valid, ray_x, ray_y, n, dpl, L) -> np.ndarray:
 
 def _make_grid(k, plane: Plane, lab_img, sample_pts, K, down_C, cfg, lut) -> _Grid | None:
     n, d = plane.n, plane.d
-    L = cfg.inlier_distance
-    inl = sample_pts[np.abs(sample_pts @ n + d) <= L]
+    Lp = np.maximum(cfg.inlier_distance, cfg.inlier_distance_per_m2 * sample_pts[:, 2] ** 2)
+    inl = sample_pts[np.abs(sample_pts @ n + d) <= Lp]
     if len(inl) < 3:
         return None
     o = inl.mean(axis=0)
@@ -549,49 +555,52 @@ def _inside_border(center, e1, e2, w, h, K, margin):
 
 
 def _polish_rotation(g: _Grid, R, lab_img, K, cfg, lut):
-    """Rotate the rectangle in its plane by +-step_factors x rotation_step_deg (each rotation
-    followed by side moves on the mask rectified at the new angle, local window), keep the
-    best while the objective improves. Returns (e1, e2, u0, v0, R, score, labels, sats)."""
+    """Rotate the rectangle in its plane about its centre by +-step_factors x
+    rotation_step_deg; each rotation is followed by the side moves on the mask rectified at the
+    new angle (a local window around the rectangle). All rotations of a round are one batched
+    greedy run; the best improving one is kept until none improves. Returns the objective and
+    (e1, e2, u0, v0, R, labels, sat_cost, sat_in) of the window of the best angle."""
     c = g.c
     center, _, _, w, h = _rect_camera(g, R)
-    a_c = (center - g.o) @ g.e1
-    b_c = (center - g.o) @ g.e2
+    p = center - g.o
     steps_cells = np.array(sorted({max(1, int(round(f * cfg.step_size / c)))
                                    for f in cfg.step_factors}), np.int64)
     min_cells = max(1, int(math.ceil(cfg.min_side / c)))
+    half = 0.5 * max(w, h) + 0.15
+    Wg = int(math.ceil((w + 2 * half) / c))
+    Hg = int(math.ceil((h + 2 * half) / c))
+    x0 = y0 = int(round(half / c))
+    R0 = np.array([x0, x0 + int(round(w / c)), y0, y0 + int(round(h / c))], np.int64)
+    cache = {}
 
-    def fit_at(theta):
-        e1, e2 = _rotate_axes(g.e1, g.e2, theta)
-        # centre's coordinates in the rotated frame (same origin o)
-        p = a_c * g.e1 + b_c * g.e2
-        a, b = p @ e1, p @ e2
-        half = 0.5 * max(w, h) * 1.0 + 0.15
-        u0, v0 = a - 0.5 * w - half, b - 0.5 * h - half
-        Wg = int(math.ceil((w + 2 * half) / c))
-        Hg = int(math.ceil((h + 2 * half) / c))
-        lab = _warp_labels(lab_img, K, g.o, e1, e2, u0, v0, c, (Hg, Wg))
-        sat_cost, sat_in = _sats(lab, lut)
-        x0 = int(round(half / c))
-        y0 = int(round(half / c))
-        R0 = np.array([[x0, x0 + int(round(w / c)), y0, y0 + int(round(h / c))]], np.int64)
-        Rf, sc, _ = _greedy(sat_cost[None], np.array([[Hg, Wg]]), np.zeros(1, np.int64), R0,
-                            np.tile(steps_cells, (1, 1)), np.array([min_cells]), cfg.alpha,
-                            cfg.max_iterations)
-        return float(sc[0]), (e1, e2, u0, v0, Rf[0], lab, sat_cost, sat_in)
+    def fit(thetas):
+        todo = [t for t in thetas if t not in cache]
+        if todo:
+            wins = []
+            for t in todo:
+                e1, e2 = _rotate_axes(g.e1, g.e2, math.radians(t))
+                u0, v0 = p @ e1 - 0.5 * w - half, p @ e2 - 0.5 * h - half
+                lab = _warp_labels(lab_img, K, g.o, e1, e2, u0, v0, c, (Hg, Wg))
+                wins.append((e1, e2, u0, v0, lab) + _sats(lab, lut))
+            k = len(todo)
+            Rf, sc, _ = _greedy(np.stack([wn[5] for wn in wins]), np.tile([Hg, Wg], (k, 1)),
+                                np.arange(k), np.tile(R0, (k, 1)), np.tile(steps_cells, (k, 1)),
+                                np.full(k, min_cells), cfg.alpha, cfg.max_iterations)
+            for i, t in enumerate(todo):
+                e1, e2, u0, v0, lab, sat_cost, sat_in = wins[i]
+                cache[t] = (float(sc[i]), (e1, e2, u0, v0, Rf[i], lab, sat_cost, sat_in))
+        return [cache[t] for t in thetas]
 
     theta = 0.0
-    best_score, best = fit_at(0.0)
-    rot = math.radians(cfg.rotation_step_deg)
+    best_score, best = fit([0.0])[0]
+    offsets = sorted({s * f * cfg.rotation_step_deg for f in cfg.step_factors for s in (1, -1)})
     for _ in range(int(cfg.max_iterations)):
-        improved = False
-        for f in sorted(cfg.step_factors, reverse=True):
-            trials = [fit_at(theta + s * f * rot) + (theta + s * f * rot,) for s in (1, -1)]
-            sc, res, th = max(trials, key=lambda t: t[0])
-            if sc > best_score + 1e-12 * abs(best_score):
-                best_score, best, theta = sc, res, th
-                improved = True
-                break
-        if not improved:
+        thetas = [round(theta + o, 9) for o in offsets]
+        res = fit(thetas)
+        i = int(np.argmax([r[0] for r in res]))
+        if res[i][0] > best_score + 1e-12 * abs(best_score):
+            best_score, best, theta = res[i][0], res[i][1], thetas[i]
+        else:
             break
     return best_score, best
 
@@ -705,8 +714,10 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
     down_C = X_WC[:3, :3].T @ np.array([0.0, 0.0, -1.0])
     lab_imgs, grids = [], []
     dzero = np.where(valid, d, np.float32(0.0))
+    Limg = np.maximum(np.float32(cfg.inlier_distance),
+                      np.float32(cfg.inlier_distance_per_m2) * dzero * dzero)
     for k, pl in enumerate(planes):
-        lab = _label_image(dzero, valid, xs, ys, pl.n, pl.d, np.float32(cfg.inlier_distance))
+        lab = _label_image(dzero, valid, xs, ys, pl.n, pl.d, Limg)
         g = _make_grid(k, pl, lab, sample_pts, K, down_C, cfg, lut)
         lab_imgs.append(lab)
         if g is not None and (g.labels == IN_PLANE).any():
