@@ -54,7 +54,6 @@ Deviations from the text, with reasons (measured on the synthetic frames of
   whose four edges are in view is a rectangle like any other.
 """
 
-from __future__ import annotations
 
 import math
 import time
@@ -810,10 +809,10 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
         e2 = np.cross(n, e1)
         X_CR = np.eye(4)
         X_CR[:3, 0], X_CR[:3, 1], X_CR[:3, 2], X_CR[:3, 3] = e1, e2, n, center
-        final.append((prec * rec, center, n,
+        final.append((prec * rec, n, center,
                       FrontRectangle(X_WR=X_WC @ X_CR, width=float(w), height=float(h),
                                      precision=float(prec), recall=float(rec))))
-    final = _suppress(final, lambda c: c[2], cfg)
+    final = _suppress(final, lambda c: c[1], cfg)
     out.extend(f[3] for f in final)
     timings["check"] = t_chk + time.perf_counter() - t0
     return finish()
