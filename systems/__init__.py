@@ -7,6 +7,7 @@ from .arm_failures import JointBlocker, PlantFailures
 from .articulation_estimator import ArticulationEstimator
 from .base_localization import BaseLocalization, BaseLocalizationConfig
 from .epc_controller import EpcConfig, EpcController, EpcTask
+from .front_detector import FrontDetector
 from .marker_sensor import CameraConfig, MarkerSensor, MarkerSensorConfig
 from .model_visualizer import LearnedModelVisualizer
 from .motor_babbling import MotorBabbling
@@ -26,6 +27,7 @@ __all__ = [
     "EpcConfig",
     "EpcController",
     "EpcTask",
+    "FrontDetector",
     "GravityCompensation",
     "JointBlocker",
     "JointFriction",
