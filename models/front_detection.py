@@ -66,6 +66,7 @@ from .fronts import FrontRectangle, PinholeIntrinsics, valid_depth_mask
 
 __all__ = ["FrontDetectorConfig", "detect_fronts", "Plane", "STAGES"]
 
+_DEBUG = None
 STAGES = ("planes", "masks", "sampling", "optimisation", "check")
 
 # mask labels (Eq. 5.2), plus cells of the rectified grid that the camera does not see
@@ -146,7 +147,7 @@ class FrontDetectorConfig:
     min_side: float = 0.03
     min_precision: float = 0.7
     min_recall: float = 0.7
-    recall_margin: float = 0.5
+    recall_margin: float = 0.25
     min_recall_margin: float = 0.05
     border_margin_px: int = 3
     duplicate_distance: float = 0.05
@@ -222,6 +223,32 @@ def _fit_plane(P: np.ndarray):
     return n, float(-n @ c)
 
 
+def _components(sel, grid_rc, grid_shape):
+    img = np.zeros(grid_shape, np.uint8)
+    img[grid_rc[sel, 0], grid_rc[sel, 1]] = 1
+    _, lab = cv2.connectedComponents(img, connectivity=8)
+    return lab[grid_rc[sel, 0], grid_rc[sel, 1]]
+
+
+def _largest_region(sel, grid_rc, grid_shape):
+    """The points of ``sel`` (indices) in the largest 8-connected region on the sample grid."""
+    if len(sel) == 0:
+        return sel
+    lab = _components(sel, grid_rc, grid_shape)
+    return sel[lab == np.argmax(np.bincount(lab))]
+
+
+def _regions_touching(sel, region, grid_rc, grid_shape):
+    """The points of ``sel`` in the 8-connected regions (of ``sel``) that contain a point of
+    ``region`` (a subset of ``sel``)."""
+    if len(sel) == 0 or len(region) == 0:
+        return sel[:0]
+    lab = _components(sel, grid_rc, grid_shape)
+    keep = np.zeros(lab.max() + 1, bool)
+    keep[lab[np.isin(sel, region)]] = True
+    return sel[keep[lab]]
+
+
 def find_planes(pts: np.ndarray, grid_rc: np.ndarray, grid_shape, cfg: FrontDetectorConfig,
                 rng: np.random.Generator) -> list[Plane]:
     """Sequential RANSAC (5.1.1) on sampled points ``pts`` (m, 3) whose sample-grid positions
@@ -238,7 +265,8 @@ def find_planes(pts: np.ndarray, grid_rc: np.ndarray, grid_shape, cfg: FrontDete
     r = max(1, int(round(cfg.ransac_local_radius_px / cfg.ransac_stride_px)))
     N = int(cfg.ransac_hypotheses)
     P32 = pts.astype(np.float32)
-    for _ in range(int(cfg.max_planes)):
+    for _it in range(int(cfg.max_planes)):
+        if _DEBUG is not None: _DEBUG(active, planes)
         idx = np.flatnonzero(active)
         if len(idx) < max(3, cfg.min_plane_points):
             break
@@ -272,27 +300,28 @@ def find_planes(pts: np.ndarray, grid_rc: np.ndarray, grid_shape, cfg: FrontDete
         best = int(np.argmax(counts))
         if counts[best] < cfg.min_plane_points:
             break
-        inl = idx[dist[:, best] <= Li[:, 0]]
+        inl = _largest_region(idx[dist[:, best] <= Li[:, 0]], grid_rc, grid_shape)
         n, d = nrm[best], float(dd[best])
         for _ in range(2):  # least-squares refinement on the inliers, then re-select them
-            n, d = _fit_plane(pts[inl])
-            inl = idx[np.abs(pts[idx] @ n + d) <= Lp[idx]]
             if len(inl) < 3:
                 break
-        # the plane's sampled points (within removal_factor x L, so that the noise tails of a
-        # far plane do not come back as a second copy of it) leave the sampling pool
-        near = idx[np.abs(pts[idx] @ n + d) <= cfg.removal_factor * Lp[idx]]
-        active[near] = False
-        active[idx[dist[:, best] <= Li[:, 0]]] = False
+            n, d = _fit_plane(pts[inl])
+            inl = _largest_region(idx[np.abs(pts[idx] @ n + d) <= Lp[idx]], grid_rc, grid_shape)
+        # The plane is its largest connected region of inliers (on the sample grid): other
+        # surfaces crossing the infinite plane stay in the pool. The region's points within
+        # removal_factor x L (so that the noise tails of a far plane do not come back as a
+        # second copy of it) leave the pool of sampling points.
+        loose = idx[np.abs(pts[idx] @ n + d) <= cfg.removal_factor * Lp[idx]]
+        active[_regions_touching(loose, inl, grid_rc, grid_shape)] = False
+        active[inl] = False
         if len(inl) < cfg.min_plane_points:
             continue
         Lq = max(cfg.inlier_distance, cfg.inlier_distance_per_m2 * d * d)
         dup = any(abs(q.n @ n) > math.cos(math.radians(5.0)) and abs(q.d - d) < 2 * Lq
                   for q in planes)
-        if dup:
+        if dup:  # masks cover every pixel of a plane: a second copy adds nothing
             continue
-        support = int((np.abs(pts @ n + d) <= Lp).sum())
-        planes.append(Plane(n=n, d=d, support=support))
+        planes.append(Plane(n=n, d=d, support=len(inl)))
     return planes
 
 
