@@ -408,11 +408,19 @@ def _edge_angle(inplane: np.ndarray) -> float:
     return float(np.angle(z) / 4.0)
 
 
+def _sat_cost(labels: np.ndarray, lut: np.ndarray):
+    """Summed-area table (int32) of the cost x 255 of every cell (``lut``: label -> cost x 255,
+    uint8; costs are quantised to 1/255 as in the original code)."""
+    return cv2.integral(cv2.LUT(labels, lut), sdepth=cv2.CV_32S)
+
+
+def _sat_in(labels: np.ndarray):
+    """Summed-area table (int32) of the in-plane indicator."""
+    return cv2.integral((labels == IN_PLANE).view(np.uint8), sdepth=cv2.CV_32S)
+
+
 def _sats(labels: np.ndarray, lut: np.ndarray):
-    cost = lut[labels]
-    sat_cost = cv2.integral(cost, sdepth=cv2.CV_64F)
-    sat_in = cv2.integral((labels == IN_PLANE).astype(np.uint8), sdepth=cv2.CV_64F)
-    return sat_cost, sat_in
+    return _sat_cost(labels, lut), _sat_in(labels)
 
 
 def _label_image(d, valid, ray_x, ray_y, n, dpl, L) -> np.ndarray:
@@ -485,7 +493,7 @@ def _objective(SC, p, R, alpha):
     """g = sum(1 - cost) / n^(1 - alpha) over the rectangle's cells."""
     n = ((R[..., 1] - R[..., 0]) * (R[..., 3] - R[..., 2])).astype(np.float64)
     n = np.maximum(n, 1.0)
-    return (n - _rect_sum(SC, p, R)) / n ** (1.0 - alpha)
+    return (n - _rect_sum(SC, p, R) * (1.0 / 255.0)) / n ** (1.0 - alpha)
 
 
 def _greedy(SC, dims, pid, R, steps, min_cells, alpha, max_iter):
@@ -523,7 +531,7 @@ def _greedy(SC, dims, pid, R, steps, min_cells, alpha, max_iter):
 def _stack(tables, dims):
     Hm = max(h for h, _ in dims) + 1
     Wm = max(w for _, w in dims) + 1
-    out = np.zeros((len(tables), Hm, Wm))
+    out = np.zeros((len(tables), Hm, Wm), tables[0].dtype)
     for k, t in enumerate(tables):
         out[k, :t.shape[0], :t.shape[1]] = t
     return out
@@ -539,7 +547,7 @@ def _precision_recall(g: _Grid, R, cfg):
     if n <= 0:
         return 0.0, 0.0
     S = g.sat_cost
-    cost = S[y1, x1] - S[y0, x1] - S[y1, x0] + S[y0, x0]
+    cost = (S[y1, x1] - S[y0, x1] - S[y1, x0] + S[y0, x0]) / 255.0
     precision = (n - cost) / n
     I = g.sat_in
     inside = I[y1, x1] - I[y0, x1] - I[y1, x0] + I[y0, x0]
@@ -594,7 +602,9 @@ def _polish_rotation(g: _Grid, R, lab_img, K, cfg, lut):
     steps_cells = np.array(sorted({max(1, int(round(f * cfg.step_size / c)))
                                    for f in cfg.step_factors}), np.int64)
     min_cells = max(1, int(math.ceil(cfg.min_side / c)))
-    half = 0.5 * max(w, h) + 0.15
+    # window: the recall margin plus room for the largest side move
+    half = (max(cfg.recall_margin * max(w, h), cfg.min_recall_margin)
+            + 2 * max(cfg.step_factors) * cfg.step_size)
     Wg = int(math.ceil((w + 2 * half) / c))
     Hg = int(math.ceil((h + 2 * half) / c))
     x0 = y0 = int(round(half / c))
@@ -609,14 +619,14 @@ def _polish_rotation(g: _Grid, R, lab_img, K, cfg, lut):
                 e1, e2 = _rotate_axes(g.e1, g.e2, math.radians(t))
                 u0, v0 = p @ e1 - 0.5 * w - half, p @ e2 - 0.5 * h - half
                 lab = _warp_labels(lab_img, K, g.o, e1, e2, u0, v0, c, (Hg, Wg))
-                wins.append((e1, e2, u0, v0, lab) + _sats(lab, lut))
+                wins.append((e1, e2, u0, v0, lab, _sat_cost(lab, lut)))
             k = len(todo)
             Rf, sc, _ = _greedy(np.stack([wn[5] for wn in wins]), np.tile([Hg, Wg], (k, 1)),
                                 np.arange(k), np.tile(R0, (k, 1)), np.tile(steps_cells, (k, 1)),
                                 np.full(k, min_cells), cfg.alpha, cfg.max_iterations)
             for i, t in enumerate(todo):
-                e1, e2, u0, v0, lab, sat_cost, sat_in = wins[i]
-                cache[t] = (float(sc[i]), (e1, e2, u0, v0, Rf[i], lab, sat_cost, sat_in))
+                e1, e2, u0, v0, lab, sat_cost = wins[i]
+                cache[t] = (float(sc[i]), (e1, e2, u0, v0, Rf[i], lab, sat_cost))
         return [cache[t] for t in thetas]
 
     theta = 0.0
@@ -630,7 +640,7 @@ def _polish_rotation(g: _Grid, R, lab_img, K, cfg, lut):
             best_score, best, theta = res[i][0], res[i][1], thetas[i]
         else:
             break
-    return best_score, best
+    return best_score, best + (_sat_in(best[5]),)
 
 
 def _refit_plane(Pc, lab_img, center, e1, e2, w, h, K, n_old, L):
@@ -737,8 +747,9 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
 
     # --- masks ---------------------------------------------------------------------------
     t0 = time.perf_counter()
-    lut = np.array([cfg.cost_in_plane, cfg.cost_free, cfg.cost_occluded, cfg.cost_unknown,
-                    cfg.cost_free], np.float32)
+    lut = np.zeros(256, np.uint8)
+    lut[:5] = np.round(255.0 * np.array([cfg.cost_in_plane, cfg.cost_free, cfg.cost_occluded,
+                                         cfg.cost_unknown, cfg.cost_free]))
     down_C = X_WC[:3, :3].T @ np.array([0.0, 0.0, -1.0])
     lab_imgs, grids = [], []
     dzero = np.where(valid, d, np.float32(0.0))
