@@ -66,7 +66,6 @@ from .fronts import FrontRectangle, PinholeIntrinsics, valid_depth_mask
 
 __all__ = ["FrontDetectorConfig", "detect_fronts", "Plane", "STAGES"]
 
-_DEBUG = None
 STAGES = ("planes", "masks", "sampling", "optimisation", "check")
 
 # mask labels (Eq. 5.2), plus cells of the rectified grid that the camera does not see
@@ -92,6 +91,8 @@ class FrontDetectorConfig:
             pool of points later planes are drawn from, unitless (>= 1).
         min_plane_points: a plane needs at least this many inliers among the sampled pixels.
         max_depth: pixels farther than this are not used to find planes, m.
+        crossing_angle_deg: where two planes at more than this angle cross, a pixel within L of
+            both is in-plane only for the nearer one (free for the other), degrees.
         cost_in_plane, cost_free, cost_occluded, cost_unknown: cost of a pixel per label
             (Eq. 5.3-5.5), unitless in [0, 1]; grid cells the camera does not see cost
             ``cost_free``.
@@ -128,6 +129,7 @@ class FrontDetectorConfig:
     ransac_local_radius_px: int = 48
     max_planes: int = 8
     removal_factor: float = 2.0
+    crossing_angle_deg: float = 20.0
     min_plane_points: int = 20
     max_depth: float = 5.0
     cost_in_plane: float = 0.0
@@ -177,7 +179,7 @@ class FrontDetectorConfig:
             if not 0.0 <= getattr(self, k) <= 1.0:
                 raise ValueError(f"FrontDetectorConfig.{k} must be in [0, 1], got "
                                  f"{getattr(self, k)}")
-        for k in ("alpha", "inlier_distance_per_m2", "recall_margin", "min_recall_margin", "border_margin_px",
+        for k in ("alpha", "inlier_distance_per_m2", "crossing_angle_deg", "recall_margin", "min_recall_margin", "border_margin_px",
                   "duplicate_distance", "duplicate_angle_deg"):
             if getattr(self, k) < 0:
                 raise ValueError(f"FrontDetectorConfig.{k} must be >= 0, got {getattr(self, k)}")
@@ -203,11 +205,13 @@ class FrontDetectorConfig:
 @dataclass
 class Plane:
     """A plane found by RANSAC, camera frame: ``n . p + d = 0``, ``n`` unit towards the camera
-    (``d > 0``); ``support`` = inliers among the sampled pixels."""
+    (``d > 0``); ``support`` = inliers among the sampled pixels (its largest connected region);
+    ``bbox`` = (row0, row1, col0, col1) of that region on the sample grid."""
 
     n: np.ndarray
     d: float
     support: int
+    bbox: tuple = (0, 0, 0, 0)
 
 
 # ------------------------------------------------------------------------------------------
@@ -265,20 +269,23 @@ def find_planes(pts: np.ndarray, grid_rc: np.ndarray, grid_shape, cfg: FrontDete
     r = max(1, int(round(cfg.ransac_local_radius_px / cfg.ransac_stride_px)))
     N = int(cfg.ransac_hypotheses)
     P32 = pts.astype(np.float32)
-    for _it in range(int(cfg.max_planes)):
-        if _DEBUG is not None: _DEBUG(active, planes)
+    for _ in range(int(cfg.max_planes)):
         idx = np.flatnonzero(active)
         if len(idx) < max(3, cfg.min_plane_points):
             break
         first = idx[rng.integers(0, len(idx), N)]
-        off = rng.integers(-r, r + 1, (N, 2, 2))
+        # 2nd and 3rd point: the first two of T random offsets that land on active points
+        T = 12
+        off = rng.integers(-r, r + 1, (N, T, 2))
         rc = grid_rc[first][:, None, :] + off
         inb = ((rc >= 0) & (rc < np.asarray(grid_shape))).all(-1)
         rc = np.where(inb[..., None], rc, 0)
-        other = lookup[rc[..., 0], rc[..., 1]]
-        ok = inb.all(1) & (other >= 0).all(1)
-        other = np.where(other >= 0, other, 0)
-        ok &= active[other].all(1)
+        cand = lookup[rc[..., 0], rc[..., 1]]
+        good = inb & (cand >= 0) & (off != 0).any(-1)
+        good &= active[np.where(cand >= 0, cand, 0)]
+        pick = np.argsort(~good, axis=1, kind="stable")[:, :2]
+        other = np.take_along_axis(np.where(good, cand, 0), pick, axis=1)
+        ok = good.sum(axis=1) >= 2
         p1, p2, p3 = pts[first], pts[other[:, 0]], pts[other[:, 1]]
         nrm = np.cross(p2 - p1, p3 - p1)
         ln = np.linalg.norm(nrm, axis=1)
@@ -321,8 +328,39 @@ def find_planes(pts: np.ndarray, grid_rc: np.ndarray, grid_shape, cfg: FrontDete
                   for q in planes)
         if dup:  # masks cover every pixel of a plane: a second copy adds nothing
             continue
-        planes.append(Plane(n=n, d=d, support=len(inl)))
+        rc = grid_rc[inl]
+        planes.append(Plane(n=n, d=d, support=len(inl),
+                            bbox=(int(rc[:, 0].min()), int(rc[:, 0].max()) + 1,
+                                  int(rc[:, 1].min()), int(rc[:, 1].max()) + 1)))
     return planes
+
+
+def refine_plane_fullres(pl: Plane, Pc, Lmap, stride, off, max_points=20000) -> Plane:
+    """Least-squares refit of a plane on the full-resolution pixels within L of it inside the
+    bounding box of its sampled region (every pixel for small planes, a regular subset of at
+    most ``max_points`` for large ones); two rounds, the second on the pixels within L / 2 of
+    the first fit (keeps a handle or an edge strip from tilting a small front's plane)."""
+    r0, r1, c0, c1 = pl.bbox
+    R0, R1 = off + stride * r0 - stride, off + stride * r1 + stride
+    C0, C1 = off + stride * c0 - stride, off + stride * c1 + stride
+    R0, C0 = max(0, R0), max(0, C0)
+    crop = Pc[R0:R1, C0:C1]
+    Lc = Lmap[R0:R1, C0:C1]
+    step = max(1, int(math.ceil(math.sqrt(crop.shape[0] * crop.shape[1] / max_points))))
+    P = crop[::step, ::step].reshape(-1, 3)
+    L = Lc[::step, ::step].reshape(-1)
+    ok = np.isfinite(P[:, 2])
+    P, L = P[ok].astype(np.float64), L[ok]
+    n, d = pl.n, pl.d
+    for shrink in (1.0, 0.5):
+        sel = np.abs(P @ n + d) <= shrink * L
+        if sel.sum() < 10:
+            return pl
+        n2, d2 = _fit_plane(P[sel])
+        if n2 @ pl.n < math.cos(math.radians(10.0)):
+            return pl
+        n, d = n2, d2
+    return Plane(n=n, d=d, support=pl.support, bbox=pl.bbox)
 
 
 # ------------------------------------------------------------------------------------------
@@ -423,17 +461,39 @@ def _sats(labels: np.ndarray, lut: np.ndarray):
     return _sat_cost(labels, lut), _sat_in(labels)
 
 
-def _label_image(d, valid, ray_x, ray_y, n, dpl, L) -> np.ndarray:
-    """Eq. 5.2 labels of every pixel for the plane n . p + dpl = 0. The signed distance of the
-    pixel's point p = depth * (ray_x, ray_y, 1) is depth * (n . ray) + dpl (separable in rows
-    and columns)."""
-    nr = (np.float32(n[0]) * ray_x + np.float32(n[2])) + np.float32(n[1]) * ray_y  # (H, W)
-    s = d * nr
-    s += np.float32(dpl)
-    lab = (s < -L).view(np.uint8)            # FREE = 1
-    lab += (s > L).view(np.uint8) * np.uint8(OCCLUDED)
-    lab[~valid] = UNKNOWN
-    return lab
+def _label_images(d, valid, ray_x, ray_y, planes, L, crossing_angle_deg) -> list[np.ndarray]:
+    """Eq. 5.2 labels of every pixel for every plane n . p + dpl = 0. The signed distance of
+    the pixel's point p = depth * (ray_x, ray_y, 1) is depth * (n . ray) + dpl (separable in
+    rows and columns). A pixel within L of two planes that cross at more than
+    ``crossing_angle_deg`` and nearer to the one with the larger support is free for the
+    other: in that strip the surface seen is the larger plane's (e.g. the cabinet's face next
+    to the hinge of an open door, which would otherwise widen the door by L / sin(angle)).
+    Otherwise pixels belong to every plane they are within L of (5.1.1)."""
+    S = np.empty((len(planes),) + d.shape, np.float32)
+    for k, pl in enumerate(planes):
+        n = pl.n
+        nr = (np.float32(n[0]) * ray_x + np.float32(n[2])) + np.float32(n[1]) * ray_y
+        np.multiply(d, nr, out=S[k])
+        S[k] += np.float32(pl.d)
+    A = np.abs(S)
+    near = A <= L
+    shared = near.sum(axis=0) > 1
+    A_sh, near_sh = A[:, shared], near[:, shared]
+    N = np.array([pl.n for pl in planes])
+    sup = np.array([pl.support for pl in planes])
+    crossing = ((np.abs(N @ N.T) < math.cos(math.radians(crossing_angle_deg)))
+                & (sup[None, :] >= sup[:, None]))  # [k, j]: j may take pixels from k
+    labs = []
+    for k in range(len(planes)):
+        lab = (S[k] < -L).view(np.uint8)            # FREE = 1
+        lab += (S[k] > L).view(np.uint8) * np.uint8(OCCLUDED)
+        other = np.zeros(A_sh.shape[1], bool)
+        for j in np.flatnonzero(crossing[k]):
+            other |= near_sh[j] & (A_sh[j] < A_sh[k])
+        lab[shared] |= (near_sh[k] & other).view(np.uint8)  # in-plane -> FREE
+        lab[~valid] = UNKNOWN
+        labs.append(lab)
+    return labs
 
 
 def _make_grid(k, plane: Plane, lab_img, sample_pts, K, down_C, cfg, lut) -> _Grid | None:
@@ -741,6 +801,10 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
     rr, cc = np.nonzero(sub_valid)
     sample_pts = Pc[off::st, off::st][rr, cc].astype(np.float64)
     planes = find_planes(sample_pts, np.column_stack([rr, cc]), grid_shape, cfg, rng)
+    dzero = np.where(valid, d, np.float32(0.0))
+    Limg = np.maximum(np.float32(cfg.inlier_distance),
+                      np.float32(cfg.inlier_distance_per_m2) * dzero * dzero)
+    planes = [refine_plane_fullres(pl, Pc, Limg, st, off) for pl in planes]
     timings["planes"] = time.perf_counter() - t0
     if not planes:
         return finish()
@@ -752,11 +816,8 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
                                          cfg.cost_unknown, cfg.cost_free]))
     down_C = X_WC[:3, :3].T @ np.array([0.0, 0.0, -1.0])
     lab_imgs, grids = [], []
-    dzero = np.where(valid, d, np.float32(0.0))
-    Limg = np.maximum(np.float32(cfg.inlier_distance),
-                      np.float32(cfg.inlier_distance_per_m2) * dzero * dzero)
-    for k, pl in enumerate(planes):
-        lab = _label_image(dzero, valid, xs, ys, pl.n, pl.d, Limg)
+    labels = _label_images(dzero, valid, xs, ys, planes, Limg, cfg.crossing_angle_deg)
+    for k, (pl, lab) in enumerate(zip(planes, labels)):
         g = _make_grid(k, pl, lab, sample_pts, K, down_C, cfg, lut)
         lab_imgs.append(lab)
         if g is not None and (g.labels == IN_PLANE).any():

@@ -17,7 +17,11 @@ import numpy as np
 from .fronts import PinholeIntrinsics
 
 __all__ = ["PlanarPatch", "box_patches", "look_at", "render_depth", "add_depth_noise",
-           "pose_from_axes"]
+           "pose_from_axes", "front_pose", "kitchen_scene", "DOOR_SIZE", "DRAWER_SIZE"]
+
+#: the thesis' door and drawer fronts (5.2.2), width x height, m
+DOOR_SIZE = (0.395, 0.58)
+DRAWER_SIZE = (0.395, 0.125)
 
 
 @dataclass(frozen=True)
@@ -105,3 +109,26 @@ def add_depth_noise(depth: np.ndarray, rng: np.random.Generator, *, sigma_at_1m:
     d[rng.random(d.shape) < dropout] = np.nan
     d[d > max_range] = np.nan
     return d
+
+
+def front_pose(x, y, z, yaw=0.0) -> np.ndarray:
+    """Pose of a vertical front centred at (x, y, z) facing +x rotated by ``yaw`` (rad) about
+    world z: x along the (horizontal) width, y down, z the outward normal."""
+    c, s = np.cos(yaw), np.sin(yaw)
+    return pose_from_axes([s, -c, 0.0], [0.0, 0.0, -1.0], [c, s, 0.0], [x, y, z])
+
+
+def kitchen_scene(fronts) -> list[PlanarPatch]:
+    """A wall (plane x = 0, facing +x), the floor (z = 0), a cabinet carcass 0.6 m deep,
+    1.2 m wide and 0.9 m high against the wall, plus ``fronts``: (size (w, h), X_WF,
+    thickness) each, a thin box whose outer face is the front rectangle X_WF (m)."""
+    patches = [PlanarPatch(pose_from_axes([0, 1, 0], [0, 0, -1], [1, 0, 0], [0, 0, 1.5]),
+                           np.inf, np.inf),
+               PlanarPatch(np.eye(4), np.inf, np.inf)]
+    patches += box_patches(pose_from_axes([1, 0, 0], [0, 1, 0], [0, 0, 1], [0.3, 0.0, 0.45]),
+                           [0.6, 1.2, 0.9])
+    for (w, h), X, t in fronts:
+        Xb = np.array(X, float)
+        Xb[:3, 3] -= 0.5 * t * Xb[:3, 2]
+        patches += box_patches(Xb, [w, h, t])
+    return patches

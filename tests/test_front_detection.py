@@ -6,36 +6,18 @@ import numpy as np
 import pytest
 
 from mmlearn.models.front_detection import FrontDetectorConfig, detect_fronts
-from mmlearn.models.front_synth import (PlanarPatch, add_depth_noise, box_patches, look_at,
-                                        pose_from_axes, render_depth)
+from mmlearn.models.front_synth import (DOOR_SIZE, DRAWER_SIZE, PlanarPatch, add_depth_noise,
+                                        front_pose, kitchen_scene, look_at, pose_from_axes,
+                                        render_depth)
 from mmlearn.models.fronts import FrontRectangle, PinholeIntrinsics
 
 K = PinholeIntrinsics.from_fov(640, 480, 58.0)
-DOOR = (0.395, 0.58)
-DRAWER = (0.395, 0.125)
+DOOR = DOOR_SIZE
+DRAWER = DRAWER_SIZE
 
 
-def _front_pose(x, y, z, yaw=0.0):
-    """A front facing +x (rotated by yaw about world z): x = width (horizontal), y = down."""
-    c, s = math.cos(yaw), math.sin(yaw)
-    normal = np.array([c, s, 0.0])
-    width_axis = np.array([s, -c, 0.0])
-    return pose_from_axes(width_axis, [0.0, 0.0, -1.0], normal, [x, y, z])
-
-
-def kitchen(fronts):
-    """Wall (x = 0), floor (z = 0), a 0.6 m deep cabinet carcass, and the fronts given as
-    (size, X_WF, thickness): each front is a thin box whose face is the rectangle."""
-    patches = [PlanarPatch(pose_from_axes([0, 1, 0], [0, 0, -1], [1, 0, 0], [0, 0, 1.5]),
-                           np.inf, np.inf),
-               PlanarPatch(np.eye(4), np.inf, np.inf)]
-    patches += box_patches(pose_from_axes([1, 0, 0], [0, 1, 0], [0, 0, 1], [0.3, 0.0, 0.45]),
-                           [0.6, 1.2, 0.9])
-    for (w, h), X, t in fronts:
-        Xb = X.copy()
-        Xb[:3, 3] -= 0.5 * t * X[:3, 2]
-        patches += box_patches(Xb, [w, h, t])
-    return patches
+_front_pose = front_pose
+kitchen = kitchen_scene
 
 
 def _errors(rect: FrontRectangle, X_true):
