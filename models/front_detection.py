@@ -498,40 +498,53 @@ def _label_images(d, valid, ray_x, ray_y, planes, L, crossing_angle_deg,
     other: in that strip the surface seen is the larger plane's (e.g. the cabinet's face next
     to the hinge of an open door, which would otherwise widen the door by L / sin(angle)).
     Otherwise pixels belong to every plane they are within L of (5.1.1)."""
-    S = np.empty((len(planes),) + d.shape, np.float32)
+    P = len(planes)
+    S = np.empty((P,) + d.shape, np.float32)
+    L = np.broadcast_to(np.asarray(L, np.float32), d.shape).copy() if np.ndim(L) == 0 else L
+    negL = -L
+    unknown = np.where(valid, np.uint8(0), np.uint8(UNKNOWN))
+    labs = []
     for k, pl in enumerate(planes):
         n = pl.n
         nr = (np.float32(n[0]) * ray_x + np.float32(n[2])) + np.float32(n[1]) * ray_y
         np.multiply(d, nr, out=S[k])
         S[k] += np.float32(pl.d)
-    A = np.abs(S)
-    near = A <= L
-    shared = near.sum(axis=0) > 1
-    near_sh = near[:, shared]
+        lab = cv2.compare(S[k], negL, cv2.CMP_LT) & np.uint8(FREE)
+        lab |= cv2.compare(S[k], L, cv2.CMP_GT) & np.uint8(OCCLUDED)
+        lab |= unknown                                   # 3 | anything = UNKNOWN
+        labs.append(lab)
+    if P < 2:
+        return labs
+    count = np.zeros(d.shape, np.uint8)
+    for lab in labs:
+        count += lab == IN_PLANE
+    shared = np.flatnonzero(count > 1)
+    if len(shared) == 0:
+        return labs
+    near_sh = np.array([lab.reshape(-1)[shared] == IN_PLANE for lab in labs])
     N = np.array([pl.n for pl in planes])
     sup = np.array([pl.support for pl in planes])
     crossing = ((np.abs(N @ N.T) < math.cos(math.radians(crossing_angle_deg)))
                 & (sup[None, :] >= sup[:, None]))  # [k, j]: j may take pixels from k
+    if not crossing.any():
+        return labs
     # which plane is nearer is decided on distances averaged over smooth_px x smooth_px
     # measured pixels (the noise of one pixel would otherwise fray the edge along the crossing)
-    A_sh = np.empty(near_sh.shape, np.float32)
-    if shared.any():
-        vf = valid.astype(np.float32)
-        wsum = cv2.blur(vf, (smooth_px, smooth_px))
-        with np.errstate(invalid="ignore", divide="ignore"):
-            for k in np.flatnonzero(crossing.any(axis=0) | crossing.any(axis=1)):
-                sm = cv2.blur(np.where(valid, S[k], np.float32(0.0)), (smooth_px, smooth_px))
-                A_sh[k] = np.abs(sm[shared] / wsum[shared])
-    labs = []
-    for k in range(len(planes)):
-        lab = (S[k] < -L).view(np.uint8)            # FREE = 1
-        lab += (S[k] > L).view(np.uint8) * np.uint8(OCCLUDED)
-        other = np.zeros(A_sh.shape[1], bool)
-        for j in np.flatnonzero(crossing[k]):
+    A_sh = np.zeros(near_sh.shape, np.float32)
+    wsum = cv2.blur(valid.astype(np.float32), (smooth_px, smooth_px)).reshape(-1)[shared]
+    wsum = np.maximum(wsum, np.float32(1e-6))
+    for k in np.flatnonzero(crossing.any(axis=0) | crossing.any(axis=1)):
+        sm = cv2.blur(np.where(valid, S[k], np.float32(0.0)), (smooth_px, smooth_px))
+        A_sh[k] = np.abs(sm.reshape(-1)[shared] / wsum)
+    for k in range(P):
+        js = np.flatnonzero(crossing[k])
+        if len(js) == 0:
+            continue
+        other = np.zeros(len(shared), bool)
+        for j in js:
             other |= near_sh[j] & (A_sh[j] < A_sh[k])
-        lab[shared] |= (near_sh[k] & other).view(np.uint8)  # in-plane -> FREE
-        lab[~valid] = UNKNOWN
-        labs.append(lab)
+        flat = labs[k].reshape(-1)
+        flat[shared[near_sh[k] & other]] = FREE          # in-plane -> FREE
     return labs
 
 
