@@ -206,8 +206,9 @@ class FrontDetectorConfig:
         if self.crossing_smooth_px < 1:
             raise ValueError("FrontDetectorConfig.crossing_smooth_px must be >= 1, got "
                              f"{self.crossing_smooth_px}")
-        for k in ("alpha", "inlier_distance_per_m2", "crossing_angle_deg", "recall_margin", "min_recall_margin", "border_margin_px",
-                  "duplicate_distance", "duplicate_angle_deg"):
+        for k in ("alpha", "inlier_distance_per_m2", "crossing_angle_deg", "recall_margin",
+                  "min_recall_margin", "border_margin_px", "duplicate_distance",
+                  "duplicate_angle_deg"):
             if getattr(self, k) < 0:
                 raise ValueError(f"FrontDetectorConfig.{k} must be >= 0, got {getattr(self, k)}")
         if self.removal_factor < 1:

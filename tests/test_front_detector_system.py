@@ -1,7 +1,5 @@
 """FrontDetector LeafSystem: ports, determinism, bad frames, a short simulation."""
 
-import math
-
 import numpy as np
 import pytest
 from pydrake.common.value import AbstractValue
