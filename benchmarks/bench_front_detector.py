@@ -15,8 +15,9 @@ Frames (640 x 480):
 Per frame the detector runs ``--repeats`` times (seed fixed); the figures are the median over
 frames of the per-frame median: the CPU time per stage (the detector's timings with
 ``clock=time.thread_time``) and the process CPU time of the whole call. Compare the CPU time
-with the targets (whole detector < 100 ms, planes < 30 ms per frame on one core; thesis anchors 0.845 / 0.008 / 0.010 /
-0.313 s for planes / mask / sampling / optimisation on a 2 GHz core).
+with the targets (whole detector < 100 ms, planes < 30 ms per frame on one core; thesis
+anchors 0.845 / 0.008 / 0.010 / 0.313 s for planes / mask / sampling / optimisation on a
+2 GHz core).
 
 Accuracy per frame with ground truth: the detected rectangle nearest to the true front counts
 as found when its centre is within 0.1 m, its normal within 20 deg and its width and height
