@@ -212,3 +212,37 @@ def test_occluder_in_front_of_the_door_is_bridged():
     r, perr, aerr = m
     assert perr < 0.01 and aerr < 2.0, (perr, aerr, r.width, r.height)
     assert abs(r.width - DOOR[0]) < 0.02 and abs(r.height - DOOR[1]) < 0.02
+
+
+def test_benchmark_runs_and_reports_stages():
+    """benchmarks/bench_front_detector.py on two synthetic frames (no Open3D, no shared
+    frames): it prints one JSON document with the stage times and the accuracy."""
+    import json
+    import subprocess
+    import sys
+    from pathlib import Path
+    script = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_front_detector.py"
+    out = subprocess.run([sys.executable, str(script), "--synthetic", "2", "--repeats", "1",
+                          "--frames-dir", "", "--no-open3d", "--json"], capture_output=True,
+                         text=True, timeout=300, check=True).stdout
+    rep = json.loads(out)["report"]["synthetic"]
+    assert set(rep["median_s"]) >= {"planes", "masks", "sampling", "optimisation", "check"}
+    assert rep["accuracy"]["frames"] == 2 and rep["accuracy"]["found"] == 2
+
+
+def test_front_leaving_the_view_is_not_reported():
+    """The door is taller than the view (camera 0.5 m away): its visible part touches the image
+    border, so it is not reported (its extent is not observed); no crash."""
+    X = _front_pose(0.85, 0.0, 0.6)
+    X_WC = look_at([1.35, 0.0, 0.6], X[:3, 3])
+    depth = add_depth_noise(render_depth(kitchen([(DOOR, X, 0.02)]), K, X_WC),
+                            np.random.default_rng(10))
+    rects, _ = detect_fronts(depth, K, X_WC, FrontDetectorConfig(), rng=10)
+    X_CW = np.linalg.inv(X_WC)
+    for r in rects:
+        c = (X_CW @ np.c_[r.corners(), np.ones(4)].T)[:3]
+        u = K.fx * c[0] / c[2] + K.cx
+        v = K.fy * c[1] / c[2] + K.cy
+        assert np.all(c[2] > 0) and u.min() >= 0 and u.max() <= K.width - 1
+        assert v.min() >= 0 and v.max() <= K.height - 1
+        assert np.linalg.norm(r.center - X[:3, 3]) > 0.05 or abs(r.height - DOOR[1]) > 0.1
