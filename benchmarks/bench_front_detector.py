@@ -3,6 +3,12 @@ RANSAC plane segmentation (prints figures; never fails on time).
 
     python benchmarks/bench_front_detector.py [--frames-dir DIR] [--synthetic 12] [--repeats 3]
                                               [--seed 0] [--no-open3d] [--json]
+    python benchmarks/bench_front_detector.py --sweep [--seeds 3]
+
+``--sweep`` instead measures accuracy only on synthetic frames: door and drawer, camera
+1.0 / 1.5 / 2.0 / 2.3 / 2.5 m away and 0 / 15 / 30 / 45 deg off the front's normal (alternating
+sides), 0.5 m above the front, ``--seeds`` frames each (random pull-out and lateral offset);
+detection rate and position / orientation errors per distance and per angle.
 
 Frames (640 x 480):
 
@@ -179,6 +185,47 @@ def run_open3d(o3d, frames, cfg, stride):
     return out
 
 
+def sweep(seeds):
+    K = PinholeIntrinsics.from_fov(640, 480, 58.0)
+    dists, angles = (1.0, 1.5, 2.0, 2.3, 2.5), (0, 15, 30, 45)
+    rows = []
+    for size, name in ((DOOR_SIZE, "door"), (DRAWER_SIZE, "drawer")):
+        for dist in dists:
+            for ang in angles:
+                for seed in range(seeds):
+                    rng = np.random.default_rng([seed, ang, int(100 * dist), len(name)])
+                    X = front_pose(0.62 + rng.uniform(0.1, 0.3), rng.uniform(-0.3, 0.3),
+                                   0.45 if name == "door" else 0.75)
+                    a = math.radians(ang * (1 if seed % 2 else -1))
+                    cam = X[:3, 3] + dist * np.array([math.cos(a), math.sin(a), 0.0])
+                    cam[2] = X[2, 3] + 0.5
+                    X_WC = look_at(cam, X[:3, 3])
+                    depth = add_depth_noise(
+                        render_depth(kitchen_scene([(size, X, 0.02)]), K, X_WC), rng)
+                    rects, _ = detect_fronts(depth, K, X_WC, FrontDetectorConfig(), rng=seed)
+                    best = None
+                    for r in rects:
+                        e = errors(r, X)
+                        if (e[0] < 0.1 and e[2] < 20 and abs(r.width - size[0]) < 0.1
+                                and abs(r.height - size[1]) < 0.1
+                                and (best is None or e[0] < best[0])):
+                            best = e
+                    rows.append((name, dist, ang, best))
+    out = []
+    for name in ("door", "drawer"):
+        for key, vals, col in (("distance_m", dists, 1), ("angle_deg", angles, 2)):
+            for v in vals:
+                sel = [r[3] for r in rows if r[0] == name and r[col] == v]
+                found = [f for f in sel if f is not None]
+                pe = np.array([f[0] for f in found]) if found else np.full(1, np.nan)
+                oe = np.array([f[1] for f in found]) if found else np.full(1, np.nan)
+                out.append(dict(front=name, **{key: v}, frames=len(sel), found=len(found),
+                                pos_err_mean=float(pe.mean()), pos_err_max=float(pe.max()),
+                                orient_err_mean=float(oe.mean()),
+                                orient_err_max=float(oe.max())))
+    return out
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--frames-dir", default="/work/shared-frames",
@@ -188,7 +235,23 @@ def main(argv=None):
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--no-open3d", action="store_true", help="skip the Open3D comparison")
     ap.add_argument("--json", action="store_true", help="print one JSON document instead")
+    ap.add_argument("--sweep", action="store_true",
+                    help="accuracy sweep over distance and viewing angle (synthetic frames)")
+    ap.add_argument("--seeds", type=int, default=3, help="frames per cell of the sweep")
     args = ap.parse_args(argv)
+    if args.sweep:
+        rows = sweep(args.seeds)
+        if args.json:
+            print(json.dumps(dict(sweep=rows), indent=1))
+            return
+        for r in rows:
+            cell = (f"d = {r['distance_m']:.1f} m" if "distance_m" in r
+                    else f"angle = {r['angle_deg']:2d} deg")
+            print(f"{r['front']:6s} {cell:15s} found {r['found']:2d}/{r['frames']:2d}  "
+                  f"position mean {1e3 * r['pos_err_mean']:5.1f} max "
+                  f"{1e3 * r['pos_err_max']:5.1f} mm  orientation mean "
+                  f"{r['orient_err_mean']:.2f} max {r['orient_err_max']:.2f} deg")
+        return
     cfg = FrontDetectorConfig()
     sets = {"synthetic": synthetic_frames(args.synthetic, args.seed)}
     if args.frames_dir and os.path.isdir(args.frames_dir):
