@@ -5,6 +5,7 @@ camera pose come in, the detected rectangles (world frame) and the time per stag
 """
 
 import math
+import warnings
 
 import cv2
 import numpy as np
@@ -123,6 +124,9 @@ class FrontDetector(LeafSystem):
                     else np.eye(4))
             rects, timings = detect_fronts(depth, self._K, X_WC, self._cfg, rng)
         except (ValueError, FloatingPointError, np.linalg.LinAlgError, cv2.error):
+            return [], None  # a bad frame (size, pose): sees nothing
+        except Exception as e:  # noqa: BLE001 - a running simulation must not die on a frame
+            warnings.warn(f"FrontDetector: frame at t = {t} skipped: {e!r}", RuntimeWarning)
             return [], None
         return rects, timings
 
