@@ -2,43 +2,79 @@
 
     python -m mmlearn.apps.operate_trials --trials 8 --json
 
-Trials are independent and run in parallel processes (``--jobs``, default: all cores).
+Trials are independent and run through the sweep runner (``mmlearn.apps._sweep``): in
+parallel processes (``--jobs``, default: all cores) or as Ray tasks (``--executor ray``),
+streamed to ``--results`` (default ``operate_trials_results.jsonl``); re-running the same
+command resumes, ``--report-only FILE`` redraws the table from a results file.
 """
 
 import json
 import math
 import os
 import sys
-import time
 from pathlib import Path
-from concurrent.futures import ProcessPoolExecutor, as_completed
 
 import numpy as np
 
 from mmlearn.apps._common import (ArgumentParser, UsageError, check_in_file, check_out_dir,
-                                  fail, name_list, nonneg_int, pos_int, progress)
+                                  fail, name_list, nonneg_int, pos_int)
+from mmlearn.apps._sweep import add_sweep_args, report_lines, sweep_kwargs
 from mmlearn.apps.open_cabinet import add_trial_args
 from mmlearn.sdf.mechanisms import KINDS
 
 
-def _one(args):
-    kind, seed, max_time, sigma_pos, priors, mechanism_seed, tracks, base_noise = args
-    from mmlearn.apps.open_cabinet import run
+def _error_record(kind: str, seed: int, error: str) -> dict:
+    """The table's record of a trial that raised: an error (not a failed opening), with its
+    reason."""
+    revolute = kind in ("left_door", "right_door", "dishwasher")
+    return {"object": kind, "seed": seed, "success": False, "opened": None,
+            "unit": "deg" if revolute else "m", "outcome": f"error: {error}", "error": error,
+            "learned_model": None, "radius_error_m": None, "axis_error_deg": None,
+            "right_kind": False, "right_model_at": None,
+            "true_kind": "revolute" if revolute else "prismatic",
+            "model_log": [], "sim_seconds": 0.0, "wall_seconds": 0.0}
 
-    try:
-        return run(kind=kind, seed=seed, max_time=max_time, sigma_pos=sigma_pos,
-                   priors=priors, mechanism_seed=mechanism_seed, show_progress=False,
-                   save_track=str(Path(tracks) / f"{kind}_{seed:03d}.log") if tracks else "",
-                   base_noise=base_noise)
-    except Exception as e:  # a crashed trial is an error (not a failed opening), with its reason
-        revolute = kind in ("left_door", "right_door", "dishwasher")
-        return {"object": kind, "seed": seed, "success": False, "opened": None,
-                "unit": "deg" if revolute else "m",
-                "outcome": f"error: {type(e).__name__}: {e}",
-                "error": f"{type(e).__name__}: {e}", "learned_model": None,
-                "radius_error_m": None, "axis_error_deg": None, "right_kind": False,
-                "right_model_at": None, "true_kind": "revolute" if revolute else "prismatic",
-                "model_log": [], "sim_seconds": 0.0, "wall_seconds": 0.0}
+
+_PRIORS_FILES: dict = {}  # a worker's copy of the shared prior database, written once
+
+
+def _priors_file(text: str) -> str:
+    """The sweep's prior database (sent once per worker as text) as a local file."""
+    import hashlib
+    import tempfile
+
+    h = hashlib.sha1(text.encode()).hexdigest()[:16]
+    if h not in _PRIORS_FILES:
+        p = Path(tempfile.gettempdir()) / f"mmlearn-priors-{os.getpid()}-{h}.json"
+        p.write_text(text)
+        _PRIORS_FILES[h] = str(p)
+    return _PRIORS_FILES[h]
+
+
+def trial(*, seed: int, kind: str, max_time: float = 60.0, sigma_pos: float | None = None,
+          mechanism_seed: int | None = None, base_noise: float | None = None,
+          save_track: str = "", priors_sha1: str = "", shared=None) -> dict:
+    """One opening trial (the sweep's trial function): ``open_cabinet.run`` of one object and
+    seed. ``shared`` is the prior database's text when the sweep uses one (``priors_sha1``
+    names it in the trial's identity)."""
+    from mmlearn.apps.open_cabinet import run as open_run
+
+    priors = _priors_file(shared) if shared else ""
+    return open_run(kind=kind, seed=seed, max_time=max_time, sigma_pos=sigma_pos,
+                    priors=priors, mechanism_seed=mechanism_seed, show_progress=False,
+                    save_track=save_track, base_noise=base_noise)
+
+
+def records_of(lines: list[dict]) -> list[dict]:
+    """Table records from results-file lines: a trial that raised becomes an error record."""
+    out = []
+    for ln in lines:
+        if ln.get("error") is None:
+            out.append(ln["record"])
+        else:
+            p = ln["spec"]["params"]
+            out.append(_error_record(p.get("kind", "?"), ln["spec"]["seed"], ln["error"]))
+    return out
 
 
 def summarize(trials: list[dict]) -> dict:
@@ -84,12 +120,23 @@ def summarize(trials: list[dict]) -> dict:
 def run(*, objects=KINDS, trials: int = 8, seed: int = 0, jobs: int | None = None,
         max_time: float = 60.0, sigma_pos: float | None = None, priors: str = "",
         mechanism_seed: int | None = None, save_tracks: str = "",
-        show_progress: bool = True, base_noise: float | None = None) -> dict:
+        show_progress: bool = True, base_noise: float | None = None,
+        results: str | None = None, executor: str = "local",
+        ray_address: str | None = None) -> dict:
     """Run the trials; ``mechanism_seed`` fixes each object's geometry (the trials then
     differ in the handle click and the start), ``save_tracks`` writes every trial's hook
     trajectory into that folder, ``priors`` uses a prior database, ``base_noise`` scales
     the base-localisation error (None: 1, 0: the base pose is known exactly),
-    ``sigma_pos`` is the noise the estimator assumes (None: 0.05 m)."""
+    ``sigma_pos`` is the noise the estimator assumes (None: 0.05 m).
+
+    The trials run through the sweep runner (``mmlearn.apps._sweep``): ``results`` is the
+    JSON Lines file they are streamed to (None: a temporary one; with a file, trials already
+    in it are not run again), ``executor`` ``"local"`` (a pool of ``jobs`` processes) or
+    ``"ray"`` (``ray_address``: a cluster, None: a local Ray instance of ``jobs`` CPUs)."""
+    import hashlib
+
+    from mmlearn.apps._sweep import TrialSpec, run_sweep
+
     objects = list(objects)
     if not objects:
         raise ValueError("objects: empty list; choose from " + ", ".join(KINDS))
@@ -102,25 +149,36 @@ def run(*, objects=KINDS, trials: int = 8, seed: int = 0, jobs: int | None = Non
         raise ValueError(f"jobs must be >= 1 (or None for all cores), got {jobs}")
     if not (max_time > 0 and math.isfinite(max_time)):
         raise ValueError(f"max_time must be a finite number of seconds > 0, got {max_time}")
+    shared, priors_sha1 = None, ""
     if priors:  # a bad database is bad input, found here rather than in every trial
         from mmlearn.models.articulation_priors import PriorDatabase
 
         PriorDatabase.load(priors)
-    jobs = jobs or os.cpu_count() or 1
+        shared = Path(priors).read_text()
+        priors_sha1 = hashlib.sha1(shared.encode()).hexdigest()
     if save_tracks:
         Path(save_tracks).mkdir(parents=True, exist_ok=True)
-    work = [(k, seed + i, max_time, sigma_pos, priors, mechanism_seed, save_tracks, base_noise)
-            for k in objects for i in range(trials)]
-    t0 = time.perf_counter()
-    results = []
-    with ProcessPoolExecutor(max_workers=jobs) as pool:
-        futures = [pool.submit(_one, w) for w in work]
-        for f in progress(as_completed(futures), desc="trials", unit="trial",
-                          enabled=show_progress, total=len(futures)):
-            results.append(f.result())
-    order = {(w[0], w[1]): i for i, w in enumerate(work)}
-    results.sort(key=lambda r: order[(r["object"], r["seed"])])
-    n_ok = sum(r["success"] for r in results)
+    specs = [TrialSpec(fn="mmlearn.apps.operate_trials:trial", seed=seed + i,
+                       label=f"{k} seed {seed + i}",
+                       params={"kind": k, "max_time": max_time, "sigma_pos": sigma_pos,
+                               "mechanism_seed": mechanism_seed, "base_noise": base_noise,
+                               "priors_sha1": priors_sha1,
+                               "save_track": str(Path(save_tracks) / f"{k}_{seed + i:03d}.log")
+                               if save_tracks else ""})
+             for k in objects for i in range(trials)]
+    sweep = run_sweep(specs, results=results, executor=executor, jobs=jobs,
+                      ray_address=ray_address, shared=shared, show_progress=show_progress)
+    res = report(sweep.lines)
+    res.update(wall_seconds=round(sweep.wall_s, 1), resumed=sweep.resumed,
+               interrupted=sweep.interrupted, not_run=[s.label for s in sweep.missing],
+               results_file=str(sweep.results) if sweep.results else None)
+    return res
+
+
+def report(lines: list[dict]) -> dict:
+    """The experiment's results from results-file lines (a run or ``--report-only``)."""
+    results = records_of(lines)
+    n_ok = sum(bool(r["success"]) for r in results)
     n_err = sum(1 for r in results if r.get("error"))
     n_run = len(results) - n_err
     n_kind = sum(bool(r.get("right_kind")) for r in results if not r.get("error"))
@@ -129,9 +187,10 @@ def run(*, objects=KINDS, trials: int = 8, seed: int = 0, jobs: int | None = Non
             "successes": n_ok, "errors": n_err, "total": n_run,
             "right_kind": n_kind, "right_kind_rate": n_kind / n_run if n_run else None,
             "per_object": summarize(results),
-            "sigma_pos": first.get("sigma_pos", sigma_pos),
-            "base_noise": first.get("base_noise", base_noise),
-            "wall_seconds": round(time.perf_counter() - t0, 1)}
+            "sigma_pos": first.get("sigma_pos"),
+            "base_noise": first.get("base_noise"),
+            "trial_seconds": round(sum(ln.get("wall_s") or 0.0 for ln in lines), 1),
+            "wall_seconds": None}
 
 
 def format_table(res: dict) -> str:
@@ -160,8 +219,16 @@ def format_table(res: dict) -> str:
     n_kind = res.get("right_kind", sum(bool(t.get("right_kind")) for t in res["trials"]
                                        if not t.get("error")))
     lines.append(f"overall: {res['successes']}/{res['total']} successes ({rate}), right kind "
-                 f"{n_kind}/{res['total']} in {res['wall_seconds']} s; "
-                 f"{res.get('errors', 0)} trial(s) raised an error (not counted above)")
+                 f"{n_kind}/{res['total']}"
+                 + (f" in {res['wall_seconds']} s" if res.get("wall_seconds") is not None
+                    else "") + "; "
+                 + f"{res.get('errors', 0)} trial(s) raised an error (not counted above)")
+    if res.get("resumed"):
+        lines.append(f"({res['resumed']} trial(s) read from {res.get('results_file')}, "
+                     "not run again)")
+    if res.get("not_run"):
+        lines.append(f"interrupted: {len(res['not_run'])} trial(s) not run: "
+                     + ", ".join(res["not_run"]))
     if res.get("sigma_pos") is not None or res.get("base_noise") is not None:
         lines.append(f"(sigma_pos {res.get('sigma_pos')} m, base noise x{res.get('base_noise')})")
     lines.append("means are over the trials that ran; radius and axis errors over the trials "
@@ -188,8 +255,6 @@ def main(argv=None) -> int:
     ap.add_argument("--objects", type=name_list(KINDS), default=list(KINDS),
                     help="comma-separated objects (default: all five)")
     ap.add_argument("--seed", type=nonneg_int, default=0, help="seed of the first trial")
-    ap.add_argument("--jobs", type=pos_int, default=None,
-                    help="parallel processes (default: all cores)")
     add_trial_args(ap)
     ap.add_argument("--mechanism-seed", type=nonneg_int, default=None,
                     help="the same mechanism per object in every trial (trials differ in "
@@ -197,29 +262,41 @@ def main(argv=None) -> int:
     ap.add_argument("--save-tracks", default="",
                     help="folder to write each trial's hook trajectory to (for learn_priors)")
     ap.add_argument("--priors", default="", help="prior database to use (from learn_priors)")
+    add_sweep_args(ap, app="operate_trials")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     try:
-        check_out_dir("--save-tracks", args.save_tracks, create=False)
-        check_in_file("--priors", args.priors)
+        if args.report_only:
+            res = report(report_lines(args.report_only))
+        else:
+            check_out_dir("--save-tracks", args.save_tracks, create=False)
+            check_in_file("--priors", args.priors)
+            sweep = sweep_kwargs(args, app="operate_trials")
     except UsageError as e:
         return fail(ap.prog, str(e))
-    try:
-        res = run(objects=args.objects, trials=args.trials,
-                  seed=args.seed, jobs=args.jobs, max_time=args.max_time,
-                  sigma_pos=args.sigma_pos, priors=args.priors,
-                  mechanism_seed=args.mechanism_seed, save_tracks=args.save_tracks,
-                  show_progress=not args.json, base_noise=args.base_noise)
-    except (ValueError, OSError) as e:
-        return fail(ap.prog, f"--priors: {e}" if args.priors and str(args.priors) in str(e)
-                    else str(e))
+    if not args.report_only:
+        try:
+            res = run(objects=args.objects, trials=args.trials,
+                      seed=args.seed, max_time=args.max_time,
+                      sigma_pos=args.sigma_pos, priors=args.priors,
+                      mechanism_seed=args.mechanism_seed, save_tracks=args.save_tracks,
+                      show_progress=not args.json, base_noise=args.base_noise, **sweep)
+        except UsageError as e:
+            return fail(ap.prog, str(e))
+        except (ValueError, OSError) as e:
+            return fail(ap.prog, f"--priors: {e}" if args.priors and str(args.priors) in str(e)
+                        else str(e))
     if args.json:
         print(json.dumps(res))
     else:
         print(format_table(res))
     if res["errors"]:
-        print(f"{ap.prog}: {res['errors']} trial(s) raised an error", file=sys.stderr)
+        failed = ", ".join(f"{t['object']} seed {t['seed']}" for t in res["trials"]
+                           if t.get("error"))
+        print(f"{ap.prog}: {res['errors']} trial(s) raised an error: {failed}", file=sys.stderr)
         return 1
+    if res.get("interrupted"):
+        return 130
     return 0
 
 

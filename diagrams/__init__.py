@@ -2,8 +2,11 @@
 
 from .body_schema import BodySchemaDiagram, BodySchemaDiagramConfig, MakeBodySchemaDiagram
 from .operate import MakeOperateDiagram, Operate, OperateConfig
+from .perception import (FrontPerceptionConfig, FrontPerceptionDiagram,
+                         MakeFrontPerceptionDiagram)
 from .scene import MakeSceneDiagram, Scene, SceneConfig
 
-__all__ = ["BodySchemaDiagram", "BodySchemaDiagramConfig", "MakeBodySchemaDiagram",
+__all__ = ["BodySchemaDiagram", "BodySchemaDiagramConfig", "FrontPerceptionConfig",
+           "FrontPerceptionDiagram", "MakeBodySchemaDiagram", "MakeFrontPerceptionDiagram",
            "MakeOperateDiagram", "MakeSceneDiagram", "Operate", "OperateConfig", "Scene",
            "SceneConfig"]

@@ -6,13 +6,19 @@ Import the systems from here, e.g. ``from mmlearn.systems import MarkerSensor``.
 from .arm_failures import JointBlocker, PlantFailures
 from .articulation_estimator import ArticulationEstimator
 from .base_localization import BaseLocalization, BaseLocalizationConfig
+from .depth_noise import DepthNoise
 from .epc_controller import EpcConfig, EpcController, EpcTask
+<<<<<<< HEAD
 from .front_detector import FrontDetector
+=======
+from .front_pose import TrueFrontPose
+>>>>>>> main
 from .marker_sensor import CameraConfig, MarkerSensor, MarkerSensorConfig
 from .model_visualizer import LearnedModelVisualizer
 from .motor_babbling import MotorBabbling
 from .observations import MarkerObservations
 from .plant_helpers import GravityCompensation, JointFriction
+from .point_cloud_filter import FinitePointCloud
 from .prior_selector import PriorModelSelector
 from .schema_controller import SchemaController
 from .schema_learner import SchemaLearner, SchemaLearnerConfig, SchemaLearnerState
@@ -24,10 +30,15 @@ __all__ = [
     "BaseLocalization",
     "BaseLocalizationConfig",
     "CameraConfig",
+    "DepthNoise",
     "EpcConfig",
     "EpcController",
     "EpcTask",
+<<<<<<< HEAD
     "FrontDetector",
+=======
+    "FinitePointCloud",
+>>>>>>> main
     "GravityCompensation",
     "JointBlocker",
     "JointFriction",
@@ -43,5 +54,6 @@ __all__ = [
     "SchemaLearnerConfig",
     "SchemaLearnerState",
     "SchemaVisualizer",
+    "TrueFrontPose",
     "WristForceSensor",
 ]

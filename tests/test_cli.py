@@ -153,16 +153,17 @@ def test_operate_trials_bad_input(tmp_path, capsys, prior_db):
          "--priors", "missing key 'config'")
 
 
-def test_operate_trials_counts_a_crashed_trial_as_an_error(monkeypatch, capsys):
+def test_operate_trials_counts_a_crashed_trial_as_an_error(monkeypatch, capsys, tmp_path):
     import mmlearn.apps.open_cabinet as oc
     from mmlearn.apps.operate_trials import main
 
     def boom(**kw):
         raise RuntimeError("simulated crash")
 
-    monkeypatch.setattr(oc, "run", boom)  # the forked worker sees the patched module
+    monkeypatch.setattr(oc, "run", boom)  # --jobs 1 runs the trials in this process
     rc, out, err = _exit(main, ["--objects", "drawer", "--trials", "2", "--jobs", "1",
-                                "--json"], capsys)
+                                "--json", "--results", str(tmp_path / "r.jsonl")], capsys)
+    assert "drawer seed 0, drawer seed 1" in err  # the failed trials are named
     assert rc == 1 and "raised an error" in err
     res = json.loads(out)
     assert res["errors"] == 2 and res["total"] == 0 and res["success_rate"] is None

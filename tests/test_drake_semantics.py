@@ -132,6 +132,25 @@ def test_body_schema_two_simulators():
     assert end["extra"][0] >= 10 and end["extra"][2][-1][1]  # samples, a valid tree
 
 
+def test_front_perception_two_simulators():
+    """The kitchen with the opening door, the depth camera and the noise (a small image):
+    the noisy depth image is the same in every simulator at every time."""
+    from mmlearn.diagrams.perception import FrontPerceptionConfig, MakeFrontPerceptionDiagram
+
+    cfg = FrontPerceptionConfig(front="door")
+    cfg.camera.width, cfg.camera.height_px = 160, 120
+    P = MakeFrontPerceptionDiagram(cfg)
+
+    def extra(ctx):
+        d = np.array(P.diagram.GetOutputPort("depth_image").Eval(ctx).data)
+        return (int(np.isnan(d).sum()), float(np.nansum(d)),
+                tuple(np.round(P.diagram.GetOutputPort("X_WR").Eval(ctx).GetAsMatrix4()
+                               .ravel(), 12)))
+
+    end = _check(P.diagram, lambda ctx: None, [0.6, 1.4, 2.2], extra=extra)
+    assert end["front_joint"][0] > 0.1 and end["extra"][0] < 160 * 120
+
+
 class _MarkerReplay(LeafSystem):
     """Replays an ObjectTrack as MarkerObservations, one sample per ``period``."""
 

@@ -7,7 +7,7 @@ import sys
 
 import pytest
 
-from mmlearn.apps import open_cabinet, operate_trials
+from mmlearn.apps import _sweep, open_cabinet, operate_trials
 from mmlearn.apps.open_cabinet import right_kind
 
 
@@ -54,7 +54,9 @@ def test_summary_counts_right_kind_and_reports_failures():
 
 
 def test_a_crashed_trial_is_a_failed_trial_of_the_wrong_kind():
-    r = operate_trials._one(("trapdoor", 0, 1.0, None, "", None, "", 0.0))
+    spec = dict(fn="mmlearn.apps.operate_trials:trial", seed=0, label="", key="k",
+                params={"kind": "trapdoor", "max_time": 1.0, "base_noise": 0.0})
+    r = operate_trials.records_of([_sweep._execute(spec, None)])[0]
     assert r["success"] is False and r["right_kind"] is False
     assert r["outcome"].startswith("error: ValueError")
     row = operate_trials.summarize([r])["trapdoor"]

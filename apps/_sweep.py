@@ -1,0 +1,394 @@
+"""One trial runner for the experiments apps: a local process pool or Ray, results streamed
+to a JSON Lines file, resumable.
+
+An experiment is a list of :class:`TrialSpec` (the import path of a pure trial function, its
+keyword parameters and a seed); a trial function returns a JSON-able ``dict``. The runner
+executes the specs that are not yet in the results file and appends one line per finished
+trial, flushed and synced at once::
+
+    {"key": "...", "spec": {"fn": ..., "params": {...}, "seed": 3, "label": "..."},
+     "record": {...} | null, "error": "ValueError: ..." | null, "traceback": "..." | null,
+     "wall_s": 12.3, "host": "...", "finished": "2026-11-22T18:00:00+00:00"}
+
+``key`` is a hash of (fn, params, seed): re-running the same command with the same results
+file skips every trial already recorded (resume), so an interrupted sweep (Ctrl-C, a killed
+process or machine) loses at most the trials that were running. A line that cannot be read
+(a sweep killed while writing it) is dropped when the file is next opened and its trial runs
+again; nothing else in the file changes. A trial that raises is recorded with its error and
+traceback (an error of the code, not a failure of the robot) and the sweep goes on.
+
+Executors:
+
+* ``local`` (default): a process pool of ``jobs`` workers (default: all cores) started with
+  ``spawn`` (each worker builds its own Drake diagrams), with a progress bar and an ETA.
+* ``ray``: the same trial functions as Ray tasks (one CPU each) on an existing cluster
+  (``ray_address``, e.g. ``ray://head:10001`` or ``auto``) or on a local Ray instance of
+  ``jobs`` CPUs when no address is given. Ray is an optional extra
+  (``pip install 'mmlearn[ray]'``) and is imported only when chosen. The workers of a cluster
+  need mmlearn installed (the same version as the driver).
+
+Large inputs that every trial needs (a prior database, track files) go in ``shared``: they
+are sent once per worker (local) or put once in Ray's object store, not once per trial; the
+trial function then gets them as its ``shared`` keyword argument.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import hashlib
+import importlib
+import json
+import os
+import signal
+import socket
+import sys
+import time
+import traceback
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+from mmlearn.apps._common import UsageError, json_clean, progress_bar
+
+EXECUTORS = ("local", "ray")
+
+__all__ = ["TrialSpec", "SweepResult", "run_sweep", "load_results", "add_sweep_args",
+           "sweep_kwargs", "EXECUTORS"]
+
+
+@dataclass(frozen=True)
+class TrialSpec:
+    """One trial: ``fn`` ("package.module:function") called as ``fn(seed=seed, **params)``
+    (plus ``shared=...`` when the sweep has shared inputs). ``params`` must be JSON-able;
+    ``label`` names the trial in progress and error messages (not part of its identity)."""
+
+    fn: str
+    params: dict = field(default_factory=dict)
+    seed: int = 0
+    label: str = ""
+
+    def __post_init__(self):
+        if ":" not in self.fn:
+            raise ValueError(f"TrialSpec.fn must be 'module:function', got {self.fn!r}")
+        try:
+            json.dumps(self.params, sort_keys=True)
+        except TypeError as e:
+            raise ValueError(f"TrialSpec.params must be JSON-able: {e}") from None
+
+    @property
+    def key(self) -> str:
+        ident = json.dumps({"fn": self.fn, "params": self.params, "seed": int(self.seed)},
+                           sort_keys=True)
+        return hashlib.sha1(ident.encode()).hexdigest()[:20]
+
+    def name(self) -> str:
+        return self.label or f"{self.fn.rsplit(':', 1)[1]} seed {self.seed}"
+
+
+@dataclass
+class SweepResult:
+    """What a sweep produced. ``lines`` holds the results-file line of every spec that has
+    one, in the order of the specs (resumed and new alike); ``missing`` the specs without
+    one (only after an interruption)."""
+
+    lines: list[dict]
+    resumed: int
+    ran: int
+    missing: list[TrialSpec]
+    interrupted: bool
+    wall_s: float
+    results: Path | None
+
+    @property
+    def records(self) -> list[dict]:
+        return [ln["record"] for ln in self.lines if ln.get("error") is None]
+
+    @property
+    def errors(self) -> list[dict]:
+        return [ln for ln in self.lines if ln.get("error") is not None]
+
+    def error_summary(self) -> str:
+        return "; ".join(f"{ln['spec'].get('label') or ln['key']}: {ln['error']}"
+                         for ln in self.errors)
+
+
+# ---------------------------------------------------------------------------- results file
+
+def load_results(path: str | Path, *, repair: bool = False) -> dict[str, dict]:
+    """The lines of a results file by key (first occurrence wins). Lines that are not a JSON
+    object with a ``key`` are skipped; with ``repair`` the file is rewritten without them
+    (atomically: a temporary file replaces it), so appending after a truncated last line
+    cannot glue two records together. A missing file is an empty result."""
+    p = Path(path)
+    if not p.exists():
+        return {}
+    if p.is_dir():
+        raise ValueError(f"results file {p} is a directory")
+    out: dict[str, dict] = {}
+    good: list[str] = []
+    bad = 0
+    raw = p.read_bytes()
+    for line in raw.decode("utf-8", errors="replace").splitlines():
+        if not line.strip():
+            continue
+        try:
+            d = json.loads(line)
+        except json.JSONDecodeError:
+            bad += 1
+            continue
+        if not isinstance(d, dict) or "key" not in d or "spec" not in d:
+            bad += 1
+            continue
+        good.append(line)
+        out.setdefault(d["key"], d)
+    if repair and (bad or (raw and not raw.endswith(b"\n"))):
+        tmp = p.with_name(p.name + ".tmp")
+        tmp.write_text("".join(g + "\n" for g in good), encoding="utf-8")
+        os.replace(tmp, p)
+        if bad:
+            print(f"{p}: dropped {bad} unreadable line(s); their trials run again",
+                  file=sys.stderr)
+    return out
+
+
+class _Appender:
+    def __init__(self, path: Path):
+        path.parent.mkdir(parents=True, exist_ok=True)
+        self.f = open(path, "a", encoding="utf-8")
+
+    def write(self, line: dict) -> None:
+        self.f.write(json.dumps(line, allow_nan=False) + "\n")
+        self.f.flush()
+        os.fsync(self.f.fileno())
+
+    def close(self) -> None:
+        self.f.close()
+
+
+# ---------------------------------------------------------------------------- trial execution
+
+_SHARED = None  # a worker's copy of the sweep's shared inputs (set once per worker process)
+
+
+def _init_worker(shared) -> None:
+    global _SHARED
+    _SHARED = shared
+    # Ctrl-C goes to the whole process group: the parent stops the pool, the workers must not
+    # each print a traceback of the interrupted trial
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def _execute(spec: dict, shared) -> dict:
+    """Run one trial; exceptions become the line's ``error`` (never raised)."""
+    t0 = time.perf_counter()
+    record, error, tb = None, None, None
+    try:
+        mod, fn = spec["fn"].split(":", 1)
+        func = getattr(importlib.import_module(mod), fn)
+        kw = dict(spec["params"])
+        if shared is not None:
+            kw["shared"] = shared
+        record = func(seed=spec["seed"], **kw)
+        if not isinstance(record, dict):
+            raise TypeError(f"trial function {spec['fn']} returned {type(record).__name__}, "
+                            "expected a dict")
+        record = json_clean(record)
+        json.dumps(record, allow_nan=False)
+    except Exception as e:  # noqa: BLE001 - a crashed trial is data
+        record, error, tb = None, f"{type(e).__name__}: {e}", traceback.format_exc()
+    return {"key": spec["key"], "spec": {k: spec[k] for k in ("fn", "params", "seed", "label")},
+            "record": record, "error": error, "traceback": tb,
+            "wall_s": round(time.perf_counter() - t0, 3), "host": socket.gethostname(),
+            "finished": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")}
+
+
+def _local_worker(spec: dict) -> dict:
+    return _execute(spec, _SHARED)
+
+
+def _run_local(todo: list[dict], *, jobs: int, shared):
+    import multiprocessing as mp
+
+    if jobs == 1 and shared is None:  # no pool: cheaper, and debuggers / profilers see the trial
+        for s in todo:
+            yield _execute(s, None)
+        return
+    pool = mp.get_context("spawn").Pool(min(jobs, len(todo)), initializer=_init_worker,
+                                        initargs=(shared,))
+    try:
+        for line in pool.imap_unordered(_local_worker, todo):
+            yield line
+        pool.close()
+    except BaseException:
+        pool.terminate()
+        raise
+    finally:
+        pool.join()
+
+
+def _run_ray(todo: list[dict], *, jobs: int, address: str | None, shared):
+    try:
+        import ray
+    except ImportError:
+        raise UsageError("--executor ray needs Ray, an optional extra: "
+                         "pip install 'mmlearn[ray]'") from None
+    started = False
+    if not ray.is_initialized():
+        if address:
+            ray.init(address=address, log_to_driver=False)
+        else:
+            ray.init(num_cpus=jobs, include_dashboard=False, log_to_driver=False)
+        started = True
+    try:
+        task = ray.remote(num_cpus=1, max_retries=0)(_execute)
+        shared_ref = ray.put(shared) if shared is not None else None
+        pending = [task.remote(s, shared_ref) for s in todo]
+        try:
+            while pending:
+                done, pending = ray.wait(pending, num_returns=1)
+                for ref in done:
+                    yield ray.get(ref)
+        except BaseException:
+            for ref in pending:
+                ray.cancel(ref, force=True)
+            raise
+    finally:
+        if started:
+            ray.shutdown()
+
+
+# ---------------------------------------------------------------------------- the runner
+
+def run_sweep(specs: list[TrialSpec], *, results: str | Path | None = None,
+              executor: str = "local", jobs: int | None = None, ray_address: str | None = None,
+              shared=None, show_progress: bool = True, desc: str = "trials") -> SweepResult:
+    """Run every spec that ``results`` does not hold yet and stream its line to the file.
+
+    ``results``: the JSON Lines file (created with its folder; ``None``: a temporary file,
+    removed afterwards, nothing to resume). ``jobs``: parallel trials (default: all cores).
+    Returns a :class:`SweepResult`. On Ctrl-C the pool is stopped, the result says
+    ``interrupted`` and names the missing specs; records already written stay in the file.
+    """
+    if executor not in EXECUTORS:
+        raise ValueError(f"executor must be one of {', '.join(EXECUTORS)}, got {executor!r}")
+    if jobs is not None and jobs < 1:
+        raise ValueError(f"jobs must be >= 1, got {jobs}")
+    specs = list(specs)
+    keys = [s.key for s in specs]
+    if len(set(keys)) != len(keys):
+        raise ValueError("two trial specs are identical (same function, parameters and seed)")
+    jobs = jobs or os.cpu_count() or 1
+    temporary = results is None
+    if temporary:
+        import tempfile
+
+        fd, name = tempfile.mkstemp(prefix="mmlearn-sweep-", suffix=".jsonl")
+        os.close(fd)
+        path = Path(name)
+    else:
+        path = Path(results)
+    t0 = time.perf_counter()
+    try:
+        done = load_results(path, repair=True)
+        todo = [dict(asdict(s), key=k) for s, k in zip(specs, keys) if k not in done]
+        resumed = len(specs) - len(todo)
+        if resumed and show_progress:
+            print(f"{path}: {resumed} of {len(specs)} trials already recorded, running "
+                  f"{len(todo)}", file=sys.stderr)
+        new: dict[str, dict] = {}
+        interrupted = False
+        if todo:
+            bar = progress_bar(len(specs), desc, unit="trial", enabled=show_progress)
+            bar.update(resumed)
+            out = _Appender(path)
+            run = (_run_local(todo, jobs=jobs, shared=shared) if executor == "local" else
+                   _run_ray(todo, jobs=jobs, address=ray_address, shared=shared))
+            try:
+                for line in run:
+                    out.write(line)
+                    new[line["key"]] = line
+                    bar.update(1)
+                    if line["error"] and show_progress:
+                        bar.write(f"error in {line['spec']['label'] or line['key']}: "
+                                  f"{line['error']}", file=sys.stderr)
+            except KeyboardInterrupt:
+                interrupted = True
+            finally:
+                out.close()
+                bar.close()
+        lines, missing = [], []
+        for s, k in zip(specs, keys):
+            ln = done.get(k) or new.get(k)
+            (lines.append(ln) if ln is not None else missing.append(s))
+        if interrupted:
+            print(f"interrupted: {len(lines)} of {len(specs)} trials recorded in {path}; "
+                  "run the same command again to resume", file=sys.stderr)
+        return SweepResult(lines=lines, resumed=resumed, ran=len(new), missing=missing,
+                           interrupted=interrupted, wall_s=time.perf_counter() - t0,
+                           results=None if temporary else path)
+    finally:
+        if temporary:
+            path.unlink(missing_ok=True)
+
+
+# ---------------------------------------------------------------------------- probe trial
+
+def probe_trial(*, seed: int, sleep_s: float = 0.0, fail_seeds=(), payload: int = 0,
+                shared=None) -> dict:
+    """The runner's own trial, for its tests and for measuring its overhead: sleeps
+    ``sleep_s`` seconds, raises ``RuntimeError`` for a seed in ``fail_seeds``, returns the seed,
+    the process id, the length of ``shared`` and a list of ``payload`` numbers."""
+    if sleep_s > 0:
+        time.sleep(sleep_s)
+    if seed in set(fail_seeds):
+        raise RuntimeError(f"probe trial {seed} fails on purpose")
+    return {"seed": seed, "pid": os.getpid(), "shared_len": len(shared) if shared else 0,
+            "payload": list(range(payload))}
+
+
+# ---------------------------------------------------------------------------- command line
+
+def add_sweep_args(ap, *, app: str) -> None:
+    """``--results``, ``--executor``, ``--ray-address``, ``--jobs``, ``--report-only``."""
+    ap.add_argument("--results", default=None,
+                    help=f"JSON Lines file of the trials' records (default: {app}_results.jsonl "
+                         "in the output folder / current folder); re-running the same command "
+                         "with it skips the trials already recorded")
+    ap.add_argument("--executor", choices=EXECUTORS, default="local",
+                    help="local process pool (default) or Ray tasks (pip install 'mmlearn[ray]')")
+    ap.add_argument("--ray-address", default=None,
+                    help="address of a running Ray cluster (default: start a local Ray "
+                         "instance with --jobs CPUs)")
+    ap.add_argument("--jobs", type=_pos_int, default=None,
+                    help="parallel trials (default: all cores)")
+    ap.add_argument("--report-only", default=None, metavar="RESULTS.jsonl",
+                    help="redraw the tables / plots from a results file without running anything")
+
+
+def _pos_int(text):
+    from mmlearn.apps._common import pos_int
+
+    return pos_int(text)
+
+
+def sweep_kwargs(args, *, app: str, out_dir: str | Path = ".") -> dict:
+    """The runner's keyword arguments from parsed ``add_sweep_args`` flags (checks them)."""
+    if args.ray_address and args.executor != "ray":
+        raise UsageError("--ray-address needs --executor ray")
+    results = args.results or str(Path(out_dir) / f"{app}_results.jsonl")
+    rp = Path(results)
+    if rp.exists() and rp.is_dir():
+        raise UsageError(f"--results: {rp} is a directory")
+    return {"results": results, "executor": args.executor, "jobs": args.jobs,
+            "ray_address": args.ray_address}
+
+
+def report_lines(path: str | Path) -> list[dict]:
+    """Every line of a results file (for ``--report-only``); a clear error when it is missing
+    or holds no record."""
+    p = Path(path)
+    if not p.is_file():
+        raise UsageError(f"--report-only: no results file {p}")
+    lines = list(load_results(p).values())
+    if not lines:
+        raise UsageError(f"--report-only: {p} holds no trial record")
+    return lines

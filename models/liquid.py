@@ -1,0 +1,161 @@
+"""Liquid detection from the high-frequency part of the tactile signal (thesis Sec. 7.3).
+
+The robot holds a closed container and rolls it with the wrist at about 0.6 Hz; liquid
+sloshing inside gives pressure spikes at every reversal of the roll. Per trial:
+
+1. every taxel's signal (``(T, n_taxels)``, sampled at ``rate_hz`` = 24 Hz on the PR2) goes
+   through a first-order Butterworth high-pass with a 5 Hz cut-off (``scipy.signal.butter`` +
+   causal ``lfilter``, so it can run online; the filter starts in its steady state for the
+   first sample, so a constant load gives no start-up transient);
+2. the filtered signals are combined by the Euclidean norm over the taxels (Eq. 7.9);
+3. the feature is the standard deviation of that norm over the roll, ``sigma`` of Eq. 7.11
+   (n - 1 in the denominator); optionally the object's weight from the wrist force sensor is a
+   second feature (Sec. 7.3.3).
+
+A decision tree (:func:`mmlearn.models.tactile_state.make_classifier`) learns "liquid" versus
+"no liquid" from these features; :func:`mmlearn.models.tactile_state.cross_validate` gives the
+10-fold rate.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import signal
+
+from .tactile_types import TactileDataError, check_series
+
+__all__ = ["RollRecord", "highpass", "filtered_norm", "liquid_feature", "liquid_features",
+           "liquid_table", "evaluate_liquid", "HIGHPASS_CUTOFF_HZ", "TACTILE_RATE_HZ"]
+
+HIGHPASS_CUTOFF_HZ = 5.0
+"""Cut-off of the high-pass, Hz (thesis: 5 Hz, the lower end of the 5-50 Hz band of human
+tactile receptors)."""
+
+TACTILE_RATE_HZ = 24.0
+"""Sample rate of the PR2 fingertip arrays in Sec. 7.3, Hz."""
+
+
+@dataclass
+class RollRecord:
+    """The tactile signals of one roll of a grasped container.
+
+    Attributes:
+        taxels: (T, n_taxels) per-cell force (or pressure) while rolling, newtons.
+        rate_hz: sample rate, Hz (must exceed twice the cut-off).
+        weight: weight of the held object from the wrist force sensor, newtons; None if not
+            measured.
+        liquid: True / False ground truth (None when unknown).
+        container: container name (for per-container tables).
+    """
+
+    taxels: np.ndarray
+    rate_hz: float = TACTILE_RATE_HZ
+    weight: float | None = None
+    liquid: bool | None = None
+    container: str | None = None
+
+    def __post_init__(self):
+        self.taxels = check_series("taxels", self.taxels, ndim=2)
+        if self.taxels.shape[0] < 3 or self.taxels.shape[1] < 1:
+            raise TactileDataError(f"taxels: expected at least 3 samples of at least 1 taxel, "
+                                   f"got shape {self.taxels.shape}")
+        if not (np.isfinite(self.rate_hz) and self.rate_hz > 0):
+            raise TactileDataError(f"rate_hz: expected a number > 0, got {self.rate_hz!r}")
+        if self.weight is not None and not np.isfinite(self.weight):
+            raise TactileDataError(f"weight: expected a finite number, got {self.weight!r}")
+
+
+def highpass(x, *, rate_hz: float = TACTILE_RATE_HZ, cutoff_hz: float = HIGHPASS_CUTOFF_HZ,
+             order: int = 1) -> np.ndarray:
+    """Butterworth high-pass along axis 0 of ``x`` ``(T, ...)`` (causal, steady initial state).
+
+    Args:
+        rate_hz: sample rate, Hz. cutoff_hz: -3 dB frequency, Hz (< rate_hz / 2).
+        order: filter order (thesis: 1).
+    """
+    x = np.asarray(x, float)
+    if not (0 < cutoff_hz < rate_hz / 2):
+        raise ValueError(f"cutoff_hz: expected 0 < cut-off < rate/2 = {rate_hz / 2:g} Hz, got "
+                         f"{cutoff_hz!r}")
+    if x.shape[0] < 1:
+        raise ValueError("highpass: empty signal")
+    b, a = signal.butter(order, cutoff_hz, "highpass", fs=rate_hz)
+    zi = signal.lfilter_zi(b, a)
+    zi = zi.reshape((-1,) + (1,) * (x.ndim - 1)) * x[:1]
+    y, _ = signal.lfilter(b, a, x, axis=0, zi=zi)
+    return y
+
+
+def filtered_norm(taxels, *, rate_hz: float = TACTILE_RATE_HZ,
+                  cutoff_hz: float = HIGHPASS_CUTOFF_HZ) -> np.ndarray:
+    """Eq. 7.9: ``f_filtered(t) = || highpass(taxels)(t) ||_2`` over the taxels, (T,)."""
+    x = check_series("taxels", taxels, ndim=2)
+    return np.linalg.norm(highpass(x, rate_hz=rate_hz, cutoff_hz=cutoff_hz), axis=1)
+
+
+def liquid_feature(taxels, *, rate_hz: float = TACTILE_RATE_HZ,
+                   cutoff_hz: float = HIGHPASS_CUTOFF_HZ) -> float:
+    """Eq. 7.10-7.11: the sample standard deviation (n - 1) of :func:`filtered_norm` over the
+    roll, in the taxels' unit."""
+    f = filtered_norm(taxels, rate_hz=rate_hz, cutoff_hz=cutoff_hz)
+    if len(f) < 2:
+        raise TactileDataError("taxels: at least 2 samples are needed for a spread")
+    return float(np.std(f, ddof=1))
+
+
+def liquid_features(records, *, with_weight: bool = False,
+                    cutoff_hz: float = HIGHPASS_CUTOFF_HZ) -> np.ndarray:
+    """Feature matrix of many :class:`RollRecord`: ``(n, 1)`` = sigma, or ``(n, 2)`` = (sigma,
+    weight in N) with ``with_weight`` (every record then needs a weight)."""
+    rows = []
+    for i, r in enumerate(records):
+        s = liquid_feature(r.taxels, rate_hz=r.rate_hz, cutoff_hz=cutoff_hz)
+        if with_weight:
+            if r.weight is None:
+                raise TactileDataError(f"record {i}: with_weight needs a weight")
+            rows.append([s, r.weight])
+        else:
+            rows.append([s])
+    if not rows:
+        raise TactileDataError("liquid_features: no records")
+    return np.asarray(rows, dtype=float)
+
+
+def liquid_table(records, *, cutoff_hz: float = HIGHPASS_CUTOFF_HZ) -> list[dict]:
+    """Table 7.4: per (container, liquid) the number of trials, mean weight (N) and the mean
+    and standard deviation of the tactile feature (taxel unit), sorted by container."""
+    recs = list(records)
+    if not recs:
+        raise TactileDataError("liquid_table: no records")
+    feat = liquid_features(recs, cutoff_hz=cutoff_hz)[:, 0]
+    groups: dict = {}
+    for r, v in zip(recs, feat):
+        groups.setdefault((str(r.container), r.liquid), []).append((v, r.weight))
+    rows = []
+    for (c, liq), vals in sorted(groups.items(), key=lambda kv: (kv[0][0], str(kv[0][1]))):
+        v = np.array([x for x, _ in vals])
+        w = [x for _, x in vals if x is not None]
+        rows.append({"container": c, "liquid": liq, "trials": len(v),
+                     "weight_n": float(np.mean(w)) if w else None,
+                     "feature_mean": float(v.mean()),
+                     "feature_std": float(v.std(ddof=1)) if len(v) > 1 else 0.0})
+    return rows
+
+
+def evaluate_liquid(records, *, with_weight: bool = False, classifier: str = "tree",
+                    folds: int = 10, seed: int = 0):
+    """Stratified ``folds``-fold cross-validation of liquid / no liquid from the tactile
+    feature (and the weight); returns a
+    :class:`~mmlearn.models.tactile_state.ClassificationReport` with labels "liquid" and
+    "no_liquid"."""
+    from .tactile_state import cross_validate
+
+    recs = list(records)
+    for i, r in enumerate(recs):
+        if r.liquid is None:
+            raise TactileDataError(f"record {i}: no liquid ground truth")
+    X = liquid_features(recs, with_weight=with_weight)
+    y = np.array(["liquid" if r.liquid else "no_liquid" for r in recs])
+    return cross_validate(X, y, classifier=classifier, folds=folds, seed=seed)
