@@ -8,11 +8,8 @@ from .articulation_estimator import ArticulationEstimator
 from .base_localization import BaseLocalization, BaseLocalizationConfig
 from .depth_noise import DepthNoise
 from .epc_controller import EpcConfig, EpcController, EpcTask
-<<<<<<< HEAD
 from .front_detector import FrontDetector
-=======
 from .front_pose import TrueFrontPose
->>>>>>> main
 from .marker_sensor import CameraConfig, MarkerSensor, MarkerSensorConfig
 from .model_visualizer import LearnedModelVisualizer
 from .motor_babbling import MotorBabbling
@@ -34,11 +31,8 @@ __all__ = [
     "EpcConfig",
     "EpcController",
     "EpcTask",
-<<<<<<< HEAD
-    "FrontDetector",
-=======
     "FinitePointCloud",
->>>>>>> main
+    "FrontDetector",
     "GravityCompensation",
     "JointBlocker",
     "JointFriction",
