@@ -101,3 +101,34 @@ def test_constructor_errors_are_clear():
         FrontDetector(intrinsics=K, seed=-1)
     with pytest.raises(ValueError, match="min_recall"):
         FrontDetector(intrinsics=K, config=FrontDetectorConfig(min_recall=2.0))
+
+
+@pytest.mark.parametrize("front,distance", [("drawer", 1.5), ("door", 1.2)])
+def test_in_the_rendered_kitchen_diagram(front, distance):
+    """RgbdSensor (VTK) -> DepthNoise -> FrontDetector in MakeFrontPerceptionDiagram: the
+    opened front is found within 1 cm / 2 deg of its true pose (the diagram's ``front``)."""
+    from mmlearn.diagrams.perception import (DepthCameraConfig, FrontPerceptionConfig,
+                                             MakeFrontPerceptionDiagram)
+    from mmlearn.models.front_motion import FrontMotionConfig
+
+    def add(builder, parts):
+        det = builder.AddSystem(FrontDetector(intrinsics=parts.intrinsics, seed=1))
+        builder.Connect(parts.ports["depth_image"], det.get_depth_image_input_port())
+        builder.Connect(parts.ports["X_WC"], det.get_X_WC_input_port())
+        builder.ExportOutput(det.get_rectangles_output_port(), "rectangles")
+
+    cfg = FrontPerceptionConfig(
+        front=front, camera=DepthCameraConfig(distance=distance),
+        motion=FrontMotionConfig(door_opening_deg=30.0, drawer_opening=0.2, steps=1,
+                                 step_time=0.5, hold_time=0.2),
+        point_cloud=False)
+    scene = MakeFrontPerceptionDiagram(cfg, add_systems=add)
+    sim = Simulator(scene.diagram)
+    sim.AdvanceTo(1.0)  # fully open
+    ctx = sim.get_context()
+    truth = scene.diagram.GetOutputPort("front").Eval(ctx)
+    rects = scene.diagram.GetOutputPort("rectangles").Eval(ctx)
+    m = _match(rects, truth.X_WR, (truth.width, truth.height))
+    assert m is not None, "no rectangle"
+    r, perr, aerr = m
+    assert perr < 0.01 and aerr < 2.0, (perr, aerr, r.width, r.height)
