@@ -8,6 +8,7 @@ from .articulation_estimator import ArticulationEstimator
 from .base_localization import BaseLocalization, BaseLocalizationConfig
 from .depth_noise import DepthNoise
 from .epc_controller import EpcConfig, EpcController, EpcTask
+from .front_detector import FrontDetector
 from .front_pose import TrueFrontPose
 from .marker_sensor import CameraConfig, MarkerSensor, MarkerSensorConfig
 from .model_visualizer import LearnedModelVisualizer
@@ -31,6 +32,7 @@ __all__ = [
     "EpcController",
     "EpcTask",
     "FinitePointCloud",
+    "FrontDetector",
     "GravityCompensation",
     "JointBlocker",
     "JointFriction",
