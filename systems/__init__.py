@@ -8,6 +8,7 @@ from .articulation_estimator import ArticulationEstimator
 from .base_localization import BaseLocalization, BaseLocalizationConfig
 from .depth_noise import DepthNoise
 from .epc_controller import EpcConfig, EpcController, EpcTask
+from .front_detector import FrontDetector
 from .front_pose import TrueFrontPose
 from .front_tracker import FrontTracker, FrontTrackerConfig, FrontTrackerState
 from .front_visualizer import FrontTrackVisualizer
@@ -33,6 +34,7 @@ __all__ = [
     "EpcController",
     "EpcTask",
     "FinitePointCloud",
+    "FrontDetector",
     "FrontTracker",
     "FrontTrackerConfig",
     "FrontTrackerState",

@@ -1,0 +1,994 @@
+"""Cabinet fronts as rectangles in dense depth images (thesis ch. 5.1.1-5.1.2).
+
+:func:`detect_fronts` runs the detector of the thesis in five stages (the keys of its timings):
+
+``planes``
+    RANSAC plane segmentation (5.1.1, Eq. 5.1). Hypotheses are drawn from a subsampled pixel
+    grid (every ``ransac_stride_px``-th pixel) and all of them are scored at once against all
+    sampled points (one matrix product). The three points of a hypothesis are drawn *locally*
+    (the 2nd and 3rd among the pool's points within ``ransac_local_radius_px`` of the first),
+    which finds small planes (a drawer front at 2.5 m covers < 1 % of the image) with few
+    hypotheses. The inlier distance grows with the depth like the camera's noise
+    (``inlier_distance_per_m2``; the thesis: "L depends on the noise level of the camera").
+    The best hypothesis' plane is its largest 8-connected region of inliers on the sample grid,
+    refined by least squares (SVD); that region (and its points within ``removal_factor`` x L)
+    leaves the pool of *sampling* points, and the search repeats for the next plane. Each plane
+    is then refitted on the full-resolution pixels near it in its region's bounding box. A pixel
+    may belong to several planes: the masks below are computed for every plane over all pixels.
+``masks``
+    One label mask per plane (Eq. 5.2): in-plane ``|s| <= L``, occluded ``s > L`` (something in
+    front of the plane hides it), free ``s < -L`` (the camera sees through the plane: nothing
+    there), unknown (no measurement); ``s`` is the signed distance with the plane normal
+    pointing towards the camera. The mask is then *rectified*: resampled (nearest neighbour,
+    one ``cv2.warpPerspective``) onto a metric grid in the plane with ``cell_size`` cells whose
+    axes follow the dominant edge direction of the plane's in-plane region (gravity from
+    ``X_WC`` fixes "up"). In that grid a rectangle is axis-aligned and the sums of Eq. 5.3-5.5
+    are four look-ups in summed-area tables (O(1) per candidate).
+    Where two planes crossing at more than ``crossing_angle_deg`` are both within L of a pixel,
+    the pixel is in-plane only for the plane with the larger support if it is nearer to it
+    (distances averaged over ``crossing_smooth_px`` pixels; free for the other): otherwise an
+    open door would be widened by the strip of the cabinet face next to its hinge
+    (L / sin(opening angle), 4 cm at 30 deg; measured: 0.445 m instead of 0.395 m).
+``sampling``
+    ``starts_per_plane`` random starts per plane: a random in-plane cell as centre, width and
+    height drawn uniformly from ``prior_size`` (5.1.1: "sample a random point from the plane
+    and the other DOFs from a prior").
+``optimisation``
+    Greedy discrete moves (5.1.2) on all starts of all planes at once (vectorised): each side
+    grows or shrinks by ``step_factors`` x ``step_size``; the best improving move is taken
+    until none improves or ``max_iterations``. Accepted rectangles are then polished by in-plane
+    rotations (``step_factors`` x ``rotation_step_deg``, each followed by the side moves on a
+    mask rectified at the new angle).
+``check``
+    Precision (Eq. 5.4) and recall (Eq. 5.5) above their thresholds, not touching the image
+    border, duplicates suppressed; the plane of each accepted rectangle is refitted by least
+    squares on the full-resolution in-plane pixels inside it (accuracy of the pose).
+
+Deviations from the text, with reasons (measured on the synthetic frames of
+``models/front_synth.py`` and rendered frames of the Drake scene; see
+``benchmarks/bench_front_detector.py``):
+
+* The objective is the original code's ``g = sum(1 - cost) / n^(1 - alpha)`` rather than the
+  literal Eq. 5.3 ``-sum(cost) / n^(1 + alpha)``: the latter is 0 for every rectangle inside
+  the front, so a start inside the front never grows. Both prefer larger rectangles of the same
+  mean cost by the factor ``n^alpha``.
+* Recall (Eq. 5.5) divides the rectangle's in-plane area by the in-plane area of the rectangle
+  grown by ``recall_margin`` on every side, not of the whole infinite plane: the infinite plane
+  also holds the strips where other surfaces cross it and every other coplanar front, which the
+  thesis' recall would count against a correct rectangle. A partial rectangle on a larger flat
+  region still gets a low recall (its plane continues beyond its sides).
+* Pixels are weighted by the plane area they cover (the rectified grid), not one per pixel, so
+  precision and recall do not depend on the distance or the viewing angle.
+* A plane is a connected region (above), not every inlier of the infinite plane, and pixels
+  where two crossing planes meet go to the larger one (above).
+
+Known limits (measured): a front is found as the part of it that is seen: an occluder crossing
+the whole front (a pole from top to bottom) is a local maximum the greedy moves do not cross
+unless a random start straddles it; a closed front flush with its neighbours is one plane with
+them (no depth step), so the whole cabinet face is found instead; the drop-outs of a
+structured-light camera at depth edges make fronts 1-3 cm narrower at 1.8-2.5 m.
+* Costs are quantised to 1/255 (as in the original code) so the summed-area tables are int32.
+* The greedy search takes the best improving move of all step sizes at once (steepest
+  ascent, vectorised over all starts); the original code tries the largest step size first.
+* Rectangles touching the image border (``border_margin_px``) are rejected (as in the original
+  code): their extent is not observed. So a wall filling the view gives no rectangle; a wall
+  whose four edges are in view is a rectangle like any other.
+"""
+
+
+import math
+import time
+from dataclasses import dataclass, field, fields
+
+import cv2
+import numpy as np
+
+from .fronts import FrontRectangle, PinholeIntrinsics, valid_depth_mask
+
+__all__ = ["FrontDetectorConfig", "detect_fronts", "Plane", "STAGES"]
+
+STAGES = ("planes", "masks", "sampling", "optimisation", "check")
+
+# mask labels (Eq. 5.2), plus cells of the rectified grid that the camera does not see
+IN_PLANE, FREE, OCCLUDED, UNKNOWN, OUTSIDE = 0, 1, 2, 3, 4
+
+
+@dataclass
+class FrontDetectorConfig:
+    """Parameters of :func:`detect_fronts` (load with ``yaml_load_typed``; :meth:`validate`
+    names the first bad field).
+
+    Attributes:
+        inlier_distance: L of Eq. 5.1/5.2, m: a pixel within L of a plane is in-plane.
+        inlier_distance_per_m2: L grows with the square of the pixel's depth z like the
+            noise of a stereo camera: L(z) = max(inlier_distance, inlier_distance_per_m2 *
+            z^2), m / m^2 (0.004: 2.5 sigma of the ~1.5 mm-at-1 m noise; 0 = fixed L).
+        ransac_stride_px: RANSAC samples and scores every n-th pixel in rows and columns, px.
+        ransac_hypotheses: plane hypotheses per extracted plane (scored all at once).
+        ransac_local_radius_px: the 2nd and 3rd point of a hypothesis lie within this many
+            pixels of the first (a box in rows and columns), px.
+        max_planes: at most this many planes per frame.
+        removal_factor: sampled points within this many L of an extracted plane leave the
+            pool of points later planes are drawn from, unitless (>= 1).
+        min_plane_points: a plane needs at least this many inliers among the sampled pixels.
+        max_depth: pixels farther than this are not used to find planes, m.
+        crossing_angle_deg: where two planes at more than this angle cross, a pixel within L of
+            both and nearer to the one with the larger support is free for the other, degrees.
+        crossing_smooth_px: "nearer" is decided on the distances averaged over a square of
+            this many pixels (odd), px.
+        cost_in_plane, cost_free, cost_occluded, cost_unknown: cost of a pixel per label
+            (Eq. 5.3-5.5), unitless in [0, 1]; grid cells the camera does not see cost
+            ``cost_free``.
+        cell_size: side of the rectified grid's cells, m (grows for planes larger than
+            ``max_grid_cells`` cells).
+        max_grid_cells: at most this many cells along each axis of a plane's grid.
+        max_plane_extent: a plane's grid covers at most this much around its inliers' median,
+            m.
+        starts_per_plane: random starts of the rectangle search per plane (m in 5.1.2).
+        prior_size: [min, max] of the uniform prior of a start's width and height, m.
+        alpha: size preference of the objective (Eq. 5.3), unitless.
+        step_size: unit of the side moves, m.
+        rotation_step_deg: unit of the in-plane rotation moves, degrees.
+        step_factors: the moves are these multiples of the units.
+        max_iterations: cap on greedy iterations per start.
+        min_side: smallest width or height of a rectangle, m.
+        min_precision, min_recall: acceptance thresholds (Eq. 5.4, 5.5).
+        recall_margin: recall compares the rectangle with itself grown by this share of its
+            width (height) on the left and right (top and bottom) sides, unitless.
+        min_recall_margin: the growth is at least this, m.
+        border_margin_px: a rectangle whose projected corner comes closer than this to the
+            image border is rejected, px.
+        duplicate_distance: accepted rectangles whose centres are closer than this (and
+            normals within ``duplicate_angle_deg``) are one front; the better one stays, m.
+        duplicate_angle_deg: see ``duplicate_distance``, degrees.
+        refine_plane: refit each accepted rectangle's plane on its full-resolution in-plane
+            pixels.
+    """
+
+    inlier_distance: float = 0.02
+    inlier_distance_per_m2: float = 0.004
+    ransac_stride_px: int = 8
+    ransac_hypotheses: int = 200
+    ransac_local_radius_px: int = 48
+    max_planes: int = 8
+    removal_factor: float = 2.0
+    crossing_angle_deg: float = 20.0
+    crossing_smooth_px: int = 5
+    min_plane_points: int = 20
+    max_depth: float = 5.0
+    cost_in_plane: float = 0.0
+    cost_free: float = 1.0
+    cost_occluded: float = 0.2
+    cost_unknown: float = 0.2
+    cell_size: float = 0.005
+    max_grid_cells: int = 400
+    max_plane_extent: float = 6.0
+    starts_per_plane: int = 6
+    prior_size: list[float] = field(default_factory=lambda: [0.05, 0.2])
+    alpha: float = 0.05
+    step_size: float = 0.005
+    rotation_step_deg: float = 0.5
+    step_factors: list[int] = field(default_factory=lambda: [8, 4, 2, 1])
+    max_iterations: int = 200
+    min_side: float = 0.03
+    min_precision: float = 0.7
+    min_recall: float = 0.7
+    recall_margin: float = 0.25
+    min_recall_margin: float = 0.05
+    border_margin_px: int = 3
+    duplicate_distance: float = 0.05
+    duplicate_angle_deg: float = 15.0
+    refine_plane: bool = True
+
+    def validate(self) -> None:
+        """Raise ``ValueError`` naming the first invalid field."""
+        for f in fields(self):
+            v = getattr(self, f.name)
+            vals = v if isinstance(v, list) else [v]
+            for x in vals:
+                if isinstance(x, bool):
+                    continue
+                if not isinstance(x, (int, float, np.integer, np.floating)) or not math.isfinite(x):
+                    raise ValueError(f"FrontDetectorConfig.{f.name} must be finite numbers, "
+                                     f"got {v!r}")
+        pos = ("inlier_distance", "ransac_stride_px", "ransac_hypotheses",
+               "ransac_local_radius_px", "max_planes", "min_plane_points", "max_depth",
+               "cell_size", "max_grid_cells", "max_plane_extent", "starts_per_plane",
+               "step_size", "rotation_step_deg", "max_iterations", "min_side")
+        for k in pos:
+            if not getattr(self, k) > 0:
+                raise ValueError(f"FrontDetectorConfig.{k} must be > 0, got {getattr(self, k)}")
+        for k in ("cost_in_plane", "cost_free", "cost_occluded", "cost_unknown",
+                  "min_precision", "min_recall"):
+            if not 0.0 <= getattr(self, k) <= 1.0:
+                raise ValueError(f"FrontDetectorConfig.{k} must be in [0, 1], got "
+                                 f"{getattr(self, k)}")
+        if self.crossing_smooth_px < 1:
+            raise ValueError("FrontDetectorConfig.crossing_smooth_px must be >= 1, got "
+                             f"{self.crossing_smooth_px}")
+        for k in ("alpha", "inlier_distance_per_m2", "crossing_angle_deg", "recall_margin",
+                  "min_recall_margin", "border_margin_px", "duplicate_distance",
+                  "duplicate_angle_deg"):
+            if getattr(self, k) < 0:
+                raise ValueError(f"FrontDetectorConfig.{k} must be >= 0, got {getattr(self, k)}")
+        if self.removal_factor < 1:
+            raise ValueError(f"FrontDetectorConfig.removal_factor must be >= 1, got "
+                             f"{self.removal_factor}")
+        if not self.alpha < 1:
+            raise ValueError(f"FrontDetectorConfig.alpha must be < 1, got {self.alpha}")
+        if len(self.prior_size) != 2 or not 0 < self.prior_size[0] <= self.prior_size[1]:
+            raise ValueError("FrontDetectorConfig.prior_size must be [min, max] with "
+                             f"0 < min <= max (metres), got {self.prior_size}")
+        if not self.step_factors or any(int(s) != s or s <= 0 for s in self.step_factors):
+            raise ValueError("FrontDetectorConfig.step_factors must be positive integers, got "
+                             f"{self.step_factors}")
+        for k in ("ransac_stride_px", "ransac_hypotheses", "ransac_local_radius_px",
+                  "max_planes", "min_plane_points", "max_grid_cells", "starts_per_plane",
+                  "crossing_smooth_px",
+                  "max_iterations", "border_margin_px"):
+            if int(getattr(self, k)) != getattr(self, k):
+                raise ValueError(f"FrontDetectorConfig.{k} must be an integer, got "
+                                 f"{getattr(self, k)}")
+
+
+@dataclass
+class Plane:
+    """A plane found by RANSAC, camera frame: ``n . p + d = 0``, ``n`` unit towards the camera
+    (``d > 0``); ``support`` = inliers among the sampled pixels (its largest connected region);
+    ``bbox`` = (row0, row1, col0, col1) of that region on the sample grid."""
+
+    n: np.ndarray
+    d: float
+    support: int
+    bbox: tuple = (0, 0, 0, 0)
+
+
+# ------------------------------------------------------------------------------------------
+# stage 1: planes
+# ------------------------------------------------------------------------------------------
+def _fit_plane(P: np.ndarray):
+    """Least-squares plane through points (k, 3): unit normal towards the camera and offset."""
+    c = P.mean(axis=0)
+    _, _, vt = np.linalg.svd(P - c, full_matrices=False)
+    n = vt[2]
+    if n @ c > 0:  # towards the camera at the origin
+        n = -n
+    return n, float(-n @ c)
+
+
+def _components(sel, grid_rc, grid_shape):
+    img = np.zeros(grid_shape, np.uint8)
+    img[grid_rc[sel, 0], grid_rc[sel, 1]] = 1
+    _, lab = cv2.connectedComponents(img, connectivity=8)
+    return lab[grid_rc[sel, 0], grid_rc[sel, 1]]
+
+
+def _largest_region(sel, grid_rc, grid_shape):
+    """The points of ``sel`` (indices) in the largest 8-connected region on the sample grid."""
+    if len(sel) == 0:
+        return sel
+    lab = _components(sel, grid_rc, grid_shape)
+    return sel[lab == np.argmax(np.bincount(lab))]
+
+
+def _regions_touching(sel, region, grid_rc, grid_shape):
+    """The points of ``sel`` in the 8-connected regions (of ``sel``) that contain a point of
+    ``region`` (a subset of ``sel``)."""
+    if len(sel) == 0 or len(region) == 0:
+        return sel[:0]
+    lab = _components(sel, grid_rc, grid_shape)
+    keep = np.zeros(lab.max() + 1, bool)
+    keep[lab[np.isin(sel, region)]] = True
+    return sel[keep[lab]]
+
+
+def find_planes(pts: np.ndarray, grid_rc: np.ndarray, grid_shape, cfg: FrontDetectorConfig,
+                rng: np.random.Generator) -> list[Plane]:
+    """Sequential RANSAC (5.1.1) on sampled points ``pts`` (m, 3) whose sample-grid positions
+    are ``grid_rc`` (m, 2) in a grid of ``grid_shape``; returns up to ``cfg.max_planes``
+    planes."""
+    Lp = np.maximum(cfg.inlier_distance, cfg.inlier_distance_per_m2 * pts[:, 2] ** 2)
+    m = len(pts)
+    planes: list[Plane] = []
+    if m < max(3, cfg.min_plane_points):
+        return planes
+    lookup = np.full(grid_shape, -1, np.int64)
+    lookup[grid_rc[:, 0], grid_rc[:, 1]] = np.arange(m)
+    active = np.ones(m, bool)
+    r = max(1, int(round(cfg.ransac_local_radius_px / cfg.ransac_stride_px)))
+    N = int(cfg.ransac_hypotheses)
+    P32 = pts.astype(np.float32)
+    for _ in range(int(cfg.max_planes)):
+        idx = np.flatnonzero(active)
+        if len(idx) < max(3, cfg.min_plane_points):
+            break
+        first = idx[rng.integers(0, len(idx), N)]
+        # 2nd and 3rd point: the first two of T random offsets that land on active points
+        T = 12
+        off = rng.integers(-r, r + 1, (N, T, 2))
+        rc = grid_rc[first][:, None, :] + off
+        inb = ((rc >= 0) & (rc < np.asarray(grid_shape))).all(-1)
+        rc = np.where(inb[..., None], rc, 0)
+        cand = lookup[rc[..., 0], rc[..., 1]]
+        good = inb & (cand >= 0) & (off != 0).any(-1)
+        good &= active[np.where(cand >= 0, cand, 0)]
+        pick = np.argsort(~good, axis=1, kind="stable")[:, :2]
+        other = np.take_along_axis(np.where(good, cand, 0), pick, axis=1)
+        ok = good.sum(axis=1) >= 2
+        p1, p2, p3 = pts[first], pts[other[:, 0]], pts[other[:, 1]]
+        nrm = np.cross(p2 - p1, p3 - p1)
+        ln = np.linalg.norm(nrm, axis=1)
+        ok &= ln > 1e-9
+        if not ok.any():
+            # no local triple: fall back to global triples
+            tri = idx[rng.integers(0, len(idx), (N, 3))]
+            p1, p2, p3 = pts[tri[:, 0]], pts[tri[:, 1]], pts[tri[:, 2]]
+            nrm = np.cross(p2 - p1, p3 - p1)
+            ln = np.linalg.norm(nrm, axis=1)
+            ok = ln > 1e-9
+            if not ok.any():
+                break
+        nrm = nrm[ok] / ln[ok, None]
+        dd = -np.einsum("ij,ij->i", nrm, p1[ok])
+        dist = np.abs(P32[idx] @ nrm.T.astype(np.float32) + dd.astype(np.float32))  # (ma, N)
+        Li = Lp[idx].astype(np.float32)[:, None]
+        counts = (dist <= Li).sum(axis=0)
+        best = int(np.argmax(counts))
+        if counts[best] < cfg.min_plane_points:
+            break
+        inl = _largest_region(idx[dist[:, best] <= Li[:, 0]], grid_rc, grid_shape)
+        n, d = nrm[best], float(dd[best])
+        for _ in range(2):  # least-squares refinement on the inliers, then re-select them
+            if len(inl) < 3:
+                break
+            n, d = _fit_plane(pts[inl])
+            inl = _largest_region(idx[np.abs(pts[idx] @ n + d) <= Lp[idx]], grid_rc, grid_shape)
+        # The plane is its largest connected region of inliers (on the sample grid): other
+        # surfaces crossing the infinite plane stay in the pool. The region's points within
+        # removal_factor x L (so that the noise tails of a far plane do not come back as a
+        # second copy of it) leave the pool of sampling points.
+        loose = idx[np.abs(pts[idx] @ n + d) <= cfg.removal_factor * Lp[idx]]
+        active[_regions_touching(loose, inl, grid_rc, grid_shape)] = False
+        active[inl] = False
+        if len(inl) < cfg.min_plane_points:
+            continue
+        Lq = max(cfg.inlier_distance, cfg.inlier_distance_per_m2 * d * d)
+        dup = any(abs(q.n @ n) > math.cos(math.radians(5.0)) and abs(q.d - d) < 2 * Lq
+                  for q in planes)
+        if dup:  # masks cover every pixel of a plane: a second copy adds nothing
+            continue
+        rc = grid_rc[inl]
+        planes.append(Plane(n=n, d=d, support=len(inl),
+                            bbox=(int(rc[:, 0].min()), int(rc[:, 0].max()) + 1,
+                                  int(rc[:, 1].min()), int(rc[:, 1].max()) + 1)))
+    return planes
+
+
+def refine_plane_fullres(pl: Plane, Pc, Lmap, stride, off, max_points=20000) -> Plane:
+    """Least-squares refit of a plane on the full-resolution pixels within L of it inside the
+    bounding box of its sampled region (every pixel for small planes, a regular subset of at
+    most ``max_points`` for large ones); two rounds, the second on the pixels within L / 2 of
+    the first fit (keeps a handle or an edge strip from tilting a small front's plane)."""
+    r0, r1, c0, c1 = pl.bbox
+    R0, R1 = off + stride * r0 - stride, off + stride * r1 + stride
+    C0, C1 = off + stride * c0 - stride, off + stride * c1 + stride
+    R0, C0 = max(0, R0), max(0, C0)
+    crop = Pc[R0:R1, C0:C1]
+    Lc = Lmap[R0:R1, C0:C1]
+    step = max(1, int(math.ceil(math.sqrt(crop.shape[0] * crop.shape[1] / max_points))))
+    P = crop[::step, ::step].reshape(-1, 3)
+    L = Lc[::step, ::step].reshape(-1)
+    ok = np.isfinite(P[:, 2])
+    P, L = P[ok].astype(np.float64), L[ok]
+    n, d = pl.n, pl.d
+    for shrink in (1.0, 0.5):
+        sel = np.abs(P @ n + d) <= shrink * L
+        if sel.sum() < 10:
+            return pl
+        n2, d2 = _fit_plane(P[sel])
+        if n2 @ pl.n < math.cos(math.radians(10.0)):
+            return pl
+        n, d = n2, d2
+    return Plane(n=n, d=d, support=pl.support, bbox=pl.bbox)
+
+
+# ------------------------------------------------------------------------------------------
+# stage 2: masks and rectified grids
+# ------------------------------------------------------------------------------------------
+@dataclass
+class _Grid:
+    """A plane's rectified label grid: cell (row i, col j) is the plane point
+    ``o + (u0 + (j + 0.5) c) e1 + (v0 + (i + 0.5) c) e2`` (camera frame)."""
+
+    plane_index: int
+    n: np.ndarray
+    d: float
+    o: np.ndarray
+    e1: np.ndarray
+    e2: np.ndarray
+    u0: float
+    v0: float
+    c: float
+    labels: np.ndarray
+    sat_cost: np.ndarray
+    sat_in: np.ndarray
+
+    @property
+    def shape(self):
+        return self.labels.shape
+
+
+def _plane_axes(n: np.ndarray, down_C: np.ndarray | None):
+    """In-plane axes (e1, e2) with e1 x e2 = n: e2 along gravity ("down") projected onto the
+    plane, or, for a (near) horizontal plane or unknown gravity, e1 along the camera x axis."""
+    if down_C is not None:
+        g = down_C - (down_C @ n) * n
+        if np.linalg.norm(g) > 0.5:  # plane tilted less than 60 deg from vertical
+            e2 = g / np.linalg.norm(g)
+            return np.cross(e2, n), e2
+    x = np.array([1.0, 0.0, 0.0]) - n[0] * n
+    if np.linalg.norm(x) < 1e-6:
+        x = np.array([0.0, 1.0, 0.0]) - n[1] * n
+    e1 = x / np.linalg.norm(x)
+    return e1, np.cross(n, e1)
+
+
+def _rotate_axes(e1, e2, theta):
+    c, s = math.cos(theta), math.sin(theta)
+    return c * e1 + s * e2, -s * e1 + c * e2
+
+
+def _warp_labels(labels_img, K: PinholeIntrinsics, o, e1, e2, u0, v0, c, shape):
+    """Nearest-neighbour resampling of the image label mask onto a plane grid; cells that do
+    not project into the image (or lie behind the camera) are OUTSIDE."""
+    Hg, Wg = shape
+    Km = np.array([[K.fx, 0, K.cx], [0, K.fy, K.cy], [0, 0, 1.0]])
+    A = np.array([[c, 0, u0 + 0.5 * c], [0, c, v0 + 0.5 * c], [0, 0, 1.0]])
+    M = np.column_stack([e1, e2, o])
+    H = Km @ M @ A
+    out = cv2.warpPerspective(labels_img, H, (int(Wg), int(Hg)),
+                              flags=cv2.INTER_NEAREST | cv2.WARP_INVERSE_MAP,
+                              borderMode=cv2.BORDER_CONSTANT, borderValue=OUTSIDE)
+    # depth of each cell is affine in (i, j): mask cells behind (or too close to) the camera
+    zc = (M @ A)[2]  # z = zc[0] j + zc[1] i + zc[2]
+    jj = np.arange(Wg, dtype=np.float64)
+    ii = np.arange(Hg, dtype=np.float64)
+    z = zc[0] * jj[None, :] + zc[1] * ii[:, None] + zc[2]
+    out[z < 0.05] = OUTSIDE
+    return out
+
+
+def _edge_angle(inplane: np.ndarray) -> float:
+    """Dominant direction (mod 90 deg) of the edges of a binary in-plane grid, radians in
+    (-pi/4, pi/4]: the argument of the magnitude-weighted mean of exp(4 i phi) / 4."""
+    f = inplane.astype(np.float32)
+    gx = cv2.Sobel(f, cv2.CV_32F, 1, 0, ksize=3)
+    gy = cv2.Sobel(f, cv2.CV_32F, 0, 1, ksize=3)
+    mag = np.hypot(gx, gy)
+    sel = mag > 0
+    if sel.sum() < 8:
+        return 0.0
+    phi = np.arctan2(gy[sel], gx[sel])
+    z = np.sum(mag[sel] * np.exp(4j * phi))
+    if abs(z) < 1e-6 * mag[sel].sum():
+        return 0.0
+    return float(np.angle(z) / 4.0)
+
+
+def _sat_cost(labels: np.ndarray, lut: np.ndarray):
+    """Summed-area table (int32) of the cost x 255 of every cell (``lut``: label -> cost x 255,
+    uint8; costs are quantised to 1/255 as in the original code)."""
+    return cv2.integral(cv2.LUT(labels, lut), sdepth=cv2.CV_32S)
+
+
+def _sat_in(labels: np.ndarray):
+    """Summed-area table (int32) of the in-plane indicator."""
+    return cv2.integral((labels == IN_PLANE).view(np.uint8), sdepth=cv2.CV_32S)
+
+
+def _sats(labels: np.ndarray, lut: np.ndarray):
+    return _sat_cost(labels, lut), _sat_in(labels)
+
+
+def _label_images(d, valid, ray_x, ray_y, planes, L, crossing_angle_deg,
+                  smooth_px=5) -> list[np.ndarray]:
+    """Eq. 5.2 labels of every pixel for every plane n . p + dpl = 0. The signed distance of
+    the pixel's point p = depth * (ray_x, ray_y, 1) is depth * (n . ray) + dpl (separable in
+    rows and columns). A pixel within L of two planes that cross at more than
+    ``crossing_angle_deg`` and nearer to the one with the larger support is free for the
+    other: in that strip the surface seen is the larger plane's (e.g. the cabinet's face next
+    to the hinge of an open door, which would otherwise widen the door by L / sin(angle)).
+    Otherwise pixels belong to every plane they are within L of (5.1.1)."""
+    P = len(planes)
+    S = np.empty((P,) + d.shape, np.float32)
+    L = np.broadcast_to(np.asarray(L, np.float32), d.shape).copy() if np.ndim(L) == 0 else L
+    negL = -L
+    unknown = np.where(valid, np.uint8(0), np.uint8(UNKNOWN))
+    labs = []
+    for k, pl in enumerate(planes):
+        n = pl.n
+        nr = (np.float32(n[0]) * ray_x + np.float32(n[2])) + np.float32(n[1]) * ray_y
+        np.multiply(d, nr, out=S[k])
+        S[k] += np.float32(pl.d)
+        lab = cv2.compare(S[k], negL, cv2.CMP_LT) & np.uint8(FREE)
+        lab |= cv2.compare(S[k], L, cv2.CMP_GT) & np.uint8(OCCLUDED)
+        lab |= unknown                                   # 3 | anything = UNKNOWN
+        labs.append(lab)
+    if P < 2:
+        return labs
+    count = np.zeros(d.shape, np.uint8)
+    for lab in labs:
+        count += lab == IN_PLANE
+    shared = np.flatnonzero(count > 1)
+    if len(shared) == 0:
+        return labs
+    near_sh = np.array([lab.reshape(-1)[shared] == IN_PLANE for lab in labs])
+    N = np.array([pl.n for pl in planes])
+    sup = np.array([pl.support for pl in planes])
+    crossing = ((np.abs(N @ N.T) < math.cos(math.radians(crossing_angle_deg)))
+                & (sup[None, :] >= sup[:, None]))  # [k, j]: j may take pixels from k
+    if not crossing.any():
+        return labs
+    # which plane is nearer is decided on distances averaged over smooth_px x smooth_px
+    # measured pixels (the noise of one pixel would otherwise fray the edge along the crossing)
+    A_sh = np.zeros(near_sh.shape, np.float32)
+    wsum = cv2.blur(valid.astype(np.float32), (smooth_px, smooth_px)).reshape(-1)[shared]
+    wsum = np.maximum(wsum, np.float32(1e-6))
+    for k in np.flatnonzero(crossing.any(axis=0) | crossing.any(axis=1)):
+        sm = cv2.blur(np.where(valid, S[k], np.float32(0.0)), (smooth_px, smooth_px))
+        A_sh[k] = np.abs(sm.reshape(-1)[shared] / wsum)
+    for k in range(P):
+        js = np.flatnonzero(crossing[k])
+        if len(js) == 0:
+            continue
+        other = np.zeros(len(shared), bool)
+        for j in js:
+            other |= near_sh[j] & (A_sh[j] < A_sh[k])
+        flat = labs[k].reshape(-1)
+        flat[shared[near_sh[k] & other]] = FREE          # in-plane -> FREE
+    return labs
+
+
+def _make_grid(k, plane: Plane, lab_img, sample_pts, K, down_C, cfg, lut) -> _Grid | None:
+    n, d = plane.n, plane.d
+    Lp = np.maximum(cfg.inlier_distance, cfg.inlier_distance_per_m2 * sample_pts[:, 2] ** 2)
+    inl = sample_pts[np.abs(sample_pts @ n + d) <= Lp]
+    if len(inl) < 3:
+        return None
+    o = inl.mean(axis=0)
+    o = o - (o @ n + d) * n
+    e1, e2 = _plane_axes(n, down_C)
+
+    def extent(e1, e2):
+        a = (inl - o) @ e1
+        b = (inl - o) @ e2
+        pad = 0.1
+        half = 0.5 * cfg.max_plane_extent
+        am, bm = np.median(a), np.median(b)
+        lo_a, hi_a = max(a.min(), am - half) - pad, min(a.max(), am + half) + pad
+        lo_b, hi_b = max(b.min(), bm - half) - pad, min(b.max(), bm + half) + pad
+        return lo_a, hi_a, lo_b, hi_b
+
+    def shape_of(lo_a, hi_a, lo_b, hi_b, c):
+        return (max(1, int(math.ceil((hi_b - lo_b) / c))),
+                max(1, int(math.ceil((hi_a - lo_a) / c))))
+
+    # dominant edge direction on a grid of twice the cell size (a quarter of the cells)
+    lo_a, hi_a, lo_b, hi_b = extent(e1, e2)
+    c = max(cfg.cell_size, max(hi_a - lo_a, hi_b - lo_b) / cfg.max_grid_cells)
+    coarse = _warp_labels(lab_img, K, o, e1, e2, lo_a, lo_b, 2 * c,
+                          shape_of(lo_a, hi_a, lo_b, hi_b, 2 * c))
+    theta = _edge_angle(coarse == IN_PLANE)
+    if theta != 0.0:
+        e1, e2 = _rotate_axes(e1, e2, theta)
+        lo_a, hi_a, lo_b, hi_b = extent(e1, e2)
+        c = max(cfg.cell_size, max(hi_a - lo_a, hi_b - lo_b) / cfg.max_grid_cells)
+    lab0 = _warp_labels(lab_img, K, o, e1, e2, lo_a, lo_b, c, shape_of(lo_a, hi_a, lo_b, hi_b, c))
+    sat_cost, sat_in = _sats(lab0, lut)
+    return _Grid(k, n, d, o, e1, e2, lo_a, lo_b, c, lab0, sat_cost, sat_in)
+
+
+# ------------------------------------------------------------------------------------------
+# stages 3-4: sampling and greedy optimisation, vectorised over starts
+# ------------------------------------------------------------------------------------------
+# side moves on (x0, x1, y0, y1): grow left, shrink left, grow right, shrink right, same for y
+_MOVES = np.array([[-1, 0, 0, 0], [1, 0, 0, 0], [0, 1, 0, 0], [0, -1, 0, 0],
+                   [0, 0, -1, 0], [0, 0, 1, 0], [0, 0, 0, 1], [0, 0, 0, -1]], np.int64)
+
+
+def _rect_sum(S, p, R):
+    """Sums of the tables ``S[p]`` (stacked SATs) over rectangles R (..., 4) = x0 x1 y0 y1."""
+    x0, x1, y0, y1 = R[..., 0], R[..., 1], R[..., 2], R[..., 3]
+    return S[p, y1, x1] - S[p, y0, x1] - S[p, y1, x0] + S[p, y0, x0]
+
+
+def _objective(SC, p, R, alpha):
+    """g = sum(1 - cost) / n^(1 - alpha) over the rectangle's cells."""
+    n = ((R[..., 1] - R[..., 0]) * (R[..., 3] - R[..., 2])).astype(np.float64)
+    n = np.maximum(n, 1.0)
+    return (n - _rect_sum(SC, p, R) * (1.0 / 255.0)) / n ** (1.0 - alpha)
+
+
+def _greedy(SC, dims, pid, R, steps, min_cells, alpha, max_iter):
+    """Greedy side moves for all starts at once. SC: stacked cost SATs (P, Hm+1, Wm+1);
+    dims (P, 2) grid shapes; pid (S,) plane of each start; R (S, 4) int rectangles; steps (S, k)
+    move sizes in cells; min_cells (S,). Returns R, objective, iterations used."""
+    R = R.copy()
+    score = _objective(SC, pid, R, alpha)
+    active = np.ones(len(R), bool)
+    it = 0
+    for it in range(1, int(max_iter) + 1):
+        idx = np.flatnonzero(active)
+        if len(idx) == 0:
+            break
+        cand = (R[idx, None, None, :] + steps[idx, :, None, None] * _MOVES[None, None]
+                ).reshape(len(idx), -1, 4)
+        Hg = dims[pid[idx], 0][:, None]
+        Wg = dims[pid[idx], 1][:, None]
+        mc = min_cells[idx][:, None]
+        ok = ((cand[..., 0] >= 0) & (cand[..., 1] <= Wg) & (cand[..., 2] >= 0)
+              & (cand[..., 3] <= Hg) & (cand[..., 1] - cand[..., 0] >= mc)
+              & (cand[..., 3] - cand[..., 2] >= mc))
+        cc = np.where(ok[..., None], cand, R[idx, None, :])
+        sc = _objective(SC, pid[idx][:, None], cc, alpha)
+        sc[~ok] = -np.inf
+        b = np.argmax(sc, axis=1)
+        best = sc[np.arange(len(idx)), b]
+        imp = best > score[idx] + 1e-12 * np.abs(score[idx]) + 1e-12
+        R[idx[imp]] = cand[imp, b[imp]]
+        score[idx[imp]] = best[imp]
+        active[idx[~imp]] = False
+    return R, score, it
+
+
+def _stack(tables, dims):
+    Hm = max(h for h, _ in dims) + 1
+    Wm = max(w for _, w in dims) + 1
+    out = np.zeros((len(tables), Hm, Wm), tables[0].dtype)
+    for k, t in enumerate(tables):
+        out[k, :t.shape[0], :t.shape[1]] = t
+    return out
+
+
+# ------------------------------------------------------------------------------------------
+# stage 5: checks
+# ------------------------------------------------------------------------------------------
+def _precision_recall(g: _Grid, R, cfg):
+    """Eq. 5.4 and the local recall (see the module docstring) of one grid rectangle."""
+    x0, x1, y0, y1 = (int(v) for v in R)
+    n = (x1 - x0) * (y1 - y0)
+    if n <= 0:
+        return 0.0, 0.0
+    S = g.sat_cost
+    cost = (S[y1, x1] - S[y0, x1] - S[y1, x0] + S[y0, x0]) / 255.0
+    precision = (n - cost) / n
+    I = g.sat_in
+    inside = I[y1, x1] - I[y0, x1] - I[y1, x0] + I[y0, x0]
+    mx = max(int(round(cfg.recall_margin * (x1 - x0))), int(round(cfg.min_recall_margin / g.c)))
+    my = max(int(round(cfg.recall_margin * (y1 - y0))), int(round(cfg.min_recall_margin / g.c)))
+    Hg, Wg = g.shape
+    X0, X1 = max(0, x0 - mx), min(Wg, x1 + mx)
+    Y0, Y1 = max(0, y0 - my), min(Hg, y1 + my)
+    around = I[Y1, X1] - I[Y0, X1] - I[Y1, X0] + I[Y0, X0]
+    recall = inside / around if around > 0 else 0.0
+    return float(precision), float(recall)
+
+
+def _rect_camera(g: _Grid, R, e1=None, e2=None, u0=None, v0=None, c=None):
+    """Centre (camera frame), axes and size of a grid rectangle."""
+    e1 = g.e1 if e1 is None else e1
+    e2 = g.e2 if e2 is None else e2
+    u0 = g.u0 if u0 is None else u0
+    v0 = g.v0 if v0 is None else v0
+    c = g.c if c is None else c
+    x0, x1, y0, y1 = (float(v) for v in R)
+    a = u0 + 0.5 * (x0 + x1) * c
+    b = v0 + 0.5 * (y0 + y1) * c
+    return g.o + a * e1 + b * e2, e1, e2, (x1 - x0) * c, (y1 - y0) * c
+
+
+def _corners_px(center, e1, e2, w, h, K):
+    corners = np.array([center + sx * 0.5 * w * e1 + sy * 0.5 * h * e2
+                        for sx, sy in ((-1, -1), (1, -1), (1, 1), (-1, 1))])
+    z = corners[:, 2]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        u = K.fx * corners[:, 0] / z + K.cx
+        v = K.fy * corners[:, 1] / z + K.cy
+    return u, v, z
+
+
+def _inside_border(center, e1, e2, w, h, K, margin):
+    u, v, z = _corners_px(center, e1, e2, w, h, K)
+    return bool(np.all(z > 0) and np.all(u >= margin) and np.all(u <= K.width - 1 - margin)
+                and np.all(v >= margin) and np.all(v <= K.height - 1 - margin))
+
+
+def _polish_rotation(g: _Grid, R, lab_img, K, cfg, lut):
+    """Rotate the rectangle in its plane about its centre by +-step_factors x
+    rotation_step_deg; each rotation is followed by the side moves on the mask rectified at the
+    new angle (a local window around the rectangle). All rotations of a round are one batched
+    greedy run; the best improving one is kept until none improves. Returns the objective and
+    (e1, e2, u0, v0, R, labels, sat_cost, sat_in) of the window of the best angle."""
+    c = g.c
+    center, _, _, w, h = _rect_camera(g, R)
+    p = center - g.o
+    steps_cells = np.array(sorted({max(1, int(round(f * cfg.step_size / c)))
+                                   for f in cfg.step_factors}), np.int64)
+    min_cells = max(1, int(math.ceil(cfg.min_side / c)))
+    # window: the recall margin plus room for the largest side move
+    half = (max(cfg.recall_margin * max(w, h), cfg.min_recall_margin)
+            + 2 * max(cfg.step_factors) * cfg.step_size)
+    Wg = int(math.ceil((w + 2 * half) / c))
+    Hg = int(math.ceil((h + 2 * half) / c))
+    x0 = y0 = int(round(half / c))
+    R0 = np.array([x0, x0 + int(round(w / c)), y0, y0 + int(round(h / c))], np.int64)
+    cache = {}
+
+    def fit(thetas):
+        todo = [t for t in thetas if t not in cache]
+        if todo:
+            wins = []
+            for t in todo:
+                e1, e2 = _rotate_axes(g.e1, g.e2, math.radians(t))
+                u0, v0 = p @ e1 - 0.5 * w - half, p @ e2 - 0.5 * h - half
+                lab = _warp_labels(lab_img, K, g.o, e1, e2, u0, v0, c, (Hg, Wg))
+                wins.append((e1, e2, u0, v0, lab, _sat_cost(lab, lut)))
+            k = len(todo)
+            Rf, sc, _ = _greedy(np.stack([wn[5] for wn in wins]), np.tile([Hg, Wg], (k, 1)),
+                                np.arange(k), np.tile(R0, (k, 1)), np.tile(steps_cells, (k, 1)),
+                                np.full(k, min_cells), cfg.alpha, cfg.max_iterations)
+            for i, t in enumerate(todo):
+                e1, e2, u0, v0, lab, sat_cost = wins[i]
+                cache[t] = (float(sc[i]), (e1, e2, u0, v0, Rf[i], lab, sat_cost))
+        return [cache[t] for t in thetas]
+
+    theta = 0.0
+    best_score, best = fit([0.0])[0]
+    offsets = sorted({s * f * cfg.rotation_step_deg for f in cfg.step_factors for s in (1, -1)})
+    for _ in range(int(cfg.max_iterations)):
+        thetas = [round(theta + o, 9) for o in offsets]
+        res = fit(thetas)
+        i = int(np.argmax([r[0] for r in res]))
+        if res[i][0] > best_score + 1e-12 * abs(best_score):
+            best_score, best, theta = res[i][0], res[i][1], thetas[i]
+        else:
+            break
+    return best_score, best + (_sat_in(best[5]),)
+
+
+def _refit_plane(Pc, lab_img, center, e1, e2, w, h, K, n_old, L):
+    """Least-squares plane through the measured in-plane pixels inside the rectangle (shrunk
+    by 10 %), searched in the rectangle's image bounding box. None when too few."""
+    u, v, _ = _corners_px(center, e1, e2, w, h, K)
+    c0, c1 = int(max(0, np.floor(u.min()))), int(min(K.width, np.ceil(u.max()) + 1))
+    r0, r1 = int(max(0, np.floor(v.min()))), int(min(K.height, np.ceil(v.max()) + 1))
+    if c1 <= c0 or r1 <= r0:
+        return None
+    P = Pc[r0:r1, c0:c1].reshape(-1, 3)
+    lab = lab_img[r0:r1, c0:c1].reshape(-1)
+    P = P[lab == IN_PLANE].astype(np.float64)
+    if len(P) < 10:
+        return None
+    q = P - center
+    a, b = q @ e1, q @ e2
+    sel = (np.abs(a) <= 0.45 * w) & (np.abs(b) <= 0.45 * h)
+    if sel.sum() < 10:
+        return None
+    n, d = _fit_plane(P[sel])
+    if n @ n_old < math.cos(math.radians(10.0)):
+        return None
+    return n, d
+
+
+# ------------------------------------------------------------------------------------------
+# the detector
+# ------------------------------------------------------------------------------------------
+def _check_inputs(depth, K, X_WC):
+    if not isinstance(K, PinholeIntrinsics):
+        raise ValueError(f"detect_fronts: K must be a PinholeIntrinsics, got {type(K).__name__}")
+    d = np.asarray(depth)
+    if d.ndim == 3 and d.shape[2] == 1:
+        d = d[..., 0]
+    if d.shape != (K.height, K.width):
+        raise ValueError(f"detect_fronts: depth image has shape {np.asarray(depth).shape}, "
+                         f"expected ({K.height}, {K.width}) for these intrinsics")
+    if not np.issubdtype(d.dtype, np.number):
+        raise ValueError(f"detect_fronts: depth image must be numeric, got dtype {d.dtype}")
+    X = np.asarray(X_WC, float)
+    if X.shape != (4, 4) or not np.all(np.isfinite(X)):
+        raise ValueError(f"detect_fronts: X_WC must be a finite 4x4 matrix, got shape {X.shape}")
+    R = X[:3, :3]
+    if not np.allclose(R.T @ R, np.eye(3), atol=1e-6):
+        raise ValueError("detect_fronts: X_WC's rotation is not orthonormal")
+    return d.astype(np.float32, copy=False), X
+
+
+def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorConfig | None = None,
+                  rng: np.random.Generator | int | None = None, *, clock=time.perf_counter):
+    """Detect planar rectangles (cabinet fronts) in a depth image (thesis 5.1.1-5.1.2).
+
+    Args:
+        depth: (H, W) depth image, metres (NaN / 0 / inf = no measurement); (H, W, 1) accepted.
+        K: the camera's intrinsics; the image must be ``(K.height, K.width)``.
+        X_WC: (4, 4) camera pose in the world (Drake camera frame); None = identity (the
+            rectangles are then in the camera frame and "up" is the image's up).
+        config: :class:`FrontDetectorConfig` (default values when None).
+        rng: ``numpy.random.Generator`` or seed of the random starts and RANSAC samples.
+        clock: the timer of the stage timings (seconds): wall-clock by default;
+            ``time.thread_time`` gives the CPU time of the calling thread (what a benchmark on
+            a shared machine should compare).
+
+    Returns:
+        (rectangles, timings): a list of :class:`FrontRectangle` in the world frame (best first:
+        precision x recall), and the seconds spent per stage (keys ``planes``, ``masks``,
+        ``sampling``, ``optimisation``, ``check``, ``total``).
+
+    Raises:
+        ValueError: wrong image shape or type, bad intrinsics, pose or config. An image without
+            any measurement gives no rectangles.
+    """
+    t_start = clock()
+    cfg = config or FrontDetectorConfig()
+    cfg.validate()
+    d, X_WC = _check_inputs(depth, K, np.eye(4) if X_WC is None else X_WC)
+    rng = np.random.default_rng(rng)
+    timings = {s: 0.0 for s in STAGES}
+    out: list[FrontRectangle] = []
+
+    def finish():
+        timings["total"] = clock() - t_start
+        return out, timings
+
+    # --- planes --------------------------------------------------------------------------
+    t0 = clock()
+    valid = valid_depth_mask(d)
+    if not valid.any():
+        timings["planes"] = clock() - t0
+        return finish()
+    fx, fy = np.float32(1.0 / K.fx), np.float32(1.0 / K.fy)
+    xs = ((np.arange(K.width, dtype=np.float32) - np.float32(K.cx)) * fx)[None, :]
+    ys = ((np.arange(K.height, dtype=np.float32) - np.float32(K.cy)) * fy)[:, None]
+    dz = np.where(valid, d, np.float32(np.nan))
+    Pc = np.stack([xs * dz, ys * dz, dz], axis=-1)  # (H, W, 3) float32, NaN where invalid
+    st = int(cfg.ransac_stride_px)
+    off = st // 2
+    sub_valid = valid[off::st, off::st] & (d[off::st, off::st] <= cfg.max_depth)
+    grid_shape = sub_valid.shape
+    rr, cc = np.nonzero(sub_valid)
+    sample_pts = Pc[off::st, off::st][rr, cc].astype(np.float64)
+    planes = find_planes(sample_pts, np.column_stack([rr, cc]), grid_shape, cfg, rng)
+    dzero = np.where(valid, d, np.float32(0.0))
+    Limg = np.maximum(np.float32(cfg.inlier_distance),
+                      np.float32(cfg.inlier_distance_per_m2) * dzero * dzero)
+    planes = [refine_plane_fullres(pl, Pc, Limg, st, off) for pl in planes]
+    timings["planes"] = clock() - t0
+    if not planes:
+        return finish()
+
+    # --- masks ---------------------------------------------------------------------------
+    t0 = clock()
+    lut = np.zeros(256, np.uint8)
+    lut[:5] = np.round(255.0 * np.array([cfg.cost_in_plane, cfg.cost_free, cfg.cost_occluded,
+                                         cfg.cost_unknown, cfg.cost_free]))
+    down_C = X_WC[:3, :3].T @ np.array([0.0, 0.0, -1.0])
+    lab_imgs, grids = [], []
+    labels = _label_images(dzero, valid, xs, ys, planes, Limg, cfg.crossing_angle_deg,
+                           int(cfg.crossing_smooth_px))
+    for k, (pl, lab) in enumerate(zip(planes, labels)):
+        g = _make_grid(k, pl, lab, sample_pts, K, down_C, cfg, lut)
+        lab_imgs.append(lab)
+        if g is not None and (g.labels == IN_PLANE).any():
+            grids.append(g)
+    timings["masks"] = clock() - t0
+    if not grids:
+        return finish()
+
+    # --- sampling ------------------------------------------------------------------------
+    t0 = clock()
+    pid, R0, steps, min_cells = [], [], [], []
+    step_m = np.asarray(sorted(set(int(f) for f in cfg.step_factors)), float) * cfg.step_size
+    for gi, g in enumerate(grids):
+        cells = np.flatnonzero(g.labels.reshape(-1) == IN_PLANE)
+        m = int(cfg.starts_per_plane)
+        pick = cells[rng.integers(0, len(cells), m)]
+        ci, cj = np.divmod(pick, g.shape[1])
+        wh = rng.uniform(cfg.prior_size[0], cfg.prior_size[1], (m, 2)) / g.c
+        mc = max(1, int(math.ceil(cfg.min_side / g.c)))
+        wc = np.maximum(np.round(wh[:, 0]).astype(np.int64), mc)
+        hc = np.maximum(np.round(wh[:, 1]).astype(np.int64), mc)
+        x0 = np.clip(cj - wc // 2, 0, np.maximum(0, g.shape[1] - wc))
+        y0 = np.clip(ci - hc // 2, 0, np.maximum(0, g.shape[0] - hc))
+        R = np.column_stack([x0, np.minimum(x0 + wc, g.shape[1]), y0,
+                             np.minimum(y0 + hc, g.shape[0])])
+        pid.append(np.full(m, gi))
+        R0.append(R)
+        steps.append(np.tile(np.unique(np.maximum(1, np.round(step_m / g.c))).astype(np.int64),
+                             (m, 1)))
+        min_cells.append(np.full(m, mc))
+    pid = np.concatenate(pid)
+    R0 = np.concatenate(R0)
+    kmax = max(s.shape[1] for s in steps)
+    steps = np.concatenate([np.pad(s, ((0, 0), (0, kmax - s.shape[1])), mode="edge")
+                            for s in steps])
+    min_cells = np.concatenate(min_cells)
+    dims = np.array([g.shape for g in grids], np.int64)
+    SC = _stack([g.sat_cost for g in grids], [g.shape for g in grids])
+    timings["sampling"] = clock() - t0
+
+    # --- optimisation (side moves, all starts at once) -----------------------------------
+    t0 = clock()
+    R, score, _ = _greedy(SC, dims, pid, R0, steps, min_cells, cfg.alpha, cfg.max_iterations)
+    t_opt = clock() - t0
+
+    # --- check: precision / recall / border, duplicates, then rotation polish ------------
+    t0 = clock()
+    cands = []
+    for s in range(len(R)):
+        g = grids[pid[s]]
+        prec, rec = _precision_recall(g, R[s], cfg)
+        if prec < cfg.min_precision or rec < cfg.min_recall:
+            continue
+        center, e1, e2, w, h = _rect_camera(g, R[s])
+        if not _inside_border(center, e1, e2, w, h, K, cfg.border_margin_px):
+            continue
+        cands.append((prec * rec, s, center))
+    kept = _suppress(cands, lambda c: grids[pid[c[1]]].n, cfg)
+    t_chk = clock() - t0
+
+    t0 = clock()
+    polished = []
+    for _, s, _ in kept:
+        g = grids[pid[s]]
+        _, (e1, e2, u0, v0, Rf, lab, sat_cost, sat_in) = _polish_rotation(
+            g, R[s], lab_imgs[g.plane_index], K, cfg, lut)
+        polished.append((g, e1, e2, u0, v0, Rf, lab, sat_cost, sat_in))
+    t_opt += clock() - t0
+    timings["optimisation"] = t_opt
+
+    t0 = clock()
+    final = []
+    for g, e1, e2, u0, v0, Rf, lab, sat_cost, sat_in in polished:
+        gl = _Grid(g.plane_index, g.n, g.d, g.o, e1, e2, u0, v0, g.c, lab, sat_cost, sat_in)
+        prec, rec = _precision_recall(gl, Rf, cfg)
+        if prec < cfg.min_precision or rec < cfg.min_recall:
+            continue
+        center, e1, e2, w, h = _rect_camera(gl, Rf)
+        if not _inside_border(center, e1, e2, w, h, K, cfg.border_margin_px):
+            continue
+        n = g.n
+        if cfg.refine_plane:
+            fit = _refit_plane(Pc, lab_imgs[g.plane_index], center, e1, e2, w, h, K, g.n,
+                               cfg.inlier_distance)
+            if fit is not None:
+                n, dn = fit
+                center = center - (center @ n + dn) * n
+                e1 = e1 - (e1 @ n) * n
+                e1 /= np.linalg.norm(e1)
+        e2 = np.cross(n, e1)
+        X_CR = np.eye(4)
+        X_CR[:3, 0], X_CR[:3, 1], X_CR[:3, 2], X_CR[:3, 3] = e1, e2, n, center
+        final.append((prec * rec, n, center,
+                      FrontRectangle(X_WR=X_WC @ X_CR, width=float(w), height=float(h),
+                                     precision=float(prec), recall=float(rec))))
+    final = _suppress(final, lambda c: c[1], cfg)
+    out.extend(f[3] for f in final)
+    timings["check"] = t_chk + clock() - t0
+    return finish()
+
+
+def _suppress(cands, normal_of, cfg):
+    """Keep the best of candidates (score first, centre third element) whose centres are within
+    ``duplicate_distance`` and normals within ``duplicate_angle_deg``."""
+    cands = sorted(cands, key=lambda c: -c[0])
+    cos_max = math.cos(math.radians(cfg.duplicate_angle_deg))
+    kept = []
+    for c in cands:
+        dup = False
+        for k in kept:
+            if (np.linalg.norm(c[2] - k[2]) < cfg.duplicate_distance
+                    and abs(normal_of(c) @ normal_of(k)) > cos_max):
+                dup = True
+                break
+        if not dup:
+            kept.append(c)
+    return kept

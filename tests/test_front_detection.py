@@ -1,0 +1,243 @@
+"""FrontDetector model (thesis 5.1.1-5.1.2) on synthetic depth images rendered in numpy."""
+
+import math
+
+import numpy as np
+import pytest
+
+from mmlearn.models.front_detection import FrontDetectorConfig, detect_fronts
+from mmlearn.models.front_synth import (DOOR_SIZE, DRAWER_SIZE, PlanarPatch, add_depth_noise,
+                                        front_pose, kitchen_scene, look_at, pose_from_axes,
+                                        render_depth)
+from mmlearn.models.fronts import FrontRectangle, PinholeIntrinsics
+
+K = PinholeIntrinsics.from_fov(640, 480, 58.0)
+DOOR = DOOR_SIZE
+DRAWER = DRAWER_SIZE
+
+
+_front_pose = front_pose
+kitchen = kitchen_scene
+
+
+def _errors(rect: FrontRectangle, X_true):
+    """Position error (m) and orientation error (deg) up to the rectangle's 180-deg symmetry
+    about its normal (w != h here, so x is the width axis in both)."""
+    perr = float(np.linalg.norm(rect.center - X_true[:3, 3]))
+    best = 180.0
+    for flip in (np.diag([1, 1, 1.0]), np.diag([-1, -1, 1.0])):
+        R = X_true[:3, :3].T @ rect.X_WR[:3, :3] @ flip
+        ang = math.degrees(math.acos(np.clip((np.trace(R) - 1) / 2, -1, 1)))
+        best = min(best, ang)
+    return perr, best
+
+
+def _match(rects, X_true, size):
+    """The detected rectangle nearest to the true front, with its errors (or None)."""
+    if not rects:
+        return None
+    r = min(rects, key=lambda r: np.linalg.norm(r.center - X_true[:3, 3]))
+    perr, aerr = _errors(r, X_true)
+    return r, perr, aerr
+
+
+def _frame(fronts, cam_dist, view_deg, target, seed, height=1.3):
+    a = math.radians(view_deg)
+    cam = np.asarray(target) + cam_dist * np.array([math.cos(a), math.sin(a), 0.0])
+    cam[2] = height
+    X_WC = look_at(cam, target)
+    rng = np.random.default_rng(seed)
+    depth = add_depth_noise(render_depth(kitchen(fronts), K, X_WC), rng)
+    return depth, X_WC
+
+
+@pytest.mark.parametrize("dist,view,pull,seed", [(1.0, 0.0, 0.25, 1), (1.7, 25.0, 0.15, 2),
+                                                 (2.5, -15.0, 0.3, 3)])
+def test_door_found_with_cm_accuracy(dist, view, pull, seed):
+    X = _front_pose(0.62 + pull, 0.2, 0.6)
+    depth, X_WC = _frame([(DOOR, X, 0.02)], dist, view, X[:3, 3], seed)
+    rects, timings = detect_fronts(depth, K, X_WC, FrontDetectorConfig(), rng=seed)
+    m = _match(rects, X, DOOR)
+    assert m is not None, "no rectangle"
+    r, perr, aerr = m
+    assert perr < 0.01 and aerr < 2.0, (perr, aerr, r)
+    assert abs(r.width - DOOR[0]) < 0.02 and abs(r.height - DOOR[1]) < 0.02
+    assert r.precision >= 0.7 and r.recall >= 0.7
+    assert set(timings) >= {"planes", "masks", "sampling", "optimisation", "check", "total"}
+
+
+@pytest.mark.parametrize("dist,seed", [(1.2, 4), (2.2, 5)])
+def test_drawer_sized_front(dist, seed):
+    X = _front_pose(0.62 + 0.2, -0.1, 0.75)
+    depth, X_WC = _frame([(DRAWER, X, 0.02)], dist, 10.0, X[:3, 3], seed)
+    rects, _ = detect_fronts(depth, K, X_WC, FrontDetectorConfig(), rng=seed)
+    m = _match(rects, X, DRAWER)
+    assert m is not None
+    r, perr, aerr = m
+    assert perr < 0.01 and aerr < 2.0, (perr, aerr, r)
+    assert abs(r.width - DRAWER[0]) < 0.02 and abs(r.height - DRAWER[1]) < 0.02
+
+
+def test_two_fronts_both_found():
+    Xd = _front_pose(0.62 + 0.3, -0.3, 0.45)          # open door-sized front
+    Xw = _front_pose(0.62 + 0.12, 0.25, 0.75, 0.0)    # drawer, pulled out less
+    depth, X_WC = _frame([(DOOR, Xd, 0.02), (DRAWER, Xw, 0.02)], 1.8, 5.0, [0.8, 0.0, 0.6], 6)
+    rects, _ = detect_fronts(depth, K, X_WC, FrontDetectorConfig(), rng=6)
+    for X, size in ((Xd, DOOR), (Xw, DRAWER)):
+        m = _match(rects, X, size)
+        assert m is not None
+        r, perr, aerr = m
+        assert perr < 0.01 and aerr < 2.0, (size, perr, aerr)
+
+
+def test_wall_filling_the_view_gives_no_rectangle():
+    """Decision (module docstring): a rectangle touching the image border is not measured, so a
+    plain wall that fills the view gives none."""
+    wall = [PlanarPatch(pose_from_axes([0, 1, 0], [0, 0, -1], [1, 0, 0], [0, 0, 1.5]),
+                        np.inf, np.inf)]
+    X_WC = look_at([1.5, 0.2, 1.4], [0.0, 0.0, 1.3])
+    depth = add_depth_noise(render_depth(wall, K, X_WC), np.random.default_rng(7))
+    rects, _ = detect_fronts(depth, K, X_WC, FrontDetectorConfig(), rng=7)
+    assert rects == []
+
+
+def test_same_seed_same_result_and_world_frame():
+    X = _front_pose(0.85, 0.0, 0.6)
+    depth, X_WC = _frame([(DOOR, X, 0.02)], 1.5, 0.0, X[:3, 3], 8)
+    a, _ = detect_fronts(depth, K, X_WC, FrontDetectorConfig(), rng=3)
+    b, _ = detect_fronts(depth, K, X_WC, FrontDetectorConfig(), rng=3)
+    assert len(a) == len(b) > 0
+    for ra, rb in zip(a, b):
+        np.testing.assert_array_equal(ra.X_WR, rb.X_WR)
+    # z towards the camera, right-handed frame
+    r = _match(a, X, DOOR)[0]
+    assert (X_WC[:3, 3] - r.center) @ r.normal > 0
+    np.testing.assert_allclose(np.linalg.det(r.X_WR[:3, :3]), 1.0, atol=1e-9)
+
+
+@pytest.mark.parametrize("depth", [np.full((480, 640), np.nan), np.zeros((480, 640)),
+                                   np.full((480, 640), np.inf), -np.ones((480, 640)),
+                                   np.full((480, 640, 1), np.nan)])
+def test_images_without_measurements_give_no_rectangles(depth):
+    rects, timings = detect_fronts(depth, K, np.eye(4), FrontDetectorConfig(), rng=0)
+    assert rects == [] and timings["total"] >= 0
+
+
+def test_sparse_garbage_gives_no_crash():
+    rng = np.random.default_rng(0)
+    depth = np.full((480, 640), np.nan)
+    idx = rng.integers(0, depth.size, 50)
+    depth.flat[idx] = rng.uniform(0.5, 3.0, 50)
+    rects, _ = detect_fronts(depth, K, np.eye(4), FrontDetectorConfig(), rng=0)
+    assert isinstance(rects, list)
+
+
+@pytest.mark.parametrize("depth", [np.zeros((0, 0)), np.zeros((480, 641)), np.zeros((640, 480)),
+                                   np.zeros((480, 640, 3)), np.zeros(10)])
+def test_wrong_shape_is_a_clear_error(depth):
+    with pytest.raises(ValueError, match="shape"):
+        detect_fronts(depth, K, np.eye(4), FrontDetectorConfig(), rng=0)
+
+
+def test_bad_pose_and_config_are_clear_errors():
+    depth = np.ones((480, 640))
+    bad = np.eye(4)
+    bad[0, 3] = np.nan
+    with pytest.raises(ValueError, match="X_WC"):
+        detect_fronts(depth, K, bad, FrontDetectorConfig(), rng=0)
+    with pytest.raises(ValueError, match="inlier_distance"):
+        detect_fronts(depth, K, np.eye(4), FrontDetectorConfig(inlier_distance=-1.0), rng=0)
+    with pytest.raises(ValueError, match="prior_size"):
+        detect_fronts(depth, K, np.eye(4), FrontDetectorConfig(prior_size=[0.2]), rng=0)
+
+
+def test_config_loads_from_yaml_and_rejects_misspelled_keys():
+    from pydrake.common.yaml import yaml_load_typed
+    cfg = yaml_load_typed(schema=FrontDetectorConfig, data="inlier_distance: 0.01\n"
+                          "step_factors: [4, 2, 1]\n")
+    assert cfg.inlier_distance == 0.01 and cfg.step_factors == [4, 2, 1]
+    with pytest.raises(RuntimeError):
+        yaml_load_typed(schema=FrontDetectorConfig, data="inlier_distanc: 0.01\n")
+
+
+DATA = __import__("pathlib").Path(__file__).parent / "data" / "front_frames"
+
+
+@pytest.mark.parametrize("name", ["drawer_d1.8_a+0_f043", "door_d1.0_a+0_f022"])
+def test_rendered_drake_frames(name):
+    """Frames of the Drake kitchen scene with the DepthNoise model (tests/data/front_frames):
+    an open drawer at 1.8 m and a door opened 30 deg at 1 m (its hinge side crosses the
+    cabinet's face: the crossing strip must not widen it)."""
+    import json
+    meta = json.loads((DATA / f"{name}.json").read_text())
+    depth = np.load(DATA / f"{name}.npz")["depth_q"].astype(np.float32) / 4000.0
+    depth[depth == 0] = np.nan
+    K = PinholeIntrinsics(**meta["intrinsics"])
+    X = np.array(meta["X_WR"])
+    rects, _ = detect_fronts(depth, K, np.array(meta["X_WC"]), FrontDetectorConfig(), rng=0)
+    m = _match(rects, X, (meta["width"], meta["height"]))
+    assert m is not None
+    r, perr, aerr = m
+    assert perr < 0.01 and aerr < 2.0, (perr, aerr, r.width, r.height)
+    assert abs(r.width - meta["width"]) < 0.02 and abs(r.height - meta["height"]) < 0.02
+
+
+def test_mask_labels_follow_eq_5_2():
+    """Plane z = 2 m facing the camera: a pixel in front of it is occluded, behind it free,
+    within L in-plane, without a measurement unknown."""
+    from mmlearn.models.front_detection import (FREE, IN_PLANE, OCCLUDED, UNKNOWN, Plane,
+                                                _label_images)
+    d = np.array([[1.5, 2.0, 2.5, 0.0]], np.float32)
+    valid = np.array([[True, True, True, False]])
+    ray = np.zeros((1, 4), np.float32)
+    lab = _label_images(d, valid, ray, ray, [Plane(n=np.array([0, 0, -1.0]), d=2.0, support=1)],
+                        np.float32(0.02), 20.0)[0]
+    assert lab.tolist() == [[OCCLUDED, IN_PLANE, FREE, UNKNOWN]]
+
+
+def test_occluder_in_front_of_the_door_is_bridged():
+    """A hand-sized box (8 x 20 cm) 10 cm in front of the door's middle (the thesis' hand, Fig.
+    5.4): occluded pixels cost 0.2, so the rectangle still spans the whole door. (An occluder
+    crossing the whole front is a local maximum the greedy moves cannot cross unless a random
+    start straddles it.)"""
+    from mmlearn.models.front_synth import box_patches
+    X = _front_pose(0.85, 0.0, 0.6)
+    hand = pose_from_axes([1, 0, 0], [0, 1, 0], [0, 0, 1], [0.95, 0.03, 0.62])
+    patches = kitchen([(DOOR, X, 0.02)]) + box_patches(hand, [0.04, 0.08, 0.2])
+    X_WC = look_at([2.5, 0.0, 1.2], X[:3, 3])
+    depth = add_depth_noise(render_depth(patches, K, X_WC), np.random.default_rng(9))
+    rects, _ = detect_fronts(depth, K, X_WC, FrontDetectorConfig(), rng=9)
+    m = _match(rects, X, DOOR)
+    assert m is not None
+    r, perr, aerr = m
+    assert perr < 0.01 and aerr < 2.0, (perr, aerr, r.width, r.height)
+    assert abs(r.width - DOOR[0]) < 0.02 and abs(r.height - DOOR[1]) < 0.02
+
+
+def test_benchmark_runs_and_reports_stages():
+    """benchmarks/bench_front_detector.py on two synthetic frames (no Open3D, no shared
+    frames): it prints one JSON document with the stage times and the accuracy."""
+    import json
+    import subprocess
+    import sys
+    from pathlib import Path
+    script = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_front_detector.py"
+    out = subprocess.run([sys.executable, str(script), "--synthetic", "2", "--repeats", "1",
+                          "--frames-dir", "", "--no-open3d", "--json"], capture_output=True,
+                         text=True, timeout=300, check=True).stdout
+    rep = json.loads(out)["report"]["synthetic"]
+    assert set(rep["median_s"]) >= {"planes", "masks", "sampling", "optimisation", "check"}
+    assert rep["accuracy"]["frames"] == 2 and rep["accuracy"]["found"] == 2
+
+
+def test_front_leaving_the_view_is_not_reported():
+    """The door is taller than the view (camera 0.5 m away): its visible part touches the image
+    border, so it is not reported (its extent is not observed); no crash."""
+    X = _front_pose(0.85, 0.0, 0.6)
+    X_WC = look_at([1.35, 0.0, 0.6], X[:3, 3])
+    depth = add_depth_noise(render_depth(kitchen([(DOOR, X, 0.02)]), K, X_WC),
+                            np.random.default_rng(10))
+    rects, _ = detect_fronts(depth, K, X_WC, FrontDetectorConfig(), rng=10)
+    for r in rects:  # nothing where the door is
+        assert not (np.linalg.norm(r.center - X[:3, 3]) < 0.1
+                    and abs(r.normal @ X[:3, 2]) > math.cos(math.radians(10))), r
