@@ -252,3 +252,45 @@ def test_tracker_in_the_kitchen_scene_learns_the_true_joint(front):
     else:
         assert tm.selected == "prismatic"
         assert m.q_max[0] - m.q_min[0] == pytest.approx(0.30, abs=0.03)
+
+
+def test_detector_and_tracker_learn_the_door_from_depth_images():
+    """End to end: rendered noisy depth -> FrontDetector -> FrontTracker (door at 1.5 m)."""
+    from mmlearn.diagrams.perception import FrontPerceptionConfig, MakeFrontPerceptionDiagram
+    from mmlearn.systems import FrontDetector
+
+    parts = {}
+
+    def add(builder, p):
+        det = builder.AddNamedSystem("detector", FrontDetector(intrinsics=p.intrinsics, seed=1))
+        trk = builder.AddNamedSystem("tracker", FrontTracker(
+            config=FrontTrackerConfig(period_s=0.2)))
+        builder.Connect(p.ports["depth_image"], det.get_depth_image_input_port())
+        builder.Connect(p.ports["X_WC"], det.get_X_WC_input_port())
+        builder.Connect(det.get_rectangles_output_port(), trk.get_rectangles_input_port())
+        parts["tracker"] = trk
+
+    cfg = FrontPerceptionConfig(front="door", point_cloud=False)
+    cfg.camera.distance = 1.5
+    cfg.noise.seed = 1
+    d = MakeFrontPerceptionDiagram(cfg, add_systems=add)
+    sim = Simulator(d.diagram)
+    sim.AdvanceTo(d.duration)
+    trk = parts["tracker"]
+    ctx = trk.GetMyContextFromRoot(sim.get_context())
+    tracks = {t.track_id: t for t in trk.get_tracks_output_port().Eval(ctx)}
+    models = trk.get_models_output_port().Eval(ctx)
+    kin = d.kinematics
+    door = [k for k, t in tracks.items()
+            if abs(t.sizes[:, 0].mean() - kin.width) < 0.03 and models[k].selected == "revolute"]
+    assert len(door) == 1, {k: (models[k].selected, t.sizes.mean(0)) for k, t in tracks.items()}
+    m = models[door[0]].model
+    assert abs(float(np.dot(m.axis, kin.axis_W))) > np.cos(np.radians(3.0))
+    assert m.radius == pytest.approx(0.5 * kin.width, abs=0.03)
+    v = np.asarray(kin.point_W) - np.asarray(m.center)
+    assert np.linalg.norm(v - np.dot(v, m.axis) * np.asarray(m.axis)) < 0.04
+    # the still fronts and walls stay rigid; no track turns about another axis
+    for k, tm in models.items():
+        if tm.selected == "revolute":
+            assert abs(float(np.dot(tm.model.axis, kin.axis_W))) > np.cos(np.radians(5.0)), k
+    assert sum(tm.selected == "rigid" for tm in models.values()) >= 3

@@ -239,3 +239,13 @@ def test_a_door_seen_near_its_hinge_is_revolute_by_its_rotation():
     dr = simulate_front_rectangles("drawer", 40, rng=2)
     tm = fit_track_model(np.array([r.pose7() for r in align_track(dr)]), obs=obs, rng=0)
     assert tm.selected == "prismatic"
+
+
+def test_slivers_below_the_smallest_side_are_ignored():
+    strip = _rect([0.0, 0.0, 1.0], w=0.05, h=0.6)
+    st, res = track_frame(TrackingState(), [strip, _rect([1.0, 0.0, 1.0], w=0.4, h=0.125)], 0.0)
+    assert len(st.tracks) == 1 and st.num_ignored == 1 and res.track_ids == (-1, 0)
+    st, _ = track_frame(TrackingState(), [strip], 0.0, FrontTrackingConfig(min_side_m=0.0))
+    assert len(st.tracks) == 1 and st.num_ignored == 0
+    with pytest.raises(ValueError, match="min_side_m"):
+        FrontTrackingConfig(min_side_m=-0.1)
