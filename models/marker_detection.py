@@ -1,0 +1,303 @@
+"""ArUco marker detection and pose estimation in one colour image (OpenCV, no Drake systems).
+
+:func:`detect_marker_poses` finds the markers of an ArUco dictionary in an image
+(``cv2.aruco.ArucoDetector``, sub-pixel corner refinement) and estimates each marker's pose
+in the camera frame with ``cv2.solvePnPGeneric`` (``SOLVEPNP_IPPE_SQUARE``: the planar
+square solver, which returns the two mirror solutions of a square; the one with the smaller
+reprojection error is kept).
+
+Frames: the camera frame C is the OpenCV / Drake camera frame (x right, y down, z along the
+optical axis); the marker frame M has its origin at the marker's centre, x to the right of
+the printed marker, y up and z out of the printed face (towards a camera that sees it).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["DetectorConfig", "MarkerDetections", "detect_marker_poses", "make_detector"]
+
+_REFINE = {"edges": "CORNER_REFINE_SUBPIX", "subpix": "CORNER_REFINE_SUBPIX", "contour": "CORNER_REFINE_CONTOUR",
+           "apriltag": "CORNER_REFINE_APRILTAG", "none": "CORNER_REFINE_NONE"}
+
+
+@dataclass
+class DetectorConfig:
+    """How markers are detected and which detections are kept.
+
+    Attributes:
+        corner_refinement: "edges" (OpenCV's sub-pixel refinement, then
+            :func:`refine_corners_by_edges`: straight lines fitted to the sub-pixel
+            positions of the black border's outer edge, corners where they meet),
+            "subpix" (``cv2.cornerSubPix`` on the corners only), "contour", "apriltag" or
+            "none". OpenCV's own refinements leave the corners of small rendered markers
+            ~0.4 px inside the border (a 3 % scale error at 14-24 px, measured in
+            ``benchmarks/bench_camera_marker_sensor.py``); "edges" removes most of it.
+        refine_window_px: half size of the sub-pixel refinement window, pixels (OpenCV's
+            ``cornerRefinementWinSize``); keep it below half a module of the smallest
+            marker in the image.
+        refine_max_iterations: iterations of the corner refinement.
+        refine_min_accuracy: stop the refinement when a corner moves less, pixels.
+        min_side_px: detections whose mean side is shorter are dropped, pixels (their pose,
+            in particular the orientation, is too uncertain).
+        max_reprojection_px: detections whose RMS corner reprojection error after solvePnP
+            exceeds this are dropped, pixels.
+        min_border_px: detections with a corner closer than this to the image border are
+            dropped (a marker partly outside the image), pixels.
+    """
+
+    corner_refinement: str = "edges"
+    refine_window_px: int = 2
+    refine_max_iterations: int = 50
+    refine_min_accuracy: float = 0.01
+    min_side_px: float = 10.0
+    max_reprojection_px: float = 1.5
+    min_border_px: float = 2.0
+
+    def validate(self) -> None:
+        if self.corner_refinement not in _REFINE:
+            raise ValueError(f"DetectorConfig.corner_refinement must be one of "
+                             f"{sorted(_REFINE)}, got {self.corner_refinement!r}")
+        if not (isinstance(self.refine_window_px, int) and self.refine_window_px >= 1):
+            raise ValueError("DetectorConfig.refine_window_px must be an integer >= 1 "
+                             f"(pixels), got {self.refine_window_px!r}")
+        if not (isinstance(self.refine_max_iterations, int) and self.refine_max_iterations >= 1):
+            raise ValueError("DetectorConfig.refine_max_iterations must be an integer >= 1")
+        for k in ("refine_min_accuracy", "min_side_px", "max_reprojection_px",
+                  "min_border_px"):
+            v = getattr(self, k)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
+                raise ValueError(f"DetectorConfig.{k} must be a finite number >= 0 (pixels), "
+                                 f"got {v!r}")
+
+
+@dataclass
+class MarkerDetections:
+    """The markers found in one image.
+
+    Attributes:
+        ids: ArUco ids (n,), each at most once.
+        T_CM: marker poses in the camera frame (n, 4, 4), metres.
+        corners: refined image corners (n, 4, 2), pixels, in ArUco order (top-left,
+            top-right, bottom-right, bottom-left of the printed marker).
+        side_px: mean side length in the image (n,), pixels.
+        reprojection_px: RMS corner reprojection error of the kept solution (n,), pixels.
+    """
+
+    ids: np.ndarray
+    T_CM: np.ndarray
+    corners: np.ndarray
+    side_px: np.ndarray
+    reprojection_px: np.ndarray
+
+    def __len__(self) -> int:
+        return int(self.ids.size)
+
+    @staticmethod
+    def empty() -> "MarkerDetections":
+        return MarkerDetections(np.zeros(0, int), np.zeros((0, 4, 4)), np.zeros((0, 4, 2)),
+                                np.zeros(0), np.zeros(0))
+
+
+def make_detector(dictionary_name: str, config: DetectorConfig | None = None):
+    """A ``cv2.aruco.ArucoDetector`` for the dictionary with the configured refinement."""
+    import cv2
+
+    cfg = config or DetectorConfig()
+    cfg.validate()
+    if not (isinstance(dictionary_name, str) and dictionary_name.startswith("DICT_")
+            and hasattr(cv2.aruco, dictionary_name)):
+        raise ValueError(f"unknown ArUco dictionary {dictionary_name!r} (e.g. DICT_4X4_50)")
+    params = cv2.aruco.DetectorParameters()
+    params.cornerRefinementMethod = getattr(cv2.aruco, _REFINE[cfg.corner_refinement])
+    params.cornerRefinementWinSize = int(cfg.refine_window_px)
+    params.cornerRefinementMaxIterations = int(cfg.refine_max_iterations)
+    params.cornerRefinementMinAccuracy = float(cfg.refine_min_accuracy)
+    return cv2.aruco.ArucoDetector(
+        cv2.aruco.getPredefinedDictionary(getattr(cv2.aruco, dictionary_name)), params)
+
+
+def _grey(image) -> np.ndarray:
+    img = np.asarray(image)
+    if img.ndim == 3 and img.shape[2] in (3, 4):
+        if img.dtype != np.uint8:
+            raise ValueError(f"colour image must be uint8, got {img.dtype}")
+        rgb = img[..., :3].astype(np.float32)
+        return np.clip(rgb @ np.array([0.299, 0.587, 0.114], np.float32) + 0.5, 0,
+                       255).astype(np.uint8)
+    if img.ndim == 2 or (img.ndim == 3 and img.shape[2] == 1):
+        img = img.reshape(img.shape[0], img.shape[1])
+        if img.dtype != np.uint8:
+            raise ValueError(f"grey image must be uint8, got {img.dtype}")
+        return np.ascontiguousarray(img)
+    raise ValueError(f"image must be (H, W), (H, W, 3) or (H, W, 4), got shape {img.shape}")
+
+
+def detect_marker_poses(image, K, *, marker_size: float, detector,
+                        config: DetectorConfig | None = None,
+                        ids: "set[int] | None" = None) -> MarkerDetections:
+    """Detect markers in ``image`` and estimate their poses in the camera frame.
+
+    Args:
+        image: (H, W, 3|4) uint8 RGB(A) or (H, W) uint8 grey image.
+        K: (3, 3) pinhole intrinsic matrix, pixels (no lens distortion).
+        marker_size: outer edge of the markers' black border, m.
+        detector: from :func:`make_detector`.
+        config: the filters (min_side_px, max_reprojection_px, min_border_px).
+        ids: report only these ids (None = every id of the dictionary).
+
+    An id found more than once in the image is dropped altogether (the markers are unique,
+    so one of the detections is wrong and we cannot tell which).
+
+    Raises:
+        ValueError: on a malformed image, K or marker size.
+    """
+    import cv2
+
+    cfg = config or DetectorConfig()
+    grey = _grey(image)
+    K = np.asarray(K, float)
+    if K.shape != (3, 3) or not np.all(np.isfinite(K)) or K[0, 0] <= 0 or K[1, 1] <= 0:
+        raise ValueError(f"K must be a finite (3, 3) intrinsic matrix with positive focal "
+                         f"lengths, got {K!r}")
+    if not (math.isfinite(marker_size) and marker_size > 0):
+        raise ValueError(f"marker_size must be > 0 m, got {marker_size}")
+    h, w = grey.shape
+    if h < 8 or w < 8:
+        return MarkerDetections.empty()
+    corners, found, _ = detector.detectMarkers(grey)
+    if found is None or len(found) == 0:
+        return MarkerDetections.empty()
+    found = np.asarray(found).ravel().astype(int)
+    C = np.asarray(corners, float).reshape(-1, 4, 2)
+    if cfg.corner_refinement == "edges":
+        C = refine_corners_by_edges(grey, C)
+    keep = np.ones(found.size, bool)
+    if ids is not None:
+        keep &= np.isin(found, list(ids))
+    uniq, counts = np.unique(found, return_counts=True)
+    keep &= ~np.isin(found, uniq[counts > 1])
+    side = np.linalg.norm(C - np.roll(C, -1, axis=1), axis=2).mean(axis=1)
+    keep &= side >= cfg.min_side_px
+    b = cfg.min_border_px
+    keep &= np.all((C[..., 0] >= b) & (C[..., 0] <= w - 1 - b)
+                   & (C[..., 1] >= b) & (C[..., 1] <= h - 1 - b), axis=1)
+    s = 0.5 * marker_size
+    obj = np.array([[-s, s, 0], [s, s, 0], [s, -s, 0], [-s, -s, 0]], float)
+    out_ids, out_T, out_c, out_side, out_err = [], [], [], [], []
+    for i in np.flatnonzero(keep):
+        try:
+            n, rvecs, tvecs, errs = cv2.solvePnPGeneric(
+                obj, C[i], K, None, flags=cv2.SOLVEPNP_IPPE_SQUARE)
+        except cv2.error:
+            continue
+        if not n:
+            continue
+        errs = np.asarray(errs, float).ravel()
+        k = int(np.argmin(errs))
+        if not (np.isfinite(errs[k]) and errs[k] <= cfg.max_reprojection_px):
+            continue
+        R, _ = cv2.Rodrigues(np.asarray(rvecs[k], float))
+        t = np.asarray(tvecs[k], float).ravel()
+        if not (np.all(np.isfinite(R)) and np.all(np.isfinite(t))) or t[2] <= 0:
+            continue
+        T = np.eye(4)
+        T[:3, :3], T[:3, 3] = R, t
+        out_ids.append(found[i])
+        out_T.append(T)
+        out_c.append(C[i])
+        out_side.append(side[i])
+        out_err.append(errs[k])
+    if not out_ids:
+        return MarkerDetections.empty()
+    return MarkerDetections(np.array(out_ids, int), np.array(out_T), np.array(out_c),
+                            np.array(out_side), np.array(out_err))
+
+
+def refine_corners_by_edges(grey, corners, *, samples_per_px: float = 1.0,
+                            min_contrast: float = 25.0) -> np.ndarray:
+    """Refine marker corners by fitting lines to the outer edge of the black border.
+
+    For every side of every quad, intensity profiles are sampled (bilinear) across the side
+    at ``samples_per_px`` positions per pixel of its length (the middle 70 %, away from
+    the corners), from 0.45 modules inside to 0.75 modules outside (a module = side / 6 of a
+    4x4 marker, at least 0.8 px), where the profile crosses half-way between its darkest and
+    brightest value is the edge's sub-pixel position. A total-least-squares line through
+    those positions per side; the corners are the intersections of adjacent lines. A quad
+    with a side of fewer than 3 usable profiles (contrast below ``min_contrast`` grey levels)
+    keeps its corners.
+
+    Args:
+        grey: (H, W) uint8 image.
+        corners: (n, 4, 2) corners in pixels, in order around the quad.
+    Returns:
+        (n, 4, 2) refined corners.
+    """
+    import cv2
+
+    C = np.asarray(corners, float).reshape(-1, 4, 2)
+    n = C.shape[0]
+    if n == 0:
+        return C.copy()
+    img = np.asarray(grey, np.float32)
+    out = C.copy()
+    centre = C.mean(axis=1)  # (n, 2)
+    side = np.linalg.norm(C - np.roll(C, -1, axis=1), axis=2)  # (n, 4)
+    module = np.maximum(side.mean(axis=1) / 6.0, 0.8)  # px
+    J = 25
+    prof = np.linspace(-0.45, 0.75, J)  # offsets across the edge, modules (+ = outward)
+    for i in range(n):
+        lines = []
+        for s in range(4):
+            a, b = C[i, s], C[i, (s + 1) % 4]
+            d = b - a
+            L = float(np.linalg.norm(d))
+            if L < 3:
+                break
+            d /= L
+            nrm = np.array([-d[1], d[0]])
+            if np.dot(nrm, 0.5 * (a + b) - centre[i]) < 0:
+                nrm = -nrm
+            m = max(5, int(L * 0.7 * samples_per_px))
+            t = np.linspace(0.15, 0.85, m) * L
+            o = prof * module[i]
+            P = a[None, None, :] + t[:, None, None] * d + o[None, :, None] * nrm  # (m, J, 2)
+            vals = cv2.remap(img, P[..., 0].astype(np.float32), P[..., 1].astype(np.float32),
+                             cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+            lo, hi = vals.min(axis=1), vals.max(axis=1)
+            thr = 0.5 * (lo + hi)
+            up = (vals[:, :-1] < thr[:, None]) & (vals[:, 1:] >= thr[:, None])
+            ok = up.any(axis=1) & (hi - lo >= min_contrast)
+            # the crossing closest to the rough edge (offset 0)
+            cand = np.where(up, np.abs(0.5 * (o[:-1] + o[1:]))[None, :], np.inf)
+            j = np.argmin(cand, axis=1)
+            rows = np.arange(m)
+            v0, v1 = vals[rows, j], vals[rows, j + 1]
+            frac = np.clip((thr - v0) / np.maximum(v1 - v0, 1e-6), 0.0, 1.0)
+            off = o[j] + frac * (o[j + 1] - o[j])
+            pts = a + t[:, None] * d + off[:, None] * nrm
+            pts = pts[ok]
+            if len(pts) < 3:
+                break
+            mu = pts.mean(axis=0)
+            _, _, Vt = np.linalg.svd(pts - mu, full_matrices=False)
+            lines.append((mu, Vt[0]))
+        if len(lines) != 4:
+            continue
+        new = np.empty((4, 2))
+        good = True
+        for s in range(4):
+            (p1, d1), (p2, d2) = lines[(s - 1) % 4], lines[s]
+            A = np.column_stack([d1, -d2])
+            if abs(np.linalg.det(A)) < 1e-6:
+                good = False
+                break
+            u = np.linalg.solve(A, p2 - p1)
+            new[s] = p1 + u[0] * d1
+        # corner s is where side s-1 (corner s-1 -> s) meets side s (corner s -> s+1)
+        if good and np.all(np.isfinite(new)) and np.max(np.abs(new - C[i])) < 0.5 * module[i] + 1:
+            out[i] = new
+    return out

@@ -1,0 +1,276 @@
+"""CameraMarkerSensor: marker observations read from rendered colour images (ArUco).
+
+A drop-in alternative to :class:`~mmlearn.systems.marker_sensor.MarkerSensor`: the same
+``observations`` output (:class:`~mmlearn.systems.observations.MarkerObservations`) and
+``stats`` output, but the poses come from real images: one or more Drake ``RgbdSensor``
+colour images (RenderEngineVtk) of the scene whose marker squares carry ArUco textures
+(``mmlearn.diagrams.marker_camera.AddArucoMarkers``). Each frame, every image is searched
+with OpenCV's ArUco detector (sub-pixel corner refinement), each marker's pose in the camera
+frame comes from ``solvePnP`` (IPPE_SQUARE) and is taken to the world with the camera's pose.
+A marker seen by several cameras is taken from the camera in which it looks largest.
+
+There is no noise model: the noise is what rendering, pixel quantisation and the detector
+make of the geometry (see ``benchmarks/bench_camera_marker_sensor.py`` for its size against
+distance and viewing angle). Visibility is physical: a marker is reported when it is in some
+image, large enough, not cut by the image border and not occluded so that its pattern
+cannot be decoded. ``outlier`` is always False (the sensor cannot know).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from pydrake.common.value import AbstractValue
+from pydrake.math import RigidTransform, RotationMatrix
+from pydrake.systems.framework import EventStatus, LeafSystem
+from pydrake.systems.sensors import ImageRgba8U
+
+from mmlearn.models.marker_detection import (DetectorConfig, MarkerDetections,
+                                             detect_marker_poses, make_detector)
+from mmlearn.sdf.aruco import ArucoSpec
+
+from .marker_sensor import CameraConfig
+from .observations import MarkerObservations
+
+__all__ = ["CameraMarkerSensor", "CameraMarkerSensorConfig", "CameraView",
+           "default_marker_cameras"]
+
+
+def default_marker_cameras() -> list[CameraConfig]:
+    """Three cameras 2.0 m from the arm's base at 0, +120 and -120 degrees around it, 1.2 m
+    high, looking at (0, 0, 0.5) m: every marker normal in the horizontal plane is within
+    60 degrees of some camera's line of sight."""
+    cams = []
+    for a in (0.0, 2 * math.pi / 3, -2 * math.pi / 3):
+        cams.append(CameraConfig(position=[2.0 * math.cos(a), 2.0 * math.sin(a), 1.2],
+                                 look_at=[0.0, 0.0, 0.5], fov_x_deg=70.0, fov_y_deg=55.0,
+                                 max_range=6.0))
+    return cams
+
+
+@dataclass
+class CameraMarkerSensorConfig:
+    """Configuration of the camera marker sensor and of the cameras and textures the scene
+    adds for it (load with ``yaml_load_typed``).
+
+    Attributes:
+        bodies: parts whose markers are textured and reported (empty = every body of the
+            model instance with a ``<body>_marker`` frame).
+        rate_hz: frames per second (> 0); every frame renders every camera.
+        cameras: fixed cameras in the world. The image uses ``fov_y_deg`` (vertical field of
+            view, degrees) and the aspect ratio width / height (square pixels), so
+            ``fov_x_deg`` is not used; ``max_range`` is the far clipping distance, m.
+        width, height: image size, pixels. 1280 x 960: a 0.04 m marker 2.3 m away is
+            ~16 pixels (2.7 per module of a 4x4 marker) wide at fov_y 55 degrees, about the
+            smallest the detector decodes reliably (measured in the benchmark); at 640 x 480
+            it would be 8 pixels and go undetected beyond ~1.2 m.
+        near: near clipping distance, m.
+        aruco: the printed markers (dictionary, size, quiet zone).
+        detector: OpenCV detector settings and the filters of the detections.
+    """
+
+    bodies: list[str] = field(default_factory=list)
+    rate_hz: float = 10.0
+    cameras: list[CameraConfig] = field(default_factory=default_marker_cameras)
+    width: int = 1280
+    height: int = 960
+    near: float = 0.05
+    aruco: ArucoSpec = field(default_factory=ArucoSpec)
+    detector: DetectorConfig = field(default_factory=DetectorConfig)
+
+    def validate(self) -> None:
+        """Raise ValueError naming the first invalid field."""
+        if not (isinstance(self.rate_hz, (int, float)) and math.isfinite(self.rate_hz)
+                and self.rate_hz > 0):
+            raise ValueError(f"CameraMarkerSensorConfig: rate_hz must be > 0, got "
+                             f"{self.rate_hz!r}")
+        for k in ("width", "height"):
+            v = getattr(self, k)
+            if not (isinstance(v, int) and 16 <= v <= 8192):
+                raise ValueError(f"CameraMarkerSensorConfig: {k} must be an integer number of "
+                                 f"pixels in [16, 8192], got {v!r}")
+        if not self.cameras:
+            raise ValueError("CameraMarkerSensorConfig: cameras must not be empty")
+        if not (math.isfinite(self.near) and self.near > 0):
+            raise ValueError(f"CameraMarkerSensorConfig: near must be > 0 m, got {self.near}")
+        for i, cam in enumerate(self.cameras):
+            if not (0 < cam.fov_y_deg < 180):
+                raise ValueError(f"CameraMarkerSensorConfig: cameras[{i}].fov_y_deg must be "
+                                 f"in (0, 180) degrees, got {cam.fov_y_deg}")
+            if not cam.max_range > self.near:
+                raise ValueError(f"CameraMarkerSensorConfig: cameras[{i}].max_range must be "
+                                 f"> near ({self.near} m), got {cam.max_range}")
+            cam.pose()
+        self.aruco.validate()
+        self.detector.validate()
+
+    def intrinsics(self, cam: CameraConfig) -> np.ndarray:
+        """K (3, 3) of ``cam`` as Drake's ``CameraInfo(width, height, fov_y)`` builds it."""
+        f = 0.5 * self.height / math.tan(0.5 * math.radians(cam.fov_y_deg))
+        return np.array([[f, 0.0, self.width / 2 - 0.5], [0.0, f, self.height / 2 - 0.5],
+                         [0.0, 0.0, 1.0]])
+
+
+@dataclass
+class CameraView:
+    """One fixed colour camera as the sensor sees it.
+
+    Attributes:
+        X_WC: pose of the camera frame (x right, y down, z forward) in the world.
+        K: (3, 3) intrinsic matrix, pixels.
+        width, height: image size, pixels.
+    """
+
+    X_WC: RigidTransform
+    K: np.ndarray
+    width: int
+    height: int
+
+
+class CameraMarkerSensor(LeafSystem):
+    """Marker observations from ArUco detections in colour images.
+
+    .. pydrake_system::
+
+        name: CameraMarkerSensor
+        input_ports:
+        - color_image_0
+        - ...
+        - color_image_{k-1}
+        output_ports:
+        - observations
+        - stats
+
+    ``color_image_<i>`` takes an ``ImageRgba8U`` (an ``RgbdSensor``'s ``color_image``) of
+    camera ``cameras[i]``. ``observations`` is an abstract
+    :class:`~mmlearn.systems.observations.MarkerObservations` with one entry per name in
+    ``marker_ids``, refreshed at ``rate_hz`` (first frame at t = 0); ``stats`` is [frames,
+    marker observations, visible ones] since the start, as MarkerSensor's.
+
+    A camera image that is missing, of the wrong size or cannot be processed contributes no
+    detections (the frame still happens); the simulation never stops for it.
+    """
+
+    def __init__(self, *, marker_ids: list[str], aruco_ids: list[int],
+                 cameras: list[CameraView], config: CameraMarkerSensorConfig | None = None):
+        super().__init__()
+        cfg = config or CameraMarkerSensorConfig()
+        cfg.validate()
+        names = list(marker_ids)
+        ids = [int(i) for i in aruco_ids]
+        if not names:
+            raise ValueError("CameraMarkerSensor: marker_ids must not be empty")
+        if len(ids) != len(names):
+            raise ValueError(f"CameraMarkerSensor: {len(names)} marker_ids but {len(ids)} "
+                             "aruco_ids")
+        if len(set(ids)) != len(ids) or len(set(names)) != len(names):
+            raise ValueError("CameraMarkerSensor: marker_ids and aruco_ids must be unique")
+        if not cameras:
+            raise ValueError("CameraMarkerSensor: give at least one camera")
+        for i, cam in enumerate(cameras):
+            K = np.asarray(cam.K, float)
+            if K.shape != (3, 3) or not np.all(np.isfinite(K)):
+                raise ValueError(f"CameraMarkerSensor: cameras[{i}].K must be a finite (3, 3)")
+        self._cfg = cfg
+        self._names = names
+        self._ids = ids
+        self._slot = {a: k for k, a in enumerate(ids)}
+        self._cams = [CameraView(c.X_WC, np.asarray(c.K, float).copy(), int(c.width),
+                                 int(c.height)) for c in cameras]
+        # the textured plate lies `surface_offset` above the marker frame along its normal
+        self._X_QM = RigidTransform([0.0, 0.0, -cfg.aruco.surface_offset])
+        self._detector = make_detector(cfg.aruco.dictionary, cfg.detector)
+        self._images = [self.DeclareAbstractInputPort(
+            f"color_image_{i}", AbstractValue.Make(ImageRgba8U(c.width, c.height)))
+            for i, c in enumerate(self._cams)]
+        self._obs_index = self.DeclareAbstractState(AbstractValue.Make(MarkerObservations()))
+        self._stats_index = self.DeclareDiscreteState(3)
+        self.DeclarePeriodicUnrestrictedUpdateEvent(1.0 / cfg.rate_hz, 0.0, self._update)
+        self._out = self.DeclareAbstractOutputPort(
+            "observations", lambda: AbstractValue.Make(MarkerObservations()),
+            self._calc_observations, {self.abstract_state_ticket(self._obs_index)})
+        self._stats_out = self.DeclareStateOutputPort("stats", self._stats_index)
+
+    # -- ports ---------------------------------------------------------------------------
+    def get_color_image_input_port(self, i: int = 0):
+        if not 0 <= i < len(self._images):
+            raise IndexError(f"camera {i} of {len(self._images)}")
+        return self._images[i]
+
+    def get_observations_output_port(self):
+        return self._out
+
+    def get_stats_output_port(self):
+        return self._stats_out
+
+    @property
+    def marker_ids(self) -> list[str]:
+        return list(self._names)
+
+    @property
+    def aruco_ids(self) -> list[int]:
+        return list(self._ids)
+
+    @property
+    def cameras(self) -> list[CameraView]:
+        return list(self._cams)
+
+    # -- computation ---------------------------------------------------------------------
+    def detect(self, image, camera: int) -> MarkerDetections:
+        """Detections of this sensor's markers in ``image`` (H, W, 3|4) uint8 of camera
+        ``camera`` (poses in that camera's frame, at the textured plate's surface)."""
+        cam = self._cams[camera]
+        img = np.asarray(image)
+        if img.shape[:2] != (cam.height, cam.width):
+            raise ValueError(f"camera {camera}: image is {img.shape[1]}x{img.shape[0]}, "
+                             f"expected {cam.width}x{cam.height}")
+        return detect_marker_poses(img, cam.K, marker_size=self._cfg.aruco.marker_size,
+                                   detector=self._detector, config=self._cfg.detector,
+                                   ids=set(self._ids))
+
+    def observe(self, context, frame: int | None = None) -> MarkerObservations:
+        """Detect the markers in the current images of this system's ``context`` (renders
+        them when the inputs come from an RgbdSensor). ``frame`` is accepted for
+        compatibility with :meth:`MarkerSensor.observe` and ignored (no random draws)."""
+        m = len(self._names)
+        best = np.zeros(m)  # image size (px) of the detection kept per marker
+        poses = [RigidTransform() for _ in range(m)]
+        visible = np.zeros(m, bool)
+        for i, port in enumerate(self._images):
+            try:
+                if not port.HasValue(context):
+                    continue
+                det = self.detect(port.Eval(context).data, i)
+            except (ValueError, RuntimeError, TypeError):
+                continue  # a bad image: no detections from this camera in this frame
+            X_WC = self._cams[i].X_WC
+            for a, T, side in zip(det.ids, det.T_CM, det.side_px):
+                k = self._slot[int(a)]
+                if side <= best[k]:
+                    continue
+                X_CQ = RigidTransform(RotationMatrix(_orthonormal(T[:3, :3])), T[:3, 3])
+                poses[k] = X_WC @ X_CQ @ self._X_QM
+                best[k] = side
+                visible[k] = True
+        return MarkerObservations(time=context.get_time(), marker_ids=list(self._names),
+                                  poses=poses, visible=visible, outlier=np.zeros(m, bool))
+
+    def _update(self, context, state):
+        obs = self.observe(context)
+        state.get_mutable_abstract_state(self._obs_index).set_value(obs)
+        stats = state.get_mutable_discrete_state(self._stats_index)
+        stats.set_value(stats.get_value() + np.array([1.0, len(obs), obs.visible.sum()]))
+        return EventStatus.Succeeded()
+
+    def _calc_observations(self, context, output):
+        output.set_value(context.get_abstract_state(self._obs_index).get_value())
+
+
+def _orthonormal(R) -> np.ndarray:
+    """Nearest rotation matrix (Rodrigues output can be off by rounding)."""
+    U, _, Vt = np.linalg.svd(np.asarray(R, float))
+    D = np.diag([1.0, 1.0, np.sign(np.linalg.det(U @ Vt))])
+    return U @ D @ Vt
