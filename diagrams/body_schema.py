@@ -15,6 +15,7 @@ live in the plant (hidden joints of an arm built with ``failure_joints=True``, s
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 
@@ -28,6 +29,7 @@ from mmlearn.diagrams.scene import MakeSceneDiagram, Scene, SceneConfig
 from mmlearn.models.body_schema import SearchConfig
 from mmlearn.sdf.builders import arm_spec
 from mmlearn.systems.arm_failures import JointBlocker, PlantFailures
+from mmlearn.systems.camera_marker_sensor import CameraMarkerSensorConfig
 from mmlearn.systems.marker_sensor import MarkerSensorConfig
 from mmlearn.systems.motor_babbling import MotorBabbling
 from mmlearn.systems.schema_controller import SchemaController
@@ -58,6 +60,11 @@ class BodySchemaDiagramConfig:
         occlude: parts whose markers are never observed (e.g. ["x4"]).
         cameras: judge visibility with the scene's camera (field of view, facing, occlusion)
             instead of the random drop-out only (slower).
+        sensor: "ideal" (the MarkerSensor: true poses + Gaussian noise, drop-out) or
+            "camera" (ArUco markers read from rendered RGB images by a CameraMarkerSensor
+            configured by ``camera``; ``noise_pos`` / ``noise_orient`` then only set what
+            the learner assumes, and ``dropout`` / ``cameras`` are not used).
+        camera: the camera marker sensor (cameras, resolution, markers, detector).
         seed: seeds the sensor noise and the babbling targets.
         babble_period: s per babbling target; babble_hold: fraction of it resting there.
         babble_fraction: fraction of each joint range the targets come from (joints with
@@ -78,6 +85,8 @@ class BodySchemaDiagramConfig:
     dropout: float = 0.1
     occlude: list[str] = field(default_factory=list)
     cameras: bool = False
+    sensor: str = "ideal"
+    camera: CameraMarkerSensorConfig = field(default_factory=CameraMarkerSensorConfig)
     seed: int = 0
     babble_period: float = 1.0
     babble_hold: float = 0.6
@@ -92,6 +101,11 @@ class BodySchemaDiagramConfig:
 
     def validate(self) -> None:
         arm_spec(self.arm, tool=_default_tool(self.arm))
+        if self.sensor not in ("ideal", "camera"):
+            raise ValueError(f"BodySchemaDiagramConfig.sensor must be 'ideal' or 'camera', "
+                             f"got {self.sensor!r}")
+        if self.sensor == "camera":
+            self.camera.validate()
         for k in ("noise_pos", "noise_orient", "min_height", "search_min_pos",
                   "search_min_orient"):
             v = getattr(self, k)
@@ -307,16 +321,22 @@ def MakeBodySchemaDiagram(config: BodySchemaDiagramConfig | None = None, *, mesh
         if sensor.cameras is None:
             sensor = MarkerSensorConfig(**{**sensor.__dict__,
                                            "cameras": MarkerSensorConfig().cameras})
+        camera = (dataclasses.replace(cfg.camera, bodies=list(cfg.camera.bodies))
+                  if cfg.sensor == "camera" else None)
         scene_config = SceneConfig(arm=cfg.arm, cabinet=False, sensor=sensor,
-                                   failure_joints=cfg.failure_joints)
+                                   camera_sensor=camera, failure_joints=cfg.failure_joints)
     spec_parts = None
     if cfg.occlude:
-        probe = MakeSceneDiagram(scene_config)
+        probe = MakeSceneDiagram(dataclasses.replace(scene_config, camera_sensor=None))
         spec_parts = list(probe.sensor.marker_ids)
+        if scene_config.camera_sensor is not None and scene_config.camera_sensor.bodies:
+            spec_parts = list(scene_config.camera_sensor.bodies)
         unknown = [p for p in cfg.occlude if p not in spec_parts]
         if unknown:
             raise ValueError(f"occlude: unknown parts {unknown}; parts are {spec_parts}")
         scene_config.sensor.bodies = [p for p in spec_parts if p not in cfg.occlude]
+        if scene_config.camera_sensor is not None:
+            scene_config.camera_sensor.bodies = list(scene_config.sensor.bodies)
     scene = MakeSceneDiagram(scene_config, meshcat=meshcat)
     parts = list(scene.sensor.marker_ids)
     n = len(scene.command_names)

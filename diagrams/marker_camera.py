@@ -55,7 +55,8 @@ def AddArucoMarkers(plant, *, config: CameraMarkerSensorConfig, model_instance,
     ``<body>_marker`` frame). Call before ``plant.Finalize()``.
 
     The square (``config.aruco.plate_size`` m, marker in the middle) lies in the marker
-    frame's xy plane, ``config.aruco.surface_offset`` m above it; its perception properties
+    frame's xy plane, ``config.aruco.surface_offset`` m above it and turned by
+    ``config.aruco.in_plane_angle_deg`` about its normal; its perception properties
     carry the texture (Meshcat shows it as a plain white square: illustration ignores
     ``diffuse_map``). Marker k gets ArUco id ``config.aruco.first_id + k``.
 
@@ -69,7 +70,7 @@ def AddArucoMarkers(plant, *, config: CameraMarkerSensorConfig, model_instance,
     names = marker_bodies(plant, model_instance, bodies if bodies is not None else cfg.bodies)
     ids = cfg.aruco.ids(len(names))
     mesh = Mesh(str(quad_mesh()), cfg.aruco.plate_size)
-    X_MQ = RigidTransform([0.0, 0.0, cfg.aruco.surface_offset])
+    X_MQ = cfg.aruco.X_MQ()
     out = {}
     for name, aid in zip(names, ids):
         frame = plant.GetFrameByName(name + "_marker", model_instance)
@@ -111,12 +112,17 @@ def AddMarkerCameras(builder, scene_graph, *, config: CameraMarkerSensorConfig,
 
 
 def camera_views(rgbd_sensors, config: CameraMarkerSensorConfig) -> list[CameraView]:
-    """The :class:`CameraView` (pose and intrinsics) of each world-fixed RgbdSensor."""
+    """The :class:`CameraView` (pose and intrinsics) of each world-fixed RgbdSensor; the
+    principal point is shifted by ``config.principal_point_shift_px`` (the calibration of
+    the rendered images, see :class:`CameraMarkerSensorConfig`)."""
     views = []
     for s, cam in zip(rgbd_sensors, config.cameras):
         info = s.default_color_render_camera().core().intrinsics()
-        views.append(CameraView(X_WC=cam.pose(), K=np.asarray(info.intrinsic_matrix()),
-                                width=info.width(), height=info.height()))
+        K = np.array(info.intrinsic_matrix(), float)
+        K[0, 2] += config.principal_point_shift_px[0]
+        K[1, 2] += config.principal_point_shift_px[1]
+        views.append(CameraView(X_WC=cam.pose(), K=K, width=info.width(),
+                                height=info.height()))
     return views
 
 

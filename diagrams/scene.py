@@ -18,6 +18,7 @@ from mmlearn.sdf.builders import CabinetSpec, arm_sdf, arm_spec, cabinet_sdf, fl
 from mmlearn.sdf.mechanisms import MechanismSpec, mechanism_sdf
 from mmlearn.systems import GravityCompensation, JointFriction, MarkerSensor, \
     MarkerSensorConfig
+from mmlearn.systems.camera_marker_sensor import CameraMarkerSensor, CameraMarkerSensorConfig
 
 
 @dataclass
@@ -41,6 +42,10 @@ class SceneConfig:
         kp_base, kd_base: PD gains of the mobile base joints.
         gravity_compensation: add feed-forward gravity compensation of the arm.
         sensor: the MarkerSensor's configuration (``bodies`` empty = every part of the arm).
+        camera_sensor: when set, the markers are read from rendered images instead: ArUco
+            textures on the arm's marker squares, the configured RGB cameras and a
+            :class:`~mmlearn.systems.camera_marker_sensor.CameraMarkerSensor` (same
+            ``observations`` / ``marker_stats`` ports; ``sensor`` is then not used).
         failure_joints: add the arm's hidden failure joints (a bendable middle link and a
             tool part on hidden joints, see ``arm_sdf``); lock them with
             :class:`mmlearn.systems.arm_failures.PlantFailures` before simulating.
@@ -63,6 +68,7 @@ class SceneConfig:
     kd_base: float = 2000.0
     gravity_compensation: bool = True
     sensor: MarkerSensorConfig = field(default_factory=MarkerSensorConfig)
+    camera_sensor: CameraMarkerSensorConfig | None = None
     failure_joints: bool = False
 
     def validate(self) -> None:
@@ -87,6 +93,8 @@ class SceneConfig:
 class Scene:
     """What :func:`MakeSceneDiagram` built: the diagram and the parts a caller needs.
 
+    ``sensor`` is a MarkerSensor, or a CameraMarkerSensor when the scene was built with
+    ``camera_sensor`` (then ``cameras`` holds its RgbdSensors).
     ``command_names`` is the order of the diagram's ``command`` input port (commanded
     joint positions: the base's x, y, yaw first when there is a mobile base, then the arm's
     action signals q1, q2, ...); ``command_lower`` / ``command_upper`` are their limits.
@@ -98,13 +106,14 @@ class Scene:
     robot: object
     cabinet: object | None
     mechanism: object | None
-    sensor: MarkerSensor
+    sensor: MarkerSensor | CameraMarkerSensor
     visualizer: object | None
     command_names: list[str]
     command_lower: np.ndarray
     command_upper: np.ndarray
     arm_actions: list[str]
     joint_command: dict[str, int]
+    cameras: list = field(default_factory=list)
 
     def set_joint_positions(self, root_context, command) -> None:
         """Put the robot's joints at the commanded positions in the root context (e.g.
@@ -176,6 +185,11 @@ def MakeSceneDiagram(config: SceneConfig | None = None, *, meshcat=None):
         else:
             gains = PdControllerGains(p=cfg.kp_revolute, d=cfg.kd_revolute)
         act.set_controller_gains(gains)
+    markers = None
+    if cfg.camera_sensor is not None:
+        from mmlearn.diagrams.marker_camera import AddArucoMarkers
+
+        markers = AddArucoMarkers(plant, config=cfg.camera_sensor, model_instance=robot)
     plant.Finalize()
 
     # collisions: nothing within the robot or a piece of furniture, nothing with the floor
@@ -241,10 +255,18 @@ def MakeSceneDiagram(config: SceneConfig | None = None, *, meshcat=None):
         builder.Connect(friction.get_generalized_force_output_port(),
                         plant.get_applied_generalized_force_input_port())
 
-    sensor = builder.AddNamedSystem("marker_sensor", MarkerSensor(
-        plant=plant, config=cfg.sensor, model_instance=robot))
-    builder.Connect(plant.get_body_poses_output_port(), sensor.get_body_poses_input_port())
-    builder.Connect(scene_graph.get_query_output_port(), sensor.get_query_object_input_port())
+    cameras = []
+    if markers is not None:
+        from mmlearn.diagrams.marker_camera import AddCameraMarkerSensor
+
+        sensor, cameras = AddCameraMarkerSensor(builder, scene_graph, markers=markers,
+                                                config=cfg.camera_sensor)
+    else:
+        sensor = builder.AddNamedSystem("marker_sensor", MarkerSensor(
+            plant=plant, config=cfg.sensor, model_instance=robot))
+        builder.Connect(plant.get_body_poses_output_port(), sensor.get_body_poses_input_port())
+        builder.Connect(scene_graph.get_query_output_port(),
+                        sensor.get_query_object_input_port())
     builder.ExportOutput(sensor.get_observations_output_port(), "observations")
     builder.ExportOutput(sensor.get_stats_output_port(), "marker_stats")
     builder.ExportOutput(plant.get_state_output_port(robot), "robot_state")
@@ -262,4 +284,5 @@ def MakeSceneDiagram(config: SceneConfig | None = None, *, meshcat=None):
     return Scene(diagram=diagram, plant=plant, scene_graph=scene_graph, robot=robot,
                  cabinet=cabinet, mechanism=mechanism, sensor=sensor, visualizer=visualizer,
                  command_names=command_names, command_lower=lower, command_upper=upper,
-                 arm_actions=list(spec.actions), joint_command=joint_command)
+                 arm_actions=list(spec.actions), joint_command=joint_command,
+                 cameras=cameras)

@@ -47,6 +47,11 @@ class DetectorConfig:
             exceeds this are dropped, pixels.
         min_border_px: detections with a corner closer than this to the image border are
             dropped (a marker partly outside the image), pixels.
+        min_ambiguity_ratio: a square's pose from four corners has two solutions (the
+            marker tilted one way or the mirror way); detections whose worse solution does
+            not reproject at least this many times worse than the better one are dropped
+            (1 = keep all). Small, far markers are often ambiguous and then flip by tens of
+            degrees.
     """
 
     corner_refinement: str = "edges"
@@ -56,6 +61,7 @@ class DetectorConfig:
     min_side_px: float = 10.0
     max_reprojection_px: float = 1.5
     min_border_px: float = 2.0
+    min_ambiguity_ratio: float = 1.0
 
     def validate(self) -> None:
         if self.corner_refinement not in _REFINE:
@@ -67,7 +73,7 @@ class DetectorConfig:
         if not (isinstance(self.refine_max_iterations, int) and self.refine_max_iterations >= 1):
             raise ValueError("DetectorConfig.refine_max_iterations must be an integer >= 1")
         for k in ("refine_min_accuracy", "min_side_px", "max_reprojection_px",
-                  "min_border_px"):
+                  "min_border_px", "min_ambiguity_ratio"):
             v = getattr(self, k)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
                 raise ValueError(f"DetectorConfig.{k} must be a finite number >= 0 (pixels), "
@@ -85,6 +91,8 @@ class MarkerDetections:
             top-right, bottom-right, bottom-left of the printed marker).
         side_px: mean side length in the image (n,), pixels.
         reprojection_px: RMS corner reprojection error of the kept solution (n,), pixels.
+        ambiguity: reprojection error of the other solution over the kept one's (n,)
+            (large = unambiguous).
     """
 
     ids: np.ndarray
@@ -92,6 +100,7 @@ class MarkerDetections:
     corners: np.ndarray
     side_px: np.ndarray
     reprojection_px: np.ndarray
+    ambiguity: np.ndarray
 
     def __len__(self) -> int:
         return int(self.ids.size)
@@ -99,7 +108,7 @@ class MarkerDetections:
     @staticmethod
     def empty() -> "MarkerDetections":
         return MarkerDetections(np.zeros(0, int), np.zeros((0, 4, 4)), np.zeros((0, 4, 2)),
-                                np.zeros(0), np.zeros(0))
+                                np.zeros(0), np.zeros(0), np.zeros(0))
 
 
 def make_detector(dictionary_name: str, config: DetectorConfig | None = None):
@@ -187,7 +196,7 @@ def detect_marker_poses(image, K, *, marker_size: float, detector,
                    & (C[..., 1] >= b) & (C[..., 1] <= h - 1 - b), axis=1)
     s = 0.5 * marker_size
     obj = np.array([[-s, s, 0], [s, s, 0], [s, -s, 0], [-s, -s, 0]], float)
-    out_ids, out_T, out_c, out_side, out_err = [], [], [], [], []
+    out_ids, out_T, out_c, out_side, out_err, out_amb = [], [], [], [], [], []
     for i in np.flatnonzero(keep):
         try:
             n, rvecs, tvecs, errs = cv2.solvePnPGeneric(
@@ -200,6 +209,10 @@ def detect_marker_poses(image, K, *, marker_size: float, detector,
         k = int(np.argmin(errs))
         if not (np.isfinite(errs[k]) and errs[k] <= cfg.max_reprojection_px):
             continue
+        other = np.delete(errs, k)
+        amb = float(other.min() / max(errs[k], 1e-9)) if other.size else np.inf
+        if amb < cfg.min_ambiguity_ratio:
+            continue
         R, _ = cv2.Rodrigues(np.asarray(rvecs[k], float))
         t = np.asarray(tvecs[k], float).ravel()
         if not (np.all(np.isfinite(R)) and np.all(np.isfinite(t))) or t[2] <= 0:
@@ -211,10 +224,11 @@ def detect_marker_poses(image, K, *, marker_size: float, detector,
         out_c.append(C[i])
         out_side.append(side[i])
         out_err.append(errs[k])
+        out_amb.append(amb)
     if not out_ids:
         return MarkerDetections.empty()
     return MarkerDetections(np.array(out_ids, int), np.array(out_T), np.array(out_c),
-                            np.array(out_side), np.array(out_err))
+                            np.array(out_side), np.array(out_err), np.array(out_amb))
 
 
 def refine_corners_by_edges(grey, corners, *, samples_per_px: float = 1.0,

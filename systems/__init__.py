@@ -6,6 +6,7 @@ Import the systems from here, e.g. ``from mmlearn.systems import MarkerSensor``.
 from .arm_failures import JointBlocker, PlantFailures
 from .articulation_estimator import ArticulationEstimator
 from .base_localization import BaseLocalization, BaseLocalizationConfig
+from .camera_marker_sensor import CameraMarkerSensor, CameraMarkerSensorConfig
 from .depth_noise import DepthNoise
 from .epc_controller import EpcConfig, EpcController, EpcTask
 from .front_detector import FrontDetector
@@ -29,6 +30,8 @@ __all__ = [
     "BaseLocalization",
     "BaseLocalizationConfig",
     "CameraConfig",
+    "CameraMarkerSensor",
+    "CameraMarkerSensorConfig",
     "DepthNoise",
     "EpcConfig",
     "EpcController",

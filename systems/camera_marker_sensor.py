@@ -39,15 +39,16 @@ __all__ = ["CameraMarkerSensor", "CameraMarkerSensorConfig", "CameraView",
            "default_marker_cameras"]
 
 
-def default_marker_cameras() -> list[CameraConfig]:
-    """Three cameras 2.0 m from the arm's base at 0, +120 and -120 degrees around it, 1.2 m
-    high, looking at (0, 0, 0.5) m: every marker normal in the horizontal plane is within
-    60 degrees of some camera's line of sight."""
+def default_marker_cameras(radius: float = 2.0, height: float = 1.2,
+                           look_at_height: float = 0.5) -> list[CameraConfig]:
+    """Three cameras ``radius`` m from the arm's base at 0, +120 and -120 degrees around it,
+    ``height`` m high, looking at (0, 0, ``look_at_height``) m: every marker normal in the
+    horizontal plane is within 60 degrees of some camera's line of sight."""
     cams = []
     for a in (0.0, 2 * math.pi / 3, -2 * math.pi / 3):
-        cams.append(CameraConfig(position=[2.0 * math.cos(a), 2.0 * math.sin(a), 1.2],
-                                 look_at=[0.0, 0.0, 0.5], fov_x_deg=70.0, fov_y_deg=55.0,
-                                 max_range=6.0))
+        cams.append(CameraConfig(position=[radius * math.cos(a), radius * math.sin(a), height],
+                                 look_at=[0.0, 0.0, look_at_height], fov_x_deg=70.0,
+                                 fov_y_deg=55.0, max_range=6.0))
     return cams
 
 
@@ -63,11 +64,21 @@ class CameraMarkerSensorConfig:
         cameras: fixed cameras in the world. The image uses ``fov_y_deg`` (vertical field of
             view, degrees) and the aspect ratio width / height (square pixels), so
             ``fov_x_deg`` is not used; ``max_range`` is the far clipping distance, m.
-        width, height: image size, pixels. 1280 x 960: a 0.04 m marker 2.3 m away is
-            ~16 pixels (2.7 per module of a 4x4 marker) wide at fov_y 55 degrees, about the
-            smallest the detector decodes reliably (measured in the benchmark); at 640 x 480
-            it would be 8 pixels and go undetected beyond ~1.2 m.
+        width, height: image size, pixels. 1920 x 1440: the arms' 0.04 m markers seen from
+            the default cameras 2 m away are 20-28 pixels wide (3.5-4.5 px per module of a
+            4x4 marker) at fov_y 55 degrees. Measured on 25 random 2-DOF arm poses
+            (``benchmarks/bench_camera_marker_sensor.py --arm``): at 1280 x 960 (~16 px) the
+            median position error per part was 5-55 mm with 5-17 % of the orientations
+            wrong by > 20 degrees; at 1920 x 1440, 5-6 mm and <= 6 %. At 640 x 480 the
+            markers (8 px) are not decoded beyond ~1.2 m. The price: ~0.25 s to render one
+            1920 x 1440 image here (CPU OpenGL), ~0.05 s to detect.
         near: near clipping distance, m.
+        principal_point_shift_px: calibration of the rendered cameras: added to the
+            principal point (cx, cy) of Drake's ``CameraInfo`` before detection, pixels.
+            RenderEngineVtk's images are offset by half a pixel from the principal point
+            ``CameraInfo`` documents (w/2 - 0.5, h/2 - 0.5): marker corners land at
+            -0.50 +- 0.01 px in x and y at 640, 1280 and 1920 px wide images
+            (``benchmarks/bench_camera_marker_sensor.py --calibrate`` measures it).
         aruco: the printed markers (dictionary, size, quiet zone).
         detector: OpenCV detector settings and the filters of the detections.
     """
@@ -75,11 +86,12 @@ class CameraMarkerSensorConfig:
     bodies: list[str] = field(default_factory=list)
     rate_hz: float = 10.0
     cameras: list[CameraConfig] = field(default_factory=default_marker_cameras)
-    width: int = 1280
-    height: int = 960
+    width: int = 1920
+    height: int = 1440
     near: float = 0.05
+    principal_point_shift_px: list[float] = field(default_factory=lambda: [-0.5, -0.5])
     aruco: ArucoSpec = field(default_factory=ArucoSpec)
-    detector: DetectorConfig = field(default_factory=DetectorConfig)
+    detector: DetectorConfig = field(default_factory=lambda: DetectorConfig(min_side_px=12.0))
 
     def validate(self) -> None:
         """Raise ValueError naming the first invalid field."""
@@ -94,6 +106,10 @@ class CameraMarkerSensorConfig:
                                  f"pixels in [16, 8192], got {v!r}")
         if not self.cameras:
             raise ValueError("CameraMarkerSensorConfig: cameras must not be empty")
+        if not (len(self.principal_point_shift_px) == 2
+                and all(math.isfinite(v) and abs(v) < 10 for v in self.principal_point_shift_px)):
+            raise ValueError("CameraMarkerSensorConfig: principal_point_shift_px must be two "
+                             f"finite pixel offsets below 10, got {self.principal_point_shift_px}")
         if not (math.isfinite(self.near) and self.near > 0):
             raise ValueError(f"CameraMarkerSensorConfig: near must be > 0 m, got {self.near}")
         for i, cam in enumerate(self.cameras):
@@ -108,10 +124,12 @@ class CameraMarkerSensorConfig:
         self.detector.validate()
 
     def intrinsics(self, cam: CameraConfig) -> np.ndarray:
-        """K (3, 3) of ``cam`` as Drake's ``CameraInfo(width, height, fov_y)`` builds it."""
+        """K (3, 3) the detector uses for ``cam``: Drake's ``CameraInfo(width, height,
+        fov_y)`` with the principal point shifted by ``principal_point_shift_px``."""
         f = 0.5 * self.height / math.tan(0.5 * math.radians(cam.fov_y_deg))
-        return np.array([[f, 0.0, self.width / 2 - 0.5], [0.0, f, self.height / 2 - 0.5],
-                         [0.0, 0.0, 1.0]])
+        dx, dy = self.principal_point_shift_px
+        return np.array([[f, 0.0, self.width / 2 - 0.5 + dx],
+                         [0.0, f, self.height / 2 - 0.5 + dy], [0.0, 0.0, 1.0]])
 
 
 @dataclass
@@ -180,8 +198,8 @@ class CameraMarkerSensor(LeafSystem):
         self._slot = {a: k for k, a in enumerate(ids)}
         self._cams = [CameraView(c.X_WC, np.asarray(c.K, float).copy(), int(c.width),
                                  int(c.height)) for c in cameras]
-        # the textured plate lies `surface_offset` above the marker frame along its normal
-        self._X_QM = RigidTransform([0.0, 0.0, -cfg.aruco.surface_offset])
+        # the textured plate Q lies above the marker frame M, turned about its normal
+        self._X_QM = cfg.aruco.X_MQ().inverse()
         self._detector = make_detector(cfg.aruco.dictionary, cfg.detector)
         self._images = [self.DeclareAbstractInputPort(
             f"color_image_{i}", AbstractValue.Make(ImageRgba8U(c.width, c.height)))
