@@ -14,6 +14,7 @@ the joint configuration, ``parts`` and ``joints`` names.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -199,3 +200,90 @@ SCENARIOS = {"two_drawer_cabinet": cabinet_scenario,
              "yardstick_closed": lambda **kw: yardstick_scenario(True, **kw),
              "table": table_scenario, "car_door": car_door_scenario,
              "garage_door": garage_door_scenario}
+
+
+# ------------------------------------------------------------------ camera observations
+def auto_cameras(poses_true, *, fov_y_deg: float = 55.0, aspect: float = 4 / 3,
+                 min_distance: float = 1.0, fill: float = 0.7):
+    """One camera that sees every marker of a track: on the side the markers face on
+    average (the mean of their normals over the track; straight above when they cancel),
+    far enough that the markers' spread fills at most ``fill`` of the smaller half field of
+    view, at least ``min_distance`` m; looking at the markers' centroid.
+
+    Args:
+        poses_true: (p, T, 7) true marker poses of the track.
+    Returns:
+        [CameraConfig].
+    """
+    from mmlearn.systems.marker_sensor import CameraConfig
+
+    P = np.asarray(poses_true, float)
+    pts = P[..., :3].reshape(-1, 3)
+    normals = Rotation.from_quat(P[..., 3:].reshape(-1, 4)).as_matrix()[:, :, 2]
+    c = pts.mean(axis=0)
+    n = normals.mean(axis=0)
+    if np.linalg.norm(n) < 0.2:
+        n = np.array([0.0, 0.0, 1.0])
+    n /= np.linalg.norm(n)
+    # nudge a vertical view off the world's up axis (CameraConfig keeps +z up in the image)
+    if abs(n[2]) > 0.98:
+        n = np.array([0.15, 0.0, 1.0]) / np.linalg.norm([0.15, 0.0, 1.0])
+    radius = float(np.max(np.linalg.norm(pts - c, axis=1))) + 0.05
+    half = math.radians(fov_y_deg) / 2
+    dist = max(min_distance, radius / (fill * math.tan(half)))
+    return [CameraConfig(position=list(c + dist * n), look_at=list(c), fov_y_deg=fov_y_deg,
+                         fov_x_deg=math.degrees(2 * math.atan(aspect * math.tan(half))),
+                         max_range=dist + radius + 1.0)]
+
+
+class ObjectCamera:
+    """An object's marker squares with ArUco textures, rendered by RGB cameras and read by a
+    :class:`~mmlearn.systems.camera_marker_sensor.CameraMarkerSensor`; ``observe(q)``
+    returns the camera's (p, T, 7) poses of the parts' markers (NaN rows where a marker was
+    not detected)."""
+
+    def __init__(self, name: str, config):
+        from pydrake.multibody.plant import AddMultibodyPlantSceneGraph
+        from pydrake.systems.framework import DiagramBuilder
+
+        from mmlearn.diagrams.marker_camera import AddArucoMarkers, AddCameraMarkerSensor
+
+        self.name = name
+        builder = DiagramBuilder()
+        plant, sg = AddMultibodyPlantSceneGraph(builder, time_step=1e-3)
+        self.instance, _ = add_object(plant, name)
+        self.parts = object_parts(name)
+        markers = AddArucoMarkers(plant, config=config, model_instance=self.instance,
+                                  bodies=self.parts)
+        plant.Finalize()
+        self.sensor, self.rgbd = AddCameraMarkerSensor(builder, sg, markers=markers,
+                                                       config=config)
+        self.diagram = builder.Build()
+        self.plant = plant
+        self.context = self.diagram.CreateDefaultContext()
+
+    def observe(self, q, *, progress=None) -> np.ndarray:
+        q = np.atleast_2d(np.asarray(q, float))
+        pc = self.plant.GetMyMutableContextFromRoot(self.context)
+        sc = self.sensor.GetMyContextFromRoot(self.context)
+        out = np.full((len(self.parts), q.shape[0], 7), np.nan)
+        rows = range(q.shape[0]) if progress is None else progress(range(q.shape[0]))
+        for t in rows:
+            self.plant.SetPositions(pc, self.instance, q[t])
+            out[:, t] = self.sensor.observe(sc).as_array()
+        return out
+
+
+def camera_track(track: ObjectTrack, config=None, *, progress=None) -> ObjectTrack:
+    """The same motion observed by the camera marker sensor instead of the Gaussian noise
+    model: ``poses`` are the ArUco detections in rendered images (NaN where a marker was not
+    detected), ``poses_true`` and ``q`` unchanged. ``config``: a CameraMarkerSensorConfig
+    (default: 1920 x 1440 images, one camera placed by :func:`auto_cameras`)."""
+    from mmlearn.systems.camera_marker_sensor import CameraMarkerSensorConfig
+
+    if config is None:
+        config = CameraMarkerSensorConfig(cameras=auto_cameras(track.poses_true))
+    cam = ObjectCamera(track.name, config)
+    poses = cam.observe(track.q, progress=progress)
+    return ObjectTrack(track.name, list(track.parts), list(track.joints), poses,
+                       track.poses_true.copy(), track.q.copy())

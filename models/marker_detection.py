@@ -11,7 +11,6 @@ optical axis); the marker frame M has its origin at the marker's centre, x to th
 the printed marker, y up and z out of the printed face (towards a camera that sees it).
 """
 
-from __future__ import annotations
 
 import math
 from dataclasses import dataclass
@@ -20,8 +19,9 @@ import numpy as np
 
 __all__ = ["DetectorConfig", "MarkerDetections", "detect_marker_poses", "make_detector"]
 
-_REFINE = {"edges": "CORNER_REFINE_SUBPIX", "subpix": "CORNER_REFINE_SUBPIX", "contour": "CORNER_REFINE_CONTOUR",
-           "apriltag": "CORNER_REFINE_APRILTAG", "none": "CORNER_REFINE_NONE"}
+_REFINE = {"edges": "CORNER_REFINE_SUBPIX", "subpix": "CORNER_REFINE_SUBPIX",
+           "contour": "CORNER_REFINE_CONTOUR", "apriltag": "CORNER_REFINE_APRILTAG",
+           "none": "CORNER_REFINE_NONE"}
 
 
 @dataclass

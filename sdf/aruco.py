@@ -26,7 +26,6 @@ cache folder: ``$MMLEARN_CACHE`` if set, else ``~/.cache/mmlearn``, else the sys
 folder; they are written atomically (temp file + rename), so parallel processes may share it.
 """
 
-from __future__ import annotations
 
 import math
 import os

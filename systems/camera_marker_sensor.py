@@ -16,7 +16,6 @@ image, large enough, not cut by the image border and not occluded so that its pa
 cannot be decoded. ``outlier`` is always False (the sensor cannot know).
 """
 
-from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field

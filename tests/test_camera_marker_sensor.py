@@ -1,0 +1,202 @@
+"""CameraMarkerSensor: ArUco textures rendered by an RgbdSensor, detected and located
+(short 640x480 renders)."""
+
+import math
+
+import numpy as np
+import pytest
+
+from pydrake.math import RigidTransform, RotationMatrix, RollPitchYaw
+
+from mmlearn.diagrams.marker_camera import MarkerRig
+from mmlearn.models.marker_detection import (DetectorConfig, detect_marker_poses,
+                                             make_detector)
+from mmlearn.sdf.aruco import ArucoSpec, marker_image
+from mmlearn.systems.camera_marker_sensor import CameraMarkerSensorConfig
+from mmlearn.systems.marker_sensor import CameraConfig
+
+# camera at (0, 0, 1) looking along +x: camera x = -world y, camera y = -world z
+CAM = CameraConfig(position=[0.0, 0.0, 1.0], look_at=[1.0, 0.0, 1.0], fov_y_deg=55.0,
+                   max_range=10.0)
+
+
+def _config(**kw):
+    return CameraMarkerSensorConfig(cameras=[CAM], width=640, height=480, **kw)
+
+
+@pytest.fixture(scope="module")
+def rig():
+    r = MarkerRig(_config(), n_markers=2)
+    return r, r.diagram.CreateDefaultContext()
+
+
+def _facing(p_W, tilt=(0.0, 0.0, 0.0)):
+    """A marker at p_W whose normal points back at the camera (-x), tilted by rpy."""
+    R = RotationMatrix(np.column_stack([[0, -1, 0], [0, 0, 1], [-1, 0, 0]]))
+    return RigidTransform(R @ RotationMatrix(RollPitchYaw(*tilt)), p_W)
+
+
+def _errors(X, X_true):
+    dp = float(np.linalg.norm(X.translation() - X_true.translation()))
+    da = math.degrees((X_true.rotation().inverse() @ X.rotation()).ToAngleAxis().angle())
+    return dp, da
+
+
+FAR = _facing([-5.0, 0.0, 1.0])  # behind the camera: out of view
+
+
+def test_texture_decodes_and_pose_of_a_synthetic_image():
+    """The generated texture is a valid marker of its id (no rendering): pasted face-on into
+    an image, the pose is recovered at the depth that K and its size imply."""
+    spec = ArucoSpec()
+    img = marker_image(spec, 7)
+    canvas = np.full((480, 640), 128, np.uint8)
+    h = img.shape[0]
+    canvas[100:100 + h, 200:200 + h] = img
+    marker_px = h * spec.marker_size / spec.plate_size
+    f = 500.0
+    K = np.array([[f, 0, 319.5], [0, f, 239.5], [0, 0, 1]])
+    det = detect_marker_poses(canvas, K, marker_size=spec.marker_size,
+                              detector=make_detector(spec.dictionary), ids={7})
+    assert det.ids.tolist() == [7]
+    z = det.T_CM[0, 2, 3]
+    assert z == pytest.approx(f * spec.marker_size / marker_px, rel=0.01)
+    assert abs(det.side_px[0] - marker_px) < 0.3
+    # an id we do not look for is not reported
+    det = detect_marker_poses(canvas, K, marker_size=spec.marker_size,
+                              detector=make_detector(spec.dictionary), ids={3})
+    assert len(det) == 0
+
+
+def test_marker_detected_at_known_pose(rig):
+    r, ctx = rig
+    for p, tilt in (([0.6, 0.05, 1.02], (0.3, 0.0, 0.4)), ([0.8, -0.1, 0.95], (0.0, -0.5, 1.2))):
+        X = _facing(p, tilt)
+        r.set_poses(ctx, [X, FAR])
+        obs = r.observe(ctx)
+        assert obs.marker_ids == ["m0", "m1"]
+        assert obs.visible.tolist() == [True, False]
+        dp, da = _errors(obs.poses[0], X)
+        assert dp < 0.006, dp
+        assert da < 3.0, da
+
+
+def test_no_marker_in_view_gives_an_empty_frame(rig):
+    r, ctx = rig
+    # one behind the camera, one in view but turned away (its back faces the camera)
+    away = RigidTransform(RotationMatrix.MakeYRotation(math.pi / 2), [0.7, 0.0, 1.0])
+    r.set_poses(ctx, [FAR, away])
+    obs = r.observe(ctx)
+    assert not obs.visible.any()
+    assert obs.as_array().shape == (2, 7) and np.isnan(obs.as_array()).all()
+
+
+def test_marker_partly_outside_the_image_is_not_reported(rig):
+    r, ctx = rig
+    # 0.6 m away the half-width of the view is 0.6 * tan(fov_x / 2) = 0.41 m; the plate
+    # centred on the image's left border is cut in half
+    half_w = 0.6 * math.tan(math.radians(55.0) / 2) * 640 / 480
+    X = _facing([0.6, half_w, 1.0])
+    r.set_poses(ctx, [X, FAR])
+    assert not r.observe(ctx).visible[0]
+    # fully inside near the border: reported, and right
+    X = _facing([0.6, half_w - 0.06, 1.0])
+    r.set_poses(ctx, [X, FAR])
+    obs = r.observe(ctx)
+    assert obs.visible[0]
+    assert _errors(obs.poses[0], X)[0] < 0.006
+
+
+def test_occluded_marker_is_not_reported_or_reported_right(rig):
+    r, ctx = rig
+    X = _facing([0.8, 0.0, 1.0])
+    # the second carrier (0.10 m box) 0.2 m in front, shifted sideways by s: covers part
+    for s, must_hide in ((0.0, True), (0.05, None), (0.075, None), (0.2, False)):
+        occluder = _facing([0.6, s * 0.6 / 0.8 + 0.0, 1.0], (0.0, math.pi, 0.0))
+        r.set_poses(ctx, [X, occluder])
+        obs = r.observe(ctx)
+        if must_hide:
+            assert not obs.visible[0]
+        if must_hide is False:
+            assert obs.visible[0]
+        if obs.visible[0]:
+            assert _errors(obs.poses[0], X)[0] < 0.01
+
+
+def test_bad_images_never_raise(rig):
+    """A wrongly sized or blank image is no detection; the frame still happens."""
+    from pydrake.common.value import AbstractValue
+    from pydrake.systems.sensors import ImageRgba8U
+
+    r, _ = rig
+    sensor = r.sensor
+    ctx = sensor.CreateDefaultContext()
+    sensor.get_color_image_input_port(0).FixValue(ctx, AbstractValue.Make(ImageRgba8U(10, 7)))
+    obs = sensor.observe(ctx)
+    assert len(obs) == 2 and not obs.visible.any()
+    sensor.get_color_image_input_port(0).FixValue(
+        ctx, AbstractValue.Make(ImageRgba8U(640, 480)))
+    assert not sensor.observe(ctx).visible.any()
+    with pytest.raises(ValueError, match="shape"):
+        detect_marker_poses(np.zeros((4, 4, 2), np.uint8), np.eye(3), marker_size=0.04,
+                            detector=make_detector("DICT_4X4_50"))
+    with pytest.raises(ValueError, match="uint8"):
+        detect_marker_poses(np.full((40, 40), np.nan), np.eye(3), marker_size=0.04,
+                            detector=make_detector("DICT_4X4_50"))
+
+
+def test_config_errors_name_the_field(tmp_path):
+    from pydrake.common.yaml import yaml_load_typed
+
+    with pytest.raises(ValueError, match="width"):
+        CameraMarkerSensorConfig(width=0).validate()
+    with pytest.raises(ValueError, match="marker_size"):
+        CameraMarkerSensorConfig(aruco=ArucoSpec(marker_size=float("nan"))).validate()
+    with pytest.raises(ValueError, match="dictionary"):
+        CameraMarkerSensorConfig(aruco=ArucoSpec(dictionary="DICT_9X9")).validate()
+    with pytest.raises(ValueError, match="corner_refinement"):
+        DetectorConfig(corner_refinement="magic").validate()
+    with pytest.raises(ValueError, match="cameras"):
+        CameraMarkerSensorConfig(cameras=[]).validate()
+    f = tmp_path / "c.yaml"
+    f.write_text("widht: 640\n")
+    with pytest.raises(RuntimeError, match="widht"):
+        yaml_load_typed(schema=CameraMarkerSensorConfig, filename=str(f))
+    f.write_text("width: 800\nheight: 600\naruco: {marker_size: 0.05}\n")
+    cfg = yaml_load_typed(schema=CameraMarkerSensorConfig, filename=str(f))
+    cfg.validate()
+    assert (cfg.width, cfg.aruco.marker_size) == (800, 0.05)
+
+
+def test_body_schema_diagram_with_camera_sensor_runs():
+    """The body-schema diagram with the camera sensor (one 640x480 camera, closer): the
+    learner's observations come from it, a few steps simulate, the base's marker is seen
+    where the plant has it."""
+    from pydrake.systems.analysis import Simulator
+
+    from mmlearn.diagrams.body_schema import BodySchemaDiagramConfig, MakeBodySchemaDiagram
+
+    cam = CameraMarkerSensorConfig(
+        cameras=[CameraConfig(position=[1.0, 0.0, 0.6], look_at=[0.0, 0.0, 0.4],
+                              fov_y_deg=55.0, max_range=5.0)], width=640, height=480)
+    bs = MakeBodySchemaDiagram(BodySchemaDiagramConfig(arm="2dof", sensor="camera",
+                                                       camera=cam))
+    assert type(bs.scene.sensor).__name__ == "CameraMarkerSensor"
+    sim = Simulator(bs.diagram)
+    root = sim.get_mutable_context()
+    bs.prepare(root)
+    sim.AdvanceTo(0.25)
+    obs = bs.diagram.GetOutputPort("observations").Eval(root)
+    assert obs.marker_ids == bs.parts
+    assert obs.time == pytest.approx(0.2)
+    stats = bs.diagram.GetOutputPort("marker_stats").Eval(root)
+    assert stats[0] == 3  # frames at t = 0, 0.1, 0.2
+    assert stats[2] >= 3  # the base x1 at least, in every frame
+    plant = bs.scene.plant
+    X_true = plant.GetFrameByName("x1_marker", bs.scene.robot).CalcPoseInWorld(
+        plant.GetMyContextFromRoot(root))
+    assert obs.visible[bs.parts.index("x1")]
+    dp, da = _errors(obs.poses[bs.parts.index("x1")], X_true)
+    assert dp < 0.01 and da < 5.0
+    with pytest.raises(ValueError, match="sensor"):
+        MakeBodySchemaDiagram(BodySchemaDiagramConfig(arm="2dof", sensor="laser"))
