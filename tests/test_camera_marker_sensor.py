@@ -200,3 +200,35 @@ def test_body_schema_diagram_with_camera_sensor_runs():
     assert dp < 0.01 and da < 5.0
     with pytest.raises(ValueError, match="sensor"):
         MakeBodySchemaDiagram(BodySchemaDiagramConfig(arm="2dof", sensor="laser"))
+
+
+def test_object_track_through_the_camera():
+    """A short open-yardstick track observed by a camera placed by auto_cameras: the seen
+    markers are where the plant has them, unseen ones are NaN rows, the truth is kept."""
+    from mmlearn.diagrams.object_tracks import auto_cameras, camera_track, yardstick_scenario
+
+    tr = yardstick_scenario(False, 4, rng=3)
+    cams = auto_cameras(tr.poses_true)
+    assert np.all(np.isfinite(cams[0].position))
+    ct = camera_track(tr, CameraMarkerSensorConfig(cameras=cams, width=960, height=720))
+    assert ct.poses.shape == tr.poses.shape and np.array_equal(ct.poses_true, tr.poses_true)
+    seen = ~np.isnan(ct.poses[..., 0])
+    assert seen.mean() >= 0.75
+    assert np.all(np.isnan(ct.poses[~seen]))
+    err = np.linalg.norm(ct.poses[seen][:, :3] - tr.poses_true[seen][:, :3], axis=1)
+    assert np.median(err) < 0.005 and err.max() < 0.03
+
+
+@pytest.mark.parametrize("mod", ["learn_body_schema", "structure_experiments"])
+def test_apps_take_the_sensor_flag(mod, capsys):
+    import importlib
+
+    main = importlib.import_module(f"mmlearn.apps.{mod}").main
+    with pytest.raises(SystemExit) as e:
+        main(["--help"])
+    assert e.value.code == 0
+    assert "--sensor {ideal,camera}" in capsys.readouterr().out
+    with pytest.raises(SystemExit) as e:
+        main(["--sensor", "kinect"])
+    assert e.value.code == 2
+    assert "invalid choice: 'kinect'" in capsys.readouterr().err
