@@ -93,6 +93,8 @@ class MarkerDetections:
         reprojection_px: RMS corner reprojection error of the kept solution (n,), pixels.
         ambiguity: reprojection error of the other solution over the kept one's (n,)
             (large = unambiguous).
+        T_CM_other: the other (mirror) solution of each marker (n, 4, 4); a copy of T_CM
+            where the solver returned only one.
     """
 
     ids: np.ndarray
@@ -101,6 +103,11 @@ class MarkerDetections:
     side_px: np.ndarray
     reprojection_px: np.ndarray
     ambiguity: np.ndarray
+    T_CM_other: np.ndarray = None
+
+    def __post_init__(self):
+        if self.T_CM_other is None:
+            self.T_CM_other = np.array(self.T_CM, float, copy=True)
 
     def __len__(self) -> int:
         return int(self.ids.size)
@@ -196,7 +203,7 @@ def detect_marker_poses(image, K, *, marker_size: float, detector,
                    & (C[..., 1] >= b) & (C[..., 1] <= h - 1 - b), axis=1)
     s = 0.5 * marker_size
     obj = np.array([[-s, s, 0], [s, s, 0], [s, -s, 0], [-s, -s, 0]], float)
-    out_ids, out_T, out_c, out_side, out_err, out_amb = [], [], [], [], [], []
+    out_ids, out_T, out_c, out_side, out_err, out_amb, out_T2 = [], [], [], [], [], [], []
     for i in np.flatnonzero(keep):
         try:
             n, rvecs, tvecs, errs = cv2.solvePnPGeneric(
@@ -219,16 +226,25 @@ def detect_marker_poses(image, K, *, marker_size: float, detector,
             continue
         T = np.eye(4)
         T[:3, :3], T[:3, 3] = R, t
+        T2 = T.copy()
+        if other.size:
+            k2 = int(np.argsort(errs)[1])
+            R2, _ = cv2.Rodrigues(np.asarray(rvecs[k2], float))
+            t2 = np.asarray(tvecs[k2], float).ravel()
+            if np.all(np.isfinite(R2)) and np.all(np.isfinite(t2)):
+                T2[:3, :3], T2[:3, 3] = R2, t2
         out_ids.append(found[i])
         out_T.append(T)
         out_c.append(C[i])
         out_side.append(side[i])
         out_err.append(errs[k])
         out_amb.append(amb)
+        out_T2.append(T2)
     if not out_ids:
         return MarkerDetections.empty()
     return MarkerDetections(np.array(out_ids, int), np.array(out_T), np.array(out_c),
-                            np.array(out_side), np.array(out_err), np.array(out_amb))
+                            np.array(out_side), np.array(out_err), np.array(out_amb),
+                            np.array(out_T2))
 
 
 def refine_corners_by_edges(grey, corners, *, samples_per_px: float = 1.0,

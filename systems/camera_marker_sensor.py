@@ -7,7 +7,10 @@ colour images (RenderEngineVtk) of the scene whose marker squares carry ArUco te
 (``mmlearn.diagrams.marker_camera.AddArucoMarkers``). Each frame, every image is searched
 with OpenCV's ArUco detector (sub-pixel corner refinement), each marker's pose in the camera
 frame comes from ``solvePnP`` (IPPE_SQUARE) and is taken to the world with the camera's pose.
-A marker seen by several cameras is taken from the camera in which it looks largest.
+A marker seen by several cameras: the two solutions of each camera (a small square's pose is
+ambiguous between two mirror tilts) are matched across the cameras, the best agreeing
+choice is used (from the camera in which the marker looks largest), and a marker whose
+cameras disagree by more than ``max_disagreement_deg`` is not reported.
 
 There is no noise model: the noise is what rendering, pixel quantisation and the detector
 make of the geometry (see ``benchmarks/bench_camera_marker_sensor.py`` for its size against
@@ -17,6 +20,7 @@ cannot be decoded. ``outlier`` is always False (the sensor cannot know).
 """
 
 
+import itertools
 import math
 from dataclasses import dataclass, field
 
@@ -78,6 +82,9 @@ class CameraMarkerSensorConfig:
             ``CameraInfo`` documents (w/2 - 0.5, h/2 - 0.5): marker corners land at
             -0.50 +- 0.01 px in x and y at 640, 1280 and 1920 px wide images
             (``benchmarks/bench_camera_marker_sensor.py --calibrate`` measures it).
+        max_disagreement_deg: a marker seen by several cameras is reported only when one
+            of the two pose solutions (the square's mirror ambiguity) per camera agree in
+            orientation within this angle, degrees; the agreeing solution is used.
         aruco: the printed markers (dictionary, size, quiet zone).
         detector: OpenCV detector settings and the filters of the detections.
     """
@@ -89,6 +96,7 @@ class CameraMarkerSensorConfig:
     height: int = 1440
     near: float = 0.05
     principal_point_shift_px: list[float] = field(default_factory=lambda: [-0.5, -0.5])
+    max_disagreement_deg: float = 10.0
     aruco: ArucoSpec = field(default_factory=ArucoSpec)
     detector: DetectorConfig = field(default_factory=lambda: DetectorConfig(min_side_px=12.0))
 
@@ -109,6 +117,11 @@ class CameraMarkerSensorConfig:
                 and all(math.isfinite(v) and abs(v) < 10 for v in self.principal_point_shift_px)):
             raise ValueError("CameraMarkerSensorConfig: principal_point_shift_px must be two "
                              f"finite pixel offsets below 10, got {self.principal_point_shift_px}")
+        if not (isinstance(self.max_disagreement_deg, (int, float))
+                and math.isfinite(self.max_disagreement_deg)
+                and 0 < self.max_disagreement_deg <= 180):
+            raise ValueError("CameraMarkerSensorConfig: max_disagreement_deg must be in "
+                             f"(0, 180] degrees, got {self.max_disagreement_deg!r}")
         if not (math.isfinite(self.near) and self.near > 0):
             raise ValueError(f"CameraMarkerSensorConfig: near must be > 0 m, got {self.near}")
         for i, cam in enumerate(self.cameras):
@@ -253,9 +266,7 @@ class CameraMarkerSensor(LeafSystem):
         them when the inputs come from an RgbdSensor). ``frame`` is accepted for
         compatibility with :meth:`MarkerSensor.observe` and ignored (no random draws)."""
         m = len(self._names)
-        best = np.zeros(m)  # image size (px) of the detection kept per marker
-        poses = [RigidTransform() for _ in range(m)]
-        visible = np.zeros(m, bool)
+        cands = [[] for _ in range(m)]  # per marker: (image side px, [X_WM, X_WM mirror])
         for i, port in enumerate(self._images):
             try:
                 if not port.HasValue(context):
@@ -264,16 +275,45 @@ class CameraMarkerSensor(LeafSystem):
             except (ValueError, RuntimeError, TypeError):
                 continue  # a bad image: no detections from this camera in this frame
             X_WC = self._cams[i].X_WC
-            for a, T, side in zip(det.ids, det.T_CM, det.side_px):
-                k = self._slot[int(a)]
-                if side <= best[k]:
-                    continue
-                X_CQ = RigidTransform(RotationMatrix(_orthonormal(T[:3, :3])), T[:3, 3])
-                poses[k] = X_WC @ X_CQ @ self._X_QM
-                best[k] = side
-                visible[k] = True
+            for a, T, T2, side in zip(det.ids, det.T_CM, det.T_CM_other, det.side_px):
+                sols = [X_WC @ RigidTransform(RotationMatrix(_orthonormal(S[:3, :3])),
+                                              S[:3, 3]) @ self._X_QM for S in (T, T2)]
+                cands[self._slot[int(a)]].append((float(side), sols))
+        poses = [RigidTransform() for _ in range(m)]
+        visible = np.zeros(m, bool)
+        for k, c in enumerate(cands):
+            X = self._fuse(c)
+            if X is not None:
+                poses[k], visible[k] = X, True
         return MarkerObservations(time=context.get_time(), marker_ids=list(self._names),
                                   poses=poses, visible=visible, outlier=np.zeros(m, bool))
+
+    def _fuse(self, cands):
+        """One pose from the detections of a marker in several cameras (None = not seen).
+
+        One camera: its better solution. Several: the choice of one of the two solutions per
+        camera whose orientations agree best (smallest largest pairwise angle); if even those
+        differ by more than ``max_disagreement_deg`` the marker is not reported; else the
+        chosen pose of the camera in which the marker is largest."""
+        if not cands:
+            return None
+        if len(cands) == 1:
+            return cands[0][1][0]
+        cands = sorted(cands, key=lambda c: -c[0])[:3]
+        R = [[np.asarray(X.rotation().matrix()) for X in c[1]] for c in cands]
+        best, best_choice = np.inf, None
+        for choice in itertools.product((0, 1), repeat=len(cands)):
+            worst = 0.0
+            for a, b in itertools.combinations(range(len(cands)), 2):
+                M = R[a][choice[a]].T @ R[b][choice[b]]
+                worst = max(worst, math.acos(float(np.clip((np.trace(M) - 1) / 2, -1, 1))))
+            # prefer each camera's better solution when the agreement is the same
+            key = worst + 1e-6 * sum(choice)
+            if key < best:
+                best, best_choice = key, choice
+        if best > math.radians(self._cfg.max_disagreement_deg):
+            return None
+        return cands[0][1][best_choice[0]]
 
     def _update(self, context, state):
         obs = self.observe(context)

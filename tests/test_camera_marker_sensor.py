@@ -232,3 +232,19 @@ def test_apps_take_the_sensor_flag(mod, capsys):
         main(["--sensor", "kinect"])
     assert e.value.code == 2
     assert "invalid choice: 'kinect'" in capsys.readouterr().err
+
+
+def test_cameras_that_disagree_are_resolved_by_the_mirror_solutions(rig):
+    """Two cameras: camera A's better solution is the mirror-flipped one, its other
+    solution agrees with camera B -> the agreeing pose is reported; when no choice agrees
+    within max_disagreement_deg, the marker is not reported."""
+    r, _ = rig
+    true = RigidTransform(RollPitchYaw(0.1, 0.2, 0.3), [1.0, 0.0, 1.0])
+    flip = RigidTransform(RollPitchYaw(0.1, -0.5, 0.3), [1.01, 0.0, 1.0])
+    near = RigidTransform(RollPitchYaw(0.1, 0.22, 0.3), [1.002, 0.0, 1.0])
+    other = RigidTransform(RollPitchYaw(0.6, 0.2, 0.3), [1.0, 0.0, 1.0])
+    X = r.sensor._fuse([(30.0, [flip, near]), (20.0, [true, other])])
+    assert X is not None and _errors(X, near)[1] < 1e-6
+    assert r.sensor._fuse([(30.0, [flip, flip]), (20.0, [true, true])]) is None
+    assert _errors(r.sensor._fuse([(30.0, [flip, near])]), flip)[1] < 1e-6
+    assert r.sensor._fuse([]) is None
