@@ -27,7 +27,8 @@ from mmlearn.sdf.aruco import marker_texture, quad_mesh
 from mmlearn.systems.camera_marker_sensor import (CameraMarkerSensor,
                                                   CameraMarkerSensorConfig, CameraView)
 
-__all__ = ["AddArucoMarkers", "AddMarkerCameras", "AddCameraMarkerSensor", "RENDERER"]
+__all__ = ["AddArucoMarkers", "AddMarkerCameras", "AddCameraMarkerSensor", "MarkerRig",
+           "camera_views", "marker_bodies", "RENDERER"]
 
 #: Name of the RenderEngineVtk the marker cameras use.
 RENDERER = "mmlearn_marker_vtk"

@@ -48,10 +48,11 @@ class DetectorConfig:
         min_border_px: detections with a corner closer than this to the image border are
             dropped (a marker partly outside the image), pixels.
         min_ambiguity_ratio: a square's pose from four corners has two solutions (the
-            marker tilted one way or the mirror way); detections whose worse solution does
-            not reproject at least this many times worse than the better one are dropped
-            (1 = keep all). Small, far markers are often ambiguous and then flip by tens of
-            degrees.
+            marker tilted one way or the mirror way); a detection whose worse solution does
+            not reproject at least this many times worse than the better one, while the two
+            differ by more than ``ambiguity_angle_deg`` in orientation, is dropped (1 = keep
+            all). Small, far markers are often ambiguous and then flip by tens of degrees.
+        ambiguity_angle_deg: see ``min_ambiguity_ratio``, degrees.
     """
 
     corner_refinement: str = "edges"
@@ -62,6 +63,7 @@ class DetectorConfig:
     max_reprojection_px: float = 1.5
     min_border_px: float = 2.0
     min_ambiguity_ratio: float = 1.0
+    ambiguity_angle_deg: float = 10.0
 
     def validate(self) -> None:
         if self.corner_refinement not in _REFINE:
@@ -73,7 +75,7 @@ class DetectorConfig:
         if not (isinstance(self.refine_max_iterations, int) and self.refine_max_iterations >= 1):
             raise ValueError("DetectorConfig.refine_max_iterations must be an integer >= 1")
         for k in ("refine_min_accuracy", "min_side_px", "max_reprojection_px",
-                  "min_border_px", "min_ambiguity_ratio"):
+                  "min_border_px", "min_ambiguity_ratio", "ambiguity_angle_deg"):
             v = getattr(self, k)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
                 raise ValueError(f"DetectorConfig.{k} must be a finite number >= 0 (pixels), "
@@ -218,8 +220,6 @@ def detect_marker_poses(image, K, *, marker_size: float, detector,
             continue
         other = np.delete(errs, k)
         amb = float(other.min() / max(errs[k], 1e-9)) if other.size else np.inf
-        if amb < cfg.min_ambiguity_ratio:
-            continue
         R, _ = cv2.Rodrigues(np.asarray(rvecs[k], float))
         t = np.asarray(tvecs[k], float).ravel()
         if not (np.all(np.isfinite(R)) and np.all(np.isfinite(t))) or t[2] <= 0:
@@ -233,6 +233,10 @@ def detect_marker_poses(image, K, *, marker_size: float, detector,
             t2 = np.asarray(tvecs[k2], float).ravel()
             if np.all(np.isfinite(R2)) and np.all(np.isfinite(t2)):
                 T2[:3, :3], T2[:3, 3] = R2, t2
+        if amb < cfg.min_ambiguity_ratio:
+            c = float(np.clip((np.trace(R.T @ T2[:3, :3]) - 1) / 2, -1, 1))
+            if math.degrees(math.acos(c)) > cfg.ambiguity_angle_deg:
+                continue
         out_ids.append(found[i])
         out_T.append(T)
         out_c.append(C[i])

@@ -24,6 +24,7 @@ import itertools
 import math
 from dataclasses import dataclass, field
 
+import cv2
 import numpy as np
 
 from pydrake.common.value import AbstractValue
@@ -98,7 +99,8 @@ class CameraMarkerSensorConfig:
     principal_point_shift_px: list[float] = field(default_factory=lambda: [-0.5, -0.5])
     max_disagreement_deg: float = 10.0
     aruco: ArucoSpec = field(default_factory=ArucoSpec)
-    detector: DetectorConfig = field(default_factory=lambda: DetectorConfig(min_side_px=12.0))
+    detector: DetectorConfig = field(default_factory=lambda: DetectorConfig(
+        min_side_px=12.0, min_ambiguity_ratio=3.0))
 
     def validate(self) -> None:
         """Raise ValueError naming the first invalid field."""
@@ -272,7 +274,7 @@ class CameraMarkerSensor(LeafSystem):
                 if not port.HasValue(context):
                     continue
                 det = self.detect(port.Eval(context).data, i)
-            except (ValueError, RuntimeError, TypeError):
+            except (ValueError, RuntimeError, TypeError, cv2.error):
                 continue  # a bad image: no detections from this camera in this frame
             X_WC = self._cams[i].X_WC
             for a, T, T2, side in zip(det.ids, det.T_CM, det.T_CM_other, det.side_px):

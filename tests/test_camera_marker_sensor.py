@@ -178,7 +178,8 @@ def test_body_schema_diagram_with_camera_sensor_runs():
 
     cam = CameraMarkerSensorConfig(
         cameras=[CameraConfig(position=[1.0, 0.0, 0.6], look_at=[0.0, 0.0, 0.4],
-                              fov_y_deg=55.0, max_range=5.0)], width=640, height=480)
+                              fov_y_deg=55.0, max_range=5.0)], width=640, height=480,
+        detector=DetectorConfig(min_side_px=12.0, min_ambiguity_ratio=1.0))
     bs = MakeBodySchemaDiagram(BodySchemaDiagramConfig(arm="2dof", sensor="camera",
                                                        camera=cam))
     assert type(bs.scene.sensor).__name__ == "CameraMarkerSensor"
@@ -210,7 +211,9 @@ def test_object_track_through_the_camera():
     tr = yardstick_scenario(False, 4, rng=3)
     cams = auto_cameras(tr.poses_true)
     assert np.all(np.isfinite(cams[0].position))
-    ct = camera_track(tr, CameraMarkerSensorConfig(cameras=cams, width=960, height=720))
+    ct = camera_track(tr, CameraMarkerSensorConfig(
+        cameras=cams, width=960, height=720,
+        detector=DetectorConfig(min_side_px=12.0, min_ambiguity_ratio=1.0)))
     assert ct.poses.shape == tr.poses.shape and np.array_equal(ct.poses_true, tr.poses_true)
     seen = ~np.isnan(ct.poses[..., 0])
     assert seen.mean() >= 0.75
@@ -248,3 +251,28 @@ def test_cameras_that_disagree_are_resolved_by_the_mirror_solutions(rig):
     assert r.sensor._fuse([(30.0, [flip, flip]), (20.0, [true, true])]) is None
     assert _errors(r.sensor._fuse([(30.0, [flip, near])]), flip)[1] < 1e-6
     assert r.sensor._fuse([]) is None
+
+
+def test_ambiguous_detections_can_be_dropped():
+    """The two pose solutions of a marker are returned; with min_ambiguity_ratio above the
+    detection's ratio (and no angle allowance) it is dropped."""
+    r = MarkerRig(_config(detector=DetectorConfig(min_ambiguity_ratio=1.0)))
+    ctx = r.diagram.CreateDefaultContext()
+    X = _facing([0.9, 0.05, 1.0], (0.0, 0.5, 0.3))
+    r.set_poses(ctx, [X])
+    cam = r.rgbd[0]
+    img = cam.color_image_output_port().Eval(cam.GetMyContextFromRoot(ctx)).data
+    det = r.sensor.detect(img, 0)
+    assert len(det) == 1 and det.T_CM_other.shape == (1, 4, 4)
+    amb = float(det.ambiguity[0])
+    assert amb > 1.0
+    strict = detect_marker_poses(img, r.sensor.cameras[0].K, marker_size=0.04,
+                                 detector=make_detector("DICT_4X4_50"),
+                                 config=DetectorConfig(min_ambiguity_ratio=amb * 1.01,
+                                                       ambiguity_angle_deg=0.0))
+    assert len(strict) == 0
+    loose = detect_marker_poses(img, r.sensor.cameras[0].K, marker_size=0.04,
+                                detector=make_detector("DICT_4X4_50"),
+                                config=DetectorConfig(min_ambiguity_ratio=amb * 0.99,
+                                                      ambiguity_angle_deg=0.0))
+    assert len(loose) == 1
