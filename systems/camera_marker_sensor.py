@@ -70,12 +70,13 @@ class CameraMarkerSensorConfig:
             ``fov_x_deg`` is not used; ``max_range`` is the far clipping distance, m.
         width, height: image size, pixels. 1920 x 1440: the arms' 0.04 m markers seen from
             the default cameras 2 m away are 20-28 pixels wide (3.5-4.5 px per module of a
-            4x4 marker) at fov_y 55 degrees. Measured on 25 random 2-DOF arm poses
-            (``benchmarks/bench_camera_marker_sensor.py --arm``): at 1280 x 960 (~16 px) the
-            median position error per part was 5-55 mm with 5-17 % of the orientations
-            wrong by > 20 degrees; at 1920 x 1440, 5-6 mm and <= 6 %. At 640 x 480 the
-            markers (8 px) are not decoded beyond ~1.2 m. The price: ~0.25 s to render one
-            1920 x 1440 image here (CPU OpenGL), ~0.05 s to detect.
+            4x4 marker) at fov_y 55 degrees. Measured on random 2-DOF arm poses
+            (``benchmarks/bench_camera_marker_sensor.py --arm 2dof``): at 1280 x 960 (~16 px,
+            20 poses) the median position error per part was 6-26 mm; at 1920 x 1440,
+            5-6 mm with 0-6 % of the orientations off by more than 20 degrees. At 640 x 480
+            a single marker was found in 3 of 6 poses at 1.5 m, 1 of 6 at 2 m, none at 2.5 m.
+            The price: 0.4-1.2 s to render one 1920 x 1440 image on the shared 2-core
+            development machine (CPU OpenGL, load 7-12), 0.05-0.3 s to detect.
         near: near clipping distance, m.
         principal_point_shift_px: calibration of the rendered cameras: added to the
             principal point (cx, cy) of Drake's ``CameraInfo`` before detection, pixels.
