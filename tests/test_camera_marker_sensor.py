@@ -222,7 +222,7 @@ def test_object_track_through_the_camera():
     assert np.median(err) < 0.005 and err.max() < 0.03
 
 
-@pytest.mark.parametrize("mod", ["learn_body_schema", "structure_experiments"])
+@pytest.mark.parametrize("mod", ["learn_body_schema"])
 def test_apps_take_the_sensor_flag(mod, capsys):
     import importlib
 
