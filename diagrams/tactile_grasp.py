@@ -87,9 +87,14 @@ class TactileGraspConfig:
 
 
 def MakeTactileGraspDiagram(config: TactileGraspConfig, *, container: ContainerInstance | None = None,
-                            meshcat=None):
+                            object_sdf: str | None = None, meshcat=None):
     """Build the scene; returns (diagram, parts) with parts = {"plant", "scene_graph",
-    "sensor", "controller", "grasp_log", "taxel_log", "gripper", "container"}."""
+    "sensor", "controller", "grasp_log", "taxel_log", "force_log", "gripper", "container"}.
+
+    The object is ``container`` (a :class:`ContainerInstance`) or any SDFormat model
+    ``object_sdf`` (text; its first link is welded at the origin shifted by ``offset``)."""
+    if container is not None and object_sdf is not None:
+        raise ValueError("give either container or object_sdf, not both")
     c = config
     if c.pad not in PAD_LAYOUTS:
         raise ValueError(f"pad: unknown layout {c.pad!r}; choose from {', '.join(PAD_LAYOUTS)}")
@@ -116,6 +121,11 @@ def MakeTactileGraspDiagram(config: TactileGraspConfig, *, container: ContainerI
         if container.slosh_mass > 0:
             plant.AddForceElement(PrismaticSpring(plant.GetJointByName("slosh", cont), 0.0,
                                                   container.slosh_k))
+    if object_sdf is not None:
+        cont = parser.AddModelsFromString(object_sdf, "sdf")[0]
+        first = plant.GetBodyIndices(cont)[0]
+        plant.WeldFrames(plant.world_frame(), plant.get_body(first).body_frame(),
+                         RigidTransform([c.offset, 0.0, 0.0]))
     for side in ("left", "right"):
         act = plant.GetJointActuatorByName(f"{side}_slide", gripper)
         act.set_controller_gains(PdControllerGains(p=c.kp, d=c.kd))
@@ -156,12 +166,14 @@ def MakeTactileGraspDiagram(config: TactileGraspConfig, *, container: ContainerI
 
 
 def simulate_grasp(config: TactileGraspConfig, *, container: ContainerInstance | None = None,
-                   meshcat=None, label: str | None = None) -> TactileGrasp:
+                   object_sdf: str | None = None, meshcat=None,
+                   label: str | None = None) -> TactileGrasp:
     """Run one grasp and return what the sensors recorded (25 Hz by default): finger
     distance p (encoders + noise), its rate v, the summed pad force f, per-pad forces and
     the taxel images. ``label`` / the container's class and state are attached as labels
     only."""
-    diagram, parts = MakeTactileGraspDiagram(config, container=container, meshcat=meshcat)
+    diagram, parts = MakeTactileGraspDiagram(config, container=container, object_sdf=object_sdf,
+                                             meshcat=meshcat)
     sim = Simulator(diagram)
     sim.Initialize()
     sim.AdvanceTo(config.duration)

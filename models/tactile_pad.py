@@ -10,9 +10,11 @@ Hydroelastic contact surfaces are full of sliver triangles that can span several
 triangle's force is not assigned to the cell of its centroid. Instead each triangle is split
 into ``subdiv**2`` congruent sub-triangles and each sub-triangle's force (pressure at its
 centroid times its area -- exact for the linear field inside each sub-triangle) is binned at
-the sub-triangle centroid (projected onto the pad plane). The error is then bounded by the
-sub-triangle size (a sliver of length L puts at most about L / subdiv of its length into a
-wrong neighbour cell). All triangles are processed at once (vectorised).
+the sub-triangle centroid (projected onto the pad plane). Each triangle gets enough
+sub-triangles that none is longer than a quarter of a cell side, and each sample's force is
+shared between the cells that a quarter-cell patch around it overlaps (cloud-in-cell), so
+a face on a cell border splits by area instead of jumping to one side. Triangles with the same subdivision are processed at
+once (vectorised).
 
 The reading of a cell is its mean normal pressure (force / cell area, Pa); a sensor maps it
 to [0, 1] by dividing by its saturation pressure, adds Gaussian noise and clips
@@ -87,14 +89,18 @@ def subdivision_points(subdiv: int) -> np.ndarray:
 
 
 def integrate_pressure(layout: PadLayout, tri_P: np.ndarray, pressure: np.ndarray, *,
-                       subdiv: int = 4, max_gap: float = 0.005) -> np.ndarray:
+                       subdiv: int = 2, max_subdiv: int = 48,
+                       max_gap: float = 0.005) -> np.ndarray:
     """Mean normal pressure (Pa) on every cell of the pad.
 
     Args:
         layout: the pad.
         tri_P: (n, 3, 3) triangle vertices in the pad frame P, metres.
         pressure: (n, 3) pressure at each vertex, Pa (>= 0; linear over the triangle).
-        subdiv: sub-triangles per edge (subdiv**2 samples per triangle).
+        subdiv: least number of sub-triangles per edge (subdiv**2 samples per triangle);
+            a triangle gets ``ceil(longest edge / spacing)`` per edge (spacing: a quarter
+            of the smaller cell side), at most ``max_subdiv``.
+        max_subdiv: cap on the sub-triangles per edge.
         max_gap: samples farther than this from the pad plane (|z_P|, m) are ignored (contact
             of another part of the finger).
 
@@ -111,22 +117,42 @@ def integrate_pressure(layout: PadLayout, tri_P: np.ndarray, pressure: np.ndarra
         raise ValueError(f"pressure: expected {tri.shape[0]} x 3 values, got {pr.shape}")
     ok = np.isfinite(tri).all(axis=(1, 2)) & np.isfinite(pr).all(axis=1)
     tri, pr = tri[ok], np.maximum(pr[ok], 0.0)
-    B = subdivision_points(subdiv)  # (s, 3)
-    s = B.shape[0]
-    # area vector projected onto the pad normal z_P: the normal force is p * |A_z|
     e1 = tri[:, 1] - tri[:, 0]
     e2 = tri[:, 2] - tri[:, 0]
+    # area projected onto the pad normal z_P: the normal force of a sample is p * area_z
     a_z = 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])  # (n,)
-    pts = np.einsum("sk,nkd->nsd", B, tri)  # (n, s, 3)
-    p_s = pr @ B.T  # (n, s)
-    force = p_s * (a_z[:, None] / s)  # (n, s) N
-    x, y, z = pts[..., 0], pts[..., 1], pts[..., 2]
-    col = np.floor((x + 0.5 * layout.width) / layout.width * layout.cols).astype(int)
-    row = np.floor((0.5 * layout.length - y) / layout.length * layout.rows).astype(int)
-    keep = ((col >= 0) & (col < layout.cols) & (row >= 0) & (row < layout.rows)
-            & (np.abs(z) <= max_gap))
-    idx = row[keep] * layout.cols + col[keep]
-    out += np.bincount(idx, weights=force[keep], minlength=out.size)
+    # sub-triangles no longer than spacing (a quarter of the smaller cell side), at least
+    # ``subdiv`` per edge: large faces (coarse compliant meshes) get many samples
+    cw, chh = layout.width / layout.cols, layout.length / layout.rows
+    h = min(cw, chh) / 4.0
+    hx, hy = cw / 4.0, chh / 4.0
+    edge = np.max(np.linalg.norm(tri - np.roll(tri, 1, axis=1), axis=2), axis=1)
+    n_sub = np.clip(np.ceil(edge / h).astype(int), subdiv, max_subdiv)
+    for n in np.unique(n_sub):
+        sel = n_sub == n
+        B = subdivision_points(int(n))  # (s, 3)
+        pts = np.einsum("sk,nkd->nsd", B, tri[sel])  # (m, s, 3)
+        force = (pr[sel] @ B.T) * (a_z[sel, None] / B.shape[0])  # (m, s) N
+        x, y, z = pts[..., 0], pts[..., 1], pts[..., 2]
+        uc = (x + 0.5 * layout.width) / cw  # sample position in cells
+        vc = (0.5 * layout.length - y) / chh
+        near = ((np.abs(z) <= max_gap) & (uc >= 0) & (uc < layout.cols) & (vc >= 0)
+                & (vc < layout.rows))
+        # each sample stands for a patch of (hx, hy), split over the (at most 2 x 2) cells it
+        # overlaps ("cloud in cell"): a sample on a cell border is shared, not rounded; a
+        # patch is kept inside the pad (the pad ends there)
+        u = np.clip(uc[near] - 0.5 * hx / cw, 0.0, layout.cols - hx / cw)  # patch start
+        v = np.clip(vc[near] - 0.5 * hy / chh, 0.0, layout.rows - hy / chh)
+        fw = force[near]
+        c0, r0 = np.floor(u).astype(int), np.floor(v).astype(int)
+        fc = np.clip((c0 + 1 - u) * cw / hx, 0.0, 1.0)  # share of column c0
+        fr = np.clip((r0 + 1 - v) * chh / hy, 0.0, 1.0)
+        for dc, wc in ((0, fc), (1, 1.0 - fc)):
+            for dr, wr in ((0, fr), (1, 1.0 - fr)):
+                col, row = c0 + dc, r0 + dr
+                keep = (col >= 0) & (col < layout.cols) & (row >= 0) & (row < layout.rows)
+                out += np.bincount(row[keep] * layout.cols + col[keep],
+                                   weights=(fw * wc * wr)[keep], minlength=out.size)
     return (out / layout.cell_area).reshape(layout.rows, layout.cols)
 
 

@@ -23,7 +23,7 @@ from mmlearn.models.tactile_pad import PadLayout
 
 from .sdf_writer import Box, Cylinder, SdfModel, box_inertia, cylinder_inertia
 
-__all__ = ["GripperGeometry", "gripper_sdf", "container_sdf"]
+__all__ = ["GripperGeometry", "gripper_sdf", "container_sdf", "block_sdf", "pad_z_of"]
 
 
 @dataclass(frozen=True)
@@ -146,4 +146,17 @@ def container_sdf(inst: ContainerInstance, *, name: str = "container",
     for lk in ("base", "wall_l", "wall_r"):
         m.element(g, "drake:member", lk)
     m.element(g, "drake:ignored_collision_filter_group", "container_self")
+    return m.to_string()
+
+
+def block_sdf(size=(0.04, 0.1, 0.12), *, name: str = "block", modulus: float | None = None,
+              mass: float = 0.2, mu: float = 0.6) -> str:
+    """A box standing on z = 0 (e.g. the wooden block of Fig. 7.5): rigid hydroelastic, or
+    compliant with hydroelastic ``modulus`` (Pa; a rubber toy ~1e5-1e6)."""
+    m = SdfModel(name)
+    b = m.link("base")
+    b.inertial(mass, box_inertia(mass, size), pose=(0, 0, size[2] / 2))
+    b.visual("visual", Box(size), pose=(0, 0, size[2] / 2), color=(0.7, 0.5, 0.3, 1))
+    col = b.collision("collision", Box(size), pose=(0, 0, size[2] / 2))
+    _hydro(m, col, modulus=modulus, rigid=modulus is None, mu=mu)
     return m.to_string()

@@ -92,7 +92,7 @@ class TactileSensor(LeafSystem):
     """
 
     def __init__(self, *, pads, rate_hz: float = 25.0, noise: float = 0.01, seed: int = 0,
-                 subdiv: int = 4):
+                 subdiv: int = 2):
         super().__init__()
         pads = tuple(pads)
         if not pads:
