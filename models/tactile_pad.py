@@ -11,8 +11,8 @@ triangle's force is not assigned to the cell of its centroid. Instead each trian
 into ``subdiv**2`` congruent sub-triangles and each sub-triangle's force (pressure at its
 centroid times its area -- exact for the linear field inside each sub-triangle) is binned at
 the sub-triangle centroid (projected onto the pad plane). Each triangle gets enough
-sub-triangles that none is longer than a quarter of a cell side, and each sample's force is
-shared between the cells that a quarter-cell patch around it overlaps (cloud-in-cell), so
+sub-triangles that none is longer than half a cell side, and each sample's force is
+shared between the cells that a half-cell patch around it overlaps (cloud-in-cell), so
 a face on a cell border splits by area instead of jumping to one side. Triangles with the same subdivision are processed at
 once (vectorised).
 
@@ -24,6 +24,7 @@ to [0, 1] by dividing by its saturation pressure, adds Gaussian noise and clips
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
@@ -74,6 +75,13 @@ PAD_PR2 = PadLayout(rows=5, cols=3, length=0.030, width=0.018, p_sat=4.0e5)
 def subdivision_points(subdiv: int) -> np.ndarray:
     """Barycentric coordinates (subdiv**2, 3) of the centroids of the ``subdiv**2`` congruent
     sub-triangles of a triangle (each of area 1 / subdiv**2 of it)."""
+    return _subdivision_points(int(subdiv)).copy()
+
+
+@lru_cache(maxsize=16)
+def _subdivision_points(subdiv: int) -> np.ndarray:
+    """Barycentric coordinates (subdiv**2, 3) of the centroids of the ``subdiv**2`` congruent
+    sub-triangles of a triangle (each of area 1 / subdiv**2 of it)."""
     n = int(subdiv)
     if n < 1:
         raise ValueError(f"subdiv must be >= 1, got {subdiv}")
@@ -89,7 +97,7 @@ def subdivision_points(subdiv: int) -> np.ndarray:
 
 
 def integrate_pressure(layout: PadLayout, tri_P: np.ndarray, pressure: np.ndarray, *,
-                       subdiv: int = 2, max_subdiv: int = 48,
+                       subdiv: int = 2, max_subdiv: int = 32,
                        max_gap: float = 0.005) -> np.ndarray:
     """Mean normal pressure (Pa) on every cell of the pad.
 
@@ -98,8 +106,8 @@ def integrate_pressure(layout: PadLayout, tri_P: np.ndarray, pressure: np.ndarra
         tri_P: (n, 3, 3) triangle vertices in the pad frame P, metres.
         pressure: (n, 3) pressure at each vertex, Pa (>= 0; linear over the triangle).
         subdiv: least number of sub-triangles per edge (subdiv**2 samples per triangle);
-            a triangle gets ``ceil(longest edge / spacing)`` per edge (spacing: a quarter
-            of the smaller cell side), at most ``max_subdiv``.
+            a triangle gets ``ceil(longest edge / spacing)`` per edge (spacing: half
+            of the smaller cell side, rounded up to one of 1, 2, 3, 4, 6, 8, 12, ...), at most ``max_subdiv``.
         max_subdiv: cap on the sub-triangles per edge.
         max_gap: samples farther than this from the pad plane (|z_P|, m) are ignored (contact
             of another part of the finger).
@@ -121,17 +129,20 @@ def integrate_pressure(layout: PadLayout, tri_P: np.ndarray, pressure: np.ndarra
     e2 = tri[:, 2] - tri[:, 0]
     # area projected onto the pad normal z_P: the normal force of a sample is p * area_z
     a_z = 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])  # (n,)
-    # sub-triangles no longer than spacing (a quarter of the smaller cell side), at least
+    # sub-triangles no longer than spacing (half of the smaller cell side), at least
     # ``subdiv`` per edge: large faces (coarse compliant meshes) get many samples
     cw, chh = layout.width / layout.cols, layout.length / layout.rows
-    h = min(cw, chh) / 4.0
-    hx, hy = cw / 4.0, chh / 4.0
+    h = min(cw, chh) / 2.0
+    hx, hy = cw / 2.0, chh / 2.0
     edge = np.max(np.linalg.norm(tri - np.roll(tri, 1, axis=1), axis=2), axis=1)
     n_sub = np.clip(np.ceil(edge / h).astype(int), subdiv, max_subdiv)
+    # a few subdivision levels only, so the loop below runs a few times
+    levels = np.array([1, 2, 3, 4, 6, 8, 12, 16, 24, 32, 48, 64])
+    n_sub = np.minimum(levels[np.searchsorted(levels, n_sub)], max_subdiv)
     for n in np.unique(n_sub):
         sel = n_sub == n
-        B = subdivision_points(int(n))  # (s, 3)
-        pts = np.einsum("sk,nkd->nsd", B, tri[sel])  # (m, s, 3)
+        B = _subdivision_points(int(n))  # (s, 3)
+        pts = np.matmul(B, tri[sel])  # (m, s, 3)
         force = (pr[sel] @ B.T) * (a_z[sel, None] / B.shape[0])  # (m, s) N
         x, y, z = pts[..., 0], pts[..., 1], pts[..., 2]
         uc = (x + 0.5 * layout.width) / cw  # sample position in cells
