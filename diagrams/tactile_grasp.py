@@ -27,14 +27,15 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import LogVectorOutput
 
-from mmlearn.models.containers import ContainerInstance
+from mmlearn.models.containers import ContainerInstance, sample_container
 from mmlearn.models.tactile_pad import PAD_CH6, PAD_PR2, PadLayout
 from mmlearn.models.tactile_types import TactileGrasp
 from mmlearn.sdf.tactile import GripperGeometry, container_sdf, gripper_sdf, pad_z_of
 from mmlearn.systems.tactile_grasp_controller import TactileGraspController
 from mmlearn.systems.tactile_sensor import PadSpec, TactileSensor
 
-__all__ = ["TactileGraspConfig", "MakeTactileGraspDiagram", "simulate_grasp", "PAD_LAYOUTS"]
+__all__ = ["TactileGraspConfig", "MakeTactileGraspDiagram", "simulate_grasp", "PAD_LAYOUTS",
+           "container_grasp_trial", "grasp_from_record"]
 
 _APPROX = "sap"
 PAD_LAYOUTS = {"pr2": PAD_PR2, "ch6": PAD_CH6}
@@ -197,3 +198,31 @@ def simulate_grasp(config: TactileGraspConfig, *, container: ContainerInstance |
     return TactileGrasp(t=t, p=p, f=f_pad.sum(axis=1), finger_force=f_pad,
                         pads={k: np.clip(v, 0.0, 1.0) for k, v in pads.items()},
                         height=config.grasp_height, **kw)
+
+
+def container_grasp_trial(*, seed: int, container: str, state: str, f_target: float = 20.0,
+                          v_target: float = 0.02, offset_sd: float = 0.001,
+                          duration: float = 2.2, hold_time: float = 0.6) -> dict:
+    """One ch. 7 probing grasp of a random instance of ``container`` in ``state`` (a pure
+    function of its arguments, for :mod:`mmlearn.apps._sweep`). The instance (sizes,
+    stiffnesses, fill level), its placement (lateral offset ~ N(0, ``offset_sd``) m) and
+    the sensor noise are drawn from ``seed``. Returns a JSON-able record: the recorded
+    series ``t``, ``p``, ``f``, ``finger_force`` (what the features are computed from), the
+    labels ``container`` / ``state`` and the instance's parameters (for reference only)."""
+    rng = np.random.default_rng([int(seed), 13])
+    inst = sample_container(container, state, rng)
+    offset = float(rng.normal(0.0, offset_sd))
+    cfg = TactileGraspConfig(pad="pr2", f_target=f_target, v_target=v_target,
+                             duration=duration, hold_time=hold_time, offset=offset,
+                             seed=int(seed))
+    g = simulate_grasp(cfg, container=inst)
+    return {"t": g.t.tolist(), "p": g.p.tolist(), "f": g.f.tolist(),
+            "finger_force": g.finger_force.tolist(), "container": container, "state": state,
+            "f_target": f_target, "offset": offset, "instance": inst.as_dict()}
+
+
+def grasp_from_record(rec: dict) -> TactileGrasp:
+    """The :class:`TactileGrasp` of a :func:`container_grasp_trial` record."""
+    return TactileGrasp(t=rec["t"], p=rec["p"], f=rec["f"], finger_force=rec["finger_force"],
+                        container=rec.get("container"), state=rec.get("state"),
+                        label=f"{rec.get('container')}/{rec.get('state')}")
