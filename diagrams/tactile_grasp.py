@@ -55,6 +55,7 @@ class TactileGraspConfig:
         v_target: closing speed of the finger distance, m/s.
         contact_force: switching threshold F on each pad's force, N.
         kp, kd: finger PD gains, N/m and N s/m.
+        force_rate: rise of the commanded force after the switch, N/s.
         hold_time: time between both fingers in force control and the release, s.
         duration: simulated time, s.
         mode: controller mode ("switching", "force", "velocity").
@@ -74,6 +75,7 @@ class TactileGraspConfig:
     contact_force: float = 1.0
     kp: float = 2000.0
     kd: float = 100.0
+    force_rate: float = 40.0
     hold_time: float = 0.8
     duration: float = 3.5
     mode: str = "switching"
@@ -147,6 +149,7 @@ def MakeTactileGraspDiagram(config: TactileGraspConfig, *, container: ContainerI
     ctrl = builder.AddNamedSystem("grasp_controller", TactileGraspController(
         f_target=c.f_target, v_target=c.v_target, contact_force=c.contact_force, kp=c.kp,
         kd=c.kd, hold_time=c.hold_time, open_gap=g.open_gap, stroke=g.stroke, mode=c.mode,
+        force_rate=c.force_rate,
         period=c.time_step))
     builder.Connect(plant.get_state_output_port(gripper), ctrl.get_gripper_state_input_port())
     builder.Connect(sensor.get_pad_force_output_port(), ctrl.get_pad_force_input_port())
@@ -202,7 +205,7 @@ def simulate_grasp(config: TactileGraspConfig, *, container: ContainerInstance |
 
 def container_grasp_trial(*, seed: int, container: str, state: str, f_target: float = 20.0,
                           v_target: float = 0.02, offset_sd: float = 0.001,
-                          duration: float = 2.2, hold_time: float = 0.6) -> dict:
+                          duration: float = 2.6, hold_time: float = 1.0) -> dict:
     """One ch. 7 probing grasp of a random instance of ``container`` in ``state`` (a pure
     function of its arguments, for :mod:`mmlearn.apps._sweep`). The instance (sizes,
     stiffnesses, fill level), its placement (lateral offset ~ N(0, ``offset_sd``) m) and

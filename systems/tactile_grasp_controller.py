@@ -11,7 +11,7 @@ __all__ = ["TactileGraspController", "GRASP_MODES"]
 GRASP_MODES = ("switching", "force", "velocity")
 
 # discrete state layout
-_QD, _MODE, _T_BOTH, _T_START = slice(0, 2), slice(2, 4), 4, 5
+_QD, _MODE, _T_BOTH, _T_SW = slice(0, 2), slice(2, 4), 4, slice(5, 7)
 _VEL, _FORCE, _RELEASE = 0.0, 1.0, 2.0
 
 
@@ -25,8 +25,11 @@ class TactileGraspController(LeafSystem):
       at ``v_target / 2`` per finger (so the finger distance shrinks at ``v_target``), ``v_d
       = v_target / 2``: the PD actuator tracks the ramp;
     * **force control** (once the finger's pad force exceeds ``contact_force``): ``q_d = q +
-      f_target / kp``, ``v_d = 0``: the actuator pushes with ``f_target`` (N) minus its
-      damping ``kd * v`` -- the motor-effort force control of a gripper such as the PR2's;
+      f_cmd / kp``, ``v_d = 0``: the actuator pushes with ``f_cmd`` (N) minus its damping
+      ``kd * v`` -- the motor-effort force control of a gripper such as the PR2's. ``f_cmd``
+      starts at ``contact_force`` and rises at ``force_rate`` (N/s) to ``f_target`` (the
+      seamless switch of Eq. 7.8: the force at the switch equals the contact force; None
+      or inf: a step to ``f_target``);
     * ``hold_time`` s after both fingers switched to force control the gripper **releases**
       (opens at ``v_target``).
 
@@ -56,7 +59,7 @@ class TactileGraspController(LeafSystem):
     def __init__(self, *, f_target: float, v_target: float = 0.02, contact_force: float = 1.0,
                  kp: float = 2000.0, kd: float = 100.0, hold_time: float = 1.0,
                  open_gap: float = 0.09, stroke: float = 0.045, mode: str = "switching",
-                 period: float = 1e-3):
+                 force_rate: float | None = 40.0, period: float = 1e-3):
         super().__init__()
         for k, v in (("f_target", f_target), ("v_target", v_target), ("kp", kp),
                      ("hold_time", hold_time), ("open_gap", open_gap), ("period", period)):
@@ -72,9 +75,15 @@ class TactileGraspController(LeafSystem):
         self._f, self._v, self._F = float(f_target), float(v_target), float(contact_force)
         self._kp, self._kd, self._hold = float(kp), float(kd), float(hold_time)
         self._gap, self._stroke, self._mode, self._dt = open_gap, stroke, mode, period
+        if force_rate is not None and not force_rate > 0:
+            raise ValueError(f"TactileGraspController: force_rate must be > 0 or None, got "
+                             f"{force_rate!r}")
+        self._rate = np.inf if force_rate is None else float(force_rate)
+        if mode == "force":  # the pure force controller commands f_target from the start
+            self._rate = np.inf
         self._q = self.DeclareVectorInputPort("gripper_state", 4)
         self._force = self.DeclareVectorInputPort("pad_force", 2)
-        init = np.zeros(6)
+        init = np.zeros(7)
         init[_MODE] = _FORCE if mode == "force" else _VEL
         init[_T_BOTH] = -1.0
         self._state = self.DeclareDiscreteState(init)
@@ -106,7 +115,9 @@ class TactileGraspController(LeafSystem):
             fp = np.zeros(2)
         if s[_T_BOTH] < 0:
             if self._mode == "switching":
-                mode[(mode == _VEL) & (fp > self._F)] = _FORCE
+                sw = (mode == _VEL) & (fp > self._F)
+                mode[sw] = _FORCE
+                s[_T_SW] = np.where(sw, t, s[_T_SW])
             if self._mode == "velocity":
                 if np.all(fp > self._F):
                     s[_T_BOTH] = t
@@ -127,7 +138,9 @@ class TactileGraspController(LeafSystem):
         x = self._q.Eval(context)
         qd, mode = s[_QD], s[_MODE]
         half = 0.5 * self._v
-        q_force = x[:2] + self._f / self._kp
+        f_cmd = np.minimum(self._f, self._F + self._rate * np.maximum(
+            context.get_time() - s[_T_SW], 0.0)) if np.isfinite(self._rate) else self._f
+        q_force = x[:2] + f_cmd / self._kp
         q = np.where(mode == _FORCE, q_force, qd)
         v = np.where(mode == _VEL, half, np.where(mode == _RELEASE, -half, 0.0))
         output.SetFromVector(np.concatenate([q, v]))
