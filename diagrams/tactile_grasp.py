@@ -33,6 +33,7 @@ from mmlearn.models.tactile_types import TactileGrasp
 from mmlearn.sdf.tactile import GripperGeometry, container_sdf, gripper_sdf, pad_z_of
 from mmlearn.systems.tactile_grasp_controller import TactileGraspController
 from mmlearn.systems.tactile_sensor import PadSpec, TactileSensor
+from mmlearn.systems.wrist_force_sensor import WristForceSensor
 
 __all__ = ["TactileGraspConfig", "MakeTactileGraspDiagram", "simulate_grasp", "PAD_LAYOUTS",
            "container_grasp_trial", "grasp_from_record"]
@@ -111,8 +112,8 @@ def MakeTactileGraspDiagram(config: TactileGraspConfig, *, container: ContainerI
     parser = Parser(plant)
     gripper = parser.AddModelsFromString(gripper_sdf(layout, g), "sdf")[0]
     pad_z = pad_z_of(layout, g)
-    plant.WeldFrames(plant.world_frame(), plant.GetFrameByName("palm", gripper),
-                     RigidTransform([0.0, 0.0, c.grasp_height + pad_z]))
+    mount = plant.WeldFrames(plant.world_frame(), plant.GetFrameByName("palm", gripper),
+                             RigidTransform([0.0, 0.0, c.grasp_height + pad_z]))
     cont = None
     if container is not None:
         cont = parser.AddModelsFromString(container_sdf(container), "sdf")[0]
@@ -155,6 +156,13 @@ def MakeTactileGraspDiagram(config: TactileGraspConfig, *, container: ContainerI
     builder.Connect(sensor.get_pad_force_output_port(), ctrl.get_pad_force_input_port())
     builder.Connect(ctrl.get_desired_state_output_port(),
                     plant.get_desired_state_input_port(gripper))
+    # wrist force-torque sensor at the palm mount (force on the palm beyond the palm's own
+    # weight: the fingers' weight is a constant offset, the grasped object's weight adds)
+    wrist = builder.AddNamedSystem("wrist_force_sensor", WristForceSensor(
+        plant=plant, mount_joint=mount, sigma_force=0.05, rate_hz=100.0, seed=c.seed))
+    builder.Connect(plant.get_reaction_forces_output_port(),
+                    wrist.get_reaction_forces_input_port())
+    builder.Connect(plant.get_body_poses_output_port(), wrist.get_body_poses_input_port())
     period = 1.0 / c.sensor_rate
     grasp_log = LogVectorOutput(ctrl.get_grasp_output_port(), builder, period)
     taxel_log = LogVectorOutput(sensor.get_taxels_output_port(), builder, period)
@@ -165,6 +173,7 @@ def MakeTactileGraspDiagram(config: TactileGraspConfig, *, container: ContainerI
         MeshcatVisualizer.AddToBuilder(builder, scene_graph, meshcat)
     diagram = builder.Build()
     return diagram, {"plant": plant, "scene_graph": scene_graph, "sensor": sensor,
+                     "wrist_force_sensor": wrist,
                      "controller": ctrl, "grasp_log": grasp_log, "taxel_log": taxel_log,
                      "force_log": force_log, "gripper": gripper, "container": cont}
 

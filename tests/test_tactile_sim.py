@@ -212,3 +212,19 @@ def test_tactile_state_simulation_bad_flags(argv, needle, capsys):
         rc = e.code
     err = capsys.readouterr().err
     assert rc == 2 and needle in err and "Traceback" not in err
+
+
+def test_wrist_force_sensor_sees_the_fingers_weight():
+    from pydrake.systems.analysis import Simulator
+
+    from mmlearn.diagrams.tactile_grasp import MakeTactileGraspDiagram, TactileGraspConfig
+
+    cfg = TactileGraspConfig(duration=0.2)
+    d, parts = MakeTactileGraspDiagram(cfg)
+    sim = Simulator(d)
+    sim.Initialize()
+    sim.AdvanceTo(0.2)
+    w = parts["wrist_force_sensor"]
+    f = w.get_force_output_port().Eval(w.GetMyContextFromRoot(sim.get_context()))
+    # the two fingers (cfg.gripper.finger_mass each) hang on the palm
+    assert f[2] == pytest.approx(-2 * cfg.gripper.finger_mass * 9.81, abs=0.2)
