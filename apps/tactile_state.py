@@ -219,7 +219,8 @@ def run_simulation(config: TactileStateConfig) -> dict:
     X, yc, ys, feats = _sim_features(recs, steady_average=c.steady_average)
     out = {"mode": "simulation", "classifier": c.classifier, "f_target": float(c.f_target),
            "features": list(FEATURE_NAMES), "n_grasps": len(recs),
-           "failed_grasps": len(failed) + len(main_specs) - len(recs) - 0,
+           "failed_grasps": len(main_specs) - len(recs),
+           "errors": sorted({(ln.get("error") or "")[:200] for ln in failed}),
            "no_contact": int(sum(not f.contact for f in feats)),
            "not_steady": int(sum(not f.steady for f in feats))}
     if len(set(yc.tolist())) > 1:
@@ -253,6 +254,7 @@ def run_simulation(config: TactileStateConfig) -> dict:
             Xs, _, yss, _ = _sim_features(rs, steady_average=c.steady_average)
             r, cm, _ = _cv(Xs, yss, classifier=c.classifier, folds=c.folds, seed=c.seed)
             sweep_out[f"{f:g}"] = {"rate": r.rate, "compare": cm, "n": len(rs),
+                                   "failed": c.sweep_trials * 4 - len(rs),
                                    "labels": r.labels,
                                    "confusion": r.confusion.astype(int).tolist()}
         out["f_sweep_odwalla"] = sweep_out
