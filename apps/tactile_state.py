@@ -20,15 +20,30 @@ entropy-criterion CART). On the shared iCub trials (10 classes x 10 trials) 10-f
 readings and averaging many trees cancels much of that noise, so the forest is the default.
 The run also reports the other classifier's rate (``compare``).
 
-``--json`` prints one object::
+``--json`` prints one object (real-data mode)::
 
     {"mode": "real", "classifier", "evaluation": "test" | "<k>-fold CV", "rate",
      "per_class": {label: rate}, "labels", "confusion" (rows true, columns predicted),
      "n_train", "n_test", "compare": {classifier: rate}, "no_contact": {label: count},
      "features": [...], "settings": {...}}
 
-The simulation mode (``--f-target N`` without ``--train``: the Drake gripper squeezing simulated
-containers) is not built yet; asking for it exits with status 2 and says so.
+**Simulation mode** (``--f-target N`` without ``--train``)::
+
+    python -m mmlearn.apps.tactile_state --f-target 20 [--trials 16] [--f-sweep]
+        [--sweep-trials 24] [--classifier tree|forest] [--results FILE] [--jobs J] --seed S [--json]
+
+The Drake gripper (:mod:`mmlearn.diagrams.tactile_grasp`: PR2-like fingertip pads, the
+switching controller of Eq. 7.8 probing with ``f_target`` N per finger) squeezes random
+instances of the four container classes of Sec. 7.1.3 in each of their internal states
+(:mod:`mmlearn.models.containers`; cans have no ``empty_closed``), ``--trials`` grasps per
+(class, state). The features come only from the simulated finger encoders and taxel pads.
+Reports (10-fold CV, ``--classifier``; the other classifier in ``compare``):
+``container_rate`` (class from all grasps), ``state_rate_by_container`` {class: rate of the
+state given the class}, ``combined_rate`` (all class x state labels) and
+``combined_rate_without_water`` (the thesis' 11-label experiment). ``--f-sweep`` adds Table
+7.2: the state rate of the Odwalla bottle at 17 / 20 / 23 N (``--sweep-trials`` grasps per
+state). Grasps run through the sweep runner (:mod:`mmlearn.apps._sweep`): ``--results``
+keeps them in a JSON Lines file so a rerun resumes.
 
 Exit status: 0 success, 2 bad input (unreadable or malformed files name the file and line,
 unknown labels, missing folders, test classes absent from training).
@@ -44,7 +59,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from mmlearn.apps._common import (ArgumentParser, UsageError, check_out_file, fail,
-                                  json_clean, nonneg_int, pos_float, pos_int, save_figure)
+                                  json_clean, name_list, nonneg_int, pos_float, pos_int,
+                                  save_figure)
 from mmlearn.models.icub_grasp import (CONTACT_LEVEL, REST_VELOCITY, ICubFileError,
                                        load_icub_dir)
 from mmlearn.models.tactile_state import (CLASSIFIERS, FEATURE_NAMES, cross_validate,
@@ -77,6 +93,15 @@ class TactileStateConfig:
         rest_velocity: rest threshold V on the closure rate, rad per slice.
         steady_average: steady-phase means instead of single samples for p/f_steady.
         plot: image file for the confusion matrix and profiles, or None.
+        f_target: simulation mode (with ``train`` empty): probing force per finger, N.
+        trials: simulation: grasps per (container, state).
+        f_sweep: simulation: add the Odwalla f_target sweep 17 / 20 / 23 N (Table 7.2).
+        sweep_trials: simulation: grasps per Odwalla state and force in the sweep.
+        results: simulation: JSON Lines file of the grasps (None: temporary).
+        jobs: simulation: parallel grasps (None: all cores).
+        executor, ray_address: simulation: the sweep runner's executor ("local" or "ray").
+        progress: simulation: show a progress bar.
+        containers: simulation: container classes to grasp (default: all four).
     """
 
     train: str = ""
@@ -89,11 +114,166 @@ class TactileStateConfig:
     rest_velocity: float = REST_VELOCITY
     steady_average: bool = False
     plot: str | None = None
+    f_target: float | None = None
+    trials: int = 16
+    f_sweep: bool = False
+    sweep_trials: int = 24
+    results: str | None = None
+    jobs: int | None = None
+    executor: str = "local"
+    ray_address: str | None = None
+    progress: bool = False
+    containers: tuple = ("odwalla", "naked", "can", "water")
+
+
+#: simulation mode: contact threshold F per finger (N) and rest threshold V (m/s)
+SIM_CONTACT_FORCE = 1.0
+SIM_REST_VELOCITY = 0.002
+SWEEP_FORCES = (17.0, 20.0, 23.0)
+
+
+def _sim_specs(containers, f_target, trials, seed):
+    from mmlearn.apps._sweep import TrialSpec
+    from mmlearn.models.containers import CONTAINER_CLASSES, states_of
+
+    specs = []
+    for ci, c in enumerate(containers):
+        if c not in CONTAINER_CLASSES:
+            raise ValueError(f"unknown container {c!r}")
+        for si, st in enumerate(states_of(c)):
+            for k in range(trials):
+                tseed = int(seed) * 1_000_003 + ci * 100_000 + si * 10_000 + k
+                specs.append(TrialSpec(
+                    fn="mmlearn.diagrams.tactile_grasp:container_grasp_trial", seed=tseed,
+                    params={"container": c, "state": st, "f_target": float(f_target)},
+                    label=f"{c}/{st}/{f_target:g}N/{k}"))
+    return specs
+
+
+def _sim_features(records, *, steady_average=False):
+    from mmlearn.diagrams.tactile_grasp import grasp_from_record
+
+    grasps = [grasp_from_record(r) for r in records]
+    X, feats = feature_matrix(grasps, contact_force=SIM_CONTACT_FORCE,
+                              rest_velocity=SIM_REST_VELOCITY, steady_average=steady_average)
+    yc = np.array([r["container"] for r in records])
+    ys = np.array([r["state"] for r in records])
+    return X, yc, ys, feats
+
+
+def _report_one(y):
+    from mmlearn.models.tactile_state import ClassificationReport
+
+    return ClassificationReport([str(y[0])], np.array([[len(y)]]), y, y)
+
+
+def _cv(X, y, *, classifier, folds, seed):
+    k = int(min(folds, np.unique(y, return_counts=True)[1].min()))
+    if k < 2:
+        raise ValueError("too few grasps per class for cross-validation (use more --trials)")
+    other = [c for c in CLASSIFIERS if c != classifier]
+    rep = cross_validate(X, y, classifier=classifier, folds=k, seed=seed)
+    cmp_ = {c: cross_validate(X, y, classifier=c, folds=k, seed=seed).rate for c in other}
+    return rep, cmp_, k
+
+
+def run_simulation(config: TactileStateConfig) -> dict:
+    """Simulation mode (see the module docstring for the result)."""
+    from mmlearn.apps._sweep import run_sweep
+    from mmlearn.models.containers import CONTAINER_CLASSES
+
+    c = config
+    if not (c.f_target is not None and np.isfinite(c.f_target) and c.f_target > 0):
+        raise ValueError(f"f_target: expected a force > 0 N, got {c.f_target!r}")
+    if c.trials < 2:
+        raise ValueError(f"trials: expected at least 2 grasps per container and state, got {c.trials}")
+    if c.classifier not in CLASSIFIERS:
+        raise ValueError(f"classifier: unknown {c.classifier!r}; choose from {', '.join(CLASSIFIERS)}")
+    conts = list(c.containers)
+    if not conts:
+        raise ValueError("containers: empty; choose from " + ", ".join(CONTAINER_CLASSES))
+    specs = _sim_specs(conts, c.f_target, c.trials, c.seed)
+    if c.f_sweep:
+        if c.sweep_trials < 2:
+            raise ValueError(f"sweep_trials: expected at least 2, got {c.sweep_trials}")
+        have = {s.key for s in specs}
+        for f in SWEEP_FORCES:
+            for s in _sim_specs(["odwalla"], f, c.sweep_trials, c.seed + 7919):
+                if s.key not in have:
+                    specs.append(s)
+                    have.add(s.key)
+    sweep = run_sweep(specs, results=c.results, executor=c.executor, jobs=c.jobs,
+                      ray_address=c.ray_address, show_progress=c.progress,
+                      desc="grasps")
+    by_key = {ln["key"]: ln for ln in sweep.lines}
+    failed = [ln for ln in sweep.lines if ln.get("error")]
+
+    def records(spec_list):
+        return [by_key[s.key]["record"] for s in spec_list
+                if s.key in by_key and by_key[s.key].get("record")]
+
+    main_specs = _sim_specs(conts, c.f_target, c.trials, c.seed)
+    recs = records(main_specs)
+    if not recs:
+        raise ValueError("no grasp finished")
+    X, yc, ys, feats = _sim_features(recs, steady_average=c.steady_average)
+    out = {"mode": "simulation", "classifier": c.classifier, "f_target": float(c.f_target),
+           "features": list(FEATURE_NAMES), "n_grasps": len(recs),
+           "failed_grasps": len(main_specs) - len(recs),
+           "errors": sorted({(ln.get("error") or "")[:200] for ln in failed}),
+           "no_contact": int(sum(not f.contact for f in feats)),
+           "not_steady": int(sum(not f.steady for f in feats))}
+    if len(set(yc.tolist())) > 1:
+        rep, cmp_, k = _cv(X, yc, classifier=c.classifier, folds=c.folds, seed=c.seed)
+    else:  # one class: nothing to tell apart
+        rep = _report_one(yc)
+        cmp_ = {}
+    out["container_rate"] = rep.rate
+    out["container_confusion"] = {"labels": rep.labels,
+                                  "confusion": rep.confusion.astype(int).tolist()}
+    out["container_compare"] = cmp_
+    out["state_rate_by_container"], out["state_compare"], out["state_confusion"] = {}, {}, {}
+    for name in sorted(set(yc.tolist())):
+        m = yc == name
+        r, cm, _ = _cv(X[m], ys[m], classifier=c.classifier, folds=c.folds, seed=c.seed)
+        out["state_rate_by_container"][name] = r.rate
+        out["state_compare"][name] = cm
+        out["state_confusion"][name] = {"labels": r.labels,
+                                        "confusion": r.confusion.astype(int).tolist()}
+    yy = np.array([f"{a}/{b}" for a, b in zip(yc, ys)])
+    r, cm, _ = _cv(X, yy, classifier=c.classifier, folds=c.folds, seed=c.seed)
+    out["combined_rate"], out["combined_compare"] = r.rate, cm
+    m = yc != "water"
+    if m.any() and len(set(yc[m].tolist())) > 1:
+        r, _, _ = _cv(X[m], yy[m], classifier=c.classifier, folds=c.folds, seed=c.seed)
+        out["combined_rate_without_water"] = r.rate
+    if c.f_sweep:
+        sweep_out = {}
+        for f in SWEEP_FORCES:
+            rs = records(_sim_specs(["odwalla"], f, c.sweep_trials, c.seed + 7919))
+            Xs, _, yss, _ = _sim_features(rs, steady_average=c.steady_average)
+            r, cm, _ = _cv(Xs, yss, classifier=c.classifier, folds=c.folds, seed=c.seed)
+            sweep_out[f"{f:g}"] = {"rate": r.rate, "compare": cm, "n": len(rs),
+                                   "failed": c.sweep_trials * 4 - len(rs),
+                                   "labels": r.labels,
+                                   "confusion": r.confusion.astype(int).tolist()}
+        out["f_sweep_odwalla"] = sweep_out
+    out["settings"] = {"trials": c.trials, "folds": c.folds, "seed": c.seed,
+                       "contact_force_N": SIM_CONTACT_FORCE,
+                       "rest_velocity_m_per_s": SIM_REST_VELOCITY,
+                       "steady_average": c.steady_average,
+                       "sweep_trials": c.sweep_trials if c.f_sweep else None}
+    out["wall_seconds"] = round(sweep.wall_s, 1)
+    out["resumed"] = sweep.resumed
+    return json_clean(out)
 
 
 def run(*, config: TactileStateConfig) -> dict:
-    """Train and evaluate on iCub grasp files (see the module docstring for the result)."""
+    """Train and evaluate on iCub grasp files, or (``train`` empty, ``f_target`` set) run the
+    simulation mode (see the module docstring for the result)."""
     c = config
+    if not c.train and c.f_target is not None:
+        return run_simulation(c)
     train, test, classifier = c.train, c.test, c.classifier
     include_full_coke, folds, seed = c.include_full_coke, c.folds, c.seed
     contact_level, rest_velocity = c.contact_level, c.rest_velocity
@@ -209,6 +389,17 @@ def _print_text(out, file=sys.stdout):
         print(f"  {lab[:20]:20s} " + " ".join(f"{v:3d}" for v in row), file=file)
 
 
+def _print_sim(out, file=sys.stdout):
+    print(f"simulation, f_target {out['f_target']:g} N, {out['n_grasps']} grasps, "
+          f"{out['classifier']}:", file=file)
+    print(f"  container_rate {out['container_rate']:.3f}", file=file)
+    for k, v in out["state_rate_by_container"].items():
+        print(f"  state | {k:10s} {v:.3f}", file=file)
+    print(f"  combined_rate {out['combined_rate']:.3f}", file=file)
+    for f, r in out.get("f_sweep_odwalla", {}).items():
+        print(f"  odwalla state rate at {f} N: {r['rate']:.3f}", file=file)
+
+
 def main(argv=None) -> int:
     ap = ArgumentParser(
         prog="python -m mmlearn.apps.tactile_state",
@@ -235,31 +426,51 @@ def main(argv=None) -> int:
                     help="p_steady and f_steady as means over the steady phase (default: the "
                          "single sample at t_steady, as the thesis)")
     ap.add_argument("--f-target", type=pos_float, default=None, metavar="N",
-                    help="probing force of the simulated gripper, newtons (simulation mode: "
-                         "not built yet)")
+                    help="simulation mode: probing force of the simulated gripper per finger, "
+                         "newtons (without --train)")
+    ap.add_argument("--trials", type=pos_int, default=16,
+                    help="simulation: grasps per container and state (default 16)")
+    ap.add_argument("--f-sweep", action="store_true",
+                    help="simulation: add the Odwalla f_target sweep 17 / 20 / 23 N (Table 7.2)")
+    ap.add_argument("--sweep-trials", type=pos_int, default=24,
+                    help="simulation: grasps per Odwalla state and force in --f-sweep "
+                         "(default 24, as the thesis)")
+    ap.add_argument("--results", metavar="FILE", default=None,
+                    help="simulation: JSON Lines file of the grasps; a rerun resumes from it")
+    ap.add_argument("--jobs", type=pos_int, default=None,
+                    help="simulation: parallel grasps (default: all cores)")
+    ap.add_argument("--progress", action="store_true", help="simulation: progress bar")
+    ap.add_argument("--containers", type=name_list(["odwalla", "naked", "can", "water"]),
+                    default=["odwalla", "naked", "can", "water"],
+                    help="simulation: comma-separated container classes (default: all four)")
     ap.add_argument("--seed", type=nonneg_int, default=0,
                     help="random seed (fold assignment, forest)")
     ap.add_argument("--plot", metavar="FILE", default=None,
                     help="write the confusion matrix and example grasp profiles as an image")
     ap.add_argument("--meshcat", action="store_true",
-                    help="live 3-D view (simulation mode only: not built yet)")
+                    help="not available (real data has no scene; the simulation runs batches)")
     ap.add_argument("--html-out", metavar="FILE", default=None,
-                    help="Meshcat recording (simulation mode only: not built yet)")
+                    help="not available (real data has no scene; the simulation runs batches)")
     ap.add_argument("--json", action="store_true", help="print results as one JSON object")
     args = ap.parse_args(argv)
+    sim = args.train is None and args.f_target is not None
     try:
         for flag, val in (("--meshcat", args.meshcat), ("--html-out", args.html_out)):
             if val:
                 raise UsageError(f"{flag}: real-data mode has no 3-D scene to show, and the "
-                                 f"simulation mode is not built yet (use --plot FILE)")
-        if args.train is None:
-            if args.f_target is not None:
-                raise UsageError("simulation mode not built yet (--f-target needs the Drake "
-                                 "gripper and containers); use --train DIR for real data")
-            raise UsageError("--train DIR is required (simulation mode not built yet)")
-        if args.f_target is not None:
-            raise UsageError("--f-target applies to simulation mode only (not built yet); "
+                                 f"simulation mode runs batches of grasps without a viewer "
+                                 f"(use --plot FILE)")
+        if args.train is None and not sim:
+            raise UsageError("--train DIR is required (or --f-target N for the simulation mode)")
+        if args.train is not None and args.f_target is not None:
+            raise UsageError("--f-target applies to simulation mode only (without --train); "
                              "the real data were recorded with the iCub's own controller")
+        if sim and args.test is not None:
+            raise UsageError("--test applies to real-data mode only")
+        if sim and args.plot:
+            raise UsageError("--plot: real-data mode only for now")
+        if args.results:
+            check_out_file("--results", args.results)
         check_out_file("--plot", args.plot)
         from pathlib import Path
 
@@ -270,15 +481,25 @@ def main(argv=None) -> int:
     except UsageError as e:
         return fail(ap.prog, str(e))
     try:
-        out = run(config=TactileStateConfig(
-            train=args.train, test=args.test, classifier=args.classifier,
-            include_full_coke=args.include_full_coke, folds=args.folds, seed=args.seed,
-            contact_level=args.contact_level, rest_velocity=args.rest_velocity,
-            steady_average=args.steady_average, plot=args.plot))
+        if sim:
+            out = run(config=TactileStateConfig(
+                classifier=args.classifier, folds=args.folds, seed=args.seed,
+                steady_average=args.steady_average, f_target=args.f_target,
+                trials=args.trials, f_sweep=args.f_sweep, sweep_trials=args.sweep_trials,
+                results=args.results, jobs=args.jobs, progress=args.progress,
+                containers=tuple(args.containers)))
+        else:
+            out = run(config=TactileStateConfig(
+                train=args.train, test=args.test, classifier=args.classifier,
+                include_full_coke=args.include_full_coke, folds=args.folds, seed=args.seed,
+                contact_level=args.contact_level, rest_velocity=args.rest_velocity,
+                steady_average=args.steady_average, plot=args.plot))
     except (ICubFileError, ValueError) as e:
         return fail(ap.prog, str(e))
     if args.json:
         print(json.dumps(out, indent=1))
+    elif sim:
+        _print_sim(out)
     else:
         _print_text(out)
         if args.plot:

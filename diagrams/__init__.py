@@ -5,8 +5,9 @@ from .operate import MakeOperateDiagram, Operate, OperateConfig
 from .perception import (FrontPerceptionConfig, FrontPerceptionDiagram,
                          MakeFrontPerceptionDiagram)
 from .scene import MakeSceneDiagram, Scene, SceneConfig
+from .tactile_grasp import MakeTactileGraspDiagram, TactileGraspConfig, simulate_grasp
 
 __all__ = ["BodySchemaDiagram", "BodySchemaDiagramConfig", "FrontPerceptionConfig",
            "FrontPerceptionDiagram", "MakeBodySchemaDiagram", "MakeFrontPerceptionDiagram",
            "MakeOperateDiagram", "MakeSceneDiagram", "Operate", "OperateConfig", "Scene",
-           "SceneConfig"]
+           "SceneConfig", "MakeTactileGraspDiagram", "TactileGraspConfig", "simulate_grasp"]

@@ -23,9 +23,14 @@ from .prior_selector import PriorModelSelector
 from .schema_controller import SchemaController
 from .schema_learner import SchemaLearner, SchemaLearnerConfig, SchemaLearnerState
 from .schema_visualizer import SchemaVisualizer
+from .tactile_grasp_controller import TactileGraspController
+from .tactile_sensor import PadSpec, TactileSensor
 from .wrist_force_sensor import WristForceSensor
 
 __all__ = [
+    "PadSpec",
+    "TactileGraspController",
+    "TactileSensor",
     "ArticulationEstimator",
     "BaseLocalization",
     "BaseLocalizationConfig",

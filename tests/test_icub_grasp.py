@@ -137,7 +137,7 @@ def _main(argv, capsys):
 
 @pytest.mark.parametrize("argv, needle", [
     ([], "--train DIR is required"),
-    (["--f-target", "20", "--seed", "1"], "simulation mode not built yet"),
+    (["--f-target", "20", "--train", str(DATA)], "--f-target applies to simulation mode only"),
     (["--train", "/nonexistent/dir"], "--train: /nonexistent/dir: folder not found"),
     (["--train", str(DATA), "--classifier", "svm"], "--classifier"),
     (["--train", str(DATA), "--folds", "0"], "--folds"),

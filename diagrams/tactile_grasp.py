@@ -1,0 +1,240 @@
+"""The tactile grasp scene: a parallel gripper with taxel pads squeezing an object (ch. 6-7).
+
+``MakeTactileGraspDiagram(config)`` wires a discrete MultibodyPlant (1 ms, hydroelastic
+contact) with the gripper of :func:`mmlearn.sdf.tactile.gripper_sdf` welded at the commanded
+grasp height, an object (a container of :mod:`mmlearn.models.containers`, welded upright at
+the origin as if standing on a table between the open fingers, or none), a
+:class:`~mmlearn.systems.tactile_sensor.TactileSensor` on both pads and the
+:class:`~mmlearn.systems.tactile_grasp_controller.TactileGraspController` of Eq. 7.8.
+``simulate_grasp(config)`` runs one grasp and returns a
+:class:`~mmlearn.models.tactile_types.TactileGrasp` built only from the simulated sensors
+(finger encoders with noise, taxel pads); the labels are attached afterwards and never
+enter a reading.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from pydrake.geometry import SceneGraphConfig
+from pydrake.math import RigidTransform, RotationMatrix
+from pydrake.multibody.parsing import Parser
+from pydrake.multibody.plant import (AddMultibodyPlant, MultibodyPlantConfig)
+from pydrake.multibody.tree import PdControllerGains, PrismaticSpring
+from pydrake.systems.analysis import Simulator
+from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.primitives import LogVectorOutput
+
+from mmlearn.models.containers import ContainerInstance, sample_container
+from mmlearn.models.tactile_pad import PAD_CH6, PAD_PR2, PadLayout
+from mmlearn.models.tactile_types import TactileGrasp
+from mmlearn.sdf.tactile import GripperGeometry, container_sdf, gripper_sdf, pad_z_of
+from mmlearn.systems.tactile_grasp_controller import TactileGraspController
+from mmlearn.systems.tactile_sensor import PadSpec, TactileSensor
+from mmlearn.systems.wrist_force_sensor import WristForceSensor
+
+__all__ = ["TactileGraspConfig", "MakeTactileGraspDiagram", "simulate_grasp", "PAD_LAYOUTS",
+           "container_grasp_trial", "grasp_from_record"]
+
+_APPROX = "sap"
+PAD_LAYOUTS = {"pr2": PAD_PR2, "ch6": PAD_CH6}
+
+# pad frame P in the finger body: x_P across, y_P towards the fingertip (-z), z_P inward
+_R_LEFT = RotationMatrix(np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]]))
+_R_RIGHT = RotationMatrix(np.array([[0.0, 0.0, -1.0], [1.0, 0.0, 0.0], [0.0, -1.0, 0.0]]))
+
+
+@dataclass
+class TactileGraspConfig:
+    """One grasp.
+
+    Attributes:
+        pad: taxel layout, "pr2" (ch. 7) or "ch6".
+        f_target: probing force per finger, N.
+        v_target: closing speed of the finger distance, m/s.
+        contact_force: switching threshold F on each pad's force, N.
+        kp, kd: finger PD gains, N/m and N s/m.
+        force_rate: rise of the commanded force after the switch, N/s.
+        hold_time: time between both fingers in force control and the release, s.
+        duration: simulated time, s.
+        mode: controller mode ("switching", "force", "velocity").
+        grasp_height: height of the pad centres above the object's base, m.
+        offset: the object's lateral offset from the gripper centre along x, m.
+        time_step: plant time step, s.
+        sensor_rate: taxel and encoder sampling rate, Hz.
+        taxel_noise: taxel noise, fraction of saturation.
+        encoder_noise: finger-distance noise, m.
+        seed: noise seed.
+        gripper: gripper dimensions.
+    """
+
+    pad: str = "pr2"
+    f_target: float = 20.0
+    v_target: float = 0.02
+    contact_force: float = 1.0
+    kp: float = 2000.0
+    kd: float = 100.0
+    force_rate: float = 40.0
+    hold_time: float = 0.8
+    duration: float = 3.5
+    mode: str = "switching"
+    grasp_height: float = 0.07
+    offset: float = 0.0
+    time_step: float = 1e-3
+    sensor_rate: float = 25.0
+    taxel_noise: float = 0.003
+    encoder_noise: float = 5e-5
+    seed: int = 0
+    gripper: GripperGeometry = field(default_factory=GripperGeometry)
+
+
+def MakeTactileGraspDiagram(config: TactileGraspConfig, *, container: ContainerInstance | None = None,
+                            object_sdf: str | None = None, meshcat=None):
+    """Build the scene; returns (diagram, parts) with parts = {"plant", "scene_graph",
+    "sensor", "controller", "grasp_log", "taxel_log", "force_log", "gripper", "container"}.
+
+    The object is ``container`` (a :class:`ContainerInstance`) or any SDFormat model
+    ``object_sdf`` (text; its first link is welded at the origin shifted by ``offset``)."""
+    if container is not None and object_sdf is not None:
+        raise ValueError("give either container or object_sdf, not both")
+    c = config
+    if c.pad not in PAD_LAYOUTS:
+        raise ValueError(f"pad: unknown layout {c.pad!r}; choose from {', '.join(PAD_LAYOUTS)}")
+    layout: PadLayout = PAD_LAYOUTS[c.pad]
+    g = c.gripper
+    builder = DiagramBuilder()
+    plant, scene_graph = AddMultibodyPlant(
+        MultibodyPlantConfig(time_step=c.time_step, contact_model="hydroelastic_with_fallback",
+                             discrete_contact_approximation=_APPROX),
+        SceneGraphConfig(), builder)
+    parser = Parser(plant)
+    gripper = parser.AddModelsFromString(gripper_sdf(layout, g), "sdf")[0]
+    pad_z = pad_z_of(layout, g)
+    mount = plant.WeldFrames(plant.world_frame(), plant.GetFrameByName("palm", gripper),
+                             RigidTransform([0.0, 0.0, c.grasp_height + pad_z]))
+    cont = None
+    if container is not None:
+        cont = parser.AddModelsFromString(container_sdf(container), "sdf")[0]
+        plant.WeldFrames(plant.world_frame(), plant.GetFrameByName("base", cont),
+                         RigidTransform([c.offset, 0.0, 0.0]))
+        for side in ("l", "r"):
+            plant.AddForceElement(PrismaticSpring(
+                plant.GetJointByName(f"wall_{side}_slide", cont), 0.0, container.k))
+        if container.slosh_mass > 0:
+            plant.AddForceElement(PrismaticSpring(plant.GetJointByName("slosh", cont), 0.0,
+                                                  container.slosh_k))
+    if object_sdf is not None:
+        cont = parser.AddModelsFromString(object_sdf, "sdf")[0]
+        first = plant.GetBodyIndices(cont)[0]
+        plant.WeldFrames(plant.world_frame(), plant.get_body(first).body_frame(),
+                         RigidTransform([c.offset, 0.0, 0.0]))
+    for side in ("left", "right"):
+        act = plant.GetJointActuatorByName(f"{side}_slide", gripper)
+        act.set_controller_gains(PdControllerGains(p=c.kp, d=c.kd))
+    plant.Finalize()
+    inspector = scene_graph.model_inspector()
+    pads = []
+    for side, R in (("left", _R_LEFT), ("right", _R_RIGHT)):
+        body = plant.GetBodyByName(f"{side}_finger", gripper)
+        gids = tuple(gid for gid in plant.GetCollisionGeometriesForBody(body)
+                     if inspector.GetName(gid).endswith(f"{side}_pad"))
+        pads.append(PadSpec(side, layout, int(body.index()),
+                            RigidTransform(R, [0.0, 0.0, -pad_z]), gids))
+    sensor = builder.AddNamedSystem("tactile_sensor", TactileSensor(
+        pads=pads, rate_hz=c.sensor_rate, noise=c.taxel_noise, seed=c.seed))
+    builder.Connect(plant.get_contact_results_output_port(),
+                    sensor.get_contact_results_input_port())
+    builder.Connect(plant.get_body_poses_output_port(), sensor.get_body_poses_input_port())
+    ctrl = builder.AddNamedSystem("grasp_controller", TactileGraspController(
+        f_target=c.f_target, v_target=c.v_target, contact_force=c.contact_force, kp=c.kp,
+        kd=c.kd, hold_time=c.hold_time, open_gap=g.open_gap, stroke=g.stroke, mode=c.mode,
+        force_rate=c.force_rate,
+        period=c.time_step))
+    builder.Connect(plant.get_state_output_port(gripper), ctrl.get_gripper_state_input_port())
+    builder.Connect(sensor.get_pad_force_output_port(), ctrl.get_pad_force_input_port())
+    builder.Connect(ctrl.get_desired_state_output_port(),
+                    plant.get_desired_state_input_port(gripper))
+    # wrist force-torque sensor at the palm mount (force on the palm beyond the palm's own
+    # weight: the fingers' weight is a constant offset, the grasped object's weight adds)
+    wrist = builder.AddNamedSystem("wrist_force_sensor", WristForceSensor(
+        plant=plant, mount_joint=mount, sigma_force=0.05, rate_hz=100.0, seed=c.seed))
+    builder.Connect(plant.get_reaction_forces_output_port(),
+                    wrist.get_reaction_forces_input_port())
+    builder.Connect(plant.get_body_poses_output_port(), wrist.get_body_poses_input_port())
+    period = 1.0 / c.sensor_rate
+    grasp_log = LogVectorOutput(ctrl.get_grasp_output_port(), builder, period)
+    taxel_log = LogVectorOutput(sensor.get_taxels_output_port(), builder, period)
+    force_log = LogVectorOutput(sensor.get_pad_force_output_port(), builder, period)
+    if meshcat is not None:
+        from pydrake.geometry import MeshcatVisualizer
+
+        MeshcatVisualizer.AddToBuilder(builder, scene_graph, meshcat)
+    diagram = builder.Build()
+    return diagram, {"plant": plant, "scene_graph": scene_graph, "sensor": sensor,
+                     "wrist_force_sensor": wrist,
+                     "controller": ctrl, "grasp_log": grasp_log, "taxel_log": taxel_log,
+                     "force_log": force_log, "gripper": gripper, "container": cont}
+
+
+def simulate_grasp(config: TactileGraspConfig, *, container: ContainerInstance | None = None,
+                   object_sdf: str | None = None, meshcat=None,
+                   label: str | None = None) -> TactileGrasp:
+    """Run one grasp and return what the sensors recorded (25 Hz by default): finger
+    distance p (encoders + noise), its rate v, the summed pad force f, per-pad forces and
+    the taxel images. ``label`` / the container's class and state are attached as labels
+    only."""
+    diagram, parts = MakeTactileGraspDiagram(config, container=container, object_sdf=object_sdf,
+                                             meshcat=meshcat)
+    sim = Simulator(diagram)
+    sim.Initialize()
+    sim.AdvanceTo(config.duration)
+    ctx = sim.get_context()
+    gl = parts["grasp_log"].FindLog(ctx)
+    tl = parts["taxel_log"].FindLog(ctx)
+    fl = parts["force_log"].FindLog(ctx)
+    n = min(gl.num_samples(), tl.num_samples(), fl.num_samples())
+    t = gl.sample_times()[:n]
+    data = gl.data()[:, :n]
+    rng = np.random.default_rng([int(config.seed), 7])
+    p = data[0] + rng.normal(0.0, config.encoder_noise, n)
+    f_pad = np.maximum(fl.data()[:, :n].T, 0.0)
+    pads = parts["sensor"].split(tl.data()[:, :n].T)
+    kw = {}
+    if container is not None:
+        kw = {"container": container.name, "state": container.state,
+              "label": label or f"{container.name}/{container.state}"}
+    elif label is not None:
+        kw = {"label": label}
+    return TactileGrasp(t=t, p=p, f=f_pad.sum(axis=1), finger_force=f_pad,
+                        pads={k: np.clip(v, 0.0, 1.0) for k, v in pads.items()},
+                        height=config.grasp_height, **kw)
+
+
+def container_grasp_trial(*, seed: int, container: str, state: str, f_target: float = 20.0,
+                          v_target: float = 0.02, offset_sd: float = 0.001,
+                          duration: float = 2.6, hold_time: float = 1.0) -> dict:
+    """One ch. 7 probing grasp of a random instance of ``container`` in ``state`` (a pure
+    function of its arguments, for :mod:`mmlearn.apps._sweep`). The instance (sizes,
+    stiffnesses, fill level), its placement (lateral offset ~ N(0, ``offset_sd``) m) and
+    the sensor noise are drawn from ``seed``. Returns a JSON-able record: the recorded
+    series ``t``, ``p``, ``f``, ``finger_force`` (what the features are computed from), the
+    labels ``container`` / ``state`` and the instance's parameters (for reference only)."""
+    rng = np.random.default_rng([int(seed), 13])
+    inst = sample_container(container, state, rng)
+    offset = float(rng.normal(0.0, offset_sd))
+    cfg = TactileGraspConfig(pad="pr2", f_target=f_target, v_target=v_target,
+                             duration=duration, hold_time=hold_time, offset=offset,
+                             seed=int(seed))
+    g = simulate_grasp(cfg, container=inst)
+    return {"t": g.t.tolist(), "p": g.p.tolist(), "f": g.f.tolist(),
+            "finger_force": g.finger_force.tolist(), "container": container, "state": state,
+            "f_target": f_target, "offset": offset, "instance": inst.as_dict()}
+
+
+def grasp_from_record(rec: dict) -> TactileGrasp:
+    """The :class:`TactileGrasp` of a :func:`container_grasp_trial` record."""
+    return TactileGrasp(t=rec["t"], p=rec["p"], f=rec["f"], finger_force=rec["finger_force"],
+                        container=rec.get("container"), state=rec.get("state"),
+                        label=f"{rec.get('container')}/{rec.get('state')}")

@@ -1,0 +1,192 @@
+"""Containers with an internal state (thesis ch. 7): the lumped physics behind the squeeze.
+
+Plain numpy. A container is a rigid base with two compliant wall patches facing the fingers,
+each on a prismatic joint along the squeeze direction (x, inward positive) with a linear
+spring, a damper and a lumped mass. The spring of each wall is the sum of
+
+* the **shell** stiffness ``k_wall`` (N/m): bending of the container wall, from the material;
+* the **gas** stiffness of a closed container: pushing both walls in by x reduces the
+  enclosed volume by ``2 A x`` (``A`` the wall area swept per unit displacement, m^2); the
+  pressure rises by ``dp = 2 A x / C`` with the total compliance
+  ``C = V_gas / p0 + C_shell`` (m^3/Pa: the isothermal ideal-gas headspace ``V_gas / p0``
+  plus the bulging of the rest of the shell ``C_shell``), and acts on the wall with ``A dp``:
+  ``k_gas = 2 A^2 / C`` per wall (exact for a symmetric squeeze, which the two-finger grasp
+  is). A full closed container has a small headspace and so resists; an empty closed one
+  is an air spring; an open one vents (``k_gas = 0``);
+* the **hydrostatic** stiffness of an open full container: the displaced liquid rises in the
+  neck of area ``A_neck``: ``k_hyd = 2 A^2 rho g / A_neck``.
+
+Liquid moves with the wall: a full container adds the liquid's added mass
+``rho L_neck A^2 / A_neck`` (the liquid column accelerated in the neck, open or closed) and a
+viscous damping ``c_liq`` (N s/m, from the liquid's viscosity) to each wall. A liquid's bulk
+also sloshes: ``slosh_mass`` (kg) on a spring-damper (``slosh_k`` N/m, ``slosh_c`` N s/m) in
+the base (its frequency and damping follow a first sloshing mode; used when the container
+moves, e.g. liquid detection). Numbers per class are in :data:`CONTAINER_CLASSES`; each
+instance draws its own values around them (seeded: sizes +-1 %, stiffnesses and compliances
+by the class' ``spread``, fill level 88-97 % when full).
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+__all__ = ["ContainerClass", "ContainerInstance", "CONTAINER_CLASSES", "STATES",
+           "states_of", "sample_container", "P0", "RHO_WATER", "G"]
+
+P0 = 101325.0  # Pa, atmospheric pressure
+RHO_WATER = 1000.0  # kg/m^3
+G = 9.81  # m/s^2
+
+STATES = ("full_closed", "full_open", "empty_open", "empty_closed")
+
+
+@dataclass(frozen=True)
+class ContainerClass:
+    """Nominal numbers of one kind of container.
+
+    Attributes:
+        name: class name.
+        radius: outer radius at the grasp, m.
+        height: height, m.
+        volume: inner volume, m^3.
+        k_wall: shell stiffness of one wall patch, N/m.
+        area: wall area swept per unit inward displacement, m^2.
+        c_shell: pressure compliance of the rest of the shell, m^3/Pa.
+        neck_area: cross-section of the neck / opening, m^2.
+        neck_length: length of the liquid column in the neck, m.
+        wall_mass: mass of one wall patch, kg.
+        c_wall: damping of the empty wall, N s/m.
+        c_liq: extra damping per wall from the liquid's viscosity, N s/m.
+        mass_empty: mass of the empty container, kg.
+        spread: relative standard deviation of stiffness and compliance between instances.
+        resealable: False for cans (they cannot be closed again once opened).
+    """
+
+    name: str
+    radius: float
+    height: float
+    volume: float
+    k_wall: float
+    area: float
+    c_shell: float
+    neck_area: float
+    neck_length: float
+    wall_mass: float
+    c_wall: float
+    c_liq: float
+    mass_empty: float
+    spread: float
+    resealable: bool = True
+
+
+#: The four container classes of Sec. 7.1.3 (Fig. 7.7a). Sizes are those of the products
+#: (Odwalla 450 ml HDPE, Naked 450 ml PET, 355 ml aluminium can, 500 ml thin PET water
+#: bottle); the stiffnesses are chosen so that a wall patch yields a few mm at 10-20 N as
+#: squeezing such containers by hand does: the HDPE bottle thick-walled, the can stiff, the
+#: water bottle flimsy and variable ("they tend to deform unpredictably").
+CONTAINER_CLASSES = {
+    "odwalla": ContainerClass("odwalla", radius=0.036, height=0.17, volume=0.45e-3,
+                              k_wall=1800.0, area=1.6e-3, c_shell=2.0e-9, neck_area=4.5e-4,
+                              neck_length=0.03, wall_mass=0.01, c_wall=4.0, c_liq=25.0,
+                              mass_empty=0.045, spread=0.08),
+    "naked": ContainerClass("naked", radius=0.030, height=0.18, volume=0.45e-3,
+                            k_wall=1300.0, area=1.4e-3, c_shell=3.0e-9, neck_area=4.0e-4,
+                            neck_length=0.03, wall_mass=0.008, c_wall=3.0, c_liq=20.0,
+                            mass_empty=0.035, spread=0.15),
+    "can": ContainerClass("can", radius=0.033, height=0.122, volume=0.355e-3,
+                          k_wall=3000.0, area=1.2e-3, c_shell=1.2e-9, neck_area=3.0e-4,
+                          neck_length=0.005, wall_mass=0.005, c_wall=3.0, c_liq=20.0,
+                          mass_empty=0.015, spread=0.10, resealable=False),
+    "water": ContainerClass("water", radius=0.0325, height=0.21, volume=0.5e-3,
+                            k_wall=500.0, area=1.8e-3, c_shell=6.0e-9, neck_area=3.5e-4,
+                            neck_length=0.03, wall_mass=0.004, c_wall=2.0, c_liq=20.0,
+                            mass_empty=0.02, spread=0.35),
+}
+
+
+def states_of(name: str) -> tuple:
+    """The internal states a container class can be in (cans: no ``empty_closed``)."""
+    c = CONTAINER_CLASSES[name]
+    return STATES if c.resealable else tuple(s for s in STATES if s != "empty_closed")
+
+
+@dataclass(frozen=True)
+class ContainerInstance:
+    """One physical container in one state (all SI units; see the module docstring).
+
+    Attributes:
+        name, state: class and internal state (labels: never read by any sensor).
+        radius, height: m.
+        fill: liquid volume fraction (0 empty).
+        k: total stiffness of each wall, N/m.
+        c: total damping of each wall, N s/m.
+        wall_mass: lumped mass of each wall incl. the liquid's added mass, kg.
+        mass: total mass incl. liquid, kg.
+        slosh_mass, slosh_k, slosh_c: the sloshing liquid (kg, N/m, N s/m; 0 when empty).
+        k_parts: the contributions {"shell", "gas", "hydrostatic"} to ``k``, N/m.
+    """
+
+    name: str
+    state: str
+    radius: float
+    height: float
+    fill: float
+    k: float
+    c: float
+    wall_mass: float
+    mass: float
+    slosh_mass: float
+    slosh_k: float
+    slosh_c: float
+    k_parts: dict
+
+    def as_dict(self) -> dict:
+        return asdict(self)
+
+
+def sample_container(name: str, state: str, rng: np.random.Generator) -> ContainerInstance:
+    """A random instance of class ``name`` in ``state`` (seeded through ``rng``)."""
+    if name not in CONTAINER_CLASSES:
+        raise ValueError(f"container: unknown class {name!r}; choose from "
+                         f"{', '.join(CONTAINER_CLASSES)}")
+    if state not in states_of(name):
+        raise ValueError(f"container {name!r}: unknown or impossible state {state!r}; choose "
+                         f"from {', '.join(states_of(name))}")
+    c = CONTAINER_CLASSES[name]
+    full = state.startswith("full")
+    closed = state.endswith("closed")
+
+    def var(x, rel):
+        return float(x * np.exp(rng.normal(0.0, rel)))
+
+    radius = var(c.radius, 0.01)
+    height = var(c.height, 0.01)
+    k_wall = var(c.k_wall, c.spread)
+    c_shell = var(c.c_shell, c.spread)
+    area = var(c.area, 0.05)
+    fill = float(rng.uniform(0.88, 0.97)) if full else 0.0
+    v_liq = fill * c.volume
+    k_gas = 0.0
+    if closed:
+        v_gas = c.volume - v_liq
+        k_gas = 2.0 * area**2 / (v_gas / P0 + c_shell)
+    k_hyd = 2.0 * area**2 * RHO_WATER * G / c.neck_area if (full and not closed) else 0.0
+    m_add = RHO_WATER * c.neck_length * area**2 / c.neck_area if full else 0.0
+    damping = var(c.c_wall, 0.1) + (var(c.c_liq, 0.1) if full else 0.0)
+    m_liq = RHO_WATER * v_liq
+    # first sloshing mode of a liquid in a cylinder: omega^2 = g * 1.841 / R * tanh(...)
+    if full:
+        depth = v_liq / (np.pi * radius**2)
+        w2 = G * 1.841 / radius * np.tanh(1.841 * depth / radius)
+        ms = 0.4 * m_liq  # the sloshing share of the liquid (the rest moves rigidly)
+        slosh_k, slosh_c = ms * w2, 2.0 * 0.05 * ms * np.sqrt(w2)
+    else:
+        ms, slosh_k, slosh_c = 0.0, 0.0, 0.0
+    return ContainerInstance(
+        name=name, state=state, radius=radius, height=height, fill=fill,
+        k=k_wall + k_gas + k_hyd, c=damping, wall_mass=c.wall_mass + m_add,
+        mass=c.mass_empty + m_liq, slosh_mass=float(ms), slosh_k=float(slosh_k),
+        slosh_c=float(slosh_c),
+        k_parts={"shell": k_wall, "gas": float(k_gas), "hydrostatic": float(k_hyd)})

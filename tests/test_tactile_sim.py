@@ -1,0 +1,230 @@
+"""The Drake side of tactile sensing: taxel integration, TactileSensor, the switching grasp
+controller of Eq. 7.8 and the container physics (thesis ch. 6-7)."""
+
+import numpy as np
+import pytest
+
+from mmlearn.models.containers import (CONTAINER_CLASSES, sample_container, states_of)
+from mmlearn.models.tactile_pad import (PAD_CH6, PAD_PR2, PadLayout, integrate_pressure,
+                                        sensor_reading, subdivision_points)
+
+
+# ------------------------------------------------------------------ pad integration (numpy)
+def _sliver_fan(layout, n=60, z=0.0):
+    """Triangles covering the pad rectangle as a fan of slivers from one corner (each spans
+    many cells)."""
+    w, L = layout.width / 2, layout.length / 2
+    apex = np.array([-w, L, z])
+    edge = np.concatenate([np.column_stack([np.full(n, w), np.linspace(L, -L, n), np.full(n, z)]),
+                           np.column_stack([np.linspace(w, -w, n), np.full(n, -L), np.full(n, z)])])
+    tris = [[apex, edge[i], edge[i + 1]] for i in range(len(edge) - 1)]
+    return np.array(tris)
+
+
+def test_subdivision_points_are_centroids_of_equal_subtriangles():
+    for n in (1, 2, 5):
+        B = subdivision_points(n)
+        assert B.shape == (n * n, 3)
+        assert np.allclose(B.sum(axis=1), 1.0) and (B > 0).all()
+        assert np.allclose(B.mean(axis=0), 1 / 3)  # symmetric tiling
+
+
+@pytest.mark.parametrize("layout", [PAD_CH6, PAD_PR2])
+def test_uniform_pressure_on_slivers_gives_uniform_cells(layout):
+    tri = _sliver_fan(layout)
+    p = np.full((len(tri), 3), 1.0e5)
+    cells = integrate_pressure(layout, tri, p)
+    assert cells.shape == (layout.rows, layout.cols)
+    # every cell carries pressure x its own area, although each sliver spans many cells
+    assert np.allclose(cells, 1.0e5, rtol=0.06), cells / 1e5
+    total = cells.sum() * layout.cell_area
+    assert total == pytest.approx(1.0e5 * layout.length * layout.width, rel=1e-9)
+
+
+def test_linear_pressure_field_cell_means():
+    lay = PAD_CH6
+    tri = _sliver_fan(lay, n=40)
+    # p = a + b * y (linear): each cell's mean is the value at its centre row
+    a, b = 1.0e5, 2.0e6
+    p = a + b * tri[..., 1]
+    cells = integrate_pressure(lay, tri, p)
+    row_y = lay.length / 2 - (np.arange(lay.rows) + 0.5) * lay.length / lay.rows
+    expect = np.repeat((a + b * row_y)[:, None], lay.cols, axis=1)
+    assert np.allclose(cells, expect, rtol=0.06)
+    assert cells[0].mean() > cells[-1].mean()  # row 0 at +y_P
+
+
+def test_outside_pad_and_far_from_plane_are_ignored_and_bad_faces_skipped():
+    lay = PAD_PR2
+    tri = _sliver_fan(lay) + np.array([1.0, 0.0, 0.0])  # shifted off the pad
+    assert integrate_pressure(lay, tri, np.full((len(tri), 3), 1e5)).sum() == 0
+    tri = _sliver_fan(lay, z=0.02)  # 2 cm above the pad plane: another part of the finger
+    assert integrate_pressure(lay, tri, np.full((len(tri), 3), 1e5)).sum() == 0
+    tri = _sliver_fan(lay)
+    p = np.full((len(tri), 3), 1e5)
+    p[0, 0] = np.nan
+    assert np.isfinite(integrate_pressure(lay, tri, p)).all()
+    assert integrate_pressure(lay, np.zeros((0, 3, 3)), np.zeros((0, 3))).sum() == 0
+
+
+def test_sensor_reading_saturates_and_is_seeded():
+    lay = PAD_PR2
+    c = np.full((lay.rows, lay.cols), 2 * lay.p_sat)
+    assert np.all(sensor_reading(lay, c, rng=np.random.default_rng(0)) == 1.0)
+    c = np.full((lay.rows, lay.cols), 0.5 * lay.p_sat)
+    r1 = sensor_reading(lay, c, rng=np.random.default_rng(1), noise=0.02)
+    r2 = sensor_reading(lay, c, rng=np.random.default_rng(1), noise=0.02)
+    assert np.array_equal(r1, r2) and abs(r1.mean() - 0.5) < 0.02
+    with pytest.raises(ValueError, match="rows"):
+        PadLayout(rows=0, cols=3, length=0.03, width=0.02, p_sat=1e5)
+
+
+# ------------------------------------------------------------------ containers (numpy)
+def test_container_stiffness_follows_state():
+    rng = np.random.default_rng(0)
+    k = {s: np.median([sample_container("odwalla", s, rng).k for _ in range(30)])
+         for s in states_of("odwalla")}
+    # closed full resists most (small headspace), then the closed air spring, then open
+    assert k["full_closed"] > k["empty_closed"] > k["full_open"] > k["empty_open"]
+    assert "empty_closed" not in states_of("can")  # cans cannot be closed again
+    with pytest.raises(ValueError, match="impossible state"):
+        sample_container("can", "empty_closed", rng)
+    with pytest.raises(ValueError, match="unknown class"):
+        sample_container("jar", "full_open", rng)
+    full = sample_container("water", "full_open", rng)
+    empty = sample_container("water", "empty_open", rng)
+    assert full.mass > empty.mass + 0.3 and full.slosh_mass > 0 and empty.slosh_mass == 0
+    assert set(CONTAINER_CLASSES) == {"odwalla", "naked", "can", "water"}
+
+
+# ------------------------------------------------------------------ Drake: sensor + controller
+def _contact_force_trace(cfg, object_sdf, t_end):
+    from pydrake.systems.analysis import Simulator
+
+    from mmlearn.diagrams.tactile_grasp import MakeTactileGraspDiagram
+
+    d, parts = MakeTactileGraspDiagram(cfg, object_sdf=object_sdf)
+    sim = Simulator(d)
+    sim.Initialize()
+    plant = parts["plant"]
+    pc = plant.GetMyContextFromRoot(sim.get_context())
+    F = []
+    for k in range(1, int(round(t_end * 1000)) + 1):
+        sim.AdvanceTo(k * 1e-3)
+        cr = plant.get_contact_results_output_port().Eval(pc)
+        F.append(sum(abs(cr.hydroelastic_contact_info(i).F_Ac_W().translational()[0])
+                     for i in range(cr.num_hydroelastic_contacts())) / 2)
+    return np.array(F), sim, parts
+
+
+def test_flat_block_pressed_with_known_force_gives_expected_cells():
+    from mmlearn.diagrams.tactile_grasp import TactileGraspConfig
+    from mmlearn.sdf.tactile import block_sdf
+
+    f = 30.0
+    cfg = TactileGraspConfig(pad="ch6", f_target=f, taxel_noise=0.0, grasp_height=0.06,
+                             hold_time=5.0, force_rate=150.0)
+    F, sim, parts = _contact_force_trace(cfg, block_sdf((0.07, 0.1, 0.12)), 1.4)
+    s = parts["sensor"]
+    sc = s.GetMyContextFromRoot(sim.get_context())
+    img = s.split(s.get_taxels_output_port().Eval(sc))
+    lay = s.pads[0].layout
+    expect = f / (lay.length * lay.width) / lay.p_sat  # the block covers the whole pad
+    for side in ("left", "right"):
+        assert img[side].shape == (14, 6)
+        assert np.allclose(img[side], expect, rtol=0.1), img[side] / expect
+    assert np.allclose(img["left"], img["right"][:, ::-1], atol=0.01 * expect + 1e-3)
+    assert np.allclose(s.get_pad_force_output_port().Eval(sc), f, rtol=0.01)
+    assert F[-1] == pytest.approx(f, rel=0.01)
+
+
+def test_switching_controller_has_no_impact_spike_pure_force_has():
+    from mmlearn.diagrams.tactile_grasp import TactileGraspConfig
+    from mmlearn.sdf.tactile import block_sdf
+
+    block = block_sdf((0.07, 0.1, 0.12))  # rigid: the wooden block of Fig. 7.5 / 7.6
+    peaks = {}
+    for mode in ("switching", "force"):
+        cfg = TactileGraspConfig(pad="pr2", f_target=10.0, mode=mode, taxel_noise=0.0,
+                                 hold_time=5.0)
+        F, _, _ = _contact_force_trace(cfg, block, 1.3)
+        assert F[-1] == pytest.approx(10.0, rel=0.02)
+        peaks[mode] = F.max()
+    assert peaks["switching"] <= 10.0 * 1.03, peaks  # no overshoot beyond 3 %
+    assert peaks["force"] > 10.0 * 1.2, peaks  # the pure force controller's impact spike
+
+
+def test_grasp_of_nothing_is_no_contact():
+    from mmlearn.diagrams.tactile_grasp import TactileGraspConfig, simulate_grasp
+    from mmlearn.models.tactile_state import extract_grasp_features
+
+    g = simulate_grasp(TactileGraspConfig(duration=1.0, v_target=0.1))
+    assert g.f.max() < 1.0 and g.p[-1] < 0.01
+    ft = extract_grasp_features(g, contact_force=1.0, rest_velocity=0.002)
+    assert not ft.contact
+
+
+def test_bad_arguments_are_named():
+    from mmlearn.systems.tactile_grasp_controller import TactileGraspController
+    from mmlearn.systems.tactile_sensor import TactileSensor
+
+    with pytest.raises(ValueError, match="mode"):
+        TactileGraspController(f_target=10.0, mode="crush")
+    with pytest.raises(ValueError, match="f_target"):
+        TactileGraspController(f_target=float("nan"))
+    with pytest.raises(ValueError, match="no pads"):
+        TactileSensor(pads=[])
+
+
+def test_tactile_state_simulation_mode_small_run(tmp_path, capsys):
+    """The app's simulation mode end to end on 6 short grasps (cans: 3 states x 2)."""
+    import json
+
+    from mmlearn.apps.tactile_state import main
+
+    res = tmp_path / "grasps.jsonl"
+    rc = main(["--f-target", "20", "--containers", "can", "--trials", "2", "--folds", "2",
+               "--jobs", "1", "--results", str(res), "--seed", "3", "--json"])
+    out, err = capsys.readouterr()
+    assert rc == 0, err
+    d = json.loads(out)
+    assert d["mode"] == "simulation" and d["n_grasps"] == 6 and d["no_contact"] == 0
+    assert set(d["state_rate_by_container"]) == {"can"}
+    assert 0.0 <= d["state_rate_by_container"]["can"] <= 1.0
+    assert 0.0 <= d["combined_rate"] <= 1.0
+    recs = [json.loads(ln) for ln in res.read_text().splitlines()]
+    assert len(recs) == 6 and all(r["error"] is None for r in recs)
+    # the readings carry no label: a record's series are numbers only
+    assert all(isinstance(v, float) for v in recs[0]["record"]["p"])
+
+
+@pytest.mark.parametrize("argv, needle", [
+    (["--f-target", "20", "--containers", "jar"], "--containers"),
+    (["--f-target", "20", "--test", "x"], "--test applies to real-data mode only"),
+    (["--f-target", "20", "--meshcat"], "--meshcat"),
+])
+def test_tactile_state_simulation_bad_flags(argv, needle, capsys):
+    from mmlearn.apps.tactile_state import main
+
+    try:
+        rc = main(argv)
+    except SystemExit as e:
+        rc = e.code
+    err = capsys.readouterr().err
+    assert rc == 2 and needle in err and "Traceback" not in err
+
+
+def test_wrist_force_sensor_sees_the_fingers_weight():
+    from pydrake.systems.analysis import Simulator
+
+    from mmlearn.diagrams.tactile_grasp import MakeTactileGraspDiagram, TactileGraspConfig
+
+    cfg = TactileGraspConfig(duration=0.2)
+    d, parts = MakeTactileGraspDiagram(cfg)
+    sim = Simulator(d)
+    sim.Initialize()
+    sim.AdvanceTo(0.2)
+    w = parts["wrist_force_sensor"]
+    f = w.get_force_output_port().Eval(w.GetMyContextFromRoot(sim.get_context()))
+    # the two fingers (cfg.gripper.finger_mass each) hang on the palm
+    assert f[2] == pytest.approx(-2 * cfg.gripper.finger_mass * 9.81, abs=0.2)
