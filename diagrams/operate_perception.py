@@ -38,7 +38,17 @@ from mmlearn.systems.front_detector import FrontDetector
 from .perception import AddDepthCamera, DepthCameraConfig, camera_pose_looking_at
 from .scene import MakeSceneDiagram, SceneConfig
 
-__all__ = ["LookConfig", "LookResult", "LookAtFront"]
+__all__ = ["LookConfig", "LookResult", "LookAtFront", "NoFrontDetected", "front_centre"]
+
+
+class NoFrontDetected(RuntimeError):
+    """The robot looked and found no front it could open (``look``: the
+    :class:`LookResult`)."""
+
+    def __init__(self, look):
+        super().__init__(f"no front detected ({look.frames_found} of {look.frames} frames; "
+                         f"rectangles per frame {look.rectangles})")
+        self.look = look
 
 
 @dataclass
@@ -192,7 +202,8 @@ def LookAtFront(spec: MechanismSpec, start_command, *, config: LookConfig | None
         if front is None:
             continue
         estimates.append(handle_from_front(spec.kind, front, depth, K, X_WC, cfg.handle))
-    found = len(estimates) >= cfg.min_frames
+    n_found = len(estimates)
+    found = n_found >= cfg.min_frames
     # frames that saw the bar outvote those that placed the handle by the kind's convention
     if any(e.source == "bar" for e in estimates):
         estimates = [e for e in estimates if e.source == "bar"]
@@ -203,6 +214,6 @@ def LookAtFront(spec: MechanismSpec, start_command, *, config: LookConfig | None
         est = HandleEstimate(handle=np.median(per_frame, axis=0), normal=e0.normal, bar=e0.bar,
                              e_y=e0.e_y, front=e0.front, source=e0.source,
                              bar_points=e0.bar_points)
-    return LookResult(found=found, estimate=est, frames_found=len(estimates),
+    return LookResult(found=found, estimate=est, frames_found=n_found,
                       frames=cfg.frames, target=target, X_WC=X_WC, per_frame=per_frame,
                       rectangles=counts, last_depth=depth, last_rectangles=list(rects))
