@@ -67,18 +67,23 @@ class LookConfig:
             lies within this distance of the true closed front's centre, m.
         camera: the depth camera (its distance / angle fields are not used).
         noise: the depth noise (its ``seed`` is replaced by the trial's).
-        detector: the FrontDetector's parameters.
+        detector: the FrontDetector's parameters (default: its defaults with the inlier
+            distance L = 0.015 m and 12 starts per plane: a drawer's front stands only
+            0.024 m off the carcass face around it, and with L = 0.02 m that face's plane
+            swallowed the drawer's front in some frames).
         handle: choosing the front and deriving the handle.
     """
 
     mount_position: list[float] = field(default_factory=lambda: [-0.25, 0.0, 1.6])
     arm_pose: list[float] | None = field(default_factory=lambda: [1.5, 0.3, 0.0, 1.2, 0.0, 0.0])
-    frames: int = 3
+    frames: int = 5
     min_frames: int = 1
     sent_error: float = 0.10
     camera: DepthCameraConfig = field(default_factory=DepthCameraConfig)
     noise: DepthNoiseConfig = field(default_factory=DepthNoiseConfig)
-    detector: FrontDetectorConfig = field(default_factory=FrontDetectorConfig)
+    detector: FrontDetectorConfig = field(
+        default_factory=lambda: FrontDetectorConfig(inlier_distance=0.015,
+                                                    starts_per_plane=12))
     handle: HandleFromFrontConfig = field(default_factory=HandleFromFrontConfig)
 
     def validate(self) -> None:

@@ -68,6 +68,9 @@ class HandleFromFrontConfig:
         search_margin: the bar's points are searched over the rectangle grown by this, m.
         min_bar_points: fewer bar points than this: place the handle by the kind's
             convention.
+        floor_clearance: points lower than this above the floor (world z = 0) are never
+            the handle's (in front of a front detected down to the plinth lies the floor),
+            m.
     """
 
     min_width: float = 0.2
@@ -85,6 +88,7 @@ class HandleFromFrontConfig:
     bar_radius: float = 0.01
     search_margin: float = 0.03
     min_bar_points: int = 20
+    floor_clearance: float = 0.05
 
     def validate(self) -> None:
         """Raise ``ValueError`` naming the first bad field."""
@@ -195,7 +199,8 @@ def handle_from_front(kind: str, rect: FrontRectangle, depth, K: PinholeIntrinsi
     s, y, z = rel @ rect.normal, rel @ e_y, rel @ e_z
     m = cfg.search_margin
     sel = ((s >= cfg.bar_min_standoff) & (s <= cfg.bar_max_standoff)
-           & (y >= y0 - m) & (y <= y1 + m) & (z >= z0 - m) & (z <= z1 + m))
+           & (y >= y0 - m) & (y <= y1 + m) & (z >= z0 - m) & (z <= z1 + m)
+           & (P[:, 2] >= cfg.floor_clearance))
     count = int(sel.sum())
     vertical = kind in ("left_door", "right_door", "sliding_door")
     bar = e_z.copy() if vertical else e_y.copy()
