@@ -71,6 +71,9 @@ class LookConfig:
             distance L = 0.015 m and 12 starts per plane: a drawer's front stands only
             0.024 m off the carcass face around it, and with L = 0.02 m that face's plane
             swallowed the drawer's front in some frames).
+        retry_detector: when no frame found the front, the robot looks ``frames`` more
+            frames with this detector configuration (default: L = 0.01 m, the original
+            detector's; None = no second look).
         handle: choosing the front and deriving the handle.
     """
 
@@ -84,6 +87,8 @@ class LookConfig:
     detector: FrontDetectorConfig = field(
         default_factory=lambda: FrontDetectorConfig(inlier_distance=0.015,
                                                     starts_per_plane=12))
+    retry_detector: FrontDetectorConfig | None = field(
+        default_factory=lambda: FrontDetectorConfig(inlier_distance=0.01, starts_per_plane=12))
     handle: HandleFromFrontConfig = field(default_factory=HandleFromFrontConfig)
 
     def validate(self) -> None:
@@ -105,6 +110,8 @@ class LookConfig:
         self.camera.validate()
         self.noise.validate()
         self.detector.validate()
+        if self.retry_detector is not None:
+            self.retry_detector.validate()
         self.handle.validate()
 
 
@@ -117,7 +124,7 @@ class LookResult:
         estimate: the handle estimate of the first successful frame with ``handle`` replaced
             by the median over the successful frames (None when not found).
         frames_found: frames in which the front was found.
-        frames: frames evaluated.
+        frames: frames evaluated (``2 * frames`` after a second look).
         target: the point the robot was sent to, m.
         X_WC: (4, 4) the camera's true pose.
         per_frame: handle estimates of the successful frames, (k, 3), m.
@@ -184,6 +191,13 @@ def LookAtFront(spec: MechanismSpec, start_command, *, config: LookConfig | None
         intrinsics=K, config=cfg.detector, seed=int(seed)))
     builder.Connect(noise.get_depth_image_output_port(), det.get_depth_image_input_port())
     builder.Connect(sensor.body_pose_in_world_output_port(), det.get_X_WC_input_port())
+    detectors = [det]
+    if cfg.retry_detector is not None:
+        det2 = builder.AddNamedSystem("front_detector_retry", FrontDetector(
+            intrinsics=K, config=cfg.retry_detector, seed=int(seed)))
+        builder.Connect(noise.get_depth_image_output_port(), det2.get_depth_image_input_port())
+        builder.Connect(sensor.body_pose_in_world_output_port(), det2.get_X_WC_input_port())
+        detectors.append(det2)
     diagram = builder.Build()
     ctx = diagram.CreateDefaultContext()
     look = start.copy()
@@ -193,13 +207,15 @@ def LookAtFront(spec: MechanismSpec, start_command, *, config: LookConfig | None
                              f"joints), got {len(cfg.arm_pose)}")
         look[3:] = cfg.arm_pose
     scene.set_joint_positions(ctx, look)
-    det_ctx = det.GetMyContextFromRoot(ctx)
     X_WC = sensor.body_pose_in_world_output_port().Eval(
         sensor.GetMyContextFromRoot(ctx)).GetAsMatrix4()
     estimates, counts = [], []
-    for k in range(cfg.frames):
+    for k in range(cfg.frames * len(detectors)):
+        if k == cfg.frames and estimates:
+            break  # found in the first look: no second one
+        dk = detectors[k // cfg.frames]
         ctx.SetTime(k / cfg.camera.rate_hz)
-        rects = det.get_rectangles_output_port().Eval(det_ctx)
+        rects = dk.get_rectangles_output_port().Eval(dk.GetMyContextFromRoot(ctx))
         counts.append(len(rects))
         front = select_front(rects, X_WC[:3, 3], target, cfg.handle)
         depth = np.asarray(noise.get_depth_image_output_port().Eval(
@@ -220,5 +236,5 @@ def LookAtFront(spec: MechanismSpec, start_command, *, config: LookConfig | None
                              e_y=e0.e_y, front=e0.front, source=e0.source,
                              bar_points=e0.bar_points)
     return LookResult(found=found, estimate=est, frames_found=n_found,
-                      frames=cfg.frames, target=target, X_WC=X_WC, per_frame=per_frame,
+                      frames=len(counts), target=target, X_WC=X_WC, per_frame=per_frame,
                       rectangles=counts, last_depth=depth, last_rectangles=list(rects))
