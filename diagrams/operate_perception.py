@@ -9,7 +9,13 @@ noisy depth image, puts the robot at its start, and evaluates ``frames`` camera 
 noise differs per frame). In each frame the front is chosen
 (:func:`mmlearn.models.front_handle.select_front`) and its handle derived
 (:func:`~mmlearn.models.front_handle.handle_from_front`); the estimate is the per-coordinate
-median over the frames that found the front.
+median over the frames that found the front (frames whose handle came from the bar's points
+outvote those that placed it by the kind's convention). When no frame found the front, the
+robot looks ``frames`` more frames with ``retry_detector`` (L = 0.01 m).
+
+The arm is turned aside while the robot looks (``LookConfig.arm_pose``): at the trial's
+start pose it stands between the head and the cabinet and hid the front's middle or free
+edge in 4 of 15 views tried (the move back to the start pose is not simulated).
 
 The head: the camera sits at ``mount_position`` in the base frame (x forward, z up; behind
 and above the arm, which would otherwise hide the front's free edge) and is panned and tilted
