@@ -94,6 +94,21 @@ def scene_points(op) -> np.ndarray:
     return np.concatenate([np.asarray(p, float) for p in pts])
 
 
+def _draw_look(meshcat, look) -> None:
+    """The front the robot chose (its outline), the handle it derived (a sphere) and the
+    head camera's position, in the true world frame."""
+    from pydrake.geometry import Rgba, Sphere
+    from pydrake.math import RigidTransform
+
+    c = look.estimate.front.corners()
+    meshcat.SetLineSegments("perception/front", c.T, np.roll(c, -1, axis=0).T, 3.0,
+                            Rgba(0.1, 0.8, 0.1, 1))
+    meshcat.SetObject("perception/handle", Sphere(0.015), Rgba(0.9, 0.1, 0.1, 1))
+    meshcat.SetTransform("perception/handle", RigidTransform(look.estimate.handle))
+    meshcat.SetObject("perception/camera", Sphere(0.03), Rgba(0.1, 0.1, 0.1, 1))
+    meshcat.SetTransform("perception/camera", RigidTransform(look.X_WC[:3, 3]))
+
+
 def right_kind(model_log, right: str) -> tuple[bool, float | None]:
     """Whether the model at the end of a trial was the right kind, and from which opening on.
 
@@ -154,6 +169,7 @@ def run(*, kind: str = "left_door", seed: int = 0, meshcat=None, html_out: str =
         cfg.base_noise = base_noise
     if meshcat is None and html_out:
         meshcat = make_meshcat(announce=False)
+    t_build = time.perf_counter()
     try:
         op = MakeOperateDiagram(cfg, meshcat=meshcat)
     except NoFrontDetected as e:
@@ -167,7 +183,10 @@ def run(*, kind: str = "left_door", seed: int = 0, meshcat=None, html_out: str =
                 "track_saved": None, "sim_seconds": 0.0, "wall_seconds": 0.0,
                 "true_kind": "revolute" if kind in REVOLUTE else "prismatic",
                 "html_out": None}
+    build_seconds = time.perf_counter() - t_build
     d = op.diagram
+    if meshcat is not None and op.look is not None:
+        _draw_look(meshcat, op.look)
     if meshcat is not None:
         # look at the mechanism from in front and to the side, so that the robot (which
         # starts in front of it) does not hide the front; frame the robot at its start and
@@ -234,7 +253,8 @@ def run(*, kind: str = "left_door", seed: int = 0, meshcat=None, html_out: str =
                    "handle_error_m": float(np.linalg.norm(used - spec.handle_world(0.0)[0])),
                    "handle_source": None if op.look is None else op.look.estimate.source,
                    "frames_found": None if op.look is None else op.look.frames_found,
-                   "look_frames": None if op.look is None else op.look.frames})
+                   "look_frames": None if op.look is None else op.look.frames,
+                   "build_seconds": round(build_seconds, 3)})
     # the model's kind over the trial, and the opening from which the final right kind held
     ok, right_at = right_kind(model_log, right)
     result.update({"right_kind": ok, "right_model_at": right_at, "true_kind": right,
