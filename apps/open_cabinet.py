@@ -175,7 +175,8 @@ def run(*, kind: str = "left_door", seed: int = 0, meshcat=None, html_out: str =
     except NoFrontDetected as e:
         # the robot saw no front it could open: a failed trial, nothing simulated
         return {"object": kind, "seed": seed, "success": False, "opened": 0.0,
-                "final_opening": 0.0, "unit": "deg" if kind in REVOLUTE else "m", "outcome": "no front detected",
+                "final_opening": 0.0, "unit": "deg" if kind in REVOLUTE else "m",
+                "outcome": "no front detected",
                 "perception": perception, "front_found": False, "handle_error_m": None,
                 "handle_source": None, "frames_found": e.look.frames_found,
                 "look_frames": e.look.frames, "learned_model": None, "right_kind": False,
