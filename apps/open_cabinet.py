@@ -32,7 +32,7 @@ import numpy as np
 from mmlearn.apps._common import (ArgumentParser, UsageError, check_in_file, check_out_file,
                                   fail, finish_viewing, frame_camera, make_meshcat,
                                   nonneg_float, nonneg_int, pos_float, progress_bar, save_html)
-from mmlearn.sdf.mechanisms import KINDS
+from mmlearn.sdf.mechanisms import KINDS, REVOLUTE
 
 SUCCESS_ANGLE = math.radians(60)  # thesis: opened > 60 deg (revolute) ...
 SUCCESS_DISTANCE = 0.3            # ... or > 0.3 m (prismatic)
@@ -94,6 +94,21 @@ def scene_points(op) -> np.ndarray:
     return np.concatenate([np.asarray(p, float) for p in pts])
 
 
+def _draw_look(meshcat, look) -> None:
+    """The front the robot chose (its outline), the handle it derived (a sphere) and the
+    head camera's position, in the true world frame."""
+    from pydrake.geometry import Rgba, Sphere
+    from pydrake.math import RigidTransform
+
+    c = look.estimate.front.corners()
+    meshcat.SetLineSegments("perception/front", c.T, np.roll(c, -1, axis=0).T, 3.0,
+                            Rgba(0.1, 0.8, 0.1, 1))
+    meshcat.SetObject("perception/handle", Sphere(0.015), Rgba(0.9, 0.1, 0.1, 1))
+    meshcat.SetTransform("perception/handle", RigidTransform(look.estimate.handle))
+    meshcat.SetObject("perception/camera", Sphere(0.03), Rgba(0.1, 0.1, 0.1, 1))
+    meshcat.SetTransform("perception/camera", RigidTransform(look.X_WC[:3, 3]))
+
+
 def right_kind(model_log, right: str) -> tuple[bool, float | None]:
     """Whether the model at the end of a trial was the right kind, and from which opening on.
 
@@ -112,7 +127,8 @@ def right_kind(model_log, right: str) -> tuple[bool, float | None]:
 def run(*, kind: str = "left_door", seed: int = 0, meshcat=None, html_out: str = "",
         max_time: float = 60.0, sigma_pos: float | None = None, show_progress: bool = True,
         realtime: bool = False, priors: str = "", mechanism_seed: int | None = None,
-        save_track: str = "", base_noise: float | None = None) -> dict:
+        save_track: str = "", base_noise: float | None = None,
+        perception: str = "click") -> dict:
     """Run one trial and return its results (see the module docstring).
 
     ``sigma_pos``: position noise the estimator assumes, m (None = OperateConfig's 0.05);
@@ -121,10 +137,20 @@ def run(*, kind: str = "left_door", seed: int = 0, meshcat=None, html_out: str =
     ``priors``: prior database to use (see ``learn_priors``); ``mechanism_seed``: fix the
     mechanism's geometry while ``seed`` varies the click and the start; ``save_track``:
     write the hook trajectory the model was learned from (x y z per line, in the robot's
-    believed world frame)."""
+    believed world frame); ``perception``: "click" (the robot is told the handle within
+    2 cm) or "depth" (it looks with its head depth camera first and derives the handle from
+    the detected front; a trial without a front is a failed trial, outcome "no front
+    detected").
+
+    The result holds ``perception``, ``front_found`` (always True for a click),
+    ``handle_error_m`` (distance of the handle position the robot used from the true one,
+    m, before its localisation error) and, for "depth", ``handle_source`` ("bar": from the
+    bar's points, "rectangle": by the kind's convention), ``frames_found`` and
+    ``look_frames``."""
     from pydrake.systems.analysis import Simulator
 
-    from mmlearn.diagrams.operate import MakeOperateDiagram, OperateConfig
+    from mmlearn.diagrams.operate import PERCEPTIONS, MakeOperateDiagram, OperateConfig
+    from mmlearn.diagrams.operate_perception import NoFrontDetected
     from mmlearn.models.fileio import atomic_write_text
     from mmlearn.systems.epc_controller import DONE, PHASE_NAMES, PULL
 
@@ -132,15 +158,36 @@ def run(*, kind: str = "left_door", seed: int = 0, meshcat=None, html_out: str =
         raise ValueError(f"object must be one of {', '.join(KINDS)}; got {kind!r}")
     if not (max_time > 0 and math.isfinite(max_time)):
         raise ValueError(f"max_time must be a finite number of seconds > 0, got {max_time}")
-    cfg = OperateConfig(kind=kind, seed=seed, priors=priors, mechanism_seed=mechanism_seed)
+    if perception not in PERCEPTIONS:
+        raise ValueError(f"perception must be one of {', '.join(PERCEPTIONS)}; got "
+                         f"{perception!r}")
+    cfg = OperateConfig(kind=kind, seed=seed, priors=priors, mechanism_seed=mechanism_seed,
+                        perception=perception)
     if sigma_pos is not None:
         cfg.sigma_pos = sigma_pos
     if base_noise is not None:
         cfg.base_noise = base_noise
     if meshcat is None and html_out:
         meshcat = make_meshcat(announce=False)
-    op = MakeOperateDiagram(cfg, meshcat=meshcat)
+    t_build = time.perf_counter()
+    try:
+        op = MakeOperateDiagram(cfg, meshcat=meshcat)
+    except NoFrontDetected as e:
+        # the robot saw no front it could open: a failed trial, nothing simulated
+        return {"object": kind, "seed": seed, "success": False, "opened": 0.0,
+                "final_opening": 0.0, "unit": "deg" if kind in REVOLUTE else "m",
+                "outcome": "no front detected",
+                "perception": perception, "front_found": False, "handle_error_m": None,
+                "handle_source": None, "frames_found": e.look.frames_found,
+                "look_frames": e.look.frames, "learned_model": None, "right_kind": False,
+                "base_noise": cfg.base_noise, "sigma_pos": cfg.sigma_pos,
+                "track_saved": None, "sim_seconds": 0.0, "wall_seconds": 0.0,
+                "true_kind": "revolute" if kind in REVOLUTE else "prismatic",
+                "html_out": None}
+    build_seconds = time.perf_counter() - t_build
     d = op.diagram
+    if meshcat is not None and op.look is not None:
+        _draw_look(meshcat, op.look)
     if meshcat is not None:
         # look at the mechanism from in front and to the side, so that the robot (which
         # starts in front of it) does not hide the front; frame the robot at its start and
@@ -202,6 +249,13 @@ def run(*, kind: str = "left_door", seed: int = 0, meshcat=None, html_out: str =
               "final_opening": to_unit(q),
               "unit": unit, "outcome": ctrl.outcome or PHASE_NAMES[phase]}
     result.update(evaluate_model(link, spec))
+    used = (op.look.estimate.handle if op.look is not None else op.true_task.handle)
+    result.update({"perception": perception, "front_found": True,
+                   "handle_error_m": float(np.linalg.norm(used - spec.handle_world(0.0)[0])),
+                   "handle_source": None if op.look is None else op.look.estimate.source,
+                   "frames_found": None if op.look is None else op.look.frames_found,
+                   "look_frames": None if op.look is None else op.look.frames,
+                   "build_seconds": round(build_seconds, 3)})
     # the model's kind over the trial, and the opening from which the final right kind held
     ok, right_at = right_kind(model_log, right)
     result.update({"right_kind": ok, "right_model_at": right_at, "true_kind": right,
@@ -238,6 +292,10 @@ def add_trial_args(ap) -> None:
     ap.add_argument("--base-noise", type=nonneg_float, default=None,
                     help="scale of the robot's base-localisation and odometry error (default "
                          "1: 0.05 m RMS, 1.1 deg, drifting; 0: base pose known exactly)")
+    ap.add_argument("--perception", default="click", choices=["click", "depth"],
+                    help="where the handle comes from: click = told within 2 cm; depth = "
+                         "the robot looks with its head depth camera, detects the front and "
+                         "derives the handle")
 
 
 def main(argv=None) -> int:
@@ -277,7 +335,7 @@ def main(argv=None) -> int:
                 max_time=args.max_time, sigma_pos=args.sigma_pos,
                 show_progress=not args.json, realtime=args.meshcat, priors=args.priors,
                 mechanism_seed=args.mechanism_seed, save_track=args.save_track,
-                base_noise=args.base_noise)
+                base_noise=args.base_noise, perception=args.perception)
     except ValueError as e:
         return fail(ap.prog, str(e))
     if args.save_track and r["track_saved"] is None:
@@ -287,6 +345,13 @@ def main(argv=None) -> int:
         print(json.dumps(r))
     else:
         verdict = "SUCCESS" if r["success"] else "FAILED"
+        if not r["front_found"]:
+            print(f"FAILED: {r['object']}: no front detected")
+            return 1
+        if r["perception"] == "depth":
+            print(f"handle from the depth camera ({r['handle_source']}, front in "
+                  f"{r['frames_found']} of {r['look_frames']} frames): error "
+                  f"{r['handle_error_m']:.3f} m")
         print(f"{verdict}: {r['object']} opened {r['opened']:.2f} {r['unit']} "
               f"({r['outcome']}); learned model: {r['learned_model']}")
         if r["radius_error_m"] is not None:

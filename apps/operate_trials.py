@@ -53,7 +53,8 @@ def _priors_file(text: str) -> str:
 
 def trial(*, seed: int, kind: str, max_time: float = 60.0, sigma_pos: float | None = None,
           mechanism_seed: int | None = None, base_noise: float | None = None,
-          save_track: str = "", priors_sha1: str = "", shared=None) -> dict:
+          save_track: str = "", priors_sha1: str = "", shared=None,
+          perception: str = "click") -> dict:
     """One opening trial (the sweep's trial function): ``open_cabinet.run`` of one object and
     seed. ``shared`` is the prior database's text when the sweep uses one (``priors_sha1``
     names it in the trial's identity)."""
@@ -62,7 +63,7 @@ def trial(*, seed: int, kind: str, max_time: float = 60.0, sigma_pos: float | No
     priors = _priors_file(shared) if shared else ""
     return open_run(kind=kind, seed=seed, max_time=max_time, sigma_pos=sigma_pos,
                     priors=priors, mechanism_seed=mechanism_seed, show_progress=False,
-                    save_track=save_track, base_noise=base_noise)
+                    save_track=save_track, base_noise=base_noise, perception=perception)
 
 
 def records_of(lines: list[dict]) -> list[dict]:
@@ -96,6 +97,7 @@ def summarize(trials: list[dict]) -> dict:
         radius = [t["radius_error_m"] for t in ts if t.get("radius_error_m") is not None]
         right_at = [t["right_model_at"] for t in ts if t.get("right_model_at") is not None]
         axis = [t["axis_error_deg"] for t in ts if t.get("axis_error_deg") is not None]
+        handle = [t["handle_error_m"] for t in ts if t.get("handle_error_m") is not None]
         table[kind] = {
             "trials": len(ts),
             "errors": len(mine) - len(ts),
@@ -106,6 +108,8 @@ def summarize(trials: list[dict]) -> dict:
             "mean_radius_error_m": mean(radius),
             "max_radius_error_m": largest(radius),
             "mean_axis_error_deg": mean(axis),
+            "no_front": sum(t.get("front_found") is False for t in ts),
+            "mean_handle_error_m": mean(handle), "max_handle_error_m": largest(handle),
             "right_kind": sum(bool(t.get("right_kind")) for t in ts),
             "success_and_right_kind": sum(bool(t["success"] and t.get("right_kind"))
                                           for t in ts),
@@ -122,12 +126,13 @@ def run(*, objects=KINDS, trials: int = 8, seed: int = 0, jobs: int | None = Non
         mechanism_seed: int | None = None, save_tracks: str = "",
         show_progress: bool = True, base_noise: float | None = None,
         results: str | None = None, executor: str = "local",
-        ray_address: str | None = None) -> dict:
+        ray_address: str | None = None, perception: str = "click") -> dict:
     """Run the trials; ``mechanism_seed`` fixes each object's geometry (the trials then
     differ in the handle click and the start), ``save_tracks`` writes every trial's hook
     trajectory into that folder, ``priors`` uses a prior database, ``base_noise`` scales
     the base-localisation error (None: 1, 0: the base pose is known exactly),
-    ``sigma_pos`` is the noise the estimator assumes (None: 0.05 m).
+    ``sigma_pos`` is the noise the estimator assumes (None: 0.05 m), ``perception`` where
+    the handle comes from ("click" or "depth", see ``open_cabinet``).
 
     The trials run through the sweep runner (``mmlearn.apps._sweep``): ``results`` is the
     JSON Lines file they are streamed to (None: a temporary one; with a file, trials already
@@ -145,6 +150,11 @@ def run(*, objects=KINDS, trials: int = 8, seed: int = 0, jobs: int | None = Non
             raise ValueError(f"unknown object {k!r}; choose from {', '.join(KINDS)}")
     if trials < 1:
         raise ValueError("trials must be >= 1")
+    if perception not in ("click", "depth"):
+        raise ValueError(f"perception must be click or depth, got {perception!r}")
+    # a click trial's identity stays what it was before perception existed (results files
+    # of earlier runs resume)
+    extra = {} if perception == "click" else {"perception": perception}
     if jobs is not None and jobs < 1:
         raise ValueError(f"jobs must be >= 1 (or None for all cores), got {jobs}")
     if not (max_time > 0 and math.isfinite(max_time)):
@@ -164,7 +174,7 @@ def run(*, objects=KINDS, trials: int = 8, seed: int = 0, jobs: int | None = Non
                                "mechanism_seed": mechanism_seed, "base_noise": base_noise,
                                "priors_sha1": priors_sha1,
                                "save_track": str(Path(save_tracks) / f"{k}_{seed + i:03d}.log")
-                               if save_tracks else ""})
+                               if save_tracks else "", **extra})
              for k in objects for i in range(trials)]
     sweep = run_sweep(specs, results=results, executor=executor, jobs=jobs,
                       ray_address=ray_address, shared=shared, show_progress=show_progress)
@@ -189,6 +199,7 @@ def report(lines: list[dict]) -> dict:
             "per_object": summarize(results),
             "sigma_pos": first.get("sigma_pos"),
             "base_noise": first.get("base_noise"),
+            "perception": first.get("perception", "click"),
             "trial_seconds": round(sum(ln.get("wall_s") or 0.0 for ln in lines), 1),
             "wall_seconds": None}
 
@@ -229,6 +240,12 @@ def format_table(res: dict) -> str:
     if res.get("not_run"):
         lines.append(f"interrupted: {len(res['not_run'])} trial(s) not run: "
                      + ", ".join(res["not_run"]))
+    if res.get("perception") == "depth":
+        lines.append("handle from the head depth camera: " + "; ".join(
+            f"{k} {row.get('no_front', 0)} without a front, handle error mean/max "
+            + (f"{row['mean_handle_error_m']:.4f}/{row['max_handle_error_m']:.4f} m"
+               if row.get("mean_handle_error_m") is not None else "-")
+            for k, row in res["per_object"].items()))
     if res.get("sigma_pos") is not None or res.get("base_noise") is not None:
         lines.append(f"(sigma_pos {res.get('sigma_pos')} m, base noise x{res.get('base_noise')})")
     lines.append("means are over the trials that ran; radius and axis errors over the trials "
@@ -280,7 +297,8 @@ def main(argv=None) -> int:
                       seed=args.seed, max_time=args.max_time,
                       sigma_pos=args.sigma_pos, priors=args.priors,
                       mechanism_seed=args.mechanism_seed, save_tracks=args.save_tracks,
-                      show_progress=not args.json, base_noise=args.base_noise, **sweep)
+                      show_progress=not args.json, base_noise=args.base_noise,
+                      perception=args.perception, **sweep)
         except UsageError as e:
             return fail(ap.prog, str(e))
         except (ValueError, OSError) as e:

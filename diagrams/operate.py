@@ -22,7 +22,11 @@ from mmlearn.systems.model_visualizer import LearnedModelVisualizer
 from mmlearn.systems.prior_selector import PriorModelSelector
 from mmlearn.systems.wrist_force_sensor import WristForceSensor
 
+from .operate_perception import LookAtFront, LookConfig, LookResult, NoFrontDetected
 from .scene import MakeSceneDiagram, SceneConfig
+
+PERCEPTIONS = ("click", "depth")
+ARM_START = (0.0, 0.3, 0.0, 1.2, 0.0, 0.0)  # the arm's joint commands at the start, rad
 
 
 @dataclass
@@ -55,6 +59,10 @@ class OperateConfig:
             robot operates the same door again.
         priors: path of a prior database (JSON, see ``models/articulation_priors.py``) to
             use while learning ("" = learn from scratch only).
+        perception: how the robot learns where the handle is: "click" (told, within
+            ``click_error``) or "depth" (it looks with its head depth camera, detects the
+            front and derives the handle, :mod:`mmlearn.diagrams.operate_perception`).
+        look: the depth camera, detector and handle derivation for ``perception="depth"``.
     """
 
     kind: str = "left_door"
@@ -72,8 +80,15 @@ class OperateConfig:
     mechanism: MechanismSpec | None = None
     mechanism_seed: int | None = None
     priors: str = ""
+    perception: str = "click"
+    look: LookConfig = field(default_factory=LookConfig)
 
     def validate(self):
+        if self.perception not in PERCEPTIONS:
+            raise ValueError(f"perception must be one of {PERCEPTIONS}, got "
+                             f"{self.perception!r}")
+        if self.perception == "depth":
+            self.look.validate()
         if self.kind not in KINDS:
             raise ValueError(f"kind must be one of {KINDS}, got {self.kind!r}")
         if not 0 <= self.click_error < 0.1:
@@ -102,6 +117,7 @@ class Operate:
     prior_selector: PriorModelSelector | None = None
     localization: BaseLocalization | None = None
     true_task: EpcTask | None = None
+    look: LookResult | None = None
 
 
 def make_task(spec: MechanismSpec, rng: np.random.Generator, click_error: float) -> EpcTask:
@@ -122,6 +138,18 @@ def make_task(spec: MechanismSpec, rng: np.random.Generator, click_error: float)
     return EpcTask(handle=p + err, normal=n, bar=b, pull=pull, side=side)
 
 
+def task_from_look(kind: str, look: LookResult) -> EpcTask:
+    """The task (true world frame) from what the robot saw: the handle estimate, the
+    detected front's normal, and the bar / side / pull directions by the kind's convention
+    (as :func:`make_task`, with the front's horizontal axis for the furniture's +y)."""
+    e = look.estimate
+    up = np.array([0, 0, 1.0])
+    side = {"left_door": e.e_y, "right_door": -e.e_y, "sliding_door": e.e_y}.get(kind, up)
+    pull = -side if kind == "sliding_door" else e.normal
+    return EpcTask(handle=np.asarray(e.handle, float), normal=e.normal, bar=e.bar, pull=pull,
+                   side=side)
+
+
 def MakeOperateDiagram(config: OperateConfig | None = None, *, meshcat=None) -> Operate:
     """Build the opening-task diagram (see the module docstring).
 
@@ -129,6 +157,10 @@ def MakeOperateDiagram(config: OperateConfig | None = None, *, meshcat=None) -> 
     ``hook_position`` (in the robot's believed world frame), ``force_W`` (true world frame),
     ``estimator_stats``, ``object_model`` (the model the controller uses), ``base_error``
     (believed minus true base x, y, yaw: m, m, rad).
+
+    With ``perception="depth"`` the robot first looks at the mechanism from its start
+    (:func:`~mmlearn.diagrams.operate_perception.LookAtFront`) and is given the handle it
+    derived instead of the click; raises :class:`NoFrontDetected` when it found no front.
     """
     cfg = config or OperateConfig()
     cfg.validate()
@@ -148,17 +180,26 @@ def MakeOperateDiagram(config: OperateConfig | None = None, *, meshcat=None) -> 
     lateral = np.array([-n[1], n[0], 0.0]) * rng.uniform(-0.2, 0.2)
     p0 = spec.handle_world(0.0)[0] + cfg.start_distance * n + lateral
     yaw0 = math.atan2(-n[1], -n[0]) + rng.uniform(-0.3, 0.3)
+    start = np.array([p0[0], p0[1], yaw0, *ARM_START])
+    look = None
+    seen_task = true_task
+    if cfg.perception == "depth":
+        look = LookAtFront(spec, start, config=cfg.look,
+                           seed=cfg.seed * len(KINDS) + KINDS.index(cfg.kind))
+        if not look.found:
+            raise NoFrontDetected(look)
+        seen_task = task_from_look(cfg.kind, look)
     # the click is made relative to the robot at its start and stored in its believed
     # world frame (localisation error at time 0): what the robot is told
     loc_cfg = replace(cfg.base_localization.scaled(cfg.base_noise),
                       seed=cfg.seed * len(KINDS) + KINDS.index(cfg.kind))
     e0 = initial_error(loc_cfg)
     base0 = np.array([p0[0], p0[1], yaw0])
-    task = EpcTask(handle=believed_from_true(true_task.handle, base0, e0),
-                   normal=rotate_yaw(true_task.normal, e0[2]),
-                   bar=rotate_yaw(true_task.bar, e0[2]),
-                   pull=rotate_yaw(true_task.pull, e0[2]),
-                   side=rotate_yaw(true_task.side, e0[2]))
+    task = EpcTask(handle=believed_from_true(seen_task.handle, base0, e0),
+                   normal=rotate_yaw(seen_task.normal, e0[2]),
+                   bar=rotate_yaw(seen_task.bar, e0[2]),
+                   pull=rotate_yaw(seen_task.pull, e0[2]),
+                   side=rotate_yaw(seen_task.side, e0[2]))
     scene_cfg = SceneConfig(arm="7dof", tool="hook", mobile_base=True, cabinet=False,
                             mechanism=spec,
                             sensor=MarkerSensorConfig(rate_hz=5.0, cameras=[],
@@ -227,9 +268,10 @@ def MakeOperateDiagram(config: OperateConfig | None = None, *, meshcat=None) -> 
     builder.ExportOutput(loc.get_error_output_port(), "base_error")
     diagram = builder.Build()
     diagram.set_name("operate")
-    start = np.zeros(len(scene.command_names))
-    start[:3] = [p0[0], p0[1], yaw0]
-    start[3:] = [0.0, 0.3, 0.0, 1.2, 0.0, 0.0][: len(start) - 3]
+    if start.size != len(scene.command_names):
+        raise RuntimeError(f"the start pose has {start.size} values, the scene's commands "
+                           f"are {scene.command_names}")
     return Operate(diagram=diagram, scene=scene, mechanism=spec, task=task, controller=epc,
                    estimator=estimator, force_sensor=force, start_command=start,
-                   prior_selector=selector, localization=loc, true_task=true_task)
+                   prior_selector=selector, localization=loc, true_task=true_task,
+                   look=look)

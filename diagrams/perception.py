@@ -345,13 +345,19 @@ def _body_labels(plant, scene_graph, body_name: str) -> list[int]:
 
 def AddDepthCamera(builder: DiagramBuilder, scene_graph: SceneGraph, *,
                    camera: DepthCameraConfig, X_WC: np.ndarray,
-                   noise: DepthNoiseConfig | None = None, name: str = "depth_camera"):
+                   noise: DepthNoiseConfig | None = None, name: str = "depth_camera",
+                   parent_frame_id=None, query_object_port=None):
     """Add a depth camera fixed in the world (an ``RgbdSensor`` rendering with
     ``RenderEngineVtk``; the renderer is added to ``scene_graph`` when it has none of that
     name) and, unless ``noise`` is None, a :class:`DepthNoise` on its depth image, to any
     diagram with a SceneGraph (e.g. the operate scene). ``X_WC`` (4, 4) is the camera pose
     (Drake camera frame: x right, y down, z forward); ``camera`` gives the image size, field
     of view, clipping range and frame rate (its distance / angle fields are not used).
+    ``parent_frame_id``: a SceneGraph ``FrameId`` (e.g. a robot body's, from
+    ``plant.GetBodyFrameIdOrThrow``) to mount the camera on; ``X_WC`` is then the camera
+    pose relative to that frame (None = the world frame). ``query_object_port``: the port
+    to read the scene's QueryObject from when ``scene_graph`` sits inside a sub-diagram
+    that exports it (None = ``scene_graph``'s own port, which must be in ``builder``).
 
     Returns ``(sensor, noise_system or None)``; the camera's intrinsics are
     ``camera.intrinsics()`` (use these, not the sensor's own CameraInfo, see below).
@@ -371,8 +377,10 @@ def AddDepthCamera(builder: DiagramBuilder, scene_graph: SceneGraph, *,
     depth_cam = DepthRenderCamera(core, DepthRange(camera.z_near * 1.0001,
                                                    camera.z_far * 0.9999))
     sensor = builder.AddNamedSystem(name, RgbdSensor(
-        scene_graph.world_frame_id(), RigidTransform(np.asarray(X_WC, float)), depth_cam))
-    builder.Connect(scene_graph.get_query_output_port(), sensor.query_object_input_port())
+        scene_graph.world_frame_id() if parent_frame_id is None else parent_frame_id,
+        RigidTransform(np.asarray(X_WC, float)), depth_cam))
+    builder.Connect(scene_graph.get_query_output_port() if query_object_port is None
+                    else query_object_port, sensor.query_object_input_port())
     noise_sys = None
     if noise is not None:
         noise_sys = builder.AddNamedSystem(f"{name}_noise", DepthNoise(
