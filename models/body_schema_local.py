@@ -205,12 +205,14 @@ class LocalModel(_ModelBase):
 
     def fit(self, actions, Z, *, optimize: bool = True, max_opt: int = 40,
             hyperparameters: dict | None = None, noise_min: float = 1e-8,
-            n_restarts: int = 1, ftol: float = 1e-5, ell_starts=()) -> "LocalModel":
+            n_restarts: int = 1, ftol: float = 1e-5, ell_starts=(),
+            extra_starts=()) -> "LocalModel":
         """Train on commanded actions (n, m) and relative poses Z (n, 4, 4).
 
         With ``optimize``, hyper-parameters are fitted by marginal likelihood on at most
         ``max_opt`` evenly spaced samples (``n_restarts`` extra low-noise starts, best kept per
-        output), then the GP conditions on all n samples.
+        output), then the GP conditions on all n samples. ``ell_starts`` and
+        ``extra_starts``: further optimiser starts (GaussianProcess.fit).
         """
         actions = _check_actions(actions, self.n_actions)
         Z = np.asarray(Z, float)
@@ -229,13 +231,15 @@ class LocalModel(_ModelBase):
             g = GaussianProcess(ard=True).fit(X[sub], Y[sub], optimize=True,
                                               noise_min=noise_min, n_restarts=n_restarts,
                                               hyperparameters=hyperparameters, ftol=ftol,
-                                              ell_starts=ell_starts)
+                                              ell_starts=ell_starts,
+                                              extra_starts=extra_starts)
             hyperparameters = g.hyperparameters()
             optimize = False
         self.gp = GaussianProcess(ard=True).fit(X, Y, optimize=optimize, noise_min=noise_min,
                                                 hyperparameters=hyperparameters,
                                                 n_restarts=n_restarts, ftol=ftol,
-                                                ell_starts=ell_starts if optimize else ())
+                                                ell_starts=ell_starts if optimize else (),
+                                                extra_starts=extra_starts if optimize else ())
         return self
 
     def refit(self, actions, Z) -> "LocalModel":

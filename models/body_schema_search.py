@@ -97,6 +97,16 @@ class SearchConfig:
             samples often prefer it. Per-output starts at 0.5 x the length scales plus
             hyper-parameters on all samples: that GP's test error 14 -> 9 mm (seeds 1-9),
             the schema's prediction error at 50 samples 13.4 -> 10.0 mm (seeds 1-10).
+        warm_start: with a hyper-parameter cache from an earlier search (``learn_structure``
+            ``warm_start``, e.g. the previous search of an online learner on one sample
+            fewer), a candidate (i, j, Q) the earlier search trained starts its optimisation
+            from the hyper-parameters it ended with there (instead of the data-scale
+            initialisation); the retry of a candidate that fails the validity test starts
+            cold as before. Changes the search's cost, not its model.
+        refit_warm: the final fit of a tree model whose key the cache holds from an earlier
+            final fit starts from those hyper-parameters and the search optimum only
+            (without the low-noise and per-output starts, which the earlier final fit
+            already explored).
     """
 
     sigma_pos: float = 0.05
@@ -120,6 +130,8 @@ class SearchConfig:
     validation: str = "loo"
     refit_ell_starts: tuple = (0.5,)
     refit_max_opt: int = 100
+    warm_start: bool = True
+    refit_warm: bool = True
 
     def __post_init__(self):
         if self.validation not in ("loo", "split"):
@@ -160,6 +172,10 @@ class StructureResult:
         layers: the complexity layers evaluated.
         n_screened, n_trained: candidates screened / trained with hyper-parameter optimisation.
         stats: per tree model: dict(pos_err, rot_err, loglik, q, n_test).
+        hyperparameters: the hyper-parameter cache after this search: {(i, j, Q):
+            {"search": hp, "refit": hp}} (GaussianProcess.hyperparameters() dicts) for every
+            candidate trained here and those of the ``warm_start`` cache it did not train;
+            pass it as the next search's ``warm_start``.
     """
 
     tree: list
@@ -170,6 +186,7 @@ class StructureResult:
     n_screened: int = 0
     n_trained: int = 0
     stats: list = field(default_factory=list)
+    hyperparameters: dict = field(default_factory=dict)
 
     def edges(self) -> set:
         """{(i, j, Q)} of the tree (i < j)."""
@@ -321,7 +338,7 @@ def learn_structure(actions, poses, **kwargs) -> "StructureResult":
 
 def _learn_structure(actions, poses, *, config: SearchConfig | None = None,
                     mask: np.ndarray | None = None, seed_models=(),
-                    refit: bool = True) -> StructureResult:
+                    refit: bool = True, warm_start: dict | None = None) -> StructureResult:
     """Algorithm 1: learn the kinematic structure and the local models from data.
 
     Args:
@@ -333,6 +350,9 @@ def _learn_structure(actions, poses, *, config: SearchConfig | None = None,
             their layer with the held-out statistics computed on this data.
         refit: refit the tree models on all samples of their pair (with "split": train +
             held-out), re-optimising the hyper-parameters with one extra low-noise start.
+        warm_start: hyper-parameter cache of an earlier search (its
+            ``StructureResult.hyperparameters``; see ``SearchConfig.warm_start`` and
+            ``refit_warm``); not changed.
     Returns:
         :class:`StructureResult`.
 
@@ -384,6 +404,8 @@ def _learn_structure(actions, poses, *, config: SearchConfig | None = None,
                 valid_stats.append(st)
 
     result = StructureResult(tree=[], complete=False, nodes=nodes)
+    old_cache = dict(warm_start or {})
+    cache = result.hyperparameters
     thr_p, thr_r = config.thresholds
     for k in range(0, max_k + 1):
         result.layers.append(k)
@@ -413,8 +435,10 @@ def _learn_structure(actions, poses, *, config: SearchConfig | None = None,
                 passing = np.array([best])
             for qi in passing:
                 model = LocalModel(i, j, Qs[qi], m)
+                hp0 = old_cache.get(model.key, {}).get("search") if config.warm_start else None
                 model.fit(actions[rows[tr]], Z[tr], max_opt=config.max_opt,
-                          noise_min=config.output_noise_min, n_restarts=0)
+                          noise_min=config.output_noise_min, n_restarts=0,
+                          hyperparameters=hp0)
                 result.n_trained += 1
                 ok, st = _judge(model, config, rows, te, actions, Z, t)
                 if not ok:
@@ -424,6 +448,7 @@ def _learn_structure(actions, poses, *, config: SearchConfig | None = None,
                               noise_min=config.output_noise_min, n_restarts=1)
                     result.n_trained += 1
                     ok, st = _judge(model, config, rows, te, actions, Z, t)
+                cache[model.key] = {"search": model.gp.hyperparameters()}
                 if ok:
                     valid_models.append(model)
                     valid_stats.append(st)
@@ -442,10 +467,25 @@ def _learn_structure(actions, poses, *, config: SearchConfig | None = None,
             # per-output starts at shorter length scales (escape the "one input is noise"
             # optimum on noisy data), best kept per output
             rows, Z, _, _ = pair[(model.i, model.j)]
-            model.fit(actions[rows], Z, hyperparameters=model.gp.hyperparameters(),
-                      noise_min=config.output_noise_min, n_restarts=1,
-                      max_opt=config.refit_max_opt,
-                      ell_starts=tuple(config.refit_ell_starts) if model.k >= 2 else ())
+            hp_old = old_cache.get(model.key, {}).get("refit") if config.refit_warm else None
+            if hp_old is None:
+                model.fit(actions[rows], Z, hyperparameters=model.gp.hyperparameters(),
+                          noise_min=config.output_noise_min, n_restarts=1,
+                          max_opt=config.refit_max_opt,
+                          ell_starts=tuple(config.refit_ell_starts) if model.k >= 2 else ())
+            else:
+                # the earlier final fit explored the other starts: from its optimum and
+                # from this search's, the better kept per output
+                model.fit(actions[rows], Z, hyperparameters=hp_old,
+                          noise_min=config.output_noise_min, n_restarts=0,
+                          max_opt=config.refit_max_opt,
+                          extra_starts=(model.gp.hyperparameters(),))
+            cache.setdefault(model.key, {})["refit"] = model.gp.hyperparameters()
         result.tree.append(model)
         result.stats.append(valid_stats[e])
+    for key, v in old_cache.items():
+        if key not in cache:
+            cache[key] = v
+        elif "refit" in v and "refit" not in cache[key]:
+            cache[key]["refit"] = v["refit"]
     return result
