@@ -586,7 +586,7 @@ class BodySchema:
                     key = (i, j, Q)
                     if key in self._tried or key in tracked:
                         continue
-                    probe = LocalModel(i, j, Q, self.n_actions)
+                    probe = LocalModel(i, j, Q, self.n_actions, kernel=self.search.kernel)
                     prox = max((probe.proximity(f) for f in failed), default=0.0)
                     out.append((-prox, k, key))
         out.sort()
@@ -598,7 +598,7 @@ class BodySchema:
             return None
         (i, j, Q), prox = cands[0]
         self._tried.add((i, j, Q))
-        model = LocalModel(i, j, Q, self.n_actions)
+        model = LocalModel(i, j, Q, self.n_actions, kernel=self.search.kernel)
         tr = _Track(model, "training", self.step, prior_valid=False, window=self.adapt.window)
         # recent samples since the tree became invalid, pair visible
         steps = list(self._buf_step)[-max(self.steps_invalid, 1):]

@@ -132,8 +132,15 @@ class SearchConfig:
     refit_max_opt: int = 100
     warm_start: bool = True
     refit_warm: bool = True
+    kernel: str = "se"
+    refit_kernel: str | None = None
 
     def __post_init__(self):
+        for name in ("kernel", "refit_kernel"):
+            v = getattr(self, name)
+            if v not in LocalModel.KERNELS and not (name == "refit_kernel" and v is None):
+                raise ValueError(f"SearchConfig.{name} must be one of {LocalModel.KERNELS}, "
+                                 f"got {v!r}")
         if self.validation not in ("loo", "split"):
             raise ValueError(f"SearchConfig.validation must be 'loo' or 'split', "
                              f"got {self.validation!r}")
@@ -434,7 +441,7 @@ def _learn_structure(actions, poses, *, config: SearchConfig | None = None,
                 # pair's best-ranked candidate gets a real test anyway
                 passing = np.array([best])
             for qi in passing:
-                model = LocalModel(i, j, Qs[qi], m)
+                model = LocalModel(i, j, Qs[qi], m, kernel=config.kernel)
                 hp0 = old_cache.get(model.key, {}).get("search") if config.warm_start else None
                 model.fit(actions[rows[tr]], Z[tr], max_opt=config.max_opt,
                           noise_min=config.output_noise_min, n_restarts=0,
@@ -467,6 +474,11 @@ def _learn_structure(actions, poses, *, config: SearchConfig | None = None,
             # per-output starts at shorter length scales (escape the "one input is noise"
             # optimum on noisy data), best kept per output
             rows, Z, _, _ = pair[(model.i, model.j)]
+            rk = config.refit_kernel or config.kernel
+            if rk != model.kernel:
+                searched = model
+                model = LocalModel(model.i, model.j, model.Q, m, kernel=rk)
+                model.gp = searched.gp  # its hyper-parameters start the final fit
             hp_old = old_cache.get(model.key, {}).get("refit") if config.refit_warm else None
             if hp_old is None:
                 model.fit(actions[rows], Z, hyperparameters=model.gp.hyperparameters(),
