@@ -36,6 +36,7 @@ Serialisation schema (``to_dict``)::
 from __future__ import annotations
 
 import contextlib
+import functools
 
 import numpy as np
 from scipy.linalg import lapack
@@ -77,6 +78,13 @@ def _as_2d(a, name: str) -> np.ndarray:
     return a
 
 
+@functools.lru_cache(maxsize=64)
+def _tri_indices(n: int):
+    """Strictly lower-triangle indices of an (n, n) matrix and the mirrored upper ones."""
+    lo = np.tril_indices(n, -1)
+    return lo, (lo[1], lo[0])
+
+
 def _batched_cholesky(K: np.ndarray) -> np.ndarray:
     """Cholesky of a stack (m, n, n); adds growing diagonal jitter if needed."""
     try:
@@ -107,6 +115,9 @@ class GaussianProcess:
         self.ard = bool(ard)
         self.revolute = bool(revolute)
         self.log_sb2 = None
+        #: after an optimising fit: the optimum each joint start reached (hyper-parameter
+        #: dicts, in the order: initial values, extra_starts, low-noise restarts)
+        self.start_optima: list = []
         self._fitted = False
 
     # ------------------------------------------------------------------ parameters
@@ -188,7 +199,7 @@ class GaussianProcess:
         sn2 = np.exp(log_sn2)
         K = Kf + sn2[:, None, None] * np.eye(n)
         Kinv = np.empty_like(K)
-        logdet_half = np.empty(m)
+        Ldiag = np.empty((m, n))
         for c in range(m):
             Lc, info = _potrf(K[c], lower=1, clean=0)
             if info != 0:
@@ -196,12 +207,12 @@ class GaussianProcess:
                     Lc = _batched_cholesky(K[c][None])[0]
                 except np.linalg.LinAlgError:
                     return 1e25, np.zeros_like(theta)
-            logdet_half[c] = np.log(np.diagonal(Lc)).sum()
-            Ki, info = _potri(Lc, lower=1)
-            Kinv[c] = Ki
-        # potri fills the lower triangle only: symmetrise
-        Kinv = np.tril(Kinv)
-        Kinv += np.swapaxes(np.tril(Kinv, -1), 1, 2)
+            Ldiag[c] = Lc.flat[::n + 1]
+            Kinv[c], info = _potri(Lc, lower=1)
+        logdet_half = np.log(Ldiag).sum(axis=1)
+        # potri fills the lower triangle only: mirror it onto the upper one
+        lo, up = _tri_indices(n)
+        Kinv[:, up[0], up[1]] = Kinv[:, lo[0], lo[1]]
         alpha = np.einsum("cij,jc->ci", Kinv, Yc)  # (m, n)
         lml = -0.5 * np.einsum("ic,ci->c", Yc, alpha) - logdet_half - 0.5 * n * _LOG_2PI
         W = alpha[:, :, None] * alpha[:, None, :] - Kinv  # (m, n, n)
@@ -374,10 +385,12 @@ class GaussianProcess:
                     yvar * 10.0 ** (-4 - 2 * r), noise_min)), sb2_default if rev else None)
                 starts.append(np.clip(t.ravel(), bounds[:, 0], bounds[:, 1]))
             best, best_f = None, None
+            self.start_optima = []
             for t0 in starts:
                 res = minimize(self._neg_lml_and_grad, t0, args=(G, Yc, d_ell), jac=True,
                                method="L-BFGS-B", bounds=bounds,
                                options={"maxiter": maxiter, "ftol": ftol, "gtol": 1e-5})
+                self.start_optima.append(self._hp_dict(res.x.reshape(m, -1), d_ell, d))
                 f = self._per_output_nlml(res.x, G, Yc, d_ell)
                 if best is None:
                     best, best_f = res.x.reshape(m, -1).copy(), f
@@ -424,6 +437,13 @@ class GaussianProcess:
         if log_sb2 is not None:
             cols.append(np.asarray(log_sb2, float)[:, None])
         return np.concatenate(cols, axis=1)
+
+    def _hp_dict(self, rows: np.ndarray, d_ell: int, d: int) -> dict:
+        log_ell, log_sf2, log_sn2, log_sb2 = self._unpack(rows, rows.shape[0], d_ell, d)
+        hp = {"log_ell": log_ell.copy(), "log_sf2": log_sf2.copy(), "log_sn2": log_sn2.copy()}
+        if log_sb2 is not None:
+            hp["log_sb2"] = log_sb2.copy()
+        return hp
 
     def _check_fitted(self):
         if not self._fitted:
