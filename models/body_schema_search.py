@@ -133,8 +133,7 @@ class SearchConfig:
     refit_ell_starts: tuple = (0.5,)
     refit_max_opt: int = 100
     warm_start: bool = True
-    refit_restarts: int = 1
-    refit_cold_growth: float = 1.25
+    refit_growth: float = 1.25
     kernel: str = "se+revolute"
     refit_kernel: str | None = None
 
@@ -445,21 +444,36 @@ def _learn_structure(actions, poses, *, config: SearchConfig | None = None,
                 passing = np.array([best])
             for qi in passing:
                 model = LocalModel(i, j, Qs[qi], m, kernel=config.kernel)
-                hp0 = old_cache.get(model.key, {}).get("search") if config.warm_start else None
-                model.fit(actions[rows[tr]], Z[tr], max_opt=config.max_opt,
-                          noise_min=config.output_noise_min, n_restarts=0,
-                          hyperparameters=hp0)
-                result.n_trained += 1
-                ok, st = _judge(model, config, rows, te, actions, Z, t)
-                if not ok and not (hp0 is not None
-                                   and old_cache[model.key].get("valid") is False):
+                prev = old_cache.get(model.key, {}) if config.warm_start else {}
+                hp0 = prev.get("search")
+                n_opt = min(len(tr), config.max_opt)
+                ok = False
+                if prev.get("valid") and n_opt < config.refit_growth * prev["n_opt"]:
+                    # valid before, with hyper-parameters optimised on nearly as many
+                    # samples: judged with them first (conditioning only)
+                    model.fit(actions[rows[tr]], Z[tr], optimize=False, hyperparameters=hp0,
+                              noise_min=config.output_noise_min)
+                    ok, st = _judge(model, config, rows, te, actions, Z, t)
+                    if ok:
+                        n_opt = prev["n_opt"]
+                if not ok:
+                    model.fit(actions[rows[tr]], Z[tr], max_opt=config.max_opt,
+                              noise_min=config.output_noise_min, n_restarts=0,
+                              hyperparameters=hp0)
+                    result.n_trained += 1
+                    ok, st = _judge(model, config, rows, te, actions, Z, t)
+                n_cold = prev.get("n_cold", 0)
+                if not ok and not (prev.get("valid") is False
+                                   and len(tr) < config.refit_growth * n_cold):
                     # it passed the screening: a bad local optimum of the hyper-parameters
                     # is the likely cause; retry once with an extra low-noise start
                     model.fit(actions[rows[tr]], Z[tr], max_opt=config.max_opt,
                               noise_min=config.output_noise_min, n_restarts=1)
                     result.n_trained += 1
                     ok, st = _judge(model, config, rows, te, actions, Z, t)
-                cache[model.key] = {"search": model.gp.hyperparameters(), "valid": ok}
+                    n_cold = len(tr)
+                cache[model.key] = {"search": model.gp.hyperparameters(), "valid": ok,
+                                    "n_opt": n_opt, "n_cold": n_cold}
                 if ok:
                     valid_models.append(model)
                     valid_stats.append(st)
@@ -483,25 +497,26 @@ def _learn_structure(actions, poses, *, config: SearchConfig | None = None,
                 searched = model
                 model = LocalModel(model.i, model.j, model.Q, m, kernel=rk)
                 model.gp = searched.gp  # its hyper-parameters start the final fit
-            prev = old_cache.get(model.key, {})
-            low = prev.get("refit_low") if config.warm_start else None
-            if low is not None and len(rows) >= config.refit_cold_growth * prev["refit_n"]:
-                low = None  # the data grew: explore from the cold low-noise start again
-            model.fit(actions[rows], Z, hyperparameters=model.gp.hyperparameters(),
-                      noise_min=config.output_noise_min,
-                      n_restarts=config.refit_restarts if low is None else 0,
-                      extra_starts=() if low is None else (low,),
-                      max_opt=config.refit_max_opt if model.k >= 2 else config.max_opt,
-                      ell_starts=tuple(config.refit_ell_starts) if model.k >= 2 else ())
-            if config.refit_restarts and len(model.start_optima) > 1:
-                c = cache.setdefault(model.key, {})
-                c["refit_low"] = model.start_optima[1]
-                c["refit_n"] = len(rows) if low is None else prev["refit_n"]
+            prev = old_cache.get(model.key, {}) if config.warm_start else {}
+            if "refit_hp" in prev and len(rows) < config.refit_growth * prev["refit_n"]:
+                # optimised on nearly as many samples before: condition on the pair's samples
+                # with those hyper-parameters (the cheap update of an online learner)
+                model.fit(actions[rows], Z, optimize=False, hyperparameters=prev["refit_hp"],
+                          noise_min=config.output_noise_min)
+                refit_n = prev["refit_n"]
+            else:
+                model.fit(actions[rows], Z, hyperparameters=model.gp.hyperparameters(),
+                          noise_min=config.output_noise_min, n_restarts=1,
+                          max_opt=config.refit_max_opt if model.k >= 2 else config.max_opt,
+                          ell_starts=tuple(config.refit_ell_starts) if model.k >= 2 else ())
+                refit_n = len(rows)
+            c = cache.setdefault(model.key, {})
+            c["refit_hp"], c["refit_n"] = model.gp.hyperparameters(), refit_n
         result.tree.append(model)
         result.stats.append(valid_stats[e])
     for key, v in old_cache.items():
         if key not in cache:
             cache[key] = v
-        elif "refit_low" in v and "refit_low" not in cache[key]:
-            cache[key]["refit_low"], cache[key]["refit_n"] = v["refit_low"], v["refit_n"]
+        elif "refit_hp" in v and "refit_hp" not in cache[key]:
+            cache[key]["refit_hp"], cache[key]["refit_n"] = v["refit_hp"], v["refit_n"]
     return result

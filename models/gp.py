@@ -169,7 +169,9 @@ class GaussianProcess:
             return np.exp(log_sf2)[:, None, None] * np.ones((m,) + D2.shape[1:])
         inv_l2 = np.exp(-2.0 * np.broadcast_to(log_ell, (m, d)))
         r2 = np.einsum("cd,dab->cab", inv_l2, D2)
-        return np.exp(log_sf2)[:, None, None] * np.exp(-0.5 * r2)
+        r2 *= -0.5
+        r2 += log_sf2[:, None, None]
+        return np.exp(r2, out=r2)
 
     def _kernel(self, G, log_ell, log_sf2, log_sb2):
         """Full noiseless kernel stack (m, a, b) for geometry ``G`` (see _geom)."""
@@ -391,6 +393,8 @@ class GaussianProcess:
                                method="L-BFGS-B", bounds=bounds,
                                options={"maxiter": maxiter, "ftol": ftol, "gtol": 1e-5})
                 self.start_optima.append(self._hp_dict(res.x.reshape(m, -1), d_ell, d))
+                if len(starts) == 1 and not (ell_starts and d_ell):
+                    return res.x  # nothing to compare per output
                 f = self._per_output_nlml(res.x, G, Yc, d_ell)
                 if best is None:
                     best, best_f = res.x.reshape(m, -1).copy(), f
