@@ -463,7 +463,7 @@ def _learn_structure(actions, poses, *, config: SearchConfig | None = None,
                     result.n_trained += 1
                     ok, st = _judge(model, config, rows, te, actions, Z, t)
                 n_cold = prev.get("n_cold", 0)
-                if not ok and not (prev.get("valid") is False
+                if not ok and not (model.k < 2 and prev.get("valid") is False
                                    and len(tr) < config.refit_growth * n_cold):
                     # it passed the screening: a bad local optimum of the hyper-parameters
                     # is the likely cause; retry once with an extra low-noise start
@@ -498,7 +498,8 @@ def _learn_structure(actions, poses, *, config: SearchConfig | None = None,
                 model = LocalModel(model.i, model.j, model.Q, m, kernel=rk)
                 model.gp = searched.gp  # its hyper-parameters start the final fit
             prev = old_cache.get(model.key, {}) if config.warm_start else {}
-            if "refit_hp" in prev and len(rows) < config.refit_growth * prev["refit_n"]:
+            if (model.k < 2 and "refit_hp" in prev
+                    and len(rows) < config.refit_growth * prev["refit_n"]):
                 # optimised on nearly as many samples before: condition on the pair's samples
                 # with those hyper-parameters (the cheap update of an online learner)
                 model.fit(actions[rows], Z, optimize=False, hyperparameters=prev["refit_hp"],
