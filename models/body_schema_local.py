@@ -244,16 +244,11 @@ class LocalModel(_ModelBase):
                                               extra_starts=extra_starts)
             hyperparameters = g.hyperparameters()
             optimize = False
-            start_optima = g.start_optima
-        else:
-            start_optima = None
         self.gp = self._new_gp().fit(X, Y, optimize=optimize, noise_min=noise_min,
                                                 hyperparameters=hyperparameters,
                                                 n_restarts=n_restarts, ftol=ftol,
                                                 ell_starts=ell_starts if optimize else (),
                                                 extra_starts=extra_starts if optimize else ())
-        #: the optimum each joint optimiser start reached (GaussianProcess.start_optima)
-        self.start_optima = start_optima if start_optima is not None else self.gp.start_optima
         return self
 
     def _new_gp(self) -> GaussianProcess:

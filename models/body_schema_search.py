@@ -97,18 +97,39 @@ class SearchConfig:
             samples often prefer it. Per-output starts at 0.5 x the length scales plus
             hyper-parameters on all samples: that GP's test error 14 -> 9 mm (seeds 1-9),
             the schema's prediction error at 50 samples 13.4 -> 10.0 mm (seeds 1-10).
-        warm_start: with a hyper-parameter cache from an earlier search (``learn_structure``
-            ``warm_start``, e.g. the previous search of an online learner on one sample
-            fewer), a candidate (i, j, Q) the earlier search trained starts its optimisation
-            from the hyper-parameters it ended with there (instead of the data-scale
-            initialisation). A candidate that fails the validity test is retried from cold
-            starts (data-scale and low-noise) as without a cache, except when it was invalid
-            in that earlier search too (where it had been retried): on the Drake 7-DOF arm
-            (sigma 0.01 m, seed 1, 50 samples) none of 71 such retries turned a candidate
-            valid, while they cost a third of the search. Changes the search's cost; the
-            optimum it finds can differ (a warm start may end in another local optimum).
-        refit_restarts: low-noise optimiser starts of that final fit besides the search
-            optimum (GaussianProcess.fit ``n_restarts``).
+        warm_start: reuse the hyper-parameters of an earlier search (``learn_structure``
+            ``warm_start``: the cache in ``StructureResult.hyperparameters``, which an online
+            learner passes from one search to the next). Per candidate (i, j, Q) the earlier
+            search trained: (1) a candidate valid there, whose hyper-parameters were
+            optimised on at least 1 / refit_growth as many samples, is first judged with
+            them (conditioning only; optimised as usual if it then fails); (2) otherwise
+            its optimisation starts from them instead of the data-scale initialisation;
+            (3) a k <= 1 candidate that fails the validity test gets the cold retry
+            (data-scale and low-noise starts) only if it was valid before or its samples
+            grew by refit_growth since its last cold retry (on the Drake 7-DOF arm, sigma
+            0.01 m, seed 1, 50 samples, none of 71 retries of a candidate invalid in the
+            previous search turned it valid; k >= 2 candidates, e.g. the bridge x3-x5 on
+            (q2, q3), are always retried: skipping theirs cost 3 mm of prediction error on
+            seed 6); (4) the final fit of a k <= 1 tree model whose hyper-parameters were
+            optimised by an earlier final fit on at least 1 / refit_growth as many samples
+            conditions on the pair's samples with them (k >= 2: always re-optimised).
+            Changes the search's cost (``benchmarks/bench_learner_cost.py``); the optima it
+            finds can differ from a cold search (results in ``systems/schema_learner.py``).
+            No effect without a cache (a batch ``learn_structure`` call).
+        refit_growth: growth factor (>= 1) of a pair's samples after which ``warm_start``
+            re-optimises / retries cold again (see above).
+        kernel: covariance of the local models' GPs: "se" (the thesis' squared-exponential
+            kernel) or "se+revolute" (default; plus sb2 prod_d (1 + cos(q_d - q'_d)) over
+            the model's action signals, in radians: Bayesian linear regression on the
+            products of (1, cos q_d, sin q_d), which is exactly what the entries of a
+            relative transform across revolute joints are; see :mod:`mmlearn.models.gp`).
+            A deviation from the thesis, measured on the Drake 7-DOF arm, x4 occluded
+            (``learn_body_schema --arm 7dof --occlude x4 --samples 50``): the SE GP of the
+            k = 2 bridge x3-x5 reverts to its mean away from its ~40 samples in (q2, q3);
+            with the revolute term the mean prediction error at 50 samples is below the
+            observation noise (numbers in ``systems/schema_learner.py``). Prismatic action
+            signals: the term only adds a periodic component the marginal likelihood can
+            switch off (sb2 -> its lower bound).
     """
 
     sigma_pos: float = 0.05
@@ -135,14 +156,13 @@ class SearchConfig:
     warm_start: bool = True
     refit_growth: float = 1.25
     kernel: str = "se+revolute"
-    refit_kernel: str | None = None
 
     def __post_init__(self):
-        for name in ("kernel", "refit_kernel"):
-            v = getattr(self, name)
-            if v not in LocalModel.KERNELS and not (name == "refit_kernel" and v is None):
-                raise ValueError(f"SearchConfig.{name} must be one of {LocalModel.KERNELS}, "
-                                 f"got {v!r}")
+        if self.kernel not in LocalModel.KERNELS:
+            raise ValueError(f"SearchConfig.kernel must be one of {LocalModel.KERNELS}, "
+                             f"got {self.kernel!r}")
+        if not (np.isfinite(self.refit_growth) and self.refit_growth >= 1):
+            raise ValueError(f"SearchConfig.refit_growth must be >= 1, got {self.refit_growth}")
         if self.validation not in ("loo", "split"):
             raise ValueError(f"SearchConfig.validation must be 'loo' or 'split', "
                              f"got {self.validation!r}")
@@ -182,7 +202,8 @@ class StructureResult:
         n_screened, n_trained: candidates screened / trained with hyper-parameter optimisation.
         stats: per tree model: dict(pos_err, rot_err, loglik, q, n_test).
         hyperparameters: the hyper-parameter cache after this search: {(i, j, Q):
-            {"search": hp, "valid": bool}} (GaussianProcess.hyperparameters() dicts) for every
+            {"search": hp, "valid": bool, "n_opt": int, "n_cold": int, "refit_hp": hp,
+            "refit_n": int}} (hp: GaussianProcess.hyperparameters() dicts) for every
             candidate trained here and those of the ``warm_start`` cache it did not train;
             pass it as the next search's ``warm_start``.
     """
@@ -492,11 +513,6 @@ def _learn_structure(actions, poses, *, config: SearchConfig | None = None,
             # per-output starts at shorter length scales (escape the "one input is noise"
             # optimum on noisy data), best kept per output
             rows, Z, _, _ = pair[(model.i, model.j)]
-            rk = config.refit_kernel or config.kernel
-            if rk != model.kernel:
-                searched = model
-                model = LocalModel(model.i, model.j, model.Q, m, kernel=rk)
-                model.gp = searched.gp  # its hyper-parameters start the final fit
             prev = old_cache.get(model.key, {}) if config.warm_start else {}
             if (model.k < 2 and "refit_hp" in prev
                     and len(rows) < config.refit_growth * prev["refit_n"]):

@@ -115,9 +115,6 @@ class GaussianProcess:
         self.ard = bool(ard)
         self.revolute = bool(revolute)
         self.log_sb2 = None
-        #: after an optimising fit: the optimum each joint start reached (hyper-parameter
-        #: dicts, in the order: initial values, extra_starts, low-noise restarts)
-        self.start_optima: list = []
         self._fitted = False
 
     # ------------------------------------------------------------------ parameters
@@ -387,12 +384,10 @@ class GaussianProcess:
                     yvar * 10.0 ** (-4 - 2 * r), noise_min)), sb2_default if rev else None)
                 starts.append(np.clip(t.ravel(), bounds[:, 0], bounds[:, 1]))
             best, best_f = None, None
-            self.start_optima = []
             for t0 in starts:
                 res = minimize(self._neg_lml_and_grad, t0, args=(G, Yc, d_ell), jac=True,
                                method="L-BFGS-B", bounds=bounds,
                                options={"maxiter": maxiter, "ftol": ftol, "gtol": 1e-5})
-                self.start_optima.append(self._hp_dict(res.x.reshape(m, -1), d_ell, d))
                 if len(starts) == 1 and not (ell_starts and d_ell):
                     return res.x  # nothing to compare per output
                 f = self._per_output_nlml(res.x, G, Yc, d_ell)
@@ -441,13 +436,6 @@ class GaussianProcess:
         if log_sb2 is not None:
             cols.append(np.asarray(log_sb2, float)[:, None])
         return np.concatenate(cols, axis=1)
-
-    def _hp_dict(self, rows: np.ndarray, d_ell: int, d: int) -> dict:
-        log_ell, log_sf2, log_sn2, log_sb2 = self._unpack(rows, rows.shape[0], d_ell, d)
-        hp = {"log_ell": log_ell.copy(), "log_sf2": log_sf2.copy(), "log_sn2": log_sn2.copy()}
-        if log_sb2 is not None:
-            hp["log_sb2"] = log_sb2.copy()
-        return hp
 
     def _check_fitted(self):
         if not self._fitted:
