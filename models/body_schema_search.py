@@ -117,7 +117,10 @@ class SearchConfig:
             finds can differ from a cold search (results in ``systems/schema_learner.py``).
             No effect without a cache (a batch ``learn_structure`` call).
         refit_growth: growth factor (>= 1) of a pair's samples after which ``warm_start``
-            re-optimises / retries cold again (see above).
+            re-optimises / retries cold again (see above); rules (1), (3) and (4) apply
+            only while the pair's samples are at least as many as those the cached values
+            came from (the relearning on the samples after a change of the robot, Sec. 3.3,
+            starts from fewer samples and is optimised and retried as without a cache).
         kernel: covariance of the local models' GPs: "se" (the thesis' squared-exponential
             kernel) or "se+revolute" (default; plus sb2 prod_d (1 + cos(q_d - q'_d)) over
             the model's action signals, in radians: Bayesian linear regression on the
@@ -356,6 +359,13 @@ def _evaluate(model, rows_te, actions, Z_te, config, n_total):
     return _stats(model, dp, dr, config, n_total)
 
 
+def _grew_less(n: int, n_before: int, config: SearchConfig) -> bool:
+    """The pair's data grew from n_before to n samples by less than config.refit_growth (a
+    continuation of the data the cached values came from; a smaller data set, e.g. the
+    samples after a change of the robot, is not)."""
+    return n_before <= n < config.refit_growth * n_before
+
+
 def _blas_single_thread():
     return blas_single_thread()
 
@@ -469,7 +479,7 @@ def _learn_structure(actions, poses, *, config: SearchConfig | None = None,
                 hp0 = prev.get("search")
                 n_opt = min(len(tr), config.max_opt)
                 ok = False
-                if prev.get("valid") and n_opt < config.refit_growth * prev["n_opt"]:
+                if prev.get("valid") and _grew_less(n_opt, prev["n_opt"], config):
                     # valid before, with hyper-parameters optimised on nearly as many
                     # samples: judged with them first (conditioning only)
                     model.fit(actions[rows[tr]], Z[tr], optimize=False, hyperparameters=hp0,
@@ -485,7 +495,7 @@ def _learn_structure(actions, poses, *, config: SearchConfig | None = None,
                     ok, st = _judge(model, config, rows, te, actions, Z, t)
                 n_cold = prev.get("n_cold", 0)
                 if not ok and not (model.k < 2 and prev.get("valid") is False
-                                   and len(tr) < config.refit_growth * n_cold):
+                                   and _grew_less(len(tr), n_cold, config)):
                     # it passed the screening: a bad local optimum of the hyper-parameters
                     # is the likely cause; retry once with an extra low-noise start
                     model.fit(actions[rows[tr]], Z[tr], max_opt=config.max_opt,
@@ -515,7 +525,7 @@ def _learn_structure(actions, poses, *, config: SearchConfig | None = None,
             rows, Z, _, _ = pair[(model.i, model.j)]
             prev = old_cache.get(model.key, {}) if config.warm_start else {}
             if (model.k < 2 and "refit_hp" in prev
-                    and len(rows) < config.refit_growth * prev["refit_n"]):
+                    and _grew_less(len(rows), prev["refit_n"], config)):
                 # optimised on nearly as many samples before: condition on the pair's samples
                 # with those hyper-parameters (the cheap update of an online learner)
                 model.fit(actions[rows], Z, optimize=False, hyperparameters=prev["refit_hp"],
