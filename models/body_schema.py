@@ -154,6 +154,10 @@ class BodySchema:
         self._buf_step = deque(maxlen=self.adapt.buffer)
         self.events: list = []  # (step, text)
         self.last_search: StructureResult | None = None
+        # hyper-parameters of the last structure search's candidates (warm starts of the
+        # next search, SearchConfig.warm_start); part of the schema, so it lives wherever
+        # the schema does (e.g. in a SchemaLearner's state in the Drake context)
+        self.hp_cache: dict = {}
 
     # ------------------------------------------------------------------ construction
     @property
@@ -171,7 +175,8 @@ class BodySchema:
         actions = self._check_actions(actions)
         actions, poses = check_data(actions, poses)
         res = learn_structure(actions, poses, config=self.search, mask=mask,
-                              seed_models=seed_models)
+                              seed_models=seed_models, warm_start=self.hp_cache)
+        self.hp_cache = res.hyperparameters
         self.last_search = res
         self._set_tree_from_search(res)
         if mask is not None:
@@ -204,7 +209,8 @@ class BodySchema:
         if last is not None:
             A, P = A[-int(last):], P[-int(last):]
         with _blas_single_thread():
-            res = learn_structure(A, P, config=self.search)
+            res = learn_structure(A, P, config=self.search, warm_start=self.hp_cache)
+        self.hp_cache = res.hyperparameters
         if res.complete:
             self.last_search = res
             refine = self.valid
@@ -497,7 +503,9 @@ class BodySchema:
             if len(self._buf_actions) >= 6 and self.step % self.adapt.relearn_every == 0:
                 try:
                     res = learn_structure(np.array(self._buf_actions),
-                                          np.array(self._buf_poses), config=self.search)
+                                          np.array(self._buf_poses), config=self.search,
+                                          warm_start=self.hp_cache)
+                    self.hp_cache = res.hyperparameters
                     self.last_search = res
                     self._set_tree_from_search(res)
                     event = "structure search"
@@ -578,7 +586,7 @@ class BodySchema:
                     key = (i, j, Q)
                     if key in self._tried or key in tracked:
                         continue
-                    probe = LocalModel(i, j, Q, self.n_actions)
+                    probe = LocalModel(i, j, Q, self.n_actions, kernel=self.search.kernel)
                     prox = max((probe.proximity(f) for f in failed), default=0.0)
                     out.append((-prox, k, key))
         out.sort()
@@ -590,7 +598,7 @@ class BodySchema:
             return None
         (i, j, Q), prox = cands[0]
         self._tried.add((i, j, Q))
-        model = LocalModel(i, j, Q, self.n_actions)
+        model = LocalModel(i, j, Q, self.n_actions, kernel=self.search.kernel)
         tr = _Track(model, "training", self.step, prior_valid=False, window=self.adapt.window)
         # recent samples since the tree became invalid, pair visible
         steps = list(self._buf_step)[-max(self.steps_invalid, 1):]

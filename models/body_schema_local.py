@@ -187,15 +187,24 @@ class LocalModel(_ModelBase):
         i, j: body-part indices (0-based).
         Q: action-signal indices (0-based) the model depends on.
         n_actions: length of the full action vector.
+        kernel: "se" (the thesis' squared-exponential kernel) or "se+revolute" (plus the
+            term sb2 prod_d (1 + cos(q_d - q'_d)) over the model's action signals, which
+            spans the relative transform across revolute joints; actions in radians; see
+            :mod:`mmlearn.models.gp` and ``SearchConfig.kernel``).
     """
 
-    def __init__(self, i: int, j: int, Q, n_actions: int):
+    KERNELS = ("se", "se+revolute")
+
+    def __init__(self, i: int, j: int, Q, n_actions: int, *, kernel: str = "se"):
         if i == j:
             raise ValueError(f"a local model needs two different parts, got i = j = {i}")
         Q = tuple(sorted(int(a) for a in Q))
         if any(a < 0 or a >= n_actions for a in Q) or len(set(Q)) != len(Q):
             raise ValueError(f"Q={Q} must be distinct indices in [0, {n_actions})")
+        if kernel not in self.KERNELS:
+            raise ValueError(f"LocalModel kernel must be one of {self.KERNELS}, got {kernel!r}")
         self.i, self.j, self.Q, self.n_actions = int(i), int(j), Q, int(n_actions)
+        self.kernel = kernel
         self.gp: GaussianProcess | None = None
         self.origin = "learned"
 
@@ -205,12 +214,14 @@ class LocalModel(_ModelBase):
 
     def fit(self, actions, Z, *, optimize: bool = True, max_opt: int = 40,
             hyperparameters: dict | None = None, noise_min: float = 1e-8,
-            n_restarts: int = 1, ftol: float = 1e-5, ell_starts=()) -> "LocalModel":
+            n_restarts: int = 1, ftol: float = 1e-5, ell_starts=(),
+            extra_starts=()) -> "LocalModel":
         """Train on commanded actions (n, m) and relative poses Z (n, 4, 4).
 
         With ``optimize``, hyper-parameters are fitted by marginal likelihood on at most
         ``max_opt`` evenly spaced samples (``n_restarts`` extra low-noise starts, best kept per
-        output), then the GP conditions on all n samples.
+        output), then the GP conditions on all n samples. ``ell_starts`` and
+        ``extra_starts``: further optimiser starts (GaussianProcess.fit).
         """
         actions = _check_actions(actions, self.n_actions)
         Z = np.asarray(Z, float)
@@ -226,17 +237,22 @@ class LocalModel(_ModelBase):
         n = len(X)
         if optimize and n > max_opt:
             sub = np.unique(np.linspace(0, n - 1, max_opt).round().astype(int))
-            g = GaussianProcess(ard=True).fit(X[sub], Y[sub], optimize=True,
+            g = self._new_gp().fit(X[sub], Y[sub], optimize=True,
                                               noise_min=noise_min, n_restarts=n_restarts,
                                               hyperparameters=hyperparameters, ftol=ftol,
-                                              ell_starts=ell_starts)
+                                              ell_starts=ell_starts,
+                                              extra_starts=extra_starts)
             hyperparameters = g.hyperparameters()
             optimize = False
-        self.gp = GaussianProcess(ard=True).fit(X, Y, optimize=optimize, noise_min=noise_min,
+        self.gp = self._new_gp().fit(X, Y, optimize=optimize, noise_min=noise_min,
                                                 hyperparameters=hyperparameters,
                                                 n_restarts=n_restarts, ftol=ftol,
-                                                ell_starts=ell_starts if optimize else ())
+                                                ell_starts=ell_starts if optimize else (),
+                                                extra_starts=extra_starts if optimize else ())
         return self
+
+    def _new_gp(self) -> GaussianProcess:
+        return GaussianProcess(ard=True, revolute=self.kernel == "se+revolute")
 
     def refit(self, actions, Z) -> "LocalModel":
         """Condition on new data keeping the current hyper-parameters (cheap)."""
@@ -284,12 +300,12 @@ class LocalModel(_ModelBase):
 
     def to_dict(self) -> dict:
         return {"type": "LocalModel", "i": self.i, "j": self.j, "Q": list(self.Q),
-                "n_actions": self.n_actions, "origin": self.origin,
+                "n_actions": self.n_actions, "origin": self.origin, "kernel": self.kernel,
                 "gp": None if self.gp is None else self.gp.to_dict()}
 
     @classmethod
     def from_dict(cls, d: dict) -> "LocalModel":
-        m = cls(d["i"], d["j"], d["Q"], d["n_actions"])
+        m = cls(d["i"], d["j"], d["Q"], d["n_actions"], kernel=d.get("kernel", "se"))
         m.origin = d.get("origin", "learned")
         if d.get("gp") is not None:
             m.gp = GaussianProcess.from_dict(d["gp"])

@@ -12,19 +12,31 @@ per-output objectives, so its optimum is the per-output optimum.
 Its *local* optima are not: one output's line searches can carry another into a different
 basin, so ``fit(ell_starts=...)`` adds starts optimised per output.
 
-Units: whatever the caller's ``X`` and ``Y`` are in; ``ell`` has the units of ``X``, ``sf2`` and
-``sn2`` the units of ``Y`` squared.
+Optionally (``GaussianProcess(revolute=True)``, a deviation from the thesis' SE kernel for the
+body schema's local models, see ``SearchConfig.kernel``) a second term is added::
+
+    k_c(x, x') += sb2_c * prod_d (1 + cos(x_d - x'_d))
+
+Since 1 + cos(a - b) = (1, cos a, sin a) . (1, cos b, sin b), it is Bayesian linear regression
+on the products of (1, cos x_d, sin x_d) over the inputs: exactly the functions that the
+entries of the relative transform across a chain of revolute joints are (inputs in radians).
+It has no length scale; its weight sb2_c is fitted with the others (``log_sb2``, last).
+
+Units: whatever the caller's ``X`` and ``Y`` are in (with ``revolute``, ``X`` in radians);
+``ell`` has the units of ``X``, ``sf2``, ``sb2`` and ``sn2`` the units of ``Y`` squared.
 
 Serialisation schema (``to_dict``)::
 
     {"type": "GaussianProcess", "version": 1, "ard": bool, "noise_min": float or [m floats],
      "X": [[...]] (n, d), "Y": [[...]] (n, m),
-     "log_ell": [[...]] (m, d or 1), "log_sf2": [...] (m,), "log_sn2": [...] (m,)}
+     "log_ell": [[...]] (m, d or 1), "log_sf2": [...] (m,), "log_sn2": [...] (m,),
+     "revolute": bool (optional, default false), "log_sb2": [...] (m,) (with revolute)}
 """
 
 from __future__ import annotations
 
 import contextlib
+import functools
 
 import numpy as np
 from scipy.linalg import lapack
@@ -66,6 +78,13 @@ def _as_2d(a, name: str) -> np.ndarray:
     return a
 
 
+@functools.lru_cache(maxsize=64)
+def _tri_indices(n: int):
+    """Strictly lower-triangle indices of an (n, n) matrix and the mirrored upper ones."""
+    lo = np.tril_indices(n, -1)
+    return lo, (lo[1], lo[0])
+
+
 def _batched_cholesky(K: np.ndarray) -> np.ndarray:
     """Cholesky of a stack (m, n, n); adds growing diagonal jitter if needed."""
     try:
@@ -88,10 +107,14 @@ class GaussianProcess:
 
     Args:
         ard: one length scale per input dimension (True) or one shared length scale (False).
+        revolute: add the term sb2 * prod_d (1 + cos(x_d - x'_d)) to the kernel (inputs in
+            radians; see the module docstring). No effect with 0 inputs.
     """
 
-    def __init__(self, ard: bool = True):
+    def __init__(self, ard: bool = True, revolute: bool = False):
         self.ard = bool(ard)
+        self.revolute = bool(revolute)
+        self.log_sb2 = None
         self._fitted = False
 
     # ------------------------------------------------------------------ parameters
@@ -123,28 +146,59 @@ class GaussianProcess:
         diff = A.T[:, :, None] - B.T[:, None, :]
         return diff * diff
 
+    def _geom(self, A: np.ndarray, B: np.ndarray):
+        """What the kernel needs of two input sets: ((d, a, b) squared differences, the
+        (a, b) product prod_d (1 + cos(A_d - B_d)) or None without the revolute term)."""
+        D2 = self._sqdist(A, B)
+        if not self._has_rev(A.shape[1]):
+            return D2, None
+        diff = A.T[:, :, None] - B.T[:, None, :]
+        return D2, np.prod(1.0 + np.cos(diff), axis=0)
+
+    def _has_rev(self, d: int) -> bool:
+        return self.revolute and d > 0
+
     def _kernel_noiseless(self, D2: np.ndarray, log_ell: np.ndarray, log_sf2: np.ndarray):
-        """Stack (m, a, b) of sf2 * exp(-0.5 * sum_d D2_d / ell_cd^2)."""
+        """Stack (m, a, b) of sf2 * exp(-0.5 * sum_d D2_d / ell_cd^2) (the SE term)."""
         m = log_sf2.shape[0]
         d = D2.shape[0]
         if d == 0:
             return np.exp(log_sf2)[:, None, None] * np.ones((m,) + D2.shape[1:])
         inv_l2 = np.exp(-2.0 * np.broadcast_to(log_ell, (m, d)))
         r2 = np.einsum("cd,dab->cab", inv_l2, D2)
-        return np.exp(log_sf2)[:, None, None] * np.exp(-0.5 * r2)
+        r2 *= -0.5
+        r2 += log_sf2[:, None, None]
+        return np.exp(r2, out=r2)
 
-    def _unpack(self, theta: np.ndarray, m: int, d_ell: int):
-        theta = theta.reshape(m, d_ell + 2)
-        return theta[:, :d_ell], theta[:, d_ell], theta[:, d_ell + 1]
+    def _kernel(self, G, log_ell, log_sf2, log_sb2):
+        """Full noiseless kernel stack (m, a, b) for geometry ``G`` (see _geom)."""
+        D2, P = G
+        K = self._kernel_noiseless(D2, log_ell, log_sf2)
+        if P is not None:
+            K = K + np.exp(log_sb2)[:, None, None] * P
+        return K
 
-    def _neg_lml_and_grad(self, theta, D2, Yc, d_ell):
+    def _width(self, d_ell: int, d: int) -> int:
+        """Parameters per output: log ell (d_ell), log sf2, log sn2 [, log sb2]."""
+        return d_ell + 2 + int(self._has_rev(d))
+
+    def _unpack(self, theta: np.ndarray, m: int, d_ell: int, d: int):
+        """(log_ell (m, d_ell), log_sf2 (m,), log_sn2 (m,), log_sb2 (m,) or None)."""
+        theta = theta.reshape(m, self._width(d_ell, d))
+        sb2 = theta[:, d_ell + 2] if self._has_rev(d) else None
+        return theta[:, :d_ell], theta[:, d_ell], theta[:, d_ell + 1], sb2
+
+    def _neg_lml_and_grad(self, theta, G, Yc, d_ell):
+        D2, P = G
         n, m = Yc.shape
-        log_ell, log_sf2, log_sn2 = self._unpack(theta, m, d_ell)
-        Kf = self._kernel_noiseless(D2, log_ell, log_sf2)
+        d = D2.shape[0]
+        log_ell, log_sf2, log_sn2, log_sb2 = self._unpack(theta, m, d_ell, d)
+        Kse = self._kernel_noiseless(D2, log_ell, log_sf2)
+        Kf = Kse if P is None else Kse + np.exp(log_sb2)[:, None, None] * P
         sn2 = np.exp(log_sn2)
         K = Kf + sn2[:, None, None] * np.eye(n)
         Kinv = np.empty_like(K)
-        logdet_half = np.empty(m)
+        Ldiag = np.empty((m, n))
         for c in range(m):
             Lc, info = _potrf(K[c], lower=1, clean=0)
             if info != 0:
@@ -152,18 +206,17 @@ class GaussianProcess:
                     Lc = _batched_cholesky(K[c][None])[0]
                 except np.linalg.LinAlgError:
                     return 1e25, np.zeros_like(theta)
-            logdet_half[c] = np.log(np.diagonal(Lc)).sum()
-            Ki, info = _potri(Lc, lower=1)
-            Kinv[c] = Ki
-        # potri fills the lower triangle only: symmetrise
-        Kinv = np.tril(Kinv)
-        Kinv += np.swapaxes(np.tril(Kinv, -1), 1, 2)
+            Ldiag[c] = Lc.flat[::n + 1]
+            Kinv[c], info = _potri(Lc, lower=1)
+        logdet_half = np.log(Ldiag).sum(axis=1)
+        # potri fills the lower triangle only: mirror it onto the upper one
+        lo, up = _tri_indices(n)
+        Kinv[:, up[0], up[1]] = Kinv[:, lo[0], lo[1]]
         alpha = np.einsum("cij,jc->ci", Kinv, Yc)  # (m, n)
         lml = -0.5 * np.einsum("ic,ci->c", Yc, alpha) - logdet_half - 0.5 * n * _LOG_2PI
         W = alpha[:, :, None] * alpha[:, None, :] - Kinv  # (m, n, n)
-        WK = W * Kf
-        g = np.empty((m, d_ell + 2))
-        d = D2.shape[0]
+        WK = W * Kse
+        g = np.empty((m, self._width(d_ell, d)))
         if d_ell > 0:
             inv_l2 = np.exp(-2.0 * np.broadcast_to(log_ell, (m, d)))
             g_dims = 0.5 * np.einsum("cab,dab->cd", WK, D2) * inv_l2
@@ -173,12 +226,14 @@ class GaussianProcess:
                 g[:, 0] = g_dims.sum(axis=1)
         g[:, d_ell] = 0.5 * WK.sum(axis=(1, 2))
         g[:, d_ell + 1] = 0.5 * sn2 * np.trace(W, axis1=1, axis2=2)
+        if P is not None:
+            g[:, d_ell + 2] = 0.5 * np.exp(log_sb2) * np.einsum("cab,ab->c", W, P)
         return -float(lml.sum()), -g.ravel()
 
-    def _per_output_nlml(self, theta, D2, Yc, d_ell) -> np.ndarray:
+    def _per_output_nlml(self, theta, G, Yc, d_ell) -> np.ndarray:
         n, m = Yc.shape
-        log_ell, log_sf2, log_sn2 = self._unpack(theta, m, d_ell)
-        K = self._kernel_noiseless(D2, log_ell, log_sf2) + np.exp(log_sn2)[:, None, None] * np.eye(n)
+        log_ell, log_sf2, log_sn2, log_sb2 = self._unpack(theta, m, d_ell, G[0].shape[0])
+        K = self._kernel(G, log_ell, log_sf2, log_sb2) + np.exp(log_sn2)[:, None, None] * np.eye(n)
         try:
             L = _batched_cholesky(K)
         except np.linalg.LinAlgError:
@@ -189,8 +244,7 @@ class GaussianProcess:
 
     def _factorise(self):
         n, m = self.Y.shape
-        D2 = self._sqdist(self.X, self.X)
-        Kf = self._kernel_noiseless(D2, self.log_ell, self.log_sf2)
+        Kf = self._kernel(self._geom(self.X, self.X), self.log_ell, self.log_sf2, self.log_sb2)
         K = Kf + np.exp(self.log_sn2)[:, None, None] * np.eye(n)
         self._L = _batched_cholesky(K)
         Yc = (self.Y - self.y_mean).T[:, :, None]  # (m, n, 1)
@@ -207,7 +261,7 @@ class GaussianProcess:
     def fit(self, X, Y, *, optimize: bool = True, noise_min: float = 1e-6,
             hyperparameters: dict | None = None, maxiter: int = 200,
             n_restarts: int = 0, ftol: float = 1e-9,
-            ell_starts=()) -> "GaussianProcess":
+            ell_starts=(), extra_starts=()) -> "GaussianProcess":
         """Fit to training inputs ``X`` (n, d) and targets ``Y`` (n, m).
 
         Args:
@@ -232,6 +286,9 @@ class GaussianProcess:
                 marginal likelihood of a few dozen noisy samples has a local optimum that
                 explains an input's effect as noise (its length scale at the upper bound);
                 starts at shorter length scales find the better optimum when there is one.
+            extra_starts: further initial values (dicts like ``hyperparameters``), each
+                optimised like the first (all outputs jointly); the best optimum is kept per
+                output (e.g. warm starts from earlier fits on similar data).
         Returns:
             self
         """
@@ -264,33 +321,44 @@ class GaussianProcess:
         ell_default = np.log(xs if self.ard or d == 0 else np.array([xs.mean()]))[None, :d_ell]
         ell_default = np.broadcast_to(ell_default, (m, d_ell))
         sf2_default = np.log(np.maximum(yvar, 1e-10))
-        if hyperparameters is None:
-            log_ell0, log_sf20 = ell_default, sf2_default
-            log_sn20 = np.log(np.maximum(0.01 * yvar, noise_min))
-        else:
-            log_ell0 = np.broadcast_to(np.asarray(hyperparameters["log_ell"], float).reshape(
-                -1, d_ell) if d_ell else np.zeros((m, 0)), (m, d_ell))
-            log_sf20 = np.broadcast_to(np.asarray(hyperparameters["log_sf2"], float), (m,))
-            log_sn20 = np.maximum(np.broadcast_to(
-                np.asarray(hyperparameters["log_sn2"], float), (m,)), np.log(noise_min))
-        theta0 = np.concatenate(
-            [np.asarray(log_ell0, float), np.asarray(log_sf20, float)[:, None],
-             np.asarray(log_sn20, float)[:, None]], axis=1)
+        rev = self._has_rev(d)
+        # the revolute term's diagonal is 2^d: start it at the output variance as well
+        sb2_default = sf2_default - d * np.log(2.0)
+
+        def as_theta(h, default_sn2):
+            if h is None:
+                return self._theta(ell_default, sf2_default, default_sn2,
+                                   sb2_default if rev else None)
+            log_ell = np.broadcast_to(np.asarray(h["log_ell"], float).reshape(-1, d_ell)
+                                      if d_ell else np.zeros((m, 0)), (m, d_ell))
+            sb2 = None
+            if rev:
+                sb2 = (np.broadcast_to(np.asarray(h["log_sb2"], float), (m,))
+                       if h.get("log_sb2") is not None else sb2_default)
+            return self._theta(log_ell, np.broadcast_to(np.asarray(h["log_sf2"], float), (m,)),
+                               np.maximum(np.broadcast_to(np.asarray(h["log_sn2"], float),
+                                                          (m,)), np.log(noise_min)), sb2)
+
+        theta0 = as_theta(hyperparameters, np.log(np.maximum(0.01 * yvar, noise_min)))
+        extra = [as_theta(h, None) for h in extra_starts]
 
         with blas_single_thread() if n <= 400 else contextlib.nullcontext():
             theta = self._optimise(X, Y, Yc, theta0, optimize, noise_min, n_restarts, ftol,
-                                   maxiter, xs, yvar, yscale, ell_default, sf2_default, d_ell,
-                                   tuple(ell_starts))
-        self.log_ell, self.log_sf2, self.log_sn2 = (
-            np.array(a) for a in self._unpack(np.asarray(theta, float), m, d_ell))
+                                   maxiter, xs, yvar, yscale, ell_default, sf2_default,
+                                   sb2_default, d_ell, tuple(ell_starts), extra)
+        self.log_ell, self.log_sf2, self.log_sn2, sb2 = self._unpack(
+            np.asarray(theta, float).copy(), m, d_ell, d)
+        self.log_sb2 = None if sb2 is None else np.array(sb2)
         with blas_single_thread() if n <= 400 else contextlib.nullcontext():
             self._factorise()
         return self
 
     def _optimise(self, X, Y, Yc, theta0, optimize, noise_min, n_restarts, ftol, maxiter, xs,
-                  yvar, yscale, ell_default, sf2_default, d_ell, ell_starts=()):
+                  yvar, yscale, ell_default, sf2_default, sb2_default, d_ell, ell_starts=(),
+                  extra=()):
         n, d = X.shape
         m = Y.shape[1]
+        rev = self._has_rev(d)
         if optimize and n > 1:
             if self.ard or d == 0:
                 lo_ell, hi_ell = np.log(xs * 1e-2), np.log(xs * 1e5)
@@ -303,22 +371,26 @@ class GaussianProcess:
                 bounds.append((np.log(1e-12), np.log(1e4 * yscale[c] + 1e-8)))
                 bounds.append((np.log(noise_min[c]),
                                np.log(max(1e4 * yscale[c], 10 * noise_min[c]))))
+                if rev:
+                    bounds.append((np.log(1e-12), np.log(1e4 * yscale[c] + 1e-8)))
             bounds = np.array(bounds)
             theta0 = np.clip(theta0.ravel(), bounds[:, 0], bounds[:, 1])
-            D2 = self._sqdist(X, X)
-            starts = [theta0]
+            G = self._geom(X, X)
+            starts = [theta0] + [np.clip(t.ravel(), bounds[:, 0], bounds[:, 1]) for t in extra]
             for r in range(int(n_restarts)):
                 # further starts with a lower noise level: escapes the "signal is noise"
                 # local optimum on (nearly) noise-free data
-                t = np.concatenate([ell_default, sf2_default[:, None], np.log(np.maximum(
-                    yvar * 10.0 ** (-4 - 2 * r), noise_min))[:, None]], axis=1)
+                t = self._theta(ell_default, sf2_default, np.log(np.maximum(
+                    yvar * 10.0 ** (-4 - 2 * r), noise_min)), sb2_default if rev else None)
                 starts.append(np.clip(t.ravel(), bounds[:, 0], bounds[:, 1]))
             best, best_f = None, None
             for t0 in starts:
-                res = minimize(self._neg_lml_and_grad, t0, args=(D2, Yc, d_ell), jac=True,
+                res = minimize(self._neg_lml_and_grad, t0, args=(G, Yc, d_ell), jac=True,
                                method="L-BFGS-B", bounds=bounds,
                                options={"maxiter": maxiter, "ftol": ftol, "gtol": 1e-5})
-                f = self._per_output_nlml(res.x, D2, Yc, d_ell)
+                if len(starts) == 1 and not (ell_starts and d_ell):
+                    return res.x  # nothing to compare per output
+                f = self._per_output_nlml(res.x, G, Yc, d_ell)
                 if best is None:
                     best, best_f = res.x.reshape(m, -1).copy(), f
                 else:  # outputs are independent: keep the better optimum per output
@@ -326,32 +398,44 @@ class GaussianProcess:
                     best[better] = res.x.reshape(m, -1)[better]
                     best_f = np.where(better, f, best_f)
             if ell_starts and d_ell:
-                self._per_output_starts(best, best_f, D2, Yc, d_ell, bounds, ell_starts,
-                                        ell_default, sf2_default, yvar, noise_min, maxiter, ftol)
+                self._per_output_starts(best, best_f, G, Yc, d_ell, bounds, ell_starts,
+                                        ell_default, sf2_default, sb2_default, yvar, noise_min,
+                                        maxiter, ftol)
             return best.ravel()
         return theta0.ravel()
 
-    def _per_output_starts(self, best, best_f, D2, Yc, d_ell, bounds, ell_starts, ell_default,
-                           sf2_default, yvar, noise_min, maxiter, ftol):
-        """Improve ``best`` (m, d_ell + 2) in place with per-output starts (see fit)."""
+    def _per_output_starts(self, best, best_f, G, Yc, d_ell, bounds, ell_starts, ell_default,
+                           sf2_default, sb2_default, yvar, noise_min, maxiter, ftol):
+        """Improve ``best`` (m, width) in place with per-output starts (see fit)."""
         m = Yc.shape[1]
-        w = d_ell + 2
+        rev = self._has_rev(G[0].shape[0])
+        w = best.shape[1]
         for c in range(m):
             bc = bounds[c * w:(c + 1) * w]
             tried = []
             for f in ell_starts:
                 for rel in (1e-2, 1e-4):
                     t0 = np.concatenate([ell_default[c] + np.log(f), [sf2_default[c]],
-                                         [np.log(max(rel * yvar[c], noise_min[c]))]])
+                                         [np.log(max(rel * yvar[c], noise_min[c]))]]
+                                        + ([[sb2_default[c]]] if rev else []))
                     t0 = np.clip(t0, bc[:, 0], bc[:, 1])
                     if any(np.allclose(t0, t) for t in tried):
                         continue
                     tried.append(t0)
-                    res = minimize(self._neg_lml_and_grad, t0, args=(D2, Yc[:, c:c + 1], d_ell),
+                    res = minimize(self._neg_lml_and_grad, t0, args=(G, Yc[:, c:c + 1], d_ell),
                                    jac=True, method="L-BFGS-B", bounds=bc,
                                    options={"maxiter": maxiter, "ftol": ftol, "gtol": 1e-5})
                     if np.isfinite(res.fun) and res.fun < best_f[c]:
                         best[c], best_f[c] = res.x, res.fun
+
+    @staticmethod
+    def _theta(log_ell, log_sf2, log_sn2, log_sb2=None) -> np.ndarray:
+        """(m, width) parameter rows from their parts (log_sb2 last, if any)."""
+        cols = [np.asarray(log_ell, float), np.asarray(log_sf2, float)[:, None],
+                np.asarray(log_sn2, float)[:, None]]
+        if log_sb2 is not None:
+            cols.append(np.asarray(log_sb2, float)[:, None])
+        return np.concatenate(cols, axis=1)
 
     def _check_fitted(self):
         if not self._fitted:
@@ -375,12 +459,15 @@ class GaussianProcess:
         """
         self._check_fitted()
         Xs = self._check_xs(Xs)
-        Ks = self._kernel_noiseless(self._sqdist(Xs, self.X), self.log_ell, self.log_sf2)
+        Ks = self._kernel(self._geom(Xs, self.X), self.log_ell, self.log_sf2, self.log_sb2)
         mean = np.einsum("ckn,cn->kc", Ks, self._alpha, optimize=True) + self.y_mean
         if not return_var:
             return mean
         V = np.linalg.solve(self._L, np.swapaxes(Ks, 1, 2))  # (m, n, k)
-        var = np.exp(self.log_sf2)[None, :] - np.einsum("cnk,cnk->kc", V, V, optimize=True)
+        prior = np.exp(self.log_sf2)
+        if self._has_rev(self.X.shape[1]):
+            prior = prior + np.exp(self.log_sb2) * 2.0 ** self.X.shape[1]
+        var = prior[None, :] - np.einsum("cnk,cnk->kc", V, V, optimize=True)
         var = np.maximum(var, 0.0)
         if include_noise:
             var = var + np.exp(self.log_sn2)[None, :]
@@ -397,7 +484,15 @@ class GaussianProcess:
         inv_l2 = np.exp(-2.0 * np.broadcast_to(self.log_ell, (m, d)))
         diff = Xs[:, None, :] - self.X[None, :, :]  # (k, n, d)
         KA = Ks * self._alpha[:, None, :]  # (m, k, n)
-        return -np.einsum("ckn,knd->kcd", KA, diff, optimize=True) * inv_l2[None, :, :]
+        J = -np.einsum("ckn,knd->kcd", KA, diff, optimize=True) * inv_l2[None, :, :]
+        if self._has_rev(d):
+            # d/dx_e prod_d (1 + cos(x_d - x'_d)) = -sin(x_e - x'_e) prod_{d != e} (...)
+            C = 1.0 + np.cos(diff)  # (k, n, d)
+            S = -np.sin(diff)
+            for e in range(d):
+                dP = S[:, :, e] * np.prod(np.delete(C, e, axis=2), axis=2)  # (k, n)
+                J[:, :, e] += np.einsum("kn,cn->kc", dP, self._alpha) * np.exp(self.log_sb2)
+        return J
 
     def loo_predict(self):
         """Leave-one-out predictive mean and variance (n, m) at the training inputs: the
@@ -414,8 +509,11 @@ class GaussianProcess:
     def hyperparameters(self) -> dict:
         """Current hyper-parameters in log space (a ``hyperparameters=`` argument of fit)."""
         self._check_fitted()
-        return {"log_ell": self.log_ell.copy(), "log_sf2": self.log_sf2.copy(),
-                "log_sn2": self.log_sn2.copy()}
+        hp = {"log_ell": self.log_ell.copy(), "log_sf2": self.log_sf2.copy(),
+              "log_sn2": self.log_sn2.copy()}
+        if self.log_sb2 is not None:
+            hp["log_sb2"] = self.log_sb2.copy()
+        return hp
 
     def log_marginal_likelihood(self) -> float:
         """Log marginal likelihood of the training data, summed over outputs."""
@@ -433,14 +531,15 @@ class GaussianProcess:
             "noise_min": np.asarray(self.noise_min).tolist(),
             "X": self.X.tolist(), "Y": self.Y.tolist(),
             "log_ell": self.log_ell.tolist(), "log_sf2": self.log_sf2.tolist(),
-            "log_sn2": self.log_sn2.tolist(),
+            "log_sn2": self.log_sn2.tolist(), "revolute": self.revolute,
+            "log_sb2": None if self.log_sb2 is None else self.log_sb2.tolist(),
         }
 
     @classmethod
     def from_dict(cls, d: dict) -> "GaussianProcess":
         if d.get("type", "GaussianProcess") != "GaussianProcess":
             raise ValueError(f"not a GaussianProcess dict: type={d.get('type')!r}")
-        gp = cls(ard=bool(d["ard"]))
+        gp = cls(ard=bool(d["ard"]), revolute=bool(d.get("revolute", False)))
         X = np.asarray(d["X"], float)
         Y = np.asarray(d["Y"], float)
         if X.ndim == 1:
@@ -453,5 +552,9 @@ class GaussianProcess:
         gp.log_ell = np.asarray(d["log_ell"], float).reshape(m, -1)
         gp.log_sf2 = np.asarray(d["log_sf2"], float).reshape(m)
         gp.log_sn2 = np.asarray(d["log_sn2"], float).reshape(m)
+        if gp._has_rev(X.shape[1]):
+            if d.get("log_sb2") is None:
+                raise ValueError("GaussianProcess dict: revolute kernel without 'log_sb2'")
+            gp.log_sb2 = np.asarray(d["log_sb2"], float).reshape(m)
         gp._factorise()
         return gp
