@@ -42,7 +42,7 @@ from pathlib import Path
 import numpy as np
 
 from mmlearn.apps._common import (ArgumentParser, UsageError, check_out_dir, fail, json_clean,
-                                  nonneg_int, pos_int, save_figure)
+                                  name_list, nonneg_int, pos_int, save_figure)
 
 __all__ = ["EXPERIMENTS", "trial", "trial_specs", "report", "run", "main", "THESIS_STAGE_S"]
 
@@ -81,7 +81,7 @@ def trial(*, seed: int, experiment: str, object: str, distance: float, angle: fl
 
 
 def trial_specs(*, only=EXPERIMENTS, quick: bool = False, seed: int = 1000, seeds: int = 10,
-                frames: int = 60) -> list:
+                frames: int = 60, objects=OBJECTS) -> list:
     """One spec per (experiment, object, distance or angle, seed)."""
     from mmlearn.apps._sweep import TrialSpec
 
@@ -95,7 +95,7 @@ def trial_specs(*, only=EXPERIMENTS, quick: bool = False, seed: int = 1000, seed
         else:
             raise ValueError(f"unknown experiment {exp!r}; choose from {', '.join(EXPERIMENTS)}")
         for j in range(seeds):  # seeds outermost: an interrupted sweep covers every setting
-            for obj in OBJECTS:
+            for obj in objects:
                 for d, a in grid:
                     specs.append(TrialSpec(
                         fn=fn, seed=seed + j,
@@ -429,7 +429,7 @@ def _plots(res, out) -> list:
 
 
 def run(*, only=EXPERIMENTS, quick: bool = False, seed: int = 1000, seeds: int = 10,
-        frames: int = 60, out: str | None = None, progress: bool = True, echo=None,
+        frames: int = 60, objects=OBJECTS, out: str | None = None, progress: bool = True, echo=None,
         results: str | None = None, executor: str = "local", jobs: int | None = None,
         ray_address: str | None = None) -> dict:
     """Run the experiments through the sweep runner; returns the report's results (plus
@@ -443,7 +443,11 @@ def run(*, only=EXPERIMENTS, quick: bool = False, seed: int = 1000, seeds: int =
             raise ValueError(f"unknown experiment {k!r}; choose from {', '.join(EXPERIMENTS)}")
     if quick:
         seeds, frames = min(seeds, 1), min(frames, 16)
-    specs = trial_specs(only=only, quick=quick, seed=seed, seeds=seeds, frames=frames)
+    for o in objects:
+        if o not in OBJECTS:
+            raise ValueError(f"unknown object {o!r}; choose from {', '.join(OBJECTS)}")
+    specs = trial_specs(only=only, quick=quick, seed=seed, seeds=seeds, frames=frames,
+                        objects=objects)
     sweep = run_sweep(specs, results=results, executor=executor, jobs=jobs,
                       ray_address=ray_address, show_progress=progress,
                       desc="perception trials")
@@ -467,6 +471,8 @@ def main(argv=None) -> int:
                         "ran, 1 a trial raised an error, 2 bad input.")
     ap.add_argument("--only", default=",".join(EXPERIMENTS),
                     help="comma-separated experiments: distance, angle (default: both)")
+    ap.add_argument("--objects", type=name_list(list(OBJECTS)), default=list(OBJECTS),
+                    help="comma-separated moving fronts (default: drawer,door)")
     ap.add_argument("--quick", action="store_true",
                     help="small setting: 1 seed, 16 frames, 2 distances / angles")
     ap.add_argument("--seed", type=nonneg_int, default=1000, help="first seed")
@@ -510,6 +516,7 @@ def main(argv=None) -> int:
     else:
         try:
             res = run(only=only, quick=a.quick, seed=a.seed, seeds=a.seeds, frames=a.frames,
+                      objects=a.objects,
                       out=a.out_dir, progress=not a.no_progress, echo=echo, **sweep)
         except (UsageError, ValueError, OSError) as e:
             return fail(ap.prog, str(e))
