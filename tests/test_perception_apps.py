@@ -130,3 +130,22 @@ def test_perception_experiments_report_only_reproduces_a_tiny_run(tmp_path, caps
     _bad(main, ["--objects", "window"], capsys, "window")
     _bad(main, ["--frames", "3"], capsys, "--frames")
     _bad(main, ["--report-only", str(tmp_path / "none.jsonl")], capsys, "none.jsonl")
+
+
+def test_track_fronts_draws_in_meshcat(tmp_path):
+    """With Meshcat: the point cloud, the detections, every published track and the moving
+    front's learned model are drawn; --html-out writes the recording."""
+    from mmlearn.apps._common import make_meshcat
+    from mmlearn.apps.track_fronts import TrackFrontsConfig, run
+
+    mc = make_meshcat(announce=False)
+    html = tmp_path / "rec.html"
+    r = run(config=TrackFrontsConfig(object="drawer", distance=1.2, frames=8, seed=3,
+                                     html_out=str(html)), meshcat=mc, show_progress=False)
+    assert mc.HasPath("depth_cloud") and mc.HasPath("fronts/detections/0")
+    assert r["moving_track"] is not None
+    for tid in r["track_models"]:
+        assert mc.HasPath(f"fronts/tracks/{tid}/rectangle")
+    assert mc.HasPath(f"fronts/tracks/{r['moving_track']['track_id']}/model")
+    assert r["cpu_ms_per_frame"] is None  # the drawing evaluates the detector first
+    assert r["html_out"] == str(html) and html.stat().st_size > 10_000
