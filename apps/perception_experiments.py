@@ -33,9 +33,7 @@ inflated by the load), and the median CPU time of the whole detector per frame (
 one BLAS thread), which the "< 100 ms per frame on one core" target is checked against.
 """
 
-import argparse
 import json
-import math
 import sys
 from pathlib import Path
 
@@ -187,7 +185,8 @@ def _selection(recs):
                     "heldout_orient_error_deg": eo,
                     "prediction_pos_error_m": _mean(pe), "prediction_orient_error_deg": _mean(oe),
                     "prediction_n": used,
-                    "right_in_the_end": sum(bool(r["model_right"]) for r in rs), "runs_total": len(rs),
+                    "right_in_the_end": sum(bool(r["model_right"]) for r in rs),
+                    "runs_total": len(rs),
                     "model_right_from_mean": _mean([r["model_right_from"] for r in rs]),
                     "model_right_from_max": (max(r["model_right_from"] for r in rs
                                                  if r["model_right_from"] is not None)
@@ -220,7 +219,8 @@ def _targets(dist_rows, recs):
         rows = [x for x in dist_rows if x["object"] == obj
                 and x["distance"] <= TARGET_DISTANCE_M + 1e-9]
         worst_all = min(x["detection_rate"] for x in rows)
-        el = [x["detection_rate_eligible"] for x in rows if x["detection_rate_eligible"] is not None]
+        el = [x["detection_rate_eligible"] for x in rows
+              if x["detection_rate_eligible"] is not None]
         worst_el = min(el) if el else None
         pe = _mean([r["pos_error_m"] for r in rs])
         oe = _mean([r["orient_error_deg"] for r in rs])
@@ -276,7 +276,8 @@ def report(lines: list[dict]) -> tuple[dict, list[str]]:
                      f"{_fmt(r['detection_rate_eligible'], '6.2f')} "
                      f"({_fmt(r['detection_rate_eligible_min'], '4.2f')})  "
                      f"{_fmt(r['pos_error_m'], '.4f')}     {_fmt(r['orient_error_deg'], '5.2f')}  "
-                     f"    {r['model_right']:2d}/{r['runs']:<2d} {_fmt(r['model_right_from'], '6.1f')}"
+                     f"    {r['model_right']:2d}/{r['runs']:<2d} "
+                     f"{_fmt(r['model_right_from'], '6.1f')}"
                      f"      {_fmt(r['ms_per_frame'], '6.0f')}")
         text.append("\n".join(t))
     if ok:
@@ -319,7 +320,8 @@ def report(lines: list[dict]) -> tuple[dict, list[str]]:
                 if obj in tg:
                     g = tg[obj]
                     t.append(f"  {obj}: detection >= {TARGET_DETECTION:.0%} at every distance: "
-                             f"all frames {_fmt(g['detection_rate_all_frames_worst_distance'], '.2f')}"
+                             "all frames "
+                             f"{_fmt(g['detection_rate_all_frames_worst_distance'], '.2f')}"
                              f" ({'met' if g['detection_met_all_frames'] else 'NOT met'}), "
                              f"eligible {_fmt(g['detection_rate_eligible_worst_distance'], '.2f')}"
                              f" ({'met' if g['detection_met_eligible'] else 'NOT met'}); "
