@@ -1,0 +1,151 @@
+"""The perception apps (issue 12 items 5 and 6): track_fronts on a short drawer run, their
+command-line errors, and perception_experiments --report-only reproducing a tiny run."""
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+
+def _exit(main, argv, capsys):
+    try:
+        rc = main(argv)
+    except SystemExit as e:
+        rc = e.code
+    out, err = capsys.readouterr()
+    return rc, out, err
+
+
+def _bad(main, argv, capsys, *needles):
+    rc, out, err = _exit(main, argv, capsys)
+    assert rc == 2, (rc, out, err)
+    line = err.strip().splitlines()[-1]
+    for n in needles:
+        assert n in line, (n, err)
+    assert "Traceback" not in err
+
+
+def test_match_front_handles_the_8_parameterisations():
+    """A detection given in any of its 8 parameterisations (and with noise) matches the true
+    front with the same small error; a shifted or tilted one does not match."""
+    from mmlearn.apps.track_fronts import match_front
+    from mmlearn.models.front_tracking import rectangle_parameterisations
+    from mmlearn.models.fronts import FrontRectangle
+
+    X = np.eye(4)
+    X[:3, :3] = np.array([[0, 0, 1], [1, 0, 0], [0, 1, 0.0]])  # a front facing +x
+    X[:3, 3] = [0.5, 0.2, 0.8]
+    Y = X.copy()
+    Y[:3, 3] += [0.003, -0.004, 0.0]  # 5 mm off
+    Xs, sizes = rectangle_parameterisations(Y, 0.40, 0.13)
+    for Xi, (w, h) in zip(Xs, sizes):
+        m = match_front([FrontRectangle(Xi, w, h)], X, 0.395, 0.125)
+        assert m is not None and m["pos_error_m"] == pytest.approx(0.005)
+        assert m["orient_error_deg"] < 1e-6 and m["size_error_m"] == pytest.approx(0.005)
+    far = Y.copy()
+    far[:3, 3] += [0.0, 0.06, 0.0]
+    c, s = math.cos(math.radians(15)), math.sin(math.radians(15))
+    tilt = X.copy()
+    tilt[:3, :3] = X[:3, :3] @ np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]])
+    assert match_front([FrontRectangle(far, 0.4, 0.13)], X, 0.395, 0.125) is None
+    assert match_front([FrontRectangle(tilt, 0.4, 0.13)], X, 0.395, 0.125) is None
+    # the better of two candidates; junk in the list is skipped
+    m = match_front(["junk", FrontRectangle(far, 0.4, 0.13), FrontRectangle(Y, 0.4, 0.13)],
+                    X, 0.395, 0.125)
+    assert m["index"] == 2
+
+
+def test_track_fronts_short_drawer_run(capsys):
+    """8 frames of the drawer at 1.2 m: a sane JSON (found in most frames once it is out,
+    errors of mm, a prismatic track, stage timings)."""
+    from mmlearn.apps.track_fronts import main
+
+    rc = main(["--object", "drawer", "--distance", "1.2", "--frames", "8", "--seed", "3",
+               "--json"])
+    out = capsys.readouterr().out
+    assert rc == 0
+    r = json.loads(out)
+    for k in ("detection_rate", "detection_rate_eligible", "pos_error_m", "orient_error_deg",
+              "selected_model", "model_right_from", "ms_per_frame", "cpu_ms_per_frame",
+              "stage_ms"):
+        assert k in r, k
+    assert set(r["stage_ms"]) == {"planes", "masks", "sampling", "optimisation", "check"}
+    assert all(v > 0 for v in r["stage_ms"].values())
+    assert r["frames"] == 8 and len(r["per_frame"]) == 8
+    assert r["frames_found"] == sum(f["found"] for f in r["per_frame"])
+    assert r["detection_rate"] == pytest.approx(r["frames_found"] / 8)
+    # the closed drawer (frame 0) is flush with its neighbours: not eligible
+    assert not r["per_frame"][0]["eligible"] and r["per_frame"][-1]["eligible"]
+    assert r["detection_rate_eligible"] >= 0.8
+    assert 0 < r["pos_error_m"] < 0.02 and 0 <= r["orient_error_deg"] < 3
+    assert r["selected_model"] == "prismatic" and r["model_right"]
+    assert r["moving_track"]["matched_observations"] >= 5
+    assert 3 <= r["model_right_from"] <= r["moving_track"]["observations"]
+    assert r["ms_per_frame"] > 0 and r["cpu_ms_per_frame"] > 0
+
+
+def test_track_fronts_cli_errors(tmp_path, capsys):
+    from mmlearn.apps.track_fronts import main
+
+    _bad(main, ["--object", "window"], capsys, "window")
+    _bad(main, ["--frames", "1"], capsys, "--frames")
+    _bad(main, ["--frames", "0"], capsys, "--frames")
+    _bad(main, ["--distance", "nan"], capsys, "--distance")
+    _bad(main, ["--distance", "0.1"], capsys, "--distance")
+    _bad(main, ["--angle=-95"], capsys, "--angle")
+    _bad(main, ["--seed", "-1"], capsys, "--seed")
+    _bad(main, ["--config", str(tmp_path / "missing.yaml")], capsys, "missing.yaml")
+    yml = tmp_path / "scene.yaml"
+    yml.write_text("camera: {distanse: 2.0}\n")
+    _bad(main, ["--config", str(yml)], capsys, "distanse")
+    _bad(main, ["--html-out", str(tmp_path / "no" / "such" / "dir" / "x.html")], capsys,
+         "--html-out")
+
+
+def test_perception_experiments_report_only_reproduces_a_tiny_run(tmp_path, capsys):
+    """A tiny sweep (drawer, 2 angles, 6 frames) writes its results file; --report-only on it
+    prints the same tables and writes the plots; bad input exits 2."""
+    from mmlearn.apps.perception_experiments import main
+
+    res = tmp_path / "r.jsonl"
+    rc, out, err = _exit(main, ["--only", "angle", "--objects", "drawer", "--quick",
+                                "--frames", "6", "--jobs", "1", "--results", str(res),
+                                "--no-progress"], capsys)
+    assert rc == 0, err
+    assert len(res.read_text().splitlines()) == 2
+    assert "angle: detection" in out and "time per stage" in out
+    rc2, out2, _ = _exit(main, ["--report-only", str(res), "--out-dir", str(tmp_path / "p")],
+                         capsys)
+    assert rc2 == 0
+    tables = out2.split("plots:")[0].strip()
+    assert tables == out.strip()
+    assert (tmp_path / "p" / "detection_vs_angle.png").stat().st_size > 1000
+    assert (tmp_path / "p" / "selection_drawer.png").exists()
+    rc3, out3, _ = _exit(main, ["--report-only", str(res), "--json"], capsys)
+    j = json.loads(out3)
+    rows = j["angle"]["rows"]
+    assert [r["angle"] for r in rows] == [0.0, 30.0] and all(r["runs"] == 1 for r in rows)
+    _bad(main, ["--only", "colour"], capsys, "colour")
+    _bad(main, ["--objects", "window"], capsys, "window")
+    _bad(main, ["--frames", "3"], capsys, "--frames")
+    _bad(main, ["--report-only", str(tmp_path / "none.jsonl")], capsys, "none.jsonl")
+
+
+def test_track_fronts_draws_in_meshcat(tmp_path):
+    """With Meshcat: the point cloud, the detections, every published track and the moving
+    front's learned model are drawn; --html-out writes the recording."""
+    from mmlearn.apps._common import make_meshcat
+    from mmlearn.apps.track_fronts import TrackFrontsConfig, run
+
+    mc = make_meshcat(announce=False)
+    html = tmp_path / "rec.html"
+    r = run(config=TrackFrontsConfig(object="drawer", distance=1.2, frames=8, seed=3,
+                                     html_out=str(html)), meshcat=mc, show_progress=False)
+    assert mc.HasPath("depth_cloud") and mc.HasPath("fronts/detections/0")
+    assert r["moving_track"] is not None
+    for tid in r["track_models"]:
+        assert mc.HasPath(f"fronts/tracks/{tid}/rectangle")
+    assert mc.HasPath(f"fronts/tracks/{r['moving_track']['track_id']}/model")
+    assert r["cpu_ms_per_frame"] is None  # the drawing evaluates the detector first
+    assert r["html_out"] == str(html) and html.stat().st_size > 10_000
