@@ -106,6 +106,14 @@ class SweepResult:
     def errors(self) -> list[dict]:
         return [ln for ln in self.lines if ln.get("error") is not None]
 
+    def summary(self) -> dict:
+        """What the apps put in their JSON about the sweep itself."""
+        return {"results_file": str(self.results) if self.results else None,
+                "resumed": self.resumed, "interrupted": self.interrupted,
+                "wall_seconds": round(self.wall_s, 1),
+                "trial_seconds": round(sum(ln.get("wall_s") or 0.0 for ln in self.lines), 1),
+                "not_run": [s.label for s in self.missing]}
+
     def error_summary(self) -> str:
         return "; ".join(f"{ln['spec'].get('label') or ln['key']}: {ln['error']}"
                          for ln in self.errors)

@@ -869,10 +869,7 @@ def run(*, runs: int = 100, seed: int = 0, quick: bool = False, only=EXPERIMENTS
                       desc="articulation trials")
     res = report(sweep.lines) if sweep.lines else {"runs": runs, "seed": seed,
                                                    "quick": quick, "errors": []}
-    res["sweep"] = {"results_file": str(sweep.results) if sweep.results else None,
-                    "resumed": sweep.resumed, "interrupted": sweep.interrupted,
-                    "wall_seconds": round(sweep.wall_s, 1),
-                    "not_run": [s.label for s in sweep.missing]}
+    res["sweep"] = sweep.summary()
     res["plots"] = _plots(res, Path(out_dir)) if out_dir else []
     return res
 

@@ -483,11 +483,7 @@ def run(*, quick: bool = False, runs: int = 20, seed: int = 0, out_dir: str | Pa
                       desc="body-schema runs")
     res = report(sweep.lines)
     res["seconds"] = sweep.wall_s
-    res["sweep"] = {"results_file": str(sweep.results) if sweep.results else None,
-                    "resumed": sweep.resumed, "interrupted": sweep.interrupted,
-                    "trial_seconds": round(sum(ln.get("wall_s") or 0.0
-                                               for ln in sweep.lines), 1),
-                    "not_run": [s.label for s in sweep.missing]}
+    res["sweep"] = sweep.summary()
     return write_outputs(res, out_dir)
 
 

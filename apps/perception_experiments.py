@@ -454,10 +454,7 @@ def run(*, only=EXPERIMENTS, quick: bool = False, seed: int = 1000, seeds: int =
                       ray_address=ray_address, show_progress=progress,
                       desc="perception trials")
     res, text = report(sweep.lines)
-    res["sweep"] = {"results_file": str(sweep.results) if sweep.results else None,
-                    "resumed": sweep.resumed, "wall_seconds": round(sweep.wall_s, 1),
-                    "interrupted": sweep.interrupted,
-                    "not_run": [s.label for s in sweep.missing]}
+    res["sweep"] = sweep.summary()
     if echo is not None:
         echo(text)
     if out:

@@ -506,10 +506,7 @@ def run(*, only=EXPERIMENTS, quick: bool = False, seed: int = 0, seeds: int = 10
                       ray_address=ray_address, show_progress=progress,
                       desc="structure trials")
     res, text = report(sweep.lines, only=only)
-    res["sweep"] = {"results_file": str(sweep.results) if sweep.results else None,
-                    "resumed": sweep.resumed, "wall_seconds": round(sweep.wall_s, 1),
-                    "interrupted": sweep.interrupted,
-                    "not_run": [s.label for s in sweep.missing]}
+    res["sweep"] = sweep.summary()
     if echo is not None:
         echo(text)
     if out:

@@ -270,7 +270,7 @@ def run(*, config: TrackFrontsConfig, meshcat=None, show_progress: bool = True) 
         P.visualizer.StartRecording(False)
     sim.Initialize()
     w_true, h_true = P.kinematics.width, P.kinematics.height
-    frames, truth_by_time, online = [], {}, []
+    frames, truth_by_time = [], {}
     timings, cpu = [], []
     wall0 = time.perf_counter()
     for k in progress(range(cfg.frames), desc=f"{cfg.object} frames", unit="frame",

@@ -82,7 +82,7 @@ def noise_table(width, distances, angles, n, seed):
                 rig.set_poses(ctx, [X_WM])
                 cam = rig.rgbd[0]
                 t0 = time.perf_counter()
-                img = cam.color_image_output_port().Eval(cam.GetMyContextFromRoot(ctx)).data
+                cam.color_image_output_port().Eval(cam.GetMyContextFromRoot(ctx))  # render (timed)
                 t1 = time.perf_counter()
                 obs = rig.sensor.observe(rig.sensor.GetMyContextFromRoot(ctx))
                 t2 = time.perf_counter()
