@@ -50,6 +50,7 @@ from __future__ import annotations
 import json
 import time
 from dataclasses import dataclass, field
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -144,6 +145,10 @@ class MergeDecision:
         delta_bic: {cluster index: BIC(M_j+new) - BIC(M_j)} for every cluster tried.
         new_bic: BIC(M_new).
         joint_models: {cluster index: joint model}.
+        not_tried: {cluster index: why} for the clusters whose joint model could not be
+            fitted (no candidate fits their data together with the trajectory): the
+            trajectory cannot merge into them, and this says so instead of leaving them out
+            of ``delta_bic`` without a word.
     """
 
     cluster: int | None
@@ -152,6 +157,7 @@ class MergeDecision:
     delta_bic: dict
     new_bic: float
     joint_models: dict = field(default_factory=dict)
+    not_tried: dict = field(default_factory=dict)
 
 
 class PriorDatabase:
@@ -221,17 +227,18 @@ class PriorDatabase:
         new = self._fit_new(Zp, rng)
         new_bic = merge_bic(new, [Zp])
         best_j, best_d, best_model = None, new_bic, new
-        deltas, joints = {}, {}
+        deltas, joints, not_tried = {}, {}, {}
         for j, c in enumerate(self.clusters):
             try:
                 mj = self._fit_joint(c, Zp, rng)
-            except ValueError:
+            except ValueError as e:
+                not_tried[j] = f"joint fit failed: {e}"
                 continue
             joints[j] = mj
             deltas[j] = merge_bic(mj, c.data + [Zp]) - c.bic
             if deltas[j] < best_d:
                 best_j, best_d, best_model = j, deltas[j], mj
-        return MergeDecision(best_j, best_model, new, deltas, new_bic, joints)
+        return MergeDecision(best_j, best_model, new, deltas, new_bic, joints, not_tried)
 
     def add(self, Z, name: str | None = None, *, rng=None) -> int:
         """Algorithm 2, one step: merge Z into the best cluster or start a new one. Returns
@@ -239,6 +246,9 @@ class PriorDatabase:
         Zp = self.prepare(Z)
         dec = self.merge_test(Zp, rng=rng, prepared=True)
         name = name if name is not None else f"trajectory{sum(len(c.members) for c in self.clusters)}"
+        for j, why in dec.not_tried.items():
+            warnings.warn(f"prior database: {name} could not be tested against cluster {j} "
+                          f"({', '.join(self.clusters[j].members)}): {why}", stacklevel=2)
         if dec.cluster is None:
             self.clusters.append(PriorCluster([name], [Zp], dec.new_model))
             return len(self.clusters) - 1

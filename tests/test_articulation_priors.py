@@ -160,3 +160,25 @@ def test_learn_priors_run_save_then_load(tmp_path):
     assert len(out2["clusters"]) == 2
     drawer = [c for c in out2["clusters"] if first[0] in c][0]
     assert str(DATA / "drawer_002.log") in drawer
+
+
+def test_a_cluster_whose_joint_fit_fails_is_reported_not_dropped(monkeypatch):
+    pdb = PriorDatabase()
+    a, b = _load(["left_door_001", "left_door_002"])
+    pdb.add(a, "L1")
+    real = PriorDatabase._fit_joint
+
+    def failing(self, cluster, Z, rng):
+        if cluster.members == ["L1"]:
+            raise ValueError("no candidate fits")
+        return real(self, cluster, Z, rng)
+
+    monkeypatch.setattr(PriorDatabase, "_fit_joint", failing)
+    dec = pdb.merge_test(b)
+    assert dec.cluster is None and 0 not in dec.delta_bic
+    assert dec.not_tried == {0: "joint fit failed: no candidate fits"}
+    monkeypatch.setattr(PriorDatabase, "_fit_joint", real)
+    assert pdb.merge_test(b).not_tried == {} and pdb.merge_test(b).cluster == 0
+    monkeypatch.setattr(PriorDatabase, "_fit_joint", failing)
+    with pytest.warns(UserWarning, match="could not be tested against cluster 0"):
+        assert pdb.add(b, "L2") == 1
