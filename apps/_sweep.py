@@ -52,7 +52,7 @@ from mmlearn.apps._common import UsageError, json_clean, progress_bar
 EXECUTORS = ("local", "ray")
 
 __all__ = ["TrialSpec", "SweepResult", "run_sweep", "load_results", "add_sweep_args",
-           "sweep_kwargs", "EXECUTORS"]
+           "sweep_kwargs", "exit_status", "EXECUTORS"]
 
 
 @dataclass(frozen=True)
@@ -388,6 +388,20 @@ def sweep_kwargs(args, *, app: str, out_dir: str | Path = ".") -> dict:
         raise UsageError(f"--results: {rp} is a directory")
     return {"results": results, "executor": args.executor, "jobs": args.jobs,
             "ray_address": args.ray_address}
+
+
+def exit_status(prog: str, res: dict) -> int:
+    """An experiments app's exit status from its result (``res["errors"]``: the trials that
+    raised, each with a ``"trial"`` name; ``res["sweep"]``: :meth:`SweepResult.summary`): 1
+    with the failed trials named on stderr when a trial raised, 130 when the sweep was
+    interrupted, else 0."""
+    if res["errors"]:
+        print(f"{prog}: {len(res['errors'])} trial(s) raised an error: "
+              + ", ".join(e["trial"] for e in res["errors"]), file=sys.stderr)
+        return 1
+    if res.get("sweep", {}).get("interrupted"):
+        return 130
+    return 0
 
 
 def report_lines(path: str | Path) -> list[dict]:

@@ -875,7 +875,7 @@ def run(*, runs: int = 100, seed: int = 0, quick: bool = False, only=EXPERIMENTS
 
 
 def main(argv=None) -> int:
-    from mmlearn.apps._sweep import add_sweep_args, report_lines, sweep_kwargs
+    from mmlearn.apps._sweep import add_sweep_args, exit_status, report_lines, sweep_kwargs
 
     ap = ArgumentParser(
         prog="python -m mmlearn.apps.articulation_experiments",
@@ -929,13 +929,7 @@ def main(argv=None) -> int:
         _print(res)
         if res["plots"]:
             print("\nplots: " + ", ".join(res["plots"]))
-    if res["errors"]:
-        print(f"{ap.prog}: {len(res['errors'])} trial(s) raised an error: "
-              + ", ".join(e["trial"] for e in res["errors"]), file=sys.stderr)
-        return 1
-    if res.get("sweep", {}).get("interrupted"):
-        return 130
-    return 0
+    return exit_status(ap.prog, res)
 
 
 if __name__ == "__main__":

@@ -574,7 +574,7 @@ def format_report(res) -> str:
 
 
 def main(argv=None) -> int:
-    from mmlearn.apps._sweep import add_sweep_args, report_lines, sweep_kwargs
+    from mmlearn.apps._sweep import add_sweep_args, exit_status, report_lines, sweep_kwargs
 
     ap = ArgumentParser(
         prog="python -m mmlearn.apps.body_schema_experiments",
@@ -624,13 +624,7 @@ def main(argv=None) -> int:
         except ValueError as e:  # UsageError included
             return fail(ap.prog, str(e))
     print(json.dumps(res) if args.json else format_report(res))
-    if res["errors"]:
-        print(f"{ap.prog}: {len(res['errors'])} trial(s) raised an error: "
-              + ", ".join(e["trial"] for e in res["errors"]), file=sys.stderr)
-        return 1
-    if res.get("sweep", {}).get("interrupted"):
-        return 130
-    return 0
+    return exit_status(ap.prog, res)
 
 
 if __name__ == "__main__":

@@ -463,7 +463,7 @@ def run(*, only=EXPERIMENTS, quick: bool = False, seed: int = 1000, seeds: int =
 
 
 def main(argv=None) -> int:
-    from mmlearn.apps._sweep import add_sweep_args, report_lines, sweep_kwargs
+    from mmlearn.apps._sweep import add_sweep_args, exit_status, report_lines, sweep_kwargs
 
     ap = ArgumentParser(prog="python -m mmlearn.apps.perception_experiments",
                         description=__doc__.split("\n\n")[0] + " Exit status: 0 every trial "
@@ -523,13 +523,7 @@ def main(argv=None) -> int:
         print(json.dumps(json_clean(res)))
     elif res.get("plots"):
         print("plots: " + ", ".join(res["plots"]))
-    if res["errors"]:
-        print(f"{ap.prog}: {len(res['errors'])} trial(s) raised an error: "
-              + ", ".join(e["trial"] for e in res["errors"]), file=sys.stderr)
-        return 1
-    if res.get("sweep", {}).get("interrupted"):
-        return 130
-    return 0
+    return exit_status(ap.prog, res)
 
 
 if __name__ == "__main__":

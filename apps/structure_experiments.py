@@ -515,7 +515,7 @@ def run(*, only=EXPERIMENTS, quick: bool = False, seed: int = 0, seeds: int = 10
 
 
 def main(argv=None) -> int:
-    from mmlearn.apps._sweep import add_sweep_args, report_lines, sweep_kwargs
+    from mmlearn.apps._sweep import add_sweep_args, exit_status, report_lines, sweep_kwargs
 
     ap = ArgumentParser(prog="python -m mmlearn.apps.structure_experiments",
                         description=__doc__.split("\n\n")[0] + " Exit status: 0 every trial "
@@ -572,13 +572,7 @@ def main(argv=None) -> int:
         print(json.dumps(json_clean(res)))
     elif res.get("plots"):
         print("plots: " + ", ".join(res["plots"]))
-    if res["errors"]:
-        print(f"{ap.prog}: {len(res['errors'])} trial(s) raised an error: "
-              + ", ".join(e["trial"] for e in res["errors"]), file=sys.stderr)
-        return 1
-    if res.get("sweep", {}).get("interrupted"):
-        return 130
-    return 0
+    return exit_status(ap.prog, res)
 
 
 if __name__ == "__main__":
