@@ -52,7 +52,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .fronts import PinholeIntrinsics
+from .fronts import PinholeIntrinsics, as_depth_image
 
 __all__ = ["DepthNoiseConfig", "apply_depth_noise", "predicted_depth_std",
            "incidence_cosine", "projector_shadow"]
@@ -150,12 +150,7 @@ def predicted_depth_std(z, K: PinholeIntrinsics, config: DepthNoiseConfig) -> np
 
 
 def _check_image(depth, K: PinholeIntrinsics) -> np.ndarray:
-    d = np.asarray(depth)
-    if d.ndim == 3 and d.shape[2] == 1:
-        d = d[..., 0]
-    if d.shape != (K.height, K.width):
-        raise ValueError(f"depth image has shape {np.asarray(depth).shape}, expected "
-                         f"({K.height}, {K.width}) for these intrinsics")
+    d = as_depth_image(depth, K)
     if not np.issubdtype(d.dtype, np.floating):
         raise ValueError(f"depth image must hold floats (metres), got dtype {d.dtype}")
     return d.astype(np.float32, copy=False)

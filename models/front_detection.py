@@ -83,7 +83,7 @@ from dataclasses import dataclass, field, fields
 import cv2
 import numpy as np
 
-from .fronts import FrontRectangle, PinholeIntrinsics, valid_depth_mask
+from .fronts import FrontRectangle, PinholeIntrinsics, as_depth_image, valid_depth_mask
 
 __all__ = ["FrontDetectorConfig", "detect_fronts", "Plane", "STAGES"]
 
@@ -786,12 +786,7 @@ def _refit_plane(Pc, lab_img, center, e1, e2, w, h, K, n_old, L):
 def _check_inputs(depth, K, X_WC):
     if not isinstance(K, PinholeIntrinsics):
         raise ValueError(f"detect_fronts: K must be a PinholeIntrinsics, got {type(K).__name__}")
-    d = np.asarray(depth)
-    if d.ndim == 3 and d.shape[2] == 1:
-        d = d[..., 0]
-    if d.shape != (K.height, K.width):
-        raise ValueError(f"detect_fronts: depth image has shape {np.asarray(depth).shape}, "
-                         f"expected ({K.height}, {K.width}) for these intrinsics")
+    d = as_depth_image(depth, K, who="detect_fronts")
     if not np.issubdtype(d.dtype, np.number):
         raise ValueError(f"detect_fronts: depth image must be numeric, got dtype {d.dtype}")
     X = np.asarray(X_WC, float)

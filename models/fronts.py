@@ -26,7 +26,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["PinholeIntrinsics", "FrontRectangle", "valid_depth_mask", "depth_to_points"]
+__all__ = ["PinholeIntrinsics", "FrontRectangle", "valid_depth_mask", "as_depth_image",
+           "depth_to_points"]
 
 
 @dataclass(frozen=True)
@@ -124,16 +125,25 @@ def valid_depth_mask(depth: np.ndarray) -> np.ndarray:
     return np.isfinite(d) & (d > 0.0)
 
 
+def as_depth_image(depth, K: PinholeIntrinsics, *, who: str = "") -> np.ndarray:
+    """``depth`` as an ``(K.height, K.width)`` array (a trailing channel axis of 1, as in
+    Drake's ``ImageDepth32F`` data, is dropped; no copy). Raises ``ValueError`` when the shape
+    does not fit the intrinsics; ``who`` (e.g. ``"detect_fronts"``) prefixes the message."""
+    d = np.asarray(depth)
+    if d.ndim == 3 and d.shape[2] == 1:
+        d = d[..., 0]
+    if d.shape != (K.height, K.width):
+        raise ValueError(f"{who + ': ' if who else ''}depth image has shape "
+                         f"{np.asarray(depth).shape}, expected ({K.height}, {K.width}) for "
+                         "these intrinsics")
+    return d
+
+
 def depth_to_points(depth: np.ndarray, K: PinholeIntrinsics) -> np.ndarray:
     """Back-project a depth image to camera-frame points, (H, W, 3), NaN where there is no
     measurement. Raises ``ValueError`` when the image's shape is not ``(K.height, K.width)``
     (a trailing channel axis of 1 is accepted)."""
-    d = np.asarray(depth, float)
-    if d.ndim == 3 and d.shape[2] == 1:
-        d = d[..., 0]
-    if d.shape != (K.height, K.width):
-        raise ValueError(f"depth image has shape {np.asarray(depth).shape}, expected "
-                         f"({K.height}, {K.width}) for these intrinsics")
+    d = as_depth_image(depth, K).astype(float, copy=False)
     d = np.where(valid_depth_mask(d), d, np.nan)
     u = np.arange(K.width, dtype=float)[None, :]
     v = np.arange(K.height, dtype=float)[:, None]
