@@ -219,10 +219,9 @@ def run(*, config: TrackFrontsConfig, meshcat=None, show_progress: bool = True) 
     the scores described in the module docstring (a JSON-able dict)."""
     from pydrake.systems.analysis import Simulator
 
-    from mmlearn.diagrams.perception import MakeFrontPerceptionDiagram
+    from mmlearn.diagrams.perception import AddFrontDetectorAndTracker, MakeFrontPerceptionDiagram
     from mmlearn.models.front_tracking import selection_vs_observations
-    from mmlearn.systems import (FrontDetector, FrontTracker, FrontTrackerConfig,
-                                 FrontTrackVisualizer)
+    from mmlearn.systems import FrontTrackerConfig, FrontTrackVisualizer
     from mmlearn.systems.front_detector import TIMING_NAMES
 
     cfg = config
@@ -243,13 +242,9 @@ def run(*, config: TrackFrontsConfig, meshcat=None, show_progress: bool = True) 
     parts = {}
 
     def add(builder, p):
-        det = builder.AddNamedSystem("front_detector", FrontDetector(
-            intrinsics=p.intrinsics, config=cfg.detector, seed=cfg.seed))
-        trk = builder.AddNamedSystem("front_tracker", FrontTracker(config=FrontTrackerConfig(
-            period_s=period, refit_every=cfg.refit_every)))
-        builder.Connect(p.ports["depth_image"], det.get_depth_image_input_port())
-        builder.Connect(p.ports["X_WC"], det.get_X_WC_input_port())
-        builder.Connect(det.get_rectangles_output_port(), trk.get_rectangles_input_port())
+        det, trk = AddFrontDetectorAndTracker(
+            builder, p, detector_config=cfg.detector, seed=cfg.seed,
+            tracker_config=FrontTrackerConfig(period_s=period, refit_every=cfg.refit_every))
         if meshcat is not None:
             vis = builder.AddNamedSystem("front_visualizer", FrontTrackVisualizer(
                 meshcat=meshcat, period=period))

@@ -60,20 +60,15 @@ def pipeline(front: str, distance: float, seed: int) -> dict:
     """One end-to-end run (see the module docstring); returns a JSON-able record."""
     from pydrake.systems.analysis import Simulator
 
-    from mmlearn.diagrams.perception import FrontPerceptionConfig, MakeFrontPerceptionDiagram
-    from mmlearn.systems import FrontDetector, FrontTracker, FrontTrackerConfig
+    from mmlearn.diagrams.perception import (AddFrontDetectorAndTracker, FrontPerceptionConfig,
+                                             MakeFrontPerceptionDiagram)
+    from mmlearn.systems import FrontTrackerConfig
 
     parts = {}
 
     def add(builder, p):
-        det = builder.AddNamedSystem("detector", FrontDetector(intrinsics=p.intrinsics,
-                                                               seed=seed))
-        trk = builder.AddNamedSystem("tracker", FrontTracker(
-            config=FrontTrackerConfig(period_s=0.2)))
-        builder.Connect(p.ports["depth_image"], det.get_depth_image_input_port())
-        builder.Connect(p.ports["X_WC"], det.get_X_WC_input_port())
-        builder.Connect(det.get_rectangles_output_port(), trk.get_rectangles_input_port())
-        parts["tracker"] = trk
+        _, parts["tracker"] = AddFrontDetectorAndTracker(
+            builder, p, seed=seed, tracker_config=FrontTrackerConfig(period_s=0.2))
 
     cfg = FrontPerceptionConfig(front=front, point_cloud=False)
     cfg.camera.distance = float(distance)

@@ -2,12 +2,12 @@
 
 from .body_schema import BodySchemaDiagram, BodySchemaDiagramConfig, MakeBodySchemaDiagram
 from .operate import MakeOperateDiagram, Operate, OperateConfig
-from .perception import (FrontPerceptionConfig, FrontPerceptionDiagram,
-                         MakeFrontPerceptionDiagram)
+from .perception import (AddFrontDetectorAndTracker, FrontPerceptionConfig,
+                         FrontPerceptionDiagram, MakeFrontPerceptionDiagram)
 from .scene import MakeSceneDiagram, Scene, SceneConfig
 from .tactile_grasp import MakeTactileGraspDiagram, TactileGraspConfig, simulate_grasp
 
-__all__ = ["BodySchemaDiagram", "BodySchemaDiagramConfig", "FrontPerceptionConfig",
+__all__ = ["AddFrontDetectorAndTracker", "BodySchemaDiagram", "BodySchemaDiagramConfig", "FrontPerceptionConfig",
            "FrontPerceptionDiagram", "MakeBodySchemaDiagram", "MakeFrontPerceptionDiagram",
            "MakeOperateDiagram", "MakeSceneDiagram", "Operate", "OperateConfig", "Scene",
            "SceneConfig", "MakeTactileGraspDiagram", "TactileGraspConfig", "simulate_grasp"]

@@ -58,6 +58,8 @@ from mmlearn.sdf import add_package
 from mmlearn.sdf.builders import floor_sdf
 from mmlearn.sdf.kitchen import KitchenSpec, kitchen_sdf
 from mmlearn.systems.depth_noise import DepthNoise
+from mmlearn.systems.front_detector import FrontDetector
+from mmlearn.systems.front_tracker import FrontTracker
 from mmlearn.systems.front_pose import TrueFrontPose
 from mmlearn.systems.point_cloud_filter import FinitePointCloud
 
@@ -477,6 +479,21 @@ def AddFrontPerception(builder: DiagramBuilder, config: FrontPerceptionConfig | 
                            closed_front_labels={n: _body_labels(plant, scene_graph, n)
                                                 for n in closed},
                            cloud_visualizer=cloud_vis)
+
+
+def AddFrontDetectorAndTracker(builder: DiagramBuilder, parts: FrontPerception, *,
+                               detector_config=None, tracker_config=None, seed: int = 0):
+    """Add a ``FrontDetector`` on the perception's noisy depth image and camera pose and a
+    ``FrontTracker`` on its rectangles (named ``front_detector`` / ``front_tracker``), e.g.
+    from the ``add_systems`` callback of :func:`MakeFrontPerceptionDiagram`. ``seed``: the
+    detector's RANSAC seed. Returns ``(detector, tracker)``."""
+    det = builder.AddNamedSystem("front_detector", FrontDetector(
+        intrinsics=parts.intrinsics, config=detector_config, seed=seed))
+    trk = builder.AddNamedSystem("front_tracker", FrontTracker(config=tracker_config))
+    builder.Connect(parts.ports["depth_image"], det.get_depth_image_input_port())
+    builder.Connect(parts.ports["X_WC"], det.get_X_WC_input_port())
+    builder.Connect(det.get_rectangles_output_port(), trk.get_rectangles_input_port())
+    return det, trk
 
 
 def MakeFrontPerceptionDiagram(config: FrontPerceptionConfig | None = None, *, meshcat=None,

@@ -256,19 +256,14 @@ def test_tracker_in_the_kitchen_scene_learns_the_true_joint(front):
 
 def test_detector_and_tracker_learn_the_door_from_depth_images():
     """End to end: rendered noisy depth -> FrontDetector -> FrontTracker (door at 1.5 m)."""
-    from mmlearn.diagrams.perception import FrontPerceptionConfig, MakeFrontPerceptionDiagram
-    from mmlearn.systems import FrontDetector
+    from mmlearn.diagrams.perception import (AddFrontDetectorAndTracker, FrontPerceptionConfig,
+                                             MakeFrontPerceptionDiagram)
 
     parts = {}
 
     def add(builder, p):
-        det = builder.AddNamedSystem("detector", FrontDetector(intrinsics=p.intrinsics, seed=1))
-        trk = builder.AddNamedSystem("tracker", FrontTracker(
-            config=FrontTrackerConfig(period_s=0.2)))
-        builder.Connect(p.ports["depth_image"], det.get_depth_image_input_port())
-        builder.Connect(p.ports["X_WC"], det.get_X_WC_input_port())
-        builder.Connect(det.get_rectangles_output_port(), trk.get_rectangles_input_port())
-        parts["tracker"] = trk
+        _, parts["tracker"] = AddFrontDetectorAndTracker(
+            builder, p, seed=1, tracker_config=FrontTrackerConfig(period_s=0.2))
 
     cfg = FrontPerceptionConfig(front="door", point_cloud=False)
     cfg.camera.distance = 1.5
