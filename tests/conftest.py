@@ -13,6 +13,29 @@ os.environ.setdefault("MPLBACKEND", "Agg")
 
 PYTHON = sys.executable
 
+
+def run_main(main, argv, capsys):
+    """Run an app's ``main(argv)``; returns (exit status, stdout, stderr). argparse errors
+    raise SystemExit, the apps' own checks return the status."""
+    try:
+        rc = main(argv)
+    except SystemExit as e:
+        rc = e.code
+    out, err = capsys.readouterr()
+    return rc, out, err
+
+
+def bad_usage(main, argv, capsys, *needles):
+    """``main(argv)`` must exit 2 with a last stderr line holding every needle and no
+    traceback; returns that line."""
+    rc, out, err = run_main(main, argv, capsys)
+    assert rc == 2, (rc, out, err)
+    line = err.strip().splitlines()[-1]
+    for n in needles:
+        assert n in line, (n, err)
+    assert "Traceback" not in err
+    return line
+
 # Property-based tests (tests/test_properties.py): one profile for CI and the default run,
 # >= 1,000 generated inputs per property, no deadline (the first call imports pydrake),
 # derandomized so a failure reproduces. HYPOTHESIS_PROFILE=dev gives 100 random inputs.

@@ -9,30 +9,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import bad_usage as _bad
+from conftest import run_main as _exit
 
 DATA = Path(__file__).parent / "data"
 EXAMPLE = Path(__file__).resolve().parents[1] / "apps" / "examples" / "two_drawer_cabinet.csv"
-
-
-def _exit(main, argv, capsys):
-    """Run main(argv); returns (exit status, stdout, stderr). argparse errors raise
-    SystemExit, the apps' own checks return the status."""
-    try:
-        rc = main(argv)
-    except SystemExit as e:
-        rc = e.code
-    out, err = capsys.readouterr()
-    return rc, out, err
-
-
-def _bad(main, argv, capsys, *needles):
-    rc, out, err = _exit(main, argv, capsys)
-    assert rc == 2, (rc, out, err)
-    line = err.strip().splitlines()[-1]
-    for n in needles:
-        assert n in line, (n, err)
-    assert "Traceback" not in err
-    return line
 
 
 @pytest.fixture(scope="module")

@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import run_main
 
 from mmlearn.models.icub_grasp import (CONTACT_LEVEL, REST_VELOCITY, ICubFileError,
                                        load_icub_dir, read_icub_trial)
@@ -127,12 +128,7 @@ def test_features_on_real_grasps_find_contact_where_fingers_press():
 def _main(argv, capsys):
     from mmlearn.apps.tactile_state import main
 
-    try:
-        rc = main(argv)
-    except SystemExit as e:
-        rc = e.code
-    out, err = capsys.readouterr()
-    return rc, out, err
+    return run_main(main, argv, capsys)
 
 
 @pytest.mark.parametrize("argv, needle", [

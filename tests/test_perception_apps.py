@@ -6,24 +6,8 @@ import math
 
 import numpy as np
 import pytest
-
-
-def _exit(main, argv, capsys):
-    try:
-        rc = main(argv)
-    except SystemExit as e:
-        rc = e.code
-    out, err = capsys.readouterr()
-    return rc, out, err
-
-
-def _bad(main, argv, capsys, *needles):
-    rc, out, err = _exit(main, argv, capsys)
-    assert rc == 2, (rc, out, err)
-    line = err.strip().splitlines()[-1]
-    for n in needles:
-        assert n in line, (n, err)
-    assert "Traceback" not in err
+from conftest import bad_usage as _bad
+from conftest import run_main as _exit
 
 
 def test_match_front_handles_the_8_parameterisations():

@@ -3,6 +3,7 @@ controller of Eq. 7.8 and the container physics (thesis ch. 6-7)."""
 
 import numpy as np
 import pytest
+from conftest import run_main
 
 from mmlearn.models.containers import (CONTAINER_CLASSES, sample_container, states_of)
 from mmlearn.models.tactile_pad import (PAD_CH6, PAD_PR2, PadLayout, integrate_pressure,
@@ -206,11 +207,7 @@ def test_tactile_state_simulation_mode_small_run(tmp_path, capsys):
 def test_tactile_state_simulation_bad_flags(argv, needle, capsys):
     from mmlearn.apps.tactile_state import main
 
-    try:
-        rc = main(argv)
-    except SystemExit as e:
-        rc = e.code
-    err = capsys.readouterr().err
+    rc, _, err = run_main(main, argv, capsys)
     assert rc == 2 and needle in err and "Traceback" not in err
 
 
