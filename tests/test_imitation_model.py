@@ -263,3 +263,16 @@ def test_bad_input_is_named():
     with pytest.warns(UserWarning, match=r"\['extra'\] are not in every demonstration"):
         al = align_demonstrations([d, d3])
     assert set(al[1].objects) == {"cup"}
+
+
+def test_plan_global_scipy_and_networkx_agree():
+    m = learn_task(_reach_demos(n=2, seed=4))
+    box = [Obstacle([0.5, 0.0], [0.1, 0.1])]
+    kw = dict(q0=[0.0, 0.0], objects={"target": np.array([1.0, 0.0])}, fk=lambda q: q,
+              jacobian=lambda q: np.eye(2), obstacles=box, n_samples=80, seed=2, return_info=True)
+    p1, i1 = plan_global(m, search="scipy", **kw)
+    p2, i2 = plan_global(m, search="networkx", **kw)
+    assert i1["graph_edges"] == i2["graph_edges"] > 1000
+    assert i1["cost"] == pytest.approx(i2["cost"], rel=1e-9)
+    with pytest.raises(ImitationDataError, match="search must be"):
+        plan_global(m, search="bfs", **kw)
