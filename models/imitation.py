@@ -722,11 +722,11 @@ def plan_global(model: TaskModel, *, q0, objects: dict, fk: Callable, jacobian: 
         n_samples: random roadmap samples. n_neighbors: roadmap degree.
         clearance: minimum signed distance of hand/body points to obstacles, m.
         edge_checks, check_resolution: interpolated points checked per roadmap edge: at least
-            ``edge_checks``, and one per ``check_resolution`` (m) of the hand's straight-line
-            distance between the edge's ends, at most 16. Edges whose two ends are both
-            farther than that distance (plus ``clearance``) from every obstacle are not checked
-            (exact for a point hand; for an arm, interpolating in joint space may bow the hand
-            path more, give ``body_points`` to check every edge).
+            ``edge_checks``, and one per ``check_resolution`` (m) of the largest straight-line
+            displacement of the hand or a body point between the edge's ends, at most 16.
+            Edges whose two ends are both farther than that displacement (plus
+            ``clearance``) from every obstacle are not checked (exact for a point hand; for an
+            arm, interpolating in joint space may bow the points' paths a little more).
         margin: growth of the sampling box, m.
         motion_weight: weight of the squared joint step (1/rad^2), 0 = pure Eq. 8.27.
         rng / seed: randomness (a ``numpy.random.Generator`` or a seed).
@@ -815,10 +815,18 @@ def plan_global(model: TaskModel, *, q0, objects: dict, fk: Callable, jacobian: 
                        for i in range(n_samples)]) if n_samples else np.zeros((0, n))
     Q = np.concatenate([q0[None], mean_q, rand_q])
     H = fkb(Q)
-    ok = ~collides(Q, H)
+    # all checked points per configuration: the hand and the body points, (N, m + 1, D)
+    Pn = H[:, None, :]
+    if body_points is not None and obstacles:
+        Pn = np.concatenate([Pn, np.array([np.asarray(body_points(q), float).reshape(-1, D) for q in Q])], axis=1)
+    if obstacles:
+        sd_node = np.min([ob.signed_distance(Pn).min(axis=1) for ob in obstacles], axis=0)
+    else:
+        sd_node = np.full(len(Q), np.inf)
+    ok = sd_node >= clearance
     ok[0] = True                                           # the start is where the robot is
     idx = np.flatnonzero(ok)
-    Q, H = Q[idx], H[idx]
+    Q, H, Pn, sd_node = Q[idx], H[idx], Pn[idx], sd_node[idx]
     N = len(Q)
     is_mean = np.zeros(N, bool)
     orig = idx
@@ -840,11 +848,8 @@ def plan_global(model: TaskModel, *, q0, objects: dict, fk: Callable, jacobian: 
         # hand-space length of each edge decides how many interior points are checked; an edge
         # whose endpoints are both farther from every obstacle than its hand length (plus the
         # clearance) is kept unchecked (exact for a point hand, a heuristic for an arm)
-        Le = np.linalg.norm(H[pairs[:, 0]] - H[pairs[:, 1]], axis=1)
-        sd_node = np.min([ob.signed_distance(H) for ob in obstacles], axis=0)
+        Le = np.linalg.norm(Pn[pairs[:, 0]] - Pn[pairs[:, 1]], axis=2).max(axis=1)
         need = np.minimum(sd_node[pairs[:, 0]], sd_node[pairs[:, 1]]) - clearance <= Le
-        if body_points is not None:
-            need[:] = True
         n_e = np.clip(np.ceil(Le / check_resolution), edge_checks, 16).astype(int)
         bad = np.zeros(len(pairs), bool)
         for m_ in np.unique(n_e[need]):
