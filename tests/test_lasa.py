@@ -1,0 +1,144 @@
+"""LASA handwriting data, its leave-one-out metrics, the naive baseline, the thesis' method on
+one development shape, and the imitate_lasa app (issue 15, point 7)."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from conftest import bad_usage, run_main
+from mmlearn.models.lasa import (DEVELOPMENT_SHAPES, LASA_SHAPES, MULTI_MODE_SHAPES,
+                                 ThesisReproducer, baseline_reproducer, end_error_mm,
+                                 evaluate_shape, leave_one_out, load_shape, naive_baseline,
+                                 rmse_mm, with_start_marker)
+from mmlearn.models.imitation_types import Demonstration
+
+
+def test_load_shape_is_millimetres_ending_at_the_target(capsys):
+    demos = load_shape("Line")
+    assert capsys.readouterr().out == ""          # the wheel's import print is avoided
+    assert len(demos) == 7 and len(LASA_SHAPES) == 30
+    for i, d in enumerate(demos):
+        assert d.D == 2 and d.T == 1000 and d.t[0] == 0.0 and np.all(np.diff(d.t) > 0)
+        assert d.meta == {"source": "LASA", "shape": "Line", "index": i, "units": "mm"}
+        assert np.allclose(d.objects["target"], 0.0)
+        assert np.linalg.norm(d.hand[-1]) < 1e-6            # every demonstration ends at the origin
+        assert 20.0 < np.linalg.norm(d.hand[0]) < 100.0      # tens of mm away at the start
+    assert not np.allclose(demos[0].hand, demos[1].hand)
+    assert set(DEVELOPMENT_SHAPES) <= set(LASA_SHAPES) and set(MULTI_MODE_SHAPES) <= set(LASA_SHAPES)
+
+
+def test_load_shape_bad_name():
+    with pytest.raises(ValueError, match="unknown LASA shape 'Sshpe'.*Sshape"):
+        load_shape("Sshpe")
+
+
+def test_metrics_by_hand():
+    x = np.linspace(0.0, 10.0, 1001)
+    held = np.stack([x, np.zeros_like(x)], axis=1)
+    assert rmse_mm(held, held) == 0.0
+    rep = np.stack([x[::10], np.r_[np.full(50, 1.0), np.full(51, 2.0)]], axis=1)
+    assert rmse_mm(rep, held) == pytest.approx(np.sqrt((50 * 1 + 51 * 4) / 101))
+    assert end_error_mm(rep, held) == pytest.approx(2.0)
+    with pytest.raises(ValueError, match="reproduction: NaN"):
+        rmse_mm(np.where(rep == 2.0, np.nan, rep), held)
+    with pytest.raises(ValueError, match=r"expected an \(N, 2\) array"):
+        rmse_mm(rep[:, :1], held)
+    with pytest.raises(ValueError, match="held_out"):
+        end_error_mm(rep, np.zeros((0, 2)))
+
+
+def test_leave_one_out_and_baseline():
+    demos = load_shape("Sshape")
+    folds = list(leave_one_out(demos))
+    assert [k for k, _, _ in folds] == list(range(7))
+    for k, train, held in folds:
+        assert len(train) == 6 and held is demos[k] and all(d is not held for d in train)
+    # the baseline starts at the held-out start and ends at the training mean's end (the origin)
+    _, train, held = folds[3]
+    b = naive_baseline(train, held.hand[0], held.t)
+    assert b.shape == held.hand.shape
+    assert np.allclose(b[0], held.hand[0]) and np.linalg.norm(b[-1]) < 1e-6
+    # identical training demonstrations and a held-out copy: reproduced exactly
+    same = naive_baseline([held] * 6, held.hand[0], held.t)
+    assert rmse_mm(same, held.hand) < 1e-9
+    with pytest.raises(ValueError, match="no training"):
+        naive_baseline([], held.hand[0], held.t)
+    with pytest.raises(ValueError, match="start"):
+        naive_baseline(train, [np.nan, 0.0], held.t)
+
+
+def test_thesis_method_beats_baseline_on_a_development_shape():
+    """heee (a development shape): the DTW-aligned DBN keeps the loop that the index-wise
+    mean of the baseline blurs; reproductions start at the held-out start and end at the
+    target."""
+    demos = load_shape("heee")
+    ours = evaluate_shape("heee", ThesisReproducer(), demos=demos)
+    base = evaluate_shape("heee", baseline_reproducer, demos=demos)
+    assert len(ours.folds) == 7
+    for f in ours.folds:
+        assert np.allclose(f.reproduction[0], demos[f.index].hand[0])
+        assert f.end_error_mm < 0.5
+    assert ours.rmse_mm < 0.8 * base.rmse_mm, (ours.rmse_mm, base.rmse_mm)
+    # the target constraint alone follows the learned mean from the first step: on Line (whose
+    # demonstrations fan out from the origin) far worse than with the start marker
+    line = load_shape("Line")
+    target_only = evaluate_shape("Line", ThesisReproducer(objects=("target",)), demos=line, folds=[0, 1])
+    both = evaluate_shape("Line", ThesisReproducer(), demos=line, folds=[0, 1])
+    assert target_only.rmse_mm > 2 * both.rmse_mm, (target_only.rmse_mm, both.rmse_mm)
+
+
+def test_start_marker_and_reproducer_settings():
+    d = load_shape("Line")[0]
+    s = with_start_marker(d)
+    assert np.allclose(s.objects["start"], d.hand[0]) and "target" in s.objects
+    with pytest.raises(ValueError, match="objects"):
+        ThesisReproducer(objects=("start",))
+    with pytest.raises(ValueError, match="h must be"):
+        ThesisReproducer(h=0.0)
+    with pytest.raises(ValueError, match="gain"):
+        ThesisReproducer(gain=1.5)
+
+
+def test_app_json_and_plot(tmp_path, capsys):
+    from mmlearn.apps.imitate_lasa import main
+
+    png = tmp_path / "lasa.png"
+    rc, out, err = run_main(main, ["--shapes", "Line,Saeghe", "--folds", "0,3", "--json",
+                                   "--plot", str(png)], capsys)
+    assert rc == 0, err
+    d = json.loads(out)
+    assert [s["name"] for s in d["shapes"]] == ["Line", "Saeghe"]
+    for s in d["shapes"]:
+        assert len(s["fold_rmse_mm"]) == 2 and s["development"] and not s["multi_mode"]
+        assert 0 < s["rmse_mm"] < 3 and 0 <= s["end_error_mm"] < 0.5
+        assert s["baseline_rmse_mm"] > 0
+    assert d["mean_rmse_mm"] == pytest.approx(np.mean([s["rmse_mm"] for s in d["shapes"]]))
+    assert d["n_shapes_multi_mode"] == 0 and d["mean_rmse_mm_multi_mode"] is None
+    assert d["baseline"]["mean_rmse_mm"] == pytest.approx(np.mean([s["baseline_rmse_mm"] for s in d["shapes"]]))
+    assert png.stat().st_size > 10_000
+
+
+def test_app_bad_input(tmp_path, capsys):
+    from mmlearn.apps.imitate_lasa import main, parse_shapes
+
+    assert parse_shapes("multi-mode,Line") == list(MULTI_MODE_SHAPES) + ["Line"]
+    assert len(parse_shapes("all")) == 30 and len(parse_shapes("held-back")) == 17
+    bad_usage(main, ["--shapes", "Sshape,Lien"], capsys, "--shapes", "'Lien'")
+    bad_usage(main, ["--shapes", ","], capsys, "--shapes")
+    bad_usage(main, ["--folds", "7"], capsys, "--folds")
+    bad_usage(main, ["--objects", "start"], capsys, "--objects")
+    bad_usage(main, ["--objects", "target,cup"], capsys, "--objects", "'cup'")
+    bad_usage(main, ["--gain", "2"], capsys, "--gain")
+    bad_usage(main, ["--h", "nan"], capsys, "--h")
+    bad_usage(main, ["--plot", str(tmp_path / "missing" / "x.png")], capsys, "--plot", "does not exist")
+
+
+def test_app_help_subprocess():
+    r = subprocess.run([sys.executable, "-m", "mmlearn.apps.imitate_lasa", "--help"],
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0 and "--shapes" in r.stdout and "held-back" in r.stdout
