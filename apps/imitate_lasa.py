@@ -224,7 +224,7 @@ def main(argv=None) -> int:
         return fail(ap.prog, str(e))
     try:
         out = run(config=config)
-    except FileNotFoundError as e:
+    except (FileNotFoundError, ValueError) as e:  # missing wheel/data, unreadable .mat file
         return fail(ap.prog, str(e))
     if a.json:
         print(json.dumps(out))

@@ -37,6 +37,16 @@ def test_load_shape_bad_name():
         load_shape("Sshpe")
 
 
+def test_load_shape_missing_or_broken_file(tmp_path):
+    from mmlearn.models.imitation_types import ImitationDataError
+
+    with pytest.raises(FileNotFoundError, match="Line.mat: LASA data file not found"):
+        load_shape("Line", data_dir=tmp_path)
+    (tmp_path / "Line.mat").write_bytes(b"not a mat file")
+    with pytest.raises(ImitationDataError, match="Line.mat: not a readable LASA .mat file"):
+        load_shape("Line", data_dir=tmp_path)
+
+
 def test_metrics_by_hand():
     x = np.linspace(0.0, 10.0, 1001)
     held = np.stack([x, np.zeros_like(x)], axis=1)
