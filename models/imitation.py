@@ -299,8 +299,7 @@ def align_demonstrations(demos: Sequence[Demonstration], *, reference: int | Non
         out.append(Demonstration(t=ref.t.copy(), hand=warp(r.hand),
                                  objects={k: warp(v) for k, v in r.objects.items()},
                                  gripper=warp(r.gripper), joints=warp(r.joints),
-                                 meta={**r.meta, "aligned_to": reference, "dtw_path": None}))
-        out[-1].meta.pop("dtw_path")
+                                 meta={**r.meta, "aligned_to": reference}))
     return out
 
 
@@ -839,9 +838,7 @@ def plan_global(model: TaskModel, *, q0, objects: dict, fk: Callable, jacobian: 
     idx = np.flatnonzero(ok)
     Q, H, Pn, sd_node = Q[idx], H[idx], Pn[idx], sd_node[idx]
     N = len(Q)
-    is_mean = np.zeros(N, bool)
     orig = idx
-    is_mean[(orig >= 1) & (orig <= S)] = True
     # roadmap edges
     tree = cKDTree(Q)
     kk = min(n_neighbors + 1, N)
