@@ -1,7 +1,7 @@
 """Speed and alignment benchmark of the imitation-learning model layer (thesis ch. 8; prints
 figures, never fails on time).
 
-    python benchmarks/bench_imitation.py [--repeats 5] [--seed 0] [--json]
+    python benchmarks/bench_imitation.py [--repeats 5] [--seed 0] [--u-seeds 3] [--json]
 
 Measures (median wall-clock and process CPU time over repeats, single process, BLAS limited
 to one thread):
@@ -16,6 +16,8 @@ to one thread):
   target < 10 s; per-configuration ``fk`` calls (as the Drake system layer will give), the
   batched ``fk_batch``, and per-configuration ``body_points`` (5 joint origins) checked too;
   with the median distance of the planned hand from the model's hand target per slice;
+- a 3-D U-shaped obstacle with the 7-joint chain (``--u-seeds`` seeds): where the incremental
+  reproduction ends, and plan_global's end error, dense clearance and CPU time;
 - alignment quality: mean phase error of DTW with derivative / position / both features on
   8 minimum-jerk pick-and-place demonstrations (+-25 % segment timing, 5 cm placement
   variation, 5 mm marker noise).
@@ -124,6 +126,49 @@ def pick_place_demo(rng, *, n_extra_objects=2, joints=True):
                          gripper=grip, joints=q), phase
 
 
+def u_obstacle_trial(seed):
+    """A 4-demonstration reach (straight minimum jerk, 4 s + 1.5 s hold) of the 7-joint chain
+    towards a target behind a U-shaped obstacle (back wall across the path at 65 %, two side
+    walls, open towards the start; 0.3 m high). Incremental reproduction (5 steps of at most
+    0.02 rad per 0.2 s slice, 2 s extra) against plan_global with 5 body points checked."""
+    rng = np.random.default_rng(seed)
+    q0 = np.array([0.6, 0.5, 0.0, 1.0, 0.0, 0.6, 0.0])
+    p0 = fk7(q0)
+    tgt = np.array([0.45, -0.35, 0.35]) + rng.normal(0, 0.03, 3)
+    demos = []
+    for _ in range(4):
+        T = 4 * rng.uniform(0.9, 1.1)
+        t = np.arange(0, T + 1.5, 0.2)
+        hand = p0 + np.outer(_mj(t / T), tgt - p0) + rng.normal(0, 0.005, (len(t), 3))
+        demos.append(Demonstration(t=t, hand=hand, objects={"target": np.tile(tgt, (len(t), 1))}))
+    m = learn_task(demos)
+    d = tgt - p0
+    d = np.array([d[0], d[1], 0.0]) / np.hypot(d[0], d[1])
+    side = np.cross(d, [0, 0, 1])
+    R = np.stack([d, side, [0, 0, 1]], 1)
+    c = p0 + (tgt - p0) * 0.65
+    U = [Obstacle(c, [0.025, 0.15, 0.15], R), Obstacle(c - d * 0.1 + side * 0.125, [0.1, 0.025, 0.15], R),
+         Obstacle(c - d * 0.1 - side * 0.125, [0.1, 0.025, 0.15], R)]
+    body = lambda q: chain_frames(q)[0][0, 2:]
+    q = q0.copy()
+    for k in range(m.S + 10):
+        for _ in range(5):
+            r = constraint_step(m, min(k, m.S - 1), hand=fk7(q), objects={"target": tgt}, J=jac7(q),
+                                use_joints=False, obstacles=U, max_step=0.02)
+            q = q + r.dq
+    inc_err = float(np.linalg.norm(fk7(q) - tgt))
+    c0 = time.process_time()
+    path = plan_global(m, q0=q0, objects={"target": tgt}, fk=fk7, jacobian=jac7, obstacles=U,
+                       use_joints=False, seed=seed, body_points=body)
+    cpu = time.process_time() - c0
+    Qd = np.concatenate([np.linspace(a, b, 10) for a, b in zip(path[:-1], path[1:])])
+    pts = np.concatenate([fk7_batch(Qd)[:, None, :], chain_frames(Qd)[0][:, 2:]], axis=1)
+    clear = min(float(o.signed_distance(pts).min()) for o in U)
+    return {"seed": seed, "incremental_end_error_m": inc_err,
+            "global_end_error_m": float(np.linalg.norm(fk7(path[-1]) - tgt)),
+            "global_min_clearance_m": clear, "global_cpu_s": cpu}
+
+
 def _timeit(fn, repeats):
     wall, cpu = [], []
     out = None
@@ -140,6 +185,7 @@ def main(argv=None):
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--json", action="store_true", help="print one JSON object instead of text")
+    ap.add_argument("--u-seeds", type=int, default=3, help="seeds of the 3-D U-obstacle trial")
     args = ap.parse_args(argv)
     rng = np.random.default_rng(args.seed)
     res = {}
@@ -191,6 +237,8 @@ def main(argv=None):
             "wall_s": w, "cpu_s": c, "cost": info["cost"],
             "median_target_deviation_m": float(np.median(dev[1:])),
             "min_clearance_m": float(clear)}
+    # ---- 3-D U-shaped obstacle with the 7-joint chain: incremental stuck, global through?
+    res["u_obstacle_3d"] = [u_obstacle_trial(seed) for seed in range(args.seed, args.seed + args.u_seeds)]
     # ---- alignment quality
     rng2 = np.random.default_rng(args.seed + 1)
     dp = [pick_place_demo(rng2, n_extra_objects=0, joints=False) for _ in range(8)]
@@ -229,6 +277,10 @@ def main(argv=None):
               f"{p['wall_s']:.2f} s wall, {p['cpu_s']:.2f} s CPU (target < 10 s); median hand-target "
               f"deviation {p['median_target_deviation_m'] * 1e3:.1f} mm, min clearance "
               f"{p['min_clearance_m'] * 1e3:.0f} mm")
+    for u in res["u_obstacle_3d"]:
+        print(f"3-D U obstacle, seed {u['seed']}: incremental ends {u['incremental_end_error_m'] * 1e3:.0f} mm "
+              f"from the target; global {u['global_end_error_m'] * 1e3:.1f} mm, min clearance (hand + "
+              f"5 body points, dense) {u['global_min_clearance_m'] * 1e3:.0f} mm, {u['global_cpu_s']:.2f} s CPU")
     for feat in ("derivative", "position", "both"):
         a = res[f"align_{feat}"]
         print(f"alignment ({feat:10s}): mean phase error {a['mean_phase_error_segments']:.3f} segments "

@@ -299,8 +299,7 @@ def align_demonstrations(demos: Sequence[Demonstration], *, reference: int | Non
         out.append(Demonstration(t=ref.t.copy(), hand=warp(r.hand),
                                  objects={k: warp(v) for k, v in r.objects.items()},
                                  gripper=warp(r.gripper), joints=warp(r.joints),
-                                 meta={**r.meta, "aligned_to": reference, "dtw_path": None}))
-        out[-1].meta.pop("dtw_path")
+                                 meta={**r.meta, "aligned_to": reference}))
     return out
 
 
@@ -365,6 +364,11 @@ def learn_task(demos: Sequence[Demonstration], *, h: float = 0.2, dt: float | No
             if d.T != al[0].T or not np.allclose(d.t - d.t[0], al[0].t - al[0].t[0]):
                 raise ImitationDataError(f"align=False: demonstration {i} is not on demonstration 0's time base")
     G = len(al)
+    if use_joints:
+        nj = {None if d.joints is None else d.joints.shape[1] for d in al}
+        if len(nj) > 1:
+            warnings.warn(f"learn_task: joint angles missing or of different sizes {sorted(map(str, nj))} "
+                          "across the demonstrations; no joint constraint learned", stacklevel=2)
     t = al[0].t - al[0].t[0]
     W = parzen_weights(t, t, h=h, G=G)                       # (S, T), sums over g and t' to 1
     denom = 1.0 - G * np.sum(W * W, axis=1)                   # Eq. 8.14's 1 - sum w^2
@@ -381,15 +385,21 @@ def learn_task(demos: Sequence[Demonstration], *, h: float = 0.2, dt: float | No
         raise ImitationDataError("no constraint to learn: the demonstrations have no objects, joints or gripper")
     mean, var = {}, {}
     for c, v in series.items():
-        mu = np.einsum("st,gtd->sd", W, v)                              # Eq. 8.13 / 8.15
-        r = v[:, None, :, :] - mu[None, :, None, :]                     # (G, S, T, d)
+        # weighted moments; sum_{g,t'} w = 1, so sum w (v - mu)(v - mu)^T = sum w v v^T - mu mu^T.
+        # The values are centred on their overall mean first, which keeps the subtraction exact
+        # to ~1e-16 of the data's spread (float64), and the memory at O(S T) instead of O(G S T d).
+        c0 = v.reshape(-1, v.shape[2]).mean(axis=0)
+        vc = v - c0
+        m1 = np.einsum("st,gtd->sd", W, vc)                              # Eq. 8.13 / 8.15
         if full_covariance:
-            cov = np.einsum("st,gstd,gste->sde", W, r, r) / denom[:, None, None]   # Eq. 8.14 / 8.16
+            m2 = np.einsum("st,gtd,gte->sde", W, vc, vc)
+            cov = (m2 - m1[:, :, None] * m1[:, None, :]) / denom[:, None, None]     # Eq. 8.14 / 8.16
             cov = 0.5 * (cov + np.swapaxes(cov, 1, 2)) + min_var * np.eye(v.shape[2])
             var[c] = cov
         else:
-            var[c] = np.maximum(np.einsum("st,gstd->sd", W, r * r) / denom[:, None], min_var)
-        mean[c] = mu
+            m2 = np.einsum("st,gtd->sd", W, vc * vc)
+            var[c] = np.maximum((m2 - m1 * m1) / denom[:, None], min_var)
+        mean[c] = m1 + c0
     meta = {"h": float(h), "dt": float(t[1] - t[0]) if len(t) > 1 else None, "n_demos": G,
             "D": al[0].D, "reference": al[0].meta.get("aligned_to"), "full_covariance": bool(full_covariance),
             "min_var": float(min_var)}
@@ -828,9 +838,7 @@ def plan_global(model: TaskModel, *, q0, objects: dict, fk: Callable, jacobian: 
     idx = np.flatnonzero(ok)
     Q, H, Pn, sd_node = Q[idx], H[idx], Pn[idx], sd_node[idx]
     N = len(Q)
-    is_mean = np.zeros(N, bool)
     orig = idx
-    is_mean[(orig >= 1) & (orig <= S)] = True
     # roadmap edges
     tree = cKDTree(Q)
     kk = min(n_neighbors + 1, N)

@@ -168,6 +168,11 @@ def test_sign_two_constraints_land_at_precision_weighted_combination():
     for k in range(40):
         q = q + constraint_step(m, k, hand=_fk(q), objects=objs, J=_jac(q), use_joints=False).dq
     np.testing.assert_allclose(_fk(q), expect, atol=1e-4)
+    # the same constraints given as full covariances fuse to the same point
+    mf = TaskModel(t=m.t, constraints=m.constraints, mean=m.mean,
+                   var={c: np.stack([np.diag(v) for v in m.var[c]]) for c in m.constraints}, meta=m.meta)
+    rf = constraint_step(mf, 3, hand=[0.0, 0.0], objects=objs, J=np.eye(2), use_joints=False, damping=0.0)
+    np.testing.assert_allclose(rf.dq, expect, atol=1e-9)
     # an object not observed this step is skipped, not a crash
     r = constraint_step(m, 0, hand=_fk(q), objects={"a": objs["a"], "b": [np.nan, 0.0]}, J=_jac(q),
                         use_joints=False)
