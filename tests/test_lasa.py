@@ -133,6 +133,22 @@ def test_app_json_and_plot(tmp_path, capsys):
     assert png.stat().st_size > 10_000
 
 
+def test_app_html_out(tmp_path, capsys):
+    from mmlearn.apps._common import make_meshcat
+    from mmlearn.apps.imitate_lasa import LasaConfig, main, run
+
+    html = tmp_path / "lasa.html"
+    rc, out, err = run_main(main, ["--shapes", "Line", "--folds", "0", "--json", "--html-out", str(html)], capsys)
+    assert rc == 0, err
+    assert json.loads(out)["html_out"] == str(html) and html.stat().st_size > 100_000
+    mc = make_meshcat(announce=False)
+    run(config=LasaConfig(shapes=["Line"], folds=[0, 2], progress=False), meshcat=mc)
+    for p in ("/lasa/Line/demos/6", "/lasa/Line/thesis/2", "/lasa/Line/baseline/0",
+              "/lasa/Line/learned/mean", "/lasa/Line/learned/sigma/0", "/lasa/Line/pen"):
+        assert mc.HasPath(p), p
+    assert not mc.HasPath("/lasa/Line/thesis/1")
+
+
 def test_app_bad_input(tmp_path, capsys):
     from mmlearn.apps.imitate_lasa import main, parse_shapes
 
@@ -146,6 +162,7 @@ def test_app_bad_input(tmp_path, capsys):
     bad_usage(main, ["--gain", "2"], capsys, "--gain")
     bad_usage(main, ["--h", "nan"], capsys, "--h")
     bad_usage(main, ["--plot", str(tmp_path / "missing" / "x.png")], capsys, "--plot", "does not exist")
+    bad_usage(main, ["--html-out", str(tmp_path)], capsys, "--html-out", "is a folder")
 
 
 def test_app_help_subprocess():
