@@ -32,6 +32,17 @@ def test_load_shape_is_millimetres_ending_at_the_target(capsys):
     assert set(DEVELOPMENT_SHAPES) <= set(LASA_SHAPES) and set(MULTI_MODE_SHAPES) <= set(LASA_SHAPES)
 
 
+def test_load_shape_needs_no_network(monkeypatch):
+    import socket
+
+    def no_net(*a, **k):
+        raise AssertionError("network access")
+
+    monkeypatch.setattr(socket, "socket", no_net)
+    monkeypatch.setattr(socket, "create_connection", no_net)
+    assert len(load_shape("Angle")) == 7
+
+
 def test_load_shape_bad_name():
     with pytest.raises(ValueError, match="unknown LASA shape 'Sshpe'.*Sshape"):
         load_shape("Sshpe")
