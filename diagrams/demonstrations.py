@@ -97,7 +97,8 @@ class TeacherConfig:
         playback_rate_hz: teacher configurations per second (IK samples; the sensor's frames
             must fall on them: a multiple of the sensor's rate).
         ik_position_tolerance: half width of the box the tool centre point must reach, m.
-        ik_angle_tolerance: largest angle between the hand's axis and the task's, rad.
+        ik_angle_tolerance: largest angle between the hand's axis and the task's, rad (where
+            the hand cannot reach a point so, it may tilt up to 2.5 times as far).
     """
 
     task: str = "pick_place"
@@ -180,7 +181,7 @@ def _teacher_path(plan: DemoPlan, times: np.ndarray, cfg: TeacherConfig
                   ) -> tuple[MultibodyPlant, np.ndarray]:
     """The teacher alone (its own plant) and its (n, nq) joint positions following the plan
     at ``times``: per sample an InverseKinematics, warm-started from the previous sample and
-    pulled towards it."""
+    pulled towards it (then from a few fixed postures, then with a tilted hand)."""
     plant = MultibodyPlant(time_step=0.0)
     add_teacher(plant)
     plant.Finalize()
@@ -201,12 +202,15 @@ def _teacher_path(plan: DemoPlan, times: np.ndarray, cfg: TeacherConfig
     prev = None
     for i, (p, t) in enumerate(zip(P, times)):
         sol, ok = None, False
-        for guess in ([prev] if prev is not None else []) + guesses:
+        tries = [(g, cfg.ik_angle_tolerance) for g in ([prev] if prev is not None else [])
+                 + guesses]
+        tries += [(g, 2.5 * cfg.ik_angle_tolerance) for g in tries[:2]]  # a tilted hand
+        for guess, angle in tries:
             ik = InverseKinematics(plant)
             q = ik.q()
             ik.AddPositionConstraint(x8, TEACHER_TCP_IN_X8, world, p - tol, p + tol)
             ik.AddAngleBetweenVectorsConstraint(x8, [0.0, 0.0, 1.0], world, plan.hand_axis,
-                                                0.0, cfg.ik_angle_tolerance)
+                                                0.0, angle)
             q0 = np.zeros(nq)
             q0[idx] = guess[idx] if guess.size == nq else guess
             prog = ik.prog()

@@ -270,7 +270,7 @@ def plan_demonstration(task: str, *, seed: int | np.random.Generator,
     dwell = np.where(stops, st.dwell * rng.uniform(0.9, 1.1, stops.size), 0.0)
     dwell[0] = 0.3  # a short rest before the movement starts
     dwell[-1] = 0.3
-    hand = MinJerkTrajectory(times, P, stops=stops, dwell=dwell)
+    hand = MinJerkTrajectory(times, P, stops=stops, dwell=dwell, optimize_times=True)
 
     # gripper: open, closed while the cup is held / the sponge is wiping, open
     T = hand.end_time
