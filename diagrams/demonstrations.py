@@ -28,8 +28,6 @@ marker was not seen (and for the opening when a finger was not seen). Nothing is
 the teacher's state.
 """
 
-from __future__ import annotations
-
 import dataclasses
 import time as _time
 from dataclasses import dataclass, field

@@ -25,8 +25,6 @@ Plain numpy (imports the scene *spec*, a dataclass, from :mod:`mmlearn.sdf.imita
 Drake). Units: metres, seconds.
 """
 
-from __future__ import annotations
-
 import dataclasses
 import math
 from dataclasses import dataclass, field

@@ -35,8 +35,6 @@ table in a discrete MultibodyPlant and can be held between fingers.
 :func:`teacher_sdf` is the teacher arm. Units: metres, kilograms, radians.
 """
 
-from __future__ import annotations
-
 import dataclasses
 import math
 from dataclasses import dataclass, field

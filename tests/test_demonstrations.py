@@ -247,3 +247,16 @@ def test_kinematic_body_poses_system():
     assert all(p.IsExactlyIdentity() for p in poses)
     with pytest.raises(ValueError, match="finalized"):
         KinematicBodyPoses(plant=MultibodyPlant(0.0))
+
+
+def test_teacher_config_loads_from_yaml_and_rejects_misspelled_keys():
+    from pydrake.common.yaml import yaml_load_typed
+
+    c = yaml_load_typed(schema=TeacherConfig, data=(
+        "task: whiteboard\nstyle: {speed: 0.3}\n"
+        "scene: {board: true, tables: false, cup: false, board_scale: 1.2}\n"))
+    assert c.validate().scene_spec().board_scale == 1.2 and c.style.speed == 0.3
+    with pytest.raises(RuntimeError, match="tsk"):
+        yaml_load_typed(schema=TeacherConfig, data="tsk: whiteboard")
+    with pytest.raises(ValueError, match="multiple"):
+        TeacherConfig(playback_rate_hz=7.0).validate()
