@@ -48,7 +48,7 @@ from pydrake.trajectories import PiecewisePolynomial
 from mmlearn.models.imitation_types import Demonstration
 from mmlearn.models.teacher import TASKS, DemoPlan, TeacherStyle, plan_demonstration, task_scene
 from mmlearn.sdf.imitation import (TEACHER_OPENING, TEACHER_TCP_IN_X8, ImitationSceneSpec,
-                                   add_imitation_scene, add_teacher)
+                                   add_imitation_scene, add_teacher, stratified_table_shifts)
 from mmlearn.systems.kinematic_body_poses import KinematicBodyPoses
 from mmlearn.systems.marker_sensor import CameraConfig, MarkerSensor, MarkerSensorConfig
 from mmlearn.systems.observations import MarkerObservations
@@ -98,6 +98,8 @@ class TeacherConfig:
         ik_position_tolerance: half width of the box the tool centre point must reach, m.
         ik_angle_tolerance: largest angle between the hand's axis and the task's, rad (where
             the hand cannot reach a point so, it may tilt up to 2.5 times as far).
+        table_shift: the tables' moves as fractions of their range (4 numbers in [-1, 1],
+            see :meth:`ImitationSceneSpec.sampled`); None = drawn from ``seed``.
     """
 
     task: str = "pick_place"
@@ -109,6 +111,7 @@ class TeacherConfig:
     playback_rate_hz: float = 20.0
     ik_position_tolerance: float = 0.002
     ik_angle_tolerance: float = 0.15
+    table_shift: list[float] | None = None
 
     def validate(self) -> "TeacherConfig":
         if self.task not in TASKS:
@@ -239,7 +242,8 @@ def MakeTeacherDiagram(config: TeacherConfig | None = None, *, meshcat=None) -> 
     diagram watched by the MarkerSensor (see the module docstring). ``meshcat`` (optional)
     shows the teacher, the scene and the planned hand path."""
     cfg = (config or TeacherConfig()).validate()
-    plan = plan_demonstration(cfg.task, seed=cfg.seed, scene=cfg.scene_spec(), style=cfg.style)
+    plan = plan_demonstration(cfg.task, seed=cfg.seed, scene=cfg.scene_spec(), style=cfg.style,
+                              table_shift=cfg.table_shift)
 
     builder = DiagramBuilder()
     scene_graph = builder.AddNamedSystem("scene_graph", SceneGraph())
@@ -386,11 +390,15 @@ def record_demonstration(config: TeacherConfig, *, meshcat=None,
 def record_demonstrations(task: str, n: int, *, seed: int, scene: ImitationSceneSpec | None = None,
                           style: TeacherStyle | None = None,
                           sensor: MarkerSensorConfig | None = None, with_obstacle: bool = False,
-                          meshcat=None, progress=None) -> list[Demonstration]:
+                          stratify: bool = True, meshcat=None,
+                          progress=None) -> list[Demonstration]:
     """Record ``n`` demonstrations of ``task``; demonstration i uses the seed
     ``seed * 1000 + i`` (plan variation and sensor noise), so the same ``seed`` gives the same
     demonstrations. ``scene`` (default: the task's nominal layout, with its ``swap_tables``
-    and ``board_scale``) is varied per demonstration. ``progress`` (optional) is called with
+    and ``board_scale``) is varied per demonstration; with ``stratify`` (default) the tables'
+    moves are spread over their range across the ``n`` demonstrations
+    (:func:`~mmlearn.sdf.imitation.stratified_table_shifts`: a teacher who varies the setup
+    on purpose), so the set depends on ``n`` too. ``progress`` (optional) is called with
     the index of each finished demonstration. With ``meshcat`` the last demonstration's
     playback is shown and published as Meshcat's animation, and every demonstration's
     observed hand track is drawn (``demonstrations/hand_<i>``, gaps left out)."""
@@ -401,11 +409,14 @@ def record_demonstrations(task: str, n: int, *, seed: int, scene: ImitationScene
     if not (isinstance(seed, (int, np.integer)) and 0 <= seed < 2**31 // 1000):
         raise ValueError(f"record_demonstrations: seed must be an integer in [0, 2147483), "
                          f"got {seed!r}")
+    shifts = stratified_table_shifts(int(n), np.random.default_rng([int(seed), 1])) \
+        if stratify else [None] * int(n)
     demos = []
     for i in range(int(n)):
         cfg = TeacherConfig(task=task, seed=int(seed) * 1000 + i, scene=scene,
                             style=style or TeacherStyle(),
-                            sensor=sensor or default_sensor_config(), with_obstacle=with_obstacle)
+                            sensor=sensor or default_sensor_config(), with_obstacle=with_obstacle,
+                            table_shift=None if shifts[i] is None else list(shifts[i]))
         last = i == int(n) - 1
         demos.append(record_demonstration(cfg, meshcat=meshcat if last else None,
                                           record=last))

@@ -58,6 +58,7 @@ __all__ = [
     "ROBOT_TCP_IN_X8",
     "OBSTACLE_KINDS",
     "OBSERVED_BODIES",
+    "stratified_table_shifts",
 ]
 
 OBSTACLE_KINDS = ("none", "box", "u")
@@ -200,15 +201,20 @@ class ImitationSceneSpec:
         return self
 
     # ------------------------------------------------------------------ variation
-    def sampled(self, seed: int | np.random.Generator, *, amplitude: float = 1.0
-                ) -> "ImitationSceneSpec":
+    def sampled(self, seed: int | np.random.Generator, *, amplitude: float = 1.0,
+                table_shift=None) -> "ImitationSceneSpec":
         """A seeded variation of this layout: each table moved independently by up to
         +-0.06 m in x and +-0.15 m in y (times ``amplitude``; so the relation of the hand to
         the table it does not work at varies much more than to the one it does: what lets a
         learner tell them apart), table tops and heights +-0.02 m, the cup anywhere within
         +-0.05 m of the top centre (staying on the top), the place spot +-0.005 m (a person
         puts the cup down at much the same spot of the target table), board centre +-0.03 m, target
-        +-0.04 m, obstacle +-0.02 m. The same seed gives the same layout."""
+        +-0.04 m, obstacle +-0.02 m. The same seed gives the same layout.
+
+        ``table_shift`` (optional, 4 numbers in [-1, 1]: table A x, y, table B x, y as a
+        fraction of those ranges) sets the tables' moves instead of drawing them (a teacher
+        who spreads the layouts of a set of demonstrations on purpose,
+        :func:`stratified_table_shifts`)."""
         rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
         a = float(amplitude)
 
@@ -217,8 +223,15 @@ class ImitationSceneSpec:
 
         s = dataclasses.replace(self)
         shift = np.array([0.06, 0.15])
-        s.table_a = (np.asarray(self.table_a) + u(1.0, 2) * shift).tolist()
-        s.table_b = (np.asarray(self.table_b) + u(1.0, 2) * shift).tolist()
+        draw = np.concatenate([u(1.0, 2), u(1.0, 2)])  # drawn always: the same stream
+        if table_shift is not None:
+            ts = np.asarray(table_shift, float)
+            if ts.shape != (4,) or not np.all(np.abs(ts) <= 1.0):
+                raise ValueError(f"ImitationSceneSpec.sampled: table_shift must be 4 numbers "
+                                 f"in [-1, 1], got {table_shift!r}")
+            draw = ts * a
+        s.table_a = (np.asarray(self.table_a) + draw[:2] * shift).tolist()
+        s.table_b = (np.asarray(self.table_b) + draw[2:] * shift).tolist()
         s.table_size = (np.asarray(self.table_size) + u(0.02, 2)).tolist()
         s.table_height = float(self.table_height + u(0.02))
         lim = np.asarray(s.table_size) / 2 - self.cup_radius - 0.01
@@ -430,6 +443,24 @@ def add_imitation_scene(plant, spec: ImitationSceneSpec | None = None, *,
                               np.array([0.01, s.board_size[0] / 2, s.board_size[1] / 2])))
     boxes += s.obstacle_boxes()
     return ImitationScene(model_instance=inst, spec=s, bodies=s.present_objects(), boxes=boxes)
+
+
+def stratified_table_shifts(n: int, seed: int | np.random.Generator) -> np.ndarray:
+    """(n, 4) table moves (A x, A y, B x, B y, fractions of their ranges in [-1, 1]) for a
+    set of ``n`` demonstrations, spread on purpose (the thesis: generalisation depends on the
+    variation the teacher shows): each of table A's coordinates is a Latin-hypercube sample
+    (every one of n equal bins gets exactly one demonstration, in a random order) and table
+    B takes the mirrored bin (bin n-1-i where A has bin i, its own position within the bin).
+    So the tables' offset from each other, which is what tells the table the hand works at
+    from the other one, spans the whole range even for 2 or 4 demonstrations."""
+    rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
+    n = int(n)
+    if n < 1:
+        raise ValueError(f"stratified_table_shifts: n must be >= 1, got {n}")
+    bins = [rng.permutation(n) for _ in range(2)]
+    bins += [n - 1 - b for b in bins]
+    cols = [(b + rng.uniform(0.0, 1.0, n)) / n for b in bins]
+    return np.clip(2.0 * np.stack(cols, axis=1) - 1.0, -1.0, 1.0)
 
 
 # ---------------------------------------------------------------------------- the teacher

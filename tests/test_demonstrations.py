@@ -260,3 +260,21 @@ def test_teacher_config_loads_from_yaml_and_rejects_misspelled_keys():
         yaml_load_typed(schema=TeacherConfig, data="tsk: whiteboard")
     with pytest.raises(ValueError, match="multiple"):
         TeacherConfig(playback_rate_hz=7.0).validate()
+
+
+def test_stratified_table_shifts_spread_the_tables_apart():
+    from mmlearn.sdf.imitation import stratified_table_shifts
+
+    for n in (2, 4, 7):
+        s = stratified_table_shifts(n, 3)
+        assert s.shape == (n, 4) and np.all(np.abs(s) <= 1)
+        for c in range(4):  # one demonstration per bin of every coordinate
+            assert sorted(np.floor((s[:, c] + 1) / 2 * n).astype(int)) == list(range(n))
+        # table B takes the mirrored bin: the tables' offset spans the range
+        d = s[:, 1] - s[:, 3]
+        assert d.max() - d.min() > 2.0 * (n - 1) / n * 0.9
+    np.testing.assert_array_equal(stratified_table_shifts(4, 9), stratified_table_shifts(4, 9))
+    demos = record_demonstrations("pick_place", 2, seed=1, style=FAST)
+    ya, yb = (np.array([d.meta["scene"][k][1] for d in demos]) for k in ("table_a", "table_b"))
+    # the two demonstrations' tables sit in opposite halves of the y range
+    assert abs((ya - yb)[0] - (ya - yb)[1]) > 0.15
