@@ -208,7 +208,7 @@ def _teacher_path(plan: DemoPlan, times: np.ndarray, cfg: TeacherConfig
         sol, ok = None, False
         tries = [(g, cfg.ik_angle_tolerance) for g in ([prev] if prev is not None else [])
                  + guesses]
-        tries += [(g, 2.5 * cfg.ik_angle_tolerance) for g in tries[:2]]  # a tilted hand
+        tries += [(g, 2.5 * cfg.ik_angle_tolerance) for g, _ in tries[:2]]  # a tilted hand
         for guess, angle in tries:
             ik = InverseKinematics(plant)
             q = ik.q()

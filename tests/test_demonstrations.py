@@ -278,3 +278,29 @@ def test_stratified_table_shifts_spread_the_tables_apart():
     ya, yb = (np.array([d.meta["scene"][k][1] for d in demos]) for k in ("table_a", "table_b"))
     # the two demonstrations' tables sit in opposite halves of the y range
     assert abs((ya - yb)[0] - (ya - yb)[1]) > 0.15
+
+
+def test_teacher_tilts_its_hand_only_where_it_must_and_names_unreachable_points():
+    from mmlearn.diagrams.demonstrations import TeacherIKError, _teacher_path
+    from mmlearn.models.teacher import DemoPlan
+
+    def plan_at(p):
+        p = np.asarray(p, float)
+        return DemoPlan(task="obstacle", scene=task_scene("obstacle"),
+                        hand=MinJerkTrajectory([0, 1], [p, p + [0, 0, 0.001]]),
+                        gripper=MinJerkTrajectory([0, 1], [[1.0], [1.0]]),
+                        hand_axis=np.array([0, 0, -1.0]), grasp_offset=None)
+
+    def tilt(p, tol):
+        plant, Q = _teacher_path(plan_at(p), np.array([0.0]),
+                                 TeacherConfig(ik_angle_tolerance=tol))
+        ctx = plant.CreateDefaultContext()
+        plant.SetPositions(ctx, Q[0])
+        R = plant.CalcRelativeTransform(ctx, plant.world_frame(),
+                                        plant.GetFrameByName("x8")).rotation().matrix()
+        return float(np.arccos(-R[2, 2]))
+
+    assert tilt([0.55, 0.0, 0.40], 0.2) <= 0.2 + 1e-6  # within reach: hand straight down
+    assert 0.2 < tilt([0.80, 0.0, 0.40], 0.2) <= 0.5 + 1e-6  # far: tilted, within 2.5 x
+    with pytest.raises(TeacherIKError, match=r"cannot reach the hand position \[0.95"):
+        tilt([0.95, 0.0, 0.40], 0.2)
