@@ -21,9 +21,9 @@ The teacher is a demonstration, not a learner, so the diagram plays it back kine
 
 :func:`observations_to_demonstration` turns the observed frames into a
 :class:`~mmlearn.models.imitation_types.Demonstration`: hand = the ``hand`` marker's
-position, gripper opening = the observed distance of the two finger markers mapped linearly
-from the closed (0) to the fully open (1) distance (a calibration of the teacher's hand
-geometry, computed once from its model), objects = their markers' positions; NaN wherever a
+position, gripper opening = the observed distance of the two finger markers mapped through a
+table of distance against opening (finger angle over the full angle; a calibration of the
+teacher's hand geometry, computed once from its model), objects = their markers' positions; NaN wherever a
 marker was not seen (and for the opening when a finger was not seen). Nothing is read from
 the teacher's state.
 """
@@ -100,6 +100,8 @@ class TeacherConfig:
             the hand cannot reach a point so, it may tilt up to 2.5 times as far).
         table_shift: the tables' moves as fractions of their range (4 numbers in [-1, 1],
             see :meth:`ImitationSceneSpec.sampled`); None = drawn from ``seed``.
+        teacher_base: x, y of the teacher's base in the world, m (0.1 m in front of the
+            robot's: the teacher's arm is shorter).
     """
 
     task: str = "pick_place"
@@ -112,6 +114,7 @@ class TeacherConfig:
     ik_position_tolerance: float = 0.002
     ik_angle_tolerance: float = 0.15
     table_shift: list[float] | None = None
+    teacher_base: list[float] = field(default_factory=lambda: [0.10, 0.0])
 
     def validate(self) -> "TeacherConfig":
         if self.task not in TASKS:
@@ -125,6 +128,10 @@ class TeacherConfig:
         if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
             raise ValueError(f"TeacherConfig.playback_rate_hz ({self.playback_rate_hz}) must "
                              f"be a multiple of the sensor's rate_hz ({self.sensor.rate_hz})")
+        tb = np.asarray(self.teacher_base, float)
+        if tb.shape != (2,) or not np.all(np.isfinite(tb)):
+            raise ValueError(f"TeacherConfig.teacher_base must be 2 finite numbers (x, y, m), "
+                             f"got {self.teacher_base!r}")
         if not self.ik_position_tolerance > 0 or not self.ik_angle_tolerance > 0:
             raise ValueError("TeacherConfig: ik tolerances must be > 0")
         self.style.validate()
@@ -152,7 +159,7 @@ class TeacherDiagram:
         q_times: playback sample times, s.
         frame_times: the sensor's frame times, s.
         objects: names of the observed scene objects.
-        gripper_calibration: (closed, open) distance of the finger markers, m.
+        gripper_calibration: (31, 2) finger-marker distance (m) against opening (0..1).
         ik_seconds: time spent in the IK, s.
         visualizer: the MeshcatVisualizer (None without Meshcat).
     """
@@ -167,7 +174,7 @@ class TeacherDiagram:
     q_times: np.ndarray
     frame_times: np.ndarray
     objects: list[str]
-    gripper_calibration: tuple[float, float]
+    gripper_calibration: np.ndarray
     ik_seconds: float
     visualizer: object | None = None
 
@@ -181,13 +188,13 @@ def _finger_distance(plant, ctx, q7: float) -> float:
     return float(np.linalg.norm(a - b))
 
 
-def _teacher_path(plan: DemoPlan, times: np.ndarray, cfg: TeacherConfig
+def _teacher_path(plan: DemoPlan, times: np.ndarray, cfg: "TeacherConfig"
                   ) -> tuple[MultibodyPlant, np.ndarray]:
     """The teacher alone (its own plant) and its (n, nq) joint positions following the plan
     at ``times``: per sample an InverseKinematics, warm-started from the previous sample and
     pulled towards it (then from a few fixed postures, then with a tilted hand)."""
     plant = MultibodyPlant(time_step=0.0)
-    add_teacher(plant)
+    add_teacher(plant, base=cfg.teacher_base)
     plant.Finalize()
     nq = plant.num_positions()
     x8 = plant.GetFrameByName("x8")
@@ -250,12 +257,14 @@ def MakeTeacherDiagram(config: TeacherConfig | None = None, *, meshcat=None) -> 
     plant = MultibodyPlant(time_step=0.0)
     plant.set_name("teacher_plant")
     plant.RegisterAsSourceForSceneGraph(scene_graph)
-    teacher = add_teacher(plant)
+    teacher = add_teacher(plant, base=cfg.teacher_base)
     scene = add_imitation_scene(plant, plan.scene)
     plant.Finalize()
     ctx = plant.CreateDefaultContext()
-    g_closed = _finger_distance(plant, ctx, 0.0)
-    g_open = _finger_distance(plant, ctx, TEACHER_OPENING)
+    # finger-marker distance against opening (finger angle / full angle): the calibration
+    # of the teacher's hand geometry, from its model
+    grid = np.linspace(0.0, 1.0, 31)
+    calib = np.array([[_finger_distance(plant, ctx, g * TEACHER_OPENING), g] for g in grid])
 
     # playback samples: k / rate exactly (the sensor's frame times are among them)
     n = int(np.floor(plan.duration * cfg.playback_rate_hz + 1e-9)) + 1
@@ -316,28 +325,34 @@ def MakeTeacherDiagram(config: TeacherConfig | None = None, *, meshcat=None) -> 
     return TeacherDiagram(diagram=diagram, plant=plant, scene_graph=scene_graph, sensor=sensor,
                           body_poses=poses, plan=plan, q=Q, q_times=q_times,
                           frame_times=np.arange(frames) / scfg.rate_hz, objects=objects,
-                          gripper_calibration=(g_closed, g_open), ik_seconds=ik_seconds,
+                          gripper_calibration=calib, ik_seconds=ik_seconds,
                           visualizer=visualizer)
 
 
 def observations_to_demonstration(frames: list[MarkerObservations], *, objects: list[str],
-                                  gripper_calibration: tuple[float, float],
-                                  meta: dict | None = None) -> Demonstration:
+                                  gripper_calibration, meta: dict | None = None
+                                  ) -> Demonstration:
     """Convert observed frames into a Demonstration (NaN where a marker was not seen).
 
     Args:
         frames: one :class:`MarkerObservations` per sensor frame, in time order, each with
             the markers ``hand``, ``x9``, ``x10`` and ``objects``.
         objects: the scene objects to keep.
-        gripper_calibration: finger-marker distance (m) with the hand closed and fully open.
+        gripper_calibration: finger-marker distance (m) -> opening: either (closed, open)
+            distances for a linear map, or an (m, 2) table of (distance, opening) rows with
+            increasing distances (interpolated; clipped to [0, 1] outside).
         meta: extra JSON-able metadata.
     """
     if not frames:
         raise ValueError("observations_to_demonstration: no frames")
-    d0, d1 = map(float, gripper_calibration)
-    if not d1 > d0:
+    cal = np.asarray(gripper_calibration, float)
+    if cal.shape == (2,):
+        cal = np.array([[cal[0], 0.0], [cal[1], 1.0]])
+    if cal.ndim != 2 or cal.shape[1] != 2 or cal.shape[0] < 2 or \
+            not np.all(np.diff(cal[:, 0]) > 0):
         raise ValueError("observations_to_demonstration: gripper_calibration must be "
-                         "(closed, open) with open > closed")
+                         "(closed, open) with open > closed, or (m, 2) rows (distance, "
+                         "opening) with increasing distances")
     t = np.array([f.time for f in frames], float)
     names = [HAND, *FINGERS, *objects]
     A = np.full((len(frames), len(names), 3), np.nan)
@@ -346,7 +361,9 @@ def observations_to_demonstration(frames: list[MarkerObservations], *, objects: 
         for j, nm in enumerate(names):
             A[k, j] = arr[f.index(nm), :3]
     dist = np.linalg.norm(A[:, 1] - A[:, 2], axis=1)
-    opening = np.clip((dist - d0) / (d1 - d0), 0.0, 1.0)  # NaN stays NaN
+    opening = np.full(dist.shape, np.nan)
+    ok = np.isfinite(dist)
+    opening[ok] = np.clip(np.interp(dist[ok], cal[:, 0], cal[:, 1]), 0.0, 1.0)
     demo = Demonstration(
         t=t, hand=A[:, 0].copy(),
         objects={nm: A[:, 3 + j].copy() for j, nm in enumerate(objects)},

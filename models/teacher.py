@@ -71,7 +71,7 @@ class TeacherStyle:
     dwell: float = 0.6
     gripper_time: float = 0.35
     grasp_height: float = 0.015
-    home: list[float] = field(default_factory=lambda: [0.30, 0.0, 0.60])
+    home: list[float] = field(default_factory=lambda: [0.38, 0.0, 0.60])
     reach_home: list[float] = field(default_factory=lambda: [0.50, 0.35, 0.45])
     board_standoff: float = 0.01
     strokes: int = 6

@@ -491,15 +491,17 @@ def teacher_spec() -> ArmSpec:
                                                          "q7"], mimic={"q7_mirror": "q7"})
 
 
-def teacher_sdf(*, model_name: str = "teacher") -> str:
-    """SDFormat text of the teacher arm (base welded at the world origin). Besides the parts
+def teacher_sdf(*, model_name: str = "teacher", base=(0.0, 0.0)) -> str:
+    """SDFormat text of the teacher arm, its base welded to the floor at ``base`` (x, y in the
+    world, m; a person stands where the task is handy, not where the robot is). Besides the parts
     x1..x10 (each with a marker) it has a body ``hand`` welded to x8 at the tool centre point
     (``TEACHER_TCP_IN_X8``) whose marker ``hand_marker`` is what the demonstrations track
     (like a motion-capture marker on the demonstrator's hand). The fingers x9, x10 (0.09 m
     apart, wide enough to straddle the cup) have no collision geometry, so they never hide
     the hand marker from a camera."""
     spec = teacher_spec()
-    m = SdfModel(model_name)
+    bx, by = (float(v) for v in base)
+    m = SdfModel(model_name, pose=(bx, by, 0.0, 0.0, 0.0, 0.0))
     z = 0.0
     chain_tip, chain_tip_z = None, 0.0
     for lk in spec.links:
@@ -539,9 +541,10 @@ def _chain_origins(spec: ArmSpec) -> list[float]:
     return out
 
 
-def add_teacher(plant, *, model_name: str = "teacher"):
+def add_teacher(plant, *, model_name: str = "teacher", base=(0.0, 0.0)):
     """Parse the teacher into ``plant`` (not finalized); returns its model instance."""
     from pydrake.multibody.parsing import Parser
 
-    (inst,) = Parser(plant).AddModelsFromString(teacher_sdf(model_name=model_name), "sdf")
+    (inst,) = Parser(plant).AddModelsFromString(teacher_sdf(model_name=model_name, base=base),
+                                                "sdf")
     return inst

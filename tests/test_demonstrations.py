@@ -304,3 +304,14 @@ def test_teacher_tilts_its_hand_only_where_it_must_and_names_unreachable_points(
     assert 0.2 < tilt([0.80, 0.0, 0.40], 0.2) <= 0.5 + 1e-6  # far: tilted, within 2.5 x
     with pytest.raises(TeacherIKError, match=r"cannot reach the hand position \[0.95"):
         tilt([0.95, 0.0, 0.40], 0.2)
+
+
+def test_observation_conversion_rejects_bad_input():
+    from mmlearn.diagrams.demonstrations import observations_to_demonstration
+    from mmlearn.systems.observations import MarkerObservations
+
+    with pytest.raises(ValueError, match="no frames"):
+        observations_to_demonstration([], objects=[], gripper_calibration=(0.09, 0.14))
+    f = MarkerObservations(time=0.0, marker_ids=["hand", "x9", "x10"])
+    with pytest.raises(ValueError, match="gripper_calibration"):
+        observations_to_demonstration([f], objects=[], gripper_calibration=(0.14, 0.09))
