@@ -315,3 +315,13 @@ def test_observation_conversion_rejects_bad_input():
     f = MarkerObservations(time=0.0, marker_ids=["hand", "x9", "x10"])
     with pytest.raises(ValueError, match="gripper_calibration"):
         observations_to_demonstration([f], objects=[], gripper_calibration=(0.14, 0.09))
+
+
+def test_app_writes_the_meshcat_recording(tmp_path, capsys):
+    html = tmp_path / "demos.html"
+    rc, text, err = run_main(main, ["--task", "obstacle", "--demos", "1", "--seed", "2",
+                                    "--html-out", str(html)], capsys)
+    assert rc == 0, err
+    page = html.read_text()
+    assert page.startswith("<!DOCTYPE html>") and len(page) > 100_000  # scene + animation
+    assert "1 demonstration(s) of obstacle" in text and f"written to {html}" in text
