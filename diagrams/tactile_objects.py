@@ -51,7 +51,7 @@ def object_grasp_trial(*, seed: int, cls: str, height: float, f_target: float = 
                        v_target: float = 0.08, height_sd: float = 0.0015,
                        offset_sd: float = 0.001, settle: float = 0.3,
                        max_time: float = 3.0, taxel_noise: float = 0.005,
-                       contact_force: float = 2.0, meshcat=None) -> dict:
+                       contact_force: float = 2.0, meshcat=None, on_diagram=None) -> dict:
     """One grasp of a random instance of class ``cls`` at commanded ``height`` (m, pad
     centre above the object's bottom): a pure function of its arguments (for
     :mod:`mmlearn.apps._sweep`). From ``seed``: the instance (:func:`sample_object`), its
@@ -60,6 +60,8 @@ def object_grasp_trial(*, seed: int, cls: str, height: float, f_target: float = 
     speed of the finger distance, m/s; ``contact_force``: the controller's switching
     threshold on each pad's force, N (above what the taxel noise sums to over 84 cells:
     ~0.6 N at ``taxel_noise`` 0.005); ``taxel_noise``: taxel noise, fraction of saturation.
+    ``meshcat``: draw the grasp there; ``on_diagram``: called with the built diagram before
+    the simulation starts (e.g. to start a Meshcat recording).
 
     Returns a JSON-able record: ``left`` / ``right`` (14 x 6 readings in [0, 1]),
     ``height`` (the commanded height, what the robot knows), ``width`` (finger distance from
@@ -81,6 +83,8 @@ def object_grasp_trial(*, seed: int, cls: str, height: float, f_target: float = 
                              offset=offset, taxel_noise=taxel_noise, seed=int(seed),
                              gripper=GRIPPER_CH6)
     diagram, parts = MakeTactileGraspDiagram(cfg, object_sdf=object_sdf(inst), meshcat=meshcat)
+    if on_diagram is not None:
+        on_diagram(diagram)
     sim = Simulator(diagram)
     ctrl, sensor = parts["controller"], parts["sensor"]
 
