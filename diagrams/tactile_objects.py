@@ -82,7 +82,36 @@ def object_grasp_trial(*, seed: int, cls: str, height: float, f_target: float = 
                              duration=max_time, grasp_height=float(height) + dz,
                              offset=offset, taxel_noise=taxel_noise, seed=int(seed),
                              gripper=GRIPPER_CH6)
-    diagram, parts = MakeTactileGraspDiagram(cfg, object_sdf=object_sdf(inst), meshcat=meshcat)
+    sdf = object_sdf(inst)
+    try:
+        sim, ctrl, sensor, t_both = _simulate(cfg, sdf, settle, max_time, meshcat, on_diagram)
+    except RuntimeError as e:
+        # the SAP solver diverges in ~1 of 200 grasps on the edges of stacked rigid boxes
+        # (measured: 2 of 420 grasps, block_hole at 30-40 mm); the same grasp at half the
+        # time step goes through
+        if "SAP" not in str(e):
+            raise
+        cfg.time_step = 0.5e-3
+        sim, ctrl, sensor, t_both = _simulate(cfg, sdf, settle, max_time, meshcat, on_diagram)
+    root = sim.get_context()
+    contact = bool(t_both(root) >= 0)
+    sc = sensor.GetMyContextFromRoot(root)
+    img = sensor.split(sensor.get_taxels_output_port().Eval(sc))
+    grasp = ctrl.get_grasp_output_port().Eval(ctrl.GetMyContextFromRoot(root))
+    width = float(grasp[0] + np.random.default_rng([int(seed), 7]).normal(0.0, 5e-5))
+    return {"left": np.clip(img["left"], 0, 1).round(5).tolist(),
+            "right": np.clip(img["right"], 0, 1).round(5).tolist(),
+            "height": float(height), "width": width, "contact": contact,
+            "force": float(grasp[2]), "sim_time": float(root.get_time()),
+            "time_step": cfg.time_step,
+            "cls": cls, "object": oc.object, "yaw": oc.yaw, "group": oc.group,
+            "height_error": dz, "offset": offset, "instance": inst.as_dict()}
+
+
+def _simulate(cfg, sdf, settle, max_time, meshcat, on_diagram):
+    """Simulate until ``settle`` s after both fingers switched to force control (or
+    ``max_time``); returns (simulator, controller, sensor, t_both(root context))."""
+    diagram, parts = MakeTactileGraspDiagram(cfg, object_sdf=sdf, meshcat=meshcat)
     if on_diagram is not None:
         on_diagram(diagram)
     sim = Simulator(diagram)
@@ -100,18 +129,7 @@ def object_grasp_trial(*, seed: int, cls: str, height: float, f_target: float = 
     sim.set_monitor(monitor)
     sim.Initialize()
     sim.AdvanceTo(max_time)
-    root = sim.get_context()
-    contact = bool(t_both(root) >= 0)
-    sc = sensor.GetMyContextFromRoot(root)
-    img = sensor.split(sensor.get_taxels_output_port().Eval(sc))
-    grasp = ctrl.get_grasp_output_port().Eval(ctrl.GetMyContextFromRoot(root))
-    width = float(grasp[0] + np.random.default_rng([int(seed), 7]).normal(0.0, 5e-5))
-    return {"left": np.clip(img["left"], 0, 1).round(5).tolist(),
-            "right": np.clip(img["right"], 0, 1).round(5).tolist(),
-            "height": float(height), "width": width, "contact": contact,
-            "force": float(grasp[2]), "sim_time": float(root.get_time()),
-            "cls": cls, "object": oc.object, "yaw": oc.yaw, "group": oc.group,
-            "height_error": dz, "offset": offset, "instance": inst.as_dict()}
+    return sim, ctrl, sensor, t_both
 
 
 def observation_from_record(rec: dict):
