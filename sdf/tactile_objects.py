@@ -12,7 +12,7 @@ aluminium / steel stock):
 object         group      shape (m)                                                    yaw deg
 ============== ========== ============================================================ =======
 profile_a      industrial 40 x 40 T-slot profile, 8 mm slots on all four faces, 0.10    0
-profile_b      industrial the same profile with slots on two opposite faces only        0, 90
+profile_b      industrial the same profile with slots on the two y faces only        0, 90
 block_hole     industrial 42 x 42 x 100 steel block, 10 x 10 mm cross hole at 50 mm     0, 90
 round_bar      industrial 40 mm steel bar, 0.10 long, a 3.5 mm deep groove at 60-70 mm  0
 stepped_shaft  industrial 40 mm shaft stepped down to 30 mm above 50 mm                 0
@@ -31,8 +31,12 @@ rubber_toy     household  rubber toy: ellipsoid body and a head off the axis    
 
 Object frame: origin on the vertical axis at the bottom, z up. The gripper closes along the
 world x axis, so ``yaw`` (the rotation about z) decides which faces the fingers touch; at
-yaw 0 the mug's handle points along +y (not touched) and the slotted faces of profile_b and
-the hole of block_hole face the fingers along x... see each builder.
+yaw 0 the mug's handle points along +y (not touched; at 90 deg it points along -x and the
+left finger closes on it), profile_b shows the fingers its two flat faces (at 90 deg the
+slotted ones, which look like profile_a), block_hole's hole runs along x (the fingers feel
+it at 45-55 mm; at 90 deg they touch two intact faces, which look like profile_b at 0 deg
+but 2 mm wider), and the tea box and sponge are squeezed across their narrow side (at 90
+deg across the wide one).
 
 **Materials** (:data:`MATERIALS`): metal, glass and ceramic are *rigid* hydroelastic (the
 compliant taxel pads take the deformation); plastic, cardboard, rubber and foam are
