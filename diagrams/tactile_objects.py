@@ -83,16 +83,18 @@ def object_grasp_trial(*, seed: int, cls: str, height: float, f_target: float = 
                              offset=offset, taxel_noise=taxel_noise, seed=int(seed),
                              gripper=GRIPPER_CH6)
     sdf = object_sdf(inst)
-    try:
-        sim, ctrl, sensor, t_both = _simulate(cfg, sdf, settle, max_time, meshcat, on_diagram)
-    except RuntimeError as e:
-        # the SAP solver diverges in ~1 of 200 grasps on the edges of stacked rigid boxes
-        # (measured: 2 of 420 grasps, block_hole at 30-40 mm); the same grasp at half the
-        # time step goes through
-        if "SAP" not in str(e):
-            raise
-        cfg.time_step = 0.5e-3
-        sim, ctrl, sensor, t_both = _simulate(cfg, sdf, settle, max_time, meshcat, on_diagram)
+    # the SAP solver diverges in ~1 of 300 grasps on the edges of stacked rigid boxes
+    # (measured: 2 of 420 grasps, block_hole at 30-40 mm, and 1 of 840 still at half the
+    # time step): the same grasp is simulated again at a half, then a quarter of the step
+    for k, step in enumerate((1e-3, 0.5e-3, 0.25e-3)):
+        cfg.time_step = step
+        try:
+            sim, ctrl, sensor, t_both = _simulate(cfg, sdf, settle, max_time, meshcat,
+                                                  on_diagram)
+            break
+        except RuntimeError as e:
+            if "SAP" not in str(e) or k == 2:
+                raise
     root = sim.get_context()
     contact = bool(t_both(root) >= 0)
     sc = sensor.GetMyContextFromRoot(root)
