@@ -4,7 +4,7 @@ tactile features.
 Usage::
 
     python -m mmlearn.apps.tactile_recognition [--grasps-per-class 20] [--k 50] [--alpha 0.5]
-        [--T 10] [--recognitions 500] [--cv-repeats 1] [--k-sweep] [--alpha-sweep]
+        [--T 10] [--recognitions 200] [--cv-repeats 5] [--k-sweep] [--alpha-sweep]
         [--informed] [--classes a,b,..] [--plot FILE] --seed S [--json]
         [--results FILE] [--jobs J] [--executor local|ray] [--report-only RESULTS.jsonl]
 
@@ -27,7 +27,10 @@ intersection (6.6), posterior over T grasps (6.8). Evaluation as Sec. 6.3: rando
 ``--cv-repeats`` times); each of ``--recognitions`` trials per fold picks a random class and
 ``--T`` random test grasps of it (without replacement; with replacement only when a class
 has fewer test grasps than T, counted in ``with_replacement``) and takes the MAP class after
-them. Reported: ``recognition_rate`` (all classes), and the same with a recogniser trained
+them. The split alone moves the rate: on the 418 grasps of ``--seed 0`` (20 per class) one
+split with 500 recognitions per fold gave 80.2 / 87.7 / 86.4 / 89.4 / 88.4 % on all classes
+for evaluation seeds 0-4, five splits with 200 per fold 83.5 / 87.5 / 87.4 % (seeds 0-2):
+hence 5 repeats by default. Reported: ``recognition_rate`` (all classes), and the same with a recogniser trained
 on each subset alone (thesis Fig. 6.6): ``household``, ``industrial``, ``soft_vs_tennis``
 (soft ball vs tennis ball), each with the rate after t = 1..T grasps, per-class rates and
 the confusion matrix, beside the thesis' 84.6 / 96.2 / 58.0 / 93.8 %. ``--k-sweep`` and
@@ -100,12 +103,12 @@ class RecognitionExperimentConfig:
     k: int = 50
     alpha: float = 0.5
     T: int = 10
-    recognitions: int = 500
-    cv_repeats: int = 1
+    recognitions: int = 200
+    cv_repeats: int = 5
     k_sweep: bool = False
     alpha_sweep: bool = False
     informed: bool = False
-    informed_trials: int = 100
+    informed_trials: int = 40
     f_target: float = 15.0
     seed: int = 0
     plot: str | None = None
@@ -245,7 +248,11 @@ def evaluate(data, classes, *, k=50, alpha=0.5, T=10, recognitions=500, cv_repea
     labels = sorted(set(sub.labels.tolist()))
     if len(labels) < 2:
         raise ValueError(f"need grasps of at least two classes, got {labels}")
+    # separate streams: the splits and the random recognitions do not depend on whether the
+    # informed strategy runs too
     rng = np.random.default_rng([int(seed), 17, len(labels)])
+    rng_rec = np.random.default_rng([int(seed), 18, len(labels)])
+    rng_inf = np.random.default_rng([int(seed), 19, len(labels)])
     oks, C, repl, ks = [], np.zeros((len(labels), len(labels)), int), 0, []
     inf_r, inf_i = [], []
     for _ in range(cv_repeats):
@@ -258,15 +265,16 @@ def evaluate(data, classes, *, k=50, alpha=0.5, T=10, recognitions=500, cv_repea
                 raise ValueError(f"classes {missing} have fewer than 2 grasps with contact")
             rec, k_used = _fit(train, k=k, alpha=alpha, seed=seed)
             ks.append(k_used)
-            ok, true, pred, r = _random_trials(rec, test, labels, T, recognitions, rng)
+            ok, true, pred, r = _random_trials(rec, test, labels, T, recognitions, rng_rec)
             oks.append(ok)
             repl += r
             order = [labels.index(c) for c in rec.classes]  # rec.classes is sorted too
             np.add.at(C, (np.take(order, true), np.take(order, pred)), 1)
             if informed_trials:
-                inf_r.append(_random_trials(rec, test, labels, T, informed_trials, rng)[0])
+                inf_r.append(_random_trials(rec, test, labels, T, informed_trials,
+                                            rng_inf)[0])
                 inf_i.append(_informed_trials(rec, train, test, labels, T, informed_trials,
-                                              rng))
+                                              rng_inf))
     ok = np.concatenate(oks)
     diag = np.diag(C)
     tot = C.sum(axis=1)
@@ -296,6 +304,9 @@ def report(lines: list[dict], config: RecognitionExperimentConfig) -> dict:
     lines = [ln for ln in lines if ln.get("spec", {}).get("fn") == TRIAL_FN]
     if not lines:
         raise ValueError("no recognition grasp in the results")
+    # one order whatever the order the grasps finished in: the splits depend on it
+    lines = sorted(lines, key=lambda ln: (str(ln["spec"]["params"].get("cls")),
+                                          int(ln["spec"]["seed"])))
     errors = [{"trial": ln["spec"].get("label") or ln["key"], "error": ln["error"]}
               for ln in lines if ln.get("error")]
     records = [ln["record"] for ln in lines if ln.get("error") is None and ln.get("record")]
@@ -403,7 +414,7 @@ def format_report(res: dict) -> str:
             lines.append(f"  {names[name]:12s} {strat:8s} heights: "
                          + " ".join(f"{x:.3f}" for x in v) + f"   mean {np.mean(v):.3f}")
     for e in res["errors"]:
-        lines.append(f"  error: {e['trial']}: {e['error']}")
+        lines.append(f"  error: {e['trial']}: {e['error'].splitlines()[0][:160]}")
     return "\n".join(lines)
 
 
@@ -490,16 +501,17 @@ def main(argv=None) -> int:
                     help="weight of the tactile term against the width term, in [0, 1] "
                          "(default 0.5)")
     ap.add_argument("--T", type=pos_int, default=10, help="grasps per recognition (default 10)")
-    ap.add_argument("--recognitions", type=pos_int, default=500,
-                    help="recognition trials per fold and subset (default 500)")
-    ap.add_argument("--cv-repeats", type=pos_int, default=1,
-                    help="repetitions of the randomised 2-fold split (default 1)")
+    ap.add_argument("--recognitions", type=pos_int, default=200,
+                    help="recognition trials per fold and subset (default 200)")
+    ap.add_argument("--cv-repeats", type=pos_int, default=5,
+                    help="repetitions of the randomised 2-fold split (default 5: with one "
+                         "split the rate moves by a few %% with the split alone)")
     ap.add_argument("--k-sweep", action="store_true", help="add Table 6.1 (k = 10..50)")
     ap.add_argument("--alpha-sweep", action="store_true", help="add Table 6.2 (alpha 0..1)")
     ap.add_argument("--informed", action="store_true",
                     help="add informed (expected information gain) vs random grasp heights")
-    ap.add_argument("--informed-trials", type=pos_int, default=100,
-                    help="recognitions per fold and strategy with --informed (default 100)")
+    ap.add_argument("--informed-trials", type=pos_int, default=40,
+                    help="recognitions per fold and strategy with --informed (default 40)")
     ap.add_argument("--f-target", type=pos_float, default=15.0, metavar="N",
                     help="grasp force per finger, newtons (default 15)")
     ap.add_argument("--seed", type=nonneg_int, default=0,

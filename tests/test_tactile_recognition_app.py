@@ -109,7 +109,8 @@ def test_app_short_run_and_report_only(tmp_path, capsys):
 
     res = tmp_path / "g.jsonl"
     argv = ["--classes", "soft_ball,tennis_ball,round_bar,stepped_shaft", "--grasps-per-class",
-            "2", "--k", "4", "--T", "2", "--recognitions", "40", "--jobs", "1", "--results",
+            "2", "--k", "4", "--T", "2", "--recognitions", "40", "--cv-repeats", "2", "--jobs", "1",
+            "--results",
             str(res), "--seed", "3", "--json"]
     rc, out, err = run_main(main, argv, capsys)
     assert rc == 0, err
@@ -117,13 +118,14 @@ def test_app_short_run_and_report_only(tmp_path, capsys):
     assert d["n_grasps"] == 8 and not d["errors"] and not d["no_contact"]
     assert set(d["rates"]) == {"all", "household", "industrial", "soft_vs_tennis"}
     for r in d["rates"].values():
-        assert 0.0 <= r["rate"] <= 1.0 and r["recognitions"] == 80
+        assert 0.0 <= r["rate"] <= 1.0 and r["recognitions"] == 160
     assert d["rates"]["all"]["n_classes"] == 4 and d["thesis"]["rates"]["all"] == 0.846
     assert d["rates"]["all"]["k_used"] == [2]  # half of the 4 training grasps
     lines = [json.loads(x) for x in res.read_text().splitlines()]
     assert len(lines) == 8 and all(ln["error"] is None for ln in lines)
     rc, out2, err = run_main(main, ["--report-only", str(res), "--k", "4", "--T", "2",
-                                    "--recognitions", "40", "--seed", "3", "--json"], capsys)
+                                    "--recognitions", "40", "--cv-repeats", "2", "--seed", "3",
+                                    "--json"], capsys)
     assert rc == 0, err
     assert json.loads(out2)["rates"] == d["rates"]  # the same figures from the file alone
 
