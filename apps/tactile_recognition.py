@@ -43,7 +43,9 @@ whose training half has fewer than 2k grasps uses k = half its number of trainin
 ``--json`` prints one object: ``{"recognition_rate", "rates": {"all", "household",
 "industrial", "soft_vs_tennis": {"rate", "rate_by_T", "per_class", "labels", "confusion",
 "k_used", "n_classes", "with_replacement"}}, "thesis", "k_sweep", "alpha_sweep", "informed",
-"n_grasps", "no_contact", "errors", "settings", "sweep"}``.
+"example_images": {class: {"height", "width", "left", "right"}}, "n_grasps", "no_contact",
+"errors", "settings", "sweep"}``. ``--plot FILE`` draws the confusion matrices, the rate
+after t grasps and one grasp's tactile images per class.
 
 Exit status: 0 success, 1 a grasp raised an error (named on stderr), 2 bad input, 130
 interrupted (rerun to resume).
@@ -333,6 +335,14 @@ def report(lines: list[dict], config: RecognitionExperimentConfig) -> dict:
            "n_grasps": len(records), "no_contact": no_contact, "errors": errors,
            "classes": sorted(groups),
            "grasps_per_class": {cl: int(np.sum(data.labels == cl)) for cl in sorted(groups)}}
+    # Fig. 6.3: one grasp per class (the one nearest the middle of its heights), both pads
+    out["example_images"] = {}
+    for cl in sorted(groups):
+        rs = [r for r in records if r["cls"] == cl and r.get("contact")]
+        mid = np.median([r["height"] for r in rs])
+        r = min(rs, key=lambda r: abs(r["height"] - mid))
+        out["example_images"][cl] = {"height": r["height"], "width": r["width"],
+                                     "left": r["left"], "right": r["right"]}
     allc = _subset_classes("all", groups)
     if c.k_sweep and len(allc) >= 2:
         out["k_sweep"] = {str(k): evaluate(data, allc, **dict(kw, k=k))["rate"]
@@ -419,15 +429,31 @@ def format_report(res: dict) -> str:
 
 
 def plot_report(res: dict, path) -> None:
-    """Confusion matrices of the subsets (Fig. 6.6) and the rate after t grasps, random vs
-    informed where measured (Fig. 6.7)."""
+    """Confusion matrices of the subsets (Fig. 6.6), the rate after t grasps, random vs
+    informed where measured (Fig. 6.7), and below the left and right tactile images of one
+    grasp per class (Fig. 6.3)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     subs = [s for s in ("all", "household", "industrial") if s in res["rates"]]
-    fig, axes = plt.subplots(1, len(subs) + 1, figsize=(6 * (len(subs) + 1), 5.5))
+    ex = res.get("example_images", {})
+    ncol = len(subs) + 1
+    fig = plt.figure(figsize=(6 * ncol, 5.5 + (3.2 if ex else 0)))
+    gs = fig.add_gridspec(2 if ex else 1, ncol, height_ratios=[5.5, 3.2] if ex else [1])
+    axes = [fig.add_subplot(gs[0, i]) for i in range(ncol)]
+    if ex:
+        sub = gs[1, :].subgridspec(1, len(ex))
+        for i, (cl, e) in enumerate(ex.items()):
+            ax = fig.add_subplot(sub[0, i])
+            img = np.hstack([np.asarray(e["left"]), np.full((len(e["left"]), 1), np.nan),
+                             np.asarray(e["right"])])
+            ax.imshow(img, cmap="gray_r", vmin=0, vmax=max(0.05, np.nanmax(img)))
+            ax.set_title(f"{cl}\nh {100 * e['height']:.0f} w {1000 * e['width']:.0f}",
+                         fontsize=6)
+            ax.set_xticks([])
+            ax.set_yticks([])
     for ax, s in zip(axes, subs):
         r = res["rates"][s]
         C = np.asarray(r["confusion"], float)
