@@ -78,10 +78,10 @@ def object_grasp_trial(*, seed: int, cls: str, height: float, f_target: float = 
     dz = float(rng.normal(0.0, height_sd))
     offset = float(rng.normal(0.0, offset_sd))
     cfg = TactileGraspConfig(pad="ch6", f_target=f_target, v_target=v_target,
-                             contact_force=contact_force, force_rate=100.0, hold_time=max_time + 10.0,
-                             duration=max_time, grasp_height=float(height) + dz,
-                             offset=offset, taxel_noise=taxel_noise, seed=int(seed),
-                             gripper=GRIPPER_CH6)
+                             contact_force=contact_force, force_rate=100.0,
+                             hold_time=max_time + 10.0, duration=max_time,
+                             grasp_height=float(height) + dz, offset=offset,
+                             taxel_noise=taxel_noise, seed=int(seed), gripper=GRIPPER_CH6)
     sdf = object_sdf(inst)
     # the SAP solver diverges in ~1 of 300 grasps on the edges of stacked rigid boxes
     # (measured: 2 of 420 grasps, block_hole at 30-40 mm, and 1 of 840 still at half the
@@ -119,7 +119,7 @@ def _simulate(cfg, sdf, settle, max_time, meshcat, on_diagram):
     sim = Simulator(diagram)
     ctrl, sensor = parts["controller"], parts["sensor"]
 
-    def t_both(root):
+    def t_both(root):  # the controller's state entry 4: time both fingers switched, or -1
         return ctrl.GetMyContextFromRoot(root).get_discrete_state_vector().GetAtIndex(4)
 
     def monitor(root):

@@ -172,16 +172,16 @@ def _profile(name, slotted_x: bool, slotted_y: bool, *, a=0.02, slot=0.004, dept
         if slotted_x:
             w = a - slot
             for t in (-1.0, 1.0):
-                parts.append(Part("box", (depth, w, h), (s * (c + depth / 2), t * (slot + w / 2), zc),
-                                  material))
+                parts.append(Part("box", (depth, w, h),
+                                  (s * (c + depth / 2), t * (slot + w / 2), zc), material))
         else:
             parts.append(Part("box", (depth, 2 * a, h), (s * (c + depth / 2), 0, zc), material))
         # y faces: lips between the x lips
         if slotted_y:
             w = c - slot
             for t in (-1.0, 1.0):
-                parts.append(Part("box", (w, depth, h), (t * (slot + w / 2), s * (c + depth / 2), zc),
-                                  material))
+                parts.append(Part("box", (w, depth, h),
+                                  (t * (slot + w / 2), s * (c + depth / 2), zc), material))
         else:
             parts.append(Part("box", (2 * c, depth, h), (0, s * (c + depth / 2), zc), material))
     return TactileObject(name, group, tuple(parts), mass=0.16 * height / 0.1 * 1.0,

@@ -55,7 +55,7 @@ def test_every_class_loads_in_drake_and_instances_vary_with_the_seed():
 
 # ------------------------------------------------------------------ grasps in Drake
 def test_soft_and_tennis_ball_differ_by_touch():
-    from mmlearn.diagrams.tactile_objects import object_grasp_trial
+    from mmlearn.diagrams.tactile_objects import object_grasp_trial, observation_from_record
 
     soft = object_grasp_trial(seed=5, cls="soft_ball", height=0.035)
     hard = object_grasp_trial(seed=5, cls="tennis_ball", height=0.035)
@@ -67,6 +67,8 @@ def test_soft_and_tennis_ball_differ_by_touch():
     Ls, Lh = np.array(soft["left"]), np.array(hard["left"])
     assert Ls.max() < 0.6 * Lh.max() and (Ls > 0.02).sum() > 1.5 * (Lh > 0.02).sum()
     assert set(soft) >= {"left", "right", "height", "width", "cls", "group"}
+    obs = observation_from_record(soft)
+    assert obs.left.shape == (14, 6) and obs.label == "soft_ball" and obs.width == soft["width"]
 
 
 def test_slotted_and_flat_profile_faces_and_no_contact():
