@@ -33,12 +33,12 @@ for evaluation seeds 0-4, five splits with 200 per fold 87.4 / 87.0 / 86.4 / 87.
 hence 5 repeats by default. Reported: ``recognition_rate`` (all classes), and the same with
 a recogniser trained on each subset alone (thesis Fig. 6.6): ``household``,
 ``industrial``, ``soft_vs_tennis`` (soft ball vs tennis ball), each with the rate after
-t = 1..T grasps, per-class rates and the confusion matrix, beside the thesis' 84.6 / 96.2 / 58.0 / 93.8 %. ``--k-sweep`` and
-``--alpha-sweep`` add Tables 6.1 / 6.2 on all classes; ``--informed`` adds Fig. 6.7:
+t = 1..T grasps, per-class rates and the confusion matrix, beside the thesis' 84.6 / 96.2 /
+58.0 / 93.8 %. ``--k-sweep`` and ``--alpha-sweep`` add Tables 6.1 / 6.2 on all classes; ``--informed`` adds Fig. 6.7:
 the rate after each grasp when the next grasp height maximises the expected information
 gain (Eq. 6.12-6.13) vs random heights, on all classes and on the industrial ones. A subset
 whose training half has fewer than 2k grasps uses k = half its number of training grasps
-(``k_used``; e.g. soft vs tennis ball: 20 training grasps, k = 10).
+(``k_used``; e.g. soft vs tennis ball with 20 grasps per class: 20 training grasps, k = 10).
 
 ``--json`` prints one object: ``{"recognition_rate", "rates": {"all", "household",
 "industrial", "soft_vs_tennis": {"rate", "rate_by_T", "per_class", "labels", "confusion",
