@@ -34,9 +34,10 @@ hence 5 repeats by default. Reported: ``recognition_rate`` (all classes), and th
 a recogniser trained on each subset alone (thesis Fig. 6.6): ``household``,
 ``industrial``, ``soft_vs_tennis`` (soft ball vs tennis ball), each with the rate after
 t = 1..T grasps, per-class rates and the confusion matrix, beside the thesis' 84.6 / 96.2 /
-58.0 / 93.8 %. ``--k-sweep`` and ``--alpha-sweep`` add Tables 6.1 / 6.2 on all classes; ``--informed`` adds Fig. 6.7:
-the rate after each grasp when the next grasp height maximises the expected information
-gain (Eq. 6.12-6.13) vs random heights, on all classes and on the industrial ones. A subset
+58.0 / 93.8 %. ``--k-sweep`` and ``--alpha-sweep`` add Tables 6.1 / 6.2 on all classes;
+``--informed`` adds Fig. 6.7: the rate after each grasp when the next grasp height
+maximises the expected information gain (Eq. 6.12-6.13) vs random heights, on all classes
+and on the industrial ones. A subset
 whose training half has fewer than 2k grasps uses k = half its number of training grasps
 (``k_used``; e.g. soft vs tennis ball with 20 grasps per class: 20 training grasps, k = 10).
 
