@@ -125,11 +125,25 @@ def test_app_short_run_and_report_only(tmp_path, capsys):
     assert d["rates"]["all"]["k_used"] == [2]  # half of the 4 training grasps
     lines = [json.loads(x) for x in res.read_text().splitlines()]
     assert len(lines) == 8 and all(ln["error"] is None for ln in lines)
+    png = tmp_path / "rec.png"
     rc, out2, err = run_main(main, ["--report-only", str(res), "--k", "4", "--T", "2",
                                     "--recognitions", "40", "--cv-repeats", "2", "--seed", "3",
-                                    "--json"], capsys)
+                                    "--plot", str(png), "--json"], capsys)
     assert rc == 0, err
-    assert json.loads(out2)["rates"] == d["rates"]  # the same figures from the file alone
+    d2 = json.loads(out2)
+    assert d2["rates"] == d["rates"]  # the same figures from the file alone
+    assert set(d2["example_images"]) == {"soft_ball", "tennis_ball", "round_bar",
+                                         "stepped_shaft"}
+    assert png.stat().st_size > 10_000
+
+
+def test_one_grasp_recorded_as_meshcat_html(tmp_path):
+    from mmlearn.apps._common import make_meshcat
+    from mmlearn.apps.tactile_recognition import _show_one
+
+    html = tmp_path / "grasp.html"
+    rec = _show_one("round_bar", seed=0, meshcat=make_meshcat(announce=False), html_out=html)
+    assert rec["contact"] and html.stat().st_size > 100_000
 
 
 @pytest.mark.parametrize("argv, needles", [
@@ -138,6 +152,7 @@ def test_app_short_run_and_report_only(tmp_path, capsys):
     (["--grasps-per-class", "1"], ["grasps_per_class", "at least 2"]),
     (["--k", "0"], ["--k"]),
     (["--report-only", "/nonexistent/x.jsonl"], ["--report-only", "no results file"]),
+    (["--report-only", "x.jsonl", "--html-out", "y.html"], ["--report-only simulates nothing"]),
 ])
 def test_app_bad_arguments(argv, needles, capsys):
     from mmlearn.apps.tactile_recognition import main
