@@ -56,7 +56,7 @@ from __future__ import annotations
 
 import json
 import sys
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -120,7 +120,6 @@ class RecognitionExperimentConfig:
     jobs: int | None = None
     ray_address: str | None = None
     progress: bool = False
-    extra: dict = field(default_factory=dict)
 
 
 # ----------------------------------------------------------------------------- grasps

@@ -55,7 +55,7 @@ the friction coefficient by ``exp(N(0, 0.1))`` and the mass by ``exp(N(0, 0.05))
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -308,8 +308,9 @@ class ObjectInstance:
     Attributes:
         name: object name; yaw: rotation about z, deg.
         parts: the scaled parts (already turned by ``yaw``).
-        scale: length scale factor; mass: kg; mu: friction scale factor;
-        modulus_scale: factor on every compliant modulus.
+        scale: length scale factor; mass: kg; mu_scale: factor on every friction
+        coefficient; modulus_scale: factor on every compliant hydroelastic modulus.
+        group: "household" or "industrial".
     """
 
     name: str
@@ -320,7 +321,6 @@ class ObjectInstance:
     mu_scale: float
     modulus_scale: float
     group: str = ""
-    extra: dict = field(default_factory=dict)
 
     def as_dict(self) -> dict:
         return {"name": self.name, "yaw": self.yaw, "scale": self.scale, "mass": self.mass,
