@@ -184,7 +184,8 @@ def _profile(name, slotted_x: bool, slotted_y: bool, *, a=0.02, slot=0.004, dept
                                   (t * (slot + w / 2), s * (c + depth / 2), zc), material))
         else:
             parts.append(Part("box", (2 * c, depth, h), (0, s * (c + depth / 2), zc), material))
-    return TactileObject(name, group, tuple(parts), mass=0.16 * height / 0.1 * 1.0,
+    # an aluminium 40 x 40 profile weighs about 1.5 kg per metre
+    return TactileObject(name, group, tuple(parts), mass=1.5 * height,
                          heights=(0.03, height - 0.03), yaws=yaws)
 
 
