@@ -146,8 +146,14 @@ class ContainerInstance:
         return asdict(self)
 
 
-def sample_container(name: str, state: str, rng: np.random.Generator) -> ContainerInstance:
-    """A random instance of class ``name`` in ``state`` (seeded through ``rng``)."""
+def sample_container(name: str, state: str, rng: np.random.Generator, *,
+                     fill: float | None = None) -> ContainerInstance:
+    """A random instance of class ``name`` in ``state`` (seeded through ``rng``).
+
+    ``fill``: liquid volume fraction of a full state, in (0, 1) (default: drawn in 0.88-0.97;
+    e.g. 0.5 for the half-full containers of the liquid-detection experiment)."""
+    if fill is not None and not (np.isfinite(fill) and 0.0 < fill < 1.0):
+        raise ValueError(f"fill: expected a volume fraction in (0, 1), got {fill!r}")
     if name not in CONTAINER_CLASSES:
         raise ValueError(f"container: unknown class {name!r}; choose from "
                          f"{', '.join(CONTAINER_CLASSES)}")
@@ -166,7 +172,8 @@ def sample_container(name: str, state: str, rng: np.random.Generator) -> Contain
     k_wall = var(c.k_wall, c.spread)
     c_shell = var(c.c_shell, c.spread)
     area = var(c.area, 0.05)
-    fill = float(rng.uniform(0.88, 0.97)) if full else 0.0
+    drawn = float(rng.uniform(0.88, 0.97)) if full else 0.0
+    fill = (float(fill) if fill is not None else drawn) if full else 0.0
     v_liq = fill * c.volume
     k_gas = 0.0
     if closed:

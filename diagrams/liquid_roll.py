@@ -1,0 +1,367 @@
+"""The liquid-detection scene (thesis Sec. 7.3): grasp a container, lift it, roll it.
+
+``MakeLiquidRollDiagram(config, *, container)`` builds a discrete MultibodyPlant (1 ms,
+hydroelastic contact) with
+
+* a table (a box, top at z = 0) and a **free** container of :mod:`mmlearn.models.containers`
+  standing on it (its base gets a point-contact disc at the bottom; the walls on springs and
+  the sloshing liquid -- a mass on a prismatic spring-damper in the base, see
+  :mod:`mmlearn.models.containers` -- come from :func:`mmlearn.sdf.tactile.container_sdf`);
+* the parallel gripper of :func:`mmlearn.sdf.tactile.gripper_sdf` (PR2-like pads of 5 x 3
+  taxels each, 24 Hz as the PR2's arrays) welded to a two-joint wrist: a PD-driven lift
+  joint (prismatic along z, m) and a PD-driven roll joint (revolute about y, rad) whose axis
+  lies ``roll_axis_height`` m above the pad centres. The roll axis is perpendicular to the
+  fingers' closing direction x, so rolling tilts the container towards one finger: gravity
+  and the accelerations of the roll load the pads along their normals as on the PR2, whose
+  wrist rolls a bottle held upright towards one fingertip;
+* the switching grasp controller of Eq. 7.8
+  (:class:`~mmlearn.systems.tactile_grasp_controller.TactileGraspController`) followed by a
+  :class:`~mmlearn.systems.finger_hold.FingerPositionHold` that latches the finger
+  positions once the grasp has settled (a gripper's position hold): the sloshing liquid's
+  reaction then shifts pressure between the pads instead of moving the force-controlled
+  fingers along with the container;
+* the taxel pads (:class:`~mmlearn.systems.tactile_sensor.TactileSensor`) and the wrist
+  force sensor (:class:`~mmlearn.systems.wrist_force_sensor.WristForceSensor`) between the
+  roll link and the palm.
+
+Timeline (:class:`LiquidRollConfig`): close and squeeze, latch at ``t_latch``, lift by
+``lift`` m over ``[t_lift, t_lift + lift_time]``, then roll +-``roll_amplitude`` rad
+(piecewise-linear angle: constant roll rate with abrupt reversals, as a joint trajectory
+of the PR2 arm) at ``roll_hz`` for ``roll_cycles`` cycles from ``t_roll``.
+
+:func:`liquid_roll_trial` runs one trial for the sweep runner and returns only what the
+sensors recorded (taxels at 24 Hz, the wrist force) plus the labels.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from pydrake.geometry import (Box, Cylinder, ProximityProperties, SceneGraphConfig,
+                              AddContactMaterial)
+from pydrake.math import RigidTransform
+from pydrake.multibody.parsing import Parser
+from pydrake.multibody.plant import (AddMultibodyPlant, CoulombFriction,
+                                     MultibodyPlantConfig)
+from pydrake.multibody.tree import (PdControllerGains, PrismaticJoint, PrismaticSpring,
+                                    RevoluteJoint, SpatialInertia)
+from pydrake.systems.analysis import Simulator
+from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.primitives import LogVectorOutput, TrajectorySource
+from pydrake.trajectories import PiecewisePolynomial
+
+from mmlearn.models.containers import ContainerInstance, sample_container
+from mmlearn.models.tactile_pad import PAD_PR2
+from mmlearn.sdf.tactile import GripperGeometry, container_sdf, gripper_sdf, pad_z_of
+from mmlearn.systems.finger_hold import FingerPositionHold
+from mmlearn.systems.tactile_grasp_controller import TactileGraspController
+from mmlearn.systems.tactile_sensor import PadSpec, TactileSensor
+from mmlearn.systems.wrist_force_sensor import WristForceSensor
+
+from .tactile_grasp import _R_LEFT, _R_RIGHT
+
+__all__ = ["LiquidRollConfig", "MakeLiquidRollDiagram", "simulate_roll", "liquid_roll_trial",
+           "LIQUID_CONTAINERS", "dummy_instance"]
+
+
+@dataclass
+class LiquidRollConfig:
+    """One liquid-detection trial.
+
+    Attributes:
+        f_target: grasp force per finger before the hold, N.
+        v_target: closing speed of the finger distance, m/s.
+        grasp_height: height of the pad centres above the container's bottom, m.
+        offset: lateral offset of the container from the gripper centre along x, m.
+        t_latch: time the finger positions are latched, s.
+        t_lift: start of the lift, s. lift: lift height, m. lift_time: its duration, s.
+        t_roll: start of the roll, s.
+        roll_amplitude: roll angle amplitude, rad.
+        roll_hz: roll frequency, Hz (thesis: about 0.6 Hz).
+        roll_cycles: number of roll cycles.
+        roll_axis_height: height of the roll axis above the pad centres, m.
+        roll_kp, roll_kd: roll joint PD gains, N m/rad and N m s/rad.
+        lift_kp, lift_kd: lift joint PD gains, N/m and N s/m.
+        time_step: plant time step, s.
+        sensor_rate: taxel sampling rate, Hz (PR2: 24 Hz).
+        taxel_noise: taxel noise, fraction of saturation.
+        wrist_noise: wrist force noise per axis, N.
+        seed: noise seed.
+        gripper: gripper dimensions.
+    """
+
+    f_target: float = 20.0
+    v_target: float = 0.04
+    grasp_height: float = 0.07
+    offset: float = 0.0
+    t_latch: float = 1.1
+    t_lift: float = 1.2
+    lift: float = 0.03
+    lift_time: float = 0.4
+    t_roll: float = 1.9
+    roll_amplitude: float = 0.35
+    roll_hz: float = 0.6
+    roll_cycles: float = 2.0
+    roll_axis_height: float = 0.12
+    roll_kp: float = 200.0
+    roll_kd: float = 2.0
+    lift_kp: float = 2.0e4
+    lift_kd: float = 300.0
+    time_step: float = 1e-3
+    sensor_rate: float = 24.0
+    taxel_noise: float = 0.003
+    wrist_noise: float = 0.05
+    seed: int = 0
+    gripper: GripperGeometry = field(default_factory=GripperGeometry)
+
+    def __post_init__(self):
+        for k in ("f_target", "v_target", "grasp_height", "t_latch", "t_lift", "lift_time",
+                  "t_roll", "roll_hz", "roll_cycles", "roll_kp", "lift_kp", "time_step",
+                  "sensor_rate"):
+            v = getattr(self, k)
+            if not (isinstance(v, (int, float)) and np.isfinite(v) and v > 0):
+                raise ValueError(f"LiquidRollConfig.{k}: expected a finite number > 0, got "
+                                 f"{v!r}")
+        for k in ("lift", "roll_amplitude", "roll_axis_height", "roll_kd", "lift_kd",
+                  "taxel_noise", "wrist_noise"):
+            v = getattr(self, k)
+            if not (isinstance(v, (int, float)) and np.isfinite(v) and v >= 0):
+                raise ValueError(f"LiquidRollConfig.{k}: expected a finite number >= 0, got "
+                                 f"{v!r}")
+        if not self.t_latch <= self.t_lift <= self.t_lift + self.lift_time <= self.t_roll:
+            raise ValueError("LiquidRollConfig: expected t_latch <= t_lift <= t_lift + "
+                             "lift_time <= t_roll")
+        if self.sensor_rate <= 2 * 5.0:
+            raise ValueError(f"LiquidRollConfig.sensor_rate: must exceed 10 Hz for the 5 Hz "
+                             f"high-pass, got {self.sensor_rate!r}")
+
+    @property
+    def duration(self) -> float:
+        """Simulated time, s: the end of the roll plus 0.1 s."""
+        return self.t_roll + self.roll_cycles / self.roll_hz + 0.1
+
+
+def roll_trajectory(c: LiquidRollConfig) -> PiecewisePolynomial:
+    """The roll angle (rad) over time: 0 until ``t_roll``, then a triangle wave of
+    amplitude ``roll_amplitude`` and frequency ``roll_hz`` (starting towards +angle), back
+    to 0 at the end."""
+    quarter = 0.25 / c.roll_hz
+    n = int(round(4 * c.roll_cycles))
+    t = [0.0, c.t_roll] + [c.t_roll + quarter * (k + 1) for k in range(n)]
+    pattern = (1.0, 0.0, -1.0, 0.0)
+    q = [0.0, 0.0] + [c.roll_amplitude * pattern[k % 4] for k in range(n)]
+    t.append(t[-1] + 1.0)
+    q.append(q[-1])
+    return PiecewisePolynomial.FirstOrderHold(np.array(t), np.array(q)[None, :])
+
+
+def lift_trajectory(c: LiquidRollConfig, z0: float) -> PiecewisePolynomial:
+    """The lift joint's position (m): ``z0`` until ``t_lift``, then a cubic rise by ``lift``
+    (zero end velocities) over ``lift_time``."""
+    t = np.array([0.0, c.t_lift, c.t_lift + c.lift_time, c.duration + 1.0])
+    z = np.array([[z0, z0, z0 + c.lift, z0 + c.lift]])
+    return PiecewisePolynomial.CubicShapePreserving(t, z, zero_end_point_derivatives=True)
+
+
+def _point_contact(mu: float) -> ProximityProperties:
+    p = ProximityProperties()
+    AddContactMaterial(friction=CoulombFriction(mu, mu), properties=p)
+    return p
+
+
+def MakeLiquidRollDiagram(config: LiquidRollConfig, *, container: ContainerInstance,
+                          meshcat=None):
+    """Build the scene (see the module docstring); returns (diagram, parts) with parts =
+    {"plant", "scene_graph", "sensor", "controller", "hold", "wrist_force_sensor",
+    "taxel_log", "force_log", "wrist_log", "roll_log", "gripper", "container"}."""
+    c = config
+    if not isinstance(container, ContainerInstance):
+        raise TypeError(f"container: expected a ContainerInstance, got {type(container).__name__}")
+    layout, g = PAD_PR2, c.gripper
+    builder = DiagramBuilder()
+    plant, scene_graph = AddMultibodyPlant(
+        MultibodyPlantConfig(time_step=c.time_step, contact_model="hydroelastic_with_fallback",
+                             discrete_contact_approximation="sap"),
+        SceneGraphConfig(), builder)
+    parser = Parser(plant)
+    # table
+    table = _point_contact(0.6)
+    X_table = RigidTransform([0.0, 0.0, -0.01])
+    plant.RegisterCollisionGeometry(plant.world_body(), X_table, Box(0.3, 0.3, 0.02), "table",
+                                    table)
+    plant.RegisterVisualGeometry(plant.world_body(), X_table, Box(0.3, 0.3, 0.02),
+                                 "table_visual", np.array([0.6, 0.5, 0.4, 1.0]))
+    # container, free, standing on the table
+    cont = parser.AddModelsFromString(container_sdf(container), "sdf")[0]
+    base = plant.GetBodyByName("base", cont)
+    plant.RegisterCollisionGeometry(base, RigidTransform([0.0, 0.0, 0.0025]),
+                                    Cylinder(0.9 * container.radius, 0.005), "bottom",
+                                    _point_contact(0.6))
+    plant.SetDefaultFloatingBaseBodyPose(base, RigidTransform([c.offset, 0.0, 0.0]))
+    for side in ("l", "r"):
+        plant.AddForceElement(PrismaticSpring(
+            plant.GetJointByName(f"wall_{side}_slide", cont), 0.0, container.k))
+    if container.slosh_mass > 0:
+        plant.AddForceElement(PrismaticSpring(plant.GetJointByName("slosh", cont), 0.0,
+                                              container.slosh_k))
+    # wrist: world -> lift (prismatic z) -> roll (revolute y) -> palm (weld)
+    pad_z = pad_z_of(layout, g)
+    z0 = c.grasp_height + c.roll_axis_height
+    links = {}
+    for name in ("wrist_lift", "wrist_roll"):
+        inst = plant.AddModelInstance(name)
+        links[name] = plant.AddRigidBody(f"{name}_link", inst,
+                                         SpatialInertia.SolidBoxWithMass(0.2, 0.04, 0.04, 0.04))
+    lift = plant.AddJoint(PrismaticJoint("lift", plant.world_frame(),
+                                         links["wrist_lift"].body_frame(), [0.0, 0.0, 1.0],
+                                         -1.0, 1.0, 0.0))
+    lift.set_default_translation(z0)
+    roll = plant.AddJoint(RevoluteJoint("roll", links["wrist_lift"].body_frame(),
+                                        links["wrist_roll"].body_frame(), [0.0, 1.0, 0.0], 0.0))
+    for j, kp, kd, eff in ((lift, c.lift_kp, c.lift_kd, 500.0), (roll, c.roll_kp, c.roll_kd,
+                                                                   50.0)):
+        act = plant.AddJointActuator(f"{j.name()}_motor", j, eff)
+        act.set_controller_gains(PdControllerGains(p=kp, d=kd))
+    gripper = parser.AddModelsFromString(gripper_sdf(layout, g), "sdf")[0]
+    mount = plant.WeldFrames(links["wrist_roll"].body_frame(),
+                             plant.GetFrameByName("palm", gripper),
+                             RigidTransform([0.0, 0.0, pad_z - c.roll_axis_height]))
+    for side in ("left", "right"):
+        plant.GetJointActuatorByName(f"{side}_slide", gripper).set_controller_gains(
+            PdControllerGains(p=2000.0, d=100.0))
+    plant.Finalize()
+    inspector = scene_graph.model_inspector()
+    pads = []
+    for side, R in (("left", _R_LEFT), ("right", _R_RIGHT)):
+        body = plant.GetBodyByName(f"{side}_finger", gripper)
+        gids = tuple(gid for gid in plant.GetCollisionGeometriesForBody(body)
+                     if inspector.GetName(gid).endswith(f"{side}_pad"))
+        pads.append(PadSpec(side, layout, int(body.index()),
+                            RigidTransform(R, [0.0, 0.0, -pad_z]), gids))
+    sensor = builder.AddNamedSystem("tactile_sensor", TactileSensor(
+        pads=pads, rate_hz=c.sensor_rate, noise=c.taxel_noise, seed=c.seed))
+    builder.Connect(plant.get_contact_results_output_port(),
+                    sensor.get_contact_results_input_port())
+    builder.Connect(plant.get_body_poses_output_port(), sensor.get_body_poses_input_port())
+    ctrl = builder.AddNamedSystem("grasp_controller", TactileGraspController(
+        f_target=c.f_target, v_target=c.v_target, contact_force=1.0, kp=2000.0, kd=100.0,
+        hold_time=1e6, open_gap=g.open_gap, stroke=g.stroke, mode="switching",
+        force_rate=40.0, period=c.time_step))
+    hold = builder.AddNamedSystem("finger_hold", FingerPositionHold(
+        num_fingers=2, t_latch=c.t_latch, period=c.time_step))
+    builder.Connect(plant.get_state_output_port(gripper), ctrl.get_gripper_state_input_port())
+    builder.Connect(sensor.get_pad_force_output_port(), ctrl.get_pad_force_input_port())
+    builder.Connect(ctrl.get_desired_state_output_port(), hold.get_input_port_desired())
+    builder.Connect(hold.get_output_port_desired(), plant.get_desired_state_input_port(gripper))
+    src_roll = builder.AddNamedSystem("roll_trajectory", TrajectorySource(
+        roll_trajectory(c), output_derivative_order=1))
+    src_lift = builder.AddNamedSystem("lift_trajectory", TrajectorySource(
+        lift_trajectory(c, z0), output_derivative_order=1))
+    builder.Connect(src_roll.get_output_port(), plant.get_desired_state_input_port(
+        plant.GetModelInstanceByName("wrist_roll")))
+    builder.Connect(src_lift.get_output_port(), plant.get_desired_state_input_port(
+        plant.GetModelInstanceByName("wrist_lift")))
+    wrist = builder.AddNamedSystem("wrist_force_sensor", WristForceSensor(
+        plant=plant, mount_joint=mount, sigma_force=c.wrist_noise, rate_hz=c.sensor_rate,
+        seed=c.seed))
+    builder.Connect(plant.get_reaction_forces_output_port(),
+                    wrist.get_reaction_forces_input_port())
+    builder.Connect(plant.get_body_poses_output_port(), wrist.get_body_poses_input_port())
+    period = 1.0 / c.sensor_rate
+    taxel_log = LogVectorOutput(sensor.get_taxels_output_port(), builder, period)
+    force_log = LogVectorOutput(sensor.get_pad_force_output_port(), builder, period)
+    wrist_log = LogVectorOutput(wrist.get_force_output_port(), builder, period)
+    roll_log = LogVectorOutput(plant.get_state_output_port(
+        plant.GetModelInstanceByName("wrist_roll")), builder, period)
+    if meshcat is not None:
+        from pydrake.geometry import MeshcatVisualizer
+
+        MeshcatVisualizer.AddToBuilder(builder, scene_graph, meshcat)
+    diagram = builder.Build()
+    return diagram, {"plant": plant, "scene_graph": scene_graph, "sensor": sensor,
+                     "controller": ctrl, "hold": hold, "wrist_force_sensor": wrist,
+                     "taxel_log": taxel_log, "force_log": force_log, "wrist_log": wrist_log,
+                     "roll_log": roll_log, "gripper": gripper, "container": cont}
+
+
+def simulate_roll(config: LiquidRollConfig, *, container: ContainerInstance,
+                  meshcat=None) -> dict:
+    """Run one trial; returns the sensor records: ``t`` (s), ``taxels`` (T, 30) normalised
+    pressures, ``pad_force`` (T, 2) N, ``wrist_force`` (T, 3) N (world frame, force of the
+    held load on the palm), ``roll`` (T,) measured roll angle (rad, the arm's encoder), and
+    ``roll_window`` (start, end) s and ``weight_window`` (start, end) s."""
+    diagram, parts = MakeLiquidRollDiagram(config, container=container, meshcat=meshcat)
+    sim = Simulator(diagram)
+    sim.Initialize()
+    sim.AdvanceTo(config.duration)
+    ctx = sim.get_context()
+    logs = [parts[k].FindLog(ctx) for k in ("taxel_log", "force_log", "wrist_log", "roll_log")]
+    n = min(lg.num_samples() for lg in logs)
+    t = logs[0].sample_times()[:n]
+    c = config
+    return {"t": t, "taxels": logs[0].data()[:, :n].T, "pad_force": logs[1].data()[:, :n].T,
+            "wrist_force": logs[2].data()[:, :n].T, "roll": logs[3].data()[0, :n],
+            "roll_window": (c.t_roll, c.t_roll + c.roll_cycles / c.roll_hz),
+            "weight_window": (c.t_lift + c.lift_time + 0.1, c.t_roll)}
+
+
+#: Liquid-detection containers: label -> (class of :mod:`mmlearn.models.containers`, liquid
+#: fill fraction or None for empty). Half full mostly, as in the thesis; the Odwalla bottle
+#: also full and empty, the water bottle also a quarter full.
+LIQUID_CONTAINERS = {
+    "odwalla_half": ("odwalla", 0.5),
+    "odwalla_empty": ("odwalla", None),
+    "water_half": ("water", 0.5),
+    "water_empty": ("water", None),
+    "naked_half": ("naked", 0.5),
+    "naked_empty": ("naked", None),
+    "odwalla_full": ("odwalla", 0.93),
+    "can_half": ("can", 0.5),
+    "can_empty": ("can", None),
+    "water_quarter": ("water", 0.25),
+    "naked_quarter": ("naked", 0.25),
+}
+
+
+def dummy_instance(rng: np.random.Generator, *, mass: float = 0.25) -> ContainerInstance:
+    """The heavy rigid dummy: an Odwalla-sized rigid cylinder (stiff walls, nothing inside)
+    of ``mass`` kg (about a half-full container)."""
+    inst = sample_container("odwalla", "empty_closed", rng)
+    return replace(inst, name="dummy", state="rigid", k=2.0e5, c=50.0, mass=float(mass),
+                   slosh_mass=0.0, slosh_k=0.0, slosh_c=0.0)
+
+
+def make_instance(label: str, rng: np.random.Generator) -> ContainerInstance:
+    """A random instance of liquid-detection container ``label`` (a key of
+    :data:`LIQUID_CONTAINERS` or "dummy"), closed (cans: open -- they cannot be closed)."""
+    if label == "dummy":
+        return dummy_instance(rng)
+    if label not in LIQUID_CONTAINERS:
+        raise ValueError(f"container: unknown {label!r}; choose from "
+                         f"{', '.join(list(LIQUID_CONTAINERS) + ['dummy'])}")
+    cls, fill = LIQUID_CONTAINERS[label]
+    closed = cls != "can"
+    state = ("full_" if fill else "empty_") + ("closed" if closed else "open")
+    return sample_container(cls, state, rng, fill=fill)
+
+
+def liquid_roll_trial(*, seed: int, container: str, offset_sd: float = 0.001,
+                      roll_cycles: float = 2.0) -> dict:
+    """One trial for :mod:`mmlearn.apps._sweep` (a pure function of its arguments): a random
+    instance of ``container`` (see :func:`make_instance`), placed with lateral offset
+    ~ N(0, ``offset_sd``) m, grasped, lifted and rolled. Returns a JSON-able record with the
+    recorded series (``t``, ``taxels``, ``wrist_force``, ``roll``), the windows, the labels
+    ``container`` / ``liquid`` and the instance's parameters (for reference only)."""
+    rng = np.random.default_rng([int(seed), 17])
+    inst = make_instance(container, rng)
+    offset = float(rng.normal(0.0, offset_sd))
+    cfg = LiquidRollConfig(offset=offset, roll_cycles=roll_cycles, seed=int(seed))
+    r = simulate_roll(cfg, container=inst)
+    return {"t": r["t"].tolist(), "taxels": r["taxels"].tolist(),
+            "wrist_force": r["wrist_force"].tolist(), "roll": r["roll"].tolist(),
+            "roll_window": list(r["roll_window"]), "weight_window": list(r["weight_window"]),
+            "rate_hz": cfg.sensor_rate, "container": container,
+            "liquid": bool(inst.slosh_mass > 0), "offset": offset,
+            "instance": inst.as_dict()}
