@@ -39,7 +39,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from pydrake.geometry import (Box, Cylinder, ProximityProperties, SceneGraphConfig,
+from pydrake.geometry import (Box, Sphere, ProximityProperties, SceneGraphConfig,
                               AddContactMaterial)
 from pydrake.math import RigidTransform
 from pydrake.multibody.parsing import Parser
@@ -52,7 +52,7 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import LogVectorOutput, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
-from mmlearn.models.containers import ContainerInstance, sample_container
+from mmlearn.models.containers import CONTAINER_CLASSES, ContainerInstance, sample_container
 from mmlearn.models.tactile_pad import PAD_PR2
 from mmlearn.sdf.tactile import GripperGeometry, container_sdf, gripper_sdf, pad_z_of
 from mmlearn.systems.finger_hold import FingerPositionHold
@@ -81,6 +81,8 @@ class LiquidRollConfig:
         roll_amplitude: roll angle amplitude, rad.
         roll_hz: roll frequency, Hz (thesis: about 0.6 Hz).
         roll_cycles: number of roll cycles.
+        reversal_time: duration of each reversal of the roll (constant deceleration), s
+            (0: abrupt, the roll rate flips within one PD response).
         roll_axis_height: height of the roll axis above the pad centres, m.
         roll_kp, roll_kd: roll joint PD gains, N m/rad and N m s/rad.
         lift_kp, lift_kd: lift joint PD gains, N/m and N s/m.
@@ -104,6 +106,7 @@ class LiquidRollConfig:
     roll_amplitude: float = 0.35
     roll_hz: float = 0.6
     roll_cycles: float = 2.0
+    reversal_time: float = 0.0
     roll_axis_height: float = 0.12
     roll_kp: float = 200.0
     roll_kd: float = 2.0
@@ -124,7 +127,7 @@ class LiquidRollConfig:
             if not (isinstance(v, (int, float)) and np.isfinite(v) and v > 0):
                 raise ValueError(f"LiquidRollConfig.{k}: expected a finite number > 0, got "
                                  f"{v!r}")
-        for k in ("lift", "roll_amplitude", "roll_axis_height", "roll_kd", "lift_kd",
+        for k in ("lift", "roll_amplitude", "roll_axis_height", "reversal_time", "roll_kd", "lift_kd",
                   "taxel_noise", "wrist_noise"):
             v = getattr(self, k)
             if not (isinstance(v, (int, float)) and np.isfinite(v) and v >= 0):
@@ -145,16 +148,48 @@ class LiquidRollConfig:
 
 def roll_trajectory(c: LiquidRollConfig) -> PiecewisePolynomial:
     """The roll angle (rad) over time: 0 until ``t_roll``, then a triangle wave of
-    amplitude ``roll_amplitude`` and frequency ``roll_hz`` (starting towards +angle), back
-    to 0 at the end."""
+    amplitude ``roll_amplitude`` and frequency ``roll_hz`` (starting towards +angle; constant
+    roll rate, each reversal a constant deceleration over ``reversal_time`` s, 0: abrupt),
+    back to 0 at the end."""
     quarter = 0.25 / c.roll_hz
     n = int(round(4 * c.roll_cycles))
-    t = [0.0, c.t_roll] + [c.t_roll + quarter * (k + 1) for k in range(n)]
+    w = c.roll_amplitude / quarter  # roll rate, rad/s
+    tau = min(c.reversal_time, quarter)
     pattern = (1.0, 0.0, -1.0, 0.0)
-    q = [0.0, 0.0] + [c.roll_amplitude * pattern[k % 4] for k in range(n)]
-    t.append(t[-1] + 1.0)
-    q.append(q[-1])
-    return PiecewisePolynomial.FirstOrderHold(np.array(t), np.array(q)[None, :])
+    ts, qs, vs = [0.0, c.t_roll], [0.0, 0.0], [0.0, 0.0]
+    if tau > 0:  # blend into the first ramp
+        ts[-1] = c.t_roll - tau / 2
+        ts.append(c.t_roll + tau / 2)
+        qs.append(w * tau / 4)
+        vs.append(w)
+    else:
+        vs[-1] = w
+    sign = 1.0
+    for k in range(n):
+        tk = c.t_roll + quarter * (k + 1)
+        qk = c.roll_amplitude * pattern[k % 4]
+        if pattern[k % 4] == 0.0 or k == n - 1:  # a zero crossing (or the end): keep going
+            last = k == n - 1
+            ts.append(tk)
+            qs.append(qk)
+            vs.append(0.0 if last else sign * w)
+            continue
+        if tau > 0:  # a reversal: parabolic blend over tau
+            ts += [tk - tau / 2, tk, tk + tau / 2]
+            qs += [qk - sign * w * tau / 4, qk, qk - sign * w * tau / 4]
+            vs += [sign * w, 0.0, -sign * w]
+        else:
+            ts.append(tk)
+            qs.append(qk)
+            vs.append(0.0)
+        sign = -sign
+    ts.append(ts[-1] + 1.0)
+    qs.append(qs[-1])
+    vs.append(0.0)
+    if tau > 0:
+        return PiecewisePolynomial.CubicHermite(np.array(ts), np.array(qs)[None, :],
+                                                np.array(vs)[None, :])
+    return PiecewisePolynomial.FirstOrderHold(np.array(ts), np.array(qs)[None, :])
 
 
 def lift_trajectory(c: LiquidRollConfig, z0: float) -> PiecewisePolynomial:
@@ -196,9 +231,12 @@ def MakeLiquidRollDiagram(config: LiquidRollConfig, *, container: ContainerInsta
     # container, free, standing on the table
     cont = parser.AddModelsFromString(container_sdf(container), "sdf")[0]
     base = plant.GetBodyByName("base", cont)
-    plant.RegisterCollisionGeometry(base, RigidTransform([0.0, 0.0, 0.0025]),
-                                    Cylinder(0.9 * container.radius, 0.005), "bottom",
-                                    _point_contact(0.6))
+    for k, a in enumerate(np.linspace(0.0, 2 * np.pi, 6, endpoint=False)):
+        # six small feet on the rim of the bottom (robust point contact with the table)
+        plant.RegisterCollisionGeometry(
+            base, RigidTransform([0.8 * container.radius * np.cos(a),
+                                  0.8 * container.radius * np.sin(a), 0.002]),
+            Sphere(0.002), f"foot_{k}", _point_contact(0.8))
     plant.SetDefaultFloatingBaseBodyPose(base, RigidTransform([c.offset, 0.0, 0.0]))
     for side in ("l", "r"):
         plant.AddForceElement(PrismaticSpring(
@@ -325,10 +363,12 @@ LIQUID_CONTAINERS = {
 }
 
 
-def dummy_instance(rng: np.random.Generator, *, mass: float = 0.25) -> ContainerInstance:
+def dummy_instance(rng: np.random.Generator, *, mass: float | None = None) -> ContainerInstance:
     """The heavy rigid dummy: an Odwalla-sized rigid cylinder (stiff walls, nothing inside)
-    of ``mass`` kg (about a half-full container)."""
+    of ``mass`` kg (default: drawn uniformly in 0.2-0.3 kg, about a half-full container)."""
     inst = sample_container("odwalla", "empty_closed", rng)
+    if mass is None:
+        mass = float(rng.uniform(0.2, 0.3))
     return replace(inst, name="dummy", state="rigid", k=2.0e5, c=50.0, mass=float(mass),
                    slosh_mass=0.0, slosh_k=0.0, slosh_c=0.0)
 
@@ -344,7 +384,11 @@ def make_instance(label: str, rng: np.random.Generator) -> ContainerInstance:
     cls, fill = LIQUID_CONTAINERS[label]
     closed = cls != "can"
     state = ("full_" if fill else "empty_") + ("closed" if closed else "open")
-    return sample_container(cls, state, rng, fill=fill)
+    inst = sample_container(cls, state, rng, fill=fill)
+    # The squeeze model lumps the liquid's added mass (the column pushed into the neck)
+    # into each wall; for rolling, the walls carry only their own mass, so the bodies of the
+    # plant add up to the container's true mass (shell + liquid).
+    return replace(inst, wall_mass=CONTAINER_CLASSES[cls].wall_mass)
 
 
 def liquid_roll_trial(*, seed: int, container: str, offset_sd: float = 0.001,
@@ -357,7 +401,10 @@ def liquid_roll_trial(*, seed: int, container: str, offset_sd: float = 0.001,
     rng = np.random.default_rng([int(seed), 17])
     inst = make_instance(container, rng)
     offset = float(rng.normal(0.0, offset_sd))
-    cfg = LiquidRollConfig(offset=offset, roll_cycles=roll_cycles, seed=int(seed))
+    # the pad centres at the middle of the wall patches (half the container's height, which
+    # the robot sees)
+    cfg = LiquidRollConfig(offset=offset, roll_cycles=roll_cycles, seed=int(seed),
+                           grasp_height=inst.height / 2)
     r = simulate_roll(cfg, container=inst)
     return {"t": r["t"].tolist(), "taxels": r["taxels"].tolist(),
             "wrist_force": r["wrist_force"].tolist(), "roll": r["roll"].tolist(),

@@ -1,0 +1,393 @@
+"""Liquid detection by rolling a grasped container (thesis Sec. 7.3, Table 7.4, Fig. 7.11).
+
+Usage::
+
+    python -m mmlearn.apps.liquid_detection [--with-weight] [--containers N | --names A,B]
+        [--trials N] [--no-dummy] [--roll-cycles C] [--plot FILE] [--results FILE]
+        [--jobs J] [--report-only RESULTS.jsonl] [--meshcat] [--html-out FILE] --seed S [--json]
+
+Each trial (:func:`mmlearn.diagrams.liquid_roll.liquid_roll_trial`) grasps a random instance
+of a container standing on a table with the PR2-like gripper (Eq. 7.8 switching controller,
+then a finger position hold), lifts it and rolls it with the wrist at 0.6 Hz. The liquid is
+a sloshing mass on a spring-damper inside the container
+(:mod:`mmlearn.models.containers`); nothing but the simulated taxels (24 Hz) and the wrist
+force sensor is recorded. Features (:mod:`mmlearn.models.liquid`): each taxel through a
+first-order 5 Hz Butterworth high-pass, the Euclidean norm over the 30 taxels (Eq. 7.9) and
+its standard deviation over the roll (Eq. 7.11); with ``--with-weight`` also the weight from
+the wrist force sensor (the mean vertical force while the lifted container is held still,
+tared with the reading before contact). A decision tree (entropy criterion, as the thesis'
+C4.5) is scored by stratified 10-fold cross-validation on liquid / no liquid.
+
+Containers (``--containers N`` takes the first N of
+:data:`~mmlearn.diagrams.liquid_roll.LIQUID_CONTAINERS`, default 4: the Odwalla and water
+bottles half full and empty; all 11: the full experiment) and, unless ``--no-dummy``, the
+heavy rigid dummy (0.25 kg, about a half-full bottle): it is left out of the
+cross-validation as in the thesis (Table 7.5 counts 136 container trials) and classified by
+the tree trained on all container trials (``dummy``: its feature and how it was classified:
+"no_liquid" is the correct answer).
+
+``--json`` prints one object::
+
+    {"rate", "rate_tactile", "rate_with_weight", "with_weight", "labels", "confusion",
+     "per_class", "table": [{"container", "liquid", "trials", "weight_n", "feature_mean",
+     "feature_std"}], "dummy": {"trials", "feature_mean", "feature_std", "weight_n",
+     "predicted_no_liquid"}, "n_trials", "errors", "settings", "sweep"}
+
+``--plot FILE`` draws Fig. 7.11 (raw taxels and the filtered norm of an empty and a liquid
+trial of the same container) and the feature per container. Trials run through the sweep
+runner (:mod:`mmlearn.apps._sweep`): ``--results`` keeps them (a rerun resumes) and
+``--report-only`` recomputes everything from such a file.
+
+Exit status: 0 success, 1 a trial raised, 2 bad input, 130 interrupted.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from dataclasses import dataclass
+
+import numpy as np
+
+from mmlearn.apps._common import (ArgumentParser, UsageError, check_out_file, fail,
+                                  json_clean, name_list, nonneg_int, pos_float, pos_int,
+                                  save_figure)
+
+__all__ = ["LiquidDetectionConfig", "run", "report", "main", "record_features"]
+
+TARE_WINDOW = (0.05, 0.3)
+"""Wrist force before the fingers touch anything, s (the tare of the weight)."""
+
+
+@dataclass
+class LiquidDetectionConfig:
+    """Settings of one run.
+
+    Attributes:
+        containers: container labels (keys of ``LIQUID_CONTAINERS``).
+        trials: trials per container.
+        dummy: also roll the heavy rigid dummy (``trials`` times).
+        with_weight: the weight (N) as the second feature.
+        roll_cycles: roll cycles per trial.
+        folds: cross-validation folds (at most the smaller class' count).
+        seed: seed of the trials and the folds.
+        plot: image file or None.
+        results, executor, jobs, ray_address, progress: the sweep runner's settings.
+    """
+
+    containers: tuple = ("odwalla_half", "odwalla_empty", "water_half", "water_empty")
+    trials: int = 5
+    dummy: bool = True
+    with_weight: bool = False
+    roll_cycles: float = 2.0
+    folds: int = 10
+    seed: int = 0
+    plot: str | None = None
+    results: str | None = None
+    executor: str = "local"
+    jobs: int | None = None
+    ray_address: str | None = None
+    progress: bool = False
+
+
+def _check(c: LiquidDetectionConfig) -> None:
+    from mmlearn.diagrams.liquid_roll import LIQUID_CONTAINERS
+
+    if not c.containers:
+        raise ValueError("containers: empty")
+    bad = [n for n in c.containers if n not in LIQUID_CONTAINERS]
+    if bad:
+        raise ValueError(f"containers: unknown {', '.join(map(repr, bad))}; choose from "
+                         f"{', '.join(LIQUID_CONTAINERS)}")
+    if len(set(c.containers)) != len(c.containers):
+        raise ValueError("containers: a container is named twice")
+    if not (isinstance(c.trials, int) and c.trials >= 2):
+        raise ValueError(f"trials: expected at least 2 per container, got {c.trials!r}")
+    if not (np.isfinite(c.roll_cycles) and c.roll_cycles >= 0.5):
+        raise ValueError(f"roll_cycles: expected >= 0.5, got {c.roll_cycles!r}")
+    liq = [LIQUID_CONTAINERS[n][1] is not None for n in c.containers]
+    if all(liq) or not any(liq):
+        raise ValueError("containers: need at least one container with liquid and one "
+                         "without to learn to tell them apart")
+
+
+def _specs(c: LiquidDetectionConfig):
+    from mmlearn.apps._sweep import TrialSpec
+
+    names = list(c.containers) + (["dummy"] if c.dummy else [])
+    specs = []
+    for k in range(c.trials):
+        for ci, name in enumerate(names):
+            specs.append(TrialSpec(
+                fn="mmlearn.diagrams.liquid_roll:liquid_roll_trial",
+                seed=int(c.seed) * 1_000_003 + k * 1000 + ci,
+                params={"container": name, "roll_cycles": float(c.roll_cycles)},
+                label=f"{name}/{k}"))
+    return specs
+
+
+def record_features(rec: dict):
+    """A trial record -> :class:`~mmlearn.models.liquid.RollRecord` (the taxels while
+    rolling, the weight in N from the wrist force sensor) built from the sensor series
+    only; the labels are attached from the record's ``liquid`` / ``container``."""
+    from mmlearn.models.liquid import RollRecord
+    from mmlearn.models.tactile_types import TactileDataError
+
+    t = np.asarray(rec["t"], float)
+    taxels = np.asarray(rec["taxels"], float)
+    wf = np.asarray(rec["wrist_force"], float)
+    if taxels.ndim != 2 or len(taxels) != len(t) or wf.shape != (len(t), 3):
+        raise TactileDataError(f"trial {rec.get('container')}: series of unequal length")
+    r0, r1 = rec["roll_window"]
+    w0, w1 = rec["weight_window"]
+    roll = (t >= r0) & (t <= r1)
+    hold = (t >= w0) & (t <= w1)
+    tare = (t >= TARE_WINDOW[0]) & (t <= TARE_WINDOW[1])
+    if roll.sum() < 3 or not hold.any() or not tare.any():
+        raise TactileDataError(f"trial {rec.get('container')}: too few samples in the roll, "
+                               f"hold or tare window")
+    weight = -(wf[hold, 2].mean() - wf[tare, 2].mean())
+    return RollRecord(taxels=taxels[roll], rate_hz=float(rec.get("rate_hz", 24.0)),
+                      weight=float(weight), liquid=bool(rec["liquid"]),
+                      container=str(rec["container"]))
+
+
+def report(lines: list[dict], c: LiquidDetectionConfig) -> dict:
+    """Rates, Table 7.4 and the dummy from results-file lines (a run or ``--report-only``)."""
+    from mmlearn.models.liquid import evaluate_liquid, liquid_features, liquid_table
+    from mmlearn.models.tactile_state import make_classifier
+
+    errors = [{"trial": ln["spec"].get("label") or ln["key"], "error": ln["error"]}
+              for ln in lines if ln.get("error")]
+    recs = [ln["record"] for ln in lines if not ln.get("error") and ln.get("record")]
+    cont = [r for r in recs if r["container"] != "dummy"]
+    dummy = [r for r in recs if r["container"] == "dummy"]
+    if not cont:
+        raise ValueError("no container trial finished")
+    rr = [record_features(r) for r in cont]
+    y = np.array(["liquid" if r.liquid else "no_liquid" for r in rr])
+    counts = np.unique(y, return_counts=True)[1]
+    if len(counts) < 2:
+        raise ValueError("the finished trials hold only one class (liquid or not)")
+    k = int(min(c.folds, counts.min()))
+    if k < 2:
+        raise ValueError("too few trials per class for cross-validation (use more --trials)")
+    rep_t = evaluate_liquid(rr, with_weight=False, folds=k, seed=c.seed)
+    rep_w = evaluate_liquid(rr, with_weight=True, folds=k, seed=c.seed)
+    rep = rep_w if c.with_weight else rep_t
+    out = {"rate": rep.rate, "rate_tactile": rep_t.rate, "rate_with_weight": rep_w.rate,
+           "with_weight": bool(c.with_weight), "folds": k}
+    out.update({kk: v for kk, v in rep.to_dict().items() if kk != "rate"})
+    out["table"] = liquid_table(rr)
+    if dummy:
+        dr = [record_features(r) for r in dummy]
+        clf = make_classifier("tree", seed=c.seed)
+        clf.fit(liquid_features(rr, with_weight=c.with_weight), y)
+        Xd = liquid_features(dr, with_weight=c.with_weight)
+        pred = clf.predict(Xd)
+        out["dummy"] = {"trials": len(dr), "feature_mean": float(Xd[:, 0].mean()),
+                        "feature_std": float(Xd[:, 0].std(ddof=1)) if len(dr) > 1 else 0.0,
+                        "weight_n": float(np.mean([d.weight for d in dr])),
+                        "predicted_no_liquid": int(np.sum(pred == "no_liquid"))}
+    out["n_trials"] = len(rr)
+    out["errors"] = errors
+    out["settings"] = {"containers": list(c.containers), "trials": c.trials,
+                       "dummy": c.dummy, "roll_cycles": c.roll_cycles, "seed": c.seed,
+                       "classifier": "tree (entropy)", "highpass": "Butterworth order 1, 5 Hz",
+                       "taxel_rate_hz": 24.0, "roll_hz": 0.6}
+    return out
+
+
+def run(*, config: LiquidDetectionConfig) -> dict:
+    """Run (or resume) the trials and report (see the module docstring)."""
+    from mmlearn.apps._sweep import run_sweep
+
+    c = config
+    _check(c)
+    sweep = run_sweep(_specs(c), results=c.results, executor=c.executor, jobs=c.jobs,
+                      ray_address=c.ray_address, show_progress=c.progress, desc="rolls")
+    out = report(sweep.lines, c)
+    out["sweep"] = sweep.summary()
+    if c.plot:
+        plot_report(sweep.lines, out, c.plot)
+    return json_clean(out)
+
+
+def plot_report(lines: list[dict], res: dict, path) -> None:
+    """Fig. 7.11 (raw taxels and the high-passed norm of one empty and one liquid trial of
+    the first container class that has both) and the feature per container."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from mmlearn.models.liquid import filtered_norm
+
+    recs = [ln["record"] for ln in lines if not ln.get("error") and ln.get("record")]
+    by_cls: dict = {}
+    for r in recs:
+        cls = r["instance"]["name"]
+        by_cls.setdefault(cls, {}).setdefault(bool(r["liquid"]), r)
+    pair = next((v for v in by_cls.values() if len(v) == 2), None)
+    fig, ax = plt.subplots(3, 2, figsize=(11, 9))
+    if pair is not None:
+        for col, liq in enumerate((False, True)):
+            r = pair[liq]
+            t = np.asarray(r["t"])
+            rf = record_features(r)
+            m = (t >= r["roll_window"][0]) & (t <= r["roll_window"][1])
+            ax[0, col].plot(t[m], rf.taxels, lw=0.6)
+            ax[0, col].set_title(f"{r['container']}: raw taxels")
+            ax[0, col].set_ylabel("pressure (normalised)")
+            ax[1, col].plot(t[m], filtered_norm(rf.taxels, rate_hz=rf.rate_hz), color="k")
+            ax[1, col].set_title("5 Hz high-pass, norm over taxels (Eq. 7.9)")
+            ax[1, col].set_xlabel("t (s)")
+    rows = res["table"]
+    names = [f"{r['container']}" for r in rows]
+    ax[2, 0].bar(range(len(rows)), [r["feature_mean"] for r in rows],
+                 yerr=[r["feature_std"] for r in rows],
+                 color=["tab:blue" if r["liquid"] else "tab:gray" for r in rows])
+    ax[2, 0].set_xticks(range(len(rows)), names, rotation=30, fontsize=7)
+    ax[2, 0].set_ylabel("feature sigma")
+    if "dummy" in res:
+        ax[2, 0].axhline(res["dummy"]["feature_mean"], color="tab:red", ls="--",
+                         label="rigid dummy")
+        ax[2, 0].legend()
+    ax[2, 1].axis("off")
+    ax[2, 1].text(0.0, 0.5, f"rate (tactile) {res['rate_tactile']:.3f}\n"
+                            f"rate (tactile + weight) {res['rate_with_weight']:.3f}\n"
+                            f"thesis: 0.919 / 0.985", fontsize=12)
+    fig.tight_layout()
+    save_figure(fig, path, dpi=90)
+    plt.close(fig)
+
+
+def format_report(res: dict) -> str:
+    lines = [f"liquid detection, {res['n_trials']} trials, decision tree, {res['folds']}-fold CV: "
+             f"rate {res['rate']:.3f} (tactile {res['rate_tactile']:.3f}, with weight "
+             f"{res['rate_with_weight']:.3f}; thesis 0.919 / 0.985)",
+             f"{'container':16s} {'liquid':6s} {'trials':>6s} {'weight N':>9s} feature"]
+    for r in res["table"]:
+        lines.append(f"{r['container']:16s} {str(r['liquid']):6s} {r['trials']:6d} "
+                     f"{r['weight_n']:9.3f} {r['feature_mean']:.4f} +- {r['feature_std']:.4f}")
+    if "dummy" in res:
+        d = res["dummy"]
+        lines.append(f"{'dummy (rigid)':16s} {'-':6s} {d['trials']:6d} {d['weight_n']:9.3f} "
+                     f"{d['feature_mean']:.4f} +- {d['feature_std']:.4f}  classified no liquid "
+                     f"{d['predicted_no_liquid']}/{d['trials']}")
+    for e in res["errors"]:
+        lines.append(f"error in {e['trial']}: {e['error']}")
+    return "\n".join(lines)
+
+
+def _show_one(name: str, *, seed: int, meshcat, html_out) -> None:
+    """One roll of ``name`` drawn in Meshcat (and recorded)."""
+    from pydrake.geometry import MeshcatVisualizer
+    from pydrake.systems.analysis import Simulator
+
+    from mmlearn.diagrams.liquid_roll import LiquidRollConfig, MakeLiquidRollDiagram, make_instance
+
+    inst = make_instance(name, np.random.default_rng([int(seed), 17]))
+    cfg = LiquidRollConfig(seed=int(seed), grasp_height=inst.height / 2, roll_cycles=1.0)
+    diagram, _ = MakeLiquidRollDiagram(cfg, container=inst, meshcat=meshcat)
+    vis = next(s for s in diagram.GetSystems() if isinstance(s, MeshcatVisualizer))
+    vis.StartRecording(False)
+    sim = Simulator(diagram)
+    sim.AdvanceTo(cfg.duration)
+    vis.PublishRecording()
+    if html_out:
+        from mmlearn.apps._common import save_html
+
+        save_html(meshcat, html_out)
+
+
+def main(argv=None) -> int:
+    from mmlearn.apps._sweep import add_sweep_args, exit_status, report_lines, sweep_kwargs
+    from mmlearn.diagrams.liquid_roll import LIQUID_CONTAINERS
+
+    ap = ArgumentParser(
+        prog="python -m mmlearn.apps.liquid_detection",
+        description="Detect liquid in a grasped container by rolling it (thesis Sec. 7.3): "
+                    "5 Hz high-pass of the taxels, spread of their norm, decision tree, "
+                    "10-fold CV. Exit status: 0 success, 1 a trial raised, 2 bad input, "
+                    "130 interrupted.")
+    ap.add_argument("--with-weight", action="store_true",
+                    help="the weight from the wrist force sensor as a second feature")
+    ap.add_argument("--containers", type=pos_int, default=4, metavar="N",
+                    help=f"roll the first N containers of the list "
+                         f"({', '.join(LIQUID_CONTAINERS)}; default 4, all "
+                         f"{len(LIQUID_CONTAINERS)} for the full experiment)")
+    ap.add_argument("--names", type=name_list(list(LIQUID_CONTAINERS)), default=None,
+                    help="comma-separated container names instead of --containers")
+    ap.add_argument("--trials", type=pos_int, default=5,
+                    help="trials per container (default 5, as the thesis)")
+    ap.add_argument("--no-dummy", action="store_true", help="leave out the rigid dummy")
+    ap.add_argument("--roll-cycles", type=pos_float, default=2.0,
+                    help="roll cycles per trial at 0.6 Hz (default 2)")
+    ap.add_argument("--folds", type=pos_int, default=10, help="CV folds (default 10)")
+    ap.add_argument("--seed", type=nonneg_int, default=0, help="seed of the trials and folds")
+    ap.add_argument("--plot", metavar="FILE", default=None,
+                    help="write Fig. 7.11 and the per-container features as an image")
+    ap.add_argument("--meshcat", action="store_true",
+                    help="also show one roll (the first container) live in Meshcat")
+    ap.add_argument("--html-out", metavar="FILE", default=None,
+                    help="also record one roll (the first container) as Meshcat HTML")
+    ap.add_argument("--progress", action="store_true", help="progress bar of the trials")
+    add_sweep_args(ap, app="liquid_detection")
+    ap.add_argument("--json", action="store_true", help="print results as one JSON object")
+    args = ap.parse_args(argv)
+    try:
+        if args.names is not None:
+            names = tuple(args.names)
+        else:
+            if args.containers > len(LIQUID_CONTAINERS):
+                raise UsageError(f"--containers: at most {len(LIQUID_CONTAINERS)}, got "
+                                 f"{args.containers}")
+            names = tuple(list(LIQUID_CONTAINERS)[:args.containers])
+        cfg = LiquidDetectionConfig(
+            containers=names, trials=args.trials, dummy=not args.no_dummy,
+            with_weight=args.with_weight, roll_cycles=args.roll_cycles, folds=args.folds,
+            seed=args.seed, plot=args.plot, progress=args.progress)
+        check_out_file("--plot", args.plot)
+        check_out_file("--html-out", args.html_out)
+        if args.report_only:
+            if args.meshcat or args.html_out:
+                raise UsageError("--meshcat / --html-out simulate a roll; --report-only "
+                                 "simulates nothing")
+            lines = report_lines(args.report_only)
+        else:
+            sw = sweep_kwargs(args, app="liquid_detection")
+            cfg.results, cfg.executor, cfg.jobs = sw["results"], sw["executor"], sw["jobs"]
+            cfg.ray_address = sw["ray_address"]
+            _check(cfg)
+    except (UsageError, ValueError) as e:
+        return fail(ap.prog, str(e))
+    try:
+        if args.meshcat or args.html_out:
+            from mmlearn.apps._common import finish_viewing, make_meshcat
+
+            mc = make_meshcat(announce=args.meshcat)
+            _show_one(cfg.containers[0], seed=cfg.seed, meshcat=mc, html_out=args.html_out)
+        if args.report_only:
+            res = report(lines, cfg)
+            if args.plot:
+                plot_report(lines, res, args.plot)
+            res = json_clean(res)
+            res["sweep"] = {"results_file": args.report_only, "report_only": True}
+        else:
+            res = run(config=cfg)
+    except ValueError as e:
+        return fail(ap.prog, str(e))
+    if args.json:
+        print(json.dumps(res, indent=1))
+    else:
+        print(format_report(res))
+        if args.plot:
+            print(f"plot written to {args.plot}")
+    if args.meshcat or args.html_out:
+        finish_viewing(html_out=args.html_out, live=args.meshcat)
+    return exit_status(ap.prog, res)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
