@@ -21,7 +21,8 @@ C4.5) is scored by stratified 10-fold cross-validation on liquid / no liquid.
 Containers (``--containers N`` takes the first N of
 :data:`~mmlearn.diagrams.liquid_roll.LIQUID_CONTAINERS`, default 4: the Odwalla and water
 bottles half full and empty; all 11: the full experiment) and, unless ``--no-dummy``, the
-heavy rigid dummy (0.25 kg, about a half-full bottle): it is left out of the
+heavy rigid dummy (a rigid 0.2-0.3 kg weight in an Odwalla shell: the
+weight and walls of a half-full bottle, nothing that sloshes): it is left out of the
 cross-validation as in the thesis (Table 7.5 counts 136 container trials) and classified by
 the tree trained on all container trials (``dummy``: its feature and how it was classified:
 "no_liquid" is the correct answer).
@@ -76,7 +77,7 @@ class LiquidDetectionConfig:
     """
 
     containers: tuple = ("odwalla_half", "odwalla_empty", "water_half", "water_empty")
-    trials: int = 5
+    trials: int = 3
     dummy: bool = True
     with_weight: bool = False
     roll_cycles: float = 2.0
@@ -319,8 +320,8 @@ def main(argv=None) -> int:
                          f"{len(LIQUID_CONTAINERS)} for the full experiment)")
     ap.add_argument("--names", type=name_list(list(LIQUID_CONTAINERS)), default=None,
                     help="comma-separated container names instead of --containers")
-    ap.add_argument("--trials", type=pos_int, default=5,
-                    help="trials per container (default 5, as the thesis)")
+    ap.add_argument("--trials", type=pos_int, default=3,
+                    help="trials per container (default 3; the thesis had 5)")
     ap.add_argument("--no-dummy", action="store_true", help="leave out the rigid dummy")
     ap.add_argument("--roll-cycles", type=pos_float, default=2.0,
                     help="roll cycles per trial at 0.6 Hz (default 2)")

@@ -103,7 +103,7 @@ class LiquidRollConfig:
     lift: float = 0.03
     lift_time: float = 0.4
     t_roll: float = 1.9
-    roll_amplitude: float = 0.35
+    roll_amplitude: float = 0.7
     roll_hz: float = 0.6
     roll_cycles: float = 2.0
     reversal_time: float = 0.0
@@ -366,11 +366,12 @@ LIQUID_CONTAINERS = {
 def dummy_instance(rng: np.random.Generator, *, mass: float | None = None) -> ContainerInstance:
     """The heavy rigid dummy: an Odwalla-sized rigid cylinder (stiff walls, nothing inside)
     of ``mass`` kg (default: drawn uniformly in 0.2-0.3 kg, about a half-full container)."""
-    inst = sample_container("odwalla", "empty_closed", rng)
+    inst = sample_container("odwalla", "full_closed", rng, fill=0.5)
     if mass is None:
         mass = float(rng.uniform(0.2, 0.3))
-    return replace(inst, name="dummy", state="rigid", k=2.0e5, c=50.0, mass=float(mass),
-                   slosh_mass=0.0, slosh_k=0.0, slosh_c=0.0)
+    return replace(inst, name="dummy", state="rigid", fill=0.0, mass=float(mass),
+                   wall_mass=CONTAINER_CLASSES["odwalla"].wall_mass, slosh_mass=0.0,
+                   slosh_k=0.0, slosh_c=0.0)
 
 
 def make_instance(label: str, rng: np.random.Generator) -> ContainerInstance:
