@@ -149,18 +149,18 @@ class LiquidRollConfig:
 def roll_trajectory(c: LiquidRollConfig) -> PiecewisePolynomial:
     """The roll angle (rad) over time: 0 until ``t_roll``, then a triangle wave of
     amplitude ``roll_amplitude`` and frequency ``roll_hz`` (starting towards +angle; constant
-    roll rate, each reversal a constant deceleration over ``reversal_time`` s, 0: abrupt),
-    back to 0 at the end."""
+    roll rate, each reversal a constant deceleration over ``reversal_time`` s peaking at the
+    amplitude, 0: abrupt), back to 0 at the end."""
     quarter = 0.25 / c.roll_hz
     n = int(round(4 * c.roll_cycles))
-    w = c.roll_amplitude / quarter  # roll rate, rad/s
     tau = min(c.reversal_time, quarter)
+    w = c.roll_amplitude / (quarter - tau / 4)  # roll rate between reversals, rad/s
     pattern = (1.0, 0.0, -1.0, 0.0)
     ts, qs, vs = [0.0, c.t_roll], [0.0, 0.0], [0.0, 0.0]
     if tau > 0:  # blend into the first ramp
         ts[-1] = c.t_roll - tau / 2
         ts.append(c.t_roll + tau / 2)
-        qs.append(w * tau / 4)
+        qs.append(w * tau / 2)
         vs.append(w)
     else:
         vs[-1] = w
