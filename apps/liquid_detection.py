@@ -153,6 +153,14 @@ def record_features(rec: dict):
                       container=str(rec["container"]))
 
 
+def _cell_saturation_force() -> float:
+    """Force on one PR2-like taxel cell at saturation, N (multiply the feature by it to
+    compare with Table 7.4's newtons)."""
+    from mmlearn.models.tactile_pad import PAD_PR2 as P
+
+    return float(P.p_sat * P.length * P.width / (P.rows * P.cols))
+
+
 def report(lines: list[dict], c: LiquidDetectionConfig) -> dict:
     """Rates, Table 7.4 and the dummy from results-file lines (a run or ``--report-only``)."""
     from mmlearn.models.liquid import evaluate_liquid, liquid_features, liquid_table
@@ -195,7 +203,9 @@ def report(lines: list[dict], c: LiquidDetectionConfig) -> dict:
     out["settings"] = {"containers": list(c.containers), "trials": c.trials,
                        "dummy": c.dummy, "roll_cycles": c.roll_cycles, "seed": c.seed,
                        "classifier": "tree (entropy)", "highpass": "Butterworth order 1, 5 Hz",
-                       "taxel_rate_hz": 24.0, "roll_hz": 0.6}
+                       "taxel_rate_hz": 24.0, "roll_hz": 0.6,
+                       "feature_unit": "normalised taxel pressure (1 = saturation)",
+                       "taxel_saturation_force_n": _cell_saturation_force()}
     return out
 
 
