@@ -9,6 +9,7 @@ from .base_localization import BaseLocalization, BaseLocalizationConfig
 from .camera_marker_sensor import CameraMarkerSensor, CameraMarkerSensorConfig
 from .depth_noise import DepthNoise
 from .epc_controller import EpcConfig, EpcController, EpcTask
+from .finger_hold import FingerPositionHold
 from .front_detector import FrontDetector
 from .front_pose import TrueFrontPose
 from .front_tracker import FrontTracker, FrontTrackerConfig, FrontTrackerState
@@ -29,6 +30,7 @@ from .tactile_sensor import PadSpec, TactileSensor
 from .wrist_force_sensor import WristForceSensor
 
 __all__ = [
+    "FingerPositionHold",
     "PadSpec",
     "TactileGraspController",
     "TactileSensor",
