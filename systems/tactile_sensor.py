@@ -70,8 +70,8 @@ class TactileSensor(LeafSystem):
     """Taxel pads on the fingers, sampled at ``rate_hz`` from hydroelastic contact.
 
     On every sample the pressure field of each hydroelastic contact surface touching a pad's
-    geometry is integrated over the pad's cells (:func:`integrate_pressure`, sub-triangle
-    quadrature so sliver faces are area-weighted correctly), normalised by the pad's
+    geometry is integrated over the pad's cells (:func:`integrate_pressure`: each face is
+    clipped exactly against the cells, so sliver faces are area-weighted correctly), normalised by the pad's
     saturation pressure, given seeded Gaussian noise (drawn from (seed, sample index), so
     two simulators of the same diagram agree) and clipped to [0, 1]. The force of each pad
     is the calibrated sum of its readings: ``sum(reading) * p_sat * cell_area`` (N).
@@ -91,8 +91,7 @@ class TactileSensor(LeafSystem):
     ``pad_force``: the normal force on each pad, N (held between samples).
     """
 
-    def __init__(self, *, pads, rate_hz: float = 25.0, noise: float = 0.01, seed: int = 0,
-                 subdiv: int = 2):
+    def __init__(self, *, pads, rate_hz: float = 25.0, noise: float = 0.01, seed: int = 0):
         super().__init__()
         pads = tuple(pads)
         if not pads:
@@ -102,7 +101,7 @@ class TactileSensor(LeafSystem):
         if not (np.isfinite(noise) and noise >= 0):
             raise ValueError(f"TactileSensor: noise must be >= 0, got {noise}")
         self._pads = pads
-        self._rate, self._noise, self._seed, self._subdiv = rate_hz, noise, int(seed), int(subdiv)
+        self._rate, self._noise, self._seed = rate_hz, noise, int(seed)
         self._sizes = [p.layout.rows * p.layout.cols for p in pads]
         self._offsets = np.concatenate([[0], np.cumsum(self._sizes)])
         self._gid = {}
@@ -169,8 +168,7 @@ class TactileSensor(LeafSystem):
             T = np.concatenate(tris[i])
             R, t = X_PW.rotation().matrix(), X_PW.translation()
             T_P = T @ R.T + t
-            out.append(integrate_pressure(pad.layout, T_P, np.concatenate(prs[i]),
-                                          subdiv=self._subdiv))
+            out.append(integrate_pressure(pad.layout, T_P, np.concatenate(prs[i])))
         return out
 
     def _update(self, context, discrete_state):
