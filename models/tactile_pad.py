@@ -142,6 +142,12 @@ def integrate_pressure(layout: PadLayout, tri_P: np.ndarray, pressure: np.ndarra
     # projected vertices in cell units: u along the columns, v along the rows
     uv = np.stack([(tri[:, :, 0] + 0.5 * layout.width) / cw,
                    (0.5 * layout.length - tri[:, :, 1]) / chh], axis=2)  # (n, 3, 2)
+    # snap coordinates within 1e-9 cells of a grid line onto it: an edge along a cell border
+    # (the border of the pad, e.g.) is then exactly on it, and the clipping below counts it
+    # once (with round-off it could be taken both as the triangle's and as the cell's edge)
+    with np.errstate(invalid="ignore"):
+        near = np.abs(uv - np.round(uv)) < 1e-9
+    uv = np.where(near, np.round(uv), uv)
     e1, e2 = uv[:, 1] - uv[:, 0], uv[:, 2] - uv[:, 0]
     det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]  # twice the signed area, cell units
     lo, hi = uv.min(axis=1), uv.max(axis=1)

@@ -113,6 +113,29 @@ def test_exact_integration_matches_fine_sampling_and_single_cell_values():
     assert cells[0, 1] == pytest.approx(0.5e5, rel=1e-12) and cells.sum() == cells[0, 1]
 
 
+def test_edges_on_cell_borders_are_counted_once():
+    """Triangles with vertices on a quarter-cell lattice (edges along cell borders and the
+    pad border, as a box pad pressed on a flat block gives): the cells carry exactly the
+    triangles' area, and no cell more than its own (an edge on a border counted twice
+    once gave a cell +60 %)."""
+    rng = np.random.default_rng(0)
+    for lay in (PAD_CH6, PAD_PR2):
+        cw, ch = lay.width / lay.cols, lay.length / lay.rows
+        for _ in range(40):
+            n = 20
+            x = rng.integers(0, 4 * lay.cols + 1, (n, 3)) / 4.0 * cw - lay.width / 2
+            y = lay.length / 2 - rng.integers(0, 4 * lay.rows + 1, (n, 3)) / 4.0 * ch
+            tri = np.stack([x, y, np.zeros_like(x)], axis=2)
+            e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+            areas = 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
+            cells = integrate_pressure(lay, tri, np.ones((n, 3)))
+            assert cells.sum() * lay.cell_area == pytest.approx(areas.sum(), rel=1e-9, abs=1e-15)
+            for j in np.flatnonzero(areas > 0)[:5]:
+                one = integrate_pressure(lay, tri[j:j + 1], np.ones((1, 3)))
+                assert one.max() <= 1.0 + 1e-9
+                assert one.sum() * lay.cell_area == pytest.approx(areas[j], rel=1e-9)
+
+
 def test_sensor_reading_saturates_and_is_seeded():
     lay = PAD_PR2
     c = np.full((lay.rows, lay.cols), 2 * lay.p_sat)
@@ -247,7 +270,9 @@ def test_tactile_state_simulation_mode_small_run(tmp_path, capsys):
 @pytest.mark.parametrize("argv, needle", [
     (["--f-target", "20", "--containers", "jar"], "--containers"),
     (["--f-target", "20", "--test", "x"], "--test applies to real-data mode only"),
-    (["--f-target", "20", "--meshcat"], "--meshcat"),
+    (["--train", "no_such_dir", "--meshcat"], "--meshcat"),
+    (["--train", "no_such_dir", "--html-out", "x.html"], "--html-out"),
+    (["--f-target", "20", "--html-out", "/no/such/dir/x.html"], "--html-out"),
 ])
 def test_tactile_state_simulation_bad_flags(argv, needle, capsys):
     from mmlearn.apps.tactile_state import main
