@@ -30,7 +30,8 @@ The run also reports the other classifier's rate (``compare``).
 **Simulation mode** (``--f-target N`` without ``--train``)::
 
     python -m mmlearn.apps.tactile_state --f-target 20 [--trials 16] [--f-sweep]
-        [--sweep-trials 24] [--classifier tree|forest] [--results FILE] [--jobs J] --seed S [--json]
+        [--sweep-trials 24] [--classifier tree|forest] [--results FILE] [--jobs J]
+        [--plot FILE] [--meshcat] [--html-out FILE] --seed S [--json]
 
 The Drake gripper (:mod:`mmlearn.diagrams.tactile_grasp`: PR2-like fingertip pads, the
 switching controller of Eq. 7.8 probing with ``f_target`` N per finger) squeezes random
@@ -44,6 +45,12 @@ state given the class}, ``combined_rate`` (all class x state labels) and
 7.2: the state rate of the Odwalla bottle at 17 / 20 / 23 N (``--sweep-trials`` grasps per
 state). Grasps run through the sweep runner (:mod:`mmlearn.apps._sweep`): ``--results``
 keeps them in a JSON Lines file so a rerun resumes.
+``--plot FILE`` draws the grasp profiles p / v / f of one grasp per state of the first
+container class (Fig. 7.3), the force on a rigid block with the switching controller and
+with pure force control (Fig. 7.5 vs 7.6) and the two taxel images of one more grasp at its
+peak force; ``--meshcat`` shows that grasp live (scene and taxel pads coloured by pressure,
+:class:`~mmlearn.systems.taxel_visualizer.TaxelPadVisualizer`) and ``--html-out FILE``
+writes its recording as standalone HTML. The JSON then has ``demo_grasp``.
 
 Exit status: 0 success, 2 bad input (unreadable or malformed files name the file and line,
 unknown labels, missing folders, test classes absent from training).
@@ -92,7 +99,8 @@ class TactileStateConfig:
         contact_level: contact threshold F on a finger's highest taxel pressure, counts.
         rest_velocity: rest threshold V on the closure rate, rad per slice.
         steady_average: steady-phase means instead of single samples for p/f_steady.
-        plot: image file for the confusion matrix and profiles, or None.
+        plot: image file for the confusion matrix and profiles (real data) or the grasp
+            profiles, impact and tactile images (simulation), or None.
         f_target: simulation mode (with ``train`` empty): probing force per finger, N.
         trials: simulation: grasps per (container, state).
         f_sweep: simulation: add the Odwalla f_target sweep 17 / 20 / 23 N (Table 7.2).

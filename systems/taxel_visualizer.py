@@ -31,8 +31,8 @@ class TaxelPadVisualizer(LeafSystem):
 
     Publishes at ``period`` (the sensor's rate); if Meshcat is recording (``StartRecording``,
     e.g. by a ``MeshcatVisualizer``), the pad poses, colours and bar heights go into the
-    recording as well (keyed at the context time). Draws nothing for a ``taxels`` vector of
-    the wrong size (a warning-free no-op; a running simulation never stops for a display).
+    recording as well (keyed at the context time). NaN readings are drawn as 0 and values
+    outside [0, 1] clipped, so a bad reading never stops a running simulation.
 
     .. pydrake_system::
 

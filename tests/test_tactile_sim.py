@@ -134,6 +134,16 @@ def test_edges_on_cell_borders_are_counted_once():
                 one = integrate_pressure(lay, tri[j:j + 1], np.ones((1, 3)))
                 assert one.max() <= 1.0 + 1e-9
                 assert one.sum() * lay.cell_area == pytest.approx(areas[j], rel=1e-9)
+    # a sliver of a real contact surface (PR2 pad on a flat block) whose long edge lies on
+    # the pad border to round-off (x = 0.009 and 0.008999999999999998): its force is tiny
+    tri = np.array([[[0.008962716696934603, -0.000755260036321509, -3.73e-05],
+                     [0.009, -0.0007999999999999952, -3.73e-05],
+                     [0.008999999999999998, -0.01472037522700953, -3.73e-05]]])
+    p = np.array([[18641.651532698423, 0.0, 9.313225746154785e-10]])
+    e1, e2 = tri[0, 1] - tri[0, 0], tri[0, 2] - tri[0, 0]
+    force = 0.5 * abs(e1[0] * e2[1] - e1[1] * e2[0]) * p.mean()  # 1.6 mN
+    got = integrate_pressure(PAD_PR2, tri, p).sum() * PAD_PR2.cell_area
+    assert got == pytest.approx(force, rel=1e-6)
 
 
 def test_sensor_reading_saturates_and_is_seeded():
@@ -252,11 +262,17 @@ def test_tactile_state_simulation_mode_small_run(tmp_path, capsys):
     from mmlearn.apps.tactile_state import main
 
     res = tmp_path / "grasps.jsonl"
+    png, html = tmp_path / "sim.png", tmp_path / "grasp.html"
     rc = main(["--f-target", "20", "--containers", "can", "--trials", "2", "--folds", "2",
-               "--jobs", "1", "--results", str(res), "--seed", "3", "--json"])
+               "--jobs", "1", "--results", str(res), "--seed", "3", "--json",
+               "--plot", str(png), "--html-out", str(html)])
     out, err = capsys.readouterr()
     assert rc == 0, err
     d = json.loads(out)
+    # the plot (profiles, impact, tactile images) and the Meshcat recording of one grasp
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 20_000
+    assert html.read_text().lstrip().lower().startswith("<!doctype html")
+    assert d["demo_grasp"]["container"] == "can" and d["demo_grasp"]["f_max_N"] > 20.0
     assert d["mode"] == "simulation" and d["n_grasps"] == 6 and d["no_contact"] == 0
     assert set(d["state_rate_by_container"]) == {"can"}
     assert 0.0 <= d["state_rate_by_container"]["can"] <= 1.0
@@ -295,3 +311,59 @@ def test_wrist_force_sensor_sees_the_fingers_weight():
     f = w.get_force_output_port().Eval(w.GetMyContextFromRoot(sim.get_context()))
     # the two fingers (cfg.gripper.finger_mass each) hang on the palm
     assert f[2] == pytest.approx(-2 * cfg.gripper.finger_mass * 9.81, abs=0.2)
+
+
+class _FakeMeshcat:
+    """Records the calls a visualiser makes."""
+
+    def __init__(self):
+        self.objects, self.transforms, self.props = {}, {}, {}
+
+    def SetObject(self, path, shape, rgba):
+        self.objects[path] = (shape, rgba)
+
+    def SetTransform(self, path, X, time_in_recording=None):
+        self.transforms[path] = (X, time_in_recording)
+
+    def SetProperty(self, path, prop, value, time_in_recording=None):
+        self.props[(path, prop)] = (value, time_in_recording)
+
+
+def test_taxel_visualizer_colours_cells_by_reading_at_the_pad():
+    from pydrake.math import RigidTransform
+
+    from mmlearn.systems.taxel_visualizer import TaxelPadVisualizer, taxel_colors
+    from mmlearn.systems.tactile_sensor import PadSpec
+
+    assert np.allclose(taxel_colors([0.0, 1.0, np.nan])[:, :3],
+                       [[0, 0, 0.5], [0.5, 0, 0], [0, 0, 0.5]])
+    lay = PAD_PR2
+    pads = [PadSpec("left", lay, 1, RigidTransform([0.0, 0.0, 0.1]), ()),
+            PadSpec("right", lay, 1, RigidTransform([0.0, 0.0, -0.1]), ())]
+    mc = _FakeMeshcat()
+    vis = TaxelPadVisualizer(meshcat=mc, pads=pads, display_depth=0.01, bar_height=0.004)
+    assert len(mc.objects) == 2 * lay.rows * lay.cols
+    ctx = vis.CreateDefaultContext()
+    x = np.zeros(2 * lay.rows * lay.cols)
+    x[0] = 1.0  # left pad, row 0 (fingertip), column 0 saturated
+    x[lay.rows * lay.cols + 7] = 0.5
+    vis.get_taxels_input_port().FixValue(ctx, x)
+    vis.get_body_poses_input_port().FixValue(ctx, [RigidTransform(), RigidTransform([1.0, 0, 0])])
+    ctx.SetTime(0.4)
+    vis.ForcedPublish(ctx)
+    X, t = mc.transforms["taxels/left"]
+    assert t == 0.4 and np.allclose(X.translation(), [1.0, 0.0, 0.09])  # body, pad, -depth
+    hot, t = mc.props[("taxels/left/r00c00", "color")]
+    assert np.allclose(hot, [0.5, 0.0, 0.0, 1.0]) and t == 0.4
+    assert np.allclose(mc.props[("taxels/left/r00c01", "color")][0], [0, 0, 0.5, 1])
+    assert mc.props[("taxels/left/r00c00", "scale")][0][2] == pytest.approx(0.004)
+    X0 = mc.transforms["taxels/left/r00c00"][0].translation()  # cell centre in the pad
+    assert np.allclose(X0[:2], [-lay.width / 2 + lay.width / 6, lay.length / 2 - lay.length / 10])
+    r, c = divmod(7, lay.cols)
+    mid = mc.props[(f"taxels/right/r{r:02d}c{c:02d}", "color")][0]
+    assert np.allclose(mid[:3], [0.5, 1.0, 0.5])
+    # a wrong-sized vector is refused at the port, not inside the running display
+    with pytest.raises(Exception):
+        vis.get_taxels_input_port().FixValue(ctx, np.zeros(3))
+    with pytest.raises(ValueError, match="no pads"):
+        TaxelPadVisualizer(meshcat=mc, pads=[])
