@@ -27,6 +27,7 @@ from functools import lru_cache
 import numpy as np
 
 __all__ = ["PadLayout", "PAD_CH6", "PAD_PR2", "subdivision_points", "integrate_pressure",
+           "integrate_pressure_pads",
            "sensor_reading"]
 
 
@@ -127,14 +128,32 @@ def integrate_pressure(layout: PadLayout, tri_P: np.ndarray, pressure: np.ndarra
         area projected onto the pad plane) divided by the cell area. Faces with a NaN or
         infinite vertex or pressure are skipped.
     """
-    tri = np.asarray(tri_P, dtype=float).reshape(-1, 3, 3)
-    pr = np.asarray(pressure, dtype=float).reshape(-1, 3)
+    return integrate_pressure_pads(layout, [tri_P], [pressure], max_gap=max_gap)[0]
+
+
+def integrate_pressure_pads(layout: PadLayout, tris, pressures, *,
+                            max_gap: float = 0.005) -> np.ndarray:
+    """:func:`integrate_pressure` for several pads of the same layout in one vectorised
+    pass (one numpy pass instead of one per pad: the arrays are small, so the per-call
+    cost dominates). ``tris[i]`` (n_i, 3, 3) and ``pressures[i]`` (n_i, 3) belong to pad i,
+    in that pad's frame. Returns (n_pads, rows, cols) mean pressures, Pa."""
     R, C = layout.rows, layout.cols
-    out = np.zeros(R * C)
-    if tri.shape[0] == 0:
-        return out.reshape(R, C)
-    if pr.shape[0] != tri.shape[0]:
-        raise ValueError(f"pressure: expected {tri.shape[0]} x 3 values, got {pr.shape}")
+    n_pads = len(tris)
+    if len(pressures) != n_pads:
+        raise ValueError(f"pressures: expected {n_pads} arrays (one per pad), got {len(pressures)}")
+    tl, pl, kl = [], [], []
+    for i, (t_, p_) in enumerate(zip(tris, pressures)):
+        t_ = np.asarray(t_, dtype=float).reshape(-1, 3, 3)
+        p_ = np.asarray(p_, dtype=float).reshape(-1, 3)
+        if p_.shape[0] != t_.shape[0]:
+            raise ValueError(f"pressure: expected {t_.shape[0]} x 3 values, got {p_.shape}")
+        tl.append(t_)
+        pl.append(p_)
+        kl.append(np.full(t_.shape[0], i))
+    out = np.zeros(n_pads * R * C)
+    if n_pads == 0 or sum(t_.shape[0] for t_ in tl) == 0:
+        return out.reshape(n_pads, R, C)
+    tri, pr, pad = np.concatenate(tl), np.concatenate(pl), np.concatenate(kl)
     cw, chh = layout.width / C, layout.length / R
     with np.errstate(invalid="ignore"):
         ok = np.isfinite(tri).all(axis=(1, 2)) & np.isfinite(pr).all(axis=1)
@@ -155,8 +174,9 @@ def integrate_pressure(layout: PadLayout, tri_P: np.ndarray, pressure: np.ndarra
         ok &= ((np.abs(det) > 1e-12) & (hi[:, 0] > 0) & (lo[:, 0] < C) & (hi[:, 1] > 0)
                & (lo[:, 1] < R))
     if not ok.any():
-        return out.reshape(R, C)
+        return out.reshape(n_pads, R, C)
     uv, pr, det, lo, hi = uv[ok], np.maximum(pr[ok], 0.0), det[ok], lo[ok], hi[ok]
+    pad = pad[ok]
     e1, e2 = e1[ok], e2[ok]
     # pressure as an affine function of (u, v): p = p_0 + g . (x - uv_0)
     dp1, dp2 = pr[:, 1] - pr[:, 0], pr[:, 2] - pr[:, 0]
@@ -221,8 +241,8 @@ def integrate_pressure(layout: PadLayout, tri_P: np.ndarray, pressure: np.ndarra
     cen = (Ma + Mb) / (3.0 * A2s[:, None]) + corner  # centroid, cell units
     p_c = pr[tid, 0] + np.einsum("ij,ij->i", g[tid], cen - uv[tid, 0])
     force = np.where(keep, 0.5 * A2 * np.maximum(p_c, 0.0), 0.0) * (cw * chh)  # N
-    out += np.bincount(row * C + col, weights=force, minlength=out.size)
-    return (out / layout.cell_area).reshape(R, C)
+    out += np.bincount((pad[tid] * R + row) * C + col, weights=force, minlength=out.size)
+    return (out / layout.cell_area).reshape(n_pads, R, C)
 
 
 def sensor_reading(layout: PadLayout, cell_pressure: np.ndarray, *, rng: np.random.Generator,

@@ -11,7 +11,7 @@ from pydrake.math import RigidTransform
 from pydrake.multibody.plant import ContactResults
 from pydrake.systems.framework import LeafSystem
 
-from mmlearn.models.tactile_pad import PadLayout, integrate_pressure, sensor_reading
+from mmlearn.models.tactile_pad import PadLayout, integrate_pressure_pads, sensor_reading
 
 __all__ = ["PadSpec", "TactileSensor", "surface_triangles"]
 
@@ -158,17 +158,26 @@ class TactileSensor(LeafSystem):
             T, P = surface_triangles(s)
             tris[i].append(T)
             prs[i].append(P)
-        out = []
+        # pads of the same layout are integrated in one vectorised pass
+        out = [None] * len(self._pads)
+        groups = {}
         for i, pad in enumerate(self._pads):
-            if not tris[i]:
-                out.append(np.zeros((pad.layout.rows, pad.layout.cols)))
-                continue
-            X_WP = poses[pad.body_index] @ pad.X_BP
-            X_PW = X_WP.inverse()
-            T = np.concatenate(tris[i])
-            R, t = X_PW.rotation().matrix(), X_PW.translation()
-            T_P = T @ R.T + t
-            out.append(integrate_pressure(pad.layout, T_P, np.concatenate(prs[i])))
+            groups.setdefault(pad.layout, []).append(i)
+        for layout, idx in groups.items():
+            T_P, P_P = [], []
+            for i in idx:
+                pad = self._pads[i]
+                if not tris[i]:
+                    T_P.append(np.zeros((0, 3, 3)))
+                    P_P.append(np.zeros((0, 3)))
+                    continue
+                X_PW = (poses[pad.body_index] @ pad.X_BP).inverse()
+                R, t = X_PW.rotation().matrix(), X_PW.translation()
+                T_P.append(np.concatenate(tris[i]) @ R.T + t)
+                P_P.append(np.concatenate(prs[i]))
+            cells = integrate_pressure_pads(layout, T_P, P_P)
+            for k, i in enumerate(idx):
+                out[i] = cells[k]
         return out
 
     def _update(self, context, discrete_state):

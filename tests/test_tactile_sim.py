@@ -7,7 +7,8 @@ from conftest import run_main
 
 from mmlearn.models.containers import (CONTAINER_CLASSES, sample_container, states_of)
 from mmlearn.models.tactile_pad import (PAD_CH6, PAD_PR2, PadLayout, integrate_pressure,
-                                        sensor_reading, subdivision_points)
+                                        integrate_pressure_pads, sensor_reading,
+                                        subdivision_points)
 
 
 # ------------------------------------------------------------------ pad integration (numpy)
@@ -92,6 +93,11 @@ def test_exact_integration_matches_fine_sampling_and_single_cell_values():
                           minlength=lay.rows * lay.cols).reshape(lay.rows, lay.cols)
         ref /= lay.cell_area
         assert np.abs(got - ref).max() < 2e-3 * ref.max()
+        # several pads in one pass give each pad's own result
+        both = integrate_pressure_pads(lay, [tri, tri[:0], tri[::2]], [p, p[:0], p[::2]])
+        assert both.shape == (3, lay.rows, lay.cols)
+        assert np.allclose(both[0], got) and not both[1].any()
+        assert np.allclose(both[2], integrate_pressure(lay, tri[::2], p[::2]))
     # uniform pressure on slivers: every cell exactly (the sampling method was 6 % off)
     for lay in (PAD_CH6, PAD_PR2):
         tri = _sliver_fan(lay)
