@@ -53,16 +53,17 @@ def surface_triangles(surface) -> tuple[np.ndarray, np.ndarray]:
     nv = mesh.num_vertices()
     V = np.array([mesh.vertex(i) for i in range(nv)]).reshape(nv, 3)
     p = np.array([field.EvaluateAtVertex(i) for i in range(nv)])
-    data = mesh.face_data()
-    tris = []
-    k = 0
+    data = np.asarray(mesh.face_data(), dtype=int)  # n, i_1 .. i_n, n, ...
+    starts, k = [], 0
     while k < len(data):
-        n = data[k]
-        idx = data[k + 1:k + 1 + n]
-        for j in range(1, n - 1):
-            tris.append((idx[0], idx[j], idx[j + 1]))
-        k += n + 1
-    F = np.array(tris, dtype=int).reshape(-1, 3)
+        starts.append(k)
+        k += int(data[k]) + 1
+    starts = np.array(starts, dtype=int)
+    ntri = np.maximum(data[starts] - 2, 0)  # fan of each polygon
+    fid = np.repeat(np.arange(len(starts)), ntri)
+    j = np.arange(int(ntri.sum())) - np.repeat(np.cumsum(ntri) - ntri, ntri) + 1
+    base = starts[fid] + 1
+    F = np.column_stack([data[base], data[base + j], data[base + j + 1]]).reshape(-1, 3)
     return V[F], p[F]
 
 
