@@ -277,7 +277,15 @@ def test_tactile_state_simulation_mode_small_run(tmp_path, capsys):
     d = json.loads(out)
     # the plot (profiles, impact, tactile images) and the Meshcat recording of one grasp
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 20_000
-    assert html.read_text().lstrip().lower().startswith("<!doctype html")
+    text = html.read_text()
+    assert text.lstrip().lower().startswith("<!doctype html")
+    import base64
+    import re
+
+    msgs = [base64.b64decode(m) for m in re.findall(r'base64,([A-Za-z0-9+/=]+)"', text)]
+    anim = [m for m in msgs if b"set_animation" in m]
+    # the recording animates the taxel cells (colour and height) along with the scene
+    assert anim and b"taxels/left/r00c00" in anim[0] and b"scale" in anim[0]
     assert d["demo_grasp"]["container"] == "can" and d["demo_grasp"]["f_max_N"] > 20.0
     assert d["mode"] == "simulation" and d["n_grasps"] == 6 and d["no_contact"] == 0
     assert set(d["state_rate_by_container"]) == {"can"}
