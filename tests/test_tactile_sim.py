@@ -287,6 +287,8 @@ def test_tactile_state_simulation_mode_small_run(tmp_path, capsys):
     # the recording animates the taxel cells (colour and height) along with the scene
     assert anim and b"taxels/left/r00c00" in anim[0] and b"scale" in anim[0]
     assert d["demo_grasp"]["container"] == "can" and d["demo_grasp"]["f_max_N"] > 20.0
+    peaks = d["demo_grasp"]["impact_peak_N"]  # Fig. 7.5 vs 7.6 at 10 N
+    assert peaks["switching"] < 10.5 < 12.0 < peaks["force"], peaks
     assert d["mode"] == "simulation" and d["n_grasps"] == 6 and d["no_contact"] == 0
     assert set(d["state_rate_by_container"]) == {"can"}
     assert 0.0 <= d["state_rate_by_container"]["can"] <= 1.0
