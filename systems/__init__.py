@@ -26,12 +26,14 @@ from .schema_learner import SchemaLearner, SchemaLearnerConfig, SchemaLearnerSta
 from .schema_visualizer import SchemaVisualizer
 from .tactile_grasp_controller import TactileGraspController
 from .tactile_sensor import PadSpec, TactileSensor
+from .taxel_visualizer import TaxelPadVisualizer
 from .wrist_force_sensor import WristForceSensor
 
 __all__ = [
     "PadSpec",
     "TactileGraspController",
     "TactileSensor",
+    "TaxelPadVisualizer",
     "ArticulationEstimator",
     "BaseLocalization",
     "BaseLocalizationConfig",
