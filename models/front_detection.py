@@ -342,11 +342,16 @@ def find_planes(pts: np.ndarray, grid_rc: np.ndarray, grid_shape, cfg: FrontDete
             break
         inl = _largest_region(idx[dist[:, best] <= Li[:, 0]], grid_rc, grid_shape)
         n, d = nrm[best], float(dd[best])
-        for _ in range(2):  # least-squares refinement on the inliers, then re-select them
+        # least-squares refinement on the inliers, then re-select them; the second round on
+        # those within L / 2 (a drawer's sides, seen from above, span the few cm between its
+        # front and the cabinet face: with them the face's plane tilts towards the front and
+        # then takes the front's points out of the pool)
+        for shrink in (1.0, 0.5, 1.0):
             if len(inl) < 3:
                 break
             n, d = _fit_plane(pts[inl])
-            inl = _largest_region(idx[np.abs(pts[idx] @ n + d) <= Lp[idx]], grid_rc, grid_shape)
+            inl = _largest_region(idx[np.abs(pts[idx] @ n + d) <= shrink * Lp[idx]], grid_rc,
+                                  grid_shape)
         # The plane is its largest connected region of inliers (on the sample grid): other
         # surfaces crossing the infinite plane stay in the pool. The region's points within
         # removal_factor x L (so that the noise tails of a far plane do not come back as a
