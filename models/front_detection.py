@@ -108,8 +108,10 @@ class FrontDetectorConfig:
         ransac_local_radius_px: the 2nd and 3rd point of a hypothesis lie within this many
             pixels of the first (a box in rows and columns), px.
         max_planes: at most this many planes per frame.
-        removal_factor: sampled points within this many L of an extracted plane leave the
-            pool of points later planes are drawn from, unitless (>= 1).
+        removal_factor: sampled points within L + (removal_factor - 1) x
+            inlier_distance_per_m2 x z^2 of an extracted plane (connected to it) leave the
+            pool of points later planes are drawn from: the noise tails of a far plane,
+            unitless (>= 1).
         min_plane_points: a plane needs at least this many inliers among the sampled pixels.
         max_depth: pixels farther than this are not used to find planes, m.
         crossing_angle_deg: where two planes at more than this angle cross, a pixel within L of
@@ -292,6 +294,9 @@ def find_planes(pts: np.ndarray, grid_rc: np.ndarray, grid_shape, cfg: FrontDete
     are ``grid_rc`` (m, 2) in a grid of ``grid_shape``; returns up to ``cfg.max_planes``
     planes."""
     Lp = np.maximum(cfg.inlier_distance, cfg.inlier_distance_per_m2 * pts[:, 2] ** 2)
+    # removal band: L plus (removal_factor - 1) times the noise part of L (a fixed multiple
+    # of L would also take a front standing 2 cm proud of its carcass, L = 0.01-0.015 m)
+    Lr = Lp + (cfg.removal_factor - 1.0) * cfg.inlier_distance_per_m2 * pts[:, 2] ** 2
     m = len(pts)
     planes: list[Plane] = []
     if m < max(3, cfg.min_plane_points):
@@ -354,15 +359,18 @@ def find_planes(pts: np.ndarray, grid_rc: np.ndarray, grid_shape, cfg: FrontDete
                                   grid_shape)
         # The plane is its largest connected region of inliers (on the sample grid): other
         # surfaces crossing the infinite plane stay in the pool. The region's points within
-        # removal_factor x L (so that the noise tails of a far plane do not come back as a
+        # the removal band Lr (so that the noise tails of a far plane do not come back as a
         # second copy of it) leave the pool of sampling points.
-        loose = idx[np.abs(pts[idx] @ n + d) <= cfg.removal_factor * Lp[idx]]
+        loose = idx[np.abs(pts[idx] @ n + d) <= Lr[idx]]
         active[_regions_touching(loose, inl, grid_rc, grid_shape)] = False
         active[inl] = False
         if len(inl) < cfg.min_plane_points:
             continue
         Lq = max(cfg.inlier_distance, cfg.inlier_distance_per_m2 * d * d)
-        dup = any(abs(q.n @ n) > math.cos(math.radians(5.0)) and abs(q.d - d) < 2 * Lq
+        # a copy: (nearly) the same normal and its inliers' centroid within L of an earlier
+        # plane (a front standing 2 cm proud of its carcass, L = 0.01 m, is not a copy)
+        cen = pts[inl].mean(axis=0)
+        dup = any(abs(q.n @ n) > math.cos(math.radians(5.0)) and abs(q.n @ cen + q.d) < Lq
                   for q in planes)
         if dup:  # masks cover every pixel of a plane: a second copy adds nothing
             continue
@@ -536,24 +544,33 @@ def _label_images(d, valid, ray_x, ray_y, planes, L, crossing_angle_deg,
         lab = cv2.compare(S[k], negL, cv2.CMP_LT) & np.uint8(FREE)
         lab |= cv2.compare(S[k], L, cv2.CMP_GT) & np.uint8(OCCLUDED)
         lab |= unknown                                   # 3 | anything = UNKNOWN
-        if surface is not None:
-            _surface_check(lab, S[k], *surface)
         labs.append(lab)
+    _crossings(labs, S, planes, valid, crossing_angle_deg, smooth_px)
+    if surface is not None:  # after the crossings: their strips would bias the means
+        for k in range(P):
+            _surface_check(labs[k], S[k], *surface)
+    return labs
+
+
+def _crossings(labs, S, planes, valid, crossing_angle_deg, smooth_px):
+    """In place: where two crossing planes are both within L of a pixel, the pixel stays
+    in-plane only for the nearer one with the larger support (see :func:`_label_images`)."""
+    P = len(planes)
     if P < 2:
-        return labs
-    count = np.zeros(d.shape, np.uint8)
+        return
+    count = np.zeros(valid.shape, np.uint8)
     for lab in labs:
         count += lab == IN_PLANE
     shared = np.flatnonzero(count > 1)
     if len(shared) == 0:
-        return labs
+        return
     near_sh = np.array([lab.reshape(-1)[shared] == IN_PLANE for lab in labs])
     N = np.array([pl.n for pl in planes])
     sup = np.array([pl.support for pl in planes])
     crossing = ((np.abs(N @ N.T) < math.cos(math.radians(crossing_angle_deg)))
                 & (sup[None, :] >= sup[:, None]))  # [k, j]: j may take pixels from k
     if not crossing.any():
-        return labs
+        return
     # which plane is nearer is decided on distances averaged over smooth_px x smooth_px
     # measured pixels (the noise of one pixel would otherwise fray the edge along the crossing)
     A_sh = np.zeros(near_sh.shape, np.float32)
@@ -571,7 +588,6 @@ def _label_images(d, valid, ray_x, ray_y, planes, L, crossing_angle_deg,
             other |= near_sh[j] & (A_sh[j] < A_sh[k])
         flat = labs[k].reshape(-1)
         flat[shared[near_sh[k] & other]] = FREE          # in-plane -> FREE
-    return labs
 
 
 def _make_grid(k, plane: Plane, lab_img, sample_pts, K, down_C, cfg, lut) -> _Grid | None:
