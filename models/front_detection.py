@@ -514,11 +514,18 @@ def _surface_check(lab, S, Lm, win):
     face of a panel seen around its edge (a door's 19 mm edge) lies within L of the panel's
     face too, but wholly behind it, and would otherwise widen the front by up to
     thickness x tan(incidence) (measured: 2 cm at 69 deg)."""
-    inp = (lab == IN_PLANE).astype(np.float32)
+    m8 = cv2.compare(lab, IN_PLANE, cv2.CMP_EQ)
+    x, y, w, h = cv2.boundingRect(m8)  # work on the in-plane pixels' bounding box only
+    if w == 0 or h == 0:
+        return
+    r = win // 2
+    y0, y1, x0, x1 = max(0, y - r), min(lab.shape[0], y + h + r), max(0, x - r), min(
+        lab.shape[1], x + w + r)
+    inp = (m8[y0:y1, x0:x1] > 0).astype(np.float32)
     den = cv2.boxFilter(inp, -1, (win, win), normalize=False)
-    num = cv2.boxFilter(S * inp, -1, (win, win), normalize=False)
-    bad = (inp > 0) & (np.abs(num) > Lm * np.maximum(den, np.float32(1.0)))
-    lab[bad] = UNKNOWN
+    num = cv2.boxFilter(S[y0:y1, x0:x1] * inp, -1, (win, win), normalize=False)
+    bad = (inp > 0) & (np.abs(num) > Lm[y0:y1, x0:x1] * np.maximum(den, np.float32(1.0)))
+    lab[y0:y1, x0:x1][bad] = UNKNOWN
 
 
 def _label_images(d, valid, ray_x, ray_y, planes, L, crossing_angle_deg,
