@@ -149,6 +149,10 @@ def test_bad_pose_and_config_are_clear_errors():
         detect_fronts(depth, K, np.eye(4), FrontDetectorConfig(inlier_distance=-1.0), rng=0)
     with pytest.raises(ValueError, match="prior_size"):
         detect_fronts(depth, K, np.eye(4), FrontDetectorConfig(prior_size=[0.2]), rng=0)
+    with pytest.raises(ValueError, match="surface_window_px"):
+        detect_fronts(depth, K, np.eye(4), FrontDetectorConfig(surface_window_px=4), rng=0)
+    with pytest.raises(ValueError, match="surface_distance"):
+        detect_fronts(depth, K, np.eye(4), FrontDetectorConfig(surface_distance=-0.1), rng=0)
 
 
 def test_config_loads_from_yaml_and_rejects_misspelled_keys():
