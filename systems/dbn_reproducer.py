@@ -1,0 +1,422 @@
+"""DbnReproducer: reproduce a task learned as a DBN of constraints (thesis 8.1.2) on a
+Drake arm.
+
+Every ``period`` seconds the system takes one step of the learned model (time slice k):
+
+* ``incremental`` mode (Eq. 8.17-8.26): :func:`mmlearn.models.imitation.constraint_step`
+  with the hand (tool centre point) position and its translational Jacobian computed from
+  the robot plant at the commanded configuration, the objects' last good observed
+  positions, and the obstacles;
+* ``global`` mode (Eq. 8.27-8.28): at the first step at which every object has been seen,
+  :func:`mmlearn.models.imitation.plan_global` plans the whole joint sequence; the steps
+  then follow it.
+
+The gripper follows the learned ``gripper`` constraint's mean (0 closed .. 1 open) mapped
+to the finger angle. Between two steps the command is interpolated linearly, so the
+compliant (implicit PD) arm gets a smooth reference.
+
+Bad observations never stop the simulation: a marker that is not seen, or whose pose is
+not finite, keeps its last good position; the model is not stepped until every object it
+needs has been seen once (``status`` counts the waiting steps), and a step whose
+computation fails holds the arm where it is (counted in ``status``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from pydrake.common.value import AbstractValue
+from pydrake.multibody.tree import JacobianWrtVariable
+from pydrake.systems.framework import BasicVector, EventStatus, LeafSystem
+
+from .observations import MarkerObservations
+
+MODES = ("incremental", "global")
+STATUS_FIELDS = ("steps", "waiting", "failed", "planned", "plan_seconds", "finished")
+
+
+@dataclass
+class DbnReproducerConfig:
+    """Parameters of a :class:`DbnReproducer`.
+
+    Attributes:
+        mode: "incremental" (Eq. 8.17-8.26, one step per time slice) or "global" (a plan of
+            the whole sequence at the start, Eq. 8.27-8.28).
+        period: seconds between two steps (0 = the learned model's time step).
+        settle_steps: extra steps on the model's last time slice after its end, so the hand
+            converges to the final constraint (each step moves only part of the way).
+        use_joints: use the learned joint constraints (only when the robot's and the
+            teacher's kinematics are the same; thesis 8.2.1 switches them off otherwise).
+        damping: damping factor lambda of the damped least squares (Eq. 8.19-8.20), m.
+        gain: fraction of the fused displacement applied per step (1 = the thesis' step).
+        max_joint_step: largest change of any joint per step, rad (safety bound).
+        gripper_open_angle: finger angle commanded for a learned opening of 1, rad (0 =
+            closed).
+        obstacle_alpha: desired distance kept from an obstacle, alpha of Eq. 8.25, m.
+        obstacle_beta: relative weight of obstacle constraints, beta of Eq. 8.26, m^2.
+        obstacle_range: an obstacle farther than this from the hand adds no constraint, m.
+        step_kwargs: further keyword arguments passed to ``constraint_step`` /
+            ``plan_global`` unchanged.
+    """
+
+    mode: str = "incremental"
+    period: float = 0.0
+    settle_steps: int = 15
+    use_joints: bool = False
+    damping: float = 0.05
+    gain: float = 1.0
+    max_joint_step: float = 0.25
+    gripper_open_angle: float = 0.6
+    obstacle_alpha: float = 0.15
+    obstacle_beta: float = 1e-4
+    obstacle_range: float = 0.35
+    step_kwargs: dict = field(default_factory=dict)
+
+    def validate(self) -> None:
+        if self.mode not in MODES:
+            raise ValueError(f"DbnReproducerConfig.mode must be one of {MODES}, got "
+                             f"{self.mode!r}")
+        for k in ("period", "damping", "gain", "max_joint_step", "gripper_open_angle",
+                  "obstacle_alpha", "obstacle_beta", "obstacle_range"):
+            v = getattr(self, k)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
+                raise ValueError(f"DbnReproducerConfig.{k} must be a finite number >= 0, "
+                                 f"got {v!r}")
+        if not self.gain > 0 or not self.max_joint_step > 0:
+            raise ValueError("DbnReproducerConfig: gain and max_joint_step must be > 0")
+        if not (isinstance(self.settle_steps, int) and self.settle_steps >= 0):
+            raise ValueError(f"DbnReproducerConfig.settle_steps must be an integer >= 0, "
+                             f"got {self.settle_steps!r}")
+
+
+class DbnReproducer(LeafSystem):
+    """Joint position command of an arm (and its gripper) that reproduces a learned task.
+
+    .. pydrake_system::
+
+        name: DbnReproducer
+        input_ports:
+        - robot_state
+        - observations
+        output_ports:
+        - command
+        - target_hand
+        - step
+        - status
+
+    ``robot_state`` is the robot model instance's state [q; v] (the plant's
+    ``state`` output for that instance), read at the first step (the arm starts from where
+    it is). ``observations`` is a :class:`MarkerObservations` frame of the objects' markers
+    (the ``MarkerSensor``'s output); ``object_markers`` names the marker of each object the
+    model refers to. ``command`` holds the joint position commands in the order of
+    ``arm_joints`` followed by the gripper's finger angle, rad. ``target_hand`` is the
+    fused desired hand position of the last step (world, m; NaN before the first step),
+    ``step`` the model time slice being reproduced, ``status`` the counters
+    ``STATUS_FIELDS`` (steps taken, steps spent waiting for unseen objects, failed steps,
+    1 when a global plan exists, its computing time in s, 1 when the task has ended).
+
+    Discrete state (all that changes lives in the Context): the commands at the start and
+    end of the current interpolation interval, that interval's start time, the time slice
+    index, the last good position of every object and whether it was seen, the counters,
+    and in global mode the plan.
+    """
+
+    def __init__(self, *, plant, model, arm_joints, tcp_frame, p_tcp=(0.0, 0.0, 0.0),
+                 object_markers: dict[str, str] | None = None,
+                 obstacles: dict[str, tuple] | None = None,
+                 config: DbnReproducerConfig | None = None):
+        """
+        Args:
+            plant: the finalized MultibodyPlant that holds the robot (scratch contexts of it
+                are made per step for the kinematics).
+            model: the learned :class:`~mmlearn.models.imitation_types.TaskModel`.
+            arm_joints: the arm's joint objects (or names) driven by the constraints, in
+                command order (one position each).
+            tcp_frame: the frame (or body name) that carries the tool centre point.
+            p_tcp: the tool centre point in ``tcp_frame``, m.
+            object_markers: object name (as in the model's ``obj:<name>`` constraints) ->
+                marker id in the observations (default: the same name).
+            obstacles: obstacle marker id -> (offset of the box centre from the marker in
+                the world, m (3,), box half size, m (3,)): axis-aligned boxes whose centre
+                follows the observed marker.
+            config: the reproduction parameters.
+        """
+        super().__init__()
+        cfg = config or DbnReproducerConfig()
+        cfg.validate()
+        self._cfg = cfg
+        self._plant = plant
+        self._model = model
+        self._objects = [c.split(":", 1)[1] for c in model.constraints if c.startswith("obj:")]
+        markers = dict(object_markers or {})
+        self._marker_of = {o: markers.get(o, o) for o in self._objects}
+        self._obstacles = {str(k): (np.asarray(v[0], float).reshape(3),
+                                    np.asarray(v[1], float).reshape(3))
+                           for k, v in (obstacles or {}).items()}
+        self._tracked = list(self._objects) + [o for o in self._obstacles
+                                               if o not in self._objects]
+        joints = [plant.GetJointByName(j) if isinstance(j, str) else j for j in arm_joints]
+        if not joints:
+            raise ValueError("DbnReproducer: arm_joints is empty")
+        for j in joints:
+            if j.num_positions() != 1:
+                raise ValueError(f"DbnReproducer: joint {j.name()!r} must have one position")
+        self._qidx = np.array([j.position_start() for j in joints])
+        self._lo = np.array([j.position_lower_limits()[0] for j in joints])
+        self._hi = np.array([j.position_upper_limits()[0] for j in joints])
+        self._lo = np.where(np.isfinite(self._lo), self._lo, -np.pi)
+        self._hi = np.where(np.isfinite(self._hi), self._hi, np.pi)
+        robot = joints[0].model_instance()
+        self._robot = robot
+        q_starts = sorted(plant.get_joint(j).position_start()
+                          for j in plant.GetJointIndices(robot)
+                          if plant.get_joint(j).num_positions() == 1)
+        self._local = np.array([q_starts.index(i) for i in self._qidx])
+        self._frame = (plant.GetBodyByName(tcp_frame).body_frame()
+                       if isinstance(tcp_frame, str) else tcp_frame)
+        self._p_tcp = np.asarray(p_tcp, float).reshape(3)
+        t = np.asarray(model.t, float)
+        if t.ndim != 1 or t.size < 1:
+            raise ValueError("DbnReproducer: the model has no time steps")
+        self._S = int(t.size)
+        dt = float(np.median(np.diff(t))) if t.size > 1 else 0.2
+        self._period = cfg.period if cfg.period > 0 else dt
+        self._has_gripper = "gripper" in model.constraints
+        n = len(joints)
+        self._n = n
+        m = len(self._tracked)
+        nx = plant.num_positions(robot) + plant.num_velocities(robot)
+        self._nq_robot = plant.num_positions(robot)
+        self._in_state = self.DeclareVectorInputPort("robot_state", nx)
+        self._in_obs = self.DeclareAbstractInputPort(
+            "observations", AbstractValue.Make(MarkerObservations()))
+        # discrete state groups
+        self._g_from = self.DeclareDiscreteState(n + 1)     # command at interval start
+        self._g_to = self.DeclareDiscreteState(n + 1)       # command at interval end
+        self._g_clock = self.DeclareDiscreteState(3)        # [t_start, k, started]
+        self._g_obj = self.DeclareDiscreteState(4 * max(m, 1))  # xyz + seen, per object
+        self._g_target = self.DeclareDiscreteState(3)
+        self._g_status = self.DeclareDiscreteState(len(STATUS_FIELDS))
+        self._g_plan = (self.DeclareDiscreteState(self._S * n) if cfg.mode == "global"
+                        else None)
+        self.DeclarePeriodicDiscreteUpdateEvent(self._period, 0.0, self._update)
+        deps = {self.all_state_ticket(), self.time_ticket()}
+        self._out_cmd = self.DeclareVectorOutputPort("command", BasicVector(n + 1),
+                                                     self._calc_command,
+                                                     prerequisites_of_calc=deps)
+        self._out_target = self.DeclareStateOutputPort("target_hand", self._g_target)
+        self._out_step = self.DeclareVectorOutputPort(
+            "step", BasicVector(1), lambda c, o: o.SetAtIndex(
+                0, c.get_discrete_state(self._g_clock).GetAtIndex(1)),
+            prerequisites_of_calc={self.discrete_state_ticket(self._g_clock)})
+        self._out_status = self.DeclareStateOutputPort("status", self._g_status)
+
+    # ------------------------------------------------------------------ ports
+    def get_robot_state_input_port(self):
+        return self._in_state
+
+    def get_observations_input_port(self):
+        return self._in_obs
+
+    def get_command_output_port(self):
+        return self._out_cmd
+
+    def get_target_hand_output_port(self):
+        return self._out_target
+
+    def get_status_output_port(self):
+        return self._out_status
+
+    @property
+    def period(self) -> float:
+        """Seconds between two steps."""
+        return self._period
+
+    @property
+    def duration(self) -> float:
+        """Simulated seconds the reproduction takes (model steps plus settling), s."""
+        return (self._S + self._cfg.settle_steps + 1) * self._period
+
+    def set_initial_command(self, context, q) -> None:
+        """Put the arm command (and gripper angle as the last entry) in this system's
+        ``context`` before simulating, so the output starts where the arm stands."""
+        q = np.asarray(q, float).reshape(self._n + 1)
+        context.SetDiscreteState(self._g_from, q)
+        context.SetDiscreteState(self._g_to, q)
+        context.SetDiscreteState(self._g_target, np.full(3, np.nan))
+
+    # ------------------------------------------------------------------ kinematics
+    def _kinematics(self, q):
+        """(hand position (3,), translational Jacobian (3, n)) at arm joints q, from a
+        scratch plant context made for this call."""
+        plant = self._plant
+        ctx = plant.CreateDefaultContext()
+        full = plant.GetPositions(ctx)
+        full[self._qidx] = q
+        plant.SetPositions(ctx, full)
+        p = plant.CalcPointsPositions(ctx, self._frame, self._p_tcp.reshape(3, 1),
+                                      plant.world_frame()).ravel()
+        J = plant.CalcJacobianTranslationalVelocity(
+            ctx, JacobianWrtVariable.kQDot, self._frame, self._p_tcp.reshape(3, 1),
+            plant.world_frame(), plant.world_frame())[:, self._qidx]
+        return p, J
+
+    def forward_kinematics(self, q) -> np.ndarray:
+        """Hand (tool centre point) position in the world at arm joints q, m."""
+        return self._kinematics(np.asarray(q, float))[0]
+
+    def hand_jacobian(self, q) -> np.ndarray:
+        """Translational Jacobian of the hand at arm joints q, (3, n)."""
+        return self._kinematics(np.asarray(q, float))[1]
+
+    # ------------------------------------------------------------------ observations
+    def _read_objects(self, context, obj):
+        """Update the (m, 4) rows [x, y, z, seen] with this frame's good observations."""
+        try:
+            obs = self._in_obs.Eval(context)
+        except Exception:  # noqa: BLE001 - an unconnected or bad port: nothing seen
+            return obj
+        if obs is None:
+            return obj
+        ids = list(getattr(obs, "marker_ids", []))
+        vis = np.asarray(getattr(obs, "visible", []), bool)
+        poses = getattr(obs, "poses", [])
+        for r, name in enumerate(self._tracked):
+            marker = self._marker_of.get(name, name)
+            if marker not in ids:
+                continue
+            i = ids.index(marker)
+            if i >= vis.size or i >= len(poses) or not vis[i]:
+                continue
+            try:
+                p = np.asarray(poses[i].translation(), float)
+            except Exception:  # noqa: BLE001 - not a pose: ignore the frame
+                continue
+            if p.shape == (3,) and np.all(np.isfinite(p)):
+                obj[r, :3] = p
+                obj[r, 3] = 1.0
+        return obj
+
+    def _obstacle_boxes(self, obj):
+        from mmlearn.models.imitation_types import Obstacle
+
+        out = []
+        for r, name in enumerate(self._tracked):
+            if name in self._obstacles and obj[r, 3] > 0:
+                off, half = self._obstacles[name]
+                out.append(Obstacle(centre=obj[r, :3] + off, half_size=half))
+        return out
+
+    def gripper_angle(self, k: int) -> float:
+        """Finger angle at time slice k from the learned gripper mean, rad."""
+        if not self._has_gripper:
+            return self._cfg.gripper_open_angle
+        g = float(np.asarray(self._model.mean["gripper"])[min(k, self._S - 1)].ravel()[0])
+        if not math.isfinite(g):
+            g = 1.0
+        return self._cfg.gripper_open_angle * (1.0 if g >= 0.5 else 0.0)
+
+    # ------------------------------------------------------------------ events
+    def _update(self, context, discrete_state):
+        cfg = self._cfg
+        t = context.get_time()
+        clock = context.get_discrete_state(self._g_clock).get_value().copy()
+        status = context.get_discrete_state(self._g_status).get_value().copy()
+        q_to = context.get_discrete_state(self._g_to).get_value().copy()
+        obj = context.get_discrete_state(self._g_obj).get_value().reshape(-1, 4).copy()
+        obj = self._read_objects(context, obj)
+        if clock[2] == 0:  # first step: start from the measured arm
+            x = self._in_state.Eval(context)
+            q_meas = np.asarray(x[: self._nq_robot], float)[self._local]
+            if np.all(np.isfinite(q_meas)):
+                q_to[: self._n] = q_meas
+            clock[2] = 1.0
+        q_from = q_to.copy()
+        k = int(clock[1])
+        target = context.get_discrete_state(self._g_target).get_value().copy()
+        finished = k >= self._S - 1 + cfg.settle_steps
+        needed = [r for r, name in enumerate(self._tracked) if name in self._objects]
+        if finished:
+            status[5] = 1.0
+        elif not all(obj[r, 3] > 0 for r in needed):
+            status[1] += 1
+        else:
+            ks = min(k + 1, self._S - 1)
+            objects = {name: obj[r, :3].copy() for r, name in enumerate(self._tracked)
+                       if name in self._objects}
+            try:
+                if cfg.mode == "global":
+                    q_new, target = self._global_step(context, discrete_state, ks, q_to,
+                                                      objects, obj, status)
+                else:
+                    q_new, target = self._incremental_step(ks, q_to, objects, obj)
+                q_to[: self._n] = q_new
+                q_to[self._n] = self.gripper_angle(ks)
+                clock[1] = k + 1
+                status[0] += 1
+            except Exception:  # noqa: BLE001 - a failed step holds the arm, never crashes
+                status[2] += 1
+        clock[0] = t
+        discrete_state.set_value(self._g_from, q_from)
+        discrete_state.set_value(self._g_to, q_to)
+        discrete_state.set_value(self._g_clock, clock)
+        discrete_state.set_value(self._g_obj, obj.ravel())
+        discrete_state.set_value(self._g_target, np.asarray(target, float).reshape(3))
+        discrete_state.set_value(self._g_status, status)
+        return EventStatus.Succeeded()
+
+    def _incremental_step(self, ks, q_to, objects, obj):
+        from mmlearn.models.imitation import constraint_step
+
+        cfg = self._cfg
+        q = q_to[: self._n]
+        hand, J = self._kinematics(q)
+        gripper = q_to[self._n] / max(cfg.gripper_open_angle, 1e-9)
+        kw = dict(hand=hand, objects=objects, J=J, q=q, gripper=gripper,
+                  use_joints=cfg.use_joints, damping=cfg.damping, gain=cfg.gain,
+                  obstacles=self._near(self._obstacle_boxes(obj), hand))
+        kw.update(cfg.step_kwargs)
+        res = constraint_step(self._model, ks, **kw)
+        dq = np.asarray(res.dq, float).reshape(self._n)
+        if not np.all(np.isfinite(dq)):
+            raise FloatingPointError("non-finite joint step")
+        big = np.max(np.abs(dq))
+        if big > cfg.max_joint_step:
+            dq *= cfg.max_joint_step / big
+        return np.clip(q + dq, self._lo, self._hi), np.asarray(res.target_hand, float)
+
+    def _near(self, boxes, hand):
+        rng = self._cfg.obstacle_range
+        return [b for b in boxes if float(b.signed_distance(hand)) < rng]
+
+    def _global_step(self, context, discrete_state, ks, q_to, objects, obj, status):
+        import time
+
+        from mmlearn.models.imitation import plan_global
+
+        plan = context.get_discrete_state(self._g_plan).get_value().reshape(self._S, self._n)
+        if status[3] == 0:
+            t0 = time.perf_counter()
+            kw = dict(q0=q_to[: self._n].copy(), objects=objects,
+                      fk=self.forward_kinematics, jacobian=self.hand_jacobian,
+                      obstacles=self._obstacle_boxes(obj))
+            kw.update(self._cfg.step_kwargs)
+            plan = np.asarray(plan_global(self._model, **kw), float)
+            if plan.shape != (self._S, self._n) or not np.all(np.isfinite(plan)):
+                raise ValueError(f"plan_global returned shape {plan.shape}")
+            plan = np.clip(plan, self._lo, self._hi)
+            status[3] = 1.0
+            status[4] = time.perf_counter() - t0
+            discrete_state.set_value(self._g_plan, plan.ravel())
+        q_new = plan[ks]
+        return q_new, self.forward_kinematics(q_new)
+
+    def _calc_command(self, context, output):
+        q0 = context.get_discrete_state(self._g_from).get_value()
+        q1 = context.get_discrete_state(self._g_to).get_value()
+        t0 = context.get_discrete_state(self._g_clock).GetAtIndex(0)
+        s = min(max((context.get_time() - t0) / self._period, 0.0), 1.0)
+        output.SetFromVector(q0 + s * (q1 - q0))
