@@ -106,6 +106,7 @@ class DbnReproducer(LeafSystem):
         - target_hand
         - step
         - status
+        - hand
 
     ``robot_state`` is the robot model instance's state [q; v] (the plant's
     ``state`` output for that instance), read at the first step (the arm starts from where
@@ -117,6 +118,7 @@ class DbnReproducer(LeafSystem):
     ``step`` the model time slice being reproduced, ``status`` the counters
     ``STATUS_FIELDS`` (steps taken, steps spent waiting for unseen objects, failed steps,
     1 when a global plan exists, its computing time in s, 1 when the task has ended).
+    ``hand`` is the tool centre point at the measured arm configuration (world, m).
 
     Discrete state (all that changes lives in the Context): the commands at the start and
     end of the current interpolation interval, that interval's start time, the time slice
@@ -139,9 +141,9 @@ class DbnReproducer(LeafSystem):
             p_tcp: the tool centre point in ``tcp_frame``, m.
             object_markers: object name (as in the model's ``obj:<name>`` constraints) ->
                 marker id in the observations (default: the same name).
-            obstacles: obstacle marker id -> (offset of the box centre from the marker in
-                the world, m (3,), box half size, m (3,)): axis-aligned boxes whose centre
-                follows the observed marker.
+            obstacles: obstacle marker id -> list of boxes (offset of the box centre from
+                the marker in the world, m (3,), box half size, m (3,)): axis-aligned boxes
+                that move with the observed marker (e.g. the three walls of a U).
             config: the reproduction parameters.
         """
         super().__init__()
@@ -153,8 +155,8 @@ class DbnReproducer(LeafSystem):
         self._objects = [c.split(":", 1)[1] for c in model.constraints if c.startswith("obj:")]
         markers = dict(object_markers or {})
         self._marker_of = {o: markers.get(o, o) for o in self._objects}
-        self._obstacles = {str(k): (np.asarray(v[0], float).reshape(3),
-                                    np.asarray(v[1], float).reshape(3))
+        self._obstacles = {str(k): [(np.asarray(b[0], float).reshape(3),
+                                     np.asarray(b[1], float).reshape(3)) for b in v]
                            for k, v in (obstacles or {}).items()}
         self._tracked = list(self._objects) + [o for o in self._obstacles
                                                if o not in self._objects]
@@ -213,6 +215,9 @@ class DbnReproducer(LeafSystem):
                 0, c.get_discrete_state(self._g_clock).GetAtIndex(1)),
             prerequisites_of_calc={self.discrete_state_ticket(self._g_clock)})
         self._out_status = self.DeclareStateOutputPort("status", self._g_status)
+        self._out_hand = self.DeclareVectorOutputPort(
+            "hand", BasicVector(3), self._calc_hand,
+            prerequisites_of_calc={self._in_state.ticket()})
 
     # ------------------------------------------------------------------ ports
     def get_robot_state_input_port(self):
@@ -229,6 +234,9 @@ class DbnReproducer(LeafSystem):
 
     def get_status_output_port(self):
         return self._out_status
+
+    def get_hand_output_port(self):
+        return self._out_hand
 
     @property
     def period(self) -> float:
@@ -306,8 +314,8 @@ class DbnReproducer(LeafSystem):
         out = []
         for r, name in enumerate(self._tracked):
             if name in self._obstacles and obj[r, 3] > 0:
-                off, half = self._obstacles[name]
-                out.append(Obstacle(centre=obj[r, :3] + off, half_size=half))
+                for off, half in self._obstacles[name]:
+                    out.append(Obstacle(centre=obj[r, :3] + off, half_size=half))
         return out
 
     def gripper_angle(self, k: int) -> float:
@@ -413,6 +421,11 @@ class DbnReproducer(LeafSystem):
             discrete_state.set_value(self._g_plan, plan.ravel())
         q_new = plan[ks]
         return q_new, self.forward_kinematics(q_new)
+
+    def _calc_hand(self, context, output):
+        x = self._in_state.Eval(context)
+        output.SetFromVector(self.forward_kinematics(np.asarray(x[: self._nq_robot],
+                                                                float)[self._local]))
 
     def _calc_command(self, context, output):
         q0 = context.get_discrete_state(self._g_from).get_value()
