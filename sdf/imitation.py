@@ -201,8 +201,9 @@ class ImitationSceneSpec:
     def sampled(self, seed: int | np.random.Generator, *, amplitude: float = 1.0
                 ) -> "ImitationSceneSpec":
         """A seeded variation of this layout: tables moved by up to +-0.04 m (times
-        ``amplitude``), table tops and heights +-0.02 m, cup and place spot anywhere within
-        +-0.05 m of the top centre (staying on the top), board centre +-0.03 m, target
+        ``amplitude``), table tops and heights +-0.02 m, the cup anywhere within +-0.05 m of
+        the top centre (staying on the top), the place spot +-0.01 m (a person puts the cup
+        down at much the same spot of the target table), board centre +-0.03 m, target
         +-0.04 m, obstacle +-0.02 m. The same seed gives the same layout."""
         rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
         a = float(amplitude)
@@ -217,7 +218,7 @@ class ImitationSceneSpec:
         s.table_height = float(self.table_height + u(0.02))
         lim = np.asarray(s.table_size) / 2 - self.cup_radius - 0.01
         s.cup_offset = np.clip(np.asarray(self.cup_offset) + u(0.05, 2), -lim, lim).tolist()
-        s.place_offset = np.clip(np.asarray(self.place_offset) + u(0.05, 2), -lim, lim).tolist()
+        s.place_offset = np.clip(np.asarray(self.place_offset) + u(0.01, 2), -lim, lim).tolist()
         s.board_centre = (np.asarray(self.board_centre) + u(0.03, 3)).tolist()
         s.target_position = (np.asarray(self.target_position) + u(0.04, 3)).tolist()
         s.obstacle_centre = (np.asarray(self.obstacle_centre) + u(0.02, 3)).tolist()
