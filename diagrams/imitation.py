@@ -71,7 +71,8 @@ class ImitationConfig:
         kp, kd: PD gains of the arm joints, N*m/rad and N*m*s/rad.
         kp_gripper, kd_gripper: PD gains of the fingers.
         robot_start: the arm's start configuration q1..q6, rad.
-        capture_radius: grasp capture radius, m (see GraspAttachment).
+        capture_radius: grasp capture radius around the centre of the cup's rim, m (see
+            GraspAttachment).
         grasp_stiffness: grasp spring, N/m.
     """
 
@@ -90,7 +91,7 @@ class ImitationConfig:
     kp_gripper: float = 20.0
     kd_gripper: float = 1.0
     robot_start: list[float] = field(default_factory=lambda: list(ROBOT_START))
-    capture_radius: float = 0.06
+    capture_radius: float = 0.05
     grasp_stiffness: float = 400.0
 
     def validate(self) -> None:
@@ -248,7 +249,7 @@ def MakeImitationDiagram(config: ImitationConfig | None = None, *, model, meshca
     if has_cup:
         grasp = builder.AddNamedSystem("grasp", GraspAttachment(
             plant=plant, hand_body=plant.GetBodyByName("x8", robot), p_tcp=ROBOT_TCP_IN_X8,
-            object_body="cup", p_object=(0.0, 0.0, spec.cup_height / 2),
+            object_body="cup", p_object=(0.0, 0.0, spec.cup_height),
             capture_radius=cfg.capture_radius, stiffness=cfg.grasp_stiffness,
             closed_below=0.5 * cfg.reproducer.gripper_open_angle))
         pick = builder.AddNamedSystem("gripper_command", MatrixGain(np.eye(7)[6:7]))
