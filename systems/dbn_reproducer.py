@@ -56,8 +56,15 @@ class DbnReproducerConfig:
         gripper_open_angle: finger angle commanded for a learned opening of 1, rad (0 =
             closed).
         obstacle_alpha: desired distance kept from an obstacle, alpha of Eq. 8.25, m.
-        obstacle_beta: relative weight of obstacle constraints, beta of Eq. 8.26, m^2.
+        obstacle_beta: variance of an obstacle constraint at contact, beta of Eq. 8.26, m^2
+            (smaller = stronger).
+        obstacle_length: length scale of the variance's growth with the distance (Eq. 8.26),
+            m.
         obstacle_range: an obstacle farther than this from the hand adds no constraint, m.
+        carry_radius: an object whose learned offset from the hand is shorter than this
+            while the learned gripper is closed counts as carried: its constraint is
+            skipped (it moves with the hand and holds by construction; otherwise the hand
+            would chase the lag of the object it carries), m.
         step_kwargs: further keyword arguments passed to ``constraint_step`` /
             ``plan_global`` unchanged.
     """
@@ -70,9 +77,11 @@ class DbnReproducerConfig:
     gain: float = 1.0
     max_joint_step: float = 0.25
     gripper_open_angle: float = 0.6
-    obstacle_alpha: float = 0.15
-    obstacle_beta: float = 1e-4
+    obstacle_alpha: float = 0.05
+    obstacle_beta: float = 1e-6
+    obstacle_length: float = 0.05
     obstacle_range: float = 0.35
+    carry_radius: float = 0.1
     step_kwargs: dict = field(default_factory=dict)
 
     def validate(self) -> None:
@@ -80,7 +89,8 @@ class DbnReproducerConfig:
             raise ValueError(f"DbnReproducerConfig.mode must be one of {MODES}, got "
                              f"{self.mode!r}")
         for k in ("period", "damping", "gain", "max_joint_step", "gripper_open_angle",
-                  "obstacle_alpha", "obstacle_beta", "obstacle_range"):
+                  "obstacle_alpha", "obstacle_beta", "obstacle_length", "obstacle_range",
+                  "carry_radius"):
             v = getattr(self, k)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
                 raise ValueError(f"DbnReproducerConfig.{k} must be a finite number >= 0, "
@@ -318,6 +328,17 @@ class DbnReproducer(LeafSystem):
                     out.append(Obstacle(centre=obj[r, :3] + off, half_size=half))
         return out
 
+    def carried(self, k: int) -> list[str]:
+        """Objects the learned model holds in the hand at slice k (see ``carry_radius``)."""
+        if not self._has_gripper:
+            return []
+        k = min(int(k), self._S - 1)
+        if float(np.asarray(self._model.mean["gripper"])[k].ravel()[0]) >= 0.5:
+            return []
+        return [o for o in self._objects
+                if np.linalg.norm(np.asarray(self._model.mean[f"obj:{o}"])[k])
+                < self._cfg.carry_radius]
+
     def gripper_angle(self, k: int) -> float:
         """Finger angle at time slice k from the learned gripper mean, rad."""
         if not self._has_gripper:
@@ -385,7 +406,9 @@ class DbnReproducer(LeafSystem):
         gripper = q_to[self._n] / max(cfg.gripper_open_angle, 1e-9)
         kw = dict(hand=hand, objects=objects, J=J, q=q, gripper=gripper,
                   use_joints=cfg.use_joints, damping=cfg.damping, gain=cfg.gain,
-                  obstacles=self._near(self._obstacle_boxes(obj), hand))
+                  obstacles=self._near(self._obstacle_boxes(obj), hand),
+                  obstacle_alpha=cfg.obstacle_alpha, obstacle_beta=cfg.obstacle_beta,
+                  obstacle_length=cfg.obstacle_length, carried=self.carried(ks))
         kw.update(cfg.step_kwargs)
         res = constraint_step(self._model, ks, **kw)
         dq = np.asarray(res.dq, float).reshape(self._n)
@@ -410,7 +433,9 @@ class DbnReproducer(LeafSystem):
             t0 = time.perf_counter()
             kw = dict(q0=q_to[: self._n].copy(), objects=objects,
                       fk=self.forward_kinematics, jacobian=self.hand_jacobian,
-                      obstacles=self._obstacle_boxes(obj))
+                      obstacles=self._obstacle_boxes(obj), use_joints=self._cfg.use_joints,
+                      q_lower=self._lo, q_upper=self._hi, carry_radius=self._cfg.carry_radius,
+                      seed=0)
             kw.update(self._cfg.step_kwargs)
             plan = np.asarray(plan_global(self._model, **kw), float)
             if plan.shape != (self._S, self._n) or not np.all(np.isfinite(plan)):
