@@ -56,6 +56,7 @@ __all__ = [
     "teacher_sdf",
     "add_teacher",
     "TEACHER_TCP_IN_X8",
+    "TEACHER_OPENING",
     "ROBOT_TCP_IN_X8",
     "OBSTACLE_KINDS",
     "OBSERVED_BODIES",
@@ -70,6 +71,9 @@ OBSERVED_BODIES = ("cup", "table_a", "table_b", "board", "board_c0", "board_c1",
 ROBOT_TCP_IN_X8 = (0.0, 0.0, 0.12)
 #: the teacher's tool centre point in its last part x8 (the ``hand`` body sits there), m
 TEACHER_TCP_IN_X8 = (0.0, 0.0, 0.11)
+#: the teacher's finger angle (q7) when its hand is fully open, rad (0 = closed: the fingers
+#: stand parallel, 0.07 m apart, around the cup)
+TEACHER_OPENING = 0.6
 
 _MARKER = Box((0.04, 0.04, 0.002))
 _MARK_RGBA = (0.05, 0.05, 0.05, 1.0)
@@ -445,10 +449,11 @@ def teacher_spec() -> ArmSpec:
         LinkSpec("x6", 0.31, 0.035, "q4", axis=y, mass=1.2, color=skin),
         LinkSpec("x7", 0.05, 0.03, "q5", axis=z, mass=0.3, color=skin),
         LinkSpec("x8", 0.06, 0.03, "q6", axis=y, mass=0.4, color=skin),
-        LinkSpec("x9", 0.08, 0.01, "q7", axis=(0, 1, 0), lower=0.0, upper=1.2, mass=0.05,
-                 shape="box", offset=(0.013, 0.0, 0.06), color=skin),
-        LinkSpec("x10", 0.08, 0.01, "q7_mirror", axis=(0, -1, 0), lower=0.0, upper=1.2,
-                 mass=0.05, shape="box", offset=(-0.013, 0.0, 0.06), color=skin),
+        LinkSpec("x9", 0.08, 0.01, "q7", axis=(0, 1, 0), lower=0.0, upper=TEACHER_OPENING,
+                 mass=0.05, shape="box", offset=(0.045, 0.0, 0.06), color=skin),
+        LinkSpec("x10", 0.08, 0.01, "q7_mirror", axis=(0, -1, 0), lower=0.0,
+                 upper=TEACHER_OPENING, mass=0.05, shape="box", offset=(-0.045, 0.0, 0.06),
+                 color=skin),
     ]
     return ArmSpec(name="teacher", links=links, actions=["q1", "q2", "q3", "q4", "q5", "q6",
                                                          "q7"], mimic={"q7_mirror": "q7"})
@@ -458,7 +463,9 @@ def teacher_sdf(*, model_name: str = "teacher") -> str:
     """SDFormat text of the teacher arm (base welded at the world origin). Besides the parts
     x1..x10 (each with a marker) it has a body ``hand`` welded to x8 at the tool centre point
     (``TEACHER_TCP_IN_X8``) whose marker ``hand_marker`` is what the demonstrations track
-    (like a motion-capture marker on the demonstrator's hand)."""
+    (like a motion-capture marker on the demonstrator's hand). The fingers x9, x10 (0.09 m
+    apart, wide enough to straddle the cup) have no collision geometry, so they never hide
+    the hand marker from a camera."""
     spec = teacher_spec()
     m = SdfModel(model_name)
     z = 0.0
@@ -472,7 +479,10 @@ def teacher_sdf(*, model_name: str = "teacher") -> str:
             origin = (0.0, 0.0, z)
             chain_tip, chain_tip_z = lk, z
             z += lk.length
-        _arm_link(m, lk, origin)
+        link = _arm_link(m, lk, origin)
+        if lk.offset is not None:  # fingers: visual only, so they never hide the hand marker
+            for c in link.element.findall("collision"):
+                link.element.remove(c)
         if parent is None:
             _joint(m, "x1_mount", "fixed", "world", lk.name)
         else:
