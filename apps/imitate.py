@@ -55,7 +55,10 @@ def record_demos(task: str, n: int, *, seed: int, board_scale: float = 1.0):
     """``n`` demonstrations of ``task`` by the teacher (seeded)."""
     from mmlearn.diagrams.demonstrations import record_demonstrations
 
-    return record_demonstrations(task, n, seed=seed, board_scale=board_scale)
+    from mmlearn.models.teacher import task_scene
+
+    return record_demonstrations(task, n, seed=seed,
+                                 scene=task_scene(task, board_scale=board_scale))
 
 
 def _final(track) -> np.ndarray:

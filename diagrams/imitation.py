@@ -40,6 +40,13 @@ TASKS = ("pick_place", "whiteboard", "obstacle", "u_obstacle")
 ROBOT_START = (0.0, 0.35, 0.0, 1.6, 0.0, 1.2)
 
 
+#: points on the arm kept away from obstacles besides the hand: (body, point in its frame, m):
+#: the elbow (x5's origin), the middle of the forearm x6, the wrist (x7's origin), the
+#: gripper's base (x8's origin) and the closed fingertips (0.03 m beyond the TCP)
+BODY_POINTS = (("x5", (0.0, 0.0, 0.0)), ("x6", (0.0, 0.0, 0.175)), ("x7", (0.0, 0.0, 0.0)),
+               ("x8", (0.0, 0.0, 0.0)), ("x8", (0.0, 0.0, 0.15)))
+
+
 def task_scene(task: str, *, swap_tables: bool = False, board_scale: float = 1.0
                ) -> ImitationSceneSpec:
     """The nominal scene layout of a task (before the seeded variation)."""
@@ -70,7 +77,9 @@ class ImitationConfig:
         time_step: discrete plant step, s.
         kp, kd: PD gains of the arm joints, N*m/rad and N*m*s/rad.
         kp_gripper, kd_gripper: PD gains of the fingers.
-        robot_start: the arm's start configuration q1..q6, rad.
+        robot_start: the arm's start configuration q1..q6, rad (empty = the configuration,
+            found by damped least squares from ``ROBOT_START``, whose hand is at the
+            teacher's rest pose for the task: ``TeacherStyle.home`` or ``reach_home``).
         capture_radius: grasp capture radius around the centre of the cup's rim, m (see
             GraspAttachment).
         grasp_stiffness: grasp spring, N/m.
@@ -90,7 +99,7 @@ class ImitationConfig:
     kd: float = 40.0
     kp_gripper: float = 20.0
     kd_gripper: float = 1.0
-    robot_start: list[float] = field(default_factory=lambda: list(ROBOT_START))
+    robot_start: list[float] = field(default_factory=list)
     capture_radius: float = 0.05
     grasp_stiffness: float = 400.0
 
@@ -108,7 +117,7 @@ class ImitationConfig:
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
                 raise ValueError(f"ImitationConfig.{k} must be a finite number >= 0, got {v!r}")
         q = np.asarray(self.robot_start, float)
-        if q.shape != (6,) or not np.all(np.isfinite(q)):
+        if q.size and (q.shape != (6,) or not np.all(np.isfinite(q))):
             raise ValueError(f"ImitationConfig.robot_start must be 6 finite angles (rad), got "
                              f"{self.robot_start!r}")
         self.reproducer.validate()
@@ -153,6 +162,31 @@ class Imitation:
         self.plant.SetPositions(ctx, full)
         rc = self.reproducer.GetMyMutableContextFromRoot(root_context)
         self.reproducer.set_initial_command(rc, self.start_command)
+
+
+def home_position(task: str) -> np.ndarray:
+    """The teacher's rest pose of the hand for ``task`` (where its demonstrations start), m."""
+    from mmlearn.models.teacher import TeacherStyle
+
+    st = TeacherStyle()
+    return np.asarray(st.home if task in ("pick_place", "whiteboard") else st.reach_home, float)
+
+
+def hand_ik(reproducer, p_hand, *, q_seed=ROBOT_START, iterations: int = 100,
+            damping: float = 0.02, tol: float = 1e-4) -> np.ndarray:
+    """Arm configuration (rad) whose hand is at ``p_hand`` (world, m): damped least squares
+    from ``q_seed`` with the reproducer's kinematics, clipped to the joint limits."""
+    q = np.asarray(q_seed, float).copy()
+    p_hand = np.asarray(p_hand, float)
+    for _ in range(iterations):
+        kin = reproducer.kinematics()
+        p, J = kin.hand(q), kin.jacobian(q)
+        e = p_hand - p
+        if np.linalg.norm(e) < tol:
+            break
+        q = q + J.T @ np.linalg.solve(J @ J.T + damping ** 2 * np.eye(3), e)
+        q = np.clip(q, reproducer._lo, reproducer._hi)
+    return q
 
 
 def object_positions(plant, root_context, names) -> dict[str, np.ndarray]:
@@ -240,6 +274,7 @@ def MakeImitationDiagram(config: ImitationConfig | None = None, *, model, meshca
     rep = builder.AddNamedSystem("dbn_reproducer", DbnReproducer(
         plant=plant, model=model, arm_joints=arm_joints,
         tcp_frame=plant.GetBodyByName("x8", robot).body_frame(), p_tcp=ROBOT_TCP_IN_X8,
+        body_points=[(plant.GetBodyByName(b, robot).body_frame(), p) for b, p in BODY_POINTS],
         obstacles=obstacles, config=cfg.reproducer))
     builder.Connect(plant.get_state_output_port(robot), rep.get_robot_state_input_port())
     builder.Connect(sensor.get_observations_output_port(), rep.get_observations_input_port())
@@ -279,7 +314,11 @@ def MakeImitationDiagram(config: ImitationConfig | None = None, *, model, meshca
     builder.ExportOutput(plant.get_body_poses_output_port(), "body_poses")
     diagram = builder.Build()
     diagram.set_name("imitation")
-    start = np.r_[np.asarray(cfg.robot_start, float), cfg.reproducer.gripper_open_angle]
+    if len(cfg.robot_start):
+        q_start = np.asarray(cfg.robot_start, float)
+    else:
+        q_start = hand_ik(rep, home_position(cfg.task))
+    start = np.r_[q_start, cfg.reproducer.gripper_open_angle]
     out = Imitation(diagram=diagram, plant=plant, scene_graph=scene_graph, robot=robot,
                     scene=scene, sensor=sensor, reproducer=rep, grasp=grasp,
                     start_command=start, visualizer=visualizer)

@@ -137,7 +137,7 @@ class DbnReproducer(LeafSystem):
     """
 
     def __init__(self, *, plant, model, arm_joints, tcp_frame, p_tcp=(0.0, 0.0, 0.0),
-                 object_markers: dict[str, str] | None = None,
+                 body_points=(), object_markers: dict[str, str] | None = None,
                  obstacles: dict[str, tuple] | None = None,
                  config: DbnReproducerConfig | None = None):
         """
@@ -149,6 +149,10 @@ class DbnReproducer(LeafSystem):
                 command order (one position each).
             tcp_frame: the frame (or body name) that carries the tool centre point.
             p_tcp: the tool centre point in ``tcp_frame``, m.
+            body_points: further points on the arm kept away from obstacles: (frame or body
+                name, point in that frame (3,), m) pairs, e.g. the elbow and the wrist (the
+                incremental step gives each an obstacle attractor, the global plan checks
+                them for collision).
             object_markers: object name (as in the model's ``obj:<name>`` constraints) ->
                 marker id in the observations (default: the same name).
             obstacles: obstacle marker id -> list of boxes (offset of the box centre from
@@ -190,6 +194,9 @@ class DbnReproducer(LeafSystem):
         self._frame = (plant.GetBodyByName(tcp_frame).body_frame()
                        if isinstance(tcp_frame, str) else tcp_frame)
         self._p_tcp = np.asarray(p_tcp, float).reshape(3)
+        self._body_points = [
+            (plant.GetBodyByName(f).body_frame() if isinstance(f, str) else f,
+             np.asarray(p, float).reshape(3, 1)) for f, p in body_points]
         t = np.asarray(model.t, float)
         if t.ndim != 1 or t.size < 1:
             raise ValueError("DbnReproducer: the model has no time steps")
@@ -267,28 +274,23 @@ class DbnReproducer(LeafSystem):
         context.SetDiscreteState(self._g_target, np.full(3, np.nan))
 
     # ------------------------------------------------------------------ kinematics
+    def kinematics(self, plant_context=None) -> "_Kinematics":
+        """Forward kinematics of the hand and of the ``body_points`` with one scratch plant
+        context (a fresh one unless given): for use within one call (an update, a plan)."""
+        return _Kinematics(self, plant_context or self._plant.CreateDefaultContext())
+
     def _kinematics(self, q):
-        """(hand position (3,), translational Jacobian (3, n)) at arm joints q, from a
-        scratch plant context made for this call."""
-        plant = self._plant
-        ctx = plant.CreateDefaultContext()
-        full = plant.GetPositions(ctx)
-        full[self._qidx] = q
-        plant.SetPositions(ctx, full)
-        p = plant.CalcPointsPositions(ctx, self._frame, self._p_tcp.reshape(3, 1),
-                                      plant.world_frame()).ravel()
-        J = plant.CalcJacobianTranslationalVelocity(
-            ctx, JacobianWrtVariable.kQDot, self._frame, self._p_tcp.reshape(3, 1),
-            plant.world_frame(), plant.world_frame())[:, self._qidx]
-        return p, J
+        """(hand position (3,), translational Jacobian (3, n)) at arm joints q."""
+        kin = self.kinematics()
+        return kin.hand(q), kin.jacobian(q)
 
     def forward_kinematics(self, q) -> np.ndarray:
         """Hand (tool centre point) position in the world at arm joints q, m."""
-        return self._kinematics(np.asarray(q, float))[0]
+        return self.kinematics().hand(np.asarray(q, float))
 
     def hand_jacobian(self, q) -> np.ndarray:
         """Translational Jacobian of the hand at arm joints q, (3, n)."""
-        return self._kinematics(np.asarray(q, float))[1]
+        return self.kinematics().jacobian(np.asarray(q, float))
 
     # ------------------------------------------------------------------ observations
     def _read_objects(self, context, obj):
@@ -402,11 +404,14 @@ class DbnReproducer(LeafSystem):
 
         cfg = self._cfg
         q = q_to[: self._n]
-        hand, J = self._kinematics(q)
+        kin = self.kinematics()
+        hand, J = kin.hand(q), kin.jacobian(q)
         gripper = q_to[self._n] / max(cfg.gripper_open_angle, 1e-9)
+        obstacles = self._near(self._obstacle_boxes(obj), hand)
+        points = kin.point_jacobians(q) if obstacles else []
         kw = dict(hand=hand, objects=objects, J=J, q=q, gripper=gripper,
                   use_joints=cfg.use_joints, damping=cfg.damping, gain=cfg.gain,
-                  obstacles=self._near(self._obstacle_boxes(obj), hand),
+                  obstacles=obstacles, obstacle_points=points,
                   obstacle_alpha=cfg.obstacle_alpha, obstacle_beta=cfg.obstacle_beta,
                   obstacle_length=cfg.obstacle_length, carried=self.carried(ks))
         kw.update(cfg.step_kwargs)
@@ -420,6 +425,10 @@ class DbnReproducer(LeafSystem):
         return np.clip(q + dq, self._lo, self._hi), np.asarray(res.target_hand, float)
 
     def _near(self, boxes, hand):
+        """The obstacles within ``obstacle_range`` of the hand (all when there are body
+        points: the arm may be near an obstacle the hand is far from)."""
+        if self._body_points:
+            return list(boxes)
         rng = self._cfg.obstacle_range
         return [b for b in boxes if float(b.signed_distance(hand)) < rng]
 
@@ -431,8 +440,10 @@ class DbnReproducer(LeafSystem):
         plan = context.get_discrete_state(self._g_plan).get_value().reshape(self._S, self._n)
         if status[3] == 0:
             t0 = time.perf_counter()
+            kin = self.kinematics()
             kw = dict(q0=q_to[: self._n].copy(), objects=objects,
-                      fk=self.forward_kinematics, jacobian=self.hand_jacobian,
+                      fk=kin.hand, jacobian=kin.jacobian,
+                      body_points=kin.body_points if self._body_points else None,
                       obstacles=self._obstacle_boxes(obj), use_joints=self._cfg.use_joints,
                       q_lower=self._lo, q_upper=self._hi, carry_radius=self._cfg.carry_radius,
                       seed=0)
@@ -458,3 +469,49 @@ class DbnReproducer(LeafSystem):
         t0 = context.get_discrete_state(self._g_clock).GetAtIndex(0)
         s = min(max((context.get_time() - t0) / self._period, 0.0), 1.0)
         output.SetFromVector(q0 + s * (q1 - q0))
+
+
+class _Kinematics:
+    """Hand and body-point kinematics of a DbnReproducer's arm on one scratch plant
+    context (not shared beyond the call that made it)."""
+
+    def __init__(self, rep: DbnReproducer, plant_context):
+        self._r = rep
+        self._ctx = plant_context
+        self._full = rep._plant.GetPositions(plant_context)
+
+    def _set(self, q):
+        self._full[self._r._qidx] = q
+        self._r._plant.SetPositions(self._ctx, self._full)
+
+    def hand(self, q) -> np.ndarray:
+        r = self._r
+        self._set(q)
+        return r._plant.CalcPointsPositions(self._ctx, r._frame, r._p_tcp.reshape(3, 1),
+                                            r._plant.world_frame()).ravel()
+
+    def jacobian(self, q) -> np.ndarray:
+        r = self._r
+        self._set(q)
+        return self._point_jacobian(r._frame, r._p_tcp.reshape(3, 1))
+
+    def _point_jacobian(self, frame, p):
+        plant = self._r._plant
+        return plant.CalcJacobianTranslationalVelocity(
+            self._ctx, JacobianWrtVariable.kQDot, frame, p, plant.world_frame(),
+            plant.world_frame())[:, self._r._qidx]
+
+    def body_points(self, q) -> np.ndarray:
+        """(m, 3) world positions of the body points at q, m."""
+        r = self._r
+        self._set(q)
+        return np.array([r._plant.CalcPointsPositions(self._ctx, f, p,
+                                                      r._plant.world_frame()).ravel()
+                         for f, p in r._body_points]).reshape(-1, 3)
+
+    def point_jacobians(self, q) -> list[tuple[np.ndarray, np.ndarray]]:
+        """[(position (3,), Jacobian (3, n))] of the body points at q."""
+        r = self._r
+        self._set(q)
+        return [(r._plant.CalcPointsPositions(self._ctx, f, p, r._plant.world_frame()).ravel(),
+                 self._point_jacobian(f, p)) for f, p in r._body_points]
