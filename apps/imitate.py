@@ -82,12 +82,15 @@ def _clearance_pairs(im):
     return mine, obst
 
 
-def _min_clearance(query, mine, obst) -> float:
-    d = math.inf
+def _min_clearance(query, mine, obst) -> tuple[float, object]:
+    """(smallest signed distance, m, the arm / cup geometry id it was measured for)."""
+    d, who = math.inf, None
     for a in mine:
         for b in obst:
-            d = min(d, float(query.ComputeSignedDistancePairClosestPoints(a, b).distance))
-    return d
+            x = float(query.ComputeSignedDistancePairClosestPoints(a, b).distance)
+            if x < d:
+                d, who = x, a
+    return d, who
 
 
 def _coverage(hand, corners, *, plane_tol: float) -> float:
@@ -184,7 +187,7 @@ def run(*, task: str = "pick_place", demos: int = 4, seed: int = 0, swap_tables:
     qport = diagram.GetOutputPort("query_object")
     hport = diagram.GetOutputPort("hand")
     duration = im.reproducer.duration + 1.0
-    clearance = math.inf
+    clearance, closest, t_closest = math.inf, None, None
     hand_trail = []
     t_wall = time.perf_counter()
     t = 0.0
@@ -197,7 +200,11 @@ def run(*, task: str = "pick_place", demos: int = 4, seed: int = 0, swap_tables:
         sim.AdvanceTo(t)
         hand_trail.append(np.array(hport.Eval(ctx), float))
         if mine:
-            clearance = min(clearance, _min_clearance(qport.Eval(ctx), mine, obst))
+            q = qport.Eval(ctx)
+            d, who = _min_clearance(q, mine, obst)
+            if d < clearance:
+                clearance, t_closest = d, t
+                closest = q.inspector().GetName(who)
         bar.update(1)
     bar.close()
     repro_s = time.perf_counter() - t_wall
@@ -216,6 +223,7 @@ def run(*, task: str = "pick_place", demos: int = 4, seed: int = 0, swap_tables:
            "learn_seconds": learn_s, "reproduction_seconds": repro_s,
            "simulated_seconds": duration,
            "min_obstacle_clearance_m": clearance if mine else None,
+           "closest_geometry": closest, "closest_time_s": t_closest,
            "steps": int(status[0]), "waiting_steps": int(status[1]),
            "failed_steps": int(status[2]),
            "plan_seconds": float(status[4]) if cfg.reproducer.mode == "global" else None,

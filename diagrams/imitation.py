@@ -175,9 +175,12 @@ def home_position(task: str) -> np.ndarray:
 def hand_ik(reproducer, p_hand, *, q_seed=ROBOT_START, iterations: int = 100,
             damping: float = 0.02, tol: float = 1e-4) -> np.ndarray:
     """Arm configuration (rad) whose hand is at ``p_hand`` (world, m): damped least squares
-    from ``q_seed`` with the reproducer's kinematics, clipped to the joint limits."""
+    from ``q_seed`` turned towards the hand (q1 = its azimuth, so the arm stays in the
+    vertical plane through the base and the hand), with the reproducer's kinematics,
+    clipped to the joint limits."""
     q = np.asarray(q_seed, float).copy()
     p_hand = np.asarray(p_hand, float)
+    q[0] = math.atan2(p_hand[1], p_hand[0])
     for _ in range(iterations):
         kin = reproducer.kinematics()
         p, J = kin.hand(q), kin.jacobian(q)
