@@ -57,6 +57,7 @@ from mmlearn.systems.observations import MarkerObservations
 
 __all__ = ["TeacherConfig", "TeacherDiagram", "MakeTeacherDiagram", "default_sensor_config",
            "observations_to_demonstration", "record_demonstration", "record_demonstrations",
+           "draw_demonstrations",
            "TeacherIKError"]
 
 HAND, FINGERS = "hand", ("x9", "x10")
@@ -97,7 +98,8 @@ class TeacherConfig:
         playback_rate_hz: teacher configurations per second (IK samples; the sensor's frames
             must fall on them: a multiple of the sensor's rate).
         ik_position_tolerance: half width of the box the tool centre point must reach, m.
-        ik_angle_tolerance: largest angle between the hand's axis and the task's, rad.
+        ik_angle_tolerance: largest angle between the hand's axis and the task's, rad (where
+            the hand cannot reach a point so, it may tilt up to 2.5 times as far).
     """
 
     task: str = "pick_place"
@@ -151,6 +153,7 @@ class TeacherDiagram:
         objects: names of the observed scene objects.
         gripper_calibration: (closed, open) distance of the finger markers, m.
         ik_seconds: time spent in the IK, s.
+        visualizer: the MeshcatVisualizer (None without Meshcat).
     """
 
     diagram: object
@@ -165,6 +168,7 @@ class TeacherDiagram:
     objects: list[str]
     gripper_calibration: tuple[float, float]
     ik_seconds: float
+    visualizer: object | None = None
 
 
 def _finger_distance(plant, ctx, q7: float) -> float:
@@ -180,7 +184,7 @@ def _teacher_path(plan: DemoPlan, times: np.ndarray, cfg: TeacherConfig
                   ) -> tuple[MultibodyPlant, np.ndarray]:
     """The teacher alone (its own plant) and its (n, nq) joint positions following the plan
     at ``times``: per sample an InverseKinematics, warm-started from the previous sample and
-    pulled towards it."""
+    pulled towards it (then from a few fixed postures, then with a tilted hand)."""
     plant = MultibodyPlant(time_step=0.0)
     add_teacher(plant)
     plant.Finalize()
@@ -201,12 +205,15 @@ def _teacher_path(plan: DemoPlan, times: np.ndarray, cfg: TeacherConfig
     prev = None
     for i, (p, t) in enumerate(zip(P, times)):
         sol, ok = None, False
-        for guess in ([prev] if prev is not None else []) + guesses:
+        tries = [(g, cfg.ik_angle_tolerance) for g in ([prev] if prev is not None else [])
+                 + guesses]
+        tries += [(g, 2.5 * cfg.ik_angle_tolerance) for g in tries[:2]]  # a tilted hand
+        for guess, angle in tries:
             ik = InverseKinematics(plant)
             q = ik.q()
             ik.AddPositionConstraint(x8, TEACHER_TCP_IN_X8, world, p - tol, p + tol)
             ik.AddAngleBetweenVectorsConstraint(x8, [0.0, 0.0, 1.0], world, plan.hand_axis,
-                                                0.0, cfg.ik_angle_tolerance)
+                                                0.0, angle)
             q0 = np.zeros(nq)
             q0[idx] = guess[idx] if guess.size == nq else guess
             prog = ik.prog()
@@ -292,9 +299,11 @@ def MakeTeacherDiagram(config: TeacherConfig | None = None, *, meshcat=None) -> 
     builder.Connect(poses.get_body_poses_output_port(), sensor.get_body_poses_input_port())
     builder.Connect(scene_graph.get_query_output_port(), sensor.get_query_object_input_port())
     builder.ExportOutput(sensor.get_observations_output_port(), "observations")
+    visualizer = None
     if meshcat is not None:
-        MeshcatVisualizer.AddToBuilder(builder, scene_graph, meshcat,
-                                       MeshcatVisualizerParams(role=Role.kIllustration))
+        visualizer = MeshcatVisualizer.AddToBuilder(
+            builder, scene_graph, meshcat, MeshcatVisualizerParams(role=Role.kIllustration))
+        meshcat.SetCameraPose([-0.9, 1.3, 1.3], [0.5, 0.0, 0.45])
         path = plan.hand_position(np.linspace(0, plan.duration, 200))
         from pydrake.geometry import Rgba
 
@@ -305,7 +314,8 @@ def MakeTeacherDiagram(config: TeacherConfig | None = None, *, meshcat=None) -> 
     return TeacherDiagram(diagram=diagram, plant=plant, scene_graph=scene_graph, sensor=sensor,
                           body_poses=poses, plan=plan, q=Q, q_times=q_times,
                           frame_times=np.arange(frames) / scfg.rate_hz, objects=objects,
-                          gripper_calibration=(g_closed, g_open), ik_seconds=ik_seconds)
+                          gripper_calibration=(g_closed, g_open), ik_seconds=ik_seconds,
+                          visualizer=visualizer)
 
 
 def observations_to_demonstration(frames: list[MarkerObservations], *, objects: list[str],
@@ -342,9 +352,13 @@ def observations_to_demonstration(frames: list[MarkerObservations], *, objects: 
     return demo.validate()
 
 
-def record_demonstration(config: TeacherConfig, *, meshcat=None) -> Demonstration:
-    """Build the teacher diagram for ``config`` and record one demonstration."""
+def record_demonstration(config: TeacherConfig, *, meshcat=None,
+                         record: bool = False) -> Demonstration:
+    """Build the teacher diagram for ``config`` and record one demonstration; with
+    ``meshcat`` and ``record``, its playback becomes Meshcat's animation (published)."""
     td = MakeTeacherDiagram(config, meshcat=meshcat)
+    if td.visualizer is not None and record:
+        td.visualizer.StartRecording(False)
     sim = Simulator(td.diagram)
     ctx = sim.get_mutable_context()
     port = td.diagram.GetOutputPort("observations")
@@ -358,6 +372,9 @@ def record_demonstration(config: TeacherConfig, *, meshcat=None) -> Demonstratio
             raise RuntimeError(f"record_demonstration: expected the frame at {tk} s, got "
                                f"{obs.time} s")
         frames.append(obs)
+    if td.visualizer is not None and record:
+        td.visualizer.StopRecording()
+        td.visualizer.PublishRecording()
     style = dataclasses.asdict(config.style)
     meta = {"task": config.task, "seed": int(config.seed), "teacher": "human_like_7dof",
             "units": "m, s", "rate_hz": rate, "sigma_pos": td.sensor._cfg.sigma_pos,
@@ -376,7 +393,9 @@ def record_demonstrations(task: str, n: int, *, seed: int, scene: ImitationScene
     ``seed * 1000 + i`` (plan variation and sensor noise), so the same ``seed`` gives the same
     demonstrations. ``scene`` (default: the task's nominal layout, with its ``swap_tables``
     and ``board_scale``) is varied per demonstration. ``progress`` (optional) is called with
-    the index of each finished demonstration."""
+    the index of each finished demonstration. With ``meshcat`` the last demonstration's
+    playback is shown and published as Meshcat's animation, and every demonstration's
+    observed hand track is drawn (``demonstrations/hand_<i>``, gaps left out)."""
     if task not in TASKS:
         raise ValueError(f"unknown task {task!r}; choose from {', '.join(TASKS)}")
     if not (isinstance(n, (int, np.integer)) and n >= 1):
@@ -389,9 +408,28 @@ def record_demonstrations(task: str, n: int, *, seed: int, scene: ImitationScene
         cfg = TeacherConfig(task=task, seed=int(seed) * 1000 + i, scene=scene,
                             style=style or TeacherStyle(),
                             sensor=sensor or default_sensor_config(), with_obstacle=with_obstacle)
-        if meshcat is not None:
-            meshcat.Delete("teacher")
-        demos.append(record_demonstration(cfg, meshcat=meshcat))
+        last = i == int(n) - 1
+        demos.append(record_demonstration(cfg, meshcat=meshcat if last else None,
+                                          record=last))
         if progress is not None:
             progress(i)
+    if meshcat is not None:
+        draw_demonstrations(meshcat, demos)
     return demos
+
+
+def draw_demonstrations(meshcat, demos: list[Demonstration], *, prefix: str = "demonstrations"
+                        ) -> None:
+    """Draw each demonstration's observed hand track as a polyline in Meshcat (one per run
+    of consecutive seen frames), in a colour per demonstration."""
+    from pydrake.geometry import Rgba
+
+    meshcat.Delete(prefix)
+    for i, d in enumerate(demos):
+        hue = (0.15 + 0.6 * i / max(len(demos) - 1, 1))
+        rgba = Rgba(1.0 - hue, 0.3, hue, 1.0)
+        seen = np.isfinite(d.hand).all(axis=1)
+        runs = np.split(np.arange(d.T), np.flatnonzero(np.diff(seen.astype(int))) + 1)
+        for k, r in enumerate(runs):
+            if seen[r[0]] and r.size >= 2:
+                meshcat.SetLine(f"{prefix}/hand_{i}/{k}", d.hand[r].T, 2.0, rgba)

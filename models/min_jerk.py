@@ -66,7 +66,7 @@ class MinJerkTrajectory:
     the end (:attr:`duration`) the last one.
     """
 
-    def __init__(self, times, points, *, stops=None, dwell=None):
+    def __init__(self, times, points, *, stops=None, dwell=None, optimize_times=False):
         t = np.asarray(times, float)
         P = np.asarray(points, float)
         if P.ndim == 1:
@@ -105,11 +105,10 @@ class MinJerkTrajectory:
             if tt.size == 2:  # the classic profile (scipy needs >= 6 conditions)
                 spline = _classic(pp[0], pp[1], tt[0], tt[1])
             else:
-                spline = make_interp_spline(tt, pp, k=5,
-                                            bc_type=([(1, np.zeros(self.dim)),
-                                                      (2, np.zeros(self.dim))],
-                                                     [(1, np.zeros(self.dim)),
-                                                      (2, np.zeros(self.dim))]))
+                if optimize_times:
+                    tt = _best_times(tt, pp)
+                    t[a + 1:b] = tt[1:-1]
+                spline = _quintic(tt, pp)
             runs.append(_Run(float(tt[0]), float(tt[-1]), spline, pp[-1]))
         if dw[-1] > 0:
             runs.append(_Run(t[-1], t[-1] + dw[-1], None, P[-1]))
@@ -140,6 +139,44 @@ class MinJerkTrajectory:
             else:
                 out[sel] = r.spline(tt[sel], nu=derivative) if derivative else r.spline(tt[sel])
         return out
+
+
+def _quintic(tt, pp):
+    """The C4 quintic through ``pp`` at ``tt`` at rest (zero velocity and acceleration)
+    at both ends."""
+    z = np.zeros(pp.shape[1])
+    return make_interp_spline(tt, pp, k=5, bc_type=([(1, z), (2, z)], [(1, z), (2, z)]))
+
+
+def _jerk_cost(tt, pp, grid=200) -> float:
+    """Integrated squared jerk of :func:`_quintic` (trapezoid rule on ``grid`` points)."""
+    sp = _quintic(tt, pp)
+    g = np.linspace(tt[0], tt[-1], grid)
+    j = sp(g, nu=3)
+    return float(np.trapezoid(np.sum(j * j, axis=1), g))
+
+
+def _best_times(tt, pp) -> np.ndarray:
+    """Interior times of a run minimising :func:`_jerk_cost` (start and end fixed): the
+    segment durations are a softmax of free parameters (so they stay positive and sum to
+    the run's duration), started from the given ones."""
+    from scipy.optimize import minimize
+
+    T0, T = tt[0], tt[-1] - tt[0]
+    d0 = np.diff(tt) / T
+
+    def times(z):
+        w = np.exp(z - z.max())
+        w = np.maximum(w / w.sum(), 0.02)
+        w /= w.sum()
+        return np.concatenate([[T0], T0 + T * np.cumsum(w)])
+
+    z0 = np.log(d0)
+    res = minimize(lambda z: _jerk_cost(times(z), pp), z0, method="Nelder-Mead",
+                   options={"xatol": 1e-3, "fatol": 1e-6, "maxfev": 400})
+    out = times(res.x if res.fun <= _jerk_cost(times(z0), pp) else z0)
+    out[-1] = tt[-1]
+    return out
 
 
 class _classic:

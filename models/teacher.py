@@ -9,8 +9,8 @@ Tasks (``TASKS``):
   (opening < 0.5).
 * ``whiteboard``: from rest to the board, onto the lower-left part of the area inside the
   four corner markers, a zig-zag of ``strokes`` diagonal strokes (alternately down and up,
-  "the same number of ups and downs") across to the right side, off the board, back to
-  rest. Via points are placed in the corner markers' frame, so a larger board gives a larger
+  "the same number of ups and downs"; straight strokes: the hand comes to rest at each turn
+  without pausing) across to the right side, off the board, back to rest. Via points are placed in the corner markers' frame, so a larger board gives a larger
   zig-zag. The gripper stays closed (it holds the sponge).
 * ``obstacle`` / ``u_obstacle``: a reach from a rest pose to the target pad. The thesis
   demonstrated without the obstacle (it appears only when the robot reproduces the task), so
@@ -219,6 +219,7 @@ def plan_demonstration(task: str, *, seed: int | np.random.Generator,
         return np.asarray(p, float) + rng.uniform(-j, j, n)
 
     grasp_offset = None
+    turns = None
     if task == "pick_place":
         lift = sc.cup_height + st.grasp_height
         up = np.array([0.0, 0.0, 1.0])
@@ -251,7 +252,11 @@ def plan_demonstration(task: str, *, seed: int | np.random.Generator,
         home = jit(st.home, st.via_jitter)
         P = np.array([home, jit(wipe[0] + 0.10 * normal, st.via_jitter), *wipe,
                       jit(wipe[-1] + 0.10 * normal, st.via_jitter), jit(st.home, st.via_jitter)])
-        stops = [1, 0, 1] + [0] * (n - 1) + [1, 0, 1]
+        # every turn of the zig-zag is a stop (straight strokes inside the markers, sharp
+        # turns), with no rest there
+        stops = [1, 0, 1] + [1] * (n - 1) + [1, 0, 1]
+        turns = np.zeros(len(stops), bool)
+        turns[3:3 + n - 1] = True
         axis = -normal
     else:  # a reach to the target
         tgt = np.asarray(sc.target_position, float)
@@ -268,9 +273,11 @@ def plan_demonstration(task: str, *, seed: int | np.random.Generator,
     durations *= rng.uniform(1 - st.timing_jitter, 1 + st.timing_jitter, durations.size)
     times = np.concatenate([[0.0], np.cumsum(durations)])
     dwell = np.where(stops, st.dwell * rng.uniform(0.9, 1.1, stops.size), 0.0)
+    if turns is not None:
+        dwell[turns] = 0.0
     dwell[0] = 0.3  # a short rest before the movement starts
     dwell[-1] = 0.3
-    hand = MinJerkTrajectory(times, P, stops=stops, dwell=dwell)
+    hand = MinJerkTrajectory(times, P, stops=stops, dwell=dwell, optimize_times=True)
 
     # gripper: open, closed while the cup is held / the sponge is wiping, open
     T = hand.end_time

@@ -433,10 +433,10 @@ def add_imitation_scene(plant, spec: ImitationSceneSpec | None = None, *,
 
 # ---------------------------------------------------------------------------- the teacher
 def teacher_spec() -> ArmSpec:
-    """The teacher: a human-like 7-DOF arm (torso, shoulder, 0.34 m upper arm, 0.31 m
+    """The teacher: a human-like 7-DOF arm (torso, shoulder, 0.36 m upper arm, 0.33 m
     forearm, wrist, hand) with an angular gripper; the same joint layout as the robot's
     ``arm_spec(7)`` (q1..q6 + q7 fingers) but other link lengths (shoulder pitch joint at
-    0.45 m instead of 0.25 m, reach 0.90 m from it instead of 1.05 m)."""
+    0.45 m instead of 0.25 m, reach 0.94 m from it instead of 1.05 m)."""
     skin = (0.85, 0.7, 0.6, 1.0)
     grey = (0.35, 0.35, 0.38, 1.0)
     y, z = (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)
@@ -444,9 +444,9 @@ def teacher_spec() -> ArmSpec:
         LinkSpec("x1", 0.10, 0.12, shape="box", mass=8.0, color=grey),
         LinkSpec("x2", 0.30, 0.08, "x1_x2", joint_type="fixed", mass=10.0, color=grey),
         LinkSpec("x3", 0.05, 0.05, "q1", axis=z, mass=1.0, color=skin),
-        LinkSpec("x4", 0.34, 0.045, "q2", axis=y, mass=2.0, color=skin),
+        LinkSpec("x4", 0.36, 0.045, "q2", axis=y, mass=2.0, color=skin),
         LinkSpec("x5", 0.03, 0.04, "q3", axis=z, mass=0.3, color=skin),
-        LinkSpec("x6", 0.31, 0.035, "q4", axis=y, mass=1.2, color=skin),
+        LinkSpec("x6", 0.33, 0.035, "q4", axis=y, mass=1.2, color=skin),
         LinkSpec("x7", 0.05, 0.03, "q5", axis=z, mass=0.3, color=skin),
         LinkSpec("x8", 0.06, 0.03, "q6", axis=y, mass=0.4, color=skin),
         LinkSpec("x9", 0.08, 0.01, "q7", axis=(0, 1, 0), lower=0.0, upper=TEACHER_OPENING,

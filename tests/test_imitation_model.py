@@ -1,0 +1,265 @@
+"""Tests of the imitation-learning model layer (thesis ch. 8): alignment, the per-slice Gaussians,
+the incremental product of constraints (the sign test), obstacle avoidance and global planning."""
+
+import warnings
+
+import numpy as np
+import pytest
+
+from mmlearn.models.imitation import (
+    align_demonstrations, constraint_step, derivative, fill_gaps, learn_task, plan_global,
+    reproduce_cartesian)
+from mmlearn.models.imitation_types import Demonstration, ImitationDataError, Obstacle, TaskModel
+
+
+def _path(tau):
+    return np.stack([0.3 * np.sin(2 * np.pi * tau), 0.5 * tau, 0.1 * np.cos(3 * tau)], axis=1)
+
+
+def _demo(warp, T, dt=0.2, noise=0.0, rng=None):
+    t = np.arange(0.0, T + 1e-9, dt)
+    tau = warp(t / T)
+    hand = _path(tau)
+    if noise:
+        hand = hand + noise * rng.standard_normal(hand.shape)
+    return Demonstration(t=t, hand=hand, objects={"cup": np.tile([0.5, 0.2, 0.1], (len(t), 1))},
+                         gripper=(tau > 0.5).astype(float))
+
+
+def _mj(s):
+    s = np.clip(s, 0.0, 1.0)
+    return 10 * s ** 3 - 15 * s ** 4 + 6 * s ** 5
+
+
+def _reach_demos(n=4, seed=0):
+    """2-D point-hand reaches from (0, 0) to the target (1, 0): 4 s minimum jerk, 2 s hold."""
+    rng = np.random.default_rng(seed)
+    demos = []
+    for _ in range(n):
+        T = 4.0 * rng.uniform(0.9, 1.1)
+        t = np.arange(0.0, T + 2.0, 0.2)
+        hand = np.outer(_mj(t / T), [1.0, 0.0]) + rng.normal(0, 0.005, (len(t), 2))
+        demos.append(Demonstration(t=t, hand=hand, objects={"target": np.tile([1.0, 0.0], (len(t), 1))}))
+    return demos
+
+
+# 3-link planar arm (D = 2, n = 3): more joints than Cartesian dimensions
+_L = np.array([0.4, 0.3, 0.2])
+
+
+def _fk(q):
+    c = np.cumsum(q)
+    return np.array([np.sum(_L * np.cos(c)), np.sum(_L * np.sin(c))])
+
+
+def _jac(q):
+    c = np.cumsum(q)
+    J = np.zeros((2, 3))
+    for j in range(3):
+        J[0, j] = -np.sum(_L[j:] * np.sin(c[j:]))
+        J[1, j] = np.sum(_L[j:] * np.cos(c[j:]))
+    return J
+
+
+def _const_model(S, means, variances, D=2):
+    names = list(means)
+    return TaskModel(t=np.arange(S) * 0.2, constraints=names,
+                     mean={c: np.tile(np.asarray(means[c], float), (S, 1)) for c in names},
+                     var={c: np.tile(np.asarray(variances[c], float), (S, 1)) for c in names},
+                     meta={"D": D, "dt": 0.2})
+
+
+# ------------------------------------------------------------------------------------------
+def test_alignment_recovers_known_warp():
+    ref = _demo(lambda u: u, T=20.0)
+    warp = lambda u: u + 0.06 * np.sin(2 * np.pi * u)          # speed 0.62 .. 1.38, 18 s long
+    other = _demo(warp, T=18.0)
+    al = align_demonstrations([ref, other], reference=0)
+    assert al[1].T == ref.T and np.allclose(al[1].t, ref.t)
+    err = np.abs(al[1].hand - ref.hand).mean()
+    # without alignment: only the durations scaled
+    naive = np.stack([np.interp(ref.t * 18 / 20, other.t, other.hand[:, c]) for c in range(3)], 1)
+    err_naive = np.abs(naive - ref.hand).mean()
+    assert err < 0.4 * err_naive, (err, err_naive)       # measured 0.0071 m vs 0.0212 m
+    # the gripper event is aligned to within one sample
+    assert abs(np.argmax(al[1].gripper > 0.5) - np.argmax(ref.gripper > 0.5)) <= 1
+    # the thesis' derivative-only features also align (less precisely, see the docstring)
+    al_d = align_demonstrations([ref, other], reference=0, features="derivative")
+    assert np.abs(al_d[1].hand - ref.hand).mean() < 0.6 * err_naive   # measured 0.0112 m
+
+
+def test_derivative_estimate_is_keogh_pazzani():
+    x = np.array([0.0, 1.0, 4.0, 9.0, 16.0])[:, None]
+    d = derivative(x)
+    assert d[2, 0] == pytest.approx(((4 - 1) + (9 - 1) / 2) / 2)
+    assert d[0, 0] == d[1, 0] and d[-1, 0] == d[-2, 0]
+
+
+def test_gaps_are_interpolated_and_single_demo_warns():
+    d = _demo(lambda u: u, T=4.0)
+    d.hand[3:6] = np.nan
+    d.hand[0] = np.nan
+    f = fill_gaps(d)
+    truth = _demo(lambda u: u, T=4.0).hand
+    assert not np.isnan(f.hand).any() and f.meta["gap_frames"] == 4
+    np.testing.assert_allclose(f.hand[4], truth[2] + (truth[6] - truth[2]) / 2)
+    np.testing.assert_allclose(f.hand[0], truth[1])                 # leading gap holds
+    with pytest.warns(UserWarning, match="single demonstration"):
+        al = align_demonstrations([d])
+    assert len(al) == 1 and not np.isnan(al[0].hand).any()
+    with pytest.warns(UserWarning, match="single demonstration"):
+        m = learn_task([d])
+    assert m.S == d.T and np.all(m.var["obj:cup"] > 0)
+
+
+def test_per_slice_gaussians_equal_hand_computation():
+    rng = np.random.default_rng(3)
+    t = np.arange(4) * 0.2
+    demos = [Demonstration(t=t, hand=rng.normal(size=(4, 2)), objects={"o": rng.normal(size=(4, 2))},
+                           joints=rng.normal(size=(4, 3))) for _ in range(3)]
+    h = 0.2
+    for full in (False, True):
+        m = learn_task(demos, h=h, align=False, full_covariance=full, min_var=1e-12)
+        for k in range(4):
+            w = np.array([[np.exp(-0.5 * ((tp - t[k]) / h) ** 2) for tp in t] for _ in demos])   # Eq. 8.10-8.11
+            w /= w.sum()                                                                          # Eq. 8.12
+            for c, vals in (("obj:o", [d.objects["o"] - d.hand for d in demos]),
+                            ("joints", [d.joints for d in demos])):
+                mu = sum(w[g, j] * vals[g][j] for g in range(3) for j in range(4))              # Eq. 8.13/8.15
+                cov = sum(w[g, j] * np.outer(vals[g][j] - mu, vals[g][j] - mu)
+                          for g in range(3) for j in range(4)) / (1 - np.sum(w ** 2))           # Eq. 8.14/8.16
+                np.testing.assert_allclose(m.mean[c][k], mu, atol=1e-12)
+                np.testing.assert_allclose(m.var[c][k], cov if full else np.diag(cov), atol=1e-10)
+
+
+def test_learned_model_roundtrip(tmp_path):
+    rng = np.random.default_rng(0)
+    demos = [_demo(lambda u, a=a: u ** a, T=10 + rng.normal(), noise=0.005, rng=rng) for a in (1, 1.1, 0.9)]
+    m = learn_task(demos)
+    assert m.constraints == ["obj:cup", "gripper"] and m.meta["n_demos"] == 3 and m.meta["h"] == 0.2
+    back = TaskModel.load(m.save(tmp_path / "task.json"))
+    np.testing.assert_allclose(back.var["obj:cup"], m.var["obj:cup"])
+
+
+# ------------------------------------------------------------------------------------------
+def test_sign_single_constraint_hand_converges_to_object_minus_mean():
+    """Eq. 8.18 as printed (mu - (x_i - x_E)) would push the hand away; corrected it converges."""
+    m = _const_model(40, {"obj:a": [0.1, -0.05]}, {"obj:a": [1e-4, 1e-4]})
+    x_a = np.array([0.55, 0.35])
+    q = np.array([0.3, 0.5, 0.4])
+    for k in range(40):
+        r = constraint_step(m, k, hand=_fk(q), objects={"a": x_a}, J=_jac(q), use_joints=False)
+        q = q + r.dq
+    np.testing.assert_allclose(_fk(q), x_a - [0.1, -0.05], atol=1e-4)
+    np.testing.assert_allclose(r.target_hand, x_a - [0.1, -0.05])
+
+
+def test_sign_two_constraints_land_at_precision_weighted_combination():
+    va, vb = np.array([1e-4, 4e-4]), np.array([4e-4, 1e-4])
+    m = _const_model(40, {"obj:a": [0.1, 0.0], "obj:b": [0.0, -0.2]}, {"obj:a": va, "obj:b": vb})
+    objs = {"a": np.array([0.6, 0.3]), "b": np.array([0.3, 0.1])}
+    ta, tb = objs["a"] - [0.1, 0.0], objs["b"] - [0.0, -0.2]
+    expect = (ta / va + tb / vb) / (1 / va + 1 / vb)
+    # a point hand (J = I) ...
+    _, x = reproduce_cartesian(m, [0.0, 0.0], objs, damping=0.1)
+    np.testing.assert_allclose(x[-1], expect, atol=1e-6)
+    # ... and a redundant planar arm (n = 3 > D = 2)
+    q = np.array([0.3, 0.5, 0.4])
+    for k in range(40):
+        q = q + constraint_step(m, k, hand=_fk(q), objects=objs, J=_jac(q), use_joints=False).dq
+    np.testing.assert_allclose(_fk(q), expect, atol=1e-4)
+    # an object not observed this step is skipped, not a crash
+    r = constraint_step(m, 0, hand=_fk(q), objects={"a": objs["a"], "b": [np.nan, 0.0]}, J=_jac(q),
+                        use_joints=False)
+    assert r.info["skipped"] == ["obj:b"] and np.allclose(r.target_hand, ta)
+
+
+def test_joint_constraint_and_switch():
+    mu = np.array([0.2, -0.4, 0.6])
+    m = _const_model(30, {"joints": mu}, {"joints": [1e-3] * 3})
+    q = np.zeros(3)
+    for k in range(30):
+        q = q + constraint_step(m, k, hand=_fk(q), objects={}, J=_jac(q), q=q).dq
+    np.testing.assert_allclose(q, mu, atol=1e-6)
+    r = constraint_step(m, 0, hand=_fk(q), objects={}, J=_jac(q), q=q * 0, use_joints=False)
+    assert np.all(r.dq == 0)
+    with pytest.raises(ImitationDataError, match="pass q or use_joints=False"):
+        constraint_step(m, 0, hand=_fk(q), objects={}, J=_jac(q))
+
+
+def test_obstacle_attractor_keeps_positive_clearance():
+    m = learn_task(_reach_demos())
+    c, s = np.cos(np.pi / 4), np.sin(np.pi / 4)
+    box = Obstacle(centre=[0.5, 0.08], half_size=[0.1, 0.1], R=[[c, -s], [s, c]])   # a corner cuts the path
+    objs = {"target": np.array([1.0, 0.0])}
+
+    def clearance(x):
+        dense = np.concatenate([np.linspace(a, b, 10) for a, b in zip(x[:-1], x[1:])])
+        return float(box.signed_distance(dense).min())
+
+    _, plain = reproduce_cartesian(m, [0.0, 0.0], objs, substeps=5, max_step=0.02)
+    _, avoid = reproduce_cartesian(m, [0.0, 0.0], objs, substeps=5, max_step=0.02, obstacles=[box],
+                                   extra_time=2.0)
+    assert clearance(plain) < -0.03
+    assert clearance(avoid) > 0.0
+    assert np.linalg.norm(avoid[-1] - [1.0, 0.0]) < 0.02     # and still reaches the target (around the corner)
+
+
+def test_plan_global_escapes_u_obstacle_where_incremental_is_stuck():
+    m = learn_task(_reach_demos())
+    U = [Obstacle([0.65, 0.0], [0.05, 0.35]), Obstacle([0.45, 0.3], [0.25, 0.05]),
+         Obstacle([0.45, -0.3], [0.25, 0.05])]
+    objs = {"target": np.array([1.0, 0.0])}
+
+    def clearance(x):
+        dense = np.concatenate([np.linspace(a, b, 20) for a, b in zip(x[:-1], x[1:])])
+        return min(float(o.signed_distance(dense).min()) for o in U)
+
+    _, inc = reproduce_cartesian(m, [0.0, 0.0], objs, obstacles=U, substeps=5, max_step=0.02)
+    assert np.linalg.norm(inc[-1] - [1.0, 0.0]) > 0.3                 # stuck inside the U
+    path = plan_global(m, q0=[0.0, 0.0], objects=objs, fk=lambda q: q, jacobian=lambda q: np.eye(2),
+                       obstacles=U, seed=1)
+    assert path.shape == (m.S, 2) and np.allclose(path[0], 0.0)
+    assert np.linalg.norm(path[-1] - [1.0, 0.0]) < 0.02
+    assert clearance(path) > 0.0
+
+
+def test_plan_global_with_arm_kinematics():
+    m = _const_model(10, {"obj:a": [0.0, 0.0]}, {"obj:a": [1e-4, 1e-4]})
+    x_a = np.array([0.3, 0.5])
+    path, info = plan_global(m, q0=[0.3, 0.5, 0.4], objects={"a": x_a}, fk=_fk, jacobian=_jac,
+                             n_samples=50, return_info=True)
+    assert np.linalg.norm(_fk(path[-1]) - x_a) < 1e-3 and info["roadmap_nodes"] > 10
+
+
+# ------------------------------------------------------------------------------------------
+def test_bad_input_is_named():
+    d = _demo(lambda u: u, T=4.0)
+    with pytest.raises(ImitationDataError, match="no demonstrations"):
+        learn_task([])
+    d2 = Demonstration(t=d.t, hand=d.hand[:, :2], objects={})
+    with pytest.raises(ImitationDataError, match="demonstration 1: hand has 2 dimensions"):
+        align_demonstrations([d, d2])
+    bad = Demonstration(t=d.t, hand=np.full_like(d.hand, np.nan), objects={})
+    with pytest.raises(ImitationDataError, match="demonstration 1: hand: NaN in every frame"):
+        learn_task([d, bad])
+    with pytest.raises(ImitationDataError, match="h must be a positive"):
+        learn_task([d], h=0.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        m = learn_task([d, _demo(lambda u: u, T=5.0)])          # different lengths are legal
+    J = np.eye(3)
+    with pytest.raises(ImitationDataError, match="hand must be a finite"):
+        constraint_step(m, 0, hand=[np.nan, 0, 0], objects={}, J=J)
+    with pytest.raises(ImitationDataError, match=r"J must be a finite \(3, n\)"):
+        constraint_step(m, 0, hand=[0, 0, 0], objects={}, J=np.eye(2))
+    with pytest.raises(ImitationDataError, match="outside the model's slices"):
+        constraint_step(m, m.S, hand=[0, 0, 0], objects={}, J=J)
+    with pytest.raises(ImitationDataError, match="features must be"):
+        align_demonstrations([d, d], features="speed")
+    # objects present in only some demonstrations are dropped with a warning
+    d3 = _demo(lambda u: u, T=4.0)
+    d3.objects["extra"] = d3.hand + 1
+    with pytest.warns(UserWarning, match=r"\['extra'\] are not in every demonstration"):
+        al = align_demonstrations([d, d3])
+    assert set(al[1].objects) == {"cup"}
