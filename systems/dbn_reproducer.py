@@ -35,7 +35,8 @@ from pydrake.systems.framework import BasicVector, EventStatus, LeafSystem
 from .observations import MarkerObservations
 
 MODES = ("incremental", "global")
-STATUS_FIELDS = ("steps", "waiting", "failed", "planned", "plan_seconds", "finished")
+STATUS_FIELDS = ("steps", "waiting", "failed", "planned", "plan_seconds", "finished",
+                 "slice_waits")
 
 
 @dataclass
@@ -62,9 +63,19 @@ class DbnReproducerConfig:
             m.
         obstacle_range: an obstacle farther than this from the hand adds no constraint, m.
         carry_radius: an object whose learned offset from the hand is shorter than this
-            while the learned gripper is closed counts as carried: its constraint is
-            skipped (it moves with the hand and holds by construction; otherwise the hand
-            would chase the lag of the object it carries), m.
+            while the learned gripper is closed counts as carried, m. The global plan
+            always skips a carried object's constraint (it plans with the objects' start
+            positions, but a carried object moves with the hand).
+        skip_carried: skip carried objects' constraints in incremental steps too. Off by
+            default, as in the thesis: the observed carried object then anchors the hand
+            (its relation holds wherever the hand is) and the other constraints pull it
+            with their relative precision.
+        advance_tolerance: incremental mode moves on to the next time slice only when the
+            commanded hand is within this distance of the current slice's fused target
+            (or after ``max_slice_waits`` extra steps on it), m; 0 = one slice per step
+            as in the thesis. A slowed-down arm (or a hand anchored by a carried object's
+            constraint) then still arrives before, e.g., the gripper opens.
+        max_slice_waits: largest number of extra steps spent on one slice.
         step_kwargs: further keyword arguments passed to ``constraint_step`` /
             ``plan_global`` unchanged.
     """
@@ -82,6 +93,9 @@ class DbnReproducerConfig:
     obstacle_length: float = 0.05
     obstacle_range: float = 0.35
     carry_radius: float = 0.1
+    skip_carried: bool = False
+    advance_tolerance: float = 0.02
+    max_slice_waits: int = 8
     step_kwargs: dict = field(default_factory=dict)
 
     def validate(self) -> None:
@@ -97,6 +111,13 @@ class DbnReproducerConfig:
                                  f"got {v!r}")
         if not self.gain > 0 or not self.max_joint_step > 0:
             raise ValueError("DbnReproducerConfig: gain and max_joint_step must be > 0")
+        if not (isinstance(self.advance_tolerance, (int, float))
+                and math.isfinite(self.advance_tolerance) and self.advance_tolerance >= 0):
+            raise ValueError(f"DbnReproducerConfig.advance_tolerance must be a finite number "
+                             f">= 0 (m), got {self.advance_tolerance!r}")
+        if not (isinstance(self.max_slice_waits, int) and self.max_slice_waits >= 0):
+            raise ValueError(f"DbnReproducerConfig.max_slice_waits must be an integer >= 0, "
+                             f"got {self.max_slice_waits!r}")
         if not (isinstance(self.settle_steps, int) and self.settle_steps >= 0):
             raise ValueError(f"DbnReproducerConfig.settle_steps must be an integer >= 0, "
                              f"got {self.settle_steps!r}")
@@ -127,7 +148,8 @@ class DbnReproducer(LeafSystem):
     fused desired hand position of the last step (world, m; NaN before the first step),
     ``step`` the model time slice being reproduced, ``status`` the counters
     ``STATUS_FIELDS`` (steps taken, steps spent waiting for unseen objects, failed steps,
-    1 when a global plan exists, its computing time in s, 1 when the task has ended).
+    1 when a global plan exists, its computing time in s, 1 when the task has ended, steps
+    spent again on a slice the hand had not reached, see ``advance_tolerance``).
     ``hand`` is the tool centre point at the measured arm configuration (world, m).
 
     Discrete state (all that changes lives in the Context): the commands at the start and
@@ -215,7 +237,7 @@ class DbnReproducer(LeafSystem):
         # discrete state groups
         self._g_from = self.DeclareDiscreteState(n + 1)     # command at interval start
         self._g_to = self.DeclareDiscreteState(n + 1)       # command at interval end
-        self._g_clock = self.DeclareDiscreteState(3)        # [t_start, k, started]
+        self._g_clock = self.DeclareDiscreteState(4)  # [t_start, k, started, waits at k]
         self._g_obj = self.DeclareDiscreteState(4 * max(m, 1))  # xyz + seen, per object
         self._g_target = self.DeclareDiscreteState(3)
         self._g_status = self.DeclareDiscreteState(len(STATUS_FIELDS))
@@ -383,10 +405,25 @@ class DbnReproducer(LeafSystem):
                     q_new, target = self._global_step(context, discrete_state, ks, q_to,
                                                       objects, obj, status)
                 else:
-                    q_new, target = self._incremental_step(ks, q_to, objects, obj)
+                    stay = None
+                    if (cfg.advance_tolerance > 0 and 1 <= k < self._S - 1
+                            and clock[3] < cfg.max_slice_waits):
+                        stay = self._incremental_step(k, q_to, objects, obj)
+                        hand = self.forward_kinematics(q_to[: self._n])
+                        if (stay[2] is None or np.linalg.norm(hand - stay[1])
+                                <= cfg.advance_tolerance):
+                            stay = None
+                    if stay is not None:
+                        ks = k
+                        q_new, target, _ = stay
+                        clock[3] += 1
+                        status[6] += 1
+                    else:
+                        q_new, target, _ = self._incremental_step(ks, q_to, objects, obj)
+                        clock[3] = 0
                 q_to[: self._n] = q_new
                 q_to[self._n] = self.gripper_angle(ks)
-                clock[1] = k + 1
+                clock[1] = ks
                 status[0] += 1
             except Exception:  # noqa: BLE001 - a failed step holds the arm, never crashes
                 status[2] += 1
@@ -413,7 +450,8 @@ class DbnReproducer(LeafSystem):
                   use_joints=cfg.use_joints, damping=cfg.damping, gain=cfg.gain,
                   obstacles=obstacles, obstacle_points=points,
                   obstacle_alpha=cfg.obstacle_alpha, obstacle_beta=cfg.obstacle_beta,
-                  obstacle_length=cfg.obstacle_length, carried=self.carried(ks))
+                  obstacle_length=cfg.obstacle_length,
+                  carried=self.carried(ks) if cfg.skip_carried else ())
         kw.update(cfg.step_kwargs)
         res = constraint_step(self._model, ks, **kw)
         dq = np.asarray(res.dq, float).reshape(self._n)
@@ -422,7 +460,9 @@ class DbnReproducer(LeafSystem):
         big = np.max(np.abs(dq))
         if big > cfg.max_joint_step:
             dq *= cfg.max_joint_step / big
-        return np.clip(q + dq, self._lo, self._hi), np.asarray(res.target_hand, float)
+        target = (np.full(3, np.nan) if res.target_hand is None
+                  else np.asarray(res.target_hand, float))
+        return np.clip(q + dq, self._lo, self._hi), target, res.target_hand
 
     def _near(self, boxes, hand):
         """The obstacles within ``obstacle_range`` of the hand (all when there are body
