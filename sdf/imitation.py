@@ -136,8 +136,8 @@ class ImitationSceneSpec:
     board: bool = False
     target: bool = False
     obstacle: str = "none"
-    table_a: list[float] = field(default_factory=lambda: [0.55, 0.35])
-    table_b: list[float] = field(default_factory=lambda: [0.55, -0.35])
+    table_a: list[float] = field(default_factory=lambda: [0.50, 0.32])
+    table_b: list[float] = field(default_factory=lambda: [0.50, -0.32])
     table_size: list[float] = field(default_factory=lambda: [0.30, 0.30])
     table_height: float = 0.30
     swap_tables: bool = False
@@ -204,10 +204,12 @@ class ImitationSceneSpec:
     # ------------------------------------------------------------------ variation
     def sampled(self, seed: int | np.random.Generator, *, amplitude: float = 1.0
                 ) -> "ImitationSceneSpec":
-        """A seeded variation of this layout: tables moved by up to +-0.04 m (times
-        ``amplitude``), table tops and heights +-0.02 m, the cup anywhere within +-0.05 m of
-        the top centre (staying on the top), the place spot +-0.01 m (a person puts the cup
-        down at much the same spot of the target table), board centre +-0.03 m, target
+        """A seeded variation of this layout: each table moved independently by up to
+        +-0.06 m in x and +-0.15 m in y (times ``amplitude``; so the relation of the hand to
+        the table it does not work at varies much more than to the one it does: what lets a
+        learner tell them apart), table tops and heights +-0.02 m, the cup anywhere within
+        +-0.05 m of the top centre (staying on the top), the place spot +-0.005 m (a person
+        puts the cup down at much the same spot of the target table), board centre +-0.03 m, target
         +-0.04 m, obstacle +-0.02 m. The same seed gives the same layout."""
         rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
         a = float(amplitude)
@@ -216,13 +218,14 @@ class ImitationSceneSpec:
             return rng.uniform(-lo * a, lo * a, n)
 
         s = dataclasses.replace(self)
-        s.table_a = (np.asarray(self.table_a) + u(0.04, 2)).tolist()
-        s.table_b = (np.asarray(self.table_b) + u(0.04, 2)).tolist()
+        shift = np.array([0.06, 0.15])
+        s.table_a = (np.asarray(self.table_a) + u(1.0, 2) * shift).tolist()
+        s.table_b = (np.asarray(self.table_b) + u(1.0, 2) * shift).tolist()
         s.table_size = (np.asarray(self.table_size) + u(0.02, 2)).tolist()
         s.table_height = float(self.table_height + u(0.02))
         lim = np.asarray(s.table_size) / 2 - self.cup_radius - 0.01
         s.cup_offset = np.clip(np.asarray(self.cup_offset) + u(0.05, 2), -lim, lim).tolist()
-        s.place_offset = np.clip(np.asarray(self.place_offset) + u(0.01, 2), -lim, lim).tolist()
+        s.place_offset = np.clip(np.asarray(self.place_offset) + u(0.005, 2), -lim, lim).tolist()
         s.board_centre = (np.asarray(self.board_centre) + u(0.03, 3)).tolist()
         s.target_position = (np.asarray(self.target_position) + u(0.04, 3)).tolist()
         s.obstacle_centre = (np.asarray(self.obstacle_centre) + u(0.02, 3)).tolist()

@@ -13,6 +13,7 @@ from .front_detector import FrontDetector
 from .front_pose import TrueFrontPose
 from .front_tracker import FrontTracker, FrontTrackerConfig, FrontTrackerState
 from .front_visualizer import FrontTrackVisualizer
+from .kinematic_body_poses import KinematicBodyPoses
 from .marker_sensor import CameraConfig, MarkerSensor, MarkerSensorConfig
 from .model_visualizer import LearnedModelVisualizer
 from .motor_babbling import MotorBabbling
@@ -47,6 +48,7 @@ __all__ = [
     "FrontTrackerConfig",
     "FrontTrackerState",
     "FrontTrackVisualizer",
+    "KinematicBodyPoses",
     "GravityCompensation",
     "JointBlocker",
     "JointFriction",

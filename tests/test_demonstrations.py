@@ -210,3 +210,40 @@ def test_app_help_and_bad_arguments(tmp_path, capsys):
     bad_usage(main, ["--out", str(tmp_path / "missing" / "d.json")], capsys, "--out")
     bad_usage(main, ["--task", "whiteboard", "--board-scale", "3", "--demos", "1"], capsys,
               "does not fit")
+
+
+def test_kinematic_body_poses_system():
+    from pydrake.multibody.plant import MultibodyPlant
+
+    from mmlearn.sdf.imitation import ImitationSceneSpec, add_imitation_scene, add_teacher
+    from mmlearn.systems import KinematicBodyPoses
+
+    plant = MultibodyPlant(0.0)
+    add_teacher(plant)
+    add_imitation_scene(plant, ImitationSceneSpec())
+    plant.Finalize()
+    sys_ = KinematicBodyPoses(plant=plant)
+    ctx = sys_.CreateDefaultContext()
+    pctx = plant.CreateDefaultContext()
+    rng = np.random.default_rng(0)
+    q = plant.GetPositions(pctx)
+    q[:8] = rng.uniform(-1, 1, 8)
+    cup = plant.GetBodyByName("cup")
+    s = cup.floating_positions_start()
+    q[s:s + 4] = [2.0, 0.0, 0.0, 2.0]  # not unit: normalised by the system
+    sys_.get_positions_input_port().FixValue(ctx, q)
+    poses = sys_.get_body_poses_output_port().Eval(ctx)
+    q[s:s + 4] /= np.linalg.norm(q[s:s + 4])
+    plant.SetPositions(pctx, q)
+    assert len(poses) == plant.num_bodies()
+    for name in ("hand", "x4", "cup", "table_b"):
+        b = plant.GetBodyByName(name)
+        np.testing.assert_allclose(poses[int(b.index())].GetAsMatrix4(),
+                                   plant.EvalBodyPoseInWorld(pctx, b).GetAsMatrix4(),
+                                   atol=1e-12)
+    q[0] = np.nan  # a bad sample: identity poses, no exception
+    sys_.get_positions_input_port().FixValue(ctx, q)
+    poses = sys_.get_body_poses_output_port().Eval(ctx)
+    assert all(p.IsExactlyIdentity() for p in poses)
+    with pytest.raises(ValueError, match="finalized"):
+        KinematicBodyPoses(plant=MultibodyPlant(0.0))

@@ -1,0 +1,41 @@
+"""Time to record demonstrations of each imitation task (diagrams/demonstrations.py).
+
+    python benchmarks/bench_record_demos.py [--demos 4] [--seed 0]
+
+For each task: the wall time of ``record_demonstrations(task, demos, seed=...)`` (plan, the
+teacher's per-sample IK, the playback simulation with the marker sensor's occlusion tests),
+the demonstrated time it covers, and, for one demonstration, how much of it is the IK.
+"""
+
+import argparse
+import time
+
+import numpy as np
+
+from mmlearn.diagrams.demonstrations import MakeTeacherDiagram, TeacherConfig, \
+    record_demonstrations
+from mmlearn.models.teacher import TASKS
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--demos", type=int, default=4)
+    ap.add_argument("--seed", type=int, default=0)
+    args = ap.parse_args(argv)
+    print(f"{args.demos} demonstrations per task, seed {args.seed}")
+    print(f"{'task':11s} {'record s':>9s} {'demo s':>7s} {'frames':>7s} {'hand seen':>10s} "
+          f"{'IK s (1 demo)':>14s} {'IK samples':>11s}")
+    for task in TASKS:
+        t0 = time.perf_counter()
+        demos = record_demonstrations(task, args.demos, seed=args.seed)
+        wall = time.perf_counter() - t0
+        dur = sum(d.duration for d in demos)
+        frames = sum(d.T for d in demos)
+        seen = np.mean([np.isfinite(d.hand).all(axis=1).mean() for d in demos])
+        td = MakeTeacherDiagram(TeacherConfig(task=task, seed=args.seed * 1000))
+        print(f"{task:11s} {wall:9.2f} {dur:7.1f} {frames:7d} {100 * seen:9.0f}% "
+              f"{td.ik_seconds:14.2f} {td.q_times.size:11d}")
+
+
+if __name__ == "__main__":
+    main()
