@@ -53,11 +53,10 @@ REACH_TOL = 0.03      # m
 
 # ----------------------------------------------------------------------------- demonstrations
 #: amplitude of the teacher's scene variation between demonstrations (1 = the scene's
-#: default ranges: tables +-4 cm; 2: +-8 cm). The thesis: generalisation depends on the
-#: variation in the demonstrations; with +-4 cm the relation of the hand to the table the cup
-#: came from is about as consistent during the carry as that to the target table, and a
-#: reproduction with swapped tables cannot tell them apart.
-PLACEMENT = 2.0
+#: default ranges, :meth:`ImitationSceneSpec.sampled`). The thesis: generalisation depends on
+#: the variation in the demonstrations (the tables must move enough between them for the
+#: learner to see which table matters when).
+PLACEMENT = 1.0
 
 
 def record_demos(task: str, n: int, *, seed: int, board_scale: float = 1.0,
