@@ -49,6 +49,8 @@ SPONGE_RADIUS = 0.04  # m, the hand's cleaning radius on the board
 SAMPLE_DT = 0.05      # s, clearance and trail sampling period
 PLACE_TOL = 0.02      # m
 REACH_TOL = 0.03      # m
+RELEASE_S = 1.0       # s simulated after the reproduction's last step
+MAX_TIME_FACTOR = 2.0  # the simulation stops at this times the nominal duration
 
 
 # ----------------------------------------------------------------------------- demonstrations
@@ -197,17 +199,23 @@ def run(*, task: str = "pick_place", demos: int = 4, seed: int = 0, swap_tables:
     mine, obst = _clearance_pairs(im)
     qport = diagram.GetOutputPort("query_object")
     hport = diagram.GetOutputPort("hand")
-    duration = im.reproducer.duration + 1.0
+    # until the reproducer has stepped through every slice (it may spend extra steps on a
+    # slice, see DbnReproducerConfig.advance_tolerance) plus RELEASE_S for the cup to settle,
+    # at most MAX_TIME_FACTOR times the nominal duration
+    nominal = im.reproducer.duration
+    max_time = MAX_TIME_FACTOR * nominal + RELEASE_S
     clearance, closest, t_closest = math.inf, None, None
     hand_trail = []
     t_wall = time.perf_counter()
     t = 0.0
+    t_end = None
+    sport = diagram.GetOutputPort("status")
     from mmlearn.apps._common import progress_bar
 
-    bar = progress_bar(int(math.ceil(duration / SAMPLE_DT)), "reproducing", unit="step",
+    bar = progress_bar(int(math.ceil(max_time / SAMPLE_DT)), "reproducing", unit="step",
                        enabled=show_progress)
-    while t < duration - 1e-9:
-        t = min(t + SAMPLE_DT, duration)
+    while t < (t_end if t_end is not None else max_time) - 1e-9:
+        t = min(t + SAMPLE_DT, max_time)
         sim.AdvanceTo(t)
         hand_trail.append(np.array(hport.Eval(ctx), float))
         if mine:
@@ -216,8 +224,11 @@ def run(*, task: str = "pick_place", demos: int = 4, seed: int = 0, swap_tables:
             if d < clearance:
                 clearance, t_closest = d, t
                 closest = q.inspector().GetName(who)
+        if t_end is None and sport.Eval(ctx)[5] > 0:
+            t_end = min(t + RELEASE_S, max_time)
         bar.update(1)
     bar.close()
+    duration = t
     repro_s = time.perf_counter() - t_wall
     if meshcat is not None:
         im.visualizer.StopRecording()
@@ -233,7 +244,7 @@ def run(*, task: str = "pick_place", demos: int = 4, seed: int = 0, swap_tables:
            "placement": None if demos_file else placement,
            "board_scale": board_scale, "mode": cfg.reproducer.mode,
            "learn_seconds": learn_s, "reproduction_seconds": repro_s,
-           "simulated_seconds": duration,
+           "simulated_seconds": duration, "finished": bool(t_end is not None),
            "min_obstacle_clearance_m": clearance if mine else None,
            "closest_geometry": closest, "closest_time_s": t_closest,
            "steps": int(status[0]), "waiting_steps": int(status[1]),

@@ -101,7 +101,7 @@ class ImitationConfig:
     kd_gripper: float = 1.0
     robot_start: list[float] = field(default_factory=list)
     capture_radius: float = 0.05
-    grasp_stiffness: float = 400.0
+    grasp_stiffness: float = 1000.0
 
     def validate(self) -> None:
         if self.task not in TASKS:

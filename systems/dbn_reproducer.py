@@ -100,7 +100,7 @@ class DbnReproducerConfig:
     obstacle_range: float = 0.35
     carry_radius: float = 0.1
     skip_carried: bool = True
-    carry_tolerance: float = 0.03
+    carry_tolerance: float = 0.05
     advance_tolerance: float = 0.02
     max_slice_waits: int = 8
     step_kwargs: dict = field(default_factory=dict)
@@ -248,6 +248,7 @@ class DbnReproducer(LeafSystem):
         self._g_obj = self.DeclareDiscreteState(4 * max(m, 1))  # xyz + seen, per object
         self._g_target = self.DeclareDiscreteState(3)
         self._g_status = self.DeclareDiscreteState(len(STATUS_FIELDS))
+        self._g_held = self.DeclareDiscreteState(max(m, 1))  # 1 = object held in the hand
         self._g_plan = (self.DeclareDiscreteState(self._S * n) if cfg.mode == "global"
                         else None)
         self.DeclarePeriodicDiscreteUpdateEvent(self._period, 0.0, self._update)
@@ -370,17 +371,28 @@ class DbnReproducer(LeafSystem):
                 if np.linalg.norm(np.asarray(self._model.mean[f"obj:{o}"])[k])
                 < self._cfg.carry_radius]
 
-    def held(self, k: int, hand, objects: dict) -> list[str]:
-        """The carried objects (``carried(k)``) whose observed relation to ``hand`` holds
-        within ``carry_tolerance``."""
-        out = []
-        for o in self.carried(k):
-            x = objects.get(o)
-            mu = np.asarray(self._model.mean[f"obj:{o}"])[min(int(k), self._S - 1)]
-            if x is not None and np.linalg.norm(np.asarray(x) - hand - mu) \
-                    < self._cfg.carry_tolerance:
-                out.append(o)
-        return out
+    def update_held(self, k: int, hand, objects: dict, flags, *,
+                    gripper_closed: bool = True) -> np.ndarray:
+        """New held flags (one per tracked object): an object carried at slice k
+        (``carried(k)``) becomes held when the gripper has already been commanded closed
+        (``gripper_closed``) and its observed relation to the measured ``hand`` is within
+        ``carry_tolerance`` of the learned one; it stays held until the learned gripper
+        opens or the relation is off by more than three times that (dropped)."""
+        flags = np.asarray(flags, float).copy()
+        carried = set(self.carried(k))
+        tol = self._cfg.carry_tolerance
+        for r, name in enumerate(self._tracked):
+            x = objects.get(name)
+            if name not in carried or x is None or hand is None:
+                flags[r] = 0.0
+                continue
+            mu = np.asarray(self._model.mean[f"obj:{name}"])[min(int(k), self._S - 1)]
+            dev = float(np.linalg.norm(np.asarray(x) - hand - mu))
+            if flags[r] == 0.0 and dev < tol and gripper_closed:
+                flags[r] = 1.0
+            elif flags[r] == 1.0 and dev > 3.0 * tol:
+                flags[r] = 0.0
+        return flags
 
     def gripper_angle(self, k: int) -> float:
         """Finger angle at time slice k from the learned gripper mean, rad."""
@@ -426,10 +438,19 @@ class DbnReproducer(LeafSystem):
                     q_new, target = self._global_step(context, discrete_state, ks, q_to,
                                                       objects, obj, status)
                 else:
+                    held_flags = context.get_discrete_state(self._g_held).get_value()
+                    if cfg.skip_carried:
+                        hand_meas = (None if q_meas is None
+                                     else self.forward_kinematics(q_meas))
+                        closed = q_to[self._n] < 0.5 * cfg.gripper_open_angle
+                        held_flags = self.update_held(ks, hand_meas, objects, held_flags,
+                                                      gripper_closed=closed)
+                        discrete_state.set_value(self._g_held, held_flags)
+                    held = [n for r, n in enumerate(self._tracked) if held_flags[r] > 0]
                     stay = None
                     if (cfg.advance_tolerance > 0 and 1 <= k < self._S - 1
                             and clock[3] < cfg.max_slice_waits):
-                        stay = self._incremental_step(k, q_to, objects, obj, q_meas)
+                        stay = self._incremental_step(k, q_to, objects, obj, held)
                         hand = self.forward_kinematics(q_to[: self._n])
                         if (stay[2] is None or np.linalg.norm(hand - stay[1])
                                 <= cfg.advance_tolerance):
@@ -441,7 +462,7 @@ class DbnReproducer(LeafSystem):
                         status[6] += 1
                     else:
                         q_new, target, _ = self._incremental_step(ks, q_to, objects, obj,
-                                                                  q_meas)
+                                                                  held)
                         clock[3] = 0
                 q_to[: self._n] = q_new
                 q_to[self._n] = self.gripper_angle(ks)
@@ -458,7 +479,7 @@ class DbnReproducer(LeafSystem):
         discrete_state.set_value(self._g_status, status)
         return EventStatus.Succeeded()
 
-    def _incremental_step(self, ks, q_to, objects, obj, q_meas=None):
+    def _incremental_step(self, ks, q_to, objects, obj, held=()):
         from mmlearn.models.imitation import constraint_step
 
         cfg = self._cfg
@@ -473,8 +494,7 @@ class DbnReproducer(LeafSystem):
                   obstacles=obstacles, obstacle_points=points,
                   obstacle_alpha=cfg.obstacle_alpha, obstacle_beta=cfg.obstacle_beta,
                   obstacle_length=cfg.obstacle_length,
-                  carried=(self.held(ks, hand if q_meas is None else kin.hand(q_meas), objects)
-                           if cfg.skip_carried else ()))
+                  carried=list(held))
         kw.update(cfg.step_kwargs)
         res = constraint_step(self._model, ks, **kw)
         dq = np.asarray(res.dq, float).reshape(self._n)

@@ -16,7 +16,10 @@ the hand goes and *when* it closes, so the grasp is modelled instead:
   the one it had when captured (a wrist that keeps a cup level: the arm's six joints are
   commanded for the hand's position only). The opposite force and torque act on the hand
   body, so momentum is conserved;
-* **release**: as soon as the gripper opens (finger angle >= ``closed_below``).
+* **release**: as soon as the gripper opens (finger angle >= ``closed_below``), or when
+  the object slips: its grasp point more than ``slip_distance`` from the TCP (the spring
+  force is also limited to ``max_force``, so a hand that jerks away cannot make the
+  simulation diverge).
 
 The forces go to the plant's ``applied_spatial_force`` input as
 ``ExternallyAppliedSpatialForce`` values.
@@ -58,7 +61,8 @@ class GraspAttachment(LeafSystem):
     def __init__(self, *, plant, hand_body, p_tcp, object_body, p_object=(0.0, 0.0, 0.0),
                  capture_radius: float = 0.06, closed_below: float = 0.3,
                  stiffness: float = 400.0, damping: float | None = None,
-                 rot_stiffness: float = 1.0, period: float = 0.01):
+                 rot_stiffness: float = 1.0, period: float = 0.01,
+                 max_force: float = 40.0, slip_distance: float = 0.08):
         """
         Args:
             plant: the finalized MultibodyPlant.
@@ -74,10 +78,13 @@ class GraspAttachment(LeafSystem):
             rot_stiffness: rotational spring keeping the captured orientation, N*m/rad
                 (its damper is critical for the object's largest principal moment).
             period: how often capture and release are decided, s.
+            max_force: largest spring-damper force, N.
+            slip_distance: TCP-to-grasp-point distance at which a held object slips out, m.
         """
         super().__init__()
         for name, v in (("capture_radius", capture_radius), ("stiffness", stiffness),
-                        ("rot_stiffness", rot_stiffness), ("period", period)):
+                        ("rot_stiffness", rot_stiffness), ("period", period),
+                        ("max_force", max_force), ("slip_distance", slip_distance)):
             if not (math.isfinite(v) and v > 0):
                 raise ValueError(f"GraspAttachment: {name} must be a finite number > 0, "
                                  f"got {v!r}")
@@ -88,6 +95,8 @@ class GraspAttachment(LeafSystem):
         self._p_tcp = np.asarray(p_tcp, float).reshape(3)
         self._p_obj = np.asarray(p_object, float).reshape(3)
         self._radius = float(capture_radius)
+        self._max_force = float(max_force)
+        self._slip = float(slip_distance)
         self._closed_below = float(closed_below)
         mass = float(obj.default_mass())
         if not (math.isfinite(mass) and mass > 0):
@@ -146,6 +155,11 @@ class GraspAttachment(LeafSystem):
         closed = math.isfinite(angle) and angle < self._closed_below
         if not closed:
             s[0] = 0.0
+        elif s[0] == 1.0:
+            X = self._poses.Eval(context)
+            tcp = X[self._hand] @ self._p_tcp
+            if not np.linalg.norm(tcp - X[self._obj] @ s[1:4]) <= self._slip:
+                s[0] = 0.0  # slipped out (or a pose that cannot be computed)
         elif s[0] == 0.0:
             X = self._poses.Eval(context)
             X_WH, X_WO = X[self._hand], X[self._obj]
@@ -174,11 +188,18 @@ class GraspAttachment(LeafSystem):
         r_O = X_WO.rotation().matrix() @ p_OG
         v_tcp = V_H.translational() + np.cross(V_H.rotational(), r_H)
         v_G = V_O.translational() + np.cross(V_O.rotational(), r_O)
-        f = self._k * (tcp - p_G) + self._d * (v_tcp - v_G) - self._mass * self._g
+        f = self._k * (tcp - p_G) + self._d * (v_tcp - v_G)
+        nf = float(np.linalg.norm(f))
+        if nf > self._max_force:
+            f *= self._max_force / nf
+        f = f - self._mass * self._g
         R_des = RotationMatrix(s[4:13].reshape(3, 3))
         aa = (R_des @ X_WO.rotation().inverse()).ToAngleAxis()
         tau = self._kr * aa.axis() * aa.angle() - self._dr * (V_O.rotational()
                                                               - V_H.rotational())
+        if not (np.all(np.isfinite(f)) and np.all(np.isfinite(tau))):
+            output.set_value([])  # a state that cannot be computed: let go, never crash
+            return
         f_obj = ExternallyAppliedSpatialForce()
         f_obj.body_index = self._body_index(self._obj)
         f_obj.p_BoBq_B = p_OG
