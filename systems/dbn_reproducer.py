@@ -433,6 +433,7 @@ class DbnReproducer(LeafSystem):
             ks = min(k + 1, self._S - 1)
             objects = {name: obj[r, :3].copy() for r, name in enumerate(self._tracked)
                        if name in self._objects}
+            advance = True
             try:
                 if cfg.mode == "global":
                     q_new, target = self._global_step(context, discrete_state, ks, q_to,
@@ -456,7 +457,7 @@ class DbnReproducer(LeafSystem):
                                 <= cfg.advance_tolerance):
                             stay = None
                     if stay is not None:
-                        ks = k
+                        advance, ks = False, k
                         q_new, target, _ = stay
                         clock[3] += 1
                         status[6] += 1
@@ -466,7 +467,7 @@ class DbnReproducer(LeafSystem):
                         clock[3] = 0
                 q_to[: self._n] = q_new
                 q_to[self._n] = self.gripper_angle(ks)
-                clock[1] = ks
+                clock[1] = k + 1 if advance else k
                 status[0] += 1
             except Exception:  # noqa: BLE001 - a failed step holds the arm, never crashes
                 status[2] += 1
