@@ -13,6 +13,7 @@ so a reproduction that hits them is pushed and the clearance measures it.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 
@@ -35,6 +36,7 @@ from mmlearn.systems.dbn_visualizer import DbnVisualizer, draw_demonstrations, \
 from mmlearn.systems.grasp_attachment import GraspAttachment
 
 TASKS = ("pick_place", "whiteboard", "obstacle", "u_obstacle")
+U_SHIFT = 0.05  # m, see ImitationConfig.scene_spec
 #: the arm's start configuration q1..q6, rad: the hand 0.3 m in front of the base at a
 #: height of 0.6 m, pointing down
 ROBOT_START = (0.0, 0.35, 0.0, 1.6, 0.0, 1.2)
@@ -128,6 +130,11 @@ class ImitationConfig:
         if self.scene is not None:
             return self.scene.validate()
         s = task_scene(self.task, swap_tables=self.swap_tables, board_scale=self.board_scale)
+        if self.task == "u_obstacle":
+            # the U 5 cm further from the robot than the teacher's nominal layout: at the
+            # demonstrated start the robot's forearm (radius 4 cm) then clears the U's wall
+            c = list(s.obstacle_centre)
+            s = dataclasses.replace(s, obstacle_centre=[c[0] + U_SHIFT, c[1], c[2]])
         if self.variation > 0:
             # a seed stream apart from the teacher's demonstrations
             s = s.sampled(np.random.default_rng([self.seed, 15, 2]), amplitude=self.variation)
@@ -190,6 +197,33 @@ def hand_ik(reproducer, p_hand, *, q_seed=ROBOT_START, iterations: int = 100,
         q = q + J.T @ np.linalg.solve(J @ J.T + damping ** 2 * np.eye(3), e)
         q = np.clip(q, reproducer._lo, reproducer._hi)
     return q
+
+
+#: seeds of the start IK (q2, q4, q6), rad: elbow lower / higher, wrist bent more / less
+START_SEEDS = ((0.35, 1.6, 1.2), (0.0, 1.2, 1.9), (0.6, 1.9, 0.6), (-0.2, 1.0, 2.2),
+               (0.9, 2.2, 0.0))
+
+
+def start_configuration(reproducer, p_hand, boxes=()) -> np.ndarray:
+    """The arm's start: the hand at ``p_hand`` (world, m) by :func:`hand_ik` from each of
+    ``START_SEEDS``; with obstacle ``boxes`` (SceneBox list) the solution whose arm points
+    (``BODY_POINTS`` and the hand) keep the largest clearance from them, else the first
+    that reaches (within 5 mm)."""
+    best, best_d = None, -np.inf
+    kin = reproducer.kinematics()
+    for q2, q4, q6 in START_SEEDS:
+        q = hand_ik(reproducer, p_hand, q_seed=(0.0, q2, 0.0, q4, 0.0, q6))
+        err = np.linalg.norm(kin.hand(q) - p_hand)
+        pts = np.vstack([kin.body_points(q), kin.hand(q)[None]])
+        d = min((float(np.min(np.linalg.norm(
+            np.maximum(np.abs((pts - b.centre) @ b.R) - b.half_size, 0.0), axis=1)))
+            for b in boxes), default=0.0) if boxes else 0.0
+        score = d - (10.0 if err > 0.005 else 0.0)
+        if score > best_d:
+            best, best_d = q, score
+        if not boxes and err <= 0.005:
+            break
+    return best
 
 
 def object_positions(plant, root_context, names) -> dict[str, np.ndarray]:
@@ -320,7 +354,7 @@ def MakeImitationDiagram(config: ImitationConfig | None = None, *, model, meshca
     if len(cfg.robot_start):
         q_start = np.asarray(cfg.robot_start, float)
     else:
-        q_start = hand_ik(rep, home_position(cfg.task))
+        q_start = start_configuration(rep, home_position(cfg.task), spec.obstacle_boxes())
     start = np.r_[q_start, cfg.reproducer.gripper_open_angle]
     out = Imitation(diagram=diagram, plant=plant, scene_graph=scene_graph, robot=robot,
                     scene=scene, sensor=sensor, reproducer=rep, grasp=grasp,

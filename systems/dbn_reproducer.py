@@ -66,6 +66,8 @@ class DbnReproducerConfig:
             while the learned gripper is closed counts as carried, m. The global plan
             always skips a carried object's constraint (it plans with the objects' start
             positions, but a carried object moves with the hand).
+        plan_clearance: the global plan keeps the hand and the arm's body points this far
+            from obstacles, m (the arm's links are up to 0.045 m thick around them).
         skip_carried: in incremental steps, skip the constraint of an object that is
             carried *and observed to be held*: its relation to the hand holds within
             ``carry_tolerance``. The thesis keeps it; the observed carried object then
@@ -100,8 +102,9 @@ class DbnReproducerConfig:
     obstacle_range: float = 0.35
     carry_radius: float = 0.1
     skip_carried: bool = True
+    plan_clearance: float = 0.06
     carry_tolerance: float = 0.05
-    advance_tolerance: float = 0.02
+    advance_tolerance: float = 0.01
     max_slice_waits: int = 8
     step_kwargs: dict = field(default_factory=dict)
 
@@ -111,7 +114,7 @@ class DbnReproducerConfig:
                              f"{self.mode!r}")
         for k in ("period", "damping", "gain", "max_joint_step", "gripper_open_angle",
                   "obstacle_alpha", "obstacle_beta", "obstacle_length", "obstacle_range",
-                  "carry_radius", "carry_tolerance"):
+                  "carry_radius", "carry_tolerance", "plan_clearance"):
             v = getattr(self, k)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
                 raise ValueError(f"DbnReproducerConfig.{k} must be a finite number >= 0, "
@@ -436,8 +439,11 @@ class DbnReproducer(LeafSystem):
             advance = True
             try:
                 if cfg.mode == "global":
-                    q_new, target = self._global_step(context, discrete_state, ks, q_to,
-                                                      objects, obj, status)
+                    q_new, target, advance = self._global_step(
+                        context, discrete_state, ks, q_to, objects, obj, status)
+                    if not advance:
+                        ks = k
+                        status[6] += 1
                 else:
                     held_flags = context.get_discrete_state(self._g_held).get_value()
                     if cfg.skip_carried:
@@ -530,7 +536,7 @@ class DbnReproducer(LeafSystem):
                       body_points=kin.body_points if self._body_points else None,
                       obstacles=self._obstacle_boxes(obj), use_joints=self._cfg.use_joints,
                       q_lower=self._lo, q_upper=self._hi, carry_radius=self._cfg.carry_radius,
-                      seed=0)
+                      clearance=self._cfg.plan_clearance, seed=0)
             kw.update(self._cfg.step_kwargs)
             plan = np.asarray(plan_global(self._model, **kw), float)
             if plan.shape != (self._S, self._n) or not np.all(np.isfinite(plan)):
@@ -539,8 +545,16 @@ class DbnReproducer(LeafSystem):
             status[3] = 1.0
             status[4] = time.perf_counter() - t0
             discrete_state.set_value(self._g_plan, plan.ravel())
-        q_new = plan[ks]
-        return q_new, self.forward_kinematics(q_new)
+        # along the plan's straight joint-space edge, at most max_joint_step per step: the
+        # slice advances when its configuration is reached (the plan checked that edge for
+        # collisions; a fast jump would make the compliant arm cut the corner)
+        q = q_to[: self._n]
+        d = plan[ks] - q
+        big = float(np.max(np.abs(d)))
+        if big > self._cfg.max_joint_step:
+            q_new = q + d * (self._cfg.max_joint_step / big)
+            return q_new, self.forward_kinematics(plan[ks]), False
+        return plan[ks].copy(), self.forward_kinematics(plan[ks]), True
 
     def _calc_hand(self, context, output):
         x = self._in_state.Eval(context)
