@@ -6,8 +6,9 @@ obstacles), a :class:`MarkerSensor` observing the objects' markers, the
 :class:`GraspAttachment` that holds the cup while the gripper is closed.
 
 Contacts: the cup's contacts with the robot are filtered out (the grasp model holds it; the
-fingers would otherwise collide with a cup they close around); the robot does not collide
-with itself or the floor. The robot *does* collide with the tables, board and obstacles,
+fingers would otherwise collide with a cup they close around), and so are the board's (the
+hand wipes it, with a sponge in the thesis); the robot does not collide with itself or the
+floor. The robot *does* collide with the tables, board and obstacles,
 so a reproduction that hits them is pushed and the clearance measures it.
 """
 
@@ -37,6 +38,7 @@ from mmlearn.systems.grasp_attachment import GraspAttachment
 
 TASKS = ("pick_place", "whiteboard", "obstacle", "u_obstacle")
 U_SHIFT = 0.05  # m, see ImitationConfig.scene_spec
+BOX_DROP = 0.12  # m, see ImitationConfig.scene_spec
 #: the arm's start configuration q1..q6, rad: the hand 0.3 m in front of the base at a
 #: height of 0.6 m, pointing down
 ROBOT_START = (0.0, 0.35, 0.0, 1.6, 0.0, 1.2)
@@ -135,6 +137,12 @@ class ImitationConfig:
             # demonstrated start the robot's forearm (radius 4 cm) then clears the U's wall
             c = list(s.obstacle_centre)
             s = dataclasses.replace(s, obstacle_centre=[c[0] + U_SHIFT, c[1], c[2]])
+        elif self.task == "obstacle":
+            # thesis Fig. 8.7: an obstacle in the way of the demonstrated path, which the arm
+            # moves over: the box 0.12 m lower than the teacher's nominal layout, its top
+            # about 4 cm under the demonstrated hand path, so the fingers would hit it
+            c = list(s.obstacle_centre)
+            s = dataclasses.replace(s, obstacle_centre=[c[0], c[1], c[2] - BOX_DROP])
         if self.variation > 0:
             # a seed stream apart from the teacher's demonstrations
             s = s.sampled(np.random.default_rng([self.seed, 15, 2]), amplitude=self.variation)
@@ -280,6 +288,10 @@ def MakeImitationDiagram(config: ImitationConfig | None = None, *, model, meshca
     has_cup = "cup" in scene.bodies
     if has_cup:
         decl = decl.ExcludeBetween(robot_g, geoms([plant.GetBodyByName("cup")]))
+    if "board" in scene.bodies:
+        # the hand wipes the board (a sponge in the thesis): no contact forces with it
+        decl = decl.ExcludeBetween(robot_g, geoms([plant.GetBodyByName(b) for b in
+                                                   scene.bodies if b.startswith("board")]))
     scene_graph.collision_filter_manager().Apply(decl)
 
     # command (q1..q6, finger angle) -> desired state of the actuators
