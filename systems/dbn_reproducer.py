@@ -82,7 +82,9 @@ class DbnReproducerConfig:
             commanded hand is within this distance of the current slice's fused target
             (or after ``max_slice_waits`` extra steps on it), m; 0 = one slice per step
             as in the thesis. A slowed-down arm (or a hand anchored by a carried object's
-            constraint) then still arrives before, e.g., the gripper opens.
+            constraint) then still arrives before, e.g., the gripper opens. Not used when
+            there are obstacles: their attractors keep the hand off the fused target of the
+            other constraints on purpose (measured: the box-obstacle reach stalled).
         max_slice_waits: largest number of extra steps spent on one slice.
         step_kwargs: further keyword arguments passed to ``constraint_step`` /
             ``plan_global`` unchanged.
@@ -456,7 +458,7 @@ class DbnReproducer(LeafSystem):
                     held = [n for r, n in enumerate(self._tracked) if held_flags[r] > 0]
                     stay = None
                     if (cfg.advance_tolerance > 0 and 1 <= k < self._S - 1
-                            and clock[3] < cfg.max_slice_waits):
+                            and clock[3] < cfg.max_slice_waits and not self._obstacles):
                         stay = self._incremental_step(k, q_to, objects, obj, held)
                         hand = self.forward_kinematics(q_to[: self._n])
                         if (stay[2] is None or np.linalg.norm(hand - stay[1])
