@@ -353,7 +353,8 @@ def main(argv=None) -> int:
     if meshcat is not None:
         from mmlearn.apps._common import finish_viewing
 
-        finish_viewing(html_out=args.html_out, live=args.meshcat)
+        # with --json, stdout holds the JSON only
+        finish_viewing(html_out=None if args.json else args.html_out, live=args.meshcat)
     return 0
 
 

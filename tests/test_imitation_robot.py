@@ -218,8 +218,9 @@ def test_imitate_short_run_from_a_demos_file(capsys, tmp_path):
 
     f = tmp_path / "demos.json"
     save_demonstrations(f, _reach_demos())
+    html = tmp_path / "run.html"
     rc, out, err = run_main(main, ["--task", "obstacle", "--demos-file", str(f), "--seed", "2",
-                                   "--json"], capsys)
+                                   "--json", "--html-out", str(html)], capsys)
     assert rc == 0, err
     rec = json.loads(out)
     for k in ("success", "place_error_m", "min_obstacle_clearance_m", "reproduction_seconds",
@@ -228,6 +229,16 @@ def test_imitate_short_run_from_a_demos_file(capsys, tmp_path):
     assert rec["demos"] == 3 and rec["failed_steps"] == 0
     assert rec["min_obstacle_clearance_m"] is not None
     assert rec["reach_error_m"] < 0.05
+    # the recording holds the demonstrations, the learned means / ellipsoids and the trail
+    # (Meshcat's commands are embedded as base64 msgpack)
+    import base64
+    import re
+
+    msgs = b"".join(base64.b64decode(b) for b in
+                    re.findall(r"base64,([A-Za-z0-9+/=]+)", html.read_text()))
+    for key in (b"imitation/demonstrations/demo_2", b"imitation/model/target/slice_0000",
+                b"imitation/trail/dot_00005"):
+        assert key in msgs, key
 
 
 def test_experiments_help_report_only_and_bad_arguments(capsys, tmp_path):
