@@ -297,7 +297,9 @@ class DbnReproducer(LeafSystem):
 
     @property
     def duration(self) -> float:
-        """Simulated seconds the reproduction takes (model steps plus settling), s."""
+        """Simulated seconds the reproduction takes without repeated slices (model steps
+        plus settling), s; repeated slices (``advance_tolerance``, bounded joint steps of a
+        global plan) extend it: ``status`` says when it has ended."""
         return (self._S + self._cfg.settle_steps + 1) * self._period
 
     def set_initial_command(self, context, q) -> None:
