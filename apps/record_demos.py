@@ -18,8 +18,6 @@ Meshcat (``--meshcat`` live, ``--html-out`` recording): the last demonstration's
 and every demonstration's observed hand track.
 """
 
-from __future__ import annotations
-
 import json
 import sys
 import time

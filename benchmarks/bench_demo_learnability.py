@@ -1,6 +1,6 @@
 """Do the recorded pick-and-place demonstrations tell the two tables apart? (thesis Fig. 8.5/8.6)
 
-    python benchmarks/bench_demo_learnability.py [--seeds 10] [--demos 1,2,4]
+    python benchmarks/bench_demo_learnability.py [--seeds 10] [--first-seed 0] [--demos 1,2,4]
 
 For each seed: record ``n`` demonstrations (``record_demonstrations``), learn the task
 (imit-model's ``learn_task``), and at the slice where the learned gripper opens (the place)
@@ -24,11 +24,12 @@ from mmlearn.models.teacher import task_scene
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=10)
+    ap.add_argument("--first-seed", type=int, default=0)
     ap.add_argument("--demos", default="1,2,4")
     args = ap.parse_args(argv)
     for n in [int(x) for x in args.demos.split(",")]:
         errs = []
-        for seed in range(args.seeds):
+        for seed in range(args.first_seed, args.first_seed + args.seeds):
             m = learn_task(record_demonstrations("pick_place", n, seed=seed))
             g = m.mean["gripper"][:, 0]
             k = np.flatnonzero(g < 0.5)[-1]  # last closed slice: the place

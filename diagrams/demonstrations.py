@@ -21,14 +21,12 @@ The teacher is a demonstration, not a learner, so the diagram plays it back kine
 
 :func:`observations_to_demonstration` turns the observed frames into a
 :class:`~mmlearn.models.imitation_types.Demonstration`: hand = the ``hand`` marker's
-position, gripper opening = the observed distance of the two finger markers mapped linearly
-from the closed (0) to the fully open (1) distance (a calibration of the teacher's hand
-geometry, computed once from its model), objects = their markers' positions; NaN wherever a
+position, gripper opening = the observed distance of the two finger markers mapped through a
+table of distance against opening (finger angle over the full angle; a calibration of the
+teacher's hand geometry, computed once from its model), objects = their markers' positions; NaN wherever a
 marker was not seen (and for the opening when a finger was not seen). Nothing is read from
 the teacher's state.
 """
-
-from __future__ import annotations
 
 import dataclasses
 import time as _time
@@ -50,7 +48,7 @@ from pydrake.trajectories import PiecewisePolynomial
 from mmlearn.models.imitation_types import Demonstration
 from mmlearn.models.teacher import TASKS, DemoPlan, TeacherStyle, plan_demonstration, task_scene
 from mmlearn.sdf.imitation import (TEACHER_OPENING, TEACHER_TCP_IN_X8, ImitationSceneSpec,
-                                   add_imitation_scene, add_teacher)
+                                   add_imitation_scene, add_teacher, stratified_table_shifts)
 from mmlearn.systems.kinematic_body_poses import KinematicBodyPoses
 from mmlearn.systems.marker_sensor import CameraConfig, MarkerSensor, MarkerSensorConfig
 from mmlearn.systems.observations import MarkerObservations
@@ -100,6 +98,10 @@ class TeacherConfig:
         ik_position_tolerance: half width of the box the tool centre point must reach, m.
         ik_angle_tolerance: largest angle between the hand's axis and the task's, rad (where
             the hand cannot reach a point so, it may tilt up to 2.5 times as far).
+        table_shift: the tables' moves as fractions of their range (4 numbers in [-1, 1],
+            see :meth:`ImitationSceneSpec.sampled`); None = drawn from ``seed``.
+        teacher_base: x, y of the teacher's base in the world, m (0.1 m in front of the
+            robot's: the teacher's arm is shorter).
     """
 
     task: str = "pick_place"
@@ -111,6 +113,8 @@ class TeacherConfig:
     playback_rate_hz: float = 20.0
     ik_position_tolerance: float = 0.002
     ik_angle_tolerance: float = 0.15
+    table_shift: list[float] | None = None
+    teacher_base: list[float] = field(default_factory=lambda: [0.10, 0.0])
 
     def validate(self) -> "TeacherConfig":
         if self.task not in TASKS:
@@ -124,6 +128,10 @@ class TeacherConfig:
         if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
             raise ValueError(f"TeacherConfig.playback_rate_hz ({self.playback_rate_hz}) must "
                              f"be a multiple of the sensor's rate_hz ({self.sensor.rate_hz})")
+        tb = np.asarray(self.teacher_base, float)
+        if tb.shape != (2,) or not np.all(np.isfinite(tb)):
+            raise ValueError(f"TeacherConfig.teacher_base must be 2 finite numbers (x, y, m), "
+                             f"got {self.teacher_base!r}")
         if not self.ik_position_tolerance > 0 or not self.ik_angle_tolerance > 0:
             raise ValueError("TeacherConfig: ik tolerances must be > 0")
         self.style.validate()
@@ -151,7 +159,7 @@ class TeacherDiagram:
         q_times: playback sample times, s.
         frame_times: the sensor's frame times, s.
         objects: names of the observed scene objects.
-        gripper_calibration: (closed, open) distance of the finger markers, m.
+        gripper_calibration: (31, 2) finger-marker distance (m) against opening (0..1).
         ik_seconds: time spent in the IK, s.
         visualizer: the MeshcatVisualizer (None without Meshcat).
     """
@@ -166,7 +174,7 @@ class TeacherDiagram:
     q_times: np.ndarray
     frame_times: np.ndarray
     objects: list[str]
-    gripper_calibration: tuple[float, float]
+    gripper_calibration: np.ndarray
     ik_seconds: float
     visualizer: object | None = None
 
@@ -180,13 +188,13 @@ def _finger_distance(plant, ctx, q7: float) -> float:
     return float(np.linalg.norm(a - b))
 
 
-def _teacher_path(plan: DemoPlan, times: np.ndarray, cfg: TeacherConfig
+def _teacher_path(plan: DemoPlan, times: np.ndarray, cfg: "TeacherConfig"
                   ) -> tuple[MultibodyPlant, np.ndarray]:
     """The teacher alone (its own plant) and its (n, nq) joint positions following the plan
     at ``times``: per sample an InverseKinematics, warm-started from the previous sample and
     pulled towards it (then from a few fixed postures, then with a tilted hand)."""
     plant = MultibodyPlant(time_step=0.0)
-    add_teacher(plant)
+    add_teacher(plant, base=cfg.teacher_base)
     plant.Finalize()
     nq = plant.num_positions()
     x8 = plant.GetFrameByName("x8")
@@ -207,7 +215,7 @@ def _teacher_path(plan: DemoPlan, times: np.ndarray, cfg: TeacherConfig
         sol, ok = None, False
         tries = [(g, cfg.ik_angle_tolerance) for g in ([prev] if prev is not None else [])
                  + guesses]
-        tries += [(g, 2.5 * cfg.ik_angle_tolerance) for g in tries[:2]]  # a tilted hand
+        tries += [(g, 2.5 * cfg.ik_angle_tolerance) for g, _ in tries[:2]]  # a tilted hand
         for guess, angle in tries:
             ik = InverseKinematics(plant)
             q = ik.q()
@@ -241,19 +249,22 @@ def MakeTeacherDiagram(config: TeacherConfig | None = None, *, meshcat=None) -> 
     diagram watched by the MarkerSensor (see the module docstring). ``meshcat`` (optional)
     shows the teacher, the scene and the planned hand path."""
     cfg = (config or TeacherConfig()).validate()
-    plan = plan_demonstration(cfg.task, seed=cfg.seed, scene=cfg.scene_spec(), style=cfg.style)
+    plan = plan_demonstration(cfg.task, seed=cfg.seed, scene=cfg.scene_spec(), style=cfg.style,
+                              table_shift=cfg.table_shift)
 
     builder = DiagramBuilder()
     scene_graph = builder.AddNamedSystem("scene_graph", SceneGraph())
     plant = MultibodyPlant(time_step=0.0)
     plant.set_name("teacher_plant")
     plant.RegisterAsSourceForSceneGraph(scene_graph)
-    teacher = add_teacher(plant)
+    teacher = add_teacher(plant, base=cfg.teacher_base)
     scene = add_imitation_scene(plant, plan.scene)
     plant.Finalize()
     ctx = plant.CreateDefaultContext()
-    g_closed = _finger_distance(plant, ctx, 0.0)
-    g_open = _finger_distance(plant, ctx, TEACHER_OPENING)
+    # finger-marker distance against opening (finger angle / full angle): the calibration
+    # of the teacher's hand geometry, from its model
+    grid = np.linspace(0.0, 1.0, 31)
+    calib = np.array([[_finger_distance(plant, ctx, g * TEACHER_OPENING), g] for g in grid])
 
     # playback samples: k / rate exactly (the sensor's frame times are among them)
     n = int(np.floor(plan.duration * cfg.playback_rate_hz + 1e-9)) + 1
@@ -314,28 +325,34 @@ def MakeTeacherDiagram(config: TeacherConfig | None = None, *, meshcat=None) -> 
     return TeacherDiagram(diagram=diagram, plant=plant, scene_graph=scene_graph, sensor=sensor,
                           body_poses=poses, plan=plan, q=Q, q_times=q_times,
                           frame_times=np.arange(frames) / scfg.rate_hz, objects=objects,
-                          gripper_calibration=(g_closed, g_open), ik_seconds=ik_seconds,
+                          gripper_calibration=calib, ik_seconds=ik_seconds,
                           visualizer=visualizer)
 
 
 def observations_to_demonstration(frames: list[MarkerObservations], *, objects: list[str],
-                                  gripper_calibration: tuple[float, float],
-                                  meta: dict | None = None) -> Demonstration:
+                                  gripper_calibration, meta: dict | None = None
+                                  ) -> Demonstration:
     """Convert observed frames into a Demonstration (NaN where a marker was not seen).
 
     Args:
         frames: one :class:`MarkerObservations` per sensor frame, in time order, each with
             the markers ``hand``, ``x9``, ``x10`` and ``objects``.
         objects: the scene objects to keep.
-        gripper_calibration: finger-marker distance (m) with the hand closed and fully open.
+        gripper_calibration: finger-marker distance (m) -> opening: either (closed, open)
+            distances for a linear map, or an (m, 2) table of (distance, opening) rows with
+            increasing distances (interpolated; clipped to [0, 1] outside).
         meta: extra JSON-able metadata.
     """
     if not frames:
         raise ValueError("observations_to_demonstration: no frames")
-    d0, d1 = map(float, gripper_calibration)
-    if not d1 > d0:
+    cal = np.asarray(gripper_calibration, float)
+    if cal.shape == (2,):
+        cal = np.array([[cal[0], 0.0], [cal[1], 1.0]])
+    if cal.ndim != 2 or cal.shape[1] != 2 or cal.shape[0] < 2 or \
+            not np.all(np.diff(cal[:, 0]) > 0):
         raise ValueError("observations_to_demonstration: gripper_calibration must be "
-                         "(closed, open) with open > closed")
+                         "(closed, open) with open > closed, or (m, 2) rows (distance, "
+                         "opening) with increasing distances")
     t = np.array([f.time for f in frames], float)
     names = [HAND, *FINGERS, *objects]
     A = np.full((len(frames), len(names), 3), np.nan)
@@ -344,7 +361,9 @@ def observations_to_demonstration(frames: list[MarkerObservations], *, objects: 
         for j, nm in enumerate(names):
             A[k, j] = arr[f.index(nm), :3]
     dist = np.linalg.norm(A[:, 1] - A[:, 2], axis=1)
-    opening = np.clip((dist - d0) / (d1 - d0), 0.0, 1.0)  # NaN stays NaN
+    opening = np.full(dist.shape, np.nan)
+    ok = np.isfinite(dist)
+    opening[ok] = np.clip(np.interp(dist[ok], cal[:, 0], cal[:, 1]), 0.0, 1.0)
     demo = Demonstration(
         t=t, hand=A[:, 0].copy(),
         objects={nm: A[:, 3 + j].copy() for j, nm in enumerate(objects)},
@@ -388,11 +407,15 @@ def record_demonstration(config: TeacherConfig, *, meshcat=None,
 def record_demonstrations(task: str, n: int, *, seed: int, scene: ImitationSceneSpec | None = None,
                           style: TeacherStyle | None = None,
                           sensor: MarkerSensorConfig | None = None, with_obstacle: bool = False,
-                          meshcat=None, progress=None) -> list[Demonstration]:
+                          stratify: bool = True, meshcat=None,
+                          progress=None) -> list[Demonstration]:
     """Record ``n`` demonstrations of ``task``; demonstration i uses the seed
     ``seed * 1000 + i`` (plan variation and sensor noise), so the same ``seed`` gives the same
     demonstrations. ``scene`` (default: the task's nominal layout, with its ``swap_tables``
-    and ``board_scale``) is varied per demonstration. ``progress`` (optional) is called with
+    and ``board_scale``) is varied per demonstration; with ``stratify`` (default) the tables'
+    moves are spread over their range across the ``n`` demonstrations
+    (:func:`~mmlearn.sdf.imitation.stratified_table_shifts`: a teacher who varies the setup
+    on purpose), so the set depends on ``n`` too. ``progress`` (optional) is called with
     the index of each finished demonstration. With ``meshcat`` the last demonstration's
     playback is shown and published as Meshcat's animation, and every demonstration's
     observed hand track is drawn (``demonstrations/hand_<i>``, gaps left out)."""
@@ -403,11 +426,14 @@ def record_demonstrations(task: str, n: int, *, seed: int, scene: ImitationScene
     if not (isinstance(seed, (int, np.integer)) and 0 <= seed < 2**31 // 1000):
         raise ValueError(f"record_demonstrations: seed must be an integer in [0, 2147483), "
                          f"got {seed!r}")
+    shifts = stratified_table_shifts(int(n), np.random.default_rng([int(seed), 1])) \
+        if stratify else [None] * int(n)
     demos = []
     for i in range(int(n)):
         cfg = TeacherConfig(task=task, seed=int(seed) * 1000 + i, scene=scene,
                             style=style or TeacherStyle(),
-                            sensor=sensor or default_sensor_config(), with_obstacle=with_obstacle)
+                            sensor=sensor or default_sensor_config(), with_obstacle=with_obstacle,
+                            table_shift=None if shifts[i] is None else list(shifts[i]))
         last = i == int(n) - 1
         demos.append(record_demonstration(cfg, meshcat=meshcat if last else None,
                                           record=last))

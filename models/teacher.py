@@ -25,8 +25,6 @@ Plain numpy (imports the scene *spec*, a dataclass, from :mod:`mmlearn.sdf.imita
 Drake). Units: metres, seconds.
 """
 
-from __future__ import annotations
-
 import dataclasses
 import math
 from dataclasses import dataclass, field
@@ -73,7 +71,7 @@ class TeacherStyle:
     dwell: float = 0.6
     gripper_time: float = 0.35
     grasp_height: float = 0.015
-    home: list[float] = field(default_factory=lambda: [0.30, 0.0, 0.60])
+    home: list[float] = field(default_factory=lambda: [0.38, 0.0, 0.60])
     reach_home: list[float] = field(default_factory=lambda: [0.50, 0.35, 0.45])
     board_standoff: float = 0.01
     strokes: int = 6
@@ -190,7 +188,7 @@ def task_scene(task: str, **overrides) -> ImitationSceneSpec:
 
 def plan_demonstration(task: str, *, seed: int | np.random.Generator,
                        scene: ImitationSceneSpec | None = None,
-                       style: TeacherStyle | None = None) -> DemoPlan:
+                       style: TeacherStyle | None = None, table_shift=None) -> DemoPlan:
     """Plan one demonstration of ``task`` (see the module docstring).
 
     Args:
@@ -199,6 +197,8 @@ def plan_demonstration(task: str, *, seed: int | np.random.Generator,
         scene: the layout to vary (default: :func:`task_scene`); its ``swap_tables`` and
             ``board_scale`` are kept. Its flags must include what the task needs.
         style: how the teacher moves (default :class:`TeacherStyle`).
+        table_shift: the tables' moves (see :meth:`ImitationSceneSpec.sampled`; default:
+            drawn with the rest of the variation).
     """
     if task not in TASKS:
         raise ValueError(f"unknown task {task!r}; choose from {', '.join(TASKS)}")
@@ -211,7 +211,8 @@ def plan_demonstration(task: str, *, seed: int | np.random.Generator,
         if not getattr(base, k):
             raise ValueError(f"plan_demonstration: task {task!r} needs a scene with {k}=True")
     scene_seed = int(rng.integers(2**31))
-    sc = (base.sampled(scene_seed, amplitude=st.placement) if st.placement > 0
+    sc = (base.sampled(scene_seed, amplitude=st.placement, table_shift=table_shift)
+          if st.placement > 0
           else dataclasses.replace(base)).resolved()
     speed = st.speed * rng.uniform(1 - st.speed_jitter, 1 + st.speed_jitter)
 

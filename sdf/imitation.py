@@ -35,8 +35,6 @@ table in a discrete MultibodyPlant and can be held between fingers.
 :func:`teacher_sdf` is the teacher arm. Units: metres, kilograms, radians.
 """
 
-from __future__ import annotations
-
 import dataclasses
 import math
 from dataclasses import dataclass, field
@@ -60,6 +58,7 @@ __all__ = [
     "ROBOT_TCP_IN_X8",
     "OBSTACLE_KINDS",
     "OBSERVED_BODIES",
+    "stratified_table_shifts",
 ]
 
 OBSTACLE_KINDS = ("none", "box", "u")
@@ -202,15 +201,20 @@ class ImitationSceneSpec:
         return self
 
     # ------------------------------------------------------------------ variation
-    def sampled(self, seed: int | np.random.Generator, *, amplitude: float = 1.0
-                ) -> "ImitationSceneSpec":
+    def sampled(self, seed: int | np.random.Generator, *, amplitude: float = 1.0,
+                table_shift=None) -> "ImitationSceneSpec":
         """A seeded variation of this layout: each table moved independently by up to
         +-0.06 m in x and +-0.15 m in y (times ``amplitude``; so the relation of the hand to
         the table it does not work at varies much more than to the one it does: what lets a
         learner tell them apart), table tops and heights +-0.02 m, the cup anywhere within
         +-0.05 m of the top centre (staying on the top), the place spot +-0.005 m (a person
         puts the cup down at much the same spot of the target table), board centre +-0.03 m, target
-        +-0.04 m, obstacle +-0.02 m. The same seed gives the same layout."""
+        +-0.04 m, obstacle +-0.02 m. The same seed gives the same layout.
+
+        ``table_shift`` (optional, 4 numbers in [-1, 1]: table A x, y, table B x, y as a
+        fraction of those ranges) sets the tables' moves instead of drawing them (a teacher
+        who spreads the layouts of a set of demonstrations on purpose,
+        :func:`stratified_table_shifts`)."""
         rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
         a = float(amplitude)
 
@@ -219,8 +223,15 @@ class ImitationSceneSpec:
 
         s = dataclasses.replace(self)
         shift = np.array([0.06, 0.15])
-        s.table_a = (np.asarray(self.table_a) + u(1.0, 2) * shift).tolist()
-        s.table_b = (np.asarray(self.table_b) + u(1.0, 2) * shift).tolist()
+        draw = np.concatenate([u(1.0, 2), u(1.0, 2)])  # drawn always: the same stream
+        if table_shift is not None:
+            ts = np.asarray(table_shift, float)
+            if ts.shape != (4,) or not np.all(np.abs(ts) <= 1.0):
+                raise ValueError(f"ImitationSceneSpec.sampled: table_shift must be 4 numbers "
+                                 f"in [-1, 1], got {table_shift!r}")
+            draw = ts * a
+        s.table_a = (np.asarray(self.table_a) + draw[:2] * shift).tolist()
+        s.table_b = (np.asarray(self.table_b) + draw[2:] * shift).tolist()
         s.table_size = (np.asarray(self.table_size) + u(0.02, 2)).tolist()
         s.table_height = float(self.table_height + u(0.02))
         lim = np.asarray(s.table_size) / 2 - self.cup_radius - 0.01
@@ -434,6 +445,24 @@ def add_imitation_scene(plant, spec: ImitationSceneSpec | None = None, *,
     return ImitationScene(model_instance=inst, spec=s, bodies=s.present_objects(), boxes=boxes)
 
 
+def stratified_table_shifts(n: int, seed: int | np.random.Generator) -> np.ndarray:
+    """(n, 4) table moves (A x, A y, B x, B y, fractions of their ranges in [-1, 1]) for a
+    set of ``n`` demonstrations, spread on purpose (the thesis: generalisation depends on the
+    variation the teacher shows): each of table A's coordinates is a Latin-hypercube sample
+    (every one of n equal bins gets exactly one demonstration, in a random order) and table
+    B takes the mirrored bin (bin n-1-i where A has bin i, its own position within the bin).
+    So the tables' offset from each other, which is what tells the table the hand works at
+    from the other one, spans the whole range even for 2 or 4 demonstrations."""
+    rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
+    n = int(n)
+    if n < 1:
+        raise ValueError(f"stratified_table_shifts: n must be >= 1, got {n}")
+    bins = [rng.permutation(n) for _ in range(2)]
+    bins += [n - 1 - b for b in bins]
+    cols = [(b + rng.uniform(0.0, 1.0, n)) / n for b in bins]
+    return np.clip(2.0 * np.stack(cols, axis=1) - 1.0, -1.0, 1.0)
+
+
 # ---------------------------------------------------------------------------- the teacher
 def teacher_spec() -> ArmSpec:
     """The teacher: a human-like 7-DOF arm (torso, shoulder, 0.36 m upper arm, 0.33 m
@@ -462,15 +491,17 @@ def teacher_spec() -> ArmSpec:
                                                          "q7"], mimic={"q7_mirror": "q7"})
 
 
-def teacher_sdf(*, model_name: str = "teacher") -> str:
-    """SDFormat text of the teacher arm (base welded at the world origin). Besides the parts
+def teacher_sdf(*, model_name: str = "teacher", base=(0.0, 0.0)) -> str:
+    """SDFormat text of the teacher arm, its base welded to the floor at ``base`` (x, y in the
+    world, m; a person stands where the task is handy, not where the robot is). Besides the parts
     x1..x10 (each with a marker) it has a body ``hand`` welded to x8 at the tool centre point
     (``TEACHER_TCP_IN_X8``) whose marker ``hand_marker`` is what the demonstrations track
     (like a motion-capture marker on the demonstrator's hand). The fingers x9, x10 (0.09 m
     apart, wide enough to straddle the cup) have no collision geometry, so they never hide
     the hand marker from a camera."""
     spec = teacher_spec()
-    m = SdfModel(model_name)
+    bx, by = (float(v) for v in base)
+    m = SdfModel(model_name, pose=(bx, by, 0.0, 0.0, 0.0, 0.0))
     z = 0.0
     chain_tip, chain_tip_z = None, 0.0
     for lk in spec.links:
@@ -510,9 +541,10 @@ def _chain_origins(spec: ArmSpec) -> list[float]:
     return out
 
 
-def add_teacher(plant, *, model_name: str = "teacher"):
+def add_teacher(plant, *, model_name: str = "teacher", base=(0.0, 0.0)):
     """Parse the teacher into ``plant`` (not finalized); returns its model instance."""
     from pydrake.multibody.parsing import Parser
 
-    (inst,) = Parser(plant).AddModelsFromString(teacher_sdf(model_name=model_name), "sdf")
+    (inst,) = Parser(plant).AddModelsFromString(teacher_sdf(model_name=model_name, base=base),
+                                                "sdf")
     return inst

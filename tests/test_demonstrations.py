@@ -247,3 +247,81 @@ def test_kinematic_body_poses_system():
     assert all(p.IsExactlyIdentity() for p in poses)
     with pytest.raises(ValueError, match="finalized"):
         KinematicBodyPoses(plant=MultibodyPlant(0.0))
+
+
+def test_teacher_config_loads_from_yaml_and_rejects_misspelled_keys():
+    from pydrake.common.yaml import yaml_load_typed
+
+    c = yaml_load_typed(schema=TeacherConfig, data=(
+        "task: whiteboard\nstyle: {speed: 0.3}\n"
+        "scene: {board: true, tables: false, cup: false, board_scale: 1.2}\n"))
+    assert c.validate().scene_spec().board_scale == 1.2 and c.style.speed == 0.3
+    with pytest.raises(RuntimeError, match="tsk"):
+        yaml_load_typed(schema=TeacherConfig, data="tsk: whiteboard")
+    with pytest.raises(ValueError, match="multiple"):
+        TeacherConfig(playback_rate_hz=7.0).validate()
+
+
+def test_stratified_table_shifts_spread_the_tables_apart():
+    from mmlearn.sdf.imitation import stratified_table_shifts
+
+    for n in (2, 4, 7):
+        s = stratified_table_shifts(n, 3)
+        assert s.shape == (n, 4) and np.all(np.abs(s) <= 1)
+        for c in range(4):  # one demonstration per bin of every coordinate
+            assert sorted(np.floor((s[:, c] + 1) / 2 * n).astype(int)) == list(range(n))
+        # table B takes the mirrored bin: the tables' offset spans the range
+        d = s[:, 1] - s[:, 3]
+        assert d.max() - d.min() > 2.0 * (n - 1) / n * 0.9
+    np.testing.assert_array_equal(stratified_table_shifts(4, 9), stratified_table_shifts(4, 9))
+    demos = record_demonstrations("pick_place", 2, seed=1, style=FAST)
+    ya, yb = (np.array([d.meta["scene"][k][1] for d in demos]) for k in ("table_a", "table_b"))
+    # the two demonstrations' tables sit in opposite halves of the y range
+    assert abs((ya - yb)[0] - (ya - yb)[1]) > 0.15
+
+
+def test_teacher_tilts_its_hand_only_where_it_must_and_names_unreachable_points():
+    from mmlearn.diagrams.demonstrations import TeacherIKError, _teacher_path
+    from mmlearn.models.teacher import DemoPlan
+
+    def plan_at(p):
+        p = np.asarray(p, float)
+        return DemoPlan(task="obstacle", scene=task_scene("obstacle"),
+                        hand=MinJerkTrajectory([0, 1], [p, p + [0, 0, 0.001]]),
+                        gripper=MinJerkTrajectory([0, 1], [[1.0], [1.0]]),
+                        hand_axis=np.array([0, 0, -1.0]), grasp_offset=None)
+
+    def tilt(p, tol):
+        plant, Q = _teacher_path(plan_at(p), np.array([0.0]),
+                                 TeacherConfig(ik_angle_tolerance=tol))
+        ctx = plant.CreateDefaultContext()
+        plant.SetPositions(ctx, Q[0])
+        R = plant.CalcRelativeTransform(ctx, plant.world_frame(),
+                                        plant.GetFrameByName("x8")).rotation().matrix()
+        return float(np.arccos(-R[2, 2]))
+
+    assert tilt([0.55, 0.0, 0.40], 0.2) <= 0.2 + 1e-6  # within reach: hand straight down
+    assert 0.2 < tilt([0.80, 0.0, 0.40], 0.2) <= 0.5 + 1e-6  # far: tilted, within 2.5 x
+    with pytest.raises(TeacherIKError, match=r"cannot reach the hand position \[0.95"):
+        tilt([0.95, 0.0, 0.40], 0.2)
+
+
+def test_observation_conversion_rejects_bad_input():
+    from mmlearn.diagrams.demonstrations import observations_to_demonstration
+    from mmlearn.systems.observations import MarkerObservations
+
+    with pytest.raises(ValueError, match="no frames"):
+        observations_to_demonstration([], objects=[], gripper_calibration=(0.09, 0.14))
+    f = MarkerObservations(time=0.0, marker_ids=["hand", "x9", "x10"])
+    with pytest.raises(ValueError, match="gripper_calibration"):
+        observations_to_demonstration([f], objects=[], gripper_calibration=(0.14, 0.09))
+
+
+def test_app_writes_the_meshcat_recording(tmp_path, capsys):
+    html = tmp_path / "demos.html"
+    rc, text, err = run_main(main, ["--task", "obstacle", "--demos", "1", "--seed", "2",
+                                    "--html-out", str(html)], capsys)
+    assert rc == 0, err
+    page = html.read_text()
+    assert page.startswith("<!DOCTYPE html>") and len(page) > 100_000  # scene + animation
+    assert "1 demonstration(s) of obstacle" in text and f"written to {html}" in text

@@ -168,6 +168,11 @@ def test_sign_two_constraints_land_at_precision_weighted_combination():
     for k in range(40):
         q = q + constraint_step(m, k, hand=_fk(q), objects=objs, J=_jac(q), use_joints=False).dq
     np.testing.assert_allclose(_fk(q), expect, atol=1e-4)
+    # the same constraints given as full covariances fuse to the same point
+    mf = TaskModel(t=m.t, constraints=m.constraints, mean=m.mean,
+                   var={c: np.stack([np.diag(v) for v in m.var[c]]) for c in m.constraints}, meta=m.meta)
+    rf = constraint_step(mf, 3, hand=[0.0, 0.0], objects=objs, J=np.eye(2), use_joints=False, damping=0.0)
+    np.testing.assert_allclose(rf.dq, expect, atol=1e-9)
     # an object not observed this step is skipped, not a crash
     r = constraint_step(m, 0, hand=_fk(q), objects={"a": objs["a"], "b": [np.nan, 0.0]}, J=_jac(q),
                         use_joints=False)
@@ -263,3 +268,16 @@ def test_bad_input_is_named():
     with pytest.warns(UserWarning, match=r"\['extra'\] are not in every demonstration"):
         al = align_demonstrations([d, d3])
     assert set(al[1].objects) == {"cup"}
+
+
+def test_plan_global_scipy_and_networkx_agree():
+    m = learn_task(_reach_demos(n=2, seed=4))
+    box = [Obstacle([0.5, 0.0], [0.1, 0.1])]
+    kw = dict(q0=[0.0, 0.0], objects={"target": np.array([1.0, 0.0])}, fk=lambda q: q,
+              jacobian=lambda q: np.eye(2), obstacles=box, n_samples=80, seed=2, return_info=True)
+    p1, i1 = plan_global(m, search="scipy", **kw)
+    p2, i2 = plan_global(m, search="networkx", **kw)
+    assert i1["graph_edges"] == i2["graph_edges"] > 1000
+    assert i1["cost"] == pytest.approx(i2["cost"], rel=1e-9)
+    with pytest.raises(ImitationDataError, match="search must be"):
+        plan_global(m, search="bfs", **kw)
