@@ -108,7 +108,7 @@ class DbnReproducerConfig:
     carry_tolerance: float = 0.05
     advance_tolerance: float = 0.01
     max_slice_waits: int = 8
-    step_kwargs: dict = field(default_factory=dict)
+    step_kwargs: dict[str, float] = field(default_factory=dict)
 
     def validate(self) -> None:
         if self.mode not in MODES:
