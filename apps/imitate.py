@@ -303,7 +303,8 @@ def main(argv=None) -> int:
                                     "thesis ch. 8) and reproduce it with the 7-DOF arm.")
     ap.add_argument("--task", choices=TASKS, default="pick_place")
     ap.add_argument("--demos", type=pos_int, default=4,
-                    help="number of demonstrations the teacher gives (default 4)")
+                    help="number of demonstrations the teacher gives (default 4; ignored with "
+                         "--demos-file)")
     ap.add_argument("--demos-file", default="",
                     help="load the demonstrations from this JSON file instead of recording")
     ap.add_argument("--swap-tables", action="store_true",
