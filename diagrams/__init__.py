@@ -1,6 +1,7 @@
 """Builders that wire plant, scene graph and mmlearn systems into Diagrams."""
 
 from .body_schema import BodySchemaDiagram, BodySchemaDiagramConfig, MakeBodySchemaDiagram
+from .imitation import Imitation, ImitationConfig, MakeImitationDiagram
 from .operate import MakeOperateDiagram, Operate, OperateConfig
 from .perception import (AddFrontDetectorAndTracker, FrontPerceptionConfig,
                          FrontPerceptionDiagram, MakeFrontPerceptionDiagram)
@@ -10,4 +11,5 @@ from .tactile_grasp import MakeTactileGraspDiagram, TactileGraspConfig, simulate
 __all__ = ["AddFrontDetectorAndTracker", "BodySchemaDiagram", "BodySchemaDiagramConfig", "FrontPerceptionConfig",
            "FrontPerceptionDiagram", "MakeBodySchemaDiagram", "MakeFrontPerceptionDiagram",
            "MakeOperateDiagram", "MakeSceneDiagram", "Operate", "OperateConfig", "Scene",
-           "SceneConfig", "MakeTactileGraspDiagram", "TactileGraspConfig", "simulate_grasp"]
+           "SceneConfig", "MakeTactileGraspDiagram", "TactileGraspConfig", "simulate_grasp",
+           "Imitation", "ImitationConfig", "MakeImitationDiagram"]

@@ -7,12 +7,15 @@ from .arm_failures import JointBlocker, PlantFailures
 from .articulation_estimator import ArticulationEstimator
 from .base_localization import BaseLocalization, BaseLocalizationConfig
 from .camera_marker_sensor import CameraMarkerSensor, CameraMarkerSensorConfig
+from .dbn_reproducer import DbnReproducer, DbnReproducerConfig
+from .dbn_visualizer import DbnVisualizer
 from .depth_noise import DepthNoise
 from .epc_controller import EpcConfig, EpcController, EpcTask
 from .front_detector import FrontDetector
 from .front_pose import TrueFrontPose
 from .front_tracker import FrontTracker, FrontTrackerConfig, FrontTrackerState
 from .front_visualizer import FrontTrackVisualizer
+from .grasp_attachment import GraspAttachment
 from .kinematic_body_poses import KinematicBodyPoses
 from .marker_sensor import CameraConfig, MarkerSensor, MarkerSensorConfig
 from .model_visualizer import LearnedModelVisualizer
@@ -40,7 +43,11 @@ __all__ = [
     "CameraConfig",
     "CameraMarkerSensor",
     "CameraMarkerSensorConfig",
+    "DbnReproducer",
+    "DbnReproducerConfig",
+    "DbnVisualizer",
     "DepthNoise",
+    "GraspAttachment",
     "EpcConfig",
     "EpcController",
     "EpcTask",
