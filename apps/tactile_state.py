@@ -30,7 +30,8 @@ The run also reports the other classifier's rate (``compare``).
 **Simulation mode** (``--f-target N`` without ``--train``)::
 
     python -m mmlearn.apps.tactile_state --f-target 20 [--trials 16] [--f-sweep]
-        [--sweep-trials 24] [--classifier tree|forest] [--results FILE] [--jobs J] --seed S [--json]
+        [--sweep-trials 24] [--classifier tree|forest] [--results FILE] [--jobs J]
+        [--plot FILE] [--meshcat] [--html-out FILE] --seed S [--json]
 
 The Drake gripper (:mod:`mmlearn.diagrams.tactile_grasp`: PR2-like fingertip pads, the
 switching controller of Eq. 7.8 probing with ``f_target`` N per finger) squeezes random
@@ -44,6 +45,12 @@ state given the class}, ``combined_rate`` (all class x state labels) and
 7.2: the state rate of the Odwalla bottle at 17 / 20 / 23 N (``--sweep-trials`` grasps per
 state). Grasps run through the sweep runner (:mod:`mmlearn.apps._sweep`): ``--results``
 keeps them in a JSON Lines file so a rerun resumes.
+``--plot FILE`` draws the grasp profiles p / v / f of one grasp per state of the first
+container class (Fig. 7.3), the force on a rigid block with the switching controller and
+with pure force control (Fig. 7.5 vs 7.6) and the two taxel images of one more grasp at its
+peak force; ``--meshcat`` shows that grasp live (scene and taxel pads coloured by pressure,
+:class:`~mmlearn.systems.taxel_visualizer.TaxelPadVisualizer`) and ``--html-out FILE``
+writes its recording as standalone HTML. The JSON then has ``demo_grasp``.
 
 Exit status: 0 success, 2 bad input (unreadable or malformed files name the file and line,
 unknown labels, missing folders, test classes absent from training).
@@ -59,8 +66,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from mmlearn.apps._common import (ArgumentParser, UsageError, check_out_file, fail,
-                                  json_clean, name_list, nonneg_int, pos_float, pos_int,
-                                  save_figure)
+                                  finish_viewing, json_clean, make_meshcat, name_list,
+                                  nonneg_int, pos_float, pos_int, save_figure, save_html)
 from mmlearn.models.icub_grasp import (CONTACT_LEVEL, REST_VELOCITY, ICubFileError,
                                        load_icub_dir)
 from mmlearn.models.tactile_state import (CLASSIFIERS, FEATURE_NAMES, cross_validate,
@@ -92,7 +99,8 @@ class TactileStateConfig:
         contact_level: contact threshold F on a finger's highest taxel pressure, counts.
         rest_velocity: rest threshold V on the closure rate, rad per slice.
         steady_average: steady-phase means instead of single samples for p/f_steady.
-        plot: image file for the confusion matrix and profiles, or None.
+        plot: image file for the confusion matrix and profiles (real data) or the grasp
+            profiles, impact and tactile images (simulation), or None.
         f_target: simulation mode (with ``train`` empty): probing force per finger, N.
         trials: simulation: grasps per (container, state).
         f_sweep: simulation: add the Odwalla f_target sweep 17 / 20 / 23 N (Table 7.2).
@@ -177,8 +185,9 @@ def _cv(X, y, *, classifier, folds, seed):
     return rep, cmp_, k
 
 
-def run_simulation(config: TactileStateConfig) -> dict:
-    """Simulation mode (see the module docstring for the result)."""
+def run_simulation(config: TactileStateConfig, *, meshcat=None) -> dict:
+    """Simulation mode (see the module docstring for the result). With ``meshcat`` (or
+    ``config.plot``) one more grasp is simulated and shown: :func:`demo_grasps`."""
     from mmlearn.apps._sweep import run_sweep
     from mmlearn.models.containers import CONTAINER_CLASSES
 
@@ -265,15 +274,141 @@ def run_simulation(config: TactileStateConfig) -> dict:
                        "sweep_trials": c.sweep_trials if c.f_sweep else None}
     out["wall_seconds"] = round(sweep.wall_s, 1)
     out["resumed"] = sweep.resumed
+    if meshcat is not None or c.plot:
+        demo = demo_grasps(c, meshcat=meshcat, impact=bool(c.plot))
+        out["demo_grasp"] = {"container": demo["grasp"].container, "state": demo["grasp"].state,
+                             "f_max_N": float(demo["grasp"].f.max())}
+        if demo["impact"]:
+            out["demo_grasp"]["impact_peak_N"] = {m: float(tr["f"].max())
+                                                 for m, tr in demo["impact"].items()}
+        if c.plot:
+            plot_simulation(recs, demo, c.plot, containers=conts,
+                            title=f"simulation, f_target {c.f_target:g} N, seed {c.seed}")
     return json_clean(out)
 
 
-def run(*, config: TactileStateConfig) -> dict:
+def demo_grasps(config: TactileStateConfig, *, meshcat=None, impact: bool = True) -> dict:
+    """The grasps the viewer and the plot show: one grasp of the first container class in
+    its first state (a random instance from ``config.seed``; shown and recorded in
+    ``meshcat`` if given, taxel pads coloured by pressure) and, with ``impact``, a rigid
+    block grasped with the switching controller and with pure force control (Fig. 7.5 vs
+    7.6, 10 N; the contact force every 2 ms, :func:`contact_force_trace`). Returns
+    {"grasp": TactileGrasp, "impact": {mode: {"t", "f"}}}."""
+    from mmlearn.diagrams.tactile_grasp import TactileGraspConfig, simulate_grasp
+    from mmlearn.models.containers import sample_container, states_of
+    from mmlearn.sdf.tactile import block_sdf
+
+    c = config
+    name = c.containers[0]
+    state = states_of(name)[0]
+    rng = np.random.default_rng([int(c.seed), 4242])
+    inst = sample_container(name, state, rng)
+    cfg = TactileGraspConfig(pad="pr2", f_target=float(c.f_target), seed=int(c.seed))
+    out = {"grasp": simulate_grasp(cfg, container=inst, meshcat=meshcat), "impact": {}}
+    if impact:
+        block = block_sdf((0.07, 0.1, 0.12))
+        for mode in ("switching", "force"):
+            cfg = TactileGraspConfig(pad="pr2", f_target=10.0, mode=mode, hold_time=1.0,
+                                     duration=2.5, seed=int(c.seed))
+            out["impact"][mode] = contact_force_trace(cfg, object_sdf=block)
+    return out
+
+
+def contact_force_trace(cfg, *, object_sdf: str, dt: float = 0.002) -> dict:
+    """The normal contact force per finger (N) of one grasp every ``dt`` s, read from the
+    plant's hydroelastic contact results (the impact lasts a few ms: the 25 Hz pad force
+    would miss it). Returns {"t": (T,) s, "f": (T,) N}."""
+    from pydrake.systems.analysis import Simulator
+
+    from mmlearn.diagrams.tactile_grasp import MakeTactileGraspDiagram
+
+    d, parts = MakeTactileGraspDiagram(cfg, object_sdf=object_sdf)
+    sim = Simulator(d)
+    sim.Initialize()
+    plant = parts["plant"]
+    pc = plant.GetMyContextFromRoot(sim.get_context())
+    port = plant.get_contact_results_output_port()
+    ts = np.arange(1, int(round(cfg.duration / dt)) + 1) * dt
+    f = np.zeros(len(ts))
+    for k, t in enumerate(ts):
+        sim.AdvanceTo(float(t))
+        cr = port.Eval(pc)
+        f[k] = sum(abs(cr.hydroelastic_contact_info(i).F_Ac_W().translational()[0])
+                   for i in range(cr.num_hydroelastic_contacts())) / 2.0
+    return {"t": ts, "f": f}
+
+
+def plot_simulation(records, demo, path, *, containers, title: str = "") -> None:
+    """Grasp profiles and tactile images of the simulation mode, one figure:
+    top, the finger distance p(t), its rate v(t) and the summed force f(t) of the first
+    grasp of every state of the first container class (Fig. 7.3); bottom, f(t) of the rigid
+    block under the switching controller and under pure force control (Fig. 7.5 vs 7.6) and
+    the two taxel images of the demo grasp at its peak force."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from mmlearn.diagrams.tactile_grasp import grasp_from_record
+
+    fig, ax = plt.subplots(2, 3, figsize=(16, 8.5))
+    name = containers[0]
+    seen = {}
+    for r in records:
+        if r["container"] == name:
+            seen.setdefault(r["state"], r)
+    cmap = plt.get_cmap("tab10")
+    for k, (state, r) in enumerate(sorted(seen.items())):
+        g = grasp_from_record(r)
+        col = cmap(k % 10)
+        ax[0, 0].plot(g.t, g.p * 1e3, color=col, label=state)
+        ax[0, 1].plot(g.t, g.v * 1e3, color=col, label=state)
+        ax[0, 2].plot(g.t, g.f, color=col, label=state)
+    for a, lab in zip(ax[0], ("finger distance p(t) [mm]", "finger velocity v(t) [mm/s]",
+                              "summed pad force f(t) [N]")):
+        a.set_xlabel("time [s]")
+        a.set_ylabel(lab)
+        a.set_title(f"{name}: first grasp per state (Fig. 7.3)", fontsize=9)
+    ax[0, 2].legend(fontsize=8)
+    styles = {"switching": ("tab:blue", "switching controller, Eq. 7.8 (Fig. 7.6)"),
+              "force": ("tab:red", "pure force control (Fig. 7.5)")}
+    for mode, tr in demo.get("impact", {}).items():
+        colr, lab = styles.get(mode, ("k", mode))
+        ax[1, 0].plot(tr["t"], tr["f"], color=colr, lw=1.0,
+                      label=f"{lab}, peak {tr['f'].max():.1f} N")
+    if demo.get("impact"):
+        ax[1, 0].axhline(10.0, color="k", ls="--", lw=0.8, label="f_target 10 N")
+    ax[1, 0].set_xlabel("time [s]")
+    ax[1, 0].set_ylabel("contact force per finger [N] (plant, every 2 ms)")
+    ax[1, 0].set_title("rigid block: impact without / with the switching controller",
+                       fontsize=9)
+    ax[1, 0].legend(fontsize=8)
+    g = demo["grasp"]
+    k = int(np.argmax(g.f))
+    for a, side in zip(ax[1, 1:], ("left", "right")):
+        img = g.pads[side][k]
+        im = a.imshow(img, vmin=0.0, vmax=1.0, cmap="jet")
+        a.set_title(f"{g.container}/{g.state}: {side} pad at t = {g.t[k]:.2f} s "
+                    f"(f = {g.f[k]:.1f} N)", fontsize=9)
+        a.set_xlabel("column")
+        a.set_ylabel("row (0 = fingertip)")
+        fig.colorbar(im, ax=a, label="reading [0, 1]")
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    save_figure(fig, path, dpi=100)
+    plt.close(fig)
+
+
+def run(*, config: TactileStateConfig, meshcat=None) -> dict:
     """Train and evaluate on iCub grasp files, or (``train`` empty, ``f_target`` set) run the
-    simulation mode (see the module docstring for the result)."""
+    simulation mode (see the module docstring for the result; ``meshcat``: simulation mode
+    only, shows one more grasp with the taxel pads coloured by pressure)."""
     c = config
     if not c.train and c.f_target is not None:
-        return run_simulation(c)
+        return run_simulation(c, meshcat=meshcat)
+    if meshcat is not None:
+        raise ValueError("meshcat: real-data mode has no 3-D scene to show")
     train, test, classifier = c.train, c.test, c.classifier
     include_full_coke, folds, seed = c.include_full_coke, c.folds, c.seed
     contact_level, rest_velocity = c.contact_level, c.rest_velocity
@@ -446,20 +581,23 @@ def main(argv=None) -> int:
     ap.add_argument("--seed", type=nonneg_int, default=0,
                     help="random seed (fold assignment, forest)")
     ap.add_argument("--plot", metavar="FILE", default=None,
-                    help="write the confusion matrix and example grasp profiles as an image")
+                    help="write an image: real data, the confusion matrix and example grasp "
+                         "profiles; simulation, the grasp profiles p / v / f (Fig. 7.3), the "
+                         "impact with and without the switching controller (Fig. 7.5 / 7.6) "
+                         "and the tactile images of one grasp")
     ap.add_argument("--meshcat", action="store_true",
-                    help="not available (real data has no scene; the simulation runs batches)")
+                    help="simulation: show one more grasp live in Meshcat, the taxel pads "
+                         "coloured by pressure (real data has no scene)")
     ap.add_argument("--html-out", metavar="FILE", default=None,
-                    help="not available (real data has no scene; the simulation runs batches)")
+                    help="simulation: write that grasp's Meshcat recording as standalone HTML")
     ap.add_argument("--json", action="store_true", help="print results as one JSON object")
     args = ap.parse_args(argv)
     sim = args.train is None and args.f_target is not None
     try:
         for flag, val in (("--meshcat", args.meshcat), ("--html-out", args.html_out)):
-            if val:
-                raise UsageError(f"{flag}: real-data mode has no 3-D scene to show, and the "
-                                 f"simulation mode runs batches of grasps without a viewer "
-                                 f"(use --plot FILE)")
+            if val and not sim:
+                raise UsageError(f"{flag}: real-data mode has no 3-D scene to show (use "
+                                 f"--plot FILE; the simulation mode, --f-target N, has one)")
         if args.train is None and not sim:
             raise UsageError("--train DIR is required (or --f-target N for the simulation mode)")
         if args.train is not None and args.f_target is not None:
@@ -467,11 +605,10 @@ def main(argv=None) -> int:
                              "the real data were recorded with the iCub's own controller")
         if sim and args.test is not None:
             raise UsageError("--test applies to real-data mode only")
-        if sim and args.plot:
-            raise UsageError("--plot: real-data mode only for now")
         if args.results:
             check_out_file("--results", args.results)
         check_out_file("--plot", args.plot)
+        check_out_file("--html-out", args.html_out)
         from pathlib import Path
 
         for flag, d in (("--train", args.train), ("--test", args.test)):
@@ -480,6 +617,9 @@ def main(argv=None) -> int:
                                                      else "folder not found"))
     except UsageError as e:
         return fail(ap.prog, str(e))
+    meshcat = None
+    if sim and (args.meshcat or args.html_out):
+        meshcat = make_meshcat(announce=args.meshcat)
     try:
         if sim:
             out = run(config=TactileStateConfig(
@@ -487,7 +627,7 @@ def main(argv=None) -> int:
                 steady_average=args.steady_average, f_target=args.f_target,
                 trials=args.trials, f_sweep=args.f_sweep, sweep_trials=args.sweep_trials,
                 results=args.results, jobs=args.jobs, progress=args.progress,
-                containers=tuple(args.containers)))
+                containers=tuple(args.containers), plot=args.plot), meshcat=meshcat)
         else:
             out = run(config=TactileStateConfig(
                 train=args.train, test=args.test, classifier=args.classifier,
@@ -496,14 +636,19 @@ def main(argv=None) -> int:
                 steady_average=args.steady_average, plot=args.plot))
     except (ICubFileError, ValueError) as e:
         return fail(ap.prog, str(e))
+    if args.html_out:
+        save_html(meshcat, args.html_out)
     if args.json:
         print(json.dumps(out, indent=1))
-    elif sim:
-        _print_sim(out)
     else:
-        _print_text(out)
+        if sim:
+            _print_sim(out)
+        else:
+            _print_text(out)
         if args.plot:
             print(f"plot written to {args.plot}")
+    if meshcat is not None:
+        finish_viewing(html_out=None if args.json else args.html_out, live=args.meshcat)
     return 0
 
 

@@ -44,7 +44,8 @@ Meshcat (``--meshcat`` live, ``--html-out`` recording): the scene, the noisy poi
 detected rectangles of the current frame (grey), each track's latest rectangle and centre path
 and its learned model (axis and range) in the track's colour
 (:class:`~mmlearn.systems.FrontTrackVisualizer`). The scene's motion is an animation of the
-recording; the rectangles and models are drawn as they are at the end of the run.
+recording, and so are the rectangles, tracks and models: each camera frame's drawing is shown
+at its time (its own Meshcat group, keyed visible / hidden in the animation).
 """
 
 import copy
@@ -246,8 +247,12 @@ def run(*, config: TrackFrontsConfig, meshcat=None, show_progress: bool = True) 
             builder, p, detector_config=cfg.detector, seed=cfg.seed,
             tracker_config=FrontTrackerConfig(period_s=period, refit_every=cfg.refit_every))
         if meshcat is not None:
+            from pydrake.geometry import MeshcatVisualizer
+            scene_vis = next((s for s in builder.GetSystems()
+                              if isinstance(s, MeshcatVisualizer)), None)
             vis = builder.AddNamedSystem("front_visualizer", FrontTrackVisualizer(
-                meshcat=meshcat, period=period))
+                meshcat=meshcat, period=period,
+                recording=None if scene_vis is None else scene_vis.get_mutable_recording()))
             builder.Connect(det.get_rectangles_output_port(), vis.get_rectangles_input_port())
             builder.Connect(trk.get_tracks_output_port(), vis.get_tracks_input_port())
             builder.Connect(trk.get_models_output_port(), vis.get_models_input_port())

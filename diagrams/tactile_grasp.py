@@ -93,7 +93,10 @@ class TactileGraspConfig:
 def MakeTactileGraspDiagram(config: TactileGraspConfig, *, container: ContainerInstance | None = None,
                             object_sdf: str | None = None, meshcat=None):
     """Build the scene; returns (diagram, parts) with parts = {"plant", "scene_graph",
-    "sensor", "controller", "grasp_log", "taxel_log", "force_log", "gripper", "container"}.
+    "sensor", "controller", "grasp_log", "taxel_log", "force_log", "gripper", "container",
+    "meshcat_visualizer", "taxel_visualizer"} (the last two None without ``meshcat``; with
+    it, the scene and the taxel pads coloured by pressure are drawn, see
+    :class:`~mmlearn.systems.taxel_visualizer.TaxelPadVisualizer`).
 
     The object is ``container`` (a :class:`ContainerInstance`) or any SDFormat model
     ``object_sdf`` (text; its first link is welded at the origin shifted by ``offset``)."""
@@ -167,15 +170,25 @@ def MakeTactileGraspDiagram(config: TactileGraspConfig, *, container: ContainerI
     grasp_log = LogVectorOutput(ctrl.get_grasp_output_port(), builder, period)
     taxel_log = LogVectorOutput(sensor.get_taxels_output_port(), builder, period)
     force_log = LogVectorOutput(sensor.get_pad_force_output_port(), builder, period)
+    taxel_vis = None
     if meshcat is not None:
         from pydrake.geometry import MeshcatVisualizer
 
-        MeshcatVisualizer.AddToBuilder(builder, scene_graph, meshcat)
+        from mmlearn.systems.taxel_visualizer import TaxelPadVisualizer
+
+        parts_vis = MeshcatVisualizer.AddToBuilder(builder, scene_graph, meshcat)
+        taxel_vis = builder.AddNamedSystem("taxel_visualizer", TaxelPadVisualizer(
+            meshcat=meshcat, pads=sensor.pads, period=period))
+        builder.Connect(sensor.get_taxels_output_port(), taxel_vis.get_taxels_input_port())
+        builder.Connect(plant.get_body_poses_output_port(),
+                        taxel_vis.get_body_poses_input_port())
     diagram = builder.Build()
     return diagram, {"plant": plant, "scene_graph": scene_graph, "sensor": sensor,
                      "wrist_force_sensor": wrist,
                      "controller": ctrl, "grasp_log": grasp_log, "taxel_log": taxel_log,
-                     "force_log": force_log, "gripper": gripper, "container": cont}
+                     "force_log": force_log, "gripper": gripper, "container": cont,
+                     "meshcat_visualizer": parts_vis if meshcat is not None else None,
+                     "taxel_visualizer": taxel_vis}
 
 
 def simulate_grasp(config: TactileGraspConfig, *, container: ContainerInstance | None = None,
@@ -184,12 +197,19 @@ def simulate_grasp(config: TactileGraspConfig, *, container: ContainerInstance |
     """Run one grasp and return what the sensors recorded (25 Hz by default): finger
     distance p (encoders + noise), its rate v, the summed pad force f, per-pad forces and
     the taxel images. ``label`` / the container's class and state are attached as labels
-    only."""
+    only. With ``meshcat``, the grasp is shown live and recorded (scene and taxel pads; publish
+    it with ``meshcat.StaticHtml()``)."""
     diagram, parts = MakeTactileGraspDiagram(config, container=container, object_sdf=object_sdf,
                                              meshcat=meshcat)
     sim = Simulator(diagram)
+    vis = parts["meshcat_visualizer"]
+    if vis is not None:
+        vis.StartRecording(True)
     sim.Initialize()
     sim.AdvanceTo(config.duration)
+    if vis is not None:
+        vis.StopRecording()
+        vis.PublishRecording()
     ctx = sim.get_context()
     gl = parts["grasp_log"].FindLog(ctx)
     tl = parts["taxel_log"].FindLog(ctx)

@@ -28,7 +28,15 @@
     the pixel is in-plane only for the plane with the larger support if it is nearer to it
     (distances averaged over ``crossing_smooth_px`` pixels; free for the other): otherwise an
     open door would be widened by the strip of the cabinet face next to its hinge
-    (L / sin(opening angle), 4 cm at 30 deg; measured: 0.445 m instead of 0.395 m).
+    (L / sin(opening angle), 4 cm at 30 deg; measured: 0.445 m instead of 0.395 m). This
+    applies from ``crossing_angle_deg`` = 5 deg (it was 20: a door opened 5-20 deg came out
+    7-8 cm too wide, L / sin(15 deg) = 7.7 cm).
+    Then the *surface check* (``surface_check``): an in-plane pixel whose in-plane neighbours
+    (``surface_window_px`` square) lie on average farther than ``max(surface_distance,
+    surface_distance_per_m2 z^2)`` from the plane becomes unknown. Single pixels scatter by
+    the camera's noise, their mean far less; the edge face of a 19 mm panel seen obliquely lies
+    within L of the panel's face (wholly behind it) and widened the door by up to
+    thickness x tan(incidence) (measured: 1-2 cm at 50-70 deg, tests/test_front_detection.py).
 ``sampling``
     ``starts_per_plane`` random starts per plane: a random in-plane cell as centre, width and
     height drawn uniformly from ``prior_size`` (5.1.1: "sample a random point from the plane
@@ -67,7 +75,18 @@ the whole front (a pole from top to bottom) is a local maximum the greedy moves 
 unless a random start straddles it; a closed front flush with its neighbours is one plane with
 them (no depth step), so the whole cabinet face is found instead; the drop-outs of a
 structured-light camera at depth edges make fronts 1-3 cm narrower at 1.8-2.5 m.
-* Costs are quantised to 1/255 (as in the original code) so the summed-area tables are int32.
+* Costs are quantised to 1/255 (as in the original code) so the summed-area tables are int32;
+  occluded and unknown pixels cost 20/255 as in the original code (0.2 before: with the
+  n^0.05 size preference the greedy moves then trimmed every edge row with more than ~25 %
+  drop-outs, and the recall check rejected the trimmed front: a drawer at 2.3 m was found in
+  54 % instead of 92 % of its frames).
+* A plane's least-squares refinement ends with a round on the inliers within L / 2 (a
+  pulled-out drawer's sides tilted the cabinet face's plane, which then took the drawer's
+  points out of the pool); the points leaving the pool with a plane are those within
+  L + (removal_factor - 1) x the noise part of L (not removal_factor x L), and a parallel
+  plane is a copy of an earlier one only when its inliers' centroid is within L of it (not
+  its offset within 2 L at the camera): a front standing 1.5-2 cm proud of its carcass with
+  L = 0.01 m was lost otherwise.
 * The greedy search takes the best improving move of all step sizes at once (steepest
   ascent, vectorised over all starts); the original code tries the largest step size first.
 * Rectangles touching the image border (``border_margin_px``) are rejected (as in the original
@@ -108,14 +127,23 @@ class FrontDetectorConfig:
         ransac_local_radius_px: the 2nd and 3rd point of a hypothesis lie within this many
             pixels of the first (a box in rows and columns), px.
         max_planes: at most this many planes per frame.
-        removal_factor: sampled points within this many L of an extracted plane leave the
-            pool of points later planes are drawn from, unitless (>= 1).
+        removal_factor: sampled points within L + (removal_factor - 1) x
+            inlier_distance_per_m2 x z^2 of an extracted plane (connected to it) leave the
+            pool of points later planes are drawn from: the noise tails of a far plane,
+            unitless (>= 1).
         min_plane_points: a plane needs at least this many inliers among the sampled pixels.
         max_depth: pixels farther than this are not used to find planes, m.
         crossing_angle_deg: where two planes at more than this angle cross, a pixel within L of
             both and nearer to the one with the larger support is free for the other, degrees.
         crossing_smooth_px: "nearer" is decided on the distances averaged over a square of
             this many pixels (odd), px.
+        surface_check: in-plane pixels whose in-plane neighbours lie on average farther than
+            the surface distance from the plane become unknown (module docstring).
+        surface_distance, surface_distance_per_m2: that distance, max(surface_distance,
+            surface_distance_per_m2 z^2), m and m / m^2 (0.003, 0.0015: ~1 sigma of the
+            camera's per-pixel noise plus half a disparity step; the mean of 25 pixels
+            scatters by a fifth of sigma).
+        surface_window_px: side of the neighbourhood, px (odd).
         cost_in_plane, cost_free, cost_occluded, cost_unknown: cost of a pixel per label
             (Eq. 5.3-5.5), unitless in [0, 1]; grid cells the camera does not see cost
             ``cost_free``.
@@ -152,14 +180,18 @@ class FrontDetectorConfig:
     ransac_local_radius_px: int = 48
     max_planes: int = 8
     removal_factor: float = 2.0
-    crossing_angle_deg: float = 20.0
+    crossing_angle_deg: float = 5.0
     crossing_smooth_px: int = 5
+    surface_check: bool = True
+    surface_distance: float = 0.003
+    surface_distance_per_m2: float = 0.0015
+    surface_window_px: int = 5
     min_plane_points: int = 20
     max_depth: float = 5.0
     cost_in_plane: float = 0.0
     cost_free: float = 1.0
-    cost_occluded: float = 0.2
-    cost_unknown: float = 0.2
+    cost_occluded: float = 20 / 255
+    cost_unknown: float = 20 / 255
     cell_size: float = 0.005
     max_grid_cells: int = 400
     max_plane_extent: float = 6.0
@@ -206,6 +238,12 @@ class FrontDetectorConfig:
         if self.crossing_smooth_px < 1:
             raise ValueError("FrontDetectorConfig.crossing_smooth_px must be >= 1, got "
                              f"{self.crossing_smooth_px}")
+        if self.surface_window_px < 1 or self.surface_window_px % 2 != 1:
+            raise ValueError("FrontDetectorConfig.surface_window_px must be an odd integer "
+                             f">= 1, got {self.surface_window_px}")
+        for k in ("surface_distance", "surface_distance_per_m2"):
+            if getattr(self, k) < 0:
+                raise ValueError(f"FrontDetectorConfig.{k} must be >= 0, got {getattr(self, k)}")
         for k in ("alpha", "inlier_distance_per_m2", "crossing_angle_deg", "recall_margin",
                   "min_recall_margin", "border_margin_px", "duplicate_distance",
                   "duplicate_angle_deg"):
@@ -224,7 +262,7 @@ class FrontDetectorConfig:
                              f"{self.step_factors}")
         for k in ("ransac_stride_px", "ransac_hypotheses", "ransac_local_radius_px",
                   "max_planes", "min_plane_points", "max_grid_cells", "starts_per_plane",
-                  "crossing_smooth_px",
+                  "crossing_smooth_px", "surface_window_px",
                   "max_iterations", "border_margin_px"):
             if int(getattr(self, k)) != getattr(self, k):
                 raise ValueError(f"FrontDetectorConfig.{k} must be an integer, got "
@@ -288,6 +326,9 @@ def find_planes(pts: np.ndarray, grid_rc: np.ndarray, grid_shape, cfg: FrontDete
     are ``grid_rc`` (m, 2) in a grid of ``grid_shape``; returns up to ``cfg.max_planes``
     planes."""
     Lp = np.maximum(cfg.inlier_distance, cfg.inlier_distance_per_m2 * pts[:, 2] ** 2)
+    # removal band: L plus (removal_factor - 1) times the noise part of L (a fixed multiple
+    # of L would also take a front standing 2 cm proud of its carcass, L = 0.01-0.015 m)
+    Lr = Lp + (cfg.removal_factor - 1.0) * cfg.inlier_distance_per_m2 * pts[:, 2] ** 2
     m = len(pts)
     planes: list[Plane] = []
     if m < max(3, cfg.min_plane_points):
@@ -338,22 +379,30 @@ def find_planes(pts: np.ndarray, grid_rc: np.ndarray, grid_shape, cfg: FrontDete
             break
         inl = _largest_region(idx[dist[:, best] <= Li[:, 0]], grid_rc, grid_shape)
         n, d = nrm[best], float(dd[best])
-        for _ in range(2):  # least-squares refinement on the inliers, then re-select them
+        # least-squares refinement on the inliers, then re-select them; the second round on
+        # those within L / 2 (a drawer's sides, seen from above, span the few cm between its
+        # front and the cabinet face: with them the face's plane tilts towards the front and
+        # then takes the front's points out of the pool)
+        for shrink in (1.0, 0.5, 1.0):
             if len(inl) < 3:
                 break
             n, d = _fit_plane(pts[inl])
-            inl = _largest_region(idx[np.abs(pts[idx] @ n + d) <= Lp[idx]], grid_rc, grid_shape)
+            inl = _largest_region(idx[np.abs(pts[idx] @ n + d) <= shrink * Lp[idx]], grid_rc,
+                                  grid_shape)
         # The plane is its largest connected region of inliers (on the sample grid): other
         # surfaces crossing the infinite plane stay in the pool. The region's points within
-        # removal_factor x L (so that the noise tails of a far plane do not come back as a
+        # the removal band Lr (so that the noise tails of a far plane do not come back as a
         # second copy of it) leave the pool of sampling points.
-        loose = idx[np.abs(pts[idx] @ n + d) <= cfg.removal_factor * Lp[idx]]
+        loose = idx[np.abs(pts[idx] @ n + d) <= Lr[idx]]
         active[_regions_touching(loose, inl, grid_rc, grid_shape)] = False
         active[inl] = False
         if len(inl) < cfg.min_plane_points:
             continue
         Lq = max(cfg.inlier_distance, cfg.inlier_distance_per_m2 * d * d)
-        dup = any(abs(q.n @ n) > math.cos(math.radians(5.0)) and abs(q.d - d) < 2 * Lq
+        # a copy: (nearly) the same normal and its inliers' centroid within L of an earlier
+        # plane (a front standing 2 cm proud of its carcass, L = 0.01 m, is not a copy)
+        cen = pts[inl].mean(axis=0)
+        dup = any(abs(q.n @ n) > math.cos(math.radians(5.0)) and abs(q.n @ cen + q.d) < Lq
                   for q in planes)
         if dup:  # masks cover every pixel of a plane: a second copy adds nothing
             continue
@@ -490,8 +539,29 @@ def _sats(labels: np.ndarray, lut: np.ndarray):
     return _sat_cost(labels, lut), _sat_in(labels)
 
 
+def _surface_check(lab, S, Lm, win):
+    """In place: an in-plane pixel whose in-plane neighbours (a ``win`` x ``win`` square) lie
+    on average farther than ``Lm`` from the plane becomes UNKNOWN. Single pixels of a plane
+    scatter around it by the camera's noise (their mean within a fraction of it); the side
+    face of a panel seen around its edge (a door's 19 mm edge) lies within L of the panel's
+    face too, but wholly behind it, and would otherwise widen the front by up to
+    thickness x tan(incidence) (measured: 2 cm at 69 deg)."""
+    m8 = cv2.compare(lab, IN_PLANE, cv2.CMP_EQ)
+    x, y, w, h = cv2.boundingRect(m8)  # work on the in-plane pixels' bounding box only
+    if w == 0 or h == 0:
+        return
+    r = win // 2
+    y0, y1, x0, x1 = max(0, y - r), min(lab.shape[0], y + h + r), max(0, x - r), min(
+        lab.shape[1], x + w + r)
+    inp = (m8[y0:y1, x0:x1] > 0).astype(np.float32)
+    den = cv2.boxFilter(inp, -1, (win, win), normalize=False)
+    num = cv2.boxFilter(S[y0:y1, x0:x1] * inp, -1, (win, win), normalize=False)
+    bad = (inp > 0) & (np.abs(num) > Lm[y0:y1, x0:x1] * np.maximum(den, np.float32(1.0)))
+    lab[y0:y1, x0:x1][bad] = UNKNOWN
+
+
 def _label_images(d, valid, ray_x, ray_y, planes, L, crossing_angle_deg,
-                  smooth_px=5) -> list[np.ndarray]:
+                  smooth_px=5, surface=None) -> list[np.ndarray]:
     """Eq. 5.2 labels of every pixel for every plane n . p + dpl = 0. The signed distance of
     the pixel's point p = depth * (ray_x, ray_y, 1) is depth * (n . ray) + dpl (separable in
     rows and columns). A pixel within L of two planes that cross at more than
@@ -514,21 +584,32 @@ def _label_images(d, valid, ray_x, ray_y, planes, L, crossing_angle_deg,
         lab |= cv2.compare(S[k], L, cv2.CMP_GT) & np.uint8(OCCLUDED)
         lab |= unknown                                   # 3 | anything = UNKNOWN
         labs.append(lab)
+    _crossings(labs, S, planes, valid, crossing_angle_deg, smooth_px)
+    if surface is not None:  # after the crossings: their strips would bias the means
+        for k in range(P):
+            _surface_check(labs[k], S[k], *surface)
+    return labs
+
+
+def _crossings(labs, S, planes, valid, crossing_angle_deg, smooth_px):
+    """In place: where two crossing planes are both within L of a pixel, the pixel stays
+    in-plane only for the nearer one with the larger support (see :func:`_label_images`)."""
+    P = len(planes)
     if P < 2:
-        return labs
-    count = np.zeros(d.shape, np.uint8)
+        return
+    count = np.zeros(valid.shape, np.uint8)
     for lab in labs:
         count += lab == IN_PLANE
     shared = np.flatnonzero(count > 1)
     if len(shared) == 0:
-        return labs
+        return
     near_sh = np.array([lab.reshape(-1)[shared] == IN_PLANE for lab in labs])
     N = np.array([pl.n for pl in planes])
     sup = np.array([pl.support for pl in planes])
     crossing = ((np.abs(N @ N.T) < math.cos(math.radians(crossing_angle_deg)))
                 & (sup[None, :] >= sup[:, None]))  # [k, j]: j may take pixels from k
     if not crossing.any():
-        return labs
+        return
     # which plane is nearer is decided on distances averaged over smooth_px x smooth_px
     # measured pixels (the noise of one pixel would otherwise fray the edge along the crossing)
     A_sh = np.zeros(near_sh.shape, np.float32)
@@ -546,7 +627,6 @@ def _label_images(d, valid, ray_x, ray_y, planes, L, crossing_angle_deg,
             other |= near_sh[j] & (A_sh[j] < A_sh[k])
         flat = labs[k].reshape(-1)
         flat[shared[near_sh[k] & other]] = FREE          # in-plane -> FREE
-    return labs
 
 
 def _make_grid(k, plane: Plane, lab_img, sample_pts, K, down_C, cfg, lut) -> _Grid | None:
@@ -753,7 +833,7 @@ def _polish_rotation(g: _Grid, R, lab_img, K, cfg, lut):
             best_score, best, theta = res[i][0], res[i][1], thetas[i]
         else:
             break
-    return best_score, best + (_sat_in(best[5]),)
+    return best_score, best + (_sat_in(best[5]), c)
 
 
 def _refit_plane(Pc, lab_img, center, e1, e2, w, h, K, n_old, L):
@@ -867,8 +947,13 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
                                          cfg.cost_unknown, cfg.cost_free]))
     down_C = X_WC[:3, :3].T @ np.array([0.0, 0.0, -1.0])
     lab_imgs, grids = [], []
+    surface = None
+    if cfg.surface_check:
+        Lm = np.maximum(np.float32(cfg.surface_distance),
+                        np.float32(cfg.surface_distance_per_m2) * dzero * dzero)
+        surface = (Lm, int(cfg.surface_window_px))
     labels = _label_images(dzero, valid, xs, ys, planes, Limg, cfg.crossing_angle_deg,
-                           int(cfg.crossing_smooth_px))
+                           int(cfg.crossing_smooth_px), surface)
     for k, (pl, lab) in enumerate(zip(planes, labels)):
         g = _make_grid(k, pl, lab, sample_pts, K, down_C, cfg, lut)
         lab_imgs.append(lab)
@@ -934,16 +1019,16 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
     polished = []
     for _, s, _ in kept:
         g = grids[pid[s]]
-        _, (e1, e2, u0, v0, Rf, lab, sat_cost, sat_in) = _polish_rotation(
+        _, (e1, e2, u0, v0, Rf, lab, sat_cost, sat_in, cp) = _polish_rotation(
             g, R[s], lab_imgs[g.plane_index], K, cfg, lut)
-        polished.append((g, e1, e2, u0, v0, Rf, lab, sat_cost, sat_in))
+        polished.append((g, e1, e2, u0, v0, Rf, lab, sat_cost, sat_in, cp))
     t_opt += clock() - t0
     timings["optimisation"] = t_opt
 
     t0 = clock()
     final = []
-    for g, e1, e2, u0, v0, Rf, lab, sat_cost, sat_in in polished:
-        gl = _Grid(g.plane_index, g.n, g.d, g.o, e1, e2, u0, v0, g.c, lab, sat_cost, sat_in)
+    for g, e1, e2, u0, v0, Rf, lab, sat_cost, sat_in, cp in polished:
+        gl = _Grid(g.plane_index, g.n, g.d, g.o, e1, e2, u0, v0, cp, lab, sat_cost, sat_in)
         prec, rec = _precision_recall(gl, Rf, cfg)
         if prec < cfg.min_precision or rec < cfg.min_recall:
             continue

@@ -7,14 +7,12 @@ pressure field comes as triangles (vertices expressed in P, pressure at each ver
 inside: exactly Drake's hydroelastic contact surface with its linear pressure field).
 
 Hydroelastic contact surfaces are full of sliver triangles that can span several cells, so a
-triangle's force is not assigned to the cell of its centroid. Instead each triangle is split
-into ``subdiv**2`` congruent sub-triangles and each sub-triangle's force (pressure at its
-centroid times its area -- exact for the linear field inside each sub-triangle) is binned at
-the sub-triangle centroid (projected onto the pad plane). Each triangle gets enough
-sub-triangles that none is longer than half a cell side, and each sample's force is
-shared between the cells that a half-cell patch around it overlaps (cloud-in-cell), so
-a face on a cell border splits by area instead of jumping to one side. Triangles with the same subdivision are processed at
-once (vectorised).
+triangle's force is not assigned to the cell of its centroid. Instead every triangle is
+intersected exactly with every cell it overlaps (:func:`integrate_pressure`: Liang-Barsky
+and Cyrus-Beck clipping, Green's theorem for the area and centroid of each piece, all
+(triangle, cell) pairs vectorised at once); the linear pressure integrates exactly over
+each piece. (Until 2026-11 this sampled ``subdiv**2`` sub-triangles per face with
+cloud-in-cell binning; the exact clip is both correct to rounding and faster.)
 
 The reading of a cell is its mean normal pressure (force / cell area, Pa); a sensor maps it
 to [0, 1] by dividing by its saturation pressure, adds Gaussian noise and clips
@@ -29,6 +27,7 @@ from functools import lru_cache
 import numpy as np
 
 __all__ = ["PadLayout", "PAD_CH6", "PAD_PR2", "subdivision_points", "integrate_pressure",
+           "integrate_pressure_pads",
            "sensor_reading"]
 
 
@@ -96,75 +95,154 @@ def _subdivision_points(subdiv: int) -> np.ndarray:
     return np.column_stack([a, 1.0 - a.sum(axis=1)])
 
 
+def _polygon_sums(P, Q, w):
+    """Twice the area and twice-area-weighted centroid sums of closed boundaries given as
+    directed segments ``P -> Q`` (m, s, 2) with weights ``w`` (m, s) in {0, 1} (Green's
+    theorem: the shoelace terms of a closed curve add over its segments in any order)."""
+    cr = (P[..., 0] * Q[..., 1] - Q[..., 0] * P[..., 1]) * w
+    return cr.sum(axis=1), np.einsum("msd,ms->md", P + Q, cr)
+
+
 def integrate_pressure(layout: PadLayout, tri_P: np.ndarray, pressure: np.ndarray, *,
-                       subdiv: int = 2, max_subdiv: int = 32,
                        max_gap: float = 0.005) -> np.ndarray:
-    """Mean normal pressure (Pa) on every cell of the pad.
+    """Mean normal pressure (Pa) on every cell of the pad, integrated exactly.
+
+    Each triangle, projected onto the pad plane, is intersected with every cell of its
+    bounding box, all (triangle, cell) pairs at once: the boundary of the intersection is
+    the triangle's edges clipped to the cell (Liang-Barsky) plus the cell's edges clipped to
+    the triangle's interior (Cyrus-Beck), and Green's theorem gives its area and centroid
+    from those segments. The pressure is linear over a triangle, so its integral over the
+    intersection is that area times the pressure at that centroid: a sliver that spans many
+    cells gives each cell exactly its share. Force outside the pad is not measured.
 
     Args:
         layout: the pad.
         tri_P: (n, 3, 3) triangle vertices in the pad frame P, metres.
-        pressure: (n, 3) pressure at each vertex, Pa (>= 0; linear over the triangle).
-        subdiv: least number of sub-triangles per edge (subdiv**2 samples per triangle);
-            a triangle gets ``ceil(longest edge / spacing)`` per edge (spacing: half
-            of the smaller cell side, rounded up to one of 1, 2, 3, 4, 6, 8, 12, ...), at most ``max_subdiv``.
-        max_subdiv: cap on the sub-triangles per edge.
-        max_gap: samples farther than this from the pad plane (|z_P|, m) are ignored (contact
-            of another part of the finger).
+        pressure: (n, 3) pressure at each vertex, Pa (negative values count as 0; linear
+            over the triangle).
+        max_gap: triangles whose centroid is farther than this from the pad plane (|z_P|,
+            metres) are ignored (contact of another part of the finger).
 
     Returns:
         (rows, cols) mean pressure per cell, Pa: the normal force on the cell (pressure x
-        area, projected onto the pad normal) divided by the cell area.
+        area projected onto the pad plane) divided by the cell area. Faces with a NaN or
+        infinite vertex or pressure are skipped.
     """
-    tri = np.asarray(tri_P, dtype=float).reshape(-1, 3, 3)
-    pr = np.asarray(pressure, dtype=float).reshape(-1, 3)
-    out = np.zeros(layout.rows * layout.cols)
-    if tri.shape[0] == 0:
-        return out.reshape(layout.rows, layout.cols)
-    if pr.shape[0] != tri.shape[0]:
-        raise ValueError(f"pressure: expected {tri.shape[0]} x 3 values, got {pr.shape}")
-    ok = np.isfinite(tri).all(axis=(1, 2)) & np.isfinite(pr).all(axis=1)
-    tri, pr = tri[ok], np.maximum(pr[ok], 0.0)
-    e1 = tri[:, 1] - tri[:, 0]
-    e2 = tri[:, 2] - tri[:, 0]
-    # area projected onto the pad normal z_P: the normal force of a sample is p * area_z
-    a_z = 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])  # (n,)
-    # sub-triangles no longer than spacing (half of the smaller cell side), at least
-    # ``subdiv`` per edge: large faces (coarse compliant meshes) get many samples
-    cw, chh = layout.width / layout.cols, layout.length / layout.rows
-    h = min(cw, chh) / 2.0
-    hx, hy = cw / 2.0, chh / 2.0
-    edge = np.max(np.linalg.norm(tri - np.roll(tri, 1, axis=1), axis=2), axis=1)
-    n_sub = np.clip(np.ceil(edge / h).astype(int), subdiv, max_subdiv)
-    # a few subdivision levels only, so the loop below runs a few times
-    levels = np.array([1, 2, 3, 4, 6, 8, 12, 16, 24, 32, 48, 64])
-    n_sub = np.minimum(levels[np.searchsorted(levels, n_sub)], max_subdiv)
-    for n in np.unique(n_sub):
-        sel = n_sub == n
-        B = _subdivision_points(int(n))  # (s, 3)
-        pts = np.matmul(B, tri[sel])  # (m, s, 3)
-        force = (pr[sel] @ B.T) * (a_z[sel, None] / B.shape[0])  # (m, s) N
-        x, y, z = pts[..., 0], pts[..., 1], pts[..., 2]
-        uc = (x + 0.5 * layout.width) / cw  # sample position in cells
-        vc = (0.5 * layout.length - y) / chh
-        near = ((np.abs(z) <= max_gap) & (uc >= 0) & (uc < layout.cols) & (vc >= 0)
-                & (vc < layout.rows))
-        # each sample stands for a patch of (hx, hy), split over the (at most 2 x 2) cells it
-        # overlaps ("cloud in cell"): a sample on a cell border is shared, not rounded; a
-        # patch is kept inside the pad (the pad ends there)
-        u = np.clip(uc[near] - 0.5 * hx / cw, 0.0, layout.cols - hx / cw)  # patch start
-        v = np.clip(vc[near] - 0.5 * hy / chh, 0.0, layout.rows - hy / chh)
-        fw = force[near]
-        c0, r0 = np.floor(u).astype(int), np.floor(v).astype(int)
-        fc = np.clip((c0 + 1 - u) * cw / hx, 0.0, 1.0)  # share of column c0
-        fr = np.clip((r0 + 1 - v) * chh / hy, 0.0, 1.0)
-        for dc, wc in ((0, fc), (1, 1.0 - fc)):
-            for dr, wr in ((0, fr), (1, 1.0 - fr)):
-                col, row = c0 + dc, r0 + dr
-                keep = (col >= 0) & (col < layout.cols) & (row >= 0) & (row < layout.rows)
-                out += np.bincount(row[keep] * layout.cols + col[keep],
-                                   weights=(fw * wc * wr)[keep], minlength=out.size)
-    return (out / layout.cell_area).reshape(layout.rows, layout.cols)
+    return integrate_pressure_pads(layout, [tri_P], [pressure], max_gap=max_gap)[0]
+
+
+def integrate_pressure_pads(layout: PadLayout, tris, pressures, *,
+                            max_gap: float = 0.005) -> np.ndarray:
+    """:func:`integrate_pressure` for several pads of the same layout in one vectorised
+    pass (one numpy pass instead of one per pad: the arrays are small, so the per-call
+    cost dominates). ``tris[i]`` (n_i, 3, 3) and ``pressures[i]`` (n_i, 3) belong to pad i,
+    in that pad's frame. Returns (n_pads, rows, cols) mean pressures, Pa."""
+    R, C = layout.rows, layout.cols
+    n_pads = len(tris)
+    if len(pressures) != n_pads:
+        raise ValueError(f"pressures: expected {n_pads} arrays (one per pad), got {len(pressures)}")
+    tl, pl, kl = [], [], []
+    for i, (t_, p_) in enumerate(zip(tris, pressures)):
+        t_ = np.asarray(t_, dtype=float).reshape(-1, 3, 3)
+        p_ = np.asarray(p_, dtype=float).reshape(-1, 3)
+        if p_.shape[0] != t_.shape[0]:
+            raise ValueError(f"pressure: expected {t_.shape[0]} x 3 values, got {p_.shape}")
+        tl.append(t_)
+        pl.append(p_)
+        kl.append(np.full(t_.shape[0], i))
+    out = np.zeros(n_pads * R * C)
+    if n_pads == 0 or sum(t_.shape[0] for t_ in tl) == 0:
+        return out.reshape(n_pads, R, C)
+    tri, pr, pad = np.concatenate(tl), np.concatenate(pl), np.concatenate(kl)
+    cw, chh = layout.width / C, layout.length / R
+    with np.errstate(invalid="ignore"):
+        ok = np.isfinite(tri).all(axis=(1, 2)) & np.isfinite(pr).all(axis=1)
+        ok &= np.abs(tri[:, :, 2].mean(axis=1)) <= max_gap
+    # projected vertices in cell units: u along the columns, v along the rows
+    uv = np.stack([(tri[:, :, 0] + 0.5 * layout.width) / cw,
+                   (0.5 * layout.length - tri[:, :, 1]) / chh], axis=2)  # (n, 3, 2)
+    # snap coordinates within 1e-9 cells of a grid line onto it: an edge along a cell border
+    # (the border of the pad, e.g.) is then exactly on it, and the clipping below counts it
+    # once (with round-off it could be taken both as the triangle's and as the cell's edge)
+    with np.errstate(invalid="ignore"):
+        near = np.abs(uv - np.round(uv)) < 1e-9
+    uv = np.where(near, np.round(uv), uv)
+    e1, e2 = uv[:, 1] - uv[:, 0], uv[:, 2] - uv[:, 0]
+    det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]  # twice the signed area, cell units
+    lo, hi = uv.min(axis=1), uv.max(axis=1)
+    with np.errstate(invalid="ignore"):
+        ok &= ((np.abs(det) > 1e-12) & (hi[:, 0] > 0) & (lo[:, 0] < C) & (hi[:, 1] > 0)
+               & (lo[:, 1] < R))
+    if not ok.any():
+        return out.reshape(n_pads, R, C)
+    uv, pr, det, lo, hi = uv[ok], np.maximum(pr[ok], 0.0), det[ok], lo[ok], hi[ok]
+    pad = pad[ok]
+    e1, e2 = e1[ok], e2[ok]
+    # pressure as an affine function of (u, v): p = p_0 + g . (x - uv_0)
+    dp1, dp2 = pr[:, 1] - pr[:, 0], pr[:, 2] - pr[:, 0]
+    g = np.stack([(dp1 * e2[:, 1] - dp2 * e1[:, 1]) / det,
+                  (dp2 * e1[:, 0] - dp1 * e2[:, 0]) / det], axis=1)
+    # counter-clockwise vertex order (interior on the left of each edge)
+    cw_ = det < 0
+    uv[cw_] = uv[cw_][:, [0, 2, 1]]
+    # cells of the bounding box; a triangle that only touches a cell's border gets no pair
+    c0 = np.clip(np.floor(lo[:, 0]), 0, C - 1).astype(int)
+    c1 = np.clip(np.ceil(hi[:, 0]) - 1, 0, C - 1).astype(int)
+    r0 = np.clip(np.floor(lo[:, 1]), 0, R - 1).astype(int)
+    r1 = np.clip(np.ceil(hi[:, 1]) - 1, 0, R - 1).astype(int)
+    nw = np.maximum(c1 - c0 + 1, 1)
+    cnt = nw * np.maximum(r1 - r0 + 1, 1)
+    tid = np.repeat(np.arange(len(cnt)), cnt)  # (triangle, cell) pairs
+    off = np.arange(tid.size) - np.repeat(np.cumsum(cnt) - cnt, cnt)
+    col = c0[tid] + off % nw[tid]
+    row = r0[tid] + off // nw[tid]
+    corner = np.stack([col, row], axis=1).astype(float)
+    V = uv[tid] - corner[:, None, :]  # triangle in the cell's frame: the cell is [0, 1]^2
+    Dt = np.roll(uv, -1, axis=1) - uv  # (n, 3, 2) edges (the same in every frame)
+    D = Dt[tid]
+    inf = np.inf
+    # 1) triangle edges clipped to the closed cell (Liang-Barsky)
+    t0, t1 = 0.0, 1.0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        for ax in (0, 1):
+            Va, Da = V[..., ax], D[..., ax]
+            ta, tb = -Va / Da, (1.0 - Va) / Da  # where the edge meets 0 and 1
+            par = Da == 0.0
+            out_ = par & ((Va < 0.0) | (Va > 1.0))  # parallel and outside: empty
+            t0 = np.maximum(t0, np.where(par, np.where(out_, inf, -inf), np.minimum(ta, tb)))
+            t1 = np.minimum(t1, np.where(par, np.where(out_, -inf, inf), np.maximum(ta, tb)))
+    w1 = t1 > t0
+    t0, t1 = np.where(w1, t0, 0.0), np.where(w1, t1, 0.0)
+    S0 = V + t0[..., None] * D
+    S1 = V + t1[..., None] * D
+    # 2) cell edges clipped to the open triangle (Cyrus-Beck): inside is n_j . x > h_j
+    nu, nv = -D[..., 1], D[..., 0]  # (m, 3) inward normals (CCW)
+    h = nu * V[..., 0] + nv * V[..., 1]
+    K = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])  # CCW cell corners
+    E = np.roll(K, -1, axis=0) - K
+    f0 = np.stack([-h, nu - h, nu + nv - h, nv - h], axis=1)  # (m, 4, 3): n . K - h
+    fd = np.stack([nu, nv, -nu, -nv], axis=1)  # n . E
+    with np.errstate(divide="ignore", invalid="ignore"):
+        tc = -f0 / fd
+    shut = (fd == 0.0) & (f0 <= 0.0)  # parallel and not inside: empty
+    lo_b = np.where(fd > 0.0, tc, np.where(shut, inf, -inf))
+    hi_b = np.where(fd < 0.0, tc, np.where(shut, -inf, inf))
+    s0 = np.maximum(np.maximum(np.maximum(lo_b[..., 0], lo_b[..., 1]), lo_b[..., 2]), 0.0)
+    s1 = np.minimum(np.minimum(np.minimum(hi_b[..., 0], hi_b[..., 1]), hi_b[..., 2]), 1.0)
+    w2 = s1 > s0
+    s0, s1 = np.where(w2, s0, 0.0), np.where(w2, s1, 0.0)
+    B0 = K + s0[..., None] * E
+    B1 = K + s1[..., None] * E
+    A2a, Ma = _polygon_sums(S0, S1, w1)
+    A2b, Mb = _polygon_sums(B0, B1, w2)
+    A2 = A2a + A2b  # twice the area, cell units
+    keep = A2 > 1e-14
+    A2s = np.where(keep, A2, 1.0)
+    cen = (Ma + Mb) / (3.0 * A2s[:, None]) + corner  # centroid, cell units
+    p_c = pr[tid, 0] + np.einsum("ij,ij->i", g[tid], cen - uv[tid, 0])
+    force = np.where(keep, 0.5 * A2 * np.maximum(p_c, 0.0), 0.0) * (cw * chh)  # N
+    out += np.bincount((pad[tid] * R + row) * C + col, weights=force, minlength=out.size)
+    return (out / layout.cell_area).reshape(n_pads, R, C)
 
 
 def sensor_reading(layout: PadLayout, cell_pressure: np.ndarray, *, rng: np.random.Generator,

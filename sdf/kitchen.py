@@ -4,7 +4,8 @@ One model ``kitchen`` holds the room and a row of base cabinets against a wall:
 
 * the **target module** (centred on the kitchen frame's y = 0) carries the thesis' door
   (0.395 x 0.58 m, body ``door`` on the revolute joint ``door_hinge``, hinge on a vertical
-  side) below its drawer (0.395 x 0.125 m, body ``drawer`` on the prismatic joint
+  side, pivoting about its outer face's edge like a concealed cup hinge, so that it clears
+  the neighbouring front) below its drawer (0.395 x 0.125 m, body ``drawer`` on the prismatic joint
   ``drawer_slide``, with a drawer box behind the front that shows when it is pulled out);
 * **planar distractors**: the wall behind, the countertop, the plinth (toe kick), a
   neighbour module on each side with *closed* fronts (bodies welded to the carcass, each
@@ -278,18 +279,21 @@ def kitchen_sdf(spec: KitchenSpec | None = None, *, model_name: str = "kitchen")
                                              (Ht - 0.03) / 2), (0.05, 0.05, Ht - 0.03), _TABLE)
     m.joint("carcass_weld", "fixed", "world", "carcass")
 
-    # the moving door: body frame on the hinge line (back face, hinge edge, lower edge)
+    # the moving door: body frame on the hinge line (outer face, hinge edge, lower edge). The
+    # pivot is on the outer face like a concealed (cup) hinge's: a door pivoting about its
+    # back edge would swing its hinge edge 19 mm sin(q) into the neighbouring front (through
+    # the 5 mm reveal), hiding ~1 cm of the door's hinge side from the camera.
     dw, dh = s.door_width, s.door_height
     sign = -1.0 if s.door_hinge == "left" else 1.0  # y side of the hinge
-    door = m.link("door", pose=(s.front_back_x, sign * dw / 2, s.door_bottom))
-    pc = (th / 2, -sign * dw / 2, dh / 2)
+    door = m.link("door", pose=(s.front_face_x, sign * dw / 2, s.door_bottom))
+    pc = (-th / 2, -sign * dw / 2, dh / 2)
     _panel_inertia(door, 3.0, pc, (th, dw, dh))
     _slab(door, "door_front", pc, (th, dw, dh), _DOOR)
     # positive q swings the free edge towards +x: axis -z for a hinge on -y, +z on +y
     m.joint("door_hinge", "revolute", "carcass", "door", axis=(0, 0, sign), lower=0.0,
             upper=s.door_limit, effort=0, velocity=5, damping=0.5)
     m.frame("door_face", attached_to="door",
-            pose=(th, -sign * dw / 2, dh / 2, math.pi / 2, 0, math.pi / 2), relative_to="door")
+            pose=(0, -sign * dw / 2, dh / 2, math.pi / 2, 0, math.pi / 2), relative_to="door")
 
     # the moving drawer: body frame at the front's back face, lower edge, centre
     rw, rh = s.drawer_width, s.drawer_height

@@ -7,6 +7,8 @@ from .arm_failures import JointBlocker, PlantFailures
 from .articulation_estimator import ArticulationEstimator
 from .base_localization import BaseLocalization, BaseLocalizationConfig
 from .camera_marker_sensor import CameraMarkerSensor, CameraMarkerSensorConfig
+from .dbn_reproducer import DbnReproducer, DbnReproducerConfig
+from .dbn_visualizer import DbnVisualizer
 from .depth_noise import DepthNoise
 from .epc_controller import EpcConfig, EpcController, EpcTask
 from .finger_hold import FingerPositionHold
@@ -14,6 +16,7 @@ from .front_detector import FrontDetector
 from .front_pose import TrueFrontPose
 from .front_tracker import FrontTracker, FrontTrackerConfig, FrontTrackerState
 from .front_visualizer import FrontTrackVisualizer
+from .grasp_attachment import GraspAttachment
 from .kinematic_body_poses import KinematicBodyPoses
 from .marker_sensor import CameraConfig, MarkerSensor, MarkerSensorConfig
 from .model_visualizer import LearnedModelVisualizer
@@ -27,6 +30,7 @@ from .schema_learner import SchemaLearner, SchemaLearnerConfig, SchemaLearnerSta
 from .schema_visualizer import SchemaVisualizer
 from .tactile_grasp_controller import TactileGraspController
 from .tactile_sensor import PadSpec, TactileSensor
+from .taxel_visualizer import TaxelPadVisualizer
 from .wrist_force_sensor import WristForceSensor
 
 __all__ = [
@@ -34,13 +38,18 @@ __all__ = [
     "PadSpec",
     "TactileGraspController",
     "TactileSensor",
+    "TaxelPadVisualizer",
     "ArticulationEstimator",
     "BaseLocalization",
     "BaseLocalizationConfig",
     "CameraConfig",
     "CameraMarkerSensor",
     "CameraMarkerSensorConfig",
+    "DbnReproducer",
+    "DbnReproducerConfig",
+    "DbnVisualizer",
     "DepthNoise",
+    "GraspAttachment",
     "EpcConfig",
     "EpcController",
     "EpcTask",

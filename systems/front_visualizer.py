@@ -2,6 +2,8 @@
 and their learned link models in Meshcat (thesis ch. 5; the point cloud is drawn by Drake's
 own MeshcatPointCloudVisualizer)."""
 
+import math
+
 import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.geometry import Rgba
@@ -36,8 +38,15 @@ class FrontTrackVisualizer(LeafSystem):
     opening arc, prismatic axis and range) in Meshcat, under ``prefix``.
 
     Redrawn from the inputs by a periodic publish every ``period`` seconds and on a forced
-    publish; no state (what is drawn is a function of the inputs). Unconnected inputs draw
-    nothing; a drawing error never stops the simulation.
+    publish; no state (what is drawn is a function of the inputs and the time). Unconnected
+    inputs draw nothing; a drawing error never stops the simulation.
+
+    With ``recording`` (the scene's ``MeshcatVisualizer.get_mutable_recording()``), every
+    publish draws into its own group ``<prefix>/frames/<k>`` (k = floor(time / period))
+    instead of replacing one drawing, and keys the group's ``visible`` property into the
+    animation: hidden from its start, shown at its time, hidden again at the next group's
+    time. So the recording (``--html-out``) plays each camera frame's rectangles, tracks and
+    models at their time, not only the final state; live, the previous group is hidden.
 
     .. pydrake_system::
 
@@ -48,11 +57,21 @@ class FrontTrackVisualizer(LeafSystem):
         - models
     """
 
-    def __init__(self, *, meshcat, period: float = 0.1, prefix: str = "fronts"):
+    def __init__(self, *, meshcat, period: float = 0.1, prefix: str = "fronts",
+                 recording=None):
+        """Args: meshcat: the Meshcat instance; period: publish period, s; prefix: Meshcat
+        path of the drawings; recording: None or a ``MeshcatAnimation`` (anything with
+        ``frame(time)`` and ``SetProperty(frame, path, property, bool)``) to key each
+        frame's drawing into (see the class docstring)."""
         super().__init__()
         if not period > 0:
             raise ValueError(f"period must be > 0 s, got {period}")
+        if recording is not None and not (hasattr(recording, "frame")
+                                           and hasattr(recording, "SetProperty")):
+            raise ValueError("recording must be a MeshcatAnimation (frame(), SetProperty()), "
+                             f"got {type(recording).__name__}")
         self._meshcat, self._prefix = meshcat, str(prefix)
+        self._period, self._recording = float(period), recording
         self._rects = self.DeclareAbstractInputPort("rectangles", AbstractValue.Make(list()))
         self._tracks = self.DeclareAbstractInputPort("tracks", AbstractValue.Make(tuple()))
         self._models = self.DeclareAbstractInputPort("models", AbstractValue.Make(dict()))
@@ -83,15 +102,37 @@ class FrontTrackVisualizer(LeafSystem):
         tracks = self._value(self._tracks, context, ())
         models = self._value(self._models, context, {})
         try:
-            self.draw(rects, tracks, models)
+            if self._recording is None:
+                self.draw(rects, tracks, models)
+            else:
+                self._draw_recorded(context.get_time(), rects, tracks, models)
         except (RuntimeError, ValueError, TypeError, AttributeError, IndexError):
             return EventStatus.DidNothing()  # a drawing never stops the simulation
         return EventStatus.Succeeded()
 
-    def draw(self, rectangles, tracks, models) -> None:
-        """Draw one frame's rectangles, the tracks and their models (replacing the last
-        drawing)."""
-        mc, pre = self._meshcat, self._prefix
+    def frame_group(self, time: float) -> str:
+        """Meshcat path of the drawing of the publish at ``time`` (s) with a recording."""
+        return f"{self._prefix}/frames/{int(math.floor(time / self._period + 1e-6))}"
+
+    def _draw_recorded(self, t, rectangles, tracks, models) -> None:
+        mc, anim = self._meshcat, self._recording
+        k = int(math.floor(t / self._period + 1e-6))
+        group = f"{self._prefix}/frames/{k}"
+        prev = f"{self._prefix}/frames/{k - 1}"
+        self.draw(rectangles, tracks, models, prefix=group)
+        f = int(anim.frame(t))
+        if f > 0:
+            anim.SetProperty(0, group, "visible", False)
+        anim.SetProperty(f, group, "visible", True)
+        mc.SetProperty(group, "visible", True)
+        if k > 0 and mc.HasPath(prev):
+            anim.SetProperty(f, prev, "visible", False)
+            mc.SetProperty(prev, "visible", False)
+
+    def draw(self, rectangles, tracks, models, *, prefix: str | None = None) -> None:
+        """Draw one frame's rectangles, the tracks and their models under ``prefix`` (default:
+        the visualizer's), replacing what was drawn there."""
+        mc, pre = self._meshcat, self._prefix if prefix is None else prefix
         mc.Delete(f"{pre}/detections")
         items = rectangles if isinstance(rectangles, (list, tuple)) else []
         for i, r in enumerate(x for x in (as_rectangle(y) for y in items) if x is not None):

@@ -11,7 +11,7 @@ from pydrake.math import RigidTransform
 from pydrake.multibody.plant import ContactResults
 from pydrake.systems.framework import LeafSystem
 
-from mmlearn.models.tactile_pad import PadLayout, integrate_pressure, sensor_reading
+from mmlearn.models.tactile_pad import PadLayout, integrate_pressure_pads, sensor_reading
 
 __all__ = ["PadSpec", "TactileSensor", "surface_triangles"]
 
@@ -53,16 +53,17 @@ def surface_triangles(surface) -> tuple[np.ndarray, np.ndarray]:
     nv = mesh.num_vertices()
     V = np.array([mesh.vertex(i) for i in range(nv)]).reshape(nv, 3)
     p = np.array([field.EvaluateAtVertex(i) for i in range(nv)])
-    data = mesh.face_data()
-    tris = []
-    k = 0
+    data = np.asarray(mesh.face_data(), dtype=int)  # n, i_1 .. i_n, n, ...
+    starts, k = [], 0
     while k < len(data):
-        n = data[k]
-        idx = data[k + 1:k + 1 + n]
-        for j in range(1, n - 1):
-            tris.append((idx[0], idx[j], idx[j + 1]))
-        k += n + 1
-    F = np.array(tris, dtype=int).reshape(-1, 3)
+        starts.append(k)
+        k += int(data[k]) + 1
+    starts = np.array(starts, dtype=int)
+    ntri = np.maximum(data[starts] - 2, 0)  # fan of each polygon
+    fid = np.repeat(np.arange(len(starts)), ntri)
+    j = np.arange(int(ntri.sum())) - np.repeat(np.cumsum(ntri) - ntri, ntri) + 1
+    base = starts[fid] + 1
+    F = np.column_stack([data[base], data[base + j], data[base + j + 1]]).reshape(-1, 3)
     return V[F], p[F]
 
 
@@ -70,8 +71,8 @@ class TactileSensor(LeafSystem):
     """Taxel pads on the fingers, sampled at ``rate_hz`` from hydroelastic contact.
 
     On every sample the pressure field of each hydroelastic contact surface touching a pad's
-    geometry is integrated over the pad's cells (:func:`integrate_pressure`, sub-triangle
-    quadrature so sliver faces are area-weighted correctly), normalised by the pad's
+    geometry is integrated over the pad's cells (:func:`integrate_pressure`: each face is
+    clipped exactly against the cells, so sliver faces are area-weighted correctly), normalised by the pad's
     saturation pressure, given seeded Gaussian noise (drawn from (seed, sample index), so
     two simulators of the same diagram agree) and clipped to [0, 1]. The force of each pad
     is the calibrated sum of its readings: ``sum(reading) * p_sat * cell_area`` (N).
@@ -91,8 +92,7 @@ class TactileSensor(LeafSystem):
     ``pad_force``: the normal force on each pad, N (held between samples).
     """
 
-    def __init__(self, *, pads, rate_hz: float = 25.0, noise: float = 0.01, seed: int = 0,
-                 subdiv: int = 2):
+    def __init__(self, *, pads, rate_hz: float = 25.0, noise: float = 0.01, seed: int = 0):
         super().__init__()
         pads = tuple(pads)
         if not pads:
@@ -102,7 +102,7 @@ class TactileSensor(LeafSystem):
         if not (np.isfinite(noise) and noise >= 0):
             raise ValueError(f"TactileSensor: noise must be >= 0, got {noise}")
         self._pads = pads
-        self._rate, self._noise, self._seed, self._subdiv = rate_hz, noise, int(seed), int(subdiv)
+        self._rate, self._noise, self._seed = rate_hz, noise, int(seed)
         self._sizes = [p.layout.rows * p.layout.cols for p in pads]
         self._offsets = np.concatenate([[0], np.cumsum(self._sizes)])
         self._gid = {}
@@ -159,18 +159,26 @@ class TactileSensor(LeafSystem):
             T, P = surface_triangles(s)
             tris[i].append(T)
             prs[i].append(P)
-        out = []
+        # pads of the same layout are integrated in one vectorised pass
+        out = [None] * len(self._pads)
+        groups = {}
         for i, pad in enumerate(self._pads):
-            if not tris[i]:
-                out.append(np.zeros((pad.layout.rows, pad.layout.cols)))
-                continue
-            X_WP = poses[pad.body_index] @ pad.X_BP
-            X_PW = X_WP.inverse()
-            T = np.concatenate(tris[i])
-            R, t = X_PW.rotation().matrix(), X_PW.translation()
-            T_P = T @ R.T + t
-            out.append(integrate_pressure(pad.layout, T_P, np.concatenate(prs[i]),
-                                          subdiv=self._subdiv))
+            groups.setdefault(pad.layout, []).append(i)
+        for layout, idx in groups.items():
+            T_P, P_P = [], []
+            for i in idx:
+                pad = self._pads[i]
+                if not tris[i]:
+                    T_P.append(np.zeros((0, 3, 3)))
+                    P_P.append(np.zeros((0, 3)))
+                    continue
+                X_PW = (poses[pad.body_index] @ pad.X_BP).inverse()
+                R, t = X_PW.rotation().matrix(), X_PW.translation()
+                T_P.append(np.concatenate(tris[i]) @ R.T + t)
+                P_P.append(np.concatenate(prs[i]))
+            cells = integrate_pressure_pads(layout, T_P, P_P)
+            for k, i in enumerate(idx):
+                out[i] = cells[k]
         return out
 
     def _update(self, context, discrete_state):

@@ -149,6 +149,10 @@ def test_bad_pose_and_config_are_clear_errors():
         detect_fronts(depth, K, np.eye(4), FrontDetectorConfig(inlier_distance=-1.0), rng=0)
     with pytest.raises(ValueError, match="prior_size"):
         detect_fronts(depth, K, np.eye(4), FrontDetectorConfig(prior_size=[0.2]), rng=0)
+    with pytest.raises(ValueError, match="surface_window_px"):
+        detect_fronts(depth, K, np.eye(4), FrontDetectorConfig(surface_window_px=4), rng=0)
+    with pytest.raises(ValueError, match="surface_distance"):
+        detect_fronts(depth, K, np.eye(4), FrontDetectorConfig(surface_distance=-0.1), rng=0)
 
 
 def test_config_loads_from_yaml_and_rejects_misspelled_keys():
@@ -241,3 +245,49 @@ def test_front_leaving_the_view_is_not_reported():
     for r in rects:  # nothing where the door is
         assert not (np.linalg.norm(r.center - X[:3, 3]) < 0.1
                     and abs(r.normal @ X[:3, 2]) > math.cos(math.radians(10))), r
+
+
+def _plane_points(rng, z_face=1.0, proud=0.018, noise=0.001):
+    """Sample-grid points (every 8th pixel of a 640 x 480 camera) of a wall at z_face with a
+    0.16 x 0.16 m panel standing ``proud`` in front of it (camera frame, m)."""
+    rows, cols = np.mgrid[0:60, 0:80]
+    u, v = cols.ravel() * 8 + 4.0, rows.ravel() * 8 + 4.0
+    x, y = (u - K.cx) / K.fx * z_face, (v - K.cy) / K.fy * z_face
+    panel = (np.abs(x) < 0.08) & (np.abs(y) < 0.08)
+    z = np.where(panel, z_face - proud, z_face) + rng.normal(0, noise, x.shape)
+    pts = np.column_stack([(u - K.cx) / K.fx * z, (v - K.cy) / K.fy * z, z])
+    return pts, np.column_stack([rows.ravel(), cols.ravel()]), panel
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_front_standing_proud_of_a_larger_parallel_plane_is_its_own_plane(seed):
+    """A front 1.8 cm proud of its carcass with L = 0.01 m: after the carcass' plane, the
+    front's points stay in the pool (the removal band is L plus the noise part, not 2 L) and
+    its plane is not taken for a copy of the carcass' (centroid farther than L)."""
+    from mmlearn.models.front_detection import find_planes
+
+    rng = np.random.default_rng(seed)
+    pts, rc, panel = _plane_points(rng)
+    cfg = FrontDetectorConfig(inlier_distance=0.01)
+    planes = find_planes(pts, rc, (60, 80), cfg, np.random.default_rng(seed))
+    offsets = sorted(round(-p.d / p.n[2], 3) for p in planes if abs(p.n[2]) > 0.99)
+    assert any(abs(o - 0.982) < 0.003 for o in offsets), offsets
+    assert any(abs(o - 1.0) < 0.003 for o in offsets), offsets
+
+
+@pytest.mark.parametrize("yaw_deg,seed", [(50, 1), (60, 2)])
+def test_side_face_of_a_thick_panel_does_not_widen_it(yaw_deg, seed):
+    """A 19 mm thick door turned 50-60 deg: its edge face lies within L of the front's plane
+    and would widen the rectangle by up to thickness x tan(incidence) (measured without the
+    surface check: 10-20 mm wider, centre 10-15 mm off); with it the width is within 5 mm."""
+    X = _front_pose(1.0, 0.3, 0.6, math.radians(yaw_deg))
+    depth, X_WC = _frame([(DOOR, X, 0.019)], 1.3, 0.0, X[:3, 3], seed)
+    errs = {}
+    for check in (True, False):
+        rects, _ = detect_fronts(depth, K, X_WC, FrontDetectorConfig(surface_check=check),
+                                 rng=seed)
+        m = _match(rects, X, DOOR)
+        assert m is not None
+        errs[check] = (m[0].width - DOOR[0], m[1])
+    assert abs(errs[True][0]) <= 0.005 and errs[True][1] < 0.006, errs
+    assert errs[False][0] >= 0.009 and errs[False][1] > errs[True][1], errs  # the effect

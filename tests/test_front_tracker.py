@@ -289,3 +289,61 @@ def test_detector_and_tracker_learn_the_door_from_depth_images():
         if tm.selected == "revolute":
             assert abs(float(np.dot(tm.model.axis, kin.axis_W))) > np.cos(np.radians(5.0)), k
     assert sum(tm.selected == "rigid" for tm in models.values()) >= 3
+
+
+class _LoggedAnimation:
+    """A MeshcatAnimation stand-in that logs the keyed properties (frame = round(t * fps))."""
+
+    def __init__(self, fps):
+        self.fps, self.keys = fps, {}
+
+    def frame(self, t):
+        return int(round(t * self.fps))
+
+    def SetProperty(self, frame, path, prop, value):
+        self.keys.setdefault((path, prop), {})[frame] = value
+
+
+def test_visualizer_records_each_frame_at_its_time():
+    """With a recording, each publish draws its own group, keyed visible at its time only
+    (the recording plays the rectangles as they were, not the final state)."""
+    from pydrake.geometry import MeshcatAnimation, StartMeshcat
+
+    from mmlearn.systems.front_visualizer import FrontTrackVisualizer
+
+    meshcat = StartMeshcat()
+    frames = _scene(n=30, seed=4)
+    anim = _LoggedAnimation(fps=64.0)
+    b = DiagramBuilder()
+    src = b.AddNamedSystem("replay", RectangleReplay(frames))
+    trk = b.AddNamedSystem("tracker", FrontTracker(config=FrontTrackerConfig(period_s=PERIOD)))
+    vis = b.AddNamedSystem("vis", FrontTrackVisualizer(meshcat=meshcat, period=PERIOD,
+                                                       prefix="front_rec", recording=anim))
+    b.Connect(src.get_output_port(), trk.get_rectangles_input_port())
+    b.Connect(src.get_output_port(), vis.get_rectangles_input_port())
+    b.Connect(trk.get_tracks_output_port(), vis.get_tracks_input_port())
+    b.Connect(trk.get_models_output_port(), vis.get_models_input_port())
+    sim = Simulator(b.Build())
+    sim.AdvanceTo(PERIOD * 10.5)  # publishes at k = 0 .. 10
+    for k in range(11):
+        g = f"front_rec/frames/{k}"
+        assert meshcat.HasPath(f"{g}/detections/0")
+        keys = anim.keys[(g, "visible")]
+        f = anim.frame(k * PERIOD)
+        assert keys[f] is True
+        if k > 0:
+            assert keys[0] is False  # hidden before its time
+        if k < 10:
+            assert keys[anim.frame((k + 1) * PERIOD)] is False  # hidden at the next one
+        else:
+            assert max(keys) == f  # the last one stays
+    assert not meshcat.HasPath("front_rec/detections")  # no undated drawing
+    # the real MeshcatAnimation takes the same calls
+    real = MeshcatAnimation(64.0)
+    lone = FrontTrackVisualizer(meshcat=meshcat, period=PERIOD, prefix="front_rec2",
+                                recording=real)
+    c = lone.CreateDefaultContext()
+    c.SetTime(3 * PERIOD)
+    lone.ForcedPublish(c)
+    with pytest.raises(ValueError, match="MeshcatAnimation"):
+        FrontTrackVisualizer(meshcat=meshcat, recording=object())

@@ -126,10 +126,22 @@ def test_track_fronts_draws_in_meshcat(tmp_path):
     html = tmp_path / "rec.html"
     r = run(config=TrackFrontsConfig(object="drawer", distance=1.2, frames=8, seed=3,
                                      html_out=str(html)), meshcat=mc, show_progress=False)
-    assert mc.HasPath("depth_cloud") and mc.HasPath("fronts/detections/0")
+    # recorded: one group per camera frame (shown at its time), the last one at the end
+    last = "fronts/frames/7"
+    assert mc.HasPath("depth_cloud") and mc.HasPath(f"{last}/detections/0")
+    assert all(mc.HasPath(f"fronts/frames/{k}") for k in range(8))
     assert r["moving_track"] is not None
     for tid in r["track_models"]:
-        assert mc.HasPath(f"fronts/tracks/{tid}/rectangle")
-    assert mc.HasPath(f"fronts/tracks/{r['moving_track']['track_id']}/model")
+        assert mc.HasPath(f"{last}/tracks/{tid}/rectangle")
+    assert mc.HasPath(f"{last}/tracks/{r['moving_track']['track_id']}/model")
     assert r["cpu_ms_per_frame"] is None  # the drawing evaluates the detector first
     assert r["html_out"] == str(html) and html.stat().st_size > 10_000
+    # the recording holds the groups and their keyed visibility (the commands are base64)
+    import base64
+    import re
+
+    text = html.read_text()
+    blob = b"".join(base64.b64decode(x) for x in re.findall(
+        r'base64,([A-Za-z0-9+/=]+)"', text))
+    assert b"fronts/frames/0" in blob and b"fronts/frames/7" in blob
+    assert b"set_animation" in blob and b"visible" in blob

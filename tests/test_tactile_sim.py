@@ -7,7 +7,8 @@ from conftest import run_main
 
 from mmlearn.models.containers import (CONTAINER_CLASSES, sample_container, states_of)
 from mmlearn.models.tactile_pad import (PAD_CH6, PAD_PR2, PadLayout, integrate_pressure,
-                                        sensor_reading, subdivision_points)
+                                        integrate_pressure_pads, sensor_reading,
+                                        subdivision_points)
 
 
 # ------------------------------------------------------------------ pad integration (numpy)
@@ -66,6 +67,89 @@ def test_outside_pad_and_far_from_plane_are_ignored_and_bad_faces_skipped():
     p[0, 0] = np.nan
     assert np.isfinite(integrate_pressure(lay, tri, p)).all()
     assert integrate_pressure(lay, np.zeros((0, 3, 3)), np.zeros((0, 3))).sum() == 0
+
+
+def test_exact_integration_matches_fine_sampling_and_single_cell_values():
+    """The clipped integral equals a 40 000-point quadrature binned by cell (random
+    triangles and linear pressures, partly off the pad), and known cases exactly."""
+    rng = np.random.default_rng(3)
+    for lay in (PAD_CH6, PAD_PR2):
+        n = 30
+        tri = np.stack([rng.uniform(-0.6, 0.6, (n, 3)) * lay.width,
+                        rng.uniform(-0.6, 0.6, (n, 3)) * lay.length,
+                        rng.normal(0.0, 1e-4, (n, 3))], axis=2)
+        p = rng.uniform(0.0, 2e5, (n, 3))
+        got = integrate_pressure(lay, tri, p)
+        B = subdivision_points(200)
+        pts = np.einsum("sk,nkd->nsd", B, tri)
+        e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+        az = 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
+        f = (p @ B.T) * az[:, None] / B.shape[0]
+        cw, ch = lay.width / lay.cols, lay.length / lay.rows
+        u = np.floor((pts[..., 0] + lay.width / 2) / cw).astype(int)
+        v = np.floor((lay.length / 2 - pts[..., 1]) / ch).astype(int)
+        m = (u >= 0) & (u < lay.cols) & (v >= 0) & (v < lay.rows)
+        ref = np.bincount(v[m] * lay.cols + u[m], weights=f[m],
+                          minlength=lay.rows * lay.cols).reshape(lay.rows, lay.cols)
+        ref /= lay.cell_area
+        assert np.abs(got - ref).max() < 2e-3 * ref.max()
+        # several pads in one pass give each pad's own result
+        both = integrate_pressure_pads(lay, [tri, tri[:0], tri[::2]], [p, p[:0], p[::2]])
+        assert both.shape == (3, lay.rows, lay.cols)
+        assert np.allclose(both[0], got) and not both[1].any()
+        assert np.allclose(both[2], integrate_pressure(lay, tri[::2], p[::2]))
+    # uniform pressure on slivers: every cell exactly (the sampling method was 6 % off)
+    for lay in (PAD_CH6, PAD_PR2):
+        tri = _sliver_fan(lay)
+        cells = integrate_pressure(lay, tri, np.full((len(tri), 3), 1.0e5))
+        assert np.allclose(cells, 1.0e5, rtol=1e-9)
+    # one triangle = the lower-left half of cell (row 0, col 0), clockwise, p linear in x
+    lay = PAD_PR2
+    cw, ch = lay.width / lay.cols, lay.length / lay.rows
+    x0, y0 = -lay.width / 2, lay.length / 2
+    tri = np.array([[[x0, y0, 0.0], [x0, y0 - ch, 0.0], [x0 + cw, y0 - ch, 0.0]]])
+    p = np.array([[0.0, 0.0, 3.0e5]])  # mean over the triangle 1e5, over the cell 0.5e5
+    cells = integrate_pressure(lay, tri, p)
+    assert cells[0, 0] == pytest.approx(0.5e5, rel=1e-12)
+    assert np.count_nonzero(cells) == 1
+    # a triangle on the border of two cells goes to the cell it covers only
+    tri2 = tri + np.array([cw, 0.0, 0.0])
+    tri2[0, 0, 0] = tri2[0, 1, 0] = x0 + cw  # left edge exactly on the grid line
+    cells = integrate_pressure(lay, tri2, np.full((1, 3), 1e5))
+    assert cells[0, 1] == pytest.approx(0.5e5, rel=1e-12) and cells.sum() == cells[0, 1]
+
+
+def test_edges_on_cell_borders_are_counted_once():
+    """Triangles with vertices on a quarter-cell lattice (edges along cell borders and the
+    pad border, as a box pad pressed on a flat block gives): the cells carry exactly the
+    triangles' area, and no cell more than its own (an edge on a border counted twice
+    once gave a cell +60 %)."""
+    rng = np.random.default_rng(0)
+    for lay in (PAD_CH6, PAD_PR2):
+        cw, ch = lay.width / lay.cols, lay.length / lay.rows
+        for _ in range(40):
+            n = 20
+            x = rng.integers(0, 4 * lay.cols + 1, (n, 3)) / 4.0 * cw - lay.width / 2
+            y = lay.length / 2 - rng.integers(0, 4 * lay.rows + 1, (n, 3)) / 4.0 * ch
+            tri = np.stack([x, y, np.zeros_like(x)], axis=2)
+            e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+            areas = 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
+            cells = integrate_pressure(lay, tri, np.ones((n, 3)))
+            assert cells.sum() * lay.cell_area == pytest.approx(areas.sum(), rel=1e-9, abs=1e-15)
+            for j in np.flatnonzero(areas > 0)[:5]:
+                one = integrate_pressure(lay, tri[j:j + 1], np.ones((1, 3)))
+                assert one.max() <= 1.0 + 1e-9
+                assert one.sum() * lay.cell_area == pytest.approx(areas[j], rel=1e-9)
+    # a sliver of a real contact surface (PR2 pad on a flat block) whose long edge lies on
+    # the pad border to round-off (x = 0.009 and 0.008999999999999998): its force is tiny
+    tri = np.array([[[0.008962716696934603, -0.000755260036321509, -3.73e-05],
+                     [0.009, -0.0007999999999999952, -3.73e-05],
+                     [0.008999999999999998, -0.01472037522700953, -3.73e-05]]])
+    p = np.array([[18641.651532698423, 0.0, 9.313225746154785e-10]])
+    e1, e2 = tri[0, 1] - tri[0, 0], tri[0, 2] - tri[0, 0]
+    force = 0.5 * abs(e1[0] * e2[1] - e1[1] * e2[0]) * p.mean()  # 1.6 mN
+    got = integrate_pressure(PAD_PR2, tri, p).sum() * PAD_PR2.cell_area
+    assert got == pytest.approx(force, rel=1e-6)
 
 
 def test_sensor_reading_saturates_and_is_seeded():
@@ -184,11 +268,27 @@ def test_tactile_state_simulation_mode_small_run(tmp_path, capsys):
     from mmlearn.apps.tactile_state import main
 
     res = tmp_path / "grasps.jsonl"
+    png, html = tmp_path / "sim.png", tmp_path / "grasp.html"
     rc = main(["--f-target", "20", "--containers", "can", "--trials", "2", "--folds", "2",
-               "--jobs", "1", "--results", str(res), "--seed", "3", "--json"])
+               "--jobs", "1", "--results", str(res), "--seed", "3", "--json",
+               "--plot", str(png), "--html-out", str(html)])
     out, err = capsys.readouterr()
     assert rc == 0, err
     d = json.loads(out)
+    # the plot (profiles, impact, tactile images) and the Meshcat recording of one grasp
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 20_000
+    text = html.read_text()
+    assert text.lstrip().lower().startswith("<!doctype html")
+    import base64
+    import re
+
+    msgs = [base64.b64decode(m) for m in re.findall(r'base64,([A-Za-z0-9+/=]+)"', text)]
+    anim = [m for m in msgs if b"set_animation" in m]
+    # the recording animates the taxel cells (colour and height) along with the scene
+    assert anim and b"taxels/left/r00c00" in anim[0] and b"scale" in anim[0]
+    assert d["demo_grasp"]["container"] == "can" and d["demo_grasp"]["f_max_N"] > 20.0
+    peaks = d["demo_grasp"]["impact_peak_N"]  # Fig. 7.5 vs 7.6 at 10 N
+    assert peaks["switching"] < 10.5 < 12.0 < peaks["force"], peaks
     assert d["mode"] == "simulation" and d["n_grasps"] == 6 and d["no_contact"] == 0
     assert set(d["state_rate_by_container"]) == {"can"}
     assert 0.0 <= d["state_rate_by_container"]["can"] <= 1.0
@@ -202,7 +302,9 @@ def test_tactile_state_simulation_mode_small_run(tmp_path, capsys):
 @pytest.mark.parametrize("argv, needle", [
     (["--f-target", "20", "--containers", "jar"], "--containers"),
     (["--f-target", "20", "--test", "x"], "--test applies to real-data mode only"),
-    (["--f-target", "20", "--meshcat"], "--meshcat"),
+    (["--train", "no_such_dir", "--meshcat"], "--meshcat"),
+    (["--train", "no_such_dir", "--html-out", "x.html"], "--html-out"),
+    (["--f-target", "20", "--html-out", "/no/such/dir/x.html"], "--html-out"),
 ])
 def test_tactile_state_simulation_bad_flags(argv, needle, capsys):
     from mmlearn.apps.tactile_state import main
@@ -225,3 +327,59 @@ def test_wrist_force_sensor_sees_the_fingers_weight():
     f = w.get_force_output_port().Eval(w.GetMyContextFromRoot(sim.get_context()))
     # the two fingers (cfg.gripper.finger_mass each) hang on the palm
     assert f[2] == pytest.approx(-2 * cfg.gripper.finger_mass * 9.81, abs=0.2)
+
+
+class _FakeMeshcat:
+    """Records the calls a visualiser makes."""
+
+    def __init__(self):
+        self.objects, self.transforms, self.props = {}, {}, {}
+
+    def SetObject(self, path, shape, rgba):
+        self.objects[path] = (shape, rgba)
+
+    def SetTransform(self, path, X, time_in_recording=None):
+        self.transforms[path] = (X, time_in_recording)
+
+    def SetProperty(self, path, prop, value, time_in_recording=None):
+        self.props[(path, prop)] = (value, time_in_recording)
+
+
+def test_taxel_visualizer_colours_cells_by_reading_at_the_pad():
+    from pydrake.math import RigidTransform
+
+    from mmlearn.systems.taxel_visualizer import TaxelPadVisualizer, taxel_colors
+    from mmlearn.systems.tactile_sensor import PadSpec
+
+    assert np.allclose(taxel_colors([0.0, 1.0, np.nan])[:, :3],
+                       [[0, 0, 0.5], [0.5, 0, 0], [0, 0, 0.5]])
+    lay = PAD_PR2
+    pads = [PadSpec("left", lay, 1, RigidTransform([0.0, 0.0, 0.1]), ()),
+            PadSpec("right", lay, 1, RigidTransform([0.0, 0.0, -0.1]), ())]
+    mc = _FakeMeshcat()
+    vis = TaxelPadVisualizer(meshcat=mc, pads=pads, display_depth=0.01, bar_height=0.004)
+    assert len(mc.objects) == 2 * lay.rows * lay.cols
+    ctx = vis.CreateDefaultContext()
+    x = np.zeros(2 * lay.rows * lay.cols)
+    x[0] = 1.0  # left pad, row 0 (fingertip), column 0 saturated
+    x[lay.rows * lay.cols + 7] = 0.5
+    vis.get_taxels_input_port().FixValue(ctx, x)
+    vis.get_body_poses_input_port().FixValue(ctx, [RigidTransform(), RigidTransform([1.0, 0, 0])])
+    ctx.SetTime(0.4)
+    vis.ForcedPublish(ctx)
+    X, t = mc.transforms["taxels/left"]
+    assert t == 0.4 and np.allclose(X.translation(), [1.0, 0.0, 0.09])  # body, pad, -depth
+    hot, t = mc.props[("taxels/left/r00c00", "color")]
+    assert np.allclose(hot, [0.5, 0.0, 0.0, 1.0]) and t == 0.4
+    assert np.allclose(mc.props[("taxels/left/r00c01", "color")][0], [0, 0, 0.5, 1])
+    assert mc.props[("taxels/left/r00c00", "scale")][0][2] == pytest.approx(0.004)
+    X0 = mc.transforms["taxels/left/r00c00"][0].translation()  # cell centre in the pad
+    assert np.allclose(X0[:2], [-lay.width / 2 + lay.width / 6, lay.length / 2 - lay.length / 10])
+    r, c = divmod(7, lay.cols)
+    mid = mc.props[(f"taxels/right/r{r:02d}c{c:02d}", "color")][0]
+    assert np.allclose(mid[:3], [0.5, 1.0, 0.5])
+    # a wrong-sized vector is refused at the port, not inside the running display
+    with pytest.raises(Exception):
+        vis.get_taxels_input_port().FixValue(ctx, np.zeros(3))
+    with pytest.raises(ValueError, match="no pads"):
+        TaxelPadVisualizer(meshcat=mc, pads=[])

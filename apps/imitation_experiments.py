@@ -1,0 +1,232 @@
+"""The experiments of thesis 8.2 over many seeds, with plots.
+
+    python -m mmlearn.apps.imitation_experiments --seeds 10 --out-dir imitation_out
+    python -m mmlearn.apps.imitation_experiments --report-only imitation_out/imitation_experiments_results.jsonl
+
+Experiments (each trial is one ``mmlearn.apps.imitate.run`` on its own seed):
+
+* ``demos``: pick_place after 1, 2 and 4 demonstrations (thesis Fig. 8.6: one fails, two
+  miss the place spot, four converge);
+* ``swap``: pick_place after 4 demonstrations with the tables swapped (Fig. 8.5);
+* ``board``: the whiteboard with the area scaled by 0.8, 1.0 and 1.25 (Fig. 8.8);
+* ``obstacle``: the reach with a box obstacle, incremental (Fig. 8.7);
+* ``u_obstacle``: the reach into a U-shaped obstacle, incremental and global (Fig. 8.10).
+
+Trials run through the sweep runner (``mmlearn.apps._sweep``) and are streamed to
+``--results`` (re-running resumes); ``--report-only`` redraws the table and the plots from a
+results file. Every row states how many trials raised an error beside the means.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from mmlearn.apps._common import (ArgumentParser, UsageError, check_out_dir, fail, name_list,
+                                  nonneg_int, pos_int, save_figure)
+from mmlearn.apps._sweep import add_sweep_args, exit_status, report_lines, run_sweep, \
+    sweep_kwargs, TrialSpec
+
+EXPERIMENTS = ("demos", "swap", "board", "obstacle", "u_obstacle")
+BOARD_SCALES = (0.8, 1.0, 1.25)
+
+
+def trial(*, seed: int, task: str, demos: int = 4, swap_tables: bool = False,
+          board_scale: float = 1.0, global_mode: bool = False, shared=None) -> dict:
+    """One reproduction (the sweep's trial function)."""
+    from mmlearn.apps.imitate import run
+
+    rec = run(task=task, demos=demos, seed=seed, swap_tables=swap_tables,
+              board_scale=board_scale, global_mode=global_mode, show_progress=False)
+    rec.pop("objects_start", None)
+    return rec
+
+
+def conditions(experiments) -> list[tuple[str, dict]]:
+    """(condition label, trial parameters) of the chosen experiments."""
+    out = []
+    for e in experiments:
+        if e == "demos":
+            out += [(f"pick_place {n} demo{'s' if n > 1 else ''}",
+                     {"task": "pick_place", "demos": n}) for n in (1, 2, 4)]
+        elif e == "swap":
+            out.append(("pick_place 4 demos, swapped tables",
+                        {"task": "pick_place", "demos": 4, "swap_tables": True}))
+        elif e == "board":
+            out += [(f"whiteboard scale {s:g}", {"task": "whiteboard", "board_scale": s})
+                    for s in BOARD_SCALES]
+        elif e == "obstacle":
+            out.append(("obstacle incremental", {"task": "obstacle"}))
+        elif e == "u_obstacle":
+            out += [("u_obstacle incremental", {"task": "u_obstacle"}),
+                    ("u_obstacle global", {"task": "u_obstacle", "global_mode": True})]
+        else:
+            raise ValueError(f"unknown experiment {e!r}; choose from {', '.join(EXPERIMENTS)}")
+    return out
+
+
+def run(*, experiments=EXPERIMENTS, seeds: int = 10, seed: int = 100, results=None,
+        executor: str = "local", jobs=None, ray_address=None, show_progress: bool = True,
+        out_dir: str = "") -> dict:
+    """Run the trials and return the report (and write the plots into ``out_dir``)."""
+    if seeds < 1:
+        raise ValueError(f"seeds must be >= 1, got {seeds}")
+    specs = [TrialSpec(fn="mmlearn.apps.imitation_experiments:trial", seed=seed + i,
+                       params=params, label=f"{label} seed {seed + i}")
+             for label, params in conditions(experiments) for i in range(seeds)]
+    sweep = run_sweep(specs, results=results, executor=executor, jobs=jobs,
+                      ray_address=ray_address, show_progress=show_progress,
+                      desc="imitation trials")
+    res = report(sweep.lines, out_dir=out_dir)
+    res["sweep"] = sweep.summary()
+    return res
+
+
+def _label(spec: dict) -> str:
+    """The condition of a results-file line's spec (its label without the seed)."""
+    label = spec.get("label") or ""
+    if " seed " in label:
+        return label.rsplit(" seed ", 1)[0]
+    return json.dumps(spec.get("params", {}), sort_keys=True)
+
+
+def report(lines: list[dict], *, out_dir: str = "") -> dict:
+    """Per-condition success, place error, clearance (from results-file lines)."""
+    rows: dict[str, dict] = {}
+    errors = []
+    for ln in lines:
+        label = _label(ln["spec"])
+        row = rows.setdefault(label, {"condition": label, "trials": 0, "errors": 0,
+                                      "successes": 0, "records": []})
+        if ln.get("error") is not None:
+            row["errors"] += 1
+            errors.append({"trial": ln["spec"].get("label") or ln["key"],
+                           "error": ln["error"]})
+            continue
+        r = ln["record"]
+        row["trials"] += 1
+        row["successes"] += bool(r.get("success"))
+        row["records"].append(r)
+    table = []
+    for row in rows.values():
+        recs = row.pop("records")
+
+        def stat(k, fn=np.mean):
+            xs = [r[k] for r in recs if r.get(k) is not None]
+            return (float(fn(xs)) if xs else None), len(xs)
+
+        pe, n_pe = stat("place_error_m")
+        pe_med, _ = stat("place_error_m", np.median)
+        cl, n_cl = stat("min_obstacle_clearance_m", np.min)
+        cl_pos = sum(1 for r in recs if (r.get("min_obstacle_clearance_m") or -1) > 0)
+        cov, _ = stat("coverage")
+        reach, _ = stat("reach_error_m")
+        rs, _ = stat("reproduction_seconds")
+        ls, _ = stat("learn_seconds")
+        table.append({**row, "success_rate": row["successes"] / row["trials"]
+                      if row["trials"] else None,
+                      "mean_place_error_m": pe, "median_place_error_m": pe_med,
+                      "place_error_runs": n_pe, "min_clearance_m": cl,
+                      "positive_clearance": cl_pos, "clearance_runs": n_cl,
+                      "mean_coverage": cov, "mean_reach_error_m": reach,
+                      "mean_reproduction_seconds": rs, "mean_learn_seconds": ls})
+    res = {"conditions": table, "errors": errors}
+    if out_dir:
+        res["plots"] = plot(table, out_dir)
+    return res
+
+
+def plot(table: list[dict], out_dir: str) -> list[str]:
+    """Success rate per condition and place error against the number of demonstrations."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    out = []
+    fig, ax = plt.subplots(figsize=(9, 4))
+    labels = [r["condition"] for r in table]
+    rates = [r["success_rate"] or 0.0 for r in table]
+    ax.barh(labels, rates, color="tab:blue")
+    for i, r in enumerate(table):
+        ax.text(min(rates[i] + 0.02, 0.9), i, f"{r['successes']}/{r['trials']}"
+                + (f" ({r['errors']} errors)" if r["errors"] else ""), va="center")
+    ax.set_xlim(0, 1.05)
+    ax.set_xlabel("success rate")
+    ax.invert_yaxis()
+    fig.tight_layout()
+    out.append(str(save_figure(fig, Path(out_dir) / "imitation_success.png")))
+    plt.close(fig)
+    demo_rows = [r for r in table if r["condition"].startswith("pick_place")
+                 and "swapped" not in r["condition"] and r["mean_place_error_m"] is not None]
+    if demo_rows:
+        fig, ax = plt.subplots(figsize=(5, 4))
+        n = [int(r["condition"].split()[1]) for r in demo_rows]
+        ax.plot(n, [r["median_place_error_m"] for r in demo_rows], "o-", label="median")
+        ax.plot(n, [r["mean_place_error_m"] for r in demo_rows], "s--", label="mean")
+        ax.axhline(0.02, color="k", lw=0.8, ls=":", label="2 cm success bound")
+        ax.set_xlabel("demonstrations")
+        ax.set_ylabel("place error (m)")
+        ax.set_yscale("log")
+        ax.set_xticks(n)
+        ax.legend()
+        fig.tight_layout()
+        out.append(str(save_figure(fig, Path(out_dir) / "imitation_place_error.png")))
+        plt.close(fig)
+    return out
+
+
+def format_table(res: dict) -> str:
+    lines = [f"{'condition':38s} {'success':>9s} {'errors':>6s} {'place err mean/med':>19s} "
+             f"{'min clearance':>13s} {'coverage':>8s} {'reach err':>9s} {'repro s':>8s}"]
+
+    def f(v, fmt):
+        return "-" if v is None else format(v, fmt)
+
+    for r in res["conditions"]:
+        pe = ("-" if r["mean_place_error_m"] is None else
+              f"{r['mean_place_error_m']:.3f}/{r['median_place_error_m']:.3f}")
+        lines.append(f"{r['condition']:38s} {r['successes']:>4d}/{r['trials']:<4d} "
+                     f"{r['errors']:>6d} {pe:>19s} {f(r['min_clearance_m'], '.3f'):>13s} "
+                     f"{f(r['mean_coverage'], '.2f'):>8s} {f(r['mean_reach_error_m'], '.3f'):>9s} "
+                     f"{f(r['mean_reproduction_seconds'], '.1f'):>8s}")
+    lines.append("means over the trials that ran; trials that raised are counted under errors")
+    for p in res.get("plots", []):
+        lines.append(f"plot: {p}")
+    return "\n".join(lines)
+
+
+def main(argv=None) -> int:
+    ap = ArgumentParser(prog="python -m mmlearn.apps.imitation_experiments",
+                        description="Thesis 8.2's imitation experiments over many seeds, with "
+                                    "plots. Exit status: 0 all trials ran, 1 a trial raised, "
+                                    "2 bad input.")
+    ap.add_argument("--experiments", type=name_list(EXPERIMENTS), default=list(EXPERIMENTS),
+                    help="comma-separated: " + ", ".join(EXPERIMENTS))
+    ap.add_argument("--seeds", type=pos_int, default=10, help="trials per condition")
+    ap.add_argument("--seed", type=nonneg_int, default=100, help="seed of the first trial")
+    ap.add_argument("--out-dir", default="imitation_out", help="folder of the plots and results")
+    add_sweep_args(ap, app="imitation_experiments")
+    ap.add_argument("--json", action="store_true")
+    args = ap.parse_args(argv)
+    try:
+        check_out_dir("--out-dir", args.out_dir)
+        if args.report_only:
+            res = report(report_lines(args.report_only), out_dir=args.out_dir)
+        else:
+            kw = sweep_kwargs(args, app="imitation_experiments", out_dir=args.out_dir)
+            res = run(experiments=args.experiments, seeds=args.seeds, seed=args.seed,
+                      show_progress=not args.json, out_dir=args.out_dir, **kw)
+    except UsageError as e:
+        return fail(ap.prog, str(e))
+    except ValueError as e:
+        return fail(ap.prog, str(e))
+    print(json.dumps(res) if args.json else format_table(res))
+    return exit_status(ap.prog, res)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,96 @@
+"""Timing of the DbnReproducer (issue 15 targets: incremental step < 5 ms, learning from 4
+demonstrations < 1 s, global reproduction of a 20 s task < 10 s).
+
+    OPENBLAS_NUM_THREADS=1 python benchmarks/bench_dbn_reproducer.py [--seed 1] [--repeats 200]
+
+Prints, for the pick_place task learned from 4 recorded demonstrations:
+
+* the learning time (``learn_task``);
+* the time of one incremental reproduction step inside the system (the discrete update:
+  kinematics from a scratch plant context, the held-object bookkeeping, one or two
+  ``constraint_step`` calls), over ``--repeats`` updates at the slices of the task;
+* the time of the global plan (``plan_global``) of the u_obstacle reach, and of a
+  pick_place task (about 10 s long) planned globally.
+"""
+
+import argparse
+import time
+
+import numpy as np
+
+
+def _update_times(im, ctx, repeats):
+    """Wall time of the reproducer's discrete update at successive states."""
+    from pydrake.systems.analysis import Simulator
+
+    rep = im.reproducer
+    sim = Simulator(im.diagram, ctx)
+    sim.AdvanceTo(0.5)  # objects seen, first steps taken
+    rc = rep.GetMyContextFromRoot(ctx)
+    state = rc.get_discrete_state().Clone()
+    out = []
+    t = 0.5
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        rep._update(rc, state)  # the periodic event's callback
+        out.append(time.perf_counter() - t0)
+        t += rep.period
+        sim.AdvanceTo(t)
+        if rep.get_status_output_port().Eval(rc)[5] > 0:
+            break
+    return np.array(out)
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--repeats", type=int, default=200)
+    args = ap.parse_args(argv)
+
+    from mmlearn.apps.imitate import record_demos
+    from mmlearn.diagrams.imitation import ImitationConfig, MakeImitationDiagram, \
+        object_positions
+    from mmlearn.models.imitation import learn_task, plan_global
+    from mmlearn.systems.dbn_reproducer import DbnReproducerConfig
+
+    demos = record_demos("pick_place", 4, seed=args.seed)
+    ts = []
+    for _ in range(5):
+        t0 = time.perf_counter()
+        model = learn_task(demos, use_joints=False)
+        ts.append(time.perf_counter() - t0)
+    print(f"learn_task, 4 pick_place demonstrations ({model.S} slices): "
+          f"median {1e3 * np.median(ts):.1f} ms, max {1e3 * np.max(ts):.1f} ms")
+
+    im = MakeImitationDiagram(ImitationConfig(task="pick_place", seed=args.seed), model=model)
+    ctx = im.diagram.CreateDefaultContext()
+    im.set_start(ctx)
+    dt = _update_times(im, ctx, args.repeats)
+    print(f"incremental step (DbnReproducer update), pick_place, {dt.size} steps: median "
+          f"{1e3 * np.median(dt):.2f} ms, p95 {1e3 * np.percentile(dt, 95):.2f} ms, max "
+          f"{1e3 * np.max(dt):.2f} ms")
+
+    for task in ("u_obstacle", "pick_place"):
+        d = record_demos(task, 4, seed=args.seed)
+        m = learn_task(d, use_joints=False)
+        im = MakeImitationDiagram(ImitationConfig(
+            task=task, seed=args.seed, reproducer=DbnReproducerConfig(mode="global")), model=m)
+        ctx = im.diagram.CreateDefaultContext()
+        objs = object_positions(im.plant, ctx, im.scene.bodies)
+        rep = im.reproducer
+        tracked = np.array([np.r_[objs[n], 1.0] for n in rep._tracked])
+        kin = rep.kinematics()
+        t0 = time.perf_counter()
+        plan = plan_global(m, q0=im.start_command[:6],
+                           objects={o: objs[o] for o in m.objects}, fk=kin.hand,
+                           jacobian=kin.jacobian, body_points=kin.body_points,
+                           obstacles=rep._obstacle_boxes(tracked), use_joints=False,
+                           q_lower=rep._lo, q_upper=rep._hi, carry_radius=0.1,
+                           clearance=rep._cfg.plan_clearance, seed=0)
+        el = time.perf_counter() - t0
+        print(f"global plan, {task} ({m.t[-1]:.1f} s task, {m.S} slices, plan {plan.shape}): "
+              f"{el:.2f} s")
+
+
+if __name__ == "__main__":
+    main()
