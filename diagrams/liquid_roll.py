@@ -4,7 +4,7 @@
 hydroelastic contact) with
 
 * a table (a box, top at z = 0) and a **free** container of :mod:`mmlearn.models.containers`
-  standing on it (its base gets a point-contact disc at the bottom; the walls on springs and
+  standing on it (its base gets six point-contact feet on the rim of its bottom; the walls on springs and
   the sloshing liquid -- a mass on a prismatic spring-damper in the base, see
   :mod:`mmlearn.models.containers` -- come from :func:`mmlearn.sdf.tactile.container_sdf`);
 * the parallel gripper of :func:`mmlearn.sdf.tactile.gripper_sdf` (PR2-like pads of 5 x 3
@@ -26,8 +26,13 @@ hydroelastic contact) with
 
 Timeline (:class:`LiquidRollConfig`): close and squeeze, latch at ``t_latch``, lift by
 ``lift`` m over ``[t_lift, t_lift + lift_time]``, then roll +-``roll_amplitude`` rad
-(piecewise-linear angle: constant roll rate with abrupt reversals, as a joint trajectory
-of the PR2 arm) at ``roll_hz`` for ``roll_cycles`` cycles from ``t_roll``.
+(a triangle wave: constant roll rate, reversals abrupt by default or blended over
+``reversal_time``) at ``roll_hz`` for ``roll_cycles`` cycles from ``t_roll``. The grasp must
+have settled by ``t_latch`` (about 0.9 s for a 20 N grasp of these containers).
+
+Finding (see the README's Liquid detection section): the high-passed taxel spikes at the
+reversals come from the inertia of the held mass on the position-held fingers; a rigid
+weight of the same mass in the same shell responds as much as a sloshing liquid.
 
 :func:`liquid_roll_trial` runs one trial for the sweep runner and returns only what the
 sensors recorded (taxels at 24 Hz, the wrist force) plus the labels.
