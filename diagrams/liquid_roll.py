@@ -28,7 +28,7 @@ Timeline (:class:`LiquidRollConfig`): close and squeeze, latch at ``t_latch``, l
 ``lift`` m over ``[t_lift, t_lift + lift_time]``, then roll +-``roll_amplitude`` rad
 (a triangle wave: constant roll rate, reversals abrupt by default or blended over
 ``reversal_time``) at ``roll_hz`` for ``roll_cycles`` cycles from ``t_roll``. The grasp must
-have settled by ``t_latch`` (about 0.9 s for a 20 N grasp of these containers).
+have settled by ``t_latch``.
 
 Finding (see the README's Liquid detection section): the high-passed taxel spikes at the
 reversals come from the inertia of the held mass on the position-held fingers; a rigid
