@@ -7,9 +7,9 @@ from .operate import MakeOperateDiagram, Operate, OperateConfig
 from .perception import (AddFrontDetectorAndTracker, FrontPerceptionConfig,
                          FrontPerceptionDiagram, MakeFrontPerceptionDiagram)
 from .scene import MakeSceneDiagram, Scene, SceneConfig
-from .tactile_grasp import MakeTactileGraspDiagram, TactileGraspConfig, simulate_grasp
+from .tactile_grasp import AddTactileSensor, MakeTactileGraspDiagram, TactileGraspConfig, simulate_grasp
 
-__all__ = ["AddFrontDetectorAndTracker", "BodySchemaDiagram", "BodySchemaDiagramConfig", "FrontPerceptionConfig",
+__all__ = ["AddFrontDetectorAndTracker", "AddTactileSensor", "BodySchemaDiagram", "BodySchemaDiagramConfig", "FrontPerceptionConfig",
            "FrontPerceptionDiagram", "MakeBodySchemaDiagram", "MakeFrontPerceptionDiagram",
            "MakeOperateDiagram", "MakeSceneDiagram", "Operate", "OperateConfig", "Scene",
            "SceneConfig", "MakeTactileGraspDiagram", "TactileGraspConfig", "simulate_grasp",

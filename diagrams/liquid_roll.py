@@ -62,10 +62,9 @@ from mmlearn.models.tactile_pad import PAD_PR2
 from mmlearn.sdf.tactile import GripperGeometry, container_sdf, gripper_sdf, pad_z_of
 from mmlearn.systems.finger_hold import FingerPositionHold
 from mmlearn.systems.tactile_grasp_controller import TactileGraspController
-from mmlearn.systems.tactile_sensor import PadSpec, TactileSensor
 from mmlearn.systems.wrist_force_sensor import WristForceSensor
 
-from .tactile_grasp import _R_LEFT, _R_RIGHT
+from .tactile_grasp import AddTactileSensor
 
 __all__ = ["LiquidRollConfig", "MakeLiquidRollDiagram", "simulate_roll", "liquid_roll_trial",
            "LIQUID_CONTAINERS", "dummy_instance"]
@@ -275,19 +274,8 @@ def MakeLiquidRollDiagram(config: LiquidRollConfig, *, container: ContainerInsta
         plant.GetJointActuatorByName(f"{side}_slide", gripper).set_controller_gains(
             PdControllerGains(p=2000.0, d=100.0))
     plant.Finalize()
-    inspector = scene_graph.model_inspector()
-    pads = []
-    for side, R in (("left", _R_LEFT), ("right", _R_RIGHT)):
-        body = plant.GetBodyByName(f"{side}_finger", gripper)
-        gids = tuple(gid for gid in plant.GetCollisionGeometriesForBody(body)
-                     if inspector.GetName(gid).endswith(f"{side}_pad"))
-        pads.append(PadSpec(side, layout, int(body.index()),
-                            RigidTransform(R, [0.0, 0.0, -pad_z]), gids))
-    sensor = builder.AddNamedSystem("tactile_sensor", TactileSensor(
-        pads=pads, rate_hz=c.sensor_rate, noise=c.taxel_noise, seed=c.seed))
-    builder.Connect(plant.get_contact_results_output_port(),
-                    sensor.get_contact_results_input_port())
-    builder.Connect(plant.get_body_poses_output_port(), sensor.get_body_poses_input_port())
+    sensor = AddTactileSensor(builder, plant, scene_graph, gripper, layout, pad_z,
+                              rate_hz=c.sensor_rate, noise=c.taxel_noise, seed=c.seed)
     ctrl = builder.AddNamedSystem("grasp_controller", TactileGraspController(
         f_target=c.f_target, v_target=c.v_target, contact_force=1.0, kp=2000.0, kd=100.0,
         hold_time=1e6, open_gap=g.open_gap, stroke=g.stroke, mode="switching",

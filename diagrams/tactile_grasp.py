@@ -90,6 +90,35 @@ class TactileGraspConfig:
     gripper: GripperGeometry = field(default_factory=GripperGeometry)
 
 
+
+def AddTactileSensor(builder, plant, scene_graph, gripper, layout: PadLayout, pad_z: float, *,
+                     rate_hz: float, noise: float, seed: int) -> TactileSensor:
+    """Add a :class:`TactileSensor` named ``tactile_sensor`` over the two finger pads of the
+    gripper model instance ``gripper`` (``sdf/tactile.gripper_sdf``: bodies
+    ``left_finger`` / ``right_finger``, collision geometries ``*_pad``) of the finalised
+    ``plant``, wired to its contact results and body poses.
+
+    Args:
+        layout: the pads' cell layout.
+        pad_z: height of the pad centres above the finger body origin, m
+            (``sdf/tactile.pad_z_of``).
+        rate_hz: sensor frame rate, Hz; noise: taxel noise (normalised units); seed: noise seed.
+    """
+    inspector = scene_graph.model_inspector()
+    pads = []
+    for side, R in (("left", _R_LEFT), ("right", _R_RIGHT)):
+        body = plant.GetBodyByName(f"{side}_finger", gripper)
+        gids = tuple(gid for gid in plant.GetCollisionGeometriesForBody(body)
+                     if inspector.GetName(gid).endswith(f"{side}_pad"))
+        pads.append(PadSpec(side, layout, int(body.index()),
+                            RigidTransform(R, [0.0, 0.0, -pad_z]), gids))
+    sensor = builder.AddNamedSystem("tactile_sensor", TactileSensor(
+        pads=pads, rate_hz=rate_hz, noise=noise, seed=seed))
+    builder.Connect(plant.get_contact_results_output_port(),
+                    sensor.get_contact_results_input_port())
+    builder.Connect(plant.get_body_poses_output_port(), sensor.get_body_poses_input_port())
+    return sensor
+
 def MakeTactileGraspDiagram(config: TactileGraspConfig, *, container: ContainerInstance | None = None,
                             object_sdf: str | None = None, meshcat=None):
     """Build the scene; returns (diagram, parts) with parts = {"plant", "scene_graph",
@@ -137,19 +166,8 @@ def MakeTactileGraspDiagram(config: TactileGraspConfig, *, container: ContainerI
         act = plant.GetJointActuatorByName(f"{side}_slide", gripper)
         act.set_controller_gains(PdControllerGains(p=c.kp, d=c.kd))
     plant.Finalize()
-    inspector = scene_graph.model_inspector()
-    pads = []
-    for side, R in (("left", _R_LEFT), ("right", _R_RIGHT)):
-        body = plant.GetBodyByName(f"{side}_finger", gripper)
-        gids = tuple(gid for gid in plant.GetCollisionGeometriesForBody(body)
-                     if inspector.GetName(gid).endswith(f"{side}_pad"))
-        pads.append(PadSpec(side, layout, int(body.index()),
-                            RigidTransform(R, [0.0, 0.0, -pad_z]), gids))
-    sensor = builder.AddNamedSystem("tactile_sensor", TactileSensor(
-        pads=pads, rate_hz=c.sensor_rate, noise=c.taxel_noise, seed=c.seed))
-    builder.Connect(plant.get_contact_results_output_port(),
-                    sensor.get_contact_results_input_port())
-    builder.Connect(plant.get_body_poses_output_port(), sensor.get_body_poses_input_port())
+    sensor = AddTactileSensor(builder, plant, scene_graph, gripper, layout, pad_z,
+                              rate_hz=c.sensor_rate, noise=c.taxel_noise, seed=c.seed)
     ctrl = builder.AddNamedSystem("grasp_controller", TactileGraspController(
         f_target=c.f_target, v_target=c.v_target, contact_force=c.contact_force, kp=c.kp,
         kd=c.kd, hold_time=c.hold_time, open_gap=g.open_gap, stroke=g.stroke, mode=c.mode,
