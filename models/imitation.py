@@ -69,7 +69,8 @@ from typing import Callable, NamedTuple, Sequence
 
 import numpy as np
 
-from .imitation_types import Demonstration, ImitationDataError, Obstacle, TaskModel
+from .imitation_types import (Demonstration, ImitationDataError, Obstacle, TaskModel,
+                              validate_demonstrations)
 
 __all__ = [
     "align_demonstrations",
@@ -163,13 +164,7 @@ def _check_demos(demos) -> list[Demonstration]:
     demos = list(demos)
     if not demos:
         raise ImitationDataError("no demonstrations given")
-    for i, d in enumerate(demos):
-        if not isinstance(d, Demonstration):
-            raise ImitationDataError(f"demonstration {i}: expected a Demonstration, got {type(d).__name__}")
-        try:
-            d.validate()
-        except ImitationDataError as e:
-            raise ImitationDataError(f"demonstration {i}: {e}") from None
+    demos = validate_demonstrations(demos)
     D = demos[0].D
     for i, d in enumerate(demos):
         if d.D != D:

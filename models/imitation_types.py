@@ -269,9 +269,9 @@ class Demonstration:
             raise ImitationDataError(f"{where}: {e}") from None
 
 
-def save_demonstrations(path, demos: list[Demonstration]) -> Path:
-    """Validate and write ``demos`` to ``path`` as JSON (schema in the module docstring),
-    atomically. Returns the path."""
+def validate_demonstrations(demos) -> list[Demonstration]:
+    """``demos`` as a list, each one a validated :class:`Demonstration`; raises
+    ImitationDataError naming the first bad one and its problem."""
     demos = list(demos)
     for i, d in enumerate(demos):
         if not isinstance(d, Demonstration):
@@ -280,6 +280,13 @@ def save_demonstrations(path, demos: list[Demonstration]) -> Path:
             d.validate()
         except ImitationDataError as e:
             raise ImitationDataError(f"demonstration {i}: {e}") from None
+    return demos
+
+
+def save_demonstrations(path, demos: list[Demonstration]) -> Path:
+    """Validate and write ``demos`` to ``path`` as JSON (schema in the module docstring),
+    atomically. Returns the path."""
+    demos = validate_demonstrations(demos)
     doc = {"format": DEMO_FORMAT, "version": VERSION, "demonstrations": [d.to_dict() for d in demos]}
     return atomic_write_text(path, json.dumps(doc, allow_nan=False))
 
