@@ -518,7 +518,7 @@ class DbnReproducer(LeafSystem):
         d = np.mean(devs, axis=0)
         d[2] = 0.0
         nd = float(np.linalg.norm(d))
-        if not math.isfinite(nd):
+        if not math.isfinite(nd):  # a bad observation: no correction
             return np.zeros(3)
         tol = self._cfg.carry_tolerance
         return d * (tol / nd) if nd > tol else d
