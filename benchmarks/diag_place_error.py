@@ -17,7 +17,7 @@ import argparse
 import numpy as np
 
 
-def diag(seed: int, swap: bool, demos: int):
+def diag(seed: int, swap: bool, demos: int, rcfg: dict | None = None):
     from dataclasses import replace
 
     from pydrake.systems.analysis import Simulator
@@ -29,6 +29,7 @@ def diag(seed: int, swap: bool, demos: int):
     demo_list = record_demos("pick_place", demos, seed=seed)
     model = learn_task(demo_list, use_joints=False)
     cfg = replace(ImitationConfig(), task="pick_place", seed=seed, swap_tables=swap)
+    cfg = replace(cfg, reproducer=replace(cfg.reproducer, **(rcfg or {})))
     im = MakeImitationDiagram(cfg, model=model)
     d = im.diagram
     ctx = d.CreateDefaultContext()
@@ -91,9 +92,15 @@ def main():
     ap.add_argument("--seeds", default="1,2,3")
     ap.add_argument("--demos", type=int, default=4)
     ap.add_argument("--swap-tables", action="store_true")
+    ap.add_argument("--no-correction", action="store_true",
+                    help="held_offset_correction off (the reproduction before issue 15's fix)")
+    ap.add_argument("--filter", type=float, default=None, help="held_offset_filter")
     a = ap.parse_args()
     for s in [int(x) for x in a.seeds.split(",")]:
-        o = diag(s, a.swap_tables, a.demos)
+        rcfg = {"held_offset_correction": not a.no_correction}
+        if a.filter is not None:
+            rcfg["held_offset_filter"] = a.filter
+        o = diag(s, a.swap_tables, a.demos, rcfg)
         print(" ".join(f"{k}={v:.4f}" if isinstance(v, float) else f"{k}={v}" for k, v in o.items()), flush=True)
 
 

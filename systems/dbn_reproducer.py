@@ -90,6 +90,10 @@ class DbnReproducerConfig:
             into the table, the reproduction slowed from 10.5 s to 18 s to the release and
             the cup jumped 3-4 mm when let go). Thesis 8.1.2 has no such term (its
             carried-object constraint stays active; see ``skip_carried``).
+        held_offset_filter: share (0, 1] of a step's newly observed correction taken into
+            the applied one (first-order low-pass over steps): the observed offset carries
+            the marker noise, which alone made the hand miss ``advance_tolerance`` and the
+            reproduction slow down (measured: the release 3-7 s later, unfiltered).
         advance_tolerance: incremental mode moves on to the next time slice only when the
             commanded hand is within this distance of the current slice's fused target
             (or after ``max_slice_waits`` extra steps on it), m; 0 = one slice per step
@@ -119,6 +123,7 @@ class DbnReproducerConfig:
     plan_clearance: float = 0.06
     carry_tolerance: float = 0.05
     held_offset_correction: bool = True
+    held_offset_filter: float = 0.3
     advance_tolerance: float = 0.01
     max_slice_waits: int = 8
     step_kwargs: dict[str, float] = field(default_factory=dict)
@@ -136,6 +141,10 @@ class DbnReproducerConfig:
                                  f"got {v!r}")
         if not self.gain > 0 or not self.max_joint_step > 0:
             raise ValueError("DbnReproducerConfig: gain and max_joint_step must be > 0")
+        if not (isinstance(self.held_offset_filter, (int, float))
+                and 0 < self.held_offset_filter <= 1):
+            raise ValueError(f"DbnReproducerConfig.held_offset_filter must be in (0, 1], "
+                             f"got {self.held_offset_filter!r}")
         if not (isinstance(self.advance_tolerance, (int, float))
                 and math.isfinite(self.advance_tolerance) and self.advance_tolerance >= 0):
             raise ValueError(f"DbnReproducerConfig.advance_tolerance must be a finite number "
@@ -267,6 +276,7 @@ class DbnReproducer(LeafSystem):
         self._g_target = self.DeclareDiscreteState(3)
         self._g_status = self.DeclareDiscreteState(len(STATUS_FIELDS))
         self._g_held = self.DeclareDiscreteState(max(m, 1))  # 1 = object held in the hand
+        self._g_shift = self.DeclareDiscreteState(3)  # filtered held-object correction, m
         self._g_plan = (self.DeclareDiscreteState(self._S * n) if cfg.mode == "global"
                         else None)
         self.DeclarePeriodicDiscreteUpdateEvent(self._period, 0.0, self._update)
@@ -471,9 +481,15 @@ class DbnReproducer(LeafSystem):
                                                       gripper_closed=closed)
                         discrete_state.set_value(self._g_held, held_flags)
                     held = [n for r, n in enumerate(self._tracked) if held_flags[r] > 0]
+                    shift = np.zeros(3)
                     if cfg.held_offset_correction and held and q_meas is not None:
-                        objects = self._correct_for_held(
-                            ks, self.forward_kinematics(q_meas), objects, held)
+                        prev = context.get_discrete_state(self._g_shift).get_value()
+                        raw = self.held_offset(ks, self.forward_kinematics(q_meas),
+                                               objects, held)
+                        shift = prev + cfg.held_offset_filter * (raw - prev)
+                        objects = {n: (x if n in held else x + shift)
+                                   for n, x in objects.items()}
+                    discrete_state.set_value(self._g_shift, shift)
                     stay = None
                     if (cfg.advance_tolerance > 0 and 1 <= k < self._S - 1
                             and clock[3] < cfg.max_slice_waits and not self._obstacles):
