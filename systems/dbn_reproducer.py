@@ -94,6 +94,12 @@ class DbnReproducerConfig:
             the applied one (first-order low-pass over steps): the observed offset carries
             the marker noise, which alone made the hand miss ``advance_tolerance`` and the
             reproduction slow down (measured: the release 3-7 s later, unfiltered).
+        release_in_place: in incremental steps, the step at which the learned gripper
+            opens only opens it: the arm command stays where the previous step put it. The
+            thesis' step moves the hand towards the next slice while the fingers open, and
+            the grasp lets go half-way through that step (measured, seed 11 swapped
+            tables: the held-object correction of 1.4 cm was dropped on that step and the
+            cup landed 2.2 cm off the spot).
         advance_tolerance: incremental mode moves on to the next time slice only when the
             commanded hand is within this distance of the current slice's fused target
             (or after ``max_slice_waits`` extra steps on it), m; 0 = one slice per step
@@ -124,6 +130,7 @@ class DbnReproducerConfig:
     carry_tolerance: float = 0.05
     held_offset_correction: bool = True
     held_offset_filter: float = 0.3
+    release_in_place: bool = True
     advance_tolerance: float = 0.01
     max_slice_waits: int = 8
     step_kwargs: dict[str, float] = field(default_factory=dict)
@@ -503,6 +510,13 @@ class DbnReproducer(LeafSystem):
                         q_new, target, _ = stay
                         clock[3] += 1
                         status[6] += 1
+                    elif (cfg.release_in_place and self._has_gripper
+                          and q_to[self._n] < 0.5 * cfg.gripper_open_angle
+                          <= self.gripper_angle(ks)):
+                        # the learned gripper opens at this step: open it with the arm
+                        # where it stands (the object is let go where it was placed)
+                        q_new = q_to[: self._n].copy()
+                        clock[3] = 0
                     else:
                         q_new, target, _ = self._incremental_step(ks, q_to, objects, obj,
                                                                   held)
