@@ -275,3 +275,22 @@ def test_experiments_help_report_only_and_bad_arguments(capsys, tmp_path):
     assert rows["pick_place 4 demos"]["mean_place_error_m"] == pytest.approx(0.0125)
     assert (tmp_path / "imitation_success.png").is_file()
     assert (tmp_path / "imitation_place_error.png").is_file()
+
+
+def test_held_offset_correction_places_the_held_object_not_the_hand():
+    rep = _reach().reproducer
+    hand = np.array([0.3, 0.0, 0.5])
+    off = np.array([0.01, -0.02, 0.03])  # grasp holds the object this far off the learned relation
+    objs = {"target": hand + OFFSET + off, "other": np.array([1.0, 2.0, 3.0])}
+    shift = rep.held_offset(4, hand, objs, ["target"])
+    np.testing.assert_allclose(shift, [-0.01, 0.02, 0.0], atol=1e-12)  # horizontal only
+    moved = rep._correct_for_held(4, hand, objs, ["target"])
+    np.testing.assert_allclose(moved["target"], objs["target"])        # the held one stays
+    # a hand at (other - mu_other) then carries the object to other - mu_other + OFFSET in x, y
+    hand_new = moved["other"] - np.array([0.2, 0.1, 0.0])
+    held_at = hand_new + (objs["target"] - hand)
+    want = objs["other"] - np.array([0.2, 0.1, 0.0]) + OFFSET
+    np.testing.assert_allclose(held_at[:2], want[:2], atol=1e-12)
+    big = rep.held_offset(4, hand, {"target": hand + OFFSET + [1.0, 0, 0]}, ["target"])
+    assert np.isclose(np.linalg.norm(big), DbnReproducerConfig().carry_tolerance)
+    assert not np.any(rep.held_offset(4, hand, {"target": np.full(3, np.nan)}, ["target"]))
