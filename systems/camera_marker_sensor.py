@@ -87,6 +87,21 @@ class CameraMarkerSensorConfig:
         max_disagreement_deg: a marker seen by several cameras is reported only when one
             of the two pose solutions (the square's mirror ambiguity) per camera agree in
             orientation within this angle, degrees; the agreeing solution is used.
+        min_unambiguous_ratio: a marker seen by one camera only is taken at face value
+            when the reprojection error of IPPE_SQUARE's worse (mirror) solution is at least
+            this many times the better one's, or the two solutions differ by less than
+            ``detector.ambiguity_angle_deg``. Otherwise the detection is ambiguous: the
+            solution closer to the marker's last reported orientation is used when that
+            report is at most ``track_max_age_s`` old and the solution lies within
+            ``track_max_angle_deg`` of it, else the marker is reported not visible (1 = the
+            old behaviour: always the better solution). Measured on the 2-DOF arm
+            (``benchmarks/bench_camera_marker_sensor.py --arm 2dof``): the mirror-flipped
+            detections had ratios 1.1-2.2, 43 % of the right ones too.
+        track_max_age_s: how old the last report of a marker may be to resolve an
+            ambiguous detection, seconds.
+        track_max_angle_deg: an ambiguous detection's chosen solution must be within this
+            angle of the last report, degrees (the arms turn up to ~10 degrees per frame at
+            10 Hz; the mirror solution is typically 30-150 degrees away).
         aruco: the printed markers (dictionary, size, quiet zone).
         detector: OpenCV detector settings and the filters of the detections. The
             mirror-ambiguity filter is off by default: on the 2-DOF arm (25 samples,
@@ -104,6 +119,9 @@ class CameraMarkerSensorConfig:
     near: float = 0.05
     principal_point_shift_px: list[float] = field(default_factory=lambda: [-0.5, -0.5])
     max_disagreement_deg: float = 10.0
+    min_unambiguous_ratio: float = 2.5
+    track_max_age_s: float = 0.25
+    track_max_angle_deg: float = 20.0
     aruco: ArucoSpec = field(default_factory=ArucoSpec)
     detector: DetectorConfig = field(default_factory=lambda: DetectorConfig(min_side_px=12.0))
 
@@ -129,6 +147,20 @@ class CameraMarkerSensorConfig:
                 and 0 < self.max_disagreement_deg <= 180):
             raise ValueError("CameraMarkerSensorConfig: max_disagreement_deg must be in "
                              f"(0, 180] degrees, got {self.max_disagreement_deg!r}")
+        if not (isinstance(self.min_unambiguous_ratio, (int, float))
+                and math.isfinite(self.min_unambiguous_ratio)
+                and self.min_unambiguous_ratio >= 1):
+            raise ValueError("CameraMarkerSensorConfig: min_unambiguous_ratio must be a "
+                             f"finite number >= 1, got {self.min_unambiguous_ratio!r}")
+        if not (isinstance(self.track_max_age_s, (int, float))
+                and math.isfinite(self.track_max_age_s) and self.track_max_age_s >= 0):
+            raise ValueError("CameraMarkerSensorConfig: track_max_age_s must be >= 0 s, got "
+                             f"{self.track_max_age_s!r}")
+        if not (isinstance(self.track_max_angle_deg, (int, float))
+                and math.isfinite(self.track_max_angle_deg)
+                and 0 < self.track_max_angle_deg <= 180):
+            raise ValueError("CameraMarkerSensorConfig: track_max_angle_deg must be in "
+                             f"(0, 180] degrees, got {self.track_max_angle_deg!r}")
         if not (math.isfinite(self.near) and self.near > 0):
             raise ValueError(f"CameraMarkerSensorConfig: near must be > 0 m, got {self.near}")
         for i, cam in enumerate(self.cameras):
@@ -225,6 +257,10 @@ class CameraMarkerSensor(LeafSystem):
             for i, c in enumerate(self._cams)]
         self._obs_index = self.DeclareAbstractState(AbstractValue.Make(MarkerObservations()))
         self._stats_index = self.DeclareDiscreteState(3)
+        # per marker: [time of its last report (NaN = never), R_WM row-major (9), p_WM (3)]
+        track0 = np.zeros((len(names), 13))
+        track0[:, 0] = np.nan
+        self._track_index = self.DeclareDiscreteState(track0.ravel())
         self.DeclarePeriodicUnrestrictedUpdateEvent(1.0 / cfg.rate_hz, 0.0, self._update)
         self._out = self.DeclareAbstractOutputPort(
             "observations", lambda: AbstractValue.Make(MarkerObservations()),
@@ -252,6 +288,10 @@ class CameraMarkerSensor(LeafSystem):
         return list(self._ids)
 
     @property
+    def config(self) -> CameraMarkerSensorConfig:
+        return self._cfg
+
+    @property
     def cameras(self) -> list[CameraView]:
         return list(self._cams)
 
@@ -270,10 +310,28 @@ class CameraMarkerSensor(LeafSystem):
 
     def observe(self, context, frame: int | None = None) -> MarkerObservations:
         """Detect the markers in the current images of this system's ``context`` (renders
-        them when the inputs come from an RgbdSensor). ``frame`` is accepted for
-        compatibility with :meth:`MarkerSensor.observe` and ignored (no random draws)."""
+        them when the inputs come from an RgbdSensor). Ambiguous single-camera detections
+        are resolved against the last reports stored in ``context`` (see
+        ``min_unambiguous_ratio``). ``frame`` is accepted for compatibility with
+        :meth:`MarkerSensor.observe` and ignored (no random draws)."""
+        return self._observe(context)[0]
+
+    def observe_and_remember(self, context) -> MarkerObservations:
+        """For use outside a simulation (a context the caller owns): :meth:`observe`, then
+        store the reports in ``context`` as the periodic update does, so that the next call
+        (at a later ``context`` time) can resolve ambiguous detections against them."""
+        obs, track = self._observe(context)
+        context.get_mutable_discrete_state(self._track_index).set_value(track.ravel())
+        return obs
+
+    def _observe(self, context):
+        """(observations, new per-marker track rows (m, 13)) of the current images."""
         m = len(self._names)
-        cands = [[] for _ in range(m)]  # per marker: (image side px, [X_WM, X_WM mirror])
+        t = context.get_time()
+        track = np.array(context.get_discrete_state(self._track_index).get_value(),
+                         float).reshape(m, 13)
+        # per marker: (image side px, ambiguity ratio, [X_WM, X_WM mirror])
+        cands = [[] for _ in range(m)]
         for i, port in enumerate(self._images):
             try:
                 if not port.HasValue(context):
@@ -282,55 +340,81 @@ class CameraMarkerSensor(LeafSystem):
             except (ValueError, RuntimeError, TypeError, cv2.error):
                 continue  # a bad image: no detections from this camera in this frame
             X_WC = self._cams[i].X_WC
-            for a, T, T2, side in zip(det.ids, det.T_CM, det.T_CM_other, det.side_px):
+            for a, T, T2, side, amb in zip(det.ids, det.T_CM, det.T_CM_other, det.side_px,
+                                           det.ambiguity):
                 sols = [X_WC @ RigidTransform(RotationMatrix(_orthonormal(S[:3, :3])),
                                               S[:3, 3]) @ self._X_QM for S in (T, T2)]
-                cands[self._slot[int(a)]].append((float(side), sols))
+                cands[self._slot[int(a)]].append((float(side), float(amb), sols))
         poses = [RigidTransform() for _ in range(m)]
         visible = np.zeros(m, bool)
         for k, c in enumerate(cands):
-            X = self._fuse(c)
+            last = None
+            if (np.isfinite(track[k, 0]) and 0 <= t - track[k, 0] <= self._cfg.track_max_age_s):
+                last = _orthonormal(track[k, 1:10].reshape(3, 3))
+            X = self._fuse(c, last)
             if X is not None:
                 poses[k], visible[k] = X, True
-        return MarkerObservations(time=context.get_time(), marker_ids=list(self._names),
-                                  poses=poses, visible=visible, outlier=np.zeros(m, bool))
+                track[k, 0] = t
+                track[k, 1:10] = np.asarray(X.rotation().matrix()).ravel()
+                track[k, 10:] = X.translation()
+        obs = MarkerObservations(time=t, marker_ids=list(self._names), poses=poses,
+                                 visible=visible, outlier=np.zeros(m, bool))
+        return obs, track
 
-    def _fuse(self, cands):
+    def _fuse(self, cands, last_R=None):
         """One pose from the detections of a marker in several cameras (None = not seen).
 
-        One camera: its better solution. Several: the choice of one of the two solutions per
-        camera whose orientations agree best (smallest largest pairwise angle); if even those
-        differ by more than ``max_disagreement_deg`` the marker is not reported; else the
-        chosen pose of the camera in which the marker is largest."""
+        One camera: its better solution if unambiguous (``min_unambiguous_ratio``, or both
+        solutions within ``detector.ambiguity_angle_deg``); else the solution nearer to
+        ``last_R`` (the last reported orientation, None = none recent) if within
+        ``track_max_angle_deg`` of it; else None. Several: the choice of one of the two
+        solutions per camera whose orientations agree best (smallest largest pairwise
+        angle); if even those differ by more than ``max_disagreement_deg`` the marker is not
+        reported; else the chosen pose of the camera in which the marker is largest."""
         if not cands:
             return None
         if len(cands) == 1:
-            return cands[0][1][0]
+            _, ratio, sols = cands[0]
+            if ratio >= self._cfg.min_unambiguous_ratio:
+                return sols[0]
+            R = [np.asarray(X.rotation().matrix()) for X in sols]
+            if _angle(R[0], R[1]) <= math.radians(self._cfg.detector.ambiguity_angle_deg):
+                return sols[0]
+            if last_R is None:
+                return None
+            d = [_angle(last_R, Ri) for Ri in R]
+            j = int(np.argmin(d))
+            return sols[j] if d[j] <= math.radians(self._cfg.track_max_angle_deg) else None
         cands = sorted(cands, key=lambda c: -c[0])[:3]
-        R = [[np.asarray(X.rotation().matrix()) for X in c[1]] for c in cands]
+        R = [[np.asarray(X.rotation().matrix()) for X in c[2]] for c in cands]
         best, best_choice = np.inf, None
         for choice in itertools.product((0, 1), repeat=len(cands)):
             worst = 0.0
             for a, b in itertools.combinations(range(len(cands)), 2):
-                M = R[a][choice[a]].T @ R[b][choice[b]]
-                worst = max(worst, math.acos(float(np.clip((np.trace(M) - 1) / 2, -1, 1))))
+                worst = max(worst, _angle(R[a][choice[a]], R[b][choice[b]]))
             # prefer each camera's better solution when the agreement is the same
             key = worst + 1e-6 * sum(choice)
             if key < best:
                 best, best_choice = key, choice
         if best > math.radians(self._cfg.max_disagreement_deg):
             return None
-        return cands[0][1][best_choice[0]]
+        return cands[0][2][best_choice[0]]
 
     def _update(self, context, state):
-        obs = self.observe(context)
+        obs, track = self._observe(context)
         state.get_mutable_abstract_state(self._obs_index).set_value(obs)
         stats = state.get_mutable_discrete_state(self._stats_index)
         stats.set_value(stats.get_value() + np.array([1.0, len(obs), obs.visible.sum()]))
+        state.get_mutable_discrete_state(self._track_index).set_value(track.ravel())
         return EventStatus.Succeeded()
 
     def _calc_observations(self, context, output):
         output.set_value(context.get_abstract_state(self._obs_index).get_value())
+
+
+def _angle(Ra, Rb) -> float:
+    """Angle between two rotation matrices, radians."""
+    return math.acos(float(np.clip((np.trace(Ra.T @ Rb) - 1) / 2, -1, 1)))
 
 
 def _orthonormal(R) -> np.ndarray:
