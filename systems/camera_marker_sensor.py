@@ -10,7 +10,12 @@ frame comes from ``solvePnP`` (IPPE_SQUARE) and is taken to the world with the c
 A marker seen by several cameras: the two solutions of each camera (a small square's pose is
 ambiguous between two mirror tilts) are matched across the cameras, the best agreeing
 choice is used (from the camera in which the marker looks largest), and a marker whose
-cameras disagree by more than ``max_disagreement_deg`` is not reported.
+cameras disagree by more than ``max_disagreement_deg`` is not reported. A marker seen by one
+camera only is reported as detected when its mirror solution reprojects clearly worse
+(``min_unambiguous_ratio``); an ambiguous one takes the solution nearer to its last report
+(``track_max_age_s``, ``track_max_angle_deg``; the reports live in the Context's discrete
+state) or is not reported. A small square seen from 2 m is often ambiguous, and its better
+solution then is the mirror tilt in a few percent of the frames: tens of degrees off.
 
 There is no noise model: the noise is what rendering, pixel quantisation and the detector
 make of the geometry (see ``benchmarks/bench_camera_marker_sensor.py`` for its size against
@@ -217,7 +222,9 @@ class CameraMarkerSensor(LeafSystem):
     camera ``cameras[i]``. ``observations`` is an abstract
     :class:`~mmlearn.systems.observations.MarkerObservations` with one entry per name in
     ``marker_ids``, refreshed at ``rate_hz`` (first frame at t = 0); ``stats`` is [frames,
-    marker observations, visible ones] since the start, as MarkerSensor's.
+    marker observations, visible ones] since the start, as MarkerSensor's. The discrete
+    state also holds each marker's last report (time, orientation, position), against which
+    the next frames resolve ambiguous single-camera detections.
 
     A camera image that is missing, of the wrong size or cannot be processed contributes no
     detections (the frame still happens); the simulation never stops for it.
