@@ -35,7 +35,7 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.systems.framework import EventStatus, LeafSystem
-from pydrake.systems.sensors import ImageRgba8U
+from pydrake.systems.sensors import ImageDepth32F, ImageRgba8U
 
 from mmlearn.models.marker_detection import (DetectorConfig, MarkerDetections,
                                              detect_marker_poses, make_detector)
@@ -45,7 +45,7 @@ from .marker_sensor import CameraConfig
 from .observations import MarkerObservations
 
 __all__ = ["CameraMarkerSensor", "CameraMarkerSensorConfig", "CameraView",
-           "default_marker_cameras"]
+           "default_marker_cameras", "marker_normal_from_depth"]
 
 
 def default_marker_cameras(radius: float = 2.0, height: float = 1.2,
@@ -92,6 +92,16 @@ class CameraMarkerSensorConfig:
         max_disagreement_deg: a marker seen by several cameras is reported only when one
             of the two pose solutions (the square's mirror ambiguity) per camera agree in
             orientation within this angle, degrees; the agreeing solution is used.
+        use_depth: resolve the mirror ambiguity with the cameras' depth images (the
+            RgbdSensors render them anyway): a plane fitted to the depth pixels inside the
+            detected square gives the marker's normal, and of IPPE_SQUARE's two solutions
+            the one whose normal is within ``depth_max_angle_deg`` of it (and nearer) is
+            kept; a detection neither solution of which matches is dropped. Without a depth
+            image (or False) the rules below decide. Measured on the 2-DOF arm's
+            babbling frames (``--babble``): almost every detection of the 0.04 m markers 2 m
+            away is ambiguous by reprojection (the mirror solution reprojects within
+            0.3 px in 97 % of them), and the mirror one won in 8-13 % of the reports.
+        depth_max_angle_deg: see ``use_depth``, degrees.
         min_unambiguous_ratio: a marker seen by one camera only is taken at face value
             when the reprojection error of IPPE_SQUARE's worse (mirror) solution is at least
             this many times the better one's, or the two solutions differ by less than
@@ -124,6 +134,8 @@ class CameraMarkerSensorConfig:
     near: float = 0.05
     principal_point_shift_px: list[float] = field(default_factory=lambda: [-0.5, -0.5])
     max_disagreement_deg: float = 10.0
+    use_depth: bool = True
+    depth_max_angle_deg: float = 15.0
     min_unambiguous_ratio: float = 2.5
     track_max_age_s: float = 0.25
     track_max_angle_deg: float = 20.0
@@ -152,6 +164,14 @@ class CameraMarkerSensorConfig:
                 and 0 < self.max_disagreement_deg <= 180):
             raise ValueError("CameraMarkerSensorConfig: max_disagreement_deg must be in "
                              f"(0, 180] degrees, got {self.max_disagreement_deg!r}")
+        if not isinstance(self.use_depth, bool):
+            raise ValueError("CameraMarkerSensorConfig: use_depth must be true or false, got "
+                             f"{self.use_depth!r}")
+        if not (isinstance(self.depth_max_angle_deg, (int, float))
+                and math.isfinite(self.depth_max_angle_deg)
+                and 0 < self.depth_max_angle_deg <= 90):
+            raise ValueError("CameraMarkerSensorConfig: depth_max_angle_deg must be in "
+                             f"(0, 90] degrees, got {self.depth_max_angle_deg!r}")
         if not (isinstance(self.min_unambiguous_ratio, (int, float))
                 and math.isfinite(self.min_unambiguous_ratio)
                 and self.min_unambiguous_ratio >= 1):
@@ -214,6 +234,8 @@ class CameraMarkerSensor(LeafSystem):
         - color_image_0
         - ...
         - color_image_{k-1}
+        - depth_image_0 (with use_depth)
+        - ...
         output_ports:
         - observations
         - stats
@@ -262,6 +284,9 @@ class CameraMarkerSensor(LeafSystem):
         self._images = [self.DeclareAbstractInputPort(
             f"color_image_{i}", AbstractValue.Make(ImageRgba8U(c.width, c.height)))
             for i, c in enumerate(self._cams)]
+        self._depths = ([self.DeclareAbstractInputPort(
+            f"depth_image_{i}", AbstractValue.Make(ImageDepth32F(c.width, c.height)))
+            for i, c in enumerate(self._cams)] if cfg.use_depth else [])
         self._obs_index = self.DeclareAbstractState(AbstractValue.Make(MarkerObservations()))
         self._stats_index = self.DeclareDiscreteState(3)
         # per marker: [time of its last report (NaN = never), R_WM row-major (9), p_WM (3)]
@@ -279,6 +304,13 @@ class CameraMarkerSensor(LeafSystem):
         if not 0 <= i < len(self._images):
             raise IndexError(f"camera {i} of {len(self._images)}")
         return self._images[i]
+
+    def get_depth_image_input_port(self, i: int = 0):
+        """Camera ``i``'s depth image input (only with ``config.use_depth``)."""
+        if not 0 <= i < len(self._depths):
+            raise IndexError(f"depth image {i} of {len(self._depths)} (use_depth="
+                             f"{self._cfg.use_depth})")
+        return self._depths[i]
 
     def get_observations_output_port(self):
         return self._out
@@ -346,9 +378,26 @@ class CameraMarkerSensor(LeafSystem):
                 det = self.detect(port.Eval(context).data, i)
             except (ValueError, RuntimeError, TypeError, cv2.error):
                 continue  # a bad image: no detections from this camera in this frame
+            depth = None
+            if self._depths and self._depths[i].HasValue(context):
+                try:
+                    depth = np.asarray(self._depths[i].Eval(context).data, float)
+                    depth = depth.reshape(depth.shape[0], depth.shape[1])
+                except (RuntimeError, TypeError, ValueError):
+                    depth = None
             X_WC = self._cams[i].X_WC
-            for a, T, T2, side, amb in zip(det.ids, det.T_CM, det.T_CM_other, det.side_px,
-                                           det.ambiguity):
+            for a, T, T2, side, amb, corners in zip(det.ids, det.T_CM, det.T_CM_other,
+                                                    det.side_px, det.ambiguity, det.corners):
+                if depth is not None and depth.shape == (self._cams[i].height,
+                                                         self._cams[i].width):
+                    n = marker_normal_from_depth(depth, corners, self._cams[i].K)
+                    if n is not None:
+                        e = [math.degrees(math.acos(float(np.clip(n @ S[:3, 2], -1, 1))))
+                             for S in (T, T2)]
+                        j = int(np.argmin(e))
+                        if e[j] > self._cfg.depth_max_angle_deg:
+                            continue  # neither solution lies in the seen plane
+                        T, T2, amb = (T, T, np.inf) if j == 0 else (T2, T2, np.inf)
                 sols = [X_WC @ RigidTransform(RotationMatrix(_orthonormal(S[:3, :3])),
                                               S[:3, 3]) @ self._X_QM for S in (T, T2)]
                 cands[self._slot[int(a)]].append((float(side), float(amb), sols))
@@ -417,6 +466,48 @@ class CameraMarkerSensor(LeafSystem):
 
     def _calc_observations(self, context, output):
         output.set_value(context.get_abstract_state(self._obs_index).get_value())
+
+
+def marker_normal_from_depth(depth, corners, K, *, shrink: float = 0.7,
+                             min_points: int = 30):
+    """Unit normal (3,) of the plane through the depth pixels inside a detected marker, in
+    the camera frame, pointing towards the camera (None when too few valid pixels).
+
+    Args:
+        depth: (H, W) depth image, m (NaN, inf or <= 0 = no measurement).
+        corners: (4, 2) image corners of the marker, pixels.
+        K: (3, 3) intrinsics, pixels.
+        shrink: the quad is shrunk towards its centre by this factor first (keeps the
+            pixels off the marker's border, where depth edges and the carrier begin).
+        min_points: fewest valid depth pixels for a fit.
+    """
+    import cv2
+
+    c = np.asarray(corners, float).reshape(4, 2)
+    centre = c.mean(axis=0)
+    q = centre + shrink * (c - centre)
+    h, w = depth.shape
+    x0, y0 = np.floor(q.min(axis=0)).astype(int)
+    x1, y1 = np.ceil(q.max(axis=0)).astype(int)
+    x0, y0, x1, y1 = max(x0, 0), max(y0, 0), min(x1, w - 1), min(y1, h - 1)
+    if x1 <= x0 or y1 <= y0:
+        return None
+    mask = np.zeros((y1 - y0 + 1, x1 - x0 + 1), np.uint8)
+    cv2.fillConvexPoly(mask, np.round(q - [x0, y0]).astype(np.int32), 1)
+    v, u = np.nonzero(mask)
+    u, v = u + x0, v + y0
+    z = depth[v, u]
+    ok = np.isfinite(z) & (z > 0)
+    if ok.sum() < min_points:
+        return None
+    u, v, z = u[ok], v[ok], z[ok]
+    P = np.column_stack([(u - K[0, 2]) / K[0, 0] * z, (v - K[1, 2]) / K[1, 1] * z, z])
+    mu = P.mean(axis=0)
+    _, sv, Vt = np.linalg.svd(P - mu, full_matrices=False)
+    if not (np.all(np.isfinite(sv)) and sv[1] > 0):
+        return None
+    n = Vt[2]
+    return -n if n @ mu > 0 else n
 
 
 def _angle(Ra, Rb) -> float:

@@ -286,9 +286,9 @@ def test_one_camera_ambiguous_detection_is_resolved_by_the_last_report_or_droppe
     assert _errors(s._fuse([(25.0, 1.0, [true, near])]), true)[1] < 1e-9
 
 
-def test_rendered_ambiguous_marker_needs_a_recent_report():
-    """Rendered: a tilted marker whose detection is ambiguous under the threshold is not
-    reported on its own; after a report of it 0.1 s earlier it is reported, and right;
+def test_rendered_ambiguous_marker_needs_depth_or_a_recent_report():
+    """Rendered: a tilted marker whose detection is ambiguous under the threshold is
+    resolved by the depth image's plane; without depth it is not reported on its own; after a report of it 0.1 s earlier it is reported, and right;
     a report older than track_max_age_s does not count."""
     probe = MarkerRig(_config())
     ctx = probe.diagram.CreateDefaultContext()
@@ -299,8 +299,18 @@ def test_rendered_ambiguous_marker_needs_a_recent_report():
         cam.GetMyContextFromRoot(ctx)).data, 0)
     assert len(det) == 1
     amb = float(det.ambiguity[0])
-    r = MarkerRig(_config(min_unambiguous_ratio=max(1.0, amb * 1.01),
-                          detector=DetectorConfig(min_side_px=12.0, ambiguity_angle_deg=0.0)))
+    cfg = dict(min_unambiguous_ratio=max(1.0, amb * 1.01),
+               detector=DetectorConfig(min_side_px=12.0, ambiguity_angle_deg=0.0))
+    # with the depth image the plane's normal picks the right solution at once
+    r = MarkerRig(_config(**cfg))
+    ctx = r.diagram.CreateDefaultContext()
+    r.set_poses(ctx, [X])
+    obs = r.observe(ctx)
+    assert obs.visible[0]
+    dp, da = _errors(obs.poses[0], X)
+    assert dp < 0.006 and da < 3.0
+    # without it, a recent report is needed
+    r = MarkerRig(_config(use_depth=False, **cfg))
     ctx = r.diagram.CreateDefaultContext()
     r.set_poses(ctx, [X])
     sctx = r.sensor.GetMyMutableContextFromRoot(ctx)
@@ -342,3 +352,28 @@ def test_ambiguous_detections_can_be_dropped():
                                 config=DetectorConfig(min_ambiguity_ratio=amb * 0.99,
                                                       ambiguity_angle_deg=0.0))
     assert len(loose) == 1
+
+
+def test_marker_normal_from_depth_picks_the_plane_and_ignores_holes():
+    """The plane through the depth pixels inside the quad: a synthetic tilted plane gives its
+    normal (towards the camera); NaN / zero pixels are skipped; too few pixels -> None."""
+    from mmlearn.systems.camera_marker_sensor import marker_normal_from_depth
+
+    f, h, w = 500.0, 120, 160
+    K = np.array([[f, 0, 79.5], [0, f, 59.5], [0, 0, 1]])
+    n_true = np.array([0.3, -0.2, -1.0])
+    n_true /= np.linalg.norm(n_true)
+    p0 = np.array([0.0, 0.0, 1.5])
+    u, v = np.meshgrid(np.arange(w), np.arange(h))
+    ray = np.stack([(u - K[0, 2]) / f, (v - K[1, 2]) / f, np.ones_like(u, float)], -1)
+    depth = (n_true @ p0) / (ray @ n_true)  # z of the ray's hit on the plane
+    corners = np.array([[60, 40], [100, 40], [100, 80], [60, 80]], float)
+    n = marker_normal_from_depth(depth, corners, K)
+    assert math.degrees(math.acos(min(1.0, n @ n_true))) < 0.01
+    holes = depth.copy()
+    holes[45:60, :] = np.nan
+    holes[60:65, :] = 0.0
+    n = marker_normal_from_depth(holes, corners, K)
+    assert math.degrees(math.acos(min(1.0, n @ n_true))) < 0.01
+    assert marker_normal_from_depth(np.full((h, w), np.nan), corners, K) is None
+    assert marker_normal_from_depth(depth, corners + 1000, K) is None
