@@ -4,7 +4,7 @@ Prints tables; never fails on time.
 
     python benchmarks/bench_camera_marker_sensor.py [--width 1920] [--n 12] [--seed 0]
         [--distances 0.5,1,1.5,2,2.5,3] [--angles 0,20,40,60] [--calibrate]
-        [--arm 2dof --poses 25] [--babble SECONDS --min-ratio 1,2.5] [--plot OUT.png]
+        [--arm 2dof --poses 25] [--babble SECONDS --rules none,ratio,depth] [--plot OUT.png]
 
 Default table: one 0.04 m marker (on a 0.10 m grey carrier, grey backdrop 6 m away) at each
 distance (m, along the optical axis) and viewing angle (deg between the marker normal and
@@ -14,9 +14,9 @@ position error (median, RMS, m) and orientation error (median deg, share > 20 de
 ``--calibrate``: mean offset of the refined corners from their projections with Drake's
 documented principal point (the calibration the sensor applies). ``--arm``: per-part
 visibility and errors of the default 3-camera scene on random babbling poses of an arm.
-``--babble S``: the frames the learner sees while the arm babbles for S s (10 Hz), with and
-without the sensor's resolution of ambiguous (mirror) detections: visibility, position error
-and the rate of mirror flips (reported orientation off by more than 20 degrees).
+``--babble S``: the frames the learner sees while the arm babbles for S s (10 Hz), with each
+rule for ambiguous (mirror) detections: visibility, position error and the rate of mirror
+flips (reported orientation off by more than 20 degrees).
 """
 
 from __future__ import annotations
@@ -194,11 +194,21 @@ def arm_errors(arm, poses, seed, width):
             print(f"{p:>5}  {0:7.2f}  never seen")
 
 
-def babble_flips(arm, seconds, ratios, seed, width):
+VARIANTS = {
+    # the sensor before the mirror-flip fix: always the better IPPE solution
+    "none": dict(use_depth=False, min_unambiguous_ratio=1.0),
+    # reprojection-error ratio + the last report, no depth
+    "ratio": dict(use_depth=False),
+    # the default: the depth image's plane, then ratio + last report
+    "depth": dict(),
+}
+
+
+def babble_flips(arm, seconds, variants, seed, width):
     """Per-frame errors of the camera sensor while the arm babbles (the frames the learner
-    sees, 10 Hz), for each ``min_unambiguous_ratio`` in ``ratios``: visibility, median
-    position error and the share of reported orientations off by more than 20 degrees
-    (mirror flips)."""
+    sees, 10 Hz), for each ambiguity rule in ``variants`` (keys of :data:`VARIANTS`):
+    visibility, median position error and the share of reported orientations off by more
+    than 20 degrees (mirror flips)."""
     import dataclasses
 
     from pydrake.systems.analysis import Simulator
@@ -209,9 +219,9 @@ def babble_flips(arm, seconds, ratios, seed, width):
     base = CameraMarkerSensorConfig(width=width, height=width * 3 // 4)
     print(f"{arm} arm babbling {seconds:g} s (seed {seed}), {len(base.cameras)} cameras "
           f"{base.width}x{base.height}, frames at {base.rate_hz:g} Hz")
-    print(" min_ratio  part  visible  pos_med_m  ang_med_deg  flips(>20deg)")
-    for r in ratios:
-        cam = dataclasses.replace(base, min_unambiguous_ratio=r)
+    print("   rule  part  visible  pos_med_m  ang_med_deg  flips(>20deg)")
+    for r in variants:
+        cam = dataclasses.replace(base, **VARIANTS[r])
         bs = MakeBodySchemaDiagram(BodySchemaDiagramConfig(arm=arm, sensor="camera",
                                                            camera=cam, seed=seed))
         sim = Simulator(bs.diagram)
@@ -238,15 +248,15 @@ def babble_flips(arm, seconds, ratios, seed, width):
         for i, p in enumerate(bs.parts):
             e, a = np.array(pe[i]), np.array(ae[i])
             if len(e):
-                print(f"{r:10.2f}  {p:>4}  {vis[i] / n:7.2f}  {np.median(e):9.4f}  "
+                print(f"{r:>7}  {p:>4}  {vis[i] / n:7.2f}  {np.median(e):9.4f}  "
                       f"{np.median(a):11.2f}  {np.mean(a > 20):13.3f}")
             else:
-                print(f"{r:10.2f}  {p:>4}  {0:7.2f}  never seen")
+                print(f"{r:>7}  {p:>4}  {0:7.2f}  never seen")
         a = np.concatenate([np.array(x) for x in ae])
         if not len(a):
-            print(f"{r:10.2f}   all  no reports")
+            print(f"{r:>7}   all  no reports")
             continue
-        print(f"{r:10.2f}   all  {vis.sum() / (n * len(bs.parts)):7.2f}  "
+        print(f"{r:>7}   all  {vis.sum() / (n * len(bs.parts)):7.2f}  "
               f"{np.median(np.concatenate([np.array(x) for x in pe])):9.4f}  "
               f"{np.median(a):11.2f}  {np.mean(a > 20):13.3f}   "
               f"({len(a)} reports, {time.perf_counter() - t0:.0f} s)")
@@ -265,17 +275,21 @@ def main(argv=None):
     ap.add_argument("--babble", type=float, default=None, metavar="SECONDS",
                     help="only the per-frame errors and mirror flips while --arm (default "
                          "2dof) babbles this long, for each --min-ratio")
-    ap.add_argument("--min-ratio", default="1,2.5",
-                    help="min_unambiguous_ratio values for --babble (1 = always the better "
-                         "IPPE solution)")
+    ap.add_argument("--rules", default="none,ratio,depth",
+                    help="ambiguity rules for --babble: none (always the better IPPE "
+                         "solution, the sensor before the fix), ratio (reprojection ratio + "
+                         "last report), depth (the default: depth plane first)")
     ap.add_argument("--plot", default=None, help="save a plot of the table (PNG)")
     a = ap.parse_args(argv)
     if a.calibrate:
         calibrate(a.width, a.n * 3, a.seed)
         return 0
     if a.babble is not None:
-        babble_flips(a.arm or "2dof", a.babble, [float(x) for x in a.min_ratio.split(",")],
-                     a.seed, a.width)
+        rules = a.rules.split(",")
+        bad = [r for r in rules if r not in VARIANTS]
+        if bad:
+            ap.error(f"--rules: unknown {bad}; choose from {sorted(VARIANTS)}")
+        babble_flips(a.arm or "2dof", a.babble, rules, a.seed, a.width)
         return 0
     if a.arm:
         arm_errors(a.arm, a.poses, a.seed, a.width)
