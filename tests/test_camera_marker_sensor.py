@@ -217,14 +217,14 @@ def test_object_track_through_the_camera():
         detector=DetectorConfig(min_side_px=12.0, min_ambiguity_ratio=1.0)))
     assert ct.poses.shape == tr.poses.shape and np.array_equal(ct.poses_true, tr.poses_true)
     seen = ~np.isnan(ct.poses[..., 0])
-    # 9 of 16: the static part's marker is ambiguous in this view (its better solution is
-    # the mirror one, 43 degrees off) and is not reported
-    assert seen.mean() >= 0.5
+    assert seen.mean() >= 0.75
     assert np.all(np.isnan(ct.poses[~seen]))
     err = np.linalg.norm(ct.poses[seen][:, :3] - tr.poses_true[seen][:, :3], axis=1)
     assert np.median(err) < 0.005 and err.max() < 0.03
     dot = np.abs(np.sum(ct.poses[seen][:, 3:] * tr.poses_true[seen][:, 3:], axis=1))
-    assert np.degrees(2 * np.arccos(np.clip(dot, 0, 1))).max() < 20  # no mirror flip
+    # no mirror flip: the static part's better IPPE solution is the mirror one here (43 deg
+    # off); the depth image's plane picks the right one (16/16 seen, max 5.6 deg)
+    assert np.degrees(2 * np.arccos(np.clip(dot, 0, 1))).max() < 10
 
 
 @pytest.mark.parametrize("mod", ["learn_body_schema"])
