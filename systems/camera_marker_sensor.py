@@ -113,9 +113,9 @@ class CameraMarkerSensorConfig:
             report is at most ``track_max_age_s`` old and the solution lies within
             ``track_max_angle_deg`` of it, else the marker is reported not visible (1 = the
             old behaviour: always the better solution). A weak guide, the fallback without
-            depth: on random 2-DOF arm poses (301 detections) 25 were mirror-flipped, most
-            with ratios 1.1-2.2 (as were 30-40 % of the right ones), but some up to 56;
-            on babbling frames it lowered the flips from 13.5 % to 11.5 % of the reports
+            depth: on random 2-DOF arm poses (301 detections) 25 were mirror-flipped, 17
+            with ratios 1.1-2.2 (as were 25 % of the right ones), 8 with 2.5-17 (one in
+            babbling frames had 56); on babbling frames it lowered the flips from 13.5 % to 11.5 % of the reports
             (``--babble``), the depth rule to 0 %.
         track_max_age_s: how old the last report of a marker may be to resolve an
             ambiguous detection, seconds.
