@@ -4,7 +4,7 @@ Prints tables; never fails on time.
 
     python benchmarks/bench_camera_marker_sensor.py [--width 1920] [--n 12] [--seed 0]
         [--distances 0.5,1,1.5,2,2.5,3] [--angles 0,20,40,60] [--calibrate]
-        [--arm 2dof --poses 25] [--plot OUT.png]
+        [--arm 2dof --poses 25] [--babble SECONDS --rules none,ratio,depth] [--plot OUT.png]
 
 Default table: one 0.04 m marker (on a 0.10 m grey carrier, grey backdrop 6 m away) at each
 distance (m, along the optical axis) and viewing angle (deg between the marker normal and
@@ -14,6 +14,9 @@ position error (median, RMS, m) and orientation error (median deg, share > 20 de
 ``--calibrate``: mean offset of the refined corners from their projections with Drake's
 documented principal point (the calibration the sensor applies). ``--arm``: per-part
 visibility and errors of the default 3-camera scene on random babbling poses of an arm.
+``--babble S``: the frames the learner sees while the arm babbles for S s (10 Hz), with each
+rule for ambiguous (mirror) detections: visibility, position error and the rate of mirror
+flips (reported orientation off by more than 20 degrees).
 """
 
 from __future__ import annotations
@@ -191,6 +194,74 @@ def arm_errors(arm, poses, seed, width):
             print(f"{p:>5}  {0:7.2f}  never seen")
 
 
+VARIANTS = {
+    # the sensor before the mirror-flip fix: always the better IPPE solution
+    "none": dict(use_depth=False, min_unambiguous_ratio=1.0),
+    # reprojection-error ratio + the last report, no depth
+    "ratio": dict(use_depth=False),
+    # the default: the depth image's plane, then ratio + last report
+    "depth": dict(),
+}
+
+
+def babble_flips(arm, seconds, variants, seed, width):
+    """Per-frame errors of the camera sensor while the arm babbles (the frames the learner
+    sees, 10 Hz), for each ambiguity rule in ``variants`` (keys of :data:`VARIANTS`):
+    visibility, median position error and the share of reported orientations off by more
+    than 20 degrees (mirror flips)."""
+    import dataclasses
+
+    from pydrake.systems.analysis import Simulator
+
+    from mmlearn.diagrams.body_schema import BodySchemaDiagramConfig, MakeBodySchemaDiagram
+    from mmlearn.systems.camera_marker_sensor import CameraMarkerSensorConfig
+
+    base = CameraMarkerSensorConfig(width=width, height=width * 3 // 4)
+    print(f"{arm} arm babbling {seconds:g} s (seed {seed}), {len(base.cameras)} cameras "
+          f"{base.width}x{base.height}, frames at {base.rate_hz:g} Hz")
+    print("   rule  part  visible  pos_med_m  ang_med_deg  flips(>20deg)")
+    for r in variants:
+        cam = dataclasses.replace(base, **VARIANTS[r])
+        bs = MakeBodySchemaDiagram(BodySchemaDiagramConfig(arm=arm, sensor="camera",
+                                                           camera=cam, seed=seed))
+        sim = Simulator(bs.diagram)
+        root = sim.get_mutable_context()
+        bs.prepare(root)
+        plant = bs.scene.plant
+        n = int(round(seconds * cam.rate_hz))
+        vis = np.zeros(len(bs.parts))
+        pe = [[] for _ in bs.parts]
+        ae = [[] for _ in bs.parts]
+        t0 = time.perf_counter()
+        for k in range(n):
+            # just after the frame at k / rate: the plant is where the images showed it
+            sim.AdvanceTo(k / cam.rate_hz + 1e-6)
+            obs = bs.diagram.GetOutputPort("observations").Eval(root)
+            pc = plant.GetMyContextFromRoot(root)
+            for i, p in enumerate(obs.marker_ids):
+                if obs.visible[i]:
+                    Xt = plant.GetFrameByName(p + "_marker", bs.scene.robot).CalcPoseInWorld(pc)
+                    vis[i] += 1
+                    pe[i].append(np.linalg.norm(obs.poses[i].translation() - Xt.translation()))
+                    ae[i].append(np.degrees((Xt.rotation().inverse() @ obs.poses[i].rotation())
+                                            .ToAngleAxis().angle()))
+        for i, p in enumerate(bs.parts):
+            e, a = np.array(pe[i]), np.array(ae[i])
+            if len(e):
+                print(f"{r:>7}  {p:>4}  {vis[i] / n:7.2f}  {np.median(e):9.4f}  "
+                      f"{np.median(a):11.2f}  {np.mean(a > 20):13.3f}")
+            else:
+                print(f"{r:>7}  {p:>4}  {0:7.2f}  never seen")
+        a = np.concatenate([np.array(x) for x in ae])
+        if not len(a):
+            print(f"{r:>7}   all  no reports")
+            continue
+        print(f"{r:>7}   all  {vis.sum() / (n * len(bs.parts)):7.2f}  "
+              f"{np.median(np.concatenate([np.array(x) for x in pe])):9.4f}  "
+              f"{np.median(a):11.2f}  {np.mean(a > 20):13.3f}   "
+              f"({len(a)} reports, {time.perf_counter() - t0:.0f} s)")
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--width", type=int, default=1920, help="image width, px (4:3 images)")
@@ -201,10 +272,24 @@ def main(argv=None):
     ap.add_argument("--calibrate", action="store_true", help="only the calibration")
     ap.add_argument("--arm", default=None, help="only the per-part errors of this arm")
     ap.add_argument("--poses", type=int, default=25, help="arm poses (--arm)")
+    ap.add_argument("--babble", type=float, default=None, metavar="SECONDS",
+                    help="only the per-frame errors and mirror flips while --arm (default "
+                         "2dof) babbles this long, for each --min-ratio")
+    ap.add_argument("--rules", default="none,ratio,depth",
+                    help="ambiguity rules for --babble: none (always the better IPPE "
+                         "solution, the sensor before the fix), ratio (reprojection ratio + "
+                         "last report), depth (the default: depth plane first)")
     ap.add_argument("--plot", default=None, help="save a plot of the table (PNG)")
     a = ap.parse_args(argv)
     if a.calibrate:
         calibrate(a.width, a.n * 3, a.seed)
+        return 0
+    if a.babble is not None:
+        rules = a.rules.split(",")
+        bad = [r for r in rules if r not in VARIANTS]
+        if bad:
+            ap.error(f"--rules: unknown {bad}; choose from {sorted(VARIANTS)}")
+        babble_flips(a.arm or "2dof", a.babble, rules, a.seed, a.width)
         return 0
     if a.arm:
         arm_errors(a.arm, a.poses, a.seed, a.width)

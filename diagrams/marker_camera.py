@@ -132,13 +132,17 @@ def AddCameraMarkerSensor(builder, scene_graph, *, markers: dict[str, int],
                           name: str = "marker_sensor"):
     """Add the cameras of ``config`` and a :class:`CameraMarkerSensor` reading the markers
     ``markers`` ({body: ArUco id}, from :func:`AddArucoMarkers`), with every camera's colour
-    image connected. Returns ``(sensor, rgbd_sensors)``."""
+    image (and with ``config.use_depth`` its depth image) connected. Returns
+    ``(sensor, rgbd_sensors)``."""
     rgbd = AddMarkerCameras(builder, scene_graph, config=config)
     sensor = builder.AddNamedSystem(name, CameraMarkerSensor(
         marker_ids=list(markers), aruco_ids=list(markers.values()),
         cameras=camera_views(rgbd, config), config=config))
     for i, s in enumerate(rgbd):
         builder.Connect(s.color_image_output_port(), sensor.get_color_image_input_port(i))
+        if config.use_depth:
+            builder.Connect(s.depth_image_32F_output_port(),
+                            sensor.get_depth_image_input_port(i))
     return sensor, rgbd
 
 

@@ -268,9 +268,13 @@ class ObjectCamera:
         sc = self.sensor.GetMyContextFromRoot(self.context)
         out = np.full((len(self.parts), q.shape[0], 7), np.nan)
         rows = range(q.shape[0]) if progress is None else progress(range(q.shape[0]))
+        dt = 1.0 / self.sensor.config.rate_hz
         for t in rows:
             self.plant.SetPositions(pc, self.instance, q[t])
-            out[:, t] = self.sensor.observe(sc).as_array()
+            # consecutive rows are consecutive sensor frames (ambiguous detections are
+            # resolved against the previous reports)
+            self.context.SetTime(t * dt)
+            out[:, t] = self.sensor.observe_and_remember(sc).as_array()
         return out
 
 

@@ -179,7 +179,8 @@ def test_body_schema_diagram_with_camera_sensor_runs():
     cam = CameraMarkerSensorConfig(
         cameras=[CameraConfig(position=[1.0, 0.0, 0.6], look_at=[0.0, 0.0, 0.4],
                               fov_y_deg=55.0, max_range=5.0)], width=640, height=480,
-        detector=DetectorConfig(min_side_px=12.0, min_ambiguity_ratio=1.0))
+        detector=DetectorConfig(min_side_px=12.0, min_ambiguity_ratio=1.0),
+        min_unambiguous_ratio=1.0)  # the wiring only: x1 is ambiguous in this close view
     bs = MakeBodySchemaDiagram(BodySchemaDiagramConfig(arm="2dof", sensor="camera",
                                                        camera=cam))
     assert type(bs.scene.sensor).__name__ == "CameraMarkerSensor"
@@ -220,6 +221,10 @@ def test_object_track_through_the_camera():
     assert np.all(np.isnan(ct.poses[~seen]))
     err = np.linalg.norm(ct.poses[seen][:, :3] - tr.poses_true[seen][:, :3], axis=1)
     assert np.median(err) < 0.005 and err.max() < 0.03
+    dot = np.abs(np.sum(ct.poses[seen][:, 3:] * tr.poses_true[seen][:, 3:], axis=1))
+    # no mirror flip: the static part's better IPPE solution is the mirror one here (43 deg
+    # off); the depth image's plane picks the right one (16/16 seen, max 5.6 deg)
+    assert np.degrees(2 * np.arccos(np.clip(dot, 0, 1))).max() < 10
 
 
 @pytest.mark.parametrize("mod", ["learn_body_schema"])
@@ -246,11 +251,82 @@ def test_cameras_that_disagree_are_resolved_by_the_mirror_solutions(rig):
     flip = RigidTransform(RollPitchYaw(0.1, -0.5, 0.3), [1.01, 0.0, 1.0])
     near = RigidTransform(RollPitchYaw(0.1, 0.22, 0.3), [1.002, 0.0, 1.0])
     other = RigidTransform(RollPitchYaw(0.6, 0.2, 0.3), [1.0, 0.0, 1.0])
-    X = r.sensor._fuse([(30.0, [flip, near]), (20.0, [true, other])])
+    # (side px, ambiguity ratio, [better solution, mirror solution])
+    X = r.sensor._fuse([(30.0, 1.2, [flip, near]), (20.0, 1.2, [true, other])])
     assert X is not None and _errors(X, near)[1] < 1e-6
-    assert r.sensor._fuse([(30.0, [flip, flip]), (20.0, [true, true])]) is None
-    assert _errors(r.sensor._fuse([(30.0, [flip, near])]), flip)[1] < 1e-6
+    assert r.sensor._fuse([(30.0, 9.0, [flip, flip]), (20.0, 9.0, [true, true])]) is None
+    assert _errors(r.sensor._fuse([(30.0, 9.0, [flip, near])]), flip)[1] < 1e-6
     assert r.sensor._fuse([]) is None
+
+
+def test_one_camera_ambiguous_detection_is_resolved_by_the_last_report_or_dropped(rig):
+    """One camera: a clear detection (mirror solution reprojects >= min_unambiguous_ratio
+    times worse) is kept as it is; an ambiguous one is dropped unless the last report of the
+    marker picks one of its solutions (within track_max_angle_deg); two solutions that
+    nearly coincide are not ambiguous."""
+    r, _ = rig
+    s = r.sensor
+    assert s.config.min_unambiguous_ratio == 2.5 and s.config.track_max_angle_deg == 20.0
+    true = RigidTransform(RollPitchYaw(0.1, 0.2, 0.3), [1.0, 0.0, 1.0])
+    flip = RigidTransform(RollPitchYaw(0.1, -0.5, 0.3), [1.01, 0.0, 1.0])
+    R = lambda X: np.asarray(X.rotation().matrix())  # noqa: E731
+    # clear: the better solution, whatever the last report says
+    assert _errors(s._fuse([(25.0, 4.0, [true, flip])]), true)[1] < 1e-9
+    assert _errors(s._fuse([(25.0, 4.0, [flip, true])], R(true)), flip)[1] < 1e-9
+    # ambiguous, nothing to compare with: not reported
+    assert s._fuse([(25.0, 1.3, [flip, true])]) is None
+    # ambiguous, the last report 5 degrees from the true pose: the mirror-free solution
+    last = R(true) @ np.asarray(RotationMatrix(RollPitchYaw(0.0, 0.0, 0.09)).matrix())
+    assert _errors(s._fuse([(25.0, 1.3, [flip, true])], last), true)[1] < 1e-9
+    # ambiguous and the last report far from both solutions: not reported
+    far = np.asarray(RotationMatrix(RollPitchYaw(1.5, 1.0, -1.0)).matrix())
+    assert s._fuse([(25.0, 1.3, [flip, true])], far) is None
+    # two solutions 3 degrees apart: either is right
+    near = RigidTransform(RollPitchYaw(0.1, 0.25, 0.3), [1.0, 0.0, 1.0])
+    assert _errors(s._fuse([(25.0, 1.0, [true, near])]), true)[1] < 1e-9
+
+
+def test_rendered_ambiguous_marker_needs_depth_or_a_recent_report():
+    """Rendered: a tilted marker whose detection is ambiguous under the threshold is
+    resolved by the depth image's plane; without depth it is not reported on its own; after a report of it 0.1 s earlier it is reported, and right;
+    a report older than track_max_age_s does not count."""
+    probe = MarkerRig(_config())
+    ctx = probe.diagram.CreateDefaultContext()
+    X = _facing([0.9, 0.05, 1.0], (0.0, 0.5, 0.3))
+    probe.set_poses(ctx, [X])
+    cam = probe.rgbd[0]
+    det = probe.sensor.detect(cam.color_image_output_port().Eval(
+        cam.GetMyContextFromRoot(ctx)).data, 0)
+    assert len(det) == 1
+    amb = float(det.ambiguity[0])
+    cfg = dict(min_unambiguous_ratio=max(1.0, amb * 1.01),
+               detector=DetectorConfig(min_side_px=12.0, ambiguity_angle_deg=0.0))
+    # with the depth image the plane's normal picks the right solution at once
+    r = MarkerRig(_config(**cfg))
+    ctx = r.diagram.CreateDefaultContext()
+    r.set_poses(ctx, [X])
+    obs = r.observe(ctx)
+    assert obs.visible[0]
+    dp, da = _errors(obs.poses[0], X)
+    assert dp < 0.006 and da < 3.0
+    # without it, a recent report is needed
+    r = MarkerRig(_config(use_depth=False, **cfg))
+    ctx = r.diagram.CreateDefaultContext()
+    r.set_poses(ctx, [X])
+    sctx = r.sensor.GetMyMutableContextFromRoot(ctx)
+    assert not r.sensor.observe(sctx).visible[0]
+    # a report of the true pose at t = 0 (as the periodic update stores it), then t = 0.1
+    row = np.concatenate([[0.0], np.asarray(X.rotation().matrix()).ravel(), X.translation()])
+    sctx.get_mutable_discrete_state(r.sensor._track_index).set_value(row)
+    ctx.SetTime(0.1)
+    obs = r.sensor.observe_and_remember(sctx)
+    assert obs.visible[0]
+    dp, da = _errors(obs.poses[0], X)
+    assert dp < 0.006 and da < 3.0
+    stored = sctx.get_discrete_state(r.sensor._track_index).get_value()
+    assert stored[0] == pytest.approx(0.1)
+    ctx.SetTime(0.1 + r.sensor.config.track_max_age_s + 0.05)  # the report is too old
+    assert not r.sensor.observe(sctx).visible[0]
 
 
 def test_ambiguous_detections_can_be_dropped():
@@ -276,3 +352,28 @@ def test_ambiguous_detections_can_be_dropped():
                                 config=DetectorConfig(min_ambiguity_ratio=amb * 0.99,
                                                       ambiguity_angle_deg=0.0))
     assert len(loose) == 1
+
+
+def test_marker_normal_from_depth_picks_the_plane_and_ignores_holes():
+    """The plane through the depth pixels inside the quad: a synthetic tilted plane gives its
+    normal (towards the camera); NaN / zero pixels are skipped; too few pixels -> None."""
+    from mmlearn.systems.camera_marker_sensor import marker_normal_from_depth
+
+    f, h, w = 500.0, 120, 160
+    K = np.array([[f, 0, 79.5], [0, f, 59.5], [0, 0, 1]])
+    n_true = np.array([0.3, -0.2, -1.0])
+    n_true /= np.linalg.norm(n_true)
+    p0 = np.array([0.0, 0.0, 1.5])
+    u, v = np.meshgrid(np.arange(w), np.arange(h))
+    ray = np.stack([(u - K[0, 2]) / f, (v - K[1, 2]) / f, np.ones_like(u, float)], -1)
+    depth = (n_true @ p0) / (ray @ n_true)  # z of the ray's hit on the plane
+    corners = np.array([[60, 40], [100, 40], [100, 80], [60, 80]], float)
+    n = marker_normal_from_depth(depth, corners, K)
+    assert math.degrees(math.acos(min(1.0, n @ n_true))) < 0.01
+    holes = depth.copy()
+    holes[45:60, :] = np.nan
+    holes[60:65, :] = 0.0
+    n = marker_normal_from_depth(holes, corners, K)
+    assert math.degrees(math.acos(min(1.0, n @ n_true))) < 0.01
+    assert marker_normal_from_depth(np.full((h, w), np.nan), corners, K) is None
+    assert marker_normal_from_depth(depth, corners + 1000, K) is None
