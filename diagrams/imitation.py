@@ -50,6 +50,16 @@ ROBOT_START = (0.0, 0.35, 0.0, 1.6, 0.0, 1.2)
 BODY_POINTS = (("x5", (0.0, 0.0, 0.0)), ("x6", (0.0, 0.0, 0.175)), ("x7", (0.0, 0.0, 0.0)),
                ("x8", (0.0, 0.0, 0.0)), ("x8", (0.0, 0.0, 0.15)))
 
+#: the points the global plan keeps ``plan_clearance`` from obstacles: the arm's axis from
+#: the elbow to the fingertips every <= 5 cm (x5 0.05 m, forearm x6 0.35 m, wrist x7 0.10 m,
+#: gripper x8 + fingers 0.15 m). With BODY_POINTS' 17.5 cm spacing on the forearm an obstacle
+#: edge could pass between two points each 6 cm clear and graze the 4 cm-radius link; with a
+#: spacing s the link axis keeps sqrt(0.06**2 - (s / 2)**2) >= 5.4 cm from such an edge.
+PLAN_BODY_POINTS = (tuple(("x5", (0.0, 0.0, z)) for z in (0.0, 0.025))
+                    + tuple(("x6", (0.0, 0.0, z)) for z in np.linspace(0.0, 0.35, 8))
+                    + tuple(("x7", (0.0, 0.0, z)) for z in (0.0, 0.05))
+                    + tuple(("x8", (0.0, 0.0, z)) for z in (0.0, 0.05, 0.10, 0.15)))
+
 
 def task_scene(task: str, *, swap_tables: bool = False, board_scale: float = 1.0
                ) -> ImitationSceneSpec:
@@ -324,6 +334,8 @@ def MakeImitationDiagram(config: ImitationConfig | None = None, *, model, meshca
         plant=plant, model=model, arm_joints=arm_joints,
         tcp_frame=plant.GetBodyByName("x8", robot).body_frame(), p_tcp=ROBOT_TCP_IN_X8,
         body_points=[(plant.GetBodyByName(b, robot).body_frame(), p) for b, p in BODY_POINTS],
+        plan_body_points=[(plant.GetBodyByName(b, robot).body_frame(), p)
+                          for b, p in PLAN_BODY_POINTS],
         obstacles=obstacles, config=cfg.reproducer))
     builder.Connect(plant.get_state_output_port(robot), rep.get_robot_state_input_port())
     builder.Connect(sensor.get_observations_output_port(), rep.get_observations_input_port())

@@ -200,7 +200,8 @@ class DbnReproducer(LeafSystem):
     """
 
     def __init__(self, *, plant, model, arm_joints, tcp_frame, p_tcp=(0.0, 0.0, 0.0),
-                 body_points=(), object_markers: dict[str, str] | None = None,
+                 body_points=(), plan_body_points=None,
+                 object_markers: dict[str, str] | None = None,
                  obstacles: dict[str, tuple] | None = None,
                  config: DbnReproducerConfig | None = None):
         """
@@ -216,6 +217,10 @@ class DbnReproducer(LeafSystem):
                 name, point in that frame (3,), m) pairs, e.g. the elbow and the wrist (the
                 incremental step gives each an obstacle attractor, the global plan checks
                 them for collision).
+            plan_body_points: the points the global plan checks for collision instead of
+                ``body_points``, same form (default: ``body_points``): a denser set along the
+                links (e.g. every 5 cm of the forearm) so that an obstacle edge cannot pass
+                between two checked points; not used by the incremental step.
             object_markers: object name (as in the model's ``obj:<name>`` constraints) ->
                 marker id in the observations (default: the same name).
             obstacles: obstacle marker id -> list of boxes (offset of the box centre from
@@ -260,6 +265,17 @@ class DbnReproducer(LeafSystem):
         self._body_points = [
             (plant.GetBodyByName(f).body_frame() if isinstance(f, str) else f,
              np.asarray(p, float).reshape(3, 1)) for f, p in body_points]
+        plan_pts = body_points if plan_body_points is None else plan_body_points
+        # grouped per frame: one CalcPointsPositions call per frame, (frame, (3, m) points)
+        groups: dict = {}
+        for f, p in plan_pts:
+            fr = plant.GetBodyByName(f).body_frame() if isinstance(f, str) else f
+            p = np.asarray(p, float)
+            if p.shape != (3,) or not np.all(np.isfinite(p)):
+                raise ValueError(f"DbnReproducer: plan_body_points point must be finite (3,), "
+                                 f"got {p!r}")
+            groups.setdefault(fr.index(), [fr, []])[1].append(p)
+        self._plan_points = [(fr, np.array(ps).T) for fr, ps in groups.values()]
         t = np.asarray(model.t, float)
         if t.ndim != 1 or t.size < 1:
             raise ValueError("DbnReproducer: the model has no time steps")
@@ -606,7 +622,7 @@ class DbnReproducer(LeafSystem):
             kin = self.kinematics()
             kw = dict(q0=q_to[: self._n].copy(), objects=objects,
                       fk=kin.hand, jacobian=kin.jacobian,
-                      body_points=kin.body_points if self._body_points else None,
+                      body_points=kin.plan_points if self._plan_points else None,
                       obstacles=self._obstacle_boxes(obj), use_joints=self._cfg.use_joints,
                       q_lower=self._lo, q_upper=self._hi, carry_radius=self._cfg.carry_radius,
                       clearance=self._cfg.plan_clearance, seed=0)
@@ -679,6 +695,14 @@ class _Kinematics:
         return np.array([r._plant.CalcPointsPositions(self._ctx, f, p,
                                                       r._plant.world_frame()).ravel()
                          for f, p in r._body_points]).reshape(-1, 3)
+
+    def plan_points(self, q) -> np.ndarray:
+        """(m, 3) world positions of the global plan's collision points at q, m."""
+        r = self._r
+        self._set(q)
+        return np.concatenate([r._plant.CalcPointsPositions(self._ctx, f, P,
+                                                            r._plant.world_frame()).T
+                               for f, P in r._plan_points], axis=0)
 
     def point_jacobians(self, q) -> list[tuple[np.ndarray, np.ndarray]]:
         """[(position (3,), Jacobian (3, n))] of the body points at q."""

@@ -294,3 +294,39 @@ def test_held_offset_correction_places_the_held_object_not_the_hand():
     big = rep.held_offset(4, hand, {"target": hand + OFFSET + [1.0, 0, 0]}, ["target"])
     assert np.isclose(np.linalg.norm(big), DbnReproducerConfig().carry_tolerance)
     assert not np.any(rep.held_offset(4, hand, {"target": np.full(3, np.nan)}, ["target"]))
+
+
+def test_global_plan_points_cover_the_forearm_between_the_body_points():
+    """The global plan checks the arm every <= 5 cm (PLAN_BODY_POINTS): a thin box across the
+    forearm halfway between two BODY_POINTS, more than the 6 cm plan clearance from every one
+    of them, is seen by the plan points (issue 15, U obstacle: the forearm grazed the U)."""
+    from mmlearn.models.imitation_types import Obstacle
+
+    im = _reach()
+    kin = im.reproducer.kinematics()
+    q = np.array(im.start_command[:6], float)
+    sparse, dense = kin.body_points(q), kin.plan_points(q)
+    assert dense.shape == (16, 3) and np.all(np.isfinite(dense))
+    # consecutive plan points lie along the arm, at most 5 cm apart
+    gaps = np.linalg.norm(np.diff(dense, axis=0), axis=1)
+    assert gaps.max() <= 0.05 + 1e-9
+    # the sparse elbow (x5 origin) and mid-forearm points bracket a gap of >= 17 cm
+    elbow, mid = sparse[0], sparse[1]
+    assert np.linalg.norm(mid - elbow) > 0.17
+    c = 0.5 * (elbow + mid)
+    ob = Obstacle(centre=c, half_size=np.full(3, 0.01))
+    clear = 0.06
+    assert np.all(ob.signed_distance(sparse) > clear)          # missed by the sparse points
+    assert np.any(ob.signed_distance(dense) < clear)           # seen by the plan points
+
+
+def test_plan_body_points_errors():
+    from mmlearn.systems.dbn_reproducer import DbnReproducer
+
+    im = _reach()
+    plant = im.plant
+    with pytest.raises(ValueError, match="plan_body_points"):
+        DbnReproducer(plant=plant, model=_reach_model(),
+                      arm_joints=[plant.GetJointByName(f"q{i}", im.robot) for i in range(1, 7)],
+                      tcp_frame=plant.GetBodyByName("x8", im.robot).body_frame(),
+                      plan_body_points=[("x6", (0.0, np.nan, 0.1))])
