@@ -223,8 +223,9 @@ def plan_demonstration(task: str, *, seed: int | np.random.Generator,
     if task == "whiteboard" and st.board_scale_jitter > 0:
         # own stream, so the rest of the plan's variation is drawn as before
         j = st.board_scale_jitter
-        sc.board_scale = float(sc.board_scale
-                               * np.random.default_rng([scene_seed, 8]).uniform(1 - j, 1 + j))
+        fit = float(np.min((np.asarray(sc.board_size) - 0.06) / np.asarray(sc.board_area)))
+        sc.board_scale = float(min(sc.board_scale * np.random.default_rng([scene_seed, 8])
+                                   .uniform(1 - j, 1 + j), fit))  # kept on the board
         sc = sc.validate()
     speed = st.speed * rng.uniform(1 - st.speed_jitter, 1 + st.speed_jitter)
 
