@@ -2,7 +2,13 @@
 (``TeacherStyle.board_scale_jitter``; 0 = every demonstration on the same area).
 
     OPENBLAS_NUM_THREADS=1 python benchmarks/diag_board_coverage.py --seeds 1,2,3 \
-        --scales 0.8,1.0,1.25 --jitter 0,0.25 [--jobs 2]
+        --scales 0.8,1.0,1.25 --jitter 0,0.25 [--h 0.2] [--jobs 2]
+    OPENBLAS_NUM_THREADS=1 python benchmarks/diag_board_coverage.py --teacher-ceiling
+
+``--h`` overrides the whiteboard's Parzen window (s; the default is
+``mmlearn.apps.imitate.PARZEN_H``). ``--teacher-ceiling`` prints instead the coverage of the
+teacher's own zig-zag planned on each area scale (the best a perfectly scaled imitation could
+reach, seeds 1-8).
 
 Prints, per jitter and area scale, each seed's coverage, the demonstrations' own and the
 success (coverage >= 90 % of the demonstrations')."""
@@ -15,8 +21,10 @@ import numpy as np
 
 
 def one(args):
-    jitter, scale, seed = args
+    jitter, scale, seed, h = args
     import mmlearn.apps.imitate as im
+    if h is not None:
+        im.PARZEN_H["whiteboard"] = h
     from mmlearn.diagrams.demonstrations import record_demonstrations
     from mmlearn.models.teacher import TeacherStyle, task_scene
 
@@ -36,11 +44,15 @@ def main():
     ap.add_argument("--scales", default="0.8,1.0,1.25")
     ap.add_argument("--jitter", default="0,0.25")
     ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--h", type=float, default=None)
+    ap.add_argument("--teacher-ceiling", action="store_true")
     a = ap.parse_args()
+    if a.teacher_ceiling:
+        return ceiling([float(s) for s in a.scales.split(",")])
     seeds = [int(s) for s in a.seeds.split(",")]
     scales = [float(s) for s in a.scales.split(",")]
     jit = [float(s) for s in a.jitter.split(",")]
-    todo = [(j, s, k) for j in jit for s in scales for k in seeds]
+    todo = [(j, s, k, a.h) for j in jit for s in scales for k in seeds]
     with ProcessPoolExecutor(a.jobs) as ex:
         res = list(ex.map(one, todo))
     for j in jit:
@@ -50,6 +62,22 @@ def main():
             print(f"jitter {j:g} scale {s:g}: success {sum(r[5] for r in rs)}/{len(rs)} "
                   f"coverage mean {cov.mean():.3f} [{' '.join(f'{c:.2f}' for c in cov)}] "
                   f"demos {np.mean([r[4] for r in rs]):.3f}", flush=True)
+
+
+def ceiling(scales):
+    from mmlearn.apps.imitate import _coverage
+    from mmlearn.models.teacher import TeacherStyle, plan_demonstration, task_scene
+
+    for s in scales:
+        cs = []
+        for seed in range(1, 9):
+            p = plan_demonstration("whiteboard", seed=seed,
+                                   scene=task_scene("whiteboard", board_scale=s),
+                                   style=TeacherStyle(board_scale_jitter=0))
+            x = p.hand_position(np.linspace(0, p.duration, 2000))
+            cs.append(_coverage(x, p.scene.board_corners(), plane_tol=0.03))
+        print(f"teacher's zig-zag on area scale {s:g}: coverage mean {np.mean(cs):.3f} "
+              f"[{' '.join(f'{c:.2f}' for c in cs)}]")
 
 
 if __name__ == "__main__":
