@@ -59,6 +59,11 @@ class TeacherStyle:
         reach_home: rest pose of the hand where the reaches (obstacle tasks) start, m.
         board_standoff: hand distance in front of the board's face while wiping, m.
         strokes: number of zig-zag strokes on the board (even: as many ups as downs).
+        board_scale_jitter: the area inside the board's corner markers is scaled by
+            U(1 - j, 1 + j) per demonstration (dimensionless, in [0, 1)): the teacher marks
+            areas of somewhat different sizes, so that the hand's relation to the nearest
+            corner varies less than to the far ones (the corner constraints' relative
+            precisions, what lets the reproduction scale the zig-zag to another area).
         min_move: shortest duration of one move, s.
     """
 
@@ -75,6 +80,7 @@ class TeacherStyle:
     reach_home: list[float] = field(default_factory=lambda: [0.50, 0.35, 0.45])
     board_standoff: float = 0.01
     strokes: int = 6
+    board_scale_jitter: float = 0.25
     min_move: float = 0.4
 
     def validate(self) -> "TeacherStyle":
@@ -83,7 +89,7 @@ class TeacherStyle:
             v = getattr(self, k)
             if not (math.isfinite(v) and v > 0):
                 raise ValueError(f"TeacherStyle.{k} must be > 0, got {v!r}")
-        for k in ("speed_jitter", "timing_jitter"):
+        for k in ("speed_jitter", "timing_jitter", "board_scale_jitter"):
             v = getattr(self, k)
             if not (math.isfinite(v) and 0 <= v < 1):
                 raise ValueError(f"TeacherStyle.{k} must be in [0, 1), got {v!r}")
@@ -214,6 +220,13 @@ def plan_demonstration(task: str, *, seed: int | np.random.Generator,
     sc = (base.sampled(scene_seed, amplitude=st.placement, table_shift=table_shift)
           if st.placement > 0
           else dataclasses.replace(base)).resolved()
+    if task == "whiteboard" and st.board_scale_jitter > 0:
+        # own stream, so the rest of the plan's variation is drawn as before
+        j = st.board_scale_jitter
+        fit = float(np.min((np.asarray(sc.board_size) - 0.06) / np.asarray(sc.board_area)))
+        sc.board_scale = float(min(sc.board_scale * np.random.default_rng([scene_seed, 8])
+                                   .uniform(1 - j, 1 + j), fit))  # kept on the board
+        sc = sc.validate()
     speed = st.speed * rng.uniform(1 - st.speed_jitter, 1 + st.speed_jitter)
 
     def jit(p, j, n=3):

@@ -325,3 +325,42 @@ def test_app_writes_the_meshcat_recording(tmp_path, capsys):
     page = html.read_text()
     assert page.startswith("<!DOCTYPE html>") and len(page) > 100_000  # scene + animation
     assert "1 demonstration(s) of obstacle" in text and f"written to {html}" in text
+
+
+def test_whiteboard_teacher_varies_the_marked_area_and_the_learner_scales_the_zigzag():
+    """The teacher marks areas of different sizes (board_scale_jitter); learned from 5 Hz
+    samples of such plans, the corner constraints' relative precisions stretch the
+    reproduced zig-zag over a 1.25 times larger area, which a same-size teacher's does not."""
+    from mmlearn.apps.imitate import PARZEN_H, SPONGE_RADIUS, _coverage, _densify
+    from mmlearn.models.imitation import learn_task, reproduce_cartesian
+    from mmlearn.models.imitation_types import Demonstration
+
+    scales = [plan_demonstration("whiteboard", seed=s).scene.board_scale for s in range(6)]
+    j = TeacherStyle().board_scale_jitter
+    assert all(1 - j <= s <= 1 + j for s in scales) and np.ptp(scales) > 0.1
+    assert plan_demonstration("whiteboard", seed=0, style=TeacherStyle(
+        board_scale_jitter=0)).scene.board_scale == 1.0
+    with pytest.raises(ValueError, match="board_scale_jitter"):
+        TeacherStyle(board_scale_jitter=1.0).validate()
+    assert SPONGE_RADIUS > 0
+
+    def learned(jitter):
+        demos = []
+        for s in range(4):
+            p = plan_demonstration("whiteboard", seed=10 + s,
+                                   style=TeacherStyle(board_scale_jitter=jitter))
+            t = np.arange(0.0, p.duration, 0.2)  # the sensor's 5 Hz
+            C = p.scene.board_corners()
+            objs = {f"board_c{k}": np.tile(C[k], (t.size, 1)) for k in range(4)}
+            demos.append(Demonstration(t=t, hand=p.hand_position(t), objects=objs))
+        return learn_task(demos, use_joints=False, h=PARZEN_H["whiteboard"])
+
+    sc = task_scene("whiteboard", board_scale=1.25).sampled(7).resolved()
+    C = sc.board_corners()
+    objs = {f"board_c{k}": C[k] for k in range(4)}
+    cov = {}
+    for jitter in (0.0, 0.25):
+        m = learned(jitter)
+        _, x = reproduce_cartesian(m, np.asarray(TeacherStyle().home), objs)
+        cov[jitter] = _coverage(_densify(x), C, plane_tol=0.03)
+    assert cov[0.25] > cov[0.0] + 0.05, cov
