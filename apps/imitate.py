@@ -283,8 +283,6 @@ def run(*, task: str = "pick_place", demos: int = 4, seed: int = 0, swap_tables:
 
 
 def _eval_pick_place(im, ctx, demos, objs) -> dict:
-    from pydrake.math import RigidTransform  # noqa: F401 - (pose types)
-
     offs = [_final(d.objects["cup"]) - _final(d.objects["table_b"]) for d in demos]
     spot = objs["table_b"] + np.mean(offs, axis=0)
     err = float(np.linalg.norm((objs["cup"] - spot)[:2]))

@@ -22,7 +22,7 @@ def diag(seed: int, swap: bool, demos: int, rcfg: dict | None = None):
 
     from pydrake.systems.analysis import Simulator
 
-    from mmlearn.apps.imitate import MAX_TIME_FACTOR, RELEASE_S, SAMPLE_DT, _final, record_demos
+    from mmlearn.apps.imitate import MAX_TIME_FACTOR, RELEASE_S, _final, record_demos
     from mmlearn.diagrams.imitation import ImitationConfig, MakeImitationDiagram, object_positions
     from mmlearn.models.imitation import learn_task
 

@@ -15,7 +15,6 @@ from mmlearn.models.lasa import (DEVELOPMENT_SHAPES, LASA_SHAPES, MULTI_MODE_SHA
                                  ThesisReproducer, baseline_reproducer, end_error_mm,
                                  evaluate_shape, leave_one_out, load_shape, naive_baseline,
                                  rmse_mm, with_start_marker)
-from mmlearn.models.imitation_types import Demonstration
 
 
 def test_load_shape_is_millimetres_ending_at_the_target(capsys):
