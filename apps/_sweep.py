@@ -390,6 +390,15 @@ def sweep_kwargs(args, *, app: str, out_dir: str | Path = ".") -> dict:
             "ray_address": args.ray_address}
 
 
+
+def apply_sweep_args(cfg, args, *, app: str, out_dir: str | Path = ".") -> None:
+    """Set ``cfg.results``, ``cfg.executor``, ``cfg.jobs`` and ``cfg.ray_address`` of an
+    experiments app's config from its parsed ``add_sweep_args`` flags (checked as in
+    :func:`sweep_kwargs`)."""
+    sw = sweep_kwargs(args, app=app, out_dir=out_dir)
+    cfg.results, cfg.executor, cfg.jobs = sw["results"], sw["executor"], sw["jobs"]
+    cfg.ray_address = sw["ray_address"]
+
 def exit_status(prog: str, res: dict) -> int:
     """An experiments app's exit status from its result (``res["errors"]``: the trials that
     raised, each with a ``"trial"`` name; ``res["sweep"]``: :meth:`SweepResult.summary`): 1

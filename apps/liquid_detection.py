@@ -313,7 +313,7 @@ def _show_one(name: str, *, seed: int, meshcat, html_out) -> None:
 
 
 def main(argv=None) -> int:
-    from mmlearn.apps._sweep import add_sweep_args, exit_status, report_lines, sweep_kwargs
+    from mmlearn.apps._sweep import add_sweep_args, apply_sweep_args, exit_status, report_lines
     from mmlearn.diagrams.liquid_roll import LIQUID_CONTAINERS
 
     ap = ArgumentParser(
@@ -367,9 +367,7 @@ def main(argv=None) -> int:
                                  "simulates nothing")
             lines = report_lines(args.report_only)
         else:
-            sw = sweep_kwargs(args, app="liquid_detection")
-            cfg.results, cfg.executor, cfg.jobs = sw["results"], sw["executor"], sw["jobs"]
-            cfg.ray_address = sw["ray_address"]
+            apply_sweep_args(cfg, args, app="liquid_detection")
             _check(cfg)
     except (UsageError, ValueError) as e:
         return fail(ap.prog, str(e))

@@ -508,7 +508,7 @@ def _show_one(cls: str, *, seed: int, meshcat, html_out) -> dict:
 
 
 def main(argv=None) -> int:
-    from mmlearn.apps._sweep import add_sweep_args, exit_status, report_lines, sweep_kwargs
+    from mmlearn.apps._sweep import add_sweep_args, apply_sweep_args, exit_status, report_lines
     from mmlearn.sdf.tactile_objects import CLASSES
 
     ap = ArgumentParser(
@@ -569,9 +569,7 @@ def main(argv=None) -> int:
                                  "simulates nothing")
             lines = report_lines(args.report_only)
         else:
-            sw = sweep_kwargs(args, app="tactile_recognition")
-            cfg.results, cfg.executor, cfg.jobs = sw["results"], sw["executor"], sw["jobs"]
-            cfg.ray_address = sw["ray_address"]
+            apply_sweep_args(cfg, args, app="tactile_recognition")
             _check(cfg)
     except (UsageError, ValueError) as e:
         return fail(ap.prog, str(e))
