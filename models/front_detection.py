@@ -33,7 +33,9 @@
     7-8 cm too wide, L / sin(15 deg) = 7.7 cm).
     Then the *surface check* (``surface_check``): an in-plane pixel whose in-plane neighbours
     (``surface_window_px`` square) lie on average farther than ``max(surface_distance,
-    surface_distance_per_m2 z^2)`` from the plane becomes unknown. Single pixels scatter by
+    surface_distance_per_m2 z^2)`` from the plane refitted to the in-plane pixels' distances
+    (least squares, affine in the pixel; against the detected plane itself, a plane fitted
+    1-2 deg off lost one side of a 0.5 m sliding panel with its handle) becomes unknown. Single pixels scatter by
     the camera's noise, their mean far less; the edge face of a 19 mm panel seen obliquely lies
     within L of the panel's face (wholly behind it) and widened the door by up to
     thickness x tan(incidence) (measured: 1-2 cm at 50-70 deg, tests/test_front_detection.py).
@@ -541,7 +543,8 @@ def _sats(labels: np.ndarray, lut: np.ndarray):
 
 def _surface_check(lab, S, Lm, win):
     """In place: an in-plane pixel whose in-plane neighbours (a ``win`` x ``win`` square) lie
-    on average farther than ``Lm`` from the plane becomes UNKNOWN. Single pixels of a plane
+    on average farther than ``Lm`` from the plane refitted to the in-plane pixels' distances
+    (not from the detected plane, whose fit may be tilted) becomes UNKNOWN. Single pixels of a plane
     scatter around it by the camera's noise (their mean within a fraction of it); the side
     face of a panel seen around its edge (a door's 19 mm edge) lies within L of the panel's
     face too, but wholly behind it, and would otherwise widen the front by up to
@@ -555,7 +558,21 @@ def _surface_check(lab, S, Lm, win):
         lab.shape[1], x + w + r)
     inp = (m8[y0:y1, x0:x1] > 0).astype(np.float32)
     den = cv2.boxFilter(inp, -1, (win, win), normalize=False)
-    num = cv2.boxFilter(S[y0:y1, x0:x1] * inp, -1, (win, win), normalize=False)
+    # relative to the plane refitted to the in-plane pixels' distances (an affine function
+    # of the pixel, least squares), not to the fitted plane: a plane 1-2 deg off (a sliding
+    # panel 4.6 cm in front of its cabinet's face) departs from one side of a 0.5 m panel by
+    # more than the surface distance and the check removed that half with its handle
+    # (handle regression: 0.154 m)
+    Sb = S[y0:y1, x0:x1]
+    vv, uu = np.nonzero(inp[::4, ::4] > 0)  # every 4th pixel: enough for 3 numbers
+    if len(vv) >= 3:
+        A = np.column_stack([4.0 * uu, 4.0 * vv, np.ones(len(uu))])
+        coef = np.linalg.lstsq(A, Sb[4 * vv, 4 * uu].astype(np.float64), rcond=None)[0]
+        ramp = (np.float32(coef[0]) * np.arange(x1 - x0, dtype=np.float32)[None, :]
+                + np.float32(coef[1]) * np.arange(y1 - y0, dtype=np.float32)[:, None]
+                + np.float32(coef[2]))
+        Sb = Sb - ramp
+    num = cv2.boxFilter(Sb * inp, -1, (win, win), normalize=False)
     bad = (inp > 0) & (np.abs(num) > Lm[y0:y1, x0:x1] * np.maximum(den, np.float32(1.0)))
     lab[y0:y1, x0:x1][bad] = UNKNOWN
 

@@ -291,3 +291,26 @@ def test_side_face_of_a_thick_panel_does_not_widen_it(yaw_deg, seed):
         errs[check] = (m[0].width - DOOR[0], m[1])
     assert abs(errs[True][0]) <= 0.005 and errs[True][1] < 0.006, errs
     assert errs[False][0] >= 0.009 and errs[False][1] > errs[True][1], errs  # the effect
+
+
+def test_surface_check_tolerates_a_tilted_plane_fit_but_removes_a_step():
+    """Handle regression (sliding_door seed 1 gave 0.154 m): the plane fitted to a 0.5 m panel
+    1.7 deg off departs from its sides by ~7 mm; the surface check must keep those pixels
+    (it once removed half the panel with its handle) and still remove a strip 8 mm behind
+    the surrounding surface (the edge face of a panel seen obliquely)."""
+    from mmlearn.models.front_detection import IN_PLANE, UNKNOWN, _surface_check
+    rng = np.random.default_rng(0)
+    H, W = 120, 300
+    S = np.tile(np.linspace(-0.007, 0.007, W, dtype=np.float32), (H, 1))  # tilted fit
+    S += rng.normal(0.0, 0.002, (H, W)).astype(np.float32)
+    S[:, 200:206] += np.float32(0.008)                                   # a 6 px step
+    lab = np.full((H, W), IN_PLANE, np.uint8)
+    Lm = np.full((H, W), 0.003, np.float32)
+    _surface_check(lab, S, Lm, 5)
+    gone = lab == UNKNOWN
+    strip = np.zeros((H, W), bool)
+    strip[10:-10, 200:206] = True
+    ramp = np.zeros((H, W), bool)
+    ramp[10:-10, 10:190] = True
+    assert gone[ramp].mean() < 0.01, gone[ramp].mean()
+    assert gone[strip].mean() > 0.8, gone[strip].mean()
