@@ -318,23 +318,9 @@ def contact_force_trace(cfg, *, object_sdf: str, dt: float = 0.002) -> dict:
     """The normal contact force per finger (N) of one grasp every ``dt`` s, read from the
     plant's hydroelastic contact results (the impact lasts a few ms: the 25 Hz pad force
     would miss it). Returns {"t": (T,) s, "f": (T,) N}."""
-    from pydrake.systems.analysis import Simulator
+    from mmlearn.diagrams.tactile_grasp import simulate_contact_force
 
-    from mmlearn.diagrams.tactile_grasp import MakeTactileGraspDiagram
-
-    d, parts = MakeTactileGraspDiagram(cfg, object_sdf=object_sdf)
-    sim = Simulator(d)
-    sim.Initialize()
-    plant = parts["plant"]
-    pc = plant.GetMyContextFromRoot(sim.get_context())
-    port = plant.get_contact_results_output_port()
-    ts = np.arange(1, int(round(cfg.duration / dt)) + 1) * dt
-    f = np.zeros(len(ts))
-    for k, t in enumerate(ts):
-        sim.AdvanceTo(float(t))
-        cr = port.Eval(pc)
-        f[k] = sum(abs(cr.hydroelastic_contact_info(i).F_Ac_W().translational()[0])
-                   for i in range(cr.num_hydroelastic_contacts())) / 2.0
+    ts, f, _, _ = simulate_contact_force(cfg, object_sdf=object_sdf, dt=dt)
     return {"t": ts, "f": f}
 
 

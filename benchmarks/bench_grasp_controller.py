@@ -8,27 +8,13 @@ contact results at 1 kHz); ``--plot FILE`` draws the force profiles.
 
 import argparse
 
-import numpy as np
-
-from pydrake.systems.analysis import Simulator
-
-from mmlearn.diagrams.tactile_grasp import MakeTactileGraspDiagram, TactileGraspConfig
+from mmlearn.diagrams.tactile_grasp import TactileGraspConfig, simulate_contact_force
 from mmlearn.sdf.tactile import block_sdf
 
 
 def trace(cfg, sdf, t_end):
-    d, parts = MakeTactileGraspDiagram(cfg, object_sdf=sdf)
-    sim = Simulator(d)
-    sim.Initialize()
-    plant = parts["plant"]
-    pc = plant.GetMyContextFromRoot(sim.get_context())
-    F = []
-    for k in range(1, int(round(t_end * 1000)) + 1):
-        sim.AdvanceTo(k * 1e-3)
-        cr = plant.get_contact_results_output_port().Eval(pc)
-        F.append(sum(abs(cr.hydroelastic_contact_info(i).F_Ac_W().translational()[0])
-                     for i in range(cr.num_hydroelastic_contacts())) / 2)
-    return np.arange(1, len(F) + 1) * 1e-3, np.array(F)
+    t, F, _, _ = simulate_contact_force(cfg, object_sdf=sdf, t_end=t_end)
+    return t, F
 
 
 def main():

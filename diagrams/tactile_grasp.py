@@ -209,6 +209,31 @@ def MakeTactileGraspDiagram(config: TactileGraspConfig, *, container: ContainerI
                      "taxel_visualizer": taxel_vis}
 
 
+def simulate_contact_force(config: TactileGraspConfig, *, object_sdf: str,
+                           t_end: float | None = None, dt: float = 1e-3):
+    """Simulate one grasp of ``object_sdf`` and read the normal contact force per finger (N)
+    from the plant's hydroelastic contact results every ``dt`` s up to ``t_end`` s (default
+    ``config.duration``): the impact lasts a few ms, the 25 Hz pad force would miss it.
+
+    Returns ``(t, f, simulator, parts)``: times (T,) s, forces (T,) N, and the simulator and
+    the diagram's parts at ``t_end`` (for reading the sensor afterwards)."""
+    d, parts = MakeTactileGraspDiagram(config, object_sdf=object_sdf)
+    sim = Simulator(d)
+    sim.Initialize()
+    plant = parts["plant"]
+    pc = plant.GetMyContextFromRoot(sim.get_context())
+    port = plant.get_contact_results_output_port()
+    t_end = config.duration if t_end is None else t_end
+    ts = np.arange(1, int(round(t_end / dt)) + 1) * dt
+    f = np.zeros(len(ts))
+    for k, t in enumerate(ts):
+        sim.AdvanceTo(float(t))
+        cr = port.Eval(pc)
+        f[k] = sum(abs(cr.hydroelastic_contact_info(i).F_Ac_W().translational()[0])
+                   for i in range(cr.num_hydroelastic_contacts())) / 2.0
+    return ts, f, sim, parts
+
+
 def simulate_grasp(config: TactileGraspConfig, *, container: ContainerInstance | None = None,
                    object_sdf: str | None = None, meshcat=None,
                    label: str | None = None) -> TactileGrasp:

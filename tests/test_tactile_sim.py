@@ -184,22 +184,10 @@ def test_container_stiffness_follows_state():
 
 # ------------------------------------------------------------------ Drake: sensor + controller
 def _contact_force_trace(cfg, object_sdf, t_end):
-    from pydrake.systems.analysis import Simulator
+    from mmlearn.diagrams.tactile_grasp import simulate_contact_force
 
-    from mmlearn.diagrams.tactile_grasp import MakeTactileGraspDiagram
-
-    d, parts = MakeTactileGraspDiagram(cfg, object_sdf=object_sdf)
-    sim = Simulator(d)
-    sim.Initialize()
-    plant = parts["plant"]
-    pc = plant.GetMyContextFromRoot(sim.get_context())
-    F = []
-    for k in range(1, int(round(t_end * 1000)) + 1):
-        sim.AdvanceTo(k * 1e-3)
-        cr = plant.get_contact_results_output_port().Eval(pc)
-        F.append(sum(abs(cr.hydroelastic_contact_info(i).F_Ac_W().translational()[0])
-                     for i in range(cr.num_hydroelastic_contacts())) / 2)
-    return np.array(F), sim, parts
+    _, F, sim, parts = simulate_contact_force(cfg, object_sdf=object_sdf, t_end=t_end)
+    return F, sim, parts
 
 
 def test_flat_block_pressed_with_known_force_gives_expected_cells():
