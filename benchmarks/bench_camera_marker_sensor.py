@@ -149,6 +149,18 @@ def calibrate(width, n, seed):
           f"(principal_point_shift_px default {cfg.__class__().principal_point_shift_px})")
 
 
+def _score(obs, plant, plant_context, robot, vis, pe, ae) -> None:
+    """Add one frame's visible markers to the per-part counts ``vis`` and the position (m)
+    and angle (deg) error lists ``pe``, ``ae``, against the true marker poses."""
+    for i, p in enumerate(obs.marker_ids):
+        if obs.visible[i]:
+            Xt = plant.GetFrameByName(p + "_marker", robot).CalcPoseInWorld(plant_context)
+            vis[i] += 1
+            pe[i].append(np.linalg.norm(obs.poses[i].translation() - Xt.translation()))
+            ae[i].append(np.degrees((Xt.rotation().inverse() @ obs.poses[i].rotation())
+                                    .ToAngleAxis().angle()))
+
+
 def arm_errors(arm, poses, seed, width):
     from mmlearn.diagrams.body_schema import BodySchemaDiagramConfig, MakeBodySchemaDiagram
     from mmlearn.systems.camera_marker_sensor import CameraMarkerSensorConfig
@@ -173,14 +185,7 @@ def arm_errors(arm, poses, seed, width):
         k += 1
         bs.scene.set_joint_positions(ctx, q)
         obs = sensor.observe(sensor.GetMyContextFromRoot(ctx))
-        pc = plant.GetMyContextFromRoot(ctx)
-        for i, p in enumerate(obs.marker_ids):
-            if obs.visible[i]:
-                Xt = plant.GetFrameByName(p + "_marker", bs.scene.robot).CalcPoseInWorld(pc)
-                vis[i] += 1
-                pe[i].append(np.linalg.norm(obs.poses[i].translation() - Xt.translation()))
-                ae[i].append(np.degrees((Xt.rotation().inverse() @ obs.poses[i].rotation())
-                                        .ToAngleAxis().angle()))
+        _score(obs, plant, plant.GetMyContextFromRoot(ctx), bs.scene.robot, vis, pe, ae)
     dt = (time.perf_counter() - t0) / poses
     print(f"{arm} arm, {len(cam.cameras)} cameras {cam.width}x{cam.height}, {poses} random "
           f"babbling poses, {dt:.2f} s per frame (render + detect, all cameras)")
@@ -237,14 +242,7 @@ def babble_flips(arm, seconds, variants, seed, width):
             # just after the frame at k / rate: the plant is where the images showed it
             sim.AdvanceTo(k / cam.rate_hz + 1e-6)
             obs = bs.diagram.GetOutputPort("observations").Eval(root)
-            pc = plant.GetMyContextFromRoot(root)
-            for i, p in enumerate(obs.marker_ids):
-                if obs.visible[i]:
-                    Xt = plant.GetFrameByName(p + "_marker", bs.scene.robot).CalcPoseInWorld(pc)
-                    vis[i] += 1
-                    pe[i].append(np.linalg.norm(obs.poses[i].translation() - Xt.translation()))
-                    ae[i].append(np.degrees((Xt.rotation().inverse() @ obs.poses[i].rotation())
-                                            .ToAngleAxis().angle()))
+            _score(obs, plant, plant.GetMyContextFromRoot(root), bs.scene.robot, vis, pe, ae)
         for i, p in enumerate(bs.parts):
             e, a = np.array(pe[i]), np.array(ae[i])
             if len(e):
