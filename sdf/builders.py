@@ -75,6 +75,9 @@ class ArmSpec:
     actions: list[str] = field(default_factory=list)
     # joints commanded with the value of another action (e.g. the mirrored finger)
     mimic: dict[str, str] = field(default_factory=dict)
+    # the tool at the tip: "gripper" (fingers among the links), "hook" (added by arm_model)
+    # or "none"
+    tool: str = "none"
 
     @property
     def parts(self) -> list[str]:
@@ -166,7 +169,7 @@ def arm_spec(dof: int | str, *, tool: str = "gripper") -> ArmSpec:
         actions.append("q7")
         mimic["q7_mirror"] = "q7"
     name = f"arm_{dof}dof" + ("" if tool == "gripper" or tool == "none" else f"_{tool}")
-    return ArmSpec(name=name, links=links, actions=actions, mimic=mimic)
+    return ArmSpec(name=name, links=links, actions=actions, mimic=mimic, tool=tool)
 
 
 def _moments(mass: float, shape: str, length: float, radius: float) -> tuple:
@@ -251,9 +254,20 @@ BEND_LINK = {2: "x2", 4: "x3", 7: "x4"}
 
 def arm_sdf(dof: int | str = 7, *, tool: str = "gripper", mobile_base: bool = False,
             model_name: str | None = None, pose=None, failure_joints: bool = False) -> str:
-    """SDFormat text of an arm (optionally on a planar mobile base).
+    """SDFormat text of an arm: :func:`arm_model` of ``arm_spec(dof, tool=tool)`` (see there
+    for the arguments)."""
+    return arm_model(arm_spec(dof, tool=tool), mobile_base=mobile_base, model_name=model_name,
+                     pose=pose, failure_joints=failure_joints).to_string()
 
-    The mobile base adds bodies ``base_x_carriage``, ``base_y_carriage``, ``mobile_base`` on joints
+
+def arm_model(spec: ArmSpec, *, mobile_base: bool = False, model_name: str | None = None,
+              pose=None, failure_joints: bool = False,
+              finger_collision: bool = True) -> SdfModel:
+    """The SDFormat model of the arm ``spec`` (optionally on a planar mobile base); its
+    ``to_string()`` is the SDFormat text, and callers may add bodies first.
+
+    ``finger_collision=False`` leaves the fingers (links with an ``offset``) without collision
+    geometry (visual only). The mobile base adds bodies ``base_x_carriage``, ``base_y_carriage``, ``mobile_base`` on joints
     ``base_x`` (prismatic x), ``base_y`` (prismatic y) and ``base_yaw`` (revolute z),
     all actuated, and welds the arm's x1 on top of it (0.30 m above the floor).
     ``pose`` (x y z roll pitch yaw, m and rad) places the model frame in the world.
@@ -267,7 +281,6 @@ def arm_sdf(dof: int | str = 7, *, tool: str = "gripper", mobile_base: bool = Fa
     chain on the prismatic joint ``tool_length`` (along z, through the massless-ish body
     ``tool_mount``) and the revolute joint ``tool_angle`` (about y).
     """
-    spec = arm_spec(dof, tool=tool)
     bend_link = None
     if failure_joints:
         bend_link = BEND_LINK[int(spec.name.split("_")[1].removesuffix("dof"))]
@@ -311,7 +324,10 @@ def arm_sdf(dof: int | str = 7, *, tool: str = "gripper", mobile_base: bool = Fa
             chain_tip = outer
             chain_tip_z = origin[2] + half
         else:
-            _arm_link(m, lk, origin)
+            link = _arm_link(m, lk, origin)
+            if lk.offset is not None and not finger_collision:
+                for c in link.element.findall("collision"):
+                    link.element.remove(c)
         if parent is None:
             _joint(m, "x1_mount", "fixed", "mobile_base" if mobile_base else "world", lk.name)
         else:
@@ -328,9 +344,9 @@ def arm_sdf(dof: int | str = 7, *, tool: str = "gripper", mobile_base: bool = Fa
                effort=0.0)
         _joint(m, "tool_angle", "revolute", "tool_mount", tname, (0, 1, 0), -math.pi, math.pi,
                effort=0.0)
-    if tool == "hook":
+    if spec.tool == "hook":
         _hook(m, spec.links[-1].name, z)
-    return m.to_string()
+    return m
 
 
 @dataclass

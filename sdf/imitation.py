@@ -41,7 +41,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .builders import ArmSpec, LinkSpec, _arm_link, _joint
+from .builders import ArmSpec, LinkSpec, arm_model
 from .sdf_writer import Box, Cylinder, SdfModel, box_inertia, cylinder_inertia
 
 __all__ = [
@@ -488,7 +488,8 @@ def teacher_spec() -> ArmSpec:
                  color=skin),
     ]
     return ArmSpec(name="teacher", links=links, actions=["q1", "q2", "q3", "q4", "q5", "q6",
-                                                         "q7"], mimic={"q7_mirror": "q7"})
+                                                         "q7"], mimic={"q7_mirror": "q7"},
+                   tool="gripper")
 
 
 def teacher_sdf(*, model_name: str = "teacher", base=(0.0, 0.0)) -> str:
@@ -501,27 +502,8 @@ def teacher_sdf(*, model_name: str = "teacher", base=(0.0, 0.0)) -> str:
     the hand marker from a camera."""
     spec = teacher_spec()
     bx, by = (float(v) for v in base)
-    m = SdfModel(model_name, pose=(bx, by, 0.0, 0.0, 0.0, 0.0))
-    z = 0.0
-    chain_tip, chain_tip_z = None, 0.0
-    for lk in spec.links:
-        if lk.offset is not None:
-            parent = chain_tip.name
-            origin = (lk.offset[0], lk.offset[1], chain_tip_z + lk.offset[2])
-        else:
-            parent = chain_tip.name if chain_tip is not None else None
-            origin = (0.0, 0.0, z)
-            chain_tip, chain_tip_z = lk, z
-            z += lk.length
-        link = _arm_link(m, lk, origin)
-        if lk.offset is not None:  # fingers: visual only, so they never hide the hand marker
-            for c in link.element.findall("collision"):
-                link.element.remove(c)
-        if parent is None:
-            _joint(m, "x1_mount", "fixed", "world", lk.name)
-        else:
-            _joint(m, lk.joint, lk.joint_type, parent, lk.name, lk.axis, lk.lower, lk.upper,
-                   damping=0.5)
+    m = arm_model(spec, model_name=model_name, pose=(bx, by, 0.0, 0.0, 0.0, 0.0),
+                  finger_collision=False)  # visual fingers never hide the hand marker
     x8_z = [o for o in _chain_origins(spec)][-1]
     hand = m.link("hand", pose=(0.0, 0.0, x8_z + TEACHER_TCP_IN_X8[2]))
     hand.inertial(0.01, (1e-6, 1e-6, 1e-6))
