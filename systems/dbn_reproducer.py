@@ -496,9 +496,11 @@ class DbnReproducer(LeafSystem):
                         status[6] += 1
                 else:
                     held_flags = context.get_discrete_state(self._g_held).get_value()
+                    # the measured hand, once per step (held test and offset correction)
+                    hand_meas = (None if q_meas is None or not (
+                        cfg.skip_carried or cfg.held_offset_correction)
+                        else self.forward_kinematics(q_meas))
                     if cfg.skip_carried:
-                        hand_meas = (None if q_meas is None
-                                     else self.forward_kinematics(q_meas))
                         closed = q_to[self._n] < 0.5 * cfg.gripper_open_angle
                         held_flags = self.update_held(ks, hand_meas, objects, held_flags,
                                                       gripper_closed=closed)
@@ -507,8 +509,7 @@ class DbnReproducer(LeafSystem):
                     shift = np.zeros(3)
                     if cfg.held_offset_correction and held and q_meas is not None:
                         prev = context.get_discrete_state(self._g_shift).get_value()
-                        raw = self.held_offset(ks, self.forward_kinematics(q_meas),
-                                               objects, held)
+                        raw = self.held_offset(ks, hand_meas, objects, held)
                         shift = prev + cfg.held_offset_filter * (raw - prev)
                         objects = {n: (x if n in held else x + shift)
                                    for n, x in objects.items()}
