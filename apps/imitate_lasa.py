@@ -4,13 +4,13 @@ score them leave-one-out against a naive baseline.
 Usage::
 
     python -m mmlearn.apps.imitate_lasa --shapes Sshape,Leaf_1|all|development|held-back|multi-mode
-        [--objects target,start] [--h S] [--dt S] [--diagonal] [--gain G]
+        [--objects target,start,frame] [--h S] [--dt S] [--diagonal] [--gain G]
         [--folds 0,1,..] [--json] [--plot FILE.png] [--meshcat] [--html-out FILE.html] [--seed N]
 
 For each shape and each of its 7 demonstrations: learn from the other 6 (the thesis' DBN of
 Gaussian constraints ``r_i = object_i - hand``: the target at the origin and, by default, a
-marker at the pen's start), reproduce incrementally from the held-out demonstration's start
-for its duration, and measure ``rmse_mm`` (root mean square distance from each reproduced
+marker at the pen's start and the target constraint in the drawing's start frame), reproduce
+incrementally from the held-out demonstration's start for its duration, and measure ``rmse_mm`` (root mean square distance from each reproduced
 point to the nearest point of the held-out demonstration, after resampling the reproduction
 on the held-out time stamps) and ``end_error_mm`` (reproduction end to held-out end). The
 naive baseline (mean of the 6 demonstrations shifted to the held-out start with a linearly
@@ -72,7 +72,8 @@ class LasaConfig:
 
     Attributes:
         shapes: shape names (see :data:`mmlearn.models.lasa.LASA_SHAPES`).
-        objects: constraint objects, ``["target"]`` or ``["target", "start"]``.
+        objects: constraint objects: ``"target"`` plus optionally ``"start"`` and ``"frame"``
+            (see :class:`~mmlearn.models.lasa.ThesisReproducer`).
         h: Parzen window width, s.
         dt: period of the learned slices and of the reproduction, s.
         full_covariance: full 2x2 covariances (False: the thesis' diagonal ones).
@@ -85,7 +86,7 @@ class LasaConfig:
     """
 
     shapes: list[str] = field(default_factory=lambda: list(DEVELOPMENT_SHAPES))
-    objects: list[str] = field(default_factory=lambda: ["target", "start"])
+    objects: list[str] = field(default_factory=lambda: ["target", "start", "frame"])
     h: float = 0.02
     dt: float = 0.02
     full_covariance: bool = True
@@ -254,9 +255,11 @@ def main(argv=None) -> int:
     ap.add_argument("--shapes", default="development",
                     help="comma-separated shape names and/or groups: " + ", ".join(SHAPE_GROUPS)
                     + " (default: development)")
-    ap.add_argument("--objects", type=name_list(["target", "start"]), default=["target", "start"],
-                    help="constraint objects: target (the origin) and start (a marker at the pen's "
-                         "start); default target,start")
+    ap.add_argument("--objects", type=name_list(["target", "start", "frame"]),
+                    default=["target", "start", "frame"],
+                    help="constraint objects: target (the origin), start (a marker at the pen's "
+                         "start) and frame (the target constraint in the start frame, needs start); "
+                         "default target,start,frame")
     ap.add_argument("--h", type=pos_float, default=0.02, help="Parzen window width, s (default 0.02)")
     ap.add_argument("--dt", type=pos_float, default=0.02,
                     help="period of the learned slices and of the reproduction, s (default 0.02)")
@@ -285,6 +288,8 @@ def main(argv=None) -> int:
                 raise UsageError(f"--folds: expected comma-separated integers 0..6, got {a.folds!r}")
         if "target" not in a.objects:
             raise UsageError("--objects: must include target")
+        if "frame" in a.objects and "start" not in a.objects:
+            raise UsageError("--objects: frame needs start (the frame points at the start marker)")
         if a.gain > 1:
             raise UsageError(f"--gain: expected a number in (0, 1], got {a.gain}")
         check_out_file("--plot", a.plot)

@@ -57,6 +57,10 @@ __all__ = [
     "naive_baseline",
     "baseline_reproducer",
     "with_start_marker",
+    "start_frame",
+    "to_start_frame",
+    "learn_start_frame",
+    "place_start_frame",
     "ThesisReproducer",
     "FoldResult",
     "ShapeResult",
@@ -232,6 +236,75 @@ def with_start_marker(demo: Demonstration) -> Demonstration:
                          gripper=demo.gripper, joints=demo.joints, meta=dict(demo.meta)).validate()
 
 
+def start_frame(start, target=(0.0, 0.0)) -> np.ndarray:
+    """The 2x2 similarity ``S = |s| R(angle of s)`` of the *start frame* of a 2-D drawing:
+    origin at ``target``, x-axis pointing at ``start``, unit length = the start's distance
+    ``|s| = |start - target|`` (mm). A point with frame coordinates ``u`` is at
+    ``target + S u`` in the world.
+
+    Raises:
+        ValueError: non-finite or non-2-D input, or the start on the target (no direction).
+    """
+    s = np.asarray(start, float).reshape(-1) - np.asarray(target, float).reshape(-1)
+    if s.shape != (2,) or not np.all(np.isfinite(s)):
+        raise ValueError(f"start_frame: start and target must be finite 2-D points, got {start!r}, {target!r}")
+    if np.linalg.norm(s) < 1e-9:
+        raise ValueError("start_frame: the start is on the target; the frame has no direction")
+    return np.array([[s[0], -s[1]], [s[1], s[0]]])
+
+
+def to_start_frame(demo: Demonstration) -> Demonstration:
+    """``demo`` (with the objects ``"target"`` and ``"start"``, see :func:`with_start_marker`)
+    expressed in its own start frame (:func:`start_frame` of its start marker and target at
+    the first frame): ``hand`` becomes ``S^-1 (hand - target)`` (dimensionless, the start at
+    (1, 0)), the one object ``"target"`` is the frame's origin."""
+    if "start" not in demo.objects or "target" not in demo.objects:
+        raise ValueError("to_start_frame: the demonstration needs the objects 'target' and 'start'")
+    tgt = demo.objects["target"][0]
+    S_inv = np.linalg.inv(start_frame(demo.objects["start"][0], tgt))
+    u = (demo.hand - tgt) @ S_inv.T
+    return Demonstration(t=demo.t, hand=u, objects={"target": np.zeros_like(u)},
+                         meta={**demo.meta, "frame": "start"}).validate()
+
+
+def learn_start_frame(aligned: list[Demonstration], *, h: float, full_covariance: bool = True,
+                      min_var: float = 1e-6):
+    """The Parzen-window Gaussians (Eq. 8.10-8.16, :func:`~mmlearn.models.imitation.learn_task`
+    with ``align=False``) of the target constraint ``r = target - hand`` expressed in each
+    demonstration's start frame (:func:`to_start_frame`), on the common time base of the
+    already ``aligned`` demonstrations. ``min_var`` is in mm^2 and is divided by the mean
+    squared start distance (the frame's unit). Returns ``(mean (S, 2), var)`` in frame units."""
+    from .imitation import learn_task
+
+    fr = [to_start_frame(d) for d in aligned]
+    d2 = float(np.mean([np.sum((d.objects["start"][0] - d.objects["target"][0]) ** 2) for d in aligned]))
+    m = learn_task(fr, h=h, use_joints=False, full_covariance=full_covariance, align=False,
+                   min_var=min_var / max(d2, 1e-12))
+    return m.mean["obj:target"], m.var["obj:target"]
+
+
+def place_start_frame(model, frame_mean: np.ndarray, frame_var: np.ndarray, start, target=(0.0, 0.0)):
+    """A copy of ``model`` with the Cartesian constraint ``"obj:frame"`` added: the start-frame
+    Gaussians (:func:`learn_start_frame`) mapped into the world by the held-out drawing's own
+    frame ``S`` (:func:`start_frame` of ``start``): mean ``S mu``, covariance ``S Sigma S^T``
+    (mm, mm^2). Its object ``"frame"`` sits at the target (pass ``objects["frame"] = target``
+    to the reproduction)."""
+    from .imitation_types import TaskModel
+
+    S = start_frame(start, target)
+    mu = frame_mean @ S.T
+    v = np.asarray(frame_var, float)
+    if v.ndim == 2:                          # diagonal variances -> full covariances in the world
+        v = v[:, :, None] * np.eye(2)[None]
+    cov = np.einsum("ij,sjk,lk->sil", S, v, S)
+    mean = dict(model.mean)
+    var = dict(model.var)
+    mean["obj:frame"] = mu
+    var["obj:frame"] = 0.5 * (cov + np.swapaxes(cov, 1, 2))
+    return TaskModel(t=model.t, constraints=list(model.constraints) + ["obj:frame"], mean=mean,
+                     var=var, meta={**model.meta, "start_frame": [float(x) for x in np.ravel(S)]}).validate()
+
+
 @dataclass
 class ThesisReproducer:
     """The thesis' method on LASA: :func:`~mmlearn.models.imitation.learn_task` (derivative-DTW
@@ -241,15 +314,27 @@ class ThesisReproducer:
     constraints' Gaussians, Eq. 8.17-8.24, with a point hand J = I) from the held-out start
     for the held-out duration.
 
-    The objects are ``"target"`` (the origin, the issue's one object) and, by default, also
-    ``"start"`` (:func:`with_start_marker`). With the target alone every reproduction follows
-    the learned mean path from the first step on; with both, the fused Gaussian pulls the hand
-    towards the mean path anchored at its own start early on (where ``r_start`` has a small
-    variance) and towards the mean path anchored at the target later (where ``r_target`` has),
-    the thesis' precision weighting doing the blending.
+    The objects (constraints) are
+
+    * ``"target"``: the origin, the issue's one object, ``r = target - hand`` in the world;
+    * ``"start"``: a marker left at the pen's start (:func:`with_start_marker`),
+      ``r = start - hand`` in the world;
+    * ``"frame"`` (an extension, not in the thesis): the target constraint expressed in the
+      drawing's *start frame* (:func:`start_frame`: origin at the target, x-axis towards the
+      start, unit = the start's distance), learned from each training demonstration in its own
+      frame (:func:`learn_start_frame`) and mapped into the world with the held-out start's
+      frame (:func:`place_start_frame`): it carries the shape's rotation and size with the
+      start, where the world constraints cannot. It needs ``"start"``.
+
+    With the target alone every reproduction follows the learned mean path from the first
+    step on; with more objects the fused Gaussian (the thesis' product, precision weighted)
+    takes each constraint where its learned variance is small: ``r_start`` early on,
+    ``r_target`` near the end, ``r_frame`` where the demonstrations differ mostly by a
+    rotation or scaling about the target.
 
     Attributes:
-        objects: the constraint objects, ``("target",)`` or ``("target", "start")``.
+        objects: the constraint objects: ``"target"`` and optionally ``"start"`` and
+            ``"frame"`` (``"frame"`` only with ``"start"``).
         h: Parzen window width, s. The thesis' 0.2 s (5 Hz tasks of ~20 s) over-smooths the
             2-7 s LASA shapes and biases the last slice away from the target; default 0.02 s.
         dt: period of the aligned time base, of the model's slices and of the reproduction, s.
@@ -258,7 +343,7 @@ class ThesisReproducer:
         align_features: ``learn_task``'s DTW features (``"both"``, ``"derivative"``, ``"position"``).
     """
 
-    objects: tuple = ("target", "start")
+    objects: tuple = ("target", "start", "frame")
     h: float = 0.02
     dt: float = 0.02
     full_covariance: bool = True
@@ -268,9 +353,11 @@ class ThesisReproducer:
 
     def __post_init__(self):
         self.objects = tuple(self.objects)
-        bad = [o for o in self.objects if o not in ("target", "start")]
-        if not self.objects or bad or "target" not in self.objects:
-            raise ValueError(f"objects must be ('target',) or ('target', 'start'), got {self.objects}")
+        bad = [o for o in self.objects if o not in ("target", "start", "frame")]
+        if not self.objects or bad or "target" not in self.objects or len(set(self.objects)) != len(self.objects):
+            raise ValueError(f"objects must be 'target' plus optionally 'start' and 'frame', got {self.objects}")
+        if "frame" in self.objects and "start" not in self.objects:
+            raise ValueError(f"objects: 'frame' needs 'start' (the frame points at the start), got {self.objects}")
         for k in ("h", "dt"):
             v = getattr(self, k)
             if not (np.isfinite(v) and v > 0):
@@ -278,25 +365,34 @@ class ThesisReproducer:
         if not (0 < self.gain <= 1):
             raise ValueError(f"gain must be in (0, 1], got {self.gain!r}")
 
-    def learn(self, train: list[Demonstration]):
-        """The learned :class:`~mmlearn.models.imitation_types.TaskModel`."""
-        from .imitation import learn_task
+    def learn(self, train: list[Demonstration], start=None):
+        """The learned :class:`~mmlearn.models.imitation_types.TaskModel`. With ``"frame"``
+        among the objects and a ``start`` ``(2,)`` (mm) given, its ``"obj:frame"`` constraint
+        is placed at that start (:func:`place_start_frame`); without ``start`` the model holds
+        the world constraints only."""
+        from .imitation import align_demonstrations, learn_task
 
         if "start" in self.objects:
             train = [with_start_marker(d) for d in train]
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # e.g. "a single demonstration" (documented)
-            return learn_task(train, h=self.h, dt=self.dt, use_joints=False,
-                              full_covariance=self.full_covariance,
-                              align_features=self.align_features)
+            aligned = align_demonstrations(train, dt=self.dt, features=self.align_features)
+            model = learn_task(aligned, h=self.h, use_joints=False, align=False,
+                               full_covariance=self.full_covariance)
+            if "frame" in self.objects and start is not None:
+                fm, fv = learn_start_frame(aligned, h=self.h, full_covariance=self.full_covariance)
+                model = place_start_frame(model, fm, fv, start, aligned[0].objects["target"][0])
+        return model
 
     def __call__(self, train: list[Demonstration], held: Demonstration) -> tuple[np.ndarray, np.ndarray]:
         from .imitation import reproduce_cartesian
 
-        model = self.learn(train)
+        model = self.learn(train, start=held.hand[0])
         objects = {"target": held.objects["target"][0]}
         if "start" in self.objects:
             objects["start"] = held.hand[0]
+        if "frame" in self.objects:
+            objects["frame"] = held.objects["target"][0]
         t, x = reproduce_cartesian(model, held.hand[0], objects, duration=held.duration,
                                    dt=self.dt, gain=self.gain)
         return np.asarray(t, float), np.asarray(x, float)
