@@ -11,8 +11,9 @@ Usage::
 Methods (every one learns from the 6 training demonstrations of a fold and starts at the held-
 out demonstration's start; the reproductions are resampled on the held-out time stamps):
 
-* ``thesis``: :class:`mmlearn.models.lasa.ThesisReproducer` (defaults: target + start-marker
-  constraints, h 0.02 s, dt 0.02 s, full covariance).
+* ``thesis``: :class:`mmlearn.models.lasa.ThesisReproducer` (defaults: target, start-marker
+  and start-frame constraints, h 0.02 s, dt 0.02 s, full covariance).
+* ``target_start``: the same without the start-frame constraint (objects target, start).
 * ``baseline``: :func:`mmlearn.models.lasa.naive_baseline`.
 * ``dmp``: ``movement_primitives.dmp.DMP`` (Ijspeert et al. 2013 formulation), fitted to each
   training demonstration on a normalised time 0..1 with ``--weights`` basis functions per
@@ -98,7 +99,7 @@ def main(argv=None) -> int:
     ap.add_argument("--shapes", default="all", help="comma-separated names, or all (default)")
     ap.add_argument("--folds", default=None, help="held-out indices 0..6 (default all)")
     ap.add_argument("--weights", type=int, default=20, help="DMP/ProMP basis functions per dimension")
-    ap.add_argument("--methods", default="thesis,baseline,dmp,promp")
+    ap.add_argument("--methods", default="thesis,target_start,baseline,dmp,promp")
     ap.add_argument("--json", default=None, help="also write the results to this JSON file")
     a = ap.parse_args(argv)
     shapes = list(LASA_SHAPES) if a.shapes == "all" else [s.strip() for s in a.shapes.split(",")]
@@ -106,7 +107,9 @@ def main(argv=None) -> int:
     if bad:
         ap.error(f"unknown shapes {bad}")
     folds = None if a.folds is None else [int(x) for x in a.folds.split(",")]
-    makers = {"thesis": lambda: ThesisReproducer(), "baseline": lambda: baseline_reproducer,
+    makers = {"thesis": lambda: ThesisReproducer(),
+              "target_start": lambda: ThesisReproducer(objects=("target", "start")),
+              "baseline": lambda: baseline_reproducer,
               "dmp": lambda: DmpReproducer(n_weights=a.weights),
               "promp": lambda: PrompReproducer(n_weights=a.weights)}
     methods = [m.strip() for m in a.methods.split(",")]
