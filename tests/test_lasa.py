@@ -169,6 +169,7 @@ def test_app_bad_input(tmp_path, capsys):
     bad_usage(main, ["--folds", "7"], capsys, "--folds")
     bad_usage(main, ["--objects", "start"], capsys, "--objects")
     bad_usage(main, ["--objects", "target,cup"], capsys, "--objects", "'cup'")
+    bad_usage(main, ["--objects", "target,frame"], capsys, "--objects", "frame needs start")
     bad_usage(main, ["--gain", "2"], capsys, "--gain")
     bad_usage(main, ["--h", "nan"], capsys, "--h")
     bad_usage(main, ["--plot", str(tmp_path / "missing" / "x.png")], capsys, "--plot", "does not exist")
