@@ -14,6 +14,11 @@ every frame (the thesis' Cartesian constraint is then ``r = target - hand``, Eq.
 Units stay millimetres (``meta["units"] = "mm"``): the learner only needs consistent units,
 and every metric here is in mm.
 
+The method (:class:`ThesisReproducer`) adds a marker at the pen's start (:func:`with_start_marker`)
+and, as an extension of the thesis, the target constraint expressed in each drawing's start
+frame (:func:`start_frame`, :func:`learn_start_frame`, :func:`place_start_frame`): origin at
+the target, x-axis towards the start, unit = the start's distance.
+
 Evaluation (:func:`evaluate_shape`): for each of the 7 demonstrations, learn from the other 6,
 reproduce from the held-out demonstration's start for its duration, and measure
 
