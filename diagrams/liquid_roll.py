@@ -85,8 +85,13 @@ class LiquidRollConfig:
         roll_amplitude: roll angle amplitude, rad.
         roll_hz: roll frequency, Hz (thesis: about 0.6 Hz).
         roll_cycles: number of roll cycles.
-        reversal_time: duration of each reversal of the roll (constant deceleration), s
-            (0: abrupt, the roll rate flips within one PD response).
+        roll_profile: "sine" (default: a wrist's smooth roll, ``A sin(2 pi f t)`` with its
+            amplitude faded in and out over ``ramp_time``: continuous acceleration, bounded
+            jerk) or "triangle" (constant roll rate with reversals of ``reversal_time``: the
+            earlier model, kept to show where its spikes came from).
+        ramp_time: fade-in and fade-out of the sine's amplitude (quintic smoothstep), s.
+        reversal_time: "triangle" only: duration of each reversal of the roll (constant
+            deceleration), s (0: abrupt, the roll rate flips within one PD response).
         roll_axis_height: height of the roll axis above the pad centres, m.
         roll_kp, roll_kd: roll joint PD gains, N m/rad and N m s/rad.
         lift_kp, lift_kd: lift joint PD gains, N/m and N s/m.
@@ -110,6 +115,8 @@ class LiquidRollConfig:
     roll_amplitude: float = 0.7
     roll_hz: float = 0.6
     roll_cycles: float = 2.0
+    roll_profile: str = "sine"
+    ramp_time: float = 0.6
     reversal_time: float = 0.0
     roll_axis_height: float = 0.12
     roll_kp: float = 200.0
@@ -131,8 +138,11 @@ class LiquidRollConfig:
             if not (isinstance(v, (int, float)) and np.isfinite(v) and v > 0):
                 raise ValueError(f"LiquidRollConfig.{k}: expected a finite number > 0, got "
                                  f"{v!r}")
-        for k in ("lift", "roll_amplitude", "roll_axis_height", "reversal_time", "roll_kd", "lift_kd",
-                  "taxel_noise", "wrist_noise"):
+        if self.roll_profile not in ("sine", "triangle"):
+            raise ValueError(f"LiquidRollConfig.roll_profile: expected 'sine' or 'triangle', "
+                             f"got {self.roll_profile!r}")
+        for k in ("lift", "roll_amplitude", "roll_axis_height", "reversal_time", "ramp_time",
+                  "roll_kd", "lift_kd", "taxel_noise", "wrist_noise"):
             v = getattr(self, k)
             if not (isinstance(v, (int, float)) and np.isfinite(v) and v >= 0):
                 raise ValueError(f"LiquidRollConfig.{k}: expected a finite number >= 0, got "
@@ -151,6 +161,66 @@ class LiquidRollConfig:
 
 
 def roll_trajectory(c: LiquidRollConfig) -> PiecewisePolynomial:
+    """The roll angle (rad) over time for ``c.roll_profile`` (:func:`sine_roll_trajectory`
+    or :func:`triangle_roll_trajectory`)."""
+    if c.roll_profile == "sine":
+        return sine_roll_trajectory(c)
+    return triangle_roll_trajectory(c)
+
+
+def _smoothstep5(u):
+    """Quintic smoothstep on [0, 1] and its first two derivatives (0 and 1 at the ends with
+    zero first and second derivatives)."""
+    u = np.clip(u, 0.0, 1.0)
+    return (u**3 * (10 - 15 * u + 6 * u**2), 30 * u**2 * (1 - u)**2,
+            60 * u * (1 - u) * (1 - 2 * u))
+
+
+def sine_roll_angle(c: LiquidRollConfig, t):
+    """The smooth roll (rad, rad/s, rad/s^2) at times ``t`` (s): ``A e(t) sin(2 pi f (t -
+    t_roll))`` during the roll, 0 outside it, with the envelope ``e`` rising from 0 to 1 over
+    the first ``ramp_time`` s and falling back over the last (quintic smoothstep), so angle,
+    rate and acceleration are continuous everywhere (a wrist's motion, no jerk impulse)."""
+    t = np.asarray(t, float)
+    T = c.roll_cycles / c.roll_hz
+    tau = t - c.t_roll
+    w = 2 * np.pi * c.roll_hz
+    r = max(min(c.ramp_time, T / 2), 1e-9)
+    a0, a1, a2 = _smoothstep5(tau / r)
+    b0, b1, b2 = _smoothstep5((T - tau) / r)
+    e, de, dde = a0 * b0, a1 * b0 / r - a0 * b1 / r, (a2 * b0 - 2 * a1 * b1 + a0 * b2) / r**2
+    inside = (tau >= 0) & (tau <= T)
+    sn, cs = np.sin(w * tau), np.cos(w * tau)
+    q = c.roll_amplitude * e * sn
+    qd = c.roll_amplitude * (de * sn + e * w * cs)
+    qdd = c.roll_amplitude * (dde * sn + 2 * de * w * cs - e * w * w * sn)
+    return q * inside, qd * inside, qdd * inside
+
+
+def sine_roll_trajectory(c: LiquidRollConfig, *, knot_dt: float = 0.005) -> PiecewisePolynomial:
+    """:func:`sine_roll_angle` as a piecewise quintic through knots every ``knot_dt`` s
+    (exact angle, rate and acceleration at the knots: continuous acceleration)."""
+    T = c.roll_cycles / c.roll_hz
+    n = max(int(np.ceil(T / knot_dt)), 4)
+    ts = np.concatenate([[0.0], c.t_roll + np.linspace(0.0, T, n + 1), [c.duration + 1.0]])
+    q, qd, qdd = sine_roll_angle(c, ts)
+    breaks, polys = [], []
+    from pydrake.polynomial import Polynomial
+
+    for k in range(len(ts) - 1):
+        h = ts[k + 1] - ts[k]
+        # quintic Hermite on [0, h] in the local variable s
+        p0, v0, a0 = q[k], qd[k], qdd[k]
+        p1, v1, a1 = q[k + 1], qd[k + 1], qdd[k + 1]
+        M = np.array([[h**3, h**4, h**5], [3 * h**2, 4 * h**3, 5 * h**4],
+                      [6 * h, 12 * h**2, 20 * h**3]])
+        rhs = np.array([p1 - p0 - v0 * h - a0 * h**2 / 2, v1 - v0 - a0 * h, a1 - a0])
+        c3, c4, c5 = np.linalg.solve(M, rhs)
+        polys.append([Polynomial([p0, v0, a0 / 2, c3, c4, c5])])
+    return PiecewisePolynomial(polys, list(ts))
+
+
+def triangle_roll_trajectory(c: LiquidRollConfig) -> PiecewisePolynomial:
     """The roll angle (rad) over time: 0 until ``t_roll``, then a triangle wave of
     amplitude ``roll_amplitude`` and frequency ``roll_hz`` (starting towards +angle; constant
     roll rate, each reversal a constant deceleration over ``reversal_time`` s peaking at the
