@@ -57,7 +57,9 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import LogVectorOutput, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
-from mmlearn.models.containers import CONTAINER_CLASSES, ContainerInstance, sample_container
+from mmlearn.models.containers import (CONTAINER_CLASSES, RHO_WATER, ContainerInstance,
+                                       sample_container)
+from mmlearn.models.liquid import first_slosh_mode
 from mmlearn.models.tactile_pad import PAD_PR2
 from mmlearn.sdf.tactile import GripperGeometry, container_sdf, gripper_sdf, pad_z_of
 from mmlearn.systems.finger_hold import FingerPositionHold
@@ -95,9 +97,13 @@ class LiquidRollConfig:
         roll_axis_height: height of the roll axis above the pad centres, m.
         roll_kp, roll_kd: roll joint PD gains, N m/rad and N m s/rad.
         lift_kp, lift_kd: lift joint PD gains, N/m and N s/m.
-        time_step: plant time step, s.
+        time_step: plant time step, s (2 ms: the features within 3 % of 1 ms, twice as
+            fast; 4 ms changed them by 20 %).
         sensor_rate: taxel sampling rate, Hz (PR2: 24 Hz).
-        taxel_noise: taxel noise, fraction of saturation.
+        taxel_noise: taxel noise, fraction of saturation (1e-4 = 1.4 mN per cell: the
+            high-passed noise alone then gives a feature of ~0.001 N, the floor of the empty
+            containers in the thesis' Table 7.4, 0.000-0.008 N; the grasp experiments'
+            0.003 gives 0.027 N, above the thesis' half-full Odwalla response, 0.011 N).
         wrist_noise: wrist force noise per axis, N.
         seed: noise seed.
         gripper: gripper dimensions.
@@ -123,9 +129,9 @@ class LiquidRollConfig:
     roll_kd: float = 2.0
     lift_kp: float = 2.0e4
     lift_kd: float = 300.0
-    time_step: float = 1e-3
+    time_step: float = 2e-3
     sensor_rate: float = 24.0
-    taxel_noise: float = 0.003
+    taxel_noise: float = 1e-4
     wrist_noise: float = 0.05
     seed: int = 0
     gripper: GripperGeometry = field(default_factory=GripperGeometry)
@@ -426,6 +432,11 @@ LIQUID_CONTAINERS = {
 }
 
 
+#: Kinematic viscosity of the liquid in each container class, m^2/s (water and soda 1e-6,
+#: orange juice ~2e-6, smoothie ~5e-6 at room temperature).
+LIQUID_VISCOSITY = {"odwalla": 2.0e-6, "naked": 5.0e-6, "water": 1.0e-6, "can": 1.0e-6}
+
+
 def dummy_instance(rng: np.random.Generator, *, mass: float | None = None) -> ContainerInstance:
     """The heavy rigid dummy: an Odwalla-sized rigid cylinder (stiff walls, nothing inside)
     of ``mass`` kg (default: drawn uniformly in 0.2-0.3 kg, about a half-full container)."""
@@ -452,7 +463,18 @@ def make_instance(label: str, rng: np.random.Generator) -> ContainerInstance:
     # The squeeze model lumps the liquid's added mass (the column pushed into the neck)
     # into each wall; for rolling, the walls carry only their own mass, so the bodies of the
     # plant add up to the container's true mass (shell + liquid).
-    return replace(inst, wall_mass=CONTAINER_CLASSES[cls].wall_mass)
+    inst = replace(inst, wall_mass=CONTAINER_CLASSES[cls].wall_mass)
+    if fill is None:
+        return inst
+    # the liquid's first sloshing mode with its viscous damping and the cap as a barrier
+    # (mmlearn.models.liquid.first_slosh_mode)
+    vol = CONTAINER_CLASSES[cls].volume
+    h_eq = vol / (np.pi * inst.radius**2)
+    mode = first_slosh_mode(radius=inst.radius, depth=inst.fill * h_eq,
+                            liquid_mass=RHO_WATER * inst.fill * vol, container_height=h_eq,
+                            viscosity=LIQUID_VISCOSITY[cls])
+    return replace(inst, slosh_mass=mode.mass, slosh_k=mode.stiffness, slosh_c=mode.damping,
+                   slosh_travel=mode.barrier)
 
 
 def liquid_roll_trial(*, seed: int, container: str, offset_sd: float = 0.001,
