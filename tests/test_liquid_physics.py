@@ -1,0 +1,72 @@
+"""Liquid detection physics (thesis Sec. 7.3): the smooth wrist roll and the sloshing model."""
+
+import numpy as np
+import pytest
+
+from mmlearn.diagrams.liquid_roll import (LiquidRollConfig, make_instance, roll_trajectory,
+                                          sine_roll_angle)
+from mmlearn.models.liquid import first_slosh_mode
+
+
+def test_sine_roll_is_smooth_and_matches_its_trajectory():
+    c = LiquidRollConfig()
+    t = np.arange(0.0, c.duration, 1e-3)
+    q, qd, qdd = sine_roll_angle(c, t)
+    assert np.abs(q).max() == pytest.approx(c.roll_amplitude, rel=1e-3)
+    assert np.all(q[t < c.t_roll] == 0) and np.all(q[t > c.t_roll + 2 / c.roll_hz] == 0)
+    # continuous angle, rate and acceleration: no step anywhere (the triangle's reversals
+    # flip the rate by 2 * 3.4 rad/s within one step)
+    for x in (q, qd, qdd):
+        assert np.abs(np.diff(x)).max() < 0.05 * max(np.abs(x).max(), 1.0)
+    # the rate and acceleration are the angle's derivatives
+    np.testing.assert_allclose(np.gradient(q, t)[5:-5], qd[5:-5], atol=2e-3)
+    np.testing.assert_allclose(np.gradient(qd, t)[5:-5], qdd[5:-5], atol=0.05)
+    tr = roll_trajectory(c)
+    ts = t[::37]
+    np.testing.assert_allclose([tr.value(x)[0, 0] for x in ts], q[::37], atol=1e-6)
+    np.testing.assert_allclose([tr.EvalDerivative(x, 1)[0, 0] for x in ts], qd[::37],
+                               atol=1e-3)
+    tri = roll_trajectory(LiquidRollConfig(roll_profile="triangle"))
+    rate = np.array([tri.EvalDerivative(x, 1)[0, 0] for x in t])
+    assert np.abs(np.diff(rate)).max() > 1.0  # the old profile: abrupt reversals
+    with pytest.raises(ValueError, match="roll_profile"):
+        LiquidRollConfig(roll_profile="square")
+
+
+def test_first_slosh_mode_numbers():
+    # half-full Odwalla-like cylinder: R = 36 mm, 450 ml
+    R, V = 0.036, 0.45e-3
+    H = V / (np.pi * R**2)
+    half = first_slosh_mode(radius=R, depth=H / 2, liquid_mass=1000 * V / 2,
+                            container_height=H)
+    w2 = 9.81 * 1.841 / R * np.tanh(1.841 * H / 2 / R)
+    assert half.omega == pytest.approx(np.sqrt(w2))
+    assert half.omega / (2 * np.pi) == pytest.approx(3.55, abs=0.01)
+    assert half.mass / (1000 * V / 2) == pytest.approx(0.294, abs=0.002)
+    assert half.zeta == pytest.approx(0.0056, abs=3e-4)  # water, boundary-layer damping
+    assert half.stiffness == pytest.approx(half.mass * half.omega**2)
+    assert half.damping == pytest.approx(2 * half.zeta * half.mass * half.omega)
+    assert half.length == pytest.approx(9.81 / half.omega**2)
+    # a 0.7 rad tilt moves the pendulum by L1 sin(0.7): inside the barrier when half full,
+    # beyond it when nearly full (the liquid hits the cap)
+    full = first_slosh_mode(radius=R, depth=0.93 * H, liquid_mass=930 * V,
+                            container_height=H)
+    assert half.length * np.sin(0.7) < half.barrier
+    assert full.length * np.sin(0.7) > full.barrier
+    assert full.mass < half.mass * 1.1  # the nearly full liquid mostly moves as a body
+    thick = first_slosh_mode(radius=R, depth=H / 2, liquid_mass=0.225, container_height=H,
+                             viscosity=4e-6)
+    assert thick.zeta == pytest.approx(2 * half.zeta)  # zeta ~ sqrt(viscosity)
+    for kw in ({"depth": 0.0}, {"depth": H}, {"viscosity": float("nan")}):
+        args = dict(radius=R, depth=H / 2, liquid_mass=0.2, container_height=H) | kw
+        with pytest.raises(ValueError):
+            first_slosh_mode(**args)
+
+
+def test_instances_use_the_slosh_mode():
+    inst = make_instance("odwalla_half", np.random.default_rng(0))
+    assert np.sqrt(inst.slosh_k / inst.slosh_mass) / (2 * np.pi) == pytest.approx(3.55,
+                                                                                  abs=0.05)
+    assert 0 < inst.slosh_travel <= inst.radius
+    assert make_instance("dummy", np.random.default_rng(0)).slosh_mass == 0
+    assert make_instance("odwalla_empty", np.random.default_rng(0)).slosh_mass == 0
