@@ -144,9 +144,13 @@ class LiquidRollConfig:
             if not (isinstance(v, (int, float)) and np.isfinite(v) and v > 0):
                 raise ValueError(f"LiquidRollConfig.{k}: expected a finite number > 0, got "
                                  f"{v!r}")
-        if self.roll_profile not in ("sine", "triangle"):
-            raise ValueError(f"LiquidRollConfig.roll_profile: expected 'sine' or 'triangle', "
-                             f"got {self.roll_profile!r}")
+        if self.roll_profile not in ("sine", "sweep", "triangle"):
+            raise ValueError(f"LiquidRollConfig.roll_profile: expected 'sine', 'sweep' or "
+                             f"'triangle', got {self.roll_profile!r}")
+        if self.roll_profile == "sweep" and not (
+                0 < self.reversal_time < 0.5 / self.roll_hz):
+            raise ValueError(f"LiquidRollConfig.reversal_time: the sweep needs 0 < reversal "
+                             f"time < half a roll period, got {self.reversal_time!r}")
         for k in ("lift", "roll_amplitude", "roll_axis_height", "reversal_time", "ramp_time",
                   "roll_kd", "lift_kd", "taxel_noise", "wrist_noise"):
             v = getattr(self, k)
@@ -161,9 +165,15 @@ class LiquidRollConfig:
                              f"high-pass, got {self.sensor_rate!r}")
 
     @property
+    def roll_duration(self) -> float:
+        """Duration of the roll, s (the sweep's start and stop add ``reversal_time``)."""
+        extra = self.reversal_time if self.roll_profile == "sweep" else 0.0
+        return self.roll_cycles / self.roll_hz + extra
+
+    @property
     def duration(self) -> float:
         """Simulated time, s: the end of the roll plus 0.1 s."""
-        return self.t_roll + self.roll_cycles / self.roll_hz + 0.1
+        return self.t_roll + self.roll_duration + 0.1
 
 
 def roll_trajectory(c: LiquidRollConfig) -> PiecewisePolynomial:
@@ -171,6 +181,8 @@ def roll_trajectory(c: LiquidRollConfig) -> PiecewisePolynomial:
     or :func:`triangle_roll_trajectory`)."""
     if c.roll_profile == "sine":
         return sine_roll_trajectory(c)
+    if c.roll_profile == "sweep":
+        return sweep_roll_trajectory(c)
     return triangle_roll_trajectory(c)
 
 
@@ -203,19 +215,91 @@ def sine_roll_angle(c: LiquidRollConfig, t):
     return q * inside, qd * inside, qdd * inside
 
 
-def sine_roll_trajectory(c: LiquidRollConfig, *, knot_dt: float = 0.005) -> PiecewisePolynomial:
-    """:func:`sine_roll_angle` as a piecewise quintic through knots every ``knot_dt`` s
-    (exact angle, rate and acceleration at the knots: continuous acceleration)."""
-    T = c.roll_cycles / c.roll_hz
-    n = max(int(np.ceil(T / knot_dt)), 4)
-    ts = np.concatenate([[0.0], c.t_roll + np.linspace(0.0, T, n + 1), [c.duration + 1.0]])
-    q, qd, qdd = sine_roll_angle(c, ts)
-    breaks, polys = [], []
+def sweep_roll_angle(c: LiquidRollConfig, t):
+    """The "sweep" roll (rad, rad/s, rad/s^2) at times ``t`` (s): side to side at a constant
+    rate ``w`` (rad/s) with smooth reversals: the rate turns from +w to -w as ``w cos(pi s /
+    tau)`` over ``tau = reversal_time`` s (acceleration continuous, peak ``pi w / tau``),
+    starts from and returns to rest as ``w (1 - cos(pi s / tau)) / 2``; the reversals peak
+    at +-``roll_amplitude``, half a roll period apart, so ``w = 2 A / (T / 2 - tau + 2 tau /
+    pi)`` with ``T = 1 / roll_hz``. The roll lasts ``roll_cycles T + tau``."""
+    t = np.asarray(t, float)
+    A, T, tau = c.roll_amplitude, 1.0 / c.roll_hz, c.reversal_time
+    n_rev = int(round(2 * c.roll_cycles))
+    w = 2 * A / (T / 2 - tau + 2 * tau / np.pi)
+    end = c.roll_cycles * T + tau
+    s = t - c.t_roll
+    rate = np.zeros_like(s)
+    acc = np.zeros_like(s)
+    sign = np.ones_like(s)
+    centres = T / 4 + tau / 2 + np.arange(n_rev) * T / 2
+    for k, tc in enumerate(centres):  # after reversal k the rate is (-1)^(k+1) w
+        sign = np.where(s >= tc, (-1.0) ** (k + 1), sign)
+    inside = (s >= 0) & (s <= end)
+    rate = np.where(inside, sign * w, 0.0)
+    # reversals
+    for k, tc in enumerate(centres):
+        u = s - (tc - tau / 2)
+        m = (u >= 0) & (u <= tau) & (tau > 0)
+        before = (-1.0) ** k
+        rate = np.where(m, before * w * np.cos(np.pi * u / max(tau, 1e-12)), rate)
+        acc = np.where(m, -before * w * np.pi / max(tau, 1e-12) *
+                       np.sin(np.pi * u / max(tau, 1e-12)), acc)
+    # start and stop
+    if tau > 0:
+        m = (s >= 0) & (s <= tau)
+        rate = np.where(m, w * (1 - np.cos(np.pi * s / tau)) / 2, rate)
+        acc = np.where(m, w * np.pi / (2 * tau) * np.sin(np.pi * s / tau), acc)
+        last = (-1.0) ** n_rev  # direction after the last reversal
+        u = s - (end - tau)
+        m = (u >= 0) & (u <= tau)
+        rate = np.where(m, last * w * (1 + np.cos(np.pi * u / tau)) / 2, rate)
+        acc = np.where(m, -last * w * np.pi / (2 * tau) * np.sin(np.pi * u / tau), acc)
+    # the angle: the rate integrated exactly per piece on a fine grid
+    grid = np.linspace(0.0, end, int(np.ceil(end / 2e-4)) + 1)
+    g_rate = sweep_roll_angle_rate(c, grid, w=w, centres=centres, end=end)
+    g_q = np.concatenate([[0.0], np.cumsum((g_rate[1:] + g_rate[:-1]) / 2 * np.diff(grid))])
+    q = np.interp(s, grid, g_q, left=0.0, right=0.0)
+    done = (s < 0) | (s >= end)
+    return (np.where(done, 0.0, q), np.where(done, 0.0, rate), np.where(done, 0.0, acc))
+
+
+def sweep_roll_angle_rate(c: LiquidRollConfig, s, *, w, centres, end):
+    """The sweep's rate (rad/s) at times ``s`` after ``t_roll`` (helper of
+    :func:`sweep_roll_angle`)."""
+    tau = c.reversal_time
+    sign = np.ones_like(s)
+    for k, tc in enumerate(centres):
+        sign = np.where(s >= tc, (-1.0) ** (k + 1), sign)
+    rate = np.where((s >= 0) & (s <= end), sign * w, 0.0)
+    if tau <= 0:
+        return rate
+    for k, tc in enumerate(centres):
+        u = s - (tc - tau / 2)
+        m = (u >= 0) & (u <= tau)
+        rate = np.where(m, (-1.0) ** k * w * np.cos(np.pi * u / tau), rate)
+    m = (s >= 0) & (s <= tau)
+    rate = np.where(m, w * (1 - np.cos(np.pi * s / tau)) / 2, rate)
+    last = (-1.0) ** len(centres)
+    u = s - (end - tau)
+    m = (u >= 0) & (u <= tau)
+    rate = np.where(m, last * w * (1 + np.cos(np.pi * u / tau)) / 2, rate)
+    return np.where((s < 0) | (s >= end), 0.0, rate)
+
+
+def _quintic_trajectory(c: LiquidRollConfig, fn, *, knot_dt: float = 0.005
+                        ) -> PiecewisePolynomial:
+    """The roll ``fn(c, t) -> (q, qd, qdd)`` as a piecewise quintic through knots every
+    ``knot_dt`` s (exact angle, rate and acceleration at the knots: continuous
+    acceleration)."""
     from pydrake.polynomial import Polynomial
 
+    T = c.roll_duration
+    n = max(int(np.ceil(T / knot_dt)), 4)
+    ts = np.concatenate([[0.0], c.t_roll + np.linspace(0.0, T, n + 1), [c.duration + 1.0]])
+    q, qd, qdd = fn(c, ts)
+    polys = []
     for k in range(len(ts) - 1):
         h = ts[k + 1] - ts[k]
-        # quintic Hermite on [0, h] in the local variable s
         p0, v0, a0 = q[k], qd[k], qdd[k]
         p1, v1, a1 = q[k + 1], qd[k + 1], qdd[k + 1]
         M = np.array([[h**3, h**4, h**5], [3 * h**2, 4 * h**3, 5 * h**4],
@@ -224,6 +308,17 @@ def sine_roll_trajectory(c: LiquidRollConfig, *, knot_dt: float = 0.005) -> Piec
         c3, c4, c5 = np.linalg.solve(M, rhs)
         polys.append([Polynomial([p0, v0, a0 / 2, c3, c4, c5])])
     return PiecewisePolynomial(polys, list(ts))
+
+
+def sine_roll_trajectory(c: LiquidRollConfig, *, knot_dt: float = 0.005) -> PiecewisePolynomial:
+    """:func:`sine_roll_angle` as a piecewise quintic (continuous acceleration)."""
+    return _quintic_trajectory(c, sine_roll_angle, knot_dt=knot_dt)
+
+
+def sweep_roll_trajectory(c: LiquidRollConfig, *, knot_dt: float = 0.005
+                          ) -> PiecewisePolynomial:
+    """:func:`sweep_roll_angle` as a piecewise quintic (continuous acceleration)."""
+    return _quintic_trajectory(c, sweep_roll_angle, knot_dt=knot_dt)
 
 
 def triangle_roll_trajectory(c: LiquidRollConfig) -> PiecewisePolynomial:
@@ -410,7 +505,7 @@ def simulate_roll(config: LiquidRollConfig, *, container: ContainerInstance,
     c = config
     return {"t": t, "taxels": logs[0].data()[:, :n].T, "pad_force": logs[1].data()[:, :n].T,
             "wrist_force": logs[2].data()[:, :n].T, "roll": logs[3].data()[0, :n],
-            "roll_window": (c.t_roll, c.t_roll + c.roll_cycles / c.roll_hz),
+            "roll_window": (c.t_roll, c.t_roll + c.roll_duration),
             "weight_window": (c.t_lift + c.lift_time + 0.1, c.t_roll)}
 
 
