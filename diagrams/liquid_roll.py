@@ -121,9 +121,9 @@ class LiquidRollConfig:
     roll_amplitude: float = 0.7
     roll_hz: float = 0.6
     roll_cycles: float = 2.0
-    roll_profile: str = "sine"
+    roll_profile: str = "sweep"
     ramp_time: float = 0.6
-    reversal_time: float = 0.0
+    reversal_time: float = 0.25
     roll_axis_height: float = 0.12
     roll_kp: float = 200.0
     roll_kd: float = 2.0

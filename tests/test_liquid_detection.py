@@ -35,7 +35,8 @@ def test_finger_hold_passes_then_latches():
 
 @pytest.mark.parametrize("tau", [0.0, 0.1])
 def test_roll_trajectory_is_a_triangle_wave(tau):
-    c = LiquidRollConfig(roll_amplitude=0.5, roll_hz=0.5, roll_cycles=1.0, reversal_time=tau)
+    c = LiquidRollConfig(roll_amplitude=0.5, roll_hz=0.5, roll_cycles=1.0, reversal_time=tau,
+                         roll_profile="triangle")
     tr = roll_trajectory(c)
     q = lambda t: tr.value(t)[0, 0]  # noqa: E731
     assert q(c.t_roll - 0.2) == pytest.approx(0.0, abs=1e-9)

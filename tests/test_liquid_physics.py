@@ -9,7 +9,7 @@ from mmlearn.models.liquid import first_slosh_mode
 
 
 def test_sine_roll_is_smooth_and_matches_its_trajectory():
-    c = LiquidRollConfig()
+    c = LiquidRollConfig(roll_profile="sine")
     t = np.arange(0.0, c.duration, 1e-3)
     q, qd, qdd = sine_roll_angle(c, t)
     assert np.abs(q).max() == pytest.approx(c.roll_amplitude, rel=1e-3)
@@ -26,7 +26,7 @@ def test_sine_roll_is_smooth_and_matches_its_trajectory():
     np.testing.assert_allclose([tr.value(x)[0, 0] for x in ts], q[::37], atol=1e-6)
     np.testing.assert_allclose([tr.EvalDerivative(x, 1)[0, 0] for x in ts], qd[::37],
                                atol=1e-3)
-    tri = roll_trajectory(LiquidRollConfig(roll_profile="triangle"))
+    tri = roll_trajectory(LiquidRollConfig(roll_profile="triangle", reversal_time=0.0))
     rate = np.array([tri.EvalDerivative(x, 1)[0, 0] for x in t])
     assert np.abs(np.diff(rate)).max() > 1.0  # the old profile: abrupt reversals
     with pytest.raises(ValueError, match="roll_profile"):
@@ -70,3 +70,25 @@ def test_instances_use_the_slosh_mode():
     assert 0 < inst.slosh_travel <= inst.radius
     assert make_instance("dummy", np.random.default_rng(0)).slosh_mass == 0
     assert make_instance("odwalla_empty", np.random.default_rng(0)).slosh_mass == 0
+
+
+@pytest.mark.parametrize("tau", [0.1, 0.25])
+def test_sweep_roll_reaches_the_amplitude_with_continuous_acceleration(tau):
+    from mmlearn.diagrams.liquid_roll import sweep_roll_angle
+
+    c = LiquidRollConfig(roll_profile="sweep", reversal_time=tau)
+    t = np.arange(0.0, c.duration, 5e-4)
+    q, qd, qdd = sweep_roll_angle(c, t)
+    assert q.max() == pytest.approx(c.roll_amplitude, abs=1e-4)
+    assert q.min() == pytest.approx(-c.roll_amplitude, abs=1e-4)
+    assert abs(q[-1]) < 1e-9 and abs(q[t > c.t_roll + c.roll_duration - 1e-3]).max() < 1e-4
+    w = 2 * c.roll_amplitude / (1 / c.roll_hz / 2 - tau + 2 * tau / np.pi)
+    assert np.abs(qd).max() == pytest.approx(w, rel=1e-6)
+    assert np.abs(qdd).max() == pytest.approx(np.pi * w / tau, rel=1e-3)
+    # continuous: the largest step between 0.5 ms samples is one jerk-limited increment
+    assert np.abs(np.diff(qdd)).max() < np.pi**2 * w / tau**2 * 5e-4 * 1.01
+    np.testing.assert_allclose(np.gradient(q, t)[3:-3], qd[3:-3], atol=2e-3)
+    tr = roll_trajectory(c)
+    np.testing.assert_allclose([tr.value(x)[0, 0] for x in t[::97]], q[::97], atol=1e-6)
+    with pytest.raises(ValueError, match="reversal_time"):
+        LiquidRollConfig(roll_profile="sweep", reversal_time=0.0)
