@@ -8,10 +8,11 @@ Usage::
 
 Each trial (:func:`mmlearn.diagrams.liquid_roll.liquid_roll_trial`) grasps a random instance
 of a container standing on a table with the PR2-like gripper (Eq. 7.8 switching controller,
-then a finger position hold), lifts it and rolls it with the wrist at 0.6 Hz. The liquid is
-a sloshing mass on a spring-damper inside the container
-(:mod:`mmlearn.models.containers`); nothing but the simulated taxels (24 Hz) and the wrist
-force sensor is recorded. Features (:mod:`mmlearn.models.liquid`): each taxel through a
+then a finger position hold), lifts it and rolls it side to side with the wrist at 0.6 Hz
+(+-0.7 rad, constant rate with smooth 0.25 s reversals). The liquid is its first sloshing
+mode, a mass on a spring-damper with the cap as a barrier
+(:func:`mmlearn.models.liquid.first_slosh_mode`); nothing but the simulated taxels (24 Hz,
+noise 1e-4 of saturation) and the wrist force sensor is recorded. Features (:mod:`mmlearn.models.liquid`): each taxel through a
 first-order 5 Hz Butterworth high-pass, the Euclidean norm over the 30 taxels (Eq. 7.9) and
 its standard deviation over the roll (Eq. 7.11); with ``--with-weight`` also the weight from
 the wrist force sensor (the mean vertical force while the lifted container is held still,

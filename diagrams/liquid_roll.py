@@ -1,12 +1,13 @@
 """The liquid-detection scene (thesis Sec. 7.3): grasp a container, lift it, roll it.
 
-``MakeLiquidRollDiagram(config, *, container)`` builds a discrete MultibodyPlant (1 ms,
+``MakeLiquidRollDiagram(config, *, container)`` builds a discrete MultibodyPlant (2 ms,
 hydroelastic contact) with
 
 * a table (a box, top at z = 0) and a **free** container of :mod:`mmlearn.models.containers`
   standing on it (its base gets six point-contact feet on the rim of its bottom; the walls on springs and
-  the sloshing liquid -- a mass on a prismatic spring-damper in the base, see
-  :mod:`mmlearn.models.containers` -- come from :func:`mmlearn.sdf.tactile.container_sdf`);
+  the sloshing liquid -- the first sloshing mode's mass on a prismatic spring-damper in the
+  base, its travel limited by the cap, :func:`mmlearn.models.liquid.first_slosh_mode` --
+  come from :func:`mmlearn.sdf.tactile.container_sdf`);
 * the parallel gripper of :func:`mmlearn.sdf.tactile.gripper_sdf` (PR2-like pads of 5 x 3
   taxels each, 24 Hz as the PR2's arrays) welded to a two-joint wrist: a PD-driven lift
   joint (prismatic along z, m) and a PD-driven roll joint (revolute about y, rad) whose axis
@@ -25,14 +26,22 @@ hydroelastic contact) with
   roll link and the palm.
 
 Timeline (:class:`LiquidRollConfig`): close and squeeze, latch at ``t_latch``, lift by
-``lift`` m over ``[t_lift, t_lift + lift_time]``, then roll +-``roll_amplitude`` rad
-(a triangle wave: constant roll rate, reversals abrupt by default or blended over
-``reversal_time``) at ``roll_hz`` for ``roll_cycles`` cycles from ``t_roll``. The grasp must
-have settled by ``t_latch``.
+``lift`` m over ``[t_lift, t_lift + lift_time]``, then roll +-``roll_amplitude`` rad at
+``roll_hz`` for ``roll_cycles`` cycles from ``t_roll``. The grasp must have settled by
+``t_latch``. Roll profiles (``roll_profile``): "sweep" (default: side to side at a constant
+rate with smooth 0.25 s reversals, continuous acceleration, peak 23 rad/s^2 -- a wrist's
+acceleration-limited motion), "sine" (a pure sinusoid faded in and out) and "triangle"
+(constant rate, reversals abrupt or blended with constant deceleration: acceleration steps).
 
-Finding (see the README's Liquid detection section): the high-passed taxel spikes at the
-reversals come from the inertia of the held mass on the position-held fingers; a rigid
-weight of the same mass in the same shell responds as much as a sloshing liquid.
+Findings (README, Liquid detection): the "triangle" roll's reversals flip the roll rate
+within one PD response; the resulting jerk made every held body, the rigid dummy included,
+spike in the high-passed taxels (dummy feature 0.0109 vs 0.0086 for a half-full bottle).
+With continuous acceleration those spikes are gone. Under the "sine" roll the liquid's first
+sloshing mode (3.5 Hz, damping ratio ~0.006) is hardly excited and every container's feature
+is the 0.6 Hz load shift that leaks through the first-order high-pass (~10 % at 0.6 Hz), in
+proportion to its weight; under the "sweep" each reversal excites that mode and the liquid
+rings at 3.5 Hz (passed at ~50 %) between the reversals, which the rigid dummy and the empty
+containers cannot do.
 
 :func:`liquid_roll_trial` runs one trial for the sweep runner and returns only what the
 sensors recorded (taxels at 24 Hz, the wrist force) plus the labels.

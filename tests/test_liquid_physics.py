@@ -92,3 +92,23 @@ def test_sweep_roll_reaches_the_amplitude_with_continuous_acceleration(tau):
     np.testing.assert_allclose([tr.value(x)[0, 0] for x in t[::97]], q[::97], atol=1e-6)
     with pytest.raises(ValueError, match="reversal_time"):
         LiquidRollConfig(roll_profile="sweep", reversal_time=0.0)
+
+
+def _roll_feature(label, **cfg):
+    from mmlearn.diagrams.liquid_roll import simulate_roll
+    from mmlearn.models.liquid import liquid_feature
+
+    inst = make_instance(label, np.random.default_rng([4, 17]))
+    c = LiquidRollConfig(grasp_height=inst.height / 2, roll_cycles=1.0, seed=4, **cfg)
+    r = simulate_roll(c, container=inst)
+    m = (r["t"] >= r["roll_window"][0]) & (r["t"] <= r["roll_window"][1])
+    return liquid_feature(r["taxels"][m])
+
+
+def test_abrupt_reversals_made_the_rigid_dummy_respond():
+    """The earlier roll (constant rate, reversals within one PD response) jerks the held
+    rigid dummy: its high-passed taxels spike at every reversal. The smooth sweep (0.25 s
+    reversals, continuous acceleration) removes most of that response."""
+    abrupt = _roll_feature("dummy", roll_profile="triangle", reversal_time=0.0)
+    smooth = _roll_feature("dummy")
+    assert smooth < 0.25 * abrupt, (smooth, abrupt)
