@@ -3,7 +3,8 @@
 Usage::
 
     python -m mmlearn.apps.liquid_detection [--with-weight] [--containers N | --names A,B]
-        [--trials N] [--no-dummy] [--roll-cycles C] [--plot FILE] [--results FILE]
+        [--trials N] [--no-dummy] [--roll-cycles C] [--roll-profile sweep|sine|triangle]
+        [--plot FILE] [--results FILE]
         [--jobs J] [--report-only RESULTS.jsonl] [--meshcat] [--html-out FILE] --seed S [--json]
 
 Each trial (:func:`mmlearn.diagrams.liquid_roll.liquid_roll_trial`) grasps a random instance
@@ -71,6 +72,8 @@ class LiquidDetectionConfig:
         dummy: also roll the heavy rigid dummy (``trials`` times).
         with_weight: the weight (N) as the second feature.
         roll_cycles: roll cycles per trial.
+        roll_profile: "sweep" (constant rate, smooth 0.25 s reversals), "sine" or "triangle"
+            (abrupt reversals, the earlier roll).
         folds: cross-validation folds (at most the smaller class' count).
         seed: seed of the trials and the folds.
         plot: image file or None.
@@ -82,6 +85,7 @@ class LiquidDetectionConfig:
     dummy: bool = True
     with_weight: bool = False
     roll_cycles: float = 2.0
+    roll_profile: str = "sweep"
     folds: int = 10
     seed: int = 0
     plot: str | None = None
@@ -105,6 +109,9 @@ def _check(c: LiquidDetectionConfig) -> None:
         raise ValueError("containers: a container is named twice")
     if not (isinstance(c.trials, int) and c.trials >= 2):
         raise ValueError(f"trials: expected at least 2 per container, got {c.trials!r}")
+    if c.roll_profile not in ("sweep", "sine", "triangle"):
+        raise ValueError(f"roll_profile: expected sweep, sine or triangle, got "
+                         f"{c.roll_profile!r}")
     if not (np.isfinite(c.roll_cycles) and c.roll_cycles >= 0.5):
         raise ValueError(f"roll_cycles: expected >= 0.5, got {c.roll_cycles!r}")
     liq = [LIQUID_CONTAINERS[n][1] is not None for n in c.containers]
@@ -123,7 +130,9 @@ def _specs(c: LiquidDetectionConfig):
             specs.append(TrialSpec(
                 fn="mmlearn.diagrams.liquid_roll:liquid_roll_trial",
                 seed=int(c.seed) * 1_000_003 + k * 1000 + ci,
-                params={"container": name, "roll_cycles": float(c.roll_cycles)},
+                params={"container": name, "roll_cycles": float(c.roll_cycles),
+                        **({} if c.roll_profile == "sweep"
+                           else {"roll_profile": c.roll_profile})},
                 label=f"{name}/{k}"))
     return specs
 
@@ -202,7 +211,8 @@ def report(lines: list[dict], c: LiquidDetectionConfig) -> dict:
     out["n_trials"] = len(rr)
     out["errors"] = errors
     out["settings"] = {"containers": list(c.containers), "trials": c.trials,
-                       "dummy": c.dummy, "roll_cycles": c.roll_cycles, "seed": c.seed,
+                       "dummy": c.dummy, "roll_cycles": c.roll_cycles,
+                       "roll_profile": c.roll_profile, "seed": c.seed,
                        "classifier": "tree (entropy)", "highpass": "Butterworth order 1, 5 Hz",
                        "taxel_rate_hz": 24.0, "roll_hz": 0.6,
                        "feature_unit": "normalised taxel pressure (1 = saturation)",
@@ -336,6 +346,9 @@ def main(argv=None) -> int:
     ap.add_argument("--no-dummy", action="store_true", help="leave out the rigid dummy")
     ap.add_argument("--roll-cycles", type=pos_float, default=2.0,
                     help="roll cycles per trial at 0.6 Hz (default 2)")
+    ap.add_argument("--roll-profile", choices=("sweep", "sine", "triangle"), default="sweep",
+                    help="the wrist's roll: sweep (default: constant rate, smooth 0.25 s "
+                         "reversals), sine, or triangle (abrupt reversals, the earlier roll)")
     ap.add_argument("--folds", type=pos_int, default=10, help="CV folds (default 10)")
     ap.add_argument("--seed", type=nonneg_int, default=0, help="seed of the trials and folds")
     ap.add_argument("--plot", metavar="FILE", default=None,
@@ -358,7 +371,8 @@ def main(argv=None) -> int:
             names = tuple(list(LIQUID_CONTAINERS)[:args.containers])
         cfg = LiquidDetectionConfig(
             containers=names, trials=args.trials, dummy=not args.no_dummy,
-            with_weight=args.with_weight, roll_cycles=args.roll_cycles, folds=args.folds,
+            with_weight=args.with_weight, roll_cycles=args.roll_cycles,
+            roll_profile=args.roll_profile, folds=args.folds,
             seed=args.seed, plot=args.plot, progress=args.progress)
         check_out_file("--plot", args.plot)
         check_out_file("--html-out", args.html_out)

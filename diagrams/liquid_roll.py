@@ -582,10 +582,11 @@ def make_instance(label: str, rng: np.random.Generator) -> ContainerInstance:
 
 
 def liquid_roll_trial(*, seed: int, container: str, offset_sd: float = 0.001,
-                      roll_cycles: float = 2.0) -> dict:
+                      roll_cycles: float = 2.0, roll_profile: str = "sweep") -> dict:
     """One trial for :mod:`mmlearn.apps._sweep` (a pure function of its arguments): a random
     instance of ``container`` (see :func:`make_instance`), placed with lateral offset
-    ~ N(0, ``offset_sd``) m, grasped, lifted and rolled. Returns a JSON-able record with the
+    ~ N(0, ``offset_sd``) m, grasped, lifted and rolled (``roll_profile``: see
+    :class:`LiquidRollConfig`; the triangle with abrupt reversals). Returns a JSON-able record with the
     recorded series (``t``, ``taxels``, ``wrist_force``, ``roll``), the windows, the labels
     ``container`` / ``liquid`` and the instance's parameters (for reference only)."""
     rng = np.random.default_rng([int(seed), 17])
@@ -594,7 +595,8 @@ def liquid_roll_trial(*, seed: int, container: str, offset_sd: float = 0.001,
     # the pad centres at the middle of the wall patches (half the container's height, which
     # the robot sees)
     cfg = LiquidRollConfig(offset=offset, roll_cycles=roll_cycles, seed=int(seed),
-                           grasp_height=inst.height / 2)
+                           grasp_height=inst.height / 2, roll_profile=roll_profile,
+                           **({"reversal_time": 0.0} if roll_profile == "triangle" else {}))
     r = simulate_roll(cfg, container=inst)
     return {"t": r["t"].tolist(), "taxels": r["taxels"].tolist(),
             "wrist_force": r["wrist_force"].tolist(), "roll": r["roll"].tolist(),
