@@ -96,18 +96,23 @@ class LiquidRollConfig:
         roll_amplitude: roll angle amplitude, rad.
         roll_hz: roll frequency, Hz (thesis: about 0.6 Hz).
         roll_cycles: number of roll cycles.
-        roll_profile: "sine" (default: a wrist's smooth roll, ``A sin(2 pi f t)`` with its
-            amplitude faded in and out over ``ramp_time``: continuous acceleration, bounded
-            jerk) or "triangle" (constant roll rate with reversals of ``reversal_time``: the
-            earlier model, kept to show where its spikes came from).
-        ramp_time: fade-in and fade-out of the sine's amplitude (quintic smoothstep), s.
-        reversal_time: "triangle" only: duration of each reversal of the roll (constant
-            deceleration), s (0: abrupt, the roll rate flips within one PD response).
+        roll_profile: "sweep" (default: side to side at a constant rate with smooth
+            reversals of ``reversal_time`` s whose rate turns as a cosine: continuous
+            acceleration, bounded jerk, see :func:`sweep_roll_angle`), "sine" (``A sin(2 pi f
+            t)`` with its amplitude faded in and out over ``ramp_time``) or "triangle"
+            (constant rate, reversals abrupt or blended over ``reversal_time`` with a constant
+            deceleration, i.e. acceleration steps: the earlier roll, kept to show where its
+            spikes came from).
+        ramp_time: "sine" only: fade-in and fade-out of the amplitude (quintic smoothstep), s.
+        reversal_time: duration of each reversal, s ("sweep": 0 < tau < half a period,
+            default 0.25 s, peak acceleration pi w / tau = 23 rad/s^2; "triangle": 0 =
+            abrupt, the roll rate flips within one PD response).
         roll_axis_height: height of the roll axis above the pad centres, m.
         roll_kp, roll_kd: roll joint PD gains, N m/rad and N m s/rad.
         lift_kp, lift_kd: lift joint PD gains, N/m and N s/m.
-        time_step: plant time step, s (2 ms: the features within 3 % of 1 ms, twice as
-            fast; 4 ms changed them by 20 %).
+        time_step: plant time step, s (2 ms: twice as fast as 1 ms; the feature of one
+            half-full Odwalla trial differed by 3 % under the sine roll and by 14 % under
+            the sweep; 4 ms changed it by 20 % under the sine).
         sensor_rate: taxel sampling rate, Hz (PR2: 24 Hz).
         taxel_noise: taxel noise, fraction of saturation (1e-4 = 1.4 mN per cell: the
             high-passed noise alone then gives a feature of ~0.001 N, the floor of the empty
