@@ -176,6 +176,10 @@ def report(lines: list[dict], c: LiquidDetectionConfig) -> dict:
     from mmlearn.models.liquid import evaluate_liquid, liquid_features, liquid_table
     from mmlearn.models.tactile_state import make_classifier
 
+    # the trials in the order of their specs' seeds, not of their completion (parallel jobs
+    # finish in any order), so that the folds and the rates do not depend on the run
+    lines = sorted(lines, key=lambda ln: (ln.get("spec", {}).get("seed", 0),
+                                          str(ln.get("key"))))
     errors = [{"trial": ln["spec"].get("label") or ln["key"], "error": ln["error"]}
               for ln in lines if ln.get("error")]
     recs = [ln["record"] for ln in lines if not ln.get("error") and ln.get("record")]
