@@ -242,33 +242,21 @@ def sweep_roll_angle(c: LiquidRollConfig, t):
     w = 2 * A / (T / 2 - tau + 2 * tau / np.pi)
     end = c.roll_cycles * T + tau
     s = t - c.t_roll
-    rate = np.zeros_like(s)
+    centres = T / 4 + tau / 2 + np.arange(n_rev) * T / 2  # reversal k: +-w -> -+w
+    rate = sweep_roll_angle_rate(c, s, w=w, centres=centres, end=end)
     acc = np.zeros_like(s)
-    sign = np.ones_like(s)
-    centres = T / 4 + tau / 2 + np.arange(n_rev) * T / 2
-    for k, tc in enumerate(centres):  # after reversal k the rate is (-1)^(k+1) w
-        sign = np.where(s >= tc, (-1.0) ** (k + 1), sign)
-    inside = (s >= 0) & (s <= end)
-    rate = np.where(inside, sign * w, 0.0)
-    # reversals
-    for k, tc in enumerate(centres):
-        u = s - (tc - tau / 2)
-        m = (u >= 0) & (u <= tau) & (tau > 0)
-        before = (-1.0) ** k
-        rate = np.where(m, before * w * np.cos(np.pi * u / max(tau, 1e-12)), rate)
-        acc = np.where(m, -before * w * np.pi / max(tau, 1e-12) *
-                       np.sin(np.pi * u / max(tau, 1e-12)), acc)
-    # start and stop
     if tau > 0:
+        for k, tc in enumerate(centres):
+            u = s - (tc - tau / 2)
+            m = (u >= 0) & (u <= tau)
+            acc = np.where(m, -(-1.0) ** k * w * np.pi / tau * np.sin(np.pi * u / tau), acc)
         m = (s >= 0) & (s <= tau)
-        rate = np.where(m, w * (1 - np.cos(np.pi * s / tau)) / 2, rate)
         acc = np.where(m, w * np.pi / (2 * tau) * np.sin(np.pi * s / tau), acc)
-        last = (-1.0) ** n_rev  # direction after the last reversal
         u = s - (end - tau)
         m = (u >= 0) & (u <= tau)
-        rate = np.where(m, last * w * (1 + np.cos(np.pi * u / tau)) / 2, rate)
-        acc = np.where(m, -last * w * np.pi / (2 * tau) * np.sin(np.pi * u / tau), acc)
-    # the angle: the rate integrated exactly per piece on a fine grid
+        acc = np.where(m, -(-1.0) ** n_rev * w * np.pi / (2 * tau) * np.sin(np.pi * u / tau),
+                       acc)
+    # the angle: the rate integrated (trapezoid) on a 0.2 ms grid
     grid = np.linspace(0.0, end, int(np.ceil(end / 2e-4)) + 1)
     g_rate = sweep_roll_angle_rate(c, grid, w=w, centres=centres, end=end)
     g_q = np.concatenate([[0.0], np.cumsum((g_rate[1:] + g_rate[:-1]) / 2 * np.diff(grid))])
