@@ -3,15 +3,17 @@
 Usage::
 
     python -m mmlearn.apps.liquid_detection [--with-weight] [--containers N | --names A,B]
-        [--trials N] [--no-dummy] [--roll-cycles C] [--plot FILE] [--results FILE]
+        [--trials N] [--no-dummy] [--roll-cycles C] [--roll-profile sweep|sine|triangle]
+        [--plot FILE] [--results FILE]
         [--jobs J] [--report-only RESULTS.jsonl] [--meshcat] [--html-out FILE] --seed S [--json]
 
 Each trial (:func:`mmlearn.diagrams.liquid_roll.liquid_roll_trial`) grasps a random instance
 of a container standing on a table with the PR2-like gripper (Eq. 7.8 switching controller,
-then a finger position hold), lifts it and rolls it with the wrist at 0.6 Hz. The liquid is
-a sloshing mass on a spring-damper inside the container
-(:mod:`mmlearn.models.containers`); nothing but the simulated taxels (24 Hz) and the wrist
-force sensor is recorded. Features (:mod:`mmlearn.models.liquid`): each taxel through a
+then a finger position hold), lifts it and rolls it side to side with the wrist at 0.6 Hz
+(+-0.7 rad, constant rate with smooth 0.25 s reversals). The liquid is its first sloshing
+mode, a mass on a spring-damper with the cap as a barrier
+(:func:`mmlearn.models.liquid.first_slosh_mode`); nothing but the simulated taxels (24 Hz,
+noise 1e-4 of saturation) and the wrist force sensor is recorded. Features (:mod:`mmlearn.models.liquid`): each taxel through a
 first-order 5 Hz Butterworth high-pass, the Euclidean norm over the 30 taxels (Eq. 7.9) and
 its standard deviation over the roll (Eq. 7.11); with ``--with-weight`` also the weight from
 the wrist force sensor (the mean vertical force while the lifted container is held still,
@@ -70,6 +72,8 @@ class LiquidDetectionConfig:
         dummy: also roll the heavy rigid dummy (``trials`` times).
         with_weight: the weight (N) as the second feature.
         roll_cycles: roll cycles per trial.
+        roll_profile: "sweep" (constant rate, smooth 0.25 s reversals), "sine" or "triangle"
+            (abrupt reversals, the earlier roll).
         folds: cross-validation folds (at most the smaller class' count).
         seed: seed of the trials and the folds.
         plot: image file or None.
@@ -81,6 +85,7 @@ class LiquidDetectionConfig:
     dummy: bool = True
     with_weight: bool = False
     roll_cycles: float = 2.0
+    roll_profile: str = "sweep"
     folds: int = 10
     seed: int = 0
     plot: str | None = None
@@ -104,6 +109,9 @@ def _check(c: LiquidDetectionConfig) -> None:
         raise ValueError("containers: a container is named twice")
     if not (isinstance(c.trials, int) and c.trials >= 2):
         raise ValueError(f"trials: expected at least 2 per container, got {c.trials!r}")
+    if c.roll_profile not in ("sweep", "sine", "triangle"):
+        raise ValueError(f"roll_profile: expected sweep, sine or triangle, got "
+                         f"{c.roll_profile!r}")
     if not (np.isfinite(c.roll_cycles) and c.roll_cycles >= 0.5):
         raise ValueError(f"roll_cycles: expected >= 0.5, got {c.roll_cycles!r}")
     liq = [LIQUID_CONTAINERS[n][1] is not None for n in c.containers]
@@ -122,7 +130,9 @@ def _specs(c: LiquidDetectionConfig):
             specs.append(TrialSpec(
                 fn="mmlearn.diagrams.liquid_roll:liquid_roll_trial",
                 seed=int(c.seed) * 1_000_003 + k * 1000 + ci,
-                params={"container": name, "roll_cycles": float(c.roll_cycles)},
+                params={"container": name, "roll_cycles": float(c.roll_cycles),
+                        **({} if c.roll_profile == "sweep"
+                           else {"roll_profile": c.roll_profile})},
                 label=f"{name}/{k}"))
     return specs
 
@@ -166,6 +176,10 @@ def report(lines: list[dict], c: LiquidDetectionConfig) -> dict:
     from mmlearn.models.liquid import evaluate_liquid, liquid_features, liquid_table
     from mmlearn.models.tactile_state import make_classifier
 
+    # the trials in the order of their specs' seeds, not of their completion (parallel jobs
+    # finish in any order), so that the folds and the rates do not depend on the run
+    lines = sorted(lines, key=lambda ln: (ln.get("spec", {}).get("seed", 0),
+                                          str(ln.get("key"))))
     errors = [{"trial": ln["spec"].get("label") or ln["key"], "error": ln["error"]}
               for ln in lines if ln.get("error")]
     recs = [ln["record"] for ln in lines if not ln.get("error") and ln.get("record")]
@@ -201,7 +215,8 @@ def report(lines: list[dict], c: LiquidDetectionConfig) -> dict:
     out["n_trials"] = len(rr)
     out["errors"] = errors
     out["settings"] = {"containers": list(c.containers), "trials": c.trials,
-                       "dummy": c.dummy, "roll_cycles": c.roll_cycles, "seed": c.seed,
+                       "dummy": c.dummy, "roll_cycles": c.roll_cycles,
+                       "roll_profile": c.roll_profile, "seed": c.seed,
                        "classifier": "tree (entropy)", "highpass": "Butterworth order 1, 5 Hz",
                        "taxel_rate_hz": 24.0, "roll_hz": 0.6,
                        "feature_unit": "normalised taxel pressure (1 = saturation)",
@@ -335,6 +350,9 @@ def main(argv=None) -> int:
     ap.add_argument("--no-dummy", action="store_true", help="leave out the rigid dummy")
     ap.add_argument("--roll-cycles", type=pos_float, default=2.0,
                     help="roll cycles per trial at 0.6 Hz (default 2)")
+    ap.add_argument("--roll-profile", choices=("sweep", "sine", "triangle"), default="sweep",
+                    help="the wrist's roll: sweep (default: constant rate, smooth 0.25 s "
+                         "reversals), sine, or triangle (abrupt reversals, the earlier roll)")
     ap.add_argument("--folds", type=pos_int, default=10, help="CV folds (default 10)")
     ap.add_argument("--seed", type=nonneg_int, default=0, help="seed of the trials and folds")
     ap.add_argument("--plot", metavar="FILE", default=None,
@@ -357,7 +375,8 @@ def main(argv=None) -> int:
             names = tuple(list(LIQUID_CONTAINERS)[:args.containers])
         cfg = LiquidDetectionConfig(
             containers=names, trials=args.trials, dummy=not args.no_dummy,
-            with_weight=args.with_weight, roll_cycles=args.roll_cycles, folds=args.folds,
+            with_weight=args.with_weight, roll_cycles=args.roll_cycles,
+            roll_profile=args.roll_profile, folds=args.folds,
             seed=args.seed, plot=args.plot, progress=args.progress)
         check_out_file("--plot", args.plot)
         check_out_file("--html-out", args.html_out)

@@ -1,12 +1,16 @@
 """Speed of one liquid-detection trial (grasp, lift, roll) and of the feature.
 
-    OPENBLAS_NUM_THREADS=1 python benchmarks/bench_liquid_roll.py [--cycles 2]
+    OPENBLAS_NUM_THREADS=1 python benchmarks/bench_liquid_roll.py [--cycles 2] [--time-step 0.002]
+        [--container odwalla_half]
 
-Prints the simulated time, the wall time, the real-time factor of the Drake simulation, and
-the time of :func:`mmlearn.models.liquid.liquid_feature` on the recorded taxels.
+Prints the simulated time, the wall and CPU (process) time of the Drake simulation and their
+real-time factors (simulated / elapsed: > 1 is faster than real time; on a shared machine the
+CPU time is the one to compare, the wall time depends on the load, which is printed), and the
+time of :func:`mmlearn.models.liquid.liquid_feature` on the recorded taxels.
 """
 
 import argparse
+import os
 import time
 
 import numpy as np
@@ -19,12 +23,15 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--cycles", type=float, default=2.0)
     ap.add_argument("--container", default="odwalla_half")
+    ap.add_argument("--time-step", type=float, default=LiquidRollConfig.time_step)
     args = ap.parse_args()
     inst = make_instance(args.container, np.random.default_rng(0))
-    cfg = LiquidRollConfig(roll_cycles=args.cycles, grasp_height=inst.height / 2)
-    t0 = time.perf_counter()
+    cfg = LiquidRollConfig(roll_cycles=args.cycles, grasp_height=inst.height / 2,
+                           time_step=args.time_step)
+    load0 = os.getloadavg()[0]
+    t0, c0 = time.perf_counter(), time.process_time()
     r = simulate_roll(cfg, container=inst)
-    wall = time.perf_counter() - t0
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     t = r["t"]
     m = (t >= r["roll_window"][0]) & (t <= r["roll_window"][1])
     x = r["taxels"][m]
@@ -33,9 +40,12 @@ def main():
     for _ in range(n):
         f = liquid_feature(x)
     ft = (time.perf_counter() - t1) / n
-    print(f"{args.container}: simulated {cfg.duration:.2f} s in {wall:.1f} s wall "
-          f"(real-time factor {cfg.duration / wall:.2f}); feature {f:.4f} from {x.shape} "
-          f"taxel samples in {1e3 * ft:.3f} ms")
+    print(f"{args.container}, time step {1e3 * cfg.time_step:g} ms: simulated "
+          f"{cfg.duration:.2f} s in {wall:.1f} s wall (real-time factor "
+          f"{cfg.duration / wall:.2f}), {cpu:.1f} s CPU (real-time factor "
+          f"{cfg.duration / cpu:.2f}); load average {load0:.1f} -> {os.getloadavg()[0]:.1f} "
+          f"on {os.cpu_count()} cores; feature {f:.5f} from {x.shape} taxel samples in "
+          f"{1e3 * ft:.3f} ms")
 
 
 if __name__ == "__main__":

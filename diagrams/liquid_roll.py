@@ -1,12 +1,13 @@
 """The liquid-detection scene (thesis Sec. 7.3): grasp a container, lift it, roll it.
 
-``MakeLiquidRollDiagram(config, *, container)`` builds a discrete MultibodyPlant (1 ms,
+``MakeLiquidRollDiagram(config, *, container)`` builds a discrete MultibodyPlant (2 ms,
 hydroelastic contact) with
 
 * a table (a box, top at z = 0) and a **free** container of :mod:`mmlearn.models.containers`
   standing on it (its base gets six point-contact feet on the rim of its bottom; the walls on springs and
-  the sloshing liquid -- a mass on a prismatic spring-damper in the base, see
-  :mod:`mmlearn.models.containers` -- come from :func:`mmlearn.sdf.tactile.container_sdf`);
+  the sloshing liquid -- the first sloshing mode's mass on a prismatic spring-damper in the
+  base, its travel limited by the cap, :func:`mmlearn.models.liquid.first_slosh_mode` --
+  come from :func:`mmlearn.sdf.tactile.container_sdf`);
 * the parallel gripper of :func:`mmlearn.sdf.tactile.gripper_sdf` (PR2-like pads of 5 x 3
   taxels each, 24 Hz as the PR2's arrays) welded to a two-joint wrist: a PD-driven lift
   joint (prismatic along z, m) and a PD-driven roll joint (revolute about y, rad) whose axis
@@ -25,14 +26,22 @@ hydroelastic contact) with
   roll link and the palm.
 
 Timeline (:class:`LiquidRollConfig`): close and squeeze, latch at ``t_latch``, lift by
-``lift`` m over ``[t_lift, t_lift + lift_time]``, then roll +-``roll_amplitude`` rad
-(a triangle wave: constant roll rate, reversals abrupt by default or blended over
-``reversal_time``) at ``roll_hz`` for ``roll_cycles`` cycles from ``t_roll``. The grasp must
-have settled by ``t_latch``.
+``lift`` m over ``[t_lift, t_lift + lift_time]``, then roll +-``roll_amplitude`` rad at
+``roll_hz`` for ``roll_cycles`` cycles from ``t_roll``. The grasp must have settled by
+``t_latch``. Roll profiles (``roll_profile``): "sweep" (default: side to side at a constant
+rate with smooth 0.25 s reversals, continuous acceleration, peak 23 rad/s^2 -- a wrist's
+acceleration-limited motion), "sine" (a pure sinusoid faded in and out) and "triangle"
+(constant rate, reversals abrupt or blended with constant deceleration: acceleration steps).
 
-Finding (see the README's Liquid detection section): the high-passed taxel spikes at the
-reversals come from the inertia of the held mass on the position-held fingers; a rigid
-weight of the same mass in the same shell responds as much as a sloshing liquid.
+Findings (README, Liquid detection): the "triangle" roll's reversals flip the roll rate
+within one PD response; the resulting jerk made every held body, the rigid dummy included,
+spike in the high-passed taxels (dummy feature 0.0109 vs 0.0086 for a half-full bottle).
+With continuous acceleration those spikes are gone. Under the "sine" roll the liquid's first
+sloshing mode (3.5 Hz, damping ratio ~0.006) is hardly excited and every container's feature
+is the 0.6 Hz load shift that leaks through the first-order high-pass (~10 % at 0.6 Hz), in
+proportion to its weight; under the "sweep" each reversal excites that mode and the liquid
+rings at 3.5 Hz (passed at ~50 %) between the reversals, which the rigid dummy and the empty
+containers cannot do.
 
 :func:`liquid_roll_trial` runs one trial for the sweep runner and returns only what the
 sensors recorded (taxels at 24 Hz, the wrist force) plus the labels.
@@ -57,7 +66,9 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import LogVectorOutput, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
-from mmlearn.models.containers import CONTAINER_CLASSES, ContainerInstance, sample_container
+from mmlearn.models.containers import (CONTAINER_CLASSES, RHO_WATER, ContainerInstance,
+                                       sample_container)
+from mmlearn.models.liquid import first_slosh_mode
 from mmlearn.models.tactile_pad import PAD_PR2
 from mmlearn.sdf.tactile import GripperGeometry, container_sdf, gripper_sdf, pad_z_of
 from mmlearn.systems.finger_hold import FingerPositionHold
@@ -85,14 +96,29 @@ class LiquidRollConfig:
         roll_amplitude: roll angle amplitude, rad.
         roll_hz: roll frequency, Hz (thesis: about 0.6 Hz).
         roll_cycles: number of roll cycles.
-        reversal_time: duration of each reversal of the roll (constant deceleration), s
-            (0: abrupt, the roll rate flips within one PD response).
+        roll_profile: "sweep" (default: side to side at a constant rate with smooth
+            reversals of ``reversal_time`` s whose rate turns as a cosine: continuous
+            acceleration, bounded jerk, see :func:`sweep_roll_angle`), "sine" (``A sin(2 pi f
+            t)`` with its amplitude faded in and out over ``ramp_time``) or "triangle"
+            (constant rate, reversals abrupt or blended over ``reversal_time`` with a constant
+            deceleration, i.e. acceleration steps: the earlier roll, kept to show where its
+            spikes came from).
+        ramp_time: "sine" only: fade-in and fade-out of the amplitude (quintic smoothstep), s.
+        reversal_time: duration of each reversal, s ("sweep": 0 < tau < half a period,
+            default 0.25 s, peak acceleration pi w / tau = 23 rad/s^2; "triangle": 0 =
+            abrupt, the roll rate flips within one PD response).
         roll_axis_height: height of the roll axis above the pad centres, m.
         roll_kp, roll_kd: roll joint PD gains, N m/rad and N m s/rad.
         lift_kp, lift_kd: lift joint PD gains, N/m and N s/m.
-        time_step: plant time step, s.
+        time_step: plant time step, s (2 ms: twice as fast as 1 ms; the feature of one
+            half-full Odwalla trial differed by 3 % under the sine roll (earlier slosh
+            parameters, no taxel noise) and by 14 % under the sweep; 4 ms changed it by
+            20 % under the sine).
         sensor_rate: taxel sampling rate, Hz (PR2: 24 Hz).
-        taxel_noise: taxel noise, fraction of saturation.
+        taxel_noise: taxel noise, fraction of saturation (1e-4 = 1.4 mN per cell: the
+            high-passed noise alone then gives a feature of ~0.001 N, the floor of the empty
+            containers in the thesis' Table 7.4, 0.000-0.008 N; the grasp experiments'
+            0.003 gives 0.027 N, above the thesis' half-full Odwalla response, 0.011 N).
         wrist_noise: wrist force noise per axis, N.
         seed: noise seed.
         gripper: gripper dimensions.
@@ -110,15 +136,17 @@ class LiquidRollConfig:
     roll_amplitude: float = 0.7
     roll_hz: float = 0.6
     roll_cycles: float = 2.0
-    reversal_time: float = 0.0
+    roll_profile: str = "sweep"
+    ramp_time: float = 0.6
+    reversal_time: float = 0.25
     roll_axis_height: float = 0.12
     roll_kp: float = 200.0
     roll_kd: float = 2.0
     lift_kp: float = 2.0e4
     lift_kd: float = 300.0
-    time_step: float = 1e-3
+    time_step: float = 2e-3
     sensor_rate: float = 24.0
-    taxel_noise: float = 0.003
+    taxel_noise: float = 1e-4
     wrist_noise: float = 0.05
     seed: int = 0
     gripper: GripperGeometry = field(default_factory=GripperGeometry)
@@ -131,8 +159,15 @@ class LiquidRollConfig:
             if not (isinstance(v, (int, float)) and np.isfinite(v) and v > 0):
                 raise ValueError(f"LiquidRollConfig.{k}: expected a finite number > 0, got "
                                  f"{v!r}")
-        for k in ("lift", "roll_amplitude", "roll_axis_height", "reversal_time", "roll_kd", "lift_kd",
-                  "taxel_noise", "wrist_noise"):
+        if self.roll_profile not in ("sine", "sweep", "triangle"):
+            raise ValueError(f"LiquidRollConfig.roll_profile: expected 'sine', 'sweep' or "
+                             f"'triangle', got {self.roll_profile!r}")
+        if self.roll_profile == "sweep" and not (
+                0 < self.reversal_time < 0.5 / self.roll_hz):
+            raise ValueError(f"LiquidRollConfig.reversal_time: the sweep needs 0 < reversal "
+                             f"time < half a roll period, got {self.reversal_time!r}")
+        for k in ("lift", "roll_amplitude", "roll_axis_height", "reversal_time", "ramp_time",
+                  "roll_kd", "lift_kd", "taxel_noise", "wrist_noise"):
             v = getattr(self, k)
             if not (isinstance(v, (int, float)) and np.isfinite(v) and v >= 0):
                 raise ValueError(f"LiquidRollConfig.{k}: expected a finite number >= 0, got "
@@ -145,12 +180,151 @@ class LiquidRollConfig:
                              f"high-pass, got {self.sensor_rate!r}")
 
     @property
+    def roll_duration(self) -> float:
+        """Duration of the roll, s (the sweep's start and stop add ``reversal_time``)."""
+        extra = self.reversal_time if self.roll_profile == "sweep" else 0.0
+        return self.roll_cycles / self.roll_hz + extra
+
+    @property
     def duration(self) -> float:
         """Simulated time, s: the end of the roll plus 0.1 s."""
-        return self.t_roll + self.roll_cycles / self.roll_hz + 0.1
+        return self.t_roll + self.roll_duration + 0.1
 
 
 def roll_trajectory(c: LiquidRollConfig) -> PiecewisePolynomial:
+    """The roll angle (rad) over time for ``c.roll_profile`` (:func:`sine_roll_trajectory`
+    or :func:`triangle_roll_trajectory`)."""
+    if c.roll_profile == "sine":
+        return sine_roll_trajectory(c)
+    if c.roll_profile == "sweep":
+        return sweep_roll_trajectory(c)
+    return triangle_roll_trajectory(c)
+
+
+def _smoothstep5(u):
+    """Quintic smoothstep on [0, 1] and its first two derivatives (0 and 1 at the ends with
+    zero first and second derivatives)."""
+    u = np.clip(u, 0.0, 1.0)
+    return (u**3 * (10 - 15 * u + 6 * u**2), 30 * u**2 * (1 - u)**2,
+            60 * u * (1 - u) * (1 - 2 * u))
+
+
+def sine_roll_angle(c: LiquidRollConfig, t):
+    """The smooth roll (rad, rad/s, rad/s^2) at times ``t`` (s): ``A e(t) sin(2 pi f (t -
+    t_roll))`` during the roll, 0 outside it, with the envelope ``e`` rising from 0 to 1 over
+    the first ``ramp_time`` s and falling back over the last (quintic smoothstep), so angle,
+    rate and acceleration are continuous everywhere (a wrist's motion, no jerk impulse)."""
+    t = np.asarray(t, float)
+    T = c.roll_cycles / c.roll_hz
+    tau = t - c.t_roll
+    w = 2 * np.pi * c.roll_hz
+    r = max(min(c.ramp_time, T / 2), 1e-9)
+    a0, a1, a2 = _smoothstep5(tau / r)
+    b0, b1, b2 = _smoothstep5((T - tau) / r)
+    e, de, dde = a0 * b0, a1 * b0 / r - a0 * b1 / r, (a2 * b0 - 2 * a1 * b1 + a0 * b2) / r**2
+    inside = (tau >= 0) & (tau <= T)
+    sn, cs = np.sin(w * tau), np.cos(w * tau)
+    q = c.roll_amplitude * e * sn
+    qd = c.roll_amplitude * (de * sn + e * w * cs)
+    qdd = c.roll_amplitude * (dde * sn + 2 * de * w * cs - e * w * w * sn)
+    return q * inside, qd * inside, qdd * inside
+
+
+def sweep_roll_angle(c: LiquidRollConfig, t):
+    """The "sweep" roll (rad, rad/s, rad/s^2) at times ``t`` (s): side to side at a constant
+    rate ``w`` (rad/s) with smooth reversals: the rate turns from +w to -w as ``w cos(pi s /
+    tau)`` over ``tau = reversal_time`` s (acceleration continuous, peak ``pi w / tau``),
+    starts from and returns to rest as ``w (1 - cos(pi s / tau)) / 2``; the reversals peak
+    at +-``roll_amplitude``, half a roll period apart, so ``w = 2 A / (T / 2 - tau + 2 tau /
+    pi)`` with ``T = 1 / roll_hz``. The roll lasts ``roll_cycles T + tau``."""
+    t = np.asarray(t, float)
+    A, T, tau = c.roll_amplitude, 1.0 / c.roll_hz, c.reversal_time
+    n_rev = int(round(2 * c.roll_cycles))
+    w = 2 * A / (T / 2 - tau + 2 * tau / np.pi)
+    end = c.roll_cycles * T + tau
+    s = t - c.t_roll
+    centres = T / 4 + tau / 2 + np.arange(n_rev) * T / 2  # reversal k: +-w -> -+w
+    rate = sweep_roll_angle_rate(c, s, w=w, centres=centres, end=end)
+    acc = np.zeros_like(s)
+    if tau > 0:
+        for k, tc in enumerate(centres):
+            u = s - (tc - tau / 2)
+            m = (u >= 0) & (u <= tau)
+            acc = np.where(m, -(-1.0) ** k * w * np.pi / tau * np.sin(np.pi * u / tau), acc)
+        m = (s >= 0) & (s <= tau)
+        acc = np.where(m, w * np.pi / (2 * tau) * np.sin(np.pi * s / tau), acc)
+        u = s - (end - tau)
+        m = (u >= 0) & (u <= tau)
+        acc = np.where(m, -(-1.0) ** n_rev * w * np.pi / (2 * tau) * np.sin(np.pi * u / tau),
+                       acc)
+    # the angle: the rate integrated (trapezoid) on a 0.2 ms grid
+    grid = np.linspace(0.0, end, int(np.ceil(end / 2e-4)) + 1)
+    g_rate = sweep_roll_angle_rate(c, grid, w=w, centres=centres, end=end)
+    g_q = np.concatenate([[0.0], np.cumsum((g_rate[1:] + g_rate[:-1]) / 2 * np.diff(grid))])
+    q = np.interp(s, grid, g_q, left=0.0, right=0.0)
+    done = (s < 0) | (s >= end)
+    return (np.where(done, 0.0, q), np.where(done, 0.0, rate), np.where(done, 0.0, acc))
+
+
+def sweep_roll_angle_rate(c: LiquidRollConfig, s, *, w, centres, end):
+    """The sweep's rate (rad/s) at times ``s`` after ``t_roll`` (helper of
+    :func:`sweep_roll_angle`)."""
+    tau = c.reversal_time
+    sign = np.ones_like(s)
+    for k, tc in enumerate(centres):
+        sign = np.where(s >= tc, (-1.0) ** (k + 1), sign)
+    rate = np.where((s >= 0) & (s <= end), sign * w, 0.0)
+    if tau <= 0:
+        return rate
+    for k, tc in enumerate(centres):
+        u = s - (tc - tau / 2)
+        m = (u >= 0) & (u <= tau)
+        rate = np.where(m, (-1.0) ** k * w * np.cos(np.pi * u / tau), rate)
+    m = (s >= 0) & (s <= tau)
+    rate = np.where(m, w * (1 - np.cos(np.pi * s / tau)) / 2, rate)
+    last = (-1.0) ** len(centres)
+    u = s - (end - tau)
+    m = (u >= 0) & (u <= tau)
+    rate = np.where(m, last * w * (1 + np.cos(np.pi * u / tau)) / 2, rate)
+    return np.where((s < 0) | (s >= end), 0.0, rate)
+
+
+def _quintic_trajectory(c: LiquidRollConfig, fn, *, knot_dt: float = 0.005
+                        ) -> PiecewisePolynomial:
+    """The roll ``fn(c, t) -> (q, qd, qdd)`` as a piecewise quintic through knots every
+    ``knot_dt`` s (exact angle, rate and acceleration at the knots: continuous
+    acceleration)."""
+    from pydrake.polynomial import Polynomial
+
+    T = c.roll_duration
+    n = max(int(np.ceil(T / knot_dt)), 4)
+    ts = np.concatenate([[0.0], c.t_roll + np.linspace(0.0, T, n + 1), [c.duration + 1.0]])
+    q, qd, qdd = fn(c, ts)
+    polys = []
+    for k in range(len(ts) - 1):
+        h = ts[k + 1] - ts[k]
+        p0, v0, a0 = q[k], qd[k], qdd[k]
+        p1, v1, a1 = q[k + 1], qd[k + 1], qdd[k + 1]
+        M = np.array([[h**3, h**4, h**5], [3 * h**2, 4 * h**3, 5 * h**4],
+                      [6 * h, 12 * h**2, 20 * h**3]])
+        rhs = np.array([p1 - p0 - v0 * h - a0 * h**2 / 2, v1 - v0 - a0 * h, a1 - a0])
+        c3, c4, c5 = np.linalg.solve(M, rhs)
+        polys.append([Polynomial([p0, v0, a0 / 2, c3, c4, c5])])
+    return PiecewisePolynomial(polys, list(ts))
+
+
+def sine_roll_trajectory(c: LiquidRollConfig, *, knot_dt: float = 0.005) -> PiecewisePolynomial:
+    """:func:`sine_roll_angle` as a piecewise quintic (continuous acceleration)."""
+    return _quintic_trajectory(c, sine_roll_angle, knot_dt=knot_dt)
+
+
+def sweep_roll_trajectory(c: LiquidRollConfig, *, knot_dt: float = 0.005
+                          ) -> PiecewisePolynomial:
+    """:func:`sweep_roll_angle` as a piecewise quintic (continuous acceleration)."""
+    return _quintic_trajectory(c, sweep_roll_angle, knot_dt=knot_dt)
+
+
+def triangle_roll_trajectory(c: LiquidRollConfig) -> PiecewisePolynomial:
     """The roll angle (rad) over time: 0 until ``t_roll``, then a triangle wave of
     amplitude ``roll_amplitude`` and frequency ``roll_hz`` (starting towards +angle; constant
     roll rate, each reversal a constant deceleration over ``reversal_time`` s peaking at the
@@ -334,7 +508,7 @@ def simulate_roll(config: LiquidRollConfig, *, container: ContainerInstance,
     c = config
     return {"t": t, "taxels": logs[0].data()[:, :n].T, "pad_force": logs[1].data()[:, :n].T,
             "wrist_force": logs[2].data()[:, :n].T, "roll": logs[3].data()[0, :n],
-            "roll_window": (c.t_roll, c.t_roll + c.roll_cycles / c.roll_hz),
+            "roll_window": (c.t_roll, c.t_roll + c.roll_duration),
             "weight_window": (c.t_lift + c.lift_time + 0.1, c.t_roll)}
 
 
@@ -354,6 +528,11 @@ LIQUID_CONTAINERS = {
     "water_quarter": ("water", 0.25),
     "naked_quarter": ("naked", 0.25),
 }
+
+
+#: Kinematic viscosity of the liquid in each container class, m^2/s (water and soda 1e-6,
+#: orange juice ~2e-6, smoothie ~5e-6 at room temperature).
+LIQUID_VISCOSITY = {"odwalla": 2.0e-6, "naked": 5.0e-6, "water": 1.0e-6, "can": 1.0e-6}
 
 
 def dummy_instance(rng: np.random.Generator, *, mass: float | None = None) -> ContainerInstance:
@@ -382,14 +561,26 @@ def make_instance(label: str, rng: np.random.Generator) -> ContainerInstance:
     # The squeeze model lumps the liquid's added mass (the column pushed into the neck)
     # into each wall; for rolling, the walls carry only their own mass, so the bodies of the
     # plant add up to the container's true mass (shell + liquid).
-    return replace(inst, wall_mass=CONTAINER_CLASSES[cls].wall_mass)
+    inst = replace(inst, wall_mass=CONTAINER_CLASSES[cls].wall_mass)
+    if fill is None:
+        return inst
+    # the liquid's first sloshing mode with its viscous damping and the cap as a barrier
+    # (mmlearn.models.liquid.first_slosh_mode)
+    vol = CONTAINER_CLASSES[cls].volume
+    h_eq = vol / (np.pi * inst.radius**2)
+    mode = first_slosh_mode(radius=inst.radius, depth=inst.fill * h_eq,
+                            liquid_mass=RHO_WATER * inst.fill * vol, container_height=h_eq,
+                            viscosity=LIQUID_VISCOSITY[cls])
+    return replace(inst, slosh_mass=mode.mass, slosh_k=mode.stiffness, slosh_c=mode.damping,
+                   slosh_travel=mode.barrier)
 
 
 def liquid_roll_trial(*, seed: int, container: str, offset_sd: float = 0.001,
-                      roll_cycles: float = 2.0) -> dict:
+                      roll_cycles: float = 2.0, roll_profile: str = "sweep") -> dict:
     """One trial for :mod:`mmlearn.apps._sweep` (a pure function of its arguments): a random
     instance of ``container`` (see :func:`make_instance`), placed with lateral offset
-    ~ N(0, ``offset_sd``) m, grasped, lifted and rolled. Returns a JSON-able record with the
+    ~ N(0, ``offset_sd``) m, grasped, lifted and rolled (``roll_profile``: see
+    :class:`LiquidRollConfig`; the triangle with abrupt reversals). Returns a JSON-able record with the
     recorded series (``t``, ``taxels``, ``wrist_force``, ``roll``), the windows, the labels
     ``container`` / ``liquid`` and the instance's parameters (for reference only)."""
     rng = np.random.default_rng([int(seed), 17])
@@ -398,7 +589,8 @@ def liquid_roll_trial(*, seed: int, container: str, offset_sd: float = 0.001,
     # the pad centres at the middle of the wall patches (half the container's height, which
     # the robot sees)
     cfg = LiquidRollConfig(offset=offset, roll_cycles=roll_cycles, seed=int(seed),
-                           grasp_height=inst.height / 2)
+                           grasp_height=inst.height / 2, roll_profile=roll_profile,
+                           **({"reversal_time": 0.0} if roll_profile == "triangle" else {}))
     r = simulate_roll(cfg, container=inst)
     return {"t": r["t"].tolist(), "taxels": r["taxels"].tolist(),
             "wrist_force": r["wrist_force"].tolist(), "roll": r["roll"].tolist(),

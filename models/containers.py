@@ -141,6 +141,7 @@ class ContainerInstance:
     slosh_k: float
     slosh_c: float
     k_parts: dict
+    slosh_travel: float = 0.0
 
     def as_dict(self) -> dict:
         return asdict(self)

@@ -15,6 +15,30 @@ sloshing inside gives pressure spikes at every reversal of the roll. Per trial:
 A decision tree (:func:`mmlearn.models.tactile_state.make_classifier`) learns "liquid" versus
 "no liquid" from these features; :func:`mmlearn.models.tactile_state.cross_validate` gives the
 10-fold rate.
+
+The liquid itself (:func:`first_slosh_mode`) is the standard equivalent mechanical model of
+the first antisymmetric sloshing mode of a liquid in an upright circular cylinder (Abramson,
+NASA SP-106, 1966; Ibrahim, *Liquid Sloshing Dynamics*, 2005, ch. 6-8): a mass ``m1`` on a
+spring ``k1 = m1 w1^2`` (a pendulum of length ``L1 = g / w1^2`` for small angles) with the
+viscous damping of the boundary layer, and -- as in the impact-pendulum models of large
+sloshing (Pilipchuk and Ibrahim, J. Sound Vib. 1997) -- rigid barriers at the travel where
+the free surface, tilted against the container, reaches the cap. With ``xi = 1.841`` (first
+zero of J1'), inner radius ``R`` (m), liquid depth ``h`` (m), liquid mass ``m`` (kg),
+kinematic viscosity ``nu`` (m^2/s), ``g = 9.81`` m/s^2:
+
+* ``w1^2 = g xi / R tanh(xi h / R)`` (rad/s)^2 -- 3.5 Hz for a half-full Odwalla bottle;
+* ``m1 = m 2 R / (xi (xi^2 - 1) h) tanh(xi h / R)`` kg -- about 30 % of the liquid when half
+  full, 16 % when nearly full (the rest moves with the container);
+* damping ratio ``zeta = delta / (2 pi)`` with the logarithmic decrement
+  ``delta = 4.98 sqrt(nu) R^-3/4 g^-1/4 (1 + 0.318 / sinh(xi h / R) (1 + (1 - h / R) /
+  cosh(xi h / R)))`` (Mikishev and Dorozhkin, in SP-106 ch. 4) -- 0.006 for water in a 36 mm
+  radius bottle;
+* barrier travel ``x_b = L1 sin(atan(s / R))`` m with the head space ``s = H_eq - h`` (m)
+  above the liquid in the equivalent cylinder ``H_eq = V / (pi R^2)``: a statically tilted
+  free surface (tilt ``theta``) rises ``R tan(theta)`` at the wall, the pendulum then stands
+  at ``L1 sin(theta)``. In the plant the barrier is the slosh joint's limit, which Drake's
+  SAP solver enforces as a near-rigid, inelastic (damped) constraint: the liquid hits the cap
+  and stops, it does not bounce.
 """
 
 from __future__ import annotations
@@ -26,7 +50,7 @@ from scipy import signal
 
 from .tactile_types import TactileDataError, check_series
 
-__all__ = ["RollRecord", "highpass", "filtered_norm", "liquid_feature", "liquid_features",
+__all__ = ["SloshMode", "first_slosh_mode", "RollRecord", "highpass", "filtered_norm", "liquid_feature", "liquid_features",
            "liquid_table", "evaluate_liquid", "HIGHPASS_CUTOFF_HZ", "TACTILE_RATE_HZ"]
 
 HIGHPASS_CUTOFF_HZ = 5.0
@@ -35,6 +59,67 @@ tactile receptors)."""
 
 TACTILE_RATE_HZ = 24.0
 """Sample rate of the PR2 fingertip arrays in Sec. 7.3, Hz."""
+
+
+SLOSH_XI = 1.841
+"""First zero of the derivative of the Bessel function J1 (first antisymmetric mode)."""
+
+G = 9.81  # m/s^2
+
+
+@dataclass(frozen=True)
+class SloshMode:
+    """The first sloshing mode of a liquid in a cylinder (see the module docstring).
+
+    Attributes:
+        mass: sloshing mass m1, kg.
+        omega: natural frequency w1, rad/s.
+        zeta: viscous damping ratio (dimensionless).
+        stiffness: k1 = m1 w1^2, N/m.
+        damping: c1 = 2 zeta m1 w1, N s/m.
+        length: equivalent pendulum length L1 = g / w1^2, m.
+        barrier: travel of m1 at which the liquid reaches the cap, m (capped at ``radius``).
+    """
+
+    mass: float
+    omega: float
+    zeta: float
+    stiffness: float
+    damping: float
+    length: float
+    barrier: float
+
+
+def first_slosh_mode(*, radius: float, depth: float, liquid_mass: float,
+                     container_height: float, viscosity: float = 1.0e-6) -> SloshMode:
+    """The equivalent spring-mass of the first sloshing mode (module docstring).
+
+    Args:
+        radius: inner radius of the container, m.
+        depth: liquid depth in the equivalent cylinder, m (> 0).
+        liquid_mass: mass of all the liquid, kg.
+        container_height: height of the equivalent cylinder (inner volume / (pi R^2)), m.
+        viscosity: kinematic viscosity of the liquid, m^2/s (water 1e-6, juices ~2e-6).
+    """
+    for k, v in (("radius", radius), ("depth", depth), ("liquid_mass", liquid_mass),
+                 ("container_height", container_height), ("viscosity", viscosity)):
+        if not (np.isfinite(v) and v > 0):
+            raise ValueError(f"first_slosh_mode: {k} must be a finite number > 0, got {v!r}")
+    if depth >= container_height:
+        raise ValueError(f"first_slosh_mode: depth {depth:g} m must be below the container "
+                         f"height {container_height:g} m")
+    xi, R, h = SLOSH_XI, float(radius), float(depth)
+    th = np.tanh(xi * h / R)
+    w2 = G * xi / R * th
+    w = float(np.sqrt(w2))
+    m1 = float(liquid_mass * 2 * R / (xi * (xi**2 - 1) * h) * th)
+    delta = 4.98 * np.sqrt(viscosity) * R**-0.75 * G**-0.25 * (
+        1 + 0.318 / np.sinh(xi * h / R) * (1 + (1 - h / R) / np.cosh(xi * h / R)))
+    zeta = float(delta / (2 * np.pi))
+    L1 = G / w2
+    barrier = float(min(L1 * np.sin(np.arctan((container_height - h) / R)), R))
+    return SloshMode(mass=m1, omega=w, zeta=zeta, stiffness=float(m1 * w2),
+                     damping=2 * zeta * m1 * w, length=float(L1), barrier=barrier)
 
 
 @dataclass

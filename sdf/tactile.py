@@ -140,8 +140,9 @@ def container_sdf(inst: ContainerInstance, *, name: str = "container",
     if inst.slosh_mass > 0:
         s = m.link("liquid")
         s.inertial(inst.slosh_mass, (1e-5, 1e-5, 1e-5), pose=(0, 0, zc))
-        m.joint("slosh", "prismatic", "base", "liquid", axis=(1, 0, 0), lower=-0.5 * R,
-                upper=0.5 * R, damping=inst.slosh_c, effort=0)
+        travel = inst.slosh_travel if inst.slosh_travel > 0 else 0.5 * R
+        m.joint("slosh", "prismatic", "base", "liquid", axis=(1, 0, 0), lower=-travel,
+                upper=travel, damping=inst.slosh_c, effort=0)
     g = m.element(m.model, "drake:collision_filter_group", name="container_self")
     for lk in ("base", "wall_l", "wall_r"):
         m.element(g, "drake:member", lk)
