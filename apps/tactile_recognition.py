@@ -216,22 +216,26 @@ def _random_trials(rec, test, classes, T, n, rng):
     return ok, true, pred, repl
 
 
-#: strategies of the ``--informed`` comparison (Fig. 6.7): random test grasps; the next
-#: height by expected information gain with the cross-entropy estimator of H(c | z) (the
-#: default of :meth:`TactileRecognizer.information_gain`); the same with the thesis' plug-in
-#: entropy of the updated belief. Both informed ones prefer heights not yet grasped.
-STRATEGIES = ("random", "informed", "informed_entropy")
+#: strategies of the ``--informed`` comparison (Fig. 6.7): random test grasps (the thesis'
+#: baseline); random heights, each height once before any is repeated (the control for the
+#: no-repeat rule alone); the next height by expected information gain with the
+#: cross-entropy estimator of H(c | z) (the default of
+#: :meth:`TactileRecognizer.information_gain`); the same with the thesis' plug-in entropy of
+#: the updated belief. The informed ones prefer heights not yet grasped too.
+STRATEGIES = ("random", "random_heights", "informed", "informed_entropy")
 
 
-def _strategy_trials(rec, train, test, objects, T, rng, *, strategy, Ltr=None):
+def _strategy_trials(rec, train, test, objects, T, rng, *, strategy, Ltr=None, fresh=True):
     """Recognitions of the given ``objects`` (class names, one per trial) from T test grasps
     each: (correct after t = 1..T (n, T) bool, distinct heights grasped per trial (n,)).
 
     ``strategy`` "random": T random test grasps of the object (without replacement; with
-    replacement only when it has fewer than T). "informed" / "informed_entropy": each next
-    grasp at the height with the largest expected information gain (Eq. 6.12-6.13,
-    :meth:`TactileRecognizer.next_action`) among the heights where the object still has an
-    unused test grasp, preferring heights not yet grasped; estimator "cross_entropy" /
+    replacement only when it has fewer than T). "random_heights": each next grasp at a random
+    height where the object still has an unused test grasp, heights not yet grasped first.
+    "informed" / "informed_entropy": each next grasp at the height with the largest expected
+    information gain (Eq. 6.12-6.13, :meth:`TactileRecognizer.next_action`) among the heights
+    where the object still has an unused test grasp, preferring heights not yet grasped
+    (``fresh=False``: no preference, the first version's rule); estimator "cross_entropy" /
     "entropy". ``Ltr``: the leave-one-out likelihoods of ``train`` (computed when None)."""
     from mmlearn.models.tactile_recognition import height_actions, posterior
 
@@ -241,7 +245,9 @@ def _strategy_trials(rec, train, test, objects, T, rng, *, strategy, Ltr=None):
     n = len(objects)
     ok = np.zeros((n, T), bool)
     distinct = np.zeros(n, int)
-    if strategy != "random":
+    if strategy not in STRATEGIES:
+        raise ValueError(f"strategy: expected one of {', '.join(STRATEGIES)}, got {strategy!r}")
+    if strategy.startswith("informed"):
         est = {"informed": "cross_entropy", "informed_entropy": "entropy"}[strategy]
         a_tr = height_actions(train.height, resolution=HEIGHT_RESOLUTION)
         if Ltr is None:
@@ -258,10 +264,15 @@ def _strategy_trials(rec, train, test, objects, T, rng, *, strategy, Ltr=None):
                 left = np.setdiff1d(mine, used)
                 if not len(left):  # every test grasp of the object used: repeat one
                     left = mine
+                if strategy == "random_heights":
+                    fresh_left = left[~np.isin(a_te[left], a_te[used])] if used else left
+                    a = rng.choice(np.unique(a_te[fresh_left if len(fresh_left) else left]))
+                    used.append(int(rng.choice(left[a_te[left] == a])))
+                    continue
                 try:
                     a, _ = rec.next_action(belief, train, a_tr, train_likelihood=Ltr,
                                            estimator=est, feasible=set(a_te[left].tolist()),
-                                           taken=set(a_te[used].tolist()))
+                                           taken=set(a_te[used].tolist()) if fresh else ())
                     cand = left[a_te[left] == a]
                 except ValueError:  # no height of the object's left grasps was trained
                     cand = left
