@@ -3,11 +3,13 @@ what each part of the fix contributes, measured on simulated grasps.
 
 Usage::
 
-    OPENBLAS_NUM_THREADS=1 python benchmarks/bench_tactile_informed.py RESULTS.jsonl --seed S
-        [--cv-repeats 3] [--trials 100] [--T 10] [--k 50] [--alpha 0.5]
+    OPENBLAS_NUM_THREADS=1 python benchmarks/bench_tactile_informed.py RESULTS.jsonl:S [...]
+        [--cv-repeats 3] [--trials 100] [--T 10] [--k 50] [--alpha 0.5] [--plot FILE]
 
-``RESULTS.jsonl``: the grasps file of ``python -m mmlearn.apps.tactile_recognition
---results RESULTS.jsonl`` (nothing is simulated here). Prints
+``RESULTS.jsonl:S``: the grasps file of ``python -m mmlearn.apps.tactile_recognition --seed S
+--results RESULTS.jsonl`` and the seed of the splits (nothing is simulated here); several
+files are evaluated one after the other, ``--plot`` draws one panel of Fig. 6.7 per file.
+For each it prints
 
 1. per grasp height (1 cm actions) on one 2-fold split: the single-grasp accuracy and the mean
    posterior of the true class on the test half, beside the expected information gain at a
@@ -29,27 +31,42 @@ import numpy as np
 
 
 def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("results", nargs="+", help="RESULTS.jsonl:SEED")
+    ap.add_argument("--cv-repeats", type=int, default=3)
+    ap.add_argument("--trials", type=int, default=100, help="recognitions per fold")
+    ap.add_argument("--T", type=int, default=10)
+    ap.add_argument("--k", type=int, default=50)
+    ap.add_argument("--alpha", type=float, default=0.5)
+    ap.add_argument("--plot", default=None, help="image file of the curves")
+    args = ap.parse_args(argv)
+    panels = []
+    for item in args.results:
+        path, _, seed = item.rpartition(":")
+        if not path or not seed.isdigit():
+            ap.error(f"expected RESULTS.jsonl:SEED, got {item!r}")
+        panels.append((path, int(seed), _one(path, int(seed), args)))
+    if args.plot:
+        _plot(panels, args.plot)
+        print(f"plot written to {args.plot}")
+    return 0
+
+
+def _one(path, seed, args) -> dict:
     from scipy.stats import spearmanr, ttest_rel
 
     import mmlearn.apps.tactile_recognition as tr
     from mmlearn.apps._sweep import report_lines
     from mmlearn.models.tactile_recognition import height_actions
 
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("results")
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--cv-repeats", type=int, default=3)
-    ap.add_argument("--trials", type=int, default=100, help="recognitions per fold")
-    ap.add_argument("--T", type=int, default=10)
-    ap.add_argument("--k", type=int, default=50)
-    ap.add_argument("--alpha", type=float, default=0.5)
-    args = ap.parse_args(argv)
     t0 = time.perf_counter()
-    lines = [ln for ln in report_lines(args.results)
+    args.seed = seed
+    lines = [ln for ln in report_lines(path)
              if ln.get("record") and not ln.get("error")]
     data, groups = tr._dataset([ln["record"] for ln in lines])
     classes = sorted(groups)
-    print(f"{len(data)} grasps with contact of {len(classes)} classes, seed {args.seed}")
+    print(f"\n{path}: {len(data)} grasps with contact of {len(classes)} classes, seed "
+          f"{args.seed}")
     rng = np.random.default_rng([args.seed, 17, len(classes)])
     rng_t = np.random.default_rng([args.seed, 19, len(classes)])
     variants = [("random", "random", True), ("random_heights", "random_heights", True),
@@ -86,7 +103,29 @@ def main(argv=None) -> int:
         print(f"  {name:40s} " + " ".join(f"{x:.3f}" for x in o.mean(axis=0))
               + f"  mean {o.mean():.3f}, {np.concatenate(dist[name]).mean():.1f} heights{t}")
     print(f"wall {time.perf_counter() - t0:.1f} s")
-    return 0
+    return {name: np.concatenate(ok[name]).mean(axis=0) for name, _, _ in variants}
+
+
+def _plot(panels, path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, len(panels), figsize=(5.5 * len(panels), 4.2), squeeze=False)
+    for ax, (p, seed, curves) in zip(axes[0], panels):
+        for name, v in curves.items():
+            bold = name.startswith("random ") or name == "random" or "(app)" in name
+            ax.plot(range(1, len(v) + 1), v, "-o" if bold else "--", ms=3,
+                    lw=2 if bold else 1, label=name)
+        ax.set_title(f"seed {seed}: all classes", fontsize=9)
+        ax.set_xlabel("grasps t")
+        ax.set_ylabel("recognition rate")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7, loc="lower right")
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
 
 
 def _per_height(rec, train, test, Ltr, height_actions, spearmanr):
