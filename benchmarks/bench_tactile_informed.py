@@ -152,8 +152,10 @@ def _per_height(rec, train, test, Ltr, height_actions, spearmanr):
               f"{g_c[a]:+.3f}")
     r = np.array(rows)
     w = r[:, 3] >= 3  # heights with at least 3 test grasps
+    rho_e = spearmanr(r[w, 1], r[w, 0])[0]
+    rho_c = spearmanr(r[w, 2], r[w, 0])[0]
     print(f"  Spearman(gain, accuracy) over heights with >= 3 test grasps: plug-in entropy "
-          f"{spearmanr(r[w, 1], r[w, 0])[0]:+.2f}, cross-entropy {spearmanr(r[w, 2], r[w, 0])[0]:+.2f}")
+          f"{rho_e:+.2f}, cross-entropy {rho_c:+.2f}")
 
 
 if __name__ == "__main__":
