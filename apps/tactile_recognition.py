@@ -35,15 +35,23 @@ a recogniser trained on each subset alone (thesis Fig. 6.6): ``household``,
 ``industrial``, ``soft_vs_tennis`` (soft ball vs tennis ball), each with the rate after
 t = 1..T grasps, per-class rates and the confusion matrix, beside the thesis' 84.6 / 96.2 /
 58.0 / 93.8 %. ``--k-sweep`` and ``--alpha-sweep`` add Tables 6.1 / 6.2 on all classes;
-``--informed`` adds Fig. 6.7: the rate after each grasp when the next grasp height
-maximises the expected information gain (Eq. 6.12-6.13) vs random heights, on all classes
-and on the industrial ones. A subset
+``--informed`` adds Fig. 6.7 on all classes and on the industrial ones: the rate after each
+grasp t = 1..T for the same ``--informed-trials`` objects per fold (paired) under three
+strategies: ``random`` test grasps (as the recognition rate above), ``informed`` (the next
+height maximises the expected information gain of Eq. 6.12-6.13 given the grasps so far,
+with H(c | z) estimated by the cross-entropy on the labelled training outcomes, heights not
+yet grasped first) and ``informed_entropy`` (the same with the thesis' plug-in entropy of
+the updated belief), with the mean over t, the distinct heights grasped and a paired t-test
+against random (see :mod:`mmlearn.models.tactile_recognition` for why the plug-in entropy
+fails here). A subset
 whose training half has fewer than 2k grasps uses k = half its number of training grasps
 (``k_used``; e.g. soft vs tennis ball with 20 grasps per class: 20 training grasps, k = 10).
 
 ``--json`` prints one object: ``{"recognition_rate", "rates": {"all", "household",
 "industrial", "soft_vs_tennis": {"rate", "rate_by_T", "per_class", "labels", "confusion",
-"k_used", "n_classes", "with_replacement"}}, "thesis", "k_sweep", "alpha_sweep", "informed",
+"k_used", "n_classes", "with_replacement"}}, "thesis", "k_sweep", "alpha_sweep",
+"informed": {subset: {"random", "informed", "informed_entropy", "mean_over_T",
+"distinct_heights", "paired_t", "recognitions"}},
 "example_images": {class: {"height", "width", "left", "right"}}, "n_grasps", "no_contact",
 "errors", "settings", "sweep"}``. ``--plot FILE`` draws the confusion matrices, the rate
 after t grasps and one grasp's tactile images per class.
@@ -65,7 +73,7 @@ from mmlearn.apps._common import (ArgumentParser, UsageError, check_out_file, fa
                                   save_figure)
 
 __all__ = ["RecognitionExperimentConfig", "run", "report", "main", "grasp_specs",
-           "evaluate", "THESIS_RATES", "SUBSETS"]
+           "evaluate", "THESIS_RATES", "SUBSETS", "STRATEGIES"]
 
 TRIAL_FN = "mmlearn.diagrams.tactile_objects:object_grasp_trial"
 #: Sec. 6.3.2 (T = 10): all 21 classes, household, industrial, soft vs tennis ball.
@@ -93,7 +101,8 @@ class RecognitionExperimentConfig:
         cv_repeats: repetitions of the randomised 2-fold split.
         k_sweep, alpha_sweep: add Tables 6.1 / 6.2.
         informed: add informed vs random grasp heights (Fig. 6.7).
-        informed_trials: recognitions per fold and strategy for ``informed``.
+        informed_trials: recognitions per fold and strategy for ``informed`` (the same
+            objects for every strategy).
         f_target: grasp force per finger, N.
         seed: seeds the grasps, the splits and the recognition trials.
         plot: image file for confusion matrices and rate curves, or None.
@@ -111,7 +120,7 @@ class RecognitionExperimentConfig:
     k_sweep: bool = False
     alpha_sweep: bool = False
     informed: bool = False
-    informed_trials: int = 40
+    informed_trials: int = 100
     f_target: float = 15.0
     seed: int = 0
     plot: str | None = None
@@ -207,36 +216,72 @@ def _random_trials(rec, test, classes, T, n, rng):
     return ok, true, pred, repl
 
 
-def _informed_trials(rec, train, test, classes, T, n, rng):
-    """Like :func:`_random_trials` (correct after t = 1..T, (n, T)) but each next grasp is
-    at the height with the largest expected information gain (Eq. 6.12-6.13; the best
-    height at which the object still has an unused test grasp)."""
+#: strategies of the ``--informed`` comparison (Fig. 6.7): random test grasps (the thesis'
+#: baseline); random heights, each height once before any is repeated (the control for the
+#: no-repeat rule alone); the next height by expected information gain with the
+#: cross-entropy estimator of H(c | z) (the default of
+#: :meth:`TactileRecognizer.information_gain`); the same with the thesis' plug-in entropy of
+#: the updated belief. The informed ones prefer heights not yet grasped too.
+STRATEGIES = ("random", "random_heights", "informed", "informed_entropy")
+
+
+def _strategy_trials(rec, train, test, objects, T, rng, *, strategy, Ltr=None, fresh=True):
+    """Recognitions of the given ``objects`` (class names, one per trial) from T test grasps
+    each: (correct after t = 1..T (n, T) bool, distinct heights grasped per trial (n,)).
+
+    ``strategy`` "random": T random test grasps of the object (without replacement; with
+    replacement only when it has fewer than T). "random_heights": each next grasp at a random
+    height where the object still has an unused test grasp, heights not yet grasped first.
+    "informed" / "informed_entropy": each next grasp at the height with the largest expected
+    information gain (Eq. 6.12-6.13, :meth:`TactileRecognizer.next_action`) among the heights
+    where the object still has an unused test grasp, preferring heights not yet grasped
+    (``fresh=False``: no preference, the first version's rule); estimator "cross_entropy" /
+    "entropy". ``Ltr``: the leave-one-out likelihoods of ``train`` (computed when None)."""
     from mmlearn.models.tactile_recognition import height_actions, posterior
 
     L = np.log(np.maximum(rec.likelihood(test), 1e-300))
-    Ltr = rec.likelihood_loo(train)
-    a_tr = height_actions(train.height, resolution=HEIGHT_RESOLUTION)
-    a_te = height_actions(test.height, resolution=HEIGHT_RESOLUTION)
     cls = list(rec.classes)
+    a_te = height_actions(test.height, resolution=HEIGHT_RESOLUTION)
+    n = len(objects)
     ok = np.zeros((n, T), bool)
-    for i in range(n):
-        c = classes[rng.integers(len(classes))]
+    distinct = np.zeros(n, int)
+    if strategy not in STRATEGIES:
+        raise ValueError(f"strategy: expected one of {', '.join(STRATEGIES)}, got {strategy!r}")
+    if strategy.startswith("informed"):
+        est = {"informed": "cross_entropy", "informed_entropy": "entropy"}[strategy]
+        a_tr = height_actions(train.height, resolution=HEIGHT_RESOLUTION)
+        if Ltr is None:
+            Ltr = rec.likelihood_loo(train)
+    for i, c in enumerate(objects):
         mine = np.flatnonzero(test.labels == c)
-        belief = np.full(len(cls), 1.0 / len(cls))
-        used: list[int] = []
-        for t in range(T):
-            gains = rec.information_gain(belief, train, a_tr, train_likelihood=Ltr)
-            cand = np.array([], int)
-            for a in sorted(gains, key=lambda a: -gains[a]):
-                cand = np.setdiff1d(mine[a_te[mine] == a], used)
-                if len(cand):
-                    break
-            if not len(cand):  # every test grasp of the object used: repeat one
-                cand = mine
-            used.append(int(rng.choice(cand)))
-            belief = posterior(L[used])
-            ok[i, t] = np.argmax(belief) == cls.index(c)
-    return ok
+        ci = cls.index(c)
+        if strategy == "random":
+            used = list(_pick(mine, T, rng)[0])
+        else:
+            belief = np.full(len(cls), 1.0 / len(cls))
+            used = []
+            for t in range(T):
+                left = np.setdiff1d(mine, used)
+                if not len(left):  # every test grasp of the object used: repeat one
+                    left = mine
+                if strategy == "random_heights":
+                    fresh_left = left[~np.isin(a_te[left], a_te[used])] if used else left
+                    a = rng.choice(np.unique(a_te[fresh_left if len(fresh_left) else left]))
+                    used.append(int(rng.choice(left[a_te[left] == a])))
+                    continue
+                try:
+                    a, _ = rec.next_action(belief, train, a_tr, train_likelihood=Ltr,
+                                           estimator=est, feasible=set(a_te[left].tolist()),
+                                           taken=set(a_te[used].tolist()) if fresh else ())
+                    cand = left[a_te[left] == a]
+                except ValueError:  # no height of the object's left grasps was trained
+                    cand = left
+                used.append(int(rng.choice(cand)))
+                belief = posterior(L[used])
+        cum = np.cumsum(L[np.asarray(used)], axis=0)  # log posterior after t grasps
+        ok[i] = np.argmax(cum, axis=1) == ci
+        distinct[i] = len(set(a_te[used].tolist()))
+    return ok, distinct
 
 
 def evaluate(data, classes, *, k=50, alpha=0.5, T=10, recognitions=500, cv_repeats=1,
@@ -244,7 +289,9 @@ def evaluate(data, classes, *, k=50, alpha=0.5, T=10, recognitions=500, cv_repea
     """Recognition rates of a recogniser trained on ``classes`` only (randomised 2-fold
     CV, both directions, ``cv_repeats`` times). Returns {"rate", "rate_by_T", "per_class",
     "labels", "confusion", "k_used", "n_classes", "with_replacement", "recognitions"} and,
-    with ``informed_trials``, {"informed": {"random", "informed"}} (rates after t = 1..T)."""
+    with ``informed_trials``, {"informed": {"random", "informed", "informed_entropy": rates
+    after t = 1..T, "mean_over_T", "distinct_heights", "paired_t", "recognitions"}}
+    (:data:`STRATEGIES`; the same objects for each)."""
     sel = np.flatnonzero(np.isin(data.labels, list(classes)))
     sub = data.subset(sel)
     labels = sorted(set(sub.labels.tolist()))
@@ -256,7 +303,8 @@ def evaluate(data, classes, *, k=50, alpha=0.5, T=10, recognitions=500, cv_repea
     rng_rec = np.random.default_rng([int(seed), 18, len(labels)])
     rng_inf = np.random.default_rng([int(seed), 19, len(labels)])
     oks, C, repl, ks = [], np.zeros((len(labels), len(labels)), int), 0, []
-    inf_r, inf_i = [], []
+    inf = {st: [] for st in STRATEGIES}
+    inf_d = {st: [] for st in STRATEGIES}
     for _ in range(cv_repeats):
         A, B = _split(sub.labels, rng)
         for tr, te in ((A, B), (B, A)):
@@ -273,10 +321,14 @@ def evaluate(data, classes, *, k=50, alpha=0.5, T=10, recognitions=500, cv_repea
             order = [labels.index(c) for c in rec.classes]  # rec.classes is sorted too
             np.add.at(C, (np.take(order, true), np.take(order, pred)), 1)
             if informed_trials:
-                inf_r.append(_random_trials(rec, test, labels, T, informed_trials,
-                                            rng_inf)[0])
-                inf_i.append(_informed_trials(rec, train, test, labels, T, informed_trials,
-                                              rng_inf))
+                # the same objects for every strategy (paired comparison)
+                objs = [labels[j] for j in rng_inf.integers(len(labels), size=informed_trials)]
+                Ltr = rec.likelihood_loo(train)
+                for st in STRATEGIES:
+                    o, d = _strategy_trials(rec, train, test, objs, T, rng_inf, strategy=st,
+                                            Ltr=Ltr)
+                    inf[st].append(o)
+                    inf_d[st].append(d)
     ok = np.concatenate(oks)
     diag = np.diag(C)
     tot = C.sum(axis=1)
@@ -287,8 +339,33 @@ def evaluate(data, classes, *, k=50, alpha=0.5, T=10, recognitions=500, cv_repea
            "n_classes": len(labels), "with_replacement": int(repl),
            "recognitions": int(len(ok)), "n_grasps": int(len(sub))}
     if informed_trials:
-        out["informed"] = {"random": np.concatenate(inf_r).mean(axis=0).tolist(),
-                           "informed": np.concatenate(inf_i).mean(axis=0).tolist()}
+        out["informed"] = _compare_strategies(inf, inf_d)
+    return out
+
+
+def _compare_strategies(inf, inf_d) -> dict:
+    """Rates after t = 1..T per strategy, the mean over t, distinct heights per recognition
+    and a paired t-test of each informed strategy against random (per recognition: its mean
+    correctness over t = 1..T; the thesis' test for Fig. 6.7)."""
+    from scipy.stats import ttest_rel
+
+    ok = {st: np.concatenate(v) for st, v in inf.items()}
+    per = {st: o.mean(axis=1) for st, o in ok.items()}
+    out = {st: o.mean(axis=0).tolist() for st, o in ok.items()}
+    out["mean_over_T"] = {st: float(o.mean()) for st, o in ok.items()}
+    out["distinct_heights"] = {st: float(np.concatenate(d).mean()) for st, d in inf_d.items()}
+    out["paired_t"] = {}
+    for st in ok:
+        if st == "random":
+            continue
+        diff = per[st] - per["random"]
+        if np.allclose(diff, 0.0):
+            t, p = 0.0, 1.0
+        else:
+            t, p = ttest_rel(per[st], per["random"])
+        out["paired_t"][st] = {"mean_difference": float(diff.mean()), "t": float(t),
+                               "p": float(p)}
+    out["recognitions"] = int(len(per["random"]))
     return out
 
 
@@ -420,9 +497,14 @@ def format_report(res: dict) -> str:
             f"a={a}: {100 * v:.1f}% ({100 * THESIS_ALPHA[float(a)]:.1f})"
             for a, v in res["alpha_sweep"].items()))
     for name, d in res.get("informed", {}).items():
-        for strat, v in d.items():
-            lines.append(f"  {names[name]:12s} {strat:8s} heights: "
-                         + " ".join(f"{x:.3f}" for x in v) + f"   mean {np.mean(v):.3f}")
+        for strat in STRATEGIES:
+            v = d[strat]
+            pt = d["paired_t"].get(strat)
+            extra = (f", vs random {100 * pt['mean_difference']:+.1f} % (paired t p = "
+                     f"{pt['p']:.2g})" if pt else "")
+            lines.append(f"  {names[name]:12s} {strat:16s} " + " ".join(f"{x:.3f}" for x in v)
+                         + f"   mean {np.mean(v):.3f}, {d['distinct_heights'][strat]:.1f} "
+                           f"heights{extra}")
     for e in res["errors"]:
         lines.append(f"  error: {e['trial']}: {e['error'].splitlines()[0][:160]}")
     return "\n".join(lines)
@@ -469,8 +551,9 @@ def plot_report(res: dict, path) -> None:
         v = res["rates"][s]["rate_by_T"]
         ax.plot(range(1, len(v) + 1), v, "-o", ms=3, label=f"{s} (random)")
     for s, d in res.get("informed", {}).items():
-        ax.plot(range(1, len(d["informed"]) + 1), d["informed"], "--s", ms=3,
-                label=f"{s} (informed)")
+        for st, sty in (("random", ":^"), ("informed", "--s")):
+            ax.plot(range(1, len(d[st]) + 1), d[st], sty, ms=3,
+                    label=f"{s} ({st}, Fig. 6.7 trials)")
     ax.set_xlabel("grasps t")
     ax.set_ylabel("recognition rate")
     ax.set_ylim(0, 1.02)
@@ -536,8 +619,9 @@ def main(argv=None) -> int:
     ap.add_argument("--alpha-sweep", action="store_true", help="add Table 6.2 (alpha 0..1)")
     ap.add_argument("--informed", action="store_true",
                     help="add informed (expected information gain) vs random grasp heights")
-    ap.add_argument("--informed-trials", type=pos_int, default=40,
-                    help="recognitions per fold and strategy with --informed (default 40)")
+    ap.add_argument("--informed-trials", type=pos_int, default=100,
+                    help="recognitions per fold and strategy with --informed (default 100; "
+                         "the same objects for every strategy)")
     ap.add_argument("--f-target", type=pos_float, default=15.0, metavar="N",
                     help="grasp force per finger, newtons (default 15)")
     ap.add_argument("--seed", type=nonneg_int, default=0,

@@ -28,16 +28,38 @@ the finger), the grasp height h (m) and the finger distance w (m)
 5. **Posterior over several grasps** (Eq. 6.5, 6.8): ``p(c | z_1:t) ~ p(c) prod_j p(z_j | c)``,
    computed in logs.
 6. **Next grasp height** (Eq. 6.9-6.13): for each action a (a discretised grasp height), the
-   expected information gain ``sum_z p(z | a) [H(c) - H(c | z)]`` summed over the training
-   observations z taken at a. ``p(z | a)``: with ``weighting="count"`` every training
-   observation at a counts ``1 / N_a`` (the thesis' counting estimate); with ``"belief"``
-   (default) each counts in proportion to the current belief in its class, ``p(c) / N_a,c``,
-   i.e. the outcomes the robot expects given what it already believes (the thesis' counting
-   weighs outcomes of objects it has already ruled out as much as the likely ones). The
+   expected information gain ``sum_z p(z | a) I(c; z)`` summed over the training
+   observations z taken at a (Eq. 6.12). ``p(z | a)``: with ``weighting="count"`` every
+   training observation at a counts ``1 / N_a`` (the thesis' counting estimate); with
+   ``"belief"`` (default) each counts in proportion to the current belief in its class,
+   ``p(c | z_1:t) / N_a,c``, i.e. the outcomes the robot expects given the grasps so far. The
    outcome likelihoods of the training observations are computed leave-one-out (each against
    its class histogram without itself, :meth:`TactileRecognizer.likelihood_loo`): a training
    observation otherwise finds itself in the codebook and promises more information than a new
-   grasp delivers. Pick the action with the largest gain (6.13).
+   grasp delivers. ``I(c; z) = H(c) - H(c | z)`` (Eq. 6.10) with two estimators of the
+   conditional entropy:
+
+   * ``estimator="entropy"``: the entropy of the updated belief, ``H(p(c | z_1:t, z))``, the
+     thesis' plug-in. It trusts the likelihood model: a height where the model is *confidently
+     wrong* (its posterior collapses onto another class) scores as well as one where it is
+     confidently right. On the simulated grasps this happened exactly where training data are
+     sparse (the 14-19 cm heights, one grasp per class and height in a training half: single-
+     grasp accuracy 0 %, yet the largest expected gains), and the informed heights came out
+     worse than random (seed 1: 77.8 vs 83.9 % averaged over t = 1..10).
+   * ``estimator="cross_entropy"`` (default): the training outcome's known class c_z gives
+     ``H(c | z) ~ -log p(c_z | z_1:t, z)`` (the cross-entropy of the updated belief on the
+     labelled outcome), so ``I = log p(c_z | z_1:t, z) - log p(c_z | z_1:t)``: the expected
+     rise of the log belief in the true class. Averaged with the belief weights this is
+     ``H(c) - CE``, a lower bound of the mutual information I(c; z | z_1:t) (Barber & Agakov
+     2003) that is exact when the model's posterior is the true one and penalises outcomes the
+     model gets wrong.
+
+   :meth:`TactileRecognizer.next_action` picks the action with the largest gain (6.13) among
+   the ``feasible`` ones, preferring those not ``taken`` yet: the naive-Bayes posterior (6.8)
+   treats every grasp as independent given the class, but a second grasp of the same object
+   at the same height returns nearly the same image (only taxel noise and a 1.5 mm placement
+   error differ), so its real information given the first is close to zero while Eq. 6.12
+   (computed from independent training outcomes) would promise the full amount again.
 
 Everything is vectorised over observations: the pairwise distances are a handful of
 ``scipy.spatial.distance.cdist`` calls (one per shift and pad).
@@ -444,48 +466,74 @@ class TactileRecognizer:
         return self.classes[int(np.argmax(p))], p
 
     # ---- active perception
+    ESTIMATORS = ("cross_entropy", "entropy")
+
     def information_gain(self, belief, train: TactileSet, actions, *,
-                         train_likelihood=None, weighting: str = "belief") -> dict:
+                         train_likelihood=None, weighting: str = "belief",
+                         estimator: str = "cross_entropy") -> dict:
         """Eq. 6.12: expected information gain of every action.
 
         Args:
-            belief: (n,) current posterior over ``self.classes``.
+            belief: (n,) current posterior over ``self.classes`` (p(c | z_1:t)).
             train: the training observations (the outcomes to sum over), labelled.
             actions: (len(train),) action id of every training observation (e.g. its
                 discretised height, :func:`height_actions`).
-            train_likelihood: optional precomputed outcome likelihoods ``(len(train), n)``;
-                default :meth:`likelihood_loo` (leave-one-out) when ``train`` is the fitted
-                set, else :meth:`likelihood`.
-            weighting: "belief" or "count" (see the module docstring).
+            train_likelihood: optional outcome likelihoods ``(len(train), n)`` (p(z | c) of
+                Eq. 6.6, any positive scale per row); default :meth:`likelihood_loo`
+                (leave-one-out) when ``train`` is the fitted set, else :meth:`likelihood`.
+            weighting: "belief" or "count" (p(z | a), see the module docstring).
+            estimator: "cross_entropy" or "entropy" (H(c | z), see the module docstring).
 
         Returns: {action: expected gain in nats}.
         """
         self._check_fitted()
+        n = len(self.classes)
         b = np.asarray(belief, float)
-        if b.shape != (len(self.classes),) or np.any(b < 0) or not b.sum() > 0:
-            raise ValueError(f"belief: expected {len(self.classes)} non-negative numbers")
+        if b.shape != (n,) or not np.all(np.isfinite(b)) or np.any(b < 0) or not b.sum() > 0:
+            raise ValueError(f"belief: expected {n} non-negative numbers, not all 0")
         b = b / b.sum()
         if weighting not in ("belief", "count"):
             raise ValueError(f"weighting: expected 'belief' or 'count', got {weighting!r}")
+        if estimator not in self.ESTIMATORS:
+            raise ValueError(f"estimator: expected one of {', '.join(self.ESTIMATORS)}, got "
+                             f"{estimator!r}")
         acts = np.asarray(actions)
         if acts.shape != (len(train),):
             raise ValueError(f"actions: expected {len(train)} entries, got shape {acts.shape}")
+        if train.labels is None:
+            raise ValueError("information_gain: the training observations need labels")
         if train_likelihood is not None:
             L = np.asarray(train_likelihood, float)
+            if L.shape != (len(train), n) or not np.all(np.isfinite(L)) or np.any(L < 0):
+                raise ValueError(f"train_likelihood: expected non-negative finite numbers of "
+                                 f"shape {(len(train), n)}, got {L.shape}")
         elif self._key(train) == self._train_key:
             L = self.likelihood_loo(train)
         else:
             L = self.likelihood(train)
-        L = np.maximum(L, 1e-300)
-        post = b[None, :] * L
-        post /= post.sum(axis=1, keepdims=True)
-        gain = entropy(b) - entropy(post, axis=1)  # I(c; z) for every training z
-        uniq, a_idx = np.unique(acts, return_inverse=True)
+        unknown = sorted(set(train.labels.tolist()) - set(self.classes.tolist()))
+        if unknown:
+            raise ValueError(f"information_gain: training labels {unknown} are not classes "
+                             f"of the model")
         y = np.searchsorted(self.classes, train.labels)
+        # updated belief p(c | z_1:t, z) for every training outcome z, in logs
+        with np.errstate(divide="ignore"):
+            lb = np.log(b)
+        s = lb[None, :] + np.log(np.maximum(L, 1e-300))
+        s = s - s.max(axis=1, keepdims=True)
+        logpost = s - np.log(np.exp(s).sum(axis=1, keepdims=True))
+        if estimator == "entropy":
+            gain = entropy(b) - entropy(np.exp(logpost), axis=1)
+        else:
+            # log p(c_z | z_1:t, z) - log p(c_z | z_1:t); outcomes of classes the belief has
+            # ruled out (b = 0) get weight 0 below
+            with np.errstate(invalid="ignore"):
+                gain = np.where(b[y] > 0, logpost[np.arange(len(y)), y] - lb[y], 0.0)
+        uniq, a_idx = np.unique(acts, return_inverse=True)
         if weighting == "count":
             w = np.ones(len(train))
         else:
-            n_ac = np.zeros((len(uniq), len(self.classes)))
+            n_ac = np.zeros((len(uniq), n))
             np.add.at(n_ac, (a_idx, y), 1.0)
             w = b[y] / n_ac[a_idx, y]
         tot = np.bincount(a_idx, weights=w, minlength=len(uniq))
@@ -493,10 +541,23 @@ class TactileRecognizer:
         eg = np.where(tot > 0, num / np.where(tot > 0, tot, 1.0), 0.0)
         return {u.item() if hasattr(u, "item") else u: float(g) for u, g in zip(uniq, eg)}
 
-    def next_action(self, belief, train: TactileSet, actions, **kw):
-        """Eq. 6.13: the action with the largest expected information gain, and all gains."""
+    def next_action(self, belief, train: TactileSet, actions, *, feasible=None, taken=(),
+                    **kw):
+        """Eq. 6.13: the action with the largest expected information gain, and all gains.
+
+        ``feasible``: the actions that can be executed now (default: every action of the
+        training set); ``taken``: actions already executed on this object: the best
+        feasible action not yet taken is chosen while there is one (see the module
+        docstring), else the best feasible one. Other keywords go to
+        :meth:`information_gain`. ValueError when no feasible action has training
+        outcomes."""
         g = self.information_gain(belief, train, actions, **kw)
-        best = max(g, key=lambda a: g[a])
+        cand = list(g) if feasible is None else [a for a in g if a in set(feasible)]
+        if not cand:
+            raise ValueError("next_action: no feasible action has training observations")
+        done = set(taken)
+        fresh = [a for a in cand if a not in done]
+        best = max(fresh or cand, key=lambda a: g[a])
         return best, g
 
 

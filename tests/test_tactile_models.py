@@ -226,6 +226,54 @@ def test_information_gain_prefers_the_only_discriminative_height():
         rec.information_gain([0.5, 0.5, 0.0], train, acts)
 
 
+def _two_class_recognizer():
+    """A recogniser fitted on 12 grasps of two classes "a" / "b" at heights 0 / 1 / 2 cm (two
+    per class and height); the tests below give its outcome likelihoods as a table."""
+    rng = np.random.default_rng(3)
+    labels = np.array(["a", "b"] * 6, dtype=object)
+    heights = np.repeat([0.0, 0.01, 0.02], 4)
+    train = TactileSet(rng.random((12, 14, 6)), rng.random((12, 14, 6)), heights,
+                       0.05 + 0.01 * rng.random(12), labels)
+    rec = TactileRecognizer(TactileRecognitionConfig(k=3, clustering="agglomerative"))
+    return rec.fit(train), train, height_actions(heights, resolution=0.01)
+
+
+def test_informed_choice_prefers_the_height_that_separates_the_classes():
+    """A synthetic table p(z | c) of the training outcomes: at height 0 every outcome is
+    uninformative (0.5 / 0.5), at height 1 it separates the classes (0.9 / 0.1 towards the
+    true one), at height 2 the model is confidently *wrong* (0.001 / 0.999 towards the other
+    class). The cross-entropy estimator (default) picks height 1; the thesis' plug-in entropy
+    of the updated belief is fooled by the confident outcomes of height 2."""
+    rec, train, acts = _two_class_recognizer()
+    y = (train.labels == "b").astype(int)
+    table = {0: [[0.5, 0.5], [0.5, 0.5]], 1: [[0.9, 0.1], [0.1, 0.9]],
+             2: [[0.001, 0.999], [0.999, 0.001]]}
+    L = np.array([table[a][c] for a, c in zip(acts, y)])
+    best, g = rec.next_action([0.5, 0.5], train, acts, train_likelihood=L)
+    assert best == 1, g
+    assert g[0] == pytest.approx(0.0, abs=1e-12)
+    assert g[1] == pytest.approx(np.log(0.9) - np.log(0.5))  # expected rise of log p(true)
+    assert g[2] < 0.0  # the truth loses belief there
+    best_e, g_e = rec.next_action([0.5, 0.5], train, acts, train_likelihood=L,
+                                  estimator="entropy")
+    assert best_e == 2 and g_e[2] > g_e[1] > g_e[0] == pytest.approx(0.0, abs=1e-12)
+    # given the grasps so far: with "b" ruled out nothing is left to learn anywhere
+    _, g_b = rec.next_action([1.0, 0.0], train, acts, train_likelihood=L)
+    assert max(abs(v) for v in g_b.values()) == pytest.approx(0.0, abs=1e-12)
+    # a height already grasped is not chosen again while another feasible one is left
+    assert rec.next_action([0.5, 0.5], train, acts, train_likelihood=L, taken={1})[0] == 0
+    assert rec.next_action([0.5, 0.5], train, acts, train_likelihood=L, taken={0, 1, 2})[0] == 1
+    assert rec.next_action([0.5, 0.5], train, acts, train_likelihood=L, feasible={0, 2})[0] == 0
+    with pytest.raises(ValueError, match="no feasible action"):
+        rec.next_action([0.5, 0.5], train, acts, train_likelihood=L, feasible={7})
+    with pytest.raises(ValueError, match="estimator"):
+        rec.information_gain([0.5, 0.5], train, acts, estimator="kl")
+    with pytest.raises(ValueError, match="train_likelihood"):
+        rec.information_gain([0.5, 0.5], train, acts, train_likelihood=L[:, :1])
+    with pytest.raises(ValueError, match="belief"):
+        rec.information_gain([np.nan, 0.5], train, acts)
+
+
 @pytest.mark.skipif(not kmedoids_available(), reason="kmedoids not installed")
 def test_kmedoids_vocabulary_has_k_distinct_training_medoids(easy_world):
     _, train, _, _ = easy_world

@@ -105,6 +105,35 @@ def test_evaluate_separates_distinct_classes_and_not_identical_ones():
     assert 0.3 < r2["rate"] < 0.7
 
 
+def test_informed_heights_beat_random_where_one_height_tells_the_classes_apart():
+    """Four classes in two pairs: within a pair the objects are identical at heights 0-3 and
+    differ only at height 4. At a uniform belief the expected gain is largest at height 4
+    (it splits all four classes, the others only the pairs), so the first informed grasp
+    recognises the object; a random first grasp only tells the pair (rate ~0.6)."""
+    from mmlearn.apps.tactile_recognition import STRATEGIES, evaluate
+    from mmlearn.models.tactile_synth import sample_grasps
+
+    rng = np.random.default_rng(4)
+    objs = {"pattern": np.array([[0, 1, 2, 3, 8], [0, 1, 2, 3, 9],
+                                 [4, 5, 6, 7, 10], [4, 5, 6, 7, 11]]),
+            "width": np.array([[0.03, 0.04, 0.05, 0.06, 0.03], [0.03, 0.04, 0.05, 0.06, 0.05],
+                               [0.07, 0.06, 0.05, 0.04, 0.07], [0.07, 0.06, 0.05, 0.04, 0.09]])}
+    # 40 grasps per class: 4 per height in a training half, so that the leave-one-out outcome
+    # likelihoods still see the class at every height
+    cl = np.repeat(np.arange(4), 40)
+    hh = np.tile(np.arange(5), 32)
+    d = sample_grasps(objs, cl, hh, rng=rng, names=["a", "b", "c", "d"], noise=0.05)
+    r = evaluate(d, ["a", "b", "c", "d"], k=12, T=3, recognitions=20, seed=2,
+                 informed_trials=40)["informed"]
+    assert set(STRATEGIES) <= set(r) and r["recognitions"] == 80
+    assert r["informed"][0] > 0.9 and r["random"][0] < 0.8, r
+    assert r["mean_over_T"]["informed"] > r["mean_over_T"]["random"] + 0.05, r
+    pt = r["paired_t"]["informed"]
+    assert pt["p"] < 0.01 and pt["mean_difference"] > 0
+    # informed grasps never repeat a height while the object has fresh ones (5 > T = 3)
+    assert r["distinct_heights"]["informed"] == r["distinct_heights"]["random_heights"] == 3.0
+
+
 # ------------------------------------------------------------------ the app
 def test_app_short_run_and_report_only(tmp_path, capsys):
     from mmlearn.apps.tactile_recognition import main
