@@ -374,6 +374,8 @@ class GaussianProcess:
                 if rev:
                     bounds.append((np.log(1e-12), np.log(1e4 * yscale[c] + 1e-8)))
             bounds = np.array(bounds)
+            if d == 0:
+                return self._constant_optimum(Yc, bounds)
             theta0 = np.clip(theta0.ravel(), bounds[:, 0], bounds[:, 1])
             G = self._geom(X, X)
             starts = [theta0] + [np.clip(t.ravel(), bounds[:, 0], bounds[:, 1]) for t in extra]
@@ -403,6 +405,29 @@ class GaussianProcess:
                                         maxiter, ftol)
             return best.ravel()
         return theta0.ravel()
+
+    @staticmethod
+    def _constant_optimum(Yc: np.ndarray, bounds: np.ndarray) -> np.ndarray:
+        """The exact maximum of the log marginal likelihood within ``bounds`` for 0 inputs
+        (every optimiser start ends here, so no L-BFGS-B is run; the body schema's k = 0
+        local models are such GPs).
+
+        With no inputs the kernel is K = sf2 11^T + sn2 I. The centred targets y_c are
+        orthogonal to 1, so K^-1 y_c = y_c / sn2 and log|K| = (n - 1) log sn2 +
+        log(n sf2 + sn2): the likelihood falls with sf2 (its optimum is sf2's lower bound),
+        and with a = n sf2 and S = y_c^T y_c, d lml / d sn2 = 0 is the quadratic
+        n sn2^2 - (S - (n - 1) a) sn2 - S a = 0 with one positive root; the likelihood is
+        unimodal in log sn2, so that root clipped to sn2's bounds is the bounded optimum.
+        Returns theta (m * 2,): (log sf2, log sn2) per output."""
+        n, m = Yc.shape
+        w = bounds.reshape(m, 2, 2)
+        log_sf2 = w[:, 0, 0]
+        a = n * np.exp(log_sf2)
+        S = np.einsum("ic,ic->c", Yc, Yc)
+        b = S - (n - 1) * a
+        sn2 = (b + np.sqrt(b * b + 4.0 * n * S * a)) / (2.0 * n)
+        log_sn2 = np.clip(np.log(np.maximum(sn2, 1e-300)), w[:, 1, 0], w[:, 1, 1])
+        return np.stack([log_sf2, log_sn2], axis=1).ravel()
 
     def _per_output_starts(self, best, best_f, G, Yc, d_ell, bounds, ell_starts, ell_default,
                            sf2_default, sb2_default, yvar, noise_min, maxiter, ftol):
