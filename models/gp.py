@@ -85,6 +85,12 @@ def _tri_indices(n: int):
     return lo, (lo[1], lo[0])
 
 
+def _inv_l2(log_ell: np.ndarray, m: int, d: int) -> np.ndarray:
+    """1 / ell^2 (m, d) from log length scales (m, d), or (m, 1) / (1, d) shared ones."""
+    inv = np.exp(-2.0 * np.asarray(log_ell, float))
+    return inv if inv.shape == (m, d) else np.broadcast_to(inv, (m, d))
+
+
 def _batched_cholesky(K: np.ndarray) -> np.ndarray:
     """Cholesky of a stack (m, n, n); adds growing diagonal jitter if needed."""
     try:
@@ -158,15 +164,18 @@ class GaussianProcess:
     def _has_rev(self, d: int) -> bool:
         return self.revolute and d > 0
 
-    def _kernel_noiseless(self, D2: np.ndarray, log_ell: np.ndarray, log_sf2: np.ndarray):
-        """Stack (m, a, b) of sf2 * exp(-0.5 * sum_d D2_d / ell_cd^2) (the SE term)."""
+    def _kernel_noiseless(self, D2: np.ndarray, log_ell: np.ndarray, log_sf2: np.ndarray,
+                          inv_l2: np.ndarray | None = None):
+        """Stack (m, a, b) of sf2 * exp(-0.5 * sum_d D2_d / ell_cd^2) (the SE term);
+        ``inv_l2``: 1 / ell^2 (m, d) if the caller has it already."""
         m = log_sf2.shape[0]
-        d = D2.shape[0]
+        d, a, b = D2.shape
         if d == 0:
-            return np.exp(log_sf2)[:, None, None] * np.ones((m,) + D2.shape[1:])
-        inv_l2 = np.exp(-2.0 * np.broadcast_to(log_ell, (m, d)))
-        r2 = np.einsum("cd,dab->cab", inv_l2, D2)
-        r2 *= -0.5
+            return np.exp(log_sf2)[:, None, None] * np.ones((m, a, b))
+        if inv_l2 is None:
+            inv_l2 = _inv_l2(log_ell, m, d)
+        # one (m, d) x (d, a b) product instead of an einsum: these are small matrices
+        r2 = ((-0.5 * inv_l2) @ D2.reshape(d, a * b)).reshape(m, a, b)
         r2 += log_sf2[:, None, None]
         return np.exp(r2, out=r2)
 
@@ -189,14 +198,24 @@ class GaussianProcess:
         return theta[:, :d_ell], theta[:, d_ell], theta[:, d_ell + 1], sb2
 
     def _neg_lml_and_grad(self, theta, G, Yc, d_ell):
+        """Negative log marginal likelihood summed over the outputs and its gradient with
+        respect to ``theta`` (the objective of L-BFGS-B; written for few small matrices:
+        one LAPACK Cholesky + inverse per output, the rest as products of flattened
+        stacks)."""
         D2, P = G
         n, m = Yc.shape
         d = D2.shape[0]
+        nn = n * n
         log_ell, log_sf2, log_sn2, log_sb2 = self._unpack(theta, m, d_ell, d)
-        Kse = self._kernel_noiseless(D2, log_ell, log_sf2)
-        Kf = Kse if P is None else Kse + np.exp(log_sb2)[:, None, None] * P
+        inv_l2 = _inv_l2(log_ell, m, d) if d_ell > 0 else None
+        Kse = self._kernel_noiseless(D2, log_ell, log_sf2, inv_l2)
         sn2 = np.exp(log_sn2)
-        K = Kf + sn2[:, None, None] * np.eye(n)
+        if P is None:
+            K = Kse.copy()
+        else:
+            sb2 = np.exp(log_sb2)
+            K = Kse + sb2[:, None, None] * P
+        K.reshape(m, nn)[:, ::n + 1] += sn2[:, None]
         Kinv = np.empty_like(K)
         Ldiag = np.empty((m, n))
         for c in range(m):
@@ -206,28 +225,29 @@ class GaussianProcess:
                     Lc = _batched_cholesky(K[c][None])[0]
                 except np.linalg.LinAlgError:
                     return 1e25, np.zeros_like(theta)
-            Ldiag[c] = Lc.flat[::n + 1]
+            Ldiag[c] = Lc.diagonal()
             Kinv[c], info = _potri(Lc, lower=1)
         logdet_half = np.log(Ldiag).sum(axis=1)
         # potri fills the lower triangle only: mirror it onto the upper one
         lo, up = _tri_indices(n)
         Kinv[:, up[0], up[1]] = Kinv[:, lo[0], lo[1]]
-        alpha = np.einsum("cij,jc->ci", Kinv, Yc)  # (m, n)
-        lml = -0.5 * np.einsum("ic,ci->c", Yc, alpha) - logdet_half - 0.5 * n * _LOG_2PI
-        W = alpha[:, :, None] * alpha[:, None, :] - Kinv  # (m, n, n)
-        WK = W * Kse
+        alpha = np.matmul(Kinv, Yc.T[:, :, None])[:, :, 0]  # (m, n)
+        lml = -0.5 * (Yc.T * alpha).sum(axis=1) - logdet_half - 0.5 * n * _LOG_2PI
+        W = alpha[:, :, None] * alpha[:, None, :]
+        W -= Kinv  # (m, n, n)
+        Wf = W.reshape(m, nn)
+        WK = Wf * Kse.reshape(m, nn)
         g = np.empty((m, self._width(d_ell, d)))
         if d_ell > 0:
-            inv_l2 = np.exp(-2.0 * np.broadcast_to(log_ell, (m, d)))
-            g_dims = 0.5 * np.einsum("cab,dab->cd", WK, D2) * inv_l2
+            g_dims = 0.5 * (WK @ D2.reshape(d, nn).T) * inv_l2
             if self.ard:
                 g[:, :d_ell] = g_dims
             else:
                 g[:, 0] = g_dims.sum(axis=1)
-        g[:, d_ell] = 0.5 * WK.sum(axis=(1, 2))
-        g[:, d_ell + 1] = 0.5 * sn2 * np.trace(W, axis1=1, axis2=2)
+        g[:, d_ell] = 0.5 * WK.sum(axis=1)
+        g[:, d_ell + 1] = 0.5 * sn2 * Wf[:, ::n + 1].sum(axis=1)
         if P is not None:
-            g[:, d_ell + 2] = 0.5 * np.exp(log_sb2) * np.einsum("cab,ab->c", W, P)
+            g[:, d_ell + 2] = 0.5 * sb2 * (Wf @ P.reshape(nn))
         return -float(lml.sum()), -g.ravel()
 
     def _per_output_nlml(self, theta, G, Yc, d_ell) -> np.ndarray:
