@@ -328,7 +328,7 @@ def _screen_loo_pairs(actions, items, Qs, ell, reg):
     groups = {}
     for e, (rows, _, _) in enumerate(items):
         groups.setdefault((len(rows), rows.tobytes()), []).append(e)
-    preds = [None] * len(items)
+    preds = []  # per group: (P, nQ, n, 3, 4) LOO predictions
     for idx in groups.values():
         rows = items[idx[0]][0]
         n = len(rows)
@@ -343,20 +343,22 @@ def _screen_loo_pairs(actions, items, Qs, ell, reg):
             Kinv = np.linalg.inv(np.exp(-0.5 * d2) + reg * np.eye(n))  # (nQ, n, n)
             alpha = Kinv[None] @ (Ys - Ys.mean(axis=1, keepdims=True))[:, None]
             pred = Ys[:, None] - alpha / np.diagonal(Kinv, axis1=1, axis2=2)[None, :, :, None]
-        for p, e in enumerate(idx):
-            preds[e] = pred[p].reshape(nQ, n, 3, 4)
+        preds.append(pred.reshape(len(idx), nQ, n, 3, 4))
     # all rotation blocks at once (one vectorised SO(3) projection)
-    M = np.concatenate([p.reshape(-1, 3, 4) for p in preds])
-    R = project_to_so3(M[:, :, :3])
-    out, at = [], 0
-    for p, (_, _, Z) in zip(preds, items):
-        n = p.shape[1]
-        Rp = R[at:at + nQ * n].reshape(nQ, n, 3, 3)
-        at += nQ * n
-        dp = np.linalg.norm(p[..., 3] - Z[None, :, :3, 3], axis=-1)
-        c = (np.einsum("qnab,nab->qn", Rp, Z[:, :3, :3]) - 1.0) / 2.0
-        dr = np.arccos(np.clip(c, -1.0, 1.0))
-        out.append(np.stack([np.median(dp, axis=1), np.median(dr, axis=1)], axis=1))
+    R = project_to_so3(np.concatenate([p[..., :3].reshape(-1, 3, 3) for p in preds]))
+    out, at = [None] * len(items), 0
+    for p, idx in zip(preds, groups.values()):
+        P, n = len(idx), p.shape[2]
+        Rp = R[at:at + p[..., 0, 0].size].reshape(P, nQ, n, 3, 3)
+        at += p[..., 0, 0].size
+        Z = np.stack([items[e][2] for e in idx])  # (P, n, 4, 4)
+        err = np.empty((2, P, nQ, n))
+        err[0] = np.linalg.norm(p[..., 3] - Z[:, None, :, :3, 3], axis=-1)
+        c = (np.einsum("pqnab,pnab->pqn", Rp, Z[:, :, :3, :3]) - 1.0) / 2.0
+        err[1] = np.arccos(np.clip(c, -1.0, 1.0))
+        med = np.moveaxis(np.median(err, axis=-1), 0, -1)  # (P, nQ, 2)
+        for e, m in zip(idx, med):
+            out[e] = m
     return out
 
 
