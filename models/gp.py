@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import contextlib
 import functools
+import threading
 
 import numpy as np
 from scipy.linalg import lapack
@@ -51,20 +52,39 @@ _LOG_2PI = np.log(2.0 * np.pi)
 
 
 _THREADPOOL_CONTROLLER = None
+# per thread: how many blas_single_thread() contexts are open (the nested ones are no-ops)
+_BLAS_LIMIT = threading.local()
 
 
+@contextlib.contextmanager
 def blas_single_thread():
     """Context manager limiting BLAS to one thread (via threadpoolctl, a scikit-learn
     dependency; a no-op without it). GP matrices here are small: on a shared machine a
-    multi-threaded BLAS on 30x30 matrices is several times slower than a single thread."""
+    multi-threaded BLAS on 30x30 matrices is several times slower than a single thread.
+    Nested uses (a fit inside a structure search inside a schema update) do nothing:
+    each threadpoolctl limit costs ~0.1 ms, and a structure search makes hundreds of fits."""
     global _THREADPOOL_CONTROLLER
+    depth = getattr(_BLAS_LIMIT, "depth", 0)
+    if depth:
+        _BLAS_LIMIT.depth = depth + 1
+        try:
+            yield
+        finally:
+            _BLAS_LIMIT.depth = depth
+        return
     try:
         if _THREADPOOL_CONTROLLER is None:
             from threadpoolctl import ThreadpoolController
             _THREADPOOL_CONTROLLER = ThreadpoolController()
-        return _THREADPOOL_CONTROLLER.limit(limits=1, user_api="blas")
+        limit = _THREADPOOL_CONTROLLER.limit(limits=1, user_api="blas")
     except Exception:  # pragma: no cover
-        return contextlib.nullcontext()
+        limit = contextlib.nullcontext()
+    with limit:
+        _BLAS_LIMIT.depth = 1
+        try:
+            yield
+        finally:
+            _BLAS_LIMIT.depth = 0
 
 
 def _as_2d(a, name: str) -> np.ndarray:

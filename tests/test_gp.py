@@ -251,3 +251,24 @@ def test_revolute_kernel_extrapolates_a_revolute_chain():
     err = {rev: np.abs(GaussianProcess(revolute=rev).fit(X, Y).predict(Xs) - _two_link(Xs)).mean()
            for rev in (False, True)}
     assert err[True] < 0.25 * err[False]
+
+
+def test_blas_single_thread_nests_and_restores():
+    from threadpoolctl import threadpool_info
+
+    from mmlearn.models.gp import blas_single_thread
+
+    def threads():
+        return [i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"]
+
+    before = threads()
+    with blas_single_thread():
+        assert all(t == 1 for t in threads())
+        with blas_single_thread():
+            assert all(t == 1 for t in threads())
+        assert all(t == 1 for t in threads())  # the inner exit keeps the outer limit
+    assert threads() == before
+    with pytest.raises(ValueError):
+        with blas_single_thread():
+            raise ValueError("x")
+    assert threads() == before
