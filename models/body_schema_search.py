@@ -530,9 +530,14 @@ def _learn_structure(actions, poses, *, config: SearchConfig | None = None,
                 if not ok and not (model.k < 2 and prev.get("valid") is False
                                    and _grew_less(len(tr), n_cold, config)):
                     # it passed the screening: a bad local optimum of the hyper-parameters
-                    # is the likely cause; retry once with an extra low-noise start
+                    # is the likely cause; retry once with an extra low-noise start. The
+                    # retry's first start is the data-scale one; when the fit above began
+                    # there too (no cached values), it starts from that fit's optimum
+                    # instead (the same L-BFGS-B run: only the low-noise start is new)
                     model.fit(actions[rows[tr]], Z[tr], max_opt=config.max_opt,
-                              noise_min=config.output_noise_min, n_restarts=1)
+                              noise_min=config.output_noise_min, n_restarts=1,
+                              hyperparameters=None if hp0 is not None
+                              else model.gp.hyperparameters())
                     result.n_trained += 1
                     ok, st = _judge(model, config, rows, te, actions, Z, t)
                     n_cold = len(tr)
