@@ -30,6 +30,7 @@ import numpy as np
 from networkx.utils import UnionFind
 
 from .gp import blas_single_thread
+from .se3 import project_to_so3
 from .body_schema_local import (
     LocalModel,
     log_likelihood,
@@ -312,29 +313,53 @@ def _screen(Xall_tr, Y_tr, Xall_te, Z_te, Qs, ell, reg):
     return np.stack([np.median(dp, axis=1), np.median(dr, axis=1)], axis=1)
 
 
-def _screen_loo(Xall, Y, Z, Qs, ell, reg):
-    """Median leave-one-out errors (nQ, 2) of a fixed-hyper-parameter GP for every Q."""
-    n = len(Y)
-    ym = Y.mean(axis=0)
-    Yc = Y - ym
+def _screen_loo_pairs(actions, items, Qs, ell, reg):
+    """Median leave-one-out errors (nQ, 2) of a fixed-hyper-parameter GP for every subset in
+    Qs, for each of several pairs at once (one layer of the search).
+
+    actions: (t, m) all action rows; items: per pair (rows (n,) into ``actions``, Y (n, 12)
+    targets, Z (n, 4, 4) observed relative poses); ell: (m,) length scales (units of the
+    actions); reg: noise-to-signal ratio. Pairs observed on the same rows share one kernel
+    matrix inverse per Q (it depends on the actions only), and the rotation blocks of all
+    predictions are projected onto SO(3) in one call. Returns a list of (nQ, 2) arrays
+    (translational m, rotational rad)."""
     nQ = len(Qs)
-    if len(Qs[0]) == 0:
-        # constant model: LOO mean is the mean of the other samples
-        pred = ((Y.sum(axis=0) - Y) / (n - 1))[None]
-    else:
-        Qa = np.array(Qs)
-        Xs = np.swapaxes(Xall[:, Qa] / ell[Qa], 0, 1)  # (nQ, n, k)
-        d2 = ((Xs[:, :, None, :] - Xs[:, None, :, :]) ** 2).sum(-1)
-        K = np.exp(-0.5 * d2) + reg * np.eye(n)
-        Kinv = np.linalg.inv(K)
-        alpha = Kinv @ Yc  # (nQ, n, 12)
-        pred = Y[None] - alpha / np.diagonal(Kinv, axis1=1, axis2=2)[:, :, None]
-    Zp = np.zeros((nQ, n, 4, 4))
-    Zp[..., :3, :4] = pred.reshape(nQ, n, 3, 4)
-    Zp[..., 3, 3] = 1.0
-    Zp = orthonormalize(Zp)
-    dp, dr = pose_errors(Zp, Z[None])
-    return np.stack([np.median(dp, axis=1), np.median(dr, axis=1)], axis=1)
+    k = len(Qs[0])
+    groups = {}
+    for e, (rows, _, _) in enumerate(items):
+        groups.setdefault((len(rows), rows.tobytes()), []).append(e)
+    preds = []  # per group: (P, nQ, n, 3, 4) LOO predictions
+    for idx in groups.values():
+        rows = items[idx[0]][0]
+        n = len(rows)
+        Ys = np.stack([items[e][1] for e in idx])  # (P, n, 12)
+        if k == 0:
+            # constant model: the LOO mean is the mean of the other samples
+            pred = ((Ys.sum(axis=1, keepdims=True) - Ys) / (n - 1))[:, None]  # (P, 1, n, 12)
+        else:
+            Qa = np.array(Qs)
+            Xs = np.swapaxes(actions[rows][:, Qa] / ell[Qa], 0, 1)  # (nQ, n, k)
+            d2 = ((Xs[:, :, None, :] - Xs[:, None, :, :]) ** 2).sum(-1)
+            Kinv = np.linalg.inv(np.exp(-0.5 * d2) + reg * np.eye(n))  # (nQ, n, n)
+            alpha = Kinv[None] @ (Ys - Ys.mean(axis=1, keepdims=True))[:, None]
+            pred = Ys[:, None] - alpha / np.diagonal(Kinv, axis1=1, axis2=2)[None, :, :, None]
+        preds.append(pred.reshape(len(idx), nQ, n, 3, 4))
+    # all rotation blocks at once (one vectorised SO(3) projection)
+    R = project_to_so3(np.concatenate([p[..., :3].reshape(-1, 3, 3) for p in preds]))
+    out, at = [None] * len(items), 0
+    for p, idx in zip(preds, groups.values()):
+        P, n = len(idx), p.shape[2]
+        Rp = R[at:at + p[..., 0, 0].size].reshape(P, nQ, n, 3, 3)
+        at += p[..., 0, 0].size
+        Z = np.stack([items[e][2] for e in idx])  # (P, n, 4, 4)
+        err = np.empty((2, P, nQ, n))
+        err[0] = np.linalg.norm(p[..., 3] - Z[:, None, :, :3, 3], axis=-1)
+        c = (np.einsum("pqnab,pnab->pqn", Rp, Z[:, :, :3, :3]) - 1.0) / 2.0
+        err[1] = np.arccos(np.clip(c, -1.0, 1.0))
+        med = np.moveaxis(np.median(err, axis=-1), 0, -1)  # (P, nQ, 2)
+        for e, m in zip(idx, med):
+            out[e] = m
+    return out
 
 
 def _stats(model, dp, dr, config, n_total):
@@ -451,6 +476,7 @@ def _learn_structure(actions, poses, *, config: SearchConfig | None = None,
         result.layers.append(k)
         comp = _components(nodes, valid_models)
         Qs = list(combinations(range(m), k))
+        todo = []
         for (i, j), (rows, Z, tr, te) in pair.items():
             if comp[i] == comp[j]:
                 continue
@@ -458,13 +484,20 @@ def _learn_structure(actions, poses, *, config: SearchConfig | None = None,
             if len(tr_s) > config.max_screen:
                 tr_s = tr[np.unique(np.linspace(0, len(tr) - 1, config.max_screen).round()
                                     .astype(int))]
-            Y_tr = Z[tr_s, :3, :4].reshape(len(tr_s), 12)
-            if config.validation == "loo":
-                med = _screen_loo(actions[rows[tr_s]], Y_tr, Z[tr_s], Qs, ell,
-                                  config.screen_reg)
-            else:
-                med = _screen(actions[rows[tr_s]], Y_tr, actions[rows[te]], Z[te], Qs, ell,
-                              config.screen_reg)
+            todo.append(((i, j), tr_s))
+        if config.validation == "loo":
+            # the whole layer's screening at once (see _screen_loo_pairs)
+            meds = _screen_loo_pairs(
+                actions, [(pair[ij][0][tr_s], pair[ij][1][tr_s, :3, :4].reshape(-1, 12),
+                           pair[ij][1][tr_s]) for ij, tr_s in todo], Qs, ell,
+                config.screen_reg) if todo else []
+        else:
+            meds = [_screen(actions[pair[ij][0][tr_s]],
+                            pair[ij][1][tr_s, :3, :4].reshape(-1, 12),
+                            actions[pair[ij][0][pair[ij][3]]], pair[ij][1][pair[ij][3]], Qs,
+                            ell, config.screen_reg) for ij, tr_s in todo]
+        for ((i, j), _), med in zip(todo, meds):
+            rows, Z, tr, te = pair[(i, j)]
             result.n_screened += len(Qs)
             score = np.maximum(med[:, 0] / thr_p, med[:, 1] / thr_r)
             passing = np.flatnonzero(score <= config.screen_factor)
@@ -497,9 +530,14 @@ def _learn_structure(actions, poses, *, config: SearchConfig | None = None,
                 if not ok and not (model.k < 2 and prev.get("valid") is False
                                    and _grew_less(len(tr), n_cold, config)):
                     # it passed the screening: a bad local optimum of the hyper-parameters
-                    # is the likely cause; retry once with an extra low-noise start
+                    # is the likely cause; retry once with an extra low-noise start. The
+                    # retry's first start is the data-scale one; when the fit above began
+                    # there too (no cached values), it starts from that fit's optimum
+                    # instead (the same L-BFGS-B run: only the low-noise start is new)
                     model.fit(actions[rows[tr]], Z[tr], max_opt=config.max_opt,
-                              noise_min=config.output_noise_min, n_restarts=1)
+                              noise_min=config.output_noise_min, n_restarts=1,
+                              hyperparameters=None if hp0 is not None
+                              else model.gp.hyperparameters())
                     result.n_trained += 1
                     ok, st = _judge(model, config, rows, te, actions, Z, t)
                     n_cold = len(tr)

@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import contextlib
 import functools
+import threading
 
 import numpy as np
 from scipy.linalg import lapack
@@ -51,20 +52,39 @@ _LOG_2PI = np.log(2.0 * np.pi)
 
 
 _THREADPOOL_CONTROLLER = None
+# per thread: how many blas_single_thread() contexts are open (the nested ones are no-ops)
+_BLAS_LIMIT = threading.local()
 
 
+@contextlib.contextmanager
 def blas_single_thread():
     """Context manager limiting BLAS to one thread (via threadpoolctl, a scikit-learn
     dependency; a no-op without it). GP matrices here are small: on a shared machine a
-    multi-threaded BLAS on 30x30 matrices is several times slower than a single thread."""
+    multi-threaded BLAS on 30x30 matrices is several times slower than a single thread.
+    Nested uses (a fit inside a structure search inside a schema update) do nothing:
+    each threadpoolctl limit costs ~0.1 ms, and a structure search makes hundreds of fits."""
     global _THREADPOOL_CONTROLLER
+    depth = getattr(_BLAS_LIMIT, "depth", 0)
+    if depth:
+        _BLAS_LIMIT.depth = depth + 1
+        try:
+            yield
+        finally:
+            _BLAS_LIMIT.depth = depth
+        return
     try:
         if _THREADPOOL_CONTROLLER is None:
             from threadpoolctl import ThreadpoolController
             _THREADPOOL_CONTROLLER = ThreadpoolController()
-        return _THREADPOOL_CONTROLLER.limit(limits=1, user_api="blas")
+        limit = _THREADPOOL_CONTROLLER.limit(limits=1, user_api="blas")
     except Exception:  # pragma: no cover
-        return contextlib.nullcontext()
+        limit = contextlib.nullcontext()
+    with limit:
+        _BLAS_LIMIT.depth = 1
+        try:
+            yield
+        finally:
+            _BLAS_LIMIT.depth = 0
 
 
 def _as_2d(a, name: str) -> np.ndarray:
@@ -83,6 +103,12 @@ def _tri_indices(n: int):
     """Strictly lower-triangle indices of an (n, n) matrix and the mirrored upper ones."""
     lo = np.tril_indices(n, -1)
     return lo, (lo[1], lo[0])
+
+
+def _inv_l2(log_ell: np.ndarray, m: int, d: int) -> np.ndarray:
+    """1 / ell^2 (m, d) from log length scales (m, d), or (m, 1) / (1, d) shared ones."""
+    inv = np.exp(-2.0 * np.asarray(log_ell, float))
+    return inv if inv.shape == (m, d) else np.broadcast_to(inv, (m, d))
 
 
 def _batched_cholesky(K: np.ndarray) -> np.ndarray:
@@ -158,15 +184,18 @@ class GaussianProcess:
     def _has_rev(self, d: int) -> bool:
         return self.revolute and d > 0
 
-    def _kernel_noiseless(self, D2: np.ndarray, log_ell: np.ndarray, log_sf2: np.ndarray):
-        """Stack (m, a, b) of sf2 * exp(-0.5 * sum_d D2_d / ell_cd^2) (the SE term)."""
+    def _kernel_noiseless(self, D2: np.ndarray, log_ell: np.ndarray, log_sf2: np.ndarray,
+                          inv_l2: np.ndarray | None = None):
+        """Stack (m, a, b) of sf2 * exp(-0.5 * sum_d D2_d / ell_cd^2) (the SE term);
+        ``inv_l2``: 1 / ell^2 (m, d) if the caller has it already."""
         m = log_sf2.shape[0]
-        d = D2.shape[0]
+        d, a, b = D2.shape
         if d == 0:
-            return np.exp(log_sf2)[:, None, None] * np.ones((m,) + D2.shape[1:])
-        inv_l2 = np.exp(-2.0 * np.broadcast_to(log_ell, (m, d)))
-        r2 = np.einsum("cd,dab->cab", inv_l2, D2)
-        r2 *= -0.5
+            return np.exp(log_sf2)[:, None, None] * np.ones((m, a, b))
+        if inv_l2 is None:
+            inv_l2 = _inv_l2(log_ell, m, d)
+        # one (m, d) x (d, a b) product instead of an einsum: these are small matrices
+        r2 = ((-0.5 * inv_l2) @ D2.reshape(d, a * b)).reshape(m, a, b)
         r2 += log_sf2[:, None, None]
         return np.exp(r2, out=r2)
 
@@ -189,14 +218,24 @@ class GaussianProcess:
         return theta[:, :d_ell], theta[:, d_ell], theta[:, d_ell + 1], sb2
 
     def _neg_lml_and_grad(self, theta, G, Yc, d_ell):
+        """Negative log marginal likelihood summed over the outputs and its gradient with
+        respect to ``theta`` (the objective of L-BFGS-B; written for few small matrices:
+        one LAPACK Cholesky + inverse per output, the rest as products of flattened
+        stacks)."""
         D2, P = G
         n, m = Yc.shape
         d = D2.shape[0]
+        nn = n * n
         log_ell, log_sf2, log_sn2, log_sb2 = self._unpack(theta, m, d_ell, d)
-        Kse = self._kernel_noiseless(D2, log_ell, log_sf2)
-        Kf = Kse if P is None else Kse + np.exp(log_sb2)[:, None, None] * P
+        inv_l2 = _inv_l2(log_ell, m, d) if d_ell > 0 else None
+        Kse = self._kernel_noiseless(D2, log_ell, log_sf2, inv_l2)
         sn2 = np.exp(log_sn2)
-        K = Kf + sn2[:, None, None] * np.eye(n)
+        if P is None:
+            K = Kse.copy()
+        else:
+            sb2 = np.exp(log_sb2)
+            K = Kse + sb2[:, None, None] * P
+        K.reshape(m, nn)[:, ::n + 1] += sn2[:, None]
         Kinv = np.empty_like(K)
         Ldiag = np.empty((m, n))
         for c in range(m):
@@ -206,28 +245,29 @@ class GaussianProcess:
                     Lc = _batched_cholesky(K[c][None])[0]
                 except np.linalg.LinAlgError:
                     return 1e25, np.zeros_like(theta)
-            Ldiag[c] = Lc.flat[::n + 1]
+            Ldiag[c] = Lc.diagonal()
             Kinv[c], info = _potri(Lc, lower=1)
         logdet_half = np.log(Ldiag).sum(axis=1)
         # potri fills the lower triangle only: mirror it onto the upper one
         lo, up = _tri_indices(n)
         Kinv[:, up[0], up[1]] = Kinv[:, lo[0], lo[1]]
-        alpha = np.einsum("cij,jc->ci", Kinv, Yc)  # (m, n)
-        lml = -0.5 * np.einsum("ic,ci->c", Yc, alpha) - logdet_half - 0.5 * n * _LOG_2PI
-        W = alpha[:, :, None] * alpha[:, None, :] - Kinv  # (m, n, n)
-        WK = W * Kse
+        alpha = np.matmul(Kinv, Yc.T[:, :, None])[:, :, 0]  # (m, n)
+        lml = -0.5 * (Yc.T * alpha).sum(axis=1) - logdet_half - 0.5 * n * _LOG_2PI
+        W = alpha[:, :, None] * alpha[:, None, :]
+        W -= Kinv  # (m, n, n)
+        Wf = W.reshape(m, nn)
+        WK = Wf * Kse.reshape(m, nn)
         g = np.empty((m, self._width(d_ell, d)))
         if d_ell > 0:
-            inv_l2 = np.exp(-2.0 * np.broadcast_to(log_ell, (m, d)))
-            g_dims = 0.5 * np.einsum("cab,dab->cd", WK, D2) * inv_l2
+            g_dims = 0.5 * (WK @ D2.reshape(d, nn).T) * inv_l2
             if self.ard:
                 g[:, :d_ell] = g_dims
             else:
                 g[:, 0] = g_dims.sum(axis=1)
-        g[:, d_ell] = 0.5 * WK.sum(axis=(1, 2))
-        g[:, d_ell + 1] = 0.5 * sn2 * np.trace(W, axis1=1, axis2=2)
+        g[:, d_ell] = 0.5 * WK.sum(axis=1)
+        g[:, d_ell + 1] = 0.5 * sn2 * Wf[:, ::n + 1].sum(axis=1)
         if P is not None:
-            g[:, d_ell + 2] = 0.5 * np.exp(log_sb2) * np.einsum("cab,ab->c", W, P)
+            g[:, d_ell + 2] = 0.5 * sb2 * (Wf @ P.reshape(nn))
         return -float(lml.sum()), -g.ravel()
 
     def _per_output_nlml(self, theta, G, Yc, d_ell) -> np.ndarray:
@@ -374,6 +414,8 @@ class GaussianProcess:
                 if rev:
                     bounds.append((np.log(1e-12), np.log(1e4 * yscale[c] + 1e-8)))
             bounds = np.array(bounds)
+            if d == 0:
+                return self._constant_optimum(Yc, bounds)
             theta0 = np.clip(theta0.ravel(), bounds[:, 0], bounds[:, 1])
             G = self._geom(X, X)
             starts = [theta0] + [np.clip(t.ravel(), bounds[:, 0], bounds[:, 1]) for t in extra]
@@ -403,6 +445,29 @@ class GaussianProcess:
                                         maxiter, ftol)
             return best.ravel()
         return theta0.ravel()
+
+    @staticmethod
+    def _constant_optimum(Yc: np.ndarray, bounds: np.ndarray) -> np.ndarray:
+        """The exact maximum of the log marginal likelihood within ``bounds`` for 0 inputs
+        (every optimiser start ends here, so no L-BFGS-B is run; the body schema's k = 0
+        local models are such GPs).
+
+        With no inputs the kernel is K = sf2 11^T + sn2 I. The centred targets y_c are
+        orthogonal to 1, so K^-1 y_c = y_c / sn2 and log|K| = (n - 1) log sn2 +
+        log(n sf2 + sn2): the likelihood falls with sf2 (its optimum is sf2's lower bound),
+        and with a = n sf2 and S = y_c^T y_c, d lml / d sn2 = 0 is the quadratic
+        n sn2^2 - (S - (n - 1) a) sn2 - S a = 0 with one positive root; the likelihood is
+        unimodal in log sn2, so that root clipped to sn2's bounds is the bounded optimum.
+        Returns theta (m * 2,): (log sf2, log sn2) per output."""
+        n, m = Yc.shape
+        w = bounds.reshape(m, 2, 2)
+        log_sf2 = w[:, 0, 0]
+        a = n * np.exp(log_sf2)
+        S = np.einsum("ic,ic->c", Yc, Yc)
+        b = S - (n - 1) * a
+        sn2 = (b + np.sqrt(b * b + 4.0 * n * S * a)) / (2.0 * n)
+        log_sn2 = np.clip(np.log(np.maximum(sn2, 1e-300)), w[:, 1, 0], w[:, 1, 1])
+        return np.stack([log_sf2, log_sn2], axis=1).ravel()
 
     def _per_output_starts(self, best, best_f, G, Yc, d_ell, bounds, ell_starts, ell_default,
                            sf2_default, sb2_default, yvar, noise_min, maxiter, ftol):

@@ -226,9 +226,72 @@ def matrix_to_rotvec(M: np.ndarray) -> np.ndarray:
 
 def project_to_so3(M: np.ndarray) -> np.ndarray:
     """The nearest rotation matrices (Frobenius norm) to (..., 3, 3) matrices M: SVD with the
-    determinant fixed to +1. The one SO(3) projection of the project."""
+    determinant fixed to +1. The one SO(3) projection of the project.
+
+    Stacks of at least ``_NEWTON_MIN`` matrices are computed by the scaled Newton iteration
+    for the orthogonal polar factor instead (same result to ~1e-15; several times faster
+    than numpy's batched 3 x 3 SVDs, which the structure search's screening projects
+    thousands of at a time); matrices with det <= 0 (their nearest rotation is not the
+    polar factor), nearly singular ones and any that do not converge go through the SVD."""
+    M = np.asarray(M, float)
+    if M.ndim >= 3 and M.size >= 9 * _NEWTON_MIN:
+        return _project_newton(M)
+    return _project_svd(M)
+
+
+def _project_svd(M: np.ndarray) -> np.ndarray:
     U, _, Vt = np.linalg.svd(M)
     det = np.linalg.det(U @ Vt)
     D = np.ones(M.shape[:-1])
     D[..., 2] = det
     return (U * D[..., None, :]) @ Vt
+
+
+#: fewest matrices for which :func:`project_to_so3` uses the Newton iteration (below it,
+#: numpy's per-call overhead makes the SVD faster; measured crossover ~150 on this machine)
+_NEWTON_MIN = 128
+
+
+def _cofactors(X: np.ndarray) -> np.ndarray:
+    """Cofactor matrices of 3 x 3 matrices stored as (9, N) entry rows (row-major)."""
+    a0, a1, a2, a3, a4, a5, a6, a7, a8 = X
+    return np.stack([a4 * a8 - a5 * a7, a5 * a6 - a3 * a8, a3 * a7 - a4 * a6,
+                     a2 * a7 - a1 * a8, a0 * a8 - a2 * a6, a1 * a6 - a0 * a7,
+                     a1 * a5 - a2 * a4, a2 * a3 - a0 * a5, a0 * a4 - a1 * a3])
+
+
+def _project_newton(M: np.ndarray, tol: float = 1e-9, max_iter: int = 30) -> np.ndarray:
+    """Orthogonal polar factor by the Frobenius-scaled Newton iteration
+    X <- (g X + X^-T / g) / 2, g = (|X^-1|_F / |X|_F)^(1/2) (Higham, Functions of Matrices,
+    ch. 8), on entry rows (9, N); X^-T = cofactors / det. Converges quadratically: once an
+    update changes no entry by more than ``tol``, the iterate is within ~tol^2 of the
+    limit. Matrices with det <= 1e-9 |M|_F^3 (including non-finite ones) or not converged
+    after ``max_iter`` updates are projected by the SVD."""
+    shape = M.shape
+    F = M.reshape(-1, 9)
+    X = F.T.copy()
+    nrm2 = np.einsum("ij,ij->j", X, X)
+    C = _cofactors(X)
+    det = np.einsum("ij,ij->j", X[:3], C[:3])
+    newton = det > 1e-9 * nrm2 ** 1.5  # False for NaN
+    idx = np.flatnonzero(newton)
+    X = X[:, idx]
+    done = np.zeros(idx.size, bool)
+    out = np.empty_like(F)
+    for _ in range(max_iter):
+        C = _cofactors(X)
+        C /= np.einsum("ij,ij->j", X[:3], C[:3])
+        g = np.sqrt(np.sqrt(np.einsum("ij,ij->j", C, C) / np.einsum("ij,ij->j", X, X)))
+        Xn = 0.5 * (g * X + C / g)
+        conv = np.max(np.abs(Xn - X), axis=0) <= tol
+        X = Xn
+        if conv.all():
+            done[:] = True
+            break
+        done = conv
+    out[idx[done]] = X[:, done].T
+    rest = np.ones(len(F), bool)
+    rest[idx[done]] = False
+    if rest.any():
+        out[rest] = _project_svd(F[rest].reshape(-1, 3, 3)).reshape(-1, 9)
+    return out.reshape(shape)

@@ -68,6 +68,28 @@ at 50 samples, sigma 0.01: 0.0100 -> 0.0091 m / 0.0155 -> 0.0086 m (observation 
 0.0577 -> 0.0349 m (noise 0.041 / 0.040 m). Structure right within 12 samples: sigma 0.01
 9/10 -> 9/10 and 8/10 -> 8/10, sigma 0.044 9/10 -> 9/10 and 8/10 -> 9/10. The learner's
 share of the simulation (``bench_learner_cost.py --arm 7dof``): 39.0% -> 22.4%.
+
+Learner cost (issue 11, target: the learner < 20% of the simulation's CPU time): the
+structure search's arithmetic, none of its decisions, was made cheaper: the k = 0 GPs get
+their marginal-likelihood optimum in closed form (``GaussianProcess._constant_optimum``), the
+screening of a layer runs once for all pairs (pairs on the same samples share the kernel
+inverse; one SO(3) projection, by the Newton polar iteration, for all predictions), the GP
+objective works on flattened stacks, a retry after a cold fit starts at that fit's optimum
+(its first L-BFGS-B run was a repeat), and nested BLAS limits are no-ops.
+``OPENBLAS_NUM_THREADS=1 python benchmarks/bench_learner_cost.py --arm 7dof``, before and
+after run side by side on the loaded 2-core machine (CPU seconds; two runs each):
+learner_share 0.217 / 0.217 -> 0.160 / 0.159 (learner 3.55 -> 2.43 s, of which structure
+re-searches 2.59 -> 1.68 s, simulation 16.5 -> 15.2 s); 4dof 0.084 -> 0.069, 2dof 0.055 ->
+0.052. Quality: the bench's prediction error 0.03154 -> 0.03151 m; ``--arm 7dof --occlude x4
+--noise 0.01 --samples 50 --n-control 0``, seeds 101-110: mean prediction error 0.00863 ->
+0.00866 m, convergence samples identical (8/10 within 12). ``body_schema_experiments --quick``:
+the same numbers to 1e-6 but Table 3.2 in Drake; over seeds 0-11 of its Drake run at the
+quick sizes (``drake_control(n_learn=30, n_adapt=30, n_waypoints=4)``): positioning error
+intact / static 3.91 -> 4.16 mm, bent / adaptive 6.12 -> 5.83 mm, 7 seeds within 0.1 mm and
+differences of both signs in the others (seed 2 intact +1.9 mm, seed 5 adaptive -2.8 mm).
+Bisected on seed 2: the commits before the objective's rewrite reproduce it bit for bit,
+the rewrite (values and gradients equal to 2e-14) changes it: rounding-level changes of the
+optimiser's path that the closed loop amplifies, not a change of the model.
 """
 
 from __future__ import annotations

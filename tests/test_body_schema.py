@@ -64,6 +64,72 @@ def test_orthonormalize_projects_to_rotation():
                                atol=1e-12)
 
 
+
+def test_project_to_so3_large_stacks_match_the_svd_projection():
+    """Stacks above _NEWTON_MIN go through the Newton polar iteration: the same nearest
+    rotations as the SVD, including det < 0, nearly singular and badly scaled matrices."""
+    from scipy.spatial.transform import Rotation
+
+    from mmlearn.models import se3
+
+    rng = np.random.default_rng(4)
+    n = 4 * se3._NEWTON_MIN
+    M = (Rotation.random(n, random_state=5).as_matrix() * rng.uniform(0.2, 2, (n, 1, 1))
+         + 0.4 * rng.normal(size=(n, 3, 3)))
+    M[:20] *= -1  # det < 0: the nearest rotation is not the polar factor
+    M[20] = np.outer([1.0, 2.0, 3.0], [1.0, 0.0, 1.0])  # rank 1
+    M[21] = np.diag([1.0, 1.0, 1e-13])
+    M[22] *= 1e7
+    M[23] *= 1e-7
+    R = se3.project_to_so3(M.reshape(8, -1, 3, 3)).reshape(n, 3, 3)
+    ref = np.stack([se3._project_svd(x) for x in M])
+    np.testing.assert_allclose(R, ref, atol=1e-12)
+    np.testing.assert_allclose(np.linalg.det(R), 1.0, atol=1e-12)
+    with pytest.raises(np.linalg.LinAlgError):  # non-finite input: as the SVD does
+        se3.project_to_so3(np.where(np.arange(n)[:, None, None] == 3, np.nan, M))
+
+
+def test_layer_screening_equals_per_pair_leave_one_out():
+    """_screen_loo_pairs (one layer, pairs sharing rows share the kernel inverse) gives each
+    pair the median errors of explicit leave-one-out predictions."""
+    from itertools import combinations
+
+    from mmlearn.models.body_schema_search import _screen_loo_pairs
+
+    rng = np.random.default_rng(2)
+    t, m, reg = 14, 3, 1e-2
+    A = rng.uniform(-1, 1, (t, m))
+    ell = 1.5 * A.std(axis=0)
+    items = []
+    for rows in (np.arange(t), np.arange(t), np.sort(rng.choice(t, 9, replace=False))):
+        Z = np.tile(np.eye(4), (len(rows), 1, 1))
+        Z[:, :3, :3] = rot((1, 0, 1), 1.0)[:3, :3] @ np.stack(
+            [rot((0, 0, 1), a)[:3, :3] for a in A[rows, 0]])
+        Z[:, :3, 3] = A[rows] + 0.01 * rng.normal(size=(len(rows), 3))
+        items.append((rows, Z[:, :3, :4].reshape(-1, 12), Z))
+    for k in (0, 1, 2):
+        Qs = list(combinations(range(m), k))
+        got = _screen_loo_pairs(A, items, Qs, ell, reg)
+        for (rows, Y, Z), med in zip(items, got):
+            assert med.shape == (len(Qs), 2)
+            for q, Q in enumerate(Qs):
+                X = A[rows][:, list(Q)] / ell[list(Q)]
+                pred = np.empty_like(Y)
+                for i in range(len(rows)):
+                    o = np.arange(len(rows)) != i
+                    if k == 0:
+                        pred[i] = Y[o].mean(axis=0)
+                        continue
+                    K = np.exp(-0.5 * ((X[o, None] - X[None, o]) ** 2).sum(-1))
+                    ks = np.exp(-0.5 * ((X[i] - X[o]) ** 2).sum(-1))
+                    ym = Y.mean(axis=0)  # the prior mean: that of all the pair's samples
+                    pred[i] = ym + ks @ np.linalg.solve(K + reg * np.eye(o.sum()), Y[o] - ym)
+                Zp = np.tile(np.eye(4), (len(rows), 1, 1))
+                Zp[:, :3, :4] = pred.reshape(-1, 3, 4)
+                dp, dr = pose_errors(orthonormalize(Zp), Z)
+                np.testing.assert_allclose(med[q], [np.median(dp), np.median(dr)],
+                                           rtol=1e-8, atol=1e-12)
+
 def test_bad_input_raises():
     arm = make_arm_2dof()
     A, Y, _ = _data(arm, 10, 0)

@@ -106,6 +106,35 @@ def test_zero_inputs_and_constant_outputs():
     assert gp.predict_jacobian(np.zeros((3, 0))).shape == (3, 2, 0)
 
 
+
+def test_zero_inputs_optimum_is_the_bounded_maximum():
+    """0 inputs: the closed-form hyper-parameters (no optimiser run) are at least as good
+    as L-BFGS-B from several random starts inside the same bounds, per output, including
+    outputs whose noise optimum lies on the noise floor."""
+    from scipy.optimize import minimize
+
+    rng = np.random.default_rng(3)
+    for n in (2, 5, 31):
+        Y = rng.normal(size=4) + np.array([0.0, 1e-5, 1e-2, 1.0]) * rng.normal(size=(n, 4))
+        nm = np.array([1e-8, 1e-6, 1e-8, 1e-8])
+        gp = GaussianProcess().fit(np.zeros((n, 0)), Y, noise_min=nm)
+        X0 = np.zeros((n, 0))
+        G, Yc = gp._geom(X0, X0), Y - Y.mean(axis=0)
+        f = gp._per_output_nlml(np.c_[gp.log_sf2, gp.log_sn2].ravel(), G, Yc, 0)
+        ys = np.maximum(Yc.var(axis=0), 1e-12)
+        bounds = [b for c in range(4) for b in ((np.log(1e-12), np.log(1e4 * ys[c] + 1e-8)),
+                                                (np.log(nm[c]),
+                                                 np.log(max(1e4 * ys[c], 10 * nm[c]))))]
+        for _ in range(4):
+            lo, hi = np.array(bounds).T
+            r = minimize(gp._neg_lml_and_grad, rng.uniform(lo, hi), args=(G, Yc, 0),
+                         jac=True, method="L-BFGS-B", bounds=bounds,
+                         options={"ftol": 1e-14, "gtol": 1e-10, "maxiter": 2000})
+            assert np.all(f <= gp._per_output_nlml(r.x, G, Yc, 0) + 1e-7)
+        # a constant and a nearly constant output: the floor binds; else sn2 = the variance
+        np.testing.assert_allclose(gp.noise_variance[:2], nm[:2])
+        np.testing.assert_allclose(gp.noise_variance[2:], Yc.var(axis=0)[2:], rtol=1e-3)
+
 def test_roundtrip_json():
     X, Y = _data(n=12, d=2, m=2, seed=8)
     gp = GaussianProcess().fit(X, Y)
@@ -222,3 +251,24 @@ def test_revolute_kernel_extrapolates_a_revolute_chain():
     err = {rev: np.abs(GaussianProcess(revolute=rev).fit(X, Y).predict(Xs) - _two_link(Xs)).mean()
            for rev in (False, True)}
     assert err[True] < 0.25 * err[False]
+
+
+def test_blas_single_thread_nests_and_restores():
+    from threadpoolctl import threadpool_info
+
+    from mmlearn.models.gp import blas_single_thread
+
+    def threads():
+        return [i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"]
+
+    before = threads()
+    with blas_single_thread():
+        assert all(t == 1 for t in threads())
+        with blas_single_thread():
+            assert all(t == 1 for t in threads())
+        assert all(t == 1 for t in threads())  # the inner exit keeps the outer limit
+    assert threads() == before
+    with pytest.raises(ValueError):
+        with blas_single_thread():
+            raise ValueError("x")
+    assert threads() == before
