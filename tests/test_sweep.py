@@ -130,3 +130,30 @@ def test_ray_executor_gives_the_local_records(tmp_path):
     res2 = run_sweep(specs, results=tmp_path / "r.jsonl", executor="ray", jobs=2,
                      show_progress=False)
     assert res2.ran == 0 and res2.resumed == 4
+
+
+def test_ray_trials_run_in_a_plain_child_process_of_each_worker(tmp_path):
+    """A Ray task runs its trial in a child process of the Ray worker (the trial is slower
+    inside the Ray worker process itself, see apps/_sweep._ray_execute); the shared inputs reach
+    it, other shared inputs get a new child, and a child that dies is that trial's error."""
+    ray = pytest.importorskip("ray")
+    ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False)
+    try:
+        res = run_sweep(_specs(4), executor="ray", jobs=2, shared="abc", show_progress=False)
+        assert [r["seed"] for r in res.records] == [0, 1, 2, 3]
+        assert not any(r["ray_worker"] for r in res.records)  # not the Ray worker itself
+        assert all(r["shared_len"] == 3 for r in res.records)
+        assert len({r["pid"] for r in res.records}) <= 2        # one trial process per worker
+        assert all(ln["cpu_s"] is not None and ln["cpu_s"] >= 0 for ln in res.lines)
+        res = run_sweep(_specs(4), executor="ray", jobs=2, shared="wxyz", show_progress=False)
+        assert all(r["shared_len"] == 4 for r in res.records)
+        res = run_sweep(_specs(4, crash_seeds=[1]), executor="ray", jobs=2,
+                        show_progress=False)
+        assert [r["seed"] for r in res.records] == [0, 2, 3]
+        assert [e["spec"]["seed"] for e in res.errors] == [1]
+        assert "trial process died" in res.errors[0]["error"]
+        res = run_sweep(_specs(2, payload=1), executor="ray", jobs=2, show_progress=False,
+                        ray_in_child=False)
+        assert all(r["ray_worker"] for r in res.records)      # the Ray worker itself
+    finally:
+        ray.shutdown()
