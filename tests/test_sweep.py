@@ -93,19 +93,24 @@ _SCRIPT = textwrap.dedent("""
     specs = [TrialSpec(fn="mmlearn.apps._sweep:probe_trial", seed=i,
                        params={"sleep_s": 0.4}, label=f"probe {i}") for i in range(12)]
     if __name__ == "__main__":
-        res = run_sweep(specs, results=sys.argv[1], jobs=2, show_progress=False)
+        res = run_sweep(specs, results=sys.argv[1], jobs=2, show_progress=False,
+                        executor=sys.argv[2])
         sys.exit(130 if res.interrupted else 0)
 """)
 
 
-@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGKILL])
-def test_an_interrupted_sweep_completes_when_run_again(tmp_path, sig):
+@pytest.mark.parametrize("executor,sig", [("local", signal.SIGINT), ("local", signal.SIGKILL),
+                                          ("ray", signal.SIGINT)])
+def test_an_interrupted_sweep_completes_when_run_again(tmp_path, executor, sig):
+    if executor == "ray":
+        pytest.importorskip("ray")
     script = tmp_path / "sweep.py"
     script.write_text(_SCRIPT)
     path = tmp_path / "r.jsonl"
-    p = subprocess.Popen([sys.executable, str(script), str(path)], start_new_session=True)
+    p = subprocess.Popen([sys.executable, str(script), str(path), executor],
+                         start_new_session=True)
     t0 = time.time()
-    while time.time() - t0 < 60 and (not path.exists() or len(path.read_text().splitlines()) < 5):
+    while time.time() - t0 < 90 and (not path.exists() or len(path.read_text().splitlines()) < 5):
         time.sleep(0.05)
     os.killpg(p.pid, sig) if sig == signal.SIGKILL else p.send_signal(sig)
     rc = p.wait(timeout=60)
@@ -113,7 +118,8 @@ def test_an_interrupted_sweep_completes_when_run_again(tmp_path, sig):
     first = path.read_bytes()
     n_first = len(first.splitlines())
     assert 5 <= n_first < 12
-    assert subprocess.run([sys.executable, str(script), str(path)], timeout=120).returncode == 0
+    assert subprocess.run([sys.executable, str(script), str(path), executor],
+                          timeout=180).returncode == 0
     assert path.read_bytes().startswith(first)
     seeds = [ln["spec"]["seed"] for ln in _lines(path)]
     assert sorted(seeds) == list(range(12))  # every trial exactly once
