@@ -227,23 +227,68 @@ def _local_worker(spec: dict) -> dict:
 
 
 def _run_local(todo: list[dict], *, jobs: int, shared):
+    """Run ``todo`` in a spawn process pool of ``jobs`` workers, yielding each trial's line.
+
+    A worker that dies (a crash in compiled code, the OOM killer) breaks the pool; the trials
+    that were running then are run again one at a time, each in a fresh process, so the one
+    that kills its process is recorded as that trial's error and the others run normally; the
+    sweep then continues in a new pool."""
     import multiprocessing as mp
+    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+    from concurrent.futures.process import BrokenProcessPool
 
     if jobs == 1 and shared is None:  # no pool: cheaper, and debuggers / profilers see the trial
         for s in todo:
             yield _execute(s, None)
         return
-    pool = mp.get_context("spawn").Pool(min(jobs, len(todo)), initializer=_init_worker,
-                                        initargs=(shared,))
+    ctx = mp.get_context("spawn")
+    n = min(jobs, len(todo))
+    active: list = []  # the executor whose workers run now (killed on Ctrl-C)
+
+    def pool(workers: int):
+        ex = ProcessPoolExecutor(max_workers=workers, mp_context=ctx,
+                                 initializer=_init_worker, initargs=(shared,))
+        active[:] = [ex]
+        return ex
+
+    queue = list(reversed(todo))
+    running: dict = {}  # future -> (spec, start time)
+    ex = pool(n)
     try:
-        for line in pool.imap_unordered(_local_worker, todo):
-            yield line
-        pool.close()
+        while queue or running:
+            while queue and len(running) < n:
+                s = queue.pop()
+                running[ex.submit(_local_worker, s)] = (s, time.perf_counter())
+            done, _ = wait(running, return_when=FIRST_COMPLETED)
+            suspects = []
+            for f in done:
+                s, _t0 = running.pop(f)
+                try:
+                    yield f.result()
+                except BrokenProcessPool:
+                    suspects.append(s)
+            if not suspects:
+                continue
+            suspects += [s for s, _t0 in running.values()]  # broken with the pool
+            running.clear()
+            ex.shutdown(wait=True)
+            for s in suspects:  # one at a time: the trial that dies is the crashed one
+                one, t0 = pool(1), time.perf_counter()
+                try:
+                    yield one.submit(_local_worker, s).result()
+                except BrokenProcessPool as e:
+                    yield _line(s, None, f"BrokenProcessPool: the trial process died ({e})",
+                                traceback.format_exc(), time.perf_counter() - t0, None)
+                finally:
+                    one.shutdown(wait=True)
+            ex = pool(n)
     except BaseException:
-        pool.terminate()
+        # stop the running trials now (the executor has no public terminate)
+        for proc in list((getattr(active[0], "_processes", None) or {}).values()):
+            proc.terminate()
         raise
     finally:
-        pool.join()
+        active[0].shutdown(wait=True, cancel_futures=True)
 
 
 # A Ray task runs its trial in a plain child process of the Ray worker (one per worker, kept for

@@ -163,3 +163,17 @@ def test_ray_trials_run_in_a_plain_child_process_of_each_worker(tmp_path):
         assert all(r["ray_worker"] for r in res.records)      # the Ray worker itself
     finally:
         ray.shutdown()
+
+
+def test_a_trial_that_kills_its_local_worker_is_its_error_and_the_sweep_goes_on(tmp_path):
+    """A crash in compiled code ends the worker process: the local pool must not hang; the
+    trial is recorded as an error, every other trial (also those running beside it) runs."""
+    specs = [TrialSpec(fn=PROBE, seed=i, params={"sleep_s": 0.2, "crash_seeds": [2]},
+                       label=f"probe {i}") for i in range(6)]
+    res = run_sweep(specs, results=tmp_path / "r.jsonl", jobs=2, shared="abc",
+                    show_progress=False)
+    assert sorted(r["seed"] for r in res.records) == [0, 1, 3, 4, 5]
+    assert [e["spec"]["seed"] for e in res.errors] == [2]
+    assert "died" in res.errors[0]["error"]
+    seeds = [ln["spec"]["seed"] for ln in _lines(tmp_path / "r.jsonl")]
+    assert sorted(seeds) == list(range(6))  # every trial exactly once
