@@ -99,6 +99,7 @@ structured-light camera at depth edges make fronts 1-3 cm narrower at 1.8-2.5 m.
 
 import math
 import time
+import warnings
 from dataclasses import dataclass, field, fields
 
 import cv2
@@ -112,6 +113,10 @@ STAGES = ("planes", "masks", "sampling", "optimisation", "check")
 
 # mask labels (Eq. 5.2), plus cells of the rectified grid that the camera does not see
 IN_PLANE, FREE, OCCLUDED, UNKNOWN, OUTSIDE = 0, 1, 2, 3, 4
+# a measured pixel within L of the plane that the surface check found off its surface (a
+# panel's edge face seen obliquely): costs like UNKNOWN, but is not the plane's surface for the
+# edge refinement
+OFF_SURFACE = 5
 
 
 @dataclass
@@ -213,6 +218,12 @@ class FrontDetectorConfig:
     duplicate_distance: float = 0.05
     duplicate_angle_deg: float = 15.0
     refine_plane: bool = True
+    edge_refine: bool = True
+    edge_refine_band: float = 0.05
+    edge_refine_cell: float = 0.001
+    edge_refine_span: float = 0.7
+    edge_refine_depth_step: float = 0.002
+    edge_refine_depth_step_per_m2: float = 0.0008
 
     def validate(self) -> None:
         """Raise ``ValueError`` naming the first invalid field."""
@@ -489,12 +500,14 @@ def _rotate_axes(e1, e2, theta):
     return c * e1 + s * e2, -s * e1 + c * e2
 
 
-def _warp_labels(labels_img, K: PinholeIntrinsics, o, e1, e2, u0, v0, c, shape):
-    """Nearest-neighbour resampling of the image label mask onto a plane grid; cells that do
-    not project into the image (or lie behind the camera) are OUTSIDE."""
+def _warp_labels(labels_img, K: PinholeIntrinsics, o, e1, e2, u0, v0, c, shape, cb=None):
+    """Nearest-neighbour resampling of the image label mask onto a plane grid (cells ``c``
+    along e1 and ``cb`` (default ``c``) along e2, m); cells that do not project into the
+    image (or lie behind the camera) are OUTSIDE."""
     Hg, Wg = shape
+    cb = c if cb is None else cb
     Km = np.array([[K.fx, 0, K.cx], [0, K.fy, K.cy], [0, 0, 1.0]])
-    A = np.array([[c, 0, u0 + 0.5 * c], [0, c, v0 + 0.5 * c], [0, 0, 1.0]])
+    A = np.array([[c, 0, u0 + 0.5 * c], [0, cb, v0 + 0.5 * cb], [0, 0, 1.0]])
     M = np.column_stack([e1, e2, o])
     H = Km @ M @ A
     out = cv2.warpPerspective(labels_img, H, (int(Wg), int(Hg)),
@@ -507,6 +520,18 @@ def _warp_labels(labels_img, K: PinholeIntrinsics, o, e1, e2, u0, v0, c, shape):
     z = zc[0] * jj[None, :] + zc[1] * ii[:, None] + zc[2]
     out[z < 0.05] = OUTSIDE
     return out
+
+
+def _warp_float(img, K, o, e1, e2, u0, v0, c, shape, cb=None):
+    """Like :func:`_warp_labels` for a float32 image (nearest neighbour; NaN outside)."""
+    Hg, Wg = shape
+    cb = c if cb is None else cb
+    Km = np.array([[K.fx, 0, K.cx], [0, K.fy, K.cy], [0, 0, 1.0]])
+    A = np.array([[c, 0, u0 + 0.5 * c], [0, cb, v0 + 0.5 * cb], [0, 0, 1.0]])
+    H = Km @ np.column_stack([e1, e2, o]) @ A
+    return cv2.warpPerspective(img, H, (int(Wg), int(Hg)),
+                               flags=cv2.INTER_NEAREST | cv2.WARP_INVERSE_MAP,
+                               borderMode=cv2.BORDER_CONSTANT, borderValue=float("nan"))
 
 
 def _edge_angle(inplane: np.ndarray) -> float:
@@ -567,14 +592,25 @@ def _surface_check(lab, S, Lm, win):
     vv, uu = np.nonzero(inp[::4, ::4] > 0)  # every 4th pixel: enough for 3 numbers
     if len(vv) >= 3:
         A = np.column_stack([4.0 * uu, 4.0 * vv, np.ones(len(uu))])
-        coef = np.linalg.lstsq(A, Sb[4 * vv, 4 * uu].astype(np.float64), rcond=None)[0]
+        b = Sb[4 * vv, 4 * uu].astype(np.float64)
+        lim = 2.0 * Lm[y0:y1, x0:x1][4 * vv, 4 * uu].astype(np.float64)
+        coef = np.linalg.lstsq(A, b, rcond=None)[0]
+        # two trimmed refits on the pixels within twice the surface distance of the last
+        # fit: the other surfaces within L of the plane (a neighbour's face, a panel's edge
+        # face, the crossing strips) pulled the plain least-squares ramp of a door opened
+        # 60 deg 2 mm off, and the check then cut a wedge out of the door (measured)
+        for _ in range(2):
+            keep = np.abs(A @ coef - b) <= lim
+            if keep.sum() < 3:
+                break
+            coef = np.linalg.lstsq(A[keep], b[keep], rcond=None)[0]
         ramp = (np.float32(coef[0]) * np.arange(x1 - x0, dtype=np.float32)[None, :]
                 + np.float32(coef[1]) * np.arange(y1 - y0, dtype=np.float32)[:, None]
                 + np.float32(coef[2]))
         Sb = Sb - ramp
     num = cv2.boxFilter(Sb * inp, -1, (win, win), normalize=False)
     bad = (inp > 0) & (np.abs(num) > Lm[y0:y1, x0:x1] * np.maximum(den, np.float32(1.0)))
-    lab[y0:y1, x0:x1][bad] = UNKNOWN
+    lab[y0:y1, x0:x1][bad] = OFF_SURFACE
 
 
 def _label_images(d, valid, ray_x, ray_y, planes, L, crossing_angle_deg,
@@ -623,27 +659,44 @@ def _crossings(labs, S, planes, valid, crossing_angle_deg, smooth_px):
     near_sh = np.array([lab.reshape(-1)[shared] == IN_PLANE for lab in labs])
     N = np.array([pl.n for pl in planes])
     sup = np.array([pl.support for pl in planes])
-    crossing = ((np.abs(N @ N.T) < math.cos(math.radians(crossing_angle_deg)))
-                & (sup[None, :] >= sup[:, None]))  # [k, j]: j may take pixels from k
+    # [k, j]: j may take pixels from k (either way: near the crossing line each plane keeps the
+    # pixels nearer to it; letting only the plane of larger support take them widened a door
+    # seen from 0.8 m, larger in the image than the neighbouring front, by the 2-4 cm strip of
+    # that front within L of the door's plane next to the hinge, measured)
+    crossing = np.abs(N @ N.T) < math.cos(math.radians(crossing_angle_deg))
     if not crossing.any():
         return
-    # which plane is nearer is decided on distances averaged over smooth_px x smooth_px
-    # measured pixels (the noise of one pixel would otherwise fray the edge along the crossing)
-    A_sh = np.zeros(near_sh.shape, np.float32)
-    wsum = cv2.blur(valid.astype(np.float32), (smooth_px, smooth_px)).reshape(-1)[shared]
-    wsum = np.maximum(wsum, np.float32(1e-6))
-    for k in np.flatnonzero(crossing.any(axis=0) | crossing.any(axis=1)):
-        sm = cv2.blur(np.where(valid, S[k], np.float32(0.0)), (smooth_px, smooth_px))
-        A_sh[k] = np.abs(sm.reshape(-1)[shared] / wsum)
+    # Which plane is nearer is decided on the difference of the two planes' distances,
+    # |S_k| - |S_j|, averaged over the smooth_px x smooth_px pixels around that are within L
+    # of both (the noise of one pixel would otherwise fray the edge along the crossing). Near
+    # the crossing line that difference is linear across it (x sin(angle) on either side), so
+    # its window mean keeps the sign of the centre pixel's true difference. (Averaging each
+    # plane's signed distance over every measured pixel, as before, mixed in the pixels of
+    # a 5 mm reveal and of the other surface: at 2.3 m the door's hinge side lost ~1 cm to the
+    # cabinet's face, measured.)
+    H, W = valid.shape
+    ys, xs = np.divmod(shared, W)
+    r = smooth_px // 2
+    y0, y1 = max(0, int(ys.min()) - r), min(H, int(ys.max()) + r + 1)
+    x0, x1 = max(0, int(xs.min()) - r), min(W, int(xs.max()) + r + 1)
+    ys, xs = ys - y0, xs - x0
+    take = np.zeros(near_sh.shape, bool)  # [k, i]: shared pixel i is nearer another plane
     for k in range(P):
-        js = np.flatnonzero(crossing[k])
-        if len(js) == 0:
-            continue
-        other = np.zeros(len(shared), bool)
-        for j in js:
-            other |= near_sh[j] & (A_sh[j] < A_sh[k])
-        flat = labs[k].reshape(-1)
-        flat[shared[near_sh[k] & other]] = FREE          # in-plane -> FREE
+        for j in np.flatnonzero(crossing[k]):
+            both = near_sh[k] & near_sh[j]
+            if not both.any():
+                continue
+            w = np.zeros((y1 - y0, x1 - x0), np.float32)
+            w[ys[both], xs[both]] = 1.0
+            ak = cv2.boxFilter(S[k][y0:y1, x0:x1] * w, -1, (smooth_px, smooth_px),
+                               normalize=False)[ys[both], xs[both]]
+            aj = cv2.boxFilter(S[j][y0:y1, x0:x1] * w, -1, (smooth_px, smooth_px),
+                               normalize=False)[ys[both], xs[both]]
+            take[k, both] |= np.abs(aj) < np.abs(ak)
+    for k in range(P):
+        if take[k].any():
+            flat = labs[k].reshape(-1)
+            flat[shared[take[k]]] = FREE                # in-plane -> FREE
 
 
 def _make_grid(k, plane: Plane, lab_img, sample_pts, K, down_C, cfg, lut) -> _Grid | None:
@@ -877,6 +930,119 @@ def _refit_plane(Pc, lab_img, center, e1, e2, w, h, K, n_old, L):
     return n, d
 
 
+def _edge_crossing(prof_in, prof_out, level, pos, step):
+    """Where a side ends along a profile of lines (positions ``pos``, inside first): the first
+    line whose share of in-plane samples p = in / (in + out) falls below 1/2, or whose mean
+    signed distance ``level`` (of its in-plane samples, m) lies more than ``step`` behind the
+    level of the innermost quarter of lines, whichever comes first (linear interpolation
+    between that line and the one before). Lines without enough measured samples take p from
+    their neighbours. None when the profile does not start inside or never leaves."""
+    n = prof_in + prof_out
+    if len(n) < 4:
+        return None
+    ok = n >= max(3.0, 0.2 * float(np.max(n)))
+    if ok.sum() < 2:
+        return None
+    idx = np.arange(len(pos))
+    p = np.interp(idx, idx[ok], prof_in[ok] / n[ok])
+    if p[0] < 0.5:
+        return None
+    inner = level[: max(1, len(level) // 4)]
+    inner = inner[np.isfinite(inner)]
+    if len(inner):
+        ref = float(np.median(inner))
+        # behind by more than `step`, on lines that are still mostly in-plane
+        dev = np.where(np.isfinite(level) & (p >= 0.5), ref - level, 0.0) - step
+    else:
+        dev = np.full(len(pos), -1.0)
+    last = int(np.flatnonzero(ok)[-1])
+    for i in range(1, len(pos)):
+        if p[i] < 0.5:
+            return float(pos[i - 1] + (p[i - 1] - 0.5) / (p[i - 1] - p[i]) * (pos[i] - pos[i - 1]))
+        if dev[i] > 0:
+            f = (-dev[i - 1]) / (dev[i] - dev[i - 1]) if dev[i - 1] < 0 else 0.0
+            return float(pos[i - 1] + f * (pos[i] - pos[i - 1]))
+        if i > last:
+            # the measured lines end inside the front (drop-outs to the end of the strip): its
+            # side is at least there
+            return float(pos[last] + 0.5 * (pos[i] - pos[i - 1]))
+    return None
+
+
+class _CropIntrinsics:
+    """Intrinsics of an image crop (only what :func:`_warp_labels` uses)."""
+
+    def __init__(self, K, r0, c0):
+        self.fx, self.fy, self.cx, self.cy = K.fx, K.fy, K.cx - c0, K.cy - r0
+
+
+def _refine_edges(lab_img, dzero, xs, ys, n, dpl, K, o, e1, e2, a0, a1, b0, b1, cfg):
+    """Sub-cell position of each side of a rectangle [a0, a1] x [b0, b1] (m, plane
+    coordinates along e1, e2 from ``o``; plane n . p + dpl = 0, camera frame). The label
+    image and the signed distances of the measured points to the plane are resampled on a
+    strip of lines parallel to the side (``edge_refine_cell`` apart, ``edge_refine_band`` on
+    either side of it, over the middle ``edge_refine_span`` of its length); going outwards,
+    the side ends where the share of in-plane samples among the measured ones (in-plane,
+    free, outside the image, off the surface; unknown and occluded samples say nothing)
+    falls below 1/2, or where the in-plane samples' mean distance falls behind the inner
+    lines' by more than max(edge_refine_depth_step, edge_refine_depth_step_per_m2 z^2) (the
+    19 mm top face of a panel seen from above lies within L of its front face). A side
+    without such a crossing in its strip stays. Returns (a0, a1, b0, b1)."""
+    band, cf, span = cfg.edge_refine_band, cfg.edge_refine_cell, cfg.edge_refine_span
+    nl = max(4, int(round(2 * band / cf)))
+    # image crop around the rectangle grown by the band
+    P = np.array([o + a * e1 + b * e2 for a in (a0 - band, a1 + band)
+                  for b in (b0 - band, b1 + band)])
+    if np.any(P[:, 2] <= 0.05):
+        return a0, a1, b0, b1
+    u = K.fx * P[:, 0] / P[:, 2] + K.cx
+    v = K.fy * P[:, 1] / P[:, 2] + K.cy
+    H, W = lab_img.shape
+    c0, c1 = max(0, int(np.floor(u.min())) - 1), min(W, int(np.ceil(u.max())) + 2)
+    r0, r1 = max(0, int(np.floor(v.min())) - 1), min(H, int(np.ceil(v.max())) + 2)
+    if c1 - c0 < 2 or r1 - r0 < 2:
+        return a0, a1, b0, b1
+    lab_c = lab_img[r0:r1, c0:c1]
+    nr = (np.float32(n[0]) * xs[:, c0:c1] + np.float32(n[2])) + np.float32(n[1]) * ys[r0:r1, :]
+    S = dzero[r0:r1, c0:c1] * nr + np.float32(dpl)
+    S = np.where((lab_c == IN_PLANE) | (lab_c == OFF_SURFACE), S,
+                 np.float32(np.nan)).astype(np.float32)
+    Kc = _CropIntrinsics(K, r0, c0)
+    zc = float((o + 0.5 * (a0 + a1) * e1 + 0.5 * (b0 + b1) * e2)[2])
+    step = max(cfg.edge_refine_depth_step, cfg.edge_refine_depth_step_per_m2 * zc * zc)
+    out = [a0, a1, b0, b1]
+    for side in range(4):
+        along_a = side >= 2  # a horizontal side (b = const) runs along e1
+        lo, hi = (a0, a1) if along_a else (b0, b1)
+        m = 0.5 * (1.0 - span) * (hi - lo)
+        length = (hi - lo) - 2 * m
+        ns = max(8, min(200, int(round(length / cf))))
+        cs = length / ns
+        e = (a0, a1, b0, b1)[side]
+        outwards = side in (1, 3)  # a1, b1: outwards is +e1 / +e2
+        start = e - band if outwards else e + band - nl * cf  # lowest line coordinate
+        if along_a:  # lines are rows (along e1), the profile runs down the rows
+            args = (Kc, o, e1, e2, lo + m, start, cs, (nl, ns), cf)
+            axis = 1
+        else:        # lines are columns (along e2), the profile runs along the columns
+            args = (Kc, o, e1, e2, start, lo + m, cf, (ns, nl), cs)
+            axis = 0
+        lab = _warp_labels(lab_c, *args)
+        dist = _warp_float(S, *args)
+        n_in = ((lab == IN_PLANE) | (lab == OFF_SURFACE)).sum(axis=axis).astype(np.float64)
+        n_out = ((lab == FREE) | (lab == OUTSIDE)).sum(axis=axis)
+        with np.errstate(all="ignore"), warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            level = np.nanmean(dist, axis=axis).astype(np.float64)
+        pos = start + (np.arange(nl) + 0.5) * cf  # line coordinates, increasing
+        if not outwards:  # inside first
+            n_in, n_out, level, pos = n_in[::-1], n_out[::-1], level[::-1], pos[::-1]
+        x = _edge_crossing(n_in, n_out.astype(np.float64), level, pos, step)
+        if x is not None:
+            out[side] = x
+    return tuple(out)
+
+
 # ------------------------------------------------------------------------------------------
 # the detector
 # ------------------------------------------------------------------------------------------
@@ -960,8 +1126,8 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
     # --- masks ---------------------------------------------------------------------------
     t0 = clock()
     lut = np.zeros(256, np.uint8)
-    lut[:5] = np.round(255.0 * np.array([cfg.cost_in_plane, cfg.cost_free, cfg.cost_occluded,
-                                         cfg.cost_unknown, cfg.cost_free]))
+    lut[:6] = np.round(255.0 * np.array([cfg.cost_in_plane, cfg.cost_free, cfg.cost_occluded,
+                                         cfg.cost_unknown, cfg.cost_free, cfg.cost_unknown]))
     down_C = X_WC[:3, :3].T @ np.array([0.0, 0.0, -1.0])
     lab_imgs, grids = [], []
     surface = None
@@ -1050,6 +1216,15 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
         if prec < cfg.min_precision or rec < cfg.min_recall:
             continue
         center, e1, e2, w, h = _rect_camera(gl, Rf)
+        if cfg.edge_refine:
+            x0, x1, y0, y1 = (float(v) for v in Rf)
+            a0, a1, b0, b1 = _refine_edges(lab_imgs[g.plane_index], dzero, xs, ys, g.n, g.d,
+                                           K, g.o, e1, e2,
+                                           u0 + x0 * cp, u0 + x1 * cp, v0 + y0 * cp,
+                                           v0 + y1 * cp, cfg)
+            if min(a1 - a0, b1 - b0) >= cfg.min_side:
+                center = g.o + 0.5 * (a0 + a1) * e1 + 0.5 * (b0 + b1) * e2
+                w, h = a1 - a0, b1 - b0
         if not _inside_border(center, e1, e2, w, h, K, cfg.border_margin_px):
             continue
         n = g.n

@@ -279,18 +279,24 @@ def test_front_standing_proud_of_a_larger_parallel_plane_is_its_own_plane(seed):
 def test_side_face_of_a_thick_panel_does_not_widen_it(yaw_deg, seed):
     """A 19 mm thick door turned 50-60 deg: its edge face lies within L of the front's plane
     and would widen the rectangle by up to thickness x tan(incidence) (measured without the
-    surface check: 10-20 mm wider, centre 10-15 mm off); with it the width is within 5 mm."""
+    surface check and the edge refinement: 10-20 mm wider, centre 10-15 mm off); with either
+    of them the width is within 5 mm (the edge refinement stops where the edge face's depth
+    falls behind the front's)."""
     X = _front_pose(1.0, 0.3, 0.6, math.radians(yaw_deg))
     depth, X_WC = _frame([(DOOR, X, 0.019)], 1.3, 0.0, X[:3, 3], seed)
     errs = {}
-    for check in (True, False):
-        rects, _ = detect_fronts(depth, K, X_WC, FrontDetectorConfig(surface_check=check),
-                                 rng=seed)
+    for check, refine in ((True, True), (False, True), (True, False), (False, False)):
+        rects, _ = detect_fronts(depth, K, X_WC, FrontDetectorConfig(
+            surface_check=check, edge_refine=refine), rng=seed)
         m = _match(rects, X, DOOR)
         assert m is not None
-        errs[check] = (m[0].width - DOOR[0], m[1])
-    assert abs(errs[True][0]) <= 0.005 and errs[True][1] < 0.006, errs
-    assert errs[False][0] >= 0.009 and errs[False][1] > errs[True][1], errs  # the effect
+        errs[check, refine] = (m[0].width - DOOR[0], m[1])
+    for k in ((True, True), (False, True)):
+        assert abs(errs[k][0]) <= 0.005 and errs[k][1] < 0.006, errs
+    # without the refinement: within one 5 mm cell of the grid
+    assert abs(errs[True, False][0]) <= 0.0051 and errs[True, False][1] < 0.006, errs
+    assert errs[False, False][0] >= 0.009 and errs[False, False][1] > errs[True, True][1], \
+        errs  # the effect
 
 
 def test_surface_check_tolerates_a_tilted_plane_fit_but_removes_a_step():
@@ -298,7 +304,7 @@ def test_surface_check_tolerates_a_tilted_plane_fit_but_removes_a_step():
     1.7 deg off departs from its sides by ~7 mm; the surface check must keep those pixels
     (it once removed half the panel with its handle) and still remove a strip 8 mm behind
     the surrounding surface (the edge face of a panel seen obliquely)."""
-    from mmlearn.models.front_detection import IN_PLANE, UNKNOWN, _surface_check
+    from mmlearn.models.front_detection import IN_PLANE, OFF_SURFACE, _surface_check
     rng = np.random.default_rng(0)
     H, W = 120, 300
     S = np.tile(np.linspace(-0.007, 0.007, W, dtype=np.float32), (H, 1))  # tilted fit
@@ -307,7 +313,7 @@ def test_surface_check_tolerates_a_tilted_plane_fit_but_removes_a_step():
     lab = np.full((H, W), IN_PLANE, np.uint8)
     Lm = np.full((H, W), 0.003, np.float32)
     _surface_check(lab, S, Lm, 5)
-    gone = lab == UNKNOWN
+    gone = lab == OFF_SURFACE
     strip = np.zeros((H, W), bool)
     strip[10:-10, 200:206] = True
     ramp = np.zeros((H, W), bool)
