@@ -659,11 +659,16 @@ def _crossings(labs, S, planes, valid, crossing_angle_deg, smooth_px):
     near_sh = np.array([lab.reshape(-1)[shared] == IN_PLANE for lab in labs])
     N = np.array([pl.n for pl in planes])
     sup = np.array([pl.support for pl in planes])
-    # [k, j]: j may take pixels from k (either way: near the crossing line each plane keeps the
-    # pixels nearer to it; letting only the plane of larger support take them widened a door
-    # seen from 0.8 m, larger in the image than the neighbouring front, by the 2-4 cm strip of
-    # that front within L of the door's plane next to the hinge, measured)
-    crossing = np.abs(N @ N.T) < math.cos(math.radians(crossing_angle_deg))
+    # [k, j]: j may take pixels from k. Planes crossing at less than 30 deg share a wide strip
+    # (L / sin(angle)): there each keeps the pixels nearer to it (letting only the plane of
+    # larger support take them widened a door opened 11-16 deg and seen from 0.8 m, larger in
+    # the image than the neighbouring front, by the 2-4 cm strip of that front within L of
+    # the door's plane next to the hinge, measured). At steeper crossings only the plane of
+    # larger support takes them: the strip is narrow, and a plane whose surface is elsewhere
+    # cut a one-pixel line through a far drawer, which was then lost (measured).
+    cosang = np.abs(N @ N.T)
+    crossing = ((cosang < math.cos(math.radians(crossing_angle_deg)))
+                & ((cosang > math.cos(math.radians(30.0))) | (sup[None, :] >= sup[:, None])))
     if not crossing.any():
         return
     # Which plane is nearer is decided on the difference of the two planes' distances,
@@ -930,7 +935,7 @@ def _refit_plane(Pc, lab_img, center, e1, e2, w, h, K, n_old, L):
     return n, d
 
 
-def _edge_crossing(prof_in, prof_out, level, pos, step):
+def _edge_crossing(prof_in, prof_out, level, pos, step, persist=1):
     """Where a side ends along a profile of lines (positions ``pos``, inside first): the first
     line whose share of in-plane samples p = in / (in + out) falls below 1/2, or whose mean
     signed distance ``level`` (of its in-plane samples, m) lies more than ``step`` behind the
@@ -949,15 +954,28 @@ def _edge_crossing(prof_in, prof_out, level, pos, step):
         return None
     inner = level[: max(1, len(level) // 4)]
     inner = inner[np.isfinite(inner)]
-    if len(inner):
+    if len(inner) >= 2:
         ref = float(np.median(inner))
-        # behind by more than `step`, on lines that are still mostly in-plane
-        dev = np.where(np.isfinite(level) & (p >= 0.5), ref - level, 0.0) - step
+        # behind by more than `step` (or 3 x the scatter of the inner lines' levels: a short
+        # side of a far front has few pixels per line), on lines that are still mostly
+        # in-plane, and on `persist` lines in a row (lines closer than a pixel see the same
+        # pixels)
+        thr = max(step, 3.0 * float(np.std(inner)))
+        dev = np.where(np.isfinite(level) & (p >= 0.5), ref - level, 0.0) - thr
+        if persist > 1:
+            run = np.lib.stride_tricks.sliding_window_view(
+                np.concatenate([dev > 0, np.ones(persist - 1, bool)]), persist).all(axis=1)
+            dev = np.where(run, np.maximum(dev, 1e-12), np.minimum(dev, -1e-12))
     else:
         dev = np.full(len(pos), -1.0)
     last = int(np.flatnonzero(ok)[-1])
+    # out on 2 x `persist` lines in a row (about two pixels: a one-pixel strip where a plane
+    # crossing the front takes its pixels is not its side)
+    k = 2 * persist
+    low = np.lib.stride_tricks.sliding_window_view(
+        np.concatenate([p < 0.5, np.ones(k - 1, bool)]), k).all(axis=1)
     for i in range(1, len(pos)):
-        if p[i] < 0.5:
+        if low[i]:
             return float(pos[i - 1] + (p[i - 1] - 0.5) / (p[i - 1] - p[i]) * (pos[i] - pos[i - 1]))
         if dev[i] > 0:
             f = (-dev[i - 1]) / (dev[i] - dev[i - 1]) if dev[i - 1] < 0 else 0.0
@@ -989,7 +1007,6 @@ def _refine_edges(lab_img, dzero, xs, ys, n, dpl, K, o, e1, e2, a0, a1, b0, b1, 
     19 mm top face of a panel seen from above lies within L of its front face). A side
     without such a crossing in its strip stays. Returns (a0, a1, b0, b1)."""
     band, cf, span = cfg.edge_refine_band, cfg.edge_refine_cell, cfg.edge_refine_span
-    nl = max(4, int(round(2 * band / cf)))
     # image crop around the rectangle grown by the band
     P = np.array([o + a * e1 + b * e2 for a in (a0 - band, a1 + band)
                   for b in (b0 - band, b1 + band)])
@@ -1010,9 +1027,13 @@ def _refine_edges(lab_img, dzero, xs, ys, n, dpl, K, o, e1, e2, a0, a1, b0, b1, 
     Kc = _CropIntrinsics(K, r0, c0)
     zc = float((o + 0.5 * (a0 + a1) * e1 + 0.5 * (b0 + b1) * e2)[2])
     step = max(cfg.edge_refine_depth_step, cfg.edge_refine_depth_step_per_m2 * zc * zc)
+    persist = max(1, int(round(zc / K.fx / cf)))  # lines per pixel at the rectangle's depth
     out = [a0, a1, b0, b1]
     for side in range(4):
         along_a = side >= 2  # a horizontal side (b = const) runs along e1
+        # the strip reaches at most a third of the way across the rectangle
+        band = min(cfg.edge_refine_band, ((b1 - b0) if along_a else (a1 - a0)) / 3.0)
+        nl = max(4, int(round(2 * band / cf)))
         lo, hi = (a0, a1) if along_a else (b0, b1)
         m = 0.5 * (1.0 - span) * (hi - lo)
         length = (hi - lo) - 2 * m
@@ -1037,7 +1058,7 @@ def _refine_edges(lab_img, dzero, xs, ys, n, dpl, K, o, e1, e2, a0, a1, b0, b1, 
         pos = start + (np.arange(nl) + 0.5) * cf  # line coordinates, increasing
         if not outwards:  # inside first
             n_in, n_out, level, pos = n_in[::-1], n_out[::-1], level[::-1], pos[::-1]
-        x = _edge_crossing(n_in, n_out.astype(np.float64), level, pos, step)
+        x = _edge_crossing(n_in, n_out.astype(np.float64), level, pos, step, persist)
         if x is not None:
             out[side] = x
     return tuple(out)
