@@ -15,6 +15,11 @@ Scoring (printed, and in ``--json``):
   rectangle whose centre is within ``match_pos_m`` (0.05 m) of the true front's centre and
   whose orientation, in the closest of its 8 parameterisations (corner / side ambiguity,
   thesis 5.1.3), is within ``match_angle_deg`` (10 deg) of the true front's;
+  and whose width and height are within ``match_size_m`` (0.1 m) of the true ones (a
+  rectangle of several merged closed fronts whose centre happens to lie near the front's is
+  not the front);
+* ``detection_rate_visible``: the same over the frames in which the true front is wholly in
+  the image (the thesis' definition, 5.2.1: "whether the drawer was fully visible");
 * ``detection_rate_eligible``: the same over the *eligible* frames only: the true front
   wholly in the image, seen at an incidence below ``max_incidence_deg`` (70 deg) and standing
   out of the closed cabinet face by at least ``min_displacement_m`` (0.02 m) (the thesis
@@ -82,6 +87,7 @@ class TrackFrontsConfig:
         match_pos_m: a detection is the moving front when its centre is within this of the
             true centre, m.
         match_angle_deg: ... and its orientation (closest parameterisation) within this, deg.
+        match_size_m: ... and its width and height within this of the true ones, m.
         max_incidence_deg: a frame is *eligible* (counted in ``detection_rate_eligible``)
             when the front is wholly in the image, seen at an incidence below this, deg
             (default: where the depth noise model starts dropping grazing pixels) ...
@@ -105,6 +111,7 @@ class TrackFrontsConfig:
     seed: int = 0
     match_pos_m: float = 0.05
     match_angle_deg: float = 10.0
+    match_size_m: float = 0.1
     max_incidence_deg: float = 70.0
     min_displacement_m: float = 0.02
     selection_step: int = 1
@@ -127,6 +134,9 @@ class TrackFrontsConfig:
             raise ValueError(f"distance must be > 0.2 m, got {self.distance}")
         if not (self.match_pos_m > 0 and self.match_angle_deg > 0):
             raise ValueError("match_pos_m and match_angle_deg must be > 0")
+        if (isinstance(self.match_size_m, bool) or not isinstance(self.match_size_m, (int, float))
+                or not self.match_size_m > 0):
+            raise ValueError(f"match_size_m must be a number > 0 (m), got {self.match_size_m!r}")
         for k, lo in (("frames", 2), ("selection_step", 1), ("refit_every", 1), ("seed", 0)):
             v = getattr(self, k)
             if isinstance(v, bool) or not isinstance(v, int) or v < lo:
@@ -134,12 +144,14 @@ class TrackFrontsConfig:
 
 
 def match_front(rectangles, X_true: np.ndarray, width: float, height: float, *,
-                max_pos_m: float = 0.05, max_angle_deg: float = 10.0):
+                max_pos_m: float = 0.05, max_angle_deg: float = 10.0,
+                max_size_m: float = math.inf):
     """The detected rectangle that is the true front, or None.
 
     Every rectangle is compared in the parameterisation closest to ``X_true`` (of its 8);
-    candidates are those within ``max_pos_m`` (centre) and ``max_angle_deg``; the one with
-    the least ``d / max_pos + angle / max_angle`` wins.
+    candidates are those within ``max_pos_m`` (centre), ``max_angle_deg`` and ``max_size_m``
+    (largest of the width and height errors, m); the one with the least
+    ``d / max_pos + angle / max_angle`` wins.
 
     Returns:
         None or a dict with ``index`` (in ``rectangles``), ``pos_error_m``,
@@ -157,7 +169,7 @@ def match_front(rectangles, X_true: np.ndarray, width: float, height: float, *,
         X, w, h, ang = align_rectangle(X_true, r.X_WR, r.width, r.height)
         d = float(np.linalg.norm(X[:3, 3] - X_true[:3, 3]))
         a = math.degrees(ang)
-        if d > max_pos_m or a > max_angle_deg:
+        if d > max_pos_m or a > max_angle_deg or max(abs(w - width), abs(h - height)) > max_size_m:
             continue
         cost = d / max_pos_m + a / max_angle_deg
         if cost < best_cost:
@@ -208,7 +220,8 @@ def _moving_track(tracks, truth_by_time: dict, cfg: TrackFrontsConfig):
                 continue
             X, w, h = truth
             if match_front([t.rectangle(i)], X, w, h, max_pos_m=cfg.match_pos_m,
-                           max_angle_deg=cfg.match_angle_deg) is not None:
+                           max_angle_deg=cfg.match_angle_deg,
+                           max_size_m=cfg.match_size_m) is not None:
                 n += 1
         if n > best_n:
             best, best_n = t, n
@@ -290,7 +303,7 @@ def run(*, config: TrackFrontsConfig, meshcat=None, show_progress: bool = True) 
         q = float(d.GetOutputPort("front_joint").Eval(ctx)[0])
         truth_by_time[round(t, 6)] = (X_true, w_true, h_true)
         m = match_front(rects, X_true, w_true, h_true, max_pos_m=cfg.match_pos_m,
-                        max_angle_deg=cfg.match_angle_deg)
+                        max_angle_deg=cfg.match_angle_deg, max_size_m=cfg.match_size_m)
         timings.append(tm)
         frames.append({"time": t, "joint_value": q, "rectangles": len(rects),
                        "found": m is not None, "eligible": eligible, **vis,
@@ -326,6 +339,7 @@ def run(*, config: TrackFrontsConfig, meshcat=None, show_progress: bool = True) 
         selected = sel["selected"][-1]
     found = [f for f in frames if f["found"]]
     elig = [f for f in frames if f["eligible"]]
+    visible = [f for f in frames if f["in_view"]]
     T = np.array(timings)  # (frames, stages + total), s; NaN rows: frame not processed
     ok_rows = T[np.all(np.isfinite(T), axis=1)] if T.size else T
 
@@ -336,11 +350,15 @@ def run(*, config: TrackFrontsConfig, meshcat=None, show_progress: bool = True) 
         "object": cfg.object, "distance_m": float(cfg.distance),
         "angle_deg": float(cfg.angle_deg), "seed": cfg.seed, "frames": cfg.frames,
         "period_s": period,
-        "match": {"pos_m": cfg.match_pos_m, "angle_deg": cfg.match_angle_deg},
+        "match": {"pos_m": cfg.match_pos_m, "angle_deg": cfg.match_angle_deg,
+                  "size_m": cfg.match_size_m},
         "eligible_if": {"in_view": True, "incidence_below_deg": cfg.max_incidence_deg,
                         "displacement_at_least_m": cfg.min_displacement_m},
         "frames_found": len(found),
         "detection_rate": len(found) / cfg.frames,
+        "frames_visible": len(visible),
+        "detection_rate_visible": ((sum(f["found"] for f in visible) / len(visible))
+                                   if visible else None),
         "frames_eligible": len(elig),
         "detection_rate_eligible": (sum(f["found"] for f in elig) / len(elig)) if elig else None,
         "pos_error_m": float(np.mean([f["pos_error_m"] for f in found])) if found else None,
@@ -386,7 +404,9 @@ def _summary(r: dict) -> str:
         f"{r['object']} at {r['distance_m']:.2f} m, {r['angle_deg']:+.0f} deg, seed {r['seed']}: "
         f"found in {r['frames_found']}/{r['frames']} frames "
         f"(detection rate {100 * r['detection_rate']:.0f} %, match within "
-        f"{r['match']['pos_m']} m / {r['match']['angle_deg']} deg); in "
+        f"{r['match']['pos_m']} m / {r['match']['angle_deg']} deg / size "
+        f"{r['match']['size_m']} m); in {f(r['detection_rate_visible'], '.0%')} of the "
+        f"{r['frames_visible']} frames in which it is wholly in view; in "
         f"{f(r['detection_rate_eligible'], '.0%')} of the {r['frames_eligible']} frames in "
         f"which it is in view, at < {r['eligible_if']['incidence_below_deg']} deg incidence "
         f"and out of the cabinet face by >= {r['eligible_if']['displacement_at_least_m']} m",
