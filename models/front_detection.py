@@ -99,7 +99,6 @@ structured-light camera at depth edges make fronts 1-3 cm narrower at 1.8-2.5 m.
 
 import math
 import time
-import warnings
 from dataclasses import dataclass, field, fields
 
 import cv2
@@ -300,8 +299,9 @@ class Plane:
 def _fit_plane(P: np.ndarray):
     """Least-squares plane through points (k, 3): unit normal towards the camera and offset."""
     c = P.mean(axis=0)
-    _, _, vt = np.linalg.svd(P - c, full_matrices=False)
-    n = vt[2]
+    Q = P - c
+    _, V = np.linalg.eigh(Q.T @ Q)  # the scatter matrix's least eigenvector (3 x 3: fast)
+    n = V[:, 0]
     if n @ c > 0:  # towards the camera at the origin
         n = -n
     return n, float(-n @ c)
@@ -515,10 +515,12 @@ def _warp_labels(labels_img, K: PinholeIntrinsics, o, e1, e2, u0, v0, c, shape, 
                               borderMode=cv2.BORDER_CONSTANT, borderValue=OUTSIDE)
     # depth of each cell is affine in (i, j): mask cells behind (or too close to) the camera
     zc = (M @ A)[2]  # z = zc[0] j + zc[1] i + zc[2]
-    jj = np.arange(Wg, dtype=np.float64)
-    ii = np.arange(Hg, dtype=np.float64)
-    z = zc[0] * jj[None, :] + zc[1] * ii[:, None] + zc[2]
-    out[z < 0.05] = OUTSIDE
+    # affine: its least value over the grid is at a corner (most grids need no mask)
+    if zc[2] + min(0.0, zc[0] * (Wg - 1)) + min(0.0, zc[1] * (Hg - 1)) < 0.05:
+        jj = np.arange(Wg, dtype=np.float64)
+        ii = np.arange(Hg, dtype=np.float64)
+        z = zc[0] * jj[None, :] + zc[1] * ii[:, None] + zc[2]
+        out[z < 0.05] = OUTSIDE
     return out
 
 
@@ -646,7 +648,7 @@ def _label_images(d, valid, ray_x, ray_y, planes, L, crossing_angle_deg,
 
 def _crossings(labs, S, planes, valid, crossing_angle_deg, smooth_px):
     """In place: where two crossing planes are both within L of a pixel, the pixel stays
-    in-plane only for the nearer one with the larger support (see :func:`_label_images`)."""
+    in-plane only for the nearer one (see :func:`_label_images` and below)."""
     P = len(planes)
     if P < 2:
         return
@@ -671,33 +673,40 @@ def _crossings(labs, S, planes, valid, crossing_angle_deg, smooth_px):
                 & ((cosang > math.cos(math.radians(30.0))) | (sup[None, :] >= sup[:, None])))
     if not crossing.any():
         return
-    # Which plane is nearer is decided on the difference of the two planes' distances,
-    # |S_k| - |S_j|, averaged over the smooth_px x smooth_px pixels around that are within L
-    # of both (the noise of one pixel would otherwise fray the edge along the crossing). Near
-    # the crossing line that difference is linear across it (x sin(angle) on either side), so
-    # its window mean keeps the sign of the centre pixel's true difference. (Averaging each
-    # plane's signed distance over every measured pixel, as before, mixed in the pixels of
-    # a 5 mm reveal and of the other surface: at 2.3 m the door's hinge side lost ~1 cm to the
-    # cabinet's face, measured.)
+    # Which plane is nearer is decided on the two planes' signed distances, each summed over
+    # the smooth_px x smooth_px pixels around that are within L of both (the noise of one
+    # pixel would otherwise fray the edge along the crossing): the plane whose mean is nearer
+    # zero keeps the pixel. Near the crossing line the surface seen beside it lies on one
+    # plane on either side and off the other by x sin(angle), so the window means keep the
+    # order of the centre pixel's true distances. (Averaging each plane's distance over every
+    # measured pixel around, as before, mixed in the pixels of a 5 mm reveal and of the other
+    # surface: at 2.3 m the door's hinge side lost ~1 cm to the cabinet's face, measured.)
     H, W = valid.shape
     ys, xs = np.divmod(shared, W)
     r = smooth_px // 2
-    y0, y1 = max(0, int(ys.min()) - r), min(H, int(ys.max()) + r + 1)
-    x0, x1 = max(0, int(xs.min()) - r), min(W, int(xs.max()) + r + 1)
-    ys, xs = ys - y0, xs - x0
     take = np.zeros(near_sh.shape, bool)  # [k, i]: shared pixel i is nearer another plane
     for k in range(P):
-        for j in np.flatnonzero(crossing[k]):
-            both = near_sh[k] & near_sh[j]
-            if not both.any():
+        for j in range(k + 1, P):
+            if not (crossing[k, j] or crossing[j, k]):
                 continue
+            both = np.flatnonzero(near_sh[k] & near_sh[j])
+            if len(both) == 0:
+                continue
+            by, bx = ys[both], xs[both]
+            # the pair's pixels' bounding box with the window's margin
+            y0, y1 = max(0, int(by.min()) - r), min(H, int(by.max()) + r + 1)
+            x0, x1 = max(0, int(bx.min()) - r), min(W, int(bx.max()) + r + 1)
+            by, bx = by - y0, bx - x0
             w = np.zeros((y1 - y0, x1 - x0), np.float32)
-            w[ys[both], xs[both]] = 1.0
-            ak = cv2.boxFilter(S[k][y0:y1, x0:x1] * w, -1, (smooth_px, smooth_px),
-                               normalize=False)[ys[both], xs[both]]
-            aj = cv2.boxFilter(S[j][y0:y1, x0:x1] * w, -1, (smooth_px, smooth_px),
-                               normalize=False)[ys[both], xs[both]]
-            take[k, both] |= np.abs(aj) < np.abs(ak)
+            w[by, bx] = 1.0
+            ak = np.abs(cv2.boxFilter(S[k][y0:y1, x0:x1] * w, -1, (smooth_px, smooth_px),
+                                      normalize=False)[by, bx])
+            aj = np.abs(cv2.boxFilter(S[j][y0:y1, x0:x1] * w, -1, (smooth_px, smooth_px),
+                                      normalize=False)[by, bx])
+            if crossing[k, j]:
+                take[k, both] |= aj < ak
+            if crossing[j, k]:
+                take[j, both] |= ak < aj
     for k in range(P):
         if take[k].any():
             flat = labs[k].reshape(-1)
@@ -974,17 +983,24 @@ def _edge_crossing(prof_in, prof_out, level, pos, step, persist=1):
     k = 2 * persist
     low = np.lib.stride_tricks.sliding_window_view(
         np.concatenate([p < 0.5, np.ones(k - 1, bool)]), k).all(axis=1)
-    for i in range(1, len(pos)):
-        if low[i]:
-            return float(pos[i - 1] + (p[i - 1] - 0.5) / (p[i - 1] - p[i]) * (pos[i] - pos[i - 1]))
-        if dev[i] > 0:
-            f = (-dev[i - 1]) / (dev[i] - dev[i - 1]) if dev[i - 1] < 0 else 0.0
-            return float(pos[i - 1] + f * (pos[i] - pos[i - 1]))
-        if i > last:
-            # the measured lines end inside the front (drop-outs to the end of the strip): its
-            # side is at least there
-            return float(pos[last] + 0.5 * (pos[i] - pos[i - 1]))
-    return None
+    n_l = len(pos)
+
+    def first(mask):
+        i = np.flatnonzero(mask[1:])
+        return int(i[0]) + 1 if len(i) else n_l
+
+    i_low, i_dev = first(low), first(dev > 0)
+    i = min(i_low, i_dev, last + 1)
+    if i >= n_l:
+        return None
+    if i == i_low:
+        return float(pos[i - 1] + (p[i - 1] - 0.5) / (p[i - 1] - p[i]) * (pos[i] - pos[i - 1]))
+    if i == i_dev:
+        f = (-dev[i - 1]) / (dev[i] - dev[i - 1]) if dev[i - 1] < 0 else 0.0
+        return float(pos[i - 1] + f * (pos[i] - pos[i - 1]))
+    # the measured lines end inside the front (drop-outs to the end of the strip): its side
+    # is at least there
+    return float(pos[last] + 0.5 * (pos[i] - pos[i - 1]))
 
 
 class _CropIntrinsics:
@@ -1052,9 +1068,11 @@ def _refine_edges(lab_img, dzero, xs, ys, n, dpl, K, o, e1, e2, a0, a1, b0, b1, 
         dist = _warp_float(S, *args)
         n_in = ((lab == IN_PLANE) | (lab == OFF_SURFACE)).sum(axis=axis).astype(np.float64)
         n_out = ((lab == FREE) | (lab == OUTSIDE)).sum(axis=axis)
-        with np.errstate(all="ignore"), warnings.catch_warnings():
-            warnings.simplefilter("ignore", RuntimeWarning)
-            level = np.nanmean(dist, axis=axis).astype(np.float64)
+        fin = np.isfinite(dist)
+        cnt = fin.sum(axis=axis)
+        with np.errstate(all="ignore"):
+            level = (np.where(fin, dist, np.float32(0.0)).sum(axis=axis, dtype=np.float64)
+                     / cnt)  # mean of the in-plane samples' distances, NaN where none
         pos = start + (np.arange(nl) + 0.5) * cf  # line coordinates, increasing
         if not outwards:  # inside first
             n_in, n_out, level, pos = n_in[::-1], n_out[::-1], level[::-1], pos[::-1]
