@@ -763,7 +763,11 @@ _MOVES = np.array([[-1, 0, 0, 0], [1, 0, 0, 0], [0, 1, 0, 0], [0, -1, 0, 0],
 def _rect_sum(S, p, R):
     """Sums of the tables ``S[p]`` (stacked SATs) over rectangles R (..., 4) = x0 x1 y0 y1."""
     x0, x1, y0, y1 = R[..., 0], R[..., 1], R[..., 2], R[..., 3]
-    return S[p, y1, x1] - S[p, y0, x1] - S[p, y1, x0] + S[p, y0, x0]
+    _, H, W = S.shape
+    flat = S.reshape(-1)  # one gather per corner on linear indices (same sums, faster)
+    base = np.asarray(p) * (H * W)
+    r0, r1 = base + y0 * W, base + y1 * W
+    return (flat.take(r1 + x1) - flat.take(r0 + x1)) - (flat.take(r1 + x0) - flat.take(r0 + x0))
 
 
 def _objective(SC, p, R, alpha):
