@@ -153,6 +153,11 @@ def test_bad_pose_and_config_are_clear_errors():
         detect_fronts(depth, K, np.eye(4), FrontDetectorConfig(surface_window_px=4), rng=0)
     with pytest.raises(ValueError, match="surface_distance"):
         detect_fronts(depth, K, np.eye(4), FrontDetectorConfig(surface_distance=-0.1), rng=0)
+    for bad, key in (({"edge_refine_band": 0.0}, "edge_refine_band"),
+                     ({"edge_refine_span": 1.5}, "edge_refine_span"),
+                     ({"edge_refine_depth_step": -0.001}, "edge_refine_depth_step")):
+        with pytest.raises(ValueError, match=key):
+            detect_fronts(depth, K, np.eye(4), FrontDetectorConfig(**bad), rng=0)
 
 
 def test_config_loads_from_yaml_and_rejects_misspelled_keys():
