@@ -15,14 +15,23 @@ Scoring (printed, and in ``--json``):
   rectangle whose centre is within ``match_pos_m`` (0.05 m) of the true front's centre and
   whose orientation, in the closest of its 8 parameterisations (corner / side ambiguity,
   thesis 5.1.3), is within ``match_angle_deg`` (10 deg) of the true front's;
+  and whose width and height are within ``match_size_m`` (0.1 m) of the true ones (a
+  rectangle of several merged closed fronts whose centre happens to lie near the front's is
+  not the front);
+* ``detection_rate_visible``: the same over the frames in which the true front is wholly in
+  the image (the thesis' definition, 5.2.1: "whether the drawer was fully visible");
 * ``detection_rate_eligible``: the same over the *eligible* frames only: the true front
   wholly in the image, seen at an incidence below ``max_incidence_deg`` (70 deg) and standing
   out of the closed cabinet face by at least ``min_displacement_m`` (0.02 m) (the thesis
   counted the frames in which its free-standing drawer was fully visible; a closed front here
   is flush with its neighbours behind a 5 mm reveal, one plane to a depth camera, and the
   door opened to 90 deg is seen edge-on);
-* ``pos_error_m`` / ``orient_error_deg``: mean over those frames of the found rectangle's
-  centre distance / rotation angle to the true front pose (the best match of the frame);
+* ``pos_error_m`` / ``orient_error_deg``: mean over the frames in which it was found of the
+  found rectangle's centre distance / rotation angle to the true pose of the face the camera
+  sees (the best match of the frame): the outer face, or the inner face (``front_thickness``
+  behind it) in the frames in which the door has turned past the camera's line of sight
+  (``frames_inner_face_seen``; only off-axis views); ``pos_error_outer_face_m``: the same
+  against the outer face always (then 19 mm larger on those frames);
   ``size_error_m``: mean of the larger of |width - true| and |height - true| (after the
   alignment);
 * ``moving_track``: the published track with the most observations matched to the true front
@@ -82,6 +91,7 @@ class TrackFrontsConfig:
         match_pos_m: a detection is the moving front when its centre is within this of the
             true centre, m.
         match_angle_deg: ... and its orientation (closest parameterisation) within this, deg.
+        match_size_m: ... and its width and height within this of the true ones, m.
         max_incidence_deg: a frame is *eligible* (counted in ``detection_rate_eligible``)
             when the front is wholly in the image, seen at an incidence below this, deg
             (default: where the depth noise model starts dropping grazing pixels) ...
@@ -105,6 +115,7 @@ class TrackFrontsConfig:
     seed: int = 0
     match_pos_m: float = 0.05
     match_angle_deg: float = 10.0
+    match_size_m: float = 0.1
     max_incidence_deg: float = 70.0
     min_displacement_m: float = 0.02
     selection_step: int = 1
@@ -127,6 +138,9 @@ class TrackFrontsConfig:
             raise ValueError(f"distance must be > 0.2 m, got {self.distance}")
         if not (self.match_pos_m > 0 and self.match_angle_deg > 0):
             raise ValueError("match_pos_m and match_angle_deg must be > 0")
+        if (isinstance(self.match_size_m, bool) or not isinstance(self.match_size_m, (int, float))
+                or not self.match_size_m > 0):
+            raise ValueError(f"match_size_m must be a number > 0 (m), got {self.match_size_m!r}")
         for k, lo in (("frames", 2), ("selection_step", 1), ("refit_every", 1), ("seed", 0)):
             v = getattr(self, k)
             if isinstance(v, bool) or not isinstance(v, int) or v < lo:
@@ -134,12 +148,14 @@ class TrackFrontsConfig:
 
 
 def match_front(rectangles, X_true: np.ndarray, width: float, height: float, *,
-                max_pos_m: float = 0.05, max_angle_deg: float = 10.0):
+                max_pos_m: float = 0.05, max_angle_deg: float = 10.0,
+                max_size_m: float = math.inf):
     """The detected rectangle that is the true front, or None.
 
     Every rectangle is compared in the parameterisation closest to ``X_true`` (of its 8);
-    candidates are those within ``max_pos_m`` (centre) and ``max_angle_deg``; the one with
-    the least ``d / max_pos + angle / max_angle`` wins.
+    candidates are those within ``max_pos_m`` (centre), ``max_angle_deg`` and ``max_size_m``
+    (largest of the width and height errors, m); the one with the least
+    ``d / max_pos + angle / max_angle`` wins.
 
     Returns:
         None or a dict with ``index`` (in ``rectangles``), ``pos_error_m``,
@@ -157,7 +173,7 @@ def match_front(rectangles, X_true: np.ndarray, width: float, height: float, *,
         X, w, h, ang = align_rectangle(X_true, r.X_WR, r.width, r.height)
         d = float(np.linalg.norm(X[:3, 3] - X_true[:3, 3]))
         a = math.degrees(ang)
-        if d > max_pos_m or a > max_angle_deg:
+        if d > max_pos_m or a > max_angle_deg or max(abs(w - width), abs(h - height)) > max_size_m:
             continue
         cost = d / max_pos_m + a / max_angle_deg
         if cost < best_cost:
@@ -208,7 +224,8 @@ def _moving_track(tracks, truth_by_time: dict, cfg: TrackFrontsConfig):
                 continue
             X, w, h = truth
             if match_front([t.rectangle(i)], X, w, h, max_pos_m=cfg.match_pos_m,
-                           max_angle_deg=cfg.match_angle_deg) is not None:
+                           max_angle_deg=cfg.match_angle_deg,
+                           max_size_m=cfg.match_size_m) is not None:
                 n += 1
         if n > best_n:
             best, best_n = t, n
@@ -282,18 +299,30 @@ def run(*, config: TrackFrontsConfig, meshcat=None, show_progress: bool = True) 
         rects = det.get_rectangles_output_port().Eval(det_ctx)
         cpu.append(time.thread_time() - c0)
         tm = np.asarray(det.get_timings_output_port().Eval(det_ctx), float)
-        X_true = d.GetOutputPort("X_WR").Eval(ctx).GetAsMatrix4()
+        X_outer = d.GetOutputPort("X_WR").Eval(ctx).GetAsMatrix4()
         X_WC = d.GetOutputPort("X_WC").Eval(ctx).GetAsMatrix4()
+        # the face the camera sees: the outer one, or the inner one (thickness behind it) once
+        # the door has turned past the camera's line of sight (off-axis views)
+        inner = float(X_outer[:3, 2] @ (X_WC[:3, 3] - X_outer[:3, 3])) < 0.0
+        X_true = X_outer.copy()
+        if inner:
+            X_true[:3, 3] -= sc.kitchen.front_thickness * X_outer[:3, 2]
         vis = front_visibility(X_true, w_true, h_true, X_WC, P.intrinsics, P.kinematics.X_WR0)
         eligible = (vis["in_view"] and vis["incidence_deg"] < cfg.max_incidence_deg
                     and vis["displacement_m"] >= cfg.min_displacement_m)
         q = float(d.GetOutputPort("front_joint").Eval(ctx)[0])
         truth_by_time[round(t, 6)] = (X_true, w_true, h_true)
         m = match_front(rects, X_true, w_true, h_true, max_pos_m=cfg.match_pos_m,
-                        max_angle_deg=cfg.match_angle_deg)
+                        max_angle_deg=cfg.match_angle_deg, max_size_m=cfg.match_size_m)
+        m_outer = (m if not inner or m is None else
+                   match_front([rects[m["index"]]], X_outer, w_true, h_true,
+                               max_pos_m=cfg.match_pos_m + sc.kitchen.front_thickness,
+                               max_angle_deg=cfg.match_angle_deg, max_size_m=cfg.match_size_m))
         timings.append(tm)
         frames.append({"time": t, "joint_value": q, "rectangles": len(rects),
                        "found": m is not None, "eligible": eligible, **vis,
+                       "inner_face_seen": inner,
+                       **({"pos_error_outer_face_m": m_outer["pos_error_m"]} if m_outer else {}),
                        **({k2: m[k2] for k2 in ("pos_error_m", "orient_error_deg",
                                                 "size_error_m")} if m else {})})
     # the tracker takes the frame at t at the start of the next step: one more half period
@@ -326,6 +355,7 @@ def run(*, config: TrackFrontsConfig, meshcat=None, show_progress: bool = True) 
         selected = sel["selected"][-1]
     found = [f for f in frames if f["found"]]
     elig = [f for f in frames if f["eligible"]]
+    visible = [f for f in frames if f["in_view"]]
     T = np.array(timings)  # (frames, stages + total), s; NaN rows: frame not processed
     ok_rows = T[np.all(np.isfinite(T), axis=1)] if T.size else T
 
@@ -336,14 +366,23 @@ def run(*, config: TrackFrontsConfig, meshcat=None, show_progress: bool = True) 
         "object": cfg.object, "distance_m": float(cfg.distance),
         "angle_deg": float(cfg.angle_deg), "seed": cfg.seed, "frames": cfg.frames,
         "period_s": period,
-        "match": {"pos_m": cfg.match_pos_m, "angle_deg": cfg.match_angle_deg},
+        "match": {"pos_m": cfg.match_pos_m, "angle_deg": cfg.match_angle_deg,
+                  "size_m": cfg.match_size_m},
         "eligible_if": {"in_view": True, "incidence_below_deg": cfg.max_incidence_deg,
                         "displacement_at_least_m": cfg.min_displacement_m},
         "frames_found": len(found),
         "detection_rate": len(found) / cfg.frames,
+        "frames_visible": len(visible),
+        "detection_rate_visible": ((sum(f["found"] for f in visible) / len(visible))
+                                   if visible else None),
         "frames_eligible": len(elig),
         "detection_rate_eligible": (sum(f["found"] for f in elig) / len(elig)) if elig else None,
         "pos_error_m": float(np.mean([f["pos_error_m"] for f in found])) if found else None,
+        "pos_error_outer_face_m": (float(np.mean([f["pos_error_outer_face_m"] for f in found
+                                                  if "pos_error_outer_face_m" in f]))
+                                   if any("pos_error_outer_face_m" in f for f in found)
+                                   else None),
+        "frames_inner_face_seen": int(sum(f["inner_face_seen"] for f in frames)),
         "orient_error_deg": (float(np.mean([f["orient_error_deg"] for f in found]))
                              if found else None),
         "size_error_m": float(np.mean([f["size_error_m"] for f in found])) if found else None,
@@ -386,7 +425,9 @@ def _summary(r: dict) -> str:
         f"{r['object']} at {r['distance_m']:.2f} m, {r['angle_deg']:+.0f} deg, seed {r['seed']}: "
         f"found in {r['frames_found']}/{r['frames']} frames "
         f"(detection rate {100 * r['detection_rate']:.0f} %, match within "
-        f"{r['match']['pos_m']} m / {r['match']['angle_deg']} deg); in "
+        f"{r['match']['pos_m']} m / {r['match']['angle_deg']} deg / size "
+        f"{r['match']['size_m']} m); in {f(r['detection_rate_visible'], '.0%')} of the "
+        f"{r['frames_visible']} frames in which it is wholly in view; in "
         f"{f(r['detection_rate_eligible'], '.0%')} of the {r['frames_eligible']} frames in "
         f"which it is in view, at < {r['eligible_if']['incidence_below_deg']} deg incidence "
         f"and out of the cabinet face by >= {r['eligible_if']['displacement_at_least_m']} m",

@@ -40,6 +40,25 @@ def test_match_front_handles_the_8_parameterisations():
     assert m["index"] == 2
 
 
+def test_match_front_size_gate_rejects_merged_fronts():
+    """A rectangle of several merged closed fronts whose centre lies near the true front's
+    (1.2 m wide instead of 0.395 m) counted as the front before the size gate."""
+    from mmlearn.apps.track_fronts import TrackFrontsConfig, match_front
+    from mmlearn.models.fronts import FrontRectangle
+
+    X = np.eye(4)
+    X[:3, :3] = np.array([[0, 0, 1], [1, 0, 0], [0, 1, 0.0]])
+    Y = X.copy()
+    Y[:3, 3] += [0.0, 0.01, 0.0]
+    merged = FrontRectangle(Y, 1.2, 0.58)
+    assert match_front([merged], X, 0.395, 0.58) is not None
+    assert match_front([merged], X, 0.395, 0.58, max_size_m=0.1) is None
+    ok = match_front([FrontRectangle(Y, 0.40, 0.575)], X, 0.395, 0.58, max_size_m=0.1)
+    assert ok is not None and ok["size_error_m"] == pytest.approx(0.005)
+    with pytest.raises(ValueError, match="match_size_m"):
+        TrackFrontsConfig(match_size_m=0.0).validate()
+
+
 def test_track_fronts_short_drawer_run(capsys):
     """8 frames of the drawer at 1.2 m: a sane JSON (found in most frames once it is out,
     errors of mm, a prismatic track, stage timings)."""
