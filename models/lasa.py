@@ -571,16 +571,19 @@ class InnerCVReproducer:
         hs: candidate Parzen window widths, s.
         shrinkages: candidate covariance shrinkages towards the diagonal, in [0, 1]
             (:func:`shrink_covariance`; 0 = full, 1 = diagonal).
+        floors: candidate variance floors added to every constraint's covariance, mm^2
+            (the start-frame constraint's is divided by the mean squared start distance).
         object_sets: candidate constraint sets (each as for :class:`ThesisReproducer`).
         dt: period of the aligned time base and of the reproduction, s.
         end_weight: weight of the inner end error (mm) beside the inner rmse (mm) in the
             selection score (dimensionless).
         align_features: DTW features of the alignment.
-        choices: every selection made, appended per call: ``(h, shrinkage, objects)``.
+        choices: every selection made, appended per call: ``(h, shrinkage, floor, objects)``.
     """
 
     hs: tuple = (0.02, 0.04, 0.1)
     shrinkages: tuple = (0.0, 0.5, 1.0)
+    floors: tuple = (0.0,)
     object_sets: tuple = (("target", "start", "frame"), ("target", "start"))
     dt: float = 0.02
     end_weight: float = 0.0
@@ -590,9 +593,13 @@ class InnerCVReproducer:
     def __post_init__(self):
         self.hs = tuple(float(h) for h in self.hs)
         self.shrinkages = tuple(float(s) for s in self.shrinkages)
+        self.floors = tuple(float(f) for f in self.floors)
         self.object_sets = tuple(tuple(o) for o in self.object_sets)
-        if not self.hs or not self.shrinkages or not self.object_sets:
-            raise ValueError("hs, shrinkages and object_sets must each hold at least one candidate")
+        if not self.hs or not self.shrinkages or not self.floors or not self.object_sets:
+            raise ValueError("hs, shrinkages, floors and object_sets must each hold at least one candidate")
+        for f in self.floors:
+            if not (np.isfinite(f) and f >= 0):
+                raise ValueError(f"floors must be finite variances >= 0 in mm^2, got {f!r}")
         for h in self.hs + (self.dt,):
             if not (np.isfinite(h) and h > 0):
                 raise ValueError(f"hs and dt must be finite times > 0 in seconds, got {h!r}")
@@ -606,8 +613,9 @@ class InnerCVReproducer:
         self.choices: list[tuple] = []
 
     def candidates(self) -> list[tuple]:
-        """All ``(h, shrinkage, objects)`` candidates, in a fixed order."""
-        return [(h, s, o) for h in self.hs for s in self.shrinkages for o in self.object_sets]
+        """All ``(h, shrinkage, floor, objects)`` candidates, in a fixed order."""
+        return [(h, s, f, o) for h in self.hs for s in self.shrinkages for f in self.floors
+                for o in self.object_sets]
 
     def _paths(self, train: list[Demonstration], queries: list[Demonstration], cands: list[tuple]):
         """``{candidate: [(t, x) per query]}``: learned from ``train`` (aligned together),
@@ -622,23 +630,27 @@ class InnerCVReproducer:
             out = {}
             for h in sorted({c[0] for c in cands}):
                 full = learn_task(aligned, h=h, use_joints=False, align=False, full_covariance=True)
-                need_frame = any("frame" in c[2] for c in cands if c[0] == h)
+                need_frame = any("frame" in c[3] for c in cands if c[0] == h)
                 if need_frame:
                     fm, fv = learn_start_frame(aligned, h=h, full_covariance=True)
+                    d2 = float(np.mean([np.sum((d.objects["start"][0] - d.objects["target"][0]) ** 2)
+                                        for d in aligned]))
                 for c in cands:
                     if c[0] != h:
                         continue
-                    _, lam, objs = c
+                    _, lam, floor, objs = c
+                    eye = np.eye(full.mean["obj:target"].shape[1])[None]
                     names = [f"obj:{o}" for o in objs if o != "frame"]
                     base = TaskModel(t=full.t, constraints=names, mean={n: full.mean[n] for n in names},
-                                     var={n: shrink_covariance(full.var[n], lam) for n in names},
+                                     var={n: shrink_covariance(full.var[n], lam) + floor * eye for n in names},
                                      meta=dict(full.meta))
                     paths = []
                     for q in queries:
                         m = base
                         start = q.hand[0]
                         if "frame" in objs:
-                            m = place_start_frame(base, fm, shrink_covariance(fv, lam), start,
+                            m = place_start_frame(base, fm, shrink_covariance(fv, lam) + floor / max(d2, 1e-12) * eye,
+                                                  start,
                                                   aligned[0].objects["target"][0])
                         objects = {"target": q.objects["target"][0], "start": start,
                                    "frame": q.objects["target"][0]}
