@@ -14,6 +14,12 @@ out demonstration's start; the reproductions are resampled on the held-out time 
 * ``thesis``: :class:`mmlearn.models.lasa.ThesisReproducer` (defaults: target, start-marker
   and start-frame constraints, h 0.02 s, dt 0.02 s, full covariance).
 * ``target_start``: the same without the start-frame constraint (objects target, start).
+* ``thesis_cv`` (not in the default ``--methods``): :class:`mmlearn.models.lasa.InnerCVReproducer`,
+  the thesis' method with h in {0.02, 0.04, 0.1} s, covariance shrinkage towards the diagonal
+  in {0, 0.5, 1} and the constraint sets {target, start, frame} / {target, start} chosen per
+  fold by an inner leave-one-out over the 6 training demonstrations (nested cross-validation);
+  ``thesis_cv_end`` scores the inner folds by rmse + end error; ``thesis_cv_1se`` keeps the
+  default setting unless the inner winner beats it by more than one standard error.
 * ``baseline``: :func:`mmlearn.models.lasa.naive_baseline`.
 * ``dmp``: ``movement_primitives.dmp.DMP`` (Ijspeert et al. 2013 formulation), fitted to each
   training demonstration on a normalised time 0..1 with ``--weights`` basis functions per
@@ -39,7 +45,7 @@ import warnings
 import numpy as np
 
 from mmlearn.models.lasa import (DEVELOPMENT_SHAPES, LASA_SHAPES, MULTI_MODE_SHAPES,
-                                 ThesisReproducer, baseline_reproducer, evaluate_shape,
+                                 InnerCVReproducer, ThesisReproducer, baseline_reproducer, evaluate_shape,
                                  load_shape, summarise)
 
 
@@ -109,6 +115,9 @@ def main(argv=None) -> int:
     folds = None if a.folds is None else [int(x) for x in a.folds.split(",")]
     makers = {"thesis": lambda: ThesisReproducer(),
               "target_start": lambda: ThesisReproducer(objects=("target", "start")),
+              "thesis_cv": lambda: InnerCVReproducer(),
+              "thesis_cv_end": lambda: InnerCVReproducer(end_weight=1.0),
+              "thesis_cv_1se": lambda: InnerCVReproducer(one_se=True),
               "baseline": lambda: baseline_reproducer,
               "dmp": lambda: DmpReproducer(n_weights=a.weights),
               "promp": lambda: PrompReproducer(n_weights=a.weights)}
@@ -139,7 +148,8 @@ def main(argv=None) -> int:
         cells = " ".join(f"{sums[m][f'mean_rmse_mm{suffix}']:7.3f}/{sums[m][f'mean_end_error_mm{suffix}']:7.3f}"
                          for m in methods)
         print(f"{label:24s} {n:3d} {cells}")
-    print("seconds: " + ", ".join(f"{m} {secs[m]:.1f}" for m in methods))
+    nf = sum(len(r.folds) for r in res[methods[0]])
+    print("seconds: " + ", ".join(f"{m} {secs[m]:.1f} ({secs[m] / max(nf, 1):.2f} per fold)" for m in methods))
     if a.json:
         with open(a.json, "w") as f:
             json.dump({m: {"summary": sums[m], "shapes": [r.to_dict() for r in res[m]],

@@ -577,6 +577,9 @@ class InnerCVReproducer:
         dt: period of the aligned time base and of the reproduction, s.
         end_weight: weight of the inner end error (mm) beside the inner rmse (mm) in the
             selection score (dimensionless).
+        one_se: keep the first candidate (the reference setting: first of each list) unless
+            the best one beats it by more than one standard error of the paired inner score
+            differences (the "one standard error" rule against selection noise).
         align_features: DTW features of the alignment.
         choices: every selection made, appended per call: ``(h, shrinkage, floor, objects)``.
     """
@@ -587,6 +590,7 @@ class InnerCVReproducer:
     object_sets: tuple = (("target", "start", "frame"), ("target", "start"))
     dt: float = 0.02
     end_weight: float = 0.0
+    one_se: bool = False
     align_features: str = "both"
     name: str = "thesis_cv"
 
@@ -641,17 +645,16 @@ class InnerCVReproducer:
                     _, lam, floor, objs = c
                     eye = np.eye(full.mean["obj:target"].shape[1])[None]
                     names = [f"obj:{o}" for o in objs if o != "frame"]
+                    var = {n: shrink_covariance(full.var[n], lam) + floor * eye for n in names}
                     base = TaskModel(t=full.t, constraints=names, mean={n: full.mean[n] for n in names},
-                                     var={n: shrink_covariance(full.var[n], lam) + floor * eye for n in names},
-                                     meta=dict(full.meta))
+                                     var=var, meta=dict(full.meta))
                     paths = []
                     for q in queries:
                         m = base
                         start = q.hand[0]
                         if "frame" in objs:
-                            m = place_start_frame(base, fm, shrink_covariance(fv, lam) + floor / max(d2, 1e-12) * eye,
-                                                  start,
-                                                  aligned[0].objects["target"][0])
+                            fvar = shrink_covariance(fv, lam) + floor / max(d2, 1e-12) * eye
+                            m = place_start_frame(base, fm, fvar, start, aligned[0].objects["target"][0])
                         objects = {"target": q.objects["target"][0], "start": start,
                                    "frame": q.objects["target"][0]}
                         paths.append(fused_path(m, start, objects, duration=q.duration, dt=self.dt))
@@ -674,7 +677,12 @@ class InnerCVReproducer:
                 rep = resample_to(t - t[0], x, held.t - held.t[0])
                 scores[c].append(rmse_mm(rep, held.hand) + self.end_weight * end_error_mm(rep, held.hand))
         mean = {c: float(np.mean(v)) for c, v in scores.items()}
-        return min(cands, key=lambda c: mean[c]), mean
+        best = min(cands, key=lambda c: mean[c])
+        if self.one_se and best != cands[0]:
+            diff = np.asarray(scores[cands[0]]) - np.asarray(scores[best])
+            if diff.mean() <= diff.std(ddof=1) / np.sqrt(len(diff)):
+                best = cands[0]
+        return best, mean
 
     def __call__(self, train: list[Demonstration], held: Demonstration) -> tuple[np.ndarray, np.ndarray]:
         best, _ = self.select(train)

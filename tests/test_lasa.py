@@ -291,8 +291,14 @@ def test_inner_cv_selects_from_the_training_demonstrations_only():
     _, x2 = reproduce_cartesian(m, demos[0].hand[0], {"target": np.zeros(2), "start": demos[0].hand[0],
                                                       "frame": np.zeros(2)}, duration=demos[0].duration, dt=0.02)
     assert np.allclose(x1, x2, atol=1e-9)
+    # the one-standard-error rule still leaves a clearly worse first candidate
+    se = InnerCVReproducer(hs=(2.0, 0.02), shrinkages=(0.0,), object_sets=(("target", "start", "frame"),),
+                           one_se=True)
+    assert se.select(demos[1:])[0][0] == 0.02
     with pytest.raises(ValueError, match="shrinkages"):
         InnerCVReproducer(shrinkages=(1.5,))
+    with pytest.raises(ValueError, match="floors"):
+        InnerCVReproducer(floors=(-1.0,))
     with pytest.raises(ValueError, match="at least one candidate"):
         InnerCVReproducer(hs=())
     with pytest.raises(ValueError, match=">= 3 training"):
