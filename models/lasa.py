@@ -71,6 +71,9 @@ __all__ = [
     "ShapeResult",
     "evaluate_shape",
     "summarise",
+    "shrink_covariance",
+    "fused_path",
+    "InnerCVReproducer",
 ]
 
 LASA_SHAPES = (
@@ -489,3 +492,210 @@ def summarise(results: list[ShapeResult]) -> dict:
         out[f"mean_end_error_mm{suffix}"] = mean(sel, "end_error_mm")
         out[f"n_shapes{suffix}"] = sum(1 for r in results if sel(r.name))
     return out
+
+
+# =============================================================================================
+# Per-shape model selection by an inner leave-one-out (nested cross-validation)
+def shrink_covariance(var: np.ndarray, shrinkage: float) -> np.ndarray:
+    """Covariances shrunk towards their diagonal: ``(1 - lambda) Sigma + lambda diag(Sigma)``
+    for every slice of ``var`` ``(S, d, d)`` (units unchanged). ``shrinkage`` = lambda in
+    [0, 1]: 0 keeps the full covariance, 1 gives the thesis' diagonal one. Diagonal input
+    ``(S, d)`` is returned as full ``(S, d, d)`` matrices.
+
+    Raises:
+        ValueError: lambda outside [0, 1] or a malformed ``var``.
+    """
+    if not (np.isfinite(shrinkage) and 0.0 <= shrinkage <= 1.0):
+        raise ValueError(f"shrinkage must be in [0, 1], got {shrinkage!r}")
+    v = np.asarray(var, float)
+    if v.ndim == 2:
+        return v[:, :, None] * np.eye(v.shape[1])[None]
+    if v.ndim != 3 or v.shape[1] != v.shape[2]:
+        raise ValueError(f"var: expected (S, d) or (S, d, d), got shape {v.shape}")
+    diag = np.einsum("sii->si", v)[:, :, None] * np.eye(v.shape[1])[None]
+    return (1.0 - shrinkage) * v + shrinkage * diag
+
+
+def fused_path(model, x0, objects: dict, *, duration: float, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """Closed form of :func:`~mmlearn.models.imitation.reproduce_cartesian` with a point hand
+    (``J = I``), ``gain = 1``, no damping and no obstacles: every step moves the hand onto the
+    precision-weighted product of the constraints' hand targets ``x_i - mu_i^k`` (Eq. 8.23-8.24
+    with ``J = I``), which does not depend on the previous position; so all steps are one
+    batched 2x2 solve. Same slice timing as ``reproduce_cartesian`` (the model's time scaled to
+    ``duration``, s; period ``dt``, s). Returns ``(t (N,), x (N, D))`` with ``x[0] = x0``.
+
+    Raises:
+        ValueError: non-finite ``x0``, a missing or non-finite object, bad ``dt``/``duration``.
+    """
+    x0 = np.asarray(x0, float).reshape(-1)
+    if not np.all(np.isfinite(x0)):
+        raise ValueError(f"x0 must be a finite position, got {x0!r}")
+    if not (np.isfinite(dt) and dt > 0 and np.isfinite(duration) and duration > 0):
+        raise ValueError(f"dt and duration must be > 0 s, got {dt!r}, {duration!r}")
+    D = x0.shape[0]
+    n_steps = int(round(duration / dt))
+    scale = float(model.t[-1]) / duration
+    s = np.arange(1, n_steps + 1)
+    k = np.clip(np.searchsorted(model.t, s * dt * scale - 1e-9), 0, model.S - 1)
+    P_sum = np.zeros((len(k), D, D))
+    Pt_sum = np.zeros((len(k), D))
+    for name in model.objects:
+        x = np.asarray(objects.get(name, np.full(D, np.nan)), float).reshape(-1)
+        if x.shape != (D,) or not np.all(np.isfinite(x)):
+            raise ValueError(f"fused_path: object {name!r} missing or not a finite ({D},) position")
+        c = f"obj:{name}"
+        v = np.asarray(model.var[c], float)
+        cov = v[k][:, :, None] * np.eye(D)[None] if v.ndim == 2 else v[k]
+        P = np.linalg.inv(cov)
+        P_sum += P
+        Pt_sum += np.einsum("kij,kj->ki", P, x[None] - model.mean[c][k])
+    xs = np.linalg.solve(P_sum, Pt_sum[:, :, None])[:, :, 0]
+    return np.arange(n_steps + 1) * dt, np.vstack([x0[None], xs])
+
+
+@dataclass
+class InnerCVReproducer:
+    """:class:`ThesisReproducer` with its settings chosen per shape and per fold by an *inner*
+    leave-one-out over the training demonstrations only (nested cross-validation: the outer
+    held-out demonstration is never seen). For each candidate setting (Parzen width ``h``,
+    covariance shrinkage towards the diagonal, constraint set) and each training
+    demonstration j: learn from the other training demonstrations (aligned without j),
+    reproduce from j's start for j's duration (:func:`fused_path`, the closed form of the
+    thesis' incremental product with ``gain = 1``) and score it like the outer evaluation
+    (:func:`rmse_mm` on j's time stamps, plus ``end_weight`` times :func:`end_error_mm`). The
+    setting with the lowest mean inner score is then learned from all training
+    demonstrations and reproduced from the held-out start. This is model selection from the
+    training data, as a user would do on a new shape.
+
+    **Not the default: it did not help.** Measured on the 9 development shapes only
+    (``OPENBLAS_NUM_THREADS=1 python benchmarks/bench_lasa.py --shapes <development>
+    --methods thesis,thesis_cv,thesis_cv_end,thesis_cv_1se,baseline``; rmse / end error, mm):
+    :class:`ThesisReproducer` 1.047 / 0.141; this class with the default grid (18 candidates)
+    1.051 / 0.367, scored by rmse + end error 1.048 / 0.146, with the one-standard-error rule
+    1.054 / 0.257; baseline 1.266; 0.9 s per fold against 0.08 s. The inner scores rank the
+    candidates only loosely like the outer held-out rmse (``--inner-cv-diagnostic``: Spearman
+    median 0.58, mean 0.28 over the 63 folds; the inner pick is better than the default setting
+    in 38 % of the folds, by -0.004 mm on average): the candidates differ by ~1-2 % while one
+    demonstration's deviation from the others varies far more between folds.
+
+    Attributes:
+        hs: candidate Parzen window widths, s.
+        shrinkages: candidate covariance shrinkages towards the diagonal, in [0, 1]
+            (:func:`shrink_covariance`; 0 = full, 1 = diagonal).
+        floors: candidate variance floors added to every constraint's covariance, mm^2
+            (the start-frame constraint's is divided by the mean squared start distance).
+        object_sets: candidate constraint sets (each as for :class:`ThesisReproducer`).
+        dt: period of the aligned time base and of the reproduction, s.
+        end_weight: weight of the inner end error (mm) beside the inner rmse (mm) in the
+            selection score (dimensionless).
+        one_se: keep the first candidate (the reference setting: first of each list) unless
+            the best one beats it by more than one standard error of the paired inner score
+            differences (the "one standard error" rule against selection noise).
+        align_features: DTW features of the alignment.
+        choices: every selection made, appended per call: ``(h, shrinkage, floor, objects)``.
+    """
+
+    hs: tuple = (0.02, 0.04, 0.1)
+    shrinkages: tuple = (0.0, 0.5, 1.0)
+    floors: tuple = (0.0,)
+    object_sets: tuple = (("target", "start", "frame"), ("target", "start"))
+    dt: float = 0.02
+    end_weight: float = 0.0
+    one_se: bool = False
+    align_features: str = "both"
+    name: str = "thesis_cv"
+
+    def __post_init__(self):
+        self.hs = tuple(float(h) for h in self.hs)
+        self.shrinkages = tuple(float(s) for s in self.shrinkages)
+        self.floors = tuple(float(f) for f in self.floors)
+        self.object_sets = tuple(tuple(o) for o in self.object_sets)
+        if not self.hs or not self.shrinkages or not self.floors or not self.object_sets:
+            raise ValueError("hs, shrinkages, floors and object_sets must each hold at least one candidate")
+        for f in self.floors:
+            if not (np.isfinite(f) and f >= 0):
+                raise ValueError(f"floors must be finite variances >= 0 in mm^2, got {f!r}")
+        for h in self.hs + (self.dt,):
+            if not (np.isfinite(h) and h > 0):
+                raise ValueError(f"hs and dt must be finite times > 0 in seconds, got {h!r}")
+        for s in self.shrinkages:
+            if not (0.0 <= s <= 1.0):
+                raise ValueError(f"shrinkages must be in [0, 1], got {s!r}")
+        for o in self.object_sets:
+            ThesisReproducer(objects=o)              # validates the set
+        if not (np.isfinite(self.end_weight) and self.end_weight >= 0):
+            raise ValueError(f"end_weight must be >= 0, got {self.end_weight!r}")
+        self.choices: list[tuple] = []
+
+    def candidates(self) -> list[tuple]:
+        """All ``(h, shrinkage, floor, objects)`` candidates, in a fixed order."""
+        return [(h, s, f, o) for h in self.hs for s in self.shrinkages for f in self.floors
+                for o in self.object_sets]
+
+    def _paths(self, train: list[Demonstration], queries: list[Demonstration], cands: list[tuple]):
+        """``{candidate: [(t, x) per query]}``: learned from ``train`` (aligned together),
+        reproduced from each query's start for its duration."""
+        from .imitation import align_demonstrations, learn_task
+        from .imitation_types import TaskModel
+
+        marked = [with_start_marker(d) for d in train]
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            aligned = align_demonstrations(marked, dt=self.dt, features=self.align_features)
+            out = {}
+            for h in sorted({c[0] for c in cands}):
+                full = learn_task(aligned, h=h, use_joints=False, align=False, full_covariance=True)
+                need_frame = any("frame" in c[3] for c in cands if c[0] == h)
+                if need_frame:
+                    fm, fv = learn_start_frame(aligned, h=h, full_covariance=True)
+                    d2 = float(np.mean([np.sum((d.objects["start"][0] - d.objects["target"][0]) ** 2)
+                                        for d in aligned]))
+                for c in cands:
+                    if c[0] != h:
+                        continue
+                    _, lam, floor, objs = c
+                    eye = np.eye(full.mean["obj:target"].shape[1])[None]
+                    names = [f"obj:{o}" for o in objs if o != "frame"]
+                    var = {n: shrink_covariance(full.var[n], lam) + floor * eye for n in names}
+                    base = TaskModel(t=full.t, constraints=names, mean={n: full.mean[n] for n in names},
+                                     var=var, meta=dict(full.meta))
+                    paths = []
+                    for q in queries:
+                        m = base
+                        start = q.hand[0]
+                        if "frame" in objs:
+                            fvar = shrink_covariance(fv, lam) + floor / max(d2, 1e-12) * eye
+                            m = place_start_frame(base, fm, fvar, start, aligned[0].objects["target"][0])
+                        objects = {"target": q.objects["target"][0], "start": start,
+                                   "frame": q.objects["target"][0]}
+                        paths.append(fused_path(m, start, objects, duration=q.duration, dt=self.dt))
+                    out[c] = paths
+        return out
+
+    def select(self, train: list[Demonstration]) -> tuple[tuple, dict]:
+        """The candidate with the lowest mean inner leave-one-out score on ``train`` and the
+        scores ``{candidate: mean score}`` (mm)."""
+        cands = self.candidates()
+        if len(cands) == 1:
+            return cands[0], {cands[0]: float("nan")}
+        if len(train) < 3:
+            raise ValueError(f"inner cross-validation needs >= 3 training demonstrations, got {len(train)}")
+        scores = {c: [] for c in cands}
+        for j, inner, held in leave_one_out(train):
+            paths = self._paths(inner, [held], cands)
+            for c in cands:
+                t, x = paths[c][0]
+                rep = resample_to(t - t[0], x, held.t - held.t[0])
+                scores[c].append(rmse_mm(rep, held.hand) + self.end_weight * end_error_mm(rep, held.hand))
+        mean = {c: float(np.mean(v)) for c, v in scores.items()}
+        best = min(cands, key=lambda c: mean[c])
+        if self.one_se and best != cands[0]:
+            diff = np.asarray(scores[cands[0]]) - np.asarray(scores[best])
+            if diff.mean() <= diff.std(ddof=1) / np.sqrt(len(diff)):
+                best = cands[0]
+        return best, mean
+
+    def __call__(self, train: list[Demonstration], held: Demonstration) -> tuple[np.ndarray, np.ndarray]:
+        best, _ = self.select(train)
+        self.choices.append(best)
+        return self._paths(train, [held], [best])[best][0]

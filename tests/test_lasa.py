@@ -240,3 +240,67 @@ def test_start_frame_constraint_follows_a_rotated_scaled_drawing():
     assert world.rmse_mm > 5 * both.rmse_mm, (world.rmse_mm, both.rmse_mm)
     with pytest.raises(ValueError, match="'frame' needs 'start'"):
         ThesisReproducer(objects=("target", "frame"))
+
+
+def test_fused_path_is_the_closed_form_of_the_incremental_reproduction():
+    """With J = I, gain 1 and no damping every incremental step lands on the fused target, so
+    the batched closed form must equal reproduce_cartesian step by step (full and diagonal)."""
+    from mmlearn.models.imitation import reproduce_cartesian
+    from mmlearn.models.lasa import fused_path, shrink_covariance
+
+    demos = load_shape("Sshape")
+    held = demos[0]
+    obj = {"target": np.zeros(2), "start": held.hand[0], "frame": np.zeros(2)}
+    for rep in (ThesisReproducer(), ThesisReproducer(full_covariance=False, objects=("target", "start"))):
+        m = rep.learn(demos[1:], start=held.hand[0])
+        t1, x1 = reproduce_cartesian(m, held.hand[0], obj, duration=held.duration, dt=0.02)
+        t2, x2 = fused_path(m, held.hand[0], obj, duration=held.duration, dt=0.02)
+        assert np.allclose(t1, t2) and np.allclose(x1, x2, atol=1e-9), np.abs(x1 - x2).max()
+    with pytest.raises(ValueError, match="object 'start'"):
+        fused_path(m, held.hand[0], {"target": np.zeros(2)}, duration=1.0, dt=0.02)
+    C = np.array([[[4.0, 1.0], [1.0, 2.0]]])
+    assert np.allclose(shrink_covariance(C, 0.5), [[[4.0, 0.5], [0.5, 2.0]]])
+    assert np.allclose(shrink_covariance(C, 1.0), [[[4.0, 0.0], [0.0, 2.0]]])
+    with pytest.raises(ValueError, match="shrinkage"):
+        shrink_covariance(C, 1.5)
+
+
+def test_inner_cv_selects_from_the_training_demonstrations_only():
+    """The inner leave-one-out prefers the start-anchored constraint set over the target alone
+    (which follows the learned mean from the first step, > 2x worse on Line); the outer
+    held-out demonstration is never used for the choice."""
+    from mmlearn.models.lasa import InnerCVReproducer
+
+    demos = load_shape("Line")
+    tsf = ("target", "start", "frame")
+    cv = InnerCVReproducer(hs=(0.02,), shrinkages=(0.0,), object_sets=(("target",), tsf))
+    best, scores = cv.select(demos[1:])
+    assert best[3] == tsf and 2 * scores[best] < scores[(0.02, 0.0, 0.0, ("target",))], scores
+    # the choice depends on the training set only: changing the held-out demonstration's track
+    # cannot change it, and the reproduction starts at the held-out start
+    t, x = cv(demos[1:], demos[0])
+    assert cv.choices == [best] and np.allclose(x[0], demos[0].hand[0])
+    wiggled = demos[0].hand.copy()
+    wiggled[1:] += 5.0 * np.sin(np.arange(len(wiggled) - 1))[:, None]
+    held2 = type(demos[0])(t=demos[0].t, hand=wiggled, objects=demos[0].objects, meta=demos[0].meta)
+    cv(demos[1:], held2)
+    assert cv.choices == [best, best]
+    # with one candidate it is ThesisReproducer's closed form
+    one = InnerCVReproducer(hs=(0.02,), shrinkages=(0.0,), object_sets=(("target", "start", "frame"),))
+    _, x1 = one(demos[1:], demos[0])
+    from mmlearn.models.imitation import reproduce_cartesian
+    m = ThesisReproducer().learn(demos[1:], start=demos[0].hand[0])
+    _, x2 = reproduce_cartesian(m, demos[0].hand[0], {"target": np.zeros(2), "start": demos[0].hand[0],
+                                                      "frame": np.zeros(2)}, duration=demos[0].duration, dt=0.02)
+    assert np.allclose(x1, x2, atol=1e-9)
+    # the one-standard-error rule still leaves a clearly worse first candidate
+    se = InnerCVReproducer(hs=(0.02,), shrinkages=(0.0,), object_sets=(("target",), tsf), one_se=True)
+    assert se.select(demos[1:])[0][3] == tsf
+    with pytest.raises(ValueError, match="shrinkages"):
+        InnerCVReproducer(shrinkages=(1.5,))
+    with pytest.raises(ValueError, match="floors"):
+        InnerCVReproducer(floors=(-1.0,))
+    with pytest.raises(ValueError, match="at least one candidate"):
+        InnerCVReproducer(hs=())
+    with pytest.raises(ValueError, match=">= 3 training"):
+        cv.select(demos[:2])
