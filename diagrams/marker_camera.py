@@ -14,6 +14,8 @@ finalized::
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from pydrake.geometry import (ClippingRange, ColorRenderCamera, DepthRange, DepthRenderCamera,
@@ -23,9 +25,11 @@ from pydrake.geometry import (ClippingRange, ColorRenderCamera, DepthRange, Dept
 from pydrake.math import RigidTransform
 from pydrake.systems.sensors import CameraInfo, RgbdSensor
 
+from mmlearn.models.fronts import PinholeIntrinsics
 from mmlearn.sdf.aruco import marker_texture, quad_mesh
 from mmlearn.systems.camera_marker_sensor import (CameraMarkerSensor,
                                                   CameraMarkerSensorConfig, CameraView)
+from mmlearn.systems.depth_noise import DepthNoise
 
 __all__ = ["AddArucoMarkers", "AddMarkerCameras", "AddCameraMarkerSensor", "MarkerRig",
            "camera_views", "marker_bodies", "RENDERER"]
@@ -132,7 +136,8 @@ def AddCameraMarkerSensor(builder, scene_graph, *, markers: dict[str, int],
                           name: str = "marker_sensor"):
     """Add the cameras of ``config`` and a :class:`CameraMarkerSensor` reading the markers
     ``markers`` ({body: ArUco id}, from :func:`AddArucoMarkers`), with every camera's colour
-    image (and with ``config.use_depth`` its depth image) connected. Returns
+    image (and with ``config.use_depth`` its depth image, through a ``DepthNoise`` system
+    named ``<name>_depth_noise_<i>`` when ``config.depth_noise`` is set) connected. Returns
     ``(sensor, rgbd_sensors)``."""
     rgbd = AddMarkerCameras(builder, scene_graph, config=config)
     sensor = builder.AddNamedSystem(name, CameraMarkerSensor(
@@ -141,8 +146,17 @@ def AddCameraMarkerSensor(builder, scene_graph, *, markers: dict[str, int],
     for i, s in enumerate(rgbd):
         builder.Connect(s.color_image_output_port(), sensor.get_color_image_input_port(i))
         if config.use_depth:
-            builder.Connect(s.depth_image_32F_output_port(),
-                            sensor.get_depth_image_input_port(i))
+            depth_port = s.depth_image_32F_output_port()
+            if config.depth_noise is not None:
+                noise = builder.AddNamedSystem(f"{name}_depth_noise_{i}", DepthNoise(
+                    intrinsics=PinholeIntrinsics.from_camera_info(
+                        s.default_depth_render_camera().core().intrinsics()),
+                    config=dataclasses.replace(config.depth_noise,
+                                               seed=int(config.depth_noise.seed) + i),
+                    rate_hz=config.rate_hz))
+                builder.Connect(depth_port, noise.get_clean_depth_input_port())
+                depth_port = noise.get_depth_image_output_port()
+            builder.Connect(depth_port, sensor.get_depth_image_input_port(i))
     return sensor, rgbd
 
 
