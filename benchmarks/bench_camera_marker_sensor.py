@@ -4,7 +4,8 @@ Prints tables; never fails on time.
 
     python benchmarks/bench_camera_marker_sensor.py [--width 1920] [--n 12] [--seed 0]
         [--distances 0.5,1,1.5,2,2.5,3] [--angles 0,20,40,60] [--calibrate]
-        [--arm 2dof --poses 25] [--babble SECONDS --rules none,ratio,depth] [--plot OUT.png]
+        [--arm 2dof --poses 25] [--plot OUT.png]
+        [--babble SECONDS --rules none,ratio,normal,depth,normal-noisy,depth-noisy]
 
 Default table: one 0.04 m marker (on a 0.10 m grey carrier, grey backdrop 6 m away) at each
 distance (m, along the optical axis) and viewing angle (deg between the marker normal and
@@ -15,8 +16,9 @@ position error (median, RMS, m) and orientation error (median deg, share > 20 de
 documented principal point (the calibration the sensor applies). ``--arm``: per-part
 visibility and errors of the default 3-camera scene on random babbling poses of an arm.
 ``--babble S``: the frames the learner sees while the arm babbles for S s (10 Hz), with each
-rule for ambiguous (mirror) detections: visibility, position error and the rate of mirror
-flips (reported orientation off by more than 20 degrees).
+rule for ambiguous (mirror) detections, exact and noisy depth, on the same renders:
+visibility, position error and the rate of mirror flips (reported orientation off by more
+than 20 degrees).
 """
 
 from __future__ import annotations
@@ -204,8 +206,13 @@ VARIANTS = {
     "none": dict(use_depth=False, min_unambiguous_ratio=1.0),
     # reprojection-error ratio + the last report, no depth
     "ratio": dict(use_depth=False),
-    # the default: the depth image's plane, then ratio + last report
+    # the first depth rule: the normal of a plane fitted to the depth pixels, 15 deg gate
+    "normal": dict(depth_test="normal"),
+    # the default: each solution's plane against the depth pixels (noise-aware)
     "depth": dict(),
+    # the same two on a structured-light camera's depth (models/depth_noise.py defaults)
+    "normal-noisy": dict(depth_test="normal", noisy=True),
+    "depth-noisy": dict(noisy=True),
 }
 
 
@@ -213,51 +220,92 @@ def babble_flips(arm, seconds, variants, seed, width):
     """Per-frame errors of the camera sensor while the arm babbles (the frames the learner
     sees, 10 Hz), for each ambiguity rule in ``variants`` (keys of :data:`VARIANTS`):
     visibility, median position error and the share of reported orientations off by more
-    than 20 degrees (mirror flips)."""
+    than 20 degrees (mirror flips). All rules see the same renders: each frame's colour and
+    exact depth images are rendered once, detected once, and every rule resolves the
+    detections with its own sensor and its own last reports; the "-noisy" rules get the
+    exact depth through ``apply_depth_noise`` (``DepthNoiseConfig()`` with seed ``seed +
+    camera``, frame index k, as the ``depth_noise`` option's DepthNoise systems draw)."""
     import dataclasses
 
     from pydrake.systems.analysis import Simulator
 
     from mmlearn.diagrams.body_schema import BodySchemaDiagramConfig, MakeBodySchemaDiagram
-    from mmlearn.systems.camera_marker_sensor import CameraMarkerSensorConfig
+    from mmlearn.models.depth_noise import DepthNoiseConfig, apply_depth_noise
+    from mmlearn.models.fronts import PinholeIntrinsics
+    from mmlearn.systems.camera_marker_sensor import (CameraMarkerSensor,
+                                                      CameraMarkerSensorConfig)
 
     base = CameraMarkerSensorConfig(width=width, height=width * 3 // 4)
     print(f"{arm} arm babbling {seconds:g} s (seed {seed}), {len(base.cameras)} cameras "
-          f"{base.width}x{base.height}, frames at {base.rate_hz:g} Hz")
-    print("   rule  part  visible  pos_med_m  ang_med_deg  flips(>20deg)")
+          f"{base.width}x{base.height}, frames at {base.rate_hz:g} Hz, rules "
+          f"{', '.join(variants)} on the same renders")
+    bs = MakeBodySchemaDiagram(BodySchemaDiagramConfig(arm=arm, sensor="camera",
+                                                       camera=base, seed=seed))
+    sim = Simulator(bs.diagram)
+    root = sim.get_mutable_context()
+    bs.prepare(root)
+    plant, main_sensor, rgbd = bs.scene.plant, bs.scene.sensor, bs.scene.cameras
+    intr = [PinholeIntrinsics.from_camera_info(c.default_depth_render_camera().core()
+                                               .intrinsics()) for c in rgbd]
+    noise_cfg = DepthNoiseConfig()
+    sensors, tracks, noisy = {}, {}, {}
     for r in variants:
-        cam = dataclasses.replace(base, **VARIANTS[r])
-        bs = MakeBodySchemaDiagram(BodySchemaDiagramConfig(arm=arm, sensor="camera",
-                                                           camera=cam, seed=seed))
-        sim = Simulator(bs.diagram)
-        root = sim.get_mutable_context()
-        bs.prepare(root)
-        plant = bs.scene.plant
-        n = int(round(seconds * cam.rate_hz))
-        vis = np.zeros(len(bs.parts))
-        pe = [[] for _ in bs.parts]
-        ae = [[] for _ in bs.parts]
-        t0 = time.perf_counter()
-        for k in range(n):
-            # just after the frame at k / rate: the plant is where the images showed it
-            sim.AdvanceTo(k / cam.rate_hz + 1e-6)
-            obs = bs.diagram.GetOutputPort("observations").Eval(root)
-            _score(obs, plant, plant.GetMyContextFromRoot(root), bs.scene.robot, vis, pe, ae)
+        kw = dict(VARIANTS[r])
+        noisy[r] = bool(kw.pop("noisy", False))
+        sensors[r] = CameraMarkerSensor(marker_ids=main_sensor.marker_ids,
+                                        aruco_ids=main_sensor.aruco_ids,
+                                        cameras=main_sensor.cameras,
+                                        config=dataclasses.replace(base, **kw))
+        tracks[r] = None
+    n = int(round(seconds * base.rate_hz))
+    m = len(bs.parts)
+    vis = {r: np.zeros(m) for r in variants}
+    pe = {r: [[] for _ in range(m)] for r in variants}
+    ae = {r: [[] for _ in range(m)] for r in variants}
+    t0 = time.perf_counter()
+    t_render = t_detect = 0.0
+    for k in range(n):
+        # just after the frame at k / rate: the plant is where the images showed it
+        sim.AdvanceTo(k / base.rate_hz + 1e-6)
+        t = k / base.rate_hz
+        ta = time.perf_counter()
+        colors, depths = [], []
+        for c in rgbd:
+            cc = c.GetMyContextFromRoot(root)
+            colors.append(np.array(c.color_image_output_port().Eval(cc).data))
+            depths.append(np.array(c.depth_image_32F_output_port().Eval(cc).data)[..., 0])
+        tb = time.perf_counter()
+        dets = [main_sensor.detect(img, i) for i, img in enumerate(colors)]
+        t_render += tb - ta
+        t_detect += time.perf_counter() - tb
+        noisy_depths = None
+        if any(noisy.values()):
+            noisy_depths = [apply_depth_noise(d, intr[i], dataclasses.replace(
+                noise_cfg, seed=noise_cfg.seed + i), frame=k) for i, d in enumerate(depths)]
+        pc = plant.GetMyContextFromRoot(root)
+        for r in variants:
+            obs, tracks[r] = sensors[r].observe_images(
+                t, colors, noisy_depths if noisy[r] else depths, tracks[r], detections=dets)
+            _score(obs, plant, pc, bs.scene.robot, vis[r], pe[r], ae[r])
+    print(f"{n} frames, {time.perf_counter() - t0:.0f} s (render {t_render:.0f} s, "
+          f"detect {t_detect:.0f} s)")
+    print("         rule  part  visible  pos_med_m  ang_med_deg  flips(>20deg)")
+    for r in variants:
         for i, p in enumerate(bs.parts):
-            e, a = np.array(pe[i]), np.array(ae[i])
+            e, a = np.array(pe[r][i]), np.array(ae[r][i])
             if len(e):
-                print(f"{r:>7}  {p:>4}  {vis[i] / n:7.2f}  {np.median(e):9.4f}  "
+                print(f"{r:>13}  {p:>4}  {vis[r][i] / n:7.2f}  {np.median(e):9.4f}  "
                       f"{np.median(a):11.2f}  {np.mean(a > 20):13.3f}")
             else:
-                print(f"{r:>7}  {p:>4}  {0:7.2f}  never seen")
-        a = np.concatenate([np.array(x) for x in ae])
+                print(f"{r:>13}  {p:>4}  {0:7.2f}  never seen")
+        a = np.concatenate([np.array(x) for x in ae[r]])
         if not len(a):
-            print(f"{r:>7}   all  no reports")
+            print(f"{r:>13}   all  no reports")
             continue
-        print(f"{r:>7}   all  {vis.sum() / (n * len(bs.parts)):7.2f}  "
-              f"{np.median(np.concatenate([np.array(x) for x in pe])):9.4f}  "
+        print(f"{r:>13}   all  {vis[r].sum() / (n * m):7.2f}  "
+              f"{np.median(np.concatenate([np.array(x) for x in pe[r]])):9.4f}  "
               f"{np.median(a):11.2f}  {np.mean(a > 20):13.3f}   "
-              f"({len(a)} reports, {time.perf_counter() - t0:.0f} s)")
+              f"({int((a > 20).sum())} of {len(a)} reports off by > 20 deg)")
 
 
 def main(argv=None):
@@ -272,11 +320,14 @@ def main(argv=None):
     ap.add_argument("--poses", type=int, default=25, help="arm poses (--arm)")
     ap.add_argument("--babble", type=float, default=None, metavar="SECONDS",
                     help="only the per-frame errors and mirror flips while --arm (default "
-                         "2dof) babbles this long, for each --min-ratio")
-    ap.add_argument("--rules", default="none,ratio,depth",
-                    help="ambiguity rules for --babble: none (always the better IPPE "
-                         "solution, the sensor before the fix), ratio (reprojection ratio + "
-                         "last report), depth (the default: depth plane first)")
+                         "2dof) babbles this long, for each of --rules")
+    ap.add_argument("--rules", default=",".join(VARIANTS),
+                    help="ambiguity rules for --babble (all on the same renders): none "
+                         "(always the better IPPE solution, the sensor before the fix), "
+                         "ratio (reprojection ratio + last report), normal (the first depth "
+                         "rule: fitted normal, 15 deg gate), depth (the default: each "
+                         "solution's plane against the depth pixels), normal-noisy and "
+                         "depth-noisy (the same on a structured-light camera's depth)")
     ap.add_argument("--plot", default=None, help="save a plot of the table (PNG)")
     a = ap.parse_args(argv)
     if a.calibrate:

@@ -204,11 +204,13 @@ SCENARIOS = {"two_drawer_cabinet": cabinet_scenario,
 
 # ------------------------------------------------------------------ camera observations
 def auto_cameras(poses_true, *, fov_y_deg: float = 55.0, aspect: float = 4 / 3,
-                 min_distance: float = 1.0, fill: float = 0.7):
+                 min_distance: float = 1.0, fill: float = 0.7, elevation_deg: float = 0.0):
     """One camera that sees every marker of a track: on the side the markers face on
     average (the mean of their normals over the track; straight above when they cancel),
-    far enough that the markers' spread fills at most ``fill`` of the smaller half field of
-    view, at least ``min_distance`` m; looking at the markers' centroid.
+    raised by ``elevation_deg`` degrees above that direction (at most 80 deg above the
+    horizon; e.g. to look over a drawer front onto a marker just above it), far enough
+    that the markers' spread fills at most ``fill`` of the smaller half field of view, at
+    least ``min_distance`` m; looking at the markers' centroid.
 
     Args:
         poses_true: (p, T, 7) true marker poses of the track.
@@ -225,6 +227,11 @@ def auto_cameras(poses_true, *, fov_y_deg: float = 55.0, aspect: float = 4 / 3,
     if np.linalg.norm(n) < 0.2:
         n = np.array([0.0, 0.0, 1.0])
     n /= np.linalg.norm(n)
+    if elevation_deg and np.linalg.norm(n[:2]) > 1e-6:
+        el = min(math.asin(float(np.clip(n[2], -1, 1))) + math.radians(elevation_deg),
+                 math.radians(80.0))
+        h = n[:2] / np.linalg.norm(n[:2])
+        n = np.array([h[0] * math.cos(el), h[1] * math.cos(el), math.sin(el)])
     # nudge a vertical view off the world's up axis (CameraConfig keeps +z up in the image)
     if abs(n[2]) > 0.98:
         n = np.array([0.15, 0.0, 1.0]) / np.linalg.norm([0.15, 0.0, 1.0])
