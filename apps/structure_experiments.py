@@ -65,27 +65,21 @@ __all__ = ["run", "main", "EXPERIMENTS"]
 EXPERIMENTS = ("fig48", "fig49", "fig411", "garage", "fig416", "fig417", "fig418")
 PARAMETRIC = ("rigid", "prismatic", "revolute")
 SENSORS = ("ideal", "camera")
-#: degrees the camera is raised above the markers' mean normal (``auto_cameras``): the
-#: two-drawer cabinet's own marker sits just above the upper drawer's front, which juts
-#: out 2 cm and hides its lower edge from a camera at the markers' height
-CAMERA_ELEVATION_DEG = {"two_drawer_cabinet": 15.0}
 
 
-def observe(track, sensor: str = "ideal"):
+def observe(track, sensor: str = "ideal", camera=None):
     """The scenario's track as ``sensor`` reports it: "ideal" = as generated (Gaussian
     noise), "camera" = rendered and read by the camera marker sensor
-    (:func:`mmlearn.diagrams.object_tracks.camera_track`; NaN rows where a marker was not
-    detected)."""
+    (:func:`mmlearn.diagrams.object_tracks.camera_track`, ``camera`` its
+    CameraMarkerSensorConfig, None = one automatic 1920 x 1440 camera; NaN rows where a
+    marker was not detected)."""
     if sensor == "ideal":
         return track
     if sensor != "camera":
         raise ValueError(f"sensor must be one of {', '.join(SENSORS)}, got {sensor!r}")
-    from mmlearn.diagrams.object_tracks import auto_cameras, camera_track
-    from mmlearn.systems.camera_marker_sensor import CameraMarkerSensorConfig
+    from mmlearn.diagrams.object_tracks import camera_track
 
-    cams = auto_cameras(track.poses_true,
-                        elevation_deg=CAMERA_ELEVATION_DEG.get(track.name, 0.0))
-    return camera_track(track, CameraMarkerSensorConfig(cameras=cams))
+    return camera_track(track, camera)
 
 
 def sensor_stats(track) -> dict:

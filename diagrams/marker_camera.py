@@ -54,7 +54,7 @@ def marker_bodies(plant, model_instance, bodies=()) -> list[str]:
 
 
 def AddArucoMarkers(plant, *, config: CameraMarkerSensorConfig, model_instance,
-                    bodies=None) -> dict[str, int]:
+                    bodies=None, mounts: dict | None = None) -> dict[str, int]:
     """Put an ArUco-textured square on the marker frame of every observed body of
     ``model_instance`` (``bodies``, default ``config.bodies``, empty = all with a
     ``<body>_marker`` frame). Call before ``plant.Finalize()``.
@@ -63,7 +63,10 @@ def AddArucoMarkers(plant, *, config: CameraMarkerSensorConfig, model_instance,
     frame's xy plane, ``config.aruco.surface_offset`` m above it and turned by
     ``config.aruco.in_plane_angle_deg`` about its normal; its perception properties
     carry the texture (Meshcat shows it as a plain white square: illustration ignores
-    ``diffuse_map``). Marker k gets ArUco id ``config.aruco.first_id + k``.
+    ``diffuse_map``). Marker k gets ArUco id ``config.aruco.first_id + k``. ``mounts``
+    ({body: X_MS}, optional) puts a body's square at pose X_MS in its marker frame M
+    instead of on M (where the part's geometry would hide part of a square on M); the
+    sensor then reports the square's frame S, and the caller maps it back with X_MS.
 
     Returns:
         {body name: ArUco id}, in the order of the bodies.
@@ -80,6 +83,8 @@ def AddArucoMarkers(plant, *, config: CameraMarkerSensorConfig, model_instance,
     for name, aid in zip(names, ids):
         frame = plant.GetFrameByName(name + "_marker", model_instance)
         X_BM = frame.GetFixedPoseInBodyFrame()
+        if mounts and name in mounts:
+            X_BM = X_BM @ mounts[name]
         gi = GeometryInstance(X_BM @ X_MQ, mesh, f"{name}_aruco_{aid}")
         illus = IllustrationProperties()
         illus.AddProperty("phong", "diffuse", Rgba(1.0, 1.0, 1.0, 1.0))

@@ -243,11 +243,35 @@ def auto_cameras(poses_true, *, fov_y_deg: float = 55.0, aspect: float = 4 / 3,
                          max_range=dist + radius + 1.0)]
 
 
+def _cabinet_edge_mount():
+    """The two-drawer cabinet's ArUco square on a 45-degree holder on the cabinet's top
+    front edge (centre 0.04 m behind the front, 0.03 m above the top, normal halfway between
+    forwards and up), as a pose in the cabinet's marker frame (on the front face, normal +x,
+    0.03 m below the top). A square on the marker frame itself is cut by the upper drawer's
+    front, which juts 2 cm out just below it (a closed upper drawer hid the square's lower
+    corner and the camera never read it); one flat on the top face is seen too obliquely
+    (> 70 deg) from a camera that sees the drawers' fronts."""
+    from pydrake.math import RigidTransform, RotationMatrix
+
+    # marker frame axes in the world: x = -z_W, y = y_W, z = x_W; the holder's centre
+    # (-0.04, 0.2, 0.53) is (-0.06, 0, -0.041) from the marker's origin (0.001, 0.2, 0.47)
+    return RigidTransform(RotationMatrix.MakeYRotation(-math.pi / 4), [-0.06, 0.0, -0.041])
+
+
+#: Where the camera's ArUco squares go when a part's marker frame is a bad place for a
+#: printed square ({object: {part: callable returning X_MS}}, see ``AddArucoMarkers``).
+CAMERA_MARKER_MOUNTS = {"two_drawer_cabinet": {"cabinet": _cabinet_edge_mount}}
+#: Degrees the automatic camera is raised above the markers' mean normal per object (the
+#: cabinet's square on its 45-degree holder and the drawers' fronts both in view).
+CAMERA_ELEVATION_DEG = {"two_drawer_cabinet": 30.0}
+
+
 class ObjectCamera:
     """An object's marker squares with ArUco textures, rendered by RGB cameras and read by a
     :class:`~mmlearn.systems.camera_marker_sensor.CameraMarkerSensor`; ``observe(q)``
     returns the camera's (p, T, 7) poses of the parts' markers (NaN rows where a marker was
-    not detected)."""
+    not detected). A part listed in :data:`CAMERA_MARKER_MOUNTS` carries its square
+    elsewhere on the part; its reports are mapped back to its marker frame."""
 
     def __init__(self, name: str, config):
         from pydrake.multibody.plant import AddMultibodyPlantSceneGraph
@@ -260,8 +284,11 @@ class ObjectCamera:
         plant, sg = AddMultibodyPlantSceneGraph(builder, time_step=1e-3)
         self.instance, _ = add_object(plant, name)
         self.parts = object_parts(name)
+        mounts = {p: f() for p, f in CAMERA_MARKER_MOUNTS.get(name, {}).items()}
         markers = AddArucoMarkers(plant, config=config, model_instance=self.instance,
-                                  bodies=self.parts)
+                                  bodies=self.parts, mounts=mounts)
+        # X_SM per part (identity for the squares on their marker frames)
+        self._X_SM = [mounts[p].inverse() if p in mounts else None for p in self.parts]
         plant.Finalize()
         self.sensor, self.rgbd = AddCameraMarkerSensor(builder, sg, markers=markers,
                                                        config=config)
@@ -281,7 +308,13 @@ class ObjectCamera:
             # consecutive rows are consecutive sensor frames (ambiguous detections are
             # resolved against the previous reports)
             self.context.SetTime(t * dt)
-            out[:, t] = self.sensor.observe_and_remember(sc).as_array()
+            obs = self.sensor.observe_and_remember(sc)
+            for k in range(len(self.parts)):
+                if not obs.visible[k]:
+                    continue
+                X = obs.poses[k] if self._X_SM[k] is None else obs.poses[k] @ self._X_SM[k]
+                out[k, t, :3] = X.translation()
+                out[k, t, 3:] = Rotation.from_matrix(X.rotation().matrix()).as_quat()
         return out
 
 
@@ -289,11 +322,13 @@ def camera_track(track: ObjectTrack, config=None, *, progress=None) -> ObjectTra
     """The same motion observed by the camera marker sensor instead of the Gaussian noise
     model: ``poses`` are the ArUco detections in rendered images (NaN where a marker was not
     detected), ``poses_true`` and ``q`` unchanged. ``config``: a CameraMarkerSensorConfig
-    (default: 1920 x 1440 images, one camera placed by :func:`auto_cameras`)."""
+    (default: 1920 x 1440 images, one camera placed by :func:`auto_cameras`, raised by
+    :data:`CAMERA_ELEVATION_DEG` for the object)."""
     from mmlearn.systems.camera_marker_sensor import CameraMarkerSensorConfig
 
     if config is None:
-        config = CameraMarkerSensorConfig(cameras=auto_cameras(track.poses_true))
+        config = CameraMarkerSensorConfig(cameras=auto_cameras(
+            track.poses_true, elevation_deg=CAMERA_ELEVATION_DEG.get(track.name, 0.0)))
     cam = ObjectCamera(track.name, config)
     poses = cam.observe(track.q, progress=progress)
     return ObjectTrack(track.name, list(track.parts), list(track.joints), poses,
