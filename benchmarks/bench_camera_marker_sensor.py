@@ -3,7 +3,8 @@ and viewing angle, the rendering calibration, and the errors on the arm's own ma
 Prints tables; never fails on time.
 
     python benchmarks/bench_camera_marker_sensor.py [--width 1920] [--n 12] [--seed 0]
-        [--distances 0.5,1,1.5,2,2.5,3] [--angles 0,20,40,60] [--calibrate]
+        [--distances 0.5,1,1.5,2,2.5,3] [--angles 0,20,40,60] [--depth exact,noisy,none]
+        [--calibrate]
         [--arm 2dof --poses 25] [--plot OUT.png]
         [--babble SECONDS --rules none,ratio,normal,depth,normal-noisy,depth-noisy]
 
@@ -68,47 +69,89 @@ def _pose(rng, dist, angle_deg, fov_y_deg, aspect):
     return RigidTransform(R0 @ tilt @ spin, p)
 
 
-def noise_table(width, distances, angles, n, seed):
+DEPTHS = {"exact": {}, "noisy": {"noisy": True}, "none": {"use_depth": False}}
+
+
+def noise_table(width, distances, angles, n, seed, depths=("exact",)):
+    """The noise table, one block per depth mode in ``depths`` (keys of :data:`DEPTHS`: the
+    depth that resolves the mirror ambiguity: exact render, the structured-light noise
+    model, none), all on the same renders (one colour and depth image per pose, detected
+    once)."""
+    import dataclasses
+
+    from mmlearn.models.depth_noise import DepthNoiseConfig, apply_depth_noise
+    from mmlearn.models.fronts import PinholeIntrinsics
+    from mmlearn.systems.camera_marker_sensor import CameraMarkerSensor
+
     cfg, rig, ctx = _rig(width)
     X_WC = cfg.cameras[0].pose()
+    cam = rig.rgbd[0]
+    intr = PinholeIntrinsics.from_camera_info(cam.default_depth_render_camera().core()
+                                              .intrinsics())
+    sensors, noisy = {}, {}
+    for dm in depths:
+        kw = dict(DEPTHS[dm])
+        noisy[dm] = bool(kw.pop("noisy", False))
+        sensors[dm] = CameraMarkerSensor(marker_ids=rig.sensor.marker_ids,
+                                         aruco_ids=rig.sensor.aruco_ids,
+                                         cameras=rig.sensor.cameras,
+                                         config=dataclasses.replace(cfg, **kw))
     rng = np.random.default_rng(seed)
     rows = []
     t_render, t_detect = [], []
-    print(f"image {cfg.width}x{cfg.height}, fov_y {cfg.cameras[0].fov_y_deg} deg, marker "
-          f"{cfg.aruco.marker_size} m ({cfg.aruco.dictionary}), {n} poses per cell")
-    print(" dist_m  angle_deg  side_px  detected  pos_med_m  pos_rms_m  ang_med_deg  "
-          "ang>20deg")
+    res = {dm: {} for dm in depths}
+    sides = {}
+    k = 0
     for d in distances:
         for a in angles:
-            pe, ae, sides, hit = [], [], [], 0
+            cell = {dm: ([], []) for dm in depths}
+            sd = []
             for _ in range(n):
                 X_CM = _pose(rng, d, a, cfg.cameras[0].fov_y_deg, cfg.width / cfg.height)
                 X_WM = X_WC @ X_CM
                 rig.set_poses(ctx, [X_WM])
-                cam = rig.rgbd[0]
+                cc = cam.GetMyContextFromRoot(ctx)
                 t0 = time.perf_counter()
-                cam.color_image_output_port().Eval(cam.GetMyContextFromRoot(ctx))  # render (timed)
+                img = np.array(cam.color_image_output_port().Eval(cc).data)  # render (timed)
                 t1 = time.perf_counter()
-                obs = rig.sensor.observe(rig.sensor.GetMyContextFromRoot(ctx))
+                depth = np.array(cam.depth_image_32F_output_port().Eval(cc).data)[..., 0]
                 t2 = time.perf_counter()
+                det = rig.sensor.detect(img, 0)
+                t3 = time.perf_counter()
                 t_render.append(t1 - t0)
-                t_detect.append(t2 - t1)
-                sides.append(cfg.intrinsics(cfg.cameras[0])[0, 0] * cfg.aruco.marker_size / d)
-                if obs.visible[0]:
-                    hit += 1
-                    X = obs.poses[0]
-                    pe.append(np.linalg.norm(X.translation() - X_WM.translation()))
-                    ae.append(np.degrees((X_WM.rotation().inverse() @ X.rotation())
-                                         .ToAngleAxis().angle()))
+                t_detect.append(t3 - t2)
+                sd.append(cfg.intrinsics(cfg.cameras[0])[0, 0] * cfg.aruco.marker_size / d)
+                nd = None
+                if any(noisy.values()):
+                    nd = apply_depth_noise(depth, intr, DepthNoiseConfig(seed=seed), frame=k)
+                k += 1
+                for dm in depths:
+                    obs, _ = sensors[dm].observe_images(0.0, [img], [nd if noisy[dm] else depth],
+                                                        detections=[det])
+                    if obs.visible[0]:
+                        X = obs.poses[0]
+                        cell[dm][0].append(np.linalg.norm(X.translation() - X_WM.translation()))
+                        cell[dm][1].append(np.degrees((X_WM.rotation().inverse() @ X.rotation())
+                                                      .ToAngleAxis().angle()))
+            sides[(d, a)] = float(np.mean(sd))
+            for dm in depths:
+                res[dm][(d, a)] = cell[dm]
+    f = (lambda v, fmt: format(v, fmt) if np.isfinite(v) else "    nan")
+    for dm in depths:
+        print(f"depth {dm}: image {cfg.width}x{cfg.height}, fov_y {cfg.cameras[0].fov_y_deg} "
+              f"deg, marker {cfg.aruco.marker_size} m ({cfg.aruco.dictionary}), {n} poses "
+              "per cell")
+        print(" dist_m  angle_deg  side_px  detected  pos_med_m  pos_rms_m  ang_med_deg  "
+              "ang>20deg")
+        for (d, a), (pe, ae) in res[dm].items():
             pe, ae = np.array(pe), np.array(ae)
-            f = (lambda v, fmt: format(v, fmt) if np.isfinite(v) else "    nan")
-            row = dict(dist=d, angle=a, rate=hit / n,
+            row = dict(depth=dm, dist=d, angle=a, rate=len(pe) / n,
                        pos_med=float(np.median(pe)) if len(pe) else np.nan,
                        pos_rms=float(np.sqrt(np.mean(pe ** 2))) if len(pe) else np.nan,
                        ang_med=float(np.median(ae)) if len(ae) else np.nan,
                        flips=float(np.mean(ae > 20)) if len(ae) else np.nan)
             rows.append(row)
-            print(f"{d:7.2f}  {a:9.0f}  {np.mean(sides):7.1f}  {hit:3d}/{n:<4d}  "
+            print(f"{d:7.2f}  {a:9.0f}  {sides[(d, a)]:7.1f}  {len(pe):3d}/{n:<4d}  "
                   f"{f(row['pos_med'], '9.4f')}  {f(row['pos_rms'], '9.4f')}  "
                   f"{f(row['ang_med'], '11.2f')}  {f(row['flips'], '9.2f')}")
     print(f"per image: render {1000 * np.median(t_render):.0f} ms (median; cached images are "
@@ -328,6 +371,9 @@ def main(argv=None):
                          "rule: fitted normal, 15 deg gate), depth (the default: each "
                          "solution's plane against the depth pixels), normal-noisy and "
                          "depth-noisy (the same on a structured-light camera's depth)")
+    ap.add_argument("--depth", default="exact",
+                    help="comma-separated depth modes for the noise table (same renders): "
+                         "exact (rendered), noisy (structured-light noise model), none")
     ap.add_argument("--plot", default=None, help="save a plot of the table (PNG)")
     a = ap.parse_args(argv)
     if a.calibrate:
@@ -343,8 +389,12 @@ def main(argv=None):
     if a.arm:
         arm_errors(a.arm, a.poses, a.seed, a.width)
         return 0
+    depths = a.depth.split(",")
+    bad = [d for d in depths if d not in DEPTHS]
+    if bad:
+        ap.error(f"--depth: unknown {bad}; choose from {sorted(DEPTHS)}")
     rows = noise_table(a.width, [float(x) for x in a.distances.split(",")],
-                       [float(x) for x in a.angles.split(",")], a.n, a.seed)
+                       [float(x) for x in a.angles.split(",")], a.n, a.seed, depths)
     if a.plot:
         import matplotlib
 
@@ -353,7 +403,7 @@ def main(argv=None):
 
         fig, ax = plt.subplots(1, 3, figsize=(13, 3.8))
         for ang in sorted({r["angle"] for r in rows}):
-            rr = [r for r in rows if r["angle"] == ang]
+            rr = [r for r in rows if r["angle"] == ang and r["depth"] == depths[0]]
             d = [r["dist"] for r in rr]
             ax[0].plot(d, [r["rate"] for r in rr], "o-", label=f"{ang:.0f} deg")
             ax[1].plot(d, [r["pos_med"] for r in rr], "o-", label=f"{ang:.0f} deg")
