@@ -261,6 +261,11 @@ def _cabinet_edge_mount():
 #: Where the camera's ArUco squares go when a part's marker frame is a bad place for a
 #: printed square ({object: {part: callable returning X_MS}}, see ``AddArucoMarkers``).
 CAMERA_MARKER_MOUNTS = {"two_drawer_cabinet": {"cabinet": _cabinet_edge_mount}}
+#: Printed marker size and quiet zone (m) per object whose automatic camera stands far
+#: away: the table's, car's and garage's markers spread over 2-3 m, so the camera is
+#: 4-6 m away, where the 0.04 m squares are 9-14 px wide and were not read (or 36 mm off).
+CAMERA_MARKER_SIZE = {"table": (0.25, 0.03), "car_door": (0.12, 0.02),
+                      "garage_door": (0.12, 0.02)}
 #: Degrees the automatic camera is raised above the markers' mean normal per object (the
 #: cabinet's square on its 45-degree holder and the drawers' fronts both in view).
 CAMERA_ELEVATION_DEG = {"two_drawer_cabinet": 30.0}
@@ -318,17 +323,28 @@ class ObjectCamera:
         return out
 
 
+def default_camera_config(track: ObjectTrack):
+    """The camera marker sensor :func:`camera_track` uses by default for ``track``: 1920 x
+    1440 images, one camera placed by :func:`auto_cameras` (raised by
+    :data:`CAMERA_ELEVATION_DEG`), markers of :data:`CAMERA_MARKER_SIZE` (default 0.04 m)."""
+    from mmlearn.sdf.aruco import ArucoSpec
+    from mmlearn.systems.camera_marker_sensor import CameraMarkerSensorConfig
+
+    kw = {}
+    if track.name in CAMERA_MARKER_SIZE:
+        size, margin = CAMERA_MARKER_SIZE[track.name]
+        kw["aruco"] = ArucoSpec(marker_size=size, margin=margin)
+    return CameraMarkerSensorConfig(cameras=auto_cameras(
+        track.poses_true, elevation_deg=CAMERA_ELEVATION_DEG.get(track.name, 0.0)), **kw)
+
+
 def camera_track(track: ObjectTrack, config=None, *, progress=None) -> ObjectTrack:
     """The same motion observed by the camera marker sensor instead of the Gaussian noise
     model: ``poses`` are the ArUco detections in rendered images (NaN where a marker was not
     detected), ``poses_true`` and ``q`` unchanged. ``config``: a CameraMarkerSensorConfig
-    (default: 1920 x 1440 images, one camera placed by :func:`auto_cameras`, raised by
-    :data:`CAMERA_ELEVATION_DEG` for the object)."""
-    from mmlearn.systems.camera_marker_sensor import CameraMarkerSensorConfig
-
+    (default: :func:`default_camera_config`)."""
     if config is None:
-        config = CameraMarkerSensorConfig(cameras=auto_cameras(
-            track.poses_true, elevation_deg=CAMERA_ELEVATION_DEG.get(track.name, 0.0)))
+        config = default_camera_config(track)
     cam = ObjectCamera(track.name, config)
     poses = cam.observe(track.q, progress=progress)
     return ObjectTrack(track.name, list(track.parts), list(track.joints), poses,
