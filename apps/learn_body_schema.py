@@ -47,6 +47,11 @@ class LearnBodySchemaConfig:
         sensor: "ideal" (MarkerSensor: true poses + Gaussian noise) or "camera" (ArUco
             markers detected in rendered RGB images, see CameraMarkerSensor; ``noise`` and
             ``noise_orient_deg`` then only tell the learner what noise to assume).
+        camera_depth: with ``sensor="camera"``, the depth images that resolve the markers'
+            mirror ambiguity: "exact" (Drake's rendered depth), "noisy" (through a
+            structured-light camera's noise model, ``DepthNoiseConfig()`` defaults:
+            1.6 mm x z^2, 1/8 px disparity steps, missing pixels) or "none" (no depth:
+            the reprojection ratio and the last report decide).
         html_out: write the Meshcat recording here ("" = no).
         meshcat: live Meshcat view.
     """
@@ -62,6 +67,7 @@ class LearnBodySchemaConfig:
     control_time: float = 2.5
     babble_fraction: float = 0.6
     sensor: str = "ideal"
+    camera_depth: str = "exact"
     html_out: str = ""
     meshcat: bool = False
 
@@ -177,6 +183,25 @@ def babble(bs, simulator, n_samples, *, show_progress=True, desc="babbling"):
     return got
 
 
+CAMERA_DEPTHS = ("exact", "noisy", "none")
+
+
+def camera_config(camera_depth: str = "exact", seed: int = 0):
+    """The camera marker sensor's configuration for ``camera_depth`` (see
+    :class:`LearnBodySchemaConfig`); the depth noise is seeded with ``seed``."""
+    from mmlearn.models.depth_noise import DepthNoiseConfig
+    from mmlearn.systems.camera_marker_sensor import CameraMarkerSensorConfig
+
+    if camera_depth == "exact":
+        return CameraMarkerSensorConfig()
+    if camera_depth == "noisy":
+        return CameraMarkerSensorConfig(depth_noise=DepthNoiseConfig(seed=int(seed)))
+    if camera_depth == "none":
+        return CameraMarkerSensorConfig(use_depth=False)
+    raise ValueError(f"camera_depth must be one of {', '.join(CAMERA_DEPTHS)}, got "
+                     f"{camera_depth!r}")
+
+
 def run(*, config: LearnBodySchemaConfig, meshcat=None, show_progress: bool = True) -> dict:
     """Learn, evaluate and return the results dict (see the module docstring)."""
     from pydrake.systems.analysis import Simulator
@@ -190,13 +215,17 @@ def run(*, config: LearnBodySchemaConfig, meshcat=None, show_progress: bool = Tr
         raise ValueError(f"noise must be >= 0 m, got {cfg.noise}")
     if cfg.n_test < 1 or cfg.n_control < 0 or not cfg.control_time > 0:
         raise ValueError("need n_test >= 1, n_control >= 0, control_time > 0")
+    if cfg.camera_depth not in CAMERA_DEPTHS:
+        raise ValueError(f"camera_depth must be one of {', '.join(CAMERA_DEPTHS)}, got "
+                         f"{cfg.camera_depth!r}")
     t_start = time.perf_counter()
     if meshcat is None and (cfg.meshcat or cfg.html_out):
         meshcat = make_meshcat(announce=cfg.meshcat)
     dcfg = BodySchemaDiagramConfig(arm=cfg.arm, noise_pos=cfg.noise,
                                    noise_orient=math.radians(cfg.noise_orient_deg),
                                    occlude=list(cfg.occlude), seed=cfg.seed,
-                                   babble_fraction=cfg.babble_fraction, sensor=cfg.sensor)
+                                   babble_fraction=cfg.babble_fraction, sensor=cfg.sensor,
+                                   camera=camera_config(cfg.camera_depth, cfg.seed))
     bs = MakeBodySchemaDiagram(dcfg, meshcat=meshcat)
     simulator = Simulator(bs.diagram)
     root = simulator.get_mutable_context()
@@ -216,6 +245,7 @@ def run(*, config: LearnBodySchemaConfig, meshcat=None, show_progress: bool = Tr
     result = {
         "arm": cfg.arm,
         "sensor": cfg.sensor,
+        "camera_depth": cfg.camera_depth if cfg.sensor == "camera" else None,
         "parts": bs.parts,
         "samples": int(st.n_samples),
         "structure": structure_rows(schema, bs.parts),
@@ -269,6 +299,10 @@ def main(argv=None) -> int:
     ap.add_argument("--sensor", choices=["ideal", "camera"], default="ideal",
                     help="ideal: true marker poses + Gaussian noise (default); camera: ArUco "
                          "markers detected in rendered RGB images (slower, ~0.5 s per frame)")
+    ap.add_argument("--camera-depth", choices=list(CAMERA_DEPTHS), default="exact",
+                    help="with --sensor camera: the depth that resolves the markers' mirror "
+                         "ambiguity: exact (rendered, default), noisy (a structured-light "
+                         "camera's noise model) or none")
     ap.add_argument("--seed", type=nonneg_int, default=0)
     ap.add_argument("--n-test", type=pos_int, default=100, help="test configurations")
     ap.add_argument("--n-control", type=nonneg_int, default=5,
@@ -285,7 +319,7 @@ def main(argv=None) -> int:
     cfg = LearnBodySchemaConfig(arm=args.arm, samples=args.samples, noise=args.noise,
                                 noise_orient_deg=args.noise_orient, occlude=args.occlude,
                                 seed=args.seed, n_test=args.n_test, n_control=args.n_control,
-                                sensor=args.sensor,
+                                sensor=args.sensor, camera_depth=args.camera_depth,
                                 html_out=str(args.html_out or ""), meshcat=args.meshcat)
     try:
         r = run(config=cfg, show_progress=not args.json)

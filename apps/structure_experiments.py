@@ -3,7 +3,7 @@
 Usage::
 
     python -m mmlearn.apps.structure_experiments [--only fig48,fig49,fig411,garage,fig416,fig417,fig418]
-        [--quick] [--seeds N] [--n N] [--seed S] [--json] [--out-dir DIR]
+        [--quick] [--seeds N] [--n N] [--seed S] [--sensor ideal|camera] [--json] [--out-dir DIR]
         [--results FILE] [--executor local|ray] [--ray-address ADDR] [--jobs N]
     python -m mmlearn.apps.structure_experiments --report-only RESULTS.jsonl [--out-dir DIR]
 
@@ -17,6 +17,14 @@ Usage::
 - fig417: DOFs while the data arrive (open chain opened segment by segment; closed loop).
 - fig418: closed yardstick: BIC of the spanning tree, local search and exhaustive search and
   their run times as n grows.
+
+``--sensor``: ``ideal`` (default) observes the objects' markers with the scenarios' Gaussian
+noise (``mmlearn.diagrams.object_tracks``); ``camera`` renders the same motion with
+ArUco-textured marker squares on the parts and reads them with the
+:class:`~mmlearn.systems.camera_marker_sensor.CameraMarkerSensor` (one 1920 x 1440 camera
+placed by ``auto_cameras``; markers it does not detect are missing samples), and every
+experiment adds a line with what the camera saw (share of frames per part, median position
+error, share of orientations off by > 20 deg). Slow: ~0.3-1 s per sample.
 
 Tables go to stdout, ``--json`` prints all results, ``--out-dir DIR`` writes the plots (PNG).
 ``--quick`` runs a small setting (for the test suite).
@@ -56,12 +64,74 @@ __all__ = ["run", "main", "EXPERIMENTS"]
 
 EXPERIMENTS = ("fig48", "fig49", "fig411", "garage", "fig416", "fig417", "fig418")
 PARAMETRIC = ("rigid", "prismatic", "revolute")
+SENSORS = ("ideal", "camera")
 
 
-def exp_cabinet(*, quick, seed, progress):
+def observe(track, sensor: str = "ideal", camera=None):
+    """The scenario's track as ``sensor`` reports it: "ideal" = as generated (Gaussian
+    noise), "camera" = rendered and read by the camera marker sensor
+    (:func:`mmlearn.diagrams.object_tracks.camera_track`, ``camera`` its
+    CameraMarkerSensorConfig, None = one automatic 1920 x 1440 camera; NaN rows where a
+    marker was not detected)."""
+    if sensor == "ideal":
+        return track
+    if sensor != "camera":
+        raise ValueError(f"sensor must be one of {', '.join(SENSORS)}, got {sensor!r}")
+    from mmlearn.diagrams.object_tracks import camera_track
+
+    return camera_track(track, camera)
+
+
+def sensor_stats(track) -> dict:
+    """What the sensor saw of a track: per part the share of samples with a pose, the
+    median position error (m) and the share of orientations off by > 20 deg, against the
+    true marker poses."""
+    from scipy.spatial.transform import Rotation
+
+    out = {}
+    for k, part in enumerate(track.parts):
+        P, Pt = track.poses[k], track.poses_true[k]
+        ok = np.isfinite(P).all(axis=1)
+        rec = {"seen": float(ok.mean()), "pos_median_m": None, "flipped": None}
+        if ok.any():
+            rec["pos_median_m"] = float(np.median(np.linalg.norm(P[ok, :3] - Pt[ok, :3],
+                                                                 axis=1)))
+            ang = (Rotation.from_quat(Pt[ok, 3:]).inv() * Rotation.from_quat(P[ok, 3:])
+                   ).magnitude()
+            rec["flipped"] = float(np.mean(ang > np.radians(20)))
+        out[part] = rec
+    return out
+
+
+def _sensor_line(name, stats) -> str:
+    return f"camera ({name}): " + "; ".join(
+        f"{p} seen {r['seen']:.2f}" + ("" if r["pos_median_m"] is None else
+                                        f", {1000 * r['pos_median_m']:.1f} mm, "
+                                        f"{100 * r['flipped']:.0f} % > 20 deg")
+        for p, r in stats.items())
+
+
+def _with_sensor(res, lines, track, sensor):
+    if sensor != "ideal":
+        res["sensor_stats"] = sensor_stats(track)
+        lines.append(_sensor_line(track.name, res["sensor_stats"]))
+    return res, lines
+
+
+def _relative(track, i=0, j=1) -> np.ndarray:
+    """(T, 7) relative poses of part j in part i, NaN rows where either is missing."""
+    a, b = track.poses[i], track.poses[j]
+    ok = np.isfinite(a).all(axis=1) & np.isfinite(b).all(axis=1)
+    Z = np.full((a.shape[0], 7), np.nan)
+    if ok.any():
+        Z[ok] = relative_poses(a[ok], b[ok]).as_array()
+    return Z
+
+
+def exp_cabinet(*, quick, seed, progress, sensor="ideal"):
     from mmlearn.diagrams.object_tracks import cabinet_scenario
 
-    tr = cabinet_scenario(20, 20 if quick else 40, rng=seed)
+    tr = observe(cabinet_scenario(20, 20 if quick else 40, rng=seed), sensor)
     obs = ObservationModel(sigma_pos=0.01, sigma_orient=np.deg2rad(2))
     hist = incremental_structure(tr.poses, tr.parts, refit_every=5, obs=obs, rng=seed,
                                  models=PARAMETRIC if quick else ("rigid", "prismatic",
@@ -72,39 +142,46 @@ def exp_cabinet(*, quick, seed, progress):
     for r in rows:
         lines.append(f"{r['n']:4d}  {r['dof']:3d}  " + ", ".join(
             f"{m}({a},{b})" for a, b, m in r["edges"]))
-    return {"rows": rows}, lines
+    return _with_sensor({"rows": rows}, lines, tr, sensor)
 
 
-def exp_table(*, quick, seed, progress):
+def exp_table(*, quick, seed, progress, sensor="ideal"):
     from mmlearn.diagrams.object_tracks import table_phases, table_scenario
 
     m = 12 if quick else 20
-    tr = table_scenario(m, rng=seed)
+    tr = observe(table_scenario(m, rng=seed), sensor)
     names = ["still", "line", "curve", "free"]
     ends = np.cumsum([table_phases(m)[k] for k in names])
     obs = ObservationModel(sigma_pos=0.01, sigma_orient=np.deg2rad(2))
     models = ("rigid", "prismatic", "revolute", "gp", "gp2")
-    Z = relative_poses(tr.poses[0], tr.poses[1]).as_array()
+    Z = _relative(tr)
     rows = []
     # every 5 samples and at the end of each phase
     steps = sorted(set(range(5, Z.shape[0] + 1, 5)) | {int(e) for e in ends})
     bar = progress_bar(len(steps), "table", enabled=progress)
     rng = np.random.default_rng(seed)
     for n in steps:
-        s = select_link_model(Z[:n], models=models, obs=obs, rng=rng, n_hypotheses=60)
         phase = names[int(np.searchsorted(ends, n))]
+        Zn = Z[:n][np.isfinite(Z[:n]).all(axis=1)]  # the samples the sensor saw
+        if len(Zn) < 5:
+            rows.append({"n": n, "phase": phase, "selected": None, "bic": {}, "seen": len(Zn)})
+            bar.update(1)
+            continue
+        s = select_link_model(Zn, models=models, obs=obs, rng=rng, n_hypotheses=60)
         rows.append({"n": n, "phase": phase, "selected": s.selected,
-                     "bic": {k: (v if math.isfinite(v) else None) for k, v in s.bic.items()}})
+                     "bic": {k: (v if math.isfinite(v) else None) for k, v in s.bic.items()},
+                     "seen": len(Zn)})
         bar.update(1)
     bar.close()
     lines = ["Fig. 4.9  table pushed on the floor (phases end at n = %s)" % ", ".join(
         str(int(e)) for e in ends),
              "   n  phase  selected  " + "  ".join(f"{k:>8s}" for k in models)]
     for r in rows:
-        lines.append(f"{r['n']:4d}  {r['phase']:5s}  {r['selected']:8s}  " + "  ".join(
+        lines.append(f"{r['n']:4d}  {r['phase']:5s}  {r['selected'] or '-':8s}  " + "  ".join(
             f"{r['bic'][k]:8.0f}" if r["bic"].get(k) is not None else "       -"
             for k in models))
-    return {"rows": rows, "sequence": _sequence([r["selected"] for r in rows])}, lines
+    return _with_sensor({"rows": rows, "sequence": _sequence(
+        [r["selected"] for r in rows if r["selected"] is not None])}, lines, tr, sensor)
 
 
 def _sequence(names):
@@ -115,10 +192,10 @@ def _sequence(names):
     return out
 
 
-def exp_car(*, quick, seed, progress):
+def exp_car(*, quick, seed, progress, sensor="ideal"):
     from mmlearn.diagrams.object_tracks import car_door_scenario
 
-    tr = car_door_scenario(30 if quick else 40, 30 if quick else 40, rng=seed)
+    tr = observe(car_door_scenario(30 if quick else 40, 30 if quick else 40, rng=seed), sensor)
     obs = ObservationModel(sigma_pos=0.005, sigma_orient=np.deg2rad(1))
     hist = incremental_structure(tr.poses, tr.parts, refit_every=10, obs=obs, rng=seed,
                                  models=PARAMETRIC, search="local")
@@ -137,36 +214,42 @@ def exp_car(*, quick, seed, progress):
         rr = f"{r['window_radius_m']:.2f}" if r["window_radius_m"] is not None else "-"
         lines.append(f"{r['n']:4d}  {r['dof']:3d}  {rr:>12s}  " + ", ".join(
             f"{m}({a},{b})" for a, b, m in r["edges"]))
-    return {"rows": rows}, lines
+    return _with_sensor({"rows": rows}, lines, tr, sensor)
 
 
-def exp_garage(*, quick, seed, progress):
+def exp_garage(*, quick, seed, progress, sensor="ideal"):
     from mmlearn.diagrams.object_tracks import garage_door_scenario
 
-    tr = garage_door_scenario(40 if quick else 60, rng=seed)
+    tr = observe(garage_door_scenario(40 if quick else 60, rng=seed), sensor)
     obs = ObservationModel(sigma_pos=0.01, sigma_orient=np.deg2rad(2))
-    Z = relative_poses(tr.poses[0], tr.poses[1])
+    Z = _relative(tr)
+    Z = Z[np.isfinite(Z).all(axis=1)]
+    if len(Z) < 5:
+        return _with_sensor({"selected": None, "bic": {}, "avg_pos_error_m": None,
+                             "seen": len(Z)},
+                            [f"Roll-up garage door: {len(Z)} samples seen, nothing selected"],
+                            tr, sensor)
     s = select_link_model(Z, obs=obs, rng=seed)
     res = {"selected": s.selected,
            "bic": {k: (v if math.isfinite(v) else None) for k, v in s.bic.items()},
-           "avg_pos_error_m": float(s.best.avg_pos_error_)}
+           "avg_pos_error_m": float(s.best.avg_pos_error_), "seen": len(Z)}
     lines = ["Roll-up garage door: selected " + s.selected + "  (BIC " + ", ".join(
         f"{k} {v:.0f}" for k, v in s.bic.items() if math.isfinite(v)) + ")"]
-    return res, lines
+    return _with_sensor(res, lines, tr, sensor)
 
 
 def _yardstick_obs():
     return ObservationModel(sigma_pos=0.005, sigma_orient=np.deg2rad(3))
 
 
-def yardstick_row(*, closed: bool, seed: int, n: int) -> dict:
+def yardstick_row(*, closed: bool, seed: int, n: int, sensor: str = "ideal") -> dict:
     """One yardstick run of Fig. 4.16 (a trial): the open chain (3 hinges) or the closed
     loop (4 links) with ``n`` samples, fitted with the spanning tree, the local and the
     exhaustive search (DOF reduction on); BICs, DOFs, run times [s] and graphs visited."""
     from mmlearn.diagrams.object_tracks import yardstick_scenario
 
     obs = _yardstick_obs()
-    tr = yardstick_scenario(closed, n, rng=seed)
+    tr = observe(yardstick_scenario(closed, n, rng=seed), sensor)
     t0, c0 = time.perf_counter(), time.process_time()
     pm = fit_pair_models(tr.poses, obs=obs, rng=seed)
     t_pairs, c_pairs = time.perf_counter() - t0, time.process_time() - c0
@@ -178,7 +261,7 @@ def yardstick_row(*, closed: bool, seed: int, n: int) -> dict:
     chain = [(0, 1), (1, 2), (2, 3)] + ([(0, 3)] if closed else [])
     true_graph = KinematicGraphEvaluator(tr.poses, pm, obs=obs).evaluate(
         chain, reduce_dofs=True)
-    return {
+    row = {
         "closed": closed, "seed": seed, "n": n,
         "dof_local": rl.best.dof, "dof_exhaustive": rx.best.dof,
         "dof_tree": res["tree"].best.dof,
@@ -199,6 +282,9 @@ def yardstick_row(*, closed: bool, seed: int, n: int) -> dict:
         "search_cpu_seconds_exhaustive": rx.search_cpu_seconds,
         "graphs_local": len(rl.evaluated), "graphs_exhaustive": len(rx.evaluated),
     }
+    if sensor != "ideal":
+        row["sensor_stats"] = sensor_stats(tr)
+    return row
 
 
 def yardstick_summary(rows):
@@ -263,6 +349,10 @@ def yardstick_summary(rows):
         lines.append(f"{key}: true graph (chain{' + loop' if key == 'closed' else ''}) with "
                      f"PCA DOFs: right DOF {s['true_graph_right_dof']}/{s['runs']}, BIC "
                      f"{s['mean_gap_true_graph_pct']:.2f} % above the exhaustive optimum")
+    for r in rows:
+        if r.get("sensor_stats"):
+            lines.append(_sensor_line(f"{'closed' if r['closed'] else 'open'} seed "
+                                      f"{r['seed']}", r["sensor_stats"]))
     ex = [r for r in rows if r["closed"]]
     if ex:
         lines.append("closed, seed %d: %s" % (ex[0]["seed"], ", ".join(
@@ -270,14 +360,14 @@ def yardstick_summary(rows):
     return {"runs": rows, "summary": summ}, lines
 
 
-def dof_progress(*, closed: bool, seed: int, quick: bool) -> list:
+def dof_progress(*, closed: bool, seed: int, quick: bool, sensor: str = "ideal") -> list:
     """Fig. 4.17 for one yardstick (a trial): the open chain opened segment by segment or the
     closed loop; [n, estimated DOFs] every 20 samples."""
     from mmlearn.diagrams.object_tracks import yardstick_scenario
 
     n, step = (80, 20) if quick else (200, 20)
     obs = _yardstick_obs()
-    tr = yardstick_scenario(closed, n, staged=not closed, rng=seed)
+    tr = observe(yardstick_scenario(closed, n, staged=not closed, rng=seed), sensor)
     dofs = []
     for m in range(step, n + 1, step):
         r = fit_structure(tr.poses[:, :m], search="local", reduce_dofs=True, obs=obs,
@@ -297,13 +387,13 @@ def dof_progress_summary(by_key: dict):
     return out, lines
 
 
-def search_vs_n_row(*, n: int, seed: int) -> dict:
+def search_vs_n_row(*, n: int, seed: int, sensor: str = "ideal") -> dict:
     """Fig. 4.18 at one n (a trial): closed yardstick, BIC, DOFs, graphs visited and run
     time [s] of the spanning tree, the local and the exhaustive search."""
     from mmlearn.diagrams.object_tracks import yardstick_scenario
 
     obs = _yardstick_obs()
-    tr = yardstick_scenario(True, n, rng=seed)
+    tr = observe(yardstick_scenario(True, n, rng=seed), sensor)
     t0 = time.perf_counter()
     pm = fit_pair_models(tr.poses, obs=obs, rng=seed)
     t_fit = time.perf_counter() - t0
@@ -392,28 +482,32 @@ RUNNERS = {"fig48": exp_cabinet, "fig49": exp_table, "fig411": exp_car, "garage"
 
 
 def trial(*, seed: int, experiment: str, quick: bool = False, closed: bool | None = None,
-          n: int | None = None, shared=None) -> dict:
+          n: int | None = None, sensor: str = "ideal", shared=None) -> dict:
     """One trial of the sweep (``mmlearn.apps._sweep``): a whole experiment of
     :data:`RUNNERS` (fig48, fig49, fig411, garage: its result and table lines), one yardstick
     run of fig416 (``closed``, ``n`` samples), one yardstick of fig417 (``closed``) or one
-    ``n`` of fig418."""
+    ``n`` of fig418. ``sensor``: see :func:`observe`."""
     if experiment in RUNNERS:
-        res, lines = RUNNERS[experiment](quick=quick, seed=seed, progress=False)
+        res, lines = RUNNERS[experiment](quick=quick, seed=seed, progress=False,
+                                         sensor=sensor)
         return {"experiment": experiment, "result": res, "lines": lines}
     if experiment == "fig416":
-        return {"experiment": experiment, "row": yardstick_row(closed=closed, seed=seed, n=n)}
+        return {"experiment": experiment, "row": yardstick_row(closed=closed, seed=seed, n=n,
+                                                               sensor=sensor)}
     if experiment == "fig417":
         return {"experiment": experiment, "closed": closed,
-                "dofs": dof_progress(closed=closed, seed=seed, quick=quick)}
+                "dofs": dof_progress(closed=closed, seed=seed, quick=quick, sensor=sensor)}
     if experiment == "fig418":
-        return {"experiment": experiment, "row": search_vs_n_row(n=n, seed=seed)}
+        return {"experiment": experiment, "row": search_vs_n_row(n=n, seed=seed, sensor=sensor)}
     raise ValueError(f"unknown experiment {experiment!r}; choose from {', '.join(EXPERIMENTS)}")
 
 
 def trial_specs(*, only=EXPERIMENTS, quick: bool = False, seed: int = 0, seeds: int = 10,
-                n: int = 200) -> list:
+                n: int = 200, sensor: str = "ideal") -> list:
     """The sweep's trials: one per experiment of :data:`RUNNERS`, one per yardstick run of
-    fig416 (2 x ``seeds``), one per yardstick of fig417 (2), one per n of fig418."""
+    fig416 (2 x ``seeds``), one per yardstick of fig417 (2), one per n of fig418. A
+    ``sensor`` other than "ideal" is one more parameter of every trial (so the ideal
+    trials' keys, and results files, stay as they were)."""
     from mmlearn.apps._sweep import TrialSpec
 
     fn = "mmlearn.apps.structure_experiments:trial"
@@ -438,6 +532,9 @@ def trial_specs(*, only=EXPERIMENTS, quick: bool = False, seed: int = 0, seeds: 
             specs += [TrialSpec(fn=fn, seed=seed, label=f"fig418 n {m}",
                                 params={"experiment": k, "n": m, "quick": quick})
                       for m in ([40, 80] if quick else [25, 50, 100, 150, 200])]
+    if sensor != "ideal":
+        specs = [TrialSpec(fn=sp.fn, seed=sp.seed, label=f"{sp.label} ({sensor})",
+                           params={**sp.params, "sensor": sensor}) for sp in specs]
     return specs
 
 
@@ -447,10 +544,11 @@ def report(lines: list[dict], *, only=None) -> tuple[dict, list[str]]:
     raised are listed in ``results["errors"]`` and left out of their experiment."""
     settings = {(bool(ln["spec"]["params"].get("quick")),
                  ln["spec"]["params"].get("n") if ln["spec"]["params"]["experiment"] == "fig416"
-                 else None) for ln in lines}
-    if len({q for q, _ in settings}) > 1 or len({n for _, n in settings} - {None}) > 1:
+                 else None, ln["spec"]["params"].get("sensor", "ideal")) for ln in lines}
+    if (len({q for q, _, _ in settings}) > 1 or len({n for _, n, _ in settings} - {None}) > 1
+            or len({s for _, _, s in settings}) > 1):
         raise ValueError("the results file mixes settings (--quick or not, fig416 with "
-                         "different --n); use one results file per setting")
+                         "different --n, --sensor); use one results file per setting")
     ok = [ln for ln in lines if ln.get("error") is None]
     by = {}
     for ln in ok:
@@ -483,7 +581,7 @@ def report(lines: list[dict], *, only=None) -> tuple[dict, list[str]]:
 def run(*, only=EXPERIMENTS, quick: bool = False, seed: int = 0, seeds: int = 10, n: int = 200,
         out: str | None = None, progress: bool = True, echo=None, results: str | None = None,
         executor: str = "local", jobs: int | None = None,
-        ray_address: str | None = None) -> dict:
+        ray_address: str | None = None, sensor: str = "ideal") -> dict:
     """Run the selected experiments; returns {experiment: result} (plus "errors": trials
     that raised, "plots": files written to ``out``). ``echo``: callable taking the table
     lines of every experiment at the end.
@@ -491,7 +589,8 @@ def run(*, only=EXPERIMENTS, quick: bool = False, seed: int = 0, seeds: int = 10
     The trials (see :func:`trial_specs`) run through the sweep runner
     (``mmlearn.apps._sweep``): streamed to ``results`` (a JSON Lines file; None: a temporary
     one; trials already in it are not run again), ``executor`` "local" (``jobs`` processes,
-    default all cores) or "ray" (``ray_address``: a cluster, None: a local Ray instance)."""
+    default all cores) or "ray" (``ray_address``: a cluster, None: a local Ray instance).
+    ``sensor``: "ideal" or "camera" (see :func:`observe`)."""
     from mmlearn.apps._sweep import run_sweep
 
     if isinstance(only, str):
@@ -501,7 +600,9 @@ def run(*, only=EXPERIMENTS, quick: bool = False, seed: int = 0, seeds: int = 10
             raise ValueError(f"unknown experiment {k!r}; choose from {', '.join(EXPERIMENTS)}")
     if seeds < 1 or n < 20:
         raise ValueError("--seeds must be >= 1 and --n >= 20")
-    specs = trial_specs(only=only, quick=quick, seed=seed, seeds=seeds, n=n)
+    if sensor not in SENSORS:
+        raise ValueError(f"sensor must be one of {', '.join(SENSORS)}, got {sensor!r}")
+    specs = trial_specs(only=only, quick=quick, seed=seed, seeds=seeds, n=n, sensor=sensor)
     sweep = run_sweep(specs, results=results, executor=executor, jobs=jobs,
                       ray_address=ray_address, show_progress=progress,
                       desc="structure trials")
@@ -526,6 +627,9 @@ def main(argv=None) -> int:
     ap.add_argument("--seed", type=nonneg_int, default=0, help="random seed")
     ap.add_argument("--seeds", type=pos_int, default=10, help="yardstick seeds (fig416)")
     ap.add_argument("--n", type=pos_int, default=200, help="yardstick samples (fig416)")
+    ap.add_argument("--sensor", choices=list(SENSORS), default="ideal",
+                    help="ideal: the scenarios' Gaussian marker noise (default); camera: "
+                         "ArUco markers on the parts read from rendered images (slow)")
     ap.add_argument("--json", action="store_true", help="print JSON instead of tables")
     ap.add_argument("--out-dir", default=None,
                     help="folder for the plots (PNG) and the default results file")
@@ -563,7 +667,7 @@ def main(argv=None) -> int:
         try:
             res = run(only=a.only, quick=a.quick, seed=a.seed, seeds=a.seeds, n=a.n,
                       out=a.out_dir, progress=not a.no_progress, echo=echo,
-                      **sweep)
+                      sensor=a.sensor, **sweep)
         except UsageError as e:
             return fail(ap.prog, str(e))
         except (ValueError, OSError) as e:

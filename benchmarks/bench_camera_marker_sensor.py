@@ -3,8 +3,10 @@ and viewing angle, the rendering calibration, and the errors on the arm's own ma
 Prints tables; never fails on time.
 
     python benchmarks/bench_camera_marker_sensor.py [--width 1920] [--n 12] [--seed 0]
-        [--distances 0.5,1,1.5,2,2.5,3] [--angles 0,20,40,60] [--calibrate]
-        [--arm 2dof --poses 25] [--babble SECONDS --rules none,ratio,depth] [--plot OUT.png]
+        [--distances 0.5,1,1.5,2,2.5,3] [--angles 0,20,40,60] [--depth exact,noisy,none]
+        [--calibrate]
+        [--arm 2dof --poses 25] [--plot OUT.png]
+        [--babble SECONDS --rules none,ratio,normal,depth,normal-noisy,depth-noisy]
 
 Default table: one 0.04 m marker (on a 0.10 m grey carrier, grey backdrop 6 m away) at each
 distance (m, along the optical axis) and viewing angle (deg between the marker normal and
@@ -15,8 +17,9 @@ position error (median, RMS, m) and orientation error (median deg, share > 20 de
 documented principal point (the calibration the sensor applies). ``--arm``: per-part
 visibility and errors of the default 3-camera scene on random babbling poses of an arm.
 ``--babble S``: the frames the learner sees while the arm babbles for S s (10 Hz), with each
-rule for ambiguous (mirror) detections: visibility, position error and the rate of mirror
-flips (reported orientation off by more than 20 degrees).
+rule for ambiguous (mirror) detections, exact and noisy depth, on the same renders:
+visibility, position error and the rate of mirror flips (reported orientation off by more
+than 20 degrees).
 """
 
 from __future__ import annotations
@@ -66,47 +69,89 @@ def _pose(rng, dist, angle_deg, fov_y_deg, aspect):
     return RigidTransform(R0 @ tilt @ spin, p)
 
 
-def noise_table(width, distances, angles, n, seed):
+DEPTHS = {"exact": {}, "noisy": {"noisy": True}, "none": {"use_depth": False}}
+
+
+def noise_table(width, distances, angles, n, seed, depths=("exact",)):
+    """The noise table, one block per depth mode in ``depths`` (keys of :data:`DEPTHS`: the
+    depth that resolves the mirror ambiguity: exact render, the structured-light noise
+    model, none), all on the same renders (one colour and depth image per pose, detected
+    once)."""
+    import dataclasses
+
+    from mmlearn.models.depth_noise import DepthNoiseConfig, apply_depth_noise
+    from mmlearn.models.fronts import PinholeIntrinsics
+    from mmlearn.systems.camera_marker_sensor import CameraMarkerSensor
+
     cfg, rig, ctx = _rig(width)
     X_WC = cfg.cameras[0].pose()
+    cam = rig.rgbd[0]
+    intr = PinholeIntrinsics.from_camera_info(cam.default_depth_render_camera().core()
+                                              .intrinsics())
+    sensors, noisy = {}, {}
+    for dm in depths:
+        kw = dict(DEPTHS[dm])
+        noisy[dm] = bool(kw.pop("noisy", False))
+        sensors[dm] = CameraMarkerSensor(marker_ids=rig.sensor.marker_ids,
+                                         aruco_ids=rig.sensor.aruco_ids,
+                                         cameras=rig.sensor.cameras,
+                                         config=dataclasses.replace(cfg, **kw))
     rng = np.random.default_rng(seed)
     rows = []
     t_render, t_detect = [], []
-    print(f"image {cfg.width}x{cfg.height}, fov_y {cfg.cameras[0].fov_y_deg} deg, marker "
-          f"{cfg.aruco.marker_size} m ({cfg.aruco.dictionary}), {n} poses per cell")
-    print(" dist_m  angle_deg  side_px  detected  pos_med_m  pos_rms_m  ang_med_deg  "
-          "ang>20deg")
+    res = {dm: {} for dm in depths}
+    sides = {}
+    k = 0
     for d in distances:
         for a in angles:
-            pe, ae, sides, hit = [], [], [], 0
+            cell = {dm: ([], []) for dm in depths}
+            sd = []
             for _ in range(n):
                 X_CM = _pose(rng, d, a, cfg.cameras[0].fov_y_deg, cfg.width / cfg.height)
                 X_WM = X_WC @ X_CM
                 rig.set_poses(ctx, [X_WM])
-                cam = rig.rgbd[0]
+                cc = cam.GetMyContextFromRoot(ctx)
                 t0 = time.perf_counter()
-                cam.color_image_output_port().Eval(cam.GetMyContextFromRoot(ctx))  # render (timed)
+                img = np.array(cam.color_image_output_port().Eval(cc).data)  # render (timed)
                 t1 = time.perf_counter()
-                obs = rig.sensor.observe(rig.sensor.GetMyContextFromRoot(ctx))
+                depth = np.array(cam.depth_image_32F_output_port().Eval(cc).data)[..., 0]
                 t2 = time.perf_counter()
+                det = rig.sensor.detect(img, 0)
+                t3 = time.perf_counter()
                 t_render.append(t1 - t0)
-                t_detect.append(t2 - t1)
-                sides.append(cfg.intrinsics(cfg.cameras[0])[0, 0] * cfg.aruco.marker_size / d)
-                if obs.visible[0]:
-                    hit += 1
-                    X = obs.poses[0]
-                    pe.append(np.linalg.norm(X.translation() - X_WM.translation()))
-                    ae.append(np.degrees((X_WM.rotation().inverse() @ X.rotation())
-                                         .ToAngleAxis().angle()))
+                t_detect.append(t3 - t2)
+                sd.append(cfg.intrinsics(cfg.cameras[0])[0, 0] * cfg.aruco.marker_size / d)
+                nd = None
+                if any(noisy.values()):
+                    nd = apply_depth_noise(depth, intr, DepthNoiseConfig(seed=seed), frame=k)
+                k += 1
+                for dm in depths:
+                    obs, _ = sensors[dm].observe_images(0.0, [img], [nd if noisy[dm] else depth],
+                                                        detections=[det])
+                    if obs.visible[0]:
+                        X = obs.poses[0]
+                        cell[dm][0].append(np.linalg.norm(X.translation() - X_WM.translation()))
+                        cell[dm][1].append(np.degrees((X_WM.rotation().inverse() @ X.rotation())
+                                                      .ToAngleAxis().angle()))
+            sides[(d, a)] = float(np.mean(sd))
+            for dm in depths:
+                res[dm][(d, a)] = cell[dm]
+    f = (lambda v, fmt: format(v, fmt) if np.isfinite(v) else "    nan")
+    for dm in depths:
+        print(f"depth {dm}: image {cfg.width}x{cfg.height}, fov_y {cfg.cameras[0].fov_y_deg} "
+              f"deg, marker {cfg.aruco.marker_size} m ({cfg.aruco.dictionary}), {n} poses "
+              "per cell")
+        print(" dist_m  angle_deg  side_px  detected  pos_med_m  pos_rms_m  ang_med_deg  "
+              "ang>20deg")
+        for (d, a), (pe, ae) in res[dm].items():
             pe, ae = np.array(pe), np.array(ae)
-            f = (lambda v, fmt: format(v, fmt) if np.isfinite(v) else "    nan")
-            row = dict(dist=d, angle=a, rate=hit / n,
+            row = dict(depth=dm, dist=d, angle=a, rate=len(pe) / n,
                        pos_med=float(np.median(pe)) if len(pe) else np.nan,
                        pos_rms=float(np.sqrt(np.mean(pe ** 2))) if len(pe) else np.nan,
                        ang_med=float(np.median(ae)) if len(ae) else np.nan,
                        flips=float(np.mean(ae > 20)) if len(ae) else np.nan)
             rows.append(row)
-            print(f"{d:7.2f}  {a:9.0f}  {np.mean(sides):7.1f}  {hit:3d}/{n:<4d}  "
+            print(f"{d:7.2f}  {a:9.0f}  {sides[(d, a)]:7.1f}  {len(pe):3d}/{n:<4d}  "
                   f"{f(row['pos_med'], '9.4f')}  {f(row['pos_rms'], '9.4f')}  "
                   f"{f(row['ang_med'], '11.2f')}  {f(row['flips'], '9.2f')}")
     print(f"per image: render {1000 * np.median(t_render):.0f} ms (median; cached images are "
@@ -204,8 +249,13 @@ VARIANTS = {
     "none": dict(use_depth=False, min_unambiguous_ratio=1.0),
     # reprojection-error ratio + the last report, no depth
     "ratio": dict(use_depth=False),
-    # the default: the depth image's plane, then ratio + last report
+    # the first depth rule: the normal of a plane fitted to the depth pixels, 15 deg gate
+    "normal": dict(depth_test="normal"),
+    # the default: each solution's plane against the depth pixels (noise-aware)
     "depth": dict(),
+    # the same two on a structured-light camera's depth (models/depth_noise.py defaults)
+    "normal-noisy": dict(depth_test="normal", noisy=True),
+    "depth-noisy": dict(noisy=True),
 }
 
 
@@ -213,51 +263,92 @@ def babble_flips(arm, seconds, variants, seed, width):
     """Per-frame errors of the camera sensor while the arm babbles (the frames the learner
     sees, 10 Hz), for each ambiguity rule in ``variants`` (keys of :data:`VARIANTS`):
     visibility, median position error and the share of reported orientations off by more
-    than 20 degrees (mirror flips)."""
+    than 20 degrees (mirror flips). All rules see the same renders: each frame's colour and
+    exact depth images are rendered once, detected once, and every rule resolves the
+    detections with its own sensor and its own last reports; the "-noisy" rules get the
+    exact depth through ``apply_depth_noise`` (``DepthNoiseConfig()`` with seed ``seed +
+    camera``, frame index k, as the ``depth_noise`` option's DepthNoise systems draw)."""
     import dataclasses
 
     from pydrake.systems.analysis import Simulator
 
     from mmlearn.diagrams.body_schema import BodySchemaDiagramConfig, MakeBodySchemaDiagram
-    from mmlearn.systems.camera_marker_sensor import CameraMarkerSensorConfig
+    from mmlearn.models.depth_noise import DepthNoiseConfig, apply_depth_noise
+    from mmlearn.models.fronts import PinholeIntrinsics
+    from mmlearn.systems.camera_marker_sensor import (CameraMarkerSensor,
+                                                      CameraMarkerSensorConfig)
 
     base = CameraMarkerSensorConfig(width=width, height=width * 3 // 4)
     print(f"{arm} arm babbling {seconds:g} s (seed {seed}), {len(base.cameras)} cameras "
-          f"{base.width}x{base.height}, frames at {base.rate_hz:g} Hz")
-    print("   rule  part  visible  pos_med_m  ang_med_deg  flips(>20deg)")
+          f"{base.width}x{base.height}, frames at {base.rate_hz:g} Hz, rules "
+          f"{', '.join(variants)} on the same renders")
+    bs = MakeBodySchemaDiagram(BodySchemaDiagramConfig(arm=arm, sensor="camera",
+                                                       camera=base, seed=seed))
+    sim = Simulator(bs.diagram)
+    root = sim.get_mutable_context()
+    bs.prepare(root)
+    plant, main_sensor, rgbd = bs.scene.plant, bs.scene.sensor, bs.scene.cameras
+    intr = [PinholeIntrinsics.from_camera_info(c.default_depth_render_camera().core()
+                                               .intrinsics()) for c in rgbd]
+    noise_cfg = DepthNoiseConfig()
+    sensors, tracks, noisy = {}, {}, {}
     for r in variants:
-        cam = dataclasses.replace(base, **VARIANTS[r])
-        bs = MakeBodySchemaDiagram(BodySchemaDiagramConfig(arm=arm, sensor="camera",
-                                                           camera=cam, seed=seed))
-        sim = Simulator(bs.diagram)
-        root = sim.get_mutable_context()
-        bs.prepare(root)
-        plant = bs.scene.plant
-        n = int(round(seconds * cam.rate_hz))
-        vis = np.zeros(len(bs.parts))
-        pe = [[] for _ in bs.parts]
-        ae = [[] for _ in bs.parts]
-        t0 = time.perf_counter()
-        for k in range(n):
-            # just after the frame at k / rate: the plant is where the images showed it
-            sim.AdvanceTo(k / cam.rate_hz + 1e-6)
-            obs = bs.diagram.GetOutputPort("observations").Eval(root)
-            _score(obs, plant, plant.GetMyContextFromRoot(root), bs.scene.robot, vis, pe, ae)
+        kw = dict(VARIANTS[r])
+        noisy[r] = bool(kw.pop("noisy", False))
+        sensors[r] = CameraMarkerSensor(marker_ids=main_sensor.marker_ids,
+                                        aruco_ids=main_sensor.aruco_ids,
+                                        cameras=main_sensor.cameras,
+                                        config=dataclasses.replace(base, **kw))
+        tracks[r] = None
+    n = int(round(seconds * base.rate_hz))
+    m = len(bs.parts)
+    vis = {r: np.zeros(m) for r in variants}
+    pe = {r: [[] for _ in range(m)] for r in variants}
+    ae = {r: [[] for _ in range(m)] for r in variants}
+    t0 = time.perf_counter()
+    t_render = t_detect = 0.0
+    for k in range(n):
+        # just after the frame at k / rate: the plant is where the images showed it
+        sim.AdvanceTo(k / base.rate_hz + 1e-6)
+        t = k / base.rate_hz
+        ta = time.perf_counter()
+        colors, depths = [], []
+        for c in rgbd:
+            cc = c.GetMyContextFromRoot(root)
+            colors.append(np.array(c.color_image_output_port().Eval(cc).data))
+            depths.append(np.array(c.depth_image_32F_output_port().Eval(cc).data)[..., 0])
+        tb = time.perf_counter()
+        dets = [main_sensor.detect(img, i) for i, img in enumerate(colors)]
+        t_render += tb - ta
+        t_detect += time.perf_counter() - tb
+        noisy_depths = None
+        if any(noisy.values()):
+            noisy_depths = [apply_depth_noise(d, intr[i], dataclasses.replace(
+                noise_cfg, seed=noise_cfg.seed + i), frame=k) for i, d in enumerate(depths)]
+        pc = plant.GetMyContextFromRoot(root)
+        for r in variants:
+            obs, tracks[r] = sensors[r].observe_images(
+                t, colors, noisy_depths if noisy[r] else depths, tracks[r], detections=dets)
+            _score(obs, plant, pc, bs.scene.robot, vis[r], pe[r], ae[r])
+    print(f"{n} frames, {time.perf_counter() - t0:.0f} s (render {t_render:.0f} s, "
+          f"detect {t_detect:.0f} s)")
+    print("         rule  part  visible  pos_med_m  ang_med_deg  flips(>20deg)")
+    for r in variants:
         for i, p in enumerate(bs.parts):
-            e, a = np.array(pe[i]), np.array(ae[i])
+            e, a = np.array(pe[r][i]), np.array(ae[r][i])
             if len(e):
-                print(f"{r:>7}  {p:>4}  {vis[i] / n:7.2f}  {np.median(e):9.4f}  "
+                print(f"{r:>13}  {p:>4}  {vis[r][i] / n:7.2f}  {np.median(e):9.4f}  "
                       f"{np.median(a):11.2f}  {np.mean(a > 20):13.3f}")
             else:
-                print(f"{r:>7}  {p:>4}  {0:7.2f}  never seen")
-        a = np.concatenate([np.array(x) for x in ae])
+                print(f"{r:>13}  {p:>4}  {0:7.2f}  never seen")
+        a = np.concatenate([np.array(x) for x in ae[r]])
         if not len(a):
-            print(f"{r:>7}   all  no reports")
+            print(f"{r:>13}   all  no reports")
             continue
-        print(f"{r:>7}   all  {vis.sum() / (n * len(bs.parts)):7.2f}  "
-              f"{np.median(np.concatenate([np.array(x) for x in pe])):9.4f}  "
+        print(f"{r:>13}   all  {vis[r].sum() / (n * m):7.2f}  "
+              f"{np.median(np.concatenate([np.array(x) for x in pe[r]])):9.4f}  "
               f"{np.median(a):11.2f}  {np.mean(a > 20):13.3f}   "
-              f"({len(a)} reports, {time.perf_counter() - t0:.0f} s)")
+              f"({int((a > 20).sum())} of {len(a)} reports off by > 20 deg)")
 
 
 def main(argv=None):
@@ -272,11 +363,17 @@ def main(argv=None):
     ap.add_argument("--poses", type=int, default=25, help="arm poses (--arm)")
     ap.add_argument("--babble", type=float, default=None, metavar="SECONDS",
                     help="only the per-frame errors and mirror flips while --arm (default "
-                         "2dof) babbles this long, for each --min-ratio")
-    ap.add_argument("--rules", default="none,ratio,depth",
-                    help="ambiguity rules for --babble: none (always the better IPPE "
-                         "solution, the sensor before the fix), ratio (reprojection ratio + "
-                         "last report), depth (the default: depth plane first)")
+                         "2dof) babbles this long, for each of --rules")
+    ap.add_argument("--rules", default=",".join(VARIANTS),
+                    help="ambiguity rules for --babble (all on the same renders): none "
+                         "(always the better IPPE solution, the sensor before the fix), "
+                         "ratio (reprojection ratio + last report), normal (the first depth "
+                         "rule: fitted normal, 15 deg gate), depth (the default: each "
+                         "solution's plane against the depth pixels), normal-noisy and "
+                         "depth-noisy (the same on a structured-light camera's depth)")
+    ap.add_argument("--depth", default="exact",
+                    help="comma-separated depth modes for the noise table (same renders): "
+                         "exact (rendered), noisy (structured-light noise model), none")
     ap.add_argument("--plot", default=None, help="save a plot of the table (PNG)")
     a = ap.parse_args(argv)
     if a.calibrate:
@@ -292,8 +389,12 @@ def main(argv=None):
     if a.arm:
         arm_errors(a.arm, a.poses, a.seed, a.width)
         return 0
+    depths = a.depth.split(",")
+    bad = [d for d in depths if d not in DEPTHS]
+    if bad:
+        ap.error(f"--depth: unknown {bad}; choose from {sorted(DEPTHS)}")
     rows = noise_table(a.width, [float(x) for x in a.distances.split(",")],
-                       [float(x) for x in a.angles.split(",")], a.n, a.seed)
+                       [float(x) for x in a.angles.split(",")], a.n, a.seed, depths)
     if a.plot:
         import matplotlib
 
@@ -302,7 +403,7 @@ def main(argv=None):
 
         fig, ax = plt.subplots(1, 3, figsize=(13, 3.8))
         for ang in sorted({r["angle"] for r in rows}):
-            rr = [r for r in rows if r["angle"] == ang]
+            rr = [r for r in rows if r["angle"] == ang and r["depth"] == depths[0]]
             d = [r["dist"] for r in rr]
             ax[0].plot(d, [r["rate"] for r in rr], "o-", label=f"{ang:.0f} deg")
             ax[1].plot(d, [r["pos_med"] for r in rr], "o-", label=f"{ang:.0f} deg")

@@ -14,6 +14,8 @@ finalized::
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from pydrake.geometry import (ClippingRange, ColorRenderCamera, DepthRange, DepthRenderCamera,
@@ -23,9 +25,11 @@ from pydrake.geometry import (ClippingRange, ColorRenderCamera, DepthRange, Dept
 from pydrake.math import RigidTransform
 from pydrake.systems.sensors import CameraInfo, RgbdSensor
 
+from mmlearn.models.fronts import PinholeIntrinsics
 from mmlearn.sdf.aruco import marker_texture, quad_mesh
 from mmlearn.systems.camera_marker_sensor import (CameraMarkerSensor,
                                                   CameraMarkerSensorConfig, CameraView)
+from mmlearn.systems.depth_noise import DepthNoise
 
 __all__ = ["AddArucoMarkers", "AddMarkerCameras", "AddCameraMarkerSensor", "MarkerRig",
            "camera_views", "marker_bodies", "RENDERER"]
@@ -50,7 +54,7 @@ def marker_bodies(plant, model_instance, bodies=()) -> list[str]:
 
 
 def AddArucoMarkers(plant, *, config: CameraMarkerSensorConfig, model_instance,
-                    bodies=None) -> dict[str, int]:
+                    bodies=None, mounts: dict | None = None) -> dict[str, int]:
     """Put an ArUco-textured square on the marker frame of every observed body of
     ``model_instance`` (``bodies``, default ``config.bodies``, empty = all with a
     ``<body>_marker`` frame). Call before ``plant.Finalize()``.
@@ -59,7 +63,10 @@ def AddArucoMarkers(plant, *, config: CameraMarkerSensorConfig, model_instance,
     frame's xy plane, ``config.aruco.surface_offset`` m above it and turned by
     ``config.aruco.in_plane_angle_deg`` about its normal; its perception properties
     carry the texture (Meshcat shows it as a plain white square: illustration ignores
-    ``diffuse_map``). Marker k gets ArUco id ``config.aruco.first_id + k``.
+    ``diffuse_map``). Marker k gets ArUco id ``config.aruco.first_id + k``. ``mounts``
+    ({body: X_MS}, optional) puts a body's square at pose X_MS in its marker frame M
+    instead of on M (where the part's geometry would hide part of a square on M); the
+    sensor then reports the square's frame S, and the caller maps it back with X_MS.
 
     Returns:
         {body name: ArUco id}, in the order of the bodies.
@@ -76,6 +83,8 @@ def AddArucoMarkers(plant, *, config: CameraMarkerSensorConfig, model_instance,
     for name, aid in zip(names, ids):
         frame = plant.GetFrameByName(name + "_marker", model_instance)
         X_BM = frame.GetFixedPoseInBodyFrame()
+        if mounts and name in mounts:
+            X_BM = X_BM @ mounts[name]
         gi = GeometryInstance(X_BM @ X_MQ, mesh, f"{name}_aruco_{aid}")
         illus = IllustrationProperties()
         illus.AddProperty("phong", "diffuse", Rgba(1.0, 1.0, 1.0, 1.0))
@@ -132,7 +141,8 @@ def AddCameraMarkerSensor(builder, scene_graph, *, markers: dict[str, int],
                           name: str = "marker_sensor"):
     """Add the cameras of ``config`` and a :class:`CameraMarkerSensor` reading the markers
     ``markers`` ({body: ArUco id}, from :func:`AddArucoMarkers`), with every camera's colour
-    image (and with ``config.use_depth`` its depth image) connected. Returns
+    image (and with ``config.use_depth`` its depth image, through a ``DepthNoise`` system
+    named ``<name>_depth_noise_<i>`` when ``config.depth_noise`` is set) connected. Returns
     ``(sensor, rgbd_sensors)``."""
     rgbd = AddMarkerCameras(builder, scene_graph, config=config)
     sensor = builder.AddNamedSystem(name, CameraMarkerSensor(
@@ -141,8 +151,17 @@ def AddCameraMarkerSensor(builder, scene_graph, *, markers: dict[str, int],
     for i, s in enumerate(rgbd):
         builder.Connect(s.color_image_output_port(), sensor.get_color_image_input_port(i))
         if config.use_depth:
-            builder.Connect(s.depth_image_32F_output_port(),
-                            sensor.get_depth_image_input_port(i))
+            depth_port = s.depth_image_32F_output_port()
+            if config.depth_noise is not None:
+                noise = builder.AddNamedSystem(f"{name}_depth_noise_{i}", DepthNoise(
+                    intrinsics=PinholeIntrinsics.from_camera_info(
+                        s.default_depth_render_camera().core().intrinsics()),
+                    config=dataclasses.replace(config.depth_noise,
+                                               seed=int(config.depth_noise.seed) + i),
+                    rate_hz=config.rate_hz))
+                builder.Connect(depth_port, noise.get_clean_depth_input_port())
+                depth_port = noise.get_depth_image_output_port()
+            builder.Connect(depth_port, sensor.get_depth_image_input_port(i))
     return sensor, rgbd
 
 

@@ -204,11 +204,13 @@ SCENARIOS = {"two_drawer_cabinet": cabinet_scenario,
 
 # ------------------------------------------------------------------ camera observations
 def auto_cameras(poses_true, *, fov_y_deg: float = 55.0, aspect: float = 4 / 3,
-                 min_distance: float = 1.0, fill: float = 0.7):
+                 min_distance: float = 1.0, fill: float = 0.7, elevation_deg: float = 0.0):
     """One camera that sees every marker of a track: on the side the markers face on
     average (the mean of their normals over the track; straight above when they cancel),
-    far enough that the markers' spread fills at most ``fill`` of the smaller half field of
-    view, at least ``min_distance`` m; looking at the markers' centroid.
+    raised by ``elevation_deg`` degrees above that direction (at most 80 deg above the
+    horizon; e.g. to look over a drawer front onto a marker just above it), far enough
+    that the markers' spread fills at most ``fill`` of the smaller half field of view, at
+    least ``min_distance`` m; looking at the markers' centroid.
 
     Args:
         poses_true: (p, T, 7) true marker poses of the track.
@@ -225,6 +227,11 @@ def auto_cameras(poses_true, *, fov_y_deg: float = 55.0, aspect: float = 4 / 3,
     if np.linalg.norm(n) < 0.2:
         n = np.array([0.0, 0.0, 1.0])
     n /= np.linalg.norm(n)
+    if elevation_deg and np.linalg.norm(n[:2]) > 1e-6:
+        el = min(math.asin(float(np.clip(n[2], -1, 1))) + math.radians(elevation_deg),
+                 math.radians(80.0))
+        h = n[:2] / np.linalg.norm(n[:2])
+        n = np.array([h[0] * math.cos(el), h[1] * math.cos(el), math.sin(el)])
     # nudge a vertical view off the world's up axis (CameraConfig keeps +z up in the image)
     if abs(n[2]) > 0.98:
         n = np.array([0.15, 0.0, 1.0]) / np.linalg.norm([0.15, 0.0, 1.0])
@@ -236,11 +243,40 @@ def auto_cameras(poses_true, *, fov_y_deg: float = 55.0, aspect: float = 4 / 3,
                          max_range=dist + radius + 1.0)]
 
 
+def _cabinet_edge_mount():
+    """The two-drawer cabinet's ArUco square on a 45-degree holder on the cabinet's top
+    front edge (centre 0.04 m behind the front, 0.03 m above the top, normal halfway between
+    forwards and up), as a pose in the cabinet's marker frame (on the front face, normal +x,
+    0.03 m below the top). A square on the marker frame itself is cut by the upper drawer's
+    front, which juts 2 cm out just below it (a closed upper drawer hid the square's lower
+    corner and the camera never read it); one flat on the top face is seen too obliquely
+    (> 70 deg) from a camera that sees the drawers' fronts."""
+    from pydrake.math import RigidTransform, RotationMatrix
+
+    # marker frame axes in the world: x = -z_W, y = y_W, z = x_W; the holder's centre
+    # (-0.04, 0.2, 0.53) is (-0.06, 0, -0.041) from the marker's origin (0.001, 0.2, 0.47)
+    return RigidTransform(RotationMatrix.MakeYRotation(-math.pi / 4), [-0.06, 0.0, -0.041])
+
+
+#: Where the camera's ArUco squares go when a part's marker frame is a bad place for a
+#: printed square ({object: {part: callable returning X_MS}}, see ``AddArucoMarkers``).
+CAMERA_MARKER_MOUNTS = {"two_drawer_cabinet": {"cabinet": _cabinet_edge_mount}}
+#: Printed marker size and quiet zone (m) per object whose automatic camera stands far
+#: away: the table's, car's and garage's markers spread over 2-3 m, so the camera is
+#: 4-6 m away, where the 0.04 m squares are 9-14 px wide and were not read (or 36 mm off).
+CAMERA_MARKER_SIZE = {"table": (0.25, 0.03), "car_door": (0.12, 0.02),
+                      "garage_door": (0.12, 0.02)}
+#: Degrees the automatic camera is raised above the markers' mean normal per object (the
+#: cabinet's square on its 45-degree holder and the drawers' fronts both in view).
+CAMERA_ELEVATION_DEG = {"two_drawer_cabinet": 30.0}
+
+
 class ObjectCamera:
     """An object's marker squares with ArUco textures, rendered by RGB cameras and read by a
     :class:`~mmlearn.systems.camera_marker_sensor.CameraMarkerSensor`; ``observe(q)``
     returns the camera's (p, T, 7) poses of the parts' markers (NaN rows where a marker was
-    not detected)."""
+    not detected). A part listed in :data:`CAMERA_MARKER_MOUNTS` carries its square
+    elsewhere on the part; its reports are mapped back to its marker frame."""
 
     def __init__(self, name: str, config):
         from pydrake.multibody.plant import AddMultibodyPlantSceneGraph
@@ -253,8 +289,11 @@ class ObjectCamera:
         plant, sg = AddMultibodyPlantSceneGraph(builder, time_step=1e-3)
         self.instance, _ = add_object(plant, name)
         self.parts = object_parts(name)
+        mounts = {p: f() for p, f in CAMERA_MARKER_MOUNTS.get(name, {}).items()}
         markers = AddArucoMarkers(plant, config=config, model_instance=self.instance,
-                                  bodies=self.parts)
+                                  bodies=self.parts, mounts=mounts)
+        # X_SM per part (identity for the squares on their marker frames)
+        self._X_SM = [mounts[p].inverse() if p in mounts else None for p in self.parts]
         plant.Finalize()
         self.sensor, self.rgbd = AddCameraMarkerSensor(builder, sg, markers=markers,
                                                        config=config)
@@ -274,19 +313,38 @@ class ObjectCamera:
             # consecutive rows are consecutive sensor frames (ambiguous detections are
             # resolved against the previous reports)
             self.context.SetTime(t * dt)
-            out[:, t] = self.sensor.observe_and_remember(sc).as_array()
+            obs = self.sensor.observe_and_remember(sc)
+            for k in range(len(self.parts)):
+                if not obs.visible[k]:
+                    continue
+                X = obs.poses[k] if self._X_SM[k] is None else obs.poses[k] @ self._X_SM[k]
+                out[k, t, :3] = X.translation()
+                out[k, t, 3:] = Rotation.from_matrix(X.rotation().matrix()).as_quat()
         return out
+
+
+def default_camera_config(track: ObjectTrack):
+    """The camera marker sensor :func:`camera_track` uses by default for ``track``: 1920 x
+    1440 images, one camera placed by :func:`auto_cameras` (raised by
+    :data:`CAMERA_ELEVATION_DEG`), markers of :data:`CAMERA_MARKER_SIZE` (default 0.04 m)."""
+    from mmlearn.sdf.aruco import ArucoSpec
+    from mmlearn.systems.camera_marker_sensor import CameraMarkerSensorConfig
+
+    kw = {}
+    if track.name in CAMERA_MARKER_SIZE:
+        size, margin = CAMERA_MARKER_SIZE[track.name]
+        kw["aruco"] = ArucoSpec(marker_size=size, margin=margin)
+    return CameraMarkerSensorConfig(cameras=auto_cameras(
+        track.poses_true, elevation_deg=CAMERA_ELEVATION_DEG.get(track.name, 0.0)), **kw)
 
 
 def camera_track(track: ObjectTrack, config=None, *, progress=None) -> ObjectTrack:
     """The same motion observed by the camera marker sensor instead of the Gaussian noise
     model: ``poses`` are the ArUco detections in rendered images (NaN where a marker was not
     detected), ``poses_true`` and ``q`` unchanged. ``config``: a CameraMarkerSensorConfig
-    (default: 1920 x 1440 images, one camera placed by :func:`auto_cameras`)."""
-    from mmlearn.systems.camera_marker_sensor import CameraMarkerSensorConfig
-
+    (default: :func:`default_camera_config`)."""
     if config is None:
-        config = CameraMarkerSensorConfig(cameras=auto_cameras(track.poses_true))
+        config = default_camera_config(track)
     cam = ObjectCamera(track.name, config)
     poses = cam.observe(track.q, progress=progress)
     return ObjectTrack(track.name, list(track.parts), list(track.joints), poses,

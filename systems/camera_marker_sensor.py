@@ -13,9 +13,11 @@ choice is used (from the camera in which the marker looks largest), and a marker
 cameras disagree by more than ``max_disagreement_deg`` is not reported. A small square seen
 from 2 m is nearly always ambiguous, and its better solution is the mirror tilt (tens of
 degrees off) in about a tenth of the detections: with ``use_depth`` (default) the camera's
-depth image decides, a plane fitted to the depth pixels inside the square giving the
-marker's normal. Without depth, a marker seen by one camera only is reported as detected
-when its mirror solution reprojects clearly worse (``min_unambiguous_ratio``); an ambiguous
+depth image decides, by how well each solution's plane predicts the depth pixels inside the
+square (noise-aware, so that a structured-light camera's noisy depth, ``depth_noise``,
+works too). Without depth, or when the depth cannot tell, a marker seen by one camera only
+is reported as detected when its mirror solution reprojects clearly worse
+(``min_unambiguous_ratio``); an ambiguous
 one takes the solution nearer to its last report (``track_max_age_s``,
 ``track_max_angle_deg``; the reports live in the Context's discrete state) or is not
 reported.
@@ -40,8 +42,10 @@ from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.systems.framework import EventStatus, LeafSystem
 from pydrake.systems.sensors import ImageDepth32F, ImageRgba8U
 
+from mmlearn.models.depth_noise import DepthNoiseConfig
 from mmlearn.models.marker_detection import (DetectorConfig, MarkerDetections,
-                                             detect_marker_poses, make_detector)
+                                             detect_marker_poses, make_detector,
+                                             mirror_test_from_depth)
 from mmlearn.sdf.aruco import ArucoSpec
 
 from .marker_sensor import CameraConfig
@@ -96,15 +100,42 @@ class CameraMarkerSensorConfig:
             of the two pose solutions (the square's mirror ambiguity) per camera agree in
             orientation within this angle, degrees; the agreeing solution is used.
         use_depth: resolve the mirror ambiguity with the cameras' depth images (the
-            RgbdSensors render them anyway): a plane fitted to the depth pixels inside the
-            detected square gives the marker's normal, and of IPPE_SQUARE's two solutions
-            the one whose normal is within ``depth_max_angle_deg`` of it (and nearer) is
-            kept; a detection neither solution of which matches is dropped. Without a depth
-            image (or False) the rules below decide. Measured on the 2-DOF arm's
-            babbling frames (``--babble``): almost every detection of the 0.04 m markers 2 m
-            away is ambiguous by reprojection (the mirror solution reprojects within
-            0.3 px in 97 % of them), and the mirror one won in 8-13 % of the reports.
+            RgbdSensors render them anyway). ``depth_test`` "residual" (default): each of
+            IPPE_SQUARE's two solutions predicts the depth of the pixels inside the detected
+            square (its plane, distance left free); the one whose prediction fits clearly
+            better (log-likelihood ratio >= ``depth_min_log_ratio`` under the depth noise
+            estimated from the pixels themselves) is kept; when the depth cannot tell, the
+            rules below decide; a detection whose better solution is both more than
+            ``depth_max_angle_deg`` off the plane fitted to the pixels and inconsistent
+            with them (robust chi-square above the fitted plane's by more than
+            ``depth_max_excess_chi2``) is dropped
+            (:func:`mmlearn.models.marker_detection.mirror_test_from_depth`). "normal" (the
+            first version): the normal of a plane fitted to the pixels picks the solution
+            within ``depth_max_angle_deg`` of it, else the detection is dropped; right on
+            Drake's exact depth, but with a structured-light camera's noise (``depth_noise``)
+            the fitted normal of a 0.04 m marker 2 m away leans 14-22 deg towards the
+            line of sight (the noise lies along it), and on the 2-DOF arm's babbling frames
+            the gate let through 58 reports where the residual test made 160 (both 0 off by
+            > 20 deg; ``--babble 6 --seed 3``). Without a depth image (or False) the
+            rules below decide. Measured on the 2-DOF arm's babbling frames
+            (``benchmarks/bench_camera_marker_sensor.py --babble``): almost every detection
+            of the 0.04 m markers 2 m away is ambiguous by reprojection (the mirror solution
+            reprojects within 0.3 px in 97 % of them), and the mirror one won in 8-13 % of
+            the reports.
+        depth_test: "residual" or "normal", see ``use_depth``.
         depth_max_angle_deg: see ``use_depth``, degrees.
+        depth_min_log_ratio: see ``use_depth`` (natural log; 3 = the better solution
+            explains the depth pixels e^3 ~ 20 times more likely).
+        depth_max_excess_chi2: see ``use_depth`` (13.8 = the 0.999 quantile of a
+            chi-square with the free plane's 2 extra parameters).
+        depth_sigma_floor_m: the smallest depth noise the residual test assumes, m
+            (rendered depth is exact; a PnP tilt error of ~1 deg changes the depth inside a
+            0.04 m square by ~0.2 mm).
+        depth_noise: when set, the depth images go through a
+            :class:`~mmlearn.systems.depth_noise.DepthNoise` (a structured-light camera's
+            noise, quantisation and missing pixels, :mod:`mmlearn.models.depth_noise`)
+            before the sensor sees them; camera ``i`` draws with seed
+            ``depth_noise.seed + i``. None (default): Drake's exact rendered depth.
         min_unambiguous_ratio: a marker seen by one camera only is taken at face value
             when the reprojection error of IPPE_SQUARE's worse (mirror) solution is at least
             this many times the better one's, or the two solutions differ by less than
@@ -140,7 +171,12 @@ class CameraMarkerSensorConfig:
     principal_point_shift_px: list[float] = field(default_factory=lambda: [-0.5, -0.5])
     max_disagreement_deg: float = 10.0
     use_depth: bool = True
+    depth_test: str = "residual"
     depth_max_angle_deg: float = 15.0
+    depth_min_log_ratio: float = 3.0
+    depth_max_excess_chi2: float = 13.8
+    depth_sigma_floor_m: float = 2e-4
+    depth_noise: DepthNoiseConfig | None = None
     min_unambiguous_ratio: float = 2.5
     track_max_age_s: float = 0.25
     track_max_angle_deg: float = 20.0
@@ -177,6 +213,20 @@ class CameraMarkerSensorConfig:
                 and 0 < self.depth_max_angle_deg <= 90):
             raise ValueError("CameraMarkerSensorConfig: depth_max_angle_deg must be in "
                              f"(0, 90] degrees, got {self.depth_max_angle_deg!r}")
+        if self.depth_test not in ("residual", "normal"):
+            raise ValueError("CameraMarkerSensorConfig: depth_test must be 'residual' or "
+                             f"'normal', got {self.depth_test!r}")
+        for k in ("depth_min_log_ratio", "depth_max_excess_chi2", "depth_sigma_floor_m"):
+            v = getattr(self, k)
+            if isinstance(v, bool) or not (isinstance(v, (int, float)) and math.isfinite(v)
+                                           and v >= 0):
+                raise ValueError(f"CameraMarkerSensorConfig: {k} must be a finite number "
+                                 f">= 0, got {v!r}")
+        if self.depth_noise is not None:
+            if not isinstance(self.depth_noise, DepthNoiseConfig):
+                raise ValueError("CameraMarkerSensorConfig: depth_noise must be a "
+                                 f"DepthNoiseConfig or None, got {self.depth_noise!r}")
+            self.depth_noise.validate()
         if not (isinstance(self.min_unambiguous_ratio, (int, float))
                 and math.isfinite(self.min_unambiguous_ratio)
                 and self.min_unambiguous_ratio >= 1):
@@ -371,37 +421,78 @@ class CameraMarkerSensor(LeafSystem):
     def _observe(self, context):
         """(observations, new per-marker track rows (m, 13)) of the current images."""
         m = len(self._names)
-        t = context.get_time()
         track = np.array(context.get_discrete_state(self._track_index).get_value(),
                          float).reshape(m, 13)
+        images, depths = [], []
+        for i, port in enumerate(self._images):
+            img = None
+            try:
+                if port.HasValue(context):
+                    img = port.Eval(context).data
+            except (RuntimeError, TypeError, ValueError):
+                img = None
+            images.append(img)
+            depth = None
+            if self._depths:
+                try:
+                    if self._depths[i].HasValue(context):
+                        depth = self._depths[i].Eval(context).data
+                except (RuntimeError, TypeError, ValueError):
+                    depth = None
+            depths.append(depth)
+        return self.observe_images(context.get_time(), images, depths, track)
+
+    def observe_images(self, t: float, images: list, depths: list | None = None,
+                       track: np.ndarray | None = None, *, detections: list | None = None):
+        """The frame's observations from images given as arrays (what :meth:`observe` does
+        with the input ports' images; for benchmarks that compare settings on the same
+        renders). Returns ``(observations, track)``.
+
+        Args:
+            t: the frame's time, s.
+            images: per camera an (H, W, 3|4) uint8 image or None (no image).
+            depths: per camera an (H, W) or (H, W, 1) depth image, m, or None (no depth;
+                ignored unless ``config.use_depth``).
+            track: (m, 13) the markers' last reports (see the class docstring; None = none).
+            detections: per camera the :class:`MarkerDetections` of ``images`` when already
+                computed (then ``images`` is not searched again).
+        """
+        m = len(self._names)
+        if track is None:
+            track = np.zeros((m, 13))
+            track[:, 0] = np.nan
+        track = np.array(track, float).reshape(m, 13)
         # per marker: (image side px, ambiguity ratio, [X_WM, X_WM mirror])
         cands = [[] for _ in range(m)]
-        for i, port in enumerate(self._images):
+        for i, cam in enumerate(self._cams):
             try:
-                if not port.HasValue(context):
+                if detections is not None and detections[i] is not None:
+                    det = detections[i]
+                elif i < len(images) and images[i] is not None:
+                    det = self.detect(images[i], i)
+                else:
                     continue
-                det = self.detect(port.Eval(context).data, i)
             except (ValueError, RuntimeError, TypeError, cv2.error):
                 continue  # a bad image: no detections from this camera in this frame
             depth = None
-            if self._depths and self._depths[i].HasValue(context):
+            if self._cfg.use_depth and depths is not None and i < len(depths) \
+                    and depths[i] is not None:
                 try:
-                    depth = np.asarray(self._depths[i].Eval(context).data, float)
-                    depth = depth.reshape(depth.shape[0], depth.shape[1])
-                except (RuntimeError, TypeError, ValueError):
+                    depth = np.asarray(depths[i], float)
+                    if depth.ndim == 3 and depth.shape[2] == 1:
+                        depth = depth[..., 0]
+                    if depth.shape != (cam.height, cam.width):
+                        depth = None
+                except (TypeError, ValueError):
                     depth = None
-            X_WC = self._cams[i].X_WC
+            X_WC = cam.X_WC
             for a, T, T2, side, amb, corners in zip(det.ids, det.T_CM, det.T_CM_other,
                                                     det.side_px, det.ambiguity, det.corners):
-                if depth is not None and depth.shape == (self._cams[i].height,
-                                                         self._cams[i].width):
-                    n = marker_normal_from_depth(depth, corners, self._cams[i].K)
-                    if n is not None:
-                        e = [math.degrees(math.acos(float(np.clip(n @ S[:3, 2], -1, 1))))
-                             for S in (T, T2)]
-                        j = int(np.argmin(e))
-                        if e[j] > self._cfg.depth_max_angle_deg:
-                            continue  # neither solution lies in the seen plane
+                if depth is not None:
+                    j = self._depth_choice(depth, corners, cam.K, T, T2)
+                    if j == -1:
+                        continue  # neither solution lies in the seen plane
+                    if j is not None:
                         T, T2, amb = (T, T, np.inf) if j == 0 else (T2, T2, np.inf)
                 sols = [X_WC @ RigidTransform(RotationMatrix(_orthonormal(S[:3, :3])),
                                               S[:3, 3]) @ self._X_QM for S in (T, T2)]
@@ -421,6 +512,26 @@ class CameraMarkerSensor(LeafSystem):
         obs = MarkerObservations(time=t, marker_ids=list(self._names), poses=poses,
                                  visible=visible, outlier=np.zeros(m, bool))
         return obs, track
+
+    def _depth_choice(self, depth, corners, K, T, T2):
+        """0 / 1: the solution the depth image decides for, -1: neither lies in the seen
+        plane (drop the detection), None: the depth cannot tell (too few pixels, or the
+        two solutions predict the depth about equally well)."""
+        cfg = self._cfg
+        if cfg.depth_test == "normal":
+            n = marker_normal_from_depth(depth, corners, K)
+            if n is None:
+                return None
+            e = [math.degrees(math.acos(float(np.clip(n @ S[:3, 2], -1, 1)))) for S in (T, T2)]
+            j = int(np.argmin(e))
+            return -1 if e[j] > cfg.depth_max_angle_deg else j
+        test = mirror_test_from_depth(depth, corners, K, T, T2,
+                                      sigma_floor_m=cfg.depth_sigma_floor_m)
+        if test is None:
+            return None
+        return test.choice(min_log_ratio=cfg.depth_min_log_ratio,
+                           max_angle_deg=cfg.depth_max_angle_deg,
+                           max_excess_chi2=cfg.depth_max_excess_chi2)
 
     def _fuse(self, cands, last_R=None):
         """One pose from the detections of a marker in several cameras (None = not seen).
