@@ -377,6 +377,41 @@ class DepthMirrorTest:
         return j
 
 
+def quad_depth_pixels(depth, corners, *, shrink: float = 0.7, min_points: int = 30):
+    """The valid depth pixels inside a detected marker: ``(u, v, z)`` (column, row, depth in
+    m) of the pixels inside the marker's quad shrunk towards its centre by ``shrink``, or
+    None when fewer than ``min_points`` have a measurement (NaN, inf or <= 0 = none) or the
+    corners are not finite. ``depth``: (H, W) or (H, W, 1) image, m; ``corners``: (4, 2)
+    pixels."""
+    import cv2
+
+    depth = np.asarray(depth)
+    if depth.ndim == 3 and depth.shape[2] == 1:
+        depth = depth[..., 0]
+    if depth.ndim != 2:
+        raise ValueError(f"depth must be (H, W), got shape {depth.shape}")
+    c = np.asarray(corners, float).reshape(4, 2)
+    if not np.all(np.isfinite(c)):
+        return None
+    centre = c.mean(axis=0)
+    q = centre + shrink * (c - centre)
+    h, w = depth.shape
+    x0, y0 = np.floor(q.min(axis=0)).astype(int)
+    x1, y1 = np.ceil(q.max(axis=0)).astype(int)
+    x0, y0, x1, y1 = max(x0, 0), max(y0, 0), min(x1, w - 1), min(y1, h - 1)
+    if x1 <= x0 or y1 <= y0:
+        return None
+    mask = np.zeros((y1 - y0 + 1, x1 - x0 + 1), np.uint8)
+    cv2.fillConvexPoly(mask, np.round(q - [x0, y0]).astype(np.int32), 1)
+    v, u = np.nonzero(mask)
+    u, v = u + x0, v + y0
+    z = np.asarray(depth[v, u], float)
+    ok = np.isfinite(z) & (z > 0)
+    if ok.sum() < min_points:
+        return None
+    return u[ok], v[ok], z[ok]
+
+
 def mirror_test_from_depth(depth, corners, K, T_a, T_b, *, shrink: float = 0.7,
                            min_points: int = 30, sigma_floor_m: float = 2e-4,
                            clip_sigmas: float = 3.0) -> "DepthMirrorTest | None":
@@ -411,36 +446,14 @@ def mirror_test_from_depth(depth, corners, K, T_a, T_b, *, shrink: float = 0.7,
             square by ~0.2 mm).
         clip_sigmas: residuals are clipped at this many sigma (robust chi-square).
     """
-    import cv2
 
-    depth = np.asarray(depth)
-    if depth.ndim == 3 and depth.shape[2] == 1:
-        depth = depth[..., 0]
-    if depth.ndim != 2:
-        raise ValueError(f"depth must be (H, W), got shape {depth.shape}")
-    c = np.asarray(corners, float).reshape(4, 2)
-    if not np.all(np.isfinite(c)):
-        return None
     K = np.asarray(K, float)
-    centre = c.mean(axis=0)
-    q = centre + shrink * (c - centre)
-    h, w = depth.shape
-    x0, y0 = np.floor(q.min(axis=0)).astype(int)
-    x1, y1 = np.ceil(q.max(axis=0)).astype(int)
-    x0, y0, x1, y1 = max(x0, 0), max(y0, 0), min(x1, w - 1), min(y1, h - 1)
-    if x1 <= x0 or y1 <= y0:
+    pix = quad_depth_pixels(depth, corners, shrink=shrink, min_points=min_points)
+    if pix is None:
         return None
-    mask = np.zeros((y1 - y0 + 1, x1 - x0 + 1), np.uint8)
-    cv2.fillConvexPoly(mask, np.round(q - [x0, y0]).astype(np.int32), 1)
-    v, u = np.nonzero(mask)
-    u, v = u + x0, v + y0
-    z = np.asarray(depth[v, u], float)
-    ok = np.isfinite(z) & (z > 0)
-    if ok.sum() < min_points:
-        return None
-    x = (u[ok] - K[0, 2]) / K[0, 0]
-    y = (v[ok] - K[1, 2]) / K[1, 1]
-    z = z[ok]
+    u, v, z = pix
+    x = (u - K[0, 2]) / K[0, 0]
+    y = (v - K[1, 2]) / K[1, 1]
     wv = 1.0 / z
     A = np.column_stack([x, y, np.ones_like(x)])
     z_med = float(np.median(z))

@@ -43,9 +43,10 @@ from pydrake.systems.framework import EventStatus, LeafSystem
 from pydrake.systems.sensors import ImageDepth32F, ImageRgba8U
 
 from mmlearn.models.depth_noise import DepthNoiseConfig
-from mmlearn.models.marker_detection import (DetectorConfig, MarkerDetections,
+from mmlearn.models.marker_detection import (DetectorConfig, MarkerDetections, quad_depth_pixels,
                                              detect_marker_poses, make_detector,
                                              mirror_test_from_depth)
+from mmlearn.models.se3 import project_to_so3
 from mmlearn.sdf.aruco import ArucoSpec
 
 from .marker_sensor import CameraConfig
@@ -494,7 +495,7 @@ class CameraMarkerSensor(LeafSystem):
                         continue  # neither solution lies in the seen plane
                     if j is not None:
                         T, T2, amb = (T, T, np.inf) if j == 0 else (T2, T2, np.inf)
-                sols = [X_WC @ RigidTransform(RotationMatrix(_orthonormal(S[:3, :3])),
+                sols = [X_WC @ RigidTransform(RotationMatrix(project_to_so3(S[:3, :3])),
                                               S[:3, 3]) @ self._X_QM for S in (T, T2)]
                 cands[self._slot[int(a)]].append((float(side), float(amb), sols))
         poses = [RigidTransform() for _ in range(m)]
@@ -502,7 +503,7 @@ class CameraMarkerSensor(LeafSystem):
         for k, c in enumerate(cands):
             last = None
             if (np.isfinite(track[k, 0]) and 0 <= t - track[k, 0] <= self._cfg.track_max_age_s):
-                last = _orthonormal(track[k, 1:10].reshape(3, 3))
+                last = project_to_so3(track[k, 1:10].reshape(3, 3))
             X = self._fuse(c, last)
             if X is not None:
                 poses[k], visible[k] = X, True
@@ -597,26 +598,10 @@ def marker_normal_from_depth(depth, corners, K, *, shrink: float = 0.7,
             pixels off the marker's border, where depth edges and the carrier begin).
         min_points: fewest valid depth pixels for a fit.
     """
-    import cv2
-
-    c = np.asarray(corners, float).reshape(4, 2)
-    centre = c.mean(axis=0)
-    q = centre + shrink * (c - centre)
-    h, w = depth.shape
-    x0, y0 = np.floor(q.min(axis=0)).astype(int)
-    x1, y1 = np.ceil(q.max(axis=0)).astype(int)
-    x0, y0, x1, y1 = max(x0, 0), max(y0, 0), min(x1, w - 1), min(y1, h - 1)
-    if x1 <= x0 or y1 <= y0:
+    pix = quad_depth_pixels(depth, corners, shrink=shrink, min_points=min_points)
+    if pix is None:
         return None
-    mask = np.zeros((y1 - y0 + 1, x1 - x0 + 1), np.uint8)
-    cv2.fillConvexPoly(mask, np.round(q - [x0, y0]).astype(np.int32), 1)
-    v, u = np.nonzero(mask)
-    u, v = u + x0, v + y0
-    z = depth[v, u]
-    ok = np.isfinite(z) & (z > 0)
-    if ok.sum() < min_points:
-        return None
-    u, v, z = u[ok], v[ok], z[ok]
+    u, v, z = pix
     P = np.column_stack([(u - K[0, 2]) / K[0, 0] * z, (v - K[1, 2]) / K[1, 1] * z, z])
     mu = P.mean(axis=0)
     _, sv, Vt = np.linalg.svd(P - mu, full_matrices=False)
@@ -629,10 +614,3 @@ def marker_normal_from_depth(depth, corners, K, *, shrink: float = 0.7,
 def _angle(Ra, Rb) -> float:
     """Angle between two rotation matrices, radians."""
     return math.acos(float(np.clip((np.trace(Ra.T @ Rb) - 1) / 2, -1, 1)))
-
-
-def _orthonormal(R) -> np.ndarray:
-    """Nearest rotation matrix (Rodrigues output can be off by rounding)."""
-    U, _, Vt = np.linalg.svd(np.asarray(R, float))
-    D = np.diag([1.0, 1.0, np.sign(np.linalg.det(U @ Vt))])
-    return U @ D @ Vt
