@@ -170,16 +170,10 @@ def test_config_depth_fields(tmp_path):
     assert cfg.depth_test == "normal" and cfg.depth_noise.sigma_z_at_1m == 0.003
 
 
-def test_learn_body_schema_camera_depth_flag(capsys):
-    from mmlearn.apps.learn_body_schema import camera_config, main
+def test_learn_body_schema_camera_depth_configs():
+    """(The flag itself: test_camera_marker_sensor.test_apps_take_the_sensor_flag.)"""
+    from mmlearn.apps.learn_body_schema import camera_config
 
-    with pytest.raises(SystemExit) as e:
-        main(["--help"])
-    assert e.value.code == 0
-    assert "--camera-depth {exact,noisy,none}" in capsys.readouterr().out
-    with pytest.raises(SystemExit) as e:
-        main(["--camera-depth", "lidar"])
-    assert e.value.code == 2
     assert camera_config("noisy", 3).depth_noise.seed == 3
     assert camera_config("exact").depth_noise is None and camera_config("exact").use_depth
     assert not camera_config("none").use_depth
@@ -187,21 +181,15 @@ def test_learn_body_schema_camera_depth_flag(capsys):
         camera_config("lidar")
 
 
-def test_structure_experiments_sensor_flag_and_cabinet_through_the_camera(capsys):
-    """``--sensor camera``: the flag, one results file per sensor, and the two-drawer
+def test_structure_experiments_camera_sensor_and_cabinet_through_the_camera():
+    """``--sensor camera`` (the flag: test_camera_marker_sensor.test_apps_take_the_sensor_flag):
+    one results file per sensor, and the two-drawer
     cabinet seen by its automatic camera: all three markers read (the cabinet's square on
     its holder above the drawers), mapped back to the parts' marker frames."""
-    from mmlearn.apps.structure_experiments import main, observe, report, sensor_stats
+    from mmlearn.apps.structure_experiments import observe, report, sensor_stats
     from mmlearn.diagrams.object_tracks import (CAMERA_ELEVATION_DEG, auto_cameras,
                                                 cabinet_scenario)
 
-    with pytest.raises(SystemExit) as e:
-        main(["--help"])
-    assert e.value.code == 0
-    assert "--sensor {ideal,camera}" in capsys.readouterr().out
-    with pytest.raises(SystemExit) as e:
-        main(["--sensor", "kinect"])
-    assert e.value.code == 2
     line = lambda sensor: {"spec": {"params": {"experiment": "garage", "quick": True,  # noqa: E731
                                                **({"sensor": sensor} if sensor else {})}},
                            "record": {"experiment": "garage", "result": {}, "lines": []},

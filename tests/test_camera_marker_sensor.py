@@ -227,19 +227,22 @@ def test_object_track_through_the_camera():
     assert np.degrees(2 * np.arccos(np.clip(dot, 0, 1))).max() < 10
 
 
-@pytest.mark.parametrize("mod", ["learn_body_schema"])
-def test_apps_take_the_sensor_flag(mod, capsys):
+@pytest.mark.parametrize("mod,flag,choices,bad", [
+    ("learn_body_schema", "--sensor", "{ideal,camera}", "kinect"),
+    ("structure_experiments", "--sensor", "{ideal,camera}", "kinect"),
+    ("learn_body_schema", "--camera-depth", "{exact,noisy,none}", "lidar")])
+def test_apps_take_the_sensor_flag(mod, flag, choices, bad, capsys):
     import importlib
 
     main = importlib.import_module(f"mmlearn.apps.{mod}").main
     with pytest.raises(SystemExit) as e:
         main(["--help"])
     assert e.value.code == 0
-    assert "--sensor {ideal,camera}" in capsys.readouterr().out
+    assert f"{flag} {choices}" in capsys.readouterr().out
     with pytest.raises(SystemExit) as e:
-        main(["--sensor", "kinect"])
+        main([flag, bad])
     assert e.value.code == 2
-    assert "invalid choice: 'kinect'" in capsys.readouterr().err
+    assert f"invalid choice: '{bad}'" in capsys.readouterr().err
 
 
 def test_cameras_that_disagree_are_resolved_by_the_mirror_solutions(rig):
