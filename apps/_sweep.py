@@ -256,20 +256,31 @@ def _run_local(todo: list[dict], *, jobs: int, shared):
     ex = pool(n)
     try:
         while queue or running:
+            broken = False
             while queue and len(running) < n:
                 s = queue.pop()
-                running[ex.submit(_local_worker, s)] = (s, time.perf_counter())
-            done, _ = wait(running, return_when=FIRST_COMPLETED)
+                try:
+                    running[ex.submit(_local_worker, s)] = (s, time.perf_counter())
+                except BrokenProcessPool:  # a worker died since the last wait
+                    queue.append(s)
+                    broken = True
+                    break
+            if not broken:
+                done, _ = wait(running, return_when=FIRST_COMPLETED)
+                broken = any(f.exception() is not None for f in done)
+                if not broken:
+                    for f in done:
+                        yield f.result()
+                        running.pop(f)
+                    continue
+            # the pool is broken: keep what finished, re-run the rest one at a time
+            wait(running)
             suspects = []
-            for f in done:
-                s, _t0 = running.pop(f)
+            for f, (s, _t0) in running.items():
                 try:
                     yield f.result()
                 except BrokenProcessPool:
                     suspects.append(s)
-            if not suspects:
-                continue
-            suspects += [s for s, _t0 in running.values()]  # broken with the pool
             running.clear()
             ex.shutdown(wait=True)
             for s in suspects:  # one at a time: the trial that dies is the crashed one
