@@ -17,7 +17,7 @@ samples, the prediction error at 50 samples (mean position error of the learned 
 kinematics over the test set, m) against the observation noise the app reports (mean
 position error of the marker sensor on 30 test configurations, m), their means and the
 number of runs whose prediction error is below their own observation noise. Then a JSON
-summary with the issue's targets judged:
+summary (one line; ``--json FILE`` writes it indented) with the issue's targets judged:
 
 * structure right within 12 samples in >= 8 of 10 seeds per set, at every sigma;
 * mean prediction error at 50 samples below the mean observation noise at sigma 0.01.
@@ -176,10 +176,9 @@ def main(argv=None) -> int:
                          and s["mean_pred_error_m"] < s["mean_obs_noise_m"]) for s in low}
     if res.errors:
         print(f"\ntrials that raised: {res.error_summary()}", file=sys.stderr)
-    text = json.dumps(summary, indent=1)
-    print("\n" + text)
+    print("\n" + json.dumps(summary))
     if args.json:
-        args.json.write_text(text + "\n")
+        args.json.write_text(json.dumps(summary, indent=1) + "\n")
     return 1 if res.errors or res.missing else 0
 
 
