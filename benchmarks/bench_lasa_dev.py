@@ -1,0 +1,128 @@
+"""LASA development study (issue 15, lasa3): where the thesis' reproduction errs, and how the
+settings of :class:`mmlearn.models.lasa.ThesisReproducer` move the leave-one-out rmse, **on the
+9 development shapes only** (``DEVELOPMENT_SHAPES``; the held-back shapes are never read here).
+
+Usage::
+
+    OPENBLAS_NUM_THREADS=1 python benchmarks/bench_lasa_dev.py split
+    OPENBLAS_NUM_THREADS=1 python benchmarks/bench_lasa_dev.py grid [--only NAME,...]
+
+``split`` (lead a): for every fold, the reproduction of the default :class:`ThesisReproducer`
+resampled on the held-out time stamps, and three errors against the held-out demonstration (mm):
+``time`` = RMS over time stamps of |rep(t) - held(t)| (position at the same time); ``dtw`` = the
+same after re-timing the reproduction to the held-out demonstration by DTW on the positions
+(RMS over the warping path's pairs: the shape part); ``rmse`` = the issue's metric (nearest
+held-out sample). ``timing share`` = 1 - dtw^2 / time^2. It also prints the rmse of the
+default's reproduction re-timed by the DTW path (each held-out time stamp gets the mean of its
+matched reproduction points), i.e. what a perfect phase variable could give.
+
+``grid`` (leads b-d): every named variant of ``ThesisReproducer`` (weights of the start-marker
+and start-frame constraints, covariance shrinkage, the start frame's scale, h and dt) scored on
+the development folds, per shape and mean, beside the default and the naive baseline.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+import warnings
+
+import numpy as np
+
+from mmlearn.models.lasa import (DEVELOPMENT_SHAPES, ThesisReproducer, baseline_reproducer,
+                                 evaluate_shape, leave_one_out, load_shape, resample_to, rmse_mm)
+
+
+def _dtw_path(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    from dtaidistance import dtw_ndim
+
+    return np.asarray(dtw_ndim.warping_path(np.ascontiguousarray(a, dtype=np.double),
+                                            np.ascontiguousarray(b, dtype=np.double), use_c=True))
+
+
+def split(shapes) -> None:
+    rep_fn = ThesisReproducer()
+    rows = []
+    print(f"{'shape':17s} {'time':>7s} {'dtw':>7s} {'rmse':>7s} {'timing share':>12s} {'rmse re-timed':>13s}")
+    for name in shapes:
+        demos = load_shape(name)
+        acc = []
+        for k, train, held in leave_one_out(demos):
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                t, x = rep_fn(train, held)
+            rep = resample_to(t - t[0], x, held.t - held.t[0])
+            e_time = np.sqrt(np.mean(np.sum((rep - held.hand) ** 2, axis=1)))
+            p = _dtw_path(held.hand, rep)
+            e_dtw = np.sqrt(np.mean(np.sum((held.hand[p[:, 0]] - rep[p[:, 1]]) ** 2, axis=1)))
+            # re-timed reproduction: every held-out stamp i gets the mean of its matched rep points
+            cnt = np.bincount(p[:, 0], minlength=held.T).astype(float)
+            ret = np.zeros_like(held.hand)
+            np.add.at(ret, p[:, 0], rep[p[:, 1]])
+            ret /= cnt[:, None]
+            acc.append((e_time, e_dtw, rmse_mm(rep, held.hand), rmse_mm(ret, held.hand)))
+        a = np.mean(acc, axis=0)
+        rows.append(a)
+        print(f"{name:17s} {a[0]:7.3f} {a[1]:7.3f} {a[2]:7.3f} {1 - a[1] ** 2 / a[0] ** 2:12.2f} {a[3]:13.3f}")
+    m = np.mean(rows, axis=0)
+    print(f"{'mean':17s} {m[0]:7.3f} {m[1]:7.3f} {m[2]:7.3f} {1 - m[1] ** 2 / m[0] ** 2:12.2f} {m[3]:13.3f}")
+
+
+def _variants() -> dict[str, dict]:
+    """The named one-at-a-time variants of the default (keyword arguments of ThesisReproducer)."""
+    v: dict[str, dict] = {"default": {}}
+    for w in (0.25, 0.5, 2.0, 4.0):
+        v[f"weight_frame={w:g}"] = {"weight_frame": w}
+    for w in (0.25, 0.5, 2.0, 4.0):
+        v[f"weight_start={w:g}"] = {"weight_start": w}
+    for lam in (0.25, 0.5, 1.0):
+        v[f"shrinkage={lam:g}"] = {"shrinkage": lam}
+    for m in ("rotation", "scale"):
+        v[f"frame_mode={m}"] = {"frame_mode": m}
+    for h in (0.01, 0.04, 0.08):
+        v[f"h={h:g}"] = {"h": h}
+    for dt, h in ((0.01, 0.01), (0.01, 0.02), (0.04, 0.04)):
+        v[f"dt={dt:g},h={h:g}"] = {"dt": dt, "h": h}
+    for f in ("derivative", "position"):
+        v[f"align_features={f}"] = {"align_features": f}
+    return v
+
+
+def grid(shapes, only=None) -> None:
+    variants = _variants()
+    if only:
+        variants = {k: variants[k] for k in only}
+    demos = {n: load_shape(n) for n in shapes}
+    base = {n: evaluate_shape(n, baseline_reproducer, demos=demos[n]).rmse_mm for n in shapes}
+    bmean = float(np.mean(list(base.values())))
+    print(f"{'variant':34s} {'mean':>6s} {'end':>6s} {'vs base':>7s}  " + " ".join(f"{n[:7]:>7s}" for n in shapes))
+    print(f"{'baseline':34s} {bmean:6.3f} {0:6.3f} {0:7.1%}  " + " ".join(f"{base[n]:7.3f}" for n in shapes))
+    for label, kw in variants.items():
+        t0 = time.perf_counter()
+        rep = ThesisReproducer(**kw)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            res = {n: evaluate_shape(n, rep, demos=demos[n]) for n in shapes}
+        m = float(np.mean([r.rmse_mm for r in res.values()]))
+        e = float(np.mean([r.end_error_mm for r in res.values()]))
+        print(f"{label:34s} {m:6.3f} {e:6.3f} {1 - m / bmean:7.1%}  "
+              + " ".join(f"{res[n].rmse_mm:7.3f}" for n in shapes)
+              + f"  ({time.perf_counter() - t0:.1f} s)", flush=True)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("what", choices=("split", "grid"))
+    ap.add_argument("--only", default=None, help="grid: comma-separated variant names")
+    a = ap.parse_args(argv)
+    shapes = list(DEVELOPMENT_SHAPES)
+    if a.what == "split":
+        split(shapes)
+    else:
+        grid(shapes, None if a.only is None else [s.strip() for s in a.only.split(",")])
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
