@@ -5,7 +5,8 @@ settings of :class:`mmlearn.models.lasa.ThesisReproducer` move the leave-one-out
 Usage::
 
     OPENBLAS_NUM_THREADS=1 python benchmarks/bench_lasa_dev.py split
-    OPENBLAS_NUM_THREADS=1 python benchmarks/bench_lasa_dev.py grid [--only NAME,...]
+    OPENBLAS_NUM_THREADS=1 python benchmarks/bench_lasa_dev.py grid [--only "NAME;NAME..."]
+        [--variant 'LABEL={"shrinkage": 0.5, ...}' ...]
 
 ``split`` (lead a): for every fold, the reproduction of the default :class:`ThesisReproducer`
 resampled on the held-out time stamps, and three errors against the held-out demonstration (mm):
@@ -24,6 +25,7 @@ the development folds, per shape and mean, beside the default and the naive base
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 import time
 import warnings
@@ -72,10 +74,9 @@ def split(shapes) -> None:
 def _variants() -> dict[str, dict]:
     """The named one-at-a-time variants of the default (keyword arguments of ThesisReproducer)."""
     v: dict[str, dict] = {"default": {}}
-    for w in (0.25, 0.5, 2.0, 4.0):
-        v[f"weight_frame={w:g}"] = {"weight_frame": w}
-    for w in (0.25, 0.5, 2.0, 4.0):
-        v[f"weight_start={w:g}"] = {"weight_start": w}
+    for o in ("frame", "start"):
+        for w in (0.25, 0.5, 2.0, 4.0):
+            v[f"weight_{o}={w:g}"] = {"weights": {o: w}}
     for lam in (0.25, 0.5, 1.0):
         v[f"shrinkage={lam:g}"] = {"shrinkage": lam}
     for m in ("rotation", "scale"):
@@ -86,13 +87,24 @@ def _variants() -> dict[str, dict]:
         v[f"dt={dt:g},h={h:g}"] = {"dt": dt, "h": h}
     for f in ("derivative", "position"):
         v[f"align_features={f}"] = {"align_features": f}
+    three = ("target", "start", "frame")
+    v["+frame_scale"] = {"objects": three + ("frame_scale",)}
+    v["+frame_rotation"] = {"objects": three + ("frame_rotation",)}
+    v["+frame_scale+frame_rotation"] = {"objects": three + ("frame_scale", "frame_rotation")}
+    v["frame->frame_scale"] = {"objects": ("target", "start", "frame_scale")}
     return v
 
 
-def grid(shapes, only=None) -> None:
+def grid(shapes, only=None, extra=None) -> None:
     variants = _variants()
     if only:
         variants = {k: variants[k] for k in only}
+    for spec in extra or ():
+        label, _, js = spec.partition("=")
+        kw = json.loads(js)
+        if "objects" in kw:
+            kw["objects"] = tuple(kw["objects"])
+        variants[label] = kw
     demos = {n: load_shape(n) for n in shapes}
     base = {n: evaluate_shape(n, baseline_reproducer, demos=demos[n]).rmse_mm for n in shapes}
     bmean = float(np.mean(list(base.values())))
@@ -114,13 +126,16 @@ def grid(shapes, only=None) -> None:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("what", choices=("split", "grid"))
-    ap.add_argument("--only", default=None, help="grid: comma-separated variant names")
+    ap.add_argument("--only", default=None, help="grid: variant names separated by ;")
+    ap.add_argument("--variant", action="append", default=[],
+                    help='grid: an extra variant NAME={"keyword": value, ...} (JSON keyword arguments '
+                         'of ThesisReproducer); repeatable')
     a = ap.parse_args(argv)
     shapes = list(DEVELOPMENT_SHAPES)
     if a.what == "split":
         split(shapes)
     else:
-        grid(shapes, None if a.only is None else [s.strip() for s in a.only.split(",")])
+        grid(shapes, None if a.only is None else [s.strip() for s in a.only.split(";")], a.variant)
     return 0
 
 
