@@ -18,8 +18,10 @@ default's reproduction re-timed by the DTW path (each held-out time stamp gets t
 matched reproduction points), i.e. what a perfect phase variable could give.
 
 ``grid`` (leads b-d): every named variant of ``ThesisReproducer`` (weights of the start-marker
-and start-frame constraints, covariance shrinkage, the start frame's scale, h and dt) scored on
-the development folds, per shape and mean, beside the default and the naive baseline.
+and start-frame constraints, covariance shrinkage, the start frame's scale, h and dt, extra
+start frames) scored on the development folds, per shape and mean, beside the previous
+default (session 6, the base of every variant), today's default and the naive baseline.
+``--variant`` entries are applied on top of the previous default too.
 """
 
 from __future__ import annotations
@@ -71,14 +73,22 @@ def split(shapes) -> None:
     print(f"{'mean':17s} {m[0]:7.3f} {m[1]:7.3f} {m[2]:7.3f} {1 - m[1] ** 2 / m[0] ** 2:12.2f} {m[3]:13.3f}")
 
 
+S6 = {"objects": ("target", "start", "frame"), "full_covariance": True, "shrinkage": 0.0}
+"""The previous default (session 6): the base of the one-at-a-time variants."""
+
+FS = ("target", "start", "frame", "frame_scale")
+
+
 def _variants() -> dict[str, dict]:
-    """The named one-at-a-time variants of the default (keyword arguments of ThesisReproducer)."""
-    v: dict[str, dict] = {"default": {}}
-    for o in ("frame", "start"):
+    """The named variants: one change at a time from the previous default :data:`S6`, then the
+    combinations tried; ``default`` is today's :class:`ThesisReproducer` default."""
+    v: dict[str, dict] = {"s6 (previous default)": {}, "default": None}
+    for o in ("frame", "start", "target"):
         for w in (0.25, 0.5, 2.0, 4.0):
             v[f"weight_{o}={w:g}"] = {"weights": {o: w}}
     for lam in (0.25, 0.5, 1.0):
         v[f"shrinkage={lam:g}"] = {"shrinkage": lam}
+    v["diagonal"] = {"full_covariance": False}
     for m in ("rotation", "scale"):
         v[f"frame_mode={m}"] = {"frame_mode": m}
     for h in (0.01, 0.04, 0.08):
@@ -87,12 +97,20 @@ def _variants() -> dict[str, dict]:
         v[f"dt={dt:g},h={h:g}"] = {"dt": dt, "h": h}
     for f in ("derivative", "position"):
         v[f"align_features={f}"] = {"align_features": f}
-    three = ("target", "start", "frame")
-    v["+frame_scale"] = {"objects": three + ("frame_scale",)}
+    three = S6["objects"]
+    v["+frame_scale"] = {"objects": FS}
     v["+frame_rotation"] = {"objects": three + ("frame_rotation",)}
     v["+frame_scale+frame_rotation"] = {"objects": three + ("frame_scale", "frame_rotation")}
     v["frame->frame_scale"] = {"objects": ("target", "start", "frame_scale")}
-    return v
+    for lam in (0.25, 0.5, 0.75, 1.0):
+        v[f"+frame_scale,shrinkage={lam:g}"] = {"objects": FS, "shrinkage": lam}
+    v["+frame_scale,diagonal"] = {"objects": FS, "full_covariance": False}
+    v["+frame_scale,derivative"] = {"objects": FS, "align_features": "derivative"}
+    v["+frame_scale,shrinkage=0.5,derivative"] = {"objects": FS, "shrinkage": 0.5, "align_features": "derivative"}
+    for o in ("target", "start", "frame", "frame_scale"):
+        for w in (0.5, 2.0):
+            v[f"+frame_scale,shrinkage=0.5,weight_{o}={w:g}"] = {"objects": FS, "shrinkage": 0.5, "weights": {o: w}}
+    return {k: (None if kw is None else {**S6, **kw}) for k, kw in v.items()}
 
 
 def grid(shapes, only=None, extra=None) -> None:
@@ -100,8 +118,10 @@ def grid(shapes, only=None, extra=None) -> None:
     if only:
         variants = {k: variants[k] for k in only}
     for spec in extra or ():
-        label, _, js = spec.partition("=")
-        kw = json.loads(js)
+        i = spec.find("={")
+        if i < 0:
+            raise SystemExit(f"--variant {spec!r}: expected LABEL={{json}}")
+        label, kw = spec[:i], json.loads(spec[i + 1:])
         if "objects" in kw:
             kw["objects"] = tuple(kw["objects"])
         variants[label] = kw
@@ -112,7 +132,7 @@ def grid(shapes, only=None, extra=None) -> None:
     print(f"{'baseline':34s} {bmean:6.3f} {0:6.3f} {0:7.1%}  " + " ".join(f"{base[n]:7.3f}" for n in shapes))
     for label, kw in variants.items():
         t0 = time.perf_counter()
-        rep = ThesisReproducer(**kw)
+        rep = ThesisReproducer() if kw is None else ThesisReproducer(**kw)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             res = {n: evaluate_shape(n, rep, demos=demos[n]) for n in shapes}
