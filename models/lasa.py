@@ -649,7 +649,7 @@ class InnerCVReproducer:
     **Not the default: it did not help.** Measured on the 9 development shapes only
     (``OPENBLAS_NUM_THREADS=1 python benchmarks/bench_lasa.py --shapes <development>
     --methods thesis,thesis_cv,thesis_cv_end,thesis_cv_1se,baseline``; rmse / end error, mm):
-    :class:`ThesisReproducer` 1.047 / 0.141; this class with the default grid (18 candidates)
+    :class:`ThesisReproducer` (the session-6 default) 1.047 / 0.141; this class with the default grid (18 candidates)
     1.051 / 0.367, scored by rmse + end error 1.048 / 0.146, with the one-standard-error rule
     1.054 / 0.257; baseline 1.266; 0.9 s per fold against 0.08 s. The inner scores rank the
     candidates only loosely like the outer held-out rmse (``--inner-cv-diagnostic``: Spearman
