@@ -5,6 +5,7 @@ settings of :class:`mmlearn.models.lasa.ThesisReproducer` move the leave-one-out
 Usage::
 
     OPENBLAS_NUM_THREADS=1 python benchmarks/bench_lasa_dev.py split
+    OPENBLAS_NUM_THREADS=1 python benchmarks/bench_lasa_dev.py extras
     OPENBLAS_NUM_THREADS=1 python benchmarks/bench_lasa_dev.py grid [--only "NAME;NAME..."]
         [--variant 'LABEL={"shrinkage": 0.5, ...}' ...]
 
@@ -22,11 +23,16 @@ and start-frame constraints, covariance shrinkage, the start frame's scale, h an
 start frames) scored on the development folds, per shape and mean, beside the previous
 default (session 6, the base of every variant), today's default and the naive baseline.
 ``--variant`` entries are applied on top of the previous default too.
+
+``extras``: variants outside the reproducer's settings (the DBN indexed by normalised arc
+length instead of DTW time, a second DTW pass to the barycentre, covariances smoothed over
+time), swapped in inside this script only.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import sys
 import time
@@ -143,9 +149,88 @@ def grid(shapes, only=None, extra=None) -> None:
               + f"  ({time.perf_counter() - t0:.1f} s)", flush=True)
 
 
+@contextlib.contextmanager
+def _alignment(kind: str):
+    """Swap :func:`mmlearn.models.imitation.align_demonstrations` (looked up at call time by
+    ``ThesisReproducer.learn``) for a study variant, inside this benchmark only:
+    ``"arc"``: no DTW, every demonstration resampled at uniform normalised arc length (the DBN
+    indexed by progress along the path, the reference's median duration); ``"barycentre"``: DTW
+    to the reference, then a second DTW pass of every demonstration to the mean of the first."""
+    import mmlearn.models.imitation as imi
+    from mmlearn.models.imitation_types import Demonstration
+
+    real = imi.align_demonstrations
+
+    def arc(demos, *, dt=None, features="both", **kw):
+        demos = list(demos)
+        n = int(round(float(np.median([d.duration for d in demos])) / dt)) + 1
+        u = np.linspace(0.0, 1.0, n)
+        out = []
+        for d in demos:
+            s = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(d.hand, axis=0), axis=1))]
+            s /= s[-1]
+            keep = np.r_[True, np.diff(s) > 1e-12]
+
+            def f(a):
+                return np.stack([np.interp(u, s[keep], a[keep, c]) for c in range(a.shape[1])], axis=1)
+            out.append(Demonstration(t=dt * np.arange(n), hand=f(d.hand),
+                                     objects={k: f(v) for k, v in d.objects.items()}, meta=dict(d.meta)).validate())
+        return out
+
+    def barycentre(demos, *, dt=None, features="both", **kw):
+        demos = list(demos)
+        al = real(demos, dt=dt, features=features, **kw)
+        m = Demonstration(t=al[0].t, hand=np.mean([d.hand for d in al], axis=0),
+                          objects={k: np.mean([d.objects[k] for d in al], axis=0) for k in al[0].objects}).validate()
+        return real([m] + demos, dt=dt, features=features, reference=0, **kw)[1:]
+
+    imi.align_demonstrations = {"arc": arc, "barycentre": barycentre}[kind]
+    try:
+        yield
+    finally:
+        imi.align_demonstrations = real
+
+
+class _SmoothedCovariances(ThesisReproducer):
+    """ThesisReproducer whose tempered covariances are also smoothed over the slices by a
+    Gaussian of ``smooth`` seconds (study only)."""
+
+    def __init__(self, *, smooth: float, **kw):
+        super().__init__(**kw)
+        self.smooth = smooth
+
+    def _temper(self, name, var):
+        from scipy.ndimage import gaussian_filter1d
+
+        return gaussian_filter1d(super()._temper(name, var), self.smooth / self.dt, axis=0, mode="nearest")
+
+
+def extras(shapes) -> None:
+    """Variants outside ThesisReproducer's settings: arc-length indexing, a barycentre DTW pass,
+    covariances smoothed over time (development shapes, mean rmse / end error, mm)."""
+    demos = {n: load_shape(n) for n in shapes}
+
+    def score(rep):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            res = [evaluate_shape(n, rep, demos=demos[n]) for n in shapes]
+        return np.mean([r.rmse_mm for r in res]), np.mean([r.end_error_mm for r in res])
+
+    s6 = ThesisReproducer(**S6)
+    rows = [("s6 (previous default)", None, s6), ("default", None, ThesisReproducer()),
+            ("s6, arc-length indexing", "arc", s6), ("default, arc-length indexing", "arc", ThesisReproducer()),
+            ("default, barycentre DTW pass", "barycentre", ThesisReproducer())]
+    for sm in (0.05, 0.1, 0.2):
+        rows.append((f"default, covariances smoothed {sm:g} s", None, _SmoothedCovariances(smooth=sm)))
+    for label, kind, rep in rows:
+        with (_alignment(kind) if kind else contextlib.nullcontext()):
+            m, e = score(rep)
+        print(f"{label:40s} rmse {m:.3f} mm  end {e:.3f} mm", flush=True)
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("what", choices=("split", "grid"))
+    ap.add_argument("what", choices=("split", "grid", "extras"))
     ap.add_argument("--only", default=None, help="grid: variant names separated by ;")
     ap.add_argument("--variant", action="append", default=[],
                     help='grid: an extra variant NAME={"keyword": value, ...} (JSON keyword arguments '
@@ -154,6 +239,8 @@ def main(argv=None) -> int:
     shapes = list(DEVELOPMENT_SHAPES)
     if a.what == "split":
         split(shapes)
+    elif a.what == "extras":
+        extras(shapes)
     else:
         grid(shapes, None if a.only is None else [s.strip() for s in a.only.split(";")], a.variant)
     return 0
