@@ -9,7 +9,8 @@ Usage::
 
 For each shape and each of its 7 demonstrations: learn from the other 6 (the thesis' DBN of
 Gaussian constraints ``r_i = object_i - hand``: the target at the origin and, by default, a
-marker at the pen's start and the target constraint in the drawing's start frame), reproduce
+marker at the pen's start and the target constraint in the drawing's start frame and in its
+scale-only start frame; covariances shrunk half-way towards their diagonal), reproduce
 incrementally from the held-out demonstration's start for its duration, and measure
 ``rmse_mm`` (root mean square distance from each reproduced point to the nearest point of the
 held-out demonstration, after resampling the reproduction on the held-out time stamps) and
