@@ -4,12 +4,13 @@ score them leave-one-out against a naive baseline.
 Usage::
 
     python -m mmlearn.apps.imitate_lasa --shapes Sshape,Leaf_1|all|development|held-back|multi-mode
-        [--objects target,start,frame] [--h S] [--dt S] [--diagonal] [--gain G]
+        [--objects target,start,frame,frame_scale] [--h S] [--dt S] [--diagonal] [--shrinkage L] [--gain G]
         [--folds 0,1,..] [--json] [--plot FILE.png] [--meshcat] [--html-out FILE.html] [--seed N]
 
 For each shape and each of its 7 demonstrations: learn from the other 6 (the thesis' DBN of
 Gaussian constraints ``r_i = object_i - hand``: the target at the origin and, by default, a
-marker at the pen's start and the target constraint in the drawing's start frame), reproduce
+marker at the pen's start and the target constraint in the drawing's start frame and in its
+scale-only start frame; covariances shrunk half-way towards their diagonal), reproduce
 incrementally from the held-out demonstration's start for its duration, and measure
 ``rmse_mm`` (root mean square distance from each reproduced point to the nearest point of the
 held-out demonstration, after resampling the reproduction on the held-out time stamps) and
@@ -52,7 +53,7 @@ import numpy as np
 from mmlearn.apps._common import (ArgumentParser, UsageError, check_out_file, fail,
                                   finish_viewing, frame_camera, json_clean, make_meshcat, name_list, nonneg_int,
                                   pos_float, progress, save_figure, save_html)
-from mmlearn.models.lasa import (DEVELOPMENT_SHAPES, LASA_SHAPES, MULTI_MODE_SHAPES,
+from mmlearn.models.lasa import (DEVELOPMENT_SHAPES, LASA_SHAPES, MULTI_MODE_SHAPES, OBJECTS,
                                  ThesisReproducer, baseline_reproducer, evaluate_shape,
                                  load_shape, summarise)
 
@@ -73,11 +74,12 @@ class LasaConfig:
 
     Attributes:
         shapes: shape names (see :data:`mmlearn.models.lasa.LASA_SHAPES`).
-        objects: constraint objects: ``"target"`` plus optionally ``"start"`` and ``"frame"``
-            (see :class:`~mmlearn.models.lasa.ThesisReproducer`).
+        objects: constraint objects: ``"target"`` plus optionally ``"start"``, ``"frame"``,
+            ``"frame_scale"``, ``"frame_rotation"`` (see :class:`~mmlearn.models.lasa.ThesisReproducer`).
         h: Parzen window width, s.
         dt: period of the learned slices and of the reproduction, s.
         full_covariance: full 2x2 covariances (False: the thesis' diagonal ones).
+        shrinkage: full covariances shrunk towards their diagonal by this fraction, [0, 1].
         gain: fraction of the fused step applied per slice, (0, 1].
         folds: held-out demonstration indices 0..6 (empty = all 7).
         plot: PNG file with the demonstrations and reproductions, or "" for none.
@@ -87,10 +89,11 @@ class LasaConfig:
     """
 
     shapes: list[str] = field(default_factory=lambda: list(DEVELOPMENT_SHAPES))
-    objects: list[str] = field(default_factory=lambda: ["target", "start", "frame"])
+    objects: list[str] = field(default_factory=lambda: list(ThesisReproducer.objects))
     h: float = 0.02
     dt: float = 0.02
     full_covariance: bool = True
+    shrinkage: float = ThesisReproducer.shrinkage
     gain: float = 1.0
     folds: list[int] = field(default_factory=list)
     plot: str = ""
@@ -111,7 +114,8 @@ class LasaConfig:
         if badf:
             raise ValueError(f"folds: {badf} not in 0..6 (LASA has 7 demonstrations per shape)")
         ThesisReproducer(objects=tuple(self.objects), h=self.h, dt=self.dt,
-                         full_covariance=self.full_covariance, gain=self.gain)  # checks them
+                         full_covariance=self.full_covariance, shrinkage=self.shrinkage,
+                         gain=self.gain)  # checks them
         return self
 
 
@@ -138,7 +142,8 @@ def run(*, config: LasaConfig, meshcat=None) -> dict:
     config.validate()
     t0 = time.perf_counter()
     rep = ThesisReproducer(objects=tuple(config.objects), h=config.h, dt=config.dt,
-                           full_covariance=config.full_covariance, gain=config.gain)
+                           full_covariance=config.full_covariance, shrinkage=config.shrinkage,
+                           gain=config.gain)
     folds = list(config.folds) or None
     ours, base, data = [], [], {}
     bar = progress(config.shapes, desc="LASA shapes", unit="shape", enabled=config.progress)
@@ -256,16 +261,20 @@ def main(argv=None) -> int:
     ap.add_argument("--shapes", default="development",
                     help="comma-separated shape names and/or groups: " + ", ".join(SHAPE_GROUPS)
                     + " (default: development)")
-    ap.add_argument("--objects", type=name_list(["target", "start", "frame"]),
-                    default=["target", "start", "frame"],
+    ap.add_argument("--objects", type=name_list(list(OBJECTS)),
+                    default=list(ThesisReproducer.objects),
                     help="constraint objects: target (the origin), start (a marker at the pen's "
-                         "start) and frame (the target constraint in the start frame, needs start); "
-                         "default target,start,frame")
+                         "start), frame (the target constraint in the start frame: rotation and "
+                         "scale by the start), frame_scale (scale only), frame_rotation (rotation "
+                         "only); the frames need start; default " + ",".join(ThesisReproducer.objects))
     ap.add_argument("--h", type=pos_float, default=0.02, help="Parzen window width, s (default 0.02)")
     ap.add_argument("--dt", type=pos_float, default=0.02,
                     help="period of the learned slices and of the reproduction, s (default 0.02)")
     ap.add_argument("--diagonal", action="store_true",
                     help="diagonal covariances (the thesis' experiments) instead of full 2x2")
+    ap.add_argument("--shrinkage", type=float, default=ThesisReproducer.shrinkage,
+                    help="full covariances shrunk towards their diagonal by this fraction in [0, 1] "
+                         f"(default {ThesisReproducer.shrinkage:g}; 1 = diagonal)")
     ap.add_argument("--gain", type=pos_float, default=1.0,
                     help="fraction of the fused step applied per slice, (0, 1] (default 1)")
     ap.add_argument("--folds", default=None,
@@ -289,14 +298,14 @@ def main(argv=None) -> int:
                 raise UsageError(f"--folds: expected comma-separated integers 0..6, got {a.folds!r}")
         if "target" not in a.objects:
             raise UsageError("--objects: must include target")
-        if "frame" in a.objects and "start" not in a.objects:
+        if any(o.startswith("frame") for o in a.objects) and "start" not in a.objects:
             raise UsageError("--objects: frame needs start (the frame points at the start marker)")
         if a.gain > 1:
             raise UsageError(f"--gain: expected a number in (0, 1], got {a.gain}")
         check_out_file("--plot", a.plot)
         check_out_file("--html-out", a.html_out)
         config = LasaConfig(shapes=shapes, objects=list(a.objects), h=a.h, dt=a.dt,
-                            full_covariance=not a.diagonal, gain=a.gain, folds=folds,
+                            full_covariance=not a.diagonal, shrinkage=a.shrinkage, gain=a.gain, folds=folds,
                             plot=a.plot or "", html_out=a.html_out or "",
                             meshcat=a.meshcat).validate()
     except (UsageError, ValueError) as e:

@@ -11,9 +11,13 @@ Usage::
 Methods (every one learns from the 6 training demonstrations of a fold and starts at the held-
 out demonstration's start; the reproductions are resampled on the held-out time stamps):
 
-* ``thesis``: :class:`mmlearn.models.lasa.ThesisReproducer` (defaults: target, start-marker
-  and start-frame constraints, h 0.02 s, dt 0.02 s, full covariance).
-* ``target_start``: the same without the start-frame constraint (objects target, start).
+* ``thesis``: :class:`mmlearn.models.lasa.ThesisReproducer` (defaults: target, start-marker,
+  start-frame and scale-only start-frame constraints, h 0.02 s, dt 0.02 s, full covariances shrunk
+  half-way to their diagonal).
+* ``thesis_s6``: the previous default (session 6: target, start, frame; full covariances, no
+  shrinkage).
+* ``target_start``: the default without the start-frame constraints (objects target, start;
+  covariances shrunk half-way to the diagonal as in the default).
 * ``thesis_cv`` (not in the default ``--methods``): :class:`mmlearn.models.lasa.InnerCVReproducer`,
   the thesis' method with h in {0.02, 0.04, 0.1} s, covariance shrinkage towards the diagonal
   in {0, 0.5, 1} and the constraint sets {target, start, frame} / {target, start} chosen per
@@ -136,7 +140,7 @@ def main(argv=None) -> int:
     ap.add_argument("--shapes", default="all", help="comma-separated names, or all (default)")
     ap.add_argument("--folds", default=None, help="held-out indices 0..6 (default all)")
     ap.add_argument("--weights", type=int, default=20, help="DMP/ProMP basis functions per dimension")
-    ap.add_argument("--methods", default="thesis,target_start,baseline,dmp,promp")
+    ap.add_argument("--methods", default="thesis,thesis_s6,target_start,baseline,dmp,promp")
     ap.add_argument("--json", default=None, help="also write the results to this JSON file")
     ap.add_argument("--inner-cv-diagnostic", action="store_true",
                     help="only print how well the inner leave-one-out predicts the outer rmse")
@@ -150,6 +154,8 @@ def main(argv=None) -> int:
         inner_cv_diagnostic(shapes, folds)
         return 0
     makers = {"thesis": lambda: ThesisReproducer(),
+              "thesis_s6": lambda: ThesisReproducer(objects=("target", "start", "frame"), full_covariance=True,
+                                                    shrinkage=0.0),
               "target_start": lambda: ThesisReproducer(objects=("target", "start")),
               "thesis_cv": lambda: InnerCVReproducer(),
               "thesis_cv_end": lambda: InnerCVReproducer(end_weight=1.0),

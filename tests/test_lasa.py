@@ -170,6 +170,9 @@ def test_app_bad_input(tmp_path, capsys):
     bad_usage(main, ["--objects", "start"], capsys, "--objects")
     bad_usage(main, ["--objects", "target,cup"], capsys, "--objects", "'cup'")
     bad_usage(main, ["--objects", "target,frame"], capsys, "--objects", "frame needs start")
+    bad_usage(main, ["--objects", "target,frame_scale"], capsys, "--objects", "frame needs start")
+    bad_usage(main, ["--shrinkage", "1.5"], capsys, "shrinkage must be in [0, 1]")
+    bad_usage(main, ["--shrinkage", "nan"], capsys, "shrinkage")
     bad_usage(main, ["--gain", "2"], capsys, "--gain")
     bad_usage(main, ["--h", "nan"], capsys, "--h")
     bad_usage(main, ["--plot", str(tmp_path / "missing" / "x.png")], capsys, "--plot", "does not exist")
@@ -182,15 +185,16 @@ def test_app_help_subprocess():
     assert r.returncode == 0 and "--shapes" in r.stdout and "held-back" in r.stdout
 
 
-def _similar_drawings(n=7, T=300):
-    """``n`` drawings of one curve ending at the origin, each rotated and scaled about it."""
+def _similar_drawings(n=7, T=300, rotate=True):
+    """``n`` drawings of one curve ending at the origin, each rotated (unless not ``rotate``)
+    and scaled about it."""
     from mmlearn.models.imitation_types import Demonstration
 
     s = np.linspace(0.0, 1.0, T)
     base = np.stack([40 * (1 - s) + 8 * np.sin(2 * np.pi * s), 15 * np.sin(np.pi * s) * (1 - s)], axis=1)
     out = []
     for g in range(n):
-        a, sc = 0.25 * (g - 3), 1.0 + 0.08 * (g - 3)
+        a, sc = 0.25 * (g - 3) * rotate, 1.0 + 0.08 * (g - 3)
         R = sc * np.array([[np.cos(a), -np.sin(a)], [np.sin(a), np.cos(a)]])
         hand = base @ R.T
         out.append(Demonstration(t=np.linspace(0.0, 2.0, T), hand=hand,
@@ -234,10 +238,16 @@ def test_start_frame_constraint_follows_a_rotated_scaled_drawing():
     """Drawings that differ by a rotation and scaling about the target: the start-frame
     constraint reproduces a held-out one almost exactly, the world constraints cannot."""
     demos = _similar_drawings()
-    both = evaluate_shape("similar", ThesisReproducer(), demos=demos, folds=[1, 5])
-    world = evaluate_shape("similar", ThesisReproducer(objects=("target", "start")), demos=demos, folds=[1, 5])
+    tsf = ("target", "start", "frame")
+    both = evaluate_shape("similar", ThesisReproducer(objects=tsf, shrinkage=0.0), demos=demos, folds=[1, 5])
+    world = evaluate_shape("similar", ThesisReproducer(objects=("target", "start"), shrinkage=0.0),
+                           demos=demos, folds=[1, 5])
     assert both.rmse_mm < 0.15 and both.end_error_mm < 0.5, both.rmse_mm
     assert world.rmse_mm > 5 * both.rmse_mm, (world.rmse_mm, both.rmse_mm)
+    # the default (plus the scale-only frame, covariances shrunk half-way to the diagonal) keeps
+    # most of it: the scale-only frame and the shrunk world constraints pull a little
+    default = evaluate_shape("similar", ThesisReproducer(), demos=demos, folds=[1, 5])
+    assert default.rmse_mm < 0.35 and world.rmse_mm > 2.5 * default.rmse_mm, (default.rmse_mm, world.rmse_mm)
     with pytest.raises(ValueError, match="'frame' needs 'start'"):
         ThesisReproducer(objects=("target", "frame"))
 
@@ -250,7 +260,7 @@ def test_fused_path_is_the_closed_form_of_the_incremental_reproduction():
 
     demos = load_shape("Sshape")
     held = demos[0]
-    obj = {"target": np.zeros(2), "start": held.hand[0], "frame": np.zeros(2)}
+    obj = {"target": np.zeros(2), "start": held.hand[0], "frame": np.zeros(2), "frame_scale": np.zeros(2)}
     for rep in (ThesisReproducer(), ThesisReproducer(full_covariance=False, objects=("target", "start"))):
         m = rep.learn(demos[1:], start=held.hand[0])
         t1, x1 = reproduce_cartesian(m, held.hand[0], obj, duration=held.duration, dt=0.02)
@@ -289,7 +299,7 @@ def test_inner_cv_selects_from_the_training_demonstrations_only():
     one = InnerCVReproducer(hs=(0.02,), shrinkages=(0.0,), object_sets=(("target", "start", "frame"),))
     _, x1 = one(demos[1:], demos[0])
     from mmlearn.models.imitation import reproduce_cartesian
-    m = ThesisReproducer().learn(demos[1:], start=demos[0].hand[0])
+    m = ThesisReproducer(objects=("target", "start", "frame"), shrinkage=0.0).learn(demos[1:], start=demos[0].hand[0])
     _, x2 = reproduce_cartesian(m, demos[0].hand[0], {"target": np.zeros(2), "start": demos[0].hand[0],
                                                       "frame": np.zeros(2)}, duration=demos[0].duration, dt=0.02)
     assert np.allclose(x1, x2, atol=1e-9)
@@ -304,3 +314,63 @@ def test_inner_cv_selects_from_the_training_demonstrations_only():
         InnerCVReproducer(hs=())
     with pytest.raises(ValueError, match=">= 3 training"):
         cv.select(demos[:2])
+
+
+def test_start_frame_modes_and_the_scale_only_frame():
+    """The rotation-only and scale-only start frames; drawings that differ only by their size
+    are reproduced by the scale-only frame constraint, not by the world constraints."""
+    from mmlearn.models.lasa import FRAME_MODES, OBJECTS, start_frame, to_start_frame
+
+    assert set(FRAME_MODES) == {"similarity", "rotation", "scale"} and OBJECTS[0] == "target"
+    assert np.allclose(start_frame([3.0, 4.0], mode="rotation"), [[0.6, -0.8], [0.8, 0.6]])
+    assert np.allclose(start_frame([13.0, 4.0], target=[10.0, 0.0], mode="scale"), 5.0 * np.eye(2))
+    with pytest.raises(ValueError, match="mode must be one of"):
+        start_frame([3.0, 4.0], mode="affine")
+    d = with_start_marker(_similar_drawings(rotate=False)[6])
+    s0 = d.hand[0]
+    assert np.allclose(to_start_frame(d, mode="scale").hand[0], s0 / np.linalg.norm(s0))
+    assert np.allclose(to_start_frame(d, mode="rotation").hand[0], [np.linalg.norm(s0), 0.0])
+    demos = _similar_drawings(rotate=False)
+    scale = evaluate_shape("scaled", ThesisReproducer(objects=("target", "start", "frame_scale")),
+                           demos=demos, folds=[0, 5])
+    world = evaluate_shape("scaled", ThesisReproducer(objects=("target", "start")), demos=demos, folds=[0, 5])
+    assert scale.rmse_mm < 0.3 and scale.end_error_mm < 0.5, scale.rmse_mm
+    assert world.rmse_mm > 2 * scale.rmse_mm, (world.rmse_mm, scale.rmse_mm)
+    m = ThesisReproducer(objects=("target", "start", "frame_scale")).learn(demos[1:], start=demos[0].hand[0])
+    assert m.objects == ["target", "start", "frame_scale"]
+    with pytest.raises(ValueError, match="'frame' needs 'start'"):
+        ThesisReproducer(objects=("target", "frame_scale"))
+    with pytest.raises(ValueError, match="frame_mode"):
+        ThesisReproducer(frame_mode="affine")
+
+
+def test_weights_and_shrinkage_temper_the_constraints():
+    """A weight divides a constraint's covariance (a factor on its precision); shrinkage moves
+    full covariances towards their diagonal; a dominant weight makes the product follow that
+    constraint alone."""
+    from mmlearn.models.lasa import shrink_covariance
+
+    demos = load_shape("Sshape")
+    train, start = demos[1:], demos[0].hand[0]
+    ts = ("target", "start")
+    plain = ThesisReproducer(objects=ts, shrinkage=0.0).learn(train, start=start)
+    heavy = ThesisReproducer(objects=ts, shrinkage=0.0, weights={"start": 4.0}).learn(train, start=start)
+    assert np.allclose(heavy.var["obj:start"], plain.var["obj:start"] / 4.0)
+    assert np.allclose(heavy.var["obj:target"], plain.var["obj:target"])
+    half = ThesisReproducer(objects=ts, shrinkage=0.5).learn(train, start=start)
+    assert np.allclose(half.var["obj:target"], shrink_covariance(plain.var["obj:target"], 0.5))
+    # the start constraint weighted 1e6: the reproduction is the training mean shifted by the
+    # start offset (its hand target start - mu_start) at every slice; unweighted it is not
+    only = ThesisReproducer(objects=ts, shrinkage=0.0, weights={"start": 1e6})
+    m = only.learn(train, start=start)
+    for rep, close in ((only, True), (ThesisReproducer(objects=ts, shrinkage=0.0), False)):
+        t, x = rep(train, demos[0])
+        k = np.clip(np.searchsorted(m.t, t[1:] * m.t[-1] / demos[0].duration - 1e-9), 0, m.S - 1)
+        dev = np.abs(x[1:] - (start - m.mean["obj:start"][k])).max()                # mm
+        assert (dev < 5e-3) if close else (dev > 0.5), dev
+    with pytest.raises(ValueError, match="weights: 'frame' is not one of the objects"):
+        ThesisReproducer(objects=ts, weights={"frame": 2.0})
+    with pytest.raises(ValueError, match=r"weights\['start'\] must be a finite factor > 0"):
+        ThesisReproducer(objects=ts, weights={"start": 0.0})
+    with pytest.raises(ValueError, match="shrinkage must be in"):
+        ThesisReproducer(shrinkage=-0.1)

@@ -1,0 +1,250 @@
+"""LASA development study (issue 15, lasa3): where the thesis' reproduction errs, and how the
+settings of :class:`mmlearn.models.lasa.ThesisReproducer` move the leave-one-out rmse, **on the
+9 development shapes only** (``DEVELOPMENT_SHAPES``; the held-back shapes are never read here).
+
+Usage::
+
+    OPENBLAS_NUM_THREADS=1 python benchmarks/bench_lasa_dev.py split
+    OPENBLAS_NUM_THREADS=1 python benchmarks/bench_lasa_dev.py extras
+    OPENBLAS_NUM_THREADS=1 python benchmarks/bench_lasa_dev.py grid [--only "NAME;NAME..."]
+        [--variant 'LABEL={"shrinkage": 0.5, ...}' ...]
+
+``split`` (lead a): for every fold, the reproduction of the default :class:`ThesisReproducer`
+resampled on the held-out time stamps, and three errors against the held-out demonstration (mm):
+``time`` = RMS over time stamps of |rep(t) - held(t)| (position at the same time); ``dtw`` = the
+same after re-timing the reproduction to the held-out demonstration by DTW on the positions
+(RMS over the warping path's pairs: the shape part); ``rmse`` = the issue's metric (nearest
+held-out sample). ``timing share`` = 1 - dtw^2 / time^2. It also prints the rmse of the
+default's reproduction re-timed by the DTW path (each held-out time stamp gets the mean of its
+matched reproduction points), i.e. what a perfect phase variable could give.
+
+``grid`` (leads b-d): every named variant of ``ThesisReproducer`` (weights of the start-marker
+and start-frame constraints, covariance shrinkage, the start frame's scale, h and dt, extra
+start frames) scored on the development folds, per shape and mean, beside the previous
+default (session 6, the base of every variant), today's default and the naive baseline.
+``--variant`` entries are applied on top of the previous default too.
+
+``extras``: variants outside the reproducer's settings (the DBN indexed by normalised arc
+length instead of DTW time, a second DTW pass to the barycentre, covariances smoothed over
+time), swapped in inside this script only.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import json
+import sys
+import time
+import warnings
+
+import numpy as np
+
+from mmlearn.models.lasa import (DEVELOPMENT_SHAPES, ThesisReproducer, baseline_reproducer,
+                                 evaluate_shape, leave_one_out, load_shape, resample_to, rmse_mm)
+
+
+def _dtw_path(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    from dtaidistance import dtw_ndim
+
+    return np.asarray(dtw_ndim.warping_path(np.ascontiguousarray(a, dtype=np.double),
+                                            np.ascontiguousarray(b, dtype=np.double), use_c=True))
+
+
+def split(shapes) -> None:
+    rep_fn = ThesisReproducer()
+    rows = []
+    print(f"{'shape':17s} {'time':>7s} {'dtw':>7s} {'rmse':>7s} {'timing share':>12s} {'rmse re-timed':>13s}")
+    for name in shapes:
+        demos = load_shape(name)
+        acc = []
+        for k, train, held in leave_one_out(demos):
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                t, x = rep_fn(train, held)
+            rep = resample_to(t - t[0], x, held.t - held.t[0])
+            e_time = np.sqrt(np.mean(np.sum((rep - held.hand) ** 2, axis=1)))
+            p = _dtw_path(held.hand, rep)
+            e_dtw = np.sqrt(np.mean(np.sum((held.hand[p[:, 0]] - rep[p[:, 1]]) ** 2, axis=1)))
+            # re-timed reproduction: every held-out stamp i gets the mean of its matched rep points
+            cnt = np.bincount(p[:, 0], minlength=held.T).astype(float)
+            ret = np.zeros_like(held.hand)
+            np.add.at(ret, p[:, 0], rep[p[:, 1]])
+            ret /= cnt[:, None]
+            acc.append((e_time, e_dtw, rmse_mm(rep, held.hand), rmse_mm(ret, held.hand)))
+        a = np.mean(acc, axis=0)
+        rows.append(a)
+        print(f"{name:17s} {a[0]:7.3f} {a[1]:7.3f} {a[2]:7.3f} {1 - a[1] ** 2 / a[0] ** 2:12.2f} {a[3]:13.3f}")
+    m = np.mean(rows, axis=0)
+    print(f"{'mean':17s} {m[0]:7.3f} {m[1]:7.3f} {m[2]:7.3f} {1 - m[1] ** 2 / m[0] ** 2:12.2f} {m[3]:13.3f}")
+
+
+S6 = {"objects": ("target", "start", "frame"), "full_covariance": True, "shrinkage": 0.0}
+"""The previous default (session 6): the base of the one-at-a-time variants."""
+
+FS = ("target", "start", "frame", "frame_scale")
+
+
+def _variants() -> dict[str, dict]:
+    """The named variants: one change at a time from the previous default :data:`S6`, then the
+    combinations tried; ``default`` is today's :class:`ThesisReproducer` default."""
+    v: dict[str, dict] = {"s6 (previous default)": {}, "default": None}
+    for o in ("frame", "start", "target"):
+        for w in (0.25, 0.5, 2.0, 4.0):
+            v[f"weight_{o}={w:g}"] = {"weights": {o: w}}
+    for lam in (0.25, 0.5, 1.0):
+        v[f"shrinkage={lam:g}"] = {"shrinkage": lam}
+    v["diagonal"] = {"full_covariance": False}
+    for m in ("rotation", "scale"):
+        v[f"frame_mode={m}"] = {"frame_mode": m}
+    for h in (0.01, 0.04, 0.08):
+        v[f"h={h:g}"] = {"h": h}
+    for dt, h in ((0.01, 0.01), (0.01, 0.02), (0.04, 0.04)):
+        v[f"dt={dt:g},h={h:g}"] = {"dt": dt, "h": h}
+    for f in ("derivative", "position"):
+        v[f"align_features={f}"] = {"align_features": f}
+    three = S6["objects"]
+    v["+frame_scale"] = {"objects": FS}
+    v["+frame_rotation"] = {"objects": three + ("frame_rotation",)}
+    v["+frame_scale+frame_rotation"] = {"objects": three + ("frame_scale", "frame_rotation")}
+    v["frame->frame_scale"] = {"objects": ("target", "start", "frame_scale")}
+    for lam in (0.25, 0.5, 0.75, 1.0):
+        v[f"+frame_scale,shrinkage={lam:g}"] = {"objects": FS, "shrinkage": lam}
+    v["+frame_scale,diagonal"] = {"objects": FS, "full_covariance": False}
+    v["+frame_scale,derivative"] = {"objects": FS, "align_features": "derivative"}
+    v["+frame_scale,shrinkage=0.5,derivative"] = {"objects": FS, "shrinkage": 0.5, "align_features": "derivative"}
+    for o in ("target", "start", "frame", "frame_scale"):
+        for w in (0.5, 2.0):
+            v[f"+frame_scale,shrinkage=0.5,weight_{o}={w:g}"] = {"objects": FS, "shrinkage": 0.5, "weights": {o: w}}
+    return {k: (None if kw is None else {**S6, **kw}) for k, kw in v.items()}
+
+
+def grid(shapes, only=None, extra=None) -> None:
+    variants = _variants()
+    if only:
+        variants = {k: variants[k] for k in only}
+    for spec in extra or ():
+        i = spec.find("={")
+        if i < 0:
+            raise SystemExit(f"--variant {spec!r}: expected LABEL={{json}}")
+        label, kw = spec[:i], json.loads(spec[i + 1:])
+        if "objects" in kw:
+            kw["objects"] = tuple(kw["objects"])
+        variants[label] = kw
+    demos = {n: load_shape(n) for n in shapes}
+    base = {n: evaluate_shape(n, baseline_reproducer, demos=demos[n]).rmse_mm for n in shapes}
+    bmean = float(np.mean(list(base.values())))
+    print(f"{'variant':34s} {'mean':>6s} {'end':>6s} {'vs base':>7s}  " + " ".join(f"{n[:7]:>7s}" for n in shapes))
+    print(f"{'baseline':34s} {bmean:6.3f} {0:6.3f} {0:7.1%}  " + " ".join(f"{base[n]:7.3f}" for n in shapes))
+    for label, kw in variants.items():
+        t0 = time.perf_counter()
+        rep = ThesisReproducer() if kw is None else ThesisReproducer(**kw)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            res = {n: evaluate_shape(n, rep, demos=demos[n]) for n in shapes}
+        m = float(np.mean([r.rmse_mm for r in res.values()]))
+        e = float(np.mean([r.end_error_mm for r in res.values()]))
+        print(f"{label:34s} {m:6.3f} {e:6.3f} {1 - m / bmean:7.1%}  "
+              + " ".join(f"{res[n].rmse_mm:7.3f}" for n in shapes)
+              + f"  ({time.perf_counter() - t0:.1f} s)", flush=True)
+
+
+@contextlib.contextmanager
+def _alignment(kind: str):
+    """Swap :func:`mmlearn.models.imitation.align_demonstrations` (looked up at call time by
+    ``ThesisReproducer.learn``) for a study variant, inside this benchmark only:
+    ``"arc"``: no DTW, every demonstration resampled at uniform normalised arc length (the DBN
+    indexed by progress along the path, the reference's median duration); ``"barycentre"``: DTW
+    to the reference, then a second DTW pass of every demonstration to the mean of the first."""
+    import mmlearn.models.imitation as imi
+    from mmlearn.models.imitation_types import Demonstration
+
+    real = imi.align_demonstrations
+
+    def arc(demos, *, dt=None, features="both", **kw):
+        demos = list(demos)
+        n = int(round(float(np.median([d.duration for d in demos])) / dt)) + 1
+        u = np.linspace(0.0, 1.0, n)
+        out = []
+        for d in demos:
+            s = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(d.hand, axis=0), axis=1))]
+            s /= s[-1]
+            keep = np.r_[True, np.diff(s) > 1e-12]
+
+            def f(a):
+                return np.stack([np.interp(u, s[keep], a[keep, c]) for c in range(a.shape[1])], axis=1)
+            out.append(Demonstration(t=dt * np.arange(n), hand=f(d.hand),
+                                     objects={k: f(v) for k, v in d.objects.items()}, meta=dict(d.meta)).validate())
+        return out
+
+    def barycentre(demos, *, dt=None, features="both", **kw):
+        demos = list(demos)
+        al = real(demos, dt=dt, features=features, **kw)
+        m = Demonstration(t=al[0].t, hand=np.mean([d.hand for d in al], axis=0),
+                          objects={k: np.mean([d.objects[k] for d in al], axis=0) for k in al[0].objects}).validate()
+        return real([m] + demos, dt=dt, features=features, reference=0, **kw)[1:]
+
+    imi.align_demonstrations = {"arc": arc, "barycentre": barycentre}[kind]
+    try:
+        yield
+    finally:
+        imi.align_demonstrations = real
+
+
+class _SmoothedCovariances(ThesisReproducer):
+    """ThesisReproducer whose tempered covariances are also smoothed over the slices by a
+    Gaussian of ``smooth`` seconds (study only)."""
+
+    def __init__(self, *, smooth: float, **kw):
+        super().__init__(**kw)
+        self.smooth = smooth
+
+    def _temper(self, name, var):
+        from scipy.ndimage import gaussian_filter1d
+
+        return gaussian_filter1d(super()._temper(name, var), self.smooth / self.dt, axis=0, mode="nearest")
+
+
+def extras(shapes) -> None:
+    """Variants outside ThesisReproducer's settings: arc-length indexing, a barycentre DTW pass,
+    covariances smoothed over time (development shapes, mean rmse / end error, mm)."""
+    demos = {n: load_shape(n) for n in shapes}
+
+    def score(rep):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            res = [evaluate_shape(n, rep, demos=demos[n]) for n in shapes]
+        return np.mean([r.rmse_mm for r in res]), np.mean([r.end_error_mm for r in res])
+
+    s6 = ThesisReproducer(**S6)
+    rows = [("s6 (previous default)", None, s6), ("default", None, ThesisReproducer()),
+            ("s6, arc-length indexing", "arc", s6), ("default, arc-length indexing", "arc", ThesisReproducer()),
+            ("default, barycentre DTW pass", "barycentre", ThesisReproducer())]
+    for sm in (0.05, 0.1, 0.2):
+        rows.append((f"default, covariances smoothed {sm:g} s", None, _SmoothedCovariances(smooth=sm)))
+    for label, kind, rep in rows:
+        with (_alignment(kind) if kind else contextlib.nullcontext()):
+            m, e = score(rep)
+        print(f"{label:40s} rmse {m:.3f} mm  end {e:.3f} mm", flush=True)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("what", choices=("split", "grid", "extras"))
+    ap.add_argument("--only", default=None, help="grid: variant names separated by ;")
+    ap.add_argument("--variant", action="append", default=[],
+                    help='grid: an extra variant NAME={"keyword": value, ...} (JSON keyword arguments '
+                         'of ThesisReproducer); repeatable')
+    a = ap.parse_args(argv)
+    shapes = list(DEVELOPMENT_SHAPES)
+    if a.what == "split":
+        split(shapes)
+    elif a.what == "extras":
+        extras(shapes)
+    else:
+        grid(shapes, None if a.only is None else [s.strip() for s in a.only.split(";")], a.variant)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
