@@ -61,6 +61,10 @@ __all__ = ["LiquidDetectionConfig", "run", "report", "main", "record_features"]
 TARE_WINDOW = (0.05, 0.3)
 """Wrist force before the fingers touch anything, s (the tare of the weight)."""
 
+COAST_DELAY = 0.0
+"""Default start of the coast samples after each change of the commanded roll rate ends, s
+(see :func:`mmlearn.models.liquid.coast_mask`)."""
+
 
 @dataclass
 class LiquidDetectionConfig:
@@ -74,6 +78,12 @@ class LiquidDetectionConfig:
         roll_cycles: roll cycles per trial.
         roll_profile: "sweep" (constant rate, smooth 0.25 s reversals), "sine" or "triangle"
             (abrupt reversals, the earlier roll).
+        feature: the tactile feature the rate, the table and the dummy's class use: "coast"
+            (the spread of the high-passed taxel norm over the coast phases of the roll, where
+            the commanded roll rate is constant: a deviation, see the module docstring) or
+            "whole" (over the whole roll, thesis Eq. 7.11). Both are always reported.
+        coast_delay: the coast samples start this long after each change of the commanded
+            roll rate ends, s (0 <= delay < 0.3).
         folds: cross-validation folds (at most the smaller class' count).
         seed: seed of the trials and the folds.
         plot: image file or None.
@@ -86,6 +96,8 @@ class LiquidDetectionConfig:
     with_weight: bool = False
     roll_cycles: float = 2.0
     roll_profile: str = "sweep"
+    feature: str = "coast"
+    coast_delay: float = COAST_DELAY
     folds: int = 10
     seed: int = 0
     plot: str | None = None
@@ -112,6 +124,16 @@ def _check(c: LiquidDetectionConfig) -> None:
     if c.roll_profile not in ("sweep", "sine", "triangle"):
         raise ValueError(f"roll_profile: expected sweep, sine or triangle, got "
                          f"{c.roll_profile!r}")
+    from mmlearn.models.liquid import FEATURES
+
+    if c.feature not in FEATURES:
+        raise ValueError(f"feature: expected one of {', '.join(FEATURES)}, got {c.feature!r}")
+    if c.feature == "coast" and c.roll_profile == "sine":
+        raise ValueError("feature: the coast feature needs constant-rate phases (roll_profile "
+                         "sweep or triangle); the sine roll has none, use feature='whole'")
+    if not (isinstance(c.coast_delay, (int, float)) and np.isfinite(c.coast_delay)
+            and 0 <= c.coast_delay < 0.3):
+        raise ValueError(f"coast_delay: expected 0 <= delay < 0.3 s, got {c.coast_delay!r}")
     if not (np.isfinite(c.roll_cycles) and c.roll_cycles >= 0.5):
         raise ValueError(f"roll_cycles: expected >= 0.5, got {c.roll_cycles!r}")
     liq = [LIQUID_CONTAINERS[n][1] is not None for n in c.containers]
@@ -137,11 +159,34 @@ def _specs(c: LiquidDetectionConfig):
     return specs
 
 
-def record_features(rec: dict):
+def _roll_changes(rec: dict, params: dict | None):
+    """Where the trial's commanded roll rate changed, (k, 2) s, or None (sine roll): from the
+    record (``roll_changes``) or, for records written before it was stored, rebuilt from the
+    trial's roll settings (the robot's own command; defaults of
+    :class:`~mmlearn.diagrams.liquid_roll.LiquidRollConfig`)."""
+    if "roll_changes" in rec:
+        ch = rec["roll_changes"]
+        return None if ch is None else np.asarray(ch, float).reshape(-1, 2)
+    from mmlearn.diagrams.liquid_roll import LiquidRollConfig, roll_change_windows
+
+    params = params or {}
+    profile = rec.get("roll_profile", params.get("roll_profile", "sweep"))
+    if profile == "sine":
+        return None
+    cycles = float(rec.get("roll_cycles", params.get("roll_cycles", 2.0)))
+    cfg = LiquidRollConfig(roll_cycles=cycles, roll_profile=profile,
+                           **({"reversal_time": 0.0} if profile == "triangle" else {}))
+    return roll_change_windows(cfg)
+
+
+def record_features(rec: dict, *, coast_delay: float = COAST_DELAY, params: dict | None = None):
     """A trial record -> :class:`~mmlearn.models.liquid.RollRecord` (the taxels while
-    rolling, the weight in N from the wrist force sensor) built from the sensor series
-    only; the labels are attached from the record's ``liquid`` / ``container``."""
-    from mmlearn.models.liquid import RollRecord
+    rolling, the weight in N from the wrist force sensor, the coast samples: constant
+    commanded roll rate, from ``coast_delay`` s after each change) built from the sensor
+    series and the robot's own roll command only; the labels are attached from the record's
+    ``liquid`` / ``container``. ``params``: the trial's spec parameters (for records that do
+    not store their roll command)."""
+    from mmlearn.models.liquid import RollRecord, coast_mask
     from mmlearn.models.tactile_types import TactileDataError
 
     t = np.asarray(rec["t"], float)
@@ -158,9 +203,16 @@ def record_features(rec: dict):
         raise TactileDataError(f"trial {rec.get('container')}: too few samples in the roll, "
                                f"hold or tare window")
     weight = -(wf[hold, 2].mean() - wf[tare, 2].mean())
+    changes = _roll_changes(rec, params)
+    coast = None
+    if changes is not None:
+        coast = coast_mask(t[roll], changes, start=r0, end=r1, delay=coast_delay)
+        if coast.sum() < 2:
+            raise TactileDataError(f"trial {rec.get('container')}: fewer than 2 coast samples "
+                                   f"(coast delay {coast_delay:g} s)")
     return RollRecord(taxels=taxels[roll], rate_hz=float(rec.get("rate_hz", 24.0)),
                       weight=float(weight), liquid=bool(rec["liquid"]),
-                      container=str(rec["container"]))
+                      container=str(rec["container"]), coast=coast)
 
 
 def _cell_saturation_force() -> float:
@@ -171,23 +223,57 @@ def _cell_saturation_force() -> float:
     return float(P.p_sat * P.length * P.width / (P.rows * P.cols))
 
 
-def report(lines: list[dict], c: LiquidDetectionConfig) -> dict:
-    """Rates, Table 7.4 and the dummy from results-file lines (a run or ``--report-only``)."""
+def _evaluate(rr, dr, y, *, feature: str, k: int, c: LiquidDetectionConfig) -> dict:
+    """Rates (tactile alone, with weight), confusion, Table 7.4 and the dummy for one tactile
+    feature."""
     from mmlearn.models.liquid import evaluate_liquid, liquid_features, liquid_table
     from mmlearn.models.tactile_state import make_classifier
 
+    rep_t = evaluate_liquid(rr, with_weight=False, folds=k, seed=c.seed, feature=feature)
+    rep_w = evaluate_liquid(rr, with_weight=True, folds=k, seed=c.seed, feature=feature)
+    rep = rep_w if c.with_weight else rep_t
+    out = {"rate": rep.rate, "rate_tactile": rep_t.rate, "rate_with_weight": rep_w.rate}
+    out.update({kk: v for kk, v in rep.to_dict().items() if kk != "rate"})
+    out["table"] = liquid_table(rr, feature=feature)
+    if dr:
+        d = {"trials": len(dr), "weight_n": float(np.mean([r.weight for r in dr]))}
+        for ww in (False, True):
+            clf = make_classifier("tree", seed=c.seed)
+            clf.fit(liquid_features(rr, with_weight=ww, feature=feature), y)
+            Xd = liquid_features(dr, with_weight=ww, feature=feature)
+            pred = clf.predict(Xd)
+            key = "predicted_no_liquid" + ("_with_weight" if ww else "_tactile")
+            d[key] = int(np.sum(pred == "no_liquid"))
+        d["feature_mean"] = float(Xd[:, 0].mean())
+        d["feature_std"] = float(Xd[:, 0].std(ddof=1)) if len(dr) > 1 else 0.0
+        d["feature_values"] = [float(v) for v in Xd[:, 0]]
+        d["predicted_no_liquid"] = d["predicted_no_liquid" + ("_with_weight" if c.with_weight
+                                                               else "_tactile")]
+        out["dummy"] = d
+    return out
+
+
+def report(lines: list[dict], c: LiquidDetectionConfig) -> dict:
+    """Rates, Table 7.4 and the dummy from results-file lines (a run or ``--report-only``),
+    for ``c.feature`` at the top level and for every tactile feature the trials allow under
+    ``"features"`` (``"coast"`` needs constant-rate roll phases, ``"whole"`` always)."""
     # the trials in the order of their specs' seeds, not of their completion (parallel jobs
     # finish in any order), so that the folds and the rates do not depend on the run
     lines = sorted(lines, key=lambda ln: (ln.get("spec", {}).get("seed", 0),
                                           str(ln.get("key"))))
     errors = [{"trial": ln["spec"].get("label") or ln["key"], "error": ln["error"]}
               for ln in lines if ln.get("error")]
-    recs = [ln["record"] for ln in lines if not ln.get("error") and ln.get("record")]
-    cont = [r for r in recs if r["container"] != "dummy"]
-    dummy = [r for r in recs if r["container"] == "dummy"]
+    ok = [ln for ln in lines if not ln.get("error") and ln.get("record")]
+    cont = [ln for ln in ok if ln["record"]["container"] != "dummy"]
+    dummy = [ln for ln in ok if ln["record"]["container"] == "dummy"]
     if not cont:
         raise ValueError("no container trial finished")
-    rr = [record_features(r) for r in cont]
+
+    def feats(lns):
+        return [record_features(ln["record"], coast_delay=c.coast_delay,
+                                params=ln.get("spec", {}).get("params")) for ln in lns]
+
+    rr, dr = feats(cont), feats(dummy)
     y = np.array(["liquid" if r.liquid else "no_liquid" for r in rr])
     counts = np.unique(y, return_counts=True)[1]
     if len(counts) < 2:
@@ -195,28 +281,24 @@ def report(lines: list[dict], c: LiquidDetectionConfig) -> dict:
     k = int(min(c.folds, counts.min()))
     if k < 2:
         raise ValueError("too few trials per class for cross-validation (use more --trials)")
-    rep_t = evaluate_liquid(rr, with_weight=False, folds=k, seed=c.seed)
-    rep_w = evaluate_liquid(rr, with_weight=True, folds=k, seed=c.seed)
-    rep = rep_w if c.with_weight else rep_t
-    out = {"rate": rep.rate, "rate_tactile": rep_t.rate, "rate_with_weight": rep_w.rate,
-           "with_weight": bool(c.with_weight), "folds": k}
-    out.update({kk: v for kk, v in rep.to_dict().items() if kk != "rate"})
-    out["table"] = liquid_table(rr)
-    if dummy:
-        dr = [record_features(r) for r in dummy]
-        clf = make_classifier("tree", seed=c.seed)
-        clf.fit(liquid_features(rr, with_weight=c.with_weight), y)
-        Xd = liquid_features(dr, with_weight=c.with_weight)
-        pred = clf.predict(Xd)
-        out["dummy"] = {"trials": len(dr), "feature_mean": float(Xd[:, 0].mean()),
-                        "feature_std": float(Xd[:, 0].std(ddof=1)) if len(dr) > 1 else 0.0,
-                        "weight_n": float(np.mean([d.weight for d in dr])),
-                        "predicted_no_liquid": int(np.sum(pred == "no_liquid"))}
+    has_coast = all(r.coast is not None for r in rr + dr)
+    if c.feature == "coast" and not has_coast:
+        raise ValueError("feature: the coast feature needs rolls with constant-rate phases "
+                         "(these trials hold a sine roll); use --feature whole")
+    by_feature = {f: _evaluate(rr, dr, y, feature=f, k=k, c=c)
+                  for f in (("coast", "whole") if has_coast else ("whole",))}
+    out = {"feature": c.feature, "with_weight": bool(c.with_weight), "folds": k}
+    out.update(by_feature[c.feature])
+    out["features"] = {f: {kk: v for kk, v in ev.items()
+                           if kk in ("rate_tactile", "rate_with_weight", "confusion", "labels",
+                                     "table", "dummy")}
+                       for f, ev in by_feature.items()}
     out["n_trials"] = len(rr)
     out["errors"] = errors
     out["settings"] = {"containers": list(c.containers), "trials": c.trials,
                        "dummy": c.dummy, "roll_cycles": c.roll_cycles,
                        "roll_profile": c.roll_profile, "seed": c.seed,
+                       "feature": c.feature, "coast_delay_s": c.coast_delay,
                        "classifier": "tree (entropy)", "highpass": "Butterworth order 1, 5 Hz",
                        "taxel_rate_hz": 24.0, "roll_hz": 0.6,
                        "feature_unit": "normalised taxel pressure (1 = saturation)",
@@ -265,7 +347,12 @@ def plot_report(lines: list[dict], res: dict, path) -> None:
             ax[0, col].plot(t[m], rf.taxels, lw=0.6)
             ax[0, col].set_title(f"{r['container']}: raw taxels")
             ax[0, col].set_ylabel("pressure (normalised)")
-            ax[1, col].plot(t[m], filtered_norm(rf.taxels, rate_hz=rf.rate_hz), color="k")
+            fn = filtered_norm(rf.taxels, rate_hz=rf.rate_hz)
+            ax[1, col].plot(t[m], fn, color="k")
+            if rf.coast is not None:
+                ax[1, col].plot(t[m][rf.coast], fn[rf.coast], ".", color="tab:orange",
+                                label="coast samples")
+                ax[1, col].legend(fontsize=7)
             ax[1, col].set_title("5 Hz high-pass, norm over taxels (Eq. 7.9)")
             ax[1, col].set_xlabel("t (s)")
     rows = res["table"]
@@ -274,33 +361,48 @@ def plot_report(lines: list[dict], res: dict, path) -> None:
                  yerr=[r["feature_std"] for r in rows],
                  color=["tab:blue" if r["liquid"] else "tab:gray" for r in rows])
     ax[2, 0].set_xticks(range(len(rows)), names, rotation=30, fontsize=7)
-    ax[2, 0].set_ylabel("feature sigma")
+    ax[2, 0].set_ylabel(f"feature sigma ({res['feature']})")
     if "dummy" in res:
         ax[2, 0].axhline(res["dummy"]["feature_mean"], color="tab:red", ls="--",
                          label="rigid dummy")
         ax[2, 0].legend()
     ax[2, 1].axis("off")
-    ax[2, 1].text(0.0, 0.5, f"rate (tactile) {res['rate_tactile']:.3f}\n"
-                            f"rate (tactile + weight) {res['rate_with_weight']:.3f}\n"
-                            f"thesis: 0.919 / 0.985", fontsize=12)
+    txt = "".join(f"{f}: rate (tactile) {ev['rate_tactile']:.3f}, with weight "
+                  f"{ev['rate_with_weight']:.3f}\n" for f, ev in res["features"].items())
+    ax[2, 1].text(0.0, 0.5, txt + "thesis (whole roll): 0.919 / 0.985", fontsize=11)
     fig.tight_layout()
     save_figure(fig, path, dpi=90)
     plt.close(fig)
 
 
 def format_report(res: dict) -> str:
-    lines = [f"liquid detection, {res['n_trials']} trials, decision tree, {res['folds']}-fold CV: "
-             f"rate {res['rate']:.3f} (tactile {res['rate_tactile']:.3f}, with weight "
-             f"{res['rate_with_weight']:.3f}; thesis 0.919 / 0.985)",
-             f"{'container':16s} {'liquid':6s} {'trials':>6s} {'weight N':>9s} feature"]
+    lines = [f"liquid detection, {res['n_trials']} trials, decision tree, {res['folds']}-fold CV, "
+             f"feature {res['feature']}: rate {res['rate']:.3f} (tactile "
+             f"{res['rate_tactile']:.3f}, with weight {res['rate_with_weight']:.3f}; thesis "
+             f"0.919 / 0.985)"]
+    for f, ev in res["features"].items():
+        d = ev.get("dummy")
+        dm = (f"; dummy {d['feature_mean']:.5f} +- {d['feature_std']:.5f}, classified no "
+              f"liquid {d['predicted_no_liquid_tactile']}/{d['trials']} (tactile), "
+              f"{d['predicted_no_liquid_with_weight']}/{d['trials']} (with weight)") if d else ""
+        lines.append(f"  feature {f:5s}: tactile {ev['rate_tactile']:.3f}, with weight "
+                     f"{ev['rate_with_weight']:.3f}{dm}")
+    feats = list(res["features"])
+    lines.append(f"{'container':16s} {'liquid':6s} {'trials':>6s} {'weight N':>9s} "
+                 + " ".join(f"{f:>17s}" for f in feats))
+    rows = {f: {(r["container"], r["liquid"]): r for r in ev["table"]}
+            for f, ev in res["features"].items()}
     for r in res["table"]:
+        key = (r["container"], r["liquid"])
         lines.append(f"{r['container']:16s} {str(r['liquid']):6s} {r['trials']:6d} "
-                     f"{r['weight_n']:9.3f} {r['feature_mean']:.4f} +- {r['feature_std']:.4f}")
+                     f"{r['weight_n']:9.3f} " + " ".join(
+                         f"{rows[f][key]['feature_mean']:.5f} +- {rows[f][key]['feature_std']:.5f}"
+                         for f in feats))
     if "dummy" in res:
-        d = res["dummy"]
-        lines.append(f"{'dummy (rigid)':16s} {'-':6s} {d['trials']:6d} {d['weight_n']:9.3f} "
-                     f"{d['feature_mean']:.4f} +- {d['feature_std']:.4f}  classified no liquid "
-                     f"{d['predicted_no_liquid']}/{d['trials']}")
+        lines.append(f"{'dummy (rigid)':16s} {'-':6s} {res['dummy']['trials']:6d} "
+                     f"{res['dummy']['weight_n']:9.3f} " + " ".join(
+                         f"{res['features'][f]['dummy']['feature_mean']:.5f} +- "
+                         f"{res['features'][f]['dummy']['feature_std']:.5f}" for f in feats))
     for e in res["errors"]:
         lines.append(f"error in {e['trial']}: {e['error']}")
     return "\n".join(lines)
@@ -353,6 +455,14 @@ def main(argv=None) -> int:
     ap.add_argument("--roll-profile", choices=("sweep", "sine", "triangle"), default="sweep",
                     help="the wrist's roll: sweep (default: constant rate, smooth 0.25 s "
                          "reversals), sine, or triangle (abrupt reversals, the earlier roll)")
+    ap.add_argument("--feature", choices=("coast", "whole"), default="coast",
+                    help="the tactile feature the rate, table and dummy use: coast (default: "
+                         "the spread of the high-passed taxel norm over the constant-rate "
+                         "phases of the roll) or whole (over the whole roll, thesis Eq. 7.11); "
+                         "both are reported")
+    ap.add_argument("--coast-delay", type=float, default=COAST_DELAY, metavar="S",
+                    help=f"coast samples start S s after each change of the commanded roll "
+                         f"rate ends (0 <= S < 0.3; default {COAST_DELAY:g})")
     ap.add_argument("--folds", type=pos_int, default=10, help="CV folds (default 10)")
     ap.add_argument("--seed", type=nonneg_int, default=0, help="seed of the trials and folds")
     ap.add_argument("--plot", metavar="FILE", default=None,
@@ -376,7 +486,8 @@ def main(argv=None) -> int:
         cfg = LiquidDetectionConfig(
             containers=names, trials=args.trials, dummy=not args.no_dummy,
             with_weight=args.with_weight, roll_cycles=args.roll_cycles,
-            roll_profile=args.roll_profile, folds=args.folds,
+            roll_profile=args.roll_profile, feature=args.feature,
+            coast_delay=args.coast_delay, folds=args.folds,
             seed=args.seed, plot=args.plot, progress=args.progress)
         check_out_file("--plot", args.plot)
         check_out_file("--html-out", args.html_out)
@@ -384,6 +495,7 @@ def main(argv=None) -> int:
             if args.meshcat or args.html_out:
                 raise UsageError("--meshcat / --html-out simulate a roll; --report-only "
                                  "simulates nothing")
+            _check(cfg)
             lines = report_lines(args.report_only)
         else:
             apply_sweep_args(cfg, args, app="liquid_detection")
