@@ -142,3 +142,51 @@ def test_short_run_full_differs_from_empty(short_run, capsys):
     assert out["n_trials"] == 4 and 0.0 <= out["rate"] <= 1.0
     assert {r["container"] for r in out["table"]} == {"odwalla_half", "odwalla_empty"}
     assert out["sweep"]["report_only"] is True
+    # both tactile features are reported; the coast one is the default; the records keep
+    # the roll command (where its rate changed)
+    assert out["feature"] == "coast" and set(out["features"]) == {"coast", "whole"}
+    assert out["rate_tactile"] == out["features"]["coast"]["rate_tactile"]
+    assert all(len(ln["record"]["roll_changes"]) == 3 for ln in lines)  # start, 1 reversal, stop
+    assert app.main(["--report-only", str(res), "--names", "odwalla_half,odwalla_empty",
+                     "--trials", "2", "--no-dummy", "--feature", "whole", "--json"]) == 0
+    whole = json.loads(capsys.readouterr().out)
+    assert whole["rate_tactile"] == out["features"]["whole"]["rate_tactile"]
+    assert whole["table"] == out["features"]["whole"]["table"]
+
+
+def test_coast_mask_and_feature_bad_inputs():
+    from mmlearn.models.liquid import (RollRecord, coast_mask, liquid_feature,
+                                       liquid_features)
+
+    t = np.arange(0.0, 2.0, 1 / 24)
+    m = coast_mask(t, [[0.5, 0.7], [1.2, 1.2]], start=0.2, end=1.8, delay=0.1)
+    # inside [0.2, 1.8], outside [0.5, 0.8] and [1.2, 1.3]
+    want = (t >= 0.2) & (t <= 1.8) & ~((t >= 0.5) & (t <= 0.8)) & ~((t >= 1.2) & (t <= 1.3))
+    np.testing.assert_array_equal(m, want)
+    with pytest.raises(TactileDataError, match="delay"):
+        coast_mask(t, [[0.5, 0.7]], start=0.2, end=1.8, delay=-0.1)
+    with pytest.raises(TactileDataError, match="start <= end"):
+        coast_mask(t, [[0.7, 0.5]], start=0.2, end=1.8)
+    x = np.random.default_rng(0).normal(size=(len(t), 4))
+    with pytest.raises(TactileDataError, match="mask"):
+        liquid_feature(x, mask=m[:-1])
+    with pytest.raises(TactileDataError, match="coast"):
+        RollRecord(x, coast=np.zeros(len(t), bool))
+    # the coast feature is the spread over the masked samples of the same filtered norm
+    from mmlearn.models.liquid import filtered_norm
+
+    assert liquid_feature(x, mask=m) == pytest.approx(np.std(filtered_norm(x)[m], ddof=1))
+    with pytest.raises(TactileDataError, match="coast mask"):
+        liquid_features([RollRecord(x)], feature="coast")
+    with pytest.raises(ValueError, match="feature"):
+        liquid_features([RollRecord(x)], feature="bogus")
+
+
+def test_config_rejects_coast_feature_without_coast():
+    c = app.LiquidDetectionConfig(roll_profile="sine")
+    with pytest.raises(ValueError, match="constant-rate"):
+        app._check(c)
+    app._check(app.LiquidDetectionConfig(roll_profile="sine", feature="whole"))
+    with pytest.raises(ValueError, match="coast_delay"):
+        app._check(app.LiquidDetectionConfig(coast_delay=float("nan")))
+    assert _rc(["--coast-delay", "0.5", "--report-only", "x.jsonl"]) == 2
