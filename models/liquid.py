@@ -64,12 +64,22 @@ from scipy import signal
 from .tactile_types import TactileDataError, check_series
 
 __all__ = ["SloshMode", "first_slosh_mode", "RollRecord", "highpass", "filtered_norm",
-           "liquid_feature", "liquid_features", "coast_mask", "liquid_table", "evaluate_liquid",
-           "FEATURES", "HIGHPASS_CUTOFF_HZ", "TACTILE_RATE_HZ"]
+           "liquid_feature", "liquid_features", "coast_mask", "coast_feature", "liquid_table",
+           "evaluate_liquid", "FEATURES", "COAST_DETREND_DEGREE", "COAST_MIN_SAMPLES",
+           "HIGHPASS_CUTOFF_HZ", "TACTILE_RATE_HZ"]
 
-FEATURES = ("coast", "whole")
-"""Tactile features: "coast" (spread over the constant-rate phases of the roll, the
-default here) and "whole" (over the whole roll, thesis Eq. 7.11)."""
+FEATURES = ("coast_detrended", "coast", "whole")
+"""Tactile features: "coast_detrended" (:func:`coast_feature`: the spread of the filtered
+norm about its slow trend within each coast phase), "coast" (its plain spread over the coast
+samples) and "whole" (over the whole roll, thesis Eq. 7.11)."""
+
+COAST_DETREND_DEGREE = 2
+"""Degree of the polynomial (in time) removed from the filtered norm in each coast phase by
+:func:`coast_feature`."""
+
+COAST_MIN_SAMPLES = 6
+"""Coast phases with fewer samples are left out of :func:`coast_feature` (a quadratic fit
+needs a few more samples than its 3 coefficients; 6 samples = 0.25 s at 24 Hz)."""
 
 HIGHPASS_CUTOFF_HZ = 5.0
 """Cut-off of the high-pass, Hz (thesis: 5 Hz, the lower end of the 5-50 Hz band of human
@@ -247,14 +257,64 @@ def coast_mask(t, windows, *, start: float, end: float, delay: float = 0.0) -> n
     return inside & ~busy
 
 
+def _runs(mask: np.ndarray) -> list[np.ndarray]:
+    """Index arrays of the contiguous True runs of a 1-D bool mask."""
+    idx = np.flatnonzero(mask)
+    if not len(idx):
+        return []
+    return np.split(idx, np.flatnonzero(np.diff(idx) > 1) + 1)
+
+
+def coast_feature(taxels, mask, *, rate_hz: float = TACTILE_RATE_HZ,
+                  cutoff_hz: float = HIGHPASS_CUTOFF_HZ, degree: int = COAST_DETREND_DEGREE,
+                  min_samples: int = COAST_MIN_SAMPLES) -> float:
+    """The spread of the high-passed taxel norm (:func:`filtered_norm`, Eq. 7.9, the filter run
+    over every sample) about its slow trend within each coast phase, in the taxels' unit.
+
+    Each contiguous run of ``mask`` ((T,) bool, :func:`coast_mask`) with at least
+    ``min_samples`` samples is one coast phase; in each, a polynomial of ``degree`` in time is
+    fitted to the filtered norm by least squares and removed; the feature is the root mean
+    square of the residuals over all phases with ``n - p`` in the denominator (n residuals,
+    p fitted coefficients). Why: in a coast phase a rigid object's load on the pads is a
+    smooth function of the roll angle (gravity shifts it from one pad to the other as the
+    wrist turns at a constant rate), and the first-order 5 Hz high-pass passes that shift at
+    ~20 % as a smooth curve; a liquid keeps ringing at its sloshing frequency (3.5-3.9 Hz here,
+    about two periods per phase), which a quadratic does not follow. A deviation from the
+    thesis' Eq. 7.11 (see the module docstring)."""
+    x = check_series("taxels", taxels, ndim=2)
+    m = np.asarray(mask)
+    if m.shape != (x.shape[0],) or m.dtype != bool:
+        raise TactileDataError(f"mask: expected a bool array of shape ({x.shape[0]},), got "
+                               f"{m.dtype} {m.shape}")
+    if not (isinstance(degree, (int, np.integer)) and 0 <= degree
+            and min_samples > degree + 1):
+        raise ValueError(f"coast_feature: need degree >= 0 and min_samples > degree + 1, got "
+                         f"degree {degree!r}, min_samples {min_samples!r}")
+    runs = [r for r in _runs(m) if len(r) >= min_samples]
+    if not runs:
+        raise TactileDataError(f"coast_feature: no coast phase of at least {min_samples} "
+                               f"samples (the roll's constant-rate phases are too short)")
+    f = filtered_norm(x, rate_hz=rate_hz, cutoff_hz=cutoff_hz)
+    ss, n, p = 0.0, 0, 0
+    for r in runs:
+        u = (r - r.mean()) / max(len(r) - 1, 1)  # centred, scaled time: well-conditioned
+        V = np.vander(u, degree + 1)
+        coef, *_ = np.linalg.lstsq(V, f[r], rcond=None)
+        ss += float(np.sum((f[r] - V @ coef) ** 2))
+        n, p = n + len(r), p + degree + 1
+    return float(np.sqrt(ss / (n - p)))
+
+
 def _record_feature(r, feature: str, cutoff_hz: float) -> float:
     if feature not in FEATURES:
         raise ValueError(f"feature: expected one of {', '.join(FEATURES)}, got {feature!r}")
+    if feature != "whole" and r.coast is None:
+        raise TactileDataError(f"the {feature} feature needs the record's coast mask (a roll "
+                               f"with constant-rate phases: sweep or triangle)")
     if feature == "coast":
-        if r.coast is None:
-            raise TactileDataError("the coast feature needs the record's coast mask (a roll "
-                                   "with constant-rate phases: sweep or triangle)")
         return liquid_feature(r.taxels, rate_hz=r.rate_hz, cutoff_hz=cutoff_hz, mask=r.coast)
+    if feature == "coast_detrended":
+        return coast_feature(r.taxels, r.coast, rate_hz=r.rate_hz, cutoff_hz=cutoff_hz)
     return liquid_feature(r.taxels, rate_hz=r.rate_hz, cutoff_hz=cutoff_hz)
 
 
@@ -262,8 +322,8 @@ def liquid_features(records, *, with_weight: bool = False,
                     cutoff_hz: float = HIGHPASS_CUTOFF_HZ, feature: str = "whole") -> np.ndarray:
     """Feature matrix of many :class:`RollRecord`: ``(n, 1)`` = sigma, or ``(n, 2)`` = (sigma,
     weight in N) with ``with_weight`` (every record then needs a weight). ``feature``:
-    "whole" (the thesis' spread over the whole roll) or "coast" (over the coast samples,
-    ``RollRecord.coast``)."""
+    "whole" (the thesis' spread over the whole roll), "coast" (over the coast samples,
+    ``RollRecord.coast``) or "coast_detrended" (:func:`coast_feature`)."""
     rows = []
     for i, r in enumerate(records):
         s = _record_feature(r, feature, cutoff_hz)

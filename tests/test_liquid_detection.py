@@ -108,7 +108,7 @@ def short_run(tmp_path_factory):
     res = d / "r.jsonl"
     rc = app.main(["--names", "odwalla_half,odwalla_empty", "--trials", "2", "--no-dummy",
                    "--roll-cycles", "0.5", "--seed", "5", "--jobs", "2", "--results", str(res),
-                   "--plot", str(d / "fig.png"), "--json"])
+                   "--plot", str(d / "fig.png"), "--feature", "whole", "--json"])
     return rc, d, res
 
 
@@ -137,21 +137,19 @@ def test_short_run_full_differs_from_empty(short_run, capsys):
     # --report-only recomputes the same report from the results file
     capsys.readouterr()
     assert app.main(["--report-only", str(res), "--names", "odwalla_half,odwalla_empty",
-                     "--trials", "2", "--no-dummy", "--json"]) == 0
+                     "--trials", "2", "--no-dummy", "--feature", "whole", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["n_trials"] == 4 and 0.0 <= out["rate"] <= 1.0
     assert {r["container"] for r in out["table"]} == {"odwalla_half", "odwalla_empty"}
     assert out["sweep"]["report_only"] is True
-    # both tactile features are reported; the coast one is the default; the records keep
-    # the roll command (where its rate changed)
-    assert out["feature"] == "coast" and set(out["features"]) == {"coast", "whole"}
-    assert out["rate_tactile"] == out["features"]["coast"]["rate_tactile"]
+    # the records keep the roll command (where its rate changed); half a cycle leaves no
+    # coast phase long enough for the detrended coast feature (the default): a clear error
+    assert out["feature"] == "whole" and "coast_detrended" not in out["features"]
+    assert out["rate_tactile"] == out["features"]["whole"]["rate_tactile"]
     assert all(len(ln["record"]["roll_changes"]) == 3 for ln in lines)  # start, 1 reversal, stop
     assert app.main(["--report-only", str(res), "--names", "odwalla_half,odwalla_empty",
-                     "--trials", "2", "--no-dummy", "--feature", "whole", "--json"]) == 0
-    whole = json.loads(capsys.readouterr().out)
-    assert whole["rate_tactile"] == out["features"]["whole"]["rate_tactile"]
-    assert whole["table"] == out["features"]["whole"]["table"]
+                     "--trials", "2", "--no-dummy", "--json"]) == 2
+    assert "not available" in capsys.readouterr().err
 
 
 def test_coast_mask_and_feature_bad_inputs():
@@ -178,6 +176,17 @@ def test_coast_mask_and_feature_bad_inputs():
     assert liquid_feature(x, mask=m) == pytest.approx(np.std(filtered_norm(x)[m], ddof=1))
     with pytest.raises(TactileDataError, match="coast mask"):
         liquid_features([RollRecord(x)], feature="coast")
+    # the detrended coast feature: a quadratic in each coast phase is removed exactly, a
+    # ringing is not
+    from mmlearn.models.liquid import coast_feature
+
+    tt = np.arange(200) / 24.0
+    phases = ((tt % 1.0) > 0.2) & ((tt % 1.0) < 0.8)  # 0.6 s coast phases
+    slow = np.outer(1 + 0.5 * tt + 0.05 * tt**2, np.ones(4))
+    ring = slow + 0.01 * np.outer(np.sin(2 * np.pi * 3.5 * tt), [1, -1, 1, -1])
+    assert coast_feature(slow, phases) < 0.02 * coast_feature(ring, phases)
+    with pytest.raises(TactileDataError, match="no coast phase"):
+        coast_feature(ring, (tt % 1.0) < 0.1)
     with pytest.raises(ValueError, match="feature"):
         liquid_features([RollRecord(x)], feature="bogus")
 

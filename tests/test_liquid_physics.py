@@ -176,18 +176,19 @@ def test_roll_change_windows_are_where_the_commanded_rate_changes():
 def test_coast_feature_rigid_dummy_well_below_liquid(sweep_runs):
     """The robot knows its roll command: over the coast phases (constant commanded roll
     rate, from ``COAST_DELAY`` s after each reversal) the rigid dummy's and the empty
-    bottle's high-passed taxel norm hardly varies, while the half-full bottle's liquid keeps
-    ringing. (Over the whole roll the dummy's rigid response during the reversals is as
-    large as the liquid's: see the README, Liquid detection.)"""
+    bottle's high-passed taxel norm follows a slow trend (gravity shifting the load between
+    the pads), while the half-full bottle's liquid keeps ringing about it. (Over the whole
+    roll the dummy's rigid response during the reversals is as large as the liquid's: see
+    the README, Liquid detection.)"""
     from mmlearn.apps.liquid_detection import COAST_DELAY
     from mmlearn.diagrams.liquid_roll import roll_change_windows
-    from mmlearn.models.liquid import coast_mask, liquid_feature
+    from mmlearn.models.liquid import coast_feature, coast_mask
 
     f = {}
     for k, (t, x, c) in sweep_runs.items():
         m = coast_mask(t, roll_change_windows(c), start=c.t_roll,
                        end=c.t_roll + c.roll_duration, delay=COAST_DELAY)
         assert 30 < m.sum() < len(t)
-        f[k] = liquid_feature(x, mask=m)
+        f[k] = coast_feature(x, m)
     assert f["dummy"] < 0.5 * f["odwalla_half"], f
     assert f["odwalla_empty"] < 0.5 * f["odwalla_half"], f
