@@ -4,7 +4,7 @@ Usage::
 
     python -m mmlearn.apps.liquid_detection [--with-weight] [--containers N | --names A,B]
         [--trials N] [--no-dummy] [--roll-cycles C] [--roll-profile sweep|sine|triangle]
-        [--plot FILE] [--results FILE]
+        [--feature coast_detrended|coast|whole] [--coast-delay S] [--plot FILE] [--results FILE]
         [--jobs J] [--report-only RESULTS.jsonl] [--meshcat] [--html-out FILE] --seed S [--json]
 
 Each trial (:func:`mmlearn.diagrams.liquid_roll.liquid_roll_trial`) grasps a random instance
@@ -15,10 +15,25 @@ mode, a mass on a spring-damper with the cap as a barrier
 (:func:`mmlearn.models.liquid.first_slosh_mode`); nothing but the simulated taxels (24 Hz,
 noise 1e-4 of saturation) and the wrist force sensor is recorded. Features (:mod:`mmlearn.models.liquid`): each taxel through a
 first-order 5 Hz Butterworth high-pass, the Euclidean norm over the 30 taxels (Eq. 7.9) and
-its standard deviation over the roll (Eq. 7.11); with ``--with-weight`` also the weight from
-the wrist force sensor (the mean vertical force while the lifted container is held still,
-tared with the reading before contact). A decision tree (entropy criterion, as the thesis'
-C4.5) is scored by stratified 10-fold cross-validation on liquid / no liquid.
+its spread:
+
+* ``whole`` (the thesis, Eq. 7.11): the standard deviation over the whole roll;
+* ``coast`` (a deviation): the standard deviation over the coast phases only -- the samples
+  where the robot's own roll command turns at a constant rate, from ``--coast-delay`` s
+  (0.12 s, four time constants of the high-pass) after each reversal ends
+  (:func:`mmlearn.diagrams.liquid_roll.roll_change_windows`,
+  :func:`mmlearn.models.liquid.coast_mask`);
+* ``coast_detrended`` (the default; a deviation): the spread about a quadratic trend fitted
+  in each coast phase (:func:`mmlearn.models.liquid.coast_feature`). A rigid body's load on
+  the pads shifts with gravity as the wrist turns, smoothly within a coast phase (the 5 Hz
+  first-order high-pass passes it at ~20 %, as large as the liquid's ringing); the liquid
+  keeps ringing at its sloshing frequency after the container's motion stops changing.
+
+With ``--with-weight`` also the weight from the wrist force sensor (the mean vertical force
+while the lifted container is held still, tared with the reading before contact). A decision
+tree (entropy criterion, as the thesis' C4.5) is scored by stratified 10-fold
+cross-validation on liquid / no liquid, for every feature (the one chosen with ``--feature``
+at the top level of the output).
 
 Containers (``--containers N`` takes the first N of
 :data:`~mmlearn.diagrams.liquid_roll.LIQUID_CONTAINERS`, default 4: the Odwalla and water
@@ -31,15 +46,19 @@ the tree trained on all container trials (``dummy``: its feature and how it was 
 
 ``--json`` prints one object::
 
-    {"rate", "rate_tactile", "rate_with_weight", "with_weight", "labels", "confusion",
-     "per_class", "table": [{"container", "liquid", "trials", "weight_n", "feature_mean",
-     "feature_std"}], "dummy": {"trials", "feature_mean", "feature_std", "weight_n",
-     "predicted_no_liquid"}, "n_trials", "errors", "settings", "sweep"}
+    {"feature", "rate", "rate_tactile", "rate_with_weight", "with_weight", "labels",
+     "confusion", "per_class", "table": [{"container", "liquid", "trials", "weight_n",
+     "feature_mean", "feature_std"}], "dummy": {"trials", "feature_mean", "feature_std",
+     "feature_values", "weight_n", "predicted_no_liquid", "predicted_no_liquid_tactile",
+     "predicted_no_liquid_with_weight"}, "features": {FEATURE: {"rate_tactile",
+     "rate_with_weight", "confusion", "labels", "table", "dummy"}}, "n_trials", "errors",
+     "settings", "sweep"}
 
 ``--plot FILE`` draws Fig. 7.11 (raw taxels and the filtered norm of an empty and a liquid
 trial of the same container) and the feature per container. Trials run through the sweep
-runner (:mod:`mmlearn.apps._sweep`): ``--results`` keeps them (a rerun resumes) and
-``--report-only`` recomputes everything from such a file.
+runner (:mod:`mmlearn.apps._sweep`): ``--results`` keeps them, with every trial's taxel and
+wrist-force series and its roll command (a rerun resumes), and ``--report-only`` recomputes
+everything from such a file (any feature, any ``--coast-delay``) without simulating.
 
 Exit status: 0 success, 1 a trial raised, 2 bad input, 130 interrupted.
 """
