@@ -23,7 +23,13 @@ keeps moving after the container's motion stops changing. The same filter (run o
 whole roll, so its state is continuous), the same norm and the same spread, restricted to those
 samples (``liquid_feature(..., mask=...)``; ``RollRecord.coast``; ``feature="coast"`` in
 :func:`liquid_features`, :func:`liquid_table`, :func:`evaluate_liquid`; ``"whole"`` is the
-thesis' feature).
+thesis' feature). That alone is not enough for a heavy rigid body: within a coast phase
+gravity shifts its load from one pad to the other as the wrist turns, smoothly, and the
+first-order high-pass passes ~20 % of that shift. :func:`coast_feature`
+(``feature="coast_detrended"``) therefore takes the spread of the filtered norm about a
+quadratic trend fitted within each coast phase: what remains is what does not follow the
+slow gravity load -- the liquid's ringing at its sloshing frequency (3.5-3.9 Hz, about two
+periods per phase).
 
 A decision tree (:func:`mmlearn.models.tactile_state.make_classifier`) learns "liquid" versus
 "no liquid" from these features; :func:`mmlearn.models.tactile_state.cross_validate` gives the
