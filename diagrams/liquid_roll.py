@@ -41,7 +41,9 @@ sloshing mode (3.5 Hz, damping ratio ~0.006) is hardly excited and every contain
 is the 0.6 Hz load shift that leaks through the first-order high-pass (~10 % at 0.6 Hz), in
 proportion to its weight; under the "sweep" each reversal excites that mode and the liquid
 rings at 3.5 Hz (passed at ~50 %) between the reversals, which the rigid dummy and the empty
-containers cannot do.
+containers cannot do. :func:`roll_change_windows` gives where the commanded rate changes, so
+that the feature can be taken over the constant-rate (coast) phases only
+(:func:`mmlearn.models.liquid.coast_feature`).
 
 :func:`liquid_roll_trial` runs one trial for the sweep runner and returns only what the
 sensors recorded (taxels at 24 Hz, the wrist force) plus the labels.
