@@ -190,5 +190,5 @@ def test_coast_feature_rigid_dummy_well_below_liquid(sweep_runs):
                        end=c.t_roll + c.roll_duration, delay=COAST_DELAY)
         assert 30 < m.sum() < len(t)
         f[k] = coast_feature(x, m)
-    assert f["dummy"] < 0.5 * f["odwalla_half"], f
-    assert f["odwalla_empty"] < 0.5 * f["odwalla_half"], f
+    assert f["dummy"] < 0.25 * f["odwalla_half"], f  # seed 4: 0.00012 vs 0.00096
+    assert f["odwalla_empty"] < 0.25 * f["odwalla_half"], f  # 0.00009
