@@ -80,6 +80,10 @@ __all__ = ["LiquidDetectionConfig", "run", "report", "main", "record_features"]
 TARE_WINDOW = (0.05, 0.3)
 """Wrist force before the fingers touch anything, s (the tare of the weight)."""
 
+ROLL_MATCH_RMS = 0.05
+"""A record without its roll command gets one rebuilt from its settings only if the measured
+roll follows it within this rms error, rad (else no coast phases are known for it)."""
+
 COAST_DELAY = 0.12
 """Start of the coast samples after each change of the commanded roll rate ends, s (see
 :func:`mmlearn.models.liquid.coast_mask`): about four time constants of the 5 Hz first-order
@@ -187,7 +191,8 @@ def _roll_changes(rec: dict, params: dict | None):
     """Where the trial's commanded roll rate changed, (k, 2) s, or None (sine roll): from the
     record (``roll_changes``) or, for records written before it was stored, rebuilt from the
     trial's roll settings (the robot's own command; defaults of
-    :class:`~mmlearn.diagrams.liquid_roll.LiquidRollConfig`)."""
+    :class:`~mmlearn.diagrams.liquid_roll.LiquidRollConfig`) -- None when the record's
+    measured roll does not follow that command within ``ROLL_MATCH_RMS``."""
     if "roll_changes" in rec:
         ch = rec["roll_changes"]
         return None if ch is None else np.asarray(ch, float).reshape(-1, 2)
@@ -200,6 +205,22 @@ def _roll_changes(rec: dict, params: dict | None):
     cycles = float(rec.get("roll_cycles", params.get("roll_cycles", 2.0)))
     cfg = LiquidRollConfig(roll_cycles=cycles, roll_profile=profile,
                            **({"reversal_time": 0.0} if profile == "triangle" else {}))
+    if "roll" in rec:
+        # the rebuilt command must match the measured roll (records of an earlier default
+        # roll, e.g. the sine, carry no roll settings): tracking error ~0.003 rad rms,
+        # another profile ~0.2 rad
+        from mmlearn.diagrams.liquid_roll import roll_trajectory
+
+        t = np.asarray(rec["t"], float)
+        q = np.asarray(rec["roll"], float)
+        r0, r1 = rec["roll_window"]
+        m = (t >= r0) & (t <= r1)
+        if q.shape != t.shape or not m.any():
+            return None
+        tr = roll_trajectory(cfg)
+        cmd = np.array([tr.value(x)[0, 0] for x in t[m]])
+        if not np.sqrt(np.mean((cmd - q[m]) ** 2)) < ROLL_MATCH_RMS:
+            return None
     return roll_change_windows(cfg)
 
 

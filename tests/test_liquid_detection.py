@@ -199,3 +199,23 @@ def test_config_rejects_coast_feature_without_coast():
     with pytest.raises(ValueError, match="coast_delay"):
         app._check(app.LiquidDetectionConfig(coast_delay=float("nan")))
     assert _rc(["--coast-delay", "0.5", "--report-only", "x.jsonl"]) == 2
+
+
+def test_old_records_get_their_roll_command_only_if_the_measured_roll_follows_it():
+    """Records written before the roll command was stored: the command is rebuilt from the
+    trial's settings and used only if the encoder's roll follows it (an earlier default, the
+    sine roll, carries no settings)."""
+    from mmlearn.diagrams.liquid_roll import sine_roll_angle, sweep_roll_angle
+
+    c = LiquidRollConfig()
+    t = np.arange(0.0, c.duration, 1 / 24)
+    base = {"t": t.tolist(), "taxels": np.full((len(t), 4), 0.1).tolist(),
+            "wrist_force": np.zeros((len(t), 3)).tolist(),
+            "roll_window": [c.t_roll, c.t_roll + c.roll_duration],
+            "weight_window": [1.7, 1.9], "liquid": False, "container": "x"}
+    sweep = dict(base, roll=sweep_roll_angle(c, t)[0].tolist())
+    sine = dict(base, roll=sine_roll_angle(LiquidRollConfig(roll_profile="sine"), t)[0].tolist())
+    assert app.record_features(sweep).coast.sum() == 35  # 3 phases of 11 + 2 single samples
+    assert app.record_features(sine).coast is None
+    stored = dict(sine, roll_changes=None)  # a new record of a sine roll says so itself
+    assert app.record_features(stored).coast is None
