@@ -4,7 +4,7 @@ Usage::
 
     python -m mmlearn.apps.liquid_detection [--with-weight] [--containers N | --names A,B]
         [--trials N] [--no-dummy] [--roll-cycles C] [--roll-profile sweep|sine|triangle]
-        [--plot FILE] [--results FILE]
+        [--feature coast_detrended|coast|whole] [--coast-delay S] [--plot FILE] [--results FILE]
         [--jobs J] [--report-only RESULTS.jsonl] [--meshcat] [--html-out FILE] --seed S [--json]
 
 Each trial (:func:`mmlearn.diagrams.liquid_roll.liquid_roll_trial`) grasps a random instance
@@ -15,10 +15,25 @@ mode, a mass on a spring-damper with the cap as a barrier
 (:func:`mmlearn.models.liquid.first_slosh_mode`); nothing but the simulated taxels (24 Hz,
 noise 1e-4 of saturation) and the wrist force sensor is recorded. Features (:mod:`mmlearn.models.liquid`): each taxel through a
 first-order 5 Hz Butterworth high-pass, the Euclidean norm over the 30 taxels (Eq. 7.9) and
-its standard deviation over the roll (Eq. 7.11); with ``--with-weight`` also the weight from
-the wrist force sensor (the mean vertical force while the lifted container is held still,
-tared with the reading before contact). A decision tree (entropy criterion, as the thesis'
-C4.5) is scored by stratified 10-fold cross-validation on liquid / no liquid.
+its spread:
+
+* ``whole`` (the thesis, Eq. 7.11): the standard deviation over the whole roll;
+* ``coast`` (a deviation): the standard deviation over the coast phases only -- the samples
+  where the robot's own roll command turns at a constant rate, from ``--coast-delay`` s
+  (0.12 s, four time constants of the high-pass) after each reversal ends
+  (:func:`mmlearn.diagrams.liquid_roll.roll_change_windows`,
+  :func:`mmlearn.models.liquid.coast_mask`);
+* ``coast_detrended`` (the default; a deviation): the spread about a quadratic trend fitted
+  in each coast phase (:func:`mmlearn.models.liquid.coast_feature`). A rigid body's load on
+  the pads shifts with gravity as the wrist turns, smoothly within a coast phase (the 5 Hz
+  first-order high-pass passes it at ~20 %, as large as the liquid's ringing); the liquid
+  keeps ringing at its sloshing frequency after the container's motion stops changing.
+
+With ``--with-weight`` also the weight from the wrist force sensor (the mean vertical force
+while the lifted container is held still, tared with the reading before contact). A decision
+tree (entropy criterion, as the thesis' C4.5) is scored by stratified 10-fold
+cross-validation on liquid / no liquid, for every feature (the one chosen with ``--feature``
+at the top level of the output).
 
 Containers (``--containers N`` takes the first N of
 :data:`~mmlearn.diagrams.liquid_roll.LIQUID_CONTAINERS`, default 4: the Odwalla and water
@@ -31,15 +46,19 @@ the tree trained on all container trials (``dummy``: its feature and how it was 
 
 ``--json`` prints one object::
 
-    {"rate", "rate_tactile", "rate_with_weight", "with_weight", "labels", "confusion",
-     "per_class", "table": [{"container", "liquid", "trials", "weight_n", "feature_mean",
-     "feature_std"}], "dummy": {"trials", "feature_mean", "feature_std", "weight_n",
-     "predicted_no_liquid"}, "n_trials", "errors", "settings", "sweep"}
+    {"feature", "rate", "rate_tactile", "rate_with_weight", "with_weight", "labels",
+     "confusion", "per_class", "table": [{"container", "liquid", "trials", "weight_n",
+     "feature_mean", "feature_std"}], "dummy": {"trials", "feature_mean", "feature_std",
+     "feature_values", "weight_n", "predicted_no_liquid", "predicted_no_liquid_tactile",
+     "predicted_no_liquid_with_weight"}, "features": {FEATURE: {"rate_tactile",
+     "rate_with_weight", "confusion", "labels", "table", "dummy"}}, "n_trials", "errors",
+     "settings", "sweep"}
 
 ``--plot FILE`` draws Fig. 7.11 (raw taxels and the filtered norm of an empty and a liquid
 trial of the same container) and the feature per container. Trials run through the sweep
-runner (:mod:`mmlearn.apps._sweep`): ``--results`` keeps them (a rerun resumes) and
-``--report-only`` recomputes everything from such a file.
+runner (:mod:`mmlearn.apps._sweep`): ``--results`` keeps them, with every trial's taxel and
+wrist-force series and its roll command (a rerun resumes), and ``--report-only`` recomputes
+everything from such a file (any feature, any ``--coast-delay``) without simulating.
 
 Exit status: 0 success, 1 a trial raised, 2 bad input, 130 interrupted.
 """
@@ -61,6 +80,17 @@ __all__ = ["LiquidDetectionConfig", "run", "report", "main", "record_features"]
 TARE_WINDOW = (0.05, 0.3)
 """Wrist force before the fingers touch anything, s (the tare of the weight)."""
 
+ROLL_MATCH_RMS = 0.05
+"""A record without its roll command gets one rebuilt from its settings only if the measured
+roll follows it within this rms error, rad (else no coast phases are known for it)."""
+
+COAST_DELAY = 0.12
+"""Start of the coast samples after each change of the commanded roll rate ends, s (see
+:func:`mmlearn.models.liquid.coast_mask`): about four time constants of the 5 Hz first-order
+high-pass (1 / (2 pi 5 Hz) = 32 ms), so that the filter's response to the reversal has died
+out (e^-3.8 = 2 %). Chosen on the development seeds 7 and 11 among 0, 0.0955, 0.12 and
+0.15 s (0.12 and 0.15 keep the same samples at 24 Hz)."""
+
 
 @dataclass
 class LiquidDetectionConfig:
@@ -74,6 +104,14 @@ class LiquidDetectionConfig:
         roll_cycles: roll cycles per trial.
         roll_profile: "sweep" (constant rate, smooth 0.25 s reversals), "sine" or "triangle"
             (abrupt reversals, the earlier roll).
+        feature: the tactile feature the rate, the table and the dummy's class use:
+            "coast_detrended" (the spread of the high-passed taxel norm about its slow trend
+            within each coast phase of the roll, where the commanded roll rate is constant:
+            a deviation, see the module docstring), "coast" (its plain spread over the coast
+            samples) or "whole" (over the whole roll, thesis Eq. 7.11). All that the trials
+            allow are reported.
+        coast_delay: the coast samples start this long after each change of the commanded
+            roll rate ends, s (0 <= delay < 0.3).
         folds: cross-validation folds (at most the smaller class' count).
         seed: seed of the trials and the folds.
         plot: image file or None.
@@ -86,6 +124,8 @@ class LiquidDetectionConfig:
     with_weight: bool = False
     roll_cycles: float = 2.0
     roll_profile: str = "sweep"
+    feature: str = "coast_detrended"
+    coast_delay: float = COAST_DELAY
     folds: int = 10
     seed: int = 0
     plot: str | None = None
@@ -112,6 +152,16 @@ def _check(c: LiquidDetectionConfig) -> None:
     if c.roll_profile not in ("sweep", "sine", "triangle"):
         raise ValueError(f"roll_profile: expected sweep, sine or triangle, got "
                          f"{c.roll_profile!r}")
+    from mmlearn.models.liquid import FEATURES
+
+    if c.feature not in FEATURES:
+        raise ValueError(f"feature: expected one of {', '.join(FEATURES)}, got {c.feature!r}")
+    if c.feature != "whole" and c.roll_profile == "sine":
+        raise ValueError("feature: the coast feature needs constant-rate phases (roll_profile "
+                         "sweep or triangle); the sine roll has none, use feature='whole'")
+    if not (isinstance(c.coast_delay, (int, float)) and np.isfinite(c.coast_delay)
+            and 0 <= c.coast_delay < 0.3):
+        raise ValueError(f"coast_delay: expected 0 <= delay < 0.3 s, got {c.coast_delay!r}")
     if not (np.isfinite(c.roll_cycles) and c.roll_cycles >= 0.5):
         raise ValueError(f"roll_cycles: expected >= 0.5, got {c.roll_cycles!r}")
     liq = [LIQUID_CONTAINERS[n][1] is not None for n in c.containers]
@@ -137,11 +187,51 @@ def _specs(c: LiquidDetectionConfig):
     return specs
 
 
-def record_features(rec: dict):
+def _roll_changes(rec: dict, params: dict | None):
+    """Where the trial's commanded roll rate changed, (k, 2) s, or None (sine roll): from the
+    record (``roll_changes``) or, for records written before it was stored, rebuilt from the
+    trial's roll settings (the robot's own command; defaults of
+    :class:`~mmlearn.diagrams.liquid_roll.LiquidRollConfig`) -- None when the record's
+    measured roll does not follow that command within ``ROLL_MATCH_RMS``."""
+    if "roll_changes" in rec:
+        ch = rec["roll_changes"]
+        return None if ch is None else np.asarray(ch, float).reshape(-1, 2)
+    from mmlearn.diagrams.liquid_roll import LiquidRollConfig, roll_change_windows
+
+    params = params or {}
+    profile = rec.get("roll_profile", params.get("roll_profile", "sweep"))
+    if profile == "sine":
+        return None
+    cycles = float(rec.get("roll_cycles", params.get("roll_cycles", 2.0)))
+    cfg = LiquidRollConfig(roll_cycles=cycles, roll_profile=profile,
+                           **({"reversal_time": 0.0} if profile == "triangle" else {}))
+    if "roll" in rec:
+        # the rebuilt command must match the measured roll (records of an earlier default
+        # roll, e.g. the sine, carry no roll settings): tracking error ~0.003 rad rms,
+        # another profile ~0.2 rad
+        from mmlearn.diagrams.liquid_roll import roll_trajectory
+
+        t = np.asarray(rec["t"], float)
+        q = np.asarray(rec["roll"], float)
+        r0, r1 = rec["roll_window"]
+        m = (t >= r0) & (t <= r1)
+        if q.shape != t.shape or not m.any():
+            return None
+        tr = roll_trajectory(cfg)
+        cmd = np.array([tr.value(x)[0, 0] for x in t[m]])
+        if not np.sqrt(np.mean((cmd - q[m]) ** 2)) < ROLL_MATCH_RMS:
+            return None
+    return roll_change_windows(cfg)
+
+
+def record_features(rec: dict, *, coast_delay: float = COAST_DELAY, params: dict | None = None):
     """A trial record -> :class:`~mmlearn.models.liquid.RollRecord` (the taxels while
-    rolling, the weight in N from the wrist force sensor) built from the sensor series
-    only; the labels are attached from the record's ``liquid`` / ``container``."""
-    from mmlearn.models.liquid import RollRecord
+    rolling, the weight in N from the wrist force sensor, the coast samples: constant
+    commanded roll rate, from ``coast_delay`` s after each change) built from the sensor
+    series and the robot's own roll command only; the labels are attached from the record's
+    ``liquid`` / ``container``. ``params``: the trial's spec parameters (for records that do
+    not store their roll command)."""
+    from mmlearn.models.liquid import RollRecord, coast_mask
     from mmlearn.models.tactile_types import TactileDataError
 
     t = np.asarray(rec["t"], float)
@@ -158,9 +248,16 @@ def record_features(rec: dict):
         raise TactileDataError(f"trial {rec.get('container')}: too few samples in the roll, "
                                f"hold or tare window")
     weight = -(wf[hold, 2].mean() - wf[tare, 2].mean())
+    changes = _roll_changes(rec, params)
+    coast = None
+    if changes is not None:
+        coast = coast_mask(t[roll], changes, start=r0, end=r1, delay=coast_delay)
+        if coast.sum() < 2:
+            raise TactileDataError(f"trial {rec.get('container')}: fewer than 2 coast samples "
+                                   f"(coast delay {coast_delay:g} s)")
     return RollRecord(taxels=taxels[roll], rate_hz=float(rec.get("rate_hz", 24.0)),
                       weight=float(weight), liquid=bool(rec["liquid"]),
-                      container=str(rec["container"]))
+                      container=str(rec["container"]), coast=coast)
 
 
 def _cell_saturation_force() -> float:
@@ -171,23 +268,57 @@ def _cell_saturation_force() -> float:
     return float(P.p_sat * P.length * P.width / (P.rows * P.cols))
 
 
-def report(lines: list[dict], c: LiquidDetectionConfig) -> dict:
-    """Rates, Table 7.4 and the dummy from results-file lines (a run or ``--report-only``)."""
+def _evaluate(rr, dr, y, *, feature: str, k: int, c: LiquidDetectionConfig) -> dict:
+    """Rates (tactile alone, with weight), confusion, Table 7.4 and the dummy for one tactile
+    feature."""
     from mmlearn.models.liquid import evaluate_liquid, liquid_features, liquid_table
     from mmlearn.models.tactile_state import make_classifier
 
+    rep_t = evaluate_liquid(rr, with_weight=False, folds=k, seed=c.seed, feature=feature)
+    rep_w = evaluate_liquid(rr, with_weight=True, folds=k, seed=c.seed, feature=feature)
+    rep = rep_w if c.with_weight else rep_t
+    out = {"rate": rep.rate, "rate_tactile": rep_t.rate, "rate_with_weight": rep_w.rate}
+    out.update({kk: v for kk, v in rep.to_dict().items() if kk != "rate"})
+    out["table"] = liquid_table(rr, feature=feature)
+    if dr:
+        d = {"trials": len(dr), "weight_n": float(np.mean([r.weight for r in dr]))}
+        for ww in (False, True):
+            clf = make_classifier("tree", seed=c.seed)
+            clf.fit(liquid_features(rr, with_weight=ww, feature=feature), y)
+            Xd = liquid_features(dr, with_weight=ww, feature=feature)
+            pred = clf.predict(Xd)
+            key = "predicted_no_liquid" + ("_with_weight" if ww else "_tactile")
+            d[key] = int(np.sum(pred == "no_liquid"))
+        d["feature_mean"] = float(Xd[:, 0].mean())
+        d["feature_std"] = float(Xd[:, 0].std(ddof=1)) if len(dr) > 1 else 0.0
+        d["feature_values"] = [float(v) for v in Xd[:, 0]]
+        d["predicted_no_liquid"] = d["predicted_no_liquid" + ("_with_weight" if c.with_weight
+                                                               else "_tactile")]
+        out["dummy"] = d
+    return out
+
+
+def report(lines: list[dict], c: LiquidDetectionConfig) -> dict:
+    """Rates, Table 7.4 and the dummy from results-file lines (a run or ``--report-only``),
+    for ``c.feature`` at the top level and for every tactile feature the trials allow under
+    ``"features"`` (``"coast"`` needs constant-rate roll phases, ``"whole"`` always)."""
     # the trials in the order of their specs' seeds, not of their completion (parallel jobs
     # finish in any order), so that the folds and the rates do not depend on the run
     lines = sorted(lines, key=lambda ln: (ln.get("spec", {}).get("seed", 0),
                                           str(ln.get("key"))))
     errors = [{"trial": ln["spec"].get("label") or ln["key"], "error": ln["error"]}
               for ln in lines if ln.get("error")]
-    recs = [ln["record"] for ln in lines if not ln.get("error") and ln.get("record")]
-    cont = [r for r in recs if r["container"] != "dummy"]
-    dummy = [r for r in recs if r["container"] == "dummy"]
+    ok = [ln for ln in lines if not ln.get("error") and ln.get("record")]
+    cont = [ln for ln in ok if ln["record"]["container"] != "dummy"]
+    dummy = [ln for ln in ok if ln["record"]["container"] == "dummy"]
     if not cont:
         raise ValueError("no container trial finished")
-    rr = [record_features(r) for r in cont]
+
+    def feats(lns):
+        return [record_features(ln["record"], coast_delay=c.coast_delay,
+                                params=ln.get("spec", {}).get("params")) for ln in lns]
+
+    rr, dr = feats(cont), feats(dummy)
     y = np.array(["liquid" if r.liquid else "no_liquid" for r in rr])
     counts = np.unique(y, return_counts=True)[1]
     if len(counts) < 2:
@@ -195,28 +326,32 @@ def report(lines: list[dict], c: LiquidDetectionConfig) -> dict:
     k = int(min(c.folds, counts.min()))
     if k < 2:
         raise ValueError("too few trials per class for cross-validation (use more --trials)")
-    rep_t = evaluate_liquid(rr, with_weight=False, folds=k, seed=c.seed)
-    rep_w = evaluate_liquid(rr, with_weight=True, folds=k, seed=c.seed)
-    rep = rep_w if c.with_weight else rep_t
-    out = {"rate": rep.rate, "rate_tactile": rep_t.rate, "rate_with_weight": rep_w.rate,
-           "with_weight": bool(c.with_weight), "folds": k}
-    out.update({kk: v for kk, v in rep.to_dict().items() if kk != "rate"})
-    out["table"] = liquid_table(rr)
-    if dummy:
-        dr = [record_features(r) for r in dummy]
-        clf = make_classifier("tree", seed=c.seed)
-        clf.fit(liquid_features(rr, with_weight=c.with_weight), y)
-        Xd = liquid_features(dr, with_weight=c.with_weight)
-        pred = clf.predict(Xd)
-        out["dummy"] = {"trials": len(dr), "feature_mean": float(Xd[:, 0].mean()),
-                        "feature_std": float(Xd[:, 0].std(ddof=1)) if len(dr) > 1 else 0.0,
-                        "weight_n": float(np.mean([d.weight for d in dr])),
-                        "predicted_no_liquid": int(np.sum(pred == "no_liquid"))}
+    from mmlearn.models.liquid import FEATURES, liquid_features
+    from mmlearn.models.tactile_types import TactileDataError
+
+    avail, why = [], {}
+    for f in FEATURES:
+        try:
+            liquid_features(rr + dr, feature=f)
+            avail.append(f)
+        except TactileDataError as e:
+            why[f] = str(e)
+    if c.feature not in avail:
+        raise ValueError(f"feature {c.feature}: not available for these trials ({why[c.feature]}); "
+                         f"use --feature whole, or a roll with longer constant-rate phases")
+    by_feature = {f: _evaluate(rr, dr, y, feature=f, k=k, c=c) for f in avail}
+    out = {"feature": c.feature, "with_weight": bool(c.with_weight), "folds": k}
+    out.update(by_feature[c.feature])
+    out["features"] = {f: {kk: v for kk, v in ev.items()
+                           if kk in ("rate_tactile", "rate_with_weight", "confusion", "labels",
+                                     "table", "dummy")}
+                       for f, ev in by_feature.items()}
     out["n_trials"] = len(rr)
     out["errors"] = errors
     out["settings"] = {"containers": list(c.containers), "trials": c.trials,
                        "dummy": c.dummy, "roll_cycles": c.roll_cycles,
                        "roll_profile": c.roll_profile, "seed": c.seed,
+                       "feature": c.feature, "coast_delay_s": c.coast_delay,
                        "classifier": "tree (entropy)", "highpass": "Butterworth order 1, 5 Hz",
                        "taxel_rate_hz": 24.0, "roll_hz": 0.6,
                        "feature_unit": "normalised taxel pressure (1 = saturation)",
@@ -265,7 +400,12 @@ def plot_report(lines: list[dict], res: dict, path) -> None:
             ax[0, col].plot(t[m], rf.taxels, lw=0.6)
             ax[0, col].set_title(f"{r['container']}: raw taxels")
             ax[0, col].set_ylabel("pressure (normalised)")
-            ax[1, col].plot(t[m], filtered_norm(rf.taxels, rate_hz=rf.rate_hz), color="k")
+            fn = filtered_norm(rf.taxels, rate_hz=rf.rate_hz)
+            ax[1, col].plot(t[m], fn, color="k")
+            if rf.coast is not None:
+                ax[1, col].plot(t[m][rf.coast], fn[rf.coast], ".", color="tab:orange",
+                                label="coast samples")
+                ax[1, col].legend(fontsize=7)
             ax[1, col].set_title("5 Hz high-pass, norm over taxels (Eq. 7.9)")
             ax[1, col].set_xlabel("t (s)")
     rows = res["table"]
@@ -274,33 +414,48 @@ def plot_report(lines: list[dict], res: dict, path) -> None:
                  yerr=[r["feature_std"] for r in rows],
                  color=["tab:blue" if r["liquid"] else "tab:gray" for r in rows])
     ax[2, 0].set_xticks(range(len(rows)), names, rotation=30, fontsize=7)
-    ax[2, 0].set_ylabel("feature sigma")
+    ax[2, 0].set_ylabel(f"feature sigma ({res['feature']})")
     if "dummy" in res:
         ax[2, 0].axhline(res["dummy"]["feature_mean"], color="tab:red", ls="--",
                          label="rigid dummy")
         ax[2, 0].legend()
     ax[2, 1].axis("off")
-    ax[2, 1].text(0.0, 0.5, f"rate (tactile) {res['rate_tactile']:.3f}\n"
-                            f"rate (tactile + weight) {res['rate_with_weight']:.3f}\n"
-                            f"thesis: 0.919 / 0.985", fontsize=12)
+    txt = "".join(f"{f}: rate (tactile) {ev['rate_tactile']:.3f}, with weight "
+                  f"{ev['rate_with_weight']:.3f}\n" for f, ev in res["features"].items())
+    ax[2, 1].text(0.0, 0.5, txt + "thesis (whole roll): 0.919 / 0.985", fontsize=11)
     fig.tight_layout()
     save_figure(fig, path, dpi=90)
     plt.close(fig)
 
 
 def format_report(res: dict) -> str:
-    lines = [f"liquid detection, {res['n_trials']} trials, decision tree, {res['folds']}-fold CV: "
-             f"rate {res['rate']:.3f} (tactile {res['rate_tactile']:.3f}, with weight "
-             f"{res['rate_with_weight']:.3f}; thesis 0.919 / 0.985)",
-             f"{'container':16s} {'liquid':6s} {'trials':>6s} {'weight N':>9s} feature"]
+    lines = [f"liquid detection, {res['n_trials']} trials, decision tree, {res['folds']}-fold CV, "
+             f"feature {res['feature']}: rate {res['rate']:.3f} (tactile "
+             f"{res['rate_tactile']:.3f}, with weight {res['rate_with_weight']:.3f}; thesis "
+             f"0.919 / 0.985)"]
+    for f, ev in res["features"].items():
+        d = ev.get("dummy")
+        dm = (f"; dummy {d['feature_mean']:.5f} +- {d['feature_std']:.5f}, classified no "
+              f"liquid {d['predicted_no_liquid_tactile']}/{d['trials']} (tactile), "
+              f"{d['predicted_no_liquid_with_weight']}/{d['trials']} (with weight)") if d else ""
+        lines.append(f"  feature {f:15s}: tactile {ev['rate_tactile']:.3f}, with weight "
+                     f"{ev['rate_with_weight']:.3f}{dm}")
+    feats = list(res["features"])
+    lines.append(f"{'container':16s} {'liquid':6s} {'trials':>6s} {'weight N':>9s} "
+                 + " ".join(f"{f:>19s}" for f in feats))
+    rows = {f: {(r["container"], r["liquid"]): r for r in ev["table"]}
+            for f, ev in res["features"].items()}
     for r in res["table"]:
+        key = (r["container"], r["liquid"])
         lines.append(f"{r['container']:16s} {str(r['liquid']):6s} {r['trials']:6d} "
-                     f"{r['weight_n']:9.3f} {r['feature_mean']:.4f} +- {r['feature_std']:.4f}")
+                     f"{r['weight_n']:9.3f} " + " ".join(
+                         f"{rows[f][key]['feature_mean']:.5f} +- {rows[f][key]['feature_std']:.5f}"
+                         for f in feats))
     if "dummy" in res:
-        d = res["dummy"]
-        lines.append(f"{'dummy (rigid)':16s} {'-':6s} {d['trials']:6d} {d['weight_n']:9.3f} "
-                     f"{d['feature_mean']:.4f} +- {d['feature_std']:.4f}  classified no liquid "
-                     f"{d['predicted_no_liquid']}/{d['trials']}")
+        lines.append(f"{'dummy (rigid)':16s} {'-':6s} {res['dummy']['trials']:6d} "
+                     f"{res['dummy']['weight_n']:9.3f} " + " ".join(
+                         f"{res['features'][f]['dummy']['feature_mean']:.5f} +- "
+                         f"{res['features'][f]['dummy']['feature_std']:.5f}" for f in feats))
     for e in res["errors"]:
         lines.append(f"error in {e['trial']}: {e['error']}")
     return "\n".join(lines)
@@ -353,6 +508,16 @@ def main(argv=None) -> int:
     ap.add_argument("--roll-profile", choices=("sweep", "sine", "triangle"), default="sweep",
                     help="the wrist's roll: sweep (default: constant rate, smooth 0.25 s "
                          "reversals), sine, or triangle (abrupt reversals, the earlier roll)")
+    ap.add_argument("--feature", choices=("coast_detrended", "coast", "whole"),
+                    default="coast_detrended",
+                    help="the tactile feature the rate, table and dummy use: coast_detrended "
+                         "(default: the spread of the high-passed taxel norm about its slow "
+                         "trend within each constant-rate phase of the roll), coast (its plain "
+                         "spread over those phases) or whole (over the whole roll, thesis Eq. "
+                         "7.11); all are reported")
+    ap.add_argument("--coast-delay", type=float, default=COAST_DELAY, metavar="S",
+                    help=f"coast samples start S s after each change of the commanded roll "
+                         f"rate ends (0 <= S < 0.3; default {COAST_DELAY:g})")
     ap.add_argument("--folds", type=pos_int, default=10, help="CV folds (default 10)")
     ap.add_argument("--seed", type=nonneg_int, default=0, help="seed of the trials and folds")
     ap.add_argument("--plot", metavar="FILE", default=None,
@@ -376,7 +541,8 @@ def main(argv=None) -> int:
         cfg = LiquidDetectionConfig(
             containers=names, trials=args.trials, dummy=not args.no_dummy,
             with_weight=args.with_weight, roll_cycles=args.roll_cycles,
-            roll_profile=args.roll_profile, folds=args.folds,
+            roll_profile=args.roll_profile, feature=args.feature,
+            coast_delay=args.coast_delay, folds=args.folds,
             seed=args.seed, plot=args.plot, progress=args.progress)
         check_out_file("--plot", args.plot)
         check_out_file("--html-out", args.html_out)
@@ -384,6 +550,7 @@ def main(argv=None) -> int:
             if args.meshcat or args.html_out:
                 raise UsageError("--meshcat / --html-out simulate a roll; --report-only "
                                  "simulates nothing")
+            _check(cfg)
             lines = report_lines(args.report_only)
         else:
             apply_sweep_args(cfg, args, app="liquid_detection")

@@ -6,7 +6,9 @@
 Prints the simulated time, the wall and CPU (process) time of the Drake simulation and their
 real-time factors (simulated / elapsed: > 1 is faster than real time; on a shared machine the
 CPU time is the one to compare, the wall time depends on the load, which is printed), and the
-time of :func:`mmlearn.models.liquid.liquid_feature` on the recorded taxels.
+time of :func:`mmlearn.models.liquid.liquid_feature` (whole roll, the thesis') and of the
+coast mask plus :func:`mmlearn.models.liquid.coast_feature` (the default) on the recorded
+taxels.
 """
 
 import argparse
@@ -15,8 +17,10 @@ import time
 
 import numpy as np
 
-from mmlearn.diagrams.liquid_roll import LiquidRollConfig, make_instance, simulate_roll
-from mmlearn.models.liquid import liquid_feature
+from mmlearn.apps.liquid_detection import COAST_DELAY
+from mmlearn.diagrams.liquid_roll import (LiquidRollConfig, make_instance, roll_change_windows,
+                                          simulate_roll)
+from mmlearn.models.liquid import coast_feature, coast_mask, liquid_feature
 
 
 def main():
@@ -40,12 +44,20 @@ def main():
     for _ in range(n):
         f = liquid_feature(x)
     ft = (time.perf_counter() - t1) / n
+    windows = roll_change_windows(cfg)
+    t2 = time.perf_counter()
+    for _ in range(n):
+        cm = coast_mask(t[m], windows, start=r["roll_window"][0], end=r["roll_window"][1],
+                        delay=COAST_DELAY)
+        fc = coast_feature(x, cm)
+    fct = (time.perf_counter() - t2) / n
     print(f"{args.container}, time step {1e3 * cfg.time_step:g} ms: simulated "
           f"{cfg.duration:.2f} s in {wall:.1f} s wall (real-time factor "
           f"{cfg.duration / wall:.2f}), {cpu:.1f} s CPU (real-time factor "
           f"{cfg.duration / cpu:.2f}); load average {load0:.1f} -> {os.getloadavg()[0]:.1f} "
-          f"on {os.cpu_count()} cores; feature {f:.5f} from {x.shape} taxel samples in "
-          f"{1e3 * ft:.3f} ms")
+          f"on {os.cpu_count()} cores; feature (whole roll) {f:.5f} from {x.shape} taxel "
+          f"samples in {1e3 * ft:.3f} ms; coast_detrended {fc:.5f} from {int(cm.sum())} coast "
+          f"samples in {1e3 * fct:.3f} ms")
 
 
 if __name__ == "__main__":

@@ -41,7 +41,9 @@ sloshing mode (3.5 Hz, damping ratio ~0.006) is hardly excited and every contain
 is the 0.6 Hz load shift that leaks through the first-order high-pass (~10 % at 0.6 Hz), in
 proportion to its weight; under the "sweep" each reversal excites that mode and the liquid
 rings at 3.5 Hz (passed at ~50 %) between the reversals, which the rigid dummy and the empty
-containers cannot do.
+containers cannot do. :func:`roll_change_windows` gives where the commanded rate changes, so
+that the feature can be taken over the constant-rate (coast) phases only
+(:func:`mmlearn.models.liquid.coast_feature`).
 
 :func:`liquid_roll_trial` runs one trial for the sweep runner and returns only what the
 sensors recorded (taxels at 24 Hz, the wrist force) plus the labels.
@@ -78,7 +80,7 @@ from mmlearn.systems.wrist_force_sensor import WristForceSensor
 from .tactile_grasp import AddTactileSensor
 
 __all__ = ["LiquidRollConfig", "MakeLiquidRollDiagram", "simulate_roll", "liquid_roll_trial",
-           "LIQUID_CONTAINERS", "dummy_instance"]
+           "LIQUID_CONTAINERS", "dummy_instance", "roll_change_windows"]
 
 
 @dataclass
@@ -287,6 +289,32 @@ def sweep_roll_angle_rate(c: LiquidRollConfig, s, *, w, centres, end):
     m = (u >= 0) & (u <= tau)
     rate = np.where(m, last * w * (1 + np.cos(np.pi * u / tau)) / 2, rate)
     return np.where((s < 0) | (s >= end), 0.0, rate)
+
+
+def roll_change_windows(c: LiquidRollConfig) -> np.ndarray:
+    """Where the commanded roll rate changes, ``(k, 2)`` absolute times (s): the start from
+    rest, every reversal and the stop. Outside these (and inside the roll) the wrist turns at
+    a constant commanded rate -- the coast phases of
+    :func:`mmlearn.models.liquid.coast_mask`. "sweep": the start and stop ramps and the
+    reversals, ``reversal_time`` s each (centred half a roll period apart); "triangle": the
+    reversals (``reversal_time`` s, 0 = abrupt: zero-width windows) and the start and stop
+    instants; "sine": the rate never stays constant, so a ``ValueError``."""
+    if c.roll_profile == "sine":
+        raise ValueError("roll_change_windows: the sine roll has no constant-rate phase")
+    T, tau = 1.0 / c.roll_hz, c.reversal_time
+    if c.roll_profile == "sweep":
+        n_rev = int(round(2 * c.roll_cycles))
+        end = c.roll_cycles * T + tau
+        centres = T / 4 + tau / 2 + np.arange(n_rev) * T / 2
+        w = [(0.0, tau)] + [(tc - tau / 2, tc + tau / 2) for tc in centres] + [(end - tau, end)]
+        return c.t_roll + np.asarray(w, float)
+    quarter = 0.25 / c.roll_hz
+    n = int(round(4 * c.roll_cycles))
+    tau = min(tau, quarter)
+    rev = [quarter * (k + 1) for k in range(n) if k % 2 == 0 and k != n - 1]
+    w = ([(-tau / 2, tau / 2)] + [(tk - tau / 2, tk + tau / 2) for tk in rev]
+         + [(quarter * n, quarter * n)])
+    return c.t_roll + np.asarray(w, float)
 
 
 def _quintic_trajectory(c: LiquidRollConfig, fn, *, knot_dt: float = 0.005
@@ -581,7 +609,9 @@ def liquid_roll_trial(*, seed: int, container: str, offset_sd: float = 0.001,
     instance of ``container`` (see :func:`make_instance`), placed with lateral offset
     ~ N(0, ``offset_sd``) m, grasped, lifted and rolled (``roll_profile``: see
     :class:`LiquidRollConfig`; the triangle with abrupt reversals). Returns a JSON-able record with the
-    recorded series (``t``, ``taxels``, ``wrist_force``, ``roll``), the windows, the labels
+    recorded series (``t``, ``taxels``, ``wrist_force``, ``roll``), the windows, the roll
+    command the robot knows (``roll_profile``, ``roll_cycles`` and ``roll_changes``: where
+    the commanded rate changes, :func:`roll_change_windows`, None for the sine), the labels
     ``container`` / ``liquid`` and the instance's parameters (for reference only)."""
     rng = np.random.default_rng([int(seed), 17])
     inst = make_instance(container, rng)
@@ -595,6 +625,9 @@ def liquid_roll_trial(*, seed: int, container: str, offset_sd: float = 0.001,
     return {"t": r["t"].tolist(), "taxels": r["taxels"].tolist(),
             "wrist_force": r["wrist_force"].tolist(), "roll": r["roll"].tolist(),
             "roll_window": list(r["roll_window"]), "weight_window": list(r["weight_window"]),
+            "roll_profile": roll_profile, "roll_cycles": float(roll_cycles),
+            "roll_changes": (roll_change_windows(cfg).tolist() if roll_profile != "sine"
+                             else None),
             "rate_hz": cfg.sensor_rate, "container": container,
             "liquid": bool(inst.slosh_mass > 0), "offset": offset,
             "instance": inst.as_dict()}

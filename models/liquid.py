@@ -12,6 +12,25 @@ sloshing inside gives pressure spikes at every reversal of the roll. Per trial:
    (n - 1 in the denominator); optionally the object's weight from the wrist force sensor is a
    second feature (Sec. 7.3.3).
 
+**Coast-phase feature (a deviation, issue 13).** The thesis takes the spread over the whole
+roll. With a smooth roll the rigid response *during* each reversal (the couple of the
+container's rotational inertia, the leak of the weight shift) is as large as the liquid's
+ringing, so a rigid dummy of a half-full bottle's weight looks like a weak liquid. The robot
+knows its own roll command, so :func:`coast_mask` keeps only the samples where the commanded
+roll rate is constant (between the reversals, optionally from ``delay`` s after each reversal
+ends): there a rigid body's load on the pads changes only slowly, with gravity, while a liquid
+keeps moving after the container's motion stops changing. The same filter (run over the
+whole roll, so its state is continuous), the same norm and the same spread, restricted to those
+samples (``liquid_feature(..., mask=...)``; ``RollRecord.coast``; ``feature="coast"`` in
+:func:`liquid_features`, :func:`liquid_table`, :func:`evaluate_liquid`; ``"whole"`` is the
+thesis' feature). That alone is not enough for a heavy rigid body: within a coast phase
+gravity shifts its load from one pad to the other as the wrist turns, smoothly, and the
+first-order high-pass passes ~20 % of that shift. :func:`coast_feature`
+(``feature="coast_detrended"``) therefore takes the spread of the filtered norm about a
+quadratic trend fitted within each coast phase: what remains is what does not follow the
+slow gravity load -- the liquid's ringing at its sloshing frequency (3.5-3.9 Hz, about two
+periods per phase).
+
 A decision tree (:func:`mmlearn.models.tactile_state.make_classifier`) learns "liquid" versus
 "no liquid" from these features; :func:`mmlearn.models.tactile_state.cross_validate` gives the
 10-fold rate.
@@ -50,8 +69,23 @@ from scipy import signal
 
 from .tactile_types import TactileDataError, check_series
 
-__all__ = ["SloshMode", "first_slosh_mode", "RollRecord", "highpass", "filtered_norm", "liquid_feature", "liquid_features",
-           "liquid_table", "evaluate_liquid", "HIGHPASS_CUTOFF_HZ", "TACTILE_RATE_HZ"]
+__all__ = ["SloshMode", "first_slosh_mode", "RollRecord", "highpass", "filtered_norm",
+           "liquid_feature", "liquid_features", "coast_mask", "coast_feature", "liquid_table",
+           "evaluate_liquid", "FEATURES", "COAST_DETREND_DEGREE", "COAST_MIN_SAMPLES",
+           "HIGHPASS_CUTOFF_HZ", "TACTILE_RATE_HZ"]
+
+FEATURES = ("coast_detrended", "coast", "whole")
+"""Tactile features: "coast_detrended" (:func:`coast_feature`: the spread of the filtered
+norm about its slow trend within each coast phase), "coast" (its plain spread over the coast
+samples) and "whole" (over the whole roll, thesis Eq. 7.11)."""
+
+COAST_DETREND_DEGREE = 2
+"""Degree of the polynomial (in time) removed from the filtered norm in each coast phase by
+:func:`coast_feature`."""
+
+COAST_MIN_SAMPLES = 6
+"""Coast phases with fewer samples are left out of :func:`coast_feature` (a quadratic fit
+needs a few more samples than its 3 coefficients; 6 samples = 0.25 s at 24 Hz)."""
 
 HIGHPASS_CUTOFF_HZ = 5.0
 """Cut-off of the high-pass, Hz (thesis: 5 Hz, the lower end of the 5-50 Hz band of human
@@ -133,6 +167,8 @@ class RollRecord:
             measured.
         liquid: True / False ground truth (None when unknown).
         container: container name (for per-container tables).
+        coast: (T,) bool, the samples of the coast phases (constant commanded roll rate,
+            :func:`coast_mask`), or None when unknown (then only the "whole" feature exists).
     """
 
     taxels: np.ndarray
@@ -140,6 +176,7 @@ class RollRecord:
     weight: float | None = None
     liquid: bool | None = None
     container: str | None = None
+    coast: np.ndarray | None = None
 
     def __post_init__(self):
         self.taxels = check_series("taxels", self.taxels, ndim=2)
@@ -150,6 +187,14 @@ class RollRecord:
             raise TactileDataError(f"rate_hz: expected a number > 0, got {self.rate_hz!r}")
         if self.weight is not None and not np.isfinite(self.weight):
             raise TactileDataError(f"weight: expected a finite number, got {self.weight!r}")
+        if self.coast is not None:
+            m = np.asarray(self.coast)
+            if m.shape != (self.taxels.shape[0],) or m.dtype != bool:
+                raise TactileDataError(f"coast: expected a bool mask of shape "
+                                       f"({self.taxels.shape[0]},), got {m.dtype} {m.shape}")
+            if m.sum() < 2:
+                raise TactileDataError("coast: fewer than 2 coast samples")
+            self.coast = m
 
 
 def highpass(x, *, rate_hz: float = TACTILE_RATE_HZ, cutoff_hz: float = HIGHPASS_CUTOFF_HZ,
@@ -181,22 +226,113 @@ def filtered_norm(taxels, *, rate_hz: float = TACTILE_RATE_HZ,
 
 
 def liquid_feature(taxels, *, rate_hz: float = TACTILE_RATE_HZ,
-                   cutoff_hz: float = HIGHPASS_CUTOFF_HZ) -> float:
+                   cutoff_hz: float = HIGHPASS_CUTOFF_HZ, mask=None) -> float:
     """Eq. 7.10-7.11: the sample standard deviation (n - 1) of :func:`filtered_norm` over the
-    roll, in the taxels' unit."""
+    roll, in the taxels' unit; with ``mask`` ((T,) bool) over the masked samples only (the
+    filter still runs over every sample: the coast-phase feature, :func:`coast_mask`)."""
     f = filtered_norm(taxels, rate_hz=rate_hz, cutoff_hz=cutoff_hz)
+    if mask is not None:
+        m = np.asarray(mask)
+        if m.shape != f.shape or m.dtype != bool:
+            raise TactileDataError(f"mask: expected a bool array of shape {f.shape}, got "
+                                   f"{m.dtype} {m.shape}")
+        f = f[m]
     if len(f) < 2:
         raise TactileDataError("taxels: at least 2 samples are needed for a spread")
     return float(np.std(f, ddof=1))
 
 
+def coast_mask(t, windows, *, start: float, end: float, delay: float = 0.0) -> np.ndarray:
+    """The coast samples of a roll: times ``t`` (s, (T,)) inside ``[start, end]`` (the roll,
+    s) and outside every interval ``[a, b + delay]`` of ``windows`` ((k, 2) s: where the
+    commanded roll rate changes -- the start, the reversals and the stop), i.e. where the
+    wrist turns at a constant commanded rate and, ``delay`` s (>= 0) after the last change.
+    Returns a (T,) bool array."""
+    t = np.asarray(t, float)
+    w = np.asarray(windows, float).reshape(-1, 2)
+    if t.ndim != 1 or not np.all(np.isfinite(t)):
+        raise TactileDataError("coast_mask: t must be a finite 1-D array of times")
+    if not np.all(np.isfinite(w)) or np.any(w[:, 1] < w[:, 0]):
+        raise TactileDataError("coast_mask: windows must be finite (start, end) pairs with "
+                               "start <= end")
+    if not (np.isfinite(delay) and delay >= 0):
+        raise TactileDataError(f"coast_mask: delay must be a finite number >= 0 s, got "
+                               f"{delay!r}")
+    inside = (t >= start) & (t <= end)
+    busy = ((t[:, None] >= w[None, :, 0]) & (t[:, None] <= w[None, :, 1] + delay)).any(axis=1)
+    return inside & ~busy
+
+
+def _runs(mask: np.ndarray) -> list[np.ndarray]:
+    """Index arrays of the contiguous True runs of a 1-D bool mask."""
+    idx = np.flatnonzero(mask)
+    if not len(idx):
+        return []
+    return np.split(idx, np.flatnonzero(np.diff(idx) > 1) + 1)
+
+
+def coast_feature(taxels, mask, *, rate_hz: float = TACTILE_RATE_HZ,
+                  cutoff_hz: float = HIGHPASS_CUTOFF_HZ, degree: int = COAST_DETREND_DEGREE,
+                  min_samples: int = COAST_MIN_SAMPLES) -> float:
+    """The spread of the high-passed taxel norm (:func:`filtered_norm`, Eq. 7.9, the filter run
+    over every sample) about its slow trend within each coast phase, in the taxels' unit.
+
+    Each contiguous run of ``mask`` ((T,) bool, :func:`coast_mask`) with at least
+    ``min_samples`` samples is one coast phase; in each, a polynomial of ``degree`` in time is
+    fitted to the filtered norm by least squares and removed; the feature is the root mean
+    square of the residuals over all phases with ``n - p`` in the denominator (n residuals,
+    p fitted coefficients). Why: in a coast phase a rigid object's load on the pads is a
+    smooth function of the roll angle (gravity shifts it from one pad to the other as the
+    wrist turns at a constant rate), and the first-order 5 Hz high-pass passes that shift at
+    ~20 % as a smooth curve; a liquid keeps ringing at its sloshing frequency (3.5-3.9 Hz here,
+    about two periods per phase), which a quadratic does not follow. A deviation from the
+    thesis' Eq. 7.11 (see the module docstring)."""
+    x = check_series("taxels", taxels, ndim=2)
+    m = np.asarray(mask)
+    if m.shape != (x.shape[0],) or m.dtype != bool:
+        raise TactileDataError(f"mask: expected a bool array of shape ({x.shape[0]},), got "
+                               f"{m.dtype} {m.shape}")
+    if not (isinstance(degree, (int, np.integer)) and 0 <= degree
+            and min_samples > degree + 1):
+        raise ValueError(f"coast_feature: need degree >= 0 and min_samples > degree + 1, got "
+                         f"degree {degree!r}, min_samples {min_samples!r}")
+    runs = [r for r in _runs(m) if len(r) >= min_samples]
+    if not runs:
+        raise TactileDataError(f"coast_feature: no coast phase of at least {min_samples} "
+                               f"samples (the roll's constant-rate phases are too short)")
+    f = filtered_norm(x, rate_hz=rate_hz, cutoff_hz=cutoff_hz)
+    ss, n, p = 0.0, 0, 0
+    for r in runs:
+        u = (r - r.mean()) / max(len(r) - 1, 1)  # centred, scaled time: well-conditioned
+        V = np.vander(u, degree + 1)
+        coef, *_ = np.linalg.lstsq(V, f[r], rcond=None)
+        ss += float(np.sum((f[r] - V @ coef) ** 2))
+        n, p = n + len(r), p + degree + 1
+    return float(np.sqrt(ss / (n - p)))
+
+
+def _record_feature(r, feature: str, cutoff_hz: float) -> float:
+    if feature not in FEATURES:
+        raise ValueError(f"feature: expected one of {', '.join(FEATURES)}, got {feature!r}")
+    if feature != "whole" and r.coast is None:
+        raise TactileDataError(f"the {feature} feature needs the record's coast mask (a roll "
+                               f"with constant-rate phases: sweep or triangle)")
+    if feature == "coast":
+        return liquid_feature(r.taxels, rate_hz=r.rate_hz, cutoff_hz=cutoff_hz, mask=r.coast)
+    if feature == "coast_detrended":
+        return coast_feature(r.taxels, r.coast, rate_hz=r.rate_hz, cutoff_hz=cutoff_hz)
+    return liquid_feature(r.taxels, rate_hz=r.rate_hz, cutoff_hz=cutoff_hz)
+
+
 def liquid_features(records, *, with_weight: bool = False,
-                    cutoff_hz: float = HIGHPASS_CUTOFF_HZ) -> np.ndarray:
+                    cutoff_hz: float = HIGHPASS_CUTOFF_HZ, feature: str = "whole") -> np.ndarray:
     """Feature matrix of many :class:`RollRecord`: ``(n, 1)`` = sigma, or ``(n, 2)`` = (sigma,
-    weight in N) with ``with_weight`` (every record then needs a weight)."""
+    weight in N) with ``with_weight`` (every record then needs a weight). ``feature``:
+    "whole" (the thesis' spread over the whole roll), "coast" (over the coast samples,
+    ``RollRecord.coast``) or "coast_detrended" (:func:`coast_feature`)."""
     rows = []
     for i, r in enumerate(records):
-        s = liquid_feature(r.taxels, rate_hz=r.rate_hz, cutoff_hz=cutoff_hz)
+        s = _record_feature(r, feature, cutoff_hz)
         if with_weight:
             if r.weight is None:
                 raise TactileDataError(f"record {i}: with_weight needs a weight")
@@ -208,13 +344,15 @@ def liquid_features(records, *, with_weight: bool = False,
     return np.asarray(rows, dtype=float)
 
 
-def liquid_table(records, *, cutoff_hz: float = HIGHPASS_CUTOFF_HZ) -> list[dict]:
+def liquid_table(records, *, cutoff_hz: float = HIGHPASS_CUTOFF_HZ,
+                 feature: str = "whole") -> list[dict]:
     """Table 7.4: per (container, liquid) the number of trials, mean weight (N) and the mean
-    and standard deviation of the tactile feature (taxel unit), sorted by container."""
+    and standard deviation of the tactile feature ``feature`` (taxel unit), sorted by
+    container."""
     recs = list(records)
     if not recs:
         raise TactileDataError("liquid_table: no records")
-    feat = liquid_features(recs, cutoff_hz=cutoff_hz)[:, 0]
+    feat = liquid_features(recs, cutoff_hz=cutoff_hz, feature=feature)[:, 0]
     groups: dict = {}
     for r, v in zip(recs, feat):
         groups.setdefault((str(r.container), r.liquid), []).append((v, r.weight))
@@ -230,9 +368,9 @@ def liquid_table(records, *, cutoff_hz: float = HIGHPASS_CUTOFF_HZ) -> list[dict
 
 
 def evaluate_liquid(records, *, with_weight: bool = False, classifier: str = "tree",
-                    folds: int = 10, seed: int = 0):
+                    folds: int = 10, seed: int = 0, feature: str = "whole"):
     """Stratified ``folds``-fold cross-validation of liquid / no liquid from the tactile
-    feature (and the weight); returns a
+    feature ``feature`` (see :func:`liquid_features`; and the weight); returns a
     :class:`~mmlearn.models.tactile_state.ClassificationReport` with labels "liquid" and
     "no_liquid"."""
     from .tactile_state import cross_validate
@@ -241,6 +379,6 @@ def evaluate_liquid(records, *, with_weight: bool = False, classifier: str = "tr
     for i, r in enumerate(recs):
         if r.liquid is None:
             raise TactileDataError(f"record {i}: no liquid ground truth")
-    X = liquid_features(recs, with_weight=with_weight)
+    X = liquid_features(recs, with_weight=with_weight, feature=feature)
     y = np.array(["liquid" if r.liquid else "no_liquid" for r in recs])
     return cross_validate(X, y, classifier=classifier, folds=folds, seed=seed)

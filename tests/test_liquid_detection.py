@@ -108,7 +108,7 @@ def short_run(tmp_path_factory):
     res = d / "r.jsonl"
     rc = app.main(["--names", "odwalla_half,odwalla_empty", "--trials", "2", "--no-dummy",
                    "--roll-cycles", "0.5", "--seed", "5", "--jobs", "2", "--results", str(res),
-                   "--plot", str(d / "fig.png"), "--json"])
+                   "--plot", str(d / "fig.png"), "--feature", "whole", "--json"])
     return rc, d, res
 
 
@@ -137,8 +137,85 @@ def test_short_run_full_differs_from_empty(short_run, capsys):
     # --report-only recomputes the same report from the results file
     capsys.readouterr()
     assert app.main(["--report-only", str(res), "--names", "odwalla_half,odwalla_empty",
-                     "--trials", "2", "--no-dummy", "--json"]) == 0
+                     "--trials", "2", "--no-dummy", "--feature", "whole", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["n_trials"] == 4 and 0.0 <= out["rate"] <= 1.0
     assert {r["container"] for r in out["table"]} == {"odwalla_half", "odwalla_empty"}
     assert out["sweep"]["report_only"] is True
+    # the records keep the roll command (where its rate changed); half a cycle leaves no
+    # coast phase long enough for the detrended coast feature (the default): a clear error
+    assert out["feature"] == "whole" and "coast_detrended" not in out["features"]
+    assert out["rate_tactile"] == out["features"]["whole"]["rate_tactile"]
+    assert all(len(ln["record"]["roll_changes"]) == 3 for ln in lines)  # start, 1 reversal, stop
+    assert app.main(["--report-only", str(res), "--names", "odwalla_half,odwalla_empty",
+                     "--trials", "2", "--no-dummy", "--json"]) == 2
+    assert "not available" in capsys.readouterr().err
+
+
+def test_coast_mask_and_feature_bad_inputs():
+    from mmlearn.models.liquid import (RollRecord, coast_mask, liquid_feature,
+                                       liquid_features)
+
+    t = np.arange(0.0, 2.0, 1 / 24)
+    m = coast_mask(t, [[0.5, 0.7], [1.2, 1.2]], start=0.2, end=1.8, delay=0.1)
+    # inside [0.2, 1.8], outside [0.5, 0.8] and [1.2, 1.3]
+    want = (t >= 0.2) & (t <= 1.8) & ~((t >= 0.5) & (t <= 0.8)) & ~((t >= 1.2) & (t <= 1.3))
+    np.testing.assert_array_equal(m, want)
+    with pytest.raises(TactileDataError, match="delay"):
+        coast_mask(t, [[0.5, 0.7]], start=0.2, end=1.8, delay=-0.1)
+    with pytest.raises(TactileDataError, match="start <= end"):
+        coast_mask(t, [[0.7, 0.5]], start=0.2, end=1.8)
+    x = np.random.default_rng(0).normal(size=(len(t), 4))
+    with pytest.raises(TactileDataError, match="mask"):
+        liquid_feature(x, mask=m[:-1])
+    with pytest.raises(TactileDataError, match="coast"):
+        RollRecord(x, coast=np.zeros(len(t), bool))
+    # the coast feature is the spread over the masked samples of the same filtered norm
+    from mmlearn.models.liquid import filtered_norm
+
+    assert liquid_feature(x, mask=m) == pytest.approx(np.std(filtered_norm(x)[m], ddof=1))
+    with pytest.raises(TactileDataError, match="coast mask"):
+        liquid_features([RollRecord(x)], feature="coast")
+    # the detrended coast feature: a quadratic in each coast phase is removed exactly, a
+    # ringing is not
+    from mmlearn.models.liquid import coast_feature
+
+    tt = np.arange(200) / 24.0
+    phases = ((tt % 1.0) > 0.2) & ((tt % 1.0) < 0.8)  # 0.6 s coast phases
+    slow = np.outer(1 + 0.5 * tt + 0.05 * tt**2, np.ones(4))
+    ring = slow + 0.01 * np.outer(np.sin(2 * np.pi * 3.5 * tt), [1, -1, 1, -1])
+    assert coast_feature(slow, phases) < 0.02 * coast_feature(ring, phases)
+    with pytest.raises(TactileDataError, match="no coast phase"):
+        coast_feature(ring, (tt % 1.0) < 0.1)
+    with pytest.raises(ValueError, match="feature"):
+        liquid_features([RollRecord(x)], feature="bogus")
+
+
+def test_config_rejects_coast_feature_without_coast():
+    c = app.LiquidDetectionConfig(roll_profile="sine")
+    with pytest.raises(ValueError, match="constant-rate"):
+        app._check(c)
+    app._check(app.LiquidDetectionConfig(roll_profile="sine", feature="whole"))
+    with pytest.raises(ValueError, match="coast_delay"):
+        app._check(app.LiquidDetectionConfig(coast_delay=float("nan")))
+    assert _rc(["--coast-delay", "0.5", "--report-only", "x.jsonl"]) == 2
+
+
+def test_old_records_get_their_roll_command_only_if_the_measured_roll_follows_it():
+    """Records written before the roll command was stored: the command is rebuilt from the
+    trial's settings and used only if the encoder's roll follows it (an earlier default, the
+    sine roll, carries no settings)."""
+    from mmlearn.diagrams.liquid_roll import sine_roll_angle, sweep_roll_angle
+
+    c = LiquidRollConfig()
+    t = np.arange(0.0, c.duration, 1 / 24)
+    base = {"t": t.tolist(), "taxels": np.full((len(t), 4), 0.1).tolist(),
+            "wrist_force": np.zeros((len(t), 3)).tolist(),
+            "roll_window": [c.t_roll, c.t_roll + c.roll_duration],
+            "weight_window": [1.7, 1.9], "liquid": False, "container": "x"}
+    sweep = dict(base, roll=sweep_roll_angle(c, t)[0].tolist())
+    sine = dict(base, roll=sine_roll_angle(LiquidRollConfig(roll_profile="sine"), t)[0].tolist())
+    assert app.record_features(sweep).coast.sum() == 35  # 3 phases of 11 + 2 single samples
+    assert app.record_features(sine).coast is None
+    stored = dict(sine, roll_changes=None)  # a new record of a sine roll says so itself
+    assert app.record_features(stored).coast is None

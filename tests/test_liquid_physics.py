@@ -97,20 +97,30 @@ def test_sweep_roll_reaches_the_amplitude_with_continuous_acceleration(tau):
         LiquidRollConfig(roll_profile="sweep", reversal_time=0.0)
 
 
-def _roll(label, **cfg):
+def _roll_run(label, **cfg):
+    """One simulated roll at seed 4: (times in the roll window, s; taxels there; config)."""
     from mmlearn.diagrams.liquid_roll import simulate_roll
 
     inst = make_instance(label, np.random.default_rng([4, 17]))
     c = LiquidRollConfig(grasp_height=inst.height / 2, seed=4, **cfg)
     r = simulate_roll(c, container=inst)
     m = (r["t"] >= r["roll_window"][0]) & (r["t"] <= r["roll_window"][1])
-    return r["taxels"][m]
+    return r["t"][m], r["taxels"][m], c
+
+
+def _roll(label, **cfg):
+    return _roll_run(label, **cfg)[1]
 
 
 @pytest.fixture(scope="module")
-def sweeps():
+def sweep_runs():
     """The default roll (sweep, 0.25 s reversals) of three containers at one seed."""
-    return {k: _roll(k) for k in ("dummy", "odwalla_half", "odwalla_empty")}
+    return {k: _roll_run(k) for k in ("dummy", "odwalla_half", "odwalla_empty")}
+
+
+@pytest.fixture(scope="module")
+def sweeps(sweep_runs):
+    return {k: v[1] for k, v in sweep_runs.items()}
 
 
 def test_abrupt_reversals_made_the_rigid_dummy_respond(sweeps):
@@ -142,3 +152,43 @@ def test_the_liquid_rings_at_its_sloshing_mode(sweeps):
     b = {k: _slosh_band_power(v) for k, v in sweeps.items()}
     assert b["odwalla_half"] > 2 * b["dummy"], b
     assert b["odwalla_half"] > 10 * b["odwalla_empty"], b
+
+
+def test_roll_change_windows_are_where_the_commanded_rate_changes():
+    from mmlearn.diagrams.liquid_roll import roll_change_windows, sweep_roll_angle
+
+    for cycles in (1.0, 2.0):
+        c = LiquidRollConfig(roll_cycles=cycles)
+        w = roll_change_windows(c)
+        assert w.shape == (int(2 * cycles) + 2, 2)
+        t = np.linspace(c.t_roll - 0.1, c.t_roll + c.roll_duration + 0.1, 40001)
+        _, qd, qdd = sweep_roll_angle(c, t)
+        busy = ((t[:, None] >= w[None, :, 0]) & (t[:, None] <= w[None, :, 1])).any(axis=1)
+        roll = (t > c.t_roll) & (t < c.t_roll + c.roll_duration)
+        # outside the windows the commanded rate is constant (+-w), inside it changes
+        assert np.all(qdd[~busy] == 0.0)
+        assert np.mean(np.abs(qdd[busy & roll]) > 0) > 0.99  # 0 only at the windows' edges
+        np.testing.assert_allclose(np.abs(qd[roll & ~busy]), np.abs(qd[roll & ~busy]).max())
+    with pytest.raises(ValueError, match="sine"):
+        roll_change_windows(LiquidRollConfig(roll_profile="sine"))
+
+
+def test_coast_feature_rigid_dummy_well_below_liquid(sweep_runs):
+    """The robot knows its roll command: over the coast phases (constant commanded roll
+    rate, from ``COAST_DELAY`` s after each reversal) the rigid dummy's and the empty
+    bottle's high-passed taxel norm follows a slow trend (gravity shifting the load between
+    the pads), while the half-full bottle's liquid keeps ringing about it. (Over the whole
+    roll the dummy's rigid response during the reversals is as large as the liquid's: see
+    the README, Liquid detection.)"""
+    from mmlearn.apps.liquid_detection import COAST_DELAY
+    from mmlearn.diagrams.liquid_roll import roll_change_windows
+    from mmlearn.models.liquid import coast_feature, coast_mask
+
+    f = {}
+    for k, (t, x, c) in sweep_runs.items():
+        m = coast_mask(t, roll_change_windows(c), start=c.t_roll,
+                       end=c.t_roll + c.roll_duration, delay=COAST_DELAY)
+        assert 30 < m.sum() < len(t)
+        f[k] = coast_feature(x, m)
+    assert f["dummy"] < 0.25 * f["odwalla_half"], f  # seed 4: 0.00012 vs 0.00096
+    assert f["odwalla_empty"] < 0.25 * f["odwalla_half"], f  # 0.00009
