@@ -219,3 +219,35 @@ def test_old_records_get_their_roll_command_only_if_the_measured_roll_follows_it
     assert app.record_features(sine).coast is None
     stored = dict(sine, roll_changes=None)  # a new record of a sine roll says so itself
     assert app.record_features(stored).coast is None
+
+
+def test_dummy_read_held_out_and_inside_the_cross_validation():
+    """The dummy's two readings: held out (trained on the containers alone) and, as Table 7.5
+    counts it, inside the cross-validation as one more "no liquid" object. Synthetic records:
+    liquid trials ring, empty ones and the heavy dummy do not; with weight in the held-out
+    reading the tree may split on weight (the dummy weighs as much as a half-full bottle), in
+    the thesis' reading the training folds hold heavy trials without liquid, so it cannot."""
+    from mmlearn.models.liquid import RollRecord
+
+    rng = np.random.default_rng(0)
+    t = np.arange(120) / 24.0
+
+    def rec(liquid, weight, name):
+        amp = 0.01 if liquid else 0.0005
+        tax = 0.2 + amp * np.sin(2 * np.pi * 7.0 * t)[:, None] * rng.uniform(0.5, 1.5, 4)
+        tax = tax + 1e-4 * rng.standard_normal(tax.shape)
+        return RollRecord(taxels=tax, weight=weight + 0.05 * rng.standard_normal(),
+                          liquid=liquid, container=name)
+
+    rr = [rec(True, 2.5, "full") for _ in range(12)] + [rec(False, 0.3, "empty") for _ in range(12)]
+    dr = [rec(False, 2.5, "dummy") for _ in range(4)]
+    y = np.array(["liquid" if r.liquid else "no_liquid" for r in rr])
+    c = app.LiquidDetectionConfig(feature="whole", trials=1, seed=0)
+    out = app._evaluate(rr, dr, y, feature="whole", k=4, c=c)
+    d = out["dummy"]
+    assert d["trials"] == 4
+    assert d["predicted_no_liquid_tactile"] == 4          # the feature alone: no liquid
+    assert d["in_cv_no_liquid_tactile"] == 4
+    assert d["in_cv_no_liquid_with_weight"] == 4          # weight cannot decide inside the CV
+    assert d["in_cv_rate_with_weight"] == pytest.approx(1.0)
+    assert 0 <= d["predicted_no_liquid_with_weight"] <= 4
