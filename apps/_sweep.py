@@ -546,6 +546,26 @@ def exit_status(prog: str, res: dict) -> int:
     return 0
 
 
+def report_only_lines(args, *, simulates: str) -> list[dict] | None:
+    """``--report-only RESULTS``: the results file's lines, or None without the flag. The
+    viewing flags (``--meshcat`` / ``--html-out``) simulate ``simulates`` (e.g. "a roll"), so
+    they are a usage error beside it."""
+    path = getattr(args, "report_only", None)
+    if not path:
+        return None
+    if getattr(args, "meshcat", False) or getattr(args, "html_out", None):
+        raise UsageError(f"--meshcat / --html-out simulate {simulates}; --report-only "
+                         "simulates nothing")
+    return report_lines(path)
+
+
+def report_only_result(res: dict, path: str | Path) -> dict:
+    """A report recomputed by ``--report-only`` from ``path``: JSON-clean, marked as such."""
+    res = json_clean(res)
+    res["sweep"] = {"results_file": str(path), "report_only": True}
+    return res
+
+
 def report_lines(path: str | Path) -> list[dict]:
     """Every line of a results file (for ``--report-only``); a clear error when it is missing
     or holds no record."""

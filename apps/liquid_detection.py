@@ -499,7 +499,8 @@ def _show_one(name: str, *, seed: int, meshcat, html_out) -> None:
 
 
 def main(argv=None) -> int:
-    from mmlearn.apps._sweep import add_sweep_args, apply_sweep_args, exit_status, report_lines
+    from mmlearn.apps._sweep import (add_sweep_args, apply_sweep_args, exit_status,
+                                     report_only_lines, report_only_result)
     from mmlearn.diagrams.liquid_roll import LIQUID_CONTAINERS
 
     ap = ArgumentParser(
@@ -562,12 +563,9 @@ def main(argv=None) -> int:
             seed=args.seed, plot=args.plot, progress=args.progress)
         check_out_file("--plot", args.plot)
         check_out_file("--html-out", args.html_out)
-        if args.report_only:
-            if args.meshcat or args.html_out:
-                raise UsageError("--meshcat / --html-out simulate a roll; --report-only "
-                                 "simulates nothing")
+        lines = report_only_lines(args, simulates="a roll")
+        if lines is not None:
             _check(cfg)
-            lines = report_lines(args.report_only)
         else:
             apply_sweep_args(cfg, args, app="liquid_detection")
             _check(cfg)
@@ -583,8 +581,7 @@ def main(argv=None) -> int:
             res = report(lines, cfg)
             if args.plot:
                 plot_report(lines, res, args.plot)
-            res = json_clean(res)
-            res["sweep"] = {"results_file": args.report_only, "report_only": True}
+            res = report_only_result(res, args.report_only)
         else:
             res = run(config=cfg)
     except ValueError as e:

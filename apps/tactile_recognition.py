@@ -591,7 +591,8 @@ def _show_one(cls: str, *, seed: int, meshcat, html_out) -> dict:
 
 
 def main(argv=None) -> int:
-    from mmlearn.apps._sweep import add_sweep_args, apply_sweep_args, exit_status, report_lines
+    from mmlearn.apps._sweep import (add_sweep_args, apply_sweep_args, exit_status,
+                                     report_only_lines, report_only_result)
     from mmlearn.sdf.tactile_objects import CLASSES
 
     ap = ArgumentParser(
@@ -647,12 +648,8 @@ def main(argv=None) -> int:
             raise UsageError(f"--alpha: expected a number in [0, 1], got {args.alpha!r}")
         check_out_file("--plot", args.plot)
         check_out_file("--html-out", args.html_out)
-        if args.report_only:
-            if args.meshcat or args.html_out:
-                raise UsageError("--meshcat / --html-out simulate a grasp; --report-only "
-                                 "simulates nothing")
-            lines = report_lines(args.report_only)
-        else:
+        lines = report_only_lines(args, simulates="a grasp")
+        if lines is None:
             apply_sweep_args(cfg, args, app="tactile_recognition")
             _check(cfg)
     except (UsageError, ValueError) as e:
@@ -665,8 +662,7 @@ def main(argv=None) -> int:
             _show_one((cfg.classes or tuple(CLASSES))[0], seed=cfg.seed, meshcat=mc,
                       html_out=args.html_out)
         if args.report_only:
-            res = json_clean(report(lines, cfg))
-            res["sweep"] = {"results_file": args.report_only, "report_only": True}
+            res = report_only_result(report(lines, cfg), args.report_only)
         else:
             res = run(config=cfg)
     except ValueError as e:

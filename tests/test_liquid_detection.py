@@ -96,6 +96,8 @@ def test_cli_help_and_bad_arguments(capsys, tmp_path):
                       (["--trials", "1"], "trials"),
                       (["--names", "odwalla_half,water_half"], "one container with liquid"),
                       (["--report-only", str(tmp_path / "none.jsonl")], "no results file"),
+                      (["--report-only", "x.jsonl", "--html-out", str(tmp_path / "y.html")],
+                       "--report-only simulates nothing"),
                       (["--plot", str(tmp_path / "no" / "x.png")], "does not exist")):
         assert _rc(argv) == 2, argv
         err = capsys.readouterr().err
