@@ -388,7 +388,7 @@ def start_covariates(starts, query, target=(0.0, 0.0), *, kind: str = "position"
 
 
 def condition_on_start(t, values, covariates, query, *, h: float, ridge: float = 1.0,
-                       inflation: float = 1.0, min_var: float = 1e-6):
+                       inflation: float = 1.0, min_var: float = 1e-6, covariance: str = "residual"):
     """Per-slice Gaussians of a constraint **conditioned on the start** (an extension of the
     thesis' per-time-step model, Eq. 8.10-8.16: Gaussian conditioning, as a ProMP is
     conditioned on its start).
@@ -405,7 +405,8 @@ def condition_on_start(t, values, covariates, query, *, h: float, ridge: float =
     * covariance: the Parzen-weighted covariance of the residuals ``r - mu_r - B (c - mu_c)``
       (for ``ridge`` = 0 the Schur complement ``S_rr - S_rc S_cc^-1 S_cr``), times
       ``inflation`` (>= 1 accounts for the slope fitted to few demonstrations), plus
-      ``min_var I``.
+      ``min_var I``; with ``covariance="marginal"`` the unconditioned covariance ``S_rr``
+      instead (only the mean is conditioned).
 
     Args:
         t: ``(T,)`` the common (aligned) time base, s.
@@ -439,6 +440,8 @@ def condition_on_start(t, values, covariates, query, *, h: float, ridge: float =
         raise ValueError(f"condition_on_start: ridge must be finite and >= 0, got {ridge!r}")
     if not (np.isfinite(inflation) and inflation > 0):
         raise ValueError(f"condition_on_start: inflation must be a finite factor > 0, got {inflation!r}")
+    if covariance not in ("residual", "marginal"):
+        raise ValueError(f"condition_on_start: covariance must be 'residual' or 'marginal', got {covariance!r}")
     G, T, d = v.shape
     W = parzen_weights(t, t, h=h, G=G)                                  # (T, T), rows sum to 1/G
     denom = np.maximum(1.0 - G * np.sum(W * W, axis=1), 1e-12)          # Eq. 8.14's 1 - sum w^2
@@ -456,7 +459,10 @@ def condition_on_start(t, values, covariates, query, *, h: float, ridge: float =
     B = np.linalg.solve(A, np.swapaxes(S_rc, 1, 2)).swapaxes(1, 2)     # (T, d, p); denom cancels
     BS = np.einsum("sdp,sep->sde", B, S_rc)                              # B S_cr
     BSB = np.einsum("sdp,pq,seq->sde", B, S_cc, B)
-    cov = S_rr - (BS + np.swapaxes(BS, 1, 2) - BSB) / denom[:, None, None]
+    if covariance == "residual":
+        cov = S_rr - (BS + np.swapaxes(BS, 1, 2) - BSB) / denom[:, None, None]
+    else:
+        cov = S_rr
     cov = inflation * 0.5 * (cov + np.swapaxes(cov, 1, 2)) + min_var * np.eye(d)
     mean = mu_r + c0 + np.einsum("sdp,p->sd", B, q - mu_c)
     return mean, cov
@@ -535,6 +541,7 @@ class ThesisReproducer:
     condition_on: str = "position"
     ridge: float = 1.0
     inflation: float = 1.0
+    condition_covariance: str = "residual"
     name: str = "thesis"
 
     def __post_init__(self):
@@ -564,6 +571,8 @@ class ThesisReproducer:
             raise ValueError(f"ridge must be finite and >= 0, got {self.ridge!r}")
         if not (np.isfinite(self.inflation) and self.inflation > 0):
             raise ValueError(f"inflation must be a finite factor > 0, got {self.inflation!r}")
+        if self.condition_covariance not in ("residual", "marginal"):
+            raise ValueError(f"condition_covariance must be 'residual' or 'marginal', got {self.condition_covariance!r}")
         self.weights = dict(self.weights)
         for k, v in self.weights.items():
             if k not in self.objects:
@@ -606,7 +615,7 @@ class ThesisReproducer:
                 vals = np.stack([d.objects[o] - d.hand for d in aligned])
                 model.mean[c_name], model.var[c_name] = condition_on_start(
                     model.t, vals, C, c, h=self.h, ridge=self.ridge, inflation=self.inflation,
-                    min_var=model.meta["min_var"])
+                    min_var=model.meta["min_var"], covariance=self.condition_covariance)
                 if not self.full_covariance:
                     model.var[c_name] = np.einsum("sii->si", model.var[c_name]).copy()
             model.var = {c: self._temper(c[4:], v) for c, v in model.var.items()}
@@ -620,7 +629,8 @@ class ThesisReproducer:
                     d2 = 1.0 if mode == "rotation" else float(np.mean(
                         [np.sum((d.objects["start"][0] - d.objects["target"][0]) ** 2) for d in aligned]))
                     fm, fv = condition_on_start(model.t, fr, C, c, h=self.h, ridge=self.ridge,
-                                                inflation=self.inflation, min_var=1e-6 / max(d2, 1e-12))
+                                                inflation=self.inflation, min_var=1e-6 / max(d2, 1e-12),
+                                                covariance=self.condition_covariance)
                     if not self.full_covariance:
                         fv = np.einsum("sii->si", fv).copy()
                 model = place_start_frame(model, fm, self._temper(o, fv), start,
