@@ -526,6 +526,22 @@ class ThesisReproducer:
         weights: object name -> tempering of that constraint's Gaussian, a dimensionless factor
             > 0 on its precision (its covariance divided by it); objects not named keep 1 (the
             thesis' plain product). Only the ratios move the fused path.
+        condition: objects whose per-slice Gaussians are **conditioned on the observed start**
+            (:func:`condition_on_start`; an extension, lasa4): the joint Gaussian of the start's
+            covariates and the constraint value per slice, estimated from the training
+            demonstrations with the Parzen weights, conditioned on the held-out start. Default
+            none. Measured on the development shapes only (``bench_lasa_dev.py condition``):
+            no setting beat the default by a clear margin (best: target conditioned on the
+            polar start, ridge 1, inflation 3: 0.993 against 1.003 mm, lower on 35 of 63 folds,
+            Wilcoxon p = 0.48; ridge 0: 1.100 / 1.118 mm), so it is off.
+        condition_on: the covariates (:data:`CONDITION_COVARIATES`, :func:`start_covariates`):
+            ``"position"`` (start - target, mm), ``"polar"`` (distance mm, angle rad),
+            ``"distance"`` (mm).
+        ridge: the conditioning's ridge, dimensionless, relative to each covariate's variance
+            (0 = the exact Gaussian conditional, large = unconditioned).
+        inflation: factor (dimensionless, > 0) on the conditioned (residual) covariance.
+        condition_covariance: ``"residual"`` (the conditional covariance) or ``"marginal"``
+            (the unconditioned covariance; only the mean is conditioned).
     """
 
     objects: tuple = ("target", "start", "frame", "frame_scale")
