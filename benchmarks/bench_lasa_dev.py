@@ -249,8 +249,8 @@ def condition(shapes, only=None, extra=None, out=None) -> None:
     from scipy.stats import wilcoxon
 
     variants = _condition_variants()
-    if only:
-        variants = {k: variants[k] for k in only}
+    if only is not None:
+        variants = {k: variants[k] for k in only if k}
     for spec in extra or ():
         i = spec.find("={")
         if i < 0:
@@ -288,9 +288,56 @@ def condition(shapes, only=None, extra=None, out=None) -> None:
                                     "shape_rmse_mm": sh.tolist(), "p": float(p)}) + "\n")
 
 
+def condition_r2(shapes) -> None:
+    """How much of a held-out drawing's path the start predicts (diagnostic for lasa4): all 7
+    demonstrations aligned together by DTW (the held-out one included: a diagnostic, not a
+    method), then per fold and slice the held-out's target constraint ``r = target - hand``
+    predicted from the other 6 by (a) their mean, (b) their start-frame mean mapped by the
+    held-out's start frame, (c) the Gaussian conditional on the held-out start (ridge 0/1/3,
+    position covariates), (d) the start-frame mean conditioned on the start (polar, ridge 1).
+    Prints per shape and method the RMS prediction error at the same aligned time (mm, over
+    slices and folds) / the issue's metric of the predicted path (nearest held-out sample, mm,
+    mean over folds)."""
+    from mmlearn.models.imitation import align_demonstrations
+    from mmlearn.models.lasa import (condition_on_start, start_covariates, start_frame, to_start_frame,
+                                     with_start_marker)
+
+    labels = ["mean", "frame", "cond r0", "cond r1", "cond r3", "frame+cond"]
+    print(f"{'shape':17s} " + " ".join(f"{x:>11s}" for x in labels))
+    acc = []
+    for name in shapes:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            raw = load_shape(name)
+            al = align_demonstrations([with_start_marker(d) for d in raw], dt=0.02, features="both")
+        t = al[0].t - al[0].t[0]
+        r = np.stack([d.objects["target"] - d.hand for d in al])
+        u = np.stack([-to_start_frame(d).hand for d in al])
+        starts = np.stack([d.hand[0] for d in al])
+        err = {k: [] for k in labels}
+        for k in range(len(al)):
+            tr = [j for j in range(len(al)) if j != k]
+            S = start_frame(starts[k])
+            C, c = start_covariates(starts[tr], starts[k])
+            Cp, cp = start_covariates(starts[tr], starts[k], kind="polar")
+            pred = {"mean": r[tr].mean(0), "frame": u[tr].mean(0) @ S.T}
+            for rg in (0, 1, 3):
+                pred[f"cond r{rg}"] = condition_on_start(t, r[tr], C, c, h=1e-3, ridge=rg)[0]
+            pred["frame+cond"] = condition_on_start(t, u[tr], Cp, cp, h=1e-3, ridge=1)[0] @ S.T
+            for lab in labels:
+                err[lab].append((np.mean(np.sum((pred[lab] - r[k]) ** 2, axis=1)),
+                                 rmse_mm(al[k].objects["target"] - pred[lab], raw[k].hand)))
+        row = [float(np.sqrt(np.mean([e[0] for e in err[lab]]))) for lab in labels]
+        row2 = [float(np.mean([e[1] for e in err[lab]])) for lab in labels]
+        acc.append((row, row2))
+        print(f"{name:17s} " + " ".join(f"{x:5.3f}/{y:5.3f}" for x, y in zip(row, row2)), flush=True)
+    m = np.mean(acc, axis=0)
+    print(f"{'mean':17s} " + " ".join(f"{x:5.3f}/{y:5.3f}" for x, y in zip(m[0], m[1])))
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("what", choices=("split", "grid", "extras", "condition"))
+    ap.add_argument("what", choices=("split", "grid", "extras", "condition", "condition-r2"))
     ap.add_argument("--only", default=None, help="grid, condition: variant names separated by ;")
     ap.add_argument("--out", default=None, help="condition: append every variant's fold results to this JSON Lines file")
     ap.add_argument("--variant", action="append", default=[],
@@ -302,6 +349,8 @@ def main(argv=None) -> int:
         split(shapes)
     elif a.what == "extras":
         extras(shapes)
+    elif a.what == "condition-r2":
+        condition_r2(shapes)
     elif a.what == "condition":
         condition(shapes, None if a.only is None else [s.strip() for s in a.only.split(";")], a.variant, a.out)
     else:
