@@ -6,6 +6,9 @@ Usage::
 
     OPENBLAS_NUM_THREADS=1 python benchmarks/bench_lasa_dev.py split
     OPENBLAS_NUM_THREADS=1 python benchmarks/bench_lasa_dev.py extras
+    OPENBLAS_NUM_THREADS=1 python benchmarks/bench_lasa_dev.py condition [--only "NAME;..."]
+        [--variant 'LABEL={"condition": ["target"], "ridge": 1, ...}' ...] [--out FILE.jsonl]
+    OPENBLAS_NUM_THREADS=1 python benchmarks/bench_lasa_dev.py condition-r2
     OPENBLAS_NUM_THREADS=1 python benchmarks/bench_lasa_dev.py grid [--only "NAME;NAME..."]
         [--variant 'LABEL={"shrinkage": 0.5, ...}' ...]
 
@@ -23,6 +26,12 @@ and start-frame constraints, covariance shrinkage, the start frame's scale, h an
 start frames) scored on the development folds, per shape and mean, beside the previous
 default (session 6, the base of every variant), today's default and the naive baseline.
 ``--variant`` entries are applied on top of the previous default too.
+
+``condition`` (lasa4): the per-slice Gaussians conditioned on the observed start
+(``ThesisReproducer(condition=..., condition_on=..., ridge=..., inflation=...)``), each variant
+with the mean paired difference to today's default over the 63 development folds, the folds it
+lowers and the Wilcoxon signed-rank p-value. ``condition-r2``: how well the start predicts a
+held-out path on its own (see :func:`condition_r2`).
 
 ``extras``: variants outside the reproducer's settings (the DBN indexed by normalised arc
 length instead of DTW time, a second DTW pass to the barycentre, covariances smoothed over
