@@ -6,6 +6,9 @@ Usage::
 
     OPENBLAS_NUM_THREADS=1 python benchmarks/bench_lasa_dev.py split
     OPENBLAS_NUM_THREADS=1 python benchmarks/bench_lasa_dev.py extras
+    OPENBLAS_NUM_THREADS=1 python benchmarks/bench_lasa_dev.py condition [--only "NAME;..."]
+        [--variant 'LABEL={"condition": ["target"], "ridge": 1, ...}' ...] [--out FILE.jsonl]
+    OPENBLAS_NUM_THREADS=1 python benchmarks/bench_lasa_dev.py condition-r2
     OPENBLAS_NUM_THREADS=1 python benchmarks/bench_lasa_dev.py grid [--only "NAME;NAME..."]
         [--variant 'LABEL={"shrinkage": 0.5, ...}' ...]
 
@@ -23,6 +26,12 @@ and start-frame constraints, covariance shrinkage, the start frame's scale, h an
 start frames) scored on the development folds, per shape and mean, beside the previous
 default (session 6, the base of every variant), today's default and the naive baseline.
 ``--variant`` entries are applied on top of the previous default too.
+
+``condition`` (lasa4): the per-slice Gaussians conditioned on the observed start
+(``ThesisReproducer(condition=..., condition_on=..., ridge=..., inflation=...)``), each variant
+with the mean paired difference to today's default over the 63 development folds, the folds it
+lowers and the Wilcoxon signed-rank p-value. ``condition-r2``: how well the start predicts a
+held-out path on its own (see :func:`condition_r2`).
 
 ``extras``: variants outside the reproducer's settings (the DBN indexed by normalised arc
 length instead of DTW time, a second DTW pass to the barycentre, covariances smoothed over
@@ -228,10 +237,118 @@ def extras(shapes) -> None:
         print(f"{label:40s} rmse {m:.3f} mm  end {e:.3f} mm", flush=True)
 
 
+def _condition_variants() -> dict[str, dict]:
+    """Conditioning on the start (lasa4): which constraints are conditioned, on what, with
+    which ridge and residual-covariance inflation (on top of today's default)."""
+    v: dict[str, dict] = {}
+    sets = {"target": ("target",), "target,start": ("target", "start"), "frames": ("frame", "frame_scale"),
+            "all": ("target", "start", "frame", "frame_scale")}
+    for on in ("position", "polar"):
+        for label, cond in sets.items():
+            v[f"cond[{label}] on {on}"] = {"condition": cond, "condition_on": on}
+        v[f"cond[target] on {on}, no start marker"] = {
+            "condition": ("target",), "condition_on": on, "weights": {"start": 1e-6}}
+    return v
+
+
+def condition(shapes, only=None, extra=None, out=None) -> None:
+    """Every conditioning variant scored on the development folds: mean rmse / end error (mm),
+    % below the baseline, the mean paired difference to today's default over the 63 folds, the
+    number of folds where the variant is lower and the Wilcoxon signed-rank p-value."""
+    from scipy.stats import wilcoxon
+
+    variants = _condition_variants()
+    if only is not None:
+        variants = {k: variants[k] for k in only if k}
+    for spec in extra or ():
+        i = spec.find("={")
+        if i < 0:
+            raise SystemExit(f"--variant {spec!r}: expected LABEL={{json}}")
+        kw = json.loads(spec[i + 1:])
+        for k in ("objects", "condition"):
+            if k in kw:
+                kw[k] = tuple(kw[k])
+        variants[spec[:i]] = kw
+    demos = {n: load_shape(n) for n in shapes}
+
+    def folds(rep):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            res = [evaluate_shape(n, rep, demos=demos[n]) for n in shapes]
+        return (np.array([f.rmse_mm for r in res for f in r.folds]), np.array([f.end_error_mm for r in res for f in r.folds]),
+                np.array([r.rmse_mm for r in res]))
+
+    base = folds(baseline_reproducer)[2].mean()
+    ref, ref_end, ref_shape = folds(ThesisReproducer())
+    print(f"{'variant':44s} {'rmse':>6s} {'end':>6s} {'vs base':>7s} {'d/default':>9s} {'better':>6s} {'p':>7s}")
+    print(f"{'baseline':44s} {base:6.3f}")
+    print(f"{'default':44s} {ref_shape.mean():6.3f} {ref_end.mean():6.3f} {1 - ref_shape.mean() / base:7.1%}", flush=True)
+    for label, kw in variants.items():
+        t0 = time.perf_counter()
+        r, e, sh = folds(ThesisReproducer(**kw))
+        d = r - ref
+        p = wilcoxon(r, ref).pvalue if np.any(d != 0) else 1.0
+        print(f"{label:44s} {sh.mean():6.3f} {e.mean():6.3f} {1 - sh.mean() / base:7.1%} {d.mean():+9.4f} "
+              f"{int(np.sum(d < 0)):3d}/{len(d):2d} {p:7.3f}  ({time.perf_counter() - t0:.0f} s)", flush=True)
+        if out:
+            with open(out, "a") as f:
+                f.write(json.dumps({"label": label, "kw": kw, "rmse_mm": float(sh.mean()), "end_error_mm": float(e.mean()),
+                                    "fold_rmse_mm": r.tolist(), "default_fold_rmse_mm": ref.tolist(),
+                                    "shape_rmse_mm": sh.tolist(), "p": float(p)}) + "\n")
+
+
+def condition_r2(shapes) -> None:
+    """How much of a held-out drawing's path the start predicts (diagnostic for lasa4): all 7
+    demonstrations aligned together by DTW (the held-out one included: a diagnostic, not a
+    method), then per fold and slice the held-out's target constraint ``r = target - hand``
+    predicted from the other 6 by (a) their mean, (b) their start-frame mean mapped by the
+    held-out's start frame, (c) the Gaussian conditional on the held-out start (ridge 0/1/3,
+    position covariates), (d) the start-frame mean conditioned on the start (polar, ridge 1).
+    Prints per shape and method the RMS prediction error at the same aligned time (mm, over
+    slices and folds) / the issue's metric of the predicted path (nearest held-out sample, mm,
+    mean over folds)."""
+    from mmlearn.models.imitation import align_demonstrations
+    from mmlearn.models.lasa import (condition_on_start, start_covariates, start_frame, to_start_frame,
+                                     with_start_marker)
+
+    labels = ["mean", "frame", "cond r0", "cond r1", "cond r3", "frame+cond"]
+    print(f"{'shape':17s} " + " ".join(f"{x:>11s}" for x in labels))
+    acc = []
+    for name in shapes:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            raw = load_shape(name)
+            al = align_demonstrations([with_start_marker(d) for d in raw], dt=0.02, features="both")
+        t = al[0].t - al[0].t[0]
+        r = np.stack([d.objects["target"] - d.hand for d in al])
+        u = np.stack([-to_start_frame(d).hand for d in al])
+        starts = np.stack([d.hand[0] for d in al])
+        err = {k: [] for k in labels}
+        for k in range(len(al)):
+            tr = [j for j in range(len(al)) if j != k]
+            S = start_frame(starts[k])
+            C, c = start_covariates(starts[tr], starts[k])
+            Cp, cp = start_covariates(starts[tr], starts[k], kind="polar")
+            pred = {"mean": r[tr].mean(0), "frame": u[tr].mean(0) @ S.T}
+            for rg in (0, 1, 3):
+                pred[f"cond r{rg}"] = condition_on_start(t, r[tr], C, c, h=1e-3, ridge=rg)[0]
+            pred["frame+cond"] = condition_on_start(t, u[tr], Cp, cp, h=1e-3, ridge=1)[0] @ S.T
+            for lab in labels:
+                err[lab].append((np.mean(np.sum((pred[lab] - r[k]) ** 2, axis=1)),
+                                 rmse_mm(al[k].objects["target"] - pred[lab], raw[k].hand)))
+        row = [float(np.sqrt(np.mean([e[0] for e in err[lab]]))) for lab in labels]
+        row2 = [float(np.mean([e[1] for e in err[lab]])) for lab in labels]
+        acc.append((row, row2))
+        print(f"{name:17s} " + " ".join(f"{x:5.3f}/{y:5.3f}" for x, y in zip(row, row2)), flush=True)
+    m = np.mean(acc, axis=0)
+    print(f"{'mean':17s} " + " ".join(f"{x:5.3f}/{y:5.3f}" for x, y in zip(m[0], m[1])))
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("what", choices=("split", "grid", "extras"))
-    ap.add_argument("--only", default=None, help="grid: variant names separated by ;")
+    ap.add_argument("what", choices=("split", "grid", "extras", "condition", "condition-r2"))
+    ap.add_argument("--only", default=None, help="grid, condition: variant names separated by ;")
+    ap.add_argument("--out", default=None, help="condition: append every variant's fold results to this JSON Lines file")
     ap.add_argument("--variant", action="append", default=[],
                     help='grid: an extra variant NAME={"keyword": value, ...} (JSON keyword arguments '
                          'of ThesisReproducer); repeatable')
@@ -241,6 +358,10 @@ def main(argv=None) -> int:
         split(shapes)
     elif a.what == "extras":
         extras(shapes)
+    elif a.what == "condition-r2":
+        condition_r2(shapes)
+    elif a.what == "condition":
+        condition(shapes, None if a.only is None else [s.strip() for s in a.only.split(";")], a.variant, a.out)
     else:
         grid(shapes, None if a.only is None else [s.strip() for s in a.only.split(";")], a.variant)
     return 0
