@@ -110,6 +110,7 @@ from dataclasses import dataclass, field, fields
 
 import cv2
 import numpy as np
+from scipy import ndimage
 
 from .fronts import FrontRectangle, PinholeIntrinsics, as_depth_image, valid_depth_mask
 
@@ -123,6 +124,10 @@ IN_PLANE, FREE, OCCLUDED, UNKNOWN, OUTSIDE = 0, 1, 2, 3, 4
 # panel's edge face seen obliquely): costs like UNKNOWN, but is not the plane's surface for the
 # edge refinement
 OFF_SURFACE = 5
+# a pixel on a thin line that lies behind the measured surface on both sides of it, or has no
+# return between measured lines on both sides (the reveal between two flush fronts): costs
+# like FREE, and a rectangle's side along such a line is observed to end there (recall)
+GAP = 6
 
 
 @dataclass
@@ -194,6 +199,24 @@ class FrontDetectorConfig:
             lie on average more than max(step, step_per_m2 z^2, 3 x the inner lines' scatter)
             behind the inner lines' is beyond the side (a panel's top or edge face), m and
             m / m^2.
+        gap_label: label the reveals between flush fronts ``GAP`` (:func:`_gap_mask`): thin
+            image lines (rows or columns) whose depth, averaged along the line, lies behind
+            the lines ``gap_offsets_px`` away on both sides (which agree with each other), or
+            that have no return between measured lines.
+        component_starts: besides ``starts_per_plane`` random starts, one start at the most
+            interior cell of each of this many largest connected in-plane regions of a plane
+            (regions parted by ``GAP`` lines: the fronts of a cabinet; 0 = none).
+        gap_window_px: length of the averaging window along the line, px (odd).
+        gap_offsets_px: distances of the side lines compared with, px (a reveal is 1-4 px
+            wide at 0.8-2.3 m).
+        gap_depth, gap_depth_per_m2: a line is behind when its mean depth exceeds the larger
+            of its side lines' by max(gap_depth, gap_depth_per_m2 z^2), m and m / m^2 (the
+            5 mm reveal seen from 25 deg above lies 6-7 mm behind the faces; the mean of a
+            31-pixel line scatters by ~0.35 mm z^2 with the camera's noise).
+        gap_side_tolerance_per_m2: the two side lines agree when their mean depths differ by
+            less than max(0.01, this x z^2) m plus the depth change of the plane over the
+            offset (the side lines must lie on one surface), m / m^2.
+        gap_min_length: a detected line shorter than this (at its depth) is noise, m.
     """
 
     inlier_distance: float = 0.02
@@ -240,6 +263,14 @@ class FrontDetectorConfig:
     edge_refine_span: float = 0.7
     edge_refine_depth_step: float = 0.002
     edge_refine_depth_step_per_m2: float = 0.0008
+    gap_label: bool = True
+    component_starts: int = 12
+    gap_window_px: int = 31
+    gap_offsets_px: list[int] = field(default_factory=lambda: [2, 3, 4, 5])
+    gap_depth: float = 0.0025
+    gap_depth_per_m2: float = 0.001
+    gap_side_tolerance_per_m2: float = 0.004
+    gap_min_length: float = 0.2
 
     def validate(self) -> None:
         """Raise ``ValueError`` naming the first invalid field."""
@@ -274,6 +305,16 @@ class FrontDetectorConfig:
         for k in ("edge_refine_depth_step", "edge_refine_depth_step_per_m2"):
             if getattr(self, k) < 0:
                 raise ValueError(f"FrontDetectorConfig.{k} must be >= 0, got {getattr(self, k)}")
+        if self.gap_window_px < 3 or self.gap_window_px % 2 != 1:
+            raise ValueError("FrontDetectorConfig.gap_window_px must be an odd integer >= 3, "
+                             f"got {self.gap_window_px}")
+        if not self.gap_offsets_px or any(int(o) != o or o < 1 for o in self.gap_offsets_px):
+            raise ValueError("FrontDetectorConfig.gap_offsets_px must be integers >= 1 (px), "
+                             f"got {self.gap_offsets_px}")
+        for k in ("gap_depth", "gap_depth_per_m2", "gap_side_tolerance_per_m2",
+                  "gap_min_length"):
+            if getattr(self, k) < 0:
+                raise ValueError(f"FrontDetectorConfig.{k} must be >= 0, got {getattr(self, k)}")
         if self.crossing_smooth_px < 1:
             raise ValueError("FrontDetectorConfig.crossing_smooth_px must be >= 1, got "
                              f"{self.crossing_smooth_px}")
@@ -301,7 +342,8 @@ class FrontDetectorConfig:
                              f"{self.step_factors}")
         for k in ("ransac_stride_px", "ransac_hypotheses", "ransac_local_radius_px",
                   "max_planes", "min_plane_points", "max_grid_cells", "starts_per_plane",
-                  "crossing_smooth_px", "surface_window_px",
+                  "component_starts",
+                  "crossing_smooth_px", "surface_window_px", "gap_window_px",
                   "max_iterations", "border_margin_px"):
             if int(getattr(self, k)) != getattr(self, k):
                 raise ValueError(f"FrontDetectorConfig.{k} must be an integer, got "
@@ -642,8 +684,92 @@ def _surface_check(lab, S, Lm, win):
     lab[y0:y1, x0:x1][bad] = OFF_SURFACE
 
 
+def _gap_mask(d, valid, fx, cfg) -> np.ndarray:
+    """Pixels on the reveals between flush fronts (``GAP``), (H, W) bool, from the depth image
+    alone (one pass per frame for all planes).
+
+    A reveal is a thin line (image rows or columns: the fronts' sides are horizontal and
+    vertical seen from the front) that either has no return (a structured-light camera drops
+    the pixels of a 5 mm gap seen straight on, its depth edges) or lies a few mm *behind* the
+    surface on both sides (the 5 mm horizontal reveal seen from 25 deg above shows the lower
+    front's top face, 6-7 mm behind: inside the inlier distance L, so in-plane for Eq. 5.2,
+    and the two fronts are one plane region). Each line's depth is averaged over
+    ``gap_window_px`` pixels along it (the camera's noise, ~9 mm per pixel at 2.3 m, would
+    hide a one-pixel dip; the mean of 31 pixels scatters by ~1.7 mm there) and compared with
+    the mean of the lines ``gap_offsets_px`` away on either side, which must agree (one
+    surface on both sides: a depth step is not a reveal). Lines with fewer than a third of
+    their pixels measured are reveals too. Detections
+    shorter than ``gap_min_length`` at their depth are dropped (noise gives short runs, a
+    reveal runs along a whole front). The side lines must be well measured (>= 80 % of their
+    pixels: a countertop seen at grazing incidence drops a third of its pixels, and its line
+    means scatter beyond the noise model)."""
+    H, W = d.shape
+    Lw = int(cfg.gap_window_px)
+    sub = 4  # the line means are smooth along the line: every 4th pixel along it suffices
+    z = np.where(valid, d, np.float32(0.0))
+    w = valid.astype(np.float32)
+    out = np.zeros((H, W), bool)
+    for horizontal in (True, False):
+        k = (Lw, 1) if horizontal else (1, Lw)  # window along the line
+        A = cv2.boxFilter(z, -1, k, normalize=False, borderType=cv2.BORDER_CONSTANT)
+        N = cv2.boxFilter(w, -1, k, normalize=False, borderType=cv2.BORDER_CONSTANT)
+        # rows of (A, N) are across the lines, columns along them, subsampled along
+        if horizontal:
+            A, N = A[:, sub // 2::sub], N[:, sub // 2::sub]
+        else:
+            A, N = np.ascontiguousarray(A[sub // 2::sub].T), np.ascontiguousarray(
+                N[sub // 2::sub].T)
+        meas = N >= max(3.0, Lw / 3.0)
+        well = N >= 0.8 * Lw  # side lines of a line without return: well measured
+        m = A / np.maximum(N, np.float32(1.0))
+        m[~meas] = np.nan
+        n_rows = m.shape[0]
+        g = np.zeros(m.shape, bool)
+        zg = np.zeros(m.shape, np.float32)  # depth of the side lines where hit
+        for o in cfg.gap_offsets_px:
+            o = int(o)
+            if n_rows <= 2 * o:
+                continue
+            c, up, dn = m[o:n_rows - o], m[:n_rows - 2 * o], m[2 * o:]
+            ref = np.float32(0.5) * (up + dn)
+            z2 = ref * ref
+            thr = np.maximum(np.float32(cfg.gap_depth), np.float32(cfg.gap_depth_per_m2) * z2)
+            tol = np.maximum(np.float32(0.01), np.float32(cfg.gap_side_tolerance_per_m2) * z2)
+            with np.errstate(invalid="ignore"):
+                hit = np.abs(up - dn) < tol  # False where either side is NaN
+                hit &= well[:n_rows - 2 * o] & well[2 * o:]
+                hit &= (c - ref > thr) | ~meas[o:n_rows - o]
+            g[o:n_rows - o] |= hit
+            zg[o:n_rows - o][hit] = ref[hit]
+        if not g.any():
+            continue
+        # keep runs along the line at least gap_min_length long at their depth
+        n_lab, lab, stats, _ = cv2.connectedComponentsWithStats(g.view(np.uint8), connectivity=8)
+        if n_lab <= 1:
+            continue
+        length = sub * stats[1:, cv2.CC_STAT_WIDTH].astype(np.float64)
+        zrun = np.bincount(lab.reshape(-1), weights=zg.reshape(-1), minlength=n_lab)[1:] / (
+            np.maximum(stats[1:, cv2.CC_STAT_AREA], 1))
+        keep = np.concatenate([[False], length >= cfg.gap_min_length * fx / np.maximum(zrun, 1e-6)])
+        if not keep.any():
+            continue
+        g = keep[lab]
+        full = np.repeat(g, sub, axis=1)  # back to every pixel along the line
+        pad = (W if horizontal else H) - full.shape[1]
+        if pad > 0:
+            full = np.pad(full, ((0, 0), (0, pad)), mode="edge")
+        full = full[:, : (W if horizontal else H)]
+        # one pixel wider on either side across the line: a one-pixel line would fall
+        # between the 5 mm cells of a plane's rectified grid (2.2 mm pixels at 1.3 m)
+        wide = full.copy()
+        wide[1:] |= full[:-1]
+        wide[:-1] |= full[1:]
+        out |= wide if horizontal else wide.T
+    return out
+
+
 def _label_images(d, valid, ray_x, ray_y, planes, L, crossing_angle_deg,
-                  smooth_px=5, surface=None) -> list[np.ndarray]:
+                  smooth_px=5, surface=None, gap=None) -> list[np.ndarray]:
     """Eq. 5.2 labels of every pixel for every plane n . p + dpl = 0. The signed distance of
     the pixel's point p = depth * (ray_x, ray_y, 1) is depth * (n . ray) + dpl (separable in
     rows and columns). A pixel within L of two planes that cross at more than
@@ -670,6 +796,11 @@ def _label_images(d, valid, ray_x, ray_y, planes, L, crossing_angle_deg,
     if surface is not None:  # after the crossings: their strips would bias the means
         for k in range(P):
             _surface_check(labs[k], S[k], *surface)
+    if gap is not None and gap.any():  # reveals (_gap_mask): GAP unless something is in front
+        gap8 = gap.view(np.uint8)
+        for lab in labs:
+            sel = gap8 & cv2.compare(lab, OCCLUDED, cv2.CMP_NE)
+            lab[sel > 0] = GAP
     return labs
 
 
@@ -836,6 +967,37 @@ def _greedy(SC, dims, pid, R, steps, min_cells, alpha, max_iter):
     return R, score, it
 
 
+def _component_starts(g: _Grid, mc: int, k: int, rng, cfg) -> np.ndarray:
+    """Start rectangles (n, 4) at the most interior cell of each of the ``k`` largest
+    4-connected regions of in-plane cells of a grid (at least ``mc`` x ``mc`` cells): fronts
+    flush with their neighbours are one plane, parted only by ``GAP`` lines, and random
+    starts over the whole plane miss a small drawer (5 % of a cabinet's face) often.
+    Width and height from the prior, at most the region's bounding box."""
+    inp = (g.labels == IN_PLANE).view(np.uint8)
+    n_lab, lab, stats, _ = cv2.connectedComponentsWithStats(inp, connectivity=4)
+    if n_lab <= 1:
+        return np.zeros((0, 4), np.int64)
+    area = stats[1:, cv2.CC_STAT_AREA]
+    big = np.flatnonzero((area >= mc * mc) & (stats[1:, cv2.CC_STAT_WIDTH] >= mc)
+                         & (stats[1:, cv2.CC_STAT_HEIGHT] >= mc)) + 1
+    if len(big) == 0:
+        return np.zeros((0, 4), np.int64)
+    big = big[np.argsort(-area[big - 1], kind="stable")][:k]
+    dt = cv2.distanceTransform(inp, cv2.DIST_L2, 3)
+    pos = np.array(ndimage.maximum_position(dt, lab, big), np.int64).reshape(-1, 2)
+    ci, cj = pos[:, 0], pos[:, 1]
+    m = len(big)
+    wh = rng.uniform(cfg.prior_size[0], cfg.prior_size[1], (m, 2)) / g.c
+    wc = np.clip(np.round(wh[:, 0]).astype(np.int64), mc,
+                 np.maximum(mc, stats[big, cv2.CC_STAT_WIDTH]))
+    hc = np.clip(np.round(wh[:, 1]).astype(np.int64), mc,
+                 np.maximum(mc, stats[big, cv2.CC_STAT_HEIGHT]))
+    Hg, Wg = g.shape
+    x0 = np.clip(cj - wc // 2, 0, np.maximum(0, Wg - wc))
+    y0 = np.clip(ci - hc // 2, 0, np.maximum(0, Hg - hc))
+    return np.column_stack([x0, np.minimum(x0 + wc, Wg), y0, np.minimum(y0 + hc, Hg)])
+
+
 def _stack(tables, dims):
     Hm = max(h for h, _ in dims) + 1
     Wm = max(w for _, w in dims) + 1
@@ -848,6 +1010,28 @@ def _stack(tables, dims):
 # ------------------------------------------------------------------------------------------
 # stage 5: checks
 # ------------------------------------------------------------------------------------------
+def _gap_bounded(labels, x0, x1, y0, y1, out_cells=3, in_cells=1, share=0.5):
+    """(left, right, top, bottom): whether each side of the grid rectangle runs along a
+    reveal: some grid line parallel to it, from ``in_cells`` inside to ``out_cells`` outside,
+    is ``GAP`` on at least ``share`` of the side's length."""
+    Hg, Wg = labels.shape
+    res = []
+    for lo, hi, vertical in ((x0 - out_cells, x0 + in_cells, True),
+                             (x1 - in_cells, x1 + out_cells, True),
+                             (y0 - out_cells, y0 + in_cells, False),
+                             (y1 - in_cells, y1 + out_cells, False)):
+        if vertical:
+            lo, hi = max(0, lo), min(Wg, hi)
+            strip = labels[y0:y1, lo:hi]
+            frac = (strip == GAP).mean(axis=0) if strip.size else np.zeros(1)
+        else:
+            lo, hi = max(0, lo), min(Hg, hi)
+            strip = labels[lo:hi, x0:x1]
+            frac = (strip == GAP).mean(axis=1) if strip.size else np.zeros(1)
+        res.append(bool(len(frac) and frac.max() >= share))
+    return res
+
+
 def _precision_recall(g: _Grid, R, cfg):
     """Eq. 5.4 and the local recall (see the module docstring) of one grid rectangle."""
     x0, x1, y0, y1 = (int(v) for v in R)
@@ -862,8 +1046,12 @@ def _precision_recall(g: _Grid, R, cfg):
     mx = max(int(round(cfg.recall_margin * (x1 - x0))), int(round(cfg.min_recall_margin / g.c)))
     my = max(int(round(cfg.recall_margin * (y1 - y0))), int(round(cfg.min_recall_margin / g.c)))
     Hg, Wg = g.shape
-    X0, X1 = max(0, x0 - mx), min(Wg, x1 + mx)
-    Y0, Y1 = max(0, y0 - my), min(Hg, y1 + my)
+    # a side along a reveal (GAP) is observed to end there: no margin beyond it (the plane
+    # continues in the flush neighbouring front)
+    ml, mr, mt, mb = (0 if b else m for b, m in zip(_gap_bounded(g.labels, x0, x1, y0, y1),
+                                                    (mx, mx, my, my)))
+    X0, X1 = max(0, x0 - ml), min(Wg, x1 + mr)
+    Y0, Y1 = max(0, y0 - mt), min(Hg, y1 + mb)
     around = I[Y1, X1] - I[Y0, X1] - I[Y1, X0] + I[Y0, X0]
     recall = inside / around if around > 0 else 0.0
     return float(precision), float(recall)
@@ -1098,7 +1286,7 @@ def _refine_edges(lab_img, dzero, xs, ys, n, dpl, K, o, e1, e2, a0, a1, b0, b1, 
         lab = _warp_labels(lab_c, *args)
         dist = _warp_float(S, *args)
         n_in = ((lab == IN_PLANE) | (lab == OFF_SURFACE)).sum(axis=axis).astype(np.float64)
-        n_out = ((lab == FREE) | (lab == OUTSIDE)).sum(axis=axis)
+        n_out = ((lab == FREE) | (lab == OUTSIDE) | (lab == GAP)).sum(axis=axis)
         fin = np.isfinite(dist)
         cnt = fin.sum(axis=axis)
         with np.errstate(all="ignore"):
@@ -1196,8 +1384,9 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
     # --- masks ---------------------------------------------------------------------------
     t0 = clock()
     lut = np.zeros(256, np.uint8)
-    lut[:6] = np.round(255.0 * np.array([cfg.cost_in_plane, cfg.cost_free, cfg.cost_occluded,
-                                         cfg.cost_unknown, cfg.cost_free, cfg.cost_unknown]))
+    lut[:7] = np.round(255.0 * np.array([cfg.cost_in_plane, cfg.cost_free, cfg.cost_occluded,
+                                         cfg.cost_unknown, cfg.cost_free, cfg.cost_unknown,
+                                         cfg.cost_free]))
     down_C = X_WC[:3, :3].T @ np.array([0.0, 0.0, -1.0])
     lab_imgs, grids = [], []
     surface = None
@@ -1205,8 +1394,9 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
         Lm = np.maximum(np.float32(cfg.surface_distance),
                         np.float32(cfg.surface_distance_per_m2) * dzero * dzero)
         surface = (Lm, int(cfg.surface_window_px))
+    gap = _gap_mask(d, valid, K.fx, cfg) if cfg.gap_label else None
     labels = _label_images(dzero, valid, xs, ys, planes, Limg, cfg.crossing_angle_deg,
-                           int(cfg.crossing_smooth_px), surface)
+                           int(cfg.crossing_smooth_px), surface, gap)
     for k, (pl, lab) in enumerate(zip(planes, labels)):
         g = _make_grid(k, pl, lab, sample_pts, K, down_C, cfg, lut)
         lab_imgs.append(lab)
@@ -1233,6 +1423,10 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
         y0 = np.clip(ci - hc // 2, 0, np.maximum(0, g.shape[0] - hc))
         R = np.column_stack([x0, np.minimum(x0 + wc, g.shape[1]), y0,
                              np.minimum(y0 + hc, g.shape[0])])
+        if cfg.component_starts > 0:
+            Rc = _component_starts(g, mc, int(cfg.component_starts), rng, cfg)
+            R = np.concatenate([R, Rc])
+            m = len(R)
         pid.append(np.full(m, gi))
         R0.append(R)
         steps.append(np.tile(np.unique(np.maximum(1, np.round(step_m / g.c))).astype(np.int64),
