@@ -110,7 +110,6 @@ from dataclasses import dataclass, field, fields
 
 import cv2
 import numpy as np
-from scipy import ndimage
 
 from .fronts import FrontRectangle, PinholeIntrinsics, as_depth_image, valid_depth_mask
 
@@ -203,16 +202,17 @@ class FrontDetectorConfig:
             image lines (rows or columns) whose depth, averaged along the line, lies behind
             the lines ``gap_offsets_px`` away on both sides (which agree with each other), or
             that have no return between measured lines.
-        component_starts: besides ``starts_per_plane`` random starts, one start at the most
-            interior cell of each of this many largest connected in-plane regions of a plane
+        component_starts: besides ``starts_per_plane`` random starts, one start at the
+            centroid of each of this many largest connected in-plane regions of a plane
             (regions parted by ``GAP`` lines: the fronts of a cabinet; 0 = none).
-        gap_window_px: length of the averaging window along the line, px (odd).
+        gap_window_px: length of the averaging window along the line, px (rounded to a
+            multiple of 4: the means are taken on blocks of 4 pixels along the line).
         gap_offsets_px: distances of the side lines compared with, px (a reveal is 1-4 px
             wide at 0.8-2.3 m).
         gap_depth, gap_depth_per_m2: a line is behind when its mean depth exceeds the larger
             of its side lines' by max(gap_depth, gap_depth_per_m2 z^2), m and m / m^2 (the
             5 mm reveal seen from 25 deg above lies 6-7 mm behind the faces; the mean of a
-            31-pixel line scatters by ~0.35 mm z^2 with the camera's noise).
+            32-pixel line scatters by ~0.35 mm z^2 with the camera's noise).
         gap_side_tolerance_per_m2: the two side lines agree when their mean depths differ by
             less than max(0.01, this x z^2) m plus the depth change of the plane over the
             offset (the side lines must lie on one surface), m / m^2.
@@ -265,7 +265,7 @@ class FrontDetectorConfig:
     edge_refine_depth_step_per_m2: float = 0.0008
     gap_label: bool = True
     component_starts: int = 12
-    gap_window_px: int = 31
+    gap_window_px: int = 32
     gap_offsets_px: list[int] = field(default_factory=lambda: [2, 3, 4, 5])
     gap_depth: float = 0.0025
     gap_depth_per_m2: float = 0.001
@@ -305,8 +305,8 @@ class FrontDetectorConfig:
         for k in ("edge_refine_depth_step", "edge_refine_depth_step_per_m2"):
             if getattr(self, k) < 0:
                 raise ValueError(f"FrontDetectorConfig.{k} must be >= 0, got {getattr(self, k)}")
-        if self.gap_window_px < 3 or self.gap_window_px % 2 != 1:
-            raise ValueError("FrontDetectorConfig.gap_window_px must be an odd integer >= 3, "
+        if self.gap_window_px < 4:
+            raise ValueError("FrontDetectorConfig.gap_window_px must be an integer >= 4, "
                              f"got {self.gap_window_px}")
         if not self.gap_offsets_px or any(int(o) != o or o < 1 for o in self.gap_offsets_px):
             raise ValueError("FrontDetectorConfig.gap_offsets_px must be integers >= 1 (px), "
@@ -695,7 +695,7 @@ def _gap_mask(d, valid, fx, cfg) -> np.ndarray:
     front's top face, 6-7 mm behind: inside the inlier distance L, so in-plane for Eq. 5.2,
     and the two fronts are one plane region). Each line's depth is averaged over
     ``gap_window_px`` pixels along it (the camera's noise, ~9 mm per pixel at 2.3 m, would
-    hide a one-pixel dip; the mean of 31 pixels scatters by ~1.7 mm there) and compared with
+    hide a one-pixel dip; the mean of 32 pixels scatters by ~1.7 mm there) and compared with
     the mean of the lines ``gap_offsets_px`` away on either side, which must agree (one
     surface on both sides: a depth step is not a reveal). Lines with fewer than a third of
     their pixels measured are reveals too. Detections
@@ -704,23 +704,43 @@ def _gap_mask(d, valid, fx, cfg) -> np.ndarray:
     pixels: a countertop seen at grazing incidence drops a third of its pixels, and its line
     means scatter beyond the noise model)."""
     H, W = d.shape
-    Lw = int(cfg.gap_window_px)
-    sub = 4  # the line means are smooth along the line: every 4th pixel along it suffices
+    sub = 4  # the line means are smooth along a line: one per 4 pixels along it suffices
+    nb = max(1, int(round(cfg.gap_window_px / sub)))  # window in blocks of 4 pixels
+    Lw = nb * sub
     z = np.where(valid, d, np.float32(0.0))
     w = valid.astype(np.float32)
+    Hc, Wc = H - H % sub, W - W % sub
     out = np.zeros((H, W), bool)
     for horizontal in (True, False):
-        k = (Lw, 1) if horizontal else (1, Lw)  # window along the line
-        A = cv2.boxFilter(z, -1, k, normalize=False, borderType=cv2.BORDER_CONSTANT)
-        N = cv2.boxFilter(w, -1, k, normalize=False, borderType=cv2.BORDER_CONSTANT)
-        # rows of (A, N) are across the lines, columns along them, subsampled along
+        # block means along the line (x 4 = sums), then the window's sums: rows of (A, N)
+        # run across the lines, columns along them
         if horizontal:
-            A, N = A[:, sub // 2::sub], N[:, sub // 2::sub]
+            size = (Wc // sub, H)
+            A = cv2.resize(z[:, :Wc], size, interpolation=cv2.INTER_AREA)
+            N = cv2.resize(w[:, :Wc], size, interpolation=cv2.INTER_AREA)
         else:
-            A, N = np.ascontiguousarray(A[sub // 2::sub].T), np.ascontiguousarray(
-                N[sub // 2::sub].T)
+            size = (W, Hc // sub)
+            A = np.ascontiguousarray(cv2.resize(z[:Hc], size, interpolation=cv2.INTER_AREA).T)
+            N = np.ascontiguousarray(cv2.resize(w[:Hc], size, interpolation=cv2.INTER_AREA).T)
+        # block means: a window whose lines are not one surface (a step: an opened door in
+        # front of the cabinet's reveals) has its middle block off the chord between its end
+        # blocks (a plane's depth is close to linear along a line over 32 px)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            B = A / N
+        h0, h1 = nb // 2, nb - 1 - nb // 2
+        bent = np.zeros(B.shape, bool)
+        if B.shape[1] > nb:
+            chord = np.float32(0.5) * (B[:, : B.shape[1] - nb + 1] + B[:, nb - 1:])
+            zc = B[:, h0: B.shape[1] - h1]
+            tol_b = np.maximum(np.float32(0.01), np.float32(cfg.gap_side_tolerance_per_m2) * zc * zc)
+            with np.errstate(invalid="ignore"):
+                bent[:, h0: B.shape[1] - h1] = np.abs(zc - chord) > tol_b
+        A = cv2.boxFilter(A, -1, (nb, 1), normalize=False, borderType=cv2.BORDER_CONSTANT)
+        N = cv2.boxFilter(N, -1, (nb, 1), normalize=False, borderType=cv2.BORDER_CONSTANT)
+        A *= np.float32(sub)
+        N *= np.float32(sub)
         meas = N >= max(3.0, Lw / 3.0)
-        well = N >= 0.8 * Lw  # side lines of a line without return: well measured
+        well = N >= 0.8 * Lw  # side lines: well measured
         m = A / np.maximum(N, np.float32(1.0))
         m[~meas] = np.nan
         n_rows = m.shape[0]
@@ -738,6 +758,7 @@ def _gap_mask(d, valid, fx, cfg) -> np.ndarray:
             with np.errstate(invalid="ignore"):
                 hit = np.abs(up - dn) < tol  # False where either side is NaN
                 hit &= well[:n_rows - 2 * o] & well[2 * o:]
+                hit &= ~(bent[:n_rows - 2 * o] | bent[2 * o:])
                 hit &= (c - ref > thr) | ~meas[o:n_rows - o]
             g[o:n_rows - o] |= hit
             zg[o:n_rows - o][hit] = ref[hit]
@@ -754,17 +775,22 @@ def _gap_mask(d, valid, fx, cfg) -> np.ndarray:
         if not keep.any():
             continue
         g = keep[lab]
-        full = np.repeat(g, sub, axis=1)  # back to every pixel along the line
-        pad = (W if horizontal else H) - full.shape[1]
-        if pad > 0:
-            full = np.pad(full, ((0, 0), (0, pad)), mode="edge")
-        full = full[:, : (W if horizontal else H)]
+        # the window smears a reveal's end along the line by up to half its length (16 px):
+        # trim half of that off either end (the runs stay long; a gap of 8 px remains where
+        # two reveals meet, and a reveal no longer reaches into an opened front beside it)
+        trim = max(0, nb // 4)
+        if trim:
+            g = cv2.erode(g.view(np.uint8), np.ones((1, 2 * trim + 1), np.uint8),
+                          borderType=cv2.BORDER_REPLICATE).view(bool)
         # one pixel wider on either side across the line: a one-pixel line would fall
         # between the 5 mm cells of a plane's rectified grid (2.2 mm pixels at 1.3 m)
-        wide = full.copy()
-        wide[1:] |= full[:-1]
-        wide[:-1] |= full[1:]
-        out |= wide if horizontal else wide.T
+        wide = g.copy()
+        wide[1:] |= g[:-1]
+        wide[:-1] |= g[1:]
+        if horizontal:  # back to every pixel along the line
+            out[:, :Wc] |= np.repeat(wide, sub, axis=1)
+        else:
+            out[:Hc] |= np.repeat(np.ascontiguousarray(wide.T), sub, axis=0)
     return out
 
 
@@ -968,13 +994,13 @@ def _greedy(SC, dims, pid, R, steps, min_cells, alpha, max_iter):
 
 
 def _component_starts(g: _Grid, mc: int, k: int, rng, cfg) -> np.ndarray:
-    """Start rectangles (n, 4) at the most interior cell of each of the ``k`` largest
+    """Start rectangles (n, 4) at the centroid (if inside it) of each of the ``k`` largest
     4-connected regions of in-plane cells of a grid (at least ``mc`` x ``mc`` cells): fronts
     flush with their neighbours are one plane, parted only by ``GAP`` lines, and random
     starts over the whole plane miss a small drawer (5 % of a cabinet's face) often.
     Width and height from the prior, at most the region's bounding box."""
     inp = (g.labels == IN_PLANE).view(np.uint8)
-    n_lab, lab, stats, _ = cv2.connectedComponentsWithStats(inp, connectivity=4)
+    n_lab, lab, stats, cent = cv2.connectedComponentsWithStats(inp, connectivity=4)
     if n_lab <= 1:
         return np.zeros((0, 4), np.int64)
     area = stats[1:, cv2.CC_STAT_AREA]
@@ -983,9 +1009,12 @@ def _component_starts(g: _Grid, mc: int, k: int, rng, cfg) -> np.ndarray:
     if len(big) == 0:
         return np.zeros((0, 4), np.int64)
     big = big[np.argsort(-area[big - 1], kind="stable")][:k]
-    dt = cv2.distanceTransform(inp, cv2.DIST_L2, 3)
-    pos = np.array(ndimage.maximum_position(dt, lab, big), np.int64).reshape(-1, 2)
-    ci, cj = pos[:, 0], pos[:, 1]
+    # the region's centroid (inside a rectangular front), else a random cell of it
+    cj = np.round(cent[big, 0]).astype(np.int64)
+    ci = np.round(cent[big, 1]).astype(np.int64)
+    for t in np.flatnonzero(lab[ci, cj] != big):
+        cells = np.flatnonzero(lab.reshape(-1) == big[t])
+        ci[t], cj[t] = divmod(int(cells[rng.integers(0, len(cells))]), lab.shape[1])
     m = len(big)
     wh = rng.uniform(cfg.prior_size[0], cfg.prior_size[1], (m, 2)) / g.c
     wc = np.clip(np.round(wh[:, 0]).astype(np.int64), mc,
@@ -1466,6 +1495,12 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
     polished = []
     for _, s, _ in kept:
         g = grids[pid[s]]
+        if sum(_gap_bounded(g.labels, *R[s])) >= 3:
+            # a front flush with its neighbours: its sides run along the reveals, to which the
+            # grid is aligned (its dominant edge direction); rotations do not improve it
+            polished.append((g, g.e1, g.e2, g.u0, g.v0, R[s], g.labels, g.sat_cost, g.sat_in,
+                             g.c))
+            continue
         _, (e1, e2, u0, v0, Rf, lab, sat_cost, sat_in, cp) = _polish_rotation(
             g, R[s], lab_imgs[g.plane_index], K, cfg, lut)
         polished.append((g, e1, e2, u0, v0, Rf, lab, sat_cost, sat_in, cp))
