@@ -775,13 +775,6 @@ def _gap_mask(d, valid, fx, cfg) -> np.ndarray:
         if not keep.any():
             continue
         g = keep[lab]
-        # the window smears a reveal's end along the line by up to half its length (16 px):
-        # trim half of that off either end (the runs stay long; a gap of 8 px remains where
-        # two reveals meet, and a reveal no longer reaches into an opened front beside it)
-        trim = max(0, nb // 4)
-        if trim:
-            g = cv2.erode(g.view(np.uint8), np.ones((1, 2 * trim + 1), np.uint8),
-                          borderType=cv2.BORDER_REPLICATE).view(bool)
         # one pixel wider on either side across the line: a one-pixel line would fall
         # between the 5 mm cells of a plane's rectified grid (2.2 mm pixels at 1.3 m)
         wide = g.copy()
@@ -999,11 +992,14 @@ def _component_starts(g: _Grid, mc: int, k: int, rng, cfg) -> np.ndarray:
     flush with their neighbours are one plane, parted only by ``GAP`` lines, and random
     starts over the whole plane miss a small drawer (5 % of a cabinet's face) often.
     Width and height from the prior, at most the region's bounding box."""
-    inp = (g.labels == IN_PLANE).view(np.uint8)
+    # regions of the in-plane cells shrunk by 2 cells: a reveal's line may have a hole of a
+    # few cells (where it meets another reveal, or a drop-out)
+    inp = cv2.erode((g.labels == IN_PLANE).view(np.uint8), np.ones((5, 5), np.uint8))
     n_lab, lab, stats, cent = cv2.connectedComponentsWithStats(inp, connectivity=4)
     if n_lab <= 1:
         return np.zeros((0, 4), np.int64)
     area = stats[1:, cv2.CC_STAT_AREA]
+    mc = max(1, mc - 4)
     big = np.flatnonzero((area >= mc * mc) & (stats[1:, cv2.CC_STAT_WIDTH] >= mc)
                          & (stats[1:, cv2.CC_STAT_HEIGHT] >= mc)) + 1
     if len(big) == 0:
@@ -1017,6 +1013,7 @@ def _component_starts(g: _Grid, mc: int, k: int, rng, cfg) -> np.ndarray:
         ci[t], cj[t] = divmod(int(cells[rng.integers(0, len(cells))]), lab.shape[1])
     m = len(big)
     wh = rng.uniform(cfg.prior_size[0], cfg.prior_size[1], (m, 2)) / g.c
+    mc += 4
     wc = np.clip(np.round(wh[:, 0]).astype(np.int64), mc,
                  np.maximum(mc, stats[big, cv2.CC_STAT_WIDTH]))
     hc = np.clip(np.round(wh[:, 1]).astype(np.int64), mc,
@@ -1039,10 +1036,13 @@ def _stack(tables, dims):
 # ------------------------------------------------------------------------------------------
 # stage 5: checks
 # ------------------------------------------------------------------------------------------
-def _gap_bounded(labels, x0, x1, y0, y1, out_cells=3, in_cells=1, share=0.5):
+def _gap_bounded(labels, x0, x1, y0, y1, out_cells=3, in_cells=1, share=0.5, line=0.7):
     """(left, right, top, bottom): whether each side of the grid rectangle runs along a
     reveal: some grid line parallel to it, from ``in_cells`` inside to ``out_cells`` outside,
-    is ``GAP`` on at least ``share`` of the side's length."""
+    is ``GAP`` on at least ``share`` of the side's length, or ``GAP`` on a fifth and ``GAP``
+    or ``UNKNOWN`` on ``line`` of it (a reveal seen straight on has no return; the window of
+    :func:`_gap_mask` does not label its last few cm before a step such as a countertop's
+    edge)."""
     Hg, Wg = labels.shape
     res = []
     for lo, hi, vertical in ((x0 - out_cells, x0 + in_cells, True),
@@ -1052,12 +1052,17 @@ def _gap_bounded(labels, x0, x1, y0, y1, out_cells=3, in_cells=1, share=0.5):
         if vertical:
             lo, hi = max(0, lo), min(Wg, hi)
             strip = labels[y0:y1, lo:hi]
-            frac = (strip == GAP).mean(axis=0) if strip.size else np.zeros(1)
+            ax = 0
         else:
             lo, hi = max(0, lo), min(Hg, hi)
             strip = labels[lo:hi, x0:x1]
-            frac = (strip == GAP).mean(axis=1) if strip.size else np.zeros(1)
-        res.append(bool(len(frac) and frac.max() >= share))
+            ax = 1
+        if strip.size == 0:
+            res.append(False)
+            continue
+        g = (strip == GAP).mean(axis=ax)
+        gu = g + (strip == UNKNOWN).mean(axis=ax)
+        res.append(bool(np.any((g >= share) | ((g >= 0.2) & (gu >= line)))))
     return res
 
 
