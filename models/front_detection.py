@@ -543,6 +543,7 @@ class _Grid:
     labels: np.ndarray
     sat_cost: np.ndarray
     sat_in: np.ndarray
+    sat_gap: tuple | None = None  # (GAP, UNKNOWN) summed-area tables, see _gap_bounded
 
     @property
     def shape(self):
@@ -1036,14 +1037,19 @@ def _stack(tables, dims):
 # ------------------------------------------------------------------------------------------
 # stage 5: checks
 # ------------------------------------------------------------------------------------------
-def _gap_bounded(labels, x0, x1, y0, y1, out_cells=3, in_cells=1, share=0.5, line=0.7):
+def _gap_bounded(labels, x0, x1, y0, y1, out_cells=3, in_cells=1, share=0.5, line=0.7,
+                 sats=None):
     """(left, right, top, bottom): whether each side of the grid rectangle runs along a
     reveal: some grid line parallel to it, from ``in_cells`` inside to ``out_cells`` outside,
     is ``GAP`` on at least ``share`` of the side's length, or ``GAP`` on a fifth and ``GAP``
     or ``UNKNOWN`` on ``line`` of it (a reveal seen straight on has no return; the window of
     :func:`_gap_mask` does not label its last few cm before a step such as a countertop's
-    edge)."""
+    edge). ``sats``: summed-area tables of the GAP and the UNKNOWN cells (made when None)."""
     Hg, Wg = labels.shape
+    if sats is None:
+        sats = _sats_gap(labels)
+    G, U = sats
+    x0, x1, y0, y1 = int(x0), int(x1), int(y0), int(y1)
     res = []
     for lo, hi, vertical in ((x0 - out_cells, x0 + in_cells, True),
                              (x1 - in_cells, x1 + out_cells, True),
@@ -1051,19 +1057,40 @@ def _gap_bounded(labels, x0, x1, y0, y1, out_cells=3, in_cells=1, share=0.5, lin
                              (y1 - in_cells, y1 + out_cells, False)):
         if vertical:
             lo, hi = max(0, lo), min(Wg, hi)
-            strip = labels[y0:y1, lo:hi]
-            ax = 0
+            a0, a1, length = y0, y1, y1 - y0
         else:
             lo, hi = max(0, lo), min(Hg, hi)
-            strip = labels[lo:hi, x0:x1]
-            ax = 1
-        if strip.size == 0:
+            a0, a1, length = x0, x1, x1 - x0
+        if hi <= lo or length <= 0:
             res.append(False)
             continue
-        g = (strip == GAP).mean(axis=ax)
-        gu = g + (strip == UNKNOWN).mean(axis=ax)
-        res.append(bool(np.any((g >= share) | ((g >= 0.2) & (gu >= line)))))
+        # no GAP cell in the whole strip: not a reveal (one look-up for most sides)
+        if vertical:
+            tot = int(G[a1, hi] - G[a0, hi] - G[a1, lo] + G[a0, lo])
+        else:
+            tot = int(G[hi, a1] - G[lo, a1] - G[hi, a0] + G[lo, a0])
+        if tot < 0.2 * length:
+            res.append(False)
+            continue
+        hit = False
+        for c in range(lo, hi):  # each grid line of the strip
+            if vertical:
+                g = int(G[a1, c + 1] - G[a0, c + 1] - G[a1, c] + G[a0, c])
+                u = int(U[a1, c + 1] - U[a0, c + 1] - U[a1, c] + U[a0, c])
+            else:
+                g = int(G[c + 1, a1] - G[c, a1] - G[c + 1, a0] + G[c, a0])
+                u = int(U[c + 1, a1] - U[c, a1] - U[c + 1, a0] + U[c, a0])
+            if g >= share * length or (g >= 0.2 * length and g + u >= line * length):
+                hit = True
+                break
+        res.append(hit)
     return res
+
+
+def _sats_gap(labels):
+    """Summed-area tables (int32) of the GAP and the UNKNOWN cells of a label grid."""
+    return (cv2.integral((labels == GAP).view(np.uint8), sdepth=cv2.CV_32S),
+            cv2.integral((labels == UNKNOWN).view(np.uint8), sdepth=cv2.CV_32S))
 
 
 def _precision_recall(g: _Grid, R, cfg):
@@ -1082,8 +1109,10 @@ def _precision_recall(g: _Grid, R, cfg):
     Hg, Wg = g.shape
     # a side along a reveal (GAP) is observed to end there: no margin beyond it (the plane
     # continues in the flush neighbouring front)
-    ml, mr, mt, mb = (0 if b else m for b, m in zip(_gap_bounded(g.labels, x0, x1, y0, y1),
-                                                    (mx, mx, my, my)))
+    if g.sat_gap is None:
+        g.sat_gap = _sats_gap(g.labels)
+    ml, mr, mt, mb = (0 if b else m for b, m in zip(
+        _gap_bounded(g.labels, x0, x1, y0, y1, sats=g.sat_gap), (mx, mx, my, my)))
     X0, X1 = max(0, x0 - ml), min(Wg, x1 + mr)
     Y0, Y1 = max(0, y0 - mt), min(Hg, y1 + mb)
     around = I[Y1, X1] - I[Y0, X1] - I[Y1, X0] + I[Y0, X0]
@@ -1197,6 +1226,23 @@ def _refit_plane(Pc, lab_img, center, e1, e2, w, h, K, n_old, L):
     return n, d
 
 
+def _first_run(mask, k, start=1):
+    """First index j >= ``start`` where ``mask[j:j + k]`` is all True (positions beyond the
+    end count as True), else ``len(mask)``. ``mask``: a list of bools (short profiles: a
+    Python scan is cheaper than the numpy calls it replaces)."""
+    n = len(mask)
+    run = 0  # consecutive Trues from j on (the end counts as an endless run)
+    best = n
+    for j in range(n - 1, start - 1, -1):
+        if mask[j]:
+            run += 1
+            if run >= k or j + run >= n:
+                best = j
+        else:
+            run = 0
+    return best
+
+
 def _edge_crossing(prof_in, prof_out, level, pos, step, persist=1):
     """Where a side ends along a profile of lines (positions ``pos``, inside first): the first
     line whose share of in-plane samples p = in / (in + out) falls below 1/2, or whose mean
@@ -1205,16 +1251,17 @@ def _edge_crossing(prof_in, prof_out, level, pos, step, persist=1):
     between that line and the one before). Lines without enough measured samples take p from
     their neighbours. None when the profile does not start inside or never leaves."""
     n = prof_in + prof_out
-    if len(n) < 4:
+    n_l = len(n)
+    if n_l < 4:
         return None
-    ok = n >= max(3.0, 0.2 * float(np.max(n)))
-    if ok.sum() < 2:
+    ok = n >= max(3.0, 0.2 * float(n.max()))
+    okl = np.flatnonzero(ok)
+    if len(okl) < 2:
         return None
-    idx = np.arange(len(pos))
-    p = np.interp(idx, idx[ok], prof_in[ok] / n[ok])
+    p = np.interp(np.arange(n_l), okl, prof_in[okl] / n[okl])
     if p[0] < 0.5:
         return None
-    inner = level[: max(1, len(level) // 4)]
+    inner = level[: max(1, n_l // 4)]
     inner = inner[np.isfinite(inner)]
     if len(inner) >= 2:
         ref = float(np.median(inner))
@@ -1222,34 +1269,30 @@ def _edge_crossing(prof_in, prof_out, level, pos, step, persist=1):
         # side of a far front has few pixels per line), on lines that are still mostly
         # in-plane, and on `persist` lines in a row (lines closer than a pixel see the same
         # pixels)
-        thr = max(step, 3.0 * float(np.std(inner)))
-        dev = np.where(np.isfinite(level) & (p >= 0.5), ref - level, 0.0) - thr
-        if persist > 1:
-            run = np.lib.stride_tricks.sliding_window_view(
-                np.concatenate([dev > 0, np.ones(persist - 1, bool)]), persist).all(axis=1)
-            dev = np.where(run, np.maximum(dev, 1e-12), np.minimum(dev, -1e-12))
+        thr = max(step, 3.0 * float(inner.std()))
+        with np.errstate(invalid="ignore"):
+            dev = np.where((p >= 0.5) & np.isfinite(level), ref - level, 0.0) - thr
+        i_dev = _first_run((dev > 0).tolist(), persist)
     else:
-        dev = np.full(len(pos), -1.0)
-    last = int(np.flatnonzero(ok)[-1])
+        dev = None
+        i_dev = n_l
+    last = int(okl[-1])
     # out on 2 x `persist` lines in a row (about two pixels: a one-pixel strip where a plane
     # crossing the front takes its pixels is not its side)
-    k = 2 * persist
-    low = np.lib.stride_tricks.sliding_window_view(
-        np.concatenate([p < 0.5, np.ones(k - 1, bool)]), k).all(axis=1)
-    n_l = len(pos)
-
-    def first(mask):
-        i = np.flatnonzero(mask[1:])
-        return int(i[0]) + 1 if len(i) else n_l
-
-    i_low, i_dev = first(low), first(dev > 0)
+    i_low = _first_run((p < 0.5).tolist(), 2 * persist)
     i = min(i_low, i_dev, last + 1)
     if i >= n_l:
         return None
     if i == i_low:
         return float(pos[i - 1] + (p[i - 1] - 0.5) / (p[i - 1] - p[i]) * (pos[i] - pos[i - 1]))
     if i == i_dev:
-        f = (-dev[i - 1]) / (dev[i] - dev[i - 1]) if dev[i - 1] < 0 else 0.0
+        # the values the run test gives its lines: > 0 on a run of `persist`, < 0 otherwise
+        d1 = max(float(dev[i]), 1e-12) if persist > 1 else float(dev[i])
+        d0 = float(dev[i - 1])
+        if persist > 1:
+            d0 = max(d0, 1e-12) if _first_run((dev[i - 1:i - 1 + persist] > 0).tolist(),
+                                               persist, 0) == 0 else min(d0, -1e-12)
+        f = (-d0) / (d1 - d0) if d0 < 0 else 0.0
         return float(pos[i - 1] + f * (pos[i] - pos[i - 1]))
     # the measured lines end inside the front (drop-outs to the end of the strip): its side
     # is at least there
@@ -1500,7 +1543,9 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
     polished = []
     for _, s, _ in kept:
         g = grids[pid[s]]
-        if sum(_gap_bounded(g.labels, *R[s])) >= 3:
+        if g.sat_gap is None:
+            g.sat_gap = _sats_gap(g.labels)
+        if sum(_gap_bounded(g.labels, *R[s], sats=g.sat_gap)) >= 3:
             # a front flush with its neighbours: its sides run along the reveals, to which the
             # grid is aligned (its dominant edge direction); rotations do not improve it
             polished.append((g, g.e1, g.e2, g.u0, g.v0, R[s], g.labels, g.sat_cost, g.sat_in,
