@@ -174,7 +174,9 @@ class FrontDetectorConfig:
         alpha: size preference of the objective (Eq. 5.3), unitless.
         step_size: unit of the side moves, m.
         rotation_step_deg: unit of the in-plane rotation moves, degrees.
-        step_factors: the moves are these multiples of the units.
+        step_factors: the side moves are these multiples of ``step_size``.
+        rotation_step_factors: the rotation moves are these multiples of
+            ``rotation_step_deg``.
         max_iterations: cap on greedy iterations per start.
         min_side: smallest width or height of a rectangle, m.
         min_precision, min_recall: acceptance thresholds (Eq. 5.4, 5.5).
@@ -247,6 +249,7 @@ class FrontDetectorConfig:
     step_size: float = 0.005
     rotation_step_deg: float = 0.5
     step_factors: list[int] = field(default_factory=lambda: [8, 4, 2, 1])
+    rotation_step_factors: list[int] = field(default_factory=lambda: [2, 1])
     max_iterations: int = 200
     min_side: float = 0.03
     min_precision: float = 0.7
@@ -337,9 +340,10 @@ class FrontDetectorConfig:
         if len(self.prior_size) != 2 or not 0 < self.prior_size[0] <= self.prior_size[1]:
             raise ValueError("FrontDetectorConfig.prior_size must be [min, max] with "
                              f"0 < min <= max (metres), got {self.prior_size}")
-        if not self.step_factors or any(int(s) != s or s <= 0 for s in self.step_factors):
-            raise ValueError("FrontDetectorConfig.step_factors must be positive integers, got "
-                             f"{self.step_factors}")
+        for k in ("step_factors", "rotation_step_factors"):
+            v = getattr(self, k)
+            if not v or any(int(s) != s or s <= 0 for s in v):
+                raise ValueError(f"FrontDetectorConfig.{k} must be positive integers, got {v}")
         for k in ("ransac_stride_px", "ransac_hypotheses", "ransac_local_radius_px",
                   "max_planes", "min_plane_points", "max_grid_cells", "starts_per_plane",
                   "component_starts",
@@ -1190,7 +1194,8 @@ def _polish_rotation(g: _Grid, R, lab_img, K, cfg, lut):
 
     theta = 0.0
     best_score, best = fit([0.0])[0]
-    offsets = sorted({s * f * cfg.rotation_step_deg for f in cfg.step_factors for s in (1, -1)})
+    offsets = sorted({s * f * cfg.rotation_step_deg for f in cfg.rotation_step_factors
+                      for s in (1, -1)})
     for _ in range(int(cfg.max_iterations)):
         thetas = [round(theta + o, 9) for o in offsets]
         res = fit(thetas)
