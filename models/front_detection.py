@@ -689,7 +689,7 @@ def _surface_check(lab, S, Lm, win):
     lab[y0:y1, x0:x1][bad] = OFF_SURFACE
 
 
-def _gap_mask(d, valid, fx, cfg) -> np.ndarray:
+def _gap_mask(d, valid, fx, cfg, dzero=None) -> np.ndarray:
     """Pixels on the reveals between flush fronts (``GAP``), (H, W) bool, from the depth image
     alone (one pass per frame for all planes).
 
@@ -705,14 +705,15 @@ def _gap_mask(d, valid, fx, cfg) -> np.ndarray:
     surface on both sides: a depth step is not a reveal). Lines with fewer than a third of
     their pixels measured are reveals too. Detections
     shorter than ``gap_min_length`` at their depth are dropped (noise gives short runs, a
-    reveal runs along a whole front). The side lines must be well measured (>= 80 % of their
+    reveal runs along a whole front; ``dzero``: ``d`` with 0 where not ``valid``, if at
+    hand). The side lines must be well measured (>= 80 % of their
     pixels: a countertop seen at grazing incidence drops a third of its pixels, and its line
     means scatter beyond the noise model)."""
     H, W = d.shape
     sub = 4  # the line means are smooth along a line: one per 4 pixels along it suffices
     nb = max(1, int(round(cfg.gap_window_px / sub)))  # window in blocks of 4 pixels
     Lw = nb * sub
-    z = np.where(valid, d, np.float32(0.0))
+    z = np.where(valid, d, np.float32(0.0)) if dzero is None else dzero
     w = valid.astype(np.float32)
     Hc, Wc = H - H % sub, W - W % sub
     out = np.zeros((H, W), bool)
@@ -770,12 +771,20 @@ def _gap_mask(d, valid, fx, cfg) -> np.ndarray:
         if not g.any():
             continue
         # keep runs along the line at least gap_min_length long at their depth
-        n_lab, lab, stats, _ = cv2.connectedComponentsWithStats(g.view(np.uint8), connectivity=8)
+        n_lab, lab, stats, cent = cv2.connectedComponentsWithStats(g.view(np.uint8),
+                                                                   connectivity=8)
         if n_lab <= 1:
             continue
         length = sub * stats[1:, cv2.CC_STAT_WIDTH].astype(np.float64)
-        zrun = np.bincount(lab.reshape(-1), weights=zg.reshape(-1), minlength=n_lab)[1:] / (
-            np.maximum(stats[1:, cv2.CC_STAT_AREA], 1))
+        # depth of each run: its side lines' depth at its centroid (a run is a thin line:
+        # the centroid is on it), else the mean over the run
+        cr = np.clip(np.round(cent[1:, 1]).astype(np.int64), 0, lab.shape[0] - 1)
+        cc = np.clip(np.round(cent[1:, 0]).astype(np.int64), 0, lab.shape[1] - 1)
+        zrun = zg[cr, cc].astype(np.float64)
+        off = np.flatnonzero(lab[cr, cc] != np.arange(1, n_lab))
+        if len(off):
+            zsum = np.bincount(lab.reshape(-1), weights=zg.reshape(-1), minlength=n_lab)[1:]
+            zrun[off] = zsum[off] / np.maximum(stats[1 + off, cv2.CC_STAT_AREA], 1)
         keep = np.concatenate([[False], length >= cfg.gap_min_length * fx / np.maximum(zrun, 1e-6)])
         if not keep.any():
             continue
@@ -1476,7 +1485,7 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
         Lm = np.maximum(np.float32(cfg.surface_distance),
                         np.float32(cfg.surface_distance_per_m2) * dzero * dzero)
         surface = (Lm, int(cfg.surface_window_px))
-    gap = _gap_mask(d, valid, K.fx, cfg) if cfg.gap_label else None
+    gap = _gap_mask(d, valid, K.fx, cfg, dzero) if cfg.gap_label else None
     labels = _label_images(dzero, valid, xs, ys, planes, Limg, cfg.crossing_angle_deg,
                            int(cfg.crossing_smooth_px), surface, gap)
     for k, (pl, lab) in enumerate(zip(planes, labels)):
