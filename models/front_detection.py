@@ -206,7 +206,7 @@ class FrontDetectorConfig:
             that have no return between measured lines.
         component_starts: besides ``starts_per_plane`` random starts, one start at the
             centroid of each of this many largest connected in-plane regions of a plane
-            (regions parted by ``GAP`` lines: the fronts of a cabinet; 0 = none).
+            with ``GAP`` cells (regions parted by reveals: the fronts of a cabinet; 0 = none).
         gap_window_px: length of the averaging window along the line, px (rounded to a
             multiple of 4: the means are taken on blocks of 4 pixels along the line).
         gap_offsets_px: distances of the side lines compared with, px (a reveal is 1-4 px
@@ -829,11 +829,13 @@ def _label_images(d, valid, ray_x, ray_y, planes, L, crossing_angle_deg,
     if surface is not None:  # after the crossings: their strips would bias the means
         for k in range(P):
             _surface_check(labs[k], S[k], *surface)
-    if gap is not None and gap.any():  # reveals (_gap_mask): GAP unless something is in front
-        gap8 = gap.view(np.uint8)
-        for lab in labs:
-            sel = gap8 & cv2.compare(lab, OCCLUDED, cv2.CMP_NE)
-            lab[sel > 0] = GAP
+    if gap is not None:  # reveals (_gap_mask): GAP unless something is in front
+        gi = np.flatnonzero(gap.reshape(-1))
+        if len(gi):
+            for lab in labs:
+                flat = lab.reshape(-1)
+                sub = flat[gi]
+                flat[gi] = np.where(sub == OCCLUDED, sub, np.uint8(GAP))
     return labs
 
 
@@ -1514,7 +1516,7 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
         y0 = np.clip(ci - hc // 2, 0, np.maximum(0, g.shape[0] - hc))
         R = np.column_stack([x0, np.minimum(x0 + wc, g.shape[1]), y0,
                              np.minimum(y0 + hc, g.shape[0])])
-        if cfg.component_starts > 0:
+        if cfg.component_starts > 0 and (g.labels == GAP).any():  # regions parted by reveals
             Rc = _component_starts(g, mc, int(cfg.component_starts), rng, cfg)
             R = np.concatenate([R, Rc])
             m = len(R)
