@@ -689,9 +689,10 @@ def _surface_check(lab, S, Lm, win):
     lab[y0:y1, x0:x1][bad] = OFF_SURFACE
 
 
-def _gap_mask(d, valid, fx, cfg, dzero=None) -> np.ndarray:
-    """Pixels on the reveals between flush fronts (``GAP``), (H, W) bool, from the depth image
-    alone (one pass per frame for all planes).
+def _gap_mask(d, valid, fx, cfg, dzero=None):
+    """Pixels on the reveals between flush fronts (``GAP``) from the depth image alone (one
+    pass per frame for all planes): (wide, thin), (H, W) bool each; ``wide`` is ``thin`` one
+    pixel wider on either side across the line (for the rectified grids).
 
     A reveal is a thin line (image rows or columns: the fronts' sides are horizontal and
     vertical seen from the front) that either has no return (a structured-light camera drops
@@ -702,7 +703,9 @@ def _gap_mask(d, valid, fx, cfg, dzero=None) -> np.ndarray:
     ``gap_window_px`` pixels along it (the camera's noise, ~9 mm per pixel at 2.3 m, would
     hide a one-pixel dip; the mean of 32 pixels scatters by ~1.7 mm there) and compared with
     the mean of the lines ``gap_offsets_px`` away on either side, which must agree (one
-    surface on both sides: a depth step is not a reveal). Lines with fewer than a third of
+    surface on both sides: a depth step is not a reveal), and with half the threshold with
+    each side's two lines (``o`` and ``2 o`` away) extended to the line (a concave crease is
+    behind the mean of its sides but not behind their extensions). Lines with fewer than a third of
     their pixels measured are reveals too. Detections
     shorter than ``gap_min_length`` at their depth are dropped (noise gives short runs, a
     reveal runs along a whole front; ``dzero``: ``d`` with 0 where not ``valid``, if at
@@ -717,6 +720,7 @@ def _gap_mask(d, valid, fx, cfg, dzero=None) -> np.ndarray:
     w = valid.astype(np.float32)
     Hc, Wc = H - H % sub, W - W % sub
     out = np.zeros((H, W), bool)
+    thin = np.zeros((H, W), bool)
     for horizontal in (True, False):
         # block means along the line (x 4 = sums), then the window's sums: rows of (A, N)
         # run across the lines, columns along them
@@ -754,20 +758,29 @@ def _gap_mask(d, valid, fx, cfg, dzero=None) -> np.ndarray:
         zg = np.zeros(m.shape, np.float32)  # depth of the side lines where hit
         for o in cfg.gap_offsets_px:
             o = int(o)
-            if n_rows <= 2 * o:
+            if n_rows <= 4 * o:
                 continue
-            c, up, dn = m[o:n_rows - o], m[:n_rows - 2 * o], m[2 * o:]
+            # lines y - 2o, y - o | y | y + o, y + 2o for y in [2o, n_rows - 2o)
+            r = slice(2 * o, n_rows - 2 * o)
+            c = m[r]
+            up, dn = m[o:n_rows - 3 * o], m[3 * o:n_rows - o]
+            up2, dn2 = m[:n_rows - 4 * o], m[4 * o:]
             ref = np.float32(0.5) * (up + dn)
             z2 = ref * ref
             thr = np.maximum(np.float32(cfg.gap_depth), np.float32(cfg.gap_depth_per_m2) * z2)
             tol = np.maximum(np.float32(0.01), np.float32(cfg.gap_side_tolerance_per_m2) * z2)
             with np.errstate(invalid="ignore"):
                 hit = np.abs(up - dn) < tol  # False where either side is NaN
-                hit &= well[:n_rows - 2 * o] & well[2 * o:]
-                hit &= ~(bent[:n_rows - 2 * o] | bent[2 * o:])
-                hit &= (c - ref > thr) | ~meas[o:n_rows - o]
-            g[o:n_rows - o] |= hit
-            zg[o:n_rows - o][hit] = ref[hit]
+                # behind the sides' extrapolations too (each side's two lines extended to
+                # the line): a concave crease (an opened door meeting the cabinet's face at
+                # its hinge) lies behind the mean of its sides, not behind their extensions
+                ext = up + dn - np.float32(0.5) * (up2 + dn2)
+                hit &= (c - ext > np.float32(0.5) * thr) | ~meas[r]
+                hit &= well[o:n_rows - 3 * o] & well[3 * o:n_rows - o]
+                hit &= ~(bent[o:n_rows - 3 * o] | bent[3 * o:n_rows - o])
+                hit &= (c - ref > thr) | ~meas[r]
+            g[r] |= hit
+            zg[r][hit] = ref[hit]
         if not g.any():
             continue
         # keep runs along the line at least gap_min_length long at their depth
@@ -796,9 +809,11 @@ def _gap_mask(d, valid, fx, cfg, dzero=None) -> np.ndarray:
         wide[:-1] |= g[1:]
         if horizontal:  # back to every pixel along the line
             out[:, :Wc] |= np.repeat(wide, sub, axis=1)
+            thin[:, :Wc] |= np.repeat(g, sub, axis=1)
         else:
             out[:Hc] |= np.repeat(np.ascontiguousarray(wide.T), sub, axis=0)
-    return out
+            thin[:Hc] |= np.repeat(np.ascontiguousarray(g.T), sub, axis=0)
+    return out, thin
 
 
 def _label_images(d, valid, ray_x, ray_y, planes, L, crossing_angle_deg,
@@ -1322,7 +1337,8 @@ class _CropIntrinsics:
         self.fx, self.fy, self.cx, self.cy = K.fx, K.fy, K.cx - c0, K.cy - r0
 
 
-def _refine_edges(lab_img, dzero, xs, ys, n, dpl, K, o, e1, e2, a0, a1, b0, b1, cfg):
+def _refine_edges(lab_img, dzero, xs, ys, n, dpl, K, o, e1, e2, a0, a1, b0, b1, cfg,
+                  gap_thin=None):
     """Sub-cell position of each side of a rectangle [a0, a1] x [b0, b1] (m, plane
     coordinates along e1, e2 from ``o``; plane n . p + dpl = 0, camera frame). The label
     image and the signed distances of the measured points to the plane are resampled on a
@@ -1333,7 +1349,9 @@ def _refine_edges(lab_img, dzero, xs, ys, n, dpl, K, o, e1, e2, a0, a1, b0, b1, 
     falls below 1/2, or where the in-plane samples' mean distance falls behind the inner
     lines' by more than max(edge_refine_depth_step, edge_refine_depth_step_per_m2 z^2) (the
     19 mm top face of a panel seen from above lies within L of its front face). A side
-    without such a crossing in its strip stays. Returns (a0, a1, b0, b1)."""
+    without such a crossing in its strip stays. ``GAP`` samples are out, except those of
+    the one-pixel widening of the reveals (``gap_thin``: the reveals themselves). Returns
+    (a0, a1, b0, b1)."""
     band, cf, span = cfg.edge_refine_band, cfg.edge_refine_cell, cfg.edge_refine_span
     # image crop around the rectangle grown by the band
     P = np.array([o + a * e1 + b * e2 for a in (a0 - band, a1 + band)
@@ -1348,6 +1366,12 @@ def _refine_edges(lab_img, dzero, xs, ys, n, dpl, K, o, e1, e2, a0, a1, b0, b1, 
     if c1 - c0 < 2 or r1 - r0 < 2:
         return a0, a1, b0, b1
     lab_c = lab_img[r0:r1, c0:c1]
+    if gap_thin is not None:
+        # the reveal itself is out; the pixel beside it that the GAP label's widening took
+        # (for the rectified grids) is the front's
+        ring = (lab_c == GAP) & ~gap_thin[r0:r1, c0:c1]
+        if ring.any():
+            lab_c = np.where(ring, np.uint8(IN_PLANE), lab_c)
     nr = (np.float32(n[0]) * xs[:, c0:c1] + np.float32(n[2])) + np.float32(n[1]) * ys[r0:r1, :]
     S = dzero[r0:r1, c0:c1] * nr + np.float32(dpl)
     S = np.where((lab_c == IN_PLANE) | (lab_c == OFF_SURFACE), S,
@@ -1487,7 +1511,7 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
         Lm = np.maximum(np.float32(cfg.surface_distance),
                         np.float32(cfg.surface_distance_per_m2) * dzero * dzero)
         surface = (Lm, int(cfg.surface_window_px))
-    gap = _gap_mask(d, valid, K.fx, cfg, dzero) if cfg.gap_label else None
+    gap, gap_thin = _gap_mask(d, valid, K.fx, cfg, dzero) if cfg.gap_label else (None, None)
     labels = _label_images(dzero, valid, xs, ys, planes, Limg, cfg.crossing_angle_deg,
                            int(cfg.crossing_smooth_px), surface, gap)
     for k, (pl, lab) in enumerate(zip(planes, labels)):
@@ -1586,7 +1610,7 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
             a0, a1, b0, b1 = _refine_edges(lab_imgs[g.plane_index], dzero, xs, ys, g.n, g.d,
                                            K, g.o, e1, e2,
                                            u0 + x0 * cp, u0 + x1 * cp, v0 + y0 * cp,
-                                           v0 + y1 * cp, cfg)
+                                           v0 + y1 * cp, cfg, gap_thin)
             if min(a1 - a0, b1 - b0) >= cfg.min_side:
                 center = g.o + 0.5 * (a0 + a1) * e1 + 0.5 * (b0 + b1) * e2
                 w, h = a1 - a0, b1 - b0
