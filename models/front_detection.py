@@ -42,10 +42,17 @@
     the camera's noise, their mean far less; the edge face of a 19 mm panel seen obliquely lies
     within L of the panel's face (wholly behind it) and widened the door by up to
     thickness x tan(incidence) (measured: 1-2 cm at 50-70 deg, tests/test_front_detection.py).
+    Last, the *reveals* (``gap_label``, :func:`_gap_mask`): the 5 mm gaps between flush
+    closed fronts are thin image lines that have no return or lie a few mm behind the
+    surface on both sides (averaged along the line); their pixels become ``GAP``, costed like
+    free space, so a closed front is no longer one rectangle with its neighbours (issue 12:
+    closed fronts were found in 0 of 60-70 frames per distance).
 ``sampling``
     ``starts_per_plane`` random starts per plane: a random in-plane cell as centre, width and
     height drawn uniformly from ``prior_size`` (5.1.1: "sample a random point from the plane
-    and the other DOFs from a prior").
+    and the other DOFs from a prior"); on planes with reveals, also one start at the centroid
+    of each of the ``component_starts`` largest regions of in-plane cells between them (a
+    closed drawer covers 5 % of a cabinet's face: random starts missed it).
 ``optimisation``
     Greedy discrete moves (5.1.2) on all starts of all planes at once (vectorised): each side
     grows or shrinks by ``step_factors`` x ``step_size``; the best improving move is taken
@@ -78,11 +85,19 @@ Deviations from the text, with reasons (measured on the synthetic frames of
   precision and recall do not depend on the distance or the viewing angle.
 * A plane is a connected region (above), not every inlier of the infinite plane, and pixels
   where two crossing planes meet go to the larger one (above).
+* The ``GAP`` label (reveals between flush fronts) is not in the thesis nor in the original
+  code (whose labels are Eq. 5.2's four): with it, a rectangle's side along a reveal needs
+  no recall margin beyond it (the plane continues in the neighbouring front, which the
+  recall would otherwise count against it), and the rotation polish is skipped for a
+  rectangle with three or more sides along reveals (its sides follow them). Rotation moves
+  are 0.5 and 1 deg per round (``rotation_step_factors``; 2 and 4 deg steps changed no
+  detection on 90 development frames and cost 9 ms per frame).
 
 Known limits (measured): a front is found as the part of it that is seen: an occluder crossing
 the whole front (a pole from top to bottom) is a local maximum the greedy moves do not cross
-unless a random start straddles it; a closed front flush with its neighbours is one plane with
-them (no depth step), so the whole cabinet face is found instead; the drop-outs of a
+unless a random start straddles it; a closed front flush with its neighbours is found only
+where its reveals are seen (``GAP``: at 2.3 m a reveal is 1 px and 6-7 mm deep against
+9 mm of per-pixel noise); the drop-outs of a
 structured-light camera at depth edges make fronts 1-3 cm narrower at 1.8-2.5 m.
 * Costs are quantised to 1/255 (as in the original code) so the summed-area tables are int32;
   occluded and unknown pixels cost 20/255 as in the original code (0.2 before: with the
