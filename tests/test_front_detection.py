@@ -428,3 +428,31 @@ def test_closed_drawer_between_flush_neighbours_is_found_with_its_size(dist, see
                        and abs(max(m[0].width, m[0].height) - DRAWER[0]) < 0.015
                        and abs(min(m[0].width, m[0].height) - DRAWER[1]) < 0.015)
     assert found == {"new": True, "old": False}, found
+
+
+def test_gap_mask_finds_a_thin_dip_but_not_a_step_or_a_crease():
+    """_gap_mask on a noisy plane 1.8 m away: a one-pixel row 7 mm behind (a reveal) and a
+    line of missing pixels are found along their length; a 3 cm step and a concave crease
+    (two planes meeting at 150 deg) are not; nothing on the plain plane."""
+    from mmlearn.models.front_detection import _gap_mask
+    rng = np.random.default_rng(0)
+    H, W = 240, 320
+    z = np.full((H, W), 1.8) + 0.0008 * np.arange(H)[:, None]      # tilted like a front
+    z_dip = z.copy()
+    z_dip[100] += 0.007                                             # the reveal
+    z_dip[:, 200:202] = np.nan                                      # a reveal without return
+    z_step = z + np.where(np.arange(H)[:, None] >= 120, 0.03, 0.0)
+    z_crease = z + 0.3 * np.abs(np.arange(H)[:, None] - 120) * 1.8 / 577.0
+    noise = rng.normal(0.0, 0.0016 * 1.8 ** 2, (H, W))
+    cfg = FrontDetectorConfig()
+    masks = {}
+    for name, img in (("dip", z_dip), ("plain", z), ("step", z_step), ("crease", z_crease)):
+        d = (img + noise).astype(np.float32)
+        valid = np.isfinite(d)
+        masks[name] = _gap_mask(np.where(valid, d, np.float32(np.nan)), valid, 577.0, cfg)[1]
+    dip = masks["dip"]
+    assert dip[100, 20:180].mean() > 0.8                      # the row behind its sides
+    assert dip[20:220, 200:202].any(axis=1).mean() > 0.8       # the column without return
+    assert dip[:90].sum() + dip[110:, :190].sum() < 0.01 * H * W
+    for name in ("plain", "step", "crease"):
+        assert masks[name].mean() < 0.005, (name, masks[name].mean())
