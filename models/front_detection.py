@@ -1307,15 +1307,17 @@ def _edge_crossing(prof_in, prof_out, level, pos, step, persist=1):
     p = np.interp(np.arange(n_l), okl, prof_in[okl] / n[okl])
     if p[0] < 0.5:
         return None
-    inner = level[: max(1, n_l // 4)]
-    inner = inner[np.isfinite(inner)]
+    inner = sorted(x for x in level[: max(1, n_l // 4)].tolist() if math.isfinite(x))
     if len(inner) >= 2:
-        ref = float(np.median(inner))
+        h = len(inner) // 2  # median and (population) std of a few numbers, in Python
+        ref = inner[h] if len(inner) % 2 else 0.5 * (inner[h - 1] + inner[h])
+        mean = sum(inner) / len(inner)
+        std = math.sqrt(sum((x - mean) ** 2 for x in inner) / len(inner))
         # behind by more than `step` (or 3 x the scatter of the inner lines' levels: a short
         # side of a far front has few pixels per line), on lines that are still mostly
         # in-plane, and on `persist` lines in a row (lines closer than a pixel see the same
         # pixels)
-        thr = max(step, 3.0 * float(inner.std()))
+        thr = max(step, 3.0 * std)
         with np.errstate(invalid="ignore"):
             dev = np.where((p >= 0.5) & np.isfinite(level), ref - level, 0.0) - thr
         i_dev = _first_run((dev > 0).tolist(), persist)
