@@ -342,7 +342,8 @@ class FrontDetectorConfig:
         for k in ("surface_distance", "surface_distance_per_m2"):
             if getattr(self, k) < 0:
                 raise ValueError(f"FrontDetectorConfig.{k} must be >= 0, got {getattr(self, k)}")
-        for k in ("alpha", "inlier_distance_per_m2", "crossing_angle_deg", "recall_margin",
+        for k in ("component_starts", "alpha", "inlier_distance_per_m2", "crossing_angle_deg",
+                  "recall_margin",
                   "min_recall_margin", "border_margin_px", "duplicate_distance",
                   "duplicate_angle_deg"):
             if getattr(self, k) < 0:

@@ -456,3 +456,12 @@ def test_gap_mask_finds_a_thin_dip_but_not_a_step_or_a_crease():
     assert dip[:90].sum() + dip[110:, :190].sum() < 0.01 * H * W
     for name in ("plain", "step", "crease"):
         assert masks[name].mean() < 0.005, (name, masks[name].mean())
+
+
+@pytest.mark.parametrize("kw", [{"component_starts": -1}, {"gap_window_px": 2},
+                                {"gap_offsets_px": [0]}, {"gap_offsets_px": []},
+                                {"rotation_step_factors": []}, {"gap_depth": -0.001},
+                                {"gap_min_length": float("nan")}])
+def test_gap_config_errors_name_the_field(kw):
+    with pytest.raises(ValueError, match=next(iter(kw))):
+        FrontDetectorConfig(**kw).validate()
