@@ -224,8 +224,10 @@ class FrontDetectorConfig:
             with ``GAP`` cells (regions parted by reveals: the fronts of a cabinet; 0 = none).
         gap_window_px: length of the averaging window along the line, px (rounded to a
             multiple of 4: the means are taken on blocks of 4 pixels along the line).
-        gap_offsets_px: distances of the side lines compared with, px (a reveal is 1-4 px
-            wide at 0.8-2.3 m).
+        gap_offsets_px: distances of the side lines compared with, px (a reveal is a 1-px
+            row 6-7 mm behind, or a band without return 3-5 px wide at 1.3-1.8 m and up to
+            ~15 px at 0.8 m: offsets up to 5 px missed it there, no closed front was found);
+            offsets above 5 px count only where o < 2 + f 0.01 m / z.
         gap_depth, gap_depth_per_m2: a line is behind when its mean depth exceeds the larger
             of its side lines' by max(gap_depth, gap_depth_per_m2 z^2), m and m / m^2 (the
             5 mm reveal seen from 25 deg above lies 6-7 mm behind the faces; the mean of a
@@ -284,7 +286,7 @@ class FrontDetectorConfig:
     gap_label: bool = True
     component_starts: int = 12
     gap_window_px: int = 32
-    gap_offsets_px: list[int] = field(default_factory=lambda: [2, 3, 4, 5])
+    gap_offsets_px: list[int] = field(default_factory=lambda: [2, 3, 4, 5, 7, 9])
     gap_depth: float = 0.0025
     gap_depth_per_m2: float = 0.001
     gap_side_tolerance_per_m2: float = 0.004
@@ -795,6 +797,8 @@ def _gap_mask(d, valid, fx, cfg, dzero=None):
                 hit &= well[o:n_rows - 3 * o] & well[3 * o:n_rows - o]
                 hit &= ~(bent[o:n_rows - 3 * o] | bent[3 * o:n_rows - o])
                 hit &= (c - ref > thr) | ~meas[r]
+                if o > 5:  # only near: a 5 mm reveal's band without return is ~2 + f 0.01 / z px
+                    hit &= ref * np.float32(o - 2) < np.float32(0.01 * fx)
             g[r] |= hit
             zg[r][hit] = ref[hit]
         if not g.any():
