@@ -42,10 +42,17 @@
     the camera's noise, their mean far less; the edge face of a 19 mm panel seen obliquely lies
     within L of the panel's face (wholly behind it) and widened the door by up to
     thickness x tan(incidence) (measured: 1-2 cm at 50-70 deg, tests/test_front_detection.py).
+    Last, the *reveals* (``gap_label``, :func:`_gap_mask`): the 5 mm gaps between flush
+    closed fronts are thin image lines that have no return or lie a few mm behind the
+    surface on both sides (averaged along the line); their pixels become ``GAP``, costed like
+    free space, so a closed front is no longer one rectangle with its neighbours (issue 12:
+    closed fronts were found in 0 of 60-70 frames per distance).
 ``sampling``
     ``starts_per_plane`` random starts per plane: a random in-plane cell as centre, width and
     height drawn uniformly from ``prior_size`` (5.1.1: "sample a random point from the plane
-    and the other DOFs from a prior").
+    and the other DOFs from a prior"); on planes with reveals, also one start at the centroid
+    of each of the ``component_starts`` largest regions of in-plane cells between them (a
+    closed drawer covers 5 % of a cabinet's face: random starts missed it).
 ``optimisation``
     Greedy discrete moves (5.1.2) on all starts of all planes at once (vectorised): each side
     grows or shrinks by ``step_factors`` x ``step_size``; the best improving move is taken
@@ -78,11 +85,19 @@ Deviations from the text, with reasons (measured on the synthetic frames of
   precision and recall do not depend on the distance or the viewing angle.
 * A plane is a connected region (above), not every inlier of the infinite plane, and pixels
   where two crossing planes meet go to the larger one (above).
+* The ``GAP`` label (reveals between flush fronts) is not in the thesis nor in the original
+  code (whose labels are Eq. 5.2's four): with it, a rectangle's side along a reveal needs
+  no recall margin beyond it (the plane continues in the neighbouring front, which the
+  recall would otherwise count against it), and the rotation polish is skipped for a
+  rectangle with three or more sides along reveals (its sides follow them). Rotation moves
+  are 0.5 and 1 deg per round (``rotation_step_factors``; 2 and 4 deg steps changed no
+  detection on 90 development frames and cost 9 ms per frame).
 
 Known limits (measured): a front is found as the part of it that is seen: an occluder crossing
 the whole front (a pole from top to bottom) is a local maximum the greedy moves do not cross
-unless a random start straddles it; a closed front flush with its neighbours is one plane with
-them (no depth step), so the whole cabinet face is found instead; the drop-outs of a
+unless a random start straddles it; a closed front flush with its neighbours is found only
+where its reveals are seen (``GAP``: at 2.3 m a reveal is 1 px and 6-7 mm deep against
+9 mm of per-pixel noise); the drop-outs of a
 structured-light camera at depth edges make fronts 1-3 cm narrower at 1.8-2.5 m.
 * Costs are quantised to 1/255 (as in the original code) so the summed-area tables are int32;
   occluded and unknown pixels cost 20/255 as in the original code (0.2 before: with the
@@ -123,6 +138,10 @@ IN_PLANE, FREE, OCCLUDED, UNKNOWN, OUTSIDE = 0, 1, 2, 3, 4
 # panel's edge face seen obliquely): costs like UNKNOWN, but is not the plane's surface for the
 # edge refinement
 OFF_SURFACE = 5
+# a pixel on a thin line that lies behind the measured surface on both sides of it, or has no
+# return between measured lines on both sides (the reveal between two flush fronts): costs
+# like FREE, and a rectangle's side along such a line is observed to end there (recall)
+GAP = 6
 
 
 @dataclass
@@ -170,7 +189,9 @@ class FrontDetectorConfig:
         alpha: size preference of the objective (Eq. 5.3), unitless.
         step_size: unit of the side moves, m.
         rotation_step_deg: unit of the in-plane rotation moves, degrees.
-        step_factors: the moves are these multiples of the units.
+        step_factors: the side moves are these multiples of ``step_size``.
+        rotation_step_factors: the rotation moves are these multiples of
+            ``rotation_step_deg``.
         max_iterations: cap on greedy iterations per start.
         min_side: smallest width or height of a rectangle, m.
         min_precision, min_recall: acceptance thresholds (Eq. 5.4, 5.5).
@@ -194,6 +215,27 @@ class FrontDetectorConfig:
             lie on average more than max(step, step_per_m2 z^2, 3 x the inner lines' scatter)
             behind the inner lines' is beyond the side (a panel's top or edge face), m and
             m / m^2.
+        gap_label: label the reveals between flush fronts ``GAP`` (:func:`_gap_mask`): thin
+            image lines (rows or columns) whose depth, averaged along the line, lies behind
+            the lines ``gap_offsets_px`` away on both sides (which agree with each other), or
+            that have no return between measured lines.
+        component_starts: besides ``starts_per_plane`` random starts, one start at the
+            centroid of each of this many largest connected in-plane regions of a plane
+            with ``GAP`` cells (regions parted by reveals: the fronts of a cabinet; 0 = none).
+        gap_window_px: length of the averaging window along the line, px (rounded to a
+            multiple of 4: the means are taken on blocks of 4 pixels along the line).
+        gap_offsets_px: distances of the side lines compared with, px (a reveal is a 1-px
+            row 6-7 mm behind, or a band without return 3-5 px wide at 1.3-1.8 m and up to
+            ~15 px at 0.8 m: offsets up to 5 px missed it there, no closed front was found);
+            offsets above 5 px count only where o < 2 + f 0.01 m / z.
+        gap_depth, gap_depth_per_m2: a line is behind when its mean depth exceeds the larger
+            of its side lines' by max(gap_depth, gap_depth_per_m2 z^2), m and m / m^2 (the
+            5 mm reveal seen from 25 deg above lies 6-7 mm behind the faces; the mean of a
+            32-pixel line scatters by ~0.35 mm z^2 with the camera's noise).
+        gap_side_tolerance_per_m2: the two side lines agree when their mean depths differ by
+            less than max(0.01, this x z^2) m plus the depth change of the plane over the
+            offset (the side lines must lie on one surface), m / m^2.
+        gap_min_length: a detected line shorter than this (at its depth) is noise, m.
     """
 
     inlier_distance: float = 0.02
@@ -224,6 +266,7 @@ class FrontDetectorConfig:
     step_size: float = 0.005
     rotation_step_deg: float = 0.5
     step_factors: list[int] = field(default_factory=lambda: [8, 4, 2, 1])
+    rotation_step_factors: list[int] = field(default_factory=lambda: [2, 1])
     max_iterations: int = 200
     min_side: float = 0.03
     min_precision: float = 0.7
@@ -240,6 +283,14 @@ class FrontDetectorConfig:
     edge_refine_span: float = 0.7
     edge_refine_depth_step: float = 0.002
     edge_refine_depth_step_per_m2: float = 0.0008
+    gap_label: bool = True
+    component_starts: int = 12
+    gap_window_px: int = 32
+    gap_offsets_px: list[int] = field(default_factory=lambda: [2, 3, 4, 5, 7, 9])
+    gap_depth: float = 0.0025
+    gap_depth_per_m2: float = 0.001
+    gap_side_tolerance_per_m2: float = 0.004
+    gap_min_length: float = 0.2
 
     def validate(self) -> None:
         """Raise ``ValueError`` naming the first invalid field."""
@@ -274,6 +325,16 @@ class FrontDetectorConfig:
         for k in ("edge_refine_depth_step", "edge_refine_depth_step_per_m2"):
             if getattr(self, k) < 0:
                 raise ValueError(f"FrontDetectorConfig.{k} must be >= 0, got {getattr(self, k)}")
+        if self.gap_window_px < 4:
+            raise ValueError("FrontDetectorConfig.gap_window_px must be an integer >= 4, "
+                             f"got {self.gap_window_px}")
+        if not self.gap_offsets_px or any(int(o) != o or o < 1 for o in self.gap_offsets_px):
+            raise ValueError("FrontDetectorConfig.gap_offsets_px must be integers >= 1 (px), "
+                             f"got {self.gap_offsets_px}")
+        for k in ("gap_depth", "gap_depth_per_m2", "gap_side_tolerance_per_m2",
+                  "gap_min_length"):
+            if getattr(self, k) < 0:
+                raise ValueError(f"FrontDetectorConfig.{k} must be >= 0, got {getattr(self, k)}")
         if self.crossing_smooth_px < 1:
             raise ValueError("FrontDetectorConfig.crossing_smooth_px must be >= 1, got "
                              f"{self.crossing_smooth_px}")
@@ -283,7 +344,8 @@ class FrontDetectorConfig:
         for k in ("surface_distance", "surface_distance_per_m2"):
             if getattr(self, k) < 0:
                 raise ValueError(f"FrontDetectorConfig.{k} must be >= 0, got {getattr(self, k)}")
-        for k in ("alpha", "inlier_distance_per_m2", "crossing_angle_deg", "recall_margin",
+        for k in ("component_starts", "alpha", "inlier_distance_per_m2", "crossing_angle_deg",
+                  "recall_margin",
                   "min_recall_margin", "border_margin_px", "duplicate_distance",
                   "duplicate_angle_deg"):
             if getattr(self, k) < 0:
@@ -296,12 +358,14 @@ class FrontDetectorConfig:
         if len(self.prior_size) != 2 or not 0 < self.prior_size[0] <= self.prior_size[1]:
             raise ValueError("FrontDetectorConfig.prior_size must be [min, max] with "
                              f"0 < min <= max (metres), got {self.prior_size}")
-        if not self.step_factors or any(int(s) != s or s <= 0 for s in self.step_factors):
-            raise ValueError("FrontDetectorConfig.step_factors must be positive integers, got "
-                             f"{self.step_factors}")
+        for k in ("step_factors", "rotation_step_factors"):
+            v = getattr(self, k)
+            if not v or any(int(s) != s or s <= 0 for s in v):
+                raise ValueError(f"FrontDetectorConfig.{k} must be positive integers, got {v}")
         for k in ("ransac_stride_px", "ransac_hypotheses", "ransac_local_radius_px",
                   "max_planes", "min_plane_points", "max_grid_cells", "starts_per_plane",
-                  "crossing_smooth_px", "surface_window_px",
+                  "component_starts",
+                  "crossing_smooth_px", "surface_window_px", "gap_window_px",
                   "max_iterations", "border_margin_px"):
             if int(getattr(self, k)) != getattr(self, k):
                 raise ValueError(f"FrontDetectorConfig.{k} must be an integer, got "
@@ -501,6 +565,7 @@ class _Grid:
     labels: np.ndarray
     sat_cost: np.ndarray
     sat_in: np.ndarray
+    sat_gap: tuple | None = None  # (GAP, UNKNOWN) summed-area tables, see _gap_bounded
 
     @property
     def shape(self):
@@ -642,8 +707,137 @@ def _surface_check(lab, S, Lm, win):
     lab[y0:y1, x0:x1][bad] = OFF_SURFACE
 
 
+def _gap_mask(d, valid, fx, cfg, dzero=None):
+    """Pixels on the reveals between flush fronts (``GAP``) from the depth image alone (one
+    pass per frame for all planes): (wide, thin), (H, W) bool each; ``wide`` is ``thin`` one
+    pixel wider on either side across the line (for the rectified grids).
+
+    A reveal is a thin line (image rows or columns: the fronts' sides are horizontal and
+    vertical seen from the front) that either has no return (a structured-light camera drops
+    the pixels of a 5 mm gap seen straight on, its depth edges) or lies a few mm *behind* the
+    surface on both sides (the 5 mm horizontal reveal seen from 25 deg above shows the lower
+    front's top face, 6-7 mm behind: inside the inlier distance L, so in-plane for Eq. 5.2,
+    and the two fronts are one plane region). Each line's depth is averaged over
+    ``gap_window_px`` pixels along it (the camera's noise, ~9 mm per pixel at 2.3 m, would
+    hide a one-pixel dip; the mean of 32 pixels scatters by ~1.7 mm there) and compared with
+    the mean of the lines ``gap_offsets_px`` away on either side, which must agree (one
+    surface on both sides: a depth step is not a reveal), and with half the threshold with
+    each side's two lines (``o`` and ``2 o`` away) extended to the line (a concave crease is
+    behind the mean of its sides but not behind their extensions). Lines with fewer than a third of
+    their pixels measured are reveals too. Detections
+    shorter than ``gap_min_length`` at their depth are dropped (noise gives short runs, a
+    reveal runs along a whole front; ``dzero``: ``d`` with 0 where not ``valid``, if at
+    hand). The side lines must be well measured (>= 80 % of their
+    pixels: a countertop seen at grazing incidence drops a third of its pixels, and its line
+    means scatter beyond the noise model)."""
+    H, W = d.shape
+    sub = 4  # the line means are smooth along a line: one per 4 pixels along it suffices
+    nb = max(1, int(round(cfg.gap_window_px / sub)))  # window in blocks of 4 pixels
+    Lw = nb * sub
+    z = np.where(valid, d, np.float32(0.0)) if dzero is None else dzero
+    w = valid.astype(np.float32)
+    Hc, Wc = H - H % sub, W - W % sub
+    out = np.zeros((H, W), bool)
+    thin = np.zeros((H, W), bool)
+    for horizontal in (True, False):
+        # block means along the line (x 4 = sums), then the window's sums: rows of (A, N)
+        # run across the lines, columns along them
+        if horizontal:
+            size = (Wc // sub, H)
+            A = cv2.resize(z[:, :Wc], size, interpolation=cv2.INTER_AREA)
+            N = cv2.resize(w[:, :Wc], size, interpolation=cv2.INTER_AREA)
+        else:
+            size = (W, Hc // sub)
+            A = np.ascontiguousarray(cv2.resize(z[:Hc], size, interpolation=cv2.INTER_AREA).T)
+            N = np.ascontiguousarray(cv2.resize(w[:Hc], size, interpolation=cv2.INTER_AREA).T)
+        # block means: a window whose lines are not one surface (a step: an opened door in
+        # front of the cabinet's reveals) has its middle block off the chord between its end
+        # blocks (a plane's depth is close to linear along a line over 32 px)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            B = A / N
+        h0, h1 = nb // 2, nb - 1 - nb // 2
+        bent = np.zeros(B.shape, bool)
+        if B.shape[1] > nb:
+            chord = np.float32(0.5) * (B[:, : B.shape[1] - nb + 1] + B[:, nb - 1:])
+            zc = B[:, h0: B.shape[1] - h1]
+            tol_b = np.maximum(np.float32(0.01), np.float32(cfg.gap_side_tolerance_per_m2) * zc * zc)
+            with np.errstate(invalid="ignore"):
+                bent[:, h0: B.shape[1] - h1] = np.abs(zc - chord) > tol_b
+        A = cv2.boxFilter(A, -1, (nb, 1), normalize=False, borderType=cv2.BORDER_CONSTANT)
+        N = cv2.boxFilter(N, -1, (nb, 1), normalize=False, borderType=cv2.BORDER_CONSTANT)
+        A *= np.float32(sub)
+        N *= np.float32(sub)
+        meas = N >= max(3.0, Lw / 3.0)
+        well = N >= 0.8 * Lw  # side lines: well measured
+        m = A / np.maximum(N, np.float32(1.0))
+        m[~meas] = np.nan
+        n_rows = m.shape[0]
+        g = np.zeros(m.shape, bool)
+        zg = np.zeros(m.shape, np.float32)  # depth of the side lines where hit
+        for o in cfg.gap_offsets_px:
+            o = int(o)
+            if n_rows <= 4 * o:
+                continue
+            # lines y - 2o, y - o | y | y + o, y + 2o for y in [2o, n_rows - 2o)
+            r = slice(2 * o, n_rows - 2 * o)
+            c = m[r]
+            up, dn = m[o:n_rows - 3 * o], m[3 * o:n_rows - o]
+            up2, dn2 = m[:n_rows - 4 * o], m[4 * o:]
+            ref = np.float32(0.5) * (up + dn)
+            z2 = ref * ref
+            thr = np.maximum(np.float32(cfg.gap_depth), np.float32(cfg.gap_depth_per_m2) * z2)
+            tol = np.maximum(np.float32(0.01), np.float32(cfg.gap_side_tolerance_per_m2) * z2)
+            with np.errstate(invalid="ignore"):
+                hit = np.abs(up - dn) < tol  # False where either side is NaN
+                # behind the sides' extrapolations too (each side's two lines extended to
+                # the line): a concave crease (an opened door meeting the cabinet's face at
+                # its hinge) lies behind the mean of its sides, not behind their extensions
+                ext = up + dn - np.float32(0.5) * (up2 + dn2)
+                hit &= (c - ext > np.float32(0.5) * thr) | ~meas[r]
+                hit &= well[o:n_rows - 3 * o] & well[3 * o:n_rows - o]
+                hit &= ~(bent[o:n_rows - 3 * o] | bent[3 * o:n_rows - o])
+                hit &= (c - ref > thr) | ~meas[r]
+                if o > 5:  # only near: a 5 mm reveal's band without return is ~2 + f 0.01 / z px
+                    hit &= ref * np.float32(o - 2) < np.float32(0.01 * fx)
+            g[r] |= hit
+            zg[r][hit] = ref[hit]
+        if not g.any():
+            continue
+        # keep runs along the line at least gap_min_length long at their depth
+        n_lab, lab, stats, cent = cv2.connectedComponentsWithStats(g.view(np.uint8),
+                                                                   connectivity=8)
+        if n_lab <= 1:
+            continue
+        length = sub * stats[1:, cv2.CC_STAT_WIDTH].astype(np.float64)
+        # depth of each run: its side lines' depth at its centroid (a run is a thin line:
+        # the centroid is on it), else the mean over the run
+        cr = np.clip(np.round(cent[1:, 1]).astype(np.int64), 0, lab.shape[0] - 1)
+        cc = np.clip(np.round(cent[1:, 0]).astype(np.int64), 0, lab.shape[1] - 1)
+        zrun = zg[cr, cc].astype(np.float64)
+        off = np.flatnonzero(lab[cr, cc] != np.arange(1, n_lab))
+        if len(off):
+            zsum = np.bincount(lab.reshape(-1), weights=zg.reshape(-1), minlength=n_lab)[1:]
+            zrun[off] = zsum[off] / np.maximum(stats[1 + off, cv2.CC_STAT_AREA], 1)
+        keep = np.concatenate([[False], length >= cfg.gap_min_length * fx / np.maximum(zrun, 1e-6)])
+        if not keep.any():
+            continue
+        g = keep[lab]
+        # one pixel wider on either side across the line: a one-pixel line would fall
+        # between the 5 mm cells of a plane's rectified grid (2.2 mm pixels at 1.3 m)
+        wide = g.copy()
+        wide[1:] |= g[:-1]
+        wide[:-1] |= g[1:]
+        if horizontal:  # back to every pixel along the line
+            out[:, :Wc] |= np.repeat(wide, sub, axis=1)
+            thin[:, :Wc] |= np.repeat(g, sub, axis=1)
+        else:
+            out[:Hc] |= np.repeat(np.ascontiguousarray(wide.T), sub, axis=0)
+            thin[:Hc] |= np.repeat(np.ascontiguousarray(g.T), sub, axis=0)
+    return out, thin
+
+
 def _label_images(d, valid, ray_x, ray_y, planes, L, crossing_angle_deg,
-                  smooth_px=5, surface=None) -> list[np.ndarray]:
+                  smooth_px=5, surface=None, gap=None) -> list[np.ndarray]:
     """Eq. 5.2 labels of every pixel for every plane n . p + dpl = 0. The signed distance of
     the pixel's point p = depth * (ray_x, ray_y, 1) is depth * (n . ray) + dpl (separable in
     rows and columns). A pixel within L of two planes that cross at more than
@@ -670,6 +864,13 @@ def _label_images(d, valid, ray_x, ray_y, planes, L, crossing_angle_deg,
     if surface is not None:  # after the crossings: their strips would bias the means
         for k in range(P):
             _surface_check(labs[k], S[k], *surface)
+    if gap is not None:  # reveals (_gap_mask): GAP unless something is in front
+        gi = np.flatnonzero(gap.reshape(-1))
+        if len(gi):
+            for lab in labs:
+                flat = lab.reshape(-1)
+                sub = flat[gi]
+                flat[gi] = np.where(sub == OCCLUDED, sub, np.uint8(GAP))
     return labs
 
 
@@ -836,6 +1037,44 @@ def _greedy(SC, dims, pid, R, steps, min_cells, alpha, max_iter):
     return R, score, it
 
 
+def _component_starts(g: _Grid, mc: int, k: int, rng, cfg) -> np.ndarray:
+    """Start rectangles (n, 4) at the centroid (if inside it) of each of the ``k`` largest
+    4-connected regions of in-plane cells of a grid (at least ``mc`` x ``mc`` cells): fronts
+    flush with their neighbours are one plane, parted only by ``GAP`` lines, and random
+    starts over the whole plane miss a small drawer (5 % of a cabinet's face) often.
+    Width and height from the prior, at most the region's bounding box."""
+    # regions of the in-plane cells shrunk by 2 cells: a reveal's line may have a hole of a
+    # few cells (where it meets another reveal, or a drop-out)
+    inp = cv2.erode((g.labels == IN_PLANE).view(np.uint8), np.ones((5, 5), np.uint8))
+    n_lab, lab, stats, cent = cv2.connectedComponentsWithStats(inp, connectivity=4)
+    if n_lab <= 1:
+        return np.zeros((0, 4), np.int64)
+    area = stats[1:, cv2.CC_STAT_AREA]
+    mc = max(1, mc - 4)
+    big = np.flatnonzero((area >= mc * mc) & (stats[1:, cv2.CC_STAT_WIDTH] >= mc)
+                         & (stats[1:, cv2.CC_STAT_HEIGHT] >= mc)) + 1
+    if len(big) == 0:
+        return np.zeros((0, 4), np.int64)
+    big = big[np.argsort(-area[big - 1], kind="stable")][:k]
+    # the region's centroid (inside a rectangular front), else a random cell of it
+    cj = np.round(cent[big, 0]).astype(np.int64)
+    ci = np.round(cent[big, 1]).astype(np.int64)
+    for t in np.flatnonzero(lab[ci, cj] != big):
+        cells = np.flatnonzero(lab.reshape(-1) == big[t])
+        ci[t], cj[t] = divmod(int(cells[rng.integers(0, len(cells))]), lab.shape[1])
+    m = len(big)
+    wh = rng.uniform(cfg.prior_size[0], cfg.prior_size[1], (m, 2)) / g.c
+    mc += 4
+    wc = np.clip(np.round(wh[:, 0]).astype(np.int64), mc,
+                 np.maximum(mc, stats[big, cv2.CC_STAT_WIDTH]))
+    hc = np.clip(np.round(wh[:, 1]).astype(np.int64), mc,
+                 np.maximum(mc, stats[big, cv2.CC_STAT_HEIGHT]))
+    Hg, Wg = g.shape
+    x0 = np.clip(cj - wc // 2, 0, np.maximum(0, Wg - wc))
+    y0 = np.clip(ci - hc // 2, 0, np.maximum(0, Hg - hc))
+    return np.column_stack([x0, np.minimum(x0 + wc, Wg), y0, np.minimum(y0 + hc, Hg)])
+
+
 def _stack(tables, dims):
     Hm = max(h for h, _ in dims) + 1
     Wm = max(w for _, w in dims) + 1
@@ -848,6 +1087,62 @@ def _stack(tables, dims):
 # ------------------------------------------------------------------------------------------
 # stage 5: checks
 # ------------------------------------------------------------------------------------------
+def _gap_bounded(labels, x0, x1, y0, y1, out_cells=3, in_cells=1, share=0.5, line=0.7,
+                 sats=None):
+    """(left, right, top, bottom): whether each side of the grid rectangle runs along a
+    reveal: some grid line parallel to it, from ``in_cells`` inside to ``out_cells`` outside,
+    is ``GAP`` on at least ``share`` of the side's length, or ``GAP`` on a fifth and ``GAP``
+    or ``UNKNOWN`` on ``line`` of it (a reveal seen straight on has no return; the window of
+    :func:`_gap_mask` does not label its last few cm before a step such as a countertop's
+    edge). ``sats``: summed-area tables of the GAP and the UNKNOWN cells (made when None)."""
+    Hg, Wg = labels.shape
+    if sats is None:
+        sats = _sats_gap(labels)
+    G, U = sats
+    x0, x1, y0, y1 = int(x0), int(x1), int(y0), int(y1)
+    res = []
+    for lo, hi, vertical in ((x0 - out_cells, x0 + in_cells, True),
+                             (x1 - in_cells, x1 + out_cells, True),
+                             (y0 - out_cells, y0 + in_cells, False),
+                             (y1 - in_cells, y1 + out_cells, False)):
+        if vertical:
+            lo, hi = max(0, lo), min(Wg, hi)
+            a0, a1, length = y0, y1, y1 - y0
+        else:
+            lo, hi = max(0, lo), min(Hg, hi)
+            a0, a1, length = x0, x1, x1 - x0
+        if hi <= lo or length <= 0:
+            res.append(False)
+            continue
+        # no GAP cell in the whole strip: not a reveal (one look-up for most sides)
+        if vertical:
+            tot = int(G[a1, hi] - G[a0, hi] - G[a1, lo] + G[a0, lo])
+        else:
+            tot = int(G[hi, a1] - G[lo, a1] - G[hi, a0] + G[lo, a0])
+        if tot < 0.2 * length:
+            res.append(False)
+            continue
+        hit = False
+        for c in range(lo, hi):  # each grid line of the strip
+            if vertical:
+                g = int(G[a1, c + 1] - G[a0, c + 1] - G[a1, c] + G[a0, c])
+                u = int(U[a1, c + 1] - U[a0, c + 1] - U[a1, c] + U[a0, c])
+            else:
+                g = int(G[c + 1, a1] - G[c, a1] - G[c + 1, a0] + G[c, a0])
+                u = int(U[c + 1, a1] - U[c, a1] - U[c + 1, a0] + U[c, a0])
+            if g >= share * length or (g >= 0.2 * length and g + u >= line * length):
+                hit = True
+                break
+        res.append(hit)
+    return res
+
+
+def _sats_gap(labels):
+    """Summed-area tables (int32) of the GAP and the UNKNOWN cells of a label grid."""
+    return (cv2.integral((labels == GAP).view(np.uint8), sdepth=cv2.CV_32S),
+            cv2.integral((labels == UNKNOWN).view(np.uint8), sdepth=cv2.CV_32S))
+
+
 def _precision_recall(g: _Grid, R, cfg):
     """Eq. 5.4 and the local recall (see the module docstring) of one grid rectangle."""
     x0, x1, y0, y1 = (int(v) for v in R)
@@ -862,8 +1157,14 @@ def _precision_recall(g: _Grid, R, cfg):
     mx = max(int(round(cfg.recall_margin * (x1 - x0))), int(round(cfg.min_recall_margin / g.c)))
     my = max(int(round(cfg.recall_margin * (y1 - y0))), int(round(cfg.min_recall_margin / g.c)))
     Hg, Wg = g.shape
-    X0, X1 = max(0, x0 - mx), min(Wg, x1 + mx)
-    Y0, Y1 = max(0, y0 - my), min(Hg, y1 + my)
+    # a side along a reveal (GAP) is observed to end there: no margin beyond it (the plane
+    # continues in the flush neighbouring front)
+    if g.sat_gap is None:
+        g.sat_gap = _sats_gap(g.labels)
+    ml, mr, mt, mb = (0 if b else m for b, m in zip(
+        _gap_bounded(g.labels, x0, x1, y0, y1, sats=g.sat_gap), (mx, mx, my, my)))
+    X0, X1 = max(0, x0 - ml), min(Wg, x1 + mr)
+    Y0, Y1 = max(0, y0 - mt), min(Hg, y1 + mb)
     around = I[Y1, X1] - I[Y0, X1] - I[Y1, X0] + I[Y0, X0]
     recall = inside / around if around > 0 else 0.0
     return float(precision), float(recall)
@@ -939,7 +1240,8 @@ def _polish_rotation(g: _Grid, R, lab_img, K, cfg, lut):
 
     theta = 0.0
     best_score, best = fit([0.0])[0]
-    offsets = sorted({s * f * cfg.rotation_step_deg for f in cfg.step_factors for s in (1, -1)})
+    offsets = sorted({s * f * cfg.rotation_step_deg for f in cfg.rotation_step_factors
+                      for s in (1, -1)})
     for _ in range(int(cfg.max_iterations)):
         thetas = [round(theta + o, 9) for o in offsets]
         res = fit(thetas)
@@ -975,6 +1277,23 @@ def _refit_plane(Pc, lab_img, center, e1, e2, w, h, K, n_old, L):
     return n, d
 
 
+def _first_run(mask, k, start=1):
+    """First index j >= ``start`` where ``mask[j:j + k]`` is all True (positions beyond the
+    end count as True), else ``len(mask)``. ``mask``: a list of bools (short profiles: a
+    Python scan is cheaper than the numpy calls it replaces)."""
+    n = len(mask)
+    run = 0  # consecutive Trues from j on (the end counts as an endless run)
+    best = n
+    for j in range(n - 1, start - 1, -1):
+        if mask[j]:
+            run += 1
+            if run >= k or j + run >= n:
+                best = j
+        else:
+            run = 0
+    return best
+
+
 def _edge_crossing(prof_in, prof_out, level, pos, step, persist=1):
     """Where a side ends along a profile of lines (positions ``pos``, inside first): the first
     line whose share of in-plane samples p = in / (in + out) falls below 1/2, or whose mean
@@ -983,51 +1302,50 @@ def _edge_crossing(prof_in, prof_out, level, pos, step, persist=1):
     between that line and the one before). Lines without enough measured samples take p from
     their neighbours. None when the profile does not start inside or never leaves."""
     n = prof_in + prof_out
-    if len(n) < 4:
+    n_l = len(n)
+    if n_l < 4:
         return None
-    ok = n >= max(3.0, 0.2 * float(np.max(n)))
-    if ok.sum() < 2:
+    ok = n >= max(3.0, 0.2 * float(n.max()))
+    okl = np.flatnonzero(ok)
+    if len(okl) < 2:
         return None
-    idx = np.arange(len(pos))
-    p = np.interp(idx, idx[ok], prof_in[ok] / n[ok])
+    p = np.interp(np.arange(n_l), okl, prof_in[okl] / n[okl])
     if p[0] < 0.5:
         return None
-    inner = level[: max(1, len(level) // 4)]
-    inner = inner[np.isfinite(inner)]
+    inner = sorted(x for x in level[: max(1, n_l // 4)].tolist() if math.isfinite(x))
     if len(inner) >= 2:
-        ref = float(np.median(inner))
+        h = len(inner) // 2  # median and (population) std of a few numbers, in Python
+        ref = inner[h] if len(inner) % 2 else 0.5 * (inner[h - 1] + inner[h])
+        mean = sum(inner) / len(inner)
+        std = math.sqrt(sum((x - mean) ** 2 for x in inner) / len(inner))
         # behind by more than `step` (or 3 x the scatter of the inner lines' levels: a short
         # side of a far front has few pixels per line), on lines that are still mostly
         # in-plane, and on `persist` lines in a row (lines closer than a pixel see the same
         # pixels)
-        thr = max(step, 3.0 * float(np.std(inner)))
-        dev = np.where(np.isfinite(level) & (p >= 0.5), ref - level, 0.0) - thr
-        if persist > 1:
-            run = np.lib.stride_tricks.sliding_window_view(
-                np.concatenate([dev > 0, np.ones(persist - 1, bool)]), persist).all(axis=1)
-            dev = np.where(run, np.maximum(dev, 1e-12), np.minimum(dev, -1e-12))
+        thr = max(step, 3.0 * std)
+        with np.errstate(invalid="ignore"):
+            dev = np.where((p >= 0.5) & np.isfinite(level), ref - level, 0.0) - thr
+        i_dev = _first_run((dev > 0).tolist(), persist)
     else:
-        dev = np.full(len(pos), -1.0)
-    last = int(np.flatnonzero(ok)[-1])
+        dev = None
+        i_dev = n_l
+    last = int(okl[-1])
     # out on 2 x `persist` lines in a row (about two pixels: a one-pixel strip where a plane
     # crossing the front takes its pixels is not its side)
-    k = 2 * persist
-    low = np.lib.stride_tricks.sliding_window_view(
-        np.concatenate([p < 0.5, np.ones(k - 1, bool)]), k).all(axis=1)
-    n_l = len(pos)
-
-    def first(mask):
-        i = np.flatnonzero(mask[1:])
-        return int(i[0]) + 1 if len(i) else n_l
-
-    i_low, i_dev = first(low), first(dev > 0)
+    i_low = _first_run((p < 0.5).tolist(), 2 * persist)
     i = min(i_low, i_dev, last + 1)
     if i >= n_l:
         return None
     if i == i_low:
         return float(pos[i - 1] + (p[i - 1] - 0.5) / (p[i - 1] - p[i]) * (pos[i] - pos[i - 1]))
     if i == i_dev:
-        f = (-dev[i - 1]) / (dev[i] - dev[i - 1]) if dev[i - 1] < 0 else 0.0
+        # the values the run test gives its lines: > 0 on a run of `persist`, < 0 otherwise
+        d1 = max(float(dev[i]), 1e-12) if persist > 1 else float(dev[i])
+        d0 = float(dev[i - 1])
+        if persist > 1:
+            d0 = max(d0, 1e-12) if _first_run((dev[i - 1:i - 1 + persist] > 0).tolist(),
+                                               persist, 0) == 0 else min(d0, -1e-12)
+        f = (-d0) / (d1 - d0) if d0 < 0 else 0.0
         return float(pos[i - 1] + f * (pos[i] - pos[i - 1]))
     # the measured lines end inside the front (drop-outs to the end of the strip): its side
     # is at least there
@@ -1041,7 +1359,8 @@ class _CropIntrinsics:
         self.fx, self.fy, self.cx, self.cy = K.fx, K.fy, K.cx - c0, K.cy - r0
 
 
-def _refine_edges(lab_img, dzero, xs, ys, n, dpl, K, o, e1, e2, a0, a1, b0, b1, cfg):
+def _refine_edges(lab_img, dzero, xs, ys, n, dpl, K, o, e1, e2, a0, a1, b0, b1, cfg,
+                  gap_thin=None):
     """Sub-cell position of each side of a rectangle [a0, a1] x [b0, b1] (m, plane
     coordinates along e1, e2 from ``o``; plane n . p + dpl = 0, camera frame). The label
     image and the signed distances of the measured points to the plane are resampled on a
@@ -1052,7 +1371,9 @@ def _refine_edges(lab_img, dzero, xs, ys, n, dpl, K, o, e1, e2, a0, a1, b0, b1, 
     falls below 1/2, or where the in-plane samples' mean distance falls behind the inner
     lines' by more than max(edge_refine_depth_step, edge_refine_depth_step_per_m2 z^2) (the
     19 mm top face of a panel seen from above lies within L of its front face). A side
-    without such a crossing in its strip stays. Returns (a0, a1, b0, b1)."""
+    without such a crossing in its strip stays. ``GAP`` samples are out, except those of
+    the one-pixel widening of the reveals (``gap_thin``: the reveals themselves). Returns
+    (a0, a1, b0, b1)."""
     band, cf, span = cfg.edge_refine_band, cfg.edge_refine_cell, cfg.edge_refine_span
     # image crop around the rectangle grown by the band
     P = np.array([o + a * e1 + b * e2 for a in (a0 - band, a1 + band)
@@ -1067,6 +1388,12 @@ def _refine_edges(lab_img, dzero, xs, ys, n, dpl, K, o, e1, e2, a0, a1, b0, b1, 
     if c1 - c0 < 2 or r1 - r0 < 2:
         return a0, a1, b0, b1
     lab_c = lab_img[r0:r1, c0:c1]
+    if gap_thin is not None:
+        # the reveal itself is out; the pixel beside it that the GAP label's widening took
+        # (for the rectified grids) is the front's
+        ring = (lab_c == GAP) & ~gap_thin[r0:r1, c0:c1]
+        if ring.any():
+            lab_c = np.where(ring, np.uint8(IN_PLANE), lab_c)
     nr = (np.float32(n[0]) * xs[:, c0:c1] + np.float32(n[2])) + np.float32(n[1]) * ys[r0:r1, :]
     S = dzero[r0:r1, c0:c1] * nr + np.float32(dpl)
     S = np.where((lab_c == IN_PLANE) | (lab_c == OFF_SURFACE), S,
@@ -1098,7 +1425,7 @@ def _refine_edges(lab_img, dzero, xs, ys, n, dpl, K, o, e1, e2, a0, a1, b0, b1, 
         lab = _warp_labels(lab_c, *args)
         dist = _warp_float(S, *args)
         n_in = ((lab == IN_PLANE) | (lab == OFF_SURFACE)).sum(axis=axis).astype(np.float64)
-        n_out = ((lab == FREE) | (lab == OUTSIDE)).sum(axis=axis)
+        n_out = ((lab == FREE) | (lab == OUTSIDE) | (lab == GAP)).sum(axis=axis)
         fin = np.isfinite(dist)
         cnt = fin.sum(axis=axis)
         with np.errstate(all="ignore"):
@@ -1196,8 +1523,9 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
     # --- masks ---------------------------------------------------------------------------
     t0 = clock()
     lut = np.zeros(256, np.uint8)
-    lut[:6] = np.round(255.0 * np.array([cfg.cost_in_plane, cfg.cost_free, cfg.cost_occluded,
-                                         cfg.cost_unknown, cfg.cost_free, cfg.cost_unknown]))
+    lut[:7] = np.round(255.0 * np.array([cfg.cost_in_plane, cfg.cost_free, cfg.cost_occluded,
+                                         cfg.cost_unknown, cfg.cost_free, cfg.cost_unknown,
+                                         cfg.cost_free]))
     down_C = X_WC[:3, :3].T @ np.array([0.0, 0.0, -1.0])
     lab_imgs, grids = [], []
     surface = None
@@ -1205,8 +1533,9 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
         Lm = np.maximum(np.float32(cfg.surface_distance),
                         np.float32(cfg.surface_distance_per_m2) * dzero * dzero)
         surface = (Lm, int(cfg.surface_window_px))
+    gap, gap_thin = _gap_mask(d, valid, K.fx, cfg, dzero) if cfg.gap_label else (None, None)
     labels = _label_images(dzero, valid, xs, ys, planes, Limg, cfg.crossing_angle_deg,
-                           int(cfg.crossing_smooth_px), surface)
+                           int(cfg.crossing_smooth_px), surface, gap)
     for k, (pl, lab) in enumerate(zip(planes, labels)):
         g = _make_grid(k, pl, lab, sample_pts, K, down_C, cfg, lut)
         lab_imgs.append(lab)
@@ -1233,6 +1562,10 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
         y0 = np.clip(ci - hc // 2, 0, np.maximum(0, g.shape[0] - hc))
         R = np.column_stack([x0, np.minimum(x0 + wc, g.shape[1]), y0,
                              np.minimum(y0 + hc, g.shape[0])])
+        if cfg.component_starts > 0 and (g.labels == GAP).any():  # regions parted by reveals
+            Rc = _component_starts(g, mc, int(cfg.component_starts), rng, cfg)
+            R = np.concatenate([R, Rc])
+            m = len(R)
         pid.append(np.full(m, gi))
         R0.append(R)
         steps.append(np.tile(np.unique(np.maximum(1, np.round(step_m / g.c))).astype(np.int64),
@@ -1272,6 +1605,14 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
     polished = []
     for _, s, _ in kept:
         g = grids[pid[s]]
+        if g.sat_gap is None:
+            g.sat_gap = _sats_gap(g.labels)
+        if sum(_gap_bounded(g.labels, *R[s], sats=g.sat_gap)) >= 3:
+            # a front flush with its neighbours: its sides run along the reveals, to which the
+            # grid is aligned (its dominant edge direction); rotations do not improve it
+            polished.append((g, g.e1, g.e2, g.u0, g.v0, R[s], g.labels, g.sat_cost, g.sat_in,
+                             g.c))
+            continue
         _, (e1, e2, u0, v0, Rf, lab, sat_cost, sat_in, cp) = _polish_rotation(
             g, R[s], lab_imgs[g.plane_index], K, cfg, lut)
         polished.append((g, e1, e2, u0, v0, Rf, lab, sat_cost, sat_in, cp))
@@ -1291,7 +1632,7 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
             a0, a1, b0, b1 = _refine_edges(lab_imgs[g.plane_index], dzero, xs, ys, g.n, g.d,
                                            K, g.o, e1, e2,
                                            u0 + x0 * cp, u0 + x1 * cp, v0 + y0 * cp,
-                                           v0 + y1 * cp, cfg)
+                                           v0 + y1 * cp, cfg, gap_thin)
             if min(a1 - a0, b1 - b0) >= cfg.min_side:
                 center = g.o + 0.5 * (a0 + a1) * e1 + 0.5 * (b0 + b1) * e2
                 w, h = a1 - a0, b1 - b0
