@@ -46,6 +46,10 @@ def main(argv=None) -> int:
     for c in clfs:
         if c not in CLASSIFIERS:
             ap.error(f"--classifiers: unknown {c!r}; choose from {', '.join(CLASSIFIERS)}")
+    def cv(X, y, clf, seed):  # 10-fold, fewer when a class has fewer grasps (as the app)
+        k = int(min(10, np.unique(y, return_counts=True)[1].min()))
+        return cross_validate(X, y, classifier=clf, folds=k, seed=seed)
+
     rows = []  # one dict per (file, classifier)
     total, labels = None, None
     for item in args.results:
@@ -69,10 +73,9 @@ def main(argv=None) -> int:
                     Xs, _, yss, _ = _sim_features(rs)
                     sweep[f] = (Xs, yss, len(sp) - len(rs))
         for clf in clfs:
-            reps = [cross_validate(X, yc, classifier=clf, folds=10, seed=fs)
-                    for fs in range(args.fold_seeds)]
+            reps = [cv(X, yc, clf, fs) for fs in range(args.fold_seeds)]
             rates = np.array([r.rate for r in reps])
-            own = cross_validate(X, yc, classifier=clf, folds=10, seed=seed)
+            own = cv(X, yc, clf, seed)
             row = {"seed": seed, "classifier": clf, "n": len(recs),
                    "failed": len(specs) - len(recs), "container_rate": own.rate,
                    "container_rate_fold_mean": float(rates.mean()),
@@ -80,11 +83,9 @@ def main(argv=None) -> int:
                    "container_per_class": own.per_class(), "state_rate": {}, "f_sweep": {}}
             for name in sorted(set(yc.tolist())):
                 m = yc == name
-                row["state_rate"][name] = cross_validate(X[m], ys[m], classifier=clf, folds=10,
-                                                         seed=seed).rate
+                row["state_rate"][name] = cv(X[m], ys[m], clf, seed).rate
             for f, (Xs, yss, nf) in sweep.items():
-                row["f_sweep"][f"{f:g}"] = cross_validate(Xs, yss, classifier=clf, folds=10,
-                                                          seed=seed).rate
+                row["f_sweep"][f"{f:g}"] = cv(Xs, yss, clf, seed).rate
                 row["f_sweep_failed_" + f"{f:g}"] = nf
             rows.append(row)
             print(f"grasp seed {seed} ({len(recs)} grasps, {row['failed']} failed) {clf:6s}: "
