@@ -14,7 +14,7 @@ Usage::
 simulated here). For every file and classifier it prints the container rate of the app (fold
 seed S) and its mean / sd / range over fold seeds 0..N-1, the state rate given each container
 (fold seed S), and with ``--sweep-trials N`` the Odwalla state rate at 17 / 20 / 23 N (Table
-7.2); then the forest's container confusion summed over files and fold seeds, and over all
+7.2); then the first classifier's container confusion summed over files and fold seeds, and over all
 files the mean and sd of each figure (the spread between grasp sets).
 """
 
