@@ -2,7 +2,7 @@
 
 Usage::
 
-    python -m mmlearn.apps.tactile_state --train DIR [--test DIR] [--classifier tree|forest]
+    python -m mmlearn.apps.tactile_state --train DIR [--test DIR] [--classifier tree|forest|boost]
         [--include-full-coke] [--folds 10] [--steady-average] [--plot FILE] --seed S [--json]
 
 ``DIR`` holds iCub grasp dataset files ``<label>_<trial>.txt`` (format: README.txt of the data
@@ -18,7 +18,8 @@ entropy-criterion CART). On the shared iCub trials (10 classes x 10 trials) 10-f
 0.86-0.90 for the tree and 0.95-0.97 for a random forest of 300 such trees over seeds 0-4
 (benchmarks/bench_tactile_state.py prints these figures): the six features are noisy single
 readings and averaging many trees cancels much of that noise, so the forest is the default.
-The run also reports the other classifier's rate (``compare``).
+Gradient boosting (``--classifier boost``) is offered as a third. The run also reports the
+other classifiers' rates (``compare``).
 
 ``--json`` prints one object (real-data mode)::
 
@@ -30,7 +31,7 @@ The run also reports the other classifier's rate (``compare``).
 **Simulation mode** (``--f-target N`` without ``--train``)::
 
     python -m mmlearn.apps.tactile_state --f-target 20 [--trials 16] [--f-sweep]
-        [--sweep-trials 24] [--classifier tree|forest] [--results FILE] [--jobs J]
+        [--sweep-trials 24] [--classifier tree|forest|boost] [--results FILE] [--jobs J]
         [--plot FILE] [--meshcat] [--html-out FILE] --seed S [--json]
 
 The Drake gripper (:mod:`mmlearn.diagrams.tactile_grasp`: PR2-like fingertip pads, the
@@ -38,7 +39,7 @@ switching controller of Eq. 7.8 probing with ``f_target`` N per finger) squeezes
 instances of the four container classes of Sec. 7.1.3 in each of their internal states
 (:mod:`mmlearn.models.containers`; cans have no ``empty_closed``), ``--trials`` grasps per
 (class, state). The features come only from the simulated finger encoders and taxel pads.
-Reports (10-fold CV, ``--classifier``; the other classifier in ``compare``):
+Reports (10-fold CV, ``--classifier``; the other classifiers in ``compare``):
 ``container_rate`` (class from all grasps), ``state_rate_by_container`` {class: rate of the
 state given the class}, ``combined_rate`` (all class x state labels) and
 ``combined_rate_without_water`` (the thesis' 11-label experiment). ``--f-sweep`` adds Table
@@ -92,7 +93,7 @@ class TactileStateConfig:
     Attributes:
         train: folder of iCub grasp files to train on.
         test: folder of files to score; None: ``folds``-fold cross-validation on ``train``.
-        classifier: "forest" or "tree".
+        classifier: "forest", "tree" or "boost".
         include_full_coke: keep the full_coke trials.
         folds: cross-validation folds.
         seed: random seed (fold assignment, forest).
@@ -532,7 +533,8 @@ def main(argv=None) -> int:
     ap.add_argument("--test", metavar="DIR", default=None,
                     help="folder of grasp files to score (default: cross-validation on --train)")
     ap.add_argument("--classifier", choices=CLASSIFIERS, default="forest",
-                    help="random forest (default) or the thesis' decision tree")
+                    help="random forest (default), the thesis' decision tree or gradient "
+                         "boosting; the others' rates are reported as compare")
     ap.add_argument("--include-full-coke", action="store_true",
                     help="keep the full_coke trials (marked unreliable by the data set's author)")
     ap.add_argument("--folds", type=pos_int, default=10,

@@ -43,7 +43,10 @@ def main(argv=None):
     ap.add_argument("--data", default=str(DEFAULT))
     ap.add_argument("--seeds", type=int, default=5)
     ap.add_argument("--json", action="store_true")
+    ap.add_argument("--classifiers", default="tree,forest",
+                    help="comma-separated: tree, forest, boost (gradient boosting)")
     args = ap.parse_args(argv)
+    clfs = [c for c in args.classifiers.split(",") if c]
     trials, _ = load_icub_dir(args.data)
     y = np.array([t.label for t in trials])
     num = np.array([t.trial for t in trials])
@@ -56,7 +59,7 @@ def main(argv=None):
         t_feat = (time.process_time() - c0) / len(grasps)
         key = "steady_average" if avg else "thesis_single_sample"
         res[key] = {"feature_cpu_ms_per_grasp": 1e3 * t_feat}
-        for clf in ("tree", "forest"):
+        for clf in clfs:
             c0 = time.process_time()
             cv = [cross_validate(X, y, classifier=clf, seed=s).rate for s in range(args.seeds)]
             t_cv = (time.process_time() - c0) / args.seeds
@@ -81,7 +84,7 @@ def main(argv=None):
     for key in ("thesis_single_sample", "steady_average"):
         r = res[key]
         print(f"\n{key}  (features {r['feature_cpu_ms_per_grasp']:.2f} ms CPU per grasp)")
-        for clf in ("tree", "forest"):
+        for clf in clfs:
             q = r[clf]
             f = lambda v: f"{np.mean(v):.3f} [{min(v):.2f}-{max(v):.2f}]"  # noqa: E731
             print(f"  {clf:6s} 10-fold CV {f(q['cv10'])}  1-5->6-10 {f(q['train1to5_test6to10'])}"

@@ -1,40 +1,57 @@
-"""How much of the simulated container-class rate (thesis Sec. 7.2, target 0.939) is noise
-of the 10-fold cross-validation and how much differs between grasp sets.
+"""Simulated container grasps over several grasp seeds (thesis Sec. 7.1.3, Fig. 7.7b, Table
+7.2): container rate, state given container and the Odwalla probing-force sweep, per seed and
+averaged, for every classifier; and how much of the container rate is noise of the 10-fold
+cross-validation.
 
 Usage::
 
     OPENBLAS_NUM_THREADS=1 python benchmarks/bench_tactile_state_seeds.py RESULTS.jsonl:S [...]
-        [--fold-seeds 10] [--trials 10] [--f-target 20]
+        [--fold-seeds 10] [--trials 10] [--f-target 20] [--sweep-trials 0]
+        [--classifiers forest,tree,boost] [--json]
 
 ``RESULTS.jsonl:S``: the grasps file of ``python -m mmlearn.apps.tactile_state --f-target 20
---trials 10 --seed S --results RESULTS.jsonl`` (nothing is simulated here). For every file it
-prints the container rate of the app (fold seed S) and its mean / sd / range over fold seeds
-0..N-1 for the random forest and the decision tree, the forest's confusion matrix summed over
-the fold seeds, and over all files the mean and sd of both (the spread between grasp sets).
+--trials 10 --seed S --results RESULTS.jsonl [--f-sweep --sweep-trials N]`` (nothing is
+simulated here). For every file and classifier it prints the container rate of the app (fold
+seed S) and its mean / sd / range over fold seeds 0..N-1, the state rate given each container
+(fold seed S), and with ``--sweep-trials N`` the Odwalla state rate at 17 / 20 / 23 N (Table
+7.2); then the first classifier's container confusion summed over files and fold seeds, and over all
+files the mean and sd of each figure (the spread between grasp sets).
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 
 import numpy as np
 
 
 def main(argv=None) -> int:
     from mmlearn.apps._sweep import load_results
-    from mmlearn.apps.tactile_state import _sim_features, _sim_specs
+    from mmlearn.apps.tactile_state import SWEEP_FORCES, _sim_features, _sim_specs
     from mmlearn.models.containers import CONTAINER_CLASSES
-    from mmlearn.models.tactile_state import cross_validate
+    from mmlearn.models.tactile_state import CLASSIFIERS, cross_validate
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("results", nargs="+", help="RESULTS.jsonl:SEED")
     ap.add_argument("--fold-seeds", type=int, default=10)
     ap.add_argument("--trials", type=int, default=10)
     ap.add_argument("--f-target", type=float, default=20.0)
+    ap.add_argument("--sweep-trials", type=int, default=0,
+                    help="grasps per Odwalla state and force of the app's --f-sweep (0: none)")
+    ap.add_argument("--classifiers", default=",".join(CLASSIFIERS))
+    ap.add_argument("--json", action="store_true", help="also print all figures as JSON")
     args = ap.parse_args(argv)
-    app_rate = {"forest": [], "tree": []}
-    fold_mean = {"forest": [], "tree": []}
-    total = None
+    clfs = [c for c in args.classifiers.split(",") if c]
+    for c in clfs:
+        if c not in CLASSIFIERS:
+            ap.error(f"--classifiers: unknown {c!r}; choose from {', '.join(CLASSIFIERS)}")
+    def cv(X, y, clf, seed):  # 10-fold, fewer when a class has fewer grasps (as the app)
+        k = int(min(10, np.unique(y, return_counts=True)[1].min()))
+        return cross_validate(X, y, classifier=clf, folds=k, seed=seed)
+
+    rows = []  # one dict per (file, classifier)
+    total, labels = None, None
     for item in args.results:
         path, _, seed = item.rpartition(":")
         if not path or not seed.isdigit():
@@ -46,28 +63,65 @@ def main(argv=None) -> int:
         if not recs:
             ap.error(f"{path}: no grasp of seed {seed} with --trials {args.trials} "
                      f"--f-target {args.f_target:g}")
-        X, yc, _, _ = _sim_features(recs)
-        for clf in ("forest", "tree"):
-            reps = [cross_validate(X, yc, classifier=clf, folds=10, seed=fs)
-                    for fs in range(args.fold_seeds)]
+        X, yc, ys, _ = _sim_features(recs)
+        sweep = {}
+        if args.sweep_trials:
+            for f in SWEEP_FORCES:
+                sp = _sim_specs(["odwalla"], f, args.sweep_trials, seed + 7919)
+                rs = [by[s.key]["record"] for s in sp if s.key in by and by[s.key].get("record")]
+                if rs:
+                    Xs, _, yss, _ = _sim_features(rs)
+                    sweep[f] = (Xs, yss, len(sp) - len(rs))
+        for clf in clfs:
+            reps = [cv(X, yc, clf, fs) for fs in range(args.fold_seeds)]
             rates = np.array([r.rate for r in reps])
-            own = cross_validate(X, yc, classifier=clf, folds=10, seed=seed).rate
-            app_rate[clf].append(own)
-            fold_mean[clf].append(rates.mean())
-            print(f"grasp seed {seed} ({len(recs)} grasps) {clf:6s}: app (fold seed {seed}) "
-                  f"{own:.3f}; fold seeds 0-{args.fold_seeds - 1}: mean {rates.mean():.3f} sd "
-                  f"{rates.std():.3f} range {rates.min():.3f}-{rates.max():.3f}")
-            if clf == "forest":
+            own = cv(X, yc, clf, seed)
+            row = {"seed": seed, "classifier": clf, "n": len(recs),
+                   "failed": len(specs) - len(recs), "container_rate": own.rate,
+                   "container_rate_fold_mean": float(rates.mean()),
+                   "container_rate_fold_sd": float(rates.std()),
+                   "container_per_class": own.per_class(), "state_rate": {}, "f_sweep": {}}
+            for name in sorted(set(yc.tolist())):
+                m = yc == name
+                row["state_rate"][name] = cv(X[m], ys[m], clf, seed).rate
+            for f, (Xs, yss, nf) in sweep.items():
+                row["f_sweep"][f"{f:g}"] = cv(Xs, yss, clf, seed).rate
+                row["f_sweep_failed_" + f"{f:g}"] = nf
+            rows.append(row)
+            print(f"grasp seed {seed} ({len(recs)} grasps, {row['failed']} failed) {clf:6s}: "
+                  f"container {own.rate:.3f} (fold seeds 0-{args.fold_seeds - 1}: mean "
+                  f"{rates.mean():.3f} sd {rates.std():.3f} range {rates.min():.3f}-"
+                  f"{rates.max():.3f}); state | " + ", ".join(
+                      f"{k} {v:.3f}" for k, v in row["state_rate"].items())
+                  + ("; Odwalla at " + " / ".join(row["f_sweep"]) + " N: " + " / ".join(
+                      f"{v:.3f}" for v in row["f_sweep"].values()) if row["f_sweep"] else ""))
+            if clf == clfs[0]:
                 C = sum(r.confusion for r in reps).astype(int)
                 total = C if total is None else total + C
                 labels = reps[0].labels
-    print(f"forest confusion summed over files and fold seeds (rows true, columns predicted; "
-          f"{', '.join(labels)}):\n{total}")
-    if len(args.results) > 1:
-        for clf in ("forest", "tree"):
-            a, m = np.array(app_rate[clf]), np.array(fold_mean[clf])
-            print(f"{clf}: over {len(a)} grasp sets: app rate mean {a.mean():.3f} sd "
-                  f"{a.std(ddof=1):.3f}; fold-averaged mean {m.mean():.3f} sd {m.std(ddof=1):.3f}")
+    print(f"{clfs[0]} container confusion summed over files and fold seeds (rows true, columns "
+          f"predicted; {', '.join(labels)}):\n{total}")
+    summary = {}
+    for clf in clfs:
+        rr = [r for r in rows if r["classifier"] == clf]
+        a = np.array([r["container_rate"] for r in rr])
+        m = np.array([r["container_rate_fold_mean"] for r in rr])
+        sd = a.std(ddof=1) if len(a) > 1 else 0.0
+        s = {"container_rate_mean": float(a.mean()), "container_rate_sd": float(sd),
+             "container_rate_fold_mean": float(m.mean()),
+             "state_rate_mean": {k: float(np.mean([r["state_rate"][k] for r in rr]))
+                                 for k in rr[0]["state_rate"]},
+             "f_sweep_mean": {k: float(np.mean([r["f_sweep"][k] for r in rr
+                                                if k in r["f_sweep"]]))
+                              for k in rr[0]["f_sweep"]}}
+        summary[clf] = s
+        print(f"{clf}: over {len(a)} grasp sets: container {s['container_rate_mean']:.3f} sd "
+              f"{sd:.3f} (fold-averaged {m.mean():.3f}); state | " + ", ".join(
+                  f"{k} {v:.3f}" for k, v in s["state_rate_mean"].items())
+              + ("; Odwalla at " + " / ".join(s["f_sweep_mean"]) + " N: " + " / ".join(
+                  f"{v:.3f}" for v in s["f_sweep_mean"].values()) if s["f_sweep_mean"] else ""))
+    if args.json:
+        print(json.dumps({"rows": rows, "summary": summary}, indent=1))
     return 0
 
 

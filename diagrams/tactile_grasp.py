@@ -22,7 +22,8 @@ from pydrake.geometry import SceneGraphConfig
 from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import (AddMultibodyPlant, MultibodyPlantConfig)
-from pydrake.multibody.tree import PdControllerGains, PrismaticSpring
+from pydrake.multibody.tree import (FixedOffsetFrame, PdControllerGains, PrismaticJoint,
+                                    PrismaticSpring, SpatialInertia)
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import LogVectorOutput
@@ -39,6 +40,10 @@ __all__ = ["TactileGraspConfig", "MakeTactileGraspDiagram", "simulate_grasp", "P
            "container_grasp_trial", "grasp_from_record"]
 
 _APPROX = "sap"
+#: damping of the self-centring palm slide in the ch. 7 container grasps, N s/m: the sliding
+#: resistance of a free-standing container pushed by the first finger (0.2 N at the fingers'
+#: 10 mm/s, below the 1 N contact threshold)
+PALM_SLIDE_DAMPING = 20.0
 PAD_LAYOUTS = {"pr2": PAD_PR2, "ch6": PAD_CH6}
 
 # pad frame P in the finger body: x_P across, y_P towards the fingertip (-z), z_P inward
@@ -68,6 +73,14 @@ class TactileGraspConfig:
         encoder_noise: finger-distance noise, m.
         seed: noise seed.
         gripper: gripper dimensions.
+        palm_slide_damping: None (default): the palm is welded at the grasp pose and an
+            object placed ``offset`` off-centre is squeezed one-sidedly by the first finger
+            until the second arrives. A number (N s/m): the palm hangs on a free horizontal
+            slide along the closing direction x with this viscous damping, so the gripper
+            centres itself on the object as a parallel gripper does on a free-standing
+            container (which slides on the table under the first finger until the second
+            touches); the damping stands for that sliding resistance (at 10 mm/s, 20 N s/m
+            gives 0.2 N, below the 1 N contact threshold).
     """
 
     pad: str = "pr2"
@@ -88,6 +101,7 @@ class TactileGraspConfig:
     encoder_noise: float = 5e-5
     seed: int = 0
     gripper: GripperGeometry = field(default_factory=GripperGeometry)
+    palm_slide_damping: float | None = None
 
 
 
@@ -144,8 +158,24 @@ def MakeTactileGraspDiagram(config: TactileGraspConfig, *, container: ContainerI
     parser = Parser(plant)
     gripper = parser.AddModelsFromString(gripper_sdf(layout, g), "sdf")[0]
     pad_z = pad_z_of(layout, g)
-    mount = plant.WeldFrames(plant.world_frame(), plant.GetFrameByName("palm", gripper),
-                             RigidTransform([0.0, 0.0, c.grasp_height + pad_z]))
+    X_WM = RigidTransform([0.0, 0.0, c.grasp_height + pad_z])
+    palm = plant.GetFrameByName("palm", gripper)
+    if c.palm_slide_damping is None:
+        mount = plant.WeldFrames(plant.world_frame(), palm, X_WM)
+    else:
+        d_slide = float(c.palm_slide_damping)
+        if not (np.isfinite(d_slide) and d_slide >= 0):
+            raise ValueError(f"palm_slide_damping: expected a damping >= 0 N s/m or None, "
+                             f"got {c.palm_slide_damping!r}")
+        # a light carriage in its own model instance (the gripper's state stays the two
+        # fingers) slides along x; the palm is welded to it (the wrist sensor's mount)
+        inst = plant.AddModelInstance("palm_carriage")
+        carriage = plant.AddRigidBody("carriage", inst,
+                                      SpatialInertia.SolidBoxWithMass(0.05, 0.02, 0.02, 0.02))
+        rail = plant.AddFrame(FixedOffsetFrame("palm_rail", plant.world_frame(), X_WM))
+        plant.AddJoint(PrismaticJoint("palm_slide", rail, carriage.body_frame(),
+                                      [1.0, 0.0, 0.0], damping=d_slide))
+        mount = plant.WeldFrames(carriage.body_frame(), palm, RigidTransform())
     cont = None
     if container is not None:
         cont = parser.AddModelsFromString(container_sdf(container), "sdf")[0]
@@ -277,11 +307,14 @@ def simulate_grasp(config: TactileGraspConfig, *, container: ContainerInstance |
 
 def container_grasp_trial(*, seed: int, container: str, state: str, f_target: float = 20.0,
                           v_target: float = 0.02, offset_sd: float = 0.001,
-                          duration: float = 2.6, hold_time: float = 1.0) -> dict:
+                          duration: float = 2.6, hold_time: float = 1.0,
+                          palm_slide_damping: float | None = PALM_SLIDE_DAMPING) -> dict:
     """One ch. 7 probing grasp of a random instance of ``container`` in ``state`` (a pure
     function of its arguments, for :mod:`mmlearn.apps._sweep`). The instance (sizes,
     stiffnesses, fill level), its placement (lateral offset ~ N(0, ``offset_sd``) m) and
-    the sensor noise are drawn from ``seed``. Returns a JSON-able record: the recorded
+    the sensor noise are drawn from ``seed``. The gripper centres itself on the container
+    (``palm_slide_damping`` N s/m, see :class:`TactileGraspConfig`; None: welded palm, the
+    first finger alone squeezes an off-centre container until the second arrives). Returns a JSON-able record: the recorded
     series ``t``, ``p``, ``f``, ``finger_force`` (what the features are computed from), the
     labels ``container`` / ``state`` and the instance's parameters (for reference only)."""
     rng = np.random.default_rng([int(seed), 13])
@@ -289,7 +322,7 @@ def container_grasp_trial(*, seed: int, container: str, state: str, f_target: fl
     offset = float(rng.normal(0.0, offset_sd))
     cfg = TactileGraspConfig(pad="pr2", f_target=f_target, v_target=v_target,
                              duration=duration, hold_time=hold_time, offset=offset,
-                             seed=int(seed))
+                             seed=int(seed), palm_slide_damping=palm_slide_damping)
     g = simulate_grasp(cfg, container=inst)
     return {"t": g.t.tolist(), "p": g.p.tolist(), "f": g.f.tolist(),
             "finger_force": g.finger_force.tolist(), "container": container, "state": state,

@@ -178,7 +178,7 @@ def test_cli_quick_runs_cv_and_split(tmp_path, capsys):
     assert d["labels"] == ["blue_bear", "book", "med_coke", "none"]
     assert np.array(d["confusion"]).sum() == 16
     assert 0.0 <= d["rate"] <= 1.0 and set(d["per_class"]) == set(d["labels"])
-    assert set(d["compare"]) == {"forest"} and d["no_contact"]["none"] == 4
+    assert set(d["compare"]) == {"forest", "boost"} and d["no_contact"]["none"] == 4
     assert plot.stat().st_size > 10_000
     # train on trials 1-2, test on 3-4
     tr, te = tmp_path / "tr", tmp_path / "te"

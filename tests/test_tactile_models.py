@@ -344,11 +344,12 @@ def test_classifiers_and_cross_validation_on_separable_features():
     rng = np.random.default_rng(0)
     X = np.concatenate([rng.normal(0, 1, (30, 6)), rng.normal(4, 1, (30, 6))])
     y = np.array(["a"] * 30 + ["b"] * 30)
-    for kind in ("tree", "forest"):
+    for kind in ("tree", "forest", "boost"):
         rep = cross_validate(X, y, classifier=kind, folds=10 if kind == "tree" else 3, seed=0)
         assert rep.rate > 0.9 and rep.confusion.sum() == 60
         assert set(rep.per_class()) == {"a", "b"}
     assert make_classifier("tree").criterion == "entropy"
+    assert type(make_classifier("boost")).__name__ == "GradientBoostingClassifier"
     rep, _ = evaluate_split(X[::2], y[::2], X[1::2], y[1::2], classifier="tree")
     assert rep.rate > 0.85
     # random labels give chance level, not a perfect score

@@ -227,6 +227,33 @@ def test_switching_controller_has_no_impact_spike_pure_force_has():
     assert peaks["force"] > 10.0 * 1.2, peaks  # the pure force controller's impact spike
 
 
+def test_self_centring_palm_makes_p_first_independent_of_placement():
+    """A container placed 2 mm off-centre: with the welded palm the first finger squeezes the
+    flimsy wall alone until the second finger touches (p_first several mm short of the
+    centred grasp); with the self-centring palm slide p_first is the centred one."""
+    from mmlearn.diagrams.tactile_grasp import (PALM_SLIDE_DAMPING, TactileGraspConfig,
+                                                simulate_grasp)
+    from mmlearn.models.tactile_state import extract_grasp_features
+
+    inst = sample_container("water", "empty_open", np.random.default_rng(3))
+
+    def p_first(offset, slide):
+        cfg = TactileGraspConfig(pad="pr2", f_target=20.0, duration=1.7, hold_time=1.0,
+                                 offset=offset, seed=1, taxel_noise=0.0, encoder_noise=0.0,
+                                 palm_slide_damping=slide)
+        ft = extract_grasp_features(simulate_grasp(cfg, container=inst), contact_force=1.0,
+                                    rest_velocity=0.002)
+        assert ft.contact
+        return ft.values[0]
+
+    centred = p_first(0.0, PALM_SLIDE_DAMPING)
+    assert 2 * inst.radius - 0.008 < centred < 2 * inst.radius
+    assert abs(p_first(0.002, PALM_SLIDE_DAMPING) - centred) < 5e-4
+    assert p_first(0.002, None) < centred - 0.005  # the welded palm's one-sided squeeze
+    with pytest.raises(ValueError, match="palm_slide_damping"):
+        simulate_grasp(TactileGraspConfig(palm_slide_damping=-1.0))
+
+
 def test_grasp_of_nothing_is_no_contact():
     from mmlearn.diagrams.tactile_grasp import TactileGraspConfig, simulate_grasp
     from mmlearn.models.tactile_state import extract_grasp_features
