@@ -768,12 +768,17 @@ def _gap_mask(d, valid, fx, cfg, dzero=None):
         A *= np.float32(sub)
         N *= np.float32(sub)
         meas = N >= max(3.0, Lw / 3.0)
-        well = N >= 0.8 * Lw  # side lines: well measured
+        # side lines: well measured and not bent (one array for both side tests)
+        side_ok = (N >= 0.8 * Lw) & ~bent
         m = A / np.maximum(N, np.float32(1.0))
         m[~meas] = np.nan
         n_rows = m.shape[0]
         g = np.zeros(m.shape, bool)
         zg = np.zeros(m.shape, np.float32)  # depth of the side lines where hit
+        Wm = m.shape[1]
+        mf = m.reshape(-1)
+        okf = side_ok.reshape(-1)
+        unmeas = ~meas
         for o in cfg.gap_offsets_px:
             o = int(o)
             if n_rows <= 4 * o:
@@ -782,25 +787,37 @@ def _gap_mask(d, valid, fx, cfg, dzero=None):
             r = slice(2 * o, n_rows - 2 * o)
             c = m[r]
             up, dn = m[o:n_rows - 3 * o], m[3 * o:n_rows - o]
-            up2, dn2 = m[:n_rows - 4 * o], m[4 * o:]
             ref = np.float32(0.5) * (up + dn)
             z2 = ref * ref
             thr = np.maximum(np.float32(cfg.gap_depth), np.float32(cfg.gap_depth_per_m2) * z2)
-            tol = np.maximum(np.float32(0.01), np.float32(cfg.gap_side_tolerance_per_m2) * z2)
+            # the selective test first on every line (behind its sides, or unmeasured), the
+            # other tests only on its few candidates (same float32 arithmetic element-wise)
             with np.errstate(invalid="ignore"):
-                hit = np.abs(up - dn) < tol  # False where either side is NaN
+                cand = (c - ref > thr) | unmeas[r]
+            idx = np.flatnonzero(cand)
+            if not len(idx):
+                continue
+            ic = idx + (2 * o) * Wm  # flat index of the line in m
+            ou = ic - o * Wm         # side lines o and 2 o away
+            od = ic + o * Wm
+            upv, dnv, cv = mf[ou], mf[od], mf[ic]
+            refv = ref.reshape(-1)[idx]
+            z2v = z2.reshape(-1)[idx]
+            thrv = thr.reshape(-1)[idx]
+            tolv = np.maximum(np.float32(0.01), np.float32(cfg.gap_side_tolerance_per_m2) * z2v)
+            with np.errstate(invalid="ignore"):
+                hit = np.abs(upv - dnv) < tolv  # False where either side is NaN
                 # behind the sides' extrapolations too (each side's two lines extended to
                 # the line): a concave crease (an opened door meeting the cabinet's face at
                 # its hinge) lies behind the mean of its sides, not behind their extensions
-                ext = up + dn - np.float32(0.5) * (up2 + dn2)
-                hit &= (c - ext > np.float32(0.5) * thr) | ~meas[r]
-                hit &= well[o:n_rows - 3 * o] & well[3 * o:n_rows - o]
-                hit &= ~(bent[o:n_rows - 3 * o] | bent[3 * o:n_rows - o])
-                hit &= (c - ref > thr) | ~meas[r]
+                ext = upv + dnv - np.float32(0.5) * (mf[ou - o * Wm] + mf[od + o * Wm])
+                hit &= (cv - ext > np.float32(0.5) * thrv) | unmeas.reshape(-1)[ic]
+                hit &= okf[ou] & okf[od]
                 if o > 5:  # only near: a 5 mm reveal's band without return is ~2 + f 0.01 / z px
-                    hit &= ref * np.float32(o - 2) < np.float32(0.01 * fx)
-            g[r] |= hit
-            zg[r][hit] = ref[hit]
+                    hit &= refv * np.float32(o - 2) < np.float32(0.01 * fx)
+            ih = ic[hit]
+            g.reshape(-1)[ih] = True
+            zg.reshape(-1)[ih] = refv[hit]
         if not g.any():
             continue
         # keep runs along the line at least gap_min_length long at their depth
