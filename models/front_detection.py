@@ -398,6 +398,19 @@ def _fit_plane(P: np.ndarray):
     return n, float(-n @ c)
 
 
+def _fit_plane_many(P: np.ndarray):
+    """:func:`_fit_plane` for many points (the full-resolution refits): the centroid as a
+    matrix-vector product (numpy's column mean of a (k, 3) array is a strided reduction, 4x
+    slower); the same plane up to rounding (~1e-16)."""
+    c = (np.ones(len(P)) @ P) * (1.0 / len(P))
+    Q = P - c
+    _, V = np.linalg.eigh(Q.T @ Q)
+    n = V[:, 0]
+    if n @ c > 0:  # towards the camera at the origin
+        n = -n
+    return n, float(-n @ c)
+
+
 def _components(sel, grid_rc, grid_shape):
     img = np.zeros(grid_shape, np.uint8)
     img[grid_rc[sel, 0], grid_rc[sel, 1]] = 1
@@ -538,7 +551,7 @@ def refine_plane_fullres(pl: Plane, Pc, Lmap, stride, off, max_points=20000) -> 
         sel = np.abs(P @ n + d) <= shrink * L
         if sel.sum() < 10:
             return pl
-        n2, d2 = _fit_plane(P[sel])
+        n2, d2 = _fit_plane_many(P[sel])
         if n2 @ pl.n < math.cos(math.radians(10.0)):
             return pl
         n, d = n2, d2
@@ -1288,7 +1301,7 @@ def _refit_plane(Pc, lab_img, center, e1, e2, w, h, K, n_old, L):
     sel = (np.abs(a) <= 0.45 * w) & (np.abs(b) <= 0.45 * h)
     if sel.sum() < 10:
         return None
-    n, d = _fit_plane(P[sel])
+    n, d = _fit_plane_many(P[sel])
     if n @ n_old < math.cos(math.radians(10.0)):
         return None
     return n, d
