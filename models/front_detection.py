@@ -1297,11 +1297,21 @@ def _refit_plane(Pc, lab_img, center, e1, e2, w, h, K, n_old, L):
     if len(P) < 10:
         return None
     q = P - center
-    a, b = q @ e1, q @ e2
-    sel = (np.abs(a) <= 0.45 * w) & (np.abs(b) <= 0.45 * h)
-    if sel.sum() < 10:
+    ab = q @ np.column_stack([e1, e2])
+    sel = (np.abs(ab[:, 0]) <= 0.45 * w) & (np.abs(ab[:, 1]) <= 0.45 * h)
+    k = int(np.count_nonzero(sel))
+    if k < 10:
         return None
-    n, d = _fit_plane_many(P[sel])
+    # the scatter matrix of the selected points from their offsets to the centre (already at
+    # hand, and small: no cancellation to speak of) minus k times their mean's outer product
+    q = q[sel]
+    mq = (np.ones(k) @ q) * (1.0 / k)
+    _, V = np.linalg.eigh(q.T @ q - k * np.outer(mq, mq))
+    n = V[:, 0]
+    cen = center + mq
+    if n @ cen > 0:  # towards the camera at the origin
+        n = -n
+    d = float(-n @ cen)
     if n @ n_old < math.cos(math.radians(10.0)):
         return None
     return n, d
