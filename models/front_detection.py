@@ -1042,20 +1042,22 @@ def _greedy(SC, dims, pid, R, steps, min_cells, alpha, max_iter):
     R = R.copy()
     score = _objective(SC, pid, R, alpha)
     active = np.ones(len(R), bool)
+    # per start, once: its moves (S, 8 k, 4) and the upper bounds of (x0, x1, y0, y1)
+    D = (steps[:, :, None, None] * _MOVES[None, None]).reshape(len(R), -1, 4)
+    hi = dims[pid][:, [1, 1, 0, 0]][:, None, :]
     it = 0
     for it in range(1, int(max_iter) + 1):
         idx = np.flatnonzero(active)
         if len(idx) == 0:
             break
-        cand = (R[idx, None, None, :] + steps[idx, :, None, None] * _MOVES[None, None]
-                ).reshape(len(idx), -1, 4)
-        Hg = dims[pid[idx], 0][:, None]
-        Wg = dims[pid[idx], 1][:, None]
+        cand = R[idx, None, :] + D[idx]
+        # clamped into the grid (a valid index for every candidate); a candidate is legal
+        # when the clamp left it alone and both sides keep min_cells (a side beyond the far
+        # end of the grid then fails the size test)
+        cc = np.minimum(np.maximum(cand, 0), hi[idx])
         mc = min_cells[idx][:, None]
-        ok = ((cand[..., 0] >= 0) & (cand[..., 1] <= Wg) & (cand[..., 2] >= 0)
-              & (cand[..., 3] <= Hg) & (cand[..., 1] - cand[..., 0] >= mc)
+        ok = ((cand == cc).all(axis=-1) & (cand[..., 1] - cand[..., 0] >= mc)
               & (cand[..., 3] - cand[..., 2] >= mc))
-        cc = np.where(ok[..., None], cand, R[idx, None, :])
         sc = _objective(SC, pid[idx][:, None], cc, alpha)
         sc[~ok] = -np.inf
         b = np.argmax(sc, axis=1)
