@@ -1256,13 +1256,16 @@ def _polish_rotation(g: _Grid, R, lab_img, K, cfg, lut):
         todo = [t for t in thetas if t not in cache]
         if todo:
             wins = []
-            for t in todo:
+            k = len(todo)
+            # the windows' cost tables written straight into one stack (no copy)
+            SCk = np.empty((k, Hg + 1, Wg + 1), np.int32)
+            for i, t in enumerate(todo):
                 e1, e2 = _rotate_axes(g.e1, g.e2, math.radians(t))
                 u0, v0 = p @ e1 - 0.5 * w - half, p @ e2 - 0.5 * h - half
                 lab = _warp_labels(lab_img, K, g.o, e1, e2, u0, v0, c, (Hg, Wg))
-                wins.append((e1, e2, u0, v0, lab, _sat_cost(lab, lut)))
-            k = len(todo)
-            Rf, sc, _ = _greedy(np.stack([wn[5] for wn in wins]), np.tile([Hg, Wg], (k, 1)),
+                wins.append((e1, e2, u0, v0, lab,
+                             cv2.integral(cv2.LUT(lab, lut), SCk[i], sdepth=cv2.CV_32S)))
+            Rf, sc, _ = _greedy(SCk, np.tile([Hg, Wg], (k, 1)),
                                 np.arange(k), np.tile(R0, (k, 1)), np.tile(steps_cells, (k, 1)),
                                 np.full(k, min_cells), cfg.alpha, cfg.max_iterations)
             for i, t in enumerate(todo):
