@@ -1549,7 +1549,10 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
     xs = ((np.arange(K.width, dtype=np.float32) - np.float32(K.cx)) * fx)[None, :]
     ys = ((np.arange(K.height, dtype=np.float32) - np.float32(K.cy)) * fy)[:, None]
     dz = np.where(valid, d, np.float32(np.nan))
-    Pc = np.stack([xs * dz, ys * dz, dz], axis=-1)  # (H, W, 3) float32, NaN where invalid
+    Pc = np.empty(d.shape + (3,), np.float32)  # (H, W, 3) float32, NaN where invalid
+    np.multiply(xs, dz, out=Pc[..., 0])
+    np.multiply(ys, dz, out=Pc[..., 1])
+    Pc[..., 2] = dz
     st = int(cfg.ransac_stride_px)
     off = st // 2
     sub_valid = valid[off::st, off::st] & (d[off::st, off::st] <= cfg.max_depth)
