@@ -1274,9 +1274,12 @@ def _polish_rotation(g: _Grid, R, lab_img, K, cfg, lut):
         return [cache[t] for t in thetas]
 
     theta = 0.0
-    best_score, best = fit([0.0])[0]
     offsets = sorted({s * f * cfg.rotation_step_deg for f in cfg.rotation_step_factors
                       for s in (1, -1)})
+    # the start and the first round's rotations in one batched greedy run (the round always
+    # runs; each window's moves are independent of the others': the same results)
+    first = [round(theta + o, 9) for o in offsets] if int(cfg.max_iterations) > 0 else []
+    best_score, best = fit(list(dict.fromkeys([0.0] + first)))[0]
     for _ in range(int(cfg.max_iterations)):
         thetas = [round(theta + o, 9) for o in offsets]
         res = fit(thetas)
