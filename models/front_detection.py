@@ -688,7 +688,8 @@ def _surface_check(lab, S, Lm, win):
     r = win // 2
     y0, y1, x0, x1 = max(0, y - r), min(lab.shape[0], y + h + r), max(0, x - r), min(
         lab.shape[1], x + w + r)
-    inp = (m8[y0:y1, x0:x1] > 0).astype(np.float32)
+    inpb = m8[y0:y1, x0:x1] > 0
+    inp = inpb.astype(np.float32)
     den = cv2.boxFilter(inp, -1, (win, win), normalize=False)
     # relative to the plane refitted to the in-plane pixels' distances (an affine function
     # of the pixel, least squares), not to the fitted plane: a plane 1-2 deg off (a sliding
@@ -716,7 +717,8 @@ def _surface_check(lab, S, Lm, win):
                 + np.float32(coef[2]))
         Sb = Sb - ramp
     num = cv2.boxFilter(Sb * inp, -1, (win, win), normalize=False)
-    bad = (inp > 0) & (np.abs(num) > Lm[y0:y1, x0:x1] * np.maximum(den, np.float32(1.0)))
+    # den >= 1 at every in-plane pixel (its own): max(den, 1) = den where it matters
+    bad = inpb & (np.abs(num) > Lm[y0:y1, x0:x1] * den)
     lab[y0:y1, x0:x1][bad] = OFF_SURFACE
 
 
