@@ -398,6 +398,19 @@ def _fit_plane(P: np.ndarray):
     return n, float(-n @ c)
 
 
+def _fit_plane_many(P: np.ndarray):
+    """:func:`_fit_plane` for many points (the full-resolution refits): the centroid as a
+    matrix-vector product (numpy's column mean of a (k, 3) array is a strided reduction, 4x
+    slower); the same plane up to rounding (~1e-16)."""
+    c = (np.ones(len(P)) @ P) * (1.0 / len(P))
+    Q = P - c
+    _, V = np.linalg.eigh(Q.T @ Q)
+    n = V[:, 0]
+    if n @ c > 0:  # towards the camera at the origin
+        n = -n
+    return n, float(-n @ c)
+
+
 def _components(sel, grid_rc, grid_shape):
     img = np.zeros(grid_shape, np.uint8)
     img[grid_rc[sel, 0], grid_rc[sel, 1]] = 1
@@ -538,7 +551,7 @@ def refine_plane_fullres(pl: Plane, Pc, Lmap, stride, off, max_points=20000) -> 
         sel = np.abs(P @ n + d) <= shrink * L
         if sel.sum() < 10:
             return pl
-        n2, d2 = _fit_plane(P[sel])
+        n2, d2 = _fit_plane_many(P[sel])
         if n2 @ pl.n < math.cos(math.radians(10.0)):
             return pl
         n, d = n2, d2
@@ -675,7 +688,8 @@ def _surface_check(lab, S, Lm, win):
     r = win // 2
     y0, y1, x0, x1 = max(0, y - r), min(lab.shape[0], y + h + r), max(0, x - r), min(
         lab.shape[1], x + w + r)
-    inp = (m8[y0:y1, x0:x1] > 0).astype(np.float32)
+    inpb = m8[y0:y1, x0:x1] > 0
+    inp = inpb.astype(np.float32)
     den = cv2.boxFilter(inp, -1, (win, win), normalize=False)
     # relative to the plane refitted to the in-plane pixels' distances (an affine function
     # of the pixel, least squares), not to the fitted plane: a plane 1-2 deg off (a sliding
@@ -703,7 +717,8 @@ def _surface_check(lab, S, Lm, win):
                 + np.float32(coef[2]))
         Sb = Sb - ramp
     num = cv2.boxFilter(Sb * inp, -1, (win, win), normalize=False)
-    bad = (inp > 0) & (np.abs(num) > Lm[y0:y1, x0:x1] * np.maximum(den, np.float32(1.0)))
+    # den >= 1 at every in-plane pixel (its own): max(den, 1) = den where it matters
+    bad = inpb & (np.abs(num) > Lm[y0:y1, x0:x1] * den)
     lab[y0:y1, x0:x1][bad] = OFF_SURFACE
 
 
@@ -768,12 +783,17 @@ def _gap_mask(d, valid, fx, cfg, dzero=None):
         A *= np.float32(sub)
         N *= np.float32(sub)
         meas = N >= max(3.0, Lw / 3.0)
-        well = N >= 0.8 * Lw  # side lines: well measured
+        # side lines: well measured and not bent (one array for both side tests)
+        side_ok = (N >= 0.8 * Lw) & ~bent
         m = A / np.maximum(N, np.float32(1.0))
         m[~meas] = np.nan
         n_rows = m.shape[0]
         g = np.zeros(m.shape, bool)
         zg = np.zeros(m.shape, np.float32)  # depth of the side lines where hit
+        Wm = m.shape[1]
+        mf = m.reshape(-1)
+        okf = side_ok.reshape(-1)
+        unmeas = ~meas
         for o in cfg.gap_offsets_px:
             o = int(o)
             if n_rows <= 4 * o:
@@ -782,25 +802,37 @@ def _gap_mask(d, valid, fx, cfg, dzero=None):
             r = slice(2 * o, n_rows - 2 * o)
             c = m[r]
             up, dn = m[o:n_rows - 3 * o], m[3 * o:n_rows - o]
-            up2, dn2 = m[:n_rows - 4 * o], m[4 * o:]
             ref = np.float32(0.5) * (up + dn)
             z2 = ref * ref
             thr = np.maximum(np.float32(cfg.gap_depth), np.float32(cfg.gap_depth_per_m2) * z2)
-            tol = np.maximum(np.float32(0.01), np.float32(cfg.gap_side_tolerance_per_m2) * z2)
+            # the selective test first on every line (behind its sides, or unmeasured), the
+            # other tests only on its few candidates (same float32 arithmetic element-wise)
             with np.errstate(invalid="ignore"):
-                hit = np.abs(up - dn) < tol  # False where either side is NaN
+                cand = (c - ref > thr) | unmeas[r]
+            idx = np.flatnonzero(cand)
+            if not len(idx):
+                continue
+            ic = idx + (2 * o) * Wm  # flat index of the line in m
+            ou = ic - o * Wm         # side lines o and 2 o away
+            od = ic + o * Wm
+            upv, dnv, cv = mf[ou], mf[od], mf[ic]
+            refv = ref.reshape(-1)[idx]
+            z2v = z2.reshape(-1)[idx]
+            thrv = thr.reshape(-1)[idx]
+            tolv = np.maximum(np.float32(0.01), np.float32(cfg.gap_side_tolerance_per_m2) * z2v)
+            with np.errstate(invalid="ignore"):
+                hit = np.abs(upv - dnv) < tolv  # False where either side is NaN
                 # behind the sides' extrapolations too (each side's two lines extended to
                 # the line): a concave crease (an opened door meeting the cabinet's face at
                 # its hinge) lies behind the mean of its sides, not behind their extensions
-                ext = up + dn - np.float32(0.5) * (up2 + dn2)
-                hit &= (c - ext > np.float32(0.5) * thr) | ~meas[r]
-                hit &= well[o:n_rows - 3 * o] & well[3 * o:n_rows - o]
-                hit &= ~(bent[o:n_rows - 3 * o] | bent[3 * o:n_rows - o])
-                hit &= (c - ref > thr) | ~meas[r]
+                ext = upv + dnv - np.float32(0.5) * (mf[ou - o * Wm] + mf[od + o * Wm])
+                hit &= (cv - ext > np.float32(0.5) * thrv) | unmeas.reshape(-1)[ic]
+                hit &= okf[ou] & okf[od]
                 if o > 5:  # only near: a 5 mm reveal's band without return is ~2 + f 0.01 / z px
-                    hit &= ref * np.float32(o - 2) < np.float32(0.01 * fx)
-            g[r] |= hit
-            zg[r][hit] = ref[hit]
+                    hit &= refv * np.float32(o - 2) < np.float32(0.01 * fx)
+            ih = ic[hit]
+            g.reshape(-1)[ih] = True
+            zg.reshape(-1)[ih] = refv[hit]
         if not g.any():
             continue
         # keep runs along the line at least gap_min_length long at their depth
@@ -1012,20 +1044,22 @@ def _greedy(SC, dims, pid, R, steps, min_cells, alpha, max_iter):
     R = R.copy()
     score = _objective(SC, pid, R, alpha)
     active = np.ones(len(R), bool)
+    # per start, once: its moves (S, 8 k, 4) and the upper bounds of (x0, x1, y0, y1)
+    D = (steps[:, :, None, None] * _MOVES[None, None]).reshape(len(R), -1, 4)
+    hi = dims[pid][:, [1, 1, 0, 0]][:, None, :]
     it = 0
     for it in range(1, int(max_iter) + 1):
         idx = np.flatnonzero(active)
         if len(idx) == 0:
             break
-        cand = (R[idx, None, None, :] + steps[idx, :, None, None] * _MOVES[None, None]
-                ).reshape(len(idx), -1, 4)
-        Hg = dims[pid[idx], 0][:, None]
-        Wg = dims[pid[idx], 1][:, None]
+        cand = R[idx, None, :] + D[idx]
+        # clamped into the grid (a valid index for every candidate); a candidate is legal
+        # when the clamp left it alone and both sides keep min_cells (a side beyond the far
+        # end of the grid then fails the size test)
+        cc = np.minimum(np.maximum(cand, 0), hi[idx])
         mc = min_cells[idx][:, None]
-        ok = ((cand[..., 0] >= 0) & (cand[..., 1] <= Wg) & (cand[..., 2] >= 0)
-              & (cand[..., 3] <= Hg) & (cand[..., 1] - cand[..., 0] >= mc)
+        ok = ((cand == cc).all(axis=-1) & (cand[..., 1] - cand[..., 0] >= mc)
               & (cand[..., 3] - cand[..., 2] >= mc))
-        cc = np.where(ok[..., None], cand, R[idx, None, :])
         sc = _objective(SC, pid[idx][:, None], cc, alpha)
         sc[~ok] = -np.inf
         b = np.argmax(sc, axis=1)
@@ -1224,13 +1258,16 @@ def _polish_rotation(g: _Grid, R, lab_img, K, cfg, lut):
         todo = [t for t in thetas if t not in cache]
         if todo:
             wins = []
-            for t in todo:
+            k = len(todo)
+            # the windows' cost tables written straight into one stack (no copy)
+            SCk = np.empty((k, Hg + 1, Wg + 1), np.int32)
+            for i, t in enumerate(todo):
                 e1, e2 = _rotate_axes(g.e1, g.e2, math.radians(t))
                 u0, v0 = p @ e1 - 0.5 * w - half, p @ e2 - 0.5 * h - half
                 lab = _warp_labels(lab_img, K, g.o, e1, e2, u0, v0, c, (Hg, Wg))
-                wins.append((e1, e2, u0, v0, lab, _sat_cost(lab, lut)))
-            k = len(todo)
-            Rf, sc, _ = _greedy(np.stack([wn[5] for wn in wins]), np.tile([Hg, Wg], (k, 1)),
+                wins.append((e1, e2, u0, v0, lab,
+                             cv2.integral(cv2.LUT(lab, lut), SCk[i], sdepth=cv2.CV_32S)))
+            Rf, sc, _ = _greedy(SCk, np.tile([Hg, Wg], (k, 1)),
                                 np.arange(k), np.tile(R0, (k, 1)), np.tile(steps_cells, (k, 1)),
                                 np.full(k, min_cells), cfg.alpha, cfg.max_iterations)
             for i, t in enumerate(todo):
@@ -1239,9 +1276,12 @@ def _polish_rotation(g: _Grid, R, lab_img, K, cfg, lut):
         return [cache[t] for t in thetas]
 
     theta = 0.0
-    best_score, best = fit([0.0])[0]
     offsets = sorted({s * f * cfg.rotation_step_deg for f in cfg.rotation_step_factors
                       for s in (1, -1)})
+    # the start and the first round's rotations in one batched greedy run (the round always
+    # runs; each window's moves are independent of the others': the same results)
+    first = [round(theta + o, 9) for o in offsets] if int(cfg.max_iterations) > 0 else []
+    best_score, best = fit(list(dict.fromkeys([0.0] + first)))[0]
     for _ in range(int(cfg.max_iterations)):
         thetas = [round(theta + o, 9) for o in offsets]
         res = fit(thetas)
@@ -1267,11 +1307,21 @@ def _refit_plane(Pc, lab_img, center, e1, e2, w, h, K, n_old, L):
     if len(P) < 10:
         return None
     q = P - center
-    a, b = q @ e1, q @ e2
-    sel = (np.abs(a) <= 0.45 * w) & (np.abs(b) <= 0.45 * h)
-    if sel.sum() < 10:
+    ab = q @ np.column_stack([e1, e2])
+    sel = (np.abs(ab[:, 0]) <= 0.45 * w) & (np.abs(ab[:, 1]) <= 0.45 * h)
+    k = int(np.count_nonzero(sel))
+    if k < 10:
         return None
-    n, d = _fit_plane(P[sel])
+    # the scatter matrix of the selected points from their offsets to the centre (already at
+    # hand, and small: no cancellation to speak of) minus k times their mean's outer product
+    q = q[sel]
+    mq = (np.ones(k) @ q) * (1.0 / k)
+    _, V = np.linalg.eigh(q.T @ q - k * np.outer(mq, mq))
+    n = V[:, 0]
+    cen = center + mq
+    if n @ cen > 0:  # towards the camera at the origin
+        n = -n
+    d = float(-n @ cen)
     if n @ n_old < math.cos(math.radians(10.0)):
         return None
     return n, d
@@ -1504,7 +1554,10 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
     xs = ((np.arange(K.width, dtype=np.float32) - np.float32(K.cx)) * fx)[None, :]
     ys = ((np.arange(K.height, dtype=np.float32) - np.float32(K.cy)) * fy)[:, None]
     dz = np.where(valid, d, np.float32(np.nan))
-    Pc = np.stack([xs * dz, ys * dz, dz], axis=-1)  # (H, W, 3) float32, NaN where invalid
+    Pc = np.empty(d.shape + (3,), np.float32)  # (H, W, 3) float32, NaN where invalid
+    np.multiply(xs, dz, out=Pc[..., 0])
+    np.multiply(ys, dz, out=Pc[..., 1])
+    Pc[..., 2] = dz
     st = int(cfg.ransac_stride_px)
     off = st // 2
     sub_valid = valid[off::st, off::st] & (d[off::st, off::st] <= cfg.max_depth)
