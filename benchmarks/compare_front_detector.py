@@ -23,9 +23,7 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("MKL_NUM_THREADS", "1")
 
 import argparse
-import glob
 import importlib.util
-import json
 import subprocess
 import sys
 import tempfile
@@ -36,7 +34,6 @@ import numpy as np
 
 import mmlearn.models.front_detection as new
 from mmlearn.models.front_detection import STAGES
-from mmlearn.models.fronts import PinholeIntrinsics
 
 cv2.setNumThreads(1)
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -61,15 +58,12 @@ def load_ref(ref):
 
 
 def load_frames(directory):
-    frames = []
-    for f in sorted(glob.glob(os.path.join(directory, "*.json"))):
-        dpath = f[:-5] + "_depth.npy"
-        if not os.path.exists(dpath):
-            continue
-        m = json.load(open(f))
-        frames.append((os.path.basename(f)[:-5], np.load(dpath),
-                       PinholeIntrinsics(**m["intrinsics"]), np.array(m["X_WC"])))
-    return frames
+    """(name, depth, intrinsics, X_WC) of every saved frame in ``directory`` (the frames of
+    :func:`bench_front_detector.shared_frames`)."""
+    sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+    from bench_front_detector import shared_frames
+
+    return [(f["name"], f["depth"], f["K"], f["X_WC"]) for f in shared_frames(directory)]
 
 
 def flat(rects):
