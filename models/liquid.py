@@ -188,13 +188,19 @@ class RollRecord:
         if self.weight is not None and not np.isfinite(self.weight):
             raise TactileDataError(f"weight: expected a finite number, got {self.weight!r}")
         if self.coast is not None:
-            m = np.asarray(self.coast)
-            if m.shape != (self.taxels.shape[0],) or m.dtype != bool:
-                raise TactileDataError(f"coast: expected a bool mask of shape "
-                                       f"({self.taxels.shape[0]},), got {m.dtype} {m.shape}")
+            m = _check_mask("coast", self.coast, self.taxels.shape[0])
             if m.sum() < 2:
                 raise TactileDataError("coast: fewer than 2 coast samples")
             self.coast = m
+
+
+def _check_mask(name: str, mask, n: int) -> np.ndarray:
+    """``mask`` as a (n,) bool array, or a :class:`TactileDataError` naming ``name``."""
+    m = np.asarray(mask)
+    if m.shape != (n,) or m.dtype != bool:
+        raise TactileDataError(f"{name}: expected a bool array of shape ({n},), got "
+                               f"{m.dtype} {m.shape}")
+    return m
 
 
 def highpass(x, *, rate_hz: float = TACTILE_RATE_HZ, cutoff_hz: float = HIGHPASS_CUTOFF_HZ,
@@ -232,11 +238,7 @@ def liquid_feature(taxels, *, rate_hz: float = TACTILE_RATE_HZ,
     filter still runs over every sample: the coast-phase feature, :func:`coast_mask`)."""
     f = filtered_norm(taxels, rate_hz=rate_hz, cutoff_hz=cutoff_hz)
     if mask is not None:
-        m = np.asarray(mask)
-        if m.shape != f.shape or m.dtype != bool:
-            raise TactileDataError(f"mask: expected a bool array of shape {f.shape}, got "
-                                   f"{m.dtype} {m.shape}")
-        f = f[m]
+        f = f[_check_mask("mask", mask, len(f))]
     if len(f) < 2:
         raise TactileDataError("taxels: at least 2 samples are needed for a spread")
     return float(np.std(f, ddof=1))
@@ -288,10 +290,7 @@ def coast_feature(taxels, mask, *, rate_hz: float = TACTILE_RATE_HZ,
     about two periods per phase), which a quadratic does not follow. A deviation from the
     thesis' Eq. 7.11 (see the module docstring)."""
     x = check_series("taxels", taxels, ndim=2)
-    m = np.asarray(mask)
-    if m.shape != (x.shape[0],) or m.dtype != bool:
-        raise TactileDataError(f"mask: expected a bool array of shape ({x.shape[0]},), got "
-                               f"{m.dtype} {m.shape}")
+    m = _check_mask("mask", mask, x.shape[0])
     if not (isinstance(degree, (int, np.integer)) and 0 <= degree
             and min_samples > degree + 1):
         raise ValueError(f"coast_feature: need degree >= 0 and min_samples > degree + 1, got "
