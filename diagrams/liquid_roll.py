@@ -240,12 +240,10 @@ def sweep_roll_angle(c: LiquidRollConfig, t):
     at +-``roll_amplitude``, half a roll period apart, so ``w = 2 A / (T / 2 - tau + 2 tau /
     pi)`` with ``T = 1 / roll_hz``. The roll lasts ``roll_cycles T + tau``."""
     t = np.asarray(t, float)
-    A, T, tau = c.roll_amplitude, 1.0 / c.roll_hz, c.reversal_time
-    n_rev = int(round(2 * c.roll_cycles))
-    w = 2 * A / (T / 2 - tau + 2 * tau / np.pi)
-    end = c.roll_cycles * T + tau
+    tau = c.reversal_time
+    w, centres, end = _sweep_timing(c)
+    n_rev = len(centres)
     s = t - c.t_roll
-    centres = T / 4 + tau / 2 + np.arange(n_rev) * T / 2  # reversal k: +-w -> -+w
     rate = sweep_roll_angle_rate(c, s, w=w, centres=centres, end=end)
     acc = np.zeros_like(s)
     if tau > 0:
@@ -266,6 +264,16 @@ def sweep_roll_angle(c: LiquidRollConfig, t):
     q = np.interp(s, grid, g_q, left=0.0, right=0.0)
     done = (s < 0) | (s >= end)
     return (np.where(done, 0.0, q), np.where(done, 0.0, rate), np.where(done, 0.0, acc))
+
+
+def _sweep_timing(c: LiquidRollConfig):
+    """The sweep's constant rate ``w`` (rad/s), the centres of its reversals (s after
+    ``t_roll``; reversal k turns +-w into -+w) and its end (s after ``t_roll``), see
+    :func:`sweep_roll_angle`."""
+    T, tau = 1.0 / c.roll_hz, c.reversal_time
+    w = 2 * c.roll_amplitude / (T / 2 - tau + 2 * tau / np.pi)
+    centres = T / 4 + tau / 2 + np.arange(int(round(2 * c.roll_cycles))) * T / 2
+    return w, centres, c.roll_cycles * T + tau
 
 
 def sweep_roll_angle_rate(c: LiquidRollConfig, s, *, w, centres, end):
@@ -301,11 +309,9 @@ def roll_change_windows(c: LiquidRollConfig) -> np.ndarray:
     instants; "sine": the rate never stays constant, so a ``ValueError``."""
     if c.roll_profile == "sine":
         raise ValueError("roll_change_windows: the sine roll has no constant-rate phase")
-    T, tau = 1.0 / c.roll_hz, c.reversal_time
+    tau = c.reversal_time
     if c.roll_profile == "sweep":
-        n_rev = int(round(2 * c.roll_cycles))
-        end = c.roll_cycles * T + tau
-        centres = T / 4 + tau / 2 + np.arange(n_rev) * T / 2
+        _, centres, end = _sweep_timing(c)
         w = [(0.0, tau)] + [(tc - tau / 2, tc + tau / 2) for tc in centres] + [(end - tau, end)]
         return c.t_roll + np.asarray(w, float)
     quarter = 0.25 / c.roll_hz
