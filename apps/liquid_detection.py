@@ -274,32 +274,41 @@ def _cell_saturation_force() -> float:
 def _evaluate(rr, dr, y, *, feature: str, k: int, c: LiquidDetectionConfig) -> dict:
     """Rates (tactile alone, with weight), confusion, Table 7.4 and the dummy for one tactile
     feature."""
-    from mmlearn.models.liquid import evaluate_liquid, liquid_features, liquid_table
-    from mmlearn.models.tactile_state import make_classifier
+    from mmlearn.models.liquid import liquid_features, liquid_table
+    from mmlearn.models.tactile_state import cross_validate, make_classifier
+    from mmlearn.models.tactile_types import TactileDataError
 
-    rep_t = evaluate_liquid(rr, with_weight=False, folds=k, seed=c.seed, feature=feature)
-    rep_w = evaluate_liquid(rr, with_weight=True, folds=k, seed=c.seed, feature=feature)
+    for i, r in enumerate(rr + dr):
+        if r.liquid is None:
+            raise TactileDataError(f"record {i}: no liquid ground truth")
+    # every trial's feature and weight once (column 0: the feature, 1: the weight); "tactile"
+    # is column 0 alone (as mmlearn.models.liquid.evaluate_liquid with and without weight)
+    Xr = liquid_features(rr, with_weight=True, feature=feature)
+    ncol = {False: 1, True: 2}
+    rep_t, rep_w = (cross_validate(Xr[:, :ncol[ww]], y, classifier="tree", folds=k, seed=c.seed)
+                    for ww in (False, True))
     rep = rep_w if c.with_weight else rep_t
     out = {"rate": rep.rate, "rate_tactile": rep_t.rate, "rate_with_weight": rep_w.rate}
     out.update({kk: v for kk, v in rep.to_dict().items() if kk != "rate"})
     out["table"] = liquid_table(rr, feature=feature)
     if dr:
         d = {"trials": len(dr), "weight_n": float(np.mean([r.weight for r in dr]))}
+        Xd = liquid_features(dr, with_weight=True, feature=feature)
         for ww in (False, True):
             clf = make_classifier("tree", seed=c.seed)
-            clf.fit(liquid_features(rr, with_weight=ww, feature=feature), y)
-            Xd = liquid_features(dr, with_weight=ww, feature=feature)
-            pred = clf.predict(Xd)
+            clf.fit(Xr[:, :ncol[ww]], y)
+            pred = clf.predict(Xd[:, :ncol[ww]])
             key = "predicted_no_liquid" + ("_with_weight" if ww else "_tactile")
             d[key] = int(np.sum(pred == "no_liquid"))
         # the thesis' Table 7.4 lists the dummy among the objects of its data set: the same
         # reading here, the dummy's trials inside the cross-validation as "no liquid" (so the
         # training folds hold a heavy object without liquid), its out-of-fold predictions
-        from mmlearn.models.liquid import evaluate_liquid as _cv
-
         kd = int(min(k, len(dr) + int(np.sum(y == "no_liquid"))))
+        X_all = np.vstack([Xr, Xd])
+        y_all = np.concatenate([y, ["liquid" if r.liquid else "no_liquid" for r in dr]])
         for ww in (False, True):
-            rep_d = _cv(rr + dr, with_weight=ww, folds=kd, seed=c.seed, feature=feature)
+            rep_d = cross_validate(X_all[:, :ncol[ww]], y_all, classifier="tree", folds=kd,
+                                   seed=c.seed)
             key = "in_cv_no_liquid" + ("_with_weight" if ww else "_tactile")
             d[key] = int(np.sum(rep_d.y_pred[len(rr):] == "no_liquid"))
             d["in_cv_rate" + ("_with_weight" if ww else "_tactile")] = rep_d.rate
