@@ -387,15 +387,22 @@ class Plane:
 # ------------------------------------------------------------------------------------------
 # stage 1: planes
 # ------------------------------------------------------------------------------------------
-def _fit_plane(P: np.ndarray):
-    """Least-squares plane through points (k, 3): unit normal towards the camera and offset."""
-    c = P.mean(axis=0)
-    Q = P - c
-    _, V = np.linalg.eigh(Q.T @ Q)  # the scatter matrix's least eigenvector (3 x 3: fast)
+def _plane_from_scatter(c: np.ndarray, scatter: np.ndarray):
+    """The plane through the centroid ``c`` (3,) whose normal is the least eigenvector of the
+    (3, 3) ``scatter`` matrix of the points about it (fast at 3 x 3): unit normal towards
+    the camera at the origin, and offset."""
+    _, V = np.linalg.eigh(scatter)
     n = V[:, 0]
     if n @ c > 0:  # towards the camera at the origin
         n = -n
     return n, float(-n @ c)
+
+
+def _fit_plane(P: np.ndarray):
+    """Least-squares plane through points (k, 3): unit normal towards the camera and offset."""
+    c = P.mean(axis=0)
+    Q = P - c
+    return _plane_from_scatter(c, Q.T @ Q)
 
 
 def _fit_plane_many(P: np.ndarray):
@@ -404,11 +411,7 @@ def _fit_plane_many(P: np.ndarray):
     slower); the same plane up to rounding (~1e-16)."""
     c = (np.ones(len(P)) @ P) * (1.0 / len(P))
     Q = P - c
-    _, V = np.linalg.eigh(Q.T @ Q)
-    n = V[:, 0]
-    if n @ c > 0:  # towards the camera at the origin
-        n = -n
-    return n, float(-n @ c)
+    return _plane_from_scatter(c, Q.T @ Q)
 
 
 def _components(sel, grid_rc, grid_shape):
@@ -578,11 +581,18 @@ class _Grid:
     labels: np.ndarray
     sat_cost: np.ndarray
     sat_in: np.ndarray
-    sat_gap: tuple | None = None  # (GAP, UNKNOWN) summed-area tables, see _gap_bounded
+    sat_gap: tuple | None = None  # (GAP, UNKNOWN) summed-area tables: gap_sats()
 
     @property
     def shape(self):
         return self.labels.shape
+
+    def gap_sats(self) -> tuple:
+        """The summed-area tables (int32) of the ``GAP`` and the ``UNKNOWN`` cells of
+        ``labels``, made on first use (:func:`_gap_bounded`)."""
+        if self.sat_gap is None:
+            self.sat_gap = _sats_gap(self.labels)
+        return self.sat_gap
 
 
 def _plane_axes(n: np.ndarray, down_C: np.ndarray | None):
@@ -1121,18 +1131,16 @@ def _stack(tables, dims):
 # ------------------------------------------------------------------------------------------
 # stage 5: checks
 # ------------------------------------------------------------------------------------------
-def _gap_bounded(labels, x0, x1, y0, y1, out_cells=3, in_cells=1, share=0.5, line=0.7,
-                 sats=None):
-    """(left, right, top, bottom): whether each side of the grid rectangle runs along a
+def _gap_bounded(g, x0, x1, y0, y1, out_cells=3, in_cells=1, share=0.5, line=0.7):
+    """(left, right, top, bottom): whether each side of the rectangle on grid ``g``
+    (:class:`_Grid`) runs along a
     reveal: some grid line parallel to it, from ``in_cells`` inside to ``out_cells`` outside,
     is ``GAP`` on at least ``share`` of the side's length, or ``GAP`` on a fifth and ``GAP``
     or ``UNKNOWN`` on ``line`` of it (a reveal seen straight on has no return; the window of
     :func:`_gap_mask` does not label its last few cm before a step such as a countertop's
-    edge). ``sats``: summed-area tables of the GAP and the UNKNOWN cells (made when None)."""
-    Hg, Wg = labels.shape
-    if sats is None:
-        sats = _sats_gap(labels)
-    G, U = sats
+    edge)."""
+    Hg, Wg = g.shape
+    G, U = g.gap_sats()
     x0, x1, y0, y1 = int(x0), int(x1), int(y0), int(y1)
     res = []
     for lo, hi, vertical in ((x0 - out_cells, x0 + in_cells, True),
@@ -1193,10 +1201,8 @@ def _precision_recall(g: _Grid, R, cfg):
     Hg, Wg = g.shape
     # a side along a reveal (GAP) is observed to end there: no margin beyond it (the plane
     # continues in the flush neighbouring front)
-    if g.sat_gap is None:
-        g.sat_gap = _sats_gap(g.labels)
     ml, mr, mt, mb = (0 if b else m for b, m in zip(
-        _gap_bounded(g.labels, x0, x1, y0, y1, sats=g.sat_gap), (mx, mx, my, my)))
+        _gap_bounded(g, x0, x1, y0, y1), (mx, mx, my, my)))
     X0, X1 = max(0, x0 - ml), min(Wg, x1 + mr)
     Y0, Y1 = max(0, y0 - mt), min(Hg, y1 + mb)
     around = I[Y1, X1] - I[Y0, X1] - I[Y1, X0] + I[Y0, X0]
@@ -1316,12 +1322,7 @@ def _refit_plane(Pc, lab_img, center, e1, e2, w, h, K, n_old, L):
     # hand, and small: no cancellation to speak of) minus k times their mean's outer product
     q = q[sel]
     mq = (np.ones(k) @ q) * (1.0 / k)
-    _, V = np.linalg.eigh(q.T @ q - k * np.outer(mq, mq))
-    n = V[:, 0]
-    cen = center + mq
-    if n @ cen > 0:  # towards the camera at the origin
-        n = -n
-    d = float(-n @ cen)
+    n, d = _plane_from_scatter(center + mq, q.T @ q - k * np.outer(mq, mq))
     if n @ n_old < math.cos(math.radians(10.0)):
         return None
     return n, d
@@ -1658,9 +1659,7 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
     polished = []
     for _, s, _ in kept:
         g = grids[pid[s]]
-        if g.sat_gap is None:
-            g.sat_gap = _sats_gap(g.labels)
-        if sum(_gap_bounded(g.labels, *R[s], sats=g.sat_gap)) >= 3:
+        if sum(_gap_bounded(g, *R[s])) >= 3:
             # a front flush with its neighbours: its sides run along the reveals, to which the
             # grid is aligned (its dominant edge direction); rotations do not improve it
             polished.append((g, g.e1, g.e2, g.u0, g.v0, R[s], g.labels, g.sat_cost, g.sat_in,
