@@ -299,6 +299,15 @@ def to_start_frame(demo: Demonstration, *, mode: str = "similarity") -> Demonstr
                          meta={**demo.meta, "frame": "start"}).validate()
 
 
+def _frame_unit2(aligned: list[Demonstration], mode: str = "similarity") -> float:
+    """The squared unit of the start frames of ``aligned`` (mm^2): the mean squared distance
+    of their starts from their targets, or 1 for the rotation-only frame (unit 1 mm)."""
+    if mode == "rotation":
+        return 1.0
+    return float(np.mean([np.sum((d.objects["start"][0] - d.objects["target"][0]) ** 2)
+                          for d in aligned]))
+
+
 def learn_start_frame(aligned: list[Demonstration], *, h: float, full_covariance: bool = True,
                       min_var: float = 1e-6, mode: str = "similarity"):
     """The Parzen-window Gaussians (Eq. 8.10-8.16, :func:`~mmlearn.models.imitation.learn_task`
@@ -310,10 +319,8 @@ def learn_start_frame(aligned: list[Demonstration], *, h: float, full_covariance
     from .imitation import learn_task
 
     fr = [to_start_frame(d, mode=mode) for d in aligned]
-    d2 = 1.0 if mode == "rotation" else float(
-        np.mean([np.sum((d.objects["start"][0] - d.objects["target"][0]) ** 2) for d in aligned]))
     m = learn_task(fr, h=h, use_joints=False, full_covariance=full_covariance, align=False,
-                   min_var=min_var / max(d2, 1e-12))
+                   min_var=min_var / max(_frame_unit2(aligned, mode), 1e-12))
     return m.mean["obj:target"], m.var["obj:target"]
 
 
@@ -642,8 +649,7 @@ class ThesisReproducer:
                 fm, fv = learn_start_frame(aligned, h=self.h, full_covariance=self.full_covariance, mode=mode)
                 if o in self.condition:
                     fr = np.stack([-to_start_frame(d, mode=mode).hand for d in aligned])
-                    d2 = 1.0 if mode == "rotation" else float(np.mean(
-                        [np.sum((d.objects["start"][0] - d.objects["target"][0]) ** 2) for d in aligned]))
+                    d2 = _frame_unit2(aligned, mode)
                     fm, fv = condition_on_start(model.t, fr, C, c, h=self.h, ridge=self.ridge,
                                                 inflation=self.inflation, min_var=1e-6 / max(d2, 1e-12),
                                                 covariance=self.condition_covariance)
@@ -912,8 +918,7 @@ class InnerCVReproducer:
                 need_frame = any("frame" in c[3] for c in cands if c[0] == h)
                 if need_frame:
                     fm, fv = learn_start_frame(aligned, h=h, full_covariance=True)
-                    d2 = float(np.mean([np.sum((d.objects["start"][0] - d.objects["target"][0]) ** 2)
-                                        for d in aligned]))
+                    d2 = _frame_unit2(aligned)
                 for c in cands:
                     if c[0] != h:
                         continue
