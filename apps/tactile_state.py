@@ -176,12 +176,18 @@ def _report_one(y):
     return ClassificationReport([str(y[0])], np.array([[len(y)]]), y, y)
 
 
-def _cv(X, y, *, classifier, folds, seed):
+def fold_cv(X, y, *, classifier, folds, seed):
+    """``folds``-fold cross-validation, fewer folds when a class has fewer grasps; returns
+    (report, the number of folds)."""
     k = int(min(folds, np.unique(y, return_counts=True)[1].min()))
     if k < 2:
         raise ValueError("too few grasps per class for cross-validation (use more --trials)")
+    return cross_validate(X, y, classifier=classifier, folds=k, seed=seed), k
+
+
+def _cv(X, y, *, classifier, folds, seed):
+    rep, k = fold_cv(X, y, classifier=classifier, folds=folds, seed=seed)
     other = [c for c in CLASSIFIERS if c != classifier]
-    rep = cross_validate(X, y, classifier=classifier, folds=k, seed=seed)
     cmp_ = {c: cross_validate(X, y, classifier=c, folds=k, seed=seed).rate for c in other}
     return rep, cmp_, k
 

@@ -28,9 +28,9 @@ import numpy as np
 
 def main(argv=None) -> int:
     from mmlearn.apps._sweep import load_results
-    from mmlearn.apps.tactile_state import SWEEP_FORCES, _sim_features, _sim_specs
+    from mmlearn.apps.tactile_state import SWEEP_FORCES, _sim_features, _sim_specs, fold_cv
     from mmlearn.models.containers import CONTAINER_CLASSES
-    from mmlearn.models.tactile_state import CLASSIFIERS, cross_validate
+    from mmlearn.models.tactile_state import CLASSIFIERS
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("results", nargs="+", help="RESULTS.jsonl:SEED")
@@ -47,8 +47,7 @@ def main(argv=None) -> int:
         if c not in CLASSIFIERS:
             ap.error(f"--classifiers: unknown {c!r}; choose from {', '.join(CLASSIFIERS)}")
     def cv(X, y, clf, seed):  # 10-fold, fewer when a class has fewer grasps (as the app)
-        k = int(min(10, np.unique(y, return_counts=True)[1].min()))
-        return cross_validate(X, y, classifier=clf, folds=k, seed=seed)
+        return fold_cv(X, y, classifier=clf, folds=10, seed=seed)[0]
 
     rows = []  # one dict per (file, classifier)
     total, labels = None, None
