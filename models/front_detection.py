@@ -31,8 +31,14 @@
     pixels from the other): otherwise an
     open door would be widened by the strip of the cabinet face next to its hinge
     (L / sin(opening angle), 4 cm at 30 deg; measured: 0.445 m instead of 0.395 m). This
-    applies from ``crossing_angle_deg`` = 5 deg (it was 20: a door opened 5-20 deg came out
-    7-8 cm too wide, L / sin(15 deg) = 7.7 cm).
+    applies from ``crossing_angle_deg`` = 3 deg (it was 20: a door opened 5-20 deg came out
+    7-8 cm too wide, L / sin(15 deg) = 7.7 cm; then 5: a door opened 4.8 deg, seen from 0.8 m,
+    lost 5-6 cm of its hinge side). Before the masks are used, every plane is refitted on its
+    own pixels (in-plane after the crossings, within L / 2 and nearer to it than to any other
+    plane; :func:`_refit_on_own_pixels`, ``own_pixel_refit_deg``) and the labels are made
+    again if a normal turned: RANSAC counts the cabinet's face within L beside an opened
+    door's hinge as the door's and tilted its plane towards the face by ~2 deg at 5-8 deg
+    openings, and the crossing then gave the face a 5 cm strip of the door.
     Then the *surface check* (``surface_check``): an in-plane pixel whose in-plane neighbours
     (``surface_window_px`` square) lie on average farther than ``max(surface_distance,
     surface_distance_per_m2 z^2)`` from the plane refitted to the in-plane pixels' distances
@@ -207,6 +213,10 @@ class FrontDetectorConfig:
             pixels.
         edge_refine: refine each accepted rectangle's sides below the grid cell
             (:func:`_refine_edges`).
+        own_pixel_refit_deg: after the labels, every plane is refitted on the pixels still
+            in-plane for it after the crossings (:func:`_refit_on_own_pixels`); if a normal
+            turns by this or more, deg, the labels are made again with the refitted planes
+            (0 = off; a plane crossing another at a shallow angle is tilted towards it).
         edge_refine_band: the refinement looks this far on either side of a side (at most a
             third of the rectangle across), m.
         edge_refine_cell: spacing of the resampled lines, m.
@@ -245,7 +255,7 @@ class FrontDetectorConfig:
     ransac_local_radius_px: int = 48
     max_planes: int = 8
     removal_factor: float = 2.0
-    crossing_angle_deg: float = 5.0
+    crossing_angle_deg: float = 3.0
     crossing_smooth_px: int = 5
     surface_check: bool = True
     surface_distance: float = 0.003
@@ -278,6 +288,7 @@ class FrontDetectorConfig:
     duplicate_angle_deg: float = 15.0
     refine_plane: bool = True
     edge_refine: bool = True
+    own_pixel_refit_deg: float = 0.5
     edge_refine_band: float = 0.05
     edge_refine_cell: float = 0.001
     edge_refine_span: float = 0.7
@@ -322,7 +333,8 @@ class FrontDetectorConfig:
         if not 0 < self.edge_refine_span <= 1:
             raise ValueError("FrontDetectorConfig.edge_refine_span must be in (0, 1], got "
                              f"{self.edge_refine_span}")
-        for k in ("edge_refine_depth_step", "edge_refine_depth_step_per_m2"):
+        for k in ("edge_refine_depth_step", "edge_refine_depth_step_per_m2",
+                  "own_pixel_refit_deg"):
             if getattr(self, k) < 0:
                 raise ValueError(f"FrontDetectorConfig.{k} must be >= 0, got {getattr(self, k)}")
         if self.gap_window_px < 4:
@@ -983,6 +995,72 @@ def _crossings(labs, S, planes, valid, crossing_angle_deg, smooth_px):
             flat[shared[take[k]]] = FREE                # in-plane -> FREE
 
 
+def _refit_on_own_pixels(planes, labels, Pc, Lmap, min_change_deg, crossing_angle_deg,
+                         rounds=3, max_points=40000, max_change_deg=5.0, min_support=100):
+    """Planes that cross another plane at a shallow angle (between ``crossing_angle_deg`` and
+    30 deg) refitted on their own pixels: those in-plane for them after the crossings
+    (:func:`_crossings`), within L / 2 of them (as the second round of
+    :func:`refine_plane_fullres`) and nearer to them than to any such crossing plane within L
+    of the pixel; ``rounds`` times (the nearer plane is decided with the refitted planes;
+    planes that are parallel within ``crossing_angle_deg``, e.g. the flush closed fronts of
+    one cabinet, are left alone: their pixels lie within noise of both). None if
+    no plane's normal turns by ``min_change_deg`` (deg) or more (and less than
+    ``max_change_deg``); else the list with every such plane replaced. Planes of fewer than
+    ``min_support`` RANSAC samples (a few rows of the sample grid) are left alone: their own
+    pixels are too few for a refit that is not mostly noise (two such planes of 29-31 samples
+    turned by 0.6-1.7 deg and lost a drawer at 2.3 m, measured).
+
+    Why: RANSAC and :func:`refine_plane_fullres` count every pixel within L (then L / 2) of a
+    plane. A door opened by a few degrees crosses the cabinet's face at that angle, so the
+    face beside its hinge lies within L of the door's plane over L / sin(angle) (7 cm at
+    8 deg) and tilts the fitted plane towards it (by 2.1 deg at 8 deg, seen from 0.8 m,
+    measured on a noise-free render); the door's own surface by the hinge then lies 8 mm off
+    its plane, nearer the face's plane, and the crossing gave a 5 cm strip of the door to the
+    face (the door's hinge side 46-53 mm short at 5-8 deg). Refitted on the pixels nearer to
+    it, the plane is the door's own; the labels are then made again.
+    """
+    if len(planes) < 2:
+        return None
+    H, W = labels[0].shape
+    step = max(1, int(math.ceil(math.sqrt(H * W / max_points))))
+    P = Pc[::step, ::step].reshape(-1, 3).astype(np.float64)
+    L = Lmap[::step, ::step].reshape(-1).astype(np.float64)
+    own0 = np.array([lab[::step, ::step].reshape(-1) == IN_PLANE for lab in labels])
+    ok = np.isfinite(P[:, 2]) & own0.any(axis=0)
+    P, L, own0 = P[ok], L[ok], own0[:, ok]
+    N0 = np.array([pl.n for pl in planes])
+    cosang = np.abs(N0 @ N0.T)
+    partners = ((cosang < math.cos(math.radians(crossing_angle_deg)))
+                & (cosang > math.cos(math.radians(30.0))))
+    if not partners.any():
+        return None
+    cur = list(planes)
+    cos10 = math.cos(math.radians(10.0))
+    for _ in range(rounds):
+        N = np.array([pl.n for pl in cur])
+        D = np.array([pl.d for pl in cur])
+        A = np.abs(P @ N.T + D)                      # (pixels, planes) distances, m
+        Ain = np.where(A <= L[:, None], A, np.inf)
+        nxt = list(cur)
+        for k, pl in enumerate(cur):
+            if not partners[k].any() or pl.support < min_support:
+                continue
+            near = Ain[:, partners[k]].min(axis=1)
+            sel = own0[k] & (A[:, k] <= 0.5 * L) & (A[:, k] <= near)
+            if sel.sum() < 10:
+                continue
+            n, d = _fit_plane_many(P[sel])
+            if n @ planes[k].n < cos10:
+                continue
+            nxt[k] = Plane(n=n, d=d, support=pl.support, bbox=pl.bbox)
+        cur = nxt
+    # a turn beyond max_change_deg is no correction of a tilt but a different surface (a
+    # small plane of a few rows whose own pixels fit another plane): kept as it was
+    cmin, cmax = (math.cos(math.radians(a)) for a in (min_change_deg, max_change_deg))
+    keep = [b if cmax <= float(a.n @ b.n) < cmin else a for a, b in zip(planes, cur)]
+    return None if all(a is b for a, b in zip(planes, keep)) else keep
+
+
 def _make_grid(k, plane: Plane, lab_img, sample_pts, K, down_C, cfg, lut) -> _Grid | None:
     n, d = plane.n, plane.d
     Lp = np.maximum(cfg.inlier_distance, cfg.inlier_distance_per_m2 * sample_pts[:, 2] ** 2)
@@ -1590,6 +1668,13 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
     gap, gap_thin = _gap_mask(d, valid, K.fx, cfg, dzero) if cfg.gap_label else (None, None)
     labels = _label_images(dzero, valid, xs, ys, planes, Limg, cfg.crossing_angle_deg,
                            int(cfg.crossing_smooth_px), surface, gap)
+    if cfg.own_pixel_refit_deg > 0:  # planes tilted by a neighbour they cross at a shallow angle
+        moved = _refit_on_own_pixels(planes, labels, Pc, Limg, cfg.own_pixel_refit_deg,
+                                     cfg.crossing_angle_deg)
+        if moved is not None:
+            planes = moved
+            labels = _label_images(dzero, valid, xs, ys, planes, Limg, cfg.crossing_angle_deg,
+                                   int(cfg.crossing_smooth_px), surface, gap)
     for k, (pl, lab) in enumerate(zip(planes, labels)):
         g = _make_grid(k, pl, lab, sample_pts, K, down_C, cfg, lut)
         lab_imgs.append(lab)
