@@ -167,3 +167,23 @@ def test_track_fronts_draws_in_meshcat(tmp_path):
         r'base64,([A-Za-z0-9+/=]+)"', text))
     assert b"fronts/frames/0" in blob and b"fronts/frames/7" in blob
     assert b"set_animation" in blob and b"visible" in blob
+
+
+def test_perception_experiments_distances_and_angles(capsys):
+    """--distances / --angles replace the default grids (distances not tuned on); bad lists
+    exit 2 naming the flag."""
+    from mmlearn.apps.perception_experiments import DISTANCES, main, trial_specs
+
+    specs = trial_specs(only=["distance", "angle"], seeds=2, objects=["door"],
+                        distances=[1.0, 2.2], angles=[-10.0, 20.0])
+    got = sorted({(s.params["experiment"], s.params["distance"], s.params["angle"])
+                  for s in specs})
+    assert got == [("angle", 1.5, -10.0), ("angle", 1.5, 20.0), ("distance", 1.0, 0.0),
+                   ("distance", 2.2, 0.0)]
+    assert len(specs) == 8
+    default = {s.params["distance"] for s in trial_specs(only=["distance"], seeds=1)}
+    assert default == set(DISTANCES)
+    _bad(main, ["--distances", "0.1,1.0"], capsys, "--distances")
+    _bad(main, ["--distances", "1.0,far"], capsys, "--distances")
+    _bad(main, ["--distances", "nan"], capsys, "--distances")
+    _bad(main, ["--angles=10,95"], capsys, "--angles")
