@@ -321,7 +321,7 @@ def test_start_frame_modes_and_the_scale_only_frame():
     are reproduced by the scale-only frame constraint, not by the world constraints."""
     from mmlearn.models.lasa import FRAME_MODES, OBJECTS, start_frame, to_start_frame
 
-    assert set(FRAME_MODES) == {"similarity", "rotation", "scale"} and OBJECTS[0] == "target"
+    assert set(FRAME_MODES) == {"similarity", "rotation", "scale", "duration"} and OBJECTS[0] == "target"
     assert np.allclose(start_frame([3.0, 4.0], mode="rotation"), [[0.6, -0.8], [0.8, 0.6]])
     assert np.allclose(start_frame([13.0, 4.0], target=[10.0, 0.0], mode="scale"), 5.0 * np.eye(2))
     with pytest.raises(ValueError, match="mode must be one of"):
