@@ -17,8 +17,10 @@ and every metric here is in mm.
 The method (:class:`ThesisReproducer`) adds a marker at the pen's start (:func:`with_start_marker`)
 and, as an extension of the thesis, the target constraint expressed in each drawing's start
 frames (:func:`start_frame`, :func:`learn_start_frame`, :func:`place_start_frame`): origin at
-the target, x-axis towards the start, unit = the start's distance (``"frame"``), and world
-axes with unit = the start's distance (``"frame_scale"``).
+the target, x-axis towards the start, unit = the start's distance (``"frame"``), world axes
+with unit = the start's distance (``"frame_scale"``), and x-axis towards the start with unit =
+the drawing's duration (``"frame_duration"``, placed with the reproduction's duration: the
+held-out drawing's duration is used as a cue for its size).
 
 Evaluation (:func:`evaluate_shape`): for each of the 7 demonstrations, learn from the other 6,
 reproduce from the held-out demonstration's start for its duration, and measure
