@@ -166,6 +166,15 @@ def main(argv=None) -> int:
               "dmp": lambda: DmpReproducer(n_weights=a.weights),
               "promp": lambda: PrompReproducer(n_weights=a.weights)}
     methods = [m.strip() for m in a.methods.split(",")]
+    unknown = [m for m in methods if m not in makers]
+    if unknown:
+        ap.error(f"unknown methods {unknown}; choose from {sorted(makers)}")
+    if {"dmp", "promp"} & set(methods):
+        try:
+            import movement_primitives  # noqa: F401
+        except ImportError:
+            ap.error("the dmp / promp columns need movement-primitives: pip install 'mmlearn[bench-lasa]' "
+                     "(or leave them out with --methods thesis,baseline)")
     res = {m: [] for m in methods}
     secs = {m: 0.0 for m in methods}
     for name in shapes:
