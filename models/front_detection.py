@@ -459,6 +459,7 @@ def find_planes(pts: np.ndarray, grid_rc: np.ndarray, grid_shape, cfg: FrontDete
     r = max(1, int(round(cfg.ransac_local_radius_px / cfg.ransac_stride_px)))
     N = int(cfg.ransac_hypotheses)
     P32 = pts.astype(np.float32)
+    Lp32 = Lp.astype(np.float32)
     for _ in range(int(cfg.max_planes)):
         idx = np.flatnonzero(active)
         if len(idx) < max(3, cfg.min_plane_points):
@@ -491,13 +492,17 @@ def find_planes(pts: np.ndarray, grid_rc: np.ndarray, grid_shape, cfg: FrontDete
                 break
         nrm = nrm[ok] / ln[ok, None]
         dd = -np.einsum("ij,ij->i", nrm, p1[ok])
-        dist = np.abs(P32[idx] @ nrm.T.astype(np.float32) + dd.astype(np.float32))  # (ma, N)
-        Li = Lp[idx].astype(np.float32)[:, None]
-        counts = (dist <= Li).sum(axis=0)
+        # |distance| of every active point to every hypothesis, (N, ma) float32, in place
+        # (one buffer: a hypothesis' row is contiguous for its count)
+        dist = nrm.astype(np.float32) @ P32[idx].T
+        dist += dd.astype(np.float32)[:, None]
+        np.abs(dist, out=dist)
+        Li = Lp32[idx]
+        counts = np.count_nonzero(np.less_equal(dist, Li), axis=1)
         best = int(np.argmax(counts))
         if counts[best] < cfg.min_plane_points:
             break
-        inl = _largest_region(idx[dist[:, best] <= Li[:, 0]], grid_rc, grid_shape)
+        inl = _largest_region(idx[dist[best] <= Li], grid_rc, grid_shape)
         n, d = nrm[best], float(dd[best])
         # least-squares refinement on the inliers, then re-select them; the second round on
         # those within L / 2 (a drawer's sides, seen from above, span the few cm between its
