@@ -453,10 +453,14 @@ def find_planes(pts: np.ndarray, grid_rc: np.ndarray, grid_shape, cfg: FrontDete
     planes: list[Plane] = []
     if m < max(3, cfg.min_plane_points):
         return planes
-    lookup = np.full(grid_shape, -1, np.int64)
-    lookup[grid_rc[:, 0], grid_rc[:, 1]] = np.arange(m)
     active = np.ones(m, bool)
     r = max(1, int(round(cfg.ransac_local_radius_px / cfg.ransac_stride_px)))
+    # index of the active point at each grid cell (-1: none), padded by r on every side so
+    # that every local offset is a valid (flat) index
+    Wp = grid_shape[1] + 2 * r
+    lookup = np.full((grid_shape[0] + 2 * r) * Wp, -1, np.int64)
+    flat_rc = (grid_rc[:, 0] + r) * Wp + (grid_rc[:, 1] + r)
+    lookup[flat_rc] = np.arange(m)
     N = int(cfg.ransac_hypotheses)
     P32 = pts.astype(np.float32)
     Lp32 = Lp.astype(np.float32)
@@ -468,15 +472,17 @@ def find_planes(pts: np.ndarray, grid_rc: np.ndarray, grid_shape, cfg: FrontDete
         # 2nd and 3rd point: the first two of T random offsets that land on active points
         T = 12
         off = rng.integers(-r, r + 1, (N, T, 2))
-        rc = grid_rc[first][:, None, :] + off
-        inb = ((rc >= 0) & (rc < np.asarray(grid_shape))).all(-1)
-        rc = np.where(inb[..., None], rc, 0)
-        cand = lookup[rc[..., 0], rc[..., 1]]
-        good = inb & (cand >= 0) & (off != 0).any(-1)
-        good &= active[np.where(cand >= 0, cand, 0)]
-        pick = np.argsort(~good, axis=1, kind="stable")[:, :2]
-        other = np.take_along_axis(np.where(good, cand, 0), pick, axis=1)
-        ok = good.sum(axis=1) >= 2
+        cand = lookup[flat_rc[first][:, None] + (off[..., 0] * Wp + off[..., 1])]
+        good = (cand >= 0) & ((off[..., 0] != 0) | (off[..., 1] != 0))
+        # the first two good offsets of each hypothesis (rows with fewer are not ok)
+        rows = np.arange(N)
+        i1 = good.argmax(axis=1)
+        g2 = good.copy()
+        g2[rows, i1] = False
+        i2 = g2.argmax(axis=1)
+        ok = g2[rows, i2]
+        other = np.column_stack([cand[rows, i1], cand[rows, i2]])
+        other[~ok] = 0
         p1, p2, p3 = pts[first], pts[other[:, 0]], pts[other[:, 1]]
         nrm = np.cross(p2 - p1, p3 - p1)
         ln = np.linalg.norm(nrm, axis=1)
@@ -508,19 +514,20 @@ def find_planes(pts: np.ndarray, grid_rc: np.ndarray, grid_shape, cfg: FrontDete
         # those within L / 2 (a drawer's sides, seen from above, span the few cm between its
         # front and the cabinet face: with them the face's plane tilts towards the front and
         # then takes the front's points out of the pool)
+        Pa, La = pts[idx], Lp[idx]  # the active points (gathered once)
         for shrink in (1.0, 0.5, 1.0):
             if len(inl) < 3:
                 break
             n, d = _fit_plane(pts[inl])
-            inl = _largest_region(idx[np.abs(pts[idx] @ n + d) <= shrink * Lp[idx]], grid_rc,
-                                  grid_shape)
+            inl = _largest_region(idx[np.abs(Pa @ n + d) <= shrink * La], grid_rc, grid_shape)
         # The plane is its largest connected region of inliers (on the sample grid): other
         # surfaces crossing the infinite plane stay in the pool. The region's points within
         # the removal band Lr (so that the noise tails of a far plane do not come back as a
         # second copy of it) leave the pool of sampling points.
-        loose = idx[np.abs(pts[idx] @ n + d) <= Lr[idx]]
-        active[_regions_touching(loose, inl, grid_rc, grid_shape)] = False
-        active[inl] = False
+        loose = idx[np.abs(Pa @ n + d) <= Lr[idx]]
+        gone = np.concatenate([_regions_touching(loose, inl, grid_rc, grid_shape), inl])
+        active[gone] = False
+        lookup[flat_rc[gone]] = -1
         if len(inl) < cfg.min_plane_points:
             continue
         Lq = max(cfg.inlier_distance, cfg.inlier_distance_per_m2 * d * d)
