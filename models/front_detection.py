@@ -408,10 +408,11 @@ def _fit_plane(P: np.ndarray):
 def _fit_plane_many(P: np.ndarray):
     """:func:`_fit_plane` for many points (the full-resolution refits): the centroid as a
     matrix-vector product (numpy's column mean of a (k, 3) array is a strided reduction, 4x
-    slower); the same plane up to rounding (~1e-16)."""
+    slower) and the centred points as a (3, k) array (subtracting a 3-vector from (k, 3) rows
+    is 10x slower); the same plane up to rounding (~1e-16)."""
     c = (np.ones(len(P)) @ P) * (1.0 / len(P))
-    Q = P - c
-    return _plane_from_scatter(c, Q.T @ Q)
+    Q = P.T - c[:, None]
+    return _plane_from_scatter(c, Q @ Q.T)
 
 
 def _components(sel, grid_rc, grid_shape):
@@ -560,13 +561,14 @@ def refine_plane_fullres(pl: Plane, Pc, Lmap, stride, off, max_points=20000) -> 
     P = crop[::step, ::step].reshape(-1, 3)
     L = Lc[::step, ::step].reshape(-1)
     ok = np.isfinite(P[:, 2])
-    P, L = P[ok].astype(np.float64), L[ok]
+    # np.compress: the rows of a boolean mask (numpy's P[mask] on (k, 3) rows is 5x slower)
+    P, L = np.compress(ok, P, axis=0).astype(np.float64), L[ok]
     n, d = pl.n, pl.d
     for shrink in (1.0, 0.5):
         sel = np.abs(P @ n + d) <= shrink * L
-        if sel.sum() < 10:
+        if np.count_nonzero(sel) < 10:
             return pl
-        n2, d2 = _fit_plane_many(P[sel])
+        n2, d2 = _fit_plane_many(np.compress(sel, P, axis=0))
         if n2 @ pl.n < math.cos(math.radians(10.0)):
             return pl
         n, d = n2, d2
