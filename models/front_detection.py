@@ -401,8 +401,8 @@ def _plane_from_scatter(c: np.ndarray, scatter: np.ndarray):
 def _fit_plane(P: np.ndarray):
     """Least-squares plane through points (k, 3): unit normal towards the camera and offset."""
     c = P.mean(axis=0)
-    Q = P - c
-    return _plane_from_scatter(c, Q.T @ Q)
+    Q = P.T - c[:, None]  # (3, k): see _fit_plane_many
+    return _plane_from_scatter(c, Q @ Q.T)
 
 
 def _fit_plane_many(P: np.ndarray):
