@@ -896,8 +896,10 @@ def _gap_mask(d, valid, fx, cfg, dzero=None):
         cc = np.clip(np.round(cent[1:, 0]).astype(np.int64), 0, lab.shape[1] - 1)
         zrun = zg[cr, cc].astype(np.float64)
         off = np.flatnonzero(lab[cr, cc] != np.arange(1, n_lab))
-        if len(off):
-            zsum = np.bincount(lab.reshape(-1), weights=zg.reshape(-1), minlength=n_lab)[1:]
+        if len(off):  # (on the run pixels only: the same sums in the same order)
+            on = np.flatnonzero(g)
+            zsum = np.bincount(lab.reshape(-1)[on], weights=zg.reshape(-1)[on],
+                               minlength=n_lab)[1:]
             zrun[off] = zsum[off] / np.maximum(stats[1 + off, cv2.CC_STAT_AREA], 1)
         keep = np.concatenate([[False], length >= cfg.gap_min_length * fx / np.maximum(zrun, 1e-6)])
         if not keep.any():
@@ -932,13 +934,18 @@ def _label_images(d, valid, ray_x, ray_y, planes, L, crossing_angle_deg,
     negL = -L
     unknown = np.where(valid, np.uint8(0), np.uint8(UNKNOWN))
     labs = []
+    occl = np.empty(d.shape, np.uint8)
     for k, pl in enumerate(planes):
         n = pl.n
-        nr = (np.float32(n[0]) * ray_x + np.float32(n[2])) + np.float32(n[1]) * ray_y
-        np.multiply(d, nr, out=S[k])
-        S[k] += np.float32(pl.d)
-        lab = cv2.compare(S[k], negL, cv2.CMP_LT) & np.uint8(FREE)
-        lab |= cv2.compare(S[k], L, cv2.CMP_GT) & np.uint8(OCCLUDED)
+        Sk = S[k]  # n . ray, times the depth, plus the offset: in place
+        np.add(np.float32(n[0]) * ray_x + np.float32(n[2]), np.float32(n[1]) * ray_y, out=Sk)
+        np.multiply(Sk, d, out=Sk)
+        np.add(Sk, np.float32(pl.d), out=Sk)
+        lab = cv2.compare(Sk, negL, cv2.CMP_LT)
+        np.bitwise_and(lab, np.uint8(FREE), out=lab)
+        cv2.compare(Sk, L, cv2.CMP_GT, dst=occl)
+        np.bitwise_and(occl, np.uint8(OCCLUDED), out=occl)
+        lab |= occl
         lab |= unknown                                   # 3 | anything = UNKNOWN
         labs.append(lab)
     _crossings(labs, S, planes, valid, crossing_angle_deg, smooth_px)
