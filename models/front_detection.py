@@ -671,13 +671,15 @@ def _edge_angle(inplane: np.ndarray) -> float:
     f = inplane.astype(np.float32)
     gx = cv2.Sobel(f, cv2.CV_32F, 1, 0, ksize=3)
     gy = cv2.Sobel(f, cv2.CV_32F, 0, 1, ksize=3)
-    mag = np.hypot(gx, gy)
-    sel = mag > 0
-    if sel.sum() < 8:
+    # on the edge cells only (gradient not 0: the magnitude is > 0 exactly there)
+    sel = (gx != 0) | (gy != 0)
+    if np.count_nonzero(sel) < 8:
         return 0.0
-    phi = np.arctan2(gy[sel], gx[sel])
-    z = np.sum(mag[sel] * np.exp(4j * phi))
-    if abs(z) < 1e-6 * mag[sel].sum():
+    gxs, gys = gx[sel], gy[sel]
+    mag = np.hypot(gxs, gys)
+    phi = np.arctan2(gys, gxs)
+    z = np.sum(mag * np.exp(4j * phi))
+    if abs(z) < 1e-6 * mag.sum():
         return 0.0
     return float(np.angle(z) / 4.0)
 
@@ -1029,19 +1031,24 @@ def _crossings(labs, S, planes, valid, crossing_angle_deg, smooth_px):
             flat[shared[take[k]]] = FREE                # in-plane -> FREE
 
 
-def _make_grid(k, plane: Plane, lab_img, sample_pts, K, down_C, cfg, lut) -> _Grid | None:
+def _make_grid(k, plane: Plane, lab_img, sample_pts, K, down_C, cfg, lut,
+               Lp: np.ndarray | None = None) -> _Grid | None:
+    """The rectified grid of plane ``k`` (None when fewer than 3 sampled points are within L
+    of it); ``Lp``: L at each of ``sample_pts`` (m; computed when None)."""
     n, d = plane.n, plane.d
-    Lp = np.maximum(cfg.inlier_distance, cfg.inlier_distance_per_m2 * sample_pts[:, 2] ** 2)
-    inl = sample_pts[np.abs(sample_pts @ n + d) <= Lp]
+    if Lp is None:
+        Lp = np.maximum(cfg.inlier_distance, cfg.inlier_distance_per_m2 * sample_pts[:, 2] ** 2)
+    inl = np.compress(np.abs(sample_pts @ n + d) <= Lp, sample_pts, axis=0)
     if len(inl) < 3:
         return None
     o = inl.mean(axis=0)
     o = o - (o @ n + d) * n
     e1, e2 = _plane_axes(n, down_C)
+    rel = inl - o  # (the same for both extents)
 
     def extent(e1, e2):
-        a = (inl - o) @ e1
-        b = (inl - o) @ e2
+        a = rel @ e1
+        b = rel @ e2
         pad = 0.1
         half = 0.5 * cfg.max_plane_extent
         am, bm = np.median(a), np.median(b)
@@ -1636,8 +1643,9 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
     gap, gap_thin = _gap_mask(d, valid, K.fx, cfg, dzero) if cfg.gap_label else (None, None)
     labels = _label_images(dzero, valid, xs, ys, planes, Limg, cfg.crossing_angle_deg,
                            int(cfg.crossing_smooth_px), surface, gap)
+    Lp = np.maximum(cfg.inlier_distance, cfg.inlier_distance_per_m2 * sample_pts[:, 2] ** 2)
     for k, (pl, lab) in enumerate(zip(planes, labels)):
-        g = _make_grid(k, pl, lab, sample_pts, K, down_C, cfg, lut)
+        g = _make_grid(k, pl, lab, sample_pts, K, down_C, cfg, lut, Lp)
         lab_imgs.append(lab)
         if g is not None and (g.labels == IN_PLANE).any():
             grids.append(g)
