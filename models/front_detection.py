@@ -714,9 +714,11 @@ def _surface_check(lab, S, Lm, win):
     r = win // 2
     y0, y1, x0, x1 = max(0, y - r), min(lab.shape[0], y + h + r), max(0, x - r), min(
         lab.shape[1], x + w + r)
-    inpb = m8[y0:y1, x0:x1] > 0
-    inp = inpb.astype(np.float32)
-    den = cv2.boxFilter(inp, -1, (win, win), normalize=False)
+    m8b = m8[y0:y1, x0:x1]
+    inpb = m8b > 0
+    in01 = inpb.view(np.uint8)
+    # in-plane neighbours of each pixel (exact integers, from the 0/1 bytes)
+    den = cv2.boxFilter(in01, cv2.CV_32F, (win, win), normalize=False)
     # relative to the plane refitted to the in-plane pixels' distances (an affine function
     # of the pixel, least squares), not to the fitted plane: a plane 1-2 deg off (a sliding
     # panel 4.6 cm in front of its cabinet's face) departs from one side of a 0.5 m panel by
@@ -737,7 +739,7 @@ def _surface_check(lab, S, Lm, win):
             keep = np.abs(A @ coef - b) <= lim
             if np.count_nonzero(keep) < 3:
                 break
-            coef = _affine_lstsq(A[keep], b[keep])
+            coef = _affine_lstsq(np.compress(keep, A, axis=0), b[keep])
         # Sb - ramp, in place in one buffer (the ramp is (a x + b y) + c, float32)
         dev = np.add(np.float32(coef[0]) * np.arange(x1 - x0, dtype=np.float32)[None, :],
                      np.float32(coef[1]) * np.arange(y1 - y0, dtype=np.float32)[:, None])
@@ -745,13 +747,17 @@ def _surface_check(lab, S, Lm, win):
         np.subtract(Sb, dev, out=dev)
     else:
         dev = Sb.copy()
-    dev *= inp
+    dev *= in01.astype(np.float32)
     num = cv2.boxFilter(dev, -1, (win, win), normalize=False)
     # den >= 1 at every in-plane pixel (its own): max(den, 1) = den where it matters
     np.abs(num, out=num)
     den *= Lm[y0:y1, x0:x1]
-    bad = np.greater(num, den, out=inpb, where=inpb)  # in place: inpb is not used again
-    lab[y0:y1, x0:x1][bad] = OFF_SURFACE
+    # bad: in-plane (label 0) and off the surface; OFF_SURFACE by or-ing it in (byte masks)
+    bad = cv2.compare(num, den, cv2.CMP_GT)
+    np.bitwise_and(bad, m8b, out=bad)
+    np.bitwise_and(bad, np.uint8(OFF_SURFACE), out=bad)
+    labb = lab[y0:y1, x0:x1]
+    np.bitwise_or(labb, bad, out=labb)
 
 
 def _affine_lstsq(A: np.ndarray, b: np.ndarray) -> np.ndarray:
