@@ -1368,7 +1368,7 @@ def _refit_plane(Pc, lab_img, center, e1, e2, w, h, K, n_old, L):
         return None
     P = Pc[r0:r1, c0:c1].reshape(-1, 3)
     lab = lab_img[r0:r1, c0:c1].reshape(-1)
-    P = P[lab == IN_PLANE].astype(np.float64)
+    P = np.compress(lab == IN_PLANE, P, axis=0).astype(np.float64)  # (rows: 5x P[mask])
     if len(P) < 10:
         return None
     q = P - center
@@ -1379,7 +1379,7 @@ def _refit_plane(Pc, lab_img, center, e1, e2, w, h, K, n_old, L):
         return None
     # the scatter matrix of the selected points from their offsets to the centre (already at
     # hand, and small: no cancellation to speak of) minus k times their mean's outer product
-    q = q[sel]
+    q = np.compress(sel, q, axis=0)
     mq = (np.ones(k) @ q) * (1.0 / k)
     n, d = _plane_from_scatter(center + mq, q.T @ q - k * np.outer(mq, mq))
     if n @ n_old < math.cos(math.radians(10.0)):
