@@ -940,7 +940,7 @@ def _label_images(d, valid, ray_x, ray_y, planes, L, crossing_angle_deg,
     S = np.empty((P,) + d.shape, np.float32)
     L = np.broadcast_to(np.asarray(L, np.float32), d.shape).copy() if np.ndim(L) == 0 else L
     negL = -L
-    unknown = np.where(valid, np.uint8(0), np.uint8(UNKNOWN))
+    unknown = np.multiply((~valid).view(np.uint8), np.uint8(UNKNOWN))  # 0 or UNKNOWN
     labs = []
     occl = np.empty(d.shape, np.uint8)
     for k, pl in enumerate(planes):
@@ -1553,6 +1553,14 @@ def _refine_edges(lab_img, dzero, xs, ys, n, dpl, K, o, e1, e2, a0, a1, b0, b1, 
 # ------------------------------------------------------------------------------------------
 # the detector
 # ------------------------------------------------------------------------------------------
+def _depth_bound(dzero: np.ndarray, base: float, per_m2: float) -> np.ndarray:
+    """max(base, per_m2 z^2) per pixel of the depth image ``dzero`` (m, 0 where invalid),
+    float32, in one buffer (m; m / m^2)."""
+    out = np.multiply(np.float32(per_m2), dzero)
+    out *= dzero
+    return np.maximum(out, np.float32(base), out=out)
+
+
 def _check_inputs(depth, K, X_WC):
     if not isinstance(K, PinholeIntrinsics):
         raise ValueError(f"detect_fronts: K must be a PinholeIntrinsics, got {type(K).__name__}")
@@ -1626,8 +1634,7 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
     sample_pts = Pc[off::st, off::st][rr, cc].astype(np.float64)
     planes = find_planes(sample_pts, np.column_stack([rr, cc]), grid_shape, cfg, rng)
     dzero = np.where(valid, d, np.float32(0.0))
-    Limg = np.maximum(np.float32(cfg.inlier_distance),
-                      np.float32(cfg.inlier_distance_per_m2) * dzero * dzero)
+    Limg = _depth_bound(dzero, cfg.inlier_distance, cfg.inlier_distance_per_m2)
     planes = [refine_plane_fullres(pl, Pc, Limg, st, off) for pl in planes]
     timings["planes"] = clock() - t0
     if not planes:
@@ -1643,8 +1650,7 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
     lab_imgs, grids = [], []
     surface = None
     if cfg.surface_check:
-        Lm = np.maximum(np.float32(cfg.surface_distance),
-                        np.float32(cfg.surface_distance_per_m2) * dzero * dzero)
+        Lm = _depth_bound(dzero, cfg.surface_distance, cfg.surface_distance_per_m2)
         surface = (Lm, int(cfg.surface_window_px))
     gap, gap_thin = _gap_mask(d, valid, K.fx, cfg, dzero) if cfg.gap_label else (None, None)
     labels = _label_images(dzero, valid, xs, ys, planes, Limg, cfg.crossing_angle_deg,
