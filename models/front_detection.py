@@ -979,7 +979,7 @@ def _crossings(labs, S, planes, valid, crossing_angle_deg, smooth_px):
         return
     count = np.zeros(valid.shape, np.uint8)
     for lab in labs:
-        count += lab == IN_PLANE
+        count += (lab == IN_PLANE).view(np.uint8)  # (bytes + bytes: no per-element cast)
     shared = np.flatnonzero(count > 1)
     if len(shared) == 0:
         return
