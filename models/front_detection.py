@@ -642,16 +642,31 @@ def _rotate_axes(e1, e2, theta):
     return c * e1 + s * e2, -s * e1 + c * e2
 
 
+def _grid_homography(K: PinholeIntrinsics, o, e1, e2, u0, v0, c, cb):
+    """(M, A, H) of a plane grid (see :func:`_warp_labels`): M = [e1 e2 o] (3 x 3), A the
+    grid cell -> plane coordinates (cells ``c`` x ``cb``, m, from (u0, v0)), H = K M A the
+    cell -> pixel homography (the same products as before, with the intrinsics' matrix made
+    once per camera and M filled in place: ~10 us less per warp, ~100 warps per frame)."""
+    Km = _K_MATRICES.get(K)
+    if Km is None:
+        if len(_K_MATRICES) > 64:
+            _K_MATRICES.clear()
+        Km = _K_MATRICES[K] = np.array([[K.fx, 0, K.cx], [0, K.fy, K.cy], [0, 0, 1.0]])
+    A = np.array([[c, 0, u0 + 0.5 * c], [0, cb, v0 + 0.5 * cb], [0, 0, 1.0]])
+    M = np.empty((3, 3))
+    M[:, 0], M[:, 1], M[:, 2] = e1, e2, o
+    return M, A, Km @ M @ A
+
+
+_K_MATRICES: dict = {}  # intrinsics -> their 3 x 3 matrix (read-only; K is hashable, frozen)
+
+
 def _warp_labels(labels_img, K: PinholeIntrinsics, o, e1, e2, u0, v0, c, shape, cb=None):
     """Nearest-neighbour resampling of the image label mask onto a plane grid (cells ``c``
     along e1 and ``cb`` (default ``c``) along e2, m); cells that do not project into the
     image (or lie behind the camera) are OUTSIDE."""
     Hg, Wg = shape
-    cb = c if cb is None else cb
-    Km = np.array([[K.fx, 0, K.cx], [0, K.fy, K.cy], [0, 0, 1.0]])
-    A = np.array([[c, 0, u0 + 0.5 * c], [0, cb, v0 + 0.5 * cb], [0, 0, 1.0]])
-    M = np.column_stack([e1, e2, o])
-    H = Km @ M @ A
+    M, A, H = _grid_homography(K, o, e1, e2, u0, v0, c, c if cb is None else cb)
     out = cv2.warpPerspective(labels_img, H, (int(Wg), int(Hg)),
                               flags=cv2.INTER_NEAREST | cv2.WARP_INVERSE_MAP,
                               borderMode=cv2.BORDER_CONSTANT, borderValue=OUTSIDE)
@@ -669,10 +684,7 @@ def _warp_labels(labels_img, K: PinholeIntrinsics, o, e1, e2, u0, v0, c, shape, 
 def _warp_float(img, K, o, e1, e2, u0, v0, c, shape, cb=None):
     """Like :func:`_warp_labels` for a float32 image (nearest neighbour; NaN outside)."""
     Hg, Wg = shape
-    cb = c if cb is None else cb
-    Km = np.array([[K.fx, 0, K.cx], [0, K.fy, K.cy], [0, 0, 1.0]])
-    A = np.array([[c, 0, u0 + 0.5 * c], [0, cb, v0 + 0.5 * cb], [0, 0, 1.0]])
-    H = Km @ np.column_stack([e1, e2, o]) @ A
+    H = _grid_homography(K, o, e1, e2, u0, v0, c, c if cb is None else cb)[2]
     return cv2.warpPerspective(img, H, (int(Wg), int(Hg)),
                                flags=cv2.INTER_NEAREST | cv2.WARP_INVERSE_MAP,
                                borderMode=cv2.BORDER_CONSTANT, borderValue=float("nan"))
