@@ -1308,8 +1308,11 @@ def _rect_camera(g: _Grid, R, e1=None, e2=None, u0=None, v0=None, c=None):
 
 
 def _corners_px(center, e1, e2, w, h, K):
-    corners = np.array([center + sx * 0.5 * w * e1 + sy * 0.5 * h * e2
-                        for sx, sy in ((-1, -1), (1, -1), (1, 1), (-1, 1))])
+    # the four corners center + sx w / 2 e1 + sy h / 2 e2 at once (the same products and
+    # sums, in the same order, as corner by corner)
+    a = np.array([sx * 0.5 * w for sx in (-1, 1, 1, -1)])[:, None]
+    b = np.array([sy * 0.5 * h for sy in (-1, -1, 1, 1)])[:, None]
+    corners = (center + a * e1) + b * e2
     z = corners[:, 2]
     with np.errstate(divide="ignore", invalid="ignore"):
         u = K.fx * corners[:, 0] / z + K.cx
