@@ -412,7 +412,16 @@ def _fit_plane_many(P: np.ndarray):
     is 10x slower); the same plane up to rounding (~1e-16)."""
     c = (np.ones(len(P)) @ P) * (1.0 / len(P))
     Q = P.T - c[:, None]
-    return _plane_from_scatter(c, Q @ Q.T)
+    return _plane_from_scatter(c, _scatter3(Q))
+
+
+def _scatter3(Q: np.ndarray) -> np.ndarray:
+    """Q Q^T of centred points ``Q`` (3, k) from its six distinct row products (``Q @ Q.T``
+    is a rank-k update on 3 rows, 5x slower at k = 16000; the same matrix to ~1e-16
+    relative)."""
+    q0, q1, q2 = Q
+    s01, s02, s12 = q0 @ q1, q0 @ q2, q1 @ q2
+    return np.array([[q0 @ q0, s01, s02], [s01, q1 @ q1, s12], [s02, s12, q2 @ q2]])
 
 
 def _components(sel, grid_rc, grid_shape):
