@@ -906,6 +906,13 @@ def _gap_mask(d, valid, fx, cfg, dzero=None):
             ic = idx + (2 * o) * Wm  # flat index of the line in m
             ou = ic - o * Wm         # side lines o and 2 o away
             od = ic + o * Wm
+            # side lines well measured and not bent first (the most selective test: the
+            # lines without return inside a region of drop-outs have no measured sides)
+            sides = okf[ou] & okf[od]
+            if not sides.all():
+                idx, ic, ou, od = idx[sides], ic[sides], ou[sides], od[sides]
+                if not len(idx):
+                    continue
             upv, dnv, cv = mf[ou], mf[od], mf[ic]
             refv = ref.reshape(-1)[idx]
             z2v = z2.reshape(-1)[idx]
@@ -918,7 +925,6 @@ def _gap_mask(d, valid, fx, cfg, dzero=None):
                 # its hinge) lies behind the mean of its sides, not behind their extensions
                 ext = upv + dnv - np.float32(0.5) * (mf[ou - o * Wm] + mf[od + o * Wm])
                 hit &= (cv - ext > np.float32(0.5) * thrv) | unmeas.reshape(-1)[ic]
-                hit &= okf[ou] & okf[od]
                 if o > 5:  # only near: a 5 mm reveal's band without return is ~2 + f 0.01 / z px
                     hit &= refv * np.float32(o - 2) < np.float32(0.01 * fx)
             ih = ic[hit]
