@@ -885,6 +885,7 @@ def _gap_mask(d, valid, fx, cfg, dzero=None):
         mf = m.reshape(-1)
         okf = side_ok.reshape(-1)
         unmeas = ~meas
+        gd = np.float32(cfg.gap_depth)
         for o in cfg.gap_offsets_px:
             o = int(o)
             if n_rows <= 4 * o:
@@ -894,12 +895,13 @@ def _gap_mask(d, valid, fx, cfg, dzero=None):
             c = m[r]
             up, dn = m[o:n_rows - 3 * o], m[3 * o:n_rows - o]
             ref = np.float32(0.5) * (up + dn)
-            z2 = ref * ref
-            thr = np.maximum(np.float32(cfg.gap_depth), np.float32(cfg.gap_depth_per_m2) * z2)
-            # the selective test first on every line (behind its sides, or unmeasured), the
-            # other tests only on its few candidates (same float32 arithmetic element-wise)
+            behind = c - ref
+            # the selective test first on every line (behind its sides by more than
+            # gap_depth <= thr, or unmeasured), the other tests only on its few candidates
+            # (same float32 arithmetic element-wise)
             with np.errstate(invalid="ignore"):
-                cand = (c - ref > thr) | unmeas[r]
+                cand = behind > gd
+            cand |= unmeas[r]
             idx = np.flatnonzero(cand)
             if not len(idx):
                 continue
@@ -915,8 +917,8 @@ def _gap_mask(d, valid, fx, cfg, dzero=None):
                     continue
             upv, dnv, cv = mf[ou], mf[od], mf[ic]
             refv = ref.reshape(-1)[idx]
-            z2v = z2.reshape(-1)[idx]
-            thrv = thr.reshape(-1)[idx]
+            z2v = refv * refv
+            thrv = np.maximum(gd, np.float32(cfg.gap_depth_per_m2) * z2v)
             tolv = np.maximum(np.float32(0.01), np.float32(cfg.gap_side_tolerance_per_m2) * z2v)
             with np.errstate(invalid="ignore"):
                 hit = np.abs(upv - dnv) < tolv  # False where either side is NaN
@@ -925,6 +927,9 @@ def _gap_mask(d, valid, fx, cfg, dzero=None):
                 # its hinge) lies behind the mean of its sides, not behind their extensions
                 ext = upv + dnv - np.float32(0.5) * (mf[ou - o * Wm] + mf[od + o * Wm])
                 hit &= (cv - ext > np.float32(0.5) * thrv) | unmeas.reshape(-1)[ic]
+                # behind by more than thr (the candidates were behind by gap_depth), or
+                # unmeasured
+                hit &= (behind.reshape(-1)[idx] > thrv) | unmeas.reshape(-1)[ic]
                 if o > 5:  # only near: a 5 mm reveal's band without return is ~2 + f 0.01 / z px
                     hit &= refv * np.float32(o - 2) < np.float32(0.01 * fx)
             ih = ic[hit]
