@@ -402,7 +402,7 @@ def _fit_plane(P: np.ndarray):
     """Least-squares plane through points (k, 3): unit normal towards the camera and offset."""
     c = P.mean(axis=0)
     Q = P.T - c[:, None]  # (3, k): see _fit_plane_many
-    return _plane_from_scatter(c, Q @ Q.T)
+    return _plane_from_scatter(c, _scatter3(Q))
 
 
 def _fit_plane_many(P: np.ndarray):
