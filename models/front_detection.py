@@ -905,20 +905,25 @@ def _gap_mask(d, valid, fx, cfg, dzero=None):
             idx = np.flatnonzero(cand)
             if not len(idx):
                 continue
-            ic = idx + (2 * o) * Wm  # flat index of the line in m
-            ou = ic - o * Wm         # side lines o and 2 o away
-            od = ic + o * Wm
-            # side lines well measured and not bent first (the most selective test: the
-            # lines without return inside a region of drop-outs have no measured sides)
-            sides = okf[ou] & okf[od]
-            if not sides.all():
-                idx, ic, ou, od = idx[sides], ic[sides], ou[sides], od[sides]
-                if not len(idx):
-                    continue
-            upv, dnv, cv = mf[ou], mf[od], mf[ic]
+            # behind by more than thr (the candidates are behind by gap_depth), or unmeasured
             refv = ref.reshape(-1)[idx]
             z2v = refv * refv
             thrv = np.maximum(gd, np.float32(cfg.gap_depth_per_m2) * z2v)
+            ic = idx + (2 * o) * Wm  # flat index of the line in m
+            unm = unmeas.reshape(-1)[ic]
+            with np.errstate(invalid="ignore"):
+                keep = np.flatnonzero((behind.reshape(-1)[idx] > thrv) | unm)
+            ic = ic[keep]
+            ou = ic - o * Wm         # side lines o and 2 o away
+            od = ic + o * Wm
+            # then the side lines well measured and not bent (lines without return inside a
+            # region of drop-outs have no measured sides)
+            s2 = np.flatnonzero(okf[ou] & okf[od])
+            if not len(s2):
+                continue
+            keep, ic, ou, od = keep[s2], ic[s2], ou[s2], od[s2]
+            refv, z2v, thrv, unm = refv[keep], z2v[keep], thrv[keep], unm[keep]
+            upv, dnv, cv = mf[ou], mf[od], mf[ic]
             tolv = np.maximum(np.float32(0.01), np.float32(cfg.gap_side_tolerance_per_m2) * z2v)
             with np.errstate(invalid="ignore"):
                 hit = np.abs(upv - dnv) < tolv  # False where either side is NaN
@@ -926,10 +931,7 @@ def _gap_mask(d, valid, fx, cfg, dzero=None):
                 # the line): a concave crease (an opened door meeting the cabinet's face at
                 # its hinge) lies behind the mean of its sides, not behind their extensions
                 ext = upv + dnv - np.float32(0.5) * (mf[ou - o * Wm] + mf[od + o * Wm])
-                hit &= (cv - ext > np.float32(0.5) * thrv) | unmeas.reshape(-1)[ic]
-                # behind by more than thr (the candidates were behind by gap_depth), or
-                # unmeasured
-                hit &= (behind.reshape(-1)[idx] > thrv) | unmeas.reshape(-1)[ic]
+                hit &= (cv - ext > np.float32(0.5) * thrv) | unm
                 if o > 5:  # only near: a 5 mm reveal's band without return is ~2 + f 0.01 / z px
                     hit &= refv * np.float32(o - 2) < np.float32(0.01 * fx)
             ih = ic[hit]
