@@ -1084,14 +1084,10 @@ def _crossings(labs, S, planes, valid, crossing_angle_deg, smooth_px):
             flat[shared[take[k]]] = FREE                # in-plane -> FREE
 
 
-def _make_grid(k, plane: Plane, lab_img, sample_pts, K, down_C, cfg, lut,
-               Lp: np.ndarray | None = None) -> _Grid | None:
-    """The rectified grid of plane ``k`` (None when fewer than 3 sampled points are within L
-    of it); ``Lp``: L at each of ``sample_pts`` (m; computed when None)."""
+def _make_grid(k, plane: Plane, lab_img, sample_pts, K, down_C, cfg, lut) -> _Grid | None:
     n, d = plane.n, plane.d
-    if Lp is None:
-        Lp = np.maximum(cfg.inlier_distance, cfg.inlier_distance_per_m2 * sample_pts[:, 2] ** 2)
-    inl = np.compress(np.abs(sample_pts @ n + d) <= Lp, sample_pts, axis=0)
+    Lp = np.maximum(cfg.inlier_distance, cfg.inlier_distance_per_m2 * sample_pts[:, 2] ** 2)
+    inl = np.compress(np.abs(sample_pts @ n + d) <= Lp, sample_pts, axis=0)  # (5x P[mask])
     if len(inl) < 3:
         return None
     o = inl.mean(axis=0)
@@ -1697,8 +1693,6 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
                                          cfg.cost_unknown, cfg.cost_free, cfg.cost_unknown,
                                          cfg.cost_free]))
     down_C = X_WC[:3, :3].T @ np.array([0.0, 0.0, -1.0])
-    # L at the sampled points, for every plane's grid
-    Lp = np.maximum(cfg.inlier_distance, cfg.inlier_distance_per_m2 * sample_pts[:, 2] ** 2)
     lab_imgs, grids = [], []
     surface = None
     if cfg.surface_check:
@@ -1708,7 +1702,7 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
     labels = _label_images(dzero, valid, xs, ys, planes, Limg, cfg.crossing_angle_deg,
                            int(cfg.crossing_smooth_px), surface, gap)
     for k, (pl, lab) in enumerate(zip(planes, labels)):
-        g = _make_grid(k, pl, lab, sample_pts, K, down_C, cfg, lut, Lp)
+        g = _make_grid(k, pl, lab, sample_pts, K, down_C, cfg, lut)
         lab_imgs.append(lab)
         if g is not None and (g.labels == IN_PLANE).any():
             grids.append(g)
