@@ -4,13 +4,14 @@ score them leave-one-out against a naive baseline.
 Usage::
 
     python -m mmlearn.apps.imitate_lasa --shapes Sshape,Leaf_1|all|development|held-back|multi-mode
-        [--objects target,start,frame,frame_scale] [--h S] [--dt S] [--diagonal] [--shrinkage L] [--gain G]
+        [--objects target,start,frame,frame_scale,frame_duration] [--h S] [--dt S] [--diagonal] [--shrinkage L] [--gain G]
         [--folds 0,1,..] [--json] [--plot FILE.png] [--meshcat] [--html-out FILE.html] [--seed N]
 
 For each shape and each of its 7 demonstrations: learn from the other 6 (the thesis' DBN of
 Gaussian constraints ``r_i = object_i - hand``: the target at the origin and, by default, a
-marker at the pen's start and the target constraint in the drawing's start frame and in its
-scale-only start frame; covariances shrunk half-way towards their diagonal), reproduce
+marker at the pen's start and the target constraint in the drawing's start frame, in its
+scale-only start frame and in its duration frame (unit = the drawing's duration, placed with
+the held-out duration); covariances shrunk half-way towards their diagonal), reproduce
 incrementally from the held-out demonstration's start for its duration, and measure
 ``rmse_mm`` (root mean square distance from each reproduced point to the nearest point of the
 held-out demonstration, after resampling the reproduction on the held-out time stamps) and
@@ -75,7 +76,7 @@ class LasaConfig:
     Attributes:
         shapes: shape names (see :data:`mmlearn.models.lasa.LASA_SHAPES`).
         objects: constraint objects: ``"target"`` plus optionally ``"start"``, ``"frame"``,
-            ``"frame_scale"``, ``"frame_rotation"`` (see :class:`~mmlearn.models.lasa.ThesisReproducer`).
+            ``"frame_scale"``, ``"frame_rotation"``, ``"frame_duration"`` (see :class:`~mmlearn.models.lasa.ThesisReproducer`).
         h: Parzen window width, s.
         dt: period of the learned slices and of the reproduction, s.
         full_covariance: full 2x2 covariances (False: the thesis' diagonal ones).
@@ -266,7 +267,8 @@ def main(argv=None) -> int:
                     help="constraint objects: target (the origin), start (a marker at the pen's "
                          "start), frame (the target constraint in the start frame: rotation and "
                          "scale by the start), frame_scale (scale only), frame_rotation (rotation "
-                         "only); the frames need start; default " + ",".join(ThesisReproducer.objects))
+                         "only), frame_duration (rotation by the start, unit = the drawing's "
+                         "duration); the frames need start; default " + ",".join(ThesisReproducer.objects))
     ap.add_argument("--h", type=pos_float, default=0.02, help="Parzen window width, s (default 0.02)")
     ap.add_argument("--dt", type=pos_float, default=0.02,
                     help="period of the learned slices and of the reproduction, s (default 0.02)")

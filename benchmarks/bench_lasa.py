@@ -12,8 +12,9 @@ Methods (every one learns from the 6 training demonstrations of a fold and start
 out demonstration's start; the reproductions are resampled on the held-out time stamps):
 
 * ``thesis``: :class:`mmlearn.models.lasa.ThesisReproducer` (defaults: target, start-marker,
-  start-frame and scale-only start-frame constraints, h 0.02 s, dt 0.02 s, full covariances shrunk
-  half-way to their diagonal).
+  start-frame, scale-only start-frame and duration-frame constraints, h 0.02 s, dt 0.02 s, full
+  covariances shrunk half-way to their diagonal).
+* ``thesis_s7``: the session-7 default (the same without the duration frame).
 * ``thesis_s6``: the previous default (session 6: target, start, frame; full covariances, no
   shrinkage).
 * ``target_start``: the default without the start-frame constraints (objects target, start;
@@ -140,7 +141,7 @@ def main(argv=None) -> int:
     ap.add_argument("--shapes", default="all", help="comma-separated names, or all (default)")
     ap.add_argument("--folds", default=None, help="held-out indices 0..6 (default all)")
     ap.add_argument("--weights", type=int, default=20, help="DMP/ProMP basis functions per dimension")
-    ap.add_argument("--methods", default="thesis,thesis_s6,target_start,baseline,dmp,promp")
+    ap.add_argument("--methods", default="thesis,thesis_s7,thesis_s6,target_start,baseline,dmp,promp")
     ap.add_argument("--json", default=None, help="also write the results to this JSON file")
     ap.add_argument("--inner-cv-diagnostic", action="store_true",
                     help="only print how well the inner leave-one-out predicts the outer rmse")
@@ -154,6 +155,7 @@ def main(argv=None) -> int:
         inner_cv_diagnostic(shapes, folds)
         return 0
     makers = {"thesis": lambda: ThesisReproducer(),
+              "thesis_s7": lambda: ThesisReproducer(objects=("target", "start", "frame", "frame_scale")),
               "thesis_s6": lambda: ThesisReproducer(objects=("target", "start", "frame"), full_covariance=True,
                                                     shrinkage=0.0),
               "target_start": lambda: ThesisReproducer(objects=("target", "start")),
@@ -164,6 +166,15 @@ def main(argv=None) -> int:
               "dmp": lambda: DmpReproducer(n_weights=a.weights),
               "promp": lambda: PrompReproducer(n_weights=a.weights)}
     methods = [m.strip() for m in a.methods.split(",")]
+    unknown = [m for m in methods if m not in makers]
+    if unknown:
+        ap.error(f"unknown methods {unknown}; choose from {sorted(makers)}")
+    if {"dmp", "promp"} & set(methods):
+        try:
+            import movement_primitives  # noqa: F401
+        except ImportError:
+            ap.error("the dmp / promp columns need movement-primitives: pip install 'mmlearn[bench-lasa]' "
+                     "(or leave them out with --methods thesis,baseline)")
     res = {m: [] for m in methods}
     secs = {m: 0.0 for m in methods}
     for name in shapes:

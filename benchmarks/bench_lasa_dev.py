@@ -9,6 +9,7 @@ Usage::
     OPENBLAS_NUM_THREADS=1 python benchmarks/bench_lasa_dev.py condition [--only "NAME;..."]
         [--variant 'LABEL={"condition": ["target"], "ridge": 1, ...}' ...] [--out FILE.jsonl]
     OPENBLAS_NUM_THREADS=1 python benchmarks/bench_lasa_dev.py condition-r2
+    OPENBLAS_NUM_THREADS=1 python benchmarks/bench_lasa_dev.py lasa5 [--only "NAME;..."]
     OPENBLAS_NUM_THREADS=1 python benchmarks/bench_lasa_dev.py grid [--only "NAME;NAME..."]
         [--variant 'LABEL={"shrinkage": 0.5, ...}' ...]
 
@@ -32,6 +33,11 @@ default (session 6, the base of every variant), today's default and the naive ba
 with the mean paired difference to today's default over the 63 development folds, the folds it
 lowers and the Wilcoxon signed-rank p-value. ``condition-r2``: how well the start predicts a
 held-out path on its own (see :func:`condition_r2`).
+
+``lasa5``: where the session-7 default errs against the baseline (fifths of the reproduction),
+then fusion rules (the constraints as correlated estimators), robust demonstration weights and
+the drawing's duration as a cue (the duration frame, adopted), each against the session-7
+default with the gate numbers (shapes and folds lowered, Wilcoxon p); see :func:`lasa5`.
 
 ``extras``: variants outside the reproducer's settings (the DBN indexed by normalised arc
 length instead of DTW time, a second DTW pass to the barycentre, covariances smoothed over
@@ -344,9 +350,271 @@ def condition_r2(shapes) -> None:
     print(f"{'mean':17s} " + " ".join(f"{x:5.3f}/{y:5.3f}" for x, y in zip(m[0], m[1])))
 
 
+# =============================================================================================
+# lasa5: fusion rules, robust demonstration weights, the duration as a cue (development only)
+def _frame(s, mode, T=None):
+    from mmlearn.models.lasa import start_frame
+
+    return start_frame(s, (0.0, 0.0), mode=mode, duration=T)
+
+
+def _on_model_time(t, path, held, dt):
+    """``(t, x)`` of a per-slice path reproduced for the held-out duration (the slice timing of
+    :func:`mmlearn.models.lasa.fused_path`)."""
+    n_steps = int(round(held.duration / dt))
+    k = np.clip(np.searchsorted(t, np.arange(1, n_steps + 1) * dt * float(t[-1]) / held.duration - 1e-9),
+                0, len(t) - 1)
+    return np.arange(n_steps + 1) * dt, np.vstack([held.hand[0][None], path[k]])
+
+
+class _Predictors:
+    """The hand path each constraint predicts alone for a start ``s`` (target: the mean path;
+    start: the mean path shifted by the start; frames: the mean in the start frame mapped by
+    ``s``'s frame), plain means over the aligned demonstrations."""
+
+    def __init__(self, H, S0, preds):
+        G = H.shape[0]
+        self.P = {}
+        for p in preds:
+            if p == "target":
+                self.P[p] = (lambda m: lambda s: m)(H.mean(0))
+            elif p == "start":
+                self.P[p] = (lambda m: lambda s: m + s)((H - S0[:, None]).mean(0))
+            else:
+                mode = "similarity" if p == "frame" else p.split("_")[1]
+                U = np.stack([H[g] @ np.linalg.inv(_frame(S0[g], mode)).T for g in range(G)]).mean(0)
+                self.P[p] = (lambda U, mode: lambda s: U @ _frame(s, mode).T)(U, mode)
+
+
+class _BlueFusion:
+    """The constraints fused as correlated estimators of the hand (best linear unbiased
+    combination): per slice the joint covariance of every constraint's leave-one-demonstration-
+    out prediction error over the training demonstrations (Parzen window ``hw`` s), shrunk by
+    ``ridge`` towards its diagonal (1 = independent constraints), ``floor`` mm^2 added; ``iso``:
+    one scalar weight per constraint (errors' dot products) instead of 2x2 blocks; ``clip``:
+    negative scalar weights set to 0."""
+
+    preds = ("target", "start", "frame", "frame_scale")
+
+    def __init__(self, *, hw=0.02, ridge=0.0, iso=False, floor=1e-3, clip=False, dt=0.02):
+        self.hw, self.ridge, self.iso, self.floor, self.clip, self.dt = hw, ridge, iso, floor, clip, dt
+
+    def __call__(self, train, held):
+        from mmlearn.models.imitation import align_demonstrations, parzen_weights
+        from mmlearn.models.lasa import with_start_marker
+
+        al = align_demonstrations([with_start_marker(d) for d in train], dt=self.dt, features="both")
+        H = np.stack([d.hand for d in al])
+        S0 = np.stack([d.objects["start"][0] for d in al])
+        G, T, _ = H.shape
+        n = len(self.preds)
+        E = np.zeros((G, T, n, 2))
+        for g in range(G):
+            keep = [j for j in range(G) if j != g]
+            P = _Predictors(H[keep], S0[keep], self.preds).P
+            for i, p in enumerate(self.preds):
+                E[g, :, i] = H[g] - P[p](S0[g])
+        t = al[0].t
+        W = parzen_weights(t, t, h=self.hw, G=G)
+        P = _Predictors(H, S0, self.preds).P
+        s = held.hand[0]
+        if self.iso:
+            C = np.einsum("st,gtia,gtja->sij", W, E, E) / 2 + self.floor * np.eye(n)
+            C = (1 - self.ridge) * C + self.ridge * np.einsum("sii->si", C)[:, :, None] * np.eye(n)
+            w = np.linalg.solve(C, np.ones((T, n, 1)))[:, :, 0]
+            w /= w.sum(1, keepdims=True)
+            if self.clip:
+                w = np.clip(w, 0, None)
+                w /= w.sum(1, keepdims=True)
+            path = np.einsum("ti,tia->ta", w, np.stack([P[p](s) for p in self.preds], 1))
+        else:
+            Ef = E.reshape(G, T, 2 * n)
+            C = np.einsum("st,gta,gtb->sab", W, Ef, Ef) + self.floor * np.eye(2 * n)
+            C = (1 - self.ridge) * C + self.ridge * np.einsum("sii->si", C)[:, :, None] * np.eye(2 * n)
+            Hm = np.tile(np.eye(2), (n, 1))
+            Ci = np.linalg.inv(C)
+            A = np.einsum("ai,sab,bj->sij", Hm, Ci, Hm)
+            b = np.einsum("ai,sab,sb->si", Hm, Ci, np.concatenate([P[p](s) for p in self.preds], 1))
+            path = np.linalg.solve(A, b[:, :, None])[:, :, 0]
+        return _on_model_time(t, path, held, self.dt)
+
+
+class _ProductFusion:
+    """The thesis' product of Gaussians re-written for the study (equal to the default
+    ThesisReproducer's closed form when ``robust`` is off and ``preds`` is the session-7 set),
+    with two options: ``robust``: each training demonstration weighted by a Student-t weight
+    ``(nu + 2) / (nu + d2)`` of its mean squared Mahalanobis deviation d2 (5 reweighting
+    passes; robust learning against an odd demonstration); extra constraints ``"duration"``
+    (the target constraint in world axes with unit = the drawing's duration, mm/s) and
+    ``"dur_start"`` (the start constraint in duration units), placed with the held-out
+    duration; ``"frame_duration"`` is the duration frame of ThesisReproducer."""
+
+    def __init__(self, *, preds=("target", "start", "frame", "frame_scale"), shrink=0.5, robust=False, nu=4.0,
+                 h=0.02, dt=0.02):
+        self.preds, self.shrink, self.robust, self.nu, self.h, self.dt = preds, shrink, robust, nu, h, dt
+
+    def _moments(self, V, a, W, min_var):
+        w = a[:, None, None] * W[None]
+        c0 = V.reshape(-1, 2).mean(0)
+        Vc = V - c0
+        m1 = np.einsum("gst,gtd->sd", w, Vc)
+        m2 = np.einsum("gst,gtd,gte->sde", w, Vc, Vc)
+        den = np.maximum(1 - np.einsum("gst->s", w * w), 1e-12)
+        cov = (m2 - m1[:, :, None] * m1[:, None, :]) / den[:, None, None]
+        cov = 0.5 * (cov + cov.swapaxes(1, 2)) + min_var * np.eye(2)
+        diag = np.einsum("sii->si", cov)[:, :, None] * np.eye(2)
+        return m1 + c0, (1 - self.shrink) * cov + self.shrink * diag
+
+    def _components(self, H, S0, Tg, t, s, Tq, a):
+        from mmlearn.models.imitation import parzen_weights
+
+        G = H.shape[0]
+        W = parzen_weights(t, t, h=self.h, G=1)
+        out = []
+        for p in self.preds:
+            off = 0.0
+            if p == "target":
+                V, mv, M = -H, 1e-6, np.eye(2)
+            elif p == "start":
+                V, mv, M, off = S0[:, None] - H, 1e-6, np.eye(2), s
+            elif p == "duration":
+                V, mv, M = -H / Tg[:, None, None], 1e-6 / np.mean(Tg ** 2), Tq * np.eye(2)
+            elif p == "dur_start":
+                V, mv, M, off = (S0[:, None] - H) / Tg[:, None, None], 1e-6 / np.mean(Tg ** 2), Tq * np.eye(2), s
+            else:
+                mode = "similarity" if p == "frame" else p.split("_")[1]
+                V = np.stack([-H[g] @ np.linalg.inv(_frame(S0[g], mode, Tg[g])).T for g in range(G)])
+                unit2 = np.mean(Tg ** 2) if mode == "duration" else np.mean(np.sum(S0 ** 2, 1))
+                mv, M = 1e-6 / unit2, _frame(s, mode, Tq)
+            mu, cov = self._moments(V, a, W, mv)
+            out.append((off - mu @ M.T, np.einsum("ij,sjk,lk->sil", M, cov, M), V))
+        return out
+
+    def __call__(self, train, held):
+        from mmlearn.models.imitation import align_demonstrations
+        from mmlearn.models.lasa import with_start_marker
+
+        al = align_demonstrations([with_start_marker(d) for d in train], dt=self.dt, features="both")
+        H = np.stack([d.hand for d in al])
+        S0 = np.stack([d.objects["start"][0] for d in al])
+        Tg = np.array([d.duration for d in train])
+        t = al[0].t
+        G = len(al)
+        a = np.full(G, 1.0 / G)
+        s = held.hand[0]
+        if self.robust:
+            for _ in range(5):
+                d2 = np.zeros(G)
+                comps = self._components(H, S0, Tg, t, s, held.duration, a)
+                for _, _, V in comps:
+                    mu = np.einsum("g,gtd->td", a, V)
+                    C = np.einsum("g,gtd,gte->tde", a, V - mu, V - mu) * G / (G - 1) + 1e-6 * np.eye(2)
+                    e = V - mu
+                    d2 += np.einsum("gti,tij,gtj->gt", e, np.linalg.inv(C), e).mean(1) / len(comps)
+                a = (self.nu + 2) / (self.nu + d2)
+                a /= a.sum()
+        Psum, b = 0.0, 0.0
+        for pred, cov, _ in self._components(H, S0, Tg, t, s, held.duration, a):
+            P = np.linalg.inv(cov)
+            Psum = Psum + P
+            b = b + np.einsum("sij,sj->si", P, pred)
+        return _on_model_time(t, np.linalg.solve(Psum, b[:, :, None])[:, :, 0], held, self.dt)
+
+
+class _DurationUnknown(ThesisReproducer):
+    """The default (with the duration frame) placed with the training drawings' median
+    duration instead of the held-out one (reproduced for the held-out duration): how much of
+    the duration frame's gain is the duration itself."""
+
+    def __call__(self, train, held):
+        from mmlearn.models.imitation import reproduce_cartesian
+
+        m = self.learn(train, start=held.hand[0], duration=float(np.median([d.duration for d in train])))
+        obj = {"target": held.objects["target"][0], "start": held.hand[0]}
+        obj.update({o: held.objects["target"][0] for o in self.objects if o.startswith("frame")})
+        return reproduce_cartesian(m, held.hand[0], obj, duration=held.duration, dt=self.dt, gain=self.gain)
+
+
+S7 = ("target", "start", "frame", "frame_scale")
+"""The session-7 default's constraint objects (the reference of the lasa5 study)."""
+
+
+def _lasa5_variants() -> dict:
+    v = {}
+    for kw in (dict(iso=True, hw=0.02), dict(iso=False, hw=0.02), dict(iso=True, hw=0.1), dict(iso=False, hw=0.1),
+               dict(iso=True, hw=0.1, clip=True), dict(iso=False, ridge=1.0, floor=1e-6),
+               dict(iso=False, ridge=0.5, floor=1e-6), dict(iso=True, ridge=1.0, floor=1e-6)):
+        v["blue " + ",".join(f"{k}={x:g}" for k, x in kw.items())] = _BlueFusion(**kw)
+    v["product re-written (= session 7)"] = _ProductFusion()
+    for nu in (4.0, 1.0, 10.0):
+        v[f"robust demo weights nu={nu:g}"] = _ProductFusion(robust=True, nu=nu)
+    v["+duration (world axes, unit T)"] = _ProductFusion(preds=S7 + ("duration",))
+    v["+dur_start (start constraint / T)"] = _ProductFusion(preds=S7 + ("dur_start",))
+    v["+duration +dur_start"] = _ProductFusion(preds=S7 + ("duration", "dur_start"))
+    v["+frame_duration (new default)"] = ThesisReproducer(objects=S7 + ("frame_duration",))
+    v["+dur_start, shrinkage 1"] = _ProductFusion(preds=S7 + ("dur_start",), shrink=1.0)
+    v["+dur_start, shrinkage 0"] = _ProductFusion(preds=S7 + ("dur_start",), shrink=0.0)
+    v["diag: +frame_duration, median training T"] = _DurationUnknown()
+    v["diag: +frame_rotation (unit 1 mm)"] = ThesisReproducer(objects=S7 + ("frame_rotation",))
+    return v
+
+
+def lasa5(shapes, only=None) -> None:
+    """lasa5 study: every variant against the session-7 default (target + start + frame +
+    frame_scale) on the development folds: mean rmse / end error (mm), the shapes and folds it
+    lowers, the Wilcoxon signed-rank p over the 63 paired folds; first the error split by
+    fifths of the reproduction (mean squared nearest distance, mm^2) against the baseline."""
+    from scipy.spatial import cKDTree
+    from scipy.stats import wilcoxon
+
+    demos = {n: load_shape(n) for n in shapes}
+    s7 = ThesisReproducer(objects=S7)
+    print("error by fifths of the reproduction (mean squared nearest distance, mm^2), session 7 | baseline; "
+          "folds where session 7 beats the baseline")
+    acc = []
+    for n in shapes:
+        rows = []
+        for k, train, held in leave_one_out(demos[n]):
+            r = []
+            for f in (s7, baseline_reproducer):
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore")
+                    t, x = f(train, held)
+                d, _ = cKDTree(held.hand).query(resample_to(t - t[0], x, held.t - held.t[0]))
+                r.append([np.sqrt(np.mean(d ** 2))] + [np.mean(b) for b in np.array_split(d ** 2, 5)])
+            rows.append(r)
+        a = np.array(rows)
+        acc.append(a.mean(0))
+        m = a.mean(0)
+        print(f"{n:17s} {m[0, 0]:.3f} | {m[1, 0]:.3f}  " + " ".join(f"{x:5.2f}" for x in m[0, 1:]) + " | "
+              + " ".join(f"{x:5.2f}" for x in m[1, 1:]) + f"  {int(np.sum(a[:, 0, 0] < a[:, 1, 0]))}/7", flush=True)
+    m = np.mean(acc, axis=0)
+    print(f"{'mean':17s} {m[0, 0]:.3f} | {m[1, 0]:.3f}  " + " ".join(f"{x:5.2f}" for x in m[0, 1:]) + " | "
+          + " ".join(f"{x:5.2f}" for x in m[1, 1:]))
+
+    def folds(rep):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            res = [evaluate_shape(n, rep, demos=demos[n]) for n in shapes]
+        return (np.array([f.rmse_mm for r in res for f in r.folds]), np.array([r.rmse_mm for r in res]),
+                float(np.mean([r.end_error_mm for r in res])))
+
+    ref, ref_sh, ref_end = folds(s7)
+    print(f"\n{'variant':40s} {'rmse':>6s} {'end':>6s} {'change':>7s} {'shapes':>6s} {'folds':>6s} {'p':>6s}  per shape")
+    print(f"{'session 7 default':40s} {ref_sh.mean():6.3f} {ref_end:6.3f}  " + " ".join(f"{x:.3f}" for x in ref_sh))
+    for label, rep in _lasa5_variants().items():
+        if only and label not in only:
+            continue
+        r, sh, e = folds(rep)
+        p = wilcoxon(r, ref).pvalue if np.any(r != ref) else 1.0
+        print(f"{label:40s} {sh.mean():6.3f} {e:6.3f} {sh.mean() / ref_sh.mean() - 1:+7.1%} "
+              f"{int(np.sum(sh < ref_sh)):3d}/{len(sh)} {int(np.sum(r < ref)):3d}/{len(r)} {p:6.3f}  "
+              + " ".join(f"{x:.3f}" for x in sh), flush=True)
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("what", choices=("split", "grid", "extras", "condition", "condition-r2"))
+    ap.add_argument("what", choices=("split", "grid", "extras", "condition", "condition-r2", "lasa5"))
     ap.add_argument("--only", default=None, help="grid, condition: variant names separated by ;")
     ap.add_argument("--out", default=None, help="condition: append every variant's fold results to this JSON Lines file")
     ap.add_argument("--variant", action="append", default=[],
@@ -360,6 +628,8 @@ def main(argv=None) -> int:
         extras(shapes)
     elif a.what == "condition-r2":
         condition_r2(shapes)
+    elif a.what == "lasa5":
+        lasa5(shapes, None if a.only is None else [s.strip() for s in a.only.split(";")])
     elif a.what == "condition":
         condition(shapes, None if a.only is None else [s.strip() for s in a.only.split(";")], a.variant, a.out)
     else:

@@ -321,7 +321,7 @@ def test_start_frame_modes_and_the_scale_only_frame():
     are reproduced by the scale-only frame constraint, not by the world constraints."""
     from mmlearn.models.lasa import FRAME_MODES, OBJECTS, start_frame, to_start_frame
 
-    assert set(FRAME_MODES) == {"similarity", "rotation", "scale"} and OBJECTS[0] == "target"
+    assert set(FRAME_MODES) == {"similarity", "rotation", "scale", "duration"} and OBJECTS[0] == "target"
     assert np.allclose(start_frame([3.0, 4.0], mode="rotation"), [[0.6, -0.8], [0.8, 0.6]])
     assert np.allclose(start_frame([13.0, 4.0], target=[10.0, 0.0], mode="scale"), 5.0 * np.eye(2))
     with pytest.raises(ValueError, match="mode must be one of"):
@@ -458,3 +458,64 @@ def test_condition_on_start_is_the_gaussian_conditional():
         condition_on_start(t, values[:, :-1], C, q, h=0.02)
     with pytest.raises(ValueError, match="kind"):
         start_covariates(starts, [1.0, 0.0], kind="angle")
+
+
+def _timed_drawings(n=7, T=300):
+    """``n`` drawings from a start at ~50 mm (distance and direction not tied to the duration)
+    to the origin: a straight stroke plus a sideways bulge of 6 mm per second of the drawing's
+    duration (2.0-3.8 s, shuffled): a slower drawing is a larger one."""
+    from mmlearn.models.imitation_types import Demonstration
+
+    rng = np.random.default_rng(3)
+    durs = rng.permutation(2.0 + 0.3 * np.arange(n))
+    s = np.linspace(0.0, 1.0, T)
+    out = []
+    for g in range(n):
+        d, a = 50.0 + rng.uniform(-5, 5), rng.uniform(-0.3, 0.3)
+        u = np.stack([d * (1 - s), 6.0 * durs[g] * np.sin(np.pi * s)], axis=1)
+        hand = u @ np.array([[np.cos(a), -np.sin(a)], [np.sin(a), np.cos(a)]]).T
+        out.append(Demonstration(t=np.linspace(0.0, durs[g], T), hand=hand,
+                                 objects={"target": np.zeros_like(hand)}).validate())
+    return out
+
+
+def test_duration_frame_follows_a_drawing_sized_by_its_duration():
+    """lasa5: the duration start frame (x-axis towards the start, unit = the drawing's duration)
+    maps and errs like the other frames, and on drawings whose bulge grows with their duration
+    (not with their start) the default with it reproduces a held-out drawing far better than
+    without it; the learned model places it only when given the reproduction's duration."""
+    from mmlearn.models.lasa import learn_start_frame, start_frame, to_start_frame
+
+    S = start_frame([0.0, 30.0], mode="duration", duration=2.5)   # unit 2.5 s, x towards the start
+    assert np.allclose(S @ [1.0, 0.0], [0.0, 2.5]) and np.allclose(S @ [0.0, 1.0], [-2.5, 0.0])
+    for bad in (None, 0.0, np.nan):
+        with pytest.raises(ValueError, match="needs the drawing's duration"):
+            start_frame([0.0, 30.0], mode="duration", duration=bad)
+    demos = _timed_drawings()
+    d = with_start_marker(demos[0])
+    u = to_start_frame(d, mode="duration").hand                  # default: the demo's own duration
+    assert np.allclose(u[0], [np.linalg.norm(d.hand[0]) / d.duration, 0.0])
+    assert np.allclose(to_start_frame(d, mode="duration", duration=1.0).hand[0], [np.linalg.norm(d.hand[0]), 0.0])
+    # the learned frame's sideways bulge, in mm per second: 6 at mid-drawing (the alignment puts
+    # every demonstration on the reference's time base, so the durations are passed)
+    from mmlearn.models.imitation import align_demonstrations
+    al = align_demonstrations([with_start_marker(x) for x in demos], dt=0.02)
+    fm, _ = learn_start_frame(al, h=0.02, mode="duration", durations=[x.duration for x in demos])
+    assert abs(-fm[len(fm) // 2, 1] - 6.0) < 0.6, fm[len(fm) // 2]
+    with pytest.raises(ValueError, match="durations"):
+        learn_start_frame(al, h=0.02, mode="duration", durations=[1.0])
+    with pytest.raises(ValueError, match="durations"):
+        learn_start_frame(al, h=0.02, mode="duration", durations=[-1.0] * 7)
+    with_dur = evaluate_shape("timed", ThesisReproducer(), demos=demos)          # all 7 folds, ~1 s
+    without = evaluate_shape("timed", ThesisReproducer(objects=("target", "start", "frame", "frame_scale")),
+                             demos=demos)
+    assert with_dur.end_error_mm < 0.5, with_dur.end_error_mm
+    assert with_dur.rmse_mm < 0.6 * without.rmse_mm, (without.rmse_mm, with_dur.rmse_mm)     # 1.32 vs 2.62 mm
+    rep = ThesisReproducer()
+    assert "frame_duration" not in rep.learn(demos[1:], start=demos[0].hand[0]).objects
+    m = rep.learn(demos[1:], start=demos[0].hand[0], duration=demos[0].duration)
+    assert m.objects[-1] == "frame_duration"
+    with pytest.raises(ValueError, match="duration must be a finite time"):
+        rep.learn(demos[1:], start=demos[0].hand[0], duration=0.0)
+    with pytest.raises(ValueError, match="'frame' needs 'start'"):
+        ThesisReproducer(objects=("target", "frame_duration"))
