@@ -282,6 +282,18 @@ def name_list(choices=None):
     return parse
 
 
+def float_list(text):
+    """argparse type: a comma-separated, non-empty list of finite numbers; returns a list."""
+    try:
+        v = [float(x) for x in str(text).split(",") if x.strip()]
+    except ValueError:
+        raise _argparse.ArgumentTypeError(f"expected comma-separated numbers, got {text!r}") \
+            from None
+    if not v or not all(_math.isfinite(x) for x in v):
+        raise _argparse.ArgumentTypeError(f"expected comma-separated finite numbers, got {text!r}")
+    return v
+
+
 def check_out_file(flag: str, path) -> None:
     """Raise UsageError unless ``path`` can be written as a file: its folder exists and it
     is not a folder. Call before any computation."""

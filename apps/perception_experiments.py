@@ -41,8 +41,8 @@ from pathlib import Path
 
 import numpy as np
 
-from mmlearn.apps._common import (ArgumentParser, UsageError, check_out_dir, fail, json_clean,
-                                  name_list, nonneg_int, pos_int, save_figure)
+from mmlearn.apps._common import (ArgumentParser, UsageError, check_out_dir, fail, float_list,
+                                  json_clean, name_list, nonneg_int, pos_int, save_figure)
 
 __all__ = ["EXPERIMENTS", "trial", "trial_specs", "report", "run", "main", "THESIS_STAGE_S"]
 
@@ -506,10 +506,10 @@ def main(argv=None) -> int:
     ap.add_argument("--seeds", type=pos_int, default=10, help="runs per setting")
     ap.add_argument("--frames", type=pos_int, default=60,
                     help="camera frames per run (thesis: ~60 images per log)")
-    ap.add_argument("--distances", type=_float_list, default=None,
+    ap.add_argument("--distances", type=float_list, default=None,
                     help="comma-separated camera distances of the distance experiment, m "
                          "(default 0.8,1.3,1.8,2.3,2.8)")
-    ap.add_argument("--angles", type=_float_list, default=None,
+    ap.add_argument("--angles", type=float_list, default=None,
                     help="comma-separated angles off the normal of the angle experiment, deg, "
                          "at 1.5 m (default 0,15,30,45; --angles=-30,0 for a minus)")
     ap.add_argument("--json", action="store_true", help="print JSON instead of tables")
@@ -562,20 +562,6 @@ def main(argv=None) -> int:
     elif res.get("plots"):
         print("plots: " + ", ".join(res["plots"]))
     return exit_status(ap.prog, res)
-
-
-def _float_list(text):
-    """argparse type: comma-separated finite numbers (a list)."""
-    import argparse
-
-    try:
-        v = [float(x) for x in str(text).split(",") if x.strip()]
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected comma-separated numbers, got {text!r}") \
-            from None
-    if not v or not all(np.isfinite(x) for x in v):
-        raise argparse.ArgumentTypeError(f"expected comma-separated finite numbers, got {text!r}")
-    return v
 
 
 if __name__ == "__main__":

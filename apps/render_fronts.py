@@ -27,9 +27,9 @@ from pathlib import Path
 import numpy as np
 
 from mmlearn.apps._common import (ArgumentParser, UsageError, check_in_file, check_out_dir,
-                                  check_out_file, fail, finish_viewing, json_clean, load_config,
-                                  make_meshcat, name_list, nonneg_int, pos_int, progress,
-                                  save_html)
+                                  check_out_file, fail, finish_viewing, float_list, json_clean,
+                                  load_config, make_meshcat, name_list, nonneg_int, pos_int,
+                                  progress, save_html)
 from mmlearn.diagrams.perception import FrontPerceptionConfig, MakeFrontPerceptionDiagram
 
 
@@ -152,9 +152,9 @@ def main(argv=None) -> int:
                     "drawer opens, with the ground truth, into a folder.")
     ap.add_argument("--front", type=name_list(["door", "drawer"]), default=["door", "drawer"],
                     help="comma-separated moving fronts (door, drawer)")
-    ap.add_argument("--distance", type=_float_list, default=[1.0, 1.8, 2.5],
+    ap.add_argument("--distance", type=float_list, default=[1.0, 1.8, 2.5],
                     help="comma-separated camera distances, m")
-    ap.add_argument("--angle", type=_float_list, default=[0.0],
+    ap.add_argument("--angle", type=float_list, default=[0.0],
                     help="comma-separated camera angles off the front's normal, deg, positive "
                          "towards the kitchen's +y (write --angle=-30,30 for a leading minus)")
     ap.add_argument("--frames", type=pos_int, default=3, help="frames per run")
@@ -199,20 +199,6 @@ def main(argv=None) -> int:
               + (f"; saved in {result['out_dir']}" if result["out_dir"] else ""))
     finish_viewing(html_out=None if args.json else result["html_out"], live=args.meshcat)
     return 0
-
-
-def _float_list(text):
-    import argparse
-    import math
-
-    try:
-        v = [float(s) for s in str(text).split(",") if s.strip()]
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected comma-separated numbers, got {text!r}") \
-            from None
-    if not v or not all(math.isfinite(x) for x in v):
-        raise argparse.ArgumentTypeError(f"expected comma-separated finite numbers, got {text!r}")
-    return v
 
 
 if __name__ == "__main__":
