@@ -337,13 +337,15 @@ def simulate_grasp(config: TactileGraspConfig, *, container: ContainerInstance |
 def container_grasp_trial(*, seed: int, container: str, state: str, f_target: float = 20.0,
                           v_target: float = 0.02, offset_sd: float = 0.001,
                           duration: float = 2.6, hold_time: float = 1.0,
-                          palm_slide_damping: float | None = PALM_SLIDE_DAMPING) -> dict:
+                          palm_slide_damping: float | None = PALM_SLIDE_DAMPING,
+                          wall_model: str = "pressure") -> dict:
     """One ch. 7 probing grasp of a random instance of ``container`` in ``state`` (a pure
     function of its arguments, for :mod:`mmlearn.apps._sweep`). The instance (sizes,
     stiffnesses, fill level), its placement (lateral offset ~ N(0, ``offset_sd``) m) and
     the sensor noise are drawn from ``seed``. The gripper centres itself on the container
     (``palm_slide_damping`` N s/m, see :class:`TactileGraspConfig`; None: welded palm, the
-    first finger alone squeezes an off-centre container until the second arrives). Returns a JSON-able record: the recorded
+    first finger alone squeezes an off-centre container until the second arrives).
+    ``wall_model``: "pressure" or "linear" (:class:`TactileGraspConfig`). Returns a JSON-able record: the recorded
     series ``t``, ``p``, ``f``, ``finger_force`` (what the features are computed from), the
     labels ``container`` / ``state`` and the instance's parameters (for reference only)."""
     rng = np.random.default_rng([int(seed), 13])
@@ -351,11 +353,13 @@ def container_grasp_trial(*, seed: int, container: str, state: str, f_target: fl
     offset = float(rng.normal(0.0, offset_sd))
     cfg = TactileGraspConfig(pad="pr2", f_target=f_target, v_target=v_target,
                              duration=duration, hold_time=hold_time, offset=offset,
-                             seed=int(seed), palm_slide_damping=palm_slide_damping)
+                             seed=int(seed), palm_slide_damping=palm_slide_damping,
+                             wall_model=wall_model)
     g = simulate_grasp(cfg, container=inst)
     return {"t": g.t.tolist(), "p": g.p.tolist(), "f": g.f.tolist(),
             "finger_force": g.finger_force.tolist(), "container": container, "state": state,
-            "f_target": f_target, "offset": offset, "instance": inst.as_dict()}
+            "f_target": f_target, "offset": offset, "wall_model": wall_model,
+            "instance": inst.as_dict()}
 
 
 def grasp_from_record(rec: dict) -> TactileGrasp:
