@@ -39,7 +39,8 @@ and the wall feels the content only through ``dV``: the content's pressure rise 
 each wall with the generalized force ``dp * dV'(d)`` (virtual work; ``dV'(d) = pi L d / 2``,
 m^2). ``dp`` is the exact isothermal gas law of the closed headspace with the rest of the shell
 bulging (``p0 V_gas = (p0 + dp) (V_gas - dV + C_shell dp)``, solved in closed form), the
-hydrostatic head ``rho g dV / A_neck`` of an open full container, 0 for an open empty one. A
+hydrostatic head ``rho g min(dV, V_gas) / A_neck`` of an open full container (the liquid
+rises in the neck until it spills over the rim), 0 for an open empty one. A
 full container's liquid resists the volume flow ``Q = dV'(d) d'`` with ``R_liq Q`` (Pa;
 ``R_liq = c_liq / A^2`` so that at ``dV' = A`` it matches the linearised damping). Both grow
 with the squeeze: at a light probe the shell's own (linear) stiffness dominates and the states
@@ -273,8 +274,9 @@ def squeeze_pressure(d, *, closed: bool, full: bool, gas_volume: float,
     Closed: the isothermal gas law of the headspace ``gas_volume`` (m^3) at ``p0`` (Pa) with the
     rest of the shell bulging by ``shell_compliance * dp`` (m^3/Pa):
     ``C dp^2 + (V_g - dV + C p0) dp - p0 dV = 0``, the positive root (with ``C = 0`` this is
-    ``p0 dV / (V_g - dV)``, Boyle's law). Open and full: the head ``rho g dV / neck_area``
-    (``neck_area`` m^2). Open and empty: 0."""
+    ``p0 dV / (V_g - dV)``, Boyle's law). Open and full: the head
+    ``rho g min(dV, V_g) / neck_area`` (``neck_area`` m^2; the liquid rises in the neck until
+    it fills the headspace ``V_g`` and spills over the rim). Open and empty: 0."""
     dV, _ = squeeze_volume(d, squeeze_length=squeeze_length)
     if closed:
         vg = _positive("gas_volume", gas_volume)
@@ -289,7 +291,10 @@ def squeeze_pressure(d, *, closed: bool, full: bool, gas_volume: float,
         # C = 0 and the gas squeezed out entirely: Boyle's law has no finite answer
         return np.where(np.isfinite(dp) & (b + disc > 0), dp, np.inf)
     if full:
-        return RHO_WATER * G * dV / _positive("neck_area", neck_area)
+        # the liquid rises into the vented headspace (through the neck) and spills over the
+        # rim once the headspace is full: the head stops growing there
+        vg = _positive("gas_volume", gas_volume)
+        return RHO_WATER * G * np.minimum(dV, vg) / _positive("neck_area", neck_area)
     return np.zeros_like(dV)
 
 

@@ -38,6 +38,10 @@ def test_boyle_value_at_a_known_squeeze():
     assert np.isclose(squeeze_pressure(d, closed=False, full=True, gas_volume=50e-6,
                                        shell_compliance=C, squeeze_length=L, neck_area=4e-4),
                       RHO_WATER * G * 10e-6 / 4e-4)
+    # ... until the headspace is full and the liquid spills over the rim
+    assert np.isclose(squeeze_pressure(d, closed=False, full=True, gas_volume=5e-6,
+                                       shell_compliance=C, squeeze_length=L, neck_area=4e-4),
+                      RHO_WATER * G * 5e-6 / 4e-4)
     assert squeeze_pressure(d, closed=False, full=False, gas_volume=1.0, shell_compliance=C,
                             squeeze_length=L) == 0.0
 
