@@ -157,7 +157,9 @@ def _sim_specs(containers, f_target, trials, seed, wall_model="pressure"):
             for k in range(trials):
                 tseed = int(seed) * 1_000_003 + ci * 100_000 + si * 10_000 + k
                 params = {"container": c, "state": st, "f_target": float(f_target)}
-                if wall_model != "pressure":  # the default stays out of the spec's key
+                if wall_model != "linear":
+                    # in the spec's key: results files written before the pressure model
+                    # (no wall_model) hold linear-wall grasps and resume only as such
                     params["wall_model"] = wall_model
                 specs.append(TrialSpec(
                     fn="mmlearn.diagrams.tactile_grasp:container_grasp_trial", seed=tseed,
