@@ -159,7 +159,8 @@ def _sim_specs(containers, f_target, trials, seed, wall_model="pressure"):
                 params = {"container": c, "state": st, "f_target": float(f_target)}
                 if wall_model != "linear":
                     # in the spec's key: results files written before the pressure model
-                    # (no wall_model) hold linear-wall grasps and resume only as such
+                    # (no wall_model) hold linear-wall grasps and resume only as such (the
+                    # trial function's default is "linear" for the same reason)
                     params["wall_model"] = wall_model
                 specs.append(TrialSpec(
                     fn="mmlearn.diagrams.tactile_grasp:container_grasp_trial", seed=tseed,

@@ -338,14 +338,16 @@ def container_grasp_trial(*, seed: int, container: str, state: str, f_target: fl
                           v_target: float = 0.02, offset_sd: float = 0.001,
                           duration: float = 2.6, hold_time: float = 1.0,
                           palm_slide_damping: float | None = PALM_SLIDE_DAMPING,
-                          wall_model: str = "pressure") -> dict:
+                          wall_model: str = "linear") -> dict:
     """One ch. 7 probing grasp of a random instance of ``container`` in ``state`` (a pure
     function of its arguments, for :mod:`mmlearn.apps._sweep`). The instance (sizes,
     stiffnesses, fill level), its placement (lateral offset ~ N(0, ``offset_sd``) m) and
     the sensor noise are drawn from ``seed``. The gripper centres itself on the container
     (``palm_slide_damping`` N s/m, see :class:`TactileGraspConfig`; None: welded palm, the
     first finger alone squeezes an off-centre container until the second arrives).
-    ``wall_model``: "pressure" or "linear" (:class:`TactileGraspConfig`). Returns a JSON-able record: the recorded
+    ``wall_model``: "pressure" or "linear" (:class:`TactileGraspConfig`); the default is
+    "linear" because a grasp spec without it (results files written before the pressure model)
+    was simulated with the linear walls: the app passes "pressure" explicitly. Returns a JSON-able record: the recorded
     series ``t``, ``p``, ``f``, ``finger_force`` (what the features are computed from), the
     labels ``container`` / ``state`` and the instance's parameters (for reference only)."""
     rng = np.random.default_rng([int(seed), 13])

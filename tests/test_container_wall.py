@@ -148,7 +148,8 @@ def test_simulated_grasp_closed_full_resists_open_empty_yields():
 
     squeeze = {}
     for st in ("full_closed", "empty_open"):
-        g = grasp_from_record(container_grasp_trial(seed=1, container="odwalla", state=st))
+        g = grasp_from_record(container_grasp_trial(seed=1, container="odwalla", state=st,
+                                                    wall_model="pressure"))
         ft = extract_grasp_features(g, contact_force=1.0, rest_velocity=0.002)
         assert ft.contact and ft.steady
         p_first, p_steady, f_steady = ft.values[:3]
@@ -157,3 +158,20 @@ def test_simulated_grasp_closed_full_resists_open_empty_yields():
         assert np.all(np.isfinite(g.p)) and abs(f_steady - 40.0) < 3.0, ft.values
     assert squeeze["full_closed"] < 0.6 * squeeze["empty_open"]
     assert 0.004 < squeeze["full_closed"] and squeeze["empty_open"] < 0.03
+
+
+def test_grasp_specs_name_the_wall_model_so_old_results_stay_linear():
+    """Results files from before the pressure model have specs without ``wall_model`` and
+    hold linear-wall grasps: the app's pressure specs must differ from them, its linear
+    ones match them, and the trial function run from such a spec must use linear walls."""
+    import inspect
+
+    from mmlearn.apps.tactile_state import _sim_specs
+    from mmlearn.diagrams.tactile_grasp import container_grasp_trial
+
+    pres = _sim_specs(["odwalla"], 20.0, 2, 5, "pressure")
+    lin = _sim_specs(["odwalla"], 20.0, 2, 5, "linear")
+    assert all(p.params["wall_model"] == "pressure" for p in pres)
+    assert all("wall_model" not in s.params for s in lin)
+    assert not {p.key for p in pres} & {s.key for s in lin}
+    assert inspect.signature(container_grasp_trial).parameters["wall_model"].default == "linear"
