@@ -31,14 +31,17 @@ other classifiers' rates (``compare``).
 **Simulation mode** (``--f-target N`` without ``--train``)::
 
     python -m mmlearn.apps.tactile_state --f-target 20 [--trials 16] [--f-sweep]
-        [--sweep-trials 24] [--classifier tree|forest|boost] [--results FILE] [--jobs J]
+        [--sweep-trials 24] [--classifier tree|forest|boost] [--wall-model pressure|linear]
+        [--results FILE] [--jobs J]
         [--plot FILE] [--meshcat] [--html-out FILE] --seed S [--json]
 
 The Drake gripper (:mod:`mmlearn.diagrams.tactile_grasp`: PR2-like fingertip pads, the
 switching controller of Eq. 7.8 probing with ``f_target`` N per finger) squeezes random
 instances of the four container classes of Sec. 7.1.3 in each of their internal states
 (:mod:`mmlearn.models.containers`; cans have no ``empty_closed``), ``--trials`` grasps per
-(class, state). The features come only from the simulated finger encoders and taxel pads.
+(class, state). ``--wall-model``: the walls' squeeze-volume model (``pressure``, default: the
+content's pressure grows with the squeeze) or the earlier constant linearised springs
+(``linear``; results files written before the pressure model hold such grasps). The features come only from the simulated finger encoders and taxel pads.
 Reports (10-fold CV, ``--classifier``; the other classifiers in ``compare``):
 ``container_rate`` (class from all grasps), ``state_rate_by_container`` {class: rate of the
 state given the class}, ``combined_rate`` (all class x state labels) and

@@ -108,7 +108,6 @@ def test_bad_inputs_are_named():
 
 
 def test_system_puts_the_model_forces_on_the_wall_joints():
-
     from mmlearn.diagrams.tactile_grasp import MakeTactileGraspDiagram, TactileGraspConfig
     from mmlearn.systems.container_wall import ContainerWallForce
 
