@@ -326,7 +326,8 @@ def demo_grasps(config: TactileStateConfig, *, meshcat=None, impact: bool = True
     state = states_of(name)[0]
     rng = np.random.default_rng([int(c.seed), 4242])
     inst = sample_container(name, state, rng)
-    cfg = TactileGraspConfig(pad="pr2", f_target=float(c.f_target), seed=int(c.seed))
+    cfg = TactileGraspConfig(pad="pr2", f_target=float(c.f_target), seed=int(c.seed),
+                             wall_model=c.wall_model)
     out = {"grasp": simulate_grasp(cfg, container=inst, meshcat=meshcat), "impact": {}}
     if impact:
         block = block_sdf((0.07, 0.1, 0.12))
