@@ -31,14 +31,17 @@ other classifiers' rates (``compare``).
 **Simulation mode** (``--f-target N`` without ``--train``)::
 
     python -m mmlearn.apps.tactile_state --f-target 20 [--trials 16] [--f-sweep]
-        [--sweep-trials 24] [--classifier tree|forest|boost] [--results FILE] [--jobs J]
+        [--sweep-trials 24] [--classifier tree|forest|boost] [--wall-model pressure|linear]
+        [--results FILE] [--jobs J]
         [--plot FILE] [--meshcat] [--html-out FILE] --seed S [--json]
 
 The Drake gripper (:mod:`mmlearn.diagrams.tactile_grasp`: PR2-like fingertip pads, the
 switching controller of Eq. 7.8 probing with ``f_target`` N per finger) squeezes random
 instances of the four container classes of Sec. 7.1.3 in each of their internal states
 (:mod:`mmlearn.models.containers`; cans have no ``empty_closed``), ``--trials`` grasps per
-(class, state). The features come only from the simulated finger encoders and taxel pads.
+(class, state). ``--wall-model``: the walls' squeeze-volume model (``pressure``, default: the
+content's pressure grows with the squeeze) or the earlier constant linearised springs
+(``linear``; results files written before the pressure model hold such grasps). The features come only from the simulated finger encoders and taxel pads.
 Reports (10-fold CV, ``--classifier``; the other classifiers in ``compare``):
 ``container_rate`` (class from all grasps), ``state_rate_by_container`` {class: rate of the
 state given the class}, ``combined_rate`` (all class x state labels) and
@@ -111,6 +114,9 @@ class TactileStateConfig:
         executor, ray_address: simulation: the sweep runner's executor ("local" or "ray").
         progress: simulation: show a progress bar.
         containers: simulation: container classes to grasp (default: all four).
+        wall_model: simulation: the containers' wall model, "pressure" (the squeeze-volume
+            model, default) or "linear" (the linearised constant stiffness used before;
+            :class:`~mmlearn.diagrams.tactile_grasp.TactileGraspConfig`).
     """
 
     train: str = ""
@@ -133,6 +139,7 @@ class TactileStateConfig:
     ray_address: str | None = None
     progress: bool = False
     containers: tuple = ("odwalla", "naked", "can", "water")
+    wall_model: str = "pressure"
 
 
 #: simulation mode: contact threshold F per finger (N) and rest threshold V (m/s)
@@ -141,7 +148,7 @@ SIM_REST_VELOCITY = 0.002
 SWEEP_FORCES = (17.0, 20.0, 23.0)
 
 
-def _sim_specs(containers, f_target, trials, seed):
+def _sim_specs(containers, f_target, trials, seed, wall_model="pressure"):
     from mmlearn.apps._sweep import TrialSpec
     from mmlearn.models.containers import CONTAINER_CLASSES, states_of
 
@@ -152,9 +159,15 @@ def _sim_specs(containers, f_target, trials, seed):
         for si, st in enumerate(states_of(c)):
             for k in range(trials):
                 tseed = int(seed) * 1_000_003 + ci * 100_000 + si * 10_000 + k
+                params = {"container": c, "state": st, "f_target": float(f_target)}
+                if wall_model != "linear":
+                    # in the spec's key: results files written before the pressure model
+                    # (no wall_model) hold linear-wall grasps and resume only as such (the
+                    # trial function's default is "linear" for the same reason)
+                    params["wall_model"] = wall_model
                 specs.append(TrialSpec(
                     fn="mmlearn.diagrams.tactile_grasp:container_grasp_trial", seed=tseed,
-                    params={"container": c, "state": st, "f_target": float(f_target)},
+                    params=params,
                     label=f"{c}/{st}/{f_target:g}N/{k}"))
     return specs
 
@@ -208,13 +221,16 @@ def run_simulation(config: TactileStateConfig, *, meshcat=None) -> dict:
     conts = list(c.containers)
     if not conts:
         raise ValueError("containers: empty; choose from " + ", ".join(CONTAINER_CLASSES))
-    specs = _sim_specs(conts, c.f_target, c.trials, c.seed)
+    if c.wall_model not in ("pressure", "linear"):
+        raise ValueError(f"wall_model: expected 'pressure' or 'linear', got {c.wall_model!r}")
+    wm = c.wall_model
+    specs = _sim_specs(conts, c.f_target, c.trials, c.seed, wm)
     if c.f_sweep:
         if c.sweep_trials < 2:
             raise ValueError(f"sweep_trials: expected at least 2, got {c.sweep_trials}")
         have = {s.key for s in specs}
         for f in SWEEP_FORCES:
-            for s in _sim_specs(["odwalla"], f, c.sweep_trials, c.seed + 7919):
+            for s in _sim_specs(["odwalla"], f, c.sweep_trials, c.seed + 7919, wm):
                 if s.key not in have:
                     specs.append(s)
                     have.add(s.key)
@@ -228,7 +244,7 @@ def run_simulation(config: TactileStateConfig, *, meshcat=None) -> dict:
         return [by_key[s.key]["record"] for s in spec_list
                 if s.key in by_key and by_key[s.key].get("record")]
 
-    main_specs = _sim_specs(conts, c.f_target, c.trials, c.seed)
+    main_specs = _sim_specs(conts, c.f_target, c.trials, c.seed, wm)
     recs = records(main_specs)
     if not recs:
         raise ValueError("no grasp finished")
@@ -266,7 +282,7 @@ def run_simulation(config: TactileStateConfig, *, meshcat=None) -> dict:
     if c.f_sweep:
         sweep_out = {}
         for f in SWEEP_FORCES:
-            rs = records(_sim_specs(["odwalla"], f, c.sweep_trials, c.seed + 7919))
+            rs = records(_sim_specs(["odwalla"], f, c.sweep_trials, c.seed + 7919, wm))
             Xs, _, yss, _ = _sim_features(rs, steady_average=c.steady_average)
             r, cm, _ = _cv(Xs, yss, classifier=c.classifier, folds=c.folds, seed=c.seed)
             sweep_out[f"{f:g}"] = {"rate": r.rate, "compare": cm, "n": len(rs),
@@ -277,7 +293,7 @@ def run_simulation(config: TactileStateConfig, *, meshcat=None) -> dict:
     out["settings"] = {"trials": c.trials, "folds": c.folds, "seed": c.seed,
                        "contact_force_N": SIM_CONTACT_FORCE,
                        "rest_velocity_m_per_s": SIM_REST_VELOCITY,
-                       "steady_average": c.steady_average,
+                       "steady_average": c.steady_average, "wall_model": wm,
                        "sweep_trials": c.sweep_trials if c.f_sweep else None}
     out["wall_seconds"] = round(sweep.wall_s, 1)
     out["resumed"] = sweep.resumed
@@ -310,7 +326,8 @@ def demo_grasps(config: TactileStateConfig, *, meshcat=None, impact: bool = True
     state = states_of(name)[0]
     rng = np.random.default_rng([int(c.seed), 4242])
     inst = sample_container(name, state, rng)
-    cfg = TactileGraspConfig(pad="pr2", f_target=float(c.f_target), seed=int(c.seed))
+    cfg = TactileGraspConfig(pad="pr2", f_target=float(c.f_target), seed=int(c.seed),
+                             wall_model=c.wall_model)
     out = {"grasp": simulate_grasp(cfg, container=inst, meshcat=meshcat), "impact": {}}
     if impact:
         block = block_sdf((0.07, 0.1, 0.12))
@@ -572,6 +589,10 @@ def main(argv=None) -> int:
     ap.add_argument("--containers", type=name_list(["odwalla", "naked", "can", "water"]),
                     default=["odwalla", "naked", "can", "water"],
                     help="simulation: comma-separated container classes (default: all four)")
+    ap.add_argument("--wall-model", choices=("pressure", "linear"), default="pressure",
+                    help="simulation: the containers' walls: 'pressure' (default: shell spring "
+                         "plus the content's pressure through the squeezed volume) or 'linear' "
+                         "(the constant linearised stiffness of earlier versions)")
     ap.add_argument("--seed", type=nonneg_int, default=0,
                     help="random seed (fold assignment, forest)")
     ap.add_argument("--plot", metavar="FILE", default=None,
@@ -621,7 +642,8 @@ def main(argv=None) -> int:
                 steady_average=args.steady_average, f_target=args.f_target,
                 trials=args.trials, f_sweep=args.f_sweep, sweep_trials=args.sweep_trials,
                 results=args.results, jobs=args.jobs, progress=args.progress,
-                containers=tuple(args.containers), plot=args.plot), meshcat=meshcat)
+                containers=tuple(args.containers), plot=args.plot,
+                wall_model=args.wall_model), meshcat=meshcat)
         else:
             out = run(config=TactileStateConfig(
                 train=args.train, test=args.test, classifier=args.classifier,

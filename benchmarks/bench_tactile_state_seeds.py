@@ -40,6 +40,9 @@ def main(argv=None) -> int:
     ap.add_argument("--sweep-trials", type=int, default=0,
                     help="grasps per Odwalla state and force of the app's --f-sweep (0: none)")
     ap.add_argument("--classifiers", default=",".join(CLASSIFIERS))
+    ap.add_argument("--wall-model", choices=("pressure", "linear"), default="pressure",
+                    help="the app's --wall-model the files were simulated with (files written "
+                         "before the pressure model existed: linear)")
     ap.add_argument("--json", action="store_true", help="also print all figures as JSON")
     args = ap.parse_args(argv)
     clfs = [c for c in args.classifiers.split(",") if c]
@@ -57,7 +60,8 @@ def main(argv=None) -> int:
             ap.error(f"expected RESULTS.jsonl:SEED, got {item!r}")
         seed = int(seed)
         by = load_results(path)
-        specs = _sim_specs(list(CONTAINER_CLASSES), args.f_target, args.trials, seed)
+        specs = _sim_specs(list(CONTAINER_CLASSES), args.f_target, args.trials, seed,
+                           args.wall_model)
         recs = [by[s.key]["record"] for s in specs if s.key in by and by[s.key].get("record")]
         if not recs:
             ap.error(f"{path}: no grasp of seed {seed} with --trials {args.trials} "
@@ -66,7 +70,7 @@ def main(argv=None) -> int:
         sweep = {}
         if args.sweep_trials:
             for f in SWEEP_FORCES:
-                sp = _sim_specs(["odwalla"], f, args.sweep_trials, seed + 7919)
+                sp = _sim_specs(["odwalla"], f, args.sweep_trials, seed + 7919, args.wall_model)
                 rs = [by[s.key]["record"] for s in sp if s.key in by and by[s.key].get("record")]
                 if rs:
                     Xs, _, yss, _ = _sim_features(rs)

@@ -14,6 +14,7 @@ enter a reading.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -32,6 +33,7 @@ from mmlearn.models.containers import ContainerInstance, sample_container
 from mmlearn.models.tactile_pad import PAD_CH6, PAD_PR2, PadLayout
 from mmlearn.models.tactile_types import TactileGrasp
 from mmlearn.sdf.tactile import GripperGeometry, container_sdf, gripper_sdf, pad_z_of
+from mmlearn.systems.container_wall import ContainerWallForce
 from mmlearn.systems.tactile_grasp_controller import TactileGraspController
 from mmlearn.systems.tactile_sensor import PadSpec, TactileSensor
 from mmlearn.systems.wrist_force_sensor import WristForceSensor
@@ -81,6 +83,13 @@ class TactileGraspConfig:
             container (which slides on the table under the first finger until the second
             touches); the damping stands for that sliding resistance (at 10 mm/s, 20 N s/m
             gives 0.2 N, below the 1 N contact threshold).
+        wall_model: how a container's walls resist: "pressure" (default): the shell's linear
+            spring plus the content's pressure from the squeeze-volume model
+            (:func:`mmlearn.models.containers.wall_forces`: the gas law of a closed headspace,
+            the head and flow resistance of a liquid, all acting through the volume an
+            ovalising round container loses, so they grow with the squeeze); "linear": the
+            linearised constant stiffness ``ContainerInstance.k`` and damping ``c`` (the
+            model before; still that of the liquid-detection roll).
     """
 
     pad: str = "pr2"
@@ -102,6 +111,7 @@ class TactileGraspConfig:
     seed: int = 0
     gripper: GripperGeometry = field(default_factory=GripperGeometry)
     palm_slide_damping: float | None = None
+    wall_model: str = "pressure"
 
 
 
@@ -177,13 +187,20 @@ def MakeTactileGraspDiagram(config: TactileGraspConfig, *, container: ContainerI
                                       [1.0, 0.0, 0.0], damping=d_slide))
         mount = plant.WeldFrames(carriage.body_frame(), palm, RigidTransform())
     cont = None
+    if c.wall_model not in ("pressure", "linear"):
+        raise ValueError(f"wall_model: expected 'pressure' or 'linear', got {c.wall_model!r}")
+    pressure = container is not None and c.wall_model == "pressure"
     if container is not None:
-        cont = parser.AddModelsFromString(container_sdf(container), "sdf")[0]
+        # pressure model: the joint keeps the empty wall's damping, the content's flow
+        # resistance comes from ContainerWallForce
+        sdf_inst = dataclasses.replace(container, c=container.c_wall) if pressure else container
+        cont = parser.AddModelsFromString(container_sdf(sdf_inst), "sdf")[0]
         plant.WeldFrames(plant.world_frame(), plant.GetFrameByName("base", cont),
                          RigidTransform([c.offset, 0.0, 0.0]))
+        k_spring = container.k_parts["shell"] if pressure else container.k
         for side in ("l", "r"):
             plant.AddForceElement(PrismaticSpring(
-                plant.GetJointByName(f"wall_{side}_slide", cont), 0.0, container.k))
+                plant.GetJointByName(f"wall_{side}_slide", cont), 0.0, k_spring))
         if container.slosh_mass > 0:
             plant.AddForceElement(PrismaticSpring(plant.GetJointByName("slosh", cont), 0.0,
                                                   container.slosh_k))
@@ -196,6 +213,18 @@ def MakeTactileGraspDiagram(config: TactileGraspConfig, *, container: ContainerI
         act = plant.GetJointActuatorByName(f"{side}_slide", gripper)
         act.set_controller_gains(PdControllerGains(p=c.kp, d=c.kd))
     plant.Finalize()
+    wall_force = None
+    if pressure:
+        joints = [plant.GetJointByName(f"wall_{side}_slide", cont) for side in ("l", "r")]
+        wall_force = builder.AddNamedSystem("container_wall_force", ContainerWallForce(
+            container=container, num_positions=plant.num_positions(),
+            num_velocities=plant.num_velocities(),
+            q_index=[j.position_start() for j in joints],
+            v_index=[j.velocity_start()
+                     for j in joints]))
+        builder.Connect(plant.get_state_output_port(), wall_force.get_state_input_port())
+        builder.Connect(wall_force.get_generalized_force_output_port(),
+                        plant.get_applied_generalized_force_input_port())
     sensor = AddTactileSensor(builder, plant, scene_graph, gripper, layout, pad_z,
                               rate_hz=c.sensor_rate, noise=c.taxel_noise, seed=c.seed)
     ctrl = builder.AddNamedSystem("grasp_controller", TactileGraspController(
@@ -232,7 +261,7 @@ def MakeTactileGraspDiagram(config: TactileGraspConfig, *, container: ContainerI
                         taxel_vis.get_body_poses_input_port())
     diagram = builder.Build()
     return diagram, {"plant": plant, "scene_graph": scene_graph, "sensor": sensor,
-                     "wrist_force_sensor": wrist,
+                     "wrist_force_sensor": wrist, "container_wall_force": wall_force,
                      "controller": ctrl, "grasp_log": grasp_log, "taxel_log": taxel_log,
                      "force_log": force_log, "gripper": gripper, "container": cont,
                      "meshcat_visualizer": parts_vis if meshcat is not None else None,
@@ -308,13 +337,17 @@ def simulate_grasp(config: TactileGraspConfig, *, container: ContainerInstance |
 def container_grasp_trial(*, seed: int, container: str, state: str, f_target: float = 20.0,
                           v_target: float = 0.02, offset_sd: float = 0.001,
                           duration: float = 2.6, hold_time: float = 1.0,
-                          palm_slide_damping: float | None = PALM_SLIDE_DAMPING) -> dict:
+                          palm_slide_damping: float | None = PALM_SLIDE_DAMPING,
+                          wall_model: str = "linear") -> dict:
     """One ch. 7 probing grasp of a random instance of ``container`` in ``state`` (a pure
     function of its arguments, for :mod:`mmlearn.apps._sweep`). The instance (sizes,
     stiffnesses, fill level), its placement (lateral offset ~ N(0, ``offset_sd``) m) and
     the sensor noise are drawn from ``seed``. The gripper centres itself on the container
     (``palm_slide_damping`` N s/m, see :class:`TactileGraspConfig`; None: welded palm, the
-    first finger alone squeezes an off-centre container until the second arrives). Returns a JSON-able record: the recorded
+    first finger alone squeezes an off-centre container until the second arrives).
+    ``wall_model``: "pressure" or "linear" (:class:`TactileGraspConfig`); the default is
+    "linear" because a grasp spec without it (results files written before the pressure model)
+    was simulated with the linear walls: the app passes "pressure" explicitly. Returns a JSON-able record: the recorded
     series ``t``, ``p``, ``f``, ``finger_force`` (what the features are computed from), the
     labels ``container`` / ``state`` and the instance's parameters (for reference only)."""
     rng = np.random.default_rng([int(seed), 13])
@@ -322,11 +355,13 @@ def container_grasp_trial(*, seed: int, container: str, state: str, f_target: fl
     offset = float(rng.normal(0.0, offset_sd))
     cfg = TactileGraspConfig(pad="pr2", f_target=f_target, v_target=v_target,
                              duration=duration, hold_time=hold_time, offset=offset,
-                             seed=int(seed), palm_slide_damping=palm_slide_damping)
+                             seed=int(seed), palm_slide_damping=palm_slide_damping,
+                             wall_model=wall_model)
     g = simulate_grasp(cfg, container=inst)
     return {"t": g.t.tolist(), "p": g.p.tolist(), "f": g.f.tolist(),
             "finger_force": g.finger_force.tolist(), "container": container, "state": state,
-            "f_target": f_target, "offset": offset, "instance": inst.as_dict()}
+            "f_target": f_target, "offset": offset, "wall_model": wall_model,
+            "instance": inst.as_dict()}
 
 
 def grasp_from_record(rec: dict) -> TactileGrasp:

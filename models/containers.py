@@ -24,6 +24,28 @@ the base (its frequency and damping follow a first sloshing mode; used when the 
 moves, e.g. liquid detection). Numbers per class are in :data:`CONTAINER_CLASSES`; each
 instance draws its own values around them (seeded: sizes +-1 %, stiffnesses and compliances
 by the class' ``spread``, fill level 88-97 % when full).
+
+The constant ``A`` above is the **linearised** model (``ContainerInstance.k``, still used by
+the liquid-detection roll, :mod:`mmlearn.diagrams.liquid_roll`). The probing grasp of
+Sec. 7.1 (:mod:`mmlearn.diagrams.tactile_grasp`, ``wall_model="pressure"``) uses the
+**squeeze-volume model** of :func:`squeeze_pressure` / :func:`wall_forces` instead: a round
+bottle pinched by a total ``d`` (the two walls' inward travel, m) first ovalises, which changes
+its cross-section only at second order (an ellipse of semi-axes ``R - d/2``, ``R + d/2`` has
+the area ``pi (R^2 - d^2 / 4)``), so the enclosed volume drops by
+
+    ``dV(d) = pi L d^2 / 4``  (m^3; ``L`` the length of the ovalised zone, ``squeeze_length``)
+
+and the wall feels the content only through ``dV``: the content's pressure rise ``dp`` acts on
+each wall with the generalized force ``dp * dV'(d)`` (virtual work; ``dV'(d) = pi L d / 2``,
+m^2). ``dp`` is the exact isothermal gas law of the closed headspace with the rest of the shell
+bulging (``p0 V_gas = (p0 + dp) (V_gas - dV + C_shell dp)``, solved in closed form), the
+hydrostatic head ``rho g min(dV, V_gas) / A_neck`` of an open full container (the liquid
+rises in the neck until it spills over the rim), 0 for an open empty one. A
+full container's liquid resists the volume flow ``Q = dV'(d) d'`` with ``R_liq Q`` (Pa;
+``R_liq = c_liq / A^2`` so that at ``dV' = A`` it matches the linearised damping). Both grow
+with the squeeze: at a light probe the shell's own (linear) stiffness dominates and the states
+look alike, a harder probe presses the content and separates them (thesis Table 7.2). Drake
+side: :class:`mmlearn.systems.container_wall.ContainerWallForce`.
 """
 
 from __future__ import annotations
@@ -33,7 +55,8 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 __all__ = ["ContainerClass", "ContainerInstance", "CONTAINER_CLASSES", "STATES",
-           "states_of", "sample_container", "P0", "RHO_WATER", "G"]
+           "states_of", "sample_container", "P0", "RHO_WATER", "G", "squeeze_volume",
+           "squeeze_pressure", "wall_forces"]
 
 P0 = 101325.0  # Pa, atmospheric pressure
 RHO_WATER = 1000.0  # kg/m^3
@@ -62,6 +85,9 @@ class ContainerClass:
         mass_empty: mass of the empty container, kg.
         spread: relative standard deviation of stiffness and compliance between instances.
         resealable: False for cans (they cannot be closed again once opened).
+        squeeze_length: length of the zone that ovalises under the finger pads, m (the
+            squeeze-volume model; an estimate: the pads' 3 cm plus the ~1 radius on either
+            side over which a thin shell's ovalisation decays).
     """
 
     name: str
@@ -79,6 +105,7 @@ class ContainerClass:
     mass_empty: float
     spread: float
     resealable: bool = True
+    squeeze_length: float = 0.08
 
 
 #: The four container classes of Sec. 7.1.3 (Fig. 7.7a). Sizes are those of the products
@@ -90,19 +117,20 @@ CONTAINER_CLASSES = {
     "odwalla": ContainerClass("odwalla", radius=0.036, height=0.17, volume=0.45e-3,
                               k_wall=1800.0, area=1.6e-3, c_shell=2.0e-9, neck_area=4.5e-4,
                               neck_length=0.03, wall_mass=0.01, c_wall=4.0, c_liq=25.0,
-                              mass_empty=0.045, spread=0.08),
+                              mass_empty=0.045, spread=0.08, squeeze_length=0.10),
     "naked": ContainerClass("naked", radius=0.030, height=0.18, volume=0.45e-3,
                             k_wall=1300.0, area=1.4e-3, c_shell=3.0e-9, neck_area=4.0e-4,
                             neck_length=0.03, wall_mass=0.008, c_wall=3.0, c_liq=20.0,
-                            mass_empty=0.035, spread=0.15),
+                            mass_empty=0.035, spread=0.15, squeeze_length=0.09),
     "can": ContainerClass("can", radius=0.033, height=0.122, volume=0.355e-3,
                           k_wall=3000.0, area=1.2e-3, c_shell=1.2e-9, neck_area=3.0e-4,
                           neck_length=0.005, wall_mass=0.005, c_wall=3.0, c_liq=20.0,
-                          mass_empty=0.015, spread=0.10, resealable=False),
+                          mass_empty=0.015, spread=0.10, resealable=False,
+                          squeeze_length=0.09),
     "water": ContainerClass("water", radius=0.0325, height=0.21, volume=0.5e-3,
                             k_wall=500.0, area=1.8e-3, c_shell=6.0e-9, neck_area=3.5e-4,
                             neck_length=0.03, wall_mass=0.004, c_wall=2.0, c_liq=20.0,
-                            mass_empty=0.02, spread=0.35),
+                            mass_empty=0.02, spread=0.35, squeeze_length=0.10),
 }
 
 
@@ -126,6 +154,14 @@ class ContainerInstance:
         mass: total mass incl. liquid, kg.
         slosh_mass, slosh_k, slosh_c: the sloshing liquid (kg, N/m, N s/m; 0 when empty).
         k_parts: the contributions {"shell", "gas", "hydrostatic"} to ``k``, N/m.
+        slosh_travel: the sloshing mass' travel, m (0: half the radius).
+        closed: the cap is on (the squeeze-volume model's gas law applies).
+        gas_volume: the enclosed gas (headspace; the whole volume when empty), m^3.
+        shell_compliance: pressure compliance of the rest of the shell ``C_shell``, m^3/Pa.
+        squeeze_length: length ``L`` of the ovalised zone, m.
+        neck_area: cross-section of the neck, m^2.
+        liquid_resistance: ``R_liq`` of a full container's volume flow, Pa s/m^3 (0 empty).
+        c_wall: damping of the empty wall alone, N s/m (``c`` adds the liquid's).
     """
 
     name: str
@@ -142,6 +178,13 @@ class ContainerInstance:
     slosh_c: float
     k_parts: dict
     slosh_travel: float = 0.0
+    closed: bool = False
+    gas_volume: float = 0.0
+    shell_compliance: float = 0.0
+    squeeze_length: float = 0.0
+    neck_area: float = 1.0
+    liquid_resistance: float = 0.0
+    c_wall: float = 0.0
 
     def as_dict(self) -> dict:
         return asdict(self)
@@ -182,7 +225,12 @@ def sample_container(name: str, state: str, rng: np.random.Generator, *,
         k_gas = 2.0 * area**2 / (v_gas / P0 + c_shell)
     k_hyd = 2.0 * area**2 * RHO_WATER * G / c.neck_area if (full and not closed) else 0.0
     m_add = RHO_WATER * c.neck_length * area**2 / c.neck_area if full else 0.0
-    damping = var(c.c_wall, 0.1) + (var(c.c_liq, 0.1) if full else 0.0)
+    c_wall = var(c.c_wall, 0.1)
+    c_liq = var(c.c_liq, 0.1) if full else 0.0
+    damping = c_wall + c_liq
+    # the ovalised length varies with the instance as the swept area does (the same geometry;
+    # no extra draw, so the rng stream and every other draw stay as they were)
+    squeeze_length = c.squeeze_length * area / c.area
     m_liq = RHO_WATER * v_liq
     # first sloshing mode of a liquid in a cylinder: omega^2 = g * 1.841 / R * tanh(...)
     if full:
@@ -197,4 +245,75 @@ def sample_container(name: str, state: str, rng: np.random.Generator, *,
         k=k_wall + k_gas + k_hyd, c=damping, wall_mass=c.wall_mass + m_add,
         mass=c.mass_empty + m_liq, slosh_mass=float(ms), slosh_k=float(slosh_k),
         slosh_c=float(slosh_c),
-        k_parts={"shell": k_wall, "gas": float(k_gas), "hydrostatic": float(k_hyd)})
+        k_parts={"shell": k_wall, "gas": float(k_gas), "hydrostatic": float(k_hyd)},
+        closed=bool(closed), gas_volume=float(c.volume - v_liq), shell_compliance=c_shell,
+        squeeze_length=squeeze_length, neck_area=float(c.neck_area),
+        liquid_resistance=float(c_liq / area**2), c_wall=c_wall)
+
+
+def _positive(name, x):
+    x = float(x)
+    if not (np.isfinite(x) and x > 0):
+        raise ValueError(f"{name}: expected a finite number > 0, got {x!r}")
+    return x
+
+
+def squeeze_volume(d, *, squeeze_length: float):
+    """Volume lost by a round container pinched by a total ``d`` (m, array; clipped at 0) and
+    its derivative: ``(dV, dV')`` = ``(pi L d^2 / 4, pi L d / 2)`` in m^3 and m^2."""
+    L = _positive("squeeze_length", squeeze_length)
+    d = np.maximum(np.asarray(d, dtype=float), 0.0)
+    return np.pi * L * d**2 / 4.0, np.pi * L * d / 2.0
+
+
+def squeeze_pressure(d, *, closed: bool, full: bool, gas_volume: float,
+                     shell_compliance: float, squeeze_length: float,
+                     neck_area: float = 1.0, p0: float = P0):
+    """Pressure rise of the content (Pa, array like ``d``) at a total pinch ``d`` (m).
+
+    Closed: the isothermal gas law of the headspace ``gas_volume`` (m^3) at ``p0`` (Pa) with the
+    rest of the shell bulging by ``shell_compliance * dp`` (m^3/Pa):
+    ``C dp^2 + (V_g - dV + C p0) dp - p0 dV = 0``, the positive root (with ``C = 0`` this is
+    ``p0 dV / (V_g - dV)``, Boyle's law). Open and full: the head
+    ``rho g min(dV, V_g) / neck_area`` (``neck_area`` m^2; the liquid rises in the neck until
+    it fills the headspace ``V_g`` and spills over the rim). Open and empty: 0."""
+    dV, _ = squeeze_volume(d, squeeze_length=squeeze_length)
+    if closed:
+        vg = _positive("gas_volume", gas_volume)
+        C = float(shell_compliance)
+        if not (np.isfinite(C) and C >= 0):
+            raise ValueError(f"shell_compliance: expected a finite number >= 0, got {C!r}")
+        b = vg - dV + C * p0
+        # the positive root in the cancellation-free form 2c / (b + sqrt(b^2 + 4ac))
+        disc = np.sqrt(b * b + 4.0 * C * p0 * dV)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            dp = np.where(dV > 0, 2.0 * p0 * dV / (b + disc), 0.0)
+        # C = 0 and the gas squeezed out entirely: Boyle's law has no finite answer
+        return np.where(np.isfinite(dp) & (b + disc > 0), dp, np.inf)
+    if full:
+        # the liquid rises into the vented headspace (through the neck) and spills over the
+        # rim once the headspace is full: the head stops growing there
+        vg = _positive("gas_volume", gas_volume)
+        return RHO_WATER * G * np.minimum(dV, vg) / _positive("neck_area", neck_area)
+    return np.zeros_like(dV)
+
+
+def wall_forces(inst: ContainerInstance, q, v):
+    """Generalized forces (N, inward positive; shape of ``q``) of the content on the two walls
+    at inward travels ``q = (..., 2)`` (m) and rates ``v`` (m/s): both walls feel
+    ``-(dp(d) + R_liq Q) dV'(d)`` with ``d = q_l + q_r``, ``Q = dV'(d) (v_l + v_r)``. The
+    shell's own linear spring and the empty wall's damping are not included."""
+    q = np.asarray(q, dtype=float)
+    v = np.asarray(v, dtype=float)
+    if q.shape[-1:] != (2,) or v.shape != q.shape:
+        raise ValueError(f"wall_forces: expected q and v of shape (..., 2), got {q.shape} and "
+                         f"{v.shape}")
+    d = q[..., 0] + q[..., 1]
+    full = inst.fill > 0
+    dp = squeeze_pressure(d, closed=inst.closed, full=full, gas_volume=inst.gas_volume,
+                          shell_compliance=inst.shell_compliance,
+                          squeeze_length=inst.squeeze_length, neck_area=inst.neck_area)
+    _, dVd = squeeze_volume(d, squeeze_length=inst.squeeze_length)
+    flow = inst.liquid_resistance * dVd * (v[..., 0] + v[..., 1]) if full else 0.0
+    tau = -(dp + flow) * dVd
+    return np.repeat(tau[..., None], 2, axis=-1)

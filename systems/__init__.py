@@ -11,6 +11,7 @@ from .dbn_reproducer import DbnReproducer, DbnReproducerConfig
 from .dbn_visualizer import DbnVisualizer
 from .depth_noise import DepthNoise
 from .epc_controller import EpcConfig, EpcController, EpcTask
+from .container_wall import ContainerWallForce
 from .finger_hold import FingerPositionHold
 from .front_detector import FrontDetector
 from .front_pose import TrueFrontPose
@@ -34,6 +35,7 @@ from .taxel_visualizer import TaxelPadVisualizer
 from .wrist_force_sensor import WristForceSensor
 
 __all__ = [
+    "ContainerWallForce",
     "FingerPositionHold",
     "PadSpec",
     "TactileGraspController",

@@ -1,0 +1,175 @@
+"""The squeeze-volume wall model of the ch. 7 containers (models/containers.py) and its Drake
+system (systems/container_wall.py)."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from mmlearn.models.containers import (P0, RHO_WATER, G, sample_container, squeeze_pressure,
+                                       squeeze_volume, wall_forces)
+
+
+def test_ovalisation_volume_and_its_derivative():
+    d = np.array([0.0, 0.01, 0.02, -0.003])
+    dV, dVd = squeeze_volume(d, squeeze_length=0.1)
+    # ellipse of semi-axes R - d/2, R + d/2 over L: area lost pi d^2 / 4
+    assert np.allclose(dV, [0.0, np.pi * 0.1 * 1e-4 / 4, np.pi * 0.1 * 4e-4 / 4, 0.0])
+    h = 1e-7
+    num = (squeeze_volume(0.012 + h, squeeze_length=0.1)[0]
+           - squeeze_volume(0.012 - h, squeeze_length=0.1)[0]) / (2 * h)
+    assert np.isclose(squeeze_volume(0.012, squeeze_length=0.1)[1], num, rtol=1e-6)
+
+
+def test_boyle_value_at_a_known_squeeze():
+    # 50 ml of gas, rigid rest of the shell, 10 ml squeezed out: p = p0 * 50 / 40
+    L = 0.1
+    d = np.sqrt(4 * 10e-6 / (np.pi * L))
+    dp = squeeze_pressure(d, closed=True, full=True, gas_volume=50e-6, shell_compliance=0.0,
+                          squeeze_length=L)
+    assert np.isclose(dp, P0 * 0.25, rtol=1e-9)
+    # a bulging shell: the root satisfies p0 Vg = (p0 + dp)(Vg - dV + C dp) and is lower
+    C = 2e-9
+    dpc = squeeze_pressure(d, closed=True, full=True, gas_volume=50e-6, shell_compliance=C,
+                           squeeze_length=L)
+    assert 0 < dpc < dp
+    assert np.isclose((P0 + dpc) * (50e-6 - 10e-6 + C * dpc), P0 * 50e-6, rtol=1e-9)
+    # open: the liquid's head in the neck, or nothing
+    assert np.isclose(squeeze_pressure(d, closed=False, full=True, gas_volume=50e-6,
+                                       shell_compliance=C, squeeze_length=L, neck_area=4e-4),
+                      RHO_WATER * G * 10e-6 / 4e-4)
+    # ... until the headspace is full and the liquid spills over the rim
+    assert np.isclose(squeeze_pressure(d, closed=False, full=True, gas_volume=5e-6,
+                                       shell_compliance=C, squeeze_length=L, neck_area=4e-4),
+                      RHO_WATER * G * 5e-6 / 4e-4)
+    assert squeeze_pressure(d, closed=False, full=False, gas_volume=1.0, shell_compliance=C,
+                            squeeze_length=L) == 0.0
+
+
+def _static_curve(inst, forces):
+    """Inward travel of each wall (m) at which shell + content balance a finger force (N)."""
+    from scipy.optimize import brentq
+
+    def net(x, F):
+        return inst.k_parts["shell"] * x - wall_forces(inst, [x, x], [0.0, 0.0])[0] - F
+    return np.array([brentq(net, 0.0, 0.05, args=(F,)) for F in forces])
+
+
+def test_closed_container_stiffens_open_one_does_not():
+    rng = np.random.default_rng(0)
+    F = np.array([5.0, 10.0, 15.0, 20.0, 25.0])
+    insts = {s: sample_container("odwalla", s, rng) for s in
+             ("full_closed", "empty_closed", "empty_open")}
+    x = {s: _static_curve(i, F) for s, i in insts.items()}
+    k_inc = {s: np.diff(F) / np.diff(v) for s, v in x.items()}  # incremental stiffness N/m
+    # the open empty bottle is its shell: linear
+    assert np.allclose(k_inc["empty_open"], insts["empty_open"].k_parts["shell"], rtol=1e-6)
+    for s in ("full_closed", "empty_closed"):
+        assert np.all(np.diff(k_inc[s]) > 0), s                       # stiffening
+        assert k_inc[s][-1] > 1.3 * insts[s].k_parts["shell"], s
+    # the content separates the states more at a harder probe (thesis Table 7.2)
+    gap = x["empty_open"] - x["empty_closed"]
+    assert np.all(np.diff(gap) > 0) and np.all(np.diff(gap / F) > 0)
+    assert np.all(x["full_closed"] < x["empty_closed"])
+
+
+def test_liquid_resists_the_volume_flow_only_when_full():
+    rng = np.random.default_rng(1)
+    full = sample_container("odwalla", "full_open", rng)
+    empty = sample_container("odwalla", "empty_open", rng)
+    q = np.array([[0.006, 0.006], [0.0, 0.0]])
+    v = np.full((2, 2), 0.01)
+    tf = wall_forces(full, q, v) - wall_forces(full, q, np.zeros_like(v))
+    assert np.all(tf[0] < 0) and np.allclose(tf[1], 0.0)  # no flow lever at d = 0
+    assert np.allclose(wall_forces(empty, q, v), 0.0)
+    # at the lever dV' = A the flow damping is the linearised c_liq
+    A = full.squeeze_length * np.pi * 0.012 / 2
+    assert np.isclose(-tf[0, 0] / (2 * 0.01),
+                      full.liquid_resistance * A**2, rtol=1e-9)
+
+
+def test_bad_inputs_are_named():
+    inst = sample_container("odwalla", "empty_closed", np.random.default_rng(2))
+    with pytest.raises(ValueError, match="shape"):
+        wall_forces(inst, np.zeros(3), np.zeros(3))
+    with pytest.raises(ValueError, match="squeeze_length"):
+        squeeze_volume(0.01, squeeze_length=0.0)
+    with pytest.raises(ValueError, match="gas_volume"):
+        squeeze_pressure(0.01, closed=True, full=False, gas_volume=-1.0,
+                         shell_compliance=0.0, squeeze_length=0.1)
+    with pytest.raises(ValueError, match="shell_compliance"):
+        squeeze_pressure(0.01, closed=True, full=False, gas_volume=1e-4,
+                         shell_compliance=float("nan"), squeeze_length=0.1)
+    with pytest.raises(ValueError, match="squeeze_length"):
+        wall_forces(dataclasses.replace(inst, squeeze_length=-1.0), np.zeros(2), np.zeros(2))
+    # the gas squeezed out of a rigid closed shell has no finite pressure: inf, not NaN
+    assert np.isinf(squeeze_pressure(1.0, closed=True, full=True, gas_volume=1e-6,
+                                     shell_compliance=0.0, squeeze_length=0.1))
+
+
+def test_system_puts_the_model_forces_on_the_wall_joints():
+    from mmlearn.diagrams.tactile_grasp import MakeTactileGraspDiagram, TactileGraspConfig
+    from mmlearn.systems.container_wall import ContainerWallForce
+
+    inst = sample_container("odwalla", "full_closed", np.random.default_rng(3))
+    d, parts = MakeTactileGraspDiagram(TactileGraspConfig(), container=inst)
+    plant, sys_ = parts["plant"], parts["container_wall_force"]
+    ctx = d.CreateDefaultContext()
+    pc = plant.GetMyMutableContextFromRoot(ctx)
+    joints = [plant.GetJointByName(f"wall_{s}_slide", parts["container"]) for s in "lr"]
+    joints[0].set_translation(pc, 0.007)
+    joints[1].set_translation(pc, 0.005)
+    joints[0].set_translation_rate(pc, 0.01)
+    tau = sys_.get_generalized_force_output_port().Eval(sys_.GetMyContextFromRoot(ctx))
+    want = wall_forces(inst, [0.007, 0.005], [0.01, 0.0])
+    iv = [j.velocity_start() for j in joints]
+    assert np.allclose(tau[iv], want) and want[0] < -1.0
+    assert np.count_nonzero(tau) == 2
+    with pytest.raises(ValueError, match="indices"):
+        ContainerWallForce(container=inst, num_positions=3, num_velocities=3, q_index=[0, 5],
+                           v_index=[0, 1])
+    with pytest.raises(TypeError, match="ContainerInstance"):
+        ContainerWallForce(container="odwalla", num_positions=3, num_velocities=3,
+                           q_index=[0, 1], v_index=[0, 1])
+    with pytest.raises(ValueError, match="wall_model"):
+        MakeTactileGraspDiagram(TactileGraspConfig(wall_model="gas"), container=inst)
+    # the linear model has no such system
+    _, parts = MakeTactileGraspDiagram(TactileGraspConfig(wall_model="linear"), container=inst)
+    assert parts["container_wall_force"] is None
+
+
+def test_simulated_grasp_closed_full_resists_open_empty_yields():
+    """Two grasps at 20 N: the squeeze the fingers make (p_first - p_steady) of a closed full
+    bottle is well below that of an open empty one, and the grasp settles (no SAP blow-up)."""
+    from mmlearn.diagrams.tactile_grasp import container_grasp_trial, grasp_from_record
+    from mmlearn.models.tactile_state import extract_grasp_features
+
+    squeeze = {}
+    for st in ("full_closed", "empty_open"):
+        g = grasp_from_record(container_grasp_trial(seed=1, container="odwalla", state=st,
+                                                    wall_model="pressure"))
+        ft = extract_grasp_features(g, contact_force=1.0, rest_velocity=0.002)
+        assert ft.contact and ft.steady
+        p_first, p_steady, f_steady = ft.values[:3]
+        squeeze[st] = p_first - p_steady
+        # both fingers at 20 N when the fingers come to rest
+        assert np.all(np.isfinite(g.p)) and abs(f_steady - 40.0) < 3.0, ft.values
+    assert squeeze["full_closed"] < 0.6 * squeeze["empty_open"]
+    assert 0.004 < squeeze["full_closed"] and squeeze["empty_open"] < 0.03
+
+
+def test_grasp_specs_name_the_wall_model_so_old_results_stay_linear():
+    """Results files from before the pressure model have specs without ``wall_model`` and
+    hold linear-wall grasps: the app's pressure specs must differ from them, its linear
+    ones match them, and the trial function run from such a spec must use linear walls."""
+    import inspect
+
+    from mmlearn.apps.tactile_state import _sim_specs
+    from mmlearn.diagrams.tactile_grasp import container_grasp_trial
+
+    pres = _sim_specs(["odwalla"], 20.0, 2, 5, "pressure")
+    lin = _sim_specs(["odwalla"], 20.0, 2, 5, "linear")
+    assert all(p.params["wall_model"] == "pressure" for p in pres)
+    assert all("wall_model" not in s.params for s in lin)
+    assert not {p.key for p in pres} & {s.key for s in lin}
+    assert inspect.signature(container_grasp_trial).parameters["wall_model"].default == "linear"
