@@ -311,7 +311,7 @@ class FrontDetectorConfig:
     gap_long_min_windows: float = 1.0
     gap_rectify_planes: int = 2
     gap_rectify_deg: float = 8.0
-    gap_rectify_max_scale: float = 1.5
+    gap_rectify_max_scale: float = 1.25
 
     def validate(self) -> None:
         """Raise ``ValueError`` naming the first invalid field."""
@@ -840,7 +840,7 @@ def _affine_lstsq(A: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.array([a, c, mb - a * mu - c * mv])
 
 
-def _gap_mask(d, valid, fx, cfg, dzero=None):
+def _gap_mask(d, valid, fx, cfg, dzero=None, long_pass=True):
     """Pixels on the reveals between flush fronts (``GAP``) from the depth image alone (one
     pass per frame for all planes): (wide, thin), (H, W) bool each; ``wide`` is ``thin`` one
     pixel wider on either side across the line (for the rectified grids).
@@ -876,7 +876,7 @@ def _gap_mask(d, valid, fx, cfg, dzero=None):
     # within the short window's noise but not within the long one's)
     nb0 = max(1, int(round(cfg.gap_window_px / sub)))
     scales = [(nb0, 1.0)]
-    if cfg.gap_long_window_px:
+    if cfg.gap_long_window_px and long_pass:
         nbl = max(nb0 + 1, int(round(cfg.gap_long_window_px / sub)))
         scales.append((nbl, math.sqrt(nb0 / nbl)))
     for horizontal, (nb, tscale) in ((h, s) for h in (True, False) for s in scales):
@@ -1059,15 +1059,15 @@ def _gap_mask_rectified(dzero, valid, K: PinholeIntrinsics, xs, ys, pl: Plane, d
     q = rays @ R  # R^T ray, rows
     if not (q[:, 2] > 1e-3).all():
         return None
-    f = K.fx
+    uv = K.fx * q[:, :2] / q[:, 2:3]
+    size = uv.max(axis=0) - uv.min(axis=0)
+    smax = cfg.gap_rectify_max_scale * np.array([K.width, K.height], float)
+    # a coarser virtual focal length when the region would be larger than that (seen
+    # obliquely, its far side is stretched in the rotated view)
+    f = K.fx * min(1.0, float(np.min(smax / np.maximum(size, 1.0))))
     uv = f * q[:, :2] / q[:, 2:3]
     lo, hi = uv.min(axis=0) - 8.0, uv.max(axis=0) + 8.0
     size = hi - lo
-    smax = cfg.gap_rectify_max_scale * np.array([K.width, K.height], float)
-    if (size > smax).any():  # keep the centre, clip the size
-        mid = 0.5 * (lo + hi)
-        size = np.minimum(size, smax)
-        lo = mid - 0.5 * size
     Wv, Hv = int(math.ceil(size[0])), int(math.ceil(size[1]))
     if Wv < 16 or Hv < 16:
         return None
@@ -1078,10 +1078,16 @@ def _gap_mask_rectified(dzero, valid, K: PinholeIntrinsics, xs, ys, pl: Plane, d
     r3 = R[:, 2].astype(np.float32)
     zv = (np.float32(r3[0]) * xs + np.float32(r3[2])) + np.float32(r3[1]) * ys
     zv = zv * dzero  # 0 where not measured
-    zw = cv2.warpPerspective(zv, Hm, (Wv, Hv), flags=cv2.INTER_NEAREST,
+    # bilinear on z' and on the measured share, normalised (unmeasured pixels do not pull
+    # the depth towards 0); a pixel at least half measured is measured
+    zw = cv2.warpPerspective(zv, Hm, (Wv, Hv), flags=cv2.INTER_LINEAR,
                              borderMode=cv2.BORDER_CONSTANT, borderValue=0.0)
-    vw = zw > 0
-    gw, gt = _gap_mask(zw, vw, f, cfg, np.where(vw, zw, np.float32(0.0)))
+    ww = cv2.warpPerspective(valid.view(np.uint8).astype(np.float32), Hm, (Wv, Hv),
+                             flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT,
+                             borderValue=0.0)
+    vw = ww >= 0.5
+    zw = np.where(vw, zw / np.maximum(ww, np.float32(1e-6)), np.float32(0.0))
+    gw, gt = _gap_mask(zw, vw, f, cfg, zw, long_pass=False)
     if not gt.any():
         return None
     back = cv2.WARP_INVERSE_MAP | cv2.INTER_NEAREST
