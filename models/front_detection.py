@@ -308,7 +308,7 @@ class FrontDetectorConfig:
     gap_side_tolerance_per_m2: float = 0.004
     gap_min_length: float = 0.2
     gap_long_window_px: int = 128
-    gap_long_min_windows: float = 1.0
+    gap_long_min_windows: float = 0.5
     gap_rectify_planes: int = 2
     gap_rectify_deg: float = 8.0
     gap_rectify_max_scale: float = 1.25
@@ -879,18 +879,22 @@ def _gap_mask(d, valid, fx, cfg, dzero=None, long_pass=True):
     if cfg.gap_long_window_px and long_pass:
         nbl = max(nb0 + 1, int(round(cfg.gap_long_window_px / sub)))
         scales.append((nbl, math.sqrt(nb0 / nbl)))
+    blocks = {}
     for horizontal, (nb, tscale) in ((h, s) for h in (True, False) for s in scales):
         Lw = nb * sub
         # block means along the line (x 4 = sums), then the window's sums: rows of (A, N)
         # run across the lines, columns along them
-        if horizontal:
-            size = (Wc // sub, H)
-            A = cv2.resize(z[:, :Wc], size, interpolation=cv2.INTER_AREA)
-            N = cv2.resize(w[:, :Wc], size, interpolation=cv2.INTER_AREA)
-        else:
-            size = (W, Hc // sub)
-            A = np.ascontiguousarray(cv2.resize(z[:Hc], size, interpolation=cv2.INTER_AREA).T)
-            N = np.ascontiguousarray(cv2.resize(w[:Hc], size, interpolation=cv2.INTER_AREA).T)
+        if horizontal not in blocks:  # (the same blocks for both windows)
+            if horizontal:
+                size = (Wc // sub, H)
+                A = cv2.resize(z[:, :Wc], size, interpolation=cv2.INTER_AREA)
+                N = cv2.resize(w[:, :Wc], size, interpolation=cv2.INTER_AREA)
+            else:
+                size = (W, Hc // sub)
+                A = np.ascontiguousarray(cv2.resize(z[:Hc], size, interpolation=cv2.INTER_AREA).T)
+                N = np.ascontiguousarray(cv2.resize(w[:Hc], size, interpolation=cv2.INTER_AREA).T)
+            blocks[horizontal] = (A, N)
+        A, N = blocks[horizontal]
         # block means: a window whose lines are not one surface (a step: an opened door in
         # front of the cabinet's reveals) has its middle block off the chord between its end
         # blocks (a plane's depth is close to linear along a line over 32 px)
