@@ -354,6 +354,18 @@ class FrontDetectorConfig:
             raise ValueError("FrontDetectorConfig.gap_long_window_px must be 0 (off) or larger "
                              f"than gap_window_px ({self.gap_window_px}), got "
                              f"{self.gap_long_window_px}")
+        if not (self.gap_long_min_windows >= 0 and math.isfinite(self.gap_long_min_windows)):
+            raise ValueError("FrontDetectorConfig.gap_long_min_windows must be a finite number "
+                             f">= 0, got {self.gap_long_min_windows}")
+        if self.gap_rectify_planes < 0:
+            raise ValueError("FrontDetectorConfig.gap_rectify_planes must be an integer >= 0, "
+                             f"got {self.gap_rectify_planes}")
+        if not 0 <= self.gap_rectify_deg <= 90:
+            raise ValueError("FrontDetectorConfig.gap_rectify_deg must be in [0, 90] deg, got "
+                             f"{self.gap_rectify_deg}")
+        if not (self.gap_rectify_max_scale > 0 and math.isfinite(self.gap_rectify_max_scale)):
+            raise ValueError("FrontDetectorConfig.gap_rectify_max_scale must be a finite number "
+                             f"> 0, got {self.gap_rectify_max_scale}")
         if not self.gap_offsets_px or any(int(o) != o or o < 1 for o in self.gap_offsets_px):
             raise ValueError("FrontDetectorConfig.gap_offsets_px must be integers >= 1 (px), "
                              f"got {self.gap_offsets_px}")
@@ -392,7 +404,7 @@ class FrontDetectorConfig:
                   "max_planes", "min_plane_points", "max_grid_cells", "starts_per_plane",
                   "component_starts",
                   "crossing_smooth_px", "surface_window_px", "gap_window_px",
-                  "gap_long_window_px",
+                  "gap_long_window_px", "gap_rectify_planes",
                   "max_iterations", "border_margin_px"):
             if int(getattr(self, k)) != getattr(self, k):
                 raise ValueError(f"FrontDetectorConfig.{k} must be an integer, got "
@@ -1018,10 +1030,38 @@ def _gap_mask(d, valid, fx, cfg, dzero=None, long_pass=True):
     return out, thin
 
 
-def _gap_mask_rectified(dzero, valid, K: PinholeIntrinsics, xs, ys, pl: Plane, down_C, cfg,
-                        stride: int, off: int):
-    """:func:`_gap_mask` on a plane's rectified view: (wide, thin) in the image, or None when
-    the plane's in-plane axes (e1 along its horizontal, e2 down the plane, :func:`_plane_axes`)
+def _gap_mask_rectified(dzero, valid, K: PinholeIntrinsics, xs, ys, view, cfg):
+    """:func:`_gap_mask` (short and long windows) on the rectified view ``view`` of a plane
+    (:func:`_rectified_view`): (wide, thin) in the image, or None when nothing is found."""
+    Hm, R, f, Wv, Hv = view
+    r3 = R[:, 2].astype(np.float32)
+    zv = (np.float32(r3[0]) * xs + np.float32(r3[2])) + np.float32(r3[1]) * ys
+    zv = zv * dzero  # 0 where not measured
+    # bilinear on z' and on the measured share, normalised (unmeasured pixels do not pull
+    # the depth towards 0); a pixel at least half measured is measured
+    zw = cv2.warpPerspective(zv, Hm, (Wv, Hv), flags=cv2.INTER_LINEAR,
+                             borderMode=cv2.BORDER_CONSTANT, borderValue=0.0)
+    ww = cv2.warpPerspective(valid.view(np.uint8).astype(np.float32), Hm, (Wv, Hv),
+                             flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT,
+                             borderValue=0.0)
+    vw = ww >= 0.5
+    zw = np.where(vw, zw / np.maximum(ww, np.float32(1e-6)), np.float32(0.0))
+    gw, gt = _gap_mask(zw, vw, f, cfg, zw)
+    if not gt.any():
+        return None
+    back = cv2.WARP_INVERSE_MAP | cv2.INTER_NEAREST
+    size0 = (K.width, K.height)
+    wide = cv2.warpPerspective(gw.view(np.uint8), Hm, size0, flags=back,
+                               borderMode=cv2.BORDER_CONSTANT, borderValue=0).view(bool)
+    thin = cv2.warpPerspective(gt.view(np.uint8), Hm, size0, flags=back,
+                               borderMode=cv2.BORDER_CONSTANT, borderValue=0).view(bool)
+    return wide, thin
+
+
+def _rectified_view(K: PinholeIntrinsics, pl: Plane, down_C, cfg, stride: int, off: int):
+    """A plane's rectified view for :func:`_gap_mask_rectified`: (H, R, f, width, height)
+    (H the image -> view homography, R the view's axes in the camera frame, f its focal
+    length, px), or None when the plane's in-plane axes (e1 along its horizontal, e2 down the plane, :func:`_plane_axes`)
     are seen within ``gap_rectify_deg`` of the image rows and columns at its region's centre
     (then the image lines follow its edges already).
 
@@ -1031,8 +1071,8 @@ def _gap_mask_rectified(dzero, valid, K: PinholeIntrinsics, xs, ys, pl: Plane, d
     e2 (a pure rotation: the homography K' R^T K^-1, the same rays, so the same depth samples),
     sees the plane's sides along its rows and columns and the plane at constant depth z'
     (z' = d (r3 . ray)); the reveals are found there on z' with the same tests, and mapped back
-    (nearest pixel). The view covers the plane's region (``Plane.bbox``), at most
-    ``gap_rectify_max_scale`` times the image's size."""
+    (nearest pixel). The view covers the plane's region (``Plane.bbox``), with its focal
+    length reduced so that it is at most ``gap_rectify_max_scale`` times the image's size."""
     n = np.asarray(pl.n, float)
     e1, e2 = _plane_axes(n, down_C)
     r0, r1, c0, c1 = pl.bbox
@@ -1079,28 +1119,7 @@ def _gap_mask_rectified(dzero, valid, K: PinholeIntrinsics, xs, ys, pl: Plane, d
     Kinv = np.array([[1.0 / K.fx, 0.0, -K.cx / K.fx], [0.0, 1.0 / K.fy, -K.cy / K.fy],
                      [0.0, 0.0, 1.0]])
     Hm = Kv @ R.T @ Kinv  # image pixel -> virtual pixel
-    r3 = R[:, 2].astype(np.float32)
-    zv = (np.float32(r3[0]) * xs + np.float32(r3[2])) + np.float32(r3[1]) * ys
-    zv = zv * dzero  # 0 where not measured
-    # bilinear on z' and on the measured share, normalised (unmeasured pixels do not pull
-    # the depth towards 0); a pixel at least half measured is measured
-    zw = cv2.warpPerspective(zv, Hm, (Wv, Hv), flags=cv2.INTER_LINEAR,
-                             borderMode=cv2.BORDER_CONSTANT, borderValue=0.0)
-    ww = cv2.warpPerspective(valid.view(np.uint8).astype(np.float32), Hm, (Wv, Hv),
-                             flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT,
-                             borderValue=0.0)
-    vw = ww >= 0.5
-    zw = np.where(vw, zw / np.maximum(ww, np.float32(1e-6)), np.float32(0.0))
-    gw, gt = _gap_mask(zw, vw, f, cfg, zw, long_pass=False)
-    if not gt.any():
-        return None
-    back = cv2.WARP_INVERSE_MAP | cv2.INTER_NEAREST
-    size0 = (K.width, K.height)
-    wide = cv2.warpPerspective(gw.view(np.uint8), Hm, size0, flags=back,
-                               borderMode=cv2.BORDER_CONSTANT, borderValue=0).view(bool)
-    thin = cv2.warpPerspective(gt.view(np.uint8), Hm, size0, flags=back,
-                               borderMode=cv2.BORDER_CONSTANT, borderValue=0).view(bool)
-    return wide, thin
+    return Hm, R, f, Wv, Hv
 
 
 def _label_images(d, valid, ray_x, ray_y, planes, L, crossing_angle_deg,
@@ -1894,10 +1913,19 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
     if cfg.surface_check:
         Lm = _depth_bound(dzero, cfg.surface_distance, cfg.surface_distance_per_m2)
         surface = (Lm, int(cfg.surface_window_px))
-    gap, gap_thin = _gap_mask(d, valid, K.fx, cfg, dzero) if cfg.gap_label else (None, None)
-    if cfg.gap_label and cfg.gap_rectify_planes > 0:  # planes seen off their normal
+    gap = gap_thin = None
+    if cfg.gap_label:
+        # the largest planes seen off their normal get a rectified view; the long pass runs
+        # where the lines follow the planes' sides (on the image only when no view is needed:
+        # across slanted reveals its 128 px means smear them into false rows)
+        views = []
         for pl in sorted(planes, key=lambda p: -p.support)[: cfg.gap_rectify_planes]:
-            rect = _gap_mask_rectified(dzero, valid, K, xs, ys, pl, down_C, cfg, st, off)
+            v = _rectified_view(K, pl, down_C, cfg, st, off)
+            if v is not None:
+                views.append(v)
+        gap, gap_thin = _gap_mask(d, valid, K.fx, cfg, dzero, long_pass=not views)
+        for v in views:
+            rect = _gap_mask_rectified(dzero, valid, K, xs, ys, v, cfg)
             if rect is not None:
                 gap = gap | rect[0]
                 gap_thin = gap_thin | rect[1]
