@@ -52,7 +52,18 @@
     closed fronts are thin image lines that have no return or lie a few mm behind the
     surface on both sides (averaged along the line); their pixels become ``GAP``, costed like
     free space, so a closed front is no longer one rectangle with its neighbours (issue 12:
-    closed fronts were found in 0 of 60-70 frames per distance).
+    closed fronts were found in 0 of 60-70 frames per distance). Two more passes (issue 12,
+    branch pgap): a *long* pass (``gap_long_window_px``, line means over 128 px, threshold's
+    z^2 part scaled by sqrt(32 / 128)): a reveal is one pixel row whose depth depends on where
+    the pixel's centre falls in the ~1.2 px wide gap (the closed drawer at 2.2 m: 3.3 mm behind
+    on the clean render, below 1 mm z^2 = 4.8 mm; 2.3 m and 2.4 m fall luckier); and, for the
+    ``gap_rectify_planes`` largest planes whose in-plane axes are seen more than
+    ``gap_rectify_deg`` off the image rows / columns (a front 30-45 deg off the normal: its
+    horizontal sides slanted by ~8-15 deg), the short pass on the plane's *rectified view*
+    (:func:`_rectified_view`: a virtual camera at the same centre looking along the normal,
+    axes along the plane's horizontal and down), mapped back. The long pass runs on the image
+    only when no view is needed (across slanted reveals its 128 px means smear them into
+    false rows: a closed door at 30 deg came out 7 cm short).
 ``sampling``
     ``starts_per_plane`` random starts per plane: a random in-plane cell as centre, width and
     height drawn uniformly from ``prior_size`` (5.1.1: "sample a random point from the plane
@@ -250,7 +261,16 @@ class FrontDetectorConfig:
             to a multiple of 4; 0 = no second pass) with the depth threshold's z^2 part
             scaled by sqrt(gap_window_px / gap_long_window_px) (its mean scatters that much
             less): a reveal sampled at an unlucky pixel phase dips only ~3 mm (the closed
-            drawer at 2.2 m: 3.3 mm on the clean render, below 1 mm z^2 = 4.8 mm), px.
+            drawer at 2.2 m: 3.3 mm on the clean render, below 1 mm z^2 = 4.8 mm), px. It
+            runs on the image only when no plane needs a rectified view (below).
+        gap_long_min_windows: a run of the long pass must be at least this many long windows
+            long (and ``gap_min_length``): one window's scatter is not a line.
+        gap_rectify_planes: the short pass also runs on the rectified views of up to this
+            many largest planes (0 = none) whose in-plane axes are seen more than
+            ``gap_rectify_deg`` (deg) off the image's rows and columns at their region's
+            centre (a front seen off its normal: its sides are slanted in the image).
+        gap_rectify_max_scale: a rectified view is at most this many times the image's
+            width and height (its focal length is reduced to fit).
     """
 
     inlier_distance: float = 0.02
