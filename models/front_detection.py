@@ -59,7 +59,7 @@
     on the clean render, below 1 mm z^2 = 4.8 mm; 2.3 m and 2.4 m fall luckier); and, for the
     ``gap_rectify_planes`` largest planes whose in-plane axes are seen more than
     ``gap_rectify_deg`` off the image rows / columns (a front 30-45 deg off the normal: its
-    horizontal sides slanted by ~8-15 deg), the short pass on the plane's *rectified view*
+    horizontal sides slanted by ~8-15 deg), both passes on the plane's *rectified view*
     (:func:`_rectified_view`: a virtual camera at the same centre looking along the normal,
     axes along the plane's horizontal and down), mapped back. The long pass runs on the image
     only when no view is needed (across slanted reveals its 128 px means smear them into
@@ -265,7 +265,7 @@ class FrontDetectorConfig:
             runs on the image only when no plane needs a rectified view (below).
         gap_long_min_windows: a run of the long pass must be at least this many long windows
             long (and ``gap_min_length``): one window's scatter is not a line.
-        gap_rectify_planes: the short pass also runs on the rectified views of up to this
+        gap_rectify_planes: both passes also run on the rectified views of up to this
             many largest planes (0 = none) whose in-plane axes are seen more than
             ``gap_rectify_deg`` (deg) off the image's rows and columns at their region's
             centre (a front seen off its normal: its sides are slanted in the image).
@@ -872,7 +872,7 @@ def _affine_lstsq(A: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.array([a, c, mb - a * mu - c * mv])
 
 
-def _gap_mask(d, valid, fx, cfg, dzero=None, long_pass=True):
+def _gap_mask(d, valid, fx, cfg, dzero=None, long_pass=True, scale_floor=False):
     """Pixels on the reveals between flush fronts (``GAP``) from the depth image alone (one
     pass per frame for all planes): (wide, thin), (H, W) bool each; ``wide`` is ``thin`` one
     pixel wider on either side across the line (for the rectified grids).
@@ -894,7 +894,9 @@ def _gap_mask(d, valid, fx, cfg, dzero=None, long_pass=True):
     reveal runs along a whole front; ``dzero``: ``d`` with 0 where not ``valid``, if at
     hand). The side lines must be well measured (>= 80 % of their
     pixels: a countertop seen at grazing incidence drops a third of its pixels, and its line
-    means scatter beyond the noise model)."""
+    means scatter beyond the noise model). ``long_pass``: also the lines averaged over
+    ``gap_long_window_px`` (threshold's z^2 part scaled by the square root of the windows'
+    ratio; with ``scale_floor`` the ``gap_depth`` floor too)."""
     H, W = d.shape
     sub = 4  # the line means are smooth along a line: one per 4 pixels along it suffices
     z = np.where(valid, d, np.float32(0.0)) if dzero is None else dzero
@@ -956,7 +958,7 @@ def _gap_mask(d, valid, fx, cfg, dzero=None, long_pass=True):
         mf = m.reshape(-1)
         okf = side_ok.reshape(-1)
         unmeas = ~meas
-        gd = np.float32(cfg.gap_depth)
+        gd = np.float32(cfg.gap_depth * (tscale if scale_floor else 1.0))
         gdz = np.float32(cfg.gap_depth_per_m2 * tscale)
         for o in cfg.gap_offsets_px:
             o = int(o)
@@ -1051,7 +1053,8 @@ def _gap_mask(d, valid, fx, cfg, dzero=None, long_pass=True):
 
 
 def _gap_mask_rectified(dzero, valid, K: PinholeIntrinsics, xs, ys, view, cfg):
-    """:func:`_gap_mask` (the short window) on the rectified view ``view`` of a plane
+    """:func:`_gap_mask` (short and long windows, the long one's whole threshold scaled) on
+    the rectified view ``view`` of a plane
     (:func:`_rectified_view`): (wide, thin) in the image, or None when nothing is found."""
     Hm, R, f, Wv, Hv = view
     r3 = R[:, 2].astype(np.float32)
@@ -1066,10 +1069,11 @@ def _gap_mask_rectified(dzero, valid, K: PinholeIntrinsics, xs, ys, view, cfg):
                              borderValue=0.0)
     vw = ww >= 0.5
     zw = np.where(vw, zw / np.maximum(ww, np.float32(1e-6)), np.float32(0.0))
-    # short window only: the long pass's threshold differs from the short one's only beyond
-    # ~1.6 m (both are floored at gap_depth), and a second window on up to 1.25 x the image's
-    # pixels per view cost 20-40 ms at 45 deg
-    gw, gt = _gap_mask(zw, vw, f, cfg, zw, long_pass=False)
+    # the long pass here with its whole threshold scaled (gap_depth too: a vertical reveal
+    # seen 45 deg off the normal dips 1.6-3.7 mm at 1.5 m, where both passes' thresholds
+    # are the 2.5 mm floor; on the whole image a scaled floor labelled false rows on the wall
+    # and countertop at 2.2 m)
+    gw, gt = _gap_mask(zw, vw, f, cfg, zw, long_pass=True, scale_floor=True)
     if not gt.any():
         return None
     back = cv2.WARP_INVERSE_MAP | cv2.INTER_NEAREST
