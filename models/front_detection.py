@@ -61,9 +61,9 @@
     ``gap_rectify_deg`` off the image rows / columns (a front 30-45 deg off the normal: its
     horizontal sides slanted by ~8-15 deg), both passes on the plane's *rectified view*
     (:func:`_rectified_view`: a virtual camera at the same centre looking along the normal,
-    axes along the plane's horizontal and down), mapped back. The long pass runs on the image
-    only when no view is needed (across slanted reveals its 128 px means smear them into
-    false rows: a closed door at 30 deg came out 7 cm short).
+    axes along the plane's horizontal and down), mapped back. The long pass on the image is
+    off by default (``gap_long_on_image``: at 2.0-2.3 m it split the closed door with false
+    rows; across slanted reveals its 128 px means smear them into false rows too).
 ``sampling``
     ``starts_per_plane`` random starts per plane: a random in-plane cell as centre, width and
     height drawn uniformly from ``prior_size`` (5.1.1: "sample a random point from the plane
@@ -262,7 +262,12 @@ class FrontDetectorConfig:
             scaled by sqrt(gap_window_px / gap_long_window_px) (its mean scatters that much
             less): a reveal sampled at an unlucky pixel phase dips only ~3 mm (the closed
             drawer at 2.2 m: 3.3 mm on the clean render, below 1 mm z^2 = 4.8 mm), px. It
-            runs on the image only when no plane needs a rectified view (below).
+            runs on the rectified views (below), and on the image only with
+            ``gap_long_on_image`` and when no plane needs a view.
+        gap_long_on_image: the long pass on the image too (off: on renders of seed 2003 it
+            split the closed door at 2.0 / 2.3 m with false rows, found in 1 / 2 of 5 frames
+            instead of 5 / 5, while it found the closed drawer at 2.2 m in only 2-3 of 5
+            noisy frames of seed 2000 instead of 0).
         gap_long_min_windows: a run of the long pass must be at least this many long windows
             long (and ``gap_min_length``): one window's scatter is not a line.
         gap_rectify_planes: both passes also run on the rectified views of up to this
@@ -329,6 +334,7 @@ class FrontDetectorConfig:
     gap_min_length: float = 0.2
     gap_long_window_px: int = 128
     gap_long_min_windows: float = 0.5
+    gap_long_on_image: bool = False
     gap_rectify_planes: int = 2
     gap_rectify_deg: float = 8.0
     gap_rectify_max_scale: float = 1.25
@@ -1950,7 +1956,8 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
             v = _rectified_view(K, pl, down_C, cfg, st, off)
             if v is not None:
                 views.append(v)
-        gap, gap_thin = _gap_mask(d, valid, K.fx, cfg, dzero, long_pass=not views)
+        gap, gap_thin = _gap_mask(d, valid, K.fx, cfg, dzero,
+                                  long_pass=cfg.gap_long_on_image and not views)
         for v in views:
             rect = _gap_mask_rectified(dzero, valid, K, xs, ys, v, cfg)
             if rect is not None:
