@@ -52,7 +52,18 @@
     closed fronts are thin image lines that have no return or lie a few mm behind the
     surface on both sides (averaged along the line); their pixels become ``GAP``, costed like
     free space, so a closed front is no longer one rectangle with its neighbours (issue 12:
-    closed fronts were found in 0 of 60-70 frames per distance).
+    closed fronts were found in 0 of 60-70 frames per distance). Two more passes (issue 12,
+    branch pgap): a *long* pass (``gap_long_window_px``, line means over 128 px, threshold's
+    z^2 part scaled by sqrt(32 / 128)): a reveal is one pixel row whose depth depends on where
+    the pixel's centre falls in the ~1.2 px wide gap (the closed drawer at 2.2 m: 3.3 mm behind
+    on the clean render, below 1 mm z^2 = 4.8 mm; 2.3 m and 2.4 m fall luckier); and, for the
+    ``gap_rectify_planes`` largest planes whose in-plane axes are seen more than
+    ``gap_rectify_deg`` off the image rows / columns (a front 30-45 deg off the normal: its
+    horizontal sides slanted by ~8-15 deg), both passes on the plane's *rectified view*
+    (:func:`_rectified_view`: a virtual camera at the same centre looking along the normal,
+    axes along the plane's horizontal and down), mapped back. The long pass on the image is
+    off by default (``gap_long_on_image``: at 2.0-2.3 m it split the closed door with false
+    rows; across slanted reveals its 128 px means smear them into false rows too).
 ``sampling``
     ``starts_per_plane`` random starts per plane: a random in-plane cell as centre, width and
     height drawn uniformly from ``prior_size`` (5.1.1: "sample a random point from the plane
@@ -246,6 +257,25 @@ class FrontDetectorConfig:
             less than max(0.01, this x z^2) m plus the depth change of the plane over the
             offset (the side lines must lie on one surface), m / m^2.
         gap_min_length: a detected line shorter than this (at its depth) is noise, m.
+        gap_long_window_px: a second pass averages the lines over this many pixels (rounded
+            to a multiple of 4; 0 = no second pass) with the depth threshold's z^2 part
+            scaled by sqrt(gap_window_px / gap_long_window_px) (its mean scatters that much
+            less): a reveal sampled at an unlucky pixel phase dips only ~3 mm (the closed
+            drawer at 2.2 m: 3.3 mm on the clean render, below 1 mm z^2 = 4.8 mm), px. It
+            runs on the rectified views (below), and on the image only with
+            ``gap_long_on_image`` and when no plane needs a view.
+        gap_long_on_image: the long pass on the image too (off: on renders of seed 2003 it
+            split the closed door at 2.0 / 2.3 m with false rows, found in 1 / 2 of 5 frames
+            instead of 5 / 5, while it found the closed drawer at 2.2 m in only 2-3 of 5
+            noisy frames of seed 2000 instead of 0).
+        gap_long_min_windows: a run of the long pass must be at least this many long windows
+            long (and ``gap_min_length``): one window's scatter is not a line.
+        gap_rectify_planes: both passes also run on the rectified views of up to this
+            many largest planes (0 = none) whose in-plane axes are seen more than
+            ``gap_rectify_deg`` (deg) off the image's rows and columns at their region's
+            centre (a front seen off its normal: its sides are slanted in the image).
+        gap_rectify_max_scale: a rectified view is at most this many times the image's
+            width and height (its focal length is reduced to fit).
     """
 
     inlier_distance: float = 0.02
@@ -302,6 +332,12 @@ class FrontDetectorConfig:
     gap_depth_per_m2: float = 0.001
     gap_side_tolerance_per_m2: float = 0.004
     gap_min_length: float = 0.2
+    gap_long_window_px: int = 128
+    gap_long_min_windows: float = 0.5
+    gap_long_on_image: bool = False
+    gap_rectify_planes: int = 2
+    gap_rectify_deg: float = 8.0
+    gap_rectify_max_scale: float = 1.25
 
     def validate(self) -> None:
         """Raise ``ValueError`` naming the first invalid field."""
@@ -340,6 +376,22 @@ class FrontDetectorConfig:
         if self.gap_window_px < 4:
             raise ValueError("FrontDetectorConfig.gap_window_px must be an integer >= 4, "
                              f"got {self.gap_window_px}")
+        if self.gap_long_window_px and self.gap_long_window_px <= self.gap_window_px:
+            raise ValueError("FrontDetectorConfig.gap_long_window_px must be 0 (off) or larger "
+                             f"than gap_window_px ({self.gap_window_px}), got "
+                             f"{self.gap_long_window_px}")
+        if not (self.gap_long_min_windows >= 0 and math.isfinite(self.gap_long_min_windows)):
+            raise ValueError("FrontDetectorConfig.gap_long_min_windows must be a finite number "
+                             f">= 0, got {self.gap_long_min_windows}")
+        if self.gap_rectify_planes < 0:
+            raise ValueError("FrontDetectorConfig.gap_rectify_planes must be an integer >= 0, "
+                             f"got {self.gap_rectify_planes}")
+        if not 0 <= self.gap_rectify_deg <= 90:
+            raise ValueError("FrontDetectorConfig.gap_rectify_deg must be in [0, 90] deg, got "
+                             f"{self.gap_rectify_deg}")
+        if not (self.gap_rectify_max_scale > 0 and math.isfinite(self.gap_rectify_max_scale)):
+            raise ValueError("FrontDetectorConfig.gap_rectify_max_scale must be a finite number "
+                             f"> 0, got {self.gap_rectify_max_scale}")
         if not self.gap_offsets_px or any(int(o) != o or o < 1 for o in self.gap_offsets_px):
             raise ValueError("FrontDetectorConfig.gap_offsets_px must be integers >= 1 (px), "
                              f"got {self.gap_offsets_px}")
@@ -378,6 +430,7 @@ class FrontDetectorConfig:
                   "max_planes", "min_plane_points", "max_grid_cells", "starts_per_plane",
                   "component_starts",
                   "crossing_smooth_px", "surface_window_px", "gap_window_px",
+                  "gap_long_window_px", "gap_rectify_planes",
                   "max_iterations", "border_margin_px"):
             if int(getattr(self, k)) != getattr(self, k):
                 raise ValueError(f"FrontDetectorConfig.{k} must be an integer, got "
@@ -825,7 +878,7 @@ def _affine_lstsq(A: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.array([a, c, mb - a * mu - c * mv])
 
 
-def _gap_mask(d, valid, fx, cfg, dzero=None):
+def _gap_mask(d, valid, fx, cfg, dzero=None, long_pass=True, scale_floor=False):
     """Pixels on the reveals between flush fronts (``GAP``) from the depth image alone (one
     pass per frame for all planes): (wide, thin), (H, W) bool each; ``wide`` is ``thin`` one
     pixel wider on either side across the line (for the rectified grids).
@@ -847,27 +900,41 @@ def _gap_mask(d, valid, fx, cfg, dzero=None):
     reveal runs along a whole front; ``dzero``: ``d`` with 0 where not ``valid``, if at
     hand). The side lines must be well measured (>= 80 % of their
     pixels: a countertop seen at grazing incidence drops a third of its pixels, and its line
-    means scatter beyond the noise model)."""
+    means scatter beyond the noise model). ``long_pass``: also the lines averaged over
+    ``gap_long_window_px`` (threshold's z^2 part scaled by the square root of the windows'
+    ratio; with ``scale_floor`` the ``gap_depth`` floor too)."""
     H, W = d.shape
     sub = 4  # the line means are smooth along a line: one per 4 pixels along it suffices
-    nb = max(1, int(round(cfg.gap_window_px / sub)))  # window in blocks of 4 pixels
-    Lw = nb * sub
     z = np.where(valid, d, np.float32(0.0)) if dzero is None else dzero
     w = valid.astype(np.float32)
     Hc, Wc = H - H % sub, W - W % sub
     out = np.zeros((H, W), bool)
     thin = np.zeros((H, W), bool)
-    for horizontal in (True, False):
+    # (window, threshold scale): the short window, and the long one whose mean scatters by
+    # sqrt(short / long) of the short one's, so its threshold is scaled by that (a reveal
+    # runs across a cabinet's fronts: its few-mm dip, sampled at an unlucky pixel phase, is
+    # within the short window's noise but not within the long one's)
+    nb0 = max(1, int(round(cfg.gap_window_px / sub)))
+    scales = [(nb0, 1.0)]
+    if cfg.gap_long_window_px and long_pass:
+        nbl = max(nb0 + 1, int(round(cfg.gap_long_window_px / sub)))
+        scales.append((nbl, math.sqrt(nb0 / nbl)))
+    blocks = {}
+    for horizontal, (nb, tscale) in ((h, s) for h in (True, False) for s in scales):
+        Lw = nb * sub
         # block means along the line (x 4 = sums), then the window's sums: rows of (A, N)
         # run across the lines, columns along them
-        if horizontal:
-            size = (Wc // sub, H)
-            A = cv2.resize(z[:, :Wc], size, interpolation=cv2.INTER_AREA)
-            N = cv2.resize(w[:, :Wc], size, interpolation=cv2.INTER_AREA)
-        else:
-            size = (W, Hc // sub)
-            A = np.ascontiguousarray(cv2.resize(z[:Hc], size, interpolation=cv2.INTER_AREA).T)
-            N = np.ascontiguousarray(cv2.resize(w[:Hc], size, interpolation=cv2.INTER_AREA).T)
+        if horizontal not in blocks:  # (the same blocks for both windows)
+            if horizontal:
+                size = (Wc // sub, H)
+                A = cv2.resize(z[:, :Wc], size, interpolation=cv2.INTER_AREA)
+                N = cv2.resize(w[:, :Wc], size, interpolation=cv2.INTER_AREA)
+            else:
+                size = (W, Hc // sub)
+                A = np.ascontiguousarray(cv2.resize(z[:Hc], size, interpolation=cv2.INTER_AREA).T)
+                N = np.ascontiguousarray(cv2.resize(w[:Hc], size, interpolation=cv2.INTER_AREA).T)
+            blocks[horizontal] = (A, N)
+        A, N = blocks[horizontal]
         # block means: a window whose lines are not one surface (a step: an opened door in
         # front of the cabinet's reveals) has its middle block off the chord between its end
         # blocks (a plane's depth is close to linear along a line over 32 px)
@@ -897,7 +964,8 @@ def _gap_mask(d, valid, fx, cfg, dzero=None):
         mf = m.reshape(-1)
         okf = side_ok.reshape(-1)
         unmeas = ~meas
-        gd = np.float32(cfg.gap_depth)
+        gd = np.float32(cfg.gap_depth * (tscale if scale_floor else 1.0))
+        gdz = np.float32(cfg.gap_depth_per_m2 * tscale)
         for o in cfg.gap_offsets_px:
             o = int(o)
             if n_rows <= 4 * o:
@@ -920,7 +988,7 @@ def _gap_mask(d, valid, fx, cfg, dzero=None):
             # behind by more than thr (the candidates are behind by gap_depth), or unmeasured
             refv = ref.reshape(-1)[idx]
             z2v = refv * refv
-            thrv = np.maximum(gd, np.float32(cfg.gap_depth_per_m2) * z2v)
+            thrv = np.maximum(gd, gdz * z2v)
             ic = idx + (2 * o) * Wm  # flat index of the line in m
             unm = unmeas.reshape(-1)[ic]
             with np.errstate(invalid="ignore"):
@@ -968,7 +1036,11 @@ def _gap_mask(d, valid, fx, cfg, dzero=None):
             zsum = np.bincount(lab.reshape(-1)[on], weights=zg.reshape(-1)[on],
                                minlength=n_lab)[1:]
             zrun[off] = zsum[off] / np.maximum(stats[1 + off, cv2.CC_STAT_AREA], 1)
-        keep = np.concatenate([[False], length >= cfg.gap_min_length * fx / np.maximum(zrun, 1e-6)])
+        # (the long pass: at least its window long, one window's scatter is not a line)
+        min_px = cfg.gap_min_length * fx / np.maximum(zrun, 1e-6)
+        if nb != nb0:
+            min_px = np.maximum(min_px, np.float64(cfg.gap_long_min_windows * Lw))
+        keep = np.concatenate([[False], length >= min_px])
         if not keep.any():
             continue
         g = keep[lab]
@@ -984,6 +1056,103 @@ def _gap_mask(d, valid, fx, cfg, dzero=None):
             out[:Hc] |= np.repeat(np.ascontiguousarray(wide.T), sub, axis=0)
             thin[:Hc] |= np.repeat(np.ascontiguousarray(g.T), sub, axis=0)
     return out, thin
+
+
+def _gap_mask_rectified(dzero, valid, K: PinholeIntrinsics, xs, ys, view, cfg):
+    """:func:`_gap_mask` (short and long windows, the long one's whole threshold scaled) on
+    the rectified view ``view`` of a plane
+    (:func:`_rectified_view`): (wide, thin) in the image, or None when nothing is found."""
+    Hm, R, f, Wv, Hv = view
+    r3 = R[:, 2].astype(np.float32)
+    zv = (np.float32(r3[0]) * xs + np.float32(r3[2])) + np.float32(r3[1]) * ys
+    zv = zv * dzero  # 0 where not measured
+    # bilinear on z' and on the measured share, normalised (unmeasured pixels do not pull
+    # the depth towards 0); a pixel at least half measured is measured
+    zw = cv2.warpPerspective(zv, Hm, (Wv, Hv), flags=cv2.INTER_LINEAR,
+                             borderMode=cv2.BORDER_CONSTANT, borderValue=0.0)
+    ww = cv2.warpPerspective(valid.view(np.uint8).astype(np.float32), Hm, (Wv, Hv),
+                             flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT,
+                             borderValue=0.0)
+    vw = ww >= 0.5
+    zw = np.where(vw, zw / np.maximum(ww, np.float32(1e-6)), np.float32(0.0))
+    # the long pass here with its whole threshold scaled (gap_depth too: a vertical reveal
+    # seen 45 deg off the normal dips 1.6-3.7 mm at 1.5 m, where both passes' thresholds
+    # are the 2.5 mm floor; on the whole image a scaled floor labelled false rows on the wall
+    # and countertop at 2.2 m)
+    gw, gt = _gap_mask(zw, vw, f, cfg, zw, long_pass=True, scale_floor=True)
+    if not gt.any():
+        return None
+    back = cv2.WARP_INVERSE_MAP | cv2.INTER_NEAREST
+    size0 = (K.width, K.height)
+    wide = cv2.warpPerspective(gw.view(np.uint8), Hm, size0, flags=back,
+                               borderMode=cv2.BORDER_CONSTANT, borderValue=0).view(bool)
+    thin = cv2.warpPerspective(gt.view(np.uint8), Hm, size0, flags=back,
+                               borderMode=cv2.BORDER_CONSTANT, borderValue=0).view(bool)
+    return wide, thin
+
+
+def _rectified_view(K: PinholeIntrinsics, pl: Plane, down_C, cfg, stride: int, off: int):
+    """A plane's rectified view for :func:`_gap_mask_rectified`: (H, R, f, width, height)
+    (H the image -> view homography, R the view's axes in the camera frame, f its focal
+    length, px), or None when the plane's in-plane axes (e1 along its horizontal, e2 down the plane, :func:`_plane_axes`)
+    are seen within ``gap_rectify_deg`` of the image rows and columns at its region's centre
+    (then the image lines follow its edges already).
+
+    Off the front's normal a front's horizontal sides are slanted in the image, and the line
+    means along image rows cross the reveal instead of following it. A virtual camera at the
+    same centre, rotated to look along the plane's normal with its x and y axes along e1 and
+    e2 (a pure rotation: the homography K' R^T K^-1, the same rays, so the same depth samples),
+    sees the plane's sides along its rows and columns and the plane at constant depth z'
+    (z' = d (r3 . ray)); the reveals are found there on z' with the same tests, and mapped back
+    (nearest pixel). The view covers the plane's region (``Plane.bbox``), with its focal
+    length reduced so that it is at most ``gap_rectify_max_scale`` times the image's size."""
+    n = np.asarray(pl.n, float)
+    e1, e2 = _plane_axes(n, down_C)
+    r0, r1, c0, c1 = pl.bbox
+    uc = off + stride * 0.5 * (c0 + c1)
+    vc = off + stride * 0.5 * (r0 + r1)
+    ray_c = np.array([(uc - K.cx) / K.fx, (vc - K.cy) / K.fy, 1.0])
+    den = n @ ray_c
+    if not den < -1e-6:
+        return None
+    pc = ray_c * (-pl.d / den)
+
+    def img_dir(e):
+        q0, q1 = pc, pc + 0.05 * e
+        a = np.array([K.fx * q0[0] / q0[2], K.fy * q0[1] / q0[2]])
+        b = np.array([K.fx * q1[0] / q1[2], K.fy * q1[1] / q1[2]])
+        return b - a
+    d1, d2 = img_dir(e1), img_dir(e2)
+    slant1 = math.degrees(math.atan2(abs(d1[1]), abs(d1[0]) + 1e-12))
+    slant2 = math.degrees(math.atan2(abs(d2[0]), abs(d2[1]) + 1e-12))
+    if max(slant1, slant2) < cfg.gap_rectify_deg:
+        return None
+    # virtual axes in camera coordinates: z' into the plane (away from the camera)
+    R = np.column_stack([-e1, e2, -n])  # (-e1) x e2 = -n: right-handed
+    # the region's corners (on the plane) in the virtual view
+    us = off + stride * np.array([c0, c1 + 1, c1 + 1, c0], float)
+    vs = off + stride * np.array([r0, r0, r1 + 1, r1 + 1], float)
+    rays = np.column_stack([(us - K.cx) / K.fx, (vs - K.cy) / K.fy, np.ones(4)])
+    q = rays @ R  # R^T ray, rows
+    if not (q[:, 2] > 1e-3).all():
+        return None
+    uv = K.fx * q[:, :2] / q[:, 2:3]
+    size = uv.max(axis=0) - uv.min(axis=0)
+    smax = cfg.gap_rectify_max_scale * np.array([K.width, K.height], float)
+    # a coarser virtual focal length when the region would be larger than that (seen
+    # obliquely, its far side is stretched in the rotated view)
+    f = K.fx * min(1.0, float(np.min(smax / np.maximum(size, 1.0))))
+    uv = f * q[:, :2] / q[:, 2:3]
+    lo, hi = uv.min(axis=0) - 8.0, uv.max(axis=0) + 8.0
+    size = hi - lo
+    Wv, Hv = int(math.ceil(size[0])), int(math.ceil(size[1]))
+    if Wv < 16 or Hv < 16:
+        return None
+    Kv = np.array([[f, 0.0, -lo[0]], [0.0, f, -lo[1]], [0.0, 0.0, 1.0]])
+    Kinv = np.array([[1.0 / K.fx, 0.0, -K.cx / K.fx], [0.0, 1.0 / K.fy, -K.cy / K.fy],
+                     [0.0, 0.0, 1.0]])
+    Hm = Kv @ R.T @ Kinv  # image pixel -> virtual pixel
+    return Hm, R, f, Wv, Hv
 
 
 def _label_images(d, valid, ray_x, ray_y, planes, L, crossing_angle_deg,
@@ -1777,7 +1946,23 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
     if cfg.surface_check:
         Lm = _depth_bound(dzero, cfg.surface_distance, cfg.surface_distance_per_m2)
         surface = (Lm, int(cfg.surface_window_px))
-    gap, gap_thin = _gap_mask(d, valid, K.fx, cfg, dzero) if cfg.gap_label else (None, None)
+    gap = gap_thin = None
+    if cfg.gap_label:
+        # the largest planes seen off their normal get a rectified view; the long pass runs
+        # where the lines follow the planes' sides (on the image only when no view is needed:
+        # across slanted reveals its 128 px means smear them into false rows)
+        views = []
+        for pl in sorted(planes, key=lambda p: -p.support)[: cfg.gap_rectify_planes]:
+            v = _rectified_view(K, pl, down_C, cfg, st, off)
+            if v is not None:
+                views.append(v)
+        gap, gap_thin = _gap_mask(d, valid, K.fx, cfg, dzero,
+                                  long_pass=cfg.gap_long_on_image and not views)
+        for v in views:
+            rect = _gap_mask_rectified(dzero, valid, K, xs, ys, v, cfg)
+            if rect is not None:
+                gap = gap | rect[0]
+                gap_thin = gap_thin | rect[1]
     labels = _label_images(dzero, valid, xs, ys, planes, Limg, cfg.crossing_angle_deg,
                            int(cfg.crossing_smooth_px), surface, gap)
     if cfg.own_pixel_refit_deg > 0:  # planes tilted by a neighbour they cross at a shallow angle
