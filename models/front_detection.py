@@ -982,6 +982,11 @@ def _gap_mask(d, valid, fx, cfg, dzero=None, long_pass=True, scale_floor=False):
             with np.errstate(invalid="ignore"):
                 cand = behind > gd
             cand |= unmeas[r]
+            # the side lines' test (below) on every line too: cheap boolean ANDs that drop
+            # the many unmeasured lines without measured sides (outside a rectified view's
+            # footprint) before the indexing; the same lines pass both tests
+            cand &= side_ok[o:n_rows - 3 * o]
+            cand &= side_ok[3 * o:n_rows - o]
             idx = np.flatnonzero(cand)
             if not len(idx):
                 continue
