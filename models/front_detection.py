@@ -966,6 +966,8 @@ def _gap_mask(d, valid, fx, cfg, dzero=None, long_pass=True, scale_floor=False):
         unmeas = ~meas
         gd = np.float32(cfg.gap_depth * (tscale if scale_floor else 1.0))
         gdz = np.float32(cfg.gap_depth_per_m2 * tscale)
+        ref_buf, beh_buf = np.empty_like(m), np.empty_like(m)
+        cand_buf = np.empty(m.shape, bool)
         for o in cfg.gap_offsets_px:
             o = int(o)
             if n_rows <= 4 * o:
@@ -974,13 +976,15 @@ def _gap_mask(d, valid, fx, cfg, dzero=None, long_pass=True, scale_floor=False):
             r = slice(2 * o, n_rows - 2 * o)
             c = m[r]
             up, dn = m[o:n_rows - 3 * o], m[3 * o:n_rows - o]
-            ref = np.float32(0.5) * (up + dn)
-            behind = c - ref
+            nr = n_rows - 4 * o  # (in buffers allocated once per pass: the same values)
+            ref = np.add(up, dn, out=ref_buf[:nr])
+            ref *= np.float32(0.5)
+            behind = np.subtract(c, ref, out=beh_buf[:nr])
             # the selective test first on every line (behind its sides by more than
             # gap_depth <= thr, or unmeasured), the other tests only on its few candidates
             # (same float32 arithmetic element-wise)
             with np.errstate(invalid="ignore"):
-                cand = behind > gd
+                cand = np.greater(behind, gd, out=cand_buf[:nr])
             cand |= unmeas[r]
             # the side lines' test (below) on every line too: cheap boolean ANDs that drop
             # the many unmeasured lines without measured sides (outside a rectified view's
