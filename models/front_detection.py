@@ -942,12 +942,17 @@ def _gap_mask(d, valid, fx, cfg, dzero=None, long_pass=True, scale_floor=False):
             B = A / N
         h0, h1 = nb // 2, nb - 1 - nb // 2
         bent = np.zeros(B.shape, bool)
-        if B.shape[1] > nb:
-            chord = np.float32(0.5) * (B[:, : B.shape[1] - nb + 1] + B[:, nb - 1:])
-            zc = B[:, h0: B.shape[1] - h1]
-            tol_b = np.maximum(np.float32(0.01), np.float32(cfg.gap_side_tolerance_per_m2) * zc * zc)
+        if B.shape[1] > nb:  # (in place: the same float32 operations in the same order)
             with np.errstate(invalid="ignore"):
-                bent[:, h0: B.shape[1] - h1] = np.abs(zc - chord) > tol_b
+                chord = np.add(B[:, : B.shape[1] - nb + 1], B[:, nb - 1:])
+                chord *= np.float32(0.5)
+                zc = B[:, h0: B.shape[1] - h1]
+                tol_b = np.multiply(np.float32(cfg.gap_side_tolerance_per_m2), zc)
+                tol_b *= zc
+                np.maximum(np.float32(0.01), tol_b, out=tol_b)
+                np.subtract(zc, chord, out=chord)
+                np.abs(chord, out=chord)
+                np.greater(chord, tol_b, out=bent[:, h0: B.shape[1] - h1])
         A = cv2.boxFilter(A, -1, (nb, 1), normalize=False, borderType=cv2.BORDER_CONSTANT)
         N = cv2.boxFilter(N, -1, (nb, 1), normalize=False, borderType=cv2.BORDER_CONSTANT)
         A *= np.float32(sub)
