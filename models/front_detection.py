@@ -973,6 +973,10 @@ def _gap_mask(d, valid, fx, cfg, dzero=None, long_pass=True, scale_floor=False):
         gdz = np.float32(cfg.gap_depth_per_m2 * tscale)
         ref_buf, beh_buf = np.empty_like(m), np.empty_like(m)
         cand_buf = np.empty(m.shape, bool)
+        # per offset, the lines that pass the first tests (candidates); the remaining tests
+        # then run once on all offsets' candidates together (element-wise the same float32
+        # arithmetic as one offset at a time)
+        c_ic, c_ref, c_beh, c_o = [], [], [], []
         for o in cfg.gap_offsets_px:
             o = int(o)
             if n_rows <= 4 * o:
@@ -987,36 +991,34 @@ def _gap_mask(d, valid, fx, cfg, dzero=None, long_pass=True, scale_floor=False):
             behind = np.subtract(c, ref, out=beh_buf[:nr])
             # the selective test first on every line (behind its sides by more than
             # gap_depth <= thr, or unmeasured), the other tests only on its few candidates
-            # (same float32 arithmetic element-wise)
             with np.errstate(invalid="ignore"):
                 cand = np.greater(behind, gd, out=cand_buf[:nr])
             cand |= unmeas[r]
-            # the side lines' test (below) on every line too: cheap boolean ANDs that drop
-            # the many unmeasured lines without measured sides (outside a rectified view's
-            # footprint) before the indexing; the same lines pass both tests
+            # the side lines well measured and not bent (lines without return inside a
+            # region of drop-outs have no measured sides): cheap boolean ANDs on every
+            # line, which drop the many unmeasured lines outside a rectified view's footprint
             cand &= side_ok[o:n_rows - 3 * o]
             cand &= side_ok[3 * o:n_rows - o]
             idx = np.flatnonzero(cand)
             if not len(idx):
                 continue
+            c_ic.append(idx + (2 * o) * Wm)  # flat index of the line in m
+            c_ref.append(ref.reshape(-1)[idx])
+            c_beh.append(behind.reshape(-1)[idx])
+            c_o.append(np.full(len(idx), o, np.int64))
+        if c_ic:
+            ic, refv, behv, ov = (np.concatenate(x) for x in (c_ic, c_ref, c_beh, c_o))
             # behind by more than thr (the candidates are behind by gap_depth), or unmeasured
-            refv = ref.reshape(-1)[idx]
             z2v = refv * refv
             thrv = np.maximum(gd, gdz * z2v)
-            ic = idx + (2 * o) * Wm  # flat index of the line in m
             unm = unmeas.reshape(-1)[ic]
             with np.errstate(invalid="ignore"):
-                keep = np.flatnonzero((behind.reshape(-1)[idx] > thrv) | unm)
-            ic = ic[keep]
-            ou = ic - o * Wm         # side lines o and 2 o away
-            od = ic + o * Wm
-            # then the side lines well measured and not bent (lines without return inside a
-            # region of drop-outs have no measured sides)
-            s2 = np.flatnonzero(okf[ou] & okf[od])
-            if not len(s2):
-                continue
-            keep, ic, ou, od = keep[s2], ic[s2], ou[s2], od[s2]
+                keep = np.flatnonzero((behv > thrv) | unm)
+            ic, ov = ic[keep], ov[keep]
             refv, z2v, thrv, unm = refv[keep], z2v[keep], thrv[keep], unm[keep]
+            oW = ov * Wm
+            ou = ic - oW         # side lines o and 2 o away
+            od = ic + oW
             upv, dnv, cv = mf[ou], mf[od], mf[ic]
             tolv = np.maximum(np.float32(0.01), np.float32(cfg.gap_side_tolerance_per_m2) * z2v)
             with np.errstate(invalid="ignore"):
@@ -1024,13 +1026,15 @@ def _gap_mask(d, valid, fx, cfg, dzero=None, long_pass=True, scale_floor=False):
                 # behind the sides' extrapolations too (each side's two lines extended to
                 # the line): a concave crease (an opened door meeting the cabinet's face at
                 # its hinge) lies behind the mean of its sides, not behind their extensions
-                ext = upv + dnv - np.float32(0.5) * (mf[ou - o * Wm] + mf[od + o * Wm])
+                ext = upv + dnv - np.float32(0.5) * (mf[ou - oW] + mf[od + oW])
                 hit &= (cv - ext > np.float32(0.5) * thrv) | unm
-                if o > 5:  # only near: a 5 mm reveal's band without return is ~2 + f 0.01 / z px
-                    hit &= refv * np.float32(o - 2) < np.float32(0.01 * fx)
-            ih = ic[hit]
-            g.reshape(-1)[ih] = True
-            zg.reshape(-1)[ih] = refv[hit]
+                # only near for o > 5: a 5 mm reveal's band without return is ~2 + f 0.01 / z px
+                hit &= (ov <= 5) | (refv * (ov - 2).astype(np.float32) < np.float32(0.01 * fx))
+            ih, zh = ic[hit], refv[hit]
+            # a line hit at several offsets keeps the depth of its last (largest) one
+            last = len(ih) - 1 - np.unique(ih[::-1], return_index=True)[1]
+            g.reshape(-1)[ih[last]] = True
+            zg.reshape(-1)[ih[last]] = zh[last]
         if not g.any():
             continue
         # keep runs along the line at least gap_min_length long at their depth
