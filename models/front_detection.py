@@ -1101,7 +1101,9 @@ def _gap_mask_rectified(dzero, valid, K: PinholeIntrinsics, xs, ys, view, cfg):
                              flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT,
                              borderValue=0.0)
     vw = ww >= 0.5
-    zw = np.where(vw, zw / np.maximum(ww, np.float32(1e-6)), np.float32(0.0))
+    np.maximum(ww, np.float32(1e-6), out=ww)  # (in place: the same float32 values)
+    np.divide(zw, ww, out=zw)
+    zw[~vw] = 0.0
     # the long pass here with its whole threshold scaled (gap_depth too: a vertical reveal
     # seen 45 deg off the normal dips 1.6-3.7 mm at 1.5 m, where both passes' thresholds
     # are the 2.5 mm floor; on the whole image a scaled floor labelled false rows on the wall
