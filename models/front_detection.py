@@ -942,12 +942,17 @@ def _gap_mask(d, valid, fx, cfg, dzero=None, long_pass=True, scale_floor=False):
             B = A / N
         h0, h1 = nb // 2, nb - 1 - nb // 2
         bent = np.zeros(B.shape, bool)
-        if B.shape[1] > nb:
-            chord = np.float32(0.5) * (B[:, : B.shape[1] - nb + 1] + B[:, nb - 1:])
-            zc = B[:, h0: B.shape[1] - h1]
-            tol_b = np.maximum(np.float32(0.01), np.float32(cfg.gap_side_tolerance_per_m2) * zc * zc)
+        if B.shape[1] > nb:  # (in place: the same float32 operations in the same order)
             with np.errstate(invalid="ignore"):
-                bent[:, h0: B.shape[1] - h1] = np.abs(zc - chord) > tol_b
+                chord = np.add(B[:, : B.shape[1] - nb + 1], B[:, nb - 1:])
+                chord *= np.float32(0.5)
+                zc = B[:, h0: B.shape[1] - h1]
+                tol_b = np.multiply(np.float32(cfg.gap_side_tolerance_per_m2), zc)
+                tol_b *= zc
+                np.maximum(np.float32(0.01), tol_b, out=tol_b)
+                np.subtract(zc, chord, out=chord)
+                np.abs(chord, out=chord)
+                np.greater(chord, tol_b, out=bent[:, h0: B.shape[1] - h1])
         A = cv2.boxFilter(A, -1, (nb, 1), normalize=False, borderType=cv2.BORDER_CONSTANT)
         N = cv2.boxFilter(N, -1, (nb, 1), normalize=False, borderType=cv2.BORDER_CONSTANT)
         A *= np.float32(sub)
@@ -966,6 +971,12 @@ def _gap_mask(d, valid, fx, cfg, dzero=None, long_pass=True, scale_floor=False):
         unmeas = ~meas
         gd = np.float32(cfg.gap_depth * (tscale if scale_floor else 1.0))
         gdz = np.float32(cfg.gap_depth_per_m2 * tscale)
+        ref_buf, beh_buf = np.empty_like(m), np.empty_like(m)
+        cand_buf = np.empty(m.shape, bool)
+        # per offset, the lines that pass the first tests (candidates); the remaining tests
+        # then run once on all offsets' candidates together (element-wise the same float32
+        # arithmetic as one offset at a time)
+        c_ic, c_ref, c_beh, c_o = [], [], [], []
         for o in cfg.gap_offsets_px:
             o = int(o)
             if n_rows <= 4 * o:
@@ -974,35 +985,40 @@ def _gap_mask(d, valid, fx, cfg, dzero=None, long_pass=True, scale_floor=False):
             r = slice(2 * o, n_rows - 2 * o)
             c = m[r]
             up, dn = m[o:n_rows - 3 * o], m[3 * o:n_rows - o]
-            ref = np.float32(0.5) * (up + dn)
-            behind = c - ref
+            nr = n_rows - 4 * o  # (in buffers allocated once per pass: the same values)
+            ref = np.add(up, dn, out=ref_buf[:nr])
+            ref *= np.float32(0.5)
+            behind = np.subtract(c, ref, out=beh_buf[:nr])
             # the selective test first on every line (behind its sides by more than
             # gap_depth <= thr, or unmeasured), the other tests only on its few candidates
-            # (same float32 arithmetic element-wise)
             with np.errstate(invalid="ignore"):
-                cand = behind > gd
+                cand = np.greater(behind, gd, out=cand_buf[:nr])
             cand |= unmeas[r]
+            # the side lines well measured and not bent (lines without return inside a
+            # region of drop-outs have no measured sides): cheap boolean ANDs on every
+            # line, which drop the many unmeasured lines outside a rectified view's footprint
+            cand &= side_ok[o:n_rows - 3 * o]
+            cand &= side_ok[3 * o:n_rows - o]
             idx = np.flatnonzero(cand)
             if not len(idx):
                 continue
+            c_ic.append(idx + (2 * o) * Wm)  # flat index of the line in m
+            c_ref.append(ref.reshape(-1)[idx])
+            c_beh.append(behind.reshape(-1)[idx])
+            c_o.append(np.full(len(idx), o, np.int64))
+        if c_ic:
+            ic, refv, behv, ov = (np.concatenate(x) for x in (c_ic, c_ref, c_beh, c_o))
             # behind by more than thr (the candidates are behind by gap_depth), or unmeasured
-            refv = ref.reshape(-1)[idx]
             z2v = refv * refv
             thrv = np.maximum(gd, gdz * z2v)
-            ic = idx + (2 * o) * Wm  # flat index of the line in m
             unm = unmeas.reshape(-1)[ic]
             with np.errstate(invalid="ignore"):
-                keep = np.flatnonzero((behind.reshape(-1)[idx] > thrv) | unm)
-            ic = ic[keep]
-            ou = ic - o * Wm         # side lines o and 2 o away
-            od = ic + o * Wm
-            # then the side lines well measured and not bent (lines without return inside a
-            # region of drop-outs have no measured sides)
-            s2 = np.flatnonzero(okf[ou] & okf[od])
-            if not len(s2):
-                continue
-            keep, ic, ou, od = keep[s2], ic[s2], ou[s2], od[s2]
+                keep = np.flatnonzero((behv > thrv) | unm)
+            ic, ov = ic[keep], ov[keep]
             refv, z2v, thrv, unm = refv[keep], z2v[keep], thrv[keep], unm[keep]
+            oW = ov * Wm
+            ou = ic - oW         # side lines o and 2 o away
+            od = ic + oW
             upv, dnv, cv = mf[ou], mf[od], mf[ic]
             tolv = np.maximum(np.float32(0.01), np.float32(cfg.gap_side_tolerance_per_m2) * z2v)
             with np.errstate(invalid="ignore"):
@@ -1010,18 +1026,27 @@ def _gap_mask(d, valid, fx, cfg, dzero=None, long_pass=True, scale_floor=False):
                 # behind the sides' extrapolations too (each side's two lines extended to
                 # the line): a concave crease (an opened door meeting the cabinet's face at
                 # its hinge) lies behind the mean of its sides, not behind their extensions
-                ext = upv + dnv - np.float32(0.5) * (mf[ou - o * Wm] + mf[od + o * Wm])
+                ext = upv + dnv - np.float32(0.5) * (mf[ou - oW] + mf[od + oW])
                 hit &= (cv - ext > np.float32(0.5) * thrv) | unm
-                if o > 5:  # only near: a 5 mm reveal's band without return is ~2 + f 0.01 / z px
-                    hit &= refv * np.float32(o - 2) < np.float32(0.01 * fx)
-            ih = ic[hit]
+                # only near for o > 5: a 5 mm reveal's band without return is ~2 + f 0.01 / z px
+                hit &= (ov <= 5) | (refv * (ov - 2).astype(np.float32) < np.float32(0.01 * fx))
+            ih, zh = ic[hit], refv[hit]
             g.reshape(-1)[ih] = True
-            zg.reshape(-1)[ih] = refv[hit]
+            # a line hit at several offsets keeps the depth of its last one (offset by
+            # offset, in order: each offset's lines are distinct)
+            cut = [0, *(np.flatnonzero(np.diff(ov[hit])) + 1).tolist(), len(ih)]
+            zgf = zg.reshape(-1)
+            for a, b in zip(cut[:-1], cut[1:]):
+                zgf[ih[a:b]] = zh[a:b]
         if not g.any():
             continue
         # keep runs along the line at least gap_min_length long at their depth
+        # (16-bit labels when they cannot overflow: OpenCV's stats pass is ~2.5x faster;
+        # 8-connected, at most one component per 2 x 2 pixels)
+        ltype = (cv2.CV_16U if ((g.shape[0] + 1) // 2) * ((g.shape[1] + 1) // 2) < 65535
+                 else cv2.CV_32S)
         n_lab, lab, stats, cent = cv2.connectedComponentsWithStats(g.view(np.uint8),
-                                                                   connectivity=8)
+                                                                   connectivity=8, ltype=ltype)
         if n_lab <= 1:
             continue
         length = sub * stats[1:, cv2.CC_STAT_WIDTH].astype(np.float64)
@@ -1043,7 +1068,9 @@ def _gap_mask(d, valid, fx, cfg, dzero=None, long_pass=True, scale_floor=False):
         keep = np.concatenate([[False], length >= min_px])
         if not keep.any():
             continue
-        g = keep[lab]
+        on = np.flatnonzero(g)  # (the kept runs' pixels: on the hits only)
+        g = np.zeros(g.shape, bool)
+        g.reshape(-1)[on] = keep[lab.reshape(-1)[on]]
         # one pixel wider on either side across the line: a one-pixel line would fall
         # between the 5 mm cells of a plane's rectified grid (2.2 mm pixels at 1.3 m)
         wide = g.copy()
@@ -1074,7 +1101,9 @@ def _gap_mask_rectified(dzero, valid, K: PinholeIntrinsics, xs, ys, view, cfg):
                              flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT,
                              borderValue=0.0)
     vw = ww >= 0.5
-    zw = np.where(vw, zw / np.maximum(ww, np.float32(1e-6)), np.float32(0.0))
+    np.maximum(ww, np.float32(1e-6), out=ww)  # (in place: the same float32 values)
+    np.divide(zw, ww, out=zw)
+    zw[~vw] = 0.0
     # the long pass here with its whole threshold scaled (gap_depth too: a vertical reveal
     # seen 45 deg off the normal dips 1.6-3.7 mm at 1.5 m, where both passes' thresholds
     # are the 2.5 mm floor; on the whole image a scaled floor labelled false rows on the wall
