@@ -170,9 +170,9 @@ def main(argv=None) -> int:
     if unknown:
         ap.error(f"unknown methods {unknown}; choose from {sorted(makers)}")
     if {"dmp", "promp"} & set(methods):
-        try:
-            import movement_primitives  # noqa: F401
-        except ImportError:
+        import importlib.util
+
+        if importlib.util.find_spec("movement_primitives") is None:
             ap.error("the dmp / promp columns need movement-primitives: pip install 'mmlearn[bench-lasa]' "
                      "(or leave them out with --methods thesis,baseline)")
     res = {m: [] for m in methods}

@@ -967,7 +967,6 @@ def _gap_mask(d, valid, fx, cfg, dzero=None, long_pass=True, scale_floor=False):
         zg = np.zeros(m.shape, np.float32)  # depth of the side lines where hit
         Wm = m.shape[1]
         mf = m.reshape(-1)
-        okf = side_ok.reshape(-1)
         unmeas = ~meas
         gd = np.float32(cfg.gap_depth * (tscale if scale_floor else 1.0))
         gdz = np.float32(cfg.gap_depth_per_m2 * tscale)

@@ -4,14 +4,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from pydrake.systems.framework import BasicVector, LeafSystem
-
 from mmlearn.models.containers import ContainerInstance, wall_forces
+from mmlearn.systems.plant_helpers import StateForceSystem
 
 __all__ = ["ContainerWallForce"]
 
 
-class ContainerWallForce(LeafSystem):
+class ContainerWallForce(StateForceSystem):
     """Generalized forces of a container's content (gas law of the closed headspace,
     hydrostatic head and flow resistance of the liquid) on its two wall joints, from the
     squeeze-volume model :func:`mmlearn.models.containers.wall_forces`, for the plant's
@@ -66,16 +65,7 @@ class ContainerWallForce(LeafSystem):
         wall_forces(container, np.zeros(2), np.zeros(2))
         self._inst, self._nq, self._nv, self._qi, self._vi = (container, int(num_positions),
                                                               int(num_velocities), qi, vi)
-        self._state = self.DeclareVectorInputPort("state", num_positions + num_velocities)
-        self._out = self.DeclareVectorOutputPort(
-            "generalized_force", BasicVector(num_velocities), self._calc,
-            prerequisites_of_calc={self._state.ticket()})
-
-    def get_state_input_port(self):
-        return self._state
-
-    def get_generalized_force_output_port(self):
-        return self._out
+        self._declare_state_force_ports(num_positions, num_velocities)
 
     def _calc(self, context, output):
         x = self._state.Eval(context)

@@ -51,7 +51,26 @@ class GravityCompensation(Diagram):
         return self.get_output_port(0)
 
 
-class JointFriction(LeafSystem):
+class StateForceSystem(LeafSystem):
+    """Base of the stateless systems that map the plant's full state (q, v) to generalized
+    forces for its ``applied_generalized_force`` input: the ``state`` input and the
+    ``generalized_force`` output (nv,), computed by the subclass' ``_calc(context, output)``
+    (declared in ``__init__`` by :meth:`_declare_state_force_ports`)."""
+
+    def _declare_state_force_ports(self, num_positions: int, num_velocities: int) -> None:
+        self._state = self.DeclareVectorInputPort("state", num_positions + num_velocities)
+        self._out = self.DeclareVectorOutputPort(
+            "generalized_force", BasicVector(num_velocities), self._calc,
+            prerequisites_of_calc={self._state.ticket()})
+
+    def get_state_input_port(self):
+        return self._state
+
+    def get_generalized_force_output_port(self):
+        return self._out
+
+
+class JointFriction(StateForceSystem):
     """Regularised Coulomb friction on chosen joints, as generalized forces.
 
     tau_i = -mu_i * tanh(v_i / v_stiction), for the plant's ``applied_generalized_force``
@@ -77,16 +96,7 @@ class JointFriction(LeafSystem):
         if np.any(self._mu < 0):
             raise ValueError("JointFriction: friction coefficients must be >= 0")
         self._vs = v_stiction
-        self._state = self.DeclareVectorInputPort("state", num_positions + num_velocities)
-        self._out = self.DeclareVectorOutputPort(
-            "generalized_force", BasicVector(num_velocities), self._calc,
-            prerequisites_of_calc={self._state.ticket()})
-
-    def get_state_input_port(self):
-        return self._state
-
-    def get_generalized_force_output_port(self):
-        return self._out
+        self._declare_state_force_ports(num_positions, num_velocities)
 
     def _calc(self, context, output):
         v = self._state.Eval(context)[self._nq:]
