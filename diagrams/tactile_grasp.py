@@ -220,8 +220,7 @@ def MakeTactileGraspDiagram(config: TactileGraspConfig, *, container: ContainerI
             container=container, num_positions=plant.num_positions(),
             num_velocities=plant.num_velocities(),
             q_index=[j.position_start() for j in joints],
-            v_index=[j.velocity_start()
-                     for j in joints]))
+            v_index=[j.velocity_start() for j in joints]))
         builder.Connect(plant.get_state_output_port(), wall_force.get_state_input_port())
         builder.Connect(wall_force.get_generalized_force_output_port(),
                         plant.get_applied_generalized_force_input_port())
@@ -347,9 +346,9 @@ def container_grasp_trial(*, seed: int, container: str, state: str, f_target: fl
     first finger alone squeezes an off-centre container until the second arrives).
     ``wall_model``: "pressure" or "linear" (:class:`TactileGraspConfig`); the default is
     "linear" because a grasp spec without it (results files written before the pressure model)
-    was simulated with the linear walls: the app passes "pressure" explicitly. Returns a JSON-able record: the recorded
-    series ``t``, ``p``, ``f``, ``finger_force`` (what the features are computed from), the
-    labels ``container`` / ``state`` and the instance's parameters (for reference only)."""
+    was simulated with the linear walls: the app passes "pressure" explicitly. Returns a
+    JSON-able record: the recorded series ``t``, ``p``, ``f``, ``finger_force`` (what the
+    features are computed from), the labels ``container`` / ``state`` and the instance's parameters (for reference only)."""
     rng = np.random.default_rng([int(seed), 13])
     inst = sample_container(container, state, rng)
     offset = float(rng.normal(0.0, offset_sd))

@@ -278,6 +278,12 @@ def squeeze_pressure(d, *, closed: bool, full: bool, gas_volume: float,
     ``rho g min(dV, V_g) / neck_area`` (``neck_area`` m^2; the liquid rises in the neck until
     it fills the headspace ``V_g`` and spills over the rim). Open and empty: 0."""
     dV, _ = squeeze_volume(d, squeeze_length=squeeze_length)
+    return _pressure_rise(dV, closed=closed, full=full, gas_volume=gas_volume,
+                          shell_compliance=shell_compliance, neck_area=neck_area, p0=p0)
+
+
+def _pressure_rise(dV, *, closed, full, gas_volume, shell_compliance, neck_area, p0=P0):
+    """:func:`squeeze_pressure` for a volume loss ``dV`` (m^3, array) already computed."""
     if closed:
         vg = _positive("gas_volume", gas_volume)
         C = float(shell_compliance)
@@ -310,10 +316,9 @@ def wall_forces(inst: ContainerInstance, q, v):
                          f"{v.shape}")
     d = q[..., 0] + q[..., 1]
     full = inst.fill > 0
-    dp = squeeze_pressure(d, closed=inst.closed, full=full, gas_volume=inst.gas_volume,
-                          shell_compliance=inst.shell_compliance,
-                          squeeze_length=inst.squeeze_length, neck_area=inst.neck_area)
-    _, dVd = squeeze_volume(d, squeeze_length=inst.squeeze_length)
+    dV, dVd = squeeze_volume(d, squeeze_length=inst.squeeze_length)
+    dp = _pressure_rise(dV, closed=inst.closed, full=full, gas_volume=inst.gas_volume,
+                        shell_compliance=inst.shell_compliance, neck_area=inst.neck_area)
     flow = inst.liquid_resistance * dVd * (v[..., 0] + v[..., 1]) if full else 0.0
     tau = -(dp + flow) * dVd
     return np.repeat(tau[..., None], 2, axis=-1)
