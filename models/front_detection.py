@@ -1405,6 +1405,14 @@ def _make_grid(k, plane: Plane, lab_img, sample_pts, K, down_C, cfg, lut) -> _Gr
 # side moves on (x0, x1, y0, y1): grow left, shrink left, grow right, shrink right, same for y
 _MOVES = np.array([[-1, 0, 0, 0], [1, 0, 0, 0], [0, 1, 0, 0], [0, -1, 0, 0],
                    [0, 0, -1, 0], [0, 0, 1, 0], [0, 0, 0, 1], [0, 0, 0, -1]], np.int64)
+# the greedy's state per start (:func:`_greedy_flat`): x0 x1 y0 y1, the linear indices of the
+# corners (y1, x1) (y0, x0) (y0, x1) (y1, x0) in the flat tables, the slacks x0, W - x1, y0,
+# H - y1, w - min_cells, h - min_cells (all >= 0: a legal rectangle), w, h
+_ST_CORNERS, _ST_SLACK, _ST_W, _ST_H = slice(4, 8), slice(8, 14), 14, 15
+# the slack (state column) that limits each move of _MOVES: a move of s cells is legal on a
+# legal rectangle iff that slack is >= s (growing left needs x0 >= s, shrinking it w - mc >= s,
+# ...; every other constraint is kept by the move)
+_MOVE_SLACK = np.array([8, 12, 9, 12, 10, 13, 11, 13], np.int64)
 
 
 def _rect_sum(S, p, R):
@@ -1427,35 +1435,102 @@ def _objective(SC, p, R, alpha):
 def _greedy(SC, dims, pid, R, steps, min_cells, alpha, max_iter):
     """Greedy side moves for all starts at once. SC: stacked cost SATs (P, Hm+1, Wm+1);
     dims (P, 2) grid shapes; pid (S,) plane of each start; R (S, 4) int rectangles; steps (S, k)
-    move sizes in cells; min_cells (S,). Returns R, objective, iterations used."""
-    R = R.copy()
-    score = _objective(SC, pid, R, alpha)
-    active = np.ones(len(R), bool)
-    # per start, once: its moves (S, 8 k, 4) and the upper bounds of (x0, x1, y0, y1)
-    D = (steps[:, :, None, None] * _MOVES[None, None]).reshape(len(R), -1, 4)
-    hi = dims[pid][:, [1, 1, 0, 0]][:, None, :]
+    move sizes in cells; min_cells (S,). Returns R, objective, iterations used
+    (:func:`_greedy_flat` on the stack's flat buffer)."""
+    _, Hs, Ws = SC.shape
+    pid = np.asarray(pid, np.int64)
+    return _greedy_flat(SC.reshape(-1), pid * (Hs * Ws), np.full(len(pid), Ws, np.int64),
+                        np.asarray(dims, np.int64)[pid], R, steps, min_cells, alpha, max_iter)
+
+
+def _greedy_flat(flat, base, stride, hw, R, steps, min_cells, alpha, max_iter):
+    """Greedy side moves (steepest ascent of :func:`_objective`) for all starts at once, each
+    on its own summed-area table of costs in one flat int32 buffer ``flat``: table of start i
+    at ``base[i]`` with rows of ``stride[i]`` entries (the grid's width + 1); ``hw`` (S, 2) the
+    grids' (H, W); R (S, 4) int rectangles x0 x1 y0 y1; steps (S, k) move sizes in cells;
+    min_cells (S,). Each start moves each side by +-steps; the best legal move (inside the
+    grid, both sides >= min_cells; the first of equal ones in the order steps x _MOVES) is
+    taken while it improves the objective by more than 1e-12 (relative and absolute), at most
+    ``max_iter`` times. Returns R (S, 4), objective (S,), iterations used.
+
+    Per iteration and start the candidates' sums are one gather of their four corners (the
+    corners' linear indices and the slacks of the legality tests are kept in the state and
+    moved with it); starts stop independently and are dropped from the arrays when they do
+    (the same moves, sums and objectives as move by move on the tables)."""
+    R = np.asarray(R, np.int64)
+    S = len(R)
+    x0, x1, y0, y1 = R.T
+    w, h = x1 - x0, y1 - y0
+    base = np.asarray(base, np.int64)
+    stride = np.asarray(stride, np.int64)
+    hw = np.asarray(hw, np.int64)
+    mc = np.asarray(min_cells, np.int64)
+    st = np.column_stack([x0, x1, y0, y1,
+                          base + y1 * stride + x1, base + y0 * stride + x0,
+                          base + y0 * stride + x1, base + y1 * stride + x0,
+                          x0, hw[:, 1] - x1, y0, hw[:, 0] - y1, w - mc, h - mc, w, h])
+    # the initial objective (as :func:`_objective`; sizes < 1 count as 1)
+    n = np.maximum((w * h).astype(np.float64), 1.0)
+    v = flat.take(st[:, _ST_CORNERS])
+    score = (n - ((v[:, 0] + v[:, 1]) - (v[:, 2] + v[:, 3])) * (1.0 / 255.0)) / n ** (1.0 - alpha)
+    out_R, out_score = R.copy(), score.copy()
+    if S == 0 or int(max_iter) < 1:
+        return out_R, out_score, 0
+    # per start and move m = step x 8 + move: the change of the state
+    steps = np.asarray(steps, np.int64)
+    M = 8 * steps.shape[1]
+    dR = (steps[:, :, None, None] * _MOVES[None, None]).reshape(S, M, 4)
+    dx0, dx1, dy0, dy1 = dR[..., 0], dR[..., 1], dR[..., 2], dR[..., 3]
+    sr = stride[:, None]
+    dw, dh = dx1 - dx0, dy1 - dy0
+    DS = np.stack([dx0, dx1, dy0, dy1, dx1 + dy1 * sr, dx0 + dy0 * sr, dx1 + dy0 * sr,
+                   dx0 + dy1 * sr, dx0, -dx1, dy0, -dy1, dw, dh, dw, dh], axis=-1)
+    DC = np.ascontiguousarray(DS[..., _ST_CORNERS].transpose(0, 2, 1))  # (S, 4, M)
+    need = np.abs(dR).sum(axis=-1)  # the move's size in cells
+    kslack = np.tile(_MOVE_SLACK, steps.shape[1])
+    e = 1.0 - alpha
+    ids = np.arange(S)
+    rows = ids
+    thr = score + 1e-12 * np.abs(score) + 1e-12
+    # a start that is not a legal rectangle (a grid narrower than min_cells) may move only to a
+    # legal one (all slacks >= 0 after the move): tested in full in the first iteration
+    full_test = not bool((st[:, _ST_SLACK] >= 0).all())
     it = 0
-    for it in range(1, int(max_iter) + 1):
-        idx = np.flatnonzero(active)
-        if len(idx) == 0:
-            break
-        cand = R[idx, None, :] + D[idx]
-        # clamped into the grid (a valid index for every candidate); a candidate is legal
-        # when the clamp left it alone and both sides keep min_cells (a side beyond the far
-        # end of the grid then fails the size test)
-        cc = np.minimum(np.maximum(cand, 0), hi[idx])
-        mc = min_cells[idx][:, None]
-        ok = ((cand == cc).all(axis=-1) & (cand[..., 1] - cand[..., 0] >= mc)
-              & (cand[..., 3] - cand[..., 2] >= mc))
-        sc = _objective(SC, pid[idx][:, None], cc, alpha)
-        sc[~ok] = -np.inf
-        b = np.argmax(sc, axis=1)
-        best = sc[np.arange(len(idx)), b]
-        imp = best > score[idx] + 1e-12 * np.abs(score[idx]) + 1e-12
-        R[idx[imp]] = cand[imp, b[imp]]
-        score[idx[imp]] = best[imp]
-        active[idx[~imp]] = False
-    return R, score, it
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        for it in range(1, int(max_iter) + 1):
+            if len(ids) == 0:
+                break
+            # sums of the candidates (illegal ones' indices may leave the table: clipped,
+            # their objective is discarded)
+            v = flat.take(st[:, _ST_CORNERS, None] + DC, mode="clip")
+            n = ((st[:, _ST_W, None] + dw) * (st[:, _ST_H, None] + dh)).astype(np.float64)
+            sc = (n - ((v[:, 0] + v[:, 1]) - (v[:, 2] + v[:, 3])) * (1.0 / 255.0)) / n ** e
+            if full_test:
+                ok = ((st[:, None, _ST_SLACK] + DS[..., _ST_SLACK]) >= 0).all(axis=-1)
+                full_test = False
+            else:
+                ok = st[:, kslack] >= need
+            sc[~ok] = -np.inf
+            b = sc.argmax(axis=1)
+            best = sc[rows, b]
+            imp = best > thr
+            if imp.all():
+                st += DS[rows, b]
+                score = best
+            else:
+                keep = np.flatnonzero(imp)
+                stop = np.flatnonzero(~imp)
+                out_R[ids[stop]] = st[stop, :4]
+                out_score[ids[stop]] = score[stop]
+                st = st[keep] + DS[keep, b[keep]]
+                score = best[keep]
+                ids, DS, DC, dw, dh, need = (ids[keep], DS[keep], DC[keep], dw[keep], dh[keep],
+                                             need[keep])
+                rows = np.arange(len(ids))
+            thr = score + 1e-12 * np.abs(score) + 1e-12
+    out_R[ids] = st[:, :4]
+    out_score[ids] = score
+    return out_R, out_score, it
 
 
 def _component_starts(g: _Grid, mc: int, k: int, rng, cfg) -> np.ndarray:
