@@ -1695,63 +1695,107 @@ def _inside_border(center, e1, e2, w, h, K, margin):
 
 
 def _polish_rotation(g: _Grid, R, lab_img, K, cfg, lut):
-    """Rotate the rectangle in its plane about its centre by +-step_factors x
+    """:func:`_polish_rotations` of one rectangle."""
+    return _polish_rotations([(g, R, lab_img)], K, cfg, lut)[0]
+
+
+def _polish_rotations(jobs, K, cfg, lut):
+    """Rotate each rectangle in its plane about its centre by +-step_factors x
     rotation_step_deg; each rotation is followed by the side moves on the mask rectified at the
-    new angle (a local window around the rectangle). All rotations of a round are one batched
-    greedy run; the best improving one is kept until none improves. Returns the objective and
-    (e1, e2, u0, v0, R, labels, sat_cost, sat_in) of the window of the best angle."""
-    c = g.c
-    center, _, _, w, h = _rect_camera(g, R)
-    p = center - g.o
-    steps_cells = np.array(sorted({max(1, int(round(f * cfg.step_size / c)))
-                                   for f in cfg.step_factors}), np.int64)
-    min_cells = max(1, int(math.ceil(cfg.min_side / c)))
-    # window: the recall margin plus room for the largest side move
-    half = (max(cfg.recall_margin * max(w, h), cfg.min_recall_margin)
-            + 2 * max(cfg.step_factors) * cfg.step_size)
-    Wg = int(math.ceil((w + 2 * half) / c))
-    Hg = int(math.ceil((h + 2 * half) / c))
-    x0 = y0 = int(round(half / c))
-    R0 = np.array([x0, x0 + int(round(w / c)), y0, y0 + int(round(h / c))], np.int64)
-    cache = {}
+    new angle (a local window around the rectangle). The best improving rotation of a round is
+    kept until none improves. ``jobs``: (grid, R, image label mask) per rectangle. Returns per
+    job the objective and (e1, e2, u0, v0, R, labels, sat_cost, sat_in, c) of the window of the
+    best angle.
 
-    def fit(thetas):
-        todo = [t for t in thetas if t not in cache]
-        if todo:
-            wins = []
-            k = len(todo)
-            # the windows' cost tables written straight into one stack (no copy)
-            SCk = np.empty((k, Hg + 1, Wg + 1), np.int32)
-            for i, t in enumerate(todo):
-                e1, e2 = _rotate_axes(g.e1, g.e2, math.radians(t))
-                u0, v0 = p @ e1 - 0.5 * w - half, p @ e2 - 0.5 * h - half
-                lab = _warp_labels(lab_img, K, g.o, e1, e2, u0, v0, c, (Hg, Wg))
-                wins.append((e1, e2, u0, v0, lab,
-                             cv2.integral(cv2.LUT(lab, lut), SCk[i], sdepth=cv2.CV_32S)))
-            Rf, sc, _ = _greedy(SCk, np.tile([Hg, Wg], (k, 1)),
-                                np.arange(k), np.tile(R0, (k, 1)), np.tile(steps_cells, (k, 1)),
-                                np.full(k, min_cells), cfg.alpha, cfg.max_iterations)
-            for i, t in enumerate(todo):
-                e1, e2, u0, v0, lab, sat_cost = wins[i]
-                cache[t] = (float(sc[i]), (e1, e2, u0, v0, Rf[i], lab, sat_cost))
-        return [cache[t] for t in thetas]
-
-    theta = 0.0
+    The rectangles are independent: the windows that all rectangles' current rounds need are
+    rectified and moved in one batched greedy run (:func:`_greedy_flat`, each window on its own
+    table: the same moves as rectangle by rectangle), round after round until every rectangle
+    has stopped."""
     offsets = sorted({s * f * cfg.rotation_step_deg for f in cfg.rotation_step_factors
                       for s in (1, -1)})
-    # the start and the first round's rotations in one batched greedy run (the round always
-    # runs; each window's moves are independent of the others': the same results)
-    first = [round(theta + o, 9) for o in offsets] if int(cfg.max_iterations) > 0 else []
-    best_score, best = fit(list(dict.fromkeys([0.0] + first)))[0]
-    for _ in range(int(cfg.max_iterations)):
-        thetas = [round(theta + o, 9) for o in offsets]
-        res = fit(thetas)
-        i = int(np.argmax([r[0] for r in res]))
-        if res[i][0] > best_score + 1e-12 * abs(best_score):
-            best_score, best, theta = res[i][0], res[i][1], thetas[i]
-        else:
+    max_iter = int(cfg.max_iterations)
+    states = []
+    for g, R, lab_img in jobs:
+        c = g.c
+        center, _, _, w, h = _rect_camera(g, R)
+        steps_cells = np.array(sorted({max(1, int(round(f * cfg.step_size / c)))
+                                       for f in cfg.step_factors}), np.int64)
+        # window: the recall margin plus room for the largest side move
+        half = (max(cfg.recall_margin * max(w, h), cfg.min_recall_margin)
+                + 2 * max(cfg.step_factors) * cfg.step_size)
+        x0 = int(round(half / c))
+        # the start and the first round's rotations are fitted together (the round always
+        # runs; each window's moves are independent of the others': the same results)
+        first = [round(o, 9) for o in offsets] if max_iter > 0 else []
+        states.append(dict(
+            g=g, lab_img=lab_img, c=c, p=center - g.o, w=w, h=h, half=half,
+            Wg=int(math.ceil((w + 2 * half) / c)), Hg=int(math.ceil((h + 2 * half) / c)),
+            R0=np.array([x0, x0 + int(round(w / c)), x0, x0 + int(round(h / c))], np.int64),
+            steps=steps_cells, min_cells=max(1, int(math.ceil(cfg.min_side / c))),
+            cache={}, need=list(dict.fromkeys([0.0] + first)), theta=0.0, best=None,
+            best_score=None, rounds=0, done=False))
+    while True:
+        todo = [(j, t) for j in states if not j["done"] for t in j["need"]
+                if t not in j["cache"]]
+        if todo:
+            _fit_windows(todo, K, cfg, lut)
+        live = False
+        for j in states:
+            cache = j["cache"]
+            while not j["done"] and all(t in cache for t in j["need"]):
+                if j["best"] is None:  # the start's window
+                    j["best_score"], j["best"] = cache[0.0]
+                    if max_iter == 0:
+                        j["done"] = True
+                        break
+                else:  # a round
+                    res = [cache[t] for t in j["need"]]
+                    i = int(np.argmax([r[0] for r in res]))
+                    j["rounds"] += 1
+                    if res[i][0] > j["best_score"] + 1e-12 * abs(j["best_score"]):
+                        j["best_score"], j["best"], j["theta"] = res[i][0], res[i][1], j["need"][i]
+                        if j["rounds"] >= max_iter:
+                            j["done"] = True
+                            break
+                    else:
+                        j["done"] = True
+                        break
+                j["need"] = [round(j["theta"] + o, 9) for o in offsets]
+            live |= not j["done"]
+        if not live:
             break
-    return best_score, best + (_sat_in(best[5]), c)
+    return [(j["best_score"], j["best"] + (_sat_in(j["best"][5]), j["c"])) for j in states]
+
+
+def _fit_windows(todo, K, cfg, lut):
+    """The windows (job state, angle in deg) of :func:`_polish_rotations`: each rectified,
+    its cost table written into one flat buffer, all moved in one greedy run; results into
+    the jobs' caches."""
+    dims = np.array([(j["Hg"], j["Wg"]) for j, _ in todo], np.int64)
+    sizes = (dims[:, 0] + 1) * (dims[:, 1] + 1)
+    base = np.concatenate([[0], np.cumsum(sizes)[:-1]])
+    buf = np.empty(int(sizes.sum()), np.int32)
+    wins = []
+    for (j, t), b0, sz in zip(todo, base, sizes):
+        g, c = j["g"], j["c"]
+        e1, e2 = _rotate_axes(g.e1, g.e2, math.radians(t))
+        u0 = j["p"] @ e1 - 0.5 * j["w"] - j["half"]
+        v0 = j["p"] @ e2 - 0.5 * j["h"] - j["half"]
+        Hg, Wg = j["Hg"], j["Wg"]
+        lab = _warp_labels(j["lab_img"], K, g.o, e1, e2, u0, v0, c, (Hg, Wg))
+        # the window's cost table written straight into the buffer (no copy)
+        sat = cv2.integral(cv2.LUT(lab, lut), buf[b0:b0 + sz].reshape(Hg + 1, Wg + 1),
+                           sdepth=cv2.CV_32S)
+        wins.append((e1, e2, u0, v0, lab, sat))
+    kmax = max(len(j["steps"]) for j, _ in todo)
+    steps = np.array([np.pad(j["steps"], (0, kmax - len(j["steps"])), mode="edge")
+                      for j, _ in todo], np.int64)
+    Rf, sc, _ = _greedy_flat(buf, base, dims[:, 1] + 1, dims, np.array([j["R0"] for j, _ in todo]),
+                             steps, np.array([j["min_cells"] for j, _ in todo], np.int64),
+                             cfg.alpha, cfg.max_iterations)
+    for i, (j, t) in enumerate(todo):
+        e1, e2, u0, v0, lab, sat = wins[i]
+        j["cache"][t] = (float(sc[i]), (e1, e2, u0, v0, Rf[i], lab, sat))
 
 
 def _refit_plane(Pc, lab_img, center, e1, e2, w, h, K, n_old, L):
@@ -2141,7 +2185,7 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
     t_chk = clock() - t0
 
     t0 = clock()
-    polished = []
+    polished, jobs = [], []
     for _, s, _ in kept:
         g = grids[pid[s]]
         if sum(_gap_bounded(g, *R[s])) >= 3:
@@ -2150,9 +2194,11 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
             polished.append((g, g.e1, g.e2, g.u0, g.v0, R[s], g.labels, g.sat_cost, g.sat_in,
                              g.c))
             continue
-        _, (e1, e2, u0, v0, Rf, lab, sat_cost, sat_in, cp) = _polish_rotation(
-            g, R[s], lab_imgs[g.plane_index], K, cfg, lut)
-        polished.append((g, e1, e2, u0, v0, Rf, lab, sat_cost, sat_in, cp))
+        polished.append(len(jobs))  # filled below: all rotation polishes run together
+        jobs.append((g, R[s], lab_imgs[g.plane_index]))
+    if jobs:
+        res = _polish_rotations(jobs, K, cfg, lut)
+        polished = [p if isinstance(p, tuple) else (jobs[p][0],) + res[p][1] for p in polished]
     t_opt += clock() - t0
     timings["optimisation"] = t_opt
 
