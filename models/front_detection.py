@@ -2172,15 +2172,22 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
     # --- check: precision / recall / border, duplicates, then rotation polish ------------
     t0 = clock()
     cands = []
+    seen = {}  # (plane, rectangle) -> its tests' outcome: most starts end on a shared one
     for s in range(len(R)):
-        g = grids[pid[s]]
-        prec, rec = _precision_recall(g, R[s], cfg)
-        if prec < cfg.min_precision or rec < cfg.min_recall:
-            continue
-        center, e1, e2, w, h = _rect_camera(g, R[s])
-        if not _inside_border(center, e1, e2, w, h, K, cfg.border_margin_px):
-            continue
-        cands.append((prec * rec, s, center))
+        key = (int(pid[s]),) + tuple(R[s].tolist())
+        res = seen.get(key)
+        if res is None:
+            g = grids[pid[s]]
+            prec, rec = _precision_recall(g, R[s], cfg)
+            res = seen[key] = None, None
+            if prec < cfg.min_precision or rec < cfg.min_recall:
+                continue
+            center, e1, e2, w, h = _rect_camera(g, R[s])
+            if not _inside_border(center, e1, e2, w, h, K, cfg.border_margin_px):
+                continue
+            res = seen[key] = prec * rec, center
+        if res[0] is not None:
+            cands.append((res[0], s, res[1]))
     kept = _suppress(cands, lambda c: grids[pid[c[1]]].n, cfg)
     t_chk = clock() - t0
 
