@@ -1903,6 +1903,13 @@ def _edge_crossing(prof_in, prof_out, level, pos, step, persist=1):
     return float(pos[last] + 0.5 * (pos[i] - pos[i - 1]))
 
 
+# the edge refinement's sample classes: in (in-plane, off the surface) 1, out (free, outside
+# the image, reveal) 1 << 16, unknown / occluded 0 (they say nothing)
+_EDGE_CODE = np.zeros(256, np.int32)
+_EDGE_CODE[[IN_PLANE, OFF_SURFACE]] = 1
+_EDGE_CODE[[FREE, OUTSIDE, GAP]] = 1 << 16
+
+
 class _CropIntrinsics:
     """Intrinsics of an image crop (only what :func:`_warp_labels` uses)."""
 
@@ -1946,9 +1953,9 @@ def _refine_edges(lab_img, dzero, xs, ys, n, dpl, K, o, e1, e2, a0, a1, b0, b1, 
         if ring.any():
             lab_c = np.where(ring, np.uint8(IN_PLANE), lab_c)
     nr = (np.float32(n[0]) * xs[:, c0:c1] + np.float32(n[2])) + np.float32(n[1]) * ys[r0:r1, :]
-    S = dzero[r0:r1, c0:c1] * nr + np.float32(dpl)
-    S = np.where((lab_c == IN_PLANE) | (lab_c == OFF_SURFACE), S,
-                 np.float32(np.nan)).astype(np.float32)
+    S = np.multiply(dzero[r0:r1, c0:c1], nr, out=nr)  # (in place: the same float32 values)
+    S += np.float32(dpl)
+    S[cv2.LUT(lab_c, _EDGE_CODE) != 1] = np.nan  # the plane's surface samples only
     Kc = _CropIntrinsics(K, r0, c0)
     zc = float((o + 0.5 * (a0 + a1) * e1 + 0.5 * (b0 + b1) * e2)[2])
     step = max(cfg.edge_refine_depth_step, cfg.edge_refine_depth_step_per_m2 * zc * zc)
@@ -1975,8 +1982,10 @@ def _refine_edges(lab_img, dzero, xs, ys, n, dpl, K, o, e1, e2, a0, a1, b0, b1, 
             axis = 0
         lab = _warp_labels(lab_c, *args)
         dist = _warp_float(S, *args)
-        n_in = ((lab == IN_PLANE) | (lab == OFF_SURFACE)).sum(axis=axis).astype(np.float64)
-        n_out = ((lab == FREE) | (lab == OUTSIDE) | (lab == GAP)).sum(axis=axis)
+        # in (1) and out (1 << 16) samples counted together (a line has < 2^16 samples)
+        code = cv2.LUT(lab, _EDGE_CODE).sum(axis=axis)
+        n_in = (code & 0xFFFF).astype(np.float64)
+        n_out = code >> 16
         fin = np.isfinite(dist)
         cnt = fin.sum(axis=axis)
         with np.errstate(all="ignore"):
