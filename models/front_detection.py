@@ -1334,22 +1334,32 @@ def _refit_on_own_pixels(planes, labels, Pc, Lmap, min_change_deg, crossing_angl
         return None
     cur = list(planes)
     cos10 = math.cos(math.radians(10.0))
+    # the distances are needed to the refitted planes and their partners only: those rows of
+    # the (planes, pixels) distances (the same products; rows of pixels run fast)
+    refit = [k for k, pl in enumerate(planes) if partners[k].any() and pl.support >= min_support]
+    rows = sorted(set(refit) | set(np.flatnonzero(partners[refit].any(axis=0)).tolist()))
+    row_of = {k: i for i, k in enumerate(rows)}
+    if not refit:
+        return None
+    halfL = 0.5 * L
     for _ in range(rounds):
         N = np.array([pl.n for pl in cur])
         D = np.array([pl.d for pl in cur])
-        A = np.abs(P @ N.T + D)                      # (pixels, planes) distances, m
-        Ain = np.where(A <= L[:, None], A, np.inf)
+        A = (P @ N.T).T[rows]                        # (planes, pixels) distances, m
+        A += D[rows, None]
+        np.abs(A, out=A)
+        Ain = np.where(A <= L, A, np.inf)
         nxt = list(cur)
-        for k, pl in enumerate(cur):
-            if not partners[k].any() or pl.support < min_support:
-                continue
-            near = Ain[:, partners[k]].min(axis=1)
-            sel = own0[k] & (A[:, k] <= 0.5 * L) & (A[:, k] <= near)
+        for k in refit:
+            near = Ain[[row_of[j] for j in np.flatnonzero(partners[k])]].min(axis=0)
+            ak = A[row_of[k]]
+            sel = own0[k] & (ak <= halfL) & (ak <= near)
             if sel.sum() < 10:
                 continue
             n, d = _fit_plane_many(P[sel])
             if n @ planes[k].n < cos10:
                 continue
+            pl = cur[k]
             nxt[k] = Plane(n=n, d=d, support=pl.support, bbox=pl.bbox)
         cur = nxt
     # a turn beyond max_change_deg is no correction of a tilt but a different surface (a
