@@ -1743,10 +1743,24 @@ def _polish_rotations(jobs, K, cfg, lut):
             R0=np.array([x0, x0 + int(round(w / c)), x0, x0 + int(round(h / c))], np.int64),
             steps=steps_cells, min_cells=max(1, int(math.ceil(cfg.min_side / c))),
             cache={}, need=list(dict.fromkeys([0.0] + first)), theta=0.0, best=None,
-            best_score=None, rounds=0, done=False))
+            best_score=None, rounds=0, done=False, dir=0, streak=0))
+    step_max = max(offsets) if offsets else 0.0
     while True:
-        todo = [(j, t) for j in states if not j["done"] for t in j["need"]
-                if t not in j["cache"]]
+        todo = []
+        for j in states:
+            if j["done"]:
+                continue
+            want = j["need"]
+            if j["streak"] >= 2:
+                # turning on in one direction (a front seen 10-20 deg rotated): the windows of
+                # the next two rounds too, should it go on by the largest step (a cache filled
+                # ahead: the same results, fewer rounds; at most 4 windows wasted per chain)
+                want = list(want)
+                t = j["theta"]
+                for _ in range(2):
+                    t = round(t + j["dir"] * step_max, 9)
+                    want += [round(t + o, 9) for o in offsets]
+            todo += [(j, t) for t in dict.fromkeys(want) if t not in j["cache"]]
         if todo:
             _fit_windows(todo, K, cfg, lut)
         live = False
@@ -1763,6 +1777,9 @@ def _polish_rotations(jobs, K, cfg, lut):
                     i = int(np.argmax([r[0] for r in res]))
                     j["rounds"] += 1
                     if res[i][0] > j["best_score"] + 1e-12 * abs(j["best_score"]):
+                        turn = 1 if j["need"][i] > j["theta"] else -1
+                        j["streak"] = j["streak"] + 1 if turn == j["dir"] else 1
+                        j["dir"] = turn
                         j["best_score"], j["best"], j["theta"] = res[i][0], res[i][1], j["need"][i]
                         if j["rounds"] >= max_iter:
                             j["done"] = True
