@@ -1442,17 +1442,6 @@ def _objective(SC, p, R, alpha):
     return (n - _rect_sum(SC, p, R) * (1.0 / 255.0)) / n ** (1.0 - alpha)
 
 
-def _greedy(SC, dims, pid, R, steps, min_cells, alpha, max_iter):
-    """Greedy side moves for all starts at once. SC: stacked cost SATs (P, Hm+1, Wm+1);
-    dims (P, 2) grid shapes; pid (S,) plane of each start; R (S, 4) int rectangles; steps (S, k)
-    move sizes in cells; min_cells (S,). Returns R, objective, iterations used
-    (:func:`_greedy_flat` on the stack's flat buffer)."""
-    _, Hs, Ws = SC.shape
-    pid = np.asarray(pid, np.int64)
-    return _greedy_flat(SC.reshape(-1), pid * (Hs * Ws), np.full(len(pid), Ws, np.int64),
-                        np.asarray(dims, np.int64)[pid], R, steps, min_cells, alpha, max_iter)
-
-
 def _greedy_flat(flat, base, stride, hw, R, steps, min_cells, alpha, max_iter):
     """Greedy side moves (steepest ascent of :func:`_objective`) for all starts at once, each
     on its own summed-area table of costs in one flat int32 buffer ``flat``: table of start i
@@ -1541,6 +1530,19 @@ def _greedy_flat(flat, base, stride, hw, R, steps, min_cells, alpha, max_iter):
     out_R[ids] = st[:, :4]
     out_score[ids] = score
     return out_R, out_score, it
+
+
+def _greedy(SC, dims, pid, R, steps, min_cells, alpha, max_iter):
+    """Greedy side moves for all starts at once. SC: stacked cost SATs (P, Hm+1, Wm+1);
+    dims (P, 2) grid shapes; pid (S,) plane of each start; R (S, 4) int rectangles; steps (S, k)
+    move sizes in cells; min_cells (S,). Returns R, objective, iterations used
+    (:func:`_greedy_flat` on the stack's flat buffer)."""
+    _, Hs, Ws = SC.shape
+    pid = np.asarray(pid, np.int64)
+    R, score, it = _greedy_flat(SC.reshape(-1), pid * (Hs * Ws), np.full(len(pid), Ws, np.int64),
+                                np.asarray(dims, np.int64)[pid], R, steps, min_cells, alpha,
+                                max_iter)
+    return R, score, it
 
 
 def _component_starts(g: _Grid, mc: int, k: int, rng, cfg) -> np.ndarray:
