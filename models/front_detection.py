@@ -1704,9 +1704,20 @@ def _corners_px(center, e1, e2, w, h, K):
 
 
 def _inside_border(center, e1, e2, w, h, K, margin):
-    u, v, z = _corners_px(center, e1, e2, w, h, K)
-    return bool(np.all(z > 0) and np.all(u >= margin) and np.all(u <= K.width - 1 - margin)
-                and np.all(v >= margin) and np.all(v <= K.height - 1 - margin))
+    """Whether the four corners (as :func:`_corners_px`) are in front of the camera and at
+    least ``margin`` px inside the image: the same float operations on Python floats (a few
+    us instead of ~20 us of small-array calls; ~50 calls per frame)."""
+    c, a1, a2 = center.tolist(), e1.tolist(), e2.tolist()
+    inside = True
+    for sx, sy in ((-1, -1), (1, -1), (1, 1), (-1, 1)):
+        a, b = sx * 0.5 * w, sy * 0.5 * h
+        x, y, z = ((c[i] + a * a1[i]) + b * a2[i] for i in range(3))
+        if not z > 0:
+            return False
+        u = K.fx * x / z + K.cx
+        v = K.fy * y / z + K.cy
+        inside &= (margin <= u <= K.width - 1 - margin) and (margin <= v <= K.height - 1 - margin)
+    return bool(inside)
 
 
 def _polish_rotation(g: _Grid, R, lab_img, K, cfg, lut):
