@@ -1505,14 +1505,14 @@ def _greedy_flat(flat, base, stride, hw, R, steps, min_cells, alpha, max_iter):
             # sums of the candidates (illegal ones' indices may leave the table: clipped,
             # their objective is discarded)
             v = flat.take(st[:, _ST_CORNERS, None] + DC, mode="clip")
-            n = ((st[:, _ST_W, None] + dw) * (st[:, _ST_H, None] + dh)).astype(np.float64)
+            # (integer sizes multiplied as float64: exact, the same n)
+            n = np.multiply(st[:, _ST_W, None] + dw, st[:, _ST_H, None] + dh, dtype=np.float64)
             sc = (n - ((v[:, 0] + v[:, 1]) - (v[:, 2] + v[:, 3])) * (1.0 / 255.0)) / n ** e
             if full_test:
-                ok = ((st[:, None, _ST_SLACK] + DS[..., _ST_SLACK]) >= 0).all(axis=-1)
+                sc[((st[:, None, _ST_SLACK] + DS[..., _ST_SLACK]) < 0).any(axis=-1)] = -np.inf
                 full_test = False
             else:
-                ok = st[:, kslack] >= need
-            sc[~ok] = -np.inf
+                sc[st[:, kslack] < need] = -np.inf  # illegal moves
             b = sc.argmax(axis=1)
             best = sc[rows, b]
             imp = best > thr
