@@ -1548,6 +1548,20 @@ def _greedy(SC, dims, pid, R, steps, min_cells, alpha, max_iter):
     return R, score, it
 
 
+def _in_plane_cells(g: _Grid, r: np.ndarray) -> np.ndarray:
+    """Flat indices of the ``r``-th in-plane cells of a grid in raster order (as
+    ``np.flatnonzero(g.labels == IN_PLANE)[r]``): the row of each from the in-plane table's
+    cumulative row totals, then a scan of that row only (not of the whole grid)."""
+    rows = g.sat_in[1:, -1]  # in-plane cells in rows 0..i
+    i = np.searchsorted(rows, r, side="right")
+    out = np.empty(len(r), np.int64)
+    for t in range(len(r)):
+        before = int(rows[i[t] - 1]) if i[t] > 0 else 0
+        cols = np.flatnonzero(g.labels[i[t]] == IN_PLANE)
+        out[t] = int(i[t]) * g.shape[1] + int(cols[int(r[t]) - before])
+    return out
+
+
 def _component_starts(g: _Grid, mc: int, k: int, rng, cfg) -> np.ndarray:
     """Start rectangles (n, 4) at the centroid (if inside it) of each of the ``k`` largest
     4-connected regions of in-plane cells of a grid (at least ``mc`` x ``mc`` cells): fronts
@@ -2185,9 +2199,8 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
     pid, R0, steps, min_cells = [], [], [], []
     step_m = np.asarray(sorted(set(int(f) for f in cfg.step_factors)), float) * cfg.step_size
     for gi, g in enumerate(grids):
-        cells = np.flatnonzero(g.labels.reshape(-1) == IN_PLANE)
         m = int(cfg.starts_per_plane)
-        pick = cells[rng.integers(0, len(cells), m)]
+        pick = _in_plane_cells(g, rng.integers(0, int(g.sat_in[-1, -1]), m))
         ci, cj = np.divmod(pick, g.shape[1])
         wh = rng.uniform(cfg.prior_size[0], cfg.prior_size[1], (m, 2)) / g.c
         mc = max(1, int(math.ceil(cfg.min_side / g.c)))

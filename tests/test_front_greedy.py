@@ -174,3 +174,25 @@ def test_polish_rotations_no_rounds():
     R = np.array([10, 30, 10, 30], np.int64)
     (score, best), = _polish_rotations([(g, R, lab)], K, cfg, lut)
     assert np.array_equal(best[0], g.e1) and np.isfinite(score)
+
+
+def test_in_plane_cells_equal_flatnonzero():
+    """The r-th in-plane cells found from the in-plane table's row totals are those of
+    np.flatnonzero on the whole grid (random grids, every rank, rows without in-plane
+    cells)."""
+    from mmlearn.models.front_detection import _Grid, _in_plane_cells, _sats
+
+    rng = np.random.default_rng(5)
+    for shape in ((1, 1), (7, 3), (40, 57)):
+        labels = rng.choice(np.array([IN_PLANE, FREE, UNKNOWN], np.uint8), size=shape,
+                            p=[0.3, 0.5, 0.2])
+        labels[shape[0] // 2] = FREE  # a row without in-plane cells
+        labels.reshape(-1)[0] = IN_PLANE
+        lut = np.zeros(256, np.uint8)
+        sat_cost, sat_in = _sats(labels, lut)
+        g = _Grid(0, np.zeros(3), 0.0, np.zeros(3), np.zeros(3), np.zeros(3), 0.0, 0.0, 0.01,
+                  labels, sat_cost, sat_in)
+        cells = np.flatnonzero(labels.reshape(-1) == IN_PLANE)
+        r = np.arange(len(cells))
+        assert np.array_equal(_in_plane_cells(g, r), cells)
+        assert int(sat_in[-1, -1]) == len(cells)
