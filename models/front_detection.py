@@ -1734,11 +1734,6 @@ def _inside_border(center, e1, e2, w, h, K, margin):
     return bool(inside)
 
 
-def _polish_rotation(g: _Grid, R, lab_img, K, cfg, lut):
-    """:func:`_polish_rotations` of one rectangle."""
-    return _polish_rotations([(g, R, lab_img)], K, cfg, lut)[0]
-
-
 def _polish_rotations(jobs, K, cfg, lut):
     """Rotate each rectangle in its plane about its centre by +-step_factors x
     rotation_step_deg; each rotation is followed by the side moves on the mask rectified at the
