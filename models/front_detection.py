@@ -738,15 +738,18 @@ def _grid_homography(K: PinholeIntrinsics, o, e1, e2, u0, v0, c, cb):
 _K_MATRICES: dict = {}  # intrinsics -> their 3 x 3 matrix (read-only; K is hashable, frozen)
 
 
-def _warp_labels(labels_img, K: PinholeIntrinsics, o, e1, e2, u0, v0, c, shape, cb=None):
+def _warp_labels(labels_img, K: PinholeIntrinsics, o, e1, e2, u0, v0, c, shape, cb=None,
+                 outside=OUTSIDE):
     """Nearest-neighbour resampling of the image label mask onto a plane grid (cells ``c``
     along e1 and ``cb`` (default ``c``) along e2, m); cells that do not project into the
-    image (or lie behind the camera) are OUTSIDE."""
+    image (or lie behind the camera) are OUTSIDE. Any uint8 image of per-pixel values works
+    (a cost image ``lut[labels]``: then ``outside`` = ``lut[OUTSIDE]``, and the result is
+    ``lut`` of the label grid: nearest neighbour only selects pixels)."""
     Hg, Wg = shape
     M, A, H = _grid_homography(K, o, e1, e2, u0, v0, c, c if cb is None else cb)
     out = cv2.warpPerspective(labels_img, H, (int(Wg), int(Hg)),
                               flags=cv2.INTER_NEAREST | cv2.WARP_INVERSE_MAP,
-                              borderMode=cv2.BORDER_CONSTANT, borderValue=OUTSIDE)
+                              borderMode=cv2.BORDER_CONSTANT, borderValue=int(outside))
     # depth of each cell is affine in (i, j): mask cells behind (or too close to) the camera
     zc = (M @ A)[2]  # z = zc[0] j + zc[1] i + zc[2]
     # affine: its least value over the grid is at a corner (most grids need no mask)
@@ -754,7 +757,7 @@ def _warp_labels(labels_img, K: PinholeIntrinsics, o, e1, e2, u0, v0, c, shape, 
         jj = np.arange(Wg, dtype=np.float64)
         ii = np.arange(Hg, dtype=np.float64)
         z = zc[0] * jj[None, :] + zc[1] * ii[:, None] + zc[2]
-        out[z < 0.05] = OUTSIDE
+        out[z < 0.05] = outside
     return out
 
 
@@ -1750,7 +1753,13 @@ def _polish_rotations(jobs, K, cfg, lut):
                       for s in (1, -1)})
     max_iter = int(cfg.max_iterations)
     states = []
+    # the windows are rectified from each plane's cost image (its labels through the cost
+    # table, made once per plane instead of once per window: the same cost cells); the label
+    # window is made for each rectangle's best angle only
+    cost_imgs = {}
     for g, R, lab_img in jobs:
+        if id(lab_img) not in cost_imgs:
+            cost_imgs[id(lab_img)] = cv2.LUT(lab_img, lut)
         c = g.c
         center, _, _, w, h = _rect_camera(g, R)
         steps_cells = np.array(sorted({max(1, int(round(f * cfg.step_size / c)))
@@ -1763,7 +1772,7 @@ def _polish_rotations(jobs, K, cfg, lut):
         # runs; each window's moves are independent of the others': the same results)
         first = [round(o, 9) for o in offsets] if max_iter > 0 else []
         states.append(dict(
-            g=g, lab_img=lab_img, c=c, p=center - g.o, w=w, h=h, half=half,
+            g=g, lab_img=lab_img, cost_img=cost_imgs[id(lab_img)], c=c, p=center - g.o, w=w, h=h, half=half,
             Wg=int(math.ceil((w + 2 * half) / c)), Hg=int(math.ceil((h + 2 * half) / c)),
             R0=np.array([x0, x0 + int(round(w / c)), x0, x0 + int(round(h / c))], np.int64),
             steps=steps_cells, min_cells=max(1, int(math.ceil(cfg.min_side / c))),
@@ -1816,7 +1825,13 @@ def _polish_rotations(jobs, K, cfg, lut):
             live |= not j["done"]
         if not live:
             break
-    return [(j["best_score"], j["best"] + (_sat_in(j["best"][5]), j["c"])) for j in states]
+    out = []
+    for j in states:
+        e1, e2, u0, v0, Rf, _, sat = j["best"]
+        g = j["g"]
+        lab = _warp_labels(j["lab_img"], K, g.o, e1, e2, u0, v0, j["c"], (j["Hg"], j["Wg"]))
+        out.append((j["best_score"], (e1, e2, u0, v0, Rf, lab, sat, _sat_in(lab), j["c"])))
+    return out
 
 
 def _fit_windows(todo, K, cfg, lut):
@@ -1834,11 +1849,11 @@ def _fit_windows(todo, K, cfg, lut):
         u0 = j["p"] @ e1 - 0.5 * j["w"] - j["half"]
         v0 = j["p"] @ e2 - 0.5 * j["h"] - j["half"]
         Hg, Wg = j["Hg"], j["Wg"]
-        lab = _warp_labels(j["lab_img"], K, g.o, e1, e2, u0, v0, c, (Hg, Wg))
+        cost = _warp_labels(j["cost_img"], K, g.o, e1, e2, u0, v0, c, (Hg, Wg),
+                            outside=lut[OUTSIDE])
         # the window's cost table written straight into the buffer (no copy)
-        sat = cv2.integral(cv2.LUT(lab, lut), buf[b0:b0 + sz].reshape(Hg + 1, Wg + 1),
-                           sdepth=cv2.CV_32S)
-        wins.append((e1, e2, u0, v0, lab, sat))
+        sat = cv2.integral(cost, buf[b0:b0 + sz].reshape(Hg + 1, Wg + 1), sdepth=cv2.CV_32S)
+        wins.append((e1, e2, u0, v0, None, sat))
     kmax = max(len(j["steps"]) for j, _ in todo)
     steps = np.array([np.pad(j["steps"], (0, kmax - len(j["steps"])), mode="edge")
                       for j, _ in todo], np.int64)
