@@ -761,13 +761,14 @@ def _warp_labels(labels_img, K: PinholeIntrinsics, o, e1, e2, u0, v0, c, shape, 
     return out
 
 
-def _warp_float(img, K, o, e1, e2, u0, v0, c, shape, cb=None):
-    """Like :func:`_warp_labels` for a float32 image (nearest neighbour; NaN outside)."""
+def _warp_float(img, K, o, e1, e2, u0, v0, c, shape, cb=None, outside=float("nan")):
+    """Like :func:`_warp_labels` for a float32 image (nearest neighbour; ``outside`` (NaN by
+    default) where the cells leave the image; cells behind the camera are not masked)."""
     Hg, Wg = shape
     H = _grid_homography(K, o, e1, e2, u0, v0, c, c if cb is None else cb)[2]
     return cv2.warpPerspective(img, H, (int(Wg), int(Hg)),
                                flags=cv2.INTER_NEAREST | cv2.WARP_INVERSE_MAP,
-                               borderMode=cv2.BORDER_CONSTANT, borderValue=float("nan"))
+                               borderMode=cv2.BORDER_CONSTANT, borderValue=float(outside))
 
 
 def _edge_angle(inplane: np.ndarray) -> float:
@@ -2022,7 +2023,9 @@ def _refine_edges(lab_img, dzero, xs, ys, n, dpl, K, o, e1, e2, a0, a1, b0, b1, 
     nr = (np.float32(n[0]) * xs[:, c0:c1] + np.float32(n[2])) + np.float32(n[1]) * ys[r0:r1, :]
     S = np.multiply(dzero[r0:r1, c0:c1], nr, out=nr)  # (in place: the same float32 values)
     S += np.float32(dpl)
-    S[cv2.LUT(lab_c, _EDGE_CODE) != 1] = np.nan  # the plane's surface samples only
+    # the plane's surface samples only: the others 0 (they count in neither the sums nor
+    # the numbers of samples, ``n_in`` below, which count exactly the surface samples)
+    S[cv2.LUT(lab_c, _EDGE_CODE) != 1] = 0.0
     Kc = _CropIntrinsics(K, r0, c0)
     zc = float((o + 0.5 * (a0 + a1) * e1 + 0.5 * (b0 + b1) * e2)[2])
     step = max(cfg.edge_refine_depth_step, cfg.edge_refine_depth_step_per_m2 * zc * zc)
@@ -2048,16 +2051,17 @@ def _refine_edges(lab_img, dzero, xs, ys, n, dpl, K, o, e1, e2, a0, a1, b0, b1, 
             args = (Kc, o, e1, e2, start, lo + m, cf, (ns, nl), cs)
             axis = 0
         lab = _warp_labels(lab_c, *args)
-        dist = _warp_float(S, *args)
+        # the same pixels as ``lab`` (the same homography; no cell of the strip lies behind
+        # the camera: the crop's corners are in front, so the whole convex region is)
+        dist = _warp_float(S, *args, outside=0.0)
         # in (1) and out (1 << 16) samples counted together (a line has < 2^16 samples)
         code = cv2.LUT(lab, _EDGE_CODE).sum(axis=axis)
         n_in = (code & 0xFFFF).astype(np.float64)
         n_out = code >> 16
-        fin = np.isfinite(dist)
-        cnt = fin.sum(axis=axis)
         with np.errstate(all="ignore"):
-            level = (np.where(fin, dist, np.float32(0.0)).sum(axis=axis, dtype=np.float64)
-                     / cnt)  # mean of the in-plane samples' distances, NaN where none
+            # mean of the in-plane samples' distances (the surface samples are the in-plane
+            # ones, n_in of them; the others are 0 in ``dist``), NaN where none
+            level = dist.sum(axis=axis, dtype=np.float64) / n_in
         pos = start + (np.arange(nl) + 0.5) * cf  # line coordinates, increasing
         if not outwards:  # inside first
             n_in, n_out, level, pos = n_in[::-1], n_out[::-1], level[::-1], pos[::-1]
