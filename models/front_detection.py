@@ -1772,6 +1772,10 @@ def _polish_rotations(jobs, K, cfg, lut):
     # table, made once per plane instead of once per window: the same cost cells); the label
     # window is made for each rectangle's best angle only
     cost_imgs = {}
+    # the windows' cost tables of a round, in one buffer reused round after round (the
+    # caches keep each window's result, not its table: ~25 MB of fresh pages per frame
+    # otherwise)
+    scratch = {}
     for g, R, lab_img in jobs:
         if id(lab_img) not in cost_imgs:
             cost_imgs[id(lab_img)] = cv2.LUT(lab_img, lut)
@@ -1811,7 +1815,7 @@ def _polish_rotations(jobs, K, cfg, lut):
                     want += [round(t + o, 9) for o in offsets]
             todo += [(j, t) for t in dict.fromkeys(want) if t not in j["cache"]]
         if todo:
-            _fit_windows(todo, K, cfg, lut)
+            _fit_windows(todo, K, cfg, lut, scratch)
         live = False
         for j in states:
             cache = j["cache"]
@@ -1841,22 +1845,28 @@ def _polish_rotations(jobs, K, cfg, lut):
         if not live:
             break
     out = []
-    for j in states:
-        e1, e2, u0, v0, Rf, _, sat = j["best"]
+    for j in states:  # the best window's labels and tables, made again
+        e1, e2, u0, v0, Rf = j["best"]
         g = j["g"]
         lab = _warp_labels(j["lab_img"], K, g.o, e1, e2, u0, v0, j["c"], (j["Hg"], j["Wg"]))
-        out.append((j["best_score"], (e1, e2, u0, v0, Rf, lab, sat, _sat_in(lab), j["c"])))
+        out.append((j["best_score"], (e1, e2, u0, v0, Rf, lab) + _sats(lab, lut) + (j["c"],)))
     return out
 
 
-def _fit_windows(todo, K, cfg, lut):
+def _fit_windows(todo, K, cfg, lut, scratch=None):
     """The windows (job state, angle in deg) of :func:`_polish_rotations`: each rectified,
-    its cost table written into one flat buffer, all moved in one greedy run; results into
-    the jobs' caches."""
+    its cost table written into one flat buffer, all moved in one greedy run; results
+    (objective, (e1, e2, u0, v0, R)) into the jobs' caches. ``scratch``: a dict whose
+    ``"buf"`` (int32) is reused when large enough (and replaced by a larger one if not)."""
     dims = np.array([(j["Hg"], j["Wg"]) for j, _ in todo], np.int64)
     sizes = (dims[:, 0] + 1) * (dims[:, 1] + 1)
     base = np.concatenate([[0], np.cumsum(sizes)[:-1]])
-    buf = np.empty(int(sizes.sum()), np.int32)
+    total = int(sizes.sum())
+    scratch = {} if scratch is None else scratch
+    buf = scratch.get("buf")
+    if buf is None or len(buf) < total:
+        buf = scratch["buf"] = np.empty(total, np.int32)
+    buf = buf[:total]
     wins = []
     for (j, t), b0, sz in zip(todo, base, sizes):
         g, c = j["g"], j["c"]
@@ -1867,8 +1877,8 @@ def _fit_windows(todo, K, cfg, lut):
         cost = _warp_labels(j["cost_img"], K, g.o, e1, e2, u0, v0, c, (Hg, Wg),
                             outside=lut[OUTSIDE])
         # the window's cost table written straight into the buffer (no copy)
-        sat = cv2.integral(cost, buf[b0:b0 + sz].reshape(Hg + 1, Wg + 1), sdepth=cv2.CV_32S)
-        wins.append((e1, e2, u0, v0, None, sat))
+        cv2.integral(cost, buf[b0:b0 + sz].reshape(Hg + 1, Wg + 1), sdepth=cv2.CV_32S)
+        wins.append((e1, e2, u0, v0))
     kmax = max(len(j["steps"]) for j, _ in todo)
     steps = np.array([np.pad(j["steps"], (0, kmax - len(j["steps"])), mode="edge")
                       for j, _ in todo], np.int64)
@@ -1876,8 +1886,7 @@ def _fit_windows(todo, K, cfg, lut):
                              steps, np.array([j["min_cells"] for j, _ in todo], np.int64),
                              cfg.alpha, cfg.max_iterations)
     for i, (j, t) in enumerate(todo):
-        e1, e2, u0, v0, lab, sat = wins[i]
-        j["cache"][t] = (float(sc[i]), (e1, e2, u0, v0, Rf[i], lab, sat))
+        j["cache"][t] = (float(sc[i]), wins[i] + (Rf[i],))
 
 
 def _refit_plane(Pc, lab_img, center, e1, e2, w, h, K, n_old, L):
