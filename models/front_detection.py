@@ -1781,8 +1781,8 @@ def _polish_rotations(jobs, K, cfg, lut):
             cost_imgs[id(lab_img)] = cv2.LUT(lab_img, lut)
         c = g.c
         center, _, _, w, h = _rect_camera(g, R)
-        steps_cells = np.array(sorted({max(1, int(round(f * cfg.step_size / c)))
-                                       for f in cfg.step_factors}), np.int64)
+        steps_cells = sorted({max(1, int(round(f * cfg.step_size / c)))
+                              for f in cfg.step_factors})  # (a list of ints)
         # window: the recall margin plus room for the largest side move
         half = (max(cfg.recall_margin * max(w, h), cfg.min_recall_margin)
                 + 2 * max(cfg.step_factors) * cfg.step_size)
@@ -1880,7 +1880,9 @@ def _fit_windows(todo, K, cfg, lut, scratch=None):
         cv2.integral(cost, buf[b0:b0 + sz].reshape(Hg + 1, Wg + 1), sdepth=cv2.CV_32S)
         wins.append((e1, e2, u0, v0))
     kmax = max(len(j["steps"]) for j, _ in todo)
-    steps = np.array([np.pad(j["steps"], (0, kmax - len(j["steps"])), mode="edge")
+    # each window's move sizes, padded with its last (np.pad's "edge"; on lists: ~10 us less
+    # per window)
+    steps = np.array([j["steps"] + j["steps"][-1:] * (kmax - len(j["steps"]))
                       for j, _ in todo], np.int64)
     Rf, sc, _ = _greedy_flat(buf, base, dims[:, 1] + 1, dims, np.array([j["R0"] for j, _ in todo]),
                              steps, np.array([j["min_cells"] for j, _ in todo], np.int64),
