@@ -2079,8 +2079,9 @@ def _refine_edges(lab_img, dzero, xs, ys, n, dpl, K, o, e1, e2, a0, a1, b0, b1, 
             args = (Kc, o, e1, e2, start, lo + m, cf, (ns, nl), cs)
             axis = 0
         lab = _warp_labels(lab_c, *args)
-        # the same pixels as ``lab`` (the same homography; no cell of the strip lies behind
-        # the camera: the crop's corners are in front, so the whole convex region is)
+        # the same pixels as ``lab`` (the same homography). Cells within 5 cm of the camera
+        # plane, which _warp_labels marks OUTSIDE, do not occur: the strip lies inside the
+        # rectangle grown by the band (to half a 1 mm line), whose corners are > 5 cm in front
         dist = _warp_float(S, *args, outside=0.0)
         # in (1) and out (1 << 16) samples counted together (a line has < 2^16 samples)
         code = cv2.LUT(lab, _EDGE_CODE).sum(axis=axis)
