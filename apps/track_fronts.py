@@ -76,6 +76,7 @@ from mmlearn.apps._common import (ArgumentParser, UsageError, check_in_file, che
                                   nonneg_int, pos_int, progress, save_html)
 from mmlearn.diagrams.perception import FrontPerceptionConfig
 from mmlearn.models.front_detection import STAGES, FrontDetectorConfig
+from mmlearn.models.depth_filter import DepthFilterConfig
 
 __all__ = ["TrackFrontsConfig", "run", "match_front", "main", "EXPECTED_MODEL"]
 
@@ -109,6 +110,10 @@ class TrackFrontsConfig:
         scene: the rest of the scene / camera / noise configuration (its front, distance,
             angle and noise seed are set from the fields above).
         detector: the FrontDetector's parameters.
+        temporal_filter: put a DepthTemporalFilter (per-pixel running mean where the scene
+            stands still, :mod:`mmlearn.models.depth_filter`) between the camera and the
+            detector, at the camera's frame rate (one filter update per frame).
+        filter: its parameters (``depth_std_at_1m`` is set from the scene's noise model).
         refit_every: the tracker refits a track's model every this many observations.
         html_out: write the Meshcat recording here ("" = no).
         meshcat: show it live.
@@ -128,6 +133,8 @@ class TrackFrontsConfig:
     selection_step: int = 1
     scene: FrontPerceptionConfig = field(default_factory=FrontPerceptionConfig)
     detector: FrontDetectorConfig = field(default_factory=FrontDetectorConfig)
+    temporal_filter: bool = True
+    filter: DepthFilterConfig = field(default_factory=DepthFilterConfig)
     refit_every: int = 5
     html_out: str = ""
     meshcat: bool = False
@@ -265,11 +272,20 @@ def run(*, config: TrackFrontsConfig, meshcat=None, show_progress: bool = True) 
         meshcat = make_meshcat(announce=cfg.meshcat)
     sc.point_cloud = meshcat is not None and sc.point_cloud
     parts = {}
+    filt_cfg = None
+    if cfg.temporal_filter and sc.add_noise:
+        from mmlearn.models.depth_noise import predicted_depth_std
+
+        filt_cfg = copy.deepcopy(cfg.filter)
+        filt_cfg.depth_std_at_1m = float(predicted_depth_std(1.0, sc.camera.intrinsics(),
+                                                             sc.noise))
+        filt_cfg.validate()
 
     def add(builder, p):
         det, trk = AddFrontDetectorAndTracker(
             builder, p, detector_config=cfg.detector, seed=cfg.seed,
-            tracker_config=FrontTrackerConfig(period_s=period, refit_every=cfg.refit_every))
+            tracker_config=FrontTrackerConfig(period_s=period, refit_every=cfg.refit_every),
+            temporal_filter=filt_cfg, camera_rate_hz=sc.camera.rate_hz)
         if meshcat is not None:
             from pydrake.geometry import MeshcatVisualizer
             scene_vis = next((s for s in builder.GetSystems()
