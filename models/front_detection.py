@@ -1478,6 +1478,9 @@ def _greedy(SC, dims, pid, R, steps, min_cells, alpha, max_iter):
     return R, score, it
 
 
+_START_ERODE_CELLS = 3
+
+
 def _component_starts(g: _Grid, mc: int, k: int, rng, cfg) -> np.ndarray:
     """Start rectangles (n, 4) at the centroid (if inside it) of each of the ``k`` largest
     4-connected regions of in-plane cells of a grid (at least ``mc`` x ``mc`` cells): fronts
@@ -1486,12 +1489,14 @@ def _component_starts(g: _Grid, mc: int, k: int, rng, cfg) -> np.ndarray:
     Width and height from the prior, at most the region's bounding box."""
     # regions of the in-plane cells shrunk by 2 cells: a reveal's line may have a hole of a
     # few cells (where it meets another reveal, or a drop-out)
-    inp = cv2.erode((g.labels == IN_PLANE).view(np.uint8), np.ones((5, 5), np.uint8))
+    r = _START_ERODE_CELLS
+    inp = cv2.erode((g.labels == IN_PLANE).view(np.uint8),
+                    np.ones((2 * r + 1, 2 * r + 1), np.uint8))
     n_lab, lab, stats, cent = cv2.connectedComponentsWithStats(inp, connectivity=4)
     if n_lab <= 1:
         return np.zeros((0, 4), np.int64)
     area = stats[1:, cv2.CC_STAT_AREA]
-    mc = max(1, mc - 4)
+    mc = max(1, mc - 2 * r)
     big = np.flatnonzero((area >= mc * mc) & (stats[1:, cv2.CC_STAT_WIDTH] >= mc)
                          & (stats[1:, cv2.CC_STAT_HEIGHT] >= mc)) + 1
     if len(big) == 0:
@@ -1505,7 +1510,7 @@ def _component_starts(g: _Grid, mc: int, k: int, rng, cfg) -> np.ndarray:
         ci[t], cj[t] = divmod(int(cells[rng.integers(0, len(cells))]), lab.shape[1])
     m = len(big)
     wh = rng.uniform(cfg.prior_size[0], cfg.prior_size[1], (m, 2)) / g.c
-    mc += 4
+    mc += 2 * r
     wc = np.clip(np.round(wh[:, 0]).astype(np.int64), mc,
                  np.maximum(mc, stats[big, cv2.CC_STAT_WIDTH]))
     hc = np.clip(np.round(wh[:, 1]).astype(np.int64), mc,
