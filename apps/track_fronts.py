@@ -492,6 +492,9 @@ def main(argv=None) -> int:
     ap.add_argument("--config", type=Path,
                     help="YAML file of a FrontPerceptionConfig (kitchen, motion, camera, "
                          "noise, ...); --object, --distance, --angle and --seed override it")
+    ap.add_argument("--no-temporal-filter", action="store_true",
+                    help="no DepthTemporalFilter between camera and detector (each frame on "
+                         "its own)")
     ap.add_argument("--selection-step", type=pos_int, default=1,
                     help="model_right_from: evaluate every this many prefix lengths")
     ap.add_argument("--meshcat", action="store_true", help="show it live in Meshcat")
@@ -517,6 +520,7 @@ def main(argv=None) -> int:
     cfg = TrackFrontsConfig(object=args.object, distance=args.distance, angle_deg=args.angle,
                             frames=args.frames, seed=args.seed,
                             selection_step=args.selection_step, scene=scene,
+                            temporal_filter=not args.no_temporal_filter,
                             html_out=str(args.html_out or ""), meshcat=args.meshcat)
     try:
         result = run(config=cfg, show_progress=not args.json)
