@@ -50,8 +50,9 @@ Scoring (printed, and in ``--json``):
 * ``ms_per_frame``: median wall time of the whole detector per frame (the detector's own
   clock); ``stage_ms``: median per stage (planes, masks, sampling, optimisation, check);
   ``cpu_ms_per_frame``: median CPU time of this thread while the detector's output is
-  computed (the rendered noisy image is evaluated before; None with Meshcat, whose drawing
-  evaluates the detector first): what one core spends, less sensitive to a loaded machine.
+  computed (the rendered noisy image and the temporal filter are evaluated before; None with
+  Meshcat, whose drawing evaluates the detector first): what one core spends, less sensitive
+  to a loaded machine; ``filter_cpu_ms_per_frame``: the same for the DepthTemporalFilter.
 
 Meshcat (``--meshcat`` live, ``--html-out`` recording): the scene, the noisy point cloud, the
 detected rectangles of the current frame (grey), each track's latest rectangle and centre path
@@ -311,13 +312,20 @@ def run(*, config: TrackFrontsConfig, meshcat=None, show_progress: bool = True) 
     sim.Initialize()
     w_true, h_true = P.kinematics.width, P.kinematics.height
     frames, truth_by_time = [], {}
-    timings, cpu = [], []
+    timings, cpu, filt_cpu = [], [], []
+    filt = (d.GetSubsystemByName("depth_temporal_filter")
+            if d.HasSubsystemNamed("depth_temporal_filter") else None)
+    filt_ctx = filt.GetMyContextFromRoot(ctx) if filt is not None else None
     wall0 = time.perf_counter()
     for k in progress(range(cfg.frames), desc=f"{cfg.object} frames", unit="frame",
                       enabled=show_progress):
         t = k * period
         sim.AdvanceTo(t)
         d.GetOutputPort("depth_image").Eval(ctx)  # render + noise first: not timed below
+        if filt is not None:  # the temporal filter: timed on its own
+            c0 = time.thread_time()
+            filt.get_noise_scale_output_port().Eval(filt_ctx)
+            filt_cpu.append(time.thread_time() - c0)
         c0 = time.thread_time()
         rects = det.get_rectangles_output_port().Eval(det_ctx)
         cpu.append(time.thread_time() - c0)
@@ -436,6 +444,8 @@ def run(*, config: TrackFrontsConfig, meshcat=None, show_progress: bool = True) 
         "ms_per_frame": med(len(TIMING_NAMES) - 1),
         "cpu_ms_per_frame": (None if meshcat is not None or not cpu
                              else 1e3 * float(np.median(cpu))),
+        "filter_cpu_ms_per_frame": (None if meshcat is not None or not filt_cpu
+                                    else 1e3 * float(np.median(filt_cpu))),
         "stage_ms": {s: med(i) for i, s in enumerate(STAGES)},
         "frames_not_processed": int(len(T) - len(ok_rows)),
         "wall_s": wall,
