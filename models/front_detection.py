@@ -1487,8 +1487,11 @@ def _component_starts(g: _Grid, mc: int, k: int, rng, cfg) -> np.ndarray:
     flush with their neighbours are one plane, parted only by ``GAP`` lines, and random
     starts over the whole plane miss a small drawer (5 % of a cabinet's face) often.
     Width and height from the prior, at most the region's bounding box."""
-    # regions of the in-plane cells shrunk by 2 cells: a reveal's line may have a hole of a
-    # few cells (where it meets another reveal, or a drop-out)
+    # regions of the in-plane cells shrunk by _START_ERODE_CELLS (3) cells: a reveal's line
+    # may have a hole of a few cells (where it meets another reveal, or a drop-out; a
+    # horizontal reveal's run ends ~half a line window short of a T-junction with a vertical
+    # one: 5 cells of 7.4 mm at 2.2 m, which joined a closed drawer's region to the door
+    # below; 2 cells before, issue 12 branch pband2)
     r = _START_ERODE_CELLS
     inp = cv2.erode((g.labels == IN_PLANE).view(np.uint8),
                     np.ones((2 * r + 1, 2 * r + 1), np.uint8))
