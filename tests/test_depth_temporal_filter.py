@@ -177,49 +177,69 @@ def test_noise_scale_of_ones_leaves_the_detector_unchanged():
         assert (a.width, a.height) == (b.width, b.height)
 
 
-def test_depth_temporal_filter_system_in_a_diagram():
+def _filter_diagram(H=24, W=32, rate=10.0, bad_frame=5):
+    """A source of noisy frames (one per 1 / rate s; a wrong-sized one at ``bad_frame``) ->
+    DepthTemporalFilter; returns (diagram, filter)."""
     from pydrake.common.value import AbstractValue
-    from pydrake.systems.analysis import Simulator
     from pydrake.systems.framework import DiagramBuilder, LeafSystem
     from pydrake.systems.sensors import ImageDepth32F
 
-    from mmlearn.systems.depth_temporal_filter import DepthTemporalFilter
+    from mmlearn.systems import DepthTemporalFilter
 
-    H, W, rate = 24, 32, 10.0
     clean = _plane(H, W)
-    Ks = PinholeIntrinsics.from_fov(W, H, 58.0)
 
-    class Source(LeafSystem):  # a noisy frame per 1 / rate s, a wrong-sized one at frame 5
+    class Source(LeafSystem):
         def __init__(self):
             super().__init__()
             self.DeclareAbstractOutputPort("depth", lambda: AbstractValue.Make(
-                ImageDepth32F(W, H)), self._calc)
+                ImageDepth32F(W, H)), self._calc, {self.time_ticket()})
 
         def _calc(self, context, out):
             k = int(round(context.get_time() * rate))
-            img = ImageDepth32F(W + 1, H) if k == 5 else ImageDepth32F(W, H)
-            d = _noisy(clean, np.random.default_rng(k))
-            img.mutable_data[:, :, 0] = d if k != 5 else np.ones((H, W + 1), np.float32)
+            if k == bad_frame:
+                img = ImageDepth32F(W + 1, H)
+                img.mutable_data[:, :, 0] = 1.0
+            else:
+                img = ImageDepth32F(W, H)
+                img.mutable_data[:, :, 0] = _noisy(clean, np.random.default_rng(k))
             out.set_value(img)
 
     b = DiagramBuilder()
     src = b.AddSystem(Source())
-    filt = b.AddSystem(DepthTemporalFilter(intrinsics=Ks, rate_hz=rate))
+    filt = b.AddSystem(DepthTemporalFilter(intrinsics=PinholeIntrinsics.from_fov(W, H, 58.0),
+                                           rate_hz=rate))
     b.Connect(src.get_output_port(), filt.get_depth_image_input_port())
-    diagram = b.Build()
-    sim = Simulator(diagram)
-    ctx = sim.get_mutable_context()
-    fctx = filt.GetMyContextFromRoot(ctx)
-    sim.Initialize()
+    return b.Build(), filt
+
+
+def test_depth_temporal_filter_system_in_a_diagram():
+    from pydrake.systems.analysis import Simulator
+
+    from mmlearn.systems import DepthTemporalFilter
+
+    rate = 10.0
+    diagram, filt = _filter_diagram(rate=rate)
+    sims = [Simulator(diagram) for _ in range(2)]  # two side by side: the same outputs
+    for s in sims:
+        s.Initialize()
     scales = []
     for k in range(8):
-        sim.AdvanceTo(k / rate)
-        s = np.asarray(filt.get_noise_scale_output_port().Eval(fctx).data)[:, :, 0]
-        out = np.asarray(filt.get_depth_image_output_port().Eval(fctx).data)[:, :, 0]
-        scales.append(float(np.median(s)))
-        if k == 5:  # the bad frame: all NaN out, the state kept
-            assert np.isnan(out).all()
+        outs = []
+        for s in sims:
+            s.AdvanceTo(k / rate)
+            fctx = filt.GetMyContextFromRoot(s.get_context())
+            sc = np.asarray(filt.get_noise_scale_output_port().Eval(fctx).data)[:, :, 0].copy()
+            out = np.asarray(filt.get_depth_image_output_port().Eval(fctx).data)[:, :, 0].copy()
+            outs.append((sc, out))
+        np.testing.assert_array_equal(outs[0][0], outs[1][0])
+        np.testing.assert_array_equal(outs[0][1], outs[1][1])
+        scales.append(float(np.median(outs[0][0])))
+        if k == 5:  # the bad frame: all NaN out, scale 1, the state kept
+            assert np.isnan(outs[0][1]).all() and (outs[0][0] == 1.0).all()
     assert scales[:5] == pytest.approx([1 / math.sqrt(n) for n in range(1, 6)], rel=1e-5)
     assert scales[6] == pytest.approx(1 / math.sqrt(6), rel=1e-5)  # frame 5 skipped
-    with pytest.raises(ValueError, match="rate_hz"):
-        DepthTemporalFilter(intrinsics=Ks, rate_hz=0.0)
+    for bad in (0.0, float("nan"), True):
+        with pytest.raises(ValueError, match="rate_hz"):
+            DepthTemporalFilter(intrinsics=PinholeIntrinsics.from_fov(32, 24, 58.0), rate_hz=bad)
+    with pytest.raises(TypeError, match="intrinsics"):
+        DepthTemporalFilter(intrinsics=(32, 24), rate_hz=5.0)
