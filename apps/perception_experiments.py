@@ -64,14 +64,15 @@ PREDICTION_N = 30
 
 
 def trial(*, seed: int, experiment: str, object: str, distance: float, angle: float = 0.0,
-          frames: int = 60, shared=None) -> dict:
+          frames: int = 60, temporal_filter: bool = True, shared=None) -> dict:
     """One run of :func:`mmlearn.apps.track_fronts.run`; returns its scores without the
-    per-frame list (plus the per-frame found / eligible flags and errors, compact)."""
+    per-frame list (plus the per-frame found / eligible flags and errors, compact).
+    ``temporal_filter``: the DepthTemporalFilter between camera and detector (track_fronts)."""
     from mmlearn.apps.track_fronts import TrackFrontsConfig, run as track
 
     r = track(config=TrackFrontsConfig(object=object, distance=float(distance),
                                        angle_deg=float(angle), frames=int(frames),
-                                       seed=int(seed)),
+                                       seed=int(seed), temporal_filter=bool(temporal_filter)),
               show_progress=False)
     pf = r.pop("per_frame")
     r["frame_found"] = [bool(f["found"]) for f in pf]
@@ -86,7 +87,8 @@ def trial(*, seed: int, experiment: str, object: str, distance: float, angle: fl
 
 
 def trial_specs(*, only=EXPERIMENTS, quick: bool = False, seed: int = 1000, seeds: int = 10,
-                frames: int = 60, objects=OBJECTS, distances=None, angles=None) -> list:
+                frames: int = 60, objects=OBJECTS, distances=None, angles=None,
+                temporal_filter: bool = True) -> list:
     """One spec per (experiment, object, distance or angle, seed); ``distances`` (m) and
     ``angles`` (deg, at 1.5 m) replace the default grids when given."""
     from mmlearn.apps._sweep import TrialSpec
@@ -109,7 +111,8 @@ def trial_specs(*, only=EXPERIMENTS, quick: bool = False, seed: int = 1000, seed
                         fn=fn, seed=seed + j,
                         label=f"{exp} {obj} {d:.1f} m {a:+.0f} deg seed {seed + j}",
                         params={"experiment": exp, "object": obj, "distance": float(d),
-                                "angle": float(a), "frames": int(frames)}))
+                                "angle": float(a), "frames": int(frames),
+                                **({} if temporal_filter else {"temporal_filter": False})}))
     return specs
 
 
@@ -452,7 +455,7 @@ def run(*, only=EXPERIMENTS, quick: bool = False, seed: int = 1000, seeds: int =
         frames: int = 60, objects=OBJECTS, distances=None, angles=None, out: str | None = None,
         progress: bool = True, echo=None,
         results: str | None = None, executor: str = "local", jobs: int | None = None,
-        ray_address: str | None = None) -> dict:
+        ray_address: str | None = None, temporal_filter: bool = True) -> dict:
     """Run the experiments through the sweep runner; returns the report's results (plus
     "plots" written to ``out`` and "sweep")."""
     from mmlearn.apps._sweep import run_sweep
@@ -477,7 +480,8 @@ def run(*, only=EXPERIMENTS, quick: bool = False, seed: int = 1000, seeds: int =
             raise ValueError(f"{name} must be a non-empty list of finite numbers in ({lo}, "
                              f"{hi if hi is not None else 'inf'}), got {vals!r}")
     specs = trial_specs(only=only, quick=quick, seed=seed, seeds=seeds, frames=frames,
-                        objects=objects, distances=distances, angles=angles)
+                        objects=objects, distances=distances, angles=angles,
+                        temporal_filter=temporal_filter)
     sweep = run_sweep(specs, results=results, executor=executor, jobs=jobs,
                       ray_address=ray_address, show_progress=progress,
                       desc="perception trials")
@@ -506,6 +510,9 @@ def main(argv=None) -> int:
     ap.add_argument("--seeds", type=pos_int, default=10, help="runs per setting")
     ap.add_argument("--frames", type=pos_int, default=60,
                     help="camera frames per run (thesis: ~60 images per log)")
+    ap.add_argument("--no-temporal-filter", action="store_true",
+                    help="no DepthTemporalFilter between camera and detector (each frame "
+                         "on its own, as before issue 12's branch pband2)")
     ap.add_argument("--distances", type=float_list, default=None,
                     help="comma-separated camera distances of the distance experiment, m "
                          "(default 0.8,1.3,1.8,2.3,2.8)")
@@ -554,7 +561,8 @@ def main(argv=None) -> int:
         try:
             res = run(only=only, quick=a.quick, seed=a.seed, seeds=a.seeds, frames=a.frames,
                       objects=a.objects, distances=a.distances, angles=a.angles,
-                      out=a.out_dir, progress=not a.no_progress, echo=echo, **sweep)
+                      out=a.out_dir, progress=not a.no_progress, echo=echo,
+                      temporal_filter=not a.no_temporal_filter, **sweep)
         except (UsageError, ValueError, OSError) as e:
             return fail(ap.prog, str(e))
     if a.json:

@@ -50,8 +50,9 @@ Scoring (printed, and in ``--json``):
 * ``ms_per_frame``: median wall time of the whole detector per frame (the detector's own
   clock); ``stage_ms``: median per stage (planes, masks, sampling, optimisation, check);
   ``cpu_ms_per_frame``: median CPU time of this thread while the detector's output is
-  computed (the rendered noisy image is evaluated before; None with Meshcat, whose drawing
-  evaluates the detector first): what one core spends, less sensitive to a loaded machine.
+  computed (the rendered noisy image and the temporal filter are evaluated before; None with
+  Meshcat, whose drawing evaluates the detector first): what one core spends, less sensitive
+  to a loaded machine; ``filter_cpu_ms_per_frame``: the same for the DepthTemporalFilter.
 
 Meshcat (``--meshcat`` live, ``--html-out`` recording): the scene, the noisy point cloud, the
 detected rectangles of the current frame (grey), each track's latest rectangle and centre path
@@ -76,6 +77,7 @@ from mmlearn.apps._common import (ArgumentParser, UsageError, check_in_file, che
                                   nonneg_int, pos_int, progress, save_html)
 from mmlearn.diagrams.perception import FrontPerceptionConfig
 from mmlearn.models.front_detection import STAGES, FrontDetectorConfig
+from mmlearn.models.depth_filter import DepthFilterConfig
 
 __all__ = ["TrackFrontsConfig", "run", "match_front", "main", "EXPECTED_MODEL"]
 
@@ -109,6 +111,10 @@ class TrackFrontsConfig:
         scene: the rest of the scene / camera / noise configuration (its front, distance,
             angle and noise seed are set from the fields above).
         detector: the FrontDetector's parameters.
+        temporal_filter: put a DepthTemporalFilter (per-pixel running mean where the scene
+            stands still, :mod:`mmlearn.models.depth_filter`) between the camera and the
+            detector, at the camera's frame rate (one filter update per frame).
+        filter: its parameters (``depth_std_at_1m`` is set from the scene's noise model).
         refit_every: the tracker refits a track's model every this many observations.
         html_out: write the Meshcat recording here ("" = no).
         meshcat: show it live.
@@ -128,6 +134,8 @@ class TrackFrontsConfig:
     selection_step: int = 1
     scene: FrontPerceptionConfig = field(default_factory=FrontPerceptionConfig)
     detector: FrontDetectorConfig = field(default_factory=FrontDetectorConfig)
+    temporal_filter: bool = True
+    filter: DepthFilterConfig = field(default_factory=DepthFilterConfig)
     refit_every: int = 5
     html_out: str = ""
     meshcat: bool = False
@@ -265,11 +273,20 @@ def run(*, config: TrackFrontsConfig, meshcat=None, show_progress: bool = True) 
         meshcat = make_meshcat(announce=cfg.meshcat)
     sc.point_cloud = meshcat is not None and sc.point_cloud
     parts = {}
+    filt_cfg = None
+    if cfg.temporal_filter and sc.add_noise:
+        from mmlearn.models.depth_noise import predicted_depth_std
+
+        filt_cfg = copy.deepcopy(cfg.filter)
+        filt_cfg.depth_std_at_1m = float(predicted_depth_std(1.0, sc.camera.intrinsics(),
+                                                             sc.noise))
+        filt_cfg.validate()
 
     def add(builder, p):
         det, trk = AddFrontDetectorAndTracker(
             builder, p, detector_config=cfg.detector, seed=cfg.seed,
-            tracker_config=FrontTrackerConfig(period_s=period, refit_every=cfg.refit_every))
+            tracker_config=FrontTrackerConfig(period_s=period, refit_every=cfg.refit_every),
+            temporal_filter=filt_cfg, camera_rate_hz=sc.camera.rate_hz)
         if meshcat is not None:
             from pydrake.geometry import MeshcatVisualizer
             scene_vis = next((s for s in builder.GetSystems()
@@ -295,13 +312,20 @@ def run(*, config: TrackFrontsConfig, meshcat=None, show_progress: bool = True) 
     sim.Initialize()
     w_true, h_true = P.kinematics.width, P.kinematics.height
     frames, truth_by_time = [], {}
-    timings, cpu = [], []
+    timings, cpu, filt_cpu = [], [], []
+    filt = (d.GetSubsystemByName("depth_temporal_filter")
+            if d.HasSubsystemNamed("depth_temporal_filter") else None)
+    filt_ctx = filt.GetMyContextFromRoot(ctx) if filt is not None else None
     wall0 = time.perf_counter()
     for k in progress(range(cfg.frames), desc=f"{cfg.object} frames", unit="frame",
                       enabled=show_progress):
         t = k * period
         sim.AdvanceTo(t)
         d.GetOutputPort("depth_image").Eval(ctx)  # render + noise first: not timed below
+        if filt is not None:  # the temporal filter: timed on its own
+            c0 = time.thread_time()
+            filt.get_noise_scale_output_port().Eval(filt_ctx)
+            filt_cpu.append(time.thread_time() - c0)
         c0 = time.thread_time()
         rects = det.get_rectangles_output_port().Eval(det_ctx)
         cpu.append(time.thread_time() - c0)
@@ -420,6 +444,8 @@ def run(*, config: TrackFrontsConfig, meshcat=None, show_progress: bool = True) 
         "ms_per_frame": med(len(TIMING_NAMES) - 1),
         "cpu_ms_per_frame": (None if meshcat is not None or not cpu
                              else 1e3 * float(np.median(cpu))),
+        "filter_cpu_ms_per_frame": (None if meshcat is not None or not filt_cpu
+                                    else 1e3 * float(np.median(filt_cpu))),
         "stage_ms": {s: med(i) for i, s in enumerate(STAGES)},
         "frames_not_processed": int(len(T) - len(ok_rows)),
         "wall_s": wall,
@@ -476,6 +502,9 @@ def main(argv=None) -> int:
     ap.add_argument("--config", type=Path,
                     help="YAML file of a FrontPerceptionConfig (kitchen, motion, camera, "
                          "noise, ...); --object, --distance, --angle and --seed override it")
+    ap.add_argument("--no-temporal-filter", action="store_true",
+                    help="no DepthTemporalFilter between camera and detector (each frame on "
+                         "its own)")
     ap.add_argument("--selection-step", type=pos_int, default=1,
                     help="model_right_from: evaluate every this many prefix lengths")
     ap.add_argument("--meshcat", action="store_true", help="show it live in Meshcat")
@@ -501,6 +530,7 @@ def main(argv=None) -> int:
     cfg = TrackFrontsConfig(object=args.object, distance=args.distance, angle_deg=args.angle,
                             frames=args.frames, seed=args.seed,
                             selection_step=args.selection_step, scene=scene,
+                            temporal_filter=not args.no_temporal_filter,
                             html_out=str(args.html_out or ""), meshcat=args.meshcat)
     try:
         result = run(config=cfg, show_progress=not args.json)

@@ -57,7 +57,9 @@ from mmlearn.models.fronts import FrontRectangle, PinholeIntrinsics
 from mmlearn.sdf import add_package
 from mmlearn.sdf.builders import floor_sdf
 from mmlearn.sdf.kitchen import KitchenSpec, kitchen_sdf
+from mmlearn.models.depth_filter import DepthFilterConfig
 from mmlearn.systems.depth_noise import DepthNoise
+from mmlearn.systems.depth_temporal_filter import DepthTemporalFilter
 from mmlearn.systems.front_detector import FrontDetector
 from mmlearn.systems.front_tracker import FrontTracker
 from mmlearn.systems.front_pose import TrueFrontPose
@@ -482,15 +484,30 @@ def AddFrontPerception(builder: DiagramBuilder, config: FrontPerceptionConfig | 
 
 
 def AddFrontDetectorAndTracker(builder: DiagramBuilder, parts: FrontPerception, *,
-                               detector_config=None, tracker_config=None, seed: int = 0):
+                               detector_config=None, tracker_config=None, seed: int = 0,
+                               temporal_filter: DepthFilterConfig | None = None,
+                               camera_rate_hz: float | None = None):
     """Add a ``FrontDetector`` on the perception's noisy depth image and camera pose and a
     ``FrontTracker`` on its rectangles (named ``front_detector`` / ``front_tracker``), e.g.
     from the ``add_systems`` callback of :func:`MakeFrontPerceptionDiagram`. ``seed``: the
-    detector's RANSAC seed. Returns ``(detector, tracker)``."""
+    detector's RANSAC seed. ``temporal_filter``: put a ``DepthTemporalFilter`` (named
+    ``depth_temporal_filter``, updated at ``camera_rate_hz``, the camera's frame rate, Hz)
+    between the depth image and the detector, its ``noise_scale`` into the detector's.
+    Returns ``(detector, tracker)``."""
     det = builder.AddNamedSystem("front_detector", FrontDetector(
         intrinsics=parts.intrinsics, config=detector_config, seed=seed))
     trk = builder.AddNamedSystem("front_tracker", FrontTracker(config=tracker_config))
-    builder.Connect(parts.ports["depth_image"], det.get_depth_image_input_port())
+    if temporal_filter is not None:
+        if camera_rate_hz is None:
+            raise ValueError("AddFrontDetectorAndTracker: a temporal_filter needs "
+                             "camera_rate_hz (the camera's frames per second)")
+        filt = builder.AddNamedSystem("depth_temporal_filter", DepthTemporalFilter(
+            intrinsics=parts.intrinsics, config=temporal_filter, rate_hz=camera_rate_hz))
+        builder.Connect(parts.ports["depth_image"], filt.get_depth_image_input_port())
+        builder.Connect(filt.get_depth_image_output_port(), det.get_depth_image_input_port())
+        builder.Connect(filt.get_noise_scale_output_port(), det.get_noise_scale_input_port())
+    else:
+        builder.Connect(parts.ports["depth_image"], det.get_depth_image_input_port())
     builder.Connect(parts.ports["X_WC"], det.get_X_WC_input_port())
     builder.Connect(det.get_rectangles_output_port(), trk.get_rectangles_input_port())
     return det, trk

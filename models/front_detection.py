@@ -899,7 +899,7 @@ def _affine_lstsq(A: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.array([a, c, mb - a * mu - c * mv])
 
 
-def _gap_mask(d, valid, fx, cfg, dzero=None, long_pass=True, scale_floor=False):
+def _gap_mask(d, valid, fx, cfg, dzero=None, long_pass=True, scale_floor=False, var_scale=None):
     """Pixels on the reveals between flush fronts (``GAP``) from the depth image alone (one
     pass per frame for all planes): (wide, thin), (H, W) bool each; ``wide`` is ``thin`` one
     pixel wider on either side across the line (for the rectified grids).
@@ -923,7 +923,10 @@ def _gap_mask(d, valid, fx, cfg, dzero=None, long_pass=True, scale_floor=False):
     pixels: a countertop seen at grazing incidence drops a third of its pixels, and its line
     means scatter beyond the noise model). ``long_pass``: also the lines averaged over
     ``gap_long_window_px`` (threshold's z^2 part scaled by the square root of the windows'
-    ratio; with ``scale_floor`` the ``gap_depth`` floor too)."""
+    ratio; with ``scale_floor`` the ``gap_depth`` floor too). ``var_scale``: (H, W) float32,
+    each pixel's noise variance over one frame's (a temporally filtered image,
+    :mod:`mmlearn.models.depth_filter`; 0 where not valid), or None (1): the threshold's z^2
+    part is scaled by the square root of its mean over the line (the line mean's noise)."""
     H, W = d.shape
     sub = 4  # the line means are smooth along a line: one per 4 pixels along it suffices
     z = np.where(valid, d, np.float32(0.0)) if dzero is None else dzero
@@ -954,8 +957,13 @@ def _gap_mask(d, valid, fx, cfg, dzero=None, long_pass=True, scale_floor=False):
                 size = (W, Hc // sub)
                 A = np.ascontiguousarray(cv2.resize(z[:Hc], size, interpolation=cv2.INTER_AREA).T)
                 N = np.ascontiguousarray(cv2.resize(w[:Hc], size, interpolation=cv2.INTER_AREA).T)
-            blocks[horizontal] = (A, N)
-        A, N = blocks[horizontal]
+            V = None
+            if var_scale is not None:
+                V = cv2.resize(var_scale[:, :Wc] if horizontal else var_scale[:Hc],
+                               size, interpolation=cv2.INTER_AREA)
+                V = V if horizontal else np.ascontiguousarray(V.T)
+            blocks[horizontal] = (A, N, V)
+        A, N, V = blocks[horizontal]
         # block means: a window whose lines are not one surface (a step: an opened door in
         # front of the cabinet's reveals) has its middle block off the chord between its end
         # blocks (a plane's depth is close to linear along a line over 32 px)
@@ -978,6 +986,10 @@ def _gap_mask(d, valid, fx, cfg, dzero=None, long_pass=True, scale_floor=False):
         N = cv2.boxFilter(N, -1, (nb, 1), normalize=False, borderType=cv2.BORDER_CONSTANT)
         A *= np.float32(sub)
         N *= np.float32(sub)
+        if V is not None:  # the line's noise std over one frame's: sqrt(mean variance factor)
+            V = cv2.boxFilter(V, -1, (nb, 1), normalize=False, borderType=cv2.BORDER_CONSTANT)
+            V *= np.float32(sub)
+            V = np.sqrt(np.minimum(V / np.maximum(N, np.float32(1.0)), np.float32(1.0)))
         meas = N >= max(3.0, Lw / 3.0)
         # side lines: well measured and not bent (one array for both side tests)
         side_ok = (N >= 0.8 * Lw) & ~bent
@@ -1030,7 +1042,7 @@ def _gap_mask(d, valid, fx, cfg, dzero=None, long_pass=True, scale_floor=False):
             ic, refv, behv, ov = (np.concatenate(x) for x in (c_ic, c_ref, c_beh, c_o))
             # behind by more than thr (the candidates are behind by gap_depth), or unmeasured
             z2v = refv * refv
-            thrv = np.maximum(gd, gdz * z2v)
+            thrv = np.maximum(gd, gdz * z2v * (V.reshape(-1)[ic] if V is not None else 1.0))
             unm = unmeas.reshape(-1)[ic]
             with np.errstate(invalid="ignore"):
                 keep = np.flatnonzero((behv > thrv) | unm)
@@ -1247,6 +1259,9 @@ def _label_images(d, valid, ray_x, ray_y, planes, L, crossing_angle_deg,
     return labs
 
 
+_CROSSING_MIN_SHARE = 0.1
+
+
 def _crossings(labs, S, planes, valid, crossing_angle_deg, smooth_px):
     """In place: where two crossing planes are both within L of a pixel, the pixel stays
     in-plane only for the nearer one (see :func:`_label_images` and below)."""
@@ -1272,6 +1287,11 @@ def _crossings(labs, S, planes, valid, crossing_angle_deg, smooth_px):
     cosang = np.abs(N @ N.T)
     crossing = ((cosang < math.cos(math.radians(crossing_angle_deg)))
                 & ((cosang > math.cos(math.radians(30.0))) | (sup[None, :] >= sup[:, None])))
+    # a plane with under _CROSSING_MIN_SHARE of the other's support takes no pixels from it
+    # (a spurious small plane of a few dozen samples tilted ~12 deg through a cabinet's face
+    # cut a FREE line through a closed drawer at 2.2 m, which the greedy moves then did not
+    # cross; issue 12, branch pband2)
+    crossing &= sup[None, :] >= _CROSSING_MIN_SHARE * sup[:, None]
     if not crossing.any():
         return
     # Which plane is nearer is decided on the two planes' signed distances, each summed over
@@ -1580,20 +1600,28 @@ def _in_plane_cells(g: _Grid, r: np.ndarray) -> np.ndarray:
     return out
 
 
+_START_ERODE_CELLS = 3
+
+
 def _component_starts(g: _Grid, mc: int, k: int, rng, cfg) -> np.ndarray:
     """Start rectangles (n, 4) at the centroid (if inside it) of each of the ``k`` largest
     4-connected regions of in-plane cells of a grid (at least ``mc`` x ``mc`` cells): fronts
     flush with their neighbours are one plane, parted only by ``GAP`` lines, and random
     starts over the whole plane miss a small drawer (5 % of a cabinet's face) often.
     Width and height from the prior, at most the region's bounding box."""
-    # regions of the in-plane cells shrunk by 2 cells: a reveal's line may have a hole of a
-    # few cells (where it meets another reveal, or a drop-out)
-    inp = cv2.erode((g.labels == IN_PLANE).view(np.uint8), np.ones((5, 5), np.uint8))
+    # regions of the in-plane cells shrunk by _START_ERODE_CELLS (3) cells: a reveal's line
+    # may have a hole of a few cells (where it meets another reveal, or a drop-out; a
+    # horizontal reveal's run ends ~half a line window short of a T-junction with a vertical
+    # one: 5 cells of 7.4 mm at 2.2 m, which joined a closed drawer's region to the door
+    # below; 2 cells before, issue 12 branch pband2)
+    r = _START_ERODE_CELLS
+    inp = cv2.erode((g.labels == IN_PLANE).view(np.uint8),
+                    np.ones((2 * r + 1, 2 * r + 1), np.uint8))
     n_lab, lab, stats, cent = cv2.connectedComponentsWithStats(inp, connectivity=4)
     if n_lab <= 1:
         return np.zeros((0, 4), np.int64)
     area = stats[1:, cv2.CC_STAT_AREA]
-    mc = max(1, mc - 4)
+    mc = max(1, mc - 2 * r)
     big = np.flatnonzero((area >= mc * mc) & (stats[1:, cv2.CC_STAT_WIDTH] >= mc)
                          & (stats[1:, cv2.CC_STAT_HEIGHT] >= mc)) + 1
     if len(big) == 0:
@@ -1607,7 +1635,7 @@ def _component_starts(g: _Grid, mc: int, k: int, rng, cfg) -> np.ndarray:
         ci[t], cj[t] = divmod(int(cells[rng.integers(0, len(cells))]), lab.shape[1])
     m = len(big)
     wh = rng.uniform(cfg.prior_size[0], cfg.prior_size[1], (m, 2)) / g.c
-    mc += 4
+    mc += 2 * r
     wc = np.clip(np.round(wh[:, 0]).astype(np.int64), mc,
                  np.maximum(mc, stats[big, cv2.CC_STAT_WIDTH]))
     hc = np.clip(np.round(wh[:, 1]).astype(np.int64), mc,
@@ -2126,8 +2154,25 @@ def _check_inputs(depth, K, X_WC):
     return d.astype(np.float32, copy=False), X
 
 
+def _check_noise_scale(noise_scale, shape):
+    """The variance factor image (float32, clipped to (0, 1]; non-finite = 1) of
+    ``detect_fronts``' ``noise_scale``, or None."""
+    if noise_scale is None:
+        return None
+    s = np.asarray(noise_scale)
+    if s.ndim == 3 and s.shape[2] == 1:
+        s = s[:, :, 0]
+    if s.shape != tuple(shape) or not np.issubdtype(s.dtype, np.number):
+        raise ValueError(f"detect_fronts: noise_scale must be a numeric array of the image's "
+                         f"shape {tuple(shape)}, got {s.shape} {s.dtype}")
+    s = np.nan_to_num(s.astype(np.float32), nan=1.0, posinf=1.0, neginf=1.0)
+    s = np.clip(s, np.float32(1e-3), np.float32(1.0))
+    return s * s
+
+
 def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorConfig | None = None,
-                  rng: np.random.Generator | int | None = None, *, clock=time.perf_counter):
+                  rng: np.random.Generator | int | None = None, *, clock=time.perf_counter,
+                  noise_scale=None):
     """Detect planar rectangles (cabinet fronts) in a depth image (thesis 5.1.1-5.1.2).
 
     Args:
@@ -2140,6 +2185,10 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
         clock: the timer of the stage timings (seconds): wall-clock by default;
             ``time.thread_time`` gives the CPU time of the calling thread (what a benchmark on
             a shared machine should compare).
+        noise_scale: None, or (H, W) each pixel's depth noise std relative to one frame's, in
+            (0, 1] (a temporally filtered image: :func:`mmlearn.models.depth_filter.
+            filter_depth`'s second output): the reveal test's (``gap_*``) noise-driven
+            threshold part on the image follows it (its ``gap_depth`` floor does not).
 
     Returns:
         (rectangles, timings): a list of :class:`FrontRectangle` in the world frame (best first:
@@ -2154,6 +2203,7 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
     cfg = config or FrontDetectorConfig()
     cfg.validate()
     d, X_WC = _check_inputs(depth, K, np.eye(4) if X_WC is None else X_WC)
+    var_scale = _check_noise_scale(noise_scale, d.shape)
     rng = np.random.default_rng(rng)
     timings = {s: 0.0 for s in STAGES}
     out: list[FrontRectangle] = []
@@ -2213,7 +2263,9 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
             if v is not None:
                 views.append(v)
         gap, gap_thin = _gap_mask(d, valid, K.fx, cfg, dzero,
-                                  long_pass=cfg.gap_long_on_image and not views)
+                                  long_pass=cfg.gap_long_on_image and not views,
+                                  var_scale=(None if var_scale is None
+                                             else np.where(valid, var_scale, np.float32(0.0))))
         for v in views:
             rect = _gap_mask_rectified(dzero, valid, K, xs, ys, v, cfg)
             if rect is not None:

@@ -10,6 +10,7 @@ from .camera_marker_sensor import CameraMarkerSensor, CameraMarkerSensorConfig
 from .dbn_reproducer import DbnReproducer, DbnReproducerConfig
 from .dbn_visualizer import DbnVisualizer
 from .depth_noise import DepthNoise
+from .depth_temporal_filter import DepthTemporalFilter
 from .epc_controller import EpcConfig, EpcController, EpcTask
 from .container_wall import ContainerWallForce
 from .finger_hold import FingerPositionHold
@@ -51,6 +52,7 @@ __all__ = [
     "DbnReproducerConfig",
     "DbnVisualizer",
     "DepthNoise",
+    "DepthTemporalFilter",
     "GraspAttachment",
     "EpcConfig",
     "EpcController",

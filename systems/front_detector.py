@@ -32,6 +32,7 @@ class FrontDetector(LeafSystem):
         input_ports:
         - depth_image
         - X_WC (optional)
+        - noise_scale (optional)
         output_ports:
         - rectangles
         - timings
@@ -40,6 +41,9 @@ class FrontDetector(LeafSystem):
     e.g. an ``RgbdSensor``'s ``depth_image_32f`` output or a depth-noise system after it.
     ``X_WC`` is the camera pose in the world (an abstract ``RigidTransform``, Drake camera
     frame: x right, y down, z forward); left unconnected, the camera frame is the world frame.
+    ``noise_scale`` (optional ``ImageDepth32F``, unitless): each pixel's depth noise std
+    relative to one frame's, from a :class:`~mmlearn.systems.DepthTemporalFilter` feeding
+    ``depth_image``; the reveal test's threshold follows it (``detect_fronts``' ``noise_scale``).
     ``rectangles`` is a ``list[FrontRectangle]`` in the world frame (best first);
     ``timings`` is the wall-clock time per stage, seconds, in the order of
     :data:`TIMING_NAMES` (planes, masks, sampling, optimisation, check, total), all NaN for a
@@ -77,6 +81,8 @@ class FrontDetector(LeafSystem):
         self._depth = self.DeclareAbstractInputPort(
             "depth_image", AbstractValue.Make(ImageDepth32F(K.width, K.height)))
         self._X_WC = self.DeclareAbstractInputPort("X_WC", AbstractValue.Make(RigidTransform()))
+        self._scale = self.DeclareAbstractInputPort(
+            "noise_scale", AbstractValue.Make(ImageDepth32F(K.width, K.height)))
         self._cache = self.DeclareCacheEntry(
             "detection",
             ValueProducer(allocate=lambda: AbstractValue.Make(([], None)),
@@ -95,6 +101,9 @@ class FrontDetector(LeafSystem):
 
     def get_X_WC_input_port(self):
         return self._X_WC
+
+    def get_noise_scale_input_port(self):
+        return self._scale
 
     def get_rectangles_output_port(self):
         return self._rects_out
@@ -122,7 +131,10 @@ class FrontDetector(LeafSystem):
             depth = np.asarray(img.data, np.float32)
             X_WC = (self._X_WC.Eval(context).GetAsMatrix4() if self._X_WC.HasValue(context)
                     else np.eye(4))
-            rects, timings = detect_fronts(depth, self._K, X_WC, self._cfg, rng)
+            scale = (np.asarray(self._scale.Eval(context).data, np.float32)
+                     if self._scale.HasValue(context) else None)
+            rects, timings = detect_fronts(depth, self._K, X_WC, self._cfg, rng,
+                                           noise_scale=scale)
         except (ValueError, FloatingPointError, np.linalg.LinAlgError, cv2.error):
             return [], None  # a bad frame (size, pose): sees nothing
         except Exception as e:  # noqa: BLE001 - a running simulation must not die on a frame
