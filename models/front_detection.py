@@ -1979,8 +1979,12 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
         # the largest planes seen off their normal get a rectified view; the long pass runs
         # where the lines follow the planes' sides (on the image only when no view is needed:
         # across slanted reveals its 128 px means smear them into false rows)
+        # (the largest planes *that need a view*: a large plane seen along the image axes
+        # does not take a view from a smaller oblique one, e.g. a door opened 90 deg)
         views = []
-        for pl in sorted(planes, key=lambda p: -p.support)[: cfg.gap_rectify_planes]:
+        for pl in sorted(planes, key=lambda p: -p.support):
+            if len(views) >= cfg.gap_rectify_planes:
+                break
             v = _rectified_view(K, pl, down_C, cfg, st, off)
             if v is not None:
                 views.append(v)
