@@ -276,6 +276,9 @@ class FrontDetectorConfig:
             centre (a front seen off its normal: its sides are slanted in the image).
         gap_rectify_max_scale: a rectified view is at most this many times the image's
             width and height (its focal length is reduced to fit).
+        gap_rectify_max_tilt_deg: only planes within this angle of vertical (deg; "down"
+            from ``X_WC``) get a rectified view: fronts are vertical, and the floor or a
+            countertop seen from above took the views (and 10 ms per frame) from them.
     """
 
     inlier_distance: float = 0.02
@@ -338,6 +341,7 @@ class FrontDetectorConfig:
     gap_rectify_planes: int = 2
     gap_rectify_deg: float = 8.0
     gap_rectify_max_scale: float = 1.25
+    gap_rectify_max_tilt_deg: float = 20.0
 
     def validate(self) -> None:
         """Raise ``ValueError`` naming the first invalid field."""
@@ -389,6 +393,9 @@ class FrontDetectorConfig:
         if not 0 <= self.gap_rectify_deg <= 90:
             raise ValueError("FrontDetectorConfig.gap_rectify_deg must be in [0, 90] deg, got "
                              f"{self.gap_rectify_deg}")
+        if not 0 <= self.gap_rectify_max_tilt_deg <= 90:
+            raise ValueError("FrontDetectorConfig.gap_rectify_max_tilt_deg must be in [0, 90] "
+                             f"deg, got {self.gap_rectify_max_tilt_deg}")
         if not (self.gap_rectify_max_scale > 0 and math.isfinite(self.gap_rectify_max_scale)):
             raise ValueError("FrontDetectorConfig.gap_rectify_max_scale must be a finite number "
                              f"> 0, got {self.gap_rectify_max_scale}")
@@ -878,7 +885,7 @@ def _affine_lstsq(A: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.array([a, c, mb - a * mu - c * mv])
 
 
-def _gap_mask(d, valid, fx, cfg, dzero=None, long_pass=True, scale_floor=False):
+def _gap_mask(d, valid, fx, cfg, dzero=None, long_pass=True, scale_floor=False, to_image=None):
     """Pixels on the reveals between flush fronts (``GAP``) from the depth image alone (one
     pass per frame for all planes): (wide, thin), (H, W) bool each; ``wide`` is ``thin`` one
     pixel wider on either side across the line (for the rectified grids).
@@ -902,7 +909,12 @@ def _gap_mask(d, valid, fx, cfg, dzero=None, long_pass=True, scale_floor=False):
     pixels: a countertop seen at grazing incidence drops a third of its pixels, and its line
     means scatter beyond the noise model). ``long_pass``: also the lines averaged over
     ``gap_long_window_px`` (threshold's z^2 part scaled by the square root of the windows'
-    ratio; with ``scale_floor`` the ``gap_depth`` floor too)."""
+    ratio; with ``scale_floor`` the ``gap_depth`` floor too). ``to_image``: the 3 x 3
+    homography from ``d``'s pixels to the camera image's when ``d`` is a rectified view: the
+    offsets allowed across a band without return (5 px, or 2 px plus 0.01 f / z) count image
+    pixels, and a plane seen at grazing incidence stretches each image pixel over s >= 1 view
+    pixels (a door opened 90 deg seen 67 deg off its normal: its hinge seam, 4-6 image px
+    without return, is 9-12 view px wide at s ~ 1.6)."""
     H, W = d.shape
     sub = 4  # the line means are smooth along a line: one per 4 pixels along it suffices
     z = np.where(valid, d, np.float32(0.0)) if dzero is None else dzero
@@ -1028,7 +1040,14 @@ def _gap_mask(d, valid, fx, cfg, dzero=None, long_pass=True, scale_floor=False):
                 ext = upv + dnv - np.float32(0.5) * (mf[ou - oW] + mf[od + oW])
                 hit &= (cv - ext > np.float32(0.5) * thrv) | unm
                 # only near for o > 5: a 5 mm reveal's band without return is ~2 + f 0.01 / z px
-                hit &= (ov <= 5) | (refv * (ov - 2).astype(np.float32) < np.float32(0.01 * fx))
+                # (in a rectified view, for a line without return: its image px count s >= 1
+                # view px each, o <= 5 s or 2 s + f 0.01 / z)
+                near = (ov <= 5) | (refv * (ov - 2).astype(np.float32) < np.float32(0.01 * fx))
+                if to_image is not None and unm.any():
+                    sv = _view_stretch(to_image, ic[unm], Wm, sub, horizontal)
+                    o_u, z_u = ov[unm], refv[unm]
+                    near[unm] = (o_u <= 5 * sv) | (z_u * (o_u - 2 * sv) < np.float32(0.01 * fx))
+                hit &= near
             ih, zh = ic[hit], refv[hit]
             g.reshape(-1)[ih] = True
             # a line hit at several offsets keeps the depth of its last one (offset by
@@ -1084,6 +1103,22 @@ def _gap_mask(d, valid, fx, cfg, dzero=None, long_pass=True, scale_floor=False):
     return out, thin
 
 
+def _view_stretch(to_image, ic, Wm, sub, horizontal):
+    """View pixels per image pixel across the lines (>= 1: never stricter than on the image) at
+    the line pixels ``ic`` (flat indices into :func:`_gap_mask`'s line-mean array: rows across
+    the lines, one column per ``sub`` pixels along them) of a rectified view whose pixels map
+    to the image by the homography ``to_image``."""
+    a, b = np.divmod(ic, Wm)
+    b = b * sub + 0.5 * (sub - 1)
+    x, y = (b, a) if horizontal else (a, b)
+    Hi = to_image
+    p = Hi[:, 0:1] * x + Hi[:, 1:2] * y + Hi[:, 2:3]  # (3, n)
+    k = 1 if horizontal else 0  # across the lines: view y for rows, view x for columns
+    du = (Hi[0, k] * p[2] - p[0] * Hi[2, k]) / (p[2] * p[2])
+    dv = (Hi[1, k] * p[2] - p[1] * Hi[2, k]) / (p[2] * p[2])
+    return np.maximum(1.0, 1.0 / np.maximum(np.hypot(du, dv), 1e-9)).astype(np.float32)
+
+
 def _gap_mask_rectified(dzero, valid, K: PinholeIntrinsics, xs, ys, view, cfg):
     """:func:`_gap_mask` (short and long windows, the long one's whole threshold scaled) on
     the rectified view ``view`` of a plane
@@ -1107,7 +1142,8 @@ def _gap_mask_rectified(dzero, valid, K: PinholeIntrinsics, xs, ys, view, cfg):
     # seen 45 deg off the normal dips 1.6-3.7 mm at 1.5 m, where both passes' thresholds
     # are the 2.5 mm floor; on the whole image a scaled floor labelled false rows on the wall
     # and countertop at 2.2 m)
-    gw, gt = _gap_mask(zw, vw, f, cfg, zw, long_pass=True, scale_floor=True)
+    gw, gt = _gap_mask(zw, vw, f, cfg, zw, long_pass=True, scale_floor=True,
+                       to_image=np.linalg.inv(Hm))
     if not gt.any():
         return None
     back = cv2.WARP_INVERSE_MAP | cv2.INTER_NEAREST
@@ -1135,6 +1171,9 @@ def _rectified_view(K: PinholeIntrinsics, pl: Plane, down_C, cfg, stride: int, o
     (nearest pixel). The view covers the plane's region (``Plane.bbox``), with its focal
     length reduced so that it is at most ``gap_rectify_max_scale`` times the image's size."""
     n = np.asarray(pl.n, float)
+    if down_C is not None and abs(float(n @ down_C)) > math.sin(
+            math.radians(cfg.gap_rectify_max_tilt_deg)):
+        return None  # not a vertical plane (floor, countertop): no front
     e1, e2 = _plane_axes(n, down_C)
     r0, r1, c0, c1 = pl.bbox
     uc = off + stride * 0.5 * (c0 + c1)
