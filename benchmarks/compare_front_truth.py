@@ -9,7 +9,8 @@ DIR`` (the moving front's pose, ``closed_fronts``' poses). Per frame and detecto
 moving front is found (``apps/track_fronts.match_front``: 5 cm, 10 deg, 0.1 m; the inner face
 once the door turned past the camera's line of sight), its position error, and how many
 rectangles match a true front (moving or closed) and how many match none ("other": the
-table, walls, countertop, or a false rectangle). Seed ``[0, frame]``, default config.
+table, walls, countertop, or a false rectangle), and how many of those lie on a front (a part
+of a front, or fronts merged: false fronts). Seed ``[0, frame]``, default config.
 """
 
 import os
@@ -44,8 +45,21 @@ def score(rects, meta, X, tcfg):
         for i, r in enumerate(rects):
             if match_front([r], Xt, wt, ht, **kw) is not None:
                 matched.add(i)
+    # false fronts: a rectangle matching no front whose centre lies on a front (within 3 cm
+    # of its plane, normals within 10 deg, inside its outline): a part of a front, or fronts
+    # merged with each other or with what lies beside them
+    false = 0
+    for i, r in enumerate(rects):
+        if i in matched:
+            continue
+        for Xt, wt, ht in truths:
+            q = Xt[:3, :3].T @ (r.X_WR[:3, 3] - Xt[:3, 3])
+            if (abs(q[2]) < 0.03 and abs(q[0]) <= wt / 2 and abs(q[1]) <= ht / 2
+                    and abs(r.X_WR[:3, 2] @ Xt[:3, 2]) > np.cos(np.radians(10))):
+                false += 1
+                break
     return (m is not None, None if m is None else m["pos_error_m"], len(matched),
-            len(rects) - len(matched))
+            len(rects) - len(matched), false)
 
 
 def main(argv=None):
@@ -56,7 +70,7 @@ def main(argv=None):
     a = ap.parse_args(argv)
     ref = load_ref(a.ref)
     tcfg = TrackFrontsConfig()
-    tot = {"ref": np.zeros(4), "new": np.zeros(4)}
+    tot = {"ref": np.zeros(5), "new": np.zeros(5)}
     n_el = 0
     for path in sorted(glob.glob(os.path.join(a.frames_dir, a.pattern))):
         meta = json.load(open(path))
@@ -73,18 +87,20 @@ def main(argv=None):
             res[nm] = score(rects, meta, X, tcfg)
             if el:
                 tot[nm] += [res[nm][0], 0.0 if res[nm][1] is None else res[nm][1],
-                            res[nm][2], res[nm][3]]
+                            res[nm][2], res[nm][3], res[nm][4]]
             else:
-                tot[nm] += [0, 0, res[nm][2], res[nm][3]]
+                tot[nm] += [0, 0, res[nm][2], res[nm][3], res[nm][4]]
         if res["ref"] != res["new"]:
             f = lambda r: (f"found {int(r[0])} err {'-' if r[1] is None else f'{1000 * r[1]:.1f} mm'}"
-                           f" fronts {r[2]} other {r[3]}")
+                           f" fronts {r[2]} false {r[4]} other {r[3]}")
             print(f"{os.path.basename(path)[:-5]:28s} eligible {int(el)}  ref: {f(res['ref'])}"
                   f"  |  new: {f(res['new'])}", flush=True)
     for nm in ("ref", "new"):
         t = tot[nm]
         print(f"{nm}: moving front found in {int(t[0])} of {n_el} eligible frames, "
-              f"rectangles matching a true front {int(t[2])}, other {int(t[3])}")
+              f"mean position error {1000 * t[1] / max(t[0], 1):.1f} mm, rectangles matching a "
+              f"true front {int(t[2])}, false fronts (on a front, matching none) {int(t[4])}, "
+              f"other (matching none) {int(t[3])}")
 
 
 if __name__ == "__main__":
