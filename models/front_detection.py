@@ -2020,15 +2020,17 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
         # across slanted reveals its 128 px means smear them into false rows)
         # (the largest planes *that need a view*: a large plane seen along the image axes
         # does not take a view from a smaller oblique one, e.g. a door opened 90 deg)
-        views = []
-        for pl in sorted(planes, key=lambda p: -p.support):
+        views, large_view = [], False
+        for rank, pl in enumerate(sorted(planes, key=lambda p: -p.support)):
             if len(views) >= cfg.gap_rectify_planes:
                 break
             v = _rectified_view(K, pl, down_C, cfg, st, off)
             if v is not None:
                 views.append(v)
+                large_view |= rank < cfg.gap_rectify_planes
+        # (the image's long pass: off when one of the largest planes is seen obliquely)
         gap, gap_thin = _gap_mask(d, valid, K.fx, cfg, dzero,
-                                  long_pass=cfg.gap_long_on_image and not views)
+                                  long_pass=cfg.gap_long_on_image and not large_view)
         for v in views:
             rect = _gap_mask_rectified(dzero, valid, K, xs, ys, v, cfg)
             if rect is not None:
