@@ -66,8 +66,9 @@ def test_door_opened_90_deg_off_the_normal_is_found(angle, monkeypatch):
                                                      gap_rectify_planes=0))
     assert not old, hit_old
     if angle == 15.0:  # grazing: the seam is found only counting image pixels in the view
-        monkeypatch.setattr(fd, "_view_stretch",
-                            lambda Hi, ic, Wm, sub, h: np.ones(len(ic), np.float32))
+        stretch = fd._view_stretch  # across the band: 1 (image pixels = view pixels)
+        monkeypatch.setattr(fd, "_view_stretch", lambda Hi, ic, Wm, sub, h, across=True: (
+            np.ones(len(ic), np.float32) if across else stretch(Hi, ic, Wm, sub, h, False)))
         unstretched, hit_u = _found(frame, FrontDetectorConfig())
         assert not unstretched, hit_u
 
