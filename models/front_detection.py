@@ -64,6 +64,15 @@
     axes along the plane's horizontal and down), mapped back. The long pass on the image is
     off by default (``gap_long_on_image``: at 2.0-2.3 m it split the closed door with false
     rows; across slanted reveals its 128 px means smear them into false rows too).
+    Issue 12, branch pedge (a door opened 90 deg lies within a few mm of its compartment's
+    side wall: one plane, and without its hinge seam as a reveal the door grew over the
+    wall): the views go to the ``gap_rectify_planes`` largest *vertical* planes that need one
+    (the cabinet face seen along the image axes took the slot before); the long pass runs
+    only on the views of the largest planes (on an opened door at 2.3 m the disparity steps
+    are vertical stripes of equal depth it labelled); in a view, offsets across a band
+    without return count image pixels (a grazing plane's view stretches each over s >= 1 view
+    pixels: the seam 4-6 image px wide is 9-12 view px wide) and the thresholds grow by
+    sqrt(s along the line) (interpolated view pixels are not independent samples).
 ``sampling``
     ``starts_per_plane`` random starts per plane: a random in-plane cell as centre, width and
     height drawn uniformly from ``prior_size`` (5.1.1: "sample a random point from the plane
@@ -271,9 +280,10 @@ class FrontDetectorConfig:
         gap_long_min_windows: a run of the long pass must be at least this many long windows
             long (and ``gap_min_length``): one window's scatter is not a line.
         gap_rectify_planes: both passes also run on the rectified views of up to this
-            many largest planes (0 = none) whose in-plane axes are seen more than
+            many planes (0 = none), the largest whose in-plane axes are seen more than
             ``gap_rectify_deg`` (deg) off the image's rows and columns at their region's
-            centre (a front seen off its normal: its sides are slanted in the image).
+            centre (a front seen off its normal: its sides are slanted in the image); the
+            long pass only on those among this many largest planes.
         gap_rectify_max_scale: a rectified view is at most this many times the image's
             width and height (its focal length is reduced to fit).
         gap_rectify_max_tilt_deg: only planes within this angle of vertical (deg; "down"
