@@ -64,6 +64,15 @@
     axes along the plane's horizontal and down), mapped back. The long pass on the image is
     off by default (``gap_long_on_image``: at 2.0-2.3 m it split the closed door with false
     rows; across slanted reveals its 128 px means smear them into false rows too).
+    Issue 12, branch pedge (a door opened 90 deg lies within a few mm of its compartment's
+    side wall: one plane, and without its hinge seam as a reveal the door grew over the
+    wall): the views go to the ``gap_rectify_planes`` largest *vertical* planes that need one
+    (the cabinet face seen along the image axes took the slot before); the long pass runs
+    only on the views of the largest planes (on an opened door at 2.3 m the disparity steps
+    are vertical stripes of equal depth it labelled); in a view, offsets across a band
+    without return count image pixels (a grazing plane's view stretches each over s >= 1 view
+    pixels: the seam 4-6 image px wide is 9-12 view px wide) and the thresholds grow by
+    sqrt(s along the line) (interpolated view pixels are not independent samples).
 ``sampling``
     ``starts_per_plane`` random starts per plane: a random in-plane cell as centre, width and
     height drawn uniformly from ``prior_size`` (5.1.1: "sample a random point from the plane
@@ -271,11 +280,15 @@ class FrontDetectorConfig:
         gap_long_min_windows: a run of the long pass must be at least this many long windows
             long (and ``gap_min_length``): one window's scatter is not a line.
         gap_rectify_planes: both passes also run on the rectified views of up to this
-            many largest planes (0 = none) whose in-plane axes are seen more than
+            many planes (0 = none), the largest whose in-plane axes are seen more than
             ``gap_rectify_deg`` (deg) off the image's rows and columns at their region's
-            centre (a front seen off its normal: its sides are slanted in the image).
+            centre (a front seen off its normal: its sides are slanted in the image); the
+            long pass only on those among this many largest planes.
         gap_rectify_max_scale: a rectified view is at most this many times the image's
             width and height (its focal length is reduced to fit).
+        gap_rectify_max_tilt_deg: only planes within this angle of vertical (deg; "down"
+            from ``X_WC``) get a rectified view: fronts are vertical, and the floor or a
+            countertop seen from above took the views (and 10 ms per frame) from them.
     """
 
     inlier_distance: float = 0.02
@@ -338,6 +351,7 @@ class FrontDetectorConfig:
     gap_rectify_planes: int = 2
     gap_rectify_deg: float = 8.0
     gap_rectify_max_scale: float = 1.25
+    gap_rectify_max_tilt_deg: float = 20.0
 
     def validate(self) -> None:
         """Raise ``ValueError`` naming the first invalid field."""
@@ -389,6 +403,9 @@ class FrontDetectorConfig:
         if not 0 <= self.gap_rectify_deg <= 90:
             raise ValueError("FrontDetectorConfig.gap_rectify_deg must be in [0, 90] deg, got "
                              f"{self.gap_rectify_deg}")
+        if not 0 <= self.gap_rectify_max_tilt_deg <= 90:
+            raise ValueError("FrontDetectorConfig.gap_rectify_max_tilt_deg must be in [0, 90] "
+                             f"deg, got {self.gap_rectify_max_tilt_deg}")
         if not (self.gap_rectify_max_scale > 0 and math.isfinite(self.gap_rectify_max_scale)):
             raise ValueError("FrontDetectorConfig.gap_rectify_max_scale must be a finite number "
                              f"> 0, got {self.gap_rectify_max_scale}")
@@ -899,7 +916,8 @@ def _affine_lstsq(A: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.array([a, c, mb - a * mu - c * mv])
 
 
-def _gap_mask(d, valid, fx, cfg, dzero=None, long_pass=True, scale_floor=False, var_scale=None):
+def _gap_mask(d, valid, fx, cfg, dzero=None, long_pass=True, scale_floor=False, var_scale=None,
+              to_image=None):
     """Pixels on the reveals between flush fronts (``GAP``) from the depth image alone (one
     pass per frame for all planes): (wide, thin), (H, W) bool each; ``wide`` is ``thin`` one
     pixel wider on either side across the line (for the rectified grids).
@@ -926,7 +944,13 @@ def _gap_mask(d, valid, fx, cfg, dzero=None, long_pass=True, scale_floor=False, 
     ratio; with ``scale_floor`` the ``gap_depth`` floor too). ``var_scale``: (H, W) float32,
     each pixel's noise variance over one frame's (a temporally filtered image,
     :mod:`mmlearn.models.depth_filter`; 0 where not valid), or None (1): the threshold's z^2
-    part is scaled by the square root of its mean over the line (the line mean's noise)."""
+    part is scaled by the square root of its mean over the line (the line mean's noise).
+    ``to_image``: the 3 x 3
+    homography from ``d``'s pixels to the camera image's when ``d`` is a rectified view: the
+    offsets allowed across a band without return (5 px, or 2 px plus 0.01 f / z) count image
+    pixels, and a plane seen at grazing incidence stretches each image pixel over s >= 1 view
+    pixels (a door opened 90 deg seen 67 deg off its normal: its hinge seam, 4-6 image px
+    without return, is 9-12 view px wide at s ~ 1.6)."""
     H, W = d.shape
     sub = 4  # the line means are smooth along a line: one per 4 pixels along it suffices
     z = np.where(valid, d, np.float32(0.0)) if dzero is None else dzero
@@ -1043,6 +1067,13 @@ def _gap_mask(d, valid, fx, cfg, dzero=None, long_pass=True, scale_floor=False, 
             # behind by more than thr (the candidates are behind by gap_depth), or unmeasured
             z2v = refv * refv
             thrv = np.maximum(gd, gdz * z2v * (V.reshape(-1)[ic] if V is not None else 1.0))
+            if to_image is not None:
+                # a rectified view interpolates each image pixel over s >= 1 view pixels
+                # along the line: a window's mean holds 1 / s of the independent samples it
+                # has on the image, its noise sqrt(s) times larger (false lines across a
+                # door at 2.3 m opened 46 deg, its view stretched 1.4-2 x)
+                thrv = thrv * np.sqrt(_view_stretch(to_image, ic, Wm, sub, horizontal,
+                                                    across=False))
             unm = unmeas.reshape(-1)[ic]
             with np.errstate(invalid="ignore"):
                 keep = np.flatnonzero((behv > thrv) | unm)
@@ -1061,7 +1092,14 @@ def _gap_mask(d, valid, fx, cfg, dzero=None, long_pass=True, scale_floor=False, 
                 ext = upv + dnv - np.float32(0.5) * (mf[ou - oW] + mf[od + oW])
                 hit &= (cv - ext > np.float32(0.5) * thrv) | unm
                 # only near for o > 5: a 5 mm reveal's band without return is ~2 + f 0.01 / z px
-                hit &= (ov <= 5) | (refv * (ov - 2).astype(np.float32) < np.float32(0.01 * fx))
+                # (in a rectified view, for a line without return: its image px count s >= 1
+                # view px each, o <= 5 s or 2 s + f 0.01 / z)
+                near = (ov <= 5) | (refv * (ov - 2).astype(np.float32) < np.float32(0.01 * fx))
+                if to_image is not None and unm.any():
+                    sv = _view_stretch(to_image, ic[unm], Wm, sub, horizontal)
+                    o_u, z_u = ov[unm], refv[unm]
+                    near[unm] = (o_u <= 5 * sv) | (z_u * (o_u - 2 * sv) < np.float32(0.01 * fx))
+                hit &= near
             ih, zh = ic[hit], refv[hit]
             g.reshape(-1)[ih] = True
             # a line hit at several offsets keeps the depth of its last one (offset by
@@ -1117,10 +1155,29 @@ def _gap_mask(d, valid, fx, cfg, dzero=None, long_pass=True, scale_floor=False, 
     return out, thin
 
 
-def _gap_mask_rectified(dzero, valid, K: PinholeIntrinsics, xs, ys, view, cfg):
+def _view_stretch(to_image, ic, Wm, sub, horizontal, across=True):
+    """View pixels per image pixel across the lines (``across``; else along them; >= 1: never
+    less than on the image) at
+    the line pixels ``ic`` (flat indices into :func:`_gap_mask`'s line-mean array: rows across
+    the lines, one column per ``sub`` pixels along them) of a rectified view whose pixels map
+    to the image by the homography ``to_image``."""
+    a, b = np.divmod(ic, Wm)
+    b = b * sub + 0.5 * (sub - 1)
+    x, y = (b, a) if horizontal else (a, b)
+    Hi = to_image
+    p = Hi[:, 0:1] * x + Hi[:, 1:2] * y + Hi[:, 2:3]  # (3, n)
+    # across the lines: view y for rows, view x for columns; along them the other one
+    k = (1 if horizontal else 0) if across else (0 if horizontal else 1)
+    du = (Hi[0, k] * p[2] - p[0] * Hi[2, k]) / (p[2] * p[2])
+    dv = (Hi[1, k] * p[2] - p[1] * Hi[2, k]) / (p[2] * p[2])
+    return np.maximum(1.0, 1.0 / np.maximum(np.hypot(du, dv), 1e-9)).astype(np.float32)
+
+
+def _gap_mask_rectified(dzero, valid, K: PinholeIntrinsics, xs, ys, view, cfg, long_pass=True):
     """:func:`_gap_mask` (short and long windows, the long one's whole threshold scaled) on
     the rectified view ``view`` of a plane
-    (:func:`_rectified_view`): (wide, thin) in the image, or None when nothing is found."""
+    (:func:`_rectified_view`): (wide, thin) in the image, or None when nothing is found.
+    ``long_pass=False``: the short windows only."""
     Hm, R, f, Wv, Hv = view
     r3 = R[:, 2].astype(np.float32)
     zv = (np.float32(r3[0]) * xs + np.float32(r3[2])) + np.float32(r3[1]) * ys
@@ -1140,7 +1197,8 @@ def _gap_mask_rectified(dzero, valid, K: PinholeIntrinsics, xs, ys, view, cfg):
     # seen 45 deg off the normal dips 1.6-3.7 mm at 1.5 m, where both passes' thresholds
     # are the 2.5 mm floor; on the whole image a scaled floor labelled false rows on the wall
     # and countertop at 2.2 m)
-    gw, gt = _gap_mask(zw, vw, f, cfg, zw, long_pass=True, scale_floor=True)
+    gw, gt = _gap_mask(zw, vw, f, cfg, zw, long_pass=long_pass, scale_floor=True,
+                       to_image=np.linalg.inv(Hm))
     if not gt.any():
         return None
     back = cv2.WARP_INVERSE_MAP | cv2.INTER_NEAREST
@@ -1168,6 +1226,9 @@ def _rectified_view(K: PinholeIntrinsics, pl: Plane, down_C, cfg, stride: int, o
     (nearest pixel). The view covers the plane's region (``Plane.bbox``), with its focal
     length reduced so that it is at most ``gap_rectify_max_scale`` times the image's size."""
     n = np.asarray(pl.n, float)
+    if down_C is not None and abs(float(n @ down_C)) > math.sin(
+            math.radians(cfg.gap_rectify_max_tilt_deg)):
+        return None  # not a vertical plane (floor, countertop): no front
     e1, e2 = _plane_axes(n, down_C)
     r0, r1, c0, c1 = pl.bbox
     uc = off + stride * 0.5 * (c0 + c1)
@@ -2257,17 +2318,28 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
         # the largest planes seen off their normal get a rectified view; the long pass runs
         # where the lines follow the planes' sides (on the image only when no view is needed:
         # across slanted reveals its 128 px means smear them into false rows)
-        views = []
-        for pl in sorted(planes, key=lambda p: -p.support)[: cfg.gap_rectify_planes]:
+        # (the largest planes *that need a view*: a large plane seen along the image axes
+        # does not take a view from a smaller oblique one, e.g. a door opened 90 deg)
+        # The long pass only on the views of the gap_rectify_planes largest planes (the
+        # cabinet's face: the shallow vertical reveals of flush fronts 45 deg off the
+        # normal); on a smaller plane (an opened door) turned about the vertical, the
+        # camera's disparity steps are vertical stripes of equal depth, and its lowered
+        # threshold labelled them (a door at 2.3 m cut 7 cm short)
+        views, large_view = [], False
+        for rank, pl in enumerate(sorted(planes, key=lambda p: -p.support)):
+            if len(views) >= cfg.gap_rectify_planes:
+                break
             v = _rectified_view(K, pl, down_C, cfg, st, off)
             if v is not None:
-                views.append(v)
+                views.append((v, rank < cfg.gap_rectify_planes))
+                large_view |= rank < cfg.gap_rectify_planes
+        # (the image's long pass: off when one of the largest planes is seen obliquely)
         gap, gap_thin = _gap_mask(d, valid, K.fx, cfg, dzero,
-                                  long_pass=cfg.gap_long_on_image and not views,
+                                  long_pass=cfg.gap_long_on_image and not large_view,
                                   var_scale=(None if var_scale is None
                                              else np.where(valid, var_scale, np.float32(0.0))))
-        for v in views:
-            rect = _gap_mask_rectified(dzero, valid, K, xs, ys, v, cfg)
+        for v, large in views:
+            rect = _gap_mask_rectified(dzero, valid, K, xs, ys, v, cfg, long_pass=large)
             if rect is not None:
                 gap = gap | rect[0]
                 gap_thin = gap_thin | rect[1]
