@@ -32,7 +32,7 @@ other classifiers' rates (``compare``).
 
     python -m mmlearn.apps.tactile_state --f-target 20 [--trials 16] [--f-sweep]
         [--sweep-trials 24] [--classifier tree|forest|boost] [--wall-model pressure|linear]
-        [--grasp-variation shell|none]
+        [--grasp-variation wall|shell|none]
         [--results FILE] [--jobs J]
         [--plot FILE] [--meshcat] [--html-out FILE] --seed S [--json]
 
@@ -43,10 +43,10 @@ instances of the four container classes of Sec. 7.1.3 in each of their internal 
 (class, state). ``--wall-model``: the walls' squeeze-volume model (``pressure``, default: the
 content's pressure grows with the squeeze) or the earlier constant linearised springs
 (``linear``; results files written before the pressure model hold such grasps).
-``--grasp-variation``: ``shell`` (default) gives every grasp its own draw of the container's
-shell stiffness around the instance's (the grasp-to-grasp spread of the same container measured
-on the real iCub grasps, :func:`mmlearn.models.containers.vary_grasp`); ``none`` meets every
-instance as drawn (results files written before it hold such grasps). The features come only
+``--grasp-variation``: ``wall`` (default) gives every grasp its own draw of the container's
+wall response around the instance's (the grasp-to-grasp spread of the squeeze of the same
+container measured on the real iCub grasps, :func:`mmlearn.models.containers.vary_grasp`);
+``shell`` varies the shell stiffness alone; ``none`` meets every instance as drawn (results files written before it hold such grasps). The features come only
 from the simulated finger encoders and taxel pads.
 Reports (10-fold CV, ``--classifier``; the other classifiers in ``compare``):
 ``container_rate`` (class from all grasps), ``state_rate_by_container`` {class: rate of the
@@ -123,10 +123,11 @@ class TactileStateConfig:
         wall_model: simulation: the containers' wall model, "pressure" (the squeeze-volume
             model, default) or "linear" (the linearised constant stiffness used before;
             :class:`~mmlearn.diagrams.tactile_grasp.TactileGraspConfig`).
-        grasp_variation: simulation: "shell" (default): every grasp meets its container with
-            its own draw of the shell stiffness (the grasp-to-grasp spread measured on the
-            iCub grasps, :func:`mmlearn.models.containers.vary_grasp`); "none": every grasp
-            meets the instance as drawn (the model before).
+        grasp_variation: simulation: "wall" (default): every grasp meets its container with
+            its own draw of the wall's static response (the grasp-to-grasp spread of the
+            squeeze measured on the iCub grasps, :func:`mmlearn.models.containers.vary_grasp`);
+            "shell": of the shell stiffness alone; "none": every grasp meets the instance as
+            drawn (the model before).
     """
 
     train: str = ""
@@ -150,7 +151,7 @@ class TactileStateConfig:
     progress: bool = False
     containers: tuple = ("odwalla", "naked", "can", "water")
     wall_model: str = "pressure"
-    grasp_variation: str = "shell"
+    grasp_variation: str = "wall"
 
 
 #: simulation mode: contact threshold F per finger (N) and rest threshold V (m/s)
@@ -614,11 +615,12 @@ def main(argv=None) -> int:
                     help="simulation: the containers' walls: 'pressure' (default: shell spring "
                          "plus the content's pressure through the squeezed volume) or 'linear' "
                          "(the constant linearised stiffness of earlier versions)")
-    ap.add_argument("--grasp-variation", choices=("shell", "none"), default="shell",
-                    help="simulation: 'shell' (default): each grasp meets its container with "
-                         "its own draw of the shell stiffness (rotation, where the pads land; "
-                         "the grasp-to-grasp spread measured on the iCub grasps) or 'none' "
-                         "(every grasp meets the instance as drawn, earlier versions)")
+    ap.add_argument("--grasp-variation", choices=("wall", "shell", "none"), default="wall",
+                    help="simulation: 'wall' (default): each grasp meets its container with "
+                         "its own draw of the wall's response (rotation, where the pads land; "
+                         "the grasp-to-grasp spread of the squeeze measured on the iCub "
+                         "grasps), 'shell' (the shell stiffness alone) or 'none' (every grasp "
+                         "meets the instance as drawn, earlier versions)")
     ap.add_argument("--seed", type=nonneg_int, default=0,
                     help="random seed (fold assignment, forest)")
     ap.add_argument("--plot", metavar="FILE", default=None,

@@ -8,7 +8,7 @@ Usage::
     OPENBLAS_NUM_THREADS=1 python benchmarks/bench_tactile_state_seeds.py RESULTS.jsonl:S [...]
         [--fold-seeds 10] [--trials 10] [--f-target 20] [--sweep-trials 0]
         [--classifiers forest,tree,boost] [--wall-model pressure|linear]
-        [--grasp-variation shell|none] [--json]
+        [--grasp-variation wall|shell|none] [--json]
 
 ``RESULTS.jsonl:S``: the grasps file of ``python -m mmlearn.apps.tactile_state --f-target 20
 --trials 10 --seed S --results RESULTS.jsonl [--f-sweep --sweep-trials N]`` (nothing is
@@ -44,7 +44,7 @@ def main(argv=None) -> int:
     ap.add_argument("--wall-model", choices=("pressure", "linear"), default="pressure",
                     help="the app's --wall-model the files were simulated with (files written "
                          "before the pressure model existed: linear)")
-    ap.add_argument("--grasp-variation", choices=("shell", "none"), default="shell",
+    ap.add_argument("--grasp-variation", choices=("wall", "shell", "none"), default="wall",
                     help="the app's --grasp-variation the files were simulated with (files "
                          "written before the grasp variation existed: none)")
     ap.add_argument("--json", action="store_true", help="also print all figures as JSON")

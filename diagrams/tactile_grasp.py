@@ -347,9 +347,10 @@ def container_grasp_trial(*, seed: int, container: str, state: str, f_target: fl
     ``wall_model``: "pressure" or "linear" (:class:`TactileGraspConfig`); the default is
     "linear" because a grasp spec without it (results files written before the pressure model)
     was simulated with the linear walls: the app passes "pressure" explicitly.
-    ``grasp_variation``: "none" (default, the grasps before it existed) or "shell": this
-    grasp's draw of the shell stiffness around the instance's
-    (:func:`mmlearn.models.containers.vary_grasp`, the class' measured ``grasp_spread``), from
+    ``grasp_variation``: "none" (default, the grasps before it existed), "wall" or "shell":
+    this grasp's draw of the wall's response (or the shell stiffness alone) around the
+    instance's (:func:`mmlearn.models.containers.vary_grasp`, the class' measured
+    ``grasp_spread``), from
     its own stream of ``seed`` so the instance, placement and sensor noise stay those of the
     "none" grasp of the same seed. Returns a
     JSON-able record: the recorded series ``t``, ``p``, ``f``, ``finger_force`` (what the

@@ -51,15 +51,18 @@ side: :class:`mmlearn.systems.container_wall.ContainerWallForce`.
 times ("we rotated the containers between taking measurements to account for variations in
 surface properties of individual containers"): the same bottle yields differently from grasp
 to grasp as the pads land on the label, a seam or a rib, higher or lower on it, and as its
-thin shell responds. :func:`vary_grasp` draws, per grasp, a log-normal factor on the shell
-stiffness of both wall patches (``exp(N(0, grasp_spread))``, the class' ``grasp_spread``) on
-top of the instance's own draw. ``grasp_spread`` is measured, not chosen: the relative spread
+thin shell responds. :func:`vary_grasp` draws, per grasp, a log-normal factor
+``exp(N(0, grasp_spread))`` (the class' ``grasp_spread``) on the whole static response of both
+wall patches (the shell stiffness and, through the ovalised length, the content's coupling:
+"wall", the default; "shell" scales the shell alone), on top of the instance's own draw. ``grasp_spread`` is measured, not chosen: the relative spread
 of the squeeze over ten repeated grasps of the same object in the same state by the iCub hand
 (``benchmarks/bench_grasp_variation.py`` on the shared iCub grasp data: the sd of the final
 closure beyond the lotion bottle's 0.25 deg, over the mean squeeze): 0.131 for the plastic
 (vitamin-water) bottle, half-full and full pooled, applied to the three plastic bottle classes;
-0.248 for the soda can, empty and half-full pooled. The content (gas, liquid) is not varied:
-it is the same from grasp to grasp.
+0.248 for the soda can, empty and half-full pooled. What was measured is the spread of the
+squeeze of filled bottles and cans, so the "wall" mode scales their whole response (the shell
+alone would leave a closed bottle, whose gas carries most of the load, almost unvaried). The
+content itself (fill, gas volume) is the same from grasp to grasp.
 """
 
 from __future__ import annotations
@@ -85,9 +88,10 @@ STATES = ("full_closed", "full_open", "empty_open", "empty_closed")
 ICUB_SPREAD_PLASTIC_BOTTLE = 0.131
 ICUB_SPREAD_CAN = 0.248
 
-#: ``vary_grasp`` modes: "none" (every grasp of an instance alike; the model before) and
-#: "shell" (a per-grasp draw of the shell stiffness with the class' ``grasp_spread``)
-GRASP_VARIATIONS = ("none", "shell")
+#: ``vary_grasp`` modes: "none" (every grasp of an instance alike; the model before), "wall"
+#: (a per-grasp draw of the wall's whole static response, shell and content coupling, with the
+#: class' ``grasp_spread``) and "shell" (of the shell stiffness alone)
+GRASP_VARIATIONS = ("none", "wall", "shell")
 
 
 @dataclass(frozen=True)
@@ -287,13 +291,25 @@ def sample_container(name: str, state: str, rng: np.random.Generator, *,
 
 
 def vary_grasp(inst: ContainerInstance, rng: np.random.Generator, *,
-               mode: str = "shell") -> ContainerInstance:
-    """The instance ``inst`` as one grasp meets it: ``mode`` "shell" scales the shell
-    stiffness of both wall patches (``k_parts["shell"]`` and with it ``k``, N/m) by
-    ``exp(N(0, grasp_spread))`` drawn from ``rng`` (one draw per grasp; ``grasp_spread`` of the
-    instance's class, see the module docstring) and records the factor in ``grasp_factor``;
-    "none" returns ``inst`` unchanged (no draw). The content (gas, liquid) and the labels are
-    untouched. ``inst`` must be as :func:`sample_container` drew it (``grasp_factor`` 1)."""
+               mode: str = "wall") -> ContainerInstance:
+    """The instance ``inst`` as one grasp meets it, with one factor
+    ``m = exp(N(0, grasp_spread))`` drawn from ``rng`` per grasp (``grasp_spread`` of the
+    instance's class, see the module docstring; recorded in ``grasp_factor``):
+
+    * ``"wall"``: the wall's whole static response scales by ``m``: the shell stiffness
+      (``k_parts["shell"]``, N/m) by ``m`` and the ovalised length ``squeeze_length`` by
+      ``sqrt(m)``, so that the content's force ``dp * dV'`` (both proportional to the length
+      at a given pinch) and the liquid's flow damping scale by ``m`` too (exactly for the head
+      of an open bottle and the flow, to first order in ``dV / V_gas`` for the gas law); the
+      linearised ``k`` and the liquid's share of ``c`` scale with them. The squeeze at a given
+      force then varies by ``1 / m`` in every state, as the measured spread is one of the
+      squeeze (the pads landing on a label, seam or rib, higher or lower, change both how stiff
+      the shell is there and how much volume a pinch displaces);
+    * ``"shell"``: only the shell stiffness scales by ``m`` (the content's coupling stays);
+    * ``"none"``: ``inst`` unchanged, nothing drawn.
+
+    The content (fill, gas volume, liquid) and the labels are untouched. ``inst`` must be as
+    :func:`sample_container` drew it (``grasp_factor`` 1)."""
     if mode not in GRASP_VARIATIONS:
         raise ValueError(f"grasp_variation: expected one of {', '.join(GRASP_VARIATIONS)}, "
                          f"got {mode!r}")
@@ -308,10 +324,15 @@ def vary_grasp(inst: ContainerInstance, rng: np.random.Generator, *,
         raise ValueError(f"vary_grasp: unknown container class {inst.name!r}")
     sigma = CONTAINER_CLASSES[inst.name].grasp_spread
     m = float(np.exp(rng.normal(0.0, sigma)))
-    shell = inst.k_parts["shell"]
-    parts = dict(inst.k_parts, shell=float(shell * m))
-    return replace(inst, k=float(inst.k + (m - 1.0) * shell), k_parts=parts,
-                               grasp_factor=m)
+    if mode == "shell":
+        shell = inst.k_parts["shell"]
+        parts = dict(inst.k_parts, shell=float(shell * m))
+        return replace(inst, k=float(inst.k + (m - 1.0) * shell), k_parts=parts,
+                       grasp_factor=m)
+    parts = {k: float(v * m) for k, v in inst.k_parts.items()}
+    return replace(inst, k=float(inst.k * m), k_parts=parts,
+                   c=float(inst.c_wall + (inst.c - inst.c_wall) * m),
+                   squeeze_length=float(inst.squeeze_length * np.sqrt(m)), grasp_factor=m)
 
 
 def _positive(name, x):
