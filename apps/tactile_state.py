@@ -32,6 +32,7 @@ other classifiers' rates (``compare``).
 
     python -m mmlearn.apps.tactile_state --f-target 20 [--trials 16] [--f-sweep]
         [--sweep-trials 24] [--classifier tree|forest|boost] [--wall-model pressure|linear]
+        [--grasp-variation wall|shell|none]
         [--results FILE] [--jobs J]
         [--plot FILE] [--meshcat] [--html-out FILE] --seed S [--json]
 
@@ -41,7 +42,12 @@ instances of the four container classes of Sec. 7.1.3 in each of their internal 
 (:mod:`mmlearn.models.containers`; cans have no ``empty_closed``), ``--trials`` grasps per
 (class, state). ``--wall-model``: the walls' squeeze-volume model (``pressure``, default: the
 content's pressure grows with the squeeze) or the earlier constant linearised springs
-(``linear``; results files written before the pressure model hold such grasps). The features come only from the simulated finger encoders and taxel pads.
+(``linear``; results files written before the pressure model hold such grasps).
+``--grasp-variation``: ``wall`` (default) gives every grasp its own draw of the container's
+wall response around the instance's (the grasp-to-grasp spread of the squeeze of the same
+container measured on the real iCub grasps, :func:`mmlearn.models.containers.vary_grasp`);
+``shell`` varies the shell stiffness alone; ``none`` meets every instance as drawn (results files written before it hold such grasps). The features come only
+from the simulated finger encoders and taxel pads.
 Reports (10-fold CV, ``--classifier``; the other classifiers in ``compare``):
 ``container_rate`` (class from all grasps), ``state_rate_by_container`` {class: rate of the
 state given the class}, ``combined_rate`` (all class x state labels) and
@@ -117,6 +123,11 @@ class TactileStateConfig:
         wall_model: simulation: the containers' wall model, "pressure" (the squeeze-volume
             model, default) or "linear" (the linearised constant stiffness used before;
             :class:`~mmlearn.diagrams.tactile_grasp.TactileGraspConfig`).
+        grasp_variation: simulation: "wall" (default): every grasp meets its container with
+            its own draw of the wall's static response (the grasp-to-grasp spread of the
+            squeeze measured on the iCub grasps, :func:`mmlearn.models.containers.vary_grasp`);
+            "shell": of the shell stiffness alone; "none": every grasp meets the instance as
+            drawn (the model before).
     """
 
     train: str = ""
@@ -140,6 +151,7 @@ class TactileStateConfig:
     progress: bool = False
     containers: tuple = ("odwalla", "naked", "can", "water")
     wall_model: str = "pressure"
+    grasp_variation: str = "wall"
 
 
 #: simulation mode: contact threshold F per finger (N) and rest threshold V (m/s)
@@ -148,7 +160,8 @@ SIM_REST_VELOCITY = 0.002
 SWEEP_FORCES = (17.0, 20.0, 23.0)
 
 
-def _sim_specs(containers, f_target, trials, seed, wall_model="pressure"):
+def _sim_specs(containers, f_target, trials, seed, wall_model="pressure",
+               grasp_variation="none"):
     from mmlearn.apps._sweep import TrialSpec
     from mmlearn.models.containers import CONTAINER_CLASSES, states_of
 
@@ -165,6 +178,9 @@ def _sim_specs(containers, f_target, trials, seed, wall_model="pressure"):
                     # (no wall_model) hold linear-wall grasps and resume only as such (the
                     # trial function's default is "linear" for the same reason)
                     params["wall_model"] = wall_model
+                if grasp_variation != "none":
+                    # likewise: files written before the grasp variation hold "none" grasps
+                    params["grasp_variation"] = grasp_variation
                 specs.append(TrialSpec(
                     fn="mmlearn.diagrams.tactile_grasp:container_grasp_trial", seed=tseed,
                     params=params,
@@ -223,14 +239,19 @@ def run_simulation(config: TactileStateConfig, *, meshcat=None) -> dict:
         raise ValueError("containers: empty; choose from " + ", ".join(CONTAINER_CLASSES))
     if c.wall_model not in ("pressure", "linear"):
         raise ValueError(f"wall_model: expected 'pressure' or 'linear', got {c.wall_model!r}")
-    wm = c.wall_model
-    specs = _sim_specs(conts, c.f_target, c.trials, c.seed, wm)
+    from mmlearn.models.containers import GRASP_VARIATIONS
+
+    if c.grasp_variation not in GRASP_VARIATIONS:
+        raise ValueError(f"grasp_variation: expected one of {', '.join(GRASP_VARIATIONS)}, "
+                         f"got {c.grasp_variation!r}")
+    wm, gv = c.wall_model, c.grasp_variation
+    specs = _sim_specs(conts, c.f_target, c.trials, c.seed, wm, gv)
     if c.f_sweep:
         if c.sweep_trials < 2:
             raise ValueError(f"sweep_trials: expected at least 2, got {c.sweep_trials}")
         have = {s.key for s in specs}
         for f in SWEEP_FORCES:
-            for s in _sim_specs(["odwalla"], f, c.sweep_trials, c.seed + 7919, wm):
+            for s in _sim_specs(["odwalla"], f, c.sweep_trials, c.seed + 7919, wm, gv):
                 if s.key not in have:
                     specs.append(s)
                     have.add(s.key)
@@ -244,7 +265,7 @@ def run_simulation(config: TactileStateConfig, *, meshcat=None) -> dict:
         return [by_key[s.key]["record"] for s in spec_list
                 if s.key in by_key and by_key[s.key].get("record")]
 
-    main_specs = _sim_specs(conts, c.f_target, c.trials, c.seed, wm)
+    main_specs = _sim_specs(conts, c.f_target, c.trials, c.seed, wm, gv)
     recs = records(main_specs)
     if not recs:
         raise ValueError("no grasp finished")
@@ -282,7 +303,7 @@ def run_simulation(config: TactileStateConfig, *, meshcat=None) -> dict:
     if c.f_sweep:
         sweep_out = {}
         for f in SWEEP_FORCES:
-            rs = records(_sim_specs(["odwalla"], f, c.sweep_trials, c.seed + 7919, wm))
+            rs = records(_sim_specs(["odwalla"], f, c.sweep_trials, c.seed + 7919, wm, gv))
             Xs, _, yss, _ = _sim_features(rs, steady_average=c.steady_average)
             r, cm, _ = _cv(Xs, yss, classifier=c.classifier, folds=c.folds, seed=c.seed)
             sweep_out[f"{f:g}"] = {"rate": r.rate, "compare": cm, "n": len(rs),
@@ -294,6 +315,7 @@ def run_simulation(config: TactileStateConfig, *, meshcat=None) -> dict:
                        "contact_force_N": SIM_CONTACT_FORCE,
                        "rest_velocity_m_per_s": SIM_REST_VELOCITY,
                        "steady_average": c.steady_average, "wall_model": wm,
+                       "grasp_variation": gv,
                        "sweep_trials": c.sweep_trials if c.f_sweep else None}
     out["wall_seconds"] = round(sweep.wall_s, 1)
     out["resumed"] = sweep.resumed
@@ -593,6 +615,12 @@ def main(argv=None) -> int:
                     help="simulation: the containers' walls: 'pressure' (default: shell spring "
                          "plus the content's pressure through the squeezed volume) or 'linear' "
                          "(the constant linearised stiffness of earlier versions)")
+    ap.add_argument("--grasp-variation", choices=("wall", "shell", "none"), default="wall",
+                    help="simulation: 'wall' (default): each grasp meets its container with "
+                         "its own draw of the wall's response (rotation, where the pads land; "
+                         "the grasp-to-grasp spread of the squeeze measured on the iCub "
+                         "grasps), 'shell' (the shell stiffness alone) or 'none' (every grasp "
+                         "meets the instance as drawn, earlier versions)")
     ap.add_argument("--seed", type=nonneg_int, default=0,
                     help="random seed (fold assignment, forest)")
     ap.add_argument("--plot", metavar="FILE", default=None,
@@ -643,7 +671,8 @@ def main(argv=None) -> int:
                 trials=args.trials, f_sweep=args.f_sweep, sweep_trials=args.sweep_trials,
                 results=args.results, jobs=args.jobs, progress=args.progress,
                 containers=tuple(args.containers), plot=args.plot,
-                wall_model=args.wall_model), meshcat=meshcat)
+                wall_model=args.wall_model, grasp_variation=args.grasp_variation),
+                meshcat=meshcat)
         else:
             out = run(config=TactileStateConfig(
                 train=args.train, test=args.test, classifier=args.classifier,

@@ -7,7 +7,8 @@ Usage::
 
     OPENBLAS_NUM_THREADS=1 python benchmarks/bench_tactile_state_seeds.py RESULTS.jsonl:S [...]
         [--fold-seeds 10] [--trials 10] [--f-target 20] [--sweep-trials 0]
-        [--classifiers forest,tree,boost] [--json]
+        [--classifiers forest,tree,boost] [--wall-model pressure|linear]
+        [--grasp-variation wall|shell|none] [--json]
 
 ``RESULTS.jsonl:S``: the grasps file of ``python -m mmlearn.apps.tactile_state --f-target 20
 --trials 10 --seed S --results RESULTS.jsonl [--f-sweep --sweep-trials N]`` (nothing is
@@ -43,6 +44,9 @@ def main(argv=None) -> int:
     ap.add_argument("--wall-model", choices=("pressure", "linear"), default="pressure",
                     help="the app's --wall-model the files were simulated with (files written "
                          "before the pressure model existed: linear)")
+    ap.add_argument("--grasp-variation", choices=("wall", "shell", "none"), default="wall",
+                    help="the app's --grasp-variation the files were simulated with (files "
+                         "written before the grasp variation existed: none)")
     ap.add_argument("--json", action="store_true", help="also print all figures as JSON")
     args = ap.parse_args(argv)
     clfs = [c for c in args.classifiers.split(",") if c]
@@ -61,7 +65,7 @@ def main(argv=None) -> int:
         seed = int(seed)
         by = load_results(path)
         specs = _sim_specs(list(CONTAINER_CLASSES), args.f_target, args.trials, seed,
-                           args.wall_model)
+                           args.wall_model, args.grasp_variation)
         recs = [by[s.key]["record"] for s in specs if s.key in by and by[s.key].get("record")]
         if not recs:
             ap.error(f"{path}: no grasp of seed {seed} with --trials {args.trials} "
@@ -70,7 +74,8 @@ def main(argv=None) -> int:
         sweep = {}
         if args.sweep_trials:
             for f in SWEEP_FORCES:
-                sp = _sim_specs(["odwalla"], f, args.sweep_trials, seed + 7919, args.wall_model)
+                sp = _sim_specs(["odwalla"], f, args.sweep_trials, seed + 7919,
+                                args.wall_model, args.grasp_variation)
                 rs = [by[s.key]["record"] for s in sp if s.key in by and by[s.key].get("record")]
                 if rs:
                     Xs, _, yss, _ = _sim_features(rs)

@@ -46,23 +46,52 @@ full container's liquid resists the volume flow ``Q = dV'(d) d'`` with ``R_liq Q
 with the squeeze: at a light probe the shell's own (linear) stiffness dominates and the states
 look alike, a harder probe presses the content and separates them (thesis Table 7.2). Drake
 side: :class:`mmlearn.systems.container_wall.ContainerWallForce`.
+
+**Grasp-to-grasp variation** (:func:`vary_grasp`). The thesis grasped few containers many
+times ("we rotated the containers between taking measurements to account for variations in
+surface properties of individual containers"): the same bottle yields differently from grasp
+to grasp as the pads land on the label, a seam or a rib, higher or lower on it, and as its
+thin shell responds. :func:`vary_grasp` draws, per grasp, a log-normal factor
+``exp(N(0, grasp_spread))`` (the class' ``grasp_spread``) on the whole static response of both
+wall patches (the shell stiffness and, through the ovalised length, the content's coupling:
+"wall", the default; "shell" scales the shell alone), on top of the instance's own draw. ``grasp_spread`` is measured, not chosen: the relative spread
+of the squeeze over ten repeated grasps of the same object in the same state by the iCub hand
+(``benchmarks/bench_grasp_variation.py`` on the shared iCub grasp data: the sd of the final
+closure beyond the lotion bottle's 0.25 deg, over the mean squeeze): 0.131 for the plastic
+(vitamin-water) bottle, half-full and full pooled, applied to the three plastic bottle classes;
+0.248 for the soda can, empty and half-full pooled. What was measured is the spread of the
+squeeze of filled bottles and cans, so the "wall" mode scales their whole response (the shell
+alone would leave a closed bottle, whose gas carries most of the load, almost unvaried). The
+content itself (fill, gas volume) is the same from grasp to grasp.
 """
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
 __all__ = ["ContainerClass", "ContainerInstance", "CONTAINER_CLASSES", "STATES",
-           "states_of", "sample_container", "P0", "RHO_WATER", "G", "squeeze_volume",
-           "squeeze_pressure", "wall_forces"]
+           "states_of", "sample_container", "vary_grasp", "GRASP_VARIATIONS",
+           "ICUB_SPREAD_PLASTIC_BOTTLE", "ICUB_SPREAD_CAN", "P0", "RHO_WATER", "G",
+           "squeeze_volume", "squeeze_pressure", "wall_forces"]
 
 P0 = 101325.0  # Pa, atmospheric pressure
 RHO_WATER = 1000.0  # kg/m^3
 G = 9.81  # m/s^2
 
 STATES = ("full_closed", "full_open", "empty_open", "empty_closed")
+
+#: relative grasp-to-grasp spread of the squeeze of the same container in the same state,
+#: measured on the real iCub grasps (``benchmarks/bench_grasp_variation.py``): the plastic
+#: (vitamin-water) bottle, half-full and full pooled, and the soda can, empty and half-full
+ICUB_SPREAD_PLASTIC_BOTTLE = 0.131
+ICUB_SPREAD_CAN = 0.248
+
+#: ``vary_grasp`` modes: "none" (every grasp of an instance alike; the model before), "wall"
+#: (a per-grasp draw of the wall's whole static response, shell and content coupling, with the
+#: class' ``grasp_spread``) and "shell" (of the shell stiffness alone)
+GRASP_VARIATIONS = ("none", "wall", "shell")
 
 
 @dataclass(frozen=True)
@@ -88,6 +117,9 @@ class ContainerClass:
         squeeze_length: length of the zone that ovalises under the finger pads, m (the
             squeeze-volume model; an estimate: the pads' 3 cm plus the ~1 radius on either
             side over which a thin shell's ovalisation decays).
+        grasp_spread: relative standard deviation of the shell stiffness from one grasp of
+            the same instance to the next (log-normal; :func:`vary_grasp`; measured on the
+            iCub grasps, see the module docstring).
     """
 
     name: str
@@ -106,6 +138,7 @@ class ContainerClass:
     spread: float
     resealable: bool = True
     squeeze_length: float = 0.08
+    grasp_spread: float = 0.0
 
 
 #: The four container classes of Sec. 7.1.3 (Fig. 7.7a). Sizes are those of the products
@@ -117,20 +150,23 @@ CONTAINER_CLASSES = {
     "odwalla": ContainerClass("odwalla", radius=0.036, height=0.17, volume=0.45e-3,
                               k_wall=1800.0, area=1.6e-3, c_shell=2.0e-9, neck_area=4.5e-4,
                               neck_length=0.03, wall_mass=0.01, c_wall=4.0, c_liq=25.0,
-                              mass_empty=0.045, spread=0.08, squeeze_length=0.10),
+                              mass_empty=0.045, spread=0.08, squeeze_length=0.10,
+                              grasp_spread=ICUB_SPREAD_PLASTIC_BOTTLE),
     "naked": ContainerClass("naked", radius=0.030, height=0.18, volume=0.45e-3,
                             k_wall=1300.0, area=1.4e-3, c_shell=3.0e-9, neck_area=4.0e-4,
                             neck_length=0.03, wall_mass=0.008, c_wall=3.0, c_liq=20.0,
-                            mass_empty=0.035, spread=0.15, squeeze_length=0.09),
+                            mass_empty=0.035, spread=0.15, squeeze_length=0.09,
+                            grasp_spread=ICUB_SPREAD_PLASTIC_BOTTLE),
     "can": ContainerClass("can", radius=0.033, height=0.122, volume=0.355e-3,
                           k_wall=3000.0, area=1.2e-3, c_shell=1.2e-9, neck_area=3.0e-4,
                           neck_length=0.005, wall_mass=0.005, c_wall=3.0, c_liq=20.0,
                           mass_empty=0.015, spread=0.10, resealable=False,
-                          squeeze_length=0.09),
+                          squeeze_length=0.09, grasp_spread=ICUB_SPREAD_CAN),
     "water": ContainerClass("water", radius=0.0325, height=0.21, volume=0.5e-3,
                             k_wall=500.0, area=1.8e-3, c_shell=6.0e-9, neck_area=3.5e-4,
                             neck_length=0.03, wall_mass=0.004, c_wall=2.0, c_liq=20.0,
-                            mass_empty=0.02, spread=0.35, squeeze_length=0.10),
+                            mass_empty=0.02, spread=0.35, squeeze_length=0.10,
+                            grasp_spread=ICUB_SPREAD_PLASTIC_BOTTLE),
 }
 
 
@@ -162,6 +198,8 @@ class ContainerInstance:
         neck_area: cross-section of the neck, m^2.
         liquid_resistance: ``R_liq`` of a full container's volume flow, Pa s/m^3 (0 empty).
         c_wall: damping of the empty wall alone, N s/m (``c`` adds the liquid's).
+        grasp_factor: this grasp's factor on the shell stiffness (:func:`vary_grasp`; 1: the
+            instance as drawn), dimensionless.
     """
 
     name: str
@@ -185,6 +223,7 @@ class ContainerInstance:
     neck_area: float = 1.0
     liquid_resistance: float = 0.0
     c_wall: float = 0.0
+    grasp_factor: float = 1.0
 
     def as_dict(self) -> dict:
         return asdict(self)
@@ -249,6 +288,51 @@ def sample_container(name: str, state: str, rng: np.random.Generator, *,
         closed=bool(closed), gas_volume=float(c.volume - v_liq), shell_compliance=c_shell,
         squeeze_length=squeeze_length, neck_area=float(c.neck_area),
         liquid_resistance=float(c_liq / area**2), c_wall=c_wall)
+
+
+def vary_grasp(inst: ContainerInstance, rng: np.random.Generator, *,
+               mode: str = "wall") -> ContainerInstance:
+    """The instance ``inst`` as one grasp meets it, with one factor
+    ``m = exp(N(0, grasp_spread))`` drawn from ``rng`` per grasp (``grasp_spread`` of the
+    instance's class, see the module docstring; recorded in ``grasp_factor``):
+
+    * ``"wall"``: the wall's whole static response scales by ``m``: the shell stiffness
+      (``k_parts["shell"]``, N/m) by ``m`` and the ovalised length ``squeeze_length`` by
+      ``sqrt(m)``, so that the content's force ``dp * dV'`` (both proportional to the length
+      at a given pinch) and the liquid's flow damping scale by ``m`` too (exactly for the head
+      of an open bottle and the flow, to first order in ``dV / V_gas`` for the gas law); the
+      linearised ``k`` and the liquid's share of ``c`` scale with them. The squeeze at a given
+      force then varies by ``1 / m`` in every state, as the measured spread is one of the
+      squeeze (the pads landing on a label, seam or rib, higher or lower, change both how stiff
+      the shell is there and how much volume a pinch displaces);
+    * ``"shell"``: only the shell stiffness scales by ``m`` (the content's coupling stays);
+    * ``"none"``: ``inst`` unchanged, nothing drawn.
+
+    The content (fill, gas volume, liquid) and the labels are untouched. ``inst`` must be as
+    :func:`sample_container` drew it (``grasp_factor`` 1)."""
+    if mode not in GRASP_VARIATIONS:
+        raise ValueError(f"grasp_variation: expected one of {', '.join(GRASP_VARIATIONS)}, "
+                         f"got {mode!r}")
+    if not isinstance(inst, ContainerInstance):
+        raise TypeError(f"vary_grasp: expected a ContainerInstance, got {type(inst).__name__}")
+    if inst.grasp_factor != 1.0:
+        raise ValueError(f"vary_grasp: the instance already carries a grasp factor "
+                         f"({inst.grasp_factor:g}); vary the instance as drawn")
+    if mode == "none":
+        return inst
+    if inst.name not in CONTAINER_CLASSES:
+        raise ValueError(f"vary_grasp: unknown container class {inst.name!r}")
+    sigma = CONTAINER_CLASSES[inst.name].grasp_spread
+    m = float(np.exp(rng.normal(0.0, sigma)))
+    if mode == "shell":
+        shell = inst.k_parts["shell"]
+        parts = dict(inst.k_parts, shell=float(shell * m))
+        return replace(inst, k=float(inst.k + (m - 1.0) * shell), k_parts=parts,
+                       grasp_factor=m)
+    parts = {k: float(v * m) for k, v in inst.k_parts.items()}
+    return replace(inst, k=float(inst.k * m), k_parts=parts,
+                   c=float(inst.c_wall + (inst.c - inst.c_wall) * m),
+                   squeeze_length=float(inst.squeeze_length * np.sqrt(m)), grasp_factor=m)
 
 
 def _positive(name, x):

@@ -173,3 +173,100 @@ def test_grasp_specs_name_the_wall_model_so_old_results_stay_linear():
     assert all("wall_model" not in s.params for s in lin)
     assert not {p.key for p in pres} & {s.key for s in lin}
     assert inspect.signature(container_grasp_trial).parameters["wall_model"].default == "linear"
+
+
+def test_grasp_variation_draws_the_shell_per_grasp_with_the_measured_spread():
+    from mmlearn.models.containers import (CONTAINER_CLASSES, ICUB_SPREAD_CAN,
+                                           ICUB_SPREAD_PLASTIC_BOTTLE, vary_grasp)
+
+    inst = sample_container("odwalla", "full_closed", np.random.default_rng(4))
+    a = vary_grasp(inst, np.random.default_rng([7, 29]), mode="shell")
+    b = vary_grasp(inst, np.random.default_rng([7, 29]), mode="shell")
+    c = vary_grasp(inst, np.random.default_rng([8, 29]), mode="shell")
+    assert a == b and a.grasp_factor != c.grasp_factor       # seeded, one draw per grasp
+    # only the shell changes: k follows it, the content and the labels stay
+    m = a.grasp_factor
+    assert np.isclose(a.k_parts["shell"], m * inst.k_parts["shell"])
+    assert np.isclose(a.k, inst.k + (m - 1) * inst.k_parts["shell"])
+    for key in ("gas", "hydrostatic"):
+        assert a.k_parts[key] == inst.k_parts[key]
+    assert (a.name, a.state, a.gas_volume, a.fill, a.liquid_resistance) == \
+        (inst.name, inst.state, inst.gas_volume, inst.fill, inst.liquid_resistance)
+    assert np.allclose(wall_forces(a, [0.004, 0.005], [0.01, 0.0]),
+                       wall_forces(inst, [0.004, 0.005], [0.01, 0.0]))
+    # the log-normal spread is the class' measured one (plastic bottles / can)
+    rng = np.random.default_rng(5)
+    for name, want in (("odwalla", ICUB_SPREAD_PLASTIC_BOTTLE), ("can", ICUB_SPREAD_CAN)):
+        i0 = sample_container(name, "empty_open", rng)
+        logs = np.log([vary_grasp(i0, rng).grasp_factor for _ in range(3000)])
+        assert CONTAINER_CLASSES[name].grasp_spread == want
+        assert abs(logs.std() - want) < 0.06 * want and abs(logs.mean()) < 0.02
+    # "none": the instance as drawn, nothing drawn from the stream
+    r = np.random.default_rng(9)
+    assert vary_grasp(inst, r, mode="none") is inst
+    assert r.normal() == np.random.default_rng(9).normal()
+
+
+def test_wall_variation_scales_the_whole_static_response():
+    """"wall": one factor m on the shell and, through sqrt(m) on the ovalised length, on the
+    content's force: exactly for an open full bottle's head and the flow, to first order for
+    the gas law; the squeeze at a given force then scales by ~1/m in every state."""
+    from mmlearn.models.containers import vary_grasp
+
+    rng = np.random.default_rng(11)
+    inst = sample_container("odwalla", "full_open", rng)
+    w = vary_grasp(inst, np.random.default_rng([3, 29]))          # the default mode
+    m = w.grasp_factor
+    assert m != 1.0 and np.isclose(w.squeeze_length, inst.squeeze_length * np.sqrt(m))
+    assert np.isclose(w.k, m * inst.k) and np.isclose(w.k_parts["shell"],
+                                                      m * inst.k_parts["shell"])
+    q, v = np.array([0.003, 0.003]), np.array([0.02, 0.02])   # below the spill
+    assert np.allclose(wall_forces(w, q, v), m * wall_forces(inst, q, v), rtol=1e-9)
+    F = np.array([10.0, 20.0])
+    for st in ("full_closed", "empty_closed", "empty_open"):
+        i0 = sample_container("odwalla", st, rng)
+        i1 = vary_grasp(i0, rng)
+        x0, x1 = _static_curve(i0, F), _static_curve(i1, F)
+        assert np.allclose(x1 * i1.grasp_factor, x0, rtol=0.05), st
+
+
+def test_grasp_variation_bad_inputs_are_named():
+    from mmlearn.apps.tactile_state import TactileStateConfig, run_simulation
+    from mmlearn.models.containers import vary_grasp
+
+    inst = sample_container("can", "full_open", np.random.default_rng(6))
+    with pytest.raises(ValueError, match="grasp_variation"):
+        vary_grasp(inst, np.random.default_rng(0), mode="shel")
+    with pytest.raises(ValueError, match="already carries"):
+        vary_grasp(vary_grasp(inst, np.random.default_rng(0)), np.random.default_rng(1))
+    with pytest.raises(TypeError, match="ContainerInstance"):
+        vary_grasp({"name": "can"}, np.random.default_rng(0))
+    with pytest.raises(ValueError, match="grasp_variation"):
+        run_simulation(TactileStateConfig(f_target=20.0, trials=2, grasp_variation="rotate"))
+
+
+def test_grasp_specs_name_the_grasp_variation_and_none_reproduces_the_old_grasp():
+    """Specs with the variation differ from those before it (whose files hold "none" grasps);
+    the trial function's "none" is the grasp of before, value for value, and "wall" changes
+    only the wall's response (same instance, placement and noise)."""
+    from mmlearn.apps.tactile_state import _sim_specs
+    from mmlearn.diagrams.tactile_grasp import container_grasp_trial
+
+    shell = _sim_specs(["odwalla"], 20.0, 2, 5, "pressure", "wall")
+    none = _sim_specs(["odwalla"], 20.0, 2, 5, "pressure", "none")
+    old = _sim_specs(["odwalla"], 20.0, 2, 5, "pressure")
+    assert [s.key for s in none] == [s.key for s in old]
+    assert all(s.params["grasp_variation"] == "wall" for s in shell)
+    assert not {s.key for s in shell} & {s.key for s in none}
+    kw = dict(seed=3, container="odwalla", state="empty_open", wall_model="pressure")
+    before = container_grasp_trial(**kw)
+    off = container_grasp_trial(**kw, grasp_variation="none")
+    on = container_grasp_trial(**kw, grasp_variation="wall")
+    assert off["p"] == before["p"] and off["f"] == before["f"]
+    assert off["instance"] == before["instance"] and off["instance"]["grasp_factor"] == 1.0
+    m = on["instance"]["grasp_factor"]
+    assert m != 1.0 and on["offset"] == off["offset"]
+    assert np.isclose(on["instance"]["k_parts"]["shell"], m * off["instance"]["k_parts"]["shell"])
+    # an open empty bottle is its shell: a stiffer shell squeezes less (and vice versa)
+    sq = {k: r["p"][0] - min(r["p"]) for k, r in (("off", off), ("on", on))}
+    assert (sq["on"] < sq["off"]) == (m > 1.0) and abs(sq["on"] - sq["off"]) > 1e-4
