@@ -1452,19 +1452,21 @@ def _refit_on_own_pixels(planes, labels, Pc, Lmap, min_change_deg, crossing_angl
     """
     if len(planes) < 2:
         return None
+    N0 = np.array([pl.n for pl in planes])
+    cosang = np.abs(N0 @ N0.T)
+    partners = ((cosang < math.cos(math.radians(crossing_angle_deg)))
+                & (cosang > math.cos(math.radians(30.0))))
+    if not partners.any():  # (before the pixels are gathered: nothing to refit)
+        return None
     H, W = labels[0].shape
     step = max(1, int(math.ceil(math.sqrt(H * W / max_points))))
     P = Pc[::step, ::step].reshape(-1, 3).astype(np.float64)
     L = Lmap[::step, ::step].reshape(-1).astype(np.float64)
     own0 = np.array([lab[::step, ::step].reshape(-1) == IN_PLANE for lab in labels])
     ok = np.isfinite(P[:, 2]) & own0.any(axis=0)
-    P, L, own0 = P[ok], L[ok], own0[:, ok]
-    N0 = np.array([pl.n for pl in planes])
-    cosang = np.abs(N0 @ N0.T)
-    partners = ((cosang < math.cos(math.radians(crossing_angle_deg)))
-                & (cosang > math.cos(math.radians(30.0))))
-    if not partners.any():
-        return None
+    # (np.compress: the same rows as boolean indexing, ~5x faster on 2-D arrays)
+    P, L, own0 = (np.compress(ok, P, axis=0), np.compress(ok, L),
+                  np.compress(ok, own0, axis=1))
     cur = list(planes)
     cos10 = math.cos(math.radians(10.0))
     # the distances are needed to the refitted planes and their partners only: those rows of
@@ -1489,7 +1491,7 @@ def _refit_on_own_pixels(planes, labels, Pc, Lmap, min_change_deg, crossing_angl
             sel = own0[k] & (ak <= halfL) & (ak <= near)
             if sel.sum() < 10:
                 continue
-            n, d = _fit_plane_many(P[sel])
+            n, d = _fit_plane_many(np.compress(sel, P, axis=0))
             if n @ planes[k].n < cos10:
                 continue
             pl = cur[k]
