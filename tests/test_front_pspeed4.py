@@ -1,0 +1,98 @@
+"""The front detector's rectified views after branch pspeed4 (the same rectangles, less work):
+a view reads only the image pixels inside :func:`_view_footprint` (z' computed there only
+gives the very same warped image), and :func:`_gap_mask_rectified`'s one packed warp back
+gives the masks of two separate nearest-neighbour warps."""
+
+import math
+
+import cv2
+import numpy as np
+
+import mmlearn.models.front_detection as fd
+from mmlearn.models.front_detection import FrontDetectorConfig, Plane, _view_footprint
+from mmlearn.models.fronts import PinholeIntrinsics
+
+K = PinholeIntrinsics(width=640, height=480, fx=577.3, fy=577.3, cx=319.5, cy=239.5)
+DOWN = np.array([0.0, 1.0, 0.0])  # a level camera: its y axis is down
+
+
+def _views():
+    """Rectified views of vertical planes turned 30-70 deg about the vertical, their regions
+    in different parts of the image."""
+    cfg = FrontDetectorConfig()
+    out = []
+    for ang, bbox in ((50, (0, 20, 10, 70)), (-35, (40, 59, 5, 40)), (70, (0, 25, 0, 40)),
+                      (-60, (0, 30, 0, 79))):
+        a = math.radians(ang)
+        pl = Plane(n=np.array([math.sin(a), 0.0, -math.cos(a)]), d=1.5, support=500, bbox=bbox)
+        v = fd._rectified_view(K, pl, DOWN, cfg, 8, 4)
+        assert v is not None, (ang, bbox)
+        out.append(v)
+    return out
+
+
+def test_view_footprint_holds_every_pixel_the_warp_reads():
+    """Zeroing the image outside the footprint changes no pixel of the bilinear warp, while
+    zeroing it inside does (the box is not the whole image for a part-image region)."""
+    rng = np.random.default_rng(0)
+    img = rng.uniform(0.5, 3.0, (K.height, K.width)).astype(np.float32)
+    smaller = 0
+    for Hm, _, _, Wv, Hv in _views():
+        y0, y1, x0, x1 = _view_footprint(Hm, Wv, Hv, img.shape)
+        assert 0 <= y0 < y1 <= K.height and 0 <= x0 < x1 <= K.width
+        smaller += (y1 - y0) * (x1 - x0) < K.height * K.width
+        crop = np.zeros_like(img)
+        crop[y0:y1, x0:x1] = img[y0:y1, x0:x1]
+        kw = dict(flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=0.0)
+        full = cv2.warpPerspective(img, Hm, (Wv, Hv), **kw)
+        assert np.array_equal(cv2.warpPerspective(crop, Hm, (Wv, Hv), **kw), full)
+        # a one-pixel narrower box (no padding) would lose pixels the warp reads
+        inner = np.zeros_like(img)
+        inner[y0 + 3:y1 - 3, x0 + 3:x1 - 3] = img[y0 + 3:y1 - 3, x0 + 3:x1 - 3]
+        assert not np.array_equal(cv2.warpPerspective(inner, Hm, (Wv, Hv), **kw), full)
+    assert smaller >= 2
+
+
+def test_view_footprint_whole_image_when_a_corner_is_behind_the_camera():
+    # a homography whose inverse sends a view corner behind the camera (w <= 0)
+    Hm = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.01, 0.0, 1.0]])
+    Hi = np.linalg.inv(Hm)
+    assert (Hi @ np.array([100.0, 0.0, 1.0]))[2] <= 0
+    assert _view_footprint(Hm, 300, 200, (480, 640)) == (0, 480, 0, 640)
+
+
+def test_gap_mask_rectified_packed_warp_back_is_two_warps():
+    """The masks come back to the image as two separate nearest-neighbour warps would bring
+    them, on a synthetic depth image of a slanted wall with vertical reveals."""
+    cfg = FrontDetectorConfig()
+    Hm, R, f, Wv, Hv = view = _views()[3]  # the upper half, 60 deg off its normal
+    xs = ((np.arange(K.width, dtype=np.float32) - np.float32(K.cx)) / np.float32(K.fx))[None]
+    ys = ((np.arange(K.height, dtype=np.float32) - np.float32(K.cy)) / np.float32(K.fy))[:, None]
+    a = math.radians(-60)
+    n = np.array([math.sin(a), 0.0, -math.cos(a)])
+    den = n[0] * xs + n[2] + n[1] * ys  # n . ray
+    d = (-1.5 / den).astype(np.float32)
+    # reveals: every 0.3 m along the wall, 5 mm wide bands without return
+    e1 = np.array([math.cos(a), 0.0, math.sin(a)])
+    s = (d * xs * e1[0] + d * e1[2]) % 0.3
+    valid = (d > 0) & (s > 0.005)
+    dzero = np.where(valid, d, np.float32(0.0))
+    res = fd._gap_mask_rectified(dzero, valid, K, xs, ys, view, cfg)
+    assert res is not None
+    wide, thin = res
+    assert thin.any() and (wide >= thin).all()
+    # the same masks from the view's own masks warped back one at a time
+    r3 = R[:, 2].astype(np.float32)
+    zv = ((np.float32(r3[0]) * xs + np.float32(r3[2])) + np.float32(r3[1]) * ys) * dzero
+    kw = dict(flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=0.0)
+    zw = cv2.warpPerspective(zv, Hm, (Wv, Hv), **kw)
+    ww = cv2.warpPerspective(valid.astype(np.float32), Hm, (Wv, Hv), **kw)
+    vw = ww >= 0.5
+    zw = zw / np.maximum(ww, np.float32(1e-6))
+    zw[~vw] = 0.0
+    gw, gt = fd._gap_mask(zw, vw, f, cfg, zw, scale_floor=True, to_image=np.linalg.inv(Hm))
+    back = dict(flags=cv2.WARP_INVERSE_MAP | cv2.INTER_NEAREST,
+                borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+    size = (K.width, K.height)
+    assert np.array_equal(wide, cv2.warpPerspective(gw.view(np.uint8), Hm, size, **back) > 0)
+    assert np.array_equal(thin, cv2.warpPerspective(gt.view(np.uint8), Hm, size, **back) > 0)
