@@ -73,6 +73,18 @@
     without return count image pixels (a grazing plane's view stretches each over s >= 1 view
     pixels: the seam 4-6 image px wide is 9-12 view px wide) and the thresholds grow by
     sqrt(s along the line) (interpolated view pixels are not independent samples).
+    *Offset layers* (issue 12, ``layer_*``, :func:`_offset_layers`): a drawer pulled out by
+    its first 1-4 cm stands that far proud of its cabinet's face, within L or the removal band
+    of the face's plane, so RANSAC took its points with the face and it had no plane of its
+    own (missed in its first opening frames at every distance). On the largest planes, the
+    regions whose pixels lie off the plane within the removal band (the surface check's
+    ``OFF_SURFACE``, ``OCCLUDED`` / ``FREE`` within the band), closed over noise holes,
+    opened by 2/3 of ``layer_min_size`` (thin strips: the countertop's 3 cm edge, 2 cm proud
+    like the drawer) and at least ``layer_min_size`` across, get a least-squares plane of
+    their own when it is parallel to the parent within 10 deg and off it by more than the
+    surface distance. Inside its region (its box grown by half its size) the layer and its
+    parent share pixels by the nearer-plane rule; outside it the layer has no in-plane
+    pixels (its infinite plane, a degree off the face's, crosses it somewhere).
 ``sampling``
     ``starts_per_plane`` random starts per plane: a random in-plane cell as centre, width and
     height drawn uniformly from ``prior_size`` (5.1.1: "sample a random point from the plane
@@ -289,6 +301,14 @@ class FrontDetectorConfig:
         gap_rectify_max_tilt_deg: only planes within this angle of vertical (deg; "down"
             from ``X_WC``) get a rectified view: fronts are vertical, and the floor or a
             countertop seen from above took the views (and 10 ms per frame) from them.
+        layer_planes: offset layers (:func:`_offset_layers`) are looked for on this many
+            largest planes (0 = off): a front standing 5-40 mm proud of its cabinet's face
+            (a drawer pulled out by its first centimetres) lies within L (or the removal
+            band) of the face's plane, so RANSAC gave it no plane of its own.
+        layer_max_layers: at most this many layer planes per frame.
+        layer_min_size: a layer's connected region must span at least this much in both
+            directions, m (a panel's edge face seen obliquely is a strip).
+        layer_min_pixels: ... and cover at least this many pixels, px.
     """
 
     inlier_distance: float = 0.02
@@ -352,6 +372,10 @@ class FrontDetectorConfig:
     gap_rectify_deg: float = 8.0
     gap_rectify_max_scale: float = 1.25
     gap_rectify_max_tilt_deg: float = 20.0
+    layer_planes: int = 3
+    layer_max_layers: int = 4
+    layer_min_size: float = 0.06
+    layer_min_pixels: int = 200
 
     def validate(self) -> None:
         """Raise ``ValueError`` naming the first invalid field."""
@@ -397,6 +421,13 @@ class FrontDetectorConfig:
         if not (self.gap_long_min_windows >= 0 and math.isfinite(self.gap_long_min_windows)):
             raise ValueError("FrontDetectorConfig.gap_long_min_windows must be a finite number "
                              f">= 0, got {self.gap_long_min_windows}")
+        for k in ("layer_planes", "layer_max_layers", "layer_min_pixels"):
+            if int(getattr(self, k)) != getattr(self, k) or getattr(self, k) < 0:
+                raise ValueError(f"FrontDetectorConfig.{k} must be an integer >= 0, got "
+                                 f"{getattr(self, k)}")
+        if not (self.layer_min_size >= 0 and math.isfinite(self.layer_min_size)):
+            raise ValueError("FrontDetectorConfig.layer_min_size must be a finite number >= 0 "
+                             f"(m), got {self.layer_min_size}")
         if self.gap_rectify_planes < 0:
             raise ValueError("FrontDetectorConfig.gap_rectify_planes must be an integer >= 0, "
                              f"got {self.gap_rectify_planes}")
@@ -458,12 +489,17 @@ class FrontDetectorConfig:
 class Plane:
     """A plane found by RANSAC, camera frame: ``n . p + d = 0``, ``n`` unit towards the camera
     (``d > 0``); ``support`` = inliers among the sampled pixels (its largest connected region);
-    ``bbox`` = (row0, row1, col0, col1) of that region on the sample grid."""
+    ``bbox`` = (row0, row1, col0, col1) of that region on the sample grid; ``parent`` = the
+    index of the plane an offset layer was split from (:func:`_offset_layers`), -1 for
+    RANSAC's own planes; ``region`` = (row0, row1, col0, col1), image pixels: where an offset
+    layer and its parent share pixels by the nearer-plane rule (None: everywhere)."""
 
     n: np.ndarray
     d: float
     support: int
     bbox: tuple = (0, 0, 0, 0)
+    parent: int = -1
+    region: tuple | None = None
 
 
 # ------------------------------------------------------------------------------------------
@@ -1309,14 +1345,19 @@ def _rectified_view(K: PinholeIntrinsics, pl: Plane, down_C, cfg, stride: int, o
 
 
 def _label_images(d, valid, ray_x, ray_y, planes, L, crossing_angle_deg,
-                  smooth_px=5, surface=None, gap=None) -> list[np.ndarray]:
+                  smooth_px=5, surface=None, gap=None, keep_distances=False):
     """Eq. 5.2 labels of every pixel for every plane n . p + dpl = 0. The signed distance of
     the pixel's point p = depth * (ray_x, ray_y, 1) is depth * (n . ray) + dpl (separable in
     rows and columns). A pixel within L of two planes that cross at more than
     ``crossing_angle_deg`` and nearer to the one with the larger support is free for the
     other: in that strip the surface seen is the larger plane's (e.g. the cabinet's face next
     to the hinge of an open door, which would otherwise widen the door by L / sin(angle)).
-    Otherwise pixels belong to every plane they are within L of (5.1.1)."""
+    An offset layer and the plane it was split from (``Plane.parent``, :func:`_offset_layers`)
+    share their pixels the same way, whatever their angle; a pixel the other plane keeps is
+    OCCLUDED for a plane it lies in front of and FREE for one it lies behind.
+    Otherwise pixels belong to every plane they are within L of (5.1.1).
+    Returns the label images (a list, one uint8 image per plane), and with
+    ``keep_distances`` also the (planes, H, W) float32 signed distances."""
     P = len(planes)
     S = np.empty((P,) + d.shape, np.float32)
     L = np.broadcast_to(np.asarray(L, np.float32), d.shape).copy() if np.ndim(L) == 0 else L
@@ -1336,6 +1377,13 @@ def _label_images(d, valid, ray_x, ray_y, planes, L, crossing_angle_deg,
         np.bitwise_and(occl, np.uint8(OCCLUDED), out=occl)
         lab |= occl
         lab |= unknown                                   # 3 | anything = UNKNOWN
+        if pl.parent >= 0 and pl.region is not None:
+            # an offset layer is its region's surface only: elsewhere its infinite plane,
+            # a degree off its parent's, runs through the parent's fronts
+            r0, r1, c0, c1 = pl.region
+            keep = lab[r0:r1, c0:c1].copy()
+            lab[lab == IN_PLANE] = FREE
+            lab[r0:r1, c0:c1] = keep
         labs.append(lab)
     _crossings(labs, S, planes, valid, crossing_angle_deg, smooth_px)
     if surface is not None:  # after the crossings: their strips would bias the means
@@ -1348,7 +1396,7 @@ def _label_images(d, valid, ray_x, ray_y, planes, L, crossing_angle_deg,
                 flat = lab.reshape(-1)
                 sub = flat[gi]
                 flat[gi] = np.where(sub == OCCLUDED, sub, np.uint8(GAP))
-    return labs
+    return (labs, S) if keep_distances else labs
 
 
 _CROSSING_MIN_SHARE = 0.1
@@ -1384,6 +1432,14 @@ def _crossings(labs, S, planes, valid, crossing_angle_deg, smooth_px):
     # cut a FREE line through a closed drawer at 2.2 m, which the greedy moves then did not
     # cross; issue 12, branch pband2)
     crossing &= sup[None, :] >= _CROSSING_MIN_SHARE * sup[:, None]
+    # an offset layer and its parent plane: each keeps the pixels nearer to it, whatever
+    # their angle and supports (a drawer pulled out 16 mm is parallel to the cabinet's face,
+    # within L of it, and has a twentieth of its support)
+    layer = np.zeros((P, P), bool)
+    for j, pl in enumerate(planes):
+        if 0 <= pl.parent < P:
+            layer[pl.parent, j] = layer[j, pl.parent] = True
+    crossing |= layer
     if not crossing.any():
         return
     # Which plane is nearer is decided on the two planes' signed distances, each summed over
@@ -1398,6 +1454,7 @@ def _crossings(labs, S, planes, valid, crossing_angle_deg, smooth_px):
     ys, xs = np.divmod(shared, W)
     r = smooth_px // 2
     take = np.zeros(near_sh.shape, bool)  # [k, i]: shared pixel i is nearer another plane
+    take_layer = np.zeros(near_sh.shape, bool) if layer.any() else None
     for k in range(P):
         for j in range(k + 1, P):
             if not (crossing[k, j] or crossing[j, k]):
@@ -1416,6 +1473,11 @@ def _crossings(labs, S, planes, valid, crossing_angle_deg, smooth_px):
                                       normalize=False)[by, bx])
             aj = np.abs(cv2.boxFilter(S[j][y0:y1, x0:x1] * w, -1, (smooth_px, smooth_px),
                                       normalize=False)[by, bx])
+            if layer[k, j]:  # (a layer pair: both directions, sign-dependent labels)
+                # (only in the layer's region: outside it the layer has no in-plane pixels)
+                take_layer[k, both] |= aj < ak
+                take_layer[j, both] |= ak < aj
+                continue
             if crossing[k, j]:
                 take[k, both] |= aj < ak
             if crossing[j, k]:
@@ -1424,6 +1486,12 @@ def _crossings(labs, S, planes, valid, crossing_angle_deg, smooth_px):
         if take[k].any():
             flat = labs[k].reshape(-1)
             flat[shared[take[k]]] = FREE                # in-plane -> FREE
+        if take_layer is not None and take_layer[k].any():
+            # the other layer keeps them: in front of plane k (s > 0) they hide it
+            # (OCCLUDED), behind it the camera sees through it (FREE)
+            px = shared[take_layer[k] & ~take[k]]
+            flat = labs[k].reshape(-1)
+            flat[px] = np.where(S[k].reshape(-1)[px] > 0, np.uint8(OCCLUDED), np.uint8(FREE))
 
 
 def _refit_on_own_pixels(planes, labels, Pc, Lmap, min_change_deg, crossing_angle_deg,
@@ -1502,6 +1570,126 @@ def _refit_on_own_pixels(planes, labels, Pc, Lmap, min_change_deg, crossing_angl
     cmin, cmax = (math.cos(math.radians(a)) for a in (min_change_deg, max_change_deg))
     keep = [b if cmax <= float(a.n @ b.n) < cmin else a for a, b in zip(planes, cur)]
     return None if all(a is b for a, b in zip(planes, keep)) else keep
+
+
+_SQUARE5 = np.ones((5, 5), np.uint8)
+
+
+def _offset_layers(planes, labels, S, Pc, Lmap, Lband, Lm, K, cfg, st, off):
+    """Planes for the *offset layers* of the ``cfg.layer_planes`` largest planes: connected
+    regions of a plane's region that lie a few mm to a few cm in front of (or behind) it,
+    parallel to it. Returns the new planes (``parent`` = the plane they were split from;
+    none when nothing qualifies).
+
+    Why: a drawer pulled out by its first 5-40 mm stands that far proud of its cabinet's
+    face, within L (2 cm; the removal band: 3.3 cm at 1.8 m, 4.1 cm at 2.3 m) of the face's
+    plane. RANSAC counted its points to the face and took them out of the pool, so it got no
+    plane of its own; on the face's plane the surface check (window means beyond the
+    surface distance) or Eq. 5.2 (beyond L) labelled it OFF_SURFACE / OCCLUDED, and the
+    drawer was missed in its first 2-4 opening frames at every distance (issue 12; seeds
+    6000-6009: 0.005 / 0.016 / 0.027 m missed in all runs at 1.8 m). Here those pixels (the
+    surface check's OFF_SURFACE, and OCCLUDED / FREE pixels within the removal band) form
+    candidate regions on the plane's region; a region spanning at least ``layer_min_size`` in
+    both directions (a panel's edge face seen obliquely is a strip), of at least
+    ``layer_min_pixels`` pixels, whose least-squares plane (refitted on the pixels within
+    L / 2 of it, at least half of them) is within 10 deg of the parent's normal and whose
+    centroid lies farther from the parent than the surface distance, becomes a plane. The
+    pair then shares its pixels by the nearer-plane rule (:func:`_crossings`), so the face
+    does not reach into the drawer's rectangle nor the drawer into the face's."""
+    new: list[Plane] = []
+    if cfg.layer_planes <= 0 or cfg.layer_max_layers <= 0 or not planes:
+        return new
+    H, W = labels[0].shape
+    cos10, cos5 = math.cos(math.radians(10.0)), math.cos(math.radians(5.0))
+    order = sorted(range(len(planes)), key=lambda i: -planes[i].support)
+    for k in order[:int(cfg.layer_planes)]:
+        pl = planes[k]
+        if pl.parent >= 0:
+            continue
+        r0, r1, c0, c1 = pl.bbox
+        R0, R1 = max(0, off + st * r0 - st), min(H, off + st * r1 + st)
+        C0, C1 = max(0, off + st * c0 - st), min(W, off + st * c1 + st)
+        if R1 - R0 < 3 or C1 - C0 < 3:
+            continue
+        lab = labels[k][R0:R1, C0:C1]
+        band = cv2.compare(np.abs(S[k][R0:R1, C0:C1]), Lband[R0:R1, C0:C1], cv2.CMP_LE)
+        cand = cv2.compare(lab, OCCLUDED, cv2.CMP_EQ)
+        cand |= cv2.compare(lab, FREE, cv2.CMP_EQ)
+        cand &= band
+        cand |= cv2.compare(lab, OFF_SURFACE, cv2.CMP_EQ)
+        # opened by a square of 2/3 layer_min_size (at the region's median depth): thin
+        # strips joined the drawer to its neighbours (the countertop's edge, 3 cm tall and
+        # 2 cm proud of the fronts like the drawer, above it; the drawer's top face seen
+        # from above), and their least-squares plane was tilted 4-6 deg
+        if cv2.countNonZero(cand) < cfg.layer_min_pixels:
+            continue
+        # (the plane's depth on the ray through the crop's centre pixel)
+        ray = np.array([((C0 + C1) / 2 - K.cx) / K.fx, ((R0 + R1) / 2 - K.cy) / K.fy, 1.0])
+        den = float(pl.n @ ray)
+        zc = -pl.d / den if den < -1e-6 else math.nan
+        if not (zc > 0 and math.isfinite(zc)):
+            continue
+        # (an odd side: OpenCV dilates with the kernel unreflected, so an even square's
+        # opening is shifted by a pixel and not a subset)
+        ko = max(1, int(round(1.0 / 3.0 * cfg.layer_min_size * K.fx / zc))) * 2 + 1
+        # closed first (5 x 5): the pixels whose noise carries them out of the band are
+        # single holes, and one hole in the opening's square takes its centre away
+        cand = cv2.morphologyEx(cand, cv2.MORPH_CLOSE, _SQUARE5)
+        # (but not across a reveal or a pixel without a measurement)
+        cand &= cv2.compare(lab, UNKNOWN, cv2.CMP_NE)
+        cand &= cv2.compare(lab, GAP, cv2.CMP_NE)
+        cand = cv2.morphologyEx(cand, cv2.MORPH_OPEN, np.ones((ko, ko), np.uint8))
+        if cv2.countNonZero(cand) < cfg.layer_min_pixels:
+            continue
+        # (the components on the candidates' bounding box only)
+        bx, by, bw, bh = cv2.boundingRect(cand)
+        R0, C0 = R0 + by, C0 + bx
+        cand = cand[by:by + bh, bx:bx + bw]
+        ncomp, cl, stats, _ = cv2.connectedComponentsWithStats(cand, connectivity=8)
+        big = [i for i in range(1, ncomp) if stats[i, cv2.CC_STAT_AREA] >= cfg.layer_min_pixels]
+        big.sort(key=lambda i: -stats[i, cv2.CC_STAT_AREA])
+        for i in big:
+            x, y, w, h = (int(v) for v in stats[i, :4])
+            sub = cl[y:y + h, x:x + w] == i
+            P = Pc[R0 + y:R0 + y + h, C0 + x:C0 + x + w][sub].astype(np.float64)
+            Lp = Lmap[R0 + y:R0 + y + h, C0 + x:C0 + x + w][sub].astype(np.float64)
+            if len(P) < 3:
+                continue
+            z = float(np.median(P[:, 2]))
+            if min(w * z / K.fx, h * z / K.fy) < cfg.layer_min_size:
+                continue
+            n, d = _fit_plane_many(P)
+            if abs(n @ pl.n) < cos10:
+                continue
+            sel = np.abs(P @ n + d) <= 0.5 * Lp
+            if 2 * np.count_nonzero(sel) < len(P):
+                continue
+            n, d = _fit_plane_many(np.compress(sel, P, axis=0))
+            if n @ pl.n < cos10:
+                continue
+            cen = np.ones(np.count_nonzero(sel)) @ np.compress(sel, P, axis=0) / np.count_nonzero(sel)
+            thr = max(cfg.surface_distance, cfg.surface_distance_per_m2 * z * z)
+            if abs(cen @ pl.n + pl.d) < thr:
+                continue
+            # a copy of a plane RANSAC did find (the same surface): nothing new
+            if any(abs(q.n @ n) > cos5 and abs(q.n @ cen + q.d) < thr
+                   for q in list(planes) + new):
+                continue
+            rows = (np.array([R0 + y, R0 + y + h - 1]) - off) / st
+            cols = (np.array([C0 + x, C0 + x + w - 1]) - off) / st
+            # the layer's region (its only in-plane pixels): its box grown by half its size
+            # on every side (room for the sides the opening trimmed, a door's hinge side
+            # nearer the face than the threshold, and the recall's margin)
+            gy, gx = (h + 1) // 2, (w + 1) // 2
+            region = (max(0, R0 + y - gy), min(H, R0 + y + h + gy),
+                      max(0, C0 + x - gx), min(W, C0 + x + w + gx))
+            new.append(Plane(n=n, d=d, support=max(1, int(np.count_nonzero(sel)) // (st * st)),
+                             bbox=(max(0, int(math.floor(rows[0]))), int(math.ceil(rows[1])) + 1,
+                                   max(0, int(math.floor(cols[0]))), int(math.ceil(cols[1])) + 1),
+                             parent=k, region=region))
+            if len(new) >= cfg.layer_max_layers:
+                return new
+    return new
 
 
 def _make_grid(k, plane: Plane, lab_img, sample_pts, K, down_C, cfg, lut) -> _Grid | None:
@@ -2378,15 +2566,26 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
             if rect is not None:  # (in place: _gap_mask's own fresh arrays)
                 gap |= rect[0]
                 gap_thin |= rect[1]
-    labels = _label_images(dzero, valid, xs, ys, planes, Limg, cfg.crossing_angle_deg,
-                           int(cfg.crossing_smooth_px), surface, gap)
+    layers_on = cfg.layer_planes > 0 and cfg.layer_max_layers > 0 and surface is not None
+    labels, S = _label_images(dzero, valid, xs, ys, planes, Limg, cfg.crossing_angle_deg,
+                              int(cfg.crossing_smooth_px), surface, gap, keep_distances=True)
     if cfg.own_pixel_refit_deg > 0:  # planes tilted by a neighbour they cross at a shallow angle
         moved = _refit_on_own_pixels(planes, labels, Pc, Limg, cfg.own_pixel_refit_deg,
                                      cfg.crossing_angle_deg)
         if moved is not None:
             planes = moved
+            labels, S = _label_images(dzero, valid, xs, ys, planes, Limg,
+                                      cfg.crossing_angle_deg, int(cfg.crossing_smooth_px),
+                                      surface, gap, keep_distances=True)
+    if layers_on:  # fronts standing a few cm proud of a larger plane (_offset_layers)
+        Lband = _depth_bound(dzero, 0.0, (cfg.removal_factor - 1.0) * cfg.inlier_distance_per_m2)
+        Lband += Limg
+        layers = _offset_layers(planes, labels, S, Pc, Limg, Lband, surface[0], K, cfg, st, off)
+        if layers:
+            planes = planes + layers
             labels = _label_images(dzero, valid, xs, ys, planes, Limg, cfg.crossing_angle_deg,
                                    int(cfg.crossing_smooth_px), surface, gap)
+    del S
     for k, (pl, lab) in enumerate(zip(planes, labels)):
         g = _make_grid(k, pl, lab, sample_pts, K, down_C, cfg, lut)
         lab_imgs.append(lab)
