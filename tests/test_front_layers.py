@@ -133,3 +133,16 @@ def test_flush_surfaces_and_thin_strips_are_no_layers():
 def test_layer_config_errors(key, value):
     with pytest.raises(ValueError, match=key):
         dataclasses.replace(FrontDetectorConfig(), **{key: value}).validate()
+
+
+def test_a_plane_seen_edge_on_gives_no_huge_opening():
+    """A parent plane nearly through the camera's centre (seen edge-on: its own depth on a ray
+    is anything) took the opening's size from that depth, 6.5 TiB of kernel (a door at 0.8 m,
+    seed 7000); the size now comes from the measured depth and is capped."""
+    z, K, _, _ = _synthetic(0.0)
+    # the plane x = 0.5 z through the camera's centre: it cuts the wall along column 300,
+    # and the ray through its region's centre (column 160) meets it at z = 2e-7 m
+    n = np.array([1.0, 0.0, -0.5]) / np.sqrt(1.25)
+    edge_on = Plane(n=n, d=1e-7, support=1000, bbox=(0, 30, 0, 40))
+    layers, _ = _layers_of(z, K, edge_on)
+    assert layers == []
