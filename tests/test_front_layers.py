@@ -169,3 +169,33 @@ def test_the_polish_cannot_reject_an_accepted_rectangle(monkeypatch):
     monkeypatch.setattr(fd, "_polish_rotations", shrink)
     cut, _ = fd.detect_fronts(z, K, X_WC, rng=0)
     assert any(abs(r.width - 0.4) < 0.03 and abs(r.height - 0.13) < 0.03 for r in cut)
+
+
+def _tilted(plane_tilt_deg):
+    """A flat frontal wall 1.5 m away (1 mm noise) and a plane through its centre tilted by
+    ``plane_tilt_deg`` about the horizontal axis: a plane fitted across two surfaces, off the
+    wall by up to ~2 cm at its top and bottom."""
+    z, K, _, _ = _synthetic(0.0)
+    a = np.radians(plane_tilt_deg)
+    n = np.array([0.0, np.sin(a), -np.cos(a)])
+    return z, K, Plane(n=n, d=1.5 * np.cos(a), support=1000, bbox=(0, 30, 0, 40))
+
+
+def test_a_ramp_under_a_misfitted_plane_is_no_layer(monkeypatch):
+    """The parent plane tilted 2 deg against the surface: its lower part lies a few mm to
+    2 cm in front of the plane, like a pulled-out front, but the parent's own pixels around
+    it continue the "layer" (a ramp, not a step): no layer (an operate-scene door and the
+    rail behind it were split like this, operate_trials left_door seed 3). Without the ring
+    test the ramp is taken for a layer."""
+    import mmlearn.models.front_detection as fd
+    z, K, parent = _tilted(2.0)
+    assert _layers_of(z, K, parent)[0] == []
+    monkeypatch.setattr(fd, "_LAYER_MAX_RING", 1.0)
+    assert len(_layers_of(z, K, parent)[0]) >= 1
+
+
+def test_a_recess_is_no_layer():
+    """Only fronts standing proud of the plane (towards the camera) are layers: a panel 2 cm
+    behind the wall (a rail behind a door) is not."""
+    z, K, wall, _ = _synthetic(-0.02)
+    assert _layers_of(z, K, wall)[0] == []
