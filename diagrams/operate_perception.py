@@ -76,10 +76,14 @@ class LookConfig:
         detector: the FrontDetector's parameters (default: its defaults with the inlier
             distance L = 0.015 m and 12 starts per plane: a drawer's front stands only
             0.024 m off the carcass face around it, and with L = 0.02 m that face's plane
-            swallowed the drawer's front in some frames).
+            swallowed the drawer's front in some frames). Offset layers are off
+            (``layer_planes=0``): they serve fronts seen while they open; here the robot
+            looks at the closed front, and on this overlay drawer front (2.4 cm proud of
+            its carcass, split by its handle) they made two partial layers, and the
+            handle came out 5 cm off (tests/test_operate_perception.py).
         retry_detector: when no frame found the front, the robot looks ``frames`` more
             frames with this detector configuration (default: L = 0.01 m, the original
-            detector's; None = no second look).
+            detector's, layers off as above; None = no second look).
         handle: choosing the front and deriving the handle.
     """
 
@@ -92,9 +96,10 @@ class LookConfig:
     noise: DepthNoiseConfig = field(default_factory=DepthNoiseConfig)
     detector: FrontDetectorConfig = field(
         default_factory=lambda: FrontDetectorConfig(inlier_distance=0.015,
-                                                    starts_per_plane=12))
+                                                    starts_per_plane=12, layer_planes=0))
     retry_detector: FrontDetectorConfig | None = field(
-        default_factory=lambda: FrontDetectorConfig(inlier_distance=0.01, starts_per_plane=12))
+        default_factory=lambda: FrontDetectorConfig(inlier_distance=0.01, starts_per_plane=12,
+                                                    layer_planes=0))
     handle: HandleFromFrontConfig = field(default_factory=HandleFromFrontConfig)
 
     def validate(self) -> None:
