@@ -77,12 +77,13 @@
     its first 1-4 cm stands that far proud of its cabinet's face, within L or the removal band
     of the face's plane, so RANSAC took its points with the face and it had no plane of its
     own (missed in its first opening frames at every distance). On the largest planes, the
-    regions whose pixels lie off the plane within the removal band (the surface check's
-    ``OFF_SURFACE``, ``OCCLUDED`` / ``FREE`` within the band), closed over noise holes,
-    opened by 2/3 of ``layer_min_size`` (thin strips: the countertop's 3 cm edge, 2 cm proud
-    like the drawer) and at least ``layer_min_size`` across, get a least-squares plane of
-    their own when it is parallel to the parent within 10 deg and off it by more than the
-    surface distance. Inside its region (its box grown by half its size) the layer and its
+    regions whose pixels lie in front of the plane within the removal band (the surface
+    check's ``OFF_SURFACE`` and ``OCCLUDED``), closed over noise holes, opened by 2/3 of
+    ``layer_min_size`` (thin strips: the countertop's 3 cm edge, 2 cm proud like the drawer)
+    and at least ``layer_min_size`` across, get a plane of their own (started parallel to the
+    parent, refitted) when it stays within 10 deg of the parent, lies in front of it by more
+    than the surface distance and is a step, not a ramp (the parent's own pixels around it
+    off its plane). Inside its region (its box grown by half its size) the layer and its
     parent share pixels by the nearer-plane rule; outside it the layer has no in-plane
     pixels (its infinite plane, a degree off the face's, crosses it somewhere).
 ``sampling``
@@ -1576,11 +1577,11 @@ _SQUARE5 = np.ones((5, 5), np.uint8)
 _LAYER_MAX_RING = 0.35
 
 
-def _offset_layers(planes, labels, S, Pc, Lmap, Lband, Lm, K, cfg, st, off):
+def _offset_layers(planes, labels, S, Pc, Lmap, Lband, K, cfg, st, off):
     """Planes for the *offset layers* of the ``cfg.layer_planes`` largest planes: connected
-    regions of a plane's region that lie a few mm to a few cm in front of (or behind) it,
-    parallel to it. Returns the new planes (``parent`` = the plane they were split from;
-    none when nothing qualifies).
+    regions of a plane's region that lie a few mm to a few cm in front of it, parallel to it.
+    Returns the new planes (``parent`` = the plane they were split from; none when nothing
+    qualifies).
 
     Why: a drawer pulled out by its first 5-40 mm stands that far proud of its cabinet's
     face, within L (2 cm; the removal band: 3.3 cm at 1.8 m, 4.1 cm at 2.3 m) of the face's
@@ -1588,15 +1589,17 @@ def _offset_layers(planes, labels, S, Pc, Lmap, Lband, Lm, K, cfg, st, off):
     plane of its own; on the face's plane the surface check (window means beyond the
     surface distance) or Eq. 5.2 (beyond L) labelled it OFF_SURFACE / OCCLUDED, and the
     drawer was missed in its first 2-4 opening frames at every distance (issue 12; seeds
-    6000-6009: 0.005 / 0.016 / 0.027 m missed in all runs at 1.8 m). Here those pixels (the
-    surface check's OFF_SURFACE, and OCCLUDED / FREE pixels within the removal band) form
+    6000-6009: 0.005 / 0.016 / 0.027 m missed in all runs at 1.8 m). Here those pixels (in
+    front of the plane within the removal band ``Lband``, OFF_SURFACE or OCCLUDED) form
     candidate regions on the plane's region; a region spanning at least ``layer_min_size`` in
     both directions (a panel's edge face seen obliquely is a strip), of at least
-    ``layer_min_pixels`` pixels, whose least-squares plane (refitted on the pixels within
-    L / 2 of it, at least half of them) is within 10 deg of the parent's normal and whose
-    centroid lies farther from the parent than the surface distance, becomes a plane. The
-    pair then shares its pixels by the nearer-plane rule (:func:`_crossings`), so the face
-    does not reach into the drawer's rectangle nor the drawer into the face's."""
+    ``layer_min_pixels`` pixels, whose plane (started parallel to the parent, refitted three
+    times on the pixels within L / 2 of it, at least 40 % of them) stays within 10 deg of
+    the parent's normal, whose centroid lies in front of the parent by more than the surface
+    distance, that is no other plane's front already and is a step rather than a ramp,
+    becomes a plane. The pair then shares its pixels by the nearer-plane rule
+    (:func:`_crossings`), so the face does not reach into the drawer's rectangle nor the
+    drawer into the face's."""
     new: list[Plane] = []
     if cfg.layer_planes <= 0 or cfg.layer_max_layers <= 0 or not planes:
         return new
@@ -1623,14 +1626,13 @@ def _offset_layers(planes, labels, S, Pc, Lmap, Lband, Lm, K, cfg, st, off):
         off_or_occ = cv2.compare(lab, OCCLUDED, cv2.CMP_EQ)
         off_or_occ |= cv2.compare(lab, OFF_SURFACE, cv2.CMP_EQ)
         cand &= off_or_occ
-        # opened by a square of 2/3 layer_min_size (at the region's median depth): thin
-        # strips joined the drawer to its neighbours (the countertop's edge, 3 cm tall and
-        # 2 cm proud of the fronts like the drawer, above it; the drawer's top face seen
-        # from above), and their least-squares plane was tilted 4-6 deg
         if cv2.countNonZero(cand) < cfg.layer_min_pixels:
             continue
-        # (the median depth of the crop's sampled pixels: a plane's own depth on a ray can
-        # be anything for a plane seen edge-on)
+        # opened by a square of 2/3 layer_min_size at the region's median depth (of the
+        # crop's sampled pixels: a plane's own depth on a ray can be anything for a plane
+        # seen edge-on): thin strips joined the drawer to its neighbours (the countertop's
+        # edge, 3 cm tall and 2 cm proud of the fronts like the drawer, above it; the
+        # drawer's top face seen from above), and their least-squares plane was tilted 4-6 deg
         zs = Pc[R0 + off:R1:st, C0 + off:C1:st, 2].reshape(-1)
         zs = zs[np.isfinite(zs)]
         if len(zs) == 0:
@@ -1683,7 +1685,8 @@ def _offset_layers(planes, labels, S, Pc, Lmap, Lband, Lm, K, cfg, st, off):
                     break
             if not ok:
                 continue
-            cen = np.ones(np.count_nonzero(sel)) @ np.compress(sel, P, axis=0) / np.count_nonzero(sel)
+            Psel = np.compress(sel, P, axis=0)
+            cen = np.ones(len(Psel)) @ Psel / len(Psel)
             thr = max(cfg.surface_distance, cfg.surface_distance_per_m2 * z * z)
             if cen @ pl.n + pl.d < thr:
                 continue
@@ -1710,17 +1713,18 @@ def _offset_layers(planes, labels, S, Pc, Lmap, Lband, Lm, K, cfg, st, off):
             # layer's plane (at most _LAYER_MAX_RING of them within the surface distance;
             # measured on development frames: 0-0.25 for drawers pulled out 1.6-4 cm and
             # doors turned 5 deg, whose hinge side meets the face; 0.45-0.95 for ramps and
-            # for a door turned 85 deg against its compartment's wall). (Where the parent is a plane fitted across a door and the rail
-            # 1-2 cm behind it, the door's lower part lies 5-13 mm in front of it and fits a
-            # "layer" that is the door's own plane, which the door's upper part, in-plane for
-            # the parent, continues: the pair then split the door in two.)
+            # for a door turned 85 deg against its compartment's wall). Where the parent is a
+            # plane fitted across a door and the rail 1-2 cm behind it, the door's lower part
+            # lies 5-13 mm in front of it and fits a "layer" that is the door's own plane,
+            # which the door's upper part, in-plane for the parent, continues: the pair then
+            # split the door in two.
             r0_, r1_, c0_, c1_ = region
             ring = labels[k][r0_:r1_, c0_:c1_] == IN_PLANE
             ring[R0 + y - r0_:R0 + y + h - r0_, C0 + x - c0_:C0 + x + w - c0_] &= ~sub
             Q = Pc[r0_:r1_, c0_:c1_][ring]
             if len(Q) and np.count_nonzero(np.abs(Q @ n + d) <= thr) > _LAYER_MAX_RING * len(Q):
                 continue
-            new.append(Plane(n=n, d=d, support=max(1, int(np.count_nonzero(sel)) // (st * st)),
+            new.append(Plane(n=n, d=d, support=max(1, len(Psel) // (st * st)),
                              bbox=(max(0, int(math.floor(rows[0]))), int(math.ceil(rows[1])) + 1,
                                    max(0, int(math.floor(cols[0]))), int(math.ceil(cols[1])) + 1),
                              parent=k, region=region))
@@ -2617,7 +2621,7 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
     if layers_on:  # fronts standing a few cm proud of a larger plane (_offset_layers)
         Lband = _depth_bound(dzero, 0.0, (cfg.removal_factor - 1.0) * cfg.inlier_distance_per_m2)
         Lband += Limg
-        layers = _offset_layers(planes, labels, S, Pc, Limg, Lband, surface[0], K, cfg, st, off)
+        layers = _offset_layers(planes, labels, S, Pc, Limg, Lband, K, cfg, st, off)
         if layers:
             planes = planes + layers
             labels = _label_images(dzero, valid, xs, ys, planes, Limg, cfg.crossing_angle_deg,

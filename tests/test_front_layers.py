@@ -84,7 +84,7 @@ def _layers_of(z, K, wall, cfg=None):
     labels, S = _label_images(z, valid, xs, ys, [wall], L, cfg.crossing_angle_deg, 5,
                               (Lm, 5), None, keep_distances=True)
     Pc = np.stack([xs * z, ys * z, z], axis=-1).astype(np.float32)
-    return _offset_layers([wall], labels, S, Pc, L, Lband, Lm, K, cfg, 8, 4), (xs, ys, L, Lm)
+    return _offset_layers([wall], labels, S, Pc, L, Lband, K, cfg, 8, 4), (xs, ys, L, Lm)
 
 
 @pytest.mark.parametrize("proud", [0.012, 0.02, 0.027])
