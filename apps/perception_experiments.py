@@ -64,15 +64,19 @@ PREDICTION_N = 30
 
 
 def trial(*, seed: int, experiment: str, object: str, distance: float, angle: float = 0.0,
-          frames: int = 60, temporal_filter: bool = True, shared=None) -> dict:
+          frames: int = 60, temporal_filter: bool = True, camera_rate_hz: float = 0.0,
+          shared=None) -> dict:
     """One run of :func:`mmlearn.apps.track_fronts.run`; returns its scores without the
     per-frame list (plus the per-frame found / eligible flags and errors, compact).
-    ``temporal_filter``: the DepthTemporalFilter between camera and detector (track_fronts)."""
+    ``temporal_filter``: the DepthTemporalFilter between camera and detector (track_fronts);
+    ``camera_rate_hz``: the camera's frame rate with it (0 = one frame per detector period,
+    the default of specs written before the 30 Hz camera)."""
     from mmlearn.apps.track_fronts import TrackFrontsConfig, run as track
 
     r = track(config=TrackFrontsConfig(object=object, distance=float(distance),
                                        angle_deg=float(angle), frames=int(frames),
-                                       seed=int(seed), temporal_filter=bool(temporal_filter)),
+                                       seed=int(seed), temporal_filter=bool(temporal_filter),
+                                       camera_rate_hz=float(camera_rate_hz)),
               show_progress=False)
     pf = r.pop("per_frame")
     r["frame_found"] = [bool(f["found"]) for f in pf]
@@ -88,7 +92,7 @@ def trial(*, seed: int, experiment: str, object: str, distance: float, angle: fl
 
 def trial_specs(*, only=EXPERIMENTS, quick: bool = False, seed: int = 1000, seeds: int = 10,
                 frames: int = 60, objects=OBJECTS, distances=None, angles=None,
-                temporal_filter: bool = True) -> list:
+                temporal_filter: bool = True, camera_rate_hz: float = 30.0) -> list:
     """One spec per (experiment, object, distance or angle, seed); ``distances`` (m) and
     ``angles`` (deg, at 1.5 m) replace the default grids when given."""
     from mmlearn.apps._sweep import TrialSpec
@@ -112,7 +116,8 @@ def trial_specs(*, only=EXPERIMENTS, quick: bool = False, seed: int = 1000, seed
                         label=f"{exp} {obj} {d:.1f} m {a:+.0f} deg seed {seed + j}",
                         params={"experiment": exp, "object": obj, "distance": float(d),
                                 "angle": float(a), "frames": int(frames),
-                                **({} if temporal_filter else {"temporal_filter": False})}))
+                                **({"camera_rate_hz": float(camera_rate_hz)} if temporal_filter
+                                   else {"temporal_filter": False})}))
     return specs
 
 
@@ -455,7 +460,8 @@ def run(*, only=EXPERIMENTS, quick: bool = False, seed: int = 1000, seeds: int =
         frames: int = 60, objects=OBJECTS, distances=None, angles=None, out: str | None = None,
         progress: bool = True, echo=None,
         results: str | None = None, executor: str = "local", jobs: int | None = None,
-        ray_address: str | None = None, temporal_filter: bool = True) -> dict:
+        ray_address: str | None = None, temporal_filter: bool = True,
+        camera_rate_hz: float = 30.0) -> dict:
     """Run the experiments through the sweep runner; returns the report's results (plus
     "plots" written to ``out`` and "sweep")."""
     from mmlearn.apps._sweep import run_sweep
@@ -481,7 +487,7 @@ def run(*, only=EXPERIMENTS, quick: bool = False, seed: int = 1000, seeds: int =
                              f"{hi if hi is not None else 'inf'}), got {vals!r}")
     specs = trial_specs(only=only, quick=quick, seed=seed, seeds=seeds, frames=frames,
                         objects=objects, distances=distances, angles=angles,
-                        temporal_filter=temporal_filter)
+                        temporal_filter=temporal_filter, camera_rate_hz=camera_rate_hz)
     sweep = run_sweep(specs, results=results, executor=executor, jobs=jobs,
                       ray_address=ray_address, show_progress=progress,
                       desc="perception trials")
@@ -513,6 +519,9 @@ def main(argv=None) -> int:
     ap.add_argument("--no-temporal-filter", action="store_true",
                     help="no DepthTemporalFilter between camera and detector (each frame "
                          "on its own, as before issue 12's branch pband2)")
+    ap.add_argument("--camera-rate", type=float, default=30.0,
+                    help="camera frames per second with the temporal filter, Hz (default 30; "
+                         "0 = one frame per detector period, as before)")
     ap.add_argument("--distances", type=float_list, default=None,
                     help="comma-separated camera distances of the distance experiment, m "
                          "(default 0.8,1.3,1.8,2.3,2.8)")
@@ -534,6 +543,9 @@ def main(argv=None) -> int:
                              "choose from " + ", ".join(EXPERIMENTS))
         if a.frames < 5:
             raise UsageError(f"--frames must be >= 5, got {a.frames}")
+        if not (np.isfinite(a.camera_rate) and a.camera_rate >= 0):
+            raise UsageError(f"--camera-rate must be a finite number >= 0 Hz, got "
+                             f"{a.camera_rate}")
         if a.distances is not None and min(a.distances) <= 0.2:
             raise UsageError(f"--distances must all be > 0.2 m, got {a.distances}")
         if a.angles is not None and max(abs(x) for x in a.angles) >= 80:
@@ -562,7 +574,8 @@ def main(argv=None) -> int:
             res = run(only=only, quick=a.quick, seed=a.seed, seeds=a.seeds, frames=a.frames,
                       objects=a.objects, distances=a.distances, angles=a.angles,
                       out=a.out_dir, progress=not a.no_progress, echo=echo,
-                      temporal_filter=not a.no_temporal_filter, **sweep)
+                      temporal_filter=not a.no_temporal_filter,
+                      camera_rate_hz=a.camera_rate, **sweep)
         except (UsageError, ValueError, OSError) as e:
             return fail(ap.prog, str(e))
     if a.json:

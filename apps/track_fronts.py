@@ -52,7 +52,10 @@ Scoring (printed, and in ``--json``):
   ``cpu_ms_per_frame``: median CPU time of this thread while the detector's output is
   computed (the rendered noisy image and the temporal filter are evaluated before; None with
   Meshcat, whose drawing evaluates the detector first): what one core spends, less sensitive
-  to a loaded machine; ``filter_cpu_ms_per_frame``: the same for the DepthTemporalFilter.
+  to a loaded machine; ``filter_cpu_ms_per_frame``: the same for the DepthTemporalFilter;
+* ``camera_rate_hz``: the camera's frame rate; ``filter_frames_averaged``: per detector frame,
+  the median over the image's pixels of the camera frames in the filter's mean
+  (1 / noise_scale^2; None without the filter).
 
 Meshcat (``--meshcat`` live, ``--html-out`` recording): the scene, the noisy point cloud, the
 detected rectangles of the current frame (grey), each track's latest rectangle and centre path
@@ -115,6 +118,11 @@ class TrackFrontsConfig:
             stands still, :mod:`mmlearn.models.depth_filter`) between the camera and the
             detector, at the camera's frame rate (one filter update per frame).
         filter: its parameters (``depth_std_at_1m`` is set from the scene's noise model).
+        camera_rate_hz: the camera's frame rate with the temporal filter, Hz (default 30, a
+            structured-light camera's; the detector and tracker run at their own period,
+            ``frames`` over the opening, and see the filter's mean of the frames up to then;
+            0 = one camera frame per detector period, as before). Without the filter the
+            camera runs at the detector's period (nothing reads the frames between).
         refit_every: the tracker refits a track's model every this many observations.
         html_out: write the Meshcat recording here ("" = no).
         meshcat: show it live.
@@ -136,6 +144,7 @@ class TrackFrontsConfig:
     detector: FrontDetectorConfig = field(default_factory=FrontDetectorConfig)
     temporal_filter: bool = True
     filter: DepthFilterConfig = field(default_factory=DepthFilterConfig)
+    camera_rate_hz: float = 30.0
     refit_every: int = 5
     html_out: str = ""
     meshcat: bool = False
@@ -145,10 +154,14 @@ class TrackFrontsConfig:
             raise ValueError(f"object must be one of {', '.join(EXPECTED_MODEL)}, got "
                              f"{self.object!r}")
         for k in ("distance", "angle_deg", "match_pos_m", "match_angle_deg",
-                  "max_incidence_deg", "min_displacement_m", "open_displacement_m"):
+                  "max_incidence_deg", "min_displacement_m", "open_displacement_m",
+                  "camera_rate_hz"):
             v = getattr(self, k)
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
                 raise ValueError(f"{k} must be a finite number, got {v!r}")
+        if self.camera_rate_hz < 0:
+            raise ValueError(f"camera_rate_hz must be >= 0 (Hz; 0 = one frame per detector "
+                             f"period), got {self.camera_rate_hz}")
         if not self.distance > 0.2:
             raise ValueError(f"distance must be > 0.2 m, got {self.distance}")
         if not (self.match_pos_m > 0 and self.match_angle_deg > 0):
@@ -267,6 +280,9 @@ def run(*, config: TrackFrontsConfig, meshcat=None, show_progress: bool = True) 
     duration = sc.motion.duration()
     period = duration / (cfg.frames - 1)
     sc.camera.rate_hz = 1.0 / period  # one noise frame index per camera frame
+    if cfg.temporal_filter and sc.add_noise and cfg.camera_rate_hz > 0:
+        sc.camera.rate_hz = float(cfg.camera_rate_hz)  # the filter folds in every frame
+        sc.point_cloud_rate_hz = 1.0 / period  # the cloud drawn with each detection
     sc.validate()
     cfg.detector.validate()
     if meshcat is None and (cfg.meshcat or cfg.html_out):
@@ -293,7 +309,7 @@ def run(*, config: TrackFrontsConfig, meshcat=None, show_progress: bool = True) 
                               if isinstance(s, MeshcatVisualizer)), None)
             vis = builder.AddNamedSystem("front_visualizer", FrontTrackVisualizer(
                 meshcat=meshcat, period=period,
-                recording=None if scene_vis is None else scene_vis.get_mutable_recording()))
+                recording=None if scene_vis is None else scene_vis.get_mutable_recording))
             builder.Connect(det.get_rectangles_output_port(), vis.get_rectangles_input_port())
             builder.Connect(trk.get_tracks_output_port(), vis.get_tracks_input_port())
             builder.Connect(trk.get_models_output_port(), vis.get_models_input_port())
@@ -312,7 +328,7 @@ def run(*, config: TrackFrontsConfig, meshcat=None, show_progress: bool = True) 
     sim.Initialize()
     w_true, h_true = P.kinematics.width, P.kinematics.height
     frames, truth_by_time = [], {}
-    timings, cpu, filt_cpu = [], [], []
+    timings, cpu, filt_cpu, averaged = [], [], [], []
     filt = (d.GetSubsystemByName("depth_temporal_filter")
             if d.HasSubsystemNamed("depth_temporal_filter") else None)
     filt_ctx = filt.GetMyContextFromRoot(ctx) if filt is not None else None
@@ -324,8 +340,10 @@ def run(*, config: TrackFrontsConfig, meshcat=None, show_progress: bool = True) 
         d.GetOutputPort("depth_image").Eval(ctx)  # render + noise first: not timed below
         if filt is not None:  # the temporal filter: timed on its own
             c0 = time.thread_time()
-            filt.get_noise_scale_output_port().Eval(filt_ctx)
+            scale = np.asarray(filt.get_noise_scale_output_port().Eval(filt_ctx).data)
             filt_cpu.append(time.thread_time() - c0)
+            s_ok = scale[np.isfinite(scale) & (scale > 0)]
+            averaged.append(float(np.median(1.0 / s_ok ** 2)) if s_ok.size else 1.0)
         c0 = time.thread_time()
         rects = det.get_rectangles_output_port().Eval(det_ctx)
         cpu.append(time.thread_time() - c0)
@@ -446,6 +464,8 @@ def run(*, config: TrackFrontsConfig, meshcat=None, show_progress: bool = True) 
                              else 1e3 * float(np.median(cpu))),
         "filter_cpu_ms_per_frame": (None if meshcat is not None or not filt_cpu
                                     else 1e3 * float(np.median(filt_cpu))),
+        "camera_rate_hz": float(sc.camera.rate_hz),
+        "filter_frames_averaged": averaged or None,
         "stage_ms": {s: med(i) for i, s in enumerate(STAGES)},
         "frames_not_processed": int(len(T) - len(ok_rows)),
         "wall_s": wall,
@@ -505,6 +525,9 @@ def main(argv=None) -> int:
     ap.add_argument("--no-temporal-filter", action="store_true",
                     help="no DepthTemporalFilter between camera and detector (each frame on "
                          "its own)")
+    ap.add_argument("--camera-rate", type=_finite_float, default=30.0,
+                    help="camera frames per second with the temporal filter, Hz (default 30; "
+                         "0 = one frame per detector period)")
     ap.add_argument("--selection-step", type=pos_int, default=1,
                     help="model_right_from: evaluate every this many prefix lengths")
     ap.add_argument("--meshcat", action="store_true", help="show it live in Meshcat")
@@ -518,6 +541,8 @@ def main(argv=None) -> int:
             raise UsageError(f"--distance must be > 0.2 m, got {args.distance}")
         if abs(args.angle) > 80:
             raise UsageError(f"--angle must be within +-80 deg, got {args.angle}")
+        if args.camera_rate < 0:
+            raise UsageError(f"--camera-rate must be >= 0 Hz, got {args.camera_rate}")
         check_in_file("--config", args.config)
         check_out_file("--html-out", args.html_out)
     except UsageError as e:
@@ -531,7 +556,7 @@ def main(argv=None) -> int:
                             frames=args.frames, seed=args.seed,
                             selection_step=args.selection_step, scene=scene,
                             temporal_filter=not args.no_temporal_filter,
-                            html_out=str(args.html_out or ""), meshcat=args.meshcat)
+                            camera_rate_hz=args.camera_rate, html_out=str(args.html_out or ""), meshcat=args.meshcat)
     try:
         result = run(config=cfg, show_progress=not args.json)
     except ValueError as e:

@@ -210,6 +210,8 @@ class FrontPerceptionConfig:
         point_cloud: with Meshcat, also show the noisy point cloud.
         point_cloud_stride: show every n-th measured point (>= 1; 1 = all, ~300k points per
             frame, heavy in a recording).
+        point_cloud_rate_hz: clouds drawn per second, Hz (0 = one per camera frame; a 30 Hz
+            camera's clouds would fill a recording, so the apps draw at the detector's rate).
     """
 
     front: str = "drawer"
@@ -220,8 +222,14 @@ class FrontPerceptionConfig:
     add_noise: bool = True
     point_cloud: bool = True
     point_cloud_stride: int = 3
+    point_cloud_rate_hz: float = 0.0
 
     def validate(self) -> None:
+        r = self.point_cloud_rate_hz
+        if isinstance(r, bool) or not isinstance(r, (int, float)) or not math.isfinite(r) \
+                or r < 0:
+            raise ValueError(f"FrontPerceptionConfig.point_cloud_rate_hz must be a finite "
+                             f"number >= 0 (Hz; 0 = the camera's rate), got {r!r}")
         stride = self.point_cloud_stride
         if isinstance(stride, bool) or not isinstance(stride, int) or stride < 1:
             raise ValueError(f"FrontPerceptionConfig.point_cloud_stride must be an integer >= 1, "
@@ -467,7 +475,7 @@ def AddFrontPerception(builder: DiagramBuilder, config: FrontPerceptionConfig | 
             builder.Connect(sensor.body_pose_in_world_output_port(),
                             to_cloud.camera_pose_input_port())
             cloud_vis = builder.AddNamedSystem("cloud_visualizer", MeshcatPointCloudVisualizer(
-                meshcat, "depth_cloud", 1.0 / cam.rate_hz))
+                meshcat, "depth_cloud", 1.0 / (cfg.point_cloud_rate_hz or cam.rate_hz)))
             finite = builder.AddNamedSystem("finite_cloud",
                                             FinitePointCloud(stride=cfg.point_cloud_stride))
             builder.Connect(to_cloud.point_cloud_output_port(), finite.get_cloud_input_port())

@@ -41,7 +41,10 @@ class FrontTrackVisualizer(LeafSystem):
     publish; no state (what is drawn is a function of the inputs and the time). Unconnected
     inputs draw nothing; a drawing error never stops the simulation.
 
-    With ``recording`` (the scene's ``MeshcatVisualizer.get_mutable_recording()``), every
+    With ``recording`` (the scene's recording getter, ``MeshcatVisualizer.
+    get_mutable_recording`` - the bound method, called at each publish: a reference taken
+    before ``StartRecording`` can dangle, seen as a crash in a 30 Hz camera run - or a
+    ``MeshcatAnimation`` the caller keeps alive), every
     publish draws into its own group ``<prefix>/frames/<k>`` (k = floor(time / period))
     instead of replacing one drawing, and keys the group's ``visible`` property into the
     animation: hidden from its start, shown at its time, hidden again at the next group's
@@ -61,15 +64,17 @@ class FrontTrackVisualizer(LeafSystem):
                  recording=None):
         """Args: meshcat: the Meshcat instance; period: publish period, s; prefix: Meshcat
         path of the drawings; recording: None or a ``MeshcatAnimation`` (anything with
-        ``frame(time)`` and ``SetProperty(frame, path, property, bool)``) to key each
-        frame's drawing into (see the class docstring)."""
+        ``frame(time)`` and ``SetProperty(frame, path, property, bool)``), or a callable
+        without arguments returning one at each publish, to key each frame's drawing into
+        (see the class docstring)."""
         super().__init__()
         if not period > 0:
             raise ValueError(f"period must be > 0 s, got {period}")
-        if recording is not None and not (hasattr(recording, "frame")
-                                           and hasattr(recording, "SetProperty")):
-            raise ValueError("recording must be a MeshcatAnimation (frame(), SetProperty()), "
-                             f"got {type(recording).__name__}")
+        if recording is not None and not callable(recording) and not (
+                hasattr(recording, "frame") and hasattr(recording, "SetProperty")):
+            raise ValueError("recording must be a MeshcatAnimation (frame(), SetProperty()) "
+                             "or a callable returning one, got "
+                             f"{type(recording).__name__}")
         self._meshcat, self._prefix = meshcat, str(prefix)
         self._period, self._recording = float(period), recording
         self._rects = self.DeclareAbstractInputPort("rectangles", AbstractValue.Make(list()))
@@ -116,6 +121,8 @@ class FrontTrackVisualizer(LeafSystem):
 
     def _draw_recorded(self, t, rectangles, tracks, models) -> None:
         mc, anim = self._meshcat, self._recording
+        if not (hasattr(anim, "frame") and hasattr(anim, "SetProperty")):
+            anim = anim()  # the getter: the recording as it is now
         k = int(math.floor(t / self._period + 1e-6))
         group = f"{self._prefix}/frames/{k}"
         prev = f"{self._prefix}/frames/{k - 1}"

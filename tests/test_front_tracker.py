@@ -345,5 +345,15 @@ def test_visualizer_records_each_frame_at_its_time():
     c = lone.CreateDefaultContext()
     c.SetTime(3 * PERIOD)
     lone.ForcedPublish(c)
+    # ... and so does a getter, called at each publish (the scene visualizer's bound
+    # get_mutable_recording: a reference taken before StartRecording can dangle)
+    calls = []
+    got = FrontTrackVisualizer(meshcat=meshcat, period=PERIOD, prefix="front_rec3",
+                               recording=lambda: calls.append(1) or anim)
+    c = got.CreateDefaultContext()
+    c.SetTime(2 * PERIOD)
+    got.ForcedPublish(c)
+    assert calls == [1] and anim.keys[("front_rec3/frames/2", "visible")][anim.frame(
+        2 * PERIOD)] is True
     with pytest.raises(ValueError, match="MeshcatAnimation"):
         FrontTrackVisualizer(meshcat=meshcat, recording=object())

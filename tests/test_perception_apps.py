@@ -89,6 +89,11 @@ def test_track_fronts_short_drawer_run(capsys):
     assert r["moving_track"]["matched_observations"] >= 5
     assert 3 <= r["model_right_from"] <= r["moving_track"]["observations"]
     assert r["ms_per_frame"] > 0 and r["cpu_ms_per_frame"] > 0
+    # the camera runs at 30 Hz, the detector at its period (13 s / 7 here): the filter's mean
+    # holds one frame at t = 0 and its 16-frame cap (the static background) later
+    assert r["camera_rate_hz"] == 30.0
+    fa = r["filter_frames_averaged"]
+    assert len(fa) == 8 and fa[0] == pytest.approx(1.0) and min(fa[1:]) > 8
 
 
 def test_track_fronts_cli_errors(tmp_path, capsys):
@@ -96,6 +101,7 @@ def test_track_fronts_cli_errors(tmp_path, capsys):
 
     _bad(main, ["--object", "window"], capsys, "window")
     _bad(main, ["--frames", "1"], capsys, "--frames")
+    _bad(main, ["--camera-rate=-5"], capsys, "--camera-rate")
     _bad(main, ["--frames", "0"], capsys, "--frames")
     _bad(main, ["--distance", "nan"], capsys, "--distance")
     _bad(main, ["--distance", "0.1"], capsys, "--distance")
@@ -183,6 +189,13 @@ def test_perception_experiments_distances_and_angles(capsys):
     assert len(specs) == 8
     default = {s.params["distance"] for s in trial_specs(only=["distance"], seeds=1)}
     assert default == set(DISTANCES)
+    # the camera's rate is part of a spec (a results file of 1-per-period runs is not resumed
+    # as 30 Hz runs); without the filter it has none
+    assert {s.params["camera_rate_hz"] for s in specs} == {30.0}
+    assert all("camera_rate_hz" not in s.params
+               for s in trial_specs(only=["distance"], seeds=1, temporal_filter=False))
+    _bad(main, ["--camera-rate=-1"], capsys, "--camera-rate")
+    _bad(main, ["--camera-rate", "nan"], capsys, "--camera-rate")
     _bad(main, ["--distances", "0.1,1.0"], capsys, "--distances")
     _bad(main, ["--distances", "1.0,far"], capsys, "--distances")
     _bad(main, ["--distances", "nan"], capsys, "--distances")
