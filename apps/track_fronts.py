@@ -2,12 +2,15 @@
 (thesis ch. 5: FrontDetector -> FrontTracker -> link model), scored against the ground truth.
 
     python -m mmlearn.apps.track_fronts --object drawer --distance 1.5 --frames 40 --seed 3 \\
-        [--angle DEG] [--meshcat] [--html-out F] [--json]
+        [--angle DEG] [--camera-rate HZ] [--no-temporal-filter] [--meshcat] [--html-out F] [--json]
 
 The kitchen scene of :mod:`mmlearn.diagrams.perception` (RgbdSensor + DepthNoise) with a
 :class:`~mmlearn.systems.FrontDetector` and a :class:`~mmlearn.systems.FrontTracker` added;
-the moving front opens in the scene's stepped profile and ``--frames`` camera frames are taken
-evenly over it (the first closed, the last fully open).
+the moving front opens in the scene's stepped profile and ``--frames`` detector frames are
+taken evenly over it (the first closed, the last fully open). The camera and the
+DepthTemporalFilter run at ``--camera-rate`` (30 Hz, a structured-light camera's rate; 0 = one
+camera frame per detector frame): each detector frame sees the filter's mean of the camera
+frames up to its time.
 
 Scoring (printed, and in ``--json``):
 

@@ -91,7 +91,7 @@ _SCRIPT = textwrap.dedent("""
     import sys
     from mmlearn.apps._sweep import TrialSpec, run_sweep
     specs = [TrialSpec(fn="mmlearn.apps._sweep:probe_trial", seed=i,
-                       params={"sleep_s": 0.4}, label=f"probe {i}") for i in range(12)]
+                       params={"sleep_s": 1.0}, label=f"probe {i}") for i in range(12)]
     if __name__ == "__main__":
         res = run_sweep(specs, results=sys.argv[1], jobs=2, show_progress=False,
                         executor=sys.argv[2])
