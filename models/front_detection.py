@@ -197,7 +197,8 @@ class FrontDetectorConfig:
         ransac_hypotheses: plane hypotheses per extracted plane (scored all at once).
         ransac_local_radius_px: the 2nd and 3rd point of a hypothesis lie within this many
             pixels of the first (a box in rows and columns), px.
-        max_planes: at most this many planes per frame.
+        max_planes: at most this many planes per frame (kept planes: rounds that only clear
+            fragments or copies from the pool do not count; at most 2 x max_planes rounds).
         removal_factor: sampled points within L + (removal_factor - 1) x
             inlier_distance_per_m2 x z^2 of an extracted plane (connected to it) leave the
             pool of points later planes are drawn from: the noise tails of a far plane,
@@ -608,7 +609,12 @@ def find_planes(pts: np.ndarray, grid_rc: np.ndarray, grid_shape, cfg: FrontDete
     N = int(cfg.ransac_hypotheses)
     P32 = pts.astype(np.float32)
     Lp32 = Lp.astype(np.float32)
-    for _ in range(int(cfg.max_planes)):
+    # max_planes counts the planes kept; rounds that only clear the pool (a copy of an earlier
+    # plane, a region below min_plane_points) do not take a kept plane's turn, up to
+    # 2 x max_planes rounds in all
+    for _ in range(2 * int(cfg.max_planes)):
+        if len(planes) >= int(cfg.max_planes):
+            break
         idx = np.flatnonzero(active)
         if len(idx) < max(3, cfg.min_plane_points):
             break
