@@ -2,7 +2,8 @@
 (thesis ch. 5: FrontDetector -> FrontTracker -> link model), scored against the ground truth.
 
     python -m mmlearn.apps.track_fronts --object drawer --distance 1.5 --frames 40 --seed 3 \\
-        [--angle DEG] [--camera-rate HZ] [--no-temporal-filter] [--meshcat] [--html-out F] [--json]
+        [--angle DEG] [--camera-rate HZ] [--no-temporal-filter] [--meshcat] [--html-out F] \\
+        [--json]
 
 The kitchen scene of :mod:`mmlearn.diagrams.perception` (RgbdSensor + DepthNoise) with a
 :class:`~mmlearn.systems.FrontDetector` and a :class:`~mmlearn.systems.FrontTracker` added;
@@ -559,7 +560,8 @@ def main(argv=None) -> int:
                             frames=args.frames, seed=args.seed,
                             selection_step=args.selection_step, scene=scene,
                             temporal_filter=not args.no_temporal_filter,
-                            camera_rate_hz=args.camera_rate, html_out=str(args.html_out or ""), meshcat=args.meshcat)
+                            camera_rate_hz=args.camera_rate,
+                            html_out=str(args.html_out or ""), meshcat=args.meshcat)
     try:
         result = run(config=cfg, show_progress=not args.json)
     except ValueError as e:
