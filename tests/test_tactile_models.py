@@ -425,3 +425,35 @@ def test_liquid_feature_separates_sloshing_from_rigid_and_classifies():
         RollRecord(np.full((10, 4), np.nan))
     with pytest.raises(TactileDataError, match="weight"):
         liquid_features([RollRecord(np.ones((10, 4)))], with_weight=True)
+
+
+def test_own_k_medoids_covers_dense_groups_not_outliers(easy_world):
+    """The numpy k-medoids (the default without the kmedoids package): 4 dense groups of 30
+    points and 6 far single points, k = 4 -> one medoid inside each group (average linkage
+    spends clusters on the outliers: fewer groups covered); the total distance is never
+    above the build's; deterministic; bad input named; "auto" uses it without kmedoids."""
+    from scipy.spatial.distance import cdist
+
+    from mmlearn.models.tactile_recognition import k_medoids
+
+    rng = np.random.default_rng(0)
+    centres = np.array([[0, 0], [10, 0], [0, 10], [10, 10]], float)
+    ang = np.arange(6) * np.pi / 3  # single points 60 apart from each other and the groups
+    X = np.vstack([c + rng.normal(0, 1.0, (30, 2)) for c in centres]
+                  + [5.0 + 60.0 * np.column_stack([np.cos(ang), np.sin(ang)])])
+    group = np.r_[np.repeat(np.arange(4), 30), np.full(6, -1)]
+    D = cdist(X, X)
+    med = k_medoids(D, 4)
+    assert sorted(group[med]) == [0, 1, 2, 3]
+    assert np.array_equal(med, k_medoids(D, 4))
+    from mmlearn.models.tactile_recognition import TactileRecognizer as TR
+    agg, _ = TR._cluster(D, 4, 0, "agglomerative")
+    assert len(set(group[agg]) - {-1}) < 4  # the outliers took clusters
+    for bad, k in ((D[:5], 2), (np.full((3, 3), np.nan), 2), (D, 0), (D, len(D) + 1)):
+        with pytest.raises(ValueError, match="k_medoids"):
+            k_medoids(bad, k)
+    _, train, _, _ = easy_world
+    if not kmedoids_available():
+        rec = TactileRecognizer(TactileRecognitionConfig(k=12)).fit(train)
+        assert rec.clustering_used == "medoids" and len(rec.centres) == 12
+        assert len(set(rec.centres.labels.tolist())) >= 4
