@@ -79,7 +79,8 @@ from scipy.spatial.distance import cdist
 from .tactile_types import TactileDataError, TactileObservation, check_series
 
 __all__ = ["d1", "shift_rows", "d2", "pairwise_d2", "k_medoids", "TactileSet",
-           "TactileRecognitionConfig", "TactileRecognizer", "entropy", "posterior", "CLUSTERINGS", "kmedoids_available"]
+           "TactileRecognitionConfig", "TactileRecognizer", "entropy", "posterior", "CLUSTERINGS",
+           "kmedoids_available"]
 
 CLUSTERINGS = ("auto", "kmedoids", "medoids", "agglomerative")
 
@@ -296,7 +297,7 @@ def k_medoids(D: np.ndarray, k: int, *, max_iter: int = 100) -> np.ndarray:
             if len(idx):
                 new[c] = idx[np.argmin(D[np.ix_(idx, idx)].sum(axis=1))]
         new_cost = D[:, new].min(axis=1).sum()
-        if np.array_equal(new, med) or new_cost >= cost:
+        if new_cost >= cost:  # (also when nothing moved)
             break
         med, cost = new, new_cost
     return np.sort(med)

@@ -70,12 +70,16 @@ class FrontTrackVisualizer(LeafSystem):
         super().__init__()
         if not period > 0:
             raise ValueError(f"period must be > 0 s, got {period}")
-        if recording is not None and not callable(recording) and not (
-                hasattr(recording, "frame") and hasattr(recording, "SetProperty")):
+        if recording is not None and hasattr(recording, "frame") \
+                and hasattr(recording, "SetProperty"):
+            anim = recording
+            recording = lambda: anim  # noqa: E731 - one getter for both forms
+        elif recording is not None and not callable(recording):
             raise ValueError("recording must be a MeshcatAnimation (frame(), SetProperty()) "
                              "or a callable returning one, got "
                              f"{type(recording).__name__}")
         self._meshcat, self._prefix = meshcat, str(prefix)
+        # None, or the getter of the animation (called at each publish)
         self._period, self._recording = float(period), recording
         self._rects = self.DeclareAbstractInputPort("rectangles", AbstractValue.Make(list()))
         self._tracks = self.DeclareAbstractInputPort("tracks", AbstractValue.Make(tuple()))
@@ -120,9 +124,7 @@ class FrontTrackVisualizer(LeafSystem):
         return f"{self._prefix}/frames/{int(math.floor(time / self._period + 1e-6))}"
 
     def _draw_recorded(self, t, rectangles, tracks, models) -> None:
-        mc, anim = self._meshcat, self._recording
-        if not (hasattr(anim, "frame") and hasattr(anim, "SetProperty")):
-            anim = anim()  # the getter: the recording as it is now
+        mc, anim = self._meshcat, self._recording()  # the recording as it is now
         k = int(math.floor(t / self._period + 1e-6))
         group = f"{self._prefix}/frames/{k}"
         prev = f"{self._prefix}/frames/{k - 1}"
