@@ -6,17 +6,20 @@ cross-validation.
 Usage::
 
     OPENBLAS_NUM_THREADS=1 python benchmarks/bench_tactile_state_seeds.py RESULTS.jsonl:S [...]
-        [--fold-seeds 10] [--trials 10] [--f-target 20] [--sweep-trials 0]
+        [--fold-seeds 10] [--trials 16] [--f-target 20] [--sweep-trials 24]
         [--classifiers forest,tree,boost] [--wall-model pressure|linear]
         [--grasp-variation wall|shell|none] [--json]
 
 ``RESULTS.jsonl:S``: the grasps file of ``python -m mmlearn.apps.tactile_state --f-target 20
---trials 10 --seed S --results RESULTS.jsonl [--f-sweep --sweep-trials N]`` (nothing is
-simulated here). For every file and classifier it prints the container rate of the app (fold
+--trials N --seed S --results RESULTS.jsonl [--f-sweep --sweep-trials M]`` (nothing is
+simulated here; ``--trials`` / ``--sweep-trials`` must be the app's, default 16 / 24 as
+there; a file without the sweep simply has no sweep figures). For every file and classifier it prints the container rate of the app (fold
 seed S) and its mean / sd / range over fold seeds 0..N-1, the state rate given each container
 (fold seed S), and with ``--sweep-trials N`` the Odwalla state rate at 17 / 20 / 23 N (Table
 7.2); then the first classifier's container confusion summed over files and fold seeds, and over all
-files the mean and sd of each figure (the spread between grasp sets).
+files the mean and sd of each figure (the spread between grasp sets) and, with the sweep in two
+or more files, the rise of the Odwalla rate from the lowest to the highest force paired by grasp
+set (mean, sd, the sets in which it rose, and a one-sided paired t-test).
 """
 
 from __future__ import annotations
@@ -36,10 +39,12 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("results", nargs="+", help="RESULTS.jsonl:SEED")
     ap.add_argument("--fold-seeds", type=int, default=10)
-    ap.add_argument("--trials", type=int, default=10)
+    ap.add_argument("--trials", type=int, default=16,
+                    help="grasps per container and state of the app's run (its default 16)")
     ap.add_argument("--f-target", type=float, default=20.0)
-    ap.add_argument("--sweep-trials", type=int, default=0,
-                    help="grasps per Odwalla state and force of the app's --f-sweep (0: none)")
+    ap.add_argument("--sweep-trials", type=int, default=24,
+                    help="grasps per Odwalla state and force of the app's --f-sweep (its default "
+                         "24; 0: ignore the sweep)")
     ap.add_argument("--classifiers", default=",".join(CLASSIFIERS))
     ap.add_argument("--wall-model", choices=("pressure", "linear"), default="pressure",
                     help="the app's --wall-model the files were simulated with (files written "
@@ -122,12 +127,28 @@ def main(argv=None) -> int:
              "f_sweep_mean": {k: float(np.mean([r["f_sweep"][k] for r in rr
                                                 if k in r["f_sweep"]]))
                               for k in rr[0]["f_sweep"]}}
+        lo, hi = f"{SWEEP_FORCES[0]:g}", f"{SWEEP_FORCES[-1]:g}"
+        pairs = np.array([(r["f_sweep"][lo], r["f_sweep"][hi]) for r in rr
+                          if lo in r["f_sweep"] and hi in r["f_sweep"]])
+        if len(pairs) >= 2:
+            from scipy.stats import ttest_rel
+
+            d = pairs[:, 1] - pairs[:, 0]
+            p = float(ttest_rel(pairs[:, 1], pairs[:, 0], alternative="greater").pvalue)
+            s["f_sweep_rise"] = {"mean": float(d.mean()), "sd": float(d.std(ddof=1)),
+                                 "rose": int(np.sum(d > 0)), "fell": int(np.sum(d < 0)),
+                                 "sets": len(d), "p_one_sided": p}
         summary[clf] = s
         print(f"{clf}: over {len(a)} grasp sets: container {s['container_rate_mean']:.3f} sd "
               f"{sd:.3f} (fold-averaged {m.mean():.3f}); state | " + ", ".join(
                   f"{k} {v:.3f}" for k, v in s["state_rate_mean"].items())
               + ("; Odwalla at " + " / ".join(s["f_sweep_mean"]) + " N: " + " / ".join(
                   f"{v:.3f}" for v in s["f_sweep_mean"].values()) if s["f_sweep_mean"] else ""))
+        if "f_sweep_rise" in s:
+            r = s["f_sweep_rise"]
+            print(f"{clf}: Odwalla rate {lo} -> {hi} N paired by grasp set: rise {r['mean']:+.3f} "
+                  f"sd {r['sd']:.3f}, rose in {r['rose']} / fell in {r['fell']} of {r['sets']} "
+                  f"sets, one-sided paired t-test p = {r['p_one_sided']:.2g}")
     if args.json:
         print(json.dumps({"rows": rows, "summary": summary}, indent=1))
     return 0
