@@ -36,6 +36,23 @@ def bad_usage(main, argv, capsys, *needles):
     assert "Traceback" not in err
     return line
 
+def perception_frame_at(P, q_target, *, depth_port, t_end, dt=0.02):
+    """The first frame of a ``MakeFrontPerceptionDiagram`` ``P`` at which its front's stepped
+    opening reaches ``q_target`` (m or rad; stepping time by ``dt`` up to ``t_end`` s):
+    (depth image from ``depth_port`` as an (H, W) array, X_WC, the true front pose X_WR, q)."""
+    import numpy as np
+
+    ctx = P.diagram.CreateDefaultContext()
+    for t in np.arange(0.0, t_end, dt):
+        ctx.SetTime(float(t))
+        q = float(P.diagram.GetOutputPort("front_joint").Eval(ctx)[0])
+        if q >= q_target:
+            break
+    depth = np.array(P.diagram.GetOutputPort(depth_port).Eval(ctx).data)[..., 0].copy()
+    return (depth, P.diagram.GetOutputPort("X_WC").Eval(ctx).GetAsMatrix4(),
+            P.diagram.GetOutputPort("X_WR").Eval(ctx).GetAsMatrix4(), q)
+
+
 # Property-based tests (tests/test_properties.py): one profile for CI and the default run,
 # >= 1,000 generated inputs per property, no deadline (the first call imports pydrake),
 # derandomized so a failure reproduces. HYPOTHESIS_PROFILE=dev gives 100 random inputs.

@@ -8,6 +8,7 @@ import math
 
 import numpy as np
 import pytest
+from conftest import perception_frame_at
 
 from mmlearn.apps.track_fronts import match_front
 from mmlearn.diagrams.perception import FrontPerceptionConfig, MakeFrontPerceptionDiagram
@@ -25,15 +26,7 @@ def door_08():
 def _frame_at(P, q_target):
     """Noise-free depth, X_WC, the true door pose and q at the first time the stepped profile
     reaches ``q_target`` (rad)."""
-    ctx = P.diagram.CreateDefaultContext()
-    for t in np.arange(0.0, 6.0, 0.02):
-        ctx.SetTime(float(t))
-        q = float(P.diagram.GetOutputPort("front_joint").Eval(ctx)[0])
-        if q >= q_target:
-            break
-    depth = np.array(P.diagram.GetOutputPort("clean_depth").Eval(ctx).data)[..., 0].copy()
-    return (depth, P.diagram.GetOutputPort("X_WC").Eval(ctx).GetAsMatrix4(),
-            P.diagram.GetOutputPort("X_WR").Eval(ctx).GetAsMatrix4(), q)
+    return perception_frame_at(P, q_target, depth_port="clean_depth", t_end=6.0)
 
 
 def _hinge_error(P, depth, X_WC, X, cfg):

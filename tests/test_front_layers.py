@@ -8,6 +8,7 @@ import dataclasses
 
 import numpy as np
 import pytest
+from conftest import perception_frame_at
 
 from mmlearn.apps.track_fronts import match_front
 from mmlearn.diagrams.perception import FrontPerceptionConfig, MakeFrontPerceptionDiagram
@@ -25,16 +26,8 @@ def _drawer_frame(distance, q_target, seed):
     cfg.camera.distance = distance
     cfg.noise.seed = seed
     P = MakeFrontPerceptionDiagram(cfg)
-    ctx = P.diagram.CreateDefaultContext()
-    for t in np.arange(0.0, 8.0, 0.02):
-        ctx.SetTime(float(t))
-        q = float(P.diagram.GetOutputPort("front_joint").Eval(ctx)[0])
-        if q >= q_target:
-            break
-    depth = np.array(P.diagram.GetOutputPort("depth_image").Eval(ctx).data)[..., 0].copy()
-    return (depth, P.diagram.GetOutputPort("X_WC").Eval(ctx).GetAsMatrix4(),
-            P.diagram.GetOutputPort("X_WR").Eval(ctx).GetAsMatrix4(),
-            P.kinematics.width, P.kinematics.height, P.intrinsics, q)
+    depth, X_WC, X_WR, q = perception_frame_at(P, q_target, depth_port="depth_image", t_end=8.0)
+    return depth, X_WC, X_WR, P.kinematics.width, P.kinematics.height, P.intrinsics, q
 
 
 def _hit(frame, cfg, rng):
