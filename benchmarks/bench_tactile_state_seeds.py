@@ -13,8 +13,8 @@ Usage::
 ``RESULTS.jsonl:S``: the grasps file of ``python -m mmlearn.apps.tactile_state --f-target 20
 --trials N --seed S --results RESULTS.jsonl [--f-sweep --sweep-trials M]`` (nothing is
 simulated here; ``--trials`` / ``--sweep-trials`` must be the app's, default 16 / 24 as
-there; a file without the sweep simply has no sweep figures). For every file and classifier it prints the container rate of the app (fold
-seed S) and its mean / sd / range over fold seeds 0..N-1, the state rate given each container
+there; a file without the sweep simply has no sweep figures). For every file and classifier
+it prints the container rate of the app (fold seed S) and its mean / sd / range over fold seeds 0..N-1, the state rate given each container
 (fold seed S), and with ``--sweep-trials N`` the Odwalla state rate at 17 / 20 / 23 N (Table
 7.2); then the first classifier's container confusion summed over files and fold seeds, and over all
 files the mean and sd of each figure (the spread between grasp sets) and, with the sweep in two
@@ -31,6 +31,8 @@ import numpy as np
 
 
 def main(argv=None) -> int:
+    from scipy.stats import ttest_rel
+
     from mmlearn.apps._sweep import load_results
     from mmlearn.apps.tactile_state import SWEEP_FORCES, _sim_features, _sim_specs, fold_cv
     from mmlearn.models.containers import CONTAINER_CLASSES
@@ -131,8 +133,6 @@ def main(argv=None) -> int:
         pairs = np.array([(r["f_sweep"][lo], r["f_sweep"][hi]) for r in rr
                           if lo in r["f_sweep"] and hi in r["f_sweep"]])
         if len(pairs) >= 2:
-            from scipy.stats import ttest_rel
-
             d = pairs[:, 1] - pairs[:, 0]
             p = float(ttest_rel(pairs[:, 1], pairs[:, 0], alternative="greater").pvalue)
             s["f_sweep_rise"] = {"mean": float(d.mean()), "sd": float(d.std(ddof=1)),

@@ -263,6 +263,11 @@ def posterior(log_lik, prior=None) -> np.ndarray:
     return p / p.sum()
 
 
+def _medoid(D: np.ndarray, idx: np.ndarray) -> int:
+    """The member of ``idx`` with the least total distance to the others of ``idx``."""
+    return int(idx[np.argmin(D[np.ix_(idx, idx)].sum(axis=1))])
+
+
 def k_medoids(D: np.ndarray, k: int, *, max_iter: int = 100) -> np.ndarray:
     """k medoids of a precomputed (N, N) distance matrix (symmetric, >= 0): sorted indices.
 
@@ -295,7 +300,7 @@ def k_medoids(D: np.ndarray, k: int, *, max_iter: int = 100) -> np.ndarray:
         for c in range(k):
             idx = np.flatnonzero(lab == c)
             if len(idx):
-                new[c] = idx[np.argmin(D[np.ix_(idx, idx)].sum(axis=1))]
+                new[c] = _medoid(D, idx)
         new_cost = D[:, new].min(axis=1).sum()
         if new_cost >= cost:  # (also when nothing moved)
             break
@@ -479,10 +484,7 @@ class TactileRecognizer:
 
         lab = AgglomerativeClustering(n_clusters=k, metric="precomputed",
                                       linkage="average").fit_predict(D)
-        med = []
-        for c in range(k):
-            idx = np.flatnonzero(lab == c)
-            med.append(idx[np.argmin(D[np.ix_(idx, idx)].sum(axis=1))])
+        med = [_medoid(D, np.flatnonzero(lab == c)) for c in range(k)]
         return np.sort(np.asarray(med, dtype=int)), "agglomerative"
 
     def _check_fitted(self):

@@ -36,6 +36,7 @@ def bad_usage(main, argv, capsys, *needles):
     assert "Traceback" not in err
     return line
 
+
 def perception_frame_at(P, q_target, *, depth_port, t_end, dt=0.02):
     """The first frame of a ``MakeFrontPerceptionDiagram`` ``P`` at which its front's stepped
     opening reaches ``q_target`` (m or rad; stepping time by ``dt`` up to ``t_end`` s):

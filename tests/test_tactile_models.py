@@ -445,6 +445,8 @@ def test_own_k_medoids_covers_dense_groups_not_outliers(easy_world):
     D = cdist(X, X)
     med = k_medoids(D, 4)
     assert sorted(group[med]) == [0, 1, 2, 3]
+    build = k_medoids(D, 4, max_iter=0)  # the greedy build alone
+    assert D[:, med].min(axis=1).sum() <= D[:, build].min(axis=1).sum()
     assert np.array_equal(med, k_medoids(D, 4))
     from mmlearn.models.tactile_recognition import TactileRecognizer as TR
     agg, _ = TR._cluster(D, 4, 0, "agglomerative")
