@@ -7,7 +7,7 @@ Usage::
         [--results FILE] [--executor local|ray] [--ray-address ADDR] [--jobs N]
     python -m mmlearn.apps.articulation_experiments --report-only RESULTS.jsonl [--out-dir DIR]
 
-Experiments (ground truths: models/articulation_sim.py; rigid, prismatic and revolute
+Experiments (ground truths: models/articulation/sim.py; rigid, prismatic and revolute
 estimators on their own ground truth, the GP on the roll-up door, Fig. 4.19):
 
 - ``noise``     (Fig. 4.20): sample error vs Gaussian noise sigma_pos, n = 100, gamma = 0.
@@ -41,21 +41,21 @@ estimators on their own ground truth, the GP on the roll-up door, Fig. 4.19):
   prediction errors of every candidate on the held-out samples (against the noisy
   observations, as on real data, and against the noise-free truth), gamma and the selection.
   The simulated garage door is the roll-up path scaled by 2.
-  Measured (``--runs 10``; the observation model of models/articulation.py): garage door GP
+  Measured (``--runs 10``; the observation model of models/articulation/link.py): garage door GP
   in 7/10 folds at seed 0 (8, 9, 9 at seeds 1-3; thesis: GP), microwave revolute and drawer
   prismatic in 10/10. Fig. 4.25: prismatic up to n = 20, revolute at 21-22, GP from 23
   (thesis: revolute 24-28, GP from 29).
   Fig. 4.26 deviates at high assumed noise: GP up to sigma 0.05, revolute 0.1-0.5, rigid at
   1.0 (thesis: GP up to 0.02, revolute to 0.2, rigid above): the configuration prior is the
   integral along the path, not n^-d, and charges less where the noise blurs the
-  configurations (see models/articulation.py).
+  configurations (see models/articulation/link.py).
 
 The *sample error* is the mean distance between noise-free test poses and their projection
 f(f^-1(z)) onto the fitted model (thesis Sec. 4.4.4). Tables are printed; plots are written to
 ``--out-dir`` (PNG per experiment); ``--json`` prints all numbers as one JSON object.
 ``--quick`` uses 2 runs and small grids (seconds; used by the test suite).
 
-The trials run through the sweep runner (``mmlearn.apps._sweep``; one trial: ``--runs``
+The trials run through the sweep runner (``mmlearn.apps.common.sweep``; one trial: ``--runs``
 fits of one model at one grid point, the fit times at one n, one run of Fig. 4.25 / 4.26,
 one object of Table 4.2, one variant of ``selection``): in parallel processes (``--jobs``,
 default all cores) or as Ray tasks (``--executor ray``), streamed to ``--results``
@@ -79,19 +79,20 @@ from pathlib import Path
 
 import numpy as np
 
-from mmlearn.apps._common import (ArgumentParser, UsageError, check_out_dir, fail, name_list,
-                                  nonneg_int, pos_int)
-from mmlearn.apps._common import save_figure
-from mmlearn.models.articulation import ObservationModel, make_model
-from mmlearn.models.articulation_sim import simulate_link
-from mmlearn.models.articulation_structure import select_link_model
+from mmlearn.apps.common.cli import (ArgumentParser, UsageError, check_out_dir, fail, name_list,
+                                     nonneg_int, pos_int)
+from mmlearn.apps.common.cli import save_figure
+from mmlearn.models.articulation.link import ObservationModel, make_model
+from mmlearn.models.articulation.sim import simulate_link
+from mmlearn.models.articulation.structure import select_link_model
+from mmlearn.models.common.trials import register_trial
 
 __all__ = ["run", "main", "EXPERIMENTS"]
 
 EXPERIMENTS = ("noise", "outliers", "gamma", "size", "time", "bic_n", "bic_noise", "table",
                "selection")
 #: (label, ObservationModel keyword arguments, identifiability tests) compared by
-#: ``--only selection``; the last one is the default of models/articulation.py
+#: ``--only selection``; the last one is the default of models/articulation/link.py
 SELECTION_VARIANTS = [
     ("before 2026-11: p(gamma) once per track, w = 1, n^-d",
      dict(gamma_prior="track", gamma_weight=1.0, config_prior="n"), False),
@@ -234,7 +235,7 @@ def time_point(n: int, runs: int, rng) -> dict:
 
 
 def _rollup_sequence(n_total, sp, so, rng):
-    from mmlearn.models.articulation_sim import _q_range
+    from mmlearn.models.articulation.sim import _q_range
 
     lo, hi = _q_range("rollup")
     q = np.linspace(lo, hi, n_total)
@@ -323,7 +324,7 @@ def default_track_dir():
 def selection_tracks(tracks=None) -> list:
     """The real tracks of ``--only selection``: [(file, expected joint, poses)], each track
     once (the test data hold some twice, in two folders)."""
-    from mmlearn.models.track_io import find_track_files, read_track
+    from mmlearn.models.common.track_io import find_track_files, read_track
 
     tracks = tracks or default_track_dir()
     if tracks is None:
@@ -393,10 +394,11 @@ def selection_variant(index: int, data: list, quick: bool, seed: int) -> dict:
 
 # ---------------------------------------------------------------------------- the sweep
 
+@register_trial("articulation.experiment")
 def trial(*, seed: int, experiment: str, quick: bool = False, runs: int = 2,
           model: str | None = None, i: int = 0, x=None, exact: bool = True,
           tracks_sha1: str = "", shared=None) -> dict:
-    """One trial of the sweep (``mmlearn.apps._sweep``), with its own random stream
+    """One trial of the sweep (``mmlearn.apps.common.sweep``), with its own random stream
     (:func:`_rng`): ``runs`` fits of ``model`` at grid point ``i`` (value ``x``) of noise /
     outliers / size, the fit times at one n (time), one run of bic_n / bic_noise (run
     ``i``), one object of Table 4.2 (``i``) or one observation-model variant of selection
@@ -436,9 +438,9 @@ def trial_specs(*, only, runs: int, seed: int, quick: bool, exact: bool = True,
     """The sweep's trials of the experiments in ``only``: one per (model, grid point) of
     noise / outliers / size (``runs`` fits each), one per n of time, one per run of bic_n /
     bic_noise, one per object of Table 4.2, one per variant of selection."""
-    from mmlearn.apps._sweep import TrialSpec
+    from mmlearn.apps.common.sweep import TrialSpec
 
-    fn = "mmlearn.apps.articulation_experiments:trial"
+    fn = trial
     base = {"quick": quick, "runs": runs}
     specs = []
 
@@ -843,12 +845,12 @@ def run(*, runs: int = 100, seed: int = 0, quick: bool = False, only=EXPERIMENTS
     outliers per training sequence) or "bernoulli" (each observation an outlier with
     probability gamma).
 
-    The trials (:func:`trial_specs`) run through the sweep runner (``mmlearn.apps._sweep``):
+    The trials (:func:`trial_specs`) run through the sweep runner (``mmlearn.apps.common.sweep``):
     streamed to ``results`` (a JSON Lines file; None: a temporary one; trials already in it
     are not run again), ``executor`` "local" (``jobs`` processes, default all cores) or
     "ray" (``ray_address``: a cluster, None: a local Ray instance of ``jobs`` CPUs). The
     real tracks of ``selection`` are read here and sent once (``shared``)."""
-    from mmlearn.apps._sweep import run_sweep
+    from mmlearn.apps.common.sweep import run_sweep
 
     if outliers not in ("exact", "bernoulli"):
         raise ValueError(f"outliers must be 'exact' or 'bernoulli', got {outliers!r}")
@@ -875,7 +877,7 @@ def run(*, runs: int = 100, seed: int = 0, quick: bool = False, only=EXPERIMENTS
 
 
 def main(argv=None) -> int:
-    from mmlearn.apps._sweep import add_sweep_args, exit_status, report_lines, sweep_kwargs
+    from mmlearn.apps.common.sweep import add_sweep_args, exit_status, report_lines, sweep_kwargs
 
     ap = ArgumentParser(
         prog="python -m mmlearn.apps.articulation_experiments",

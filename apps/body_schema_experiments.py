@@ -16,7 +16,7 @@ Where each runs:
   (4-DOF arm, link x3 bent by 45 deg in the plant; the goal commands are solved on the
   learned model by the SchemaController's solver and the error is measured on the plant's
   kinematics at those commands).
-* **numpy simulation** (:mod:`mmlearn.models.kinematic_sim`) for the many-run statistics:
+* **numpy simulation** (:mod:`mmlearn.models.body_schema.kinematic_sim`) for the many-run statistics:
   Table 3.1 (7-DOF, ``--runs`` runs of 4 x 100 samples, engineered seed model) and
   Table 3.2 (4-DOF, 30 way points).
 
@@ -29,7 +29,7 @@ Prediction errors are measured on independent test configurations against the tr
     python -m mmlearn.apps.body_schema_experiments --report-only RESULTS.jsonl [--out-dir DIR]
 
 Every run (of Fig. 3.10, the 7-DOF structure convergence, each table) is a trial of the
-sweep runner (``mmlearn.apps._sweep``): run in parallel processes (``--jobs``, default all
+sweep runner (``mmlearn.apps.common.sweep``): run in parallel processes (``--jobs``, default all
 cores) or as Ray tasks (``--executor ray``), streamed to ``--results`` (default
 ``body_schema_experiments_results.jsonl`` in ``--out-dir``); re-running the same command
 resumes, ``--report-only FILE`` redraws the tables, the plot and the JSON from a results
@@ -47,23 +47,24 @@ from pathlib import Path
 
 import numpy as np
 
-from mmlearn.apps._common import (ArgumentParser, UsageError, atomic_write_text, check_out_dir,
-                                  fail, nonneg_int, pos_int, progress)
-from mmlearn.apps._common import save_figure
+from mmlearn.apps.common.cli import (ArgumentParser, UsageError, atomic_write_text, check_out_dir,
+                                     fail, nonneg_int, pos_int, progress)
+from mmlearn.apps.common.cli import save_figure
 from mmlearn.apps.learn_body_schema import (
-    babble,
-    converged_at,
-    is_correct,
-    observation_noise,
-    prediction_error,
-    sample_test_commands,
-)
+                                            babble,
+                                            converged_at,
+                                            is_correct,
+                                            observation_noise,
+                                            prediction_error,
+                                            sample_test_commands,
+                                            )
+from mmlearn.models.common.trials import register_trial
 
 
 def _diagram(arm, noise, seed, **kw):
     from pydrake.systems.analysis import Simulator
 
-    from mmlearn.diagrams.body_schema import BodySchemaDiagramConfig, MakeBodySchemaDiagram
+    from mmlearn.diagrams.body_schema.diagram import BodySchemaDiagramConfig, MakeBodySchemaDiagram
 
     # noise-free runs need a floor on the learner's noise level for the 3-sigma validity
     # test: 1 cm
@@ -94,7 +95,7 @@ def _positioning_error(bs, root, schema, Q):
 
 def drake_accuracy(arm, noise, sizes, *, seed, n_test, n_control, occlude=(), show=True):
     """Gather max(sizes) samples in Drake, then fit the schema on the first n of them."""
-    from mmlearn.models.body_schema import BodySchema
+    from mmlearn.models.body_schema.schema import BodySchema
 
     bs, sim, root = _diagram(arm, noise, seed, occlude=list(occlude))
     t0 = time.perf_counter()
@@ -196,15 +197,15 @@ def drake_control(*, n_learn, n_adapt, n_waypoints, seed, show=True):
     return out
 
 def _numpy_recovery(*, failure, visibility, show=False, **kw):
-    from mmlearn.models.body_schema_experiments import recovery_experiment
-    from mmlearn.models.kinematic_sim import make_arm_7dof
+    from mmlearn.models.body_schema.evaluation import recovery_experiment
+    from mmlearn.models.body_schema.kinematic_sim import make_arm_7dof
 
     return recovery_experiment(make_arm_7dof, failure, visibility=visibility, **kw)
 
 
 def _numpy_control(*, show=False, **kw):
-    from mmlearn.models.body_schema_experiments import control_experiment
-    from mmlearn.models.kinematic_sim import make_arm_4dof
+    from mmlearn.models.body_schema.evaluation import control_experiment
+    from mmlearn.models.body_schema.kinematic_sim import make_arm_4dof
 
     return control_experiment(make_arm_4dof, **kw)
 
@@ -217,9 +218,10 @@ BLOCKS = {"fig_3_10": ("accuracy", False), "noise_free": ("accuracy", False),
           "table_3_1_drake": ("recovery", True), "table_3_2_drake": ("control", True)}
 
 
+@register_trial("body_schema.experiment")
 def trial(*, seed: int, block: str, run: int = 0, kwargs: dict, quick: bool = False,
           shared=None) -> dict:
-    """One run of one experiment (the sweep's trial function, ``mmlearn.apps._sweep``):
+    """One run of one experiment (the sweep's trial function, ``mmlearn.apps.common.sweep``):
     ``block`` names the experiment (:data:`BLOCKS`), ``run`` the run's index in it,
     ``kwargs`` the keyword arguments of its function (:func:`drake_accuracy`,
     :func:`drake_recovery`, :func:`drake_control` or the numpy simulation's
@@ -247,9 +249,9 @@ def trial_specs(*, quick: bool = False, runs: int = 20, seed: int = 0, structure
     """The sweep's trials (one per run of every experiment), with the seeds of the
     experiments: Fig. 3.10 seed + 100 r, noise-free seed + 1, 7-DOF occluded seed + 2, 7-DOF
     structure seed + 10 + r, the tables seed + r."""
-    from mmlearn.apps._sweep import TrialSpec
+    from mmlearn.apps.common.sweep import TrialSpec
 
-    fn = "mmlearn.apps.body_schema_experiments:trial"
+    fn = trial
 
     def spec(block, r, s, label, **kw):
         return TrialSpec(fn=fn, seed=s, label=f"{label} run {r} seed {s}",
@@ -467,11 +469,11 @@ def run(*, quick: bool = False, runs: int = 20, seed: int = 0, out_dir: str | Pa
     noise 0.044 m); ``drake_runs``: Drake runs of Table 3.1 per failure and drake_runs // 2
     of Table 3.2; ``fig310_runs``: Drake runs averaged in Fig. 3.10.
 
-    Every run is a trial of the sweep runner (``mmlearn.apps._sweep``): streamed to
+    Every run is a trial of the sweep runner (``mmlearn.apps.common.sweep``): streamed to
     ``results`` (a JSON Lines file; None: a temporary one; runs already in it are not run
     again), ``executor`` "local" (``jobs`` processes, default all cores) or "ray"
     (``ray_address``: a cluster, None: a local Ray instance of ``jobs`` CPUs)."""
-    from mmlearn.apps._sweep import run_sweep
+    from mmlearn.apps.common.sweep import run_sweep
 
     if min(runs, structure_runs, drake_runs, fig310_runs) < 1:
         raise ValueError(f"runs, structure_runs, drake_runs and fig310_runs must be >= 1, "
@@ -574,7 +576,7 @@ def format_report(res) -> str:
 
 
 def main(argv=None) -> int:
-    from mmlearn.apps._sweep import add_sweep_args, exit_status, report_lines, sweep_kwargs
+    from mmlearn.apps.common.sweep import add_sweep_args, exit_status, report_lines, sweep_kwargs
 
     ap = ArgumentParser(
         prog="python -m mmlearn.apps.body_schema_experiments",

@@ -8,7 +8,7 @@ Usage::
         [--plot OUT.png] [--json]
 
 PATH is a track file (3, 7 or 9 whitespace columns, ``#`` comments; see
-models/track_io.py) or a folder (searched recursively for *.log, *.txt, *.dat, *.track).
+models/common/track_io.py) or a folder (searched recursively for *.log, *.txt, *.dat, *.track).
 The track is the pose of the moving part in a fixed frame (the robot's or the camera's).
 
 ``--json`` prints one object::
@@ -24,12 +24,12 @@ whose pose sits at ORIGIN of the rectangle: ``corner`` (the original detector's 
 the rectangle spanning [0, w] x [0, h]; the files in shared/data/articulation_logs/
 rectangle_tracks) or ``centre``. The track is converted to centre poses and its
 observations are brought into one of the 8 parameterisations of a rectangle
-(models/front_tracking.py: align_track); each track's JSON gains ``"rectangle"``:
+(models/perception/tracking.py: align_track); each track's JSON gains ``"rectangle"``:
 {"pose_origin_in_file", "axis_error_deg" (revolute: hinge axis against the nearer edge
 direction; prismatic: axis against the front's normal), "hinge_edge", "half_size_m",
 "radius_m", "cv_pos_error_m", "cv_orient_error_rad" (5-fold cross-validated prediction
 errors of the selected model class)}. Reproduces the real-track results of
-models/front_tracking.py, e.g.::
+models/perception/tracking.py, e.g.::
 
     python -m mmlearn.apps.fit_articulation tests/data/articulation_logs/rectangle_door.txt \
         --rectangles corner --sigma-pos 0.02 --sigma-orient 0.0524 --expect revolute
@@ -55,15 +55,15 @@ import time
 
 import numpy as np
 
-from mmlearn.apps._common import (ArgumentParser, UsageError, check_out_file, fail,
-                                  json_clean, nonneg_int, pos_float, pos_int)
-from mmlearn.apps._common import save_figure
-from mmlearn.models.articulation import ObservationModel, make_model
-from mmlearn.models.articulation_structure import DEFAULT_CANDIDATES, select_link_model
-from mmlearn.models.front_tracking import (align_track, axis_errors, cross_validated_errors,
-                                           rectangles_from_poses, subsampled_selection)
-from mmlearn.models.track_io import (TRACK_SUFFIXES, TrackFileError, find_track_files,
-                                     read_track)
+from mmlearn.apps.common.cli import (ArgumentParser, UsageError, check_out_file, fail,
+                                     json_clean, nonneg_int, pos_float, pos_int)
+from mmlearn.apps.common.cli import save_figure
+from mmlearn.models.articulation.link import ObservationModel, make_model
+from mmlearn.models.articulation.structure import DEFAULT_CANDIDATES, select_link_model
+from mmlearn.models.perception.tracking import (align_track, axis_errors, cross_validated_errors,
+                                                rectangles_from_poses, subsampled_selection)
+from mmlearn.models.common.track_io import (TRACK_SUFFIXES, TrackFileError, find_track_files,
+                                            read_track)
 
 __all__ = ["run", "main", "fit_track"]
 

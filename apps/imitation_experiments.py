@@ -12,7 +12,7 @@ Experiments (each trial is one ``mmlearn.apps.imitate.run`` on its own seed):
 * ``obstacle``: the reach with a box obstacle, incremental (Fig. 8.7);
 * ``u_obstacle``: the reach into a U-shaped obstacle, incremental and global (Fig. 8.10).
 
-Trials run through the sweep runner (``mmlearn.apps._sweep``) and are streamed to
+Trials run through the sweep runner (``mmlearn.apps.common.sweep``) and are streamed to
 ``--results`` (re-running resumes); ``--report-only`` redraws the table and the plots from a
 results file. Every row states how many trials raised an error beside the means.
 """
@@ -25,15 +25,17 @@ from pathlib import Path
 
 import numpy as np
 
-from mmlearn.apps._common import (ArgumentParser, UsageError, check_out_dir, fail, name_list,
-                                  nonneg_int, pos_int, save_figure)
-from mmlearn.apps._sweep import add_sweep_args, exit_status, report_lines, run_sweep, \
-    sweep_kwargs, TrialSpec
+from mmlearn.apps.common.cli import (ArgumentParser, UsageError, check_out_dir, fail, name_list,
+                                     nonneg_int, pos_int, save_figure)
+from mmlearn.apps.common.sweep import (TrialSpec, add_sweep_args, exit_status, report_lines,
+                                       run_sweep, sweep_kwargs)
+from mmlearn.models.common.trials import register_trial
 
 EXPERIMENTS = ("demos", "swap", "board", "obstacle", "u_obstacle")
 BOARD_SCALES = (0.8, 1.0, 1.25)
 
 
+@register_trial("imitation.reproduce")
 def trial(*, seed: int, task: str, demos: int = 4, swap_tables: bool = False,
           board_scale: float = 1.0, global_mode: bool = False, shared=None) -> dict:
     """One reproduction (the sweep's trial function)."""
@@ -74,7 +76,7 @@ def run(*, experiments=EXPERIMENTS, seeds: int = 10, seed: int = 100, results=No
     """Run the trials and return the report (and write the plots into ``out_dir``)."""
     if seeds < 1:
         raise ValueError(f"seeds must be >= 1, got {seeds}")
-    specs = [TrialSpec(fn="mmlearn.apps.imitation_experiments:trial", seed=seed + i,
+    specs = [TrialSpec(fn=trial, seed=seed + i,
                        params=params, label=f"{label} seed {seed + i}")
              for label, params in conditions(experiments) for i in range(seeds)]
     sweep = run_sweep(specs, results=results, executor=executor, jobs=jobs,

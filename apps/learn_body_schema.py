@@ -24,9 +24,9 @@ from pathlib import Path
 
 import numpy as np
 
-from mmlearn.apps._common import (ArgumentParser, UsageError, check_out_file, fail,
-                                  finish_viewing, make_meshcat, nonneg_float, nonneg_int,
-                                  pos_int, progress, save_html)
+from mmlearn.apps.common.cli import (ArgumentParser, UsageError, check_out_file, fail,
+                                     finish_viewing, make_meshcat, nonneg_float, nonneg_int,
+                                     pos_int, progress, save_html)
 
 
 @dataclass
@@ -109,7 +109,7 @@ def sample_test_commands(bs, n, rng) -> np.ndarray:
 def prediction_error(bs, root, schema, Q):
     """Mean position (m) and rotation (deg) error of the learned FK of every tree part
     (relative to the root part) against the plant, over commands ``Q``."""
-    from mmlearn.models.body_schema_local import pose_errors, se3_inv
+    from mmlearn.models.body_schema.local import pose_errors, se3_inv
 
     X = np.array([bs.true_poses(root, q) for q in Q])
     r = schema.root
@@ -189,8 +189,8 @@ CAMERA_DEPTHS = ("exact", "noisy", "none")
 def camera_config(camera_depth: str = "exact", seed: int = 0):
     """The camera marker sensor's configuration for ``camera_depth`` (see
     :class:`LearnBodySchemaConfig`); the depth noise is seeded with ``seed``."""
-    from mmlearn.models.depth_noise import DepthNoiseConfig
-    from mmlearn.systems.camera_marker_sensor import CameraMarkerSensorConfig
+    from mmlearn.models.common.depth_noise import DepthNoiseConfig
+    from mmlearn.systems.common.camera_marker_sensor import CameraMarkerSensorConfig
 
     if camera_depth == "exact":
         return CameraMarkerSensorConfig()
@@ -206,7 +206,7 @@ def run(*, config: LearnBodySchemaConfig, meshcat=None, show_progress: bool = Tr
     """Learn, evaluate and return the results dict (see the module docstring)."""
     from pydrake.systems.analysis import Simulator
 
-    from mmlearn.diagrams.body_schema import BodySchemaDiagramConfig, MakeBodySchemaDiagram
+    from mmlearn.diagrams.body_schema.diagram import BodySchemaDiagramConfig, MakeBodySchemaDiagram
 
     cfg = config
     if cfg.samples < 1:

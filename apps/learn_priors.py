@@ -31,13 +31,13 @@ import sys
 
 import numpy as np
 
-from mmlearn.apps._common import (ArgumentParser, UsageError, check_in_file, check_out_file,
-                                  fail, nonneg_float, nonneg_int, pos_float, progress_bar)
-from mmlearn.apps._common import save_figure
-from mmlearn.models.articulation import DEFAULT_GAMMA_WEIGHT, ObservationModel, make_model
-from mmlearn.models.articulation_priors import PriorDatabase, evaluate_priors
-from mmlearn.models.articulation_structure import DEFAULT_CANDIDATES
-from mmlearn.models.track_io import TrackFileError, find_track_files, read_track
+from mmlearn.apps.common.cli import (ArgumentParser, UsageError, check_in_file, check_out_file,
+                                     fail, nonneg_float, nonneg_int, pos_float, progress_bar)
+from mmlearn.apps.common.cli import save_figure
+from mmlearn.models.articulation.link import DEFAULT_GAMMA_WEIGHT, ObservationModel, make_model
+from mmlearn.models.articulation.priors import PriorDatabase, evaluate_priors
+from mmlearn.models.articulation.structure import DEFAULT_CANDIDATES
+from mmlearn.models.common.track_io import TrackFileError, find_track_files, read_track
 
 __all__ = ["run", "main"]
 

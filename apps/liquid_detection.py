@@ -7,13 +7,13 @@ Usage::
         [--feature coast_detrended|coast|whole] [--coast-delay S] [--plot FILE] [--results FILE]
         [--jobs J] [--report-only RESULTS.jsonl] [--meshcat] [--html-out FILE] --seed S [--json]
 
-Each trial (:func:`mmlearn.diagrams.liquid_roll.liquid_roll_trial`) grasps a random instance
+Each trial (:func:`mmlearn.diagrams.tactile.liquid_roll.liquid_roll_trial`) grasps a random instance
 of a container standing on a table with the PR2-like gripper (Eq. 7.8 switching controller,
 then a finger position hold), lifts it and rolls it side to side with the wrist at 0.6 Hz
 (+-0.7 rad, constant rate with smooth 0.25 s reversals). The liquid is its first sloshing
 mode, a mass on a spring-damper with the cap as a barrier
-(:func:`mmlearn.models.liquid.first_slosh_mode`); nothing but the simulated taxels (24 Hz,
-noise 1e-4 of saturation) and the wrist force sensor is recorded. Features (:mod:`mmlearn.models.liquid`): each taxel through a
+(:func:`mmlearn.models.tactile.liquid.first_slosh_mode`); nothing but the simulated taxels (24 Hz,
+noise 1e-4 of saturation) and the wrist force sensor is recorded. Features (:mod:`mmlearn.models.tactile.liquid`): each taxel through a
 first-order 5 Hz Butterworth high-pass, the Euclidean norm over the 30 taxels (Eq. 7.9) and
 its spread:
 
@@ -21,10 +21,10 @@ its spread:
 * ``coast`` (a deviation): the standard deviation over the coast phases only -- the samples
   where the robot's own roll command turns at a constant rate, from ``--coast-delay`` s
   (0.12 s, four time constants of the high-pass) after each reversal ends
-  (:func:`mmlearn.diagrams.liquid_roll.roll_change_windows`,
-  :func:`mmlearn.models.liquid.coast_mask`);
+  (:func:`mmlearn.diagrams.tactile.liquid_roll.roll_change_windows`,
+  :func:`mmlearn.models.tactile.liquid.coast_mask`);
 * ``coast_detrended`` (the default; a deviation): the spread about a quadratic trend fitted
-  in each coast phase (:func:`mmlearn.models.liquid.coast_feature`). A rigid body's load on
+  in each coast phase (:func:`mmlearn.models.tactile.liquid.coast_feature`). A rigid body's load on
   the pads shifts with gravity as the wrist turns, smoothly within a coast phase (the 5 Hz
   first-order high-pass passes it at ~20 %, as large as the liquid's ringing); the liquid
   keeps ringing at its sloshing frequency after the container's motion stops changing.
@@ -36,7 +36,7 @@ cross-validation on liquid / no liquid, for every feature (the one chosen with `
 at the top level of the output).
 
 Containers (``--containers N`` takes the first N of
-:data:`~mmlearn.diagrams.liquid_roll.LIQUID_CONTAINERS`, default 4: the Odwalla and water
+:data:`~mmlearn.diagrams.tactile.liquid_roll.LIQUID_CONTAINERS`, default 4: the Odwalla and water
 bottles half full and empty; all 11: the full experiment) and, unless ``--no-dummy``, the
 heavy rigid dummy (a rigid 0.2-0.3 kg weight in an Odwalla shell: the
 weight and walls of a half-full bottle, nothing that sloshes), read two ways (``dummy``: its
@@ -59,7 +59,7 @@ empty-container trials plus the dummy's 5, 136 in all).
 
 ``--plot FILE`` draws Fig. 7.11 (raw taxels and the filtered norm of an empty and a liquid
 trial of the same container) and the feature per container. Trials run through the sweep
-runner (:mod:`mmlearn.apps._sweep`): ``--results`` keeps them, with every trial's taxel and
+runner (:mod:`mmlearn.apps.common.sweep`): ``--results`` keeps them, with every trial's taxel and
 wrist-force series and its roll command (a rerun resumes), and ``--report-only`` recomputes
 everything from such a file (any feature, any ``--coast-delay``) without simulating.
 
@@ -74,9 +74,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mmlearn.apps._common import (ArgumentParser, UsageError, check_out_file, fail,
-                                  json_clean, name_list, nonneg_int, pos_float, pos_int,
-                                  save_figure)
+from mmlearn.apps.common.cli import (ArgumentParser, UsageError, check_out_file, fail,
+                                     json_clean, name_list, nonneg_int, pos_float, pos_int,
+                                     save_figure)
+from mmlearn.diagrams.tactile.liquid_roll import liquid_roll_trial
 
 __all__ = ["LiquidDetectionConfig", "run", "report", "main", "record_features"]
 
@@ -89,7 +90,7 @@ roll follows it within this rms error, rad (else no coast phases are known for i
 
 COAST_DELAY = 0.12
 """Start of the coast samples after each change of the commanded roll rate ends, s (see
-:func:`mmlearn.models.liquid.coast_mask`): about four time constants of the 5 Hz first-order
+:func:`mmlearn.models.tactile.liquid.coast_mask`): about four time constants of the 5 Hz first-order
 high-pass (1 / (2 pi 5 Hz) = 32 ms), so that the filter's response to the reversal has died
 out (e^-3.8 = 2 %). Chosen on the development seeds 7 and 11 among 0, 0.0955, 0.12 and
 0.15 s (0.12 and 0.15 keep the same samples at 24 Hz)."""
@@ -140,7 +141,7 @@ class LiquidDetectionConfig:
 
 
 def _check(c: LiquidDetectionConfig) -> None:
-    from mmlearn.diagrams.liquid_roll import LIQUID_CONTAINERS
+    from mmlearn.diagrams.tactile.liquid_roll import LIQUID_CONTAINERS
 
     if not c.containers:
         raise ValueError("containers: empty")
@@ -155,7 +156,7 @@ def _check(c: LiquidDetectionConfig) -> None:
     if c.roll_profile not in ("sweep", "sine", "triangle"):
         raise ValueError(f"roll_profile: expected sweep, sine or triangle, got "
                          f"{c.roll_profile!r}")
-    from mmlearn.models.liquid import FEATURES
+    from mmlearn.models.tactile.liquid import FEATURES
 
     if c.feature not in FEATURES:
         raise ValueError(f"feature: expected one of {', '.join(FEATURES)}, got {c.feature!r}")
@@ -174,14 +175,14 @@ def _check(c: LiquidDetectionConfig) -> None:
 
 
 def _specs(c: LiquidDetectionConfig):
-    from mmlearn.apps._sweep import TrialSpec
+    from mmlearn.apps.common.sweep import TrialSpec
 
     names = list(c.containers) + (["dummy"] if c.dummy else [])
     specs = []
     for k in range(c.trials):
         for ci, name in enumerate(names):
             specs.append(TrialSpec(
-                fn="mmlearn.diagrams.liquid_roll:liquid_roll_trial",
+                fn=liquid_roll_trial,
                 seed=int(c.seed) * 1_000_003 + k * 1000 + ci,
                 params={"container": name, "roll_cycles": float(c.roll_cycles),
                         **({} if c.roll_profile == "sweep"
@@ -194,12 +195,12 @@ def _roll_changes(rec: dict, params: dict | None):
     """Where the trial's commanded roll rate changed, (k, 2) s, or None (sine roll): from the
     record (``roll_changes``) or, for records written before it was stored, rebuilt from the
     trial's roll settings (the robot's own command; defaults of
-    :class:`~mmlearn.diagrams.liquid_roll.LiquidRollConfig`) -- None when the record's
+    :class:`~mmlearn.diagrams.tactile.liquid_roll.LiquidRollConfig`) -- None when the record's
     measured roll does not follow that command within ``ROLL_MATCH_RMS``."""
     if "roll_changes" in rec:
         ch = rec["roll_changes"]
         return None if ch is None else np.asarray(ch, float).reshape(-1, 2)
-    from mmlearn.diagrams.liquid_roll import LiquidRollConfig, roll_change_windows
+    from mmlearn.diagrams.tactile.liquid_roll import LiquidRollConfig, roll_change_windows
 
     params = params or {}
     profile = rec.get("roll_profile", params.get("roll_profile", "sweep"))
@@ -212,7 +213,7 @@ def _roll_changes(rec: dict, params: dict | None):
         # the rebuilt command must match the measured roll (records of an earlier default
         # roll, e.g. the sine, carry no roll settings): tracking error ~0.003 rad rms,
         # another profile ~0.2 rad
-        from mmlearn.diagrams.liquid_roll import roll_trajectory
+        from mmlearn.diagrams.tactile.liquid_roll import roll_trajectory
 
         t = np.asarray(rec["t"], float)
         q = np.asarray(rec["roll"], float)
@@ -228,14 +229,14 @@ def _roll_changes(rec: dict, params: dict | None):
 
 
 def record_features(rec: dict, *, coast_delay: float = COAST_DELAY, params: dict | None = None):
-    """A trial record -> :class:`~mmlearn.models.liquid.RollRecord` (the taxels while
+    """A trial record -> :class:`~mmlearn.models.tactile.liquid.RollRecord` (the taxels while
     rolling, the weight in N from the wrist force sensor, the coast samples: constant
     commanded roll rate, from ``coast_delay`` s after each change) built from the sensor
     series and the robot's own roll command only; the labels are attached from the record's
     ``liquid`` / ``container``. ``params``: the trial's spec parameters (for records that do
     not store their roll command)."""
-    from mmlearn.models.liquid import RollRecord, coast_mask
-    from mmlearn.models.tactile_types import TactileDataError
+    from mmlearn.models.tactile.liquid import RollRecord, coast_mask
+    from mmlearn.models.tactile.types import TactileDataError
 
     t = np.asarray(rec["t"], float)
     taxels = np.asarray(rec["taxels"], float)
@@ -266,7 +267,7 @@ def record_features(rec: dict, *, coast_delay: float = COAST_DELAY, params: dict
 def _cell_saturation_force() -> float:
     """Force on one PR2-like taxel cell at saturation, N (multiply the feature by it to
     compare with Table 7.4's newtons)."""
-    from mmlearn.models.tactile_pad import PAD_PR2 as P
+    from mmlearn.models.tactile.pad import PAD_PR2 as P
 
     return float(P.p_sat * P.length * P.width / (P.rows * P.cols))
 
@@ -274,15 +275,15 @@ def _cell_saturation_force() -> float:
 def _evaluate(rr, dr, y, *, feature: str, k: int, c: LiquidDetectionConfig) -> dict:
     """Rates (tactile alone, with weight), confusion, Table 7.4 and the dummy for one tactile
     feature."""
-    from mmlearn.models.liquid import liquid_features, liquid_table
-    from mmlearn.models.tactile_state import cross_validate, make_classifier
-    from mmlearn.models.tactile_types import TactileDataError
+    from mmlearn.models.tactile.liquid import liquid_features, liquid_table
+    from mmlearn.models.tactile.state import cross_validate, make_classifier
+    from mmlearn.models.tactile.types import TactileDataError
 
     for i, r in enumerate(rr + dr):
         if r.liquid is None:
             raise TactileDataError(f"record {i}: no liquid ground truth")
     # every trial's feature and weight once (column 0: the feature, 1: the weight); "tactile"
-    # is column 0 alone (as mmlearn.models.liquid.evaluate_liquid with and without weight)
+    # is column 0 alone (as mmlearn.models.tactile.liquid.evaluate_liquid with and without weight)
     Xr = liquid_features(rr, with_weight=True, feature=feature)
     ncol = {False: 1, True: 2}
     rep_t, rep_w = (cross_validate(Xr[:, :ncol[ww]], y, classifier="tree", folds=k, seed=c.seed)
@@ -349,8 +350,8 @@ def report(lines: list[dict], c: LiquidDetectionConfig) -> dict:
     k = int(min(c.folds, counts.min()))
     if k < 2:
         raise ValueError("too few trials per class for cross-validation (use more --trials)")
-    from mmlearn.models.liquid import FEATURES, liquid_features
-    from mmlearn.models.tactile_types import TactileDataError
+    from mmlearn.models.tactile.liquid import FEATURES, liquid_features
+    from mmlearn.models.tactile.types import TactileDataError
 
     avail, why = [], {}
     for f in FEATURES:
@@ -384,7 +385,7 @@ def report(lines: list[dict], c: LiquidDetectionConfig) -> dict:
 
 def run(*, config: LiquidDetectionConfig) -> dict:
     """Run (or resume) the trials and report (see the module docstring)."""
-    from mmlearn.apps._sweep import run_sweep
+    from mmlearn.apps.common.sweep import run_sweep
 
     c = config
     _check(c)
@@ -405,7 +406,7 @@ def plot_report(lines: list[dict], res: dict, path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from mmlearn.models.liquid import filtered_norm
+    from mmlearn.models.tactile.liquid import filtered_norm
 
     recs = [ln["record"] for ln in lines if not ln.get("error") and ln.get("record")]
     by_cls: dict = {}
@@ -491,7 +492,7 @@ def _show_one(name: str, *, seed: int, meshcat, html_out) -> None:
     from pydrake.geometry import MeshcatVisualizer
     from pydrake.systems.analysis import Simulator
 
-    from mmlearn.diagrams.liquid_roll import LiquidRollConfig, MakeLiquidRollDiagram, make_instance
+    from mmlearn.diagrams.tactile.liquid_roll import LiquidRollConfig, MakeLiquidRollDiagram, make_instance
 
     inst = make_instance(name, np.random.default_rng([int(seed), 17]))
     cfg = LiquidRollConfig(seed=int(seed), grasp_height=inst.height / 2, roll_cycles=1.0)
@@ -502,15 +503,15 @@ def _show_one(name: str, *, seed: int, meshcat, html_out) -> None:
     sim.AdvanceTo(cfg.duration)
     vis.PublishRecording()
     if html_out:
-        from mmlearn.apps._common import save_html
+        from mmlearn.apps.common.cli import save_html
 
         save_html(meshcat, html_out)
 
 
 def main(argv=None) -> int:
-    from mmlearn.apps._sweep import (add_sweep_args, apply_sweep_args, exit_status,
-                                     report_only_lines, report_only_result)
-    from mmlearn.diagrams.liquid_roll import LIQUID_CONTAINERS
+    from mmlearn.apps.common.sweep import (add_sweep_args, apply_sweep_args, exit_status,
+                                           report_only_lines, report_only_result)
+    from mmlearn.diagrams.tactile.liquid_roll import LIQUID_CONTAINERS
 
     ap = ArgumentParser(
         prog="python -m mmlearn.apps.liquid_detection",
@@ -582,7 +583,7 @@ def main(argv=None) -> int:
         return fail(ap.prog, str(e))
     try:
         if args.meshcat or args.html_out:
-            from mmlearn.apps._common import finish_viewing, make_meshcat
+            from mmlearn.apps.common.cli import finish_viewing, make_meshcat
 
             mc = make_meshcat(announce=args.meshcat)
             _show_one(cfg.containers[0], seed=cfg.seed, meshcat=mc, html_out=args.html_out)

@@ -8,7 +8,7 @@ What the robot knows: its arm's joint angles and forward kinematics exactly (the
 position relative to its base has no error), the front's normal and the bar's direction,
 and the handle only as a click within 2 cm. Its base pose it knows only through a
 drifting localisation and odometry (``--base-noise``, see
-``mmlearn.systems.base_localization``): the hook trajectory the estimator learns from is in
+``mmlearn.systems.articulation.base_localization``): the hook trajectory the estimator learns from is in
 that believed world frame, so it carries the drift; the estimator assumes sigma_pos =
 0.05 m (the thesis' value) and has the GP candidate. ``--base-noise 0`` gives the robot its
 exact base pose.
@@ -29,9 +29,9 @@ import time
 
 import numpy as np
 
-from mmlearn.apps._common import (ArgumentParser, UsageError, check_in_file, check_out_file,
-                                  fail, finish_viewing, frame_camera, make_meshcat,
-                                  nonneg_float, nonneg_int, pos_float, progress_bar, save_html)
+from mmlearn.apps.common.cli import (ArgumentParser, UsageError, check_in_file, check_out_file,
+                                     fail, finish_viewing, frame_camera, make_meshcat,
+                                     nonneg_float, nonneg_int, pos_float, progress_bar, save_html)
 from mmlearn.sdf.mechanisms import KINDS, REVOLUTE
 
 SUCCESS_ANGLE = math.radians(60)  # thesis: opened > 60 deg (revolute) ...
@@ -149,10 +149,10 @@ def run(*, kind: str = "left_door", seed: int = 0, meshcat=None, html_out: str =
     ``look_frames``."""
     from pydrake.systems.analysis import Simulator
 
-    from mmlearn.diagrams.operate import PERCEPTIONS, MakeOperateDiagram, OperateConfig
-    from mmlearn.diagrams.operate_perception import NoFrontDetected
-    from mmlearn.models.fileio import atomic_write_text
-    from mmlearn.systems.epc_controller import DONE, PHASE_NAMES, PULL
+    from mmlearn.diagrams.articulation.operate import PERCEPTIONS, MakeOperateDiagram, OperateConfig
+    from mmlearn.diagrams.articulation.operate_perception import NoFrontDetected
+    from mmlearn.models.common.fileio import atomic_write_text
+    from mmlearn.systems.articulation.epc_controller import DONE, PHASE_NAMES, PULL
 
     if kind not in KINDS:
         raise ValueError(f"object must be one of {', '.join(KINDS)}; got {kind!r}")
@@ -322,7 +322,7 @@ def main(argv=None) -> int:
         check_out_file("--html-out", args.html_out)
         check_out_file("--save-track", args.save_track)
         if args.priors:
-            from mmlearn.models.articulation_priors import PriorDatabase
+            from mmlearn.models.articulation.priors import PriorDatabase
 
             check_in_file("--priors", args.priors)
             PriorDatabase.load(args.priors)

@@ -2,7 +2,7 @@
 
     python -m mmlearn.apps.operate_trials --trials 8 --json
 
-Trials are independent and run through the sweep runner (``mmlearn.apps._sweep``): in
+Trials are independent and run through the sweep runner (``mmlearn.apps.common.sweep``): in
 parallel processes (``--jobs``, default: all cores) or as Ray tasks (``--executor ray``),
 streamed to ``--results`` (default ``operate_trials_results.jsonl``); re-running the same
 command resumes, ``--report-only FILE`` redraws the table from a results file.
@@ -16,11 +16,12 @@ from pathlib import Path
 
 import numpy as np
 
-from mmlearn.apps._common import (ArgumentParser, UsageError, check_in_file, check_out_dir,
-                                  fail, name_list, nonneg_int, pos_int)
-from mmlearn.apps._sweep import add_sweep_args, report_lines, sweep_kwargs
+from mmlearn.apps.common.cli import (ArgumentParser, UsageError, check_in_file, check_out_dir,
+                                     fail, name_list, nonneg_int, pos_int)
+from mmlearn.apps.common.sweep import add_sweep_args, report_lines, sweep_kwargs
 from mmlearn.apps.open_cabinet import add_trial_args
 from mmlearn.sdf.mechanisms import KINDS
+from mmlearn.models.common.trials import register_trial
 
 
 def _error_record(kind: str, seed: int, error: str) -> dict:
@@ -51,6 +52,7 @@ def _priors_file(text: str) -> str:
     return _PRIORS_FILES[h]
 
 
+@register_trial("articulation.operate")
 def trial(*, seed: int, kind: str, max_time: float = 60.0, sigma_pos: float | None = None,
           mechanism_seed: int | None = None, base_noise: float | None = None,
           save_track: str = "", priors_sha1: str = "", shared=None,
@@ -134,13 +136,13 @@ def run(*, objects=KINDS, trials: int = 8, seed: int = 0, jobs: int | None = Non
     ``sigma_pos`` is the noise the estimator assumes (None: 0.05 m), ``perception`` where
     the handle comes from ("click" or "depth", see ``open_cabinet``).
 
-    The trials run through the sweep runner (``mmlearn.apps._sweep``): ``results`` is the
+    The trials run through the sweep runner (``mmlearn.apps.common.sweep``): ``results`` is the
     JSON Lines file they are streamed to (None: a temporary one; with a file, trials already
     in it are not run again), ``executor`` ``"local"`` (a pool of ``jobs`` processes) or
     ``"ray"`` (``ray_address``: a cluster, None: a local Ray instance of ``jobs`` CPUs)."""
     import hashlib
 
-    from mmlearn.apps._sweep import TrialSpec, run_sweep
+    from mmlearn.apps.common.sweep import TrialSpec, run_sweep
 
     objects = list(objects)
     if not objects:
@@ -161,14 +163,14 @@ def run(*, objects=KINDS, trials: int = 8, seed: int = 0, jobs: int | None = Non
         raise ValueError(f"max_time must be a finite number of seconds > 0, got {max_time}")
     shared, priors_sha1 = None, ""
     if priors:  # a bad database is bad input, found here rather than in every trial
-        from mmlearn.models.articulation_priors import PriorDatabase
+        from mmlearn.models.articulation.priors import PriorDatabase
 
         PriorDatabase.load(priors)
         shared = Path(priors).read_text()
         priors_sha1 = hashlib.sha1(shared.encode()).hexdigest()
     if save_tracks:
         Path(save_tracks).mkdir(parents=True, exist_ok=True)
-    specs = [TrialSpec(fn="mmlearn.apps.operate_trials:trial", seed=seed + i,
+    specs = [TrialSpec(fn=trial, seed=seed + i,
                        label=f"{k} seed {seed + i}",
                        params={"kind": k, "max_time": max_time, "sigma_pos": sigma_pos,
                                "mechanism_seed": mechanism_seed, "base_noise": base_noise,

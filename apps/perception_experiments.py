@@ -7,7 +7,7 @@ drawer and a door in noisy depth images, their tracks and the learned articulati
 
 Every trial is one :func:`mmlearn.apps.track_fronts.run` (the kitchen scene, the drawer or the
 door opening in steps, ``--frames`` camera frames over the opening, FrontDetector ->
-FrontTracker -> link model), run through the sweep runner (``mmlearn.apps._sweep``: streamed
+FrontTracker -> link model), run through the sweep runner (``mmlearn.apps.common.sweep``: streamed
 to a JSON Lines results file, resumable, ``--jobs`` processes). The report (tables, plots in
 ``--out-dir``) is redrawn from that file by ``--report-only``.
 
@@ -41,8 +41,9 @@ from pathlib import Path
 
 import numpy as np
 
-from mmlearn.apps._common import (ArgumentParser, UsageError, check_out_dir, fail, float_list,
-                                  json_clean, name_list, nonneg_int, pos_int, save_figure)
+from mmlearn.apps.common.cli import (ArgumentParser, UsageError, check_out_dir, fail, float_list,
+                                     json_clean, name_list, nonneg_int, pos_int, save_figure)
+from mmlearn.models.common.trials import register_trial
 
 __all__ = ["EXPERIMENTS", "trial", "trial_specs", "report", "run", "main", "THESIS_STAGE_S"]
 
@@ -63,6 +64,7 @@ TARGET_DETECTION, TARGET_DISTANCE_M, TARGET_POS_M, TARGET_ORIENT_DEG, TARGET_MS 
 PREDICTION_N = 30
 
 
+@register_trial("perception.fronts")
 def trial(*, seed: int, experiment: str, object: str, distance: float, angle: float = 0.0,
           frames: int = 60, temporal_filter: bool = True, camera_rate_hz: float = 0.0,
           shared=None) -> dict:
@@ -95,9 +97,9 @@ def trial_specs(*, only=EXPERIMENTS, quick: bool = False, seed: int = 1000, seed
                 temporal_filter: bool = True, camera_rate_hz: float = 30.0) -> list:
     """One spec per (experiment, object, distance or angle, seed); ``distances`` (m) and
     ``angles`` (deg, at 1.5 m) replace the default grids when given."""
-    from mmlearn.apps._sweep import TrialSpec
+    from mmlearn.apps.common.sweep import TrialSpec
 
-    fn = "mmlearn.apps.perception_experiments:trial"
+    fn = trial
     specs = []
     for exp in only:
         if exp == "distance":
@@ -464,7 +466,7 @@ def run(*, only=EXPERIMENTS, quick: bool = False, seed: int = 1000, seeds: int =
         camera_rate_hz: float = 30.0) -> dict:
     """Run the experiments through the sweep runner; returns the report's results (plus
     "plots" written to ``out`` and "sweep")."""
-    from mmlearn.apps._sweep import run_sweep
+    from mmlearn.apps.common.sweep import run_sweep
 
     if isinstance(only, str):
         only = [x.strip() for x in only.split(",") if x.strip()]
@@ -501,7 +503,7 @@ def run(*, only=EXPERIMENTS, quick: bool = False, seed: int = 1000, seeds: int =
 
 
 def main(argv=None) -> int:
-    from mmlearn.apps._sweep import add_sweep_args, exit_status, report_lines, sweep_kwargs
+    from mmlearn.apps.common.sweep import add_sweep_args, exit_status, report_lines, sweep_kwargs
 
     ap = ArgumentParser(prog="python -m mmlearn.apps.perception_experiments",
                         description=__doc__.split("\n\n")[0] + " Exit status: 0 every trial "

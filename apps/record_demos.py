@@ -7,8 +7,8 @@
 A human-like teacher arm (other link lengths than the robot's) performs the task in the
 imitation scene (:mod:`mmlearn.sdf.imitation`) with seeded variation of the layout, its
 timing, speed and via points; the project's MarkerSensor observes its hand, fingers and the
-objects at 5 Hz with 5 mm noise and occlusions (:mod:`mmlearn.diagrams.demonstrations`).
-The demonstrations are saved with :func:`mmlearn.models.imitation_types.save_demonstrations`
+objects at 5 Hz with 5 mm noise and occlusions (:mod:`mmlearn.diagrams.imitation.demonstrations`).
+The demonstrations are saved with :func:`mmlearn.models.imitation.types.save_demonstrations`
 (JSON: per demonstration ``t``, ``hand``, ``objects``, ``gripper``, ``meta``; null = the
 marker was not seen). The same seed gives the same file.
 
@@ -26,10 +26,10 @@ from pathlib import Path
 
 import numpy as np
 
-from mmlearn.apps._common import (ArgumentParser, UsageError, check_out_file, fail,
-                                  finish_viewing, json_clean, make_meshcat, nonneg_int,
-                                  pos_float, pos_int, progress_bar, save_html)
-from mmlearn.models.teacher import TASKS
+from mmlearn.apps.common.cli import (ArgumentParser, UsageError, check_out_file, fail,
+                                     finish_viewing, json_clean, make_meshcat, nonneg_int,
+                                     pos_float, pos_int, progress_bar, save_html)
+from mmlearn.models.imitation.teacher import TASKS
 
 __all__ = ["RecordDemosConfig", "run", "main"]
 
@@ -75,9 +75,9 @@ class RecordDemosConfig:
 
 def run(*, config: RecordDemosConfig, show_progress: bool = False) -> dict:
     """Record, save and summarise the demonstrations; returns the JSON-able result."""
-    from mmlearn.diagrams.demonstrations import record_demonstrations
-    from mmlearn.models.imitation_types import save_demonstrations
-    from mmlearn.models.teacher import task_scene
+    from mmlearn.diagrams.imitation.demonstrations import record_demonstrations
+    from mmlearn.models.imitation.types import save_demonstrations
+    from mmlearn.models.imitation.teacher import task_scene
 
     cfg = config
     cfg.validate()
@@ -156,7 +156,7 @@ def main(argv=None) -> int:
                             out=str(args.out or ""), swap_tables=args.swap_tables,
                             board_scale=args.board_scale, with_obstacle=args.with_obstacle,
                             html_out=str(args.html_out or ""), meshcat=args.meshcat)
-    from mmlearn.diagrams.demonstrations import TeacherIKError
+    from mmlearn.diagrams.imitation.demonstrations import TeacherIKError
 
     try:
         result = run(config=cfg, show_progress=not args.json)

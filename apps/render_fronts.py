@@ -26,11 +26,11 @@ from pathlib import Path
 
 import numpy as np
 
-from mmlearn.apps._common import (ArgumentParser, UsageError, check_in_file, check_out_dir,
-                                  check_out_file, fail, finish_viewing, float_list, json_clean,
-                                  load_config, make_meshcat, name_list, nonneg_int, pos_int,
-                                  progress, save_html)
-from mmlearn.diagrams.perception import FrontPerceptionConfig, MakeFrontPerceptionDiagram
+from mmlearn.apps.common.cli import (ArgumentParser, UsageError, check_in_file, check_out_dir,
+                                     check_out_file, fail, finish_viewing, float_list, json_clean,
+                                     load_config, make_meshcat, name_list, nonneg_int, pos_int,
+                                     progress, save_html)
+from mmlearn.diagrams.perception.diagram import FrontPerceptionConfig, MakeFrontPerceptionDiagram
 
 
 @dataclass

@@ -19,9 +19,9 @@ Usage::
   their run times as n grows.
 
 ``--sensor``: ``ideal`` (default) observes the objects' markers with the scenarios' Gaussian
-noise (``mmlearn.diagrams.object_tracks``); ``camera`` renders the same motion with
+noise (``mmlearn.diagrams.common.object_tracks``); ``camera`` renders the same motion with
 ArUco-textured marker squares on the parts and reads them with the
-:class:`~mmlearn.systems.camera_marker_sensor.CameraMarkerSensor` (one 1920 x 1440 camera
+:class:`~mmlearn.systems.common.camera_marker_sensor.CameraMarkerSensor` (one 1920 x 1440 camera
 placed by ``auto_cameras``; markers it does not detect are missing samples), and every
 experiment adds a line with what the camera saw (share of frames per part, median position
 error, share of orientations off by > 20 deg). Slow: ~0.3-1 s per sample.
@@ -30,7 +30,7 @@ Tables go to stdout, ``--json`` prints all results, ``--out-dir DIR`` writes the
 ``--quick`` runs a small setting (for the test suite).
 
 The trials (each experiment; fig416: each yardstick run; fig417: each yardstick; fig418:
-each n) run through the sweep runner (``mmlearn.apps._sweep``): in parallel processes
+each n) run through the sweep runner (``mmlearn.apps.common.sweep``): in parallel processes
 (``--jobs``, default all cores) or as Ray tasks (``--executor ray``), streamed to
 ``--results`` (default ``structure_experiments_results.jsonl`` in ``--out-dir`` or the
 current folder); re-running the same command resumes, ``--report-only FILE`` redraws the
@@ -49,16 +49,17 @@ from pathlib import Path
 
 import numpy as np
 
-from mmlearn.apps._common import (ArgumentParser, UsageError, check_out_dir, fail, json_clean,
-                                  nonneg_int, pos_int, progress_bar)
-from mmlearn.apps._common import save_figure
-from mmlearn.models.articulation import ObservationModel
-from mmlearn.models.articulation_graph import (KinematicGraphEvaluator, fit_pair_models,
+from mmlearn.apps.common.cli import (ArgumentParser, UsageError, check_out_dir, fail, json_clean,
+                                     nonneg_int, pos_int, progress_bar)
+from mmlearn.apps.common.cli import save_figure
+from mmlearn.models.articulation.link import ObservationModel
+from mmlearn.models.articulation.graph import (KinematicGraphEvaluator, fit_pair_models,
                                                fit_structure, search_structure,
                                                spanning_tree_edges)
-from mmlearn.models.articulation_incremental import incremental_structure
-from mmlearn.models.articulation_structure import select_link_model
-from mmlearn.models.se3 import relative_poses
+from mmlearn.models.articulation.incremental import incremental_structure
+from mmlearn.models.articulation.structure import select_link_model
+from mmlearn.models.common.se3 import relative_poses
+from mmlearn.models.common.trials import register_trial
 
 __all__ = ["run", "main", "EXPERIMENTS"]
 
@@ -70,14 +71,14 @@ SENSORS = ("ideal", "camera")
 def observe(track, sensor: str = "ideal", camera=None):
     """The scenario's track as ``sensor`` reports it: "ideal" = as generated (Gaussian
     noise), "camera" = rendered and read by the camera marker sensor
-    (:func:`mmlearn.diagrams.object_tracks.camera_track`, ``camera`` its
+    (:func:`mmlearn.diagrams.common.object_tracks.camera_track`, ``camera`` its
     CameraMarkerSensorConfig, None = one automatic 1920 x 1440 camera; NaN rows where a
     marker was not detected)."""
     if sensor == "ideal":
         return track
     if sensor != "camera":
         raise ValueError(f"sensor must be one of {', '.join(SENSORS)}, got {sensor!r}")
-    from mmlearn.diagrams.object_tracks import camera_track
+    from mmlearn.diagrams.common.object_tracks import camera_track
 
     return camera_track(track, camera)
 
@@ -129,7 +130,7 @@ def _relative(track, i=0, j=1) -> np.ndarray:
 
 
 def exp_cabinet(*, quick, seed, progress, sensor="ideal"):
-    from mmlearn.diagrams.object_tracks import cabinet_scenario
+    from mmlearn.diagrams.common.object_tracks import cabinet_scenario
 
     tr = observe(cabinet_scenario(20, 20 if quick else 40, rng=seed), sensor)
     obs = ObservationModel(sigma_pos=0.01, sigma_orient=np.deg2rad(2))
@@ -146,7 +147,7 @@ def exp_cabinet(*, quick, seed, progress, sensor="ideal"):
 
 
 def exp_table(*, quick, seed, progress, sensor="ideal"):
-    from mmlearn.diagrams.object_tracks import table_phases, table_scenario
+    from mmlearn.diagrams.common.object_tracks import table_phases, table_scenario
 
     m = 12 if quick else 20
     tr = observe(table_scenario(m, rng=seed), sensor)
@@ -193,7 +194,7 @@ def _sequence(names):
 
 
 def exp_car(*, quick, seed, progress, sensor="ideal"):
-    from mmlearn.diagrams.object_tracks import car_door_scenario
+    from mmlearn.diagrams.common.object_tracks import car_door_scenario
 
     tr = observe(car_door_scenario(30 if quick else 40, 30 if quick else 40, rng=seed), sensor)
     obs = ObservationModel(sigma_pos=0.005, sigma_orient=np.deg2rad(1))
@@ -218,7 +219,7 @@ def exp_car(*, quick, seed, progress, sensor="ideal"):
 
 
 def exp_garage(*, quick, seed, progress, sensor="ideal"):
-    from mmlearn.diagrams.object_tracks import garage_door_scenario
+    from mmlearn.diagrams.common.object_tracks import garage_door_scenario
 
     tr = observe(garage_door_scenario(40 if quick else 60, rng=seed), sensor)
     obs = ObservationModel(sigma_pos=0.01, sigma_orient=np.deg2rad(2))
@@ -246,7 +247,7 @@ def yardstick_row(*, closed: bool, seed: int, n: int, sensor: str = "ideal") -> 
     """One yardstick run of Fig. 4.16 (a trial): the open chain (3 hinges) or the closed
     loop (4 links) with ``n`` samples, fitted with the spanning tree, the local and the
     exhaustive search (DOF reduction on); BICs, DOFs, run times [s] and graphs visited."""
-    from mmlearn.diagrams.object_tracks import yardstick_scenario
+    from mmlearn.diagrams.common.object_tracks import yardstick_scenario
 
     obs = _yardstick_obs()
     tr = observe(yardstick_scenario(closed, n, rng=seed), sensor)
@@ -363,7 +364,7 @@ def yardstick_summary(rows):
 def dof_progress(*, closed: bool, seed: int, quick: bool, sensor: str = "ideal") -> list:
     """Fig. 4.17 for one yardstick (a trial): the open chain opened segment by segment or the
     closed loop; [n, estimated DOFs] every 20 samples."""
-    from mmlearn.diagrams.object_tracks import yardstick_scenario
+    from mmlearn.diagrams.common.object_tracks import yardstick_scenario
 
     n, step = (80, 20) if quick else (200, 20)
     obs = _yardstick_obs()
@@ -390,7 +391,7 @@ def dof_progress_summary(by_key: dict):
 def search_vs_n_row(*, n: int, seed: int, sensor: str = "ideal") -> dict:
     """Fig. 4.18 at one n (a trial): closed yardstick, BIC, DOFs, graphs visited and run
     time [s] of the spanning tree, the local and the exhaustive search."""
-    from mmlearn.diagrams.object_tracks import yardstick_scenario
+    from mmlearn.diagrams.common.object_tracks import yardstick_scenario
 
     obs = _yardstick_obs()
     tr = observe(yardstick_scenario(True, n, rng=seed), sensor)
@@ -481,9 +482,10 @@ RUNNERS = {"fig48": exp_cabinet, "fig49": exp_table, "fig411": exp_car, "garage"
 """The experiments that are one trial each (their table is the trial's record)."""
 
 
+@register_trial("articulation.structure")
 def trial(*, seed: int, experiment: str, quick: bool = False, closed: bool | None = None,
           n: int | None = None, sensor: str = "ideal", shared=None) -> dict:
-    """One trial of the sweep (``mmlearn.apps._sweep``): a whole experiment of
+    """One trial of the sweep (``mmlearn.apps.common.sweep``): a whole experiment of
     :data:`RUNNERS` (fig48, fig49, fig411, garage: its result and table lines), one yardstick
     run of fig416 (``closed``, ``n`` samples), one yardstick of fig417 (``closed``) or one
     ``n`` of fig418. ``sensor``: see :func:`observe`."""
@@ -508,9 +510,9 @@ def trial_specs(*, only=EXPERIMENTS, quick: bool = False, seed: int = 0, seeds: 
     fig416 (2 x ``seeds``), one per yardstick of fig417 (2), one per n of fig418. A
     ``sensor`` other than "ideal" is one more parameter of every trial (so the ideal
     trials' keys, and results files, stay as they were)."""
-    from mmlearn.apps._sweep import TrialSpec
+    from mmlearn.apps.common.sweep import TrialSpec
 
-    fn = "mmlearn.apps.structure_experiments:trial"
+    fn = trial
     specs = []
     for k in only:
         if k in RUNNERS:
@@ -587,11 +589,11 @@ def run(*, only=EXPERIMENTS, quick: bool = False, seed: int = 0, seeds: int = 10
     lines of every experiment at the end.
 
     The trials (see :func:`trial_specs`) run through the sweep runner
-    (``mmlearn.apps._sweep``): streamed to ``results`` (a JSON Lines file; None: a temporary
+    (``mmlearn.apps.common.sweep``): streamed to ``results`` (a JSON Lines file; None: a temporary
     one; trials already in it are not run again), ``executor`` "local" (``jobs`` processes,
     default all cores) or "ray" (``ray_address``: a cluster, None: a local Ray instance).
     ``sensor``: "ideal" or "camera" (see :func:`observe`)."""
-    from mmlearn.apps._sweep import run_sweep
+    from mmlearn.apps.common.sweep import run_sweep
 
     if isinstance(only, str):
         only = [x.strip() for x in only.split(",") if x.strip()]
@@ -616,7 +618,7 @@ def run(*, only=EXPERIMENTS, quick: bool = False, seed: int = 0, seeds: int = 10
 
 
 def main(argv=None) -> int:
-    from mmlearn.apps._sweep import add_sweep_args, exit_status, report_lines, sweep_kwargs
+    from mmlearn.apps.common.sweep import add_sweep_args, exit_status, report_lines, sweep_kwargs
 
     ap = ArgumentParser(prog="python -m mmlearn.apps.structure_experiments",
                         description=__doc__.split("\n\n")[0] + " Exit status: 0 every trial "

@@ -8,7 +8,7 @@ Usage::
         [--informed] [--classes a,b,..] [--plot FILE] --seed S [--json]
         [--results FILE] [--jobs J] [--executor local|ray] [--report-only RESULTS.jsonl]
 
-**Grasps** (Drake, :mod:`mmlearn.diagrams.tactile_objects`): the two-finger gripper with the
+**Grasps** (Drake, :mod:`mmlearn.diagrams.tactile.objects`): the two-finger gripper with the
 ch. 6 taxel pads (14 x 6 cells over 51 x 24 mm) and the switching grasp controller closes
 on each of the 16 objects / 21 classes of :mod:`mmlearn.sdf.tactile_objects` (a fresh
 seeded instance per grasp: size, mass, friction, stiffness; placement error 1.5 mm in
@@ -16,11 +16,11 @@ height and 1 mm sideways), ``--grasps-per-class`` grasps per class at the height
 class' 1 cm grid from bottom to top (cycling: grasp j at grid height j mod n). Each grasp
 gives ``z = (Z_left, Z_right, h, w)``: the two taxel images once the force is established,
 the commanded height and the finger distance from the encoders. Grasps run through the
-sweep runner (:mod:`mmlearn.apps._sweep`): ``--results`` keeps them (default
+sweep runner (:mod:`mmlearn.apps.common.sweep`): ``--results`` keeps them (default
 ``tactile_recognition_results.jsonl`` in the current folder), a rerun resumes, and
 ``--report-only FILE`` recomputes every figure from a results file without simulating.
 
-**Recognition** (:mod:`mmlearn.models.tactile_recognition`): vocabulary of ``--k`` features
+**Recognition** (:mod:`mmlearn.models.tactile.recognition`): vocabulary of ``--k`` features
 (Eq. 6.1-6.3 distance, medoid clustering), soft codebook histograms (6.4), histogram
 intersection (6.6), posterior over T grasps (6.8). Evaluation as Sec. 6.3: randomised
 2-fold cross-validation (per class, half of the grasps train, half test, both directions,
@@ -42,7 +42,7 @@ height maximises the expected information gain of Eq. 6.12-6.13 given the grasps
 with H(c | z) estimated by the cross-entropy on the labelled training outcomes, heights not
 yet grasped first) and ``informed_entropy`` (the same with the thesis' plug-in entropy of
 the updated belief), with the mean over t, the distinct heights grasped and a paired t-test
-against random (see :mod:`mmlearn.models.tactile_recognition` for why the plug-in entropy
+against random (see :mod:`mmlearn.models.tactile.recognition` for why the plug-in entropy
 fails here). A subset
 whose training half has fewer than 2k grasps uses k = half its number of training grasps
 (``k_used``; e.g. soft vs tennis ball with 20 grasps per class: 20 training grasps, k = 10).
@@ -68,14 +68,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mmlearn.apps._common import (ArgumentParser, UsageError, check_out_file, fail,
-                                  json_clean, name_list, nonneg_int, pos_float, pos_int,
-                                  save_figure)
+from mmlearn.apps.common.cli import (ArgumentParser, UsageError, check_out_file, fail,
+                                     json_clean, name_list, nonneg_int, pos_float, pos_int,
+                                     save_figure)
+from mmlearn.diagrams.tactile.objects import object_grasp_trial
 
 __all__ = ["RecognitionExperimentConfig", "run", "report", "main", "grasp_specs",
            "evaluate", "THESIS_RATES", "SUBSETS", "STRATEGIES"]
 
-TRIAL_FN = "mmlearn.diagrams.tactile_objects:object_grasp_trial"
+TRIAL_FN = "tactile.object_grasp"
 #: Sec. 6.3.2 (T = 10): all 21 classes, household, industrial, soft vs tennis ball.
 THESIS_RATES = {"all": 0.846, "household": 0.962, "industrial": 0.580, "soft_vs_tennis": 0.938}
 #: Table 6.1 and 6.2 of the thesis (T = 10).
@@ -134,8 +135,8 @@ class RecognitionExperimentConfig:
 # ----------------------------------------------------------------------------- grasps
 def grasp_specs(classes, grasps_per_class: int, *, seed: int, f_target: float = 15.0):
     """The sweep's trial specs: grasp j of class c at grid height j mod n (bottom to top)."""
-    from mmlearn.apps._sweep import TrialSpec
-    from mmlearn.diagrams.tactile_objects import grid_heights
+    from mmlearn.apps.common.sweep import TrialSpec
+    from mmlearn.diagrams.tactile.objects import grid_heights
     from mmlearn.sdf.tactile_objects import CLASSES
 
     specs = []
@@ -144,7 +145,7 @@ def grasp_specs(classes, grasps_per_class: int, *, seed: int, f_target: float = 
         hs = grid_heights(c)
         for j in range(grasps_per_class):
             h = float(hs[j % len(hs)])
-            specs.append(TrialSpec(fn=TRIAL_FN, seed=int(seed) * 1_000_003 + ci * 1000 + j,
+            specs.append(TrialSpec(fn=object_grasp_trial, seed=int(seed) * 1_000_003 + ci * 1000 + j,
                                    params={"cls": c, "height": h, "f_target": float(f_target)},
                                    label=f"{c} h={h:.2f} #{j}"))
     return specs
@@ -152,7 +153,7 @@ def grasp_specs(classes, grasps_per_class: int, *, seed: int, f_target: float = 
 
 def _dataset(records):
     """A labelled TactileSet and the group of each label from trial records (with contact)."""
-    from mmlearn.models.tactile_recognition import TactileSet
+    from mmlearn.models.tactile.recognition import TactileSet
 
     recs = [r for r in records if r.get("contact")]
     if not recs:
@@ -183,7 +184,7 @@ def _pick(idx, T, rng):
 
 
 def _fit(train, *, k, alpha, seed):
-    from mmlearn.models.tactile_recognition import TactileRecognitionConfig, TactileRecognizer
+    from mmlearn.models.tactile.recognition import TactileRecognitionConfig, TactileRecognizer
 
     # at most half the training grasps: with every grasp a centre the model's default
     # length scale (a fraction of the distance to the nearest other centre) degenerates
@@ -196,7 +197,7 @@ def _random_trials(rec, test, classes, T, n, rng):
     """``n`` recognitions of random classes from T random test grasps each: (correct after
     t = 1..T (n, T) bool, true class index (n,), predicted class index after T (n,), number
     drawn with replacement)."""
-    from mmlearn.models.tactile_recognition import posterior
+    from mmlearn.models.tactile.recognition import posterior
 
     L = np.log(np.maximum(rec.likelihood(test), 1e-300))
     cls = list(rec.classes)
@@ -237,7 +238,7 @@ def _strategy_trials(rec, train, test, objects, T, rng, *, strategy, Ltr=None, f
     where the object still has an unused test grasp, preferring heights not yet grasped
     (``fresh=False``: no preference, the first version's rule); estimator "cross_entropy" /
     "entropy". ``Ltr``: the leave-one-out likelihoods of ``train`` (computed when None)."""
-    from mmlearn.models.tactile_recognition import height_actions, posterior
+    from mmlearn.models.tactile.recognition import height_actions, posterior
 
     L = np.log(np.maximum(rec.likelihood(test), 1e-300))
     cls = list(rec.classes)
@@ -380,7 +381,7 @@ def _subset_classes(name, groups):
 def report(lines: list[dict], config: RecognitionExperimentConfig) -> dict:
     """Every figure from results-file lines (a run or ``--report-only``)."""
     c = config
-    lines = [ln for ln in lines if ln.get("spec", {}).get("fn") == TRIAL_FN]
+    lines = [ln for ln in lines if ln.get("spec", {}).get("fn", "").split("@")[0] == TRIAL_FN]
     if not lines:
         raise ValueError("no recognition grasp in the results")
     # one order whatever the order the grasps finished in: the splits depend on it
@@ -438,7 +439,7 @@ def report(lines: list[dict], config: RecognitionExperimentConfig) -> dict:
 def run(*, config: RecognitionExperimentConfig) -> dict:
     """Simulate the grasps (resuming from ``config.results``) and report (see the module
     docstring for the result)."""
-    from mmlearn.apps._sweep import run_sweep
+    from mmlearn.apps.common.sweep import run_sweep
     from mmlearn.sdf.tactile_objects import CLASSES
 
     c = config
@@ -568,7 +569,7 @@ def _show_one(cls: str, *, seed: int, meshcat, html_out) -> dict:
     """One grasp of ``cls`` at its middle grid height, drawn in Meshcat (and recorded)."""
     from pydrake.geometry import MeshcatVisualizer
 
-    from mmlearn.diagrams import tactile_objects as to
+    from mmlearn.diagrams.tactile import objects as to
 
     hs = to.grid_heights(cls)
     vis_holder = {}
@@ -584,15 +585,15 @@ def _show_one(cls: str, *, seed: int, meshcat, html_out) -> dict:
     if "vis" in vis_holder:
         vis_holder["vis"].PublishRecording()
     if html_out:
-        from mmlearn.apps._common import save_html
+        from mmlearn.apps.common.cli import save_html
 
         save_html(meshcat, html_out)
     return rec
 
 
 def main(argv=None) -> int:
-    from mmlearn.apps._sweep import (add_sweep_args, apply_sweep_args, exit_status,
-                                     report_only_lines, report_only_result)
+    from mmlearn.apps.common.sweep import (add_sweep_args, apply_sweep_args, exit_status,
+                                           report_only_lines, report_only_result)
     from mmlearn.sdf.tactile_objects import CLASSES
 
     ap = ArgumentParser(
@@ -656,7 +657,7 @@ def main(argv=None) -> int:
         return fail(ap.prog, str(e))
     try:
         if args.meshcat or args.html_out:
-            from mmlearn.apps._common import finish_viewing, make_meshcat
+            from mmlearn.apps.common.cli import finish_viewing, make_meshcat
 
             mc = make_meshcat(announce=args.meshcat)
             _show_one((cfg.classes or tuple(CLASSES))[0], seed=cfg.seed, meshcat=mc,

@@ -6,8 +6,8 @@ Usage::
         [--include-full-coke] [--folds 10] [--steady-average] [--plot FILE] --seed S [--json]
 
 ``DIR`` holds iCub grasp dataset files ``<label>_<trial>.txt`` (format: README.txt of the data
-set; reader: :mod:`mmlearn.models.icub_grasp`). Each grasp gives the six features of Table 7.1
-(:mod:`mmlearn.models.tactile_state`): finger closure at first two-finger contact, at rest,
+set; reader: :mod:`mmlearn.models.tactile.icub_grasp`). Each grasp gives the six features of Table 7.1
+(:mod:`mmlearn.models.tactile.state`): finger closure at first two-finger contact, at rest,
 summed taxel pressure at rest, the time between them and the two average rates. A classifier
 (``forest`` by default, see below) is trained on ``--train`` and scored on ``--test``; without
 ``--test``, stratified ``--folds``-fold cross-validation on ``--train``. ``full_coke`` is left
@@ -36,16 +36,16 @@ other classifiers' rates (``compare``).
         [--results FILE] [--jobs J]
         [--plot FILE] [--meshcat] [--html-out FILE] --seed S [--json]
 
-The Drake gripper (:mod:`mmlearn.diagrams.tactile_grasp`: PR2-like fingertip pads, the
+The Drake gripper (:mod:`mmlearn.diagrams.tactile.grasp`: PR2-like fingertip pads, the
 switching controller of Eq. 7.8 probing with ``f_target`` N per finger) squeezes random
 instances of the four container classes of Sec. 7.1.3 in each of their internal states
-(:mod:`mmlearn.models.containers`; cans have no ``empty_closed``), ``--trials`` grasps per
+(:mod:`mmlearn.models.tactile.containers`; cans have no ``empty_closed``), ``--trials`` grasps per
 (class, state). ``--wall-model``: the walls' squeeze-volume model (``pressure``, default: the
 content's pressure grows with the squeeze) or the earlier constant linearised springs
 (``linear``; results files written before the pressure model hold such grasps).
 ``--grasp-variation``: ``wall`` (default) gives every grasp its own draw of the container's
 wall response around the instance's (the grasp-to-grasp spread of the squeeze of the same
-container measured on the real iCub grasps, :func:`mmlearn.models.containers.vary_grasp`);
+container measured on the real iCub grasps, :func:`mmlearn.models.tactile.containers.vary_grasp`);
 ``shell`` varies the shell stiffness alone; ``none`` meets every instance as drawn (results files written before it hold such grasps). The features come only
 from the simulated finger encoders and taxel pads.
 Reports (10-fold CV, ``--classifier``; the other classifiers in ``compare``):
@@ -53,13 +53,13 @@ Reports (10-fold CV, ``--classifier``; the other classifiers in ``compare``):
 state given the class}, ``combined_rate`` (all class x state labels) and
 ``combined_rate_without_water`` (the thesis' 11-label experiment). ``--f-sweep`` adds Table
 7.2: the state rate of the Odwalla bottle at 17 / 20 / 23 N (``--sweep-trials`` grasps per
-state). Grasps run through the sweep runner (:mod:`mmlearn.apps._sweep`): ``--results``
+state). Grasps run through the sweep runner (:mod:`mmlearn.apps.common.sweep`): ``--results``
 keeps them in a JSON Lines file so a rerun resumes.
 ``--plot FILE`` draws the grasp profiles p / v / f of one grasp per state of the first
 container class (Fig. 7.3), the force on a rigid block with the switching controller and
 with pure force control (Fig. 7.5 vs 7.6) and the two taxel images of one more grasp at its
 peak force; ``--meshcat`` shows that grasp live (scene and taxel pads coloured by pressure,
-:class:`~mmlearn.systems.taxel_visualizer.TaxelPadVisualizer`) and ``--html-out FILE``
+:class:`~mmlearn.systems.tactile.taxel_visualizer.TaxelPadVisualizer`) and ``--html-out FILE``
 writes its recording as standalone HTML. The JSON then has ``demo_grasp``.
 
 Exit status: 0 success, 2 bad input (unreadable or malformed files name the file and line,
@@ -75,14 +75,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mmlearn.apps._common import (ArgumentParser, UsageError, check_out_file, fail,
-                                  finish_viewing, json_clean, make_meshcat, name_list,
-                                  nonneg_int, pos_float, pos_int, save_figure, save_html)
-from mmlearn.models.icub_grasp import (CONTACT_LEVEL, REST_VELOCITY, ICubFileError,
-                                       load_icub_dir)
-from mmlearn.models.tactile_state import (CLASSIFIERS, FEATURE_NAMES, cross_validate,
+from mmlearn.apps.common.cli import (ArgumentParser, UsageError, check_out_file, fail,
+                                     finish_viewing, json_clean, make_meshcat, name_list,
+                                     nonneg_int, pos_float, pos_int, save_figure, save_html)
+from mmlearn.models.tactile.icub_grasp import (CONTACT_LEVEL, REST_VELOCITY, ICubFileError,
+                                               load_icub_dir)
+from mmlearn.models.tactile.state import (CLASSIFIERS, FEATURE_NAMES, cross_validate,
                                           evaluate_split, extract_grasp_features,
                                           feature_matrix)
+from mmlearn.diagrams.tactile.grasp import container_grasp_trial
 
 __all__ = ["run", "main", "TactileStateConfig"]
 
@@ -122,10 +123,10 @@ class TactileStateConfig:
         containers: simulation: container classes to grasp (default: all four).
         wall_model: simulation: the containers' wall model, "pressure" (the squeeze-volume
             model, default) or "linear" (the linearised constant stiffness used before;
-            :class:`~mmlearn.diagrams.tactile_grasp.TactileGraspConfig`).
+            :class:`~mmlearn.diagrams.tactile.grasp.TactileGraspConfig`).
         grasp_variation: simulation: "wall" (default): every grasp meets its container with
             its own draw of the wall's static response (the grasp-to-grasp spread of the
-            squeeze measured on the iCub grasps, :func:`mmlearn.models.containers.vary_grasp`);
+            squeeze measured on the iCub grasps, :func:`mmlearn.models.tactile.containers.vary_grasp`);
             "shell": of the shell stiffness alone; "none": every grasp meets the instance as
             drawn (the model before).
     """
@@ -162,8 +163,8 @@ SWEEP_FORCES = (17.0, 20.0, 23.0)
 
 def _sim_specs(containers, f_target, trials, seed, wall_model="pressure",
                grasp_variation="none"):
-    from mmlearn.apps._sweep import TrialSpec
-    from mmlearn.models.containers import CONTAINER_CLASSES, states_of
+    from mmlearn.apps.common.sweep import TrialSpec
+    from mmlearn.models.tactile.containers import CONTAINER_CLASSES, states_of
 
     specs = []
     for ci, c in enumerate(containers):
@@ -182,14 +183,14 @@ def _sim_specs(containers, f_target, trials, seed, wall_model="pressure",
                     # likewise: files written before the grasp variation hold "none" grasps
                     params["grasp_variation"] = grasp_variation
                 specs.append(TrialSpec(
-                    fn="mmlearn.diagrams.tactile_grasp:container_grasp_trial", seed=tseed,
+                    fn=container_grasp_trial, seed=tseed,
                     params=params,
                     label=f"{c}/{st}/{f_target:g}N/{k}"))
     return specs
 
 
 def _sim_features(records, *, steady_average=False):
-    from mmlearn.diagrams.tactile_grasp import grasp_from_record
+    from mmlearn.diagrams.tactile.grasp import grasp_from_record
 
     grasps = [grasp_from_record(r) for r in records]
     X, feats = feature_matrix(grasps, contact_force=SIM_CONTACT_FORCE,
@@ -200,7 +201,7 @@ def _sim_features(records, *, steady_average=False):
 
 
 def _report_one(y):
-    from mmlearn.models.tactile_state import ClassificationReport
+    from mmlearn.models.tactile.state import ClassificationReport
 
     return ClassificationReport([str(y[0])], np.array([[len(y)]]), y, y)
 
@@ -224,8 +225,8 @@ def _cv(X, y, *, classifier, folds, seed):
 def run_simulation(config: TactileStateConfig, *, meshcat=None) -> dict:
     """Simulation mode (see the module docstring for the result). With ``meshcat`` (or
     ``config.plot``) one more grasp is simulated and shown: :func:`demo_grasps`."""
-    from mmlearn.apps._sweep import run_sweep
-    from mmlearn.models.containers import CONTAINER_CLASSES
+    from mmlearn.apps.common.sweep import run_sweep
+    from mmlearn.models.tactile.containers import CONTAINER_CLASSES
 
     c = config
     if not (c.f_target is not None and np.isfinite(c.f_target) and c.f_target > 0):
@@ -239,7 +240,7 @@ def run_simulation(config: TactileStateConfig, *, meshcat=None) -> dict:
         raise ValueError("containers: empty; choose from " + ", ".join(CONTAINER_CLASSES))
     if c.wall_model not in ("pressure", "linear"):
         raise ValueError(f"wall_model: expected 'pressure' or 'linear', got {c.wall_model!r}")
-    from mmlearn.models.containers import GRASP_VARIATIONS
+    from mmlearn.models.tactile.containers import GRASP_VARIATIONS
 
     if c.grasp_variation not in GRASP_VARIATIONS:
         raise ValueError(f"grasp_variation: expected one of {', '.join(GRASP_VARIATIONS)}, "
@@ -339,8 +340,8 @@ def demo_grasps(config: TactileStateConfig, *, meshcat=None, impact: bool = True
     block grasped with the switching controller and with pure force control (Fig. 7.5 vs
     7.6, 10 N; the contact force every 2 ms, :func:`contact_force_trace`). Returns
     {"grasp": TactileGrasp, "impact": {mode: {"t", "f"}}}."""
-    from mmlearn.diagrams.tactile_grasp import TactileGraspConfig, simulate_grasp
-    from mmlearn.models.containers import sample_container, states_of
+    from mmlearn.diagrams.tactile.grasp import TactileGraspConfig, simulate_grasp
+    from mmlearn.models.tactile.containers import sample_container, states_of
     from mmlearn.sdf.tactile import block_sdf
 
     c = config
@@ -364,7 +365,7 @@ def contact_force_trace(cfg, *, object_sdf: str, dt: float = 0.002) -> dict:
     """The normal contact force per finger (N) of one grasp every ``dt`` s, read from the
     plant's hydroelastic contact results (the impact lasts a few ms: the 25 Hz pad force
     would miss it). Returns {"t": (T,) s, "f": (T,) N}."""
-    from mmlearn.diagrams.tactile_grasp import simulate_contact_force
+    from mmlearn.diagrams.tactile.grasp import simulate_contact_force
 
     ts, f, _, _ = simulate_contact_force(cfg, object_sdf=object_sdf, dt=dt)
     return {"t": ts, "f": f}
@@ -381,7 +382,7 @@ def plot_simulation(records, demo, path, *, containers, title: str = "") -> None
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from mmlearn.diagrams.tactile_grasp import grasp_from_record
+    from mmlearn.diagrams.tactile.grasp import grasp_from_record
 
     fig, ax = plt.subplots(2, 3, figsize=(16, 8.5))
     name = containers[0]

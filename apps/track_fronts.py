@@ -5,7 +5,7 @@
         [--angle DEG] [--camera-rate HZ] [--no-temporal-filter] [--meshcat] [--html-out F] \\
         [--json]
 
-The kitchen scene of :mod:`mmlearn.diagrams.perception` (RgbdSensor + DepthNoise) with a
+The kitchen scene of :mod:`mmlearn.diagrams.perception.diagram` (RgbdSensor + DepthNoise) with a
 :class:`~mmlearn.systems.FrontDetector` and a :class:`~mmlearn.systems.FrontTracker` added;
 the moving front opens in the scene's stepped profile and ``--frames`` detector frames are
 taken evenly over it (the first closed, the last fully open). The camera and the
@@ -79,12 +79,12 @@ from pathlib import Path
 
 import numpy as np
 
-from mmlearn.apps._common import (ArgumentParser, UsageError, check_in_file, check_out_file,
-                                  fail, finish_viewing, json_clean, load_config, make_meshcat,
-                                  nonneg_int, pos_int, progress, save_html)
-from mmlearn.diagrams.perception import FrontPerceptionConfig
-from mmlearn.models.front_detection import STAGES, FrontDetectorConfig
-from mmlearn.models.depth_filter import DepthFilterConfig
+from mmlearn.apps.common.cli import (ArgumentParser, UsageError, check_in_file, check_out_file,
+                                     fail, finish_viewing, json_clean, load_config, make_meshcat,
+                                     nonneg_int, pos_int, progress, save_html)
+from mmlearn.diagrams.perception.diagram import FrontPerceptionConfig
+from mmlearn.models.perception.detection import STAGES, FrontDetectorConfig
+from mmlearn.models.perception.depth_filter import DepthFilterConfig
 
 __all__ = ["TrackFrontsConfig", "run", "match_front", "main", "EXPECTED_MODEL"]
 
@@ -119,7 +119,7 @@ class TrackFrontsConfig:
             angle and noise seed are set from the fields above).
         detector: the FrontDetector's parameters.
         temporal_filter: put a DepthTemporalFilter (per-pixel running mean where the scene
-            stands still, :mod:`mmlearn.models.depth_filter`) between the camera and the
+            stands still, :mod:`mmlearn.models.perception.depth_filter`) between the camera and the
             detector, at the camera's frame rate (one filter update per frame).
         filter: its parameters (``depth_std_at_1m`` is set from the scene's noise model).
         camera_rate_hz: the camera's frame rate with the temporal filter, Hz (default 30, a
@@ -194,7 +194,7 @@ def match_front(rectangles, X_true: np.ndarray, width: float, height: float, *,
         ``orient_error_deg``, ``size_error_m`` (max |width - true|, |height - true|, m),
         ``width``, ``height`` (aligned, m).
     """
-    from mmlearn.models.front_tracking import align_rectangle, as_rectangle
+    from mmlearn.models.perception.tracking import align_rectangle, as_rectangle
 
     X_true = np.asarray(X_true, float)
     best, best_cost = None, math.inf
@@ -226,7 +226,7 @@ def front_visibility(X_true: np.ndarray, width: float, height: float, X_WC: np.n
         the camera, deg; ``displacement_m``: the largest distance of a corner from the
         closed front's plane, m (how far the front stands out of the cabinet's face).
     """
-    from mmlearn.models.fronts import FrontRectangle
+    from mmlearn.models.perception.fronts import FrontRectangle
 
     c = FrontRectangle(X_true, width, height).corners()
     R, p = X_WC[:3, :3], X_WC[:3, 3]
@@ -269,10 +269,10 @@ def run(*, config: TrackFrontsConfig, meshcat=None, show_progress: bool = True) 
     the scores described in the module docstring (a JSON-able dict)."""
     from pydrake.systems.analysis import Simulator
 
-    from mmlearn.diagrams.perception import AddFrontDetectorAndTracker, MakeFrontPerceptionDiagram
-    from mmlearn.models.front_tracking import selection_vs_observations
+    from mmlearn.diagrams.perception.diagram import AddFrontDetectorAndTracker, MakeFrontPerceptionDiagram
+    from mmlearn.models.perception.tracking import selection_vs_observations
     from mmlearn.systems import FrontTrackerConfig, FrontTrackVisualizer
-    from mmlearn.systems.front_detector import TIMING_NAMES
+    from mmlearn.systems.perception.front_detector import TIMING_NAMES
 
     cfg = config
     cfg.validate()
@@ -295,7 +295,7 @@ def run(*, config: TrackFrontsConfig, meshcat=None, show_progress: bool = True) 
     parts = {}
     filt_cfg = None
     if cfg.temporal_filter and sc.add_noise:
-        from mmlearn.models.depth_noise import predicted_depth_std
+        from mmlearn.models.common.depth_noise import predicted_depth_std
 
         filt_cfg = copy.deepcopy(cfg.filter)
         filt_cfg.depth_std_at_1m = float(predicted_depth_std(1.0, sc.camera.intrinsics(),
@@ -402,7 +402,7 @@ def run(*, config: TrackFrontsConfig, meshcat=None, show_progress: bool = True) 
         if ns and ns[-1] != mt.n:
             ns.append(mt.n)
         tcfg = trk.config()
-        from mmlearn.models.front_tracking import front_observation_model
+        from mmlearn.models.perception.tracking import front_observation_model
         sel = selection_vs_observations(
             mt.poses, expected=expected, ns=ns, models=tcfg.model_names(),
             obs=front_observation_model(tcfg.sigma_pos_m, math.radians(tcfg.sigma_orient_deg)),

@@ -15,9 +15,9 @@ from pathlib import Path
 
 import numpy as np
 
-from mmlearn.apps._common import (ArgumentParser, UsageError, check_in_file, check_out_file,
-                                  fail, finish_viewing, load_config, make_meshcat, nonneg_int,
-                                  pos_float, progress, save_html)
+from mmlearn.apps.common.cli import (ArgumentParser, UsageError, check_in_file, check_out_file,
+                                     fail, finish_viewing, load_config, make_meshcat, nonneg_int,
+                                     pos_float, progress, save_html)
 from mmlearn.diagrams import MakeSceneDiagram, SceneConfig
 
 

@@ -15,7 +15,7 @@ counts the time other users' processes hold the cores):
 - one GP forward + Jacobian query (control-loop use).
 
 ``--refinement-study`` instead compares the revolute model's refinement, the hand-written
-Levenberg-Marquardt (models/articulation_refine.py, used) against
+Levenberg-Marquardt (models/articulation/refine.py, used) against
 scipy.optimize.least_squares ("trf" and "lm") as the M-step of an EM on the same
 responsibility-weighted residuals with gamma fixed: BIC, radius and axis against the LM's,
 and the fit's CPU time. Revolute tracks: the benchmark's microwave (n = 30, 200), simulated
@@ -42,10 +42,10 @@ import time
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from mmlearn.models.articulation import ObservationModel, make_model
-from mmlearn.models.articulation_refine import _H, _alternate, _residual_terms
-from mmlearn.models.articulation_sim import simulate_link
-from mmlearn.models.articulation_structure import fit_kinematic_tree, select_link_model
+from mmlearn.models.articulation.link import ObservationModel, make_model
+from mmlearn.models.articulation.refine import _H, _alternate, _residual_terms
+from mmlearn.models.articulation.sim import simulate_link
+from mmlearn.models.articulation.structure import fit_kinematic_tree, select_link_model
 
 OBS = ObservationModel(sigma_pos=0.002, sigma_orient=np.deg2rad(2.0))
 
@@ -181,7 +181,7 @@ def refinement_study(*, repeats: int = 5, seed: int = 0) -> dict:
     largest |BIC - BIC_lm|, relative radius difference and axis angle (deg)."""
     from pathlib import Path
 
-    from mmlearn.models.track_io import read_track
+    from mmlearn.models.common.track_io import read_track
 
     variants = {"lm (hand-written)": "lm",
                 "least_squares trf": _least_squares_refinement("trf"),

@@ -16,15 +16,15 @@ import time
 
 import numpy as np
 
-from mmlearn.models.body_schema import BodySchema, SearchConfig
-from mmlearn.models.body_schema_experiments import (
-    accuracy_curve,
-    control_experiment,
-    recovery_experiment,
-    structure_correct,
-)
-from mmlearn.models.body_schema_search import learn_structure
-from mmlearn.models.kinematic_sim import make_arm_2dof, make_arm_4dof, make_arm_7dof
+from mmlearn.models.body_schema.schema import BodySchema, SearchConfig
+from mmlearn.models.body_schema.evaluation import (
+                                                   accuracy_curve,
+                                                   control_experiment,
+                                                   recovery_experiment,
+                                                   structure_correct,
+                                                   )
+from mmlearn.models.body_schema.search import learn_structure
+from mmlearn.models.body_schema.kinematic_sim import make_arm_2dof, make_arm_4dof, make_arm_7dof
 
 CFG7 = SearchConfig(sigma_pos=0.02, sigma_orient=np.deg2rad(3.0))
 

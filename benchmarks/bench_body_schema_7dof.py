@@ -5,7 +5,7 @@ Every trial is exactly ``python -m mmlearn.apps.learn_body_schema --arm 7dof --s
 100 test configurations, 5 control targets), for S in ``--sigmas`` and N in ``--seeds``
 (default 1-10 and 101-110, the sets of the issue), plus ``--extra`` (default seed 5502 at
 sigma 0.01, the issue's own command). The trials go through the sweep runner
-(:mod:`mmlearn.apps._sweep`: a process pool, progress bar, resumable JSON Lines file), so an
+(:mod:`mmlearn.apps.common.sweep`: a process pool, progress bar, resumable JSON Lines file), so an
 interrupted run picks up where it stopped::
 
     OPENBLAS_NUM_THREADS=1 python benchmarks/bench_body_schema_7dof.py --jobs 2 \\
@@ -31,10 +31,13 @@ import math
 import sys
 from pathlib import Path
 
+from mmlearn.models.common.trials import register_trial
+
 WITHIN = 12  # samples: "structure right within ~10 samples" (issue 10: <= 12)
 MIN_SEEDS = 8  # of 10 per set
 
 
+@register_trial("body_schema.bench_7dof")
 def trial(*, seed: int, noise: float, samples: int = 50) -> dict:
     """One run of the app (the issue's command) at ``noise`` m and ``seed``; its JSON dict."""
     from mmlearn.apps.learn_body_schema import LearnBodySchemaConfig, run
@@ -104,7 +107,7 @@ def print_table(sigma: float, label: str, s: dict) -> None:
 
 
 def main(argv=None) -> int:
-    from mmlearn.apps._sweep import TrialSpec, run_sweep
+    from mmlearn.apps.common.sweep import TrialSpec, run_sweep
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--sigmas", type=float, nargs="+", default=[0.01, 0.044],
@@ -124,7 +127,7 @@ def main(argv=None) -> int:
     if any(not (math.isfinite(s) and s >= 0) for s in args.sigmas):
         ap.error("--sigmas must be finite and >= 0")
     sets = args.seeds or [list(range(1, 11)), list(range(101, 111))]
-    fn = f"{Path(__file__).stem}:trial"  # importable in the spawned workers (sys.path[0])
+    fn = trial
     specs, where = [], {}
     for sigma in args.sigmas:
         for seeds in sets:

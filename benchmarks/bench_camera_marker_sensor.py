@@ -31,10 +31,10 @@ import numpy as np
 
 
 def _rig(width, shift=None, min_side=None):
-    from mmlearn.diagrams.marker_camera import MarkerRig
-    from mmlearn.models.marker_detection import DetectorConfig
-    from mmlearn.systems.camera_marker_sensor import CameraMarkerSensorConfig
-    from mmlearn.systems.marker_sensor import CameraConfig
+    from mmlearn.diagrams.common.marker_camera import MarkerRig
+    from mmlearn.models.common.marker_detection import DetectorConfig
+    from mmlearn.systems.common.camera_marker_sensor import CameraMarkerSensorConfig
+    from mmlearn.systems.common.marker_sensor import CameraConfig
 
     kw = {}
     if shift is not None:
@@ -79,9 +79,9 @@ def noise_table(width, distances, angles, n, seed, depths=("exact",)):
     once)."""
     import dataclasses
 
-    from mmlearn.models.depth_noise import DepthNoiseConfig, apply_depth_noise
-    from mmlearn.models.fronts import PinholeIntrinsics
-    from mmlearn.systems.camera_marker_sensor import CameraMarkerSensor
+    from mmlearn.models.common.depth_noise import DepthNoiseConfig, apply_depth_noise
+    from mmlearn.models.common.camera import PinholeIntrinsics
+    from mmlearn.systems.common.camera_marker_sensor import CameraMarkerSensor
 
     cfg, rig, ctx = _rig(width)
     X_WC = cfg.cameras[0].pose()
@@ -207,8 +207,8 @@ def _score(obs, plant, plant_context, robot, vis, pe, ae) -> None:
 
 
 def arm_errors(arm, poses, seed, width):
-    from mmlearn.diagrams.body_schema import BodySchemaDiagramConfig, MakeBodySchemaDiagram
-    from mmlearn.systems.camera_marker_sensor import CameraMarkerSensorConfig
+    from mmlearn.diagrams.body_schema.diagram import BodySchemaDiagramConfig, MakeBodySchemaDiagram
+    from mmlearn.systems.common.camera_marker_sensor import CameraMarkerSensorConfig
 
     cam = CameraMarkerSensorConfig(width=width, height=width * 3 // 4)
     bs = MakeBodySchemaDiagram(BodySchemaDiagramConfig(arm=arm, sensor="camera",
@@ -253,7 +253,7 @@ VARIANTS = {
     "normal": dict(depth_test="normal"),
     # the default: each solution's plane against the depth pixels (noise-aware)
     "depth": dict(),
-    # the same two on a structured-light camera's depth (models/depth_noise.py defaults)
+    # the same two on a structured-light camera's depth (models/common/depth_noise.py defaults)
     "normal-noisy": dict(depth_test="normal", noisy=True),
     "depth-noisy": dict(noisy=True),
 }
@@ -272,11 +272,11 @@ def babble_flips(arm, seconds, variants, seed, width):
 
     from pydrake.systems.analysis import Simulator
 
-    from mmlearn.diagrams.body_schema import BodySchemaDiagramConfig, MakeBodySchemaDiagram
-    from mmlearn.models.depth_noise import DepthNoiseConfig, apply_depth_noise
-    from mmlearn.models.fronts import PinholeIntrinsics
-    from mmlearn.systems.camera_marker_sensor import (CameraMarkerSensor,
-                                                      CameraMarkerSensorConfig)
+    from mmlearn.diagrams.body_schema.diagram import BodySchemaDiagramConfig, MakeBodySchemaDiagram
+    from mmlearn.models.common.depth_noise import DepthNoiseConfig, apply_depth_noise
+    from mmlearn.models.common.camera import PinholeIntrinsics
+    from mmlearn.systems.common.camera_marker_sensor import (CameraMarkerSensor,
+                                                             CameraMarkerSensorConfig)
 
     base = CameraMarkerSensorConfig(width=width, height=width * 3 // 4)
     print(f"{arm} arm babbling {seconds:g} s (seed {seed}), {len(base.cameras)} cameras "

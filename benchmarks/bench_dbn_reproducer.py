@@ -51,10 +51,10 @@ def main(argv=None):
     args = ap.parse_args(argv)
 
     from mmlearn.apps.imitate import record_demos
-    from mmlearn.diagrams.imitation import ImitationConfig, MakeImitationDiagram, \
+    from mmlearn.diagrams.imitation.diagram import ImitationConfig, MakeImitationDiagram, \
         object_positions
-    from mmlearn.models.imitation import learn_task, plan_global
-    from mmlearn.systems.dbn_reproducer import DbnReproducerConfig
+    from mmlearn.models.imitation.dbn import learn_task, plan_global
+    from mmlearn.systems.imitation.dbn_reproducer import DbnReproducerConfig
 
     demos = record_demos("pick_place", 4, seed=args.seed)
     ts = []

@@ -16,9 +16,9 @@ import dataclasses
 
 import numpy as np
 
-from mmlearn.diagrams.demonstrations import record_demonstrations
-from mmlearn.models.imitation import learn_task
-from mmlearn.models.teacher import task_scene
+from mmlearn.diagrams.imitation.demonstrations import record_demonstrations
+from mmlearn.models.imitation.dbn import learn_task
+from mmlearn.models.imitation.teacher import task_scene
 
 
 def main(argv=None):

@@ -1,4 +1,4 @@
-"""CPU time of the temporal depth filter (models/depth_filter.py) per 640x480 frame, and the
+"""CPU time of the temporal depth filter (models/perception/depth_filter.py) per 640x480 frame, and the
 noise it leaves on a static scene (prints figures; never fails on time).
 
     OPENBLAS_NUM_THREADS=1 python benchmarks/bench_depth_filter.py [--frames 30] [--distance 2.2]
@@ -9,9 +9,9 @@ import time
 
 import numpy as np
 
-from mmlearn.models.depth_filter import DepthFilterConfig, filter_depth, new_filter_state
-from mmlearn.models.depth_noise import DepthNoiseConfig, apply_depth_noise, predicted_depth_std
-from mmlearn.models.fronts import PinholeIntrinsics
+from mmlearn.models.perception.depth_filter import DepthFilterConfig, filter_depth, new_filter_state
+from mmlearn.models.common.depth_noise import DepthNoiseConfig, apply_depth_noise, predicted_depth_std
+from mmlearn.models.common.camera import PinholeIntrinsics
 
 
 def main(argv=None):

@@ -30,7 +30,7 @@ import numpy as np  # noqa: E402
 
 
 def _frames():
-    from mmlearn.diagrams.perception import FrontPerceptionConfig, MakeFrontPerceptionDiagram
+    from mmlearn.diagrams.perception.diagram import FrontPerceptionConfig, MakeFrontPerceptionDiagram
 
     frames, render = [], []
     for front in ("drawer", "door"):
@@ -53,7 +53,7 @@ def main(argv=None) -> int:
     import cv2
 
     cv2.setNumThreads(1)
-    from mmlearn.models.depth_noise import DepthNoiseConfig, apply_depth_noise
+    from mmlearn.models.common.depth_noise import DepthNoiseConfig, apply_depth_noise
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=20, help="noise draws per frame")

@@ -12,7 +12,7 @@ detection rate and position / orientation errors per distance and per angle.
 
 Frames (640 x 480):
 
-- ``--synthetic N`` frames rendered in numpy (models/front_synth.py: wall, floor, cabinet, one
+- ``--synthetic N`` frames rendered in numpy (models/perception/synth.py: wall, floor, cabinet, one
   door or drawer front pulled out 0.1-0.3 m, camera 1.0-2.5 m away and up to 30 deg off the
   front's normal, noise 0.0015 z^2 m, 1 % drop-outs);
 - every ``*.json`` + ``*_depth.npy`` pair in ``--frames-dir`` (default /work/shared-frames when it
@@ -58,10 +58,10 @@ import time
 import cv2
 import numpy as np
 
-from mmlearn.models.front_detection import STAGES, FrontDetectorConfig, detect_fronts
-from mmlearn.models.front_synth import (DOOR_SIZE, DRAWER_SIZE, add_depth_noise, front_pose,
-                                        kitchen_scene, look_at, render_depth)
-from mmlearn.models.fronts import PinholeIntrinsics, depth_to_points
+from mmlearn.models.perception.detection import STAGES, FrontDetectorConfig, detect_fronts
+from mmlearn.models.perception.synth import (DOOR_SIZE, DRAWER_SIZE, add_depth_noise, front_pose,
+                                             kitchen_scene, look_at, render_depth)
+from mmlearn.models.common.camera import PinholeIntrinsics, depth_to_points
 
 cv2.setNumThreads(1)
 

@@ -27,9 +27,9 @@ import cv2
 import numpy as np
 
 from mmlearn.apps.track_fronts import match_front
-from mmlearn.models.front_detection import FrontDetectorConfig, detect_fronts
-from mmlearn.models.front_tracking import align_rectangle, as_rectangle
-from mmlearn.models.fronts import PinholeIntrinsics
+from mmlearn.models.perception.detection import FrontDetectorConfig, detect_fronts
+from mmlearn.models.perception.tracking import align_rectangle, as_rectangle
+from mmlearn.models.common.camera import PinholeIntrinsics
 
 cv2.setNumThreads(1)
 

@@ -5,7 +5,7 @@
 
 Measures (median process CPU time over repeats, single process, one BLAS thread):
 
-- the association of one frame (:func:`mmlearn.models.front_tracking.track_frame`) with
+- the association of one frame (:func:`mmlearn.models.perception.tracking.track_frame`) with
   k rectangles against T tracks of m stored observations each (every rectangle is compared
   with every stored observation in all 8 parameterisations);
 - one link-model selection (rigid, prismatic, revolute, gp) of a front track of n
@@ -13,7 +13,7 @@ Measures (median process CPU time over repeats, single process, one BLAS thread)
 - a whole FrontTracker run under a Simulator: 3 fronts (drawer, door, wall) over 60 frames.
 
 ``--pipeline FRONT:DISTANCE:SEED ...`` instead runs the kitchen scene end to end
-(diagrams/perception.py: rendered noisy depth -> FrontDetector -> FrontTracker at 5 Hz over
+(diagrams/perception/diagram.py: rendered noisy depth -> FrontDetector -> FrontTracker at 5 Hz over
 the stepped opening) and prints, per run, the wall time per frame and every track with a
 moving model: its selection, axis error against the true joint, radius / travel and the
 hinge line's distance.
@@ -30,9 +30,9 @@ import time
 
 import numpy as np
 
-from mmlearn.models.front_tracking import (TrackingState, fit_track_model,
-                                           simulate_front_rectangles, track_frame,
-                                           track_rectangles)
+from mmlearn.models.perception.tracking import (TrackingState, fit_track_model,
+                                                simulate_front_rectangles, track_frame,
+                                                track_rectangles)
 
 
 def _cpu(fn, repeats):
@@ -60,8 +60,8 @@ def pipeline(front: str, distance: float, seed: int) -> dict:
     """One end-to-end run (see the module docstring); returns a JSON-able record."""
     from pydrake.systems.analysis import Simulator
 
-    from mmlearn.diagrams.perception import (AddFrontDetectorAndTracker, FrontPerceptionConfig,
-                                             MakeFrontPerceptionDiagram)
+    from mmlearn.diagrams.perception.diagram import (AddFrontDetectorAndTracker, FrontPerceptionConfig,
+                                                     MakeFrontPerceptionDiagram)
     from mmlearn.systems import FrontTrackerConfig
 
     parts = {}
@@ -148,7 +148,7 @@ def main(argv=None):
     from pydrake.systems.analysis import Simulator
     from pydrake.systems.framework import DiagramBuilder, LeafSystem
 
-    from mmlearn.systems.front_tracker import FrontTracker, FrontTrackerConfig
+    from mmlearn.systems.perception.front_tracker import FrontTracker, FrontTrackerConfig
 
     n = 60
     X = np.eye(4)

@@ -8,7 +8,7 @@ contact results at 1 kHz); ``--plot FILE`` draws the force profiles.
 
 import argparse
 
-from mmlearn.diagrams.tactile_grasp import TactileGraspConfig, simulate_contact_force
+from mmlearn.diagrams.tactile.grasp import TactileGraspConfig, simulate_contact_force
 from mmlearn.sdf.tactile import block_sdf
 
 

@@ -1,16 +1,16 @@
 """Grasp-to-grasp variation of a container's squeeze, measured on the real iCub grasps (prints
-the figures behind ``ContainerClass.grasp_spread`` in models/containers.py).
+the figures behind ``ContainerClass.grasp_spread`` in models/tactile/containers.py).
 
     python benchmarks/bench_grasp_variation.py [--data DIR] [--json]
 
 DIR defaults to ``../shared/data/icub_grasp/train`` beside the repository (trials 1-10 of every
-object; reader :mod:`mmlearn.models.icub_grasp`). The same hand grasped the same object in the
+object; reader :mod:`mmlearn.models.tactile.icub_grasp`). The same hand grasped the same object in the
 same state ten times; what changes from grasp to grasp is where and how the fingers land on it
 (its rotation, the label, seams and ribs under the fingers, the shell's own response) and the
 hand's own repeatability. For every object the script prints, over its ten grasps, the final
 closure ``p_steady`` (mean, sd) and the squeeze ``p_steady - p_first`` (mean), both in degrees
 of the mean finger flexion, with the features of Table 7.1 as the app computes them
-(``CONTACT_LEVEL`` / ``REST_VELOCITY`` of models/icub_grasp.py, nothing chosen here).
+(``CONTACT_LEVEL`` / ``REST_VELOCITY`` of models/tactile/icub_grasp.py, nothing chosen here).
 
 The relative grasp-to-grasp spread of a container's squeeze is then
 
@@ -33,8 +33,8 @@ from pathlib import Path
 
 import numpy as np
 
-from mmlearn.models.icub_grasp import CONTACT_LEVEL, REST_VELOCITY, load_icub_dir
-from mmlearn.models.tactile_state import feature_matrix
+from mmlearn.models.tactile.icub_grasp import CONTACT_LEVEL, REST_VELOCITY, load_icub_dir
+from mmlearn.models.tactile.state import feature_matrix
 
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data" / "icub_grasp" / "train"
 REFERENCE = "lotion"

@@ -38,8 +38,8 @@ import warnings
 
 import numpy as np
 
-from mmlearn.models.imitation import align_demonstrations, constraint_step, learn_task, plan_global
-from mmlearn.models.imitation_types import Demonstration, Obstacle
+from mmlearn.models.imitation.dbn import align_demonstrations, constraint_step, learn_task, plan_global
+from mmlearn.models.imitation.types import Demonstration, Obstacle
 
 # --------------------------------------------------------------------------------------------
 # a 7-joint spatial chain (z, y, z, y, z, y, z axes; link offsets along z), base at the origin

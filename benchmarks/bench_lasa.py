@@ -1,6 +1,6 @@
 """LASA handwriting benchmark: the thesis' method (ch. 8) beside the naive baseline, a dynamic
 movement primitive and a probabilistic movement primitive from ``movement-primitives``, on the
-same leave-one-out folds, scored by the same code (:mod:`mmlearn.models.lasa`).
+same leave-one-out folds, scored by the same code (:mod:`mmlearn.models.imitation.lasa`).
 
 Usage::
 
@@ -11,7 +11,7 @@ Usage::
 Methods (every one learns from the 6 training demonstrations of a fold and starts at the held-
 out demonstration's start; the reproductions are resampled on the held-out time stamps):
 
-* ``thesis``: :class:`mmlearn.models.lasa.ThesisReproducer` (defaults: target, start-marker,
+* ``thesis``: :class:`mmlearn.models.imitation.lasa.ThesisReproducer` (defaults: target, start-marker,
   start-frame, scale-only start-frame and duration-frame constraints, h 0.02 s, dt 0.02 s, full
   covariances shrunk half-way to their diagonal).
 * ``thesis_s7``: the session-7 default (the same without the duration frame).
@@ -19,13 +19,13 @@ out demonstration's start; the reproductions are resampled on the held-out time 
   shrinkage).
 * ``target_start``: the default without the start-frame constraints (objects target, start;
   covariances shrunk half-way to the diagonal as in the default).
-* ``thesis_cv`` (not in the default ``--methods``): :class:`mmlearn.models.lasa.InnerCVReproducer`,
+* ``thesis_cv`` (not in the default ``--methods``): :class:`mmlearn.models.imitation.lasa.InnerCVReproducer`,
   the thesis' method with h in {0.02, 0.04, 0.1} s, covariance shrinkage towards the diagonal
   in {0, 0.5, 1} and the constraint sets {target, start, frame} / {target, start} chosen per
   fold by an inner leave-one-out over the 6 training demonstrations (nested cross-validation);
   ``thesis_cv_end`` scores the inner folds by rmse + end error; ``thesis_cv_1se`` keeps the
   default setting unless the inner winner beats it by more than one standard error.
-* ``baseline``: :func:`mmlearn.models.lasa.naive_baseline`.
+* ``baseline``: :func:`mmlearn.models.imitation.lasa.naive_baseline`.
 * ``dmp``: ``movement_primitives.dmp.DMP`` (Ijspeert et al. 2013 formulation), fitted to each
   training demonstration on a normalised time 0..1 with ``--weights`` basis functions per
   dimension; the weights are averaged over the 6 fits; rolled out from the held-out start to
@@ -49,9 +49,9 @@ import warnings
 
 import numpy as np
 
-from mmlearn.models.lasa import (DEVELOPMENT_SHAPES, LASA_SHAPES, MULTI_MODE_SHAPES,
-                                 InnerCVReproducer, ThesisReproducer, baseline_reproducer, evaluate_shape,
-                                 load_shape, summarise)
+from mmlearn.models.imitation.lasa import (DEVELOPMENT_SHAPES, LASA_SHAPES, MULTI_MODE_SHAPES,
+                                           InnerCVReproducer, ThesisReproducer, baseline_reproducer, evaluate_shape,
+                                           load_shape, summarise)
 
 
 def _normalised(d, n):
@@ -112,7 +112,7 @@ def inner_cv_diagnostic(shapes, folds=None) -> None:
     and the default setting's outer rmse minus the inner pick's."""
     from scipy.stats import spearmanr
 
-    from mmlearn.models.lasa import leave_one_out, resample_to, rmse_mm
+    from mmlearn.models.imitation.lasa import leave_one_out, resample_to, rmse_mm
 
     cv = InnerCVReproducer()
     cands = cv.candidates()

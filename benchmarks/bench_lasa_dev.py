@@ -1,5 +1,5 @@
 """LASA development study (issue 15, lasa3): where the thesis' reproduction errs, and how the
-settings of :class:`mmlearn.models.lasa.ThesisReproducer` move the leave-one-out rmse, **on the
+settings of :class:`mmlearn.models.imitation.lasa.ThesisReproducer` move the leave-one-out rmse, **on the
 9 development shapes only** (``DEVELOPMENT_SHAPES``; the held-back shapes are never read here).
 
 Usage::
@@ -55,8 +55,8 @@ import warnings
 
 import numpy as np
 
-from mmlearn.models.lasa import (DEVELOPMENT_SHAPES, ThesisReproducer, baseline_reproducer,
-                                 evaluate_shape, leave_one_out, load_shape, resample_to, rmse_mm)
+from mmlearn.models.imitation.lasa import (DEVELOPMENT_SHAPES, ThesisReproducer, baseline_reproducer,
+                                           evaluate_shape, leave_one_out, load_shape, resample_to, rmse_mm)
 
 
 def _dtw_path(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -166,13 +166,13 @@ def grid(shapes, only=None, extra=None) -> None:
 
 @contextlib.contextmanager
 def _alignment(kind: str):
-    """Swap :func:`mmlearn.models.imitation.align_demonstrations` (looked up at call time by
+    """Swap :func:`mmlearn.models.imitation.dbn.align_demonstrations` (looked up at call time by
     ``ThesisReproducer.learn``) for a study variant, inside this benchmark only:
     ``"arc"``: no DTW, every demonstration resampled at uniform normalised arc length (the DBN
     indexed by progress along the path, the reference's median duration); ``"barycentre"``: DTW
     to the reference, then a second DTW pass of every demonstration to the mean of the first."""
-    import mmlearn.models.imitation as imi
-    from mmlearn.models.imitation_types import Demonstration
+    import mmlearn.models.imitation.dbn as imi
+    from mmlearn.models.imitation.types import Demonstration
 
     real = imi.align_demonstrations
 
@@ -313,9 +313,9 @@ def condition_r2(shapes) -> None:
     Prints per shape and method the RMS prediction error at the same aligned time (mm, over
     slices and folds) / the issue's metric of the predicted path (nearest held-out sample, mm,
     mean over folds)."""
-    from mmlearn.models.imitation import align_demonstrations
-    from mmlearn.models.lasa import (condition_on_start, start_covariates, start_frame, to_start_frame,
-                                     with_start_marker)
+    from mmlearn.models.imitation.dbn import align_demonstrations
+    from mmlearn.models.imitation.lasa import (condition_on_start, start_covariates, start_frame, to_start_frame,
+                                               with_start_marker)
 
     labels = ["mean", "frame", "cond r0", "cond r1", "cond r3", "frame+cond"]
     print(f"{'shape':17s} " + " ".join(f"{x:>11s}" for x in labels))
@@ -353,14 +353,14 @@ def condition_r2(shapes) -> None:
 # =============================================================================================
 # lasa5: fusion rules, robust demonstration weights, the duration as a cue (development only)
 def _frame(s, mode, T=None):
-    from mmlearn.models.lasa import start_frame
+    from mmlearn.models.imitation.lasa import start_frame
 
     return start_frame(s, (0.0, 0.0), mode=mode, duration=T)
 
 
 def _on_model_time(t, path, held, dt):
     """``(t, x)`` of a per-slice path reproduced for the held-out duration (the slice timing of
-    :func:`mmlearn.models.lasa.fused_path`)."""
+    :func:`mmlearn.models.imitation.lasa.fused_path`)."""
     n_steps = int(round(held.duration / dt))
     k = np.clip(np.searchsorted(t, np.arange(1, n_steps + 1) * dt * float(t[-1]) / held.duration - 1e-9),
                 0, len(t) - 1)
@@ -400,8 +400,8 @@ class _BlueFusion:
         self.hw, self.ridge, self.iso, self.floor, self.clip, self.dt = hw, ridge, iso, floor, clip, dt
 
     def __call__(self, train, held):
-        from mmlearn.models.imitation import align_demonstrations, parzen_weights
-        from mmlearn.models.lasa import with_start_marker
+        from mmlearn.models.imitation.dbn import align_demonstrations, parzen_weights
+        from mmlearn.models.imitation.lasa import with_start_marker
 
         al = align_demonstrations([with_start_marker(d) for d in train], dt=self.dt, features="both")
         H = np.stack([d.hand for d in al])
@@ -466,7 +466,7 @@ class _ProductFusion:
         return m1 + c0, (1 - self.shrink) * cov + self.shrink * diag
 
     def _components(self, H, S0, Tg, t, s, Tq, a):
-        from mmlearn.models.imitation import parzen_weights
+        from mmlearn.models.imitation.dbn import parzen_weights
 
         G = H.shape[0]
         W = parzen_weights(t, t, h=self.h, G=1)
@@ -491,8 +491,8 @@ class _ProductFusion:
         return out
 
     def __call__(self, train, held):
-        from mmlearn.models.imitation import align_demonstrations
-        from mmlearn.models.lasa import with_start_marker
+        from mmlearn.models.imitation.dbn import align_demonstrations
+        from mmlearn.models.imitation.lasa import with_start_marker
 
         al = align_demonstrations([with_start_marker(d) for d in train], dt=self.dt, features="both")
         H = np.stack([d.hand for d in al])
@@ -527,7 +527,7 @@ class _DurationUnknown(ThesisReproducer):
     the duration frame's gain is the duration itself."""
 
     def __call__(self, train, held):
-        from mmlearn.models.imitation import reproduce_cartesian
+        from mmlearn.models.imitation.dbn import reproduce_cartesian
 
         m = self.learn(train, start=held.hand[0], duration=float(np.median([d.duration for d in train])))
         obj = {"target": held.objects["target"][0], "start": held.hand[0]}

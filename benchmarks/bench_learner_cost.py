@@ -19,8 +19,8 @@ import time
 import pydrake.systems.analysis as analysis
 
 from mmlearn.apps.learn_body_schema import LearnBodySchemaConfig, run
-from mmlearn.models import body_schema as body_schema_module
-from mmlearn.systems import schema_learner as sl
+from mmlearn.models.body_schema import schema as body_schema_module
+from mmlearn.systems.body_schema import learner as sl
 
 cpu = time.process_time
 T = dict(advance=0.0, advance_cpu=0.0, update_cpu=0.0, relearn_cpu=0.0, copy_cpu=0.0,

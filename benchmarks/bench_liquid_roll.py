@@ -6,8 +6,8 @@
 Prints the simulated time, the wall and CPU (process) time of the Drake simulation and their
 real-time factors (simulated / elapsed: > 1 is faster than real time; on a shared machine the
 CPU time is the one to compare, the wall time depends on the load, which is printed), and the
-time of :func:`mmlearn.models.liquid.liquid_feature` (whole roll, the thesis') and of the
-coast mask plus :func:`mmlearn.models.liquid.coast_feature` (the default) on the recorded
+time of :func:`mmlearn.models.tactile.liquid.liquid_feature` (whole roll, the thesis') and of the
+coast mask plus :func:`mmlearn.models.tactile.liquid.coast_feature` (the default) on the recorded
 taxels.
 """
 
@@ -18,9 +18,9 @@ import time
 import numpy as np
 
 from mmlearn.apps.liquid_detection import COAST_DELAY
-from mmlearn.diagrams.liquid_roll import (LiquidRollConfig, make_instance, roll_change_windows,
-                                          simulate_roll)
-from mmlearn.models.liquid import coast_feature, coast_mask, liquid_feature
+from mmlearn.diagrams.tactile.liquid_roll import (LiquidRollConfig, make_instance, roll_change_windows,
+                                                  simulate_roll)
+from mmlearn.models.tactile.liquid import coast_feature, coast_mask, liquid_feature
 
 
 def main():

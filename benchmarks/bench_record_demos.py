@@ -1,4 +1,4 @@
-"""Time to record demonstrations of each imitation task (diagrams/demonstrations.py).
+"""Time to record demonstrations of each imitation task (diagrams/imitation/demonstrations.py).
 
     python benchmarks/bench_record_demos.py [--demos 4] [--seed 0]
 
@@ -12,9 +12,9 @@ import time
 
 import numpy as np
 
-from mmlearn.diagrams.demonstrations import MakeTeacherDiagram, TeacherConfig, \
+from mmlearn.diagrams.imitation.demonstrations import MakeTeacherDiagram, TeacherConfig, \
     record_demonstrations
-from mmlearn.models.teacher import TASKS
+from mmlearn.models.imitation.teacher import TASKS
 
 
 def main(argv=None):

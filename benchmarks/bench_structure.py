@@ -17,9 +17,9 @@ def main(argv=None):
     ap.add_argument("--n", default="50,100,200", help="sample counts")
     ap.add_argument("--seed", type=int, default=0)
     a = ap.parse_args(argv)
-    from mmlearn.diagrams.object_tracks import yardstick_scenario
-    from mmlearn.models.articulation import ObservationModel
-    from mmlearn.models.articulation_graph import (KinematicGraphEvaluator, fit_pair_models,
+    from mmlearn.diagrams.common.object_tracks import yardstick_scenario
+    from mmlearn.models.articulation.link import ObservationModel
+    from mmlearn.models.articulation.graph import (KinematicGraphEvaluator, fit_pair_models,
                                                    search_structure, spanning_tree_edges)
 
     obs = ObservationModel(sigma_pos=0.005, sigma_orient=np.deg2rad(3))

@@ -1,4 +1,4 @@
-"""The sweep runner's overhead per trial, local pool vs Ray (apps/_sweep.py).
+"""The sweep runner's overhead per trial, local pool vs Ray (apps/common/sweep.py).
 
     python benchmarks/bench_sweep.py [--trials 40] [--sleep 2.0] [--jobs 2]
     python benchmarks/bench_sweep.py --real 8 [--jobs 2] [--kind drawer]
@@ -29,12 +29,13 @@ import time
 from dataclasses import asdict
 from pathlib import Path
 
-from mmlearn.apps._sweep import (TrialSpec, _init_worker, _local_worker, _ray_execute,
-                                 run_sweep)
+from mmlearn.apps.common.sweep import (TrialSpec, _init_worker, _local_worker, _ray_execute,
+                                       probe_trial, run_sweep)
+from mmlearn.apps.operate_trials import trial as operate_trial
 
 
 def probe(args):
-    specs = [TrialSpec(fn="mmlearn.apps._sweep:probe_trial", seed=i,
+    specs = [TrialSpec(fn=probe_trial, seed=i,
                        params={"sleep_s": args.sleep, "payload": args.payload})
              for i in range(args.trials)]
     print(f"{args.trials} trials of {args.sleep} s, {args.jobs} jobs")
@@ -70,7 +71,7 @@ def real(args):
     jobs = args.jobs
 
     def spec(seed):
-        s = TrialSpec(fn="mmlearn.apps.operate_trials:trial", seed=seed,
+        s = TrialSpec(fn=operate_trial, seed=seed,
                       params={"kind": args.kind}, label=f"{args.kind} {seed}")
         return dict(asdict(s), key=s.key)
 

@@ -56,8 +56,8 @@ def _one(path, seed, args) -> dict:
     from scipy.stats import spearmanr, ttest_rel
 
     import mmlearn.apps.tactile_recognition as tr
-    from mmlearn.apps._sweep import report_lines
-    from mmlearn.models.tactile_recognition import height_actions
+    from mmlearn.apps.common.sweep import report_lines
+    from mmlearn.models.tactile.recognition import height_actions
 
     t0 = time.perf_counter()
     args.seed = seed

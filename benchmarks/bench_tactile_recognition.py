@@ -2,7 +2,7 @@
 
     python benchmarks/bench_tactile_recognition.py [--seed 0] [--trials 300] [--quick] [--json]
 
-The data are the controllable stand-in of models/tactile_synth.py, not physics (the Drake
+The data are the controllable stand-in of models/tactile/synth.py, not physics (the Drake
 tactile sensor will produce the simulated grasps): 11 "household" objects with independent
 patterns and widths over 10 grasp heights, and 5 "industrial" objects that share 70 % of their
 heights (same pattern and width) and differ in the rest, 5 grasps per object and height
@@ -31,9 +31,9 @@ import time
 
 import numpy as np
 
-from mmlearn.models.tactile_recognition import (TactileRecognitionConfig, TactileRecognizer,
+from mmlearn.models.tactile.recognition import (TactileRecognitionConfig, TactileRecognizer,
                                                 height_actions, kmedoids_available, posterior)
-from mmlearn.models.tactile_synth import make_objects, sample_grasps
+from mmlearn.models.tactile.synth import make_objects, sample_grasps
 
 N_HOUSE, N_IND, N_HEIGHTS, PER = 11, 5, 10, 5
 LOO = True

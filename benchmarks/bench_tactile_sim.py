@@ -17,9 +17,9 @@ import numpy as np
 
 from pydrake.systems.analysis import Simulator
 
-from mmlearn.diagrams.tactile_grasp import (MakeTactileGraspDiagram, TactileGraspConfig,
+from mmlearn.diagrams.tactile.grasp import (MakeTactileGraspDiagram, TactileGraspConfig,
                                             simulate_grasp)
-from mmlearn.models.containers import sample_container, states_of
+from mmlearn.models.tactile.containers import sample_container, states_of
 from mmlearn.sdf.tactile import block_sdf
 
 

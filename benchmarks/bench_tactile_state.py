@@ -14,7 +14,7 @@ DIR defaults to ``../shared/data/icub_grasp/train`` beside the repository (10 ob
 - the same with ``steady_average`` (steady-phase means instead of single samples);
 - feature extraction and forest training time (process CPU).
 
-None of these choose a parameter: the thresholds are fixed in models/icub_grasp.py from the
+None of these choose a parameter: the thresholds are fixed in models/tactile/icub_grasp.py from the
 untouched fingers and the encoder resolution, not from these rates.
 """
 
@@ -32,8 +32,8 @@ from pathlib import Path
 
 import numpy as np
 
-from mmlearn.models.icub_grasp import CONTACT_LEVEL, REST_VELOCITY, load_icub_dir
-from mmlearn.models.tactile_state import cross_validate, evaluate_split, feature_matrix
+from mmlearn.models.tactile.icub_grasp import CONTACT_LEVEL, REST_VELOCITY, load_icub_dir
+from mmlearn.models.tactile.state import cross_validate, evaluate_split, feature_matrix
 
 DEFAULT = Path(__file__).resolve().parents[2] / "shared" / "data" / "icub_grasp" / "train"
 

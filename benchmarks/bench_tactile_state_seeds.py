@@ -33,10 +33,10 @@ import numpy as np
 def main(argv=None) -> int:
     from scipy.stats import ttest_rel
 
-    from mmlearn.apps._sweep import load_results
+    from mmlearn.apps.common.sweep import load_results
     from mmlearn.apps.tactile_state import SWEEP_FORCES, _sim_features, _sim_specs, fold_cv
-    from mmlearn.models.containers import CONTAINER_CLASSES
-    from mmlearn.models.tactile_state import CLASSIFIERS
+    from mmlearn.models.tactile.containers import CONTAINER_CLASSES
+    from mmlearn.models.tactile.state import CLASSIFIERS
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("results", nargs="+", help="RESULTS.jsonl:SEED")

@@ -32,22 +32,22 @@ import time
 import cv2
 import numpy as np
 
-import mmlearn.models.front_detection as new
-from mmlearn.models.front_detection import STAGES
+import mmlearn.models.perception.detection as new
+from mmlearn.models.perception.detection import STAGES
 
 cv2.setNumThreads(1)
 HERE = os.path.dirname(os.path.abspath(__file__))
 
 
 def load_ref(ref):
-    """The module models/front_detection.py of git revision ``ref``, imported from a copy."""
+    """The module models/perception/detection.py of git revision ``ref``, imported from a copy."""
     try:
-        src = subprocess.run(["git", "-C", HERE, "show", f"{ref}:models/front_detection.py"],
+        src = subprocess.run(["git", "-C", HERE, "show", f"{ref}:models/perception/detection.py"],
                              check=True, capture_output=True, text=True).stdout
     except subprocess.CalledProcessError as e:
-        raise SystemExit(f"compare_front_detector: cannot read models/front_detection.py at "
+        raise SystemExit(f"compare_front_detector: cannot read models/perception/detection.py at "
                          f"{ref!r}: {e.stderr.strip()}")
-    src = src.replace("from .fronts import", "from mmlearn.models.fronts import")
+    src = src.replace("from .fronts import", "from mmlearn.models.perception.fronts import")
     path = os.path.join(tempfile.mkdtemp(prefix="fd_ref_"), "front_detection_ref.py")
     with open(path, "w") as f:
         f.write(src)

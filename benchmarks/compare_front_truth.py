@@ -24,9 +24,9 @@ import sys
 
 import numpy as np
 
-import mmlearn.models.front_detection as new
+import mmlearn.models.perception.detection as new
 from mmlearn.apps.track_fronts import TrackFrontsConfig, front_visibility, match_front
-from mmlearn.models.fronts import PinholeIntrinsics
+from mmlearn.models.common.camera import PinholeIntrinsics
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from compare_front_detector import load_ref  # noqa: E402

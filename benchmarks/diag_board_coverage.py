@@ -25,8 +25,8 @@ def one(args):
     import mmlearn.apps.imitate as im
     if h is not None:
         im.PARZEN_H["whiteboard"] = h
-    from mmlearn.diagrams.demonstrations import record_demonstrations
-    from mmlearn.models.teacher import TeacherStyle, task_scene
+    from mmlearn.diagrams.imitation.demonstrations import record_demonstrations
+    from mmlearn.models.imitation.teacher import TeacherStyle, task_scene
 
     def rec(task, n, *, seed, board_scale=1.0, placement=im.PLACEMENT):
         return record_demonstrations(
@@ -66,7 +66,7 @@ def main():
 
 def ceiling(scales):
     from mmlearn.apps.imitate import _coverage
-    from mmlearn.models.teacher import TeacherStyle, plan_demonstration, task_scene
+    from mmlearn.models.imitation.teacher import TeacherStyle, plan_demonstration, task_scene
 
     for s in scales:
         cs = []

@@ -23,8 +23,8 @@ def diag(seed: int, swap: bool, demos: int, rcfg: dict | None = None):
     from pydrake.systems.analysis import Simulator
 
     from mmlearn.apps.imitate import MAX_TIME_FACTOR, RELEASE_S, _final, record_demos
-    from mmlearn.diagrams.imitation import ImitationConfig, MakeImitationDiagram, object_positions
-    from mmlearn.models.imitation import learn_task
+    from mmlearn.diagrams.imitation.diagram import ImitationConfig, MakeImitationDiagram, object_positions
+    from mmlearn.models.imitation.dbn import learn_task
 
     demo_list = record_demos("pick_place", demos, seed=seed)
     model = learn_task(demo_list, use_joints=False)

@@ -22,9 +22,10 @@ import math
 
 import numpy as np
 
-import mmlearn.models.front_detection as fd
+import mmlearn.models.perception.detection as fd
 from mmlearn.apps.track_fronts import TrackFrontsConfig, front_visibility, match_front
-from mmlearn.models.fronts import FrontRectangle, PinholeIntrinsics
+from mmlearn.models.common.camera import PinholeIntrinsics
+from mmlearn.models.perception.fronts import FrontRectangle
 
 
 def _truth(meta, thickness=0.019):

@@ -1,17 +1,98 @@
-"""Builders that wire plant, scene graph and mmlearn systems into Diagrams."""
+"""Builders that wire plant, scene graph and mmlearn systems into Diagrams, and Drake trials.
 
-from .body_schema import BodySchemaDiagram, BodySchemaDiagramConfig, MakeBodySchemaDiagram
-from .imitation import Imitation, ImitationConfig, MakeImitationDiagram
-from .liquid_roll import LiquidRollConfig, MakeLiquidRollDiagram, simulate_roll
-from .operate import MakeOperateDiagram, Operate, OperateConfig
-from .perception import (AddFrontDetectorAndTracker, FrontPerceptionConfig,
-                         FrontPerceptionDiagram, MakeFrontPerceptionDiagram)
-from .scene import MakeSceneDiagram, Scene, SceneConfig
-from .tactile_grasp import AddTactileSensor, MakeTactileGraspDiagram, TactileGraspConfig, simulate_grasp
+One subpackage per capability, the same names in models, systems and diagrams: common, articulation, body_schema, perception, tactile, imitation.
+Every public name is re-exported here, e.g. ``from mmlearn.diagrams import ...``.
+"""
 
-__all__ = ["AddFrontDetectorAndTracker", "AddTactileSensor", "BodySchemaDiagram", "BodySchemaDiagramConfig", "FrontPerceptionConfig",
-           "FrontPerceptionDiagram", "MakeBodySchemaDiagram", "MakeFrontPerceptionDiagram",
-           "MakeOperateDiagram", "MakeSceneDiagram", "Operate", "OperateConfig", "Scene",
-           "SceneConfig", "MakeTactileGraspDiagram", "TactileGraspConfig", "simulate_grasp",
-           "Imitation", "ImitationConfig", "MakeImitationDiagram",
-           "LiquidRollConfig", "MakeLiquidRollDiagram", "simulate_roll"]
+from mmlearn._lazy import lazy_exports
+
+#: submodule -> the public names it defines (imported on first use)
+_EXPORTS = {
+    "common": ["AddArucoMarkers", "AddMarkerCameras", "AddCameraMarkerSensor", "MarkerRig", "camera_views", "marker_bodies", "RENDERER", "ObjectTrack", "ObjectKinematics", "cabinet_scenario", "yardstick_scenario", "table_scenario", "table_phases", "car_door_scenario", "garage_door_scenario", "SCENARIOS", "SceneConfig", "Scene", "MakeSceneDiagram"],
+    "articulation": ["OperateConfig", "Operate", "make_task", "task_from_look", "MakeOperateDiagram", "LookConfig", "LookResult", "LookAtFront", "NoFrontDetected", "front_centre"],
+    "body_schema": ["BodySchemaDiagramConfig", "BodySchemaDiagram", "MakeBodySchemaDiagram", "make_target_filter", "true_structure"],
+    "perception": ["DepthCameraConfig", "FrontPerceptionConfig", "FrontPerception", "FrontPerceptionDiagram", "AddDepthCamera", "AddFrontPerception", "MakeFrontPerceptionDiagram", "camera_pose_looking_at"],
+    "tactile": ["TactileGraspConfig", "MakeTactileGraspDiagram", "simulate_grasp", "PAD_LAYOUTS", "container_grasp_trial", "grasp_from_record", "LiquidRollConfig", "MakeLiquidRollDiagram", "simulate_roll", "liquid_roll_trial", "LIQUID_CONTAINERS", "dummy_instance", "roll_change_windows", "GRIPPER_CH6", "object_grasp_trial", "observation_from_record", "grid_heights"],
+    "imitation": ["TeacherConfig", "TeacherDiagram", "MakeTeacherDiagram", "default_sensor_config", "observations_to_demonstration", "record_demonstration", "record_demonstrations", "draw_demonstrations", "TeacherIKError", "task_scene", "ImitationConfig", "Imitation", "home_position", "hand_ik", "start_configuration", "object_positions", "MakeImitationDiagram"],
+}
+
+__all__ = [
+    "AddArucoMarkers",
+    "AddCameraMarkerSensor",
+    "AddDepthCamera",
+    "AddFrontPerception",
+    "AddMarkerCameras",
+    "BodySchemaDiagram",
+    "BodySchemaDiagramConfig",
+    "cabinet_scenario",
+    "camera_pose_looking_at",
+    "camera_views",
+    "car_door_scenario",
+    "container_grasp_trial",
+    "default_sensor_config",
+    "DepthCameraConfig",
+    "draw_demonstrations",
+    "dummy_instance",
+    "front_centre",
+    "FrontPerception",
+    "FrontPerceptionConfig",
+    "FrontPerceptionDiagram",
+    "garage_door_scenario",
+    "grasp_from_record",
+    "grid_heights",
+    "GRIPPER_CH6",
+    "hand_ik",
+    "home_position",
+    "Imitation",
+    "ImitationConfig",
+    "LIQUID_CONTAINERS",
+    "liquid_roll_trial",
+    "LiquidRollConfig",
+    "LookAtFront",
+    "LookConfig",
+    "LookResult",
+    "make_target_filter",
+    "make_task",
+    "MakeBodySchemaDiagram",
+    "MakeFrontPerceptionDiagram",
+    "MakeImitationDiagram",
+    "MakeLiquidRollDiagram",
+    "MakeOperateDiagram",
+    "MakeSceneDiagram",
+    "MakeTactileGraspDiagram",
+    "MakeTeacherDiagram",
+    "marker_bodies",
+    "MarkerRig",
+    "NoFrontDetected",
+    "object_grasp_trial",
+    "object_positions",
+    "ObjectKinematics",
+    "ObjectTrack",
+    "observation_from_record",
+    "observations_to_demonstration",
+    "Operate",
+    "OperateConfig",
+    "PAD_LAYOUTS",
+    "record_demonstration",
+    "record_demonstrations",
+    "RENDERER",
+    "roll_change_windows",
+    "SCENARIOS",
+    "Scene",
+    "SceneConfig",
+    "simulate_grasp",
+    "simulate_roll",
+    "start_configuration",
+    "table_phases",
+    "table_scenario",
+    "TactileGraspConfig",
+    "task_from_look",
+    "task_scene",
+    "TeacherConfig",
+    "TeacherDiagram",
+    "TeacherIKError",
+    "true_structure",
+    "yardstick_scenario",
+]
+
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)

@@ -4,7 +4,7 @@ Every observed part ``<part>`` of an arm or object carries a ``<part>_marker`` f
 the marker's outward normal, see :mod:`mmlearn.sdf.builders` / :mod:`mmlearn.sdf.objects`).
 For a camera that reads real markers, :func:`marker_texture` makes the PNG of one ArUco
 marker with a white quiet zone around it and :func:`quad_mesh` a unit square OBJ with
-texture coordinates; ``mmlearn.diagrams.marker_camera.AddArucoMarkers`` puts the textured
+texture coordinates; ``mmlearn.diagrams.common.marker_camera.AddArucoMarkers`` puts the textured
 square (scaled to :attr:`ArucoSpec.plate_size`) on every marker frame.
 
 Geometry of one textured plate (in the marker frame, metres)::

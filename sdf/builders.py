@@ -12,11 +12,11 @@ Conventions
   (chapter 3); the joints driven by action signals are named ``q1, q2, ...``.
 * Every part carries a marker: a small flat square (visual only) on the link surface,
   with a frame ``<part>_marker`` whose +z axis is the square's outward normal. That
-  frame is the pose a :class:`~mmlearn.systems.marker_sensor.MarkerSensor` observes.
+  frame is the pose a :class:`~mmlearn.systems.common.marker_sensor.MarkerSensor` observes.
 * The 7-DOF arm has the thesis' 10 parts: base x1 welded to shoulder x2, the chain
   x2..x8 on revolute joints q1..q6, and an angular gripper whose two fingers x9, x10
   swing open on revolute joints ``q7`` and ``q7_mirror`` (commanded with the same value;
-  like the fingers of the numpy arm in :mod:`mmlearn.models.kinematic_sim`).
+  like the fingers of the numpy arm in :mod:`mmlearn.models.body_schema.kinematic_sim`).
 * Cabinet frame: the front face is the plane x = 0, the carcass extends to -x, the
   robot stands on the +x side. Door and drawer joints open with positive q.
 
@@ -29,7 +29,7 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .sdf_writer import Box, Cylinder, Link, SdfModel, box_inertia, cylinder_inertia
+from mmlearn.models.common.sdf_writer import Box, Cylinder, Link, SdfModel, box_inertia, cylinder_inertia
 
 _MARKER_SIZE = 0.04  # edge of the square marker, m
 _MARKER_THICKNESS = 0.002
@@ -273,7 +273,7 @@ def arm_model(spec: ArmSpec, *, mobile_base: bool = False, model_name: str | Non
     ``pose`` (x y z roll pitch yaw, m and rad) places the model frame in the world.
 
     ``failure_joints`` (default False: the arm is unchanged) adds hidden, unactuated joints
-    for failures the learner is not told about (see :mod:`mmlearn.systems.arm_failures`,
+    for failures the learner is not told about (see :mod:`mmlearn.systems.body_schema.arm_failures`,
     which locks them): the link ``BEND_LINK[dof]`` is split at half its length into the
     part (lower half, carrying the marker at its middle) and a body ``<part>_outer`` on the
     revolute joint ``<part>_bend`` (axis x: a bend out of the arm's pitch plane); and a

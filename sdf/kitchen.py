@@ -21,7 +21,7 @@ depth as rectangles slightly proud of the carcass. The moving door and drawer op
 positive joint values (the door swings towards +x).
 
 Frames ``door_face`` and ``drawer_face`` sit at the centre of each moving front's outer
-face, in the :class:`mmlearn.models.fronts.FrontRectangle` convention: x along the width
+face, in the :class:`mmlearn.models.perception.fronts.FrontRectangle` convention: x along the width
 (= K's +y at q = 0), y along the height (K's +z), z the outward normal (K's +x).
 
 Visual colours are distinct per front (perception does not use them; a depth camera sees
@@ -37,8 +37,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .builders import _panel_inertia, _slab
-from .sdf_writer import Box, SdfModel
+from mmlearn.sdf.builders import _panel_inertia, _slab
+from mmlearn.models.common.sdf_writer import Box, SdfModel
 
 __all__ = ["KitchenSpec", "kitchen_sdf", "THESIS_DOOR", "THESIS_DRAWER"]
 

@@ -20,8 +20,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from .builders import _bar_handle, _panel_inertia, _slab
-from .sdf_writer import SdfModel
+from mmlearn.sdf.builders import _bar_handle, _panel_inertia, _slab
+from mmlearn.models.common.sdf_writer import SdfModel
 
 KINDS = ("left_door", "right_door", "dishwasher", "drawer", "sliding_door")
 REVOLUTE = ("left_door", "right_door", "dishwasher")

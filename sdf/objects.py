@@ -38,7 +38,7 @@ import math
 
 import numpy as np
 
-from .sdf_writer import Box, SdfModel, box_inertia
+from mmlearn.models.common.sdf_writer import Box, SdfModel, box_inertia
 
 __all__ = [
     "OBJECTS",

@@ -1,6 +1,6 @@
 """SDFormat for the tactile experiments (ch. 6-7): a parallel two-finger gripper with
 compliant hydroelastic taxel pads, and containers with compliant walls (generated with
-:mod:`mmlearn.sdf.sdf_writer`).
+:mod:`mmlearn.models.common.sdf_writer`).
 
 Gripper frame G (the model frame): the fingers close along x, hang down along -z from the
 palm at the origin; the pad surfaces are centred at z = -``pad_z`` (m). Finger joints are
@@ -11,17 +11,17 @@ that finger's closure (m, 0 = fully open) and the distance between the pad surfa
 Container frame: origin on the axis at the bottom; the two wall patches face -x (``wall_l``)
 and +x (``wall_r``) and move inward on prismatic joints (``wall_l_slide`` along +x,
 ``wall_r_slide`` along -x; the spring and damper are added by the diagram, see
-:mod:`mmlearn.models.containers`).
+:mod:`mmlearn.models.tactile.containers`).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-from mmlearn.models.containers import ContainerInstance
-from mmlearn.models.tactile_pad import PadLayout
+from mmlearn.models.tactile.containers import ContainerInstance
+from mmlearn.models.tactile.pad import PadLayout
 
-from .sdf_writer import Box, Cylinder, SdfModel, box_inertia, cylinder_inertia
+from mmlearn.models.common.sdf_writer import Box, Cylinder, SdfModel, box_inertia, cylinder_inertia
 
 __all__ = ["GripperGeometry", "gripper_sdf", "container_sdf", "block_sdf", "pad_z_of"]
 

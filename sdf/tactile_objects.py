@@ -1,6 +1,6 @@
 """The objects of the tactile recognition experiment (thesis ch. 6, Sec. 6.3): 16 objects,
 21 classes, as SDFormat with hydroelastic contact (generated with
-:mod:`mmlearn.sdf.sdf_writer`).
+:mod:`mmlearn.models.common.sdf_writer`).
 
 The thesis grasped 5 industrial parts "with a relatively similar shape" and 11 household
 objects ("cups, toys, and bottles", a tennis ball and a soft ball of the same size), some of
@@ -59,7 +59,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .sdf_writer import Box, Cylinder, SdfModel, Sphere, box_inertia
+from mmlearn.models.common.sdf_writer import Box, Cylinder, SdfModel, Sphere, box_inertia
 
 __all__ = ["Material", "MATERIALS", "Part", "TactileObject", "OBJECTS", "CLASSES",
            "ObjectClass", "class_of", "sample_object", "object_sdf", "Ellipsoid", "GROUPS"]

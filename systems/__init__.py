@@ -1,77 +1,67 @@
-"""Drake LeafSystems of mmlearn: one capability each (ports, state, events).
+"""Drake LeafSystems of mmlearn: ports, state in the Context, periodic events.
 
-Import the systems from here, e.g. ``from mmlearn.systems import MarkerSensor``.
+One subpackage per capability, the same names in models, systems and diagrams: common, articulation, body_schema, perception, tactile, imitation.
+Every public name is re-exported here, e.g. ``from mmlearn.systems import ...``.
 """
 
-from .arm_failures import JointBlocker, PlantFailures
-from .articulation_estimator import ArticulationEstimator
-from .base_localization import BaseLocalization, BaseLocalizationConfig
-from .camera_marker_sensor import CameraMarkerSensor, CameraMarkerSensorConfig
-from .dbn_reproducer import DbnReproducer, DbnReproducerConfig
-from .dbn_visualizer import DbnVisualizer
-from .depth_noise import DepthNoise
-from .depth_temporal_filter import DepthTemporalFilter
-from .epc_controller import EpcConfig, EpcController, EpcTask
-from .container_wall import ContainerWallForce
-from .finger_hold import FingerPositionHold
-from .front_detector import FrontDetector
-from .front_pose import TrueFrontPose
-from .front_tracker import FrontTracker, FrontTrackerConfig, FrontTrackerState
-from .front_visualizer import FrontTrackVisualizer
-from .grasp_attachment import GraspAttachment
-from .kinematic_body_poses import KinematicBodyPoses
-from .marker_sensor import CameraConfig, MarkerSensor, MarkerSensorConfig
-from .model_visualizer import LearnedModelVisualizer
-from .motor_babbling import MotorBabbling
-from .observations import MarkerObservations
-from .plant_helpers import GravityCompensation, JointFriction
-from .point_cloud_filter import FinitePointCloud
-from .prior_selector import PriorModelSelector
-from .schema_controller import SchemaController
-from .schema_learner import SchemaLearner, SchemaLearnerConfig, SchemaLearnerState
-from .schema_visualizer import SchemaVisualizer
-from .tactile_grasp_controller import TactileGraspController
-from .tactile_sensor import PadSpec, TactileSensor
-from .taxel_visualizer import TaxelPadVisualizer
-from .wrist_force_sensor import WristForceSensor
+from mmlearn._lazy import lazy_exports
+
+#: submodule -> the public names it defines (imported on first use)
+_EXPORTS = {
+    "common": ["CameraMarkerSensor", "CameraMarkerSensorConfig", "CameraView", "default_marker_cameras", "marker_normal_from_depth", "DepthNoise", "CameraConfig", "MarkerSensorConfig", "MarkerSensor", "MarkerObservations", "GravityCompensation", "StateForceSystem", "JointFriction", "WristForceSensor"],
+    "articulation": ["BaseLocalization", "BaseLocalizationConfig", "EpcTask", "EpcConfig", "hook_rotation", "EpcController", "ArticulationEstimator", "ArticulationEstimatorState", "legend_entries", "draw_legend", "LearnedModelVisualizer", "draw_link_model", "ShiftedLinkModel", "PriorModelSelector"],
+    "body_schema": ["JointBlocker", "PlantFailures", "SchemaController", "SchemaLearner", "SchemaLearnerConfig", "SchemaLearnerState", "learn_sample", "MotorBabbling", "SchemaVisualizer"],
+    "perception": ["DepthTemporalFilter", "FrontDetector", "TIMING_NAMES", "TrueFrontPose", "FrontTracker", "FrontTrackerConfig", "FrontTrackerState", "FrontTrackVisualizer", "track_colour", "FinitePointCloud"],
+    "tactile": ["ContainerWallForce", "FingerPositionHold", "TactileGraspController", "GRASP_MODES", "PadSpec", "TactileSensor", "surface_triangles", "TaxelPadVisualizer", "taxel_colors"],
+    "imitation": ["DbnReproducerConfig", "DbnReproducer", "draw_demonstrations", "draw_task_model", "DbnVisualizer", "GraspAttachment", "KinematicBodyPoses"],
+}
 
 __all__ = [
-    "ContainerWallForce",
-    "FingerPositionHold",
-    "PadSpec",
-    "TactileGraspController",
-    "TactileSensor",
-    "TaxelPadVisualizer",
     "ArticulationEstimator",
+    "ArticulationEstimatorState",
     "BaseLocalization",
     "BaseLocalizationConfig",
     "CameraConfig",
     "CameraMarkerSensor",
     "CameraMarkerSensorConfig",
+    "CameraView",
+    "ContainerWallForce",
     "DbnReproducer",
     "DbnReproducerConfig",
     "DbnVisualizer",
+    "default_marker_cameras",
     "DepthNoise",
     "DepthTemporalFilter",
-    "GraspAttachment",
+    "draw_demonstrations",
+    "draw_legend",
+    "draw_link_model",
+    "draw_task_model",
     "EpcConfig",
     "EpcController",
     "EpcTask",
+    "FingerPositionHold",
     "FinitePointCloud",
     "FrontDetector",
     "FrontTracker",
     "FrontTrackerConfig",
     "FrontTrackerState",
     "FrontTrackVisualizer",
-    "KinematicBodyPoses",
+    "GRASP_MODES",
+    "GraspAttachment",
     "GravityCompensation",
+    "hook_rotation",
     "JointBlocker",
     "JointFriction",
+    "KinematicBodyPoses",
+    "learn_sample",
     "LearnedModelVisualizer",
+    "legend_entries",
+    "marker_normal_from_depth",
     "MarkerObservations",
     "MarkerSensor",
     "MarkerSensorConfig",
     "MotorBabbling",
+    "PadSpec",
     "PlantFailures",
     "PriorModelSelector",
     "SchemaController",
@@ -79,6 +69,17 @@ __all__ = [
     "SchemaLearnerConfig",
     "SchemaLearnerState",
     "SchemaVisualizer",
+    "ShiftedLinkModel",
+    "StateForceSystem",
+    "surface_triangles",
+    "TactileGraspController",
+    "TactileSensor",
+    "taxel_colors",
+    "TaxelPadVisualizer",
+    "TIMING_NAMES",
+    "track_colour",
     "TrueFrontPose",
     "WristForceSensor",
 ]
+
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)

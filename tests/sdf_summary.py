@@ -23,7 +23,7 @@ ARTICULATED = DATA / "articulated_cabinet.json"
 
 def cases() -> dict:
     """name -> zero-argument callable returning SDFormat text."""
-    from mmlearn.models.articulation_io import load_model, to_sdf
+    from mmlearn.models.articulation.io import load_model, to_sdf
     from mmlearn.sdf import builders, mechanisms, objects
 
     out = {f"shipped/{k}": v for k, v in builders.DEFAULT_MODELS.items()}

@@ -11,12 +11,12 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from mmlearn.models.articulation import (GPModel, ObservationModel, PrismaticModel,
-                                         RevoluteModel, RigidModel, make_model)
-from mmlearn.models.articulation_io import load_model, save_model, to_sdf
-from mmlearn.models.articulation_sim import _BASE_R, simulate_link, true_pose
-from mmlearn.models.articulation_structure import fit_kinematic_tree, select_link_model
-from mmlearn.models.se3 import as_pose_array, relative_poses, rotation_distance
+from mmlearn.models.articulation.link import (GPModel, ObservationModel, PrismaticModel,
+                                              RevoluteModel, RigidModel, make_model)
+from mmlearn.models.articulation.io import load_model, save_model, to_sdf
+from mmlearn.models.articulation.sim import _BASE_R, simulate_link, true_pose
+from mmlearn.models.articulation.structure import fit_kinematic_tree, select_link_model
+from mmlearn.models.common.se3 import as_pose_array, relative_poses, rotation_distance
 
 OBS = ObservationModel(sigma_pos=0.002, sigma_orient=np.deg2rad(2.0))
 AXIS_Z = _BASE_R.apply([0, 0, 1.0])
@@ -293,7 +293,7 @@ DATA = Path(__file__).parent / "data" / "articulation_logs"
 
 
 def test_real_tracks_select_expected_models():
-    from mmlearn.models.track_io import read_track
+    from mmlearn.models.common.track_io import read_track
 
     obs = ObservationModel(0.01, np.deg2rad(5))
     res = {}
@@ -349,7 +349,7 @@ def test_fast_refinement_matches_quasi_newton(kind, model):
 
 
 def test_rotation_helpers_agree():
-    from mmlearn.models.articulation import _log_rot, _m2rv, _rv2m
+    from mmlearn.models.articulation.link import _log_rot, _m2rv, _rv2m
 
     rng = np.random.default_rng(0)
     rv = rng.normal(size=(50, 3))
@@ -369,7 +369,7 @@ def test_each_model_declares_its_refinement_and_evaluation_leaves_it_unchanged()
     fitted model assigns no members while it is evaluated."""
     import copy
 
-    from mmlearn.models.articulation_refine import REFINEMENTS
+    from mmlearn.models.articulation.refine import REFINEMENTS
 
     expected = {"rigid": "em", "prismatic": "em", "revolute": "lm", "gp": None}
     tr = simulate_link("microwave", 40, rng=3)

@@ -11,9 +11,9 @@ from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import BasicVector, DiagramBuilder, LeafSystem
 
-from mmlearn.models.articulation import ObservationModel
-from mmlearn.systems.articulation_estimator import ArticulationEstimator
-from mmlearn.systems.observations import MarkerObservations
+from mmlearn.models.articulation.link import ObservationModel
+from mmlearn.systems.articulation.estimator import ArticulationEstimator
+from mmlearn.systems.common.observations import MarkerObservations
 
 RADIUS = 0.35
 RATE = 0.4  # rad/s

@@ -3,16 +3,16 @@
 import numpy as np
 import pytest
 
-from mmlearn.diagrams.object_tracks import (cabinet_scenario, table_phases, table_scenario,
-                                            yardstick_scenario)
-from mmlearn.models.articulation import ObservationModel
-from mmlearn.models.articulation_graph import (KinematicGraphEvaluator, as_part_tracks,
+from mmlearn.diagrams.common.object_tracks import (cabinet_scenario, table_phases, table_scenario,
+                                                   yardstick_scenario)
+from mmlearn.models.articulation.link import ObservationModel
+from mmlearn.models.articulation.graph import (KinematicGraphEvaluator, as_part_tracks,
                                                fit_pair_models, fit_structure, pca_projection,
                                                read_parts_csv, spanning_tree_edges,
                                                write_parts_csv)
-from mmlearn.models.articulation_incremental import IncrementalStructure, incremental_structure
-from mmlearn.models.articulation_structure import select_link_model
-from mmlearn.models.se3 import relative_poses
+from mmlearn.models.articulation.incremental import IncrementalStructure, incremental_structure
+from mmlearn.models.articulation.structure import select_link_model
+from mmlearn.models.common.se3 import relative_poses
 
 OBS = ObservationModel(sigma_pos=0.005, sigma_orient=np.deg2rad(3))
 PARAM = ("rigid", "prismatic", "revolute")
@@ -73,7 +73,7 @@ def test_local_search_close_to_exhaustive(closed_stick):
     assert exh.best.dof == 1
     # the "best" strategy evaluates whole neighbourhoods and ends at least as well
     best = fit_structure(tr.poses, search="local", reduce_dofs=True, obs=OBS, pair_models=pm)
-    from mmlearn.models.articulation_graph import search_structure
+    from mmlearn.models.articulation.graph import search_structure
 
     ev = KinematicGraphEvaluator(tr.poses, pm, obs=OBS)
     b2, _, order = search_structure(ev, loc.tree.edges, search="local", reduce_dofs=True,
@@ -89,7 +89,7 @@ def test_loop_graph_with_wrong_edge_is_worse(closed_stick):
     loop = ev.evaluate([(0, 1), (1, 2), (2, 3), (0, 3)], reduce_dofs=True)
     assert loop.has_loop and loop.dof == 1
     # replace a revolute link by a rigid one between moving parts
-    from mmlearn.models.articulation import make_model
+    from mmlearn.models.articulation.link import make_model
 
     z = relative_poses(tr.poses[0], tr.poses[1])
     pm2 = dict(pm)

@@ -6,11 +6,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mmlearn.models.articulation import ObservationModel
-from mmlearn.models.articulation_priors import (PriorDatabase, align_trajectory,
+from mmlearn.models.articulation.link import ObservationModel
+from mmlearn.models.articulation.priors import (PriorDatabase, align_trajectory,
                                                 evaluate_priors, learn_priors, merge_bic,
                                                 thin_trajectory)
-from mmlearn.models.track_io import read_track
+from mmlearn.models.common.track_io import read_track
 
 DATA = Path(__file__).parent / "data" / "articulation_priors"
 OBJECTS = ("drawer", "left_door", "right_door", "dishwasher")
@@ -130,7 +130,7 @@ def test_prior_input_errors():
 
 
 def test_online_tracker_switches_to_the_known_model(db):
-    from mmlearn.models.articulation_priors import PriorTracker
+    from mmlearn.models.articulation.priors import PriorTracker
 
     pdb = PriorDatabase.from_dict(db.to_dict())
     pdb.remove("dishwasher_002")

@@ -7,8 +7,8 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import BasicVector, DiagramBuilder, LeafSystem
 from pydrake.systems.primitives import ConstantVectorSource
 
-from mmlearn.systems.base_localization import (BaseLocalization, BaseLocalizationConfig,
-                                               believed_from_true, initial_error)
+from mmlearn.systems.articulation.base_localization import (BaseLocalization, BaseLocalizationConfig,
+                                                            believed_from_true, initial_error)
 
 
 class _Ramp(LeafSystem):
@@ -133,8 +133,8 @@ def test_zero_scale_is_exact_and_bad_config_rejected():
 
 def test_operate_diagram_sees_the_hook_in_the_believed_frame():
     """The hook position the estimator gets is the true one moved with the base error."""
-    from mmlearn.diagrams.operate import MakeOperateDiagram, OperateConfig
-    from mmlearn.systems.epc_controller import P_HOOK_GRIP
+    from mmlearn.diagrams.articulation.operate import MakeOperateDiagram, OperateConfig
+    from mmlearn.systems.articulation.epc_controller import P_HOOK_GRIP
 
     op = MakeOperateDiagram(OperateConfig(kind="left_door", seed=4, base_noise=3.0))
     sim = Simulator(op.diagram)

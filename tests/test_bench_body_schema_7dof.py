@@ -23,16 +23,18 @@ def bench():
     sys.modules.pop("bench_body_schema_7dof", None)
 
 
-def _write(path, sigma, seeds, conv, pe, on):
-    from mmlearn.apps._sweep import TrialSpec
+def _write(mod, path, sigma, seeds, conv, pe, on):
+    from mmlearn.apps.common.sweep import RESULTS_FORMAT, TrialSpec
+    from mmlearn.models.common.trials import trial_id
 
     with open(path, "a") as f:
         for n, c, p, o in zip(seeds, conv, pe, on):
-            s = TrialSpec(fn="bench_body_schema_7dof:trial", seed=n,
+            s = TrialSpec(fn=mod.trial, seed=n,
                           params={"noise": sigma, "samples": 50})
             rec = {"converged_at": c, "pred_error_m": p, "obs_noise_m": o,
                    "structure_correct": c is not None}
-            f.write(json.dumps({"key": s.key, "spec": {"fn": s.fn, "params": s.params,
+            f.write(json.dumps({"key": s.key, "format": RESULTS_FORMAT,
+                                "spec": {"fn": trial_id(s.fn), "params": s.params,
                                                        "seed": n, "label": ""},
                                 "record": rec, "error": None, "traceback": None,
                                 "wall_s": 1.0, "cpu_s": 1.0}) + "\n")
@@ -45,7 +47,7 @@ def test_report_counts_and_targets(bench, tmp_path, capsys):
     conv = [5, 12, 13, 8, None, 9, 10, 20, 11, 7]
     pe = [0.008] * 5 + [0.012] * 5
     on = [0.009] * 10
-    _write(res, 0.01, seeds, conv, pe, on)
+    _write(bench, res, 0.01, seeds, conv, pe, on)
     rc = bench.main(["--sigmas", "0.01", "--seeds", "1-10", "--extra", "--results", str(res),
                      "--json", str(out)])
     assert rc == 0
@@ -59,7 +61,7 @@ def test_report_counts_and_targets(bench, tmp_path, capsys):
 
     # one more seed set that meets both: the structure target still fails on the first set
     seeds2 = list(range(101, 111))
-    _write(res, 0.01, seeds2, [6] * 9 + [None], [0.007] * 10, [0.009] * 10)
+    _write(bench, res, 0.01, seeds2, [6] * 9 + [None], [0.007] * 10, [0.009] * 10)
     rc = bench.main(["--sigmas", "0.01", "--seeds", "1-10", "101-110", "--extra",
                      "--results", str(res), "--json", str(out)])
     s = json.loads(out.read_text())

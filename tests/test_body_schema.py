@@ -6,20 +6,20 @@ import json
 import numpy as np
 import pytest
 
-from mmlearn.models.body_schema import BodySchema, SearchConfig, rotation_vector
-from mmlearn.models.body_schema_experiments import (
-    accuracy_curve,
-    prediction_errors,
-    structure_correct,
-)
-from mmlearn.models.body_schema_local import (
-    LocalModel,
-    orthonormalize,
-    pose_errors,
-    relative_poses,
-)
-from mmlearn.models.body_schema_search import learn_structure
-from mmlearn.models.kinematic_sim import make_arm_2dof, make_arm_7dof, rot
+from mmlearn.models.body_schema.schema import BodySchema, SearchConfig, rotation_vector
+from mmlearn.models.body_schema.evaluation import (
+                                                   accuracy_curve,
+                                                   prediction_errors,
+                                                   structure_correct,
+                                                   )
+from mmlearn.models.body_schema.local import (
+                                              LocalModel,
+                                              orthonormalize,
+                                              pose_errors,
+                                              relative_poses,
+                                              )
+from mmlearn.models.body_schema.search import learn_structure
+from mmlearn.models.body_schema.kinematic_sim import make_arm_2dof, make_arm_7dof, rot
 
 NOISY = SearchConfig(sigma_pos=0.044, sigma_orient=np.deg2rad(5.0))
 CLEAN = SearchConfig(sigma_pos=0.01, sigma_orient=np.deg2rad(3.0))
@@ -70,7 +70,7 @@ def test_project_to_so3_large_stacks_match_the_svd_projection():
     rotations as the SVD, including det < 0, nearly singular and badly scaled matrices."""
     from scipy.spatial.transform import Rotation
 
-    from mmlearn.models import se3
+    from mmlearn.models.common import se3
 
     rng = np.random.default_rng(4)
     n = 4 * se3._NEWTON_MIN
@@ -94,7 +94,7 @@ def test_layer_screening_equals_per_pair_leave_one_out():
     pair the median errors of explicit leave-one-out predictions."""
     from itertools import combinations
 
-    from mmlearn.models.body_schema_search import _screen_loo_pairs
+    from mmlearn.models.body_schema.search import _screen_loo_pairs
 
     rng = np.random.default_rng(2)
     t, m, reg = 14, 3, 1e-2
@@ -319,7 +319,7 @@ def test_schema_json_roundtrip(schema_2dof):
 def test_configs_load_from_yaml_and_reject_typos():
     from pydrake.common.yaml import yaml_load_typed
 
-    from mmlearn.models.body_schema import AdaptationConfig
+    from mmlearn.models.body_schema.schema import AdaptationConfig
 
     c = yaml_load_typed(schema=SearchConfig, data="sigma_pos: 0.044\nmax_k: 2\n")
     assert c.sigma_pos == 0.044 and c.max_k == 2
@@ -332,7 +332,7 @@ def test_configs_load_from_yaml_and_reject_typos():
 
 
 def test_xyzquat_input_matches_matrices():
-    from mmlearn.models.body_schema_local import poses_from_xyzquat
+    from mmlearn.models.body_schema.local import poses_from_xyzquat
 
     arm = make_arm_2dof()
     A, Y, _ = _data(arm, 20, 13, sigma_pos=0.01, sigma_orient=np.deg2rad(2), visibility=0.9)

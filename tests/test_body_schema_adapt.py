@@ -3,10 +3,10 @@
 import numpy as np
 import pytest
 
-from mmlearn.models.body_schema import AdaptationConfig, BodySchema, SearchConfig
-from mmlearn.models.body_schema_experiments import recovery_experiment, structure_correct
-from mmlearn.models.body_schema_local import EngineeredModel, se3_inv
-from mmlearn.models.kinematic_sim import make_arm_2dof, make_arm_7dof
+from mmlearn.models.body_schema.schema import AdaptationConfig, BodySchema, SearchConfig
+from mmlearn.models.body_schema.evaluation import recovery_experiment, structure_correct
+from mmlearn.models.body_schema.local import EngineeredModel, se3_inv
+from mmlearn.models.body_schema.kinematic_sim import make_arm_2dof, make_arm_7dof
 
 CFG = SearchConfig(sigma_pos=0.02, sigma_orient=np.deg2rad(5.0))
 
@@ -113,7 +113,7 @@ def test_engineered_models_seed_the_structure_search():
     A = arm.sample_actions(30, rng)
     Y, _ = arm.observe(A, rng, sigma_pos=0.01, sigma_orient=np.deg2rad(1))
     seeds = [m for m in arm.engineered_models() if (m.i, m.j) in ((3, 4), (4, 5))]
-    from mmlearn.models.body_schema_search import learn_structure
+    from mmlearn.models.body_schema.search import learn_structure
     res = learn_structure(A, Y, config=CFG, seed_models=seeds)
     assert res.complete and structure_correct(arm, res.tree, res.nodes)
     used = [m for m in res.tree if isinstance(m, EngineeredModel)]
@@ -129,8 +129,8 @@ def test_engineered_models_seed_the_structure_search():
 def test_bent_link_control_static_vs_adaptive_small():
     """Table 3.2 in a small setting: a 45 deg bend ruins control with the static model; the
     adapted model controls nearly as well as before."""
-    from mmlearn.models.body_schema_experiments import control_experiment
-    from mmlearn.models.kinematic_sim import make_arm_4dof
+    from mmlearn.models.body_schema.evaluation import control_experiment
+    from mmlearn.models.body_schema.kinematic_sim import make_arm_4dof
 
     r = control_experiment(make_arm_4dof, seed=0, n_learn=60, n_waypoints=6, n_adapt=70)
     assert r["intact_static"][0] < 0.02, r
@@ -143,11 +143,11 @@ def test_online_learner_finds_7dof_structure_within_12_samples():
     # the SchemaLearner's per-sample step (search at every sample before a first tree,
     # re-search at every sample while the tree rests on few samples) on the numpy 7-DOF
     # arm with x4 occluded, marker noise 0.01 m, 10% drop-outs: seeds 0-4, not chosen
-    from mmlearn.systems.schema_learner import (
-        SchemaLearnerConfig,
-        SchemaLearnerState,
-        learn_sample,
-    )
+    from mmlearn.systems.body_schema.learner import (
+                                                     SchemaLearnerConfig,
+                                                     SchemaLearnerState,
+                                                     learn_sample,
+                                                     )
 
     arm = make_arm_7dof()
     noise = 0.01

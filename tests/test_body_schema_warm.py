@@ -7,11 +7,11 @@ import json
 import numpy as np
 import pytest
 
-from mmlearn.models.body_schema import SearchConfig
-from mmlearn.models.body_schema_experiments import structure_correct
-from mmlearn.models.body_schema_local import LocalModel
-from mmlearn.models.body_schema_search import learn_structure
-from mmlearn.models.kinematic_sim import make_arm_7dof
+from mmlearn.models.body_schema.schema import SearchConfig
+from mmlearn.models.body_schema.evaluation import structure_correct
+from mmlearn.models.body_schema.local import LocalModel
+from mmlearn.models.body_schema.search import learn_structure
+from mmlearn.models.body_schema.kinematic_sim import make_arm_7dof
 
 
 def _searches(cfg, A, Y, sizes):

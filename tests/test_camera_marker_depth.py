@@ -9,13 +9,13 @@ import pytest
 
 from pydrake.math import RigidTransform, RotationMatrix, RollPitchYaw
 
-from mmlearn.diagrams.marker_camera import MarkerRig
-from mmlearn.models.depth_noise import DepthNoiseConfig, apply_depth_noise
-from mmlearn.models.fronts import PinholeIntrinsics
-from mmlearn.models.marker_detection import DetectorConfig, mirror_test_from_depth
-from mmlearn.systems.camera_marker_sensor import (CameraMarkerSensorConfig,
-                                                  marker_normal_from_depth)
-from mmlearn.systems.marker_sensor import CameraConfig
+from mmlearn.diagrams.common.marker_camera import MarkerRig
+from mmlearn.models.common.depth_noise import DepthNoiseConfig, apply_depth_noise
+from mmlearn.models.common.camera import PinholeIntrinsics
+from mmlearn.models.common.marker_detection import DetectorConfig, mirror_test_from_depth
+from mmlearn.systems.common.camera_marker_sensor import (CameraMarkerSensorConfig,
+                                                         marker_normal_from_depth)
+from mmlearn.systems.common.marker_sensor import CameraConfig
 
 # 320 x 240 crop with the focal length of the 1920 x 1440 marker cameras (fov_y 55 deg)
 F = 0.5 * 1440 / math.tan(math.radians(27.5))
@@ -187,8 +187,8 @@ def test_structure_experiments_camera_sensor_and_cabinet_through_the_camera():
     cabinet seen by its automatic camera: all three markers read (the cabinet's square on
     its holder above the drawers), mapped back to the parts' marker frames."""
     from mmlearn.apps.structure_experiments import observe, report, sensor_stats
-    from mmlearn.diagrams.object_tracks import (CAMERA_ELEVATION_DEG, auto_cameras,
-                                                cabinet_scenario)
+    from mmlearn.diagrams.common.object_tracks import (CAMERA_ELEVATION_DEG, auto_cameras,
+                                                       cabinet_scenario)
 
     line = lambda sensor: {"spec": {"params": {"experiment": "garage", "quick": True,  # noqa: E731
                                                **({"sensor": sensor} if sensor else {})}},

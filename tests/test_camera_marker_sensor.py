@@ -8,12 +8,12 @@ import pytest
 
 from pydrake.math import RigidTransform, RotationMatrix, RollPitchYaw
 
-from mmlearn.diagrams.marker_camera import MarkerRig
-from mmlearn.models.marker_detection import (DetectorConfig, detect_marker_poses,
-                                             make_detector)
+from mmlearn.diagrams.common.marker_camera import MarkerRig
+from mmlearn.models.common.marker_detection import (DetectorConfig, detect_marker_poses,
+                                                    make_detector)
 from mmlearn.sdf.aruco import ArucoSpec, marker_image
-from mmlearn.systems.camera_marker_sensor import CameraMarkerSensorConfig
-from mmlearn.systems.marker_sensor import CameraConfig
+from mmlearn.systems.common.camera_marker_sensor import CameraMarkerSensorConfig
+from mmlearn.systems.common.marker_sensor import CameraConfig
 
 # camera at (0, 0, 1) looking along +x: camera x = -world y, camera y = -world z
 CAM = CameraConfig(position=[0.0, 0.0, 1.0], look_at=[1.0, 0.0, 1.0], fov_y_deg=55.0,
@@ -174,7 +174,7 @@ def test_body_schema_diagram_with_camera_sensor_runs():
     where the plant has it."""
     from pydrake.systems.analysis import Simulator
 
-    from mmlearn.diagrams.body_schema import BodySchemaDiagramConfig, MakeBodySchemaDiagram
+    from mmlearn.diagrams.body_schema.diagram import BodySchemaDiagramConfig, MakeBodySchemaDiagram
 
     cam = CameraMarkerSensorConfig(
         cameras=[CameraConfig(position=[1.0, 0.0, 0.6], look_at=[0.0, 0.0, 0.4],
@@ -207,7 +207,7 @@ def test_body_schema_diagram_with_camera_sensor_runs():
 def test_object_track_through_the_camera():
     """A short open-yardstick track observed by a camera placed by auto_cameras: the seen
     markers are where the plant has them, unseen ones are NaN rows, the truth is kept."""
-    from mmlearn.diagrams.object_tracks import auto_cameras, camera_track, yardstick_scenario
+    from mmlearn.diagrams.common.object_tracks import auto_cameras, camera_track, yardstick_scenario
 
     tr = yardstick_scenario(False, 4, rng=3)
     cams = auto_cameras(tr.poses_true)
@@ -360,7 +360,7 @@ def test_ambiguous_detections_can_be_dropped():
 def test_marker_normal_from_depth_picks_the_plane_and_ignores_holes():
     """The plane through the depth pixels inside the quad: a synthetic tilted plane gives its
     normal (towards the camera); NaN / zero pixels are skipped; too few pixels -> None."""
-    from mmlearn.systems.camera_marker_sensor import marker_normal_from_depth
+    from mmlearn.systems.common.camera_marker_sensor import marker_normal_from_depth
 
     f, h, w = 500.0, 120, 160
     K = np.array([[f, 0, 79.5], [0, f, 59.5], [0, 0, 1]])

@@ -19,8 +19,8 @@ EXAMPLE = Path(__file__).resolve().parents[1] / "apps" / "examples" / "two_drawe
 @pytest.fixture(scope="module")
 def prior_db(tmp_path_factory):
     """A small valid prior database (JSON dict) learned from two simulated tracks."""
-    from mmlearn.models.articulation_priors import PriorDatabase
-    from mmlearn.models.articulation_sim import simulate_link
+    from mmlearn.models.articulation.priors import PriorDatabase
+    from mmlearn.models.articulation.sim import simulate_link
 
     rng = np.random.default_rng(0)
     db = PriorDatabase()
@@ -37,7 +37,7 @@ def _write(tmp_path, name, d):
 
 # --------------------------------------------------------------------------- shared types
 def test_common_parser_aliases_and_one_line_errors(capsys):
-    from mmlearn.apps._common import ArgumentParser, name_list, nonneg_int, pos_float
+    from mmlearn.apps.common.cli import ArgumentParser, name_list, nonneg_int, pos_float
 
     ap = ArgumentParser(prog="x")
     ap.add_argument("--out-dir", default="d")
@@ -61,7 +61,7 @@ def test_common_parser_aliases_and_one_line_errors(capsys):
 
 
 def test_output_path_checks(tmp_path):
-    from mmlearn.apps._common import UsageError, check_out_dir, check_out_file
+    from mmlearn.apps.common.cli import UsageError, check_out_dir, check_out_file
 
     f = tmp_path / "file.txt"
     f.write_text("x")
@@ -112,7 +112,7 @@ def test_open_cabinet_failed_trial_exits_1_and_says_nothing_saved(tmp_path, caps
 
 
 def test_make_meshcat_announces_only_a_live_view(capsys):
-    from mmlearn.apps._common import make_meshcat
+    from mmlearn.apps.common.cli import make_meshcat
 
     make_meshcat(announce=False)
     assert "http" not in capsys.readouterr().err
@@ -314,9 +314,9 @@ def test_learn_body_schema_flag_names(tmp_path, capsys):
 
 
 def test_load_model_errors_are_value_errors(tmp_path):
-    from mmlearn.models.articulation_io import load_model, save_model
-    from mmlearn.models.articulation_sim import simulate_link
-    from mmlearn.models.articulation_structure import select_link_model
+    from mmlearn.models.articulation.io import load_model, save_model
+    from mmlearn.models.articulation.sim import simulate_link
+    from mmlearn.models.articulation.structure import select_link_model
 
     m = select_link_model(simulate_link("revolute", 20, rng=np.random.default_rng(1)).Z,
                           models=["revolute"], rng=0).best
@@ -345,9 +345,9 @@ def test_load_model_errors_are_value_errors(tmp_path):
 
 
 def test_readable_reprs():
-    from mmlearn.models.articulation import make_model
-    from mmlearn.models.articulation_sim import simulate_link
-    from mmlearn.models.articulation_structure import (ArticulatedObject, LinkEdge,
+    from mmlearn.models.articulation.link import make_model
+    from mmlearn.models.articulation.sim import simulate_link
+    from mmlearn.models.articulation.structure import (ArticulatedObject, LinkEdge,
                                                        select_link_model)
 
     assert repr(make_model("revolute")) == "RevoluteModel(not fitted, sigma_pos=0.01 m)"

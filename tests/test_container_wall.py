@@ -1,13 +1,13 @@
-"""The squeeze-volume wall model of the ch. 7 containers (models/containers.py) and its Drake
-system (systems/container_wall.py)."""
+"""The squeeze-volume wall model of the ch. 7 containers (models/tactile/containers.py) and its Drake
+system (systems/tactile/container_wall.py)."""
 
 import dataclasses
 
 import numpy as np
 import pytest
 
-from mmlearn.models.containers import (P0, RHO_WATER, G, sample_container, squeeze_pressure,
-                                       squeeze_volume, wall_forces)
+from mmlearn.models.tactile.containers import (P0, RHO_WATER, G, sample_container, squeeze_pressure,
+                                               squeeze_volume, wall_forces)
 
 
 def test_ovalisation_volume_and_its_derivative():
@@ -108,8 +108,8 @@ def test_bad_inputs_are_named():
 
 
 def test_system_puts_the_model_forces_on_the_wall_joints():
-    from mmlearn.diagrams.tactile_grasp import MakeTactileGraspDiagram, TactileGraspConfig
-    from mmlearn.systems.container_wall import ContainerWallForce
+    from mmlearn.diagrams.tactile.grasp import MakeTactileGraspDiagram, TactileGraspConfig
+    from mmlearn.systems.tactile.container_wall import ContainerWallForce
 
     inst = sample_container("odwalla", "full_closed", np.random.default_rng(3))
     d, parts = MakeTactileGraspDiagram(TactileGraspConfig(), container=inst)
@@ -141,8 +141,8 @@ def test_system_puts_the_model_forces_on_the_wall_joints():
 def test_simulated_grasp_closed_full_resists_open_empty_yields():
     """Two grasps at 20 N: the squeeze the fingers make (p_first - p_steady) of a closed full
     bottle is well below that of an open empty one, and the grasp settles (no SAP blow-up)."""
-    from mmlearn.diagrams.tactile_grasp import container_grasp_trial, grasp_from_record
-    from mmlearn.models.tactile_state import extract_grasp_features
+    from mmlearn.diagrams.tactile.grasp import container_grasp_trial, grasp_from_record
+    from mmlearn.models.tactile.state import extract_grasp_features
 
     squeeze = {}
     for st in ("full_closed", "empty_open"):
@@ -165,7 +165,7 @@ def test_grasp_specs_name_the_wall_model_so_old_results_stay_linear():
     import inspect
 
     from mmlearn.apps.tactile_state import _sim_specs
-    from mmlearn.diagrams.tactile_grasp import container_grasp_trial
+    from mmlearn.diagrams.tactile.grasp import container_grasp_trial
 
     pres = _sim_specs(["odwalla"], 20.0, 2, 5, "pressure")
     lin = _sim_specs(["odwalla"], 20.0, 2, 5, "linear")
@@ -176,8 +176,8 @@ def test_grasp_specs_name_the_wall_model_so_old_results_stay_linear():
 
 
 def test_grasp_variation_draws_the_shell_per_grasp_with_the_measured_spread():
-    from mmlearn.models.containers import (CONTAINER_CLASSES, ICUB_SPREAD_CAN,
-                                           ICUB_SPREAD_PLASTIC_BOTTLE, vary_grasp)
+    from mmlearn.models.tactile.containers import (CONTAINER_CLASSES, ICUB_SPREAD_CAN,
+                                                   ICUB_SPREAD_PLASTIC_BOTTLE, vary_grasp)
 
     inst = sample_container("odwalla", "full_closed", np.random.default_rng(4))
     a = vary_grasp(inst, np.random.default_rng([7, 29]), mode="shell")
@@ -211,7 +211,7 @@ def test_wall_variation_scales_the_whole_static_response():
     """"wall": one factor m on the shell and, through sqrt(m) on the ovalised length, on the
     content's force: exactly for an open full bottle's head and the flow, to first order for
     the gas law; the squeeze at a given force then scales by ~1/m in every state."""
-    from mmlearn.models.containers import vary_grasp
+    from mmlearn.models.tactile.containers import vary_grasp
 
     rng = np.random.default_rng(11)
     inst = sample_container("odwalla", "full_open", rng)
@@ -232,7 +232,7 @@ def test_wall_variation_scales_the_whole_static_response():
 
 def test_grasp_variation_bad_inputs_are_named():
     from mmlearn.apps.tactile_state import TactileStateConfig, run_simulation
-    from mmlearn.models.containers import vary_grasp
+    from mmlearn.models.tactile.containers import vary_grasp
 
     inst = sample_container("can", "full_open", np.random.default_rng(6))
     with pytest.raises(ValueError, match="grasp_variation"):
@@ -250,7 +250,7 @@ def test_grasp_specs_name_the_grasp_variation_and_none_reproduces_the_old_grasp(
     the trial function's "none" is the grasp of before, value for value, and "wall" changes
     only the wall's response (same instance, placement and noise)."""
     from mmlearn.apps.tactile_state import _sim_specs
-    from mmlearn.diagrams.tactile_grasp import container_grasp_trial
+    from mmlearn.diagrams.tactile.grasp import container_grasp_trial
 
     shell = _sim_specs(["odwalla"], 20.0, 2, 5, "pressure", "wall")
     none = _sim_specs(["odwalla"], 20.0, 2, 5, "pressure", "none")

@@ -9,12 +9,12 @@ import pytest
 
 from conftest import bad_usage, run_main
 from mmlearn.apps.record_demos import main
-from mmlearn.diagrams.demonstrations import (MakeTeacherDiagram, TeacherConfig,
-                                             default_sensor_config, record_demonstration,
-                                             record_demonstrations)
-from mmlearn.models.imitation_types import load_demonstrations
-from mmlearn.models.min_jerk import MinJerkTrajectory, min_jerk_segment
-from mmlearn.models.teacher import TASKS, TeacherStyle, plan_demonstration, task_scene
+from mmlearn.diagrams.imitation.demonstrations import (MakeTeacherDiagram, TeacherConfig,
+                                                       default_sensor_config, record_demonstration,
+                                                       record_demonstrations)
+from mmlearn.models.imitation.types import load_demonstrations
+from mmlearn.models.imitation.min_jerk import MinJerkTrajectory, min_jerk_segment
+from mmlearn.models.imitation.teacher import TASKS, TeacherStyle, plan_demonstration, task_scene
 
 FAST = TeacherStyle(speed=0.6, dwell=0.5, gripper_time=0.3)  # short demonstrations
 
@@ -215,7 +215,8 @@ def test_app_help_and_bad_arguments(tmp_path, capsys):
 def test_kinematic_body_poses_system():
     from pydrake.multibody.plant import MultibodyPlant
 
-    from mmlearn.sdf.imitation import ImitationSceneSpec, add_imitation_scene, add_teacher
+    from mmlearn.models.imitation.scene import ImitationSceneSpec
+    from mmlearn.sdf.imitation import add_imitation_scene, add_teacher
     from mmlearn.systems import KinematicBodyPoses
 
     plant = MultibodyPlant(0.0)
@@ -263,7 +264,7 @@ def test_teacher_config_loads_from_yaml_and_rejects_misspelled_keys():
 
 
 def test_stratified_table_shifts_spread_the_tables_apart():
-    from mmlearn.sdf.imitation import stratified_table_shifts
+    from mmlearn.models.imitation.scene import stratified_table_shifts
 
     for n in (2, 4, 7):
         s = stratified_table_shifts(n, 3)
@@ -281,8 +282,8 @@ def test_stratified_table_shifts_spread_the_tables_apart():
 
 
 def test_teacher_tilts_its_hand_only_where_it_must_and_names_unreachable_points():
-    from mmlearn.diagrams.demonstrations import TeacherIKError, _teacher_path
-    from mmlearn.models.teacher import DemoPlan
+    from mmlearn.diagrams.imitation.demonstrations import TeacherIKError, _teacher_path
+    from mmlearn.models.imitation.teacher import DemoPlan
 
     def plan_at(p):
         p = np.asarray(p, float)
@@ -307,8 +308,8 @@ def test_teacher_tilts_its_hand_only_where_it_must_and_names_unreachable_points(
 
 
 def test_observation_conversion_rejects_bad_input():
-    from mmlearn.diagrams.demonstrations import observations_to_demonstration
-    from mmlearn.systems.observations import MarkerObservations
+    from mmlearn.diagrams.imitation.demonstrations import observations_to_demonstration
+    from mmlearn.systems.common.observations import MarkerObservations
 
     with pytest.raises(ValueError, match="no frames"):
         observations_to_demonstration([], objects=[], gripper_calibration=(0.09, 0.14))
@@ -332,8 +333,8 @@ def test_whiteboard_teacher_varies_the_marked_area_and_the_learner_scales_the_zi
     samples of such plans, the corner constraints' relative precisions stretch the
     reproduced zig-zag over a 1.25 times larger area, which a same-size teacher's does not."""
     from mmlearn.apps.imitate import PARZEN_H, SPONGE_RADIUS, _coverage, _densify
-    from mmlearn.models.imitation import learn_task, reproduce_cartesian
-    from mmlearn.models.imitation_types import Demonstration
+    from mmlearn.models.imitation.dbn import learn_task, reproduce_cartesian
+    from mmlearn.models.imitation.types import Demonstration
 
     scales = [plan_demonstration("whiteboard", seed=s).scene.board_scale for s in range(6)]
     j = TeacherStyle().board_scale_jitter

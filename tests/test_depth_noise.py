@@ -7,9 +7,9 @@ import pytest
 from pydrake.common.yaml import yaml_load_typed
 from pydrake.systems.sensors import ImageDepth32F
 
-from mmlearn.models.depth_noise import (DepthNoiseConfig, apply_depth_noise, incidence_cosine,
-                                        predicted_depth_std, projector_shadow)
-from mmlearn.models.fronts import PinholeIntrinsics
+from mmlearn.models.common.depth_noise import (DepthNoiseConfig, apply_depth_noise, incidence_cosine,
+                                               predicted_depth_std, projector_shadow)
+from mmlearn.models.common.camera import PinholeIntrinsics
 from mmlearn.systems import DepthNoise
 
 K = PinholeIntrinsics.from_fov(640, 480, 58.0)

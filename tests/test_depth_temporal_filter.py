@@ -1,4 +1,4 @@
-"""The temporal depth filter (models/depth_filter.py, systems/depth_temporal_filter.py) and the
+"""The temporal depth filter (models/perception/depth_filter.py, systems/perception/depth_temporal_filter.py) and the
 reveal test's threshold following its noise (issue 12: the closed drawer at 2.2 m)."""
 
 import math
@@ -6,9 +6,9 @@ import math
 import numpy as np
 import pytest
 
-from mmlearn.models.depth_filter import DepthFilterConfig, filter_depth, new_filter_state
-from mmlearn.models.front_detection import FrontDetectorConfig, _gap_mask, detect_fronts
-from mmlearn.models.fronts import PinholeIntrinsics
+from mmlearn.models.perception.depth_filter import DepthFilterConfig, filter_depth, new_filter_state
+from mmlearn.models.perception.detection import FrontDetectorConfig, _gap_mask, detect_fronts
+from mmlearn.models.common.camera import PinholeIntrinsics
 
 SIG1 = 0.0018  # the default camera's per-pixel depth std at 1 m, m
 K = PinholeIntrinsics.from_fov(320, 240, 58.0)
@@ -160,8 +160,8 @@ def test_a_3mm_one_row_reveal_at_2_2m_is_found_after_n_frames_not_in_one():
 def test_noise_scale_of_ones_leaves_the_detector_unchanged():
     """noise_scale None and all ones give the same rectangles (a filter that has seen one
     frame changes nothing), and a smaller scale changes only the reveal threshold."""
-    from mmlearn.models.front_synth import (DRAWER_SIZE, add_depth_noise, front_pose,
-                                            kitchen_scene, look_at, render_depth)
+    from mmlearn.models.perception.synth import (DRAWER_SIZE, add_depth_noise, front_pose,
+                                                 kitchen_scene, look_at, render_depth)
 
     Kf = PinholeIntrinsics.from_fov(640, 480, 58.0)
     X = front_pose(0.75, 0.2, 0.6)

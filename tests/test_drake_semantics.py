@@ -15,16 +15,16 @@ from pydrake.common.value import AbstractValue
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder, LeafSystem, PortDataType
 
-from mmlearn.diagrams.body_schema import BodySchemaDiagramConfig, MakeBodySchemaDiagram
-from mmlearn.diagrams.object_tracks import cabinet_scenario
-from mmlearn.diagrams.operate import MakeOperateDiagram, OperateConfig
-from mmlearn.diagrams.scene import MakeSceneDiagram, SceneConfig
-from mmlearn.models.articulation import ObservationModel
-from mmlearn.models.articulation_priors import PriorDatabase
+from mmlearn.diagrams.body_schema.diagram import BodySchemaDiagramConfig, MakeBodySchemaDiagram
+from mmlearn.diagrams.common.object_tracks import cabinet_scenario
+from mmlearn.diagrams.articulation.operate import MakeOperateDiagram, OperateConfig
+from mmlearn.diagrams.common.scene import MakeSceneDiagram, SceneConfig
+from mmlearn.models.articulation.link import ObservationModel
+from mmlearn.models.articulation.priors import PriorDatabase
 from mmlearn.systems import ArticulationEstimator, MarkerObservations, SchemaLearnerConfig
-from mmlearn.systems.epc_controller import EpcConfig
-from mmlearn.systems.model_visualizer import LearnedModelVisualizer
-from mmlearn.systems.prior_selector import PriorModelSelector
+from mmlearn.systems.articulation.epc_controller import EpcConfig
+from mmlearn.systems.articulation.model_visualizer import LearnedModelVisualizer
+from mmlearn.systems.articulation.prior_selector import PriorModelSelector
 
 
 def _snapshot(diagram, ctx, extra=None, ignore=None):
@@ -135,7 +135,7 @@ def test_body_schema_two_simulators():
 def test_front_perception_two_simulators():
     """The kitchen with the opening door, the depth camera and the noise (a small image):
     the noisy depth image is the same in every simulator at every time."""
-    from mmlearn.diagrams.perception import FrontPerceptionConfig, MakeFrontPerceptionDiagram
+    from mmlearn.diagrams.perception.diagram import FrontPerceptionConfig, MakeFrontPerceptionDiagram
 
     cfg = FrontPerceptionConfig(front="door")
     cfg.camera.width, cfg.camera.height_px = 160, 120
@@ -198,7 +198,7 @@ def meshcat():
 
 
 def test_object_tracks_estimators_two_simulators(meshcat):
-    """The estimators and the prior selector on object tracks (diagrams/object_tracks.py
+    """The estimators and the prior selector on object tracks (diagrams/common/object_tracks.py
     builds tracks, not a Diagram: this wires them into one)."""
     track = cabinet_scenario(n_first=20, n_both=20, rng=0)
     rng = np.random.default_rng(1)

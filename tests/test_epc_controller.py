@@ -11,8 +11,8 @@ import pytest
 from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
 
 from mmlearn.apps import open_cabinet, operate_trials
-from mmlearn.diagrams.operate import MakeOperateDiagram, OperateConfig
-from mmlearn.systems.epc_controller import EpcConfig, EpcTask, hook_rotation
+from mmlearn.diagrams.articulation.operate import MakeOperateDiagram, OperateConfig
+from mmlearn.systems.articulation.epc_controller import EpcConfig, EpcTask, hook_rotation
 
 
 def test_hook_rotation_points_the_rod_into_the_front_and_the_finger_behind_the_bar():
@@ -99,9 +99,9 @@ def test_trials_summary_table():
 
 
 def test_priors_from_an_earlier_trial_select_the_right_model_earlier(tmp_path):
-    from mmlearn.models.articulation import ObservationModel
-    from mmlearn.models.articulation_priors import PriorDatabase
-    from mmlearn.models.track_io import read_track
+    from mmlearn.models.articulation.link import ObservationModel
+    from mmlearn.models.articulation.priors import PriorDatabase
+    from mmlearn.models.common.track_io import read_track
 
     track = tmp_path / "drawer_first.log"
     first = open_cabinet.run(kind="drawer", seed=0, mechanism_seed=5, save_track=str(track),

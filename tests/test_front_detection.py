@@ -5,11 +5,12 @@ import math
 import numpy as np
 import pytest
 
-from mmlearn.models.front_detection import FrontDetectorConfig, detect_fronts
-from mmlearn.models.front_synth import (DOOR_SIZE, DRAWER_SIZE, PlanarPatch, add_depth_noise,
-                                        front_pose, kitchen_scene, look_at, pose_from_axes,
-                                        render_depth)
-from mmlearn.models.fronts import FrontRectangle, PinholeIntrinsics
+from mmlearn.models.perception.detection import FrontDetectorConfig, detect_fronts
+from mmlearn.models.perception.synth import (DOOR_SIZE, DRAWER_SIZE, PlanarPatch, add_depth_noise,
+                                             front_pose, kitchen_scene, look_at, pose_from_axes,
+                                             render_depth)
+from mmlearn.models.common.camera import PinholeIntrinsics
+from mmlearn.models.perception.fronts import FrontRectangle
 
 K = PinholeIntrinsics.from_fov(640, 480, 58.0)
 DOOR = DOOR_SIZE
@@ -194,8 +195,8 @@ def test_rendered_drake_frames(name):
 def test_mask_labels_follow_eq_5_2():
     """Plane z = 2 m facing the camera: a pixel in front of it is occluded, behind it free,
     within L in-plane, without a measurement unknown."""
-    from mmlearn.models.front_detection import (FREE, IN_PLANE, OCCLUDED, UNKNOWN, Plane,
-                                                _label_images)
+    from mmlearn.models.perception.detection import (FREE, IN_PLANE, OCCLUDED, UNKNOWN, Plane,
+                                                     _label_images)
     d = np.array([[1.5, 2.0, 2.5, 0.0]], np.float32)
     valid = np.array([[True, True, True, False]])
     ray = np.zeros((1, 4), np.float32)
@@ -209,7 +210,7 @@ def test_occluder_in_front_of_the_door_is_bridged():
     5.4): occluded pixels cost 0.2, so the rectangle still spans the whole door. (An occluder
     crossing the whole front is a local maximum the greedy moves cannot cross unless a random
     start straddles it.)"""
-    from mmlearn.models.front_synth import box_patches
+    from mmlearn.models.perception.synth import box_patches
     X = _front_pose(0.85, 0.0, 0.6)
     hand = pose_from_axes([1, 0, 0], [0, 1, 0], [0, 0, 1], [0.95, 0.03, 0.62])
     patches = kitchen([(DOOR, X, 0.02)]) + box_patches(hand, [0.04, 0.08, 0.2])
@@ -269,7 +270,7 @@ def test_front_standing_proud_of_a_larger_parallel_plane_is_its_own_plane(seed):
     """A front 1.8 cm proud of its carcass with L = 0.01 m: after the carcass' plane, the
     front's points stay in the pool (the removal band is L plus the noise part, not 2 L) and
     its plane is not taken for a copy of the carcass' (centroid farther than L)."""
-    from mmlearn.models.front_detection import find_planes
+    from mmlearn.models.perception.detection import find_planes
 
     rng = np.random.default_rng(seed)
     pts, rc, panel = _plane_points(rng)
@@ -309,7 +310,7 @@ def test_surface_check_tolerates_a_tilted_plane_fit_but_removes_a_step():
     1.7 deg off departs from its sides by ~7 mm; the surface check must keep those pixels
     (it once removed half the panel with its handle) and still remove a strip 8 mm behind
     the surrounding surface (the edge face of a panel seen obliquely)."""
-    from mmlearn.models.front_detection import IN_PLANE, OFF_SURFACE, _surface_check
+    from mmlearn.models.perception.detection import IN_PLANE, OFF_SURFACE, _surface_check
     rng = np.random.default_rng(0)
     H, W = 120, 300
     S = np.tile(np.linspace(-0.007, 0.007, W, dtype=np.float32), (H, 1))  # tilted fit
@@ -347,7 +348,7 @@ def _hinged_door_frame(q, dist, seed, elevation_deg=25.0):
 def _side_errors(rects, X, size):
     """(position error, [hinge side, free side, lower, upper] edge errors) of the detected
     rectangle nearest to X, m (edge error > 0: the side lies inside the true one)."""
-    from mmlearn.models.front_tracking import align_rectangle
+    from mmlearn.models.perception.tracking import align_rectangle
     best = None
     for r in rects:
         Xa, w, h, _ = align_rectangle(X, r.X_WR, r.width, r.height)
@@ -439,7 +440,7 @@ def test_gap_mask_finds_a_thin_dip_but_not_a_step_or_a_crease():
     """_gap_mask on a noisy plane 1.8 m away: a one-pixel row 7 mm behind (a reveal) and a
     line of missing pixels are found along their length; a 3 cm step and a concave crease
     (two planes meeting at 150 deg) are not; nothing on the plain plane."""
-    from mmlearn.models.front_detection import _gap_mask
+    from mmlearn.models.perception.detection import _gap_mask
     rng = np.random.default_rng(0)
     H, W = 240, 320
     z = np.full((H, W), 1.8) + 0.0008 * np.arange(H)[:, None]      # tilted like a front

@@ -9,11 +9,11 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantValueSource
 from pydrake.systems.sensors import CameraInfo, ImageDepth32F
 
-from mmlearn.models.front_detection import FrontDetectorConfig
-from mmlearn.models.front_synth import add_depth_noise, look_at, render_depth
-from mmlearn.models.fronts import PinholeIntrinsics
+from mmlearn.models.perception.detection import FrontDetectorConfig
+from mmlearn.models.perception.synth import add_depth_noise, look_at, render_depth
+from mmlearn.models.common.camera import PinholeIntrinsics
 from mmlearn.systems import FrontDetector
-from mmlearn.systems.front_detector import TIMING_NAMES
+from mmlearn.systems.perception.front_detector import TIMING_NAMES
 
 from test_front_detection import DOOR, _front_pose, _match, kitchen
 
@@ -107,9 +107,9 @@ def test_constructor_errors_are_clear():
 def test_in_the_rendered_kitchen_diagram(front, distance):
     """RgbdSensor (VTK) -> DepthNoise -> FrontDetector in MakeFrontPerceptionDiagram: the
     opened front is found within 1 cm / 2 deg of its true pose (the diagram's ``front``)."""
-    from mmlearn.diagrams.perception import (DepthCameraConfig, FrontPerceptionConfig,
-                                             MakeFrontPerceptionDiagram)
-    from mmlearn.models.front_motion import FrontMotionConfig
+    from mmlearn.diagrams.perception.diagram import (DepthCameraConfig, FrontPerceptionConfig,
+                                                     MakeFrontPerceptionDiagram)
+    from mmlearn.models.perception.motion import FrontMotionConfig
 
     def add(builder, parts):
         det = builder.AddSystem(FrontDetector(intrinsics=parts.intrinsics, seed=1))

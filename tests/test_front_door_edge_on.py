@@ -19,11 +19,11 @@ import dataclasses
 import numpy as np
 import pytest
 
-import mmlearn.models.front_detection as fd
+import mmlearn.models.perception.detection as fd
 from mmlearn.apps.track_fronts import match_front
-from mmlearn.diagrams.perception import FrontPerceptionConfig, MakeFrontPerceptionDiagram
-from mmlearn.models.front_detection import FrontDetectorConfig, Plane, detect_fronts
-from mmlearn.models.fronts import PinholeIntrinsics
+from mmlearn.diagrams.perception.diagram import FrontPerceptionConfig, MakeFrontPerceptionDiagram
+from mmlearn.models.perception.detection import FrontDetectorConfig, Plane, detect_fronts
+from mmlearn.models.common.camera import PinholeIntrinsics
 
 
 def _frame(angle_deg, t, *, seed=100, distance=1.5):

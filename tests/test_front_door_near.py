@@ -11,9 +11,9 @@ import pytest
 from conftest import perception_frame_at
 
 from mmlearn.apps.track_fronts import match_front
-from mmlearn.diagrams.perception import FrontPerceptionConfig, MakeFrontPerceptionDiagram
-from mmlearn.models.front_detection import FrontDetectorConfig, detect_fronts
-from mmlearn.models.front_tracking import align_rectangle, as_rectangle
+from mmlearn.diagrams.perception.diagram import FrontPerceptionConfig, MakeFrontPerceptionDiagram
+from mmlearn.models.perception.detection import FrontDetectorConfig, detect_fronts
+from mmlearn.models.perception.tracking import align_rectangle, as_rectangle
 
 
 @pytest.fixture(scope="module")
@@ -86,8 +86,8 @@ def test_tracker_noise_resolves_a_door_seen_turning_20_deg():
     0.2-0.6 deg for the door): with the tracker's former 3 deg the turn is within what noise
     alone spreads (the revolute model demoted, rigid selected), with its 1.5 deg revolute.
     A still front stays rigid with 1.5 deg."""
-    from mmlearn.models.front_tracking import fit_track_model, front_observation_model
-    from mmlearn.systems.front_tracker import FrontTrackerConfig
+    from mmlearn.models.perception.tracking import fit_track_model, front_observation_model
+    from mmlearn.systems.perception.front_tracker import FrontTrackerConfig
 
     so = FrontTrackerConfig().sigma_orient_deg
     assert so == pytest.approx(1.5)

@@ -19,8 +19,8 @@ import numpy as np
 import pytest
 
 from mmlearn.apps.track_fronts import match_front
-from mmlearn.diagrams.perception import FrontPerceptionConfig, MakeFrontPerceptionDiagram
-from mmlearn.models.front_detection import FrontDetectorConfig, detect_fronts
+from mmlearn.diagrams.perception.diagram import FrontPerceptionConfig, MakeFrontPerceptionDiagram
+from mmlearn.models.perception.detection import FrontDetectorConfig, detect_fronts
 
 
 def _closed_frame(front, distance, angle_deg, *, noise, seed=2000, t=0.0):
@@ -95,7 +95,7 @@ def test_long_pass_finds_a_shallow_long_reveal_but_not_noise():
     3.3 mm behind its sides over 224 px (the reveal below the closed drawer at 2.2 m, as
     sampled) is found along most of its length only with the long pass; on the plain plane
     both passes label (almost) nothing."""
-    from mmlearn.models.front_detection import _gap_mask
+    from mmlearn.models.perception.detection import _gap_mask
     H, W = 240, 480
     z = np.full((H, W), 2.2) + 0.0018 * np.arange(H)[:, None]       # tilted like a front
     z_dip = z.copy()

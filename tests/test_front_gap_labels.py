@@ -3,7 +3,7 @@ could overflow (branch pview); both must give the same reveals."""
 
 import numpy as np
 
-from mmlearn.models.front_detection import FrontDetectorConfig, _gap_mask
+from mmlearn.models.perception.detection import FrontDetectorConfig, _gap_mask
 
 
 def _scene(rng):

@@ -10,9 +10,9 @@ from pydrake.common.yaml import yaml_load_typed
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder, LeafSystem
 
-from mmlearn.diagrams.perception import (DepthCameraConfig, FrontPerceptionConfig,
-                                         MakeFrontPerceptionDiagram)
-from mmlearn.models.front_motion import FrontMotionConfig, stepped_profile
+from mmlearn.diagrams.perception.diagram import (DepthCameraConfig, FrontPerceptionConfig,
+                                                 MakeFrontPerceptionDiagram)
+from mmlearn.models.perception.motion import FrontMotionConfig, stepped_profile
 from mmlearn.sdf.kitchen import KitchenSpec, kitchen_sdf
 
 
@@ -175,7 +175,7 @@ def test_closed_fronts_ground_truth(door):
 def test_front_at_the_expected_depth_and_noise(drawer):
     """The closed drawer's centre is the target 1.8 m away; the noisy image there has the
     noise of the model (std over the front's inner pixels close to the prediction)."""
-    from mmlearn.models.depth_noise import predicted_depth_std
+    from mmlearn.models.common.depth_noise import predicted_depth_std
 
     P = drawer
     ctx = P.diagram.CreateDefaultContext()
@@ -278,7 +278,7 @@ def test_meshcat_scene_and_cloud():
     cloud = fin.get_cloud_output_port().Eval(fin.GetMyContextFromRoot(sim.get_context()))
     assert cloud.size() > 1000 and np.isfinite(cloud.xyzs()).all()
     # Drake's DepthImageToPointCloud and models/fronts.depth_to_points agree on the pixels
-    from mmlearn.models.fronts import depth_to_points
+    from mmlearn.models.common.camera import depth_to_points
 
     depth = np.array(P.diagram.GetOutputPort("depth_image").Eval(sim.get_context()).data)
     p_C = depth_to_points(depth, P.intrinsics).reshape(-1, 3)
@@ -337,8 +337,8 @@ def test_add_depth_camera_to_another_scene():
     from pydrake.multibody.parsing import Parser
     from pydrake.multibody.plant import AddMultibodyPlantSceneGraph
 
-    from mmlearn.diagrams.perception import AddDepthCamera, camera_pose_looking_at
-    from mmlearn.models.depth_noise import DepthNoiseConfig
+    from mmlearn.diagrams.perception.diagram import AddDepthCamera, camera_pose_looking_at
+    from mmlearn.models.common.depth_noise import DepthNoiseConfig
     from mmlearn.sdf.builders import floor_sdf
 
     builder = DiagramBuilder()

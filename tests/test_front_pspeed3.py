@@ -8,11 +8,11 @@ import math
 
 import numpy as np
 
-from mmlearn.models.front_detection import (FREE, GAP, IN_PLANE, OCCLUDED, OUTSIDE, UNKNOWN,
-                                            FrontDetectorConfig, _cross3, _greedy, _make_grid,
-                                            _objective, _plane_axes, _polish_rotations,
-                                            _sats, _warp_labels)
-from mmlearn.models.fronts import PinholeIntrinsics
+from mmlearn.models.perception.detection import (FREE, GAP, IN_PLANE, OCCLUDED, OUTSIDE, UNKNOWN,
+                                                 FrontDetectorConfig, _cross3, _greedy, _make_grid,
+                                                 _objective, _plane_axes, _polish_rotations,
+                                                 _sats, _warp_labels)
+from mmlearn.models.common.camera import PinholeIntrinsics
 
 
 def _lut(cfg):
@@ -102,7 +102,7 @@ def test_polish_tables_are_its_best_window_made_again():
     vv, uu = np.mgrid[4:K.height:8, 4:K.width:8]
     pts = np.column_stack([((uu - K.cx) / K.fx * z).ravel(), ((vv - K.cy) / K.fy * z).ravel(),
                            np.full(uu.size, z)])
-    from mmlearn.models.front_detection import Plane
+    from mmlearn.models.perception.detection import Plane
 
     plane = Plane(n=np.array([0.0, 0.0, -1.0]), d=z, support=len(pts),
                   bbox=(0, K.height // 8 - 1, 0, K.width // 8 - 1))

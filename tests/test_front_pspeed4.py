@@ -8,9 +8,9 @@ import math
 import cv2
 import numpy as np
 
-import mmlearn.models.front_detection as fd
-from mmlearn.models.front_detection import FrontDetectorConfig, Plane, _view_footprint
-from mmlearn.models.fronts import PinholeIntrinsics
+import mmlearn.models.perception.detection as fd
+from mmlearn.models.perception.detection import FrontDetectorConfig, Plane, _view_footprint
+from mmlearn.models.common.camera import PinholeIntrinsics
 
 K = PinholeIntrinsics(width=640, height=480, fx=577.3, fy=577.3, cx=319.5, cy=239.5)
 DOWN = np.array([0.0, 1.0, 0.0])  # a level camera: its y axis is down

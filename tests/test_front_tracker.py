@@ -1,4 +1,4 @@
-"""The FrontTracker LeafSystem (systems/front_tracker.py): tracks and link models from a stream
+"""The FrontTracker LeafSystem (systems/perception/front_tracker.py): tracks and link models from a stream
 of detected rectangles, under a Simulator; bad inputs; Drake semantics (state in the Context)."""
 
 import numpy as np
@@ -8,8 +8,8 @@ from pydrake.common.yaml import yaml_load_typed
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder, LeafSystem
 
-from mmlearn.models.front_tracking import FrontTrackingConfig, simulate_front_rectangles
-from mmlearn.systems.front_tracker import FrontTracker, FrontTrackerConfig
+from mmlearn.models.perception.tracking import FrontTrackingConfig, simulate_front_rectangles
+from mmlearn.systems.perception.front_tracker import FrontTracker, FrontTrackerConfig
 
 PERIOD = 0.1
 
@@ -153,7 +153,7 @@ def test_two_simulators_and_a_clone_reproduce_a_lone_run():
 def test_visualizer_draws_detections_tracks_and_models():
     from pydrake.geometry import StartMeshcat
 
-    from mmlearn.systems.front_visualizer import FrontTrackVisualizer
+    from mmlearn.systems.perception.front_visualizer import FrontTrackVisualizer
 
     meshcat = StartMeshcat()
     frames = _scene(n=30, seed=2)
@@ -201,8 +201,8 @@ class NoisyTrueFront(LeafSystem):
     def _calc(self, context, out):
         from scipy.spatial.transform import Rotation
 
-        from mmlearn.models.front_tracking import RECTANGLE_SYMMETRIES, SWAPS_SIZE
-        from mmlearn.models.fronts import FrontRectangle
+        from mmlearn.models.perception.tracking import RECTANGLE_SYMMETRIES, SWAPS_SIZE
+        from mmlearn.models.perception.fronts import FrontRectangle
 
         r = self._in.Eval(context)
         rng = np.random.default_rng(int(round(context.get_time() * 1000)))
@@ -218,7 +218,7 @@ class NoisyTrueFront(LeafSystem):
 
 @pytest.mark.parametrize("front", ["door", "drawer"])
 def test_tracker_in_the_kitchen_scene_learns_the_true_joint(front):
-    from mmlearn.diagrams.perception import FrontPerceptionConfig, MakeFrontPerceptionDiagram
+    from mmlearn.diagrams.perception.diagram import FrontPerceptionConfig, MakeFrontPerceptionDiagram
 
     parts = {}
 
@@ -256,8 +256,8 @@ def test_tracker_in_the_kitchen_scene_learns_the_true_joint(front):
 
 def test_detector_and_tracker_learn_the_door_from_depth_images():
     """End to end: rendered noisy depth -> FrontDetector -> FrontTracker (door at 1.5 m)."""
-    from mmlearn.diagrams.perception import (AddFrontDetectorAndTracker, FrontPerceptionConfig,
-                                             MakeFrontPerceptionDiagram)
+    from mmlearn.diagrams.perception.diagram import (AddFrontDetectorAndTracker, FrontPerceptionConfig,
+                                                     MakeFrontPerceptionDiagram)
 
     parts = {}
 
@@ -309,7 +309,7 @@ def test_visualizer_records_each_frame_at_its_time():
     (the recording plays the rectangles as they were, not the final state)."""
     from pydrake.geometry import MeshcatAnimation, StartMeshcat
 
-    from mmlearn.systems.front_visualizer import FrontTrackVisualizer
+    from mmlearn.systems.perception.front_visualizer import FrontTrackVisualizer
 
     meshcat = StartMeshcat()
     frames = _scene(n=30, seed=4)

@@ -1,17 +1,17 @@
-"""Tracking cabinet fronts (models/front_tracking.py, thesis Sec. 5.1.3): the 8
+"""Tracking cabinet fronts (models/perception/tracking.py, thesis Sec. 5.1.3): the 8
 parameterisations, association, gating, new tracks, publication, link models of the tracks."""
 
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from mmlearn.models.fronts import FrontRectangle
-from mmlearn.models.front_tracking import (RECTANGLE_SYMMETRIES, SWAPS_SIZE, FrontTrackingConfig,
-                                           align_track,
-                                           TrackingState, align_rectangle, corner_to_centre,
-                                           rectangle_parameterisations, rectangles_from_poses,
-                                           selection_vs_observations, simulate_front_rectangles,
-                                           track_frame, track_rectangles)
+from mmlearn.models.perception.fronts import FrontRectangle
+from mmlearn.models.perception.tracking import (RECTANGLE_SYMMETRIES, SWAPS_SIZE, FrontTrackingConfig,
+                                                align_track,
+                                                TrackingState, align_rectangle, corner_to_centre,
+                                                rectangle_parameterisations, rectangles_from_poses,
+                                                selection_vs_observations, simulate_front_rectangles,
+                                                track_frame, track_rectangles)
 
 
 def _rect(center, yaw=0.0, w=0.4, h=0.6):
@@ -215,7 +215,7 @@ def test_moving_front_selects_its_joint_and_needs_the_alignment(kind, expected):
     assert res["heldout_pos_error_m"][-2] < 0.03
     # without the alignment the same detections jump by 90 / 180 deg: a wrong model, or the
     # right one with most observations taken for outliers
-    from mmlearn.models.front_tracking import fit_track_model
+    from mmlearn.models.perception.tracking import fit_track_model
     good = fit_track_model(t.poses, rng=0)
     assert good.selected == expected and good.model.gamma < 0.05
     for seed in range(4):
@@ -229,7 +229,7 @@ def test_a_door_seen_near_its_hinge_is_revolute_by_its_rotation():
     # assumed sigma_pos of 0.02 m (models/articulation_structure._unresolved) ...
     rects = simulate_front_rectangles("door", 40, rng=2, width=0.06, travel=1.4)
     P = np.array([r.pose7() for r in align_track(rects)])
-    from mmlearn.models.front_tracking import fit_track_model, front_observation_model
+    from mmlearn.models.perception.tracking import fit_track_model, front_observation_model
     obs = front_observation_model(0.02)
     tm = fit_track_model(P, obs=obs, rng=0)
     # ... but it turns 80 deg (noise 2 deg): only a hinge explains that

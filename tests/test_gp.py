@@ -1,4 +1,4 @@
-"""Tests for mmlearn.models.gp against scikit-learn's GaussianProcessRegressor as an oracle."""
+"""Tests for mmlearn.models.common.gp against scikit-learn's GaussianProcessRegressor as an oracle."""
 
 import json
 
@@ -7,7 +7,7 @@ import pytest
 from sklearn.gaussian_process import GaussianProcessRegressor
 from sklearn.gaussian_process.kernels import RBF, ConstantKernel, WhiteKernel
 
-from mmlearn.models.gp import GaussianProcess
+from mmlearn.models.common.gp import GaussianProcess
 
 
 def _data(n=25, d=2, m=3, seed=0):
@@ -256,7 +256,7 @@ def test_revolute_kernel_extrapolates_a_revolute_chain():
 def test_blas_single_thread_nests_and_restores():
     from threadpoolctl import threadpool_info
 
-    from mmlearn.models.gp import blas_single_thread
+    from mmlearn.models.common.gp import blas_single_thread
 
     def threads():
         return [i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"]

@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 from conftest import run_main
 
-from mmlearn.models.icub_grasp import (CONTACT_LEVEL, REST_VELOCITY, ICubFileError,
-                                       load_icub_dir, read_icub_trial)
+from mmlearn.models.tactile.icub_grasp import (CONTACT_LEVEL, REST_VELOCITY, ICubFileError,
+                                               load_icub_dir, read_icub_trial)
 
 DATA = Path(__file__).parent / "data" / "icub_grasp"
 
@@ -111,7 +111,7 @@ def test_directory_errors(tmp_path):
 
 
 def test_features_on_real_grasps_find_contact_where_fingers_press():
-    from mmlearn.models.tactile_state import feature_matrix
+    from mmlearn.models.tactile.state import feature_matrix
 
     trials, _ = load_icub_dir(DATA)
     X, feats = feature_matrix([t.to_grasp() for t in trials], contact_force=CONTACT_LEVEL,

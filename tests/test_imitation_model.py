@@ -6,10 +6,10 @@ import warnings
 import numpy as np
 import pytest
 
-from mmlearn.models.imitation import (
-    align_demonstrations, constraint_step, derivative, fill_gaps, learn_task, plan_global,
-    reproduce_cartesian)
-from mmlearn.models.imitation_types import Demonstration, ImitationDataError, Obstacle, TaskModel
+from mmlearn.models.imitation.dbn import (
+                                          align_demonstrations, constraint_step, derivative, fill_gaps, learn_task, plan_global,
+                                          reproduce_cartesian)
+from mmlearn.models.imitation.types import Demonstration, ImitationDataError, Obstacle, TaskModel
 
 
 def _path(tau):

@@ -9,11 +9,11 @@ from pydrake.multibody.math import SpatialVelocity
 from pydrake.systems.analysis import Simulator
 
 from conftest import bad_usage, run_main
-from mmlearn.diagrams.imitation import ImitationConfig, MakeImitationDiagram, object_positions
-from mmlearn.models.imitation_types import Demonstration, TaskModel, save_demonstrations
-from mmlearn.sdf.imitation import ImitationSceneSpec
-from mmlearn.systems.dbn_reproducer import DbnReproducerConfig
-from mmlearn.systems.observations import MarkerObservations
+from mmlearn.diagrams.imitation.diagram import ImitationConfig, MakeImitationDiagram, object_positions
+from mmlearn.models.imitation.types import Demonstration, TaskModel, save_demonstrations
+from mmlearn.models.imitation.scene import ImitationSceneSpec
+from mmlearn.systems.imitation.dbn_reproducer import DbnReproducerConfig
+from mmlearn.systems.common.observations import MarkerObservations
 
 # the hand the model asks for: 0.10 m in front of (-x) and 0.15 m above the target marker
 OFFSET = np.array([0.10, 0.0, -0.15])  # mu = target - hand
@@ -136,7 +136,7 @@ def test_reproducer_config_errors_name_the_field():
 
 
 def test_grasp_captures_holds_and_releases():
-    from mmlearn.systems.grasp_attachment import GraspAttachment
+    from mmlearn.systems.imitation.grasp_attachment import GraspAttachment
 
     spec = ImitationSceneSpec()
     im = MakeImitationDiagram(ImitationConfig(task="pick_place", variation=0.0, scene=spec),
@@ -253,7 +253,7 @@ def test_experiments_help_report_only_and_bad_arguments(capsys, tmp_path):
     lines = []
     for i, (n, err) in enumerate([(1, 0.3), (1, 0.2), (4, 0.01), (4, 0.015)]):
         lines.append({"key": f"k{i}", "spec": {
-            "fn": "mmlearn.apps.imitation_experiments:trial", "seed": i,
+            "fn": "imitation.reproduce@1", "seed": i,
             "params": {"task": "pick_place", "demos": n},
             "label": f"pick_place {n} demo{'s' if n > 1 else ''} seed {i}"},
             "record": {"success": err < 0.02, "place_error_m": err,
@@ -300,7 +300,7 @@ def test_global_plan_points_cover_the_forearm_between_the_body_points():
     """The global plan checks the arm every <= 5 cm (PLAN_BODY_POINTS): a thin box across the
     forearm halfway between two BODY_POINTS, more than the 6 cm plan clearance from every one
     of them, is seen by the plan points (issue 15, U obstacle: the forearm grazed the U)."""
-    from mmlearn.models.imitation_types import Obstacle
+    from mmlearn.models.imitation.types import Obstacle
 
     im = _reach()
     kin = im.reproducer.kinematics()
@@ -321,7 +321,7 @@ def test_global_plan_points_cover_the_forearm_between_the_body_points():
 
 
 def test_plan_body_points_errors():
-    from mmlearn.systems.dbn_reproducer import DbnReproducer
+    from mmlearn.systems.imitation.dbn_reproducer import DbnReproducer
 
     im = _reach()
     plant = im.plant

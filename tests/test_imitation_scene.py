@@ -11,8 +11,8 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 
 from mmlearn.sdf.builders import arm_sdf
-from mmlearn.sdf.imitation import (ROBOT_TCP_IN_X8, TEACHER_TCP_IN_X8, ImitationSceneSpec,
-                                   add_imitation_scene, add_teacher)
+from mmlearn.models.imitation.scene import ROBOT_TCP_IN_X8, TEACHER_TCP_IN_X8, ImitationSceneSpec
+from mmlearn.sdf.imitation import add_imitation_scene, add_teacher
 
 
 def _goals(spec):

@@ -5,8 +5,8 @@ import json
 import numpy as np
 import pytest
 
-from mmlearn.models.imitation_types import (
-    Demonstration, ImitationDataError, Obstacle, TaskModel, load_demonstrations, save_demonstrations)
+from mmlearn.models.imitation.types import (
+                                            Demonstration, ImitationDataError, Obstacle, TaskModel, load_demonstrations, save_demonstrations)
 
 
 def _demo(T=10, D=3, gap=True):

@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 
 from conftest import bad_usage, run_main
-from mmlearn.models.lasa import (DEVELOPMENT_SHAPES, LASA_SHAPES, MULTI_MODE_SHAPES,
-                                 ThesisReproducer, baseline_reproducer, end_error_mm,
-                                 evaluate_shape, leave_one_out, load_shape, naive_baseline,
-                                 rmse_mm, with_start_marker)
+from mmlearn.models.imitation.lasa import (DEVELOPMENT_SHAPES, LASA_SHAPES, MULTI_MODE_SHAPES,
+                                           ThesisReproducer, baseline_reproducer, end_error_mm,
+                                           evaluate_shape, leave_one_out, load_shape, naive_baseline,
+                                           rmse_mm, with_start_marker)
 
 
 def test_load_shape_is_millimetres_ending_at_the_target(capsys):
@@ -48,7 +48,7 @@ def test_load_shape_bad_name():
 
 
 def test_load_shape_missing_or_broken_file(tmp_path):
-    from mmlearn.models.imitation_types import ImitationDataError
+    from mmlearn.models.imitation.types import ImitationDataError
 
     with pytest.raises(FileNotFoundError, match="Line.mat: LASA data file not found"):
         load_shape("Line", data_dir=tmp_path)
@@ -144,7 +144,7 @@ def test_app_json_and_plot(tmp_path, capsys):
 
 
 def test_app_html_out(tmp_path, capsys):
-    from mmlearn.apps._common import make_meshcat
+    from mmlearn.apps.common.cli import make_meshcat
     from mmlearn.apps.imitate_lasa import LasaConfig, main, run
 
     html = tmp_path / "lasa.html"
@@ -188,7 +188,7 @@ def test_app_help_subprocess():
 def _similar_drawings(n=7, T=300, rotate=True):
     """``n`` drawings of one curve ending at the origin, each rotated (unless not ``rotate``)
     and scaled about it."""
-    from mmlearn.models.imitation_types import Demonstration
+    from mmlearn.models.imitation.types import Demonstration
 
     s = np.linspace(0.0, 1.0, T)
     base = np.stack([40 * (1 - s) + 8 * np.sin(2 * np.pi * s), 15 * np.sin(np.pi * s) * (1 - s)], axis=1)
@@ -203,7 +203,7 @@ def _similar_drawings(n=7, T=300, rotate=True):
 
 
 def test_start_frame_maps_and_learns():
-    from mmlearn.models.lasa import learn_start_frame, place_start_frame, start_frame, to_start_frame
+    from mmlearn.models.imitation.lasa import learn_start_frame, place_start_frame, start_frame, to_start_frame
 
     S = start_frame([0.0, 30.0])                       # x-axis towards the start, unit 30 mm
     assert np.allclose(S @ [1.0, 0.0], [0.0, 30.0]) and np.allclose(S @ [0.0, 1.0], [-30.0, 0.0])
@@ -222,7 +222,7 @@ def test_start_frame_maps_and_learns():
     # held-out start, the mean is that drawing (in mm)
     rep = ThesisReproducer()
     train = [with_start_marker(d) for j, d in enumerate(demos) if j != 5]
-    from mmlearn.models.imitation import align_demonstrations
+    from mmlearn.models.imitation.dbn import align_demonstrations
     al = align_demonstrations(train, dt=0.02)
     fm, fv = learn_start_frame(al, h=0.02)
     assert fm.shape == (al[0].T, 2) and fv.shape == (al[0].T, 2, 2)
@@ -255,8 +255,8 @@ def test_start_frame_constraint_follows_a_rotated_scaled_drawing():
 def test_fused_path_is_the_closed_form_of_the_incremental_reproduction():
     """With J = I, gain 1 and no damping every incremental step lands on the fused target, so
     the batched closed form must equal reproduce_cartesian step by step (full and diagonal)."""
-    from mmlearn.models.imitation import reproduce_cartesian
-    from mmlearn.models.lasa import fused_path, shrink_covariance
+    from mmlearn.models.imitation.dbn import reproduce_cartesian
+    from mmlearn.models.imitation.lasa import fused_path, shrink_covariance
 
     demos = load_shape("Sshape")
     held = demos[0]
@@ -279,7 +279,7 @@ def test_inner_cv_selects_from_the_training_demonstrations_only():
     """The inner leave-one-out prefers the start-anchored constraint set over the target alone
     (which follows the learned mean from the first step, > 2x worse on Line); the outer
     held-out demonstration is never used for the choice."""
-    from mmlearn.models.lasa import InnerCVReproducer
+    from mmlearn.models.imitation.lasa import InnerCVReproducer
 
     demos = load_shape("Line")
     tsf = ("target", "start", "frame")
@@ -298,7 +298,7 @@ def test_inner_cv_selects_from_the_training_demonstrations_only():
     # with one candidate it is ThesisReproducer's closed form
     one = InnerCVReproducer(hs=(0.02,), shrinkages=(0.0,), object_sets=(("target", "start", "frame"),))
     _, x1 = one(demos[1:], demos[0])
-    from mmlearn.models.imitation import reproduce_cartesian
+    from mmlearn.models.imitation.dbn import reproduce_cartesian
     m = ThesisReproducer(objects=("target", "start", "frame"), shrinkage=0.0).learn(demos[1:], start=demos[0].hand[0])
     _, x2 = reproduce_cartesian(m, demos[0].hand[0], {"target": np.zeros(2), "start": demos[0].hand[0],
                                                       "frame": np.zeros(2)}, duration=demos[0].duration, dt=0.02)
@@ -319,7 +319,7 @@ def test_inner_cv_selects_from_the_training_demonstrations_only():
 def test_start_frame_modes_and_the_scale_only_frame():
     """The rotation-only and scale-only start frames; drawings that differ only by their size
     are reproduced by the scale-only frame constraint, not by the world constraints."""
-    from mmlearn.models.lasa import FRAME_MODES, OBJECTS, start_frame, to_start_frame
+    from mmlearn.models.imitation.lasa import FRAME_MODES, OBJECTS, start_frame, to_start_frame
 
     assert set(FRAME_MODES) == {"similarity", "rotation", "scale", "duration"} and OBJECTS[0] == "target"
     assert np.allclose(start_frame([3.0, 4.0], mode="rotation"), [[0.6, -0.8], [0.8, 0.6]])
@@ -348,7 +348,7 @@ def test_weights_and_shrinkage_temper_the_constraints():
     """A weight divides a constraint's covariance (a factor on its precision); shrinkage moves
     full covariances towards their diagonal; a dominant weight makes the product follow that
     constraint alone."""
-    from mmlearn.models.lasa import shrink_covariance
+    from mmlearn.models.imitation.lasa import shrink_covariance
 
     demos = load_shape("Sshape")
     train, start = demos[1:], demos[0].hand[0]
@@ -380,7 +380,7 @@ def _linear_in_start_drawings(seed: int = 0):
     """7 synthetic drawings whose shape varies linearly with the start: a straight stroke
     from the start to the target plus a sideways bump whose height (mm) is linear in the
     start's y; a rotation or scaling about the target does not explain it."""
-    from mmlearn.models.imitation_types import Demonstration
+    from mmlearn.models.imitation.types import Demonstration
 
     rng = np.random.default_rng(seed)
     t = np.linspace(0.0, 2.0, 201)
@@ -429,7 +429,7 @@ def test_conditioning_on_the_start_follows_a_shape_linear_in_the_start():
 def test_condition_on_start_is_the_gaussian_conditional():
     """Values exactly linear in the covariates: with ridge 0 the conditioned mean is the line
     at the query and the residual covariance is ~0 (+ min_var); bad input names the problem."""
-    from mmlearn.models.lasa import condition_on_start, start_covariates
+    from mmlearn.models.imitation.lasa import condition_on_start, start_covariates
 
     rng = np.random.default_rng(3)
     G, T = 6, 50
@@ -464,7 +464,7 @@ def _timed_drawings(n=7, T=300):
     """``n`` drawings from a start at ~50 mm (distance and direction not tied to the duration)
     to the origin: a straight stroke plus a sideways bulge of 6 mm per second of the drawing's
     duration (2.0-3.8 s, shuffled): a slower drawing is a larger one."""
-    from mmlearn.models.imitation_types import Demonstration
+    from mmlearn.models.imitation.types import Demonstration
 
     rng = np.random.default_rng(3)
     durs = rng.permutation(2.0 + 0.3 * np.arange(n))
@@ -484,7 +484,7 @@ def test_duration_frame_follows_a_drawing_sized_by_its_duration():
     maps and errs like the other frames, and on drawings whose bulge grows with their duration
     (not with their start) the default with it reproduces a held-out drawing far better than
     without it; the learned model places it only when given the reproduction's duration."""
-    from mmlearn.models.lasa import learn_start_frame, start_frame, to_start_frame
+    from mmlearn.models.imitation.lasa import learn_start_frame, start_frame, to_start_frame
 
     S = start_frame([0.0, 30.0], mode="duration", duration=2.5)   # unit 2.5 s, x towards the start
     assert np.allclose(S @ [1.0, 0.0], [0.0, 2.5]) and np.allclose(S @ [0.0, 1.0], [-2.5, 0.0])
@@ -498,7 +498,7 @@ def test_duration_frame_follows_a_drawing_sized_by_its_duration():
     assert np.allclose(to_start_frame(d, mode="duration", duration=1.0).hand[0], [np.linalg.norm(d.hand[0]), 0.0])
     # the learned frame's sideways bulge, in mm per second: 6 at mid-drawing (the alignment puts
     # every demonstration on the reference's time base, so the durations are passed)
-    from mmlearn.models.imitation import align_demonstrations
+    from mmlearn.models.imitation.dbn import align_demonstrations
     al = align_demonstrations([with_start_marker(x) for x in demos], dt=0.02)
     fm, _ = learn_start_frame(al, h=0.02, mode="duration", durations=[x.duration for x in demos])
     assert abs(-fm[len(fm) // 2, 1] - 6.0) < 0.6, fm[len(fm) // 2]

@@ -6,16 +6,16 @@ import numpy as np
 import pytest
 
 from mmlearn.apps import liquid_detection as app
-from mmlearn.diagrams.liquid_roll import (LIQUID_CONTAINERS, LiquidRollConfig, make_instance,
-                                          roll_trajectory)
-from mmlearn.models.containers import sample_container
-from mmlearn.models.tactile_types import TactileDataError
+from mmlearn.diagrams.tactile.liquid_roll import (LIQUID_CONTAINERS, LiquidRollConfig, make_instance,
+                                                  roll_trajectory)
+from mmlearn.models.tactile.containers import sample_container
+from mmlearn.models.tactile.types import TactileDataError
 
 
 def test_finger_hold_passes_then_latches():
     from pydrake.systems.analysis import Simulator
 
-    from mmlearn.systems.finger_hold import FingerPositionHold
+    from mmlearn.systems.tactile.finger_hold import FingerPositionHold
 
     hold = FingerPositionHold(num_fingers=2, t_latch=0.5, period=0.01)
     sim = Simulator(hold)
@@ -123,7 +123,7 @@ def test_short_run_full_differs_from_empty(short_run, capsys):
     feats = {True: [], False: []}
     for ln in lines:
         r = app.record_features(ln["record"])
-        from mmlearn.models.liquid import liquid_feature
+        from mmlearn.models.tactile.liquid import liquid_feature
 
         feats[r.liquid].append(liquid_feature(r.taxels, rate_hz=r.rate_hz))
         # the lifted container's weight from the wrist sensor is its mass times g
@@ -155,8 +155,8 @@ def test_short_run_full_differs_from_empty(short_run, capsys):
 
 
 def test_coast_mask_and_feature_bad_inputs():
-    from mmlearn.models.liquid import (RollRecord, coast_mask, liquid_feature,
-                                       liquid_features)
+    from mmlearn.models.tactile.liquid import (RollRecord, coast_mask, liquid_feature,
+                                               liquid_features)
 
     t = np.arange(0.0, 2.0, 1 / 24)
     m = coast_mask(t, [[0.5, 0.7], [1.2, 1.2]], start=0.2, end=1.8, delay=0.1)
@@ -173,14 +173,14 @@ def test_coast_mask_and_feature_bad_inputs():
     with pytest.raises(TactileDataError, match="coast"):
         RollRecord(x, coast=np.zeros(len(t), bool))
     # the coast feature is the spread over the masked samples of the same filtered norm
-    from mmlearn.models.liquid import filtered_norm
+    from mmlearn.models.tactile.liquid import filtered_norm
 
     assert liquid_feature(x, mask=m) == pytest.approx(np.std(filtered_norm(x)[m], ddof=1))
     with pytest.raises(TactileDataError, match="coast mask"):
         liquid_features([RollRecord(x)], feature="coast")
     # the detrended coast feature: a quadratic in each coast phase is removed exactly, a
     # ringing is not
-    from mmlearn.models.liquid import coast_feature
+    from mmlearn.models.tactile.liquid import coast_feature
 
     tt = np.arange(200) / 24.0
     phases = ((tt % 1.0) > 0.2) & ((tt % 1.0) < 0.8)  # 0.6 s coast phases
@@ -207,7 +207,7 @@ def test_old_records_get_their_roll_command_only_if_the_measured_roll_follows_it
     """Records written before the roll command was stored: the command is rebuilt from the
     trial's settings and used only if the encoder's roll follows it (an earlier default, the
     sine roll, carries no settings)."""
-    from mmlearn.diagrams.liquid_roll import sine_roll_angle, sweep_roll_angle
+    from mmlearn.diagrams.tactile.liquid_roll import sine_roll_angle, sweep_roll_angle
 
     c = LiquidRollConfig()
     t = np.arange(0.0, c.duration, 1 / 24)
@@ -229,7 +229,7 @@ def test_dummy_read_held_out_and_inside_the_cross_validation():
     liquid trials ring, empty ones and the heavy dummy do not; with weight in the held-out
     reading the tree may split on weight (the dummy weighs as much as a half-full bottle), in
     the thesis' reading the training folds hold heavy trials without liquid, so it cannot."""
-    from mmlearn.models.liquid import RollRecord
+    from mmlearn.models.tactile.liquid import RollRecord
 
     rng = np.random.default_rng(0)
     t = np.arange(120) / 24.0

@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from mmlearn.diagrams.liquid_roll import (LiquidRollConfig, make_instance, roll_trajectory,
-                                          sine_roll_angle)
-from mmlearn.models.liquid import first_slosh_mode
+from mmlearn.diagrams.tactile.liquid_roll import (LiquidRollConfig, make_instance, roll_trajectory,
+                                                  sine_roll_angle)
+from mmlearn.models.tactile.liquid import first_slosh_mode
 
 
 def test_sine_roll_is_smooth_and_matches_its_trajectory():
@@ -74,7 +74,7 @@ def test_instances_use_the_slosh_mode():
 
 @pytest.mark.parametrize("tau", [0.1, 0.25])
 def test_sweep_roll_reaches_the_amplitude_with_continuous_acceleration(tau):
-    from mmlearn.diagrams.liquid_roll import sweep_roll_angle
+    from mmlearn.diagrams.tactile.liquid_roll import sweep_roll_angle
 
     c = LiquidRollConfig(roll_profile="sweep", reversal_time=tau)
     t = np.arange(0.0, c.duration, 5e-4)
@@ -99,7 +99,7 @@ def test_sweep_roll_reaches_the_amplitude_with_continuous_acceleration(tau):
 
 def _roll_run(label, **cfg):
     """One simulated roll at seed 4: (times in the roll window, s; taxels there; config)."""
-    from mmlearn.diagrams.liquid_roll import simulate_roll
+    from mmlearn.diagrams.tactile.liquid_roll import simulate_roll
 
     inst = make_instance(label, np.random.default_rng([4, 17]))
     c = LiquidRollConfig(grasp_height=inst.height / 2, seed=4, **cfg)
@@ -127,7 +127,7 @@ def test_abrupt_reversals_made_the_rigid_dummy_respond(sweeps):
     """The earlier roll (constant rate, reversals within one PD response) jerks the held
     rigid dummy: its high-passed taxels spike at every reversal. The smooth sweep (0.25 s
     reversals, continuous acceleration) removes most of that response."""
-    from mmlearn.models.liquid import liquid_feature
+    from mmlearn.models.tactile.liquid import liquid_feature
 
     abrupt = liquid_feature(_roll("dummy", roll_profile="triangle", reversal_time=0.0))
     smooth = liquid_feature(sweeps["dummy"])
@@ -155,7 +155,7 @@ def test_the_liquid_rings_at_its_sloshing_mode(sweeps):
 
 
 def test_roll_change_windows_are_where_the_commanded_rate_changes():
-    from mmlearn.diagrams.liquid_roll import roll_change_windows, sweep_roll_angle
+    from mmlearn.diagrams.tactile.liquid_roll import roll_change_windows, sweep_roll_angle
 
     for cycles in (1.0, 2.0):
         c = LiquidRollConfig(roll_cycles=cycles)
@@ -181,8 +181,8 @@ def test_coast_feature_rigid_dummy_well_below_liquid(sweep_runs):
     roll the dummy's rigid response during the reversals is as large as the liquid's: see
     the README, Liquid detection.)"""
     from mmlearn.apps.liquid_detection import COAST_DELAY
-    from mmlearn.diagrams.liquid_roll import roll_change_windows
-    from mmlearn.models.liquid import coast_feature, coast_mask
+    from mmlearn.diagrams.tactile.liquid_roll import roll_change_windows
+    from mmlearn.models.tactile.liquid import coast_feature, coast_mask
 
     f = {}
     for k, (t, x, c) in sweep_runs.items():

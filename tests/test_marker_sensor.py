@@ -153,7 +153,7 @@ def test_invalid_configs_raise_clear_errors(kw, msg):
 
 
 def test_misspelled_yaml_key_is_rejected(tmp_path):
-    from mmlearn.apps._common import load_config
+    from mmlearn.apps.common.cli import load_config
 
     f = tmp_path / "scene.yaml"
     f.write_text("arm: 2dof\nsensor:\n  sigma_poss: 0.1\n")

@@ -7,10 +7,10 @@ from pydrake.geometry import StartMeshcat
 
 from headless_browser import chromium, screenshot_or_skip
 from mmlearn.apps import open_cabinet
-from mmlearn.apps._common import frame_camera
-from mmlearn.models.articulation import ObservationModel, make_model
+from mmlearn.apps.common.cli import frame_camera
+from mmlearn.models.articulation.link import ObservationModel, make_model
 from mmlearn.systems import LearnedModelVisualizer
-from mmlearn.systems.model_visualizer import LEGEND_PATH, legend_entries
+from mmlearn.systems.articulation.model_visualizer import LEGEND_PATH, legend_entries
 
 
 @pytest.fixture(scope="module")

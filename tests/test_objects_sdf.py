@@ -31,7 +31,7 @@ def test_object_parses_with_marker_frames(name):
 
 
 def test_closed_yardstick_constraint_holds_on_the_loop():
-    from mmlearn.diagrams.object_tracks import ObjectKinematics
+    from mmlearn.diagrams.common.object_tracks import ObjectKinematics
 
     kin = ObjectKinematics("yardstick_closed")
     plant, ctx = kin.plant, kin.context
@@ -51,7 +51,7 @@ def test_closed_yardstick_constraint_holds_on_the_loop():
 
 
 def test_window_moves_on_a_circle_of_radius_1_9():
-    from mmlearn.diagrams.object_tracks import ObjectKinematics
+    from mmlearn.diagrams.common.object_tracks import ObjectKinematics
 
     kin = ObjectKinematics("car_door")
     q = np.zeros((30, 2))

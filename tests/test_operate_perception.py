@@ -7,11 +7,12 @@ import math
 import numpy as np
 import pytest
 
-from mmlearn.diagrams.operate import ARM_START
-from mmlearn.diagrams.operate_perception import LookAtFront, LookConfig, LookResult
-from mmlearn.models.front_handle import (HandleFromFrontConfig, handle_from_front,
-                                         select_front)
-from mmlearn.models.fronts import FrontRectangle, PinholeIntrinsics
+from mmlearn.diagrams.articulation.operate import ARM_START
+from mmlearn.diagrams.articulation.operate_perception import LookAtFront, LookConfig, LookResult
+from mmlearn.models.perception.handle import (HandleFromFrontConfig, handle_from_front,
+                                              select_front)
+from mmlearn.models.common.camera import PinholeIntrinsics
+from mmlearn.models.perception.fronts import FrontRectangle
 from mmlearn.sdf.mechanisms import MechanismSpec
 
 
@@ -39,7 +40,7 @@ def test_handle_from_a_rendered_frame_within_2cm(spec):
     assert math.degrees(math.acos(min(1.0, float(e.normal @ true_n)))) < 3.0
     assert abs(float(e.bar @ true_bar)) > 0.99
     # the chosen rectangle is the front (its centre within a few cm of the true one)
-    from mmlearn.diagrams.operate_perception import front_centre
+    from mmlearn.diagrams.articulation.operate_perception import front_centre
     assert np.linalg.norm(e.front.center - front_centre(spec)) < 0.1
 
 
@@ -94,7 +95,7 @@ def test_open_cabinet_perception_depth_short_trial_runs(capsys):
 
 
 def test_no_front_is_a_failed_trial_not_a_crash(monkeypatch):
-    import mmlearn.diagrams.operate as operate
+    import mmlearn.diagrams.articulation.operate as operate
     from mmlearn.apps import open_cabinet
 
     def blind(spec, start, *, config=None, seed=0):

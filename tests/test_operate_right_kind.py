@@ -7,7 +7,8 @@ import sys
 
 import pytest
 
-from mmlearn.apps import _sweep, open_cabinet, operate_trials
+from mmlearn.apps import open_cabinet, operate_trials
+from mmlearn.apps.common import sweep as _sweep
 from mmlearn.apps.open_cabinet import right_kind
 
 
@@ -54,7 +55,7 @@ def test_summary_counts_right_kind_and_reports_failures():
 
 
 def test_a_crashed_trial_is_a_failed_trial_of_the_wrong_kind():
-    spec = dict(fn="mmlearn.apps.operate_trials:trial", seed=0, label="", key="k",
+    spec = dict(fn=operate_trials.trial, trial="articulation.operate@1", seed=0, label="", key="k",
                 params={"kind": "trapdoor", "max_time": 1.0, "base_noise": 0.0})
     r = operate_trials.records_of([_sweep._execute(spec, None)])[0]
     assert r["success"] is False and r["right_kind"] is False
@@ -93,8 +94,8 @@ def test_the_controller_opens_a_door_along_a_gp_model():
 
     from pydrake.systems.analysis import Simulator
 
-    from mmlearn.diagrams.operate import MakeOperateDiagram, OperateConfig
-    from mmlearn.systems.epc_controller import DONE
+    from mmlearn.diagrams.articulation.operate import MakeOperateDiagram, OperateConfig
+    from mmlearn.systems.articulation.epc_controller import DONE
 
     op = MakeOperateDiagram(OperateConfig(kind="left_door", seed=2, base_noise=0.0,
                                           models=["gp"]))

@@ -14,8 +14,8 @@ def test_match_front_handles_the_8_parameterisations():
     """A detection given in any of its 8 parameterisations (and with noise) matches the true
     front with the same small error; a shifted or tilted one does not match."""
     from mmlearn.apps.track_fronts import match_front
-    from mmlearn.models.front_tracking import rectangle_parameterisations
-    from mmlearn.models.fronts import FrontRectangle
+    from mmlearn.models.perception.tracking import rectangle_parameterisations
+    from mmlearn.models.perception.fronts import FrontRectangle
 
     X = np.eye(4)
     X[:3, :3] = np.array([[0, 0, 1], [1, 0, 0], [0, 1, 0.0]])  # a front facing +x
@@ -44,7 +44,7 @@ def test_match_front_size_gate_rejects_merged_fronts():
     """A rectangle of several merged closed fronts whose centre lies near the true front's
     (1.2 m wide instead of 0.395 m) counted as the front before the size gate."""
     from mmlearn.apps.track_fronts import TrackFrontsConfig, match_front
-    from mmlearn.models.fronts import FrontRectangle
+    from mmlearn.models.perception.fronts import FrontRectangle
 
     X = np.eye(4)
     X[:3, :3] = np.array([[0, 0, 1], [1, 0, 0], [0, 1, 0.0]])
@@ -147,7 +147,7 @@ def test_perception_experiments_report_only_reproduces_a_tiny_run(tmp_path, caps
 def test_track_fronts_draws_in_meshcat(tmp_path):
     """With Meshcat: the point cloud, the detections, every published track and the moving
     front's learned model are drawn; --html-out writes the recording."""
-    from mmlearn.apps._common import make_meshcat
+    from mmlearn.apps.common.cli import make_meshcat
     from mmlearn.apps.track_fronts import TrackFrontsConfig, run
 
     mc = make_meshcat(announce=False)

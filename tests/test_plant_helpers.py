@@ -1,4 +1,4 @@
-"""JointFriction: regularised Coulomb friction from the plant's state (systems/plant_helpers.py)."""
+"""JointFriction: regularised Coulomb friction from the plant's state (systems/common/plant_helpers.py)."""
 
 import numpy as np
 import pytest

@@ -3,9 +3,9 @@ import pytest
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import BasicVector, DiagramBuilder, LeafSystem
 
-from mmlearn.models.articulation import ObservationModel
-from mmlearn.models.articulation_priors import PriorDatabase
-from mmlearn.systems.prior_selector import PriorModelSelector, ShiftedLinkModel
+from mmlearn.models.articulation.link import ObservationModel
+from mmlearn.models.articulation.priors import PriorDatabase
+from mmlearn.systems.articulation.prior_selector import PriorModelSelector, ShiftedLinkModel
 
 
 def _arc(center, r, a0, a1, n, z=0.7):

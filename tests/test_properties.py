@@ -65,7 +65,7 @@ def track_files(draw):
 
 @given(lines=track_files(), dup=st.booleans())
 def test_read_track_never_crashes(tmp_path_factory, lines, dup):
-    from mmlearn.models.track_io import read_track
+    from mmlearn.models.common.track_io import read_track
 
     if dup and lines:
         lines = lines + lines  # duplicated observations
@@ -126,7 +126,7 @@ def csv_rows(draw):
 
 @given(header=st.one_of(st.just("t,part,x,y,z,qx,qy,qz,qw"), HEADER), rows=csv_rows())
 def test_read_parts_csv_never_crashes(tmp_path_factory, header, rows):
-    from mmlearn.models.articulation_graph import read_parts_csv
+    from mmlearn.models.articulation.graph import read_parts_csv
 
     p = _tmp(tmp_path_factory) / "parts.csv"
     p.write_text("\n".join([header, *rows]) + "\n")
@@ -181,7 +181,7 @@ def tracks(draw, max_n=8):
 @given(Z=tracks(), name=st.sampled_from(["rigid", "prismatic", "revolute"]),
        seed=st.integers(0, 100))
 def test_link_model_fit_never_crashes(Z, name, seed):
-    from mmlearn.models.articulation import ObservationModel, make_model
+    from mmlearn.models.articulation.link import ObservationModel, make_model
 
     try:
         m = make_model(name, obs=ObservationModel(sigma_pos=0.01), n_hypotheses=8)
@@ -197,8 +197,8 @@ def test_link_model_fit_never_crashes(Z, name, seed):
 @settings(suppress_health_check=list(HealthCheck), max_examples=1000)
 @given(Z=tracks(max_n=6), seed=st.integers(0, 100))
 def test_link_model_selection_never_crashes(Z, seed):
-    from mmlearn.models.articulation import ObservationModel
-    from mmlearn.models.articulation_structure import select_link_model
+    from mmlearn.models.articulation.link import ObservationModel
+    from mmlearn.models.articulation.structure import select_link_model
 
     try:
         s = select_link_model(Z, models=["rigid", "prismatic", "revolute", "gp"],
@@ -225,7 +225,7 @@ def part_tracks(draw):
         T = min(len(z) for z in parts)
         Y = np.stack([z[:T] for z in parts])
     else:
-        from mmlearn.models.articulation_sim import simulate_link
+        from mmlearn.models.articulation.sim import simulate_link
 
         kinds = draw(st.lists(st.sampled_from(["rigid", "prismatic", "revolute"]),
                               min_size=1, max_size=2))
@@ -249,8 +249,8 @@ def part_tracks(draw):
 @given(Y=part_tracks(), search=st.sampled_from(["tree", "local", "exhaustive"]),
        seed=st.integers(0, 100))
 def test_structure_search_never_crashes(Y, search, seed):
-    from mmlearn.models.articulation import ObservationModel
-    from mmlearn.models.articulation_graph import fit_structure
+    from mmlearn.models.articulation.link import ObservationModel
+    from mmlearn.models.articulation.graph import fit_structure
 
     try:
         r = fit_structure(Y, search=search, models=["rigid", "prismatic", "revolute"],
@@ -305,7 +305,7 @@ def test_marker_sensor_inputs(bad, bad_value, rate, sp, so, gamma, dropout, view
     from pydrake.math import RigidTransform, RotationMatrix
 
     from mmlearn.systems import MarkerSensor, MarkerSensorConfig
-    from mmlearn.systems.marker_sensor import CameraConfig
+    from mmlearn.systems.common.marker_sensor import CameraConfig
 
     plant, arm = _sensor_parts()
     v = dict(rate_hz=rate, sigma_pos=sp, sigma_orient=so, gamma=gamma, dropout=dropout,

@@ -1,7 +1,7 @@
 """The real rectangle tracks of the original depth-image detector (thesis Sec. 5.2.2; issue 12
 item 7): tests/data/articulation_logs/rectangle_door.txt and rectangle_drawer.txt (provenance
 in that folder's README). Their pose is a corner of the rectangle, the tracker's is the
-centre (models/front_tracking.py)."""
+centre (models/perception/tracking.py)."""
 
 import json
 import os
@@ -12,11 +12,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mmlearn.models.front_tracking import (align_track, axis_errors, cross_validated_errors,
-                                           fit_track_model, front_observation_model,
-                                           rectangles_from_poses, subsampled_selection,
-                                           track_rectangles)
-from mmlearn.models.track_io import read_track
+from mmlearn.models.perception.tracking import (align_track, axis_errors, cross_validated_errors,
+                                                fit_track_model, front_observation_model,
+                                                rectangles_from_poses, subsampled_selection,
+                                                track_rectangles)
+from mmlearn.models.common.track_io import read_track
 
 DATA = Path(__file__).parent / "data" / "articulation_logs"
 ENV = {**os.environ, "DRAKE_ALLOW_NETWORK": "meshcat", "OPENBLAS_NUM_THREADS": "1"}

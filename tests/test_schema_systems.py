@@ -9,22 +9,22 @@ from pydrake.math import RigidTransform
 from pydrake.systems.analysis import Simulator
 
 from mmlearn.apps.learn_body_schema import (
-    babble,
-    control_error,
-    converged_at,
-    is_correct,
-    observation_noise,
-    prediction_error,
-    sample_test_commands,
-)
-from mmlearn.diagrams.body_schema import BodySchemaDiagramConfig, MakeBodySchemaDiagram
-from mmlearn.diagrams.scene import MakeSceneDiagram, SceneConfig
+                                            babble,
+                                            control_error,
+                                            converged_at,
+                                            is_correct,
+                                            observation_noise,
+                                            prediction_error,
+                                            sample_test_commands,
+                                            )
+from mmlearn.diagrams.body_schema.diagram import BodySchemaDiagramConfig, MakeBodySchemaDiagram
+from mmlearn.diagrams.common.scene import MakeSceneDiagram, SceneConfig
 from mmlearn.sdf.builders import DEFAULT_MODELS, arm_sdf
-from mmlearn.systems.arm_failures import JointBlocker, PlantFailures
-from mmlearn.systems.motor_babbling import MotorBabbling
-from mmlearn.systems.observations import MarkerObservations
-from mmlearn.systems.schema_controller import SchemaController
-from mmlearn.systems.schema_learner import SchemaLearner, SchemaLearnerConfig
+from mmlearn.systems.body_schema.arm_failures import JointBlocker, PlantFailures
+from mmlearn.systems.body_schema.motor_babbling import MotorBabbling
+from mmlearn.systems.common.observations import MarkerObservations
+from mmlearn.systems.body_schema.controller import SchemaController
+from mmlearn.systems.body_schema.learner import SchemaLearner, SchemaLearnerConfig
 
 
 def _sim(bs):

@@ -1,4 +1,4 @@
-"""The SDF writer (mmlearn.sdf.sdf_writer) and the models built with it.
+"""The SDF writer (mmlearn.models.common.sdf_writer) and the models built with it.
 
 Every generated model (robots, furniture, test objects, mechanisms, an exported articulation
 model) is parsed by Drake and compared with what the string templates that the writer
@@ -19,8 +19,8 @@ from pathlib import Path
 
 import pytest
 
-from mmlearn.sdf.sdf_writer import (Box, Capsule, Cylinder, Mesh, SdfModel, Sphere,
-                                    box_inertia, cylinder_inertia)
+from mmlearn.models.common.sdf_writer import (Box, Capsule, Cylinder, Mesh, SdfModel, Sphere,
+                                              box_inertia, cylinder_inertia)
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import sdf_summary  # noqa: E402
@@ -118,7 +118,7 @@ def _templates(src: str) -> list:
 def test_no_sdf_string_templates_left():
     """The four places that wrote SDFormat as strings now all use the writer."""
     for rel in ("sdf/builders.py", "sdf/objects.py", "sdf/mechanisms.py",
-                "models/articulation_io.py"):
+                "models/articulation/io.py"):
         src = (REPO / rel).read_text()
         assert "sdf_writer import" in src, rel
         assert not _templates(src), (rel, _templates(src)[:3])
@@ -128,7 +128,7 @@ def test_no_sdf_string_templates_left():
 
 
 def test_writer_imports_no_drake_so_models_may_use_it():
-    code = ("import sys, mmlearn.sdf.sdf_writer, mmlearn.models.articulation_io; "
+    code = ("import sys, mmlearn.models.common.sdf_writer, mmlearn.models.articulation.io; "
             "print(sorted(m for m in sys.modules if m.startswith('pydrake')))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True).stdout
@@ -254,7 +254,7 @@ def test_output_order_and_text():
 
 
 def test_module_example_parses():
-    import mmlearn.sdf.sdf_writer as w
+    import mmlearn.models.common.sdf_writer as w
 
     doc = w.__doc__
     code = doc[doc.index("Example::") + len("Example::"):doc.index("Supported:")]

@@ -10,9 +10,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mmlearn.models.articulation import ObservationModel
-from mmlearn.models.articulation_structure import select_link_model
-from mmlearn.models.track_io import read_track
+from mmlearn.models.articulation.link import ObservationModel
+from mmlearn.models.articulation.structure import select_link_model
+from mmlearn.models.common.track_io import read_track
 
 DATA = Path(__file__).parent / "data"
 CODY = {

@@ -25,8 +25,8 @@ def test_help(app):
 
 @pytest.fixture(scope="module")
 def closed_csv(tmp_path_factory):
-    from mmlearn.diagrams.object_tracks import yardstick_scenario
-    from mmlearn.models.articulation_graph import write_parts_csv
+    from mmlearn.diagrams.common.object_tracks import yardstick_scenario
+    from mmlearn.models.articulation.graph import write_parts_csv
 
     tr = yardstick_scenario(True, 60, rng=5)
     Y = tr.poses.copy()

@@ -1,4 +1,4 @@
-"""The sweep runner (apps/_sweep.py): executors, resume, errors, corrupt results files."""
+"""The sweep runner (apps/common/sweep.py): executors, resume, errors, corrupt results files."""
 
 import json
 import os
@@ -10,9 +10,9 @@ import time
 
 import pytest
 
-from mmlearn.apps._sweep import TrialSpec, load_results, run_sweep
+from mmlearn.apps.common.sweep import TrialSpec, load_results, probe_trial, run_sweep
 
-PROBE = "mmlearn.apps._sweep:probe_trial"
+PROBE = probe_trial
 
 
 def _specs(n, **params):
@@ -74,8 +74,10 @@ def test_a_corrupt_last_line_is_dropped_and_its_trial_runs_again(tmp_path):
 
 
 def test_bad_specs_and_arguments_are_refused(tmp_path):
-    with pytest.raises(ValueError, match="module:function"):
-        TrialSpec(fn="nofunction")
+    with pytest.raises(ValueError, match="not a registered trial"):
+        TrialSpec(fn="mmlearn.apps.common.sweep:probe_trial")
+    with pytest.raises(ValueError, match="not a registered trial"):
+        TrialSpec(fn=len)
     with pytest.raises(ValueError, match="JSON-able"):
         TrialSpec(fn=PROBE, params={"x": object()})
     with pytest.raises(ValueError, match="identical"):
@@ -89,8 +91,8 @@ def test_bad_specs_and_arguments_are_refused(tmp_path):
 
 _SCRIPT = textwrap.dedent("""
     import sys
-    from mmlearn.apps._sweep import TrialSpec, run_sweep
-    specs = [TrialSpec(fn="mmlearn.apps._sweep:probe_trial", seed=i,
+    from mmlearn.apps.common.sweep import TrialSpec, probe_trial, run_sweep
+    specs = [TrialSpec(fn=probe_trial, seed=i,
                        params={"sleep_s": 1.0}, label=f"probe {i}") for i in range(12)]
     if __name__ == "__main__":
         res = run_sweep(specs, results=sys.argv[1], jobs=2, show_progress=False,
@@ -140,7 +142,7 @@ def test_ray_executor_gives_the_local_records(tmp_path):
 
 def test_ray_trials_run_in_a_plain_child_process_of_each_worker(tmp_path):
     """A Ray task runs its trial in a child process of the Ray worker (the trial is slower
-    inside the Ray worker process itself, see apps/_sweep._ray_execute); the shared inputs reach
+    inside the Ray worker process itself, see apps/common/sweep._ray_execute); the shared inputs reach
     it, other shared inputs get a new child, and a child that dies is that trial's error."""
     ray = pytest.importorskip("ray")
     ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False)
@@ -177,3 +179,19 @@ def test_a_trial_that_kills_its_local_worker_is_its_error_and_the_sweep_goes_on(
     assert "died" in res.errors[0]["error"]
     seeds = [ln["spec"]["seed"] for ln in _lines(tmp_path / "r.jsonl")]
     assert sorted(seeds) == list(range(6))  # every trial exactly once
+
+
+def test_a_results_file_of_another_format_or_trial_version_is_refused(tmp_path):
+    path = tmp_path / "r.jsonl"
+    run_sweep(_specs(2), results=path, show_progress=False)
+    lines = _lines(path)
+    assert {ln["spec"]["fn"] for ln in lines} == {"sweep.probe@1"}
+    old = dict(lines[0], spec=dict(lines[0]["spec"], fn="mmlearn.apps._sweep:probe_trial"))
+    old.pop("format")
+    path.write_text(json.dumps(old) + "\n")
+    with pytest.raises(ValueError, match="older results format"):
+        run_sweep(_specs(2), results=path, show_progress=False)
+    newer = dict(lines[0], spec=dict(lines[0]["spec"], fn="sweep.probe@2"))
+    path.write_text(json.dumps(newer) + "\n")
+    with pytest.raises(ValueError, match="holds results of sweep.probe@2"):
+        run_sweep(_specs(2), results=path, show_progress=False)

@@ -4,12 +4,12 @@ information gain, grasp features, liquid feature."""
 import numpy as np
 import pytest
 
-from mmlearn.models.tactile_recognition import (TactileRecognitionConfig, TactileRecognizer,
+from mmlearn.models.tactile.recognition import (TactileRecognitionConfig, TactileRecognizer,
                                                 TactileSet, d1, d2, entropy, height_actions,
                                                 kmedoids_available, pairwise_d2, posterior,
                                                 shift_rows)
-from mmlearn.models.tactile_synth import make_objects, pattern_bank, sample_grasps
-from mmlearn.models.tactile_types import TactileDataError, TactileGrasp, TactileObservation
+from mmlearn.models.tactile.synth import make_objects, pattern_bank, sample_grasps
+from mmlearn.models.tactile.types import TactileDataError, TactileGrasp, TactileObservation
 
 
 def _bar(row, rows=14, cols=6, value=1.0):
@@ -300,7 +300,7 @@ def _profile(*, touch=True, settle=True):
 
 
 def test_six_features_on_a_known_profile():
-    from mmlearn.models.tactile_state import FEATURE_NAMES, extract_grasp_features
+    from mmlearn.models.tactile.state import FEATURE_NAMES, extract_grasp_features
 
     ft = extract_grasp_features(_profile(), contact_force=1.0, rest_velocity=1e-3)
     assert ft.contact and ft.steady
@@ -339,7 +339,7 @@ def test_grasp_validation_names_the_field():
 
 
 def test_classifiers_and_cross_validation_on_separable_features():
-    from mmlearn.models.tactile_state import cross_validate, evaluate_split, make_classifier
+    from mmlearn.models.tactile.state import cross_validate, evaluate_split, make_classifier
 
     rng = np.random.default_rng(0)
     X = np.concatenate([rng.normal(0, 1, (30, 6)), rng.normal(4, 1, (30, 6))])
@@ -382,7 +382,7 @@ def _roll(rng, *, slosh: bool, n_taxels=44, seconds=20.0, rate=24.0, load=2.0):
 
 
 def test_highpass_removes_constant_load_and_slow_roll():
-    from mmlearn.models.liquid import filtered_norm, highpass
+    from mmlearn.models.tactile.liquid import filtered_norm, highpass
 
     const = np.full((100, 3), 5.0)
     np.testing.assert_allclose(highpass(const), 0.0, atol=1e-12)  # no start-up transient
@@ -398,8 +398,8 @@ def test_highpass_removes_constant_load_and_slow_roll():
 
 
 def test_liquid_feature_separates_sloshing_from_rigid_and_classifies():
-    from mmlearn.models.liquid import RollRecord, liquid_feature, liquid_features
-    from mmlearn.models.tactile_state import cross_validate
+    from mmlearn.models.tactile.liquid import RollRecord, liquid_feature, liquid_features
+    from mmlearn.models.tactile.state import cross_validate
 
     rng = np.random.default_rng(2)
     rigid = [liquid_feature(_roll(rng, slosh=False, load=rng.uniform(1, 4))) for _ in range(10)]
@@ -411,7 +411,7 @@ def test_liquid_feature_separates_sloshing_from_rigid_and_classifies():
     assert X.shape == (20, 2)
     y = np.array([r.liquid for r in recs])
     assert cross_validate(X[:, :1], y, classifier="tree", folds=10).rate >= 0.9
-    from mmlearn.models.liquid import evaluate_liquid, liquid_table
+    from mmlearn.models.tactile.liquid import evaluate_liquid, liquid_table
 
     for r, k in zip(recs, range(20)):
         r.container = f"c{k % 2}"
@@ -434,7 +434,7 @@ def test_own_k_medoids_covers_dense_groups_not_outliers(easy_world):
     above the build's; deterministic; bad input named; "auto" uses it without kmedoids."""
     from scipy.spatial.distance import cdist
 
-    from mmlearn.models.tactile_recognition import k_medoids
+    from mmlearn.models.tactile.recognition import k_medoids
 
     rng = np.random.default_rng(0)
     centres = np.array([[0, 0], [10, 0], [0, 10], [10, 10]], float)
@@ -448,7 +448,7 @@ def test_own_k_medoids_covers_dense_groups_not_outliers(easy_world):
     build = k_medoids(D, 4, max_iter=0)  # the greedy build alone
     assert D[:, med].min(axis=1).sum() <= D[:, build].min(axis=1).sum()
     assert np.array_equal(med, k_medoids(D, 4))
-    from mmlearn.models.tactile_recognition import TactileRecognizer as TR
+    from mmlearn.models.tactile.recognition import TactileRecognizer as TR
     agg, _ = TR._cluster(D, 4, 0, "agglomerative")
     assert len(set(group[agg]) - {-1}) < 4  # the outliers took clusters
     for bad, k in ((D[:5], 2), (np.full((3, 3), np.nan), 2), (D, 0), (D, len(D) + 1)):

@@ -1,5 +1,5 @@
 """The ch. 6 objects (sdf/tactile_objects.py), one recognition grasp in Drake
-(diagrams/tactile_objects.py) and the tactile_recognition app."""
+(diagrams/tactile/objects.py) and the tactile_recognition app."""
 
 import json
 
@@ -55,7 +55,7 @@ def test_every_class_loads_in_drake_and_instances_vary_with_the_seed():
 
 # ------------------------------------------------------------------ grasps in Drake
 def test_soft_and_tennis_ball_differ_by_touch():
-    from mmlearn.diagrams.tactile_objects import object_grasp_trial, observation_from_record
+    from mmlearn.diagrams.tactile.objects import object_grasp_trial, observation_from_record
 
     soft = object_grasp_trial(seed=5, cls="soft_ball", height=0.035)
     hard = object_grasp_trial(seed=5, cls="tennis_ball", height=0.035)
@@ -72,7 +72,7 @@ def test_soft_and_tennis_ball_differ_by_touch():
 
 
 def test_slotted_and_flat_profile_faces_and_no_contact():
-    from mmlearn.diagrams.tactile_objects import object_grasp_trial
+    from mmlearn.diagrams.tactile.objects import object_grasp_trial
 
     slot = np.array(object_grasp_trial(seed=2, cls="profile_a", height=0.05)["left"])
     flat = np.array(object_grasp_trial(seed=2, cls="profile_b@0", height=0.05)["left"])
@@ -86,7 +86,7 @@ def test_slotted_and_flat_profile_faces_and_no_contact():
 # ------------------------------------------------------------------ evaluation (numpy)
 def test_evaluate_separates_distinct_classes_and_not_identical_ones():
     from mmlearn.apps.tactile_recognition import evaluate
-    from mmlearn.models.tactile_synth import make_objects, sample_grasps
+    from mmlearn.models.tactile.synth import make_objects, sample_grasps
 
     rng = np.random.default_rng(0)
     objs = make_objects(4, 5, rng=rng)
@@ -111,7 +111,7 @@ def test_informed_heights_beat_random_where_one_height_tells_the_classes_apart()
     (it splits all four classes, the others only the pairs), so the first informed grasp
     recognises the object; a random first grasp only tells the pair (rate ~0.6)."""
     from mmlearn.apps.tactile_recognition import STRATEGIES, evaluate
-    from mmlearn.models.tactile_synth import sample_grasps
+    from mmlearn.models.tactile.synth import sample_grasps
 
     rng = np.random.default_rng(4)
     objs = {"pattern": np.array([[0, 1, 2, 3, 8], [0, 1, 2, 3, 9],
@@ -167,7 +167,7 @@ def test_app_short_run_and_report_only(tmp_path, capsys):
 
 
 def test_one_grasp_recorded_as_meshcat_html(tmp_path):
-    from mmlearn.apps._common import make_meshcat
+    from mmlearn.apps.common.cli import make_meshcat
     from mmlearn.apps.tactile_recognition import _show_one
 
     html = tmp_path / "grasp.html"

@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 from conftest import run_main
 
-from mmlearn.models.containers import (CONTAINER_CLASSES, sample_container, states_of)
-from mmlearn.models.tactile_pad import (PAD_CH6, PAD_PR2, PadLayout, integrate_pressure,
+from mmlearn.models.tactile.containers import (CONTAINER_CLASSES, sample_container, states_of)
+from mmlearn.models.tactile.pad import (PAD_CH6, PAD_PR2, PadLayout, integrate_pressure,
                                         integrate_pressure_pads, sensor_reading,
                                         subdivision_points)
 
@@ -184,14 +184,14 @@ def test_container_stiffness_follows_state():
 
 # ------------------------------------------------------------------ Drake: sensor + controller
 def _contact_force_trace(cfg, object_sdf, t_end):
-    from mmlearn.diagrams.tactile_grasp import simulate_contact_force
+    from mmlearn.diagrams.tactile.grasp import simulate_contact_force
 
     _, F, sim, parts = simulate_contact_force(cfg, object_sdf=object_sdf, t_end=t_end)
     return F, sim, parts
 
 
 def test_flat_block_pressed_with_known_force_gives_expected_cells():
-    from mmlearn.diagrams.tactile_grasp import TactileGraspConfig
+    from mmlearn.diagrams.tactile.grasp import TactileGraspConfig
     from mmlearn.sdf.tactile import block_sdf
 
     f = 30.0
@@ -212,7 +212,7 @@ def test_flat_block_pressed_with_known_force_gives_expected_cells():
 
 
 def test_switching_controller_has_no_impact_spike_pure_force_has():
-    from mmlearn.diagrams.tactile_grasp import TactileGraspConfig
+    from mmlearn.diagrams.tactile.grasp import TactileGraspConfig
     from mmlearn.sdf.tactile import block_sdf
 
     block = block_sdf((0.07, 0.1, 0.12))  # rigid: the wooden block of Fig. 7.5 / 7.6
@@ -231,9 +231,9 @@ def test_self_centring_palm_makes_p_first_independent_of_placement():
     """A container placed 2 mm off-centre: with the welded palm the first finger squeezes the
     flimsy wall alone until the second finger touches (p_first several mm short of the
     centred grasp); with the self-centring palm slide p_first is the centred one."""
-    from mmlearn.diagrams.tactile_grasp import (PALM_SLIDE_DAMPING, TactileGraspConfig,
+    from mmlearn.diagrams.tactile.grasp import (PALM_SLIDE_DAMPING, TactileGraspConfig,
                                                 simulate_grasp)
-    from mmlearn.models.tactile_state import extract_grasp_features
+    from mmlearn.models.tactile.state import extract_grasp_features
 
     inst = sample_container("water", "empty_open", np.random.default_rng(3))
 
@@ -255,8 +255,8 @@ def test_self_centring_palm_makes_p_first_independent_of_placement():
 
 
 def test_grasp_of_nothing_is_no_contact():
-    from mmlearn.diagrams.tactile_grasp import TactileGraspConfig, simulate_grasp
-    from mmlearn.models.tactile_state import extract_grasp_features
+    from mmlearn.diagrams.tactile.grasp import TactileGraspConfig, simulate_grasp
+    from mmlearn.models.tactile.state import extract_grasp_features
 
     g = simulate_grasp(TactileGraspConfig(duration=1.0, v_target=0.1))
     assert g.f.max() < 1.0 and g.p[-1] < 0.01
@@ -265,8 +265,8 @@ def test_grasp_of_nothing_is_no_contact():
 
 
 def test_bad_arguments_are_named():
-    from mmlearn.systems.tactile_grasp_controller import TactileGraspController
-    from mmlearn.systems.tactile_sensor import TactileSensor
+    from mmlearn.systems.tactile.grasp_controller import TactileGraspController
+    from mmlearn.systems.tactile.sensor import TactileSensor
 
     with pytest.raises(ValueError, match="mode"):
         TactileGraspController(f_target=10.0, mode="crush")
@@ -331,7 +331,7 @@ def test_tactile_state_simulation_bad_flags(argv, needle, capsys):
 def test_wrist_force_sensor_sees_the_fingers_weight():
     from pydrake.systems.analysis import Simulator
 
-    from mmlearn.diagrams.tactile_grasp import MakeTactileGraspDiagram, TactileGraspConfig
+    from mmlearn.diagrams.tactile.grasp import MakeTactileGraspDiagram, TactileGraspConfig
 
     cfg = TactileGraspConfig(duration=0.2)
     d, parts = MakeTactileGraspDiagram(cfg)
@@ -363,8 +363,8 @@ class _FakeMeshcat:
 def test_taxel_visualizer_colours_cells_by_reading_at_the_pad():
     from pydrake.math import RigidTransform
 
-    from mmlearn.systems.taxel_visualizer import TaxelPadVisualizer, taxel_colors
-    from mmlearn.systems.tactile_sensor import PadSpec
+    from mmlearn.systems.tactile.taxel_visualizer import TaxelPadVisualizer, taxel_colors
+    from mmlearn.systems.tactile.sensor import PadSpec
 
     assert np.allclose(taxel_colors([0.0, 1.0, np.nan])[:, :3],
                        [[0, 0, 0.5], [0.5, 0, 0], [0, 0, 0.5]])

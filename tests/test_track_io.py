@@ -5,7 +5,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mmlearn.models.track_io import TrackFileError, find_track_files, read_track
+from mmlearn.models.common.track_io import TrackFileError, find_track_files, read_track
 
 DATA = Path(__file__).parent / "data" / "articulation_logs"
 

@@ -3,7 +3,7 @@
     python -m mmlearn.apps.examples.make_examples
 
 ``two_drawer_cabinet.csv``: the two-drawer cabinet of thesis Fig. 4.8 (``sdf/objects.py``,
-posed in a Drake MultibodyPlant by :func:`mmlearn.diagrams.object_tracks.cabinet_scenario`):
+posed in a Drake MultibodyPlant by :func:`mmlearn.diagrams.common.object_tracks.cabinet_scenario`):
 the lower drawer opens and closes alone for 20 time steps, then both drawers move
 independently for 40; marker noise 3 mm / 1 deg (cabinet marker 0.6 mm / 0.2 deg), seed 0,
 one row per part per time step, t = 0.1 s apart.
@@ -17,8 +17,8 @@ HERE = Path(__file__).resolve().parent
 
 
 def main() -> None:
-    from mmlearn.diagrams.object_tracks import cabinet_scenario
-    from mmlearn.models.articulation_graph import write_parts_csv
+    from mmlearn.diagrams.common.object_tracks import cabinet_scenario
+    from mmlearn.models.articulation.graph import write_parts_csv
 
     tr = cabinet_scenario(20, 40, rng=0)
     Y = np.round(tr.poses, 5)

@@ -1,0 +1,1 @@
+"""What every app shares: the command-line conventions and the experiment runner."""

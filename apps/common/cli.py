@@ -1,0 +1,345 @@
+"""Helpers shared by the apps: progress bars, Meshcat, config files, atomic writes."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+from mmlearn.models.common.fileio import atomic_write_text
+
+
+def progress(iterable, *, desc: str = "", unit: str = "it", enabled: bool = True,
+             total: int | None = None):
+    """A tqdm progress bar on stderr (only when stderr is a terminal and ``enabled``)."""
+    if not enabled:
+        return iterable
+    from tqdm import tqdm
+
+    return tqdm(iterable, desc=desc, unit=unit, total=total, file=sys.stderr,
+                disable=None, leave=False)
+
+
+def progress_bar(total: int, desc: str = "", *, unit: str = "it", enabled: bool = True):
+    """A manual tqdm bar on stderr (``update``, ``set_postfix_str``, ``close``); when not
+    ``enabled`` (or stderr is no terminal) the same calls do nothing."""
+    from tqdm import tqdm
+
+    return tqdm(total=total, desc=desc, unit=unit, file=sys.stderr, leave=False,
+                disable=True if not enabled else None)
+
+
+def make_meshcat(*, announce: bool = True):
+    """Start a Meshcat server (local only) and, with ``announce`` (a live view), print its
+    URL to stderr; for a recording only (``--html-out``) nobody needs the URL."""
+    from pydrake.geometry import StartMeshcat
+
+    meshcat = StartMeshcat()
+    if announce:
+        print(f"Meshcat: open {meshcat.web_url()} in a browser", file=sys.stderr)
+    return meshcat
+
+
+def frame_camera(meshcat, points, *, view_from, fov_deg: float = 75.0,
+                 min_aspect: float = 4 / 3, margin: float = 1.1):
+    """Point Meshcat's camera so that every one of ``points`` ((n, 3), world, m) is in view
+    and their image is centred, looking along ``-view_from`` (a world direction from the
+    scene towards the camera, tilted to look down at least a little).
+
+    ``fov_deg`` is the camera's vertical field of view (Meshcat's default camera: 75 deg);
+    the view is assumed at least ``min_aspect`` wide (width / height); the points fill at
+    most 1 / ``margin`` of it. With the camera's axes fixed (right r, up v, forward f), a
+    point p is in view when ``|(p - C).r| <= tx (p - C).f`` and ``|(p - C).v| <= ty (p -
+    C).f``: linear in the camera position C, so the closest C that sees every point, with
+    the outermost points on opposite edges equally far in, has a closed form. The orbit
+    target is on the view axis at the points' mean depth. Sets the live view and, through
+    Meshcat's scene, every later ``StaticHtml``. Returns ``(camera position, target)``."""
+    import numpy as np
+
+    P = np.asarray(points, float).reshape(-1, 3)
+    u = np.asarray(view_from, float)
+    u = u / np.linalg.norm(u)
+    if u[2] < 0.2:  # look down on the scene, never along or up from the floor
+        u[2] = 0.2
+        u = u / np.linalg.norm(u)
+    f = -u
+    right = np.cross(f, [0.0, 0.0, 1.0])
+    right /= np.linalg.norm(right)
+    up = np.cross(right, f)
+    ty = np.tan(np.radians(fov_deg) / 2) / margin
+    tx = ty * min_aspect
+    a, b, c = P @ right, P @ f, P @ up
+    R, L = np.max(a - tx * b), np.max(-a - tx * b)
+    U, D = np.max(c - ty * b), np.max(-c - ty * b)
+    c_f = min(-(R + L) / (2 * tx), -(U + D) / (2 * ty), float(b.min()) - 0.3)
+    camera = (R - L) / 2 * right + (U - D) / 2 * up + c_f * f
+    target = camera + f * max(float(np.mean(b)) - c_f, 0.3)
+    meshcat.SetCameraPose(camera, target)
+    return camera, target
+
+
+def save_html(meshcat, path: str | Path) -> Path:
+    """Write Meshcat's current scene (with its published recording) as standalone HTML."""
+    return atomic_write_text(path, meshcat.StaticHtml())
+
+
+def save_figure(fig, path, **kw) -> Path:
+    """``fig.savefig`` through a temporary file in the same folder and a rename, so an
+    interrupted run never leaves a half-written image. Returns the path."""
+    import os
+
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.tmp")
+    try:
+        fig.savefig(tmp, format=path.suffix.lstrip(".").lower() or "png", **kw)
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    return path
+
+
+def load_config(path: str | Path, cls):
+    """Load a dataclass config from YAML with Drake's typed loader (misspelled keys are
+    errors naming the key)."""
+    from pydrake.common.yaml import yaml_load_typed
+
+    import yaml
+
+    path = Path(path)
+    if not path.exists():
+        raise FileNotFoundError(f"config file not found: {path}")
+    if not path.is_file():
+        raise ValueError(f"{path}: not a file")
+    try:
+        _check_config_types(yaml.safe_load(path.read_text()), cls, "")
+        return yaml_load_typed(schema=cls, filename=str(path))
+    except yaml.YAMLError as e:
+        raise ValueError(f"{path}: not valid YAML ({' '.join(str(e).split())})") from None
+    except AssertionError as e:
+        # Drake's loader asserts that a nested config is a mapping (``sensor: 5``)
+        raise ValueError(f"{path}: a nested config (such as 'sensor') must be a mapping of "
+                         f"keys to values, got {str(e) or 'something else'!r}") from None
+    except (RuntimeError, TypeError, ValueError) as e:
+        raise ValueError(f"{path}: {' '.join(str(e).split())}") from None
+
+
+def _check_config_types(d, cls, where: str) -> None:
+    """Name the key whose YAML value has the wrong type for the dataclass ``cls`` (Drake's
+    loader says only ``AssertionError: 5`` or ``could not convert string to float``)."""
+    import dataclasses
+    import typing
+
+    if not isinstance(d, dict) or not dataclasses.is_dataclass(cls):
+        return
+    try:
+        hints = typing.get_type_hints(cls)
+    except Exception:  # noqa: BLE001 - unresolvable annotations: leave it to Drake
+        return
+    for f in dataclasses.fields(cls):
+        if f.name not in d:
+            continue
+        v, t, key = d[f.name], hints.get(f.name), f"{where}{f.name}"
+        if dataclasses.is_dataclass(t):
+            if not isinstance(v, dict):
+                raise ValueError(f"{key}: expected a mapping of {t.__name__} keys, got {v!r}")
+            _check_config_types(v, t, key + ".")
+        elif t is float and (isinstance(v, bool) or not isinstance(v, (int, float))):
+            raise ValueError(f"{key}: expected a number, got {v!r}")
+        elif t is int and (isinstance(v, bool) or not isinstance(v, int)):
+            raise ValueError(f"{key}: expected an integer, got {v!r}")
+        elif t is bool and not isinstance(v, bool):
+            raise ValueError(f"{key}: expected true or false, got {v!r}")
+        elif t is str and not isinstance(v, str):
+            raise ValueError(f"{key}: expected a string, got {v!r}")
+
+
+def finish_viewing(*, html_out, live: bool) -> None:
+    """Tell where the recording went and, after a live Meshcat session in a terminal,
+    keep the server up until the user presses Enter."""
+    if html_out:
+        print(f"Meshcat recording written to {html_out}")
+    if live and sys.stdin.isatty():
+        input("Meshcat is still serving the recording; press Enter to quit. ")
+
+
+def json_clean(v):
+    """Turn numpy scalars/arrays into plain Python and non-finite floats into None, so the
+    value can be printed with ``json.dumps`` as strict JSON."""
+    import math
+
+    import numpy as np
+
+    if isinstance(v, float):
+        return v if math.isfinite(v) else None
+    if isinstance(v, dict):
+        return {str(k): json_clean(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [json_clean(x) for x in v]
+    if isinstance(v, np.ndarray):
+        return json_clean(v.tolist())
+    if isinstance(v, np.generic):
+        return json_clean(v.item())
+    return v
+
+
+# --------------------------------------------------------------------------- command lines
+# One convention for every app: flags are spelled with hyphens (``--sigma-pos``; the old
+# underscore spellings stay as hidden aliases), the output folder is ``--out-dir``, bad
+# input exits with status 2 and a one-line message that names the flag.
+
+import argparse as _argparse
+import math as _math
+import os as _os
+
+BAD_INPUT = 2
+"""Exit status for bad input (as argparse's own errors)."""
+
+
+class UsageError(ValueError):
+    """Bad input found by an app's checks; the message names the flag or file."""
+
+
+class ArgumentParser(_argparse.ArgumentParser):
+    """argparse with one-line errors (``prog: error: --seed: expected ...``, exit 2) and
+    hidden underscore aliases: ``add_argument("--out-dir", ...)`` also accepts
+    ``--out_dir`` without listing it in ``--help``."""
+
+    def error(self, message):  # noqa: D401 - argparse API
+        message = message.replace("argument ", "", 1) if message.startswith("argument ") \
+            else message
+        self.exit(BAD_INPUT, f"{self.prog}: error: {message} (see --help)\n")
+
+    def add_argument(self, *names, **kw):
+        action = super().add_argument(*names, **kw)
+        aliases = ["--" + n[2:].replace("-", "_") for n in names
+                   if n.startswith("--") and "-" in n[2:]]
+        aliases = [a for a in aliases if a not in self._option_string_actions]
+        if aliases:
+            # the hidden spelling shares the action's dest, type and checks
+            kw2 = {k: v for k, v in kw.items() if k not in ("help", "default", "required")}
+            kw2["dest"] = action.dest
+            super().add_argument(*aliases, help=_argparse.SUPPRESS,
+                                 default=_argparse.SUPPRESS, **kw2)
+        return action
+
+
+def _number(kind, text, *, what):
+    try:
+        v = kind(text)
+    except (TypeError, ValueError):
+        raise _argparse.ArgumentTypeError(f"expected {what}, got {text!r}") from None
+    return v
+
+
+def nonneg_int(text):
+    """argparse type: an integer >= 0 (seeds, counts that may be 0)."""
+    v = _number(int, text, what="a non-negative integer")
+    if v < 0:
+        raise _argparse.ArgumentTypeError(f"expected a non-negative integer, got {text!r}")
+    return v
+
+
+def pos_int(text):
+    """argparse type: an integer >= 1."""
+    v = _number(int, text, what="a positive integer")
+    if v < 1:
+        raise _argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}")
+    return v
+
+
+def pos_float(text):
+    """argparse type: a finite number > 0 (noise levels, durations)."""
+    v = _number(float, text, what="a finite number > 0")
+    if not (_math.isfinite(v) and v > 0):
+        raise _argparse.ArgumentTypeError(f"expected a finite number > 0, got {text!r}")
+    return v
+
+
+def nonneg_float(text):
+    """argparse type: a finite number >= 0."""
+    v = _number(float, text, what="a finite number >= 0")
+    if not (_math.isfinite(v) and v >= 0):
+        raise _argparse.ArgumentTypeError(f"expected a finite number >= 0, got {text!r}")
+    return v
+
+
+def name_list(choices=None):
+    """argparse type: a comma-separated, non-empty list of names (optionally from
+    ``choices``); returns a list."""
+    def parse(text):
+        names = [s.strip() for s in str(text).split(",") if s.strip()]
+        if not names:
+            raise _argparse.ArgumentTypeError(
+                f"expected a comma-separated list{' of ' + ', '.join(choices) if choices else ''}"
+                f", got {text!r}")
+        if choices is not None:
+            bad = [n for n in names if n not in choices]
+            if bad:
+                raise _argparse.ArgumentTypeError(
+                    f"unknown {', '.join(map(repr, bad))}; choose from {', '.join(choices)}")
+        return names
+    parse.__name__ = "list"
+    return parse
+
+
+def float_list(text):
+    """argparse type: a comma-separated, non-empty list of finite numbers; returns a list."""
+    try:
+        v = [float(x) for x in str(text).split(",") if x.strip()]
+    except ValueError:
+        raise _argparse.ArgumentTypeError(f"expected comma-separated numbers, got {text!r}") \
+            from None
+    if not v or not all(_math.isfinite(x) for x in v):
+        raise _argparse.ArgumentTypeError(f"expected comma-separated finite numbers, got {text!r}")
+    return v
+
+
+def check_out_file(flag: str, path) -> None:
+    """Raise UsageError unless ``path`` can be written as a file: its folder exists and it
+    is not a folder. Call before any computation."""
+    if path is None or str(path) == "":
+        return
+    p = Path(path)
+    if p.is_dir():
+        raise UsageError(f"{flag}: {p} is a folder, expected a file name")
+    parent = p.parent if str(p.parent) else Path(".")
+    if not parent.is_dir():
+        raise UsageError(f"{flag}: folder {parent} does not exist")
+    if not _os.access(parent, _os.W_OK):
+        raise UsageError(f"{flag}: folder {parent} is not writable")
+
+
+def check_out_dir(flag: str, path, *, create: bool = True) -> None:
+    """Raise UsageError unless ``path`` is (or, with ``create``, can be made) a writable
+    folder: an existing file there, or a missing parent folder, is an error. Creates the
+    folder when ``create``."""
+    if path is None or str(path) == "":
+        return
+    p = Path(path)
+    if p.exists() and not p.is_dir():
+        raise UsageError(f"{flag}: {p} is a file, expected a folder")
+    if not p.exists():
+        parent = p.parent if str(p.parent) else Path(".")
+        if not parent.is_dir():
+            raise UsageError(f"{flag}: folder {parent} does not exist")
+        if create:
+            p.mkdir()
+    if p.is_dir() and not _os.access(p, _os.W_OK):
+        raise UsageError(f"{flag}: folder {p} is not writable")
+
+
+def check_in_file(flag: str, path) -> None:
+    """Raise UsageError unless ``path`` is an existing regular file."""
+    if path is None or str(path) == "":
+        return
+    p = Path(path)
+    if not p.exists():
+        raise UsageError(f"{flag}: {p}: file not found")
+    if not p.is_file():
+        raise UsageError(f"{flag}: {p} is not a file")
+
+
+def fail(prog: str, message: str) -> int:
+    """Print ``prog: error: message`` (one line) on stderr and return the bad-input status."""
+    print(f"{prog}: error: {message}", file=sys.stderr)
+    return BAD_INPUT

@@ -1,0 +1,277 @@
+"""Opening a door or drawer: mobile robot with a hook, a randomised mechanism, a wrist
+force sensor, the ArticulationEstimator learning the mechanism online from the hook's
+trajectory, and the EpcController moving along the learned model (thesis 4.3, 4.4.2)."""
+
+import math
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+
+from pydrake.systems.framework import DiagramBuilder
+
+from mmlearn.models.articulation.link import ObservationModel
+from mmlearn.models.articulation.priors import PriorDatabase
+from mmlearn.sdf.mechanisms import KINDS, MechanismSpec, sample_mechanism
+from mmlearn.systems import MarkerSensorConfig
+from mmlearn.systems.articulation.estimator import ArticulationEstimator
+from mmlearn.systems.articulation.base_localization import (BaseLocalization, BaseLocalizationConfig,
+                                                            believed_from_true, initial_error, rotate_yaw)
+from mmlearn.systems.articulation.epc_controller import EpcConfig, EpcController, EpcTask
+from mmlearn.systems.articulation.model_visualizer import LearnedModelVisualizer
+from mmlearn.systems.articulation.prior_selector import PriorModelSelector
+from mmlearn.systems.common.wrist_force_sensor import WristForceSensor
+
+from mmlearn.diagrams.articulation.operate_perception import LookAtFront, LookConfig, LookResult, NoFrontDetected
+from mmlearn.diagrams.common.scene import MakeSceneDiagram, SceneConfig
+
+PERCEPTIONS = ("click", "depth")
+ARM_START = (0.0, 0.3, 0.0, 1.2, 0.0, 0.0)  # the arm's joint commands at the start, rad
+
+
+@dataclass
+class OperateConfig:
+    """One trial of the opening task.
+
+    Attributes:
+        kind: mechanism kind (left_door, right_door, dishwasher, drawer, sliding_door).
+        seed: draws the mechanism, the handle-click error and the robot's start.
+        click_error: largest error of the clicked handle position, m.
+        start_distance: distance of the robot's start from the handle, m.
+        sigma_pos: position noise the estimator assumes for the hook trajectory, m
+            (thesis: 0.05 m, which covers base localisation, hooking and forward-kinematics
+            errors).
+        estimator_period: hook positions are sampled at this period, s.
+        refit_every: the estimator refits after this many new samples.
+        models: the estimator's candidate link models (thesis: rigid, prismatic, revolute
+            and GP).
+        sigma_force: wrist force sensor noise, N.
+        base_noise: scale of the base-localisation and odometry error (see
+            :class:`~mmlearn.systems.articulation.base_localization.BaseLocalizationConfig`; 1 = its
+            defaults: 0.05 m RMS horizontal, 1.1 deg heading, drifting with a 60 s time
+            constant, plus odometry error; 0 = the robot knows its base pose exactly).
+        base_localization: the error model's parameters before scaling (its seed is
+            replaced by one drawn from ``seed`` and ``kind``).
+        epc: the controller's parameters.
+        mechanism: the mechanism (None = drawn from kind and ``mechanism_seed``).
+        mechanism_seed: seed of the mechanism's geometry (None = ``seed``); with a fixed
+            value, trials differ only in the handle click and the robot's start, as when a
+            robot operates the same door again.
+        priors: path of a prior database (JSON, see ``models/articulation/priors.py``) to
+            use while learning ("" = learn from scratch only).
+        perception: how the robot learns where the handle is: "click" (told, within
+            ``click_error``) or "depth" (it looks with its head depth camera, detects the
+            front and derives the handle, :mod:`mmlearn.diagrams.articulation.operate_perception`).
+        look: the depth camera, detector and handle derivation for ``perception="depth"``.
+    """
+
+    kind: str = "left_door"
+    seed: int = 0
+    click_error: float = 0.02
+    start_distance: float = 1.0
+    sigma_pos: float = 0.05
+    estimator_period: float = 0.03
+    refit_every: int = 10
+    models: list[str] = field(default_factory=lambda: ["rigid", "prismatic", "revolute", "gp"])
+    sigma_force: float = 0.3
+    base_noise: float = 1.0
+    base_localization: BaseLocalizationConfig = field(default_factory=BaseLocalizationConfig)
+    epc: EpcConfig = field(default_factory=EpcConfig)
+    mechanism: MechanismSpec | None = None
+    mechanism_seed: int | None = None
+    priors: str = ""
+    perception: str = "click"
+    look: LookConfig = field(default_factory=LookConfig)
+
+    def validate(self):
+        if self.perception not in PERCEPTIONS:
+            raise ValueError(f"perception must be one of {PERCEPTIONS}, got "
+                             f"{self.perception!r}")
+        if self.perception == "depth":
+            self.look.validate()
+        if self.kind not in KINDS:
+            raise ValueError(f"kind must be one of {KINDS}, got {self.kind!r}")
+        if not 0 <= self.click_error < 0.1:
+            raise ValueError(f"click_error must be in [0, 0.1) m, got {self.click_error}")
+        if not self.sigma_pos > 0:
+            raise ValueError(f"sigma_pos must be > 0, got {self.sigma_pos}")
+        if not (math.isfinite(self.base_noise) and self.base_noise >= 0):
+            raise ValueError(f"base_noise must be >= 0, got {self.base_noise}")
+        self.base_localization.validate()
+        if self.priors and not Path(self.priors).is_file():
+            raise ValueError(f"prior database not found: {self.priors}")
+
+
+@dataclass
+class Operate:
+    """The built diagram and its parts."""
+
+    diagram: object
+    scene: object
+    mechanism: MechanismSpec
+    task: EpcTask
+    controller: EpcController
+    estimator: ArticulationEstimator
+    force_sensor: WristForceSensor
+    start_command: np.ndarray
+    prior_selector: PriorModelSelector | None = None
+    localization: BaseLocalization | None = None
+    true_task: EpcTask | None = None
+    look: LookResult | None = None
+
+
+def make_task(spec: MechanismSpec, rng: np.random.Generator, click_error: float) -> EpcTask:
+    """What the robot is told: a noisy handle click plus the front's orientation."""
+    p, n, b = spec.handle_world(0.0)
+    err = rng.normal(size=3)
+    err *= rng.uniform(0, click_error) / max(np.linalg.norm(err), 1e-12)
+    R_WF = spec.X_WF()[:3, :3]
+    if spec.kind == "left_door":
+        side = R_WF @ np.array([0, 1.0, 0])   # towards the free edge
+    elif spec.kind == "right_door":
+        side = R_WF @ np.array([0, -1.0, 0])
+    elif spec.kind == "sliding_door":
+        side = R_WF @ np.array([0, 1.0, 0])   # the rod pushes the bar towards -y
+    else:
+        side = np.array([0, 0, 1.0])           # horizontal bar: from above
+    pull = -side if spec.kind == "sliding_door" else n
+    return EpcTask(handle=p + err, normal=n, bar=b, pull=pull, side=side)
+
+
+def task_from_look(kind: str, look: LookResult) -> EpcTask:
+    """The task (true world frame) from what the robot saw: the handle estimate, the
+    detected front's normal, and the bar / side / pull directions by the kind's convention
+    (as :func:`make_task`, with the front's horizontal axis for the furniture's +y)."""
+    e = look.estimate
+    up = np.array([0, 0, 1.0])
+    side = {"left_door": e.e_y, "right_door": -e.e_y, "sliding_door": e.e_y}.get(kind, up)
+    pull = -side if kind == "sliding_door" else e.normal
+    return EpcTask(handle=np.asarray(e.handle, float), normal=e.normal, bar=e.bar, pull=pull,
+                   side=side)
+
+
+def MakeOperateDiagram(config: OperateConfig | None = None, *, meshcat=None) -> Operate:
+    """Build the opening-task diagram (see the module docstring).
+
+    Exported outputs: ``mechanism_state``, ``robot_state`` (true), ``phase``, ``status``,
+    ``hook_position`` (in the robot's believed world frame), ``force_W`` (true world frame),
+    ``estimator_stats``, ``object_model`` (the model the controller uses), ``base_error``
+    (believed minus true base x, y, yaw: m, m, rad).
+
+    With ``perception="depth"`` the robot first looks at the mechanism from its start
+    (:func:`~mmlearn.diagrams.articulation.operate_perception.LookAtFront`) and is given the handle it
+    derived instead of the click; raises :class:`NoFrontDetected` when it found no front.
+    """
+    cfg = config or OperateConfig()
+    cfg.validate()
+    rng = np.random.default_rng([cfg.seed, KINDS.index(cfg.kind)])
+    if cfg.mechanism is not None:
+        spec = cfg.mechanism
+    elif cfg.mechanism_seed is not None:
+        spec = sample_mechanism(
+            cfg.kind, np.random.default_rng([cfg.mechanism_seed, KINDS.index(cfg.kind)]))
+    else:
+        spec = sample_mechanism(cfg.kind, rng)
+    true_task = make_task(spec, rng, cfg.click_error)
+    # the robot starts about start_distance in front of the handle, roughly facing it
+    n = true_task.normal.copy()
+    n[2] = 0
+    n /= np.linalg.norm(n)
+    lateral = np.array([-n[1], n[0], 0.0]) * rng.uniform(-0.2, 0.2)
+    p0 = spec.handle_world(0.0)[0] + cfg.start_distance * n + lateral
+    yaw0 = math.atan2(-n[1], -n[0]) + rng.uniform(-0.3, 0.3)
+    start = np.array([p0[0], p0[1], yaw0, *ARM_START])
+    look = None
+    seen_task = true_task
+    if cfg.perception == "depth":
+        look = LookAtFront(spec, start, config=cfg.look,
+                           seed=cfg.seed * len(KINDS) + KINDS.index(cfg.kind))
+        if not look.found:
+            raise NoFrontDetected(look)
+        seen_task = task_from_look(cfg.kind, look)
+    # the click is made relative to the robot at its start and stored in its believed
+    # world frame (localisation error at time 0): what the robot is told
+    loc_cfg = replace(cfg.base_localization.scaled(cfg.base_noise),
+                      seed=cfg.seed * len(KINDS) + KINDS.index(cfg.kind))
+    e0 = initial_error(loc_cfg)
+    base0 = np.array([p0[0], p0[1], yaw0])
+    task = EpcTask(handle=believed_from_true(seen_task.handle, base0, e0),
+                   normal=rotate_yaw(seen_task.normal, e0[2]),
+                   bar=rotate_yaw(seen_task.bar, e0[2]),
+                   pull=rotate_yaw(seen_task.pull, e0[2]),
+                   side=rotate_yaw(seen_task.side, e0[2]))
+    scene_cfg = SceneConfig(arm="7dof", tool="hook", mobile_base=True, cabinet=False,
+                            mechanism=spec,
+                            sensor=MarkerSensorConfig(rate_hz=5.0, cameras=[],
+                                                      seed=cfg.seed))
+    scene = MakeSceneDiagram(scene_cfg, meshcat=meshcat)
+    plant = scene.plant
+    builder = DiagramBuilder()
+    sd = builder.AddNamedSystem("scene", scene.diagram)
+    force = builder.AddNamedSystem("wrist_force_sensor", WristForceSensor(
+        plant=plant, mount_joint=plant.GetJointByName("hook_mount", scene.robot),
+        sigma_force=cfg.sigma_force, seed=cfg.seed))
+    builder.Connect(sd.GetOutputPort("reaction_forces"), force.get_reaction_forces_input_port())
+    builder.Connect(sd.GetOutputPort("body_poses"), force.get_body_poses_input_port())
+    estimator = builder.AddNamedSystem("articulation_estimator", ArticulationEstimator(
+        mode="pose", pose_size=3, period=cfg.estimator_period, refit_every=cfg.refit_every,
+        min_observations=10, max_observations=400,
+        obs=ObservationModel(sigma_pos=cfg.sigma_pos), models=tuple(cfg.models),
+        seed=cfg.seed))
+    epc = builder.AddNamedSystem("epc_controller", EpcController(
+        plant=plant, robot=scene.robot, task=task, config=cfg.epc,
+        command_names=scene.command_names))
+    # the robot's software sees its base pose, hence the hook and the wrist force in the
+    # world, through its (drifting) localisation; its base commands are realised relative
+    # to that belief
+    robot_q_starts = sorted(plant.get_joint(j).position_start()
+                            for j in plant.GetJointIndices(scene.robot)
+                            if plant.get_joint(j).num_positions() == 1)
+    base_idx = [robot_q_starts.index(plant.GetJointByName(nm, scene.robot).position_start())
+                for nm in ("base_x", "base_y", "base_yaw")]
+    loc = builder.AddNamedSystem("base_localization", BaseLocalization(
+        config=loc_cfg, base_position_indices=base_idx,
+        state_size=plant.num_positions(scene.robot) + plant.num_velocities(scene.robot),
+        num_commands=len(scene.command_names)))
+    builder.Connect(sd.GetOutputPort("robot_state"), loc.get_robot_state_input_port())
+    builder.Connect(force.get_force_output_port(), loc.get_force_input_port())
+    builder.Connect(loc.get_believed_robot_state_output_port(),
+                    epc.get_robot_state_input_port())
+    builder.Connect(loc.get_believed_force_output_port(), epc.get_force_input_port())
+    model_port = estimator.get_object_model_output_port()
+    selector = None
+    if cfg.priors:
+        selector = builder.AddNamedSystem("prior_model_selector", PriorModelSelector(
+            db=PriorDatabase.load(cfg.priors), period=cfg.estimator_period, seed=cfg.seed))
+        builder.Connect(epc.get_hook_position_output_port(),
+                        selector.get_hook_position_input_port())
+        builder.Connect(model_port, selector.get_object_model_input_port())
+        model_port = selector.GetOutputPort("object_model")
+        builder.ExportOutput(selector.GetOutputPort("prior_cluster"), "prior_cluster")
+    builder.Connect(model_port, epc.get_object_model_input_port())
+    builder.Connect(epc.get_hook_position_output_port(),
+                    estimator.get_pose_input_port())
+    builder.Connect(epc.get_command_output_port(), loc.get_command_input_port())
+    builder.Connect(loc.get_plant_command_output_port(), sd.GetInputPort("command"))
+    if meshcat is not None:
+        vis = builder.AddNamedSystem("learned_model_visualizer",
+                                     LearnedModelVisualizer(meshcat=meshcat))
+        builder.Connect(model_port, vis.get_object_model_input_port())
+    builder.ExportOutput(sd.GetOutputPort("mechanism_state"), "mechanism_state")
+    builder.ExportOutput(sd.GetOutputPort("robot_state"), "robot_state")
+    builder.ExportOutput(epc.GetOutputPort("phase"), "phase")
+    builder.ExportOutput(epc.GetOutputPort("status"), "status")
+    builder.ExportOutput(epc.get_hook_position_output_port(), "hook_position")
+    builder.ExportOutput(force.get_force_output_port(), "force_W")
+    builder.ExportOutput(estimator.get_stats_output_port(), "estimator_stats")
+    builder.ExportOutput(model_port, "object_model")
+    builder.ExportOutput(loc.get_error_output_port(), "base_error")
+    diagram = builder.Build()
+    diagram.set_name("operate")
+    if start.size != len(scene.command_names):
+        raise RuntimeError(f"the start pose has {start.size} values, the scene's commands "
+                           f"are {scene.command_names}")
+    return Operate(diagram=diagram, scene=scene, mechanism=spec, task=task, controller=epc,
+                   estimator=estimator, force_sensor=force, start_command=start,
+                   prior_selector=selector, localization=loc, true_task=true_task,
+                   look=look)

@@ -1,0 +1,31 @@
+"""Diagrams imitation learning as a DBN of constraints (thesis ch. 8)."""
+
+from mmlearn._lazy import lazy_exports
+
+#: submodule -> the public names it defines (imported on first use)
+_EXPORTS = {
+    "demonstrations": ["TeacherConfig", "TeacherDiagram", "MakeTeacherDiagram", "default_sensor_config", "observations_to_demonstration", "record_demonstration", "record_demonstrations", "draw_demonstrations", "TeacherIKError"],
+    "diagram": ["task_scene", "ImitationConfig", "Imitation", "home_position", "hand_ik", "start_configuration", "object_positions", "MakeImitationDiagram"],
+}
+
+__all__ = [
+    "default_sensor_config",
+    "draw_demonstrations",
+    "hand_ik",
+    "home_position",
+    "Imitation",
+    "ImitationConfig",
+    "MakeImitationDiagram",
+    "MakeTeacherDiagram",
+    "object_positions",
+    "observations_to_demonstration",
+    "record_demonstration",
+    "record_demonstrations",
+    "start_configuration",
+    "task_scene",
+    "TeacherConfig",
+    "TeacherDiagram",
+    "TeacherIKError",
+]
+
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)

@@ -1,0 +1,46 @@
+"""Models body schema learning (thesis ch. 3)."""
+
+from mmlearn._lazy import lazy_exports
+
+#: submodule -> the public names it defines (imported on first use)
+_EXPORTS = {
+    "evaluation": ["structure_correct", "prediction_errors", "accuracy_curve", "recovery_experiment", "control_experiment"],
+    "kinematic_sim": ["ArmPart", "SimArm", "make_arm_2dof", "make_arm_4dof", "make_arm_7dof", "rot", "trans"],
+    "local": ["LocalModel", "EngineeredModel", "se3_inv", "orthonormalize", "pose_errors", "log_likelihood", "relative_poses", "visible_mask", "poses_from_xyzquat"],
+    "schema": ["BodySchema", "AdaptationConfig", "SearchConfig", "StructureResult", "learn_structure", "rotation_vector"],
+    "search": ["spanning_tree", "check_data"],
+}
+
+__all__ = [
+    "accuracy_curve",
+    "AdaptationConfig",
+    "ArmPart",
+    "BodySchema",
+    "check_data",
+    "control_experiment",
+    "EngineeredModel",
+    "learn_structure",
+    "LocalModel",
+    "log_likelihood",
+    "make_arm_2dof",
+    "make_arm_4dof",
+    "make_arm_7dof",
+    "orthonormalize",
+    "pose_errors",
+    "poses_from_xyzquat",
+    "prediction_errors",
+    "recovery_experiment",
+    "relative_poses",
+    "rot",
+    "rotation_vector",
+    "se3_inv",
+    "SearchConfig",
+    "SimArm",
+    "spanning_tree",
+    "structure_correct",
+    "StructureResult",
+    "trans",
+    "visible_mask",
+]
+
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)

@@ -1,0 +1,31 @@
+"""Systems articulated objects: link models, structure, priors, operating doors and drawers (thesis ch. 4)."""
+
+from mmlearn._lazy import lazy_exports
+
+#: submodule -> the public names it defines (imported on first use)
+_EXPORTS = {
+    "base_localization": ["BaseLocalization", "BaseLocalizationConfig"],
+    "epc_controller": ["EpcTask", "EpcConfig", "hook_rotation", "EpcController"],
+    "estimator": ["ArticulationEstimator", "ArticulationEstimatorState"],
+    "model_visualizer": ["legend_entries", "draw_legend", "LearnedModelVisualizer", "draw_link_model"],
+    "prior_selector": ["ShiftedLinkModel", "PriorModelSelector"],
+}
+
+__all__ = [
+    "ArticulationEstimator",
+    "ArticulationEstimatorState",
+    "BaseLocalization",
+    "BaseLocalizationConfig",
+    "draw_legend",
+    "draw_link_model",
+    "EpcConfig",
+    "EpcController",
+    "EpcTask",
+    "hook_rotation",
+    "LearnedModelVisualizer",
+    "legend_entries",
+    "PriorModelSelector",
+    "ShiftedLinkModel",
+]
+
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)

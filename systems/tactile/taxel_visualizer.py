@@ -1,0 +1,118 @@
+"""TaxelPadVisualizer: draws the taxel pads in Meshcat, each cell coloured by its reading."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from pydrake.common.value import AbstractValue
+from pydrake.geometry import Box, Rgba
+from pydrake.math import RigidTransform
+from pydrake.systems.framework import LeafSystem
+
+__all__ = ["TaxelPadVisualizer", "taxel_colors"]
+
+
+def taxel_colors(values: np.ndarray) -> np.ndarray:
+    """RGBA (n, 4) of readings in [0, 1] (NaN and out-of-range values are clipped, NaN reads
+    0): dark blue (0) through green and yellow to red (1), a 'jet'-like ramp."""
+    x = np.clip(np.nan_to_num(np.asarray(values, dtype=float).ravel(), nan=0.0), 0.0, 1.0)
+    r = np.clip(1.5 - np.abs(4.0 * x - 3.0), 0.0, 1.0)
+    g = np.clip(1.5 - np.abs(4.0 * x - 2.0), 0.0, 1.0)
+    b = np.clip(1.5 - np.abs(4.0 * x - 1.0), 0.0, 1.0)
+    return np.column_stack([r, g, b, np.ones_like(x)])
+
+
+class TaxelPadVisualizer(LeafSystem):
+    """Draws every pad of a :class:`~mmlearn.systems.tactile.sensor.TactileSensor` as a grid
+    of small boxes in Meshcat, one per cell, coloured by the cell's reading
+    (:func:`taxel_colors`) and raised from the pad by ``bar_height`` x reading, so the
+    pressure image is visible while the object hides the pad itself: the display sits
+    ``display_depth`` behind the pad surface (on the finger's outer face, along -z_P).
+
+    Publishes at ``period`` (the sensor's rate); if Meshcat is recording (``StartRecording``,
+    e.g. by a ``MeshcatVisualizer``), the pad poses, colours and bar heights go into the
+    recording as well (keyed at the context time). NaN readings are drawn as 0 and values
+    outside [0, 1] clipped, so a bad reading never stops a running simulation.
+
+    .. pydrake_system::
+
+        name: TaxelPadVisualizer
+        input_ports:
+        - taxels
+        - body_poses
+
+    ``taxels``: the sensor's readings (pad after pad, row-major, in [0, 1]);
+    ``body_poses``: the plant's body poses (for the pads' bodies).
+    """
+
+    def __init__(self, *, meshcat, pads, period: float = 0.04, prefix: str = "taxels",
+                 display_depth: float = 0.0125, bar_height: float = 0.004,
+                 cell_fill: float = 0.9):
+        """
+        Args:
+            meshcat: the Meshcat instance.
+            pads: the sensor's PadSpec tuple (``TactileSensor.pads``).
+            period: publish period, s.
+            prefix: Meshcat path under which the pads are drawn.
+            display_depth: distance of the display behind the pad surface (along -z_P), m.
+            bar_height: thickness of a saturated cell's box, m (an empty cell: 5 %).
+            cell_fill: box side as a fraction of the cell pitch (gaps between cells).
+        """
+        super().__init__()
+        pads = tuple(pads)
+        if not pads:
+            raise ValueError("TaxelPadVisualizer: no pads")
+        for k, v in (("period", period), ("display_depth", display_depth),
+                     ("bar_height", bar_height)):
+            if not (np.isfinite(v) and v >= 0) or (k != "display_depth" and v <= 0):
+                raise ValueError(f"TaxelPadVisualizer: {k} must be a positive number, got {v!r}")
+        if not (0 < cell_fill <= 1):
+            raise ValueError(f"TaxelPadVisualizer: cell_fill must be in (0, 1], got {cell_fill!r}")
+        self._meshcat, self._pads, self._prefix = meshcat, pads, prefix.rstrip("/")
+        self._bar = float(bar_height)
+        self._sizes = [p.layout.rows * p.layout.cols for p in pads]
+        self._offsets = np.concatenate([[0], np.cumsum(self._sizes)]).astype(int)
+        # display frame D in the pad frame P: behind the surface, bars growing along -z_P
+        self._X_PD = RigidTransform([0.0, 0.0, -float(display_depth)])
+        self._cells = []  # per pad: (paths, centres (n, 3) in D)
+        for pad in pads:
+            L = pad.layout
+            cw, ch = L.width / L.cols, L.length / L.rows
+            paths, centres = [], []
+            for r in range(L.rows):
+                for c in range(L.cols):
+                    path = f"{self._prefix}/{pad.name}/r{r:02d}c{c:02d}"
+                    meshcat.SetObject(path, Box(cw * cell_fill, ch * cell_fill, 1.0),
+                                      Rgba(0.0, 0.0, 0.5, 1.0))
+                    paths.append(path)
+                    centres.append((-L.width / 2 + (c + 0.5) * cw,
+                                    L.length / 2 - (r + 0.5) * ch))
+            self._cells.append((paths, np.array(centres)))
+        self._taxels = self.DeclareVectorInputPort("taxels", int(self._offsets[-1]))
+        self._poses = self.DeclareAbstractInputPort("body_poses",
+                                                    AbstractValue.Make([RigidTransform()]))
+        self.DeclarePeriodicPublishEvent(period, 0.0, self._publish)
+        self.DeclareForcedPublishEvent(self._publish)
+
+    def get_taxels_input_port(self):
+        return self._taxels
+
+    def get_body_poses_input_port(self):
+        return self._poses
+
+    def _publish(self, context):
+        x = np.asarray(self._taxels.Eval(context), dtype=float)
+        poses = self._poses.Eval(context)
+        t = float(context.get_time())
+        mc = self._meshcat
+        rec = {"time_in_recording": t}
+        for i, pad in enumerate(self._pads):
+            vals = x[self._offsets[i]:self._offsets[i + 1]]
+            X_WD = poses[pad.body_index] @ pad.X_BP @ self._X_PD
+            mc.SetTransform(f"{self._prefix}/{pad.name}", X_WD, **rec)
+            h = self._bar * (0.05 + 0.95 * np.clip(np.nan_to_num(vals, nan=0.0), 0.0, 1.0))
+            paths, centres = self._cells[i]
+            for path, (cx, cy), hk, rgba in zip(paths, centres, h, taxel_colors(vals)):
+                mc.SetTransform(path, RigidTransform([cx, cy, -hk / 2]), **rec)
+                mc.SetProperty(path, "scale", [1.0, 1.0, float(hk)], **rec)
+                mc.SetProperty(path, "color", rgba.tolist(), **rec)
