@@ -5,6 +5,7 @@ from mmlearn._lazy import lazy_exports
 #: submodule -> the public names it defines (imported on first use)
 _EXPORTS = {
     "camera": ["PinholeIntrinsics", "valid_depth_mask", "as_depth_image", "depth_to_points"],
+    "config": ["param", "validate_fields", "field_spec"],
     "depth_noise": ["DepthNoiseConfig", "apply_depth_noise", "predicted_depth_std", "incidence_cosine", "projector_shadow"],
     "fileio": ["atomic_write_text"],
     "gp": ["GaussianProcess"],
@@ -12,6 +13,7 @@ _EXPORTS = {
     "sdf_writer": ["SdfModel", "Link", "Box", "Cylinder", "Sphere", "Capsule", "Mesh", "JOINT_TYPES", "box_inertia", "cylinder_inertia"],
     "se3": ["PoseArray", "as_pose_array", "to_xyzquat", "to_matrices", "relative_poses", "rotation_angle", "rotation_distance", "matrix_to_pose7", "pose7_to_matrix", "quat_distance", "project_to_so3", "rotvec_to_matrix", "matrix_to_rotvec"],
     "track_io": ["Track", "TrackFileError", "read_track", "find_track_files"],
+    "trials": ["register_trial", "trial_id", "registered_trials"],
 }
 
 __all__ = [
@@ -29,6 +31,7 @@ __all__ = [
     "DepthNoiseConfig",
     "detect_marker_poses",
     "DetectorConfig",
+    "field_spec",
     "find_track_files",
     "GaussianProcess",
     "incidence_cosine",
@@ -40,6 +43,7 @@ __all__ = [
     "matrix_to_rotvec",
     "Mesh",
     "mirror_test_from_depth",
+    "param",
     "PinholeIntrinsics",
     "pose7_to_matrix",
     "PoseArray",
@@ -48,6 +52,8 @@ __all__ = [
     "projector_shadow",
     "quat_distance",
     "read_track",
+    "register_trial",
+    "registered_trials",
     "relative_poses",
     "rotation_angle",
     "rotation_distance",
@@ -58,7 +64,9 @@ __all__ = [
     "to_xyzquat",
     "Track",
     "TrackFileError",
+    "trial_id",
     "valid_depth_mask",
+    "validate_fields",
 ]
 
 __getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
