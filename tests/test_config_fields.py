@@ -1,9 +1,12 @@
 """Configuration fields declared with their units and ranges (mmlearn.models.common.config)."""
+
 from dataclasses import dataclass, replace
 
 import pytest
 
 from mmlearn.models.common.config import param, validate_fields
+
+
 @dataclass
 class C:
     rate_hz: float = param(30.0, unit="Hz", gt=0)
