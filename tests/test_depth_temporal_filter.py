@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from mmlearn.models.perception.depth_filter import DepthFilterConfig, filter_depth, new_filter_state
-from mmlearn.models.perception.detection import FrontDetectorConfig, _gap_mask, detect_fronts
+from mmlearn.models.perception.detection import FrontDetectorConfig, detect_fronts
+from mmlearn.models.perception.detection.gaps import _gap_mask
 from mmlearn.models.common.camera import PinholeIntrinsics
 
 SIG1 = 0.0018  # the default camera's per-pixel depth std at 1 m, m

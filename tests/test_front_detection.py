@@ -195,8 +195,9 @@ def test_rendered_drake_frames(name):
 def test_mask_labels_follow_eq_5_2():
     """Plane z = 2 m facing the camera: a pixel in front of it is occluded, behind it free,
     within L in-plane, without a measurement unknown."""
-    from mmlearn.models.perception.detection import (FREE, IN_PLANE, OCCLUDED, UNKNOWN, Plane,
-                                                     _label_images)
+    from mmlearn.models.perception.detection import Plane
+    from mmlearn.models.perception.detection.labels import (FREE, IN_PLANE, OCCLUDED, UNKNOWN,
+                                                            _label_images)
     d = np.array([[1.5, 2.0, 2.5, 0.0]], np.float32)
     valid = np.array([[True, True, True, False]])
     ray = np.zeros((1, 4), np.float32)
@@ -270,7 +271,7 @@ def test_front_standing_proud_of_a_larger_parallel_plane_is_its_own_plane(seed):
     """A front 1.8 cm proud of its carcass with L = 0.01 m: after the carcass' plane, the
     front's points stay in the pool (the removal band is L plus the noise part, not 2 L) and
     its plane is not taken for a copy of the carcass' (centroid farther than L)."""
-    from mmlearn.models.perception.detection import find_planes
+    from mmlearn.models.perception.detection.planes import find_planes
 
     rng = np.random.default_rng(seed)
     pts, rc, panel = _plane_points(rng)
@@ -310,7 +311,7 @@ def test_surface_check_tolerates_a_tilted_plane_fit_but_removes_a_step():
     1.7 deg off departs from its sides by ~7 mm; the surface check must keep those pixels
     (it once removed half the panel with its handle) and still remove a strip 8 mm behind
     the surrounding surface (the edge face of a panel seen obliquely)."""
-    from mmlearn.models.perception.detection import IN_PLANE, OFF_SURFACE, _surface_check
+    from mmlearn.models.perception.detection.labels import IN_PLANE, OFF_SURFACE, _surface_check
     rng = np.random.default_rng(0)
     H, W = 120, 300
     S = np.tile(np.linspace(-0.007, 0.007, W, dtype=np.float32), (H, 1))  # tilted fit
@@ -440,7 +441,7 @@ def test_gap_mask_finds_a_thin_dip_but_not_a_step_or_a_crease():
     """_gap_mask on a noisy plane 1.8 m away: a one-pixel row 7 mm behind (a reveal) and a
     line of missing pixels are found along their length; a 3 cm step and a concave crease
     (two planes meeting at 150 deg) are not; nothing on the plain plane."""
-    from mmlearn.models.perception.detection import _gap_mask
+    from mmlearn.models.perception.detection.gaps import _gap_mask
     rng = np.random.default_rng(0)
     H, W = 240, 320
     z = np.full((H, W), 1.8) + 0.0008 * np.arange(H)[:, None]      # tilted like a front

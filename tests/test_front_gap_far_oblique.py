@@ -95,7 +95,7 @@ def test_long_pass_finds_a_shallow_long_reveal_but_not_noise():
     3.3 mm behind its sides over 224 px (the reveal below the closed drawer at 2.2 m, as
     sampled) is found along most of its length only with the long pass; on the plain plane
     both passes label (almost) nothing."""
-    from mmlearn.models.perception.detection import _gap_mask
+    from mmlearn.models.perception.detection.gaps import _gap_mask
     H, W = 240, 480
     z = np.full((H, W), 2.2) + 0.0018 * np.arange(H)[:, None]       # tilted like a front
     z_dip = z.copy()

@@ -3,7 +3,8 @@ could overflow (branch pview); both must give the same reveals."""
 
 import numpy as np
 
-from mmlearn.models.perception.detection import FrontDetectorConfig, _gap_mask
+from mmlearn.models.perception.detection import FrontDetectorConfig
+from mmlearn.models.perception.detection.gaps import _gap_mask
 
 
 def _scene(rng):

@@ -12,8 +12,9 @@ from conftest import perception_frame_at
 
 from mmlearn.apps.track_fronts import match_front
 from mmlearn.diagrams.perception.diagram import FrontPerceptionConfig, MakeFrontPerceptionDiagram
-from mmlearn.models.perception.detection import (FREE, IN_PLANE, FrontDetectorConfig, Plane,
-                                                 _label_images, _offset_layers, detect_fronts)
+from mmlearn.models.perception.detection import FrontDetectorConfig, Plane, detect_fronts
+from mmlearn.models.perception.detection.labels import FREE, IN_PLANE, _label_images
+from mmlearn.models.perception.detection.layers import _offset_layers
 from mmlearn.models.common.camera import PinholeIntrinsics
 
 NO_LAYERS = dataclasses.replace(FrontDetectorConfig(), layer_planes=0)
@@ -145,7 +146,7 @@ def test_the_polish_cannot_reject_an_accepted_rectangle(monkeypatch):
     """The rotation polish is a refinement: when the rectangle it returns fails precision or
     recall, the accepted rectangle it started from is kept (a drawer opened 0.25 m at 2.2 m:
     the polish cut its height from 0.116 to 0.082 m and its recall fell to 0.689)."""
-    import mmlearn.models.perception.detection as fd
+    import mmlearn.models.perception.detection.pipeline as fd
     z, K, wall, _ = _synthetic(0.05)     # a box 5 cm proud: a front of its own
     z[:, :8] = np.nan                    # (its wall's edges not touching the border)
     X_WC = np.eye(4)
@@ -180,7 +181,7 @@ def test_a_ramp_under_a_misfitted_plane_is_no_layer(monkeypatch):
     it continue the "layer" (a ramp, not a step): no layer (an operate-scene door and the
     rail behind it were split like this, operate_trials left_door seed 3). Without the ring
     test the ramp is taken for a layer."""
-    import mmlearn.models.perception.detection as fd
+    import mmlearn.models.perception.detection.layers as fd
     z, K, parent = _tilted(2.0)
     assert _layers_of(z, K, parent)[0] == []
     monkeypatch.setattr(fd, "_LAYER_MAX_RING", 1.0)
@@ -201,7 +202,7 @@ def test_rounds_spent_on_fragments_do_not_take_a_planes_turn():
     the rounds counted against max_planes (8) the front behind them (42 samples, smaller than
     the fragments' 192) was never reached (a drawer 45 deg off the normal on a filtered image
     lost its plane this way)."""
-    from mmlearn.models.perception.detection import find_planes
+    from mmlearn.models.perception.detection.planes import find_planes
 
     rc, pts = [], []
 

@@ -8,10 +8,12 @@ import math
 
 import numpy as np
 
-from mmlearn.models.perception.detection import (FREE, GAP, IN_PLANE, OCCLUDED, OUTSIDE, UNKNOWN,
-                                                 FrontDetectorConfig, _cross3, _greedy, _make_grid,
-                                                 _objective, _plane_axes, _polish_rotations,
-                                                 _sats, _warp_labels)
+from mmlearn.models.perception.detection import FrontDetectorConfig
+from mmlearn.models.perception.detection.grid import (_cross3, _make_grid, _plane_axes, _sats,
+                                                       _warp_labels)
+from mmlearn.models.perception.detection.labels import (FREE, GAP, IN_PLANE, OCCLUDED, OUTSIDE,
+                                                         UNKNOWN)
+from mmlearn.models.perception.detection.search import _greedy, _objective, _polish_rotations
 from mmlearn.models.common.camera import PinholeIntrinsics
 
 
