@@ -118,7 +118,7 @@ def _crossings(labs, S, planes, valid, crossing_angle_deg, smooth_px):
     # a plane with under _CROSSING_MIN_SHARE of the other's support takes no pixels from it
     # (a spurious small plane of a few dozen samples tilted ~12 deg through a cabinet's face
     # cut a FREE line through a closed drawer at 2.2 m, which the greedy moves then did not
-    # cross; issue 12, branch pband2)
+    # cross)
     crossing &= sup[None, :] >= _CROSSING_MIN_SHARE * sup[:, None]
     # an offset layer and its parent plane: each keeps the pixels nearer to it, whatever
     # their angle and supports (a drawer pulled out 16 mm is parallel to the cabinet's face,

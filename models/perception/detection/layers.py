@@ -28,8 +28,8 @@ def _offset_layers(planes, labels, S, Pc, Lmap, Lband, K, cfg, st, off):
     plane. RANSAC counted its points to the face and took them out of the pool, so it got no
     plane of its own; on the face's plane the surface check (window means beyond the
     surface distance) or Eq. 5.2 (beyond L) labelled it OFF_SURFACE / OCCLUDED, and the
-    drawer was missed in its first 2-4 opening frames at every distance (issue 12; seeds
-    6000-6009: 0.005 / 0.016 / 0.027 m missed in all runs at 1.8 m). Here those pixels (in
+    drawer was missed in its first 2-4 opening frames at every distance (seeds 6000-6009:
+    0.005 / 0.016 / 0.027 m missed in all runs at 1.8 m). Here those pixels (in
     front of the plane within the removal band ``Lband``, OFF_SURFACE or OCCLUDED) form
     candidate regions on the plane's region; a region spanning at least ``layer_min_size`` in
     both directions (a panel's edge face seen obliquely is a strip), of at least

@@ -186,7 +186,7 @@ def _component_starts(g: _Grid, mc: int, k: int, rng, cfg) -> np.ndarray:
     # may have a hole of a few cells (where it meets another reveal, or a drop-out; a
     # horizontal reveal's run ends ~half a line window short of a T-junction with a vertical
     # one: 5 cells of 7.4 mm at 2.2 m, which joined a closed drawer's region to the door
-    # below; 2 cells before, issue 12 branch pband2)
+    # below with 2 cells)
     r = _START_ERODE_CELLS
     inp = cv2.erode((g.labels == IN_PLANE).view(np.uint8),
                     np.ones((2 * r + 1, 2 * r + 1), np.uint8))
