@@ -35,8 +35,6 @@ class FrontDetectorConfig:
             both and nearer to the one with the larger support is free for the other, degrees.
         crossing_smooth_px: "nearer" is decided on the distances averaged over a square of
             this many pixels (odd), px.
-        surface_check: in-plane pixels whose in-plane neighbours lie on average farther than
-            the surface distance from the plane become unknown (module docstring).
         surface_distance, surface_distance_per_m2: that distance, max(surface_distance,
             surface_distance_per_m2 z^2), m and m / m^2 (0.003, 0.0015: ~1 sigma of the
             camera's per-pixel noise plus half a disparity step; the mean of 25 pixels
@@ -69,10 +67,6 @@ class FrontDetectorConfig:
         duplicate_distance: accepted rectangles whose centres are closer than this (and
             normals within ``duplicate_angle_deg``) are one front; the better one stays, m.
         duplicate_angle_deg: see ``duplicate_distance``, degrees.
-        refine_plane: refit each accepted rectangle's plane on its full-resolution in-plane
-            pixels.
-        edge_refine: refine each accepted rectangle's sides below the grid cell
-            (:func:`_refine_edges`).
         own_pixel_refit_deg: after the labels, every plane is refitted on the pixels still
             in-plane for it after the crossings (:func:`_refit_on_own_pixels`); if a normal
             turns by this or more, deg, the labels are made again with the refitted planes
@@ -85,10 +79,6 @@ class FrontDetectorConfig:
             lie on average more than max(step, step_per_m2 z^2, 3 x the inner lines' scatter)
             behind the inner lines' is beyond the side (a panel's top or edge face), m and
             m / m^2.
-        gap_label: label the reveals between flush fronts ``GAP`` (:func:`_gap_mask`): thin
-            image lines (rows or columns) whose depth, averaged along the line, lies behind
-            the lines ``gap_offsets_px`` away on both sides (which agree with each other), or
-            that have no return between measured lines.
         component_starts: besides ``starts_per_plane`` random starts, one start at the
             centroid of each of this many largest connected in-plane regions of a plane
             with ``GAP`` cells (regions parted by reveals: the fronts of a cabinet; 0 = none).
@@ -111,12 +101,8 @@ class FrontDetectorConfig:
             scaled by sqrt(gap_window_px / gap_long_window_px) (its mean scatters that much
             less): a reveal sampled at an unlucky pixel phase dips only ~3 mm (the closed
             drawer at 2.2 m: 3.3 mm on the clean render, below 1 mm z^2 = 4.8 mm), px. It
-            runs on the rectified views (below), and on the image only with
-            ``gap_long_on_image`` and when no plane needs a view.
-        gap_long_on_image: the long pass on the image too (off: on renders of seed 2003 it
-            split the closed door at 2.0 / 2.3 m with false rows, found in 1 / 2 of 5 frames
-            instead of 5 / 5, while it found the closed drawer at 2.2 m in only 2-3 of 5
-            noisy frames of seed 2000 instead of 0).
+            runs on the rectified views only (below): on the image it splits closed fronts
+            with false rows.
         gap_long_min_windows: a run of the long pass must be at least this many long windows
             long (and ``gap_min_length``): one window's scatter is not a line.
         gap_rectify_planes: both passes also run on the rectified views of up to this
@@ -148,7 +134,6 @@ class FrontDetectorConfig:
     removal_factor: float = 2.0
     crossing_angle_deg: float = 3.0
     crossing_smooth_px: int = 5
-    surface_check: bool = True
     surface_distance: float = 0.003
     surface_distance_per_m2: float = 0.0015
     surface_window_px: int = 5
@@ -177,15 +162,12 @@ class FrontDetectorConfig:
     border_margin_px: int = 3
     duplicate_distance: float = 0.05
     duplicate_angle_deg: float = 15.0
-    refine_plane: bool = True
-    edge_refine: bool = True
     own_pixel_refit_deg: float = 0.5
     edge_refine_band: float = 0.05
     edge_refine_cell: float = 0.001
     edge_refine_span: float = 0.7
     edge_refine_depth_step: float = 0.002
     edge_refine_depth_step_per_m2: float = 0.0008
-    gap_label: bool = True
     component_starts: int = 12
     gap_window_px: int = 32
     gap_offsets_px: list[int] = field(default_factory=lambda: [2, 3, 4, 5, 7, 9])
@@ -195,7 +177,6 @@ class FrontDetectorConfig:
     gap_min_length: float = 0.2
     gap_long_window_px: int = 128
     gap_long_min_windows: float = 0.5
-    gap_long_on_image: bool = False
     gap_rectify_planes: int = 2
     gap_rectify_deg: float = 8.0
     gap_rectify_max_scale: float = 1.25

@@ -132,13 +132,13 @@ def _reveals(f: _Frame, planes, cfg):
     rectified views of the largest vertical planes seen off their normal (mapped back).
 
     The long pass runs on the views of the ``gap_rectify_planes`` largest planes only (the
-    cabinet's face: the shallow vertical reveals of flush fronts seen obliquely); on a
-    smaller plane turned about the vertical (an opened door) the camera's disparity steps
-    are vertical stripes of equal depth that its lowered threshold would label. On the image
-    it runs only with ``gap_long_on_image`` and when none of the largest planes needs a view
-    (across slanted reveals its long means smear them into false rows)."""
+    cabinet's face: the shallow vertical reveals of flush fronts seen obliquely), never on
+    the image: there it splits a closed door at 2.0-2.3 m with false rows, and across
+    slanted reveals its long means smear them into false rows; on a smaller plane turned
+    about the vertical (an opened door) the camera's disparity steps are vertical stripes of
+    equal depth that its lowered threshold would label."""
     K = f.K
-    views, large_view = [], False
+    views = []
     # the largest planes *that need a view*: a large plane seen along the image axes does
     # not take a view from a smaller oblique one (a door opened 90 deg)
     for rank, pl in enumerate(sorted(planes, key=lambda p: -p.support)):
@@ -147,9 +147,8 @@ def _reveals(f: _Frame, planes, cfg):
         v = _rectified_view(K, pl, f.down_C, cfg, f.st, f.off)
         if v is not None:
             views.append((v, rank < cfg.gap_rectify_planes))
-            large_view |= rank < cfg.gap_rectify_planes
     gap, gap_thin = _gap_mask(f.d, f.valid, K.fx, cfg, f.dzero,
-                              long_pass=cfg.gap_long_on_image and not large_view,
+                              long_pass=False,
                               var_scale=(None if f.var_scale is None
                                          else np.where(f.valid, f.var_scale, np.float32(0.0))))
     valid_f = f.valid.view(np.uint8).astype(np.float32) if views else None
@@ -178,7 +177,7 @@ def _plane_labels(f: _Frame, planes, cfg, surface, gap):
         if moved is not None:
             planes = moved
             labels, S = _labels(f, planes, cfg, surface, gap, keep_distances=True)
-    if cfg.layer_planes > 0 and cfg.layer_max_layers > 0 and surface is not None:
+    if cfg.layer_planes > 0 and cfg.layer_max_layers > 0:
         # fronts standing a few cm proud of a larger plane (_offset_layers)
         Lband = _depth_bound(f.dzero, 0.0,
                              (cfg.removal_factor - 1.0) * cfg.inlier_distance_per_m2)
@@ -300,25 +299,23 @@ def _final_rectangle(f: _Frame, lab_img, g, gl, Rf, prec, rec, X_WC, cfg, gap_th
     image border."""
     K = f.K
     center, e1, e2, w, h = _rect_camera(gl, Rf)
-    if cfg.edge_refine:
-        x0, x1, y0, y1 = (float(v) for v in Rf)
-        u0, v0, cp = gl.u0, gl.v0, gl.c
-        a0, a1, b0, b1 = _refine_edges(lab_img, f.dzero, f.xs, f.ys, g.n, g.d, K, g.o, e1, e2,
-                                       u0 + x0 * cp, u0 + x1 * cp, v0 + y0 * cp,
-                                       v0 + y1 * cp, cfg, gap_thin)
-        if min(a1 - a0, b1 - b0) >= cfg.min_side:
-            center = g.o + 0.5 * (a0 + a1) * e1 + 0.5 * (b0 + b1) * e2
-            w, h = a1 - a0, b1 - b0
+    x0, x1, y0, y1 = (float(v) for v in Rf)
+    u0, v0, cp = gl.u0, gl.v0, gl.c
+    a0, a1, b0, b1 = _refine_edges(lab_img, f.dzero, f.xs, f.ys, g.n, g.d, K, g.o, e1, e2,
+                                   u0 + x0 * cp, u0 + x1 * cp, v0 + y0 * cp, v0 + y1 * cp,
+                                   cfg, gap_thin)
+    if min(a1 - a0, b1 - b0) >= cfg.min_side:
+        center = g.o + 0.5 * (a0 + a1) * e1 + 0.5 * (b0 + b1) * e2
+        w, h = a1 - a0, b1 - b0
     if not _inside_border(center, e1, e2, w, h, K, cfg.border_margin_px):
         return None
     n = g.n
-    if cfg.refine_plane:
-        fit = _refit_plane(f.Pc, lab_img, center, e1, e2, w, h, K, g.n, cfg.inlier_distance)
-        if fit is not None:
-            n, dn = fit
-            center = center - (center @ n + dn) * n
-            e1 = e1 - (e1 @ n) * n
-            e1 /= math.sqrt(e1 @ e1)  # (np.linalg.norm's operations)
+    fit = _refit_plane(f.Pc, lab_img, center, e1, e2, w, h, K, g.n, cfg.inlier_distance)
+    if fit is not None:
+        n, dn = fit
+        center = center - (center @ n + dn) * n
+        e1 = e1 - (e1 @ n) * n
+        e1 /= math.sqrt(e1 @ e1)  # (np.linalg.norm's operations)
     e2 = _cross3(n, e1)
     X_CR = np.eye(4)
     X_CR[:3, 0], X_CR[:3, 1], X_CR[:3, 2], X_CR[:3, 3] = e1, e2, n, center
@@ -382,13 +379,9 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
 
     t0 = clock()
     lut = _cost_table(cfg)
-    surface = None
-    if cfg.surface_check:
-        Lm = _depth_bound(f.dzero, cfg.surface_distance, cfg.surface_distance_per_m2)
-        surface = (Lm, int(cfg.surface_window_px))
-    gap = gap_thin = None
-    if cfg.gap_label:
-        gap, gap_thin = _reveals(f, planes, cfg)
+    surface = (_depth_bound(f.dzero, cfg.surface_distance, cfg.surface_distance_per_m2),
+               int(cfg.surface_window_px))
+    gap, gap_thin = _reveals(f, planes, cfg)
     planes, lab_imgs = _plane_labels(f, planes, cfg, surface, gap)
     grids = _grids(f, planes, lab_imgs, cfg, lut)
     timings["masks"] = clock() - t0
