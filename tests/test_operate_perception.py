@@ -75,7 +75,7 @@ def test_handle_by_convention_when_the_bar_is_not_seen():
         assert abs(e.handle[1] - y_expect) < 1e-9, (kind, e.handle)
     with pytest.raises(ValueError, match="kind must be one of"):
         handle_from_front("window", rect, depth, K, np.eye(4))
-    with pytest.raises(ValueError, match="HandleFromFrontConfig.bar_radius"):
+    with pytest.raises(ValueError, match="HandleFromFrontConfig: bar_radius"):
         handle_from_front("drawer", rect, depth, K, np.eye(4),
                           HandleFromFrontConfig(bar_radius=math.nan))
     with pytest.raises(ValueError, match="expected"):

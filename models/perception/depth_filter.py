@@ -34,11 +34,12 @@ light camera also has a static per-pixel error pattern, which no temporal mean r
 gain is then smaller than 1 / sqrt(n).
 """
 
-import math
 from dataclasses import dataclass
 
 import cv2
 import numpy as np
+
+from mmlearn.models.common.config import param, validate_fields
 
 __all__ = ["DepthFilterConfig", "DepthFilterState", "new_filter_state", "filter_depth"]
 
@@ -61,25 +62,18 @@ class DepthFilterConfig:
             filtering: the output is the input).
     """
 
-    depth_std_at_1m: float = 0.0018
-    reset_sigmas: float = 4.0
-    window_px: int = 9
-    window_sigmas: float = 4.0
-    max_frames: int = 16
+    depth_std_at_1m: float = param(0.0018, unit="m", gt=0)
+    reset_sigmas: float = param(4.0, gt=0)
+    window_px: int = param(9, unit="px, odd", integer=True, ge=1)
+    window_sigmas: float = param(4.0, gt=0)
+    max_frames: int = param(16, integer=True, ge=1)
 
-    def validate(self) -> None:
-        """Raise ``ValueError`` naming the first bad field."""
-        for k in ("depth_std_at_1m", "reset_sigmas", "window_sigmas"):
-            v = getattr(self, k)
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) \
-                    or v <= 0:
-                raise ValueError(f"DepthFilterConfig.{k} must be a finite number > 0, got {v!r}")
-        for k, lo in (("window_px", 1), ("max_frames", 1)):
-            v = getattr(self, k)
-            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
-                raise ValueError(f"DepthFilterConfig.{k} must be an integer >= {lo}, got {v!r}")
+    def validate(self) -> "DepthFilterConfig":
+        """Raise ``ValueError`` naming the first bad field; return the config."""
+        validate_fields(self)
         if self.window_px % 2 == 0:
-            raise ValueError(f"DepthFilterConfig.window_px must be odd, got {self.window_px}")
+            raise ValueError(f"DepthFilterConfig: window_px must be odd, got {self.window_px}")
+        return self
 
 
 @dataclass

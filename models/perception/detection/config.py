@@ -1,9 +1,8 @@
 """The front detector's parameters (:class:`FrontDetectorConfig`) and its stage names."""
 
-import math
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass
 
-import numpy as np
+from mmlearn.models.common.config import param, validate_fields
 
 
 STAGES = ("planes", "masks", "sampling", "optimisation", "check")
@@ -12,7 +11,7 @@ STAGES = ("planes", "masks", "sampling", "optimisation", "check")
 @dataclass
 class FrontDetectorConfig:
     """Parameters of :func:`detect_fronts` (load with ``yaml_load_typed``; :meth:`validate`
-    names the first bad field).
+    names the first bad field). Each field declares its unit and range (:func:`param`).
 
     Attributes:
         inlier_distance: L of Eq. 5.1/5.2, m: a pixel within L of a plane is in-plane.
@@ -125,170 +124,87 @@ class FrontDetectorConfig:
         layer_min_pixels: ... and cover at least this many pixels, px.
     """
 
-    inlier_distance: float = 0.02
-    inlier_distance_per_m2: float = 0.004
-    ransac_stride_px: int = 8
-    ransac_hypotheses: int = 200
-    ransac_local_radius_px: int = 48
-    max_planes: int = 8
-    removal_factor: float = 2.0
-    crossing_angle_deg: float = 3.0
-    crossing_smooth_px: int = 5
-    surface_distance: float = 0.003
-    surface_distance_per_m2: float = 0.0015
-    surface_window_px: int = 5
-    min_plane_points: int = 20
-    max_depth: float = 5.0
-    cost_in_plane: float = 0.0
-    cost_free: float = 1.0
-    cost_occluded: float = 20 / 255
-    cost_unknown: float = 20 / 255
-    cell_size: float = 0.005
-    max_grid_cells: int = 400
-    max_plane_extent: float = 6.0
-    starts_per_plane: int = 6
-    prior_size: list[float] = field(default_factory=lambda: [0.05, 0.2])
-    alpha: float = 0.05
-    step_size: float = 0.005
-    rotation_step_deg: float = 0.5
-    step_factors: list[int] = field(default_factory=lambda: [8, 4, 2, 1])
-    rotation_step_factors: list[int] = field(default_factory=lambda: [2, 1])
-    max_iterations: int = 200
-    min_side: float = 0.03
-    min_precision: float = 0.7
-    min_recall: float = 0.7
-    recall_margin: float = 0.25
-    min_recall_margin: float = 0.05
-    border_margin_px: int = 3
-    duplicate_distance: float = 0.05
-    duplicate_angle_deg: float = 15.0
-    own_pixel_refit_deg: float = 0.5
-    edge_refine_band: float = 0.05
-    edge_refine_cell: float = 0.001
-    edge_refine_span: float = 0.7
-    edge_refine_depth_step: float = 0.002
-    edge_refine_depth_step_per_m2: float = 0.0008
-    component_starts: int = 12
-    gap_window_px: int = 32
-    gap_offsets_px: list[int] = field(default_factory=lambda: [2, 3, 4, 5, 7, 9])
-    gap_depth: float = 0.0025
-    gap_depth_per_m2: float = 0.001
-    gap_side_tolerance_per_m2: float = 0.004
-    gap_min_length: float = 0.2
-    gap_long_window_px: int = 128
-    gap_long_min_windows: float = 0.5
-    gap_rectify_planes: int = 2
-    gap_rectify_deg: float = 8.0
-    gap_rectify_max_scale: float = 1.25
-    gap_rectify_max_tilt_deg: float = 20.0
-    layer_planes: int = 3
-    layer_max_layers: int = 4
-    layer_min_size: float = 0.06
-    layer_min_pixels: int = 200
+    inlier_distance: float = param(0.02, unit="m", gt=0)
+    inlier_distance_per_m2: float = param(0.004, unit="m / m^2", ge=0)
+    ransac_stride_px: int = param(8, unit="px", integer=True, gt=0)
+    ransac_hypotheses: int = param(200, integer=True, gt=0)
+    ransac_local_radius_px: int = param(48, unit="px", integer=True, gt=0)
+    max_planes: int = param(8, integer=True, gt=0)
+    removal_factor: float = param(2.0, ge=1)
+    crossing_angle_deg: float = param(3.0, unit="deg", ge=0)
+    crossing_smooth_px: int = param(5, unit="px", integer=True, ge=1)
+    surface_distance: float = param(0.003, unit="m", ge=0)
+    surface_distance_per_m2: float = param(0.0015, unit="m / m^2", ge=0)
+    surface_window_px: int = param(5, unit="px, odd", integer=True, ge=1)
+    min_plane_points: int = param(20, integer=True, gt=0)
+    max_depth: float = param(5.0, unit="m", gt=0)
+    cost_in_plane: float = param(0.0, ge=0, le=1)
+    cost_free: float = param(1.0, ge=0, le=1)
+    cost_occluded: float = param(20 / 255, ge=0, le=1)
+    cost_unknown: float = param(20 / 255, ge=0, le=1)
+    cell_size: float = param(0.005, unit="m", gt=0)
+    max_grid_cells: int = param(400, integer=True, gt=0)
+    max_plane_extent: float = param(6.0, unit="m", gt=0)
+    starts_per_plane: int = param(6, integer=True, gt=0)
+    prior_size: list[float] = param([0.05, 0.2], unit="m", gt=0, length=2, elements=True,
+                                    factory=True)
+    alpha: float = param(0.05, ge=0, lt=1)
+    step_size: float = param(0.005, unit="m", gt=0)
+    rotation_step_deg: float = param(0.5, unit="deg", gt=0)
+    step_factors: list[int] = param([8, 4, 2, 1], integer=True, gt=0, elements=True,
+                                    factory=True)
+    rotation_step_factors: list[int] = param([2, 1], integer=True, gt=0, elements=True,
+                                             factory=True)
+    max_iterations: int = param(200, integer=True, gt=0)
+    min_side: float = param(0.03, unit="m", gt=0)
+    min_precision: float = param(0.7, ge=0, le=1)
+    min_recall: float = param(0.7, ge=0, le=1)
+    recall_margin: float = param(0.25, ge=0)
+    min_recall_margin: float = param(0.05, unit="m", ge=0)
+    border_margin_px: int = param(3, unit="px", integer=True, ge=0)
+    duplicate_distance: float = param(0.05, unit="m", ge=0)
+    duplicate_angle_deg: float = param(15.0, unit="deg", ge=0)
+    own_pixel_refit_deg: float = param(0.5, unit="deg", ge=0)
+    edge_refine_band: float = param(0.05, unit="m", gt=0)
+    edge_refine_cell: float = param(0.001, unit="m", gt=0)
+    edge_refine_span: float = param(0.7, gt=0, le=1)
+    edge_refine_depth_step: float = param(0.002, unit="m", ge=0)
+    edge_refine_depth_step_per_m2: float = param(0.0008, unit="m / m^2", ge=0)
+    component_starts: int = param(12, integer=True, ge=0)
+    gap_window_px: int = param(32, unit="px", integer=True, ge=4)
+    gap_offsets_px: list[int] = param([2, 3, 4, 5, 7, 9], unit="px", integer=True, ge=1,
+                                      elements=True, factory=True)
+    gap_depth: float = param(0.0025, unit="m", ge=0)
+    gap_depth_per_m2: float = param(0.001, unit="m / m^2", ge=0)
+    gap_side_tolerance_per_m2: float = param(0.004, unit="m / m^2", ge=0)
+    gap_min_length: float = param(0.2, unit="m", ge=0)
+    gap_long_window_px: int = param(128, unit="px", integer=True, ge=0)
+    gap_long_min_windows: float = param(0.5, ge=0)
+    gap_rectify_planes: int = param(2, integer=True, ge=0)
+    gap_rectify_deg: float = param(8.0, unit="deg", ge=0, le=90)
+    gap_rectify_max_scale: float = param(1.25, gt=0)
+    gap_rectify_max_tilt_deg: float = param(20.0, unit="deg", ge=0, le=90)
+    layer_planes: int = param(3, integer=True, ge=0)
+    layer_max_layers: int = param(4, integer=True, ge=0)
+    layer_min_size: float = param(0.06, unit="m", ge=0)
+    layer_min_pixels: int = param(200, unit="px", integer=True, ge=0)
 
-    def validate(self) -> None:
-        """Raise ``ValueError`` naming the first invalid field."""
-        for f in fields(self):
-            v = getattr(self, f.name)
-            vals = v if isinstance(v, list) else [v]
-            for x in vals:
-                if isinstance(x, bool):
-                    continue
-                if not isinstance(x, (int, float, np.integer, np.floating)) or not math.isfinite(x):
-                    raise ValueError(f"FrontDetectorConfig.{f.name} must be finite numbers, "
-                                     f"got {v!r}")
-        pos = ("inlier_distance", "ransac_stride_px", "ransac_hypotheses",
-               "ransac_local_radius_px", "max_planes", "min_plane_points", "max_depth",
-               "cell_size", "max_grid_cells", "max_plane_extent", "starts_per_plane",
-               "step_size", "rotation_step_deg", "max_iterations", "min_side")
-        for k in pos:
-            if not getattr(self, k) > 0:
-                raise ValueError(f"FrontDetectorConfig.{k} must be > 0, got {getattr(self, k)}")
-        for k in ("cost_in_plane", "cost_free", "cost_occluded", "cost_unknown",
-                  "min_precision", "min_recall"):
-            if not 0.0 <= getattr(self, k) <= 1.0:
-                raise ValueError(f"FrontDetectorConfig.{k} must be in [0, 1], got "
-                                 f"{getattr(self, k)}")
-        for k in ("edge_refine_band", "edge_refine_cell"):
-            if not getattr(self, k) > 0:
-                raise ValueError(f"FrontDetectorConfig.{k} must be > 0 (m), got "
-                                 f"{getattr(self, k)}")
-        if not 0 < self.edge_refine_span <= 1:
-            raise ValueError("FrontDetectorConfig.edge_refine_span must be in (0, 1], got "
-                             f"{self.edge_refine_span}")
-        for k in ("edge_refine_depth_step", "edge_refine_depth_step_per_m2",
-                  "own_pixel_refit_deg"):
-            if getattr(self, k) < 0:
-                raise ValueError(f"FrontDetectorConfig.{k} must be >= 0, got {getattr(self, k)}")
-        if self.gap_window_px < 4:
-            raise ValueError("FrontDetectorConfig.gap_window_px must be an integer >= 4, "
-                             f"got {self.gap_window_px}")
+    def validate(self) -> "FrontDetectorConfig":
+        """Raise ``ValueError`` naming the first invalid field (its value and what is
+        allowed); return the config."""
+        validate_fields(self)
+        who = type(self).__name__
+        for k in ("step_factors", "rotation_step_factors", "gap_offsets_px"):
+            if len(getattr(self, k)) == 0:
+                raise ValueError(f"{who}: {k} must not be empty")
+        if not self.prior_size[0] <= self.prior_size[1]:
+            raise ValueError(f"{who}: prior_size must be [min, max] with min <= max (m), got "
+                             f"{self.prior_size}")
+        if self.surface_window_px % 2 != 1:
+            raise ValueError(f"{who}: surface_window_px must be odd, got "
+                             f"{self.surface_window_px}")
         if self.gap_long_window_px and self.gap_long_window_px <= self.gap_window_px:
-            raise ValueError("FrontDetectorConfig.gap_long_window_px must be 0 (off) or larger "
+            raise ValueError(f"{who}: gap_long_window_px must be 0 (no long pass) or larger "
                              f"than gap_window_px ({self.gap_window_px}), got "
                              f"{self.gap_long_window_px}")
-        if not (self.gap_long_min_windows >= 0 and math.isfinite(self.gap_long_min_windows)):
-            raise ValueError("FrontDetectorConfig.gap_long_min_windows must be a finite number "
-                             f">= 0, got {self.gap_long_min_windows}")
-        for k in ("layer_planes", "layer_max_layers", "layer_min_pixels"):
-            if int(getattr(self, k)) != getattr(self, k) or getattr(self, k) < 0:
-                raise ValueError(f"FrontDetectorConfig.{k} must be an integer >= 0, got "
-                                 f"{getattr(self, k)}")
-        if not (self.layer_min_size >= 0 and math.isfinite(self.layer_min_size)):
-            raise ValueError("FrontDetectorConfig.layer_min_size must be a finite number >= 0 "
-                             f"(m), got {self.layer_min_size}")
-        if self.gap_rectify_planes < 0:
-            raise ValueError("FrontDetectorConfig.gap_rectify_planes must be an integer >= 0, "
-                             f"got {self.gap_rectify_planes}")
-        if not 0 <= self.gap_rectify_deg <= 90:
-            raise ValueError("FrontDetectorConfig.gap_rectify_deg must be in [0, 90] deg, got "
-                             f"{self.gap_rectify_deg}")
-        if not 0 <= self.gap_rectify_max_tilt_deg <= 90:
-            raise ValueError("FrontDetectorConfig.gap_rectify_max_tilt_deg must be in [0, 90] "
-                             f"deg, got {self.gap_rectify_max_tilt_deg}")
-        if not (self.gap_rectify_max_scale > 0 and math.isfinite(self.gap_rectify_max_scale)):
-            raise ValueError("FrontDetectorConfig.gap_rectify_max_scale must be a finite number "
-                             f"> 0, got {self.gap_rectify_max_scale}")
-        if not self.gap_offsets_px or any(int(o) != o or o < 1 for o in self.gap_offsets_px):
-            raise ValueError("FrontDetectorConfig.gap_offsets_px must be integers >= 1 (px), "
-                             f"got {self.gap_offsets_px}")
-        for k in ("gap_depth", "gap_depth_per_m2", "gap_side_tolerance_per_m2",
-                  "gap_min_length"):
-            if getattr(self, k) < 0:
-                raise ValueError(f"FrontDetectorConfig.{k} must be >= 0, got {getattr(self, k)}")
-        if self.crossing_smooth_px < 1:
-            raise ValueError("FrontDetectorConfig.crossing_smooth_px must be >= 1, got "
-                             f"{self.crossing_smooth_px}")
-        if self.surface_window_px < 1 or self.surface_window_px % 2 != 1:
-            raise ValueError("FrontDetectorConfig.surface_window_px must be an odd integer "
-                             f">= 1, got {self.surface_window_px}")
-        for k in ("surface_distance", "surface_distance_per_m2"):
-            if getattr(self, k) < 0:
-                raise ValueError(f"FrontDetectorConfig.{k} must be >= 0, got {getattr(self, k)}")
-        for k in ("component_starts", "alpha", "inlier_distance_per_m2", "crossing_angle_deg",
-                  "recall_margin",
-                  "min_recall_margin", "border_margin_px", "duplicate_distance",
-                  "duplicate_angle_deg"):
-            if getattr(self, k) < 0:
-                raise ValueError(f"FrontDetectorConfig.{k} must be >= 0, got {getattr(self, k)}")
-        if self.removal_factor < 1:
-            raise ValueError(f"FrontDetectorConfig.removal_factor must be >= 1, got "
-                             f"{self.removal_factor}")
-        if not self.alpha < 1:
-            raise ValueError(f"FrontDetectorConfig.alpha must be < 1, got {self.alpha}")
-        if len(self.prior_size) != 2 or not 0 < self.prior_size[0] <= self.prior_size[1]:
-            raise ValueError("FrontDetectorConfig.prior_size must be [min, max] with "
-                             f"0 < min <= max (metres), got {self.prior_size}")
-        for k in ("step_factors", "rotation_step_factors"):
-            v = getattr(self, k)
-            if not v or any(int(s) != s or s <= 0 for s in v):
-                raise ValueError(f"FrontDetectorConfig.{k} must be positive integers, got {v}")
-        for k in ("ransac_stride_px", "ransac_hypotheses", "ransac_local_radius_px",
-                  "max_planes", "min_plane_points", "max_grid_cells", "starts_per_plane",
-                  "component_starts",
-                  "crossing_smooth_px", "surface_window_px", "gap_window_px",
-                  "gap_long_window_px", "gap_rectify_planes",
-                  "max_iterations", "border_margin_px"):
-            if int(getattr(self, k)) != getattr(self, k):
-                raise ValueError(f"FrontDetectorConfig.{k} must be an integer, got "
-                                 f"{getattr(self, k)}")
+        return self
