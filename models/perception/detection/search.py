@@ -246,68 +246,19 @@ def _polish_rotations(jobs, K, cfg, lut):
     for g, R, lab_img in jobs:
         if id(lab_img) not in cost_imgs:
             cost_imgs[id(lab_img)] = cv2.LUT(lab_img, lut)
-        c = g.c
-        center, _, _, w, h = _rect_camera(g, R)
-        steps_cells = sorted({max(1, int(round(f * cfg.step_size / c)))
-                              for f in cfg.step_factors})  # (a list of ints)
-        # window: the recall margin plus room for the largest side move
-        half = (max(cfg.recall_margin * max(w, h), cfg.min_recall_margin)
-                + 2 * max(cfg.step_factors) * cfg.step_size)
-        x0 = int(round(half / c))
-        # the start and the first round's rotations are fitted together (the round always
-        # runs; each window's moves are independent of the others': the same results)
-        first = [round(o, 9) for o in offsets] if max_iter > 0 else []
-        states.append(dict(
-            g=g, lab_img=lab_img, cost_img=cost_imgs[id(lab_img)], c=c, p=center - g.o, w=w, h=h, half=half,
-            Wg=int(math.ceil((w + 2 * half) / c)), Hg=int(math.ceil((h + 2 * half) / c)),
-            R0=np.array([x0, x0 + int(round(w / c)), x0, x0 + int(round(h / c))], np.int64),
-            steps=steps_cells, min_cells=max(1, int(math.ceil(cfg.min_side / c))),
-            cache={}, need=list(dict.fromkeys([0.0] + first)), theta=0.0, best=None,
-            best_score=None, rounds=0, done=False, dir=0, streak=0))
+        states.append(_polish_job(g, R, lab_img, cost_imgs[id(lab_img)], offsets, cfg))
     step_max = max(offsets) if offsets else 0.0
     while True:
         todo = []
         for j in states:
-            if j["done"]:
-                continue
-            want = j["need"]
-            if j["streak"] >= 2:
-                # turning on in one direction (a front seen 10-20 deg rotated): the windows of
-                # the next two rounds too, should it go on by the largest step (a cache filled
-                # ahead: the same results, fewer rounds; at most 4 windows wasted per chain)
-                want = list(want)
-                t = j["theta"]
-                for _ in range(2):
-                    t = round(t + j["dir"] * step_max, 9)
-                    want += [round(t + o, 9) for o in offsets]
-            todo += [(j, t) for t in dict.fromkeys(want) if t not in j["cache"]]
+            if not j["done"]:
+                todo += [(j, t) for t in _wanted_angles(j, offsets, step_max)
+                         if t not in j["cache"]]
         if todo:
             _fit_windows(todo, K, cfg, lut, scratch)
         live = False
         for j in states:
-            cache = j["cache"]
-            while not j["done"] and all(t in cache for t in j["need"]):
-                if j["best"] is None:  # the start's window
-                    j["best_score"], j["best"] = cache[0.0]
-                    if max_iter == 0:
-                        j["done"] = True
-                        break
-                else:  # a round
-                    res = [cache[t] for t in j["need"]]
-                    i = int(np.argmax([r[0] for r in res]))
-                    j["rounds"] += 1
-                    if res[i][0] > j["best_score"] + 1e-12 * abs(j["best_score"]):
-                        turn = 1 if j["need"][i] > j["theta"] else -1
-                        j["streak"] = j["streak"] + 1 if turn == j["dir"] else 1
-                        j["dir"] = turn
-                        j["best_score"], j["best"], j["theta"] = res[i][0], res[i][1], j["need"][i]
-                        if j["rounds"] >= max_iter:
-                            j["done"] = True
-                            break
-                    else:
-                        j["done"] = True
-                        break
-                j["need"] = [round(j["theta"] + o, 9) for o in offsets]
+            _advance(j, offsets, max_iter)
             live |= not j["done"]
         if not live:
             break
@@ -318,6 +269,71 @@ def _polish_rotations(jobs, K, cfg, lut):
         lab = _warp_labels(j["lab_img"], K, g.o, e1, e2, u0, v0, j["c"], (j["Hg"], j["Wg"]))
         out.append((j["best_score"], (e1, e2, u0, v0, Rf, lab) + _sats(lab, lut) + (j["c"],)))
     return out
+
+
+def _polish_job(g, R, lab_img, cost_img, offsets, cfg) -> dict:
+    """The state of one rectangle's rotation polish: its window on the plane (the recall
+    margin plus room for the largest side move around it), the start in the window, the
+    move sizes, the windows needed next (the start's and the first round's: fitted together,
+    each window's moves are independent of the others'), the best so far."""
+    c = g.c
+    center, _, _, w, h = _rect_camera(g, R)
+    steps_cells = sorted({max(1, int(round(f * cfg.step_size / c)))
+                          for f in cfg.step_factors})  # (a list of ints)
+    half = (max(cfg.recall_margin * max(w, h), cfg.min_recall_margin)
+            + 2 * max(cfg.step_factors) * cfg.step_size)
+    x0 = int(round(half / c))
+    first = [round(o, 9) for o in offsets] if int(cfg.max_iterations) > 0 else []
+    return dict(
+        g=g, lab_img=lab_img, cost_img=cost_img, c=c, p=center - g.o, w=w, h=h, half=half,
+        Wg=int(math.ceil((w + 2 * half) / c)), Hg=int(math.ceil((h + 2 * half) / c)),
+        R0=np.array([x0, x0 + int(round(w / c)), x0, x0 + int(round(h / c))], np.int64),
+        steps=steps_cells, min_cells=max(1, int(math.ceil(cfg.min_side / c))),
+        cache={}, need=list(dict.fromkeys([0.0] + first)), theta=0.0, best=None,
+        best_score=None, rounds=0, done=False, dir=0, streak=0)
+
+
+def _wanted_angles(j, offsets, step_max) -> list:
+    """The window angles a polish job needs next: its round's, and when it has turned the
+    same way twice in a row (a front seen 10-20 deg rotated) also the next two rounds' should
+    it go on by the largest step (a cache filled ahead: the same results, fewer rounds; at
+    most 4 windows wasted per chain)."""
+    want = j["need"]
+    if j["streak"] >= 2:
+        want = list(want)
+        t = j["theta"]
+        for _ in range(2):
+            t = round(t + j["dir"] * step_max, 9)
+            want += [round(t + o, 9) for o in offsets]
+    return list(dict.fromkeys(want))
+
+
+def _advance(j, offsets, max_iter) -> None:
+    """In place: the rounds of a polish job whose windows are all fitted (its cache): the
+    best improving rotation of a round is kept; the job is done when none improves or after
+    ``max_iter`` rounds."""
+    cache = j["cache"]
+    while not j["done"] and all(t in cache for t in j["need"]):
+        if j["best"] is None:  # the start's window
+            j["best_score"], j["best"] = cache[0.0]
+            if max_iter == 0:
+                j["done"] = True
+                return
+        else:  # a round
+            res = [cache[t] for t in j["need"]]
+            i = int(np.argmax([r[0] for r in res]))
+            j["rounds"] += 1
+            if not res[i][0] > j["best_score"] + 1e-12 * abs(j["best_score"]):
+                j["done"] = True
+                return
+            turn = 1 if j["need"][i] > j["theta"] else -1
+            j["streak"] = j["streak"] + 1 if turn == j["dir"] else 1
+            j["dir"] = turn
+            j["best_score"], j["best"], j["theta"] = res[i][0], res[i][1], j["need"][i]
+            if j["rounds"] >= max_iter:
+                j["done"] = True
+                return
+        j["need"] = [round(j["theta"] + o, 9) for o in offsets]
 
 
 def _fit_windows(todo, K, cfg, lut, scratch=None):
