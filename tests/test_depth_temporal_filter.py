@@ -1,5 +1,5 @@
 """The temporal depth filter (models/perception/depth_filter.py, systems/perception/depth_temporal_filter.py) and the
-reveal test's threshold following its noise (issue 12: the closed drawer at 2.2 m)."""
+reveal test's threshold following its noise (the closed drawer at 2.2 m)."""
 
 import math
 

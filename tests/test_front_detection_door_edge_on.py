@@ -1,4 +1,4 @@
-"""Issue 12, the door opened 90 deg seen off the normal (short VTK renders of the kitchen).
+"""The door opened 90 deg seen off the normal (short VTK renders of the kitchen).
 
 Opened 90 deg, the door's inner face lies within a few mm of the plane of its compartment's
 inner side wall: RANSAC gives them one plane, and unless the seam between them (the hinge's
@@ -21,7 +21,7 @@ import pytest
 
 import mmlearn.models.perception.detection.gaps as gaps
 import mmlearn.models.perception.detection.rectify as rectify
-from mmlearn.apps.track_fronts import match_front
+from mmlearn.models.perception.evaluation import match_front
 from mmlearn.diagrams.perception.diagram import FrontPerceptionConfig, MakeFrontPerceptionDiagram
 from mmlearn.models.perception.detection import FrontDetectorConfig, Plane, detect_fronts
 from mmlearn.models.common.camera import PinholeIntrinsics

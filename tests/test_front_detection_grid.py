@@ -1,6 +1,5 @@
-"""The front detector's helpers after branch pspeed3 (cheaper rotation polish, edge refinement,
-plane axes and in-rectangle refit, the same rectangles): the hand-written 3-vector cross
-product is np.cross's; a cost image rectified onto a plane grid is the cost table applied to
+"""The front detector's rectified grids: the hand-written 3-vector cross product is
+np.cross's; the plane axes are right-handed with e2 down; a cost image rectified onto a plane grid is the cost table applied to
 the rectified labels (cells outside the image and behind the camera included); the rotation
 polish's returned tables are those of its best window made from scratch."""
 

@@ -1,7 +1,7 @@
-"""Issue 12, offset layers: a drawer pulled out by its first 1-4 cm stands that far proud of
+"""Offset layers: a drawer pulled out by its first 1-4 cm stands that far proud of
 its cabinet's face, within L (or the removal band) of the face's plane. RANSAC counted its
 points to the face, so it had no plane of its own and was missed in its first opening frames
-at every distance (seeds 6000-6009: 0.016 / 0.027 m missed in all 60 runs). The detector now
+at every distance (seeds 6000-6009: 0.016 / 0.027 m missed in all 60 runs). The detector
 splits such layers off the largest planes (``layer_planes``, :func:`_offset_layers`)."""
 
 import dataclasses
@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from conftest import perception_frame_at
 
-from mmlearn.apps.track_fronts import match_front
+from mmlearn.models.perception.evaluation import match_front
 from mmlearn.diagrams.perception.diagram import FrontPerceptionConfig, MakeFrontPerceptionDiagram
 from mmlearn.models.perception.detection import FrontDetectorConfig, Plane, detect_fronts
 from mmlearn.models.perception.detection.labels import FREE, IN_PLANE, _label_images

@@ -1,5 +1,4 @@
-"""The front detector's rectified views after branch pspeed4 (the same rectangles, less work):
-a view reads only the image pixels inside :func:`_view_footprint` (z' computed there only
+"""The front detector's rectified views: a view reads only the image pixels inside :func:`_view_footprint` (z' computed there only
 gives the very same warped image), and :func:`_gap_mask_rectified`'s one packed warp back
 gives the masks of two separate nearest-neighbour warps."""
 

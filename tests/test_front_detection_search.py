@@ -1,5 +1,5 @@
-"""The front detector's greedy side moves (thesis 5.1.2) and rotation polish after branch
-pspeed2: the vectorised greedy (corner indices and legality slacks kept in a per-start state,
+"""The front detector's greedy side moves (thesis 5.1.2) and rotation polish: the vectorised
+greedy (corner indices and legality slacks kept in a per-start state,
 tables of any row length in one flat buffer) takes the same moves as a plain move-by-move
 greedy on direct sums of the cost grid; the rotation polishes of several rectangles run
 together give what each gives alone."""

@@ -1,5 +1,5 @@
 """open_cabinet --perception depth: the robot looks at the cabinet with its head depth camera,
-detects the front and derives the handle (issue 12 item 8)."""
+detects the front and derives the handle."""
 
 import json
 import math
