@@ -60,7 +60,8 @@ def _gap_bounded(g, x0, x1, y0, y1, out_cells=3, in_cells=1, share=0.5, line=0.7
 
 
 def _precision_recall(g: _Grid, R, cfg):
-    """Eq. 5.4 and the local recall (see the module docstring) of one grid rectangle."""
+    """Eq. 5.4 and the local recall of one grid rectangle: its in-plane area over that of the
+    rectangle grown by ``recall_margin`` (no margin beyond a side along a reveal)."""
     x0, x1, y0, y1 = (int(v) for v in R)
     n = (x1 - x0) * (y1 - y0)
     if n <= 0:
