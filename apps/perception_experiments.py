@@ -5,10 +5,11 @@ drawer and a door in noisy depth images, their tracks and the learned articulati
         [--frames 60] [--only distance,angle] [--distances 0.8,1.3] [--angles=0,30] \\
         [--out-dir DIR] [--jobs 2] [--json] [--results R.jsonl] [--report-only R.jsonl]
 
-Every trial is one :func:`mmlearn.apps.track_fronts.run` (the kitchen scene, the drawer or the
-door opening in steps, ``--frames`` camera frames over the opening, FrontDetector ->
-FrontTracker -> link model), run through the sweep runner (``mmlearn.apps.common.sweep``: streamed
-to a JSON Lines results file, resumable, ``--jobs`` processes). The report (tables, plots in
+Every trial is one :func:`mmlearn.diagrams.perception.trials.fronts_trial` (the kitchen
+scene, the drawer or the door opening in steps, ``--frames`` camera frames over the opening,
+FrontDetector -> FrontTracker -> link model), run through the sweep runner
+(``mmlearn.apps.common.sweep``: streamed to a JSON Lines results file, resumable, ``--jobs``
+processes). The report (tables, plots in
 ``--out-dir``) is redrawn from that file by ``--report-only``.
 
 Experiments:
@@ -43,9 +44,9 @@ import numpy as np
 
 from mmlearn.apps.common.cli import (ArgumentParser, UsageError, check_out_dir, fail, float_list,
                                      json_clean, name_list, nonneg_int, pos_int, save_figure)
-from mmlearn.models.common.trials import register_trial
+from mmlearn.diagrams.perception.trials import fronts_trial
 
-__all__ = ["EXPERIMENTS", "trial", "trial_specs", "report", "run", "main", "THESIS_STAGE_S"]
+__all__ = ["EXPERIMENTS", "trial_specs", "report", "run", "main", "THESIS_STAGE_S"]
 
 EXPERIMENTS = ("distance", "angle")
 OBJECTS = ("drawer", "door")
@@ -58,38 +59,10 @@ ANGLE_DISTANCE = 1.5
 #: candidate; the others per frame)
 THESIS_STAGE_S = {"planes": 0.845, "masks": 0.008, "sampling": 0.010, "optimisation": 0.313,
                   "check": 0.0023}
-#: targets of issue 12
+#: targets of the front perception (detection rate, distance, errors, time per frame)
 TARGET_DETECTION, TARGET_DISTANCE_M, TARGET_POS_M, TARGET_ORIENT_DEG, TARGET_MS = (
     0.90, 2.3, 0.01, 2.0, 100.0)
 PREDICTION_N = 30
-
-
-@register_trial("perception.fronts")
-def trial(*, seed: int, experiment: str, object: str, distance: float, angle: float = 0.0,
-          frames: int = 60, temporal_filter: bool = True, camera_rate_hz: float = 0.0,
-          shared=None) -> dict:
-    """One run of :func:`mmlearn.apps.track_fronts.run`; returns its scores without the
-    per-frame list (plus the per-frame found / eligible flags and errors, compact).
-    ``temporal_filter``: the DepthTemporalFilter between camera and detector (track_fronts);
-    ``camera_rate_hz``: the camera's frame rate with it (0 = one frame per detector period,
-    the default of specs written before the 30 Hz camera)."""
-    from mmlearn.apps.track_fronts import TrackFrontsConfig, run as track
-
-    r = track(config=TrackFrontsConfig(object=object, distance=float(distance),
-                                       angle_deg=float(angle), frames=int(frames),
-                                       seed=int(seed), temporal_filter=bool(temporal_filter),
-                                       camera_rate_hz=float(camera_rate_hz)),
-              show_progress=False)
-    pf = r.pop("per_frame")
-    r["frame_found"] = [bool(f["found"]) for f in pf]
-    r["frame_eligible"] = [bool(f["eligible"]) for f in pf]
-    r["frame_eligible_open"] = [bool(f["eligible_open"]) for f in pf]
-    r["frame_in_view"] = [bool(f["in_view"]) for f in pf]
-    r["frame_joint"] = [float(f["joint_value"]) for f in pf]
-    r["frame_incidence_deg"] = [float(f["incidence_deg"]) for f in pf]
-    r["frame_pos_error_m"] = [f.get("pos_error_m") for f in pf]
-    r["experiment"] = experiment
-    return r
 
 
 def trial_specs(*, only=EXPERIMENTS, quick: bool = False, seed: int = 1000, seeds: int = 10,
@@ -99,7 +72,7 @@ def trial_specs(*, only=EXPERIMENTS, quick: bool = False, seed: int = 1000, seed
     ``angles`` (deg, at 1.5 m) replace the default grids when given."""
     from mmlearn.apps.common.sweep import TrialSpec
 
-    fn = trial
+    fn = fronts_trial
     specs = []
     for exp in only:
         if exp == "distance":
@@ -231,7 +204,7 @@ def _timing(recs):
 
 
 def _targets(dist_rows, recs):
-    """The issue's targets, each with its measured value and met / not met."""
+    """The targets, each with its measured value and met / not met."""
     near = [r for r in recs if r["experiment"] == "distance"
             and r["distance_m"] <= TARGET_DISTANCE_M + 1e-9]
     out = {}
@@ -520,7 +493,7 @@ def main(argv=None) -> int:
                     help="camera frames per run (thesis: ~60 images per log)")
     ap.add_argument("--no-temporal-filter", action="store_true",
                     help="no DepthTemporalFilter between camera and detector (each frame "
-                         "on its own, as before issue 12's branch pband2)")
+                         "on its own)")
     ap.add_argument("--camera-rate", type=float, default=30.0,
                     help="camera frames per second with the temporal filter, Hz (default 30; "
                          "0 = one frame per detector period, as before)")

@@ -30,6 +30,7 @@ from mmlearn.apps.common.cli import (ArgumentParser, UsageError, check_in_file, 
                                      check_out_file, fail, finish_viewing, float_list, json_clean,
                                      load_config, make_meshcat, name_list, nonneg_int, pos_int,
                                      progress, save_html)
+from mmlearn.models.common.config import param, validate_fields
 from mmlearn.diagrams.perception.diagram import FrontPerceptionConfig, MakeFrontPerceptionDiagram
 
 
@@ -51,14 +52,22 @@ class RenderFrontsConfig:
     """
 
     fronts: list[str] = field(default_factory=lambda: ["door", "drawer"])
-    distances: list[float] = field(default_factory=lambda: [1.0, 1.8, 2.5])
-    angles_deg: list[float] = field(default_factory=lambda: [0.0])
-    frames: int = 3
-    seed: int = 0
+    distances: list[float] = param([1.0, 1.8, 2.5], unit="m", elements=True, factory=True)
+    angles_deg: list[float] = param([0.0], unit="deg", elements=True, factory=True)
+    frames: int = param(3, integer=True, ge=1)
+    seed: int = param(0, integer=True, ge=0)
     out_dir: str = ""
     scene: FrontPerceptionConfig = field(default_factory=FrontPerceptionConfig)
     html_out: str = ""
     meshcat: bool = False
+
+    def validate(self) -> "RenderFrontsConfig":
+        """Raise ``ValueError`` naming the first bad field; return the config."""
+        validate_fields(self)
+        for k in ("fronts", "distances", "angles_deg"):
+            if not getattr(self, k):
+                raise ValueError(f"RenderFrontsConfig: {k} must not be empty")
+        return self
 
 
 def _save(folder: Path, name: str, depth, clean, label, meta: dict) -> None:
@@ -76,11 +85,7 @@ def run(*, config: RenderFrontsConfig, meshcat=None, show_progress: bool = True)
 
     from pydrake.systems.analysis import Simulator
 
-    cfg = config
-    if cfg.frames < 1:
-        raise ValueError(f"frames must be >= 1, got {cfg.frames}")
-    if not cfg.fronts or not cfg.distances or not cfg.angles_deg:
-        raise ValueError("fronts, distances and angles_deg must not be empty")
+    cfg = config.validate()
     folder = Path(cfg.out_dir) if cfg.out_dir else None
     if meshcat is None and (cfg.meshcat or cfg.html_out):
         meshcat = make_meshcat(announce=cfg.meshcat)

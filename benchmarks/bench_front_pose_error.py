@@ -26,7 +26,7 @@ import math
 import cv2
 import numpy as np
 
-from mmlearn.apps.track_fronts import match_front
+from mmlearn.models.perception.evaluation import match_front
 from mmlearn.models.perception.detection import FrontDetectorConfig, detect_fronts
 from mmlearn.models.perception.tracking import align_rectangle, as_rectangle
 from mmlearn.models.common.camera import PinholeIntrinsics

@@ -1,5 +1,5 @@
 """The temporal depth filter (models/perception/depth_filter.py, systems/perception/depth_temporal_filter.py) and the
-reveal test's threshold following its noise (issue 12: the closed drawer at 2.2 m)."""
+reveal test's threshold following its noise (the closed drawer at 2.2 m)."""
 
 import math
 
@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from mmlearn.models.perception.depth_filter import DepthFilterConfig, filter_depth, new_filter_state
-from mmlearn.models.perception.detection import FrontDetectorConfig, _gap_mask, detect_fronts
+from mmlearn.models.perception.detection import FrontDetectorConfig, detect_fronts
+from mmlearn.models.perception.detection.gaps import _gap_mask
 from mmlearn.models.common.camera import PinholeIntrinsics
 
 SIG1 = 0.0018  # the default camera's per-pixel depth std at 1 m, m
@@ -243,3 +244,25 @@ def test_depth_temporal_filter_system_in_a_diagram():
             DepthTemporalFilter(intrinsics=PinholeIntrinsics.from_fov(32, 24, 58.0), rate_hz=bad)
     with pytest.raises(TypeError, match="intrinsics"):
         DepthTemporalFilter(intrinsics=(32, 24), rate_hz=5.0)
+
+
+def test_the_filter_state_is_immutable_and_copies_are_free():
+    """The state's arrays are read-only, a deep copy is the state itself, and a frame gives
+    a new state without touching the old one."""
+    import copy
+
+    st = new_filter_state(6, 8)
+    assert copy.deepcopy(st) is st and copy.copy(st) is st
+    for a in (st.mean, st.count, st.var_scale):
+        assert not a.flags.writeable
+        with pytest.raises(ValueError):
+            a[0, 0] = 1
+    depth = np.full((6, 8), 2.0, np.float32)
+    _, _, st2 = filter_depth(depth, st, DepthFilterConfig())
+    assert st2 is not st and not st2.mean.flags.writeable
+    assert np.all(st.count == 0) and np.all(st2.count == 1) and np.all(st2.mean == 2.0)
+    # a caller's writeable arrays are copied: writing to them later does not change the state
+    mine = np.ones((6, 8), np.float32)
+    own = type(st)(mine, np.ones((6, 8), np.int32), np.ones((6, 8), np.float32))
+    mine[:] = 5.0
+    assert np.all(own.mean == 1.0)

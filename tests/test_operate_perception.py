@@ -1,5 +1,5 @@
 """open_cabinet --perception depth: the robot looks at the cabinet with its head depth camera,
-detects the front and derives the handle (issue 12 item 8)."""
+detects the front and derives the handle."""
 
 import json
 import math
@@ -75,7 +75,7 @@ def test_handle_by_convention_when_the_bar_is_not_seen():
         assert abs(e.handle[1] - y_expect) < 1e-9, (kind, e.handle)
     with pytest.raises(ValueError, match="kind must be one of"):
         handle_from_front("window", rect, depth, K, np.eye(4))
-    with pytest.raises(ValueError, match="HandleFromFrontConfig.bar_radius"):
+    with pytest.raises(ValueError, match="HandleFromFrontConfig: bar_radius"):
         handle_from_front("drawer", rect, depth, K, np.eye(4),
                           HandleFromFrontConfig(bar_radius=math.nan))
     with pytest.raises(ValueError, match="expected"):

@@ -1,4 +1,4 @@
-"""The perception apps (issue 12 items 5 and 6): track_fronts on a short drawer run, their
+"""The perception apps: track_fronts on a short drawer run, their
 command-line errors, and perception_experiments --report-only reproducing a tiny run."""
 
 import json
@@ -13,7 +13,7 @@ from conftest import run_main as _exit
 def test_match_front_handles_the_8_parameterisations():
     """A detection given in any of its 8 parameterisations (and with noise) matches the true
     front with the same small error; a shifted or tilted one does not match."""
-    from mmlearn.apps.track_fronts import match_front
+    from mmlearn.models.perception.evaluation import match_front
     from mmlearn.models.perception.tracking import rectangle_parameterisations
     from mmlearn.models.perception.fronts import FrontRectangle
 
@@ -43,7 +43,8 @@ def test_match_front_handles_the_8_parameterisations():
 def test_match_front_size_gate_rejects_merged_fronts():
     """A rectangle of several merged closed fronts whose centre lies near the true front's
     (1.2 m wide instead of 0.395 m) counted as the front before the size gate."""
-    from mmlearn.apps.track_fronts import TrackFrontsConfig, match_front
+    from mmlearn.diagrams.perception.trials import TrackFrontsConfig
+    from mmlearn.models.perception.evaluation import match_front
     from mmlearn.models.perception.fronts import FrontRectangle
 
     X = np.eye(4)
@@ -148,7 +149,8 @@ def test_track_fronts_draws_in_meshcat(tmp_path):
     """With Meshcat: the point cloud, the detections, every published track and the moving
     front's learned model are drawn; --html-out writes the recording."""
     from mmlearn.apps.common.cli import make_meshcat
-    from mmlearn.apps.track_fronts import TrackFrontsConfig, run
+    from mmlearn.apps.track_fronts import run
+    from mmlearn.diagrams.perception.trials import TrackFrontsConfig
 
     mc = make_meshcat(announce=False)
     html = tmp_path / "rec.html"

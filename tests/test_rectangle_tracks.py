@@ -1,5 +1,4 @@
-"""The real rectangle tracks of the original depth-image detector (thesis Sec. 5.2.2; issue 12
-item 7): tests/data/articulation_logs/rectangle_door.txt and rectangle_drawer.txt (provenance
+"""The real rectangle tracks of the original depth-image detector (thesis Sec. 5.2.2): tests/data/articulation_logs/rectangle_door.txt and rectangle_drawer.txt (provenance
 in that folder's README). Their pose is a corner of the rectangle, the tracker's is the
 centre (models/perception/tracking.py)."""
 

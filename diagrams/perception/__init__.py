@@ -5,6 +5,7 @@ from mmlearn._lazy import lazy_exports
 #: submodule -> the public names it defines (imported on first use)
 _EXPORTS = {
     "diagram": ["DepthCameraConfig", "FrontPerceptionConfig", "FrontPerception", "FrontPerceptionDiagram", "AddDepthCamera", "AddFrontPerception", "MakeFrontPerceptionDiagram", "camera_pose_looking_at"],
+    "trials": ["EXPECTED_MODEL", "TrackFrontsConfig", "track_fronts", "fronts_trial"],
 }
 
 __all__ = [
@@ -12,10 +13,14 @@ __all__ = [
     "AddFrontPerception",
     "camera_pose_looking_at",
     "DepthCameraConfig",
+    "EXPECTED_MODEL",
     "FrontPerception",
     "FrontPerceptionConfig",
     "FrontPerceptionDiagram",
+    "fronts_trial",
     "MakeFrontPerceptionDiagram",
+    "track_fronts",
+    "TrackFrontsConfig",
 ]
 
 __getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)

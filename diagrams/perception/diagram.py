@@ -51,6 +51,7 @@ from pydrake.systems.rendering import MultibodyPositionToGeometryPose
 from pydrake.systems.sensors import CameraInfo, PixelType, RgbdSensor
 from pydrake.trajectories import PiecewisePolynomial
 
+from mmlearn.models.common.config import param, validate_fields
 from mmlearn.models.common.depth_noise import DepthNoiseConfig
 from mmlearn.models.perception.motion import FrontJointKinematics, FrontMotionConfig, stepped_profile
 from mmlearn.models.common.camera import PinholeIntrinsics
@@ -73,15 +74,6 @@ __all__ = ["DepthCameraConfig", "FrontPerceptionConfig", "FrontPerception",
 
 FRONTS = ("door", "drawer")
 _RENDERER = "vtk"
-
-
-def _finite(name, v, *, lo=None, lo_open=False, hi=None):
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-        raise ValueError(f"{name} must be a finite number, got {v!r}")
-    if lo is not None and (v <= lo if lo_open else v < lo):
-        raise ValueError(f"{name} must be {'>' if lo_open else '>='} {lo}, got {v}")
-    if hi is not None and v > hi:
-        raise ValueError(f"{name} must be <= {hi}, got {v}")
 
 
 @dataclass
@@ -110,36 +102,26 @@ class DepthCameraConfig:
             the Meshcat point cloud is published at this rate).
     """
 
-    width: int = 640
-    height_px: int = 480
-    fov_x_deg: float = 58.0
-    distance: float = 1.8
-    angle_deg: float = 0.0
-    elevation_deg: float = 25.0
-    height: float | None = None
-    look_at_offset: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
-    z_near: float = 0.1
-    z_far: float = 10.0
-    rate_hz: float = 5.0
+    width: int = param(640, unit="px", integer=True, ge=8)
+    height_px: int = param(480, unit="px", integer=True, ge=8)
+    fov_x_deg: float = param(58.0, unit="deg", gt=0, le=170)
+    distance: float = param(1.8, unit="m", ge=0.2)
+    angle_deg: float = param(0.0, unit="deg", ge=-80, le=80)
+    elevation_deg: float = param(25.0, unit="deg", ge=-60, le=80)
+    height: float | None = param(None, unit="m", gt=0, optional=True)
+    look_at_offset: list[float] = param([0.0, 0.0, 0.0], unit="m", length=3, elements=True,
+                                        factory=True)
+    z_near: float = param(0.1, unit="m", gt=0)
+    z_far: float = param(10.0, unit="m", gt=0)
+    rate_hz: float = param(5.0, unit="Hz", gt=0)
 
-    def validate(self) -> None:
-        """Raise ``ValueError`` naming the first bad field."""
-        for k in ("width", "height_px"):
-            v = getattr(self, k)
-            if isinstance(v, bool) or not isinstance(v, int) or v < 8:
-                raise ValueError(f"DepthCameraConfig.{k} must be an integer >= 8 (pixels), "
-                                 f"got {v!r}")
-        _finite("DepthCameraConfig.fov_x_deg (deg)", self.fov_x_deg, lo=0, lo_open=True, hi=170)
-        _finite("DepthCameraConfig.distance (m)", self.distance, lo=0.2)
-        _finite("DepthCameraConfig.angle_deg (deg)", self.angle_deg, lo=-80, hi=80)
-        _finite("DepthCameraConfig.elevation_deg (deg)", self.elevation_deg, lo=-60, hi=80)
-        if self.height is not None:
-            _finite("DepthCameraConfig.height (m)", self.height, lo=0, lo_open=True)
-        if len(self.look_at_offset) != 3 or not all(math.isfinite(v) for v in self.look_at_offset):
-            raise ValueError("DepthCameraConfig.look_at_offset must be 3 finite numbers (m)")
-        _finite("DepthCameraConfig.z_near (m)", self.z_near, lo=0, lo_open=True)
-        _finite("DepthCameraConfig.z_far (m)", self.z_far, lo=self.z_near, lo_open=True)
-        _finite("DepthCameraConfig.rate_hz (Hz)", self.rate_hz, lo=0, lo_open=True)
+    def validate(self) -> "DepthCameraConfig":
+        """Raise ``ValueError`` naming the first bad field; return the config."""
+        validate_fields(self)
+        if not self.z_far > self.z_near:
+            raise ValueError(f"DepthCameraConfig: z_far must be > z_near ({self.z_near} m), "
+                             f"got {self.z_far}")
+        return self
 
     def intrinsics(self) -> PinholeIntrinsics:
         return PinholeIntrinsics.from_fov(self.width, self.height_px, self.fov_x_deg)
@@ -215,29 +197,19 @@ class FrontPerceptionConfig:
             camera's clouds would fill a recording, so the apps draw at the detector's rate).
     """
 
-    front: str = "drawer"
+    front: str = param("drawer", choices=FRONTS)
     kitchen: KitchenSpec = field(default_factory=KitchenSpec)
     motion: FrontMotionConfig = field(default_factory=FrontMotionConfig)
     camera: DepthCameraConfig = field(default_factory=DepthCameraConfig)
     noise: DepthNoiseConfig = field(default_factory=DepthNoiseConfig)
     add_noise: bool = True
     point_cloud: bool = True
-    point_cloud_stride: int = 3
-    point_cloud_rate_hz: float = 0.0
+    point_cloud_stride: int = param(3, integer=True, ge=1)
+    point_cloud_rate_hz: float = param(0.0, unit="Hz; 0 = the camera's rate", ge=0)
 
-    def validate(self) -> None:
-        r = self.point_cloud_rate_hz
-        if isinstance(r, bool) or not isinstance(r, (int, float)) or not math.isfinite(r) \
-                or r < 0:
-            raise ValueError(f"FrontPerceptionConfig.point_cloud_rate_hz must be a finite "
-                             f"number >= 0 (Hz; 0 = the camera's rate), got {r!r}")
-        stride = self.point_cloud_stride
-        if isinstance(stride, bool) or not isinstance(stride, int) or stride < 1:
-            raise ValueError(f"FrontPerceptionConfig.point_cloud_stride must be an integer >= 1, "
-                             f"got {self.point_cloud_stride!r}")
-        if self.front not in FRONTS:
-            raise ValueError(f"FrontPerceptionConfig.front must be one of {FRONTS}, got "
-                             f"{self.front!r}")
+    def validate(self) -> "FrontPerceptionConfig":
+        """Raise ``ValueError`` naming the first bad field; return the config."""
+        validate_fields(self)
         self.kitchen.validate()
         self.motion.validate()
         self.camera.validate()
@@ -247,6 +219,7 @@ class FrontPerceptionConfig:
             raise ValueError(f"FrontPerceptionConfig: the {self.front} opens to "
                              f"{self.motion.opening(self.front):.4g} beyond its joint limit "
                              f"{limit:.4g} (kitchen.{self.front}_limit)")
+        return self
 
 
 @dataclass

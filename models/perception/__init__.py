@@ -11,6 +11,7 @@ _EXPORTS = {
     "motion": ["FrontMotionConfig", "stepped_profile", "FrontJointKinematics"],
     "synth": ["PlanarPatch", "box_patches", "look_at", "render_depth", "add_depth_noise", "pose_from_axes", "front_pose", "kitchen_scene", "DOOR_SIZE", "DRAWER_SIZE"],
     "tracking": ["RECTANGLE_SYMMETRIES", "SWAPS_SIZE", "rectangle_parameterisations", "align_rectangle", "corner_to_centre", "rectangles_from_poses", "FrontTrackingConfig", "FrontTrack", "TrackingState", "FrameResult", "track_frame", "track_rectangles", "as_rectangle", "FRONT_SIGMA_POS_M", "FRONT_SIGMA_ORIENT_RAD", "front_observation_model", "TrackModel", "fit_track_model", "selection_vs_observations", "simulate_front_rectangles", "align_track", "axis_errors", "cross_validated_errors", "subsampled_selection"],
+    "evaluation": ["match_front", "front_visibility", "moving_track"],
 }
 
 __all__ = [
@@ -35,6 +36,7 @@ __all__ = [
     "front_pose",
     "FRONT_SIGMA_ORIENT_RAD",
     "FRONT_SIGMA_POS_M",
+    "front_visibility",
     "FrontDetectorConfig",
     "FrontJointKinematics",
     "FrontMotionConfig",
@@ -46,6 +48,8 @@ __all__ = [
     "HandleFromFrontConfig",
     "kitchen_scene",
     "look_at",
+    "match_front",
+    "moving_track",
     "new_filter_state",
     "PlanarPatch",
     "Plane",

@@ -34,11 +34,12 @@ light camera also has a static per-pixel error pattern, which no temporal mean r
 gain is then smaller than 1 / sqrt(n).
 """
 
-import math
 from dataclasses import dataclass
 
 import cv2
 import numpy as np
+
+from mmlearn.models.common.config import param, validate_fields
 
 __all__ = ["DepthFilterConfig", "DepthFilterState", "new_filter_state", "filter_depth"]
 
@@ -61,30 +62,25 @@ class DepthFilterConfig:
             filtering: the output is the input).
     """
 
-    depth_std_at_1m: float = 0.0018
-    reset_sigmas: float = 4.0
-    window_px: int = 9
-    window_sigmas: float = 4.0
-    max_frames: int = 16
+    depth_std_at_1m: float = param(0.0018, unit="m", gt=0)
+    reset_sigmas: float = param(4.0, gt=0)
+    window_px: int = param(9, unit="px, odd", integer=True, ge=1)
+    window_sigmas: float = param(4.0, gt=0)
+    max_frames: int = param(16, integer=True, ge=1)
 
-    def validate(self) -> None:
-        """Raise ``ValueError`` naming the first bad field."""
-        for k in ("depth_std_at_1m", "reset_sigmas", "window_sigmas"):
-            v = getattr(self, k)
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) \
-                    or v <= 0:
-                raise ValueError(f"DepthFilterConfig.{k} must be a finite number > 0, got {v!r}")
-        for k, lo in (("window_px", 1), ("max_frames", 1)):
-            v = getattr(self, k)
-            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
-                raise ValueError(f"DepthFilterConfig.{k} must be an integer >= {lo}, got {v!r}")
+    def validate(self) -> "DepthFilterConfig":
+        """Raise ``ValueError`` naming the first bad field; return the config."""
+        validate_fields(self)
         if self.window_px % 2 == 0:
-            raise ValueError(f"DepthFilterConfig.window_px must be odd, got {self.window_px}")
+            raise ValueError(f"DepthFilterConfig: window_px must be odd, got {self.window_px}")
+        return self
 
 
-@dataclass
+@dataclass(frozen=True, eq=False)
 class DepthFilterState:
-    """Per-pixel state of :func:`filter_depth`, (H, W) arrays each.
+    """Per-pixel state of :func:`filter_depth`, (H, W) arrays each. Immutable: the arrays are
+    read-only and :func:`filter_depth` returns a new state, so a copy is the state itself
+    (``copy.deepcopy`` returns it: a Drake abstract state holding it is copied for free).
 
     Attributes:
         mean: running mean depth, m (0 where the pixel has never been measured).
@@ -98,12 +94,26 @@ class DepthFilterState:
     count: np.ndarray
     var_scale: np.ndarray
 
+    def __post_init__(self):
+        for name in ("mean", "count", "var_scale"):
+            a = getattr(self, name)
+            if a.flags.writeable:  # (a copy: the caller may still write to its array)
+                a = a.copy()
+                a.flags.writeable = False
+                object.__setattr__(self, name, a)
+
     @property
     def shape(self):
         return self.mean.shape
 
     def copy(self) -> "DepthFilterState":
-        return DepthFilterState(self.mean.copy(), self.count.copy(), self.var_scale.copy())
+        return self
+
+    def __copy__(self):
+        return self
+
+    def __deepcopy__(self, memo):
+        return self
 
 
 def new_filter_state(height: int, width: int) -> DepthFilterState:
@@ -111,9 +121,16 @@ def new_filter_state(height: int, width: int) -> DepthFilterState:
     for name, v in (("height", height), ("width", width)):
         if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
             raise ValueError(f"new_filter_state: {name} must be an integer >= 1, got {v!r}")
-    return DepthFilterState(np.zeros((height, width), np.float32),
-                            np.zeros((height, width), np.int32),
-                            np.ones((height, width), np.float32))
+    return DepthFilterState(*_read_only(np.zeros((height, width), np.float32),
+                                        np.zeros((height, width), np.int32),
+                                        np.ones((height, width), np.float32)))
+
+
+def _read_only(*arrays):
+    """The arrays, made read-only in place (fresh arrays nobody else holds)."""
+    for a in arrays:
+        a.flags.writeable = False
+    return arrays
 
 
 def filter_depth(depth, state: DepthFilterState, config: DepthFilterConfig | None = None):
@@ -180,4 +197,4 @@ def filter_depth(depth, state: DepthFilterState, config: DepthFilterConfig | Non
                   np.where(upd, one_a * one_a * v0 + a * a, v0)).astype(np.float32)
     out = np.where(meas, m1, np.float32(np.nan)).astype(np.float32)
     scale = np.where(meas, np.sqrt(v1), np.float32(1.0)).astype(np.float32)
-    return out, scale, DepthFilterState(m1, n1, v1)
+    return out, scale, DepthFilterState(*_read_only(m1, n1, v1))

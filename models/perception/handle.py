@@ -31,11 +31,12 @@ seen.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 
 import numpy as np
 
 from mmlearn.models.common.camera import PinholeIntrinsics, depth_to_points
+from mmlearn.models.common.config import param, validate_fields
 from mmlearn.models.perception.fronts import FrontRectangle
 
 __all__ = ["HandleFromFrontConfig", "HandleEstimate", "front_axes", "select_front",
@@ -74,38 +75,36 @@ class HandleFromFrontConfig:
             m.
     """
 
-    min_width: float = 0.2
-    max_width: float = 0.8
-    min_height: float = 0.1
-    max_height: float = 0.9
-    max_tilt_deg: float = 20.0
-    max_view_angle_deg: float = 70.0
-    max_target_distance: float = 0.3
-    handle_offset: float = 0.07
-    handle_height: float = 0.325
-    dishwasher_handle_offset: float = 0.065
-    bar_min_standoff: float = 0.035
-    bar_max_standoff: float = 0.15
-    bar_radius: float = 0.01
-    search_margin: float = 0.03
-    min_bar_points: int = 20
-    floor_clearance: float = 0.05
+    min_width: float = param(0.2, unit="m", gt=0)
+    max_width: float = param(0.8, unit="m", ge=0)
+    min_height: float = param(0.1, unit="m", gt=0)
+    max_height: float = param(0.9, unit="m", ge=0)
+    max_tilt_deg: float = param(20.0, unit="deg", ge=0)
+    max_view_angle_deg: float = param(70.0, unit="deg", ge=0)
+    max_target_distance: float = param(0.3, unit="m", ge=0)
+    handle_offset: float = param(0.07, unit="m", ge=0)
+    handle_height: float = param(0.325, unit="m", ge=0)
+    dishwasher_handle_offset: float = param(0.065, unit="m", ge=0)
+    bar_min_standoff: float = param(0.035, unit="m", ge=0)
+    bar_max_standoff: float = param(0.15, unit="m", ge=0)
+    bar_radius: float = param(0.01, unit="m", ge=0)
+    search_margin: float = param(0.03, unit="m", ge=0)
+    min_bar_points: int = param(20, integer=True, ge=0)
+    floor_clearance: float = param(0.05, unit="m", ge=0)
 
-    def validate(self) -> None:
-        """Raise ``ValueError`` naming the first bad field."""
-        for f in fields(self):
-            v = getattr(self, f.name)
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-                raise ValueError(f"HandleFromFrontConfig.{f.name} must be a finite number, "
-                                 f"got {v!r}")
-            if v < 0:
-                raise ValueError(f"HandleFromFrontConfig.{f.name} must be >= 0, got {v}")
-        if not 0 < self.min_width <= self.max_width:
-            raise ValueError("HandleFromFrontConfig: need 0 < min_width <= max_width (m)")
-        if not 0 < self.min_height <= self.max_height:
-            raise ValueError("HandleFromFrontConfig: need 0 < min_height <= max_height (m)")
+    def validate(self) -> "HandleFromFrontConfig":
+        """Raise ``ValueError`` naming the first bad field; return the config."""
+        validate_fields(self)
+        if not self.min_width <= self.max_width:
+            raise ValueError("HandleFromFrontConfig: need min_width <= max_width (m), got "
+                             f"{self.min_width} > {self.max_width}")
+        if not self.min_height <= self.max_height:
+            raise ValueError("HandleFromFrontConfig: need min_height <= max_height (m), got "
+                             f"{self.min_height} > {self.max_height}")
         if not self.bar_min_standoff < self.bar_max_standoff:
-            raise ValueError("HandleFromFrontConfig: need bar_min_standoff < bar_max_standoff")
+            raise ValueError("HandleFromFrontConfig: need bar_min_standoff < bar_max_standoff "
+                             f"(m), got {self.bar_min_standoff} >= {self.bar_max_standoff}")
+        return self
 
 
 @dataclass

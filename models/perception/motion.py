@@ -13,6 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mmlearn.models.common.config import param, validate_fields
+
 __all__ = ["FrontMotionConfig", "stepped_profile", "FrontJointKinematics"]
 
 
@@ -29,28 +31,16 @@ class FrontMotionConfig:
         close_again: after opening, close in the same steps.
     """
 
-    door_opening_deg: float = 90.0
-    drawer_opening: float = 0.30
-    steps: int = 6
-    step_time: float = 1.0
-    hold_time: float = 1.0
+    door_opening_deg: float = param(90.0, unit="deg", ge=0)
+    drawer_opening: float = param(0.30, unit="m", ge=0)
+    steps: int = param(6, integer=True, ge=1)
+    step_time: float = param(1.0, unit="s", gt=0)
+    hold_time: float = param(1.0, unit="s", ge=0)
     close_again: bool = False
 
-    def validate(self) -> None:
-        """Raise ``ValueError`` naming the first bad field."""
-        for k in ("door_opening_deg", "drawer_opening", "step_time", "hold_time"):
-            v = getattr(self, k)
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-                raise ValueError(f"FrontMotionConfig.{k} must be a finite number, got {v!r}")
-        if self.door_opening_deg < 0 or self.drawer_opening < 0:
-            raise ValueError("FrontMotionConfig: door_opening_deg (deg) and drawer_opening (m) "
-                             "must be >= 0")
-        if isinstance(self.steps, bool) or not isinstance(self.steps, int) or self.steps < 1:
-            raise ValueError(f"FrontMotionConfig.steps must be an integer >= 1, got {self.steps!r}")
-        if not self.step_time > 0:
-            raise ValueError(f"FrontMotionConfig.step_time must be > 0 (s), got {self.step_time}")
-        if self.hold_time < 0:
-            raise ValueError(f"FrontMotionConfig.hold_time must be >= 0 (s), got {self.hold_time}")
+    def validate(self) -> "FrontMotionConfig":
+        """Raise ``ValueError`` naming the first bad field; return the config."""
+        return validate_fields(self)
 
     def opening(self, front: str) -> float:
         """Final joint value of the moving front: rad for the door, m for the drawer."""

@@ -87,6 +87,7 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 from scipy.spatial.transform import Rotation
 
+from mmlearn.models.common.config import param, validate_fields
 from mmlearn.models.perception.fronts import FrontRectangle
 
 __all__ = [
@@ -250,43 +251,27 @@ class FrontTrackingConfig:
             drawer turned 26 deg over 16 frames, which a revolute model explains).
     """
 
-    max_distance_m: float = 0.10
-    max_angle_deg: float = 20.0
-    max_size_diff_m: float = 0.05
-    min_observations: int = 5
-    max_observations: int = 500
-    max_tracks: int = 50
-    min_precision: float = 0.0
-    min_recall: float = 0.0
-    min_side_m: float = 0.08
+    max_distance_m: float = param(0.10, unit="m", gt=0)
+    max_angle_deg: float = param(20.0, unit="deg", gt=0, lt=45)
+    max_size_diff_m: float = param(0.05, unit="m", gt=0)
+    min_observations: int = param(5, integer=True, ge=1)
+    max_observations: int = param(500, integer=True, ge=1)
+    max_tracks: int = param(50, integer=True, ge=1)
+    min_precision: float = param(0.0, ge=0, le=1)
+    min_recall: float = param(0.0, ge=0, le=1)
+    min_side_m: float = param(0.08, unit="m", ge=0)
 
     def __post_init__(self):
         self.validate()
 
-    def validate(self) -> None:
-        """Raise ValueError naming the first bad field."""
-        for name in ("max_distance_m", "max_angle_deg", "max_size_diff_m"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not (isinstance(v, (int, float)) and np.isfinite(v)
-                                           and v > 0):
-                raise ValueError(f"FrontTrackingConfig.{name} must be a positive number, got {v!r}")
-        if not self.max_angle_deg < 45.0:
-            raise ValueError("FrontTrackingConfig.max_angle_deg must be < 45 (above it two of "
-                             f"the 8 parameterisations could both pass), got {self.max_angle_deg}")
-        for name in ("min_observations", "max_observations", "max_tracks"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not (isinstance(v, (int, np.integer)) and v >= 1):
-                raise ValueError(f"FrontTrackingConfig.{name} must be an integer >= 1, got {v!r}")
+    def validate(self) -> "FrontTrackingConfig":
+        """Raise ValueError naming the first bad field (``max_angle_deg`` < 45: above it two
+        of the 8 parameterisations could both pass); return the config."""
+        validate_fields(self)
         if self.max_observations < self.min_observations:
-            raise ValueError("FrontTrackingConfig.max_observations must be >= min_observations")
-        for name in ("min_precision", "min_recall"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and 0.0 <= v <= 1.0):
-                raise ValueError(f"FrontTrackingConfig.{name} must be in [0, 1], got {v!r}")
-        v = self.min_side_m
-        if isinstance(v, bool) or not (isinstance(v, (int, float)) and np.isfinite(v)
-                                       and v >= 0):
-            raise ValueError(f"FrontTrackingConfig.min_side_m must be a number >= 0, got {v!r}")
+            raise ValueError("FrontTrackingConfig: max_observations must be >= min_observations"
+                             f" ({self.min_observations}), got {self.max_observations}")
+        return self
 
 
 def _ro(a) -> np.ndarray:

@@ -36,7 +36,9 @@ class DepthTemporalFilter(LeafSystem):
     e.g. :class:`~mmlearn.systems.DepthNoise`'s output. Camera frame k is the input at time
     k / ``rate_hz``; a periodic update at that rate folds it into the state (abstract: the
     per-pixel mean, count and variance factor, :class:`mmlearn.models.perception.depth_filter.
-    DepthFilterState`, and the index of the last frame folded in). The outputs at time t are
+    DepthFilterState`, and the index of the last frame folded in). The state is immutable
+    (read-only arrays, replaced by each update, never written): Drake's copies of it are
+    the same object, not copies of three images. The outputs at time t are
     the state with the frame of t folded in (computed from the state and the input, cached;
     the update stores the same result), so a reader at a frame time sees that frame:
     ``depth_image`` (out) the filtered depth (``ImageDepth32F``, m, NaN where this frame has

@@ -41,6 +41,7 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import LeafSystem
 
+from mmlearn.models.common.config import param, validate_fields
 from mmlearn.models.articulation.link import make_model
 from mmlearn.models.perception.tracking import (FRONT_SIGMA_POS_M, FrontTrackingConfig, TrackingState, as_rectangle,
                                                 fit_track_model, front_observation_model,
@@ -76,39 +77,31 @@ class FrontTrackerConfig:
             observations).
     """
 
-    period_s: float = 0.1
+    period_s: float = param(0.1, unit="s", gt=0)
     tracking: FrontTrackingConfig = field(default_factory=FrontTrackingConfig)
-    sigma_pos_m: float = FRONT_SIGMA_POS_M
-    sigma_orient_deg: float = FRONT_DETECTOR_SIGMA_ORIENT_DEG
-    refit_every: int = 5
-    max_fits_per_update: int = 4
+    sigma_pos_m: float = param(FRONT_SIGMA_POS_M, unit="m", gt=0)
+    sigma_orient_deg: float = param(FRONT_DETECTOR_SIGMA_ORIENT_DEG, unit="deg", gt=0)
+    refit_every: int = param(5, integer=True, ge=1)
+    max_fits_per_update: int = param(4, integer=True, ge=1)
     models: str = "rigid,prismatic,revolute,gp"
-    seed: int = 0
+    seed: int = param(0, integer=True, ge=0)
 
-    def validate(self) -> None:
-        """Raise ValueError naming the first bad field."""
-        for k in ("period_s", "sigma_pos_m", "sigma_orient_deg"):
-            v = getattr(self, k)
-            if isinstance(v, bool) or not (isinstance(v, (int, float)) and np.isfinite(v)
-                                           and v > 0):
-                raise ValueError(f"FrontTrackerConfig.{k} must be a positive number, got {v!r}")
-        for k in ("refit_every", "max_fits_per_update"):
-            v = getattr(self, k)
-            if isinstance(v, bool) or not (isinstance(v, int) and v >= 1):
-                raise ValueError(f"FrontTrackerConfig.{k} must be an integer >= 1, got {v!r}")
-        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
-            raise ValueError(f"FrontTrackerConfig.seed must be an integer >= 0, got {self.seed!r}")
+    def validate(self) -> "FrontTrackerConfig":
+        """Raise ValueError naming the first bad field; return the config."""
+        validate_fields(self)
         if not isinstance(self.tracking, FrontTrackingConfig):
-            raise ValueError("FrontTrackerConfig.tracking must be a FrontTrackingConfig")
+            raise ValueError("FrontTrackerConfig: tracking must be a FrontTrackingConfig, got "
+                             f"{type(self.tracking).__name__}")
         self.tracking.validate()
         names = self.model_names()
         if not names:
-            raise ValueError(f"FrontTrackerConfig.models: no model in {self.models!r}")
+            raise ValueError(f"FrontTrackerConfig: models: no model in {self.models!r}")
         for m in names:
             try:
                 make_model(m)
             except ValueError as e:
-                raise ValueError(f"FrontTrackerConfig.models: {e}") from None
+                raise ValueError(f"FrontTrackerConfig: models: {e}") from None
+        return self
 
     def model_names(self) -> list:
         return [m.strip() for m in str(self.models).split(",") if m.strip()]

@@ -1,4 +1,4 @@
-"""Issue 12, the door seen from 0.8 m at small openings (a short VTK render of the kitchen):
+"""The door seen from 0.8 m at small openings (a short VTK render of the kitchen):
 the opened door's plane, tilted towards the cabinet's face by RANSAC, is refitted on its own
 pixels, and planes crossing at 3-5 deg are told apart; and the tracker's orientation noise,
 with which a door seen turning by only 20 deg (then out of view) is revolute."""
@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from conftest import perception_frame_at
 
-from mmlearn.apps.track_fronts import match_front
+from mmlearn.models.perception.evaluation import match_front
 from mmlearn.diagrams.perception.diagram import FrontPerceptionConfig, MakeFrontPerceptionDiagram
 from mmlearn.models.perception.detection import FrontDetectorConfig, detect_fronts
 from mmlearn.models.perception.tracking import align_rectangle, as_rectangle

@@ -1,4 +1,4 @@
-"""Issue 12, the door opened 90 deg seen off the normal (short VTK renders of the kitchen).
+"""The door opened 90 deg seen off the normal (short VTK renders of the kitchen).
 
 Opened 90 deg, the door's inner face lies within a few mm of the plane of its compartment's
 inner side wall: RANSAC gives them one plane, and unless the seam between them (the hinge's
@@ -19,8 +19,9 @@ import dataclasses
 import numpy as np
 import pytest
 
-import mmlearn.models.perception.detection as fd
-from mmlearn.apps.track_fronts import match_front
+import mmlearn.models.perception.detection.gaps as gaps
+import mmlearn.models.perception.detection.rectify as rectify
+from mmlearn.models.perception.evaluation import match_front
 from mmlearn.diagrams.perception.diagram import FrontPerceptionConfig, MakeFrontPerceptionDiagram
 from mmlearn.models.perception.detection import FrontDetectorConfig, Plane, detect_fronts
 from mmlearn.models.common.camera import PinholeIntrinsics
@@ -66,8 +67,8 @@ def test_door_opened_90_deg_off_the_normal_is_found(angle, monkeypatch):
                                                      gap_rectify_planes=0))
     assert not old, hit_old
     if angle == 15.0:  # grazing: the seam is found only counting image pixels in the view
-        stretch = fd._view_stretch  # across the band: 1 (image pixels = view pixels)
-        monkeypatch.setattr(fd, "_view_stretch", lambda Hi, ic, Wm, sub, h, across=True: (
+        stretch = gaps._view_stretch  # across the band: 1 (image pixels = view pixels)
+        monkeypatch.setattr(gaps, "_view_stretch", lambda Hi, ic, Wm, sub, h, across=True: (
             np.ones(len(ic), np.float32) if across else stretch(Hi, ic, Wm, sub, h, False)))
         unstretched, hit_u = _found(frame, FrontDetectorConfig())
         assert not unstretched, hit_u
@@ -79,14 +80,14 @@ def test_view_stretch_counts_view_pixels_per_image_pixel():
     it stretches more."""
     ic = np.arange(0, 40, 7)
     for horizontal in (True, False):
-        assert np.allclose(fd._view_stretch(np.eye(3), ic, 10, 4, horizontal), 1.0)
+        assert np.allclose(gaps._view_stretch(np.eye(3), ic, 10, 4, horizontal), 1.0)
         half = np.diag([0.5, 0.5, 1.0])  # view -> image: view pixels are half image pixels
-        assert np.allclose(fd._view_stretch(half, ic, 10, 4, horizontal), 2.0)
-        assert np.allclose(fd._view_stretch(np.diag([2.0, 2.0, 1.0]), ic, 10, 4, horizontal),
+        assert np.allclose(gaps._view_stretch(half, ic, 10, 4, horizontal), 2.0)
+        assert np.allclose(gaps._view_stretch(np.diag([2.0, 2.0, 1.0]), ic, 10, 4, horizontal),
                            1.0)
     Hi = np.array([[0.5, 0.0, 0.0], [0.0, 0.5, 0.0], [0.002, 0.0, 1.0]])
     # vertical lines: line-mean rows are view x; flat index x * Wm + block along the line
-    s = fd._view_stretch(Hi, np.array([0, 90 * 10]), 10, 4, False)  # view x = 0 and 90
+    s = gaps._view_stretch(Hi, np.array([0, 90 * 10]), 10, 4, False)  # view x = 0 and 90
     assert s[0] == pytest.approx(2.0, rel=1e-3)
     assert s[1] == pytest.approx(2.0 * 1.18 ** 2, rel=1e-3)  # 1 / (du/dx), du/dx = 0.5 / w^2
 
@@ -106,18 +107,18 @@ def test_rectified_views_only_for_vertical_planes():
 
     # a vertical plane turned 50 deg about the vertical: its horizontal sides are slanted
     vertical = plane([np.sin(np.radians(50)), 0.0, -np.cos(np.radians(50))])
-    assert fd._rectified_view(K, vertical, down, cfg, 8, 4) is not None
+    assert rectify._rectified_view(K, vertical, down, cfg, 8, 4) is not None
     # the same plane tilted 30 deg out of vertical: none with the default 20 deg, one with 40
     tilted = plane([np.sin(np.radians(50)) * np.cos(np.radians(30)), -np.sin(np.radians(30)),
                     -np.cos(np.radians(50)) * np.cos(np.radians(30))])
-    assert fd._rectified_view(K, tilted, down, cfg, 8, 4) is None
-    assert fd._rectified_view(K, tilted, down, dataclasses.replace(
+    assert rectify._rectified_view(K, tilted, down, cfg, 8, 4) is None
+    assert rectify._rectified_view(K, tilted, down, dataclasses.replace(
         cfg, gap_rectify_max_tilt_deg=40.0), 8, 4) is not None
     # the floor 1 m below the camera, its region at the image's lower left: slanted there
     # (a view with no tilt limit), none by default
     floor = Plane(n=np.array([0.0, -1.0, 0.0]), d=1.0, support=500, bbox=(40, 59, 0, 40))
-    assert fd._rectified_view(K, floor, down, cfg, 8, 4) is None
-    assert fd._rectified_view(K, floor, down, dataclasses.replace(
+    assert rectify._rectified_view(K, floor, down, cfg, 8, 4) is None
+    assert rectify._rectified_view(K, floor, down, dataclasses.replace(
         cfg, gap_rectify_max_tilt_deg=90.0), 8, 4) is not None
 
 

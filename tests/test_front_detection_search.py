@@ -1,5 +1,5 @@
-"""The front detector's greedy side moves (thesis 5.1.2) and rotation polish after branch
-pspeed2: the vectorised greedy (corner indices and legality slacks kept in a per-start state,
+"""The front detector's greedy side moves (thesis 5.1.2) and rotation polish: the vectorised
+greedy (corner indices and legality slacks kept in a per-start state,
 tables of any row length in one flat buffer) takes the same moves as a plain move-by-move
 greedy on direct sums of the cost grid; the rotation polishes of several rectangles run
 together give what each gives alone."""
@@ -10,9 +10,11 @@ import cv2
 import numpy as np
 import pytest
 
-from mmlearn.models.perception.detection import (FREE, IN_PLANE, OCCLUDED, UNKNOWN,
-                                                 FrontDetectorConfig, Plane, _greedy, _greedy_flat,
-                                                 _make_grid, _MOVES, _polish_rotations, _stack)
+from mmlearn.models.perception.detection import FrontDetectorConfig, Plane
+from mmlearn.models.perception.detection.grid import _make_grid
+from mmlearn.models.perception.detection.labels import FREE, IN_PLANE, OCCLUDED, UNKNOWN
+from mmlearn.models.perception.detection.search import (_greedy, _greedy_flat, _MOVES,
+                                                         _polish_rotations, _stack)
 from mmlearn.models.common.camera import PinholeIntrinsics
 
 ALPHA = 0.05
@@ -180,7 +182,8 @@ def test_in_plane_cells_equal_flatnonzero():
     """The r-th in-plane cells found from the in-plane table's row totals are those of
     np.flatnonzero on the whole grid (random grids, every rank, rows without in-plane
     cells)."""
-    from mmlearn.models.perception.detection import _Grid, _in_plane_cells, _sats
+    from mmlearn.models.perception.detection.grid import _Grid, _sats
+    from mmlearn.models.perception.detection.search import _in_plane_cells
 
     rng = np.random.default_rng(5)
     for shape in ((1, 1), (7, 3), (40, 57)):

@@ -1,6 +1,5 @@
-"""The front detector's helpers after branch pspeed3 (cheaper rotation polish, edge refinement,
-plane axes and in-rectangle refit, the same rectangles): the hand-written 3-vector cross
-product is np.cross's; a cost image rectified onto a plane grid is the cost table applied to
+"""The front detector's rectified grids: the hand-written 3-vector cross product is
+np.cross's; the plane axes are right-handed with e2 down; a cost image rectified onto a plane grid is the cost table applied to
 the rectified labels (cells outside the image and behind the camera included); the rotation
 polish's returned tables are those of its best window made from scratch."""
 
@@ -8,10 +7,12 @@ import math
 
 import numpy as np
 
-from mmlearn.models.perception.detection import (FREE, GAP, IN_PLANE, OCCLUDED, OUTSIDE, UNKNOWN,
-                                                 FrontDetectorConfig, _cross3, _greedy, _make_grid,
-                                                 _objective, _plane_axes, _polish_rotations,
-                                                 _sats, _warp_labels)
+from mmlearn.models.perception.detection import FrontDetectorConfig
+from mmlearn.models.perception.detection.grid import (_cross3, _make_grid, _plane_axes, _sats,
+                                                       _warp_labels)
+from mmlearn.models.perception.detection.labels import (FREE, GAP, IN_PLANE, OCCLUDED, OUTSIDE,
+                                                         UNKNOWN)
+from mmlearn.models.perception.detection.search import _greedy, _objective, _polish_rotations
 from mmlearn.models.common.camera import PinholeIntrinsics
 
 

@@ -1,5 +1,4 @@
-"""The front detector's rectified views after branch pspeed4 (the same rectangles, less work):
-a view reads only the image pixels inside :func:`_view_footprint` (z' computed there only
+"""The front detector's rectified views: a view reads only the image pixels inside :func:`_view_footprint` (z' computed there only
 gives the very same warped image), and :func:`_gap_mask_rectified`'s one packed warp back
 gives the masks of two separate nearest-neighbour warps."""
 
@@ -8,8 +7,10 @@ import math
 import cv2
 import numpy as np
 
-import mmlearn.models.perception.detection as fd
-from mmlearn.models.perception.detection import FrontDetectorConfig, Plane, _view_footprint
+from mmlearn.models.perception.detection import FrontDetectorConfig, Plane
+from mmlearn.models.perception.detection.gaps import _gap_mask
+from mmlearn.models.perception.detection.rectify import (_gap_mask_rectified, _rectified_view,
+                                                          _view_footprint)
 from mmlearn.models.common.camera import PinholeIntrinsics
 
 K = PinholeIntrinsics(width=640, height=480, fx=577.3, fy=577.3, cx=319.5, cy=239.5)
@@ -25,7 +26,7 @@ def _views():
                       (-60, (0, 30, 0, 79))):
         a = math.radians(ang)
         pl = Plane(n=np.array([math.sin(a), 0.0, -math.cos(a)]), d=1.5, support=500, bbox=bbox)
-        v = fd._rectified_view(K, pl, DOWN, cfg, 8, 4)
+        v = _rectified_view(K, pl, DOWN, cfg, 8, 4)
         assert v is not None, (ang, bbox)
         out.append(v)
     return out
@@ -77,7 +78,7 @@ def test_gap_mask_rectified_packed_warp_back_is_two_warps():
     s = (d * xs * e1[0] + d * e1[2]) % 0.3
     valid = (d > 0) & (s > 0.005)
     dzero = np.where(valid, d, np.float32(0.0))
-    res = fd._gap_mask_rectified(dzero, valid, K, xs, ys, view, cfg)
+    res = _gap_mask_rectified(dzero, valid, K, xs, ys, view, cfg)
     assert res is not None
     wide, thin = res
     assert thin.any() and (wide >= thin).all()
@@ -90,7 +91,7 @@ def test_gap_mask_rectified_packed_warp_back_is_two_warps():
     vw = ww >= 0.5
     zw = zw / np.maximum(ww, np.float32(1e-6))
     zw[~vw] = 0.0
-    gw, gt = fd._gap_mask(zw, vw, f, cfg, zw, scale_floor=True, to_image=np.linalg.inv(Hm))
+    gw, gt = _gap_mask(zw, vw, f, cfg, zw, scale_floor=True, to_image=np.linalg.inv(Hm))
     back = dict(flags=cv2.WARP_INVERSE_MAP | cv2.INTER_NEAREST,
                 borderMode=cv2.BORDER_CONSTANT, borderValue=0)
     size = (K.width, K.height)

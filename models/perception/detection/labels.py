@@ -1,0 +1,340 @@
+"""Stage ``masks``, labels: one Eq. 5.2 label image per plane.
+
+In-plane ``|s| <= L``, occluded ``s > L``, free ``s < -L``, unknown without a measurement (``s``
+the signed distance, normal towards the camera). Where two crossing planes (or an offset layer
+and its parent) are both within L of a pixel, only the nearer one keeps it
+(:func:`_crossings`); the surface check marks in-plane pixels whose neighbourhood lies off the
+plane's surface ``OFF_SURFACE`` (:func:`_surface_check`); the reveals are ``GAP``. Planes tilted
+by a neighbour crossing them at a shallow angle are refitted on their own pixels
+(:func:`_refit_on_own_pixels`)."""
+
+import math
+
+import cv2
+import numpy as np
+
+from mmlearn.models.perception.detection.planes import _fit_plane_many, Plane
+
+
+# mask labels (Eq. 5.2), plus cells of the rectified grid that the camera does not see
+IN_PLANE, FREE, OCCLUDED, UNKNOWN, OUTSIDE = 0, 1, 2, 3, 4
+
+
+# a measured pixel within L of the plane that the surface check found off its surface (a
+# panel's edge face seen obliquely): costs like UNKNOWN, but is not the plane's surface for the
+# edge refinement
+OFF_SURFACE = 5
+
+
+# a pixel on a thin line that lies behind the measured surface on both sides of it, or has no
+# return between measured lines on both sides (the reveal between two flush fronts): costs
+# like FREE, and a rectangle's side along such a line is observed to end there (recall)
+GAP = 6
+
+
+def _label_images(d, valid, ray_x, ray_y, planes, L, crossing_angle_deg,
+                  smooth_px=5, surface=None, gap=None, keep_distances=False):
+    """Eq. 5.2 labels of every pixel for every plane n . p + dpl = 0. The signed distance of
+    the pixel's point p = depth * (ray_x, ray_y, 1) is depth * (n . ray) + dpl (separable in
+    rows and columns). A pixel within L of two planes that cross at more than
+    ``crossing_angle_deg`` and nearer to the one with the larger support is free for the
+    other: in that strip the surface seen is the larger plane's (e.g. the cabinet's face next
+    to the hinge of an open door, which would otherwise widen the door by L / sin(angle)).
+    An offset layer and the plane it was split from (``Plane.parent``, :func:`_offset_layers`)
+    share their pixels the same way, whatever their angle; a pixel the other plane keeps is
+    OCCLUDED for a plane it lies in front of and FREE for one it lies behind.
+    Otherwise pixels belong to every plane they are within L of (5.1.1).
+    Returns the label images (a list, one uint8 image per plane), and with
+    ``keep_distances`` also the (planes, H, W) float32 signed distances."""
+    P = len(planes)
+    S = np.empty((P,) + d.shape, np.float32)
+    L = np.broadcast_to(np.asarray(L, np.float32), d.shape).copy() if np.ndim(L) == 0 else L
+    negL = -L
+    unknown = np.multiply((~valid).view(np.uint8), np.uint8(UNKNOWN))  # 0 or UNKNOWN
+    labs = []
+    occl = np.empty(d.shape, np.uint8)
+    for k, pl in enumerate(planes):
+        n = pl.n
+        Sk = S[k]  # n . ray, times the depth, plus the offset: in place
+        np.add(np.float32(n[0]) * ray_x + np.float32(n[2]), np.float32(n[1]) * ray_y, out=Sk)
+        np.multiply(Sk, d, out=Sk)
+        np.add(Sk, np.float32(pl.d), out=Sk)
+        lab = cv2.compare(Sk, negL, cv2.CMP_LT)
+        np.bitwise_and(lab, np.uint8(FREE), out=lab)
+        cv2.compare(Sk, L, cv2.CMP_GT, dst=occl)
+        np.bitwise_and(occl, np.uint8(OCCLUDED), out=occl)
+        lab |= occl
+        lab |= unknown                                   # 3 | anything = UNKNOWN
+        if pl.parent >= 0 and pl.region is not None:
+            # an offset layer is its region's surface only: elsewhere its infinite plane,
+            # a degree off its parent's, runs through the parent's fronts
+            r0, r1, c0, c1 = pl.region
+            keep = lab[r0:r1, c0:c1].copy()
+            lab[lab == IN_PLANE] = FREE
+            lab[r0:r1, c0:c1] = keep
+        labs.append(lab)
+    _crossings(labs, S, planes, valid, crossing_angle_deg, smooth_px)
+    if surface is not None:  # after the crossings: their strips would bias the means
+        for k in range(P):
+            _surface_check(labs[k], S[k], *surface)
+    if gap is not None:  # reveals (_gap_mask): GAP unless something is in front
+        gi = np.flatnonzero(gap.reshape(-1))
+        if len(gi):
+            for lab in labs:
+                flat = lab.reshape(-1)
+                sub = flat[gi]
+                flat[gi] = np.where(sub == OCCLUDED, sub, np.uint8(GAP))
+    return (labs, S) if keep_distances else labs
+
+
+_CROSSING_MIN_SHARE = 0.1
+
+
+def _crossings(labs, S, planes, valid, crossing_angle_deg, smooth_px):
+    """In place: where two crossing planes are both within L of a pixel, the pixel stays
+    in-plane only for the nearer one (see :func:`_label_images` and below)."""
+    P = len(planes)
+    if P < 2:
+        return
+    count = np.zeros(valid.shape, np.uint8)
+    for lab in labs:
+        count += (lab == IN_PLANE).view(np.uint8)  # (bytes + bytes: no per-element cast)
+    shared = np.flatnonzero(count > 1)
+    if len(shared) == 0:
+        return
+    near_sh = np.array([lab.reshape(-1)[shared] == IN_PLANE for lab in labs])
+    N = np.array([pl.n for pl in planes])
+    sup = np.array([pl.support for pl in planes])
+    # [k, j]: j may take pixels from k. Planes crossing at less than 30 deg share a wide strip
+    # (L / sin(angle)): there each keeps the pixels nearer to it (letting only the plane of
+    # larger support take them widened a door opened 11-16 deg and seen from 0.8 m, larger in
+    # the image than the neighbouring front, by the 2-4 cm strip of that front within L of
+    # the door's plane next to the hinge, measured). At steeper crossings only the plane of
+    # larger support takes them: the strip is narrow, and a plane whose surface is elsewhere
+    # cut a one-pixel line through a far drawer, which was then lost (measured).
+    cosang = np.abs(N @ N.T)
+    crossing = ((cosang < math.cos(math.radians(crossing_angle_deg)))
+                & ((cosang > math.cos(math.radians(30.0))) | (sup[None, :] >= sup[:, None])))
+    # a plane with under _CROSSING_MIN_SHARE of the other's support takes no pixels from it
+    # (a spurious small plane of a few dozen samples tilted ~12 deg through a cabinet's face
+    # cut a FREE line through a closed drawer at 2.2 m, which the greedy moves then did not
+    # cross)
+    crossing &= sup[None, :] >= _CROSSING_MIN_SHARE * sup[:, None]
+    # an offset layer and its parent plane: each keeps the pixels nearer to it, whatever
+    # their angle and supports (a drawer pulled out 16 mm is parallel to the cabinet's face,
+    # within L of it, and has a twentieth of its support)
+    layer = np.zeros((P, P), bool)
+    for j, pl in enumerate(planes):
+        if 0 <= pl.parent < P:
+            layer[pl.parent, j] = layer[j, pl.parent] = True
+    crossing |= layer
+    if not crossing.any():
+        return
+    # Which plane is nearer is decided on the two planes' signed distances, each summed over
+    # the smooth_px x smooth_px pixels around that are within L of both (the noise of one
+    # pixel would otherwise fray the edge along the crossing): the plane whose mean is nearer
+    # zero keeps the pixel. Near the crossing line the surface seen beside it lies on one
+    # plane on either side and off the other by x sin(angle), so the window means keep the
+    # order of the centre pixel's true distances. (Averaging each plane's distance over every
+    # measured pixel around, as before, mixed in the pixels of a 5 mm reveal and of the other
+    # surface: at 2.3 m the door's hinge side lost ~1 cm to the cabinet's face, measured.)
+    H, W = valid.shape
+    ys, xs = np.divmod(shared, W)
+    r = smooth_px // 2
+    take = np.zeros(near_sh.shape, bool)  # [k, i]: shared pixel i is nearer another plane
+    take_layer = np.zeros(near_sh.shape, bool) if layer.any() else None
+    for k in range(P):
+        for j in range(k + 1, P):
+            if not (crossing[k, j] or crossing[j, k]):
+                continue
+            both = np.flatnonzero(near_sh[k] & near_sh[j])
+            if len(both) == 0:
+                continue
+            by, bx = ys[both], xs[both]
+            # the pair's pixels' bounding box with the window's margin
+            y0, y1 = max(0, int(by.min()) - r), min(H, int(by.max()) + r + 1)
+            x0, x1 = max(0, int(bx.min()) - r), min(W, int(bx.max()) + r + 1)
+            by, bx = by - y0, bx - x0
+            w = np.zeros((y1 - y0, x1 - x0), np.float32)
+            w[by, bx] = 1.0
+            ak = np.abs(cv2.boxFilter(S[k][y0:y1, x0:x1] * w, -1, (smooth_px, smooth_px),
+                                      normalize=False)[by, bx])
+            aj = np.abs(cv2.boxFilter(S[j][y0:y1, x0:x1] * w, -1, (smooth_px, smooth_px),
+                                      normalize=False)[by, bx])
+            if layer[k, j]:  # (a layer pair: both directions, sign-dependent labels)
+                # (only in the layer's region: outside it the layer has no in-plane pixels)
+                take_layer[k, both] |= aj < ak
+                take_layer[j, both] |= ak < aj
+                continue
+            if crossing[k, j]:
+                take[k, both] |= aj < ak
+            if crossing[j, k]:
+                take[j, both] |= ak < aj
+    for k in range(P):
+        if take[k].any():
+            flat = labs[k].reshape(-1)
+            flat[shared[take[k]]] = FREE                # in-plane -> FREE
+        if take_layer is not None and take_layer[k].any():
+            # the other layer keeps them: in front of plane k (s > 0) they hide it
+            # (OCCLUDED), behind it the camera sees through it (FREE)
+            px = shared[take_layer[k] & ~take[k]]
+            flat = labs[k].reshape(-1)
+            flat[px] = np.where(S[k].reshape(-1)[px] > 0, np.uint8(OCCLUDED), np.uint8(FREE))
+
+
+def _surface_check(lab, S, Lm, win):
+    """In place: an in-plane pixel whose in-plane neighbours (a ``win`` x ``win`` square) lie
+    on average farther than ``Lm`` from the plane refitted to the in-plane pixels' distances
+    (not from the detected plane, whose fit may be tilted) becomes UNKNOWN. Single pixels of a plane
+    scatter around it by the camera's noise (their mean within a fraction of it); the side
+    face of a panel seen around its edge (a door's 19 mm edge) lies within L of the panel's
+    face too, but wholly behind it, and would otherwise widen the front by up to
+    thickness x tan(incidence) (measured: 2 cm at 69 deg)."""
+    m8 = cv2.compare(lab, IN_PLANE, cv2.CMP_EQ)
+    x, y, w, h = cv2.boundingRect(m8)  # work on the in-plane pixels' bounding box only
+    if w == 0 or h == 0:
+        return
+    r = win // 2
+    y0, y1, x0, x1 = max(0, y - r), min(lab.shape[0], y + h + r), max(0, x - r), min(
+        lab.shape[1], x + w + r)
+    m8b = m8[y0:y1, x0:x1]
+    inpb = m8b > 0
+    in01 = inpb.view(np.uint8)
+    # in-plane neighbours of each pixel (exact integers, from the 0/1 bytes)
+    den = cv2.boxFilter(in01, cv2.CV_32F, (win, win), normalize=False)
+    # relative to the plane refitted to the in-plane pixels' distances (an affine function
+    # of the pixel, least squares), not to the fitted plane: a plane 1-2 deg off (a sliding
+    # panel 4.6 cm in front of its cabinet's face) departs from one side of a 0.5 m panel by
+    # more than the surface distance and the check removed that half with its handle
+    # (handle regression: 0.154 m)
+    Sb = S[y0:y1, x0:x1]
+    vv, uu = np.nonzero(inpb[::4, ::4])  # every 4th pixel: enough for 3 numbers
+    if len(vv) >= 3:
+        A = np.column_stack([4.0 * uu, 4.0 * vv, np.ones(len(uu))])
+        b = Sb[4 * vv, 4 * uu].astype(np.float64)
+        lim = 2.0 * Lm[y0:y1, x0:x1][4 * vv, 4 * uu].astype(np.float64)
+        coef = _affine_lstsq(A, b)
+        # two trimmed refits on the pixels within twice the surface distance of the last
+        # fit: the other surfaces within L of the plane (a neighbour's face, a panel's edge
+        # face, the crossing strips) pulled the plain least-squares ramp of a door opened
+        # 60 deg 2 mm off, and the check then cut a wedge out of the door (measured)
+        for _ in range(2):
+            keep = np.abs(A @ coef - b) <= lim
+            if np.count_nonzero(keep) < 3:
+                break
+            coef = _affine_lstsq(np.compress(keep, A, axis=0), b[keep])
+        # Sb - ramp, in place in one buffer (the ramp is (a x + b y) + c, float32)
+        dev = np.add(np.float32(coef[0]) * np.arange(x1 - x0, dtype=np.float32)[None, :],
+                     np.float32(coef[1]) * np.arange(y1 - y0, dtype=np.float32)[:, None])
+        dev += np.float32(coef[2])
+        np.subtract(Sb, dev, out=dev)
+    else:
+        dev = Sb.copy()
+    dev *= in01.astype(np.float32)
+    num = cv2.boxFilter(dev, -1, (win, win), normalize=False)
+    # den >= 1 at every in-plane pixel (its own): max(den, 1) = den where it matters
+    np.abs(num, out=num)
+    den *= Lm[y0:y1, x0:x1]
+    # bad: in-plane (label 0) and off the surface; OFF_SURFACE by or-ing it in (byte masks)
+    bad = cv2.compare(num, den, cv2.CMP_GT)
+    np.bitwise_and(bad, m8b, out=bad)
+    np.bitwise_and(bad, np.uint8(OFF_SURFACE), out=bad)
+    labb = lab[y0:y1, x0:x1]
+    np.bitwise_or(labb, bad, out=labb)
+
+
+def _affine_lstsq(A: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Least-squares coefficients of ``A`` (k, 3) = [u, v, 1] for ``b`` (k,): the normal
+    equations of the centred columns (2 x 2, closed form; 10-50x faster than
+    ``np.linalg.lstsq``'s SVD, the same coefficients up to rounding ~1e-15); ``lstsq`` when
+    the points are (nearly) on one line."""
+    u, v = A[:, 0], A[:, 1]
+    k = len(b)
+    mu, mv, mb = u.sum() / k, v.sum() / k, b.sum() / k
+    du, dv, db = u - mu, v - mv, b - mb
+    suu, svv, suv = du @ du, dv @ dv, du @ dv
+    det = suu * svv - suv * suv
+    if not det > 1e-9 * suu * svv:
+        return np.linalg.lstsq(A, b, rcond=None)[0]
+    sub, svb = du @ db, dv @ db
+    a = (svv * sub - suv * svb) / det
+    c = (suu * svb - suv * sub) / det
+    return np.array([a, c, mb - a * mu - c * mv])
+
+
+def _refit_on_own_pixels(planes, labels, Pc, Lmap, min_change_deg, crossing_angle_deg,
+                         rounds=3, max_points=40000, max_change_deg=5.0, min_support=100):
+    """Planes that cross another plane at a shallow angle (between ``crossing_angle_deg`` and
+    30 deg) refitted on their own pixels: those in-plane for them after the crossings
+    (:func:`_crossings`), within L / 2 of them (as the second round of
+    :func:`refine_plane_fullres`) and nearer to them than to any such crossing plane within L
+    of the pixel; ``rounds`` times (the nearer plane is decided with the refitted planes;
+    planes that are parallel within ``crossing_angle_deg``, e.g. the flush closed fronts of
+    one cabinet, are left alone: their pixels lie within noise of both). None if
+    no plane's normal turns by ``min_change_deg`` (deg) or more (and less than
+    ``max_change_deg``); else the list with every such plane replaced. Planes of fewer than
+    ``min_support`` RANSAC samples (a few rows of the sample grid) are left alone: their own
+    pixels are too few for a refit that is not mostly noise (two such planes of 29-31 samples
+    turned by 0.6-1.7 deg and lost a drawer at 2.3 m, measured).
+
+    Why: RANSAC and :func:`refine_plane_fullres` count every pixel within L (then L / 2) of a
+    plane. A door opened by a few degrees crosses the cabinet's face at that angle, so the
+    face beside its hinge lies within L of the door's plane over L / sin(angle) (7 cm at
+    8 deg) and tilts the fitted plane towards it (by 2.1 deg at 8 deg, seen from 0.8 m,
+    measured on a noise-free render); the door's own surface by the hinge then lies 8 mm off
+    its plane, nearer the face's plane, and the crossing gave a 5 cm strip of the door to the
+    face (the door's hinge side 46-53 mm short at 5-8 deg). Refitted on the pixels nearer to
+    it, the plane is the door's own; the labels are then made again.
+    """
+    if len(planes) < 2:
+        return None
+    N0 = np.array([pl.n for pl in planes])
+    cosang = np.abs(N0 @ N0.T)
+    partners = ((cosang < math.cos(math.radians(crossing_angle_deg)))
+                & (cosang > math.cos(math.radians(30.0))))
+    if not partners.any():  # (before the pixels are gathered: nothing to refit)
+        return None
+    H, W = labels[0].shape
+    step = max(1, int(math.ceil(math.sqrt(H * W / max_points))))
+    P = Pc[::step, ::step].reshape(-1, 3).astype(np.float64)
+    L = Lmap[::step, ::step].reshape(-1).astype(np.float64)
+    own0 = np.array([lab[::step, ::step].reshape(-1) == IN_PLANE for lab in labels])
+    ok = np.isfinite(P[:, 2]) & own0.any(axis=0)
+    # (np.compress: the same rows as boolean indexing, ~5x faster on 2-D arrays)
+    P, L, own0 = (np.compress(ok, P, axis=0), np.compress(ok, L),
+                  np.compress(ok, own0, axis=1))
+    cur = list(planes)
+    cos10 = math.cos(math.radians(10.0))
+    # the distances are needed to the refitted planes and their partners only: those rows of
+    # the (planes, pixels) distances (the same products; rows of pixels run fast)
+    refit = [k for k, pl in enumerate(planes) if partners[k].any() and pl.support >= min_support]
+    rows = sorted(set(refit) | set(np.flatnonzero(partners[refit].any(axis=0)).tolist()))
+    row_of = {k: i for i, k in enumerate(rows)}
+    if not refit:
+        return None
+    halfL = 0.5 * L
+    for _ in range(rounds):
+        N = np.array([pl.n for pl in cur])
+        D = np.array([pl.d for pl in cur])
+        A = (P @ N.T).T[rows]                        # (planes, pixels) distances, m
+        A += D[rows, None]
+        np.abs(A, out=A)
+        Ain = np.where(A <= L, A, np.inf)
+        nxt = list(cur)
+        for k in refit:
+            near = Ain[[row_of[j] for j in np.flatnonzero(partners[k])]].min(axis=0)
+            ak = A[row_of[k]]
+            sel = own0[k] & (ak <= halfL) & (ak <= near)
+            if sel.sum() < 10:
+                continue
+            n, d = _fit_plane_many(np.compress(sel, P, axis=0))
+            if n @ planes[k].n < cos10:
+                continue
+            pl = cur[k]
+            nxt[k] = Plane(n=n, d=d, support=pl.support, bbox=pl.bbox)
+        cur = nxt
+    # a turn beyond max_change_deg is no correction of a tilt but a different surface (a
+    # small plane of a few rows whose own pixels fit another plane): kept as it was
+    cmin, cmax = (math.cos(math.radians(a)) for a in (min_change_deg, max_change_deg))
+    keep = [b if cmax <= float(a.n @ b.n) < cmin else a for a, b in zip(planes, cur)]
+    return None if all(a is b for a, b in zip(planes, keep)) else keep
