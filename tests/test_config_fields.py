@@ -1,5 +1,8 @@
 """Configuration fields declared with their units and ranges (mmlearn.models.common.config)."""
 
+import dataclasses
+import sys
+import types
 from dataclasses import dataclass, replace
 
 import pytest
@@ -68,3 +71,39 @@ def test_kinds_ranges_and_nested_configs():
     validate_fields(replace(o, extra=Inner(gain=0.2), flag=False))
     a, b = Outer(), Outer()
     assert a.inner is not b.inner and a.many[0] is not b.many[0]
+
+
+_FUTURE_SOURCE = '''
+from __future__ import annotations
+from dataclasses import dataclass
+from mmlearn.models.common.config import param
+
+@dataclass
+class Inner:
+    gain: float = param(1.0, gt=0)
+
+@dataclass
+class Outer:
+    flag: bool = param(True)
+    rate_hz: float = param(30.0, gt=0)
+    inner: Inner = param(Inner(), factory=True, nested=Inner)
+    extra: Inner | None = param(None, optional=True, nested=Inner)
+'''
+
+
+def test_yaml_loads_a_config_declared_with_string_annotations():
+    from pydrake.common.yaml import yaml_load_typed
+
+    mod = types.ModuleType("future_config")
+    sys.modules["future_config"] = mod
+    try:
+        exec(compile(_FUTURE_SOURCE, "future_config", "exec"), mod.__dict__)
+        Outer, Inner = mod.Outer, mod.Inner
+        assert [f.type for f in dataclasses.fields(Outer)][:2] == [bool, float]
+        o = yaml_load_typed(schema=Outer, data="flag: false\nrate_hz: 10\ninner: {gain: 2.0}\n"
+                                               "extra: {gain: 3.0}\n")
+        assert o == Outer(flag=False, rate_hz=10.0, inner=Inner(2.0), extra=Inner(3.0))
+        with pytest.raises(RuntimeError, match="rate_hzz"):
+            yaml_load_typed(schema=Outer, data="rate_hzz: 10\n")
+    finally:
+        del sys.modules["future_config"]

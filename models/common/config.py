@@ -29,6 +29,7 @@ import copy
 import dataclasses
 import math
 import numbers
+import typing
 from typing import Any
 
 import numpy as np
@@ -78,7 +79,35 @@ def param(default: Any = dataclasses.MISSING, *, unit: str = "", gt=None, ge=Non
         field_kw["default_factory"] = lambda: copy.deepcopy(value)
     elif default is not dataclasses.MISSING:
         field_kw["default"] = default
-    return dataclasses.field(metadata=meta, **field_kw)
+    f = dataclasses.field(metadata=meta, **field_kw)
+    return _Field(f.default, f.default_factory, f.init, f.repr, f.hash, f.compare, f.metadata,
+                  f.kw_only)
+
+
+class _Field(dataclasses.Field):
+    """A dataclass field whose ``type`` is the resolved annotation even in a module with
+    ``from __future__ import annotations`` (where the annotation is a string): Drake's
+    ``yaml_load_typed`` reads ``field.type`` and needs the type itself."""
+
+    __slots__ = ("_owner", "_annotation")
+
+    def __set_name__(self, owner, name):
+        self._owner = owner
+        super().__set_name__(owner, name)
+
+    @property
+    def type(self):
+        t = self._annotation
+        if isinstance(t, str) and getattr(self, "_owner", None) is not None:
+            try:
+                t = self._annotation = typing.get_type_hints(self._owner)[self.name]
+            except Exception:  # noqa: BLE001 - a name not defined yet: keep the string
+                pass
+        return t
+
+    @type.setter
+    def type(self, value):
+        self._annotation = value
 
 
 def field_spec(cls_or_obj, name: str) -> dict:
