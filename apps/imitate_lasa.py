@@ -47,13 +47,14 @@ from __future__ import annotations
 import json
 import sys
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass
 
 import numpy as np
 
 from mmlearn.apps.common.cli import (ArgumentParser, UsageError, check_out_file, fail,
                                      finish_viewing, frame_camera, json_clean, make_meshcat, name_list, nonneg_int,
                                      pos_float, progress, save_figure, save_html)
+from mmlearn.models.common.config import param, validate_fields
 from mmlearn.models.imitation.lasa import (DEVELOPMENT_SHAPES, LASA_SHAPES, MULTI_MODE_SHAPES, OBJECTS,
                                            ThesisReproducer, baseline_reproducer, evaluate_shape,
                                            load_shape, summarise)
@@ -89,34 +90,31 @@ class LasaConfig:
         progress: show a progress bar on stderr (when it is a terminal).
     """
 
-    shapes: list[str] = field(default_factory=lambda: list(DEVELOPMENT_SHAPES))
-    objects: list[str] = field(default_factory=lambda: list(ThesisReproducer.objects))
-    h: float = 0.02
-    dt: float = 0.02
-    full_covariance: bool = True
-    shrinkage: float = ThesisReproducer.shrinkage
-    gain: float = 1.0
-    folds: list[int] = field(default_factory=list)
-    plot: str = ""
-    html_out: str = ""
-    meshcat: bool = False
-    progress: bool = True
+    shapes: list[str] = param(list(DEVELOPMENT_SHAPES), length=(1, None), factory=True)
+    objects: list[str] = param(list(ThesisReproducer.objects), factory=True)
+    h: float = param(0.02, unit="s", gt=0)
+    dt: float = param(0.02, unit="s", gt=0)
+    full_covariance: bool = param(True)
+    shrinkage: float = param(ThesisReproducer.shrinkage, ge=0, le=1)
+    gain: float = param(1.0, gt=0, le=1)
+    folds: list[int] = param([], integer=True, ge=0, le=6, elements=True, factory=True)
+    plot: str = param("")
+    html_out: str = param("")
+    meshcat: bool = param(False)
+    progress: bool = param(True)
 
     def validate(self) -> "LasaConfig":
-        if not self.shapes:
-            raise ValueError("shapes: empty")
+        validate_fields(self)
         bad = [s for s in self.shapes if s not in LASA_SHAPES]
         if bad:
-            raise ValueError(f"shapes: unknown {', '.join(map(repr, bad))}; choose from "
-                             f"{', '.join(LASA_SHAPES)} or a group ({', '.join(SHAPE_GROUPS)})")
+            raise ValueError(f"LasaConfig: shapes: unknown {', '.join(map(repr, bad))}; choose "
+                             f"from {', '.join(LASA_SHAPES)} or a group "
+                             f"({', '.join(SHAPE_GROUPS)})")
         if len(set(self.shapes)) != len(self.shapes):
-            raise ValueError(f"shapes: a shape is listed twice in {self.shapes}")
-        badf = [f for f in self.folds if not (isinstance(f, (int, np.integer)) and 0 <= f < 7)]
-        if badf:
-            raise ValueError(f"folds: {badf} not in 0..6 (LASA has 7 demonstrations per shape)")
+            raise ValueError(f"LasaConfig: shapes: a shape is listed twice in {self.shapes}")
         ThesisReproducer(objects=tuple(self.objects), h=self.h, dt=self.dt,
                          full_covariance=self.full_covariance, shrinkage=self.shrinkage,
-                         gain=self.gain)  # checks them
+                         gain=self.gain)  # checks the objects
         return self
 
 

@@ -78,6 +78,7 @@ from mmlearn.apps.common.cli import (ArgumentParser, UsageError, check_out_file,
                                      json_clean, name_list, nonneg_int, pos_float, pos_int,
                                      save_figure)
 from mmlearn.diagrams.tactile.liquid_roll import liquid_roll_trial
+from mmlearn.models.common.config import param, validate_fields
 
 __all__ = ["LiquidDetectionConfig", "run", "report", "main", "record_features"]
 
@@ -122,52 +123,41 @@ class LiquidDetectionConfig:
         results, executor, jobs, ray_address, progress: the sweep runner's settings.
     """
 
-    containers: tuple = ("odwalla_half", "odwalla_empty", "water_half", "water_empty")
-    trials: int = 3
-    dummy: bool = True
-    with_weight: bool = False
-    roll_cycles: float = 2.0
-    roll_profile: str = "sweep"
-    feature: str = "coast_detrended"
-    coast_delay: float = COAST_DELAY
-    folds: int = 10
-    seed: int = 0
-    plot: str | None = None
-    results: str | None = None
-    executor: str = "local"
-    jobs: int | None = None
-    ray_address: str | None = None
-    progress: bool = False
+    containers: tuple = param(("odwalla_half", "odwalla_empty", "water_half", "water_empty"),
+                              length=(1, None))
+    trials: int = param(3, integer=True, ge=2)
+    dummy: bool = param(True)
+    with_weight: bool = param(False)
+    roll_cycles: float = param(2.0, ge=0.5)
+    roll_profile: str = param("sweep", choices=("sweep", "sine", "triangle"))
+    feature: str = param("coast_detrended")
+    coast_delay: float = param(COAST_DELAY, unit="s", ge=0, lt=0.3)
+    folds: int = param(10)
+    seed: int = param(0)
+    plot: str | None = param(None, optional=True)
+    results: str | None = param(None, optional=True)
+    executor: str = param("local")
+    jobs: int | None = param(None, optional=True)
+    ray_address: str | None = param(None, optional=True)
+    progress: bool = param(False)
 
 
 def _check(c: LiquidDetectionConfig) -> None:
     from mmlearn.diagrams.tactile.liquid_roll import LIQUID_CONTAINERS
+    from mmlearn.models.tactile.liquid import FEATURES
 
-    if not c.containers:
-        raise ValueError("containers: empty")
+    validate_fields(c)
     bad = [n for n in c.containers if n not in LIQUID_CONTAINERS]
     if bad:
         raise ValueError(f"containers: unknown {', '.join(map(repr, bad))}; choose from "
                          f"{', '.join(LIQUID_CONTAINERS)}")
     if len(set(c.containers)) != len(c.containers):
         raise ValueError("containers: a container is named twice")
-    if not (isinstance(c.trials, int) and c.trials >= 2):
-        raise ValueError(f"trials: expected at least 2 per container, got {c.trials!r}")
-    if c.roll_profile not in ("sweep", "sine", "triangle"):
-        raise ValueError(f"roll_profile: expected sweep, sine or triangle, got "
-                         f"{c.roll_profile!r}")
-    from mmlearn.models.tactile.liquid import FEATURES
-
     if c.feature not in FEATURES:
         raise ValueError(f"feature: expected one of {', '.join(FEATURES)}, got {c.feature!r}")
     if c.feature != "whole" and c.roll_profile == "sine":
         raise ValueError("feature: the coast feature needs constant-rate phases (roll_profile "
                          "sweep or triangle); the sine roll has none, use feature='whole'")
-    if not (isinstance(c.coast_delay, (int, float)) and np.isfinite(c.coast_delay)
-            and 0 <= c.coast_delay < 0.3):
-        raise ValueError(f"coast_delay: expected 0 <= delay < 0.3 s, got {c.coast_delay!r}")
-    if not (np.isfinite(c.roll_cycles) and c.roll_cycles >= 0.5):
-        raise ValueError(f"roll_cycles: expected >= 0.5, got {c.roll_cycles!r}")
     liq = [LIQUID_CONTAINERS[n][1] is not None for n in c.containers]
     if all(liq) or not any(liq):
         raise ValueError("containers: need at least one container with liquid and one "

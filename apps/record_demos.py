@@ -29,6 +29,7 @@ import numpy as np
 from mmlearn.apps.common.cli import (ArgumentParser, UsageError, check_out_file, fail,
                                      finish_viewing, json_clean, make_meshcat, nonneg_int,
                                      pos_float, pos_int, progress_bar, save_html)
+from mmlearn.models.common.config import param, validate_fields
 from mmlearn.models.imitation.teacher import TASKS
 
 __all__ = ["RecordDemosConfig", "run", "main"]
@@ -51,26 +52,18 @@ class RecordDemosConfig:
         meshcat: show it live.
     """
 
-    task: str = "pick_place"
-    demos: int = 4
-    seed: int = 0
-    out: str = ""
-    swap_tables: bool = False
-    board_scale: float = 1.0
-    with_obstacle: bool = False
-    html_out: str = ""
-    meshcat: bool = False
+    task: str = param("pick_place", choices=TASKS)
+    demos: int = param(4, integer=True, ge=1)
+    seed: int = param(0, integer=True, ge=0, lt=2147483)
+    out: str = param("")
+    swap_tables: bool = param(False)
+    board_scale: float = param(1.0, gt=0)
+    with_obstacle: bool = param(False)
+    html_out: str = param("")
+    meshcat: bool = param(False)
 
     def validate(self) -> None:
-        if self.task not in TASKS:
-            raise ValueError(f"task must be one of {', '.join(TASKS)}, got {self.task!r}")
-        if isinstance(self.demos, bool) or not isinstance(self.demos, int) or self.demos < 1:
-            raise ValueError(f"demos must be an integer >= 1, got {self.demos!r}")
-        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or \
-                not 0 <= self.seed < 2147483:
-            raise ValueError(f"seed must be an integer in [0, 2147483), got {self.seed!r}")
-        if not (np.isfinite(self.board_scale) and self.board_scale > 0):
-            raise ValueError(f"board_scale must be > 0, got {self.board_scale!r}")
+        validate_fields(self)
 
 
 def run(*, config: RecordDemosConfig, show_progress: bool = False) -> dict:

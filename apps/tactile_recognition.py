@@ -72,6 +72,7 @@ from mmlearn.apps.common.cli import (ArgumentParser, UsageError, check_out_file,
                                      json_clean, name_list, nonneg_int, pos_float, pos_int,
                                      save_figure)
 from mmlearn.diagrams.tactile.objects import object_grasp_trial
+from mmlearn.models.common.config import param, validate_fields
 
 __all__ = ["RecognitionExperimentConfig", "run", "report", "main", "grasp_specs",
            "evaluate", "THESIS_RATES", "SUBSETS", "STRATEGIES"]
@@ -111,25 +112,25 @@ class RecognitionExperimentConfig:
         progress: progress bar.
     """
 
-    grasps_per_class: int = 20
-    classes: tuple = ()
-    k: int = 50
-    alpha: float = 0.5
-    T: int = 10
-    recognitions: int = 200
-    cv_repeats: int = 5
-    k_sweep: bool = False
-    alpha_sweep: bool = False
-    informed: bool = False
-    informed_trials: int = 100
-    f_target: float = 15.0
-    seed: int = 0
-    plot: str | None = None
-    results: str | None = None
-    executor: str = "local"
-    jobs: int | None = None
-    ray_address: str | None = None
-    progress: bool = False
+    grasps_per_class: int = param(20, integer=True)
+    classes: tuple = param(())
+    k: int = param(50, integer=True, ge=1)
+    alpha: float = param(0.5, ge=0, le=1)
+    T: int = param(10, integer=True, ge=1)
+    recognitions: int = param(200, integer=True, ge=1)
+    cv_repeats: int = param(5, integer=True, ge=1)
+    k_sweep: bool = param(False)
+    alpha_sweep: bool = param(False)
+    informed: bool = param(False)
+    informed_trials: int = param(100)
+    f_target: float = param(15.0, unit="N")
+    seed: int = param(0)
+    plot: str | None = param(None, optional=True)
+    results: str | None = param(None, optional=True)
+    executor: str = param("local")
+    jobs: int | None = param(None, optional=True)
+    ray_address: str | None = param(None, optional=True)
+    progress: bool = param(False)
 
 
 # ----------------------------------------------------------------------------- grasps
@@ -457,17 +458,13 @@ def run(*, config: RecognitionExperimentConfig) -> dict:
 def _check(c: RecognitionExperimentConfig) -> None:
     from mmlearn.sdf.tactile_objects import CLASSES
 
+    validate_fields(c)
     if c.grasps_per_class < 2:
         raise ValueError(f"grasps_per_class: expected at least 2 (2-fold CV), got "
                          f"{c.grasps_per_class}")
     bad = [x for x in c.classes if x not in CLASSES]
     if bad:
         raise ValueError(f"classes: unknown {bad}; choose from {', '.join(CLASSES)}")
-    if not (np.isfinite(c.alpha) and 0.0 <= c.alpha <= 1.0):
-        raise ValueError(f"alpha: expected a number in [0, 1], got {c.alpha!r}")
-    for k in ("k", "T", "recognitions", "cv_repeats"):
-        if int(getattr(c, k)) < 1:
-            raise ValueError(f"{k}: expected a positive integer, got {getattr(c, k)!r}")
 
 
 # ----------------------------------------------------------------------------- output

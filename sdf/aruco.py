@@ -35,6 +35,8 @@ from pathlib import Path
 
 import numpy as np
 
+from mmlearn.models.common.config import param, validate_fields
+
 __all__ = ["ArucoSpec", "cache_dir", "marker_texture", "quad_mesh", "dictionary",
            "DICTIONARIES"]
 
@@ -71,35 +73,19 @@ class ArucoSpec:
             see the benchmark).
     """
 
-    dictionary: str = "DICT_4X4_50"
-    marker_size: float = 0.04
-    margin: float = 0.01
-    pixels_per_module: int = 16
-    first_id: int = 0
-    surface_offset: float = 0.0017
-    in_plane_angle_deg: float = 45.0
+    dictionary: str = param("DICT_4X4_50", choices=tuple(DICTIONARIES))
+    marker_size: float = param(0.04, unit="m", gt=0)
+    margin: float = param(0.01, unit="m", ge=0)
+    pixels_per_module: int = param(16, unit="px", integer=True, ge=2, le=64)
+    first_id: int = param(0, integer=True, ge=0)
+    surface_offset: float = param(0.0017, unit="m", ge=0, lt=0.1)
+    in_plane_angle_deg: float = param(45.0, unit="deg")
 
     def validate(self) -> None:
-        if self.dictionary not in DICTIONARIES:
-            raise ValueError(f"ArucoSpec.dictionary must be one of {sorted(DICTIONARIES)}, "
-                             f"got {self.dictionary!r}")
-        for k in ("marker_size", "margin", "surface_offset", "in_plane_angle_deg"):
-            v = getattr(self, k)
-            if not (isinstance(v, (int, float)) and math.isfinite(v)):
-                raise ValueError(f"ArucoSpec.{k} must be a finite number of metres, got {v!r}")
-        if not self.marker_size > 0:
-            raise ValueError(f"ArucoSpec.marker_size must be > 0 m, got {self.marker_size}")
-        if not 0 <= self.surface_offset < 0.1:
-            raise ValueError(f"ArucoSpec.surface_offset must be in [0, 0.1) m, got "
-                             f"{self.surface_offset}")
-        if not self.margin >= 0:
-            raise ValueError(f"ArucoSpec.margin must be >= 0 m, got {self.margin}")
-        if not (isinstance(self.pixels_per_module, int) and 2 <= self.pixels_per_module <= 64):
-            raise ValueError("ArucoSpec.pixels_per_module must be an integer in [2, 64], got "
-                             f"{self.pixels_per_module!r}")
-        if not (isinstance(self.first_id, int) and 0 <= self.first_id < self.n_ids):
-            raise ValueError(f"ArucoSpec.first_id must be an integer in [0, {self.n_ids}), "
-                             f"got {self.first_id!r}")
+        validate_fields(self)
+        if not self.first_id < self.n_ids:
+            raise ValueError(f"ArucoSpec: first_id must be an integer in [0, {self.n_ids}) for "
+                             f"{self.dictionary}, got {self.first_id!r}")
 
     @property
     def bits(self) -> int:

@@ -29,6 +29,7 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from mmlearn.models.common.config import param, validate_fields
 from mmlearn.models.common.sdf_writer import Box, Cylinder, Link, SdfModel, box_inertia, cylinder_inertia
 
 _MARKER_SIZE = 0.04  # edge of the square marker, m
@@ -358,28 +359,25 @@ class CabinetSpec:
     ``door_friction`` (N*m) and ``drawer_friction`` (N).
     """
 
-    width: float = 0.80
-    height: float = 0.90
-    depth: float = 0.45
-    drawer_height: float = 0.20
-    wall: float = 0.02
-    door_damping: float = 0.8
-    drawer_damping: float = 4.0
-    door_friction: float = 0.3
-    drawer_friction: float = 1.0
-    door_limit: float = math.radians(110)
-    drawer_limit: float = 0.38
-    handle_offset: float = 0.06  # handle distance from the door's free edge, m
+    width: float = param(0.80, unit="m", gt=0)
+    height: float = param(0.90, unit="m", gt=0)
+    depth: float = param(0.45, unit="m", gt=0)
+    drawer_height: float = param(0.20, unit="m", gt=0)
+    wall: float = param(0.02, unit="m", gt=0)
+    door_damping: float = param(0.8, unit="N*m*s/rad", ge=0)
+    drawer_damping: float = param(4.0, unit="N*s/m", ge=0)
+    door_friction: float = param(0.3, unit="N*m", ge=0)
+    drawer_friction: float = param(1.0, unit="N", ge=0)
+    door_limit: float = param(math.radians(110), unit="rad")
+    drawer_limit: float = param(0.38, unit="m")
+    handle_offset: float = param(0.06, unit="m")  # handle distance from the door's free edge
 
     def __post_init__(self):
-        for k in ("width", "height", "depth", "drawer_height", "wall"):
-            if not getattr(self, k) > 0:
-                raise ValueError(f"CabinetSpec.{k} must be > 0, got {getattr(self, k)}")
+        validate_fields(self)
         if self.drawer_height >= self.height - 0.2:
-            raise ValueError("CabinetSpec.drawer_height leaves no room for the doors")
-        for k in ("door_damping", "drawer_damping", "door_friction", "drawer_friction"):
-            if getattr(self, k) < 0:
-                raise ValueError(f"CabinetSpec.{k} must be >= 0, got {getattr(self, k)}")
+            raise ValueError(f"CabinetSpec: drawer_height ({self.drawer_height} m) leaves no room "
+                             f"for the doors: it must be < height - 0.2 m = "
+                             f"{self.height - 0.2:g} m")
 
 
 

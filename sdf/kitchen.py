@@ -33,10 +33,11 @@ Units: metres, kilograms, radians.
 
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
+from mmlearn.models.common.config import param, validate_fields
 from mmlearn.sdf.builders import _panel_inertia, _slab
 from mmlearn.models.common.sdf_writer import Box, SdfModel
 
@@ -76,59 +77,40 @@ class KitchenSpec:
         pose: x, y, yaw of the kitchen frame in the world (m, m, rad).
     """
 
-    door_width: float = THESIS_DOOR[0]
-    door_height: float = THESIS_DOOR[1]
-    drawer_width: float = THESIS_DRAWER[0]
-    drawer_height: float = THESIS_DRAWER[1]
-    door_hinge: str = "left"
-    front_thickness: float = 0.019
-    front_gap: float = 0.005
-    front_standoff: float = 0.002
-    plinth_height: float = 0.10
-    plinth_setback: float = 0.05
-    carcass_depth: float = 0.56
-    countertop_thickness: float = 0.03
-    countertop_overhang: float = 0.02
-    wall_gap: float = 0.02
-    wall_width: float = 6.0
-    wall_height: float = 2.4
-    neighbours: bool = True
-    table: bool = True
-    table_size: list[float] = field(default_factory=lambda: [0.8, 0.8, 0.74])
-    table_y: float = -1.45
-    drawer_depth: float = 0.45
-    door_limit: float = math.radians(120)
-    drawer_limit: float = 0.45
-    pose: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
+    door_width: float = param(THESIS_DOOR[0], unit="m", gt=0)
+    door_height: float = param(THESIS_DOOR[1], unit="m", gt=0)
+    drawer_width: float = param(THESIS_DRAWER[0], unit="m", gt=0)
+    drawer_height: float = param(THESIS_DRAWER[1], unit="m", gt=0)
+    door_hinge: str = param("left", choices=("left", "right"))
+    front_thickness: float = param(0.019, unit="m", gt=0)
+    front_gap: float = param(0.005, unit="m", gt=0)
+    front_standoff: float = param(0.002, unit="m", ge=0)
+    plinth_height: float = param(0.10, unit="m", gt=0)
+    plinth_setback: float = param(0.05, unit="m", ge=0)
+    carcass_depth: float = param(0.56, unit="m", gt=0)
+    countertop_thickness: float = param(0.03, unit="m", gt=0)
+    countertop_overhang: float = param(0.02, unit="m", ge=0)
+    wall_gap: float = param(0.02, unit="m", ge=0)
+    wall_width: float = param(6.0, unit="m", gt=0)
+    wall_height: float = param(2.4, unit="m", gt=0)
+    neighbours: bool = param(True)
+    table: bool = param(True)
+    table_size: list[float] = param([0.8, 0.8, 0.74], unit="m", length=3, gt=0, factory=True)
+    table_y: float = param(-1.45, unit="m")
+    drawer_depth: float = param(0.45, unit="m", gt=0)
+    door_limit: float = param(math.radians(120), unit="rad", gt=0)
+    drawer_limit: float = param(0.45, unit="m", gt=0)
+    pose: list[float] = param([0.0, 0.0, 0.0], unit="m, m, rad", length=3, elements=True,
+                              factory=True)
 
     def __post_init__(self):
         self.validate()
 
     def validate(self) -> None:
         """Raise ``ValueError`` naming the first bad field."""
-        for k in ("door_width", "door_height", "drawer_width", "drawer_height",
-                  "front_thickness", "front_gap", "plinth_height", "carcass_depth",
-                  "countertop_thickness", "wall_width", "wall_height", "drawer_depth",
-                  "door_limit", "drawer_limit"):
-            v = getattr(self, k)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise ValueError(f"KitchenSpec.{k} must be a finite number > 0 (m or rad), "
-                                 f"got {v!r}")
-        for k in ("front_standoff", "plinth_setback", "countertop_overhang", "wall_gap"):
-            v = getattr(self, k)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
-                raise ValueError(f"KitchenSpec.{k} must be a finite number >= 0 (m), got {v!r}")
-        if self.door_hinge not in ("left", "right"):
-            raise ValueError(f"KitchenSpec.door_hinge must be 'left' or 'right', got "
-                             f"{self.door_hinge!r}")
-        if len(self.table_size) != 3 or not all(math.isfinite(v) and v > 0
-                                                for v in self.table_size):
-            raise ValueError(f"KitchenSpec.table_size is [length, width, height] > 0 (m), got "
-                             f"{self.table_size}")
-        if len(self.pose) != 3 or not all(math.isfinite(v) for v in self.pose):
-            raise ValueError(f"KitchenSpec.pose is [x, y, yaw] (m, m, rad), got {self.pose}")
+        validate_fields(self)
         if self.drawer_depth >= self.carcass_depth:
-            raise ValueError(f"KitchenSpec.drawer_depth ({self.drawer_depth} m) must be less "
+            raise ValueError(f"KitchenSpec: drawer_depth ({self.drawer_depth} m) must be less "
                              f"than carcass_depth ({self.carcass_depth} m)")
 
     # -- derived geometry (kitchen frame K) ----------------------------------------------

@@ -15,12 +15,13 @@ offset, hinge damping and friction, drawer depth, placement of the furniture in 
 """
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
 from mmlearn.sdf.builders import _bar_handle, _panel_inertia, _slab
+from mmlearn.models.common.config import param, validate_fields
 from mmlearn.models.common.sdf_writer import SdfModel
 
 KINDS = ("left_door", "right_door", "dishwasher", "drawer", "sliding_door")
@@ -47,29 +48,22 @@ class MechanismSpec:
         pose: x, y, yaw of the furniture in the world (m, m, rad).
     """
 
-    kind: str = "left_door"
-    width: float = 0.45
-    height: float = 0.60
-    depth: float = 0.45
-    bottom: float = 0.25
-    handle_offset: float = 0.07
-    handle_height: float = 0.35
-    handle_standoff: float = 0.07
-    damping: float = 0.5
-    friction: float = 0.3
-    limit: float = math.radians(100)
-    pose: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
+    kind: str = param("left_door", choices=KINDS)
+    width: float = param(0.45, unit="m", gt=0)
+    height: float = param(0.60, unit="m", gt=0)
+    depth: float = param(0.45, unit="m", gt=0)
+    bottom: float = param(0.25, unit="m")
+    handle_offset: float = param(0.07, unit="m")
+    handle_height: float = param(0.35, unit="m")
+    handle_standoff: float = param(0.07, unit="m", gt=0)
+    damping: float = param(0.5, unit="N*m*s/rad or N*s/m", ge=0)
+    friction: float = param(0.3, unit="N*m or N", ge=0)
+    limit: float = param(math.radians(100), unit="rad or m", gt=0)
+    pose: list[float] = param([0.0, 0.0, 0.0], unit="m, m, rad", length=3, elements=True,
+                              factory=True)
 
     def __post_init__(self):
-        if self.kind not in KINDS:
-            raise ValueError(f"mechanism kind must be one of {KINDS}, got {self.kind!r}")
-        for k in ("width", "height", "depth", "handle_standoff", "limit"):
-            if not getattr(self, k) > 0:
-                raise ValueError(f"MechanismSpec.{k} must be > 0, got {getattr(self, k)}")
-        if self.damping < 0 or self.friction < 0:
-            raise ValueError("MechanismSpec damping and friction must be >= 0")
-        if len(self.pose) != 3:
-            raise ValueError("MechanismSpec.pose is [x, y, yaw]")
+        validate_fields(self)
 
     @property
     def is_revolute(self) -> bool:

@@ -3,7 +3,7 @@ force sensor, the ArticulationEstimator learning the mechanism online from the h
 trajectory, and the EpcController moving along the learned model (thesis 4.3, 4.4.2)."""
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -12,6 +12,7 @@ from pydrake.systems.framework import DiagramBuilder
 
 from mmlearn.models.articulation.link import ObservationModel
 from mmlearn.models.articulation.priors import PriorDatabase
+from mmlearn.models.common.config import param, validate_fields
 from mmlearn.sdf.mechanisms import KINDS, MechanismSpec, sample_mechanism
 from mmlearn.systems import MarkerSensorConfig
 from mmlearn.systems.articulation.estimator import ArticulationEstimator
@@ -65,41 +66,31 @@ class OperateConfig:
         look: the depth camera, detector and handle derivation for ``perception="depth"``.
     """
 
-    kind: str = "left_door"
-    seed: int = 0
-    click_error: float = 0.02
-    start_distance: float = 1.0
-    sigma_pos: float = 0.05
-    estimator_period: float = 0.03
-    refit_every: int = 10
-    models: list[str] = field(default_factory=lambda: ["rigid", "prismatic", "revolute", "gp"])
-    sigma_force: float = 0.3
-    base_noise: float = 1.0
-    base_localization: BaseLocalizationConfig = field(default_factory=BaseLocalizationConfig)
-    epc: EpcConfig = field(default_factory=EpcConfig)
-    mechanism: MechanismSpec | None = None
-    mechanism_seed: int | None = None
-    priors: str = ""
-    perception: str = "click"
-    look: LookConfig = field(default_factory=LookConfig)
+    kind: str = param("left_door", choices=KINDS)
+    seed: int = param(0, integer=True, ge=0)
+    click_error: float = param(0.02, unit="m", ge=0, lt=0.1)
+    start_distance: float = param(1.0, unit="m")
+    sigma_pos: float = param(0.05, unit="m", gt=0)
+    estimator_period: float = param(0.03, unit="s", gt=0)
+    refit_every: int = param(10, integer=True, ge=1)
+    models: list[str] = param(["rigid", "prismatic", "revolute", "gp"], factory=True)
+    sigma_force: float = param(0.3, unit="N", ge=0)
+    base_noise: float = param(1.0, ge=0)
+    base_localization: BaseLocalizationConfig = param(default_factory=BaseLocalizationConfig,
+                                                      nested=BaseLocalizationConfig)
+    epc: EpcConfig = param(default_factory=EpcConfig, nested=EpcConfig)
+    mechanism: MechanismSpec | None = param(None, optional=True)
+    mechanism_seed: int | None = param(None, optional=True, integer=True, ge=0)
+    priors: str = param("")
+    perception: str = param("click", choices=PERCEPTIONS)
+    look: LookConfig = param(default_factory=LookConfig)
 
     def validate(self):
-        if self.perception not in PERCEPTIONS:
-            raise ValueError(f"perception must be one of {PERCEPTIONS}, got "
-                             f"{self.perception!r}")
+        validate_fields(self)
         if self.perception == "depth":
             self.look.validate()
-        if self.kind not in KINDS:
-            raise ValueError(f"kind must be one of {KINDS}, got {self.kind!r}")
-        if not 0 <= self.click_error < 0.1:
-            raise ValueError(f"click_error must be in [0, 0.1) m, got {self.click_error}")
-        if not self.sigma_pos > 0:
-            raise ValueError(f"sigma_pos must be > 0, got {self.sigma_pos}")
-        if not (math.isfinite(self.base_noise) and self.base_noise >= 0):
-            raise ValueError(f"base_noise must be >= 0, got {self.base_noise}")
-        self.base_localization.validate()
         if self.priors and not Path(self.priors).is_file():
-            raise ValueError(f"prior database not found: {self.priors}")
+            raise ValueError(f"OperateConfig: priors: prior database not found: {self.priors}")
 
 
 @dataclass

@@ -33,6 +33,7 @@ import numpy as np
 
 from pydrake.systems.framework import DiagramBuilder
 
+from mmlearn.models.common.config import param, validate_fields
 from mmlearn.models.common.depth_noise import DepthNoiseConfig
 from mmlearn.models.perception.detection import FrontDetectorConfig
 from mmlearn.models.perception.handle import (HandleEstimate, HandleFromFrontConfig,
@@ -87,43 +88,32 @@ class LookConfig:
         handle: choosing the front and deriving the handle.
     """
 
-    mount_position: list[float] = field(default_factory=lambda: [-0.25, 0.0, 1.6])
-    arm_pose: list[float] | None = field(default_factory=lambda: [1.5, 0.3, 0.0, 1.2, 0.0, 0.0])
-    frames: int = 5
-    min_frames: int = 1
-    sent_error: float = 0.10
-    camera: DepthCameraConfig = field(default_factory=DepthCameraConfig)
-    noise: DepthNoiseConfig = field(default_factory=DepthNoiseConfig)
-    detector: FrontDetectorConfig = field(
+    mount_position: list[float] = param([-0.25, 0.0, 1.6], unit="m", length=3, elements=True,
+                                        factory=True)
+    arm_pose: list[float] | None = param([1.5, 0.3, 0.0, 1.2, 0.0, 0.0], unit="rad",
+                                         optional=True, elements=True, factory=True)
+    frames: int = param(5, integer=True, ge=1)
+    min_frames: int = param(1, integer=True, ge=1)
+    sent_error: float = param(0.10, unit="m", ge=0)
+    camera: DepthCameraConfig = param(default_factory=DepthCameraConfig, nested=DepthCameraConfig)
+    noise: DepthNoiseConfig = param(default_factory=DepthNoiseConfig, nested=DepthNoiseConfig)
+    detector: FrontDetectorConfig = param(
         default_factory=lambda: FrontDetectorConfig(inlier_distance=0.015,
-                                                    starts_per_plane=12, layer_planes=0))
-    retry_detector: FrontDetectorConfig | None = field(
+                                                    starts_per_plane=12, layer_planes=0),
+        nested=FrontDetectorConfig)
+    retry_detector: FrontDetectorConfig | None = param(
         default_factory=lambda: FrontDetectorConfig(inlier_distance=0.01, starts_per_plane=12,
-                                                    layer_planes=0))
-    handle: HandleFromFrontConfig = field(default_factory=HandleFromFrontConfig)
+                                                    layer_planes=0),
+        optional=True, nested=FrontDetectorConfig)
+    handle: HandleFromFrontConfig = param(default_factory=HandleFromFrontConfig,
+                                          nested=HandleFromFrontConfig)
 
     def validate(self) -> None:
         """Raise ``ValueError`` naming the first bad field."""
-        if len(self.mount_position) != 3 or not all(
-                isinstance(v, (int, float)) and math.isfinite(v) for v in self.mount_position):
-            raise ValueError("LookConfig.mount_position must be 3 finite numbers (m)")
-        if self.arm_pose is not None and not all(
-                isinstance(v, (int, float)) and math.isfinite(v) for v in self.arm_pose):
-            raise ValueError("LookConfig.arm_pose must be finite numbers (rad) or None")
-        if isinstance(self.frames, bool) or not isinstance(self.frames, int) or self.frames < 1:
-            raise ValueError(f"LookConfig.frames must be an integer >= 1, got {self.frames!r}")
-        if (isinstance(self.min_frames, bool) or not isinstance(self.min_frames, int)
-                or not 1 <= self.min_frames <= self.frames):
-            raise ValueError(f"LookConfig.min_frames must be an integer in [1, frames], got "
-                             f"{self.min_frames!r}")
-        if not (math.isfinite(self.sent_error) and self.sent_error >= 0):
-            raise ValueError(f"LookConfig.sent_error must be >= 0 (m), got {self.sent_error}")
-        self.camera.validate()
-        self.noise.validate()
-        self.detector.validate()
-        if self.retry_detector is not None:
-            self.retry_detector.validate()
-        self.handle.validate()
+        validate_fields(self)
+        if not self.min_frames <= self.frames:
+            raise ValueError(f"LookConfig: min_frames must be an integer in [1, frames = "
+                             f"{self.frames}], got {self.min_frames!r}")
 
 
 @dataclass

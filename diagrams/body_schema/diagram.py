@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -27,6 +27,7 @@ from pydrake.systems.primitives import PortSwitch
 
 from mmlearn.diagrams.common.scene import MakeSceneDiagram, Scene, SceneConfig
 from mmlearn.models.body_schema.schema import SearchConfig
+from mmlearn.models.common.config import param, validate_fields
 from mmlearn.sdf.builders import arm_spec
 from mmlearn.systems.body_schema.arm_failures import JointBlocker, PlantFailures
 from mmlearn.systems.common.camera_marker_sensor import CameraMarkerSensorConfig
@@ -79,54 +80,39 @@ class BodySchemaDiagramConfig:
         draw_offset: where the learned schema is drawn relative to the real arm (m).
     """
 
-    arm: str = "2dof"
-    noise_pos: float = 0.044
-    noise_orient: float = math.radians(3.0)
-    dropout: float = 0.1
-    occlude: list[str] = field(default_factory=list)
-    cameras: bool = False
-    sensor: str = "ideal"
-    camera: CameraMarkerSensorConfig = field(default_factory=CameraMarkerSensorConfig)
-    seed: int = 0
-    babble_period: float = 1.0
-    babble_hold: float = 0.6
-    babble_fraction: float = 0.85
-    min_height: float = 0.05
-    failure_joints: bool = True
-    search_min_pos: float = 0.01
-    search_min_orient: float = math.radians(3.0)
-    learner: SchemaLearnerConfig = field(default_factory=SchemaLearnerConfig)
-    controller_rate_hz: float = 10.0
-    draw_offset: list[float] = field(default_factory=lambda: [0.0, 0.9, 0.0])
+    arm: str = param("2dof")
+    noise_pos: float = param(0.044, unit="m", ge=0)
+    noise_orient: float = param(math.radians(3.0), unit="rad", ge=0)
+    dropout: float = param(0.1, ge=0, lt=1)
+    occlude: list[str] = param([], factory=True)
+    cameras: bool = param(False)
+    sensor: str = param("ideal", choices=("ideal", "camera"))
+    camera: CameraMarkerSensorConfig = param(default_factory=CameraMarkerSensorConfig)
+    seed: int = param(0, integer=True, ge=0)
+    babble_period: float = param(1.0, unit="s", gt=0)
+    babble_hold: float = param(0.6, ge=0, lt=1)
+    babble_fraction: float = param(0.85, gt=0, le=1)
+    min_height: float = param(0.05, unit="m", ge=0)
+    failure_joints: bool = param(True)
+    search_min_pos: float = param(0.01, unit="m", ge=0)
+    search_min_orient: float = param(math.radians(3.0), unit="rad", ge=0)
+    learner: SchemaLearnerConfig = param(default_factory=SchemaLearnerConfig,
+                                         nested=SchemaLearnerConfig)
+    controller_rate_hz: float = param(10.0, unit="Hz", gt=0)
+    draw_offset: list[float] = param([0.0, 0.9, 0.0], unit="m", length=3, elements=True,
+                                     factory=True)
 
     def validate(self) -> None:
+        validate_fields(self)
         arm_spec(self.arm, tool=_default_tool(self.arm))
-        if self.sensor not in ("ideal", "camera"):
-            raise ValueError(f"BodySchemaDiagramConfig.sensor must be 'ideal' or 'camera', "
-                             f"got {self.sensor!r}")
         if self.sensor == "camera":
             self.camera.validate()
-        for k in ("noise_pos", "noise_orient", "min_height", "search_min_pos",
-                  "search_min_orient"):
-            v = getattr(self, k)
-            if not (math.isfinite(v) and v >= 0):
-                raise ValueError(f"BodySchemaDiagramConfig.{k} must be finite and >= 0, "
-                                 f"got {v}")
-        if not 0 <= self.dropout < 1:
-            raise ValueError(f"BodySchemaDiagramConfig.dropout must be in [0, 1), got "
-                             f"{self.dropout}")
-        if not self.babble_period > 0 or not 0 <= self.babble_hold < 1 or \
-                not 0 < self.babble_fraction <= 1:
-            raise ValueError("BodySchemaDiagramConfig: need babble_period > 0, "
-                             "0 <= babble_hold < 1, 0 < babble_fraction <= 1")
         rest = self.babble_hold * self.babble_period
         if rest < self.learner.settle_time + 1.0 / self.learner.rate_hz:
             raise ValueError(
                 f"BodySchemaDiagramConfig: the arm rests {rest:.2f} s at each babbling target "
                 f"(babble_hold * babble_period), less than the learner's settle_time "
                 f"{self.learner.settle_time} s plus one update: no sample would be taken")
-        if len(self.draw_offset) != 3:
-            raise ValueError("BodySchemaDiagramConfig.draw_offset must be [x, y, z]")
 
     def search_config(self) -> SearchConfig:
         """The learner's SearchConfig: validity noise max(sqrt(2) noise, floor), the noise

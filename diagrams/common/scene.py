@@ -13,6 +13,7 @@ from pydrake.multibody.tree import JointActuatorIndex, PdControllerGains
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import MatrixGain
 
+from mmlearn.models.common.config import param, validate_fields
 from mmlearn.sdf import add_package
 from mmlearn.sdf.builders import CabinetSpec, arm_sdf, arm_spec, cabinet_sdf, floor_sdf
 from mmlearn.sdf.mechanisms import MechanismSpec, mechanism_sdf
@@ -51,37 +52,30 @@ class SceneConfig:
             :class:`mmlearn.systems.body_schema.arm_failures.PlantFailures` before simulating.
     """
 
-    arm: str = "7dof"
-    tool: str = "auto"
-    mobile_base: bool = False
-    robot_pose: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
-    cabinet: bool = True
-    cabinet_pose: list[float] = field(default_factory=lambda: [-1.5, 0.0, 0.0])
-    cabinet_spec: CabinetSpec = field(default_factory=CabinetSpec)
-    mechanism: MechanismSpec | None = None
-    time_step: float = 0.001
-    kp_revolute: float = 400.0
-    kd_revolute: float = 40.0
-    kp_prismatic: float = 400.0
-    kd_prismatic: float = 20.0
-    kp_base: float = 4000.0
-    kd_base: float = 2000.0
-    gravity_compensation: bool = True
-    sensor: MarkerSensorConfig = field(default_factory=MarkerSensorConfig)
-    camera_sensor: CameraMarkerSensorConfig | None = None
-    failure_joints: bool = False
+    arm: str = param("7dof")
+    tool: str = param("auto", choices=("auto", "gripper", "hook", "none"))
+    mobile_base: bool = param(False)
+    robot_pose: list[float] = param([0.0, 0.0, 0.0], unit="m, m, rad", length=3,
+                                    elements=True, factory=True)
+    cabinet: bool = param(True)
+    cabinet_pose: list[float] = param([-1.5, 0.0, 0.0], unit="m, m, rad", length=3,
+                                      elements=True, factory=True)
+    cabinet_spec: CabinetSpec = param(default_factory=CabinetSpec)
+    mechanism: MechanismSpec | None = param(None, optional=True)
+    time_step: float = param(0.001, unit="s", gt=0)
+    kp_revolute: float = param(400.0, unit="N*m/rad", ge=0)
+    kd_revolute: float = param(40.0, unit="N*m*s/rad", ge=0)
+    kp_prismatic: float = param(400.0, unit="N/m", ge=0)
+    kd_prismatic: float = param(20.0, unit="N*s/m", ge=0)
+    kp_base: float = param(4000.0, ge=0)
+    kd_base: float = param(2000.0, ge=0)
+    gravity_compensation: bool = param(True)
+    sensor: MarkerSensorConfig = param(default_factory=MarkerSensorConfig)
+    camera_sensor: CameraMarkerSensorConfig | None = param(None, optional=True)
+    failure_joints: bool = param(False)
 
     def validate(self) -> None:
-        if self.tool not in ("auto", "gripper", "hook", "none"):
-            raise ValueError(f"SceneConfig.tool must be auto|gripper|hook|none, got {self.tool!r}")
-        if len(self.robot_pose) != 3 or len(self.cabinet_pose) != 3:
-            raise ValueError("SceneConfig.robot_pose and cabinet_pose are [x, y, yaw]")
-        if not self.time_step > 0:
-            raise ValueError(f"SceneConfig.time_step must be > 0, got {self.time_step}")
-        for k in ("kp_revolute", "kd_revolute", "kp_prismatic", "kd_prismatic", "kp_base",
-                  "kd_base"):
-            if getattr(self, k) < 0:
-                raise ValueError(f"SceneConfig.{k} must be >= 0")
+        validate_fields(self)
 
     def resolved_tool(self) -> str:
         if self.tool != "auto":

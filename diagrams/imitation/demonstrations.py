@@ -30,7 +30,7 @@ the teacher's state.
 
 import dataclasses
 import time as _time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -46,6 +46,7 @@ from pydrake.systems.rendering import MultibodyPositionToGeometryPose
 from pydrake.trajectories import PiecewisePolynomial
 
 from mmlearn.models.imitation.types import Demonstration
+from mmlearn.models.common.config import param, validate_fields
 from mmlearn.models.imitation.teacher import TASKS, DemoPlan, TeacherStyle, plan_demonstration, task_scene
 from mmlearn.models.imitation.scene import TEACHER_OPENING, TEACHER_TCP_IN_X8, ImitationSceneSpec, stratified_table_shifts
 from mmlearn.sdf.imitation import add_imitation_scene, add_teacher
@@ -104,38 +105,27 @@ class TeacherConfig:
             robot's: the teacher's arm is shorter).
     """
 
-    task: str = "pick_place"
-    seed: int = 0
-    scene: ImitationSceneSpec | None = None
-    style: TeacherStyle = field(default_factory=TeacherStyle)
-    sensor: MarkerSensorConfig = field(default_factory=default_sensor_config)
-    with_obstacle: bool = False
-    playback_rate_hz: float = 20.0
-    ik_position_tolerance: float = 0.002
-    ik_angle_tolerance: float = 0.15
-    table_shift: list[float] | None = None
-    teacher_base: list[float] = field(default_factory=lambda: [0.10, 0.0])
+    task: str = param("pick_place", choices=TASKS)
+    seed: int = param(0, integer=True, ge=0)
+    scene: ImitationSceneSpec | None = param(None, optional=True)
+    style: TeacherStyle = param(default_factory=TeacherStyle, nested=TeacherStyle)
+    sensor: MarkerSensorConfig = param(default_factory=default_sensor_config,
+                                       nested=MarkerSensorConfig)
+    with_obstacle: bool = param(False)
+    playback_rate_hz: float = param(20.0, unit="Hz", gt=0)
+    ik_position_tolerance: float = param(0.002, unit="m", gt=0)
+    ik_angle_tolerance: float = param(0.15, unit="rad", gt=0)
+    table_shift: list[float] | None = param(None, optional=True, length=4, ge=-1, le=1)
+    teacher_base: list[float] = param([0.10, 0.0], unit="m", length=2, elements=True,
+                                      factory=True)
 
     def validate(self) -> "TeacherConfig":
-        if self.task not in TASKS:
-            raise ValueError(f"TeacherConfig.task: unknown task {self.task!r}; choose from "
-                             f"{', '.join(TASKS)}")
-        if not (isinstance(self.seed, (int, np.integer)) and self.seed >= 0):
-            raise ValueError(f"TeacherConfig.seed must be an integer >= 0, got {self.seed!r}")
-        if not self.playback_rate_hz > 0:
-            raise ValueError("TeacherConfig.playback_rate_hz must be > 0")
+        validate_fields(self)
         ratio = self.playback_rate_hz / self.sensor.rate_hz
         if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
-            raise ValueError(f"TeacherConfig.playback_rate_hz ({self.playback_rate_hz}) must "
-                             f"be a multiple of the sensor's rate_hz ({self.sensor.rate_hz})")
-        tb = np.asarray(self.teacher_base, float)
-        if tb.shape != (2,) or not np.all(np.isfinite(tb)):
-            raise ValueError(f"TeacherConfig.teacher_base must be 2 finite numbers (x, y, m), "
-                             f"got {self.teacher_base!r}")
-        if not self.ik_position_tolerance > 0 or not self.ik_angle_tolerance > 0:
-            raise ValueError("TeacherConfig: ik tolerances must be > 0")
-        self.style.validate()
-        self.sensor.validate()
+            raise ValueError(f"TeacherConfig: playback_rate_hz ({self.playback_rate_hz} Hz) "
+                             f"must be a multiple of the sensor's rate_hz "
+                             f"({self.sensor.rate_hz} Hz)")
         return self
 
     def scene_spec(self) -> ImitationSceneSpec:

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -29,6 +29,7 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import MatrixGain
 
 from mmlearn.sdf.builders import arm_sdf, arm_spec, floor_sdf
+from mmlearn.models.common.config import param, validate_fields
 from mmlearn.models.imitation.scene import ROBOT_TCP_IN_X8, ImitationSceneSpec
 from mmlearn.sdf.imitation import add_imitation_scene
 from mmlearn.systems import GravityCompensation, MarkerSensor, MarkerSensorConfig
@@ -100,43 +101,30 @@ class ImitationConfig:
         grasp_stiffness: grasp spring, N/m.
     """
 
-    task: str = "pick_place"
-    seed: int = 0
-    swap_tables: bool = False
-    board_scale: float = 1.0
-    variation: float = 1.0
-    scene: ImitationSceneSpec | None = None
-    reproducer: DbnReproducerConfig = field(default_factory=DbnReproducerConfig)
-    sensor: MarkerSensorConfig = field(default_factory=lambda: MarkerSensorConfig(
-        rate_hz=10.0, sigma_pos=0.005, cameras=[]))
-    time_step: float = 0.001
-    kp: float = 400.0
-    kd: float = 40.0
-    kp_gripper: float = 20.0
-    kd_gripper: float = 1.0
-    robot_start: list[float] = field(default_factory=list)
-    capture_radius: float = 0.05
-    grasp_stiffness: float = 1000.0
+    task: str = param("pick_place", choices=TASKS)
+    seed: int = param(0, integer=True, ge=0)
+    swap_tables: bool = param(False)
+    board_scale: float = param(1.0, gt=0)
+    variation: float = param(1.0, ge=0)
+    scene: ImitationSceneSpec | None = param(None, optional=True)
+    reproducer: DbnReproducerConfig = param(default_factory=DbnReproducerConfig,
+                                            nested=DbnReproducerConfig)
+    sensor: MarkerSensorConfig = param(default_factory=lambda: MarkerSensorConfig(
+        rate_hz=10.0, sigma_pos=0.005, cameras=[]), nested=MarkerSensorConfig)
+    time_step: float = param(0.001, unit="s", gt=0)
+    kp: float = param(400.0, unit="N*m/rad", ge=0)
+    kd: float = param(40.0, unit="N*m*s/rad", ge=0)
+    kp_gripper: float = param(20.0, ge=0)
+    kd_gripper: float = param(1.0, ge=0)
+    robot_start: list[float] = param([], unit="rad", elements=True, factory=True)
+    capture_radius: float = param(0.05, unit="m", gt=0)
+    grasp_stiffness: float = param(1000.0, unit="N/m", gt=0)
 
     def validate(self) -> None:
-        if self.task not in TASKS:
-            raise ValueError(f"ImitationConfig.task must be one of {TASKS}, got {self.task!r}")
-        if not (isinstance(self.seed, int) and self.seed >= 0):
-            raise ValueError(f"ImitationConfig.seed must be an integer >= 0, got {self.seed!r}")
-        for k in ("board_scale", "time_step", "capture_radius", "grasp_stiffness"):
-            v = getattr(self, k)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise ValueError(f"ImitationConfig.{k} must be a finite number > 0, got {v!r}")
-        for k in ("variation", "kp", "kd", "kp_gripper", "kd_gripper"):
-            v = getattr(self, k)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
-                raise ValueError(f"ImitationConfig.{k} must be a finite number >= 0, got {v!r}")
-        q = np.asarray(self.robot_start, float)
-        if q.size and (q.shape != (6,) or not np.all(np.isfinite(q))):
-            raise ValueError(f"ImitationConfig.robot_start must be 6 finite angles (rad), got "
-                             f"{self.robot_start!r}")
-        self.reproducer.validate()
-        self.sensor.validate()
+        validate_fields(self)
+        if len(self.robot_start) not in (0, 6):
+            raise ValueError(f"ImitationConfig: robot_start must be empty or 6 angles (rad), "
+                             f"got {self.robot_start!r}")
 
     def scene_spec(self) -> ImitationSceneSpec:
         """The layout of this reproduction (``scene`` or the task's, varied by seed)."""

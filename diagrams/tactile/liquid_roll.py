@@ -51,7 +51,7 @@ sensors recorded (taxels at 24 Hz, the wrist force) plus the labels.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -68,6 +68,7 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import LogVectorOutput, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
+from mmlearn.models.common.config import param, validate_fields
 from mmlearn.models.tactile.containers import (CONTAINER_CLASSES, RHO_WATER, ContainerInstance,
                                                sample_container)
 from mmlearn.models.tactile.liquid import first_slosh_mode
@@ -127,59 +128,46 @@ class LiquidRollConfig:
         gripper: gripper dimensions.
     """
 
-    f_target: float = 20.0
-    v_target: float = 0.04
-    grasp_height: float = 0.07
-    offset: float = 0.0
-    t_latch: float = 1.1
-    t_lift: float = 1.2
-    lift: float = 0.03
-    lift_time: float = 0.4
-    t_roll: float = 1.9
-    roll_amplitude: float = 0.7
-    roll_hz: float = 0.6
-    roll_cycles: float = 2.0
-    roll_profile: str = "sweep"
-    ramp_time: float = 0.6
-    reversal_time: float = 0.25
-    roll_axis_height: float = 0.12
-    roll_kp: float = 200.0
-    roll_kd: float = 2.0
-    lift_kp: float = 2.0e4
-    lift_kd: float = 300.0
-    time_step: float = 2e-3
-    sensor_rate: float = 24.0
-    taxel_noise: float = 1e-4
-    wrist_noise: float = 0.05
-    seed: int = 0
-    gripper: GripperGeometry = field(default_factory=GripperGeometry)
+    f_target: float = param(20.0, unit="N", gt=0)
+    v_target: float = param(0.04, unit="m/s", gt=0)
+    grasp_height: float = param(0.07, unit="m", gt=0)
+    offset: float = param(0.0, unit="m")
+    t_latch: float = param(1.1, unit="s", gt=0)
+    t_lift: float = param(1.2, unit="s", gt=0)
+    lift: float = param(0.03, unit="m", ge=0)
+    lift_time: float = param(0.4, unit="s", gt=0)
+    t_roll: float = param(1.9, unit="s", gt=0)
+    roll_amplitude: float = param(0.7, unit="rad", ge=0)
+    roll_hz: float = param(0.6, unit="Hz", gt=0)
+    roll_cycles: float = param(2.0, gt=0)
+    roll_profile: str = param("sweep", choices=("sine", "sweep", "triangle"))
+    ramp_time: float = param(0.6, unit="s", ge=0)
+    reversal_time: float = param(0.25, unit="s", ge=0)
+    roll_axis_height: float = param(0.12, unit="m", ge=0)
+    roll_kp: float = param(200.0, unit="N m/rad", gt=0)
+    roll_kd: float = param(2.0, unit="N m s/rad", ge=0)
+    lift_kp: float = param(2.0e4, unit="N/m", gt=0)
+    lift_kd: float = param(300.0, unit="N s/m", ge=0)
+    time_step: float = param(2e-3, unit="s", gt=0)
+    sensor_rate: float = param(24.0, unit="Hz", gt=0)
+    taxel_noise: float = param(1e-4, ge=0)
+    wrist_noise: float = param(0.05, unit="N", ge=0)
+    seed: int = param(0, integer=True)
+    gripper: GripperGeometry = param(default_factory=GripperGeometry)
 
     def __post_init__(self):
-        for k in ("f_target", "v_target", "grasp_height", "t_latch", "t_lift", "lift_time",
-                  "t_roll", "roll_hz", "roll_cycles", "roll_kp", "lift_kp", "time_step",
-                  "sensor_rate"):
-            v = getattr(self, k)
-            if not (isinstance(v, (int, float)) and np.isfinite(v) and v > 0):
-                raise ValueError(f"LiquidRollConfig.{k}: expected a finite number > 0, got "
-                                 f"{v!r}")
-        if self.roll_profile not in ("sine", "sweep", "triangle"):
-            raise ValueError(f"LiquidRollConfig.roll_profile: expected 'sine', 'sweep' or "
-                             f"'triangle', got {self.roll_profile!r}")
+        validate_fields(self)
         if self.roll_profile == "sweep" and not (
                 0 < self.reversal_time < 0.5 / self.roll_hz):
-            raise ValueError(f"LiquidRollConfig.reversal_time: the sweep needs 0 < reversal "
-                             f"time < half a roll period, got {self.reversal_time!r}")
-        for k in ("lift", "roll_amplitude", "roll_axis_height", "reversal_time", "ramp_time",
-                  "roll_kd", "lift_kd", "taxel_noise", "wrist_noise"):
-            v = getattr(self, k)
-            if not (isinstance(v, (int, float)) and np.isfinite(v) and v >= 0):
-                raise ValueError(f"LiquidRollConfig.{k}: expected a finite number >= 0, got "
-                                 f"{v!r}")
+            raise ValueError(f"LiquidRollConfig: reversal_time: the sweep needs 0 < reversal "
+                             f"time < half a roll period ({0.5 / self.roll_hz:g} s), got "
+                             f"{self.reversal_time!r}")
         if not self.t_latch <= self.t_lift <= self.t_lift + self.lift_time <= self.t_roll:
             raise ValueError("LiquidRollConfig: expected t_latch <= t_lift <= t_lift + "
-                             "lift_time <= t_roll")
+                             f"lift_time <= t_roll (s), got {self.t_latch}, {self.t_lift}, "
+                             f"{self.t_lift} + {self.lift_time}, {self.t_roll}")
         if self.sensor_rate <= 2 * 5.0:
-            raise ValueError(f"LiquidRollConfig.sensor_rate: must exceed 10 Hz for the 5 Hz "
+            raise ValueError(f"LiquidRollConfig: sensor_rate must exceed 10 Hz for the 5 Hz "
                              f"high-pass, got {self.sensor_rate!r}")
 
     @property

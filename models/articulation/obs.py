@@ -15,6 +15,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from mmlearn.models.common.config import param, validate_fields
+
 __all__ = ["ObservationModel", "DEFAULT_GAMMA_WEIGHT", "GAMMA_PRIOR_MODES", "em_gamma"]
 
 _LOG_2PI = float(np.log(2 * np.pi))
@@ -55,41 +57,23 @@ class ObservationModel:
             ``"n"``: n^-d as Eq. 4.27 writes it (mmlearn before 2026-11).
     """
 
-    sigma_pos: float = 0.01
-    sigma_orient: float = np.deg2rad(5.0)
-    gamma_weight: float = DEFAULT_GAMMA_WEIGHT
-    outlier_volume_m3: float | None = None
-    gamma_prior: str = "plugin"
-    config_prior: str = "resolved"
+    sigma_pos: float = param(0.01, unit="m", gt=0)
+    sigma_orient: float = param(np.deg2rad(5.0), unit="rad", gt=0)
+    gamma_weight: float = param(DEFAULT_GAMMA_WEIGHT, ge=0)
+    outlier_volume_m3: float | None = param(None, unit="m^3", gt=0, optional=True)
+    gamma_prior: str = param("plugin", choices=GAMMA_PRIOR_MODES)
+    config_prior: str = param("resolved", choices=("resolved", "n"))
 
     #: lower bound of the automatic outlier volume (a 1 m cube: the robot's workspace); a
     #: volume as small as a short track would make "everything is an outlier" too likely.
     min_outlier_volume_m3 = 1.0
 
     def __post_init__(self):
-        for name in ("sigma_pos", "sigma_orient"):
-            try:
-                v = float(getattr(self, name))
-            except (TypeError, ValueError):
-                raise ValueError(f"ObservationModel.{name} must be a number, got "
-                                 f"{getattr(self, name)!r}") from None
-            if not (np.isfinite(v) and v > 0):
-                raise ValueError(f"ObservationModel.{name} must be positive and finite, got {v}")
-            setattr(self, name, v)
-        self.gamma_weight = float(self.gamma_weight)
-        if not (np.isfinite(self.gamma_weight) and self.gamma_weight >= 0):
-            raise ValueError(f"gamma_weight must be >= 0, got {self.gamma_weight}")
+        validate_fields(self)
+        for name in ("sigma_pos", "sigma_orient", "gamma_weight"):
+            setattr(self, name, float(getattr(self, name)))
         if self.outlier_volume_m3 is not None:
             self.outlier_volume_m3 = float(self.outlier_volume_m3)
-            if not (np.isfinite(self.outlier_volume_m3) and self.outlier_volume_m3 > 0):
-                raise ValueError(
-                    f"outlier_volume_m3 must be positive, got {self.outlier_volume_m3}")
-        if self.config_prior not in ("resolved", "n"):
-            raise ValueError(f"config_prior must be 'resolved' or 'n', got "
-                             f"{self.config_prior!r}")
-        if self.gamma_prior not in GAMMA_PRIOR_MODES:
-            raise ValueError(f"gamma_prior must be one of {GAMMA_PRIOR_MODES}, got "
-                             f"{self.gamma_prior!r}")
 
     def with_volume_from(self, positions: np.ndarray) -> "ObservationModel":
         if self.outlier_volume_m3 is not None:

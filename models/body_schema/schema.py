@@ -33,12 +33,13 @@ failed, and trained on the recent samples and then on the following ``n_train_ne
 
 import contextlib
 from collections import deque
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from itertools import combinations
 
 import numpy as np
 from networkx.utils import UnionFind
 
+from mmlearn.models.common.config import param, validate_fields
 from mmlearn.models.common.se3 import matrix_to_rotvec
 from mmlearn.models.body_schema.local import (
                                               EngineeredModel,
@@ -81,22 +82,25 @@ class AdaptationConfig:
             structure found by e.g. 7 samples is used at once).
     """
 
-    window: int = 10
-    min_window: int = 3
-    patience: int = 15
-    n_train_new: int = 30
-    n_init_test: int = 3
-    reoptimize_at: list[int] = field(default_factory=lambda: [8, 15, 30])
-    max_history: int = 50
-    max_training: int = 1
-    buffer: int = 300
-    relearn_every: int = 1
+    window: int = param(10, integer=True, ge=1)
+    min_window: int = param(3, integer=True, ge=1)
+    patience: int = param(15, integer=True, ge=0)
+    n_train_new: int = param(30, integer=True, ge=3)
+    n_init_test: int = param(3, integer=True, ge=0)
+    reoptimize_at: list[int] = param([8, 15, 30], integer=True, elements=True, factory=True)
+    max_history: int = param(50, integer=True, ge=1)
+    max_training: int = param(1, integer=True, ge=0)
+    buffer: int = param(300, integer=True, ge=1)
+    relearn_every: int = param(1, integer=True, ge=1)
 
     def __post_init__(self):
-        if self.min_window < 1 or self.window < self.min_window:
-            raise ValueError("AdaptationConfig needs 1 <= min_window <= window")
-        if self.patience < 0 or self.n_train_new < 3:
-            raise ValueError("AdaptationConfig needs patience >= 0 and n_train_new >= 3")
+        self.validate()
+
+    def validate(self) -> None:
+        validate_fields(self)
+        if self.window < self.min_window:
+            raise ValueError(f"AdaptationConfig: need min_window <= window, got min_window "
+                             f"{self.min_window} and window {self.window}")
 
 
 def rotation_vector(R: np.ndarray) -> np.ndarray:

@@ -29,6 +29,7 @@ from itertools import combinations
 import numpy as np
 from networkx.utils import UnionFind
 
+from mmlearn.models.common.config import param, validate_fields
 from mmlearn.models.common.gp import blas_single_thread
 from mmlearn.models.common.se3 import project_to_so3
 from mmlearn.models.body_schema.local import (
@@ -136,49 +137,33 @@ class SearchConfig:
             switch off (sb2 -> its lower bound).
     """
 
-    sigma_pos: float = 0.05
-    sigma_orient: float = float(np.deg2rad(15.0))
-    n_sigma: float = 3.0
-    eta: float = 1.0
-    test_every: int = 3
-    min_train: int = 3
-    min_test: int = 2
-    max_k: int | None = None
-    max_opt: int = 30
-    max_screen: int = 60
-    screen_factor: float = 1.5
-    screen_reg: float = 1e-2
-    screen_top_factor: float = 3.0
-    screen_ell: float = 1.5
-    min_observations: int = 3
-    noise_min: float = 1e-8
-    noise_min_pos: float = 0.0
-    noise_min_rot: float = 0.0
-    validation: str = "loo"
-    refit_ell_starts: tuple = (0.5,)
-    refit_max_opt: int = 100
-    warm_start: bool = True
-    refit_growth: float = 1.25
-    kernel: str = "se+revolute"
+    sigma_pos: float = param(0.05, unit="m", gt=0)
+    sigma_orient: float = param(float(np.deg2rad(15.0)), unit="rad", gt=0)
+    n_sigma: float = param(3.0, gt=0)
+    eta: float = param(1.0, gt=0)
+    test_every: int = param(3, integer=True, ge=2)
+    min_train: int = param(3, integer=True, ge=1)
+    min_test: int = param(2, integer=True, ge=1)
+    max_k: int | None = param(None, optional=True, integer=True, ge=0)
+    max_opt: int = param(30, integer=True, ge=1)
+    max_screen: int = param(60, integer=True, ge=1)
+    screen_factor: float = param(1.5, ge=0)
+    screen_reg: float = param(1e-2, ge=0)
+    screen_top_factor: float = param(3.0, ge=0)
+    screen_ell: float = param(1.5, gt=0)
+    min_observations: int = param(3, integer=True, ge=1)
+    noise_min: float = param(1e-8, ge=0)
+    noise_min_pos: float = param(0.0, unit="m^2", ge=0)
+    noise_min_rot: float = param(0.0, ge=0)
+    validation: str = param("loo", choices=("loo", "split"))
+    refit_ell_starts: tuple = param((0.5,), elements=True, gt=0)
+    refit_max_opt: int = param(100, integer=True, ge=1)
+    warm_start: bool = param(True)
+    refit_growth: float = param(1.25, ge=1)
+    kernel: str = param("se+revolute", choices=LocalModel.KERNELS)
 
     def __post_init__(self):
-        if self.kernel not in LocalModel.KERNELS:
-            raise ValueError(f"SearchConfig.kernel must be one of {LocalModel.KERNELS}, "
-                             f"got {self.kernel!r}")
-        if not (np.isfinite(self.refit_growth) and self.refit_growth >= 1):
-            raise ValueError(f"SearchConfig.refit_growth must be >= 1, got {self.refit_growth}")
-        if self.validation not in ("loo", "split"):
-            raise ValueError(f"SearchConfig.validation must be 'loo' or 'split', "
-                             f"got {self.validation!r}")
-        for name in ("sigma_pos", "sigma_orient", "n_sigma", "eta", "screen_ell"):
-            if not getattr(self, name) > 0:
-                raise ValueError(f"SearchConfig.{name} must be positive, got {getattr(self, name)}")
-        for name in ("noise_min_pos", "noise_min_rot"):
-            v = getattr(self, name)
-            if not (np.isfinite(v) and v >= 0):
-                raise ValueError(f"SearchConfig.{name} must be finite and >= 0, got {v}")
-        if self.test_every < 2:
-            raise ValueError(f"SearchConfig.test_every must be >= 2, got {self.test_every}")
+        validate_fields(self)
 
     @property
     def output_noise_min(self) -> np.ndarray:

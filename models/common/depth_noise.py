@@ -53,6 +53,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mmlearn.models.common.camera import PinholeIntrinsics, as_depth_image
+from mmlearn.models.common.config import param, validate_fields
 
 __all__ = ["DepthNoiseConfig", "apply_depth_noise", "predicted_depth_std",
            "incidence_cosine", "projector_shadow"]
@@ -84,56 +85,41 @@ class DepthNoiseConfig:
         seed: seed of the noise (an integer >= 0).
     """
 
-    baseline: float = 0.075
-    sigma_z_at_1m: float = 0.0016
-    noise_window_px: int = 1
-    disparity_step_px: float = 0.125
-    edge_jump_px: float = 0.25
-    edge_dilate_px: int = 1
-    projector_shadow: bool = True
-    grazing_start_deg: float = 70.0
-    grazing_full_deg: float = 85.0
-    min_range: float = 0.5
-    max_range: float = 5.0
-    falloff_start: float = 3.5
-    dropout: float = 0.01
-    dropout_block_px: int = 3
-    seed: int = 0
+    baseline: float = param(0.075, unit="m")
+    sigma_z_at_1m: float = param(0.0016, unit="m", ge=0)
+    noise_window_px: int = param(1, unit="px", integer=True, ge=1)
+    disparity_step_px: float = param(0.125, unit="px", ge=0)
+    edge_jump_px: float = param(0.25, unit="px", ge=0)
+    edge_dilate_px: int = param(1, unit="px", integer=True, ge=0)
+    projector_shadow: bool = param(True)
+    grazing_start_deg: float = param(70.0, unit="deg", ge=0, lt=90)
+    grazing_full_deg: float = param(85.0, unit="deg", gt=0, le=90)
+    min_range: float = param(0.5, unit="m", ge=0)
+    max_range: float = param(5.0, unit="m", gt=0)
+    falloff_start: float = param(3.5, unit="m")
+    dropout: float = param(0.01, ge=0, lt=1)
+    dropout_block_px: int = param(3, unit="px", integer=True, ge=1)
+    seed: int = param(0, integer=True, ge=0)
 
     def validate(self) -> None:
         """Raise ``ValueError`` naming the first bad field."""
-        for k in ("baseline", "sigma_z_at_1m", "disparity_step_px", "edge_jump_px",
-                  "grazing_start_deg", "grazing_full_deg", "min_range", "max_range",
-                  "falloff_start", "dropout"):
-            v = getattr(self, k)
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-                raise ValueError(f"DepthNoiseConfig.{k} must be a finite number, got {v!r}")
+        validate_fields(self)
         checks = [
-            (self.baseline != 0, "baseline must be non-zero (m)"),
-            (self.sigma_z_at_1m >= 0, f"sigma_z_at_1m must be >= 0 (m), got {self.sigma_z_at_1m}"),
-            (self.disparity_step_px >= 0,
-             f"disparity_step_px must be >= 0 (px), got {self.disparity_step_px}"),
-            (self.edge_jump_px >= 0, f"edge_jump_px must be >= 0 (px), got {self.edge_jump_px}"),
-            (0 <= self.grazing_start_deg < self.grazing_full_deg <= 90,
-             "need 0 <= grazing_start_deg < grazing_full_deg <= 90 (deg), got "
+            (self.baseline != 0, f"baseline must be non-zero (m), got {self.baseline!r}"),
+            (self.grazing_start_deg < self.grazing_full_deg,
+             "need grazing_start_deg < grazing_full_deg (deg), got "
              f"{self.grazing_start_deg}, {self.grazing_full_deg}"),
-            (0 <= self.min_range < self.max_range,
-             f"need 0 <= min_range < max_range (m), got {self.min_range}, {self.max_range}"),
+            (self.min_range < self.max_range,
+             f"need min_range < max_range (m), got {self.min_range}, {self.max_range}"),
             (self.falloff_start > self.min_range,
-             f"falloff_start must be > min_range (m), got {self.falloff_start}"),
-            (0 <= self.dropout < 1, f"dropout must be in [0, 1), got {self.dropout}"),
+             f"falloff_start must be > min_range ({self.min_range} m), got "
+             f"{self.falloff_start}"),
+            (self.noise_window_px % 2 == 1,
+             f"noise_window_px must be odd, got {self.noise_window_px}"),
         ]
         for ok, msg in checks:
             if not ok:
                 raise ValueError(f"DepthNoiseConfig: {msg}")
-        for k, lo in (("edge_dilate_px", 0), ("dropout_block_px", 1), ("seed", 0),
-                      ("noise_window_px", 1)):
-            v = getattr(self, k)
-            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
-                raise ValueError(f"DepthNoiseConfig.{k} must be an integer >= {lo}, got {v!r}")
-        if self.noise_window_px % 2 == 0:
-            raise ValueError(f"DepthNoiseConfig.noise_window_px must be odd, got "
-                             f"{self.noise_window_px}")
 
     def sigma_disparity_px(self, K: PinholeIntrinsics) -> float:
         """Std of the disparity noise, px, for a camera with intrinsics K."""

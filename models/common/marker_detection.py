@@ -17,6 +17,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mmlearn.models.common.config import param, validate_fields
+
 __all__ = ["DepthMirrorTest", "DetectorConfig", "MarkerDetections", "detect_marker_poses",
            "make_detector", "mirror_test_from_depth"]
 
@@ -56,31 +58,18 @@ class DetectorConfig:
         ambiguity_angle_deg: see ``min_ambiguity_ratio``, degrees.
     """
 
-    corner_refinement: str = "edges"
-    refine_window_px: int = 2
-    refine_max_iterations: int = 50
-    refine_min_accuracy: float = 0.01
-    min_side_px: float = 10.0
-    max_reprojection_px: float = 1.5
-    min_border_px: float = 2.0
-    min_ambiguity_ratio: float = 1.0
-    ambiguity_angle_deg: float = 10.0
+    corner_refinement: str = param("edges", choices=tuple(_REFINE))
+    refine_window_px: int = param(2, unit="px", integer=True, ge=1)
+    refine_max_iterations: int = param(50, integer=True, ge=1)
+    refine_min_accuracy: float = param(0.01, unit="px", ge=0)
+    min_side_px: float = param(10.0, unit="px", ge=0)
+    max_reprojection_px: float = param(1.5, unit="px", ge=0)
+    min_border_px: float = param(2.0, unit="px", ge=0)
+    min_ambiguity_ratio: float = param(1.0, ge=0)
+    ambiguity_angle_deg: float = param(10.0, unit="deg", ge=0)
 
     def validate(self) -> None:
-        if self.corner_refinement not in _REFINE:
-            raise ValueError(f"DetectorConfig.corner_refinement must be one of "
-                             f"{sorted(_REFINE)}, got {self.corner_refinement!r}")
-        if not (isinstance(self.refine_window_px, int) and self.refine_window_px >= 1):
-            raise ValueError("DetectorConfig.refine_window_px must be an integer >= 1 "
-                             f"(pixels), got {self.refine_window_px!r}")
-        if not (isinstance(self.refine_max_iterations, int) and self.refine_max_iterations >= 1):
-            raise ValueError("DetectorConfig.refine_max_iterations must be an integer >= 1")
-        for k in ("refine_min_accuracy", "min_side_px", "max_reprojection_px",
-                  "min_border_px", "min_ambiguity_ratio", "ambiguity_angle_deg"):
-            v = getattr(self, k)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
-                raise ValueError(f"DetectorConfig.{k} must be a finite number >= 0 (pixels), "
-                                 f"got {v!r}")
+        validate_fields(self)
 
 
 @dataclass

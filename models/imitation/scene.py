@@ -7,10 +7,11 @@ builds the SDFormat scene from it.
 from __future__ import annotations
 
 import dataclasses
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
+
+from mmlearn.models.common.config import param, validate_fields
 
 __all__ = ["ImitationSceneSpec", "SceneBox", "OBSTACLE_KINDS", "OBSERVED_BODIES", "ROBOT_TCP_IN_X8",
            "TEACHER_TCP_IN_X8", "TEACHER_OPENING", "stratified_table_shifts"]
@@ -90,65 +91,50 @@ class ImitationSceneSpec:
         seed: seed of the variation drawn by :meth:`sampled` (recorded; None = nominal).
     """
 
-    tables: bool = True
-    cup: bool = True
-    board: bool = False
-    target: bool = False
-    obstacle: str = "none"
-    table_a: list[float] = field(default_factory=lambda: [0.50, 0.32])
-    table_b: list[float] = field(default_factory=lambda: [0.50, -0.32])
-    table_size: list[float] = field(default_factory=lambda: [0.30, 0.30])
-    table_height: float = 0.30
-    swap_tables: bool = False
-    cup_offset: list[float] = field(default_factory=lambda: [0.0, 0.0])
-    place_offset: list[float] = field(default_factory=lambda: [0.0, 0.0])
-    cup_radius: float = 0.03
-    cup_height: float = 0.10
-    cup_mass: float = 0.15
-    cup_modulus: float = 1.0e6
-    board_centre: list[float] = field(default_factory=lambda: [0.65, 0.0, 0.65])
-    board_size: list[float] = field(default_factory=lambda: [0.70, 0.50])
-    board_area: list[float] = field(default_factory=lambda: [0.30, 0.20])
-    board_scale: float = 1.0
-    target_position: list[float] = field(default_factory=lambda: [0.55, -0.30, 0.30])
-    obstacle_centre: list[float] = field(default_factory=lambda: [0.50, 0.0, 0.40])
-    obstacle_size: list[float] = field(default_factory=lambda: [0.24, 0.05, 0.22])
-    u_inner_width: float = 0.24
-    u_depth: float = 0.18
-    u_height: float = 0.45
-    u_thickness: float = 0.03
-    seed: int | None = None
+    tables: bool = param(True)
+    cup: bool = param(True)
+    board: bool = param(False)
+    target: bool = param(False)
+    obstacle: str = param("none", choices=OBSTACLE_KINDS)
+    table_a: list[float] = param([0.50, 0.32], unit="m", length=2, elements=True, factory=True)
+    table_b: list[float] = param([0.50, -0.32], unit="m", length=2, elements=True, factory=True)
+    table_size: list[float] = param([0.30, 0.30], unit="m", length=2, gt=0, factory=True)
+    table_height: float = param(0.30, unit="m", gt=0)
+    swap_tables: bool = param(False)
+    cup_offset: list[float] = param([0.0, 0.0], unit="m", length=2, elements=True, factory=True)
+    place_offset: list[float] = param([0.0, 0.0], unit="m", length=2, elements=True,
+                                      factory=True)
+    cup_radius: float = param(0.03, unit="m", gt=0)
+    cup_height: float = param(0.10, unit="m", gt=0)
+    cup_mass: float = param(0.15, unit="kg", gt=0)
+    cup_modulus: float = param(1.0e6, unit="Pa", gt=0)
+    board_centre: list[float] = param([0.65, 0.0, 0.65], unit="m", length=3, elements=True,
+                                      factory=True)
+    board_size: list[float] = param([0.70, 0.50], unit="m", length=2, gt=0, factory=True)
+    board_area: list[float] = param([0.30, 0.20], unit="m", length=2, gt=0, factory=True)
+    board_scale: float = param(1.0, gt=0)
+    target_position: list[float] = param([0.55, -0.30, 0.30], unit="m", length=3,
+                                         elements=True, factory=True)
+    obstacle_centre: list[float] = param([0.50, 0.0, 0.40], unit="m", length=3, elements=True,
+                                         factory=True)
+    obstacle_size: list[float] = param([0.24, 0.05, 0.22], unit="m", length=3, gt=0,
+                                       factory=True)
+    u_inner_width: float = param(0.24, unit="m", gt=0)
+    u_depth: float = param(0.18, unit="m", gt=0)
+    u_height: float = param(0.45, unit="m", gt=0)
+    u_thickness: float = param(0.03, unit="m", gt=0)
+    seed: int | None = param(None, optional=True, integer=True)
 
     # ------------------------------------------------------------------ checks
     def validate(self) -> "ImitationSceneSpec":
         """Raise ValueError naming the first bad field; returns self."""
-        lists = {"table_a": 2, "table_b": 2, "table_size": 2, "cup_offset": 2,
-                 "place_offset": 2, "board_centre": 3, "board_size": 2, "board_area": 2,
-                 "target_position": 3, "obstacle_centre": 3, "obstacle_size": 3}
-        for k, n in lists.items():
-            v = np.asarray(getattr(self, k), float)
-            if v.shape != (n,):
-                raise ValueError(f"ImitationSceneSpec.{k} must have {n} entries, got "
-                                 f"{getattr(self, k)!r}")
-            if not np.all(np.isfinite(v)):
-                raise ValueError(f"ImitationSceneSpec.{k} must be finite, got {v.tolist()}")
-        for k in ("table_height", "cup_radius", "cup_height", "cup_mass", "cup_modulus",
-                  "board_scale", "u_inner_width", "u_depth", "u_height", "u_thickness"):
-            v = getattr(self, k)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise ValueError(f"ImitationSceneSpec.{k} must be a finite number > 0, got "
-                                 f"{v!r}")
-        for k in ("table_size", "board_size", "board_area", "obstacle_size"):
-            if np.any(np.asarray(getattr(self, k), float) <= 0):
-                raise ValueError(f"ImitationSceneSpec.{k} entries must be > 0")
-        if self.obstacle not in OBSTACLE_KINDS:
-            raise ValueError(f"ImitationSceneSpec.obstacle must be one of {OBSTACLE_KINDS}, "
-                             f"got {self.obstacle!r}")
+        validate_fields(self)
         half = np.asarray(self.table_size) / 2
         for k in ("cup_offset", "place_offset"):
             if np.any(np.abs(self.__dict__[k]) > half - self.cup_radius):
-                raise ValueError(f"ImitationSceneSpec.{k} {self.__dict__[k]} puts the cup "
-                                 "off the table top")
+                raise ValueError(f"ImitationSceneSpec: {k} {self.__dict__[k]} puts the cup "
+                                 f"off the table top (|{k}| must be <= table_size / 2 - "
+                                 f"cup_radius, m)")
         area = np.asarray(self.board_area) * self.board_scale
         if np.any(area + 0.06 > np.asarray(self.board_size)):
             raise ValueError(f"ImitationSceneSpec: the area inside the corner markers "

@@ -26,11 +26,11 @@ Drake). Units: metres, seconds.
 """
 
 import dataclasses
-import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
+from mmlearn.models.common.config import param, validate_fields
 from mmlearn.models.imitation.scene import ImitationSceneSpec
 
 from mmlearn.models.imitation.min_jerk import MinJerkTrajectory, segment_times
@@ -67,47 +67,32 @@ class TeacherStyle:
         min_move: shortest duration of one move, s.
     """
 
-    speed: float = 0.25
-    speed_jitter: float = 0.15
-    timing_jitter: float = 0.1
-    via_jitter: float = 0.02
-    contact_jitter: float = 0.003
-    placement: float = 1.0
-    dwell: float = 0.6
-    gripper_time: float = 0.35
-    grasp_height: float = 0.015
-    home: list[float] = field(default_factory=lambda: [0.38, 0.0, 0.60])
-    reach_home: list[float] = field(default_factory=lambda: [0.50, 0.35, 0.45])
-    board_standoff: float = 0.01
-    strokes: int = 6
-    board_scale_jitter: float = 0.25
-    min_move: float = 0.4
+    speed: float = param(0.25, unit="m/s", gt=0)
+    speed_jitter: float = param(0.15, ge=0, lt=1)
+    timing_jitter: float = param(0.1, ge=0, lt=1)
+    via_jitter: float = param(0.02, unit="m", ge=0)
+    contact_jitter: float = param(0.003, unit="m", ge=0)
+    placement: float = param(1.0, ge=0)
+    dwell: float = param(0.6, unit="s", gt=0)
+    gripper_time: float = param(0.35, unit="s", gt=0)
+    grasp_height: float = param(0.015, unit="m", ge=0)
+    home: list[float] = param([0.38, 0.0, 0.60], unit="m", length=3, elements=True, factory=True)
+    reach_home: list[float] = param([0.50, 0.35, 0.45], unit="m", length=3, elements=True,
+                                    factory=True)
+    board_standoff: float = param(0.01, unit="m", ge=0)
+    strokes: int = param(6, integer=True, ge=2)
+    board_scale_jitter: float = param(0.25, ge=0, lt=1)
+    min_move: float = param(0.4, unit="s", gt=0)
 
     def validate(self) -> "TeacherStyle":
         """Raise ValueError naming the first bad field; returns self."""
-        for k in ("speed", "dwell", "gripper_time", "min_move"):
-            v = getattr(self, k)
-            if not (math.isfinite(v) and v > 0):
-                raise ValueError(f"TeacherStyle.{k} must be > 0, got {v!r}")
-        for k in ("speed_jitter", "timing_jitter", "board_scale_jitter"):
-            v = getattr(self, k)
-            if not (math.isfinite(v) and 0 <= v < 1):
-                raise ValueError(f"TeacherStyle.{k} must be in [0, 1), got {v!r}")
-        for k in ("via_jitter", "contact_jitter", "placement", "grasp_height",
-                  "board_standoff"):
-            v = getattr(self, k)
-            if not (math.isfinite(v) and v >= 0):
-                raise ValueError(f"TeacherStyle.{k} must be >= 0, got {v!r}")
+        validate_fields(self)
         if self.gripper_time + 0.05 >= 0.9 * self.dwell:
-            raise ValueError(f"TeacherStyle.gripper_time ({self.gripper_time} s) must end "
+            raise ValueError(f"TeacherStyle: gripper_time ({self.gripper_time} s) must end "
                              f"within the shortest rest (0.9 dwell - 0.05 s; dwell = "
                              f"{self.dwell} s)")
-        for k in ("home", "reach_home"):
-            v = np.asarray(getattr(self, k), float)
-            if v.shape != (3,) or not np.all(np.isfinite(v)):
-                raise ValueError(f"TeacherStyle.{k} must be 3 finite numbers (m)")
-        if not (isinstance(self.strokes, int) and self.strokes >= 2 and self.strokes % 2 == 0):
-            raise ValueError(f"TeacherStyle.strokes must be an even integer >= 2, got "
+        if self.strokes % 2:
+            raise ValueError(f"TeacherStyle: strokes must be an even integer >= 2, got "
                              f"{self.strokes!r}")
         return self
 

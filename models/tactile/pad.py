@@ -26,6 +26,8 @@ from functools import lru_cache
 
 import numpy as np
 
+from mmlearn.models.common.config import param, validate_fields
+
 __all__ = ["PadLayout", "PAD_CH6", "PAD_PR2", "subdivision_points", "integrate_pressure",
            "integrate_pressure_pads",
            "sensor_reading"]
@@ -43,19 +45,14 @@ class PadLayout:
         p_sat: saturation pressure, Pa: the mean cell pressure that reads 1.0.
     """
 
-    rows: int
-    cols: int
-    length: float
-    width: float
-    p_sat: float
+    rows: int = param(integer=True, ge=1)
+    cols: int = param(integer=True, ge=1)
+    length: float = param(unit="m", gt=0)
+    width: float = param(unit="m", gt=0)
+    p_sat: float = param(unit="Pa", gt=0)
 
     def __post_init__(self):
-        if self.rows < 1 or self.cols < 1:
-            raise ValueError(f"PadLayout: rows and cols must be >= 1, got {self.rows} x {self.cols}")
-        for k in ("length", "width", "p_sat"):
-            v = getattr(self, k)
-            if not (np.isfinite(v) and v > 0):
-                raise ValueError(f"PadLayout.{k}: expected a finite number > 0, got {v!r}")
+        validate_fields(self)
 
     @property
     def cell_area(self) -> float:

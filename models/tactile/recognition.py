@@ -76,6 +76,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial.distance import cdist
 
+from mmlearn.models.common.config import param, validate_fields
 from mmlearn.models.tactile.types import TactileDataError, TactileObservation, check_series
 
 __all__ = ["d1", "shift_rows", "d2", "pairwise_d2", "k_medoids", "TactileSet",
@@ -207,26 +208,15 @@ class TactileRecognitionConfig:
         seed: random seed of the clustering.
     """
 
-    k: int = 50
-    alpha: float = 0.5
-    max_shift: int = 2
-    length_scale: float | None = None
-    clustering: str = "auto"
-    seed: int = 0
+    k: int = param(50, integer=True, ge=1)
+    alpha: float = param(0.5, ge=0, le=1)
+    max_shift: int = param(2, unit="rows", integer=True, ge=0)
+    length_scale: float | None = param(None, optional=True, gt=0)
+    clustering: str = param("auto", choices=CLUSTERINGS)
+    seed: int = param(0, integer=True)
 
     def __post_init__(self):
-        if int(self.k) != self.k or self.k < 1:
-            raise ValueError(f"k: expected a positive integer, got {self.k!r}")
-        if not (np.isfinite(self.alpha) and 0.0 <= self.alpha <= 1.0):
-            raise ValueError(f"alpha: expected a number in [0, 1], got {self.alpha!r}")
-        if int(self.max_shift) != self.max_shift or self.max_shift < 0:
-            raise ValueError(f"max_shift: expected an integer >= 0, got {self.max_shift!r}")
-        if self.length_scale is not None and not (np.isfinite(self.length_scale)
-                                                  and self.length_scale > 0):
-            raise ValueError(f"length_scale: expected a number > 0, got {self.length_scale!r}")
-        if self.clustering not in CLUSTERINGS:
-            raise ValueError(f"clustering: unknown {self.clustering!r}; choose from "
-                             f"{', '.join(CLUSTERINGS)}")
+        validate_fields(self)
 
 
 def kmedoids_available() -> bool:

@@ -37,6 +37,8 @@ import numpy as np
 
 from pydrake.systems.framework import BasicVector, EventStatus, LeafSystem
 
+from mmlearn.models.common.config import param, validate_fields
+
 __all__ = ["BaseLocalization", "BaseLocalizationConfig"]
 
 
@@ -59,23 +61,16 @@ class BaseLocalizationConfig:
         seed: seed of the error's random draws.
     """
 
-    sigma_xy: float = 0.035
-    sigma_yaw: float = 0.02
-    time_constant: float = 60.0
-    odometry_xy: float = 0.03
-    odometry_yaw: float = 0.03
-    period: float = 0.05
-    seed: int = 0
+    sigma_xy: float = param(0.035, unit="m", ge=0)
+    sigma_yaw: float = param(0.02, unit="rad", ge=0)
+    time_constant: float = param(60.0, unit="s", gt=0)
+    odometry_xy: float = param(0.03, unit="m per m", ge=0)
+    odometry_yaw: float = param(0.03, unit="rad per rad", ge=0)
+    period: float = param(0.05, unit="s", gt=0)
+    seed: int = param(0, integer=True, ge=0)
 
     def validate(self) -> None:
-        for k in ("sigma_xy", "sigma_yaw", "odometry_xy", "odometry_yaw"):
-            v = getattr(self, k)
-            if not (math.isfinite(v) and v >= 0):
-                raise ValueError(f"BaseLocalizationConfig.{k} must be >= 0, got {v}")
-        for k in ("time_constant", "period"):
-            v = getattr(self, k)
-            if not (math.isfinite(v) and v > 0):
-                raise ValueError(f"BaseLocalizationConfig.{k} must be > 0, got {v}")
+        validate_fields(self)
 
     def scaled(self, scale: float) -> "BaseLocalizationConfig":
         """A copy with all error magnitudes multiplied by ``scale`` (0 = exact base pose)."""

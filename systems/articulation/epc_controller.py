@@ -44,6 +44,8 @@ from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.multibody.tree import JacobianWrtVariable
 from pydrake.systems.framework import BasicVector, EventStatus, LeafSystem, ValueProducer
 
+from mmlearn.models.common.config import param, validate_fields
+
 DRIVE, PREHOOK, DEPTH, SLIDE, PULL, RELEASE, DONE = range(7)
 PHASE_NAMES = ["drive", "prehook", "depth", "slide", "pull", "release", "done"]
 
@@ -86,7 +88,8 @@ class EpcTask:
 @dataclass
 class EpcConfig:
     """Parameters of :class:`EpcController` (m, s, N, rad). Every field has its own entry
-    below (``tests/test_epc_controller.py`` checks it) and a check in :meth:`validate`.
+    below (``tests/test_epc_controller.py`` checks it) and declares its unit and allowed
+    values with ``param`` (checked by :meth:`validate`).
 
     Attributes:
         period: control period: the controller updates its equilibrium point this often,
@@ -198,98 +201,75 @@ class EpcConfig:
     """
 
     # control and IK
-    period: float = 0.1
-    ik_damping: float = 0.05
-    ik_iterations: int = 8
-    ik_rotation_weight: float = 0.5
-    ik_position_tolerance: float = 1e-4
-    ik_angle_tolerance: float = 1e-3
-    ik_max_step: float = 0.3
-    base_weight: float = 4.0
+    period: float = param(0.1, unit="s", gt=0)
+    ik_damping: float = param(0.05, gt=0)
+    ik_iterations: int = param(8, integer=True, ge=1)
+    ik_rotation_weight: float = param(0.5, unit="m/rad", gt=0)
+    ik_position_tolerance: float = param(1e-4, unit="m", gt=0)
+    ik_angle_tolerance: float = param(1e-3, unit="rad", gt=0)
+    ik_max_step: float = param(0.3, unit="rad", gt=0)
+    base_weight: float = param(4.0, gt=0)
     # DRIVE
-    stance_distance: float = 0.78
-    stance_side: float = 0.3
-    drive_speed: float = 0.5
-    drive_min_time: float = 1.0
-    drive_settle_time: float = 0.5
-    ready_arm_q: list[float] = field(default_factory=lambda: [0.0, 0.5, 0.0, 1.6, 0.0, -0.5])
+    stance_distance: float = param(0.78, unit="m", gt=0)
+    stance_side: float = param(0.3, unit="m")
+    drive_speed: float = param(0.5, unit="m/s", gt=0)
+    drive_min_time: float = param(1.0, unit="s", gt=0)
+    drive_settle_time: float = param(0.5, unit="s", ge=0)
+    ready_arm_q: list[float] = param([0.0, 0.5, 0.0, 1.6, 0.0, -0.5], unit="rad",
+                                     length=(1, None), elements=True, factory=True)
     # PREHOOK
-    prehook_distance: float = 0.18
-    side_offset: float = 0.055
-    approach_time: float = 2.0
-    approach_settle_time: float = 0.5
+    prehook_distance: float = param(0.18, unit="m", gt=0)
+    side_offset: float = param(0.055, unit="m", gt=0)
+    approach_time: float = param(2.0, unit="s", gt=0)
+    approach_settle_time: float = param(0.5, unit="s", ge=0)
     # DEPTH (guarded move) and retries
-    depth_goal: float = 0.08
-    depth_margin: float = 0.05
-    depth_time: float = 2.5
-    depth_contact_force: float = 3.0
-    bar_split_depth: float = 0.0
-    bar_depth_tolerance: float = 0.03
-    edge_depth: float = 0.065
-    max_retries: int = 3
-    retry_side_shift: float = 0.02
-    retry_backoff: float = 0.05
-    edge_retry_backoff: float = 0.12
-    front_backoff: float = 0.018
+    depth_goal: float = param(0.08, unit="m", ge=0)
+    depth_margin: float = param(0.05, unit="m", ge=0)
+    depth_time: float = param(2.5, unit="s", gt=0)
+    depth_contact_force: float = param(3.0, unit="N", gt=0)
+    bar_split_depth: float = param(0.0, unit="m")
+    bar_depth_tolerance: float = param(0.03, unit="m", ge=0)
+    edge_depth: float = param(0.065, unit="m", gt=0)
+    max_retries: int = param(3, integer=True, ge=0)
+    retry_side_shift: float = param(0.02, unit="m", gt=0)
+    retry_backoff: float = param(0.05, unit="m", gt=0)
+    edge_retry_backoff: float = param(0.12, unit="m", gt=0)
+    front_backoff: float = param(0.018, unit="m", gt=0)
     # SLIDE
-    slide_reach: float = 0.06
-    sliding_reach: float = 0.03
-    slide_time: float = 1.5
-    slide_time_distance: float = 0.085
-    slide_contact_force: float = 3.0
-    slide_near_bar: float = 0.04
-    slide_blocked_lag: float = 0.02
-    slide_reached_tolerance: float = 0.015
-    slide_settle_time: float = 0.3
+    slide_reach: float = param(0.06, unit="m", gt=0)
+    sliding_reach: float = param(0.03, unit="m", gt=0)
+    slide_time: float = param(1.5, unit="s", gt=0)
+    slide_time_distance: float = param(0.085, unit="m", gt=0)
+    slide_contact_force: float = param(3.0, unit="N", gt=0)
+    slide_near_bar: float = param(0.04, unit="m", gt=0)
+    slide_blocked_lag: float = param(0.02, unit="m", gt=0)
+    slide_reached_tolerance: float = param(0.015, unit="m", gt=0)
+    slide_settle_time: float = param(0.3, unit="s", ge=0)
     # PULL and stop conditions
-    step: float = 0.01
-    force_target: float = 5.0
-    force_gain: float = 0.0015
-    max_lead: float = 0.05
-    max_turn: float = 0.05
-    min_model_samples: int = 15
-    contact_force: float = 0.5
-    motion_window: float = 0.03
-    stop_force: float = 35.0
-    stall_lead_fraction: float = 0.9
-    stall_force_fraction: float = 0.3
-    stall_periods: int = 8
-    slack_force: float = 1.0
-    slack_periods: int = 15
-    target_angle: float = math.radians(85)
-    target_distance: float = 0.65
-    max_pull_time: float = 25.0
+    step: float = param(0.01, unit="m", gt=0)
+    force_target: float = param(5.0, unit="N", ge=0)
+    force_gain: float = param(0.0015, unit="m per N per period", gt=0)
+    max_lead: float = param(0.05, unit="m", gt=0)
+    max_turn: float = param(0.05, unit="rad", gt=0)
+    min_model_samples: int = param(15, integer=True, ge=3)
+    contact_force: float = param(0.5, unit="N", ge=0)
+    motion_window: float = param(0.03, unit="m", gt=0)
+    stop_force: float = param(35.0, unit="N", gt=0)
+    stall_lead_fraction: float = param(0.9, gt=0, le=1)
+    stall_force_fraction: float = param(0.3, gt=0)
+    stall_periods: int = param(8, integer=True, ge=1)
+    slack_force: float = param(1.0, unit="N", gt=0)
+    slack_periods: int = param(15, integer=True, ge=1)
+    target_angle: float = param(math.radians(85), unit="rad", gt=0)
+    target_distance: float = param(0.65, unit="m", gt=0)
+    max_pull_time: float = param(25.0, unit="s", gt=0)
     # RELEASE (and back-off)
-    release_time: float = 2.0
-    release_unload: float = 0.015
-    release_slide_start: float = 0.25
-    release_slide: float = 0.12
-    release_backoff_start: float = 0.65
-    release_backoff: float = 0.15
-
-    #: fields that must be > 0
-    _POSITIVE = (
-        "period", "ik_damping", "ik_rotation_weight", "ik_position_tolerance",
-        "ik_angle_tolerance", "ik_max_step", "base_weight", "stance_distance", "drive_speed",
-        "drive_min_time", "prehook_distance", "side_offset", "approach_time", "depth_time",
-        "depth_contact_force", "edge_depth", "retry_side_shift", "retry_backoff",
-        "edge_retry_backoff", "front_backoff", "slide_reach", "sliding_reach", "slide_time",
-        "slide_time_distance", "slide_contact_force", "slide_near_bar", "slide_blocked_lag",
-        "slide_reached_tolerance", "step", "force_gain", "max_lead", "max_turn",
-        "motion_window", "stop_force", "stall_force_fraction", "slack_force",
-        "target_angle", "target_distance", "max_pull_time", "release_time")
-    #: fields that must be >= 0
-    _NON_NEGATIVE = (
-        "drive_settle_time", "approach_settle_time", "depth_goal", "depth_margin",
-        "bar_depth_tolerance", "slide_settle_time", "force_target", "contact_force",
-        "release_unload", "release_slide", "release_backoff")
-    #: fields that may take any finite value
-    _FINITE = ("stance_side", "bar_split_depth")
-    #: integer fields and their smallest value
-    _COUNTS = {"ik_iterations": 1, "max_retries": 0, "min_model_samples": 3,
-               "stall_periods": 1, "slack_periods": 1}
-    #: fields in (0, 1]
-    _FRACTIONS = ("stall_lead_fraction",)
+    release_time: float = param(2.0, unit="s", gt=0)
+    release_unload: float = param(0.015, unit="m", ge=0)
+    release_slide_start: float = param(0.25, gt=0, lt=1)
+    release_slide: float = param(0.12, unit="m", ge=0)
+    release_backoff_start: float = param(0.65, gt=0, lt=1)
+    release_backoff: float = param(0.15, unit="m", ge=0)
 
     def __post_init__(self):
         self.validate()
@@ -300,38 +280,12 @@ class EpcConfig:
         Runs on construction; ``yaml_load_typed`` sets the fields of a default-constructed
         config, so :class:`EpcController` validates its config again.
         """
-        def number(k):
-            v = getattr(self, k)
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-                raise ValueError(f"EpcConfig.{k} must be a finite number, got {v!r}")
-            return v
-
-        for k in self._POSITIVE:
-            if not number(k) > 0:
-                raise ValueError(f"EpcConfig.{k} must be > 0, got {getattr(self, k)!r}")
-        for k in self._NON_NEGATIVE:
-            if not number(k) >= 0:
-                raise ValueError(f"EpcConfig.{k} must be >= 0, got {getattr(self, k)!r}")
-        for k in self._FINITE:
-            number(k)
-        for k in self._FRACTIONS:
-            if not 0 < number(k) <= 1:
-                raise ValueError(f"EpcConfig.{k} must be in (0, 1], got {getattr(self, k)!r}")
-        for k, lo in self._COUNTS.items():
-            v = getattr(self, k)
-            if isinstance(v, bool) or not isinstance(v, int) or v < lo:
-                raise ValueError(f"EpcConfig.{k} must be an integer >= {lo}, got {v!r}")
-        if not 0 < number("release_slide_start") < number("release_backoff_start") < 1:
+        validate_fields(self)
+        if not self.release_slide_start < self.release_backoff_start:
             raise ValueError(
-                "EpcConfig.release_slide_start and release_backoff_start must satisfy "
+                "EpcConfig: release_slide_start and release_backoff_start must satisfy "
                 f"0 < release_slide_start < release_backoff_start < 1, got "
                 f"{self.release_slide_start!r}, {self.release_backoff_start!r}")
-        q = self.ready_arm_q
-        if (not isinstance(q, (list, tuple, np.ndarray)) or len(q) == 0
-                or not all(isinstance(x, (int, float, np.floating)) and not isinstance(x, bool)
-                           and math.isfinite(x) for x in q)):
-            raise ValueError(f"EpcConfig.ready_arm_q must be a list of finite numbers (rad), "
-                             f"got {q!r}")
 
 
 @dataclass

@@ -96,7 +96,7 @@ from __future__ import annotations
 
 import copy
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -105,6 +105,7 @@ from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.systems.framework import BasicVector, EventStatus, LeafSystem, ValueProducer
 
 from mmlearn.models.body_schema.schema import AdaptationConfig, BodySchema, SearchConfig
+from mmlearn.models.common.config import param, validate_fields
 from mmlearn.models.common.se3 import project_to_so3
 
 from mmlearn.systems.common.observations import MarkerObservations
@@ -138,27 +139,19 @@ class SchemaLearnerConfig:
         adapt: life-long adaptation parameters (AdaptationConfig).
     """
 
-    rate_hz: float = 10.0
-    settle_time: float = 0.5
-    settle_tol: float = 1e-4
-    one_per_target: bool = True
-    min_visible: int = 2
-    refit_at: list[int] = field(default_factory=lambda: [10, 15, 20, 30, 40, 50, 70, 100,
-                                                         150, 200, 300])
-    refit_every_until: int = 20
-    search: SearchConfig = field(default_factory=SearchConfig)
-    adapt: AdaptationConfig = field(default_factory=AdaptationConfig)
+    rate_hz: float = param(10.0, unit="Hz", gt=0)
+    settle_time: float = param(0.5, unit="s", ge=0)
+    settle_tol: float = param(1e-4, unit="rad or m", ge=0)
+    one_per_target: bool = param(True)
+    min_visible: int = param(2, integer=True, ge=2)
+    refit_at: list[int] = param([10, 15, 20, 30, 40, 50, 70, 100, 150, 200, 300], integer=True,
+                                ge=1, elements=True, factory=True)
+    refit_every_until: int = param(20, integer=True, ge=0)
+    search: SearchConfig = param(default_factory=SearchConfig, nested=SearchConfig)
+    adapt: AdaptationConfig = param(default_factory=AdaptationConfig, nested=AdaptationConfig)
 
     def validate(self) -> None:
-        checks = [(np.isfinite(self.rate_hz) and self.rate_hz > 0, "rate_hz must be > 0"),
-                  (np.isfinite(self.settle_time) and self.settle_time >= 0,
-                   "settle_time must be >= 0 s"),
-                  (np.isfinite(self.settle_tol) and self.settle_tol >= 0,
-                   "settle_tol must be >= 0"),
-                  (self.min_visible >= 2, "min_visible must be >= 2")]
-        for ok, msg in checks:
-            if not ok:
-                raise ValueError(f"SchemaLearnerConfig: {msg}")
+        validate_fields(self)
 
 
 #: entries kept in the learner's logs (``history``, ``update_seconds``, ``refit_seconds``,

@@ -32,7 +32,7 @@ cannot be decoded. ``outlier`` is always False (the sensor cannot know).
 
 import itertools
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import cv2
 import numpy as np
@@ -42,6 +42,7 @@ from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.systems.framework import EventStatus, LeafSystem
 from pydrake.systems.sensors import ImageDepth32F, ImageRgba8U
 
+from mmlearn.models.common.config import param, validate_fields
 from mmlearn.models.common.depth_noise import DepthNoiseConfig
 from mmlearn.models.common.marker_detection import (DetectorConfig, MarkerDetections, quad_depth_pixels,
                                                     detect_marker_poses, make_detector,
@@ -163,97 +164,37 @@ class CameraMarkerSensorConfig:
             its root part.
     """
 
-    bodies: list[str] = field(default_factory=list)
-    rate_hz: float = 10.0
-    cameras: list[CameraConfig] = field(default_factory=default_marker_cameras)
-    width: int = 1920
-    height: int = 1440
-    near: float = 0.05
-    principal_point_shift_px: list[float] = field(default_factory=lambda: [-0.5, -0.5])
-    max_disagreement_deg: float = 10.0
-    use_depth: bool = True
-    depth_test: str = "residual"
-    depth_max_angle_deg: float = 15.0
-    depth_min_log_ratio: float = 3.0
-    depth_max_excess_chi2: float = 13.8
-    depth_sigma_floor_m: float = 2e-4
-    depth_noise: DepthNoiseConfig | None = None
-    min_unambiguous_ratio: float = 2.5
-    track_max_age_s: float = 0.25
-    track_max_angle_deg: float = 20.0
-    aruco: ArucoSpec = field(default_factory=ArucoSpec)
-    detector: DetectorConfig = field(default_factory=lambda: DetectorConfig(min_side_px=12.0))
+    bodies: list[str] = param([], factory=True)
+    rate_hz: float = param(10.0, unit="Hz", gt=0)
+    cameras: list[CameraConfig] = param(default_factory=default_marker_cameras,
+                                        nested=CameraConfig, length=(1, None))
+    width: int = param(1920, unit="px", integer=True, ge=16, le=8192)
+    height: int = param(1440, unit="px", integer=True, ge=16, le=8192)
+    near: float = param(0.05, unit="m", gt=0)
+    principal_point_shift_px: list[float] = param([-0.5, -0.5], unit="px", length=2, gt=-10,
+                                                  lt=10, factory=True)
+    max_disagreement_deg: float = param(10.0, unit="deg", gt=0, le=180)
+    use_depth: bool = param(True)
+    depth_test: str = param("residual", choices=("residual", "normal"))
+    depth_max_angle_deg: float = param(15.0, unit="deg", gt=0, le=90)
+    depth_min_log_ratio: float = param(3.0, ge=0)
+    depth_max_excess_chi2: float = param(13.8, ge=0)
+    depth_sigma_floor_m: float = param(2e-4, unit="m", ge=0)
+    depth_noise: DepthNoiseConfig | None = param(None, optional=True, nested=DepthNoiseConfig)
+    min_unambiguous_ratio: float = param(2.5, ge=1)
+    track_max_age_s: float = param(0.25, unit="s", ge=0)
+    track_max_angle_deg: float = param(20.0, unit="deg", gt=0, le=180)
+    aruco: ArucoSpec = param(default_factory=ArucoSpec, nested=ArucoSpec)
+    detector: DetectorConfig = param(default_factory=lambda: DetectorConfig(min_side_px=12.0),
+                                     nested=DetectorConfig)
 
     def validate(self) -> None:
         """Raise ValueError naming the first invalid field."""
-        if not (isinstance(self.rate_hz, (int, float)) and math.isfinite(self.rate_hz)
-                and self.rate_hz > 0):
-            raise ValueError(f"CameraMarkerSensorConfig: rate_hz must be > 0, got "
-                             f"{self.rate_hz!r}")
-        for k in ("width", "height"):
-            v = getattr(self, k)
-            if not (isinstance(v, int) and 16 <= v <= 8192):
-                raise ValueError(f"CameraMarkerSensorConfig: {k} must be an integer number of "
-                                 f"pixels in [16, 8192], got {v!r}")
-        if not self.cameras:
-            raise ValueError("CameraMarkerSensorConfig: cameras must not be empty")
-        if not (len(self.principal_point_shift_px) == 2
-                and all(math.isfinite(v) and abs(v) < 10 for v in self.principal_point_shift_px)):
-            raise ValueError("CameraMarkerSensorConfig: principal_point_shift_px must be two "
-                             f"finite pixel offsets below 10, got {self.principal_point_shift_px}")
-        if not (isinstance(self.max_disagreement_deg, (int, float))
-                and math.isfinite(self.max_disagreement_deg)
-                and 0 < self.max_disagreement_deg <= 180):
-            raise ValueError("CameraMarkerSensorConfig: max_disagreement_deg must be in "
-                             f"(0, 180] degrees, got {self.max_disagreement_deg!r}")
-        if not isinstance(self.use_depth, bool):
-            raise ValueError("CameraMarkerSensorConfig: use_depth must be true or false, got "
-                             f"{self.use_depth!r}")
-        if not (isinstance(self.depth_max_angle_deg, (int, float))
-                and math.isfinite(self.depth_max_angle_deg)
-                and 0 < self.depth_max_angle_deg <= 90):
-            raise ValueError("CameraMarkerSensorConfig: depth_max_angle_deg must be in "
-                             f"(0, 90] degrees, got {self.depth_max_angle_deg!r}")
-        if self.depth_test not in ("residual", "normal"):
-            raise ValueError("CameraMarkerSensorConfig: depth_test must be 'residual' or "
-                             f"'normal', got {self.depth_test!r}")
-        for k in ("depth_min_log_ratio", "depth_max_excess_chi2", "depth_sigma_floor_m"):
-            v = getattr(self, k)
-            if isinstance(v, bool) or not (isinstance(v, (int, float)) and math.isfinite(v)
-                                           and v >= 0):
-                raise ValueError(f"CameraMarkerSensorConfig: {k} must be a finite number "
-                                 f">= 0, got {v!r}")
-        if self.depth_noise is not None:
-            if not isinstance(self.depth_noise, DepthNoiseConfig):
-                raise ValueError("CameraMarkerSensorConfig: depth_noise must be a "
-                                 f"DepthNoiseConfig or None, got {self.depth_noise!r}")
-            self.depth_noise.validate()
-        if not (isinstance(self.min_unambiguous_ratio, (int, float))
-                and math.isfinite(self.min_unambiguous_ratio)
-                and self.min_unambiguous_ratio >= 1):
-            raise ValueError("CameraMarkerSensorConfig: min_unambiguous_ratio must be a "
-                             f"finite number >= 1, got {self.min_unambiguous_ratio!r}")
-        if not (isinstance(self.track_max_age_s, (int, float))
-                and math.isfinite(self.track_max_age_s) and self.track_max_age_s >= 0):
-            raise ValueError("CameraMarkerSensorConfig: track_max_age_s must be >= 0 s, got "
-                             f"{self.track_max_age_s!r}")
-        if not (isinstance(self.track_max_angle_deg, (int, float))
-                and math.isfinite(self.track_max_angle_deg)
-                and 0 < self.track_max_angle_deg <= 180):
-            raise ValueError("CameraMarkerSensorConfig: track_max_angle_deg must be in "
-                             f"(0, 180] degrees, got {self.track_max_angle_deg!r}")
-        if not (math.isfinite(self.near) and self.near > 0):
-            raise ValueError(f"CameraMarkerSensorConfig: near must be > 0 m, got {self.near}")
+        validate_fields(self)
         for i, cam in enumerate(self.cameras):
-            if not (0 < cam.fov_y_deg < 180):
-                raise ValueError(f"CameraMarkerSensorConfig: cameras[{i}].fov_y_deg must be "
-                                 f"in (0, 180) degrees, got {cam.fov_y_deg}")
             if not cam.max_range > self.near:
                 raise ValueError(f"CameraMarkerSensorConfig: cameras[{i}].max_range must be "
                                  f"> near ({self.near} m), got {cam.max_range}")
-            cam.pose()
-        self.aruco.validate()
-        self.detector.validate()
 
     def intrinsics(self, cam: CameraConfig) -> np.ndarray:
         """K (3, 3) the detector uses for ``cam``: Drake's ``CameraInfo(width, height,

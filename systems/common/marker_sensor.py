@@ -19,7 +19,7 @@ restarted simulation draws the same noise.
 
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -28,6 +28,7 @@ from pydrake.common.value import AbstractValue
 from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.systems.framework import EventStatus, LeafSystem
 
+from mmlearn.models.common.config import param, validate_fields
 from mmlearn.models.common.se3 import project_to_so3
 
 from mmlearn.systems.common.observations import MarkerObservations
@@ -45,11 +46,18 @@ class CameraConfig:
         max_range: markers farther than this are not detected, m.
     """
 
-    position: list[float] = field(default_factory=lambda: [2.2, 0.0, 1.2])
-    look_at: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.6])
-    fov_x_deg: float = 70.0
-    fov_y_deg: float = 55.0
-    max_range: float = 6.0
+    position: list[float] = param([2.2, 0.0, 1.2], unit="m", length=3, elements=True,
+                                  factory=True)
+    look_at: list[float] = param([0.0, 0.0, 0.6], unit="m", length=3, elements=True,
+                                 factory=True)
+    fov_x_deg: float = param(70.0, unit="deg", gt=0, lt=180)
+    fov_y_deg: float = param(55.0, unit="deg", gt=0, lt=180)
+    max_range: float = param(6.0, unit="m", gt=0)
+
+    def validate(self) -> None:
+        """Raise ValueError naming the first invalid field (and a look_at equal to position)."""
+        validate_fields(self)
+        self.pose()
 
     def pose(self) -> RigidTransform:
         """X_WC built from position and look_at (world +z is 'up' in the image)."""
@@ -88,56 +96,29 @@ class MarkerSensorConfig:
         seed: seed of the noise.
     """
 
-    bodies: list[str] = field(default_factory=list)
-    rate_hz: float = 10.0
-    sigma_pos: float = 0.0
-    sigma_orient: float = 0.0
-    gamma: float = 0.0
-    dropout: float = 0.0
-    workspace_min: list[float] = field(default_factory=lambda: [-1.5, -1.5, 0.0])
-    workspace_max: list[float] = field(default_factory=lambda: [1.5, 1.5, 2.0])
-    cameras: list[CameraConfig] = field(default_factory=lambda: [CameraConfig()])
-    max_view_angle_deg: float = 80.0
-    check_occlusion: bool = True
-    occlusion_step: float = 0.02
-    seed: int = 0
+    bodies: list[str] = param([], factory=True)
+    rate_hz: float = param(10.0, unit="Hz", gt=0)
+    sigma_pos: float = param(0.0, unit="m", ge=0)
+    sigma_orient: float = param(0.0, unit="rad", ge=0)
+    gamma: float = param(0.0, ge=0, lt=1)
+    dropout: float = param(0.0, ge=0, lt=1)
+    workspace_min: list[float] = param([-1.5, -1.5, 0.0], unit="m", length=3, elements=True,
+                                       factory=True)
+    workspace_max: list[float] = param([1.5, 1.5, 2.0], unit="m", length=3, elements=True,
+                                       factory=True)
+    cameras: list[CameraConfig] = param(default_factory=lambda: [CameraConfig()],
+                                        nested=CameraConfig)
+    max_view_angle_deg: float = param(80.0, unit="deg", gt=0, le=180)
+    check_occlusion: bool = param(True)
+    occlusion_step: float = param(0.02, unit="m", gt=0)
+    seed: int = param(0, integer=True, ge=0)
 
     def validate(self) -> None:
         """Raise ValueError naming the first invalid field."""
-        for k in ("rate_hz", "sigma_pos", "sigma_orient", "gamma", "dropout",
-                  "max_view_angle_deg", "occlusion_step"):
-            if not math.isfinite(getattr(self, k)):
-                raise ValueError(f"MarkerSensorConfig: {k} must be finite, got "
-                                 f"{getattr(self, k)}")
-        checks = [
-            (self.rate_hz > 0, f"rate_hz must be > 0, got {self.rate_hz}"),
-            (self.sigma_pos >= 0, f"sigma_pos must be >= 0 (metres), got {self.sigma_pos}"),
-            (self.sigma_orient >= 0,
-             f"sigma_orient must be >= 0 (radians), got {self.sigma_orient}"),
-            (0 <= self.gamma < 1, f"gamma (outlier ratio) must be in [0, 1), got {self.gamma}"),
-            (0 <= self.dropout < 1, f"dropout must be in [0, 1), got {self.dropout}"),
-            (len(self.workspace_min) == 3 and len(self.workspace_max) == 3,
-             "workspace_min and workspace_max must have 3 entries"),
-            (0 < self.max_view_angle_deg <= 180,
-             f"max_view_angle_deg must be in (0, 180], got {self.max_view_angle_deg}"),
-            (self.occlusion_step > 0,
-             f"occlusion_step must be > 0, got {self.occlusion_step}"),
-        ]
-        for ok, msg in checks:
-            if not ok:
-                raise ValueError(f"MarkerSensorConfig: {msg}")
-        if not (isinstance(self.seed, (int, np.integer)) and self.seed >= 0):
-            raise ValueError(f"MarkerSensorConfig: seed must be an integer >= 0, got "
-                             f"{self.seed!r}")
+        validate_fields(self)
         if np.any(np.asarray(self.workspace_max) < np.asarray(self.workspace_min)):
-            raise ValueError("MarkerSensorConfig: workspace_max must be >= workspace_min")
-        for i, cam in enumerate(self.cameras):
-            if not (0 < cam.fov_x_deg < 180 and 0 < cam.fov_y_deg < 180):
-                raise ValueError(f"MarkerSensorConfig: cameras[{i}] field of view must be "
-                                 "in (0, 180) degrees")
-            if cam.max_range <= 0:
-                raise ValueError(f"MarkerSensorConfig: cameras[{i}].max_range must be > 0")
-            cam.pose()
+            raise ValueError(f"MarkerSensorConfig: workspace_max must be >= workspace_min "
+                             f"per axis (m), got {self.workspace_min} and {self.workspace_max}")
 
 
 class MarkerSensor(LeafSystem):

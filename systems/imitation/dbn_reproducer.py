@@ -24,13 +24,15 @@ computation fails holds the arm where it is (counted in ``status``).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
 from pydrake.common.value import AbstractValue
 from pydrake.multibody.tree import JacobianWrtVariable
 from pydrake.systems.framework import BasicVector, EventStatus, LeafSystem
+
+from mmlearn.models.common.config import param, validate_fields
 
 from mmlearn.systems.common.observations import MarkerObservations
 
@@ -112,56 +114,31 @@ class DbnReproducerConfig:
             ``plan_global`` unchanged.
     """
 
-    mode: str = "incremental"
-    period: float = 0.0
-    settle_steps: int = 15
-    use_joints: bool = False
-    damping: float = 0.05
-    gain: float = 1.0
-    max_joint_step: float = 0.25
-    gripper_open_angle: float = 0.6
-    obstacle_alpha: float = 0.05
-    obstacle_beta: float = 1e-6
-    obstacle_length: float = 0.05
-    obstacle_range: float = 0.35
-    carry_radius: float = 0.1
-    skip_carried: bool = True
-    plan_clearance: float = 0.06
-    carry_tolerance: float = 0.05
-    held_offset_correction: bool = True
-    held_offset_filter: float = 0.3
-    release_in_place: bool = True
-    advance_tolerance: float = 0.01
-    max_slice_waits: int = 8
-    step_kwargs: dict[str, float] = field(default_factory=dict)
+    mode: str = param("incremental", choices=MODES)
+    period: float = param(0.0, unit="s", ge=0)
+    settle_steps: int = param(15, integer=True, ge=0)
+    use_joints: bool = param(False)
+    damping: float = param(0.05, unit="m", ge=0)
+    gain: float = param(1.0, gt=0)
+    max_joint_step: float = param(0.25, unit="rad", gt=0)
+    gripper_open_angle: float = param(0.6, unit="rad", ge=0)
+    obstacle_alpha: float = param(0.05, unit="m", ge=0)
+    obstacle_beta: float = param(1e-6, unit="m^2", ge=0)
+    obstacle_length: float = param(0.05, unit="m", ge=0)
+    obstacle_range: float = param(0.35, unit="m", ge=0)
+    carry_radius: float = param(0.1, unit="m", ge=0)
+    skip_carried: bool = param(True)
+    plan_clearance: float = param(0.06, unit="m", ge=0)
+    carry_tolerance: float = param(0.05, unit="m", ge=0)
+    held_offset_correction: bool = param(True)
+    held_offset_filter: float = param(0.3, gt=0, le=1)
+    release_in_place: bool = param(True)
+    advance_tolerance: float = param(0.01, unit="m", ge=0)
+    max_slice_waits: int = param(8, integer=True, ge=0)
+    step_kwargs: dict[str, float] = param({}, factory=True)
 
     def validate(self) -> None:
-        if self.mode not in MODES:
-            raise ValueError(f"DbnReproducerConfig.mode must be one of {MODES}, got "
-                             f"{self.mode!r}")
-        for k in ("period", "damping", "gain", "max_joint_step", "gripper_open_angle",
-                  "obstacle_alpha", "obstacle_beta", "obstacle_length", "obstacle_range",
-                  "carry_radius", "carry_tolerance", "plan_clearance"):
-            v = getattr(self, k)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
-                raise ValueError(f"DbnReproducerConfig.{k} must be a finite number >= 0, "
-                                 f"got {v!r}")
-        if not self.gain > 0 or not self.max_joint_step > 0:
-            raise ValueError("DbnReproducerConfig: gain and max_joint_step must be > 0")
-        if not (isinstance(self.held_offset_filter, (int, float))
-                and 0 < self.held_offset_filter <= 1):
-            raise ValueError(f"DbnReproducerConfig.held_offset_filter must be in (0, 1], "
-                             f"got {self.held_offset_filter!r}")
-        if not (isinstance(self.advance_tolerance, (int, float))
-                and math.isfinite(self.advance_tolerance) and self.advance_tolerance >= 0):
-            raise ValueError(f"DbnReproducerConfig.advance_tolerance must be a finite number "
-                             f">= 0 (m), got {self.advance_tolerance!r}")
-        if not (isinstance(self.max_slice_waits, int) and self.max_slice_waits >= 0):
-            raise ValueError(f"DbnReproducerConfig.max_slice_waits must be an integer >= 0, "
-                             f"got {self.max_slice_waits!r}")
-        if not (isinstance(self.settle_steps, int) and self.settle_steps >= 0):
-            raise ValueError(f"DbnReproducerConfig.settle_steps must be an integer >= 0, "
-                             f"got {self.settle_steps!r}")
+        validate_fields(self)
 
 
 class DbnReproducer(LeafSystem):
