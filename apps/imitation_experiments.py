@@ -3,7 +3,9 @@
     python -m mmlearn.apps.imitation_experiments --seeds 10 --out-dir imitation_out
     python -m mmlearn.apps.imitation_experiments --report-only imitation_out/imitation_experiments_results.jsonl
 
-Experiments (each trial is one ``mmlearn.apps.imitate.run`` on its own seed):
+Experiments (each trial is one reproduction on its own seed,
+:func:`mmlearn.diagrams.imitation.trials.reproduction_trial`, scored by
+:mod:`mmlearn.models.imitation.evaluation`):
 
 * ``demos``: pick_place after 1, 2 and 4 demonstrations (thesis Fig. 8.6: one fails, two
   miss the place spot, four converge);
@@ -23,28 +25,15 @@ import json
 import sys
 from pathlib import Path
 
-import numpy as np
-
 from mmlearn.apps.common.cli import (ArgumentParser, UsageError, check_out_dir, fail, name_list,
                                      nonneg_int, pos_int, save_figure)
 from mmlearn.apps.common.sweep import (TrialSpec, add_sweep_args, exit_status, report_lines,
                                        run_sweep, sweep_kwargs)
-from mmlearn.models.common.trials import register_trial
+from mmlearn.diagrams.imitation.trials import reproduction_plan
+from mmlearn.models.imitation.evaluation import condition_table
 
 EXPERIMENTS = ("demos", "swap", "board", "obstacle", "u_obstacle")
 BOARD_SCALES = (0.8, 1.0, 1.25)
-
-
-@register_trial("imitation.reproduce")
-def trial(*, seed: int, task: str, demos: int = 4, swap_tables: bool = False,
-          board_scale: float = 1.0, global_mode: bool = False, shared=None) -> dict:
-    """One reproduction (the sweep's trial function)."""
-    from mmlearn.apps.imitate import run
-
-    rec = run(task=task, demos=demos, seed=seed, swap_tables=swap_tables,
-              board_scale=board_scale, global_mode=global_mode, show_progress=False)
-    rec.pop("objects_start", None)
-    return rec
 
 
 def conditions(experiments) -> list[tuple[str, dict]]:
@@ -76,9 +65,7 @@ def run(*, experiments=EXPERIMENTS, seeds: int = 10, seed: int = 100, results=No
     """Run the trials and return the report (and write the plots into ``out_dir``)."""
     if seeds < 1:
         raise ValueError(f"seeds must be >= 1, got {seeds}")
-    specs = [TrialSpec(fn=trial, seed=seed + i,
-                       params=params, label=f"{label} seed {seed + i}")
-             for label, params in conditions(experiments) for i in range(seeds)]
+    specs = [TrialSpec(**d) for d in reproduction_plan(conditions(experiments), seeds, seed)]
     sweep = run_sweep(specs, results=results, executor=executor, jobs=jobs,
                       ray_address=ray_address, show_progress=show_progress,
                       desc="imitation trials")
@@ -87,54 +74,10 @@ def run(*, experiments=EXPERIMENTS, seeds: int = 10, seed: int = 100, results=No
     return res
 
 
-def _label(spec: dict) -> str:
-    """The condition of a results-file line's spec (its label without the seed)."""
-    label = spec.get("label") or ""
-    if " seed " in label:
-        return label.rsplit(" seed ", 1)[0]
-    return json.dumps(spec.get("params", {}), sort_keys=True)
-
-
 def report(lines: list[dict], *, out_dir: str = "") -> dict:
-    """Per-condition success, place error, clearance (from results-file lines)."""
-    rows: dict[str, dict] = {}
-    errors = []
-    for ln in lines:
-        label = _label(ln["spec"])
-        row = rows.setdefault(label, {"condition": label, "trials": 0, "errors": 0,
-                                      "successes": 0, "records": []})
-        if ln.get("error") is not None:
-            row["errors"] += 1
-            errors.append({"trial": ln["spec"].get("label") or ln["key"],
-                           "error": ln["error"]})
-            continue
-        r = ln["record"]
-        row["trials"] += 1
-        row["successes"] += bool(r.get("success"))
-        row["records"].append(r)
-    table = []
-    for row in rows.values():
-        recs = row.pop("records")
-
-        def stat(k, fn=np.mean):
-            xs = [r[k] for r in recs if r.get(k) is not None]
-            return (float(fn(xs)) if xs else None), len(xs)
-
-        pe, n_pe = stat("place_error_m")
-        pe_med, _ = stat("place_error_m", np.median)
-        cl, n_cl = stat("min_obstacle_clearance_m", np.min)
-        cl_pos = sum(1 for r in recs if (r.get("min_obstacle_clearance_m") or -1) > 0)
-        cov, _ = stat("coverage")
-        reach, _ = stat("reach_error_m")
-        rs, _ = stat("reproduction_seconds")
-        ls, _ = stat("learn_seconds")
-        table.append({**row, "success_rate": row["successes"] / row["trials"]
-                      if row["trials"] else None,
-                      "mean_place_error_m": pe, "median_place_error_m": pe_med,
-                      "place_error_runs": n_pe, "min_clearance_m": cl,
-                      "positive_clearance": cl_pos, "clearance_runs": n_cl,
-                      "mean_coverage": cov, "mean_reach_error_m": reach,
-                      "mean_reproduction_seconds": rs, "mean_learn_seconds": ls})
+    """Per-condition success, place error, clearance (from results-file lines,
+    :func:`mmlearn.models.imitation.evaluation.condition_table`)."""
+    table, errors = condition_table(lines)
     res = {"conditions": table, "errors": errors}
     if out_dir:
         res["plots"] = plot(table, out_dir)

@@ -7,8 +7,8 @@ Usage::
         [--feature coast_detrended|coast|whole] [--coast-delay S] [--plot FILE] [--results FILE]
         [--jobs J] [--report-only RESULTS.jsonl] [--meshcat] [--html-out FILE] --seed S [--json]
 
-Each trial (:func:`mmlearn.diagrams.tactile.liquid_roll.liquid_roll_trial`) grasps a random instance
-of a container standing on a table with the PR2-like gripper (Eq. 7.8 switching controller,
+Each trial (:func:`mmlearn.diagrams.tactile.trials.liquid_roll_trial`) grasps a random
+instance of a container standing on a table with the PR2-like gripper (Eq. 7.8 switching controller,
 then a finger position hold), lifts it and rolls it side to side with the wrist at 0.6 Hz
 (+-0.7 rad, constant rate with smooth 0.25 s reversals). The liquid is its first sloshing
 mode, a mass on a spring-damper with the cap as a barrier
@@ -77,24 +77,11 @@ import numpy as np
 from mmlearn.apps.common.cli import (ArgumentParser, UsageError, check_out_file, fail,
                                      json_clean, name_list, nonneg_int, pos_float, pos_int,
                                      save_figure)
-from mmlearn.diagrams.tactile.liquid_roll import liquid_roll_trial
+from mmlearn.diagrams.tactile.trials import liquid_roll_plan
+from mmlearn.models.tactile.evaluation import (COAST_DELAY, cell_saturation_force,
+                                               evaluate_rolls, roll_record)
 
-__all__ = ["LiquidDetectionConfig", "run", "report", "main", "record_features"]
-
-TARE_WINDOW = (0.05, 0.3)
-"""Wrist force before the fingers touch anything, s (the tare of the weight)."""
-
-ROLL_MATCH_RMS = 0.05
-"""A record without its roll command gets one rebuilt from its settings only if the measured
-roll follows it within this rms error, rad (else no coast phases are known for it)."""
-
-COAST_DELAY = 0.12
-"""Start of the coast samples after each change of the commanded roll rate ends, s (see
-:func:`mmlearn.models.tactile.liquid.coast_mask`): about four time constants of the 5 Hz first-order
-high-pass (1 / (2 pi 5 Hz) = 32 ms), so that the filter's response to the reversal has died
-out (e^-3.8 = 2 %). Chosen on the development seeds 7 and 11 among 0, 0.0955, 0.12 and
-0.15 s (0.12 and 0.15 keep the same samples at 24 Hz)."""
-
+__all__ = ["LiquidDetectionConfig", "run", "report", "main"]
 
 @dataclass
 class LiquidDetectionConfig:
@@ -177,149 +164,9 @@ def _check(c: LiquidDetectionConfig) -> None:
 def _specs(c: LiquidDetectionConfig):
     from mmlearn.apps.common.sweep import TrialSpec
 
-    names = list(c.containers) + (["dummy"] if c.dummy else [])
-    specs = []
-    for k in range(c.trials):
-        for ci, name in enumerate(names):
-            specs.append(TrialSpec(
-                fn=liquid_roll_trial,
-                seed=int(c.seed) * 1_000_003 + k * 1000 + ci,
-                params={"container": name, "roll_cycles": float(c.roll_cycles),
-                        **({} if c.roll_profile == "sweep"
-                           else {"roll_profile": c.roll_profile})},
-                label=f"{name}/{k}"))
-    return specs
-
-
-def _roll_changes(rec: dict, params: dict | None):
-    """Where the trial's commanded roll rate changed, (k, 2) s, or None (sine roll): from the
-    record (``roll_changes``) or, for records written before it was stored, rebuilt from the
-    trial's roll settings (the robot's own command; defaults of
-    :class:`~mmlearn.diagrams.tactile.liquid_roll.LiquidRollConfig`) -- None when the record's
-    measured roll does not follow that command within ``ROLL_MATCH_RMS``."""
-    if "roll_changes" in rec:
-        ch = rec["roll_changes"]
-        return None if ch is None else np.asarray(ch, float).reshape(-1, 2)
-    from mmlearn.diagrams.tactile.liquid_roll import LiquidRollConfig, roll_change_windows
-
-    params = params or {}
-    profile = rec.get("roll_profile", params.get("roll_profile", "sweep"))
-    if profile == "sine":
-        return None
-    cycles = float(rec.get("roll_cycles", params.get("roll_cycles", 2.0)))
-    cfg = LiquidRollConfig(roll_cycles=cycles, roll_profile=profile,
-                           **({"reversal_time": 0.0} if profile == "triangle" else {}))
-    if "roll" in rec:
-        # the rebuilt command must match the measured roll (records of an earlier default
-        # roll, e.g. the sine, carry no roll settings): tracking error ~0.003 rad rms,
-        # another profile ~0.2 rad
-        from mmlearn.diagrams.tactile.liquid_roll import roll_trajectory
-
-        t = np.asarray(rec["t"], float)
-        q = np.asarray(rec["roll"], float)
-        r0, r1 = rec["roll_window"]
-        m = (t >= r0) & (t <= r1)
-        if q.shape != t.shape or not m.any():
-            return None
-        tr = roll_trajectory(cfg)
-        cmd = np.array([tr.value(x)[0, 0] for x in t[m]])
-        if not np.sqrt(np.mean((cmd - q[m]) ** 2)) < ROLL_MATCH_RMS:
-            return None
-    return roll_change_windows(cfg)
-
-
-def record_features(rec: dict, *, coast_delay: float = COAST_DELAY, params: dict | None = None):
-    """A trial record -> :class:`~mmlearn.models.tactile.liquid.RollRecord` (the taxels while
-    rolling, the weight in N from the wrist force sensor, the coast samples: constant
-    commanded roll rate, from ``coast_delay`` s after each change) built from the sensor
-    series and the robot's own roll command only; the labels are attached from the record's
-    ``liquid`` / ``container``. ``params``: the trial's spec parameters (for records that do
-    not store their roll command)."""
-    from mmlearn.models.tactile.liquid import RollRecord, coast_mask
-    from mmlearn.models.tactile.types import TactileDataError
-
-    t = np.asarray(rec["t"], float)
-    taxels = np.asarray(rec["taxels"], float)
-    wf = np.asarray(rec["wrist_force"], float)
-    if taxels.ndim != 2 or len(taxels) != len(t) or wf.shape != (len(t), 3):
-        raise TactileDataError(f"trial {rec.get('container')}: series of unequal length")
-    r0, r1 = rec["roll_window"]
-    w0, w1 = rec["weight_window"]
-    roll = (t >= r0) & (t <= r1)
-    hold = (t >= w0) & (t <= w1)
-    tare = (t >= TARE_WINDOW[0]) & (t <= TARE_WINDOW[1])
-    if roll.sum() < 3 or not hold.any() or not tare.any():
-        raise TactileDataError(f"trial {rec.get('container')}: too few samples in the roll, "
-                               f"hold or tare window")
-    weight = -(wf[hold, 2].mean() - wf[tare, 2].mean())
-    changes = _roll_changes(rec, params)
-    coast = None
-    if changes is not None:
-        coast = coast_mask(t[roll], changes, start=r0, end=r1, delay=coast_delay)
-        if coast.sum() < 2:
-            raise TactileDataError(f"trial {rec.get('container')}: fewer than 2 coast samples "
-                                   f"(coast delay {coast_delay:g} s)")
-    return RollRecord(taxels=taxels[roll], rate_hz=float(rec.get("rate_hz", 24.0)),
-                      weight=float(weight), liquid=bool(rec["liquid"]),
-                      container=str(rec["container"]), coast=coast)
-
-
-def _cell_saturation_force() -> float:
-    """Force on one PR2-like taxel cell at saturation, N (multiply the feature by it to
-    compare with Table 7.4's newtons)."""
-    from mmlearn.models.tactile.pad import PAD_PR2 as P
-
-    return float(P.p_sat * P.length * P.width / (P.rows * P.cols))
-
-
-def _evaluate(rr, dr, y, *, feature: str, k: int, c: LiquidDetectionConfig) -> dict:
-    """Rates (tactile alone, with weight), confusion, Table 7.4 and the dummy for one tactile
-    feature."""
-    from mmlearn.models.tactile.liquid import liquid_features, liquid_table
-    from mmlearn.models.tactile.state import cross_validate, make_classifier
-    from mmlearn.models.tactile.types import TactileDataError
-
-    for i, r in enumerate(rr + dr):
-        if r.liquid is None:
-            raise TactileDataError(f"record {i}: no liquid ground truth")
-    # every trial's feature and weight once (column 0: the feature, 1: the weight); "tactile"
-    # is column 0 alone (as mmlearn.models.tactile.liquid.evaluate_liquid with and without weight)
-    Xr = liquid_features(rr, with_weight=True, feature=feature)
-    ncol = {False: 1, True: 2}
-    rep_t, rep_w = (cross_validate(Xr[:, :ncol[ww]], y, classifier="tree", folds=k, seed=c.seed)
-                    for ww in (False, True))
-    rep = rep_w if c.with_weight else rep_t
-    out = {"rate": rep.rate, "rate_tactile": rep_t.rate, "rate_with_weight": rep_w.rate}
-    out.update({kk: v for kk, v in rep.to_dict().items() if kk != "rate"})
-    out["table"] = liquid_table(rr, feature=feature)
-    if dr:
-        d = {"trials": len(dr), "weight_n": float(np.mean([r.weight for r in dr]))}
-        Xd = liquid_features(dr, with_weight=True, feature=feature)
-        for ww in (False, True):
-            clf = make_classifier("tree", seed=c.seed)
-            clf.fit(Xr[:, :ncol[ww]], y)
-            pred = clf.predict(Xd[:, :ncol[ww]])
-            key = "predicted_no_liquid" + ("_with_weight" if ww else "_tactile")
-            d[key] = int(np.sum(pred == "no_liquid"))
-        # the thesis' Table 7.4 lists the dummy among the objects of its data set: the same
-        # reading here, the dummy's trials inside the cross-validation as "no liquid" (so the
-        # training folds hold a heavy object without liquid), its out-of-fold predictions
-        kd = int(min(k, len(dr) + int(np.sum(y == "no_liquid"))))
-        X_all = np.vstack([Xr, Xd])
-        y_all = np.concatenate([y, ["liquid" if r.liquid else "no_liquid" for r in dr]])
-        for ww in (False, True):
-            rep_d = cross_validate(X_all[:, :ncol[ww]], y_all, classifier="tree", folds=kd,
-                                   seed=c.seed)
-            key = "in_cv_no_liquid" + ("_with_weight" if ww else "_tactile")
-            d[key] = int(np.sum(rep_d.y_pred[len(rr):] == "no_liquid"))
-            d["in_cv_rate" + ("_with_weight" if ww else "_tactile")] = rep_d.rate
-        d["feature_mean"] = float(Xd[:, 0].mean())
-        d["feature_std"] = float(Xd[:, 0].std(ddof=1)) if len(dr) > 1 else 0.0
-        d["feature_values"] = [float(v) for v in Xd[:, 0]]
-        d["predicted_no_liquid"] = d["predicted_no_liquid" + ("_with_weight" if c.with_weight
-                                                               else "_tactile")]
-        out["dummy"] = d
-    return out
+    return [TrialSpec(**d) for d in liquid_roll_plan(
+        c.containers, c.trials, seed=c.seed, dummy=c.dummy, roll_cycles=c.roll_cycles,
+        roll_profile=c.roll_profile)]
 
 
 def report(lines: list[dict], c: LiquidDetectionConfig) -> dict:
@@ -339,8 +186,7 @@ def report(lines: list[dict], c: LiquidDetectionConfig) -> dict:
         raise ValueError("no container trial finished")
 
     def feats(lns):
-        return [record_features(ln["record"], coast_delay=c.coast_delay,
-                                params=ln.get("spec", {}).get("params")) for ln in lns]
+        return [roll_record(ln["record"], coast_delay=c.coast_delay) for ln in lns]
 
     rr, dr = feats(cont), feats(dummy)
     y = np.array(["liquid" if r.liquid else "no_liquid" for r in rr])
@@ -363,7 +209,8 @@ def report(lines: list[dict], c: LiquidDetectionConfig) -> dict:
     if c.feature not in avail:
         raise ValueError(f"feature {c.feature}: not available for these trials ({why[c.feature]}); "
                          f"use --feature whole, or a roll with longer constant-rate phases")
-    by_feature = {f: _evaluate(rr, dr, y, feature=f, k=k, c=c) for f in avail}
+    by_feature = {f: evaluate_rolls(rr, dr, y, feature=f, k=k, seed=c.seed,
+                                    with_weight=c.with_weight) for f in avail}
     out = {"feature": c.feature, "with_weight": bool(c.with_weight), "folds": k}
     out.update(by_feature[c.feature])
     out["features"] = {f: {kk: v for kk, v in ev.items()
@@ -379,7 +226,7 @@ def report(lines: list[dict], c: LiquidDetectionConfig) -> dict:
                        "classifier": "tree (entropy)", "highpass": "Butterworth order 1, 5 Hz",
                        "taxel_rate_hz": 24.0, "roll_hz": 0.6,
                        "feature_unit": "normalised taxel pressure (1 = saturation)",
-                       "taxel_saturation_force_n": _cell_saturation_force()}
+                       "taxel_saturation_force_n": cell_saturation_force()}
     return out
 
 
@@ -419,7 +266,7 @@ def plot_report(lines: list[dict], res: dict, path) -> None:
         for col, liq in enumerate((False, True)):
             r = pair[liq]
             t = np.asarray(r["t"])
-            rf = record_features(r)
+            rf = roll_record(r)
             m = (t >= r["roll_window"][0]) & (t <= r["roll_window"][1])
             ax[0, col].plot(t[m], rf.taxels, lw=0.6)
             ax[0, col].set_title(f"{r['container']}: raw taxels")
@@ -492,7 +339,8 @@ def _show_one(name: str, *, seed: int, meshcat, html_out) -> None:
     from pydrake.geometry import MeshcatVisualizer
     from pydrake.systems.analysis import Simulator
 
-    from mmlearn.diagrams.tactile.liquid_roll import LiquidRollConfig, MakeLiquidRollDiagram, make_instance
+    from mmlearn.diagrams.tactile.liquid_roll import (LiquidRollConfig, MakeLiquidRollDiagram,
+                                                      make_instance)
 
     inst = make_instance(name, np.random.default_rng([int(seed), 17]))
     cfg = LiquidRollConfig(seed=int(seed), grasp_height=inst.height / 2, roll_cycles=1.0)

@@ -50,7 +50,7 @@ def main(argv=None):
     ap.add_argument("--repeats", type=int, default=200)
     args = ap.parse_args(argv)
 
-    from mmlearn.apps.imitate import record_demos
+    from mmlearn.diagrams.imitation.trials import record_demos
     from mmlearn.diagrams.imitation.diagram import ImitationConfig, MakeImitationDiagram, \
         object_positions
     from mmlearn.models.imitation.dbn import learn_task, plan_global

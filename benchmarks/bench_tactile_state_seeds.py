@@ -33,9 +33,11 @@ import numpy as np
 def main(argv=None) -> int:
     from scipy.stats import ttest_rel
 
-    from mmlearn.apps.common.sweep import load_results
-    from mmlearn.apps.tactile_state import SWEEP_FORCES, _sim_features, _sim_specs, fold_cv
+    from mmlearn.apps.common.sweep import TrialSpec, load_results
+    from mmlearn.diagrams.tactile.trials import (SWEEP_FORCES, container_grasp_plan,
+                                                 odwalla_sweep_plan)
     from mmlearn.models.tactile.containers import CONTAINER_CLASSES
+    from mmlearn.models.tactile.evaluation import container_grasp_features, fold_cv
     from mmlearn.models.tactile.state import CLASSIFIERS
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
@@ -71,21 +73,22 @@ def main(argv=None) -> int:
             ap.error(f"expected RESULTS.jsonl:SEED, got {item!r}")
         seed = int(seed)
         by = load_results(path)
-        specs = _sim_specs(list(CONTAINER_CLASSES), args.f_target, args.trials, seed,
-                           args.wall_model, args.grasp_variation)
+        specs = [TrialSpec(**d) for d in container_grasp_plan(
+            list(CONTAINER_CLASSES), args.f_target, args.trials, seed, args.wall_model,
+            args.grasp_variation)]
         recs = [by[s.key]["record"] for s in specs if s.key in by and by[s.key].get("record")]
         if not recs:
             ap.error(f"{path}: no grasp of seed {seed} with --trials {args.trials} "
                      f"--f-target {args.f_target:g}")
-        X, yc, ys, _ = _sim_features(recs)
+        X, yc, ys, _ = container_grasp_features(recs)
         sweep = {}
         if args.sweep_trials:
             for f in SWEEP_FORCES:
-                sp = _sim_specs(["odwalla"], f, args.sweep_trials, seed + 7919,
-                                args.wall_model, args.grasp_variation)
+                sp = [TrialSpec(**d) for d in odwalla_sweep_plan(
+                    f, args.sweep_trials, seed, args.wall_model, args.grasp_variation)]
                 rs = [by[s.key]["record"] for s in sp if s.key in by and by[s.key].get("record")]
                 if rs:
-                    Xs, _, yss, _ = _sim_features(rs)
+                    Xs, _, yss, _ = container_grasp_features(rs)
                     sweep[f] = (Xs, yss, len(sp) - len(rs))
         for clf in clfs:
             reps = [cv(X, yc, clf, fs) for fs in range(args.fold_seeds)]

@@ -141,7 +141,8 @@ def test_system_puts_the_model_forces_on_the_wall_joints():
 def test_simulated_grasp_closed_full_resists_open_empty_yields():
     """Two grasps at 20 N: the squeeze the fingers make (p_first - p_steady) of a closed full
     bottle is well below that of an open empty one, and the grasp settles (no SAP blow-up)."""
-    from mmlearn.diagrams.tactile.grasp import container_grasp_trial, grasp_from_record
+    from mmlearn.diagrams.tactile.trials import container_grasp_trial
+    from mmlearn.models.tactile.evaluation import grasp_from_record
     from mmlearn.models.tactile.state import extract_grasp_features
 
     squeeze = {}
@@ -158,14 +159,20 @@ def test_simulated_grasp_closed_full_resists_open_empty_yields():
     assert 0.004 < squeeze["full_closed"] and squeeze["empty_open"] < 0.03
 
 
+def _sim_specs(*args):
+    from mmlearn.apps.common.sweep import TrialSpec
+    from mmlearn.diagrams.tactile.trials import container_grasp_plan
+
+    return [TrialSpec(**d) for d in container_grasp_plan(*args)]
+
+
 def test_grasp_specs_name_the_wall_model_so_old_results_stay_linear():
     """Results files from before the pressure model have specs without ``wall_model`` and
     hold linear-wall grasps: the app's pressure specs must differ from them, its linear
     ones match them, and the trial function run from such a spec must use linear walls."""
     import inspect
 
-    from mmlearn.apps.tactile_state import _sim_specs
-    from mmlearn.diagrams.tactile.grasp import container_grasp_trial
+    from mmlearn.diagrams.tactile.trials import container_grasp_trial
 
     pres = _sim_specs(["odwalla"], 20.0, 2, 5, "pressure")
     lin = _sim_specs(["odwalla"], 20.0, 2, 5, "linear")
@@ -249,8 +256,7 @@ def test_grasp_specs_name_the_grasp_variation_and_none_reproduces_the_old_grasp(
     """Specs with the variation differ from those before it (whose files hold "none" grasps);
     the trial function's "none" is the grasp of before, value for value, and "wall" changes
     only the wall's response (same instance, placement and noise)."""
-    from mmlearn.apps.tactile_state import _sim_specs
-    from mmlearn.diagrams.tactile.grasp import container_grasp_trial
+    from mmlearn.diagrams.tactile.trials import container_grasp_trial
 
     shell = _sim_specs(["odwalla"], 20.0, 2, 5, "pressure", "wall")
     none = _sim_specs(["odwalla"], 20.0, 2, 5, "pressure", "none")

@@ -1,4 +1,5 @@
-"""Liquid detection (thesis Sec. 7.3): the roll scene, the finger hold, the app."""
+"""Liquid detection (thesis Sec. 7.3): the roll scene, the finger hold, the roll records'
+evaluation (models/tactile/evaluation.py), the app."""
 
 import json
 
@@ -9,6 +10,7 @@ from mmlearn.apps import liquid_detection as app
 from mmlearn.diagrams.tactile.liquid_roll import (LIQUID_CONTAINERS, LiquidRollConfig, make_instance,
                                                   roll_trajectory)
 from mmlearn.models.tactile.containers import sample_container
+from mmlearn.models.tactile.evaluation import evaluate_rolls, roll_record
 from mmlearn.models.tactile.types import TactileDataError
 
 
@@ -77,7 +79,7 @@ def test_bad_inputs():
     rec = {"t": [0.0, 0.1], "taxels": [[0.0]] * 3, "wrist_force": [[0, 0, 0]] * 2,
            "roll_window": [0, 1], "weight_window": [0, 1], "liquid": True, "container": "x"}
     with pytest.raises(TactileDataError, match="unequal length"):
-        app.record_features(rec)
+        roll_record(rec)
 
 
 def _rc(argv):
@@ -122,7 +124,7 @@ def test_short_run_full_differs_from_empty(short_run, capsys):
     assert len(lines) == 4 and not any(ln["error"] for ln in lines)
     feats = {True: [], False: []}
     for ln in lines:
-        r = app.record_features(ln["record"])
+        r = roll_record(ln["record"])
         from mmlearn.models.tactile.liquid import liquid_feature
 
         feats[r.liquid].append(liquid_feature(r.taxels, rate_hz=r.rate_hz))
@@ -133,7 +135,7 @@ def test_short_run_full_differs_from_empty(short_run, capsys):
     # empty one (0.00083 vs 0.00089 at this seed: the liquid's ringing needs the full roll);
     # the features are the high-passed taxels' spread, positive and small
     assert all(0 < f < 0.05 for v in feats.values() for f in v)
-    weights = {liq: [app.record_features(ln["record"]).weight for ln in lines
+    weights = {liq: [roll_record(ln["record"]).weight for ln in lines
                      if ln["record"]["liquid"] == liq] for liq in (True, False)}
     assert min(weights[True]) > 2 * max(weights[False])
     # --report-only recomputes the same report from the results file
@@ -203,11 +205,11 @@ def test_config_rejects_coast_feature_without_coast():
     assert _rc(["--coast-delay", "0.5", "--report-only", "x.jsonl"]) == 2
 
 
-def test_old_records_get_their_roll_command_only_if_the_measured_roll_follows_it():
-    """Records written before the roll command was stored: the command is rebuilt from the
-    trial's settings and used only if the encoder's roll follows it (an earlier default, the
-    sine roll, carries no settings)."""
-    from mmlearn.diagrams.tactile.liquid_roll import sine_roll_angle, sweep_roll_angle
+def test_roll_record_takes_the_coast_samples_from_the_stored_roll_command():
+    """The coast samples follow the roll command the record stores (``roll_changes``, where
+    the commanded rate changed; None for the sine roll, which has no coast phases); a record
+    without it is refused by name."""
+    from mmlearn.diagrams.tactile.liquid_roll import roll_change_windows
 
     c = LiquidRollConfig()
     t = np.arange(0.0, c.duration, 1 / 24)
@@ -215,12 +217,12 @@ def test_old_records_get_their_roll_command_only_if_the_measured_roll_follows_it
             "wrist_force": np.zeros((len(t), 3)).tolist(),
             "roll_window": [c.t_roll, c.t_roll + c.roll_duration],
             "weight_window": [1.7, 1.9], "liquid": False, "container": "x"}
-    sweep = dict(base, roll=sweep_roll_angle(c, t)[0].tolist())
-    sine = dict(base, roll=sine_roll_angle(LiquidRollConfig(roll_profile="sine"), t)[0].tolist())
-    assert app.record_features(sweep).coast.sum() == 35  # 3 phases of 11 + 2 single samples
-    assert app.record_features(sine).coast is None
-    stored = dict(sine, roll_changes=None)  # a new record of a sine roll says so itself
-    assert app.record_features(stored).coast is None
+    sweep = dict(base, roll_changes=roll_change_windows(c).tolist())
+    assert roll_record(sweep).coast.sum() == 35  # 3 phases of 11 + 2 single samples
+    assert roll_record(sweep, coast_delay=0.0).coast.sum() > 35
+    assert roll_record(dict(base, roll_changes=None)).coast is None
+    with pytest.raises(TactileDataError, match="roll_changes"):
+        roll_record(base)
 
 
 def test_dummy_read_held_out_and_inside_the_cross_validation():
@@ -244,8 +246,7 @@ def test_dummy_read_held_out_and_inside_the_cross_validation():
     rr = [rec(True, 2.5, "full") for _ in range(12)] + [rec(False, 0.3, "empty") for _ in range(12)]
     dr = [rec(False, 2.5, "dummy") for _ in range(4)]
     y = np.array(["liquid" if r.liquid else "no_liquid" for r in rr])
-    c = app.LiquidDetectionConfig(feature="whole", trials=1, seed=0)
-    out = app._evaluate(rr, dr, y, feature="whole", k=4, c=c)
+    out = evaluate_rolls(rr, dr, y, feature="whole", k=4, seed=0)
     d = out["dummy"]
     assert d["trials"] == 4
     assert d["predicted_no_liquid_tactile"] == 4          # the feature alone: no liquid

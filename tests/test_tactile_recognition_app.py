@@ -1,5 +1,6 @@
 """The ch. 6 objects (sdf/tactile_objects.py), one recognition grasp in Drake
-(diagrams/tactile/objects.py) and the tactile_recognition app."""
+(diagrams/tactile/trials.py), its evaluation (models/tactile/evaluation.py) and the
+tactile_recognition app."""
 
 import json
 
@@ -55,7 +56,8 @@ def test_every_class_loads_in_drake_and_instances_vary_with_the_seed():
 
 # ------------------------------------------------------------------ grasps in Drake
 def test_soft_and_tennis_ball_differ_by_touch():
-    from mmlearn.diagrams.tactile.objects import object_grasp_trial, observation_from_record
+    from mmlearn.diagrams.tactile.trials import object_grasp_trial
+    from mmlearn.models.tactile.evaluation import observation_from_record
 
     soft = object_grasp_trial(seed=5, cls="soft_ball", height=0.035)
     hard = object_grasp_trial(seed=5, cls="tennis_ball", height=0.035)
@@ -72,7 +74,7 @@ def test_soft_and_tennis_ball_differ_by_touch():
 
 
 def test_slotted_and_flat_profile_faces_and_no_contact():
-    from mmlearn.diagrams.tactile.objects import object_grasp_trial
+    from mmlearn.diagrams.tactile.trials import object_grasp_trial
 
     slot = np.array(object_grasp_trial(seed=2, cls="profile_a", height=0.05)["left"])
     flat = np.array(object_grasp_trial(seed=2, cls="profile_b@0", height=0.05)["left"])
@@ -85,7 +87,7 @@ def test_slotted_and_flat_profile_faces_and_no_contact():
 
 # ------------------------------------------------------------------ evaluation (numpy)
 def test_evaluate_separates_distinct_classes_and_not_identical_ones():
-    from mmlearn.apps.tactile_recognition import evaluate
+    from mmlearn.models.tactile.evaluation import evaluate_recognition as evaluate
     from mmlearn.models.tactile.synth import make_objects, sample_grasps
 
     rng = np.random.default_rng(0)
@@ -110,7 +112,8 @@ def test_informed_heights_beat_random_where_one_height_tells_the_classes_apart()
     differ only at height 4. At a uniform belief the expected gain is largest at height 4
     (it splits all four classes, the others only the pairs), so the first informed grasp
     recognises the object; a random first grasp only tells the pair (rate ~0.6)."""
-    from mmlearn.apps.tactile_recognition import STRATEGIES, evaluate
+    from mmlearn.models.tactile.evaluation import STRATEGIES
+    from mmlearn.models.tactile.evaluation import evaluate_recognition as evaluate
     from mmlearn.models.tactile.synth import sample_grasps
 
     rng = np.random.default_rng(4)
