@@ -41,13 +41,14 @@ switching controller of Eq. 7.8 probing with ``f_target`` N per finger) squeezes
 instances of the four container classes of Sec. 7.1.3 in each of their internal states
 (:mod:`mmlearn.models.tactile.containers`; cans have no ``empty_closed``), ``--trials`` grasps per
 (class, state). ``--wall-model``: the walls' squeeze-volume model (``pressure``, default: the
-content's pressure grows with the squeeze) or the earlier constant linearised springs
-(``linear``; results files written before the pressure model hold such grasps).
+content's pressure grows with the squeeze) or constant linearised springs (``linear``, the
+ablation of the pressure model).
 ``--grasp-variation``: ``wall`` (default) gives every grasp its own draw of the container's
 wall response around the instance's (the grasp-to-grasp spread of the squeeze of the same
 container measured on the real iCub grasps, :func:`mmlearn.models.tactile.containers.vary_grasp`);
-``shell`` varies the shell stiffness alone; ``none`` meets every instance as drawn (results files written before it hold such grasps). The features come only
-from the simulated finger encoders and taxel pads.
+``shell`` varies the shell stiffness alone; ``none`` meets every instance as drawn (the
+ablation of the variation). The features come only from the simulated finger encoders and
+taxel pads.
 Reports (10-fold CV, ``--classifier``; the other classifiers in ``compare``):
 ``container_rate`` (class from all grasps), ``state_rate_by_container`` {class: rate of the
 state given the class}, ``combined_rate`` (all class x state labels) and
@@ -117,13 +118,13 @@ class TactileStateConfig:
         progress: simulation: show a progress bar.
         containers: simulation: container classes to grasp (default: all four).
         wall_model: simulation: the containers' wall model, "pressure" (the squeeze-volume
-            model, default) or "linear" (the linearised constant stiffness used before;
+            model, default) or "linear" (the linearised constant stiffness;
             :class:`~mmlearn.diagrams.tactile.grasp.TactileGraspConfig`).
         grasp_variation: simulation: "wall" (default): every grasp meets its container with
             its own draw of the wall's static response (the grasp-to-grasp spread of the
             squeeze measured on the iCub grasps, :func:`mmlearn.models.tactile.containers.vary_grasp`);
             "shell": of the shell stiffness alone; "none": every grasp meets the instance as
-            drawn (the model before).
+            drawn.
     """
 
     train: str = ""
@@ -528,13 +529,14 @@ def main(argv=None) -> int:
     ap.add_argument("--wall-model", choices=("pressure", "linear"), default="pressure",
                     help="simulation: the containers' walls: 'pressure' (default: shell spring "
                          "plus the content's pressure through the squeezed volume) or 'linear' "
-                         "(the constant linearised stiffness of earlier versions)")
+                         "(a constant linearised stiffness: the ablation of the pressure "
+                         "model)")
     ap.add_argument("--grasp-variation", choices=("wall", "shell", "none"), default="wall",
                     help="simulation: 'wall' (default): each grasp meets its container with "
                          "its own draw of the wall's response (rotation, where the pads land; "
                          "the grasp-to-grasp spread of the squeeze measured on the iCub "
                          "grasps), 'shell' (the shell stiffness alone) or 'none' (every grasp "
-                         "meets the instance as drawn, earlier versions)")
+                         "meets the instance as drawn: the ablation of the variation)")
     ap.add_argument("--seed", type=nonneg_int, default=0,
                     help="random seed (fold assignment, forest)")
     ap.add_argument("--plot", metavar="FILE", default=None,

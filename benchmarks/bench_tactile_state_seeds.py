@@ -51,11 +51,9 @@ def main(argv=None) -> int:
                          "24; 0: ignore the sweep)")
     ap.add_argument("--classifiers", default=",".join(CLASSIFIERS))
     ap.add_argument("--wall-model", choices=("pressure", "linear"), default="pressure",
-                    help="the app's --wall-model the files were simulated with (files written "
-                         "before the pressure model existed: linear)")
+                    help="the app's --wall-model the files were simulated with")
     ap.add_argument("--grasp-variation", choices=("wall", "shell", "none"), default="wall",
-                    help="the app's --grasp-variation the files were simulated with (files "
-                         "written before the grasp variation existed: none)")
+                    help="the app's --grasp-variation the files were simulated with")
     ap.add_argument("--json", action="store_true", help="also print all figures as JSON")
     args = ap.parse_args(argv)
     clfs = [c for c in args.classifiers.split(",") if c]

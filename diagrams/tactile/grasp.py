@@ -88,8 +88,8 @@ class TactileGraspConfig:
             (:func:`mmlearn.models.tactile.containers.wall_forces`: the gas law of a closed headspace,
             the head and flow resistance of a liquid, all acting through the volume an
             ovalising round container loses, so they grow with the squeeze); "linear": the
-            linearised constant stiffness ``ContainerInstance.k`` and damping ``c`` (the
-            model before; still that of the liquid-detection roll).
+            linearised constant stiffness ``ContainerInstance.k`` and damping ``c`` (that of
+            the liquid-detection roll).
     """
 
     pad: str = "pr2"

@@ -57,24 +57,22 @@ def container_grasp_trial(*, seed: int, container: str, state: str, f_target: fl
                           v_target: float = 0.02, offset_sd: float = 0.001,
                           duration: float = 2.6, hold_time: float = 1.0,
                           palm_slide_damping: float | None = PALM_SLIDE_DAMPING,
-                          wall_model: str = "linear", grasp_variation: str = "none") -> dict:
+                          wall_model: str = "pressure", grasp_variation: str = "wall") -> dict:
     """One ch. 7 probing grasp of a random instance of ``container`` in ``state`` (a pure
     function of its arguments, for :mod:`mmlearn.apps.common.sweep`). The instance (sizes,
     stiffnesses, fill level), its placement (lateral offset ~ N(0, ``offset_sd``) m) and
     the sensor noise are drawn from ``seed``. The gripper centres itself on the container
     (``palm_slide_damping`` N s/m, see :class:`TactileGraspConfig`; None: welded palm, the
     first finger alone squeezes an off-centre container until the second arrives).
-    ``wall_model``: "pressure" or "linear" (:class:`TactileGraspConfig`); the default is
-    "linear" because a grasp spec without it (results files written before the pressure model)
-    was simulated with the linear walls: the app passes "pressure" explicitly.
-    ``grasp_variation``: "none" (default, the grasps before it existed), "wall" or "shell":
-    this grasp's draw of the wall's response (or the shell stiffness alone) around the
+    ``wall_model``: "pressure" (default) or "linear" (:class:`TactileGraspConfig`).
+    ``grasp_variation``: "wall" (default), "shell" or "none": this grasp's draw of the wall's
+    response (or of the shell stiffness alone; none: the instance as drawn) around the
     instance's (:func:`mmlearn.models.tactile.containers.vary_grasp`, the class' measured
-    ``grasp_spread``), from
-    its own stream of ``seed`` so the instance, placement and sensor noise stay those of the
-    "none" grasp of the same seed. Returns a
-    JSON-able record: the recorded series ``t``, ``p``, ``f``, ``finger_force`` (what the
-    features are computed from), the labels ``container`` / ``state`` and the instance's parameters (for reference only)."""
+    ``grasp_spread``), from its own stream of ``seed`` so the instance, placement and sensor
+    noise stay those of the "none" grasp of the same seed. Returns a JSON-able record: the
+    recorded series ``t``, ``p``, ``f``, ``finger_force`` (what the features are computed
+    from), the labels ``container`` / ``state`` and the instance's parameters (for reference
+    only)."""
     rng = np.random.default_rng([int(seed), 13])
     inst = sample_container(container, state, rng)
     offset = float(rng.normal(0.0, offset_sd))
@@ -91,10 +89,11 @@ def container_grasp_trial(*, seed: int, container: str, state: str, f_target: fl
 
 
 def container_grasp_plan(containers, f_target: float, trials: int, seed: int,
-                         wall_model: str = "pressure", grasp_variation: str = "none") -> list[dict]:
+                         wall_model: str = "pressure", grasp_variation: str = "wall") -> list[dict]:
     """The grasps of the ch. 7 experiment: ``trials`` grasps of every (container class of
-    ``containers``, state) at probing force ``f_target`` N, each with its own seed derived
-    from ``seed``."""
+    ``containers``, state) at probing force ``f_target`` N with the walls ``wall_model`` and
+    the per-grasp variation ``grasp_variation`` (:func:`container_grasp_trial`), each with its
+    own seed derived from ``seed``."""
     specs = []
     for ci, c in enumerate(containers):
         if c not in CONTAINER_CLASSES:
@@ -102,15 +101,8 @@ def container_grasp_plan(containers, f_target: float, trials: int, seed: int,
         for si, st in enumerate(states_of(c)):
             for k in range(trials):
                 tseed = int(seed) * 1_000_003 + ci * 100_000 + si * 10_000 + k
-                params = {"container": c, "state": st, "f_target": float(f_target)}
-                if wall_model != "linear":
-                    # in the spec's key: results files written before the pressure model
-                    # (no wall_model) hold linear-wall grasps and resume only as such (the
-                    # trial function's default is "linear" for the same reason)
-                    params["wall_model"] = wall_model
-                if grasp_variation != "none":
-                    # likewise: files written before the grasp variation hold "none" grasps
-                    params["grasp_variation"] = grasp_variation
+                params = {"container": c, "state": st, "f_target": float(f_target),
+                          "wall_model": wall_model, "grasp_variation": grasp_variation}
                 specs.append({"fn": container_grasp_trial, "seed": tseed, "params": params,
                               "label": f"{c}/{st}/{f_target:g}N/{k}"})
     return specs
@@ -121,7 +113,7 @@ SWEEP_FORCES = (17.0, 20.0, 23.0)
 
 
 def odwalla_sweep_plan(f_target: float, trials: int, seed: int, wall_model: str = "pressure",
-                       grasp_variation: str = "none") -> list[dict]:
+                       grasp_variation: str = "wall") -> list[dict]:
     """The grasps of the Odwalla bottle at probing force ``f_target`` N of the Table 7.2
     sweep (:data:`SWEEP_FORCES`): :func:`container_grasp_plan` on seeds of their own."""
     return container_grasp_plan(["odwalla"], f_target, trials, int(seed) + 7919, wall_model,
