@@ -13,7 +13,7 @@ _EXPORTS = {
     "body_schema": ["structure_correct", "prediction_errors", "accuracy_curve", "recovery_experiment", "control_experiment", "ArmPart", "SimArm", "make_arm_2dof", "make_arm_4dof", "make_arm_7dof", "rot", "trans", "LocalModel", "EngineeredModel", "se3_inv", "orthonormalize", "pose_errors", "log_likelihood", "visible_mask", "poses_from_xyzquat", "BodySchema", "AdaptationConfig", "SearchConfig", "learn_structure", "rotation_vector", "spanning_tree", "check_data"],
     "perception": ["DepthFilterConfig", "DepthFilterState", "new_filter_state", "filter_depth", "FrontDetectorConfig", "detect_fronts", "Plane", "STAGES", "FrontRectangle", "HandleFromFrontConfig", "HandleEstimate", "front_axes", "select_front", "handle_from_front", "FrontMotionConfig", "stepped_profile", "FrontJointKinematics", "PlanarPatch", "box_patches", "look_at", "render_depth", "add_depth_noise", "pose_from_axes", "front_pose", "kitchen_scene", "DOOR_SIZE", "DRAWER_SIZE", "RECTANGLE_SYMMETRIES", "SWAPS_SIZE", "rectangle_parameterisations", "align_rectangle", "corner_to_centre", "rectangles_from_poses", "FrontTrackingConfig", "FrontTrack", "TrackingState", "FrameResult", "track_frame", "track_rectangles", "as_rectangle", "FRONT_SIGMA_POS_M", "FRONT_SIGMA_ORIENT_RAD", "front_observation_model", "TrackModel", "fit_track_model", "selection_vs_observations", "simulate_front_rectangles", "align_track", "axis_errors", "cross_validated_errors", "subsampled_selection"],
     "tactile": ["ContainerClass", "ContainerInstance", "CONTAINER_CLASSES", "STATES", "states_of", "sample_container", "vary_grasp", "GRASP_VARIATIONS", "ICUB_SPREAD_PLASTIC_BOTTLE", "ICUB_SPREAD_CAN", "P0", "RHO_WATER", "G", "squeeze_volume", "squeeze_pressure", "wall_forces", "ICubFileError", "ICubTrial", "read_icub_trial", "find_icub_files", "load_icub_dir", "KNOWN_LABELS", "UNRELIABLE_LABELS", "CONTACT_LEVEL", "REST_VELOCITY", "parse_icub_name", "SloshMode", "first_slosh_mode", "RollRecord", "highpass", "filtered_norm", "liquid_feature", "liquid_features", "coast_mask", "coast_feature", "liquid_table", "evaluate_liquid", "FEATURES", "COAST_DETREND_DEGREE", "COAST_MIN_SAMPLES", "HIGHPASS_CUTOFF_HZ", "TACTILE_RATE_HZ", "PadLayout", "PAD_CH6", "PAD_PR2", "subdivision_points", "integrate_pressure", "integrate_pressure_pads", "sensor_reading", "d1", "shift_rows", "d2", "pairwise_d2", "k_medoids", "TactileSet", "TactileRecognitionConfig", "TactileRecognizer", "entropy", "posterior", "CLUSTERINGS", "kmedoids_available", "height_actions", "FEATURE_NAMES", "GraspFeatures", "extract_grasp_features", "feature_matrix", "make_classifier", "ClassificationReport", "cross_validate", "evaluate_split", "CLASSIFIERS", "pattern_bank", "make_objects", "sample_grasps", "TactileGrasp", "TactileObservation", "TactileDataError", "check_series", "icub_features", "grasp_from_record", "container_grasp_features", "SIM_CONTACT_FORCE", "SIM_REST_VELOCITY", "fold_cv", "cv_with_compare", "single_class_report", "state_recognition_report", "observation_from_record", "recognition_dataset", "split_two_fold", "fit_recognizer", "random_trials", "STRATEGIES", "strategy_trials", "evaluate_recognition", "compare_strategies", "SUBSETS", "subset_classes", "HEIGHT_RESOLUTION", "TARE_WINDOW", "COAST_DELAY", "roll_record", "cell_saturation_force", "evaluate_rolls"],
-    "imitation": ["align_demonstrations", "learn_task", "StepResult", "constraint_step", "reproduce_cartesian", "plan_global", "fill_gaps", "resample", "derivative", "LASA_SHAPES", "MULTI_MODE_SHAPES", "DEVELOPMENT_SHAPES", "lasa_data_dir", "load_shape", "leave_one_out", "rmse_mm", "end_error_mm", "resample_to", "naive_baseline", "baseline_reproducer", "with_start_marker", "FRAME_MODES", "OBJECTS", "start_frame", "to_start_frame", "learn_start_frame", "place_start_frame", "ThesisReproducer", "FoldResult", "ShapeResult", "evaluate_shape", "summarise", "shrink_covariance", "fused_path", "InnerCVReproducer", "CONDITION_COVARIATES", "start_covariates", "condition_on_start", "MinJerkTrajectory", "min_jerk_segment", "segment_times", "ImitationSceneSpec", "SceneBox", "OBSTACLE_KINDS", "OBSERVED_BODIES", "ROBOT_TCP_IN_X8", "TEACHER_TCP_IN_X8", "TEACHER_OPENING", "stratified_table_shifts", "TASKS", "TeacherStyle", "DemoPlan", "task_scene", "plan_demonstration", "ImitationDataError", "Demonstration", "TaskModel", "Obstacle", "save_demonstrations", "load_demonstrations", "SPONGE_RADIUS", "PLACE_TOL", "REACH_TOL", "final_point", "coverage", "plane_distance", "densify", "place_spot", "whiteboard_score", "reach_score", "condition_table"],
+    "imitation": ["align_demonstrations", "learn_task", "StepResult", "constraint_step", "reproduce_cartesian", "fill_gaps", "resample", "derivative", "LASA_SHAPES", "MULTI_MODE_SHAPES", "DEVELOPMENT_SHAPES", "lasa_data_dir", "load_shape", "leave_one_out", "rmse_mm", "end_error_mm", "resample_to", "naive_baseline", "baseline_reproducer", "with_start_marker", "FRAME_MODES", "OBJECTS", "start_frame", "to_start_frame", "learn_start_frame", "place_start_frame", "ThesisReproducer", "FoldResult", "ShapeResult", "evaluate_shape", "summarise", "shrink_covariance", "MinJerkTrajectory", "min_jerk_segment", "segment_times", "ImitationSceneSpec", "SceneBox", "OBSTACLE_KINDS", "OBSERVED_BODIES", "ROBOT_TCP_IN_X8", "TEACHER_TCP_IN_X8", "TEACHER_OPENING", "stratified_table_shifts", "TASKS", "TeacherStyle", "DemoPlan", "task_scene", "plan_demonstration", "ImitationDataError", "Demonstration", "TaskModel", "Obstacle", "save_demonstrations", "load_demonstrations", "SPONGE_RADIUS", "PLACE_TOL", "REACH_TOL", "final_point", "coverage", "plane_distance", "densify", "place_spot", "whiteboard_score", "reach_score", "condition_table", "plan_global"],
 }
 
 __all__ = [
@@ -51,8 +51,6 @@ __all__ = [
     "coast_mask",
     "COAST_MIN_SAMPLES",
     "compare_strategies",
-    "CONDITION_COVARIATES",
-    "condition_on_start",
     "condition_table",
     "constraint_step",
     "CONTACT_LEVEL",
@@ -132,7 +130,6 @@ __all__ = [
     "FrontRectangle",
     "FrontTrack",
     "FrontTrackingConfig",
-    "fused_path",
     "G",
     "GAMMA_PRIOR_MODES",
     "GaussianProcess",
@@ -159,7 +156,6 @@ __all__ = [
     "incremental_structure",
     "IncrementalStep",
     "IncrementalStructure",
-    "InnerCVReproducer",
     "integrate_pressure",
     "integrate_pressure_pads",
     "JOINT_TYPES",
@@ -324,7 +320,6 @@ __all__ = [
     "squeeze_pressure",
     "squeeze_volume",
     "STAGES",
-    "start_covariates",
     "start_frame",
     "state_recognition_report",
     "STATES",

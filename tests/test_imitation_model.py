@@ -6,9 +6,9 @@ import warnings
 import numpy as np
 import pytest
 
-from mmlearn.models.imitation.dbn import (
-                                          align_demonstrations, constraint_step, derivative, fill_gaps, learn_task, plan_global,
-                                          reproduce_cartesian)
+from mmlearn.models.imitation.dbn import (align_demonstrations, constraint_step, derivative,
+                                          fill_gaps, learn_task, reproduce_cartesian)
+from mmlearn.models.imitation.global_plan import plan_global
 from mmlearn.models.imitation.types import Demonstration, ImitationDataError, Obstacle, TaskModel
 
 

@@ -4,20 +4,19 @@ from mmlearn._lazy import lazy_exports
 
 #: submodule -> the public names it defines (imported on first use)
 _EXPORTS = {
-    "dbn": ["align_demonstrations", "learn_task", "StepResult", "constraint_step", "reproduce_cartesian", "plan_global", "fill_gaps", "resample", "derivative"],
-    "lasa": ["LASA_SHAPES", "MULTI_MODE_SHAPES", "DEVELOPMENT_SHAPES", "lasa_data_dir", "load_shape", "leave_one_out", "rmse_mm", "end_error_mm", "resample_to", "naive_baseline", "baseline_reproducer", "with_start_marker", "FRAME_MODES", "OBJECTS", "start_frame", "to_start_frame", "learn_start_frame", "place_start_frame", "ThesisReproducer", "FoldResult", "ShapeResult", "evaluate_shape", "summarise", "shrink_covariance", "fused_path", "InnerCVReproducer", "CONDITION_COVARIATES", "start_covariates", "condition_on_start"],
+    "dbn": ["align_demonstrations", "learn_task", "StepResult", "constraint_step", "reproduce_cartesian", "fill_gaps", "resample", "derivative"],
+    "lasa": ["LASA_SHAPES", "MULTI_MODE_SHAPES", "DEVELOPMENT_SHAPES", "lasa_data_dir", "load_shape", "leave_one_out", "rmse_mm", "end_error_mm", "resample_to", "naive_baseline", "baseline_reproducer", "with_start_marker", "FRAME_MODES", "OBJECTS", "start_frame", "to_start_frame", "learn_start_frame", "place_start_frame", "ThesisReproducer", "FoldResult", "ShapeResult", "evaluate_shape", "summarise", "shrink_covariance"],
     "min_jerk": ["MinJerkTrajectory", "min_jerk_segment", "segment_times"],
     "scene": ["ImitationSceneSpec", "SceneBox", "OBSTACLE_KINDS", "OBSERVED_BODIES", "ROBOT_TCP_IN_X8", "TEACHER_TCP_IN_X8", "TEACHER_OPENING", "stratified_table_shifts"],
     "teacher": ["TASKS", "TeacherStyle", "DemoPlan", "task_scene", "plan_demonstration"],
     "types": ["ImitationDataError", "Demonstration", "TaskModel", "Obstacle", "save_demonstrations", "load_demonstrations"],
     "evaluation": ["SPONGE_RADIUS", "PLACE_TOL", "REACH_TOL", "final_point", "coverage", "plane_distance", "densify", "place_spot", "whiteboard_score", "reach_score", "condition_table"],
+    "global_plan": ["plan_global"],
 }
 
 __all__ = [
     "align_demonstrations",
     "baseline_reproducer",
-    "CONDITION_COVARIATES",
-    "condition_on_start",
     "condition_table",
     "constraint_step",
     "coverage",
@@ -32,10 +31,8 @@ __all__ = [
     "final_point",
     "FoldResult",
     "FRAME_MODES",
-    "fused_path",
     "ImitationDataError",
     "ImitationSceneSpec",
-    "InnerCVReproducer",
     "lasa_data_dir",
     "LASA_SHAPES",
     "learn_start_frame",
@@ -70,7 +67,6 @@ __all__ = [
     "ShapeResult",
     "shrink_covariance",
     "SPONGE_RADIUS",
-    "start_covariates",
     "start_frame",
     "StepResult",
     "stratified_table_shifts",
