@@ -1,5 +1,4 @@
-"""Liquid detection (thesis Sec. 7.3): the roll scene, the finger hold, the roll records'
-evaluation (models/tactile/evaluation.py), the app."""
+"""Liquid detection (thesis Sec. 7.3): the roll scene, the finger hold, the app."""
 
 import json
 
@@ -10,7 +9,7 @@ from mmlearn.apps import liquid_detection as app
 from mmlearn.diagrams.tactile.liquid_roll import (LIQUID_CONTAINERS, LiquidRollConfig, make_instance,
                                                   roll_trajectory)
 from mmlearn.models.tactile.containers import sample_container
-from mmlearn.models.tactile.evaluation import evaluate_rolls, roll_record
+from mmlearn.models.tactile.evaluation import roll_record
 from mmlearn.models.tactile.types import TactileDataError
 
 
@@ -203,54 +202,3 @@ def test_config_rejects_coast_feature_without_coast():
     with pytest.raises(ValueError, match="coast_delay"):
         app._check(app.LiquidDetectionConfig(coast_delay=float("nan")))
     assert _rc(["--coast-delay", "0.5", "--report-only", "x.jsonl"]) == 2
-
-
-def test_roll_record_takes_the_coast_samples_from_the_stored_roll_command():
-    """The coast samples follow the roll command the record stores (``roll_changes``, where
-    the commanded rate changed; None for the sine roll, which has no coast phases); a record
-    without it is refused by name."""
-    from mmlearn.diagrams.tactile.liquid_roll import roll_change_windows
-
-    c = LiquidRollConfig()
-    t = np.arange(0.0, c.duration, 1 / 24)
-    base = {"t": t.tolist(), "taxels": np.full((len(t), 4), 0.1).tolist(),
-            "wrist_force": np.zeros((len(t), 3)).tolist(),
-            "roll_window": [c.t_roll, c.t_roll + c.roll_duration],
-            "weight_window": [1.7, 1.9], "liquid": False, "container": "x"}
-    sweep = dict(base, roll_changes=roll_change_windows(c).tolist())
-    assert roll_record(sweep).coast.sum() == 35  # 3 phases of 11 + 2 single samples
-    assert roll_record(sweep, coast_delay=0.0).coast.sum() > 35
-    assert roll_record(dict(base, roll_changes=None)).coast is None
-    with pytest.raises(TactileDataError, match="roll_changes"):
-        roll_record(base)
-
-
-def test_dummy_read_held_out_and_inside_the_cross_validation():
-    """The dummy's two readings: held out (trained on the containers alone) and, as Table 7.5
-    counts it, inside the cross-validation as one more "no liquid" object. Synthetic records:
-    liquid trials ring, empty ones and the heavy dummy do not; with weight in the held-out
-    reading the tree may split on weight (the dummy weighs as much as a half-full bottle), in
-    the thesis' reading the training folds hold heavy trials without liquid, so it cannot."""
-    from mmlearn.models.tactile.liquid import RollRecord
-
-    rng = np.random.default_rng(0)
-    t = np.arange(120) / 24.0
-
-    def rec(liquid, weight, name):
-        amp = 0.01 if liquid else 0.0005
-        tax = 0.2 + amp * np.sin(2 * np.pi * 7.0 * t)[:, None] * rng.uniform(0.5, 1.5, 4)
-        tax = tax + 1e-4 * rng.standard_normal(tax.shape)
-        return RollRecord(taxels=tax, weight=weight + 0.05 * rng.standard_normal(),
-                          liquid=liquid, container=name)
-
-    rr = [rec(True, 2.5, "full") for _ in range(12)] + [rec(False, 0.3, "empty") for _ in range(12)]
-    dr = [rec(False, 2.5, "dummy") for _ in range(4)]
-    y = np.array(["liquid" if r.liquid else "no_liquid" for r in rr])
-    out = evaluate_rolls(rr, dr, y, feature="whole", k=4, seed=0)
-    d = out["dummy"]
-    assert d["trials"] == 4
-    assert d["predicted_no_liquid_tactile"] == 4          # the feature alone: no liquid
-    assert d["in_cv_no_liquid_tactile"] == 4
-    assert d["in_cv_no_liquid_with_weight"] == 4          # weight cannot decide inside the CV
-    assert d["in_cv_rate_with_weight"] == pytest.approx(1.0)
-    assert 0 <= d["predicted_no_liquid_with_weight"] <= 4
