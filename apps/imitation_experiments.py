@@ -14,21 +14,21 @@ Experiments (each trial is one reproduction on its own seed,
 * ``obstacle``: the reach with a box obstacle, incremental (Fig. 8.7);
 * ``u_obstacle``: the reach into a U-shaped obstacle, incremental and global (Fig. 8.10).
 
-Trials run through the sweep runner (``mmlearn.apps.common.sweep``) and are streamed to
-``--results`` (re-running resumes); ``--report-only`` redraws the table and the plots from a
-results file. Every row states how many trials raised an error beside the means.
+Trials run through the sweep runner (``mmlearn.apps.common.sweep``, the shared front-end of
+``mmlearn.apps.common.experiment``) and are streamed to ``--results`` (re-running resumes);
+``--report-only`` redraws the table and the plots from a results file. Every row states how
+many trials raised an error beside the means.
 """
 
 from __future__ import annotations
 
-import json
 import sys
 from pathlib import Path
 
-from mmlearn.apps.common.cli import (ArgumentParser, UsageError, check_out_dir, fail, name_list,
-                                     nonneg_int, pos_int, save_figure)
-from mmlearn.apps.common.sweep import (TrialSpec, add_sweep_args, exit_status, report_lines,
-                                       run_sweep, sweep_kwargs)
+from mmlearn.apps.common import experiment
+from mmlearn.apps.common.cli import check_out_dir, name_list, pos_int, save_figure
+from mmlearn.apps.common.experiment import Experiment
+from mmlearn.apps.common.sweep import TrialSpec, run_sweep
 from mmlearn.diagrams.imitation.trials import reproduction_plan
 from mmlearn.models.imitation.evaluation import condition_table
 
@@ -65,13 +65,16 @@ def run(*, experiments=EXPERIMENTS, seeds: int = 10, seed: int = 100, results=No
     """Run the trials and return the report (and write the plots into ``out_dir``)."""
     if seeds < 1:
         raise ValueError(f"seeds must be >= 1, got {seeds}")
-    specs = [TrialSpec(**d) for d in reproduction_plan(conditions(experiments), seeds, seed)]
-    sweep = run_sweep(specs, results=results, executor=executor, jobs=jobs,
-                      ray_address=ray_address, show_progress=show_progress,
+    sweep = run_sweep(_specs(experiments, seeds, seed), results=results, executor=executor,
+                      jobs=jobs, ray_address=ray_address, show_progress=show_progress,
                       desc="imitation trials")
     res = report(sweep.lines, out_dir=out_dir)
     res["sweep"] = sweep.summary()
     return res
+
+
+def _specs(experiments, seeds: int, seed: int) -> list:
+    return [TrialSpec(**d) for d in reproduction_plan(conditions(experiments), seeds, seed)]
 
 
 def report(lines: list[dict], *, out_dir: str = "") -> dict:
@@ -144,33 +147,38 @@ def format_table(res: dict) -> str:
     return "\n".join(lines)
 
 
-def main(argv=None) -> int:
-    ap = ArgumentParser(prog="python -m mmlearn.apps.imitation_experiments",
-                        description="Thesis 8.2's imitation experiments over many seeds, with "
-                                    "plots. Exit status: 0 all trials ran, 1 a trial raised, "
-                                    "2 bad input.")
-    ap.add_argument("--experiments", type=name_list(EXPERIMENTS), default=list(EXPERIMENTS),
-                    help="comma-separated: " + ", ".join(EXPERIMENTS))
-    ap.add_argument("--seeds", type=pos_int, default=10, help="trials per condition")
-    ap.add_argument("--seed", type=nonneg_int, default=100, help="seed of the first trial")
-    ap.add_argument("--out-dir", default="imitation_out", help="folder of the plots and results")
-    add_sweep_args(ap, app="imitation_experiments")
-    ap.add_argument("--json", action="store_true")
-    args = ap.parse_args(argv)
-    try:
+class ImitationExperiments(Experiment):
+    """The command line (:mod:`mmlearn.apps.common.experiment`)."""
+
+    name = "imitation_experiments"
+    description = ("Thesis 8.2's imitation experiments over many seeds, with plots. Exit status: "
+                   "0 all trials ran, 1 a trial raised, 2 bad input.")
+    seed_default = 100
+    seed_help = "seed of the first trial"
+    desc = "imitation trials"
+
+    def add_arguments(self, ap):
+        ap.add_argument("--experiments", type=name_list(EXPERIMENTS), default=list(EXPERIMENTS),
+                        help="comma-separated: " + ", ".join(EXPERIMENTS))
+        ap.add_argument("--seeds", type=pos_int, default=10, help="trials per condition")
+        ap.add_argument("--out-dir", default="imitation_out",
+                        help="folder of the plots and results")
+
+    def check(self, args):
         check_out_dir("--out-dir", args.out_dir)
-        if args.report_only:
-            res = report(report_lines(args.report_only), out_dir=args.out_dir)
-        else:
-            kw = sweep_kwargs(args, app="imitation_experiments", out_dir=args.out_dir)
-            res = run(experiments=args.experiments, seeds=args.seeds, seed=args.seed,
-                      show_progress=not args.json, out_dir=args.out_dir, **kw)
-    except UsageError as e:
-        return fail(ap.prog, str(e))
-    except ValueError as e:
-        return fail(ap.prog, str(e))
-    print(json.dumps(res) if args.json else format_table(res))
-    return exit_status(ap.prog, res)
+
+    def specs(self, args):
+        return _specs(args.experiments, args.seeds, args.seed)
+
+    def report(self, lines, args):
+        return report(lines, out_dir=args.out_dir)
+
+    def print_table(self, res, args):
+        print(format_table(res))
+
+
+def main(argv=None) -> int:
+    return experiment.main(ImitationExperiments(), argv)
 
 
 if __name__ == "__main__":

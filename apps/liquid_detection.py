@@ -74,9 +74,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mmlearn.apps.common.cli import (ArgumentParser, UsageError, check_out_file, fail,
-                                     json_clean, name_list, nonneg_int, pos_float, pos_int,
-                                     save_figure)
+from mmlearn.apps.common import experiment
+from mmlearn.apps.common.cli import (UsageError, check_out_file, json_clean, name_list,
+                                     pos_float, pos_int, save_figure)
+from mmlearn.apps.common.experiment import Experiment
+from mmlearn.apps.common.sweep import report_only_result
 from mmlearn.diagrams.tactile.trials import liquid_roll_plan
 from mmlearn.models.tactile.evaluation import (COAST_DELAY, cell_saturation_force,
                                                evaluate_rolls, roll_record)
@@ -356,103 +358,140 @@ def _show_one(name: str, *, seed: int, meshcat, html_out) -> None:
         save_html(meshcat, html_out)
 
 
-def main(argv=None) -> int:
-    from mmlearn.apps.common.sweep import (add_sweep_args, apply_sweep_args, exit_status,
-                                           report_only_lines, report_only_result)
+def _config(args) -> LiquidDetectionConfig:
+    """The run's settings from the command line (checked)."""
     from mmlearn.diagrams.tactile.liquid_roll import LIQUID_CONTAINERS
 
-    ap = ArgumentParser(
-        prog="python -m mmlearn.apps.liquid_detection",
-        description="Detect liquid in a grasped container by rolling it (thesis Sec. 7.3): "
-                    "5 Hz high-pass of the taxels, spread of their norm, decision tree, "
-                    "10-fold CV. Exit status: 0 success, 1 a trial raised, 2 bad input, "
-                    "130 interrupted.")
-    ap.add_argument("--with-weight", action="store_true",
-                    help="the weight from the wrist force sensor as a second feature")
-    ap.add_argument("--containers", type=pos_int, default=4, metavar="N",
-                    help=f"roll the first N containers of the list "
-                         f"({', '.join(LIQUID_CONTAINERS)}; default 4, all "
-                         f"{len(LIQUID_CONTAINERS)} for the full experiment)")
-    ap.add_argument("--names", type=name_list(list(LIQUID_CONTAINERS)), default=None,
-                    help="comma-separated container names instead of --containers")
-    ap.add_argument("--trials", type=pos_int, default=3,
-                    help="trials per container (default 3; the thesis had 5)")
-    ap.add_argument("--no-dummy", action="store_true", help="leave out the rigid dummy")
-    ap.add_argument("--roll-cycles", type=pos_float, default=2.0,
-                    help="roll cycles per trial at 0.6 Hz (default 2)")
-    ap.add_argument("--roll-profile", choices=("sweep", "sine", "triangle"), default="sweep",
-                    help="the wrist's roll: sweep (default: constant rate, smooth 0.25 s "
-                         "reversals), sine, or triangle (abrupt reversals, the earlier roll)")
-    ap.add_argument("--feature", choices=("coast_detrended", "coast", "whole"),
-                    default="coast_detrended",
-                    help="the tactile feature the rate, table and dummy use: coast_detrended "
-                         "(default: the spread of the high-passed taxel norm about its slow "
-                         "trend within each constant-rate phase of the roll), coast (its plain "
-                         "spread over those phases) or whole (over the whole roll, thesis Eq. "
-                         "7.11); all are reported")
-    ap.add_argument("--coast-delay", type=float, default=COAST_DELAY, metavar="S",
-                    help=f"coast samples start S s after each change of the commanded roll "
-                         f"rate ends (0 <= S < 0.3; default {COAST_DELAY:g})")
-    ap.add_argument("--folds", type=pos_int, default=10, help="CV folds (default 10)")
-    ap.add_argument("--seed", type=nonneg_int, default=0, help="seed of the trials and folds")
-    ap.add_argument("--plot", metavar="FILE", default=None,
-                    help="write Fig. 7.11 and the per-container features as an image")
-    ap.add_argument("--meshcat", action="store_true",
-                    help="also show one roll (the first container) live in Meshcat")
-    ap.add_argument("--html-out", metavar="FILE", default=None,
-                    help="also record one roll (the first container) as Meshcat HTML")
-    ap.add_argument("--progress", action="store_true", help="progress bar of the trials")
-    add_sweep_args(ap, app="liquid_detection")
-    ap.add_argument("--json", action="store_true", help="print results as one JSON object")
-    args = ap.parse_args(argv)
+    if args.names is not None:
+        names = tuple(args.names)
+    else:
+        if args.containers > len(LIQUID_CONTAINERS):
+            raise UsageError(f"--containers: at most {len(LIQUID_CONTAINERS)}, got "
+                             f"{args.containers}")
+        names = tuple(list(LIQUID_CONTAINERS)[:args.containers])
+    cfg = LiquidDetectionConfig(
+        containers=names, trials=args.trials, dummy=not args.no_dummy,
+        with_weight=args.with_weight, roll_cycles=args.roll_cycles,
+        roll_profile=args.roll_profile, feature=args.feature, coast_delay=args.coast_delay,
+        folds=args.folds, seed=args.seed, plot=args.plot, progress=args.progress)
     try:
-        if args.names is not None:
-            names = tuple(args.names)
-        else:
-            if args.containers > len(LIQUID_CONTAINERS):
-                raise UsageError(f"--containers: at most {len(LIQUID_CONTAINERS)}, got "
-                                 f"{args.containers}")
-            names = tuple(list(LIQUID_CONTAINERS)[:args.containers])
-        cfg = LiquidDetectionConfig(
-            containers=names, trials=args.trials, dummy=not args.no_dummy,
-            with_weight=args.with_weight, roll_cycles=args.roll_cycles,
-            roll_profile=args.roll_profile, feature=args.feature,
-            coast_delay=args.coast_delay, folds=args.folds,
-            seed=args.seed, plot=args.plot, progress=args.progress)
+        _check(cfg)
+    except ValueError as e:
+        raise UsageError(str(e)) from None
+    return cfg
+
+
+class LiquidDetection(Experiment):
+    """The command line (:mod:`mmlearn.apps.common.experiment`)."""
+
+    name = "liquid_detection"
+    description = ("Detect liquid in a grasped container by rolling it (thesis Sec. 7.3): "
+                   "5 Hz high-pass of the taxels, spread of their norm, decision tree, "
+                   "10-fold CV. Exit status: 0 success, 1 a trial raised, 2 bad input, "
+                   "130 interrupted.")
+    seed_help = "seed of the trials and folds"
+    json_help = "print results as one JSON object"
+    desc = "rolls"
+    viewer = None  # the Meshcat of --meshcat / --html-out, once shown
+
+    def add_arguments(self, ap):
+        from mmlearn.diagrams.tactile.liquid_roll import LIQUID_CONTAINERS
+
+        ap.add_argument("--with-weight", action="store_true",
+                        help="the weight from the wrist force sensor as a second feature")
+        ap.add_argument("--containers", type=pos_int, default=4, metavar="N",
+                        help=f"roll the first N containers of the list "
+                             f"({', '.join(LIQUID_CONTAINERS)}; default 4, all "
+                             f"{len(LIQUID_CONTAINERS)} for the full experiment)")
+        ap.add_argument("--names", type=name_list(list(LIQUID_CONTAINERS)), default=None,
+                        help="comma-separated container names instead of --containers")
+        ap.add_argument("--trials", type=pos_int, default=3,
+                        help="trials per container (default 3; the thesis had 5)")
+        ap.add_argument("--no-dummy", action="store_true", help="leave out the rigid dummy")
+        ap.add_argument("--roll-cycles", type=pos_float, default=2.0,
+                        help="roll cycles per trial at 0.6 Hz (default 2)")
+        ap.add_argument("--roll-profile", choices=("sweep", "sine", "triangle"),
+                        default="sweep",
+                        help="the wrist's roll: sweep (default: constant rate, smooth 0.25 s "
+                             "reversals), sine, or triangle (abrupt reversals, the earlier "
+                             "roll)")
+        ap.add_argument("--feature", choices=("coast_detrended", "coast", "whole"),
+                        default="coast_detrended",
+                        help="the tactile feature the rate, table and dummy use: "
+                             "coast_detrended (default: the spread of the high-passed taxel "
+                             "norm about its slow trend within each constant-rate phase of the "
+                             "roll), coast (its plain spread over those phases) or whole (over "
+                             "the whole roll, thesis Eq. 7.11); all are reported")
+        ap.add_argument("--coast-delay", type=float, default=COAST_DELAY, metavar="S",
+                        help=f"coast samples start S s after each change of the commanded roll "
+                             f"rate ends (0 <= S < 0.3; default {COAST_DELAY:g})")
+        ap.add_argument("--folds", type=pos_int, default=10, help="CV folds (default 10)")
+        ap.add_argument("--plot", metavar="FILE", default=None,
+                        help="write Fig. 7.11 and the per-container features as an image")
+        ap.add_argument("--meshcat", action="store_true",
+                        help="also show one roll (the first container) live in Meshcat")
+        ap.add_argument("--html-out", metavar="FILE", default=None,
+                        help="also record one roll (the first container) as Meshcat HTML")
+        ap.add_argument("--progress", action="store_true", help="progress bar of the trials")
+
+    def check(self, args):
+        from mmlearn.apps.common.sweep import report_only_lines
+
+        args.config = _config(args)
         check_out_file("--plot", args.plot)
         check_out_file("--html-out", args.html_out)
-        lines = report_only_lines(args, simulates="a roll")
-        if lines is not None:
-            _check(cfg)
-        else:
-            apply_sweep_args(cfg, args, app="liquid_detection")
-            _check(cfg)
-    except (UsageError, ValueError) as e:
-        return fail(ap.prog, str(e))
-    try:
-        if args.meshcat or args.html_out:
-            from mmlearn.apps.common.cli import finish_viewing, make_meshcat
+        args.lines = report_only_lines(args, simulates="a roll")
 
-            mc = make_meshcat(announce=args.meshcat)
-            _show_one(cfg.containers[0], seed=cfg.seed, meshcat=mc, html_out=args.html_out)
+    def specs(self, args):
+        if args.meshcat or args.html_out:  # one roll shown before the trials run
+            self.show(args)
+        return _specs(args.config)
+
+    def show_progress(self, args) -> bool:
+        return args.progress
+
+    def report(self, lines, args):
+        return report(lines, args.config)
+
+    def finish(self, res, args):
         if args.report_only:
-            res = report(lines, cfg)
             if args.plot:
-                plot_report(lines, res, args.plot)
-            res = report_only_result(res, args.report_only)
-        else:
-            res = run(config=cfg)
-    except ValueError as e:
-        return fail(ap.prog, str(e))
-    if args.json:
-        print(json.dumps(res, indent=1))
-    else:
+                plot_report(args.lines, res, args.plot)
+            return report_only_result(res, args.report_only)
+        if args.plot:
+            plot_report(args.lines_run, res, args.plot)
+        return json_clean(res)
+
+    def attach_sweep(self, res, sweep, args):
+        res["sweep"] = sweep.summary()
+        args.lines_run = sweep.lines
+
+    def show(self, args):
+        """One roll of the first container drawn in Meshcat (and recorded) before the trials."""
+        from mmlearn.apps.common.cli import make_meshcat
+
+        self.viewer = make_meshcat(announce=args.meshcat)
+        self.viewing = {"html_out": args.html_out, "live": args.meshcat}
+        _show_one(args.config.containers[0], seed=args.seed, meshcat=self.viewer,
+                  html_out=args.html_out)
+
+    def print_table(self, res, args):
         print(format_report(res))
         if args.plot:
             print(f"plot written to {args.plot}")
-    if args.meshcat or args.html_out:
-        finish_viewing(html_out=args.html_out, live=args.meshcat)
-    return exit_status(ap.prog, res)
+
+    def to_json(self, res):
+        return json.dumps(res, indent=1)
+
+
+def main(argv=None) -> int:
+    app = LiquidDetection()
+    rc = experiment.main(app, argv)
+    if app.viewer is not None:
+        from mmlearn.apps.common.cli import finish_viewing
+
+        finish_viewing(**app.viewing)
+    return rc
 
 
 if __name__ == "__main__":

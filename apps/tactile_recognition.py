@@ -69,9 +69,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mmlearn.apps.common.cli import (ArgumentParser, UsageError, check_out_file, fail,
-                                     json_clean, name_list, nonneg_int, pos_float, pos_int,
-                                     save_figure)
+from mmlearn.apps.common import experiment
+from mmlearn.apps.common.cli import (UsageError, check_out_file, json_clean, name_list,
+                                     pos_float, pos_int, save_figure)
+from mmlearn.apps.common.experiment import Experiment
 from mmlearn.diagrams.tactile.trials import object_grasp_plan
 from mmlearn.models.tactile.evaluation import (STRATEGIES, SUBSETS, evaluate_recognition,
                                                recognition_dataset, subset_classes)
@@ -357,94 +358,134 @@ def _show_one(cls: str, *, seed: int, meshcat, html_out) -> dict:
     return rec
 
 
-def main(argv=None) -> int:
-    from mmlearn.apps.common.sweep import (add_sweep_args, apply_sweep_args, exit_status,
-                                           report_only_lines, report_only_result)
-    from mmlearn.sdf.tactile_objects import CLASSES
+class TactileRecognition(Experiment):
+    """The command line (:mod:`mmlearn.apps.common.experiment`)."""
 
-    ap = ArgumentParser(
-        prog="python -m mmlearn.apps.tactile_recognition",
-        description="Recognise objects by touch (thesis ch. 6): simulated grasps of 16 "
-                    "objects / 21 classes -> tactile images -> bag of tactile features, "
-                    "2-fold CV. Exit status: 0 success, 1 a grasp raised, 2 bad input, "
-                    "130 interrupted.")
-    ap.add_argument("--grasps-per-class", type=pos_int, default=20,
-                    help="simulated grasps per class (default 20; the thesis had ~40: "
-                         "830 grasps of 21 classes)")
-    ap.add_argument("--classes", type=name_list(list(CLASSES)), default=[],
-                    help="comma-separated class labels (default: all 21)")
-    ap.add_argument("--k", type=pos_int, default=50, help="vocabulary size (default 50)")
-    ap.add_argument("--alpha", type=float, default=0.5,
-                    help="weight of the tactile term against the width term, in [0, 1] "
-                         "(default 0.5)")
-    ap.add_argument("--T", type=pos_int, default=10, help="grasps per recognition (default 10)")
-    ap.add_argument("--recognitions", type=pos_int, default=200,
-                    help="recognition trials per fold and subset (default 200)")
-    ap.add_argument("--cv-repeats", type=pos_int, default=5,
-                    help="repetitions of the randomised 2-fold split (default 5: with one "
-                         "split the rate moves by a few %% with the split alone)")
-    ap.add_argument("--k-sweep", action="store_true", help="add Table 6.1 (k = 10..50)")
-    ap.add_argument("--alpha-sweep", action="store_true", help="add Table 6.2 (alpha 0..1)")
-    ap.add_argument("--informed", action="store_true",
-                    help="add informed (expected information gain) vs random grasp heights")
-    ap.add_argument("--informed-trials", type=pos_int, default=100,
-                    help="recognitions per fold and strategy with --informed (default 100; "
-                         "the same objects for every strategy)")
-    ap.add_argument("--f-target", type=pos_float, default=15.0, metavar="N",
-                    help="grasp force per finger, newtons (default 15)")
-    ap.add_argument("--seed", type=nonneg_int, default=0,
-                    help="seed of the grasps, the splits and the recognitions")
-    ap.add_argument("--plot", metavar="FILE", default=None,
-                    help="write confusion matrices and rate curves as an image")
-    ap.add_argument("--meshcat", action="store_true",
-                    help="also show one grasp (the first class) live in Meshcat")
-    ap.add_argument("--html-out", metavar="FILE", default=None,
-                    help="also record one grasp (the first class) as standalone Meshcat HTML")
-    ap.add_argument("--progress", action="store_true", help="progress bar of the grasps")
-    add_sweep_args(ap, app="tactile_recognition")
-    ap.add_argument("--json", action="store_true", help="print results as one JSON object")
-    args = ap.parse_args(argv)
-    cfg = RecognitionExperimentConfig(
-        grasps_per_class=args.grasps_per_class, classes=tuple(args.classes), k=args.k,
-        alpha=args.alpha, T=args.T, recognitions=args.recognitions,
-        cv_repeats=args.cv_repeats, k_sweep=args.k_sweep, alpha_sweep=args.alpha_sweep,
-        informed=args.informed, informed_trials=args.informed_trials, f_target=args.f_target,
-        seed=args.seed, plot=args.plot, progress=args.progress)
-    try:
+    name = "tactile_recognition"
+    description = ("Recognise objects by touch (thesis ch. 6): simulated grasps of 16 "
+                   "objects / 21 classes -> tactile images -> bag of tactile features, "
+                   "2-fold CV. Exit status: 0 success, 1 a grasp raised, 2 bad input, "
+                   "130 interrupted.")
+    seed_help = "seed of the grasps, the splits and the recognitions"
+    json_help = "print results as one JSON object"
+    desc = "grasps"
+    viewer = None  # the Meshcat of --meshcat / --html-out, once shown
+
+    def add_arguments(self, ap):
+        from mmlearn.sdf.tactile_objects import CLASSES
+
+        ap.add_argument("--grasps-per-class", type=pos_int, default=20,
+                        help="simulated grasps per class (default 20; the thesis had ~40: "
+                             "830 grasps of 21 classes)")
+        ap.add_argument("--classes", type=name_list(list(CLASSES)), default=[],
+                        help="comma-separated class labels (default: all 21)")
+        ap.add_argument("--k", type=pos_int, default=50, help="vocabulary size (default 50)")
+        ap.add_argument("--alpha", type=float, default=0.5,
+                        help="weight of the tactile term against the width term, in [0, 1] "
+                             "(default 0.5)")
+        ap.add_argument("--T", type=pos_int, default=10,
+                        help="grasps per recognition (default 10)")
+        ap.add_argument("--recognitions", type=pos_int, default=200,
+                        help="recognition trials per fold and subset (default 200)")
+        ap.add_argument("--cv-repeats", type=pos_int, default=5,
+                        help="repetitions of the randomised 2-fold split (default 5: with one "
+                             "split the rate moves by a few %% with the split alone)")
+        ap.add_argument("--k-sweep", action="store_true", help="add Table 6.1 (k = 10..50)")
+        ap.add_argument("--alpha-sweep", action="store_true",
+                        help="add Table 6.2 (alpha 0..1)")
+        ap.add_argument("--informed", action="store_true",
+                        help="add informed (expected information gain) vs random grasp heights")
+        ap.add_argument("--informed-trials", type=pos_int, default=100,
+                        help="recognitions per fold and strategy with --informed (default 100; "
+                             "the same objects for every strategy)")
+        ap.add_argument("--f-target", type=pos_float, default=15.0, metavar="N",
+                        help="grasp force per finger, newtons (default 15)")
+        ap.add_argument("--plot", metavar="FILE", default=None,
+                        help="write confusion matrices and rate curves as an image")
+        ap.add_argument("--meshcat", action="store_true",
+                        help="also show one grasp (the first class) live in Meshcat")
+        ap.add_argument("--html-out", metavar="FILE", default=None,
+                        help="also record one grasp (the first class) as standalone Meshcat "
+                             "HTML")
+        ap.add_argument("--progress", action="store_true", help="progress bar of the grasps")
+
+    def check(self, args):
+        from mmlearn.apps.common.sweep import report_only_lines
+
+        args.config = RecognitionExperimentConfig(
+            grasps_per_class=args.grasps_per_class, classes=tuple(args.classes), k=args.k,
+            alpha=args.alpha, T=args.T, recognitions=args.recognitions,
+            cv_repeats=args.cv_repeats, k_sweep=args.k_sweep, alpha_sweep=args.alpha_sweep,
+            informed=args.informed, informed_trials=args.informed_trials,
+            f_target=args.f_target, seed=args.seed, plot=args.plot, progress=args.progress)
         if not (np.isfinite(args.alpha) and 0.0 <= args.alpha <= 1.0):
             raise UsageError(f"--alpha: expected a number in [0, 1], got {args.alpha!r}")
         check_out_file("--plot", args.plot)
         check_out_file("--html-out", args.html_out)
-        lines = report_only_lines(args, simulates="a grasp")
-        if lines is None:
-            apply_sweep_args(cfg, args, app="tactile_recognition")
-            _check(cfg)
-    except (UsageError, ValueError) as e:
-        return fail(ap.prog, str(e))
-    try:
-        if args.meshcat or args.html_out:
-            from mmlearn.apps.common.cli import finish_viewing, make_meshcat
+        if report_only_lines(args, simulates="a grasp") is None:
+            try:
+                _check(args.config)
+            except ValueError as e:
+                raise UsageError(str(e)) from None
 
-            mc = make_meshcat(announce=args.meshcat)
-            _show_one((cfg.classes or tuple(CLASSES))[0], seed=cfg.seed, meshcat=mc,
-                      html_out=args.html_out)
-        if args.report_only:
-            res = report_only_result(report(lines, cfg), args.report_only)
-        else:
-            res = run(config=cfg)
-    except ValueError as e:
-        return fail(ap.prog, str(e))
-    if args.plot:
-        plot_report(res, args.plot)
-    if args.json:
-        print(json.dumps(res, indent=1))
-    else:
+    def specs(self, args):
+        if args.meshcat or args.html_out:  # one grasp shown before the grasps run
+            self.show(args)
+        c = args.config
+        return grasp_specs(list(c.classes) or list(_all_classes()), c.grasps_per_class,
+                           seed=c.seed, f_target=c.f_target)
+
+    def show_progress(self, args) -> bool:
+        return args.progress
+
+    def report(self, lines, args):
+        return report(lines, args.config)
+
+    def attach_sweep(self, res, sweep, args):
+        res["sweep"] = sweep.summary()
+        res["settings"].update(grasps_per_class=args.grasps_per_class, f_target=args.f_target)
+
+    def finish(self, res, args):
+        from mmlearn.apps.common.sweep import report_only_result
+
+        res = (report_only_result(res, args.report_only) if args.report_only
+               else json_clean(res))
+        if args.plot:
+            plot_report(res, args.plot)
+        return res
+
+    def show(self, args):
+        """One grasp of the first class drawn in Meshcat (and recorded) before the grasps."""
+        from mmlearn.apps.common.cli import make_meshcat
+
+        self.viewer = make_meshcat(announce=args.meshcat)
+        self.viewing = {"html_out": args.html_out, "live": args.meshcat}
+        _show_one((args.config.classes or tuple(_all_classes()))[0], seed=args.seed,
+                  meshcat=self.viewer, html_out=args.html_out)
+
+    def print_table(self, res, args):
         print(format_report(res))
         if args.plot:
             print(f"plot written to {args.plot}")
-    if args.meshcat or args.html_out:
-        finish_viewing(html_out=args.html_out, live=args.meshcat)
-    return exit_status(ap.prog, res)
+
+    def to_json(self, res):
+        return json.dumps(res, indent=1)
+
+
+def _all_classes():
+    from mmlearn.sdf.tactile_objects import CLASSES
+
+    return CLASSES
+
+
+def main(argv=None) -> int:
+    app = TactileRecognition()
+    rc = experiment.main(app, argv)
+    if app.viewer is not None:
+        from mmlearn.apps.common.cli import finish_viewing
+
+        finish_viewing(**app.viewing)
+    return rc
 
 
 if __name__ == "__main__":
