@@ -6,12 +6,14 @@
 
 The reproduction is :func:`mmlearn.diagrams.imitation.trials.reproduce_task`, scored by
 :mod:`mmlearn.models.imitation.evaluation`. The teacher (a human-like arm with other link
-lengths, :mod:`mmlearn.diagrams.imitation.demonstrations`) shows the task ``--demos`` times in seeded variations of the scene, observed through a
-``MarkerSensor``; or the demonstrations are loaded with ``--demos-file`` (the JSON of
-:func:`mmlearn.models.imitation.types.save_demonstrations`). The DBN of constraints is
-learned (:func:`mmlearn.models.imitation.dbn.learn_task`, joint constraints off: the bodies
-differ) and reproduced in a new variation of the scene (drawn from ``--seed``) by the
-:class:`~mmlearn.systems.imitation.dbn_reproducer.DbnReproducer`, incrementally or with ``--global``.
+lengths, :mod:`mmlearn.diagrams.imitation.demonstrations`) shows the task ``--demos`` times in
+seeded variations of the scene, observed through a ``MarkerSensor``; or the demonstrations
+are loaded with ``--demos-file`` (the JSON of
+:func:`mmlearn.models.imitation.types.save_demonstrations`). The DBN of constraints is learned
+(:func:`mmlearn.models.imitation.dbn.learn_task`, joint constraints off: the bodies differ) and
+reproduced in a new variation of the scene (drawn from ``--seed``) by the
+:class:`~mmlearn.systems.imitation.dbn_reproducer.DbnReproducer`, incrementally or with
+``--global``.
 
 Success (the task's goal met in the simulation):
 

@@ -64,10 +64,10 @@ def test_whiteboard_score_compares_with_the_demonstrations_own_coverage():
 
 
 def test_place_spot_and_reach_score_apply_the_demonstrated_offset_to_this_scene():
-    demos = [_demo([[0.0, 0.0, 0.0], [0.5, 0.1, 0.8]], cup=[0.52, 0.1, 0.75], table_b=[0.5, 0.0, 0.7],
-                   target=[0.5, 0.1, 0.9]),
-             _demo([[0.0, 0.0, 0.0], [0.4, 0.1, 0.8]], cup=[0.44, 0.1, 0.75], table_b=[0.4, 0.0, 0.7],
-                   target=[0.4, 0.1, 0.9])]
+    demos = [_demo([[0.0, 0.0, 0.0], [0.5, 0.1, 0.8]], cup=[0.52, 0.1, 0.75],
+                   table_b=[0.5, 0.0, 0.7], target=[0.5, 0.1, 0.9]),
+             _demo([[0.0, 0.0, 0.0], [0.4, 0.1, 0.8]], cup=[0.44, 0.1, 0.75],
+                   table_b=[0.4, 0.0, 0.7], target=[0.4, 0.1, 0.9])]
     # mean cup - table_b offset (0.03, 0.1, 0.05) applied to this scene's table
     assert np.allclose(place_spot(demos, [1.0, 1.0, 0.7]), [1.03, 1.1, 0.75]) and PLACE_TOL == 0.02
     # the hand ended 0.1 m below the target in both: that spot relative to this target

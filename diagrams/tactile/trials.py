@@ -14,8 +14,9 @@ The ``*_plan`` functions list an experiment's trials as dicts ``{"fn", "seed", "
 "label"}`` (the fields of :class:`mmlearn.apps.common.sweep.TrialSpec`). The records' metrics
 are in :mod:`mmlearn.models.tactile.evaluation`.
 
-**Object grasps** (ch. 6): the scene is :func:`~mmlearn.diagrams.tactile.grasp.MakeTactileGraspDiagram`
-(the :class:`~mmlearn.systems.tactile.sensor.TactileSensor` on both pads, the switching
+**Object grasps** (ch. 6): the scene is
+:func:`~mmlearn.diagrams.tactile.grasp.MakeTactileGraspDiagram` (the
+:class:`~mmlearn.systems.tactile.sensor.TactileSensor` on both pads, the switching
 :class:`~mmlearn.systems.tactile.grasp_controller.TactileGraspController` of Eq. 7.8) with a
 wider gripper (:data:`GRIPPER_CH6`: 120 mm opening, for the mug with its handle) and an object
 of :mod:`mmlearn.sdf.tactile_objects` welded upright at the origin, as if held in a fixture
@@ -248,8 +249,8 @@ def liquid_roll_trial(*, seed: int, container: str, offset_sd: float = 0.001,
     """One trial for :mod:`mmlearn.apps.common.sweep` (a pure function of its arguments): a random
     instance of ``container`` (see :func:`make_instance`), placed with lateral offset
     ~ N(0, ``offset_sd``) m, grasped, lifted and rolled (``roll_profile``: see
-    :class:`LiquidRollConfig`; the triangle with abrupt reversals). Returns a JSON-able record with the
-    recorded series (``t``, ``taxels``, ``wrist_force``, ``roll``), the windows, the roll
+    :class:`LiquidRollConfig`; the triangle with abrupt reversals). Returns a JSON-able record
+    with the recorded series (``t``, ``taxels``, ``wrist_force``, ``roll``), the windows, the roll
     command the robot knows (``roll_profile``, ``roll_cycles`` and ``roll_changes``: where
     the commanded rate changes, :func:`roll_change_windows`, None for the sine), the labels
     ``container`` / ``liquid`` and the instance's parameters (for reference only)."""
