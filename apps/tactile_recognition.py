@@ -73,14 +73,15 @@ from mmlearn.apps.common import experiment
 from mmlearn.apps.common.cli import (UsageError, check_out_file, json_clean, name_list,
                                      pos_float, pos_int, save_figure)
 from mmlearn.apps.common.experiment import Experiment
-from mmlearn.diagrams.tactile.trials import object_grasp_plan
+from mmlearn.diagrams.tactile.trials import object_grasp_plan, object_grasp_trial
 from mmlearn.models.tactile.evaluation import (STRATEGIES, SUBSETS, evaluate_recognition,
                                                recognition_dataset, subset_classes)
 
 __all__ = ["RecognitionExperimentConfig", "run", "report", "main", "grasp_specs",
            "THESIS_RATES"]
 
-TRIAL_FN = "tactile.object_grasp"
+#: the registered name of the grasps' trial (results-file lines of other trials are ignored)
+TRIAL_FN = object_grasp_trial.trial_name
 #: Sec. 6.3.2 (T = 10): all 21 classes, household, industrial, soft vs tennis ball.
 THESIS_RATES = {"all": 0.846, "household": 0.962, "industrial": 0.580, "soft_vs_tennis": 0.938}
 #: Table 6.1 and 6.2 of the thesis (T = 10).
@@ -336,7 +337,7 @@ def _show_one(cls: str, *, seed: int, meshcat, html_out) -> dict:
     """One grasp of ``cls`` at its middle grid height, drawn in Meshcat (and recorded)."""
     from pydrake.geometry import MeshcatVisualizer
 
-    from mmlearn.diagrams.tactile.trials import grid_heights, object_grasp_trial
+    from mmlearn.diagrams.tactile.trials import grid_heights
 
     hs = grid_heights(cls)
     vis_holder = {}
