@@ -77,7 +77,8 @@ class LasaConfig:
     Attributes:
         shapes: shape names (see :data:`mmlearn.models.imitation.lasa.LASA_SHAPES`).
         objects: constraint objects: ``"target"`` plus optionally ``"start"``, ``"frame"``,
-            ``"frame_scale"``, ``"frame_rotation"``, ``"frame_duration"`` (see :class:`~mmlearn.models.imitation.lasa.ThesisReproducer`).
+            ``"frame_scale"``, ``"frame_duration"`` (see
+            :class:`~mmlearn.models.imitation.lasa.ThesisReproducer`).
         h: Parzen window width, s.
         dt: period of the learned slices and of the reproduction, s.
         full_covariance: full 2x2 covariances (False: the thesis' diagonal ones).
@@ -264,8 +265,8 @@ def main(argv=None) -> int:
                     default=list(ThesisReproducer.objects),
                     help="constraint objects: target (the origin), start (a marker at the pen's "
                          "start), frame (the target constraint in the start frame: rotation and "
-                         "scale by the start), frame_scale (scale only), frame_rotation (rotation "
-                         "only), frame_duration (rotation by the start, unit = the drawing's "
+                         "scale by the start), frame_scale (scale only), frame_duration (rotation "
+                         "by the start, unit = the drawing's "
                          "duration); the frames need start; default " + ",".join(ThesisReproducer.objects))
     ap.add_argument("--h", type=pos_float, default=0.02, help="Parzen window width, s (default 0.02)")
     ap.add_argument("--dt", type=pos_float, default=0.02,

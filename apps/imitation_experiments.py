@@ -3,7 +3,9 @@
     python -m mmlearn.apps.imitation_experiments --seeds 10 --out-dir imitation_out
     python -m mmlearn.apps.imitation_experiments --report-only imitation_out/imitation_experiments_results.jsonl
 
-Experiments (each trial is one ``mmlearn.apps.imitate.run`` on its own seed):
+Experiments (each trial is one reproduction on its own seed,
+:func:`mmlearn.diagrams.imitation.trials.reproduction_trial`, scored by
+:mod:`mmlearn.models.imitation.evaluation`):
 
 * ``demos``: pick_place after 1, 2 and 4 demonstrations (thesis Fig. 8.6: one fails, two
   miss the place spot, four converge);
@@ -12,39 +14,26 @@ Experiments (each trial is one ``mmlearn.apps.imitate.run`` on its own seed):
 * ``obstacle``: the reach with a box obstacle, incremental (Fig. 8.7);
 * ``u_obstacle``: the reach into a U-shaped obstacle, incremental and global (Fig. 8.10).
 
-Trials run through the sweep runner (``mmlearn.apps.common.sweep``) and are streamed to
-``--results`` (re-running resumes); ``--report-only`` redraws the table and the plots from a
-results file. Every row states how many trials raised an error beside the means.
+Trials run through the sweep runner (``mmlearn.apps.common.sweep``, the shared front-end of
+``mmlearn.apps.common.experiment``) and are streamed to ``--results`` (re-running resumes);
+``--report-only`` redraws the table and the plots from a results file. Every row states how
+many trials raised an error beside the means.
 """
 
 from __future__ import annotations
 
-import json
 import sys
 from pathlib import Path
 
-import numpy as np
-
-from mmlearn.apps.common.cli import (ArgumentParser, UsageError, check_out_dir, fail, name_list,
-                                     nonneg_int, pos_int, save_figure)
-from mmlearn.apps.common.sweep import (TrialSpec, add_sweep_args, exit_status, report_lines,
-                                       run_sweep, sweep_kwargs)
-from mmlearn.models.common.trials import register_trial
+from mmlearn.apps.common import experiment
+from mmlearn.apps.common.cli import check_out_dir, name_list, pos_int, save_figure
+from mmlearn.apps.common.experiment import Experiment
+from mmlearn.apps.common.sweep import TrialSpec, run_sweep
+from mmlearn.diagrams.imitation.trials import reproduction_plan
+from mmlearn.models.imitation.evaluation import condition_table
 
 EXPERIMENTS = ("demos", "swap", "board", "obstacle", "u_obstacle")
 BOARD_SCALES = (0.8, 1.0, 1.25)
-
-
-@register_trial("imitation.reproduce")
-def trial(*, seed: int, task: str, demos: int = 4, swap_tables: bool = False,
-          board_scale: float = 1.0, global_mode: bool = False, shared=None) -> dict:
-    """One reproduction (the sweep's trial function)."""
-    from mmlearn.apps.imitate import run
-
-    rec = run(task=task, demos=demos, seed=seed, swap_tables=swap_tables,
-              board_scale=board_scale, global_mode=global_mode, show_progress=False)
-    rec.pop("objects_start", None)
-    return rec
 
 
 def conditions(experiments) -> list[tuple[str, dict]]:
@@ -76,65 +65,22 @@ def run(*, experiments=EXPERIMENTS, seeds: int = 10, seed: int = 100, results=No
     """Run the trials and return the report (and write the plots into ``out_dir``)."""
     if seeds < 1:
         raise ValueError(f"seeds must be >= 1, got {seeds}")
-    specs = [TrialSpec(fn=trial, seed=seed + i,
-                       params=params, label=f"{label} seed {seed + i}")
-             for label, params in conditions(experiments) for i in range(seeds)]
-    sweep = run_sweep(specs, results=results, executor=executor, jobs=jobs,
-                      ray_address=ray_address, show_progress=show_progress,
+    sweep = run_sweep(_specs(experiments, seeds, seed), results=results, executor=executor,
+                      jobs=jobs, ray_address=ray_address, show_progress=show_progress,
                       desc="imitation trials")
     res = report(sweep.lines, out_dir=out_dir)
     res["sweep"] = sweep.summary()
     return res
 
 
-def _label(spec: dict) -> str:
-    """The condition of a results-file line's spec (its label without the seed)."""
-    label = spec.get("label") or ""
-    if " seed " in label:
-        return label.rsplit(" seed ", 1)[0]
-    return json.dumps(spec.get("params", {}), sort_keys=True)
+def _specs(experiments, seeds: int, seed: int) -> list:
+    return [TrialSpec(**d) for d in reproduction_plan(conditions(experiments), seeds, seed)]
 
 
 def report(lines: list[dict], *, out_dir: str = "") -> dict:
-    """Per-condition success, place error, clearance (from results-file lines)."""
-    rows: dict[str, dict] = {}
-    errors = []
-    for ln in lines:
-        label = _label(ln["spec"])
-        row = rows.setdefault(label, {"condition": label, "trials": 0, "errors": 0,
-                                      "successes": 0, "records": []})
-        if ln.get("error") is not None:
-            row["errors"] += 1
-            errors.append({"trial": ln["spec"].get("label") or ln["key"],
-                           "error": ln["error"]})
-            continue
-        r = ln["record"]
-        row["trials"] += 1
-        row["successes"] += bool(r.get("success"))
-        row["records"].append(r)
-    table = []
-    for row in rows.values():
-        recs = row.pop("records")
-
-        def stat(k, fn=np.mean):
-            xs = [r[k] for r in recs if r.get(k) is not None]
-            return (float(fn(xs)) if xs else None), len(xs)
-
-        pe, n_pe = stat("place_error_m")
-        pe_med, _ = stat("place_error_m", np.median)
-        cl, n_cl = stat("min_obstacle_clearance_m", np.min)
-        cl_pos = sum(1 for r in recs if (r.get("min_obstacle_clearance_m") or -1) > 0)
-        cov, _ = stat("coverage")
-        reach, _ = stat("reach_error_m")
-        rs, _ = stat("reproduction_seconds")
-        ls, _ = stat("learn_seconds")
-        table.append({**row, "success_rate": row["successes"] / row["trials"]
-                      if row["trials"] else None,
-                      "mean_place_error_m": pe, "median_place_error_m": pe_med,
-                      "place_error_runs": n_pe, "min_clearance_m": cl,
-                      "positive_clearance": cl_pos, "clearance_runs": n_cl,
-                      "mean_coverage": cov, "mean_reach_error_m": reach,
-                      "mean_reproduction_seconds": rs, "mean_learn_seconds": ls})
+    """Per-condition success, place error, clearance (from results-file lines,
+    :func:`mmlearn.models.imitation.evaluation.condition_table`)."""
+    table, errors = condition_table(lines)
     res = {"conditions": table, "errors": errors}
     if out_dir:
         res["plots"] = plot(table, out_dir)
@@ -201,33 +147,38 @@ def format_table(res: dict) -> str:
     return "\n".join(lines)
 
 
-def main(argv=None) -> int:
-    ap = ArgumentParser(prog="python -m mmlearn.apps.imitation_experiments",
-                        description="Thesis 8.2's imitation experiments over many seeds, with "
-                                    "plots. Exit status: 0 all trials ran, 1 a trial raised, "
-                                    "2 bad input.")
-    ap.add_argument("--experiments", type=name_list(EXPERIMENTS), default=list(EXPERIMENTS),
-                    help="comma-separated: " + ", ".join(EXPERIMENTS))
-    ap.add_argument("--seeds", type=pos_int, default=10, help="trials per condition")
-    ap.add_argument("--seed", type=nonneg_int, default=100, help="seed of the first trial")
-    ap.add_argument("--out-dir", default="imitation_out", help="folder of the plots and results")
-    add_sweep_args(ap, app="imitation_experiments")
-    ap.add_argument("--json", action="store_true")
-    args = ap.parse_args(argv)
-    try:
+class ImitationExperiments(Experiment):
+    """The command line (:mod:`mmlearn.apps.common.experiment`)."""
+
+    name = "imitation_experiments"
+    description = ("Thesis 8.2's imitation experiments over many seeds, with plots. Exit status: "
+                   "0 all trials ran, 1 a trial raised, 2 bad input.")
+    seed_default = 100
+    seed_help = "seed of the first trial"
+    desc = "imitation trials"
+
+    def add_arguments(self, ap):
+        ap.add_argument("--experiments", type=name_list(EXPERIMENTS), default=list(EXPERIMENTS),
+                        help="comma-separated: " + ", ".join(EXPERIMENTS))
+        ap.add_argument("--seeds", type=pos_int, default=10, help="trials per condition")
+        ap.add_argument("--out-dir", default="imitation_out",
+                        help="folder of the plots and results")
+
+    def check(self, args):
         check_out_dir("--out-dir", args.out_dir)
-        if args.report_only:
-            res = report(report_lines(args.report_only), out_dir=args.out_dir)
-        else:
-            kw = sweep_kwargs(args, app="imitation_experiments", out_dir=args.out_dir)
-            res = run(experiments=args.experiments, seeds=args.seeds, seed=args.seed,
-                      show_progress=not args.json, out_dir=args.out_dir, **kw)
-    except UsageError as e:
-        return fail(ap.prog, str(e))
-    except ValueError as e:
-        return fail(ap.prog, str(e))
-    print(json.dumps(res) if args.json else format_table(res))
-    return exit_status(ap.prog, res)
+
+    def specs(self, args):
+        return _specs(args.experiments, args.seeds, args.seed)
+
+    def report(self, lines, args):
+        return report(lines, out_dir=args.out_dir)
+
+    def print_table(self, res, args):
+        print(format_table(res))
+
+
+def main(argv=None) -> int:
+    return experiment.main(ImitationExperiments(), argv)
 
 
 if __name__ == "__main__":

@@ -7,8 +7,8 @@ Usage::
         [--feature coast_detrended|coast|whole] [--coast-delay S] [--plot FILE] [--results FILE]
         [--jobs J] [--report-only RESULTS.jsonl] [--meshcat] [--html-out FILE] --seed S [--json]
 
-Each trial (:func:`mmlearn.diagrams.tactile.liquid_roll.liquid_roll_trial`) grasps a random instance
-of a container standing on a table with the PR2-like gripper (Eq. 7.8 switching controller,
+Each trial (:func:`mmlearn.diagrams.tactile.trials.liquid_roll_trial`) grasps a random
+instance of a container standing on a table with the PR2-like gripper (Eq. 7.8 switching controller,
 then a finger position hold), lifts it and rolls it side to side with the wrist at 0.6 Hz
 (+-0.7 rad, constant rate with smooth 0.25 s reversals). The liquid is its first sloshing
 mode, a mass on a spring-damper with the cap as a barrier
@@ -74,28 +74,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mmlearn.apps.common.cli import (ArgumentParser, UsageError, check_out_file, fail,
-                                     json_clean, name_list, nonneg_int, pos_float, pos_int,
-                                     save_figure)
-from mmlearn.diagrams.tactile.liquid_roll import liquid_roll_trial
+from mmlearn.apps.common import experiment
+from mmlearn.apps.common.cli import (UsageError, check_out_file, json_clean, name_list,
+                                     pos_float, pos_int, save_figure)
+from mmlearn.apps.common.experiment import Experiment
 from mmlearn.models.common.config import param, validate_fields
+from mmlearn.apps.common.sweep import report_only_result
+from mmlearn.diagrams.tactile.trials import liquid_roll_plan
+from mmlearn.models.tactile.evaluation import (COAST_DELAY, cell_saturation_force,
+                                               evaluate_rolls, roll_record)
 
-__all__ = ["LiquidDetectionConfig", "run", "report", "main", "record_features"]
-
-TARE_WINDOW = (0.05, 0.3)
-"""Wrist force before the fingers touch anything, s (the tare of the weight)."""
-
-ROLL_MATCH_RMS = 0.05
-"""A record without its roll command gets one rebuilt from its settings only if the measured
-roll follows it within this rms error, rad (else no coast phases are known for it)."""
-
-COAST_DELAY = 0.12
-"""Start of the coast samples after each change of the commanded roll rate ends, s (see
-:func:`mmlearn.models.tactile.liquid.coast_mask`): about four time constants of the 5 Hz first-order
-high-pass (1 / (2 pi 5 Hz) = 32 ms), so that the filter's response to the reversal has died
-out (e^-3.8 = 2 %). Chosen on the development seeds 7 and 11 among 0, 0.0955, 0.12 and
-0.15 s (0.12 and 0.15 keep the same samples at 24 Hz)."""
-
+__all__ = ["LiquidDetectionConfig", "run", "report", "main"]
 
 @dataclass
 class LiquidDetectionConfig:
@@ -167,149 +156,9 @@ def _check(c: LiquidDetectionConfig) -> None:
 def _specs(c: LiquidDetectionConfig):
     from mmlearn.apps.common.sweep import TrialSpec
 
-    names = list(c.containers) + (["dummy"] if c.dummy else [])
-    specs = []
-    for k in range(c.trials):
-        for ci, name in enumerate(names):
-            specs.append(TrialSpec(
-                fn=liquid_roll_trial,
-                seed=int(c.seed) * 1_000_003 + k * 1000 + ci,
-                params={"container": name, "roll_cycles": float(c.roll_cycles),
-                        **({} if c.roll_profile == "sweep"
-                           else {"roll_profile": c.roll_profile})},
-                label=f"{name}/{k}"))
-    return specs
-
-
-def _roll_changes(rec: dict, params: dict | None):
-    """Where the trial's commanded roll rate changed, (k, 2) s, or None (sine roll): from the
-    record (``roll_changes``) or, for records written before it was stored, rebuilt from the
-    trial's roll settings (the robot's own command; defaults of
-    :class:`~mmlearn.diagrams.tactile.liquid_roll.LiquidRollConfig`) -- None when the record's
-    measured roll does not follow that command within ``ROLL_MATCH_RMS``."""
-    if "roll_changes" in rec:
-        ch = rec["roll_changes"]
-        return None if ch is None else np.asarray(ch, float).reshape(-1, 2)
-    from mmlearn.diagrams.tactile.liquid_roll import LiquidRollConfig, roll_change_windows
-
-    params = params or {}
-    profile = rec.get("roll_profile", params.get("roll_profile", "sweep"))
-    if profile == "sine":
-        return None
-    cycles = float(rec.get("roll_cycles", params.get("roll_cycles", 2.0)))
-    cfg = LiquidRollConfig(roll_cycles=cycles, roll_profile=profile,
-                           **({"reversal_time": 0.0} if profile == "triangle" else {}))
-    if "roll" in rec:
-        # the rebuilt command must match the measured roll (records of an earlier default
-        # roll, e.g. the sine, carry no roll settings): tracking error ~0.003 rad rms,
-        # another profile ~0.2 rad
-        from mmlearn.diagrams.tactile.liquid_roll import roll_trajectory
-
-        t = np.asarray(rec["t"], float)
-        q = np.asarray(rec["roll"], float)
-        r0, r1 = rec["roll_window"]
-        m = (t >= r0) & (t <= r1)
-        if q.shape != t.shape or not m.any():
-            return None
-        tr = roll_trajectory(cfg)
-        cmd = np.array([tr.value(x)[0, 0] for x in t[m]])
-        if not np.sqrt(np.mean((cmd - q[m]) ** 2)) < ROLL_MATCH_RMS:
-            return None
-    return roll_change_windows(cfg)
-
-
-def record_features(rec: dict, *, coast_delay: float = COAST_DELAY, params: dict | None = None):
-    """A trial record -> :class:`~mmlearn.models.tactile.liquid.RollRecord` (the taxels while
-    rolling, the weight in N from the wrist force sensor, the coast samples: constant
-    commanded roll rate, from ``coast_delay`` s after each change) built from the sensor
-    series and the robot's own roll command only; the labels are attached from the record's
-    ``liquid`` / ``container``. ``params``: the trial's spec parameters (for records that do
-    not store their roll command)."""
-    from mmlearn.models.tactile.liquid import RollRecord, coast_mask
-    from mmlearn.models.tactile.types import TactileDataError
-
-    t = np.asarray(rec["t"], float)
-    taxels = np.asarray(rec["taxels"], float)
-    wf = np.asarray(rec["wrist_force"], float)
-    if taxels.ndim != 2 or len(taxels) != len(t) or wf.shape != (len(t), 3):
-        raise TactileDataError(f"trial {rec.get('container')}: series of unequal length")
-    r0, r1 = rec["roll_window"]
-    w0, w1 = rec["weight_window"]
-    roll = (t >= r0) & (t <= r1)
-    hold = (t >= w0) & (t <= w1)
-    tare = (t >= TARE_WINDOW[0]) & (t <= TARE_WINDOW[1])
-    if roll.sum() < 3 or not hold.any() or not tare.any():
-        raise TactileDataError(f"trial {rec.get('container')}: too few samples in the roll, "
-                               f"hold or tare window")
-    weight = -(wf[hold, 2].mean() - wf[tare, 2].mean())
-    changes = _roll_changes(rec, params)
-    coast = None
-    if changes is not None:
-        coast = coast_mask(t[roll], changes, start=r0, end=r1, delay=coast_delay)
-        if coast.sum() < 2:
-            raise TactileDataError(f"trial {rec.get('container')}: fewer than 2 coast samples "
-                                   f"(coast delay {coast_delay:g} s)")
-    return RollRecord(taxels=taxels[roll], rate_hz=float(rec.get("rate_hz", 24.0)),
-                      weight=float(weight), liquid=bool(rec["liquid"]),
-                      container=str(rec["container"]), coast=coast)
-
-
-def _cell_saturation_force() -> float:
-    """Force on one PR2-like taxel cell at saturation, N (multiply the feature by it to
-    compare with Table 7.4's newtons)."""
-    from mmlearn.models.tactile.pad import PAD_PR2 as P
-
-    return float(P.p_sat * P.length * P.width / (P.rows * P.cols))
-
-
-def _evaluate(rr, dr, y, *, feature: str, k: int, c: LiquidDetectionConfig) -> dict:
-    """Rates (tactile alone, with weight), confusion, Table 7.4 and the dummy for one tactile
-    feature."""
-    from mmlearn.models.tactile.liquid import liquid_features, liquid_table
-    from mmlearn.models.tactile.state import cross_validate, make_classifier
-    from mmlearn.models.tactile.types import TactileDataError
-
-    for i, r in enumerate(rr + dr):
-        if r.liquid is None:
-            raise TactileDataError(f"record {i}: no liquid ground truth")
-    # every trial's feature and weight once (column 0: the feature, 1: the weight); "tactile"
-    # is column 0 alone (as mmlearn.models.tactile.liquid.evaluate_liquid with and without weight)
-    Xr = liquid_features(rr, with_weight=True, feature=feature)
-    ncol = {False: 1, True: 2}
-    rep_t, rep_w = (cross_validate(Xr[:, :ncol[ww]], y, classifier="tree", folds=k, seed=c.seed)
-                    for ww in (False, True))
-    rep = rep_w if c.with_weight else rep_t
-    out = {"rate": rep.rate, "rate_tactile": rep_t.rate, "rate_with_weight": rep_w.rate}
-    out.update({kk: v for kk, v in rep.to_dict().items() if kk != "rate"})
-    out["table"] = liquid_table(rr, feature=feature)
-    if dr:
-        d = {"trials": len(dr), "weight_n": float(np.mean([r.weight for r in dr]))}
-        Xd = liquid_features(dr, with_weight=True, feature=feature)
-        for ww in (False, True):
-            clf = make_classifier("tree", seed=c.seed)
-            clf.fit(Xr[:, :ncol[ww]], y)
-            pred = clf.predict(Xd[:, :ncol[ww]])
-            key = "predicted_no_liquid" + ("_with_weight" if ww else "_tactile")
-            d[key] = int(np.sum(pred == "no_liquid"))
-        # the thesis' Table 7.4 lists the dummy among the objects of its data set: the same
-        # reading here, the dummy's trials inside the cross-validation as "no liquid" (so the
-        # training folds hold a heavy object without liquid), its out-of-fold predictions
-        kd = int(min(k, len(dr) + int(np.sum(y == "no_liquid"))))
-        X_all = np.vstack([Xr, Xd])
-        y_all = np.concatenate([y, ["liquid" if r.liquid else "no_liquid" for r in dr]])
-        for ww in (False, True):
-            rep_d = cross_validate(X_all[:, :ncol[ww]], y_all, classifier="tree", folds=kd,
-                                   seed=c.seed)
-            key = "in_cv_no_liquid" + ("_with_weight" if ww else "_tactile")
-            d[key] = int(np.sum(rep_d.y_pred[len(rr):] == "no_liquid"))
-            d["in_cv_rate" + ("_with_weight" if ww else "_tactile")] = rep_d.rate
-        d["feature_mean"] = float(Xd[:, 0].mean())
-        d["feature_std"] = float(Xd[:, 0].std(ddof=1)) if len(dr) > 1 else 0.0
-        d["feature_values"] = [float(v) for v in Xd[:, 0]]
-        d["predicted_no_liquid"] = d["predicted_no_liquid" + ("_with_weight" if c.with_weight
-                                                               else "_tactile")]
-        out["dummy"] = d
-    return out
+    return [TrialSpec(**d) for d in liquid_roll_plan(
+        c.containers, c.trials, seed=c.seed, dummy=c.dummy, roll_cycles=c.roll_cycles,
+        roll_profile=c.roll_profile)]
 
 
 def report(lines: list[dict], c: LiquidDetectionConfig) -> dict:
@@ -329,8 +178,7 @@ def report(lines: list[dict], c: LiquidDetectionConfig) -> dict:
         raise ValueError("no container trial finished")
 
     def feats(lns):
-        return [record_features(ln["record"], coast_delay=c.coast_delay,
-                                params=ln.get("spec", {}).get("params")) for ln in lns]
+        return [roll_record(ln["record"], coast_delay=c.coast_delay) for ln in lns]
 
     rr, dr = feats(cont), feats(dummy)
     y = np.array(["liquid" if r.liquid else "no_liquid" for r in rr])
@@ -353,7 +201,8 @@ def report(lines: list[dict], c: LiquidDetectionConfig) -> dict:
     if c.feature not in avail:
         raise ValueError(f"feature {c.feature}: not available for these trials ({why[c.feature]}); "
                          f"use --feature whole, or a roll with longer constant-rate phases")
-    by_feature = {f: _evaluate(rr, dr, y, feature=f, k=k, c=c) for f in avail}
+    by_feature = {f: evaluate_rolls(rr, dr, y, feature=f, k=k, seed=c.seed,
+                                    with_weight=c.with_weight) for f in avail}
     out = {"feature": c.feature, "with_weight": bool(c.with_weight), "folds": k}
     out.update(by_feature[c.feature])
     out["features"] = {f: {kk: v for kk, v in ev.items()
@@ -369,7 +218,7 @@ def report(lines: list[dict], c: LiquidDetectionConfig) -> dict:
                        "classifier": "tree (entropy)", "highpass": "Butterworth order 1, 5 Hz",
                        "taxel_rate_hz": 24.0, "roll_hz": 0.6,
                        "feature_unit": "normalised taxel pressure (1 = saturation)",
-                       "taxel_saturation_force_n": _cell_saturation_force()}
+                       "taxel_saturation_force_n": cell_saturation_force()}
     return out
 
 
@@ -409,7 +258,7 @@ def plot_report(lines: list[dict], res: dict, path) -> None:
         for col, liq in enumerate((False, True)):
             r = pair[liq]
             t = np.asarray(r["t"])
-            rf = record_features(r)
+            rf = roll_record(r)
             m = (t >= r["roll_window"][0]) & (t <= r["roll_window"][1])
             ax[0, col].plot(t[m], rf.taxels, lw=0.6)
             ax[0, col].set_title(f"{r['container']}: raw taxels")
@@ -482,7 +331,8 @@ def _show_one(name: str, *, seed: int, meshcat, html_out) -> None:
     from pydrake.geometry import MeshcatVisualizer
     from pydrake.systems.analysis import Simulator
 
-    from mmlearn.diagrams.tactile.liquid_roll import LiquidRollConfig, MakeLiquidRollDiagram, make_instance
+    from mmlearn.diagrams.tactile.liquid_roll import (LiquidRollConfig, MakeLiquidRollDiagram,
+                                                      make_instance)
 
     inst = make_instance(name, np.random.default_rng([int(seed), 17]))
     cfg = LiquidRollConfig(seed=int(seed), grasp_height=inst.height / 2, roll_cycles=1.0)
@@ -498,103 +348,140 @@ def _show_one(name: str, *, seed: int, meshcat, html_out) -> None:
         save_html(meshcat, html_out)
 
 
-def main(argv=None) -> int:
-    from mmlearn.apps.common.sweep import (add_sweep_args, apply_sweep_args, exit_status,
-                                           report_only_lines, report_only_result)
+def _config(args) -> LiquidDetectionConfig:
+    """The run's settings from the command line (checked)."""
     from mmlearn.diagrams.tactile.liquid_roll import LIQUID_CONTAINERS
 
-    ap = ArgumentParser(
-        prog="python -m mmlearn.apps.liquid_detection",
-        description="Detect liquid in a grasped container by rolling it (thesis Sec. 7.3): "
-                    "5 Hz high-pass of the taxels, spread of their norm, decision tree, "
-                    "10-fold CV. Exit status: 0 success, 1 a trial raised, 2 bad input, "
-                    "130 interrupted.")
-    ap.add_argument("--with-weight", action="store_true",
-                    help="the weight from the wrist force sensor as a second feature")
-    ap.add_argument("--containers", type=pos_int, default=4, metavar="N",
-                    help=f"roll the first N containers of the list "
-                         f"({', '.join(LIQUID_CONTAINERS)}; default 4, all "
-                         f"{len(LIQUID_CONTAINERS)} for the full experiment)")
-    ap.add_argument("--names", type=name_list(list(LIQUID_CONTAINERS)), default=None,
-                    help="comma-separated container names instead of --containers")
-    ap.add_argument("--trials", type=pos_int, default=3,
-                    help="trials per container (default 3; the thesis had 5)")
-    ap.add_argument("--no-dummy", action="store_true", help="leave out the rigid dummy")
-    ap.add_argument("--roll-cycles", type=pos_float, default=2.0,
-                    help="roll cycles per trial at 0.6 Hz (default 2)")
-    ap.add_argument("--roll-profile", choices=("sweep", "sine", "triangle"), default="sweep",
-                    help="the wrist's roll: sweep (default: constant rate, smooth 0.25 s "
-                         "reversals), sine, or triangle (abrupt reversals, the earlier roll)")
-    ap.add_argument("--feature", choices=("coast_detrended", "coast", "whole"),
-                    default="coast_detrended",
-                    help="the tactile feature the rate, table and dummy use: coast_detrended "
-                         "(default: the spread of the high-passed taxel norm about its slow "
-                         "trend within each constant-rate phase of the roll), coast (its plain "
-                         "spread over those phases) or whole (over the whole roll, thesis Eq. "
-                         "7.11); all are reported")
-    ap.add_argument("--coast-delay", type=float, default=COAST_DELAY, metavar="S",
-                    help=f"coast samples start S s after each change of the commanded roll "
-                         f"rate ends (0 <= S < 0.3; default {COAST_DELAY:g})")
-    ap.add_argument("--folds", type=pos_int, default=10, help="CV folds (default 10)")
-    ap.add_argument("--seed", type=nonneg_int, default=0, help="seed of the trials and folds")
-    ap.add_argument("--plot", metavar="FILE", default=None,
-                    help="write Fig. 7.11 and the per-container features as an image")
-    ap.add_argument("--meshcat", action="store_true",
-                    help="also show one roll (the first container) live in Meshcat")
-    ap.add_argument("--html-out", metavar="FILE", default=None,
-                    help="also record one roll (the first container) as Meshcat HTML")
-    ap.add_argument("--progress", action="store_true", help="progress bar of the trials")
-    add_sweep_args(ap, app="liquid_detection")
-    ap.add_argument("--json", action="store_true", help="print results as one JSON object")
-    args = ap.parse_args(argv)
+    if args.names is not None:
+        names = tuple(args.names)
+    else:
+        if args.containers > len(LIQUID_CONTAINERS):
+            raise UsageError(f"--containers: at most {len(LIQUID_CONTAINERS)}, got "
+                             f"{args.containers}")
+        names = tuple(list(LIQUID_CONTAINERS)[:args.containers])
+    cfg = LiquidDetectionConfig(
+        containers=names, trials=args.trials, dummy=not args.no_dummy,
+        with_weight=args.with_weight, roll_cycles=args.roll_cycles,
+        roll_profile=args.roll_profile, feature=args.feature, coast_delay=args.coast_delay,
+        folds=args.folds, seed=args.seed, plot=args.plot, progress=args.progress)
     try:
-        if args.names is not None:
-            names = tuple(args.names)
-        else:
-            if args.containers > len(LIQUID_CONTAINERS):
-                raise UsageError(f"--containers: at most {len(LIQUID_CONTAINERS)}, got "
-                                 f"{args.containers}")
-            names = tuple(list(LIQUID_CONTAINERS)[:args.containers])
-        cfg = LiquidDetectionConfig(
-            containers=names, trials=args.trials, dummy=not args.no_dummy,
-            with_weight=args.with_weight, roll_cycles=args.roll_cycles,
-            roll_profile=args.roll_profile, feature=args.feature,
-            coast_delay=args.coast_delay, folds=args.folds,
-            seed=args.seed, plot=args.plot, progress=args.progress)
+        _check(cfg)
+    except ValueError as e:
+        raise UsageError(str(e)) from None
+    return cfg
+
+
+class LiquidDetection(Experiment):
+    """The command line (:mod:`mmlearn.apps.common.experiment`)."""
+
+    name = "liquid_detection"
+    description = ("Detect liquid in a grasped container by rolling it (thesis Sec. 7.3): "
+                   "5 Hz high-pass of the taxels, spread of their norm, decision tree, "
+                   "10-fold CV. Exit status: 0 success, 1 a trial raised, 2 bad input, "
+                   "130 interrupted.")
+    seed_help = "seed of the trials and folds"
+    json_help = "print results as one JSON object"
+    desc = "rolls"
+    viewer = None  # the Meshcat of --meshcat / --html-out, once shown
+
+    def add_arguments(self, ap):
+        from mmlearn.diagrams.tactile.liquid_roll import LIQUID_CONTAINERS
+
+        ap.add_argument("--with-weight", action="store_true",
+                        help="the weight from the wrist force sensor as a second feature")
+        ap.add_argument("--containers", type=pos_int, default=4, metavar="N",
+                        help=f"roll the first N containers of the list "
+                             f"({', '.join(LIQUID_CONTAINERS)}; default 4, all "
+                             f"{len(LIQUID_CONTAINERS)} for the full experiment)")
+        ap.add_argument("--names", type=name_list(list(LIQUID_CONTAINERS)), default=None,
+                        help="comma-separated container names instead of --containers")
+        ap.add_argument("--trials", type=pos_int, default=3,
+                        help="trials per container (default 3; the thesis had 5)")
+        ap.add_argument("--no-dummy", action="store_true", help="leave out the rigid dummy")
+        ap.add_argument("--roll-cycles", type=pos_float, default=2.0,
+                        help="roll cycles per trial at 0.6 Hz (default 2)")
+        ap.add_argument("--roll-profile", choices=("sweep", "sine", "triangle"),
+                        default="sweep",
+                        help="the wrist's roll: sweep (default: constant rate, smooth 0.25 s "
+                             "reversals), sine, or triangle (abrupt reversals, the earlier "
+                             "roll)")
+        ap.add_argument("--feature", choices=("coast_detrended", "coast", "whole"),
+                        default="coast_detrended",
+                        help="the tactile feature the rate, table and dummy use: "
+                             "coast_detrended (default: the spread of the high-passed taxel "
+                             "norm about its slow trend within each constant-rate phase of the "
+                             "roll), coast (its plain spread over those phases) or whole (over "
+                             "the whole roll, thesis Eq. 7.11); all are reported")
+        ap.add_argument("--coast-delay", type=float, default=COAST_DELAY, metavar="S",
+                        help=f"coast samples start S s after each change of the commanded roll "
+                             f"rate ends (0 <= S < 0.3; default {COAST_DELAY:g})")
+        ap.add_argument("--folds", type=pos_int, default=10, help="CV folds (default 10)")
+        ap.add_argument("--plot", metavar="FILE", default=None,
+                        help="write Fig. 7.11 and the per-container features as an image")
+        ap.add_argument("--meshcat", action="store_true",
+                        help="also show one roll (the first container) live in Meshcat")
+        ap.add_argument("--html-out", metavar="FILE", default=None,
+                        help="also record one roll (the first container) as Meshcat HTML")
+        ap.add_argument("--progress", action="store_true", help="progress bar of the trials")
+
+    def check(self, args):
+        from mmlearn.apps.common.sweep import report_only_lines
+
+        args.config = _config(args)
         check_out_file("--plot", args.plot)
         check_out_file("--html-out", args.html_out)
-        lines = report_only_lines(args, simulates="a roll")
-        if lines is not None:
-            _check(cfg)
-        else:
-            apply_sweep_args(cfg, args, app="liquid_detection")
-            _check(cfg)
-    except (UsageError, ValueError) as e:
-        return fail(ap.prog, str(e))
-    try:
-        if args.meshcat or args.html_out:
-            from mmlearn.apps.common.cli import finish_viewing, make_meshcat
+        args.lines = report_only_lines(args, simulates="a roll")
 
-            mc = make_meshcat(announce=args.meshcat)
-            _show_one(cfg.containers[0], seed=cfg.seed, meshcat=mc, html_out=args.html_out)
+    def specs(self, args):
+        if args.meshcat or args.html_out:  # one roll shown before the trials run
+            self.show(args)
+        return _specs(args.config)
+
+    def show_progress(self, args) -> bool:
+        return args.progress
+
+    def report(self, lines, args):
+        return report(lines, args.config)
+
+    def finish(self, res, args):
         if args.report_only:
-            res = report(lines, cfg)
             if args.plot:
-                plot_report(lines, res, args.plot)
-            res = report_only_result(res, args.report_only)
-        else:
-            res = run(config=cfg)
-    except ValueError as e:
-        return fail(ap.prog, str(e))
-    if args.json:
-        print(json.dumps(res, indent=1))
-    else:
+                plot_report(args.lines, res, args.plot)
+            return report_only_result(res, args.report_only)
+        if args.plot:
+            plot_report(args.lines_run, res, args.plot)
+        return json_clean(res)
+
+    def attach_sweep(self, res, sweep, args):
+        res["sweep"] = sweep.summary()
+        args.lines_run = sweep.lines
+
+    def show(self, args):
+        """One roll of the first container drawn in Meshcat (and recorded) before the trials."""
+        from mmlearn.apps.common.cli import make_meshcat
+
+        self.viewer = make_meshcat(announce=args.meshcat)
+        self.viewing = {"html_out": args.html_out, "live": args.meshcat}
+        _show_one(args.config.containers[0], seed=args.seed, meshcat=self.viewer,
+                  html_out=args.html_out)
+
+    def print_table(self, res, args):
         print(format_report(res))
         if args.plot:
             print(f"plot written to {args.plot}")
-    if args.meshcat or args.html_out:
-        finish_viewing(html_out=args.html_out, live=args.meshcat)
-    return exit_status(ap.prog, res)
+
+    def to_json(self, res):
+        return json.dumps(res, indent=1)
+
+
+def main(argv=None) -> int:
+    app = LiquidDetection()
+    rc = experiment.main(app, argv)
+    if app.viewer is not None:
+        from mmlearn.apps.common.cli import finish_viewing
+
+        finish_viewing(**app.viewing)
+    return rc
 
 
 if __name__ == "__main__":

@@ -41,13 +41,14 @@ switching controller of Eq. 7.8 probing with ``f_target`` N per finger) squeezes
 instances of the four container classes of Sec. 7.1.3 in each of their internal states
 (:mod:`mmlearn.models.tactile.containers`; cans have no ``empty_closed``), ``--trials`` grasps per
 (class, state). ``--wall-model``: the walls' squeeze-volume model (``pressure``, default: the
-content's pressure grows with the squeeze) or the earlier constant linearised springs
-(``linear``; results files written before the pressure model hold such grasps).
+content's pressure grows with the squeeze) or constant linearised springs (``linear``, the
+ablation of the pressure model).
 ``--grasp-variation``: ``wall`` (default) gives every grasp its own draw of the container's
 wall response around the instance's (the grasp-to-grasp spread of the squeeze of the same
 container measured on the real iCub grasps, :func:`mmlearn.models.tactile.containers.vary_grasp`);
-``shell`` varies the shell stiffness alone; ``none`` meets every instance as drawn (results files written before it hold such grasps). The features come only
-from the simulated finger encoders and taxel pads.
+``shell`` varies the shell stiffness alone; ``none`` meets every instance as drawn (the
+ablation of the variation). The features come only from the simulated finger encoders and
+taxel pads.
 Reports (10-fold CV, ``--classifier``; the other classifiers in ``compare``):
 ``container_rate`` (class from all grasps), ``state_rate_by_container`` {class: rate of the
 state given the class}, ``combined_rate`` (all class x state labels) and
@@ -80,20 +81,15 @@ from mmlearn.apps.common.cli import (ArgumentParser, UsageError, check_out_file,
                                      nonneg_int, pos_float, pos_int, save_figure, save_html)
 from mmlearn.models.tactile.icub_grasp import (CONTACT_LEVEL, REST_VELOCITY, ICubFileError,
                                                load_icub_dir)
+from mmlearn.models.tactile.evaluation import (SIM_CONTACT_FORCE, SIM_REST_VELOCITY,
+                                               container_grasp_features, icub_features,
+                                               state_recognition_report, cv_with_compare)
 from mmlearn.models.tactile.state import (CLASSIFIERS, FEATURE_NAMES, cross_validate,
-                                          evaluate_split, extract_grasp_features,
-                                          feature_matrix)
-from mmlearn.diagrams.tactile.grasp import container_grasp_trial
+                                          evaluate_split, extract_grasp_features)
+from mmlearn.diagrams.tactile.trials import (SWEEP_FORCES, container_grasp_plan,
+                                             odwalla_sweep_plan)
 
 __all__ = ["run", "main", "TactileStateConfig"]
-
-
-def _features(trials, *, contact_level, rest_velocity, steady_average):
-    grasps = [t.to_grasp() for t in trials]
-    X, feats = feature_matrix(grasps, contact_force=contact_level, rest_velocity=rest_velocity,
-                              steady_average=steady_average)
-    y = np.array([t.label for t in trials])
-    return X, y, feats
 
 
 @dataclass
@@ -122,13 +118,13 @@ class TactileStateConfig:
         progress: simulation: show a progress bar.
         containers: simulation: container classes to grasp (default: all four).
         wall_model: simulation: the containers' wall model, "pressure" (the squeeze-volume
-            model, default) or "linear" (the linearised constant stiffness used before;
+            model, default) or "linear" (the linearised constant stiffness;
             :class:`~mmlearn.diagrams.tactile.grasp.TactileGraspConfig`).
         grasp_variation: simulation: "wall" (default): every grasp meets its container with
             its own draw of the wall's static response (the grasp-to-grasp spread of the
             squeeze measured on the iCub grasps, :func:`mmlearn.models.tactile.containers.vary_grasp`);
             "shell": of the shell stiffness alone; "none": every grasp meets the instance as
-            drawn (the model before).
+            drawn.
     """
 
     train: str = ""
@@ -155,71 +151,10 @@ class TactileStateConfig:
     grasp_variation: str = "wall"
 
 
-#: simulation mode: contact threshold F per finger (N) and rest threshold V (m/s)
-SIM_CONTACT_FORCE = 1.0
-SIM_REST_VELOCITY = 0.002
-SWEEP_FORCES = (17.0, 20.0, 23.0)
-
-
-def _sim_specs(containers, f_target, trials, seed, wall_model="pressure",
-               grasp_variation="none"):
+def _specs(plan) -> list:
     from mmlearn.apps.common.sweep import TrialSpec
-    from mmlearn.models.tactile.containers import CONTAINER_CLASSES, states_of
 
-    specs = []
-    for ci, c in enumerate(containers):
-        if c not in CONTAINER_CLASSES:
-            raise ValueError(f"unknown container {c!r}")
-        for si, st in enumerate(states_of(c)):
-            for k in range(trials):
-                tseed = int(seed) * 1_000_003 + ci * 100_000 + si * 10_000 + k
-                params = {"container": c, "state": st, "f_target": float(f_target)}
-                if wall_model != "linear":
-                    # in the spec's key: results files written before the pressure model
-                    # (no wall_model) hold linear-wall grasps and resume only as such (the
-                    # trial function's default is "linear" for the same reason)
-                    params["wall_model"] = wall_model
-                if grasp_variation != "none":
-                    # likewise: files written before the grasp variation hold "none" grasps
-                    params["grasp_variation"] = grasp_variation
-                specs.append(TrialSpec(
-                    fn=container_grasp_trial, seed=tseed,
-                    params=params,
-                    label=f"{c}/{st}/{f_target:g}N/{k}"))
-    return specs
-
-
-def _sim_features(records, *, steady_average=False):
-    from mmlearn.diagrams.tactile.grasp import grasp_from_record
-
-    grasps = [grasp_from_record(r) for r in records]
-    X, feats = feature_matrix(grasps, contact_force=SIM_CONTACT_FORCE,
-                              rest_velocity=SIM_REST_VELOCITY, steady_average=steady_average)
-    yc = np.array([r["container"] for r in records])
-    ys = np.array([r["state"] for r in records])
-    return X, yc, ys, feats
-
-
-def _report_one(y):
-    from mmlearn.models.tactile.state import ClassificationReport
-
-    return ClassificationReport([str(y[0])], np.array([[len(y)]]), y, y)
-
-
-def fold_cv(X, y, *, classifier, folds, seed):
-    """``folds``-fold cross-validation, fewer folds when a class has fewer grasps; returns
-    (report, the number of folds)."""
-    k = int(min(folds, np.unique(y, return_counts=True)[1].min()))
-    if k < 2:
-        raise ValueError("too few grasps per class for cross-validation (use more --trials)")
-    return cross_validate(X, y, classifier=classifier, folds=k, seed=seed), k
-
-
-def _cv(X, y, *, classifier, folds, seed):
-    rep, k = fold_cv(X, y, classifier=classifier, folds=folds, seed=seed)
-    other = [c for c in CLASSIFIERS if c != classifier]
-    cmp_ = {c: cross_validate(X, y, classifier=c, folds=k, seed=seed).rate for c in other}
-    return rep, cmp_, k
+    return [TrialSpec(**d) for d in plan]
 
 
 def run_simulation(config: TactileStateConfig, *, meshcat=None) -> dict:
@@ -246,13 +181,13 @@ def run_simulation(config: TactileStateConfig, *, meshcat=None) -> dict:
         raise ValueError(f"grasp_variation: expected one of {', '.join(GRASP_VARIATIONS)}, "
                          f"got {c.grasp_variation!r}")
     wm, gv = c.wall_model, c.grasp_variation
-    specs = _sim_specs(conts, c.f_target, c.trials, c.seed, wm, gv)
+    specs = _specs(container_grasp_plan(conts, c.f_target, c.trials, c.seed, wm, gv))
     if c.f_sweep:
         if c.sweep_trials < 2:
             raise ValueError(f"sweep_trials: expected at least 2, got {c.sweep_trials}")
         have = {s.key for s in specs}
         for f in SWEEP_FORCES:
-            for s in _sim_specs(["odwalla"], f, c.sweep_trials, c.seed + 7919, wm, gv):
+            for s in _specs(odwalla_sweep_plan(f, c.sweep_trials, c.seed, wm, gv)):
                 if s.key not in have:
                     specs.append(s)
                     have.add(s.key)
@@ -266,47 +201,26 @@ def run_simulation(config: TactileStateConfig, *, meshcat=None) -> dict:
         return [by_key[s.key]["record"] for s in spec_list
                 if s.key in by_key and by_key[s.key].get("record")]
 
-    main_specs = _sim_specs(conts, c.f_target, c.trials, c.seed, wm, gv)
+    main_specs = _specs(container_grasp_plan(conts, c.f_target, c.trials, c.seed, wm, gv))
     recs = records(main_specs)
     if not recs:
         raise ValueError("no grasp finished")
-    X, yc, ys, feats = _sim_features(recs, steady_average=c.steady_average)
+    X, yc, ys, feats = container_grasp_features(recs, steady_average=c.steady_average)
     out = {"mode": "simulation", "classifier": c.classifier, "f_target": float(c.f_target),
            "features": list(FEATURE_NAMES), "n_grasps": len(recs),
            "failed_grasps": len(main_specs) - len(recs),
            "errors": sorted({(ln.get("error") or "")[:200] for ln in failed}),
            "no_contact": int(sum(not f.contact for f in feats)),
            "not_steady": int(sum(not f.steady for f in feats))}
-    if len(set(yc.tolist())) > 1:
-        rep, cmp_, k = _cv(X, yc, classifier=c.classifier, folds=c.folds, seed=c.seed)
-    else:  # one class: nothing to tell apart
-        rep = _report_one(yc)
-        cmp_ = {}
-    out["container_rate"] = rep.rate
-    out["container_confusion"] = {"labels": rep.labels,
-                                  "confusion": rep.confusion.astype(int).tolist()}
-    out["container_compare"] = cmp_
-    out["state_rate_by_container"], out["state_compare"], out["state_confusion"] = {}, {}, {}
-    for name in sorted(set(yc.tolist())):
-        m = yc == name
-        r, cm, _ = _cv(X[m], ys[m], classifier=c.classifier, folds=c.folds, seed=c.seed)
-        out["state_rate_by_container"][name] = r.rate
-        out["state_compare"][name] = cm
-        out["state_confusion"][name] = {"labels": r.labels,
-                                        "confusion": r.confusion.astype(int).tolist()}
-    yy = np.array([f"{a}/{b}" for a, b in zip(yc, ys)])
-    r, cm, _ = _cv(X, yy, classifier=c.classifier, folds=c.folds, seed=c.seed)
-    out["combined_rate"], out["combined_compare"] = r.rate, cm
-    m = yc != "water"
-    if m.any() and len(set(yc[m].tolist())) > 1:
-        r, _, _ = _cv(X[m], yy[m], classifier=c.classifier, folds=c.folds, seed=c.seed)
-        out["combined_rate_without_water"] = r.rate
+    out.update(state_recognition_report(X, yc, ys, classifier=c.classifier, folds=c.folds,
+                                        seed=c.seed))
     if c.f_sweep:
         sweep_out = {}
         for f in SWEEP_FORCES:
-            rs = records(_sim_specs(["odwalla"], f, c.sweep_trials, c.seed + 7919, wm, gv))
-            Xs, _, yss, _ = _sim_features(rs, steady_average=c.steady_average)
-            r, cm, _ = _cv(Xs, yss, classifier=c.classifier, folds=c.folds, seed=c.seed)
+            rs = records(_specs(odwalla_sweep_plan(f, c.sweep_trials, c.seed, wm, gv)))
+            Xs, _, yss, _ = container_grasp_features(rs, steady_average=c.steady_average)
+            r, cm, _ = cv_with_compare(Xs, yss, classifier=c.classifier, folds=c.folds,
+                                       seed=c.seed)
             sweep_out[f"{f:g}"] = {"rate": r.rate, "compare": cm, "n": len(rs),
                                    "failed": c.sweep_trials * 4 - len(rs),
                                    "labels": r.labels,
@@ -382,7 +296,7 @@ def plot_simulation(records, demo, path, *, containers, title: str = "") -> None
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from mmlearn.diagrams.tactile.grasp import grasp_from_record
+    from mmlearn.models.tactile.evaluation import grasp_from_record
 
     fig, ax = plt.subplots(2, 3, figsize=(16, 8.5))
     name = containers[0]
@@ -453,7 +367,7 @@ def run(*, config: TactileStateConfig, meshcat=None) -> dict:
         raise ValueError(f"{train}: no usable trials")
     kw = dict(contact_level=contact_level, rest_velocity=rest_velocity,
               steady_average=steady_average)
-    X, y, feats = _features(tr, **kw)
+    X, y, feats = icub_features(tr, **kw)
     out = {"mode": "real", "classifier": classifier, "features": list(FEATURE_NAMES),
            "settings": {"contact_level_counts": contact_level,
                         "rest_velocity_rad_per_slice": rest_velocity,
@@ -471,7 +385,7 @@ def run(*, config: TactileStateConfig, meshcat=None) -> dict:
         te, _ = load_icub_dir(test, include_unreliable=include_full_coke)
         if not te:
             raise ValueError(f"{test}: no usable trials")
-        Xt, yt, feats_t = _features(te, **kw)
+        Xt, yt, feats_t = icub_features(te, **kw)
         unseen = sorted(set(yt.tolist()) - set(y.tolist()))
         if unseen:
             raise ValueError(f"--test has classes that --train lacks: {', '.join(unseen)}")
@@ -615,13 +529,14 @@ def main(argv=None) -> int:
     ap.add_argument("--wall-model", choices=("pressure", "linear"), default="pressure",
                     help="simulation: the containers' walls: 'pressure' (default: shell spring "
                          "plus the content's pressure through the squeezed volume) or 'linear' "
-                         "(the constant linearised stiffness of earlier versions)")
+                         "(a constant linearised stiffness: the ablation of the pressure "
+                         "model)")
     ap.add_argument("--grasp-variation", choices=("wall", "shell", "none"), default="wall",
                     help="simulation: 'wall' (default): each grasp meets its container with "
                          "its own draw of the wall's response (rotation, where the pads land; "
                          "the grasp-to-grasp spread of the squeeze measured on the iCub "
                          "grasps), 'shell' (the shell stiffness alone) or 'none' (every grasp "
-                         "meets the instance as drawn, earlier versions)")
+                         "meets the instance as drawn: the ablation of the variation)")
     ap.add_argument("--seed", type=nonneg_int, default=0,
                     help="random seed (fold assignment, forest)")
     ap.add_argument("--plot", metavar="FILE", default=None,

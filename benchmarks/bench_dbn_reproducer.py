@@ -50,10 +50,11 @@ def main(argv=None):
     ap.add_argument("--repeats", type=int, default=200)
     args = ap.parse_args(argv)
 
-    from mmlearn.apps.imitate import record_demos
+    from mmlearn.diagrams.imitation.trials import record_demos
     from mmlearn.diagrams.imitation.diagram import ImitationConfig, MakeImitationDiagram, \
         object_positions
-    from mmlearn.models.imitation.dbn import learn_task, plan_global
+    from mmlearn.models.imitation.dbn import learn_task
+    from mmlearn.models.imitation.global_plan import plan_global
     from mmlearn.systems.imitation.dbn_reproducer import DbnReproducerConfig
 
     demos = record_demos("pick_place", 4, seed=args.seed)

@@ -38,7 +38,8 @@ import warnings
 
 import numpy as np
 
-from mmlearn.models.imitation.dbn import align_demonstrations, constraint_step, learn_task, plan_global
+from mmlearn.models.imitation.dbn import align_demonstrations, constraint_step, learn_task
+from mmlearn.models.imitation.global_plan import plan_global
 from mmlearn.models.imitation.types import Demonstration, Obstacle
 
 # --------------------------------------------------------------------------------------------

@@ -6,7 +6,7 @@ Usage::
 
     pip install 'mmlearn[bench-lasa]'     # movement-primitives (+ pytransform3d), benchmark only
     OPENBLAS_NUM_THREADS=1 python benchmarks/bench_lasa.py [--shapes all] [--folds 0,..]
-        [--weights 20] [--json OUT.json] [--methods thesis,thesis_cv,...] [--inner-cv-diagnostic]
+        [--weights 20] [--json OUT.json] [--methods thesis,target_start,...]
 
 Methods (every one learns from the 6 training demonstrations of a fold and starts at the held-
 out demonstration's start; the reproductions are resampled on the held-out time stamps):
@@ -14,17 +14,8 @@ out demonstration's start; the reproductions are resampled on the held-out time 
 * ``thesis``: :class:`mmlearn.models.imitation.lasa.ThesisReproducer` (defaults: target, start-marker,
   start-frame, scale-only start-frame and duration-frame constraints, h 0.02 s, dt 0.02 s, full
   covariances shrunk half-way to their diagonal).
-* ``thesis_s7``: the session-7 default (the same without the duration frame).
-* ``thesis_s6``: the previous default (session 6: target, start, frame; full covariances, no
-  shrinkage).
 * ``target_start``: the default without the start-frame constraints (objects target, start;
   covariances shrunk half-way to the diagonal as in the default).
-* ``thesis_cv`` (not in the default ``--methods``): :class:`mmlearn.models.imitation.lasa.InnerCVReproducer`,
-  the thesis' method with h in {0.02, 0.04, 0.1} s, covariance shrinkage towards the diagonal
-  in {0, 0.5, 1} and the constraint sets {target, start, frame} / {target, start} chosen per
-  fold by an inner leave-one-out over the 6 training demonstrations (nested cross-validation);
-  ``thesis_cv_end`` scores the inner folds by rmse + end error; ``thesis_cv_1se`` keeps the
-  default setting unless the inner winner beats it by more than one standard error.
 * ``baseline``: :func:`mmlearn.models.imitation.lasa.naive_baseline`.
 * ``dmp``: ``movement_primitives.dmp.DMP`` (Ijspeert et al. 2013 formulation), fitted to each
   training demonstration on a normalised time 0..1 with ``--weights`` basis functions per
@@ -50,7 +41,7 @@ import warnings
 import numpy as np
 
 from mmlearn.models.imitation.lasa import (DEVELOPMENT_SHAPES, LASA_SHAPES, MULTI_MODE_SHAPES,
-                                           InnerCVReproducer, ThesisReproducer, baseline_reproducer, evaluate_shape,
+                                           ThesisReproducer, baseline_reproducer, evaluate_shape,
                                            load_shape, summarise)
 
 
@@ -105,63 +96,21 @@ class PrompReproducer:
         return s * held.duration, c.mean_trajectory(s)
 
 
-def inner_cv_diagnostic(shapes, folds=None) -> None:
-    """How well the inner leave-one-out scores of :class:`InnerCVReproducer` (default grid)
-    predict the outer held-out rmse, per outer fold: Spearman rank correlation over the
-    candidates, the outer rmse of the inner pick minus that of the best candidate (regret)
-    and the default setting's outer rmse minus the inner pick's."""
-    from scipy.stats import spearmanr
-
-    from mmlearn.models.imitation.lasa import leave_one_out, resample_to, rmse_mm
-
-    cv = InnerCVReproducer()
-    cands = cv.candidates()
-    rhos, regret, gain = [], [], []
-    for name in shapes:
-        for k, train, held in leave_one_out(load_shape(name)):
-            if folds is not None and k not in folds:
-                continue
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")
-                _, inner = cv.select(train)
-                paths = cv._paths(train, [held], cands)
-            outer = np.array([rmse_mm(resample_to(paths[c][0][0], paths[c][0][1], held.t), held.hand)
-                              for c in cands])
-            inn = np.array([inner[c] for c in cands])
-            rhos.append(spearmanr(inn, outer).correlation)
-            regret.append(outer[inn.argmin()] - outer.min())
-            gain.append(outer[0] - outer[inn.argmin()])
-    print(f"inner-cv diagnostic, {len(rhos)} folds, {len(cands)} candidates: Spearman(inner score, outer rmse) "
-          f"median {np.median(rhos):.2f} mean {np.mean(rhos):.2f}; regret of the inner pick {np.mean(regret):.3f} mm; "
-          f"default minus inner pick {np.mean(gain):+.3f} mm (inner pick better in {np.mean(np.array(gain) > 0):.0%})")
-
-
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--shapes", default="all", help="comma-separated names, or all (default)")
     ap.add_argument("--folds", default=None, help="held-out indices 0..6 (default all)")
     ap.add_argument("--weights", type=int, default=20, help="DMP/ProMP basis functions per dimension")
-    ap.add_argument("--methods", default="thesis,thesis_s7,thesis_s6,target_start,baseline,dmp,promp")
+    ap.add_argument("--methods", default="thesis,target_start,baseline,dmp,promp")
     ap.add_argument("--json", default=None, help="also write the results to this JSON file")
-    ap.add_argument("--inner-cv-diagnostic", action="store_true",
-                    help="only print how well the inner leave-one-out predicts the outer rmse")
     a = ap.parse_args(argv)
     shapes = list(LASA_SHAPES) if a.shapes == "all" else [s.strip() for s in a.shapes.split(",")]
     bad = [s for s in shapes if s not in LASA_SHAPES]
     if bad:
         ap.error(f"unknown shapes {bad}")
     folds = None if a.folds is None else [int(x) for x in a.folds.split(",")]
-    if a.inner_cv_diagnostic:
-        inner_cv_diagnostic(shapes, folds)
-        return 0
     makers = {"thesis": lambda: ThesisReproducer(),
-              "thesis_s7": lambda: ThesisReproducer(objects=("target", "start", "frame", "frame_scale")),
-              "thesis_s6": lambda: ThesisReproducer(objects=("target", "start", "frame"), full_covariance=True,
-                                                    shrinkage=0.0),
               "target_start": lambda: ThesisReproducer(objects=("target", "start")),
-              "thesis_cv": lambda: InnerCVReproducer(),
-              "thesis_cv_end": lambda: InnerCVReproducer(end_weight=1.0),
-              "thesis_cv_1se": lambda: InnerCVReproducer(one_se=True),
               "baseline": lambda: baseline_reproducer,
               "dmp": lambda: DmpReproducer(n_weights=a.weights),
               "promp": lambda: PrompReproducer(n_weights=a.weights)}

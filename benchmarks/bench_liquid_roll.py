@@ -17,9 +17,9 @@ import time
 
 import numpy as np
 
-from mmlearn.apps.liquid_detection import COAST_DELAY
 from mmlearn.diagrams.tactile.liquid_roll import (LiquidRollConfig, make_instance, roll_change_windows,
                                                   simulate_roll)
+from mmlearn.models.tactile.evaluation import COAST_DELAY
 from mmlearn.models.tactile.liquid import coast_feature, coast_mask, liquid_feature
 
 

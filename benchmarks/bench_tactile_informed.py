@@ -18,7 +18,7 @@ For each it prints
 2. the recognition rate after t = 1..T grasps (and its mean over t) for the same objects
    under: random test grasps, random heights without repeats, and the informed strategy with
    either estimator, with and without the preference for heights not yet grasped
-   (:func:`mmlearn.apps.tactile_recognition._strategy_trials`), each with its distinct heights
+   (:func:`mmlearn.models.tactile.evaluation.strategy_trials`), each with its distinct heights
    per recognition and a paired t-test against random.
 """
 
@@ -55,7 +55,7 @@ def main(argv=None) -> int:
 def _one(path, seed, args) -> dict:
     from scipy.stats import spearmanr, ttest_rel
 
-    import mmlearn.apps.tactile_recognition as tr
+    import mmlearn.models.tactile.evaluation as ev
     from mmlearn.apps.common.sweep import report_lines
     from mmlearn.models.tactile.recognition import height_actions
 
@@ -63,7 +63,7 @@ def _one(path, seed, args) -> dict:
     args.seed = seed
     lines = [ln for ln in report_lines(path)
              if ln.get("record") and not ln.get("error")]
-    data, groups = tr._dataset([ln["record"] for ln in lines])
+    data, groups = ev.recognition_dataset([ln["record"] for ln in lines])
     classes = sorted(groups)
     print(f"\n{path}: {len(data)} grasps with contact of {len(classes)} classes, seed "
           f"{args.seed}")
@@ -77,17 +77,17 @@ def _one(path, seed, args) -> dict:
     ok = {v[0]: [] for v in variants}
     dist = {v[0]: [] for v in variants}
     for rep in range(args.cv_repeats):
-        A, B = tr._split(data.labels, rng)
+        A, B = ev.split_two_fold(data.labels, rng)
         for fold, (trn, te) in enumerate(((A, B), (B, A))):
             train, test = data.subset(trn), data.subset(te)
-            rec, _ = tr._fit(train, k=args.k, alpha=args.alpha, seed=args.seed)
+            rec, _ = ev.fit_recognizer(train, k=args.k, alpha=args.alpha, seed=args.seed)
             Ltr = rec.likelihood_loo(train)
             if rep == 0 and fold == 0:
                 _per_height(rec, train, test, Ltr, height_actions, spearmanr)
             objs = [classes[j] for j in rng_t.integers(len(classes), size=args.trials)]
             for name, strategy, fresh in variants:
-                o, d = tr._strategy_trials(rec, train, test, objs, args.T, rng_t,
-                                           strategy=strategy, Ltr=Ltr, fresh=fresh)
+                o, d = ev.strategy_trials(rec, train, test, objs, args.T, rng_t,
+                                          strategy=strategy, Ltr=Ltr, fresh=fresh)
                 ok[name].append(o)
                 dist[name].append(d)
     print(f"\nrecognition rate after t = 1..{args.T} grasps ({args.cv_repeats} x 2 folds x "
@@ -129,7 +129,7 @@ def _plot(panels, path) -> None:
 
 
 def _per_height(rec, train, test, Ltr, height_actions, spearmanr):
-    from mmlearn.apps.tactile_recognition import HEIGHT_RESOLUTION
+    from mmlearn.models.tactile.evaluation import HEIGHT_RESOLUTION
 
     n = len(rec.classes)
     a_tr = height_actions(train.height, resolution=HEIGHT_RESOLUTION)

@@ -15,7 +15,7 @@ import time
 
 import numpy as np
 
-from mmlearn.diagrams.tactile.objects import grid_heights, object_grasp_trial
+from mmlearn.diagrams.tactile.trials import grid_heights, object_grasp_trial
 from mmlearn.sdf.tactile_objects import CLASSES
 
 

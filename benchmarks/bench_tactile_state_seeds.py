@@ -33,9 +33,11 @@ import numpy as np
 def main(argv=None) -> int:
     from scipy.stats import ttest_rel
 
-    from mmlearn.apps.common.sweep import load_results
-    from mmlearn.apps.tactile_state import SWEEP_FORCES, _sim_features, _sim_specs, fold_cv
+    from mmlearn.apps.common.sweep import TrialSpec, load_results
+    from mmlearn.diagrams.tactile.trials import (SWEEP_FORCES, container_grasp_plan,
+                                                 odwalla_sweep_plan)
     from mmlearn.models.tactile.containers import CONTAINER_CLASSES
+    from mmlearn.models.tactile.evaluation import container_grasp_features, fold_cv
     from mmlearn.models.tactile.state import CLASSIFIERS
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
@@ -49,11 +51,9 @@ def main(argv=None) -> int:
                          "24; 0: ignore the sweep)")
     ap.add_argument("--classifiers", default=",".join(CLASSIFIERS))
     ap.add_argument("--wall-model", choices=("pressure", "linear"), default="pressure",
-                    help="the app's --wall-model the files were simulated with (files written "
-                         "before the pressure model existed: linear)")
+                    help="the app's --wall-model the files were simulated with")
     ap.add_argument("--grasp-variation", choices=("wall", "shell", "none"), default="wall",
-                    help="the app's --grasp-variation the files were simulated with (files "
-                         "written before the grasp variation existed: none)")
+                    help="the app's --grasp-variation the files were simulated with")
     ap.add_argument("--json", action="store_true", help="also print all figures as JSON")
     args = ap.parse_args(argv)
     clfs = [c for c in args.classifiers.split(",") if c]
@@ -71,21 +71,22 @@ def main(argv=None) -> int:
             ap.error(f"expected RESULTS.jsonl:SEED, got {item!r}")
         seed = int(seed)
         by = load_results(path)
-        specs = _sim_specs(list(CONTAINER_CLASSES), args.f_target, args.trials, seed,
-                           args.wall_model, args.grasp_variation)
+        specs = [TrialSpec(**d) for d in container_grasp_plan(
+            list(CONTAINER_CLASSES), args.f_target, args.trials, seed, args.wall_model,
+            args.grasp_variation)]
         recs = [by[s.key]["record"] for s in specs if s.key in by and by[s.key].get("record")]
         if not recs:
             ap.error(f"{path}: no grasp of seed {seed} with --trials {args.trials} "
                      f"--f-target {args.f_target:g}")
-        X, yc, ys, _ = _sim_features(recs)
+        X, yc, ys, _ = container_grasp_features(recs)
         sweep = {}
         if args.sweep_trials:
             for f in SWEEP_FORCES:
-                sp = _sim_specs(["odwalla"], f, args.sweep_trials, seed + 7919,
-                                args.wall_model, args.grasp_variation)
+                sp = [TrialSpec(**d) for d in odwalla_sweep_plan(
+                    f, args.sweep_trials, seed, args.wall_model, args.grasp_variation)]
                 rs = [by[s.key]["record"] for s in sp if s.key in by and by[s.key].get("record")]
                 if rs:
-                    Xs, _, yss, _ = _sim_features(rs)
+                    Xs, _, yss, _ = container_grasp_features(rs)
                     sweep[f] = (Xs, yss, len(sp) - len(rs))
         for clf in clfs:
             reps = [cv(X, yc, clf, fs) for fs in range(args.fold_seeds)]

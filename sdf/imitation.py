@@ -35,13 +35,13 @@ table in a discrete MultibodyPlant and can be held between fingers.
 :func:`teacher_sdf` is the teacher arm. Units: metres, kilograms, radians.
 """
 
-import dataclasses
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
-from mmlearn.models.imitation.scene import (ImitationSceneSpec, OBSERVED_BODIES, OBSTACLE_KINDS, ROBOT_TCP_IN_X8, SceneBox, TEACHER_OPENING, TEACHER_TCP_IN_X8, stratified_table_shifts)
+from mmlearn.models.imitation.scene import (TEACHER_OPENING, TEACHER_TCP_IN_X8, ImitationSceneSpec,
+                                            SceneBox)
 from mmlearn.sdf.builders import ArmSpec, LinkSpec, arm_model
 from mmlearn.models.common.sdf_writer import Box, Cylinder, SdfModel, box_inertia, cylinder_inertia
 

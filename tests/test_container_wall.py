@@ -141,13 +141,14 @@ def test_system_puts_the_model_forces_on_the_wall_joints():
 def test_simulated_grasp_closed_full_resists_open_empty_yields():
     """Two grasps at 20 N: the squeeze the fingers make (p_first - p_steady) of a closed full
     bottle is well below that of an open empty one, and the grasp settles (no SAP blow-up)."""
-    from mmlearn.diagrams.tactile.grasp import container_grasp_trial, grasp_from_record
+    from mmlearn.diagrams.tactile.trials import container_grasp_trial
+    from mmlearn.models.tactile.evaluation import grasp_from_record
     from mmlearn.models.tactile.state import extract_grasp_features
 
     squeeze = {}
     for st in ("full_closed", "empty_open"):
         g = grasp_from_record(container_grasp_trial(seed=1, container="odwalla", state=st,
-                                                    wall_model="pressure"))
+                                                    grasp_variation="none"))
         ft = extract_grasp_features(g, contact_force=1.0, rest_velocity=0.002)
         assert ft.contact and ft.steady
         p_first, p_steady, f_steady = ft.values[:3]
@@ -158,21 +159,34 @@ def test_simulated_grasp_closed_full_resists_open_empty_yields():
     assert 0.004 < squeeze["full_closed"] and squeeze["empty_open"] < 0.03
 
 
-def test_grasp_specs_name_the_wall_model_so_old_results_stay_linear():
-    """Results files from before the pressure model have specs without ``wall_model`` and
-    hold linear-wall grasps: the app's pressure specs must differ from them, its linear
-    ones match them, and the trial function run from such a spec must use linear walls."""
+def _sim_specs(*args):
+    from mmlearn.apps.common.sweep import TrialSpec
+    from mmlearn.diagrams.tactile.trials import container_grasp_plan
+
+    return [TrialSpec(**d) for d in container_grasp_plan(*args)]
+
+
+def test_grasp_plan_names_the_wall_model_and_the_variation_and_defaults_are_the_apps():
+    """Every grasp spec names its wall model and grasp variation (so results of different
+    models never share a key), and the trial function's and the plan's defaults are the
+    app's."""
     import inspect
 
-    from mmlearn.apps.tactile_state import _sim_specs
-    from mmlearn.diagrams.tactile.grasp import container_grasp_trial
+    from mmlearn.apps.tactile_state import TactileStateConfig
+    from mmlearn.diagrams.tactile.trials import container_grasp_plan, container_grasp_trial
 
     pres = _sim_specs(["odwalla"], 20.0, 2, 5, "pressure")
     lin = _sim_specs(["odwalla"], 20.0, 2, 5, "linear")
     assert all(p.params["wall_model"] == "pressure" for p in pres)
-    assert all("wall_model" not in s.params for s in lin)
+    assert all(s.params["wall_model"] == "linear" for s in lin)
     assert not {p.key for p in pres} & {s.key for s in lin}
-    assert inspect.signature(container_grasp_trial).parameters["wall_model"].default == "linear"
+    app = TactileStateConfig()
+    for fn in (container_grasp_trial, container_grasp_plan):
+        ps = inspect.signature(fn).parameters
+        assert ps["wall_model"].default == app.wall_model == "pressure"
+        assert ps["grasp_variation"].default == app.grasp_variation == "wall"
+    assert [s.key for s in _sim_specs(["odwalla"], 20.0, 2, 5)] == \
+        [s.key for s in _sim_specs(["odwalla"], 20.0, 2, 5, "pressure", "wall")]
 
 
 def test_grasp_variation_draws_the_shell_per_grasp_with_the_measured_spread():
@@ -245,25 +259,24 @@ def test_grasp_variation_bad_inputs_are_named():
         run_simulation(TactileStateConfig(f_target=20.0, trials=2, grasp_variation="rotate"))
 
 
-def test_grasp_specs_name_the_grasp_variation_and_none_reproduces_the_old_grasp():
-    """Specs with the variation differ from those before it (whose files hold "none" grasps);
-    the trial function's "none" is the grasp of before, value for value, and "wall" changes
-    only the wall's response (same instance, placement and noise)."""
-    from mmlearn.apps.tactile_state import _sim_specs
-    from mmlearn.diagrams.tactile.grasp import container_grasp_trial
+def test_grasp_variation_keeps_the_instance_placement_and_noise_of_the_grasp_without_it():
+    """Specs with and without the variation differ; "wall" changes only the wall's response
+    of the "none" grasp of the same seed (same instance, placement and noise), and the
+    default is "wall"."""
+    from mmlearn.diagrams.tactile.trials import container_grasp_trial
 
     shell = _sim_specs(["odwalla"], 20.0, 2, 5, "pressure", "wall")
     none = _sim_specs(["odwalla"], 20.0, 2, 5, "pressure", "none")
-    old = _sim_specs(["odwalla"], 20.0, 2, 5, "pressure")
-    assert [s.key for s in none] == [s.key for s in old]
     assert all(s.params["grasp_variation"] == "wall" for s in shell)
+    assert all(s.params["grasp_variation"] == "none" for s in none)
     assert not {s.key for s in shell} & {s.key for s in none}
-    kw = dict(seed=3, container="odwalla", state="empty_open", wall_model="pressure")
-    before = container_grasp_trial(**kw)
+    kw = dict(seed=3, container="odwalla", state="empty_open")
+    default = container_grasp_trial(**kw)
     off = container_grasp_trial(**kw, grasp_variation="none")
     on = container_grasp_trial(**kw, grasp_variation="wall")
-    assert off["p"] == before["p"] and off["f"] == before["f"]
-    assert off["instance"] == before["instance"] and off["instance"]["grasp_factor"] == 1.0
+    assert default["p"] == on["p"] and default["instance"] == on["instance"]
+    assert default["wall_model"] == "pressure"
+    assert off["instance"]["grasp_factor"] == 1.0
     m = on["instance"]["grasp_factor"]
     assert m != 1.0 and on["offset"] == off["offset"]
     assert np.isclose(on["instance"]["k_parts"]["shell"], m * off["instance"]["k_parts"]["shell"])

@@ -332,8 +332,9 @@ def test_whiteboard_teacher_varies_the_marked_area_and_the_learner_scales_the_zi
     """The teacher marks areas of different sizes (board_scale_jitter); learned from 5 Hz
     samples of such plans, the corner constraints' relative precisions stretch the
     reproduced zig-zag over a 1.25 times larger area, which a same-size teacher's does not."""
-    from mmlearn.apps.imitate import PARZEN_H, SPONGE_RADIUS, _coverage, _densify
+    from mmlearn.diagrams.imitation.trials import PARZEN_H
     from mmlearn.models.imitation.dbn import learn_task, reproduce_cartesian
+    from mmlearn.models.imitation.evaluation import SPONGE_RADIUS, coverage, densify
     from mmlearn.models.imitation.types import Demonstration
 
     scales = [plan_demonstration("whiteboard", seed=s).scene.board_scale for s in range(6)]
@@ -363,5 +364,5 @@ def test_whiteboard_teacher_varies_the_marked_area_and_the_learner_scales_the_zi
     for jitter in (0.0, 0.25):
         m = learned(jitter)
         _, x = reproduce_cartesian(m, np.asarray(TeacherStyle().home), objs)
-        cov[jitter] = _coverage(_densify(x), C, plane_tol=0.03)
+        cov[jitter] = coverage(densify(x), C, plane_tol=0.03)
     assert cov[0.25] > cov[0.0] + 0.05, cov

@@ -1,15 +1,11 @@
-"""The iCub grasp dataset reader and the tactile_state app on real grasps (tests/data/icub_grasp:
+"""The iCub grasp dataset reader and the grasp features on real grasps (tests/data/icub_grasp:
 trials 1-4 of four objects + one full_coke file, see PROVENANCE.md there)."""
 
-import json
 import shutil
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import run_main
 
 from mmlearn.models.tactile.icub_grasp import (CONTACT_LEVEL, REST_VELOCITY, ICubFileError,
                                                load_icub_dir, read_icub_trial)
@@ -122,80 +118,3 @@ def test_features_on_real_grasps_find_contact_where_fingers_press():
         contact[t.label].append(f.contact)
     # the can is squeezed by several fingers; the empty hand touches nothing
     assert all(contact["med_coke"]) and not any(contact["none"])
-
-
-# --------------------------------------------------------------------------- app
-def _main(argv, capsys):
-    from mmlearn.apps.tactile_state import main
-
-    return run_main(main, argv, capsys)
-
-
-@pytest.mark.parametrize("argv, needle", [
-    ([], "--train DIR is required"),
-    (["--f-target", "20", "--train", str(DATA)], "--f-target applies to simulation mode only"),
-    (["--train", "/nonexistent/dir"], "--train: /nonexistent/dir: folder not found"),
-    (["--train", str(DATA), "--classifier", "svm"], "--classifier"),
-    (["--train", str(DATA), "--folds", "0"], "--folds"),
-    (["--train", str(DATA), "--plot", "/nonexistent/x.png"], "--plot: folder"),
-    (["--train", str(DATA), "--folds", "10"], "needs at least 10 instances per class"),
-    (["--train", str(DATA), "--meshcat"], "--meshcat: real-data mode has no 3-D scene"),
-])
-def test_cli_errors_exit_2_with_one_line(argv, needle, capsys):
-    rc, out, err = _main(argv, capsys)
-    assert rc == 2, (rc, out, err)
-    assert needle in err.strip().splitlines()[-1], err
-    assert "Traceback" not in err
-
-
-def test_cli_bad_file_in_folder_names_it(tmp_path, capsys):
-    for n in ("book_1.txt", "book_2.txt", "none_1.txt", "none_2.txt"):
-        _copy(tmp_path, n)
-    p = tmp_path / "book_2.txt"
-    p.write_text("\n".join(_lines(p)[:-2]))
-    rc, out, err = _main(["--train", str(tmp_path), "--folds", "2"], capsys)
-    assert rc == 2 and "book_2.txt" in err and "truncated" in err
-
-
-def test_cli_test_classes_must_be_trained(tmp_path, capsys):
-    tr, te = tmp_path / "tr", tmp_path / "te"
-    tr.mkdir()
-    te.mkdir()
-    for n in ("book_1.txt", "none_1.txt", "book_2.txt", "none_2.txt"):
-        _copy(tr, n)
-    _copy(te, "med_coke_1.txt")
-    rc, out, err = _main(["--train", str(tr), "--test", str(te)], capsys)
-    assert rc == 2 and "classes that --train lacks: med_coke" in err
-
-
-def test_cli_quick_runs_cv_and_split(tmp_path, capsys):
-    plot = tmp_path / "conf.png"
-    rc, out, err = _main(["--train", str(DATA), "--folds", "4", "--seed", "3", "--json",
-                          "--classifier", "tree", "--plot", str(plot)], capsys)
-    assert rc == 0, err
-    d = json.loads(out)
-    assert d["evaluation"] == "4-fold CV" and d["n_train"] == 16
-    assert d["labels"] == ["blue_bear", "book", "med_coke", "none"]
-    assert np.array(d["confusion"]).sum() == 16
-    assert 0.0 <= d["rate"] <= 1.0 and set(d["per_class"]) == set(d["labels"])
-    assert set(d["compare"]) == {"forest", "boost"} and d["no_contact"]["none"] == 4
-    assert plot.stat().st_size > 10_000
-    # train on trials 1-2, test on 3-4
-    tr, te = tmp_path / "tr", tmp_path / "te"
-    tr.mkdir()
-    te.mkdir()
-    for f in DATA.glob("*_[1-4].txt"):
-        if f.name.startswith("full_coke"):
-            continue
-        _copy(tr if f.stem.endswith(("_1", "_2")) else te, f.name)
-    rc, out, err = _main(["--train", str(tr), "--test", str(te), "--json"], capsys)
-    assert rc == 0, err
-    d = json.loads(out)
-    assert d["evaluation"] == "test" and d["n_train"] == 8 and d["n_test"] == 8
-    assert d["classifier"] == "forest" and d["rate"] >= 0.5  # 4 classes: chance is 0.25
-
-
-def test_app_help_as_subprocess():
-    r = subprocess.run([sys.executable, "-m", "mmlearn.apps.tactile_state", "--help"],
-                       capture_output=True, text=True, timeout=120)
-    assert r.returncode == 0 and "--include-full-coke" in r.stdout and "--train" in r.stdout

@@ -1,4 +1,4 @@
-"""The reproducer system, the grasp model, the imitation diagram and its apps (issue 15)."""
+"""The reproducer system, the grasp model, the imitation diagram and its apps."""
 
 import json
 

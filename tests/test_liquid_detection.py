@@ -9,6 +9,7 @@ from mmlearn.apps import liquid_detection as app
 from mmlearn.diagrams.tactile.liquid_roll import (LIQUID_CONTAINERS, LiquidRollConfig, make_instance,
                                                   roll_trajectory)
 from mmlearn.models.tactile.containers import sample_container
+from mmlearn.models.tactile.evaluation import roll_record
 from mmlearn.models.tactile.types import TactileDataError
 
 
@@ -77,7 +78,7 @@ def test_bad_inputs():
     rec = {"t": [0.0, 0.1], "taxels": [[0.0]] * 3, "wrist_force": [[0, 0, 0]] * 2,
            "roll_window": [0, 1], "weight_window": [0, 1], "liquid": True, "container": "x"}
     with pytest.raises(TactileDataError, match="unequal length"):
-        app.record_features(rec)
+        roll_record(rec)
 
 
 def _rc(argv):
@@ -122,7 +123,7 @@ def test_short_run_full_differs_from_empty(short_run, capsys):
     assert len(lines) == 4 and not any(ln["error"] for ln in lines)
     feats = {True: [], False: []}
     for ln in lines:
-        r = app.record_features(ln["record"])
+        r = roll_record(ln["record"])
         from mmlearn.models.tactile.liquid import liquid_feature
 
         feats[r.liquid].append(liquid_feature(r.taxels, rate_hz=r.rate_hz))
@@ -133,7 +134,7 @@ def test_short_run_full_differs_from_empty(short_run, capsys):
     # empty one (0.00083 vs 0.00089 at this seed: the liquid's ringing needs the full roll);
     # the features are the high-passed taxels' spread, positive and small
     assert all(0 < f < 0.05 for v in feats.values() for f in v)
-    weights = {liq: [app.record_features(ln["record"]).weight for ln in lines
+    weights = {liq: [roll_record(ln["record"]).weight for ln in lines
                      if ln["record"]["liquid"] == liq] for liq in (True, False)}
     assert min(weights[True]) > 2 * max(weights[False])
     # --report-only recomputes the same report from the results file
@@ -201,55 +202,3 @@ def test_config_rejects_coast_feature_without_coast():
     with pytest.raises(ValueError, match="coast_delay"):
         app._check(app.LiquidDetectionConfig(coast_delay=float("nan")))
     assert _rc(["--coast-delay", "0.5", "--report-only", "x.jsonl"]) == 2
-
-
-def test_old_records_get_their_roll_command_only_if_the_measured_roll_follows_it():
-    """Records written before the roll command was stored: the command is rebuilt from the
-    trial's settings and used only if the encoder's roll follows it (an earlier default, the
-    sine roll, carries no settings)."""
-    from mmlearn.diagrams.tactile.liquid_roll import sine_roll_angle, sweep_roll_angle
-
-    c = LiquidRollConfig()
-    t = np.arange(0.0, c.duration, 1 / 24)
-    base = {"t": t.tolist(), "taxels": np.full((len(t), 4), 0.1).tolist(),
-            "wrist_force": np.zeros((len(t), 3)).tolist(),
-            "roll_window": [c.t_roll, c.t_roll + c.roll_duration],
-            "weight_window": [1.7, 1.9], "liquid": False, "container": "x"}
-    sweep = dict(base, roll=sweep_roll_angle(c, t)[0].tolist())
-    sine = dict(base, roll=sine_roll_angle(LiquidRollConfig(roll_profile="sine"), t)[0].tolist())
-    assert app.record_features(sweep).coast.sum() == 35  # 3 phases of 11 + 2 single samples
-    assert app.record_features(sine).coast is None
-    stored = dict(sine, roll_changes=None)  # a new record of a sine roll says so itself
-    assert app.record_features(stored).coast is None
-
-
-def test_dummy_read_held_out_and_inside_the_cross_validation():
-    """The dummy's two readings: held out (trained on the containers alone) and, as Table 7.5
-    counts it, inside the cross-validation as one more "no liquid" object. Synthetic records:
-    liquid trials ring, empty ones and the heavy dummy do not; with weight in the held-out
-    reading the tree may split on weight (the dummy weighs as much as a half-full bottle), in
-    the thesis' reading the training folds hold heavy trials without liquid, so it cannot."""
-    from mmlearn.models.tactile.liquid import RollRecord
-
-    rng = np.random.default_rng(0)
-    t = np.arange(120) / 24.0
-
-    def rec(liquid, weight, name):
-        amp = 0.01 if liquid else 0.0005
-        tax = 0.2 + amp * np.sin(2 * np.pi * 7.0 * t)[:, None] * rng.uniform(0.5, 1.5, 4)
-        tax = tax + 1e-4 * rng.standard_normal(tax.shape)
-        return RollRecord(taxels=tax, weight=weight + 0.05 * rng.standard_normal(),
-                          liquid=liquid, container=name)
-
-    rr = [rec(True, 2.5, "full") for _ in range(12)] + [rec(False, 0.3, "empty") for _ in range(12)]
-    dr = [rec(False, 2.5, "dummy") for _ in range(4)]
-    y = np.array(["liquid" if r.liquid else "no_liquid" for r in rr])
-    c = app.LiquidDetectionConfig(feature="whole", trials=1, seed=0)
-    out = app._evaluate(rr, dr, y, feature="whole", k=4, c=c)
-    d = out["dummy"]
-    assert d["trials"] == 4
-    assert d["predicted_no_liquid_tactile"] == 4          # the feature alone: no liquid
-    assert d["in_cv_no_liquid_tactile"] == 4
-    assert d["in_cv_no_liquid_with_weight"] == 4          # weight cannot decide inside the CV
-    assert d["in_cv_rate_with_weight"] == pytest.approx(1.0)
-    assert 0 <= d["predicted_no_liquid_with_weight"] <= 4

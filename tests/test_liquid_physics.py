@@ -180,7 +180,7 @@ def test_coast_feature_rigid_dummy_well_below_liquid(sweep_runs):
     the pads), while the half-full bottle's liquid keeps ringing about it. (Over the whole
     roll the dummy's rigid response during the reversals is as large as the liquid's: see
     the README, Liquid detection.)"""
-    from mmlearn.apps.liquid_detection import COAST_DELAY
+    from mmlearn.models.tactile.evaluation import COAST_DELAY
     from mmlearn.diagrams.tactile.liquid_roll import roll_change_windows
     from mmlearn.models.tactile.liquid import coast_feature, coast_mask
 

@@ -3,7 +3,6 @@ controller of Eq. 7.8 and the container physics (thesis ch. 6-7)."""
 
 import numpy as np
 import pytest
-from conftest import run_main
 
 from mmlearn.models.tactile.containers import (CONTAINER_CLASSES, sample_container, states_of)
 from mmlearn.models.tactile.pad import (PAD_CH6, PAD_PR2, PadLayout, integrate_pressure,
@@ -274,58 +273,6 @@ def test_bad_arguments_are_named():
         TactileGraspController(f_target=float("nan"))
     with pytest.raises(ValueError, match="no pads"):
         TactileSensor(pads=[])
-
-
-def test_tactile_state_simulation_mode_small_run(tmp_path, capsys):
-    """The app's simulation mode end to end on 6 short grasps (cans: 3 states x 2)."""
-    import json
-
-    from mmlearn.apps.tactile_state import main
-
-    res = tmp_path / "grasps.jsonl"
-    png, html = tmp_path / "sim.png", tmp_path / "grasp.html"
-    rc = main(["--f-target", "20", "--containers", "can", "--trials", "2", "--folds", "2",
-               "--jobs", "1", "--results", str(res), "--seed", "3", "--json",
-               "--plot", str(png), "--html-out", str(html)])
-    out, err = capsys.readouterr()
-    assert rc == 0, err
-    d = json.loads(out)
-    # the plot (profiles, impact, tactile images) and the Meshcat recording of one grasp
-    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 20_000
-    text = html.read_text()
-    assert text.lstrip().lower().startswith("<!doctype html")
-    import base64
-    import re
-
-    msgs = [base64.b64decode(m) for m in re.findall(r'base64,([A-Za-z0-9+/=]+)"', text)]
-    anim = [m for m in msgs if b"set_animation" in m]
-    # the recording animates the taxel cells (colour and height) along with the scene
-    assert anim and b"taxels/left/r00c00" in anim[0] and b"scale" in anim[0]
-    assert d["demo_grasp"]["container"] == "can" and d["demo_grasp"]["f_max_N"] > 20.0
-    peaks = d["demo_grasp"]["impact_peak_N"]  # Fig. 7.5 vs 7.6 at 10 N
-    assert peaks["switching"] < 10.5 < 12.0 < peaks["force"], peaks
-    assert d["mode"] == "simulation" and d["n_grasps"] == 6 and d["no_contact"] == 0
-    assert set(d["state_rate_by_container"]) == {"can"}
-    assert 0.0 <= d["state_rate_by_container"]["can"] <= 1.0
-    assert 0.0 <= d["combined_rate"] <= 1.0
-    recs = [json.loads(ln) for ln in res.read_text().splitlines()]
-    assert len(recs) == 6 and all(r["error"] is None for r in recs)
-    # the readings carry no label: a record's series are numbers only
-    assert all(isinstance(v, float) for v in recs[0]["record"]["p"])
-
-
-@pytest.mark.parametrize("argv, needle", [
-    (["--f-target", "20", "--containers", "jar"], "--containers"),
-    (["--f-target", "20", "--test", "x"], "--test applies to real-data mode only"),
-    (["--train", "no_such_dir", "--meshcat"], "--meshcat"),
-    (["--train", "no_such_dir", "--html-out", "x.html"], "--html-out"),
-    (["--f-target", "20", "--html-out", "/no/such/dir/x.html"], "--html-out"),
-])
-def test_tactile_state_simulation_bad_flags(argv, needle, capsys):
-    from mmlearn.apps.tactile_state import main
-
-    rc, _, err = run_main(main, argv, capsys)
-    assert rc == 2 and needle in err and "Traceback" not in err
 
 
 def test_wrist_force_sensor_sees_the_fingers_weight():

@@ -6,6 +6,7 @@ from mmlearn._lazy import lazy_exports
 _EXPORTS = {
     "demonstrations": ["TeacherConfig", "TeacherDiagram", "MakeTeacherDiagram", "default_sensor_config", "observations_to_demonstration", "record_demonstration", "record_demonstrations", "draw_demonstrations", "TeacherIKError"],
     "diagram": ["task_scene", "ImitationConfig", "Imitation", "home_position", "hand_ik", "start_configuration", "object_positions", "MakeImitationDiagram"],
+    "trials": ["reproduce_task", "reproduction_trial", "reproduction_plan", "record_demos", "PLACEMENT", "PARZEN_H", "PARZEN_H_DEFAULT", "SAMPLE_DT", "RELEASE_S", "MAX_TIME_FACTOR"],
 }
 
 __all__ = [
@@ -17,10 +18,20 @@ __all__ = [
     "ImitationConfig",
     "MakeImitationDiagram",
     "MakeTeacherDiagram",
+    "MAX_TIME_FACTOR",
     "object_positions",
     "observations_to_demonstration",
+    "PARZEN_H",
+    "PARZEN_H_DEFAULT",
+    "PLACEMENT",
     "record_demonstration",
     "record_demonstrations",
+    "record_demos",
+    "RELEASE_S",
+    "reproduce_task",
+    "reproduction_plan",
+    "reproduction_trial",
+    "SAMPLE_DT",
     "start_configuration",
     "task_scene",
     "TeacherConfig",

@@ -4,28 +4,37 @@ from mmlearn._lazy import lazy_exports
 
 #: submodule -> the public names it defines (imported on first use)
 _EXPORTS = {
-    "grasp": ["TactileGraspConfig", "MakeTactileGraspDiagram", "simulate_grasp", "PAD_LAYOUTS", "container_grasp_trial", "grasp_from_record"],
-    "liquid_roll": ["LiquidRollConfig", "MakeLiquidRollDiagram", "simulate_roll", "liquid_roll_trial", "LIQUID_CONTAINERS", "dummy_instance", "roll_change_windows"],
-    "objects": ["GRIPPER_CH6", "object_grasp_trial", "observation_from_record", "grid_heights"],
+    "grasp": ["TactileGraspConfig", "MakeTactileGraspDiagram", "simulate_grasp", "simulate_contact_force", "AddTactileSensor", "PAD_LAYOUTS", "PALM_SLIDE_DAMPING"],
+    "liquid_roll": ["LiquidRollConfig", "MakeLiquidRollDiagram", "simulate_roll", "LIQUID_CONTAINERS", "LIQUID_VISCOSITY", "dummy_instance", "make_instance", "roll_change_windows", "roll_trajectory"],
+    "trials": ["container_grasp_trial", "container_grasp_plan", "SWEEP_FORCES", "odwalla_sweep_plan", "object_grasp_trial", "object_grasp_plan", "GRIPPER_CH6", "grid_heights", "liquid_roll_trial", "liquid_roll_plan"],
 }
 
 __all__ = [
+    "AddTactileSensor",
+    "container_grasp_plan",
     "container_grasp_trial",
     "dummy_instance",
-    "grasp_from_record",
     "grid_heights",
     "GRIPPER_CH6",
     "LIQUID_CONTAINERS",
+    "liquid_roll_plan",
     "liquid_roll_trial",
+    "LIQUID_VISCOSITY",
     "LiquidRollConfig",
+    "make_instance",
     "MakeLiquidRollDiagram",
     "MakeTactileGraspDiagram",
+    "object_grasp_plan",
     "object_grasp_trial",
-    "observation_from_record",
+    "odwalla_sweep_plan",
     "PAD_LAYOUTS",
+    "PALM_SLIDE_DAMPING",
     "roll_change_windows",
+    "roll_trajectory",
+    "simulate_contact_force",
     "simulate_grasp",
     "simulate_roll",
+    "SWEEP_FORCES",
     "TactileGraspConfig",
 ]
 

@@ -29,7 +29,7 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import LogVectorOutput
 
-from mmlearn.models.tactile.containers import ContainerInstance, sample_container, vary_grasp
+from mmlearn.models.tactile.containers import ContainerInstance
 from mmlearn.models.tactile.pad import PAD_CH6, PAD_PR2, PadLayout
 from mmlearn.models.tactile.types import TactileGrasp
 from mmlearn.sdf.tactile import GripperGeometry, container_sdf, gripper_sdf, pad_z_of
@@ -37,10 +37,9 @@ from mmlearn.systems.tactile.container_wall import ContainerWallForce
 from mmlearn.systems.tactile.grasp_controller import TactileGraspController
 from mmlearn.systems.tactile.sensor import PadSpec, TactileSensor
 from mmlearn.systems.common.wrist_force_sensor import WristForceSensor
-from mmlearn.models.common.trials import register_trial
 
-__all__ = ["TactileGraspConfig", "MakeTactileGraspDiagram", "simulate_grasp", "PAD_LAYOUTS",
-           "container_grasp_trial", "grasp_from_record"]
+__all__ = ["TactileGraspConfig", "MakeTactileGraspDiagram", "simulate_grasp",
+           "simulate_contact_force", "AddTactileSensor", "PAD_LAYOUTS", "PALM_SLIDE_DAMPING"]
 
 _APPROX = "sap"
 #: damping of the self-centring palm slide in the ch. 7 container grasps, N s/m: the sliding
@@ -89,8 +88,8 @@ class TactileGraspConfig:
             (:func:`mmlearn.models.tactile.containers.wall_forces`: the gas law of a closed headspace,
             the head and flow resistance of a liquid, all acting through the volume an
             ovalising round container loses, so they grow with the squeeze); "linear": the
-            linearised constant stiffness ``ContainerInstance.k`` and damping ``c`` (the
-            model before; still that of the liquid-detection roll).
+            linearised constant stiffness ``ContainerInstance.k`` and damping ``c`` (that of
+            the liquid-detection roll).
     """
 
     pad: str = "pr2"
@@ -332,48 +331,3 @@ def simulate_grasp(config: TactileGraspConfig, *, container: ContainerInstance |
     return TactileGrasp(t=t, p=p, f=f_pad.sum(axis=1), finger_force=f_pad,
                         pads={k: np.clip(v, 0.0, 1.0) for k, v in pads.items()},
                         height=config.grasp_height, **kw)
-
-
-@register_trial("tactile.container_grasp")
-def container_grasp_trial(*, seed: int, container: str, state: str, f_target: float = 20.0,
-                          v_target: float = 0.02, offset_sd: float = 0.001,
-                          duration: float = 2.6, hold_time: float = 1.0,
-                          palm_slide_damping: float | None = PALM_SLIDE_DAMPING,
-                          wall_model: str = "linear", grasp_variation: str = "none") -> dict:
-    """One ch. 7 probing grasp of a random instance of ``container`` in ``state`` (a pure
-    function of its arguments, for :mod:`mmlearn.apps.common.sweep`). The instance (sizes,
-    stiffnesses, fill level), its placement (lateral offset ~ N(0, ``offset_sd``) m) and
-    the sensor noise are drawn from ``seed``. The gripper centres itself on the container
-    (``palm_slide_damping`` N s/m, see :class:`TactileGraspConfig`; None: welded palm, the
-    first finger alone squeezes an off-centre container until the second arrives).
-    ``wall_model``: "pressure" or "linear" (:class:`TactileGraspConfig`); the default is
-    "linear" because a grasp spec without it (results files written before the pressure model)
-    was simulated with the linear walls: the app passes "pressure" explicitly.
-    ``grasp_variation``: "none" (default, the grasps before it existed), "wall" or "shell":
-    this grasp's draw of the wall's response (or the shell stiffness alone) around the
-    instance's (:func:`mmlearn.models.tactile.containers.vary_grasp`, the class' measured
-    ``grasp_spread``), from
-    its own stream of ``seed`` so the instance, placement and sensor noise stay those of the
-    "none" grasp of the same seed. Returns a
-    JSON-able record: the recorded series ``t``, ``p``, ``f``, ``finger_force`` (what the
-    features are computed from), the labels ``container`` / ``state`` and the instance's parameters (for reference only)."""
-    rng = np.random.default_rng([int(seed), 13])
-    inst = sample_container(container, state, rng)
-    offset = float(rng.normal(0.0, offset_sd))
-    inst = vary_grasp(inst, np.random.default_rng([int(seed), 29]), mode=grasp_variation)
-    cfg = TactileGraspConfig(pad="pr2", f_target=f_target, v_target=v_target,
-                             duration=duration, hold_time=hold_time, offset=offset,
-                             seed=int(seed), palm_slide_damping=palm_slide_damping,
-                             wall_model=wall_model)
-    g = simulate_grasp(cfg, container=inst)
-    return {"t": g.t.tolist(), "p": g.p.tolist(), "f": g.f.tolist(),
-            "finger_force": g.finger_force.tolist(), "container": container, "state": state,
-            "f_target": f_target, "offset": offset, "wall_model": wall_model,
-            "grasp_variation": grasp_variation, "instance": inst.as_dict()}
-
-
-def grasp_from_record(rec: dict) -> TactileGrasp:
-    """The :class:`TactileGrasp` of a :func:`container_grasp_trial` record."""
-    return TactileGrasp(t=rec["t"], p=rec["p"], f=rec["f"], finger_force=rec["finger_force"],
-                        container=rec.get("container"), state=rec.get("state"),
-                        label=f"{rec.get('container')}/{rec.get('state')}")

@@ -45,8 +45,8 @@ containers cannot do. :func:`roll_change_windows` gives where the commanded rate
 that the feature can be taken over the constant-rate (coast) phases only
 (:func:`mmlearn.models.tactile.liquid.coast_feature`).
 
-:func:`liquid_roll_trial` runs one trial for the sweep runner and returns only what the
-sensors recorded (taxels at 24 Hz, the wrist force) plus the labels.
+:func:`mmlearn.diagrams.tactile.trials.liquid_roll_trial` runs one trial for the sweep runner
+and returns only what the sensors recorded (taxels at 24 Hz, the wrist force) plus the labels.
 """
 
 from __future__ import annotations
@@ -79,10 +79,10 @@ from mmlearn.systems.tactile.grasp_controller import TactileGraspController
 from mmlearn.systems.common.wrist_force_sensor import WristForceSensor
 
 from mmlearn.diagrams.tactile.grasp import AddTactileSensor
-from mmlearn.models.common.trials import register_trial
 
-__all__ = ["LiquidRollConfig", "MakeLiquidRollDiagram", "simulate_roll", "liquid_roll_trial",
-           "LIQUID_CONTAINERS", "dummy_instance", "roll_change_windows"]
+__all__ = ["LiquidRollConfig", "MakeLiquidRollDiagram", "simulate_roll", "LIQUID_CONTAINERS",
+           "LIQUID_VISCOSITY", "dummy_instance", "make_instance", "roll_change_windows",
+           "roll_trajectory"]
 
 
 @dataclass
@@ -596,34 +596,3 @@ def make_instance(label: str, rng: np.random.Generator) -> ContainerInstance:
                             viscosity=LIQUID_VISCOSITY[cls])
     return replace(inst, slosh_mass=mode.mass, slosh_k=mode.stiffness, slosh_c=mode.damping,
                    slosh_travel=mode.barrier)
-
-
-@register_trial("tactile.liquid_roll")
-def liquid_roll_trial(*, seed: int, container: str, offset_sd: float = 0.001,
-                      roll_cycles: float = 2.0, roll_profile: str = "sweep") -> dict:
-    """One trial for :mod:`mmlearn.apps.common.sweep` (a pure function of its arguments): a random
-    instance of ``container`` (see :func:`make_instance`), placed with lateral offset
-    ~ N(0, ``offset_sd``) m, grasped, lifted and rolled (``roll_profile``: see
-    :class:`LiquidRollConfig`; the triangle with abrupt reversals). Returns a JSON-able record with the
-    recorded series (``t``, ``taxels``, ``wrist_force``, ``roll``), the windows, the roll
-    command the robot knows (``roll_profile``, ``roll_cycles`` and ``roll_changes``: where
-    the commanded rate changes, :func:`roll_change_windows`, None for the sine), the labels
-    ``container`` / ``liquid`` and the instance's parameters (for reference only)."""
-    rng = np.random.default_rng([int(seed), 17])
-    inst = make_instance(container, rng)
-    offset = float(rng.normal(0.0, offset_sd))
-    # the pad centres at the middle of the wall patches (half the container's height, which
-    # the robot sees)
-    cfg = LiquidRollConfig(offset=offset, roll_cycles=roll_cycles, seed=int(seed),
-                           grasp_height=inst.height / 2, roll_profile=roll_profile,
-                           **({"reversal_time": 0.0} if roll_profile == "triangle" else {}))
-    r = simulate_roll(cfg, container=inst)
-    return {"t": r["t"].tolist(), "taxels": r["taxels"].tolist(),
-            "wrist_force": r["wrist_force"].tolist(), "roll": r["roll"].tolist(),
-            "roll_window": list(r["roll_window"]), "weight_window": list(r["weight_window"]),
-            "roll_profile": roll_profile, "roll_cycles": float(roll_cycles),
-            "roll_changes": (roll_change_windows(cfg).tolist() if roll_profile != "sine"
-                             else None),
-            "rate_hz": cfg.sensor_rate, "container": container,
-            "liquid": bool(inst.slosh_mass > 0), "offset": offset,
-            "instance": inst.as_dict()}

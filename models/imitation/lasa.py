@@ -1,5 +1,5 @@
 """The LASA handwriting data set as imitation-learning demonstrations, its leave-one-out
-evaluation and the naive baseline (issue 15, point 7).
+evaluation and the naive baseline.
 
 The data: 30 shapes, each drawn 7 times by a person on a tablet PC (Khansari-Zadeh and
 Billard, 2011), 2-D positions in **millimetres**, 1000 samples per demonstration over about
@@ -43,7 +43,7 @@ from __future__ import annotations
 import importlib.util
 import os
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
@@ -77,11 +77,6 @@ __all__ = [
     "evaluate_shape",
     "summarise",
     "shrink_covariance",
-    "fused_path",
-    "InnerCVReproducer",
-    "CONDITION_COVARIATES",
-    "start_covariates",
-    "condition_on_start",
 ]
 
 LASA_SHAPES = (
@@ -98,10 +93,10 @@ mean of them is no demonstration): reported apart."""
 
 DEVELOPMENT_SHAPES = ("Sshape", "Leaf_1", "Leaf_2", "Saeghe", "heee", "Sharpc",
                       "DoubleBendedLine", "JShape_2", "Line")
-"""The only shapes the method's settings were chosen on (issue 15); the other single-mode
+"""The only shapes the method's settings were chosen on; the other single-mode
 shapes check the result."""
 
-OBJECTS = ("target", "start", "frame", "frame_rotation", "frame_scale", "frame_duration")
+OBJECTS = ("target", "start", "frame", "frame_scale", "frame_duration")
 """The constraint objects :class:`ThesisReproducer` knows (see there)."""
 
 _RESOURCE = Path("resources") / "LASAHandwritingDataset" / "DataSet"
@@ -226,7 +221,7 @@ def _phase_mean(train: list[Demonstration], T: int) -> np.ndarray:
 
 
 def naive_baseline(train: list[Demonstration], start, t) -> np.ndarray:
-    """The issue's naive baseline: the mean of the ``train`` demonstrations (each resampled on
+    """The naive baseline: the mean of the ``train`` demonstrations (each resampled on
     a normalised phase 0..1 to ``len(t)`` samples, gaps not allowed), shifted to ``start``
     ``(D,)`` with an offset that decays linearly in time from 1 at ``t[0]`` to 0 at ``t[-1]``.
 
@@ -255,18 +250,18 @@ def with_start_marker(demo: Demonstration) -> Demonstration:
                          gripper=demo.gripper, joints=demo.joints, meta=dict(demo.meta)).validate()
 
 
-FRAME_MODES = ("similarity", "rotation", "scale", "duration")
+FRAME_MODES = ("similarity", "scale", "duration")
 """Start-frame variants (:func:`start_frame`): rotation and scale by the start (the default),
-rotation only (unit 1 mm), scale only (axes parallel to the world's), rotation by the start with
-the drawing's duration as the unit (lasa5)."""
+scale only (axes parallel to the world's), rotation by the start with the drawing's duration as
+the unit."""
 
 
 def start_frame(start, target=(0.0, 0.0), *, mode: str = "similarity",
                 duration: float | None = None) -> np.ndarray:
     """The 2x2 matrix ``S`` of the *start frame* of a 2-D drawing: origin at ``target``. With
     ``mode="similarity"`` (default) ``S = |s| R(angle of s)``: x-axis pointing at ``start``, unit
-    length = the start's distance ``|s| = |start - target|`` (mm); ``"rotation"``: ``S = R(angle
-    of s)``, unit 1 mm; ``"scale"``: ``S = |s| I`` (world axes, unit |s|); ``"duration"``:
+    length = the start's distance ``|s| = |start - target|`` (mm); ``"scale"``: ``S = |s| I``
+    (world axes, unit |s|); ``"duration"``:
     ``S = T R(angle of s)`` with ``T = duration`` (s) the drawing's duration, i.e. x-axis towards
     the start and frame coordinates in mm per second of drawing (a drawing's size in proportion
     to the time it takes). A point with frame coordinates ``u`` is at ``target + S u`` in the
@@ -288,8 +283,8 @@ def start_frame(start, target=(0.0, 0.0), *, mode: str = "similarity",
         raise ValueError("start_frame: the start is on the target; the frame has no direction")
     if mode == "scale":
         return n * np.eye(2)
-    if mode in ("rotation", "duration"):
-        s = s / n * (1.0 if mode == "rotation" else float(duration))
+    if mode == "duration":
+        s = s / n * float(duration)
     return np.array([[s[0], -s[1]], [s[1], s[0]]])
 
 
@@ -315,10 +310,8 @@ def to_start_frame(demo: Demonstration, *, mode: str = "similarity",
 
 def _frame_unit2(aligned: list[Demonstration], mode: str = "similarity", durations=None) -> float:
     """The squared unit of the start frames of ``aligned`` (mm^2): the mean squared distance
-    of their starts from their targets, 1 for the rotation-only frame (unit 1 mm), the mean
-    squared duration (s^2) for the duration frame."""
-    if mode == "rotation":
-        return 1.0
+    of their starts from their targets, the mean squared duration (s^2) for the duration
+    frame."""
     if mode == "duration":
         return float(np.mean(np.square(_durations(aligned, durations))))
     return float(np.mean([np.sum((d.objects["start"][0] - d.objects["target"][0]) ** 2)
@@ -382,130 +375,6 @@ def place_start_frame(model, frame_mean: np.ndarray, frame_var: np.ndarray, star
                      var=var, meta={**model.meta, f"start_frame_{name}": [float(x) for x in np.ravel(S)]}).validate()
 
 
-CONDITION_COVARIATES = ("position", "polar", "distance")
-"""What :func:`start_covariates` makes of a start: its 2-D position relative to the target
-(mm), its distance (mm) and angle (rad, relative to the training starts' circular mean), or its
-distance alone."""
-
-
-def start_covariates(starts, query, target=(0.0, 0.0), *, kind: str = "position"):
-    """The covariates the constraints are conditioned on (:func:`condition_on_start`), for the
-    training ``starts`` ``(G, 2)`` (mm) and the ``query`` start ``(2,)`` (mm), both taken
-    relative to ``target`` (mm). ``kind`` (:data:`CONDITION_COVARIATES`): ``"position"`` the
-    2-D offset from the target, mm; ``"polar"`` (distance in mm, angle in rad measured from the
-    circular mean of the training starts' angles and wrapped to (-pi, pi]); ``"distance"`` the
-    distance alone, mm. Returns ``(C (G, p), c (p,))``.
-
-    Raises:
-        ValueError: an unknown ``kind``, malformed or non-finite input.
-    """
-    if kind not in CONDITION_COVARIATES:
-        raise ValueError(f"start_covariates: kind must be one of {CONDITION_COVARIATES}, got {kind!r}")
-    S = np.asarray(starts, float)
-    q = np.asarray(query, float).reshape(-1)
-    tg = np.asarray(target, float).reshape(-1)
-    if S.ndim != 2 or S.shape[1] != 2 or S.shape[0] < 1 or q.shape != (2,) or tg.shape != (2,):
-        raise ValueError(f"start_covariates: expected starts (G, 2), query (2,), target (2,), got "
-                         f"{S.shape}, {q.shape}, {tg.shape}")
-    if not (np.all(np.isfinite(S)) and np.all(np.isfinite(q)) and np.all(np.isfinite(tg))):
-        raise ValueError("start_covariates: NaN or infinite start or target")
-    S = S - tg
-    q = q - tg
-    if kind == "position":
-        return S, q
-    dist = np.linalg.norm(S, axis=1)
-    if kind == "distance":
-        return dist[:, None], np.array([np.linalg.norm(q)])
-    ang = np.arctan2(S[:, 1], S[:, 0])
-    ref = float(np.arctan2(np.mean(np.sin(ang)), np.mean(np.cos(ang))))
-
-    def wrap(a):
-        return np.angle(np.exp(1j * (a - ref)))
-    return (np.stack([dist, wrap(ang)], axis=1),
-            np.array([np.linalg.norm(q), float(wrap(np.arctan2(q[1], q[0])))]))
-
-
-def condition_on_start(t, values, covariates, query, *, h: float, ridge: float = 1.0,
-                       inflation: float = 1.0, min_var: float = 1e-6, covariance: str = "residual"):
-    """Per-slice Gaussians of a constraint **conditioned on the start** (an extension of the
-    thesis' per-time-step model, Eq. 8.10-8.16: Gaussian conditioning, as a ProMP is
-    conditioned on its start).
-
-    For every slice ``k`` the joint Gaussian over (covariates ``c``, constraint value ``r_k``)
-    is estimated from the ``G`` demonstrations with the thesis' Parzen weights (Eq. 8.10-8.12;
-    a demonstration's covariates are the same at all its samples) and bias correction
-    (Eq. 8.14), then ``r_k`` is conditioned on the query's covariates ``c*``:
-
-    * mean ``mu_r + B (c* - mu_c)`` with the ridge regression slope
-      ``B = S_rc (S_cc + ridge diag(S_cc))^-1`` (``ridge`` = 0: the exact Gaussian conditional;
-      ridge -> infinity: the unconditioned Gaussian; the ridge is relative to each covariate's
-      variance, so it does not depend on the covariates' units);
-    * covariance: the Parzen-weighted covariance of the residuals ``r - mu_r - B (c - mu_c)``
-      (for ``ridge`` = 0 the Schur complement ``S_rr - S_rc S_cc^-1 S_cr``), times
-      ``inflation`` (>= 1 accounts for the slope fitted to few demonstrations), plus
-      ``min_var I``; with ``covariance="marginal"`` the unconditioned covariance ``S_rr``
-      instead (only the mean is conditioned).
-
-    Args:
-        t: ``(T,)`` the common (aligned) time base, s.
-        values: ``(G, T, d)`` the constraint's value per demonstration and time (its units).
-        covariates: ``(G, p)`` per demonstration (:func:`start_covariates`).
-        query: ``(p,)`` the covariates of the start to condition on.
-        h: Parzen window width, s.
-        ridge: dimensionless >= 0, see above.
-        inflation: a finite factor > 0 on the residual covariance (dimensionless).
-        min_var: variance floor added, in the constraint's units squared.
-    Returns:
-        ``(mean (T, d), cov (T, d, d))``.
-    Raises:
-        ValueError: mismatched shapes, non-finite values, bad ``h``/``ridge``/``inflation``.
-    """
-    from mmlearn.models.imitation.dbn import parzen_weights
-
-    t = np.asarray(t, float)
-    v = np.asarray(values, float)
-    C = np.asarray(covariates, float)
-    q = np.asarray(query, float).reshape(-1)
-    if v.ndim != 3 or t.shape != (v.shape[1],) or C.ndim != 2 or C.shape[0] != v.shape[0] or q.shape != (C.shape[1],):
-        raise ValueError(f"condition_on_start: expected t (T,), values (G, T, d), covariates (G, p), query (p,); "
-                         f"got {t.shape}, {v.shape}, {C.shape}, {q.shape}")
-    for name, a in (("t", t), ("values", v), ("covariates", C), ("query", q)):
-        if not np.all(np.isfinite(a)):
-            raise ValueError(f"condition_on_start: {name} holds NaN or infinite values")
-    if not (np.isfinite(h) and h > 0):
-        raise ValueError(f"condition_on_start: h must be a time > 0 in seconds, got {h!r}")
-    if not (np.isfinite(ridge) and ridge >= 0):
-        raise ValueError(f"condition_on_start: ridge must be finite and >= 0, got {ridge!r}")
-    if not (np.isfinite(inflation) and inflation > 0):
-        raise ValueError(f"condition_on_start: inflation must be a finite factor > 0, got {inflation!r}")
-    if covariance not in ("residual", "marginal"):
-        raise ValueError(f"condition_on_start: covariance must be 'residual' or 'marginal', got {covariance!r}")
-    G, T, d = v.shape
-    W = parzen_weights(t, t, h=h, G=G)                                  # (T, T), rows sum to 1/G
-    denom = np.maximum(1.0 - G * np.sum(W * W, axis=1), 1e-12)          # Eq. 8.14's 1 - sum w^2
-    c0 = v.reshape(-1, d).mean(axis=0)
-    vc = v - c0
-    rbar = G * np.einsum("st,gtd->gsd", W, vc)                          # Parzen mean of each demo, (G, T, d)
-    mu_r = rbar.mean(axis=0)                                            # Eq. 8.13
-    m2 = np.einsum("st,gtd,gte->sde", W, vc, vc)
-    S_rr = (m2 - mu_r[:, :, None] * mu_r[:, None, :]) / denom[:, None, None]
-    mu_c = C.mean(axis=0)
-    Cc = C - mu_c
-    S_cc = Cc.T @ Cc / G                                                # (p, p), before / denom
-    S_rc = np.einsum("gsd,gp->sdp", rbar - mu_r[None], Cc) / G          # (T, d, p), before / denom
-    A = S_cc + ridge * np.diag(np.diag(S_cc)) + 1e-12 * (1.0 + np.trace(S_cc)) * np.eye(C.shape[1])
-    B = np.linalg.solve(A, np.swapaxes(S_rc, 1, 2)).swapaxes(1, 2)     # (T, d, p); denom cancels
-    BS = np.einsum("sdp,sep->sde", B, S_rc)                              # B S_cr
-    BSB = np.einsum("sdp,pq,seq->sde", B, S_cc, B)
-    if covariance == "residual":
-        cov = S_rr - (BS + np.swapaxes(BS, 1, 2) - BSB) / denom[:, None, None]
-    else:
-        cov = S_rr
-    cov = inflation * 0.5 * (cov + np.swapaxes(cov, 1, 2)) + min_var * np.eye(d)
-    mean = mu_r + c0 + np.einsum("sdp,p->sd", B, q - mu_c)
-    return mean, cov
-
-
 @dataclass
 class ThesisReproducer:
     """The thesis' method on LASA: :func:`~mmlearn.models.imitation.dbn.learn_task` (derivative-DTW
@@ -517,7 +386,7 @@ class ThesisReproducer:
 
     The objects (constraints) are
 
-    * ``"target"``: the origin, the issue's one object, ``r = target - hand`` in the world;
+    * ``"target"``: the origin, the drawings' one object, ``r = target - hand`` in the world;
     * ``"start"``: a marker left at the pen's start (:func:`with_start_marker`),
       ``r = start - hand`` in the world;
     * ``"frame"`` (an extension, not in the thesis): the target constraint expressed in the
@@ -528,9 +397,8 @@ class ThesisReproducer:
       start, where the world constraints cannot. It needs ``"start"``.
     * ``"frame_scale"`` (extension): the same in the *scale-only* start frame (world axes,
       unit = the start's distance, ``start_frame(mode="scale")``): drawings whose size follows
-      the start's distance but whose orientation does not. ``"frame_rotation"`` (rotation only,
-      unit 1 mm) is available but not in the default. Both need ``"start"``.
-    * ``"frame_duration"`` (extension, lasa5): the target constraint in the *duration frame*
+      the start's distance but whose orientation does not. Needs ``"start"``.
+    * ``"frame_duration"`` (extension): the target constraint in the *duration frame*
       (``start_frame(mode="duration")``: x-axis towards the start, unit = the drawing's
       duration, frame coordinates in mm per second), learned from each training drawing with
       its own duration and placed with the reproduction's duration (the held-out one's in the
@@ -539,14 +407,13 @@ class ThesisReproducer:
       with its path length is 0.88-0.90 on four shapes), which the start alone does not tell.
       Needs ``"start"``; placed only when :meth:`learn` is given the duration.
 
-    Defaults (chosen on the 9 development shapes only, ``benchmarks/bench_lasa_dev.py``):
-    objects target + start + frame + frame_scale + frame_duration, full covariances shrunk
-    half-way towards their diagonal, h = dt = 0.02 s, gain 1, every weight 1: development rmse
-    0.935 mm against 1.003 mm without ``frame_duration`` (session 7) and 1.047 mm for the
-    session-6 default (target + start + frame, full covariances, no shrinkage).
-    Shrinkage 0.5, 0.75 and 1 (the thesis' diagonal covariances) tie on the development shapes
-    (1.003 / 1.002 / 1.002 mm); 0.5 keeps more of the start frame's benefit on drawings that
-    differ by a pure rotation and scaling (``tests/test_lasa.py``).
+    Defaults (chosen on the 9 development shapes only): objects target + start + frame +
+    frame_scale + frame_duration, full covariances shrunk half-way towards their diagonal,
+    h = dt = 0.02 s, gain 1: development rmse 0.935 mm against 1.003 mm without
+    ``frame_duration`` and 1.047 mm with target + start + frame, full covariances, no
+    shrinkage. Shrinkage 0.5, 0.75 and 1 (the thesis' diagonal covariances) tie on the
+    development shapes (1.003 / 1.002 / 1.002 mm); 0.5 keeps more of the start frame's benefit
+    on drawings that differ by a pure rotation and scaling (``tests/test_lasa.py``).
 
     With the target alone every reproduction follows the learned mean path from the first
     step on; with more objects the fused Gaussian (the thesis' product, precision weighted)
@@ -556,7 +423,7 @@ class ThesisReproducer:
 
     Attributes:
         objects: the constraint objects: ``"target"`` and optionally ``"start"``, ``"frame"``,
-            ``"frame_scale"``, ``"frame_rotation"`` (:data:`OBJECTS`; the frames only with
+            ``"frame_scale"``, ``"frame_duration"`` (:data:`OBJECTS`; the frames only with
             ``"start"``).
         h: Parzen window width, s. The thesis' 0.2 s (5 Hz tasks of ~20 s) over-smooths the
             2-7 s LASA shapes and biases the last slice away from the target; default 0.02 s.
@@ -564,31 +431,8 @@ class ThesisReproducer:
         full_covariance: full 2x2 covariances instead of the thesis' diagonal ones (a start
             frame's diagonal variances are diagonal in its own frame).
         gain: fraction of the fused step applied per slice (``constraint_step``'s gain).
-        align_features: ``learn_task``'s DTW features (``"both"``, ``"derivative"``, ``"position"``).
-        frame_mode: the variant (:data:`FRAME_MODES`, :func:`start_frame`) of the ``"frame"``
-            object's start frame; ``"frame_rotation"`` and ``"frame_scale"`` are the rotation-only
-            and scale-only frames as further objects.
         shrinkage: every learned covariance shrunk towards its diagonal by this fraction in
             [0, 1] (:func:`shrink_covariance`; 0 = the full covariance, 1 = diagonal).
-        weights: object name -> tempering of that constraint's Gaussian, a dimensionless factor
-            > 0 on its precision (its covariance divided by it); objects not named keep 1 (the
-            thesis' plain product). Only the ratios move the fused path.
-        condition: objects whose per-slice Gaussians are **conditioned on the observed start**
-            (:func:`condition_on_start`; an extension, lasa4): the joint Gaussian of the start's
-            covariates and the constraint value per slice, estimated from the training
-            demonstrations with the Parzen weights, conditioned on the held-out start. Default
-            none. Measured on the development shapes only (``bench_lasa_dev.py condition``):
-            no setting beat the default by a clear margin (best: target conditioned on the
-            polar start, ridge 1, inflation 3: 0.993 against 1.003 mm, lower on 35 of 63 folds,
-            Wilcoxon p = 0.48; ridge 0: 1.100 / 1.118 mm), so it is off.
-        condition_on: the covariates (:data:`CONDITION_COVARIATES`, :func:`start_covariates`):
-            ``"position"`` (start - target, mm), ``"polar"`` (distance mm, angle rad),
-            ``"distance"`` (mm).
-        ridge: the conditioning's ridge, dimensionless, relative to each covariate's variance
-            (0 = the exact Gaussian conditional, large = unconditioned).
-        inflation: factor (dimensionless, > 0) on the conditioned (residual) covariance.
-        condition_covariance: ``"residual"`` (the conditional covariance) or ``"marginal"``
-            (the unconditioned covariance; only the mean is conditioned).
     """
 
     objects: tuple = ("target", "start", "frame", "frame_scale", "frame_duration")
@@ -596,15 +440,7 @@ class ThesisReproducer:
     dt: float = 0.02
     full_covariance: bool = True
     gain: float = 1.0
-    align_features: str = "both"
-    frame_mode: str = "similarity"
     shrinkage: float = 0.5
-    weights: dict = field(default_factory=dict)
-    condition: tuple = ()
-    condition_on: str = "position"
-    ridge: float = 1.0
-    inflation: float = 1.0
-    condition_covariance: str = "residual"
     name: str = "thesis"
 
     def __post_init__(self):
@@ -620,38 +456,19 @@ class ThesisReproducer:
                 raise ValueError(f"{k} must be a finite time > 0 in seconds, got {v!r}")
         if not (0 < self.gain <= 1):
             raise ValueError(f"gain must be in (0, 1], got {self.gain!r}")
-        if self.frame_mode not in FRAME_MODES:
-            raise ValueError(f"frame_mode must be one of {FRAME_MODES}, got {self.frame_mode!r}")
         if not (np.isfinite(self.shrinkage) and 0.0 <= self.shrinkage <= 1.0):
             raise ValueError(f"shrinkage must be in [0, 1], got {self.shrinkage!r}")
-        self.condition = tuple(self.condition)
-        bad = [o for o in self.condition if o not in self.objects]
-        if bad or len(set(self.condition)) != len(self.condition):
-            raise ValueError(f"condition: must name objects among {self.objects} (once each), got {self.condition}")
-        if self.condition_on not in CONDITION_COVARIATES:
-            raise ValueError(f"condition_on must be one of {CONDITION_COVARIATES}, got {self.condition_on!r}")
-        if not (np.isfinite(self.ridge) and self.ridge >= 0):
-            raise ValueError(f"ridge must be finite and >= 0, got {self.ridge!r}")
-        if not (np.isfinite(self.inflation) and self.inflation > 0):
-            raise ValueError(f"inflation must be a finite factor > 0, got {self.inflation!r}")
-        if self.condition_covariance not in ("residual", "marginal"):
-            raise ValueError(f"condition_covariance must be 'residual' or 'marginal', got {self.condition_covariance!r}")
-        self.weights = dict(self.weights)
-        for k, v in self.weights.items():
-            if k not in self.objects:
-                raise ValueError(f"weights: {k!r} is not one of the objects {self.objects}")
-            if not (isinstance(v, (int, float)) and np.isfinite(v) and v > 0):
-                raise ValueError(f"weights[{k!r}] must be a finite factor > 0, got {v!r}")
 
-    def _frame_mode(self, obj: str) -> str:
-        return self.frame_mode if obj == "frame" else obj.split("_", 1)[1]
+    @staticmethod
+    def _frame_mode(obj: str) -> str:
+        return "similarity" if obj == "frame" else obj.split("_", 1)[1]
 
-    def _temper(self, name: str, var: np.ndarray) -> np.ndarray:
-        """``var`` shrunk towards its diagonal and divided by the constraint's weight."""
+    def _shrunk(self, var: np.ndarray) -> np.ndarray:
+        """``var`` shrunk towards its diagonal (full covariances only)."""
         v = np.asarray(var, float)
         if v.ndim == 3 and self.shrinkage > 0:
             v = shrink_covariance(v, self.shrinkage)
-        return v / float(self.weights.get(name, 1.0))
+        return v
 
     def learn(self, train: list[Demonstration], start=None, duration: float | None = None):
         """The learned :class:`~mmlearn.models.imitation.types.TaskModel`. With ``"frame"``
@@ -668,24 +485,10 @@ class ThesisReproducer:
             train = [with_start_marker(d) for d in train]
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # e.g. "a single demonstration" (documented)
-            aligned = align_demonstrations(train, dt=self.dt, features=self.align_features)
+            aligned = align_demonstrations(train, dt=self.dt, features="both")
             model = learn_task(aligned, h=self.h, use_joints=False, align=False,
                                full_covariance=self.full_covariance)
-            if self.condition and start is not None:
-                target = aligned[0].objects["target"][0]
-                C, c = start_covariates([d.objects["start"][0] if "start" in d.objects else d.hand[0]
-                                         for d in aligned], start, target, kind=self.condition_on)
-            for o in self.condition:
-                if o.startswith("frame") or start is None:
-                    continue
-                c_name = f"obj:{o}"
-                vals = np.stack([d.objects[o] - d.hand for d in aligned])
-                model.mean[c_name], model.var[c_name] = condition_on_start(
-                    model.t, vals, C, c, h=self.h, ridge=self.ridge, inflation=self.inflation,
-                    min_var=model.meta["min_var"], covariance=self.condition_covariance)
-                if not self.full_covariance:
-                    model.var[c_name] = np.einsum("sii->si", model.var[c_name]).copy()
-            model.var = {c: self._temper(c[4:], v) for c, v in model.var.items()}
+            model.var = {c: self._shrunk(v) for c, v in model.var.items()}
             for o in self.objects:
                 if not o.startswith("frame") or start is None:
                     continue
@@ -694,16 +497,7 @@ class ThesisReproducer:
                     continue
                 fm, fv = learn_start_frame(aligned, h=self.h, full_covariance=self.full_covariance, mode=mode,
                                            durations=durations)
-                if o in self.condition:
-                    fr = np.stack([-to_start_frame(d, mode=mode, duration=T).hand
-                                   for d, T in zip(aligned, durations)])
-                    d2 = _frame_unit2(aligned, mode, durations)
-                    fm, fv = condition_on_start(model.t, fr, C, c, h=self.h, ridge=self.ridge,
-                                                inflation=self.inflation, min_var=1e-6 / max(d2, 1e-12),
-                                                covariance=self.condition_covariance)
-                    if not self.full_covariance:
-                        fv = np.einsum("sii->si", fv).copy()
-                model = place_start_frame(model, fm, self._temper(o, fv), start,
+                model = place_start_frame(model, fm, self._shrunk(fv), start,
                                           aligned[0].objects["target"][0], mode=mode, name=o,
                                           duration=duration)
         return model
@@ -811,8 +605,6 @@ def summarise(results: list[ShapeResult]) -> dict:
     return out
 
 
-# =============================================================================================
-# Per-shape model selection by an inner leave-one-out (nested cross-validation)
 def shrink_covariance(var: np.ndarray, shrinkage: float) -> np.ndarray:
     """Covariances shrunk towards their diagonal: ``(1 - lambda) Sigma + lambda diag(Sigma)``
     for every slice of ``var`` ``(S, d, d)`` (units unchanged). ``shrinkage`` = lambda in
@@ -831,189 +623,3 @@ def shrink_covariance(var: np.ndarray, shrinkage: float) -> np.ndarray:
         raise ValueError(f"var: expected (S, d) or (S, d, d), got shape {v.shape}")
     diag = np.einsum("sii->si", v)[:, :, None] * np.eye(v.shape[1])[None]
     return (1.0 - shrinkage) * v + shrinkage * diag
-
-
-def fused_path(model, x0, objects: dict, *, duration: float, dt: float) -> tuple[np.ndarray, np.ndarray]:
-    """Closed form of :func:`~mmlearn.models.imitation.dbn.reproduce_cartesian` with a point hand
-    (``J = I``), ``gain = 1``, no damping and no obstacles: every step moves the hand onto the
-    precision-weighted product of the constraints' hand targets ``x_i - mu_i^k`` (Eq. 8.23-8.24
-    with ``J = I``), which does not depend on the previous position; so all steps are one
-    batched 2x2 solve. Same slice timing as ``reproduce_cartesian`` (the model's time scaled to
-    ``duration``, s; period ``dt``, s). Returns ``(t (N,), x (N, D))`` with ``x[0] = x0``.
-
-    Raises:
-        ValueError: non-finite ``x0``, a missing or non-finite object, bad ``dt``/``duration``.
-    """
-    x0 = np.asarray(x0, float).reshape(-1)
-    if not np.all(np.isfinite(x0)):
-        raise ValueError(f"x0 must be a finite position, got {x0!r}")
-    if not (np.isfinite(dt) and dt > 0 and np.isfinite(duration) and duration > 0):
-        raise ValueError(f"dt and duration must be > 0 s, got {dt!r}, {duration!r}")
-    D = x0.shape[0]
-    n_steps = int(round(duration / dt))
-    scale = float(model.t[-1]) / duration
-    s = np.arange(1, n_steps + 1)
-    k = np.clip(np.searchsorted(model.t, s * dt * scale - 1e-9), 0, model.S - 1)
-    P_sum = np.zeros((len(k), D, D))
-    Pt_sum = np.zeros((len(k), D))
-    for name in model.objects:
-        x = np.asarray(objects.get(name, np.full(D, np.nan)), float).reshape(-1)
-        if x.shape != (D,) or not np.all(np.isfinite(x)):
-            raise ValueError(f"fused_path: object {name!r} missing or not a finite ({D},) position")
-        c = f"obj:{name}"
-        v = np.asarray(model.var[c], float)
-        cov = v[k][:, :, None] * np.eye(D)[None] if v.ndim == 2 else v[k]
-        P = np.linalg.inv(cov)
-        P_sum += P
-        Pt_sum += np.einsum("kij,kj->ki", P, x[None] - model.mean[c][k])
-    xs = np.linalg.solve(P_sum, Pt_sum[:, :, None])[:, :, 0]
-    return np.arange(n_steps + 1) * dt, np.vstack([x0[None], xs])
-
-
-@dataclass
-class InnerCVReproducer:
-    """:class:`ThesisReproducer` with its settings chosen per shape and per fold by an *inner*
-    leave-one-out over the training demonstrations only (nested cross-validation: the outer
-    held-out demonstration is never seen). For each candidate setting (Parzen width ``h``,
-    covariance shrinkage towards the diagonal, constraint set) and each training
-    demonstration j: learn from the other training demonstrations (aligned without j),
-    reproduce from j's start for j's duration (:func:`fused_path`, the closed form of the
-    thesis' incremental product with ``gain = 1``) and score it like the outer evaluation
-    (:func:`rmse_mm` on j's time stamps, plus ``end_weight`` times :func:`end_error_mm`). The
-    setting with the lowest mean inner score is then learned from all training
-    demonstrations and reproduced from the held-out start. This is model selection from the
-    training data, as a user would do on a new shape.
-
-    **Not the default: it did not help.** Measured on the 9 development shapes only
-    (``OPENBLAS_NUM_THREADS=1 python benchmarks/bench_lasa.py --shapes <development>
-    --methods thesis,thesis_cv,thesis_cv_end,thesis_cv_1se,baseline``; rmse / end error, mm):
-    :class:`ThesisReproducer` (the session-6 default) 1.047 / 0.141; this class with the default grid (18 candidates)
-    1.051 / 0.367, scored by rmse + end error 1.048 / 0.146, with the one-standard-error rule
-    1.054 / 0.257; baseline 1.266; 0.9 s per fold against 0.08 s. The inner scores rank the
-    candidates only loosely like the outer held-out rmse (``--inner-cv-diagnostic``: Spearman
-    median 0.58, mean 0.28 over the 63 folds; the inner pick is better than the default setting
-    in 38 % of the folds, by -0.004 mm on average): the candidates differ by ~1-2 % while one
-    demonstration's deviation from the others varies far more between folds.
-
-    Attributes:
-        hs: candidate Parzen window widths, s.
-        shrinkages: candidate covariance shrinkages towards the diagonal, in [0, 1]
-            (:func:`shrink_covariance`; 0 = full, 1 = diagonal).
-        floors: candidate variance floors added to every constraint's covariance, mm^2
-            (the start-frame constraint's is divided by the mean squared start distance).
-        object_sets: candidate constraint sets (each as for :class:`ThesisReproducer`).
-        dt: period of the aligned time base and of the reproduction, s.
-        end_weight: weight of the inner end error (mm) beside the inner rmse (mm) in the
-            selection score (dimensionless).
-        one_se: keep the first candidate (the reference setting: first of each list) unless
-            the best one beats it by more than one standard error of the paired inner score
-            differences (the "one standard error" rule against selection noise).
-        align_features: DTW features of the alignment.
-        choices: every selection made, appended per call: ``(h, shrinkage, floor, objects)``.
-    """
-
-    hs: tuple = (0.02, 0.04, 0.1)
-    shrinkages: tuple = (0.0, 0.5, 1.0)
-    floors: tuple = (0.0,)
-    object_sets: tuple = (("target", "start", "frame"), ("target", "start"))
-    dt: float = 0.02
-    end_weight: float = 0.0
-    one_se: bool = False
-    align_features: str = "both"
-    name: str = "thesis_cv"
-
-    def __post_init__(self):
-        self.hs = tuple(float(h) for h in self.hs)
-        self.shrinkages = tuple(float(s) for s in self.shrinkages)
-        self.floors = tuple(float(f) for f in self.floors)
-        self.object_sets = tuple(tuple(o) for o in self.object_sets)
-        if not self.hs or not self.shrinkages or not self.floors or not self.object_sets:
-            raise ValueError("hs, shrinkages, floors and object_sets must each hold at least one candidate")
-        for f in self.floors:
-            if not (np.isfinite(f) and f >= 0):
-                raise ValueError(f"floors must be finite variances >= 0 in mm^2, got {f!r}")
-        for h in self.hs + (self.dt,):
-            if not (np.isfinite(h) and h > 0):
-                raise ValueError(f"hs and dt must be finite times > 0 in seconds, got {h!r}")
-        for s in self.shrinkages:
-            if not (0.0 <= s <= 1.0):
-                raise ValueError(f"shrinkages must be in [0, 1], got {s!r}")
-        for o in self.object_sets:
-            ThesisReproducer(objects=o)              # validates the set
-            if any(x not in ("target", "start", "frame") for x in o):
-                raise ValueError(f"object_sets: this class knows target, start and frame only, got {o}")
-        if not (np.isfinite(self.end_weight) and self.end_weight >= 0):
-            raise ValueError(f"end_weight must be >= 0, got {self.end_weight!r}")
-        self.choices: list[tuple] = []
-
-    def candidates(self) -> list[tuple]:
-        """All ``(h, shrinkage, floor, objects)`` candidates, in a fixed order."""
-        return [(h, s, f, o) for h in self.hs for s in self.shrinkages for f in self.floors
-                for o in self.object_sets]
-
-    def _paths(self, train: list[Demonstration], queries: list[Demonstration], cands: list[tuple]):
-        """``{candidate: [(t, x) per query]}``: learned from ``train`` (aligned together),
-        reproduced from each query's start for its duration."""
-        from mmlearn.models.imitation.dbn import align_demonstrations, learn_task
-        from mmlearn.models.imitation.types import TaskModel
-
-        marked = [with_start_marker(d) for d in train]
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            aligned = align_demonstrations(marked, dt=self.dt, features=self.align_features)
-            out = {}
-            for h in sorted({c[0] for c in cands}):
-                full = learn_task(aligned, h=h, use_joints=False, align=False, full_covariance=True)
-                need_frame = any("frame" in c[3] for c in cands if c[0] == h)
-                if need_frame:
-                    fm, fv = learn_start_frame(aligned, h=h, full_covariance=True)
-                    d2 = _frame_unit2(aligned)
-                for c in cands:
-                    if c[0] != h:
-                        continue
-                    _, lam, floor, objs = c
-                    eye = np.eye(full.mean["obj:target"].shape[1])[None]
-                    names = [f"obj:{o}" for o in objs if o != "frame"]
-                    var = {n: shrink_covariance(full.var[n], lam) + floor * eye for n in names}
-                    base = TaskModel(t=full.t, constraints=names, mean={n: full.mean[n] for n in names},
-                                     var=var, meta=dict(full.meta))
-                    paths = []
-                    for q in queries:
-                        m = base
-                        start = q.hand[0]
-                        if "frame" in objs:
-                            fvar = shrink_covariance(fv, lam) + floor / max(d2, 1e-12) * eye
-                            m = place_start_frame(base, fm, fvar, start, aligned[0].objects["target"][0])
-                        objects = {"target": q.objects["target"][0], "start": start,
-                                   "frame": q.objects["target"][0]}
-                        paths.append(fused_path(m, start, objects, duration=q.duration, dt=self.dt))
-                    out[c] = paths
-        return out
-
-    def select(self, train: list[Demonstration]) -> tuple[tuple, dict]:
-        """The candidate with the lowest mean inner leave-one-out score on ``train`` and the
-        scores ``{candidate: mean score}`` (mm)."""
-        cands = self.candidates()
-        if len(cands) == 1:
-            return cands[0], {cands[0]: float("nan")}
-        if len(train) < 3:
-            raise ValueError(f"inner cross-validation needs >= 3 training demonstrations, got {len(train)}")
-        scores = {c: [] for c in cands}
-        for j, inner, held in leave_one_out(train):
-            paths = self._paths(inner, [held], cands)
-            for c in cands:
-                t, x = paths[c][0]
-                rep = resample_to(t - t[0], x, held.t - held.t[0])
-                scores[c].append(rmse_mm(rep, held.hand) + self.end_weight * end_error_mm(rep, held.hand))
-        mean = {c: float(np.mean(v)) for c, v in scores.items()}
-        best = min(cands, key=lambda c: mean[c])
-        if self.one_se and best != cands[0]:
-            diff = np.asarray(scores[cands[0]]) - np.asarray(scores[best])
-            if diff.mean() <= diff.std(ddof=1) / np.sqrt(len(diff)):
-                best = cands[0]
-        return best, mean
-
-    def __call__(self, train: list[Demonstration], held: Demonstration) -> tuple[np.ndarray, np.ndarray]:
-        best, _ = self.select(train)
-        self.choices.append(best)
-        return self._paths(train, [held], [best])[best][0]

@@ -88,7 +88,7 @@ STATES = ("full_closed", "full_open", "empty_open", "empty_closed")
 ICUB_SPREAD_PLASTIC_BOTTLE = 0.131
 ICUB_SPREAD_CAN = 0.248
 
-#: ``vary_grasp`` modes: "none" (every grasp of an instance alike; the model before), "wall"
+#: ``vary_grasp`` modes: "none" (every grasp of an instance alike), "wall"
 #: (a per-grasp draw of the wall's whole static response, shell and content coupling, with the
 #: class' ``grasp_spread``) and "shell" (of the shell stiffness alone)
 GRASP_VARIATIONS = ("none", "wall", "shell")

@@ -81,7 +81,7 @@ from mmlearn.models.tactile.types import TactileDataError, TactileObservation, c
 
 __all__ = ["d1", "shift_rows", "d2", "pairwise_d2", "k_medoids", "TactileSet",
            "TactileRecognitionConfig", "TactileRecognizer", "entropy", "posterior", "CLUSTERINGS",
-           "kmedoids_available"]
+           "kmedoids_available", "height_actions"]
 
 CLUSTERINGS = ("auto", "kmedoids", "medoids", "agglomerative")
 
@@ -607,5 +607,3 @@ def height_actions(heights, *, resolution: float = 0.005) -> np.ndarray:
         raise ValueError(f"resolution: expected a number > 0 (metres), got {resolution!r}")
     return np.round(h / resolution).astype(int)
 
-
-__all__.append("height_actions")

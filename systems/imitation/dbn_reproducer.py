@@ -8,7 +8,7 @@ Every ``period`` seconds the system takes one step of the learned model (time sl
   the robot plant at the commanded configuration, the objects' last good observed
   positions, and the obstacles;
 * ``global`` mode (Eq. 8.27-8.28): at the first step at which every object has been seen,
-  :func:`mmlearn.models.imitation.dbn.plan_global` plans the whole joint sequence; the steps
+  :func:`mmlearn.models.imitation.global_plan.plan_global` plans the whole joint sequence; the steps
   then follow it.
 
 The gripper follows the learned ``gripper`` constraint's mean (0 closed .. 1 open) mapped
@@ -592,7 +592,7 @@ class DbnReproducer(LeafSystem):
     def _global_step(self, context, discrete_state, ks, q_to, objects, obj, status):
         import time
 
-        from mmlearn.models.imitation.dbn import plan_global
+        from mmlearn.models.imitation.global_plan import plan_global
 
         plan = context.get_discrete_state(self._g_plan).get_value().reshape(self._S, self._n)
         if status[3] == 0:

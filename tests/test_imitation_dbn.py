@@ -1,14 +1,14 @@
-"""Tests of the imitation-learning model layer (thesis ch. 8): alignment, the per-slice Gaussians,
-the incremental product of constraints (the sign test), obstacle avoidance and global planning."""
+"""The DBN of constraints (models/imitation/dbn.py, thesis ch. 8): alignment, the per-slice
+Gaussians, the incremental product of constraints (the sign test) and obstacle avoidance."""
 
 import warnings
 
 import numpy as np
 import pytest
+from imitation_tasks import const_model, planar_fk, planar_jacobian, reach_demos
 
-from mmlearn.models.imitation.dbn import (
-                                          align_demonstrations, constraint_step, derivative, fill_gaps, learn_task, plan_global,
-                                          reproduce_cartesian)
+from mmlearn.models.imitation.dbn import (align_demonstrations, constraint_step, derivative,
+                                          fill_gaps, learn_task, reproduce_cartesian)
 from mmlearn.models.imitation.types import Demonstration, ImitationDataError, Obstacle, TaskModel
 
 
@@ -24,49 +24,6 @@ def _demo(warp, T, dt=0.2, noise=0.0, rng=None):
         hand = hand + noise * rng.standard_normal(hand.shape)
     return Demonstration(t=t, hand=hand, objects={"cup": np.tile([0.5, 0.2, 0.1], (len(t), 1))},
                          gripper=(tau > 0.5).astype(float))
-
-
-def _mj(s):
-    s = np.clip(s, 0.0, 1.0)
-    return 10 * s ** 3 - 15 * s ** 4 + 6 * s ** 5
-
-
-def _reach_demos(n=4, seed=0):
-    """2-D point-hand reaches from (0, 0) to the target (1, 0): 4 s minimum jerk, 2 s hold."""
-    rng = np.random.default_rng(seed)
-    demos = []
-    for _ in range(n):
-        T = 4.0 * rng.uniform(0.9, 1.1)
-        t = np.arange(0.0, T + 2.0, 0.2)
-        hand = np.outer(_mj(t / T), [1.0, 0.0]) + rng.normal(0, 0.005, (len(t), 2))
-        demos.append(Demonstration(t=t, hand=hand, objects={"target": np.tile([1.0, 0.0], (len(t), 1))}))
-    return demos
-
-
-# 3-link planar arm (D = 2, n = 3): more joints than Cartesian dimensions
-_L = np.array([0.4, 0.3, 0.2])
-
-
-def _fk(q):
-    c = np.cumsum(q)
-    return np.array([np.sum(_L * np.cos(c)), np.sum(_L * np.sin(c))])
-
-
-def _jac(q):
-    c = np.cumsum(q)
-    J = np.zeros((2, 3))
-    for j in range(3):
-        J[0, j] = -np.sum(_L[j:] * np.sin(c[j:]))
-        J[1, j] = np.sum(_L[j:] * np.cos(c[j:]))
-    return J
-
-
-def _const_model(S, means, variances, D=2):
-    names = list(means)
-    return TaskModel(t=np.arange(S) * 0.2, constraints=names,
-                     mean={c: np.tile(np.asarray(means[c], float), (S, 1)) for c in names},
-                     var={c: np.tile(np.asarray(variances[c], float), (S, 1)) for c in names},
-                     meta={"D": D, "dt": 0.2})
 
 
 # ------------------------------------------------------------------------------------------
@@ -144,19 +101,19 @@ def test_learned_model_roundtrip(tmp_path):
 # ------------------------------------------------------------------------------------------
 def test_sign_single_constraint_hand_converges_to_object_minus_mean():
     """Eq. 8.18 as printed (mu - (x_i - x_E)) would push the hand away; corrected it converges."""
-    m = _const_model(40, {"obj:a": [0.1, -0.05]}, {"obj:a": [1e-4, 1e-4]})
+    m = const_model(40, {"obj:a": [0.1, -0.05]}, {"obj:a": [1e-4, 1e-4]})
     x_a = np.array([0.55, 0.35])
     q = np.array([0.3, 0.5, 0.4])
     for k in range(40):
-        r = constraint_step(m, k, hand=_fk(q), objects={"a": x_a}, J=_jac(q), use_joints=False)
+        r = constraint_step(m, k, hand=planar_fk(q), objects={"a": x_a}, J=planar_jacobian(q), use_joints=False)
         q = q + r.dq
-    np.testing.assert_allclose(_fk(q), x_a - [0.1, -0.05], atol=1e-4)
+    np.testing.assert_allclose(planar_fk(q), x_a - [0.1, -0.05], atol=1e-4)
     np.testing.assert_allclose(r.target_hand, x_a - [0.1, -0.05])
 
 
 def test_sign_two_constraints_land_at_precision_weighted_combination():
     va, vb = np.array([1e-4, 4e-4]), np.array([4e-4, 1e-4])
-    m = _const_model(40, {"obj:a": [0.1, 0.0], "obj:b": [0.0, -0.2]}, {"obj:a": va, "obj:b": vb})
+    m = const_model(40, {"obj:a": [0.1, 0.0], "obj:b": [0.0, -0.2]}, {"obj:a": va, "obj:b": vb})
     objs = {"a": np.array([0.6, 0.3]), "b": np.array([0.3, 0.1])}
     ta, tb = objs["a"] - [0.1, 0.0], objs["b"] - [0.0, -0.2]
     expect = (ta / va + tb / vb) / (1 / va + 1 / vb)
@@ -166,34 +123,34 @@ def test_sign_two_constraints_land_at_precision_weighted_combination():
     # ... and a redundant planar arm (n = 3 > D = 2)
     q = np.array([0.3, 0.5, 0.4])
     for k in range(40):
-        q = q + constraint_step(m, k, hand=_fk(q), objects=objs, J=_jac(q), use_joints=False).dq
-    np.testing.assert_allclose(_fk(q), expect, atol=1e-4)
+        q = q + constraint_step(m, k, hand=planar_fk(q), objects=objs, J=planar_jacobian(q), use_joints=False).dq
+    np.testing.assert_allclose(planar_fk(q), expect, atol=1e-4)
     # the same constraints given as full covariances fuse to the same point
     mf = TaskModel(t=m.t, constraints=m.constraints, mean=m.mean,
                    var={c: np.stack([np.diag(v) for v in m.var[c]]) for c in m.constraints}, meta=m.meta)
     rf = constraint_step(mf, 3, hand=[0.0, 0.0], objects=objs, J=np.eye(2), use_joints=False, damping=0.0)
     np.testing.assert_allclose(rf.dq, expect, atol=1e-9)
     # an object not observed this step is skipped, not a crash
-    r = constraint_step(m, 0, hand=_fk(q), objects={"a": objs["a"], "b": [np.nan, 0.0]}, J=_jac(q),
+    r = constraint_step(m, 0, hand=planar_fk(q), objects={"a": objs["a"], "b": [np.nan, 0.0]}, J=planar_jacobian(q),
                         use_joints=False)
     assert r.info["skipped"] == ["obj:b"] and np.allclose(r.target_hand, ta)
 
 
 def test_joint_constraint_and_switch():
     mu = np.array([0.2, -0.4, 0.6])
-    m = _const_model(30, {"joints": mu}, {"joints": [1e-3] * 3})
+    m = const_model(30, {"joints": mu}, {"joints": [1e-3] * 3})
     q = np.zeros(3)
     for k in range(30):
-        q = q + constraint_step(m, k, hand=_fk(q), objects={}, J=_jac(q), q=q).dq
+        q = q + constraint_step(m, k, hand=planar_fk(q), objects={}, J=planar_jacobian(q), q=q).dq
     np.testing.assert_allclose(q, mu, atol=1e-6)
-    r = constraint_step(m, 0, hand=_fk(q), objects={}, J=_jac(q), q=q * 0, use_joints=False)
+    r = constraint_step(m, 0, hand=planar_fk(q), objects={}, J=planar_jacobian(q), q=q * 0, use_joints=False)
     assert np.all(r.dq == 0)
     with pytest.raises(ImitationDataError, match="pass q or use_joints=False"):
-        constraint_step(m, 0, hand=_fk(q), objects={}, J=_jac(q))
+        constraint_step(m, 0, hand=planar_fk(q), objects={}, J=planar_jacobian(q))
 
 
 def test_obstacle_attractor_keeps_positive_clearance():
-    m = learn_task(_reach_demos())
+    m = learn_task(reach_demos())
     c, s = np.cos(np.pi / 4), np.sin(np.pi / 4)
     box = Obstacle(centre=[0.5, 0.08], half_size=[0.1, 0.1], R=[[c, -s], [s, c]])   # a corner cuts the path
     objs = {"target": np.array([1.0, 0.0])}
@@ -208,33 +165,6 @@ def test_obstacle_attractor_keeps_positive_clearance():
     assert clearance(plain) < -0.03
     assert clearance(avoid) > 0.0
     assert np.linalg.norm(avoid[-1] - [1.0, 0.0]) < 0.02     # and still reaches the target (around the corner)
-
-
-def test_plan_global_escapes_u_obstacle_where_incremental_is_stuck():
-    m = learn_task(_reach_demos())
-    U = [Obstacle([0.65, 0.0], [0.05, 0.35]), Obstacle([0.45, 0.3], [0.25, 0.05]),
-         Obstacle([0.45, -0.3], [0.25, 0.05])]
-    objs = {"target": np.array([1.0, 0.0])}
-
-    def clearance(x):
-        dense = np.concatenate([np.linspace(a, b, 20) for a, b in zip(x[:-1], x[1:])])
-        return min(float(o.signed_distance(dense).min()) for o in U)
-
-    _, inc = reproduce_cartesian(m, [0.0, 0.0], objs, obstacles=U, substeps=5, max_step=0.02)
-    assert np.linalg.norm(inc[-1] - [1.0, 0.0]) > 0.3                 # stuck inside the U
-    path = plan_global(m, q0=[0.0, 0.0], objects=objs, fk=lambda q: q, jacobian=lambda q: np.eye(2),
-                       obstacles=U, seed=1)
-    assert path.shape == (m.S, 2) and np.allclose(path[0], 0.0)
-    assert np.linalg.norm(path[-1] - [1.0, 0.0]) < 0.02
-    assert clearance(path) > 0.0
-
-
-def test_plan_global_with_arm_kinematics():
-    m = _const_model(10, {"obj:a": [0.0, 0.0]}, {"obj:a": [1e-4, 1e-4]})
-    x_a = np.array([0.3, 0.5])
-    path, info = plan_global(m, q0=[0.3, 0.5, 0.4], objects={"a": x_a}, fk=_fk, jacobian=_jac,
-                             n_samples=50, return_info=True)
-    assert np.linalg.norm(_fk(path[-1]) - x_a) < 1e-3 and info["roadmap_nodes"] > 10
 
 
 # ------------------------------------------------------------------------------------------
@@ -270,14 +200,3 @@ def test_bad_input_is_named():
     assert set(al[1].objects) == {"cup"}
 
 
-def test_plan_global_scipy_and_networkx_agree():
-    m = learn_task(_reach_demos(n=2, seed=4))
-    box = [Obstacle([0.5, 0.0], [0.1, 0.1])]
-    kw = dict(q0=[0.0, 0.0], objects={"target": np.array([1.0, 0.0])}, fk=lambda q: q,
-              jacobian=lambda q: np.eye(2), obstacles=box, n_samples=80, seed=2, return_info=True)
-    p1, i1 = plan_global(m, search="scipy", **kw)
-    p2, i2 = plan_global(m, search="networkx", **kw)
-    assert i1["graph_edges"] == i2["graph_edges"] > 1000
-    assert i1["cost"] == pytest.approx(i2["cost"], rel=1e-9)
-    with pytest.raises(ImitationDataError, match="search must be"):
-        plan_global(m, search="bfs", **kw)
