@@ -391,3 +391,17 @@ def test_each_model_declares_its_refinement_and_evaluation_leaves_it_unchanged()
     bad.refinement = "bfgs"
     with pytest.raises(ValueError, match="refinement"):
         bad.fit(tr.Z, rng=0)
+
+
+def test_link_models_share_the_base_interface():
+    from mmlearn.models.articulation.base import LinkModel, distinguishable_configurations
+    from mmlearn.models.articulation.link import make_model
+
+    tr = simulate_link("drawer", 30, rng=0)
+    for name in ("rigid", "prismatic", "revolute", "gp"):
+        m = make_model(name)
+        assert isinstance(m, LinkModel)
+        assert m.fit(tr.Z, rng=0) is m and np.isfinite(m.bic_)
+    # at most n configurations, at least one, the noise-resolved count between
+    np.testing.assert_array_equal(distinguishable_configurations(10, np.array([0.5, 5.0, 50.0])),
+                                  [1.0, 5.0, 10.0])
