@@ -223,6 +223,7 @@ def _cabinet(T=60, seed=0):
     return [Y0, Y1, Y2], q1, q2
 
 
+@pytest.mark.slow
 def test_kinematic_tree_and_sdf_export(tmp_path):
     (Y0, Y1, Y2), q1, q2 = _cabinet()
     obs = ObservationModel(0.003, 0.005)
@@ -309,6 +310,7 @@ def test_real_tracks_select_expected_models():
         assert s.best.avg_pos_error_ < 0.01  # near the noise level
 
 
+@pytest.mark.slow
 def test_matrix_input_and_gp_variants():
     tr = simulate_link("microwave", 40, rng=9)
     T = as_pose_array(tr.Z).as_matrices()

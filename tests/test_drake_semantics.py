@@ -289,7 +289,13 @@ def test_builders_are_found():
     assert set(_builders()) >= set(CASES)
 
 
-@pytest.mark.parametrize("name", _builders())
+#: the cases of more than a few seconds (the slow tier)
+SLOW_CASES = {"MakeOperateDiagram", "MakeBodySchemaDiagram", "MakeTactileGraspDiagram",
+              "MakeLiquidRollDiagram", "MakeImitationDiagram"}
+
+
+@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.slow) if n in SLOW_CASES
+                                  else n for n in _builders()])
 def test_two_simulators_match_one_alone(name):
     case = CASES[name]() if name in CASES else _default_case(name)
     end = _check(case.diagram, case.prepare, case.times, extra=case.extra, ignore=case.ignore)
@@ -343,6 +349,7 @@ def meshcat():
     return StartMeshcat()
 
 
+@pytest.mark.slow
 def test_object_tracks_estimators_two_simulators(meshcat):
     """The estimators and the prior selector on object tracks (diagrams/common/object_tracks.py
     builds tracks, not a Diagram: this wires them into one)."""

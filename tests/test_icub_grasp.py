@@ -168,6 +168,7 @@ def test_cli_test_classes_must_be_trained(tmp_path, capsys):
     assert rc == 2 and "classes that --train lacks: med_coke" in err
 
 
+@pytest.mark.slow
 def test_cli_quick_runs_cv_and_split(tmp_path, capsys):
     plot = tmp_path / "conf.png"
     rc, out, err = _main(["--train", str(DATA), "--folds", "4", "--seed", "3", "--json",

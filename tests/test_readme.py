@@ -1,5 +1,6 @@
 """The README's promises: its first two commands and its reuse example."""
 
+import pytest
 import re
 import subprocess
 import sys
@@ -21,6 +22,7 @@ def test_first_lines_are_the_two_commands():
     assert "set up and run the test suite" in (ROOT / ".ci" / "run").read_text()
 
 
+@pytest.mark.slow
 def test_reuse_example_runs(tmp_path):
     code = re.search(r"## Reusing a system.*?```python\n(.*?)```", README, re.S).group(1)
     script = tmp_path / "example.py"

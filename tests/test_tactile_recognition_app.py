@@ -54,6 +54,7 @@ def test_every_class_loads_in_drake_and_instances_vary_with_the_seed():
 
 
 # ------------------------------------------------------------------ grasps in Drake
+@pytest.mark.slow
 def test_soft_and_tennis_ball_differ_by_touch():
     from mmlearn.diagrams.tactile.objects import object_grasp_trial, observation_from_record
 
@@ -71,6 +72,7 @@ def test_soft_and_tennis_ball_differ_by_touch():
     assert obs.left.shape == (14, 6) and obs.label == "soft_ball" and obs.width == soft["width"]
 
 
+@pytest.mark.slow
 def test_slotted_and_flat_profile_faces_and_no_contact():
     from mmlearn.diagrams.tactile.objects import object_grasp_trial
 
@@ -84,6 +86,18 @@ def test_slotted_and_flat_profile_faces_and_no_contact():
 
 
 # ------------------------------------------------------------------ evaluation (numpy)
+def test_grasp_heights_are_one_absolute_grid_inside_each_object():
+    from mmlearn.diagrams.tactile.objects import HEIGHT_STEP, grid_heights
+
+    for cls in CLASSES:
+        lo, hi = OBJECTS[class_of(cls).object].heights
+        h = grid_heights(cls)
+        assert h.size >= 2 and lo - 1e-9 <= h[0] and h[-1] <= hi + 1e-9
+        np.testing.assert_allclose(np.diff(h), HEIGHT_STEP)
+        np.testing.assert_allclose(h / HEIGHT_STEP, np.round(h / HEIGHT_STEP), atol=1e-6)
+    np.testing.assert_allclose(np.diff(grid_heights(next(iter(CLASSES)), step=0.02)), 0.02)
+
+
 def test_evaluate_separates_distinct_classes_and_not_identical_ones():
     from mmlearn.apps.tactile_recognition import evaluate
     from mmlearn.models.tactile.synth import make_objects, sample_grasps
@@ -105,6 +119,7 @@ def test_evaluate_separates_distinct_classes_and_not_identical_ones():
     assert 0.3 < r2["rate"] < 0.7
 
 
+@pytest.mark.slow
 def test_informed_heights_beat_random_where_one_height_tells_the_classes_apart():
     """Four classes in two pairs: within a pair the objects are identical at heights 0-3 and
     differ only at height 4. At a uniform belief the expected gain is largest at height 4
@@ -135,6 +150,7 @@ def test_informed_heights_beat_random_where_one_height_tells_the_classes_apart()
 
 
 # ------------------------------------------------------------------ the app
+@pytest.mark.slow
 def test_app_short_run_and_report_only(tmp_path, capsys):
     from mmlearn.apps.tactile_recognition import main
 
@@ -166,6 +182,7 @@ def test_app_short_run_and_report_only(tmp_path, capsys):
     assert png.stat().st_size > 10_000
 
 
+@pytest.mark.slow
 def test_one_grasp_recorded_as_meshcat_html(tmp_path):
     from mmlearn.apps.common.cli import make_meshcat
     from mmlearn.apps.tactile_recognition import _show_one

@@ -190,6 +190,7 @@ def _contact_force_trace(cfg, object_sdf, t_end):
     return F, sim, parts
 
 
+@pytest.mark.slow
 def test_flat_block_pressed_with_known_force_gives_expected_cells():
     from mmlearn.diagrams.tactile.grasp import TactileGraspConfig
     from mmlearn.sdf.tactile import block_sdf
@@ -211,6 +212,7 @@ def test_flat_block_pressed_with_known_force_gives_expected_cells():
     assert F[-1] == pytest.approx(f, rel=0.01)
 
 
+@pytest.mark.slow
 def test_switching_controller_has_no_impact_spike_pure_force_has():
     from mmlearn.diagrams.tactile.grasp import TactileGraspConfig
     from mmlearn.sdf.tactile import block_sdf
@@ -227,6 +229,7 @@ def test_switching_controller_has_no_impact_spike_pure_force_has():
     assert peaks["force"] > 10.0 * 1.2, peaks  # the pure force controller's impact spike
 
 
+@pytest.mark.slow
 def test_self_centring_palm_makes_p_first_independent_of_placement():
     """A container placed 2 mm off-centre: with the welded palm the first finger squeezes the
     flimsy wall alone until the second finger touches (p_first several mm short of the
@@ -276,6 +279,7 @@ def test_bad_arguments_are_named():
         TactileSensor(pads=[])
 
 
+@pytest.mark.slow
 def test_tactile_state_simulation_mode_small_run(tmp_path, capsys):
     """The app's simulation mode end to end on 6 short grasps (cans: 3 states x 2)."""
     import json
