@@ -1,8 +1,9 @@
 """The body-schema apps: --help and short runs as subprocesses."""
 
-import pytest
 import json
 import subprocess
+
+import pytest
 
 from conftest import PYTHON
 

@@ -1,12 +1,12 @@
 """The README's promises: its first two commands and its reuse example."""
 
-import pytest
 import re
 import subprocess
 import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 README = (ROOT / "README.md").read_text()
