@@ -1,4 +1,4 @@
-"""Timing of the DbnReproducer (issue 15 targets: incremental step < 5 ms, learning from 4
+"""Timing of the DbnReproducer (targets: incremental step < 5 ms, learning from 4
 demonstrations < 1 s, global reproduction of a 20 s task < 10 s).
 
     OPENBLAS_NUM_THREADS=1 python benchmarks/bench_dbn_reproducer.py [--seed 1] [--repeats 200]

@@ -1,5 +1,5 @@
 """What the SchemaLearner costs inside the Drake simulation of
-``python -m mmlearn.apps.learn_body_schema`` (issue 11).
+``python -m mmlearn.apps.learn_body_schema``.
 
 Times, in CPU seconds of this single-threaded process (load-independent on the shared
 machine; wall seconds are printed too): all ``Simulator.AdvanceTo`` calls, the learner's

@@ -1,4 +1,4 @@
-"""Speed of the ch. 6 recognition grasps (prints figures; issue 13: one grasp simulated
+"""Speed of the ch. 6 recognition grasps (prints figures; target: one grasp simulated
 faster than real time).
 
 One grasp per class (or ``--classes``) at the middle of its height grid, as

@@ -1,4 +1,4 @@
-"""Speed of the simulated tactile sensing (thesis ch. 6-7; issue 13 targets: a taxel frame
+"""Speed of the simulated tactile sensing (thesis ch. 6-7; targets: a taxel frame
 < 3 ms, one grasp simulated faster than real time).
 
 Prints, for a steady grasp of a flat block (ch. 6 pad, 14 x 6) and of a container (PR2 pad,
