@@ -1,6 +1,6 @@
 """Speed benchmark of articulation model fitting (prints figures; never fails on time).
 
-    python benchmarks/bench_articulation.py [--repeats 7] [--seed 0] [--json]
+    python benchmarks/bench_articulation.py [--repeats 7] [--seed 0] [--quick] [--json [FILE]]
     python benchmarks/bench_articulation.py --refinement-study [--repeats 5]
 
 Measures (median and minimum wall-clock and process CPU time over repeats, single process;
@@ -36,7 +36,6 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("MKL_NUM_THREADS", "1")
 
 import argparse
-import json
 import time
 
 import numpy as np
@@ -46,6 +45,8 @@ from mmlearn.models.articulation.link import ObservationModel, make_model
 from mmlearn.models.articulation.refine import _H, _alternate, _residual_terms
 from mmlearn.models.articulation.sim import simulate_link
 from mmlearn.models.articulation.structure import fit_kinematic_tree, select_link_model
+
+from _common import add_output_arguments, emit_json
 
 OBS = ObservationModel(sigma_pos=0.002, sigma_orient=np.deg2rad(2.0))
 
@@ -232,15 +233,14 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--repeats", type=int, default=7)
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--json", action="store_true")
+    add_output_arguments(ap, quick="one repeat (a few seconds)")
     ap.add_argument("--refinement-study", action="store_true",
                     help="compare the revolute refinement: hand-written LM vs "
                          "scipy.optimize.least_squares")
     args = ap.parse_args(argv)
     if args.refinement_study:
-        res = refinement_study(repeats=args.repeats, seed=args.seed)
-        if args.json:
-            print(json.dumps(res, indent=1))
+        res = refinement_study(repeats=1 if args.quick else args.repeats, seed=args.seed)
+        if emit_json(args.json, res):
             return 0
         print("revolute refinement       cpu ms (sum of medians)  max|dBIC|  min dBIC  "
               "max radius rel  max axis deg   (d: against the hand-written LM)")
@@ -251,9 +251,11 @@ def main(argv=None):
                       f"{r['min_dbic']:+9.3f} {r['max_radius_rel']:15.1e} "
                       f"{r['max_axis_deg']:12.3f}")
         return 0
-    res = run(repeats=args.repeats, seed=args.seed)
-    if args.json:
-        print(json.dumps(res, indent=1))
+    res = run(repeats=1 if args.quick else args.repeats, seed=args.seed)
+    res["figures"] = {f"select_{k}_cpu_ms": v["cpu_median_ms"] for k, v in res["select"].items()}
+    res["figures"].update(tree_6_parts_cpu_s=res["tree"]["cpu_median_s"],
+                          gp_query_ms=res["gp_query_ms"]["median_ms"])
+    if emit_json(args.json, res):
         return 0
     la = res["load_average"]
     if la:

@@ -6,15 +6,17 @@ machine; the CPU times of this single-threaded process are the load-independent 
     python benchmarks/bench_body_schema.py            # everything except Table 3.2
     python benchmarks/bench_body_schema.py --quick    # timings only
     python benchmarks/bench_body_schema.py --runs 20 --control   # full Table 3.1 + 3.2
+    ... [--json FILE]                                            # the figures as JSON
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import time
 
 import numpy as np
+
+from _common import add_output_arguments, emit_json
 
 from mmlearn.models.body_schema.schema import BodySchema, SearchConfig
 from mmlearn.models.body_schema.evaluation import (
@@ -78,9 +80,8 @@ def main(argv=None):
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--runs", type=int, default=5, help="runs per experiment (thesis: 20)")
-    ap.add_argument("--quick", action="store_true", help="timings only")
     ap.add_argument("--control", action="store_true", help="also Table 3.2 (slow)")
-    ap.add_argument("--json", action="store_true", help="print one JSON document")
+    add_output_arguments(ap, quick="timings only")
     args = ap.parse_args(argv)
     out = {}
 
@@ -95,9 +96,11 @@ def main(argv=None):
           f"median {r['ms_median']:.2f} ms, p95 {r['ms_p95']:.2f} ms, max {r['ms_max']:.1f} ms "
           f"wall; CPU median {r['cpu_ms_median']:.2f} ms, max {r['cpu_ms_max']:.1f} ms "
           f"(10 Hz budget 100 ms); events: {r['events']}")
+    out["figures"] = {"search_7dof_100_cpu_s": out["search_7dof_100"]["cpu_seconds_median"],
+                      "update_7dof_cpu_ms": out["update_7dof"]["cpu_ms_median"],
+                      "update_7dof_cpu_max_ms": out["update_7dof"]["cpu_ms_max"]}
     if args.quick:
-        if args.json:
-            print(json.dumps(out, default=str))
+        emit_json(args.json, out)
         return out
 
     # Fig. 3.10: 2-DOF, sigma 0.044 m
@@ -177,8 +180,7 @@ def main(argv=None):
             sd = np.mean([r[key][1] for r in rs])
             out["table_3_2"][key] = (m, sd)
             print(f"[Table 3.2] {key}: control error {m:.3f} +- {sd:.3f} m")
-    if args.json:
-        print(json.dumps({str(k): v for k, v in out.items()}, default=str))
+    emit_json(args.json, out)
     return out
 
 

@@ -1,10 +1,10 @@
-"""Issue 10's 7-DOF body-schema targets, re-measured on the current learner (thesis ch. 3).
+"""The 7-DOF body-schema targets, measured on the current learner (thesis ch. 3).
 
 Every trial is exactly ``python -m mmlearn.apps.learn_body_schema --arm 7dof --samples 50
 --noise S --occlude x4 --seed N --json`` (the app's ``run`` with the same configuration:
 100 test configurations, 5 control targets), for S in ``--sigmas`` and N in ``--seeds``
-(default 1-10 and 101-110, the sets of the issue), plus ``--extra`` (default seed 5502 at
-sigma 0.01, the issue's own command). The trials go through the sweep runner
+(default 1-10 and 101-110), plus ``--extra`` (default seed 5502 at
+sigma 0.01). The trials go through the sweep runner
 (:mod:`mmlearn.apps.common.sweep`: a process pool, progress bar, resumable JSON Lines file), so an
 interrupted run picks up where it stopped::
 
@@ -17,7 +17,7 @@ samples, the prediction error at 50 samples (mean position error of the learned 
 kinematics over the test set, m) against the observation noise the app reports (mean
 position error of the marker sensor on 30 test configurations, m), their means and the
 number of runs whose prediction error is below their own observation noise. Then a JSON
-summary (one line; ``--json FILE`` writes it indented) with the issue's targets judged:
+summary (one line; ``--json FILE`` writes it indented) with the targets judged:
 
 * structure right within 12 samples in >= 8 of 10 seeds per set, at every sigma;
 * mean prediction error at 50 samples below the mean observation noise at sigma 0.01.
@@ -33,13 +33,13 @@ from pathlib import Path
 
 from mmlearn.models.common.trials import register_trial
 
-WITHIN = 12  # samples: "structure right within ~10 samples" (issue 10: <= 12)
+WITHIN = 12  # samples: "structure right within ~10 samples" (target: <= 12)
 MIN_SEEDS = 8  # of 10 per set
 
 
 @register_trial("body_schema.bench_7dof")
 def trial(*, seed: int, noise: float, samples: int = 50) -> dict:
-    """One run of the app (the issue's command) at ``noise`` m and ``seed``; its JSON dict."""
+    """One run of the app at ``noise`` m and ``seed``; its JSON dict."""
     from mmlearn.apps.learn_body_schema import LearnBodySchemaConfig, run
 
     cfg = LearnBodySchemaConfig(arm="7dof", samples=samples, noise=noise, occlude=["x4"],

@@ -7,6 +7,7 @@ Prints tables; never fails on time.
         [--calibrate]
         [--arm 2dof --poses 25] [--plot OUT.png]
         [--babble SECONDS --rules none,ratio,normal,depth,normal-noisy,depth-noisy]
+        [--json FILE]   (the noise table's rows, or the calibration's figures)
 
 Default table: one 0.04 m marker (on a 0.10 m grey carrier, grey backdrop 6 m away) at each
 distance (m, along the optical axis) and viewing angle (deg between the marker normal and
@@ -29,6 +30,7 @@ import time
 
 import numpy as np
 
+from _common import add_output_arguments, emit_json
 
 def _rig(width, shift=None, min_side=None):
     from mmlearn.diagrams.common.marker_camera import MarkerRig
@@ -192,6 +194,9 @@ def calibrate(width, n, seed):
           f"x {off[:, 0].mean():+.3f} +- {off[:, 0].std():.3f} px, y {off[:, 1].mean():+.3f} "
           f"+- {off[:, 1].std():.3f} px; side length error {np.mean(side_err):+.3f} px "
           f"(principal_point_shift_px default {cfg.__class__().principal_point_shift_px})")
+    return dict(width=cfg.width, height=cfg.height, detections=len(off),
+                corner_offset_mean_px=off.mean(axis=0), corner_offset_sd_px=off.std(axis=0),
+                side_length_error_px=float(np.mean(side_err)))
 
 
 def _score(obs, plant, plant_context, robot, vis, pe, ae) -> None:
@@ -375,9 +380,12 @@ def main(argv=None):
                     help="comma-separated depth modes for the noise table (same renders): "
                          "exact (rendered), noisy (structured-light noise model), none")
     ap.add_argument("--plot", default=None, help="save a plot of the table (PNG)")
+    add_output_arguments(ap)
     a = ap.parse_args(argv)
+    if a.json is not None and (a.babble is not None or a.arm):
+        ap.error("--json: the noise table and --calibrate only")
     if a.calibrate:
-        calibrate(a.width, a.n * 3, a.seed)
+        emit_json(a.json, calibrate(a.width, a.n * 3, a.seed))
         return 0
     if a.babble is not None:
         rules = a.rules.split(",")
@@ -395,6 +403,7 @@ def main(argv=None):
         ap.error(f"--depth: unknown {bad}; choose from {sorted(DEPTHS)}")
     rows = noise_table(a.width, [float(x) for x in a.distances.split(",")],
                        [float(x) for x in a.angles.split(",")], a.n, a.seed, depths)
+    emit_json(a.json, dict(width=a.width, n=a.n, seed=a.seed, rows=rows))
     if a.plot:
         import matplotlib
 

@@ -4,14 +4,14 @@ which includes Drake's copies of its state) and the noise it leaves on a static 
 figures; never fails on time).
 
     OPENBLAS_NUM_THREADS=1 python benchmarks/bench_depth_filter.py [--frames 30] [--distance 2.2]
-        [--updates 60] [--json FILE]
+        [--updates 60] [--quick] [--json [FILE]]
 """
 
 import argparse
-import json
 import time
 
 import numpy as np
+from _common import add_output_arguments, emit_json
 
 from mmlearn.models.common.camera import PinholeIntrinsics
 from mmlearn.models.common.depth_noise import DepthNoiseConfig, apply_depth_noise, predicted_depth_std
@@ -26,7 +26,7 @@ def _plane(K, distance):
         (K.height, K.width)))
 
 
-def model_cost(K, clean, cfg, ncfg, frames, distance):
+def model_cost(K, clean, cfg, ncfg, frames, distance, *, table=True):
     """filter_depth on ``frames`` noisy frames: the rms error after some of them (printed) and
     the CPU ms per frame (the first frame not counted)."""
     st = new_filter_state(K.height, K.width)
@@ -42,9 +42,10 @@ def model_cost(K, clean, cfg, ncfg, frames, distance):
             ok = np.isfinite(out)
             rms = float(np.sqrt(np.mean((out[ok] - clean[ok]) ** 2)))
             rms_at[k + 1] = rms
-            print(f"frame {k + 1:3d}: rms error {1000 * rms:.2f} mm (one frame {1000 * sig:.2f} "
-                  f"mm, / sqrt(n) {1000 * sig / np.sqrt(min(k + 1, cfg.max_frames)):.2f} mm), "
-                  f"median scale {np.median(scale[ok]):.3f}")
+            if table:
+                print(f"frame {k + 1:3d}: rms error {1000 * rms:.2f} mm (one frame {1000 * sig:.2f} "
+                      f"mm, / sqrt(n) {1000 * sig / np.sqrt(min(k + 1, cfg.max_frames)):.2f} "
+                      f"mm), median scale {np.median(scale[ok]):.3f}")
     return 1000 * np.array(times[1:]), rms_at
 
 
@@ -82,27 +83,34 @@ def main(argv=None):
     ap.add_argument("--distance", type=float, default=2.2, help="plane distance, m")
     ap.add_argument("--updates", type=int, default=60,
                     help="periodic updates of the system timed (30 Hz); 0 = skip")
-    ap.add_argument("--json", metavar="FILE", help="also write the figures to FILE as JSON")
+    add_output_arguments(ap, quick="8 frames and 10 updates (a few seconds)")
     a = ap.parse_args(argv)
+    if a.quick:
+        a.frames, a.updates = 8, min(a.updates, 10)
+    table = a.json != "-"
     if a.frames < 2 or not a.distance > 0.5 or a.updates < 0:
         ap.error("need --frames >= 2, --distance > 0.5 (m) and --updates >= 0")
     K = PinholeIntrinsics.from_fov(640, 480, 58.0)
     ncfg = DepthNoiseConfig(seed=0)
     cfg = DepthFilterConfig(depth_std_at_1m=float(predicted_depth_std(1.0, K, ncfg)))
     clean = _plane(K, a.distance)
-    t, rms_at = model_cost(K, clean, cfg, ncfg, a.frames, a.distance)
-    print(f"filter_depth CPU per 640x480 frame: median {np.median(t):.1f} ms, max {t.max():.1f} ms "
-          f"({len(t)} frames)")
+    t, rms_at = model_cost(K, clean, cfg, ncfg, a.frames, a.distance, table=table)
+    if table:
+            print(f"filter_depth CPU per 640x480 frame: median {np.median(t):.1f} ms, max "
+              f"{t.max():.1f} ms ({len(t)} frames)")
     res = {"filter_depth_ms_median": float(np.median(t)), "filter_depth_ms_max": float(t.max()),
            "frames": len(t), "rms_error_m": {str(k): v for k, v in rms_at.items()}}
     if a.updates:
         ms = system_update_cost(K, apply_depth_noise(clean, K, ncfg, frame=0), cfg, a.updates)
-        print(f"DepthTemporalFilter CPU per periodic update (30 Hz, 640x480): {ms:.1f} ms "
-              f"(least of 3 runs of {a.updates} updates)")
+        if table:
+            print(f"DepthTemporalFilter CPU per periodic update (30 Hz, 640x480): {ms:.1f} ms "
+                  f"(least of 3 runs of {a.updates} updates)")
         res["system_update_ms"] = ms
-    if a.json:
-        with open(a.json, "w") as f:
-            json.dump(res, f, indent=1)
+    figures = {"filter_cpu_ms": res["filter_depth_ms_median"],
+               "filter_cpu_max_ms": res["filter_depth_ms_max"]}
+    if "system_update_ms" in res:
+        figures["system_update_cpu_ms"] = res["system_update_ms"]
+    emit_json(a.json, dict(res, figures=figures))
 
 
 if __name__ == "__main__":

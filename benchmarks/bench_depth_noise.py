@@ -1,7 +1,7 @@
 """Speed benchmark of the depth camera: VTK render and DepthNoise per 640 x 480 frame
 (prints figures; never fails on time).
 
-    python benchmarks/bench_depth_noise.py [--repeats 20] [--json]
+    python benchmarks/bench_depth_noise.py [--repeats 20] [--quick] [--json [FILE]]
 
 Renders the kitchen scene (drawer and door, 1.0 / 1.8 / 2.5 m, a few joint values) with the
 perception diagram, then times on those clean renders:
@@ -23,18 +23,19 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import argparse  # noqa: E402
-import json  # noqa: E402
 import time  # noqa: E402
 
 import numpy as np  # noqa: E402
 
+from _common import add_output_arguments, emit_json  # noqa: E402
 
-def _frames():
+
+def _frames(quick=False):
     from mmlearn.diagrams.perception.diagram import FrontPerceptionConfig, MakeFrontPerceptionDiagram
 
     frames, render = [], []
-    for front in ("drawer", "door"):
-        for dist in (1.0, 1.8, 2.5):
+    for front in ("door",) if quick else ("drawer", "door"):
+        for dist in (1.8,) if quick else (1.0, 1.8, 2.5):
             cfg = FrontPerceptionConfig(front=front)
             cfg.camera.distance = dist
             P = MakeFrontPerceptionDiagram(cfg)
@@ -57,10 +58,12 @@ def main(argv=None) -> int:
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=20, help="noise draws per frame")
-    ap.add_argument("--json", action="store_true")
+    add_output_arguments(ap, quick="the door at 1.8 m only, 2 noise draws (a few seconds)")
     args = ap.parse_args(argv)
+    if args.quick:
+        args.repeats = 2
 
-    frames, render = _frames()
+    frames, render = _frames(args.quick)
     cfg = DepthNoiseConfig()
     apply_depth_noise(frames[0][2], frames[0][3], cfg)  # warm-up (imports)
     wall, cpu, stages, missing = [], [], {}, {}
@@ -87,8 +90,10 @@ def main(argv=None) -> int:
                                       for d, v in sorted(missing.items())},
         "load_average": os.getloadavg()[0],
     }
-    if args.json:
-        print(json.dumps(res))
+    res["figures"] = {"noise_cpu_ms": res["noise_ms_cpu_median"],
+                      "noise_wall_ms": res["noise_ms_wall_median"],
+                      "render_wall_ms": res["render_ms_wall_median"]}
+    if emit_json(args.json, res):
         return 0
     print(f"{res['frames']} rendered 640x480 frames x {args.repeats} noise draws "
           f"(load average {res['load_average']:.1f})")

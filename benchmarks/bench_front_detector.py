@@ -2,7 +2,8 @@
 RANSAC plane segmentation (prints figures; never fails on time).
 
     python benchmarks/bench_front_detector.py [--frames-dir DIR] [--synthetic 12] [--repeats 3]
-                                              [--seed 0] [--no-open3d] [--json]
+                                              [--seed 0] [--no-open3d] [--quick]
+                                              [--json [FILE]]
     python benchmarks/bench_front_detector.py --sweep [--seeds 3]
 
 ``--sweep`` instead measures accuracy only on synthetic frames: door and drawer, camera
@@ -57,6 +58,8 @@ import time
 
 import cv2
 import numpy as np
+
+from _common import add_output_arguments, emit_json
 
 from mmlearn.models.perception.detection import STAGES, FrontDetectorConfig, detect_fronts
 from mmlearn.models.perception.synth import (DOOR_SIZE, DRAWER_SIZE, add_depth_noise, front_pose,
@@ -234,15 +237,18 @@ def main(argv=None):
     ap.add_argument("--repeats", type=int, default=3, help="detector runs per frame")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--no-open3d", action="store_true", help="skip the Open3D comparison")
-    ap.add_argument("--json", action="store_true", help="print one JSON document instead")
+    add_output_arguments(ap, quick="4 synthetic frames, one run each, no shared frames, no "
+                                   "Open3D (a few seconds)")
     ap.add_argument("--sweep", action="store_true",
                     help="accuracy sweep over distance and viewing angle (synthetic frames)")
     ap.add_argument("--seeds", type=int, default=3, help="frames per cell of the sweep")
     args = ap.parse_args(argv)
+    if args.quick:
+        args.synthetic, args.repeats, args.frames_dir, args.no_open3d = 4, 1, "", True
+        args.seeds = 1
     if args.sweep:
         rows = sweep(args.seeds)
-        if args.json:
-            print(json.dumps(dict(sweep=rows), indent=1))
+        if emit_json(args.json, dict(sweep=rows)):
             return
         for r in rows:
             cell = (f"d = {r['distance_m']:.1f} m" if "distance_m" in r
@@ -281,9 +287,13 @@ def main(argv=None):
                                   planes=float(np.median([r["planes"] for r in res])),
                                   points=float(np.median([r["points"] for r in res])))
         report[name] = entry
-    if args.json:
-        print(json.dumps(dict(report=report, open3d=None if o3d is None else o3d.__version__,
-                              open3d_skipped=why), indent=1))
+    syn = report.get("synthetic")
+    figures = {} if syn is None else {
+        **{f"{k}_cpu_ms": 1e3 * syn["median_s"][k] for k in STAGES + ("total",)},
+        "process_cpu_ms": 1e3 * syn["median_s"]["cpu"],
+        "detection_rate": syn["accuracy"]["detection_rate"]}
+    if emit_json(args.json, dict(report=report, open3d=None if o3d is None else o3d.__version__,
+                                 open3d_skipped=why, figures=figures)):
         return
     for name, e in report.items():
         n = e["accuracy"]["frames"]

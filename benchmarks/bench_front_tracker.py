@@ -1,6 +1,6 @@
 """Speed benchmark of the front tracker (prints figures; never fails on time).
 
-    python benchmarks/bench_front_tracker.py [--repeats 5] [--json]
+    python benchmarks/bench_front_tracker.py [--repeats 5] [--quick] [--json [FILE]]
     python benchmarks/bench_front_tracker.py --pipeline door:1.5:1 drawer:1.8:0 ...
 
 Measures (median process CPU time over repeats, single process, one BLAS thread):
@@ -25,10 +25,11 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import argparse
-import json
 import time
 
 import numpy as np
+
+from _common import add_output_arguments, emit_json
 
 from mmlearn.models.perception.tracking import (TrackingState, fit_track_model,
                                                 simulate_front_rectangles, track_frame,
@@ -109,24 +110,25 @@ def pipeline(front: str, distance: float, seed: int) -> dict:
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=5)
-    ap.add_argument("--json", action="store_true")
+    add_output_arguments(ap, quick="one repeat (a few seconds)")
     ap.add_argument("--pipeline", nargs="+", metavar="FRONT:DISTANCE:SEED", default=None)
     args = ap.parse_args(argv)
+    if args.quick:
+        args.repeats = 1
     if args.pipeline:
         recs = []
         for spec in args.pipeline:
             front, dist, seed = spec.split(":")
             recs.append(pipeline(front, float(dist), int(seed)))
             r = recs[-1]
-            if not args.json:
+            if args.json != "-":
                 print(f"{front} at {float(dist):.1f} m, seed {seed}: {r['frames']} frames, "
                       f"{r['ms_per_frame']:.0f} ms per frame (wall, detector + tracker), "
                       f"{r['tracks']} tracks, fitted: {r['selected']}")
                 for m in r["moving"]:
                     print("   ", {k: (round(v, 3) if isinstance(v, float) else v)
                                   for k, v in m.items()})
-        if args.json:
-            print(json.dumps(recs, indent=1))
+        emit_json(args.json, recs)
         return 0
     rng = np.random.default_rng(0)
     out = {"association_ms": [], "fit_ms": [], "simulation": {}}
@@ -182,8 +184,13 @@ def main(argv=None):
     out["simulation"] = {"frames": n, "fronts": 3, "cpu_s": cpu_s, "wall_s": wall_s,
                          "cpu_ms_per_frame": 1e3 * cpu_s / n,
                          "selected": sorted(m.selected for m in models.values())}
-    if args.json:
-        print(json.dumps(out, indent=1))
+    out["figures"] = {
+        **{f"association_{r['tracks']}x{r['stored']}_cpu_ms": r["cpu_ms"]
+           for r in out["association_ms"]},
+        **{f"fit_{r['kind']}_n{r['n']}_cpu_ms": r["cpu_ms"] for r in out["fit_ms"]
+           if r["n"] == 100},
+        "simulation_cpu_ms_per_frame": out["simulation"]["cpu_ms_per_frame"]}
+    if emit_json(args.json, out):
         return 0
     print("association of one frame (CPU ms, median of %d)" % args.repeats)
     for r in out["association_ms"]:

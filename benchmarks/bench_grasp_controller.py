@@ -4,10 +4,12 @@ one. Prints the peak and final contact force per finger (from the plant's hydroe
 contact results at 1 kHz); ``--plot FILE`` draws the force profiles.
 
     OPENBLAS_NUM_THREADS=1 python benchmarks/bench_grasp_controller.py [--f-target 10] [--plot F]
+        [--json [FILE]]
 """
 
 import argparse
 
+from _common import add_output_arguments, emit_json
 from mmlearn.diagrams.tactile.grasp import TactileGraspConfig, simulate_contact_force
 from mmlearn.sdf.tactile import block_sdf
 
@@ -18,10 +20,13 @@ def trace(cfg, sdf, t_end):
 
 
 def main():
-    ap = argparse.ArgumentParser()
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--f-target", type=float, default=10.0)
     ap.add_argument("--plot", default=None)
+    add_output_arguments(ap)
     a = ap.parse_args()
+    say = print if a.json != "-" else (lambda *args, **kw: None)  # JSON instead of a table
+    rows = []
     objects = {"wooden block": block_sdf((0.07, 0.1, 0.12)),
                "rubber block": block_sdf((0.07, 0.1, 0.12), modulus=2e5)}
     curves = {}
@@ -30,9 +35,12 @@ def main():
             cfg = TactileGraspConfig(f_target=a.f_target, mode=mode, hold_time=5.0)
             t, F = trace(cfg, sdf, 1.6)
             curves[(oname, mode)] = (t, F)
-            print(f"{oname:13s} {mode:9s}: peak {F.max():6.2f} N "
+            rows.append(dict(object=oname, controller=mode, peak_n=float(F.max()),
+                             final_n=float(F[-1])))
+            say(f"{oname:13s} {mode:9s}: peak {F.max():6.2f} N "
                   f"({100 * (F.max() / a.f_target - 1):+5.1f} % of f_target), "
                   f"final {F[-1]:6.2f} N")
+    emit_json(a.json, dict(f_target_n=a.f_target, rows=rows))
     if a.plot:
         import matplotlib
 

@@ -1,7 +1,7 @@
 """Grasp-to-grasp variation of a container's squeeze, measured on the real iCub grasps (prints
 the figures behind ``ContainerClass.grasp_spread`` in models/tactile/containers.py).
 
-    python benchmarks/bench_grasp_variation.py [--data DIR] [--json]
+    python benchmarks/bench_grasp_variation.py [--data DIR] [--json [FILE]]
 
 DIR defaults to ``../shared/data/icub_grasp/train`` beside the repository (trials 1-10 of every
 object; reader :mod:`mmlearn.models.tactile.icub_grasp`). The same hand grasped the same object in the
@@ -28,10 +28,11 @@ vitamin-water bottle pooled (root mean square); can: the empty and half-full cok
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 
 import numpy as np
+
+from _common import add_output_arguments, emit_json
 
 from mmlearn.models.tactile.icub_grasp import CONTACT_LEVEL, REST_VELOCITY, load_icub_dir
 from mmlearn.models.tactile.state import feature_matrix
@@ -70,9 +71,11 @@ def measure(data) -> dict:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--data", default=str(DEFAULT))
-    ap.add_argument("--json", action="store_true")
+    add_output_arguments(ap)
     args = ap.parse_args(argv)
     out = measure(args.data)
+    if emit_json(args.json, out):
+        return 0
     print(f"{'object':22s} {'n':>3s} {'p_steady deg':>16s} {'squeeze deg':>12s} {'sigma':>6s}")
     for lab, r in out["objects"].items():
         sig = "-" if r["sigma"] is None else f"{r['sigma']:.3f}"
@@ -80,8 +83,6 @@ def main(argv=None) -> int:
               f" {r['squeeze_mean_deg']:12.2f} {sig:>6s}")
     print(f"reference {out['reference']}: sd {out['sd_ref_deg']:.2f} deg; relative grasp-to-grasp "
           f"spread of the squeeze: " + ", ".join(f"{g} {v:.3f}" for g, v in out["sigma"].items()))
-    if args.json:
-        print(json.dumps(out, indent=1))
     return 0
 
 

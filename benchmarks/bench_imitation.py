@@ -1,7 +1,8 @@
 """Speed and alignment benchmark of the imitation-learning model layer (thesis ch. 8; prints
 figures, never fails on time).
 
-    python benchmarks/bench_imitation.py [--repeats 5] [--seed 0] [--u-seeds 3] [--json]
+    python benchmarks/bench_imitation.py [--repeats 5] [--seed 0] [--u-seeds 3] [--quick]
+        [--json [FILE]]
 
 Measures (median wall-clock and process CPU time over repeats, single process, BLAS limited
 to one thread):
@@ -32,11 +33,12 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("MKL_NUM_THREADS", "1")
 
 import argparse
-import json
 import time
 import warnings
 
 import numpy as np
+
+from _common import add_output_arguments, emit_json
 
 from mmlearn.models.imitation.dbn import align_demonstrations, constraint_step, learn_task
 from mmlearn.models.imitation.global_plan import plan_global
@@ -185,9 +187,12 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--json", action="store_true", help="print one JSON object instead of text")
+    add_output_arguments(ap, quick="one repeat; no body-point plan, no U-obstacle trial "
+                                   "(a few seconds)")
     ap.add_argument("--u-seeds", type=int, default=3, help="seeds of the 3-D U-obstacle trial")
     args = ap.parse_args(argv)
+    if args.quick:
+        args.repeats, args.u_seeds = 1, 0
     rng = np.random.default_rng(args.seed)
     res = {}
 
@@ -222,7 +227,8 @@ def main(argv=None):
                                         carried=("cup",) if carried[k] else ()).target_hand
                         for k in range(model.S)])
     for key, kw in (("plan_global", {}), ("plan_global_fk_batch", {"fk_batch": fk7_batch}),
-                    ("plan_global_body_points", {"body_points": lambda q: chain_frames(q)[0][0, 2:]})):
+                    ("plan_global_body_points", {"body_points": lambda q: chain_frames(q)[0][0, 2:]}))[
+                        :2 if args.quick else 3]:
         def plan():
             return plan_global(model, q0=q0, objects=objs0, fk=fk7, jacobian=jac7, obstacles=[box],
                                use_joints=False, seed=args.seed, return_info=True, **kw)
@@ -260,8 +266,12 @@ def main(argv=None):
         res[f"align_{feat}"] = {"mean_phase_error_segments": float(np.mean(errs)),
                                 "max_phase_error_segments": float(np.max(errs))}
 
-    if args.json:
-        print(json.dumps(res, indent=1))
+    res["figures"] = {"learn_cpu_s": res["learn"]["cpu_s"],
+                      "step_cpu_ms": res["step"]["ms_per_step_cpu"],
+                      "step_obstacle_cpu_ms": res["step_obstacle"]["ms_per_step_cpu"],
+                      "plan_global_cpu_s": res["plan_global"]["cpu_s"],
+                      "plan_global_fk_batch_cpu_s": res["plan_global_fk_batch"]["cpu_s"]}
+    if emit_json(args.json, res):
         return 0
     L = res["learn"]
     print(f"learn_task: 4 demos x {L['mean_duration_s']:.1f} s at 5 Hz, {len(L['constraints'])} constraints, "
@@ -272,6 +282,8 @@ def main(argv=None):
               f"{s['obstacles']} obstacle): {s['ms_per_step_wall']:.3f} ms wall, {s['ms_per_step_cpu']:.3f} ms CPU "
               f"per step (target < 5 ms)")
     for key in ("plan_global", "plan_global_fk_batch", "plan_global_body_points"):
+        if key not in res:
+            continue
         p = res[key]
         print(f"{key}: {p['task_s']:.1f} s task, {p['slices']} slices, {p['roadmap_nodes']} roadmap nodes, "
               f"{p['graph_edges']} time-expanded edges, {p['edge_check_points']} edge check points: "

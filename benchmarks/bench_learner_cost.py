@@ -1,22 +1,23 @@
 """What the SchemaLearner costs inside the Drake simulation of
-``python -m mmlearn.apps.learn_body_schema`` (issue 11).
+``python -m mmlearn.apps.learn_body_schema``.
 
 Times, in CPU seconds of this single-threaded process (load-independent on the shared
 machine; wall seconds are printed too): all ``Simulator.AdvanceTo`` calls, the learner's
 update events, the structure re-searches inside them (the learning itself) and Drake's
-copies of the learner's state. Prints JSON; never fails on time.
+copies of the learner's state. Prints figures; never fails on time.
 
-    python benchmarks/bench_learner_cost.py --arm 7dof
+    python benchmarks/bench_learner_cost.py --arm 7dof [--quick] [--json [FILE]]
 """
 
 from __future__ import annotations
 
 import argparse
 import copy
-import json
 import time
 
 import pydrake.systems.analysis as analysis
+
+from _common import add_output_arguments, emit_json
 
 from mmlearn.apps.learn_body_schema import LearnBodySchemaConfig, run
 from mmlearn.models.body_schema import schema as body_schema_module
@@ -73,13 +74,16 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--arm", default="7dof", choices=["2dof", "4dof", "7dof"])
     ap.add_argument("--samples", type=int, default=50)
+    add_output_arguments(ap, quick="the 2-DOF arm, 5 samples (a few seconds)")
     args = ap.parse_args()
+    if args.quick:
+        args.arm, args.samples = "2dof", 5
     _instrument()
     r = run(config=LearnBodySchemaConfig(arm=args.arm, samples=args.samples),
             show_progress=False)
     sim = r["sim_seconds"]
     learner = T["update_cpu"] + T["copy_cpu"]
-    print(json.dumps(dict(
+    res = dict(
         arm=args.arm, samples=r["samples"], sim_seconds=sim,
         realtime_factor_wall=round(sim / T["advance"], 2),
         realtime_factor_cpu=round(sim / T["advance_cpu"], 2),
@@ -90,7 +94,14 @@ def main():
         learner_share=round(learner / T["advance_cpu"], 3),
         learner_share_without_researches=round(
             (learner - T["relearn_cpu"]) / T["advance_cpu"], 3),
-        structure_correct=r["structure_correct"], pred_error_m=r["pred_error_m"])))
+        structure_correct=r["structure_correct"], pred_error_m=r["pred_error_m"])
+    res["figures"] = {k: res[k] for k in ("realtime_factor_cpu", "simulation_cpu_s",
+                                          "learner_updates_cpu_s", "learner_share")}
+    if emit_json(args.json, res):
+        return
+    for k, v in res.items():
+        if k != "figures":
+            print(f"{k:34s} {v}")
 
 
 if __name__ == "__main__":

@@ -1,7 +1,7 @@
 """Speed of one liquid-detection trial (grasp, lift, roll) and of the feature.
 
     OPENBLAS_NUM_THREADS=1 python benchmarks/bench_liquid_roll.py [--cycles 2] [--time-step 0.002]
-        [--container odwalla_half]
+        [--container odwalla_half] [--quick] [--json [FILE]]
 
 Prints the simulated time, the wall and CPU (process) time of the Drake simulation and their
 real-time factors (simulated / elapsed: > 1 is faster than real time; on a shared machine the
@@ -17,6 +17,7 @@ import time
 
 import numpy as np
 
+from _common import add_output_arguments, emit_json
 from mmlearn.diagrams.tactile.liquid_roll import (LiquidRollConfig, make_instance, roll_change_windows,
                                                   simulate_roll)
 from mmlearn.models.tactile.evaluation import COAST_DELAY
@@ -24,11 +25,14 @@ from mmlearn.models.tactile.liquid import coast_feature, coast_mask, liquid_feat
 
 
 def main():
-    ap = argparse.ArgumentParser()
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--cycles", type=float, default=2.0)
     ap.add_argument("--container", default="odwalla_half")
     ap.add_argument("--time-step", type=float, default=LiquidRollConfig.time_step)
+    add_output_arguments(ap, quick="one roll cycle (a few seconds)")
     args = ap.parse_args()
+    if args.quick:
+        args.cycles = 1.0
     inst = make_instance(args.container, np.random.default_rng(0))
     cfg = LiquidRollConfig(roll_cycles=args.cycles, grasp_height=inst.height / 2,
                            time_step=args.time_step)
@@ -51,6 +55,14 @@ def main():
                         delay=COAST_DELAY)
         fc = coast_feature(x, cm)
     fct = (time.perf_counter() - t2) / n
+    res = dict(container=args.container, time_step_s=cfg.time_step, sim_s=cfg.duration,
+               wall_s=wall, cpu_s=cpu, load_start=load0, load_end=os.getloadavg()[0],
+               feature=f, feature_ms=1e3 * ft, coast_feature=fc, coast_feature_ms=1e3 * fct,
+               figures={"realtime_factor_wall": cfg.duration / wall,
+                        "realtime_factor_cpu": cfg.duration / cpu,
+                        "feature_ms": 1e3 * ft, "coast_feature_ms": 1e3 * fct})
+    if emit_json(args.json, res):
+        return
     print(f"{args.container}, time step {1e3 * cfg.time_step:g} ms: simulated "
           f"{cfg.duration:.2f} s in {wall:.1f} s wall (real-time factor "
           f"{cfg.duration / wall:.2f}), {cpu:.1f} s CPU (real-time factor "

@@ -1,7 +1,8 @@
 """The sweep runner's overhead per trial, local pool vs Ray (apps/common/sweep.py).
 
-    python benchmarks/bench_sweep.py [--trials 40] [--sleep 2.0] [--jobs 2]
+    python benchmarks/bench_sweep.py [--trials 40] [--sleep 2.0] [--jobs 2] [--quick]
     python benchmarks/bench_sweep.py --real 8 [--jobs 2] [--kind drawer]
+    ... [--json [FILE]]
 
 Default: runs ``probe_trial`` (sleeps ``--sleep`` s) through both executors and prints the
 throughput and the overhead per trial: (wall time x jobs / trials - sleep) / sleep, i.e. the
@@ -29,6 +30,7 @@ import time
 from dataclasses import asdict
 from pathlib import Path
 
+from _common import add_output_arguments, emit_json
 from mmlearn.apps.common.sweep import (TrialSpec, _init_worker, _local_worker, _ray_execute,
                                        probe_trial, run_sweep)
 from mmlearn.apps.operate_trials import trial as operate_trial
@@ -40,7 +42,8 @@ def probe(args):
              for i in range(args.trials)]
     print(f"{args.trials} trials of {args.sleep} s, {args.jobs} jobs")
     print(f"{'executor':9s} {'wall s':>8s} {'trials/min':>11s} {'overhead/trial':>15s}")
-    for ex in ("local", "ray"):
+    out = {}
+    for ex in ("local",) if args.quick else ("local", "ray"):
         extra = 0.0
         if ex == "ray":
             try:
@@ -58,10 +61,14 @@ def probe(args):
             wall = time.perf_counter() - t0
         assert len(res.records) == args.trials
         over = (wall * args.jobs / args.trials - args.sleep) / args.sleep
+        out[ex] = dict(wall_s=wall, trials_per_min=60 * args.trials / wall, overhead=over,
+                       init_s=extra)
         print(f"{ex:9s} {wall:8.2f} {60 * args.trials / wall:11.1f} {100 * over:14.1f}%"
               + (f"   (+ ray.init {extra:.1f} s once)" if ex == "ray" else ""))
         if ex == "ray":
             ray.shutdown()
+    return dict(trials=args.trials, sleep_s=args.sleep, jobs=args.jobs, executors=out,
+                figures={f"{ex}_overhead_per_trial": v["overhead"] for ex, v in out.items()})
 
 
 def real(args):
@@ -126,6 +133,7 @@ def real(args):
             rat = [b[key] / a[key] - 1 for a, b in zip(rows["local"], rows[m])]
             print(f"{m:10s} {key[:-2]:4s} per trial vs local: mean {100 * st.mean(rat):+5.1f} % "
                   f"(per trial {' '.join(f'{100 * x:+.1f}' for x in rat)})")
+    return dict(kind=args.kind, jobs=jobs, trials=rows, walls_s=walls)
 
 
 def main(argv=None):
@@ -137,8 +145,11 @@ def main(argv=None):
     ap.add_argument("--real", type=int, default=0,
                     help="instead: N real operate_trials trials, local vs Ray, paired")
     ap.add_argument("--kind", default="drawer", help="the object of the --real trials")
+    add_output_arguments(ap, quick="8 trials of 0.5 s, the local pool only (a few seconds)")
     args = ap.parse_args(argv)
-    real(args) if args.real else probe(args)
+    if args.quick:
+        args.trials, args.sleep = 8, 0.5
+    emit_json(args.json, real(args) if args.real else probe(args))
 
 
 if __name__ == "__main__":

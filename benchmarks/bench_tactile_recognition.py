@@ -1,6 +1,6 @@
 """Bag-of-tactile-features recognition (thesis ch. 6) on synthetic tactile data (prints figures).
 
-    python benchmarks/bench_tactile_recognition.py [--seed 0] [--trials 300] [--quick] [--json]
+    python benchmarks/bench_tactile_recognition.py [--seed 0] [--trials 300] [--quick] [--json [FILE]]
 
 The data are the controllable stand-in of models/tactile/synth.py, not physics (the Drake
 tactile sensor will produce the simulated grasps): 11 "household" objects with independent
@@ -26,10 +26,11 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import argparse
-import json
 import time
 
 import numpy as np
+
+from _common import add_output_arguments, emit_json
 
 from mmlearn.models.tactile.recognition import (TactileRecognitionConfig, TactileRecognizer,
                                                 height_actions, kmedoids_available, posterior)
@@ -100,8 +101,7 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--trials", type=int, default=300)
-    ap.add_argument("--quick", action="store_true", help="fewer trials, no sweeps")
-    ap.add_argument("--json", action="store_true")
+    add_output_arguments(ap, quick="fewer trials, no sweeps")
     args = ap.parse_args(argv)
     trials = 60 if args.quick else args.trials
     train, test, names = make_data(args.seed)
@@ -151,8 +151,7 @@ def main(argv=None):
                        "informed_count": rate_informed(rec, train, test, ind, 10, trials, rng,
                                                        weighting="count").tolist()}}
     out["informed_cpu_ms_per_decision"] = 1e3 * (time.process_time() - c0) / (4 * trials * 10)
-    if args.json:
-        print(json.dumps(out, indent=1))
+    if emit_json(args.json, out):
         return
     print(f"synthetic tactile data: {out['classes']} classes, {out['n_train']} train / "
           f"{out['n_test']} test grasps, {trials} recognition trials per figure")

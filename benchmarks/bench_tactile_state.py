@@ -1,6 +1,6 @@
 """Recognition rates of the ch. 7 grasp features on the real iCub grasps (prints figures).
 
-    python benchmarks/bench_tactile_state.py [--data DIR] [--seeds 5] [--json]
+    python benchmarks/bench_tactile_state.py [--data DIR] [--seeds 5] [--json [FILE]]
 
 DIR defaults to ``../shared/data/icub_grasp/train`` beside the repository (10 objects x trials
 1-10 after leaving out full_coke). For the decision tree (thesis) and the random forest, over
@@ -26,11 +26,12 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import argparse
-import json
 import time
 from pathlib import Path
 
 import numpy as np
+
+from _common import add_output_arguments, emit_json
 
 from mmlearn.models.tactile.icub_grasp import CONTACT_LEVEL, REST_VELOCITY, load_icub_dir
 from mmlearn.models.tactile.state import cross_validate, evaluate_split, feature_matrix
@@ -42,7 +43,7 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--data", default=str(DEFAULT))
     ap.add_argument("--seeds", type=int, default=5)
-    ap.add_argument("--json", action="store_true")
+    add_output_arguments(ap)
     ap.add_argument("--classifiers", default="tree,forest",
                     help="comma-separated: tree, forest, boost (gradient boosting)")
     args = ap.parse_args(argv)
@@ -77,8 +78,7 @@ def main(argv=None):
                 lo.append(ok / len(y))
             res[key][clf] = {"cv10": cv, "train1to5_test6to10": a, "train6to10_test1to5": b,
                              "leave_one_trial_out": lo, "cv_cpu_s": t_cv}
-    if args.json:
-        print(json.dumps(res, indent=1))
+    if emit_json(args.json, res):
         return
     print(f"iCub grasps: {res['n']} trials, {res['classes']} classes, seeds 0-{args.seeds - 1}")
     for key in ("thesis_single_sample", "steady_average"):

@@ -8,7 +8,7 @@ Usage::
     OPENBLAS_NUM_THREADS=1 python benchmarks/bench_tactile_state_seeds.py RESULTS.jsonl:S [...]
         [--fold-seeds 10] [--trials 16] [--f-target 20] [--sweep-trials 24]
         [--classifiers forest,tree,boost] [--wall-model pressure|linear]
-        [--grasp-variation wall|shell|none] [--json]
+        [--grasp-variation wall|shell|none] [--json [FILE]]
 
 ``RESULTS.jsonl:S``: the grasps file of ``python -m mmlearn.apps.tactile_state --f-target 20
 --trials N --seed S --results RESULTS.jsonl [--f-sweep --sweep-trials M]`` (nothing is
@@ -25,9 +25,10 @@ set (mean, sd, the sets in which it rose, and a one-sided paired t-test).
 from __future__ import annotations
 
 import argparse
-import json
 
 import numpy as np
+
+from _common import add_output_arguments, emit_json
 
 
 def main(argv=None) -> int:
@@ -54,7 +55,7 @@ def main(argv=None) -> int:
                     help="the app's --wall-model the files were simulated with")
     ap.add_argument("--grasp-variation", choices=("wall", "shell", "none"), default="wall",
                     help="the app's --grasp-variation the files were simulated with")
-    ap.add_argument("--json", action="store_true", help="also print all figures as JSON")
+    add_output_arguments(ap)
     args = ap.parse_args(argv)
     clfs = [c for c in args.classifiers.split(",") if c]
     for c in clfs:
@@ -150,8 +151,7 @@ def main(argv=None) -> int:
             print(f"{clf}: Odwalla rate {lo} -> {hi} N paired by grasp set: rise {r['mean']:+.3f} "
                   f"sd {r['sd']:.3f}, rose in {r['rose']} / fell in {r['fell']} of {r['sets']} "
                   f"sets, one-sided paired t-test p = {r['p_one_sided']:.2g}")
-    if args.json:
-        print(json.dumps({"rows": rows, "summary": summary}, indent=1))
+    emit_json(args.json, {"rows": rows, "summary": summary})
     return 0
 
 

@@ -223,6 +223,7 @@ def _cabinet(T=60, seed=0):
     return [Y0, Y1, Y2], q1, q2
 
 
+@pytest.mark.slow
 def test_kinematic_tree_and_sdf_export(tmp_path):
     (Y0, Y1, Y2), q1, q2 = _cabinet()
     obs = ObservationModel(0.003, 0.005)
@@ -309,6 +310,7 @@ def test_real_tracks_select_expected_models():
         assert s.best.avg_pos_error_ < 0.01  # near the noise level
 
 
+@pytest.mark.slow
 def test_matrix_input_and_gp_variants():
     tr = simulate_link("microwave", 40, rng=9)
     T = as_pose_array(tr.Z).as_matrices()
@@ -391,3 +393,17 @@ def test_each_model_declares_its_refinement_and_evaluation_leaves_it_unchanged()
     bad.refinement = "bfgs"
     with pytest.raises(ValueError, match="refinement"):
         bad.fit(tr.Z, rng=0)
+
+
+def test_link_models_share_the_base_interface():
+    from mmlearn.models.articulation.base import LinkModel, distinguishable_configurations
+    from mmlearn.models.articulation.link import make_model
+
+    tr = simulate_link("drawer", 30, rng=0)
+    for name in ("rigid", "prismatic", "revolute", "gp"):
+        m = make_model(name)
+        assert isinstance(m, LinkModel)
+        assert m.fit(tr.Z, rng=0) is m and np.isfinite(m.bic_)
+    # at most n configurations, at least one, the noise-resolved count between
+    np.testing.assert_array_equal(distinguishable_configurations(10, np.array([0.5, 5.0, 50.0])),
+                                  [1.0, 5.0, 10.0])

@@ -17,11 +17,13 @@ def _run(args, cwd):
                           cwd=cwd, env=ENV, timeout=300)
 
 
+@pytest.mark.slow
 def test_fit_articulation_help(tmp_path):
     r = _run(["mmlearn.apps.fit_articulation", "--help"], tmp_path)
     assert r.returncode == 0 and "--sigma-pos" in r.stdout and "--json" in r.stdout
 
 
+@pytest.mark.slow
 def test_fit_articulation_json_real_tracks_and_bad_files(tmp_path):
     bad1 = tmp_path / "bad_cols.log"
     bad1.write_text("0 0 0\n0 1 0\n1 2\n0 0 1\n")
@@ -51,6 +53,7 @@ def test_fit_articulation_json_real_tracks_and_bad_files(tmp_path):
     assert plot.exists() and plot.stat().st_size > 1000
 
 
+@pytest.mark.slow
 def test_articulation_experiments_quick(tmp_path):
     r = _run(["mmlearn.apps.articulation_experiments", "--quick", "--json", "--seed", "0",
               "--out-dir", str(tmp_path / "plots")], tmp_path)
@@ -78,6 +81,7 @@ def test_articulation_experiments_help(tmp_path):
     assert r.returncode == 0 and "--runs" in r.stdout and "--quick" in r.stdout
 
 
+@pytest.mark.slow
 def test_articulation_experiments_report_only_reproduces_the_tables(tmp_path):
     """--report-only on the results file of a quick run prints the same tables and JSON and
     redraws the plots; every trial has its own random stream, so one or two jobs give the

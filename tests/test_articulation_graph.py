@@ -62,6 +62,7 @@ def test_closed_yardstick_one_dof(closed_stick):
     assert full.bic > r.best.bic + 500
 
 
+@pytest.mark.slow
 def test_local_search_close_to_exhaustive(closed_stick):
     tr, pm = closed_stick
     loc = fit_structure(tr.poses, search="local", reduce_dofs=True, obs=OBS, pair_models=pm)

@@ -30,6 +30,7 @@ def test_engineered_seed_is_exact_and_stays_valid():
     assert J.shape == (6, 7) and np.all(np.isfinite(J))
 
 
+@pytest.mark.slow
 def test_blocked_joint_recovery_restore_and_recall():
     """Table 3.1, joint stuck: first occurrence bounded by patience + a few steps,
     restore and second occurrence (history recall) within a few steps."""
@@ -44,6 +45,7 @@ def test_blocked_joint_recovery_restore_and_recall():
     assert r["steps_stale"][2] <= 10 and r["steps_stale"][3] <= 10, r
 
 
+@pytest.mark.slow
 def test_tool_exchange_recovery():
     r = recovery_experiment(make_arm_7dof, "tool", seed=4, n_block=60, visibility=0.79,
                             search=CFG)
@@ -107,6 +109,7 @@ def test_update_rejects_bad_shapes():
         s.update(np.zeros(3), np.zeros((5, 4, 4)))
 
 
+@pytest.mark.slow
 def test_engineered_models_seed_the_structure_search():
     arm = make_arm_7dof()
     rng = np.random.default_rng(6)
@@ -126,6 +129,7 @@ def test_engineered_models_seed_the_structure_search():
     assert not any(isinstance(m, EngineeredModel) for m in res.tree)
 
 
+@pytest.mark.slow
 def test_bent_link_control_static_vs_adaptive_small():
     """Table 3.2 in a small setting: a 45 deg bend ruins control with the static model; the
     adapted model controls nearly as well as before."""
@@ -139,6 +143,7 @@ def test_bent_link_control_static_vs_adaptive_small():
     assert r["valid"]
 
 
+@pytest.mark.slow
 def test_online_learner_finds_7dof_structure_within_12_samples():
     # the SchemaLearner's per-sample step (search at every sample before a first tree,
     # re-search at every sample while the tree rests on few samples) on the numpy 7-DOF

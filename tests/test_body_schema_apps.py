@@ -3,6 +3,8 @@
 import json
 import subprocess
 
+import pytest
+
 from conftest import PYTHON
 
 
@@ -16,6 +18,7 @@ def test_learn_body_schema_help(tmp_path):
     assert r.returncode == 0 and "--occlude" in r.stdout and "--json" in r.stdout
 
 
+@pytest.mark.slow
 def test_learn_body_schema_short_run_json(tmp_path):
     r = _run(["mmlearn.apps.learn_body_schema", "--arm", "2dof", "--samples", "24",
               "--noise", "0.01", "--n-test", "30", "--n-control", "1", "--seed", "1",
@@ -33,6 +36,7 @@ def test_learn_body_schema_short_run_json(tmp_path):
     assert d["pred_error_m"] < 0.05 and d["ctrl_error_m"] < 0.1
 
 
+@pytest.mark.slow
 def test_learn_body_schema_bad_args(tmp_path):
     r = _run(["mmlearn.apps.learn_body_schema", "--samples", "0"], tmp_path)
     assert r.returncode == 2 and "samples" in r.stderr
@@ -45,6 +49,7 @@ def test_body_schema_experiments_help(tmp_path):
     assert r.returncode == 0 and "--quick" in r.stdout and "numpy" in r.stdout
 
 
+@pytest.mark.slow
 def test_body_schema_experiments_quick(tmp_path):
     r = _run(["mmlearn.apps.body_schema_experiments", "--quick", "--json", "--out-dir",
               str(tmp_path / "out")], tmp_path, timeout=600)

@@ -31,6 +31,7 @@ def _searches(cfg, A, Y, sizes):
     return out, fits
 
 
+@pytest.mark.slow
 def test_warm_started_searches_find_the_occluded_structure_with_fewer_fits():
     arm = make_arm_7dof()
     rng = np.random.default_rng(6)

@@ -181,6 +181,7 @@ def test_learn_body_schema_camera_depth_configs():
         camera_config("lidar")
 
 
+@pytest.mark.slow
 def test_structure_experiments_camera_sensor_and_cabinet_through_the_camera():
     """``--sensor camera`` (the flag: test_camera_marker_sensor.test_apps_take_the_sensor_flag):
     one results file per sensor, and the two-drawer

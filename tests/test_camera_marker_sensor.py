@@ -168,6 +168,7 @@ def test_config_errors_name_the_field(tmp_path):
     assert (cfg.width, cfg.aruco.marker_size) == (800, 0.05)
 
 
+@pytest.mark.slow
 def test_body_schema_diagram_with_camera_sensor_runs():
     """The body-schema diagram with the camera sensor (one 640x480 camera, closer): the
     learner's observations come from it, a few steps simulate, the base's marker is seen

@@ -138,6 +138,7 @@ def test_system_puts_the_model_forces_on_the_wall_joints():
     assert parts["container_wall_force"] is None
 
 
+@pytest.mark.slow
 def test_simulated_grasp_closed_full_resists_open_empty_yields():
     """Two grasps at 20 N: the squeeze the fingers make (p_first - p_steady) of a closed full
     bottle is well below that of an open empty one, and the grasp settles (no SAP blow-up)."""
@@ -259,6 +260,7 @@ def test_grasp_variation_bad_inputs_are_named():
         run_simulation(TactileStateConfig(f_target=20.0, trials=2, grasp_variation="rotate"))
 
 
+@pytest.mark.slow
 def test_grasp_variation_keeps_the_instance_placement_and_noise_of_the_grasp_without_it():
     """Specs with and without the variation differ; "wall" changes only the wall's response
     of the "none" grasp of the same seed (same instance, placement and noise), and the

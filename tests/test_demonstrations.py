@@ -77,6 +77,7 @@ def test_bad_trajectory_input_is_named(kw, msg):
 
 
 # ----------------------------------------------------------------------------- plans
+@pytest.mark.slow
 def test_plans_are_seeded_and_vary():
     for task in TASKS:
         a, b = plan_demonstration(task, seed=5), plan_demonstration(task, seed=5)
@@ -87,6 +88,7 @@ def test_plans_are_seeded_and_vary():
         assert not np.allclose(a.hand.points, c.hand.points)
 
 
+@pytest.mark.slow
 def test_pick_place_carries_the_cup_to_the_place_spot():
     for seed in range(3):
         p = plan_demonstration("pick_place", seed=seed,
@@ -139,6 +141,7 @@ def _cfg(task="pick_place", seed=1, **sensor):
     return TeacherConfig(task=task, seed=seed, style=FAST, sensor=s)
 
 
+@pytest.mark.slow
 def test_demonstration_is_what_the_sensor_saw():
     cfg = _cfg(sigma_pos=0.0, dropout=0.0)
     td = MakeTeacherDiagram(cfg)
@@ -172,6 +175,7 @@ def test_gaps_are_nan_rows_and_the_demonstration_stays_valid():
     d.validate()
 
 
+@pytest.mark.slow
 def test_same_seed_same_demonstrations_and_file_round_trip(tmp_path):
     a = record_demonstrations("whiteboard", 2, seed=4, style=FAST)
     b = record_demonstrations("whiteboard", 2, seed=4, style=FAST)
@@ -263,6 +267,7 @@ def test_teacher_config_loads_from_yaml_and_rejects_misspelled_keys():
         TeacherConfig(playback_rate_hz=7.0).validate()
 
 
+@pytest.mark.slow
 def test_stratified_table_shifts_spread_the_tables_apart():
     from mmlearn.models.imitation.scene import stratified_table_shifts
 
@@ -328,6 +333,7 @@ def test_app_writes_the_meshcat_recording(tmp_path, capsys):
     assert "1 demonstration(s) of obstacle" in text and f"written to {html}" in text
 
 
+@pytest.mark.slow
 def test_whiteboard_teacher_varies_the_marked_area_and_the_learner_scales_the_zigzag():
     """The teacher marks areas of different sizes (board_scale_jitter); learned from 5 Hz
     samples of such plans, the corner constraints' relative precisions stretch the

@@ -1,13 +1,17 @@
 """Drake semantics: a system keeps everything that changes in its Context.
 
-For every diagram builder in ``diagrams/``, the same Diagram object is simulated once
-alone and then twice at the same time (two Simulators, one on a default context and one
+For every diagram builder of ``mmlearn.diagrams`` (each ``Make*Diagram`` in its ``__all__``,
+so a new builder is covered as soon as it is exported), the same Diagram object is simulated
+once alone and then twice at the same time (two Simulators, one on a default context and one
 on a clone of it, advanced alternately); both must reproduce the lone run exactly. A
 context cloned in the middle of a run must not change while the original simulates on
-(no state value shared and mutated in place). Short horizons keep this fast.
+(no state value shared and mutated in place). Short horizons keep this fast. A builder that
+needs arguments has a case in ``CASES``; one without is built with its defaults.
 """
 
 import math
+from dataclasses import dataclass, fields, is_dataclass
+from typing import Callable
 
 import numpy as np
 import pytest
@@ -86,7 +90,60 @@ def _check(diagram, prepare, times, *, extra=None, ignore=None):
     return alone[-1]
 
 
-def test_scene_two_simulators():
+# ----------------------------------------------------------------------------- every builder
+@dataclass
+class Case:
+    """One builder's diagram and how to run it: ``prepare(root_context)`` before the run,
+    the snapshot ``times``, ``extra(ctx)`` (what the exported vector ports and the discrete
+    state do not show), ``ignore`` (see _snapshot) and ``check(last_snapshot)`` (that the
+    run did something)."""
+
+    diagram: object
+    times: list
+    prepare: Callable = lambda ctx: None
+    extra: Callable | None = None
+    ignore: dict | None = None
+    check: Callable | None = None
+
+
+def _canon(v):
+    """A value as plain, exactly comparable data (arrays by their bytes, floats by hex)."""
+    from pydrake.math import RigidTransform
+
+    if isinstance(v, RigidTransform):
+        v = v.GetAsMatrix4()
+    if isinstance(v, np.ndarray):
+        return (str(v.dtype), v.shape, v.tobytes())
+    if isinstance(v, (float, np.floating)):
+        return float(v).hex()
+    if isinstance(v, dict):
+        return tuple((k, _canon(x)) for k, x in sorted(v.items()))
+    if isinstance(v, (list, tuple)):
+        return tuple(_canon(x) for x in v)
+    if is_dataclass(v):
+        return tuple((f.name, _canon(getattr(v, f.name))) for f in fields(v))
+    return v
+
+
+def _values(c):
+    """The array of ``_canon(array)``."""
+    return np.frombuffer(c[2], dtype=c[0]).reshape(c[1])
+
+
+def _logs(*loggers):
+    """``extra`` that compares the samples the given VectorLogSinks recorded."""
+    def extra(ctx):
+        return tuple(_canon(lg.FindLog(ctx).data()) for lg in loggers)
+    return extra
+
+
+def _builders():
+    import mmlearn.diagrams as D
+
+    return sorted(n for n in D.__all__ if n.startswith("Make") and n.endswith("Diagram"))
+
+
+def _scene_case():
     scene = MakeSceneDiagram(SceneConfig(arm="4dof", cabinet=True))
     mid = 0.5 * (scene.command_lower + scene.command_upper)
     q = mid + 0.3 * (scene.command_upper - mid)
@@ -95,27 +152,25 @@ def test_scene_two_simulators():
         scene.set_joint_positions(ctx, mid)
         scene.diagram.GetInputPort("command").FixValue(ctx, q)
 
-    end = _check(scene.diagram, prepare, [0.1, 0.2, 0.3])
-    assert end["marker_stats"][0] > 0
+    return Case(scene.diagram, [0.1, 0.2, 0.3], prepare,
+                check=lambda end: end["marker_stats"][0] > 0)
 
 
-def test_operate_two_simulators():
+def _operate_case():
     # long enough for the drive to the stance and the start of the IK-driven approach
     op = MakeOperateDiagram(OperateConfig(kind="left_door", seed=1,
                                           epc=EpcConfig(approach_time=0.5)))
-
-    def prepare(ctx):
-        op.scene.set_joint_positions(ctx, op.start_command)
 
     def extra(ctx):
         s = op.controller.state(op.controller.GetMyContextFromRoot(ctx))
         return (s.phase, tuple(np.round(s.q_to, 12)))
 
-    end = _check(op.diagram, prepare, [0.6, 1.2, 1.8, 2.4], extra=extra)
-    assert end["extra"][0] >= 1  # reached the approach, which runs the IK
+    return Case(op.diagram, [0.6, 1.2, 1.8, 2.4],
+                lambda ctx: op.scene.set_joint_positions(ctx, op.start_command), extra,
+                check=lambda end: end["extra"][0] >= 1)  # reached the approach (the IK)
 
 
-def test_body_schema_two_simulators():
+def _body_schema_case():
     # fast babbling: a first valid structure within 6 s
     bs = MakeBodySchemaDiagram(BodySchemaDiagramConfig(
         arm="2dof", noise_pos=0.01, babble_period=0.5, babble_hold=0.7,
@@ -127,12 +182,12 @@ def test_body_schema_two_simulators():
                 tuple(st.X_WR.ravel()) if st.X_WR is not None else None)
 
     # learner_status[5] is the wall time of the last schema update
-    end = _check(bs.diagram, bs.prepare, [1.5, 3.0, 4.5, 6.0], extra=extra,
-                 ignore={"learner_status": [5]})
-    assert end["extra"][0] >= 10 and end["extra"][2][-1][1]  # samples, a valid tree
+    return Case(bs.diagram, [1.5, 3.0, 4.5, 6.0], bs.prepare, extra,
+                ignore={"learner_status": [5]},
+                check=lambda end: end["extra"][0] >= 10 and end["extra"][2][-1][1])
 
 
-def test_front_perception_two_simulators():
+def _front_perception_case():
     """The kitchen with the opening door, the depth camera and the noise (a small image):
     the noisy depth image is the same in every simulator at every time."""
     from mmlearn.diagrams.perception.diagram import FrontPerceptionConfig, MakeFrontPerceptionDiagram
@@ -147,8 +202,105 @@ def test_front_perception_two_simulators():
                 tuple(np.round(P.diagram.GetOutputPort("X_WR").Eval(ctx).GetAsMatrix4()
                                .ravel(), 12)))
 
-    end = _check(P.diagram, lambda ctx: None, [0.6, 1.4, 2.2], extra=extra)
-    assert end["front_joint"][0] > 0.1 and end["extra"][0] < 160 * 120
+    return Case(P.diagram, [0.6, 1.4, 2.2], extra=extra,
+                check=lambda end: end["front_joint"][0] > 0.1 and end["extra"][0] < 160 * 120)
+
+
+def _tactile_grasp_case():
+    """A container grasp (pressure walls, noisy taxels and encoders) up to the fingers'
+    first contact and the switch to force control."""
+    from mmlearn.diagrams.tactile.grasp import MakeTactileGraspDiagram, TactileGraspConfig
+    from mmlearn.models.tactile.containers import sample_container
+
+    inst = sample_container("odwalla", "full_closed", np.random.default_rng(3))
+    d, parts = MakeTactileGraspDiagram(TactileGraspConfig(v_target=0.1, seed=2),
+                                       container=inst)
+    logs = [parts[k] for k in ("grasp_log", "taxel_log", "force_log")]
+    return Case(d, [0.2, 0.4, 0.6], extra=_logs(*logs),
+                check=lambda end: _values(end["extra"][2]).max() > 1.0)  # pad force, N
+
+
+def _liquid_roll_case():
+    """The liquid-detection scene (free container on a table, wrist lift and roll, the
+    finger hold, the wrist force sensor) while the fingers close."""
+    from mmlearn.diagrams.tactile.liquid_roll import LiquidRollConfig, MakeLiquidRollDiagram, \
+        make_instance
+
+    inst = make_instance("odwalla_half", np.random.default_rng(0))
+    d, parts = MakeLiquidRollDiagram(LiquidRollConfig(grasp_height=inst.height / 2, seed=1),
+                                     container=inst)
+    logs = [parts[k] for k in ("taxel_log", "force_log", "wrist_log", "roll_log")]
+    return Case(d, [0.2, 0.4, 0.6], extra=_logs(*logs),
+                check=lambda end: np.abs(_values(end["extra"][2])).max() > 0.0)  # wrist force
+
+
+def _teacher_case():
+    """A demonstration's playback watched by the noisy marker sensor."""
+    from mmlearn.diagrams.imitation.demonstrations import MakeTeacherDiagram, TeacherConfig
+
+    td = MakeTeacherDiagram(TeacherConfig(task="obstacle", seed=1))
+    port = td.diagram.GetOutputPort("observations")
+    def extra(ctx):
+        obs = port.Eval(ctx)
+        return (_canon(obs), int(np.sum(obs.visible)))
+
+    return Case(td.diagram, [0.5, 1.0, 1.5], extra=extra,
+                check=lambda end: end["extra"][1] > 0)  # markers seen
+
+
+def _imitation_case():
+    """The 7-DOF arm reproducing a reach to a target marker (a small hand-made model)."""
+    from mmlearn.diagrams.imitation.diagram import ImitationConfig, MakeImitationDiagram
+    from mmlearn.models.imitation.scene import ImitationSceneSpec
+    from mmlearn.models.imitation.types import TaskModel
+    from mmlearn.systems.imitation.dbn_reproducer import DbnReproducerConfig
+
+    S, offset = 12, np.array([0.10, 0.0, -0.15])  # mu = target - hand
+    model = TaskModel(t=np.arange(S) * 0.2, constraints=["obj:target"],
+                      mean={"obj:target": np.tile(offset, (S, 1))},
+                      var={"obj:target": np.full((S, 3), 1e-4)}).validate()
+    spec = ImitationSceneSpec(tables=False, cup=False, target=True,
+                              target_position=[0.5, -0.2, 0.35])
+    im = MakeImitationDiagram(ImitationConfig(task="obstacle", seed=3, scene=spec,
+                                              reproducer=DbnReproducerConfig(settle_steps=5)),
+                              model=model)
+    return Case(im.diagram, [0.3, 0.6, 0.9], im.set_start,
+                check=lambda end: end["status"][0] > 0)
+
+
+#: builder name -> its case (builders not listed are called with their defaults)
+CASES = {"MakeSceneDiagram": _scene_case, "MakeOperateDiagram": _operate_case,
+         "MakeBodySchemaDiagram": _body_schema_case,
+         "MakeFrontPerceptionDiagram": _front_perception_case,
+         "MakeTactileGraspDiagram": _tactile_grasp_case,
+         "MakeLiquidRollDiagram": _liquid_roll_case, "MakeTeacherDiagram": _teacher_case,
+         "MakeImitationDiagram": _imitation_case}
+
+
+def _default_case(name):
+    import mmlearn.diagrams as D
+
+    built = getattr(D, name)()
+    diagram = built[0] if isinstance(built, tuple) else getattr(built, "diagram", built)
+    return Case(diagram, [0.1, 0.2, 0.3])
+
+
+def test_builders_are_found():
+    assert set(_builders()) >= set(CASES)
+
+
+#: the cases of more than a few seconds (the slow tier)
+SLOW_CASES = {"MakeOperateDiagram", "MakeBodySchemaDiagram", "MakeTactileGraspDiagram",
+              "MakeLiquidRollDiagram", "MakeImitationDiagram"}
+
+
+@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.slow) if n in SLOW_CASES
+                                  else n for n in _builders()])
+def test_two_simulators_match_one_alone(name):
+    case = CASES[name]() if name in CASES else _default_case(name)
+    end = _check(case.diagram, case.prepare, case.times, extra=case.extra, ignore=case.ignore)
+    if case.check is not None:
+        assert case.check(end), f"{name}: the run did not get far enough to test anything"
 
 
 class _MarkerReplay(LeafSystem):
@@ -197,6 +349,7 @@ def meshcat():
     return StartMeshcat()
 
 
+@pytest.mark.slow
 def test_object_tracks_estimators_two_simulators(meshcat):
     """The estimators and the prior selector on object tracks (diagrams/common/object_tracks.py
     builds tracks, not a Diagram: this wires them into one)."""

@@ -36,6 +36,7 @@ def test_task_and_config_validation():
         EpcConfig(step=-0.01).validate()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("kind,seed", [("left_door", 2), ("drawer", 1)])
 def test_opens_with_the_learned_model(kind, seed):
     # the exact base pose (base noise 0): the controller and the learning alone, at the
@@ -57,6 +58,7 @@ def test_opens_with_the_learned_model(kind, seed):
     assert r["sim_seconds"] < 40
 
 
+@pytest.mark.slow
 def test_open_cabinet_cli(tmp_path):
     r = subprocess.run([sys.executable, "-m", "mmlearn.apps.open_cabinet", "--help"],
                        capture_output=True, text=True, cwd=tmp_path)
@@ -98,6 +100,7 @@ def test_trials_summary_table():
     assert math.isclose(operate_trials.summarize(trials)["left_door"]["mean_axis_error_deg"], 1.6)
 
 
+@pytest.mark.slow
 def test_priors_from_an_earlier_trial_select_the_right_model_earlier(tmp_path):
     from mmlearn.models.articulation.link import ObservationModel
     from mmlearn.models.articulation.priors import PriorDatabase

@@ -34,6 +34,7 @@ def _reach(**kw):
     return MakeImitationDiagram(cfg, model=_reach_model())
 
 
+@pytest.mark.slow
 def test_reproducer_moves_the_hand_to_the_learned_relation():
     im = _reach()
     ctx = im.diagram.CreateDefaultContext()
@@ -213,6 +214,7 @@ def test_imitate_help_and_bad_arguments(capsys, tmp_path):
     bad_usage(main, ["--html-out", str(tmp_path / "no" / "x.html")], capsys, "--html-out")
 
 
+@pytest.mark.slow
 def test_imitate_short_run_from_a_demos_file(capsys, tmp_path):
     from mmlearn.apps.imitate import main
 

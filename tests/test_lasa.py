@@ -92,6 +92,7 @@ def test_leave_one_out_and_baseline():
         naive_baseline(train, [np.nan, 0.0], held.t)
 
 
+@pytest.mark.slow
 def test_thesis_method_beats_baseline_on_a_development_shape():
     """heee (a development shape): the DTW-aligned DBN keeps the loop that the index-wise
     mean of the baseline blurs; reproductions start at the held-out start and end at the
@@ -124,6 +125,7 @@ def test_start_marker_and_reproducer_settings():
         ThesisReproducer(gain=1.5)
 
 
+@pytest.mark.slow
 def test_app_json_and_plot(tmp_path, capsys):
     from mmlearn.apps.imitate_lasa import main
 
@@ -320,6 +322,7 @@ def _timed_drawings(n=7, T=300):
     return out
 
 
+@pytest.mark.slow
 def test_duration_frame_follows_a_drawing_sized_by_its_duration():
     """The duration start frame (x-axis towards the start, unit = the drawing's duration)
     maps and errs like the other frames, and on drawings whose bulge grows with their duration

@@ -115,6 +115,7 @@ def short_run(tmp_path_factory):
     return rc, d, res
 
 
+@pytest.mark.slow
 def test_short_run_full_differs_from_empty(short_run, capsys):
     rc, d, res = short_run
     assert rc == 0

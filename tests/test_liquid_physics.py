@@ -123,6 +123,7 @@ def sweeps(sweep_runs):
     return {k: v[1] for k, v in sweep_runs.items()}
 
 
+@pytest.mark.slow
 def test_abrupt_reversals_made_the_rigid_dummy_respond(sweeps):
     """The earlier roll (constant rate, reversals within one PD response) jerks the held
     rigid dummy: its high-passed taxels spike at every reversal. The smooth sweep (0.25 s
@@ -144,6 +145,7 @@ def _slosh_band_power(taxels, lo=3.0, hi=4.2):
     return float(p[(f >= lo) & (f <= hi)].sum())
 
 
+@pytest.mark.slow
 def test_the_liquid_rings_at_its_sloshing_mode(sweeps):
     """Each reversal of the sweep excites the liquid's first sloshing mode: the load on the
     pads oscillates near 3.5 Hz between the reversals. Neither the rigid dummy nor the empty
@@ -173,6 +175,7 @@ def test_roll_change_windows_are_where_the_commanded_rate_changes():
         roll_change_windows(LiquidRollConfig(roll_profile="sine"))
 
 
+@pytest.mark.slow
 def test_coast_feature_rigid_dummy_well_below_liquid(sweep_runs):
     """The robot knows its roll command: over the coast phases (constant commanded roll
     rate, from ``COAST_DELAY`` s after each reversal) the rigid dummy's and the empty

@@ -104,6 +104,7 @@ def _messages(html):
     return b"".join(base64.b64decode(b) for b in blobs)
 
 
+@pytest.mark.slow
 def test_recording_of_a_trial_contains_the_learned_model(drawer_recording):
     r, html = drawer_recording
     assert r["success"] and r["html_out"] == str(html)
@@ -112,6 +113,7 @@ def test_recording_of_a_trial_contains_the_learned_model(drawer_recording):
         assert name in decoded, name
 
 
+@pytest.mark.slow
 def test_recording_has_a_legend_and_a_camera(drawer_recording):
     """The recording's HTML carries the legend (under the camera, with its texture and
     its text) and the camera framing the robot and the cabinet (position and target)."""
@@ -127,6 +129,7 @@ def test_recording_has_a_legend_and_a_camera(drawer_recording):
     assert i >= 0, "no camera position in the recording"
 
 
+@pytest.mark.slow
 def test_recording_shows_the_legend_robot_and_cabinet_in_a_browser(drawer_recording):
     """Rendered in a real headless browser (800 x 600), the recording shows the legend panel
     in the top-left corner (light panel, dark text, the red swatch of the opening range) and,

@@ -64,6 +64,7 @@ def test_a_crashed_trial_is_a_failed_trial_of_the_wrong_kind():
     assert row["successes"] == 0 and row["right_kind"] == 0
 
 
+@pytest.mark.slow
 def test_a_trial_cut_short_is_reported_failed():
     r = open_cabinet.run(kind="drawer", seed=0, max_time=3.0, show_progress=False,
                          base_noise=0.0)
@@ -74,6 +75,7 @@ def test_a_trial_cut_short_is_reported_failed():
     assert r["base_error_max_m"] == 0.0
 
 
+@pytest.mark.slow
 def test_cli_flags(tmp_path):
     r = subprocess.run([sys.executable, "-m", "mmlearn.apps.operate_trials", "--help"],
                        capture_output=True, text=True, cwd=tmp_path)
@@ -87,6 +89,7 @@ def test_cli_flags(tmp_path):
     assert res["base_error_max_m"] > 0.0
 
 
+@pytest.mark.slow
 def test_the_controller_opens_a_door_along_a_gp_model():
     """The GP candidate is on in the online estimator: with it as the only candidate the
     controller follows the GP's Jacobian and opens the door well past 60 deg."""

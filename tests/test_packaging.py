@@ -21,8 +21,9 @@ def test_wheel_contents(tmp_path):
     assert r.returncode == 0, r.stderr
     wheel = next(tmp_path.glob("mmlearn-*.whl"))
     names = set(zipfile.ZipFile(wheel).namelist())
-    for must in ("mmlearn/__init__.py", "mmlearn/systems/marker_sensor.py",
-                 "mmlearn/models/__init__.py", "mmlearn/diagrams/scene.py",
+    for must in ("mmlearn/__init__.py", "mmlearn/systems/common/marker_sensor.py",
+                 "mmlearn/models/__init__.py", "mmlearn/models/perception/__init__.py",
+                 "mmlearn/diagrams/common/scene.py",
                  "mmlearn/apps/view_scene.py", "mmlearn/sdf/package.xml",
                  "mmlearn/sdf/arm_7dof.sdf", "mmlearn/sdf/cabinet.sdf"):
         assert must in names, must

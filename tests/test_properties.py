@@ -63,6 +63,7 @@ def track_files(draw):
     return lines
 
 
+@pytest.mark.slow
 @given(lines=track_files(), dup=st.booleans())
 def test_read_track_never_crashes(tmp_path_factory, lines, dup):
     from mmlearn.models.common.track_io import read_track
@@ -124,6 +125,7 @@ def csv_rows(draw):
     return rows
 
 
+@pytest.mark.slow
 @given(header=st.one_of(st.just("t,part,x,y,z,qx,qy,qz,qw"), HEADER), rows=csv_rows())
 def test_read_parts_csv_never_crashes(tmp_path_factory, header, rows):
     from mmlearn.models.articulation.graph import read_parts_csv
@@ -177,6 +179,7 @@ def tracks(draw, max_n=8):
     return Z
 
 
+@pytest.mark.slow
 @settings(suppress_health_check=list(HealthCheck))
 @given(Z=tracks(), name=st.sampled_from(["rigid", "prismatic", "revolute"]),
        seed=st.integers(0, 100))
@@ -194,6 +197,7 @@ def test_link_model_fit_never_crashes(Z, name, seed):
     repr(m)
 
 
+@pytest.mark.slow
 @settings(suppress_health_check=list(HealthCheck), max_examples=1000)
 @given(Z=tracks(max_n=6), seed=st.integers(0, 100))
 def test_link_model_selection_never_crashes(Z, seed):
@@ -245,6 +249,7 @@ def part_tracks(draw):
     return Y
 
 
+@pytest.mark.slow
 @settings(suppress_health_check=list(HealthCheck))
 @given(Y=part_tracks(), search=st.sampled_from(["tree", "local", "exhaustive"]),
        seed=st.integers(0, 100))
@@ -287,6 +292,7 @@ FIELDS = ("rate_hz", "sigma_pos", "sigma_orient", "gamma", "dropout", "max_view_
           "occlusion_step", "fov", "max_range", "seed")
 
 
+@pytest.mark.slow
 @settings(suppress_health_check=list(HealthCheck))
 @given(bad=st.one_of(st.none(), st.sampled_from(FIELDS)),
        bad_value=st.one_of(FLOAT, st.integers(-3, 2**70)),

@@ -6,6 +6,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 README = (ROOT / "README.md").read_text()
@@ -21,6 +22,7 @@ def test_first_lines_are_the_two_commands():
     assert "set up and run the test suite" in (ROOT / ".ci" / "run").read_text()
 
 
+@pytest.mark.slow
 def test_reuse_example_runs(tmp_path):
     code = re.search(r"## Reusing a system.*?```python\n(.*?)```", README, re.S).group(1)
     script = tmp_path / "example.py"

@@ -19,6 +19,7 @@ def _simulate(cfg, command, t_end):
     return scene, ctx
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("arm,cmd", [
     ("2dof", [0.4, -0.6]),
     ("4dof", [0.5, 0.3, -0.4, 0.6]),
@@ -71,6 +72,7 @@ def test_cabinet_joints_have_friction_and_damping():
     assert 0.1 < slide.get_translation(pctx) < 0.38 + 1e-3
 
 
+@pytest.mark.slow
 def test_mobile_base_with_hook_drives_to_a_commanded_pose():
     cfg = SceneConfig(arm="7dof", tool="hook", mobile_base=True, cabinet=False,
                       sensor=MarkerSensorConfig(cameras=[]))

@@ -87,6 +87,7 @@ def test_plant_failures_bend_and_tool_move_only_downstream_markers():
         PlantFailures(plant=scene.plant, model_instance=scene.robot)
 
 
+@pytest.mark.slow
 def test_blocked_joint_stops_following_its_command_in_the_plant():
     bs = MakeBodySchemaDiagram(BodySchemaDiagramConfig(arm="2dof"))
     sim, root = _sim(bs)
@@ -186,6 +187,7 @@ def learned_2dof():
     return bs, sim, root
 
 
+@pytest.mark.slow
 def test_drake_2dof_structure_within_10_samples_and_beats_noise(learned_2dof):
     bs, sim, root = learned_2dof
     st = bs.learner.state(root)
@@ -208,6 +210,7 @@ def test_drake_2dof_structure_within_10_samples_and_beats_noise(learned_2dof):
     assert sum(r["in_tree"] for r in rows) == n_nodes - 1
 
 
+@pytest.mark.slow
 def test_drake_schema_controller_positions_end_effector(learned_2dof):
     bs, sim, root = learned_2dof
     Q = sample_test_commands(bs, 3, np.random.default_rng(11))
@@ -215,6 +218,7 @@ def test_drake_schema_controller_positions_end_effector(learned_2dof):
     assert err < 0.06  # thesis Fig. 3.10: ~0.050 m positioning error
 
 
+@pytest.mark.slow
 def test_drake_tool_change_detected_and_recovered():
     bs = MakeBodySchemaDiagram(BodySchemaDiagramConfig(arm="2dof", noise_pos=0.01,
                                                        noise_orient=0.0,
@@ -231,6 +235,7 @@ def test_drake_tool_change_detected_and_recovered():
     assert not any(invalid[-5:])       # and a valid schema is back
 
 
+@pytest.mark.slow
 def test_meshcat_draws_learned_frames_and_tree():
     from pydrake.geometry import StartMeshcat
 

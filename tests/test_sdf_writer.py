@@ -134,7 +134,7 @@ def test_writer_imports_no_drake_so_models_may_use_it():
                          check=True).stdout
     assert "pydrake.systems" not in out
     assert "sdf_writer" not in out  # (a sanity check of the command)
-    src = (REPO / "sdf" / "sdf_writer.py").read_text()
+    src = (REPO / "models" / "common" / "sdf_writer.py").read_text()
     assert "pydrake" not in src
 
 

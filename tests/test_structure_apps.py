@@ -36,6 +36,7 @@ def closed_csv(tmp_path_factory):
     return p
 
 
+@pytest.mark.slow
 def test_fit_structure_closed_yardstick(closed_csv, tmp_path):
     png = tmp_path / "s.png"
     r = _run("mmlearn.apps.fit_structure", str(closed_csv), "--search", "local",
@@ -52,6 +53,7 @@ def test_fit_structure_closed_yardstick(closed_csv, tmp_path):
     assert png.stat().st_size > 1000
 
 
+@pytest.mark.slow
 def test_fit_structure_bad_input(tmp_path, closed_csv):
     bad = tmp_path / "bad.csv"
     bad.write_text("time,part,x,y,z,qx,qy,qz,qw\n")
@@ -65,6 +67,7 @@ def test_fit_structure_bad_input(tmp_path, closed_csv):
     assert r.returncode == 2
 
 
+@pytest.mark.slow
 def test_learn_priors_clusters_real_tracks(tmp_path):
     db = tmp_path / "db.json"
     r = _run("mmlearn.apps.learn_priors", str(DATA), "--json", "--save", str(db),
@@ -77,6 +80,7 @@ def test_learn_priors_clusters_real_tracks(tmp_path):
     assert json.loads(db.read_text())["format"] == "mmlearn.articulation_priors"
 
 
+@pytest.mark.slow
 def test_learn_priors_evaluate(tmp_path):
     files = [str(DATA / f) for f in ("drawer_001.log", "right_door_001.log", "drawer_002.log",
                                      "right_door_002.log")]
@@ -90,6 +94,7 @@ def test_learn_priors_evaluate(tmp_path):
     assert png.stat().st_size > 1000
 
 
+@pytest.mark.slow
 def test_learn_priors_bad_input(tmp_path):
     r = _run("mmlearn.apps.learn_priors", str(tmp_path / "missing.log"))
     assert r.returncode == 2 and "not found" in r.stderr
@@ -101,6 +106,7 @@ def test_learn_priors_bad_input(tmp_path):
     assert r.returncode == 2 and "fractions" in r.stderr
 
 
+@pytest.mark.slow
 def test_structure_experiments_quick(tmp_path):
     r = _run("mmlearn.apps.structure_experiments", "--quick", "--only", "fig48,fig416,garage", "--seeds", "1",
              "--json", "--out-dir", str(tmp_path), "--no-progress")
@@ -120,6 +126,7 @@ def test_structure_experiments_quick(tmp_path):
     assert r.returncode == 2 and "fig99" in r.stderr
 
 
+@pytest.mark.slow
 def test_structure_experiments_report_only_reproduces_the_tables(tmp_path):
     """The tables and plots come from the results file: --report-only on the file of a
     quick run prints the same tables; a trial that raised is named and exits 1."""

@@ -101,6 +101,7 @@ _SCRIPT = textwrap.dedent("""
 """)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("executor,sig", [("local", signal.SIGINT), ("local", signal.SIGKILL),
                                           ("ray", signal.SIGINT)])
 def test_an_interrupted_sweep_completes_when_run_again(tmp_path, executor, sig):
@@ -127,6 +128,7 @@ def test_an_interrupted_sweep_completes_when_run_again(tmp_path, executor, sig):
     assert sorted(seeds) == list(range(12))  # every trial exactly once
 
 
+@pytest.mark.slow
 def test_ray_executor_gives_the_local_records(tmp_path):
     pytest.importorskip("ray")
     specs = _specs(4, fail_seeds=[2])
@@ -140,6 +142,7 @@ def test_ray_executor_gives_the_local_records(tmp_path):
     assert res2.ran == 0 and res2.resumed == 4
 
 
+@pytest.mark.slow
 def test_ray_trials_run_in_a_plain_child_process_of_each_worker(tmp_path):
     """A Ray task runs its trial in a child process of the Ray worker (the trial is slower
     inside the Ray worker process itself, see apps/common/sweep._ray_execute); the shared inputs reach
@@ -167,6 +170,7 @@ def test_ray_trials_run_in_a_plain_child_process_of_each_worker(tmp_path):
         ray.shutdown()
 
 
+@pytest.mark.slow
 def test_a_trial_that_kills_its_local_worker_is_its_error_and_the_sweep_goes_on(tmp_path):
     """A crash in compiled code ends the worker process: the local pool must not hang; the
     trial is recorded as an error, every other trial (also those running beside it) runs."""
@@ -181,6 +185,7 @@ def test_a_trial_that_kills_its_local_worker_is_its_error_and_the_sweep_goes_on(
     assert sorted(seeds) == list(range(6))  # every trial exactly once
 
 
+@pytest.mark.slow
 def test_a_results_file_of_another_format_or_trial_version_is_refused(tmp_path):
     path = tmp_path / "r.jsonl"
     run_sweep(_specs(2), results=path, show_progress=False)

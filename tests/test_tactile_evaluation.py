@@ -89,6 +89,7 @@ def test_evaluate_separates_distinct_classes_and_not_identical_ones():
     assert 0.3 < r2["rate"] < 0.7
 
 
+@pytest.mark.slow
 def test_informed_heights_beat_random_where_one_height_tells_the_classes_apart():
     """Four classes in two pairs: within a pair the objects are identical at heights 0-3 and
     differ only at height 4. At a uniform belief the expected gain is largest at height 4

@@ -114,6 +114,7 @@ def easy_world():
     return rec, train, test, nc
 
 
+@pytest.mark.slow
 def test_codebook_and_histograms_are_distributions(easy_world):
     rec, train, test, nc = easy_world
     assert rec.codebook.shape == (nc, 20)
@@ -127,6 +128,7 @@ def test_codebook_and_histograms_are_distributions(easy_world):
     assert rec.clustering_used == "agglomerative"
 
 
+@pytest.mark.slow
 def test_posterior_concentrates_on_the_right_class_with_more_grasps(easy_world):
     rec, train, test, nc = easy_world
     rng = np.random.default_rng(0)
@@ -151,6 +153,7 @@ def test_posterior_concentrates_on_the_right_class_with_more_grasps(easy_world):
     assert label == "obj2" and p.sum() == pytest.approx(1.0)
 
 
+@pytest.mark.slow
 def test_leave_one_out_likelihood_only_removes_the_observation_itself(easy_world):
     rec, train, test, nc = easy_world
     L = rec.likelihood(train)
@@ -172,6 +175,7 @@ def test_leave_one_out_likelihood_only_removes_the_observation_itself(easy_world
         rec.likelihood_loo(test)
 
 
+@pytest.mark.slow
 def test_recognizer_round_trips_through_json(easy_world):
     import json
 
@@ -274,6 +278,7 @@ def test_informed_choice_prefers_the_height_that_separates_the_classes():
         rec.information_gain([np.nan, 0.5], train, acts)
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not kmedoids_available(), reason="kmedoids not installed")
 def test_kmedoids_vocabulary_has_k_distinct_training_medoids(easy_world):
     _, train, _, _ = easy_world
@@ -338,6 +343,7 @@ def test_grasp_validation_names_the_field():
     np.testing.assert_allclose(g.v, np.gradient(t ** 2, t))
 
 
+@pytest.mark.slow
 def test_classifiers_and_cross_validation_on_separable_features():
     from mmlearn.models.tactile.state import cross_validate, evaluate_split, make_classifier
 
@@ -427,6 +433,7 @@ def test_liquid_feature_separates_sloshing_from_rigid_and_classifies():
         liquid_features([RollRecord(np.ones((10, 4)))], with_weight=True)
 
 
+@pytest.mark.slow
 def test_own_k_medoids_covers_dense_groups_not_outliers(easy_world):
     """The numpy k-medoids (the default without the kmedoids package): 4 dense groups of 30
     points and 6 far single points, k = 4 -> one medoid inside each group (average linkage

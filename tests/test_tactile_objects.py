@@ -51,6 +51,7 @@ def test_every_class_loads_in_drake_and_instances_vary_with_the_seed():
 
 
 # ------------------------------------------------------------------ grasps in Drake
+@pytest.mark.slow
 def test_soft_and_tennis_ball_differ_by_touch():
     from mmlearn.diagrams.tactile.trials import object_grasp_trial
     from mmlearn.models.tactile.evaluation import observation_from_record
@@ -69,6 +70,7 @@ def test_soft_and_tennis_ball_differ_by_touch():
     assert obs.left.shape == (14, 6) and obs.label == "soft_ball" and obs.width == soft["width"]
 
 
+@pytest.mark.slow
 def test_slotted_and_flat_profile_faces_and_no_contact():
     from mmlearn.diagrams.tactile.trials import object_grasp_trial
 

@@ -8,6 +8,7 @@ from conftest import bad_usage, run_main
 
 
 # ------------------------------------------------------------------ the app
+@pytest.mark.slow
 def test_app_short_run_and_report_only(tmp_path, capsys):
     from mmlearn.apps.tactile_recognition import main
 
@@ -39,6 +40,7 @@ def test_app_short_run_and_report_only(tmp_path, capsys):
     assert png.stat().st_size > 10_000
 
 
+@pytest.mark.slow
 def test_one_grasp_recorded_as_meshcat_html(tmp_path):
     from mmlearn.apps.common.cli import make_meshcat
     from mmlearn.apps.tactile_recognition import _show_one

@@ -189,6 +189,7 @@ def _contact_force_trace(cfg, object_sdf, t_end):
     return F, sim, parts
 
 
+@pytest.mark.slow
 def test_flat_block_pressed_with_known_force_gives_expected_cells():
     from mmlearn.diagrams.tactile.grasp import TactileGraspConfig
     from mmlearn.sdf.tactile import block_sdf
@@ -210,6 +211,7 @@ def test_flat_block_pressed_with_known_force_gives_expected_cells():
     assert F[-1] == pytest.approx(f, rel=0.01)
 
 
+@pytest.mark.slow
 def test_switching_controller_has_no_impact_spike_pure_force_has():
     from mmlearn.diagrams.tactile.grasp import TactileGraspConfig
     from mmlearn.sdf.tactile import block_sdf
@@ -226,6 +228,7 @@ def test_switching_controller_has_no_impact_spike_pure_force_has():
     assert peaks["force"] > 10.0 * 1.2, peaks  # the pure force controller's impact spike
 
 
+@pytest.mark.slow
 def test_self_centring_palm_makes_p_first_independent_of_placement():
     """A container placed 2 mm off-centre: with the welded palm the first finger squeezes the
     flimsy wall alone until the second finger touches (p_first several mm short of the

@@ -60,6 +60,7 @@ def test_cli_test_classes_must_be_trained(tmp_path, capsys):
     assert rc == 2 and "classes that --train lacks: med_coke" in err
 
 
+@pytest.mark.slow
 def test_cli_quick_runs_cv_and_split(tmp_path, capsys):
     plot = tmp_path / "conf.png"
     rc, out, err = _main(["--train", str(DATA), "--folds", "4", "--seed", "3", "--json",
@@ -94,6 +95,7 @@ def test_app_help_as_subprocess():
 
 
 # --------------------------------------------------------------------------- simulation
+@pytest.mark.slow
 def test_simulation_mode_small_run(tmp_path, capsys):
     """The app's simulation mode end to end on 6 short grasps (cans: 3 states x 2)."""
     res = tmp_path / "grasps.jsonl"

@@ -16,12 +16,14 @@ def _run(args, cwd):
                           capture_output=True, text=True, timeout=300)
 
 
+@pytest.mark.slow
 def test_help(tmp_path):
     r = _run(["--help"], tmp_path)
     assert r.returncode == 0
     assert "--html-out" in r.stdout and "--meshcat" in r.stdout
 
 
+@pytest.mark.slow
 def test_json_run_with_html_recording(tmp_path):
     out = tmp_path / "rec" / "scene.html"
     out.parent.mkdir()  # an output path into a missing folder is bad input (test_cli.py)
@@ -49,6 +51,7 @@ def test_same_seed_same_counts():
     assert a["visible"] == b["visible"] and a["frames"] == b["frames"] == 5
 
 
+@pytest.mark.slow
 def test_bad_arguments_give_clear_errors(tmp_path):
     r = _run(["--duration", "-1"], tmp_path)
     assert r.returncode == 2 and "--duration: expected a finite number > 0" in r.stderr

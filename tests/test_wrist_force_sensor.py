@@ -50,6 +50,7 @@ def test_a_push_on_the_hook_is_measured_in_the_world_frame():
     np.testing.assert_allclose(f, [8.0, -5.0, 3.0], atol=0.5)
 
 
+@pytest.mark.slow
 def test_noise_and_bad_config():
     f1, f2 = _rig(sigma=1.0), _rig(sigma=1.0)
     np.testing.assert_array_equal(f1, f2)  # seeded

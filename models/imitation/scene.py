@@ -4,8 +4,6 @@ Plain numpy: the teacher and the learner plan against this spec; :mod:`mmlearn.s
 builds the SDFormat scene from it.
 """
 
-from __future__ import annotations
-
 import dataclasses
 from dataclasses import dataclass, field
 

@@ -1,0 +1,109 @@
+"""Run every speed benchmark in its quick mode and print one table of their headline figures,
+with the machine's load beside each (prints figures; never fails on time).
+
+    OPENBLAS_NUM_THREADS=1 python benchmarks/run_speed.py [--json FILE] [--only a,b] [--list]
+
+Each benchmark runs as ``python benchmarks/<name>.py --quick --json TMP`` in its own process
+(one BLAS thread); the table lists its ``figures`` (see ``_common.py``), the benchmark's wall
+time and the 1-minute load average (``os.getloadavg``) when it started and ended. On a shared
+machine the load says how far wall-clock figures are inflated; CPU-time figures are not.
+Exit status 1 when a benchmark failed (its error is printed), else 0.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+
+#: the speed benchmarks, in the order they run
+SPEED = ["bench_articulation", "bench_structure", "bench_front_tracker", "bench_front_detector",
+         "bench_depth_filter", "bench_depth_noise", "bench_body_schema", "bench_learner_cost",
+         "bench_imitation", "bench_dbn_reproducer", "bench_record_demos", "bench_tactile_sim",
+         "bench_tactile_objects", "bench_liquid_roll", "bench_sweep"]
+
+
+def run_one(name: str, timeout: float) -> dict:
+    """Run benchmark ``name`` quick; returns {name, wall_s, load_start, load_end, figures,
+    error}."""
+    with tempfile.TemporaryDirectory() as d:
+        out = Path(d) / "figures.json"
+        env = dict(os.environ, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1")
+        load0, t0 = os.getloadavg()[0], time.perf_counter()
+        try:
+            p = subprocess.run([sys.executable, str(HERE / f"{name}.py"), "--quick", "--json",
+                                str(out)], capture_output=True, text=True, env=env,
+                               timeout=timeout, cwd=d)
+            error = None if p.returncode == 0 else (p.stderr.strip().splitlines() or
+                                                     [f"exit status {p.returncode}"])[-1]
+        except subprocess.TimeoutExpired:
+            error = f"no result within {timeout:.0f} s"
+        wall, load1 = time.perf_counter() - t0, os.getloadavg()[0]
+        figures = {}
+        if error is None:
+            try:
+                figures = json.loads(out.read_text())["figures"]
+            except (OSError, ValueError, KeyError) as e:
+                error = f"no figures in its JSON ({type(e).__name__}: {e})"
+    return dict(name=name, wall_s=wall, load_start=load0, load_end=load1, figures=figures,
+                error=error)
+
+
+def _fmt(v) -> str:
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        return str(v)
+    return f"{v:.4g}"
+
+
+def print_table(rows: list[dict]) -> None:
+    print(f"{'benchmark':22s} {'figure':38s} {'value':>10s} {'wall s':>7s} {'load':>10s}")
+    for r in rows:
+        load = f"{r['load_start']:.1f}-{r['load_end']:.1f}"
+        items = list(r["figures"].items()) or [("ERROR: " + str(r["error"]), "")]
+        for k, (fig, v) in enumerate(items):
+            head = (r["name"].removeprefix("bench_"), f"{r['wall_s']:7.1f}", f"{load:>10s}") \
+                if k == 0 else ("", "", "")
+            print(f"{head[0]:22s} {fig:38s} {_fmt(v):>10s} {head[1]:>7s} {head[2]:>10s}")
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--json", default=None, metavar="FILE", help="also write the rows here")
+    ap.add_argument("--only", default=None, help="comma-separated benchmark names")
+    ap.add_argument("--timeout", type=float, default=300.0, help="per benchmark, s")
+    ap.add_argument("--list", action="store_true", help="list the speed benchmarks and exit")
+    a = ap.parse_args(argv)
+    if a.list:
+        print("\n".join(SPEED))
+        return 0
+    names = SPEED
+    if a.only:
+        names = [n if n.startswith("bench_") else f"bench_{n}" for n in a.only.split(",")]
+        unknown = sorted(set(names) - set(SPEED))
+        if unknown:
+            ap.error(f"--only: not a speed benchmark: {', '.join(unknown)}")
+    print(f"{os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f} at start", flush=True)
+    t0 = time.perf_counter()
+    rows = []
+    for n in names:
+        rows.append(run_one(n, a.timeout))
+        print(f"  {n}: {rows[-1]['wall_s']:.1f} s" + (f" ERROR {rows[-1]['error']}"
+                                                       if rows[-1]["error"] else ""), flush=True)
+    print()
+    print_table(rows)
+    print(f"total {time.perf_counter() - t0:.0f} s")
+    if a.json:
+        Path(a.json).write_text(json.dumps(dict(cores=os.cpu_count(), benchmarks=rows),
+                                           indent=1) + "\n")
+    return 1 if any(r["error"] for r in rows) else 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
