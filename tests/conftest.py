@@ -14,26 +14,6 @@ os.environ.setdefault("MPLBACKEND", "Agg")
 PYTHON = sys.executable
 
 
-#: slow tests (see pyproject.toml) of the test files that do not mark their own, by test name
-SLOW_BY_NAME = frozenset({
-    "test_detector_and_tracker_learn_the_door_from_depth_images",
-    "test_two_simulators_and_a_clone_reproduce_a_lone_run",
-    "test_open_cabinet_perception_depth_short_trial_runs",
-    "test_perception_experiments_report_only_reproduces_a_tiny_run",
-    "test_track_fronts_draws_in_meshcat",
-    "test_track_fronts_short_drawer_run",
-    "test_fit_articulation_rectangles_option",
-})
-
-
-def pytest_collection_modifyitems(config, items):
-    import pytest
-
-    for item in items:
-        if getattr(item, "originalname", item.name) in SLOW_BY_NAME:
-            item.add_marker(pytest.mark.slow)
-
-
 def run_main(main, argv, capsys):
     """Run an app's ``main(argv)``; returns (exit status, stdout, stderr). argparse errors
     raise SystemExit, the apps' own checks return the status."""

@@ -132,6 +132,7 @@ tracking: {max_distance_m: 0.15, min_observations: 8}
         FrontTracker(config=cfg)
 
 
+@pytest.mark.slow
 def test_two_simulators_and_a_clone_reproduce_a_lone_run():
     from test_drake_semantics import _check
 
@@ -254,6 +255,7 @@ def test_tracker_in_the_kitchen_scene_learns_the_true_joint(front):
         assert m.q_max[0] - m.q_min[0] == pytest.approx(0.30, abs=0.03)
 
 
+@pytest.mark.slow
 def test_detector_and_tracker_learn_the_door_from_depth_images():
     """End to end: rendered noisy depth -> FrontDetector -> FrontTracker (door at 1.5 m)."""
     from mmlearn.diagrams.perception.diagram import (AddFrontDetectorAndTracker, FrontPerceptionConfig,

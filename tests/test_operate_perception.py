@@ -82,6 +82,7 @@ def test_handle_by_convention_when_the_bar_is_not_seen():
         handle_from_front("drawer", rect, np.zeros((5, 5)), K, np.eye(4))
 
 
+@pytest.mark.slow
 def test_open_cabinet_perception_depth_short_trial_runs(capsys):
     from mmlearn.apps.open_cabinet import main
 

@@ -60,6 +60,7 @@ def test_match_front_size_gate_rejects_merged_fronts():
         TrackFrontsConfig(match_size_m=0.0).validate()
 
 
+@pytest.mark.slow
 def test_track_fronts_short_drawer_run(capsys):
     """8 frames of the drawer at 1.2 m: a sane JSON (found in most frames once it is out,
     errors of mm, a prismatic track, stage timings)."""
@@ -116,6 +117,7 @@ def test_track_fronts_cli_errors(tmp_path, capsys):
          "--html-out")
 
 
+@pytest.mark.slow
 def test_perception_experiments_report_only_reproduces_a_tiny_run(tmp_path, capsys):
     """A tiny sweep (drawer, 2 angles, 6 frames) writes its results file; --report-only on it
     prints the same tables and writes the plots; bad input exits 2."""
@@ -145,6 +147,7 @@ def test_perception_experiments_report_only_reproduces_a_tiny_run(tmp_path, caps
     _bad(main, ["--report-only", str(tmp_path / "none.jsonl")], capsys, "none.jsonl")
 
 
+@pytest.mark.slow
 def test_track_fronts_draws_in_meshcat(tmp_path):
     """With Meshcat: the point cloud, the detections, every published track and the moving
     front's learned model are drawn; --html-out writes the recording."""

@@ -94,6 +94,7 @@ def _run(args, cwd):
                           capture_output=True, text=True, cwd=cwd, env=ENV, timeout=300)
 
 
+@pytest.mark.slow
 def test_fit_articulation_rectangles_option(tmp_path):
     r = _run([str(DATA / "rectangle_door.txt"), str(DATA / "rectangle_drawer.txt"),
               "--rectangles", "corner", "--sigma-pos", "0.02", "--sigma-orient", "0.0524",
