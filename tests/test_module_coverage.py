@@ -50,12 +50,6 @@ def _file_is_slow(tree: ast.Module) -> bool:
     return False
 
 
-def _slow_by_name() -> frozenset:
-    from conftest import SLOW_BY_NAME
-
-    return SLOW_BY_NAME
-
-
 def _quick_parts(tree: ast.Module):
     """The top-level statements and functions whose references count: everything except
     the tests marked slow (and everything is slow in a file marked slow). Returns None
@@ -72,8 +66,7 @@ def _quick_parts(tree: ast.Module):
         for d in defs:
             if isinstance(d, (ast.FunctionDef, ast.AsyncFunctionDef)) and \
                     d.name.startswith("test"):
-                if any(_is_slow_mark(m) for m in d.decorator_list) or \
-                        d.name in _slow_by_name():
+                if any(_is_slow_mark(m) for m in d.decorator_list):
                     continue
                 quick_tests += 1
             parts.append(d)
