@@ -72,6 +72,7 @@ GP in 9/10 / 7/10 folds; the sample errors within their run-to-run spread). Fit 
 
 from __future__ import annotations
 
+import argparse
 import json
 import sys
 import time
@@ -79,9 +80,9 @@ from pathlib import Path
 
 import numpy as np
 
-from mmlearn.apps.common.cli import (ArgumentParser, UsageError, check_out_dir, fail, name_list,
-                                     nonneg_int, pos_int)
-from mmlearn.apps.common.cli import save_figure
+from mmlearn.apps.common import experiment
+from mmlearn.apps.common.cli import check_out_dir, name_list, pos_int, save_figure
+from mmlearn.apps.common.experiment import Experiment
 from mmlearn.models.articulation.link import ObservationModel, make_model
 from mmlearn.models.articulation.sim import simulate_link
 from mmlearn.models.articulation.structure import select_link_model
@@ -835,6 +836,85 @@ def _print(res, file=None):
         p(f"error: trial {e['trial']} raised {e['error']} (its runs count as failed above)")
 
 
+class ArticulationExperiments(Experiment):
+    name = "articulation_experiments"
+    description = ("Synthetic robustness / convergence analysis of the articulation models "
+                   "(thesis Sec. 4.4.4, Fig. 4.20-4.26) and Table 4.2. Every table gives the "
+                   "number of failed runs (left out of its means). The trials run through "
+                   "the sweep runner (resumable, local processes or Ray). Exit status: 0 "
+                   "every trial ran, 1 a trial raised an error, 2 bad input.")
+    json_help = "print all results as JSON"
+    desc = "articulation trials"
+
+    def __init__(self):
+        self._tracks = {}
+
+    def add_arguments(self, ap):
+        ap.add_argument("--runs", type=pos_int, default=100, help="repetitions (thesis: 100)")
+        ap.add_argument("--quick", action="store_true", help="2 runs, small grids (seconds)")
+        ap.add_argument("--only", type=name_list(EXPERIMENTS), default=list(EXPERIMENTS),
+                        help=f"comma-separated subset of {','.join(EXPERIMENTS)}")
+        ap.add_argument("--out-dir", default="articulation_experiments_out",
+                        help="folder for the plots and the default results file ('' for no "
+                             "plots; the results file then goes to the current folder)")
+        ap.add_argument("--outliers", choices=("exact", "bernoulli"), default="exact",
+                        help="outlier sampling of Fig. 4.21/4.22: exactly round(gamma n) "
+                             "outliers per sequence (default) or each observation with "
+                             "probability gamma")
+        ap.add_argument("--tracks", default=None,
+                        help="real track files or folder for --only selection (default: the "
+                             "repository's tests/data copies)")
+
+    def check(self, args):
+        check_out_dir("--out-dir", args.out_dir)
+
+    def _only(self, args) -> list:
+        only = args.only
+        only = [o.strip() for o in (only.split(",") if isinstance(only, str) else only)]
+        bad = [o for o in only if o not in EXPERIMENTS]
+        if bad:
+            raise ValueError(f"unknown experiment(s) {bad}; choose from {EXPERIMENTS}")
+        return only
+
+    def _selection(self, args):
+        """The real tracks of ``selection`` (read once) and their SHA-1."""
+        if "selection" not in self._only(args):
+            return None, ""
+        if "data" not in self._tracks:
+            data = selection_tracks(args.tracks)
+            self._tracks.update(data=data, sha1=_tracks_sha1(data))
+        return {"selection": self._tracks["data"]}, self._tracks["sha1"]
+
+    def specs(self, args):
+        if args.outliers not in ("exact", "bernoulli"):
+            raise ValueError(f"outliers must be 'exact' or 'bernoulli', got {args.outliers!r}")
+        runs = min(args.runs, 2) if args.quick else args.runs
+        return trial_specs(only=self._only(args), runs=runs, seed=args.seed,
+                           quick=args.quick, exact=(args.outliers == "exact"),
+                           tracks_sha1=self._selection(args)[1])
+
+    def shared(self, args):
+        return self._selection(args)[0]
+
+    def report(self, lines, args):
+        if lines:
+            return report(lines)
+        return {"runs": min(args.runs, 2) if args.quick else args.runs, "seed": args.seed,
+                "quick": args.quick, "errors": []}
+
+    def finish(self, res, args):
+        res["plots"] = _plots(res, Path(args.out_dir)) if args.out_dir else []
+        return res
+
+    def print_table(self, res, args):
+        _print(res)
+        if res["plots"]:
+            print("\nplots: " + ", ".join(res["plots"]))
+
+    def to_json(self, res):
+        return json.dumps(res, indent=1, default=float)
+
+
 def run(*, runs: int = 100, seed: int = 0, quick: bool = False, only=EXPERIMENTS,
         out_dir: str | None = "articulation_experiments_out", progress: bool = True,
         outliers: str = "exact", tracks: str | None = None, results: str | None = None,
@@ -850,88 +930,14 @@ def run(*, runs: int = 100, seed: int = 0, quick: bool = False, only=EXPERIMENTS
     are not run again), ``executor`` "local" (``jobs`` processes, default all cores) or
     "ray" (``ray_address``: a cluster, None: a local Ray instance of ``jobs`` CPUs). The
     real tracks of ``selection`` are read here and sent once (``shared``)."""
-    from mmlearn.apps.common.sweep import run_sweep
-
-    if outliers not in ("exact", "bernoulli"):
-        raise ValueError(f"outliers must be 'exact' or 'bernoulli', got {outliers!r}")
-    if quick:
-        runs = min(runs, 2)
-    only = [o.strip() for o in (only.split(",") if isinstance(only, str) else only)]
-    bad = [o for o in only if o not in EXPERIMENTS]
-    if bad:
-        raise ValueError(f"unknown experiment(s) {bad}; choose from {EXPERIMENTS}")
-    shared, sha1 = None, ""
-    if "selection" in only:
-        data = selection_tracks(tracks)
-        shared, sha1 = {"selection": data}, _tracks_sha1(data)
-    specs = trial_specs(only=only, runs=runs, seed=seed, quick=quick,
-                        exact=(outliers == "exact"), tracks_sha1=sha1)
-    sweep = run_sweep(specs, results=results, executor=executor, jobs=jobs,
-                      ray_address=ray_address, shared=shared, show_progress=progress,
-                      desc="articulation trials")
-    res = report(sweep.lines) if sweep.lines else {"runs": runs, "seed": seed,
-                                                   "quick": quick, "errors": []}
-    res["sweep"] = sweep.summary()
-    res["plots"] = _plots(res, Path(out_dir)) if out_dir else []
-    return res
+    args = argparse.Namespace(runs=runs, seed=seed, quick=quick, only=only, out_dir=out_dir,
+                              json=not progress, outliers=outliers, tracks=tracks)
+    return experiment.run_experiment(ArticulationExperiments(), args, results=results,
+                                     executor=executor, jobs=jobs, ray_address=ray_address)
 
 
 def main(argv=None) -> int:
-    from mmlearn.apps.common.sweep import add_sweep_args, exit_status, report_lines, sweep_kwargs
-
-    ap = ArgumentParser(
-        prog="python -m mmlearn.apps.articulation_experiments",
-        description="Synthetic robustness / convergence analysis of the articulation models "
-                    "(thesis Sec. 4.4.4, Fig. 4.20-4.26) and Table 4.2. Every table gives the "
-                    "number of failed runs (left out of its means). The trials run through "
-                    "the sweep runner (resumable, local processes or Ray). Exit status: 0 "
-                    "every trial ran, 1 a trial raised an error, 2 bad input.")
-    ap.add_argument("--runs", type=pos_int, default=100, help="repetitions (thesis: 100)")
-    ap.add_argument("--quick", action="store_true", help="2 runs, small grids (seconds)")
-    ap.add_argument("--seed", type=nonneg_int, default=0)
-    ap.add_argument("--only", type=name_list(EXPERIMENTS), default=list(EXPERIMENTS),
-                    help=f"comma-separated subset of {','.join(EXPERIMENTS)}")
-    ap.add_argument("--out-dir", default="articulation_experiments_out",
-                    help="folder for the plots and the default results file ('' for no "
-                         "plots; the results file then goes to the current folder)")
-    ap.add_argument("--json", action="store_true", help="print all results as JSON")
-    ap.add_argument("--outliers", choices=("exact", "bernoulli"), default="exact",
-                    help="outlier sampling of Fig. 4.21/4.22: exactly round(gamma n) outliers "
-                         "per sequence (default) or each observation with probability gamma")
-    ap.add_argument("--tracks", default=None,
-                    help="real track files or folder for --only selection (default: the "
-                         "repository's tests/data copies)")
-    add_sweep_args(ap, app="articulation_experiments")
-    args = ap.parse_args(argv)
-    try:
-        check_out_dir("--out-dir", args.out_dir)
-        if args.report_only:
-            lines = report_lines(args.report_only)
-        else:
-            sweep = sweep_kwargs(args, app="articulation_experiments",
-                                 out_dir=args.out_dir or ".")
-    except UsageError as e:
-        return fail(ap.prog, str(e))
-    if args.report_only:
-        try:
-            res = report(lines)
-        except ValueError as e:
-            return fail(ap.prog, f"--report-only: {args.report_only}: {e}")
-        res["plots"] = _plots(res, Path(args.out_dir)) if args.out_dir else []
-    else:
-        try:
-            res = run(runs=args.runs, seed=args.seed, quick=args.quick, only=args.only,
-                      out_dir=args.out_dir or None, progress=not args.json,
-                      outliers=args.outliers, tracks=args.tracks, **sweep)
-        except ValueError as e:  # UsageError included
-            return fail(ap.prog, str(e))
-    if args.json:
-        print(json.dumps(res, indent=1, default=float))
-    else:
-        _print(res)
-        if res["plots"]:
-            print("\nplots: " + ", ".join(res["plots"]))
-    return exit_status(ap.prog, res)
+    return experiment.main(ArticulationExperiments(), argv)
 
 
 if __name__ == "__main__":

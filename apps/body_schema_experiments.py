@@ -38,6 +38,7 @@ file without running anything.
 
 from __future__ import annotations
 
+import argparse
 import copy
 import json
 import math
@@ -47,9 +48,10 @@ from pathlib import Path
 
 import numpy as np
 
-from mmlearn.apps.common.cli import (ArgumentParser, UsageError, atomic_write_text, check_out_dir,
-                                     fail, nonneg_int, pos_int, progress)
-from mmlearn.apps.common.cli import save_figure
+from mmlearn.apps.common import experiment
+from mmlearn.apps.common.cli import (atomic_write_text, check_out_dir, pos_int, progress,
+                                     save_figure)
+from mmlearn.apps.common.experiment import Experiment
 from mmlearn.apps.learn_body_schema import (
                                             babble,
                                             converged_at,
@@ -459,6 +461,64 @@ def write_outputs(res: dict, out_dir: str | Path) -> dict:
     return res
 
 
+class BodySchemaExperiments(Experiment):
+    name = "body_schema_experiments"
+    description = ("Reproduce the body-schema experiments of thesis Sec. 3.4 (Fig. 3.10, "
+                   "noise-free accuracy, 7-DOF with an occluded part, Tables 3.1 and 3.2). "
+                   "Learning runs in the Drake simulation; the many-run statistics of the "
+                   "tables use the numpy simulation. Every mean says how many runs failed "
+                   "and were left out. Every run is a trial of the sweep runner (resumable, "
+                   "local processes or Ray). Exit status: 0 every trial ran, 1 a trial "
+                   "raised an error, 2 bad input.")
+    json_help = "print the results as JSON"
+    desc = "body-schema runs"
+
+    def add_arguments(self, ap):
+        ap.add_argument("--quick", action="store_true",
+                        help="one run of each, fewer samples (about a minute of CPU time)")
+        ap.add_argument("--runs", type=pos_int, default=20,
+                        help="numpy runs of Table 3.1 per failure, a quarter as many of Table "
+                             "3.2 (20)")
+        ap.add_argument("--structure-runs", type=pos_int, default=5,
+                        help="Drake runs of the 7-DOF structure convergence (5)")
+        ap.add_argument("--drake-runs", type=pos_int, default=6,
+                        help="Drake runs of Table 3.1 per failure, half as many of Table 3.2 "
+                             "(6)")
+        ap.add_argument("--fig310-runs", type=pos_int, default=3,
+                        help="Drake runs averaged in Fig. 3.10 (3)")
+        ap.add_argument("--out-dir", type=Path, default=Path("."),
+                        help="where plots, the JSON and the default results file go (default: "
+                             "current directory)")
+
+    def check(self, args):
+        check_out_dir("--out-dir", args.out_dir)
+
+    def specs(self, args):
+        counts = (args.runs, args.structure_runs, args.drake_runs, args.fig310_runs)
+        if min(counts) < 1:
+            raise ValueError("runs, structure_runs, drake_runs and fig310_runs must be >= 1, "
+                             "got " + ", ".join(map(str, counts)))
+        return trial_specs(quick=args.quick, runs=args.runs, seed=args.seed,
+                           structure_runs=args.structure_runs, drake_runs=args.drake_runs,
+                           fig310_runs=args.fig310_runs)
+
+    def report(self, lines, args):
+        return report(lines)
+
+    def attach_sweep(self, res, sweep, args):
+        res["seconds"] = sweep.wall_s
+        res["sweep"] = sweep.summary()
+
+    def finish(self, res, args):
+        return write_outputs(res, args.out_dir)
+
+    def print_table(self, res, args):
+        print(format_report(res))
+
+    def to_json(self, res):
+        return json.dumps(res)
+
+
 def run(*, quick: bool = False, runs: int = 20, seed: int = 0, out_dir: str | Path = ".",
         show_progress: bool = True, structure_runs: int = 5, drake_runs: int = 6,
         fig310_runs: int = 3, results: str | None = None, executor: str = "local",
@@ -473,20 +533,11 @@ def run(*, quick: bool = False, runs: int = 20, seed: int = 0, out_dir: str | Pa
     ``results`` (a JSON Lines file; None: a temporary one; runs already in it are not run
     again), ``executor`` "local" (``jobs`` processes, default all cores) or "ray"
     (``ray_address``: a cluster, None: a local Ray instance of ``jobs`` CPUs)."""
-    from mmlearn.apps.common.sweep import run_sweep
-
-    if min(runs, structure_runs, drake_runs, fig310_runs) < 1:
-        raise ValueError(f"runs, structure_runs, drake_runs and fig310_runs must be >= 1, "
-                         f"got {runs}, {structure_runs}, {drake_runs}, {fig310_runs}")
-    specs = trial_specs(quick=quick, runs=runs, seed=seed, structure_runs=structure_runs,
-                        drake_runs=drake_runs, fig310_runs=fig310_runs)
-    sweep = run_sweep(specs, results=results, executor=executor, jobs=jobs,
-                      ray_address=ray_address, show_progress=show_progress,
-                      desc="body-schema runs")
-    res = report(sweep.lines)
-    res["seconds"] = sweep.wall_s
-    res["sweep"] = sweep.summary()
-    return write_outputs(res, out_dir)
+    args = argparse.Namespace(quick=quick, runs=runs, seed=seed, out_dir=out_dir,
+                              json=not show_progress, structure_runs=structure_runs,
+                              drake_runs=drake_runs, fig310_runs=fig310_runs)
+    return experiment.run_experiment(BodySchemaExperiments(), args, results=results,
+                                     executor=executor, jobs=jobs, ray_address=ray_address)
 
 
 def _runs(d) -> str:
@@ -576,57 +627,7 @@ def format_report(res) -> str:
 
 
 def main(argv=None) -> int:
-    from mmlearn.apps.common.sweep import add_sweep_args, exit_status, report_lines, sweep_kwargs
-
-    ap = ArgumentParser(
-        prog="python -m mmlearn.apps.body_schema_experiments",
-        description="Reproduce the body-schema experiments of thesis Sec. 3.4 (Fig. 3.10, "
-                    "noise-free accuracy, 7-DOF with an occluded part, Tables 3.1 and 3.2). "
-                    "Learning runs in the Drake simulation; the many-run statistics of the "
-                    "tables use the numpy simulation. Every mean says how many runs failed "
-                    "and were left out. Every run is a trial of the sweep runner (resumable, "
-                    "local processes or Ray). Exit status: 0 every trial ran, 1 a trial "
-                    "raised an error, 2 bad input.")
-    ap.add_argument("--quick", action="store_true",
-                    help="one run of each, fewer samples (about a minute of CPU time)")
-    ap.add_argument("--runs", type=pos_int, default=20,
-                    help="numpy runs of Table 3.1 per failure, a quarter as many of Table 3.2 "
-                         "(20)")
-    ap.add_argument("--seed", type=nonneg_int, default=0)
-    ap.add_argument("--structure-runs", type=pos_int, default=5,
-                    help="Drake runs of the 7-DOF structure convergence (5)")
-    ap.add_argument("--drake-runs", type=pos_int, default=6,
-                    help="Drake runs of Table 3.1 per failure, half as many of Table 3.2 (6)")
-    ap.add_argument("--fig310-runs", type=pos_int, default=3,
-                    help="Drake runs averaged in Fig. 3.10 (3)")
-    ap.add_argument("--out-dir", type=Path, default=Path("."),
-                    help="where plots, the JSON and the default results file go (default: "
-                         "current directory)")
-    ap.add_argument("--json", action="store_true", help="print the results as JSON")
-    add_sweep_args(ap, app="body_schema_experiments")
-    args = ap.parse_args(argv)
-    try:
-        check_out_dir("--out-dir", args.out_dir)
-        if args.report_only:
-            lines = report_lines(args.report_only)
-        else:
-            sweep = sweep_kwargs(args, app="body_schema_experiments", out_dir=args.out_dir)
-    except UsageError as e:
-        return fail(ap.prog, str(e))
-    if args.report_only:
-        try:
-            res = write_outputs(report(lines), args.out_dir)
-        except ValueError as e:
-            return fail(ap.prog, f"--report-only: {args.report_only}: {e}")
-    else:
-        try:
-            res = run(quick=args.quick, runs=args.runs, seed=args.seed, out_dir=args.out_dir,
-                      show_progress=not args.json, structure_runs=args.structure_runs,
-                      drake_runs=args.drake_runs, fig310_runs=args.fig310_runs, **sweep)
-        except ValueError as e:  # UsageError included
-            return fail(ap.prog, str(e))
-    print(json.dumps(res) if args.json else format_report(res))
-    return exit_status(ap.prog, res)
+    return experiment.main(BodySchemaExperiments(), argv)
 
 
 if __name__ == "__main__":

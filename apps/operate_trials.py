@@ -16,9 +16,9 @@ from pathlib import Path
 
 import numpy as np
 
-from mmlearn.apps.common.cli import (ArgumentParser, UsageError, check_in_file, check_out_dir,
-                                     fail, name_list, nonneg_int, pos_int)
-from mmlearn.apps.common.sweep import add_sweep_args, report_lines, sweep_kwargs
+from mmlearn.apps.common import experiment
+from mmlearn.apps.common.cli import check_in_file, check_out_dir, name_list, nonneg_int, pos_int
+from mmlearn.apps.common.experiment import Experiment
 from mmlearn.apps.open_cabinet import add_trial_args
 from mmlearn.sdf.mechanisms import KINDS
 from mmlearn.models.common.trials import register_trial
@@ -123,6 +123,62 @@ def summarize(trials: list[dict]) -> dict:
     return table
 
 
+def _prior_text(priors: str) -> tuple[str | None, str]:
+    """The prior database's text (sent once to every worker) and its SHA-1; a bad database
+    is bad input, found here rather than in every trial."""
+    import hashlib
+
+    if not priors:
+        return None, ""
+    from mmlearn.models.articulation.priors import PriorDatabase
+
+    PriorDatabase.load(priors)
+    text = Path(priors).read_text()
+    return text, hashlib.sha1(text.encode()).hexdigest()
+
+
+def trial_specs(*, objects=KINDS, trials: int = 8, seed: int = 0, max_time: float = 60.0,
+                sigma_pos: float | None = None, priors: str = "",
+                mechanism_seed: int | None = None, save_tracks: str = "",
+                base_noise: float | None = None, perception: str = "click") -> list:
+    """The sweep's trials, ``trials`` per object (checks the arguments, see :func:`run`)."""
+    from mmlearn.apps.common.sweep import TrialSpec
+
+    objects = list(objects)
+    if not objects:
+        raise ValueError("objects: empty list; choose from " + ", ".join(KINDS))
+    for k in objects:
+        if k not in KINDS:
+            raise ValueError(f"unknown object {k!r}; choose from {', '.join(KINDS)}")
+    if trials < 1:
+        raise ValueError("trials must be >= 1")
+    if perception not in ("click", "depth"):
+        raise ValueError(f"perception must be click or depth, got {perception!r}")
+    # a click trial's identity stays what it was before perception existed (results files
+    # of earlier runs resume)
+    extra = {} if perception == "click" else {"perception": perception}
+    if not (max_time > 0 and math.isfinite(max_time)):
+        raise ValueError(f"max_time must be a finite number of seconds > 0, got {max_time}")
+    priors_sha1 = _prior_text(priors)[1]
+    if save_tracks:
+        Path(save_tracks).mkdir(parents=True, exist_ok=True)
+    return [TrialSpec(fn=trial, seed=seed + i,
+                      label=f"{k} seed {seed + i}",
+                      params={"kind": k, "max_time": max_time, "sigma_pos": sigma_pos,
+                              "mechanism_seed": mechanism_seed, "base_noise": base_noise,
+                              "priors_sha1": priors_sha1,
+                              "save_track": str(Path(save_tracks) / f"{k}_{seed + i:03d}.log")
+                              if save_tracks else "", **extra})
+            for k in objects for i in range(trials)]
+
+
+def _attach_sweep(res: dict, sweep) -> dict:
+    res.update(wall_seconds=round(sweep.wall_s, 1), resumed=sweep.resumed,
+               interrupted=sweep.interrupted, not_run=[s.label for s in sweep.missing],
+               results_file=str(sweep.results) if sweep.results else None)
+    return res
+
+
 def run(*, objects=KINDS, trials: int = 8, seed: int = 0, jobs: int | None = None,
         max_time: float = 60.0, sigma_pos: float | None = None, priors: str = "",
         mechanism_seed: int | None = None, save_tracks: str = "",
@@ -140,51 +196,17 @@ def run(*, objects=KINDS, trials: int = 8, seed: int = 0, jobs: int | None = Non
     JSON Lines file they are streamed to (None: a temporary one; with a file, trials already
     in it are not run again), ``executor`` ``"local"`` (a pool of ``jobs`` processes) or
     ``"ray"`` (``ray_address``: a cluster, None: a local Ray instance of ``jobs`` CPUs)."""
-    import hashlib
+    from mmlearn.apps.common.sweep import run_sweep
 
-    from mmlearn.apps.common.sweep import TrialSpec, run_sweep
-
-    objects = list(objects)
-    if not objects:
-        raise ValueError("objects: empty list; choose from " + ", ".join(KINDS))
-    for k in objects:
-        if k not in KINDS:
-            raise ValueError(f"unknown object {k!r}; choose from {', '.join(KINDS)}")
-    if trials < 1:
-        raise ValueError("trials must be >= 1")
-    if perception not in ("click", "depth"):
-        raise ValueError(f"perception must be click or depth, got {perception!r}")
-    # a click trial's identity stays what it was before perception existed (results files
-    # of earlier runs resume)
-    extra = {} if perception == "click" else {"perception": perception}
     if jobs is not None and jobs < 1:
         raise ValueError(f"jobs must be >= 1 (or None for all cores), got {jobs}")
-    if not (max_time > 0 and math.isfinite(max_time)):
-        raise ValueError(f"max_time must be a finite number of seconds > 0, got {max_time}")
-    shared, priors_sha1 = None, ""
-    if priors:  # a bad database is bad input, found here rather than in every trial
-        from mmlearn.models.articulation.priors import PriorDatabase
-
-        PriorDatabase.load(priors)
-        shared = Path(priors).read_text()
-        priors_sha1 = hashlib.sha1(shared.encode()).hexdigest()
-    if save_tracks:
-        Path(save_tracks).mkdir(parents=True, exist_ok=True)
-    specs = [TrialSpec(fn=trial, seed=seed + i,
-                       label=f"{k} seed {seed + i}",
-                       params={"kind": k, "max_time": max_time, "sigma_pos": sigma_pos,
-                               "mechanism_seed": mechanism_seed, "base_noise": base_noise,
-                               "priors_sha1": priors_sha1,
-                               "save_track": str(Path(save_tracks) / f"{k}_{seed + i:03d}.log")
-                               if save_tracks else "", **extra})
-             for k in objects for i in range(trials)]
+    specs = trial_specs(objects=objects, trials=trials, seed=seed, max_time=max_time,
+                        sigma_pos=sigma_pos, priors=priors, mechanism_seed=mechanism_seed,
+                        save_tracks=save_tracks, base_noise=base_noise, perception=perception)
     sweep = run_sweep(specs, results=results, executor=executor, jobs=jobs,
-                      ray_address=ray_address, shared=shared, show_progress=show_progress)
-    res = report(sweep.lines)
-    res.update(wall_seconds=round(sweep.wall_s, 1), resumed=sweep.resumed,
-               interrupted=sweep.interrupted, not_run=[s.label for s in sweep.missing],
-               results_file=str(sweep.results) if sweep.results else None)
-    return res
+                      ray_address=ray_address, shared=_prior_text(priors)[0],
+                      show_progress=show_progress)
+    return _attach_sweep(report(sweep.lines), sweep)
 
 
 def report(lines: list[dict]) -> dict:
@@ -265,59 +287,68 @@ def format_table(res: dict) -> str:
     return "\n".join(lines)
 
 
-def main(argv=None) -> int:
-    ap = ArgumentParser(prog="python -m mmlearn.apps.operate_trials",
-                        description="Five mechanisms x N trials of opening while learning "
-                                    "(thesis 4.4.2). Exit status: 0 all trials ran (opened "
-                                    "or not), 1 a trial raised an error, 2 bad input.")
-    ap.add_argument("--trials", type=pos_int, default=8, help="trials per object")
-    ap.add_argument("--objects", type=name_list(KINDS), default=list(KINDS),
-                    help="comma-separated objects (default: all five)")
-    ap.add_argument("--seed", type=nonneg_int, default=0, help="seed of the first trial")
-    add_trial_args(ap)
-    ap.add_argument("--mechanism-seed", type=nonneg_int, default=None,
-                    help="the same mechanism per object in every trial (trials differ in "
-                         "the handle click and the robot's start)")
-    ap.add_argument("--save-tracks", default="",
-                    help="folder to write each trial's hook trajectory to (for learn_priors)")
-    ap.add_argument("--priors", default="", help="prior database to use (from learn_priors)")
-    add_sweep_args(ap, app="operate_trials")
-    ap.add_argument("--json", action="store_true")
-    args = ap.parse_args(argv)
-    try:
-        if args.report_only:
-            res = report(report_lines(args.report_only))
-        else:
+class OperateTrials(Experiment):
+    name = "operate_trials"
+    description = ("Five mechanisms x N trials of opening while learning (thesis 4.4.2). Exit "
+                   "status: 0 all trials ran (opened or not), 1 a trial raised an error, 2 bad "
+                   "input.")
+    seed_help = "seed of the first trial"
+    json_help = None
+
+    def add_arguments(self, ap):
+        ap.add_argument("--trials", type=pos_int, default=8, help="trials per object")
+        ap.add_argument("--objects", type=name_list(KINDS), default=list(KINDS),
+                        help="comma-separated objects (default: all five)")
+        add_trial_args(ap)
+        ap.add_argument("--mechanism-seed", type=nonneg_int, default=None,
+                        help="the same mechanism per object in every trial (trials differ in "
+                             "the handle click and the robot's start)")
+        ap.add_argument("--save-tracks", default="",
+                        help="folder to write each trial's hook trajectory to (for "
+                             "learn_priors)")
+        ap.add_argument("--priors", default="",
+                        help="prior database to use (from learn_priors)")
+
+    def check(self, args):
+        if not args.report_only:
             check_out_dir("--save-tracks", args.save_tracks, create=False)
             check_in_file("--priors", args.priors)
-            sweep = sweep_kwargs(args, app="operate_trials")
-    except UsageError as e:
-        return fail(ap.prog, str(e))
-    if not args.report_only:
-        try:
-            res = run(objects=args.objects, trials=args.trials,
-                      seed=args.seed, max_time=args.max_time,
-                      sigma_pos=args.sigma_pos, priors=args.priors,
-                      mechanism_seed=args.mechanism_seed, save_tracks=args.save_tracks,
-                      show_progress=not args.json, base_noise=args.base_noise,
-                      perception=args.perception, **sweep)
-        except UsageError as e:
-            return fail(ap.prog, str(e))
-        except (ValueError, OSError) as e:
-            return fail(ap.prog, f"--priors: {e}" if args.priors and str(args.priors) in str(e)
-                        else str(e))
-    if args.json:
-        print(json.dumps(res))
-    else:
+
+    def specs(self, args):
+        return trial_specs(objects=args.objects, trials=args.trials, seed=args.seed,
+                           max_time=args.max_time, sigma_pos=args.sigma_pos,
+                           priors=args.priors, mechanism_seed=args.mechanism_seed,
+                           save_tracks=args.save_tracks, base_noise=args.base_noise,
+                           perception=args.perception)
+
+    def shared(self, args):
+        return _prior_text(args.priors)[0]
+
+    def report(self, lines, args):
+        return report(lines)
+
+    def attach_sweep(self, res, sweep, args):
+        _attach_sweep(res, sweep)
+
+    def print_table(self, res, args):
         print(format_table(res))
-    if res["errors"]:
-        failed = ", ".join(f"{t['object']} seed {t['seed']}" for t in res["trials"]
-                           if t.get("error"))
-        print(f"{ap.prog}: {res['errors']} trial(s) raised an error: {failed}", file=sys.stderr)
-        return 1
-    if res.get("interrupted"):
-        return 130
-    return 0
+
+    def to_json(self, res):
+        return json.dumps(res)
+
+    def failed(self, res):
+        return [f"{t['object']} seed {t['seed']}" for t in res["trials"] if t.get("error")]
+
+    def interrupted(self, res):
+        return bool(res.get("interrupted"))
+
+    def error_message(self, error, args):
+        return (f"--priors: {error}" if args.priors and str(args.priors) in str(error)
+                else str(error))
+
+
+def main(argv=None) -> int:
+    return experiment.main(OperateTrials(), argv)
 
 
 if __name__ == "__main__":

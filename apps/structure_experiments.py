@@ -41,7 +41,6 @@ several jobs on few cores they include the others' load).
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import sys
 import time
@@ -49,9 +48,9 @@ from pathlib import Path
 
 import numpy as np
 
-from mmlearn.apps.common.cli import (ArgumentParser, UsageError, check_out_dir, fail, json_clean,
-                                     nonneg_int, pos_int, progress_bar)
-from mmlearn.apps.common.cli import save_figure
+from mmlearn.apps.common import experiment
+from mmlearn.apps.common.cli import (UsageError, check_out_dir, pos_int, progress_bar, save_figure)
+from mmlearn.apps.common.experiment import Experiment
 from mmlearn.models.articulation.link import ObservationModel
 from mmlearn.models.articulation.graph import (KinematicGraphEvaluator, fit_pair_models,
                                                fit_structure, search_structure,
@@ -580,6 +579,76 @@ def report(lines: list[dict], *, only=None) -> tuple[dict, list[str]]:
     return results, text
 
 
+def _only(only) -> list:
+    if isinstance(only, str):
+        only = [x.strip() for x in only.split(",") if x.strip()]
+    return list(only)
+
+
+class StructureExperiments(Experiment):
+    name = "structure_experiments"
+    description = (__doc__.split("\n\n")[0] + " Exit status: 0 every trial ran, 1 a trial "
+                   "raised an error, 2 bad input.")
+    seed_help = "random seed"
+    json_help = "print JSON instead of tables"
+    desc = "structure trials"
+
+    def __init__(self):
+        self.text: list[str] = []
+
+    def add_arguments(self, ap):
+        ap.add_argument("--only", default=",".join(EXPERIMENTS),
+                        help="comma-separated experiments (default: all)")
+        ap.add_argument("--quick", action="store_true", help="small, fast setting")
+        ap.add_argument("--seeds", type=pos_int, default=10, help="yardstick seeds (fig416)")
+        ap.add_argument("--n", type=pos_int, default=200, help="yardstick samples (fig416)")
+        ap.add_argument("--sensor", choices=list(SENSORS), default="ideal",
+                        help="ideal: the scenarios' Gaussian marker noise (default); camera: "
+                             "ArUco markers on the parts read from rendered images (slow)")
+        ap.add_argument("--out-dir", default=None,
+                        help="folder for the plots (PNG) and the default results file")
+        ap.add_argument("--out", dest="out_dir", help=argparse.SUPPRESS)  # old spelling
+        ap.add_argument("--no-progress", action="store_true", help="no progress bars")
+
+    def check(self, args):
+        check_out_dir("--out-dir", args.out_dir)
+        if args.report_only:
+            bad = [x for x in _only(args.only) if x not in EXPERIMENTS]
+            if bad:
+                raise UsageError(f"--only: unknown experiment {bad[0]!r}; choose from "
+                                 + ", ".join(EXPERIMENTS))
+
+    def show_progress(self, args):
+        return not args.no_progress
+
+    def specs(self, args):
+        only = _only(args.only)
+        for k in only:
+            if k not in EXPERIMENTS:
+                raise ValueError(f"unknown experiment {k!r}; choose from "
+                                 f"{', '.join(EXPERIMENTS)}")
+        if args.seeds < 1 or args.n < 20:
+            raise ValueError("--seeds must be >= 1 and --n >= 20")
+        if args.sensor not in SENSORS:
+            raise ValueError(f"sensor must be one of {', '.join(SENSORS)}, got {args.sensor!r}")
+        return trial_specs(only=only, quick=args.quick, seed=args.seed, seeds=args.seeds,
+                           n=args.n, sensor=args.sensor)
+
+    def report(self, lines, args):
+        res, self.text = report(lines, only=_only(args.only))
+        return res
+
+    def finish(self, res, args):
+        if args.out_dir:
+            res["plots"] = _plots(res, args.out_dir)
+        return res
+
+    def print_table(self, res, args):
+        print("\n".join(self.text) + "\n", flush=True)
+        if res.get("plots"):
+            print("plots: " + ", ".join(res["plots"]))
+
+
 def run(*, only=EXPERIMENTS, quick: bool = False, seed: int = 0, seeds: int = 10, n: int = 200,
         out: str | None = None, progress: bool = True, echo=None, results: str | None = None,
         executor: str = "local", jobs: int | None = None,
@@ -593,92 +662,18 @@ def run(*, only=EXPERIMENTS, quick: bool = False, seed: int = 0, seeds: int = 10
     one; trials already in it are not run again), ``executor`` "local" (``jobs`` processes,
     default all cores) or "ray" (``ray_address``: a cluster, None: a local Ray instance).
     ``sensor``: "ideal" or "camera" (see :func:`observe`)."""
-    from mmlearn.apps.common.sweep import run_sweep
-
-    if isinstance(only, str):
-        only = [x.strip() for x in only.split(",") if x.strip()]
-    for k in only:
-        if k not in EXPERIMENTS:
-            raise ValueError(f"unknown experiment {k!r}; choose from {', '.join(EXPERIMENTS)}")
-    if seeds < 1 or n < 20:
-        raise ValueError("--seeds must be >= 1 and --n >= 20")
-    if sensor not in SENSORS:
-        raise ValueError(f"sensor must be one of {', '.join(SENSORS)}, got {sensor!r}")
-    specs = trial_specs(only=only, quick=quick, seed=seed, seeds=seeds, n=n, sensor=sensor)
-    sweep = run_sweep(specs, results=results, executor=executor, jobs=jobs,
-                      ray_address=ray_address, show_progress=progress,
-                      desc="structure trials")
-    res, text = report(sweep.lines, only=only)
-    res["sweep"] = sweep.summary()
+    exp = StructureExperiments()
+    args = argparse.Namespace(only=only, quick=quick, seed=seed, seeds=seeds, n=n,
+                              out_dir=out, no_progress=not progress, sensor=sensor)
+    res = experiment.run_experiment(exp, args, results=results, executor=executor, jobs=jobs,
+                                    ray_address=ray_address)
     if echo is not None:
-        echo(text)
-    if out:
-        res["plots"] = _plots(res, out)
+        echo(exp.text)
     return res
 
 
 def main(argv=None) -> int:
-    from mmlearn.apps.common.sweep import add_sweep_args, exit_status, report_lines, sweep_kwargs
-
-    ap = ArgumentParser(prog="python -m mmlearn.apps.structure_experiments",
-                        description=__doc__.split("\n\n")[0] + " Exit status: 0 every trial "
-                        "ran, 1 a trial raised an error, 2 bad input.")
-    ap.add_argument("--only", default=",".join(EXPERIMENTS),
-                    help="comma-separated experiments (default: all)")
-    ap.add_argument("--quick", action="store_true", help="small, fast setting")
-    ap.add_argument("--seed", type=nonneg_int, default=0, help="random seed")
-    ap.add_argument("--seeds", type=pos_int, default=10, help="yardstick seeds (fig416)")
-    ap.add_argument("--n", type=pos_int, default=200, help="yardstick samples (fig416)")
-    ap.add_argument("--sensor", choices=list(SENSORS), default="ideal",
-                    help="ideal: the scenarios' Gaussian marker noise (default); camera: "
-                         "ArUco markers on the parts read from rendered images (slow)")
-    ap.add_argument("--json", action="store_true", help="print JSON instead of tables")
-    ap.add_argument("--out-dir", default=None,
-                    help="folder for the plots (PNG) and the default results file")
-    ap.add_argument("--out", dest="out_dir", help=argparse.SUPPRESS)  # old spelling
-    ap.add_argument("--no-progress", action="store_true", help="no progress bars")
-    add_sweep_args(ap, app="structure_experiments")
-    a = ap.parse_args(argv)
-    try:
-        check_out_dir("--out-dir", a.out_dir)
-        if a.report_only:
-            only = [x.strip() for x in a.only.split(",") if x.strip()]
-            bad = [x for x in only if x not in EXPERIMENTS]
-            if bad:
-                raise UsageError(f"--only: unknown experiment {bad[0]!r}; choose from "
-                                 + ", ".join(EXPERIMENTS))
-            lines = report_lines(a.report_only)
-        else:
-            sweep = sweep_kwargs(a, app="structure_experiments", out_dir=a.out_dir or ".")
-    except UsageError as e:
-        return fail(ap.prog, str(e))
-
-    def echo(lines):
-        if not a.json:
-            print("\n".join(lines) + "\n", flush=True)
-
-    if a.report_only:
-        try:
-            res, text = report(lines, only=only)
-        except ValueError as e:
-            return fail(ap.prog, f"--report-only: {a.report_only}: {e}")
-        echo(text)
-        if a.out_dir:
-            res["plots"] = _plots(res, a.out_dir)
-    else:
-        try:
-            res = run(only=a.only, quick=a.quick, seed=a.seed, seeds=a.seeds, n=a.n,
-                      out=a.out_dir, progress=not a.no_progress, echo=echo,
-                      sensor=a.sensor, **sweep)
-        except UsageError as e:
-            return fail(ap.prog, str(e))
-        except (ValueError, OSError) as e:
-            return fail(ap.prog, str(e))
-    if a.json:
-        print(json.dumps(json_clean(res)))
-    elif res.get("plots"):
-        print("plots: " + ", ".join(res["plots"]))
-    return exit_status(ap.prog, res)
+    return experiment.main(StructureExperiments(), argv)
 
 
 if __name__ == "__main__":
