@@ -10,117 +10,16 @@ command resumes, ``--report-only FILE`` redraws the table from a results file.
 
 import json
 import math
-import os
 import sys
 from pathlib import Path
-
-import numpy as np
 
 from mmlearn.apps.common import experiment
 from mmlearn.apps.common.cli import check_in_file, check_out_dir, name_list, nonneg_int, pos_int
 from mmlearn.apps.common.experiment import Experiment
-from mmlearn.apps.open_cabinet import add_trial_args
+from mmlearn.apps.common.operate_args import add_trial_args
+from mmlearn.diagrams.articulation.trials import operate_trial
+from mmlearn.models.articulation.evaluation import operate_report
 from mmlearn.sdf.mechanisms import KINDS
-from mmlearn.models.common.trials import register_trial
-
-
-def _error_record(kind: str, seed: int, error: str) -> dict:
-    """The table's record of a trial that raised: an error (not a failed opening), with its
-    reason."""
-    revolute = kind in ("left_door", "right_door", "dishwasher")
-    return {"object": kind, "seed": seed, "success": False, "opened": None,
-            "unit": "deg" if revolute else "m", "outcome": f"error: {error}", "error": error,
-            "learned_model": None, "radius_error_m": None, "axis_error_deg": None,
-            "right_kind": False, "right_model_at": None,
-            "true_kind": "revolute" if revolute else "prismatic",
-            "model_log": [], "sim_seconds": 0.0, "wall_seconds": 0.0}
-
-
-_PRIORS_FILES: dict = {}  # a worker's copy of the shared prior database, written once
-
-
-def _priors_file(text: str) -> str:
-    """The sweep's prior database (sent once per worker as text) as a local file."""
-    import hashlib
-    import tempfile
-
-    h = hashlib.sha1(text.encode()).hexdigest()[:16]
-    if h not in _PRIORS_FILES:
-        p = Path(tempfile.gettempdir()) / f"mmlearn-priors-{os.getpid()}-{h}.json"
-        p.write_text(text)
-        _PRIORS_FILES[h] = str(p)
-    return _PRIORS_FILES[h]
-
-
-@register_trial("articulation.operate")
-def trial(*, seed: int, kind: str, max_time: float = 60.0, sigma_pos: float | None = None,
-          mechanism_seed: int | None = None, base_noise: float | None = None,
-          save_track: str = "", priors_sha1: str = "", shared=None,
-          perception: str = "click") -> dict:
-    """One opening trial (the sweep's trial function): ``open_cabinet.run`` of one object and
-    seed. ``shared`` is the prior database's text when the sweep uses one (``priors_sha1``
-    names it in the trial's identity)."""
-    from mmlearn.apps.open_cabinet import run as open_run
-
-    priors = _priors_file(shared) if shared else ""
-    return open_run(kind=kind, seed=seed, max_time=max_time, sigma_pos=sigma_pos,
-                    priors=priors, mechanism_seed=mechanism_seed, show_progress=False,
-                    save_track=save_track, base_noise=base_noise, perception=perception)
-
-
-def records_of(lines: list[dict]) -> list[dict]:
-    """Table records from results-file lines: a trial that raised becomes an error record."""
-    out = []
-    for ln in lines:
-        if ln.get("error") is None:
-            out.append(ln["record"])
-        else:
-            p = ln["spec"]["params"]
-            out.append(_error_record(p.get("kind", "?"), ln["spec"]["seed"], ln["error"]))
-    return out
-
-
-def summarize(trials: list[dict]) -> dict:
-    """Per-object success rate, mean opening, radius and axis errors, and how many trials
-    ended with the right kind of model (and the mean opening from which it held). Trials
-    that raised (``"error"`` in the record) are counted in ``errors`` and left out of every
-    mean and of ``trials``/``successes``/``right_kind``; ``radius_runs`` / ``axis_runs`` /
-    ``right_model_runs`` say how many trials each mean is over."""
-    def mean(xs):
-        return float(np.mean(xs)) if xs else None
-
-    def largest(xs):
-        return float(np.max(xs)) if xs else None
-
-    table = {}
-    for kind in dict.fromkeys(t["object"] for t in trials):
-        mine = [t for t in trials if t["object"] == kind]
-        ts = [t for t in mine if not t.get("error")]
-        radius = [t["radius_error_m"] for t in ts if t.get("radius_error_m") is not None]
-        right_at = [t["right_model_at"] for t in ts if t.get("right_model_at") is not None]
-        axis = [t["axis_error_deg"] for t in ts if t.get("axis_error_deg") is not None]
-        handle = [t["handle_error_m"] for t in ts if t.get("handle_error_m") is not None]
-        table[kind] = {
-            "trials": len(ts),
-            "errors": len(mine) - len(ts),
-            "successes": sum(t["success"] for t in ts),
-            "radius_runs": len(radius), "axis_runs": len(axis), "right_model_runs": len(right_at),
-            "mean_opened": mean([t["opened"] for t in ts]),
-            "unit": mine[0]["unit"],
-            "mean_radius_error_m": mean(radius),
-            "max_radius_error_m": largest(radius),
-            "mean_axis_error_deg": mean(axis),
-            "no_front": sum(t.get("front_found") is False for t in ts),
-            "mean_handle_error_m": mean(handle), "max_handle_error_m": largest(handle),
-            "right_kind": sum(bool(t.get("right_kind")) for t in ts),
-            "success_and_right_kind": sum(bool(t["success"] and t.get("right_kind"))
-                                          for t in ts),
-            "mean_right_model_at": mean(right_at),
-            "max_right_model_at": largest(right_at),
-            "models": {m: sum(t["learned_model"] == m for t in ts)
-                       for m in dict.fromkeys(t["learned_model"] for t in ts)},
-        }
-    return table
 
 
 def _prior_text(priors: str) -> tuple[str | None, str]:
@@ -162,7 +61,7 @@ def trial_specs(*, objects=KINDS, trials: int = 8, seed: int = 0, max_time: floa
     priors_sha1 = _prior_text(priors)[1]
     if save_tracks:
         Path(save_tracks).mkdir(parents=True, exist_ok=True)
-    return [TrialSpec(fn=trial, seed=seed + i,
+    return [TrialSpec(fn=operate_trial, seed=seed + i,
                       label=f"{k} seed {seed + i}",
                       params={"kind": k, "max_time": max_time, "sigma_pos": sigma_pos,
                               "mechanism_seed": mechanism_seed, "base_noise": base_noise,
@@ -206,26 +105,7 @@ def run(*, objects=KINDS, trials: int = 8, seed: int = 0, jobs: int | None = Non
     sweep = run_sweep(specs, results=results, executor=executor, jobs=jobs,
                       ray_address=ray_address, shared=_prior_text(priors)[0],
                       show_progress=show_progress)
-    return _attach_sweep(report(sweep.lines), sweep)
-
-
-def report(lines: list[dict]) -> dict:
-    """The experiment's results from results-file lines (a run or ``--report-only``)."""
-    results = records_of(lines)
-    n_ok = sum(bool(r["success"]) for r in results)
-    n_err = sum(1 for r in results if r.get("error"))
-    n_run = len(results) - n_err
-    n_kind = sum(bool(r.get("right_kind")) for r in results if not r.get("error"))
-    first = next((r for r in results if "sigma_pos" in r), {})
-    return {"trials": results, "success_rate": n_ok / n_run if n_run else None,
-            "successes": n_ok, "errors": n_err, "total": n_run,
-            "right_kind": n_kind, "right_kind_rate": n_kind / n_run if n_run else None,
-            "per_object": summarize(results),
-            "sigma_pos": first.get("sigma_pos"),
-            "base_noise": first.get("base_noise"),
-            "perception": first.get("perception", "click"),
-            "trial_seconds": round(sum(ln.get("wall_s") or 0.0 for ln in lines), 1),
-            "wall_seconds": None}
+    return _attach_sweep(operate_report(sweep.lines), sweep)
 
 
 def format_table(res: dict) -> str:
@@ -325,7 +205,7 @@ class OperateTrials(Experiment):
         return _prior_text(args.priors)[0]
 
     def report(self, lines, args):
-        return report(lines)
+        return operate_report(lines)
 
     def attach_sweep(self, res, sweep, args):
         _attach_sweep(res, sweep)

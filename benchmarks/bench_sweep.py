@@ -31,7 +31,7 @@ from pathlib import Path
 
 from mmlearn.apps.common.sweep import (TrialSpec, _init_worker, _local_worker, _ray_execute,
                                        probe_trial, run_sweep)
-from mmlearn.apps.operate_trials import trial as operate_trial
+from mmlearn.diagrams.articulation.trials import operate_trial
 
 
 def probe(args):

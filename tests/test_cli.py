@@ -135,13 +135,13 @@ def test_operate_trials_bad_input(tmp_path, capsys, prior_db):
 
 
 def test_operate_trials_counts_a_crashed_trial_as_an_error(monkeypatch, capsys, tmp_path):
-    import mmlearn.apps.open_cabinet as oc
+    import mmlearn.diagrams.articulation.trials as trials
     from mmlearn.apps.operate_trials import main
 
     def boom(**kw):
         raise RuntimeError("simulated crash")
 
-    monkeypatch.setattr(oc, "run", boom)  # --jobs 1 runs the trials in this process
+    monkeypatch.setattr(trials, "open_mechanism", boom)  # --jobs 1 runs the trials in this process
     rc, out, err = _exit(main, ["--objects", "drawer", "--trials", "2", "--jobs", "1",
                                 "--json", "--results", str(tmp_path / "r.jsonl")], capsys)
     assert "drawer seed 0, drawer seed 1" in err  # the failed trials are named
@@ -154,7 +154,8 @@ def test_operate_trials_counts_a_crashed_trial_as_an_error(monkeypatch, capsys, 
 
 
 def test_operate_trials_table_reports_errors_beside_the_means():
-    from mmlearn.apps.operate_trials import format_table, summarize
+    from mmlearn.apps.operate_trials import format_table
+    from mmlearn.models.articulation.evaluation import summarize_operate as summarize
 
     ok = {"object": "drawer", "seed": 0, "success": True, "opened": 0.35, "unit": "m",
           "outcome": "done", "learned_model": "prismatic", "radius_error_m": None,

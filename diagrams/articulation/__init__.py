@@ -6,9 +6,11 @@ from mmlearn._lazy import lazy_exports
 _EXPORTS = {
     "operate": ["OperateConfig", "Operate", "make_task", "task_from_look", "MakeOperateDiagram"],
     "operate_perception": ["LookConfig", "LookResult", "LookAtFront", "NoFrontDetected", "front_centre"],
+    "trials": ["open_mechanism", "operate_trial", "scene_points", "draw_look"],
 }
 
 __all__ = [
+    "draw_look",
     "front_centre",
     "LookAtFront",
     "LookConfig",
@@ -16,8 +18,11 @@ __all__ = [
     "make_task",
     "MakeOperateDiagram",
     "NoFrontDetected",
+    "open_mechanism",
     "Operate",
+    "operate_trial",
     "OperateConfig",
+    "scene_points",
     "task_from_look",
 ]
 

@@ -1,0 +1,262 @@
+"""The articulation capability's Drake trials: opening a door or drawer while learning its
+model (thesis 4.3, 4.4.2).
+
+:func:`open_mechanism` runs one trial (the robot about 1 m away with a noisy handle location
+drives to a stance, hooks the handle and opens the mechanism by equilibrium-point control
+while it learns the mechanism's kinematic model online from its hook's trajectory);
+:func:`operate_trial` is the same trial registered for the sweep runner
+(``articulation.operate``).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import time
+from pathlib import Path
+
+import numpy as np
+
+from mmlearn.models.articulation.evaluation import (SUCCESS_ANGLE, SUCCESS_DISTANCE,
+                                                    evaluate_model, right_kind)
+from mmlearn.models.common.progress import progress_bar
+from mmlearn.models.common.trials import register_trial
+from mmlearn.sdf.mechanisms import KINDS, REVOLUTE
+
+__all__ = ["open_mechanism", "operate_trial", "scene_points", "draw_look"]
+
+
+def scene_points(op) -> np.ndarray:
+    """Points (world, m) that the camera must see: the cabinet's corners, the handle over
+    the front's whole travel, the robot at its start (its base, the arm up to 1.3 m) and
+    its base where it will stand to open the mechanism."""
+    spec = op.mechanism
+    T = spec.X_WF()
+    half = spec.width / 2 + 0.06 if spec.kind != "sliding_door" else spec.width + 0.06
+    top = spec.bottom + spec.height + 0.03
+    corners_F = np.array([[x, y, z] for x in (-spec.depth, 0.0) for y in (-half, half)
+                          for z in (0.0, top)])
+    pts = [corners_F @ T[:3, :3].T + T[:3, 3]]
+    pts.append([spec.handle_world(q)[0] for q in np.linspace(0.0, spec.limit, 5)])
+    # the mobile base (0.55 m x 0.45 m, 0.3 m high, sdf/builders.py) at its start pose and
+    # the arm above it
+    x, y, yaw = op.start_command[:3]
+    c, s = math.cos(yaw), math.sin(yaw)
+    pts.append([[x + c * dx - s * dy, y + s * dx + c * dy, z] for dx in (-0.28, 0.28)
+                for dy in (-0.23, 0.23) for z in (0.0, 0.3)])
+    pts.append([[x, y, 1.3]])
+    # ... and where it will stand, about 0.8 m in front of the handle and up to 0.3 m to
+    # its side (EpcConfig.stance_distance, stance_side), at any yaw (half-diagonal 0.36 m)
+    h, n = op.true_task.handle, op.true_task.normal
+    n = np.array([n[0], n[1], 0.0]) / max(np.hypot(n[0], n[1]), 1e-9)
+    side = np.array([-n[1], n[0], 0.0])
+    for off in (-0.3, 0.3):
+        c = np.array([h[0], h[1], 0.0]) + 0.8 * n + off * side
+        pts.append([c + [dx, dy, z] for dx in (-0.36, 0.36) for dy in (-0.36, 0.36)
+                    for z in (0.0, 0.3)])
+    return np.concatenate([np.asarray(p, float) for p in pts])
+
+
+def draw_look(meshcat, look) -> None:
+    """The front the robot chose (its outline), the handle it derived (a sphere) and the
+    head camera's position, in the true world frame."""
+    from pydrake.geometry import Rgba, Sphere
+    from pydrake.math import RigidTransform
+
+    c = look.estimate.front.corners()
+    meshcat.SetLineSegments("perception/front", c.T, np.roll(c, -1, axis=0).T, 3.0,
+                            Rgba(0.1, 0.8, 0.1, 1))
+    meshcat.SetObject("perception/handle", Sphere(0.015), Rgba(0.9, 0.1, 0.1, 1))
+    meshcat.SetTransform("perception/handle", RigidTransform(look.estimate.handle))
+    meshcat.SetObject("perception/camera", Sphere(0.03), Rgba(0.1, 0.1, 0.1, 1))
+    meshcat.SetTransform("perception/camera", RigidTransform(look.X_WC[:3, 3]))
+
+
+def open_mechanism(*, kind: str = "left_door", seed: int = 0, meshcat=None,
+                   max_time: float = 60.0, sigma_pos: float | None = None,
+                   show_progress: bool = True, realtime: bool = False, priors: str = "",
+                   mechanism_seed: int | None = None, save_track: str = "",
+                   base_noise: float | None = None, perception: str = "click",
+                   on_built=None) -> dict:
+    """One opening trial: the robot drives to the mechanism ``kind``, hooks its handle and
+    opens it while learning its model (thesis 4.3, 4.4.2); returns the trial's record.
+
+    Success is the thesis' criterion on the largest opening reached: more than 60 deg or
+    0.3 m (``final_opening`` is the opening after the hook let go). ``right_kind`` says
+    whether the model at the end was the right kind (revolute for doors, prismatic for
+    drawers and sliding doors) and ``right_model_at`` the opening from which it held.
+
+    ``sigma_pos``: position noise the estimator assumes, m (None = OperateConfig's 0.05);
+    ``base_noise``: scale of the base-localisation and odometry error (None = 1, the
+    defaults of ``BaseLocalizationConfig``; 0 = the base pose is known exactly);
+    ``priors``: prior database to use (see ``learn_priors``); ``mechanism_seed``: fix the
+    mechanism's geometry while ``seed`` varies the click and the start; ``save_track``:
+    write the hook trajectory the model was learned from (x y z per line, in the robot's
+    believed world frame); ``perception``: "click" (the robot is told the handle within
+    2 cm) or "depth" (it looks with its head depth camera first and derives the handle from
+    the detected front; a trial without a front is a failed trial, outcome "no front
+    detected").
+
+    The result holds ``perception``, ``front_found`` (always True for a click),
+    ``handle_error_m`` (distance of the handle position the robot used from the true one,
+    m, before its localisation error) and, for "depth", ``handle_source`` ("bar": from the
+    bar's points, "rectangle": by the kind's convention), ``frames_found`` and
+    ``look_frames``.
+
+    ``meshcat``: draw the scene there and record the trial (published at the end);
+    ``on_built(op)``: called with the built :class:`Operate` before the simulation starts
+    (e.g. to point the viewer's camera); ``realtime``: pace the simulation at real time."""
+    from pydrake.systems.analysis import Simulator
+
+    from mmlearn.diagrams.articulation.operate import PERCEPTIONS, MakeOperateDiagram, OperateConfig
+    from mmlearn.diagrams.articulation.operate_perception import NoFrontDetected
+    from mmlearn.models.common.fileio import atomic_write_text
+    from mmlearn.systems.articulation.epc_controller import DONE, PHASE_NAMES, PULL
+
+    if kind not in KINDS:
+        raise ValueError(f"object must be one of {', '.join(KINDS)}; got {kind!r}")
+    if not (max_time > 0 and math.isfinite(max_time)):
+        raise ValueError(f"max_time must be a finite number of seconds > 0, got {max_time}")
+    if perception not in PERCEPTIONS:
+        raise ValueError(f"perception must be one of {', '.join(PERCEPTIONS)}; got "
+                         f"{perception!r}")
+    cfg = OperateConfig(kind=kind, seed=seed, priors=priors, mechanism_seed=mechanism_seed,
+                        perception=perception)
+    if sigma_pos is not None:
+        cfg.sigma_pos = sigma_pos
+    if base_noise is not None:
+        cfg.base_noise = base_noise
+    t_build = time.perf_counter()
+    try:
+        op = MakeOperateDiagram(cfg, meshcat=meshcat)
+    except NoFrontDetected as e:
+        # the robot saw no front it could open: a failed trial, nothing simulated
+        return {"object": kind, "seed": seed, "success": False, "opened": 0.0,
+                "final_opening": 0.0, "unit": "deg" if kind in REVOLUTE else "m",
+                "outcome": "no front detected",
+                "perception": perception, "front_found": False, "handle_error_m": None,
+                "handle_source": None, "frames_found": e.look.frames_found,
+                "look_frames": e.look.frames, "learned_model": None, "right_kind": False,
+                "base_noise": cfg.base_noise, "sigma_pos": cfg.sigma_pos,
+                "track_saved": None, "sim_seconds": 0.0, "wall_seconds": 0.0,
+                "true_kind": "revolute" if kind in REVOLUTE else "prismatic",
+                "html_out": None}
+    build_seconds = time.perf_counter() - t_build
+    d = op.diagram
+    if meshcat is not None and op.look is not None:
+        draw_look(meshcat, op.look)
+    if on_built is not None:
+        on_built(op)
+    simulator = Simulator(d)
+    ctx = simulator.get_mutable_context()
+    op.scene.set_joint_positions(ctx, op.start_command)
+    if realtime:
+        simulator.set_target_realtime_rate(1.0)
+    vis = op.scene.visualizer
+    if vis is not None:
+        vis.StartRecording(False)
+    simulator.Initialize()
+    t0 = time.perf_counter()
+    bar = progress_bar(int(max_time), f"{kind} seed {seed}", unit="sim s",
+                       enabled=show_progress)
+    phase = 0
+    right = "revolute" if op.mechanism.is_revolute else "prismatic"
+    to_unit = math.degrees if op.mechanism.is_revolute else float
+    model_port = d.GetOutputPort("object_model")
+    # (time, true opening, kind of the model the controller is given), every 0.25 s from
+    # the start of the pull
+    model_log = []
+    base_err = []  # |believed - true| base position, m
+    q_max = 0.0  # largest opening reached (the thesis: "opened it through ...")
+    while ctx.get_time() < max_time - 1e-9:
+        simulator.AdvanceTo(min(max_time, ctx.get_time() + 0.25))
+        bar.update(0.25)
+        bar.set_postfix_str(PHASE_NAMES[phase])
+        phase = int(d.GetOutputPort("phase").Eval(ctx)[0])
+        q_max = max(q_max, float(d.GetOutputPort("mechanism_state").Eval(ctx)[0]))
+        base_err.append(float(np.hypot(*d.GetOutputPort("base_error").Eval(ctx)[:2])))
+        if phase >= PULL:
+            m = model_port.Eval(ctx)
+            model_log.append((round(float(ctx.get_time()), 3),
+                              to_unit(float(d.GetOutputPort("mechanism_state").Eval(ctx)[0])),
+                              m.edges[0].model.name if m is not None and m.edges else None))
+        if phase == DONE:
+            break
+    bar.close()
+    wall = time.perf_counter() - t0
+    q = float(d.GetOutputPort("mechanism_state").Eval(ctx)[0])
+    spec = op.mechanism
+    est_ctx = op.estimator.GetMyContextFromRoot(ctx)
+    est_state = est_ctx.get_abstract_state(0).get_value()
+    obj = est_state.model
+    link = obj.edges[0].model if obj is not None else None
+    track = est_state.poses[:, 1, :3] if est_state.poses.shape[0] else np.zeros((0, 3))
+    ctrl = op.controller.state(op.controller.GetMyContextFromRoot(ctx))
+    q_max = max(q_max, q)
+    if spec.is_revolute:
+        opened, unit, success = math.degrees(q_max), "deg", q_max > SUCCESS_ANGLE
+    else:
+        opened, unit, success = q_max, "m", q_max > SUCCESS_DISTANCE
+    result = {"object": kind, "seed": seed, "success": bool(success), "opened": opened,
+              "final_opening": to_unit(q),
+              "unit": unit, "outcome": ctrl.outcome or PHASE_NAMES[phase]}
+    result.update(evaluate_model(link, spec))
+    used = (op.look.estimate.handle if op.look is not None else op.true_task.handle)
+    result.update({"perception": perception, "front_found": True,
+                   "handle_error_m": float(np.linalg.norm(used - spec.handle_world(0.0)[0])),
+                   "handle_source": None if op.look is None else op.look.estimate.source,
+                   "frames_found": None if op.look is None else op.look.frames_found,
+                   "look_frames": None if op.look is None else op.look.frames,
+                   "build_seconds": round(build_seconds, 3)})
+    # the model's kind over the trial, and the opening from which the final right kind held
+    ok, right_at = right_kind(model_log, right)
+    result.update({"right_kind": ok, "right_model_at": right_at, "true_kind": right,
+                   "model_log": model_log,
+                   "base_noise": cfg.base_noise, "sigma_pos": cfg.sigma_pos,
+                   "base_error_max_m": max(base_err) if base_err else 0.0})
+    if priors:
+        result["priors"] = priors
+    result["track_saved"] = None
+    if save_track and track.shape[0]:
+        result["track_saved"] = save_track
+        atomic_write_text(save_track, f"# hook trajectory, {kind}, seed {seed} (x y z, m)\n"
+                          + "\n".join(" ".join(f"{v:.6f}" for v in row) for row in track)
+                          + "\n")
+    result.update({"estimated_opening": ctrl.opening, "track_length": int(track.shape[0]),
+                   "sim_seconds": float(ctx.get_time()), "wall_seconds": round(wall, 3),
+                   "realtime_factor": round(float(ctx.get_time() / wall), 2),
+                   "html_out": None})
+    if vis is not None:
+        vis.StopRecording()
+        vis.PublishRecording()
+    return result
+
+
+_PRIORS_FILES: dict = {}  # a worker's copy of the shared prior database, written once
+
+
+def _priors_file(text: str) -> str:
+    """The sweep's prior database (sent once per worker as text) as a local file."""
+    import hashlib
+    import tempfile
+
+    h = hashlib.sha1(text.encode()).hexdigest()[:16]
+    if h not in _PRIORS_FILES:
+        p = Path(tempfile.gettempdir()) / f"mmlearn-priors-{os.getpid()}-{h}.json"
+        p.write_text(text)
+        _PRIORS_FILES[h] = str(p)
+    return _PRIORS_FILES[h]
+
+
+@register_trial("articulation.operate")
+def operate_trial(*, seed: int, kind: str, max_time: float = 60.0,
+                  sigma_pos: float | None = None, mechanism_seed: int | None = None,
+                  base_noise: float | None = None, save_track: str = "", priors_sha1: str = "",
+                  shared=None, perception: str = "click") -> dict:
+    """One opening trial of a sweep: :func:`open_mechanism` of one object and seed.
+    ``shared`` is the prior database's text when the sweep uses one (``priors_sha1`` names
+    it in the trial's identity)."""
+    priors = _priors_file(shared) if shared else ""
+    return open_mechanism(kind=kind, seed=seed, max_time=max_time, sigma_pos=sigma_pos,
+                          priors=priors, mechanism_seed=mechanism_seed, show_progress=False,
+                          save_track=save_track, base_noise=base_noise, perception=perception)
