@@ -18,7 +18,7 @@ import time
 
 import pydrake.systems.analysis as analysis
 
-from mmlearn.apps.learn_body_schema import LearnBodySchemaConfig, run
+from mmlearn.diagrams.body_schema.trials import LearnBodySchemaConfig, learn_body_schema
 from mmlearn.models.body_schema import schema as body_schema_module
 from mmlearn.systems.body_schema import learner as sl
 
@@ -75,8 +75,8 @@ def main():
     ap.add_argument("--samples", type=int, default=50)
     args = ap.parse_args()
     _instrument()
-    r = run(config=LearnBodySchemaConfig(arm=args.arm, samples=args.samples),
-            show_progress=False)
+    r = learn_body_schema(config=LearnBodySchemaConfig(arm=args.arm, samples=args.samples),
+                          show_progress=False)
     sim = r["sim_seconds"]
     learner = T["update_cpu"] + T["copy_cpu"]
     print(json.dumps(dict(

@@ -172,7 +172,7 @@ def test_config_depth_fields(tmp_path):
 
 def test_learn_body_schema_camera_depth_configs():
     """(The flag itself: test_camera_marker_sensor.test_apps_take_the_sensor_flag.)"""
-    from mmlearn.apps.learn_body_schema import camera_config
+    from mmlearn.diagrams.body_schema.trials import camera_config
 
     assert camera_config("noisy", 3).depth_noise.seed == 3
     assert camera_config("exact").depth_noise is None and camera_config("exact").use_depth

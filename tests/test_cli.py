@@ -265,7 +265,8 @@ def test_articulation_experiments_count_failed_runs(monkeypatch, capsys):
 
 
 def test_body_schema_experiments_count_failed_runs(monkeypatch):
-    import mmlearn.apps.body_schema_experiments as bse
+    import mmlearn.diagrams.body_schema.trials as bst
+    from mmlearn.models.body_schema.evaluation import average_runs, recovery_summary
 
     # a Drake run that raises is a failed run, not a crash and not silently dropped
     def recovery(failure, n_block, seed, n_first=30, show=False):
@@ -273,17 +274,17 @@ def test_body_schema_experiments_count_failed_runs(monkeypatch):
             raise RuntimeError("solver diverged")
         return dict(first=2, restore=1, second=3)
 
-    monkeypatch.setattr(bse, "drake_recovery", recovery)
-    rs = [bse.trial(seed=s, block="table_3_1_drake", run=s,
+    monkeypatch.setattr(bst, "drake_recovery", recovery)
+    rs = [bst.body_schema_trial(seed=s, block="table_3_1_drake", run=s,
                     kwargs=dict(failure="joint", n_block=5, n_first=30)) for s in range(3)]
-    r = bse.recovery_summary(rs, drake=True)
+    r = recovery_summary(rs, drake=True)
     assert r["failed_runs"] == 1 and r["mean"] == [2.0, 1.0, 3.0] and r["runs"] == 3
     assert "solver diverged" in r["failures"][0]
     # Fig. 3.10 over runs: a run without a complete schema is counted as left out
     rows = [dict(n=10, correct=True, pred_error_m=0.02, pred_error_deg=1.0)]
     left = [dict(n=10, correct=False, error="singular")]
     base = dict(obs_noise_m=0.04, online_converged_at=10, update_ms_median=1.0, seconds=1.0)
-    avg = bse._average_runs([dict(base, rows=rows), dict(base, rows=left)])
+    avg = average_runs([dict(base, rows=rows), dict(base, rows=left)])
     assert avg["rows"][0]["runs_in_mean"] == 1 and avg["rows"][0]["runs_left_out"] == 1
     assert avg["rows"][0]["pred_error_m"] == pytest.approx(0.02)
 
