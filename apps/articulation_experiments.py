@@ -75,7 +75,6 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -83,355 +82,14 @@ import numpy as np
 from mmlearn.apps.common import experiment
 from mmlearn.apps.common.cli import check_out_dir, name_list, pos_int, save_figure
 from mmlearn.apps.common.experiment import Experiment
-from mmlearn.models.articulation.link import ObservationModel, make_model
-from mmlearn.models.articulation.sim import simulate_link
-from mmlearn.models.articulation.structure import select_link_model
-from mmlearn.models.common.trials import register_trial
+from mmlearn.models.articulation.evaluation import LINK_EXPERIMENTS as EXPERIMENTS
+from mmlearn.models.articulation.evaluation import LINK_MODELS as MODELS
+from mmlearn.models.articulation.evaluation import (SELECTION_VARIANTS, TABLE_OBJECTS,
+                                                    link_experiment_trial,
+                                                    link_experiments_report, link_grid,
+                                                    selection_tracks, tracks_sha1)
 
 __all__ = ["run", "main", "EXPERIMENTS"]
-
-EXPERIMENTS = ("noise", "outliers", "gamma", "size", "time", "bic_n", "bic_noise", "table",
-               "selection")
-#: (label, ObservationModel keyword arguments, identifiability tests) compared by
-#: ``--only selection``; the last one is the default of models/articulation/link.py
-SELECTION_VARIANTS = [
-    ("before 2026-11: p(gamma) once per track, w = 1, n^-d",
-     dict(gamma_prior="track", gamma_weight=1.0, config_prior="n"), False),
-    ("per observation, MAP gamma, w = 92, n^-d",
-     dict(gamma_prior="observation", config_prior="n"), False),
-    ("per observation, ML gamma, w = 10, n^-d",
-     dict(gamma_prior="plugin", gamma_weight=10.0, config_prior="n"), False),
-    ("per observation, ML gamma, w = 30, n^-d",
-     dict(gamma_prior="plugin", gamma_weight=30.0, config_prior="n"), False),
-    ("original code: per observation, ML gamma, w = 92, n^-d",
-     dict(gamma_prior="plugin", config_prior="n"), False),
-    ("per observation, ML gamma, w = 92, resolved p(q)",
-     dict(gamma_prior="plugin", config_prior="resolved"), False),
-    ("default: + identifiability (travel above noise, bow above sigma)",
-     dict(gamma_prior="plugin", config_prior="resolved"), True),
-]
-SELECTION_SIGMAS = (0.005, 0.01, 0.02, 0.05, 0.1)
-GROUND_TRUTH = {"rigid": "rigid", "prismatic": "prismatic", "revolute": "revolute",
-                "gp": "rollup"}
-MODELS = ("rigid", "prismatic", "revolute", "gp")
-
-
-
-
-def _sample_error(model, kind, rng, n_test=100):
-    test = simulate_link(kind, n_test, sigma_pos=0.0, sigma_orient=0.0, rng=rng)
-    ep, eo = model.residuals(test.Z_true)
-    return float(ep.mean()), (None if eo is None else float(eo.mean()))
-
-
-def _fit_err(model_name, kind, n, sp, so, gamma, rng, exact_ratio=False):
-    tr = simulate_link(kind, n, sigma_pos=sp, sigma_orient=so, gamma=gamma, rng=rng,
-                       exact_ratio=exact_ratio)
-    m = make_model(model_name, obs=ObservationModel(sp, so)).fit(tr.Z, rng=rng)
-    ep, _ = _sample_error(m, kind, rng)
-    return ep, m, tr
-
-
-def _try_fit_err(*a, **k):
-    """_fit_err, or None when the fit raises ValueError (a failed run: counted in the
-    tables' "failed" rows, left out of the means)."""
-    try:
-        return _fit_err(*a, **k)
-    except ValueError:
-        return None
-
-
-def _rng(seed: int, experiment: str, *index: int):
-    """The random generator of one trial: its own stream for (seed, experiment, index...),
-    so that a trial's numbers do not depend on which other trials ran, in which order or
-    in which process."""
-    return np.random.default_rng([int(seed), EXPERIMENTS.index(experiment), *map(int, index)])
-
-
-def _grid(experiment: str, quick: bool) -> list:
-    """The grid of one experiment: sigma_pos [m] (noise, bic_noise: assumed), outlier ratio
-    (outliers), training size n (size, time, bic_n: prefix lengths)."""
-    return {
-        "noise": [0.01, 0.1, 1.0] if quick else [0.001, 0.01, 0.02, 0.05, 0.1, 0.2, 0.5, 1.0],
-        "outliers": [0.0, 0.5, 0.8] if quick else [0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.65,
-                                                    0.7, 0.8, 0.9, 0.95],
-        "size": [3, 6, 10, 20] if quick else [3, 4, 5, 6, 8, 10, 15, 20, 30, 50, 100],
-        "time": [10, 30, 100] if quick else [10, 20, 30, 40, 50, 100, 200],
-        "bic_n": list(range(3, (30 if quick else 50) + 1, 3 if quick else 1)),
-        "bic_noise": [0.002, 0.02, 0.2, 1.0] if quick else [0.002, 0.005, 0.01, 0.02, 0.05,
-                                                             0.1, 0.2, 0.5, 1.0],
-    }[experiment]
-
-
-# (label, link type, assumed sigma_pos [m], sigma_orient [deg], true noise pos [m], orient
-# [deg]) of Table 4.2: the thesis' microwave and drawer were motion-capture recordings, whose
-# true noise is far below the assumed 2 mm / 2 deg; the "mocap" rows simulate that
-# (0.3 mm / 0.3 deg).
-TABLE_OBJECTS = [("microwave", "microwave", 0.002, 2.0, 0.002, 2.0),
-                 ("drawer", "drawer", 0.002, 2.0, 0.002, 2.0),
-                 ("microwave (mocap noise)", "microwave", 0.002, 2.0, 0.0003, 0.3),
-                 ("drawer (mocap noise)", "drawer", 0.002, 2.0, 0.0003, 0.3),
-                 ("garage door", "garage", 0.05, 5.0, 0.05, 5.0)]
-
-
-def noise_point(model: str, sigma_pos: float, runs: int, rng) -> dict:
-    """Fig. 4.20 at one noise level: ``runs`` fits of ``model`` on 100 samples of its ground
-    truth (sigma_orient 5 deg, no outliers); sample errors [m] of the fits that worked."""
-    e = []
-    for _ in range(runs):
-        r = _try_fit_err(model, GROUND_TRUTH[model], 100, sigma_pos, np.deg2rad(5.0), 0.0, rng)
-        if r is not None:
-            e.append(r[0])
-    return {"errors": e, "failed": runs - len(e)}
-
-
-def outliers_point(model: str, gamma: float, runs: int, rng, exact: bool = True) -> dict:
-    """Fig. 4.21 / 4.22 at one outlier ratio (sigma 0.01 m / 3 deg, n = 100): per fit that
-    worked its sample error [m], estimated and true outlier ratio, and whether it had at
-    most a minimal sample of inliers (unidentifiable)."""
-    sp, so = 0.01, np.deg2rad(3.0)
-    e, ge, gt, few = [], [], [], []
-    for _ in range(runs):
-        r = _try_fit_err(model, GROUND_TRUTH[model], 100, sp, so, gamma, rng, exact_ratio=exact)
-        if r is None:
-            continue
-        ep, m, tr = r
-        e.append(ep)
-        ge.append(float(m.gamma))
-        gt.append(float(tr.outlier.mean()))
-        # at most a minimal sample of inliers: any minimal sample of outliers is as
-        # consistent as the inliers, no estimator can tell which is the model
-        few.append(bool(int((~tr.outlier).sum()) <= m.min_samples))
-    return {"errors": e, "gamma_est": ge, "gamma_true": gt, "few_inliers": few,
-            "failed": runs - len(e)}
-
-
-def size_point(model: str, n: int, runs: int, rng) -> dict:
-    """Fig. 4.23 at one training size (sigma 0.05 m / 5 deg): sample errors [m] of the fits
-    that worked (too few samples for the model: a failed run, counted)."""
-    e = []
-    for _ in range(runs):
-        r = _try_fit_err(model, GROUND_TRUTH[model], n, 0.05, np.deg2rad(5.0), 0.0, rng)
-        if r is not None:
-            e.append(r[0])
-    return {"errors": e, "failed": runs - len(e)}
-
-
-def time_point(n: int, runs: int, rng) -> dict:
-    """Fig. 4.24 at one n: fit time [s] of each estimator on ``runs`` revolute tracks."""
-    obs = ObservationModel(0.002, np.deg2rad(2.0))
-    per = {m: [] for m in MODELS}
-    tot = []
-    for _ in range(runs):
-        tr = simulate_link("revolute", n, rng=rng)
-        t_all = 0.0
-        for m in MODELS:
-            t0 = time.perf_counter()
-            make_model(m, obs=obs).fit(tr.Z, rng=rng)
-            dt = time.perf_counter() - t0
-            per[m].append(dt)
-            t_all += dt
-        tot.append(t_all)
-    return {"seconds": per, "all_four_seconds": tot}
-
-
-def _rollup_sequence(n_total, sp, so, rng):
-    from mmlearn.models.articulation.sim import _q_range
-
-    lo, hi = _q_range("rollup")
-    q = np.linspace(lo, hi, n_total)
-    return simulate_link("rollup", n_total, sigma_pos=sp, sigma_orient=so, rng=rng, q=q)
-
-
-def bic_run(experiment: str, quick: bool, rng) -> dict:
-    """One run of Fig. 4.25 (``bic_n``: the first n samples of a roll-up door track, sigma
-    0.01 m / 2 deg, presented in the order of the configuration) or Fig. 4.26
-    (``bic_noise``: 50 samples, true noise 0.002 m / 2 deg, selection under each assumed
-    sigma_pos): BIC of every candidate (None: its fit failed) and the selection per grid
-    point."""
-    grid = _grid(experiment, quick)
-    so = np.deg2rad(2.0)
-    bic = {m: [] for m in MODELS}
-    sel = []
-    if experiment == "bic_n":
-        sp = 0.01
-        tr = _rollup_sequence(30 if quick else 50, sp, so, rng)
-        fits = [(tr.Z[:n], ObservationModel(sp, so)) for n in grid]
-    else:
-        tr = _rollup_sequence(50, 0.002, so, rng)
-        fits = [(tr.Z, ObservationModel(s, max(so, s))) for s in grid]
-    for Z, obs in fits:
-        s = select_link_model(Z, obs=obs, rng=rng)
-        for m in MODELS:
-            v = s.bic.get(m, np.inf)
-            bic[m].append(float(v) if np.isfinite(v) else None)
-        sel.append(s.selected)
-    return {"bic": bic, "selected": sel}
-
-
-def table_object(index: int, folds: int, rng) -> dict:
-    """Table 4.2 for object ``TABLE_OBJECTS[index]``: 200 simulated samples, ``folds`` folds
-    of n = 20 training samples; held-out prediction errors of every candidate (against the
-    noisy observations and against the truth), gamma and the selection."""
-    label, kind, sp, so_deg, true_sp, true_so_deg = TABLE_OBJECTS[index]
-    obs = ObservationModel(sp, np.deg2rad(so_deg))
-    data = simulate_link(kind, 200, sigma_pos=true_sp, sigma_orient=np.deg2rad(true_so_deg),
-                         rng=rng)
-    acc = {m: {"pos": [], "ori": [], "pos_true": [], "ori_true": [], "gamma": []}
-           for m in MODELS}
-    selected = []
-    for _ in range(folds):
-        idx = rng.permutation(200)
-        tr_i, te_i = idx[:20], idx[20:]
-        s = select_link_model(data.Z[tr_i], obs=obs, rng=rng)
-        selected.append(s.selected)
-        for m in MODELS:
-            if m not in s.candidates:
-                continue
-            mod = s.candidates[m]
-            ep, eo = mod.residuals(data.Z[te_i])
-            acc[m]["pos"].append(float(np.mean(ep)))
-            acc[m]["ori"].append(float(np.degrees(np.mean(eo))))
-            ept, eot = mod.residuals(data.Z_true[te_i])
-            acc[m]["pos_true"].append(float(np.mean(ept)))
-            acc[m]["ori_true"].append(float(np.degrees(np.mean(eot))))
-            acc[m]["gamma"].append(float(mod.gamma))
-    vals, cnt = np.unique(selected, return_counts=True)
-    return {
-        "sigma_pos": sp, "sigma_orient_deg": so_deg, "folds": folds,
-        "true_sigma_pos": true_sp, "true_sigma_orient_deg": true_so_deg,
-        "selected_counts": {str(v): int(c) for v, c in zip(vals, cnt)},
-        "models": {m: {**{k: float(np.mean(v)) for k, v in a.items() if v},
-                       "folds": len(a["pos"]), "skipped_folds": folds - len(a["pos"])}
-                   for m, a in acc.items()},
-    }
-
-
-def _expected_kind(path: str):
-    name = Path(path).name.lower() + " " + Path(path).parent.name.lower()
-    for key, kind in (("drawer", "prismatic"), ("door", "revolute"), ("dishwasher", "revolute"),
-                      ("cosine", "gp")):
-        if key in name:
-            return kind
-    return None
-
-
-def default_track_dir():
-    """The repository's copies of the real tracks (tests/data), or None when not there."""
-    root = Path(__file__).resolve().parents[1] / "tests" / "data"
-    return str(root) if root.is_dir() else None
-
-
-def selection_tracks(tracks=None) -> list:
-    """The real tracks of ``--only selection``: [(file, expected joint, poses)], each track
-    once (the test data hold some twice, in two folders)."""
-    from mmlearn.models.common.track_io import find_track_files, read_track
-
-    tracks = tracks or default_track_dir()
-    if tracks is None:
-        raise ValueError("--only selection needs --tracks DIR (real track files)")
-    files = [f for f in find_track_files([tracks]) if _expected_kind(f)]
-    seen, data = set(), []
-    for f in files:
-        t = read_track(f).poses
-        key = (t.shape, float(np.round(t.sum(), 6)))
-        if key not in seen:
-            seen.add(key)
-            data.append((f, _expected_kind(f), t))
-    if not data:
-        raise ValueError(f"no drawer / door / dishwasher / cosine track files in {tracks}")
-    return data
-
-
-def selection_variant(index: int, data: list, quick: bool, seed: int) -> dict:
-    """One observation-model variant of ``SELECTION_VARIANTS`` on the real tracks ``data``
-    (right joint per assumed sigma_pos), the simulated garage door of Table 4.2 (n = 20)
-    and the outlier ratio of a revolute link with 30 % outliers. The garage-door data, its
-    folds and the revolute links are the same for every variant."""
-    label, kw, ident = SELECTION_VARIANTS[index]
-    sigmas = (0.01, 0.05) if quick else SELECTION_SIGMAS
-    folds = 2 if quick else 10
-    gamma_runs = 2 if quick else 10
-    rng = _rng(seed, "selection", 0)
-    garage = simulate_link("garage", 200, sigma_pos=0.05, sigma_orient=np.deg2rad(5.0), rng=rng)
-    arcs = [simulate_link("revolute", 100, sigma_pos=0.01, sigma_orient=np.deg2rad(3.0),
-                          gamma=0.3, rng=rng, exact_ratio=True) for _ in range(gamma_runs)]
-    rng = _rng(seed, "selection", 1)
-    kinds = sorted({k for _, k, _ in data})
-    row = {"label": label, "observation_model": kw, "identifiability": ident,
-           "real": {}, "rigid_at": {}}
-    for s in sigmas:
-        right = {k: [0, 0] for k in kinds}
-        rigid = failed = 0
-        for i, (f, kind, t) in enumerate(data):
-            try:
-                sel = select_link_model(t, obs=ObservationModel(sigma_pos=s, **kw),
-                                        rng=i, identifiability=ident)
-            except ValueError:  # no candidate could be fitted: counted, not dropped
-                failed += 1
-                right[kind][1] += 1
-                continue
-            right[kind][0] += sel.selected == kind
-            right[kind][1] += 1
-            rigid += sel.selected == "rigid"
-        row["real"][str(s)] = {k: f"{a}/{b}" for k, (a, b) in right.items()}
-        row["rigid_at"][str(s)] = rigid
-        row.setdefault("failed_at", {})[str(s)] = failed
-    obs_g = ObservationModel(0.05, np.deg2rad(5.0), **kw)
-    sel_g = []
-    for _ in range(folds):
-        idx = rng.permutation(200)[:20]
-        sel_g.append(select_link_model(garage.Z[idx], obs=obs_g, rng=rng,
-                                       identifiability=ident).selected)
-    row["garage_n20"] = {m: sel_g.count(m) for m in sorted(set(sel_g))}
-    dev = []
-    for tr in arcs:
-        m = make_model("revolute", obs=ObservationModel(0.01, np.deg2rad(3.0), **kw))
-        dev.append(abs(m.fit(tr.Z, rng=rng).gamma - 0.3))
-    row["gamma_abs_dev_at_0.3"] = float(np.mean(dev))
-    return {"row": row, "tracks": [f for f, _, _ in data], "sigma_pos": list(sigmas),
-            "n_tracks": {k: sum(1 for _, kk, _ in data if kk == k) for k in kinds}}
-
-
-# ---------------------------------------------------------------------------- the sweep
-
-@register_trial("articulation.experiment")
-def trial(*, seed: int, experiment: str, quick: bool = False, runs: int = 2,
-          model: str | None = None, i: int = 0, x=None, exact: bool = True,
-          tracks_sha1: str = "", shared=None) -> dict:
-    """One trial of the sweep (``mmlearn.apps.common.sweep``), with its own random stream
-    (:func:`_rng`): ``runs`` fits of ``model`` at grid point ``i`` (value ``x``) of noise /
-    outliers / size, the fit times at one n (time), one run of bic_n / bic_noise (run
-    ``i``), one object of Table 4.2 (``i``) or one observation-model variant of selection
-    (``i``; the real tracks in ``shared``, named by ``tracks_sha1``)."""
-    rng = _rng(seed, experiment, MODELS.index(model) if model else 0, i)
-    if experiment == "noise":
-        return noise_point(model, x, runs, rng)
-    if experiment == "outliers":
-        return outliers_point(model, x, runs, rng, exact=exact)
-    if experiment == "size":
-        return size_point(model, x, runs, rng)
-    if experiment == "time":
-        return time_point(x, runs, rng)
-    if experiment in ("bic_n", "bic_noise"):
-        return bic_run(experiment, quick, rng)
-    if experiment == "table":
-        return table_object(i, 3 if quick else 10, rng)
-    if experiment == "selection":
-        if not shared or "selection" not in shared:
-            raise ValueError("the selection trial needs the real tracks in shared['selection']")
-        return selection_variant(i, shared["selection"], quick, seed)
-    raise ValueError(f"unknown experiment {experiment!r}; choose from {EXPERIMENTS}")
-
-
-def _tracks_sha1(data) -> str:
-    import hashlib
-
-    h = hashlib.sha1()
-    for f, kind, t in data:
-        h.update(f"{Path(f).name}:{kind}:".encode())
-        h.update(np.ascontiguousarray(t, float).tobytes())
-    return h.hexdigest()
 
 
 def trial_specs(*, only, runs: int, seed: int, quick: bool, exact: bool = True,
@@ -441,7 +99,7 @@ def trial_specs(*, only, runs: int, seed: int, quick: bool, exact: bool = True,
     bic_noise, one per object of Table 4.2, one per variant of selection."""
     from mmlearn.apps.common.sweep import TrialSpec
 
-    fn = trial
+    fn = link_experiment_trial
     base = {"quick": quick, "runs": runs}
     specs = []
 
@@ -453,11 +111,11 @@ def trial_specs(*, only, runs: int, seed: int, quick: bool, exact: bool = True,
     for e in exps:
         if e in ("noise", "outliers", "size"):
             for m in MODELS:
-                for i, x in enumerate(_grid(e, quick)):
+                for i, x in enumerate(link_grid(e, quick)):
                     extra = {"exact": exact} if e == "outliers" else {}
                     add(e, f"{m} {x}", model=m, i=i, x=x, **extra)
         elif e == "time":
-            for i, x in enumerate(_grid(e, quick)):
+            for i, x in enumerate(link_grid(e, quick)):
                 add(e, f"n {x}", i=i, x=x)
         elif e in ("bic_n", "bic_noise"):
             for r in range(1 if quick else max(1, runs // 10)):
@@ -469,153 +127,6 @@ def trial_specs(*, only, runs: int, seed: int, quick: bool, exact: bool = True,
             for i, v in enumerate(SELECTION_VARIANTS):
                 add(e, f"variant {i}", i=i, tracks_sha1=tracks_sha1)
     return specs
-
-
-# ---------------------------------------------------------------------------- the tables
-
-def _point_stats(experiment, recs, grid, runs, raised=frozenset()):
-    """noise / outliers / size: per model the statistics of every grid point (a point
-    whose trial raised, (model, index) in ``raised``, counts as ``runs`` failed runs; one
-    not run, after an interruption, as none)."""
-    res = {"error_mean": {}, "error_std": {}, "failed": {}}
-    if experiment == "outliers":
-        res.update({k: {} for k in ("gamma_est_mean", "gamma_true_mean", "gamma_abs_dev_mean",
-                                    "below_noise_up_to", "error_median",
-                                    "unidentifiable_runs_pct", "error_mean_identifiable")})
-    for m in MODELS:
-        cols = {k: [] for k in ("mu", "sd", "nf", "med", "unid", "mu_id", "gest", "gtrue",
-                                "gdev")}
-        for i in range(len(grid)):
-            r = recs.get((m, i))
-            e = r["errors"] if r else []
-            cols["nf"].append(r["failed"] if r else runs if (m, i) in raised else 0)
-            if experiment != "outliers":
-                cols["mu"].append(float(np.mean(e)) if e else None)
-                cols["sd"].append(float(np.std(e)) if e else None)
-                continue
-            if not e:
-                for k in ("mu", "sd", "med", "unid", "mu_id", "gest", "gtrue", "gdev"):
-                    cols[k].append(None)
-                continue
-            cols["mu"].append(float(np.mean(e)))
-            cols["sd"].append(float(np.std(e)))
-            cols["med"].append(float(np.median(e)))
-            few = np.asarray(r["few_inliers"], bool)
-            cols["unid"].append(100.0 * float(few.mean()))
-            cols["mu_id"].append(float(np.mean(np.asarray(e)[~few])) if (~few).any() else None)
-            cols["gest"].append(float(np.mean(r["gamma_est"])))
-            cols["gtrue"].append(float(np.mean(r["gamma_true"])))
-            cols["gdev"].append(float(np.mean(np.abs(np.subtract(r["gamma_est"],
-                                                                 r["gamma_true"])))))
-        res["error_mean"][m], res["error_std"][m] = cols["mu"], cols["sd"]
-        res["failed"][m] = cols["nf"]
-        if experiment == "outliers":
-            res["gamma_est_mean"][m], res["gamma_true_mean"][m] = cols["gest"], cols["gtrue"]
-            res["gamma_abs_dev_mean"][m] = cols["gdev"]
-            res["error_median"][m] = cols["med"]
-            res["unidentifiable_runs_pct"][m] = cols["unid"]
-            res["error_mean_identifiable"][m] = cols["mu_id"]
-    return res
-
-
-def _below(grid, values, limit):
-    """Largest grid value up to which every value is below ``limit`` (None: not even the
-    first)."""
-    up = None
-    for g, v in zip(grid, values):
-        if v is not None and v < limit:
-            up = g
-        else:
-            break
-    return up
-
-
-def _bic_summary(experiment, recs, quick):
-    grid = _grid(experiment, quick)
-    bic = {m: np.array([[np.inf if v is None else v for v in r["bic"][m]] for r in recs],
-                       float).reshape(len(recs), len(grid)) for m in MODELS}
-    sel = np.array([r["selected"] for r in recs], dtype=object).reshape(len(recs), len(grid))
-    majority = []
-    for k in range(len(grid)):
-        vals, cnt = np.unique(sel[:, k].astype(str), return_counts=True)
-        majority.append(str(vals[np.argmax(cnt)]) if len(cnt) else None)
-    out = ({"n": grid, "sigma_pos": 0.01} if experiment == "bic_n" else
-           {"assumed_sigma_pos": grid, "true_sigma_pos": 0.002, "n": 50})
-    out.update({"runs": len(recs),
-                "bic_mean": {m: np.mean(np.where(np.isfinite(b), b, np.nan), axis=0).tolist()
-                             for m, b in bic.items()},
-                "failed": {m: (~np.isfinite(b)).sum(axis=0).tolist() for m, b in bic.items()},
-                "selected": majority})
-    return out
-
-
-def report(lines: list[dict]) -> dict:
-    """Every experiment's results from results-file lines (a run or ``--report-only``); a
-    trial that raised is listed in ``errors`` (its runs count as failed)."""
-    if not lines:
-        raise ValueError("no trial records")
-    settings = {(bool(ln["spec"]["params"]["quick"]), int(ln["spec"]["params"]["runs"]),
-                 ln["spec"]["seed"]) for ln in lines}
-    if len(settings) > 1:
-        raise ValueError("the results file mixes settings (--quick, --runs or --seed "
-                         f"differ: {sorted(settings)}); use one results file per setting")
-    p0 = lines[0]["spec"]["params"]
-    quick, runs = bool(p0["quick"]), int(p0["runs"])
-    res = {"runs": runs, "seed": lines[0]["spec"]["seed"], "quick": quick}
-    by: dict[str, dict] = {}
-    raised: dict[str, set] = {}
-    for ln in lines:
-        p = ln["spec"]["params"]
-        key = (p.get("model"), p.get("i", 0))
-        if ln.get("error") is None:
-            by.setdefault(p["experiment"], {})[key] = ln["record"]
-        else:
-            by.setdefault(p["experiment"], {})
-            raised.setdefault(p["experiment"], set()).add(key)
-    for e in ("noise", "outliers", "size"):
-        if e not in by:
-            continue
-        grid = _grid(e, quick)
-        r = _point_stats(e, by[e], grid, runs, raised.get(e, set()))
-        if e == "noise":
-            res[e] = {"sigma_pos": grid, **r, "runs_per_point": runs}
-        elif e == "outliers":
-            r["below_noise_up_to"] = {m: _below(grid, r["error_mean"][m], 0.01)
-                                      for m in MODELS}
-            res[e] = {"gamma": grid, "sigma_pos": 0.01, "runs_per_point": runs, **r,
-                      "outlier_sampling": "exact" if next(
-                          (ln["spec"]["params"]["exact"] for ln in lines
-                           if ln["spec"]["params"]["experiment"] == e), True) else "bernoulli"}
-        else:
-            conv = {}
-            for m in MODELS:
-                conv[m] = next((n for n, v in zip(grid, r["error_mean"][m])
-                                if v is not None and v < 0.05), None)
-            res[e] = {"n": grid, "sigma_pos": 0.05, **r, "converged_n": conv,
-                      "runs_per_point": runs}
-    if "time" in by:
-        grid = _grid("time", quick)
-        recs = [by["time"].get((None, i)) for i in range(len(grid))]
-        res["time"] = {"n": grid,
-                       "seconds": {m: [float(np.median(r["seconds"][m])) if r else None
-                                       for r in recs] for m in MODELS},
-                       "all_four_seconds": [float(np.median(r["all_four_seconds"])) if r
-                                            else None for r in recs]}
-    for e in ("bic_n", "bic_noise"):
-        if e in by:
-            recs = [by[e][k] for k in sorted(by[e], key=lambda k: k[1])]
-            res[e] = _bic_summary(e, recs, quick)
-    if "table" in by:
-        res["table"] = {TABLE_OBJECTS[i][0]: by["table"][(None, i)]
-                        for i in range(len(TABLE_OBJECTS)) if (None, i) in by["table"]}
-    if "selection" in by and by["selection"]:
-        recs = [by["selection"][k] for k in sorted(by["selection"], key=lambda k: k[1])]
-        res["selection"] = {"tracks": recs[0]["tracks"], "sigma_pos": recs[0]["sigma_pos"],
-                            "variants": [r["row"] for r in recs],
-                            "n_tracks": recs[0]["n_tracks"]}
-    res["errors"] = [{"trial": ln["spec"].get("label") or ln["key"], "error": ln["error"]}
-                     for ln in lines if ln.get("error") is not None]
-    return res
 
 
 def _plots(res, out_dir: Path):
@@ -882,7 +393,7 @@ class ArticulationExperiments(Experiment):
             return None, ""
         if "data" not in self._tracks:
             data = selection_tracks(args.tracks)
-            self._tracks.update(data=data, sha1=_tracks_sha1(data))
+            self._tracks.update(data=data, sha1=tracks_sha1(data))
         return {"selection": self._tracks["data"]}, self._tracks["sha1"]
 
     def specs(self, args):
@@ -898,7 +409,7 @@ class ArticulationExperiments(Experiment):
 
     def report(self, lines, args):
         if lines:
-            return report(lines)
+            return link_experiments_report(lines)
         return {"runs": min(args.runs, 2) if args.quick else args.runs, "seed": args.seed,
                 "quick": args.quick, "errors": []}
 

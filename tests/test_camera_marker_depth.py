@@ -186,7 +186,9 @@ def test_structure_experiments_camera_sensor_and_cabinet_through_the_camera():
     one results file per sensor, and the two-drawer
     cabinet seen by its automatic camera: all three markers read (the cabinet's square on
     its holder above the drawers), mapped back to the parts' marker frames."""
-    from mmlearn.apps.structure_experiments import observe, report, sensor_stats
+    from mmlearn.diagrams.articulation.trials import observe
+    from mmlearn.models.articulation.evaluation import sensor_stats
+    from mmlearn.models.articulation.evaluation import structure_report as report
     from mmlearn.diagrams.common.object_tracks import (CAMERA_ELEVATION_DEG, auto_cameras,
                                                        cabinet_scenario)
 

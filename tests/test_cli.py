@@ -244,15 +244,16 @@ def test_experiment_apps_check_the_output_folder_first(tmp_path, capsys):
 
 def test_articulation_experiments_count_failed_runs(monkeypatch, capsys):
     import mmlearn.apps.articulation_experiments as ae
+    import mmlearn.models.articulation.evaluation as ev
 
-    real = ae._fit_err
+    real = ev._fit_err
 
     def flaky(model_name, *a, **k):
         if model_name == "gp":
             raise ValueError("gp: too few samples")
         return real(model_name, *a, **k)
 
-    monkeypatch.setattr(ae, "_fit_err", flaky)
+    monkeypatch.setattr(ev, "_fit_err", flaky)
     # one job, no shared inputs: the sweep runs its trials in this process (the patch holds)
     res = ae.run(runs=2, quick=True, only=["size"], out_dir=None, progress=False, jobs=1)
     assert res["errors"] == []

@@ -1,11 +1,16 @@
 """The articulation capability's Drake trials: opening a door or drawer while learning its
-model (thesis 4.3, 4.4.2).
+model (thesis 4.3, 4.4.2), and the structure experiments on simulated objects (thesis 4.4.1,
+4.4.3).
 
 :func:`open_mechanism` runs one trial (the robot about 1 m away with a noisy handle location
 drives to a stance, hooks the handle and opens the mechanism by equilibrium-point control
 while it learns the mechanism's kinematic model online from its hook's trajectory);
 :func:`operate_trial` is the same trial registered for the sweep runner
-(``articulation.operate``).
+(``articulation.operate``). :func:`structure_trial` (``articulation.structure``) runs one
+structure experiment on a simulated object (cabinet, table, car door, garage door) or one
+run of the yardstick's (Fig. 4.16-4.18), observed by the ideal marker sensor or through
+rendered camera images (:func:`observe`); their tables come from
+:func:`mmlearn.models.articulation.evaluation.structure_report`.
 """
 
 from __future__ import annotations
@@ -18,12 +23,22 @@ from pathlib import Path
 import numpy as np
 
 from mmlearn.models.articulation.evaluation import (SUCCESS_ANGLE, SUCCESS_DISTANCE,
-                                                    evaluate_model, right_kind)
+                                                    STRUCTURE_EXPERIMENTS, evaluate_model,
+                                                    right_kind, sensor_line, sensor_stats)
+from mmlearn.models.articulation.graph import (KinematicGraphEvaluator, fit_pair_models,
+                                               fit_structure, search_structure,
+                                               spanning_tree_edges)
+from mmlearn.models.articulation.incremental import incremental_structure
+from mmlearn.models.articulation.link import ObservationModel
+from mmlearn.models.articulation.structure import select_link_model
+from mmlearn.models.common.se3 import relative_poses
 from mmlearn.models.common.progress import progress_bar
 from mmlearn.models.common.trials import register_trial
 from mmlearn.sdf.mechanisms import KINDS, REVOLUTE
 
-__all__ = ["open_mechanism", "operate_trial", "scene_points", "draw_look"]
+__all__ = ["open_mechanism", "operate_trial", "scene_points", "draw_look", "SENSORS", "observe",
+           "exp_cabinet", "exp_table", "exp_car", "exp_garage", "yardstick_row",
+           "dof_progress", "search_vs_n_row", "STRUCTURE_RUNNERS", "structure_trial"]
 
 
 def scene_points(op) -> np.ndarray:
@@ -260,3 +275,267 @@ def operate_trial(*, seed: int, kind: str, max_time: float = 60.0,
     return open_mechanism(kind=kind, seed=seed, max_time=max_time, sigma_pos=sigma_pos,
                           priors=priors, mechanism_seed=mechanism_seed, show_progress=False,
                           save_track=save_track, base_noise=base_noise, perception=perception)
+
+
+# ---------------------------------------------------------------------------- structure
+
+PARAMETRIC = ("rigid", "prismatic", "revolute")
+SENSORS = ("ideal", "camera")
+
+
+def observe(track, sensor: str = "ideal", camera=None):
+    """The scenario's track as ``sensor`` reports it: "ideal" = as generated (Gaussian
+    noise), "camera" = rendered and read by the camera marker sensor
+    (:func:`mmlearn.diagrams.common.object_tracks.camera_track`, ``camera`` its
+    CameraMarkerSensorConfig, None = one automatic 1920 x 1440 camera; NaN rows where a
+    marker was not detected)."""
+    if sensor == "ideal":
+        return track
+    if sensor != "camera":
+        raise ValueError(f"sensor must be one of {', '.join(SENSORS)}, got {sensor!r}")
+    from mmlearn.diagrams.common.object_tracks import camera_track
+
+    return camera_track(track, camera)
+
+
+def _with_sensor(res, lines, track, sensor):
+    if sensor != "ideal":
+        res["sensor_stats"] = sensor_stats(track)
+        lines.append(sensor_line(track.name, res["sensor_stats"]))
+    return res, lines
+
+
+def _relative(track, i=0, j=1) -> np.ndarray:
+    """(T, 7) relative poses of part j in part i, NaN rows where either is missing."""
+    a, b = track.poses[i], track.poses[j]
+    ok = np.isfinite(a).all(axis=1) & np.isfinite(b).all(axis=1)
+    Z = np.full((a.shape[0], 7), np.nan)
+    if ok.any():
+        Z[ok] = relative_poses(a[ok], b[ok]).as_array()
+    return Z
+
+
+def exp_cabinet(*, quick, seed, progress, sensor="ideal"):
+    from mmlearn.diagrams.common.object_tracks import cabinet_scenario
+
+    tr = observe(cabinet_scenario(20, 20 if quick else 40, rng=seed), sensor)
+    obs = ObservationModel(sigma_pos=0.01, sigma_orient=np.deg2rad(2))
+    hist = incremental_structure(tr.poses, tr.parts, refit_every=5, obs=obs, rng=seed,
+                                 models=PARAMETRIC if quick else ("rigid", "prismatic",
+                                                                  "revolute", "gp"))
+    rows = [{"n": s.n, "edges": [list(e) for e in s.edges], "dof": s.dof} for s in hist]
+    lines = ["Fig. 4.8  two-drawer cabinet (lower drawer alone for 20 samples, then both)",
+             "   n  dof  structure"]
+    for r in rows:
+        lines.append(f"{r['n']:4d}  {r['dof']:3d}  " + ", ".join(
+            f"{m}({a},{b})" for a, b, m in r["edges"]))
+    return _with_sensor({"rows": rows}, lines, tr, sensor)
+
+
+def exp_table(*, quick, seed, progress, sensor="ideal"):
+    from mmlearn.diagrams.common.object_tracks import table_phases, table_scenario
+
+    m = 12 if quick else 20
+    tr = observe(table_scenario(m, rng=seed), sensor)
+    names = ["still", "line", "curve", "free"]
+    ends = np.cumsum([table_phases(m)[k] for k in names])
+    obs = ObservationModel(sigma_pos=0.01, sigma_orient=np.deg2rad(2))
+    models = ("rigid", "prismatic", "revolute", "gp", "gp2")
+    Z = _relative(tr)
+    rows = []
+    # every 5 samples and at the end of each phase
+    steps = sorted(set(range(5, Z.shape[0] + 1, 5)) | {int(e) for e in ends})
+    bar = progress_bar(len(steps), "table", enabled=progress)
+    rng = np.random.default_rng(seed)
+    for n in steps:
+        phase = names[int(np.searchsorted(ends, n))]
+        Zn = Z[:n][np.isfinite(Z[:n]).all(axis=1)]  # the samples the sensor saw
+        if len(Zn) < 5:
+            rows.append({"n": n, "phase": phase, "selected": None, "bic": {}, "seen": len(Zn)})
+            bar.update(1)
+            continue
+        s = select_link_model(Zn, models=models, obs=obs, rng=rng, n_hypotheses=60)
+        rows.append({"n": n, "phase": phase, "selected": s.selected,
+                     "bic": {k: (v if math.isfinite(v) else None) for k, v in s.bic.items()},
+                     "seen": len(Zn)})
+        bar.update(1)
+    bar.close()
+    lines = ["Fig. 4.9  table pushed on the floor (phases end at n = %s)" % ", ".join(
+        str(int(e)) for e in ends),
+             "   n  phase  selected  " + "  ".join(f"{k:>8s}" for k in models)]
+    for r in rows:
+        lines.append(f"{r['n']:4d}  {r['phase']:5s}  {r['selected'] or '-':8s}  " + "  ".join(
+            f"{r['bic'][k]:8.0f}" if r["bic"].get(k) is not None else "       -"
+            for k in models))
+    return _with_sensor({"rows": rows, "sequence": _sequence(
+        [r["selected"] for r in rows if r["selected"] is not None])}, lines, tr, sensor)
+
+
+def _sequence(names):
+    out = []
+    for n in names:
+        if not out or out[-1] != n:
+            out.append(n)
+    return out
+
+
+def exp_car(*, quick, seed, progress, sensor="ideal"):
+    from mmlearn.diagrams.common.object_tracks import car_door_scenario
+
+    tr = observe(car_door_scenario(30 if quick else 40, 30 if quick else 40, rng=seed), sensor)
+    obs = ObservationModel(sigma_pos=0.005, sigma_orient=np.deg2rad(1))
+    hist = incremental_structure(tr.poses, tr.parts, refit_every=10, obs=obs, rng=seed,
+                                 models=PARAMETRIC, search="local")
+    rows = []
+    for s in hist:
+        r = s.result
+        radius = None
+        for (i, j) in r.best.edges:
+            if "window" in (tr.parts[i], tr.parts[j]) and r.best.models[(i, j)] == "revolute":
+                radius = float(r.pair_models[(i, j)].best.radius)
+        rows.append({"n": s.n, "edges": [list(e) for e in s.edges], "dof": s.dof,
+                     "window_radius_m": radius})
+    lines = ["Fig. 4.11  car door + window on a curved guide (true r = 1.9 m)",
+             "   n  dof  window r [m]  structure"]
+    for r in rows:
+        rr = f"{r['window_radius_m']:.2f}" if r["window_radius_m"] is not None else "-"
+        lines.append(f"{r['n']:4d}  {r['dof']:3d}  {rr:>12s}  " + ", ".join(
+            f"{m}({a},{b})" for a, b, m in r["edges"]))
+    return _with_sensor({"rows": rows}, lines, tr, sensor)
+
+
+def exp_garage(*, quick, seed, progress, sensor="ideal"):
+    from mmlearn.diagrams.common.object_tracks import garage_door_scenario
+
+    tr = observe(garage_door_scenario(40 if quick else 60, rng=seed), sensor)
+    obs = ObservationModel(sigma_pos=0.01, sigma_orient=np.deg2rad(2))
+    Z = _relative(tr)
+    Z = Z[np.isfinite(Z).all(axis=1)]
+    if len(Z) < 5:
+        return _with_sensor({"selected": None, "bic": {}, "avg_pos_error_m": None,
+                             "seen": len(Z)},
+                            [f"Roll-up garage door: {len(Z)} samples seen, nothing selected"],
+                            tr, sensor)
+    s = select_link_model(Z, obs=obs, rng=seed)
+    res = {"selected": s.selected,
+           "bic": {k: (v if math.isfinite(v) else None) for k, v in s.bic.items()},
+           "avg_pos_error_m": float(s.best.avg_pos_error_), "seen": len(Z)}
+    lines = ["Roll-up garage door: selected " + s.selected + "  (BIC " + ", ".join(
+        f"{k} {v:.0f}" for k, v in s.bic.items() if math.isfinite(v)) + ")"]
+    return _with_sensor(res, lines, tr, sensor)
+
+
+def _yardstick_obs():
+    return ObservationModel(sigma_pos=0.005, sigma_orient=np.deg2rad(3))
+
+
+def yardstick_row(*, closed: bool, seed: int, n: int, sensor: str = "ideal") -> dict:
+    """One yardstick run of Fig. 4.16 (a trial): the open chain (3 hinges) or the closed
+    loop (4 links) with ``n`` samples, fitted with the spanning tree, the local and the
+    exhaustive search (DOF reduction on); BICs, DOFs, run times [s] and graphs visited."""
+    from mmlearn.diagrams.common.object_tracks import yardstick_scenario
+
+    obs = _yardstick_obs()
+    tr = observe(yardstick_scenario(closed, n, rng=seed), sensor)
+    t0, c0 = time.perf_counter(), time.process_time()
+    pm = fit_pair_models(tr.poses, obs=obs, rng=seed)
+    t_pairs, c_pairs = time.perf_counter() - t0, time.process_time() - c0
+    res = {}
+    for search in ("tree", "local", "exhaustive"):
+        res[search] = fit_structure(tr.poses, part_names=tr.parts, search=search,
+                                    reduce_dofs=True, obs=obs, pair_models=pm)
+    rl, rx = res["local"], res["exhaustive"]
+    chain = [(0, 1), (1, 2), (2, 3)] + ([(0, 3)] if closed else [])
+    true_graph = KinematicGraphEvaluator(tr.poses, pm, obs=obs).evaluate(
+        chain, reduce_dofs=True)
+    row = {
+        "closed": closed, "seed": seed, "n": n,
+        "dof_local": rl.best.dof, "dof_exhaustive": rx.best.dof,
+        "dof_tree": res["tree"].best.dof,
+        "edges_local": [[tr.parts[i], tr.parts[j], rl.best.models[(i, j)]]
+                        for i, j in rl.best.edges],
+        "has_loop": rl.best.has_loop,
+        "bic_tree": res["tree"].best.bic, "bic_local": rl.best.bic,
+        "bic_exhaustive": rx.best.bic,
+        "gap_local_pct": 100 * (rl.best.bic - rx.best.bic) / abs(rx.best.bic),
+        "gap_tree_pct": 100 * (res["tree"].best.bic - rx.best.bic) / abs(rx.best.bic),
+        "local_optimal": bool(abs(rl.best.bic - rx.best.bic) < 1e-6),
+        "bic_true_graph": true_graph.bic, "dof_true_graph": true_graph.dof,
+        "fit_seconds": t_pairs,
+        "search_seconds_local": rl.search_seconds,
+        "search_seconds_exhaustive": rx.search_seconds,
+        "fit_cpu_seconds": c_pairs,
+        "search_cpu_seconds_local": rl.search_cpu_seconds,
+        "search_cpu_seconds_exhaustive": rx.search_cpu_seconds,
+        "graphs_local": len(rl.evaluated), "graphs_exhaustive": len(rx.evaluated),
+    }
+    if sensor != "ideal":
+        row["sensor_stats"] = sensor_stats(tr)
+    return row
+
+
+def dof_progress(*, closed: bool, seed: int, quick: bool, sensor: str = "ideal") -> list:
+    """Fig. 4.17 for one yardstick (a trial): the open chain opened segment by segment or the
+    closed loop; [n, estimated DOFs] every 20 samples."""
+    from mmlearn.diagrams.common.object_tracks import yardstick_scenario
+
+    n, step = (80, 20) if quick else (200, 20)
+    obs = _yardstick_obs()
+    tr = observe(yardstick_scenario(closed, n, staged=not closed, rng=seed), sensor)
+    dofs = []
+    for m in range(step, n + 1, step):
+        r = fit_structure(tr.poses[:, :m], search="local", reduce_dofs=True, obs=obs,
+                          rng=seed, models=PARAMETRIC if quick else
+                          ("rigid", "prismatic", "revolute", "gp"))
+        dofs.append([m, r.best.dof])
+    return dofs
+
+
+def search_vs_n_row(*, n: int, seed: int, sensor: str = "ideal") -> dict:
+    """Fig. 4.18 at one n (a trial): closed yardstick, BIC, DOFs, graphs visited and run
+    time [s] of the spanning tree, the local and the exhaustive search."""
+    from mmlearn.diagrams.common.object_tracks import yardstick_scenario
+
+    obs = _yardstick_obs()
+    tr = observe(yardstick_scenario(True, n, rng=seed), sensor)
+    t0 = time.perf_counter()
+    pm = fit_pair_models(tr.poses, obs=obs, rng=seed)
+    t_fit = time.perf_counter() - t0
+    tree_edges = spanning_tree_edges(pm, 4)
+    row = {"n": n, "fit_seconds": t_fit}
+    for search in ("tree", "local", "exhaustive"):
+        ev = KinematicGraphEvaluator(tr.poses, pm, obs=obs)
+        t0 = time.perf_counter()
+        best, tree, order = search_structure(ev, tree_edges, search=search, reduce_dofs=True)
+        row[search] = {"bic": best.bic, "seconds": time.perf_counter() - t0,
+                       "graphs": len(order), "dof": best.dof}
+        if search == "exhaustive":
+            row["all_bics"] = sorted(e.bic for e in order)
+    return row
+
+
+STRUCTURE_RUNNERS = {"fig48": exp_cabinet, "fig49": exp_table, "fig411": exp_car, "garage": exp_garage}
+"""The experiments that are one trial each (their table is the trial's record)."""
+
+
+@register_trial("articulation.structure")
+def structure_trial(*, seed: int, experiment: str, quick: bool = False,
+                    closed: bool | None = None, n: int | None = None, sensor: str = "ideal",
+                    shared=None) -> dict:
+    """One trial of the structure experiments (thesis 4.4.1 / 4.4.3; the sweep's trial function): a whole experiment of
+    :data:`STRUCTURE_RUNNERS` (fig48, fig49, fig411, garage: its result and table lines), one yardstick
+    run of fig416 (``closed``, ``n`` samples), one yardstick of fig417 (``closed``) or one
+    ``n`` of fig418. ``sensor``: see :func:`observe`."""
+    if experiment in STRUCTURE_RUNNERS:
+        res, lines = STRUCTURE_RUNNERS[experiment](quick=quick, seed=seed, progress=False,
+                                         sensor=sensor)
+        return {"experiment": experiment, "result": res, "lines": lines}
+    if experiment == "fig416":
+        return {"experiment": experiment, "row": yardstick_row(closed=closed, seed=seed, n=n,
+                                                               sensor=sensor)}
+    if experiment == "fig417":
+        return {"experiment": experiment, "closed": closed,
+                "dofs": dof_progress(closed=closed, seed=seed, quick=quick, sensor=sensor)}
+    if experiment == "fig418":
+        return {"experiment": experiment, "row": search_vs_n_row(n=n, seed=seed, sensor=sensor)}
+    raise ValueError(f"unknown experiment {experiment!r}; choose from {', '.join(STRUCTURE_EXPERIMENTS)}")
