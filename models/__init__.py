@@ -8,8 +8,8 @@ from mmlearn._lazy import lazy_exports
 
 #: submodule -> the public names it defines (imported on first use)
 _EXPORTS = {
-    "common": ["PinholeIntrinsics", "valid_depth_mask", "as_depth_image", "depth_to_points", "param", "validate_fields", "field_spec", "DepthNoiseConfig", "apply_depth_noise", "predicted_depth_std", "incidence_cosine", "projector_shadow", "atomic_write_text", "GaussianProcess", "DepthMirrorTest", "DetectorConfig", "MarkerDetections", "detect_marker_poses", "make_detector", "mirror_test_from_depth", "SdfModel", "Link", "Box", "Cylinder", "Sphere", "Capsule", "Mesh", "JOINT_TYPES", "box_inertia", "cylinder_inertia", "PoseArray", "as_pose_array", "to_xyzquat", "to_matrices", "relative_poses", "rotation_angle", "rotation_distance", "matrix_to_pose7", "pose7_to_matrix", "quat_distance", "project_to_so3", "rotvec_to_matrix", "matrix_to_rotvec", "Track", "TrackFileError", "read_track", "find_track_files", "register_trial", "trial_id", "registered_trials", "progress", "progress_bar"],
-    "articulation": ["distinguishable_configurations", "LinkModel", "GPModel", "GraphEvaluation", "KinematicGraphEvaluator", "fit_pair_models", "as_part_tracks", "spanning_tree_edges", "search_structure", "fit_structure", "pca_projection", "SEARCH_MODES", "read_parts_csv", "write_parts_csv", "CSV_HEADER", "IncrementalStep", "IncrementalStructure", "incremental_structure", "model_to_dict", "model_from_dict", "save_model", "load_model", "to_sdf", "write_sdf", "validate_link_dict", "validate_prior_dict", "ObservationModel", "RigidModel", "PrismaticModel", "RevoluteModel", "MODEL_CLASSES", "make_model", "link_model_from_dict", "DEFAULT_GAMMA_WEIGHT", "GAMMA_PRIOR_MODES", "em_gamma", "align_trajectory", "thin_trajectory", "PriorCluster", "PriorDatabase", "MergeDecision", "merge_bic", "learn_priors", "evaluate_priors", "PriorTracker", "FORMAT", "LocalParametrisation", "refine_em", "refine_lm", "refine_lbfgs", "refine", "SimulatedTrack", "simulate_link", "true_pose", "LINK_TYPES", "DEFAULT_CANDIDATES", "LinkSelection", "select_link_model", "ArticulatedObject", "LinkEdge", "fit_kinematic_tree", "relative_track", "SUCCESS_ANGLE", "SUCCESS_DISTANCE", "evaluate_model", "right_kind", "operate_error_record", "operate_records", "summarize_operate", "operate_report", "LINK_EXPERIMENTS", "LINK_MODELS", "SELECTION_VARIANTS", "SELECTION_SIGMAS", "GROUND_TRUTH", "TABLE_OBJECTS", "link_grid", "noise_point", "outliers_point", "size_point", "time_point", "bic_run", "table_object", "default_track_dir", "selection_tracks", "selection_variant", "link_experiment_trial", "tracks_sha1", "link_experiments_report", "sensor_stats", "sensor_line", "STRUCTURE_EXPERIMENTS", "STRUCTURE_SCENARIOS", "yardstick_summary", "dof_progress_summary", "search_vs_n_summary", "structure_report"],
+    "common": ["PinholeIntrinsics", "valid_depth_mask", "as_depth_image", "depth_to_points", "param", "validate_fields", "field_spec", "DepthNoiseConfig", "apply_depth_noise", "predicted_depth_std", "incidence_cosine", "projector_shadow", "atomic_write_text", "GaussianProcess", "DepthMirrorTest", "DetectorConfig", "MarkerDetections", "detect_marker_poses", "make_detector", "mirror_test_from_depth", "SdfModel", "Link", "Box", "Cylinder", "Sphere", "Capsule", "Mesh", "JOINT_TYPES", "box_inertia", "cylinder_inertia", "PoseArray", "as_pose_array", "relative_poses", "rotation_distance", "matrix_to_pose7", "quat_distance", "project_to_so3", "rotvec_to_matrix", "matrix_to_rotvec", "Track", "TrackFileError", "read_track", "find_track_files", "register_trial", "trial_id", "registered_trials", "progress", "progress_bar"],
+    "articulation": ["distinguishable_configurations", "LinkModel", "GPModel", "GraphEvaluation", "KinematicGraphEvaluator", "fit_pair_models", "as_part_tracks", "spanning_tree_edges", "search_structure", "fit_structure", "pca_projection", "SEARCH_MODES", "read_parts_csv", "write_parts_csv", "CSV_HEADER", "IncrementalStep", "IncrementalStructure", "incremental_structure", "model_to_dict", "model_from_dict", "save_model", "load_model", "to_sdf", "validate_link_dict", "validate_prior_dict", "ObservationModel", "RigidModel", "PrismaticModel", "RevoluteModel", "MODEL_CLASSES", "make_model", "link_model_from_dict", "DEFAULT_GAMMA_WEIGHT", "GAMMA_PRIOR_MODES", "em_gamma", "align_trajectory", "thin_trajectory", "PriorCluster", "PriorDatabase", "MergeDecision", "merge_bic", "learn_priors", "evaluate_priors", "FORMAT", "LocalParametrisation", "refine_em", "refine_lm", "refine_lbfgs", "refine", "SimulatedTrack", "simulate_link", "true_pose", "LINK_TYPES", "DEFAULT_CANDIDATES", "LinkSelection", "select_link_model", "ArticulatedObject", "LinkEdge", "fit_kinematic_tree", "relative_track", "SUCCESS_ANGLE", "SUCCESS_DISTANCE", "evaluate_model", "right_kind", "operate_error_record", "operate_records", "summarize_operate", "operate_report", "LINK_EXPERIMENTS", "LINK_MODELS", "SELECTION_VARIANTS", "SELECTION_SIGMAS", "GROUND_TRUTH", "TABLE_OBJECTS", "link_grid", "noise_point", "outliers_point", "size_point", "time_point", "bic_run", "table_object", "default_track_dir", "selection_tracks", "selection_variant", "link_experiment_trial", "tracks_sha1", "link_experiments_report", "sensor_stats", "sensor_line", "STRUCTURE_EXPERIMENTS", "STRUCTURE_SCENARIOS", "yardstick_summary", "dof_progress_summary", "search_vs_n_summary", "structure_report"],
     "body_schema": ["structure_correct", "prediction_errors", "accuracy_curve", "recovery_experiment", "control_experiment", "ArmPart", "SimArm", "make_arm_2dof", "make_arm_4dof", "make_arm_7dof", "rot", "trans", "LocalModel", "EngineeredModel", "se3_inv", "orthonormalize", "pose_errors", "log_likelihood", "visible_mask", "poses_from_xyzquat", "BodySchema", "AdaptationConfig", "SearchConfig", "learn_structure", "rotation_vector", "spanning_tree", "check_data", "is_correct", "converged_at", "recovery_summary", "control_summary", "average_runs", "correct_from", "BLOCK_WHERE", "body_schema_report"],
     "perception": ["DepthFilterConfig", "DepthFilterState", "new_filter_state", "filter_depth", "FrontDetectorConfig", "detect_fronts", "Plane", "STAGES", "FrontRectangle", "HandleFromFrontConfig", "HandleEstimate", "front_axes", "select_front", "handle_from_front", "FrontMotionConfig", "stepped_profile", "FrontJointKinematics", "PlanarPatch", "box_patches", "look_at", "render_depth", "add_depth_noise", "pose_from_axes", "front_pose", "kitchen_scene", "DOOR_SIZE", "DRAWER_SIZE", "RECTANGLE_SYMMETRIES", "SWAPS_SIZE", "rectangle_parameterisations", "align_rectangle", "corner_to_centre", "rectangles_from_poses", "FrontTrackingConfig", "FrontTrack", "TrackingState", "FrameResult", "track_frame", "track_rectangles", "as_rectangle", "FRONT_SIGMA_POS_M", "FRONT_SIGMA_ORIENT_RAD", "front_observation_model", "TrackModel", "fit_track_model", "selection_vs_observations", "simulate_front_rectangles", "align_track", "axis_errors", "cross_validated_errors", "subsampled_selection"],
     "tactile": ["ContainerClass", "ContainerInstance", "CONTAINER_CLASSES", "STATES", "states_of", "sample_container", "vary_grasp", "GRASP_VARIATIONS", "ICUB_SPREAD_PLASTIC_BOTTLE", "ICUB_SPREAD_CAN", "P0", "RHO_WATER", "G", "squeeze_volume", "squeeze_pressure", "wall_forces", "ICubFileError", "ICubTrial", "read_icub_trial", "find_icub_files", "load_icub_dir", "KNOWN_LABELS", "UNRELIABLE_LABELS", "CONTACT_LEVEL", "REST_VELOCITY", "parse_icub_name", "SloshMode", "first_slosh_mode", "RollRecord", "highpass", "filtered_norm", "liquid_feature", "liquid_features", "coast_mask", "coast_feature", "liquid_table", "evaluate_liquid", "FEATURES", "COAST_DETREND_DEGREE", "COAST_MIN_SAMPLES", "HIGHPASS_CUTOFF_HZ", "TACTILE_RATE_HZ", "PadLayout", "PAD_CH6", "PAD_PR2", "subdivision_points", "integrate_pressure", "integrate_pressure_pads", "sensor_reading", "d1", "shift_rows", "d2", "pairwise_d2", "k_medoids", "TactileSet", "TactileRecognitionConfig", "TactileRecognizer", "entropy", "posterior", "CLUSTERINGS", "kmedoids_available", "FEATURE_NAMES", "GraspFeatures", "extract_grasp_features", "feature_matrix", "make_classifier", "ClassificationReport", "cross_validate", "evaluate_split", "CLASSIFIERS", "pattern_bank", "make_objects", "sample_grasps", "TactileGrasp", "TactileObservation", "TactileDataError", "check_series"],
@@ -240,7 +240,6 @@ __all__ = [
     "plan_global",
     "PlanarPatch",
     "Plane",
-    "pose7_to_matrix",
     "pose_errors",
     "pose_from_axes",
     "PoseArray",
@@ -250,7 +249,6 @@ __all__ = [
     "prediction_errors",
     "PriorCluster",
     "PriorDatabase",
-    "PriorTracker",
     "PrismaticModel",
     "progress",
     "progress_bar",
@@ -286,7 +284,6 @@ __all__ = [
     "ROBOT_TCP_IN_X8",
     "RollRecord",
     "rot",
-    "rotation_angle",
     "rotation_distance",
     "rotation_vector",
     "rotvec_to_matrix",
@@ -363,10 +360,8 @@ __all__ = [
     "ThesisReproducer",
     "thin_trajectory",
     "time_point",
-    "to_matrices",
     "to_sdf",
     "to_start_frame",
-    "to_xyzquat",
     "Track",
     "track_frame",
     "track_rectangles",
@@ -387,7 +382,6 @@ __all__ = [
     "wall_forces",
     "with_start_marker",
     "write_parts_csv",
-    "write_sdf",
     "yardstick_summary",
 ]
 

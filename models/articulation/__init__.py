@@ -9,9 +9,9 @@ _EXPORTS = {
     "gp_link": ["GPModel"],
     "graph": ["GraphEvaluation", "StructureResult", "KinematicGraphEvaluator", "fit_pair_models", "as_part_tracks", "spanning_tree_edges", "search_structure", "fit_structure", "pca_projection", "SEARCH_MODES", "read_parts_csv", "write_parts_csv", "CSV_HEADER"],
     "incremental": ["IncrementalStep", "IncrementalStructure", "incremental_structure"],
-    "io": ["model_to_dict", "model_from_dict", "save_model", "load_model", "to_sdf", "write_sdf", "atomic_write_text", "validate_link_dict", "validate_prior_dict"],
+    "io": ["model_to_dict", "model_from_dict", "save_model", "load_model", "to_sdf", "atomic_write_text", "validate_link_dict", "validate_prior_dict"],
     "link": ["ObservationModel", "RigidModel", "PrismaticModel", "RevoluteModel", "MODEL_CLASSES", "make_model", "link_model_from_dict", "DEFAULT_GAMMA_WEIGHT", "GAMMA_PRIOR_MODES", "em_gamma"],
-    "priors": ["align_trajectory", "thin_trajectory", "PriorCluster", "PriorDatabase", "MergeDecision", "merge_bic", "learn_priors", "evaluate_priors", "PriorTracker", "FORMAT"],
+    "priors": ["align_trajectory", "thin_trajectory", "PriorCluster", "PriorDatabase", "MergeDecision", "merge_bic", "learn_priors", "evaluate_priors", "FORMAT"],
     "refine": ["LocalParametrisation", "refine_em", "refine_lm", "refine_lbfgs", "refine"],
     "sim": ["SimulatedTrack", "simulate_link", "true_pose", "LINK_TYPES"],
     "structure": ["DEFAULT_CANDIDATES", "LinkSelection", "select_link_model", "ArticulatedObject", "LinkEdge", "fit_kinematic_tree", "relative_track"],
@@ -72,7 +72,6 @@ __all__ = [
     "pca_projection",
     "PriorCluster",
     "PriorDatabase",
-    "PriorTracker",
     "PrismaticModel",
     "read_parts_csv",
     "refine",
@@ -115,7 +114,6 @@ __all__ = [
     "validate_link_dict",
     "validate_prior_dict",
     "write_parts_csv",
-    "write_sdf",
     "yardstick_summary",
 ]
 
