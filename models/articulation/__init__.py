@@ -12,13 +12,14 @@ _EXPORTS = {
     "io": ["model_to_dict", "model_from_dict", "save_model", "load_model", "to_sdf", "atomic_write_text", "validate_link_dict", "validate_prior_dict"],
     "link": ["ObservationModel", "RigidModel", "PrismaticModel", "RevoluteModel", "MODEL_CLASSES", "make_model", "link_model_from_dict", "DEFAULT_GAMMA_WEIGHT", "GAMMA_PRIOR_MODES", "em_gamma"],
     "priors": ["align_trajectory", "thin_trajectory", "PriorCluster", "PriorDatabase", "MergeDecision", "merge_bic", "learn_priors", "evaluate_priors", "FORMAT"],
-    "refine": ["LocalParametrisation", "refine_em", "refine_lm", "refine_lbfgs", "refine"],
+    "refine": ["LocalParametrisation", "refine_em", "refine_lm", "refine_lbfgs", "refine", "FD_STEP", "alternate_refinement", "residual_terms"],
     "sim": ["SimulatedTrack", "simulate_link", "true_pose", "LINK_TYPES"],
     "structure": ["DEFAULT_CANDIDATES", "LinkSelection", "select_link_model", "ArticulatedObject", "LinkEdge", "fit_kinematic_tree", "relative_track"],
 }
 
 __all__ = [
     "align_trajectory",
+    "alternate_refinement",
     "ArticulatedObject",
     "as_part_tracks",
     "atomic_write_text",
@@ -32,6 +33,7 @@ __all__ = [
     "em_gamma",
     "evaluate_model",
     "evaluate_priors",
+    "FD_STEP",
     "fit_kinematic_tree",
     "fit_pair_models",
     "fit_structure",
@@ -79,6 +81,7 @@ __all__ = [
     "refine_lbfgs",
     "refine_lm",
     "relative_track",
+    "residual_terms",
     "RevoluteModel",
     "right_kind",
     "RigidModel",
