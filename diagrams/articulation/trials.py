@@ -18,6 +18,7 @@ from __future__ import annotations
 import math
 import os
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -121,12 +122,36 @@ def open_mechanism(*, kind: str = "left_door", seed: int = 0, meshcat=None,
     ``meshcat``: draw the scene there and record the trial (published at the end);
     ``on_built(op)``: called with the built :class:`Operate` before the simulation starts
     (e.g. to point the viewer's camera); ``realtime``: pace the simulation at real time."""
-    from pydrake.systems.analysis import Simulator
-
-    from mmlearn.diagrams.articulation.operate import PERCEPTIONS, MakeOperateDiagram, OperateConfig
+    from mmlearn.diagrams.articulation.operate import MakeOperateDiagram
     from mmlearn.diagrams.articulation.operate_perception import NoFrontDetected
-    from mmlearn.models.common.fileio import atomic_write_text
-    from mmlearn.systems.articulation.epc_controller import DONE, PHASE_NAMES, PULL
+
+    cfg = _operate_config(kind=kind, seed=seed, max_time=max_time, sigma_pos=sigma_pos,
+                          priors=priors, mechanism_seed=mechanism_seed, base_noise=base_noise,
+                          perception=perception)
+    t_build = time.perf_counter()
+    try:
+        op = MakeOperateDiagram(cfg, meshcat=meshcat)
+    except NoFrontDetected as e:
+        return _no_front_record(cfg, e.look)
+    build_seconds = time.perf_counter() - t_build
+    if meshcat is not None and op.look is not None:
+        draw_look(meshcat, op.look)
+    if on_built is not None:
+        on_built(op)
+    run = _simulate(op, max_time=max_time, realtime=realtime, show_progress=show_progress,
+                    label=f"{kind} seed {seed}")
+    result = _trial_record(op, cfg, run, build_seconds=build_seconds, save_track=save_track)
+    vis = op.scene.visualizer
+    if vis is not None:
+        vis.StopRecording()
+        vis.PublishRecording()
+    return result
+
+
+def _operate_config(*, kind, seed, max_time, sigma_pos, priors, mechanism_seed, base_noise,
+                    perception):
+    """The :class:`OperateConfig` of one trial (checks the arguments)."""
+    from mmlearn.diagrams.articulation.operate import PERCEPTIONS, OperateConfig
 
     if kind not in KINDS:
         raise ValueError(f"object must be one of {', '.join(KINDS)}; got {kind!r}")
@@ -141,109 +166,134 @@ def open_mechanism(*, kind: str = "left_door", seed: int = 0, meshcat=None,
         cfg.sigma_pos = sigma_pos
     if base_noise is not None:
         cfg.base_noise = base_noise
-    t_build = time.perf_counter()
-    try:
-        op = MakeOperateDiagram(cfg, meshcat=meshcat)
-    except NoFrontDetected as e:
-        # the robot saw no front it could open: a failed trial, nothing simulated
-        return {"object": kind, "seed": seed, "success": False, "opened": 0.0,
-                "final_opening": 0.0, "unit": "deg" if kind in REVOLUTE else "m",
-                "outcome": "no front detected",
-                "perception": perception, "front_found": False, "handle_error_m": None,
-                "handle_source": None, "frames_found": e.look.frames_found,
-                "look_frames": e.look.frames, "learned_model": None, "right_kind": False,
-                "base_noise": cfg.base_noise, "sigma_pos": cfg.sigma_pos,
-                "track_saved": None, "sim_seconds": 0.0, "wall_seconds": 0.0,
-                "true_kind": "revolute" if kind in REVOLUTE else "prismatic",
-                "html_out": None}
-    build_seconds = time.perf_counter() - t_build
+    return cfg
+
+
+def _no_front_record(cfg, look) -> dict:
+    """The record of a trial whose robot saw no front it could open (nothing simulated)."""
+    kind = cfg.kind
+    return {"object": kind, "seed": cfg.seed, "success": False, "opened": 0.0,
+            "final_opening": 0.0, "unit": "deg" if kind in REVOLUTE else "m",
+            "outcome": "no front detected",
+            "perception": cfg.perception, "front_found": False, "handle_error_m": None,
+            "handle_source": None, "frames_found": look.frames_found,
+            "look_frames": look.frames, "learned_model": None, "right_kind": False,
+            "base_noise": cfg.base_noise, "sigma_pos": cfg.sigma_pos,
+            "track_saved": None, "sim_seconds": 0.0, "wall_seconds": 0.0,
+            "true_kind": "revolute" if kind in REVOLUTE else "prismatic",
+            "html_out": None}
+
+
+@dataclass
+class _Run:
+    """What the simulation of one trial left: its root context, the last phase, the largest
+    opening reached (rad or m), the model log (time, true opening in the record's unit, kind
+    of the model the controller is given; every 0.25 s from the start of the pull), the
+    base-localisation errors (m) and the wall time (s)."""
+
+    ctx: object
+    phase: int
+    q_max: float
+    model_log: list
+    base_err: list
+    wall: float
+
+
+def _simulate(op, *, max_time, realtime, show_progress, label) -> _Run:
+    """Simulate the operate diagram ``op`` until the controller is done or ``max_time``."""
+    from pydrake.systems.analysis import Simulator
+
+    from mmlearn.systems.articulation.epc_controller import DONE, PHASE_NAMES, PULL
+
     d = op.diagram
-    if meshcat is not None and op.look is not None:
-        draw_look(meshcat, op.look)
-    if on_built is not None:
-        on_built(op)
     simulator = Simulator(d)
     ctx = simulator.get_mutable_context()
     op.scene.set_joint_positions(ctx, op.start_command)
     if realtime:
         simulator.set_target_realtime_rate(1.0)
-    vis = op.scene.visualizer
-    if vis is not None:
-        vis.StartRecording(False)
+    if op.scene.visualizer is not None:
+        op.scene.visualizer.StartRecording(False)
     simulator.Initialize()
     t0 = time.perf_counter()
-    bar = progress_bar(int(max_time), f"{kind} seed {seed}", unit="sim s",
-                       enabled=show_progress)
-    phase = 0
-    right = "revolute" if op.mechanism.is_revolute else "prismatic"
+    bar = progress_bar(int(max_time), label, unit="sim s", enabled=show_progress)
     to_unit = math.degrees if op.mechanism.is_revolute else float
-    model_port = d.GetOutputPort("object_model")
-    # (time, true opening, kind of the model the controller is given), every 0.25 s from
-    # the start of the pull
-    model_log = []
-    base_err = []  # |believed - true| base position, m
-    q_max = 0.0  # largest opening reached (the thesis: "opened it through ...")
+    opening, model_port = d.GetOutputPort("mechanism_state"), d.GetOutputPort("object_model")
+    run = _Run(ctx=ctx, phase=0, q_max=0.0, model_log=[], base_err=[], wall=0.0)
     while ctx.get_time() < max_time - 1e-9:
         simulator.AdvanceTo(min(max_time, ctx.get_time() + 0.25))
         bar.update(0.25)
-        bar.set_postfix_str(PHASE_NAMES[phase])
-        phase = int(d.GetOutputPort("phase").Eval(ctx)[0])
-        q_max = max(q_max, float(d.GetOutputPort("mechanism_state").Eval(ctx)[0]))
-        base_err.append(float(np.hypot(*d.GetOutputPort("base_error").Eval(ctx)[:2])))
-        if phase >= PULL:
+        bar.set_postfix_str(PHASE_NAMES[run.phase])
+        run.phase = int(d.GetOutputPort("phase").Eval(ctx)[0])
+        # the largest opening reached (the thesis: "opened it through ...")
+        run.q_max = max(run.q_max, float(opening.Eval(ctx)[0]))
+        run.base_err.append(float(np.hypot(*d.GetOutputPort("base_error").Eval(ctx)[:2])))
+        if run.phase >= PULL:
             m = model_port.Eval(ctx)
-            model_log.append((round(float(ctx.get_time()), 3),
-                              to_unit(float(d.GetOutputPort("mechanism_state").Eval(ctx)[0])),
-                              m.edges[0].model.name if m is not None and m.edges else None))
-        if phase == DONE:
+            run.model_log.append((round(float(ctx.get_time()), 3),
+                                  to_unit(float(opening.Eval(ctx)[0])),
+                                  m.edges[0].model.name if m is not None and m.edges
+                                  else None))
+        if run.phase == DONE:
             break
     bar.close()
-    wall = time.perf_counter() - t0
-    q = float(d.GetOutputPort("mechanism_state").Eval(ctx)[0])
-    spec = op.mechanism
-    est_ctx = op.estimator.GetMyContextFromRoot(ctx)
-    est_state = est_ctx.get_abstract_state(0).get_value()
+    run.wall = time.perf_counter() - t0
+    return run
+
+
+def _save_track(path, track, *, kind, seed) -> None:
+    from mmlearn.models.common.fileio import atomic_write_text
+
+    atomic_write_text(path, f"# hook trajectory, {kind}, seed {seed} (x y z, m)\n"
+                      + "\n".join(" ".join(f"{v:.6f}" for v in row) for row in track) + "\n")
+
+
+def _trial_record(op, cfg, run: _Run, *, build_seconds, save_track) -> dict:
+    """The record of a simulated trial (see :func:`open_mechanism`)."""
+    from mmlearn.systems.articulation.epc_controller import PHASE_NAMES
+
+    ctx, spec = run.ctx, op.mechanism
+    q = float(op.diagram.GetOutputPort("mechanism_state").Eval(ctx)[0])
+    to_unit = math.degrees if spec.is_revolute else float
+    est_state = op.estimator.GetMyContextFromRoot(ctx).get_abstract_state(0).get_value()
     obj = est_state.model
     link = obj.edges[0].model if obj is not None else None
     track = est_state.poses[:, 1, :3] if est_state.poses.shape[0] else np.zeros((0, 3))
     ctrl = op.controller.state(op.controller.GetMyContextFromRoot(ctx))
-    q_max = max(q_max, q)
+    q_max = max(run.q_max, q)
     if spec.is_revolute:
         opened, unit, success = math.degrees(q_max), "deg", q_max > SUCCESS_ANGLE
     else:
         opened, unit, success = q_max, "m", q_max > SUCCESS_DISTANCE
-    result = {"object": kind, "seed": seed, "success": bool(success), "opened": opened,
+    result = {"object": cfg.kind, "seed": cfg.seed, "success": bool(success), "opened": opened,
               "final_opening": to_unit(q),
-              "unit": unit, "outcome": ctrl.outcome or PHASE_NAMES[phase]}
+              "unit": unit, "outcome": ctrl.outcome or PHASE_NAMES[run.phase]}
     result.update(evaluate_model(link, spec))
-    used = (op.look.estimate.handle if op.look is not None else op.true_task.handle)
-    result.update({"perception": perception, "front_found": True,
+    look = op.look
+    used = (look.estimate.handle if look is not None else op.true_task.handle)
+    result.update({"perception": cfg.perception, "front_found": True,
                    "handle_error_m": float(np.linalg.norm(used - spec.handle_world(0.0)[0])),
-                   "handle_source": None if op.look is None else op.look.estimate.source,
-                   "frames_found": None if op.look is None else op.look.frames_found,
-                   "look_frames": None if op.look is None else op.look.frames,
+                   "handle_source": None if look is None else look.estimate.source,
+                   "frames_found": None if look is None else look.frames_found,
+                   "look_frames": None if look is None else look.frames,
                    "build_seconds": round(build_seconds, 3)})
     # the model's kind over the trial, and the opening from which the final right kind held
-    ok, right_at = right_kind(model_log, right)
+    right = "revolute" if spec.is_revolute else "prismatic"
+    ok, right_at = right_kind(run.model_log, right)
     result.update({"right_kind": ok, "right_model_at": right_at, "true_kind": right,
-                   "model_log": model_log,
+                   "model_log": run.model_log,
                    "base_noise": cfg.base_noise, "sigma_pos": cfg.sigma_pos,
-                   "base_error_max_m": max(base_err) if base_err else 0.0})
-    if priors:
-        result["priors"] = priors
+                   "base_error_max_m": max(run.base_err) if run.base_err else 0.0})
+    if cfg.priors:
+        result["priors"] = cfg.priors
     result["track_saved"] = None
     if save_track and track.shape[0]:
         result["track_saved"] = save_track
-        atomic_write_text(save_track, f"# hook trajectory, {kind}, seed {seed} (x y z, m)\n"
-                          + "\n".join(" ".join(f"{v:.6f}" for v in row) for row in track)
-                          + "\n")
+        _save_track(save_track, track, kind=cfg.kind, seed=cfg.seed)
+    t, wall = float(ctx.get_time()), run.wall
     result.update({"estimated_opening": ctrl.opening, "track_length": int(track.shape[0]),
-                   "sim_seconds": float(ctx.get_time()), "wall_seconds": round(wall, 3),
+                   "sim_seconds": t, "wall_seconds": round(wall, 3),
                    "realtime_factor": round(float(ctx.get_time() / wall), 2),
                    "html_out": None})
-    if vis is not None:
-        vis.StopRecording()
-        vis.PublishRecording()
     return result
 
 
