@@ -192,11 +192,38 @@ def learn_body_schema(*, config: LearnBodySchemaConfig, meshcat=None,
     and the positioning error of the SchemaController driving the end effector to targets
     with the learned model. ``meshcat``: draw and record the run there (published at the
     end; real-time pacing with ``config.meshcat``). Returns the results dict."""
-    from pydrake.systems.analysis import Simulator
-
-    from mmlearn.diagrams.body_schema.diagram import BodySchemaDiagramConfig, MakeBodySchemaDiagram
-
     cfg = config
+    _check_config(cfg)
+    t_start = time.perf_counter()
+    bs, simulator, root = _learning_simulation(cfg, meshcat)
+    got = babble(bs, simulator, cfg.samples, show_progress=show_progress)
+    st = bs.learner.state(root)
+    schema = st.schema
+    rng = np.random.default_rng([cfg.seed, 7])
+    Q = sample_test_commands(bs, cfg.n_test, rng)
+    n_nodes = len(schema.nodes) if schema.nodes else len(bs.parts)
+    result = _learned_record(cfg, bs, st, n_nodes)
+    result["obs_noise_m"] = observation_noise(bs, root, Q[:30], cfg.seed)
+    result.update(_update_times(st))
+    if got < cfg.samples:
+        result["warning"] = f"only {got} samples were taken"
+    if schema.tree and len(schema.tree) == n_nodes - 1:
+        result["pred_error_m"], result["pred_error_deg"] = prediction_error(
+            bs, root, schema, Q)
+        if cfg.n_control:
+            result["ctrl_error_m"] = control_error(bs, simulator, Q[-cfg.n_control:],
+                                                   cfg.control_time, show_progress)
+    result["sim_seconds"] = float(root.get_time())
+    result["seconds"] = round(time.perf_counter() - t_start, 3)
+    result["html_out"] = None
+    vis = bs.scene.visualizer
+    if vis is not None:
+        vis.StopRecording()
+        vis.PublishRecording()
+    return result
+
+
+def _check_config(cfg: LearnBodySchemaConfig) -> None:
     if cfg.samples < 1:
         raise ValueError(f"samples must be >= 1, got {cfg.samples}")
     if not (math.isfinite(cfg.noise) and cfg.noise >= 0):
@@ -206,7 +233,15 @@ def learn_body_schema(*, config: LearnBodySchemaConfig, meshcat=None,
     if cfg.camera_depth not in CAMERA_DEPTHS:
         raise ValueError(f"camera_depth must be one of {', '.join(CAMERA_DEPTHS)}, got "
                          f"{cfg.camera_depth!r}")
-    t_start = time.perf_counter()
+
+
+def _learning_simulation(cfg: LearnBodySchemaConfig, meshcat):
+    """The body-schema diagram of ``cfg``, its simulator (initialised, recording when
+    drawn in ``meshcat``) and root context."""
+    from pydrake.systems.analysis import Simulator
+
+    from mmlearn.diagrams.body_schema.diagram import BodySchemaDiagramConfig, MakeBodySchemaDiagram
+
     dcfg = BodySchemaDiagramConfig(arm=cfg.arm, noise_pos=cfg.noise,
                                    noise_orient=math.radians(cfg.noise_orient_deg),
                                    occlude=list(cfg.occlude), seed=cfg.seed,
@@ -218,17 +253,16 @@ def learn_body_schema(*, config: LearnBodySchemaConfig, meshcat=None,
     bs.prepare(root)
     if cfg.meshcat:
         simulator.set_target_realtime_rate(1.0)
-    vis = bs.scene.visualizer
-    if vis is not None:
-        vis.StartRecording(False)
+    if bs.scene.visualizer is not None:
+        bs.scene.visualizer.StartRecording(False)
     simulator.Initialize()
-    got = babble(bs, simulator, cfg.samples, show_progress=show_progress)
-    st = bs.learner.state(root)
+    return bs, simulator, root
+
+
+def _learned_record(cfg: LearnBodySchemaConfig, bs, st, n_nodes: int) -> dict:
+    """What was learned: the structure against the true one (errors filled in later)."""
     schema = st.schema
-    rng = np.random.default_rng([cfg.seed, 7])
-    Q = sample_test_commands(bs, cfg.n_test, rng)
-    n_nodes = len(schema.nodes) if schema.nodes else len(bs.parts)
-    result = {
+    return {
         "arm": cfg.arm,
         "sensor": cfg.sensor,
         "camera_depth": cfg.camera_depth if cfg.sensor == "camera" else None,
@@ -241,29 +275,17 @@ def learn_body_schema(*, config: LearnBodySchemaConfig, meshcat=None,
         "valid": bool(schema.valid),
         "pred_error_m": None,
         "pred_error_deg": None,
-        "obs_noise_m": observation_noise(bs, root, Q[:30], cfg.seed),
+        "obs_noise_m": None,
         "ctrl_error_m": None,
-        "update_ms_median": float(1000 * np.median(st.update_seconds)) if st.update_seconds
-        else None,
-        "update_ms_max": float(1000 * np.max(st.update_seconds)) if st.update_seconds
-        else None,
-        "dropped_frames": int(st.n_dropped),
     }
-    if got < cfg.samples:
-        result["warning"] = f"only {got} samples were taken"
-    if schema.tree and len(schema.tree) == n_nodes - 1:
-        result["pred_error_m"], result["pred_error_deg"] = prediction_error(
-            bs, root, schema, Q)
-        if cfg.n_control:
-            result["ctrl_error_m"] = control_error(bs, simulator, Q[-cfg.n_control:],
-                                                   cfg.control_time, show_progress)
-    result["sim_seconds"] = float(root.get_time())
-    result["seconds"] = round(time.perf_counter() - t_start, 3)
-    result["html_out"] = None
-    if vis is not None:
-        vis.StopRecording()
-        vis.PublishRecording()
-    return result
+
+
+def _update_times(st) -> dict:
+    """The learner's update times (median, largest; ms) and its dropped frames."""
+    u = st.update_seconds
+    return {"update_ms_median": float(1000 * np.median(u)) if u else None,
+            "update_ms_max": float(1000 * np.max(u)) if u else None,
+            "dropped_frames": int(st.n_dropped)}
 
 
 def make_body_schema_sim(arm, noise, seed, **kw):
