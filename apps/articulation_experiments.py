@@ -129,104 +129,102 @@ def trial_specs(*, only, runs: int, seed: int, quick: bool, exact: bool = True,
     return specs
 
 
+def _nan(vs) -> list:
+    return [np.nan if v is None else v for v in vs]
+
+
+def _label(ax, xlabel, ylabel, title, *, logx=False, logy=False, title_size=None):
+    if logx:
+        ax.set_xscale("log")
+    if logy:
+        ax.set_yscale("log")
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.set_title(title, **({"fontsize": title_size} if title_size else {}))
+    ax.legend(fontsize=7)
+
+
+def _plot_noise(plt, r):
+    fig, ax = plt.subplots(figsize=(5, 3.5))
+    for m in MODELS:
+        mu, sd = np.array(_nan(r["error_mean"][m])), np.array(_nan(r["error_std"][m]))
+        ax.plot(r["sigma_pos"], mu, "o-", label=m)
+        ax.fill_between(r["sigma_pos"], mu - sd, mu + sd, alpha=0.15)
+    ax.plot(r["sigma_pos"], r["sigma_pos"], "k--", lw=0.8, label="noise level")
+    _label(ax, "sigma_pos [m]", "sample error [m]", "Fig. 4.20: error vs Gaussian noise",
+           logx=True, logy=True)
+    return [(fig, "fig4_20_noise.png")]
+
+
+def _plot_error_vs(plt, r, xk, xlabel, title, name):
+    """Fig. 4.21 / 4.23: sample error against ``xk``, the noise level as a line."""
+    fig, ax = plt.subplots(figsize=(5, 3.5))
+    for m in MODELS:
+        ax.plot(r[xk], _nan(r["error_mean"][m]), "o-", label=m)
+    ax.axhline(r["sigma_pos"], color="k", ls="--", lw=0.8, label="noise level")
+    _label(ax, xlabel, "sample error [m]", title, logy=True)
+    return fig, name
+
+
+def _plot_outliers(plt, r):
+    figs = [_plot_error_vs(plt, r, "gamma", "outlier ratio gamma",
+                           "Fig. 4.21: error vs outlier ratio", "fig4_21_outliers.png")]
+    fig, ax = plt.subplots(figsize=(4.5, 4))
+    for m in MODELS:
+        ax.plot(_nan(r["gamma_true_mean"][m]), _nan(r["gamma_est_mean"][m]), "o-", label=m)
+    ax.plot([0, 1], [0, 1], "k--", lw=0.8)
+    _label(ax, "true gamma", "estimated gamma", "Fig. 4.22: estimated vs true outlier ratio")
+    return figs + [(fig, "fig4_22_gamma.png")]
+
+
+def _plot_size(plt, r):
+    return [_plot_error_vs(plt, r, "n", "training size n", "Fig. 4.23: error vs training size",
+                           "fig4_23_size.png")]
+
+
+def _plot_time(plt, r):
+    fig, ax = plt.subplots(figsize=(5, 3.5))
+    for m in MODELS:
+        ax.plot(r["n"], _nan(r["seconds"][m]), "o-", label=m)
+    ax.plot(r["n"], _nan(r["all_four_seconds"]), "k-", label="all four")
+    _label(ax, "training size n", "time [s]", "Fig. 4.24: fit time")
+    return [(fig, "fig4_24_time.png")]
+
+
+def _plot_bic(plt, r, key, xk, title, name):
+    fig, ax = plt.subplots(figsize=(5.5, 3.8))
+    for m in MODELS:
+        ax.plot(r[xk], r["bic_mean"][m], ".-", label=m)
+    _label(ax, xk, "BIC", title, logx=key == "bic_noise", title_size=9)
+    return [(fig, name)]
+
+
 def _plots(res, out_dir: Path):
+    """The figures of the experiments in ``res`` as PNG files in ``out_dir``; their paths."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     out_dir.mkdir(parents=True, exist_ok=True)
+    figs = []
+    for key, draw in (("noise", _plot_noise), ("outliers", _plot_outliers),
+                      ("size", _plot_size), ("time", _plot_time)):
+        if key in res:
+            figs += draw(plt, res[key])
+    for key, xk, title, name in [("bic_n", "n", "Fig. 4.25: BIC vs n (roll-up door)",
+                                  "fig4_25_bic_n.png"),
+                                 ("bic_noise", "assumed_sigma_pos",
+                                  "Fig. 4.26: BIC vs assumed noise (n = 50)",
+                                  "fig4_26_bic_noise.png")]:
+        if key in res:
+            figs += _plot_bic(plt, res[key], key, xk, title, name)
     written = []
-
-    def save(fig, name):
-        p = out_dir / name
+    for fig, name in figs:
         fig.tight_layout()
-        save_figure(fig, p, dpi=100)
+        save_figure(fig, out_dir / name, dpi=100)
         plt.close(fig)
-        written.append(str(p))
-
-    if "noise" in res:
-        r = res["noise"]
-        fig, ax = plt.subplots(figsize=(5, 3.5))
-        for m in MODELS:
-            mu = np.array([np.nan if v is None else v for v in r["error_mean"][m]])
-            sd = np.array([np.nan if v is None else v for v in r["error_std"][m]])
-            ax.plot(r["sigma_pos"], mu, "o-", label=m)
-            ax.fill_between(r["sigma_pos"], mu - sd, mu + sd, alpha=0.15)
-        ax.plot(r["sigma_pos"], r["sigma_pos"], "k--", lw=0.8, label="noise level")
-        ax.set_xscale("log")
-        ax.set_yscale("log")
-        ax.set_xlabel("sigma_pos [m]")
-        ax.set_ylabel("sample error [m]")
-        ax.set_title("Fig. 4.20: error vs Gaussian noise")
-        ax.legend(fontsize=7)
-        save(fig, "fig4_20_noise.png")
-    if "outliers" in res:
-        r = res["outliers"]
-        fig, ax = plt.subplots(figsize=(5, 3.5))
-        for m in MODELS:
-            ax.plot(r["gamma"], [np.nan if v is None else v for v in r["error_mean"][m]],
-                    "o-", label=m)
-        ax.axhline(r["sigma_pos"], color="k", ls="--", lw=0.8, label="noise level")
-        ax.set_yscale("log")
-        ax.set_xlabel("outlier ratio gamma")
-        ax.set_ylabel("sample error [m]")
-        ax.set_title("Fig. 4.21: error vs outlier ratio")
-        ax.legend(fontsize=7)
-        save(fig, "fig4_21_outliers.png")
-        fig, ax = plt.subplots(figsize=(4.5, 4))
-        for m in MODELS:
-            ax.plot([np.nan if v is None else v for v in r["gamma_true_mean"][m]],
-                    [np.nan if v is None else v for v in r["gamma_est_mean"][m]], "o-", label=m)
-        ax.plot([0, 1], [0, 1], "k--", lw=0.8)
-        ax.set_xlabel("true gamma")
-        ax.set_ylabel("estimated gamma")
-        ax.set_title("Fig. 4.22: estimated vs true outlier ratio")
-        ax.legend(fontsize=7)
-        save(fig, "fig4_22_gamma.png")
-    if "size" in res:
-        r = res["size"]
-        fig, ax = plt.subplots(figsize=(5, 3.5))
-        for m in MODELS:
-            ax.plot(r["n"], [np.nan if v is None else v for v in r["error_mean"][m]], "o-",
-                    label=m)
-        ax.axhline(r["sigma_pos"], color="k", ls="--", lw=0.8, label="noise level")
-        ax.set_yscale("log")
-        ax.set_xlabel("training size n")
-        ax.set_ylabel("sample error [m]")
-        ax.set_title("Fig. 4.23: error vs training size")
-        ax.legend(fontsize=7)
-        save(fig, "fig4_23_size.png")
-    if "time" in res:
-        r = res["time"]
-        fig, ax = plt.subplots(figsize=(5, 3.5))
-        nan = lambda vs: [np.nan if v is None else v for v in vs]  # noqa: E731
-        for m in MODELS:
-            ax.plot(r["n"], nan(r["seconds"][m]), "o-", label=m)
-        ax.plot(r["n"], nan(r["all_four_seconds"]), "k-", label="all four")
-        ax.set_xlabel("training size n")
-        ax.set_ylabel("time [s]")
-        ax.set_title("Fig. 4.24: fit time")
-        ax.legend(fontsize=7)
-        save(fig, "fig4_24_time.png")
-    for key, xk, title, fname in [("bic_n", "n", "Fig. 4.25: BIC vs n (roll-up door)",
-                                   "fig4_25_bic_n.png"),
-                                  ("bic_noise", "assumed_sigma_pos",
-                                   "Fig. 4.26: BIC vs assumed noise (n = 50)",
-                                   "fig4_26_bic_noise.png")]:
-        if key not in res:
-            continue
-        r = res[key]
-        fig, ax = plt.subplots(figsize=(5.5, 3.8))
-        for m in MODELS:
-            ax.plot(r[xk], r["bic_mean"][m], ".-", label=m)
-        if key == "bic_noise":
-            ax.set_xscale("log")
-        ax.set_xlabel(xk)
-        ax.set_ylabel("BIC")
-        ax.set_title(title, fontsize=9)
-        ax.legend(fontsize=7)
-        save(fig, fname)
+        written.append(str(out_dir / name))
     return written
 
 
@@ -241,108 +239,131 @@ def _print_failed(p, r, w):
           + f"   ({m}: runs left out of the mean, of {r.get('runs_per_point', '?')})")
 
 
+def _print_noise(p, r):
+    p("\nFig. 4.20  sample error [m] vs Gaussian noise sigma_pos (n = 100, gamma = 0)")
+    p("sigma_pos " + " ".join(f"{s:>9.3f}" for s in r["sigma_pos"]))
+    for m in MODELS:
+        p(f"{m:9s} " + " ".join("      n/a" if v is None else f"{v:9.4f}"
+                                for v in r["error_mean"][m]))
+    _print_failed(p, r, 9)
+
+
+def _print_outliers(p, r):
+    p(f"\nFig. 4.21  sample error [m] vs outlier ratio (sigma_pos = {r['sigma_pos']} m)")
+    p("gamma     " + " ".join(f"{g:>7.2f}" for g in r["gamma"]))
+    for m in MODELS:
+        p(f"{m:9s} " + " ".join(_f(v, 7, 4) for v in r["error_mean"][m])
+          + f"   below noise up to gamma = {r['below_noise_up_to'][m]}")
+    _print_failed(p, r, 7)
+    p("median error / mean error over runs with more inliers than a minimal sample / "
+      "% runs with at most a minimal sample of inliers (unidentifiable)")
+    for m in MODELS:
+        p(f"{m:9s} " + " ".join(_f(v, 7, 4) for v in r["error_median"][m]))
+        p(f"{'  ident.':9s} " + " ".join(_f(v, 7, 4)
+                                         for v in r["error_mean_identifiable"][m]))
+        p(f"{'  % unid.':9s} " + " ".join(_f(v, 7, 1)
+                                          for v in r["unidentifiable_runs_pct"][m]))
+    p("\nFig. 4.22  estimated gamma (mean) / mean |estimated - true|")
+    for m in MODELS:
+        p(f"{m:9s} " + " ".join(_f(v, 7, 3) for v in r["gamma_est_mean"][m]))
+        p(f"{'  |dev|':9s} " + " ".join(_f(v, 7, 3) for v in r["gamma_abs_dev_mean"][m]))
+
+
+def _print_size(p, r):
+    p(f"\nFig. 4.23  sample error [m] vs training size (sigma_pos = {r['sigma_pos']} m)")
+    p("n         " + " ".join(f"{n:>7d}" for n in r["n"]))
+    for m in MODELS:
+        p(f"{m:9s} " + " ".join("    n/a" if v is None else f"{v:7.4f}"
+                                for v in r["error_mean"][m])
+          + f"   below noise from n = {r['converged_n'][m]}")
+    _print_failed(p, r, 7)
+
+
+def _print_time(p, r):
+    p("\nFig. 4.24  median fit time [ms] vs n")
+    p("n         " + " ".join(f"{n:>7d}" for n in r["n"]))
+
+    def ms(vs):
+        return " ".join("    n/a" if v is None else f"{1e3 * v:7.1f}" for v in vs)
+
+    for m in MODELS:
+        p(f"{m:9s} " + ms(r["seconds"][m]))
+    p(f"{'all four':9s} " + ms(r["all_four_seconds"]))
+
+
+def _print_bic(p, r, xk, title):
+    """Fig. 4.25 / 4.26: the selected model over the runs of ``xk`` values."""
+    p(f"\n{title}")
+    runs_ = []
+    cur, start, prev = None, None, None
+    for x, s in zip(r[xk], r["selected"]):
+        if s != cur:
+            if cur is not None:
+                runs_.append(f"{cur} [{start}..{prev}]")
+            cur, start = s, x
+        prev = x
+    runs_.append(f"{cur} [{start}..{prev}]")
+    p("  " + ", ".join(runs_))
+    nf = {m: int(sum(v)) for m, v in r.get("failed", {}).items() if sum(v)}
+    p(f"  candidate fits that failed (left out of the BIC means and the selection), of "
+      f"{r['runs'] * len(r[xk])}: " + (", ".join(f"{m} {c}" for m, c in nf.items())
+                                      if nf else "none"))
+
+
+def _print_selection(p, r):
+    p(f"\nSelection on {sum(r['n_tracks'].values())} real tracks {r['n_tracks']}: right "
+      "joint per assumed sigma_pos (prismatic / revolute / gp), tracks selected rigid; "
+      "Table 4.2 garage door (n = 20) selections; mean |gamma - 0.3| of a revolute link")
+    for v in r["variants"]:
+        p(f"  {v['label']}")
+        for s_ in r["sigma_pos"]:
+            rr = v["real"][str(s_)]
+            p(f"    sigma {s_:<6g} " + "  ".join(f"{k} {rr[k]}" for k in sorted(rr))
+              + f"   rigid {v['rigid_at'][str(s_)]}"
+              + f"   failed {v.get('failed_at', {}).get(str(s_), 0)}")
+        p(f"    garage door {v['garage_n20']}   |gamma - 0.3| "
+          f"{v['gamma_abs_dev_at_0.3']:.3f}")
+
+
+def _print_table(p, table):
+    p("\nTable 4.2  held-out prediction error (vs noisy obs. | vs truth), 10-fold, n = 20;"
+      " a candidate whose fit failed in a fold is left out of that fold's mean (folds "
+      "used / skipped)")
+    for obj, r in table.items():
+        p(f"{obj} (assumed sigma {r['sigma_pos']} m / {r['sigma_orient_deg']} deg, true "
+          f"{r['true_sigma_pos']} m / {r['true_sigma_orient_deg']} deg), selected: "
+          f"{r['selected_counts']}")
+        for m in MODELS:
+            a = r["models"].get(m, {})
+            if not a.get("folds"):
+                continue
+            p(f"  {m:9s} pos {a['pos']:.4f} | {a['pos_true']:.4f} m   orient "
+              f"{a['ori']:6.2f} | {a['ori_true']:6.2f} deg   gamma {a['gamma']:.3f}   "
+              f"folds {a['folds']} / skipped {a['skipped_folds']}")
+        for m in MODELS:
+            a = r["models"].get(m, {})
+            if not a.get("folds"):
+                p(f"  {m:9s} fit failed in all {r['folds']} folds")
+
+
 def _print(res, file=None):
-    p = lambda *a: print(*a, file=file or sys.stdout)  # noqa: E731
-    if "noise" in res:
-        r = res["noise"]
-        p("\nFig. 4.20  sample error [m] vs Gaussian noise sigma_pos (n = 100, gamma = 0)")
-        p("sigma_pos " + " ".join(f"{s:>9.3f}" for s in r["sigma_pos"]))
-        for m in MODELS:
-            p(f"{m:9s} " + " ".join("      n/a" if v is None else f"{v:9.4f}"
-                                    for v in r["error_mean"][m]))
-        _print_failed(p, r, 9)
-    if "outliers" in res:
-        r = res["outliers"]
-        p(f"\nFig. 4.21  sample error [m] vs outlier ratio (sigma_pos = {r['sigma_pos']} m)")
-        p("gamma     " + " ".join(f"{g:>7.2f}" for g in r["gamma"]))
-        for m in MODELS:
-            p(f"{m:9s} " + " ".join(_f(v, 7, 4) for v in r["error_mean"][m])
-              + f"   below noise up to gamma = {r['below_noise_up_to'][m]}")
-        _print_failed(p, r, 7)
-        p("median error / mean error over runs with more inliers than a minimal sample / "
-          "% runs with at most a minimal sample of inliers (unidentifiable)")
-        for m in MODELS:
-            p(f"{m:9s} " + " ".join(_f(v, 7, 4) for v in r["error_median"][m]))
-            p(f"{'  ident.':9s} " + " ".join(_f(v, 7, 4)
-                                             for v in r["error_mean_identifiable"][m]))
-            p(f"{'  % unid.':9s} " + " ".join(_f(v, 7, 1)
-                                              for v in r["unidentifiable_runs_pct"][m]))
-        p("\nFig. 4.22  estimated gamma (mean) / mean |estimated - true|")
-        for m in MODELS:
-            p(f"{m:9s} " + " ".join(_f(v, 7, 3) for v in r["gamma_est_mean"][m]))
-            p(f"{'  |dev|':9s} " + " ".join(_f(v, 7, 3) for v in r["gamma_abs_dev_mean"][m]))
-    if "size" in res:
-        r = res["size"]
-        p(f"\nFig. 4.23  sample error [m] vs training size (sigma_pos = {r['sigma_pos']} m)")
-        p("n         " + " ".join(f"{n:>7d}" for n in r["n"]))
-        for m in MODELS:
-            p(f"{m:9s} " + " ".join("    n/a" if v is None else f"{v:7.4f}"
-                                    for v in r["error_mean"][m])
-              + f"   below noise from n = {r['converged_n'][m]}")
-        _print_failed(p, r, 7)
-    if "time" in res:
-        r = res["time"]
-        p("\nFig. 4.24  median fit time [ms] vs n")
-        p("n         " + " ".join(f"{n:>7d}" for n in r["n"]))
-        ms = lambda vs: " ".join("    n/a" if v is None else f"{1e3 * v:7.1f}"  # noqa: E731
-                                 for v in vs)
-        for m in MODELS:
-            p(f"{m:9s} " + ms(r["seconds"][m]))
-        p(f"{'all four':9s} " + ms(r["all_four_seconds"]))
+    """Every table of the result, in the order of the thesis' figures."""
+    def p(*a):
+        print(*a, file=file or sys.stdout)
+
+    for key, show in (("noise", _print_noise), ("outliers", _print_outliers),
+                      ("size", _print_size), ("time", _print_time)):
+        if key in res:
+            show(p, res[key])
     for key, xk, title in [("bic_n", "n", "Fig. 4.25  selection vs n (roll-up door)"),
                            ("bic_noise", "assumed_sigma_pos",
                             "Fig. 4.26  selection vs assumed sigma_pos (roll-up door, n = 50)")]:
-        if key not in res:
-            continue
-        r = res[key]
-        p(f"\n{title}")
-        runs_ = []
-        cur, start, prev = None, None, None
-        for x, s in zip(r[xk], r["selected"]):
-            if s != cur:
-                if cur is not None:
-                    runs_.append(f"{cur} [{start}..{prev}]")
-                cur, start = s, x
-            prev = x
-        runs_.append(f"{cur} [{start}..{prev}]")
-        p("  " + ", ".join(runs_))
-        nf = {m: int(sum(v)) for m, v in r.get("failed", {}).items() if sum(v)}
-        p(f"  candidate fits that failed (left out of the BIC means and the selection), of "
-          f"{r['runs'] * len(r[xk])}: " + (", ".join(f"{m} {c}" for m, c in nf.items())
-                                          if nf else "none"))
+        if key in res:
+            _print_bic(p, res[key], xk, title)
     if "selection" in res:
-        r = res["selection"]
-        p(f"\nSelection on {sum(r['n_tracks'].values())} real tracks {r['n_tracks']}: right "
-          "joint per assumed sigma_pos (prismatic / revolute / gp), tracks selected rigid; "
-          "Table 4.2 garage door (n = 20) selections; mean |gamma - 0.3| of a revolute link")
-        for v in r["variants"]:
-            p(f"  {v['label']}")
-            for s_ in r["sigma_pos"]:
-                rr = v["real"][str(s_)]
-                p(f"    sigma {s_:<6g} " + "  ".join(f"{k} {rr[k]}" for k in sorted(rr))
-                  + f"   rigid {v['rigid_at'][str(s_)]}"
-                  + f"   failed {v.get('failed_at', {}).get(str(s_), 0)}")
-            p(f"    garage door {v['garage_n20']}   |gamma - 0.3| "
-              f"{v['gamma_abs_dev_at_0.3']:.3f}")
+        _print_selection(p, res["selection"])
     if "table" in res:
-        p("\nTable 4.2  held-out prediction error (vs noisy obs. | vs truth), 10-fold, n = 20;"
-          " a candidate whose fit failed in a fold is left out of that fold's mean (folds "
-          "used / skipped)")
-        for obj, r in res["table"].items():
-            p(f"{obj} (assumed sigma {r['sigma_pos']} m / {r['sigma_orient_deg']} deg, true "
-              f"{r['true_sigma_pos']} m / {r['true_sigma_orient_deg']} deg), selected: "
-              f"{r['selected_counts']}")
-            for m in MODELS:
-                a = r["models"].get(m, {})
-                if not a.get("folds"):
-                    continue
-                p(f"  {m:9s} pos {a['pos']:.4f} | {a['pos_true']:.4f} m   orient "
-                  f"{a['ori']:6.2f} | {a['ori_true']:6.2f} deg   gamma {a['gamma']:.3f}   "
-                  f"folds {a['folds']} / skipped {a['skipped_folds']}")
-            for m in MODELS:
-                a = r["models"].get(m, {})
-                if not a.get("folds"):
-                    p(f"  {m:9s} fit failed in all {r['folds']} folds")
+        _print_table(p, res["table"])
     for e in res.get("errors", []):
         p(f"error: trial {e['trial']} raised {e['error']} (its runs count as failed above)")
 
