@@ -223,66 +223,69 @@ def _runs(d) -> str:
     return f"{d['runs']} runs" + (f", {f} failed: left out of the mean" if f else ", 0 failed")
 
 
-def format_report(res) -> str:
-    """The tables of :func:`report`'s result (sections without any run are left out)."""
-    nan = float("nan")
-    L = []
-    if "fig_3_10" in res:
-        f = res["fig_3_10"]
-        L.append(f"Fig. 3.10 [Drake, mean of {f['runs']} runs] 2-DOF, sigma 0.044 m; "
-                 f"observation noise (mean position "
-                 f"error of a marker) {f['obs_noise_m']:.4f} m; online structure correct from "
-                 f"sample {f['online_converged_at_runs']}; "
-                 f"schema update median "
-                 f"{f['update_ms_median']:.2f} ms")
-        L.append("   n  structure  prediction [m]  [deg]  positioning [m]  runs in mean (left "
-                 "out: no complete schema / fit failed)")
-        for r in f["rows"]:
-            L.append(f"{r['n']:4d}  {'correct' if r['correct'] else 'wrong  '}    "
-                     f"{r.get('pred_error_m', nan):.4f}        "
-                     f"{r.get('pred_error_deg', nan):.2f}   "
-                     f"{r.get('positioning_error_m', nan):.4f}           "
-                     f"{r.get('runs_in_mean', f['runs'])}/{f['runs']}")
-    for key, title in (("noise_free", "noise-free 2-DOF"),
-                       ("7dof_occluded", "7-DOF, 10 parts, x4 occluded, noise-free")):
-        if key not in res:
-            continue
-        d = res[key]
-        L.append(f"{title} [Drake]:")
-        for r in d["rows"]:
-            if "error" in r:
-                L.append(f"  n={r['n']:3d}: fit failed ({r['error']})")
-            elif "pred_error_m" not in r:
-                L.append(f"  n={r['n']:3d}: structure {'correct' if r['correct'] else 'WRONG'},"
-                         f" schema incomplete: no prediction error")
-            else:
-                L.append(f"  n={r['n']:3d}: structure "
-                         f"{'correct' if r['correct'] else 'WRONG'}, error "
-                         f"{1000 * r['pred_error_m']:.2f} mm / {r['pred_error_deg']:.3f} deg")
-    if "7dof_structure" in res:
-        st = res["7dof_structure"]
-        cf = [d["correct_from"] for d in st]
-        ok = [c for c in cf if c is not None]
-        L.append(f"7-DOF, 10 parts, x4 occluded, sigma 0.044 m [Drake, {len(st)} runs]: "
-                 f"structure correct from n = {cf} (median "
-                 f"{'n/a' if not ok else f'{float(np.median(ok)):g}'} over {len(ok)} runs; "
-                 f"{len(cf) - len(ok)} never correct up to the largest n, left out; tested n = "
-                 f"{[r['n'] for r in st[0]['rows']]})")
-    nan3 = {"mean": [nan] * 3, "runs": 0, "per_run": []}
-    t31n, t31d = res.get("table_3_1_numpy"), res.get("table_3_1_drake")
-    if t31n or t31d:
-        L.append("Table 3.1: samples until a valid model again (first / restore / second)")
-        for fl, name in (("joint", "joint stuck"), ("tool", "tool exchange")):
-            nm = (t31n or {}).get(fl, nan3)
-            m = nm["mean"]
-            d = (t31d or {}).get(fl, nan3)
-            dm = d["mean"]
-            L.append(f"  {name:14s} numpy 7-DOF ({_runs(nm)}): "
-                     f"{m[0]:.2f} / {m[1]:.2f} / {m[2]:.2f};  Drake 2-DOF ({_runs(d)}): "
-                     f"{dm[0]:.2f} / {dm[1]:.2f} / {dm[2]:.2f}  (per run {d['per_run']})")
-    n, d = res.get("table_3_2_numpy"), res.get("table_3_2_drake")
-    if n or d:
-        L.append("Table 3.2: control error [m] (intact static / bent static / bent adaptive)")
+_NAN = float("nan")
+
+
+def _fig_3_10_lines(f) -> list[str]:
+    nan = _NAN
+    L = [f"Fig. 3.10 [Drake, mean of {f['runs']} runs] 2-DOF, sigma 0.044 m; "
+         f"observation noise (mean position "
+         f"error of a marker) {f['obs_noise_m']:.4f} m; online structure correct from "
+         f"sample {f['online_converged_at_runs']}; "
+         f"schema update median "
+         f"{f['update_ms_median']:.2f} ms",
+         "   n  structure  prediction [m]  [deg]  positioning [m]  runs in mean (left "
+         "out: no complete schema / fit failed)"]
+    for r in f["rows"]:
+        L.append(f"{r['n']:4d}  {'correct' if r['correct'] else 'wrong  '}    "
+                 f"{r.get('pred_error_m', nan):.4f}        "
+                 f"{r.get('pred_error_deg', nan):.2f}   "
+                 f"{r.get('positioning_error_m', nan):.4f}           "
+                 f"{r.get('runs_in_mean', f['runs'])}/{f['runs']}")
+    return L
+
+
+def _accuracy_lines(title, d) -> list[str]:
+    L = [f"{title} [Drake]:"]
+    for r in d["rows"]:
+        if "error" in r:
+            L.append(f"  n={r['n']:3d}: fit failed ({r['error']})")
+        elif "pred_error_m" not in r:
+            L.append(f"  n={r['n']:3d}: structure {'correct' if r['correct'] else 'WRONG'},"
+                     f" schema incomplete: no prediction error")
+        else:
+            L.append(f"  n={r['n']:3d}: structure "
+                     f"{'correct' if r['correct'] else 'WRONG'}, error "
+                     f"{1000 * r['pred_error_m']:.2f} mm / {r['pred_error_deg']:.3f} deg")
+    return L
+
+
+def _structure_line(st) -> str:
+    cf = [d["correct_from"] for d in st]
+    ok = [c for c in cf if c is not None]
+    return (f"7-DOF, 10 parts, x4 occluded, sigma 0.044 m [Drake, {len(st)} runs]: "
+            f"structure correct from n = {cf} (median "
+            f"{'n/a' if not ok else f'{float(np.median(ok)):g}'} over {len(ok)} runs; "
+            f"{len(cf) - len(ok)} never correct up to the largest n, left out; tested n = "
+            f"{[r['n'] for r in st[0]['rows']]})")
+
+
+def _table_3_1_lines(t31n, t31d) -> list[str]:
+    nan3 = {"mean": [_NAN] * 3, "runs": 0, "per_run": []}
+    L = ["Table 3.1: samples until a valid model again (first / restore / second)"]
+    for fl, name in (("joint", "joint stuck"), ("tool", "tool exchange")):
+        nm = (t31n or {}).get(fl, nan3)
+        m = nm["mean"]
+        d = (t31d or {}).get(fl, nan3)
+        dm = d["mean"]
+        L.append(f"  {name:14s} numpy 7-DOF ({_runs(nm)}): "
+                 f"{m[0]:.2f} / {m[1]:.2f} / {m[2]:.2f};  Drake 2-DOF ({_runs(d)}): "
+                 f"{dm[0]:.2f} / {dm[1]:.2f} / {dm[2]:.2f}  (per run {d['per_run']})")
+    return L
+
+
+def _table_3_2_lines(n, d) -> list[str]:
+    L = ["Table 3.2: control error [m] (intact static / bent static / bent adaptive)"]
     if n:
         L.append(f"  numpy 4-DOF ({_runs(n)}): {n['intact_static']:.3f} / "
                  f"{n['bent_static']:.3f} / {n['bent_adaptive']:.3f}")
@@ -290,6 +293,11 @@ def format_report(res) -> str:
         L.append(f"  Drake 4-DOF ({_runs(d)}): {d['intact_static']:.3f} / "
                  f"{d['bent_static']:.3f} / "
                  f"{d['bent_adaptive']:.3f}")
+    return L
+
+
+def _failure_lines(res, t31n, t31d, n, d) -> list[str]:
+    L = []
     for t in (t31n, t31d):
         for fl in ("joint", "tool"):
             for why in (t or {}).get(fl, {}).get("failures", []):
@@ -299,6 +307,28 @@ def format_report(res) -> str:
             L.append(f"  failed run (Table 3.2): {why}")
     for e in res.get("errors", []):
         L.append(f"  error: trial {e['trial']} raised {e['error']}")
+    return L
+
+
+def format_report(res) -> str:
+    """The tables of :func:`~mmlearn.models.body_schema.evaluation.body_schema_report`'s
+    result (sections without any run are left out)."""
+    L = []
+    if "fig_3_10" in res:
+        L += _fig_3_10_lines(res["fig_3_10"])
+    for key, title in (("noise_free", "noise-free 2-DOF"),
+                       ("7dof_occluded", "7-DOF, 10 parts, x4 occluded, noise-free")):
+        if key in res:
+            L += _accuracy_lines(title, res[key])
+    if "7dof_structure" in res:
+        L.append(_structure_line(res["7dof_structure"]))
+    t31n, t31d = res.get("table_3_1_numpy"), res.get("table_3_1_drake")
+    if t31n or t31d:
+        L += _table_3_1_lines(t31n, t31d)
+    n, d = res.get("table_3_2_numpy"), res.get("table_3_2_drake")
+    if n or d:
+        L += _table_3_2_lines(n, d)
+    L += _failure_lines(res, t31n, t31d, n, d)
     L.append(f"plots: {', '.join(res.get('plots', []))}; {res['seconds']:.0f} s")
     return "\n".join(L)
 
