@@ -10,117 +10,72 @@ command resumes, ``--report-only FILE`` redraws the table from a results file.
 
 import json
 import math
-import os
 import sys
 from pathlib import Path
 
-import numpy as np
-
-from mmlearn.apps.common.cli import (ArgumentParser, UsageError, check_in_file, check_out_dir,
-                                     fail, name_list, nonneg_int, pos_int)
-from mmlearn.apps.common.sweep import add_sweep_args, report_lines, sweep_kwargs
-from mmlearn.apps.open_cabinet import add_trial_args
+from mmlearn.apps.common import experiment
+from mmlearn.apps.common.cli import check_in_file, check_out_dir, name_list, nonneg_int, pos_int
+from mmlearn.apps.common.experiment import Experiment
+from mmlearn.apps.common.operate_args import add_trial_args
+from mmlearn.diagrams.articulation.trials import operate_trial
+from mmlearn.models.articulation.evaluation import operate_report
 from mmlearn.sdf.mechanisms import KINDS
-from mmlearn.models.common.trials import register_trial
 
 
-def _error_record(kind: str, seed: int, error: str) -> dict:
-    """The table's record of a trial that raised: an error (not a failed opening), with its
-    reason."""
-    revolute = kind in ("left_door", "right_door", "dishwasher")
-    return {"object": kind, "seed": seed, "success": False, "opened": None,
-            "unit": "deg" if revolute else "m", "outcome": f"error: {error}", "error": error,
-            "learned_model": None, "radius_error_m": None, "axis_error_deg": None,
-            "right_kind": False, "right_model_at": None,
-            "true_kind": "revolute" if revolute else "prismatic",
-            "model_log": [], "sim_seconds": 0.0, "wall_seconds": 0.0}
-
-
-_PRIORS_FILES: dict = {}  # a worker's copy of the shared prior database, written once
-
-
-def _priors_file(text: str) -> str:
-    """The sweep's prior database (sent once per worker as text) as a local file."""
+def _prior_text(priors: str) -> tuple[str | None, str]:
+    """The prior database's text (sent once to every worker) and its SHA-1; a bad database
+    is bad input, found here rather than in every trial."""
     import hashlib
-    import tempfile
 
-    h = hashlib.sha1(text.encode()).hexdigest()[:16]
-    if h not in _PRIORS_FILES:
-        p = Path(tempfile.gettempdir()) / f"mmlearn-priors-{os.getpid()}-{h}.json"
-        p.write_text(text)
-        _PRIORS_FILES[h] = str(p)
-    return _PRIORS_FILES[h]
+    if not priors:
+        return None, ""
+    from mmlearn.models.articulation.priors import PriorDatabase
 
-
-@register_trial("articulation.operate")
-def trial(*, seed: int, kind: str, max_time: float = 60.0, sigma_pos: float | None = None,
-          mechanism_seed: int | None = None, base_noise: float | None = None,
-          save_track: str = "", priors_sha1: str = "", shared=None,
-          perception: str = "click") -> dict:
-    """One opening trial (the sweep's trial function): ``open_cabinet.run`` of one object and
-    seed. ``shared`` is the prior database's text when the sweep uses one (``priors_sha1``
-    names it in the trial's identity)."""
-    from mmlearn.apps.open_cabinet import run as open_run
-
-    priors = _priors_file(shared) if shared else ""
-    return open_run(kind=kind, seed=seed, max_time=max_time, sigma_pos=sigma_pos,
-                    priors=priors, mechanism_seed=mechanism_seed, show_progress=False,
-                    save_track=save_track, base_noise=base_noise, perception=perception)
+    PriorDatabase.load(priors)
+    text = Path(priors).read_text()
+    return text, hashlib.sha1(text.encode()).hexdigest()
 
 
-def records_of(lines: list[dict]) -> list[dict]:
-    """Table records from results-file lines: a trial that raised becomes an error record."""
-    out = []
-    for ln in lines:
-        if ln.get("error") is None:
-            out.append(ln["record"])
-        else:
-            p = ln["spec"]["params"]
-            out.append(_error_record(p.get("kind", "?"), ln["spec"]["seed"], ln["error"]))
-    return out
+def trial_specs(*, objects=KINDS, trials: int = 8, seed: int = 0, max_time: float = 60.0,
+                sigma_pos: float | None = None, priors: str = "",
+                mechanism_seed: int | None = None, save_tracks: str = "",
+                base_noise: float | None = None, perception: str = "click") -> list:
+    """The sweep's trials, ``trials`` per object (checks the arguments, see :func:`run`)."""
+    from mmlearn.apps.common.sweep import TrialSpec
+
+    objects = list(objects)
+    if not objects:
+        raise ValueError("objects: empty list; choose from " + ", ".join(KINDS))
+    for k in objects:
+        if k not in KINDS:
+            raise ValueError(f"unknown object {k!r}; choose from {', '.join(KINDS)}")
+    if trials < 1:
+        raise ValueError("trials must be >= 1")
+    if perception not in ("click", "depth"):
+        raise ValueError(f"perception must be click or depth, got {perception!r}")
+    # a click trial's identity stays what it was before perception existed (results files
+    # of earlier runs resume)
+    extra = {} if perception == "click" else {"perception": perception}
+    if not (max_time > 0 and math.isfinite(max_time)):
+        raise ValueError(f"max_time must be a finite number of seconds > 0, got {max_time}")
+    priors_sha1 = _prior_text(priors)[1]
+    if save_tracks:
+        Path(save_tracks).mkdir(parents=True, exist_ok=True)
+    return [TrialSpec(fn=operate_trial, seed=seed + i,
+                      label=f"{k} seed {seed + i}",
+                      params={"kind": k, "max_time": max_time, "sigma_pos": sigma_pos,
+                              "mechanism_seed": mechanism_seed, "base_noise": base_noise,
+                              "priors_sha1": priors_sha1,
+                              "save_track": str(Path(save_tracks) / f"{k}_{seed + i:03d}.log")
+                              if save_tracks else "", **extra})
+            for k in objects for i in range(trials)]
 
 
-def summarize(trials: list[dict]) -> dict:
-    """Per-object success rate, mean opening, radius and axis errors, and how many trials
-    ended with the right kind of model (and the mean opening from which it held). Trials
-    that raised (``"error"`` in the record) are counted in ``errors`` and left out of every
-    mean and of ``trials``/``successes``/``right_kind``; ``radius_runs`` / ``axis_runs`` /
-    ``right_model_runs`` say how many trials each mean is over."""
-    def mean(xs):
-        return float(np.mean(xs)) if xs else None
-
-    def largest(xs):
-        return float(np.max(xs)) if xs else None
-
-    table = {}
-    for kind in dict.fromkeys(t["object"] for t in trials):
-        mine = [t for t in trials if t["object"] == kind]
-        ts = [t for t in mine if not t.get("error")]
-        radius = [t["radius_error_m"] for t in ts if t.get("radius_error_m") is not None]
-        right_at = [t["right_model_at"] for t in ts if t.get("right_model_at") is not None]
-        axis = [t["axis_error_deg"] for t in ts if t.get("axis_error_deg") is not None]
-        handle = [t["handle_error_m"] for t in ts if t.get("handle_error_m") is not None]
-        table[kind] = {
-            "trials": len(ts),
-            "errors": len(mine) - len(ts),
-            "successes": sum(t["success"] for t in ts),
-            "radius_runs": len(radius), "axis_runs": len(axis), "right_model_runs": len(right_at),
-            "mean_opened": mean([t["opened"] for t in ts]),
-            "unit": mine[0]["unit"],
-            "mean_radius_error_m": mean(radius),
-            "max_radius_error_m": largest(radius),
-            "mean_axis_error_deg": mean(axis),
-            "no_front": sum(t.get("front_found") is False for t in ts),
-            "mean_handle_error_m": mean(handle), "max_handle_error_m": largest(handle),
-            "right_kind": sum(bool(t.get("right_kind")) for t in ts),
-            "success_and_right_kind": sum(bool(t["success"] and t.get("right_kind"))
-                                          for t in ts),
-            "mean_right_model_at": mean(right_at),
-            "max_right_model_at": largest(right_at),
-            "models": {m: sum(t["learned_model"] == m for t in ts)
-                       for m in dict.fromkeys(t["learned_model"] for t in ts)},
-        }
-    return table
+def _attach_sweep(res: dict, sweep) -> dict:
+    res.update(wall_seconds=round(sweep.wall_s, 1), resumed=sweep.resumed,
+               interrupted=sweep.interrupted, not_run=[s.label for s in sweep.missing],
+               results_file=str(sweep.results) if sweep.results else None)
+    return res
 
 
 def run(*, objects=KINDS, trials: int = 8, seed: int = 0, jobs: int | None = None,
@@ -140,70 +95,17 @@ def run(*, objects=KINDS, trials: int = 8, seed: int = 0, jobs: int | None = Non
     JSON Lines file they are streamed to (None: a temporary one; with a file, trials already
     in it are not run again), ``executor`` ``"local"`` (a pool of ``jobs`` processes) or
     ``"ray"`` (``ray_address``: a cluster, None: a local Ray instance of ``jobs`` CPUs)."""
-    import hashlib
+    from mmlearn.apps.common.sweep import run_sweep
 
-    from mmlearn.apps.common.sweep import TrialSpec, run_sweep
-
-    objects = list(objects)
-    if not objects:
-        raise ValueError("objects: empty list; choose from " + ", ".join(KINDS))
-    for k in objects:
-        if k not in KINDS:
-            raise ValueError(f"unknown object {k!r}; choose from {', '.join(KINDS)}")
-    if trials < 1:
-        raise ValueError("trials must be >= 1")
-    if perception not in ("click", "depth"):
-        raise ValueError(f"perception must be click or depth, got {perception!r}")
-    # a click trial's identity stays what it was before perception existed (results files
-    # of earlier runs resume)
-    extra = {} if perception == "click" else {"perception": perception}
     if jobs is not None and jobs < 1:
         raise ValueError(f"jobs must be >= 1 (or None for all cores), got {jobs}")
-    if not (max_time > 0 and math.isfinite(max_time)):
-        raise ValueError(f"max_time must be a finite number of seconds > 0, got {max_time}")
-    shared, priors_sha1 = None, ""
-    if priors:  # a bad database is bad input, found here rather than in every trial
-        from mmlearn.models.articulation.priors import PriorDatabase
-
-        PriorDatabase.load(priors)
-        shared = Path(priors).read_text()
-        priors_sha1 = hashlib.sha1(shared.encode()).hexdigest()
-    if save_tracks:
-        Path(save_tracks).mkdir(parents=True, exist_ok=True)
-    specs = [TrialSpec(fn=trial, seed=seed + i,
-                       label=f"{k} seed {seed + i}",
-                       params={"kind": k, "max_time": max_time, "sigma_pos": sigma_pos,
-                               "mechanism_seed": mechanism_seed, "base_noise": base_noise,
-                               "priors_sha1": priors_sha1,
-                               "save_track": str(Path(save_tracks) / f"{k}_{seed + i:03d}.log")
-                               if save_tracks else "", **extra})
-             for k in objects for i in range(trials)]
+    specs = trial_specs(objects=objects, trials=trials, seed=seed, max_time=max_time,
+                        sigma_pos=sigma_pos, priors=priors, mechanism_seed=mechanism_seed,
+                        save_tracks=save_tracks, base_noise=base_noise, perception=perception)
     sweep = run_sweep(specs, results=results, executor=executor, jobs=jobs,
-                      ray_address=ray_address, shared=shared, show_progress=show_progress)
-    res = report(sweep.lines)
-    res.update(wall_seconds=round(sweep.wall_s, 1), resumed=sweep.resumed,
-               interrupted=sweep.interrupted, not_run=[s.label for s in sweep.missing],
-               results_file=str(sweep.results) if sweep.results else None)
-    return res
-
-
-def report(lines: list[dict]) -> dict:
-    """The experiment's results from results-file lines (a run or ``--report-only``)."""
-    results = records_of(lines)
-    n_ok = sum(bool(r["success"]) for r in results)
-    n_err = sum(1 for r in results if r.get("error"))
-    n_run = len(results) - n_err
-    n_kind = sum(bool(r.get("right_kind")) for r in results if not r.get("error"))
-    first = next((r for r in results if "sigma_pos" in r), {})
-    return {"trials": results, "success_rate": n_ok / n_run if n_run else None,
-            "successes": n_ok, "errors": n_err, "total": n_run,
-            "right_kind": n_kind, "right_kind_rate": n_kind / n_run if n_run else None,
-            "per_object": summarize(results),
-            "sigma_pos": first.get("sigma_pos"),
-            "base_noise": first.get("base_noise"),
-            "perception": first.get("perception", "click"),
-            "trial_seconds": round(sum(ln.get("wall_s") or 0.0 for ln in lines), 1),
-            "wall_seconds": None}
+                      ray_address=ray_address, shared=_prior_text(priors)[0],
+                      show_progress=show_progress)
+    return _attach_sweep(operate_report(sweep.lines), sweep)
 
 
 def format_table(res: dict) -> str:
@@ -265,59 +167,68 @@ def format_table(res: dict) -> str:
     return "\n".join(lines)
 
 
-def main(argv=None) -> int:
-    ap = ArgumentParser(prog="python -m mmlearn.apps.operate_trials",
-                        description="Five mechanisms x N trials of opening while learning "
-                                    "(thesis 4.4.2). Exit status: 0 all trials ran (opened "
-                                    "or not), 1 a trial raised an error, 2 bad input.")
-    ap.add_argument("--trials", type=pos_int, default=8, help="trials per object")
-    ap.add_argument("--objects", type=name_list(KINDS), default=list(KINDS),
-                    help="comma-separated objects (default: all five)")
-    ap.add_argument("--seed", type=nonneg_int, default=0, help="seed of the first trial")
-    add_trial_args(ap)
-    ap.add_argument("--mechanism-seed", type=nonneg_int, default=None,
-                    help="the same mechanism per object in every trial (trials differ in "
-                         "the handle click and the robot's start)")
-    ap.add_argument("--save-tracks", default="",
-                    help="folder to write each trial's hook trajectory to (for learn_priors)")
-    ap.add_argument("--priors", default="", help="prior database to use (from learn_priors)")
-    add_sweep_args(ap, app="operate_trials")
-    ap.add_argument("--json", action="store_true")
-    args = ap.parse_args(argv)
-    try:
-        if args.report_only:
-            res = report(report_lines(args.report_only))
-        else:
+class OperateTrials(Experiment):
+    name = "operate_trials"
+    description = ("Five mechanisms x N trials of opening while learning (thesis 4.4.2). Exit "
+                   "status: 0 all trials ran (opened or not), 1 a trial raised an error, 2 bad "
+                   "input.")
+    seed_help = "seed of the first trial"
+    json_help = None
+
+    def add_arguments(self, ap):
+        ap.add_argument("--trials", type=pos_int, default=8, help="trials per object")
+        ap.add_argument("--objects", type=name_list(KINDS), default=list(KINDS),
+                        help="comma-separated objects (default: all five)")
+        add_trial_args(ap)
+        ap.add_argument("--mechanism-seed", type=nonneg_int, default=None,
+                        help="the same mechanism per object in every trial (trials differ in "
+                             "the handle click and the robot's start)")
+        ap.add_argument("--save-tracks", default="",
+                        help="folder to write each trial's hook trajectory to (for "
+                             "learn_priors)")
+        ap.add_argument("--priors", default="",
+                        help="prior database to use (from learn_priors)")
+
+    def check(self, args):
+        if not args.report_only:
             check_out_dir("--save-tracks", args.save_tracks, create=False)
             check_in_file("--priors", args.priors)
-            sweep = sweep_kwargs(args, app="operate_trials")
-    except UsageError as e:
-        return fail(ap.prog, str(e))
-    if not args.report_only:
-        try:
-            res = run(objects=args.objects, trials=args.trials,
-                      seed=args.seed, max_time=args.max_time,
-                      sigma_pos=args.sigma_pos, priors=args.priors,
-                      mechanism_seed=args.mechanism_seed, save_tracks=args.save_tracks,
-                      show_progress=not args.json, base_noise=args.base_noise,
-                      perception=args.perception, **sweep)
-        except UsageError as e:
-            return fail(ap.prog, str(e))
-        except (ValueError, OSError) as e:
-            return fail(ap.prog, f"--priors: {e}" if args.priors and str(args.priors) in str(e)
-                        else str(e))
-    if args.json:
-        print(json.dumps(res))
-    else:
+
+    def specs(self, args):
+        return trial_specs(objects=args.objects, trials=args.trials, seed=args.seed,
+                           max_time=args.max_time, sigma_pos=args.sigma_pos,
+                           priors=args.priors, mechanism_seed=args.mechanism_seed,
+                           save_tracks=args.save_tracks, base_noise=args.base_noise,
+                           perception=args.perception)
+
+    def shared(self, args):
+        return _prior_text(args.priors)[0]
+
+    def report(self, lines, args):
+        return operate_report(lines)
+
+    def attach_sweep(self, res, sweep, args):
+        _attach_sweep(res, sweep)
+
+    def print_table(self, res, args):
         print(format_table(res))
-    if res["errors"]:
-        failed = ", ".join(f"{t['object']} seed {t['seed']}" for t in res["trials"]
-                           if t.get("error"))
-        print(f"{ap.prog}: {res['errors']} trial(s) raised an error: {failed}", file=sys.stderr)
-        return 1
-    if res.get("interrupted"):
-        return 130
-    return 0
+
+    def to_json(self, res):
+        return json.dumps(res)
+
+    def failed(self, res):
+        return [f"{t['object']} seed {t['seed']}" for t in res["trials"] if t.get("error")]
+
+    def interrupted(self, res):
+        return bool(res.get("interrupted"))
+
+    def error_message(self, error, args):
+        return (f"--priors: {error}" if args.priors and str(args.priors) in str(error)
+                else str(error))
+
+
+def main(argv=None) -> int:
+    return experiment.main(OperateTrials(), argv)
 
 
 if __name__ == "__main__":

@@ -42,7 +42,8 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from mmlearn.models.articulation.link import ObservationModel, make_model
-from mmlearn.models.articulation.refine import _H, _alternate, _residual_terms
+from mmlearn.models.articulation.refine import (FD_STEP, alternate_refinement,
+                                                residual_terms)
 from mmlearn.models.articulation.sim import simulate_link
 from mmlearn.models.articulation.structure import fit_kinematic_tree, select_link_model
 
@@ -133,7 +134,7 @@ def _least_squares_fixed_gamma(model, par, gamma, d, *, method="trf", max_outer=
     batched forward differences as the LM (one residual call for value and Jacobian)."""
     from scipy.optimize import least_squares
 
-    evaluate = _residual_terms(model, par, gamma, d)
+    evaluate = residual_terms(model, par, gamma, d)
     u = np.zeros(par.base.size)
     _, F, W = evaluate(u[None] + par.steps)
     f = F[0]
@@ -154,7 +155,7 @@ def _least_squares_fixed_gamma(model, par, gamma, d, *, method="trf", max_outer=
 
         def jac(v, sw=sw):
             Rb = batch(v)
-            J = (Rb[1:] - Rb[0][None]) / _H  # (k, n, m)
+            J = (Rb[1:] - Rb[0][None]) / FD_STEP  # (k, n, m)
             return (J * sw[None]).reshape(J.shape[0], -1).T
 
         res = least_squares(fun, u[par.free], jac=jac, method=method, ftol=ftol,
@@ -172,7 +173,7 @@ def _least_squares_fixed_gamma(model, par, gamma, d, *, method="trf", max_outer=
 
 def _least_squares_refinement(method):
     def refine(model, theta, gamma, d):
-        return _alternate(model, theta, gamma, d, lambda m, p, g, dd:
+        return alternate_refinement(model, theta, gamma, d, lambda m, p, g, dd:
                           _least_squares_fixed_gamma(m, p, g, dd, method=method))
     return refine
 

@@ -40,11 +40,11 @@ MIN_SEEDS = 8  # of 10 per set
 @register_trial("body_schema.bench_7dof")
 def trial(*, seed: int, noise: float, samples: int = 50) -> dict:
     """One run of the app at ``noise`` m and ``seed``; its JSON dict."""
-    from mmlearn.apps.learn_body_schema import LearnBodySchemaConfig, run
+    from mmlearn.diagrams.body_schema.trials import LearnBodySchemaConfig, learn_body_schema
 
     cfg = LearnBodySchemaConfig(arm="7dof", samples=samples, noise=noise, occlude=["x4"],
                                 seed=seed)
-    return run(config=cfg, show_progress=False)
+    return learn_body_schema(config=cfg, show_progress=False)
 
 
 def _seed_list(text: str) -> list[int]:

@@ -19,7 +19,7 @@ import pydrake.systems.analysis as analysis
 
 from _common import add_output_arguments, emit_json
 
-from mmlearn.apps.learn_body_schema import LearnBodySchemaConfig, run
+from mmlearn.diagrams.body_schema.trials import LearnBodySchemaConfig, learn_body_schema
 from mmlearn.models.body_schema import schema as body_schema_module
 from mmlearn.systems.body_schema import learner as sl
 
@@ -79,8 +79,8 @@ def main():
     if args.quick:
         args.arm, args.samples = "2dof", 5
     _instrument()
-    r = run(config=LearnBodySchemaConfig(arm=args.arm, samples=args.samples),
-            show_progress=False)
+    r = learn_body_schema(config=LearnBodySchemaConfig(arm=args.arm, samples=args.samples),
+                          show_progress=False)
     sim = r["sim_seconds"]
     learner = T["update_cpu"] + T["copy_cpu"]
     res = dict(

@@ -33,7 +33,7 @@ from pathlib import Path
 from _common import add_output_arguments, emit_json
 from mmlearn.apps.common.sweep import (TrialSpec, _init_worker, _local_worker, _ray_execute,
                                        probe_trial, run_sweep)
-from mmlearn.apps.operate_trials import trial as operate_trial
+from mmlearn.diagrams.articulation.trials import operate_trial
 
 
 def probe(args):

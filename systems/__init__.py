@@ -9,7 +9,7 @@ from mmlearn._lazy import lazy_exports
 #: submodule -> the public names it defines (imported on first use)
 _EXPORTS = {
     "common": ["CameraMarkerSensor", "CameraMarkerSensorConfig", "CameraView", "default_marker_cameras", "marker_normal_from_depth", "DepthNoise", "CameraConfig", "MarkerSensorConfig", "MarkerSensor", "MarkerObservations", "GravityCompensation", "StateForceSystem", "JointFriction", "WristForceSensor"],
-    "articulation": ["BaseLocalization", "BaseLocalizationConfig", "EpcTask", "EpcConfig", "hook_rotation", "EpcController", "ArticulationEstimator", "ArticulationEstimatorState", "legend_entries", "draw_legend", "LearnedModelVisualizer", "draw_link_model", "ShiftedLinkModel", "PriorModelSelector"],
+    "articulation": ["BaseLocalization", "BaseLocalizationConfig", "EpcTask", "EpcConfig", "hook_rotation", "EpcController", "ArticulationEstimator", "ArticulationEstimatorState", "legend_entries", "draw_legend", "LearnedModelVisualizer", "draw_link_model", "ShiftedLinkModel", "PriorModelSelector", "EpcState", "EpcInputs", "PHASE_NAMES"],
     "body_schema": ["JointBlocker", "PlantFailures", "SchemaController", "SchemaLearner", "SchemaLearnerConfig", "SchemaLearnerState", "learn_sample", "MotorBabbling", "SchemaVisualizer"],
     "perception": ["DepthTemporalFilter", "FrontDetector", "TIMING_NAMES", "TrueFrontPose", "FrontTracker", "FrontTrackerConfig", "FrontTrackerState", "FrontTrackVisualizer", "track_colour", "FinitePointCloud"],
     "tactile": ["ContainerWallForce", "FingerPositionHold", "TactileGraspController", "GRASP_MODES", "PadSpec", "TactileSensor", "surface_triangles", "TaxelPadVisualizer", "taxel_colors"],
@@ -38,6 +38,8 @@ __all__ = [
     "draw_task_model",
     "EpcConfig",
     "EpcController",
+    "EpcInputs",
+    "EpcState",
     "EpcTask",
     "FingerPositionHold",
     "FinitePointCloud",
@@ -62,6 +64,7 @@ __all__ = [
     "MarkerSensorConfig",
     "MotorBabbling",
     "PadSpec",
+    "PHASE_NAMES",
     "PlantFailures",
     "PriorModelSelector",
     "SchemaController",

@@ -6,7 +6,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mmlearn.models.articulation.link import ObservationModel
 from mmlearn.models.articulation.priors import (PriorDatabase, align_trajectory,
                                                 evaluate_priors, learn_priors, merge_bic,
                                                 thin_trajectory)
@@ -127,26 +126,6 @@ def test_prior_input_errors():
         pdb.remove("nope")
     with pytest.raises(ValueError, match="NaN"):
         pdb.add(np.full((10, 3), np.nan))
-
-
-def test_online_tracker_switches_to_the_known_model(db):
-    from mmlearn.models.articulation.priors import PriorTracker
-
-    pdb = PriorDatabase.from_dict(db.to_dict())
-    pdb.remove("dishwasher_002")
-    raw = _load(["dishwasher_002"])[0]
-    raw = raw[np.round(np.linspace(0, len(raw) - 1, 40)).astype(int)]
-    tr = PriorTracker(pdb, min_observations=5, every=5, rng=0)
-    for p in raw:
-        tr.add(p)
-    assert [n for n, _ in tr.history] == list(range(5, 41, 5))
-    dish = next(k for k, c in enumerate(pdb.clusters) if "dishwasher_001" in c.members)
-    assert tr.history[-1][1] == dish
-    assert tr.model() is tr.decision.model
-    k = tr.finish("dishwasher_002")
-    assert k == dish and "dishwasher_002" in pdb.clusters[dish].members
-    with pytest.raises(ValueError, match="3 or 7"):
-        tr.add([0.0, 1.0])
 
 
 def test_learn_priors_run_save_then_load(tmp_path):

@@ -172,7 +172,7 @@ def test_config_depth_fields(tmp_path):
 
 def test_learn_body_schema_camera_depth_configs():
     """(The flag itself: test_camera_marker_sensor.test_apps_take_the_sensor_flag.)"""
-    from mmlearn.apps.learn_body_schema import camera_config
+    from mmlearn.diagrams.body_schema.trials import camera_config
 
     assert camera_config("noisy", 3).depth_noise.seed == 3
     assert camera_config("exact").depth_noise is None and camera_config("exact").use_depth
@@ -187,7 +187,9 @@ def test_structure_experiments_camera_sensor_and_cabinet_through_the_camera():
     one results file per sensor, and the two-drawer
     cabinet seen by its automatic camera: all three markers read (the cabinet's square on
     its holder above the drawers), mapped back to the parts' marker frames."""
-    from mmlearn.apps.structure_experiments import observe, report, sensor_stats
+    from mmlearn.diagrams.articulation.trials import observe
+    from mmlearn.models.articulation.evaluation import sensor_stats
+    from mmlearn.models.articulation.evaluation import structure_report as report
     from mmlearn.diagrams.common.object_tracks import (CAMERA_ELEVATION_DEG, auto_cameras,
                                                        cabinet_scenario)
 

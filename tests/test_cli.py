@@ -135,13 +135,13 @@ def test_operate_trials_bad_input(tmp_path, capsys, prior_db):
 
 
 def test_operate_trials_counts_a_crashed_trial_as_an_error(monkeypatch, capsys, tmp_path):
-    import mmlearn.apps.open_cabinet as oc
+    import mmlearn.diagrams.articulation.trials as trials
     from mmlearn.apps.operate_trials import main
 
     def boom(**kw):
         raise RuntimeError("simulated crash")
 
-    monkeypatch.setattr(oc, "run", boom)  # --jobs 1 runs the trials in this process
+    monkeypatch.setattr(trials, "open_mechanism", boom)  # --jobs 1 runs the trials in this process
     rc, out, err = _exit(main, ["--objects", "drawer", "--trials", "2", "--jobs", "1",
                                 "--json", "--results", str(tmp_path / "r.jsonl")], capsys)
     assert "drawer seed 0, drawer seed 1" in err  # the failed trials are named
@@ -154,7 +154,8 @@ def test_operate_trials_counts_a_crashed_trial_as_an_error(monkeypatch, capsys, 
 
 
 def test_operate_trials_table_reports_errors_beside_the_means():
-    from mmlearn.apps.operate_trials import format_table, summarize
+    from mmlearn.apps.operate_trials import format_table
+    from mmlearn.models.articulation.evaluation import summarize_operate as summarize
 
     ok = {"object": "drawer", "seed": 0, "success": True, "opened": 0.35, "unit": "m",
           "outcome": "done", "learned_model": "prismatic", "radius_error_m": None,
@@ -243,15 +244,16 @@ def test_experiment_apps_check_the_output_folder_first(tmp_path, capsys):
 
 def test_articulation_experiments_count_failed_runs(monkeypatch, capsys):
     import mmlearn.apps.articulation_experiments as ae
+    import mmlearn.models.articulation.evaluation as ev
 
-    real = ae._fit_err
+    real = ev._fit_err
 
     def flaky(model_name, *a, **k):
         if model_name == "gp":
             raise ValueError("gp: too few samples")
         return real(model_name, *a, **k)
 
-    monkeypatch.setattr(ae, "_fit_err", flaky)
+    monkeypatch.setattr(ev, "_fit_err", flaky)
     # one job, no shared inputs: the sweep runs its trials in this process (the patch holds)
     res = ae.run(runs=2, quick=True, only=["size"], out_dir=None, progress=False, jobs=1)
     assert res["errors"] == []
@@ -264,7 +266,8 @@ def test_articulation_experiments_count_failed_runs(monkeypatch, capsys):
 
 
 def test_body_schema_experiments_count_failed_runs(monkeypatch):
-    import mmlearn.apps.body_schema_experiments as bse
+    import mmlearn.diagrams.body_schema.trials as bst
+    from mmlearn.models.body_schema.evaluation import average_runs, recovery_summary
 
     # a Drake run that raises is a failed run, not a crash and not silently dropped
     def recovery(failure, n_block, seed, n_first=30, show=False):
@@ -272,17 +275,17 @@ def test_body_schema_experiments_count_failed_runs(monkeypatch):
             raise RuntimeError("solver diverged")
         return dict(first=2, restore=1, second=3)
 
-    monkeypatch.setattr(bse, "drake_recovery", recovery)
-    rs = [bse.trial(seed=s, block="table_3_1_drake", run=s,
+    monkeypatch.setattr(bst, "drake_recovery", recovery)
+    rs = [bst.body_schema_trial(seed=s, block="table_3_1_drake", run=s,
                     kwargs=dict(failure="joint", n_block=5, n_first=30)) for s in range(3)]
-    r = bse.recovery_summary(rs, drake=True)
+    r = recovery_summary(rs, drake=True)
     assert r["failed_runs"] == 1 and r["mean"] == [2.0, 1.0, 3.0] and r["runs"] == 3
     assert "solver diverged" in r["failures"][0]
     # Fig. 3.10 over runs: a run without a complete schema is counted as left out
     rows = [dict(n=10, correct=True, pred_error_m=0.02, pred_error_deg=1.0)]
     left = [dict(n=10, correct=False, error="singular")]
     base = dict(obs_noise_m=0.04, online_converged_at=10, update_ms_median=1.0, seconds=1.0)
-    avg = bse._average_runs([dict(base, rows=rows), dict(base, rows=left)])
+    avg = average_runs([dict(base, rows=rows), dict(base, rows=left)])
     assert avg["rows"][0]["runs_in_mean"] == 1 and avg["rows"][0]["runs_left_out"] == 1
     assert avg["rows"][0]["pred_error_m"] == pytest.approx(0.02)
 

@@ -9,7 +9,8 @@ import pytest
 
 from mmlearn.apps import open_cabinet, operate_trials
 from mmlearn.apps.common import sweep as _sweep
-from mmlearn.apps.open_cabinet import right_kind
+from mmlearn.diagrams.articulation.trials import operate_trial
+from mmlearn.models.articulation.evaluation import operate_records, right_kind, summarize_operate
 
 
 def test_right_kind_is_the_final_unbroken_run():
@@ -37,7 +38,7 @@ def test_summary_counts_right_kind_and_reports_failures():
               _trial("left_door", 1, True, False, None, 70.0, "prismatic"),
               _trial("left_door", 2, False, True, 50.0, 45.0),
               _trial("left_door", 3, False, False, None, 0.0, "rigid")]
-    row = operate_trials.summarize(trials)["left_door"]
+    row = summarize_operate(trials)["left_door"]
     assert row["successes"] == 2 and row["right_kind"] == 2
     assert row["success_and_right_kind"] == 1
     assert row["mean_right_model_at"] == pytest.approx(55.0)
@@ -55,12 +56,12 @@ def test_summary_counts_right_kind_and_reports_failures():
 
 
 def test_a_crashed_trial_is_a_failed_trial_of_the_wrong_kind():
-    spec = dict(fn=operate_trials.trial, trial="articulation.operate@1", seed=0, label="", key="k",
+    spec = dict(fn=operate_trial, trial="articulation.operate@1", seed=0, label="", key="k",
                 params={"kind": "trapdoor", "max_time": 1.0, "base_noise": 0.0})
-    r = operate_trials.records_of([_sweep._execute(spec, None)])[0]
+    r = operate_records([_sweep._execute(spec, None)])[0]
     assert r["success"] is False and r["right_kind"] is False
     assert r["outcome"].startswith("error: ValueError")
-    row = operate_trials.summarize([r])["trapdoor"]
+    row = summarize_operate([r])["trapdoor"]
     assert row["successes"] == 0 and row["right_kind"] == 0
 
 

@@ -8,15 +8,9 @@ from pydrake.common.value import AbstractValue
 from pydrake.math import RigidTransform
 from pydrake.systems.analysis import Simulator
 
-from mmlearn.apps.learn_body_schema import (
-                                            babble,
-                                            control_error,
-                                            converged_at,
-                                            is_correct,
-                                            observation_noise,
-                                            prediction_error,
-                                            sample_test_commands,
-                                            )
+from mmlearn.diagrams.body_schema.trials import (babble, control_error, observation_noise,
+                                                 prediction_error, sample_test_commands)
+from mmlearn.models.body_schema.evaluation import converged_at, is_correct
 from mmlearn.diagrams.body_schema.diagram import BodySchemaDiagramConfig, MakeBodySchemaDiagram
 from mmlearn.diagrams.common.scene import MakeSceneDiagram, SceneConfig
 from mmlearn.sdf.builders import DEFAULT_MODELS, arm_sdf

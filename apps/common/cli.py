@@ -6,26 +6,7 @@ import sys
 from pathlib import Path
 
 from mmlearn.models.common.fileio import atomic_write_text
-
-
-def progress(iterable, *, desc: str = "", unit: str = "it", enabled: bool = True,
-             total: int | None = None):
-    """A tqdm progress bar on stderr (only when stderr is a terminal and ``enabled``)."""
-    if not enabled:
-        return iterable
-    from tqdm import tqdm
-
-    return tqdm(iterable, desc=desc, unit=unit, total=total, file=sys.stderr,
-                disable=None, leave=False)
-
-
-def progress_bar(total: int, desc: str = "", *, unit: str = "it", enabled: bool = True):
-    """A manual tqdm bar on stderr (``update``, ``set_postfix_str``, ``close``); when not
-    ``enabled`` (or stderr is no terminal) the same calls do nothing."""
-    from tqdm import tqdm
-
-    return tqdm(total=total, desc=desc, unit=unit, file=sys.stderr, leave=False,
-                disable=True if not enabled else None)
+from mmlearn.models.common.progress import progress, progress_bar  # noqa: F401 - for the apps
 
 
 def make_meshcat(*, announce: bool = True):

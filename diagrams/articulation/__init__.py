@@ -6,9 +6,16 @@ from mmlearn._lazy import lazy_exports
 _EXPORTS = {
     "operate": ["OperateConfig", "Operate", "make_task", "task_from_look", "MakeOperateDiagram"],
     "operate_perception": ["LookConfig", "LookResult", "LookAtFront", "NoFrontDetected", "front_centre"],
+    "trials": ["open_mechanism", "operate_trial", "scene_points", "draw_look", "SENSORS", "observe", "exp_cabinet", "exp_table", "exp_car", "exp_garage", "yardstick_row", "dof_progress", "search_vs_n_row", "STRUCTURE_RUNNERS", "structure_trial"],
 }
 
 __all__ = [
+    "dof_progress",
+    "draw_look",
+    "exp_cabinet",
+    "exp_car",
+    "exp_garage",
+    "exp_table",
     "front_centre",
     "LookAtFront",
     "LookConfig",
@@ -16,9 +23,18 @@ __all__ = [
     "make_task",
     "MakeOperateDiagram",
     "NoFrontDetected",
+    "observe",
+    "open_mechanism",
     "Operate",
+    "operate_trial",
     "OperateConfig",
+    "scene_points",
+    "search_vs_n_row",
+    "SENSORS",
+    "STRUCTURE_RUNNERS",
+    "structure_trial",
     "task_from_look",
+    "yardstick_row",
 ]
 
 __getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)

@@ -52,7 +52,7 @@ from mmlearn.models.articulation.structure import ArticulatedObject, LinkEdge
 from mmlearn.models.common.fileio import atomic_write_text
 
 __all__ = ["model_to_dict", "model_from_dict", "save_model", "load_model", "to_sdf",
-           "write_sdf", "atomic_write_text", "validate_link_dict",
+           "atomic_write_text", "validate_link_dict",
            "validate_prior_dict"]
 
 FORMAT = "mmlearn.articulation"
@@ -344,8 +344,3 @@ def to_sdf(model, *, model_name: str = "learned_object", weld_root: bool = True)
         if k not in reached:
             _part(m, names[k])
     return m.to_string()
-
-
-def write_sdf(model, path, **kw) -> None:
-    """Write :func:`to_sdf` atomically to ``path``."""
-    atomic_write_text(path, to_sdf(model, **kw))

@@ -69,7 +69,6 @@ __all__ = [
     "merge_bic",
     "learn_priors",
     "evaluate_priors",
-    "PriorTracker",
     "FORMAT",
 ]
 
@@ -345,63 +344,6 @@ class PriorDatabase:
             return cls.from_dict(d)
         except ValueError as e:
             raise ValueError(f"{p}: {e}") from None
-
-
-class PriorTracker:
-    """Online use of the priors while a new object is operated (Eq. 4.46): after every
-    observation the merge test is repeated on the trajectory so far, so the prediction model
-    switches to a known model as soon as one explains the data, and back to a new model if
-    the object stops behaving like it. :meth:`finish` adds the whole trajectory to the
-    database (Algorithm 2), where it becomes prior information for later objects.
-
-    Args:
-        db: the prior database.
-        min_observations: no decision before this many observations.
-        every: repeat the merge test every this many observations (1 = after each).
-        rng: Generator or seed.
-    """
-
-    def __init__(self, db: PriorDatabase, *, min_observations: int = 5, every: int = 1,
-                 rng=None):
-        if int(min_observations) < 3:
-            raise ValueError(f"min_observations must be >= 3, got {min_observations}")
-        if int(every) < 1:
-            raise ValueError(f"every must be >= 1, got {every}")
-        self.db = db
-        self.min_observations = int(min_observations)
-        self.every = int(every)
-        self.rng = np.random.default_rng(rng)
-        self._obs = []
-        self.decision: MergeDecision | None = None
-        self.history = []  # (n, cluster index or None)
-
-    @property
-    def n(self) -> int:
-        return len(self._obs)
-
-    def add(self, pose) -> MergeDecision | None:
-        """Add one observation ((3,) or (7,)); returns the current decision (None before
-        ``min_observations``)."""
-        p = np.asarray(pose, float).reshape(-1)
-        if p.shape[0] not in (3, 7) or not np.all(np.isfinite(p)):
-            raise ValueError(f"an observation must be 3 or 7 finite numbers, got {pose!r}")
-        if self._obs and p.shape[0] != self._obs[0].shape[0]:
-            raise ValueError("observations of one trajectory must all have the same columns")
-        self._obs.append(p)
-        if self.n >= self.min_observations and (self.n - self.min_observations) % self.every == 0:
-            self.decision = self.db.merge_test(np.stack(self._obs), rng=self.rng)
-            self.history.append((self.n, self.decision.cluster))
-        return self.decision
-
-    def model(self):
-        """The model to predict with now (None before the first decision)."""
-        return None if self.decision is None else self.decision.model
-
-    def finish(self, name: str | None = None) -> int:
-        """Add the trajectory to the database (merge or new cluster); returns the cluster."""
-        if self.n < 3:
-            raise ValueError(f"trajectory too short ({self.n} observations)")
-        return self.db.add(np.stack(self._obs), name, rng=self.rng)
 
 
 def learn_priors(trajectories, names=None, *, rng=None, progress=None, **kw) -> PriorDatabase:

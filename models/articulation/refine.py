@@ -35,7 +35,7 @@ from mmlearn.models.articulation.geom import _Data, _m2rv, _rv2m
 from mmlearn.models.articulation.obs import _LOG_2PI, _gamma_map, em_gamma
 
 #: forward-difference step in the local parametrisation (noise units)
-_H = 1e-6
+FD_STEP = 1e-6
 
 
 class LocalParametrisation:
@@ -57,7 +57,7 @@ class LocalParametrisation:
         self.R_base = [_rv2m(theta[s:s + 3]) for s in self.slots]
         self.free = np.setdiff1d(np.arange(p), model._frozen())
         self.steps = np.zeros((self.free.size + 1, p))
-        self.steps[np.arange(1, self.free.size + 1), self.free] = _H
+        self.steps[np.arange(1, self.free.size + 1), self.free] = FD_STEP
 
     def decode(self, U: np.ndarray):
         """(H, p) local coordinates -> parameter vectors (H, p) and rotation matrices
@@ -115,7 +115,8 @@ def refine_em(model, theta, gamma, d: _Data, max_iter: int = 50, tol: float = 1e
 
 
 # --------------------------------------------------------------------------- gradient-based
-def _alternate(model, theta, gamma, d: _Data, minimise_fixed_gamma, rounds: int = 2):
+def alternate_refinement(model, theta, gamma, d: _Data, minimise_fixed_gamma,
+                         rounds: int = 2):
     """Minimise over theta with gamma fixed (``minimise_fixed_gamma(model, par, gamma, d)
     -> theta``), re-estimate gamma by EM, repeat (at most ``rounds`` times) while gamma
     moves by 0.01 or more."""
@@ -146,7 +147,7 @@ def _lbfgs_fixed_gamma(model, par: LocalParametrisation, gamma, d: _Data):
         ep2, eo, _ = model._residuals_batch(ths, d, rots)
         li = obs.log_inlier(ep2, eo)
         f = -np.logaddexp(lg1 + li, lg + log_out).sum(axis=1)
-        return float(f[0]), (f[1:] - f[0]) / _H
+        return float(f[0]), (f[1:] - f[0]) / FD_STEP
 
     v0 = np.zeros(par.free.size)
     f0 = abs(fg(v0)[0])
@@ -156,7 +157,7 @@ def _lbfgs_fixed_gamma(model, par: LocalParametrisation, gamma, d: _Data):
     return par.theta(par.embed(res.x))
 
 
-def _residual_terms(model, par: LocalParametrisation, gamma, d: _Data):
+def residual_terms(model, par: LocalParametrisation, gamma, d: _Data):
     """evaluate(U) -> residual vectors (H, n, m), mixture negative log-likelihoods (H,) and
     inlier responsibilities (H, n) at the local coordinates U (H, p), gamma fixed."""
     obs = model.obs_fit
@@ -203,13 +204,13 @@ def _lm_fixed_gamma(model, par: LocalParametrisation, gamma, d: _Data, max_iter:
     speed at the same optimum (fixed weights per least_squares call need several EM
     rounds, where the LM re-weights after every step; and scipy's per-call overhead is a
     large part of a 5 ms fit)."""
-    evaluate = _residual_terms(model, par, gamma, d)
+    evaluate = residual_terms(model, par, gamma, d)
     u = np.zeros(par.base.size)
     lam = 1e-3
     R, F, W = evaluate(u[None] + par.steps)
     f, r, w = F[0], R[0], W[0]
     for _ in range(max_iter):
-        J = (R[1:] - r[None]) / _H  # (k, n, m): d r / d u_free
+        J = (R[1:] - r[None]) / FD_STEP  # (k, n, m): d r / d u_free
         Jw = J * w[None, :, None]
         g = np.einsum("knm,nm->k", Jw, r)
         Hm = np.einsum("knm,lnm->kl", Jw, J)
@@ -241,13 +242,13 @@ def _lm_fixed_gamma(model, par: LocalParametrisation, gamma, d: _Data, max_iter:
 def refine_lm(model, theta, gamma, d: _Data):
     """Levenberg-Marquardt (gamma fixed) alternated with EM for gamma; needs
     ``model._residual_vectors``."""
-    return _alternate(model, theta, gamma, d, _lm_fixed_gamma)
+    return alternate_refinement(model, theta, gamma, d, _lm_fixed_gamma)
 
 
 def refine_lbfgs(model, theta, gamma, d: _Data):
     """L-BFGS-B (gamma fixed) alternated with EM for gamma; needs only
     ``model._residuals_batch``."""
-    return _alternate(model, theta, gamma, d, _lbfgs_fixed_gamma)
+    return alternate_refinement(model, theta, gamma, d, _lbfgs_fixed_gamma)
 
 
 REFINEMENTS = {"em": refine_em, "lm": refine_lm, "lbfgs": refine_lbfgs}

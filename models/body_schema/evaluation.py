@@ -1,4 +1,5 @@
-"""Experiments of thesis Sec. 3.4 on the simulated arms (used by benchmarks and tests).
+"""Experiments of thesis Sec. 3.4 on the simulated arms, and the metrics and report of the
+body-schema experiments (their Drake runs: :mod:`mmlearn.diagrams.body_schema.trials`).
 
 * :func:`accuracy_curve`: structure and prediction error vs number of samples (Fig. 3.10).
 * :func:`recovery_experiment`: steps until a valid model again after a failure (Table 3.1).
@@ -16,7 +17,9 @@ from mmlearn.models.body_schema.search import SearchConfig
 from mmlearn.models.body_schema.kinematic_sim import SimArm
 
 __all__ = ["structure_correct", "prediction_errors", "accuracy_curve",
-           "recovery_experiment", "control_experiment"]
+           "recovery_experiment", "control_experiment", "is_correct", "converged_at",
+           "recovery_summary", "control_summary", "average_runs", "correct_from", "BLOCK_WHERE",
+           "body_schema_report"]
 
 
 def structure_correct(arm: SimArm, tree, nodes) -> bool:
@@ -211,3 +214,159 @@ def control_experiment(make_arm, *, seed, n_learn: int = 100, n_waypoints: int =
     bent_adaptive = control_error(schema, arm)
     return dict(intact_static=intact, bent_static=bent_static, bent_adaptive=bent_adaptive,
                 valid=schema.valid, events=list(schema.events))
+
+
+# ---------------------------------------------------------------------------- metrics, report
+
+def is_correct(keys, truth, n_nodes) -> bool:
+    """The tree (a, b, Q) keys span ``n_nodes`` parts with the true action sets."""
+    return len(keys) == n_nodes - 1 and all(
+        frozenset(Q) == truth[(min(a, b), max(a, b))] for a, b, Q in keys)
+
+
+def converged_at(history, truth, n_nodes):
+    """First sample count after which the structure stayed correct (None if never)."""
+    at = None
+    for n, _valid, keys in history:
+        if is_correct(keys, truth, n_nodes):
+            at = n if at is None else at
+        else:
+            at = None
+    return at
+
+
+def _ok(rs):
+    """(runs that finished, their number failed, reasons)."""
+    ok = [r for r in rs if "failed" not in r]
+    return ok, len(rs) - len(ok), [r["failed"] for r in rs if "failed" in r]
+
+
+def recovery_summary(rs, *, drake: bool) -> dict:
+    """Table 3.1 over runs (records of :func:`drake_recovery` or the numpy
+    ``recovery_experiment``, ``{"failed": reason}`` for a failed run): mean and std of
+    first / restore / second over the runs that finished; the Drake rows also per run."""
+    ok, failed, why = _ok(rs)
+    f = np.array([[r["first"], r["restore"], r["second"]] for r in ok], float).reshape(-1, 3)
+    nan3 = [float("nan")] * 3
+    out = dict(mean=f.mean(0).tolist() if ok else nan3, std=f.std(0).tolist() if ok else nan3,
+               runs=len(rs), failed_runs=failed, failures=why)
+    if drake:
+        out.update(per_run=f.astype(int).tolist(), first=ok[0]["first"] if ok else None,
+                   restore=ok[0]["restore"] if ok else None,
+                   second=ok[0]["second"] if ok else None)
+    return out
+
+
+def control_summary(rs, *, drake: bool) -> dict:
+    """Table 3.2 over runs: mean control errors [m] over the runs that finished."""
+    keys = ("intact_static", "bent_static", "bent_adaptive")
+    ok, failed, why = _ok(rs)
+    if drake:
+        out = {k: float(np.mean([r[k] for r in ok])) if ok else float("nan") for k in keys}
+        out.update(runs=len(rs), failed_runs=failed, failures=why,
+                   per_run=[[r[k] for k in keys] for r in ok],
+                   valid_after=bool(ok) and all(r["valid_after"] for r in ok))
+    else:
+        out = {k: float(np.mean([r[k][0] for r in ok])) if ok else float("nan") for k in keys}
+        out.update(runs=len(rs), failed_runs=failed, failures=why)
+    return out
+
+
+def average_runs(results):
+    """Fig. 3.10 over several Drake runs: per n the share of runs with the correct structure
+    and the mean errors over the runs with a complete schema."""
+    rows = []
+    for i, r0 in enumerate(results[0]["rows"]):
+        rs = [d["rows"][i] for d in results]
+        row = dict(n=r0["n"], correct=all(r["correct"] for r in rs),
+                   correct_share=float(np.mean([r["correct"] for r in rs])))
+        for k in ("pred_error_m", "pred_error_deg", "positioning_error_m"):
+            v = [r[k] for r in rs if k in r]
+            if v:
+                row[k] = float(np.mean(v))
+                row[k + "_runs"] = v
+        # runs whose schema was incomplete or whose fit failed have no errors: say how many
+        row["runs_in_mean"] = sum("pred_error_m" in r for r in rs)
+        row["runs_left_out"] = len(rs) - row["runs_in_mean"]
+        rows.append(row)
+    conv = [d["online_converged_at"] for d in results]
+    return dict(results[0], rows=rows, runs=len(results),
+                obs_noise_m=float(np.mean([d["obs_noise_m"] for d in results])),
+                online_converged_at=(None if None in conv else max(conv)),
+                online_converged_at_runs=conv,
+                update_ms_median=float(np.median([d["update_ms_median"] for d in results])),
+                seconds=float(sum(d["seconds"] for d in results)))
+
+
+def correct_from(rows):
+    """Smallest n from which the fitted structure is correct for every larger n (None)."""
+    n = None
+    for r in reversed(rows):
+        if not r["correct"]:
+            break
+        n = r["n"]
+    return n
+
+#: where each experiment runs
+BLOCK_WHERE = {"fig_3_10": "drake", "noise_free": "drake", "7dof_occluded": "drake",
+         "7dof_structure": "drake",
+         "table_3_1": "numpy (statistics) + drake (--drake-runs runs per failure, 2-DOF)",
+         "table_3_2": "numpy (statistics) + drake (--drake-runs // 2 runs, 4-DOF)"}
+
+
+def body_schema_report(lines: list[dict]) -> dict:
+    """The results of the experiments of Sec. 3.4 from results-file lines of
+    ``body_schema.experiment`` trials.
+    A trial that raised is listed in ``errors``; in Tables 3.1 / 3.2 it also counts as a
+    failed run, elsewhere it is left out (the averages say over how many runs)."""
+    if len({bool(ln["spec"]["params"].get("quick")) for ln in lines}) > 1:
+        raise ValueError("the results file holds runs of --quick and of the full setting; "
+                         "use one results file per setting")
+    by: dict[str, list] = {}
+    for ln in lines:
+        p = ln["spec"]["params"]
+        by.setdefault(p["block"], []).append(ln)
+    for v in by.values():
+        v.sort(key=lambda ln: ln["spec"]["params"]["run"])
+
+    def recs(block, *, failed_as_run):
+        out = []
+        for ln in by.get(block, []):
+            if ln.get("error") is None:
+                out.append(ln["record"])
+            elif failed_as_run:
+                out.append({"failed": f"trial error: {ln['error']}"})
+        return out
+
+    quick = any(ln["spec"]["params"].get("quick") for ln in lines)
+    res = {"quick": quick, "where": dict(BLOCK_WHERE)}
+    fig = recs("fig_3_10", failed_as_run=False)
+    if fig:
+        res["fig_3_10"] = average_runs(fig)
+    for block in ("noise_free", "7dof_occluded"):
+        r = recs(block, failed_as_run=False)
+        if r:
+            res[block] = r[0]
+    st = recs("7dof_structure", failed_as_run=False)
+    if st:
+        res["7dof_structure"] = st
+    t31 = {f: [r for r, ln in zip(recs("table_3_1_drake", failed_as_run=True),
+                                  by.get("table_3_1_drake", []))
+               if ln["spec"]["params"]["kwargs"]["failure"] == f] for f in ("joint", "tool")}
+    if any(t31.values()):
+        res["table_3_1_drake"] = {f: recovery_summary(v, drake=True) for f, v in t31.items()}
+    c = recs("table_3_2_drake", failed_as_run=True)
+    if c:
+        res["table_3_2_drake"] = control_summary(c, drake=True)
+    t31 = {f: [r for r, ln in zip(recs("table_3_1_numpy", failed_as_run=True),
+                                  by.get("table_3_1_numpy", []))
+               if ln["spec"]["params"]["kwargs"]["failure"] == f] for f in ("joint", "tool")}
+    if any(t31.values()):
+        res["table_3_1_numpy"] = {f: recovery_summary(v, drake=False) for f, v in t31.items()}
+    c = recs("table_3_2_numpy", failed_as_run=True)
+    if c:
+        res["table_3_2_numpy"] = control_summary(c, drake=False)
+    res["seconds"] = float(sum(ln.get("wall_s") or 0.0 for ln in lines))
+    res["errors"] = [{"trial": ln["spec"].get("label") or ln["key"], "error": ln["error"]}
+                     for ln in lines if ln.get("error") is not None]
+    return res

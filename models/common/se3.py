@@ -21,13 +21,9 @@ from scipy.spatial.transform import Rotation
 __all__ = [
     "PoseArray",
     "as_pose_array",
-    "to_xyzquat",
-    "to_matrices",
     "relative_poses",
-    "rotation_angle",
     "rotation_distance",
     "matrix_to_pose7",
-    "pose7_to_matrix",
     "quat_distance",
     "project_to_so3",
     "rotvec_to_matrix",
@@ -148,21 +144,6 @@ def as_pose_array(data, *, what: str = "track", allow_nan: bool = False) -> Pose
     return PoseArray(a[:, :3].copy(), Rotation.from_quat(q / norm[:, None]))
 
 
-def to_xyzquat(data) -> np.ndarray:
-    """Any accepted pose input -> (n, 7) (or (n, 3) for position-only)."""
-    return as_pose_array(data).as_array()
-
-
-def to_matrices(data) -> np.ndarray:
-    """Any accepted pose input -> (n, 4, 4)."""
-    return as_pose_array(data).as_matrices()
-
-
-def pose7_to_matrix(p7) -> np.ndarray:
-    """(n, 7) -> (n, 4, 4)."""
-    return as_pose_array(p7).as_matrices()
-
-
 def matrix_to_pose7(T) -> np.ndarray:
     """(n, 4, 4) -> (n, 7)."""
     return as_pose_array(T).as_array()
@@ -182,14 +163,6 @@ def relative_poses(y_i, y_j) -> PoseArray:
     pos = inv.apply(b.positions - a.positions)
     rot = None if b.rotations is None else inv * b.rotations
     return PoseArray(pos, rot)
-
-
-def rotation_angle(R: Rotation) -> np.ndarray:
-    """Rotation angle in [0, pi] of each rotation (radians)."""
-    q = R.as_quat()
-    if q.ndim == 1:
-        q = q[None]
-    return 2.0 * np.arctan2(np.linalg.norm(q[:, :3], axis=1), np.abs(q[:, 3]))
 
 
 def rotation_distance(Ra: Rotation, Rb: Rotation) -> np.ndarray:

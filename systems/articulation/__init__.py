@@ -6,6 +6,7 @@ from mmlearn._lazy import lazy_exports
 _EXPORTS = {
     "base_localization": ["BaseLocalization", "BaseLocalizationConfig"],
     "epc_controller": ["EpcTask", "EpcConfig", "hook_rotation", "EpcController"],
+    "epc_state": ["EpcState", "EpcInputs", "PHASE_NAMES"],
     "estimator": ["ArticulationEstimator", "ArticulationEstimatorState"],
     "model_visualizer": ["legend_entries", "draw_legend", "LearnedModelVisualizer", "draw_link_model"],
     "prior_selector": ["ShiftedLinkModel", "PriorModelSelector"],
@@ -20,10 +21,13 @@ __all__ = [
     "draw_link_model",
     "EpcConfig",
     "EpcController",
+    "EpcInputs",
+    "EpcState",
     "EpcTask",
     "hook_rotation",
     "LearnedModelVisualizer",
     "legend_entries",
+    "PHASE_NAMES",
     "PriorModelSelector",
     "ShiftedLinkModel",
 ]

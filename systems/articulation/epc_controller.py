@@ -34,7 +34,7 @@ trajectory is what the estimator learns from, so the learned radius is the handl
 """
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -46,8 +46,9 @@ from pydrake.systems.framework import BasicVector, EventStatus, LeafSystem, Valu
 
 from mmlearn.models.common.config import param, validate_fields
 
-DRIVE, PREHOOK, DEPTH, SLIDE, PULL, RELEASE, DONE = range(7)
-PHASE_NAMES = ["drive", "prehook", "depth", "slide", "pull", "release", "done"]
+# the phases are part of this module's API (the ``phase`` output's values)
+from mmlearn.systems.articulation.epc_state import (  # noqa: F401
+    DEPTH, DONE, DRIVE, PHASE_NAMES, PREHOOK, PULL, RELEASE, SLIDE, EpcInputs, EpcState)
 
 #: the hook's seat (centre of a seated 2 cm bar) in the hook body frame, m
 P_HOOK_GRIP = np.array([0.022, 0.0, 0.106])
@@ -288,33 +289,6 @@ class EpcConfig:
                 f"{self.release_slide_start!r}, {self.release_backoff_start!r}")
 
 
-@dataclass
-class _State:
-    phase: int = DRIVE
-    t_phase: float = 0.0
-    q_from: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    q_to: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    t_cmd: float = 0.0
-    start: np.ndarray = field(default_factory=lambda: np.zeros(0))  # phase start (q or G)
-    R: np.ndarray = field(default_factory=lambda: np.eye(3))
-    cep: np.ndarray = field(default_factory=lambda: np.zeros(3))
-    direction: np.ndarray = field(default_factory=lambda: np.zeros(3))
-    q_hat0: float = float("nan")
-    q_hat: float = float("nan")
-    opening: float = 0.0
-    model_name: str = ""
-    stalled: int = 0
-    stall_G: np.ndarray = field(default_factory=lambda: np.zeros(3))
-    trail_G: np.ndarray = field(default_factory=lambda: np.zeros(3))
-    motion: np.ndarray = field(default_factory=lambda: np.zeros(3))
-    slack: int = 0
-    last_G: np.ndarray = field(default_factory=lambda: np.zeros(3))
-    side_extra: float = 0.0
-    bar_depth: float = float("nan")
-    retries: int = 0
-    outcome: str = ""
-
-
 def _unit(v):
     n = np.linalg.norm(v)
     return v / n if n > 1e-12 else v
@@ -408,7 +382,7 @@ class EpcController(LeafSystem):
             ValueProducer(allocate=lambda: AbstractValue.Make(plant.CreateDefaultContext()),
                           calc=self._calc_measured_context),
             {self._in_state.ticket()})
-        init = _State(q_from=np.zeros(n), q_to=np.zeros(n))
+        init = EpcState(q_from=np.zeros(n), q_to=np.zeros(n))
         self._s = self.DeclareAbstractState(AbstractValue.Make(init))
         self.DeclareInitializationUnrestrictedUpdateEvent(self._initialize)
         self.DeclarePeriodicUnrestrictedUpdateEvent(cfg.period, 0.0, self._update)
@@ -443,7 +417,7 @@ class EpcController(LeafSystem):
     def get_object_model_input_port(self):
         return self._in_model
 
-    def state(self, context) -> _State:
+    def state(self, context) -> EpcState:
         return context.get_abstract_state(self._s).get_value()
 
     # ------------------------------------------------------------------ kinematics
@@ -524,9 +498,9 @@ class EpcController(LeafSystem):
     # ------------------------------------------------------------------ events
     def _initialize(self, context, state):
         q = self._measured_q(context)
-        s = _State(phase=DRIVE, t_phase=context.get_time(), q_from=q.copy(), q_to=q.copy(),
-                   t_cmd=context.get_time(), start=q.copy(),
-                   last_G=self.measured_grip_pose(context).translation())
+        s = EpcState(phase=DRIVE, t_phase=context.get_time(), q_from=q, q_to=q,
+                     t_cmd=context.get_time(), start=q,
+                     last_G=self.measured_grip_pose(context).translation())
         state.get_mutable_abstract_state(self._s).set_value(s)
         return EventStatus.Succeeded()
 
@@ -545,160 +519,181 @@ class EpcController(LeafSystem):
 
     def _update(self, context, state):
         try:
-            s = self._step(context, replace(self.state(context)))
+            s = self._step(context, self.state(context))
         except (RuntimeError, ValueError, np.linalg.LinAlgError, FloatingPointError):
             # a controller step that cannot be computed holds the last command
-            s = replace(self.state(context))
-            s.q_from = s.q_to.copy()
-            s.t_cmd = context.get_time()
+            s = self.state(context)
+            s = replace(s, q_from=s.q_to, t_cmd=context.get_time())
         state.get_mutable_abstract_state(self._s).set_value(s)
         return EventStatus.Succeeded()
 
-    def _next_phase(self, s, phase, t, start):
-        s.phase, s.t_phase, s.start = phase, t, np.asarray(start, float).copy()
+    @staticmethod
+    def _next_phase(s: EpcState, phase: int, t: float, start, **changes) -> EpcState:
+        return replace(s, phase=phase, t_phase=t, start=start, **changes)
 
-    def _step(self, context, s: _State) -> _State:
-        cfg, task = self._cfg, self._task
-        t = context.get_time()
+    def _now(self, context, s: EpcState) -> EpcInputs:
         F = np.asarray(self._in_force.Eval(context), float)
         if not np.all(np.isfinite(F)):
             F = np.zeros(3)
-        X_G = self.measured_grip_pose(context)
-        G = X_G.translation()
-        q_cmd = s.q_to.copy()
-        elapsed = t - s.t_phase
-        H = task.handle
-        R_hook0 = self._R_hook0
-        if s.phase == DRIVE:
-            goal = self._stance()
-            # turn the short way (facing -x, the stance yaw may be +pi while the start is
-            # near -pi: a linear blend would spin the base a full turn)
-            goal[2] = s.start[2] + math.remainder(goal[2] - s.start[2], 2 * math.pi)
-            dist = np.linalg.norm(goal[:2] - s.start[:2])
-            T = max(cfg.drive_min_time, dist / cfg.drive_speed)
-            a = min(1.0, elapsed / T)
-            a = 0.5 - 0.5 * math.cos(math.pi * a)
-            q_cmd[:3] = (1 - a) * s.start[:3] + a * goal
-            ready = np.array(cfg.ready_arm_q, float)
-            q_cmd[3:] = (1 - a) * s.start[3:] + a * ready
-            if elapsed >= T + cfg.drive_settle_time:
-                self._next_phase(s, PREHOOK, t, G)
-        elif s.phase == PREHOOK:
-            goal = (H + cfg.prehook_distance * task.normal
-                    + (cfg.side_offset + s.side_extra) * task.side)
-            a = min(1.0, elapsed / cfg.approach_time)
-            p = (1 - a) * s.start + a * goal
-            q_cmd = self._ik(q_cmd, p, R_hook0, base=False)
-            if elapsed >= cfg.approach_time + cfg.approach_settle_time:
-                self._next_phase(s, DEPTH, t, goal)
-        elif s.phase == DEPTH:
-            # guarded move into the front, deeper than the clicked handle by the depth
-            # margin: the handle is only known to a few cm (click and base localisation)
-            margin = cfg.depth_margin
-            goal = (H - (cfg.depth_goal + margin) * task.normal
-                    + (cfg.side_offset + s.side_extra) * task.side)
-            # the same speed as without the margin
-            nominal = cfg.prehook_distance + cfg.depth_goal
-            T = cfg.depth_time * (nominal + margin) / nominal
-            a = min(1.0, elapsed / T)
-            p = (1 - a) * s.start + a * goal
-            touching = np.dot(F, task.normal) > cfg.depth_contact_force
-            depth = np.dot(G - H, task.normal)
-            # the finger touches the front with the seat ~0.036 m behind the bar's centre,
-            # the bar itself ~0.044 m in front of it (+-0.02 m click error): split at
-            # bar_split_depth (0); a contact at the depth where the bar was met before is
-            # the bar again
-            on_bar = depth > cfg.bar_split_depth or (
-                math.isfinite(s.bar_depth) and depth > s.bar_depth - cfg.bar_depth_tolerance)
-            if touching and on_bar and s.retries < cfg.max_retries:
-                # hit something in front of the front: the bar itself (the click was off
-                # sideways). Back out and come in again further to the side.
-                s.retries += 1
-                s.side_extra += cfg.retry_side_shift
-                q_cmd = self._ik(q_cmd, G + cfg.retry_backoff * task.normal, R_hook0,
-                                 base=False)
-                self._next_phase(s, PREHOOK, t, G + cfg.retry_backoff * task.normal)
-            elif (not touching and depth < -cfg.edge_depth - margin
-                    and s.retries < cfg.max_retries):
-                # deeper than the front without touching it: the finger passed the front's
-                # free edge. Back out and come in again closer to the bar.
-                s.retries += 1
-                s.side_extra -= cfg.retry_side_shift
-                q_cmd = self._ik(q_cmd, G + (cfg.edge_retry_backoff + margin) * task.normal,
-                                 R_hook0, base=False)
-                self._next_phase(s, PREHOOK, t,
-                                 G + (cfg.edge_retry_backoff + margin) * task.normal)
-            elif touching or elapsed >= T:
-                # back off from the front so the finger clears it and the bar
-                p = G + cfg.front_backoff * task.normal
-                q_cmd = self._ik(q_cmd, p, R_hook0, base=False)
-                self._next_phase(s, SLIDE, t, p)
-            else:
-                q_cmd = self._ik(q_cmd, p, R_hook0, base=False)
-        elif s.phase == SLIDE:
-            # slide until the rod touches the bar (up to slide_reach past the clicked
-            # position; a sliding door moves away along -side when the rod meets its bar,
-            # so the rod feels little: there the slide ends sliding_reach past the clicked
-            # bar and the pull goes on in the same direction)
-            pulling_out = abs(np.dot(task.pull, task.normal)) > 0.5  # more out than along
-            reach = cfg.slide_reach if pulling_out else cfg.sliding_reach
-            off = np.dot(s.start - H, task.side)
-            goal = s.start - (off + reach) * task.side
-            T = cfg.slide_time * (1.0 + max(0.0, reach - cfg.sliding_reach)
-                                  / cfg.slide_time_distance)
-            a = min(1.0, elapsed / T)
-            p = (1 - a) * s.start + a * goal
-            # the rod touches the bar: a side force once the seat is near the clicked bar
-            # (friction on the front while sliding also pushes along +side), or anywhere
-            # once the hook lags slide_blocked_lag behind the commanded slide (the bar
-            # stops it where the click did not say)
-            f_side = np.dot(F, task.side)
-            near = abs(np.dot(G - H, task.side)) < cfg.slide_near_bar
-            blocked = np.dot(G - p, task.side) > cfg.slide_blocked_lag
-            contact = f_side > cfg.slide_contact_force and (near or blocked)
-            q_cmd = self._ik(q_cmd, p, R_hook0, base=False)
-            reached = abs(np.dot(G - goal, task.side)) < cfg.slide_reached_tolerance
-            if (not contact and elapsed >= T + cfg.slide_settle_time and reached
-                    and s.retries < cfg.max_retries and pulling_out):
-                # slid past the bar without feeling it: the finger was in front of the bar
-                # (the contact was the bar, not the front). Back out and come in again
-                # further to the side, taking contacts at this depth for the bar.
-                s.retries += 1
-                s.side_extra += cfg.retry_side_shift
-                s.bar_depth = float(np.dot(s.start - H, task.normal)) - cfg.front_backoff
-                q_cmd = self._ik(q_cmd, G + cfg.retry_backoff * task.normal, R_hook0,
-                                 base=False)
-                self._next_phase(s, PREHOOK, t, G + cfg.retry_backoff * task.normal)
-            elif contact or elapsed >= T + cfg.slide_settle_time:
-                s.cep = G.copy()
-                s.direction = task.pull.copy()
-                s.trail_G, s.motion = G.copy(), task.pull.copy()
-                s.R = R_hook0.copy()
-                s.last_G = G.copy()
-                self._next_phase(s, PULL, t, G)
-        elif s.phase == PULL:
-            q_cmd, s = self._pull(context, s, q_cmd, G, F, elapsed)
-        elif s.phase == RELEASE:
-            # the front's current orientation from the handle's observed motion (model-free:
-            # the hook's orientation may lag behind a door whose model came late)
-            R_front = _rotation_between(task.pull, s.motion)
-            side = R_front @ task.side
-            normal = R_front @ task.normal
-            a = min(1.0, elapsed / cfg.release_time)
-            # unload the finger (back along the motion), slide out sideways, back off
-            a1, a2 = cfg.release_slide_start, cfg.release_backoff_start
-            p = (s.start - cfg.release_unload * min(1.0, a / a1) * s.motion
-                 + cfg.release_slide * float(np.clip((a - a1) / (a2 - a1), 0, 1)) * side
-                 + cfg.release_backoff * float(np.clip((a - a2) / (1.0 - a2), 0, 1)) * normal)
-            q_cmd = self._ik(q_cmd, p, s.R, base=False)
-            if elapsed >= cfg.release_time:
-                self._next_phase(s, DONE, t, G)
-        # DONE: hold
-        s.q_from = self._current_cmd(s, t)
-        s.q_to = np.clip(q_cmd, self._lo, self._hi)
-        s.t_cmd = t
-        s.last_G = G.copy()
-        return s
+        t = context.get_time()
+        return EpcInputs(t=t, elapsed=t - s.t_phase, F=F,
+                    G=self.measured_grip_pose(context).translation())
+
+    def _step(self, context, s: EpcState) -> EpcState:
+        """One control period: the phase's own step (:attr:`_PHASES`) computes the command
+        and the next state; the command is then interpolated over the next period."""
+        now = self._now(context, s)
+        phase = self._PHASES.get(s.phase)
+        q_cmd, s_new = (s.q_to.copy(), s) if phase is None else \
+            phase(self, context, s, now, s.q_to.copy())  # DONE: hold
+        return replace(s_new, q_from=self._current_cmd(s, now.t),
+                       q_to=np.clip(q_cmd, self._lo, self._hi), t_cmd=now.t,
+                       last_G=now.G)
+
+    # ------------------------------------------------------------------ phases
+    def _drive(self, context, s: EpcState, now: EpcInputs, q_cmd):
+        """DRIVE: move the base to the stance and fold the arm into its ready pose."""
+        cfg = self._cfg
+        goal = self._stance()
+        # turn the short way (facing -x, the stance yaw may be +pi while the start is
+        # near -pi: a linear blend would spin the base a full turn)
+        goal[2] = s.start[2] + math.remainder(goal[2] - s.start[2], 2 * math.pi)
+        dist = np.linalg.norm(goal[:2] - s.start[:2])
+        T = max(cfg.drive_min_time, dist / cfg.drive_speed)
+        a = min(1.0, now.elapsed / T)
+        a = 0.5 - 0.5 * math.cos(math.pi * a)
+        q_cmd[:3] = (1 - a) * s.start[:3] + a * goal
+        ready = np.array(cfg.ready_arm_q, float)
+        q_cmd[3:] = (1 - a) * s.start[3:] + a * ready
+        if now.elapsed >= T + cfg.drive_settle_time:
+            s = self._next_phase(s, PREHOOK, now.t, now.G)
+        return q_cmd, s
+
+    def _side_goal(self, s: EpcState, depth: float) -> np.ndarray:
+        """The grip point ``depth`` in front of the clicked handle (negative: behind it),
+        beside the bar by the side offset and its correction."""
+        cfg, task = self._cfg, self._task
+        return (task.handle + depth * task.normal
+                + (cfg.side_offset + s.side_extra) * task.side)
+
+    def _prehook(self, context, s: EpcState, now: EpcInputs, q_cmd):
+        """PREHOOK: approach the point in front of the handle, beside the bar."""
+        cfg = self._cfg
+        goal = self._side_goal(s, cfg.prehook_distance)
+        a = min(1.0, now.elapsed / cfg.approach_time)
+        p = (1 - a) * s.start + a * goal
+        q_cmd = self._ik(q_cmd, p, self._R_hook0, base=False)
+        if now.elapsed >= cfg.approach_time + cfg.approach_settle_time:
+            s = self._next_phase(s, DEPTH, now.t, goal)
+        return q_cmd, s
+
+    def _retry(self, s: EpcState, now: EpcInputs, q_cmd, *, side_shift: float,
+               backoff: float, **changes):
+        """Start the hooking over: back out ``backoff`` along the normal and approach again
+        with the side offset corrected by ``side_shift``."""
+        back = now.G + backoff * self._task.normal
+        q_cmd = self._ik(q_cmd, back, self._R_hook0, base=False)
+        return q_cmd, self._next_phase(s, PREHOOK, now.t, back, retries=s.retries + 1,
+                                       side_extra=s.side_extra + side_shift, **changes)
+
+    def _depth(self, context, s: EpcState, now: EpcInputs, q_cmd):
+        """DEPTH: guarded move into the front; a contact in front of the front is the bar
+        (retry further to the side), no contact deeper than the front means the finger
+        passed its edge (retry closer); touching the front, back off and slide."""
+        cfg, task = self._cfg, self._task
+        # guarded move into the front, deeper than the clicked handle by the depth
+        # margin: the handle is only known to a few cm (click and base localisation)
+        margin = cfg.depth_margin
+        goal = self._side_goal(s, -(cfg.depth_goal + margin))
+        # the same speed as without the margin
+        nominal = cfg.prehook_distance + cfg.depth_goal
+        T = cfg.depth_time * (nominal + margin) / nominal
+        a = min(1.0, now.elapsed / T)
+        p = (1 - a) * s.start + a * goal
+        touching = np.dot(now.F, task.normal) > cfg.depth_contact_force
+        depth = np.dot(now.G - task.handle, task.normal)
+        # the finger touches the front with the seat ~0.036 m behind the bar's centre,
+        # the bar itself ~0.044 m in front of it (+-0.02 m click error): split at
+        # bar_split_depth (0); a contact at the depth where the bar was met before is
+        # the bar again
+        on_bar = depth > cfg.bar_split_depth or (
+            math.isfinite(s.bar_depth) and depth > s.bar_depth - cfg.bar_depth_tolerance)
+        retry = s.retries < cfg.max_retries
+        if touching and on_bar and retry:
+            # hit something in front of the front: the bar itself (the click was off
+            # sideways). Back out and come in again further to the side.
+            return self._retry(s, now, q_cmd, side_shift=cfg.retry_side_shift,
+                               backoff=cfg.retry_backoff)
+        if not touching and depth < -cfg.edge_depth - margin and retry:
+            # deeper than the front without touching it: the finger passed the front's
+            # free edge. Back out and come in again closer to the bar.
+            return self._retry(s, now, q_cmd, side_shift=-cfg.retry_side_shift,
+                               backoff=cfg.edge_retry_backoff + margin)
+        if touching or now.elapsed >= T:
+            # back off from the front so the finger clears it and the bar
+            p = now.G + cfg.front_backoff * task.normal
+            return self._ik(q_cmd, p, self._R_hook0, base=False), \
+                self._next_phase(s, SLIDE, now.t, p)
+        return self._ik(q_cmd, p, self._R_hook0, base=False), s
+
+    def _slide(self, context, s: EpcState, now: EpcInputs, q_cmd):
+        """SLIDE: guarded sideways move until the rod touches the bar (then PULL); a slide
+        that meets nothing went over the bar: retry further to the side."""
+        cfg, task, G = self._cfg, self._task, now.G
+        # slide until the rod touches the bar (up to slide_reach past the clicked
+        # position; a sliding door moves away along -side when the rod meets its bar,
+        # so the rod feels little: there the slide ends sliding_reach past the clicked
+        # bar and the pull goes on in the same direction)
+        pulling_out = abs(np.dot(task.pull, task.normal)) > 0.5  # more out than along
+        reach = cfg.slide_reach if pulling_out else cfg.sliding_reach
+        off = np.dot(s.start - task.handle, task.side)
+        goal = s.start - (off + reach) * task.side
+        T = cfg.slide_time * (1.0 + max(0.0, reach - cfg.sliding_reach)
+                              / cfg.slide_time_distance)
+        a = min(1.0, now.elapsed / T)
+        p = (1 - a) * s.start + a * goal
+        # the rod touches the bar: a side force once the seat is near the clicked bar
+        # (friction on the front while sliding also pushes along +side), or anywhere
+        # once the hook lags slide_blocked_lag behind the commanded slide (the bar
+        # stops it where the click did not say)
+        near = abs(np.dot(G - task.handle, task.side)) < cfg.slide_near_bar
+        blocked = np.dot(G - p, task.side) > cfg.slide_blocked_lag
+        contact = np.dot(now.F, task.side) > cfg.slide_contact_force and (near or blocked)
+        q_cmd = self._ik(q_cmd, p, self._R_hook0, base=False)
+        reached = abs(np.dot(G - goal, task.side)) < cfg.slide_reached_tolerance
+        settled = now.elapsed >= T + cfg.slide_settle_time
+        if (not contact and settled and reached and s.retries < cfg.max_retries
+                and pulling_out):
+            # slid past the bar without feeling it: the finger was in front of the bar
+            # (the contact was the bar, not the front). Back out and come in again
+            # further to the side, taking contacts at this depth for the bar.
+            bar_depth = float(np.dot(s.start - task.handle, task.normal)) - cfg.front_backoff
+            return self._retry(s, now, q_cmd, side_shift=cfg.retry_side_shift,
+                               backoff=cfg.retry_backoff, bar_depth=bar_depth)
+        if contact or settled:
+            s = self._next_phase(s, PULL, now.t, G, cep=G, direction=task.pull, trail_G=G,
+                                 motion=task.pull, R=self._R_hook0)
+        return q_cmd, s
+
+    def _release(self, context, s: EpcState, now: EpcInputs, q_cmd):
+        """RELEASE: unload the finger, slide the hook out sideways and back off, in the
+        front's orientation as the handle's last motion shows it."""
+        cfg, task = self._cfg, self._task
+        # the front's current orientation from the handle's observed motion (model-free:
+        # the hook's orientation may lag behind a door whose model came late)
+        R_front = _rotation_between(task.pull, s.motion)
+        side = R_front @ task.side
+        normal = R_front @ task.normal
+        a = min(1.0, now.elapsed / cfg.release_time)
+        # unload the finger (back along the motion), slide out sideways, back off
+        a1, a2 = cfg.release_slide_start, cfg.release_backoff_start
+        p = (s.start - cfg.release_unload * min(1.0, a / a1) * s.motion
+             + cfg.release_slide * float(np.clip((a - a1) / (a2 - a1), 0, 1)) * side
+             + cfg.release_backoff * float(np.clip((a - a2) / (1.0 - a2), 0, 1)) * normal)
+        q_cmd = self._ik(q_cmd, p, s.R, base=False)
+        if now.elapsed >= cfg.release_time:
+            s = self._next_phase(s, DONE, now.t, now.G)
+        return q_cmd, s
 
     def _link_model(self, context):
         obj = self._in_model.Eval(context) if self._in_model.HasValue(context) else None
@@ -709,38 +704,46 @@ class EpcController(LeafSystem):
             return None
         return link
 
-    def _pull(self, context, s: _State, q_cmd, G, F, elapsed):
-        cfg, task = self._cfg, self._task
+    def _follow_model(self, s: EpcState, link, G) -> dict:
+        """What the learned model says (PULL): the pull's direction along its Jacobian, the
+        configuration and opening, the hook's orientation turned towards its prediction
+        at a bounded rate. Returns the state's changes."""
+        ch = {"model_name": "" if link is None else link.name}
+        if link is None or link.name not in ("prismatic", "revolute", "gp"):
+            return ch
         R_hook0 = self._R_hook0
-        link = self._link_model(context)
         direction = s.direction
-        R = s.R
-        s.model_name = "" if link is None else link.name
-        if link is not None and link.name in ("prismatic", "revolute", "gp"):
-            q_hat = float(link.inverse(G[None])[0, 0])
-            J = link.jacobian(np.array([[q_hat]]))[0, :3, 0]
-            if np.linalg.norm(J) > 1e-9:
-                d = _unit(J)
-                if np.dot(d, s.direction) < 0:
-                    d = -d
-                direction = d
-            # configuration at the start of the pull, in the current model's coordinates
-            s.q_hat0 = float(link.inverse(s.start[None])[0, 0])
-            dq = q_hat - s.q_hat0
-            if link.name == "revolute":
-                dq = math.remainder(dq, 2 * math.pi)
-            sign = 1.0 if np.dot(J, direction) >= 0 else -1.0
-            s.q_hat = q_hat
-            s.opening = sign * dq
-            R_model = _axis_angle(link.axis, dq) @ R_hook0 if link.name == "revolute" \
-                else R_hook0
-            # turn the hook towards the model's prediction at a bounded rate
-            aa = RotationMatrix(R_model @ s.R.T).ToAngleAxis()
-            turn = min(aa.angle(), cfg.max_turn)
-            R = _axis_angle(aa.axis(), turn) @ s.R if turn > 1e-9 else s.R
+        q_hat = float(link.inverse(G[None])[0, 0])
+        J = link.jacobian(np.array([[q_hat]]))[0, :3, 0]
+        if np.linalg.norm(J) > 1e-9:
+            d = _unit(J)
+            if np.dot(d, s.direction) < 0:
+                d = -d
+            direction = d
+        # configuration at the start of the pull, in the current model's coordinates
+        q_hat0 = float(link.inverse(s.start[None])[0, 0])
+        dq = q_hat - q_hat0
+        if link.name == "revolute":
+            dq = math.remainder(dq, 2 * math.pi)
+        sign = 1.0 if np.dot(J, direction) >= 0 else -1.0
+        R_model = _axis_angle(link.axis, dq) @ R_hook0 if link.name == "revolute" \
+            else R_hook0
+        # turn the hook towards the model's prediction at a bounded rate
+        aa = RotationMatrix(R_model @ s.R.T).ToAngleAxis()
+        turn = min(aa.angle(), self._cfg.max_turn)
+        R = _axis_angle(aa.axis(), turn) @ s.R if turn > 1e-9 else s.R
+        ch.update(q_hat0=q_hat0, q_hat=q_hat, opening=sign * dq, direction=direction, R=R)
+        return ch
+
+    def _equilibrium_point(self, s: EpcState, F, G) -> np.ndarray:
+        """Eq. 4.58: the equilibrium point advances by ``step`` along the pull's direction,
+        plus a proportional term keeping ``force_target`` between hook and handle
+        perpendicular to the motion; at most ``max_lead`` ahead of the hook."""
+        cfg, task, R_hook0 = self._cfg, self._task, self._R_hook0
+        direction = s.direction
         # force perpendicular to the motion: the hook presses onto the handle along u
-        side = R @ (R_hook0.T @ task.side)
-        normal = R @ (R_hook0.T @ task.normal)
+        side = s.R @ (R_hook0.T @ task.side)
+        normal = s.R @ (R_hook0.T @ task.normal)
         if abs(np.dot(task.pull, task.normal)) > 0.5:  # more out of the front than along it
             u = -side  # pulling out of the front: the rod presses the bar's side
         else:
@@ -753,42 +756,60 @@ class EpcController(LeafSystem):
         lead = cep - G
         if np.linalg.norm(lead) > cfg.max_lead:
             cep = G + lead * (cfg.max_lead / np.linalg.norm(lead))
-        s.cep, s.direction, s.R = cep, direction, R
-        # direction of the handle's most recent >= motion_window of motion
-        if np.linalg.norm(G - s.trail_G) >= cfg.motion_window:
-            s.motion, s.trail_G = _unit(G - s.trail_G), G.copy()
-        q_cmd = self._ik(q_cmd, cep, R, base=True)
-        # stop conditions: held back while the hook has not advanced since the stall began
-        # (progress over the whole window, not per period: the believed hook position
-        # drifts a few millimetres per period with the base localisation)
-        pulling = np.dot(F, -direction)
+        return cep
+
+    def _stop_reason(self, s: EpcState, now: EpcInputs) -> tuple[dict, str]:
+        """The stall and slack counters' changes and why the pull ends ("" while it goes
+        on): target reached by the model, held back (end of the configuration range),
+        no force (lost the handle) or out of time."""
+        cfg, F, G = self._cfg, now.F, now.G
+        # held back while the hook has not advanced since the stall began (progress over
+        # the whole window, not per period: the believed hook position drifts a few
+        # millimetres per period with the base localisation)
+        pulling = np.dot(F, -s.direction)
         held_back = pulling > cfg.stop_force or (
-            np.linalg.norm(cep - G) > cfg.stall_lead_fraction * cfg.max_lead
+            np.linalg.norm(s.cep - G) > cfg.stall_lead_fraction * cfg.max_lead
             and pulling > cfg.stall_force_fraction * cfg.stop_force)
         if not held_back:
-            s.stalled = 0
+            ch = {"stalled": 0}
         elif s.stalled == 0 or np.linalg.norm(G - s.stall_G) > cfg.step:
-            s.stalled, s.stall_G = 1, G.copy()
+            ch = {"stalled": 1, "stall_G": G}
         else:
-            s.stalled += 1
-        s.slack = s.slack + 1 if np.linalg.norm(F) < cfg.slack_force else 0
+            ch = {"stalled": s.stalled + 1}
+        ch["slack"] = s.slack + 1 if np.linalg.norm(F) < cfg.slack_force else 0
         target = cfg.target_angle if s.model_name == "revolute" else cfg.target_distance
-        done = None
         if s.model_name in ("revolute", "prismatic") and s.opening >= target:
-            done = "target reached"
-        elif s.stalled >= cfg.stall_periods:
-            done = "end of the configuration range"
-        elif s.slack >= cfg.slack_periods:
-            done = "lost the handle"
-        elif elapsed > cfg.max_pull_time:
-            done = "timeout"
+            return ch, "target reached"
+        if ch["stalled"] >= cfg.stall_periods:
+            return ch, "end of the configuration range"
+        if ch["slack"] >= cfg.slack_periods:
+            return ch, "lost the handle"
+        if now.elapsed > cfg.max_pull_time:
+            return ch, "timeout"
+        return ch, ""
+
+    def _pull(self, context, s: EpcState, now: EpcInputs, q_cmd):
+        """PULL: equilibrium-point control along the learned model (thesis Eq. 4.57-4.59)
+        until a stop condition (:meth:`_stop_reason`) ends it."""
+        G = now.G
+        s = replace(s, **self._follow_model(s, self._link_model(context), G))
+        s = replace(s, cep=self._equilibrium_point(s, now.F, G))
+        # direction of the handle's most recent >= motion_window of motion
+        if np.linalg.norm(G - s.trail_G) >= self._cfg.motion_window:
+            s = replace(s, motion=_unit(G - s.trail_G), trail_G=G)
+        q_cmd = self._ik(q_cmd, s.cep, s.R, base=True)
+        changes, done = self._stop_reason(s, now)
+        s = replace(s, **changes)
         if done:
-            s.outcome = done
-            self._next_phase(s, RELEASE, context.get_time(), G)
+            s = self._next_phase(s, RELEASE, now.t, G, outcome=done)
         return q_cmd, s
 
+    #: the step of each phase (DONE holds the last command)
+    _PHASES = {DRIVE: _drive, PREHOOK: _prehook, DEPTH: _depth, SLIDE: _slide, PULL: _pull,
+               RELEASE: _release}
+
     # ------------------------------------------------------------------ outputs
-    def _current_cmd(self, s: _State, t: float) -> np.ndarray:
+    def _current_cmd(self, s: EpcState, t: float) -> np.ndarray:
         a = min(1.0, max(0.0, (t - s.t_cmd) / self._cfg.period))
         return (1 - a) * s.q_from + a * s.q_to
 
