@@ -31,3 +31,21 @@ def lazy_exports(package: str, exports: dict[str, list[str]]):
         return sorted(set(where) | set(importlib.import_module(package).__dict__))
 
     return __getattr__, __dir__
+
+
+def capability_exports(package: str, capabilities: tuple[str, ...]) -> dict[str, list[str]]:
+    """``{capability: names}`` for a top package that re-exports its capability subpackages'
+    ``__all__``. A name two capabilities define differently is left to its subpackages (say
+    ``mmlearn.models.articulation.StructureResult``); one they share (a re-export of a common
+    name) is taken from the first capability that lists it."""
+    subs = {c: importlib.import_module(f"{package}.{c}") for c in capabilities}
+    owners: dict[str, list] = {}
+    for c, sub in subs.items():
+        for name in sub.__all__:
+            owners.setdefault(name, []).append((c, sub))
+    out: dict[str, list[str]] = {c: [] for c in capabilities}
+    for name, where in owners.items():
+        first = getattr(where[0][1], name)
+        if all(getattr(s, name) is first for _, s in where[1:]):
+            out[where[0][0]].append(name)
+    return out

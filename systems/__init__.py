@@ -1,88 +1,18 @@
 """Drake LeafSystems of mmlearn: ports, state in the Context, periodic events.
 
-One subpackage per capability, the same names in models, systems and diagrams: common, articulation, body_schema, perception, tactile, imitation.
-Every public name is re-exported here, e.g. ``from mmlearn.systems import ...``.
+One subpackage per capability, the same names in models, systems and diagrams: ``common``,
+``articulation``, ``body_schema``, ``perception``, ``tactile``, ``imitation``. Each lists its
+public API in ``__all__``; every one of those names is re-exported here (imported on first
+use), e.g. ``from mmlearn.systems import ...``.
 """
 
-from mmlearn._lazy import lazy_exports
+from mmlearn._lazy import capability_exports, lazy_exports
 
-#: submodule -> the public names it defines (imported on first use)
-_EXPORTS = {
-    "common": ["CameraMarkerSensor", "CameraMarkerSensorConfig", "CameraView", "default_marker_cameras", "marker_normal_from_depth", "DepthNoise", "CameraConfig", "MarkerSensorConfig", "MarkerSensor", "MarkerObservations", "GravityCompensation", "StateForceSystem", "JointFriction", "WristForceSensor"],
-    "articulation": ["BaseLocalization", "BaseLocalizationConfig", "EpcTask", "EpcConfig", "hook_rotation", "EpcController", "ArticulationEstimator", "ArticulationEstimatorState", "legend_entries", "draw_legend", "LearnedModelVisualizer", "draw_link_model", "ShiftedLinkModel", "PriorModelSelector", "EpcState", "EpcInputs", "PHASE_NAMES"],
-    "body_schema": ["JointBlocker", "PlantFailures", "SchemaController", "SchemaLearner", "SchemaLearnerConfig", "SchemaLearnerState", "learn_sample", "MotorBabbling", "SchemaVisualizer"],
-    "perception": ["DepthTemporalFilter", "FrontDetector", "TIMING_NAMES", "TrueFrontPose", "FrontTracker", "FrontTrackerConfig", "FrontTrackerState", "FrontTrackVisualizer", "track_colour", "FinitePointCloud"],
-    "tactile": ["ContainerWallForce", "FingerPositionHold", "TactileGraspController", "GRASP_MODES", "PadSpec", "TactileSensor", "surface_triangles", "TaxelPadVisualizer", "taxel_colors"],
-    "imitation": ["DbnReproducerConfig", "DbnReproducer", "draw_demonstrations", "draw_task_model", "DbnVisualizer", "GraspAttachment", "KinematicBodyPoses"],
-}
+CAPABILITIES = ("common", "articulation", "body_schema", "perception", "tactile", "imitation")
 
-__all__ = [
-    "ArticulationEstimator",
-    "ArticulationEstimatorState",
-    "BaseLocalization",
-    "BaseLocalizationConfig",
-    "CameraConfig",
-    "CameraMarkerSensor",
-    "CameraMarkerSensorConfig",
-    "CameraView",
-    "ContainerWallForce",
-    "DbnReproducer",
-    "DbnReproducerConfig",
-    "DbnVisualizer",
-    "default_marker_cameras",
-    "DepthNoise",
-    "DepthTemporalFilter",
-    "draw_demonstrations",
-    "draw_legend",
-    "draw_link_model",
-    "draw_task_model",
-    "EpcConfig",
-    "EpcController",
-    "EpcInputs",
-    "EpcState",
-    "EpcTask",
-    "FingerPositionHold",
-    "FinitePointCloud",
-    "FrontDetector",
-    "FrontTracker",
-    "FrontTrackerConfig",
-    "FrontTrackerState",
-    "FrontTrackVisualizer",
-    "GRASP_MODES",
-    "GraspAttachment",
-    "GravityCompensation",
-    "hook_rotation",
-    "JointBlocker",
-    "JointFriction",
-    "KinematicBodyPoses",
-    "learn_sample",
-    "LearnedModelVisualizer",
-    "legend_entries",
-    "marker_normal_from_depth",
-    "MarkerObservations",
-    "MarkerSensor",
-    "MarkerSensorConfig",
-    "MotorBabbling",
-    "PadSpec",
-    "PHASE_NAMES",
-    "PlantFailures",
-    "PriorModelSelector",
-    "SchemaController",
-    "SchemaLearner",
-    "SchemaLearnerConfig",
-    "SchemaLearnerState",
-    "SchemaVisualizer",
-    "ShiftedLinkModel",
-    "StateForceSystem",
-    "surface_triangles",
-    "TactileGraspController",
-    "TactileSensor",
-    "taxel_colors",
-    "TaxelPadVisualizer",
-    "TIMING_NAMES",
-    "track_colour",
-    "TrueFrontPose",
-    "WristForceSensor",
-]
+#: capability subpackage -> the public names re-exported from it
+_EXPORTS = capability_exports(__name__, CAPABILITIES)
+
+__all__ = [name for names in _EXPORTS.values() for name in names]
 
 __getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
