@@ -33,7 +33,7 @@ other classifiers' rates (``compare``).
     python -m mmlearn.apps.tactile_state --f-target 20 [--trials 16] [--f-sweep]
         [--sweep-trials 24] [--classifier tree|forest|boost] [--wall-model pressure|linear]
         [--grasp-variation wall|shell|none]
-        [--results FILE] [--jobs J]
+        [--results FILE] [--jobs J] [--executor local|ray] [--report-only FILE]
         [--plot FILE] [--meshcat] [--html-out FILE] --seed S [--json]
 
 The Drake gripper (:mod:`mmlearn.diagrams.tactile.grasp`: PR2-like fingertip pads, the
@@ -54,8 +54,10 @@ Reports (10-fold CV, ``--classifier``; the other classifiers in ``compare``):
 state given the class}, ``combined_rate`` (all class x state labels) and
 ``combined_rate_without_water`` (the thesis' 11-label experiment). ``--f-sweep`` adds Table
 7.2: the state rate of the Odwalla bottle at 17 / 20 / 23 N (``--sweep-trials`` grasps per
-state). Grasps run through the sweep runner (:mod:`mmlearn.apps.common.sweep`): ``--results``
-keeps them in a JSON Lines file so a rerun resumes.
+state). Grasps run through the sweep runner (:mod:`mmlearn.apps.common.sweep`, the shared
+front-end of :mod:`mmlearn.apps.common.experiment`): ``--results`` keeps them in a JSON Lines
+file so a rerun resumes (without it they go to a temporary file), and ``--report-only FILE``
+recomputes the report from such a file without simulating.
 ``--plot FILE`` draws the grasp profiles p / v / f of one grasp per state of the first
 container class (Fig. 7.3), the force on a rigid block with the switching controller and
 with pure force control (Fig. 7.5 vs 7.6) and the two taxel images of one more grasp at its
