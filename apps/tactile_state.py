@@ -74,7 +74,6 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from collections import Counter
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -88,10 +87,9 @@ from mmlearn.apps.common.experiment import Experiment
 from mmlearn.apps.common.sweep import TrialSpec
 from mmlearn.models.tactile.icub_grasp import CONTACT_LEVEL, REST_VELOCITY, load_icub_dir
 from mmlearn.models.tactile.evaluation import (SIM_CONTACT_FORCE, SIM_REST_VELOCITY,
-                                               container_grasp_features, icub_features,
-                                               state_recognition_report, cv_with_compare)
-from mmlearn.models.tactile.state import (CLASSIFIERS, FEATURE_NAMES, cross_validate,
-                                          evaluate_split, extract_grasp_features)
+                                               container_grasp_features, cv_with_compare,
+                                               icub_state_report, state_recognition_report)
+from mmlearn.models.tactile.state import CLASSIFIERS, FEATURE_NAMES, extract_grasp_features
 from mmlearn.diagrams.tactile.trials import (SWEEP_FORCES, container_grasp_plan,
                                              odwalla_sweep_plan)
 
@@ -396,57 +394,37 @@ def run(*, config: TactileStateConfig, meshcat=None) -> dict:
 
 
 def real_data_report(config: TactileStateConfig) -> dict:
-    """The real-data mode's result (see the module docstring) and, with ``plot``, its
+    """The real-data mode's result (see the module docstring;
+    :func:`~mmlearn.models.tactile.evaluation.icub_state_report`) and, with ``plot``, its
     figure."""
     c = config
-    train, test, classifier = c.train, c.test, c.classifier
-    include_full_coke, folds, seed = c.include_full_coke, c.folds, c.seed
-    contact_level, rest_velocity = c.contact_level, c.rest_velocity
-    steady_average, plot = c.steady_average, c.plot
-    if classifier not in CLASSIFIERS:
-        raise ValueError(f"classifier: unknown {classifier!r}; choose from {', '.join(CLASSIFIERS)}")
-    tr, _ = load_icub_dir(train, include_unreliable=include_full_coke)
+    if c.classifier not in CLASSIFIERS:
+        raise ValueError(f"classifier: unknown {c.classifier!r}; choose from {', '.join(CLASSIFIERS)}")
+    tr, _ = load_icub_dir(c.train, include_unreliable=c.include_full_coke)
     if not tr:
-        raise ValueError(f"{train}: no usable trials")
-    kw = dict(contact_level=contact_level, rest_velocity=rest_velocity,
-              steady_average=steady_average)
-    X, y, feats = icub_features(tr, **kw)
-    out = {"mode": "real", "classifier": classifier, "features": list(FEATURE_NAMES),
-           "settings": {"contact_level_counts": contact_level,
-                        "rest_velocity_rad_per_slice": rest_velocity,
-                        "steady_average": steady_average, "seed": seed,
-                        "include_full_coke": include_full_coke}}
-    other = [c for c in CLASSIFIERS if c != classifier]
-    if test is None:
-        rep = cross_validate(X, y, classifier=classifier, folds=folds, seed=seed)
-        out["evaluation"] = f"{folds}-fold CV"
-        out["n_train"], out["n_test"] = int(len(y)), int(len(y))
-        out["compare"] = {c: cross_validate(X, y, classifier=c, folds=folds, seed=seed).rate
-                          for c in other}
-        eval_feats, eval_y = feats, y
-    else:
-        te, _ = load_icub_dir(test, include_unreliable=include_full_coke)
+        raise ValueError(f"{c.train}: no usable trials")
+    te = None
+    if c.test is not None:
+        te, _ = load_icub_dir(c.test, include_unreliable=c.include_full_coke)
         if not te:
-            raise ValueError(f"{test}: no usable trials")
-        Xt, yt, feats_t = icub_features(te, **kw)
-        unseen = sorted(set(yt.tolist()) - set(y.tolist()))
+            raise ValueError(f"{c.test}: no usable trials")
+        unseen = sorted({t.label for t in te} - {t.label for t in tr})
         if unseen:
             raise ValueError(f"--test has classes that --train lacks: {', '.join(unseen)}")
-        rep, _ = evaluate_split(X, y, Xt, yt, classifier=classifier, seed=seed)
-        out["evaluation"] = "test"
-        out["n_train"], out["n_test"] = int(len(y)), int(len(yt))
-        out["compare"] = {c: evaluate_split(X, y, Xt, yt, classifier=c, seed=seed)[0].rate
-                          for c in other}
-        eval_feats, eval_y = feats_t, yt
-    out.update(rep.to_dict())
-    out.pop("n", None)
-    nc = Counter(lab for f, lab in zip(eval_feats, eval_y.tolist()) if not f.contact)
-    out["no_contact"] = {lab: int(nc.get(lab, 0)) for lab in rep.labels}
-    if plot:
-        plot_results(rep, tr, plot, title=f"{classifier}, {out['evaluation']}: "
-                                          f"rate {rep.rate:.3f}",
-                     feature_kw={"contact_force": contact_level,
-                                 "rest_velocity": rest_velocity})
+    out = {"mode": "real", "classifier": c.classifier, "features": list(FEATURE_NAMES),
+           "settings": {"contact_level_counts": c.contact_level,
+                        "rest_velocity_rad_per_slice": c.rest_velocity,
+                        "steady_average": c.steady_average, "seed": c.seed,
+                        "include_full_coke": c.include_full_coke}}
+    res, rep = icub_state_report(tr, te, classifier=c.classifier, folds=c.folds, seed=c.seed,
+                                 contact_level=c.contact_level, rest_velocity=c.rest_velocity,
+                                 steady_average=c.steady_average)
+    out.update(res)
+    if c.plot:
+        plot_results(rep, tr, c.plot, title=f"{c.classifier}, {out['evaluation']}: "
+                                            f"rate {rep.rate:.3f}",
+                     feature_kw={"contact_force": c.contact_level,
+                                 "rest_velocity": c.rest_velocity})
     return json_clean(out)
 
 
