@@ -36,33 +36,33 @@ inflated by the load), and the median CPU time of the whole detector per frame (
 one BLAS thread), which the "< 100 ms per frame on one core" target is checked against.
 """
 
-import json
+import argparse
 import sys
 from pathlib import Path
 
 import numpy as np
 
-from mmlearn.apps.common.cli import (ArgumentParser, UsageError, check_out_dir, fail, float_list,
-                                     json_clean, name_list, nonneg_int, pos_int, save_figure)
+from mmlearn.apps.common import experiment
+from mmlearn.apps.common.cli import UsageError, check_out_dir, float_list, name_list, pos_int, \
+    save_figure
+from mmlearn.apps.common.experiment import Experiment, errors_of
+from mmlearn.apps.common.sweep import TrialSpec
 from mmlearn.diagrams.perception.trials import fronts_trial
+from mmlearn.models.perception.evaluation import (FRONT_OBJECTS, PREDICTION_N, TARGET_DETECTION,
+                                                  TARGET_DISTANCE_M, TARGET_MS,
+                                                  TARGET_ORIENT_DEG, TARGET_POS_M,
+                                                  THESIS_STAGE_S, fronts_report)
 
-__all__ = ["EXPERIMENTS", "trial_specs", "report", "run", "main", "THESIS_STAGE_S"]
+__all__ = ["EXPERIMENTS", "trial_specs", "report", "format_report", "run", "main",
+           "THESIS_STAGE_S"]
 
 EXPERIMENTS = ("distance", "angle")
-OBJECTS = ("drawer", "door")
+OBJECTS = FRONT_OBJECTS
 DISTANCES = (0.8, 1.3, 1.8, 2.3, 2.8)
 ANGLES = (0.0, 15.0, 30.0, 45.0)
 QUICK_DISTANCES = (1.0, 2.0)
 QUICK_ANGLES = (0.0, 30.0)
 ANGLE_DISTANCE = 1.5
-#: thesis Sec. 5.2.2, seconds on one 2 GHz Pentium core (masks: per plane; sampling: per
-#: candidate; the others per frame)
-THESIS_STAGE_S = {"planes": 0.845, "masks": 0.008, "sampling": 0.010, "optimisation": 0.313,
-                  "check": 0.0023}
-#: targets of the front perception (detection rate, distance, errors, time per frame)
-TARGET_DETECTION, TARGET_DISTANCE_M, TARGET_POS_M, TARGET_ORIENT_DEG, TARGET_MS = (
-    0.90, 2.3, 0.01, 2.0, 100.0)
-PREDICTION_N = 30
 
 
 def trial_specs(*, only=EXPERIMENTS, quick: bool = False, seed: int = 1000, seeds: int = 10,
@@ -70,8 +70,6 @@ def trial_specs(*, only=EXPERIMENTS, quick: bool = False, seed: int = 1000, seed
                 temporal_filter: bool = True, camera_rate_hz: float = 30.0) -> list:
     """One spec per (experiment, object, distance or angle, seed); ``distances`` (m) and
     ``angles`` (deg, at 1.5 m) replace the default grids when given."""
-    from mmlearn.apps.common.sweep import TrialSpec
-
     fn = fronts_trial
     specs = []
     for exp in only:
@@ -96,254 +94,112 @@ def trial_specs(*, only=EXPERIMENTS, quick: bool = False, seed: int = 1000, seed
     return specs
 
 
-def _mean(v):
-    v = [x for x in v if x is not None and np.isfinite(x)]
-    return float(np.mean(v)) if v else None
-
-
-def _std(v):
-    v = [x for x in v if x is not None and np.isfinite(x)]
-    return float(np.std(v)) if v else None
-
-
-def _group(recs, key):
-    """Rows per (object, key value) with means and standard deviations over the runs."""
-    rows = []
-    for obj in OBJECTS:
-        vals = sorted({r[key] for r in recs if r["object"] == obj})
-        for v in vals:
-            rs = [r for r in recs if r["object"] == obj and r[key] == v]
-            rows.append({
-                "object": obj, key: v, "runs": len(rs),
-                "detection_rate": _mean([r["detection_rate"] for r in rs]),
-                "detection_rate_std": _std([r["detection_rate"] for r in rs]),
-                "detection_rate_visible": _mean([r.get("detection_rate_visible") for r in rs]),
-                "detection_rate_eligible": _mean([r["detection_rate_eligible"] for r in rs]),
-                "detection_rate_eligible_open": _mean([r.get("detection_rate_eligible_open")
-                                                       for r in rs]),
-                "detection_rate_eligible_min": (min(r["detection_rate_eligible"] for r in rs
-                                                    if r["detection_rate_eligible"] is not None)
-                                                if any(r["detection_rate_eligible"] is not None
-                                                       for r in rs) else None),
-                "pos_error_m": _mean([r["pos_error_m"] for r in rs]),
-                "pos_error_m_std": _std([r["pos_error_m"] for r in rs]),
-                "orient_error_deg": _mean([r["orient_error_deg"] for r in rs]),
-                "orient_error_deg_std": _std([r["orient_error_deg"] for r in rs]),
-                "model_right": sum(bool(r["model_right"]) for r in rs),
-                "selected": {m: sum(r["selected_model"] == m for r in rs)
-                             for m in sorted({str(r["selected_model"]) for r in rs})},
-                "model_right_from": _mean([r["model_right_from"] for r in rs]),
-                "ms_per_frame": _mean([r["ms_per_frame"] for r in rs]),
-            })
-    return rows
-
-
-def _selection(recs):
-    """Per object: share of runs selecting each model on the first n observations, and the
-    mean held-out prediction error of the selected model, against n."""
-    out = {}
-    for obj in OBJECTS:
-        rs = [r for r in recs if r["object"] == obj and r.get("selection_vs_n")]
-        if not rs:
-            continue
-        n_max = max(max(r["selection_vs_n"]["n"]) for r in rs)
-        ns = list(range(3, n_max + 1))
-        share = {m: [] for m in ("rigid", "prismatic", "revolute", "gp")}
-        ep, eo, runs_at = [], [], []
-        for n in ns:
-            sel, a, b = [], [], []
-            for r in rs:
-                s = r["selection_vs_n"]
-                if n in s["n"]:
-                    i = s["n"].index(n)
-                    sel.append(s["selected"][i])
-                    a.append(s["heldout_pos_error_m"][i])
-                    b.append(s["heldout_orient_error_deg"][i])
-            runs_at.append(len(sel))
-            for m in share:
-                share[m].append(sum(x == m for x in sel) / len(sel) if sel else None)
-            ep.append(_mean(a))
-            eo.append(_mean(b))
-        # prediction error of the model learned from PREDICTION_N observations (or the
-        # longest prefix leaving >= 5 later observations to predict)
-        pe, oe, used = [], [], []
-        for r in rs:
-            s = r["selection_vs_n"]
-            N = max(s["n"])
-            n = min(PREDICTION_N, N - 5)
-            if n < 3 or n not in s["n"]:
-                continue
-            i = s["n"].index(n)
-            pe.append(s["heldout_pos_error_m"][i])
-            oe.append(s["heldout_orient_error_deg"][i])
-            used.append(n)
-        out[obj] = {"n": ns, "runs": runs_at, "share": share, "heldout_pos_error_m": ep,
-                    "heldout_orient_error_deg": eo,
-                    "prediction_pos_error_m": _mean(pe), "prediction_orient_error_deg": _mean(oe),
-                    "prediction_n": used,
-                    "right_in_the_end": sum(bool(r["model_right"]) for r in rs),
-                    "runs_total": len(rs),
-                    "model_right_from_mean": _mean([r["model_right_from"] for r in rs]),
-                    "model_right_from_max": (max(r["model_right_from"] for r in rs
-                                                 if r["model_right_from"] is not None)
-                                             if any(r["model_right_from"] is not None
-                                                    for r in rs) else None)}
-    return out
-
-
-def _timing(recs):
-    stages = {s: _mean([r["stage_ms"].get(s) for r in recs]) for s in THESIS_STAGE_S}
-    return {"stage_ms": stages, "ms_per_frame": _mean([r["ms_per_frame"] for r in recs]),
-            "cpu_ms_per_frame": _mean([r.get("cpu_ms_per_frame") for r in recs]),
-            "cpu_ms_per_frame_max": max((r["cpu_ms_per_frame"] for r in recs
-                                         if r.get("cpu_ms_per_frame") is not None),
-                                        default=None),
-            "ms_per_frame_max": max((r["ms_per_frame"] for r in recs
-                                     if r["ms_per_frame"] is not None), default=None),
-            "thesis_stage_ms": {k: 1e3 * v for k, v in THESIS_STAGE_S.items()}}
-
-
-def _targets(dist_rows, recs):
-    """The targets, each with its measured value and met / not met."""
-    near = [r for r in recs if r["experiment"] == "distance"
-            and r["distance_m"] <= TARGET_DISTANCE_M + 1e-9]
-    out = {}
-    for obj in OBJECTS:
-        rs = [r for r in near if r["object"] == obj]
-        if not rs:
-            continue
-        rows = [x for x in dist_rows if x["object"] == obj
-                and x["distance"] <= TARGET_DISTANCE_M + 1e-9]
-        worst_all = min(x["detection_rate"] for x in rows)
-        el = [x["detection_rate_eligible"] for x in rows
-              if x["detection_rate_eligible"] is not None]
-        worst_el = min(el) if el else None
-        pe = _mean([r["pos_error_m"] for r in rs])
-        oe = _mean([r["orient_error_deg"] for r in rs])
-        right = sum(bool(r["model_right"]) for r in rs)
-        out[obj] = {
-            "detection_rate_all_frames_worst_distance": worst_all,
-            "detection_rate_eligible_worst_distance": worst_el,
-            "detection_met_all_frames": worst_all >= TARGET_DETECTION,
-            "detection_met_eligible": worst_el is not None and worst_el >= TARGET_DETECTION,
-            "pos_error_m": pe, "pos_met": pe is not None and pe < TARGET_POS_M,
-            "orient_error_deg": oe, "orient_met": oe is not None and oe < TARGET_ORIENT_DEG,
-            "model_right": f"{right}/{len(rs)}", "model_met": right == len(rs),
-            "seeds_per_distance": min(x["runs"] for x in rows)}
-    ms = [r["ms_per_frame"] for r in recs if r["ms_per_frame"] is not None]
-    if ms:
-        out["ms_per_frame_median_of_runs"] = float(np.median(ms))
-    cpu = [r.get("cpu_ms_per_frame") for r in recs if r.get("cpu_ms_per_frame") is not None]
-    if cpu:
-        out["cpu_ms_per_frame_median_of_runs"] = float(np.median(cpu))
-        out["cpu_ms_per_frame_worst_run"] = float(np.max(cpu))
-        out["ms_met"] = float(np.max(cpu)) < TARGET_MS
-    return out
-
-
 def _fmt(v, f):
     return "   n/a" if v is None else format(v, f)
 
 
-def report(lines: list[dict]) -> tuple[dict, list[str]]:
-    """Results and table lines from results-file lines (a run or ``--report-only``)."""
-    settings = {ln["spec"]["params"].get("frames") for ln in lines}
-    if len(settings) > 1:
-        raise ValueError(f"the results file mixes settings (frames {sorted(settings)}); use one "
-                         "results file per setting")
-    ok = [ln["record"] for ln in lines if ln.get("error") is None]
-    res, text = {}, []
-    for exp, key, unit in (("distance", "distance_m", "m"), ("angle", "angle_deg", "deg")):
-        recs = [r for r in ok if r["experiment"] == exp]
-        if not recs:
-            continue
-        rows = _group(recs, key)
-        for r in rows:
-            r[key.split("_")[0]] = r.pop(key)
-        res[exp] = {"rows": rows}
-        kname = key.split("_")[0]
-        t = [f"{exp}: detection and pose error of the moving front (mean over runs; "
-             "vis = wholly in view (thesis 5.2.1); elig = in view at < 70 deg incidence, "
-             "closed fronts included: the target measure; open = the eligible frames with the "
-             "front out of the cabinet face by >= 0.02 m)",
-             f"  object {kname:>8s} runs  det.all  det.vis  det.elig (min)  det.open  "
-             "pos err m   orient deg  right  right-from  ms/frame"]
-        for r in rows:
-            t.append(f"  {r['object']:6s} {r[kname]:6.1f}{unit:>3s} {r['runs']:3d}  "
-                     f"{_fmt(r['detection_rate'], '7.2f')}  "
-                     f"{_fmt(r['detection_rate_visible'], '7.2f')}  "
-                     f"{_fmt(r['detection_rate_eligible'], '6.2f')} "
-                     f"({_fmt(r['detection_rate_eligible_min'], '4.2f')})  "
-                     f"{_fmt(r['detection_rate_eligible_open'], '7.2f')}   "
-                     f"{_fmt(r['pos_error_m'], '.4f')}     {_fmt(r['orient_error_deg'], '5.2f')}  "
-                     f"    {r['model_right']:2d}/{r['runs']:<2d} "
-                     f"{_fmt(r['model_right_from'], '6.1f')}"
-                     f"      {_fmt(r['ms_per_frame'], '6.0f')}")
-        text.append("\n".join(t))
-    if ok:
-        sel = _selection(ok)
-        res["selection"] = sel
-        t = ["model selection on the moving front's track against the number of observations "
-             "n (share of runs; thesis: rigid for the first ~10, right after 30)"]
-        for obj, s in sel.items():
-            t.append(f"  {obj}: right in the end in {s['right_in_the_end']}/{s['runs_total']} "
-                     f"runs, right from n = {_fmt(s['model_right_from_mean'], '.1f')} on average"
-                     f" (at most {s['model_right_from_max']}); prediction error of the model "
-                     f"from n = {PREDICTION_N} (or N - 5): "
-                     f"{_fmt(s['prediction_pos_error_m'], '.4f')} m / "
-                     f"{_fmt(s['prediction_orient_error_deg'], '.2f')} deg (thesis: "
-                     f"{'0.01 m / 7 deg' if obj == 'drawer' else '0.01 m / 3.5 deg'})")
-            for n in (3, 5, 10, 15, 20, 30, 40, 50):
-                if n in s["n"]:
-                    i = s["n"].index(n)
-                    if not s["runs"][i]:
-                        continue
-                    t.append(f"    n = {n:2d} ({s['runs'][i]:3d} runs): " + ", ".join(
-                        f"{m} {_fmt(v[i], '.2f')}" for m, v in s["share"].items()))
-        text.append("\n".join(t))
-        tim = _timing(ok)
-        res["timing"] = tim
-        t = ["time per stage (median per frame, ms, mean over runs) vs the thesis (one 2 GHz "
-             "core; masks per plane, sampling per candidate)"]
-        for s, v in tim["stage_ms"].items():
-            t.append(f"  {s:13s} {_fmt(v, '8.1f')}   thesis {tim['thesis_stage_ms'][s]:8.1f}")
-        t.append(f"  whole detector {_fmt(tim['ms_per_frame'], '7.1f')} ms per frame wall "
-                 f"(worst run {_fmt(tim['ms_per_frame_max'], '.1f')}), CPU "
-                 f"{_fmt(tim['cpu_ms_per_frame'], '.1f')} ms (worst run "
-                 f"{_fmt(tim['cpu_ms_per_frame_max'], '.1f')}); thesis ~1200 ms")
-        text.append("\n".join(t))
-        if "distance" in res:
-            tg = _targets(res["distance"]["rows"], ok)
-            res["targets"] = tg
-            t = [f"targets (distance runs up to {TARGET_DISTANCE_M} m)"]
-            for obj in OBJECTS:
-                if obj in tg:
-                    g = tg[obj]
-                    t.append(f"  {obj}: detection >= {TARGET_DETECTION:.0%} at every distance: "
-                             "all frames "
-                             f"{_fmt(g['detection_rate_all_frames_worst_distance'], '.2f')}"
-                             f" ({'met' if g['detection_met_all_frames'] else 'NOT met'}), "
-                             "in view at < 70 deg (the target measure) "
-                             f"{_fmt(g['detection_rate_eligible_worst_distance'], '.2f')}"
-                             f" ({'met' if g['detection_met_eligible'] else 'NOT met'}); "
-                             f"pos {_fmt(g['pos_error_m'], '.4f')} m "
-                             f"({'met' if g['pos_met'] else 'NOT met'}); orient "
-                             f"{_fmt(g['orient_error_deg'], '.2f')} deg "
-                             f"({'met' if g['orient_met'] else 'NOT met'}); model right "
-                             f"{g['model_right']} ({'met' if g['model_met'] else 'NOT met'}); "
-                             f"{g['seeds_per_distance']} seeds per distance")
-            if "ms_met" in tg:
-                t.append(f"  whole detector < {TARGET_MS:.0f} ms on one core: CPU time per "
-                         f"frame, median of runs {tg['cpu_ms_per_frame_median_of_runs']:.1f} ms,"
-                         f" worst run {tg['cpu_ms_per_frame_worst_run']:.1f} ms "
-                         f"({'met' if tg['ms_met'] else 'NOT met'}); wall clock while the "
-                         f"trials ran: median {tg['ms_per_frame_median_of_runs']:.1f} ms")
-            text.append("\n".join(t))
-    res["errors"] = [{"trial": ln["spec"].get("label") or ln["key"], "error": ln["error"]}
-                     for ln in lines if ln.get("error") is not None]
-    for e in res["errors"]:
-        text.append(f"error: trial {e['trial']} raised {e['error']} (left out above)")
-    return res, text
+def report(lines: list[dict]) -> dict:
+    """The results from results-file lines (a run or ``--report-only``):
+    :func:`~mmlearn.models.perception.evaluation.fronts_report` and the trials that raised."""
+    res = fronts_report(lines)
+    res["errors"] = errors_of(lines)
+    return res
+
+
+def _rows_table(exp: str, rows: list[dict]) -> str:
+    kname, unit = {"distance": ("distance", "m"), "angle": ("angle", "deg")}[exp]
+    t = [f"{exp}: detection and pose error of the moving front (mean over runs; "
+         "vis = wholly in view (thesis 5.2.1); elig = in view at < 70 deg incidence, "
+         "closed fronts included: the target measure; open = the eligible frames with the "
+         "front out of the cabinet face by >= 0.02 m)",
+         f"  object {kname:>8s} runs  det.all  det.vis  det.elig (min)  det.open  "
+         "pos err m   orient deg  right  right-from  ms/frame"]
+    for r in rows:
+        t.append(f"  {r['object']:6s} {r[kname]:6.1f}{unit:>3s} {r['runs']:3d}  "
+                 f"{_fmt(r['detection_rate'], '7.2f')}  "
+                 f"{_fmt(r['detection_rate_visible'], '7.2f')}  "
+                 f"{_fmt(r['detection_rate_eligible'], '6.2f')} "
+                 f"({_fmt(r['detection_rate_eligible_min'], '4.2f')})  "
+                 f"{_fmt(r['detection_rate_eligible_open'], '7.2f')}   "
+                 f"{_fmt(r['pos_error_m'], '.4f')}     {_fmt(r['orient_error_deg'], '5.2f')}  "
+                 f"    {r['model_right']:2d}/{r['runs']:<2d} "
+                 f"{_fmt(r['model_right_from'], '6.1f')}"
+                 f"      {_fmt(r['ms_per_frame'], '6.0f')}")
+    return "\n".join(t)
+
+
+def _selection_table(sel: dict) -> str:
+    t = ["model selection on the moving front's track against the number of observations "
+         "n (share of runs; thesis: rigid for the first ~10, right after 30)"]
+    for obj, s in sel.items():
+        t.append(f"  {obj}: right in the end in {s['right_in_the_end']}/{s['runs_total']} "
+                 f"runs, right from n = {_fmt(s['model_right_from_mean'], '.1f')} on average"
+                 f" (at most {s['model_right_from_max']}); prediction error of the model "
+                 f"from n = {PREDICTION_N} (or N - 5): "
+                 f"{_fmt(s['prediction_pos_error_m'], '.4f')} m / "
+                 f"{_fmt(s['prediction_orient_error_deg'], '.2f')} deg (thesis: "
+                 f"{'0.01 m / 7 deg' if obj == 'drawer' else '0.01 m / 3.5 deg'})")
+        for n in (3, 5, 10, 15, 20, 30, 40, 50):
+            if n in s["n"]:
+                i = s["n"].index(n)
+                if not s["runs"][i]:
+                    continue
+                t.append(f"    n = {n:2d} ({s['runs'][i]:3d} runs): " + ", ".join(
+                    f"{m} {_fmt(v[i], '.2f')}" for m, v in s["share"].items()))
+    return "\n".join(t)
+
+
+def _timing_table(tim: dict) -> str:
+    t = ["time per stage (median per frame, ms, mean over runs) vs the thesis (one 2 GHz "
+         "core; masks per plane, sampling per candidate)"]
+    for s, v in tim["stage_ms"].items():
+        t.append(f"  {s:13s} {_fmt(v, '8.1f')}   thesis {tim['thesis_stage_ms'][s]:8.1f}")
+    t.append(f"  whole detector {_fmt(tim['ms_per_frame'], '7.1f')} ms per frame wall "
+             f"(worst run {_fmt(tim['ms_per_frame_max'], '.1f')}), CPU "
+             f"{_fmt(tim['cpu_ms_per_frame'], '.1f')} ms (worst run "
+             f"{_fmt(tim['cpu_ms_per_frame_max'], '.1f')}); thesis ~1200 ms")
+    return "\n".join(t)
+
+
+def _targets_table(tg: dict) -> str:
+    def met(ok):
+        return "met" if ok else "NOT met"
+
+    t = [f"targets (distance runs up to {TARGET_DISTANCE_M} m)"]
+    for obj in OBJECTS:
+        if obj in tg:
+            g = tg[obj]
+            t.append(f"  {obj}: detection >= {TARGET_DETECTION:.0%} at every distance: "
+                     "all frames "
+                     f"{_fmt(g['detection_rate_all_frames_worst_distance'], '.2f')}"
+                     f" ({met(g['detection_met_all_frames'])}), "
+                     "in view at < 70 deg (the target measure) "
+                     f"{_fmt(g['detection_rate_eligible_worst_distance'], '.2f')}"
+                     f" ({met(g['detection_met_eligible'])}); "
+                     f"pos {_fmt(g['pos_error_m'], '.4f')} m ({met(g['pos_met'])}); orient "
+                     f"{_fmt(g['orient_error_deg'], '.2f')} deg ({met(g['orient_met'])}); "
+                     f"model right {g['model_right']} ({met(g['model_met'])}); "
+                     f"{g['seeds_per_distance']} seeds per distance")
+    if "ms_met" in tg:
+        t.append(f"  whole detector < {TARGET_MS:.0f} ms on one core: CPU time per "
+                 f"frame, median of runs {tg['cpu_ms_per_frame_median_of_runs']:.1f} ms,"
+                 f" worst run {tg['cpu_ms_per_frame_worst_run']:.1f} ms "
+                 f"({met(tg['ms_met'])}); wall clock while the "
+                 f"trials ran: median {tg['ms_per_frame_median_of_runs']:.1f} ms")
+    return "\n".join(t)
+
+
+def format_report(res: dict) -> str:
+    """The tables of :func:`report`'s result, one block per experiment, the model selection,
+    the timing and the targets, then the trials that raised."""
+    text = [_rows_table(exp, res[exp]["rows"]) for exp in EXPERIMENTS if exp in res]
+    for key, table in (("selection", _selection_table), ("timing", _timing_table),
+                       ("targets", _targets_table)):
+        if key in res:
+            text.append(table(res[key]))
+    text += [f"error: trial {e['trial']} raised {e['error']} (left out above)"
+             for e in res["errors"]]
+    return "\n\n".join(text) + "\n"
 
 
 def _plots(res, out) -> list:
@@ -433,131 +289,118 @@ def _plots(res, out) -> list:
 
 def run(*, only=EXPERIMENTS, quick: bool = False, seed: int = 1000, seeds: int = 10,
         frames: int = 60, objects=OBJECTS, distances=None, angles=None, out: str | None = None,
-        progress: bool = True, echo=None,
-        results: str | None = None, executor: str = "local", jobs: int | None = None,
-        ray_address: str | None = None, temporal_filter: bool = True,
+        progress: bool = True, results: str | None = None, executor: str = "local",
+        jobs: int | None = None, ray_address: str | None = None, temporal_filter: bool = True,
         camera_rate_hz: float = 30.0) -> dict:
     """Run the experiments through the sweep runner; returns the report's results (plus
-    "plots" written to ``out`` and "sweep")."""
-    from mmlearn.apps.common.sweep import run_sweep
+    "plots" written to ``out`` and "sweep"). Bad settings raise ``ValueError``."""
+    args = argparse.Namespace(
+        only=only if isinstance(only, str) else ",".join(only), objects=list(objects),
+        quick=quick, seed=seed, seeds=seeds, frames=frames, distances=distances,
+        angles=angles, out_dir=out, no_progress=not progress,
+        no_temporal_filter=not temporal_filter, camera_rate=camera_rate_hz, report_only=None)
+    app = PerceptionExperiments()
+    app.check(args)
+    return experiment.run_experiment(app, args, results=results, executor=executor, jobs=jobs,
+                                     ray_address=ray_address)
 
-    if isinstance(only, str):
-        only = [x.strip() for x in only.split(",") if x.strip()]
-    for k in only:
-        if k not in EXPERIMENTS:
-            raise ValueError(f"unknown experiment {k!r}; choose from {', '.join(EXPERIMENTS)}")
-    if quick:
-        seeds, frames = min(seeds, 1), min(frames, 16)
-    for o in objects:
-        if o not in OBJECTS:
-            raise ValueError(f"unknown object {o!r}; choose from {', '.join(OBJECTS)}")
-    for name, vals, lo, hi in (("distances", distances, 0.2, None), ("angles", angles, -80, 80)):
-        if vals is None:
-            continue
-        vals = list(vals)
-        if not vals or not all(isinstance(v, (int, float)) and not isinstance(v, bool)
-                               and np.isfinite(v) and v > lo and (hi is None or v < hi)
-                               for v in vals):
-            raise ValueError(f"{name} must be a non-empty list of finite numbers in ({lo}, "
-                             f"{hi if hi is not None else 'inf'}), got {vals!r}")
-    specs = trial_specs(only=only, quick=quick, seed=seed, seeds=seeds, frames=frames,
-                        objects=objects, distances=distances, angles=angles,
-                        temporal_filter=temporal_filter, camera_rate_hz=camera_rate_hz)
-    sweep = run_sweep(specs, results=results, executor=executor, jobs=jobs,
-                      ray_address=ray_address, show_progress=progress,
-                      desc="perception trials")
-    res, text = report(sweep.lines)
-    res["sweep"] = sweep.summary()
-    if echo is not None:
-        echo(text)
-    if out:
-        res["plots"] = _plots(res, out)
-    return res
+
+DESCRIPTION = (__doc__.split("\n\n")[0] + " Exit status: 0 every trial ran, 1 a trial raised "
+               "an error, 2 bad input.")
+
+
+class PerceptionExperiments(Experiment):
+    """The command line (:mod:`mmlearn.apps.common.experiment`)."""
+
+    name = "perception_experiments"
+    description = DESCRIPTION
+    seed_default = 1000
+    seed_help = "first seed"
+    json_help = "print JSON instead of tables"
+    desc = "perception trials"
+
+    def add_arguments(self, ap):
+        ap.add_argument("--only", default=",".join(EXPERIMENTS),
+                        help="comma-separated experiments: distance, angle (default: both)")
+        ap.add_argument("--objects", type=name_list(list(OBJECTS)), default=list(OBJECTS),
+                        help="comma-separated moving fronts (default: drawer,door)")
+        ap.add_argument("--quick", action="store_true",
+                        help="small setting: 1 seed, 16 frames, 2 distances / angles")
+        ap.add_argument("--seeds", type=pos_int, default=10, help="runs per setting")
+        ap.add_argument("--frames", type=pos_int, default=60,
+                        help="camera frames per run (thesis: ~60 images per log)")
+        ap.add_argument("--no-temporal-filter", action="store_true",
+                        help="no DepthTemporalFilter between camera and detector (each frame "
+                             "on its own)")
+        ap.add_argument("--camera-rate", type=float, default=30.0,
+                        help="camera frames per second with the temporal filter, Hz (default "
+                             "30; 0 = one frame per detector period, as before)")
+        ap.add_argument("--distances", type=float_list, default=None,
+                        help="comma-separated camera distances of the distance experiment, m "
+                             "(default 0.8,1.3,1.8,2.3,2.8)")
+        ap.add_argument("--angles", type=float_list, default=None,
+                        help="comma-separated angles off the normal of the angle experiment, "
+                             "deg, at 1.5 m (default 0,15,30,45; --angles=-30,0 for a minus)")
+        ap.add_argument("--out-dir", default=None,
+                        help="folder for the plots (PNG) and the default results file")
+        ap.add_argument("--no-progress", action="store_true", help="no progress bars")
+
+    def check(self, args):
+        check_out_dir("--out-dir", args.out_dir)
+        only = [x.strip() for x in args.only.split(",") if x.strip()]
+        bad = [x for x in only if x not in EXPERIMENTS]
+        if bad or not only:
+            raise UsageError(f"--only: unknown experiment {bad[0] if bad else args.only!r}; "
+                             "choose from " + ", ".join(EXPERIMENTS))
+        if not args.objects or set(args.objects) - set(OBJECTS):
+            raise UsageError(f"--objects: expected some of {', '.join(OBJECTS)}, got "
+                             f"{args.objects!r}")
+        if args.frames < 5:
+            raise UsageError(f"--frames must be >= 5, got {args.frames}")
+        if not (np.isfinite(args.camera_rate) and args.camera_rate >= 0):
+            raise UsageError(f"--camera-rate must be a finite number >= 0 Hz, got "
+                             f"{args.camera_rate}")
+        if args.distances is not None and not (
+                args.distances and all(np.isfinite(x) and x > 0.2 for x in args.distances)):
+            raise UsageError(f"--distances must all be > 0.2 m, got {args.distances}")
+        if args.angles is not None and not (
+                args.angles and all(np.isfinite(x) and abs(x) < 80 for x in args.angles)):
+            raise UsageError(f"--angles must all be within +-80 deg, got {args.angles}")
+        args.experiments = only
+
+    def specs(self, args):
+        seeds, frames = (min(args.seeds, 1), min(args.frames, 16)) if args.quick else \
+            (args.seeds, args.frames)
+        return trial_specs(only=args.experiments, quick=args.quick, seed=args.seed,
+                           seeds=seeds, frames=frames, objects=args.objects,
+                           distances=args.distances, angles=args.angles,
+                           temporal_filter=not args.no_temporal_filter,
+                           camera_rate_hz=args.camera_rate)
+
+    def show_progress(self, args) -> bool:
+        return not args.no_progress
+
+    def report(self, lines, args):
+        try:
+            return report(lines)
+        except (ValueError, KeyError, TypeError) as e:
+            if not args.report_only:
+                raise
+            raise ValueError(repr(e)) from None  # a file the report cannot read
+
+    def finish(self, res, args):
+        if args.out_dir:
+            res["plots"] = _plots(res, args.out_dir)
+        return res
+
+    def print_table(self, res, args):
+        print(format_report(res), flush=True)
+        if res.get("plots"):
+            print("plots: " + ", ".join(res["plots"]))
 
 
 def main(argv=None) -> int:
-    from mmlearn.apps.common.sweep import add_sweep_args, exit_status, report_lines, sweep_kwargs
-
-    ap = ArgumentParser(prog="python -m mmlearn.apps.perception_experiments",
-                        description=__doc__.split("\n\n")[0] + " Exit status: 0 every trial "
-                        "ran, 1 a trial raised an error, 2 bad input.")
-    ap.add_argument("--only", default=",".join(EXPERIMENTS),
-                    help="comma-separated experiments: distance, angle (default: both)")
-    ap.add_argument("--objects", type=name_list(list(OBJECTS)), default=list(OBJECTS),
-                    help="comma-separated moving fronts (default: drawer,door)")
-    ap.add_argument("--quick", action="store_true",
-                    help="small setting: 1 seed, 16 frames, 2 distances / angles")
-    ap.add_argument("--seed", type=nonneg_int, default=1000, help="first seed")
-    ap.add_argument("--seeds", type=pos_int, default=10, help="runs per setting")
-    ap.add_argument("--frames", type=pos_int, default=60,
-                    help="camera frames per run (thesis: ~60 images per log)")
-    ap.add_argument("--no-temporal-filter", action="store_true",
-                    help="no DepthTemporalFilter between camera and detector (each frame "
-                         "on its own)")
-    ap.add_argument("--camera-rate", type=float, default=30.0,
-                    help="camera frames per second with the temporal filter, Hz (default 30; "
-                         "0 = one frame per detector period, as before)")
-    ap.add_argument("--distances", type=float_list, default=None,
-                    help="comma-separated camera distances of the distance experiment, m "
-                         "(default 0.8,1.3,1.8,2.3,2.8)")
-    ap.add_argument("--angles", type=float_list, default=None,
-                    help="comma-separated angles off the normal of the angle experiment, deg, "
-                         "at 1.5 m (default 0,15,30,45; --angles=-30,0 for a minus)")
-    ap.add_argument("--json", action="store_true", help="print JSON instead of tables")
-    ap.add_argument("--out-dir", default=None,
-                    help="folder for the plots (PNG) and the default results file")
-    ap.add_argument("--no-progress", action="store_true", help="no progress bars")
-    add_sweep_args(ap, app="perception_experiments")
-    a = ap.parse_args(argv)
-    try:
-        check_out_dir("--out-dir", a.out_dir)
-        only = [x.strip() for x in a.only.split(",") if x.strip()]
-        bad = [x for x in only if x not in EXPERIMENTS]
-        if bad or not only:
-            raise UsageError(f"--only: unknown experiment {bad[0] if bad else a.only!r}; "
-                             "choose from " + ", ".join(EXPERIMENTS))
-        if a.frames < 5:
-            raise UsageError(f"--frames must be >= 5, got {a.frames}")
-        if not (np.isfinite(a.camera_rate) and a.camera_rate >= 0):
-            raise UsageError(f"--camera-rate must be a finite number >= 0 Hz, got "
-                             f"{a.camera_rate}")
-        if a.distances is not None and min(a.distances) <= 0.2:
-            raise UsageError(f"--distances must all be > 0.2 m, got {a.distances}")
-        if a.angles is not None and max(abs(x) for x in a.angles) >= 80:
-            raise UsageError(f"--angles must all be within +-80 deg, got {a.angles}")
-        if a.report_only:
-            lines = report_lines(a.report_only)
-        else:
-            sweep = sweep_kwargs(a, app="perception_experiments", out_dir=a.out_dir or ".")
-    except UsageError as e:
-        return fail(ap.prog, str(e))
-
-    def echo(lines):
-        if not a.json:
-            print("\n\n".join(lines) + "\n", flush=True)
-
-    if a.report_only:
-        try:
-            res, text = report(lines)
-        except (ValueError, KeyError, TypeError) as e:
-            return fail(ap.prog, f"--report-only: {a.report_only}: {e!r}")
-        echo(text)
-        if a.out_dir:
-            res["plots"] = _plots(res, a.out_dir)
-    else:
-        try:
-            res = run(only=only, quick=a.quick, seed=a.seed, seeds=a.seeds, frames=a.frames,
-                      objects=a.objects, distances=a.distances, angles=a.angles,
-                      out=a.out_dir, progress=not a.no_progress, echo=echo,
-                      temporal_filter=not a.no_temporal_filter,
-                      camera_rate_hz=a.camera_rate, **sweep)
-        except (UsageError, ValueError, OSError) as e:
-            return fail(ap.prog, str(e))
-    if a.json:
-        print(json.dumps(json_clean(res)))
-    elif res.get("plots"):
-        print("plots: " + ", ".join(res["plots"]))
-    return exit_status(ap.prog, res)
+    return experiment.main(PerceptionExperiments(), argv)
 
 
 if __name__ == "__main__":

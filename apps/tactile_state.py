@@ -33,7 +33,7 @@ other classifiers' rates (``compare``).
     python -m mmlearn.apps.tactile_state --f-target 20 [--trials 16] [--f-sweep]
         [--sweep-trials 24] [--classifier tree|forest|boost] [--wall-model pressure|linear]
         [--grasp-variation wall|shell|none]
-        [--results FILE] [--jobs J]
+        [--results FILE] [--jobs J] [--executor local|ray] [--report-only FILE]
         [--plot FILE] [--meshcat] [--html-out FILE] --seed S [--json]
 
 The Drake gripper (:mod:`mmlearn.diagrams.tactile.grasp`: PR2-like fingertip pads, the
@@ -54,8 +54,10 @@ Reports (10-fold CV, ``--classifier``; the other classifiers in ``compare``):
 state given the class}, ``combined_rate`` (all class x state labels) and
 ``combined_rate_without_water`` (the thesis' 11-label experiment). ``--f-sweep`` adds Table
 7.2: the state rate of the Odwalla bottle at 17 / 20 / 23 N (``--sweep-trials`` grasps per
-state). Grasps run through the sweep runner (:mod:`mmlearn.apps.common.sweep`): ``--results``
-keeps them in a JSON Lines file so a rerun resumes.
+state). Grasps run through the sweep runner (:mod:`mmlearn.apps.common.sweep`, the shared
+front-end of :mod:`mmlearn.apps.common.experiment`): ``--results`` keeps them in a JSON Lines
+file so a rerun resumes (without it they go to a temporary file), and ``--report-only FILE``
+recomputes the report from such a file without simulating.
 ``--plot FILE`` draws the grasp profiles p / v / f of one grasp per state of the first
 container class (Fig. 7.3), the force on a rigid block with the switching controller and
 with pure force control (Fig. 7.5 vs 7.6) and the two taxel images of one more grasp at its
@@ -69,27 +71,33 @@ unknown labels, missing folders, test classes absent from training).
 
 from __future__ import annotations
 
+import argparse
 import json
 import sys
-from collections import Counter
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
-from mmlearn.apps.common.cli import (ArgumentParser, UsageError, check_out_file, fail,
-                                     finish_viewing, json_clean, make_meshcat, name_list,
-                                     nonneg_int, pos_float, pos_int, save_figure, save_html)
-from mmlearn.models.tactile.icub_grasp import (CONTACT_LEVEL, REST_VELOCITY, ICubFileError,
-                                               load_icub_dir)
+from mmlearn.apps.common import experiment
+from mmlearn.apps.common.cli import (UsageError, check_out_file, finish_viewing, json_clean,
+                                     make_meshcat, name_list, pos_float, pos_int, save_figure,
+                                     save_html)
+from mmlearn.apps.common.experiment import Experiment
+from mmlearn.apps.common.sweep import TrialSpec
+from mmlearn.models.tactile.icub_grasp import CONTACT_LEVEL, REST_VELOCITY, load_icub_dir
 from mmlearn.models.tactile.evaluation import (SIM_CONTACT_FORCE, SIM_REST_VELOCITY,
-                                               container_grasp_features, icub_features,
-                                               state_recognition_report, cv_with_compare)
-from mmlearn.models.tactile.state import (CLASSIFIERS, FEATURE_NAMES, cross_validate,
-                                          evaluate_split, extract_grasp_features)
+                                               container_grasp_features, cv_with_compare,
+                                               icub_state_report, state_recognition_report)
+from mmlearn.models.tactile.state import CLASSIFIERS, FEATURE_NAMES, extract_grasp_features
 from mmlearn.diagrams.tactile.trials import (SWEEP_FORCES, container_grasp_plan,
                                              odwalla_sweep_plan)
 
-__all__ = ["run", "main", "TactileStateConfig"]
+__all__ = ["run", "run_simulation", "simulation_specs", "simulation_report",
+           "real_data_report", "main", "TactileStateConfig"]
+
+#: the container classes of the simulation mode (Sec. 7.1.3)
+CONTAINERS = ("odwalla", "naked", "can", "water")
 
 
 @dataclass
@@ -146,105 +154,132 @@ class TactileStateConfig:
     executor: str = "local"
     ray_address: str | None = None
     progress: bool = False
-    containers: tuple = ("odwalla", "naked", "can", "water")
+    containers: tuple = CONTAINERS
     wall_model: str = "pressure"
     grasp_variation: str = "wall"
 
 
 def _specs(plan) -> list:
-    from mmlearn.apps.common.sweep import TrialSpec
-
     return [TrialSpec(**d) for d in plan]
 
 
-def run_simulation(config: TactileStateConfig, *, meshcat=None) -> dict:
-    """Simulation mode (see the module docstring for the result). With ``meshcat`` (or
-    ``config.plot``) one more grasp is simulated and shown: :func:`demo_grasps`."""
-    from mmlearn.apps.common.sweep import run_sweep
-    from mmlearn.models.tactile.containers import CONTAINER_CLASSES
+def _simulation(c: TactileStateConfig) -> bool:
+    return not c.train and c.f_target is not None
 
-    c = config
+
+def _check_simulation(c: TactileStateConfig) -> None:
+    from mmlearn.models.tactile.containers import CONTAINER_CLASSES, GRASP_VARIATIONS
+
     if not (c.f_target is not None and np.isfinite(c.f_target) and c.f_target > 0):
         raise ValueError(f"f_target: expected a force > 0 N, got {c.f_target!r}")
     if c.trials < 2:
         raise ValueError(f"trials: expected at least 2 grasps per container and state, got {c.trials}")
     if c.classifier not in CLASSIFIERS:
         raise ValueError(f"classifier: unknown {c.classifier!r}; choose from {', '.join(CLASSIFIERS)}")
-    conts = list(c.containers)
-    if not conts:
+    if not c.containers:
         raise ValueError("containers: empty; choose from " + ", ".join(CONTAINER_CLASSES))
     if c.wall_model not in ("pressure", "linear"):
         raise ValueError(f"wall_model: expected 'pressure' or 'linear', got {c.wall_model!r}")
-    from mmlearn.models.tactile.containers import GRASP_VARIATIONS
-
     if c.grasp_variation not in GRASP_VARIATIONS:
         raise ValueError(f"grasp_variation: expected one of {', '.join(GRASP_VARIATIONS)}, "
                          f"got {c.grasp_variation!r}")
+    if c.f_sweep and c.sweep_trials < 2:
+        raise ValueError(f"sweep_trials: expected at least 2, got {c.sweep_trials}")
+
+
+def _grasps(c: TactileStateConfig):
+    """The grasp specs: those of the main experiment and, with ``f_sweep``, those of the
+    Odwalla sweep by force."""
     wm, gv = c.wall_model, c.grasp_variation
-    specs = _specs(container_grasp_plan(conts, c.f_target, c.trials, c.seed, wm, gv))
-    if c.f_sweep:
-        if c.sweep_trials < 2:
-            raise ValueError(f"sweep_trials: expected at least 2, got {c.sweep_trials}")
-        have = {s.key for s in specs}
-        for f in SWEEP_FORCES:
-            for s in _specs(odwalla_sweep_plan(f, c.sweep_trials, c.seed, wm, gv)):
-                if s.key not in have:
-                    specs.append(s)
-                    have.add(s.key)
-    sweep = run_sweep(specs, results=c.results, executor=c.executor, jobs=c.jobs,
-                      ray_address=c.ray_address, show_progress=c.progress,
-                      desc="grasps")
-    by_key = {ln["key"]: ln for ln in sweep.lines}
-    failed = [ln for ln in sweep.lines if ln.get("error")]
+    grasps = _specs(container_grasp_plan(list(c.containers), c.f_target, c.trials, c.seed, wm,
+                                         gv))
+    sweep = {f: _specs(odwalla_sweep_plan(f, c.sweep_trials, c.seed, wm, gv))
+             for f in SWEEP_FORCES} if c.f_sweep else {}
+    return grasps, sweep
+
+
+def simulation_specs(config: TactileStateConfig) -> list:
+    """The grasps of the simulation mode (checks the settings: ``ValueError``)."""
+    _check_simulation(config)
+    grasps, sweep = _grasps(config)
+    have = {s.key for s in grasps}
+    for s in (s for ss in sweep.values() for s in ss):
+        if s.key not in have:
+            grasps.append(s)
+            have.add(s.key)
+    return grasps
+
+
+def simulation_report(lines: list[dict], config: TactileStateConfig):
+    """The simulation mode's result (see the module docstring) from results-file lines, and
+    the records of the main experiment's grasps."""
+    c = config
+    grasps, sweep = _grasps(c)
+    by_key = {ln["key"]: ln for ln in lines}
+    keys = {s.key for s in grasps} | {s.key for ss in sweep.values() for s in ss}
+    failed = [ln for ln in lines if ln.get("error") and ln["key"] in keys]
 
     def records(spec_list):
         return [by_key[s.key]["record"] for s in spec_list
                 if s.key in by_key and by_key[s.key].get("record")]
 
-    main_specs = _specs(container_grasp_plan(conts, c.f_target, c.trials, c.seed, wm, gv))
-    recs = records(main_specs)
+    recs = records(grasps)
     if not recs:
         raise ValueError("no grasp finished")
     X, yc, ys, feats = container_grasp_features(recs, steady_average=c.steady_average)
     out = {"mode": "simulation", "classifier": c.classifier, "f_target": float(c.f_target),
            "features": list(FEATURE_NAMES), "n_grasps": len(recs),
-           "failed_grasps": len(main_specs) - len(recs),
+           "failed_grasps": len(grasps) - len(recs),
            "errors": sorted({(ln.get("error") or "")[:200] for ln in failed}),
            "no_contact": int(sum(not f.contact for f in feats)),
            "not_steady": int(sum(not f.steady for f in feats))}
     out.update(state_recognition_report(X, yc, ys, classifier=c.classifier, folds=c.folds,
                                         seed=c.seed))
     if c.f_sweep:
-        sweep_out = {}
-        for f in SWEEP_FORCES:
-            rs = records(_specs(odwalla_sweep_plan(f, c.sweep_trials, c.seed, wm, gv)))
-            Xs, _, yss, _ = container_grasp_features(rs, steady_average=c.steady_average)
-            r, cm, _ = cv_with_compare(Xs, yss, classifier=c.classifier, folds=c.folds,
-                                       seed=c.seed)
-            sweep_out[f"{f:g}"] = {"rate": r.rate, "compare": cm, "n": len(rs),
-                                   "failed": c.sweep_trials * 4 - len(rs),
-                                   "labels": r.labels,
-                                   "confusion": r.confusion.astype(int).tolist()}
-        out["f_sweep_odwalla"] = sweep_out
+        out["f_sweep_odwalla"] = {f"{f:g}": _sweep_rates(records(ss), c)
+                                  for f, ss in sweep.items()}
     out["settings"] = {"trials": c.trials, "folds": c.folds, "seed": c.seed,
                        "contact_force_N": SIM_CONTACT_FORCE,
                        "rest_velocity_m_per_s": SIM_REST_VELOCITY,
-                       "steady_average": c.steady_average, "wall_model": wm,
-                       "grasp_variation": gv,
+                       "steady_average": c.steady_average, "wall_model": c.wall_model,
+                       "grasp_variation": c.grasp_variation,
                        "sweep_trials": c.sweep_trials if c.f_sweep else None}
-    out["wall_seconds"] = round(sweep.wall_s, 1)
-    out["resumed"] = sweep.resumed
-    if meshcat is not None or c.plot:
-        demo = demo_grasps(c, meshcat=meshcat, impact=bool(c.plot))
-        out["demo_grasp"] = {"container": demo["grasp"].container, "state": demo["grasp"].state,
-                             "f_max_N": float(demo["grasp"].f.max())}
-        if demo["impact"]:
-            out["demo_grasp"]["impact_peak_N"] = {m: float(tr["f"].max())
-                                                 for m, tr in demo["impact"].items()}
-        if c.plot:
-            plot_simulation(recs, demo, c.plot, containers=conts,
-                            title=f"simulation, f_target {c.f_target:g} N, seed {c.seed}")
-    return json_clean(out)
+    return out, recs
+
+
+def _sweep_rates(recs, c: TactileStateConfig) -> dict:
+    """The Odwalla state rate at one force of the sweep (Table 7.2)."""
+    X, _, ys, _ = container_grasp_features(recs, steady_average=c.steady_average)
+    r, cm, _ = cv_with_compare(X, ys, classifier=c.classifier, folds=c.folds, seed=c.seed)
+    return {"rate": r.rate, "compare": cm, "n": len(recs),
+            "failed": c.sweep_trials * 4 - len(recs), "labels": r.labels,
+            "confusion": r.confusion.astype(int).tolist()}
+
+
+def _demo(c: TactileStateConfig, recs, meshcat) -> dict:
+    """The demo grasp (shown in ``meshcat``) and, with ``plot``, the figure of the grasps."""
+    demo = demo_grasps(c, meshcat=meshcat, impact=bool(c.plot))
+    out = {"container": demo["grasp"].container, "state": demo["grasp"].state,
+           "f_max_N": float(demo["grasp"].f.max())}
+    if demo["impact"]:
+        out["impact_peak_N"] = {m: float(tr["f"].max()) for m, tr in demo["impact"].items()}
+    if c.plot:
+        plot_simulation(recs, demo, c.plot, containers=list(c.containers),
+                        title=f"simulation, f_target {c.f_target:g} N, seed {c.seed}")
+    return out
+
+
+def run_simulation(config: TactileStateConfig, *, meshcat=None) -> dict:
+    """Simulation mode (see the module docstring for the result): the grasps through the
+    sweep runner (``config.results``, ``jobs``, ``executor``, ``ray_address``). With
+    ``meshcat`` (or ``config.plot``) one more grasp is simulated and shown:
+    :func:`demo_grasps`."""
+    c = config
+    app = TactileState()
+    app.meshcat = meshcat
+    args = argparse.Namespace(config=c, report_only=None, meshcat=False, html_out=None)
+    return experiment.run_experiment(app, args, results=c.results, executor=c.executor,
+                                     jobs=c.jobs, ray_address=c.ray_address)
 
 
 def demo_grasps(config: TactileStateConfig, *, meshcat=None, impact: bool = True) -> dict:
@@ -351,59 +386,45 @@ def run(*, config: TactileStateConfig, meshcat=None) -> dict:
     """Train and evaluate on iCub grasp files, or (``train`` empty, ``f_target`` set) run the
     simulation mode (see the module docstring for the result; ``meshcat``: simulation mode
     only, shows one more grasp with the taxel pads coloured by pressure)."""
-    c = config
-    if not c.train and c.f_target is not None:
-        return run_simulation(c, meshcat=meshcat)
+    if _simulation(config):
+        return run_simulation(config, meshcat=meshcat)
     if meshcat is not None:
         raise ValueError("meshcat: real-data mode has no 3-D scene to show")
-    train, test, classifier = c.train, c.test, c.classifier
-    include_full_coke, folds, seed = c.include_full_coke, c.folds, c.seed
-    contact_level, rest_velocity = c.contact_level, c.rest_velocity
-    steady_average, plot = c.steady_average, c.plot
-    if classifier not in CLASSIFIERS:
-        raise ValueError(f"classifier: unknown {classifier!r}; choose from {', '.join(CLASSIFIERS)}")
-    tr, _ = load_icub_dir(train, include_unreliable=include_full_coke)
+    return real_data_report(config)
+
+
+def real_data_report(config: TactileStateConfig) -> dict:
+    """The real-data mode's result (see the module docstring;
+    :func:`~mmlearn.models.tactile.evaluation.icub_state_report`) and, with ``plot``, its
+    figure."""
+    c = config
+    if c.classifier not in CLASSIFIERS:
+        raise ValueError(f"classifier: unknown {c.classifier!r}; choose from {', '.join(CLASSIFIERS)}")
+    tr, _ = load_icub_dir(c.train, include_unreliable=c.include_full_coke)
     if not tr:
-        raise ValueError(f"{train}: no usable trials")
-    kw = dict(contact_level=contact_level, rest_velocity=rest_velocity,
-              steady_average=steady_average)
-    X, y, feats = icub_features(tr, **kw)
-    out = {"mode": "real", "classifier": classifier, "features": list(FEATURE_NAMES),
-           "settings": {"contact_level_counts": contact_level,
-                        "rest_velocity_rad_per_slice": rest_velocity,
-                        "steady_average": steady_average, "seed": seed,
-                        "include_full_coke": include_full_coke}}
-    other = [c for c in CLASSIFIERS if c != classifier]
-    if test is None:
-        rep = cross_validate(X, y, classifier=classifier, folds=folds, seed=seed)
-        out["evaluation"] = f"{folds}-fold CV"
-        out["n_train"], out["n_test"] = int(len(y)), int(len(y))
-        out["compare"] = {c: cross_validate(X, y, classifier=c, folds=folds, seed=seed).rate
-                          for c in other}
-        eval_feats, eval_y = feats, y
-    else:
-        te, _ = load_icub_dir(test, include_unreliable=include_full_coke)
+        raise ValueError(f"{c.train}: no usable trials")
+    te = None
+    if c.test is not None:
+        te, _ = load_icub_dir(c.test, include_unreliable=c.include_full_coke)
         if not te:
-            raise ValueError(f"{test}: no usable trials")
-        Xt, yt, feats_t = icub_features(te, **kw)
-        unseen = sorted(set(yt.tolist()) - set(y.tolist()))
+            raise ValueError(f"{c.test}: no usable trials")
+        unseen = sorted({t.label for t in te} - {t.label for t in tr})
         if unseen:
             raise ValueError(f"--test has classes that --train lacks: {', '.join(unseen)}")
-        rep, _ = evaluate_split(X, y, Xt, yt, classifier=classifier, seed=seed)
-        out["evaluation"] = "test"
-        out["n_train"], out["n_test"] = int(len(y)), int(len(yt))
-        out["compare"] = {c: evaluate_split(X, y, Xt, yt, classifier=c, seed=seed)[0].rate
-                          for c in other}
-        eval_feats, eval_y = feats_t, yt
-    out.update(rep.to_dict())
-    out.pop("n", None)
-    nc = Counter(lab for f, lab in zip(eval_feats, eval_y.tolist()) if not f.contact)
-    out["no_contact"] = {lab: int(nc.get(lab, 0)) for lab in rep.labels}
-    if plot:
-        plot_results(rep, tr, plot, title=f"{classifier}, {out['evaluation']}: "
-                                          f"rate {rep.rate:.3f}",
-                     feature_kw={"contact_force": contact_level,
-                                 "rest_velocity": rest_velocity})
+    out = {"mode": "real", "classifier": c.classifier, "features": list(FEATURE_NAMES),
+           "settings": {"contact_level_counts": c.contact_level,
+                        "rest_velocity_rad_per_slice": c.rest_velocity,
+                        "steady_average": c.steady_average, "seed": c.seed,
+                        "include_full_coke": c.include_full_coke}}
+    res, rep = icub_state_report(tr, te, classifier=c.classifier, folds=c.folds, seed=c.seed,
+                                 contact_level=c.contact_level, rest_velocity=c.rest_velocity,
+                                 steady_average=c.steady_average)
+    out.update(res)
+    if c.plot:
+        plot_results(rep, tr, c.plot, title=f"{c.classifier}, {out['evaluation']}: "
+                                            f"rate {rep.rate:.3f}",
+                     feature_kw={"contact_force": c.contact_level,
+                                 "rest_velocity": c.rest_velocity})
     return json_clean(out)
 
 
@@ -482,77 +503,88 @@ def _print_sim(out, file=sys.stdout):
         print(f"  odwalla state rate at {f} N: {r['rate']:.3f}", file=file)
 
 
-def main(argv=None) -> int:
-    ap = ArgumentParser(
-        prog="python -m mmlearn.apps.tactile_state",
-        description="Recognise objects and their internal state from the dynamics of a grasp "
-                    "(thesis Sec. 7.1-7.2: six features of Table 7.1, decision tree / random "
-                    "forest) on iCub grasp dataset files. Exit status: 0 success, 2 bad input.")
-    ap.add_argument("--train", metavar="DIR", default=None,
-                    help="folder of iCub grasp files <label>_<trial>.txt to train on")
-    ap.add_argument("--test", metavar="DIR", default=None,
-                    help="folder of grasp files to score (default: cross-validation on --train)")
-    ap.add_argument("--classifier", choices=CLASSIFIERS, default="forest",
-                    help="random forest (default), the thesis' decision tree or gradient "
-                         "boosting; the others' rates are reported as compare")
-    ap.add_argument("--include-full-coke", action="store_true",
-                    help="keep the full_coke trials (marked unreliable by the data set's author)")
-    ap.add_argument("--folds", type=pos_int, default=10,
-                    help="cross-validation folds without --test (default 10)")
-    ap.add_argument("--contact-level", type=pos_float, default=CONTACT_LEVEL, metavar="COUNTS",
-                    help=f"contact threshold F on a finger's highest taxel pressure, sensor "
-                         f"counts (default {CONTACT_LEVEL:g})")
-    ap.add_argument("--rest-velocity", type=pos_float, default=REST_VELOCITY, metavar="RAD",
-                    help=f"rest threshold V on the closure rate, rad per slice (default "
-                         f"{REST_VELOCITY:.4f})")
-    ap.add_argument("--steady-average", action="store_true",
-                    help="p_steady and f_steady as means over the steady phase (default: the "
-                         "single sample at t_steady, as the thesis)")
-    ap.add_argument("--f-target", type=pos_float, default=None, metavar="N",
-                    help="simulation mode: probing force of the simulated gripper per finger, "
-                         "newtons (without --train)")
-    ap.add_argument("--trials", type=pos_int, default=16,
-                    help="simulation: grasps per container and state (default 16)")
-    ap.add_argument("--f-sweep", action="store_true",
-                    help="simulation: add the Odwalla f_target sweep 17 / 20 / 23 N (Table 7.2)")
-    ap.add_argument("--sweep-trials", type=pos_int, default=24,
-                    help="simulation: grasps per Odwalla state and force in --f-sweep "
-                         "(default 24, as the thesis)")
-    ap.add_argument("--results", metavar="FILE", default=None,
-                    help="simulation: JSON Lines file of the grasps; a rerun resumes from it")
-    ap.add_argument("--jobs", type=pos_int, default=None,
-                    help="simulation: parallel grasps (default: all cores)")
-    ap.add_argument("--progress", action="store_true", help="simulation: progress bar")
-    ap.add_argument("--containers", type=name_list(["odwalla", "naked", "can", "water"]),
-                    default=["odwalla", "naked", "can", "water"],
-                    help="simulation: comma-separated container classes (default: all four)")
-    ap.add_argument("--wall-model", choices=("pressure", "linear"), default="pressure",
-                    help="simulation: the containers' walls: 'pressure' (default: shell spring "
-                         "plus the content's pressure through the squeezed volume) or 'linear' "
-                         "(a constant linearised stiffness: the ablation of the pressure "
-                         "model)")
-    ap.add_argument("--grasp-variation", choices=("wall", "shell", "none"), default="wall",
-                    help="simulation: 'wall' (default): each grasp meets its container with "
-                         "its own draw of the wall's response (rotation, where the pads land; "
-                         "the grasp-to-grasp spread of the squeeze measured on the iCub "
-                         "grasps), 'shell' (the shell stiffness alone) or 'none' (every grasp "
-                         "meets the instance as drawn: the ablation of the variation)")
-    ap.add_argument("--seed", type=nonneg_int, default=0,
-                    help="random seed (fold assignment, forest)")
-    ap.add_argument("--plot", metavar="FILE", default=None,
-                    help="write an image: real data, the confusion matrix and example grasp "
-                         "profiles; simulation, the grasp profiles p / v / f (Fig. 7.3), the "
-                         "impact with and without the switching controller (Fig. 7.5 / 7.6) "
-                         "and the tactile images of one grasp")
-    ap.add_argument("--meshcat", action="store_true",
-                    help="simulation: show one more grasp live in Meshcat, the taxel pads "
-                         "coloured by pressure (real data has no scene)")
-    ap.add_argument("--html-out", metavar="FILE", default=None,
-                    help="simulation: write that grasp's Meshcat recording as standalone HTML")
-    ap.add_argument("--json", action="store_true", help="print results as one JSON object")
-    args = ap.parse_args(argv)
-    sim = args.train is None and args.f_target is not None
-    try:
+class TactileState(Experiment):
+    """The command line (:mod:`mmlearn.apps.common.experiment`): the simulation mode's grasps
+    run through the sweep; the real-data mode runs no trial and is reported at once."""
+
+    name = "tactile_state"
+    description = ("Recognise objects and their internal state from the dynamics of a grasp "
+                   "(thesis Sec. 7.1-7.2: six features of Table 7.1, decision tree / random "
+                   "forest) on iCub grasp dataset files. Exit status: 0 success, 2 bad input.")
+    seed_help = "random seed (fold assignment, forest)"
+    json_help = "print results as one JSON object"
+    desc = "grasps"
+    keeps_results = False  # without --results the grasps go to a temporary file
+    meshcat = None  # the Meshcat of --meshcat / --html-out (simulation mode)
+
+    def add_arguments(self, ap):
+        ap.add_argument("--train", metavar="DIR", default=None,
+                        help="folder of iCub grasp files <label>_<trial>.txt to train on")
+        ap.add_argument("--test", metavar="DIR", default=None,
+                        help="folder of grasp files to score (default: cross-validation on "
+                             "--train)")
+        ap.add_argument("--classifier", choices=CLASSIFIERS, default="forest",
+                        help="random forest (default), the thesis' decision tree or gradient "
+                             "boosting; the others' rates are reported as compare")
+        ap.add_argument("--include-full-coke", action="store_true",
+                        help="keep the full_coke trials (marked unreliable by the data set's "
+                             "author)")
+        ap.add_argument("--folds", type=pos_int, default=10,
+                        help="cross-validation folds without --test (default 10)")
+        ap.add_argument("--contact-level", type=pos_float, default=CONTACT_LEVEL,
+                        metavar="COUNTS",
+                        help=f"contact threshold F on a finger's highest taxel pressure, sensor "
+                             f"counts (default {CONTACT_LEVEL:g})")
+        ap.add_argument("--rest-velocity", type=pos_float, default=REST_VELOCITY, metavar="RAD",
+                        help=f"rest threshold V on the closure rate, rad per slice (default "
+                             f"{REST_VELOCITY:.4f})")
+        ap.add_argument("--steady-average", action="store_true",
+                        help="p_steady and f_steady as means over the steady phase (default: "
+                             "the single sample at t_steady, as the thesis)")
+        ap.add_argument("--f-target", type=pos_float, default=None, metavar="N",
+                        help="simulation mode: probing force of the simulated gripper per "
+                             "finger, newtons (without --train)")
+        ap.add_argument("--trials", type=pos_int, default=16,
+                        help="simulation: grasps per container and state (default 16)")
+        ap.add_argument("--f-sweep", action="store_true",
+                        help="simulation: add the Odwalla f_target sweep 17 / 20 / 23 N (Table "
+                             "7.2)")
+        ap.add_argument("--sweep-trials", type=pos_int, default=24,
+                        help="simulation: grasps per Odwalla state and force in --f-sweep "
+                             "(default 24, as the thesis)")
+        ap.add_argument("--progress", action="store_true", help="simulation: progress bar")
+        ap.add_argument("--containers", type=name_list(list(CONTAINERS)),
+                        default=list(CONTAINERS),
+                        help="simulation: comma-separated container classes (default: all "
+                             "four)")
+        ap.add_argument("--wall-model", choices=("pressure", "linear"), default="pressure",
+                        help="simulation: the containers' walls: 'pressure' (default: shell "
+                             "spring plus the content's pressure through the squeezed volume) "
+                             "or 'linear' (a constant linearised stiffness: the ablation of the "
+                             "pressure model)")
+        ap.add_argument("--grasp-variation", choices=("wall", "shell", "none"), default="wall",
+                        help="simulation: 'wall' (default): each grasp meets its container "
+                             "with its own draw of the wall's response (rotation, where the "
+                             "pads land; the grasp-to-grasp spread of the squeeze measured on "
+                             "the iCub grasps), 'shell' (the shell stiffness alone) or 'none' "
+                             "(every grasp meets the instance as drawn: the ablation of the "
+                             "variation)")
+        ap.add_argument("--plot", metavar="FILE", default=None,
+                        help="write an image: real data, the confusion matrix and example "
+                             "grasp profiles; simulation, the grasp profiles p / v / f (Fig. "
+                             "7.3), the impact with and without the switching controller (Fig. "
+                             "7.5 / 7.6) and the tactile images of one grasp")
+        ap.add_argument("--meshcat", action="store_true",
+                        help="simulation: show one more grasp live in Meshcat, the taxel pads "
+                             "coloured by pressure (real data has no scene)")
+        ap.add_argument("--html-out", metavar="FILE", default=None,
+                        help="simulation: write that grasp's Meshcat recording as standalone "
+                             "HTML")
+
+    def check(self, args):
+        from mmlearn.apps.common.sweep import report_only_lines
+
+        sim = args.train is None and args.f_target is not None
         for flag, val in (("--meshcat", args.meshcat), ("--html-out", args.html_out)):
             if val and not sim:
                 raise UsageError(f"{flag}: real-data mode has no 3-D scene to show (use "
@@ -564,53 +596,75 @@ def main(argv=None) -> int:
                              "the real data were recorded with the iCub's own controller")
         if sim and args.test is not None:
             raise UsageError("--test applies to real-data mode only")
+        if args.report_only and not sim:
+            raise UsageError("--report-only applies to simulation mode only (the real-data "
+                             "mode runs no trials)")
         if args.results:
             check_out_file("--results", args.results)
         check_out_file("--plot", args.plot)
         check_out_file("--html-out", args.html_out)
-        from pathlib import Path
-
         for flag, d in (("--train", args.train), ("--test", args.test)):
             if d is not None and not Path(d).is_dir():
                 raise UsageError(f"{flag}: {d}: " + ("not a folder" if Path(d).exists()
                                                      else "folder not found"))
-    except UsageError as e:
-        return fail(ap.prog, str(e))
-    meshcat = None
-    if sim and (args.meshcat or args.html_out):
-        meshcat = make_meshcat(announce=args.meshcat)
-    try:
-        if sim:
-            out = run(config=TactileStateConfig(
-                classifier=args.classifier, folds=args.folds, seed=args.seed,
-                steady_average=args.steady_average, f_target=args.f_target,
-                trials=args.trials, f_sweep=args.f_sweep, sweep_trials=args.sweep_trials,
-                results=args.results, jobs=args.jobs, progress=args.progress,
-                containers=tuple(args.containers), plot=args.plot,
-                wall_model=args.wall_model, grasp_variation=args.grasp_variation),
-                meshcat=meshcat)
-        else:
-            out = run(config=TactileStateConfig(
-                train=args.train, test=args.test, classifier=args.classifier,
-                include_full_coke=args.include_full_coke, folds=args.folds, seed=args.seed,
-                contact_level=args.contact_level, rest_velocity=args.rest_velocity,
-                steady_average=args.steady_average, plot=args.plot))
-    except (ICubFileError, ValueError) as e:
-        return fail(ap.prog, str(e))
-    if args.html_out:
-        save_html(meshcat, args.html_out)
-    if args.json:
-        print(json.dumps(out, indent=1))
-    else:
-        if sim:
-            _print_sim(out)
-        else:
-            _print_text(out)
+        report_only_lines(args, simulates="a grasp")
+        args.config = TactileStateConfig(
+            train=args.train or "", test=args.test, classifier=args.classifier,
+            include_full_coke=args.include_full_coke, folds=args.folds, seed=args.seed,
+            contact_level=args.contact_level, rest_velocity=args.rest_velocity,
+            steady_average=args.steady_average, plot=args.plot, f_target=args.f_target,
+            trials=args.trials, f_sweep=args.f_sweep, sweep_trials=args.sweep_trials,
+            progress=args.progress, containers=tuple(args.containers),
+            wall_model=args.wall_model, grasp_variation=args.grasp_variation)
+
+    def specs(self, args):
+        if not _simulation(args.config):
+            return []  # real data: no trial to run
+        if args.meshcat or args.html_out:
+            self.meshcat = make_meshcat(announce=args.meshcat)
+            self.viewing = {"html_out": None if args.json else args.html_out,
+                            "live": args.meshcat}
+        return simulation_specs(args.config)
+
+    def show_progress(self, args) -> bool:
+        return args.config.progress
+
+    def report(self, lines, args):
+        if not _simulation(args.config):
+            return real_data_report(args.config)
+        res, args.records = simulation_report(lines, args.config)
+        return res
+
+    def attach_sweep(self, res, sweep, args):
+        res["wall_seconds"] = round(sweep.wall_s, 1)
+        res["resumed"] = sweep.resumed
+
+    def finish(self, res, args):
+        c = args.config
+        if _simulation(c) and (self.meshcat is not None or c.plot):
+            res["demo_grasp"] = _demo(c, args.records, self.meshcat)
+        if args.html_out:
+            save_html(self.meshcat, args.html_out)
+        return json_clean(res)
+
+    def failed(self, res):
+        return []  # a grasp that raised is counted in the result, not in the exit status
+
+    def print_table(self, res, args):
+        (_print_sim if res["mode"] == "simulation" else _print_text)(res)
         if args.plot:
             print(f"plot written to {args.plot}")
-    if meshcat is not None:
-        finish_viewing(html_out=None if args.json else args.html_out, live=args.meshcat)
-    return 0
+
+    def to_json(self, res):
+        return json.dumps(res, indent=1)
+
+
+def main(argv=None) -> int:
+    app = TactileState()
+    rc = experiment.main(app, argv)
+    if app.meshcat is not None and rc == 0:
+        finish_viewing(**app.viewing)
+    return rc
 
 
 if __name__ == "__main__":

@@ -115,3 +115,43 @@ def test_an_app_without_seed_and_its_help(capsys):
     for flag in ("--results", "--executor", "--jobs", "--report-only", "--json"):
         assert flag in ap.format_help()
     assert experiment.parser(Probe()).parse_args([]).seed == 0
+
+
+def test_no_trials_asked_for_reports_at_once_without_a_sweep(tmp_path, capsys, monkeypatch):
+    """An experiment whose command line asks for no trial (a mode that reads data files) is
+    reported directly: no sweep in the result, no results file written."""
+    class DataOnly(Probe):
+        def specs(self, args):
+            return [] if args.n == 1 else super().specs(args)
+
+        def report(self, lines, args):
+            return {"lines": len(lines), "errors": []}
+
+    monkeypatch.chdir(tmp_path)
+    rc = experiment.main(DataOnly(), ["--n", "1", "--json"])
+    assert rc == 0 and json.loads(capsys.readouterr().out) == {"lines": 0, "errors": []}
+    assert list(tmp_path.iterdir()) == []
+    rc = experiment.main(DataOnly(), ["--n", "2", "--json", "--jobs", "1"])
+    res = json.loads(capsys.readouterr().out)
+    assert rc == 0 and res["lines"] == 2 and "sweep" in res
+
+
+def test_an_app_that_keeps_no_results_by_default(tmp_path, capsys, monkeypatch):
+    """keeps_results False: without --results the records go to a temporary file (nothing
+    left behind); with --results they are kept and resumed."""
+    class Temporary(Probe):
+        keeps_results = False
+
+    monkeypatch.chdir(tmp_path)
+    assert "default: a temporary file" in " ".join(
+        experiment.parser(Temporary()).format_help().split())
+    rc = experiment.main(Temporary(), ["--n", "2", "--json", "--jobs", "1"])
+    res = json.loads(capsys.readouterr().out)
+    assert rc == 0 and res["seeds"] == [0, 1] and res["sweep"]["results_file"] is None
+    assert list(tmp_path.iterdir()) == []
+    experiment.main(Temporary(), ["--n", "2", "--jobs", "1", "--results", "r.jsonl"])
+    capsys.readouterr()
+    assert len((tmp_path / "r.jsonl").read_text().splitlines()) == 2
+    # the apps that keep them write <name>_results.jsonl in the current folder
+    experiment.main(Probe(), ["--n", "1", "--jobs", "1"])
+    assert (tmp_path / "probe_experiments_results.jsonl").exists()

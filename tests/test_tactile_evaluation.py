@@ -54,6 +54,28 @@ def test_container_grasp_features_and_rates_from_records():
         fold_cv(X[:7], ys[:7], classifier="tree", folds=10, seed=0)
 
 
+def test_icub_state_report_by_cross_validation_and_on_a_test_set():
+    """The real iCub grasps of tests/data: k-fold CV scores every grasp once; a split scores
+    the test trials; the grasps of the empty hand count as without contact."""
+    from pathlib import Path
+
+    from mmlearn.models.tactile.icub_grasp import CONTACT_LEVEL, REST_VELOCITY, load_icub_dir
+    from mmlearn.models.tactile.evaluation import icub_state_report
+
+    trials, _ = load_icub_dir(Path(__file__).parent / "data" / "icub_grasp")
+    kw = dict(classifier="tree", seed=3, contact_level=CONTACT_LEVEL,
+              rest_velocity=REST_VELOCITY, steady_average=False)
+    cv, rep = icub_state_report(trials, folds=4, **kw)
+    assert cv["evaluation"] == "4-fold CV" and cv["n_train"] == cv["n_test"] == len(trials)
+    assert np.sum(cv["confusion"]) == len(trials) and cv["rate"] == rep.rate
+    assert set(cv["compare"]) == {"forest", "boost"} and cv["no_contact"]["none"] == 4
+    train = [t for t in trials if int(t.trial) <= 2]
+    test = [t for t in trials if int(t.trial) > 2]
+    split, _ = icub_state_report(train, test, folds=4, **kw)
+    assert split["evaluation"] == "test" and split["n_test"] == len(test)
+    assert np.sum(split["confusion"]) == len(test)
+
+
 def test_recognition_dataset_and_the_stratified_two_fold_split():
     recs = [{"left": np.full((14, 6), i / 10).tolist(), "right": np.zeros((14, 6)).tolist(),
              "height": 0.01 * i, "width": 0.05, "cls": "ab"[i % 2], "group": "g" + "ab"[i % 2],

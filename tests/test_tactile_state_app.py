@@ -32,6 +32,7 @@ def _main(argv, capsys):
     (["--train", str(DATA), "--plot", "/nonexistent/x.png"], "--plot: folder"),
     (["--train", str(DATA), "--folds", "10"], "needs at least 10 instances per class"),
     (["--train", str(DATA), "--meshcat"], "--meshcat: real-data mode has no 3-D scene"),
+    (["--train", str(DATA), "--report-only", "r.jsonl"], "--report-only applies to simulation"),
 ])
 def test_cli_errors_exit_2_with_one_line(argv, needle, capsys):
     rc, out, err = _main(argv, capsys)
@@ -125,6 +126,13 @@ def test_simulation_mode_small_run(tmp_path, capsys):
     assert len(recs) == 6 and all(r["error"] is None for r in recs)
     # the readings carry no label: a record's series are numbers only
     assert all(isinstance(v, float) for v in recs[0]["record"]["p"])
+    # --report-only recomputes the same report from the grasps file without simulating
+    rc = main(["--f-target", "20", "--containers", "can", "--trials", "2", "--folds", "2",
+               "--seed", "3", "--json", "--report-only", str(res)])
+    again = json.loads(capsys.readouterr().out)
+    for k in ("wall_seconds", "resumed", "demo_grasp"):
+        d.pop(k)
+    assert rc == 0 and again == d
 
 
 @pytest.mark.parametrize("argv, needle", [

@@ -11,8 +11,11 @@ every app:
 * bad input (an app's :meth:`Experiment.check`, the sweep flags) exits with status 2 and a
   one-line message naming the flag, before any trial runs;
 * the trials (:meth:`Experiment.specs`) run through :func:`~mmlearn.apps.common.sweep.run_sweep`
-  (resumable results file ``<name>_results.jsonl``, local processes or Ray); with
+  (resumable results file ``<name>_results.jsonl``, or a temporary one for an app that keeps
+  no results by default, :attr:`Experiment.keeps_results`; local processes or Ray); with
   ``--report-only FILE`` nothing runs and the report is recomputed from the file's records;
+  a command line that asks for no trial (empty specs: a mode that reads data files, say) is
+  reported directly, without a sweep;
 * the result is printed as the app's table or, with ``--json``, as one JSON object;
 * the exit status is :func:`~mmlearn.apps.common.sweep.exit_status`'s: 0 every trial ran,
   1 a trial raised (named on stderr), 130 interrupted.
@@ -69,6 +72,9 @@ class Experiment:
     json_help: str = "print the results as JSON"
     #: the progress bar's label
     desc: str = "trials"
+    #: without ``--results``, keep the trials' records in ``<name>_results.jsonl`` (True) or
+    #: in a temporary file removed after the run (False: nothing to resume)
+    keeps_results: bool = True
 
     @property
     def prog(self) -> str:
@@ -89,7 +95,8 @@ class Experiment:
 
     def specs(self, args) -> list:
         """The trials (:class:`~mmlearn.apps.common.sweep.TrialSpec`) the command line asks
-        for; a ``ValueError`` is bad input."""
+        for; a ``ValueError`` is bad input. None asked for: :meth:`report` gets no lines and
+        nothing runs."""
         raise NotImplementedError
 
     def shared(self, args):
@@ -147,7 +154,7 @@ def parser(experiment: Experiment) -> ArgumentParser:
     if experiment.seed_default is not None:
         ap.add_argument("--seed", type=nonneg_int, default=experiment.seed_default,
                         help=experiment.seed_help)
-    add_sweep_args(ap, app=experiment.name)
+    add_sweep_args(ap, app=experiment.name, keeps_results=experiment.keeps_results)
     ap.add_argument("--json", action="store_true", help=experiment.json_help)
     return ap
 
@@ -155,8 +162,11 @@ def parser(experiment: Experiment) -> ArgumentParser:
 def run_experiment(experiment: Experiment, args, *, results=None, executor: str = "local",
                    jobs: int | None = None, ray_address: str | None = None) -> dict:
     """Run the trials of ``args`` through the sweep runner and report them (the sweep's
-    keyword arguments as :func:`~mmlearn.apps.common.sweep.sweep_kwargs` gives them)."""
+    keyword arguments as :func:`~mmlearn.apps.common.sweep.sweep_kwargs` gives them). With no
+    trial to run, the report is made at once (no sweep)."""
     specs = experiment.specs(args)
+    if not specs:
+        return experiment.finish(experiment.report([], args), args)
     sweep = run_sweep(specs, results=results, executor=executor, jobs=jobs,
                       ray_address=ray_address, shared=experiment.shared(args),
                       show_progress=experiment.show_progress(args), desc=experiment.desc)
@@ -183,7 +193,8 @@ def main(experiment: Experiment, argv=None) -> int:
     try:
         experiment.check(args)
         sweep = None if args.report_only else sweep_kwargs(
-            args, app=experiment.name, out_dir=experiment.out_dir(args))
+            args, app=experiment.name,
+            out_dir=experiment.out_dir(args) if experiment.keeps_results else None)
     except UsageError as e:
         return fail(ap.prog, str(e))
     try:

@@ -512,12 +512,16 @@ def probe_trial(*, seed: int, sleep_s: float = 0.0, fail_seeds=(), crash_seeds=(
 
 # ---------------------------------------------------------------------------- command line
 
-def add_sweep_args(ap, *, app: str) -> None:
-    """``--results``, ``--executor``, ``--ray-address``, ``--jobs``, ``--report-only``."""
+def add_sweep_args(ap, *, app: str, keeps_results: bool = True) -> None:
+    """``--results``, ``--executor``, ``--ray-address``, ``--jobs``, ``--report-only``
+    (``keeps_results``: without ``--results`` the records go to ``<app>_results.jsonl``, else
+    to a temporary file)."""
+    default = (f"{app}_results.jsonl in the output folder / current folder" if keeps_results
+               else "a temporary file, removed after the run")
     ap.add_argument("--results", default=None,
-                    help=f"JSON Lines file of the trials' records (default: {app}_results.jsonl "
-                         "in the output folder / current folder); re-running the same command "
-                         "with it skips the trials already recorded")
+                    help=f"JSON Lines file of the trials' records (default: {default}); "
+                         "re-running the same command with it skips the trials already "
+                         "recorded")
     ap.add_argument("--executor", choices=EXECUTORS, default="local",
                     help="local process pool (default) or Ray tasks (pip install 'mmlearn[ray]')")
     ap.add_argument("--ray-address", default=None,
@@ -535,14 +539,15 @@ def _pos_int(text):
     return pos_int(text)
 
 
-def sweep_kwargs(args, *, app: str, out_dir: str | Path = ".") -> dict:
-    """The runner's keyword arguments from parsed ``add_sweep_args`` flags (checks them)."""
+def sweep_kwargs(args, *, app: str, out_dir: str | Path | None = ".") -> dict:
+    """The runner's keyword arguments from parsed ``add_sweep_args`` flags (checks them);
+    ``out_dir`` None: no default results file (a temporary one)."""
     if args.ray_address and args.executor != "ray":
         raise UsageError("--ray-address needs --executor ray")
-    results = args.results or str(Path(out_dir) / f"{app}_results.jsonl")
-    rp = Path(results)
-    if rp.exists() and rp.is_dir():
-        raise UsageError(f"--results: {rp} is a directory")
+    results = args.results or (None if out_dir is None
+                               else str(Path(out_dir) / f"{app}_results.jsonl"))
+    if results is not None and Path(results).is_dir():
+        raise UsageError(f"--results: {Path(results)} is a directory")
     return {"results": results, "executor": args.executor, "jobs": args.jobs,
             "ray_address": args.ray_address}
 

@@ -12,7 +12,7 @@ _EXPORTS = {
     "state": ["FEATURE_NAMES", "GraspFeatures", "extract_grasp_features", "feature_matrix", "make_classifier", "ClassificationReport", "cross_validate", "evaluate_split", "CLASSIFIERS"],
     "synth": ["pattern_bank", "make_objects", "sample_grasps"],
     "types": ["TactileGrasp", "TactileObservation", "TactileDataError", "check_series"],
-    "evaluation": ["icub_features", "grasp_from_record", "container_grasp_features", "SIM_CONTACT_FORCE", "SIM_REST_VELOCITY", "fold_cv", "cv_with_compare", "single_class_report", "state_recognition_report", "observation_from_record", "recognition_dataset", "split_two_fold", "fit_recognizer", "random_trials", "STRATEGIES", "strategy_trials", "evaluate_recognition", "compare_strategies", "SUBSETS", "subset_classes", "HEIGHT_RESOLUTION", "TARE_WINDOW", "COAST_DELAY", "roll_record", "cell_saturation_force", "evaluate_rolls"],
+    "evaluation": ["icub_features", "grasp_from_record", "container_grasp_features", "SIM_CONTACT_FORCE", "SIM_REST_VELOCITY", "fold_cv", "cv_with_compare", "single_class_report", "state_recognition_report", "icub_state_report", "observation_from_record", "recognition_dataset", "split_two_fold", "fit_recognizer", "random_trials", "STRATEGIES", "strategy_trials", "evaluate_recognition", "compare_strategies", "SUBSETS", "subset_classes", "HEIGHT_RESOLUTION", "TARE_WINDOW", "COAST_DELAY", "roll_record", "cell_saturation_force", "evaluate_rolls"],
 }
 
 __all__ = [
@@ -61,6 +61,7 @@ __all__ = [
     "icub_features",
     "ICUB_SPREAD_CAN",
     "ICUB_SPREAD_PLASTIC_BOTTLE",
+    "icub_state_report",
     "ICubFileError",
     "ICubTrial",
     "integrate_pressure",

@@ -4,8 +4,9 @@
 * **Object and state from grasp dynamics** (Sec. 7.1-7.2): the six features of Table 7.1 of
   iCub grasps (:func:`icub_features`) or of simulated container grasps
   (:func:`container_grasp_features`, :func:`grasp_from_record`), k-fold cross-validation with
-  the other classifiers' rates beside (:func:`fold_cv`, :func:`cv_with_compare`) and the rates
-  of the simulated experiment (:func:`state_recognition_report`).
+  the other classifiers' rates beside (:func:`fold_cv`, :func:`cv_with_compare`), the rates
+  of the simulated experiment (:func:`state_recognition_report`) and of the real iCub grasps
+  (:func:`icub_state_report`).
 * **Object recognition by touch** (ch. 6): the labelled tactile set of the grasp records
   (:func:`recognition_dataset`, :func:`observation_from_record`), the randomised 2-fold
   cross-validation of Sec. 6.3 (:func:`evaluate_recognition`) and the grasp-height strategies
@@ -17,6 +18,8 @@
 
 from __future__ import annotations
 
+from collections import Counter
+
 import numpy as np
 
 from mmlearn.models.tactile.liquid import RollRecord, coast_mask, liquid_features, liquid_table
@@ -24,12 +27,13 @@ from mmlearn.models.tactile.pad import PAD_PR2
 from mmlearn.models.tactile.recognition import (TactileRecognitionConfig, TactileRecognizer,
                                                 TactileSet, height_actions, posterior)
 from mmlearn.models.tactile.state import (CLASSIFIERS, ClassificationReport, cross_validate,
+                                          evaluate_split,
                                           feature_matrix, make_classifier)
 from mmlearn.models.tactile.types import TactileDataError, TactileGrasp, TactileObservation
 
 __all__ = ["icub_features", "grasp_from_record", "container_grasp_features", "SIM_CONTACT_FORCE",
            "SIM_REST_VELOCITY", "fold_cv", "cv_with_compare", "single_class_report",
-           "state_recognition_report", "observation_from_record", "recognition_dataset",
+           "state_recognition_report", "icub_state_report", "observation_from_record", "recognition_dataset",
            "split_two_fold", "fit_recognizer", "random_trials", "STRATEGIES", "strategy_trials",
            "evaluate_recognition", "compare_strategies", "SUBSETS", "subset_classes",
            "HEIGHT_RESOLUTION", "TARE_WINDOW", "COAST_DELAY", "roll_record",
@@ -134,6 +138,42 @@ def state_recognition_report(X, yc, ys, *, classifier: str, folds: int, seed: in
         r, _, _ = cv_with_compare(X[m], yy[m], **kw)
         out["combined_rate_without_water"] = r.rate
     return out
+
+
+def icub_state_report(train, test=None, *, classifier: str, folds: int, seed: int,
+                      contact_level: float, rest_velocity: float, steady_average: bool):
+    """Object and state recognition on iCub grasp trials (Sec. 7.1-7.2): ``classifier``
+    trained on the trials ``train`` and scored on the trials ``test`` or, without, by
+    ``folds``-fold cross-validation (thresholds as :func:`icub_features`). Returns (result,
+    :class:`~mmlearn.models.tactile.state.ClassificationReport`); the result holds
+    ``evaluation`` ("test" or "<k>-fold CV"), ``n_train``, ``n_test``, ``compare`` (the other
+    classifiers' rates), the report's rate, per-class rates, labels and confusion, and
+    ``no_contact`` (the scored grasps without contact per label)."""
+    kw = dict(contact_level=contact_level, rest_velocity=rest_velocity,
+              steady_average=steady_average)
+    X, y, feats = icub_features(train, **kw)
+    other = [c for c in CLASSIFIERS if c != classifier]
+    out = {}
+    if test is None:
+        rep = cross_validate(X, y, classifier=classifier, folds=folds, seed=seed)
+        out["evaluation"] = f"{folds}-fold CV"
+        out["n_train"], out["n_test"] = int(len(y)), int(len(y))
+        out["compare"] = {c: cross_validate(X, y, classifier=c, folds=folds, seed=seed).rate
+                          for c in other}
+        eval_feats, eval_y = feats, y
+    else:
+        Xt, yt, feats_t = icub_features(test, **kw)
+        rep, _ = evaluate_split(X, y, Xt, yt, classifier=classifier, seed=seed)
+        out["evaluation"] = "test"
+        out["n_train"], out["n_test"] = int(len(y)), int(len(yt))
+        out["compare"] = {c: evaluate_split(X, y, Xt, yt, classifier=c, seed=seed)[0].rate
+                          for c in other}
+        eval_feats, eval_y = feats_t, yt
+    out.update(rep.to_dict())
+    out.pop("n", None)
+    nc = Counter(lab for f, lab in zip(eval_feats, eval_y.tolist()) if not f.contact)
+    out["no_contact"] = {lab: int(nc.get(lab, 0)) for lab in rep.labels}
+    return out, rep
 
 
 # ----------------------------------------------------------------------------- recognition
