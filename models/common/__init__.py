@@ -5,7 +5,7 @@ from mmlearn._lazy import lazy_exports
 #: submodule -> the public names it defines (imported on first use)
 _EXPORTS = {
     "camera": ["PinholeIntrinsics", "valid_depth_mask", "as_depth_image", "depth_to_points"],
-    "config": ["param", "validate_fields", "field_spec"],
+    "config": ["param", "validate_fields", "field_spec", "validate_tree"],
     "depth_noise": ["DepthNoiseConfig", "apply_depth_noise", "predicted_depth_std", "incidence_cosine", "projector_shadow"],
     "fileio": ["atomic_write_text"],
     "gp": ["GaussianProcess"],
@@ -71,6 +71,7 @@ __all__ = [
     "trial_id",
     "valid_depth_mask",
     "validate_fields",
+    "validate_tree",
 ]
 
 __getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
