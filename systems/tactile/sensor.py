@@ -101,6 +101,8 @@ class TactileSensor(LeafSystem):
             raise ValueError(f"TactileSensor: rate_hz must be > 0, got {rate_hz}")
         if not (np.isfinite(noise) and noise >= 0):
             raise ValueError(f"TactileSensor: noise must be >= 0, got {noise}")
+        if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+            raise ValueError(f"TactileSensor: seed must be an integer >= 0, got {seed!r}")
         self._pads = pads
         self._rate, self._noise, self._seed = rate_hz, noise, int(seed)
         self._sizes = [p.layout.rows * p.layout.cols for p in pads]
