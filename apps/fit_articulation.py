@@ -50,6 +50,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import sys
 import time
 
@@ -59,7 +60,9 @@ from mmlearn.apps.common.cli import (ArgumentParser, UsageError, check_out_file,
                                      json_clean, nonneg_int, pos_float, pos_int)
 from mmlearn.apps.common.cli import save_figure
 from mmlearn.models.articulation.link import ObservationModel, make_model
-from mmlearn.models.articulation.structure import DEFAULT_CANDIDATES, select_link_model
+from mmlearn.models.articulation.structure import (DEFAULT_CANDIDATES, select_link_model,
+                                                  track_scale_problem)
+from mmlearn.models.common.progress import progress as progress_iter
 from mmlearn.models.perception.tracking import (align_track, axis_errors, cross_validated_errors,
                                                 rectangles_from_poses, subsampled_selection)
 from mmlearn.models.common.track_io import (TRACK_SUFFIXES, TrackFileError, find_track_files,
@@ -70,6 +73,9 @@ __all__ = ["run", "main", "fit_track"]
 
 def fit_track(poses, *, obs: ObservationModel, models=DEFAULT_CANDIDATES, rng=None):
     """Select a link model for one track; returns (result dict, LinkSelection)."""
+    problem = track_scale_problem(poses, obs.sigma_pos)
+    if problem:
+        raise ValueError(problem)
     t0 = time.perf_counter()
     sel = select_link_model(poses, models=models, obs=obs, rng=rng)
     dt = time.perf_counter() - t0
@@ -119,9 +125,7 @@ def run(paths, *, sigma_pos: float = 0.01, sigma_orient: float = float(np.deg2ra
     selections = []
     it = files
     if progress and len(files) > 1:
-        from tqdm import tqdm
-
-        it = tqdm(files, desc="fitting tracks", unit="track", file=log)
+        it = progress_iter(files, desc="fitting tracks", unit="track")
     for f in it:
         try:
             tr = read_track(f)
@@ -289,6 +293,9 @@ def main(argv=None) -> int:
             except ValueError as e:
                 raise UsageError(f"--expect: {e}") from None
         check_out_file("--plot", args.plot)
+        for path in args.paths:
+            if not os.path.exists(path):
+                raise UsageError(f"{path}: file or folder not found")
         files = find_track_files(args.paths)
         if not files:
             raise UsageError(f"no track files (*{', *'.join(TRACK_SUFFIXES)}) in "
