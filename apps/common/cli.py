@@ -102,7 +102,10 @@ def load_config(path: str | Path, cls):
                          "damaged?)") from None
     try:
         doc = yaml.safe_load(text)
-        if doc is not None and not isinstance(doc, dict):
+        if doc is None:
+            raise ValueError("the file is empty (no key: value lines; leave --config out "
+                             "for the defaults)")
+        if not isinstance(doc, dict):
             raise ValueError(f"expected a mapping of {cls.__name__} keys to values, got "
                              f"{type(doc).__name__}")
         _check_config_types(doc, cls, "")
