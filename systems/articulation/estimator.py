@@ -127,8 +127,13 @@ class ArticulationEstimator(LeafSystem):
         super().__init__()
         if mode not in ("markers", "pose"):
             raise ValueError(f"mode must be 'markers' or 'pose', got {mode!r}")
-        if not period > 0:
-            raise ValueError(f"period must be positive, got {period}")
+        if (not isinstance(period, (int, float, np.integer, np.floating))
+                or isinstance(period, bool) or not (np.isfinite(period) and period > 0)):
+            raise ValueError(f"period must be a finite number > 0 s, got {period!r}")
+        if not all(isinstance(v, (int, np.integer)) and not isinstance(v, bool)
+                   for v in (refit_every, min_observations, max_observations)):
+            raise ValueError("refit_every, min_observations and max_observations must be "
+                             "integers")
         if refit_every < 1 or min_observations < 3 or max_observations < min_observations:
             raise ValueError("need refit_every >= 1, min_observations >= 3 and "
                              "max_observations >= min_observations")
