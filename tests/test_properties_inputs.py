@@ -299,3 +299,35 @@ def test_grasp_config_arguments(changes):
     event("valid")
     assert cfg.time_step <= 1.0 / cfg.sensor_rate and cfg.time_step <= cfg.duration
     assert all(math.isfinite(getattr(cfg, k)) for k in ("kp", "kd", "f_target", "duration"))
+
+
+@pytest.mark.slow
+@settings(suppress_health_check=list(HealthCheck))
+@given(n=st.integers(1, 12), x=st.floats(allow_nan=True, allow_infinity=True),
+       frame=st.integers(0, 10**6))
+def test_marker_sensor_observes_any_number_of_body_poses(n, x, frame):
+    """Fewer or more body poses than the plant has bodies, at any position: an
+    observation (nothing seen when it cannot be computed), never an exception."""
+    import warnings
+
+    from pydrake.common.value import AbstractValue
+    from pydrake.math import RigidTransform
+
+    from mmlearn.systems import MarkerSensor
+
+    if "sensor" not in _DOCS:
+        from test_construction_checks import _arm
+
+        plant, arm = _arm()
+        _DOCS["sensor"] = (plant, MarkerSensor(plant=plant, model_instance=arm))
+    plant, sensor = _DOCS["sensor"]
+    ctx = sensor.CreateDefaultContext()
+    poses = [RigidTransform([x, 0.0, 1.0])] * n
+    sensor.get_body_poses_input_port().FixValue(ctx, AbstractValue.Make(poses))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        obs = sensor.observe(ctx, frame=frame)
+    assert len(obs.marker_ids) == len(sensor.marker_ids)
+    if n < plant.num_bodies():
+        assert not np.any(obs.visible)
+        event("too few poses: nothing seen")
