@@ -120,3 +120,41 @@ def truncation_counts(path, loader, canonical) -> dict:
     finally:
         path.write_bytes(data)
     return out
+
+
+def _without_checksum(path):
+    """Rewrite ``path`` as the format's version 1 (no checksum: the field checks only)."""
+    import json
+    from pathlib import Path
+
+    import yaml
+
+    path = Path(path)
+    yaml_file = path.suffix in (".yaml", ".yml")
+    doc = yaml.safe_load(path.read_text()) if yaml_file else json.loads(path.read_text())
+    doc.pop("checksum", None)
+    doc["version"] = 1
+    path.write_text(yaml.safe_dump(doc, sort_keys=False, default_flow_style=None, width=100)
+                    if yaml_file else json.dumps(doc))
+
+
+def main() -> None:  # pragma: no cover - the figures of docs/reliability_inputs.md
+    """Print the truncation counts of every saved file type, with the checksum and (for
+    comparison) with the field checks alone."""
+    import json
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as d:
+        files = write_saved_files(d)
+        for name, (path, loader, canonical) in files.items():
+            c = truncation_counts(path, loader, canonical)
+            c.pop("examples")
+            _without_checksum(path)
+            v1 = truncation_counts(path, loader, canonical)
+            print(json.dumps({"file": name, **c,
+                              "without_checksum_different": v1["different"],
+                              "without_checksum_crash": v1["crash"]}))
+
+
+if __name__ == "__main__":  # pragma: no cover
+    main()
