@@ -67,6 +67,8 @@ class RenderFrontsConfig:
         for k in ("fronts", "distances", "angles_deg"):
             if not getattr(self, k):
                 raise ValueError(f"RenderFrontsConfig: {k} must not be empty")
+        for d in self.distances:
+            self.scene.check_distance(d, "distance")
         return self
 
 

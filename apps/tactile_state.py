@@ -531,11 +531,11 @@ class TactileState(Experiment):
                              "author)")
         ap.add_argument("--folds", type=pos_int, default=10,
                         help="cross-validation folds without --test (default 10)")
-        ap.add_argument("--contact-level", type=pos_float, default=CONTACT_LEVEL,
+        ap.add_argument("--contact-level", type=pos_float, default=None,
                         metavar="COUNTS",
                         help=f"contact threshold F on a finger's highest taxel pressure, sensor "
                              f"counts (default {CONTACT_LEVEL:g})")
-        ap.add_argument("--rest-velocity", type=pos_float, default=REST_VELOCITY, metavar="RAD",
+        ap.add_argument("--rest-velocity", type=pos_float, default=None, metavar="RAD",
                         help=f"rest threshold V on the closure rate, rad per slice (default "
                              f"{REST_VELOCITY:.4f})")
         ap.add_argument("--steady-average", action="store_true",
@@ -596,6 +596,15 @@ class TactileState(Experiment):
                              "the real data were recorded with the iCub's own controller")
         if sim and args.test is not None:
             raise UsageError("--test applies to real-data mode only")
+        for flag, value in (("--contact-level", args.contact_level),
+                            ("--rest-velocity", args.rest_velocity)):
+            if sim and value is not None:
+                raise UsageError(f"{flag} applies to real-data mode only (the simulation "
+                                 f"uses {SIM_CONTACT_FORCE:g} N and {SIM_REST_VELOCITY:g} m/s)")
+        if args.contact_level is None:
+            args.contact_level = CONTACT_LEVEL
+        if args.rest_velocity is None:
+            args.rest_velocity = REST_VELOCITY
         if args.report_only and not sim:
             raise UsageError("--report-only applies to simulation mode only (the real-data "
                              "mode runs no trials)")

@@ -81,7 +81,9 @@ def save_figure(fig, path, **kw) -> Path:
 
 def load_config(path: str | Path, cls):
     """Load a dataclass config from YAML with Drake's typed loader (misspelled keys are
-    errors naming the key)."""
+    errors naming the key) and check every value (:func:`validate_tree`: types, choices,
+    bounds, finite numbers, nested configs). Raises ``ValueError("<path>: <key>: ...")``
+    (``FileNotFoundError`` for a missing file)."""
     from pydrake.common.yaml import yaml_load_typed
 
     import yaml
@@ -91,9 +93,25 @@ def load_config(path: str | Path, cls):
         raise FileNotFoundError(f"config file not found: {path}")
     if not path.is_file():
         raise ValueError(f"{path}: not a file")
+    from mmlearn.models.common.config import validate_tree
+
     try:
-        _check_config_types(yaml.safe_load(path.read_text()), cls, "")
-        return yaml_load_typed(schema=cls, filename=str(path))
+        text = path.read_bytes().decode("utf-8")
+    except UnicodeDecodeError as e:
+        raise ValueError(f"{path}: not a text file (byte {e.start} is not UTF-8; binary or "
+                         "damaged?)") from None
+    try:
+        doc = yaml.safe_load(text)
+        if doc is None:
+            raise ValueError("the file is empty (no key: value lines; leave --config out "
+                             "for the defaults)")
+        if not isinstance(doc, dict):
+            raise ValueError(f"expected a mapping of {cls.__name__} keys to values, got "
+                             f"{type(doc).__name__}")
+        _check_config_types(doc, cls, "")
+        # every field's allowed values (choices, bounds, finite), nested configs included:
+        # an unknown value such as ``front: toaster`` is an error, never ignored
+        return validate_tree(yaml_load_typed(schema=cls, filename=str(path)))
     except yaml.YAMLError as e:
         raise ValueError(f"{path}: not valid YAML ({' '.join(str(e).split())})") from None
     except AssertionError as e:

@@ -228,6 +228,16 @@ def _check_config(cfg: LearnBodySchemaConfig) -> None:
         raise ValueError(f"samples must be >= 1, got {cfg.samples}")
     if not (math.isfinite(cfg.noise) and cfg.noise >= 0):
         raise ValueError(f"noise must be >= 0 m, got {cfg.noise}")
+    from mmlearn.systems.common.marker_sensor import MarkerSensorConfig
+
+    ws = MarkerSensorConfig()
+    side = float(np.min(np.subtract(ws.workspace_max, ws.workspace_min)))
+    if cfg.noise >= side:
+        raise ValueError(f"noise {cfg.noise:g} m is not smaller than the workspace the markers "
+                         f"move in ({side:g} m, its smallest side): every observation would "
+                         "be noise")
+    if not (math.isfinite(cfg.noise_orient_deg) and 0 <= cfg.noise_orient_deg <= 180):
+        raise ValueError(f"noise_orient_deg must be in [0, 180] deg, got {cfg.noise_orient_deg}")
     if cfg.n_test < 1 or cfg.n_control < 0 or not cfg.control_time > 0:
         raise ValueError("need n_test >= 1, n_control >= 0, control_time > 0")
     if cfg.camera_depth not in CAMERA_DEPTHS:

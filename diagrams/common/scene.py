@@ -75,7 +75,15 @@ class SceneConfig:
     failure_joints: bool = param(False)
 
     def validate(self) -> None:
+        """Raise ``ValueError`` naming the first bad field (and a plant time step longer
+        than a marker frame: the sensor would see a plant that has not moved)."""
         validate_fields(self)
+        self.sensor.validate()
+        period = 1.0 / self.sensor.rate_hz
+        if self.time_step > period:
+            raise ValueError(f"SceneConfig: time_step {self.time_step:g} s is longer than a "
+                             f"marker frame ({period:g} s at sensor.rate_hz "
+                             f"{self.sensor.rate_hz:g} Hz)")
 
     def resolved_tool(self) -> str:
         if self.tool != "auto":

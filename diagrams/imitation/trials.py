@@ -87,6 +87,24 @@ def _min_clearance(query, mine, obst) -> tuple[float, object]:
     return d, who
 
 
+#: the observed objects a task's evaluation reads from the demonstrations
+TASK_NEEDS = {"pick_place": ("cup", "table_b")}
+
+
+def _check_task(demo_list, task: str, path) -> None:
+    """ValueError (naming the file) unless the loaded demonstrations are of ``task``: their
+    ``meta["task"]`` (when recorded) and the objects the task's evaluation needs."""
+    for i, d in enumerate(demo_list):
+        got = d.meta.get("task") if isinstance(d.meta, dict) else None
+        if got is not None and got != task:
+            raise ValueError(f"{path}: demonstration {i} is of task {got!r}, not {task!r} "
+                             "(give --task or another file)")
+        missing = [o for o in TASK_NEEDS.get(task, ()) if o not in d.objects]
+        if missing:
+            raise ValueError(f"{path}: demonstration {i} lacks the object(s) "
+                             f"{', '.join(missing)} the {task} task needs")
+
+
 def _demonstrations(task, demos, seed, demos_file, placement):
     from mmlearn.models.imitation.types import load_demonstrations
 
@@ -96,6 +114,7 @@ def _demonstrations(task, demos, seed, demos_file, placement):
         demo_list = load_demonstrations(demos_file)
         if not demo_list:
             raise ValueError(f"{demos_file}: holds no demonstration")
+        _check_task(demo_list, task, demos_file)
         return demo_list
     if demos < 1:
         raise ValueError(f"demos must be >= 1, got {demos}")

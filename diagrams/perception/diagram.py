@@ -214,12 +214,30 @@ class FrontPerceptionConfig:
         self.motion.validate()
         self.camera.validate()
         self.noise.validate()
+        self.check_distance(self.camera.distance, "camera.distance")
         limit = self.kitchen.door_limit if self.front == "door" else self.kitchen.drawer_limit
         if self.motion.opening(self.front) > limit + 1e-12:
             raise ValueError(f"FrontPerceptionConfig: the {self.front} opens to "
                              f"{self.motion.opening(self.front):.4g} beyond its joint limit "
                              f"{limit:.4g} (kitchen.{self.front}_limit)")
         return self
+
+
+    def camera_range(self) -> float:
+        """The farthest depth the camera measures, m: its ``z_far`` and, with noise, the
+        noise model's ``max_range``."""
+        far = float(self.camera.z_far)
+        return min(far, float(self.noise.max_range)) if self.add_noise else far
+
+    def check_distance(self, distance: float, name: str = "distance") -> None:
+        """Raise ``ValueError`` when a camera ``distance`` (m) to the front leaves the front
+        beyond the camera's range (every pixel of it would be missing)."""
+        far = self.camera_range()
+        if not float(distance) < far:
+            what = ("noise.max_range" if self.add_noise and far < self.camera.z_far
+                    else "camera.z_far")
+            raise ValueError(f"{name} {float(distance):g} m is beyond the camera's range "
+                             f"{far:g} m ({what}): the front would not be seen")
 
 
 @dataclass

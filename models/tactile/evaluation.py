@@ -53,6 +53,12 @@ def icub_features(trials, *, contact_level, rest_velocity, steady_average):
     counts), ``rest_velocity`` (rad per slice) and ``steady_average`` as
     :func:`~mmlearn.models.tactile.state.extract_grasp_features`."""
     grasps = [t.to_grasp() for t in trials]
+    peaks = [float(np.max(g.finger_force)) for g in grasps if g.finger_force is not None
+             and g.finger_force.size]
+    if peaks and contact_level >= max(peaks):
+        raise TactileDataError(f"contact level {contact_level:g} counts is above the highest "
+                               f"finger pressure in any of the {len(grasps)} grasps "
+                               f"({max(peaks):g} counts): no grasp would make contact")
     X, feats = feature_matrix(grasps, contact_force=contact_level, rest_velocity=rest_velocity,
                               steady_average=steady_average)
     y = np.array([t.label for t in trials])
