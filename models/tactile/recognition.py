@@ -303,13 +303,14 @@ def k_medoids(D: np.ndarray, k: int, *, max_iter: int = 100) -> np.ndarray:
 class TactileRecognizer:
     """The learned vocabulary and codebook (fit with :meth:`fit`).
 
-    Attributes (after fitting):
+    Attributes:
+        (set by :meth:`fit`)
         config: the parameters.
         classes: (n,) class names, the order of every class axis.
         centres: the vocabulary, a TactileSet of the k medoid observations.
         codebook: (n, k) class histograms H (rows sum to 1).
-        s_tac, s_w: the normalising standard deviations of Eq. 6.3 (tactile: L1 units,
-            width: metres).
+        s_tac: the normalising standard deviation of Eq. 6.3 of the tactile part, L1 units.
+        s_w: the normalising standard deviation of Eq. 6.3 of the width, metres.
         length_scale: l used in Eq. 6.4.
         clustering_used: the clustering that ran ("kmedoids", "medoids" or "agglomerative").
     """
