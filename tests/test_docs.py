@@ -74,3 +74,33 @@ def test_docs_build_without_warnings_and_list_every_system(tmp_path):
     for page in ("getting_started", "conventions", "sweeps", "data_formats", "articulation",
                  "body_schema", "perception", "tactile", "imitation"):
         assert (out / f"{page}.html").is_file(), page
+
+
+def test_results_tables_are_generated_from_the_results_files():
+    """The committed tables are exactly what docs/make_tables.py makes of docs/results/."""
+    spec = importlib.util.spec_from_file_location("make_tables", DOCS / "make_tables.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    assert mod.main(["--check"]) == 0, "run: python docs/make_tables.py"
+    for page in mod.PAGES:
+        text = (DOCS / f"{page}.md").read_text()
+        assert f"results/tables/{page}.md" in text, page
+
+
+
+def test_a_changed_results_file_makes_the_tables_stale(tmp_path, monkeypatch):
+    import json
+    import shutil
+    spec = importlib.util.spec_from_file_location("make_tables", DOCS / "make_tables.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    results = tmp_path / "results"
+    shutil.copytree(DOCS / "results", results)
+    monkeypatch.setattr(mod, "RESULTS", results)
+    monkeypatch.setattr(mod, "TABLES", results / "tables")
+    assert mod.main(["--check"]) == 0
+    lasa = json.loads((results / "lasa.json").read_text())
+    lasa["shapes"][0]["rmse_mm"] += 1.0
+    (results / "lasa.json").write_text(json.dumps(lasa))
+    assert mod.main(["--check"]) == 1
+    assert mod.main([]) == 0 and mod.main(["--check"]) == 0
