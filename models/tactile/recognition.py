@@ -21,7 +21,7 @@ the finger), the grasp height h (m) and the finger distance w (m)
    medoid updates; numpy only) or ``"agglomerative"`` (scikit-learn's average-linkage
    clustering on the precomputed matrix, then the medoid of each cluster). ``"auto"`` uses
    kmedoids when it imports, else ``"medoids"``: average linkage spends medoids on outlying
-   single grasps (40 simulated grasps per class: 83.8 % against 88.0 % with kmedoids, README).
+   single grasps (40 simulated grasps per class: 83.8 % against 88.0 % with kmedoids).
    benchmarks/bench_tactile_recognition.py measures them.
 3. **Codebook** (Eq. 6.4): ``h_c,i = sum over the training z of class c of exp(-dist(mu_i, z) /
    l)``, normalised to sum 1 (``l``: length scale in the normalised distance; default
