@@ -123,9 +123,9 @@ def body_schema() -> str:
     if d:
         rows = [["structure right", _fmt(d.get("structure_correct")), "yes"],
                 ["samples until the structure was right", _fmt(d.get("converged_at"), 0), "about 10 (7-DOF)"],
-                ["prediction error", _fmt(d.get("prediction_error_m"), 4, " m"), "below the observation noise"],
-                ["observation noise", _fmt(d.get("observation_noise_m"), 4, " m"), "-"],
-                ["control error", _fmt(d.get("control_error_m"), 4, " m"), "-"]]
+                ["prediction error", _fmt(d.get("pred_error_m"), 4, " m"), "below the observation noise"],
+                ["observation noise", _fmt(d.get("obs_noise_m"), 4, " m"), "-"],
+                ["control error", _fmt(d.get("ctrl_error_m"), 4, " m"), "-"]]
         parts.append("**2-DOF arm, 50 babbling samples, marker noise 0.044 m** (Sec. 3.4)\n\n" +
                      _table(["measure", "here", "thesis"], rows))
     return "\n\n".join(parts + [_source("body_schema.json")])
@@ -135,11 +135,15 @@ def perception() -> str:
     d = _load("fronts.json")
     parts = []
     if d:
-        rows = [["detection rate (front in view)", _fmt(d.get("detection_rate"), 2), "about 0.9 (Fig. 5.9)"],
-                ["selected model", _fmt(d.get("selected_model")), "prismatic"],
-                ["position error", _fmt(d.get("position_error_m"), 4, " m"), "0.01 m (PR2 drawer)"],
-                ["orientation error", _fmt(d.get("orient_error_deg"), 2, " deg"), "7 deg (PR2 drawer)"]]
-        parts.append("**A drawer opening in front of the depth camera** (Sec. 5.2)\n\n" +
+        rows = [["detection rate (front wholly in view, < 70 deg incidence)",
+                 _fmt(d.get("detection_rate_eligible"), 2), "> 0.75 up to 2.2 m (Fig. 5.8)"],
+                ["position error of the found front", _fmt(d.get("pos_error_m"), 4, " m"),
+                 "< 0.015 m (Fig. 5.8)"],
+                ["orientation error", _fmt(d.get("orient_error_deg"), 2, " deg"), "-"],
+                ["model of the moving front's track", _fmt(d.get("selected_model")), "prismatic"],
+                ["right from observation n", _fmt(d.get("model_right_from")), "-"]]
+        parts.append("**A drawer opening in front of the depth camera**" +
+                     (f" ({d['distance']} m away)" if "distance" in d else "") + " (Sec. 5.2)\n\n" +
                      _table(["measure", "here", "thesis"], rows))
     return "\n\n".join(parts + [_source("fronts.json")])
 

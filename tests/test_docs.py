@@ -104,3 +104,14 @@ def test_a_changed_results_file_makes_the_tables_stale(tmp_path, monkeypatch):
     (results / "lasa.json").write_text(json.dumps(lasa))
     assert mod.main(["--check"]) == 1
     assert mod.main([]) == 0 and mod.main(["--check"]) == 0
+
+
+def test_articulation_page_model_snippet_runs(capsys):
+    """The articulation page's model example (no diagram) runs and finds the door revolute."""
+    text = (DOCS / "articulation.md").read_text()
+    code = re.search(r"## Model API.*?```python\n(.*?)```", text, re.S).group(1)
+    ns: dict = {}
+    exec(compile(code, "articulation.md", "exec"), ns)
+    assert ns["sel"].selected == "revolute"
+    assert abs(ns["sel"].best.summary()["params"]["radius_m"] - 0.4) < 0.03
+    assert ns["obj"].summary()["edges"][0]["model"] == "revolute"
