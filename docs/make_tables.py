@@ -54,7 +54,9 @@ def _fmt(x, digits: int = 3, unit: str = "") -> str:
         return "-"
     if isinstance(x, bool):
         return "yes" if x else "no"
-    if isinstance(x, (int, float)):
+    if isinstance(x, int):
+        return f"{x}{unit}"
+    if isinstance(x, float):
         return f"{x:.{digits}f}{unit}"
     return str(x)
 
@@ -107,12 +109,17 @@ def articulation() -> str:
     if op:
         rows = []
         for t in op.get("trials", []):
+            unit = t.get("unit", "")
             rows.append([t.get("object", "-"), t.get("seed", "-"), _fmt(t.get("success")),
-                         t.get("final_model", "-"), _fmt(t.get("opened"), 2),
-                         _fmt(t.get("radius_error_m"), 3, " m")])
+                         t.get("learned_model", "-"), _fmt(t.get("right_kind")),
+                         _fmt(t.get("opened"), 1 if unit == "deg" else 3, f" {unit}"),
+                         _fmt(t.get("radius_error_m"), 3, " m"),
+                         _fmt(t.get("axis_error_deg"), 1, " deg")])
         parts.append("**Opening doors and drawers** (Sec. 4.4.2; thesis: 37 of 40 opened)\n\n" +
-                     _table(["object", "seed", "opened", "final model", "opening (deg or m)",
-                             "radius error"], rows))
+                     _table(["object", "seed", "opened", "learned model", "right kind",
+                             "opening", "radius error", "axis error"], rows) +
+                     f"\n\nsigma_pos {op.get('sigma_pos')} m, base-localisation noise x"
+                     f"{op.get('base_noise')}; thesis: door radii within 0.02 m.")
     return "\n\n".join(parts + [_source("fit_articulation_sigma001.json",
                                         "fit_articulation_sigma002.json", "operate.json")])
 
@@ -143,7 +150,7 @@ def perception() -> str:
                 ["model of the moving front's track", _fmt(d.get("selected_model")), "prismatic"],
                 ["right from observation n", _fmt(d.get("model_right_from")), "-"]]
         parts.append("**A drawer opening in front of the depth camera**" +
-                     (f" ({d['distance']} m away)" if "distance" in d else "") + " (Sec. 5.2)\n\n" +
+                     (f" ({d['distance_m']} m away, {d.get('frames')} frames)" if "distance_m" in d else "") + " (Sec. 5.2)\n\n" +
                      _table(["measure", "here", "thesis"], rows))
     return "\n\n".join(parts + [_source("fronts.json")])
 
@@ -199,6 +206,8 @@ def run_experiments() -> None:
     env = dict(os.environ, OPENBLAS_NUM_THREADS="1")
     for name, cmd in COMMANDS.items():
         argv = [sys.executable] + cmd.split()[1:]
+        if "--results" in argv:  # a fresh sweep: an old results file would only be resumed
+            (ROOT / argv[argv.index("--results") + 1]).unlink(missing_ok=True)
         print(f"+ {cmd}", flush=True)
         r = subprocess.run(argv, cwd=ROOT, env=env, capture_output=True, text=True)
         try:
