@@ -184,7 +184,8 @@ def imitation() -> str:
     if r:
         rows = [["success", _fmt(r.get("success"))],
                 ["place error", _fmt(r.get("place_error_m"), 3, " m")],
-                ["learning time", _fmt(r.get("learn_seconds"), 3, " s")]]
+                ["cup upright on table B", _fmt(r.get("cup_on_table_b"))],
+                ["learning time (4 demonstrations)", _fmt(r.get("learn_seconds"), 3, " s")]]
         parts.append("**Pick-and-place from 4 demonstrations** (Sec. 8.4; thesis: succeeds "
                      "from 4 demonstrations, also with swapped tables)\n\n" +
                      _table(["measure", "here"], rows))
