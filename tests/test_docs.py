@@ -115,3 +115,19 @@ def test_articulation_page_model_snippet_runs(capsys):
     assert ns["sel"].selected == "revolute"
     assert abs(ns["sel"].best.summary()["params"]["radius_m"] - 0.4) < 0.03
     assert ns["obj"].summary()["edges"][0]["model"] == "revolute"
+
+
+@pytest.mark.slow
+def test_articulation_page_system_snippet_learns_the_door(tmp_path):
+    """The articulation page's MarkerSensor + ArticulationEstimator program, as a user runs it."""
+    text = (DOCS / "articulation.md").read_text()
+    code = re.search(r"## Systems.*?```python\n(.*?)```", text, re.S).group(1)
+    script = tmp_path / "door.py"
+    script.write_text(code.replace("print(model.summary())", "print(repr(model.summary()))"))
+    r = subprocess.run([sys.executable, str(script)], cwd=tmp_path, capture_output=True,
+                       text=True, timeout=600)
+    assert r.returncode == 0, r.stderr[-2000:]
+    summary = eval(r.stdout.strip().splitlines()[-1], {"inf": float("inf")})
+    edge = summary["edges"][0]
+    assert edge["model"] == "revolute"
+    assert abs(edge["params"]["radius_m"] - 0.34) < 0.05
