@@ -32,8 +32,7 @@ Scoring (printed, and in ``--json``):
   cabinet face by that much;
 * ``detection_rate_eligible_open``: over the eligible frames in which the front stands out of
   the closed cabinet face by at least ``open_displacement_m`` (0.02 m): the opened front only
-  (the earlier eligibility rule, written when closed fronts, flush with their neighbours
-  behind a 5 mm reveal, could not be found);
+  (closed fronts, flush with their neighbours behind a 5 mm reveal, left out);
 * ``pos_error_m`` / ``orient_error_deg``: mean over the frames in which it was found of the
   found rectangle's centre distance / rotation angle to the true pose of the face the camera
   sees (the best match of the frame): the outer face, or the inner face (``front_thickness``

@@ -301,7 +301,7 @@ def test_held_offset_correction_places_the_held_object_not_the_hand():
 def test_global_plan_points_cover_the_forearm_between_the_body_points():
     """The global plan checks the arm every <= 5 cm (PLAN_BODY_POINTS): a thin box across the
     forearm halfway between two BODY_POINTS, more than the 6 cm plan clearance from every one
-    of them, is seen by the plan points (issue 15, U obstacle: the forearm grazed the U)."""
+    of them, is seen by the plan points (U obstacle: the forearm grazed the U)."""
     from mmlearn.models.imitation.types import Obstacle
 
     im = _reach()

@@ -181,7 +181,7 @@ def test_track_fronts_draws_in_meshcat(tmp_path):
 
 
 def test_perception_experiments_distances_and_angles(capsys):
-    """--distances / --angles replace the default grids (distances not tuned on); bad lists
+    """--distances / --angles replace the default grids; bad lists
     exit 2 naming the flag."""
     from mmlearn.apps.perception_experiments import DISTANCES, main, trial_specs
 

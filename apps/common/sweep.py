@@ -314,7 +314,7 @@ def _run_local(todo: list[dict], *, jobs: int, shared):
 # drawer trials, each run alternately in a spawn-pool worker, in a Ray worker and in a child of
 # a Ray worker): the trial's own CPU time was 8-14 % higher inside the Ray worker process and
 # equal (-3 % .. +4 %) in its child, with the same niceness (15, Ray's worker_niceness), the
-# same environment and imports; see the README, "Running large sweeps".
+# same environment and imports; see docs/sweeps.md.
 _RAY_CHILD: dict = {}  # this Ray worker's trial process: {"key": shared ref, "pool": executor}
 
 

@@ -1,5 +1,5 @@
 """The robot looks at the cabinet before opening it: a depth camera on its head, the
-FrontDetector, and the handle derived from the detected front (issue 12 item 8).
+FrontDetector, and the handle derived from the detected front.
 
 :func:`LookAtFront` builds the opening scene (:func:`~mmlearn.diagrams.common.scene.MakeSceneDiagram`:
 the mobile robot with its hook arm and the mechanism) with an ``RgbdSensor`` mounted on the

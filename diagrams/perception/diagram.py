@@ -90,7 +90,7 @@ class DepthCameraConfig:
         width, height_px: image size, pixels.
         fov_x_deg: horizontal field of view, deg (the Kinect's: 58).
         distance: camera centre to target, m (the thesis' experiments: 0.8-2.8).
-        angle_deg: azimuth off the front's normal, deg (|angle| <= 80).
+        angle_deg: azimuth off the front's normal, deg (``|angle| <= 80``).
         elevation_deg: how far above the target the camera is, as an angle, deg (used when
             ``height`` is None).
         height: camera height above the floor, m, or None (then ``elevation_deg`` sets it).

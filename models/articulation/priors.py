@@ -20,8 +20,7 @@ partial trajectory (the first 40 % of a door's opening) is then not charged for 
 the range it never reached when it is scored under a cluster's model. Eq. 4.27's literal
 n^-d made merging impossible (pooling n1 + n2 observations costs
 (n1 + n2) d log(n1 + n2) - n1 d log n1 - n2 d log n2 > 0 nats even for a perfect joint fit;
-~70 nats per pair of Cody drawers against ~20 saved by the shared parameters), so mmlearn
-left it out of the merge test before 2026-11; n_eff, the number of configurations the noise
+~70 nats per pair of Cody drawers against ~20 saved by the shared parameters); n_eff, the number of configurations the noise
 resolves over a visit's range, does not grow with more visits.
 
 The default observation model for priors has sigma_pos = 0.05 m (Cody's base localisation).

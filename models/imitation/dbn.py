@@ -609,7 +609,7 @@ def reproduce_cartesian(model: TaskModel, x0, objects: dict, *, duration: float 
         duration: reproduction length, s (default: the model's duration); the model's time is
             scaled by ``model_duration / duration`` when they differ.
         dt: output period, s (default: the model's slice period).
-        damping, gain, obstacles, **step_kwargs: passed to :func:`constraint_step`.
+        damping, gain, obstacles, step_kwargs: passed to :func:`constraint_step`.
         extra_time: seconds appended after ``duration`` that keep stepping towards the last
             slice (e.g. to finish after a detour around an obstacle).
     Returns:

@@ -275,7 +275,7 @@ def strategy_trials(rec, train, test, objects, T, rng, *, strategy, Ltr=None, fr
     "informed" / "informed_entropy": each next grasp at the height with the largest expected
     information gain (Eq. 6.12-6.13, :meth:`TactileRecognizer.next_action`) among the heights
     where the object still has an unused test grasp, preferring heights not yet grasped
-    (``fresh=False``: no preference, the first version's rule); estimator "cross_entropy" /
+    (``fresh=False``: no preference); estimator "cross_entropy" /
     "entropy". ``Ltr``: the leave-one-out likelihoods of ``train`` (computed when None)."""
     L = np.log(np.maximum(rec.likelihood(test), 1e-300))
     cls = list(rec.classes)
