@@ -77,7 +77,6 @@ import json, sys, time
 import numpy as np
 import gtsam
 from ripl_articulation import solve_articulation_from_poses
-out = []
 for t in json.load(sys.stdin):
     B = np.array(t["poses"], float)
     A = np.repeat(B[:1], len(B), axis=0)  # the first observation: the reference frame
@@ -85,9 +84,8 @@ for t in json.load(sys.stdin):
     c0 = time.process_time()
     xi, th = solve_articulation_from_poses(
         A, B, pose_noise_model=gtsam.noiseModel.Diagonal.Sigmas(np.array(s)))
-    out.append(dict(xi=np.asarray(xi).tolist(), thetas=np.asarray(th).tolist(),
-                    cpu=time.process_time() - c0))
-json.dump(out, sys.stdout)
+    print(json.dumps(dict(xi=np.asarray(xi).tolist(), thetas=np.asarray(th).tolist(),
+                          cpu=time.process_time() - c0)), flush=True)
 """
 
 
@@ -163,7 +161,8 @@ def run_ours(trs):
 
 
 def run_peer(python, trs, timeout):
-    """The peer's results per track, or (None, why) when it cannot run."""
+    """The peer's results per track (None for the tracks it did not finish within
+    ``timeout``), or (None, why) when it cannot run at all."""
     if not python:
         return None, "no --peer-python given"
     payload = [dict(poses=t["T"].tolist(), pos_sigma=t["sigma"],
@@ -171,18 +170,29 @@ def run_peer(python, trs, timeout):
                for t in trs]
     with tempfile.NamedTemporaryFile("w", suffix=".py", delete=False) as f:
         f.write(PEER_SCRIPT)
+    why = None
     try:
         p = subprocess.run([python, f.name], input=json.dumps(payload), capture_output=True,
                            text=True, timeout=timeout,
                            env=dict(os.environ, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1"))
-    except (OSError, subprocess.TimeoutExpired) as e:
+        lines, err = p.stdout, p.stderr
+        if p.returncode != 0:
+            why = (err.strip().splitlines() or [f"exit status {p.returncode}"])[-1]
+    except subprocess.TimeoutExpired as e:  # keep the tracks it finished
+        lines = e.stdout.decode() if isinstance(e.stdout, bytes) else (e.stdout or "")
+        why = f"stopped after {timeout:.0f} s"
+    except OSError as e:
         return None, f"{type(e).__name__}: {e}"
     finally:
         os.unlink(f.name)
-    if p.returncode != 0:
-        return None, (p.stderr.strip().splitlines() or [f"exit status {p.returncode}"])[-1]
+    done = [json.loads(x) for x in lines.splitlines() if x.startswith("{")]
+    if not done:
+        return None, why or "no output"
     out = []
-    for t, r in zip(trs, json.loads(p.stdout)):
+    for t, r in zip(trs, done + [None] * (len(trs) - len(done))):
+        if r is None:
+            out.append(None)
+            continue
         xi, th = np.array(r["xi"]), np.array(r["thetas"])
         R0 = t["T"][0, :3, :3]  # the twist is in the first observation's frame
         w, v = R0 @ xi[:3], R0 @ xi[3:]
@@ -198,6 +208,8 @@ def run_peer(python, trs, timeout):
 def summarise(trs, res):
     rows = {}
     for t, r in zip(trs, res):
+        if r is None:  # (not run)
+            continue
         e = rows.setdefault(t["set"], dict(n=0, right=0, err=[], cpu=[]))
         e["n"] += 1
         e["right"] += int(r["kind"] == t["kind"])
@@ -226,7 +238,9 @@ def main(argv=None):
     ap.add_argument("--seeds", type=int, default=10, help="seeds per joint and sigma")
     ap.add_argument("--n", type=int, default=50, help="poses per synthetic track")
     ap.add_argument("--real-dir", default=REAL_DIR, help="the Cody tracks ('' to skip)")
-    ap.add_argument("--timeout", type=float, default=900.0, help="for the peer's run, s")
+    ap.add_argument("--timeout", type=float, default=3600.0,
+                    help="for the peer's run, s (the tracks it has not finished then are "
+                         "left out of its column)")
     add_output_arguments(ap, quick="2 seeds, no real tracks")
     a = ap.parse_args(argv)
     if a.seeds < 1 or a.n < 5:
@@ -236,13 +250,15 @@ def main(argv=None):
     trs = tracks(a.seeds, a.n, a.real_dir)
     ours = summarise(trs, run_ours(trs))
     peer_res, why = run_peer(a.peer_python, trs, a.timeout)
+    if peer_res is not None and any(r is None for r in peer_res):
+        why = f"{why}: {sum(r is None for r in peer_res)} tracks not run"
     peer = None if peer_res is None else summarise(trs, peer_res)
     figures = {}
     for k, s in ours.items():
         tag = k.replace(" ", "_").replace("=", "")
         figures[f"mmlearn_{tag}_right"] = s["right"] / s["tracks"]
         figures[f"mmlearn_{tag}_cpu_ms"] = s["cpu_ms_median"]
-        if peer is not None:
+        if peer is not None and k in peer:
             figures[f"ripl_{tag}_right"] = peer[k]["right"] / peer[k]["tracks"]
             figures[f"ripl_{tag}_cpu_ms"] = peer[k]["cpu_ms_median"]
     if emit_json(a.json, dict(mmlearn=ours, ripl=peer, ripl_skipped=why, figures=figures)):
@@ -250,10 +266,11 @@ def main(argv=None):
     print(f"{'tracks':26s} | {'mmlearn: right':>13s} {'axis mean/max':>13s} {'CPU ms':>8s} | "
           f"{'ripl: right':>10s} {'axis mean/max':>13s} {'CPU ms':>8s}")
     for k, s in ours.items():
-        print(f"{k:26s} | {_cell(s)}      | {_cell(None if peer is None else peer[k])}")
+        print(f"{k:26s} | {_cell(s)}      | {_cell(None if peer is None else peer.get(k))}")
     print("axis error: deg, of the tracks whose type is right; CPU ms: median per track")
-    if peer is None:
-        print(f"ripl-articulation column skipped: {why}")
+    if why is not None:
+        print(f"ripl-articulation: {why}" if peer is not None
+              else f"ripl-articulation column skipped: {why}")
 
 
 if __name__ == "__main__":
