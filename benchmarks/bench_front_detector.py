@@ -57,11 +57,13 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("MKL_NUM_THREADS", "1")
 
 import argparse
+import atexit
 import glob
 import importlib
 import io
 import json
 import math
+import shutil
 import subprocess
 import sys
 import tarfile
@@ -142,6 +144,7 @@ def load_baseline(rev):
     except (OSError, subprocess.CalledProcessError) as e:
         raise SystemExit(f"--baseline: cannot extract {PKG} at {rev!r} ({e})")
     root = tempfile.mkdtemp(prefix="baseline_detector_")
+    atexit.register(shutil.rmtree, root, ignore_errors=True)
     with tarfile.open(fileobj=io.BytesIO(tar)) as t:
         t.extractall(root, filter="data")
     src = os.path.join(root, PKG)
