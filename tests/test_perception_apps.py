@@ -98,6 +98,19 @@ def test_track_fronts_short_drawer_run(capsys):
     assert len(fa) == 8 and fa[0] == pytest.approx(1.0) and min(fa[1:]) > 8
 
 
+def test_track_fronts_sees_every_camera_frame_by_default():
+    """The default detector frames: one per camera period over the motion (and its start);
+    40 without camera frames between detections."""
+    from mmlearn.apps.track_fronts import every_camera_frame
+    from mmlearn.diagrams.perception.diagram import FrontPerceptionConfig
+
+    sc = FrontPerceptionConfig()
+    n = every_camera_frame(sc, 30.0)
+    assert n == round(30.0 * sc.motion.duration()) + 1 and n > 40
+    assert every_camera_frame(sc, 15.0) == round(15.0 * sc.motion.duration()) + 1
+    assert every_camera_frame(sc, 0.0) == 40 == every_camera_frame(sc, 30.0, False)
+
+
 def test_track_fronts_cli_errors(tmp_path, capsys):
     from mmlearn.apps.track_fronts import main
 
