@@ -119,8 +119,9 @@ def _summary(r: dict) -> str:
         f"(expected {r['expected_model']}; the tracker's own: {r['tracker_selected_model']}), "
         f"right from n = {r['model_right_from']}",
         f"  {r['published_tracks']} published tracks: {r['track_models']}",
-        f"  detector: {f(r['ms_per_frame'], '.1f')} ms per frame (median wall; CPU "
-        f"{f(r['cpu_ms_per_frame'], '.1f')} ms); per stage: "
+        f"  detector: {f(r['ms_per_frame'], '.1f')} ms per frame (median wall"
+        + ("" if r["cpu_ms_per_frame"] is None
+           else f"; CPU {r['cpu_ms_per_frame']:.1f} ms") + "); per stage: "
         + ", ".join(f"{k} {f(v, '.1f')}" for k, v in r["stage_ms"].items()) + " ms",
     ]
     return "\n".join(lines)
