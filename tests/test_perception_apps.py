@@ -178,6 +178,11 @@ def test_track_fronts_draws_in_meshcat(tmp_path):
         r'base64,([A-Za-z0-9+/=]+)"', text))
     assert b"fronts/frames/0" in blob and b"fronts/frames/7" in blob
     assert b"set_animation" in blob and b"visible" in blob
+    # the legend names the moving front's track and its learned model
+    mid = r["moving_track"]["track_id"]
+    assert b"# mmlearn legend: Front perception" in blob
+    assert f"# moving drawer's track {mid} (".encode() in blob
+    assert f"learned {r['tracker_selected_model']}".encode() in blob
 
 
 def test_perception_experiments_distances_and_angles(capsys):
