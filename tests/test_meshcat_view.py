@@ -72,3 +72,20 @@ def test_ellipsoid_stride_draws_about_a_dozen():
         k = ellipsoid_stride(m)
         n = len(range(0, S, k))
         assert k >= 1 and (8 <= n <= 18 if S >= 12 else n == S), (S, k)
+
+
+def test_make_screenshots_names_a_bad_choice(capsys):
+    """docs/make_screenshots.py: one screenshot per capability; an unknown name is bad input
+    (exit 2, one line naming it and the known ones) before anything runs."""
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "docs" / "make_screenshots.py"
+    spec = importlib.util.spec_from_file_location("make_screenshots", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    assert set(mod.SHOTS) == {"door", "drawer", "fronts", "body_schema", "imitation",
+                              "tactile"}
+    assert mod.main(["--only", "door,nope"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--only: unknown nope" in err[0] and "body_schema" in err[0]
