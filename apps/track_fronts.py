@@ -66,7 +66,10 @@ detected rectangles of the current frame (grey), each track's latest rectangle a
 and its learned model (axis and range) in the track's colour
 (:class:`~mmlearn.systems.FrontTrackVisualizer`). The scene's motion is an animation of the
 recording, and so are the rectangles, tracks and models: each camera frame's drawing is shown
-at its time (its own Meshcat group, keyed visible / hidden in the animation).
+at its time (its own Meshcat group, keyed visible / hidden in the animation). A legend
+(:func:`~mmlearn.systems.front_legend`) names each drawn thing: the moving front's track with
+its learned model and numbers, the other tracks' models by kind, the detections, the camera
+and its point cloud.
 """
 
 import json

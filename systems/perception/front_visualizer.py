@@ -15,7 +15,7 @@ from mmlearn.systems.articulation.model_visualizer import draw_link_model
 
 __all__ = ["FrontTrackVisualizer", "front_legend", "track_colour"]
 
-_DETECTION = Rgba(0.85, 0.85, 0.85, 1.0)
+_DETECTION = Rgba(0.45, 0.45, 0.45, 1.0)
 _PALETTE = [(0.1, 0.7, 0.2), (1.0, 0.6, 0.0), (0.6, 0.2, 0.9), (0.0, 0.7, 0.8),
             (0.9, 0.2, 0.5), (0.5, 0.5, 0.1)]
 
@@ -204,5 +204,5 @@ def front_legend(object_name: str, moving_track_id, tracks, models, *,
     rows += [(_DETECTION, "thin", "rectangles detected in the frame shown"),
              (Rgba(0.1, 0.1, 0.8, 1.0), "thin", "depth camera (black box) and its view")]
     if point_cloud:
-        rows.append((Rgba(0.45, 0.45, 0.45, 1.0), "dots", "noisy depth points of that frame"))
+        rows.append((Rgba(0.7, 0.7, 0.7, 1.0), "dots", "noisy depth points of that frame"))
     return "Front perception: detections, tracks, learned models", rows
