@@ -234,13 +234,17 @@ def _frame_and_legend(meshcat, model, demos, objects, hand, rec) -> None:
     from mmlearn.systems.imitation.dbn_visualizer import PALETTE
 
     paths = [np.asarray(d.hand, float) for d in demos] + [np.asarray(hand, float)]
+    # the markers, with room for the bodies around them (tables, cup), and the arm
+    box = np.array([[x, y, z] for x in (-0.15, 0.15) for y in (-0.15, 0.15)
+                    for z in (-0.15, 0.1)])
+    marks = np.array([v for v in objects.values()])
     P = np.concatenate([p[np.all(np.isfinite(p), axis=1)] for p in paths if p.ndim == 2]
-                       + [np.array([v for v in objects.values()]),
-                          [[0.0, 0.0, 0.0], [0.0, 0.0, 0.9]]])  # the arm's base and top
+                       + [(marks[:, None, :] + box[None]).reshape(-1, 3),
+                          [[0.0, 0.0, 0.0], [0.0, 0.0, 1.1]]])  # the arm's base and top
     centre = P.mean(axis=0)
     side = np.cross([0.0, 0.0, 1.0], [centre[0], centre[1], 0.0])
     side = side / (np.linalg.norm(side) or 1.0)
-    frame_camera(meshcat, P, view_from=-side + [0.0, 0.0, 0.8], margin=1.05)
+    frame_camera(meshcat, P, view_from=-side + [0.0, 0.0, 1.0], margin=1.15)
     stride = ellipsoid_stride(model)
     rows = [(Rgba(0.3, 0.3, 0.3, 0.8), "thin", f"{len(demos)} demonstrated hand paths (as "
                                                f"the marker sensor saw them)")]

@@ -361,6 +361,9 @@ def _frame_and_legend(meshcat, parts, root_context, config, grasp) -> None:
             (hi, "box", "taxel cell reading 1 (saturated); a cell rises with its reading"),
             (None, "", f"peak summed pad force {grasp.f[k]:.1f} N at t = {grasp.t[k]:.2f} s, "
                        f"fingers {1000 * grasp.p[k]:.1f} mm apart"),
+            (None, "", "largest cell reading then: " + (", ".join(
+                f"{side} {float(np.max(img[k])):.2f}" for side, img in sorted(grasp.pads.items()))
+                or "no pads")),
             (None, "", f"controller: {config.mode}, {config.f_target:g} N per finger, "
                        f"{config.v_target * 1000:g} mm/s closing")]
     draw_legend(meshcat, f"Tactile grasp of {what}", rows)
