@@ -120,8 +120,12 @@ def main(argv=None) -> int:
             print(f"handle from the depth camera ({r['handle_source']}, front in "
                   f"{r['frames_found']} of {r['look_frames']} frames): error "
                   f"{r['handle_error_m']:.3f} m")
-        print(f"{verdict}: {r['object']} opened {r['opened']:.2f} {r['unit']} "
-              f"({r['outcome']}); learned model: {r['learned_model']}")
+        print(f"{verdict}: {r['object']} opened {r['opened']:.2f} {r['unit']} (the "
+              f"mechanism's largest true opening; {r['outcome']})")
+        span = r.get("model_span")
+        print(f"learned model: {r['learned_model']}"
+              + ("" if span is None else f", fitted to a hook track spanning {span:.2f} "
+                 f"{r['unit']} (the range drawn in the recording)"))
         if r["radius_error_m"] is not None:
             print(f"learned radius {r['radius_m']:.3f} m, true {r['true_radius_m']:.3f} m "
                   f"(error {r['radius_error_m']:.3f} m), axis error "

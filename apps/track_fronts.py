@@ -66,7 +66,10 @@ detected rectangles of the current frame (grey), each track's latest rectangle a
 and its learned model (axis and range) in the track's colour
 (:class:`~mmlearn.systems.FrontTrackVisualizer`). The scene's motion is an animation of the
 recording, and so are the rectangles, tracks and models: each camera frame's drawing is shown
-at its time (its own Meshcat group, keyed visible / hidden in the animation).
+at its time (its own Meshcat group, keyed visible / hidden in the animation). A legend
+(:func:`~mmlearn.systems.front_legend`) names each drawn thing: the moving front's track with
+its learned model and numbers, the other tracks' models by kind, the detections, the camera
+and its point cloud.
 """
 
 import json
@@ -119,8 +122,9 @@ def _summary(r: dict) -> str:
         f"(expected {r['expected_model']}; the tracker's own: {r['tracker_selected_model']}), "
         f"right from n = {r['model_right_from']}",
         f"  {r['published_tracks']} published tracks: {r['track_models']}",
-        f"  detector: {f(r['ms_per_frame'], '.1f')} ms per frame (median wall; CPU "
-        f"{f(r['cpu_ms_per_frame'], '.1f')} ms); per stage: "
+        f"  detector: {f(r['ms_per_frame'], '.1f')} ms per frame (median wall"
+        + ("" if r["cpu_ms_per_frame"] is None
+           else f"; CPU {r['cpu_ms_per_frame']:.1f} ms") + "); per stage: "
         + ", ".join(f"{k} {f(v, '.1f')}" for k, v in r["stage_ms"].items()) + " ms",
     ]
     return "\n".join(lines)

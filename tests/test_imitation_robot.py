@@ -238,8 +238,10 @@ def test_imitate_short_run_from_a_demos_file(capsys, tmp_path):
 
     msgs = b"".join(base64.b64decode(b) for b in
                     re.findall(r"base64,([A-Za-z0-9+/=]+)", html.read_text()))
-    for key in (b"imitation/demonstrations/demo_2", b"imitation/model/target/slice_0000",
-                b"imitation/trail/dot_00005"):
+    for key in (b"imitation/demonstrations/demo_2", b"imitation/model/target/ellipsoids/slice_0000",
+                b"imitation/trail/dot_00005",
+                b"# mmlearn legend: Imitation: obstacle learned from 3 demonstrations",
+                b"# learned hand path relative to the target", b"# reproduction "):
         assert key in msgs, key
 
 

@@ -20,46 +20,20 @@ def make_meshcat(*, announce: bool = True):
     return meshcat
 
 
-def frame_camera(meshcat, points, *, view_from, fov_deg: float = 75.0,
-                 min_aspect: float = 4 / 3, margin: float = 1.1):
-    """Point Meshcat's camera so that every one of ``points`` ((n, 3), world, m) is in view
-    and their image is centred, looking along ``-view_from`` (a world direction from the
-    scene towards the camera, tilted to look down at least a little).
+def frame_camera(meshcat, points, **kw):
+    """:func:`mmlearn.systems.common.meshcat_view.frame_camera` (imported on first use)."""
+    from mmlearn.systems.common.meshcat_view import frame_camera as frame
 
-    ``fov_deg`` is the camera's vertical field of view (Meshcat's default camera: 75 deg);
-    the view is assumed at least ``min_aspect`` wide (width / height); the points fill at
-    most 1 / ``margin`` of it. With the camera's axes fixed (right r, up v, forward f), a
-    point p is in view when ``|(p - C).r| <= tx (p - C).f`` and ``|(p - C).v| <= ty (p -
-    C).f``: linear in the camera position C, so the closest C that sees every point, with
-    the outermost points on opposite edges equally far in, has a closed form. The orbit
-    target is on the view axis at the points' mean depth. Sets the live view and, through
-    Meshcat's scene, every later ``StaticHtml``. Returns ``(camera position, target)``."""
-    import numpy as np
-
-    P = np.asarray(points, float).reshape(-1, 3)
-    u = np.asarray(view_from, float)
-    u = u / np.linalg.norm(u)
-    if u[2] < 0.2:  # look down on the scene, never along or up from the floor
-        u[2] = 0.2
-        u = u / np.linalg.norm(u)
-    f = -u
-    right = np.cross(f, [0.0, 0.0, 1.0])
-    right /= np.linalg.norm(right)
-    up = np.cross(right, f)
-    ty = np.tan(np.radians(fov_deg) / 2) / margin
-    tx = ty * min_aspect
-    a, b, c = P @ right, P @ f, P @ up
-    R, L = np.max(a - tx * b), np.max(-a - tx * b)
-    U, D = np.max(c - ty * b), np.max(-c - ty * b)
-    c_f = min(-(R + L) / (2 * tx), -(U + D) / (2 * ty), float(b.min()) - 0.3)
-    camera = (R - L) / 2 * right + (U - D) / 2 * up + c_f * f
-    target = camera + f * max(float(np.mean(b)) - c_f, 0.3)
-    meshcat.SetCameraPose(camera, target)
-    return camera, target
+    return frame(meshcat, points, **kw)
 
 
 def save_html(meshcat, path: str | Path) -> Path:
-    """Write Meshcat's current scene (with its published recording) as standalone HTML."""
+    """Write Meshcat's current scene (with its published recording) as standalone HTML.
+
+    Meshcat's world-frame axes (red x, green y, blue z lines at the origin, which sits in
+    the scene's furniture) are hidden first: they are not part of any drawing, and every
+    recording's legend names only what the app draws."""
+    meshcat.SetProperty("/Axes", "visible", False)
     return atomic_write_text(path, meshcat.StaticHtml())
 
 

@@ -268,6 +268,11 @@ def _trial_record(op, cfg, run: _Run, *, build_seconds, save_track) -> dict:
               "final_opening": to_unit(q),
               "unit": unit, "outcome": ctrl.outcome or PHASE_NAMES[run.phase]}
     result.update(evaluate_model(link, spec))
+    # the span of the track the final model was fitted to, on that model (what the legend
+    # of the recording shows; "opened" is the mechanism's largest true opening)
+    dof = getattr(link, "dof", 0) if link is not None else 0
+    result["model_span"] = (to_unit(float(link.q_max[0] - link.q_min[0]))
+                            if dof and link.name in ("revolute", "prismatic") else None)
     look = op.look
     used = (look.estimate.handle if look is not None else op.true_task.handle)
     result.update({"perception": cfg.perception, "front_found": True,

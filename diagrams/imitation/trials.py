@@ -238,7 +238,53 @@ def reproduce_task(*, task: str = "pick_place", demos: int = 4, seed: int = 0,
         rec.update(reach_score(run["hand"][-1], objs["target"], demo_list,
                                clearance=clearance))
     rec["objects_start"] = {k: v.tolist() for k, v in objs0.items()}
+    if meshcat is not None:
+        _frame_and_legend(meshcat, model, demo_list, objs0, run["hand"], rec)
     return rec
+
+
+def _frame_and_legend(meshcat, model, demos, objects, hand, rec) -> None:
+    """Frame the arm, the objects and the hand's paths; draw a legend naming the
+    demonstrations, each constraint's learned path and ellipsoids and the reproduction."""
+    from pydrake.geometry import Rgba
+
+    from mmlearn.diagrams.imitation.diagram import ellipsoid_stride
+    from mmlearn.systems.common.meshcat_view import draw_legend, frame_camera
+    from mmlearn.systems.imitation.dbn_visualizer import PALETTE
+
+    paths = [np.asarray(d.hand, float) for d in demos] + [np.asarray(hand, float)]
+    # the markers, with room for the bodies around them (tables, cup), and the arm
+    box = np.array([[x, y, z] for x in (-0.15, 0.15) for y in (-0.15, 0.15)
+                    for z in (-0.15, 0.1)])
+    marks = np.array([v for v in objects.values()])
+    P = np.concatenate([p[np.all(np.isfinite(p), axis=1)] for p in paths if p.ndim == 2]
+                       + [(marks[:, None, :] + box[None]).reshape(-1, 3),
+                          [[0.0, 0.0, 0.0], [0.0, 0.0, 1.1]]])  # the arm's base and top
+    centre = P.mean(axis=0)
+    side = np.cross([0.0, 0.0, 1.0], [centre[0], centre[1], 0.0])
+    side = side / (np.linalg.norm(side) or 1.0)
+    frame_camera(meshcat, P, view_from=-side + [0.0, 0.0, 1.0], margin=1.15)
+    stride = ellipsoid_stride(model)
+    rows = [(Rgba(0.3, 0.3, 0.3, 0.8), "thin", f"{len(demos)} demonstrated hand paths (as "
+                                               f"the marker sensor saw them)")]
+    cart = [c for c in model.constraints if c.startswith("obj:")]
+    for i, name in enumerate(cart):
+        col = PALETTE[i % len(PALETTE)]
+        solid = Rgba(col.r(), col.g(), col.b(), 0.9)
+        rows.append((solid, "line", f"learned hand path relative to the {name[4:]} "
+                                    f"({model.S} slices)"))
+        rows.append((Rgba(col.r(), col.g(), col.b(), 0.4), "box",
+                     f"  its 2-sigma ellipsoids, one slice in {stride} (Open Controls "
+                     f"hides them)"))
+    rows.append((Rgba(0.1, 0.1, 0.9, 1.0), "dots", "the reproduction's hand trail"))
+    verdict = "succeeded" if rec.get("success") else "failed"
+    if rec.get("place_error_m") is not None:
+        verdict += f", cup placed {1000 * rec['place_error_m']:.0f} mm from the demonstrated spot"
+    elif rec.get("reach_error_m") is not None:
+        verdict += f", reach error {1000 * rec['reach_error_m']:.0f} mm"
+    rows.append((None, "", f"reproduction {verdict}"))
+    draw_legend(meshcat, f"Imitation: {rec['task']} learned from {len(demos)} "
+                         f"demonstrations", rows)
 
 
 @register_trial("imitation.reproduce")

@@ -454,7 +454,7 @@ def AddFrontPerception(builder: DiagramBuilder, config: FrontPerceptionConfig | 
         # Meshcat's view: from behind and beside the depth camera, onto the target
         target = kin.X_WR0[:3, 3]
         back = X_WC[:3, 3] - target
-        eye = target + 1.4 * back + np.array([0.0, 0.0, 0.3]) + 0.25 * X_WC[:3, 0]
+        eye = target + 1.3 * back + np.array([0.0, 0.0, 0.35]) + 0.3 * X_WC[:3, 0]
         meshcat.SetCameraPose(eye, target)
         _draw_camera(meshcat, X_WC, K)
         MeshcatVisualizer.AddToBuilder(builder, scene_graph, meshcat,

@@ -342,6 +342,42 @@ def simulate_grasp(config: TactileGraspConfig, *, container: ContainerInstance |
               "label": label or f"{container.name}/{container.state}"}
     elif label is not None:
         kw = {"label": label}
-    return TactileGrasp(t=t, p=p, f=f_pad.sum(axis=1), finger_force=f_pad,
-                        pads={k: np.clip(v, 0.0, 1.0) for k, v in pads.items()},
-                        height=config.grasp_height, **kw)
+    grasp = TactileGrasp(t=t, p=p, f=f_pad.sum(axis=1), finger_force=f_pad,
+                         pads={k: np.clip(v, 0.0, 1.0) for k, v in pads.items()},
+                         height=config.grasp_height, **kw)
+    if meshcat is not None:
+        _frame_and_legend(meshcat, parts, ctx, config, grasp)
+    return grasp
+
+
+def _frame_and_legend(meshcat, parts, root_context, config, grasp) -> None:
+    """Frame the gripper and the object (seen obliquely, so the taxel displays on the
+    fingers' outer faces show); draw a legend with the grasp's numbers."""
+    from pydrake.geometry import Rgba
+    from pydrake.multibody.tree import BodyIndex
+
+    from mmlearn.systems.common.meshcat_view import draw_legend, frame_camera
+    from mmlearn.systems.tactile.taxel_visualizer import taxel_colors
+
+    plant = parts["plant"]
+    pc = plant.GetMyContextFromRoot(root_context)
+    origins = np.array([plant.EvalBodyPoseInWorld(pc, plant.get_body(BodyIndex(b))).translation()
+                        for b in range(1, plant.num_bodies())])
+    corners = np.array([[x, y, z] for x in (-0.05, 0.05) for y in (-0.05, 0.05)
+                        for z in (-0.05, 0.08)])
+    frame_camera(meshcat, (origins[:, None, :] + corners[None]).reshape(-1, 3),
+                 view_from=(1.0, -0.6, 0.5), min_distance=0.1)
+    lo, hi = (Rgba(*c) for c in taxel_colors(np.array([0.0, 1.0])))
+    k = int(np.argmax(grasp.f))
+    what = grasp.label or "the object"
+    rows = [(lo, "box", "taxel cell reading 0: each pad's 5 x 3 cells, on the finger's "
+                        "outer face"),
+            (hi, "box", "taxel cell reading 1 (saturated); a cell rises with its reading"),
+            (None, "", f"peak summed pad force {grasp.f[k]:.1f} N at t = {grasp.t[k]:.2f} s, "
+                       f"fingers {1000 * grasp.p[k]:.1f} mm apart"),
+            (None, "", "largest cell reading then: " + (", ".join(
+                f"{side} {float(np.max(img[k])):.2f}" for side, img in sorted(grasp.pads.items()))
+                or "no pads")),
+            (None, "", f"controller: {config.mode}, {config.f_target:g} N per finger, "
+                       f"{config.v_target * 1000:g} mm/s closing")]
+    draw_legend(meshcat, f"Tactile grasp of {what}", rows)

@@ -145,6 +145,18 @@ class MarkerSensor(LeafSystem):
 
     def __init__(self, *, plant, config: MarkerSensorConfig | None = None,
                  model_instance=None):
+        """Args:
+            plant: the finalized MultibodyPlant whose bodies carry the markers.
+            config: the sensor's settings (default ``MarkerSensorConfig()``).
+            model_instance: where ``config.bodies`` and their ``<body>_marker`` frames are
+                looked up; with ``config.bodies`` empty, every body of this instance that
+                has a ``<body>_marker`` frame is observed. Without a ``<body>_marker``
+                frame a body's marker is its body frame (for a door: on the hinge, where
+                it only turns in place: a radius near 0, or rigid); add one with
+                ``plant.AddFrame(FixedOffsetFrame("<body>_marker", ...))`` before
+                ``Finalize``. The marker ids of the observations are the body names.
+
+        Raises ValueError for a bad config or a body the plant does not have."""
         super().__init__()
         cfg = config or MarkerSensorConfig()
         cfg.validate()
