@@ -55,5 +55,7 @@ def emit_json(path: str | None, doc) -> bool:
     if path == "-":
         print(text)
         return True
-    Path(path).write_text(text + "\n")
+    from mmlearn.models.common.fileio import atomic_write_text
+
+    atomic_write_text(path, text + "\n")
     return False

@@ -100,8 +100,10 @@ def main(argv=None) -> int:
     print_table(rows)
     print(f"total {time.perf_counter() - t0:.0f} s")
     if a.json:
-        Path(a.json).write_text(json.dumps(dict(cores=os.cpu_count(), benchmarks=rows),
-                                           indent=1) + "\n")
+        from mmlearn.models.common.fileio import atomic_write_text
+
+        atomic_write_text(a.json, json.dumps(dict(cores=os.cpu_count(), benchmarks=rows),
+                                             indent=1) + "\n")
     return 1 if any(r["error"] for r in rows) else 0
 
 
