@@ -63,7 +63,8 @@ EXECUTORS = ("local", "ray")
 #: the format of a results-file line (``"format"``); older files are refused
 RESULTS_FORMAT = 2
 
-__all__ = ["TrialSpec", "SweepResult", "run_sweep", "load_results", "add_sweep_args",
+__all__ = ["TrialSpec", "SweepResult", "run_sweep", "load_results", "read_results", "ResultsLock",
+           "die_with_parent", "add_sweep_args",
            "sweep_kwargs", "exit_status", "EXECUTORS"]
 
 
@@ -313,22 +314,43 @@ _SHARED = None  # a worker's copy of the sweep's shared inputs (set once per wor
 
 
 def _watch_parent(parent: int, period_s: float = 0.5) -> None:
-    """End this process at once when its parent is gone (reparented: ``getppid`` changes),
-    so a sweep killed with SIGKILL leaves no worker behind."""
+    """End this process at once when its parent is gone (reparented: ``getppid`` changes)."""
     while os.getppid() == parent:
         time.sleep(period_s)
     os._exit(1)
 
 
-def _init_worker(shared) -> None:
-    global _SHARED
-    _SHARED = shared
-    # a worker dies with the process that started it (the sweep, or a Ray worker): a
-    # watcher thread, which works whatever thread of the parent started the worker
+def die_with_parent(parent: int) -> None:
+    """Make this process end when ``parent`` (the process that started it) dies, so a sweep
+    killed with SIGKILL leaves no worker behind. On Linux the kernel sends SIGKILL on the
+    parent's death (``prctl(PR_SET_PDEATHSIG)``: it works while the worker is busy in
+    compiled code that holds the GIL); elsewhere a thread watches ``getppid``. A parent that
+    died before this call ends the process at once."""
+    if sys.platform.startswith("linux"):
+        try:
+            import ctypes
+
+            libc = ctypes.CDLL(None, use_errno=True)
+            ok = libc.prctl(1, int(signal.SIGKILL), 0, 0, 0) == 0  # 1: PR_SET_PDEATHSIG
+        except (OSError, AttributeError):
+            ok = False
+        if ok:
+            if os.getppid() != parent:
+                os._exit(1)
+            return
     import threading
 
-    threading.Thread(target=_watch_parent, args=(os.getppid(),), daemon=True,
+    threading.Thread(target=_watch_parent, args=(parent,), daemon=True,
                      name="mmlearn-watch-parent").start()
+    if os.getppid() != parent:
+        os._exit(1)
+
+
+def _init_worker(shared, parent: int | None = None) -> None:
+    global _SHARED
+    _SHARED = shared
+    if parent is not None:
+        die_with_parent(parent)
     # Ctrl-C goes to the whole process group: the parent stops the pool, the workers must not
     # each print a traceback of the interrupted trial
     signal.signal(signal.SIGINT, signal.SIG_IGN)
@@ -391,7 +413,7 @@ def _run_local(todo: list[dict], *, jobs: int, shared):
 
     def pool(workers: int):
         ex = ProcessPoolExecutor(max_workers=workers, mp_context=ctx,
-                                 initializer=_init_worker, initargs=(shared,))
+                                 initializer=_init_worker, initargs=(shared, os.getpid()))
         active[:] = [ex]
         return ex
 
@@ -472,7 +494,7 @@ def _ray_child_pool(shared_box: list):
             shared = ray.get(shared_box[0])
         _RAY_CHILD["pool"] = ProcessPoolExecutor(
             max_workers=1, mp_context=mp.get_context("spawn"), initializer=_init_worker,
-            initargs=(shared,))
+            initargs=(shared, os.getpid()))
         _RAY_CHILD["key"] = key
     return _RAY_CHILD["pool"]
 
@@ -637,7 +659,8 @@ def _check_format(path: Path, done: dict[str, dict], specs: list[TrialSpec]) -> 
 
 # ---------------------------------------------------------------------------- probe trial
 
-@register_trial("sweep.probe")
+@register_trial("sweep.probe", record={"seed": int, "pid": int, "ray_worker": bool,
+                                        "shared_len": int, "payload": list})
 def probe_trial(*, seed: int, sleep_s: float = 0.0, fail_seeds=(), crash_seeds=(),
                 payload: int = 0, shared=None) -> dict:
     """The runner's own trial, for its tests and for measuring its overhead: sleeps
