@@ -570,7 +570,7 @@ STRUCTURE_RUNNERS = {"fig48": exp_cabinet, "fig49": exp_table, "fig411": exp_car
 """The experiments that are one trial each (their table is the trial's record)."""
 
 
-@register_trial("articulation.structure")
+@register_trial("articulation.structure", record={"experiment": str})
 def structure_trial(*, seed: int, experiment: str, quick: bool = False,
                     closed: bool | None = None, n: int | None = None, sensor: str = "ideal",
                     shared=None) -> dict:
