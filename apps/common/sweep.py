@@ -518,6 +518,69 @@ def _ray_execute(spec: dict, shared_box: list, in_child: bool = True) -> dict:
                      traceback.format_exc(), time.perf_counter() - t0, None)
 
 
+# A local Ray instance started by a sweep is a tree of processes under the sweep (GCS, raylet,
+# agents, workers). If the sweep is killed (SIGKILL), the raylet and the workers follow it, but
+# Ray's dashboard and runtime-env agents stay. A small guard process notes the sweep's
+# descendants while Ray runs and, when the sweep dies without shutting Ray down, kills those
+# still alive (the same process: pid and start time), then ends. Linux only (/proc).
+_GUARD = r"""
+import os, signal, sys, time
+driver = int(sys.argv[1])
+me = os.getpid()
+def start(pid):
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            return f.read().rsplit(")", 1)[1].split()[19]
+    except (OSError, IndexError):
+        return None
+def children(pid):
+    out = []
+    try:
+        for t in os.listdir(f"/proc/{pid}/task"):
+            with open(f"/proc/{pid}/task/{t}/children") as f:
+                out += [int(x) for x in f.read().split()]
+    except OSError:
+        pass
+    return out
+known = {}
+while os.getppid() == driver:
+    todo = [driver]
+    while todo:
+        for c in children(todo.pop()):
+            if c != me and c not in known:
+                st = start(c)
+                if st is not None:
+                    known[c] = st
+            todo.append(c)
+    time.sleep(0.5)
+time.sleep(1.0)  # what dies with the sweep by itself goes first
+for pid, st in known.items():
+    if start(pid) == st:
+        try:
+            os.kill(pid, signal.SIGKILL)
+        except OSError:
+            pass
+"""
+
+
+def _start_ray_guard():
+    """The guard process of a local Ray instance (None off Linux); stop it with
+    :func:`_stop_ray_guard` after ``ray.shutdown``."""
+    if not sys.platform.startswith("linux"):
+        return None
+    import subprocess
+
+    return subprocess.Popen([sys.executable, "-c", _GUARD, str(os.getpid())],
+                            stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL)
+
+
+def _stop_ray_guard(guard) -> None:
+    if guard is not None:
+        guard.kill()
+        guard.wait()
+
+
 def _run_ray(todo: list[dict], *, jobs: int, address: str | None, shared,
              in_child: bool = True):
     try:
@@ -525,12 +588,17 @@ def _run_ray(todo: list[dict], *, jobs: int, address: str | None, shared,
     except ImportError:
         raise UsageError("--executor ray needs Ray, an optional extra: "
                          "pip install 'mmlearn[ray]'") from None
-    started = False
+    started, guard = False, None
     if not ray.is_initialized():
         if address:
             ray.init(address=address, log_to_driver=False)
         else:
-            ray.init(num_cpus=jobs, include_dashboard=False, log_to_driver=False)
+            guard = _start_ray_guard()
+            try:
+                ray.init(num_cpus=jobs, include_dashboard=False, log_to_driver=False)
+            except BaseException:
+                _stop_ray_guard(guard)
+                raise
         started = True
     try:
         task = ray.remote(num_cpus=1, max_retries=0)(_ray_execute)
@@ -550,6 +618,7 @@ def _run_ray(todo: list[dict], *, jobs: int, address: str | None, shared,
     finally:
         if started:
             ray.shutdown()
+        _stop_ray_guard(guard)
 
 
 # ---------------------------------------------------------------------------- the runner
