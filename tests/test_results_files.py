@@ -218,3 +218,49 @@ def test_sigkill_of_a_sweep_leaves_no_process_behind(tmp_path, executor):
         except OSError:
             pass
     assert names == []
+
+
+UNWRITABLE = next((d for d in ("/sys/kernel", "/proc") if os.path.isdir(d)
+                   and os.access(d, os.W_OK)), None)
+
+
+def test_create_dirs_flag_of_every_app_parser(tmp_path):
+    from mmlearn.apps.common.cli import ArgumentParser, check_out_file
+
+    ap = ArgumentParser(prog="app")
+    ap.add_argument("--plot")
+    ap.parse_args(["--plot", "x"])
+    with pytest.raises(UsageError, match="^--plot: folder .*a does not exist .*--create-dirs"):
+        check_out_file("--plot", tmp_path / "a" / "p.png")
+    ap.parse_args(["--plot", "x", "--create-dirs"])
+    check_out_file("--plot", tmp_path / "a" / "p.png")
+    assert (tmp_path / "a").is_dir()
+    ap.parse_args([])  # later checks in this process are strict again
+
+
+def test_an_experiments_app_refuses_bad_results_paths_before_running(tmp_path, capsys):
+    from mmlearn.apps import operate_trials
+
+    base = ["--trials", "1", "--objects", "drawer", "--jobs", "1"]
+    assert operate_trials.main(base + ["--results", str(tmp_path / "no" / "r.jsonl")]) == 2
+    assert not (tmp_path / "no").exists()
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"python -m mmlearn.apps.operate_trials: error: --results: folder "
+                   f"{tmp_path / 'no'} does not exist (create it, or pass --create-dirs)"]
+    if UNWRITABLE:
+        assert operate_trials.main(base + ["--results", f"{UNWRITABLE}/r.jsonl"]) == 2
+        assert capsys.readouterr().err.strip().startswith(
+            f"python -m mmlearn.apps.operate_trials: error: --results: cannot write in folder "
+            f"{UNWRITABLE} (")
+
+
+def test_report_only_of_another_experiments_file_is_one_line(tmp_path, capsys):
+    from mmlearn.apps import operate_trials
+
+    path, lines = _sound_file(tmp_path)
+    assert operate_trials.main(["--report-only", str(path)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1
+    assert err[0].startswith(f"python -m mmlearn.apps.operate_trials: error: --report-only: "
+                             f"{path} holds no valid trial record (3 line(s) skipped: line 1: "
+                             "a record of another experiment's trial (sweep.probe@1")
