@@ -307,8 +307,10 @@ def _priors_file(text: str) -> str:
 
     h = hashlib.sha1(text.encode()).hexdigest()[:16]
     if h not in _PRIORS_FILES:
+        from mmlearn.models.common.fileio import atomic_write_text
+
         p = Path(tempfile.gettempdir()) / f"mmlearn-priors-{os.getpid()}-{h}.json"
-        p.write_text(text)
+        atomic_write_text(p, text)
         _PRIORS_FILES[h] = str(p)
     return _PRIORS_FILES[h]
 
