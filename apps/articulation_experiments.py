@@ -370,6 +370,7 @@ def _print(res, file=None):
 
 class ArticulationExperiments(Experiment):
     name = "articulation_experiments"
+    trials = (link_experiment_trial,)
     description = ("Synthetic robustness / convergence analysis of the articulation models "
                    "(thesis Sec. 4.4.4, Fig. 4.20-4.26) and Table 4.2. Every table gives the "
                    "number of failed runs (left out of its means). The trials run through "

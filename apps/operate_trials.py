@@ -169,6 +169,7 @@ def format_table(res: dict) -> str:
 
 class OperateTrials(Experiment):
     name = "operate_trials"
+    trials = (operate_trial,)
     description = ("Five mechanisms x N trials of opening while learning (thesis 4.4.2). Exit "
                    "status: 0 all trials ran (opened or not), 1 a trial raised an error, 2 bad "
                    "input.")
@@ -191,7 +192,7 @@ class OperateTrials(Experiment):
 
     def check(self, args):
         if not args.report_only:
-            check_out_dir("--save-tracks", args.save_tracks, create=False)
+            check_out_dir("--save-tracks", args.save_tracks)
             check_in_file("--priors", args.priors)
 
     def specs(self, args):

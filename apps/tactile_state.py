@@ -91,6 +91,7 @@ from mmlearn.models.tactile.evaluation import (SIM_CONTACT_FORCE, SIM_REST_VELOC
                                                icub_state_report, state_recognition_report)
 from mmlearn.models.tactile.state import CLASSIFIERS, FEATURE_NAMES, extract_grasp_features
 from mmlearn.diagrams.tactile.trials import (SWEEP_FORCES, container_grasp_plan,
+                                             container_grasp_trial,
                                              odwalla_sweep_plan)
 
 __all__ = ["run", "run_simulation", "simulation_specs", "simulation_report",
@@ -519,6 +520,7 @@ class TactileState(Experiment):
     run through the sweep; the real-data mode runs no trial and is reported at once."""
 
     name = "tactile_state"
+    trials = (container_grasp_trial,)
     description = ("Recognise objects and their internal state from the dynamics of a grasp "
                    "(thesis Sec. 7.1-7.2: six features of Table 7.1, decision tree / random "
                    "forest) on iCub grasp dataset files. Exit status: 0 success, 2 bad input.")
@@ -627,7 +629,7 @@ class TactileState(Experiment):
             if d is not None and not Path(d).is_dir():
                 raise UsageError(f"{flag}: {d}: " + ("not a folder" if Path(d).exists()
                                                      else "folder not found"))
-        report_only_lines(args, simulates="a grasp")
+        report_only_lines(args, simulates="a grasp", trials=self.trials)
         args.config = TactileStateConfig(
             train=args.train or "", test=args.test, classifier=args.classifier,
             include_full_coke=args.include_full_coke, folds=args.folds, seed=args.seed,

@@ -171,11 +171,11 @@ def main(argv=None) -> int:
         print_anchors(arows)
     print(f"total {time.perf_counter() - t0:.0f} s")
     if a.json:
-        tmp = Path(a.json).with_name(Path(a.json).name + ".tmp")
-        tmp.write_text(json.dumps(dict(cores=os.cpu_count(), date=time.strftime(
+        from mmlearn.models.common.fileio import atomic_write_text
+
+        atomic_write_text(a.json, json.dumps(dict(cores=os.cpu_count(), date=time.strftime(
             "%Y-%m-%d %H:%M UTC", time.gmtime()), benchmarks=rows, anchors=arows),
             indent=1) + "\n")
-        tmp.replace(a.json)
     return 1 if any(r["error"] for r in rows) else 0
 
 

@@ -256,15 +256,17 @@ def test_experiments_help_report_only_and_bad_arguments(capsys, tmp_path):
                      str(tmp_path)], capsys, "--report-only")
     lines = []
     for i, (n, err) in enumerate([(1, 0.3), (1, 0.2), (4, 0.01), (4, 0.015)]):
-        lines.append({"key": f"k{i}", "spec": {
+        lines.append({"key": f"k{i}", "format": 2, "spec": {
             "fn": "imitation.reproduce@1", "seed": i,
             "params": {"task": "pick_place", "demos": n},
             "label": f"pick_place {n} demo{'s' if n > 1 else ''} seed {i}"},
-            "record": {"success": err < 0.02, "place_error_m": err,
-                       "min_obstacle_clearance_m": None, "reproduction_seconds": 5.0,
-                       "learn_seconds": 0.1}, "error": None, "wall_s": 5.0})
-    lines.append({"key": "k9", "spec": {"fn": "x:y", "seed": 9, "params": {},
-                                        "label": "pick_place 4 demos seed 9"},
+            "record": {"task": "pick_place", "finished": True, "success": err < 0.02,
+                       "place_error_m": err, "min_obstacle_clearance_m": None,
+                       "reproduction_seconds": 5.0, "learn_seconds": 0.1}, "error": None,
+            "wall_s": 5.0})
+    lines.append({"key": "k9", "format": 2,
+                  "spec": {"fn": "imitation.reproduce@1", "seed": 9, "params": {},
+                           "label": "pick_place 4 demos seed 9"},
                   "record": None, "error": "RuntimeError: boom", "wall_s": 1.0})
     res_file = tmp_path / "r.jsonl"
     res_file.write_text("".join(json.dumps(x) + "\n" for x in lines))

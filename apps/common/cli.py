@@ -1,11 +1,13 @@
-"""Helpers shared by the apps: progress bars, Meshcat, config files, atomic writes."""
+"""Helpers shared by the apps: progress bars, Meshcat, config files, checked output paths and
+atomic writes (through :mod:`mmlearn.models.common.fileio`)."""
 
 from __future__ import annotations
 
 import sys
 from pathlib import Path
 
-from mmlearn.models.common.fileio import atomic_write_text
+from mmlearn.models.common.fileio import (OutputPathError, atomic_output, atomic_write_text,
+                                         check_output_dir, check_output_file)
 from mmlearn.models.common.progress import progress, progress_bar  # noqa: F401 - for the apps
 
 
@@ -38,18 +40,12 @@ def save_html(meshcat, path: str | Path) -> Path:
 
 
 def save_figure(fig, path, **kw) -> Path:
-    """``fig.savefig`` through a temporary file in the same folder and a rename, so an
+    """``fig.savefig`` written atomically (:func:`mmlearn.models.common.fileio.atomic_output`:
+    a unique temporary file in the same folder, fsync, rename, fsync of the folder), so an
     interrupted run never leaves a half-written image. Returns the path."""
-    import os
-
     path = Path(path)
-    tmp = path.with_name(f".{path.name}.tmp")
-    try:
-        fig.savefig(tmp, format=path.suffix.lstrip(".").lower() or "png", **kw)
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
+    with atomic_output(path) as f:
+        fig.savefig(f, format=path.suffix.lstrip(".").lower() or "png", **kw)
     return path
 
 
@@ -162,10 +158,14 @@ def json_clean(v):
 
 import argparse as _argparse
 import math as _math
-import os as _os
 
 BAD_INPUT = 2
 """Exit status for bad input (as argparse's own errors)."""
+
+CREATE_DIRS_FLAG = "--create-dirs"
+# ``--create-dirs`` of the command line parsed last in this process (every app parses one):
+# the default of check_out_file / check_out_dir
+_CREATE_DIRS = False
 
 
 class UsageError(ValueError):
@@ -176,6 +176,18 @@ class ArgumentParser(_argparse.ArgumentParser):
     """argparse with one-line errors (``prog: error: --seed: expected ...``, exit 2) and
     hidden underscore aliases: ``add_argument("--out-dir", ...)`` also accepts
     ``--out_dir`` without listing it in ``--help``."""
+
+    def __init__(self, *a, **kw):
+        super().__init__(*a, **kw)
+        self.add_argument("--create-dirs", action="store_true",
+                          help="create missing parent folders of the output paths (default: "
+                               "a missing folder is an error)")
+
+    def parse_known_args(self, args=None, namespace=None):
+        ns, rest = super().parse_known_args(args, namespace)
+        global _CREATE_DIRS
+        _CREATE_DIRS = bool(getattr(ns, "create_dirs", False))
+        return ns, rest
 
     def error(self, message):  # noqa: D401 - argparse API
         message = message.replace("argument ", "", 1) if message.startswith("argument ") \
@@ -267,38 +279,33 @@ def float_list(text):
     return v
 
 
-def check_out_file(flag: str, path) -> None:
-    """Raise UsageError unless ``path`` can be written as a file: its folder exists and it
-    is not a folder. Call before any computation."""
-    if path is None or str(path) == "":
-        return
-    p = Path(path)
-    if p.is_dir():
-        raise UsageError(f"{flag}: {p} is a folder, expected a file name")
-    parent = p.parent if str(p.parent) else Path(".")
-    if not parent.is_dir():
-        raise UsageError(f"{flag}: folder {parent} does not exist")
-    if not _os.access(parent, _os.W_OK):
-        raise UsageError(f"{flag}: folder {parent} is not writable")
+def check_out_file(flag: str, path, *, create_dirs: bool | None = None) -> None:
+    """Raise UsageError unless ``path`` can be written as a file, found by creating and
+    removing a temporary file beside it (:func:`~mmlearn.models.common.fileio.check_output_file`):
+    not a folder, its folder exists (missing folders are created with ``create_dirs``;
+    None: the command line's ``--create-dirs``) and is writable. Call before any work."""
+    try:
+        check_output_file(path, what=flag, create_dirs=_create(create_dirs),
+                          flag_hint=CREATE_DIRS_FLAG)
+    except OutputPathError as e:
+        raise UsageError(str(e)) from None
 
 
-def check_out_dir(flag: str, path, *, create: bool = True) -> None:
-    """Raise UsageError unless ``path`` is (or, with ``create``, can be made) a writable
-    folder: an existing file there, or a missing parent folder, is an error. Creates the
-    folder when ``create``."""
-    if path is None or str(path) == "":
-        return
-    p = Path(path)
-    if p.exists() and not p.is_dir():
-        raise UsageError(f"{flag}: {p} is a file, expected a folder")
-    if not p.exists():
-        parent = p.parent if str(p.parent) else Path(".")
-        if not parent.is_dir():
-            raise UsageError(f"{flag}: folder {parent} does not exist")
-        if create:
-            p.mkdir()
-    if p.is_dir() and not _os.access(p, _os.W_OK):
-        raise UsageError(f"{flag}: folder {p} is not writable")
+def check_out_dir(flag: str, path, *, create: bool = True,
+                  create_dirs: bool | None = None) -> None:
+    """Raise UsageError unless ``path`` is (or, with ``create``, can be made) a folder files
+    can be written in, found by creating and removing a temporary file in it: an existing
+    file there, or a missing parent folder (unless ``create_dirs``; None: the command
+    line's ``--create-dirs``), is an error. Creates the folder when ``create``."""
+    try:
+        check_output_dir(path, what=flag, create=create, create_dirs=_create(create_dirs),
+                         flag_hint=CREATE_DIRS_FLAG)
+    except OutputPathError as e:
+        raise UsageError(str(e)) from None
+
+
+def _create(create_dirs: bool | None) -> bool:
+    return _CREATE_DIRS if create_dirs is None else bool(create_dirs)
 
 
 def check_in_file(flag: str, path) -> None:

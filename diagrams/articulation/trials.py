@@ -312,13 +312,17 @@ def _priors_file(text: str) -> str:
 
     h = hashlib.sha1(text.encode()).hexdigest()[:16]
     if h not in _PRIORS_FILES:
+        from mmlearn.models.common.fileio import atomic_write_text
+
         p = Path(tempfile.gettempdir()) / f"mmlearn-priors-{os.getpid()}-{h}.json"
-        p.write_text(text)
+        atomic_write_text(p, text)
         _PRIORS_FILES[h] = str(p)
     return _PRIORS_FILES[h]
 
 
-@register_trial("articulation.operate")
+@register_trial("articulation.operate",
+                record={"object": str, "seed": int, "success": bool, "opened": (float, None),
+                        "unit": str, "outcome": str, "learned_model": (str, None)})
 def operate_trial(*, seed: int, kind: str, max_time: float = 60.0,
                   sigma_pos: float | None = None, mechanism_seed: int | None = None,
                   base_noise: float | None = None, save_track: str = "", priors_sha1: str = "",
@@ -573,7 +577,7 @@ STRUCTURE_RUNNERS = {"fig48": exp_cabinet, "fig49": exp_table, "fig411": exp_car
 """The experiments that are one trial each (their table is the trial's record)."""
 
 
-@register_trial("articulation.structure")
+@register_trial("articulation.structure", record={"experiment": str})
 def structure_trial(*, seed: int, experiment: str, quick: bool = False,
                     closed: bool | None = None, n: int | None = None, sensor: str = "ideal",
                     shared=None) -> dict:

@@ -287,7 +287,9 @@ def _frame_and_legend(meshcat, model, demos, objects, hand, rec) -> None:
                          f"demonstrations", rows)
 
 
-@register_trial("imitation.reproduce")
+@register_trial("imitation.reproduce",
+                record={"task": str, "success": bool, "finished": bool,
+                        "learn_seconds": float, "reproduction_seconds": float})
 def reproduction_trial(*, seed: int, task: str, demos: int = 4, swap_tables: bool = False,
                        board_scale: float = 1.0, global_mode: bool = False,
                        shared=None) -> dict:
