@@ -59,6 +59,7 @@ def write_saved_files(folder) -> dict:
                                                 save_demonstrations)
 
     folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
     files = {}
     save_model(_link("revolute", 0), folder / "link.yaml")
     files["link.yaml"] = (folder / "link.yaml", load_model, model_to_dict)
