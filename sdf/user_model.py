@@ -316,9 +316,11 @@ def _parse(path: str, plant):
         parser.package_map().PopulateUpstreamToDrake(str(p.resolve()))
     except Exception:  # noqa: BLE001 - no package.xml above the file: nothing to add
         pass
-    from pydrake.common import set_log_level
+    import logging
 
-    level = set_log_level("err")  # the parser's warnings are not the user's error
+    log = logging.getLogger("drake")   # the parser's warnings are not the user's error
+    level = log.level
+    log.setLevel(logging.ERROR)
     try:
         return parser.AddModels(str(p))
     except Exception as e:  # noqa: BLE001 - Drake's parser raises RuntimeError and others
@@ -326,7 +328,7 @@ def _parse(path: str, plant):
         first = first[len("error: "):] if first.lower().startswith("error: ") else first
         raise UserModelError(f"--model: cannot parse {p.name}: {first[:300]}") from None
     finally:
-        set_log_level(level)
+        log.setLevel(level)
 
 
 def _find_joint(plant, instances, name):
