@@ -521,8 +521,9 @@ def load_user_mechanism(path, joint: str, *, pose=None, handle=None) -> UserMech
         else:
             src_h = "fallback"
             if revolute:
-                rr = _unit(face_c - point - np.dot(face_c - point, axis) * axis)
-                reach = max(float((front - point) @ rr))
+                rr = face_c - point - np.dot(face_c - point, axis) * axis
+                rr = _unit(rr - np.dot(rr, n) * n)   # in the front's plane
+                reach = float(((front - point) @ rr).max())
                 h = face_c + (reach - _EDGE_INSET - np.dot(face_c - point, rr)) * rr
                 bar = _unit(axis - np.dot(axis, n) * n)
             else:
