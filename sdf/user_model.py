@@ -124,7 +124,10 @@ def shape_points(shape) -> np.ndarray | None:
         h = shape.length() / 2
         return np.r_[s + [0, 0, h], s - [0, 0, h]]
     if isinstance(shape, (Mesh, Convex)):
-        hull = shape.GetConvexHull()
+        try:
+            hull = shape.GetConvexHull()
+        except Exception:  # noqa: BLE001 - a mesh format Drake cannot read: not seen
+            return None
         return np.array([hull.vertex(i) for i in range(hull.num_vertices())], float)
     if isinstance(shape, HalfSpace):
         return None
@@ -449,6 +452,10 @@ def load_user_mechanism(path, joint: str, *, pose=None, handle=None) -> UserMech
                   + _geometries(plant, sg, ctx, all_bodies, "illustration"))
     pts_all = np.concatenate([g.points for g in everything])
     bounds = np.array([pts_all.min(axis=0), pts_all.max(axis=0)])
+    size = float(np.ptp(bounds, axis=0).max())
+    if size > 20.0:
+        raise UserModelError(f"--model: the model is {size:.0f} m across; Drake reads metres "
+                             f"(scale a model made in millimetres or inches)")
     m_pts = np.concatenate([g.points for g in mg])
     vols = np.array([g.volume() for g in mg])
     centre = (np.array([g.centre for g in mg]) * vols[:, None]).sum(axis=0) / vols.sum()
@@ -464,15 +471,13 @@ def load_user_mechanism(path, joint: str, *, pose=None, handle=None) -> UserMech
         n0 = _unit(np.cross(axis, r))
         sliding = False
     else:
-        ext = np.ptp(m_pts, axis=0)
         # a thin part sliding in its own plane: its thinnest direction is across the axis
         evals, evecs = np.linalg.eigh(np.cov((m_pts - m_pts.mean(axis=0)).T))
         thin = evecs[:, 0]
         span = np.ptp(m_pts @ thin)
-        sliding = (abs(np.dot(thin, axis)) < 0.3 and span < 0.3 * np.ptp(m_pts @ axis)
-                   and span < 0.1)
+        sliding = (abs(np.dot(thin, axis)) < 0.3 and abs(thin[2]) < 0.5
+                   and span < 0.3 * np.ptp(m_pts @ axis) and span < 0.1)
         n0 = _unit(thin - np.dot(thin, axis) * axis) if sliding else axis.copy()
-        del ext
     # its sign and the opening direction
     up_range, down_range = hi - q0, q0 - lo
     tiny = 1e-6

@@ -185,3 +185,51 @@ def test_user_models_open_end_to_end(name, ext, perception, capsys):
     assert r["true_joint"]["kind"] == r["true_kind"]
     if r["true_kind"] == "revolute":
         assert r["radius_error_m"] < 0.05
+
+
+def _write(tmp_path, name, links, joints):
+    p = tmp_path / name
+    p.write_text(f'<?xml version="1.0"?><sdf version="1.9"><model name="m">{links}{joints}'
+                 f'</model></sdf>')
+    return p
+
+
+def _box(name, xyz, size):
+    return (f'<collision name="{name}"><pose>{xyz} 0 0 0</pose><geometry><box><size>{size}'
+            f'</size></box></geometry></collision>')
+
+
+def test_a_sliding_door_and_a_handle_on_its_own_welded_link(tmp_path):
+    carcass = '<link name="carcass">' + _box("c", "-0.25 0 0.4", "0.5 1.0 0.8") + '</link>'
+    panel = ('<link name="panel"><pose>0.02 -0.25 0.1 0 0 0</pose>'
+             + _box("p", "0 0 0.3", "0.02 0.5 0.6") + '</link>')
+    grip = ('<link name="grip"><pose>0.02 -0.25 0.1 0 0 0</pose>'
+            + _box("bar", "0.06 0.2 0.3", "0.02 0.02 0.2")
+            + _box("post", "0.03 0.2 0.3", "0.04 0.01 0.01") + '</link>')
+    joints = ('<joint name="slide" type="prismatic"><parent>carcass</parent><child>panel'
+              '</child><axis><xyz>0 -1 0</xyz><limit><lower>0</lower><upper>0.45</upper>'
+              '</limit></axis></joint><joint name="w" type="fixed"><parent>panel</parent>'
+              '<child>grip</child></joint>')
+    m = load_user_mechanism(_write(tmp_path, "s.sdf", carcass + panel + grip, joints), "slide")
+    assert (m.kind, m.handle_source) == ("sliding_door", "geometry")
+    assert m.handle_geometry.endswith("bar")
+    side, pull = m.task_directions()
+    h, n, bar = m.handle_world(0.0)
+    np.testing.assert_allclose(n, [1, 0, 0], atol=1e-9)
+    np.testing.assert_allclose(pull, m.axis_world()[0], atol=1e-9)   # along the opening
+    np.testing.assert_allclose(side, -pull, atol=1e-9)
+    assert abs(bar[2]) == pytest.approx(1.0)
+    assert m.limit == pytest.approx(0.45)
+
+
+def test_a_flat_drawer_is_not_a_sliding_door(tmp_path):
+    carcass = '<link name="carcass">' + _box("c", "-0.3 0 0.5", "0.6 0.5 0.3") + '</link>'
+    tray = ('<link name="tray"><pose>0.01 0 0.7 0 0 0</pose>' + _box("f", "0 0 0", "0.02 0.5 0.06")
+            + _box("b", "-0.25 0 -0.02", "0.5 0.46 0.01")
+            + _box("knob", "0.04 0 0", "0.03 0.03 0.03") + '</link>')
+    joints = ('<joint name="t" type="prismatic"><parent>carcass</parent><child>tray</child>'
+              '<axis><xyz>1 0 0</xyz></axis></joint>')
+    m = load_user_mechanism(_write(tmp_path, "t.sdf", carcass + tray, joints), "t")
+    assert m.kind == "drawer" and m.handle_geometry.endswith("knob")
+    assert m.normal_source == "carcass" and math.isinf(m.limit)
+    np.testing.assert_allclose(m.task_directions()[1], [1, 0, 0], atol=1e-9)
