@@ -233,3 +233,19 @@ def test_a_flat_drawer_is_not_a_sliding_door(tmp_path):
     assert m.kind == "drawer" and m.handle_geometry.endswith("knob")
     assert m.normal_source == "carcass" and math.isinf(m.limit)
     np.testing.assert_allclose(m.task_directions()[1], [1, 0, 0], atol=1e-9)
+
+
+def test_the_apps_say_where_the_handle_came_from(tmp_path):
+    from mmlearn.apps.open_cabinet import _model_line
+    from mmlearn.models.articulation.evaluation import operate_records
+
+    line = _model_line(_load("wardrobe", "urdf"))
+    assert line.startswith("wardrobe.urdf:left_wing: revolute joint (like a right_door")
+    assert "from its geometry (wardrobe::knob_col)" in line
+    bare = load_user_mechanism(_door_sdf(tmp_path, handle=False), "j")
+    assert "NOT found on the geometry: put on the front's edge away from the hinge" in \
+        _model_line(bare)
+    # a user model's trial that raised is named by its file and joint in the table
+    rec = operate_records([{"error": "boom", "spec": {"seed": 3, "params": {
+        "kind": "left_door", "model": "/x/y/cab.urdf", "joint": "j"}}}])[0]
+    assert rec["object"] == "cab.urdf:j" and rec["error"] == "boom"
