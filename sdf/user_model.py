@@ -18,6 +18,10 @@ the mechanism (the thesis' robot was told a point on the handle and a pulling di
   one direction is open, else from the given handle (in front of the front), else from the
   carcass (behind the front), else from the side on which the moving part sticks out
   further (its handle);
+* a joint that may close further than its start while the carcass lies behind the front
+  gets its start as the limit on the closing side in the scene (``closed_stop``): Drake
+  does not collide a link with its joint's parent, so the front would otherwise swing or
+  slide into the carcass when the hook touches it;
 * the handle: a collision geometry of the moving part that stands more than 1 cm off the
   front face (the face of its largest geometry) within the face's outline; touching
   geometries form one handle (a bar and its posts); of several, the one farthest from a
@@ -205,6 +209,10 @@ class UserMechanism:
         damping: the joint's damping from the file.
         friction: Coulomb friction simulated on the joint (0: the file's is not read).
         joints: the model's joints (name -> type name).
+        closed_stop: the joint may close further than its start in the file, and the
+            carcass lies behind the front: in the scene the start is the joint's limit on
+            the closing side (Drake does not collide a link with its joint's parent, so
+            without it the front would swing or slide into the carcass when touched).
     """
 
     path: str
@@ -230,6 +238,7 @@ class UserMechanism:
     damping: float = 0.0
     friction: float = 0.0
     joints: dict = field(default_factory=dict)
+    closed_stop: bool = False
 
     @property
     def is_revolute(self) -> bool:
@@ -294,7 +303,8 @@ class UserMechanism:
                "point": p.round(6).tolist(), "limit": None if not math.isfinite(self.limit)
                else round(self.limit, 6), "damping": self.damping,
                "handle": self.handle_world(0.0)[0].round(6).tolist(),
-               "handle_source": self.handle_source, "equivalent_kind": self.kind}
+               "handle_source": self.handle_source, "equivalent_kind": self.kind,
+               "closed_stop": self.closed_stop}
         if self.is_revolute:
             d = self.handle_world(0.0)[0] - p
             out["radius_m"] = float(np.linalg.norm(d - np.dot(d, a) * a))
@@ -389,6 +399,12 @@ def add_user_model(parser, mech: UserMechanism):
     joint = _find_joint(plant, instances, mech.joint)
     _weld_roots(plant, instances, mech.X_WM)
     joint.set_default_positions([mech.q0])
+    if mech.closed_stop:
+        lo, hi = joint.position_lower_limits(), joint.position_upper_limits()
+        if mech.sign > 0:
+            joint.set_position_limits([mech.q0], hi)
+        else:
+            joint.set_position_limits(lo, [mech.q0])
     return instances, joint
 
 
@@ -500,6 +516,12 @@ def load_user_mechanism(path, joint: str, *, pose=None, handle=None) -> UserMech
                              f"face it (with z up in the model file)")
     axis_open = axis * sign
     limit = up_range if sign > 0 else down_range
+    # Drake does not collide a link with its joint's parent: a front whose joint is free to
+    # close further would swing into the carcass behind it; the start is its stop
+    closing = down_range if sign > 0 else up_range
+    behind = bool(cg) and float(np.dot(np.concatenate([g.points for g in cg]).mean(axis=0)
+                                       - centre, n)) < -0.01
+    closed_stop = bool(closing > tiny and behind)
     # the front face and the handle
     e_u, e_v = _inplane(n)
     panel = max(mg, key=lambda g: np.ptp(g.points @ e_u) * np.ptp(g.points @ e_v))
@@ -552,7 +574,8 @@ def load_user_mechanism(path, joint: str, *, pose=None, handle=None) -> UserMech
                          handle_M=np.asarray(h, float), bar_M=_unit(bar), side_M=side,
                          pull_M=_unit(pull), handle_source=src_h, handle_geometry=hgeom,
                          normal_source=src, front_M=front, bounds_M=bounds,
-                         damping=float(j.default_damping_vector()[0]), joints=joints)
+                         damping=float(j.default_damping_vector()[0]), joints=joints,
+                         closed_stop=closed_stop)
 
 
 def _front_side(n0, m_pts, carcass, centre, given):

@@ -249,3 +249,16 @@ def test_the_apps_say_where_the_handle_came_from(tmp_path):
     rec = operate_records([{"error": "boom", "spec": {"seed": 3, "params": {
         "kind": "left_door", "model": "/x/y/cab.urdf", "joint": "j"}}}])[0]
     assert rec["object"] == "cab.urdf:j" and rec["error"] == "boom"
+
+
+def test_a_front_free_to_close_stops_at_its_start_in_the_scene():
+    from mmlearn.diagrams.common.scene import MakeSceneDiagram, SceneConfig
+
+    m = _load("light_door", "sdf")
+    assert m.closed_stop and not _load("wall_cabinet", "sdf").closed_stop
+    scene = MakeSceneDiagram(SceneConfig(arm="7dof", tool="hook", mobile_base=True,
+                                         cabinet=False, mechanism=m))
+    j = scene.plant.GetJointByName("hinge")
+    lo, hi = j.position_lower_limits()[0], j.position_upper_limits()[0]
+    assert lo == pytest.approx(m.q0) and math.isinf(hi)
+    assert m.true_joint()["closed_stop"] is True
