@@ -172,7 +172,7 @@ def test_scene_reports_the_user_joints_opening():
 
 @pytest.mark.slow
 @pytest.mark.parametrize("name, ext, perception", [("drawer", "urdf", "click"),
-                                                    ("wardrobe", "sdf", "click"),
+                                                    ("wall_cabinet", "sdf", "click"),
                                                     ("wall_cabinet", "urdf", "depth")])
 def test_user_models_open_end_to_end(name, ext, perception, capsys):
     from mmlearn.apps.open_cabinet import main
