@@ -140,7 +140,8 @@ def make_task(spec: MechanismSpec, rng: np.random.Generator, click_error: float)
 HANDLE_HEIGHTS = (0.30, 1.10)
 """Heights above the floor (m) of the handles the hook arm reaches from its stance: the arm
 (sdf/builders.py: 1.25 m of links on the base's top at 0.30 m) holds the hook level at
-``EpcConfig.stance_distance`` (0.78 m) in front of the base between about these heights."""
+``EpcConfig.stance_distance`` (0.78 m) in front of the base between about these heights (the
+drawer test model, tests/data/user_models, opened with its handle at 0.31 m and at 1.09 m)."""
 
 
 def check_reach(spec) -> None:
