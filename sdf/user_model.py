@@ -43,7 +43,7 @@ from pathlib import Path
 import numpy as np
 
 __all__ = ["UserModelError", "UserMechanism", "load_user_mechanism", "add_user_model",
-           "parse_pose", "parse_point", "user_model_args", "OPERABLE"]
+           "parse_pose", "parse_point", "user_model_args", "shape_points", "OPERABLE"]
 
 OPERABLE = ("revolute", "prismatic")
 _STANDOFF = 0.01     # a handle stands at least this far off the front face, m

@@ -262,3 +262,13 @@ def test_a_front_free_to_close_stops_at_its_start_in_the_scene():
     lo, hi = j.position_lower_limits()[0], j.position_upper_limits()[0]
     assert lo == pytest.approx(m.q0) and math.isinf(hi)
     assert m.true_joint()["closed_stop"] is True
+
+
+def test_operate_trials_refuses_a_bad_model_before_running(tmp_path, capsys):
+    from mmlearn.apps.operate_trials import main
+
+    assert main(["--model", str(DATA / "drawer.sdf"), "--joint", "hinge",
+                 "--results", str(tmp_path / "r.jsonl")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "no joint 'hinge' in the model; its joints: slide (prismatic)" in err
+    assert "\n" not in err and not (tmp_path / "r.jsonl").exists()
