@@ -148,6 +148,8 @@ class LookResult:
 
 def front_centre(spec: MechanismSpec) -> np.ndarray:
     """Centre of the closed front's outer face, world, m."""
+    if hasattr(spec, "front_centre"):  # a user's model
+        return spec.front_centre()
     T = spec.X_WF()
     # the panel's centre in the moving body's frame (sdf/mechanisms.py, mechanism_sdf)
     y = {"left_door": spec.width / 2, "right_door": -spec.width / 2,
