@@ -64,7 +64,7 @@ from mmlearn.models.articulation.structure import select_link_model
 from mmlearn.models.common.track_io import read_track
 
 SIGMAS = (0.005, 0.02, 0.05)
-REAL_DIR = "/work/shared/data/articulation_logs/mechanisms_iros_2010"
+REAL_DIR = ""  # the recorded Cody tracks are not shipped: --real-dir names their folder
 REAL_KIND = {"drawer": "prismatic", "left_door": "revolute", "right_door": "revolute",
              "dishwasher": "revolute"}
 _BASE = Rotation.from_euler("xyz", [0.1, -0.15, 0.4])
@@ -237,7 +237,10 @@ def main(argv=None):
                     help="interpreter of an environment with ripl-articulation installed")
     ap.add_argument("--seeds", type=int, default=10, help="seeds per joint and sigma")
     ap.add_argument("--n", type=int, default=50, help="poses per synthetic track")
-    ap.add_argument("--real-dir", default=REAL_DIR, help="the Cody tracks ('' to skip)")
+    ap.add_argument("--real-dir", default=REAL_DIR,
+                    help="folder of the recorded Cody tracks (the thesis data's "
+                    "articulation_logs/mechanisms_iros_2010, one folder per mechanism); "
+                    "default: skip them")
     ap.add_argument("--timeout", type=float, default=3600.0,
                     help="for the peer's run, s (the tracks it has not finished then are "
                          "left out of its column)")

@@ -30,7 +30,7 @@ def _fmt(v) -> str:
 
 def tables(doc: dict) -> str:
     """The markdown of the two tables for run_speed's JSON document ``doc``."""
-    out = [f"Measured {doc.get('date', '')} on {doc.get('cores', '?')} cores, every benchmark "
+    out = [f"Measured on {doc.get('cores', '?')} cores, every benchmark "
            "in its quick mode, one BLAS thread (`python benchmarks/run_speed.py --json FILE`; "
            "load: the 1-minute load average at the benchmark's start and end).", ""]
     if doc.get("anchors"):

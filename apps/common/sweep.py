@@ -188,9 +188,9 @@ def _parse_lines(raw: bytes):
         yield i + 1, line, d, None
 
 
-def _line_problem(d: dict) -> str | None:
-    """Why a format-2 results line is malformed (None: it is sound): its fields, and its
-    record against the schema of its trial."""
+def _line_problem(d: dict, *, schema: bool = True) -> str | None:
+    """Why a format-2 results line is malformed (None: it is sound): its fields, and (with
+    ``schema``) its record against the schema of its trial."""
     spec = d["spec"]
     if not isinstance(d["key"], str):
         return "'key' is not a string"
@@ -202,8 +202,7 @@ def _line_problem(d: dict) -> str | None:
         return "lacks 'record' or 'error'"
     if d["error"] is not None:
         return None if isinstance(d["error"], str) else "'error' is not a string"
-    why = check_record(spec["fn"], d["record"], spec["params"])
-    return None if why is None else why
+    return check_record(spec["fn"], d["record"], spec["params"]) if schema else None
 
 
 def _problems(bad: list[tuple[int, str]], most: int = 4) -> str:
@@ -227,7 +226,7 @@ def read_results(path: str | Path, *, trials=()) -> tuple[list[dict], list[tuple
             why = f"an older results format ({d.get('format')!r}, this version reads " \
                   f"{RESULTS_FORMAT})"
         if why is None:
-            why = _line_problem(d)
+            why = _line_problem(d, schema=False)
         if why is None and ours:
             fn = d["spec"]["fn"]
             name = fn.split("@", 1)[0]
@@ -236,6 +235,8 @@ def read_results(path: str | Path, *, trials=()) -> tuple[list[dict], list[tuple
                       f"{', '.join(ours.values())})"
             elif fn != ours[name]:
                 why = f"written by {fn}, this version reads {ours[name]}"
+        if why is None:
+            why = _line_problem(d)
         if why is None and d["key"] in seen:
             why = f"the same trial as line {seen[d['key']]}"
         if why is not None:
