@@ -93,7 +93,8 @@ def open_mechanism(*, kind: str = "left_door", seed: int = 0, meshcat=None,
                    show_progress: bool = True, realtime: bool = False, priors: str = "",
                    mechanism_seed: int | None = None, save_track: str = "",
                    base_noise: float | None = None, perception: str = "click",
-                   on_built=None) -> dict:
+                   on_built=None, mechanism_options: dict | None = None,
+                   save_model: str = "") -> dict:
     """One opening trial: the robot drives to the mechanism ``kind``, hooks its handle and
     opens it while learning its model (thesis 4.3, 4.4.2); returns the trial's record.
 
@@ -119,6 +120,16 @@ def open_mechanism(*, kind: str = "left_door", seed: int = 0, meshcat=None,
     bar's points, "rectangle": by the kind's convention), ``frames_found`` and
     ``look_frames``.
 
+    ``mechanism_options``: the mechanism's true dynamics, a jam or a latch
+    (:func:`~mmlearn.diagrams.articulation.mechanism_dynamics.apply_mechanism_options`:
+    damping, friction, spring, jam_at in rad or m, locked); the record's ``dynamics`` holds
+    them (``true``) beside what the robot learned (``learned``: damping, friction,
+    stiffness, their deviations, the friction profile along q, the force predicted for the
+    second half of the pull against the measured one), ``jammed_at`` (the opening where a
+    jam stopped the pull, in the record's unit) and ``peak_force_N`` (the largest wrist
+    force while the hook held the handle). ``save_model``: write the learned model with
+    its dynamics (.sdf, or .json / .yaml: the project's model format).
+
     ``meshcat``: draw the scene there and record the trial (published at the end);
     ``on_built(op)``: called with the built :class:`Operate` before the simulation starts
     (e.g. to point the viewer's camera); ``realtime``: pace the simulation at real time."""
@@ -128,6 +139,7 @@ def open_mechanism(*, kind: str = "left_door", seed: int = 0, meshcat=None,
     cfg = _operate_config(kind=kind, seed=seed, max_time=max_time, sigma_pos=sigma_pos,
                           priors=priors, mechanism_seed=mechanism_seed, base_noise=base_noise,
                           perception=perception)
+    cfg.mechanism_options = dict(mechanism_options or {})
     t_build = time.perf_counter()
     try:
         op = MakeOperateDiagram(cfg, meshcat=meshcat)
@@ -141,6 +153,7 @@ def open_mechanism(*, kind: str = "left_door", seed: int = 0, meshcat=None,
     run = _simulate(op, max_time=max_time, realtime=realtime, show_progress=show_progress,
                     label=f"{kind} seed {seed}")
     result = _trial_record(op, cfg, run, build_seconds=build_seconds, save_track=save_track)
+    _add_dynamics(result, op, cfg, run, save_model)
     vis = op.scene.visualizer
     if vis is not None:
         vis.StopRecording()
@@ -167,6 +180,22 @@ def _operate_config(*, kind, seed, max_time, sigma_pos, priors, mechanism_seed, 
     if base_noise is not None:
         cfg.base_noise = base_noise
     return cfg
+
+
+def _add_dynamics(result: dict, op, cfg, run, save_model: str) -> None:
+    """The record's dynamics fields (see :func:`open_mechanism`); writes ``save_model``."""
+    from mmlearn.diagrams.articulation.mechanism_dynamics import (dynamics_record,
+                                                                  save_learned_model)
+
+    to_unit = math.degrees if op.mechanism.is_revolute else float
+    d = dynamics_record(op, run.ctx, to_unit, cfg.mechanism_options)
+    dyn = d.pop("learned_dynamics", None)
+    result.update(d)
+    result["model_saved"] = None
+    if save_model:
+        est = op.estimator.GetMyContextFromRoot(run.ctx).get_abstract_state(0).get_value()
+        if est.model is not None:
+            result["model_saved"] = save_learned_model(save_model, est.model, dyn)
 
 
 def _no_front_record(cfg, look) -> dict:
