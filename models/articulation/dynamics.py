@@ -116,6 +116,17 @@ class MechanismDynamics:
     def units(self) -> dict:
         return dynamics_units(self.joint)
 
+    @property
+    def spring_found(self) -> bool:
+        """A closing spring is found when its stiffness is more than three deviations
+        above 0 and, at the largest opening seen, it pulls back with more than a quarter of
+        the Coulomb friction (or 0.1 N m / 0.5 N, whichever is larger): a spring that small
+        is not told from the model's own error."""
+        floor = 0.1 if self.joint == "revolute" else 0.5
+        pull = self.stiffness * (self.q_range[1] - self.spring_reference)
+        return (self.stiffness > 3 * self.stiffness_std
+                and pull > max(0.25 * abs(self.friction), floor))
+
     def _handle_scale(self) -> float:
         """Generalised force -> force at the handle (1/r for a revolute joint)."""
         return 1.0 / self.radius if self.joint == "revolute" and self.radius else 1.0
@@ -173,7 +184,8 @@ class MechanismDynamics:
                 "profile": [{k: (int(v) if k == "n" else float(v)) for k, v in b.items()}
                             for b in self.profile],
                 "radius": None if self.radius is None else float(self.radius),
-                "q_offset": float(self.q_offset), "q_sign": float(self.q_sign)}
+                "q_offset": float(self.q_offset), "q_sign": float(self.q_sign),
+                "spring_found": bool(self.spring_found)}
 
     @classmethod
     def from_dict(cls, d: dict) -> "MechanismDynamics":
@@ -190,6 +202,7 @@ class MechanismDynamics:
                     or not math.isfinite(d[k]):
                 raise ValueError(f"dynamics.{k}: expected a finite number, got {d[k]!r}")
         for k in ("spring_reference", "noise_std", "covariance", "n_samples", "q_range",
+                  # spring_found is derived, not stored
                   "profile", "radius", "q_offset", "q_sign"):
             if k in d:
                 kw[k] = d[k]
@@ -358,8 +371,8 @@ def sdf_with_dynamics(model, dynamics: MechanismDynamics | None, *,
                       model_name: str = "learned_object") -> str:
     """The learned model as SDFormat (:func:`mmlearn.models.articulation.io.to_sdf`) with
     the dynamics in its first joint's ``<axis><dynamics>``: damping, friction, and the
-    spring (reference and stiffness) where one was found (stiffness more than two standard
-    deviations above 0). Negative estimates are written as 0 (SDFormat needs
+    spring (reference and stiffness) where one was found
+    (:attr:`MechanismDynamics.spring_found`). Negative estimates are written as 0 (SDFormat needs
     non-negative damping and friction)."""
     from mmlearn.models.articulation.io import to_sdf
 
@@ -375,7 +388,7 @@ def sdf_with_dynamics(model, dynamics: MechanismDynamics | None, *,
     if dyn is None:
         dyn = ET.SubElement(axis, "dynamics")
     values = {"damping": max(dynamics.damping, 0.0), "friction": max(dynamics.friction, 0.0)}
-    if dynamics.stiffness > 2 * dynamics.stiffness_std and dynamics.stiffness > 0:
+    if dynamics.spring_found:
         # the spring pulls towards the closed configuration, where the pull began: in
         # the exported joint's (the link model's) coordinate
         values["spring_reference"] = dynamics.q_offset + dynamics.q_sign * \
