@@ -65,6 +65,7 @@ def run_trial(t: dict) -> dict:
     return {**{k: t[k] for k in ("label", "group", "kind", "seed", "value")},
             "outcome": r["outcome"], "success": r["success"], "opened": r["opened"],
             "jammed_at": r.get("jammed_at"), "peak_force_N": r.get("peak_force_N"),
+            "peak_force_impact_N": r.get("peak_force_impact_N"),
             "true": r["dynamics"]["true"],
             "learned": {k: learned.get(k) for k in ("damping", "damping_std", "friction",
                                                      "friction_std", "stiffness",
@@ -113,6 +114,9 @@ def summary(rows: list[dict]) -> dict:
                 "max_position_error": float(np.max(errs)) if errs else None,
                 "below_limit": sum(p < LIMIT_N for p in peaks),
                 "max_peak_force_N": float(max(peaks)) if peaks else None,
+                "max_impact_force_N": max((r["peak_force_impact_N"] for r in rs
+                                           if r.get("peak_force_impact_N") is not None),
+                                          default=None),
                 "outcomes": sorted({r["outcome"] for r in rs})}
     for kind in ("left_door", "drawer"):
         rs = [r for r in rows if r["group"] == "sticky" and r["kind"] == kind]

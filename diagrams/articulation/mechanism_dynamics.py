@@ -78,8 +78,9 @@ def _prediction(g, q_split) -> dict | None:
 
 
 def dynamics_record(op, ctx, to_unit, options: dict) -> dict:
-    """The record's ``dynamics`` entry and the block's fields (``jammed_at``,
-    ``peak_force_N``) of a simulated trial ``op`` at its root context ``ctx``;
+    """The record's ``dynamics`` entry and the block's fields (``jammed_at``;
+    ``peak_force_N``, the largest wrist force held for 0.1 s while the hook held the handle,
+    and ``peak_force_impact_N``, the largest single sample, an impact's spike included) of a simulated trial ``op`` at its root context ``ctx``;
     ``to_unit`` converts an opening to the record's unit (deg or m); ``options`` are the
     trial's :func:`apply_mechanism_options`."""
     spec = op.mechanism
@@ -89,11 +90,12 @@ def dynamics_record(op, ctx, to_unit, options: dict) -> dict:
             "locked": bool(options.get("locked", False))}
     out = {"dynamics": {"true": true, "learned": None, "units": dynamics_units(
         "revolute" if spec.is_revolute else "prismatic")}, "jammed_at": None,
-        "peak_force_N": None}
+        "peak_force_N": None, "peak_force_impact_N": None}
     if op.monitor is None:
         return out
     s = op.monitor.state(op.monitor.GetMyContextFromRoot(ctx))
-    out["peak_force_N"] = float(s.peak_force)
+    out["peak_force_N"] = s.held_peak_force()
+    out["peak_force_impact_N"] = float(s.peak_force)
     if s.halt == 1:
         out["jammed_at"] = to_unit(s.blocked_at) if math.isfinite(s.blocked_at) else None
     est = op.estimator.GetMyContextFromRoot(ctx).get_abstract_state(0).get_value()

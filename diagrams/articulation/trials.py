@@ -126,8 +126,9 @@ def open_mechanism(*, kind: str = "left_door", seed: int = 0, meshcat=None,
     them (``true``) beside what the robot learned (``learned``: damping, friction,
     stiffness, their deviations, the friction profile along q, the force predicted for the
     second half of the pull against the measured one), ``jammed_at`` (the opening where a
-    jam stopped the pull, in the record's unit) and ``peak_force_N`` (the largest wrist
-    force while the hook held the handle). ``save_model``: write the learned model with
+    jam stopped the pull, in the record's unit), ``peak_force_N`` (the largest wrist force
+    held for 0.1 s, one control period, while the hook held the handle) and
+    ``peak_force_impact_N`` (the largest sample, with the spike of an impact). ``save_model``: write the learned model with
     its dynamics (.sdf, or .json / .yaml: the project's model format).
 
     ``meshcat``: draw the scene there and record the trial (published at the end);

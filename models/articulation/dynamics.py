@@ -21,7 +21,7 @@ the noise level by empirical Bayes (residual variance), a robust start (Huber we
 the posterior means and standard deviations, the covariance, and a friction profile along q
 (the residual resistance in bins of q after the viscous, spring and inertial terms: where
 the mechanism is stiffer in one part of its travel). Only samples where the mechanism moves
-(|qdot| above ``min_rate``) enter: at rest the Coulomb force is anywhere within +-f.
+(|qdot| above ``min_rate`` and a quarter of the median rate) enter: at rest the Coulomb force is anywhere within +-f.
 
 Damping and friction are told apart only if the speed varies during the pull; the opening
 controller therefore modulates its pulling speed (see
@@ -212,7 +212,7 @@ class MechanismDynamics:
         return cls(**kw)
 
 
-def local_derivatives(t, q, half_window: float = 0.3) -> tuple[np.ndarray, np.ndarray]:
+def local_derivatives(t, q, half_window: float = 0.2) -> tuple[np.ndarray, np.ndarray]:
     """Rate and acceleration of q(t) at every sample from a quadratic fitted to the samples
     within ``half_window`` seconds (NaN where fewer than 5 samples are near)."""
     t, q = np.asarray(t, float), np.asarray(q, float)
@@ -260,17 +260,21 @@ def fit_dynamics(q, qdot, tau, qddot=None, *, joint: str, min_rate: float | None
                  radius: float | None = None, q_offset: float = 0.0,
                  q_sign: float = 1.0) -> MechanismDynamics | None:
     """Bayesian linear regression of the generalised force on (qdot, sign(qdot), q, qddot)
-    (see the module docstring). ``min_rate``: samples slower than this are left out
-    (default 0.02 rad/s or 0.008 m/s); ``prior_std``: the coefficients' prior standard
+    (see the module docstring). ``min_rate``: samples slower than this, or than a quarter
+    of the median rate, are left out (default 0.02 rad/s or 0.008 m/s); ``prior_std``: the coefficients' prior standard
     deviations (default: broad, by joint); ``bins``: bins of the friction profile.
     Returns None with fewer than 8 usable samples."""
-    units = dynamics_units(joint)  # checks joint
-    del units
+    dynamics_units(joint)  # checks joint
     q, qdot, tau = (np.asarray(a, float) for a in (q, qdot, tau))
     qddot = np.zeros_like(q) if qddot is None else np.asarray(qddot, float)
     rate = min_rate if min_rate is not None else (0.02 if joint == "revolute" else 0.008)
-    use = (np.isfinite(q) & np.isfinite(qdot) & np.isfinite(tau) & np.isfinite(qddot)
-           & (np.abs(qdot) > rate))
+    finite = np.isfinite(q) & np.isfinite(qdot) & np.isfinite(tau) & np.isfinite(qddot)
+    if finite.sum() < 8:
+        return None
+    # moving: faster than min_rate and than a quarter of the typical rate (the pull's
+    # start and its end, at a stop, are left out)
+    typical = float(np.median(np.abs(qdot[finite])))
+    use = finite & (np.abs(qdot) > max(rate, 0.25 * typical))
     if use.sum() < 8:
         return None
     X_all = np.stack([qdot, np.sign(qdot), q, qddot], axis=1)
@@ -403,13 +407,13 @@ def sdf_with_dynamics(model, dynamics: MechanismDynamics | None, *,
     return '<?xml version="1.0"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
 
 
-def path_opening(P, joint: str, *, radius_prior: tuple = (0.45, 0.15),
+def path_opening(P, joint: str, *, radius_prior: tuple = (0.40, 0.12),
                  sigma: float = 0.01) -> float:
     """How far a handle moved along its path P (k, 3; m): for a ``"prismatic"`` mechanism
     the distance from the first to the last point (m); for a ``"revolute"`` one the angle
     its path turned (rad), from a circle fitted in the path's plane with a Gaussian prior
-    on the radius (``radius_prior``: mean and deviation, m; the handle radius of household
-    doors) against points of deviation ``sigma`` (m; the drift of the robot's
+    on the radius (``radius_prior``: mean and deviation, m; the handle radius of kitchen
+    cabinet doors 0.3-0.6 m wide) against points of deviation ``sigma`` (m; the drift of the robot's
     localisation over a pull). Model free: usable before the learned model is the right
     kind (a short arc reads as a line at the estimator's noise)."""
     from scipy.optimize import least_squares

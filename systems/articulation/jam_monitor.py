@@ -111,8 +111,22 @@ class DynamicsMonitorState:
         blocked_at: the opening by the learned model when the block was found (rad or m;
             NaN: no model or no block).
         travel: the hook's distance from its first sample at the block, m.
-        peak_force: largest wrist force seen while pulling, N.
+        peak_force: largest wrist force sample while the hook held the handle, N.
     """
+
+    def held_peak_force(self, hold: float = 0.1) -> float:
+        """The largest wrist force held for ``hold`` seconds (the largest over windows of
+        that length of the smallest force in the window), N: the force the robot pulled
+        with, without the few-millisecond spike of an impact."""
+        if self.t.size == 0:
+            return 0.0
+        f = np.linalg.norm(self.F, axis=1)
+        best = 0.0
+        for i, t0 in enumerate(self.t):
+            m = (self.t >= t0) & (self.t <= t0 + hold + 1e-9)
+            if self.t[m][-1] - t0 >= hold - 1e-9:
+                best = max(best, float(f[m].min()))
+        return best
 
     t: np.ndarray = field(default_factory=lambda: np.zeros(0))
     G: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
@@ -205,13 +219,17 @@ class DynamicsMonitor(LeafSystem):
         s = self.state(context)
         G = np.asarray(self._in_G.Eval(context), float)
         F = np.asarray(self._in_F.Eval(context), float)
-        if s.halt != GO or not (np.all(np.isfinite(G)) and np.all(np.isfinite(F))):
+        if not (np.all(np.isfinite(G)) and np.all(np.isfinite(F))):
             return EventStatus.DidNothing()
         t = context.get_time()
-        obj = self._in_model.Eval(context) if self._in_model.HasValue(context) else None
+        # after a halt the samples go on (the force while the hook lets go), unused
         s = replace(s, t=np.append(s.t, t), G=np.vstack([s.G, G]), F=np.vstack([s.F, F]),
                     t_start=t if not math.isfinite(s.t_start) else s.t_start,
                     peak_force=max(s.peak_force, float(np.linalg.norm(F))))
+        if s.halt != GO:
+            state.get_mutable_abstract_state(self._s).set_value(s)
+            return EventStatus.Succeeded()
+        obj = self._in_model.Eval(context) if self._in_model.HasValue(context) else None
         s = self._refit(s, _link(obj))
         s = self._check_block(s, _link(obj))
         state.get_mutable_abstract_state(self._s).set_value(s)
@@ -234,11 +252,14 @@ class DynamicsMonitor(LeafSystem):
             return s
         G0, G1 = s.G[recent][0], s.G[-1]
         d = _tangent(link, G1)
-        F_now = s.F[-1]
-        if d is None:  # no model along which to measure: the direction the robot pulls
-            d = -F_now / max(np.linalg.norm(F_now), 1e-9)
-        progress = float(np.dot(G1 - G0, d))
-        pulls = -s.F[recent] @ d
+        if d is None:
+            # no model along which to measure: any motion counts, and the force is the
+            # one the robot pulls with
+            progress = float(np.linalg.norm(G1 - G0))
+            pulls = np.linalg.norm(s.F[recent], axis=1)
+        else:
+            progress = float(np.dot(G1 - G0, d))
+            pulls = -s.F[recent] @ d
         rise = float(pulls[-1] - pulls[:3].min())
         if progress >= cfg.min_progress or rise < cfg.min_rise:
             return s
