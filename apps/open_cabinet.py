@@ -97,8 +97,8 @@ def _check_options(kind: str, seed: int, options: dict) -> None:
 def _print_dynamics(r: dict) -> None:
     """The learned dynamics against the true ones, one line each."""
     d = r.get("dynamics") or {}
-    learned, true, u = d.get("learned"), d.get("true", {}), d.get("units", {})
-    if not learned:
+    learned, true, u = d, d.get("true", {}), d.get("units", {})
+    if not d.get("learned"):
         print("dynamics: not learned (no revolute or prismatic model)")
         return
     for k in ("damping", "friction", "stiffness"):

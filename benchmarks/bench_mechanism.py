@@ -61,7 +61,8 @@ def run_trial(t: dict) -> dict:
     t0 = time.perf_counter()
     r = open_mechanism(kind=t["kind"], seed=t["seed"], show_progress=False,
                        mechanism_options=t["options"])
-    learned = (r.get("dynamics") or {}).get("learned") or {}
+    d = r.get("dynamics") or {}
+    learned = d if d.get("learned") else {}
     return {**{k: t[k] for k in ("label", "group", "kind", "seed", "value")},
             "outcome": r["outcome"], "success": r["success"], "opened": r["opened"],
             "jammed_at": r.get("jammed_at"), "peak_force_N": r.get("peak_force_N"),

@@ -78,19 +78,26 @@ def _prediction(g, q_split) -> dict | None:
 
 
 def dynamics_record(op, ctx, to_unit, options: dict) -> dict:
-    """The record's ``dynamics`` entry and the block's fields (``jammed_at``;
-    ``peak_force_N``, the largest wrist force held for 0.1 s while the hook held the handle,
-    and ``peak_force_impact_N``, the largest single sample, an impact's spike included) of a simulated trial ``op`` at its root context ``ctx``;
-    ``to_unit`` converts an opening to the record's unit (deg or m); ``options`` are the
-    trial's :func:`apply_mechanism_options`."""
+    """The record's ``dynamics`` entry and the block's fields of a simulated trial ``op``
+    at its root context ``ctx``: ``jammed_at``; ``peak_force_N``, the largest wrist force
+    held for 0.1 s while the hook held the handle; ``peak_force_impact_N``, the largest
+    single sample, an impact's spike included. ``dynamics`` has the learned values
+    (:meth:`MechanismDynamics.to_dict`, with ``prediction``: the force predicted for the
+    second half of the pull from its first half, against the measured; all None when
+    nothing was learned), ``learned`` (whether), ``units`` and ``true`` (the values
+    written into the mechanism). ``to_unit`` converts an opening to the record's unit
+    (deg or m); ``options`` are the trial's :func:`apply_mechanism_options`."""
     spec = op.mechanism
     jam = options.get("jam_at")
     true = {"damping": spec.damping, "friction": spec.friction, "stiffness": spec.spring,
             "jam_at": None if jam is None else to_unit(jam),
             "locked": bool(options.get("locked", False))}
-    out = {"dynamics": {"true": true, "learned": None, "units": dynamics_units(
-        "revolute" if spec.is_revolute else "prismatic")}, "jammed_at": None,
-        "peak_force_N": None, "peak_force_impact_N": None}
+    units = dynamics_units("revolute" if spec.is_revolute else "prismatic")
+    empty = {k: None for k in ("damping", "damping_std", "friction", "friction_std",
+                               "stiffness", "stiffness_std", "spring_found", "profile",
+                               "prediction")}
+    out = {"dynamics": {**empty, "learned": False, "units": units, "true": true},
+           "jammed_at": None, "peak_force_N": None, "peak_force_impact_N": None}
     if op.monitor is None:
         return out
     s = op.monitor.state(op.monitor.GetMyContextFromRoot(ctx))
@@ -114,7 +121,7 @@ def dynamics_record(op, ctx, to_unit, options: dict) -> dict:
     learned = dyn.to_dict()
     learned["prediction"] = _prediction(g, 0.5 * float(np.max(g["q"]))) \
         if g["q"].size else None
-    out["dynamics"]["learned"] = learned
+    out["dynamics"].update(learned, learned=True, units=units)
     out["learned_dynamics"] = dyn  # not JSON: taken out by the caller
     return out
 
