@@ -19,7 +19,8 @@ from mmlearn.systems.articulation.estimator import ArticulationEstimator
 from mmlearn.systems.articulation.base_localization import (BaseLocalization, BaseLocalizationConfig,
                                                             believed_from_true, initial_error, rotate_yaw)
 from mmlearn.systems.articulation.epc_controller import EpcConfig, EpcController, EpcTask
-from mmlearn.systems.articulation.jam_monitor import DynamicsMonitor, DynamicsMonitorConfig
+from mmlearn.systems.articulation.jam_monitor import (DynamicsMonitor, DynamicsMonitorConfig,
+                                                     HaltGate)
 from mmlearn.systems.articulation.model_visualizer import LearnedModelVisualizer
 from mmlearn.systems.articulation.prior_selector import PriorModelSelector
 from mmlearn.systems.common.wrist_force_sensor import WristForceSensor
@@ -274,7 +275,20 @@ def MakeOperateDiagram(config: OperateConfig | None = None, *, meshcat=None) -> 
     builder.Connect(epc.get_hook_position_output_port(),
                     estimator.get_pose_input_port())
     builder.Connect(epc.get_command_output_port(), loc.get_command_input_port())
-    builder.Connect(loc.get_plant_command_output_port(), sd.GetInputPort("command"))
+    plant_command = loc.get_plant_command_output_port()
+    if cfg.monitor is not None:
+        # a halt relaxes the arm at once (the robot's measured joint positions as commands)
+        cmd_idx = [robot_q_starts.index(plant.GetJointByName(nm, scene.robot).position_start())
+                   for nm in scene.command_names]
+        gate = builder.AddNamedSystem("halt_gate", HaltGate(
+            command_positions=cmd_idx,
+            state_size=plant.num_positions(scene.robot) + plant.num_velocities(scene.robot)))
+        builder.Connect(plant_command, gate.get_command_input_port())
+        builder.Connect(sd.GetOutputPort("robot_state"), gate.get_robot_state_input_port())
+        builder.Connect(monitor.get_halted_since_output_port(),
+                        gate.get_halted_since_input_port())
+        plant_command = gate.GetOutputPort("command")
+    builder.Connect(plant_command, sd.GetInputPort("command"))
     if meshcat is not None:
         vis = builder.AddNamedSystem("learned_model_visualizer",
                                      LearnedModelVisualizer(meshcat=meshcat))

@@ -22,7 +22,12 @@ rate varies and damping can be told from friction.
     - object_model
     output_ports:
     - supervisor
+    - halted_since
     - dynamics
+
+:class:`HaltGate` relaxes the arm at once when the monitor halts (the controller reacts only
+at its next period): for ``hold`` seconds it commands the robot's measured joint positions,
+so its joint springs stop pulling.
 """
 
 from __future__ import annotations
@@ -38,7 +43,7 @@ from mmlearn.models.articulation.dynamics import (MechanismDynamics, fit_dynamic
                                                   generalized_samples, path_opening)
 from mmlearn.models.common.config import param, validate_fields
 
-__all__ = ["DynamicsMonitorConfig", "DynamicsMonitorState", "DynamicsMonitor", "GO",
+__all__ = ["DynamicsMonitorConfig", "DynamicsMonitorState", "DynamicsMonitor", "HaltGate", "GO",
            "JAMMED", "LOCKED", "HALT_NAMES", "estimate_dynamics"]
 
 GO, JAMMED, LOCKED = 0, 1, 2
@@ -83,8 +88,8 @@ class DynamicsMonitorConfig:
     excitation: float = param(0.5, ge=0, lt=1)
     excitation_period: float = param(2.0, unit="s", gt=0)
     start_travel: float = param(0.04, unit="m", ge=0)
-    window: float = param(0.15, unit="s", gt=0)
-    min_progress: float = param(0.003, unit="m", gt=0)
+    window: float = param(0.1, unit="s", gt=0)
+    min_progress: float = param(0.002, unit="m", gt=0)
     min_rise: float = param(2.0, unit="N", ge=0)
     force_margin: float = param(4.0, unit="N", ge=0)
     sigma_margin: float = param(4.0, ge=0)
@@ -162,7 +167,8 @@ class DynamicsMonitor(LeafSystem):
     as the controller reports it); ``force_W``: the wrist force (force of the mechanism on
     the hook, world, N); ``object_model``: the learned model. ``supervisor``: [step scale,
     halt code] for :class:`~mmlearn.systems.articulation.epc_controller.EpcController`;
-    ``dynamics``: the latest :class:`MechanismDynamics` (or None).
+    ``halted_since``: the time of the halt (NaN: none), s; ``dynamics``: the latest
+    :class:`MechanismDynamics` (or None).
     """
 
     def __init__(self, config: DynamicsMonitorConfig | None = None):
@@ -179,6 +185,10 @@ class DynamicsMonitor(LeafSystem):
         self._out_sup = self.DeclareVectorOutputPort("supervisor", BasicVector(2),
                                                      self._calc_supervisor,
                                                      prerequisites_of_calc=deps)
+        self._out_halt = self.DeclareVectorOutputPort(
+            "halted_since", BasicVector(1),
+            lambda context, out: out.SetFromVector([self.state(context).t_halt]),
+            prerequisites_of_calc={self.abstract_state_ticket(self._s)})
         self._out_dyn = self.DeclareAbstractOutputPort(
             "dynamics", lambda: AbstractValue.Make(None), self._calc_dynamics,
             prerequisites_of_calc={self.abstract_state_ticket(self._s)})
@@ -198,6 +208,9 @@ class DynamicsMonitor(LeafSystem):
 
     def get_dynamics_output_port(self):
         return self._out_dyn
+
+    def get_halted_since_output_port(self):
+        return self._out_halt
 
     def state(self, context) -> DynamicsMonitorState:
         return context.get_abstract_state(self._s).get_value()
@@ -340,3 +353,52 @@ def _typical_rate(dyn, link, s) -> float | None:
     qd = g["qdot"][np.isfinite(g["qdot"])]
     qd = qd[qd > 0]
     return float(np.median(qd)) if qd.size else None
+
+
+class HaltGate(LeafSystem):
+    """Passes the robot's joint commands through, except for ``hold`` seconds after a halt
+    (``halted_since`` finite): then it commands the robot's measured joint positions, so the
+    arm's joint springs stop pulling at once rather than at the controller's next period.
+
+    .. pydrake_system::
+
+        name: HaltGate
+        input_ports:
+        - command
+        - robot_state
+        - halted_since
+        output_ports:
+        - command
+
+    ``command_positions``: index of each command in the robot instance's position vector;
+    ``state_size``: size of ``robot_state`` (positions and velocities).
+    """
+
+    def __init__(self, *, command_positions, state_size: int, hold: float = 0.25):
+        super().__init__()
+        if not hold > 0:
+            raise ValueError(f"HaltGate: hold must be > 0 s, got {hold}")
+        self._idx = np.asarray(command_positions, int)
+        self._hold = float(hold)
+        n = self._idx.size
+        self._in_cmd = self.DeclareVectorInputPort("command", n)
+        self._in_state = self.DeclareVectorInputPort("robot_state", state_size)
+        self._in_halt = self.DeclareVectorInputPort("halted_since", 1)
+        self.DeclareVectorOutputPort("command", BasicVector(n), self._calc)
+
+    def get_command_input_port(self):
+        return self._in_cmd
+
+    def get_robot_state_input_port(self):
+        return self._in_state
+
+    def get_halted_since_input_port(self):
+        return self._in_halt
+
+    def _calc(self, context, output):
+        t_halt = float(self._in_halt.Eval(context)[0])
+        t = context.get_time()
+        if math.isfinite(t_halt) and t_halt <= t < t_halt + self._hold:
+            output.SetFromVector(np.asarray(self._in_state.Eval(context))[self._idx])
+        else:
+            output.SetFromVector(self._in_cmd.Eval(context))
