@@ -211,3 +211,21 @@ def test_open_cabinet_dynamics_flags_bad_input(tmp_path, capsys):
     bad(["--jam-at", "30", "--locked"], "not allowed with")
     bad(["--damping", "-1"], "--damping")
     bad(["--save-model", str(tmp_path / "m.txt")], "--save-model", ".sdf")
+
+
+def test_halt_gate_relaxes_the_arm_for_its_hold_only():
+    from mmlearn.systems.articulation.jam_monitor import HaltGate
+
+    gate = HaltGate(command_positions=[1, 0], state_size=4, hold=0.25)
+    ctx = gate.CreateDefaultContext()
+    gate.get_command_input_port().FixValue(ctx, [5.0, 6.0])
+    gate.get_robot_state_input_port().FixValue(ctx, [1.0, 2.0, 0.0, 0.0])
+    out = gate.GetOutputPort("command")
+    gate.get_halted_since_input_port().FixValue(ctx, [math.nan])
+    assert list(out.Eval(ctx)) == [5.0, 6.0]
+    gate.get_halted_since_input_port().FixValue(ctx, [1.0])
+    for t, want in ((0.9, [5.0, 6.0]), (1.1, [2.0, 1.0]), (1.3, [5.0, 6.0])):
+        ctx.SetTime(t)
+        assert list(out.Eval(ctx)) == want
+    with pytest.raises(ValueError, match="hold"):
+        HaltGate(command_positions=[0], state_size=2, hold=0.0)

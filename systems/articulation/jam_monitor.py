@@ -5,8 +5,8 @@ Every ``period`` it stores the hook position and the wrist force (while the cont
 reports the hook on the handle), refits the dynamics along the current learned model
 (:func:`mmlearn.models.articulation.dynamics.fit_dynamics`) and watches for a block: over
 the last ``window`` seconds the hook advanced less than ``min_progress`` along the model
-while the force pulling along it rose by ``min_rise`` to more than the learned dynamics
-predict (the prediction at the pulling rate seen so far, plus ``sigma_margin`` of its
+while the force pulling along it rose by ``min_rise`` (within ``rise_window``) to more
+than the learned dynamics predict (the prediction at the pulling rate seen so far, plus ``sigma_margin`` of its
 deviations and ``force_margin``; before any dynamics are learned, or against a mechanism
 that has not moved, ``locked_force``). It then tells the controller to stop: halt code 1
 (jammed: the mechanism had moved by ``locked_travel`` or more) or 2 (locked). The pulling
@@ -64,10 +64,13 @@ class DynamicsMonitorConfig:
         excitation_period: period of that modulation, s.
         start_travel: the first this far of the pull (the hook taking up the slack, the
             mechanism breaking free) go at the modulation's slowest speed, m.
+        settle: the block test begins this long after the pull's first sample (the hook
+            seating on the bar pushes it sideways), s.
         window: the block test looks at the last this many seconds, s.
         min_progress: the hook advancing less than this along the model in ``window``
             counts as not moving, m.
-        min_rise: ... while the pulling force rose by at least this, N.
+        min_rise: ... while the pulling force rose by at least this, N ...
+        rise_window: ... over the last this many seconds, s.
         force_margin: the force must exceed the learned prediction by this much, N ...
         sigma_margin: ... plus this many of the prediction's standard deviations.
         locked_force: without learned dynamics (or a mechanism that has not moved) a
@@ -88,9 +91,11 @@ class DynamicsMonitorConfig:
     excitation: float = param(0.5, ge=0, lt=1)
     excitation_period: float = param(2.0, unit="s", gt=0)
     start_travel: float = param(0.04, unit="m", ge=0)
+    settle: float = param(0.3, unit="s", ge=0)
     window: float = param(0.1, unit="s", gt=0)
     min_progress: float = param(0.002, unit="m", gt=0)
     min_rise: float = param(2.0, unit="N", ge=0)
+    rise_window: float = param(0.5, unit="s", gt=0)
     force_margin: float = param(4.0, unit="N", ge=0)
     sigma_margin: float = param(4.0, ge=0)
     locked_force: float = param(9.0, unit="N", gt=0)
@@ -261,19 +266,21 @@ class DynamicsMonitor(LeafSystem):
         cfg = self._cfg
         t_now = s.t[-1]
         recent = s.t >= t_now - cfg.window - 1e-9
-        if s.t[0] > t_now - cfg.window + 0.5 * cfg.period or recent.sum() < 3:
+        if s.t[0] > t_now - max(cfg.window, cfg.settle) + 0.5 * cfg.period \
+                or recent.sum() < 3:
             return s
         G0, G1 = s.G[recent][0], s.G[-1]
         d = _tangent(link, G1)
+        rising = s.t >= t_now - cfg.rise_window - 1e-9
         if d is None:
             # no model along which to measure: any motion counts, and the force is the
             # one the robot pulls with
             progress = float(np.linalg.norm(G1 - G0))
-            pulls = np.linalg.norm(s.F[recent], axis=1)
+            pulls = np.linalg.norm(s.F[rising], axis=1)
         else:
             progress = float(np.dot(G1 - G0, d))
-            pulls = -s.F[recent] @ d
-        rise = float(pulls[-1] - pulls[:3].min())
+            pulls = -s.F[rising] @ d
+        rise = float(pulls[-1] - pulls.min())
         if progress >= cfg.min_progress or rise < cfg.min_rise:
             return s
         travel = float(np.linalg.norm(G1 - s.G[0]))
