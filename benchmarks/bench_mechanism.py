@@ -9,7 +9,7 @@ against the true, in joint units and as the handle's N s/m, which does not depen
 learned radius), ``jam`` (a door jammed at 15-55 deg, a drawer at 0.05-0.25 m: recognised,
 ``jammed_at`` error, peak wrist force), ``locked`` (latched door and drawer) and ``sticky``
 (free but with 5-10 times the usual friction: must be opened). ``--trials`` trials per
-setting (seeds ``--seed`` on). Each finished trial is appended to ``--results`` (default
+setting (seeds ``--seed`` on); locked and sticky: ``--repeats`` settings per kind. Each finished trial is appended to ``--results`` (default
 ``bench_mechanism_results.jsonl``); a rerun skips the trials already there.
 """
 
@@ -33,7 +33,7 @@ LIMIT_N = 35.0  # the controller's force limit (EpcConfig.stop_force)
 JAM_TOL = {"left_door": 5.0, "drawer": 0.03}
 
 
-def trials(groups, seed: int, n: int) -> list[dict]:
+def trials(groups, seed: int, n: int, repeats: int = 5) -> list[dict]:
     """The trials of the chosen groups: label, group, kind, seed, options, value."""
     out = []
     for g in groups:
@@ -44,9 +44,9 @@ def trials(groups, seed: int, n: int) -> list[dict]:
             elif g == "jam":
                 settings = [({"jam_at": math.radians(v) if rev else v}, v) for v in JAMS[kind]]
             elif g == "locked":
-                settings = [({"locked": True}, None)] * 5
+                settings = [({"locked": True}, None)] * repeats
             else:
-                settings = [({"friction": STICKY[kind]}, STICKY[kind])] * 5
+                settings = [({"friction": STICKY[kind]}, STICKY[kind])] * repeats
             for j, (opts, v) in enumerate(settings):
                 for i in range(n):
                     s = seed + i + (j * n if g in ("locked", "sticky") else 0)
@@ -134,6 +134,8 @@ def main(argv=None):
     ap.add_argument("--only", default=",".join(GROUPS), help="groups, comma-separated")
     ap.add_argument("--seed", type=int, default=100)
     ap.add_argument("--trials", type=int, default=1, help="trials per setting")
+    ap.add_argument("--repeats", type=int, default=5,
+                    help="locked and sticky trials per mechanism kind (x --trials)")
     ap.add_argument("--results", default="bench_mechanism_results.jsonl")
     add_output_arguments(ap)
     a = ap.parse_args(argv)
@@ -150,7 +152,7 @@ def main(argv=None):
                 r = json.loads(line)
                 done[r["label"]] = r
     rows = []
-    for t in trials(groups, a.seed, a.trials):
+    for t in trials(groups, a.seed, a.trials, a.repeats):
         r = done.get(t["label"])
         if r is None:
             r = run_trial(t)
