@@ -75,8 +75,9 @@ class DynamicsMonitorConfig:
         sigma_margin: ... plus this many of the prediction's standard deviations.
         locked_force: without learned dynamics (or a mechanism that has not moved) a
             force above this, not moving, is a block, N.
-        locked_travel: a mechanism that moved less than this before the block (along the
-            hook's path) is locked rather than jammed, m.
+        locked_travel: a block before the hook travelled this far from its first sample
+            is a locked mechanism rather than a jammed one (the hook takes up ~3 cm of
+            slack between its seat and the bar before it pulls), m.
         joint: the kind of mechanism the robot was sent to open ("revolute",
             "prismatic"; "" = not known): the unit of the opening at a block.
         open_enough: a block beyond this opening (rad or m; 0 = none) is the end of the
@@ -99,7 +100,7 @@ class DynamicsMonitorConfig:
     force_margin: float = param(4.0, unit="N", ge=0)
     sigma_margin: float = param(4.0, ge=0)
     locked_force: float = param(9.0, unit="N", gt=0)
-    locked_travel: float = param(0.02, unit="m", gt=0)
+    locked_travel: float = param(0.045, unit="m", gt=0)
     joint: str = param("", choices=("", "revolute", "prismatic"))
     open_enough: float = param(0.0, unit="rad or m", ge=0)
 
