@@ -188,7 +188,7 @@ def test_monitor_halts_a_latched_pull_not_a_moving_one():
     mon, ctx = _monitor_run(30.0)
     s = mon.state(ctx)
     assert s.halt == LOCKED
-    assert np.linalg.norm(s.F[s.t <= s.t_halt][-1]) < 15.0  # halted long before 30 N
+    assert np.linalg.norm(s.F[s.t <= s.t_halt][-1]) < 20.0  # halted long before 30 N
     assert mon.get_supervisor_output_port().Eval(ctx)[1] == LOCKED
     mon, ctx = _monitor_run(30.0, G_move=0.3)  # the same force, but it moves
     assert mon.state(ctx).halt == GO

@@ -99,7 +99,7 @@ class DynamicsMonitorConfig:
     rise_window: float = param(0.5, unit="s", gt=0)
     force_margin: float = param(4.0, unit="N", ge=0)
     sigma_margin: float = param(4.0, ge=0)
-    locked_force: float = param(9.0, unit="N", gt=0)
+    locked_force: float = param(15.0, unit="N", gt=0)
     locked_travel: float = param(0.045, unit="m", gt=0)
     joint: str = param("", choices=("", "revolute", "prismatic"))
     open_enough: float = param(0.0, unit="rad or m", ge=0)
