@@ -73,6 +73,9 @@ class DynamicsMonitorConfig:
         rise_window: ... over the last this many seconds, s.
         force_margin: the force must exceed the learned prediction by this much, N ...
         sigma_margin: ... plus this many of the prediction's standard deviations.
+        block_force: a force above this without motion is a block whatever the learned
+            dynamics predict (their prediction is loose after a short pull), N: below the
+            controller's ``stop_force``.
         locked_force: without learned dynamics (or a mechanism that has not moved) a
             force above this, not moving, is a block, N.
         locked_travel: a block before the hook travelled this far from its first sample
@@ -99,6 +102,7 @@ class DynamicsMonitorConfig:
     rise_window: float = param(0.5, unit="s", gt=0)
     force_margin: float = param(4.0, unit="N", ge=0)
     sigma_margin: float = param(4.0, ge=0)
+    block_force: float = param(25.0, unit="N", gt=0)
     locked_force: float = param(15.0, unit="N", gt=0)
     locked_travel: float = param(0.045, unit="m", gt=0)
     joint: str = param("", choices=("", "revolute", "prismatic"))
@@ -287,7 +291,7 @@ class DynamicsMonitor(LeafSystem):
         travel = float(np.linalg.norm(G1 - s.G[0]))
         limit = cfg.locked_force
         if s.dynamics is not None and travel >= cfg.locked_travel:
-            limit = self._expected_force(s, link, G1)
+            limit = min(self._expected_force(s, link, G1), cfg.block_force)
         if pulls[-1] <= limit:
             return s
         halt = JAMMED if travel >= cfg.locked_travel else LOCKED
