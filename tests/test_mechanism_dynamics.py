@@ -229,3 +229,19 @@ def test_halt_gate_relaxes_the_arm_for_its_hold_only():
         assert list(out.Eval(ctx)) == want
     with pytest.raises(ValueError, match="hold"):
         HaltGate(command_positions=[0], state_size=2, hold=0.0)
+
+
+@pytest.mark.slow
+def test_open_cabinet_learns_a_drawer_and_stops_at_a_latch(tmp_path, capsys):
+    from mmlearn.apps.open_cabinet import main
+
+    model = tmp_path / "drawer.sdf"
+    assert main(["--object", "drawer", "--seed", "8", "--damping", "20", "--spring", "10",
+                 "--save-model", str(model), "--json"]) == 0
+    r = json.loads(capsys.readouterr().out)
+    d = r["dynamics"]
+    assert d["learned"] and abs(d["damping"] / 20.0 - 1) < 0.25 and d["spring_found"]
+    assert "<spring_stiffness>" in model.read_text() and r["model_saved"] == str(model)
+    assert main(["--object", "drawer", "--seed", "7", "--locked"]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "locked" in err[0]
