@@ -19,11 +19,20 @@ counterbalance spring closes it again). ``right_kind`` says whether the model at
 was the right kind (revolute for doors, prismatic for drawers and sliding doors) and
 ``right_model_at`` the opening from which it held.
 
+While it pulls, the robot also learns the mechanism's damping, friction and closing spring
+from its wrist force (JSON ``dynamics``; ``--damping``, ``--friction``, ``--spring`` set the
+true values, ``--save-model`` writes the learned model with them, as SDFormat or the
+project's model format), and stops pulling at a mechanism that no longer follows the model:
+``--jam-at Q`` (a hard stop) gives outcome "jammed" with ``jammed_at``, ``--locked`` outcome
+"locked" (exit status 1); see docs/mechanism_dynamics.md.
+
     python -m mmlearn.apps.open_cabinet --object left_door --seed 3 --json
+    python -m mmlearn.apps.open_cabinet --object drawer --damping 20 --save-model d.sdf
 
 ``--model FILE --joint NAME`` opens a joint of your own SDFormat or URDF furniture instead
 (placement, handle and pulling direction derived from the file, see docs/user_models.md);
-the JSON then also holds ``true_joint``, the joint as the file gives it.
+the JSON then also holds ``true_joint``, the joint as the file gives it. The mechanism flags
+(``--damping`` ... ``--locked``) apply to the project's objects; a user model brings its own.
 """
 
 import json
@@ -34,8 +43,10 @@ import numpy as np
 from mmlearn.apps.common.cli import (ArgumentParser, UsageError, check_in_file, check_out_file,
                                      fail, finish_viewing, frame_camera, make_meshcat,
                                      nonneg_int, save_html)
-from mmlearn.apps.common.operate_args import add_model_args, add_trial_args, load_model_args
-from mmlearn.sdf.mechanisms import KINDS
+from mmlearn.apps.common.operate_args import (add_mechanism_args, add_model_args,
+                                              add_trial_args, load_model_args,
+                                              mechanism_options)
+from mmlearn.sdf.mechanisms import KINDS, REVOLUTE
 
 
 def run(*, kind: str = "left_door", seed: int = 0, meshcat=None, html_out: str = "",
@@ -43,7 +54,8 @@ def run(*, kind: str = "left_door", seed: int = 0, meshcat=None, html_out: str =
         realtime: bool = False, priors: str = "", mechanism_seed: int | None = None,
         save_track: str = "", base_noise: float | None = None,
         perception: str = "click", model: str = "", joint: str = "", model_pose=None,
-        handle=None) -> dict:
+        handle=None, mechanism_options: dict | None = None, save_model: str = "",
+        learn_dynamics: bool | None = None) -> dict:
     """Run one trial and return its results: :func:`mmlearn.diagrams.articulation.trials.
     open_mechanism`, viewed in ``meshcat`` (its camera framing the robot and the cabinet's
     whole swing) and, with ``html_out``, recorded there as standalone HTML."""
@@ -66,7 +78,9 @@ def run(*, kind: str = "left_door", seed: int = 0, meshcat=None, html_out: str =
                             save_track=save_track, base_noise=base_noise,
                             perception=perception,
                             on_built=frame if meshcat is not None else None,
-                            model=model, joint=joint, model_pose=model_pose, handle=handle)
+                            model=model, joint=joint, model_pose=model_pose, handle=handle,
+                            mechanism_options=mechanism_options, save_model=save_model,
+                            learn_dynamics=learn_dynamics)
     if meshcat is not None and html_out and result["front_found"]:
         result["html_out"] = str(save_html(meshcat, html_out))
     return result
@@ -82,6 +96,37 @@ def _model_line(mech) -> str:
     r = f", radius at the handle {tj['radius_m']:.3f} m" if mech.is_revolute else ""
     return (f"{mech.name}: {mech.joint_type} joint (like a {mech.kind}{r}); handle at ({h}) "
             f"m {where[mech.handle_source]}")
+
+
+def _check_options(kind: str, seed: int, options: dict) -> None:
+    """Bad mechanism options (a jam beyond the end stop, ...) as a UsageError."""
+    if not options:
+        return
+    from mmlearn.diagrams.articulation.mechanism_dynamics import apply_mechanism_options
+    from mmlearn.sdf.mechanisms import sample_mechanism
+
+    import numpy as np
+
+    spec = sample_mechanism(kind, np.random.default_rng([seed, KINDS.index(kind)]))
+    try:
+        apply_mechanism_options(spec, **options)
+    except ValueError as e:
+        flag = "--jam-at" if "jam_at" in str(e) else "--" + str(e).split()[0]
+        raise UsageError(f"{flag}: {e}") from None
+
+
+def _print_dynamics(r: dict) -> None:
+    """The learned dynamics against the true ones, one line each."""
+    d = r.get("dynamics") or {}
+    learned, true, u = d, d.get("true", {}), d.get("units", {})
+    if not d.get("learned"):
+        print("dynamics: not learned (no revolute or prismatic model)")
+        return
+    for k in ("damping", "friction", "stiffness"):
+        print(f"{k}: learned {learned[k]:.3g} +- {learned[k + '_std']:.2g} {u.get(k, '')}, "
+              f"true {true.get(k, 0.0):.3g}")
+    if r.get("model_saved"):
+        print(f"learned model with its dynamics written to {r['model_saved']}")
 
 
 def main(argv=None) -> int:
@@ -104,14 +149,27 @@ def main(argv=None) -> int:
     ap.add_argument("--html-out", default="", help="save the Meshcat recording as HTML")
     ap.add_argument("--json", action="store_true", help="print the result as JSON")
     add_model_args(ap)
+    add_mechanism_args(ap)
     args = ap.parse_args(argv)
+    options = mechanism_options(args, revolute=args.object in REVOLUTE)
     try:
         mech = load_model_args(args)
+        if mech is not None and (options or args.save_model):
+            raise ValueError("--damping, --friction, --spring, --jam-at, --locked and "
+                             "--save-model apply to the project's objects; your --model "
+                             "brings its own mechanism")
     except ValueError as e:
         return fail(ap.prog, str(e))
     try:
         check_out_file("--html-out", args.html_out)
         check_out_file("--save-track", args.save_track)
+        check_out_file("--save-model", args.save_model)
+        if args.save_model and not args.save_model.lower().endswith(
+                (".sdf", ".json", ".yaml", ".yml")):
+            raise UsageError(f"--save-model: use a .sdf, .json, .yaml or .yml file, got "
+                             f"{args.save_model}")
+        if mech is None:
+            _check_options(args.object, args.seed, options)
         if args.priors:
             from mmlearn.models.articulation.priors import PriorDatabase
 
@@ -128,9 +186,18 @@ def main(argv=None) -> int:
                 mechanism_seed=args.mechanism_seed, save_track=args.save_track,
                 base_noise=args.base_noise, perception=args.perception,
                 model=args.model, joint=args.joint, model_pose=args.model_pose,
-                handle=args.handle)
+                handle=args.handle, mechanism_options=options, save_model=args.save_model,
+                learn_dynamics=True if args.learn_dynamics else None)
     except ValueError as e:
         return fail(ap.prog, str(e))
+    if r["outcome"] in ("jammed", "locked"):
+        if args.json:
+            print(json.dumps(r))
+        where = (f" at {r['jammed_at']:.2f} {r['unit']}" if r.get("jammed_at") is not None
+                 else "")
+        print(f"{r['object']}: {r['outcome']}{where}; stopped pulling at a wrist force of "
+              f"{r['peak_force_N']:.1f} N", file=sys.stderr)
+        return 1
     if args.save_track and r["track_saved"] is None:
         print(f"--save-track: nothing written to {args.save_track}: the estimator received "
               f"no hook observations", file=sys.stderr)
@@ -164,6 +231,7 @@ def main(argv=None) -> int:
                   f"{r['right_model_at']:.2f} {r['unit']} on")
         else:
             print(f"the model was NOT the right kind ({r['true_kind']}) at the end")
+        _print_dynamics(r)
         print(f"{r['sim_seconds']:.1f} s simulated in {r['wall_seconds']:.1f} s "
               f"(real-time factor {r['realtime_factor']})")
     finish_viewing(html_out=None if args.json else r["html_out"], live=args.meshcat)

@@ -44,7 +44,10 @@ class MechanismSpec:
         handle_height: height of the handle centre above the front's lower edge, m.
         handle_standoff: distance of the bar's centre from the front surface, m.
         damping, friction: joint damping and Coulomb friction.
-        limit: upper joint limit (rad or m).
+        spring: a closing spring's stiffness (N*m/rad or N/m; reference: closed, q = 0),
+            added to a dishwasher's counterbalance spring.
+        limit: upper joint limit (rad or m): the end stop, or where a jammed mechanism
+            blocks (a latched one: just above 0).
         pose: x, y, yaw of the furniture in the world (m, m, rad).
     """
 
@@ -58,6 +61,7 @@ class MechanismSpec:
     handle_standoff: float = param(0.07, unit="m", gt=0)
     damping: float = param(0.5, unit="N*m*s/rad or N*s/m", ge=0)
     friction: float = param(0.3, unit="N*m or N", ge=0)
+    spring: float = param(0.0, unit="N*m/rad or N/m", ge=0)
     limit: float = param(math.radians(100), unit="rad or m", gt=0)
     pose: list[float] = param([0.0, 0.0, 0.0], unit="m, m, rad", length=3, elements=True,
                               factory=True)
@@ -207,11 +211,12 @@ def mechanism_sdf(spec: MechanismSpec, *, model_name: str = "mechanism") -> str:
     # the bar (0.20 m, radius 0.01 m) at the handle centre, posts back to the front (-x)
     _bar_handle(front, "handle", hp, vertical=abs(bar[2]) > 0.5, length=0.20, r=0.01,
                 standoff=s.handle_standoff)
-    spring = {}
+    stiffness = s.spring
     if s.kind == "dishwasher":
         # counterbalance springs, as real dishwasher doors have: a torsion spring k q with
         # k = m g h/2, so k q >= m g h/2 sin q and the door never falls open by itself
-        spring = {"spring_reference": 0, "spring_stiffness": mass * 9.81 * (H / 2)}
+        stiffness += mass * 9.81 * (H / 2)
+    spring = {"spring_reference": 0, "spring_stiffness": stiffness} if stiffness else {}
     m.joint("mechanism", "revolute" if s.is_revolute else "prismatic", "carcass", "front",
             axis=s.joint_axis_F(), lower=0, upper=s.limit, effort=0, damping=s.damping,
             **spring)

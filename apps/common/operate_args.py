@@ -4,7 +4,8 @@ from __future__ import annotations
 
 from mmlearn.apps.common.cli import nonneg_float, pos_float
 
-__all__ = ["add_trial_args", "add_model_args", "load_model_args"]
+__all__ = ["add_trial_args", "add_model_args", "load_model_args", "add_mechanism_args",
+           "mechanism_options"]
 
 
 def add_trial_args(ap) -> None:
@@ -61,3 +62,42 @@ def load_model_args(args):
                                **user_model_args(args.model_pose, args.handle))
     check_reach(mech)
     return mech
+
+
+def add_mechanism_args(ap) -> None:
+    """The mechanism's true dynamics, a jam or a latch (SI units), as a group of flags."""
+    g = ap.add_argument_group(
+        "mechanism dynamics", "true values written into the simulated mechanism; the robot "
+        "learns them while opening (JSON \"dynamics\")")
+    g.add_argument("--damping", type=nonneg_float, default=None,
+                   help="viscous damping: N m s/rad (doors, dishwasher) or N s/m (drawers, "
+                        "sliding doors); default: drawn with the mechanism")
+    g.add_argument("--friction", type=nonneg_float, default=None,
+                   help="Coulomb friction: N m or N; default: drawn with the mechanism")
+    g.add_argument("--spring", type=nonneg_float, default=None,
+                   help="a closing spring: N m/rad or N/m (towards closed); default 0")
+    g.add_argument("--learn-dynamics", action="store_true",
+                   help="learn the damping, friction and spring while opening and stop at a "
+                        "jam or latch (the robot then varies its pulling speed, on average "
+                        "slower); implied by the flags of this group")
+    blk = g.add_mutually_exclusive_group()
+    blk.add_argument("--jam-at", type=pos_float, default=None, metavar="Q",
+                     help="a hard stop at opening Q: deg (revolute) or m (prismatic)")
+    blk.add_argument("--locked", action="store_true", help="the mechanism is latched shut")
+    g.add_argument("--save-model", default="", metavar="FILE",
+                   help="write the learned model with its dynamics: .sdf (SDFormat) or "
+                        ".json / .yaml (the project's model format)")
+
+
+def mechanism_options(args, *, revolute: bool) -> dict:
+    """The keywords of ``apply_mechanism_options`` from :func:`add_mechanism_args`' flags
+    (``--jam-at`` converted to rad for a revolute mechanism)."""
+    import math
+
+    opts = {k: getattr(args, k) for k in ("damping", "friction", "spring")
+            if getattr(args, k) is not None}
+    if args.jam_at is not None:
+        opts["jam_at"] = math.radians(args.jam_at) if revolute else args.jam_at
+    if args.locked:
+        opts["locked"] = True
+    return opts

@@ -20,6 +20,8 @@ from mmlearn.systems.articulation.estimator import ArticulationEstimator
 from mmlearn.systems.articulation.base_localization import (BaseLocalization, BaseLocalizationConfig,
                                                             believed_from_true, initial_error, rotate_yaw)
 from mmlearn.systems.articulation.epc_controller import EpcConfig, EpcController, EpcTask
+from mmlearn.systems.articulation.jam_monitor import (DynamicsMonitor, DynamicsMonitorConfig,
+                                                     HaltGate)
 from mmlearn.systems.articulation.model_visualizer import LearnedModelVisualizer
 from mmlearn.systems.articulation.prior_selector import PriorModelSelector
 from mmlearn.systems.common.wrist_force_sensor import WristForceSensor
@@ -67,6 +69,13 @@ class OperateConfig:
             ``click_error``) or "depth" (it looks with its head depth camera, detects the
             front and derives the handle, :mod:`mmlearn.diagrams.articulation.operate_perception`).
         look: the depth camera, detector and handle derivation for ``perception="depth"``.
+        mechanism_options: the mechanism's true dynamics, a jam or a latch, written into
+            the drawn (or given) mechanism: the keywords of
+            :func:`~mmlearn.diagrams.articulation.mechanism_dynamics.apply_mechanism_options`
+            (damping, friction, spring, jam_at, locked; SI units, rad or m).
+        monitor: the mechanism-dynamics monitor (learns damping, friction and spring while
+            pulling, stops a pull against a jammed or locked mechanism; its ``joint`` and
+            ``open_enough`` are set from ``kind``); None = no monitor.
     """
 
     kind: str = param("left_door", choices=KINDS)
@@ -87,6 +96,8 @@ class OperateConfig:
     priors: str = param("")
     perception: str = param("click", choices=PERCEPTIONS)
     look: LookConfig = param(default_factory=LookConfig)
+    mechanism_options: dict = param({}, factory=True)
+    monitor: DynamicsMonitorConfig | None = param(None, optional=True)
 
     def validate(self):
         validate_fields(self)
@@ -109,6 +120,7 @@ class Operate:
     force_sensor: WristForceSensor
     start_command: np.ndarray
     prior_selector: PriorModelSelector | None = None
+    monitor: DynamicsMonitor | None = None
     localization: BaseLocalization | None = None
     true_task: EpcTask | None = None
     look: LookResult | None = None
@@ -191,6 +203,10 @@ def MakeOperateDiagram(config: OperateConfig | None = None, *, meshcat=None) -> 
             cfg.kind, np.random.default_rng([cfg.mechanism_seed, KINDS.index(cfg.kind)]))
     else:
         spec = sample_mechanism(cfg.kind, rng)
+    if cfg.mechanism_options:
+        from mmlearn.diagrams.articulation.mechanism_dynamics import apply_mechanism_options
+
+        spec = apply_mechanism_options(spec, **cfg.mechanism_options)
     true_task = make_task(spec, rng, cfg.click_error)
     # the robot starts about start_distance in front of the handle, roughly facing it
     n = true_task.normal.copy()
@@ -268,10 +284,38 @@ def MakeOperateDiagram(config: OperateConfig | None = None, *, meshcat=None) -> 
         model_port = selector.GetOutputPort("object_model")
         builder.ExportOutput(selector.GetOutputPort("prior_cluster"), "prior_cluster")
     builder.Connect(model_port, epc.get_object_model_input_port())
+    monitor = None
+    if cfg.monitor is not None:
+        from mmlearn.models.articulation.evaluation import SUCCESS_ANGLE, SUCCESS_DISTANCE
+
+        revolute = spec.is_revolute
+        monitor = builder.AddNamedSystem("dynamics_monitor", DynamicsMonitor(replace(
+            cfg.monitor, joint="revolute" if revolute else "prismatic",
+            open_enough=SUCCESS_ANGLE if revolute else SUCCESS_DISTANCE)))
+        builder.Connect(epc.get_hook_position_output_port(),
+                        monitor.get_hook_position_input_port())
+        builder.Connect(loc.get_believed_force_output_port(), monitor.get_force_input_port())
+        builder.Connect(model_port, monitor.get_object_model_input_port())
+        builder.Connect(monitor.get_supervisor_output_port(),
+                        epc.get_supervisor_input_port())
+        builder.ExportOutput(monitor.get_dynamics_output_port(), "dynamics")
     builder.Connect(epc.get_hook_position_output_port(),
                     estimator.get_pose_input_port())
     builder.Connect(epc.get_command_output_port(), loc.get_command_input_port())
-    builder.Connect(loc.get_plant_command_output_port(), sd.GetInputPort("command"))
+    plant_command = loc.get_plant_command_output_port()
+    if cfg.monitor is not None:
+        # a halt relaxes the arm at once (the robot's measured joint positions as commands)
+        cmd_idx = [robot_q_starts.index(plant.GetJointByName(nm, scene.robot).position_start())
+                   for nm in scene.command_names]
+        gate = builder.AddNamedSystem("halt_gate", HaltGate(
+            command_positions=cmd_idx,
+            state_size=plant.num_positions(scene.robot) + plant.num_velocities(scene.robot)))
+        builder.Connect(plant_command, gate.get_command_input_port())
+        builder.Connect(sd.GetOutputPort("robot_state"), gate.get_robot_state_input_port())
+        builder.Connect(monitor.get_halted_since_output_port(),
+                        gate.get_halted_since_input_port())
+        plant_command = gate.GetOutputPort("command")
+    builder.Connect(plant_command, sd.GetInputPort("command"))
     if meshcat is not None:
         vis = builder.AddNamedSystem("learned_model_visualizer",
                                      LearnedModelVisualizer(meshcat=meshcat))
@@ -293,4 +337,4 @@ def MakeOperateDiagram(config: OperateConfig | None = None, *, meshcat=None) -> 
     return Operate(diagram=diagram, scene=scene, mechanism=spec, task=task, controller=epc,
                    estimator=estimator, force_sensor=force, start_command=start,
                    prior_selector=selector, localization=loc, true_task=true_task,
-                   look=look)
+                   look=look, monitor=monitor)

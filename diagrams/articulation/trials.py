@@ -100,7 +100,8 @@ def open_mechanism(*, kind: str = "left_door", seed: int = 0, meshcat=None,
                    mechanism_seed: int | None = None, save_track: str = "",
                    base_noise: float | None = None, perception: str = "click",
                    on_built=None, model: str = "", joint: str = "",
-                   model_pose=None, handle=None) -> dict:
+                   model_pose=None, handle=None, mechanism_options: dict | None = None,
+                   save_model: str = "", learn_dynamics: bool | None = None) -> dict:
     """One opening trial: the robot drives to the mechanism ``kind``, hooks its handle and
     opens it while learning its model (thesis 4.3, 4.4.2); returns the trial's record.
 
@@ -135,6 +136,23 @@ def open_mechanism(*, kind: str = "left_door", seed: int = 0, meshcat=None,
     file gives it (:meth:`~mmlearn.sdf.user_model.UserMechanism.true_joint`). A model the
     robot cannot operate raises :class:`~mmlearn.sdf.user_model.UserModelError`.
 
+    ``learn_dynamics``: run the dynamics monitor
+    (:class:`~mmlearn.systems.articulation.jam_monitor.DynamicsMonitor`: it learns the
+    mechanism's damping, friction and spring while pulling, varying the pulling speed, and
+    stops the pull at a jam or a latch); None = when ``mechanism_options`` or ``save_model``
+    are given. Without it the record's dynamics fields are empty (``learned`` false).
+
+    ``mechanism_options``: the mechanism's true dynamics, a jam or a latch
+    (:func:`~mmlearn.diagrams.articulation.mechanism_dynamics.apply_mechanism_options`:
+    damping, friction, spring, jam_at in rad or m, locked); the record's ``dynamics`` holds
+    them (``true``) beside what the robot learned (``learned``: damping, friction,
+    stiffness, their deviations, the friction profile along q, the force predicted for the
+    second half of the pull against the measured one), ``jammed_at`` (the opening where a
+    jam stopped the pull, in the record's unit), ``peak_force_N`` (the largest wrist force
+    held for 0.1 s, one control period, while the hook held the handle) and
+    ``peak_force_impact_N`` (the largest sample, with the spike of an impact). ``save_model``: write the learned model with
+    its dynamics (.sdf, or .json / .yaml: the project's model format).
+
     ``meshcat``: draw the scene there and record the trial (published at the end);
     ``on_built(op)``: called with the built :class:`Operate` before the simulation starts
     (e.g. to point the viewer's camera); ``realtime``: pace the simulation at real time."""
@@ -152,6 +170,11 @@ def open_mechanism(*, kind: str = "left_door", seed: int = 0, meshcat=None,
         cfg.kind = cfg.mechanism.kind
         check_reach(cfg.mechanism)
         kind = cfg.mechanism.name
+    cfg.mechanism_options = dict(mechanism_options or {})
+    if learn_dynamics or (learn_dynamics is None and (cfg.mechanism_options or save_model)):
+        from mmlearn.systems.articulation.jam_monitor import DynamicsMonitorConfig
+
+        cfg.monitor = DynamicsMonitorConfig()
     t_build = time.perf_counter()
     try:
         op = MakeOperateDiagram(cfg, meshcat=meshcat)
@@ -165,6 +188,7 @@ def open_mechanism(*, kind: str = "left_door", seed: int = 0, meshcat=None,
     run = _simulate(op, max_time=max_time, realtime=realtime, show_progress=show_progress,
                     label=f"{kind} seed {seed}")
     result = _trial_record(op, cfg, run, build_seconds=build_seconds, save_track=save_track)
+    _add_dynamics(result, op, cfg, run, save_model)
     vis = op.scene.visualizer
     if vis is not None:
         vis.StopRecording()
@@ -204,6 +228,22 @@ def _user_fields(cfg) -> dict:
         return {}
     return {"model": m.path, "joint": m.joint, "equivalent_kind": m.kind,
             "true_joint": m.true_joint()}
+
+
+def _add_dynamics(result: dict, op, cfg, run, save_model: str) -> None:
+    """The record's dynamics fields (see :func:`open_mechanism`); writes ``save_model``."""
+    from mmlearn.diagrams.articulation.mechanism_dynamics import (dynamics_record,
+                                                                  save_learned_model)
+
+    to_unit = math.degrees if op.mechanism.is_revolute else float
+    d = dynamics_record(op, run.ctx, to_unit, cfg.mechanism_options)
+    dyn = d.pop("learned_dynamics", None)
+    result.update(d)
+    result["model_saved"] = None
+    if save_model:
+        est = op.estimator.GetMyContextFromRoot(run.ctx).get_abstract_state(0).get_value()
+        if est.model is not None:
+            result["model_saved"] = save_learned_model(save_model, est.model, dyn)
 
 
 def _no_front_record(cfg, look) -> dict:

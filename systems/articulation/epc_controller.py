@@ -328,6 +328,7 @@ class EpcController(LeafSystem):
         - robot_state
         - force_W
         - object_model
+        - supervisor (optional)
         output_ports:
         - command
         - hook_position
@@ -341,6 +342,11 @@ class EpcController(LeafSystem):
     (base x, y, yaw, then q1..q6), ``hook_position`` (grip point from the robot's own forward
     kinematics, world, m) feeds the estimator. ``status`` is [opening estimate (rad or m),
     configuration estimate, done flag, success-by-model flag].
+
+    ``supervisor`` (optional, e.g. :class:`~mmlearn.systems.articulation.jam_monitor.
+    DynamicsMonitor`'s output) is [step scale, halt code]: while pulling, the equilibrium
+    point advances by ``step`` times the scale; a halt code of 1 or 2 ends the pull at once
+    with the outcome "jammed" or "locked" (RELEASE follows). Unconnected: scale 1, no halt.
     """
 
     def __init__(self, *, plant, robot, task: EpcTask, config: EpcConfig | None = None,
@@ -375,6 +381,7 @@ class EpcController(LeafSystem):
             "robot_state", plant.num_positions(robot) + plant.num_velocities(robot))
         self._in_force = self.DeclareVectorInputPort("force_W", 3)
         self._in_model = self.DeclareAbstractInputPort("object_model", AbstractValue.Make(None))
+        self._in_super = self.DeclareVectorInputPort("supervisor", 2)
         # the plant context at the measured configuration: a cache entry of this system's
         # context (no plant context is kept in a member; the IK makes its own per update)
         self._kin = self.DeclareCacheEntry(
@@ -416,6 +423,18 @@ class EpcController(LeafSystem):
 
     def get_object_model_input_port(self):
         return self._in_model
+
+    def get_supervisor_input_port(self):
+        return self._in_super
+
+    def _supervisor(self, context) -> tuple[float, int]:
+        """(step scale, halt code) from the optional ``supervisor`` input."""
+        if not self._in_super.HasValue(context):
+            return 1.0, 0
+        v = np.asarray(self._in_super.Eval(context), float)
+        if not np.all(np.isfinite(v)):
+            return 1.0, 0
+        return float(np.clip(v[0], 0.0, 3.0)), int(round(v[1]))
 
     def state(self, context) -> EpcState:
         return context.get_abstract_state(self._s).get_value()
@@ -735,7 +754,7 @@ class EpcController(LeafSystem):
         ch.update(q_hat0=q_hat0, q_hat=q_hat, opening=sign * dq, direction=direction, R=R)
         return ch
 
-    def _equilibrium_point(self, s: EpcState, F, G) -> np.ndarray:
+    def _equilibrium_point(self, s: EpcState, F, G, scale: float = 1.0) -> np.ndarray:
         """Eq. 4.58: the equilibrium point advances by ``step`` along the pull's direction,
         plus a proportional term keeping ``force_target`` between hook and handle
         perpendicular to the motion; at most ``max_lead`` ahead of the hook."""
@@ -752,7 +771,7 @@ class EpcController(LeafSystem):
         f_perp = -np.dot(F, u)
         v_hook = cfg.force_gain * (cfg.force_target - f_perp) * u
         v_hook = np.clip(v_hook, -cfg.step, cfg.step)
-        cep = s.cep + cfg.step * direction + v_hook
+        cep = s.cep + scale * cfg.step * direction + v_hook
         lead = cep - G
         if np.linalg.norm(lead) > cfg.max_lead:
             cep = G + lead * (cfg.max_lead / np.linalg.norm(lead))
@@ -792,8 +811,14 @@ class EpcController(LeafSystem):
         """PULL: equilibrium-point control along the learned model (thesis Eq. 4.57-4.59)
         until a stop condition (:meth:`_stop_reason`) ends it."""
         G = now.G
+        scale, halt = self._supervisor(context)
+        if halt in (1, 2):  # the mechanism is blocked: stop pulling, let go
+            s = replace(s, cep=G)
+            q_cmd = self._ik(q_cmd, G, s.R, base=True)
+            return q_cmd, self._next_phase(s, RELEASE, now.t, G,
+                                           outcome="jammed" if halt == 1 else "locked")
         s = replace(s, **self._follow_model(s, self._link_model(context), G))
-        s = replace(s, cep=self._equilibrium_point(s, now.F, G))
+        s = replace(s, cep=self._equilibrium_point(s, now.F, G, scale))
         # direction of the handle's most recent >= motion_window of motion
         if np.linalg.norm(G - s.trail_G) >= self._cfg.motion_window:
             s = replace(s, motion=_unit(G - s.trail_G), trail_G=G)

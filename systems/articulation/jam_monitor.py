@@ -1,0 +1,416 @@
+"""DynamicsMonitor: learns the mechanism's dynamics while the robot pulls and stops the pull
+when the mechanism no longer follows the model (jammed or locked; thesis outlook, Sec. 9.1).
+
+Every ``period`` it stores the hook position and the wrist force (while the controller
+reports the hook on the handle), refits the dynamics along the current learned model
+(:func:`mmlearn.models.articulation.dynamics.fit_dynamics`) and watches for a block: over
+the last ``window`` seconds the hook advanced less than ``min_progress`` along the model
+while the force pulling along it rose by ``min_rise`` (within ``rise_window``) to more
+than the learned dynamics predict (the prediction at the pulling rate seen so far, plus ``sigma_margin`` of its
+deviations and ``force_margin``; before any dynamics are learned, or against a mechanism
+that has not moved, ``locked_force``). It then tells the controller to stop: halt code 1
+(jammed: the mechanism had moved by ``locked_travel`` or more) or 2 (locked). The pulling
+speed is modulated (``excitation`` of the step, period ``excitation_period``) so that the
+rate varies and damping can be told from friction.
+
+.. pydrake_system::
+
+    name: DynamicsMonitor
+    input_ports:
+    - hook_position
+    - force_W
+    - object_model
+    output_ports:
+    - supervisor
+    - halted_since
+    - dynamics
+
+:class:`HaltGate` relaxes the arm at once when the monitor halts (the controller reacts only
+at its next period): for ``hold`` seconds it commands the robot's measured joint positions,
+so its joint springs stop pulling.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+from pydrake.common.value import AbstractValue
+from pydrake.systems.framework import BasicVector, EventStatus, LeafSystem
+
+from mmlearn.models.articulation.dynamics import (MechanismDynamics, fit_dynamics,
+                                                  generalized_samples, path_opening)
+from mmlearn.models.common.config import param, validate_fields
+
+__all__ = ["DynamicsMonitorConfig", "DynamicsMonitorState", "DynamicsMonitor", "HaltGate", "GO",
+           "JAMMED", "LOCKED", "HALT_NAMES", "estimate_dynamics"]
+
+GO, JAMMED, LOCKED = 0, 1, 2
+HALT_NAMES = {GO: "", JAMMED: "jammed", LOCKED: "locked"}
+
+
+@dataclass
+class DynamicsMonitorConfig:
+    """Parameters of :class:`DynamicsMonitor`.
+
+    Attributes:
+        period: sampling and decision period, s.
+        refit_every: the dynamics are refitted after this many new samples (count).
+        min_samples: samples before the first fit (count).
+        speed: the pulling speed relative to the controller's step (its mean over the
+            modulation), dimensionless: a slower pull meets a block with less force.
+        excitation: relative amplitude of the pulling speed's modulation (0: constant).
+        excitation_period: period of that modulation, s.
+        start_travel: the first this far of the pull (the hook taking up the slack, the
+            mechanism breaking free) go at the modulation's slowest speed, m.
+        settle: the block test begins this long after the pull's first sample (the hook
+            seating on the bar pushes it sideways), s.
+        window: the block test looks at the last this many seconds, s.
+        min_progress: the hook advancing less than this along the model in ``window``
+            counts as not moving, m.
+        min_rise: ... while the pulling force rose by at least this, N ...
+        rise_window: ... over the last this many seconds, s.
+        force_margin: the force must exceed the learned prediction by this much, N ...
+        sigma_margin: ... plus this many of the prediction's standard deviations.
+        block_force: a force above this without motion is a block whatever the learned
+            dynamics predict (their prediction is loose after a short pull), N: below the
+            controller's ``stop_force``.
+        locked_force: without learned dynamics (or a mechanism that has not moved) a
+            force above this, not moving, is a block, N.
+        locked_travel: a block before the hook travelled this far from its first sample
+            is a locked mechanism rather than a jammed one (the hook takes up ~3 cm of
+            slack between its seat and the bar before it pulls), m.
+        joint: the kind of mechanism the robot was sent to open ("revolute",
+            "prismatic"; "" = not known): the unit of the opening at a block.
+        open_enough: a block beyond this opening (rad or m; 0 = none) is the end of the
+            mechanism's range, not a jam: the monitor lets the controller's own end-of-range
+            test end the pull.
+    """
+
+    period: float = param(0.025, unit="s", gt=0)
+    refit_every: int = param(20, integer=True, ge=1)
+    min_samples: int = param(40, integer=True, ge=10)
+    speed: float = param(0.65, gt=0, le=3)
+    excitation: float = param(0.5, ge=0, lt=1)
+    excitation_period: float = param(2.0, unit="s", gt=0)
+    start_travel: float = param(0.04, unit="m", ge=0)
+    settle: float = param(0.3, unit="s", ge=0)
+    window: float = param(0.1, unit="s", gt=0)
+    min_progress: float = param(0.002, unit="m", gt=0)
+    min_rise: float = param(2.0, unit="N", ge=0)
+    rise_window: float = param(0.5, unit="s", gt=0)
+    force_margin: float = param(4.0, unit="N", ge=0)
+    sigma_margin: float = param(4.0, ge=0)
+    block_force: float = param(25.0, unit="N", gt=0)
+    locked_force: float = param(15.0, unit="N", gt=0)
+    locked_travel: float = param(0.045, unit="m", gt=0)
+    joint: str = param("", choices=("", "revolute", "prismatic"))
+    open_enough: float = param(0.0, unit="rad or m", ge=0)
+
+    def __post_init__(self):
+        validate_fields(self)
+
+
+@dataclass(frozen=True)
+class DynamicsMonitorState:
+    """The monitor's abstract state (replaced on every update, never changed in place).
+
+    Attributes:
+        t, G, F: stored sample times (s), hook positions and wrist forces (world, m, N).
+        t_start: time of the first sample (the pull's start; NaN before), s.
+        dynamics: the latest fit (None before one).
+        last_fit: number of samples at the last fit.
+        halt: GO, JAMMED or LOCKED.
+        t_halt: time of the halt (NaN: none), s.
+        blocked_at: the opening by the learned model when the block was found (rad or m;
+            NaN: no model or no block).
+        travel: the hook's distance from its first sample at the block, m.
+        peak_force: largest wrist force sample while the hook held the handle, N.
+    """
+
+    def held_peak_force(self, hold: float = 0.1) -> float:
+        """The largest wrist force held for ``hold`` seconds (the largest over windows of
+        that length of the smallest force in the window), N: the force the robot pulled
+        with, without the few-millisecond spike of an impact."""
+        if self.t.size == 0:
+            return 0.0
+        f = np.linalg.norm(self.F, axis=1)
+        best = 0.0
+        for i, t0 in enumerate(self.t):
+            m = (self.t >= t0) & (self.t <= t0 + hold + 1e-9)
+            if self.t[m][-1] - t0 >= hold - 1e-9:
+                best = max(best, float(f[m].min()))
+        return best
+
+    t: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    G: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    F: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    t_start: float = float("nan")
+    dynamics: MechanismDynamics | None = None
+    last_fit: int = 0
+    halt: int = GO
+    t_halt: float = float("nan")
+    blocked_at: float = float("nan")
+    travel: float = 0.0
+    peak_force: float = 0.0
+
+    def __post_init__(self):
+        for k in ("t", "G", "F"):
+            getattr(self, k).setflags(write=False)
+
+    def __deepcopy__(self, memo):
+        return self
+
+
+def _link(obj):
+    if obj is None or not getattr(obj, "edges", None):
+        return None
+    return obj.edges[0].model
+
+
+class DynamicsMonitor(LeafSystem):
+    """Learns the mechanism's dynamics during the pull and halts a blocked pull (see the
+    module docstring).
+
+    ``hook_position``: the grip point (world, m; NaN while the hook is not on the handle,
+    as the controller reports it); ``force_W``: the wrist force (force of the mechanism on
+    the hook, world, N); ``object_model``: the learned model. ``supervisor``: [step scale,
+    halt code] for :class:`~mmlearn.systems.articulation.epc_controller.EpcController`;
+    ``halted_since``: the time of the halt (NaN: none), s; ``dynamics``: the latest
+    :class:`MechanismDynamics` (or None).
+    """
+
+    def __init__(self, config: DynamicsMonitorConfig | None = None):
+        super().__init__()
+        self._cfg = cfg = config or DynamicsMonitorConfig()
+        validate_fields(cfg)
+        self._in_G = self.DeclareVectorInputPort("hook_position", 3)
+        self._in_F = self.DeclareVectorInputPort("force_W", 3)
+        self._in_model = self.DeclareAbstractInputPort("object_model",
+                                                       AbstractValue.Make(None))
+        self._s = self.DeclareAbstractState(AbstractValue.Make(DynamicsMonitorState()))
+        self.DeclarePeriodicUnrestrictedUpdateEvent(cfg.period, 0.0, self._update)
+        deps = {self.abstract_state_ticket(self._s), self.time_ticket()}
+        self._out_sup = self.DeclareVectorOutputPort("supervisor", BasicVector(2),
+                                                     self._calc_supervisor,
+                                                     prerequisites_of_calc=deps)
+        self._out_halt = self.DeclareVectorOutputPort(
+            "halted_since", BasicVector(1),
+            lambda context, out: out.SetFromVector([self.state(context).t_halt]),
+            prerequisites_of_calc={self.abstract_state_ticket(self._s)})
+        self._out_dyn = self.DeclareAbstractOutputPort(
+            "dynamics", lambda: AbstractValue.Make(None), self._calc_dynamics,
+            prerequisites_of_calc={self.abstract_state_ticket(self._s)})
+
+    # ------------------------------------------------------------------ ports
+    def get_hook_position_input_port(self):
+        return self._in_G
+
+    def get_force_input_port(self):
+        return self._in_F
+
+    def get_object_model_input_port(self):
+        return self._in_model
+
+    def get_supervisor_output_port(self):
+        return self._out_sup
+
+    def get_dynamics_output_port(self):
+        return self._out_dyn
+
+    def get_halted_since_output_port(self):
+        return self._out_halt
+
+    def state(self, context) -> DynamicsMonitorState:
+        return context.get_abstract_state(self._s).get_value()
+
+    # ------------------------------------------------------------------ outputs
+    def _calc_supervisor(self, context, output):
+        s, cfg = self.state(context), self._cfg
+        scale = cfg.speed * (1.0 - cfg.excitation)
+        if math.isfinite(s.t_start) and np.linalg.norm(s.G[-1] - s.G[0]) >= cfg.start_travel:
+            phase = 2 * math.pi * (context.get_time() - s.t_start) / cfg.excitation_period
+            scale = cfg.speed * (1.0 + cfg.excitation * math.sin(phase))
+        output.SetFromVector([scale, float(s.halt)])
+
+    def _calc_dynamics(self, context, value):
+        value.set_value(self.state(context).dynamics)
+
+    # ------------------------------------------------------------------ update
+    def _update(self, context, state):
+        s = self.state(context)
+        G = np.asarray(self._in_G.Eval(context), float)
+        F = np.asarray(self._in_F.Eval(context), float)
+        if not (np.all(np.isfinite(G)) and np.all(np.isfinite(F))):
+            return EventStatus.DidNothing()
+        t = context.get_time()
+        # after a halt the samples go on (the force while the hook lets go), unused
+        s = replace(s, t=np.append(s.t, t), G=np.vstack([s.G, G]), F=np.vstack([s.F, F]),
+                    t_start=t if not math.isfinite(s.t_start) else s.t_start,
+                    peak_force=max(s.peak_force, float(np.linalg.norm(F))))
+        if s.halt != GO:
+            state.get_mutable_abstract_state(self._s).set_value(s)
+            return EventStatus.Succeeded()
+        obj = self._in_model.Eval(context) if self._in_model.HasValue(context) else None
+        s = self._refit(s, _link(obj))
+        s = self._check_block(s, _link(obj))
+        state.get_mutable_abstract_state(self._s).set_value(s)
+        return EventStatus.Succeeded()
+
+    def _refit(self, s: DynamicsMonitorState, link) -> DynamicsMonitorState:
+        cfg = self._cfg
+        n = s.t.size
+        if n < cfg.min_samples or n - s.last_fit < cfg.refit_every:
+            return s
+        return replace(s, dynamics=estimate_dynamics(link, s.t, s.G, s.F), last_fit=n)
+
+    def _check_block(self, s: DynamicsMonitorState, link) -> DynamicsMonitorState:
+        """Halt when the hook has stopped advancing along the model while the force
+        pulling along it rose beyond what the learned dynamics predict."""
+        cfg = self._cfg
+        t_now = s.t[-1]
+        recent = s.t >= t_now - cfg.window - 1e-9
+        if s.t[0] > t_now - max(cfg.window, cfg.settle) + 0.5 * cfg.period \
+                or recent.sum() < 3:
+            return s
+        G0, G1 = s.G[recent][0], s.G[-1]
+        d = _tangent(link, G1)
+        rising = s.t >= t_now - cfg.rise_window - 1e-9
+        if d is None:
+            # no model along which to measure: any motion counts, and the force is the
+            # one the robot pulls with
+            progress = float(np.linalg.norm(G1 - G0))
+            pulls = np.linalg.norm(s.F[rising], axis=1)
+        else:
+            progress = float(np.dot(G1 - G0, d))
+            pulls = -s.F[rising] @ d
+        rise = float(pulls[-1] - pulls.min())
+        if progress >= cfg.min_progress or rise < cfg.min_rise:
+            return s
+        travel = float(np.linalg.norm(G1 - s.G[0]))
+        limit = cfg.locked_force
+        if s.dynamics is not None and travel >= cfg.locked_travel:
+            limit = min(self._expected_force(s, link, G1), cfg.block_force)
+        if pulls[-1] <= limit:
+            return s
+        halt = JAMMED if travel >= cfg.locked_travel else LOCKED
+        at = self.opening(link, s.G)
+        if halt == JAMMED and cfg.open_enough > 0 and at >= cfg.open_enough:
+            return s  # the end of its range
+        return replace(s, halt=halt, t_halt=float(t_now), travel=travel, blocked_at=at)
+
+    def opening(self, link, G) -> float:
+        """The opening along the hook's track G (rad or m): by the learned model when it
+        is the kind the robot was sent to open (or any revolute / prismatic model when
+        that is not known), else from the track itself
+        (:func:`~mmlearn.models.articulation.dynamics.path_opening`)."""
+        joint = self._cfg.joint
+        name = getattr(link, "name", "")
+        if (name == joint) or (not joint and name in ("revolute", "prismatic")):
+            return _opening(link, G[0], G[-1])
+        if joint:
+            return path_opening(G, joint)
+        return float("nan")
+
+    def _expected_force(self, s, link, G) -> float:
+        """The pulling force (N, at the handle) the learned dynamics predict here at the
+        rate of the pull so far, plus the margins."""
+        cfg, dyn = self._cfg, s.dynamics
+        q = _opening(link, s.G[0], G)
+        rate = _typical_rate(dyn, link, s)
+        if not math.isfinite(q) or rate is None:
+            return cfg.locked_force
+        m, sd = dyn.predict(q, rate)
+        scale = dyn._handle_scale()
+        return float(m[0] * scale + cfg.sigma_margin * sd[0] * scale + cfg.force_margin)
+
+
+def estimate_dynamics(link, t, G, F) -> MechanismDynamics | None:
+    """The dynamics along ``link`` from hook positions and wrist forces (None when the
+    model is not revolute or prismatic, or too few samples moved)."""
+    g = generalized_samples(link, t, G, F)
+    if g is None:
+        return None
+    return fit_dynamics(g["q"], g["qdot"], g["tau"], g["qddot"], joint=g["joint"],
+                        radius=g["radius"], q_offset=g["q_offset"], q_sign=g["q_sign"])
+
+
+def _tangent(link, G) -> np.ndarray | None:
+    """Unit tangent of a revolute or prismatic model at the hook position G."""
+    if link is None or link.name not in ("revolute", "prismatic"):
+        return None
+    q = np.asarray(link.inverse(np.asarray(G, float)[None]), float)
+    J = np.asarray(link.jacobian(q), float)[0, :3, 0]
+    n = np.linalg.norm(J)
+    return J / n if n > 1e-9 else None
+
+
+def _opening(link, G0, G1) -> float:
+    """The opening from G0 to G1 by the model (rad or m; NaN without a model)."""
+    if link is None or link.name not in ("revolute", "prismatic"):
+        return float("nan")
+    q = np.asarray(link.inverse(np.stack([G0, G1])), float)[:, 0]
+    dq = q[1] - q[0]
+    if link.name == "revolute":
+        dq = math.remainder(dq, 2 * math.pi)
+    return abs(float(dq))
+
+
+def _typical_rate(dyn, link, s) -> float | None:
+    """The median opening rate while the mechanism moved (rad/s or m/s)."""
+    g = generalized_samples(link, s.t, s.G, s.F)
+    if g is None:
+        return None
+    qd = g["qdot"][np.isfinite(g["qdot"])]
+    qd = qd[qd > 0]
+    return float(np.median(qd)) if qd.size else None
+
+
+class HaltGate(LeafSystem):
+    """Passes the robot's joint commands through, except for ``hold`` seconds after a halt
+    (``halted_since`` finite): then it commands the robot's measured joint positions, so the
+    arm's joint springs stop pulling at once rather than at the controller's next period.
+
+    .. pydrake_system::
+
+        name: HaltGate
+        input_ports:
+        - command
+        - robot_state
+        - halted_since
+        output_ports:
+        - command
+
+    ``command_positions``: index of each command in the robot instance's position vector;
+    ``state_size``: size of ``robot_state`` (positions and velocities).
+    """
+
+    def __init__(self, *, command_positions, state_size: int, hold: float = 0.25):
+        super().__init__()
+        if not hold > 0:
+            raise ValueError(f"HaltGate: hold must be > 0 s, got {hold}")
+        self._idx = np.asarray(command_positions, int)
+        self._hold = float(hold)
+        n = self._idx.size
+        self._in_cmd = self.DeclareVectorInputPort("command", n)
+        self._in_state = self.DeclareVectorInputPort("robot_state", state_size)
+        self._in_halt = self.DeclareVectorInputPort("halted_since", 1)
+        self.DeclareVectorOutputPort("command", BasicVector(n), self._calc)
+
+    def get_command_input_port(self):
+        return self._in_cmd
+
+    def get_robot_state_input_port(self):
+        return self._in_state
+
+    def get_halted_since_input_port(self):
+        return self._in_halt
+
+    def _calc(self, context, output):
+        t_halt = float(self._in_halt.Eval(context)[0])
+        t = context.get_time()
+        if math.isfinite(t_halt) and t_halt <= t < t_halt + self._hold:
+            output.SetFromVector(np.asarray(self._in_state.Eval(context))[self._idx])
+        else:
+            output.SetFromVector(self._in_cmd.Eval(context))

@@ -1,0 +1,247 @@
+"""Mechanism dynamics: the Bayesian regression, storage and SDFormat export, the model-free
+opening, the true options of the simulated mechanism, the monitor that halts a blocked pull,
+and open_cabinet's flags."""
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from mmlearn.models.articulation.dynamics import (MechanismDynamics, fit_dynamics,
+                                                  generalized_samples,
+                                                  load_model_with_dynamics, path_opening,
+                                                  save_model_with_dynamics, sdf_with_dynamics)
+
+
+def _pull(b, f, k, *, n=300, vary=True, noise=0.05, seed=0, inertia=0.3):
+    """A simulated pull: rate modulated (or constant), generalised force with noise."""
+    rng = np.random.default_rng(seed)
+    t = np.linspace(0, 8, n)
+    qd = 0.2 * (1 + (0.5 * np.sin(2 * np.pi * t / 2.0) if vary else 0 * t))
+    qdd = np.gradient(qd, t)
+    q = np.concatenate([[0], np.cumsum(0.5 * (qd[1:] + qd[:-1]) * np.diff(t))])
+    tau = b * qd + f + k * q + inertia * qdd + rng.normal(0, noise, n)
+    return q, qd, qdd, tau
+
+
+@pytest.mark.parametrize("b,f,k", [(0.5, 0.3, 0.0), (5.0, 0.3, 0.0), (2.0, 1.0, 1.5)])
+def test_fit_recovers_damping_friction_spring(b, f, k):
+    q, qd, qdd, tau = _pull(b, f, k)
+    d = fit_dynamics(q, qd, tau, qdd, joint="revolute")
+    assert abs(d.damping - b) < max(0.1 * b, 4 * d.damping_std)
+    assert abs(d.damping - b) < 0.15 * b
+    assert abs(d.friction - f) < 0.1
+    assert abs(d.stiffness - k) < 0.1
+    assert d.spring_found == (k > 0)
+    assert d.noise_std == pytest.approx(0.05, rel=0.3)
+
+
+def test_constant_speed_leaves_damping_uncertain():
+    """Without a varying rate, damping and friction are not told apart: the posterior says
+    so (a deviation many times that of a modulated pull)."""
+    q, qd, qdd, tau = _pull(2.0, 0.3, 0.0, vary=False)
+    flat = fit_dynamics(q, qd, tau, qdd, joint="revolute")
+    q, qd, qdd, tau = _pull(2.0, 0.3, 0.0)
+    varied = fit_dynamics(q, qd, tau, qdd, joint="revolute")
+    assert flat.damping_std > 5 * varied.damping_std
+
+
+def test_outliers_rejected_and_too_few_samples():
+    q, qd, qdd, tau = _pull(10.0, 2.0, 0.0)
+    tau[-20:] += 80.0  # the end stop
+    d = fit_dynamics(q, qd, tau, qdd, joint="prismatic")
+    assert abs(d.damping - 10.0) < 1.5 and d.n_samples <= 285
+    assert fit_dynamics(q[:5], qd[:5], tau[:5], joint="prismatic") is None
+    with pytest.raises(ValueError, match="revolute or prismatic"):
+        fit_dynamics(q, qd, tau, joint="gp")
+
+
+def test_prediction_profile_and_dict_roundtrip():
+    q, qd, qdd, tau = _pull(2.0, 0.5, 1.0)
+    d = fit_dynamics(q, qd, tau, qdd, joint="revolute", radius=0.4)
+    m, s = d.predict([0.5, 1.0], 0.2)
+    assert m == pytest.approx([2.0 * 0.2 + 0.5 + 0.5, 0.4 + 0.5 + 1.0], abs=0.05)
+    assert np.all(s > 0)
+    rest = d.force_to_open(0.5, 1.2, 0.2)
+    assert rest["peak"] == pytest.approx(0.4 + 0.5 + 1.2, abs=0.08)
+    assert rest["peak_handle_force_N"] == pytest.approx(rest["peak"] / 0.4)
+    assert len(d.profile) == 5 and all(abs(p["friction"] - 0.5) < 0.1 for p in d.profile)
+    back = MechanismDynamics.from_dict(json.loads(json.dumps(d.to_dict())))
+    assert back.to_dict() == d.to_dict()
+    bad = d.to_dict()
+    del bad["damping"]
+    with pytest.raises(ValueError, match="missing key 'damping'"):
+        MechanismDynamics.from_dict(bad)
+
+
+def _revolute_link():
+    from mmlearn.models.articulation.link import make_model
+
+    a = np.linspace(0, 1.2, 80)
+    P = np.stack([0.4 * np.cos(a), 0.4 * np.sin(a), 0.5 + 0 * a], axis=1)
+    P += np.random.default_rng(1).normal(0, 0.001, P.shape)
+    return make_model("revolute").fit(P, rng=0), a, P
+
+
+def test_generalized_samples_along_a_revolute_model():
+    link, a, P = _revolute_link()
+    t = np.linspace(0, 6, a.size)
+    tangent = np.stack([-np.sin(a), np.cos(a), 0 * a], axis=1)
+    F = -3.0 * tangent  # the door resists the pull with 3 N at the handle
+    g = generalized_samples(link, t, P, F)
+    assert g["joint"] == "revolute" and g["radius"] == pytest.approx(0.4, abs=0.01)
+    assert g["tau"] == pytest.approx(np.full(a.size, 1.2), abs=0.03)  # 3 N x 0.4 m
+    assert g["q"][-1] == pytest.approx(1.2, abs=0.02) and g["q"][0] == 0
+    assert np.nanmedian(g["qdot"]) == pytest.approx(0.2, abs=0.01)
+    assert generalized_samples(None, t, P, F) is None
+
+
+def test_saved_with_dynamics_and_exported_to_sdformat(tmp_path):
+    from pydrake.multibody.parsing import Parser
+    from pydrake.multibody.plant import MultibodyPlant
+    from pydrake.multibody.tree import ForceElementIndex
+
+    from mmlearn.models.articulation.io import load_model
+
+    link, *_ = _revolute_link()
+    q, qd, qdd, tau = _pull(2.0, 0.5, 1.5)
+    dyn = fit_dynamics(q, qd, tau, qdd, joint="revolute", radius=0.4, q_offset=0.1)
+    for name in ("m.json", "m.yaml"):
+        save_model_with_dynamics(link, dyn, tmp_path / name)
+        model, back = load_model_with_dynamics(tmp_path / name)
+        assert back.damping == dyn.damping and model.name == "revolute"
+        assert load_model(tmp_path / name).name == "revolute"  # the section is optional
+    save_model_with_dynamics(link, None, tmp_path / "none.json")
+    assert load_model_with_dynamics(tmp_path / "none.json")[1] is None
+    text = sdf_with_dynamics(link, dyn)
+    assert "<friction>" in text and "<spring_stiffness>" in text
+    plant = MultibodyPlant(0.0)
+    Parser(plant).AddModelsFromString(text, "sdf")
+    plant.Finalize()
+    joint = next(plant.get_joint(i) for i in plant.GetJointIndices()
+                 if plant.get_joint(i).type_name() == "revolute")
+    assert joint.default_damping() == pytest.approx(dyn.damping)
+    names = [type(plant.get_force_element(ForceElementIndex(i))).__name__
+             for i in range(plant.num_force_elements())]
+    assert "RevoluteSpring" in names
+    # no spring found: none exported
+    q, qd, qdd, tau = _pull(2.0, 0.5, 0.0)
+    flat = fit_dynamics(q, qd, tau, qdd, joint="revolute")
+    assert "<spring_stiffness>" not in sdf_with_dynamics(link, flat)
+
+
+def test_path_opening():
+    a = np.linspace(0, math.radians(40), 60)
+    P = np.stack([0.45 * np.cos(a), 0.45 * np.sin(a), 0 * a], axis=1)
+    assert math.degrees(path_opening(P, "revolute")) == pytest.approx(40, abs=2.0)
+    assert path_opening(P[:, [2, 0, 1]] * 0 + np.outer(a, [1, 0, 0]), "prismatic") == \
+        pytest.approx(a[-1])
+    with pytest.raises(ValueError):
+        path_opening(P, "gp")
+
+
+def test_mechanism_options():
+    from mmlearn.diagrams.articulation.mechanism_dynamics import (LATCH_PLAY,
+                                                                  apply_mechanism_options)
+    from mmlearn.sdf.mechanisms import mechanism_sdf, sample_mechanism
+
+    spec = sample_mechanism("drawer", 3)
+    s = apply_mechanism_options(spec, damping=20.0, spring=5.0, jam_at=0.1)
+    assert (s.damping, s.spring, s.limit, s.friction) == (20.0, 5.0, 0.1, spec.friction)
+    assert "<spring_stiffness>5</spring_stiffness>" in mechanism_sdf(s)
+    assert apply_mechanism_options(spec, locked=True).limit == LATCH_PLAY
+    with pytest.raises(ValueError, match="jam_at must lie"):
+        apply_mechanism_options(spec, jam_at=spec.limit + 0.1)
+    with pytest.raises(ValueError, match="damping"):
+        apply_mechanism_options(spec, damping=-1.0)
+
+
+def _monitor_run(F_end, G_move=0.0, T=1.5):
+    """The monitor fed a hook that moves G_move m and a pulling force rising to F_end N."""
+    from pydrake.systems.analysis import Simulator
+    from pydrake.systems.framework import DiagramBuilder
+    from pydrake.systems.primitives import TrajectorySource
+    from pydrake.trajectories import PiecewisePolynomial
+
+    from mmlearn.systems.articulation.jam_monitor import DynamicsMonitor
+
+    b = DiagramBuilder()
+    mon = b.AddSystem(DynamicsMonitor())
+    ts = [0.0, T]
+    G = b.AddSystem(TrajectorySource(PiecewisePolynomial.FirstOrderHold(
+        ts, np.array([[0.5, 0.5 + G_move], [0, 0], [1, 1]]))))
+    F = b.AddSystem(TrajectorySource(PiecewisePolynomial.FirstOrderHold(
+        ts, np.array([[-1.0, -F_end], [0, 0], [0, 0]]))))
+    b.Connect(G.get_output_port(), mon.get_hook_position_input_port())
+    b.Connect(F.get_output_port(), mon.get_force_input_port())
+    d = b.Build()
+    sim = Simulator(d)
+    sim.AdvanceTo(T)
+    ctx = mon.GetMyContextFromRoot(sim.get_context())
+    return mon, ctx
+
+
+def test_monitor_halts_a_latched_pull_not_a_moving_one():
+    from mmlearn.systems.articulation.jam_monitor import GO, LOCKED
+
+    mon, ctx = _monitor_run(30.0)
+    s = mon.state(ctx)
+    assert s.halt == LOCKED
+    assert np.linalg.norm(s.F[s.t <= s.t_halt][-1]) < 20.0  # halted long before 30 N
+    assert mon.get_supervisor_output_port().Eval(ctx)[1] == LOCKED
+    mon, ctx = _monitor_run(30.0, G_move=0.3)  # the same force, but it moves
+    assert mon.state(ctx).halt == GO
+    mon, ctx = _monitor_run(6.0)  # not moving, but less than a latch takes
+    assert mon.state(ctx).halt == GO
+    assert mon.get_supervisor_output_port().Eval(ctx)[0] == pytest.approx(0.65 * 0.5)
+
+
+def test_open_cabinet_dynamics_flags_bad_input(tmp_path, capsys):
+    from mmlearn.apps.open_cabinet import main
+
+    def bad(argv, *words):
+        with pytest.raises(SystemExit) as e:
+            rc = main(argv)
+            raise SystemExit(rc)
+        err = capsys.readouterr().err
+        assert e.value.code == 2 and all(w in err for w in words), err
+
+    bad(["--object", "drawer", "--jam-at", "5"], "--jam-at", "end stop")
+    bad(["--jam-at", "30", "--locked"], "not allowed with")
+    bad(["--damping", "-1"], "--damping")
+    bad(["--save-model", str(tmp_path / "m.txt")], "--save-model", ".sdf")
+
+
+def test_halt_gate_relaxes_the_arm_for_its_hold_only():
+    from mmlearn.systems.articulation.jam_monitor import HaltGate
+
+    gate = HaltGate(command_positions=[1, 0], state_size=4, hold=0.25)
+    ctx = gate.CreateDefaultContext()
+    gate.get_command_input_port().FixValue(ctx, [5.0, 6.0])
+    gate.get_robot_state_input_port().FixValue(ctx, [1.0, 2.0, 0.0, 0.0])
+    out = gate.GetOutputPort("command")
+    gate.get_halted_since_input_port().FixValue(ctx, [math.nan])
+    assert list(out.Eval(ctx)) == [5.0, 6.0]
+    gate.get_halted_since_input_port().FixValue(ctx, [1.0])
+    for t, want in ((0.9, [5.0, 6.0]), (1.1, [2.0, 1.0]), (1.3, [5.0, 6.0])):
+        ctx.SetTime(t)
+        assert list(out.Eval(ctx)) == want
+    with pytest.raises(ValueError, match="hold"):
+        HaltGate(command_positions=[0], state_size=2, hold=0.0)
+
+
+@pytest.mark.slow
+def test_open_cabinet_learns_a_drawer_and_stops_at_a_latch(tmp_path, capsys):
+    from mmlearn.apps.open_cabinet import main
+
+    model = tmp_path / "drawer.sdf"
+    assert main(["--object", "drawer", "--seed", "8", "--damping", "20", "--spring", "10",
+                 "--save-model", str(model), "--json"]) == 0
+    r = json.loads(capsys.readouterr().out)
+    d = r["dynamics"]
+    assert d["learned"] and abs(d["damping"] / 20.0 - 1) < 0.25 and d["spring_found"]
+    assert "<spring_stiffness>" in model.read_text() and r["model_saved"] == str(model)
+    assert main(["--object", "drawer", "--seed", "7", "--locked"]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "locked" in err[0]
