@@ -231,7 +231,8 @@ def main(argv=None) -> int:
                   f"{r['right_model_at']:.2f} {r['unit']} on")
         else:
             print(f"the model was NOT the right kind ({r['true_kind']}) at the end")
-        _print_dynamics(r)
+        if options or args.save_model or args.learn_dynamics:
+            _print_dynamics(r)
         print(f"{r['sim_seconds']:.1f} s simulated in {r['wall_seconds']:.1f} s "
               f"(real-time factor {r['realtime_factor']})")
     finish_viewing(html_out=None if args.json else r["html_out"], live=args.meshcat)
