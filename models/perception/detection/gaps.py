@@ -51,7 +51,6 @@ def _gap_mask(d, valid, fx, cfg, dzero=None, long_pass=True, scale_floor=False, 
     without return, is 9-12 view px wide at s ~ 1.6)."""
     H, W = d.shape
     z = np.where(valid, d, np.float32(0.0)) if dzero is None else dzero
-    w = valid.astype(np.float32)
     Hc, Wc = H - H % _SUB, W - W % _SUB
     out = np.zeros((H, W), bool)
     thin = np.zeros((H, W), bool)
@@ -67,7 +66,7 @@ def _gap_mask(d, valid, fx, cfg, dzero=None, long_pass=True, scale_floor=False, 
     blocks = {}
     for horizontal, (nb, tscale) in ((h, s) for h in (True, False) for s in scales):
         if horizontal not in blocks:  # (the same blocks for both windows)
-            blocks[horizontal] = _line_blocks(z, w, var_scale, horizontal, Hc, Wc)
+            blocks[horizontal] = _line_blocks(z, valid, var_scale, horizontal, Hc, Wc)
         m, unmeas, side_ok, V = _window_means(*blocks[horizontal], nb, cfg)
         gd = np.float32(cfg.gap_depth * (tscale if scale_floor else 1.0))
         gdz = np.float32(cfg.gap_depth_per_m2 * tscale)
@@ -92,21 +91,53 @@ def _gap_mask(d, valid, fx, cfg, dzero=None, long_pass=True, scale_floor=False, 
     return out, thin
 
 
-def _line_blocks(z, w, var_scale, horizontal, Hc, Wc):
-    """Block means of 4 pixels along the lines (rows with ``horizontal``, else columns) of
-    the depth ``z`` (0 where not measured), the measured share ``w`` and the noise variance
-    factor (or None): (A, N, V), rows across the lines, columns along them."""
-    H, W = z.shape
+@numba.njit(cache=True, nogil=True)
+def _block_means_kernel(z, valid, horizontal, A, N):
+    """Means of 4 pixels along the lines of ``z`` (float32) and of ``valid`` (as 0 / 1) into
+    ``A`` and ``N`` (rows across the lines): the sums in the order of OpenCV's INTER_AREA
+    resize by 4 (((a + b) + c) + d) times 1/4 in float32, so the same values, in one pass
+    for both and with the columns' transpose written directly."""
+    q = np.float32(0.25)
     if horizontal:
-        size = (Wc // _SUB, H)
-        A = cv2.resize(z[:, :Wc], size, interpolation=cv2.INTER_AREA)
-        N = cv2.resize(w[:, :Wc], size, interpolation=cv2.INTER_AREA)
+        for r in range(A.shape[0]):
+            for c in range(A.shape[1]):
+                j = _SUB * c
+                s = z[r, j] + z[r, j + 1]
+                s += z[r, j + 2]
+                s += z[r, j + 3]
+                A[r, c] = s * q
+                n = np.float32(valid[r, j]) + np.float32(valid[r, j + 1])
+                n += np.float32(valid[r, j + 2])
+                n += np.float32(valid[r, j + 3])
+                N[r, c] = n * q
     else:
-        size = (W, Hc // _SUB)
-        A = np.ascontiguousarray(cv2.resize(z[:Hc], size, interpolation=cv2.INTER_AREA).T)
-        N = np.ascontiguousarray(cv2.resize(w[:Hc], size, interpolation=cv2.INTER_AREA).T)
+        for b in range(A.shape[1]):
+            i = _SUB * b
+            for c in range(A.shape[0]):
+                s = z[i, c] + z[i + 1, c]
+                s += z[i + 2, c]
+                s += z[i + 3, c]
+                A[c, b] = s * q
+                n = np.float32(valid[i, c]) + np.float32(valid[i + 1, c])
+                n += np.float32(valid[i + 2, c])
+                n += np.float32(valid[i + 3, c])
+                N[c, b] = n * q
+
+
+def _line_blocks(z, valid, var_scale, horizontal, Hc, Wc):
+    """Block means of 4 pixels along the lines (rows with ``horizontal``, else columns) of
+    the depth ``z`` (float32, 0 where not measured), the measured share (``valid``, bool) and
+    the noise variance factor (or None): (A, N, V), rows across the lines, columns along
+    them (float32; the values of OpenCV's INTER_AREA resize by 4 along the lines)."""
+    H, W = z.shape
+    shape = (H, Wc // _SUB) if horizontal else (W, Hc // _SUB)
+    A = np.empty(shape, np.float32)
+    N = np.empty(shape, np.float32)
+    _block_means_kernel(np.ascontiguousarray(z, np.float32), np.ascontiguousarray(valid),
+                        bool(horizontal), A, N)
     V = None
     if var_scale is not None:
+        size = (Wc // _SUB, H) if horizontal else (W, Hc // _SUB)
         V = cv2.resize(var_scale[:, :Wc] if horizontal else var_scale[:Hc],
                        size, interpolation=cv2.INTER_AREA)
         V = V if horizontal else np.ascontiguousarray(V.T)
