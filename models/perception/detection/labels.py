@@ -11,6 +11,7 @@ by a neighbour crossing them at a shallow angle are refitted on their own pixels
 import math
 
 import cv2
+import numba
 import numpy as np
 
 from mmlearn.models.perception.detection.planes import _fit_plane_many, Plane
@@ -32,6 +33,37 @@ OFF_SURFACE = 5
 GAP = 6
 
 
+@numba.njit(cache=True, nogil=True)
+def _plane_label_kernel(ax, by, d, valid, L, dpl, S, lab):
+    """One plane's signed distances ``S`` = (ax + by) d + dpl (float32, the operations of
+    the array expression in its order; ``ax`` = n0 x + n2, (1 or H, W), ``by`` = n1 y,
+    (H, 1 or W)) and Eq. 5.2 labels ``lab``: FREE where s < -L, OCCLUDED where s > L,
+    UNKNOWN where not ``valid`` (else IN_PLANE)."""
+    H, W = S.shape
+    for r in range(H):
+        ra = r if ax.shape[0] > 1 else 0
+        for c in range(W):
+            s = (ax[ra, c] + (by[r, c] if by.shape[1] > 1 else by[r, 0])) * d[r, c]
+            s = s + dpl
+            S[r, c] = s
+            lr = L[r, c]
+            v = np.uint8(0)
+            if s < -lr:
+                v = np.uint8(FREE)
+            elif s > lr:
+                v = np.uint8(OCCLUDED)
+            if not valid[r, c]:
+                v = np.uint8(UNKNOWN)
+            lab[r, c] = v
+
+
+def _broadcast_rows(a, shape):
+    """``a`` (float32, contiguous) broadcast to (1 or shape[0], shape[1])."""
+    a = np.atleast_2d(np.asarray(a, np.float32))
+    return np.ascontiguousarray(np.broadcast_to(a, (a.shape[0] if a.shape[0] == 1 else shape[0],
+                                                    shape[1])))
+
+
 def _label_images(d, valid, ray_x, ray_y, planes, L, crossing_angle_deg,
                   smooth_px=5, surface=None, gap=None, keep_distances=False):
     """Eq. 5.2 labels of every pixel for every plane n . p + dpl = 0. The signed distance of
@@ -49,22 +81,18 @@ def _label_images(d, valid, ray_x, ray_y, planes, L, crossing_angle_deg,
     P = len(planes)
     S = np.empty((P,) + d.shape, np.float32)
     L = np.broadcast_to(np.asarray(L, np.float32), d.shape).copy() if np.ndim(L) == 0 else L
-    negL = -L
-    unknown = np.multiply((~valid).view(np.uint8), np.uint8(UNKNOWN))  # 0 or UNKNOWN
+    L32 = np.ascontiguousarray(L, np.float32)
+    d32 = np.ascontiguousarray(d, np.float32)
+    valid = np.ascontiguousarray(valid, bool)
+    ray_x, ray_y = np.asarray(ray_x, np.float32), np.asarray(ray_y, np.float32)
     labs = []
-    occl = np.empty(d.shape, np.uint8)
     for k, pl in enumerate(planes):
         n = pl.n
-        Sk = S[k]  # n . ray, times the depth, plus the offset: in place
-        np.add(np.float32(n[0]) * ray_x + np.float32(n[2]), np.float32(n[1]) * ray_y, out=Sk)
-        np.multiply(Sk, d, out=Sk)
-        np.add(Sk, np.float32(pl.d), out=Sk)
-        lab = cv2.compare(Sk, negL, cv2.CMP_LT)
-        np.bitwise_and(lab, np.uint8(FREE), out=lab)
-        cv2.compare(Sk, L, cv2.CMP_GT, dst=occl)
-        np.bitwise_and(occl, np.uint8(OCCLUDED), out=occl)
-        lab |= occl
-        lab |= unknown                                   # 3 | anything = UNKNOWN
+        lab = np.empty(d.shape, np.uint8)
+        # n . ray, times the depth, plus the offset (S[k]), and its label, in one pass
+        ax = _broadcast_rows(np.float32(n[0]) * ray_x + np.float32(n[2]), d.shape)
+        by = _broadcast_rows((np.float32(n[1]) * ray_y).T, d.shape[::-1]).T
+        _plane_label_kernel(ax, by, d32, valid, L32, np.float32(pl.d), S[k], lab)
         if pl.parent >= 0 and pl.region is not None:
             # an offset layer is its region's surface only: elsewhere its infinite plane,
             # a degree off its parent's, runs through the parent's fronts
