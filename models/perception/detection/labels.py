@@ -227,9 +227,8 @@ def _surface_check(lab, S, Lm, win):
         lab.shape[1], x + w + r)
     m8b = m8[y0:y1, x0:x1]
     inpb = m8b > 0
-    in01 = inpb.view(np.uint8)
     # in-plane neighbours of each pixel (exact integers, from the 0/1 bytes)
-    den = cv2.boxFilter(in01, cv2.CV_32F, (win, win), normalize=False)
+    den = cv2.boxFilter(inpb.view(np.uint8), cv2.CV_32F, (win, win), normalize=False)
     # relative to the plane refitted to the in-plane pixels' distances (an affine function
     # of the pixel, least squares), not to the fitted plane: a plane 1-2 deg off (a sliding
     # panel 4.6 cm in front of its cabinet's face) departs from one side of a 0.5 m panel by
@@ -251,24 +250,38 @@ def _surface_check(lab, S, Lm, win):
             if np.count_nonzero(keep) < 3:
                 break
             coef = _affine_lstsq(np.compress(keep, A, axis=0), b[keep])
-        # Sb - ramp, in place in one buffer (the ramp is (a x + b y) + c, float32)
-        dev = np.add(np.float32(coef[0]) * np.arange(x1 - x0, dtype=np.float32)[None, :],
-                     np.float32(coef[1]) * np.arange(y1 - y0, dtype=np.float32)[:, None])
-        dev += np.float32(coef[2])
-        np.subtract(Sb, dev, out=dev)
+        ramp = (np.float32(coef[0]), np.float32(coef[1]), np.float32(coef[2]), True)
     else:
-        dev = Sb.copy()
-    dev *= in01.astype(np.float32)
+        ramp = (np.float32(0.0), np.float32(0.0), np.float32(0.0), False)
+    # (Sb - ramp) on the in-plane pixels, 0 elsewhere; the ramp is (a x + b y) + c, float32
+    dev = np.empty(Sb.shape, np.float32)
+    _surface_deviation(Sb, m8b, *ramp, dev)
     num = cv2.boxFilter(dev, -1, (win, win), normalize=False)
     # den >= 1 at every in-plane pixel (its own): max(den, 1) = den where it matters
-    np.abs(num, out=num)
-    den *= Lm[y0:y1, x0:x1]
-    # bad: in-plane (label 0) and off the surface; OFF_SURFACE by or-ing it in (byte masks)
-    bad = cv2.compare(num, den, cv2.CMP_GT)
-    np.bitwise_and(bad, m8b, out=bad)
-    np.bitwise_and(bad, np.uint8(OFF_SURFACE), out=bad)
-    labb = lab[y0:y1, x0:x1]
-    np.bitwise_or(labb, bad, out=labb)
+    _mark_off_surface(num, den, Lm[y0:y1, x0:x1], m8b, lab[y0:y1, x0:x1])
+
+
+@numba.njit(cache=True, nogil=True)
+def _surface_deviation(Sb, m8, a, b, c, with_ramp, dev):
+    """``dev`` = (Sb - ((a x + b y) + c)) m (float32, the array expression's operations in
+    its order; without ``with_ramp`` Sb m), m = 1 where ``m8`` is set, else 0."""
+    for r in range(Sb.shape[0]):
+        by = b * np.float32(r)
+        for x in range(Sb.shape[1]):
+            v = Sb[r, x]
+            if with_ramp:
+                v = v - ((a * np.float32(x) + by) + c)
+            dev[r, x] = v * (np.float32(1.0) if m8[r, x] else np.float32(0.0))
+
+
+@numba.njit(cache=True, nogil=True)
+def _mark_off_surface(num, den, Lm, m8, lab):
+    """In place: OFF_SURFACE or-ed into ``lab`` where ``m8`` is set and |num| > den Lm
+    (float32)."""
+    for r in range(num.shape[0]):
+        for x in range(num.shape[1]):
+            if m8[r, x] and abs(num[r, x]) > den[r, x] * Lm[r, x]:
+                lab[r, x] |= np.uint8(OFF_SURFACE)
 
 
 def _affine_lstsq(A: np.ndarray, b: np.ndarray) -> np.ndarray:
