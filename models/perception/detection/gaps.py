@@ -220,6 +220,7 @@ def _line_hits_kernel(m, unmeas, side_ok, V, Hi, gd, gdz, tol_m2, near_z, offset
     half = np.float32(0.5)
     tmin = np.float32(0.01)
     cand = np.empty(Wm, np.bool_)
+    idx = np.empty(Wm, np.int64)
     for o in offsets:
         if n_rows <= 4 * o:
             continue
@@ -230,9 +231,14 @@ def _line_hits_kernel(m, unmeas, side_ok, V, Hi, gd, gdz, tol_m2, near_z, offset
             su, sd, un = side_ok[r - o], side_ok[r + o], unmeas[r]
             for c in range(Wm):
                 cand[c] = su[c] & sd[c] & ((mc[c] - (mu[c] + md[c]) * half > gd) | un[c])
+            # the few candidates' columns, without a branch per column (a mispredicted
+            # branch per candidate cost more than the remaining tests)
+            nc = 0
             for c in range(Wm):
-                if not cand[c]:
-                    continue
+                idx[nc] = c
+                nc += cand[c]
+            for j in range(nc):
+                c = idx[j]
                 up, dn, cv = mu[c], md[c], mc[c]
                 ref = (up + dn) * half
                 behind = cv - ref
