@@ -77,18 +77,34 @@ def _gap_mask(d, valid, fx, cfg, dzero=None, long_pass=True, scale_floor=False, 
         g = _long_runs(g, zg, fx, cfg, min_windows)
         if g is None:
             continue
-        # one pixel wider on either side across the line: a one-pixel line would fall
-        # between the 5 mm cells of a plane's rectified grid (2.2 mm pixels at 1.3 m)
-        wide = g.copy()
-        wide[1:] |= g[:-1]
-        wide[:-1] |= g[1:]
-        if horizontal:  # back to every pixel along the line
-            out[:, :Wc] |= np.repeat(wide, _SUB, axis=1)
-            thin[:, :Wc] |= np.repeat(g, _SUB, axis=1)
-        else:
-            out[:Hc] |= np.repeat(np.ascontiguousarray(wide.T), _SUB, axis=0)
-            thin[:Hc] |= np.repeat(np.ascontiguousarray(g.T), _SUB, axis=0)
+        # one pixel wider on either side across the line (a one-pixel line would fall
+        # between the 5 mm cells of a plane's rectified grid, 2.2 mm pixels at 1.3 m), and
+        # back to every pixel along the line
+        _or_lines(g, horizontal, out, thin)
     return out, thin
+
+
+@numba.njit(cache=True, nogil=True)
+def _or_lines(g, horizontal, out, thin):
+    """In place: each hit of ``g`` (rows across the lines, one column per ``_SUB`` pixels
+    along them) or-ed into ``thin`` on its ``_SUB`` pixels, and into ``out`` on those and on
+    the lines on either side of it (image rows with ``horizontal``, else columns)."""
+    n_rows, nb = g.shape
+    for r in range(n_rows):
+        for b in range(nb):
+            if not g[r, b]:
+                continue
+            for k in range(_SUB):
+                p = _SUB * b + k
+                for q in range(max(0, r - 1), min(n_rows, r + 2)):
+                    if horizontal:
+                        out[q, p] = True
+                    else:
+                        out[p, q] = True
+                if horizontal:
+                    thin[r, p] = True
+                else:
+                    thin[p, r] = True
 
 
 @numba.njit(cache=True, nogil=True)
