@@ -51,7 +51,6 @@ def _gap_mask(d, valid, fx, cfg, dzero=None, long_pass=True, scale_floor=False, 
     without return, is 9-12 view px wide at s ~ 1.6)."""
     H, W = d.shape
     z = np.where(valid, d, np.float32(0.0)) if dzero is None else dzero
-    w = valid.astype(np.float32)
     Hc, Wc = H - H % _SUB, W - W % _SUB
     out = np.zeros((H, W), bool)
     thin = np.zeros((H, W), bool)
@@ -67,7 +66,7 @@ def _gap_mask(d, valid, fx, cfg, dzero=None, long_pass=True, scale_floor=False, 
     blocks = {}
     for horizontal, (nb, tscale) in ((h, s) for h in (True, False) for s in scales):
         if horizontal not in blocks:  # (the same blocks for both windows)
-            blocks[horizontal] = _line_blocks(z, w, var_scale, horizontal, Hc, Wc)
+            blocks[horizontal] = _line_blocks(z, valid, var_scale, horizontal, Hc, Wc)
         m, unmeas, side_ok, V = _window_means(*blocks[horizontal], nb, cfg)
         gd = np.float32(cfg.gap_depth * (tscale if scale_floor else 1.0))
         gdz = np.float32(cfg.gap_depth_per_m2 * tscale)
@@ -78,35 +77,83 @@ def _gap_mask(d, valid, fx, cfg, dzero=None, long_pass=True, scale_floor=False, 
         g = _long_runs(g, zg, fx, cfg, min_windows)
         if g is None:
             continue
-        # one pixel wider on either side across the line: a one-pixel line would fall
-        # between the 5 mm cells of a plane's rectified grid (2.2 mm pixels at 1.3 m)
-        wide = g.copy()
-        wide[1:] |= g[:-1]
-        wide[:-1] |= g[1:]
-        if horizontal:  # back to every pixel along the line
-            out[:, :Wc] |= np.repeat(wide, _SUB, axis=1)
-            thin[:, :Wc] |= np.repeat(g, _SUB, axis=1)
-        else:
-            out[:Hc] |= np.repeat(np.ascontiguousarray(wide.T), _SUB, axis=0)
-            thin[:Hc] |= np.repeat(np.ascontiguousarray(g.T), _SUB, axis=0)
+        # one pixel wider on either side across the line (a one-pixel line would fall
+        # between the 5 mm cells of a plane's rectified grid, 2.2 mm pixels at 1.3 m), and
+        # back to every pixel along the line
+        _or_lines(g, horizontal, out, thin)
     return out, thin
 
 
-def _line_blocks(z, w, var_scale, horizontal, Hc, Wc):
-    """Block means of 4 pixels along the lines (rows with ``horizontal``, else columns) of
-    the depth ``z`` (0 where not measured), the measured share ``w`` and the noise variance
-    factor (or None): (A, N, V), rows across the lines, columns along them."""
-    H, W = z.shape
+@numba.njit(cache=True, nogil=True)
+def _or_lines(g, horizontal, out, thin):
+    """In place: each hit of ``g`` (rows across the lines, one column per ``_SUB`` pixels
+    along them) or-ed into ``thin`` on its ``_SUB`` pixels, and into ``out`` on those and on
+    the lines on either side of it (image rows with ``horizontal``, else columns)."""
+    n_rows, nb = g.shape
+    for r in range(n_rows):
+        for b in range(nb):
+            if not g[r, b]:
+                continue
+            for k in range(_SUB):
+                p = _SUB * b + k
+                for q in range(max(0, r - 1), min(n_rows, r + 2)):
+                    if horizontal:
+                        out[q, p] = True
+                    else:
+                        out[p, q] = True
+                if horizontal:
+                    thin[r, p] = True
+                else:
+                    thin[p, r] = True
+
+
+@numba.njit(cache=True, nogil=True)
+def _block_means_kernel(z, valid, horizontal, A, N):
+    """Means of 4 pixels along the lines of ``z`` (float32) and of ``valid`` (as 0 / 1) into
+    ``A`` and ``N`` (rows across the lines): the sums in the order of OpenCV's INTER_AREA
+    resize by 4 (((a + b) + c) + d) times 1/4 in float32, so the same values, in one pass
+    for both and with the columns' transpose written directly."""
+    q = np.float32(0.25)
     if horizontal:
-        size = (Wc // _SUB, H)
-        A = cv2.resize(z[:, :Wc], size, interpolation=cv2.INTER_AREA)
-        N = cv2.resize(w[:, :Wc], size, interpolation=cv2.INTER_AREA)
+        for r in range(A.shape[0]):
+            for c in range(A.shape[1]):
+                j = _SUB * c
+                s = z[r, j] + z[r, j + 1]
+                s += z[r, j + 2]
+                s += z[r, j + 3]
+                A[r, c] = s * q
+                n = np.float32(valid[r, j]) + np.float32(valid[r, j + 1])
+                n += np.float32(valid[r, j + 2])
+                n += np.float32(valid[r, j + 3])
+                N[r, c] = n * q
     else:
-        size = (W, Hc // _SUB)
-        A = np.ascontiguousarray(cv2.resize(z[:Hc], size, interpolation=cv2.INTER_AREA).T)
-        N = np.ascontiguousarray(cv2.resize(w[:Hc], size, interpolation=cv2.INTER_AREA).T)
+        for b in range(A.shape[1]):
+            i = _SUB * b
+            for c in range(A.shape[0]):
+                s = z[i, c] + z[i + 1, c]
+                s += z[i + 2, c]
+                s += z[i + 3, c]
+                A[c, b] = s * q
+                n = np.float32(valid[i, c]) + np.float32(valid[i + 1, c])
+                n += np.float32(valid[i + 2, c])
+                n += np.float32(valid[i + 3, c])
+                N[c, b] = n * q
+
+
+def _line_blocks(z, valid, var_scale, horizontal, Hc, Wc):
+    """Block means of 4 pixels along the lines (rows with ``horizontal``, else columns) of
+    the depth ``z`` (float32, 0 where not measured), the measured share (``valid``, bool) and
+    the noise variance factor (or None): (A, N, V), rows across the lines, columns along
+    them (float32; the values of OpenCV's INTER_AREA resize by 4 along the lines)."""
+    H, W = z.shape
+    shape = (H, Wc // _SUB) if horizontal else (W, Hc // _SUB)
+    A = np.empty(shape, np.float32)
+    N = np.empty(shape, np.float32)
+    _block_means_kernel(np.ascontiguousarray(z, np.float32), np.ascontiguousarray(valid),
+                        bool(horizontal), A, N)
     V = None
     if var_scale is not None:
+        size = (Wc // _SUB, H) if horizontal else (W, Hc // _SUB)
         V = cv2.resize(var_scale[:, :Wc] if horizontal else var_scale[:Hc],
                        size, interpolation=cv2.INTER_AREA)
         V = V if horizontal else np.ascontiguousarray(V.T)
@@ -189,6 +236,7 @@ def _line_hits_kernel(m, unmeas, side_ok, V, Hi, gd, gdz, tol_m2, near_z, offset
     half = np.float32(0.5)
     tmin = np.float32(0.01)
     cand = np.empty(Wm, np.bool_)
+    idx = np.empty(Wm, np.int64)
     for o in offsets:
         if n_rows <= 4 * o:
             continue
@@ -199,9 +247,14 @@ def _line_hits_kernel(m, unmeas, side_ok, V, Hi, gd, gdz, tol_m2, near_z, offset
             su, sd, un = side_ok[r - o], side_ok[r + o], unmeas[r]
             for c in range(Wm):
                 cand[c] = su[c] & sd[c] & ((mc[c] - (mu[c] + md[c]) * half > gd) | un[c])
+            # the few candidates' columns, without a branch per column (a mispredicted
+            # branch per candidate cost more than the remaining tests)
+            nc = 0
             for c in range(Wm):
-                if not cand[c]:
-                    continue
+                idx[nc] = c
+                nc += cand[c]
+            for j in range(nc):
+                c = idx[j]
                 up, dn, cv = mu[c], md[c], mc[c]
                 ref = (up + dn) * half
                 behind = cv - ref

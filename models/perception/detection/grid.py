@@ -171,6 +171,18 @@ def _sats_gap(labels):
             cv2.integral((labels == UNKNOWN).view(np.uint8), sdepth=cv2.CV_32S))
 
 
+def _median(a: np.ndarray) -> float:
+    """``np.median`` of a finite 1-D float64 array (the same value: the middle element, or
+    the mean of the two middle ones), by one partition without np.median's overhead (~35 us
+    a call, ~20 calls a frame)."""
+    n = len(a)
+    h = n // 2
+    if n % 2:
+        return np.partition(a, h)[h]
+    p = np.partition(a, (h - 1, h))
+    return (p[h - 1] + p[h]) / 2.0
+
+
 def _make_grid(k, plane: Plane, lab_img, sample_pts, K, down_C, cfg, lut) -> _Grid | None:
     n, d = plane.n, plane.d
     Lp = np.maximum(cfg.inlier_distance, cfg.inlier_distance_per_m2 * sample_pts[:, 2] ** 2)
@@ -187,7 +199,7 @@ def _make_grid(k, plane: Plane, lab_img, sample_pts, K, down_C, cfg, lut) -> _Gr
         b = rel @ e2
         pad = 0.1
         half = 0.5 * cfg.max_plane_extent
-        am, bm = np.median(a), np.median(b)
+        am, bm = _median(a), _median(b)
         lo_a, hi_a = max(a.min(), am - half) - pad, min(a.max(), am + half) + pad
         lo_b, hi_b = max(b.min(), bm - half) - pad, min(b.max(), bm + half) + pad
         return lo_a, hi_a, lo_b, hi_b

@@ -11,6 +11,7 @@ by a neighbour crossing them at a shallow angle are refitted on their own pixels
 import math
 
 import cv2
+import numba
 import numpy as np
 
 from mmlearn.models.perception.detection.planes import _fit_plane_many, Plane
@@ -32,6 +33,37 @@ OFF_SURFACE = 5
 GAP = 6
 
 
+@numba.njit(cache=True, nogil=True)
+def _plane_label_kernel(ax, by, d, valid, L, dpl, S, lab):
+    """One plane's signed distances ``S`` = (ax + by) d + dpl (float32, the operations of
+    the array expression in its order; ``ax`` = n0 x + n2, (1 or H, W), ``by`` = n1 y,
+    (H, 1 or W)) and Eq. 5.2 labels ``lab``: FREE where s < -L, OCCLUDED where s > L,
+    UNKNOWN where not ``valid`` (else IN_PLANE)."""
+    H, W = S.shape
+    for r in range(H):
+        ra = r if ax.shape[0] > 1 else 0
+        for c in range(W):
+            s = (ax[ra, c] + (by[r, c] if by.shape[1] > 1 else by[r, 0])) * d[r, c]
+            s = s + dpl
+            S[r, c] = s
+            lr = L[r, c]
+            v = np.uint8(0)
+            if s < -lr:
+                v = np.uint8(FREE)
+            elif s > lr:
+                v = np.uint8(OCCLUDED)
+            if not valid[r, c]:
+                v = np.uint8(UNKNOWN)
+            lab[r, c] = v
+
+
+def _broadcast_rows(a, shape):
+    """``a`` (float32, contiguous) broadcast to (1 or shape[0], shape[1])."""
+    a = np.atleast_2d(np.asarray(a, np.float32))
+    return np.ascontiguousarray(np.broadcast_to(a, (a.shape[0] if a.shape[0] == 1 else shape[0],
+                                                    shape[1])))
+
+
 def _label_images(d, valid, ray_x, ray_y, planes, L, crossing_angle_deg,
                   smooth_px=5, surface=None, gap=None, keep_distances=False):
     """Eq. 5.2 labels of every pixel for every plane n . p + dpl = 0. The signed distance of
@@ -49,22 +81,18 @@ def _label_images(d, valid, ray_x, ray_y, planes, L, crossing_angle_deg,
     P = len(planes)
     S = np.empty((P,) + d.shape, np.float32)
     L = np.broadcast_to(np.asarray(L, np.float32), d.shape).copy() if np.ndim(L) == 0 else L
-    negL = -L
-    unknown = np.multiply((~valid).view(np.uint8), np.uint8(UNKNOWN))  # 0 or UNKNOWN
+    L32 = np.ascontiguousarray(L, np.float32)
+    d32 = np.ascontiguousarray(d, np.float32)
+    valid = np.ascontiguousarray(valid, bool)
+    ray_x, ray_y = np.asarray(ray_x, np.float32), np.asarray(ray_y, np.float32)
     labs = []
-    occl = np.empty(d.shape, np.uint8)
     for k, pl in enumerate(planes):
         n = pl.n
-        Sk = S[k]  # n . ray, times the depth, plus the offset: in place
-        np.add(np.float32(n[0]) * ray_x + np.float32(n[2]), np.float32(n[1]) * ray_y, out=Sk)
-        np.multiply(Sk, d, out=Sk)
-        np.add(Sk, np.float32(pl.d), out=Sk)
-        lab = cv2.compare(Sk, negL, cv2.CMP_LT)
-        np.bitwise_and(lab, np.uint8(FREE), out=lab)
-        cv2.compare(Sk, L, cv2.CMP_GT, dst=occl)
-        np.bitwise_and(occl, np.uint8(OCCLUDED), out=occl)
-        lab |= occl
-        lab |= unknown                                   # 3 | anything = UNKNOWN
+        lab = np.empty(d.shape, np.uint8)
+        # n . ray, times the depth, plus the offset (S[k]), and its label, in one pass
+        ax = _broadcast_rows(np.float32(n[0]) * ray_x + np.float32(n[2]), d.shape)
+        by = _broadcast_rows((np.float32(n[1]) * ray_y).T, d.shape[::-1]).T
+        _plane_label_kernel(ax, by, d32, valid, L32, np.float32(pl.d), S[k], lab)
         if pl.parent >= 0 and pl.region is not None:
             # an offset layer is its region's surface only: elsewhere its infinite plane,
             # a degree off its parent's, runs through the parent's fronts
@@ -199,9 +227,8 @@ def _surface_check(lab, S, Lm, win):
         lab.shape[1], x + w + r)
     m8b = m8[y0:y1, x0:x1]
     inpb = m8b > 0
-    in01 = inpb.view(np.uint8)
     # in-plane neighbours of each pixel (exact integers, from the 0/1 bytes)
-    den = cv2.boxFilter(in01, cv2.CV_32F, (win, win), normalize=False)
+    den = cv2.boxFilter(inpb.view(np.uint8), cv2.CV_32F, (win, win), normalize=False)
     # relative to the plane refitted to the in-plane pixels' distances (an affine function
     # of the pixel, least squares), not to the fitted plane: a plane 1-2 deg off (a sliding
     # panel 4.6 cm in front of its cabinet's face) departs from one side of a 0.5 m panel by
@@ -223,24 +250,38 @@ def _surface_check(lab, S, Lm, win):
             if np.count_nonzero(keep) < 3:
                 break
             coef = _affine_lstsq(np.compress(keep, A, axis=0), b[keep])
-        # Sb - ramp, in place in one buffer (the ramp is (a x + b y) + c, float32)
-        dev = np.add(np.float32(coef[0]) * np.arange(x1 - x0, dtype=np.float32)[None, :],
-                     np.float32(coef[1]) * np.arange(y1 - y0, dtype=np.float32)[:, None])
-        dev += np.float32(coef[2])
-        np.subtract(Sb, dev, out=dev)
+        ramp = (np.float32(coef[0]), np.float32(coef[1]), np.float32(coef[2]), True)
     else:
-        dev = Sb.copy()
-    dev *= in01.astype(np.float32)
+        ramp = (np.float32(0.0), np.float32(0.0), np.float32(0.0), False)
+    # (Sb - ramp) on the in-plane pixels, 0 elsewhere; the ramp is (a x + b y) + c, float32
+    dev = np.empty(Sb.shape, np.float32)
+    _surface_deviation(Sb, m8b, *ramp, dev)
     num = cv2.boxFilter(dev, -1, (win, win), normalize=False)
     # den >= 1 at every in-plane pixel (its own): max(den, 1) = den where it matters
-    np.abs(num, out=num)
-    den *= Lm[y0:y1, x0:x1]
-    # bad: in-plane (label 0) and off the surface; OFF_SURFACE by or-ing it in (byte masks)
-    bad = cv2.compare(num, den, cv2.CMP_GT)
-    np.bitwise_and(bad, m8b, out=bad)
-    np.bitwise_and(bad, np.uint8(OFF_SURFACE), out=bad)
-    labb = lab[y0:y1, x0:x1]
-    np.bitwise_or(labb, bad, out=labb)
+    _mark_off_surface(num, den, Lm[y0:y1, x0:x1], m8b, lab[y0:y1, x0:x1])
+
+
+@numba.njit(cache=True, nogil=True)
+def _surface_deviation(Sb, m8, a, b, c, with_ramp, dev):
+    """``dev`` = (Sb - ((a x + b y) + c)) m (float32, the array expression's operations in
+    its order; without ``with_ramp`` Sb m), m = 1 where ``m8`` is set, else 0."""
+    for r in range(Sb.shape[0]):
+        by = b * np.float32(r)
+        for x in range(Sb.shape[1]):
+            v = Sb[r, x]
+            if with_ramp:
+                v = v - ((a * np.float32(x) + by) + c)
+            dev[r, x] = v * (np.float32(1.0) if m8[r, x] else np.float32(0.0))
+
+
+@numba.njit(cache=True, nogil=True)
+def _mark_off_surface(num, den, Lm, m8, lab):
+    """In place: OFF_SURFACE or-ed into ``lab`` where ``m8`` is set and |num| > den Lm
+    (float32)."""
+    for r in range(num.shape[0]):
+        for x in range(num.shape[1]):
+            if m8[r, x] and abs(num[r, x]) > den[r, x] * Lm[r, x]:
+                lab[r, x] |= np.uint8(OFF_SURFACE)
 
 
 def _affine_lstsq(A: np.ndarray, b: np.ndarray) -> np.ndarray:

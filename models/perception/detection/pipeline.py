@@ -6,9 +6,10 @@ import time
 
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 
-from mmlearn.models.common.camera import PinholeIntrinsics, as_depth_image, valid_depth_mask
+from mmlearn.models.common.camera import PinholeIntrinsics, as_depth_image
 from mmlearn.models.perception.detection.check import (_gap_bounded, _inside_border,
                                                        _precision_recall, _refit_plane, _suppress)
 from mmlearn.models.perception.detection.config import FrontDetectorConfig, STAGES
@@ -90,23 +91,55 @@ class _Frame:
     down_C: np.ndarray
 
 
-def _prepare_frame(d, valid, K, X_WC, var_scale, cfg) -> _Frame:
-    """The camera-frame points of every pixel and the RANSAC sample grid of a depth image."""
+@numba.njit(cache=True, nogil=True)
+def _frame_kernel(d, xs, ys, base, per_m2, valid, dzero, Pc, Limg):
+    """One pass over a float32 depth image ``d``: ``valid`` (finite and > 0), ``dzero`` (0
+    where not valid), ``Pc`` the camera-frame points (x d, y d, d; NaN where not valid) and
+    ``Limg`` = max(base, per_m2 z^2) (:func:`_depth_bound`'s float32 operations)."""
+    nan = np.float32(np.nan)
+    zero = np.float32(0.0)
+    for r in range(d.shape[0]):
+        y = ys[r]
+        for c in range(d.shape[1]):
+            v = d[r, c]
+            ok = np.isfinite(v) and v > zero
+            valid[r, c] = ok
+            dz = v if ok else nan
+            Pc[r, c, 0] = xs[c] * dz
+            Pc[r, c, 1] = y * dz
+            Pc[r, c, 2] = dz
+            z0 = v if ok else zero
+            dzero[r, c] = z0
+            b = per_m2 * z0
+            b = b * z0
+            Limg[r, c] = b if b > base else base
+
+
+def _frame_arrays(d, K, cfg):
+    """The per-pixel arrays of a float32 depth image: (valid, dzero, xs (1, W), ys (H, 1),
+    Pc (H, W, 3), Limg), see :class:`_Frame` (in one compiled pass)."""
     fx, fy = np.float32(1.0 / K.fx), np.float32(1.0 / K.fy)
     xs = ((np.arange(K.width, dtype=np.float32) - np.float32(K.cx)) * fx)[None, :]
     ys = ((np.arange(K.height, dtype=np.float32) - np.float32(K.cy)) * fy)[:, None]
-    dz = np.where(valid, d, np.float32(np.nan))
+    valid = np.empty(d.shape, bool)
+    dzero = np.empty(d.shape, np.float32)
     Pc = np.empty(d.shape + (3,), np.float32)  # (H, W, 3) float32, NaN where invalid
-    np.multiply(xs, dz, out=Pc[..., 0])
-    np.multiply(ys, dz, out=Pc[..., 1])
-    Pc[..., 2] = dz
+    Limg = np.empty(d.shape, np.float32)
+    _frame_kernel(np.ascontiguousarray(d, np.float32), xs[0], ys[:, 0],
+                  np.float32(cfg.inlier_distance), np.float32(cfg.inlier_distance_per_m2),
+                  valid, dzero, Pc, Limg)
+    return valid, dzero, xs, ys, Pc, Limg
+
+
+def _prepare_frame(d, arrays, K, X_WC, var_scale, cfg) -> _Frame:
+    """The camera-frame points of every pixel and the RANSAC sample grid of a depth image
+    (``arrays``: :func:`_frame_arrays`)."""
+    valid, dzero, xs, ys, Pc, Limg = arrays
     st = int(cfg.ransac_stride_px)
     off = st // 2
     sub_valid = valid[off::st, off::st] & (d[off::st, off::st] <= cfg.max_depth)
     rr, cc = np.nonzero(sub_valid)
     sample_pts = Pc[off::st, off::st][rr, cc].astype(np.float64)
-    dzero = np.where(valid, d, np.float32(0.0))
-    Limg = _depth_bound(dzero, cfg.inlier_distance, cfg.inlier_distance_per_m2)
     down_C = X_WC[:3, :3].T @ np.array([0.0, 0.0, -1.0])
     return _Frame(K, d, valid, dzero, xs, ys, Pc, st, off, sample_pts, np.column_stack([rr, cc]),
                   sub_valid.shape, Limg, var_scale, down_C)
@@ -367,11 +400,11 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
         return out, timings
 
     t0 = clock()
-    valid = valid_depth_mask(d)
-    if not valid.any():
+    arrays = _frame_arrays(d, K, cfg)
+    if not arrays[0].any():
         timings["planes"] = clock() - t0
         return finish()
-    f = _prepare_frame(d, valid, K, X_WC, var_scale, cfg)
+    f = _prepare_frame(d, arrays, K, X_WC, var_scale, cfg)
     planes = _find_frame_planes(f, cfg, rng)
     timings["planes"] = clock() - t0
     if not planes:

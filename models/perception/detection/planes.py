@@ -10,6 +10,7 @@ import math
 from dataclasses import dataclass
 
 import cv2
+import numba
 import numpy as np
 
 from mmlearn.models.perception.detection.config import FrontDetectorConfig
@@ -147,6 +148,19 @@ def _hypotheses(pts, idx, lookup, flat_rc, r, Wp, N, rng):
     return nrm, -np.einsum("ij,ij->i", nrm, p1[ok])
 
 
+@numba.njit(cache=True, nogil=True)
+def _inlier_counts(G, dd, L, out):
+    """``out[h]`` = the number of points ``i`` with |G[h, i] + dd[h]| <= L[i] (float32: the
+    sum, absolute value and comparison of the array expression)."""
+    for h in range(G.shape[0]):
+        a = dd[h]
+        k = 0
+        for i in range(G.shape[1]):
+            if abs(G[h, i] + a) <= L[i]:
+                k += 1
+        out[h] = k
+
+
 def find_planes(pts: np.ndarray, grid_rc: np.ndarray, grid_shape, cfg: FrontDetectorConfig,
                 rng: np.random.Generator) -> list[Plane]:
     """Sequential RANSAC (5.1.1) on sampled points ``pts`` (m, 3) whose sample-grid positions
@@ -184,18 +198,18 @@ def find_planes(pts: np.ndarray, grid_rc: np.ndarray, grid_shape, cfg: FrontDete
         if hyp is None:
             break
         nrm, dd = hyp
-        # |distance| of every active point to every hypothesis, (N, ma) float32, in place
-        # (one buffer: a hypothesis' row is contiguous for its count)
-        dist = nrm.astype(np.float32) @ P32[idx].T
-        dist += dd.astype(np.float32)[:, None]
-        np.abs(dist, out=dist)
+        # n . p of every active point for every hypothesis, (N, ma) float32 (a hypothesis'
+        # row is contiguous); |n . p + d| <= L counted per row in one compiled pass
+        G = nrm.astype(np.float32) @ P32[idx].T
+        dd32 = dd.astype(np.float32)
         Li = Lp32[idx]
-        # inliers per hypothesis: the 0/1 bytes summed per row (2x np.count_nonzero's axis)
-        counts = np.less_equal(dist, Li).view(np.uint8).sum(axis=1, dtype=np.int64)
+        counts = np.empty(len(G), np.int64)
+        _inlier_counts(G, dd32, Li, counts)
         best = int(np.argmax(counts))
         if counts[best] < cfg.min_plane_points:
             break
-        inl = _largest_region(idx[dist[best] <= Li], grid_rc, grid_shape)
+        dist_best = np.abs(G[best] + dd32[best])
+        inl = _largest_region(idx[dist_best <= Li], grid_rc, grid_shape)
         n, d = nrm[best], float(dd[best])
         # least-squares refinement on the inliers, then re-select them; the second round on
         # those within L / 2 (a drawer's sides, seen from above, span the few cm between its

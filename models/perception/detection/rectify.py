@@ -6,6 +6,7 @@ obliquely run along the view's rows and columns; the result is mapped back to th
 import math
 
 import cv2
+import numba
 import numpy as np
 
 from mmlearn.models.common.camera import PinholeIntrinsics
@@ -101,6 +102,31 @@ def _view_footprint(Hm, Wv: int, Hv: int, shape, pad: int = 2):
     return y0, y1, x0, x1
 
 
+@numba.njit(cache=True, nogil=True)
+def _view_depth(xs, ys, dzero, a, b, c, y0, y1, x0, x1, zv):
+    """``zv`` = ((a x + c) + b y) dzero on rows y0:y1, columns x0:x1 (float32, the array
+    expression's operations in its order)."""
+    for r in range(y0, y1):
+        by = b * ys[r]
+        for col in range(x0, x1):
+            zv[r, col] = ((a * xs[col] + c) + by) * dzero[r, col]
+
+
+@numba.njit(cache=True, nogil=True)
+def _normalise_view(zw, ww, vw):
+    """In place: the warped depth ``zw`` over the warped measured share ``ww`` (at least
+    1e-6), 0 where the share is under 1/2; ``vw`` = share >= 1/2 (float32, as the array
+    expression)."""
+    half = np.float32(0.5)
+    eps = np.float32(1e-6)
+    for r in range(zw.shape[0]):
+        for col in range(zw.shape[1]):
+            w = ww[r, col]
+            ok = w >= half
+            vw[r, col] = ok
+            zw[r, col] = zw[r, col] / max(w, eps) if ok else np.float32(0.0)
+
+
 def _gap_mask_rectified(dzero, valid, K: PinholeIntrinsics, xs, ys, view, cfg, long_pass=True,
                         valid_f=None):
     """:func:`_gap_mask` (short and long windows, the long one's whole threshold scaled) on
@@ -114,8 +140,8 @@ def _gap_mask_rectified(dzero, valid, K: PinholeIntrinsics, xs, ys, view, cfg, l
     # box; 0 elsewhere, never read): the same float32 values where the warp reads them
     y0, y1, x0, x1 = _view_footprint(Hm, Wv, Hv, dzero.shape)
     zv = np.zeros(dzero.shape, np.float32)
-    zr = (np.float32(r3[0]) * xs[:, x0:x1] + np.float32(r3[2])) + np.float32(r3[1]) * ys[y0:y1]
-    np.multiply(zr, dzero[y0:y1, x0:x1], out=zv[y0:y1, x0:x1])  # 0 where not measured
+    _view_depth(xs[0], ys[:, 0], dzero, np.float32(r3[0]), np.float32(r3[1]),
+                np.float32(r3[2]), y0, y1, x0, x1, zv)  # 0 where not measured
     if valid_f is None:
         valid_f = valid.view(np.uint8).astype(np.float32)
     # bilinear on z' and on the measured share, normalised (unmeasured pixels do not pull
@@ -125,10 +151,8 @@ def _gap_mask_rectified(dzero, valid, K: PinholeIntrinsics, xs, ys, view, cfg, l
     ww = cv2.warpPerspective(valid_f, Hm, (Wv, Hv),
                              flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT,
                              borderValue=0.0)
-    vw = ww >= 0.5
-    np.maximum(ww, np.float32(1e-6), out=ww)  # (in place: the same float32 values)
-    np.divide(zw, ww, out=zw)
-    zw[~vw] = 0.0
+    vw = np.empty(zw.shape, bool)
+    _normalise_view(zw, ww, vw)
     # the long pass here with its whole threshold scaled (gap_depth too: a vertical reveal
     # seen 45 deg off the normal dips 1.6-3.7 mm at 1.5 m, where both passes' thresholds
     # are the 2.5 mm floor; on the whole image a scaled floor labelled false rows on the wall
