@@ -173,6 +173,18 @@ class DynamicsMonitor(LeafSystem):
     """Learns the mechanism's dynamics during the pull and halts a blocked pull (see the
     module docstring).
 
+    .. pydrake_system::
+
+        name: DynamicsMonitor
+        input_ports:
+        - hook_position
+        - force_W
+        - object_model
+        output_ports:
+        - supervisor
+        - halted_since
+        - dynamics
+
     ``hook_position``: the grip point (world, m; NaN while the hook is not on the handle,
     as the controller reports it); ``force_W``: the wrist force (force of the mechanism on
     the hook, world, N); ``object_model``: the learned model. ``supervisor``: [step scale,
