@@ -313,7 +313,7 @@ def _priors_file(text: str) -> str:
     return _PRIORS_FILES[h]
 
 
-@register_trial("articulation.operate")
+@register_trial("articulation.operate", version=2)
 def operate_trial(*, seed: int, kind: str, max_time: float = 60.0,
                   sigma_pos: float | None = None, mechanism_seed: int | None = None,
                   base_noise: float | None = None, save_track: str = "", priors_sha1: str = "",
