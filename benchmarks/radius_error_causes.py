@@ -90,7 +90,8 @@ def trial(kind: str, seed: int, base_noise: float) -> dict:
     axis, _ = spec.axis_world()
     out = {"object": kind, "seed": seed, "base_noise": base_noise, "success": rec["success"],
            "opened_deg": rec["opened"], "learned_model": rec["learned_model"],
-           "true_radius_m": rec["true_radius_m"], "radius_m": rec["radius_m"]}
+           "true_radius_m": rec["true_radius_m"], "radius_m": rec["radius_m"],
+           "axis_error_deg": rec["axis_error_deg"]}
     if rec["radius_m"] is None or len(seat) < 5:
         return out
     r_bar = circle_radius(np.array(bar), axis)
@@ -126,7 +127,7 @@ def main(argv=None):
                 continue
             print(f"{r['object']:11s} {r['seed']:4d}  {r['opened_deg']:5.0f}  "
                   f"{r['true_radius_m']:.3f}   {r['radius_m']:.3f}  " + "  ".join(
-                      f"{r[p]:+.3f}" for p in parts))
+                      f"{r[p]:+.3f}" for p in parts) + f"  axis {r['axis_error_deg']:.1f} deg")
         if done:
             print(f"mean ({len(done)} trials)                    " + "  ".join(
                 f"{summary[p]:+.3f}" for p in parts)

@@ -712,7 +712,7 @@ class EpcController(LeafSystem):
         ch = {"model_name": "" if link is None else link.name}
         if link is None or link.name not in ("prismatic", "revolute", "gp"):
             # no model yet: along the handle's observed motion, the hook turned with it
-            ch.update(direction=_unit(s.motion),
+            ch.update(direction=self._motion(s),
                       R=self._turn_towards(s.R, self._motion_rotation(s)))
             return ch
         R_hook0 = self._R_hook0
@@ -723,7 +723,7 @@ class EpcController(LeafSystem):
             # along the handle's observed motion: the model's line for a drawer, the door's
             # tangent while its arc still reads as a line (its first tens of degrees at
             # sigma_pos 0.05 m)
-            direction = _unit(s.motion)
+            direction = self._motion(s)
         elif np.linalg.norm(J) > 1e-9:
             d = _unit(J)
             if np.dot(d, s.direction) < 0:
@@ -745,11 +745,19 @@ class EpcController(LeafSystem):
                   R=self._turn_towards(s.R, R_model))
         return ch
 
+    def _motion(self, s: EpcState) -> np.ndarray:
+        """The handle's observed motion without its part along the bar (the handle of a
+        door, dishwasher, drawer or sliding door does not move along its bar; the hook
+        may slide along it)."""
+        bar = self._task.bar
+        m = s.motion - np.dot(s.motion, bar) * bar
+        return _unit(m) if np.linalg.norm(m) > 1e-9 else self._task.pull
+
     def _motion_rotation(self, s: EpcState) -> np.ndarray:
-        """The hook's initial orientation turned as the handle's observed motion turned
-        from the initial pulling direction (the front's orientation, model-free, lagging by
-        about half of ``motion_window``)."""
-        return _rotation_between(self._task.pull, s.motion) @ self._R_hook0
+        """The hook's initial orientation turned, about the bar, as the handle's observed
+        motion turned from the initial pulling direction (the front's orientation,
+        model-free, lagging by about half of ``motion_window``)."""
+        return _rotation_between(self._task.pull, self._motion(s)) @ self._R_hook0
 
     def _turn_towards(self, R, R_target) -> np.ndarray:
         """R turned towards R_target by at most ``max_turn``."""
