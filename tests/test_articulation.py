@@ -364,6 +364,17 @@ def test_rotation_helpers_agree():
     assert np.allclose(_log_rot(R), rv, atol=1e-9)
     assert _rv2m(rv.reshape(5, 10, 3)).shape == (5, 10, 3, 3)
     assert _m2rv(R.reshape(5, 10, 3, 3)).shape == (5, 10, 3)
+    # one vector / matrix (the scalar path) and angles within 1e-4 of pi, where the axis
+    # comes from the symmetric part: the same as scipy's to ~1e-15
+    for k in range(5):
+        assert np.allclose(_rv2m(rv[k]), R[k], atol=1e-14)
+        assert np.allclose(_m2rv(R[k]), rv[k], atol=1e-12)
+    axis = rng.normal(size=(20, 3))
+    near_pi = axis / np.linalg.norm(axis, axis=1)[:, None] * (
+        np.pi - rng.uniform(0, 1e-4, 20))[:, None]
+    Rp = Rotation.from_rotvec(near_pi).as_matrix()
+    assert np.allclose(_m2rv(Rp), near_pi, atol=1e-12)
+    assert np.allclose(_rv2m(near_pi), Rp, atol=1e-14)
 
 
 def test_each_model_declares_its_refinement_and_evaluation_leaves_it_unchanged():

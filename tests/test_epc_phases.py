@@ -179,6 +179,39 @@ def test_pull_advances_the_equilibrium_point_and_stops(grip):
     assert s.phase == RELEASE and s.outcome == "timeout"
 
 
+def test_without_a_revolute_model_the_pull_follows_the_handles_motion(grip):
+    """Before a revolute model, the point advances along the handle's observed motion and
+    the hook turns with it (by at most max_turn per period), the rod pressing on towards
+    the handle even when the hook lags along the path by more than max_lead."""
+    rig = Rig(grip + 0.05 * SIDE)
+    a = 0.3  # the handle's motion turned by 0.3 rad about z (a door opening) ...
+    turned_by_door = np.array([-np.cos(a), -np.sin(a), 0.0])
+    # ... and the hook slid up its (vertical) bar: that part is not the handle's motion
+    motion = turned_by_door + [0, 0, 0.2]
+    motion /= np.linalg.norm(motion)
+    R0 = hook_rotation(NORMAL, SIDE)
+    rig.force(CFG.force_target * SIDE)
+    s = rig.step(phase=PULL, cep=rig.G, direction=NORMAL, R=R0, trail_G=rig.G - motion,
+                 motion=motion)
+    np.testing.assert_allclose(s.direction, turned_by_door, atol=1e-12)
+    # turned about the bar only
+    np.testing.assert_allclose((s.R @ R0.T)[:, 2], [0, 0, 1.0], atol=1e-12)
+    turned = np.arccos(np.clip((np.trace(s.R @ R0.T) - 1) / 2, -1, 1))
+    assert turned == pytest.approx(CFG.max_turn, abs=1e-9)
+    # the hook lags: the point is far ahead along the path, and no force on the rod
+    rig.force(np.zeros(3))
+    far = rig.G + 3 * CFG.max_lead * NORMAL
+    s = rig.step(phase=PULL, cep=far, direction=NORMAL, R=R0, trail_G=rig.G,
+                 motion=NORMAL)
+    lead = s.cep - rig.G
+    u = -SIDE  # the rod presses the bar towards -side
+    along = lead - np.dot(lead, u) * u
+    assert np.linalg.norm(along) == pytest.approx(CFG.max_lead, rel=1e-9)
+    # the pressing term is kept whole (a bound on the whole lead would shrink it)
+    press = min(CFG.step, CFG.force_gain * CFG.force_target)
+    assert np.dot(lead, u) == pytest.approx(press, rel=1e-9)
+
+
 def test_release_ends_done_and_done_holds(grip):
     rig = Rig(grip)
     s = rig.step(phase=RELEASE, motion=NORMAL, R=hook_rotation(NORMAL, SIDE), t_phase=-10.0)

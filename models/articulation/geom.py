@@ -3,10 +3,12 @@ scipy, vectorised over hypotheses and observations)."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from mmlearn.models.common.se3 import as_pose_array, matrix_to_rotvec, project_to_so3, rotvec_to_matrix
+from mmlearn.models.common.se3 import as_pose_array, project_to_so3
 
 # --------------------------------------------------------------------------- track data
 class _Data:
@@ -55,7 +57,33 @@ def _rotz(q: np.ndarray) -> np.ndarray:
     return R
 
 
-_rv2m = rotvec_to_matrix  # scipy's compiled Rodrigues map (models/common/se3.py)
+def _rv2m(rv: np.ndarray) -> np.ndarray:
+    """Rotation vectors (..., 3) -> rotation matrices (..., 3, 3): the Rodrigues formula in
+    numpy (the link models convert one to a few hundred at a time, where scipy's
+    ``Rotation`` spends ~0.1 ms per call on its array-API checks; same values to ~1e-16,
+    ``models/common/se3.rotvec_to_matrix``)."""
+    rv = np.asarray(rv, float)
+    if rv.shape == (3,):
+        return _rv2m_one(*rv.tolist())
+    x, y, z = rv[..., 0], rv[..., 1], rv[..., 2]
+    t2 = x * x + y * y + z * z
+    t = np.sqrt(t2)
+    small = t2 < 1e-8
+    ts = np.where(small, 1.0, t)
+    a = np.where(small, 1.0 - t2 / 6.0, np.sin(ts) / ts)  # sin t / t
+    b = np.where(small, 0.5 - t2 / 24.0, (1.0 - np.cos(ts)) / (ts * ts))  # (1 - cos t) / t^2
+    R = np.empty(rv.shape[:-1] + (3, 3))
+    R[..., 0, 0] = 1.0 - b * (y * y + z * z)
+    R[..., 1, 1] = 1.0 - b * (x * x + z * z)
+    R[..., 2, 2] = 1.0 - b * (x * x + y * y)
+    bxy, bxz, byz = b * x * y, b * x * z, b * y * z
+    R[..., 0, 1] = bxy - a * z
+    R[..., 1, 0] = bxy + a * z
+    R[..., 0, 2] = bxz + a * y
+    R[..., 2, 0] = bxz - a * y
+    R[..., 1, 2] = byz - a * x
+    R[..., 2, 1] = byz + a * x
+    return R
 
 
 def _log_rot(M: np.ndarray) -> np.ndarray:
@@ -71,7 +99,44 @@ def _log_rot(M: np.ndarray) -> np.ndarray:
     return np.stack([vx * f, vy * f, vz * f], axis=-1)
 
 
-_m2rv = matrix_to_rotvec  # (models/common/se3.py)
+def _rv2m_one(x: float, y: float, z: float) -> np.ndarray:
+    """:func:`_rv2m` of one rotation vector (scalar arithmetic: no array overhead)."""
+    t2 = x * x + y * y + z * z
+    if t2 < 1e-8:
+        a, b = 1.0 - t2 / 6.0, 0.5 - t2 / 24.0
+    else:
+        t = math.sqrt(t2)
+        a, b = math.sin(t) / t, (1.0 - math.cos(t)) / t2
+    bxy, bxz, byz = b * x * y, b * x * z, b * y * z
+    return np.array([[1.0 - b * (y * y + z * z), bxy - a * z, bxz + a * y],
+                     [bxy + a * z, 1.0 - b * (x * x + z * z), byz - a * x],
+                     [bxz - a * y, byz + a * x, 1.0 - b * (x * x + y * y)]])
+
+
+def _m2rv(M: np.ndarray) -> np.ndarray:
+    """Rotation matrices (..., 3, 3) -> rotation vectors (..., 3), angle in [0, pi], in
+    numpy (see :func:`_rv2m`; same values as ``models/common/se3.matrix_to_rotvec`` to
+    ~1e-15, exact near pi as well: there the axis comes from the symmetric part)."""
+    M = np.asarray(M, float)
+    if M.shape == (3, 3):
+        return _m2rv(M[None])[0]
+    v = _log_rot(M)
+    c = 0.5 * (M[..., 0, 0] + M[..., 1, 1] + M[..., 2, 2] - 1.0)
+    near_pi = c < -0.99
+    if np.any(near_pi):
+        Mp = M[near_pi]
+        cp = c[near_pi]
+        skew = np.stack([Mp[:, 2, 1] - Mp[:, 1, 2], Mp[:, 0, 2] - Mp[:, 2, 0],
+                         Mp[:, 1, 0] - Mp[:, 0, 1]], axis=-1)  # 2 sin(angle) axis
+        ang = np.arctan2(0.5 * np.linalg.norm(skew, axis=-1), cp)
+        # (M + M^T) / 2 - cos(angle) I = (1 - cos(angle)) n n^T: its largest column
+        B = 0.5 * (Mp + np.swapaxes(Mp, -1, -2)) - cp[:, None, None] * np.eye(3)
+        j = np.argmax(np.diagonal(B, axis1=1, axis2=2), axis=1)
+        col = B[np.arange(B.shape[0]), :, j]
+        n = col / np.linalg.norm(col, axis=-1, keepdims=True)
+        n = np.where(np.sum(n * skew, axis=-1, keepdims=True) < 0, -n, n)
+        v[near_pi] = ang[:, None] * n
+    return v
 
 
 def _chordal_mean(R: np.ndarray) -> np.ndarray:

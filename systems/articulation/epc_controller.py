@@ -15,11 +15,12 @@ Phases (``phase`` output):
 3. SLIDE   guarded sideways move: the hook's finger slides behind the bar (a slide that
            meets nothing went over the bar: retry further to the side);
 4. PULL    equilibrium-point control: every period the Cartesian equilibrium point moves by
-           ``step`` along the normalised Jacobian of the currently learned model at the
-           current configuration estimate (before a model exists: along the given initial
-           direction), plus a proportional term that keeps ``force_target`` N between hook
-           and handle perpendicular to the motion; the hook's orientation turns with the
-           mechanism as the learned model predicts;
+           ``step`` along the normalised Jacobian of the currently learned revolute or GP
+           model at the current configuration estimate (with a prismatic model or none:
+           along the handle's observed motion, at first the given initial direction), plus a proportional term that
+           keeps ``force_target`` N between hook and handle perpendicular to the motion;
+           the hook's orientation turns with the mechanism as the revolute model predicts
+           or, without one, as the handle's motion turned;
 5. RELEASE slide the hook out and back off, in the front's orientation as the handle's
            last few centimetres of motion show it;
 6. DONE.
@@ -249,7 +250,7 @@ class EpcConfig:
     # PULL and stop conditions
     step: float = param(0.01, unit="m", gt=0)
     force_target: float = param(5.0, unit="N", ge=0)
-    force_gain: float = param(0.0015, unit="m per N per period", gt=0)
+    force_gain: float = param(0.005, unit="m per N per period", gt=0)
     max_lead: float = param(0.05, unit="m", gt=0)
     max_turn: float = param(0.05, unit="rad", gt=0)
     min_model_samples: int = param(15, integer=True, ge=3)
@@ -729,12 +730,20 @@ class EpcController(LeafSystem):
         at a bounded rate. Returns the state's changes."""
         ch = {"model_name": "" if link is None else link.name}
         if link is None or link.name not in ("prismatic", "revolute", "gp"):
+            # no model yet: along the handle's observed motion, the hook turned with it
+            ch.update(direction=self._motion(s),
+                      R=self._turn_towards(s.R, self._motion_rotation(s)))
             return ch
         R_hook0 = self._R_hook0
         direction = s.direction
         q_hat = float(link.inverse(G[None])[0, 0])
         J = link.jacobian(np.array([[q_hat]]))[0, :3, 0]
-        if np.linalg.norm(J) > 1e-9:
+        if link.name == "prismatic":
+            # along the handle's observed motion: the model's line for a drawer, the door's
+            # tangent while its arc still reads as a line (its first tens of degrees at
+            # sigma_pos 0.05 m)
+            direction = self._motion(s)
+        elif np.linalg.norm(J) > 1e-9:
             d = _unit(J)
             if np.dot(d, s.direction) < 0:
                 d = -d
@@ -745,14 +754,35 @@ class EpcController(LeafSystem):
         if link.name == "revolute":
             dq = math.remainder(dq, 2 * math.pi)
         sign = 1.0 if np.dot(J, direction) >= 0 else -1.0
-        R_model = _axis_angle(link.axis, dq) @ R_hook0 if link.name == "revolute" \
-            else R_hook0
-        # turn the hook towards the model's prediction at a bounded rate
-        aa = RotationMatrix(R_model @ s.R.T).ToAngleAxis()
-        turn = min(aa.angle(), self._cfg.max_turn)
-        R = _axis_angle(aa.axis(), turn) @ s.R if turn > 1e-9 else s.R
-        ch.update(q_hat0=q_hat0, q_hat=q_hat, opening=sign * dq, direction=direction, R=R)
+        # the hook turns with the front, as the revolute model predicts or else as the
+        # handle's motion shows: a hook that kept its orientation while a door turned
+        # would let the bar slide along its finger by millimetres that change along the
+        # arc, which the arc's fit turns into centimetres of radius
+        R_model = (_axis_angle(link.axis, dq) @ R_hook0 if link.name == "revolute"
+                   else self._motion_rotation(s))
+        ch.update(q_hat0=q_hat0, q_hat=q_hat, opening=sign * dq, direction=direction,
+                  R=self._turn_towards(s.R, R_model))
         return ch
+
+    def _motion(self, s: EpcState) -> np.ndarray:
+        """The handle's observed motion without its part along the bar (the handle of a
+        door, dishwasher, drawer or sliding door does not move along its bar; the hook
+        may slide along it)."""
+        bar = self._task.bar
+        m = s.motion - np.dot(s.motion, bar) * bar
+        return _unit(m) if np.linalg.norm(m) > 1e-9 else self._task.pull
+
+    def _motion_rotation(self, s: EpcState) -> np.ndarray:
+        """The hook's initial orientation turned, about the bar, as the handle's observed
+        motion turned from the initial pulling direction (the front's orientation,
+        model-free, lagging by about half of ``motion_window``)."""
+        return _rotation_between(self._task.pull, self._motion(s)) @ self._R_hook0
+
+    def _turn_towards(self, R, R_target) -> np.ndarray:
+        """R turned towards R_target by at most ``max_turn``."""
+        aa = RotationMatrix(R_target @ R.T).ToAngleAxis()
+        turn = min(aa.angle(), self._cfg.max_turn)
+        return _axis_angle(aa.axis(), turn) @ R if turn > 1e-9 else R
 
     def _equilibrium_point(self, s: EpcState, F, G, scale: float = 1.0) -> np.ndarray:
         """Eq. 4.58: the equilibrium point advances by ``step`` along the pull's direction,
@@ -772,10 +802,15 @@ class EpcController(LeafSystem):
         v_hook = cfg.force_gain * (cfg.force_target - f_perp) * u
         v_hook = np.clip(v_hook, -cfg.step, cfg.step)
         cep = s.cep + scale * cfg.step * direction + v_hook
+        # the lead onto the handle (along u) and the rest are bounded apart: one bound on
+        # the whole lead would scale the pressing term away whenever the hook lags along
+        # the path, and the bar would slide along the finger, off the seat
         lead = cep - G
-        if np.linalg.norm(lead) > cfg.max_lead:
-            cep = G + lead * (cfg.max_lead / np.linalg.norm(lead))
-        return cep
+        press = float(np.dot(lead, u))
+        rest = lead - press * u
+        if np.linalg.norm(rest) > cfg.max_lead:
+            rest *= cfg.max_lead / np.linalg.norm(rest)
+        return G + rest + float(np.clip(press, -cfg.max_lead, cfg.max_lead)) * u
 
     def _stop_reason(self, s: EpcState, now: EpcInputs) -> tuple[dict, str]:
         """The stall and slack counters' changes and why the pull ends ("" while it goes
