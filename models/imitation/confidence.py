@@ -19,7 +19,7 @@ little). :func:`demonstration_surprise` evaluates the demonstrations under the m
 taught (aligned as for learning) and :func:`reference_surprise` takes the largest smoothed
 value over them: how surprising a correct execution is to this model. A reproduction is
 *unsure* (:class:`SurpriseMonitor`) once its smoothed surprise exceeds ``factor`` times that
-reference (a surprise of 25 is a deviation of 5 standard deviations, on average, along the
+reference (a surprise of 50 is a deviation of about 7 standard deviations, on average, along the
 constraints that steer the reproduction).
 
 Plain numpy; no pydrake import.
@@ -53,7 +53,7 @@ class ConfidenceConfig:
             describe the teacher's.
     """
 
-    factor: float = param(25.0, gt=1)
+    factor: float = param(50.0, gt=1)
     floor: float = param(1.0, gt=0)
     window: float = param(1.0, unit="s", gt=0)
     ignore_start: float = param(2.0, unit="s", ge=0)
