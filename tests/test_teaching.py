@@ -95,3 +95,22 @@ def test_one_real_round(capsys):
     assert rec["success"] == (r["outcome"] == "success")
     c = r["confidence"]
     assert c["threshold"] > c["reference_surprise"] > 0
+
+
+def test_experiment_conditions_and_report():
+    from mmlearn.apps.imitation_experiments import conditions, format_table, report
+
+    conds = conditions(["teaching"])
+    assert [c[1].get("demos") for c in conds[:4]] == [1, 2, 3, 4]
+    assert conds[-1][2] is teaching.teaching_trial and conds[-1][1]["swap_tables"]
+    lines = [{"key": f"k{i}", "spec": {"fn": "imitation.teach@1", "seed": i, "params": {},
+                                       "label": f"pick_place interactive, swapped tables seed {i}"},
+              "record": {"success": ok, "demos": n, "demos_used": n, "asked_before_failing": a,
+                         "place_error_m": 0.01},
+              "error": None, "wall_s": 1.0}
+             for i, (ok, n, a) in enumerate([(True, 2, 1), (True, 3, 2), (False, 6, 0)])]
+    res = report(lines)
+    row = res["conditions"][0]
+    assert row["successes"] == 2 and row["mean_demos"] == pytest.approx(11 / 3)
+    assert row["asked_before_failing"] == 3
+    assert "3.7" in format_table(res)
