@@ -7,12 +7,12 @@ import json
 
 import numpy as np
 import pytest
-from scipy.spatial.transform import Rotation as R
 
 from mmlearn.apps import fit_structure as app
 from mmlearn.diagrams.common.object_tracks import cabinet_scenario, cabinet_together_scenario
 from mmlearn.models.articulation.graph import fit_structure
 from mmlearn.models.articulation.link import ObservationModel
+from mmlearn.models.articulation.sim import drawer_with_lid_tracks
 from mmlearn.models.articulation.structure_prior import StructurePrior, infer_roles
 
 OBS = ObservationModel(sigma_pos=0.01, sigma_orient=np.deg2rad(5))
@@ -24,26 +24,6 @@ def _both(tr, seed):
     r1 = fit_structure(tr.poses, part_names=tr.parts, obs=OBS, rng=seed, prior=StructurePrior(),
                        pair_models=r0.pair_models)
     return r0, r1
-
-
-def _lid_tracks(seed, n=80):
-    """A drawer sliding in a carcass with a lid hinged on the drawer: the drawer slides out,
-    the lid opens, the drawer slides in with the lid open, the lid closes."""
-    rng = np.random.default_rng(seed)
-    m = n // 4
-    x = np.concatenate([np.linspace(0, .3, m), np.full(m, .3), np.linspace(.3, 0, m),
-                        np.zeros(n - 3 * m)])
-    th = np.concatenate([np.zeros(m), np.linspace(0, 1.2, m), np.full(m, 1.2),
-                         np.linspace(1.2, 0, n - 3 * m)])
-    drawer = np.array([0.02, 0, 0.6]) + np.outer(x, [-1, 0, 0])
-    r_lid = R.from_rotvec(np.outer(th, [0, 1, 0]))
-    lid = drawer + [0, 0, 0.1] + r_lid.apply([-0.15, 0, 0])
-    out = []
-    for p, r in ((np.tile([0, 0, 0.4], (n, 1)), R.identity(n)), (drawer, R.identity(n)),
-                 (lid, r_lid)):
-        r = R.from_rotvec(rng.normal(0, 0.02, (n, 3))) * r
-        out.append(np.hstack([p + rng.normal(0, 0.005, p.shape), r.as_quat()]))
-    return np.stack(out)
 
 
 @pytest.mark.parametrize("seed", [1, pytest.param(2, marks=pytest.mark.slow),
@@ -64,7 +44,7 @@ def test_drawers_pulled_together_hang_on_the_carcass(seed):
 
 @pytest.mark.parametrize("seed", [1, pytest.param(2, marks=pytest.mark.slow)])
 def test_a_lid_on_a_drawer_stays_on_the_drawer(seed):
-    Y = _lid_tracks(seed)
+    Y = drawer_with_lid_tracks(seed)
     obs = ObservationModel(sigma_pos=0.005, sigma_orient=0.02)
     names = ["carcass", "drawer", "lid"]
     r0 = fit_structure(Y, part_names=names, obs=obs, rng=seed)
