@@ -27,7 +27,7 @@ estimators on their own ground truth, the GP on the roll-up door, Fig. 4.19):
   the order of the configuration (vertical segment, quarter circle, horizontal segment).
 - ``bic_noise`` (Fig. 4.26): BIC and selection vs the assumed noise, roll-up door, n = 50,
   true noise 0.002 m / 2 deg (assumed noise from the true level upwards).
-- ``selection`` (issue 10): the observation-model variants of SELECTION_VARIANTS compared on
+- ``selection``: the observation-model variants of SELECTION_VARIANTS compared on
   real tracks (``--tracks``, default the copies in the repository's tests/data: Cody's
   drawers, doors and dishwasher, position-only, and the cosine-synth GP tracks; the expected
   joint is read from the file name) at assumed sigma_pos 0.005-0.1 m, on the simulated
@@ -370,6 +370,7 @@ def _print(res, file=None):
 
 class ArticulationExperiments(Experiment):
     name = "articulation_experiments"
+    trials = (link_experiment_trial,)
     description = ("Synthetic robustness / convergence analysis of the articulation models "
                    "(thesis Sec. 4.4.4, Fig. 4.20-4.26) and Table 4.2. Every table gives the "
                    "number of failed runs (left out of its means). The trials run through "

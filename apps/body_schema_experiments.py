@@ -140,6 +140,7 @@ def write_outputs(res: dict, out_dir: str | Path) -> dict:
 
 class BodySchemaExperiments(Experiment):
     name = "body_schema_experiments"
+    trials = (body_schema_trial,)
     description = ("Reproduce the body-schema experiments of thesis Sec. 3.4 (Fig. 3.10, "
                    "noise-free accuracy, 7-DOF with an occluded part, Tables 3.1 and 3.2). "
                    "Learning runs in the Drake simulation; the many-run statistics of the "

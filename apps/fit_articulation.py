@@ -50,6 +50,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import sys
 import time
 
@@ -59,7 +60,9 @@ from mmlearn.apps.common.cli import (ArgumentParser, UsageError, check_out_file,
                                      json_clean, nonneg_int, pos_float, pos_int)
 from mmlearn.apps.common.cli import save_figure
 from mmlearn.models.articulation.link import ObservationModel, make_model
-from mmlearn.models.articulation.structure import DEFAULT_CANDIDATES, select_link_model
+from mmlearn.models.articulation.structure import (DEFAULT_CANDIDATES, select_link_model,
+                                                  track_scale_problem)
+from mmlearn.models.common.progress import progress as progress_iter
 from mmlearn.models.perception.tracking import (align_track, axis_errors, cross_validated_errors,
                                                 rectangles_from_poses, subsampled_selection)
 from mmlearn.models.common.track_io import (TRACK_SUFFIXES, TrackFileError, find_track_files,
@@ -70,6 +73,9 @@ __all__ = ["run", "main", "fit_track"]
 
 def fit_track(poses, *, obs: ObservationModel, models=DEFAULT_CANDIDATES, rng=None):
     """Select a link model for one track; returns (result dict, LinkSelection)."""
+    problem = track_scale_problem(poses, obs.sigma_pos)
+    if problem:
+        raise ValueError(problem)
     t0 = time.perf_counter()
     sel = select_link_model(poses, models=models, obs=obs, rng=rng)
     dt = time.perf_counter() - t0
@@ -102,6 +108,11 @@ def _right_in_all_from(sel: dict):
     return out
 
 
+def _log(log, line: str) -> None:
+    if log is not None:
+        print(line, file=log)
+
+
 def run(paths, *, sigma_pos: float = 0.01, sigma_orient: float = float(np.deg2rad(5.0)),
         models=DEFAULT_CANDIDATES, seed: int = 0, plot: str | None = None,
         progress: bool = True, log=sys.stderr, rectangles: str | None = None,
@@ -119,14 +130,12 @@ def run(paths, *, sigma_pos: float = 0.01, sigma_orient: float = float(np.deg2ra
     selections = []
     it = files
     if progress and len(files) > 1:
-        from tqdm import tqdm
-
-        it = tqdm(files, desc="fitting tracks", unit="track", file=log)
+        it = progress_iter(files, desc="fitting tracks", unit="track")
     for f in it:
         try:
             tr = read_track(f)
         except TrackFileError as e:
-            print(f"error: {e}", file=log)
+            _log(log, f"error: {e}")
             out["errors"].append({"path": f, "error": str(e)})
             continue
         rects = None
@@ -134,7 +143,7 @@ def run(paths, *, sigma_pos: float = 0.01, sigma_orient: float = float(np.deg2ra
             if tr.extra is None:
                 msg = (f"{f}: --rectangles needs 9 columns (x y z qx qy qz qw width height), "
                        f"the file has {tr.poses.shape[1]}")
-                print(f"error: {msg}", file=log)
+                _log(log, f"error: {msg}")
                 out["errors"].append({"path": f, "error": msg})
                 continue
             rects = align_track(rectangles_from_poses(tr.poses, tr.extra, origin=rectangles))
@@ -143,7 +152,7 @@ def run(paths, *, sigma_pos: float = 0.01, sigma_orient: float = float(np.deg2ra
             res, sel = fit_track(tr.poses, obs=obs, models=models, rng=rng)
         except ValueError as e:
             msg = f"{f}: {e}"
-            print(f"error: {msg}", file=log)
+            _log(log, f"error: {msg}")
             out["errors"].append({"path": f, "error": msg})
             continue
         if rects is not None:
@@ -248,7 +257,8 @@ def main(argv=None) -> int:
         description="Fit rigid / prismatic / revolute / GP link models to articulation "
                     "tracks and select the best by BIC (thesis Sec. 4.1). Exit status: 0 all "
                     "tracks fitted, 1 some track could not be read or fitted, 2 bad input "
-                    "(including no track files at all).")
+                    "(a missing path, no track files at all, or no track that could be "
+                    "read and fitted).")
     ap.add_argument("paths", nargs="+", metavar="PATH", help="track file(s) or folder(s)")
     ap.add_argument("--sigma-pos", type=pos_float, default=0.01, metavar="M",
                     help="position noise std, metres (default 0.01)")
@@ -289,6 +299,9 @@ def main(argv=None) -> int:
             except ValueError as e:
                 raise UsageError(f"--expect: {e}") from None
         check_out_file("--plot", args.plot)
+        for path in args.paths:
+            if not os.path.exists(path):
+                raise UsageError(f"{path}: file or folder not found")
         files = find_track_files(args.paths)
         if not files:
             raise UsageError(f"no track files (*{', *'.join(TRACK_SUFFIXES)}) in "
@@ -297,12 +310,19 @@ def main(argv=None) -> int:
         return fail(ap.prog, str(e))
     try:
         out = run(args.paths, sigma_pos=args.sigma_pos, sigma_orient=args.sigma_orient,
-                  models=args.models, seed=args.seed, plot=args.plot,
+                  models=args.models, seed=args.seed, plot=args.plot, log=None,
                   progress=not args.no_progress and not args.json,
                   rectangles=args.rectangles, expect=args.expect, subsample=args.subsample,
                   repeats=args.repeats)
     except ValueError as e:
         return fail(ap.prog, str(e))
+    if out["errors"] and not out["tracks"]:
+        first = out["errors"][0]["error"]
+        more = len(out["errors"]) - 1
+        return fail(ap.prog, first + (f" (and {more} more file(s) that could not be fitted)"
+                                      if more else ""))
+    for e in out["errors"]:  # some tracks fitted: name the others, exit status 1
+        print(f"error: {e['error']}", file=sys.stderr)
     if args.json:
         print(json.dumps(out, indent=1))
     else:

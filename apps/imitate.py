@@ -24,6 +24,12 @@ reproduced in a new variation of the scene (drawn from ``--seed``) by the
 :class:`~mmlearn.systems.imitation.dbn_reproducer.DbnReproducer`, incrementally or with
 ``--global``.
 
+Meshcat (``--meshcat`` live, ``--html-out`` recording): the arm and the scene framed by the
+camera, the demonstrated hand paths (grey), per object constraint the learned hand path and
+translucent 2-sigma ellipsoids at about a dozen slices (a group of their own that Meshcat's
+controls can hide), the reproduction's hand trail (blue dots) and a legend saying which is
+which with the outcome.
+
 Success (the task's goal met in the simulation):
 
 * pick_place: the cup ends released, upright, on the target table (table B), its marker

@@ -32,7 +32,7 @@ from mmlearn.apps.common import experiment
 from mmlearn.apps.common.cli import check_out_dir, name_list, pos_int, save_figure
 from mmlearn.apps.common.experiment import Experiment
 from mmlearn.apps.common.sweep import TrialSpec, run_sweep
-from mmlearn.diagrams.imitation.trials import reproduction_plan
+from mmlearn.diagrams.imitation.trials import reproduction_plan, reproduction_trial
 from mmlearn.models.imitation.evaluation import condition_table
 
 EXPERIMENTS = ("demos", "swap", "board", "obstacle", "u_obstacle", "teaching")
@@ -165,6 +165,7 @@ class ImitationExperiments(Experiment):
     """The command line (:mod:`mmlearn.apps.common.experiment`)."""
 
     name = "imitation_experiments"
+    trials = (reproduction_trial,)
     description = ("Thesis 8.2's imitation experiments over many seeds, with plots. Exit status: "
                    "0 all trials ran, 1 a trial raised, 2 bad input.")
     seed_default = 100

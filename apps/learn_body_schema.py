@@ -9,6 +9,11 @@ to the root part, against the plant's true marker poses), the observation noise 
 sensor on the same configurations, and the positioning error of a SchemaController driving
 the end effector in the simulation to targets using the learned model.
 
+Meshcat (``--meshcat`` live, ``--html-out`` recording): the arm and, beside it, the part
+frames the learned schema predicts and the learned tree (green: a valid local model, red:
+an invalid one), framed by the camera, with a legend giving the prediction error and the
+number of samples.
+
     python -m mmlearn.apps.learn_body_schema --arm 2dof --samples 30 --noise 0.044 --json
     python -m mmlearn.apps.learn_body_schema --arm 7dof --occlude x4 --samples 60
 """

@@ -37,6 +37,7 @@ from mmlearn.apps.common.cli import save_figure
 from mmlearn.models.articulation.link import DEFAULT_GAMMA_WEIGHT, ObservationModel, make_model
 from mmlearn.models.articulation.priors import PriorDatabase, evaluate_priors
 from mmlearn.models.articulation.structure import DEFAULT_CANDIDATES
+from mmlearn.models.articulation.structure import track_scale_problem
 from mmlearn.models.common.track_io import TrackFileError, find_track_files, read_track
 
 __all__ = ["run", "main"]
@@ -61,6 +62,10 @@ def run(*, paths, sigma_pos: float = 0.05, sigma_orient: float = float(np.deg2ra
                          f"{', '.join(map(str, paths))}")
     db = PriorDatabase.load(load) if load else None  # a bad database fails before any work
     tracks = [read_track(f).poses for f in files]
+    for f, t in zip(files, tracks):
+        problem = track_scale_problem(t, sigma_pos)
+        if problem:
+            raise ValueError(f"{f}: {problem}")
     ncol = {t.shape[1] for t in tracks}
     if len(ncol) > 1:
         raise ValueError("tracks mix position-only (3 columns) and full poses (7 columns)")

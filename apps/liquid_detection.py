@@ -80,7 +80,7 @@ from mmlearn.apps.common.cli import (UsageError, check_out_file, json_clean, nam
 from mmlearn.apps.common.experiment import Experiment
 from mmlearn.models.common.config import param, validate_fields
 from mmlearn.apps.common.sweep import report_only_result
-from mmlearn.diagrams.tactile.trials import liquid_roll_plan
+from mmlearn.diagrams.tactile.trials import liquid_roll_plan, liquid_roll_trial
 from mmlearn.models.tactile.evaluation import (COAST_DELAY, cell_saturation_force,
                                                evaluate_rolls, roll_record)
 
@@ -375,6 +375,7 @@ class LiquidDetection(Experiment):
     """The command line (:mod:`mmlearn.apps.common.experiment`)."""
 
     name = "liquid_detection"
+    trials = (liquid_roll_trial,)
     description = ("Detect liquid in a grasped container by rolling it (thesis Sec. 7.3): "
                    "5 Hz high-pass of the taxels, spread of their norm, decision tree, "
                    "10-fold CV. Exit status: 0 success, 1 a trial raised, 2 bad input, "
@@ -430,7 +431,7 @@ class LiquidDetection(Experiment):
         args.config = _config(args)
         check_out_file("--plot", args.plot)
         check_out_file("--html-out", args.html_out)
-        args.lines = report_only_lines(args, simulates="a roll")
+        args.lines = report_only_lines(args, simulates="a roll", trials=self.trials)
 
     def specs(self, args):
         if args.meshcat or args.html_out:  # one roll shown before the trials run

@@ -20,6 +20,10 @@ was the right kind (revolute for doors, prismatic for drawers and sliding doors)
 ``right_model_at`` the opening from which it held.
 
     python -m mmlearn.apps.open_cabinet --object left_door --seed 3 --json
+
+``--model FILE --joint NAME`` opens a joint of your own SDFormat or URDF furniture instead
+(placement, handle and pulling direction derived from the file, see docs/user_models.md);
+the JSON then also holds ``true_joint``, the joint as the file gives it.
 """
 
 import json
@@ -30,7 +34,7 @@ import numpy as np
 from mmlearn.apps.common.cli import (ArgumentParser, UsageError, check_in_file, check_out_file,
                                      fail, finish_viewing, frame_camera, make_meshcat,
                                      nonneg_int, save_html)
-from mmlearn.apps.common.operate_args import add_trial_args
+from mmlearn.apps.common.operate_args import add_model_args, add_trial_args, load_model_args
 from mmlearn.sdf.mechanisms import KINDS
 
 
@@ -38,7 +42,8 @@ def run(*, kind: str = "left_door", seed: int = 0, meshcat=None, html_out: str =
         max_time: float = 60.0, sigma_pos: float | None = None, show_progress: bool = True,
         realtime: bool = False, priors: str = "", mechanism_seed: int | None = None,
         save_track: str = "", base_noise: float | None = None,
-        perception: str = "click") -> dict:
+        perception: str = "click", model: str = "", joint: str = "", model_pose=None,
+        handle=None) -> dict:
     """Run one trial and return its results: :func:`mmlearn.diagrams.articulation.trials.
     open_mechanism`, viewed in ``meshcat`` (its camera framing the robot and the cabinet's
     whole swing) and, with ``html_out``, recorded there as standalone HTML."""
@@ -60,10 +65,23 @@ def run(*, kind: str = "left_door", seed: int = 0, meshcat=None, html_out: str =
                             realtime=realtime, priors=priors, mechanism_seed=mechanism_seed,
                             save_track=save_track, base_noise=base_noise,
                             perception=perception,
-                            on_built=frame if meshcat is not None else None)
+                            on_built=frame if meshcat is not None else None,
+                            model=model, joint=joint, model_pose=model_pose, handle=handle)
     if meshcat is not None and html_out and result["front_found"]:
         result["html_out"] = str(save_html(meshcat, html_out))
     return result
+
+
+def _model_line(mech) -> str:
+    """What the robot derived from the user's model."""
+    tj = mech.true_joint()
+    where = {"geometry": f"from its geometry ({mech.handle_geometry})", "given": "given",
+             "fallback": "NOT found on the geometry: put on the front's "
+                         + ("edge away from the hinge" if mech.is_revolute else "top edge")}
+    h = ", ".join(f"{v:.3f}" for v in tj["handle"])
+    r = f", radius at the handle {tj['radius_m']:.3f} m" if mech.is_revolute else ""
+    return (f"{mech.name}: {mech.joint_type} joint (like a {mech.kind}{r}); handle at ({h}) "
+            f"m {where[mech.handle_source]}")
 
 
 def main(argv=None) -> int:
@@ -85,7 +103,12 @@ def main(argv=None) -> int:
     ap.add_argument("--meshcat", action="store_true", help="show the trial live in Meshcat")
     ap.add_argument("--html-out", default="", help="save the Meshcat recording as HTML")
     ap.add_argument("--json", action="store_true", help="print the result as JSON")
+    add_model_args(ap)
     args = ap.parse_args(argv)
+    try:
+        mech = load_model_args(args)
+    except ValueError as e:
+        return fail(ap.prog, str(e))
     try:
         check_out_file("--html-out", args.html_out)
         check_out_file("--save-track", args.save_track)
@@ -103,7 +126,9 @@ def main(argv=None) -> int:
                 max_time=args.max_time, sigma_pos=args.sigma_pos,
                 show_progress=not args.json, realtime=args.meshcat, priors=args.priors,
                 mechanism_seed=args.mechanism_seed, save_track=args.save_track,
-                base_noise=args.base_noise, perception=args.perception)
+                base_noise=args.base_noise, perception=args.perception,
+                model=args.model, joint=args.joint, model_pose=args.model_pose,
+                handle=args.handle)
     except ValueError as e:
         return fail(ap.prog, str(e))
     if args.save_track and r["track_saved"] is None:
@@ -116,12 +141,18 @@ def main(argv=None) -> int:
         if not r["front_found"]:
             print(f"FAILED: {r['object']}: no front detected")
             return 1
+        if mech is not None:
+            print(_model_line(mech))
         if r["perception"] == "depth":
             print(f"handle from the depth camera ({r['handle_source']}, front in "
                   f"{r['frames_found']} of {r['look_frames']} frames): error "
                   f"{r['handle_error_m']:.3f} m")
-        print(f"{verdict}: {r['object']} opened {r['opened']:.2f} {r['unit']} "
-              f"({r['outcome']}); learned model: {r['learned_model']}")
+        print(f"{verdict}: {r['object']} opened {r['opened']:.2f} {r['unit']} (the "
+              f"mechanism's largest true opening; {r['outcome']})")
+        span = r.get("model_span")
+        print(f"learned model: {r['learned_model']}"
+              + ("" if span is None else f", fitted to a hook track spanning {span:.2f} "
+                 f"{r['unit']} (the range drawn in the recording)"))
         if r["radius_error_m"] is not None:
             print(f"learned radius {r['radius_m']:.3f} m, true {r['true_radius_m']:.3f} m "
                   f"(error {r['radius_error_m']:.3f} m), axis error "

@@ -14,9 +14,9 @@ import sys
 from pathlib import Path
 
 from mmlearn.apps.common import experiment
-from mmlearn.apps.common.cli import check_in_file, check_out_dir, name_list, nonneg_int, pos_int
+from mmlearn.apps.common.cli import UsageError, check_in_file, check_out_dir, name_list, nonneg_int, pos_int
 from mmlearn.apps.common.experiment import Experiment
-from mmlearn.apps.common.operate_args import add_trial_args
+from mmlearn.apps.common.operate_args import add_model_args, add_trial_args, load_model_args
 from mmlearn.diagrams.articulation.trials import operate_trial
 from mmlearn.models.articulation.evaluation import operate_report
 from mmlearn.sdf.mechanisms import KINDS
@@ -39,15 +39,21 @@ def _prior_text(priors: str) -> tuple[str | None, str]:
 def trial_specs(*, objects=KINDS, trials: int = 8, seed: int = 0, max_time: float = 60.0,
                 sigma_pos: float | None = None, priors: str = "",
                 mechanism_seed: int | None = None, save_tracks: str = "",
-                base_noise: float | None = None, perception: str = "click") -> list:
-    """The sweep's trials, ``trials`` per object (checks the arguments, see :func:`run`)."""
+                base_noise: float | None = None, perception: str = "click",
+                model: str = "", joint: str = "", model_pose: str | None = None,
+                handle: str | None = None) -> list:
+    """The sweep's trials, ``trials`` per object (checks the arguments, see :func:`run`);
+    with ``model``, ``trials`` trials of its joint ``joint`` instead of the objects."""
     from mmlearn.apps.common.sweep import TrialSpec
+
+    if model:
+        objects = [None]
 
     objects = list(objects)
     if not objects:
         raise ValueError("objects: empty list; choose from " + ", ".join(KINDS))
     for k in objects:
-        if k not in KINDS:
+        if k not in KINDS and not model:
             raise ValueError(f"unknown object {k!r}; choose from {', '.join(KINDS)}")
     if trials < 1:
         raise ValueError("trials must be >= 1")
@@ -61,12 +67,19 @@ def trial_specs(*, objects=KINDS, trials: int = 8, seed: int = 0, max_time: floa
     priors_sha1 = _prior_text(priors)[1]
     if save_tracks:
         Path(save_tracks).mkdir(parents=True, exist_ok=True)
+    if model:
+        # the file's absolute path, the joint and the flags' text name the trials
+        extra.update(model=str(Path(model).resolve()), joint=joint, model_pose=model_pose,
+                     handle=handle)
+    name = f"{Path(model).name}:{joint}" if model else None
     return [TrialSpec(fn=operate_trial, seed=seed + i,
-                      label=f"{k} seed {seed + i}",
-                      params={"kind": k, "max_time": max_time, "sigma_pos": sigma_pos,
+                      label=f"{k or name} seed {seed + i}",
+                      params={"kind": k or "left_door", "max_time": max_time,
+                              "sigma_pos": sigma_pos,
                               "mechanism_seed": mechanism_seed, "base_noise": base_noise,
                               "priors_sha1": priors_sha1,
-                              "save_track": str(Path(save_tracks) / f"{k}_{seed + i:03d}.log")
+                              "save_track": str(Path(save_tracks) / f"{k or Path(model).stem}_"
+                                                f"{seed + i:03d}.log")
                               if save_tracks else "", **extra})
             for k in objects for i in range(trials)]
 
@@ -83,13 +96,16 @@ def run(*, objects=KINDS, trials: int = 8, seed: int = 0, jobs: int | None = Non
         mechanism_seed: int | None = None, save_tracks: str = "",
         show_progress: bool = True, base_noise: float | None = None,
         results: str | None = None, executor: str = "local",
-        ray_address: str | None = None, perception: str = "click") -> dict:
+        ray_address: str | None = None, perception: str = "click", model: str = "",
+        joint: str = "", model_pose: str | None = None, handle: str | None = None) -> dict:
     """Run the trials; ``mechanism_seed`` fixes each object's geometry (the trials then
     differ in the handle click and the start), ``save_tracks`` writes every trial's hook
     trajectory into that folder, ``priors`` uses a prior database, ``base_noise`` scales
     the base-localisation error (None: 1, 0: the base pose is known exactly),
     ``sigma_pos`` is the noise the estimator assumes (None: 0.05 m), ``perception`` where
-    the handle comes from ("click" or "depth", see ``open_cabinet``).
+    the handle comes from ("click" or "depth", see ``open_cabinet``); ``model`` and
+    ``joint`` (with ``model_pose``, ``handle``): trials on that joint of a user's model file
+    instead of ``objects`` (see ``open_cabinet --model``).
 
     The trials run through the sweep runner (``mmlearn.apps.common.sweep``): ``results`` is the
     JSON Lines file they are streamed to (None: a temporary one; with a file, trials already
@@ -101,7 +117,8 @@ def run(*, objects=KINDS, trials: int = 8, seed: int = 0, jobs: int | None = Non
         raise ValueError(f"jobs must be >= 1 (or None for all cores), got {jobs}")
     specs = trial_specs(objects=objects, trials=trials, seed=seed, max_time=max_time,
                         sigma_pos=sigma_pos, priors=priors, mechanism_seed=mechanism_seed,
-                        save_tracks=save_tracks, base_noise=base_noise, perception=perception)
+                        save_tracks=save_tracks, base_noise=base_noise, perception=perception,
+                        model=model, joint=joint, model_pose=model_pose, handle=handle)
     sweep = run_sweep(specs, results=results, executor=executor, jobs=jobs,
                       ray_address=ray_address, shared=_prior_text(priors)[0],
                       show_progress=show_progress)
@@ -169,6 +186,7 @@ def format_table(res: dict) -> str:
 
 class OperateTrials(Experiment):
     name = "operate_trials"
+    trials = (operate_trial,)
     description = ("Five mechanisms x N trials of opening while learning (thesis 4.4.2). Exit "
                    "status: 0 all trials ran (opened or not), 1 a trial raised an error, 2 bad "
                    "input.")
@@ -188,18 +206,24 @@ class OperateTrials(Experiment):
                              "learn_priors)")
         ap.add_argument("--priors", default="",
                         help="prior database to use (from learn_priors)")
+        add_model_args(ap)
 
     def check(self, args):
         if not args.report_only:
-            check_out_dir("--save-tracks", args.save_tracks, create=False)
+            check_out_dir("--save-tracks", args.save_tracks)
             check_in_file("--priors", args.priors)
+            try:
+                load_model_args(args)
+            except ValueError as e:
+                raise UsageError(str(e)) from None
 
     def specs(self, args):
         return trial_specs(objects=args.objects, trials=args.trials, seed=args.seed,
                            max_time=args.max_time, sigma_pos=args.sigma_pos,
                            priors=args.priors, mechanism_seed=args.mechanism_seed,
                            save_tracks=args.save_tracks, base_noise=args.base_noise,
-                           perception=args.perception)
+                           perception=args.perception, model=args.model,
+                           joint=args.joint, model_pose=args.model_pose, handle=args.handle)
 
     def shared(self, args):
         return _prior_text(args.priors)[0]

@@ -313,6 +313,7 @@ class PerceptionExperiments(Experiment):
     """The command line (:mod:`mmlearn.apps.common.experiment`)."""
 
     name = "perception_experiments"
+    trials = (fronts_trial,)
     description = DESCRIPTION
     seed_default = 1000
     seed_help = "first seed"

@@ -67,14 +67,20 @@ class RenderFrontsConfig:
         for k in ("fronts", "distances", "angles_deg"):
             if not getattr(self, k):
                 raise ValueError(f"RenderFrontsConfig: {k} must not be empty")
+        for d in self.distances:
+            self.scene.check_distance(d, "distance")
         return self
 
 
 def _save(folder: Path, name: str, depth, clean, label, meta: dict) -> None:
-    np.save(folder / f"{name}_depth.npy", depth)
-    np.save(folder / f"{name}_clean.npy", clean)
-    np.save(folder / f"{name}_label.npy", label)
-    (folder / f"{name}.json").write_text(json.dumps(json_clean(meta), indent=1))
+    """One frame's arrays and metadata, each file written atomically (the metadata last: a
+    frame whose ``.json`` exists is complete)."""
+    from mmlearn.models.common.fileio import atomic_output, atomic_write_text
+
+    for kind, arr in (("depth", depth), ("clean", clean), ("label", label)):
+        with atomic_output(folder / f"{name}_{kind}.npy") as f:
+            np.save(f, arr)
+    atomic_write_text(folder / f"{name}.json", json.dumps(json_clean(meta), indent=1))
 
 
 def run(*, config: RenderFrontsConfig, meshcat=None, show_progress: bool = True) -> dict:

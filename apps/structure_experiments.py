@@ -154,6 +154,7 @@ def _only(only) -> list:
 
 class StructureExperiments(Experiment):
     name = "structure_experiments"
+    trials = (structure_trial,)
     description = (__doc__.split("\n\n")[0] + " Exit status: 0 every trial ran, 1 a trial "
                    "raised an error, 2 bad input.")
     seed_help = "random seed"

@@ -360,6 +360,7 @@ class TactileRecognition(Experiment):
     """The command line (:mod:`mmlearn.apps.common.experiment`)."""
 
     name = "tactile_recognition"
+    trials = (object_grasp_trial,)
     description = ("Recognise objects by touch (thesis ch. 6): simulated grasps of 16 "
                    "objects / 21 classes -> tactile images -> bag of tactile features, "
                    "2-fold CV. Exit status: 0 success, 1 a grasp raised, 2 bad input, "
@@ -420,7 +421,7 @@ class TactileRecognition(Experiment):
             raise UsageError(f"--alpha: expected a number in [0, 1], got {args.alpha!r}")
         check_out_file("--plot", args.plot)
         check_out_file("--html-out", args.html_out)
-        if report_only_lines(args, simulates="a grasp") is None:
+        if report_only_lines(args, simulates="a grasp", trials=self.trials) is None:
             try:
                 _check(args.config)
             except ValueError as e:

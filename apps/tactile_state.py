@@ -91,6 +91,7 @@ from mmlearn.models.tactile.evaluation import (SIM_CONTACT_FORCE, SIM_REST_VELOC
                                                icub_state_report, state_recognition_report)
 from mmlearn.models.tactile.state import CLASSIFIERS, FEATURE_NAMES, extract_grasp_features
 from mmlearn.diagrams.tactile.trials import (SWEEP_FORCES, container_grasp_plan,
+                                             container_grasp_trial,
                                              odwalla_sweep_plan)
 
 __all__ = ["run", "run_simulation", "simulation_specs", "simulation_report",
@@ -282,13 +283,19 @@ def run_simulation(config: TactileStateConfig, *, meshcat=None) -> dict:
                                      jobs=c.jobs, ray_address=c.ray_address)
 
 
+#: the probing force per finger of the rigid-block impact grasps of the plot (Fig. 7.5 vs
+#: 7.6), N, whatever the containers' ``f_target``: the impact peaks stay comparable
+IMPACT_F_TARGET = 10.0
+
+
 def demo_grasps(config: TactileStateConfig, *, meshcat=None, impact: bool = True) -> dict:
     """The grasps the viewer and the plot show: one grasp of the first container class in
     its first state (a random instance from ``config.seed``; shown and recorded in
     ``meshcat`` if given, taxel pads coloured by pressure) and, with ``impact``, a rigid
     block grasped with the switching controller and with pure force control (Fig. 7.5 vs
     7.6, 10 N; the contact force every 2 ms, :func:`contact_force_trace`). Returns
-    {"grasp": TactileGrasp, "impact": {mode: {"t", "f"}}}."""
+    {"grasp": TactileGrasp, "impact": {mode: {"t", "f", "f_target"}}, "f_target": the
+    containers' probing force}."""
     from mmlearn.diagrams.tactile.grasp import TactileGraspConfig, simulate_grasp
     from mmlearn.models.tactile.containers import sample_container, states_of
     from mmlearn.sdf.tactile import block_sdf
@@ -300,12 +307,13 @@ def demo_grasps(config: TactileStateConfig, *, meshcat=None, impact: bool = True
     inst = sample_container(name, state, rng)
     cfg = TactileGraspConfig(pad="pr2", f_target=float(c.f_target), seed=int(c.seed),
                              wall_model=c.wall_model)
-    out = {"grasp": simulate_grasp(cfg, container=inst, meshcat=meshcat), "impact": {}}
+    out = {"grasp": simulate_grasp(cfg, container=inst, meshcat=meshcat), "impact": {},
+           "f_target": float(c.f_target)}
     if impact:
         block = block_sdf((0.07, 0.1, 0.12))
         for mode in ("switching", "force"):
-            cfg = TactileGraspConfig(pad="pr2", f_target=10.0, mode=mode, hold_time=1.0,
-                                     duration=2.5, seed=int(c.seed))
+            cfg = TactileGraspConfig(pad="pr2", f_target=IMPACT_F_TARGET, mode=mode,
+                                     hold_time=1.0, duration=2.5, seed=int(c.seed))
             out["impact"][mode] = contact_force_trace(cfg, object_sdf=block)
     return out
 
@@ -317,7 +325,7 @@ def contact_force_trace(cfg, *, object_sdf: str, dt: float = 0.002) -> dict:
     from mmlearn.diagrams.tactile.grasp import simulate_contact_force
 
     ts, f, _, _ = simulate_contact_force(cfg, object_sdf=object_sdf, dt=dt)
-    return {"t": ts, "f": f}
+    return {"t": ts, "f": f, "f_target": float(cfg.f_target)}
 
 
 def plot_simulation(records, demo, path, *, containers, title: str = "") -> None:
@@ -359,7 +367,11 @@ def plot_simulation(records, demo, path, *, containers, title: str = "") -> None
         ax[1, 0].plot(tr["t"], tr["f"], color=colr, lw=1.0,
                       label=f"{lab}, peak {tr['f'].max():.1f} N")
     if demo.get("impact"):
-        ax[1, 0].axhline(10.0, color="k", ls="--", lw=0.8, label="f_target 10 N")
+        block_f = next(iter(demo["impact"].values())).get("f_target", IMPACT_F_TARGET)
+        others = ("" if demo.get("f_target") is None
+                  else f"; the containers above: {demo['f_target']:g} N")
+        ax[1, 0].axhline(block_f, color="k", ls="--", lw=0.8,
+                         label=f"block's target force {block_f:g} N per finger{others}")
     ax[1, 0].set_xlabel("time [s]")
     ax[1, 0].set_ylabel("contact force per finger [N] (plant, every 2 ms)")
     ax[1, 0].set_title("rigid block: impact without / with the switching controller",
@@ -508,6 +520,7 @@ class TactileState(Experiment):
     run through the sweep; the real-data mode runs no trial and is reported at once."""
 
     name = "tactile_state"
+    trials = (container_grasp_trial,)
     description = ("Recognise objects and their internal state from the dynamics of a grasp "
                    "(thesis Sec. 7.1-7.2: six features of Table 7.1, decision tree / random "
                    "forest) on iCub grasp dataset files. Exit status: 0 success, 2 bad input.")
@@ -531,11 +544,11 @@ class TactileState(Experiment):
                              "author)")
         ap.add_argument("--folds", type=pos_int, default=10,
                         help="cross-validation folds without --test (default 10)")
-        ap.add_argument("--contact-level", type=pos_float, default=CONTACT_LEVEL,
+        ap.add_argument("--contact-level", type=pos_float, default=None,
                         metavar="COUNTS",
                         help=f"contact threshold F on a finger's highest taxel pressure, sensor "
                              f"counts (default {CONTACT_LEVEL:g})")
-        ap.add_argument("--rest-velocity", type=pos_float, default=REST_VELOCITY, metavar="RAD",
+        ap.add_argument("--rest-velocity", type=pos_float, default=None, metavar="RAD",
                         help=f"rest threshold V on the closure rate, rad per slice (default "
                              f"{REST_VELOCITY:.4f})")
         ap.add_argument("--steady-average", action="store_true",
@@ -596,6 +609,15 @@ class TactileState(Experiment):
                              "the real data were recorded with the iCub's own controller")
         if sim and args.test is not None:
             raise UsageError("--test applies to real-data mode only")
+        for flag, value in (("--contact-level", args.contact_level),
+                            ("--rest-velocity", args.rest_velocity)):
+            if sim and value is not None:
+                raise UsageError(f"{flag} applies to real-data mode only (the simulation "
+                                 f"uses {SIM_CONTACT_FORCE:g} N and {SIM_REST_VELOCITY:g} m/s)")
+        if args.contact_level is None:
+            args.contact_level = CONTACT_LEVEL
+        if args.rest_velocity is None:
+            args.rest_velocity = REST_VELOCITY
         if args.report_only and not sim:
             raise UsageError("--report-only applies to simulation mode only (the real-data "
                              "mode runs no trials)")
@@ -607,7 +629,7 @@ class TactileState(Experiment):
             if d is not None and not Path(d).is_dir():
                 raise UsageError(f"{flag}: {d}: " + ("not a folder" if Path(d).exists()
                                                      else "folder not found"))
-        report_only_lines(args, simulates="a grasp")
+        report_only_lines(args, simulates="a grasp", trials=self.trials)
         args.config = TactileStateConfig(
             train=args.train or "", test=args.test, classifier=args.classifier,
             include_full_coke=args.include_full_coke, folds=args.folds, seed=args.seed,

@@ -56,6 +56,10 @@ def run(*, config: ViewSceneConfig, meshcat=None, show_progress: bool = True) ->
         raise ValueError(f"duration must be > 0 s, got {cfg.duration}")
     if not 0 < cfg.babble_fraction <= 1:
         raise ValueError(f"babble_fraction must be in (0, 1], got {cfg.babble_fraction}")
+    cfg.scene.validate()
+    if cfg.scene.time_step >= cfg.duration:
+        raise ValueError(f"time_step {cfg.scene.time_step:g} s (--config) is not shorter than "
+                         f"the run (--duration {cfg.duration:g} s): the plant would not move")
     cfg.scene.sensor.seed = cfg.seed
     if meshcat is None and (cfg.meshcat or cfg.html_out):
         meshcat = make_meshcat(announce=cfg.meshcat)

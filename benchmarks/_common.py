@@ -18,11 +18,26 @@ import numpy as np
 def add_output_arguments(ap, *, quick: str | None = None) -> None:
     """Add ``--json [FILE]`` to the argparse parser ``ap``, and ``--quick`` (``store_true``,
     help ``quick``) when ``quick`` is given."""
-    ap.add_argument("--json", nargs="?", const="-", default=None, metavar="FILE",
+    ap.add_argument("--json", nargs="?", const="-", default=None, metavar="FILE", type=_json_file,
                     help="also write the figures as JSON to FILE; without FILE (or '-'), print "
                          "the JSON instead of the table")
     if quick is not None:
         ap.add_argument("--quick", action="store_true", help=quick)
+
+
+def _json_file(text: str) -> str:
+    """argparse type of ``--json``: ``-`` or a file that can be written (checked at once by a
+    probe write, not after the benchmark ran)."""
+    import argparse
+
+    from mmlearn.models.common.fileio import OutputPathError, check_output_file
+
+    if text != "-":
+        try:
+            check_output_file(text)
+        except OutputPathError as e:
+            raise argparse.ArgumentTypeError(str(e)) from None
+    return text
 
 
 def _plain(o):
@@ -55,5 +70,7 @@ def emit_json(path: str | None, doc) -> bool:
     if path == "-":
         print(text)
         return True
-    Path(path).write_text(text + "\n")
+    from mmlearn.models.common.fileio import atomic_write_text
+
+    atomic_write_text(path, text + "\n")
     return False

@@ -23,7 +23,7 @@ microwave doors with 0 / 30 / 60 % outliers (full pose and position-only) and th
 and dishwashers of tests/data at sigma_pos 5, 20, 50 mm; not revolute (the revolute candidate
 fitted to a drawer or a curve): the benchmark's drawer and the real drawer and cosine tracks.
 
-BLAS threads are limited to one (set before numpy is imported): with several engineers on a
+BLAS threads are limited to one (set before numpy is imported): on a shared
 2-core machine, multi-threaded BLAS on tiny matrices only spins.
 """
 

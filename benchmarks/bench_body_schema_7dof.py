@@ -181,7 +181,9 @@ def main(argv=None) -> int:
         print(f"\ntrials that raised: {res.error_summary()}", file=sys.stderr)
     print("\n" + json.dumps(summary))
     if args.json:
-        args.json.write_text(json.dumps(summary, indent=1) + "\n")
+        from mmlearn.models.common.fileio import atomic_write_text
+
+        atomic_write_text(args.json, json.dumps(summary, indent=1) + "\n")
     return 1 if res.errors or res.missing else 0
 
 

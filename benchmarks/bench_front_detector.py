@@ -3,7 +3,7 @@ RANSAC plane segmentation (prints figures; never fails on time).
 
     python benchmarks/bench_front_detector.py [--frames-dir DIR] [--synthetic 12] [--repeats 3]
                                               [--seed 0] [--no-open3d] [--quick]
-                                              [--json [FILE]]
+                                              [--json [FILE]] [--baseline REV]
     python benchmarks/bench_front_detector.py --sweep [--seeds 3]
 
 ``--sweep`` instead measures accuracy only on synthetic frames: door and drawer, camera
@@ -33,6 +33,12 @@ reported: detection rate, and mean / median / max position and orientation error
 ones (orientation: the rotation angle between the poses up to the 180 deg turn about the
 normal).
 
+``--baseline REV`` (a git revision of this repository, e.g. ``HEAD~3``) runs the detector of
+that revision too, on the same frames in the same process, frame by frame alternating with the
+current one, and prints both per stage side by side with their ratio, and whether the two
+found the same rectangles (the revision's ``models/perception/detection`` is extracted into a
+temporary directory as a package of its own; everything else is the current code).
+
 Open3D (only here, not a project dependency; skipped with a message when it does not import):
 ``PointCloud.segment_plane(distance_threshold=0.02, ransac_n=3, num_iterations=200)`` on the
 same frames' points, planes extracted one after another (inliers removed) up to the detector's
@@ -51,9 +57,17 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("MKL_NUM_THREADS", "1")
 
 import argparse
+import atexit
 import glob
+import importlib
+import io
 import json
 import math
+import shutil
+import subprocess
+import sys
+import tarfile
+import tempfile
 import time
 
 import cv2
@@ -116,20 +130,73 @@ def errors(rect, X):
     return perr, best, nerr
 
 
-def run_detector(frames, cfg, repeats, seed):
+REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+PKG = "models/perception/detection"
+
+
+def load_baseline(rev):
+    """The detector package of git revision ``rev`` of this repository, imported as a package
+    of its own (``_baseline_detection``, from a temporary directory): (detect_fronts,
+    FrontDetectorConfig). Raises SystemExit with a one-line message when it cannot."""
+    try:
+        tar = subprocess.run(["git", "-C", REPO, "archive", rev, PKG], capture_output=True,
+                             check=True).stdout
+    except (OSError, subprocess.CalledProcessError) as e:
+        raise SystemExit(f"--baseline: cannot extract {PKG} at {rev!r} ({e})")
+    root = tempfile.mkdtemp(prefix="baseline_detector_")
+    atexit.register(shutil.rmtree, root, ignore_errors=True)
+    with tarfile.open(fileobj=io.BytesIO(tar)) as t:
+        t.extractall(root, filter="data")
+    src = os.path.join(root, PKG)
+    dst = os.path.join(root, "_baseline_detection")
+    os.rename(src, dst)
+    for f in glob.glob(os.path.join(dst, "*.py")):
+        text = open(f).read().replace("mmlearn.models.perception.detection",
+                                      "_baseline_detection")
+        open(f, "w").write(text)
+    sys.path.insert(0, root)
+    mod = importlib.import_module("_baseline_detection")
+    return mod.detect_fronts, mod.FrontDetectorConfig
+
+
+def _time_one(detect, fr, cfg, seed):
+    c0 = time.process_time()
+    rects, tm = detect(fr["depth"], fr["K"], fr["X_WC"], cfg, rng=seed, clock=time.thread_time)
+    return rects, tm, time.process_time() - c0
+
+
+def _same_rects(a, b, tol=1e-6):
+    """Whether two detections are the same rectangles (poses and sizes within ``tol``)."""
+    return len(a) == len(b) and all(
+        np.allclose(r.X_WR, q.X_WR, atol=tol) and abs(r.width - q.width) < tol
+        and abs(r.height - q.height) < tol for r, q in zip(a, b))
+
+
+def run_detector(frames, cfg, repeats, seed, baseline=None):
+    """Per frame: the median CPU time per stage over ``repeats`` runs, the rectangles'
+    accuracy; with ``baseline`` (detect_fronts, config) the baseline's times too (keys
+    ``base_<stage>``, ``base_cpu``), its runs alternating with the current one's, and
+    ``same``: whether both found the same rectangles."""
     rows = []
     for fr in frames:
         stage = {k: [] for k in STAGES + ("total",)}
-        cpu = []
+        bstage = {k: [] for k in STAGES + ("total",)}
+        cpu, bcpu = [], []
         for _ in range(repeats):
-            c0 = time.process_time()
-            rects, tm = detect_fronts(fr["depth"], fr["K"], fr["X_WC"], cfg, rng=seed,
-                                      clock=time.thread_time)
-            cpu.append(time.process_time() - c0)
+            if baseline is not None:
+                brects, btm, bc = _time_one(baseline[0], fr, baseline[1](), seed)
+                bcpu.append(bc)
+                for k in bstage:
+                    bstage[k].append(btm[k])
+            rects, tm, c = _time_one(detect_fronts, fr, cfg, seed)
+            cpu.append(c)
             for k in stage:
                 stage[k].append(tm[k])
         row = dict(name=fr["name"], n_rects=len(rects), cpu=float(np.median(cpu)),
                    **{k: float(np.median(v)) for k, v in stage.items()})
+        if baseline is not None:
+            row.update(base_cpu=float(np.median(bcpu)), same=_same_rects(rects, brects),
+                       **{f"base_{k}": float(np.median(v)) for k, v in bstage.items()})
         best = None
         for r in rects:
             e = errors(r, fr["X_WR"])
@@ -242,6 +309,8 @@ def main(argv=None):
     ap.add_argument("--sweep", action="store_true",
                     help="accuracy sweep over distance and viewing angle (synthetic frames)")
     ap.add_argument("--seeds", type=int, default=3, help="frames per cell of the sweep")
+    ap.add_argument("--baseline", default=None, metavar="REV",
+                    help="also run the detector of this git revision, side by side")
     args = ap.parse_args(argv)
     if args.quick:
         args.synthetic, args.repeats, args.frames_dir, args.no_open3d = 4, 1, "", True
@@ -263,12 +332,14 @@ def main(argv=None):
     if args.frames_dir and os.path.isdir(args.frames_dir):
         sets["shared"] = shared_frames(args.frames_dir)
     report = {}
+    baseline = None if args.baseline is None else load_baseline(args.baseline)
     o3d, why = (None, "--no-open3d") if args.no_open3d else load_open3d()
     for name, frames in sets.items():
         if not frames:
             continue
-        rows = run_detector(frames, cfg, args.repeats, args.seed)
-        med = {k: float(np.median([r[k] for r in rows])) for k in STAGES + ("total", "cpu")}
+        rows = run_detector(frames, cfg, args.repeats, args.seed, baseline)
+        keys = STAGES + ("total", "cpu")
+        med = {k: float(np.median([r[k] for r in rows])) for k in keys}
         found = [r for r in rows if r["found"]]
         acc = dict(frames=len(rows), found=len(found),
                    detection_rate=len(found) / len(rows))
@@ -279,6 +350,10 @@ def main(argv=None):
                        pos_err_max=float(pe.max()), orient_err_mean=float(oe.mean()),
                        orient_err_median=float(np.median(oe)), orient_err_max=float(oe.max()))
         entry = dict(median_s=med, accuracy=acc, frames=rows)
+        if baseline is not None:
+            entry["baseline"] = dict(
+                revision=args.baseline, same_rects=sum(r["same"] for r in rows),
+                median_s={k: float(np.median([r[f"base_{k}"] for r in rows])) for k in keys})
         if o3d is not None:
             for stride, key in ((1, "open3d_full"), (cfg.ransac_stride_px, "open3d_subsampled")):
                 res = run_open3d(o3d, frames, cfg, stride)
@@ -299,13 +374,20 @@ def main(argv=None):
         n = e["accuracy"]["frames"]
         print(f"== {name} frames ({n}, 640x480, median over frames of the median of "
               f"{args.repeats} runs) ==")
-        print(f"{'stage':14s} {'ours CPU ms':>13s} {'thesis ms':>10s}")
-        for k in STAGES + ("total",):
-            th = THESIS_S.get(k)
-            print(f"{k:14s} {1e3 * e['median_s'][k]:13.1f} "
-                  f"{'' if th is None else f'{1e3 * th:10.1f}'}")
-        print(f"{'process CPU':14s} {1e3 * e['median_s']['cpu']:13.1f} "
-              f"{1e3 * sum(THESIS_S.values()):10.1f}")
+        b = e.get("baseline")
+        print(f"{'stage':14s} {'ours CPU ms':>13s} {'thesis ms':>10s}" + (
+            "" if b is None else f" {b['revision'] + ' ms':>14s} {'ratio':>6s}"))
+        th_all = dict(THESIS_S, cpu=sum(THESIS_S.values()))
+        for k in STAGES + ("total", "cpu"):
+            th = th_all.get(k)
+            line = (f"{'process CPU' if k == 'cpu' else k:14s} {1e3 * e['median_s'][k]:13.1f} "
+                    f"{'' if th is None else f'{1e3 * th:10.1f}':>10s}")
+            if b is not None:
+                ratio = b["median_s"][k] / max(e["median_s"][k], 1e-9)
+                line += f" {1e3 * b['median_s'][k]:14.1f} {ratio:5.2f}x"
+            print(line)
+        if b is not None:
+            print(f"same rectangles as {b['revision']}: {b['same_rects']}/{n} frames")
         for key in ("open3d_full", "open3d_subsampled"):
             if key in e:
                 o = e[key]

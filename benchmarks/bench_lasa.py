@@ -153,9 +153,11 @@ def main(argv=None) -> int:
     nf = sum(len(r.folds) for r in res[methods[0]])
     print("seconds: " + ", ".join(f"{m} {secs[m]:.1f} ({secs[m] / max(nf, 1):.2f} per fold)" for m in methods))
     if a.json:
-        with open(a.json, "w") as f:
-            json.dump({m: {"summary": sums[m], "shapes": [r.to_dict() for r in res[m]],
-                           "seconds": secs[m]} for m in methods}, f)
+        from mmlearn.models.common.fileio import atomic_write_text
+
+        atomic_write_text(a.json, json.dumps({m: {"summary": sums[m],
+                                                  "shapes": [r.to_dict() for r in res[m]],
+                                                  "seconds": secs[m]} for m in methods}))
     return 0
 
 

@@ -503,12 +503,15 @@ DEFAULT_MODELS = {
 
 
 def write_default_models(folder: str | Path | None = None) -> list[Path]:
-    """(Re)write the static SDF files; returns their paths."""
+    """(Re)write the static SDF files, each atomically (a reader never sees half a model);
+    returns their paths."""
+    from mmlearn.models.common.fileio import atomic_write_text
+
     out = Path(folder) if folder else Path(__file__).resolve().parent
     paths = []
     for fname, build in DEFAULT_MODELS.items():
         p = out / fname
-        p.write_text(build())
+        atomic_write_text(p, build())
         paths.append(p)
     return paths
 

@@ -31,7 +31,12 @@ def test_fit_articulation_json_real_tracks_and_bad_files(tmp_path):
     bad2.write_text("0 0 0\n1 1 1\n")
     missing = tmp_path / "missing.log"
     plot = tmp_path / "fit.png"
-    r = _run(["mmlearn.apps.fit_articulation", str(DATA), str(bad1), str(bad2), str(missing),
+    r = _run(["mmlearn.apps.fit_articulation", str(DATA), str(missing)], tmp_path)
+    assert r.returncode == 2 and "missing.log: file or folder not found" in r.stderr
+    r = _run(["mmlearn.apps.fit_articulation", str(bad1), str(bad2)], tmp_path)
+    assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1  # nothing fitted
+    assert "bad_cols.log:3" in r.stderr and "and 1 more file" in r.stderr
+    r = _run(["mmlearn.apps.fit_articulation", str(DATA), str(bad1), str(bad2),
               "--json", "--seed", "1", "--plot", str(plot)], tmp_path)
     assert r.returncode == 1  # some files failed
     out = json.loads(r.stdout)
@@ -48,8 +53,7 @@ def test_fit_articulation_json_real_tracks_and_bad_files(tmp_path):
                           "avg_orient_error_rad", "params", "fit_seconds"}
     assert "bad_cols.log:3: expected 3, 7 or 9 columns" in r.stderr
     assert "short.log: only 2 observation" in r.stderr
-    assert "missing.log: file not found" in r.stderr
-    assert len(out["errors"]) == 3
+    assert len(out["errors"]) == 2
     assert plot.exists() and plot.stat().st_size > 1000
 
 

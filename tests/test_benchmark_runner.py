@@ -5,6 +5,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 BENCH = Path(__file__).resolve().parents[1] / "benchmarks"
 
 
@@ -26,3 +28,46 @@ def test_run_speed_runs_a_benchmark_quick_and_writes_its_figures(tmp_path):
     bad = subprocess.run([sys.executable, str(BENCH / "run_speed.py"), "--only", "nope"],
                          capture_output=True, text=True)
     assert bad.returncode == 2 and "not a speed benchmark" in bad.stderr
+
+
+def _load(name):
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(name, BENCH / f"{name}.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def test_anchored_figures_get_their_ratio_and_target():
+    rs = _load("run_speed")
+    rows = [dict(name="bench_front_detector", wall_s=1.0, load_start=1.0, load_end=2.0,
+                 figures={"total_cpu_ms": 66.6, "planes_cpu_ms": 4.0}, error=None),
+            dict(name="bench_peer_gp", wall_s=1.0, load_start=0.5, load_end=0.5,
+                 figures={"gp_ms": 10.0, "sklearn_ms": 50.0, "speedup": 5.0}, error=None)]
+    got = {(a["benchmark"], a["figure"]): a for a in rs.anchor_rows(rows)}
+    total = got[("bench_front_detector", "total_cpu_ms")]
+    assert total["ratio"] == pytest.approx(2.0, rel=1e-2) and total["met"] is False
+    assert got[("bench_front_detector", "planes_cpu_ms")]["met"] is True
+    assert got[("bench_front_detector", "masks_cpu_ms")]["value"] is None  # not measured
+    gp = got[("bench_peer_gp", "gp_ms")]
+    assert gp["anchor_value"] == 50.0 and gp["ratio"] == pytest.approx(0.2)
+    assert not any(b == "bench_articulation" for b, _ in got)  # did not run: no row
+
+
+def test_performance_page_tables_come_from_the_json(tmp_path):
+    js, page = tmp_path / "speed.json", tmp_path / "performance.md"
+    js.write_text(json.dumps(dict(cores=2, date="today", benchmarks=[dict(
+        name="bench_depth_filter", wall_s=3.0, load_start=1.0, load_end=1.5,
+        figures={"filter_cpu_ms": 4.25}, error=None)], anchors=[])))
+    page.write_text("# P\n\nkept\n<!-- speed-table:start -->\nold\n<!-- speed-table:end -->\ntail\n")
+    r = subprocess.run([sys.executable, str(BENCH / "make_performance_doc.py"), str(js),
+                        "--doc", str(page)], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    text = page.read_text()
+    assert "kept" in text and text.endswith("tail\n") and "old" not in text
+    assert "| depth_filter | `filter_cpu_ms` | 4.25 | 3.0 | 1.0-1.5 |" in text
+    page.write_text("no markers\n")
+    bad = subprocess.run([sys.executable, str(BENCH / "make_performance_doc.py"), str(js),
+                          "--doc", str(page)], capture_output=True, text=True)
+    assert bad.returncode == 2 and "speed-table" in bad.stderr

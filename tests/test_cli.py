@@ -1,5 +1,5 @@
 """Bad input at the command line: one-line errors that name the flag or file, exit status 2
-before any computation; failed runs counted, never silently dropped (issue 11).
+before any computation; failed runs counted, never silently dropped.
 
 The apps' main(argv) is called in-process (no subprocess) wherever possible."""
 

@@ -34,7 +34,7 @@ def _closed_frame(front, distance, angle_deg, *, noise, seed=2000, t=0.0):
             P.kinematics.width, P.kinematics.height, P.intrinsics)
 
 
-#: the detector before this change (no long pass, no rectified views)
+#: the detector without the long pass and the rectified views
 OLD = dataclasses.replace(FrontDetectorConfig(), gap_long_window_px=0, gap_rectify_planes=0)
 
 

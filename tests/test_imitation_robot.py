@@ -238,8 +238,10 @@ def test_imitate_short_run_from_a_demos_file(capsys, tmp_path):
 
     msgs = b"".join(base64.b64decode(b) for b in
                     re.findall(r"base64,([A-Za-z0-9+/=]+)", html.read_text()))
-    for key in (b"imitation/demonstrations/demo_2", b"imitation/model/target/slice_0000",
-                b"imitation/trail/dot_00005"):
+    for key in (b"imitation/demonstrations/demo_2", b"imitation/model/target/ellipsoids/slice_0000",
+                b"imitation/trail/dot_00005",
+                b"# mmlearn legend: Imitation: obstacle learned from 3 demonstrations",
+                b"# learned hand path relative to the target", b"# reproduction "):
         assert key in msgs, key
 
 
@@ -254,15 +256,17 @@ def test_experiments_help_report_only_and_bad_arguments(capsys, tmp_path):
                      str(tmp_path)], capsys, "--report-only")
     lines = []
     for i, (n, err) in enumerate([(1, 0.3), (1, 0.2), (4, 0.01), (4, 0.015)]):
-        lines.append({"key": f"k{i}", "spec": {
+        lines.append({"key": f"k{i}", "format": 2, "spec": {
             "fn": "imitation.reproduce@1", "seed": i,
             "params": {"task": "pick_place", "demos": n},
             "label": f"pick_place {n} demo{'s' if n > 1 else ''} seed {i}"},
-            "record": {"success": err < 0.02, "place_error_m": err,
-                       "min_obstacle_clearance_m": None, "reproduction_seconds": 5.0,
-                       "learn_seconds": 0.1}, "error": None, "wall_s": 5.0})
-    lines.append({"key": "k9", "spec": {"fn": "x:y", "seed": 9, "params": {},
-                                        "label": "pick_place 4 demos seed 9"},
+            "record": {"task": "pick_place", "finished": True, "success": err < 0.02,
+                       "place_error_m": err, "min_obstacle_clearance_m": None,
+                       "reproduction_seconds": 5.0, "learn_seconds": 0.1}, "error": None,
+            "wall_s": 5.0})
+    lines.append({"key": "k9", "format": 2,
+                  "spec": {"fn": "imitation.reproduce@1", "seed": 9, "params": {},
+                           "label": "pick_place 4 demos seed 9"},
                   "record": None, "error": "RuntimeError: boom", "wall_s": 1.0})
     res_file = tmp_path / "r.jsonl"
     res_file.write_text("".join(json.dumps(x) + "\n" for x in lines))
@@ -301,7 +305,7 @@ def test_held_offset_correction_places_the_held_object_not_the_hand():
 def test_global_plan_points_cover_the_forearm_between_the_body_points():
     """The global plan checks the arm every <= 5 cm (PLAN_BODY_POINTS): a thin box across the
     forearm halfway between two BODY_POINTS, more than the 6 cm plan clearance from every one
-    of them, is seen by the plan points (issue 15, U obstacle: the forearm grazed the U)."""
+    of them, is seen by the plan points (U obstacle: the forearm grazed the U)."""
     from mmlearn.models.imitation.types import Obstacle
 
     im = _reach()

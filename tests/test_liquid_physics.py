@@ -182,7 +182,7 @@ def test_coast_feature_rigid_dummy_well_below_liquid(sweep_runs):
     bottle's high-passed taxel norm follows a slow trend (gravity shifting the load between
     the pads), while the half-full bottle's liquid keeps ringing about it. (Over the whole
     roll the dummy's rigid response during the reversals is as large as the liquid's: see
-    the README, Liquid detection.)"""
+    docs/tactile.md, deviations.)"""
     from mmlearn.models.tactile.evaluation import COAST_DELAY
     from mmlearn.diagrams.tactile.liquid_roll import roll_change_windows
     from mmlearn.models.tactile.liquid import coast_feature, coast_mask

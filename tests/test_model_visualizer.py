@@ -48,7 +48,8 @@ def test_legend_names_what_is_drawn(meshcat):
     texts = [t for _, _, t in rows]
     assert texts[0] == "learned rotation axis"
     assert texts[1] == f"learned circle (radius {rev.radius:.2f} m)"
-    assert any(t.startswith("observed opening range (") and t.endswith(" deg)") for t in texts)
+    span = [t for t in texts if t.startswith("span of the track it was fitted to (")]
+    assert len(span) == 1 and f" deg, {rev.n_train} observations)" in span[0]
     colours = {t: c for c, _, t in rows}
     assert colours["learned rotation axis"].r() == pytest.approx(0.1)  # the axis's blue
     assert colours[texts[3]].r() == pytest.approx(1.0)  # the range's red
@@ -121,7 +122,7 @@ def test_recording_has_a_legend_and_a_camera(drawer_recording):
     decoded = _messages(html)
     assert LEGEND_PATH.encode() in decoded
     for text in (b"# mmlearn legend: Learned model: prismatic", b"# learned prismatic axis",
-                 b"# observed opening range (", b"legend.png"):
+                 b"# span of the track it was fitted to (", b"legend.png"):
         assert text in decoded, text
     # the camera: Meshcat.SetCameraPose = the camera's position and a set_target
     assert b"set_target" in decoded

@@ -98,6 +98,19 @@ def test_track_fronts_short_drawer_run(capsys):
     assert len(fa) == 8 and fa[0] == pytest.approx(1.0) and min(fa[1:]) > 8
 
 
+def test_track_fronts_sees_every_camera_frame_by_default():
+    """The default detector frames: one per camera period over the motion (and its start);
+    40 without camera frames between detections."""
+    from mmlearn.apps.track_fronts import every_camera_frame
+    from mmlearn.diagrams.perception.diagram import FrontPerceptionConfig
+
+    sc = FrontPerceptionConfig()
+    n = every_camera_frame(sc, 30.0)
+    assert n == round(30.0 * sc.motion.duration()) + 1 and n > 40
+    assert every_camera_frame(sc, 15.0) == round(15.0 * sc.motion.duration()) + 1
+    assert every_camera_frame(sc, 0.0) == 40 == every_camera_frame(sc, 30.0, False)
+
+
 def test_track_fronts_cli_errors(tmp_path, capsys):
     from mmlearn.apps.track_fronts import main
 
@@ -178,10 +191,15 @@ def test_track_fronts_draws_in_meshcat(tmp_path):
         r'base64,([A-Za-z0-9+/=]+)"', text))
     assert b"fronts/frames/0" in blob and b"fronts/frames/7" in blob
     assert b"set_animation" in blob and b"visible" in blob
+    # the legend names the moving front's track and its learned model
+    mid = r["moving_track"]["track_id"]
+    assert b"# mmlearn legend: Front perception" in blob
+    assert f"# moving drawer's track {mid} (".encode() in blob
+    assert f"learned {r['tracker_selected_model']}".encode() in blob
 
 
 def test_perception_experiments_distances_and_angles(capsys):
-    """--distances / --angles replace the default grids (distances not tuned on); bad lists
+    """--distances / --angles replace the default grids; bad lists
     exit 2 naming the flag."""
     from mmlearn.apps.perception_experiments import DISTANCES, main, trial_specs
 
@@ -205,3 +223,26 @@ def test_perception_experiments_distances_and_angles(capsys):
     _bad(main, ["--distances", "1.0,far"], capsys, "--distances")
     _bad(main, ["--distances", "nan"], capsys, "--distances")
     _bad(main, ["--angles=10,95"], capsys, "--angles")
+
+
+def test_track_fronts_summary_leaves_out_an_unmeasured_cpu_time():
+    """With Meshcat the detector's CPU time is not measured (None): the summary says nothing
+    about it rather than "n/a"; measured, it is printed."""
+    from mmlearn.apps.track_fronts import _summary
+
+    r = {"object": "door", "distance_m": 1.5, "angle_deg": 0.0, "seed": 1, "frames_found": 2,
+         "frames": 3, "detection_rate": 0.67, "match": {"pos_m": 0.05, "angle_deg": 10.0,
+                                                         "size_m": 0.1},
+         "detection_rate_visible": 0.67, "frames_visible": 3, "detection_rate_eligible": 1.0,
+         "frames_eligible": 2, "eligible_if": {"incidence_below_deg": 70.0,
+                                               "open_displacement_at_least_m": 0.02},
+         "detection_rate_eligible_open": 1.0, "frames_eligible_open": 1,
+         "pos_error_m": 0.002, "orient_error_deg": 0.3, "size_error_m": 0.005,
+         "moving_track": None, "selected_model": None, "expected_model": "revolute",
+         "tracker_selected_model": None, "model_right_from": None, "published_tracks": 0,
+         "track_models": {}, "ms_per_frame": 361.5, "cpu_ms_per_frame": None,
+         "stage_ms": {"planes": 63.5, "masks": None}}
+    text = _summary(r)
+    assert "CPU" not in text and "(median wall); per stage: planes 63.5, masks n/a" in text
+    r["cpu_ms_per_frame"] = 84.25
+    assert "(median wall; CPU 84.2 ms); per stage" in _summary(r)

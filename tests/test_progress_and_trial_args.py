@@ -31,3 +31,26 @@ def test_trial_args_defaults_and_checks():
     for bad in (["--max-time", "0"], ["--base-noise", "-1"], ["--perception", "radar"]):
         with pytest.raises(SystemExit):
             ap.parse_args(bad)
+
+
+def test_line_progress_off_a_terminal_reports_count_and_time_left():
+    import io
+
+    from mmlearn.models.common.progress import LineProgress
+
+    now = [0.0]
+    out = io.StringIO()
+    bar = LineProgress(total=1000, desc="trials", unit="trial", interval=30.0, file=out,
+                       clock=lambda: now[0])
+    for _ in range(10):  # quiet before the first interval
+        now[0] += 1.0
+        bar.update(10)
+    assert out.getvalue() == ""
+    now[0] = 40.0
+    bar.update(100)  # 200 of 1000 after 40 s: 160 s left
+    assert out.getvalue().strip() == ("trials: 200/1000 trial (20.0%), 0:00:40 elapsed, "
+                                      "about 0:02:40 left")
+    bar.update(1)
+    assert bar.lines == 1  # one line per interval
+    items = LineProgress(range(3), desc="x", interval=0.0, file=out)
+    assert list(items) == [0, 1, 2] and items.lines == 3 and len(items) == 3

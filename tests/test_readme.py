@@ -43,3 +43,14 @@ def test_reuse_example_observes_the_falling_arm():
     # the base marker does not move; noise 0.01 m
     assert np.all(np.isnan(arr[~obs.visible]))
     assert arr.shape == (3, 7)
+
+
+def test_readme_is_short_and_points_at_the_docs():
+    lines = README.splitlines()
+    assert len(lines) <= 300
+    assert max(len(line) for line in lines) <= 250
+    assert "../" + "shared" not in README
+    # every docs page the README links to exists
+    for page in re.findall(r"\]\((docs/[\w/]+\.md)\)", README):
+        assert (ROOT / page).is_file(), page
+    assert "chromium" in README.split("## Quick tour")[0]

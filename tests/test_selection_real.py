@@ -1,4 +1,4 @@
-"""Model selection on real tracks across the assumed noise levels users set (issue 10).
+"""Model selection on real tracks across the assumed noise levels users set.
 
 The Cody tracks (tests/data/articulation_priors, tests/data/articulation_logs; provenance in
 their READMEs) are position-only hook trajectories of a drawer, two cabinet doors and a

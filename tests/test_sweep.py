@@ -87,7 +87,7 @@ def test_bad_specs_and_arguments_are_refused(tmp_path):
     with pytest.raises(ValueError, match="executor"):
         run_sweep(_specs(1), executor="slurm", show_progress=False)
     (tmp_path / "d").mkdir()
-    with pytest.raises(ValueError, match="directory"):
+    with pytest.raises(ValueError, match="is a folder"):
         run_sweep(_specs(1), results=tmp_path / "d", show_progress=False)
 
 

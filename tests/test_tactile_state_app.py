@@ -115,6 +115,10 @@ def test_simulation_mode_small_run(tmp_path, capsys):
     anim = [m for m in msgs if b"set_animation" in m]
     # the recording animates the taxel cells (colour and height) along with the scene
     assert anim and b"taxels/left/r00c00" in anim[0] and b"scale" in anim[0]
+    # its legend: the grasped container and state, the taxel colours, the controller
+    legend = b"".join(msgs)
+    assert b"# mmlearn legend: Tactile grasp of can/" in legend
+    assert b"# controller: switching, 20 N per finger" in legend
     assert d["demo_grasp"]["container"] == "can" and d["demo_grasp"]["f_max_N"] > 20.0
     peaks = d["demo_grasp"]["impact_peak_N"]  # Fig. 7.5 vs 7.6 at 10 N
     assert peaks["switching"] < 10.5 < 12.0 < peaks["force"], peaks

@@ -1,11 +1,13 @@
-"""Helpers shared by the apps: progress bars, Meshcat, config files, atomic writes."""
+"""Helpers shared by the apps: progress bars, Meshcat, config files, checked output paths and
+atomic writes (through :mod:`mmlearn.models.common.fileio`)."""
 
 from __future__ import annotations
 
 import sys
 from pathlib import Path
 
-from mmlearn.models.common.fileio import atomic_write_text
+from mmlearn.models.common.fileio import (OutputPathError, atomic_output, atomic_write_text,
+                                         check_output_dir, check_output_file)
 from mmlearn.models.common.progress import progress, progress_bar  # noqa: F401 - for the apps
 
 
@@ -20,68 +22,38 @@ def make_meshcat(*, announce: bool = True):
     return meshcat
 
 
-def frame_camera(meshcat, points, *, view_from, fov_deg: float = 75.0,
-                 min_aspect: float = 4 / 3, margin: float = 1.1):
-    """Point Meshcat's camera so that every one of ``points`` ((n, 3), world, m) is in view
-    and their image is centred, looking along ``-view_from`` (a world direction from the
-    scene towards the camera, tilted to look down at least a little).
+def frame_camera(meshcat, points, **kw):
+    """:func:`mmlearn.systems.common.meshcat_view.frame_camera` (imported on first use)."""
+    from mmlearn.systems.common.meshcat_view import frame_camera as frame
 
-    ``fov_deg`` is the camera's vertical field of view (Meshcat's default camera: 75 deg);
-    the view is assumed at least ``min_aspect`` wide (width / height); the points fill at
-    most 1 / ``margin`` of it. With the camera's axes fixed (right r, up v, forward f), a
-    point p is in view when ``|(p - C).r| <= tx (p - C).f`` and ``|(p - C).v| <= ty (p -
-    C).f``: linear in the camera position C, so the closest C that sees every point, with
-    the outermost points on opposite edges equally far in, has a closed form. The orbit
-    target is on the view axis at the points' mean depth. Sets the live view and, through
-    Meshcat's scene, every later ``StaticHtml``. Returns ``(camera position, target)``."""
-    import numpy as np
-
-    P = np.asarray(points, float).reshape(-1, 3)
-    u = np.asarray(view_from, float)
-    u = u / np.linalg.norm(u)
-    if u[2] < 0.2:  # look down on the scene, never along or up from the floor
-        u[2] = 0.2
-        u = u / np.linalg.norm(u)
-    f = -u
-    right = np.cross(f, [0.0, 0.0, 1.0])
-    right /= np.linalg.norm(right)
-    up = np.cross(right, f)
-    ty = np.tan(np.radians(fov_deg) / 2) / margin
-    tx = ty * min_aspect
-    a, b, c = P @ right, P @ f, P @ up
-    R, L = np.max(a - tx * b), np.max(-a - tx * b)
-    U, D = np.max(c - ty * b), np.max(-c - ty * b)
-    c_f = min(-(R + L) / (2 * tx), -(U + D) / (2 * ty), float(b.min()) - 0.3)
-    camera = (R - L) / 2 * right + (U - D) / 2 * up + c_f * f
-    target = camera + f * max(float(np.mean(b)) - c_f, 0.3)
-    meshcat.SetCameraPose(camera, target)
-    return camera, target
+    return frame(meshcat, points, **kw)
 
 
 def save_html(meshcat, path: str | Path) -> Path:
-    """Write Meshcat's current scene (with its published recording) as standalone HTML."""
+    """Write Meshcat's current scene (with its published recording) as standalone HTML.
+
+    Meshcat's world-frame axes (red x, green y, blue z lines at the origin, which sits in
+    the scene's furniture) are hidden first: they are not part of any drawing, and every
+    recording's legend names only what the app draws."""
+    meshcat.SetProperty("/Axes", "visible", False)
     return atomic_write_text(path, meshcat.StaticHtml())
 
 
 def save_figure(fig, path, **kw) -> Path:
-    """``fig.savefig`` through a temporary file in the same folder and a rename, so an
+    """``fig.savefig`` written atomically (:func:`mmlearn.models.common.fileio.atomic_output`:
+    a unique temporary file in the same folder, fsync, rename, fsync of the folder), so an
     interrupted run never leaves a half-written image. Returns the path."""
-    import os
-
     path = Path(path)
-    tmp = path.with_name(f".{path.name}.tmp")
-    try:
-        fig.savefig(tmp, format=path.suffix.lstrip(".").lower() or "png", **kw)
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
+    with atomic_output(path) as f:
+        fig.savefig(f, format=path.suffix.lstrip(".").lower() or "png", **kw)
     return path
 
 
 def load_config(path: str | Path, cls):
     """Load a dataclass config from YAML with Drake's typed loader (misspelled keys are
-    errors naming the key)."""
+    errors naming the key) and check every value (:func:`validate_tree`: types, choices,
+    bounds, finite numbers, nested configs). Raises ``ValueError("<path>: <key>: ...")``
+    (``FileNotFoundError`` for a missing file)."""
     from pydrake.common.yaml import yaml_load_typed
 
     import yaml
@@ -91,9 +63,25 @@ def load_config(path: str | Path, cls):
         raise FileNotFoundError(f"config file not found: {path}")
     if not path.is_file():
         raise ValueError(f"{path}: not a file")
+    from mmlearn.models.common.config import validate_tree
+
     try:
-        _check_config_types(yaml.safe_load(path.read_text()), cls, "")
-        return yaml_load_typed(schema=cls, filename=str(path))
+        text = path.read_bytes().decode("utf-8")
+    except UnicodeDecodeError as e:
+        raise ValueError(f"{path}: not a text file (byte {e.start} is not UTF-8; binary or "
+                         "damaged?)") from None
+    try:
+        doc = yaml.safe_load(text)
+        if doc is None:
+            raise ValueError("the file is empty (no key: value lines; leave --config out "
+                             "for the defaults)")
+        if not isinstance(doc, dict):
+            raise ValueError(f"expected a mapping of {cls.__name__} keys to values, got "
+                             f"{type(doc).__name__}")
+        _check_config_types(doc, cls, "")
+        # every field's allowed values (choices, bounds, finite), nested configs included:
+        # an unknown value such as ``front: toaster`` is an error, never ignored
+        return validate_tree(yaml_load_typed(schema=cls, filename=str(path)))
     except yaml.YAMLError as e:
         raise ValueError(f"{path}: not valid YAML ({' '.join(str(e).split())})") from None
     except AssertionError as e:
@@ -170,10 +158,14 @@ def json_clean(v):
 
 import argparse as _argparse
 import math as _math
-import os as _os
 
 BAD_INPUT = 2
 """Exit status for bad input (as argparse's own errors)."""
+
+CREATE_DIRS_FLAG = "--create-dirs"
+# ``--create-dirs`` of the command line parsed last in this process (every app parses one):
+# the default of check_out_file / check_out_dir
+_CREATE_DIRS = False
 
 
 class UsageError(ValueError):
@@ -184,6 +176,18 @@ class ArgumentParser(_argparse.ArgumentParser):
     """argparse with one-line errors (``prog: error: --seed: expected ...``, exit 2) and
     hidden underscore aliases: ``add_argument("--out-dir", ...)`` also accepts
     ``--out_dir`` without listing it in ``--help``."""
+
+    def __init__(self, *a, **kw):
+        super().__init__(*a, **kw)
+        self.add_argument("--create-dirs", action="store_true",
+                          help="create missing parent folders of the output paths (default: "
+                               "a missing folder is an error)")
+
+    def parse_known_args(self, args=None, namespace=None):
+        ns, rest = super().parse_known_args(args, namespace)
+        global _CREATE_DIRS
+        _CREATE_DIRS = bool(getattr(ns, "create_dirs", False))
+        return ns, rest
 
     def error(self, message):  # noqa: D401 - argparse API
         message = message.replace("argument ", "", 1) if message.startswith("argument ") \
@@ -275,38 +279,33 @@ def float_list(text):
     return v
 
 
-def check_out_file(flag: str, path) -> None:
-    """Raise UsageError unless ``path`` can be written as a file: its folder exists and it
-    is not a folder. Call before any computation."""
-    if path is None or str(path) == "":
-        return
-    p = Path(path)
-    if p.is_dir():
-        raise UsageError(f"{flag}: {p} is a folder, expected a file name")
-    parent = p.parent if str(p.parent) else Path(".")
-    if not parent.is_dir():
-        raise UsageError(f"{flag}: folder {parent} does not exist")
-    if not _os.access(parent, _os.W_OK):
-        raise UsageError(f"{flag}: folder {parent} is not writable")
+def check_out_file(flag: str, path, *, create_dirs: bool | None = None) -> None:
+    """Raise UsageError unless ``path`` can be written as a file, found by creating and
+    removing a temporary file beside it (:func:`~mmlearn.models.common.fileio.check_output_file`):
+    not a folder, its folder exists (missing folders are created with ``create_dirs``;
+    None: the command line's ``--create-dirs``) and is writable. Call before any work."""
+    try:
+        check_output_file(path, what=flag, create_dirs=_create(create_dirs),
+                          flag_hint=CREATE_DIRS_FLAG)
+    except OutputPathError as e:
+        raise UsageError(str(e)) from None
 
 
-def check_out_dir(flag: str, path, *, create: bool = True) -> None:
-    """Raise UsageError unless ``path`` is (or, with ``create``, can be made) a writable
-    folder: an existing file there, or a missing parent folder, is an error. Creates the
-    folder when ``create``."""
-    if path is None or str(path) == "":
-        return
-    p = Path(path)
-    if p.exists() and not p.is_dir():
-        raise UsageError(f"{flag}: {p} is a file, expected a folder")
-    if not p.exists():
-        parent = p.parent if str(p.parent) else Path(".")
-        if not parent.is_dir():
-            raise UsageError(f"{flag}: folder {parent} does not exist")
-        if create:
-            p.mkdir()
-    if p.is_dir() and not _os.access(p, _os.W_OK):
-        raise UsageError(f"{flag}: folder {p} is not writable")
+def check_out_dir(flag: str, path, *, create: bool = True,
+                  create_dirs: bool | None = None) -> None:
+    """Raise UsageError unless ``path`` is (or, with ``create``, can be made) a folder files
+    can be written in, found by creating and removing a temporary file in it: an existing
+    file there, or a missing parent folder (unless ``create_dirs``; None: the command
+    line's ``--create-dirs``), is an error. Creates the folder when ``create``."""
+    try:
+        check_output_dir(path, what=flag, create=create, create_dirs=_create(create_dirs),
+                         flag_hint=CREATE_DIRS_FLAG)
+    except OutputPathError as e:
+        raise UsageError(str(e)) from None
+
+
+def _create(create_dirs: bool | None) -> bool:
+    return _CREATE_DIRS if create_dirs is None else bool(create_dirs)
 
 
 def check_in_file(flag: str, path) -> None:

@@ -75,6 +75,9 @@ class Experiment:
     #: without ``--results``, keep the trials' records in ``<name>_results.jsonl`` (True) or
     #: in a temporary file removed after the run (False: nothing to resume)
     keeps_results: bool = True
+    #: the trial functions whose records this experiment reports: ``--report-only`` skips
+    #: (and names) the lines of any other trial (empty: lines of any trial are read)
+    trials: tuple = ()
 
     @property
     def prog(self) -> str:
@@ -176,13 +179,18 @@ def run_experiment(experiment: Experiment, args, *, results=None, executor: str 
 
 
 def report_only(experiment: Experiment, args) -> dict:
-    """The report recomputed from ``args.report_only`` (nothing runs)."""
-    lines = report_lines(args.report_only)
+    """The report recomputed from ``args.report_only`` (nothing runs): the file's sound
+    lines of the experiment's trials (the others named and counted on stderr), reported;
+    records of a shape the report cannot use are bad input, never a traceback."""
+    lines = report_lines(args.report_only, trials=experiment.trials)
     try:
         res = experiment.report(lines, args)
+        return experiment.finish(res, args)
     except ValueError as e:
         raise UsageError(f"--report-only: {args.report_only}: {e}") from None
-    return experiment.finish(res, args)
+    except (KeyError, TypeError, IndexError, AttributeError, ZeroDivisionError) as e:
+        raise UsageError(f"--report-only: {args.report_only}: its records are not of the shape "
+                         f"{experiment.name} reports ({type(e).__name__}: {e})") from None
 
 
 def main(experiment: Experiment, argv=None) -> int:

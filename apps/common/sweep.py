@@ -55,14 +55,16 @@ import traceback
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from mmlearn.apps.common.cli import UsageError, json_clean, progress_bar
-from mmlearn.models.common.trials import register_trial, trial_id
+from mmlearn.apps.common.cli import UsageError, check_out_file, json_clean, progress_bar
+from mmlearn.models.common.fileio import OutputPathError, atomic_write_text, check_output_file
+from mmlearn.models.common.trials import check_record, register_trial, trial_id
 
 EXECUTORS = ("local", "ray")
 #: the format of a results-file line (``"format"``); older files are refused
 RESULTS_FORMAT = 2
 
-__all__ = ["TrialSpec", "SweepResult", "run_sweep", "load_results", "add_sweep_args",
+__all__ = ["TrialSpec", "SweepResult", "run_sweep", "load_results", "read_results", "ResultsLock",
+           "die_with_parent", "add_sweep_args",
            "sweep_kwargs", "exit_status", "EXECUTORS"]
 
 
@@ -135,9 +137,12 @@ class SweepResult:
 
 def load_results(path: str | Path, *, repair: bool = False) -> dict[str, dict]:
     """The lines of a results file by key (first occurrence wins). Lines that are not a JSON
-    object with a ``key`` are skipped; with ``repair`` the file is rewritten without them
-    (atomically: a temporary file replaces it), so appending after a truncated last line
-    cannot glue two records together. A missing file is an empty result."""
+    object with a ``key`` and a ``spec``, and format-2 lines whose record does not match its
+    trial's schema (:func:`~mmlearn.models.common.trials.check_record`), are skipped; with
+    ``repair`` the file is rewritten without them (atomically: a uniquely named temporary
+    file, fsync, rename, fsync of the folder), so appending after a truncated last line
+    cannot glue two records together, and the dropped lines are named on stderr. A missing
+    file is an empty result."""
     p = Path(path)
     if not p.exists():
         return {}
@@ -145,34 +150,104 @@ def load_results(path: str | Path, *, repair: bool = False) -> dict[str, dict]:
         raise ValueError(f"results file {p} is a directory")
     out: dict[str, dict] = {}
     good: list[str] = []
-    bad = 0
+    bad: list[tuple[int, str]] = []
     raw = p.read_bytes()
-    for line in raw.decode("utf-8", errors="replace").splitlines():
+    for i, line, d, why in _parse_lines(raw):
+        if why is None and d.get("format") == RESULTS_FORMAT:
+            why = _line_problem(d)
+        if why is not None:
+            bad.append((i, why))
+            continue
+        good.append(line)
+        out.setdefault(d["key"], d)
+    if repair and (bad or (raw and not raw.endswith(b"\n"))):
+        atomic_write_text(p, "".join(g + "\n" for g in good))
+        if bad:
+            print(f"{p}: dropped {len(bad)} unreadable line(s) ({_problems(bad)}); their "
+                  "trials run again", file=sys.stderr)
+    return out
+
+
+def _parse_lines(raw: bytes):
+    """``(line number, text, parsed object or None, problem or None)`` per non-blank line."""
+    text = raw.decode("utf-8", errors="replace")
+    lines = text.split("\n")
+    last = len(lines) - 1 if not text.endswith("\n") else -1
+    for i, line in enumerate(lines):
         if not line.strip():
             continue
         try:
             d = json.loads(line)
         except json.JSONDecodeError:
-            bad += 1
+            yield i + 1, line, None, ("cut short (the last line, without its end)" if i == last
+                                      else "not valid JSON")
             continue
-        if not isinstance(d, dict) or "key" not in d or "spec" not in d:
-            bad += 1
+        if not isinstance(d, dict) or "key" not in d or not isinstance(d.get("spec"), dict):
+            yield i + 1, line, None, "not a results line (no 'key' and 'spec')"
             continue
-        good.append(line)
-        out.setdefault(d["key"], d)
-    if repair and (bad or (raw and not raw.endswith(b"\n"))):
-        tmp = p.with_name(p.name + ".tmp")
-        tmp.write_text("".join(g + "\n" for g in good), encoding="utf-8")
-        os.replace(tmp, p)
-        if bad:
-            print(f"{p}: dropped {bad} unreadable line(s); their trials run again",
-                  file=sys.stderr)
-    return out
+        yield i + 1, line, d, None
+
+
+def _line_problem(d: dict) -> str | None:
+    """Why a format-2 results line is malformed (None: it is sound): its fields, and its
+    record against the schema of its trial."""
+    spec = d["spec"]
+    if not isinstance(d["key"], str):
+        return "'key' is not a string"
+    if not isinstance(spec.get("fn"), str) or not isinstance(spec.get("params"), dict):
+        return "'spec' lacks the trial's name ('fn') or its parameters ('params')"
+    if isinstance(spec.get("seed"), bool) or not isinstance(spec.get("seed"), int):
+        return "'spec' lacks an integer 'seed'"
+    if "record" not in d or "error" not in d:
+        return "lacks 'record' or 'error'"
+    if d["error"] is not None:
+        return None if isinstance(d["error"], str) else "'error' is not a string"
+    why = check_record(spec["fn"], d["record"], spec["params"])
+    return None if why is None else why
+
+
+def _problems(bad: list[tuple[int, str]], most: int = 4) -> str:
+    text = "; ".join(f"line {i}: {why}" for i, why in bad[:most])
+    return text + (f"; and {len(bad) - most} more" if len(bad) > most else "")
+
+
+def read_results(path: str | Path, *, trials=()) -> tuple[list[dict], list[tuple[int, str]]]:
+    """Every sound line of a results file, validated, and the skipped ones as ``(line
+    number, reason)``: lines that are not JSON (a last line cut short by a killed sweep),
+    not results lines, of an older format, of a trial not among ``trials`` (registered
+    trial functions; empty: any), of another version of one of them, whose record does not
+    match its trial's schema, or a repeat of a trial already read."""
+    p = Path(path)
+    ours = {t.trial_name: trial_id(t) for t in trials}
+    lines: list[dict] = []
+    bad: list[tuple[int, str]] = []
+    seen: dict[str, int] = {}
+    for i, _line, d, why in _parse_lines(p.read_bytes()):
+        if why is None and d.get("format") != RESULTS_FORMAT:
+            why = f"an older results format ({d.get('format')!r}, this version reads " \
+                  f"{RESULTS_FORMAT})"
+        if why is None:
+            why = _line_problem(d)
+        if why is None and ours:
+            fn = d["spec"]["fn"]
+            name = fn.split("@", 1)[0]
+            if name not in ours:
+                why = f"a record of another experiment's trial ({fn}; this one reads " \
+                      f"{', '.join(ours.values())})"
+            elif fn != ours[name]:
+                why = f"written by {fn}, this version reads {ours[name]}"
+        if why is None and d["key"] in seen:
+            why = f"the same trial as line {seen[d['key']]}"
+        if why is not None:
+            bad.append((i, why))
+            continue
+        seen[d["key"]] = i
+        lines.append(d)
+    return lines, bad
 
 
 class _Appender:
     def __init__(self, path: Path):
-        path.parent.mkdir(parents=True, exist_ok=True)
         self.f = open(path, "a", encoding="utf-8")
 
     def write(self, line: dict) -> None:
@@ -184,14 +259,98 @@ class _Appender:
         self.f.close()
 
 
+class ResultsLock:
+    """An advisory lock (``flock``) on a results file, held by the sweep writing it: a
+    second sweep on the same file refuses at once with a message naming the file and the
+    process holding it. The lock lives in a hidden file beside the results
+    (``.<name>.lock``, removed on release); reading a results file (``--report-only``)
+    needs no lock. Linux and macOS (``fcntl``); elsewhere no lock is taken."""
+
+    def __init__(self, path: Path):
+        self.results = path
+        self.path = path.with_name(f".{path.name}.lock")
+        self.fd: int | None = None
+
+    def acquire(self) -> "ResultsLock":
+        try:
+            import fcntl
+        except ImportError:  # pragma: no cover - Windows: no advisory lock
+            return self
+        while True:
+            fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o666)
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except OSError:
+                holder = os.read(fd, 200).decode(errors="replace").strip() or "unknown"
+                os.close(fd)
+                raise UsageError(f"--results: {self.results} is "
+                                 f"being written by another sweep ({holder}); wait for it "
+                                 "to finish or use another results file") from None
+            try:  # the holder before us may have removed the file: lock the current one
+                same = os.path.samestat(os.fstat(fd), os.stat(self.path))
+            except FileNotFoundError:
+                same = False
+            if same:
+                break
+            os.close(fd)
+        os.ftruncate(fd, 0)
+        os.write(fd, f"process {os.getpid()} on {socket.gethostname()}\n".encode())
+        self.fd = fd
+        return self
+
+    def release(self) -> None:
+        if self.fd is None:
+            return
+        try:
+            self.path.unlink(missing_ok=True)
+        finally:
+            os.close(self.fd)  # closing drops the flock
+            self.fd = None
+
+
 # ---------------------------------------------------------------------------- trial execution
 
 _SHARED = None  # a worker's copy of the sweep's shared inputs (set once per worker process)
 
 
-def _init_worker(shared) -> None:
+def _watch_parent(parent: int, period_s: float = 0.5) -> None:
+    """End this process at once when its parent is gone (reparented: ``getppid`` changes)."""
+    while os.getppid() == parent:
+        time.sleep(period_s)
+    os._exit(1)
+
+
+def die_with_parent(parent: int) -> None:
+    """Make this process end when ``parent`` (the process that started it) dies, so a sweep
+    killed with SIGKILL leaves no worker behind. On Linux the kernel sends SIGKILL on the
+    parent's death (``prctl(PR_SET_PDEATHSIG)``: it works while the worker is busy in
+    compiled code that holds the GIL); elsewhere a thread watches ``getppid``. A parent that
+    died before this call ends the process at once."""
+    if sys.platform.startswith("linux"):
+        try:
+            import ctypes
+
+            libc = ctypes.CDLL(None, use_errno=True)
+            ok = libc.prctl(1, int(signal.SIGKILL), 0, 0, 0) == 0  # 1: PR_SET_PDEATHSIG
+        except (OSError, AttributeError):
+            ok = False
+        if ok:
+            if os.getppid() != parent:
+                os._exit(1)
+            return
+    import threading
+
+    threading.Thread(target=_watch_parent, args=(parent,), daemon=True,
+                     name="mmlearn-watch-parent").start()
+    if os.getppid() != parent:
+        os._exit(1)
+
+
+def _init_worker(shared, parent: int | None = None) -> None:
     global _SHARED
     _SHARED = shared
+    if parent is not None:
+        die_with_parent(parent)
     # Ctrl-C goes to the whole process group: the parent stops the pool, the workers must not
     # each print a traceback of the interrupted trial
     signal.signal(signal.SIGINT, signal.SIG_IGN)
@@ -254,7 +413,7 @@ def _run_local(todo: list[dict], *, jobs: int, shared):
 
     def pool(workers: int):
         ex = ProcessPoolExecutor(max_workers=workers, mp_context=ctx,
-                                 initializer=_init_worker, initargs=(shared,))
+                                 initializer=_init_worker, initargs=(shared, os.getpid()))
         active[:] = [ex]
         return ex
 
@@ -314,7 +473,7 @@ def _run_local(todo: list[dict], *, jobs: int, shared):
 # drawer trials, each run alternately in a spawn-pool worker, in a Ray worker and in a child of
 # a Ray worker): the trial's own CPU time was 8-14 % higher inside the Ray worker process and
 # equal (-3 % .. +4 %) in its child, with the same niceness (15, Ray's worker_niceness), the
-# same environment and imports; see the README, "Running large sweeps".
+# same environment and imports; see docs/sweeps.md.
 _RAY_CHILD: dict = {}  # this Ray worker's trial process: {"key": shared ref, "pool": executor}
 
 
@@ -335,7 +494,7 @@ def _ray_child_pool(shared_box: list):
             shared = ray.get(shared_box[0])
         _RAY_CHILD["pool"] = ProcessPoolExecutor(
             max_workers=1, mp_context=mp.get_context("spawn"), initializer=_init_worker,
-            initargs=(shared,))
+            initargs=(shared, os.getpid()))
         _RAY_CHILD["key"] = key
     return _RAY_CHILD["pool"]
 
@@ -359,6 +518,69 @@ def _ray_execute(spec: dict, shared_box: list, in_child: bool = True) -> dict:
                      traceback.format_exc(), time.perf_counter() - t0, None)
 
 
+# A local Ray instance started by a sweep is a tree of processes under the sweep (GCS, raylet,
+# agents, workers). If the sweep is killed (SIGKILL), the raylet and the workers follow it, but
+# Ray's dashboard and runtime-env agents stay. A small guard process notes the sweep's
+# descendants while Ray runs and, when the sweep dies without shutting Ray down, kills those
+# still alive (the same process: pid and start time), then ends. Linux only (/proc).
+_GUARD = r"""
+import os, signal, sys, time
+driver = int(sys.argv[1])
+me = os.getpid()
+def start(pid):
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            return f.read().rsplit(")", 1)[1].split()[19]
+    except (OSError, IndexError):
+        return None
+def children(pid):
+    out = []
+    try:
+        for t in os.listdir(f"/proc/{pid}/task"):
+            with open(f"/proc/{pid}/task/{t}/children") as f:
+                out += [int(x) for x in f.read().split()]
+    except OSError:
+        pass
+    return out
+known = {}
+while os.getppid() == driver:
+    todo = [driver]
+    while todo:
+        for c in children(todo.pop()):
+            if c != me and c not in known:
+                st = start(c)
+                if st is not None:
+                    known[c] = st
+            todo.append(c)
+    time.sleep(0.5)
+time.sleep(1.0)  # what dies with the sweep by itself goes first
+for pid, st in known.items():
+    if start(pid) == st:
+        try:
+            os.kill(pid, signal.SIGKILL)
+        except OSError:
+            pass
+"""
+
+
+def _start_ray_guard():
+    """The guard process of a local Ray instance (None off Linux); stop it with
+    :func:`_stop_ray_guard` after ``ray.shutdown``."""
+    if not sys.platform.startswith("linux"):
+        return None
+    import subprocess
+
+    return subprocess.Popen([sys.executable, "-c", _GUARD, str(os.getpid())],
+                            stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL)
+
+
+def _stop_ray_guard(guard) -> None:
+    if guard is not None:
+        guard.kill()
+        guard.wait()
+
+
 def _run_ray(todo: list[dict], *, jobs: int, address: str | None, shared,
              in_child: bool = True):
     try:
@@ -366,12 +588,17 @@ def _run_ray(todo: list[dict], *, jobs: int, address: str | None, shared,
     except ImportError:
         raise UsageError("--executor ray needs Ray, an optional extra: "
                          "pip install 'mmlearn[ray]'") from None
-    started = False
+    started, guard = False, None
     if not ray.is_initialized():
         if address:
             ray.init(address=address, log_to_driver=False)
         else:
-            ray.init(num_cpus=jobs, include_dashboard=False, log_to_driver=False)
+            guard = _start_ray_guard()
+            try:
+                ray.init(num_cpus=jobs, include_dashboard=False, log_to_driver=False)
+            except BaseException:
+                _stop_ray_guard(guard)
+                raise
         started = True
     try:
         task = ray.remote(num_cpus=1, max_retries=0)(_ray_execute)
@@ -391,6 +618,7 @@ def _run_ray(todo: list[dict], *, jobs: int, address: str | None, shared,
     finally:
         if started:
             ray.shutdown()
+        _stop_ray_guard(guard)
 
 
 # ---------------------------------------------------------------------------- the runner
@@ -398,11 +626,13 @@ def _run_ray(todo: list[dict], *, jobs: int, address: str | None, shared,
 def run_sweep(specs: list[TrialSpec], *, results: str | Path | None = None,
               executor: str = "local", jobs: int | None = None, ray_address: str | None = None,
               shared=None, show_progress: bool = True, desc: str = "trials",
-              ray_in_child: bool = True) -> SweepResult:
+              ray_in_child: bool = True, create_dirs: bool = False) -> SweepResult:
     """Run every spec that ``results`` does not hold yet and stream its line to the file.
 
-    ``results``: the JSON Lines file (created with its folder; ``None``: a temporary file,
-    removed afterwards, nothing to resume). ``jobs``: parallel trials (default: all cores).
+    ``results``: the JSON Lines file (created; its folder must exist unless
+    ``create_dirs``; ``None``: a temporary file, removed afterwards, nothing to resume).
+    While the sweep runs it holds an advisory lock on the file (:class:`ResultsLock`): a
+    second sweep on the same file refuses with a :class:`UsageError`. ``jobs``: parallel trials (default: all cores).
     ``ray_in_child``: with the Ray executor, run each worker's trials in a plain child process
     of the Ray worker (default; a trial runs as fast as in the local pool, see
     :func:`_ray_execute`) or, False, in the Ray worker process itself.
@@ -427,7 +657,13 @@ def run_sweep(specs: list[TrialSpec], *, results: str | Path | None = None,
         path = Path(name)
     else:
         path = Path(results)
+        try:
+            check_output_file(path, what="--results", create_dirs=create_dirs,
+                              flag_hint="--create-dirs")
+        except OutputPathError as e:
+            raise UsageError(str(e)) from None
     t0 = time.perf_counter()
+    lock = None if temporary else ResultsLock(path).acquire()
     try:
         done = load_results(path, repair=True)
         _check_format(path, done, specs)
@@ -472,6 +708,8 @@ def run_sweep(specs: list[TrialSpec], *, results: str | Path | None = None,
     finally:
         if temporary:
             path.unlink(missing_ok=True)
+        if lock is not None:
+            lock.release()
 
 
 def _check_format(path: Path, done: dict[str, dict], specs: list[TrialSpec]) -> None:
@@ -490,7 +728,8 @@ def _check_format(path: Path, done: dict[str, dict], specs: list[TrialSpec]) -> 
 
 # ---------------------------------------------------------------------------- probe trial
 
-@register_trial("sweep.probe")
+@register_trial("sweep.probe", record={"seed": int, "pid": int, "ray_worker": bool,
+                                        "shared_len": int, "payload": list})
 def probe_trial(*, seed: int, sleep_s: float = 0.0, fail_seeds=(), crash_seeds=(),
                 payload: int = 0, shared=None) -> dict:
     """The runner's own trial, for its tests and for measuring its overhead: sleeps
@@ -548,6 +787,7 @@ def sweep_kwargs(args, *, app: str, out_dir: str | Path | None = ".") -> dict:
                                else str(Path(out_dir) / f"{app}_results.jsonl"))
     if results is not None and Path(results).is_dir():
         raise UsageError(f"--results: {Path(results)} is a directory")
+    check_out_file("--results", results)
     return {"results": results, "executor": args.executor, "jobs": args.jobs,
             "ray_address": args.ray_address}
 
@@ -575,7 +815,7 @@ def exit_status(prog: str, res: dict) -> int:
     return 0
 
 
-def report_only_lines(args, *, simulates: str) -> list[dict] | None:
+def report_only_lines(args, *, simulates: str, trials=()) -> list[dict] | None:
     """``--report-only RESULTS``: the results file's lines, or None without the flag. The
     viewing flags (``--meshcat`` / ``--html-out``) simulate ``simulates`` (e.g. "a roll"), so
     they are a usage error beside it."""
@@ -585,7 +825,7 @@ def report_only_lines(args, *, simulates: str) -> list[dict] | None:
     if getattr(args, "meshcat", False) or getattr(args, "html_out", None):
         raise UsageError(f"--meshcat / --html-out simulate {simulates}; --report-only "
                          "simulates nothing")
-    return report_lines(path)
+    return report_lines(path, trials=trials)
 
 
 def report_only_result(res: dict, path: str | Path) -> dict:
@@ -595,13 +835,28 @@ def report_only_result(res: dict, path: str | Path) -> dict:
     return res
 
 
-def report_lines(path: str | Path) -> list[dict]:
-    """Every line of a results file (for ``--report-only``); a clear error when it is missing
-    or holds no record."""
+_SAID: set = set()
+
+
+def report_lines(path: str | Path, *, trials=()) -> list[dict]:
+    """The sound lines of a results file, for ``--report-only`` (:func:`read_results`,
+    ``trials``: the experiment's trial functions, empty: any). Every skipped line is named
+    and counted on stderr; a missing file, or one without a single valid record, is a
+    :class:`UsageError` saying why."""
     p = Path(path)
     if not p.is_file():
         raise UsageError(f"--report-only: no results file {p}")
-    lines = list(load_results(p).values())
+    try:
+        lines, bad = read_results(p, trials=trials)
+    except OSError as e:
+        raise UsageError(f"--report-only: {p}: cannot read it ({e.strerror or e})") from None
     if not lines:
-        raise UsageError(f"--report-only: {p} holds no trial record")
+        raise UsageError(f"--report-only: {p} holds no valid trial record"
+                         + (f" ({len(bad)} line(s) skipped: {_problems(bad, 2)})" if bad
+                            else " (it is empty)"))
+    said = (str(p.resolve()), tuple(sorted(trial_id(t) for t in trials)))
+    if bad and said not in _SAID:  # once per file and process (an app may read it twice)
+        _SAID.add(said)
+        print(f"--report-only: {p}: skipped {len(bad)} of {len(bad) + len(lines)} line(s): "
+              f"{_problems(bad)}", file=sys.stderr)
     return lines

@@ -4,12 +4,14 @@ from mmlearn._lazy import lazy_exports
 
 #: submodule -> the public names it defines (imported on first use)
 _EXPORTS = {
-    "operate": ["OperateConfig", "Operate", "make_task", "task_from_look", "MakeOperateDiagram"],
+    "operate": ["OperateConfig", "Operate", "make_task", "task_from_look", "MakeOperateDiagram",
+                "HANDLE_HEIGHTS", "check_reach"],
     "operate_perception": ["LookConfig", "LookResult", "LookAtFront", "NoFrontDetected", "front_centre"],
     "trials": ["open_mechanism", "operate_trial", "scene_points", "draw_look", "SENSORS", "observe", "exp_cabinet", "exp_table", "exp_car", "exp_garage", "yardstick_row", "dof_progress", "search_vs_n_row", "STRUCTURE_RUNNERS", "structure_trial"],
 }
 
 __all__ = [
+    "check_reach",
     "dof_progress",
     "draw_look",
     "exp_cabinet",
@@ -17,6 +19,7 @@ __all__ = [
     "exp_garage",
     "exp_table",
     "front_centre",
+    "HANDLE_HEIGHTS",
     "LookAtFront",
     "LookConfig",
     "LookResult",

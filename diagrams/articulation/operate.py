@@ -14,6 +14,7 @@ from mmlearn.models.articulation.link import ObservationModel
 from mmlearn.models.articulation.priors import PriorDatabase
 from mmlearn.models.common.config import param, validate_fields
 from mmlearn.sdf.mechanisms import KINDS, MechanismSpec, sample_mechanism
+from mmlearn.sdf.user_model import UserMechanism
 from mmlearn.systems import MarkerSensorConfig
 from mmlearn.systems.articulation.estimator import ArticulationEstimator
 from mmlearn.systems.articulation.base_localization import (BaseLocalization, BaseLocalizationConfig,
@@ -54,7 +55,9 @@ class OperateConfig:
         base_localization: the error model's parameters before scaling (its seed is
             replaced by one drawn from ``seed`` and ``kind``).
         epc: the controller's parameters.
-        mechanism: the mechanism (None = drawn from kind and ``mechanism_seed``).
+        mechanism: the mechanism (None = drawn from kind and ``mechanism_seed``), or a
+            :class:`~mmlearn.sdf.user_model.UserMechanism` (a user's model file; ``kind``
+            is then its ``kind``).
         mechanism_seed: seed of the mechanism's geometry (None = ``seed``); with a fixed
             value, trials differ only in the handle click and the robot's start, as when a
             robot operates the same door again.
@@ -112,11 +115,16 @@ class Operate:
 
 
 def make_task(spec: MechanismSpec, rng: np.random.Generator, click_error: float) -> EpcTask:
-    """What the robot is told: a noisy handle click plus the front's orientation."""
+    """What the robot is told: a noisy handle click plus the front's orientation (for a
+    :class:`~mmlearn.sdf.user_model.UserMechanism` its side and pulling direction come from
+    its geometry)."""
     p, n, b = spec.handle_world(0.0)
     err = rng.normal(size=3)
     err *= rng.uniform(0, click_error) / max(np.linalg.norm(err), 1e-12)
     R_WF = spec.X_WF()[:3, :3]
+    if isinstance(spec, UserMechanism):
+        side, pull = spec.task_directions()
+        return EpcTask(handle=p + err, normal=n, bar=b, pull=pull, side=side)
     if spec.kind == "left_door":
         side = R_WF @ np.array([0, 1.0, 0])   # towards the free edge
     elif spec.kind == "right_door":
@@ -127,6 +135,26 @@ def make_task(spec: MechanismSpec, rng: np.random.Generator, click_error: float)
         side = np.array([0, 0, 1.0])           # horizontal bar: from above
     pull = -side if spec.kind == "sliding_door" else n
     return EpcTask(handle=p + err, normal=n, bar=b, pull=pull, side=side)
+
+
+HANDLE_HEIGHTS = (0.30, 1.10)
+"""Heights above the floor (m) of the handles the hook arm reaches from its stance: the arm
+(sdf/builders.py: 1.25 m of links on the base's top at 0.30 m) holds the hook level at
+``EpcConfig.stance_distance`` (0.78 m) in front of the base between about these heights (the
+drawer test model, tests/data/user_models, opened with its handle at 0.31 m and at 1.09 m)."""
+
+
+def check_reach(spec) -> None:
+    """Raise :class:`~mmlearn.sdf.user_model.UserModelError` when the handle of a user's
+    model is out of the arm's reach (:data:`HANDLE_HEIGHTS`), saying how far."""
+    from mmlearn.sdf.user_model import UserModelError
+
+    z = float(spec.handle_world(0.0)[0][2])
+    lo, hi = HANDLE_HEIGHTS
+    if z > hi or z < lo:
+        off = f"{z - hi:.2f} m above" if z > hi else f"{lo - z:.2f} m below"
+        raise UserModelError(f"the handle ({spec.handle_source}) is {z:.2f} m above the floor, "
+                             f"{off} the arm's reach (handles {lo:.2f}-{hi:.2f} m high)")
 
 
 def task_from_look(kind: str, look: LookResult) -> EpcTask:

@@ -1,5 +1,5 @@
 """The robot looks at the cabinet before opening it: a depth camera on its head, the
-FrontDetector, and the handle derived from the detected front (issue 12 item 8).
+FrontDetector, and the handle derived from the detected front.
 
 :func:`LookAtFront` builds the opening scene (:func:`~mmlearn.diagrams.common.scene.MakeSceneDiagram`:
 the mobile robot with its hook arm and the mechanism) with an ``RgbdSensor`` mounted on the
@@ -148,6 +148,8 @@ class LookResult:
 
 def front_centre(spec: MechanismSpec) -> np.ndarray:
     """Centre of the closed front's outer face, world, m."""
+    if hasattr(spec, "front_centre"):  # a user's model
+        return spec.front_centre()
     T = spec.X_WF()
     # the panel's centre in the moving body's frame (sdf/mechanisms.py, mechanism_sdf)
     y = {"left_door": spec.width / 2, "right_door": -spec.width / 2,

@@ -36,6 +36,7 @@ from mmlearn.models.common.se3 import relative_poses
 from mmlearn.models.common.progress import progress_bar
 from mmlearn.models.common.trials import register_trial
 from mmlearn.sdf.mechanisms import KINDS, REVOLUTE
+from mmlearn.sdf.user_model import UserMechanism
 
 __all__ = ["open_mechanism", "operate_trial", "scene_points", "draw_look", "SENSORS", "observe",
            "exp_cabinet", "exp_table", "exp_car", "exp_garage", "yardstick_row",
@@ -47,13 +48,18 @@ def scene_points(op) -> np.ndarray:
     the front's whole travel, the robot at its start (its base, the arm up to 1.3 m) and
     its base where it will stand to open the mechanism."""
     spec = op.mechanism
-    T = spec.X_WF()
-    half = spec.width / 2 + 0.06 if spec.kind != "sliding_door" else spec.width + 0.06
-    top = spec.bottom + spec.height + 0.03
-    corners_F = np.array([[x, y, z] for x in (-spec.depth, 0.0) for y in (-half, half)
-                          for z in (0.0, top)])
-    pts = [corners_F @ T[:3, :3].T + T[:3, 3]]
-    pts.append([spec.handle_world(q)[0] for q in np.linspace(0.0, spec.limit, 5)])
+    if isinstance(spec, UserMechanism):
+        pts = [spec.corners_world()]
+        travel = spec.travel()
+    else:
+        T = spec.X_WF()
+        half = spec.width / 2 + 0.06 if spec.kind != "sliding_door" else spec.width + 0.06
+        top = spec.bottom + spec.height + 0.03
+        corners_F = np.array([[x, y, z] for x in (-spec.depth, 0.0) for y in (-half, half)
+                              for z in (0.0, top)])
+        pts = [corners_F @ T[:3, :3].T + T[:3, 3]]
+        travel = spec.limit
+    pts.append([spec.handle_world(q)[0] for q in np.linspace(0.0, travel, 5)])
     # the mobile base (0.55 m x 0.45 m, 0.3 m high, sdf/builders.py) at its start pose and
     # the arm above it
     x, y, yaw = op.start_command[:3]
@@ -93,7 +99,8 @@ def open_mechanism(*, kind: str = "left_door", seed: int = 0, meshcat=None,
                    show_progress: bool = True, realtime: bool = False, priors: str = "",
                    mechanism_seed: int | None = None, save_track: str = "",
                    base_noise: float | None = None, perception: str = "click",
-                   on_built=None) -> dict:
+                   on_built=None, model: str = "", joint: str = "",
+                   model_pose=None, handle=None) -> dict:
     """One opening trial: the robot drives to the mechanism ``kind``, hooks its handle and
     opens it while learning its model (thesis 4.3, 4.4.2); returns the trial's record.
 
@@ -119,6 +126,15 @@ def open_mechanism(*, kind: str = "left_door", seed: int = 0, meshcat=None,
     bar's points, "rectangle": by the kind's convention), ``frames_found`` and
     ``look_frames``.
 
+    ``model``, ``joint``: open the joint ``joint`` of the user's model file (SDFormat or
+    URDF, :func:`mmlearn.sdf.user_model.load_user_mechanism`; ``kind`` and
+    ``mechanism_seed`` are then not used), placed at ``model_pose`` ("x y z roll pitch yaw"
+    or a 4x4 transform of the model frame; None = the default placement) with the handle at
+    ``handle`` ("x y z" or a point in the model frame; None = from the geometry); the
+    record's ``object`` is then ``file:joint`` and ``true_joint`` holds the joint as the
+    file gives it (:meth:`~mmlearn.sdf.user_model.UserMechanism.true_joint`). A model the
+    robot cannot operate raises :class:`~mmlearn.sdf.user_model.UserModelError`.
+
     ``meshcat``: draw the scene there and record the trial (published at the end);
     ``on_built(op)``: called with the built :class:`Operate` before the simulation starts
     (e.g. to point the viewer's camera); ``realtime``: pace the simulation at real time."""
@@ -128,6 +144,14 @@ def open_mechanism(*, kind: str = "left_door", seed: int = 0, meshcat=None,
     cfg = _operate_config(kind=kind, seed=seed, max_time=max_time, sigma_pos=sigma_pos,
                           priors=priors, mechanism_seed=mechanism_seed, base_noise=base_noise,
                           perception=perception)
+    if model:
+        from mmlearn.diagrams.articulation.operate import check_reach
+        from mmlearn.sdf.user_model import load_user_mechanism, user_model_args
+
+        cfg.mechanism = load_user_mechanism(model, joint, **user_model_args(model_pose, handle))
+        cfg.kind = cfg.mechanism.kind
+        check_reach(cfg.mechanism)
+        kind = cfg.mechanism.name
     t_build = time.perf_counter()
     try:
         op = MakeOperateDiagram(cfg, meshcat=meshcat)
@@ -169,10 +193,23 @@ def _operate_config(*, kind, seed, max_time, sigma_pos, priors, mechanism_seed, 
     return cfg
 
 
+def _object_name(cfg) -> str:
+    return cfg.mechanism.name if isinstance(cfg.mechanism, UserMechanism) else cfg.kind
+
+
+def _user_fields(cfg) -> dict:
+    """A user model's own fields of the record."""
+    m = cfg.mechanism
+    if not isinstance(m, UserMechanism):
+        return {}
+    return {"model": m.path, "joint": m.joint, "equivalent_kind": m.kind,
+            "true_joint": m.true_joint()}
+
+
 def _no_front_record(cfg, look) -> dict:
     """The record of a trial whose robot saw no front it could open (nothing simulated)."""
     kind = cfg.kind
-    return {"object": kind, "seed": cfg.seed, "success": False, "opened": 0.0,
+    return {"object": _object_name(cfg), "seed": cfg.seed, **_user_fields(cfg), "success": False, "opened": 0.0,
             "final_opening": 0.0, "unit": "deg" if kind in REVOLUTE else "m",
             "outcome": "no front detected",
             "perception": cfg.perception, "front_found": False, "handle_error_m": None,
@@ -180,7 +217,8 @@ def _no_front_record(cfg, look) -> dict:
             "look_frames": look.frames, "learned_model": None, "right_kind": False,
             "base_noise": cfg.base_noise, "sigma_pos": cfg.sigma_pos,
             "track_saved": None, "sim_seconds": 0.0, "wall_seconds": 0.0,
-            "true_kind": "revolute" if kind in REVOLUTE else "prismatic",
+            "true_kind": ("revolute" if kind in REVOLUTE else "prismatic")
+            if not isinstance(cfg.mechanism, UserMechanism) else cfg.mechanism.joint_type,
             "html_out": None}
 
 
@@ -264,10 +302,16 @@ def _trial_record(op, cfg, run: _Run, *, build_seconds, save_track) -> dict:
         opened, unit, success = math.degrees(q_max), "deg", q_max > SUCCESS_ANGLE
     else:
         opened, unit, success = q_max, "m", q_max > SUCCESS_DISTANCE
-    result = {"object": cfg.kind, "seed": cfg.seed, "success": bool(success), "opened": opened,
+    result = {"object": _object_name(cfg), "seed": cfg.seed, **_user_fields(cfg),
+              "success": bool(success), "opened": opened,
               "final_opening": to_unit(q),
               "unit": unit, "outcome": ctrl.outcome or PHASE_NAMES[run.phase]}
     result.update(evaluate_model(link, spec))
+    # the span of the track the final model was fitted to, on that model (what the legend
+    # of the recording shows; "opened" is the mechanism's largest true opening)
+    dof = getattr(link, "dof", 0) if link is not None else 0
+    result["model_span"] = (to_unit(float(link.q_max[0] - link.q_min[0]))
+                            if dof and link.name in ("revolute", "prismatic") else None)
     look = op.look
     used = (look.estimate.handle if look is not None else op.true_task.handle)
     result.update({"perception": cfg.perception, "front_found": True,
@@ -307,24 +351,31 @@ def _priors_file(text: str) -> str:
 
     h = hashlib.sha1(text.encode()).hexdigest()[:16]
     if h not in _PRIORS_FILES:
+        from mmlearn.models.common.fileio import atomic_write_text
+
         p = Path(tempfile.gettempdir()) / f"mmlearn-priors-{os.getpid()}-{h}.json"
-        p.write_text(text)
+        atomic_write_text(p, text)
         _PRIORS_FILES[h] = str(p)
     return _PRIORS_FILES[h]
 
 
-@register_trial("articulation.operate")
+@register_trial("articulation.operate",
+                record={"object": str, "seed": int, "success": bool, "opened": (float, None),
+                        "unit": str, "outcome": str, "learned_model": (str, None)})
 def operate_trial(*, seed: int, kind: str, max_time: float = 60.0,
                   sigma_pos: float | None = None, mechanism_seed: int | None = None,
                   base_noise: float | None = None, save_track: str = "", priors_sha1: str = "",
-                  shared=None, perception: str = "click") -> dict:
-    """One opening trial of a sweep: :func:`open_mechanism` of one object and seed.
+                  shared=None, perception: str = "click", model: str = "", joint: str = "",
+                  model_pose: str | None = None, handle: str | None = None) -> dict:
+    """One opening trial of a sweep: :func:`open_mechanism` of one object and seed (or of
+    the joint ``joint`` of the user's model file ``model``, see :func:`open_mechanism`).
     ``shared`` is the prior database's text when the sweep uses one (``priors_sha1`` names
     it in the trial's identity)."""
     priors = _priors_file(shared) if shared else ""
     return open_mechanism(kind=kind, seed=seed, max_time=max_time, sigma_pos=sigma_pos,
                           priors=priors, mechanism_seed=mechanism_seed, show_progress=False,
-                          save_track=save_track, base_noise=base_noise, perception=perception)
+                          save_track=save_track, base_noise=base_noise, perception=perception,
+                          model=model, joint=joint, model_pose=model_pose, handle=handle)
 
 
 # ---------------------------------------------------------------------------- structure
@@ -568,7 +619,7 @@ STRUCTURE_RUNNERS = {"fig48": exp_cabinet, "fig49": exp_table, "fig411": exp_car
 """The experiments that are one trial each (their table is the trial's record)."""
 
 
-@register_trial("articulation.structure")
+@register_trial("articulation.structure", record={"experiment": str})
 def structure_trial(*, seed: int, experiment: str, quick: bool = False,
                     closed: bool | None = None, n: int | None = None, sensor: str = "ideal",
                     shared=None) -> dict:

@@ -1,4 +1,4 @@
-"""Body-schema learning in the Drake scene (thesis ch. 3, issue #5).
+"""Body-schema learning in the Drake scene (thesis ch. 3).
 
 :func:`MakeBodySchemaDiagram` wires::
 

@@ -220,7 +220,41 @@ def learn_body_schema(*, config: LearnBodySchemaConfig, meshcat=None,
     if vis is not None:
         vis.StopRecording()
         vis.PublishRecording()
+    if meshcat is not None:
+        _frame_and_legend(meshcat, bs, root, Q[:30], cfg, result)
     return result
+
+
+def _frame_and_legend(meshcat, bs, root, Q, cfg, result) -> None:
+    """Frame the arm over the test configurations ``Q`` and the learned schema drawn beside
+    it; draw a legend with what was learned (``result``)."""
+    from pydrake.geometry import Rgba
+
+    from mmlearn.systems.common.meshcat_view import draw_legend, frame_camera
+
+    off = np.asarray(bs.config.draw_offset, float)
+    P = np.concatenate([bs.true_poses(root, q)[:, :3, 3] for q in Q])
+    frame_camera(meshcat, np.concatenate([P, P + off]),
+                 view_from=np.cross(off, [0.0, 0.0, 1.0]) + [0.0, 0.0, 0.6])
+    n_tree = len(result["structure"])
+    pe, pd = result.get("pred_error_m"), result.get("pred_error_deg")
+    err = ("not evaluated (no complete tree)" if pe is None
+           else f"{1000 * pe:.0f} mm / {pd:.1f} deg mean on {cfg.n_test} test poses")
+    rows = [
+        (Rgba(0.9, 0.55, 0.1, 1), "box", f"the real arm ({cfg.arm}, {len(bs.parts)} parts with "
+                                         f"markers, noise {cfg.noise:g} m)"),
+        (Rgba(0.9, 0.1, 0.1, 1), "line", f"part frames predicted by the learned schema, "
+                                         f"drawn {np.linalg.norm(off):.2f} m beside the arm"),
+        (None, "", "    (x red, y green, z blue; a dark dot at each origin)"),
+        (Rgba(0.1, 0.7, 0.2, 1), "line", f"learned local models in the tree ({n_tree}), "
+                                         f"valid"),
+        (Rgba(0.9, 0.1, 0.1, 1), "thin", "a local model that is invalid (none at the end)"
+         if result.get("valid") else "a local model that is invalid"),
+        (None, "", f"prediction error of the learned kinematics: {err}"),
+        (None, "", "structure " + ("right" if result.get("structure_correct") else "WRONG")
+         + f" after {result['samples']} samples"),
+    ]
+    draw_legend(meshcat, f"Body schema learned by motor babbling ({cfg.arm} arm)", rows)
 
 
 def _check_config(cfg: LearnBodySchemaConfig) -> None:
@@ -228,6 +262,16 @@ def _check_config(cfg: LearnBodySchemaConfig) -> None:
         raise ValueError(f"samples must be >= 1, got {cfg.samples}")
     if not (math.isfinite(cfg.noise) and cfg.noise >= 0):
         raise ValueError(f"noise must be >= 0 m, got {cfg.noise}")
+    from mmlearn.systems.common.marker_sensor import MarkerSensorConfig
+
+    ws = MarkerSensorConfig()
+    side = float(np.min(np.subtract(ws.workspace_max, ws.workspace_min)))
+    if cfg.noise >= side:
+        raise ValueError(f"noise {cfg.noise:g} m is not smaller than the workspace the markers "
+                         f"move in ({side:g} m, its smallest side): every observation would "
+                         "be noise")
+    if not (math.isfinite(cfg.noise_orient_deg) and 0 <= cfg.noise_orient_deg <= 180):
+        raise ValueError(f"noise_orient_deg must be in [0, 180] deg, got {cfg.noise_orient_deg}")
     if cfg.n_test < 1 or cfg.n_control < 0 or not cfg.control_time > 0:
         raise ValueError("need n_test >= 1, n_control >= 0, control_time > 0")
     if cfg.camera_depth not in CAMERA_DEPTHS:

@@ -17,6 +17,7 @@ from mmlearn.models.common.config import param, validate_fields
 from mmlearn.sdf import add_package
 from mmlearn.sdf.builders import CabinetSpec, arm_sdf, arm_spec, cabinet_sdf, floor_sdf
 from mmlearn.sdf.mechanisms import MechanismSpec, mechanism_sdf
+from mmlearn.sdf.user_model import UserMechanism, add_user_model
 from mmlearn.systems import GravityCompensation, JointFriction, MarkerSensor, \
     MarkerSensorConfig
 from mmlearn.systems.common.camera_marker_sensor import CameraMarkerSensor, CameraMarkerSensorConfig
@@ -36,7 +37,10 @@ class SceneConfig:
         cabinet_pose: x, y, yaw of the cabinet (its front face is its local x = 0 plane).
         cabinet_spec: geometry and joint dynamics of the cabinet.
         mechanism: a single-mechanism piece of furniture (door, drawer, ...) to add, with
-            its own pose (None = none); its joint is ``mechanism``.
+            its own pose (None = none); its joint is ``mechanism``. A
+            :class:`~mmlearn.sdf.user_model.UserMechanism` adds the user's model file at
+            its placement instead (``mechanism_state`` is then its joint's opening and
+            opening rate).
         time_step: plant discrete time step, s.
         kp_revolute, kd_revolute: PD gains of the arm's revolute joints (N*m/rad, N*m*s/rad).
         kp_prismatic, kd_prismatic: PD gains of prismatic joints (fingers), N/m and N*s/m.
@@ -75,7 +79,15 @@ class SceneConfig:
     failure_joints: bool = param(False)
 
     def validate(self) -> None:
+        """Raise ``ValueError`` naming the first bad field (and a plant time step longer
+        than a marker frame: the sensor would see a plant that has not moved)."""
         validate_fields(self)
+        self.sensor.validate()
+        period = 1.0 / self.sensor.rate_hz
+        if self.time_step > period:
+            raise ValueError(f"SceneConfig: time_step {self.time_step:g} s is longer than a "
+                             f"marker frame ({period:g} s at sensor.rate_hz "
+                             f"{self.sensor.rate_hz:g} Hz)")
 
     def resolved_tool(self) -> str:
         if self.tool != "auto":
@@ -129,6 +141,22 @@ def _finite_limits(lo, hi, default=2.6):
     return lo, hi
 
 
+def _export_user_opening(builder, plant, joint, mech) -> None:
+    """Export ``mechanism_state`` of a user model: the joint's opening ``sign (q - q0)`` and
+    its rate, from the plant's state."""
+    from pydrake.systems.primitives import AffineSystem
+
+    n = plant.num_positions() + plant.num_velocities()
+    D = np.zeros((2, n))
+    D[0, joint.position_start()] = mech.sign
+    D[1, plant.num_positions() + joint.velocity_start()] = mech.sign
+    y0 = np.array([-mech.sign * mech.q0, 0.0])
+    opening = builder.AddNamedSystem("user_joint_opening", AffineSystem(
+        np.zeros((0, 0)), np.zeros((0, n)), np.zeros(0), np.zeros((2, 0)), D, y0))
+    builder.Connect(plant.get_state_output_port(), opening.get_input_port())
+    builder.ExportOutput(opening.get_output_port(), "mechanism_state")
+
+
 def MakeSceneDiagram(config: SceneConfig | None = None, *, meshcat=None):
     """Build the scene diagram.
 
@@ -160,10 +188,14 @@ def MakeSceneDiagram(config: SceneConfig | None = None, *, meshcat=None):
         cx, cy, cyaw = cfg.cabinet_pose
         cabinet = parser.AddModelsFromString(
             cabinet_sdf(cfg.cabinet_spec, pose=(cx, cy, 0, 0, 0, cyaw)), "sdf")[0]
-    mechanism = None
-    if cfg.mechanism is not None:
+    mechanism, user_instances, user_joint = None, [], None
+    if isinstance(cfg.mechanism, UserMechanism):
+        user_instances, user_joint = add_user_model(parser, cfg.mechanism)
+        mechanism = user_joint.model_instance()
+    elif cfg.mechanism is not None:
         mechanism = parser.AddModelsFromString(mechanism_sdf(cfg.mechanism), "sdf")[0]
     furniture = [m for m in (cabinet, mechanism) if m is not None]
+    furniture += [m for m in user_instances if m not in furniture]
 
     # implicit PD on every actuator of the robot
     # (GetJointActuatorIndices(instance) is empty before Finalize: scan all actuators)
@@ -237,7 +269,9 @@ def MakeSceneDiagram(config: SceneConfig | None = None, *, meshcat=None):
             ("left_hinge", s.door_friction), ("right_hinge", s.door_friction),
             ("drawer_slide", s.drawer_friction))})
         builder.ExportOutput(plant.get_state_output_port(cabinet), "cabinet_state")
-    if mechanism is not None:
+    if user_joint is not None:
+        _export_user_opening(builder, plant, user_joint, cfg.mechanism)
+    elif mechanism is not None:
         fr[plant.GetJointByName("mechanism", mechanism).velocity_start()] = \
             cfg.mechanism.friction
         builder.ExportOutput(plant.get_state_output_port(mechanism), "mechanism_state")

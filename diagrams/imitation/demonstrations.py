@@ -1,4 +1,4 @@
-"""Recorded demonstrations (thesis ch. 8, issue 15 point 1): a teacher with other kinematics
+"""Recorded demonstrations (thesis ch. 8): a teacher with other kinematics
 than the robot's performs a task in the imitation scene while the project's
 :class:`~mmlearn.systems.common.marker_sensor.MarkerSensor` watches it at 5 Hz.
 

@@ -233,6 +233,12 @@ def start_configuration(reproducer, p_hand, boxes=()) -> np.ndarray:
     return best
 
 
+def ellipsoid_stride(model, shown: int = 12) -> int:
+    """Draw every how-many-th slice's variance ellipsoid so that about ``shown`` per
+    constraint are drawn (all of them would hide the scene)."""
+    return max(1, int(round(model.S / max(int(shown), 1))))
+
+
 def object_positions(plant, root_context, names) -> dict[str, np.ndarray]:
     """True world positions of the objects' markers (``<name>_marker`` frames), m."""
     ctx = plant.GetMyContextFromRoot(root_context)
@@ -375,7 +381,7 @@ def MakeImitationDiagram(config: ImitationConfig | None = None, *, model, meshca
     if meshcat is not None:
         ctx = diagram.CreateDefaultContext()
         objs = object_positions(plant, ctx, scene.bodies)
-        draw_task_model(meshcat, model, objs)
+        draw_task_model(meshcat, model, objs, every=ellipsoid_stride(model))
         if demos:
             draw_demonstrations(meshcat, demos)
     return out

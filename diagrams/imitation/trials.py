@@ -87,6 +87,24 @@ def _min_clearance(query, mine, obst) -> tuple[float, object]:
     return d, who
 
 
+#: the observed objects a task's evaluation reads from the demonstrations
+TASK_NEEDS = {"pick_place": ("cup", "table_b")}
+
+
+def _check_task(demo_list, task: str, path) -> None:
+    """ValueError (naming the file) unless the loaded demonstrations are of ``task``: their
+    ``meta["task"]`` (when recorded) and the objects the task's evaluation needs."""
+    for i, d in enumerate(demo_list):
+        got = d.meta.get("task") if isinstance(d.meta, dict) else None
+        if got is not None and got != task:
+            raise ValueError(f"{path}: demonstration {i} is of task {got!r}, not {task!r} "
+                             "(give --task or another file)")
+        missing = [o for o in TASK_NEEDS.get(task, ()) if o not in d.objects]
+        if missing:
+            raise ValueError(f"{path}: demonstration {i} lacks the object(s) "
+                             f"{', '.join(missing)} the {task} task needs")
+
+
 def _demonstrations(task, demos, seed, demos_file, placement):
     from mmlearn.models.imitation.types import load_demonstrations
 
@@ -96,6 +114,7 @@ def _demonstrations(task, demos, seed, demos_file, placement):
         demo_list = load_demonstrations(demos_file)
         if not demo_list:
             raise ValueError(f"{demos_file}: holds no demonstration")
+        _check_task(demo_list, task, demos_file)
         return demo_list
     if demos < 1:
         raise ValueError(f"demos must be >= 1, got {demos}")
@@ -254,10 +273,58 @@ def reproduce_task(*, task: str = "pick_place", demos: int = 4, seed: int = 0,
     if monitor is not None:
         rec["confidence"] = monitor.summary(SAMPLE_DT)
         rec["stopped_unsure"] = bool(run["stopped_unsure"])
+    if meshcat is not None:
+        _frame_and_legend(meshcat, model, demo_list, objs0, run["hand"], rec)
     return rec
 
 
-@register_trial("imitation.reproduce")
+def _frame_and_legend(meshcat, model, demos, objects, hand, rec) -> None:
+    """Frame the arm, the objects and the hand's paths; draw a legend naming the
+    demonstrations, each constraint's learned path and ellipsoids and the reproduction."""
+    from pydrake.geometry import Rgba
+
+    from mmlearn.diagrams.imitation.diagram import ellipsoid_stride
+    from mmlearn.systems.common.meshcat_view import draw_legend, frame_camera
+    from mmlearn.systems.imitation.dbn_visualizer import PALETTE
+
+    paths = [np.asarray(d.hand, float) for d in demos] + [np.asarray(hand, float)]
+    # the markers, with room for the bodies around them (tables, cup), and the arm
+    box = np.array([[x, y, z] for x in (-0.15, 0.15) for y in (-0.15, 0.15)
+                    for z in (-0.15, 0.1)])
+    marks = np.array([v for v in objects.values()])
+    P = np.concatenate([p[np.all(np.isfinite(p), axis=1)] for p in paths if p.ndim == 2]
+                       + [(marks[:, None, :] + box[None]).reshape(-1, 3),
+                          [[0.0, 0.0, 0.0], [0.0, 0.0, 1.1]]])  # the arm's base and top
+    centre = P.mean(axis=0)
+    side = np.cross([0.0, 0.0, 1.0], [centre[0], centre[1], 0.0])
+    side = side / (np.linalg.norm(side) or 1.0)
+    frame_camera(meshcat, P, view_from=-side + [0.0, 0.0, 1.0], margin=1.15)
+    stride = ellipsoid_stride(model)
+    rows = [(Rgba(0.3, 0.3, 0.3, 0.8), "thin", f"{len(demos)} demonstrated hand paths (as "
+                                               f"the marker sensor saw them)")]
+    cart = [c for c in model.constraints if c.startswith("obj:")]
+    for i, name in enumerate(cart):
+        col = PALETTE[i % len(PALETTE)]
+        solid = Rgba(col.r(), col.g(), col.b(), 0.9)
+        rows.append((solid, "line", f"learned hand path relative to the {name[4:]} "
+                                    f"({model.S} slices)"))
+        rows.append((Rgba(col.r(), col.g(), col.b(), 0.4), "box",
+                     f"  its 2-sigma ellipsoids, one slice in {stride} (Open Controls "
+                     f"hides them)"))
+    rows.append((Rgba(0.1, 0.1, 0.9, 1.0), "dots", "the reproduction's hand trail"))
+    verdict = "succeeded" if rec.get("success") else "failed"
+    if rec.get("place_error_m") is not None:
+        verdict += f", cup placed {1000 * rec['place_error_m']:.0f} mm from the demonstrated spot"
+    elif rec.get("reach_error_m") is not None:
+        verdict += f", reach error {1000 * rec['reach_error_m']:.0f} mm"
+    rows.append((None, "", f"reproduction {verdict}"))
+    draw_legend(meshcat, f"Imitation: {rec['task']} learned from {len(demos)} "
+                         f"demonstrations", rows)
+
+
+@register_trial("imitation.reproduce",
+                record={"task": str, "success": bool, "finished": bool,
+                        "learn_seconds": float, "reproduction_seconds": float})
 def reproduction_trial(*, seed: int, task: str, demos: int = 4, swap_tables: bool = False,
                        board_scale: float = 1.0, global_mode: bool = False,
                        shared=None) -> dict:

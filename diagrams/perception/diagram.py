@@ -90,7 +90,7 @@ class DepthCameraConfig:
         width, height_px: image size, pixels.
         fov_x_deg: horizontal field of view, deg (the Kinect's: 58).
         distance: camera centre to target, m (the thesis' experiments: 0.8-2.8).
-        angle_deg: azimuth off the front's normal, deg (|angle| <= 80).
+        angle_deg: azimuth off the front's normal, deg (``|angle| <= 80``).
         elevation_deg: how far above the target the camera is, as an angle, deg (used when
             ``height`` is None).
         height: camera height above the floor, m, or None (then ``elevation_deg`` sets it).
@@ -214,12 +214,30 @@ class FrontPerceptionConfig:
         self.motion.validate()
         self.camera.validate()
         self.noise.validate()
+        self.check_distance(self.camera.distance, "camera.distance")
         limit = self.kitchen.door_limit if self.front == "door" else self.kitchen.drawer_limit
         if self.motion.opening(self.front) > limit + 1e-12:
             raise ValueError(f"FrontPerceptionConfig: the {self.front} opens to "
                              f"{self.motion.opening(self.front):.4g} beyond its joint limit "
                              f"{limit:.4g} (kitchen.{self.front}_limit)")
         return self
+
+
+    def camera_range(self) -> float:
+        """The farthest depth the camera measures, m: its ``z_far`` and, with noise, the
+        noise model's ``max_range``."""
+        far = float(self.camera.z_far)
+        return min(far, float(self.noise.max_range)) if self.add_noise else far
+
+    def check_distance(self, distance: float, name: str = "distance") -> None:
+        """Raise ``ValueError`` when a camera ``distance`` (m) to the front leaves the front
+        beyond the camera's range (every pixel of it would be missing)."""
+        far = self.camera_range()
+        if not float(distance) < far:
+            what = ("noise.max_range" if self.add_noise and far < self.camera.z_far
+                    else "camera.z_far")
+            raise ValueError(f"{name} {float(distance):g} m is beyond the camera's range "
+                             f"{far:g} m ({what}): the front would not be seen")
 
 
 @dataclass
@@ -436,7 +454,7 @@ def AddFrontPerception(builder: DiagramBuilder, config: FrontPerceptionConfig | 
         # Meshcat's view: from behind and beside the depth camera, onto the target
         target = kin.X_WR0[:3, 3]
         back = X_WC[:3, 3] - target
-        eye = target + 1.4 * back + np.array([0.0, 0.0, 0.3]) + 0.25 * X_WC[:3, 0]
+        eye = target + 1.3 * back + np.array([0.0, 0.0, 0.35]) + 0.3 * X_WC[:3, 0]
         meshcat.SetCameraPose(eye, target)
         _draw_camera(meshcat, X_WC, K)
         MeshcatVisualizer.AddToBuilder(builder, scene_graph, meshcat,

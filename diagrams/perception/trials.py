@@ -356,6 +356,13 @@ def track_fronts(config: TrackFrontsConfig, *, meshcat=None, progress=None) -> d
         P.visualizer.StopRecording()
         P.visualizer.PublishRecording()
     selection = _model_selection(cfg, trk, tracks, models, truth_by_time)
+    if meshcat is not None:
+        from mmlearn.systems.common.meshcat_view import draw_legend
+        from mmlearn.systems.perception.front_visualizer import front_legend
+
+        mt = selection[0]
+        draw_legend(meshcat, *front_legend(cfg.object, None if mt is None else mt.track_id,
+                                           tracks, models, point_cloud=sc.point_cloud))
     timing = _timing_scores(timings, cpu, filt_cpu, averaged, meshcat is not None)
     return {
         "object": cfg.object, "distance_m": float(cfg.distance),
@@ -384,7 +391,7 @@ def track_fronts(config: TrackFrontsConfig, *, meshcat=None, progress=None) -> d
     }
 
 
-@register_trial("perception.fronts")
+@register_trial("perception.fronts", record={"experiment": str, "frame_found": list})
 def fronts_trial(*, seed: int, experiment: str, object: str, distance: float,
                  angle: float = 0.0, frames: int = 60, temporal_filter: bool = True,
                  camera_rate_hz: float = 0.0, shared=None) -> dict:

@@ -29,6 +29,7 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import LogVectorOutput
 
+from mmlearn.models.common.config import param, validate_fields
 from mmlearn.models.tactile.containers import ContainerInstance
 from mmlearn.models.tactile.pad import PAD_CH6, PAD_PR2, PadLayout
 from mmlearn.models.tactile.types import TactileGrasp
@@ -92,26 +93,41 @@ class TactileGraspConfig:
             the liquid-detection roll).
     """
 
-    pad: str = "pr2"
-    f_target: float = 20.0
-    v_target: float = 0.02
-    contact_force: float = 1.0
-    kp: float = 2000.0
-    kd: float = 100.0
-    force_rate: float = 40.0
-    hold_time: float = 0.8
-    duration: float = 3.5
-    mode: str = "switching"
-    grasp_height: float = 0.07
-    offset: float = 0.0
-    time_step: float = 1e-3
-    sensor_rate: float = 25.0
-    taxel_noise: float = 0.003
-    encoder_noise: float = 5e-5
-    seed: int = 0
+    pad: str = param("pr2", choices=tuple(PAD_LAYOUTS))
+    f_target: float = param(20.0, unit="N", gt=0)
+    v_target: float = param(0.02, unit="m/s", gt=0)
+    contact_force: float = param(1.0, unit="N", gt=0)
+    kp: float = param(2000.0, unit="N/m", ge=0)
+    kd: float = param(100.0, unit="N*s/m", ge=0)
+    force_rate: float = param(40.0, unit="N/s", gt=0)
+    hold_time: float = param(0.8, unit="s", ge=0)
+    duration: float = param(3.5, unit="s", gt=0)
+    mode: str = param("switching", choices=("switching", "force", "velocity"))
+    grasp_height: float = param(0.07, unit="m")
+    offset: float = param(0.0, unit="m")
+    time_step: float = param(1e-3, unit="s", gt=0)
+    sensor_rate: float = param(25.0, unit="Hz", gt=0)
+    taxel_noise: float = param(0.003, ge=0)
+    encoder_noise: float = param(5e-5, unit="m", ge=0)
+    seed: int = param(0, integer=True, ge=0)
     gripper: GripperGeometry = field(default_factory=GripperGeometry)
-    palm_slide_damping: float | None = None
-    wall_model: str = "pressure"
+    palm_slide_damping: float | None = param(None, unit="N*s/m", ge=0, optional=True)
+    wall_model: str = param("pressure", choices=("pressure", "linear"))
+
+    def validate(self) -> "TactileGraspConfig":
+        """Raise ``ValueError`` naming the first bad field (its type, range or choice, and a
+        plant time step that is longer than a sensor frame or than the run); return self."""
+        validate_fields(self)
+        period = 1.0 / self.sensor_rate
+        if self.time_step > period:
+            raise ValueError(f"TactileGraspConfig: time_step {self.time_step:g} s is longer "
+                             f"than a sensor frame ({period:g} s at sensor_rate "
+                             f"{self.sensor_rate:g} Hz): the sensors would sample a plant "
+                             "that has not moved")
+        if self.time_step > self.duration:
+            raise ValueError(f"TactileGraspConfig: time_step {self.time_step:g} s is longer "
+                             f"than the run (duration {self.duration:g} s)")
+        return self
 
 
 
@@ -155,9 +171,7 @@ def MakeTactileGraspDiagram(config: TactileGraspConfig, *, container: ContainerI
     ``object_sdf`` (text; its first link is welded at the origin shifted by ``offset``)."""
     if container is not None and object_sdf is not None:
         raise ValueError("give either container or object_sdf, not both")
-    c = config
-    if c.pad not in PAD_LAYOUTS:
-        raise ValueError(f"pad: unknown layout {c.pad!r}; choose from {', '.join(PAD_LAYOUTS)}")
+    c = config.validate()
     layout: PadLayout = PAD_LAYOUTS[c.pad]
     g = c.gripper
     builder = DiagramBuilder()
@@ -328,6 +342,42 @@ def simulate_grasp(config: TactileGraspConfig, *, container: ContainerInstance |
               "label": label or f"{container.name}/{container.state}"}
     elif label is not None:
         kw = {"label": label}
-    return TactileGrasp(t=t, p=p, f=f_pad.sum(axis=1), finger_force=f_pad,
-                        pads={k: np.clip(v, 0.0, 1.0) for k, v in pads.items()},
-                        height=config.grasp_height, **kw)
+    grasp = TactileGrasp(t=t, p=p, f=f_pad.sum(axis=1), finger_force=f_pad,
+                         pads={k: np.clip(v, 0.0, 1.0) for k, v in pads.items()},
+                         height=config.grasp_height, **kw)
+    if meshcat is not None:
+        _frame_and_legend(meshcat, parts, ctx, config, grasp)
+    return grasp
+
+
+def _frame_and_legend(meshcat, parts, root_context, config, grasp) -> None:
+    """Frame the gripper and the object (seen obliquely, so the taxel displays on the
+    fingers' outer faces show); draw a legend with the grasp's numbers."""
+    from pydrake.geometry import Rgba
+    from pydrake.multibody.tree import BodyIndex
+
+    from mmlearn.systems.common.meshcat_view import draw_legend, frame_camera
+    from mmlearn.systems.tactile.taxel_visualizer import taxel_colors
+
+    plant = parts["plant"]
+    pc = plant.GetMyContextFromRoot(root_context)
+    origins = np.array([plant.EvalBodyPoseInWorld(pc, plant.get_body(BodyIndex(b))).translation()
+                        for b in range(1, plant.num_bodies())])
+    corners = np.array([[x, y, z] for x in (-0.05, 0.05) for y in (-0.05, 0.05)
+                        for z in (-0.05, 0.08)])
+    frame_camera(meshcat, (origins[:, None, :] + corners[None]).reshape(-1, 3),
+                 view_from=(1.0, -0.6, 0.5), min_distance=0.1)
+    lo, hi = (Rgba(*c) for c in taxel_colors(np.array([0.0, 1.0])))
+    k = int(np.argmax(grasp.f))
+    what = grasp.label or "the object"
+    rows = [(lo, "box", "taxel cell reading 0: each pad's 5 x 3 cells, on the finger's "
+                        "outer face"),
+            (hi, "box", "taxel cell reading 1 (saturated); a cell rises with its reading"),
+            (None, "", f"peak summed pad force {grasp.f[k]:.1f} N at t = {grasp.t[k]:.2f} s, "
+                       f"fingers {1000 * grasp.p[k]:.1f} mm apart"),
+            (None, "", "largest cell reading then: " + (", ".join(
+                f"{side} {float(np.max(img[k])):.2f}" for side, img in sorted(grasp.pads.items()))
+                or "no pads")),
+            (None, "", f"controller: {config.mode}, {config.f_target:g} N per finger, "
+                       f"{config.v_target * 1000:g} mm/s closing")]
+    draw_legend(meshcat, f"Tactile grasp of {what}", rows)

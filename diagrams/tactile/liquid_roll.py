@@ -33,7 +33,7 @@ rate with smooth 0.25 s reversals, continuous acceleration, peak 23 rad/s^2 -- a
 acceleration-limited motion), "sine" (a pure sinusoid faded in and out) and "triangle"
 (constant rate, reversals abrupt or blended with constant deceleration: acceleration steps).
 
-Findings (README, Liquid detection): the "triangle" roll's reversals flip the roll rate
+Findings (docs/tactile.md): the "triangle" roll's reversals flip the roll rate
 within one PD response; the resulting jerk made every held body, the rigid dummy included,
 spike in the high-passed taxels (dummy feature 0.0109 vs 0.0086 for a half-full bottle).
 With continuous acceleration those spikes are gone. Under the "sine" roll the liquid's first

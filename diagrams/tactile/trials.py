@@ -53,7 +53,9 @@ __all__ = ["container_grasp_trial", "container_grasp_plan", "SWEEP_FORCES",
 
 
 # ----------------------------------------------------------------------------- ch. 7 grasps
-@register_trial("tactile.container_grasp")
+@register_trial("tactile.container_grasp",
+                record={"t": list, "p": list, "f": list, "finger_force": list,
+                        "container": str, "state": str})
 def container_grasp_trial(*, seed: int, container: str, state: str, f_target: float = 20.0,
                           v_target: float = 0.02, offset_sd: float = 0.001,
                           duration: float = 2.6, hold_time: float = 1.0,
@@ -138,7 +140,9 @@ def grid_heights(cls: str, step: float = HEIGHT_STEP) -> np.ndarray:
                     * step, 6)
 
 
-@register_trial("tactile.object_grasp")
+@register_trial("tactile.object_grasp",
+                record={"left": list, "right": list, "cls": str, "object": str,
+                        "height": float, "force": float})
 def object_grasp_trial(*, seed: int, cls: str, height: float, f_target: float = 15.0,
                        v_target: float = 0.08, height_sd: float = 0.0015,
                        offset_sd: float = 0.001, settle: float = 0.3,
@@ -243,7 +247,9 @@ def object_grasp_plan(classes, grasps_per_class: int, *, seed: int,
 
 
 # ----------------------------------------------------------------------------- liquid rolls
-@register_trial("tactile.liquid_roll")
+@register_trial("tactile.liquid_roll",
+                record={"t": list, "taxels": list, "wrist_force": list, "roll": list,
+                        "container": str, "liquid": bool})
 def liquid_roll_trial(*, seed: int, container: str, offset_sd: float = 0.001,
                       roll_cycles: float = 2.0, roll_profile: str = "sweep") -> dict:
     """One trial for :mod:`mmlearn.apps.common.sweep` (a pure function of its arguments): a random

@@ -14,7 +14,7 @@ _EXPORTS = {
     "priors": ["align_trajectory", "thin_trajectory", "PriorCluster", "PriorDatabase", "MergeDecision", "merge_bic", "learn_priors", "evaluate_priors", "FORMAT"],
     "refine": ["LocalParametrisation", "refine_em", "refine_lm", "refine_lbfgs", "refine", "FD_STEP", "alternate_refinement", "residual_terms"],
     "sim": ["SimulatedTrack", "simulate_link", "true_pose", "LINK_TYPES", "drawer_with_lid_tracks"],
-    "structure": ["DEFAULT_CANDIDATES", "LinkSelection", "select_link_model", "ArticulatedObject", "LinkEdge", "fit_kinematic_tree", "relative_track"],
+    "structure": ["DEFAULT_CANDIDATES", "LinkSelection", "select_link_model", "ArticulatedObject", "LinkEdge", "fit_kinematic_tree", "relative_track", "track_scale_problem", "MAX_TRACK_EXTENT_M", "MAX_EXTENT_NOISE_RATIO"],
 }
 
 __all__ = [
@@ -61,6 +61,8 @@ __all__ = [
     "load_model",
     "LocalParametrisation",
     "make_model",
+    "MAX_EXTENT_NOISE_RATIO",
+    "MAX_TRACK_EXTENT_M",
     "merge_bic",
     "MergeDecision",
     "MODEL_CLASSES",
@@ -113,6 +115,7 @@ __all__ = [
     "thin_trajectory",
     "time_point",
     "to_sdf",
+    "track_scale_problem",
     "tracks_sha1",
     "true_pose",
     "validate_link_dict",

@@ -95,7 +95,9 @@ def operate_records(lines: list[dict]) -> list[dict]:
             out.append(ln["record"])
         else:
             p = ln["spec"]["params"]
-            out.append(operate_error_record(p.get("kind", "?"), ln["spec"]["seed"], ln["error"]))
+            name = (f"{str(p['model']).replace(chr(92), '/').rsplit('/', 1)[-1]}:{p.get('joint')}"
+                    if p.get("model") else p.get("kind", "?"))
+            out.append(operate_error_record(name, ln["spec"]["seed"], ln["error"]))
     return out
 
 

@@ -3,7 +3,7 @@
 File schema (YAML and JSON hold the same tree; the extension chooses the format)::
 
     format: mmlearn.articulation
-    version: 1
+    version: 2                    # version 1 files (no checksum) still load
     kind: link | object
     # kind == link:
     link: <LinkDict>
@@ -13,6 +13,7 @@ File schema (YAML and JSON hold the same tree; the extension chooses the format)
       root: int                   # id of the root part (object frame)
       edges:
         - {parent: int, child: int, bic: {model: float}, model: <LinkDict>}
+    checksum: sha256:<hex>        # last key, over the content (models/common/saved_doc.py)
 
     LinkDict:
       type: rigid | prismatic | revolute | gp | gp2..gp5
@@ -28,7 +29,9 @@ File schema (YAML and JSON hold the same tree; the extension chooses the format)
                                   #   f_mean, components, gp: GaussianProcess.to_dict()}
 
 Floats are written with full precision (repr), so a reloaded model predicts identically.
-Files are written atomically (temporary file in the same folder + os.replace).
+Files are written atomically (temporary file in the same folder + os.replace). Loading checks
+every field (present, of its type, finite, in range) and the checksum, so a truncated or
+edited file is a ``ValueError`` naming the file and the field, never a different model.
 
 SDFormat export (:func:`to_sdf`): one <link> per part (unit mass, small inertia, a small box
 visual), the root link welded to the world, revolute / prismatic links as joints with the
@@ -50,25 +53,28 @@ from mmlearn.models.common.sdf_writer import Box, SdfModel
 from mmlearn.models.articulation.link import LinkModel, link_model_from_dict
 from mmlearn.models.articulation.structure import ArticulatedObject, LinkEdge
 from mmlearn.models.common.fileio import atomic_write_text
+from mmlearn.models.common.saved_doc import check_seal, read_document, seal
 
 __all__ = ["model_to_dict", "model_from_dict", "save_model", "load_model", "to_sdf",
            "atomic_write_text", "validate_link_dict",
            "validate_prior_dict"]
 
 FORMAT = "mmlearn.articulation"
-VERSION = 1
+VERSION = 2
+READABLE_VERSIONS = (1, 2)  # 1: before the checksum
 
 
 def model_to_dict(model) -> dict:
     """Link model or ArticulatedObject -> plain dict (schema above)."""
     if isinstance(model, LinkModel):
-        return {"format": FORMAT, "version": VERSION, "kind": "link", "link": model.to_dict()}
+        return seal({"format": FORMAT, "version": VERSION, "kind": "link",
+                     "link": model.to_dict()})
     if isinstance(model, ArticulatedObject):
-        return {"format": FORMAT, "version": VERSION, "kind": "object", "object": {
+        return seal({"format": FORMAT, "version": VERSION, "kind": "object", "object": {
             "parts": list(model.part_names), "root": int(model.root),
             "edges": [{"parent": int(e.parent), "child": int(e.child),
                        "bic": {k: float(v) for k, v in e.bic.items()},
-                       "model": e.model.to_dict()} for e in model.edges]}}
+                       "model": e.model.to_dict()} for e in model.edges]}})
     raise ValueError(f"cannot serialise {type(model).__name__}")
 
 
@@ -95,30 +101,118 @@ LINK_KEYS = ("type", "obs", "obs_fit", "has_orientation", "theta", "gamma", "n_t
              "q_max", "log_likelihood", "bic", "avg_pos_error_m", "avg_orient_error_rad")
 
 
+def _is_num(x) -> bool:
+    return isinstance(x, (int, float, np.integer, np.floating)) and not isinstance(x, bool)
+
+
+def _num_list(d, k, where, n=None):
+    v = d[k]
+    if not isinstance(v, (list, tuple)) or not all(_is_num(x) for x in v):
+        raise ValueError(f"{where}.{k}: expected a list of numbers, got {v!r}")
+    if n is not None and len(v) != n:
+        raise ValueError(f"{where}.{k}: expected {n} numbers, got {len(v)}")
+
+
+_OBS_NUMBERS = ("sigma_pos", "sigma_orient", "gamma_weight")
+# parameter vector length by type: (with orientation, position only); see links.py
+_THETA_LEN = {"rigid": (6, 3), "prismatic": (9, 6), "revolute": (12, 9)}
+
+
+def _check_obs(o, where):
+    if not isinstance(o, dict):
+        raise ValueError(f"{where}: expected a mapping, got {type(o).__name__}")
+    for k in _OBS_NUMBERS:
+        if k not in o:
+            raise ValueError(f"{where}: missing key {k}")
+        if not _is_num(o[k]) or not np.isfinite(float(o[k])) or float(o[k]) < 0:
+            raise ValueError(f"{where}.{k}: expected a finite number >= 0, got {o[k]!r}")
+    v = o.get("outlier_volume_m3")
+    if v is not None and (not _is_num(v) or not np.isfinite(float(v)) or float(v) <= 0):
+        raise ValueError(f"{where}.outlier_volume_m3: expected a number > 0 or null, got {v!r}")
+    from mmlearn.models.articulation.obs import ObservationModel
+
+    known = {f for f in ObservationModel.__dataclass_fields__}
+    unknown = sorted(set(o) - known)
+    if unknown:
+        raise ValueError(f"{where}: unknown key(s) {', '.join(map(str, unknown))}")
+
+
+def _check_extra(d, where):
+    t, e = d["type"], d.get("extra")
+    if not isinstance(e, dict):
+        raise ValueError(f"{where}.extra: expected a mapping, got {e!r}")
+    if t == "revolute":
+        if "q_center" not in e or not _is_num(e["q_center"]):
+            raise ValueError(f"{where}.extra.q_center: expected a number, "
+                             f"got {e.get('q_center')!r}")
+    elif t.startswith("gp"):
+        for k in ("dof", "reduction", "R_ref", "f_mean", "components", "gp"):
+            if k not in e:
+                raise ValueError(f"{where}.extra: missing key {k}")
+        if not isinstance(e["dof"], int) or isinstance(e["dof"], bool) or not 1 <= e["dof"] <= 5:
+            raise ValueError(f"{where}.extra.dof: expected an integer 1..5, got {e['dof']!r}")
+        gp = e["gp"]
+        if not isinstance(gp, dict):
+            raise ValueError(f"{where}.extra.gp: expected a mapping")
+        for k in ("ard", "X", "Y", "log_ell", "log_sf2", "log_sn2"):
+            if k not in gp:
+                raise ValueError(f"{where}.extra.gp: missing key {k}")
+        for k in ("X", "Y"):
+            try:
+                a = np.asarray(gp[k], float)
+            except (TypeError, ValueError):
+                raise ValueError(f"{where}.extra.gp.{k}: not a numeric array") from None
+            if a.ndim != 2 or a.shape[0] < 1:
+                raise ValueError(f"{where}.extra.gp.{k}: expected a non-empty 2-D array, "
+                                 f"got shape {a.shape}")
+        if len(gp["X"]) != len(gp["Y"]):
+            raise ValueError(f"{where}.extra.gp: X and Y differ in length")
+
+
 def validate_link_dict(d, where: str = "link") -> None:
-    """Raise ValueError naming the problem if ``d`` is not a usable LinkDict (schema above):
-    a missing key, a value of the wrong type, or a NaN / infinite parameter."""
+    """Raise ValueError naming the field if ``d`` is not a usable LinkDict (schema above):
+    a missing key, a value of the wrong type, a NaN / infinite number, a parameter vector
+    of the wrong length, a configuration range with min > max."""
     if not isinstance(d, dict):
         raise ValueError(f"{where}: expected a mapping, got {type(d).__name__}")
-    missing = [k for k in LINK_KEYS if k not in d]
+    missing = [k for k in LINK_KEYS + ("extra",) if k not in d]
     if missing:
         raise ValueError(f"{where}: missing key(s) {', '.join(missing)}")
+    t = d["type"]
+    valid_types = ("rigid", "prismatic", "revolute", "gp", "gp1", "gp2", "gp3", "gp4", "gp5")
+    if t not in valid_types:
+        raise ValueError(f"{where}.type: expected one of {', '.join(valid_types)}, got {t!r}")
     for k in ("obs", "obs_fit"):
-        if not isinstance(d[k], dict):
-            raise ValueError(f"{where}.{k}: expected a mapping, got {type(d[k]).__name__}")
-    for k in ("theta", "q_min", "q_max"):
-        if not isinstance(d[k], (list, tuple)) or not all(
-                isinstance(x, (int, float)) and not isinstance(x, bool) for x in d[k]):
-            raise ValueError(f"{where}.{k}: expected a list of numbers")
+        _check_obs(d[k], f"{where}.{k}")
+    if not isinstance(d["has_orientation"], bool):
+        raise ValueError(f"{where}.has_orientation: expected true or false, "
+                         f"got {d['has_orientation']!r}")
+    n_theta = _THETA_LEN.get(t)
+    _num_list(d, "theta", where, None if n_theta is None
+              else n_theta[0 if d["has_orientation"] else 1])
+    dof = 0 if t == "rigid" else None if t.startswith("gp") else 1
+    for k in ("q_min", "q_max"):
+        _num_list(d, k, where, dof)
+    if len(d["q_min"]) != len(d["q_max"]):
+        raise ValueError(f"{where}: q_min and q_max differ in length")
     for k in ("gamma", "log_likelihood", "bic", "avg_pos_error_m"):
-        if not isinstance(d[k], (int, float)) or isinstance(d[k], bool):
+        if not _is_num(d[k]):
             raise ValueError(f"{where}.{k}: expected a number, got {d[k]!r}")
-    bad = _non_finite({k: d[k] for k in ("obs", "obs_fit", "theta", "gamma", "q_min", "q_max",
-                                         "extra") if k in d}, where)
+    if not (d["avg_orient_error_rad"] is None or _is_num(d["avg_orient_error_rad"])):
+        raise ValueError(f"{where}.avg_orient_error_rad: expected a number or null, "
+                         f"got {d['avg_orient_error_rad']!r}")
+    if not isinstance(d["n_train"], int) or isinstance(d["n_train"], bool) or d["n_train"] < 0:
+        raise ValueError(f"{where}.n_train: expected an integer >= 0, got {d['n_train']!r}")
+    _check_extra(d, where)
+    bad = _non_finite({k: d[k] for k in ("theta", "gamma", "q_min", "q_max", "log_likelihood",
+                                         "bic", "avg_pos_error_m", "avg_orient_error_rad",
+                                         "extra")}, where)
     if bad:
         raise ValueError(f"{where}: non-finite value {bad}")
     if not 0.0 <= float(d["gamma"]) <= 1.0:
         raise ValueError(f"{where}.gamma: expected an outlier ratio in [0, 1], got {d['gamma']}")
+    if any(lo > hi for lo, hi in zip(d["q_min"], d["q_max"])):
+        raise ValueError(f"{where}: q_min {d['q_min']} exceeds q_max {d['q_max']}")
 
 
 def _link_from_dict(d, where: str):
@@ -134,12 +228,17 @@ def model_from_dict(d: dict):
     wrong type, NaN) on a malformed document."""
     if not isinstance(d, dict) or d.get("format") != FORMAT:
         raise ValueError(f"not an {FORMAT} document (format={d.get('format') if isinstance(d, dict) else None!r})")
-    try:
-        version = int(d.get("version", 0))
-    except (TypeError, ValueError):
-        version = None
-    if version != VERSION:
-        raise ValueError(f"unsupported {FORMAT} version {d.get('version')!r}")
+    version = d.get("version")
+    if isinstance(version, bool) or version not in READABLE_VERSIONS:
+        raise ValueError(f"version: unsupported {FORMAT} version {version!r} (this mmlearn "
+                         f"reads {', '.join(map(str, READABLE_VERSIONS))})")
+    model = _model_from_checked_dict(d)
+    # the fields first (a message naming the field), then the checksum (any other change)
+    check_seal(d, required=version >= 2)
+    return model
+
+
+def _model_from_checked_dict(d: dict):
     kind = d.get("kind")
     if kind == "link":
         return _link_from_dict(d.get("link"), "link")
@@ -152,6 +251,8 @@ def model_from_dict(d: dict):
                 raise ValueError(f"object: missing key {k!r}")
         if not isinstance(o["parts"], list) or not isinstance(o["edges"], list):
             raise ValueError("object.parts and object.edges must be lists")
+        if not all(isinstance(x, str) for x in o["parts"]):
+            raise ValueError(f"object.parts: expected a list of names, got {o['parts']!r}")
         n = len(o["parts"])
         edges = []
         for i, e in enumerate(o["edges"]):
@@ -163,8 +264,9 @@ def model_from_dict(d: dict):
                     raise ValueError(f"{w}.{k}: expected a part index 0..{n - 1}, "
                                      f"got {e[k]!r}")
             bic = e.get("bic", {})
-            if not isinstance(bic, dict):
-                raise ValueError(f"{w}.bic: expected a mapping")
+            if not isinstance(bic, dict) or not all(_is_num(v) and not np.isnan(v)
+                                                    for v in bic.values()):
+                raise ValueError(f"{w}.bic: expected a mapping of model names to numbers")
             edges.append(LinkEdge(e["parent"], e["child"], _link_from_dict(e["model"],
                                                                            f"{w}.model"),
                                   dict(bic)))
@@ -197,29 +299,11 @@ def save_model(model, path) -> None:
 
 def load_model(path):
     """Load what :func:`save_model` wrote. Raises ValueError naming the file and the
-    problem (missing file, unparsable YAML/JSON, missing key, wrong type, NaN)."""
+    problem (missing or binary file, unparsable YAML/JSON, missing key, wrong type, NaN,
+    checksum missing or not matching: truncated or edited)."""
     p = Path(path)
-    if not p.exists():
-        raise ValueError(f"{p}: file not found")
-    if not p.is_file():
-        raise ValueError(f"{p}: not a file")
     yaml_ = _is_yaml(p)
-    try:
-        text = p.read_text()
-    except (OSError, UnicodeDecodeError) as e:
-        raise ValueError(f"{p}: cannot read ({e})") from None
-    if yaml_:
-        import yaml
-
-        try:
-            d = yaml.safe_load(text)
-        except yaml.YAMLError as e:
-            raise ValueError(f"{p}: not valid YAML ({' '.join(str(e).split())})") from None
-    else:
-        try:
-            d = json.loads(text)
-        except json.JSONDecodeError as e:
-            raise ValueError(f"{p}: not valid JSON ({e})") from None
+    d = read_document(p, yaml_format=yaml_, what="model file")
     try:
         return model_from_dict(d)
     except ValueError as e:

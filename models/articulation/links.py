@@ -232,8 +232,8 @@ class RevoluteModel(LinkModel):
         th = self._point_hypotheses(d, rng, H)
         if d.has_orientation and th.shape[0] == 0:
             # full poses whose positions are too close together for 3 points 2 sigma_pos
-            # apart (a door seen near its hinge, a short arc at a large assumed sigma; the
-            # fit used to fail here): hypotheses from pairs of poses, whose relative
+            # apart (a door seen near its hinge, a short arc at a large assumed sigma; no
+            # 3-point hypothesis exists there): hypotheses from pairs of poses, whose relative
             # rotation gives the axis. Only then, and from a generator of its own (seeded
             # by the track's size, not drawn from ``rng``), so every fit that had 3-point
             # hypotheses, and every later fit on the same ``rng``, is unchanged.

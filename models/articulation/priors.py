@@ -20,8 +20,7 @@ partial trajectory (the first 40 % of a door's opening) is then not charged for 
 the range it never reached when it is scored under a cluster's model. Eq. 4.27's literal
 n^-d made merging impossible (pooling n1 + n2 observations costs
 (n1 + n2) d log(n1 + n2) - n1 d log n1 - n2 d log n2 > 0 nats even for a perfect joint fit;
-~70 nats per pair of Cody drawers against ~20 saved by the shared parameters), so mmlearn
-left it out of the merge test before 2026-11; n_eff, the number of configurations the noise
+~70 nats per pair of Cody drawers against ~20 saved by the shared parameters); n_eff, the number of configurations the noise
 resolves over a visit's range, does not grow with more visits.
 
 The default observation model for priors has sigma_pos = 0.05 m (Cody's base localisation).
@@ -38,11 +37,15 @@ Joint models: by default a merge refits the cluster's model class on the joint d
 Persistence: :meth:`PriorDatabase.save` writes JSON (schema below) atomically (temporary
 file + rename); :meth:`PriorDatabase.load` reads it back::
 
-    {"format": "mmlearn.articulation_priors", "version": 1,
+    {"format": "mmlearn.articulation_priors", "version": 2,  # 1: no checksum, still read
      "config": {"sigma_pos": m, "sigma_orient": rad, "models": [...], "align": "first",
                 "max_points": int, "joint_models": "same", "n_hypotheses": int},
      "clusters": [{"members": [name, ...], "data": [[[x, y, z(, qx, qy, qz, qw)], ...], ...],
-                   "model": <LinkModel.to_dict()>}, ...]}
+                   "model": <LinkModel.to_dict()>}, ...],
+     "checksum": "sha256:<hex>"}   # last key, over the content (models/common/saved_doc.py)
+
+Loading checks every field and the checksum: a truncated, damaged or edited database is a
+``ValueError`` naming the file and the field.
 """
 
 from __future__ import annotations
@@ -73,7 +76,8 @@ __all__ = [
 ]
 
 FORMAT = "mmlearn.articulation_priors"
-VERSION = 1
+VERSION = 2
+READABLE_VERSIONS = (1, 2)  # 1: before the checksum
 ALIGN_MODES = ("first", "none")
 
 
@@ -289,7 +293,11 @@ class PriorDatabase:
 
     # ----- persistence
     def to_dict(self) -> dict:
-        return {
+        """The database as a plain document (schema in the module docstring), sealed with
+        its checksum."""
+        from mmlearn.models.common.saved_doc import seal
+
+        return seal({
             "format": FORMAT, "version": VERSION,
             "config": {"sigma_pos": self.obs.sigma_pos, "sigma_orient": self.obs.sigma_orient,
                        "gamma_weight": self.obs.gamma_weight,
@@ -299,17 +307,20 @@ class PriorDatabase:
                        "joint_models": self.joint_models, "n_hypotheses": self.n_hypotheses},
             "clusters": [{"members": list(c.members), "data": [d.tolist() for d in c.data],
                           "model": c.model.to_dict()} for c in self.clusters],
-        }
+        })
 
     @classmethod
     def from_dict(cls, d: dict) -> "PriorDatabase":
         if not isinstance(d, dict) or d.get("format") != FORMAT:
             raise ValueError(f"not a prior database (format must be {FORMAT!r})")
-        if int(d.get("version", -1)) != VERSION:
-            raise ValueError(f"unsupported prior database version {d.get('version')!r}")
+        version = d.get("version")
+        if isinstance(version, bool) or version not in READABLE_VERSIONS:
+            raise ValueError(f"version: unsupported prior database version {version!r}")
         from mmlearn.models.articulation.io import validate_prior_dict
+        from mmlearn.models.common.saved_doc import check_seal
 
-        validate_prior_dict(d)
+        validate_prior_dict(d)  # the fields first (naming the field), then the checksum
+        check_seal(d, required=version >= 2)
         c = d["config"]
         # (databases without gamma_prior / config_prior predate 2026-11: prior once per
         # track, n^-d configuration prior)
@@ -333,13 +344,15 @@ class PriorDatabase:
 
     @classmethod
     def load(cls, path) -> "PriorDatabase":
+        """Read a database written by :meth:`save`. Raises FileNotFoundError for a missing
+        file and ValueError naming the file and the field for anything else (binary, not
+        JSON, missing or mistyped key, NaN, checksum missing or not matching)."""
+        from mmlearn.models.common.saved_doc import read_document
+
         p = Path(path)
         if not p.is_file():
             raise FileNotFoundError(f"{p}: prior database not found")
-        try:
-            d = json.loads(p.read_text())
-        except json.JSONDecodeError as e:
-            raise ValueError(f"{p}: not valid JSON ({e})") from None
+        d = read_document(p, yaml_format=False, what="prior database")
         try:
             return cls.from_dict(d)
         except ValueError as e:

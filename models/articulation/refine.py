@@ -189,7 +189,7 @@ def _lm_fixed_gamma(model, par: LocalParametrisation, gamma, d: _Data, max_iter:
     batched residual evaluation per iteration (plus one per rejected trial step).
 
     Measured against scipy.optimize.least_squares (``benchmarks/bench_articulation.py
-    --refinement-study``, 2026-11-22, 2-core machine, CPU ms summed over the medians of 5
+    --refinement-study``, 2-core machine, CPU ms summed over the medians of 5
     revolute fits per track): least_squares as the M-step of an EM on the same
     responsibility-weighted residuals (gamma fixed, same batched forward-difference
     Jacobian, same 1e-3 nat stopping rule) reaches the same optimum on the 32 revolute

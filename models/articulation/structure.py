@@ -22,6 +22,9 @@ from mmlearn.models.common.se3 import as_pose_array, relative_poses
 
 __all__ = [
     "DEFAULT_CANDIDATES",
+    "track_scale_problem",
+    "MAX_TRACK_EXTENT_M",
+    "MAX_EXTENT_NOISE_RATIO",
     "LinkSelection",
     "select_link_model",
     "ArticulatedObject",
@@ -98,6 +101,38 @@ def select_link_model(Z, *, models=DEFAULT_CANDIDATES, obs: ObservationModel | N
     eligible = [m for k, m in cands.items() if k not in demoted] or list(cands.values())
     best = min(eligible, key=lambda m: m.bic_)
     return LinkSelection(best=best, candidates=cands, bic=bic, errors=errs, demoted=demoted)
+
+
+#: no articulated object a robot operates spans more than this, m (a track beyond it is
+#: almost surely not in metres, e.g. millimetres)
+MAX_TRACK_EXTENT_M = 50.0
+#: a track spanning more than this many times the assumed position noise is fitted against a
+#: noise model far below its resolution (every small deviation becomes an outlier)
+MAX_EXTENT_NOISE_RATIO = 1e5
+
+
+def track_scale_problem(Z, sigma_pos: float) -> str | None:
+    """Why the positions of the track ``Z`` ((n, 3) or (n, 7), m) cannot be fitted in a
+    meaningful way with the position noise ``sigma_pos`` (m), or None. A track that spans
+    more than :data:`MAX_TRACK_EXTENT_M` or more than :data:`MAX_EXTENT_NOISE_RATIO` times
+    ``sigma_pos`` (a door track scaled by 1e6 would otherwise be "fitted" as a 222 km
+    revolute with 99 % outliers)."""
+    P = np.asarray(Z, float)
+    if P.ndim != 2 or P.shape[1] < 3:
+        return None
+    P = P[np.all(np.isfinite(P[:, :3]), axis=1), :3]
+    if P.shape[0] < 2:
+        return None
+    extent = float(np.max(P.max(axis=0) - P.min(axis=0)))
+    if extent > MAX_TRACK_EXTENT_M:
+        return (f"the positions span {extent:.3g} m, more than any object a robot operates "
+                f"({MAX_TRACK_EXTENT_M:g} m): are they in metres?")
+    if sigma_pos > 0 and extent > MAX_EXTENT_NOISE_RATIO * sigma_pos:
+        return (f"the positions span {extent:.3g} m, {extent / sigma_pos:.3g} times the "
+                f"assumed position noise {sigma_pos:g} m (more than "
+                f"{MAX_EXTENT_NOISE_RATIO:g}): raise the noise (--sigma-pos) or check the "
+                "units")
+    return None
 
 
 def noise_range_threshold(n: int) -> float:

@@ -6,7 +6,7 @@ predicted by the GP conditioned on all the pair's other samples; alternatively a
 split, every ``test_every``-th sample): a model is valid when its median translational and rotational errors on the
 held-out samples are within ``n_sigma`` times the observation noise (``sigma_pos``,
 ``sigma_orient``). Its quality is ``q(M) = log p(D|M) - k log(eta |D|)`` (Eq. 3.11) with the
-data log-likelihood of Eq. 3.10 evaluated on the held-out predictions and scaled to |D|. The search
+data log-likelihood of Eq. 3.10 evaluated on the held-out predictions and scaled to ``|D|``. The search
 stops at the first layer whose valid models (of this and lower layers) contain a spanning tree
 over all *observed* parts and returns the minimum spanning tree on ``-q``.
 
@@ -56,7 +56,7 @@ class SearchConfig:
             z_ij (m). Valid: median held-out error <= n_sigma * sigma_pos.
         sigma_orient: same for the rotational error (rad).
         n_sigma: width of the validity test (3 in the thesis).
-        eta: factor of the complexity penalty k log(eta |D|) (> 0).
+        eta: factor of the complexity penalty ``k log(eta |D|)`` (> 0).
         test_every: every test_every-th sample of a pair is held out for the validity test.
         min_train, min_test: fewest training / held-out samples a pair needs to be judged.
         max_k: highest layer to evaluate (None: all action signals).

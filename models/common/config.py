@@ -34,7 +34,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["param", "validate_fields", "field_spec"]
+__all__ = ["param", "validate_fields", "field_spec", "validate_tree"]
 
 _KEY = "mmlearn"
 _NUMBER = (numbers.Real, np.integer, np.floating)
@@ -247,3 +247,56 @@ def validate_fields(obj):
             raise ValueError(f"{where} must not be None")
         _check_field(where, value, spec)
     return obj
+
+
+def validate_tree(obj, where: str = ""):
+    """Check a loaded configuration and every configuration nested in it: each dataclass's
+    own ``validate()`` when it has one, else :func:`validate_fields`; then any number left
+    NaN or infinite in a field not declared ``finite=False`` (a field without :func:`param`
+    too). Raises ``ValueError`` naming the dotted path of the field; returns ``obj``."""
+    if not dataclasses.is_dataclass(obj) or isinstance(obj, type):
+        return obj
+    try:
+        if callable(getattr(obj, "validate", None)):
+            obj.validate()
+        else:
+            validate_fields(obj)
+    except ValueError as e:
+        raise ValueError(f"{where}{e}" if not where else f"{where.rstrip('.')}: {e}") from None
+    for f in dataclasses.fields(obj):
+        value = getattr(obj, f.name)
+        key = f"{where}{f.name}"
+        spec = f.metadata.get(_KEY, {})
+        if dataclasses.is_dataclass(value) and not isinstance(value, type):
+            validate_tree(value, key + ".")
+            continue
+        if isinstance(value, (list, tuple)):
+            for i, x in enumerate(value):
+                if dataclasses.is_dataclass(x) and not isinstance(x, type):
+                    validate_tree(x, f"{key}[{i}].")
+        if spec.get("finite", True) is False:
+            continue
+        bad = _first_non_finite(value)
+        if bad is not None:
+            raise ValueError(f"{key}{bad} must be finite, got {_at(value, bad)!r}")
+    return obj
+
+
+def _first_non_finite(value, path: str = ""):
+    if isinstance(value, (bool, np.bool_, str)) or value is None:
+        return None
+    if isinstance(value, _NUMBER):
+        return None if math.isfinite(float(value)) else path
+    if isinstance(value, (list, tuple, np.ndarray)):
+        for i, x in enumerate(value):
+            r = _first_non_finite(x, f"{path}[{i}]")
+            if r is not None:
+                return r
+    return None
+
+
+def _at(value, path: str):
+    for part in path.strip("[]").split("]["):
+        if part:
+            value = value[int(part)]
+    return value

@@ -147,7 +147,7 @@ def incidence_cosine(depth, K: PinholeIntrinsics) -> np.ndarray:
 
     For P = z (a, b, 1) with a = (u - cx) / fx, b = (v - cy) / fy, the normal of the depth
     surface is n ~ (-fx z_u, -fy z_v, fx a z_u + fy b z_v + z) and n . (a, b, 1) = z, so
-    cos = z / (|n| |(a, b, 1)|) with central differences z_u, z_v. NaN where a neighbour has
+    ``cos = z / (|n| |(a, b, 1)|)`` with central differences z_u, z_v. NaN where a neighbour has
     no depth."""
     z = _check_image(depth, K)
     z = np.where(np.isfinite(z) & (z > 0), z, np.float32(np.nan))

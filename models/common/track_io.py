@@ -1,4 +1,4 @@
-"""Reading articulation track files (the format of shared/data/articulation_logs).
+"""Reading articulation track files (the format of the ROS articulation stack's logs, e.g. tests/data/articulation_logs).
 
 Format: whitespace-separated text, one observation per line, ``#`` starts a comment (whole
 line or trailing). Every data line has the same number of columns:

@@ -164,6 +164,19 @@ def _check_demos(demos) -> list[Demonstration]:
     return demos
 
 
+def _check_period(dt, demos) -> None:
+    """ImitationDataError unless ``dt`` (s) is None or a period shorter than every
+    demonstration (a longer one leaves a single slice: a meaningless model)."""
+    if dt is None:
+        return
+    if not (np.isfinite(dt) and dt > 0):
+        raise ImitationDataError(f"dt must be a positive period in seconds, got {dt!r}")
+    span = min(float(d.t[-1] - d.t[0]) for d in demos)
+    if dt >= span:
+        raise ImitationDataError(f"dt {dt:g} s is not shorter than the shortest demonstration "
+                                 f"({span:g} s): the model would have a single slice")
+
+
 def align_demonstrations(demos: Sequence[Demonstration], *, reference: int | None = None,
                          dt: float | None = None, window: float | None = None,
                          features: str = "both") -> list[Demonstration]:
@@ -206,6 +219,7 @@ def align_demonstrations(demos: Sequence[Demonstration], *, reference: int | Non
     if features not in ("derivative", "position", "both"):
         raise ImitationDataError(f"features must be 'derivative', 'position' or 'both', got {features!r}")
     demos = _check_demos(demos)
+    _check_period(dt, demos)
     common = set(demos[0].objects)
     for d in demos[1:]:
         common &= set(d.objects)
@@ -336,6 +350,7 @@ def learn_task(demos: Sequence[Demonstration], *, h: float = 0.2, dt: float | No
     if not (np.isfinite(min_var) and min_var > 0):
         raise ImitationDataError(f"min_var must be positive, got {min_var!r}")
     demos = _check_demos(demos)
+    _check_period(dt, demos)
     if align:
         with warnings.catch_warnings():
             if len(demos) == 1:
@@ -594,7 +609,7 @@ def reproduce_cartesian(model: TaskModel, x0, objects: dict, *, duration: float 
         duration: reproduction length, s (default: the model's duration); the model's time is
             scaled by ``model_duration / duration`` when they differ.
         dt: output period, s (default: the model's slice period).
-        damping, gain, obstacles, **step_kwargs: passed to :func:`constraint_step`.
+        damping, gain, obstacles, step_kwargs: passed to :func:`constraint_step`.
         extra_time: seconds appended after ``duration`` that keep stepping towards the last
             slice (e.g. to finish after a detour around an obstacle).
     Returns:

@@ -261,7 +261,7 @@ def start_frame(start, target=(0.0, 0.0), *, mode: str = "similarity",
     """The 2x2 matrix ``S`` of the *start frame* of a 2-D drawing: origin at ``target``. With
     ``mode="similarity"`` (default) ``S = |s| R(angle of s)``: x-axis pointing at ``start``, unit
     length = the start's distance ``|s| = |start - target|`` (mm); ``"scale"``: ``S = |s| I``
-    (world axes, unit |s|); ``"duration"``:
+    (world axes, unit ``|s|``); ``"duration"``:
     ``S = T R(angle of s)`` with ``T = duration`` (s) the drawing's duration, i.e. x-axis towards
     the start and frame coordinates in mm per second of drawing (a drawing's size in proportion
     to the time it takes). A point with frame coordinates ``u`` is at ``target + S u`` in the

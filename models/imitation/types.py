@@ -24,7 +24,7 @@ File formats (JSON, written atomically: temporary file + rename)
 ----------------------------------------------------------------
 Demonstrations (:func:`save_demonstrations` / :func:`load_demonstrations`)::
 
-    {"format": "mmlearn.demonstrations", "version": 1,
+    {"format": "mmlearn.demonstrations", "version": 2,   # 1: no checksum, still read
      "demonstrations": [
         {"t": [T floats, s],
          "hand": [[D floats, m] x T],            # null entries = NaN = marker unseen
@@ -36,7 +36,7 @@ Demonstrations (:func:`save_demonstrations` / :func:`load_demonstrations`)::
 
 Task model (:meth:`TaskModel.save` / :meth:`TaskModel.load`)::
 
-    {"format": "mmlearn.task_model", "version": 1,
+    {"format": "mmlearn.task_model", "version": 2,       # 1: no checksum, still read
      "t": [S floats, s], "constraints": ["obj:cup", "gripper", ...],
      "mean": {"obj:cup": [[d floats] x S], ...},
      "var":  {"obj:cup": [[d floats] x S] (diagonal) or [[[d x d]] x S] (full), ...},
@@ -64,7 +64,9 @@ __all__ = [
 
 DEMO_FORMAT = "mmlearn.demonstrations"
 MODEL_FORMAT = "mmlearn.task_model"
-VERSION = 1
+VERSION = 2
+READABLE_VERSIONS = (1, 2)  # 1: before the checksum (last key "checksum": "sha256:<hex>",
+#                              models/common/saved_doc.py): a truncated or edited file is an error
 
 
 class ImitationDataError(ValueError):
@@ -137,18 +139,26 @@ def _json_meta(name: str, meta) -> dict:
 
 
 def _read_json(path, fmt: str) -> dict:
+    from mmlearn.models.common.saved_doc import check_seal, read_document
+
     path = Path(path)
     if not path.is_file():
         raise ImitationDataError(f"{path}: file not found")
     try:
-        doc = json.loads(path.read_text())
-    except json.JSONDecodeError as e:
-        raise ImitationDataError(f"{path}: not valid JSON ({e})") from None
-    if not isinstance(doc, dict) or doc.get("format") != fmt:
-        got = doc.get("format") if isinstance(doc, dict) else type(doc).__name__
-        raise ImitationDataError(f"{path}: expected a JSON object with format {fmt!r}, got {got!r}")
-    if doc.get("version") != VERSION:
-        raise ImitationDataError(f"{path}: unsupported version {doc.get('version')!r} (expected {VERSION})")
+        doc = read_document(path, yaml_format=False)
+    except ValueError as e:
+        raise ImitationDataError(str(e)) from None
+    if doc.get("format") != fmt:
+        raise ImitationDataError(f"{path}: expected a JSON object with format {fmt!r}, "
+                                 f"got {doc.get('format')!r}")
+    version = doc.get("version")
+    if isinstance(version, bool) or version not in READABLE_VERSIONS:
+        raise ImitationDataError(f"{path}: unsupported version {version!r} (expected "
+                                 f"{' or '.join(map(str, READABLE_VERSIONS))})")
+    try:
+        check_seal(doc, required=version >= 2)
+    except ValueError as e:
+        raise ImitationDataError(f"{path}: {e}") from None
     return doc
 
 
@@ -287,7 +297,10 @@ def save_demonstrations(path, demos: list[Demonstration]) -> Path:
     """Validate and write ``demos`` to ``path`` as JSON (schema in the module docstring),
     atomically. Returns the path."""
     demos = validate_demonstrations(demos)
-    doc = {"format": DEMO_FORMAT, "version": VERSION, "demonstrations": [d.to_dict() for d in demos]}
+    from mmlearn.models.common.saved_doc import seal
+
+    doc = seal({"format": DEMO_FORMAT, "version": VERSION,
+                "demonstrations": [d.to_dict() for d in demos]})
     return atomic_write_text(path, json.dumps(doc, allow_nan=False))
 
 
@@ -395,7 +408,9 @@ class TaskModel:
     def save(self, path) -> Path:
         """Validate and write as JSON (schema in the module docstring), atomically."""
         self.validate()
-        return atomic_write_text(path, json.dumps(self.to_dict(), allow_nan=False))
+        from mmlearn.models.common.saved_doc import seal
+
+        return atomic_write_text(path, json.dumps(seal(self.to_dict()), allow_nan=False))
 
     @classmethod
     def load(cls, path) -> "TaskModel":
@@ -403,7 +418,8 @@ class TaskModel:
         file and the problem."""
         doc = _read_json(path, MODEL_FORMAT)
         try:
-            extra = set(doc) - {"format", "version", "t", "constraints", "mean", "var", "meta"}
+            extra = set(doc) - {"format", "version", "t", "constraints", "mean", "var", "meta",
+                                "checksum"}
             if extra:
                 raise ImitationDataError(f"unknown key(s) {sorted(extra)}")
             for k in ("mean", "var"):

@@ -1,4 +1,4 @@
-"""A temporal filter for depth images of a mostly static scene (issue 12).
+"""A temporal filter for depth images of a mostly static scene.
 
 Real depth pipelines average consecutive frames where the scene does not move (e.g. the
 RealSense SDK's temporal filter: a per-pixel running mean that restarts where a pixel's new

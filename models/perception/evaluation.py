@@ -42,7 +42,7 @@ def match_front(rectangles, X_true: np.ndarray, width: float, height: float, *,
 
     Returns:
         None or a dict with ``index`` (in ``rectangles``), ``pos_error_m``,
-        ``orient_error_deg``, ``size_error_m`` (max |width - true|, |height - true|, m),
+        ``orient_error_deg``, ``size_error_m`` (max ``|width - true|``, ``|height - true|``, m),
         ``width``, ``height`` (aligned, m).
     """
     X_true = np.asarray(X_true, float)

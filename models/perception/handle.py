@@ -1,5 +1,5 @@
-"""Where is the handle? From detected cabinet fronts to the handle the robot hooks (issue 12
-item 8; thesis 4.3 with the detector of 5.1).
+"""Where is the handle? From detected cabinet fronts to the handle the robot hooks
+(thesis 4.3 with the detector of 5.1).
 
 Plain numpy (no pydrake.systems): :func:`select_front` picks the detected rectangle that is
 the front to open, :func:`handle_from_front` derives the handle's centre from it and the depth

@@ -53,6 +53,12 @@ def icub_features(trials, *, contact_level, rest_velocity, steady_average):
     counts), ``rest_velocity`` (rad per slice) and ``steady_average`` as
     :func:`~mmlearn.models.tactile.state.extract_grasp_features`."""
     grasps = [t.to_grasp() for t in trials]
+    peaks = [float(np.max(g.finger_force)) for g in grasps if g.finger_force is not None
+             and g.finger_force.size]
+    if peaks and contact_level >= max(peaks):
+        raise TactileDataError(f"contact level {contact_level:g} counts is above the highest "
+                               f"finger pressure in any of the {len(grasps)} grasps "
+                               f"({max(peaks):g} counts): no grasp would make contact")
     X, feats = feature_matrix(grasps, contact_force=contact_level, rest_velocity=rest_velocity,
                               steady_average=steady_average)
     y = np.array([t.label for t in trials])
@@ -269,7 +275,7 @@ def strategy_trials(rec, train, test, objects, T, rng, *, strategy, Ltr=None, fr
     "informed" / "informed_entropy": each next grasp at the height with the largest expected
     information gain (Eq. 6.12-6.13, :meth:`TactileRecognizer.next_action`) among the heights
     where the object still has an unused test grasp, preferring heights not yet grasped
-    (``fresh=False``: no preference, the first version's rule); estimator "cross_entropy" /
+    (``fresh=False``: no preference); estimator "cross_entropy" /
     "entropy". ``Ltr``: the leave-one-out likelihoods of ``train`` (computed when None)."""
     L = np.log(np.maximum(rec.likelihood(test), 1e-300))
     cls = list(rec.classes)

@@ -12,7 +12,7 @@ sloshing inside gives pressure spikes at every reversal of the roll. Per trial:
    (n - 1 in the denominator); optionally the object's weight from the wrist force sensor is a
    second feature (Sec. 7.3.3).
 
-**Coast-phase feature (a deviation, issue 13).** The thesis takes the spread over the whole
+**Coast-phase feature (a deviation).** The thesis takes the spread over the whole
 roll. With a smooth roll the rigid response *during* each reversal (the couple of the
 container's rotational inertia, the leak of the weight shift) is as large as the liquid's
 ringing, so a rigid dummy of a half-full bottle's weight looks like a weak liquid. The robot

@@ -117,7 +117,7 @@ def integrate_pressure(layout: PadLayout, tri_P: np.ndarray, pressure: np.ndarra
         tri_P: (n, 3, 3) triangle vertices in the pad frame P, metres.
         pressure: (n, 3) pressure at each vertex, Pa (negative values count as 0; linear
             over the triangle).
-        max_gap: triangles whose centroid is farther than this from the pad plane (|z_P|,
+        max_gap: triangles whose centroid is farther than this from the pad plane (``|z_P|``,
             metres) are ignored (contact of another part of the finger).
 
     Returns:

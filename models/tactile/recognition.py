@@ -21,7 +21,7 @@ the finger), the grasp height h (m) and the finger distance w (m)
    medoid updates; numpy only) or ``"agglomerative"`` (scikit-learn's average-linkage
    clustering on the precomputed matrix, then the medoid of each cluster). ``"auto"`` uses
    kmedoids when it imports, else ``"medoids"``: average linkage spends medoids on outlying
-   single grasps (40 simulated grasps per class: 83.8 % against 88.0 % with kmedoids, README).
+   single grasps (40 simulated grasps per class: 83.8 % against 88.0 % with kmedoids).
    benchmarks/bench_tactile_recognition.py measures them.
 3. **Codebook** (Eq. 6.4): ``h_c,i = sum over the training z of class c of exp(-dist(mu_i, z) /
    l)``, normalised to sum 1 (``l``: length scale in the normalised distance; default
@@ -303,13 +303,14 @@ def k_medoids(D: np.ndarray, k: int, *, max_iter: int = 100) -> np.ndarray:
 class TactileRecognizer:
     """The learned vocabulary and codebook (fit with :meth:`fit`).
 
-    Attributes (after fitting):
+    Attributes:
+        (set by :meth:`fit`)
         config: the parameters.
         classes: (n,) class names, the order of every class axis.
         centres: the vocabulary, a TactileSet of the k medoid observations.
         codebook: (n, k) class histograms H (rows sum to 1).
-        s_tac, s_w: the normalising standard deviations of Eq. 6.3 (tactile: L1 units,
-            width: metres).
+        s_tac: the normalising standard deviation of Eq. 6.3 of the tactile part, L1 units.
+        s_w: the normalising standard deviation of Eq. 6.3 of the width, metres.
         length_scale: l used in Eq. 6.4.
         clustering_used: the clustering that ran ("kmedoids", "medoids" or "agglomerative").
     """

@@ -82,7 +82,7 @@ def extract_grasp_features(grasp: TactileGrasp, *, contact_force: float,
         grasp: the recorded grasp.
         contact_force: threshold F, in the unit of ``grasp.f`` / ``grasp.finger_force``
             (newtons for the simulated gripper); a finger is in contact when its force is > F.
-        rest_velocity: threshold V, in the unit of ``grasp.v`` (m/s); at rest when |v| < V.
+        rest_velocity: threshold V, in the unit of ``grasp.v`` (m/s); at rest when ``|v| < V``.
         min_fingers: how many fingers must be in contact (2 = "both fingers" of a gripper).
         steady_average: take p_steady and f_steady as the means over the steady phase (from
             t_steady while the fingers stay in contact; without contact: the trailing samples

@@ -8,7 +8,7 @@ _EXPORTS = {
     "epc_controller": ["EpcTask", "EpcConfig", "hook_rotation", "EpcController"],
     "epc_state": ["EpcState", "EpcInputs", "PHASE_NAMES"],
     "estimator": ["ArticulationEstimator", "ArticulationEstimatorState"],
-    "model_visualizer": ["legend_entries", "draw_legend", "LearnedModelVisualizer", "draw_link_model"],
+    "model_visualizer": ["legend_entries", "LearnedModelVisualizer", "draw_link_model"],
     "prior_selector": ["ShiftedLinkModel", "PriorModelSelector"],
 }
 
@@ -17,7 +17,6 @@ __all__ = [
     "ArticulationEstimatorState",
     "BaseLocalization",
     "BaseLocalizationConfig",
-    "draw_legend",
     "draw_link_model",
     "EpcConfig",
     "EpcController",

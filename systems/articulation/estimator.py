@@ -22,6 +22,24 @@ from mmlearn.systems.common.observations import MarkerObservations
 __all__ = ["ArticulationEstimator", "ArticulationEstimatorState"]
 
 
+def _checked_models(models) -> tuple:
+    """The candidate link model names as a tuple; ValueError naming an unknown one."""
+    from mmlearn.models.articulation.link import make_model
+
+    names = (models,) if isinstance(models, str) else models
+    try:
+        names = tuple(names)
+    except TypeError:
+        raise ValueError(f"models must be a list of link model names, got {models!r}") from None
+    if not names:
+        raise ValueError("models: give at least one link model name")
+    for n in names:
+        if not isinstance(n, str):
+            raise ValueError(f"models: expected link model names, got {n!r}")
+        make_model(n)  # raises ValueError("unknown link model ...; choose from ...")
+    return names
+
+
 @dataclass(frozen=True)
 class ArticulationEstimatorState:
     """Abstract state of the estimator (replaced, never mutated, on every update).
@@ -109,11 +127,19 @@ class ArticulationEstimator(LeafSystem):
         super().__init__()
         if mode not in ("markers", "pose"):
             raise ValueError(f"mode must be 'markers' or 'pose', got {mode!r}")
-        if not period > 0:
-            raise ValueError(f"period must be positive, got {period}")
+        if (not isinstance(period, (int, float, np.integer, np.floating))
+                or isinstance(period, bool) or not (np.isfinite(period) and period > 0)):
+            raise ValueError(f"period must be a finite number > 0 s, got {period!r}")
+        if not all(isinstance(v, (int, np.integer)) and not isinstance(v, bool)
+                   for v in (refit_every, min_observations, max_observations)):
+            raise ValueError("refit_every, min_observations and max_observations must be "
+                             "integers")
         if refit_every < 1 or min_observations < 3 or max_observations < min_observations:
             raise ValueError("need refit_every >= 1, min_observations >= 3 and "
                              "max_observations >= min_observations")
+        if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+            raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
+        models = _checked_models(models)
         self._mode = mode
         if mode == "markers":
             if part_ids is None or len(part_ids) < 2:
@@ -286,8 +312,11 @@ class ArticulationEstimator(LeafSystem):
             rng = np.random.default_rng(self._seed + total)
             try:
                 model = self._fit(poses, rng)
-            except Exception:  # noqa: BLE001 - never stop the simulation; keep the old model
+            except Exception as e:  # noqa: BLE001 - never stop the simulation; keep the old model
                 fails += 1
+                warnings.warn(f"ArticulationEstimator: the fit at observation {total} failed "
+                              f"({type(e).__name__}: {e}); keeping the previous model",
+                              RuntimeWarning, stacklevel=2)
             last = total
         new = ArticulationEstimatorState(poses, times, s.num_dropped, fails, model, last, total)
         state.get_mutable_abstract_state(self._state_index).set_value(new)

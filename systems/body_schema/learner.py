@@ -9,87 +9,43 @@ valid spanning tree exists, then test-then-train monitoring and model replacemen
 :func:`learn_sample` is that per-sample step without Drake (replays recorded data).
 
 When the structure search runs online (the thesis gives Algorithm 1 as a batch method and
-says nothing about when to run it; our choices, measured on the Drake 7-DOF arm with x4
-occluded, 10 babbling seeds, 50 samples each):
+says nothing about when to run it):
 
 * before a first complete tree, on the whole buffer at *every* sample from 6 samples on
-  (AdaptationConfig.relearn_every = 1; with every 5th sample a tree first found with 11
+  (``AdaptationConfig.relearn_every = 1``; with every 5th sample a tree first found with 11
   samples was only used at 15);
 * while the tree rests on 10-20 samples (``refit_every_until``), again at every sample on
-  all the samples it is consistent with -- including those the search found it from (it
-  used to count only the samples after the tree became valid, so a tree found with 10
-  samples was refined on the 10 *following* ones and lost the first 10); a structure
-  found on few samples is often wrong (a rigid finger or link whose joint barely moved
-  yet) and the next samples correct it; then at ``refit_at`` (20, 30, 40, 50, ...).
-  A refinement replaces the tree models instead of keeping them in the history, from
-  where a rigid model that passed on a few samples was recalled whenever its sliding
-  window happened to pass.
+  all the samples it is consistent with, including those the search found it from: a
+  structure found on few samples is often wrong (a rigid finger or link whose joint barely
+  moved yet) and the next samples correct it; then at ``refit_at`` (20, 30, 40, 50, ...).
+  A refinement replaces the tree models instead of keeping them in the history, from where a
+  rigid model that passed on a few samples would be recalled whenever its sliding window
+  happened to pass.
 
-Measured (``python -m mmlearn.apps.learn_body_schema --arm 7dof --occlude x4``, seeds
-1-10; before -> after): structure right within 12 samples in 6/10 -> 9/10 runs at
-sigma 0.01 m and 4/10 -> 9/10 at sigma 0.044 m; mean prediction error at 50 samples
-0.024 -> 0.013 m at sigma 0.01 (observation noise 0.009 m: *not* below it -- the GP of the
-k = 2 model x3-x5 on (q2, q3) that bridges the occluded part predicts with ~0.013 m error
-from ~40 noisy samples and every part beyond it inherits that) and 0.070 -> 0.036 m at
-sigma 0.044 (noise 0.041 m). Checked afterwards on fresh seeds 101-110: 5/10 -> 8/10
-(sigma 0.01; mean prediction error 0.027 -> 0.013 m) and 7/10 -> 9/10 (sigma 0.044; 0.057 ->
-0.036 m); seed 5502 at sigma 0.01: converged at 28 -> 11 samples, 0.025 -> 0.010 m. The
-misses: a gripper finger whose q7 has barely moved yet is judged rigid (with the app's
-noise-free marker orientations the rotation threshold is 3 x the 3 deg floor of
-``BodySchemaDiagramConfig.search_min_orient``; a lower floor would reject the bridge
-model on 10-12 samples instead), and a bridge model still invalid on 12 samples.
+With these rules the 7-DOF arm with x4 occluded (``learn_body_schema --arm 7dof --occlude
+x4``, 10 seeds) has the right structure within 12 samples in 9 of 10 runs at sigma 0.01 m
+and at 0.044 m. The misses: a gripper finger whose q7 has barely moved yet is judged rigid,
+and a bridge model still invalid on 12 samples.
 
-Prediction error (issue 10): the bridge GP x3-x5 had ended in a local optimum of the
-marginal likelihood that explains q3's effect on a translation output as noise (length
-scale at its bound, fitted noise 11-13 mm against ~8 mm per axis); on noise-free data the
-same model reaches 0.1 mm. The search's final fit of each k >= 2 tree model now adds
-per-output optimiser starts at 0.5 x the length scales and fits the hyper-parameters on
-all the pair's samples (``SearchConfig.refit_ell_starts``, ``refit_max_opt``; a deviation
-in the optimiser only, the model is the thesis's). Mean prediction error at 50 samples,
-sigma 0.01: 0.0134 -> 0.0100 m (seeds 1-10), 0.0130 -> 0.0107 m (101-110), 0.0104 ->
-0.0072 m (5502), observation noise 0.009 m: below it in 7 of 21 runs (before 0). The
-remainder: the bridge GP's error comes from test configurations far from its ~40 samples
-in (q2, q3) (error correlates 0.7-0.8 with the distance to the nearest sample; median
-9-11 mm, 90th percentile 30-40 mm in the worst seeds), where a squared-exponential GP
-reverts to its mean. Structure results unchanged (same convergence sample in all 21 runs
-at sigma 0.01 and seeds 1-10 at 0.044); ``body_schema_experiments --quick`` unchanged but
-the noise-free 7-DOF accuracy (5.88 -> 4.55 mm); the learner's share of the simulation
-(``benchmarks/bench_learner_cost.py --arm 7dof``) 38.1% -> 38.2%.
+Model fitting (deviations in the optimiser and the kernel; the model is the thesis'):
 
-Revolute kernel term and search cache (issues 10 and 11; ``SearchConfig.kernel``,
-``warm_start``, ``refit_growth``): the local GPs' kernel gets the term sb2 prod_d (1 +
-cos(q_d - q'_d)) (a deviation from the thesis' SE kernel; it spans the relative transforms
-of revolute chains, so the bridge x3-x5 no longer reverts to its mean away from its
-samples), and consecutive searches reuse each candidate's hyper-parameters (kept in the
-schema, i.e. in this system's state). Measured with the app's own samples (``--arm 7dof
---samples 50 --occlude x4``, seeds 1-10 / 101-110, before -> after): mean prediction error
-at 50 samples, sigma 0.01: 0.0100 -> 0.0091 m / 0.0155 -> 0.0086 m (observation noise
-0.0093 / 0.0092 m; below it in 3 -> 5 / 2 -> 7 runs); sigma 0.044: 0.0459 -> 0.0363 m /
-0.0577 -> 0.0349 m (noise 0.041 / 0.040 m). Structure right within 12 samples: sigma 0.01
-9/10 -> 9/10 and 8/10 -> 8/10, sigma 0.044 9/10 -> 9/10 and 8/10 -> 9/10. The learner's
-share of the simulation (``bench_learner_cost.py --arm 7dof``): 39.0% -> 22.4%.
+* The search's final fit of each k >= 2 tree model adds per-output optimiser starts at
+  0.5 x the length scales and fits the hyper-parameters on all the pair's samples
+  (``SearchConfig.refit_ell_starts``, ``refit_max_opt``): from a single start the GP that
+  bridges the occluded part (x3-x5 on (q2, q3)) ended in a local optimum that explains q3's
+  effect as noise (fitted noise 11-13 mm against ~8 mm per axis).
+* The local GPs' kernel has the term ``sb2 prod_d (1 + cos(q_d - q'_d))`` besides the
+  squared exponential (``SearchConfig.kernel``): it spans the relative transforms of
+  revolute chains, so the bridge GP no longer reverts to its mean away from its samples
+  (prediction error at 50 samples, sigma 0.01 m: 0.0155 -> 0.0086 m on 10 seeds).
+* Consecutive searches reuse each candidate's hyper-parameters (``warm_start``,
+  ``refit_growth``; kept in the schema, i.e. in this system's state).
 
-Learner cost (issue 11, target: the learner < 20% of the simulation's CPU time): the
-structure search's arithmetic, none of its decisions, was made cheaper: the k = 0 GPs get
-their marginal-likelihood optimum in closed form (``GaussianProcess._constant_optimum``), the
-screening of a layer runs once for all pairs (pairs on the same samples share the kernel
-inverse; one SO(3) projection, by the Newton polar iteration, for all predictions), the GP
-objective works on flattened stacks, a retry after a cold fit starts at that fit's optimum
-(its first L-BFGS-B run was a repeat), and nested BLAS limits are no-ops.
-``OPENBLAS_NUM_THREADS=1 python benchmarks/bench_learner_cost.py --arm 7dof``, before and
-after run side by side on the loaded 2-core machine (CPU seconds; two runs each):
-learner_share 0.217 / 0.217 -> 0.160 / 0.159 (learner 3.55 -> 2.43 s, of which structure
-re-searches 2.59 -> 1.68 s, simulation 16.5 -> 15.2 s); 4dof 0.084 -> 0.069, 2dof 0.055 ->
-0.052. Quality: the bench's prediction error 0.03154 -> 0.03151 m; ``--arm 7dof --occlude x4
---noise 0.01 --samples 50 --n-control 0``, seeds 101-110: mean prediction error 0.00863 ->
-0.00866 m, convergence samples identical (8/10 within 12). ``body_schema_experiments --quick``:
-the same numbers to 1e-6 but Table 3.2 in Drake; over seeds 0-11 of its Drake run at the
-quick sizes (``drake_control(n_learn=30, n_adapt=30, n_waypoints=4)``): positioning error
-intact / static 3.91 -> 4.16 mm, bent / adaptive 6.12 -> 5.83 mm, 7 seeds within 0.1 mm and
-differences of both signs in the others (seed 2 intact +1.9 mm, seed 5 adaptive -2.8 mm).
-Bisected on seed 2: the commits before the objective's rewrite reproduce it bit for bit,
-the rewrite (values and gradients equal to 2e-14) changes it: rounding-level changes of the
-optimiser's path that the closed loop amplifies, not a change of the model.
+Cost: the structure search's arithmetic (none of its decisions) is vectorised: the k = 0 GPs
+get their marginal-likelihood optimum in closed form, the screening of a layer runs once for
+all pairs, SO(3) projections use the Newton polar iteration. The learner takes 16 % of the
+7-DOF simulation's CPU time (``OPENBLAS_NUM_THREADS=1 python benchmarks/bench_learner_cost.py
+--arm 7dof``: ``learner_share``).
 """
 
 from __future__ import annotations

@@ -19,6 +19,7 @@ restarted simulation draws the same noise.
 
 
 import math
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -144,6 +145,18 @@ class MarkerSensor(LeafSystem):
 
     def __init__(self, *, plant, config: MarkerSensorConfig | None = None,
                  model_instance=None):
+        """Args:
+            plant: the finalized MultibodyPlant whose bodies carry the markers.
+            config: the sensor's settings (default ``MarkerSensorConfig()``).
+            model_instance: where ``config.bodies`` and their ``<body>_marker`` frames are
+                looked up; with ``config.bodies`` empty, every body of this instance that
+                has a ``<body>_marker`` frame is observed. Without a ``<body>_marker``
+                frame a body's marker is its body frame (for a door: on the hinge, where
+                it only turns in place: a radius near 0, or rigid); add one with
+                ``plant.AddFrame(FixedOffsetFrame("<body>_marker", ...))`` before
+                ``Finalize``. The marker ids of the observations are the body names.
+
+        Raises ValueError for a bad config or a body the plant does not have."""
         super().__init__()
         cfg = config or MarkerSensorConfig()
         cfg.validate()
@@ -215,6 +228,11 @@ class MarkerSensor(LeafSystem):
     def true_marker_poses(self, context) -> list[RigidTransform]:
         """Noise-free marker poses X_WM for the given context of this system."""
         X_WB = self._body_poses.Eval(context)
+        if len(X_WB) <= max(self._body_index, default=-1):
+            raise ValueError(f"MarkerSensor: body_poses holds {len(X_WB)} poses but marker "
+                             f"body {self._names[int(np.argmax(self._body_index))]!r} has "
+                             f"index {max(self._body_index)} (connect the plant's "
+                             "body_poses port)")
         return [X_WB[i] @ X for i, X in zip(self._body_index, self._X_BM)]
 
     def _visibility(self, poses, query) -> np.ndarray:
@@ -277,7 +295,10 @@ class MarkerSensor(LeafSystem):
             true_poses = self.true_marker_poses(context)
             query = self._query.Eval(context) if self._query.HasValue(context) else None
             visible = self._visibility(true_poses, query)
-        except (RuntimeError, ValueError, FloatingPointError):
+        except (RuntimeError, ValueError, FloatingPointError, IndexError, TypeError) as e:
+            # a bad observation never ends the simulation: this frame sees nothing
+            warnings.warn(f"MarkerSensor: frame {k} sees nothing ({e})", RuntimeWarning,
+                          stacklevel=2)
             true_poses = [RigidTransform()] * m
             visible = np.zeros(m, bool)
         noise_p = rng.normal(0.0, 1.0, (m, 3)) * cfg.sigma_pos

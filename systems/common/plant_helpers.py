@@ -55,7 +55,16 @@ class StateForceSystem(LeafSystem):
     """Base of the stateless systems that map the plant's full state (q, v) to generalized
     forces for its ``applied_generalized_force`` input: the ``state`` input and the
     ``generalized_force`` output (nv,), computed by the subclass' ``_calc(context, output)``
-    (declared in ``__init__`` by :meth:`_declare_state_force_ports`)."""
+    (declared in ``__init__`` by :meth:`_declare_state_force_ports`).
+
+    .. pydrake_system::
+
+        name: StateForceSystem
+        input_ports:
+        - state
+        output_ports:
+        - generalized_force
+    """
 
     def _declare_state_force_ports(self, num_positions: int, num_velocities: int) -> None:
         self._state = self.DeclareVectorInputPort("state", num_positions + num_velocities)

@@ -2,11 +2,12 @@
 task model and the reproduction.
 
 * :func:`draw_demonstrations`: the demonstrated hand paths as lines;
-* :func:`draw_task_model`: for every Cartesian constraint ``obj:<name>`` and every time
-  slice k, the hand position it asks for, ``x_obj - mu_k`` (in the world frame of the
-  reproduction's objects), as a small sphere, and its variance as an ellipsoid with
-  semi-axes ``n_sigma * sqrt(var_k)`` (diagonal variances; a full covariance is drawn by
-  its diagonal);
+* :func:`draw_task_model`: for every Cartesian constraint ``obj:<name>`` the hand positions
+  it asks for over the time slices, ``x_obj - mu_k`` (in the world frame of the
+  reproduction's objects), as a line, and at every ``every``-th slice its variance as a
+  translucent ellipsoid with semi-axes ``n_sigma * sqrt(var_k)`` (diagonal variances; a
+  full covariance is drawn by its diagonal), under ``<prefix>/<name>/ellipsoids``: one
+  group per object that Meshcat's controls can hide;
 * :class:`DbnVisualizer`: the reproduction's hand trail, one dot per step, live and in a
   Meshcat recording (each dot is made visible at its time in the recording).
 
@@ -22,9 +23,11 @@ from pydrake.geometry import Ellipsoid, Rgba, Sphere
 from pydrake.math import RigidTransform
 from pydrake.systems.framework import EventStatus, LeafSystem
 
-#: colour per constraint object (cycled)
+#: colour per constraint object (cycled); the ellipsoids are drawn with ``ELLIPSOID_ALPHA``
 PALETTE = [Rgba(0.9, 0.2, 0.2, 0.25), Rgba(0.2, 0.4, 0.95, 0.25), Rgba(0.2, 0.75, 0.3, 0.25),
            Rgba(0.85, 0.6, 0.1, 0.25), Rgba(0.6, 0.2, 0.8, 0.25)]
+#: opacity of the variance ellipsoids: the scene stays visible through them
+ELLIPSOID_ALPHA = 0.12
 
 
 def draw_demonstrations(meshcat, demos, *, prefix: str = "imitation/demonstrations",
@@ -46,9 +49,10 @@ def draw_demonstrations(meshcat, demos, *, prefix: str = "imitation/demonstratio
 def draw_task_model(meshcat, model, objects: dict[str, np.ndarray], *,
                     prefix: str = "imitation/model", n_sigma: float = 2.0,
                     every: int = 1, min_radius: float = 0.003) -> int:
-    """Draw the learned means (spheres) and variance ellipsoids of every Cartesian
-    constraint at every ``every``-th time slice, placed with the objects' world positions
-    ``objects`` (name -> (3,), m). Returns how many slices were drawn."""
+    """Draw the learned means (a line through the slices) and the variance ellipsoids of
+    every Cartesian constraint at every ``every``-th time slice (translucent, under
+    ``<prefix>/<object>/ellipsoids``), placed with the objects' world positions
+    ``objects`` (name -> (3,), m). Returns how many ellipsoids were drawn."""
     meshcat.Delete(prefix)
     count = 0
     for c_i, name in enumerate(c for c in model.constraints if c.startswith("obj:")):
@@ -60,13 +64,14 @@ def draw_task_model(meshcat, model, objects: dict[str, np.ndarray], *,
         var = np.asarray(model.var[name], float)
         if var.ndim == 3:
             var = np.diagonal(var, axis1=1, axis2=2)
-        col = PALETTE[c_i % len(PALETTE)]
-        solid = Rgba(col.r(), col.g(), col.b(), 0.9)
+        base = PALETTE[c_i % len(PALETTE)]
+        col = Rgba(base.r(), base.g(), base.b(), ELLIPSOID_ALPHA)
+        solid = Rgba(base.r(), base.g(), base.b(), 0.9)
         pts = x - mean
         meshcat.SetLine(f"{prefix}/{obj}/mean", np.ascontiguousarray(pts.T), 3.0, solid)
         for k in range(0, mean.shape[0], max(int(every), 1)):
             r = np.maximum(n_sigma * np.sqrt(np.maximum(var[k], 0.0)), min_radius)
-            path = f"{prefix}/{obj}/slice_{k:04d}"
+            path = f"{prefix}/{obj}/ellipsoids/slice_{k:04d}"
             meshcat.SetObject(path, Ellipsoid(*r), col)
             meshcat.SetTransform(path, RigidTransform(pts[k]))
             count += 1

@@ -8,7 +8,7 @@ _EXPORTS = {
     "front_detector": ["FrontDetector", "TIMING_NAMES"],
     "front_pose": ["TrueFrontPose"],
     "front_tracker": ["FrontTracker", "FrontTrackerConfig", "FrontTrackerState"],
-    "front_visualizer": ["FrontTrackVisualizer", "track_colour"],
+    "front_visualizer": ["FrontTrackVisualizer", "track_colour", "front_legend"],
     "point_cloud_filter": ["FinitePointCloud"],
 }
 
@@ -20,6 +20,7 @@ __all__ = [
     "FrontTrackerConfig",
     "FrontTrackerState",
     "FrontTrackVisualizer",
+    "front_legend",
     "TIMING_NAMES",
     "track_colour",
     "TrueFrontPose",

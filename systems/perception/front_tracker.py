@@ -50,7 +50,7 @@ from mmlearn.models.perception.tracking import (FRONT_SIGMA_POS_M, FrontTracking
 __all__ = ["FrontTracker", "FrontTrackerConfig", "FrontTrackerState"]
 
 #: orientation noise of the FrontDetector's rectangles, deg: at least the mean rotation error
-#: of the found front at every distance of the issue's range (10 runs per distance, seeds
+#: of the found front at every distance of the experiments' range (10 runs per distance, seeds
 #: 1000-1009: door 0.23-0.64 deg at 0.8-2.8 m, drawer 0.08-1.49 deg at 0.8-2.3 m; 3.4 deg at
 #: 2.8 m). The 3 deg of the real PR2 tracks (FRONT_SIGMA_ORIENT_RAD) overstated it 2-13 times,
 #: so a door seen opening by 20 deg only (0.8 m away, then out of view) stayed within what the

@@ -13,9 +13,9 @@ from mmlearn.models.perception.tracking import as_rectangle
 
 from mmlearn.systems.articulation.model_visualizer import draw_link_model
 
-__all__ = ["FrontTrackVisualizer", "track_colour"]
+__all__ = ["FrontTrackVisualizer", "front_legend", "track_colour"]
 
-_DETECTION = Rgba(0.85, 0.85, 0.85, 1.0)
+_DETECTION = Rgba(0.45, 0.45, 0.45, 1.0)
 _PALETTE = [(0.1, 0.7, 0.2), (1.0, 0.6, 0.0), (0.6, 0.2, 0.9), (0.0, 0.7, 0.8),
             (0.9, 0.2, 0.5), (0.5, 0.5, 0.1)]
 
@@ -156,3 +156,53 @@ class FrontTrackVisualizer(LeafSystem):
             m = models.get(t.track_id) if isinstance(models, dict) else None
             if m is not None:
                 draw_link_model(mc, f"{path}/model", m.model)
+
+
+def front_legend(object_name: str, moving_track_id, tracks, models, *,
+                 point_cloud: bool = True) -> tuple[str, list]:
+    """The legend of a front-perception recording (``draw_legend``'s title and rows): what
+    ``FrontTrackVisualizer`` draws, in its colours, with the learned model of the moving
+    front's track (``moving_track_id``; None when no track matched the front) and its
+    numbers, the other tracks' models counted by kind, and the depth camera and its cloud
+    (drawn by the perception diagram). ``tracks``, ``models``: the FrontTracker's outputs at
+    the end of the run."""
+    from mmlearn.systems.articulation.model_visualizer import _AXIS, _FAINT, _RANGE
+
+    by_id = {t.track_id: t for t in tracks if hasattr(t, "track_id")}
+    rows = []
+    m = models.get(moving_track_id) if moving_track_id is not None else None
+    link = getattr(m, "model", None)
+    if moving_track_id is not None and moving_track_id in by_id:
+        t = by_id[moving_track_id]
+        what = "no model yet" if link is None else f"learned {link.name}"
+        if link is not None and link.name == "revolute":
+            what += f", radius {float(link.radius):.2f} m"
+        rows.append((track_colour(moving_track_id), "line",
+                     f"moving {object_name}'s track {moving_track_id} ({t.n} detections): "
+                     f"{what}"))
+        if link is not None and link.name == "revolute":
+            span = math.degrees(float(link.q_max[0] - link.q_min[0]))
+            rows += [(_AXIS, "line", "  its learned rotation axis"),
+                     (_RANGE, "line", f"  span of its track on the model ({span:.0f} deg)")]
+        elif link is not None and link.name == "prismatic":
+            span = float(link.q_max[0] - link.q_min[0])
+            rows += [(_FAINT, "thin", "  its learned prismatic axis"),
+                     (_RANGE, "line", f"  span of its track on the model ({span:.2f} m)")]
+    else:
+        rows.append((None, "", f"the moving {object_name} was not tracked"))
+    others = [k for k in by_id if k != moving_track_id]
+    kinds: dict[str, int] = {}
+    for k in others:
+        name = getattr(getattr(models.get(k), "model", None), "name", "no model")
+        kinds[name] = kinds.get(name, 0) + 1
+    if others:
+        counts = ", ".join(f"{n} {kind}" for kind, n in sorted(kinds.items()))
+        rows.append((track_colour(others[0]), "thin",
+                     f"{len(others)} other tracks (one colour each; learned: {counts})"))
+    if kinds.get("rigid"):
+        rows.append((_RANGE, "dot", "  fixed position of a track learned rigid"))
+    rows += [(_DETECTION, "thin", "rectangles detected in the frame shown"),
+             (Rgba(0.1, 0.1, 0.8, 1.0), "thin", "depth camera (black box) and its view")]
+    if point_cloud:
+        rows.append((Rgba(0.7, 0.7, 0.7, 1.0), "dots", "noisy depth points of that frame"))
+    return "Front perception: detections, tracks, learned models", rows

@@ -67,6 +67,11 @@ def surface_triangles(surface) -> tuple[np.ndarray, np.ndarray]:
     return V[F], p[F]
 
 
+def _real(x) -> bool:
+    """A real number (not a bool, a string or None)."""
+    return isinstance(x, (int, float, np.integer, np.floating)) and not isinstance(x, bool)
+
+
 class TactileSensor(LeafSystem):
     """Taxel pads on the fingers, sampled at ``rate_hz`` from hydroelastic contact.
 
@@ -97,10 +102,12 @@ class TactileSensor(LeafSystem):
         pads = tuple(pads)
         if not pads:
             raise ValueError("TactileSensor: no pads")
-        if not (np.isfinite(rate_hz) and rate_hz > 0):
-            raise ValueError(f"TactileSensor: rate_hz must be > 0, got {rate_hz}")
-        if not (np.isfinite(noise) and noise >= 0):
-            raise ValueError(f"TactileSensor: noise must be >= 0, got {noise}")
+        if not (_real(rate_hz) and np.isfinite(rate_hz) and rate_hz > 0):
+            raise ValueError(f"TactileSensor: rate_hz must be a finite number > 0, got {rate_hz!r}")
+        if not (_real(noise) and np.isfinite(noise) and noise >= 0):
+            raise ValueError(f"TactileSensor: noise must be a finite number >= 0, got {noise!r}")
+        if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+            raise ValueError(f"TactileSensor: seed must be an integer >= 0, got {seed!r}")
         self._pads = pads
         self._rate, self._noise, self._seed = rate_hz, noise, int(seed)
         self._sizes = [p.layout.rows * p.layout.cols for p in pads]

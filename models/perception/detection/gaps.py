@@ -8,6 +8,7 @@ a lowered threshold (:func:`_gap_mask`)."""
 import math
 
 import cv2
+import numba
 import numpy as np
 
 _SUB = 4  # the line means are smooth along a line: one per 4 pixels along it suffices
@@ -156,100 +157,108 @@ def _window_means(A, N, V, nb, cfg):
     return m, ~meas, side_ok, V
 
 
-def _offset_candidates(m, unmeas, side_ok, gd, offsets):
-    """Per offset o, the lines behind the mean of the lines o away on both sides by more than
-    ``gd`` or unmeasured, with both side lines usable: (flat index, side mean, behind by,
-    offset), concatenated over the offsets (None when there are none)."""
+#: whether an unmeasured band counts its offsets in image pixels in a rectified view
+#: (:func:`_line_hits`; off only to show what it does)
+_STRETCH_ACROSS = True
+
+
+@numba.njit(cache=True, nogil=True)
+def _stretch_at(Hi, r, c, sub, horizontal, across):
+    """View pixels per image pixel across the lines (``across``; else along them; >= 1: never
+    less than on the image) at the line-mean element (row ``r``, column ``c``) of
+    :func:`_gap_mask`'s line-mean array (rows across the lines, one column per ``sub`` pixels
+    along them) of a rectified view whose pixels map to the image by the homography ``Hi``
+    (float32)."""
+    b = c * sub + 0.5 * (sub - 1)
+    x, y = (b, float(r)) if horizontal else (float(r), b)
+    p0 = Hi[0, 0] * x + Hi[0, 1] * y + Hi[0, 2]
+    p1 = Hi[1, 0] * x + Hi[1, 1] * y + Hi[1, 2]
+    p2 = Hi[2, 0] * x + Hi[2, 1] * y + Hi[2, 2]
+    k = (1 if horizontal else 0) if across else (0 if horizontal else 1)
+    du = (Hi[0, k] * p2 - p0 * Hi[2, k]) / (p2 * p2)
+    dv = (Hi[1, k] * p2 - p1 * Hi[2, k]) / (p2 * p2)
+    return np.float32(max(1.0, 1.0 / max(math.hypot(du, dv), 1e-9)))
+
+
+@numba.njit(cache=True, nogil=True)
+def _line_hits_kernel(m, unmeas, side_ok, V, Hi, gd, gdz, tol_m2, near_z, offsets, horizontal,
+                      has_v, has_h, stretch_across, g, zg):
+    """The tests of :func:`_line_hits`, element by element in float32 (the same operations in
+    the same order as on arrays), offset after offset; writes ``g`` and ``zg``."""
     n_rows, Wm = m.shape
-    ref_buf, beh_buf = np.empty_like(m), np.empty_like(m)
-    cand_buf = np.empty(m.shape, bool)
-    c_ic, c_ref, c_beh, c_o = [], [], [], []
+    half = np.float32(0.5)
+    tmin = np.float32(0.01)
+    cand = np.empty(Wm, np.bool_)
     for o in offsets:
-        o = int(o)
         if n_rows <= 4 * o:
             continue
-        # lines y - 2o, y - o | y | y + o, y + 2o for y in [2o, n_rows - 2o)
-        r = slice(2 * o, n_rows - 2 * o)
-        c = m[r]
-        up, dn = m[o:n_rows - 3 * o], m[3 * o:n_rows - o]
-        nr = n_rows - 4 * o  # (in buffers allocated once per pass: the same values)
-        ref = np.add(up, dn, out=ref_buf[:nr])
-        ref *= np.float32(0.5)
-        behind = np.subtract(c, ref, out=beh_buf[:nr])
-        # the selective test first on every line, the other tests only on its few candidates
-        with np.errstate(invalid="ignore"):
-            cand = np.greater(behind, gd, out=cand_buf[:nr])
-        cand |= unmeas[r]
-        # the side lines well measured and not bent (lines without return inside a region
-        # of drop-outs have no measured sides)
-        cand &= side_ok[o:n_rows - 3 * o]
-        cand &= side_ok[3 * o:n_rows - o]
-        idx = np.flatnonzero(cand)
-        if not len(idx):
-            continue
-        c_ic.append(idx + (2 * o) * Wm)  # flat index of the line in m
-        c_ref.append(ref.reshape(-1)[idx])
-        c_beh.append(behind.reshape(-1)[idx])
-        c_o.append(np.full(len(idx), o, np.int64))
-    if not c_ic:
-        return None
-    return tuple(np.concatenate(x) for x in (c_ic, c_ref, c_beh, c_o))
+        of = np.float32(o - 2)
+        for r in range(2 * o, n_rows - 2 * o):
+            # the first tests on the whole row without branches (vectorised by the compiler)
+            mu, md, mc = m[r - o], m[r + o], m[r]
+            su, sd, un = side_ok[r - o], side_ok[r + o], unmeas[r]
+            for c in range(Wm):
+                cand[c] = su[c] & sd[c] & ((mc[c] - (mu[c] + md[c]) * half > gd) | un[c])
+            for c in range(Wm):
+                if not cand[c]:
+                    continue
+                up, dn, cv = mu[c], md[c], mc[c]
+                ref = (up + dn) * half
+                behind = cv - ref
+                unm = un[c]
+                z2 = ref * ref
+                t = gdz * z2
+                if has_v:
+                    t = t * V[r, c]
+                thr = max(gd, t)
+                if has_h:
+                    thr = thr * np.sqrt(_stretch_at(Hi, r, c, _SUB, horizontal, False))
+                if not (behind > thr or unm):
+                    continue
+                tol = max(tmin, tol_m2 * z2)
+                if not abs(up - dn) < tol:
+                    continue
+                ext = (up + dn) - half * (m[r - 2 * o, c] + m[r + 2 * o, c])
+                if not (cv - ext > half * thr or unm):
+                    continue
+                if has_h and unm:
+                    sv = _stretch_at(Hi, r, c, _SUB, horizontal, True) if stretch_across \
+                        else np.float32(1.0)
+                    # (as numpy: 5 s in float32, compared with the integer o in float64)
+                    near = (o <= float(np.float32(5.0) * sv)) or (
+                        float(ref) * (o - 2.0 * float(sv)) < float(near_z))
+                else:
+                    near = o <= 5 or ref * of < near_z
+                if near:
+                    g[r, c] = True
+                    zg[r, c] = ref
 
 
 def _line_hits(m, unmeas, side_ok, V, gd, gdz, fx, cfg, horizontal, to_image):
     """The reveal lines among the window means ``m`` (rows across the lines): (hit, depth of
-    the side lines where hit), both as ``m``. The offsets' candidates are tested together
-    (element-wise the same float32 arithmetic as one offset at a time)."""
+    the side lines where hit), both as ``m``.
+
+    Per offset o (``gap_offsets_px``) and line: both side lines o away usable (``side_ok``),
+    the line behind their mean by more than thr = max(gd, gdz z^2 (V)) or unmeasured (in a
+    rectified view the threshold times sqrt of the view's stretch along the line: a window's
+    mean holds 1 / s of the independent samples it has on the image), the sides agreeing
+    within max(0.01, gap_side_tolerance_per_m2 z^2), behind the sides' extrapolations (each
+    side's two lines extended to the line) by thr / 2 or unmeasured (a concave crease, an
+    opened door meeting the cabinet's face at its hinge, lies behind the mean of its sides,
+    not behind their extensions), and for o > 5 only near (a 5 mm reveal's band without
+    return is ~2 + f 0.01 / z px; in a rectified view, for a line without return, its image
+    px count s >= 1 view px each: o <= 5 s or z (o - 2 s) < 0.01 f). A line hit at several
+    offsets keeps the depth of its last one. A compiled loop (:func:`_line_hits_kernel`):
+    most lines fail the first tests, which numpy evaluated on whole arrays."""
     g = np.zeros(m.shape, bool)
     zg = np.zeros(m.shape, np.float32)  # depth of the side lines where hit
-    cands = _offset_candidates(m, unmeas, side_ok, gd, cfg.gap_offsets_px)
-    if cands is None:
-        return g, zg
-    Wm = m.shape[1]
-    mf = m.reshape(-1)
-    ic, refv, behv, ov = cands
-    # behind by more than thr (the candidates are behind by gap_depth), or unmeasured
-    z2v = refv * refv
-    thrv = np.maximum(gd, gdz * z2v * (V.reshape(-1)[ic] if V is not None else 1.0))
-    if to_image is not None:
-        # a rectified view interpolates each image pixel over s >= 1 view pixels along the
-        # line: a window's mean holds 1 / s of the independent samples it has on the image,
-        # its noise sqrt(s) times larger
-        thrv = thrv * np.sqrt(_view_stretch(to_image, ic, Wm, _SUB, horizontal, across=False))
-    unm = unmeas.reshape(-1)[ic]
-    with np.errstate(invalid="ignore"):
-        keep = np.flatnonzero((behv > thrv) | unm)
-    ic, ov = ic[keep], ov[keep]
-    refv, z2v, thrv, unm = refv[keep], z2v[keep], thrv[keep], unm[keep]
-    oW = ov * Wm
-    ou = ic - oW         # side lines o and 2 o away
-    od = ic + oW
-    upv, dnv, cv = mf[ou], mf[od], mf[ic]
-    tolv = np.maximum(np.float32(0.01), np.float32(cfg.gap_side_tolerance_per_m2) * z2v)
-    with np.errstate(invalid="ignore"):
-        hit = np.abs(upv - dnv) < tolv  # False where either side is NaN
-        # behind the sides' extrapolations too (each side's two lines extended to the line):
-        # a concave crease (an opened door meeting the cabinet's face at its hinge) lies
-        # behind the mean of its sides, not behind their extensions
-        ext = upv + dnv - np.float32(0.5) * (mf[ou - oW] + mf[od + oW])
-        hit &= (cv - ext > np.float32(0.5) * thrv) | unm
-        # only near for o > 5: a 5 mm reveal's band without return is ~2 + f 0.01 / z px (in
-        # a rectified view, for a line without return: its image px count s >= 1 view px
-        # each, o <= 5 s or 2 s + f 0.01 / z)
-        near = (ov <= 5) | (refv * (ov - 2).astype(np.float32) < np.float32(0.01 * fx))
-        if to_image is not None and unm.any():
-            sv = _view_stretch(to_image, ic[unm], Wm, _SUB, horizontal)
-            o_u, z_u = ov[unm], refv[unm]
-            near[unm] = (o_u <= 5 * sv) | (z_u * (o_u - 2 * sv) < np.float32(0.01 * fx))
-        hit &= near
-    ih, zh = ic[hit], refv[hit]
-    g.reshape(-1)[ih] = True
-    # a line hit at several offsets keeps the depth of its last one (offset by offset, in
-    # order: each offset's lines are distinct)
-    cut = [0, *(np.flatnonzero(np.diff(ov[hit])) + 1).tolist(), len(ih)]
-    zgf = zg.reshape(-1)
-    for a, b in zip(cut[:-1], cut[1:]):
-        zgf[ih[a:b]] = zh[a:b]
+    dummy = np.zeros((1, 1), np.float32)
+    _line_hits_kernel(
+        m, unmeas, side_ok, dummy if V is None else V,
+        np.eye(3) if to_image is None else np.asarray(to_image, np.float64),
+        np.float32(gd), np.float32(gdz), np.float32(cfg.gap_side_tolerance_per_m2),
+        np.float32(0.01 * fx), np.asarray(cfg.gap_offsets_px, np.int64), bool(horizontal),
+        V is not None, to_image is not None, _STRETCH_ACROSS, g, zg)
     return g, zg
 
 
@@ -286,21 +295,3 @@ def _long_runs(g, zg, fx, cfg, min_px_floor=None):
     g = np.zeros(g.shape, bool)
     g.reshape(-1)[on] = keep[lab.reshape(-1)[on]]
     return g
-
-
-def _view_stretch(to_image, ic, Wm, sub, horizontal, across=True):
-    """View pixels per image pixel across the lines (``across``; else along them; >= 1: never
-    less than on the image) at
-    the line pixels ``ic`` (flat indices into :func:`_gap_mask`'s line-mean array: rows across
-    the lines, one column per ``sub`` pixels along them) of a rectified view whose pixels map
-    to the image by the homography ``to_image``."""
-    a, b = np.divmod(ic, Wm)
-    b = b * sub + 0.5 * (sub - 1)
-    x, y = (b, a) if horizontal else (a, b)
-    Hi = to_image
-    p = Hi[:, 0:1] * x + Hi[:, 1:2] * y + Hi[:, 2:3]  # (3, n)
-    # across the lines: view y for rows, view x for columns; along them the other one
-    k = (1 if horizontal else 0) if across else (0 if horizontal else 1)
-    du = (Hi[0, k] * p[2] - p[0] * Hi[2, k]) / (p[2] * p[2])
-    dv = (Hi[1, k] * p[2] - p[1] * Hi[2, k]) / (p[2] * p[2])
-    return np.maximum(1.0, 1.0 / np.maximum(np.hypot(du, dv), 1e-9)).astype(np.float32)

@@ -1,0 +1,133 @@
+"""The Sphinx documentation: it builds without a warning and documents every system."""
+
+import importlib.util
+import inspect
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import yaml
+
+ROOT = Path(__file__).resolve().parents[1]
+DOCS = ROOT / "docs"
+
+
+def _ext():
+    spec = importlib.util.spec_from_file_location("mmlearn_docs", DOCS / "_ext" / "mmlearn_docs.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def _system_blocks():
+    """(class name, YAML text) of every ``.. pydrake_system::`` block in systems/."""
+    import mmlearn.systems as systems
+    out = []
+    for name in systems.__all__:
+        obj = getattr(systems, name)
+        doc = inspect.getdoc(obj) or "" if inspect.isclass(obj) else ""
+        m = re.search(r"\.\. pydrake_system::\n\n((?:[ \t]+.*\n?|\n)+)", doc)
+        if m:
+            out.append((name, inspect.cleandoc(m.group(1))))
+    return out
+
+
+def test_every_leaf_system_documents_its_ports():
+    from pydrake.systems.framework import LeafSystem
+    import mmlearn.systems as systems
+    leaf = {n for n in systems.__all__
+            if inspect.isclass(getattr(systems, n)) and issubclass(getattr(systems, n), LeafSystem)}
+    blocks = dict(_system_blocks())
+    assert leaf and leaf <= set(blocks), sorted(leaf - set(blocks))
+    ext = _ext()
+    for name, text in blocks.items():
+        spec = yaml.safe_load(text)
+        assert spec["name"] == name
+        drawing = ext.port_diagram(spec["name"], spec.get("input_ports") or [],
+                                   spec.get("output_ports") or [])
+        for port in (spec.get("input_ports") or []) + (spec.get("output_ports") or []):
+            assert str(port) in drawing
+
+
+def test_port_diagram_puts_inputs_left_and_outputs_right():
+    drawing = _ext().port_diagram("Sensor", ["a", "bb"], ["out"]).splitlines()
+    assert drawing[1].index("a ->") < drawing[1].index("Sensor") < drawing[1].index("-> out")
+    assert drawing[2].strip().startswith("bb ->") and "->" not in drawing[2].split("|")[-1]
+
+
+@pytest.mark.slow
+def test_docs_build_without_warnings_and_list_every_system(tmp_path):
+    pytest.importorskip("sphinx")
+    pytest.importorskip("myst_parser")
+    out = tmp_path / "html"
+    r = subprocess.run([sys.executable, "-m", "sphinx", "-W", "-q", "-b", "html", str(DOCS),
+                        str(out)], capture_output=True, text=True, timeout=900, cwd=ROOT)
+    assert r.returncode == 0, r.stderr[-3000:]
+    import mmlearn.systems as systems
+    html = (out / "api" / "systems.html").read_text()
+    documented = set(re.findall(r'id="mmlearn\.systems\.\w+\.(\w+)"', html))
+    classes = [n for n in systems.__all__ if inspect.isclass(getattr(systems, n))]
+    assert classes and not [n for n in classes if n not in documented]
+    assert html.count("pydrake-system") >= 20
+    for page in ("getting_started", "conventions", "sweeps", "data_formats", "articulation",
+                 "body_schema", "perception", "tactile", "imitation"):
+        assert (out / f"{page}.html").is_file(), page
+
+
+def test_results_tables_are_generated_from_the_results_files():
+    """The committed tables are exactly what docs/make_tables.py makes of docs/results/."""
+    spec = importlib.util.spec_from_file_location("make_tables", DOCS / "make_tables.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    assert mod.main(["--check"]) == 0, "run: python docs/make_tables.py"
+    for page in mod.PAGES:
+        text = (DOCS / f"{page}.md").read_text()
+        assert f"results/tables/{page}.md" in text, page
+
+
+
+def test_a_changed_results_file_makes_the_tables_stale(tmp_path, monkeypatch):
+    import json
+    import shutil
+    spec = importlib.util.spec_from_file_location("make_tables", DOCS / "make_tables.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    results = tmp_path / "results"
+    shutil.copytree(DOCS / "results", results)
+    monkeypatch.setattr(mod, "RESULTS", results)
+    monkeypatch.setattr(mod, "TABLES", results / "tables")
+    assert mod.main(["--check"]) == 0
+    lasa = json.loads((results / "lasa.json").read_text())
+    lasa["shapes"][0]["rmse_mm"] += 1.0
+    (results / "lasa.json").write_text(json.dumps(lasa))
+    assert mod.main(["--check"]) == 1
+    assert mod.main([]) == 0 and mod.main(["--check"]) == 0
+
+
+def test_articulation_page_model_snippet_runs(capsys):
+    """The articulation page's model example (no diagram) runs and finds the door revolute."""
+    text = (DOCS / "articulation.md").read_text()
+    code = re.search(r"## Model API.*?```python\n(.*?)```", text, re.S).group(1)
+    ns: dict = {}
+    exec(compile(code, "articulation.md", "exec"), ns)
+    assert ns["sel"].selected == "revolute"
+    assert abs(ns["sel"].best.summary()["params"]["radius_m"] - 0.4) < 0.03
+    assert ns["obj"].summary()["edges"][0]["model"] == "revolute"
+
+
+@pytest.mark.slow
+def test_articulation_page_system_snippet_learns_the_door(tmp_path):
+    """The articulation page's MarkerSensor + ArticulationEstimator program, as a user runs it."""
+    text = (DOCS / "articulation.md").read_text()
+    code = re.search(r"## Systems.*?```python\n(.*?)```", text, re.S).group(1)
+    script = tmp_path / "door.py"
+    script.write_text(code.replace("print(model.summary())", "print(repr(model.summary()))"))
+    r = subprocess.run([sys.executable, str(script)], cwd=tmp_path, capture_output=True,
+                       text=True, timeout=600)
+    assert r.returncode == 0, r.stderr[-2000:]
+    summary = eval(r.stdout.strip().splitlines()[-1], {"inf": float("inf")})
+    edge = summary["edges"][0]
+    assert edge["model"] == "revolute"
+    assert abs(edge["params"]["radius_m"] - 0.34) < 0.05
