@@ -32,6 +32,7 @@ from mmlearn.apps.common import experiment
 from mmlearn.apps.common.cli import check_out_dir, name_list, pos_int, save_figure
 from mmlearn.apps.common.experiment import Experiment
 from mmlearn.apps.common.sweep import TrialSpec, run_sweep
+from mmlearn.diagrams.imitation.teaching import teaching_trial
 from mmlearn.diagrams.imitation.trials import reproduction_plan, reproduction_trial
 from mmlearn.models.imitation.evaluation import condition_table
 
@@ -59,8 +60,6 @@ def conditions(experiments) -> list[tuple]:
             out += [("u_obstacle incremental", {"task": "u_obstacle"}),
                     ("u_obstacle global", {"task": "u_obstacle", "global_mode": True})]
         elif e == "teaching":
-            from mmlearn.diagrams.imitation.teaching import teaching_trial
-
             out += [(f"pick_place {n} demo{'s' if n > 1 else ''}, swapped tables",
                      {"task": "pick_place", "demos": n, "swap_tables": True}) for n in (1, 2, 3, 4)]
             out.append(("pick_place interactive, swapped tables",
@@ -165,7 +164,7 @@ class ImitationExperiments(Experiment):
     """The command line (:mod:`mmlearn.apps.common.experiment`)."""
 
     name = "imitation_experiments"
-    trials = (reproduction_trial,)
+    trials = (reproduction_trial, teaching_trial)
     description = ("Thesis 8.2's imitation experiments over many seeds, with plots. Exit status: "
                    "0 all trials ran, 1 a trial raised, 2 bad input.")
     seed_default = 100

@@ -126,7 +126,9 @@ def teach_interactively(*, task: str = "pick_place", seed: int = 0, max_demos: i
             "seconds": time.perf_counter() - t0}
 
 
-@register_trial("imitation.teach")
+@register_trial("imitation.teach",
+                record={"task": str, "success": bool, "demos_used": int, "rounds": list,
+                        "asked_before_failing": int})
 def teaching_trial(*, seed: int, task: str = "pick_place", max_demos: int = 6,
                    swap_tables: bool = False, board_scale: float = 1.0,
                    global_mode: bool = False, stop_when_unsure: bool = True,
