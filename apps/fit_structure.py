@@ -5,6 +5,7 @@ Usage::
     python -m mmlearn.apps.fit_structure FILE [--search tree|local|exhaustive]
         [--reduce-dofs] [--models rigid,prismatic,revolute,gp] [--sigma-pos M]
         [--sigma-orient RAD] [--seed N] [--json] [--plot OUT.png]
+        [--furniture-prior] [--roles NAME=ROLE,...]
 
 FILE is CSV with the header ``t,part,x,y,z,qx,qy,qz,qw`` (t in seconds, position in metres,
 unit quaternion; one row per observed part per time step, a missing row = not observed).
@@ -16,6 +17,12 @@ unit quaternion; one row per observed part per time step, a missing row = not ob
 
 ``bic`` is the global BIC of the selected graph (Eq. 4.54 with the DOF penalty, evaluated on
 the time steps where every part is observed); an edge's ``bic`` is its link model's BIC.
+``--furniture-prior`` adds the furniture prior
+(:class:`mmlearn.models.articulation.structure_prior.StructurePrior`: fronts hang on the
+carcass, not on each other or on the floor) to the search; the JSON then also has
+``prior_cost``, ``score`` (BIC + prior cost, what was minimised) and ``roles`` (each part's
+role, inferred from its motion unless ``--roles`` names it: carcass, front or floor).
+
 Bad input prints the problem on stderr and exits with status 2.
 """
 
@@ -40,8 +47,10 @@ __all__ = ["run", "main"]
 def run(*, path, search: str = "local", reduce_dofs: bool = False, models=DEFAULT_CANDIDATES,
         sigma_pos: float = 0.01, sigma_orient: float = float(np.deg2rad(5.0)),
         gamma_weight: float = DEFAULT_GAMMA_WEIGHT, seed: int = 0,
-        plot: str | None = None) -> dict:
-    """Fit the structure of the object in CSV ``path``; returns the --json dictionary."""
+        plot: str | None = None, furniture_prior: bool = False,
+        roles: dict | None = None) -> dict:
+    """Fit the structure of the object in CSV ``path``; returns the --json dictionary.
+    ``furniture_prior`` / ``roles``: see the module docstring."""
     if search not in SEARCH_MODES:
         raise ValueError(f"unknown search {search!r}; choose from {', '.join(SEARCH_MODES)}")
     if isinstance(models, str):
@@ -53,8 +62,13 @@ def run(*, path, search: str = "local", reduce_dofs: bool = False, models=DEFAUL
         raise ValueError(f"{path}: need at least 2 parts, found {len(names)} ({names})")
     obs = ObservationModel(sigma_pos=sigma_pos, sigma_orient=sigma_orient,
                            gamma_weight=gamma_weight)
+    prior = None
+    if furniture_prior or roles:
+        from mmlearn.models.articulation.structure_prior import StructurePrior
+
+        prior = StructurePrior(roles=dict(roles or {}))
     r = fit_structure(Y, part_names=names, search=search, reduce_dofs=reduce_dofs,
-                      models=models, obs=obs, rng=seed)
+                      models=models, obs=obs, rng=seed, prior=prior)
     out = r.to_dict()
     if plot:
         _plot(r, Y, plot)
@@ -84,6 +98,26 @@ def _plot(r, Y, path):
     plt.close(fig)
 
 
+def _roles(text: str) -> dict:
+    """``name=role,...`` -> dict (argparse type)."""
+    import argparse
+
+    from mmlearn.models.articulation.structure_prior import ROLES
+
+    out = {}
+    for item in (x.strip() for x in text.split(",")):
+        if not item:
+            continue
+        name, sep, role = item.partition("=")
+        if not sep or not name.strip() or role.strip() not in ROLES:
+            raise argparse.ArgumentTypeError(
+                f"{item!r}: expected NAME=ROLE with ROLE one of {', '.join(ROLES)}")
+        out[name.strip()] = role.strip()
+    if not out:
+        raise argparse.ArgumentTypeError("no NAME=ROLE given")
+    return out
+
+
 def main(argv=None) -> int:
     ap = ArgumentParser(prog="python -m mmlearn.apps.fit_structure",
                                  description=__doc__.split("\n\n")[0])
@@ -103,6 +137,12 @@ def main(argv=None) -> int:
     ap.add_argument("--seed", type=nonneg_int, default=0, help="random seed")
     ap.add_argument("--json", action="store_true", help="print JSON")
     ap.add_argument("--plot", default=None, help="write a PNG of the structure")
+    ap.add_argument("--furniture-prior", action="store_true",
+                    help="prefer structures where fronts hang on the carcass (a prior beside "
+                         "the BIC)")
+    ap.add_argument("--roles", type=_roles, default=None,
+                    help="parts' roles for the prior, e.g. cabinet=carcass,lid=front "
+                         "(carcass, front or floor; implies --furniture-prior)")
     a = ap.parse_args(argv)
     try:
         if not Path(a.file).is_file():
@@ -114,7 +154,8 @@ def main(argv=None) -> int:
     try:
         out = run(path=a.file, search=a.search, reduce_dofs=a.reduce_dofs, models=a.models,
                   sigma_pos=a.sigma_pos, sigma_orient=a.sigma_orient,
-                  gamma_weight=a.gamma_weight, seed=a.seed, plot=a.plot)
+                  gamma_weight=a.gamma_weight, seed=a.seed, plot=a.plot,
+                  furniture_prior=a.furniture_prior, roles=a.roles)
     except (ValueError, FileNotFoundError, OSError) as e:
         return fail(ap.prog, str(e))
     if a.json:
@@ -125,6 +166,9 @@ def main(argv=None) -> int:
             print(f"  {e['a']} - {e['b']}: {e['model']} (link BIC {e['bic']:.1f})")
         print(f"DOF {out['dof']}, loop: {out['has_loop']}, BIC {out['bic']:.1f}, "
               f"{out['seconds']:.2f} s")
+        if "roles" in out:
+            print("roles: " + ", ".join(f"{k} {v}" for k, v in out["roles"].items())
+                  + f"; prior cost {out['prior_cost']:.1f}, score {out['score']:.1f}")
     return 0
 
 

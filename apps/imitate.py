@@ -3,6 +3,15 @@
 
     python -m mmlearn.apps.imitate --task pick_place --demos 4 --swap-tables --seed 3 --json
     python -m mmlearn.apps.imitate --task u_obstacle --global --seed 1 --html-out run.html
+    python -m mmlearn.apps.imitate --task pick_place --interactive --swap-tables --seed 3 --json
+
+``--interactive`` teaches interactively
+(:func:`mmlearn.diagrams.imitation.teaching.teach_interactively`): the robot reproduces the
+task after the first demonstration and the teacher demonstrates again, in that situation,
+only when a reproduction fails or the robot flags it as unsure (its trajectory's surprise
+under the learned DBN far above the demonstrations', :mod:`mmlearn.models.imitation.confidence`),
+up to ``--max-demos``; the JSON has ``success``, ``demos_used`` and ``rounds`` (each round's
+outcome: success, failed or unsure).
 
 The reproduction is :func:`mmlearn.diagrams.imitation.trials.reproduce_task`, scored by
 :mod:`mmlearn.models.imitation.evaluation`. The teacher (a human-like arm with other link
@@ -86,6 +95,30 @@ def run(*, task: str = "pick_place", demos: int = 4, seed: int = 0, swap_tables:
     return json_clean(rec)
 
 
+def _interactive(ap, args) -> int:
+    from mmlearn.diagrams.imitation.teaching import teach_interactively
+
+    def progress(r, outcome):
+        if not args.json:
+            print(f"round {r}: {outcome}", flush=True)
+
+    try:
+        rec = teach_interactively(task=args.task, seed=args.seed, max_demos=args.max_demos,
+                                  swap_tables=args.swap_tables, board_scale=args.board_scale,
+                                  global_mode=args.global_mode, placement=args.placement,
+                                  progress=progress)
+    except ValueError as e:
+        return fail(ap.prog, " ".join(str(e).split()))
+    rec = json_clean(rec)
+    if args.json:
+        print(json.dumps(rec))
+    else:
+        print(f"{'success':26s} {rec['success']}")
+        print(f"{'demos_used':26s} {rec['demos_used']}")
+        print(f"{'asked_before_failing':26s} {rec['asked_before_failing']}")
+    return 0
+
+
 # ----------------------------------------------------------------------------- command line
 def main(argv=None) -> int:
     ap = ArgumentParser(prog="python -m mmlearn.apps.imitate",
@@ -107,6 +140,11 @@ def main(argv=None) -> int:
     ap.add_argument("--placement", type=nonneg_float, default=PLACEMENT,
                     help="amplitude of the teacher's scene variation between demonstrations "
                          f"(1 = tables +-4 cm; default {PLACEMENT})")
+    ap.add_argument("--interactive", action="store_true",
+                    help="teach interactively: the teacher demonstrates again only where a "
+                         "reproduction fails or the robot is unsure (--demos is then unused)")
+    ap.add_argument("--max-demos", type=pos_int, default=6,
+                    help="most demonstrations the teacher gives with --interactive (default 6)")
     ap.add_argument("--seed", type=nonneg_int, default=0)
     ap.add_argument("--meshcat", action="store_true", help="live view in Meshcat")
     ap.add_argument("--html-out", default="", help="write the Meshcat recording as HTML")
@@ -115,8 +153,13 @@ def main(argv=None) -> int:
     try:
         check_in_file("--demos-file", args.demos_file)
         check_out_file("--html-out", args.html_out)
+        if args.interactive and (args.demos_file or args.meshcat or args.html_out):
+            raise UsageError("--interactive records its own demonstrations and draws nothing: "
+                             "drop --demos-file, --meshcat and --html-out")
     except UsageError as e:
         return fail(ap.prog, str(e))
+    if args.interactive:
+        return _interactive(ap, args)
     meshcat = None
     if args.meshcat or args.html_out:
         from mmlearn.apps.common.cli import make_meshcat

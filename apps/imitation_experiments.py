@@ -12,7 +12,10 @@ Experiments (each trial is one reproduction on its own seed,
 * ``swap``: pick_place after 4 demonstrations with the tables swapped (Fig. 8.5);
 * ``board``: the whiteboard with the area scaled by 0.8, 1.0 and 1.25 (Fig. 8.8);
 * ``obstacle``: the reach with a box obstacle, incremental (Fig. 8.7);
-* ``u_obstacle``: the reach into a U-shaped obstacle, incremental and global (Fig. 8.10).
+* ``u_obstacle``: the reach into a U-shaped obstacle, incremental and global (Fig. 8.10);
+* ``teaching``: pick_place with swapped tables, batch after 1, 2, 3 and 4 demonstrations
+  against interactive teaching (:func:`mmlearn.diagrams.imitation.teaching.teaching_trial`,
+  at most 6 demonstrations); the ``demos`` column is the mean number of demonstrations used.
 
 Trials run through the sweep runner (``mmlearn.apps.common.sweep``, the shared front-end of
 ``mmlearn.apps.common.experiment``) and are streamed to ``--results`` (re-running resumes);
@@ -29,15 +32,17 @@ from mmlearn.apps.common import experiment
 from mmlearn.apps.common.cli import check_out_dir, name_list, pos_int, save_figure
 from mmlearn.apps.common.experiment import Experiment
 from mmlearn.apps.common.sweep import TrialSpec, run_sweep
+from mmlearn.diagrams.imitation.teaching import teaching_trial
 from mmlearn.diagrams.imitation.trials import reproduction_plan, reproduction_trial
 from mmlearn.models.imitation.evaluation import condition_table
 
-EXPERIMENTS = ("demos", "swap", "board", "obstacle", "u_obstacle")
+EXPERIMENTS = ("demos", "swap", "board", "obstacle", "u_obstacle", "teaching")
+TEACHING_MAX_DEMOS = 6
 BOARD_SCALES = (0.8, 1.0, 1.25)
 
 
-def conditions(experiments) -> list[tuple[str, dict]]:
-    """(condition label, trial parameters) of the chosen experiments."""
+def conditions(experiments) -> list[tuple]:
+    """(condition label, trial parameters[, trial function]) of the chosen experiments."""
     out = []
     for e in experiments:
         if e == "demos":
@@ -54,6 +59,12 @@ def conditions(experiments) -> list[tuple[str, dict]]:
         elif e == "u_obstacle":
             out += [("u_obstacle incremental", {"task": "u_obstacle"}),
                     ("u_obstacle global", {"task": "u_obstacle", "global_mode": True})]
+        elif e == "teaching":
+            out += [(f"pick_place {n} demo{'s' if n > 1 else ''}, swapped tables",
+                     {"task": "pick_place", "demos": n, "swap_tables": True}) for n in (1, 2, 3, 4)]
+            out.append(("pick_place interactive, swapped tables",
+                        {"task": "pick_place", "swap_tables": True,
+                         "max_demos": TEACHING_MAX_DEMOS}, teaching_trial))
         else:
             raise ValueError(f"unknown experiment {e!r}; choose from {', '.join(EXPERIMENTS)}")
     return out
@@ -129,7 +140,8 @@ def plot(table: list[dict], out_dir: str) -> list[str]:
 
 def format_table(res: dict) -> str:
     lines = [f"{'condition':38s} {'success':>9s} {'errors':>6s} {'place err mean/med':>19s} "
-             f"{'min clearance':>13s} {'coverage':>8s} {'reach err':>9s} {'repro s':>8s}"]
+             f"{'min clearance':>13s} {'coverage':>8s} {'reach err':>9s} {'repro s':>8s} "
+             f"{'demos':>5s}"]
 
     def f(v, fmt):
         return "-" if v is None else format(v, fmt)
@@ -140,7 +152,8 @@ def format_table(res: dict) -> str:
         lines.append(f"{r['condition']:38s} {r['successes']:>4d}/{r['trials']:<4d} "
                      f"{r['errors']:>6d} {pe:>19s} {f(r['min_clearance_m'], '.3f'):>13s} "
                      f"{f(r['mean_coverage'], '.2f'):>8s} {f(r['mean_reach_error_m'], '.3f'):>9s} "
-                     f"{f(r['mean_reproduction_seconds'], '.1f'):>8s}")
+                     f"{f(r['mean_reproduction_seconds'], '.1f'):>8s} "
+                     f"{f(r.get('mean_demos'), '.1f'):>5s}")
     lines.append("means over the trials that ran; trials that raised are counted under errors")
     for p in res.get("plots", []):
         lines.append(f"plot: {p}")
@@ -151,7 +164,7 @@ class ImitationExperiments(Experiment):
     """The command line (:mod:`mmlearn.apps.common.experiment`)."""
 
     name = "imitation_experiments"
-    trials = (reproduction_trial,)
+    trials = (reproduction_trial, teaching_trial)
     description = ("Thesis 8.2's imitation experiments over many seeds, with plots. Exit status: "
                    "0 all trials ran, 1 a trial raised, 2 bad input.")
     seed_default = 100

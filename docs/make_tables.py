@@ -39,6 +39,11 @@ COMMANDS = {
                        "--seed 1 --json",
     "lasa.json": "python -m mmlearn.apps.imitate_lasa --shapes Sshape,Leaf_1,GShape --json",
     "imitate.json": "python -m mmlearn.apps.imitate --task pick_place --seed 1 --json",
+    # about an hour on two cores
+    "teaching.json": "python -m mmlearn.apps.imitation_experiments --experiments teaching --seeds 10 "
+                     "--seed 100 --jobs 2 --results docs/results/teaching.jsonl "
+                     "--out-dir build/teaching --json",
+    "structure_prior.json": "python benchmarks/bench_structure_prior.py --seeds 11-20 --json",
 }
 
 
@@ -192,8 +197,42 @@ def imitation() -> str:
     return "\n\n".join(parts + [_source("lasa.json", "imitate.json")])
 
 
+def teaching() -> str:
+    d = _load("teaching.json")
+    if not d:
+        return _source("teaching.json")
+    order = ["pick_place 1 demo, swapped tables", "pick_place 2 demos, swapped tables",
+             "pick_place 3 demos, swapped tables", "pick_place 4 demos, swapped tables",
+             "pick_place interactive, swapped tables"]
+    rows = []
+    for r in sorted(d["conditions"], key=lambda r: order.index(r["condition"])
+                    if r["condition"] in order else len(order)):
+        rows.append([r["condition"].replace("pick_place ", "").replace(", swapped tables", ""),
+                     f"{r['successes']}/{r['trials']}", _fmt(r.get("mean_demos"), 1),
+                     str(r.get("asked_before_failing", 0)),
+                     _fmt(r.get("median_place_error_m"), 3, " m")])
+    return ("**Pick-and-place with swapped tables: batch against interactive teaching** "
+            "(Sec. 9.1's outlook; the thesis: 4 demonstrations)\n\n"
+            + _table(["learning", "success", "demonstrations (mean)",
+                      "asked before failing", "median place error"], rows)
+            + "\n\n" + _source("teaching.json"))
+
+
+def structure_prior() -> str:
+    d = _load("structure_prior.json")
+    if not d:
+        return _source("structure_prior.json")
+    n = len(d["seeds"])
+    rows = [[r["case"], f"{r['right_bic_alone']}/{n}", f"{r['right_with_prior']}/{n}"]
+            for r in d["rows"]]
+    return ("**Right structure, the BIC alone against BIC + furniture prior** (Sec. 9.1's "
+            "outlook)\n\n" + _table(["case", "BIC alone", "BIC + prior"], rows)
+            + "\n\n" + _source("structure_prior.json"))
+
+
 PAGES = {"articulation": articulation, "body_schema": body_schema, "perception": perception,
-         "tactile": tactile, "imitation": imitation}
+         "tactile": tactile, "imitation": imitation, "teaching": teaching,
+         "structure_prior": structure_prior}
 
 
 def render() -> dict[str, str]:

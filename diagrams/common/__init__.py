@@ -5,7 +5,7 @@ from mmlearn._lazy import lazy_exports
 #: submodule -> the public names it defines (imported on first use)
 _EXPORTS = {
     "marker_camera": ["AddArucoMarkers", "AddMarkerCameras", "AddCameraMarkerSensor", "MarkerRig", "camera_views", "marker_bodies", "RENDERER"],
-    "object_tracks": ["ObjectTrack", "ObjectKinematics", "cabinet_scenario", "yardstick_scenario", "table_scenario", "table_phases", "car_door_scenario", "garage_door_scenario", "SCENARIOS"],
+    "object_tracks": ["ObjectTrack", "ObjectKinematics", "cabinet_scenario", "cabinet_together_scenario", "yardstick_scenario", "table_scenario", "table_phases", "car_door_scenario", "garage_door_scenario", "SCENARIOS"],
     "scene": ["SceneConfig", "Scene", "MakeSceneDiagram"],
 }
 

@@ -121,12 +121,15 @@ def _demonstrations(task, demos, seed, demos_file, placement):
     return record_demos(task, demos, seed=seed, board_scale=1.0, placement=placement)
 
 
-def _simulate(im, ctx, *, record: bool = False, progress=None) -> dict:
+def _simulate(im, ctx, *, record: bool = False, progress=None, monitor=None,
+              stop_when_unsure: bool = False) -> dict:
     """Run the reproduction until the reproducer has stepped through every slice (it may
     spend extra steps on a slice, see DbnReproducerConfig.advance_tolerance) plus RELEASE_S
     for the cup to settle, at most MAX_TIME_FACTOR times the nominal duration; sample the
     hand and the obstacle clearance every SAMPLE_DT s (``progress(k, n)`` after each of at
-    most n samples; ``record``: into the Meshcat visualizer's recording)."""
+    most n samples; ``record``: into the Meshcat visualizer's recording). ``monitor`` (a
+    :class:`~mmlearn.models.imitation.confidence.SurpriseMonitor`) is given every sample's
+    slice, hand and objects; with ``stop_when_unsure`` the run stops once it flags."""
     from pydrake.systems.analysis import Simulator
 
     diagram = im.diagram
@@ -143,10 +146,23 @@ def _simulate(im, ctx, *, record: bool = False, progress=None) -> dict:
     hand_trail = []
     t, t_end = 0.0, None
     n_max, k = int(math.ceil(max_time / SAMPLE_DT)), 0
+    if monitor is not None:
+        from mmlearn.diagrams.imitation.diagram import object_positions
+
+        rep = im.reproducer
+        step_port = rep.GetOutputPort("step")
+        rep_ctx = rep.GetMyContextFromRoot(ctx)
+    out["stopped_unsure"] = False
     while t < (t_end if t_end is not None else max_time) - 1e-9:
         t = min(t + SAMPLE_DT, max_time)
         sim.AdvanceTo(t)
         hand_trail.append(np.array(hport.Eval(ctx), float))
+        if monitor is not None and t_end is None:
+            unsure = monitor.update(int(step_port.Eval(rep_ctx)[0]), hand_trail[-1],
+                                    object_positions(im.plant, ctx, im.scene.bodies))
+            if unsure and stop_when_unsure:
+                out["stopped_unsure"] = True
+                break
         if mine:
             q = qport.Eval(ctx)
             d, who = _min_clearance(q, mine, obst)
@@ -183,7 +199,8 @@ def reproduce_task(*, task: str = "pick_place", demos: int = 4, seed: int = 0,
                    swap_tables: bool = False, board_scale: float = 1.0,
                    global_mode: bool = False, demos_file: str = "",
                    placement: float = PLACEMENT, meshcat=None, progress=None,
-                   config=None) -> dict:
+                   config=None, demonstrations=None, confidence=None,
+                   stop_when_unsure: bool = False) -> dict:
     """Record (or load from ``demos_file``) demonstrations, learn, reproduce in a new scene;
     returns the JSON-able record: the settings, ``learn_seconds``, ``reproduction_seconds``,
     ``simulated_seconds``, ``finished``, ``min_obstacle_clearance_m``, the reproducer's step
@@ -192,15 +209,29 @@ def reproduce_task(*, task: str = "pick_place", demos: int = 4, seed: int = 0,
     :class:`~mmlearn.diagrams.imitation.diagram.ImitationConfig` whose task / seed / swap /
     board / mode fields are overridden by the keyword arguments. With ``meshcat`` the
     reproduction is drawn and recorded there; ``progress(k, n)`` is called after each
-    simulated sample k of at most n."""
+    simulated sample k of at most n. ``demonstrations`` (a list of
+    :class:`~mmlearn.models.imitation.types.Demonstration`) replaces recording or loading.
+    ``confidence`` (a :class:`~mmlearn.models.imitation.confidence.ConfidenceConfig`) watches
+    the reproduction's surprise under the learned model (record ``"confidence"``: reference,
+    threshold, peak, ``unsure`` and ``unsure_at_s``); with ``stop_when_unsure`` the
+    reproduction stops once it is unsure (``"stopped_unsure"``; the task is then scored where
+    it stopped)."""
     from mmlearn.diagrams.imitation.diagram import ImitationConfig, MakeImitationDiagram, \
         object_positions
     from mmlearn.models.imitation.dbn import learn_task
 
-    demo_list = _demonstrations(task, demos, seed, demos_file, placement)
+    demo_list = (list(demonstrations) if demonstrations is not None
+                 else _demonstrations(task, demos, seed, demos_file, placement))
+    if not demo_list:
+        raise ValueError("reproduce_task: no demonstration given")
     t0 = time.perf_counter()
     model = learn_task(demo_list, use_joints=False, h=PARZEN_H.get(task, PARZEN_H_DEFAULT))
     learn_s = time.perf_counter() - t0
+    monitor = None
+    if confidence is not None or stop_when_unsure:
+        from mmlearn.models.imitation.confidence import SurpriseMonitor
+
+        monitor = SurpriseMonitor(model, demo_list, sample_period=SAMPLE_DT, config=confidence)
 
     cfg = config or ImitationConfig()
     cfg = replace(cfg, task=task, seed=seed, swap_tables=swap_tables, board_scale=board_scale,
@@ -211,7 +242,8 @@ def reproduce_task(*, task: str = "pick_place", demos: int = 4, seed: int = 0,
     im.set_start(ctx)
     objs0 = object_positions(im.plant, ctx, im.scene.bodies)
     t_wall = time.perf_counter()
-    run = _simulate(im, ctx, record=meshcat is not None, progress=progress)
+    run = _simulate(im, ctx, record=meshcat is not None, progress=progress, monitor=monitor,
+                    stop_when_unsure=stop_when_unsure)
     repro_s = time.perf_counter() - t_wall
     if meshcat is not None:
         im.visualizer.StopRecording()
@@ -238,6 +270,9 @@ def reproduce_task(*, task: str = "pick_place", demos: int = 4, seed: int = 0,
         rec.update(reach_score(run["hand"][-1], objs["target"], demo_list,
                                clearance=clearance))
     rec["objects_start"] = {k: v.tolist() for k, v in objs0.items()}
+    if monitor is not None:
+        rec["confidence"] = monitor.summary(SAMPLE_DT)
+        rec["stopped_unsure"] = bool(run["stopped_unsure"])
     if meshcat is not None:
         _frame_and_legend(meshcat, model, demo_list, objs0, run["hand"], rec)
     return rec
@@ -303,10 +338,15 @@ def reproduction_trial(*, seed: int, task: str, demos: int = 4, swap_tables: boo
 
 def reproduction_plan(conditions, seeds: int, seed: int) -> list[dict]:
     """The trials of an experiment: ``seeds`` reproductions (seeds ``seed``, ``seed + 1``, ..)
-    of every (label, trial parameters) of ``conditions``, as dicts ``{"fn", "seed",
+    of every (label, trial parameters[, trial function; default :func:`reproduction_trial`])
+    of ``conditions``, as dicts ``{"fn", "seed",
     "params", "label"}`` (the fields of :class:`mmlearn.apps.common.sweep.TrialSpec`; the
     label ends in ``" seed N"``, :func:`mmlearn.models.imitation.evaluation.condition_table`
     groups by the rest)."""
-    return [{"fn": reproduction_trial, "seed": seed + i, "params": params,
-             "label": f"{label} seed {seed + i}"}
-            for label, params in conditions for i in range(seeds)]
+    out = []
+    for cond in conditions:
+        label, params = cond[0], cond[1]
+        fn = cond[2] if len(cond) > 2 else reproduction_trial
+        out += [{"fn": fn, "seed": seed + i, "params": params,
+                 "label": f"{label} seed {seed + i}"} for i in range(seeds)]
+    return out

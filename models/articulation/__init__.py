@@ -14,7 +14,7 @@ _EXPORTS = {
     "link": ["ObservationModel", "RigidModel", "PrismaticModel", "RevoluteModel", "MODEL_CLASSES", "make_model", "link_model_from_dict", "DEFAULT_GAMMA_WEIGHT", "GAMMA_PRIOR_MODES", "em_gamma"],
     "priors": ["align_trajectory", "thin_trajectory", "PriorCluster", "PriorDatabase", "MergeDecision", "merge_bic", "learn_priors", "evaluate_priors", "FORMAT"],
     "refine": ["LocalParametrisation", "refine_em", "refine_lm", "refine_lbfgs", "refine", "FD_STEP", "alternate_refinement", "residual_terms"],
-    "sim": ["SimulatedTrack", "simulate_link", "true_pose", "LINK_TYPES"],
+    "sim": ["SimulatedTrack", "simulate_link", "true_pose", "LINK_TYPES", "drawer_with_lid_tracks"],
     "structure": ["DEFAULT_CANDIDATES", "LinkSelection", "select_link_model", "ArticulatedObject", "LinkEdge", "fit_kinematic_tree", "relative_track", "track_scale_problem", "MAX_TRACK_EXTENT_M", "MAX_EXTENT_NOISE_RATIO"],
 }
 
@@ -59,6 +59,7 @@ __all__ = [
     "link_model_from_dict",
     "LINK_MODELS",
     "LINK_TYPES",
+    "drawer_with_lid_tracks",
     "LinkEdge",
     "LinkModel",
     "LinkSelection",

@@ -212,6 +212,14 @@ class GraphEvaluation:
     has_loop: bool
     projection: np.ndarray | None = None
     bic_per_dof: dict = field(default_factory=dict)
+    prior_cost: float = 0.0
+
+    @property
+    def score(self) -> float:
+        """What the search minimises: ``bic + prior_cost`` (``prior_cost``: the term of a
+        :class:`~mmlearn.models.articulation.structure_prior.StructurePrior`, BIC units; 0
+        without one)."""
+        return self.bic + self.prior_cost
 
 
 @dataclass
@@ -241,6 +249,7 @@ class StructureResult:
     pair_models: dict
     search_cpu_seconds: float = float("nan")
     fit_cpu_seconds: float = float("nan")
+    roles: dict | None = None
 
     @property
     def seconds(self) -> float:
@@ -259,6 +268,9 @@ class StructureResult:
             "has_loop": bool(b.has_loop),
             "bic": float(b.bic),
             "seconds": float(self.seconds),
+            **({} if self.roles is None else
+               {"prior_cost": float(b.prior_cost), "score": float(b.score),
+                "roles": dict(self.roles)}),
         }
 
 
@@ -474,9 +486,13 @@ def _connected(edges, p) -> bool:
 
 def search_structure(evaluator: KinematicGraphEvaluator, tree_edges, *, search: str = "local",
                      reduce_dofs: bool = False, reduce_tree_dofs: bool = False,
-                     strategy: str = "first", max_steps: int = 100):
+                     strategy: str = "first", max_steps: int = 100, prior_cost=None,
+                     other_starts=()):
     """Search the graph space from ``tree_edges``. Returns (best, tree evaluation, list of
-    evaluated graphs in order).
+    evaluated graphs in order). Graphs are compared by their ``score``: the BIC plus
+    ``prior_cost(edges)`` when given (a structure prior's term, BIC units). ``other_starts``
+    are further trees to start from: the search starts from the best-scoring of them and
+    ``tree_edges`` (whose evaluation is still returned as the tree).
 
     Local search: the neighbours of the current graph (add one edge, the pairs with the
     lowest link BIC first; remove one edge, keeping the graph connected, the highest link
@@ -492,27 +508,30 @@ def search_structure(evaluator: KinematicGraphEvaluator, tree_edges, *, search: 
 
     def ev(edges):
         e = evaluator.evaluate(edges, reduce_dofs=reduce_dofs, reduce_tree_dofs=reduce_tree_dofs)
+        if prior_cost is not None:
+            e.prior_cost = float(prior_cost(e.edges))
         if not any(e is o for o in order):
             order.append(e)
         return e
 
     tree = ev(tree_edges)
+    start = min([tree] + [ev(t) for t in other_starts], key=lambda x: x.score)
     if search == "tree":
-        return tree, tree, order
+        return start, tree, order
     pairs = sorted(evaluator.models)
     if search == "exhaustive":
-        best = tree
+        best = start
         for m in range(p - 1, len(pairs) + 1):
             for sub in itertools.combinations(pairs, m):
                 if not _connected(sub, p):
                     continue
                 e = ev(sub)
-                if e.bic < best.bic:
+                if e.score < best.score:
                     best = e
         return best, tree, order
     # neighbours: add one edge (best pair models first) or remove one edge (worst first)
     cost = {e: float(getattr(m, "bic_", np.nan)) for e, m in evaluator.models.items()}
-    cur = tree
+    cur = start
     for _ in range(max_steps):
         cur_set = set(cur.edges)
         cand = [tuple(sorted(cur_set | {e}))
@@ -527,12 +546,12 @@ def search_structure(evaluator: KinematicGraphEvaluator, tree_edges, *, search: 
         if strategy == "first":
             for c in cand:
                 e = ev(c)
-                if e.bic < cur.bic - 1e-9:
+                if e.score < cur.score - 1e-9:
                     cur, moved = e, True
                     break
         else:
-            nb = min((ev(c) for c in cand), key=lambda x: x.bic)
-            if nb.bic < cur.bic - 1e-9:
+            nb = min((ev(c) for c in cand), key=lambda x: x.score)
+            if nb.score < cur.score - 1e-9:
                 cur, moved = nb, True
         if not moved:
             break
@@ -558,7 +577,7 @@ def fit_structure(part_tracks, *, part_names=None, search: str = "local",
                   models=DEFAULT_CANDIDATES,
                   obs: ObservationModel | None = None, rng=None, min_common: int = 5,
                   n_hypotheses: int = 100, stiffness: float = 30.0,
-                  pair_models: dict | None = None) -> StructureResult:
+                  pair_models: dict | None = None, prior=None) -> StructureResult:
     """Learn the kinematic graph of an object from part observations.
 
     Args:
@@ -573,6 +592,11 @@ def fit_structure(part_tracks, *, part_names=None, search: str = "local",
         obs: observation noise model (sigma_pos m, sigma_orient rad).
         rng: Generator or seed (MLESAC sampling of the link models).
         pair_models: already fitted {(i, j): LinkSelection} to reuse.
+        prior: a :class:`~mmlearn.models.articulation.structure_prior.StructurePrior` (the
+            spanning tree and the search then minimise the BIC plus its cost, the search
+            also starts from the spanning tree of the plausible edges alone, and graphs may
+            couple their DOFs by PCA, trees included; the result's ``roles`` holds the
+            parts' roles), or None (the BIC alone).
     """
     if search not in SEARCH_MODES:
         raise ValueError(f"unknown search {search!r}; choose from {', '.join(SEARCH_MODES)}")
@@ -587,25 +611,47 @@ def fit_structure(part_tracks, *, part_names=None, search: str = "local",
         pair_models = fit_pair_models(Y, models=models, obs=obs, rng=rng, min_common=min_common,
                                       n_hypotheses=n_hypotheses)
     t1, c1 = time.perf_counter(), time.process_time()
-    tree_edges = spanning_tree_edges(pair_models, p)
     n_full = int(np.isfinite(Y).all(axis=2).all(axis=0).sum())
+    roles, prior_cost, extra, starts = None, None, None, ()
+    if prior is not None:
+        roles = prior.resolve_roles(Y, names)
+        by_index = [roles[n] for n in names]
+
+        n_prior = max(n_full, 2) if n_full >= 3 else max(
+            int(max(getattr(m, "best", m).n_train for m in pair_models.values())), 2)
+
+        def prior_cost(edges):
+            return prior.cost(edges, by_index, n_prior)
+
+        extra = {e: prior_cost([e]) for e in pair_models}
+        plausible = {e: m for e, m in pair_models.items() if extra[e] == 0.0}
+        try:
+            starts = (spanning_tree_edges(plausible, p),)
+        except ValueError:          # the plausible edges alone do not connect the parts
+            starts = ()
+        # fronts only ever moved together: a tree of fronts on the carcass with coupled DOFs
+        reduce_dofs = reduce_tree_dofs = True
+    tree_edges = spanning_tree_edges(pair_models, p, extra_cost=extra)
     if n_full < 3:
         if search != "tree":
             raise ValueError(f"only {n_full} time steps observe every part; the {search!r} "
                              "search evaluates whole graphs and needs at least 3 (use --search "
                              "tree)")
         tree = _tree_from_links(tree_edges, pair_models, p)
+        if prior_cost is not None:
+            tree.prior_cost = float(prior_cost(tree.edges))
         best, order = tree, [tree]
     else:
         evaluator = KinematicGraphEvaluator(Y, pair_models, obs=obs, stiffness=stiffness)
         best, tree, order = search_structure(evaluator, tree_edges, search=search,
                                              reduce_dofs=reduce_dofs,
-                                             reduce_tree_dofs=reduce_tree_dofs)
+                                             reduce_tree_dofs=reduce_tree_dofs,
+                                             prior_cost=prior_cost, other_starts=starts)
     t2, c2 = time.perf_counter(), time.process_time()
     return StructureResult(best=best, tree=tree, search=search, evaluated=order,
                            search_seconds=t2 - t1, fit_seconds=t1 - t0, part_names=names,
                            pair_models=pair_models, search_cpu_seconds=c2 - c1,
-                           fit_cpu_seconds=c1 - c0)
+                           fit_cpu_seconds=c1 - c0, roles=roles)
 
 
 # --------------------------------------------------------------------------- CSV input

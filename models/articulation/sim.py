@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-__all__ = ["SimulatedTrack", "simulate_link", "true_pose", "LINK_TYPES"]
+__all__ = ["SimulatedTrack", "simulate_link", "true_pose", "LINK_TYPES", "drawer_with_lid_tracks"]
 
 LINK_TYPES = ("rigid", "prismatic", "drawer", "revolute", "microwave", "rollup", "garage")
 
@@ -137,3 +137,28 @@ def simulate_link(kind: str, n: int, *, sigma_pos: float = 0.002,
         Z[out, :3] = ctr + rng.uniform(-side / 2, side / 2, (k, 3))
         Z[out, 3:] = Rotation.random(k, random_state=int(rng.integers(2**31 - 1))).as_quat()
     return SimulatedTrack(Z=Z, Z_true=Zt, q=qs, outlier=out, kind=kind)
+
+
+def drawer_with_lid_tracks(seed, n: int = 80, *, sigma_pos: float = 0.005,
+                           sigma_orient: float = 0.02) -> np.ndarray:
+    """Part tracks ``(3, n, 7)`` (carcass, drawer, lid; x y z qx qy qz qw, m) of a drawer
+    sliding in a carcass with a lid hinged on the drawer: the drawer slides out 0.3 m, the
+    lid opens 1.2 rad, the drawer slides in with the lid open, the lid closes. A front that
+    really hangs on another front (the unambiguous counterpart of two drawers pulled
+    together). Gaussian noise ``sigma_pos`` per axis and ``sigma_orient`` per rotation-vector
+    axis."""
+    rng = np.random.default_rng(seed)
+    m = n // 4
+    x = np.concatenate([np.linspace(0, .3, m), np.full(m, .3), np.linspace(.3, 0, m),
+                        np.zeros(n - 3 * m)])
+    th = np.concatenate([np.zeros(m), np.linspace(0, 1.2, m), np.full(m, 1.2),
+                         np.linspace(1.2, 0, n - 3 * m)])
+    drawer = np.array([0.02, 0, 0.6]) + np.outer(x, [-1, 0, 0])
+    r_lid = Rotation.from_rotvec(np.outer(th, [0, 1, 0]))
+    lid = drawer + [0, 0, 0.1] + r_lid.apply([-0.15, 0, 0])
+    out = []
+    for p, r in ((np.tile([0, 0, 0.4], (n, 1)), Rotation.identity(n)),
+                 (drawer, Rotation.identity(n)), (lid, r_lid)):
+        r = Rotation.from_rotvec(rng.normal(0, sigma_orient, (n, 3))) * r
+        out.append(np.hstack([p + rng.normal(0, sigma_pos, p.shape), r.as_quat()]))
+    return np.stack(out)

@@ -350,16 +350,18 @@ def fit_pair_models(part_tracks, *, models=DEFAULT_CANDIDATES, obs: ObservationM
     return out
 
 
-def spanning_tree_edges(pair_models: dict, num_parts: int) -> tuple:
+def spanning_tree_edges(pair_models: dict, num_parts: int, *, extra_cost=None) -> tuple:
     """Minimum spanning tree over the pairs, edge cost = BIC of the pair's best model
-    (Eq. 4.40; networkx, Kruskal). Returns sorted (i, j) edge tuples; raises ValueError if
+    (Eq. 4.40; networkx, Kruskal), plus ``extra_cost[(i, j)]`` where given (a structure
+    prior's ``-2 log p`` of the edge). Returns sorted (i, j) edge tuples; raises ValueError if
     the parts are not connected."""
     import networkx as nx
 
+    extra = extra_cost or {}
     G = nx.Graph()
     G.add_nodes_from(range(num_parts))
     for (i, j), s in pair_models.items():
-        G.add_edge(i, j, weight=float(getattr(s, "best", s).bic_))
+        G.add_edge(i, j, weight=float(getattr(s, "best", s).bic_) + float(extra.get((i, j), 0.0)))
     if not nx.is_connected(G):
         comps = [sorted(c) for c in nx.connected_components(G)]
         raise ValueError(f"parts cannot be connected (too few common observations): {comps}")

@@ -168,10 +168,13 @@ def _condition_row(row: dict) -> dict:
     cov, _ = stat("coverage")
     reach, _ = stat("reach_error_m")
     rs, _ = stat("reproduction_seconds")
+    demos, _ = stat("demos")
     ls, _ = stat("learn_seconds")
     return {**row, "success_rate": row["successes"] / row["trials"] if row["trials"] else None,
             "mean_place_error_m": pe, "median_place_error_m": pe_med,
             "place_error_runs": n_pe, "min_clearance_m": cl,
             "positive_clearance": cl_pos, "clearance_runs": n_cl,
             "mean_coverage": cov, "mean_reach_error_m": reach,
-            "mean_reproduction_seconds": rs, "mean_learn_seconds": ls}
+            "mean_reproduction_seconds": rs, "mean_learn_seconds": ls,
+            "mean_demos": demos,
+            "asked_before_failing": sum(int(r.get("asked_before_failing") or 0) for r in recs)}

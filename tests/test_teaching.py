@@ -1,0 +1,116 @@
+"""Interactive teaching (diagrams/imitation/teaching.py): the loop's logic with a scripted
+robot and teacher, the command line's checks, and one real round in Drake (slow)."""
+
+import json
+
+import pytest
+
+import mmlearn.diagrams.imitation.teaching as teaching
+import mmlearn.diagrams.imitation.trials as trials
+from mmlearn.apps import imitate
+
+
+def _script(monkeypatch, outcomes):
+    """The robot's rounds follow ``outcomes`` ("success", "failed", "unsure"); returns the
+    calls seen."""
+    seen = {"reproduce": [], "demo": []}
+    it = iter(outcomes)
+
+    def reproduce(**kw):
+        o = next(it)
+        seen["reproduce"].append((kw["seed"], len(kw["demonstrations"]), kw["stop_when_unsure"]))
+        return {"success": o == "success", "place_error_m": 0.01,
+                "confidence": {"unsure": o == "unsure"}, "stopped_unsure": o == "unsure",
+                "objects_start": {}}
+
+    def demo(task, seed, index, situation, swap, scale):
+        seen["demo"].append((index, situation, swap))
+        return f"demo {index}"
+
+    monkeypatch.setattr(trials, "reproduce_task", reproduce)
+    monkeypatch.setattr(teaching, "_first_demo", lambda *a: "demo 0")
+    monkeypatch.setattr(teaching, "_demo_in_situation", demo)
+    return seen
+
+
+def test_teacher_demonstrates_only_where_the_robot_failed_or_asked(monkeypatch):
+    seen = _script(monkeypatch, ["unsure", "failed", "success", "success"])
+    rec = teaching.teach_interactively(task="pick_place", seed=7, max_demos=6, swap_tables=True)
+    assert rec["success"] is True and rec["demos_used"] == 3
+    assert [r["outcome"] for r in rec["rounds"]] == ["unsure", "failed", "success"]
+    assert rec["asked_before_failing"] == 1
+    # each round learns from all demonstrations so far, in a new situation
+    assert [(s, n) for s, n, _ in seen["reproduce"]] == [(701, 1), (702, 2), (703, 3)]
+    # the teacher shows the task in the situations that went wrong
+    assert seen["demo"] == [(1, 701, True), (2, 702, True)]
+    json.dumps(rec)
+
+
+def test_teaching_stops_at_max_demos(monkeypatch):
+    seen = _script(monkeypatch, ["failed"] * 10)
+    rec = teaching.teach_interactively(task="pick_place", seed=1, max_demos=2)
+    assert rec["success"] is False and rec["demos_used"] == 2 and len(rec["rounds"]) == 2
+    assert len(seen["demo"]) == 1
+
+
+def test_first_success_needs_one_demo(monkeypatch):
+    _script(monkeypatch, ["success"])
+    rec = teaching.teach_interactively(task="whiteboard", seed=2, max_demos=3)
+    assert rec["success"] and rec["demos_used"] == 1 and rec["rounds"][0]["demos"] == 1
+
+
+@pytest.mark.parametrize("kw, msg", [({"task": "juggle"}, "task"), ({"max_demos": 0}, "max_demos"),
+                                     ({"seed": -1}, "seed")])
+def test_bad_arguments(kw, msg):
+    with pytest.raises(ValueError, match=msg):
+        teaching.teach_interactively(**kw)
+
+
+@pytest.mark.parametrize("extra", [["--demos-file", "demos.json"], ["--html-out", "x.html"]])
+def test_cli_rejects_bad_combinations(extra, capsys, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "demos.json").write_text("{}")
+    assert imitate.main(["--interactive", *extra]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--interactive" in err[0]
+
+
+def test_cli_rejects_zero_max_demos(capsys):
+    with pytest.raises(SystemExit) as e:
+        imitate.main(["--interactive", "--max-demos", "0"])
+    assert e.value.code == 2
+    assert "--max-demos" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_one_real_round(capsys):
+    """The real loop with one demonstration: it runs, and the record says what happened."""
+    code = imitate.main(["--task", "obstacle", "--interactive", "--max-demos", "1",
+                         "--seed", "3", "--json"])
+    assert code == 0
+    rec = json.loads(capsys.readouterr().out)
+    assert rec["demos_used"] == 1 and len(rec["rounds"]) == 1
+    r = rec["rounds"][0]
+    assert r["outcome"] in teaching.OUTCOMES
+    assert rec["success"] == (r["outcome"] == "success")
+    c = r["confidence"]
+    assert c["threshold"] > c["reference_surprise"] > 0
+
+
+def test_experiment_conditions_and_report():
+    from mmlearn.apps.imitation_experiments import conditions, format_table, report
+
+    conds = conditions(["teaching"])
+    assert [c[1].get("demos") for c in conds[:4]] == [1, 2, 3, 4]
+    assert conds[-1][2] is teaching.teaching_trial and conds[-1][1]["swap_tables"]
+    lines = [{"key": f"k{i}", "spec": {"fn": "imitation.teach@1", "seed": i, "params": {},
+                                       "label": f"pick_place interactive, swapped tables seed {i}"},
+              "record": {"success": ok, "demos": n, "demos_used": n, "asked_before_failing": a,
+                         "place_error_m": 0.01},
+              "error": None, "wall_s": 1.0}
+             for i, (ok, n, a) in enumerate([(True, 2, 1), (True, 3, 2), (False, 6, 0)])]
+    res = report(lines)
+    row = res["conditions"][0]
+    assert row["successes"] == 2 and row["mean_demos"] == pytest.approx(11 / 3)
+    assert row["asked_before_failing"] == 3
+    assert "3.7" in format_table(res)
