@@ -2,6 +2,7 @@
 
     python docs/make_tables.py          # results/*.json -> results/tables/<capability>.md
     python docs/make_tables.py --run    # first re-run the experiments that make the files
+    python docs/make_tables.py --run --only operate.json   # only some of them
     python docs/make_tables.py --check  # exit 1 if a committed table differs from its file
 
 Every number in a table comes from a results file; the thesis' numbers beside them are the
@@ -241,10 +242,13 @@ def render() -> dict[str, str]:
     return {page: head + fn() + "\n" for page, fn in PAGES.items()}
 
 
-def run_experiments() -> None:
-    """Re-run every command of COMMANDS and write its JSON output to docs/results/."""
+def run_experiments(only=None) -> None:
+    """Re-run every command of COMMANDS (or the results files named in ``only``) and write
+    its JSON output to docs/results/."""
     env = dict(os.environ, OPENBLAS_NUM_THREADS="1")
     for name, cmd in COMMANDS.items():
+        if only and name not in only:
+            continue
         argv = [sys.executable] + cmd.split()[1:]
         if "--results" in argv:  # a fresh sweep: an old results file would only be resumed
             (ROOT / argv[argv.index("--results") + 1]).unlink(missing_ok=True)
@@ -263,11 +267,19 @@ def run_experiments() -> None:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--run", action="store_true", help="re-run the experiments first")
+    ap.add_argument("--only", default="", metavar="FILES",
+                    help="with --run: only these results files (comma-separated, e.g. "
+                         "operate.json,fronts.json)")
     ap.add_argument("--check", action="store_true",
                     help="only compare the committed tables with the results files")
     args = ap.parse_args(argv)
+    only = [x.strip() for x in args.only.split(",") if x.strip()]
+    unknown = sorted(set(only) - set(COMMANDS))
+    if unknown:
+        ap.error(f"--only: unknown results file(s) {', '.join(unknown)}; choose from "
+                 f"{', '.join(COMMANDS)}")
     if args.run:
-        run_experiments()
+        run_experiments(only)
     tables = render()
     if args.check:
         stale = [p for p, text in tables.items()
