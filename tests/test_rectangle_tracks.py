@@ -110,6 +110,6 @@ def test_fit_articulation_rectangles_option(tmp_path):
     assert vs["right_in_all_from"] <= 30
     # a position-only file cannot be read as rectangles; a bad --expect is a usage error
     r = _run([str(DATA / "drawer_001.log"), "--rectangles", "centre"], tmp_path)
-    assert r.returncode == 1 and "--rectangles needs 9 columns" in r.stderr
+    assert r.returncode == 2 and "--rectangles needs 9 columns" in r.stderr
     r = _run([str(DATA / "rectangle_door.txt"), "--expect", "screw"], tmp_path)
     assert r.returncode == 2 and "--expect" in r.stderr

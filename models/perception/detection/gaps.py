@@ -247,8 +247,8 @@ def _line_hits_kernel(m, unmeas, side_ok, V, Hi, gd, gdz, tol_m2, near_z, offset
             su, sd, un = side_ok[r - o], side_ok[r + o], unmeas[r]
             for c in range(Wm):
                 cand[c] = su[c] & sd[c] & ((mc[c] - (mu[c] + md[c]) * half > gd) | un[c])
-            # the few candidates' columns, without a branch per column (a mispredicted
-            # branch per candidate cost more than the remaining tests)
+            # the few candidates' columns, without a conditional jump per column (a mispredicted
+            # jump per candidate cost more than the remaining tests)
             nc = 0
             for c in range(Wm):
                 idx[nc] = c
