@@ -13,19 +13,7 @@ that has not moved, ``locked_force``). It then tells the controller to stop: hal
 speed is modulated (``excitation`` of the step, period ``excitation_period``) so that the
 rate varies and damping can be told from friction.
 
-.. pydrake_system::
-
-    name: DynamicsMonitor
-    input_ports:
-    - hook_position
-    - force_W
-    - object_model
-    output_ports:
-    - supervisor
-    - halted_since
-    - dynamics
-
-:class:`HaltGate` relaxes the arm at once when the monitor halts (the controller reacts only
+Its ports are listed on :class:`DynamicsMonitor`. :class:`HaltGate` relaxes the arm at once when the monitor halts (the controller reacts only
 at its next period): for ``hold`` seconds it commands the robot's measured joint positions,
 so its joint springs stop pulling.
 """
