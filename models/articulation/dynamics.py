@@ -36,7 +36,6 @@ articulation model (:func:`save_model_with_dynamics`, :func:`load_model_with_dyn
 
 from __future__ import annotations
 
-import json
 import math
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
@@ -333,40 +332,25 @@ def save_model_with_dynamics(model, dynamics: MechanismDynamics | None, path) ->
     """Save a learned model (:func:`mmlearn.models.articulation.io.save_model`'s formats,
     by extension: .json, .yaml, .yml) with its dynamics as the optional top-level section
     ``dynamics`` (``{"edge": 0, ...}``: the dynamics of the model's first link)."""
-    from mmlearn.models.articulation.io import _is_yaml, model_to_dict
-    from mmlearn.models.common.fileio import atomic_write_text
-
+    from mmlearn.models.articulation.io import model_to_dict, write_model_document
     from mmlearn.models.common.saved_doc import seal
 
     d = model_to_dict(model)
     if dynamics is not None:
         d["dynamics"] = {"edge": 0, **dynamics.to_dict()}
         d = seal(d)     # the checksum covers the dynamics too
-    if _is_yaml(path):
-        import yaml
-
-        text = yaml.safe_dump(d, sort_keys=False, default_flow_style=None, width=100)
-    else:
-        text = json.dumps(d, indent=1)
-    atomic_write_text(path, text)
+    write_model_document(d, path)
 
 
 def load_model_with_dynamics(path):
     """Load a model saved by :func:`save_model_with_dynamics` (or by ``save_model``): the
     model and its :class:`MechanismDynamics` (None when the file has none). Raises
     ValueError naming the file and the problem."""
-    from mmlearn.models.articulation.io import load_model
+    from mmlearn.models.articulation.io import read_model_document
 
-    model = load_model(path)
+    model, d = read_model_document(path)
     p = Path(path)
-    text = p.read_text()
-    if p.suffix.lower() in (".yaml", ".yml"):
-        import yaml
-
-        d = yaml.safe_load(text)
-    else:
-        d = json.loads(text)
-    if not isinstance(d, dict) or d.get("dynamics") is None:
+    if d.get("dynamics") is None:
         return model, None
     try:
         return model, MechanismDynamics.from_dict(d["dynamics"])

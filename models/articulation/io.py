@@ -285,9 +285,9 @@ def _is_yaml(path) -> bool:
     raise ValueError(f"{path}: use a .json, .yaml or .yml extension")
 
 
-def save_model(model, path) -> None:
-    """Save a link model or ArticulatedObject as JSON or YAML (by extension), atomically."""
-    d = model_to_dict(model)
+def write_model_document(d: dict, path) -> None:
+    """Write a model document (``model_to_dict``'s, sealed) as JSON or YAML by extension,
+    atomically."""
     if _is_yaml(path):
         import yaml
 
@@ -297,17 +297,27 @@ def save_model(model, path) -> None:
     atomic_write_text(path, text)
 
 
+def save_model(model, path) -> None:
+    """Save a link model or ArticulatedObject as JSON or YAML (by extension), atomically."""
+    write_model_document(model_to_dict(model), path)
+
+
+def read_model_document(path):
+    """``(model, document)`` of a file :func:`save_model` wrote (the document for sections
+    beside the model). Raises ValueError as :func:`load_model` does."""
+    p = Path(path)
+    d = read_document(p, yaml_format=_is_yaml(p), what="model file")
+    try:
+        return model_from_dict(d), d
+    except ValueError as e:
+        raise ValueError(f"{p}: {e}") from None
+
+
 def load_model(path):
     """Load what :func:`save_model` wrote. Raises ValueError naming the file and the
     problem (missing or binary file, unparsable YAML/JSON, missing key, wrong type, NaN,
     checksum missing or not matching: truncated or edited)."""
-    p = Path(path)
-    yaml_ = _is_yaml(p)
-    d = read_document(p, yaml_format=yaml_, what="model file")
-    try:
-        return model_from_dict(d)
-    except ValueError as e:
-        raise ValueError(f"{p}: {e}") from None
+    return read_model_document(path)[0]
 
 
 def validate_prior_dict(d: dict) -> None:
