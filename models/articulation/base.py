@@ -112,6 +112,7 @@ class LinkModel:
                 f"{self.name}: track too short ({d.n} observations; need at least "
                 f"{max(3, self.min_samples)})")
         self.fitted = False
+        self._range_jac_cache = None
         self.has_orientation = d.has_orientation
         self.obs_fit = self.obs.with_volume_from(d.P)
         self.n_train = d.n
@@ -265,9 +266,18 @@ class LinkModel:
 
     def _range_jacobians(self, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
         """The model's Jacobian (16, 3 | 6, d) at 16 configurations evenly spread over
-        [lo, hi]."""
+        [lo, hi]. The last result is kept (the likelihood's configuration prior and the
+        selection's identifiability test ask for the same range); it is keyed by the range
+        and theta, and dropped when the model is fitted again."""
+        lo, hi = np.asarray(lo, float), np.asarray(hi, float)
+        key = (lo.tobytes(), hi.tobytes(), np.asarray(self.theta, float).tobytes())
+        cached = getattr(self, "_range_jac_cache", None)
+        if cached is not None and cached[0] == key:
+            return cached[1].copy()
         qs = lo[None] + np.linspace(0.0, 1.0, 16)[:, None] * (hi - lo)[None]
-        return self.jacobian(qs)
+        J = self.jacobian(qs)
+        self._range_jac_cache = (key, J)
+        return J.copy()
 
     def _noise_speed(self, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
         """Mean length of a unit step in q, per DOF, in noise units:

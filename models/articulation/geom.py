@@ -65,6 +65,8 @@ def _rv2m(rv: np.ndarray) -> np.ndarray:
     rv = np.asarray(rv, float)
     if rv.shape == (3,):
         return _rv2m_one(*rv.tolist())
+    if rv.shape == (1, 3):
+        return _rv2m_one(*rv[0].tolist())[None]
     x, y, z = rv[..., 0], rv[..., 1], rv[..., 2]
     t2 = x * x + y * y + z * z
     t = np.sqrt(t2)

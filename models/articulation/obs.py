@@ -16,6 +16,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from mmlearn.models.common.config import param, validate_fields
+from mmlearn.models.articulation.kernels import em_gamma_loop
 
 __all__ = ["ObservationModel", "DEFAULT_GAMMA_WEIGHT", "GAMMA_PRIOR_MODES", "em_gamma"]
 
@@ -139,17 +140,11 @@ def em_gamma(log_in: np.ndarray, log_out: float, w: float, *, iters: int = 30,
     """
     log_in = np.atleast_2d(log_in)
     H, n = log_in.shape
-    g = np.full(H, float(gamma0))
     # likelihood ratio inlier / outlier, clipped (responsibilities saturate long before)
     L = np.exp(np.clip(log_in - log_out, -700.0, 700.0))
-    for _ in range(iters):
-        # outlier responsibility g / ((1 - g) L + g)
-        A = np.sum(g[:, None] / ((1.0 - g)[:, None] * L + g[:, None]), axis=1)
-        g_new = _gamma_map(A, n, w)
-        done = np.max(np.abs(g_new - g)) < tol
-        g = g_new
-        if done:
-            break
+    # fixed point: outlier responsibilities g / ((1 - g) L + g) summed, then the MAP
+    # M-step (_gamma_map), until no gamma moves by tol (compiled loop, kernels.py)
+    g = em_gamma_loop(L, np.full(H, float(gamma0)), float(w), int(iters), float(tol))
     a = np.log1p(-g)[:, None] + log_in
     b = np.log(g)[:, None] + log_out
     lse = np.logaddexp(a, b)

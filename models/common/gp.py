@@ -43,12 +43,15 @@ import numpy as np
 from scipy.linalg import lapack
 from scipy.optimize import minimize
 
+from mmlearn.models.common.gp_kernel import neg_lml_and_grad as _nlml_kernel
+
 _potrf = lapack.dpotrf
 _potri = lapack.dpotri
 
 __all__ = ["GaussianProcess"]
 
 _LOG_2PI = np.log(2.0 * np.pi)
+_NO_P = np.zeros((1, 1))  # the compiled objective's "no revolute term"
 
 
 _THREADPOOL_CONTROLLER = None
@@ -219,9 +222,22 @@ class GaussianProcess:
 
     def _neg_lml_and_grad(self, theta, G, Yc, d_ell):
         """Negative log marginal likelihood summed over the outputs and its gradient with
-        respect to ``theta`` (the objective of L-BFGS-B; written for few small matrices:
-        one LAPACK Cholesky + inverse per output, the rest as products of flattened
-        stacks)."""
+        respect to ``theta`` (the objective of L-BFGS-B): the compiled loops of
+        models/common/gp_kernel.py; where a kernel matrix is not positive definite, the
+        numpy form (:meth:`_neg_lml_and_grad_numpy`, which adds jitter)."""
+        D2, P = G
+        rev = P is not None
+        f, g, ok = _nlml_kernel(np.ascontiguousarray(theta, dtype=float), D2,
+                                P if rev else _NO_P, Yc, d_ell, self._width(d_ell, D2.shape[0]),
+                                self.ard, rev)
+        if ok:
+            return f, g
+        return self._neg_lml_and_grad_numpy(theta, G, Yc, d_ell)
+
+    def _neg_lml_and_grad_numpy(self, theta, G, Yc, d_ell):
+        """:meth:`_neg_lml_and_grad` in numpy and LAPACK (one Cholesky + inverse per output,
+        the rest as products of flattened stacks; jitter where a kernel matrix is not
+        positive definite)."""
         D2, P = G
         n, m = Yc.shape
         d = D2.shape[0]

@@ -1,0 +1,158 @@
+"""Compiled (numba) inner loops of link-model fitting: the revolute model's errors for a batch
+of parameter vectors against every observation, and the outlier-ratio EM.
+
+Each kernel does, per hypothesis and observation, the arithmetic the numpy expressions it
+replaces did on whole (H, n) arrays, in the same order, so the results agree with them to
+rounding (~1e-15 relative; the tests compare both). At the sizes selection works on (100
+hypotheses x 30-200 observations, a few dozen calls per fit) the numpy forms spend most of
+their time creating the dozens of (H, n) temporaries; the loops here create none.
+Compiled on first use and cached on disk (``cache=True``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _pymod(x, y):
+    """numpy's / Python's float modulo (result has the sign of y)."""
+    r = np.fmod(x, y)
+    if r != 0.0:
+        if (y < 0.0) != (r < 0.0):
+            r += y
+    else:
+        r = math.copysign(0.0, y)
+    return r
+
+
+@numba.njit(cache=True, nogil=True)
+def revolute_errors(cp, Rc, rp, Rr, P, R, sigma_pos, sigma_orient, q_center, vectors,
+                    sp_out, so_out):
+    """Errors of the revolute model (links.RevoluteModel._errors) for H parameter sets.
+
+    Args:
+        cp (H, 3), Rc (H, 3, 3), rp (H, 3): centre frame and the part's offset in it;
+        Rr (H, 3, 3): the part's rotation in the rotated frame (ignored when R is empty);
+        P (n, 3), R (n, 3, 3) or (0, 3, 3): the observations (R empty: position-only);
+        sigma_pos, sigma_orient: the weights of f^-1 (position weight r^2 / sigma_pos^2,
+        orientation weight 1 / sigma_orient^2); q_center: centre of the angle wrap;
+        vectors: return residual vectors instead of squared errors;
+        sp_out, so_out: noise units of the residual vectors.
+    Returns:
+        q (H, n); ep2 (H, n) squared position errors; eo (H, n) orientation errors (rad;
+        zeros when position-only); res (H, n, 3 | 6) residual vectors in noise units when
+        ``vectors`` (else (0, 0, 0)).
+    """
+    H = cp.shape[0]
+    n = P.shape[0]
+    has_o = R.shape[0] > 0
+    m = 6 if has_o else 3
+    q_out = np.empty((H, n))
+    ep2 = np.empty((H, n))
+    eo = np.zeros((H, n))
+    res = np.empty((H, n, m)) if vectors else np.empty((0, 0, 0))
+    twopi = 2.0 * np.pi
+    wr = 1.0 / (sigma_orient * sigma_orient)
+    T = np.empty((3, 3))
+    for h in range(H):
+        rp0, rp1, rp2 = rp[h, 0], rp[h, 1], rp[h, 2]
+        rho2 = rp0 * rp0 + rp1 * rp1
+        phi_r = math.atan2(rp1, rp0)
+        wp = rho2 / (sigma_pos * sigma_pos)
+        for t in range(n):
+            d0 = P[t, 0] - cp[h, 0]
+            d1 = P[t, 1] - cp[h, 1]
+            d2 = P[t, 2] - cp[h, 2]
+            pl0 = d0 * Rc[h, 0, 0] + d1 * Rc[h, 1, 0] + d2 * Rc[h, 2, 0]
+            pl1 = d0 * Rc[h, 0, 1] + d1 * Rc[h, 1, 1] + d2 * Rc[h, 2, 1]
+            pl2 = d0 * Rc[h, 0, 2] + d1 * Rc[h, 1, 2] + d2 * Rc[h, 2, 2]
+            q_pos = math.atan2(pl1, pl0) - phi_r
+            s = wp * math.sin(q_pos)
+            c = wp * math.cos(q_pos)
+            if has_o:
+                # Ml = Rc^T R_t Rr^T: first T = Rc^T R_t, then T Rr^T
+                for a in range(3):
+                    for j in range(3):
+                        T[a, j] = (Rc[h, 0, a] * R[t, 0, j] + Rc[h, 1, a] * R[t, 1, j]
+                                   + Rc[h, 2, a] * R[t, 2, j])
+                m00 = T[0, 0] * Rr[h, 0, 0] + T[0, 1] * Rr[h, 0, 1] + T[0, 2] * Rr[h, 0, 2]
+                m01 = T[0, 0] * Rr[h, 1, 0] + T[0, 1] * Rr[h, 1, 1] + T[0, 2] * Rr[h, 1, 2]
+                m02 = T[0, 0] * Rr[h, 2, 0] + T[0, 1] * Rr[h, 2, 1] + T[0, 2] * Rr[h, 2, 2]
+                m10 = T[1, 0] * Rr[h, 0, 0] + T[1, 1] * Rr[h, 0, 1] + T[1, 2] * Rr[h, 0, 2]
+                m11 = T[1, 0] * Rr[h, 1, 0] + T[1, 1] * Rr[h, 1, 1] + T[1, 2] * Rr[h, 1, 2]
+                m12 = T[1, 0] * Rr[h, 2, 0] + T[1, 1] * Rr[h, 2, 1] + T[1, 2] * Rr[h, 2, 2]
+                m20 = T[2, 0] * Rr[h, 0, 0] + T[2, 1] * Rr[h, 0, 1] + T[2, 2] * Rr[h, 0, 2]
+                m21 = T[2, 0] * Rr[h, 1, 0] + T[2, 1] * Rr[h, 1, 1] + T[2, 2] * Rr[h, 1, 2]
+                m22 = T[2, 0] * Rr[h, 2, 0] + T[2, 1] * Rr[h, 2, 1] + T[2, 2] * Rr[h, 2, 2]
+                q_rot = math.atan2(m10 - m01, m00 + m11)
+                s = s + wr * math.sin(q_rot)
+                c = c + wr * math.cos(q_rot)
+            q = math.atan2(s, c)
+            q = _pymod(q - q_center + np.pi, twopi) - np.pi + q_center
+            q_out[h, t] = q
+            cq = math.cos(q)
+            sq = math.sin(q)
+            ex = pl0 - (cq * rp0 - sq * rp1)
+            ey = pl1 - (sq * rp0 + cq * rp1)
+            ez = pl2 - rp2
+            ep2[h, t] = ex * ex + ey * ey + ez * ez
+            if vectors:
+                res[h, t, 0] = ex / sp_out
+                res[h, t, 1] = ey / sp_out
+                res[h, t, 2] = ez / sp_out
+            if has_o:
+                # angle of RotZ(-q) Ml (rows 0, 1 rotated, row 2 unchanged)
+                M00 = cq * m00 + sq * m10
+                M01 = cq * m01 + sq * m11
+                M02 = cq * m02 + sq * m12
+                M10 = -sq * m00 + cq * m10
+                M11 = -sq * m01 + cq * m11
+                M12 = -sq * m02 + cq * m12
+                tr = M00 + M11 + m22
+                vx = m21 - M12
+                vy = M02 - m20
+                vz = M10 - M01
+                s2 = math.sqrt(vx * vx + vy * vy + vz * vz)  # 2 sin(angle)
+                ang = math.atan2(0.5 * s2, 0.5 * (tr - 1.0))
+                eo[h, t] = ang
+                if vectors:
+                    f = (ang / max(s2, 1e-12) if s2 > 1e-12 else 0.5) / so_out
+                    res[h, t, 3] = vx * f
+                    res[h, t, 4] = vy * f
+                    res[h, t, 5] = vz * f
+    return q_out, ep2, eo, res
+
+
+@numba.njit(cache=True, nogil=True)
+def em_gamma_loop(L, g, w, iters, tol):
+    """The fixed-point iterations of obs.em_gamma: L (H, n) inlier / outlier likelihood
+    ratios, g (H,) start (overwritten); returns the outlier ratios (H,)."""
+    H, n = L.shape
+    A = np.empty(H)
+    g_new = np.empty(H)
+    for _ in range(iters):
+        for h in range(H):
+            gh = g[h]
+            s = 0.0
+            for t in range(n):
+                s += gh / ((1.0 - gh) * L[h, t] + gh)
+            A[h] = s
+        done = True
+        for h in range(H):
+            if w > 0:
+                sw = n + w
+                v = (sw - math.sqrt(max(sw * sw - 4 * w * A[h], 0.0))) / (2 * w)
+            else:
+                v = A[h] / n
+            v = min(max(v, 1e-6), 1 - 1e-6)
+            if not abs(v - g[h]) < tol:
+                done = False
+            g_new[h] = v
+        g[:] = g_new
+        if done:
+            break
+    return g
