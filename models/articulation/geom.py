@@ -8,6 +8,7 @@ import math
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from mmlearn.models.articulation.kernels import weighted_log_mean
 from mmlearn.models.common.se3 import as_pose_array, project_to_so3
 
 # --------------------------------------------------------------------------- track data
@@ -152,8 +153,9 @@ def _weighted_rotation_mean(R: np.ndarray, w: np.ndarray) -> np.ndarray:
     model. Start from the weighted chordal mean (closed form), then one Gauss-Newton step on
     the manifold (the two agree to second order in the spread)."""
     R0 = project_to_so3(np.einsum("n,nij->ij", w, R))
-    v = _log_rot(np.einsum("ba,nbc->nac", R0, R))
-    return R0 @ _rv2m(w @ v / w.sum())
+    # sum_t w_t log(R0^T R_t) / sum_t w_t, compiled (kernels.weighted_log_mean)
+    return R0 @ _rv2m(weighted_log_mean(np.ascontiguousarray(R0), R,
+                                        np.ascontiguousarray(w, dtype=float)))
 
 
 def _frame_with_z(axis: np.ndarray, xhint: np.ndarray) -> np.ndarray:

@@ -156,3 +156,67 @@ def em_gamma_loop(L, g, w, iters, tol):
         if done:
             break
     return g
+
+
+@numba.njit(cache=True, nogil=True)
+def rotation_errors(Ra, R):
+    """Angles (H, n) of Ra[h]^T R[t] (geom._rot_err of geom._pair_mul(Ra^T, R)): the
+    orientation errors of the rigid and prismatic models. Ra (H, 3, 3), R (n, 3, 3)."""
+    H = Ra.shape[0]
+    n = R.shape[0]
+    out = np.empty((H, n))
+    for h in range(H):
+        for t in range(n):
+            # M = Ra^T R_t, the entries the angle needs
+            m00 = Ra[h, 0, 0] * R[t, 0, 0] + Ra[h, 1, 0] * R[t, 1, 0] + Ra[h, 2, 0] * R[t, 2, 0]
+            m11 = Ra[h, 0, 1] * R[t, 0, 1] + Ra[h, 1, 1] * R[t, 1, 1] + Ra[h, 2, 1] * R[t, 2, 1]
+            m22 = Ra[h, 0, 2] * R[t, 0, 2] + Ra[h, 1, 2] * R[t, 1, 2] + Ra[h, 2, 2] * R[t, 2, 2]
+            m21 = Ra[h, 0, 2] * R[t, 0, 1] + Ra[h, 1, 2] * R[t, 1, 1] + Ra[h, 2, 2] * R[t, 2, 1]
+            m12 = Ra[h, 0, 1] * R[t, 0, 2] + Ra[h, 1, 1] * R[t, 1, 2] + Ra[h, 2, 1] * R[t, 2, 2]
+            m02 = Ra[h, 0, 0] * R[t, 0, 2] + Ra[h, 1, 0] * R[t, 1, 2] + Ra[h, 2, 0] * R[t, 2, 2]
+            m20 = Ra[h, 0, 2] * R[t, 0, 0] + Ra[h, 1, 2] * R[t, 1, 0] + Ra[h, 2, 2] * R[t, 2, 0]
+            m10 = Ra[h, 0, 1] * R[t, 0, 0] + Ra[h, 1, 1] * R[t, 1, 0] + Ra[h, 2, 1] * R[t, 2, 0]
+            m01 = Ra[h, 0, 0] * R[t, 0, 1] + Ra[h, 1, 0] * R[t, 1, 1] + Ra[h, 2, 0] * R[t, 2, 1]
+            tr = m00 + m11 + m22
+            vx = m21 - m12
+            vy = m02 - m20
+            vz = m10 - m01
+            s = 0.5 * math.sqrt(vx * vx + vy * vy + vz * vz)
+            out[h, t] = math.atan2(s, 0.5 * (tr - 1.0))
+    return out
+
+
+@numba.njit(cache=True, nogil=True)
+def weighted_log_mean(R0, R, w):
+    """sum_t w_t log(R0^T R_t) / sum_t w_t (rotation vectors; geom._log_rot): the tangent
+    step of the weighted geodesic mean. R0 (3, 3), R (n, 3, 3), w (n,)."""
+    n = R.shape[0]
+    acc0 = 0.0
+    acc1 = 0.0
+    acc2 = 0.0
+    sw = 0.0
+    for t in range(n):
+        m00 = R0[0, 0] * R[t, 0, 0] + R0[1, 0] * R[t, 1, 0] + R0[2, 0] * R[t, 2, 0]
+        m11 = R0[0, 1] * R[t, 0, 1] + R0[1, 1] * R[t, 1, 1] + R0[2, 1] * R[t, 2, 1]
+        m22 = R0[0, 2] * R[t, 0, 2] + R0[1, 2] * R[t, 1, 2] + R0[2, 2] * R[t, 2, 2]
+        m21 = R0[0, 2] * R[t, 0, 1] + R0[1, 2] * R[t, 1, 1] + R0[2, 2] * R[t, 2, 1]
+        m12 = R0[0, 1] * R[t, 0, 2] + R0[1, 1] * R[t, 1, 2] + R0[2, 1] * R[t, 2, 2]
+        m02 = R0[0, 0] * R[t, 0, 2] + R0[1, 0] * R[t, 1, 2] + R0[2, 0] * R[t, 2, 2]
+        m20 = R0[0, 2] * R[t, 0, 0] + R0[1, 2] * R[t, 1, 0] + R0[2, 2] * R[t, 2, 0]
+        m10 = R0[0, 1] * R[t, 0, 0] + R0[1, 1] * R[t, 1, 0] + R0[2, 1] * R[t, 2, 0]
+        m01 = R0[0, 0] * R[t, 0, 1] + R0[1, 0] * R[t, 1, 1] + R0[2, 0] * R[t, 2, 1]
+        vx = m21 - m12
+        vy = m02 - m20
+        vz = m10 - m01
+        s2 = math.sqrt(vx * vx + vy * vy + vz * vz)  # 2 sin(angle)
+        ang = math.atan2(0.5 * s2, 0.5 * (m00 + m11 + m22 - 1.0))
+        f = ang / max(s2, 1e-12) if s2 > 1e-12 else 0.5
+        acc0 += w[t] * (vx * f)
+        acc1 += w[t] * (vy * f)
+        acc2 += w[t] * (vz * f)
+        sw += w[t]
+    out = np.empty(3)
+    out[0] = acc0 / sw
+    out[1] = acc1 / sw
+    out[2] = acc2 / sw
+    return out

@@ -11,7 +11,7 @@ from scipy.spatial.transform import Rotation
 from mmlearn.models.articulation.base import LinkModel
 from mmlearn.models.articulation.geom import (_chordal_mean, _frame_with_z, _m2rv, _pair_mul, _rot_err,
                                               _rotz, _rv2m, _slot_rotations, _weighted_rotation_mean)
-from mmlearn.models.articulation.kernels import revolute_errors
+from mmlearn.models.articulation.kernels import revolute_errors, rotation_errors
 
 __all__ = ["RigidModel", "PrismaticModel", "RevoluteModel"]
 
@@ -58,7 +58,7 @@ class RigidModel(LinkModel):
         eo = None
         if d.has_orientation:
             Rh = _slot_rotations(thetas, 3, rots)
-            eo = _rot_err(_pair_mul(np.swapaxes(Rh, 1, 2), d.R))
+            eo = rotation_errors(np.ascontiguousarray(Rh), d.R)
         return ep2, eo, np.zeros((thetas.shape[0], d.n, 0))
 
     def forward(self, q=None):
@@ -154,7 +154,7 @@ class PrismaticModel(LinkModel):
         eo = None
         if has_o and d.has_orientation:
             Ra = _slot_rotations(thetas, 3, rots)
-            eo = _rot_err(_pair_mul(np.swapaxes(Ra, 1, 2), d.R))
+            eo = rotation_errors(np.ascontiguousarray(Ra), d.R)
         return ep2, eo, q[..., None]
 
     def _canonicalize(self, d, inl):
