@@ -19,7 +19,7 @@ import numpy as np
 _LOG_2PI = math.log(2.0 * math.pi)
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, fastmath={"reassoc", "contract"})
 def neg_lml_and_grad(theta, D2, P, Yc, d_ell, width, ard, has_rev):
     """(-log marginal likelihood summed over outputs, its gradient (m * width,), ok).
 
@@ -73,21 +73,22 @@ def neg_lml_and_grad(theta, D2, P, Yc, d_ell, width, ard, has_rev):
                 for k in range(j):
                     s -= L[i, k] * L[j, k]
                 L[i, j] = s / ljj
-        # inverse factor Li = L^-1 (lower; K is no longer needed)
-        Li = K
+        # inverse factor, stored transposed: LiT[j, i] = (L^-1)[i, j] (rows contiguous for
+        # the loops below; K is no longer needed)
+        LiT = K
         for j in range(n):
-            Li[j, j] = 1.0 / L[j, j]
+            LiT[j, j] = 1.0 / L[j, j]
             for i in range(j + 1, n):
                 s = 0.0
                 for k in range(j, i):
-                    s -= L[i, k] * Li[k, j]
-                Li[i, j] = s / L[i, i]
-        # W = K^-1 = Li^T Li
+                    s -= L[i, k] * LiT[j, k]
+                LiT[j, i] = s / L[i, i]
+        # W = K^-1 = Li^T Li: W[a, b] = sum_k Li[k, a] Li[k, b] = LiT[a] . LiT[b] (k >= a)
         for a in range(n):
             for b in range(a + 1):
                 s = 0.0
                 for k in range(a, n):
-                    s += Li[k, a] * Li[k, b]
+                    s += LiT[a, k] * LiT[b, k]
                 W[a, b] = s
                 W[b, a] = s
         logdet_half = 0.0
