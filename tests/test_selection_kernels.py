@@ -146,3 +146,24 @@ def test_real_tracks_reproduce_the_recorded_selections():
             assert abs(np.dot(s.best.axis, r["axis"])) > np.cos(1e-5), where
         if "radius_m" in r:
             assert s.best.radius == pytest.approx(r["radius_m"], rel=1e-6), where
+
+
+def test_lbfgsb_driver_takes_scipys_iterates(monkeypatch):
+    from scipy.optimize import minimize
+
+    from mmlearn.models.common import gp as gp_module
+
+    def scipy_minimize(fun, x0, args, bounds, maxiter, ftol, gtol):
+        return minimize(fun, x0, args=args, jac=True, method="L-BFGS-B", bounds=bounds,
+                        options={"maxiter": maxiter, "ftol": ftol, "gtol": gtol})
+
+    Z = simulate_link("microwave", 60, rng=2).Z
+    fitted = []
+    for driver in (gp_module._minimize_lbfgsb, scipy_minimize):
+        monkeypatch.setattr(gp_module, "_minimize_lbfgsb", driver)
+        fitted.append(make_model("gp", obs=OBS).fit(Z, rng=0))
+    a, b = fitted
+    assert np.array_equal(a.gp.log_ell, b.gp.log_ell)
+    assert np.array_equal(a.gp.log_sf2, b.gp.log_sf2)
+    assert np.array_equal(a.gp.log_sn2, b.gp.log_sn2)
+    assert a.bic_ == b.bic_
