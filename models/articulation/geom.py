@@ -8,7 +8,7 @@ import math
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from mmlearn.models.articulation.kernels import weighted_log_mean
+from mmlearn.models.articulation.kernels import log_rotations, rotvec_to_matrix, weighted_log_mean
 from mmlearn.models.common.se3 import as_pose_array, project_to_so3
 
 # --------------------------------------------------------------------------- track data
@@ -66,8 +66,8 @@ def _rv2m(rv: np.ndarray) -> np.ndarray:
     rv = np.asarray(rv, float)
     if rv.shape == (3,):
         return _rv2m_one(*rv.tolist())
-    if rv.shape == (1, 3):
-        return _rv2m_one(*rv[0].tolist())[None]
+    if rv.ndim == 2 and rv.shape[1] == 3:  # a batch: the compiled loop
+        return rotvec_to_matrix(np.ascontiguousarray(rv))
     x, y, z = rv[..., 0], rv[..., 1], rv[..., 2]
     t2 = x * x + y * y + z * z
     t = np.sqrt(t2)
@@ -123,8 +123,11 @@ def _m2rv(M: np.ndarray) -> np.ndarray:
     M = np.asarray(M, float)
     if M.shape == (3, 3):
         return _m2rv(M[None])[0]
-    v = _log_rot(M)
-    c = 0.5 * (M[..., 0, 0] + M[..., 1, 1] + M[..., 2, 2] - 1.0)
+    if M.ndim == 3:  # a batch: the compiled loop
+        v, c = log_rotations(np.ascontiguousarray(M))
+    else:
+        v = _log_rot(M)
+        c = 0.5 * (M[..., 0, 0] + M[..., 1, 1] + M[..., 2, 2] - 1.0)
     near_pi = c < -0.99
     if np.any(near_pi):
         Mp = M[near_pi]

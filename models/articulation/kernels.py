@@ -232,3 +232,54 @@ def weighted_log_mean(R0, R, w):
     out[1] = acc1 / sw
     out[2] = acc2 / sw
     return out
+
+
+@numba.njit(cache=True, nogil=True)
+def rotvec_to_matrix(rv):
+    """Rotation matrices (k, 3, 3) of rotation vectors rv (k, 3): geom._rv2m's Rodrigues
+    formula (the same series below an angle of 1e-4), one vector at a time."""
+    k = rv.shape[0]
+    R = np.empty((k, 3, 3))
+    for i in range(k):
+        x, y, z = rv[i, 0], rv[i, 1], rv[i, 2]
+        t2 = x * x + y * y + z * z
+        if t2 < 1e-8:
+            a = 1.0 - t2 / 6.0
+            b = 0.5 - t2 / 24.0
+        else:
+            t = math.sqrt(t2)
+            a = math.sin(t) / t
+            b = (1.0 - math.cos(t)) / (t * t)
+        R[i, 0, 0] = 1.0 - b * (y * y + z * z)
+        R[i, 1, 1] = 1.0 - b * (x * x + z * z)
+        R[i, 2, 2] = 1.0 - b * (x * x + y * y)
+        bxy, bxz, byz = b * x * y, b * x * z, b * y * z
+        R[i, 0, 1] = bxy - a * z
+        R[i, 1, 0] = bxy + a * z
+        R[i, 0, 2] = bxz + a * y
+        R[i, 2, 0] = bxz - a * y
+        R[i, 1, 2] = byz - a * x
+        R[i, 2, 1] = byz + a * x
+    return R
+
+
+@numba.njit(cache=True, nogil=True)
+def log_rotations(M):
+    """Rotation vectors (k, 3) of rotation matrices M (k, 3, 3) from the skew part and the
+    trace (geom._log_rot, one matrix at a time), and the cosines of their angles (k,)."""
+    k = M.shape[0]
+    v = np.empty((k, 3))
+    c = np.empty(k)
+    for i in range(k):
+        vx = M[i, 2, 1] - M[i, 1, 2]
+        vy = M[i, 0, 2] - M[i, 2, 0]
+        vz = M[i, 1, 0] - M[i, 0, 1]
+        s2 = math.sqrt(vx * vx + vy * vy + vz * vz)  # 2 sin(angle)
+        ci = 0.5 * (M[i, 0, 0] + M[i, 1, 1] + M[i, 2, 2] - 1.0)
+        ang = math.atan2(0.5 * s2, ci)
+        f = ang / max(s2, 1e-12) if s2 > 1e-12 else 0.5
+        v[i, 0] = vx * f
+        v[i, 1] = vy * f
+        v[i, 2] = vz * f
+        c[i] = ci
+    return v, c

@@ -11,6 +11,7 @@ likelihood (default ``"plugin"``: ML gamma by EM, -w gamma per observation),
 
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -82,7 +83,11 @@ class ObservationModel:
         ext = float(np.max(np.ptp(positions, axis=0))) if len(positions) > 1 else 0.0
         side = ext + 6.0 * self.sigma_pos
         vol = max(side**3, self.min_outlier_volume_m3)
-        return replace(self, outlier_volume_m3=vol)
+        # a copy with the volume set (dataclasses.replace would validate every field again,
+        # once per candidate model; the volume is positive by construction)
+        out = copy.copy(self)
+        out.outlier_volume_m3 = float(vol)
+        return out
 
     def log_inlier(self, ep2: np.ndarray, eo: np.ndarray | None) -> np.ndarray:
         """log N for squared position errors ep2 (m^2) and orientation errors eo (rad)."""
