@@ -112,7 +112,7 @@ class LinkModel:
                 f"{self.name}: track too short ({d.n} observations; need at least "
                 f"{max(3, self.min_samples)})")
         self.fitted = False
-        self._range_jac_cache = None
+        self._range_jac_key = self._range_jac = None
         self.has_orientation = d.has_orientation
         self.obs_fit = self.obs.with_volume_from(d.P)
         self.n_train = d.n
@@ -202,6 +202,7 @@ class LinkModel:
         if self.dof:
             self.q_min = q[0][inl].min(axis=0)
             self.q_max = q[0][inl].max(axis=0)
+        self._keep_range_jacobians()
         self.log_likelihood_ = self._log_likelihood_from(ep2, eo, d.n, d.has_orientation, q=q)
         self.bic_ = -2.0 * self.log_likelihood_ + self.num_params(d.n) * np.log(d.n)
         self.avg_pos_error_ = float(np.sqrt(ep2[0][inl]).mean())
@@ -266,18 +267,25 @@ class LinkModel:
 
     def _range_jacobians(self, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
         """The model's Jacobian (16, 3 | 6, d) at 16 configurations evenly spread over
-        [lo, hi]. The last result is kept (the likelihood's configuration prior and the
-        selection's identifiability test ask for the same range); it is keyed by the range
-        and theta, and dropped when the model is fitted again."""
+        [lo, hi]. Over the model's own range the fit keeps them (``_keep_range_jacobians``:
+        the likelihood's configuration prior and the selection's identifiability test ask
+        for that range again and again); evaluation stores nothing."""
         lo, hi = np.asarray(lo, float), np.asarray(hi, float)
-        key = (lo.tobytes(), hi.tobytes(), np.asarray(self.theta, float).tobytes())
-        cached = getattr(self, "_range_jac_cache", None)
-        if cached is not None and cached[0] == key:
-            return cached[1].copy()
+        if (getattr(self, "_range_jac_key", None) is not None
+                and self._range_jac_key == self._range_key(lo, hi)):
+            return self._range_jac.copy()
         qs = lo[None] + np.linspace(0.0, 1.0, 16)[:, None] * (hi - lo)[None]
-        J = self.jacobian(qs)
-        self._range_jac_cache = (key, J)
-        return J.copy()
+        return self.jacobian(qs)
+
+    def _range_key(self, lo, hi):
+        return (lo.tobytes(), hi.tobytes(), np.asarray(self.theta, float).tobytes())
+
+    def _keep_range_jacobians(self):
+        """Compute and keep the Jacobians over [q_min, q_max] (end of the fit)."""
+        self._range_jac_key = self._range_jac = None
+        if self.dof:
+            J = self._range_jacobians(self.q_min, self.q_max)
+            self._range_jac_key, self._range_jac = self._range_key(self.q_min, self.q_max), J
 
     def _noise_speed(self, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
         """Mean length of a unit step in q, per DOF, in noise units:

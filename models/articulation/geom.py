@@ -6,7 +6,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from mmlearn.models.articulation.kernels import log_rotations, rotvec_to_matrix, weighted_log_mean
 from mmlearn.models.common.se3 import as_pose_array, project_to_so3
@@ -146,8 +145,11 @@ def _m2rv(M: np.ndarray) -> np.ndarray:
 
 
 def _chordal_mean(R: np.ndarray) -> np.ndarray:
-    """Chordal L2 mean of rotation matrices (n, 3, 3) (scipy's Rotation.mean)."""
-    return Rotation.from_matrix(R).mean().as_matrix()
+    """Chordal L2 mean of rotation matrices (n, 3, 3): the rotation nearest (Frobenius) to
+    their sum, which is what scipy's ``Rotation.mean`` computes through quaternions (the
+    largest eigenvector of sum q q^T maximises tr(sum_t R_t^T M)); the same values to
+    ~1e-15, without scipy's conversions."""
+    return project_to_so3(np.asarray(R, float).sum(axis=0))
 
 
 def _weighted_rotation_mean(R: np.ndarray, w: np.ndarray) -> np.ndarray:

@@ -5,10 +5,9 @@ models/articulation/base.py; public names in models/articulation/link.py."""
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from mmlearn.models.articulation.base import LinkModel
-from mmlearn.models.articulation.geom import _m2rv, _rot_err, _rv2m
+from mmlearn.models.articulation.geom import _chordal_mean, _m2rv, _rot_err, _rv2m
 
 __all__ = ["GPModel"]
 
@@ -76,8 +75,7 @@ class GPModel(LinkModel):
 
         if d.n < self.dof + 2:
             raise ValueError(f"gp: track too short ({d.n}) for d = {self.dof}")
-        self.R_ref = (Rotation.from_matrix(d.R).mean().as_matrix() if d.has_orientation
-                      else np.eye(3))
+        self.R_ref = _chordal_mean(d.R) if d.has_orientation else np.eye(3)
         Y = self._targets(d.P, d.R)
         F = self._features_from_targets(Y)
         self.f_mean = F.mean(axis=0)

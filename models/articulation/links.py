@@ -9,7 +9,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from mmlearn.models.articulation.base import LinkModel
-from mmlearn.models.articulation.geom import (_chordal_mean, _frame_with_z, _m2rv, _pair_mul, _rot_err,
+from mmlearn.models.articulation.geom import (_chordal_mean, _frame_with_z, _m2rv, _pair_mul,
                                               _rotz, _rv2m, _slot_rotations, _weighted_rotation_mean)
 from mmlearn.models.articulation.kernels import revolute_errors, rotation_errors
 

@@ -12,7 +12,7 @@ likelihood (default ``"plugin"``: ML gamma by EM, -w gamma per observation),
 from __future__ import annotations
 
 import copy
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
