@@ -17,6 +17,7 @@ from mmlearn.models.articulation.refine import LocalParametrisation
 from mmlearn.models.articulation.sim import simulate_link
 from mmlearn.models.articulation.structure import select_link_model
 from mmlearn.models.common.gp import GaussianProcess
+from mmlearn.models.common.gp_kernel import neg_lml_and_grad
 from mmlearn.models.common.track_io import read_track
 
 DATA = Path(__file__).parent / "data"
@@ -113,6 +114,7 @@ def test_gp_objective_falls_back_where_the_kernel_is_singular():
     gp = GaussianProcess()
     G, Yc = gp._geom(X, X), Y - Y.mean()
     th = np.array([0.0, 0.0, -800.0])  # sn2 = exp(-800) = 0
+    assert not neg_lml_and_grad(th, G[0], np.zeros((1, 1)), Yc, 1, 3, True, False)[2]
     f, g = gp._neg_lml_and_grad(th, G, Yc, 1)
     f0, g0 = gp._neg_lml_and_grad_numpy(th, G, Yc, 1)
     assert f == f0 and np.array_equal(g, g0)
