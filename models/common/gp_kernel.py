@@ -73,24 +73,32 @@ def neg_lml_and_grad(theta, D2, P, Yc, d_ell, width, ard, has_rev):
                 for k in range(j):
                     s -= L[i, k] * L[j, k]
                 L[i, j] = s / ljj
-        # inverse factor, stored transposed: LiT[j, i] = (L^-1)[i, j] (rows contiguous for
-        # the loops below; K is no longer needed)
-        LiT = K
-        for j in range(n):
-            LiT[j, j] = 1.0 / L[j, j]
-            for i in range(j + 1, n):
-                s = 0.0
-                for k in range(j, i):
-                    s -= L[i, k] * LiT[j, k]
-                LiT[j, i] = s / L[i, i]
-        # W = K^-1 = Li^T Li: W[a, b] = sum_k Li[k, a] Li[k, b] = LiT[a] . LiT[b] (k >= a)
+        # X = L^-1 row by row (X[i] = (e_i - sum_k<i L[i, k] X[k]) / L[i, i]; row updates
+        # over contiguous memory, K is no longer needed)
+        X = K
+        for i in range(n):
+            for b in range(n):
+                X[i, b] = 0.0
+            X[i, i] = 1.0
+            for k in range(i):
+                lik = L[i, k]
+                for b in range(k + 1):
+                    X[i, b] -= lik * X[k, b]
+            inv_ii = 1.0 / L[i, i]
+            for b in range(i + 1):
+                X[i, b] *= inv_ii
+        # W = K^-1 = X^T X, lower triangle accumulated over the rows of X, then mirrored
         for a in range(n):
             for b in range(a + 1):
-                s = 0.0
-                for k in range(a, n):
-                    s += LiT[a, k] * LiT[b, k]
-                W[a, b] = s
-                W[b, a] = s
+                W[a, b] = 0.0
+        for k in range(n):
+            for a in range(k + 1):
+                xka = X[k, a]
+                for b in range(a + 1):
+                    W[a, b] += xka * X[k, b]
+        for a in range(n):
+            for b in range(a):
+                W[b, a] = W[a, b]
         logdet_half = 0.0
         for j in range(n):
             logdet_half += math.log(L[j, j])
