@@ -132,7 +132,7 @@ class LinkModel:
         w = self.obs_fit.map_weight(d.n)
         ep2, eo, _ = self._residuals_batch(thetas, d)
         log_in = self.obs_fit.log_inlier(ep2, eo)
-        g, ll, _ = em_gamma(log_in, log_out, w, iters=15)
+        g, ll, _ = em_gamma(log_in, log_out, w, iters=15, responsibilities=False)
         score = ll + self.obs_fit.log_gamma_prior(g, d.n)
         best = int(np.argmax(score))
         theta, gamma = thetas[best].copy(), float(g[best])
@@ -162,7 +162,8 @@ class LinkModel:
         if cand is None or not np.all(np.isfinite(cand)):
             return theta, gamma
         ep2c, eoc, _ = self._residuals_batch(cand[None], d)
-        gc, llc, _ = em_gamma(obs.log_inlier(ep2c, eoc), log_out, w, gamma0=gamma, iters=15)
+        gc, llc, _ = em_gamma(obs.log_inlier(ep2c, eoc), log_out, w, gamma0=gamma, iters=15,
+                            responsibilities=False)
         if llc[0] + obs.log_gamma_prior(gc[0], d.n) > score:
             return cand, float(gc[0])
         return theta, gamma

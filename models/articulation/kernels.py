@@ -18,6 +18,8 @@ import math
 import numba
 import numpy as np
 
+_LOG2 = math.log(2.0)
+
 
 @numba.njit(cache=True, nogil=True, inline="always")
 def _pymod(x, y):
@@ -283,3 +285,43 @@ def log_rotations(M):
         v[i, 2] = vz * f
         c[i] = ci
     return v, c
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _logaddexp(x, y):
+    """numpy's logaddexp for two floats."""
+    if x == y:
+        return x + _LOG2
+    d = x - y
+    if d > 0:
+        return x + math.log1p(math.exp(-d))
+    if d <= 0:
+        return y + math.log1p(math.exp(d))
+    return d  # nan
+
+
+@numba.njit(cache=True, nogil=True)
+def em_gamma_full(log_in, log_out, gamma0, w, iters, tol, want_resp):
+    """obs.em_gamma: outlier ratios (H,), mixture log-likelihood sums (H,) and, with
+    ``want_resp``, inlier responsibilities (H, n) (else (0, 0)), for inlier log densities
+    log_in (H, n) and the outlier log density log_out."""
+    H, n = log_in.shape
+    L = np.empty((H, n))
+    for h in range(H):
+        for t in range(n):
+            L[h, t] = math.exp(min(max(log_in[h, t] - log_out, -700.0), 700.0))
+    g = em_gamma_loop(L, np.full(H, gamma0), w, iters, tol)
+    ll = np.empty(H)
+    resp = np.empty((H, n)) if want_resp else np.empty((0, 0))
+    for h in range(H):
+        lg1 = math.log1p(-g[h])
+        b = math.log(g[h]) + log_out
+        s = 0.0
+        for t in range(n):
+            a = lg1 + log_in[h, t]
+            lse = _logaddexp(a, b)
+            s += lse
+            if want_resp:
+                resp[h, t] = math.exp(a - lse)
+        ll[h] = s
+    return g, ll, resp

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mmlearn.models.common.config import param, validate_fields
-from mmlearn.models.articulation.kernels import em_gamma_loop
+from mmlearn.models.articulation.kernels import em_gamma_full
 
 __all__ = ["ObservationModel", "DEFAULT_GAMMA_WEIGHT", "GAMMA_PRIOR_MODES", "em_gamma"]
 
@@ -131,29 +131,28 @@ def _obs_from_dict(d: dict) -> ObservationModel:
 
 
 def em_gamma(log_in: np.ndarray, log_out: float, w: float, *, iters: int = 30,
-             gamma0: float = 0.3, tol: float = 1e-7):
+             gamma0: float = 0.3, tol: float = 1e-7, responsibilities: bool = True):
     """EM for the outlier ratio, vectorised over hypotheses.
+
+    Fixed point: the outlier responsibilities g / ((1 - g) L + g) (L the inlier / outlier
+    likelihood ratio, clipped at exp(+-700): responsibilities saturate long before) summed,
+    then the MAP M-step (:func:`_gamma_map`), until no gamma moves by ``tol``; then the
+    mixture log-likelihood. Compiled (kernels.em_gamma_full).
 
     Args:
         log_in: (H, n) inlier log densities.
         log_out: outlier log density (scalar).
         w: weight of the prior p(gamma) ~ exp(-w gamma) in the M-step (the whole track's:
             ObservationModel.map_weight(n); 0 for maximum likelihood).
+        responsibilities: also return the responsibilities (else None in their place).
     Returns:
         gamma (H,), mixture log-likelihood sum (H,) (without the prior), inlier
         responsibilities (H, n).
     """
-    log_in = np.atleast_2d(log_in)
-    H, n = log_in.shape
-    # likelihood ratio inlier / outlier, clipped (responsibilities saturate long before)
-    L = np.exp(np.clip(log_in - log_out, -700.0, 700.0))
-    # fixed point: outlier responsibilities g / ((1 - g) L + g) summed, then the MAP
-    # M-step (_gamma_map), until no gamma moves by tol (compiled loop, kernels.py)
-    g = em_gamma_loop(L, np.full(H, float(gamma0)), float(w), int(iters), float(tol))
-    a = np.log1p(-g)[:, None] + log_in
-    b = np.log(g)[:, None] + log_out
-    lse = np.logaddexp(a, b)
-    return g, lse.sum(axis=1), np.exp(a - lse)
+    log_in = np.ascontiguousarray(np.atleast_2d(log_in), dtype=float)
+    g, ll, resp = em_gamma_full(log_in, float(log_out), float(gamma0), float(w), int(iters),
+                                float(tol), bool(responsibilities))
+    return g, ll, (resp if responsibilities else None)
 
 
 def _gamma_map(A, n: int, w: float):
