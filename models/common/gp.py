@@ -286,9 +286,11 @@ class GaussianProcess:
         numpy form (:meth:`_neg_lml_and_grad_numpy`, which adds jitter)."""
         D2, P = G
         rev = P is not None
-        f, g, ok = _nlml_kernel(np.ascontiguousarray(theta, dtype=float), D2,
-                                P if rev else _NO_P, Yc, d_ell, self._width(d_ell, D2.shape[0]),
-                                self.ard, rev)
+        # (contiguous arrays: one compiled specialisation serves every caller)
+        f, g, ok = _nlml_kernel(np.ascontiguousarray(theta, dtype=float),
+                                np.ascontiguousarray(D2), np.ascontiguousarray(P) if rev else _NO_P,
+                                np.ascontiguousarray(Yc), d_ell,
+                                self._width(d_ell, D2.shape[0]), bool(self.ard), rev)
         if ok:
             return f, g
         return self._neg_lml_and_grad_numpy(theta, G, Yc, d_ell)
