@@ -42,6 +42,8 @@ def test_revolute_kernel_matches_numpy(position_only):
             assert np.allclose(a, b, rtol=1e-12, atol=1e-12)
     assert np.allclose(m._residual_vectors(th, d), m._residual_vectors_numpy(th, d),
                        rtol=1e-10, atol=1e-9)
+    for a, b in zip(m._scores_batch(th, d), m._residuals_batch(th, d)[:2]):
+        assert (a is None and b is None) or np.array_equal(a, b)
     # with the refinement's rotations passed explicitly (local parametrisation)
     par = LocalParametrisation(m, m.theta, d)
     U = np.random.default_rng(2).normal(0.0, 3.0, (5, m.theta.size))

@@ -79,6 +79,11 @@ class LinkModel:
         parametrisation; articulation_geom._slot_rotations); None: from theta."""
         raise NotImplementedError
 
+    def _scores_batch(self, thetas: np.ndarray, d: _Data):
+        """(ep2, eo) of :meth:`_residuals_batch` (MLESAC scores the hypotheses by them; a
+        model may skip the configurations there)."""
+        return self._residuals_batch(thetas, d)[:2]
+
     def _rot_slots(self) -> list[int]:
         """Start indices of rotation-vector triples in theta."""
         return []
@@ -130,7 +135,7 @@ class LinkModel:
                              "usable motion for this model)")
         log_out = self.obs_fit.log_outlier(d.has_orientation)
         w = self.obs_fit.map_weight(d.n)
-        ep2, eo, _ = self._residuals_batch(thetas, d)
+        ep2, eo = self._scores_batch(thetas, d)
         log_in = self.obs_fit.log_inlier(ep2, eo)
         g, ll, _ = em_gamma(log_in, log_out, w, iters=15, responsibilities=False)
         score = ll + self.obs_fit.log_gamma_prior(g, d.n)

@@ -35,7 +35,7 @@ def _pymod(x, y):
 
 @numba.njit(cache=True, nogil=True)
 def revolute_errors(cp, Rc, rp, Rr, P, R, sigma_pos, sigma_orient, q_center, vectors,
-                    sp_out, so_out):
+                    sp_out, so_out, want_q=True):
     """Errors of the revolute model (links.RevoluteModel._errors) for H parameter sets.
 
     Args:
@@ -49,13 +49,14 @@ def revolute_errors(cp, Rc, rp, Rr, P, R, sigma_pos, sigma_orient, q_center, vec
     Returns:
         q (H, n); ep2 (H, n) squared position errors; eo (H, n) orientation errors (rad;
         zeros when position-only); res (H, n, 3 | 6) residual vectors in noise units when
-        ``vectors`` (else (0, 0, 0)).
+        ``vectors`` (else (0, 0, 0)). q is (0, 0) unless ``want_q`` (the errors need only
+        its sine and cosine).
     """
     H = cp.shape[0]
     n = P.shape[0]
     has_o = R.shape[0] > 0
     m = 6 if has_o else 3
-    q_out = np.empty((H, n))
+    q_out = np.empty((H, n)) if want_q else np.empty((0, 0))
     ep2 = np.empty((H, n))
     eo = np.zeros((H, n))
     res = np.empty((H, n, m)) if vectors else np.empty((0, 0, 0))
@@ -105,8 +106,9 @@ def revolute_errors(cp, Rc, rp, Rr, P, R, sigma_pos, sigma_orient, q_center, vec
                     c = c + wr * (xr / rr)
                 else:
                     c = c + wr
-            q = math.atan2(s, c)
-            q_out[h, t] = _pymod(q - q_center + np.pi, twopi) - np.pi + q_center
+            if want_q:
+                q = math.atan2(s, c)
+                q_out[h, t] = _pymod(q - q_center + np.pi, twopi) - np.pi + q_center
             # sine and cosine of q (the wrap above moves q by whole turns only)
             rq = math.sqrt(s * s + c * c)
             cq, sq = (c / rq, s / rq) if rq > 0.0 else (1.0, 0.0)

@@ -354,9 +354,10 @@ class RevoluteModel(LinkModel):
         q = np.arctan2(s, c)
         return q, pl, rp, Ml
 
-    def _kernel_errors(self, thetas, d, rots, vectors):
-        """The compiled form of :meth:`_errors` (models/articulation/kernels.py): q, ep2,
-        eo (None position-only) and, with ``vectors``, the residual vectors."""
+    def _kernel_errors(self, thetas, d, rots, vectors, want_q=True):
+        """The compiled form of :meth:`_errors` (models/articulation/kernels.py): q ((0, 0)
+        unless ``want_q``), ep2, eo (None position-only) and, with ``vectors``, the residual
+        vectors."""
         has_o = thetas.shape[1] == 12 and d.has_orientation
         Rc = np.ascontiguousarray(_slot_rotations(thetas, 3, rots))
         Rr = np.ascontiguousarray(_slot_rotations(thetas, 9, rots)) if has_o else _NO_ROT
@@ -365,15 +366,18 @@ class RevoluteModel(LinkModel):
             np.ascontiguousarray(thetas[:, :3]), Rc, np.ascontiguousarray(thetas[:, 6:9]), Rr,
             d.P, d.R if has_o else _NO_ROT, self.obs.sigma_pos, self.obs.sigma_orient,
             float(getattr(self, "q_center", 0.0)), vectors, obs_fit.sigma_pos,
-            obs_fit.sigma_orient)
+            obs_fit.sigma_orient, want_q)
         return q, ep2, (eo if has_o else None), res
 
     def _residuals_batch(self, thetas, d, rots=None):
         q, ep2, eo, _ = self._kernel_errors(thetas, d, rots, False)
         return ep2, eo, q[..., None]
 
+    def _scores_batch(self, thetas, d):
+        return self._kernel_errors(thetas, d, None, False, want_q=False)[1:3]
+
     def _residual_vectors(self, thetas, d, rots=None):
-        return self._kernel_errors(thetas, d, rots, True)[3]
+        return self._kernel_errors(thetas, d, rots, True, want_q=False)[3]
 
     def _residuals_batch_numpy(self, thetas, d, rots=None):
         """:meth:`_residuals_batch` from the numpy :meth:`_errors` (the reference the tests
