@@ -1,14 +1,19 @@
 """Compiled (numba) inner loops of link-model fitting: the revolute model's errors for a batch
-of parameter vectors against every observation, and the outlier-ratio EM.
+of parameter vectors against every observation (:func:`revolute_errors`), the rigid and
+prismatic models' orientation errors (:func:`rotation_errors`), the weighted geodesic mean's
+tangent step (:func:`weighted_log_mean`), the outlier-ratio EM (:func:`em_gamma_full`) and
+batched rotation-vector / matrix conversions (:func:`rotvec_to_matrix`,
+:func:`log_rotations`).
 
 Each kernel does, per hypothesis and observation, the arithmetic of the numpy expressions it
 replaces (which did it on whole (H, n) arrays), so the results agree with them to rounding
 (~1e-15 relative; the tests compare both). The revolute kernel takes the sine and cosine of
 an angle from the vector whose angle it is (x / r, y / r) instead of atan2 then sin and cos:
-the same values to rounding, with two transcendental calls per observation instead of eight. At the sizes selection works on (100
-hypotheses x 30-200 observations, a few dozen calls per fit) the numpy forms spend most of
-their time creating the dozens of (H, n) temporaries; the loops here create none.
-Compiled on first use and cached on disk (``cache=True``).
+the same values to rounding, with two transcendental calls per observation instead of
+eight. At the sizes selection works on (100 hypotheses x 30-200 observations, a few dozen
+calls per fit) the numpy forms spend most of their time creating the dozens of (H, n)
+temporaries; the loops here create none. Compiled on first use and cached on disk
+(``cache=True``; ~10 s of CPU once for all of them and the GP's, ~0.3 s per process to load).
 """
 
 from __future__ import annotations

@@ -1,9 +1,11 @@
 """Compiled (numba) negative log marginal likelihood of the GP (models/common/gp.py) and its
 gradient, for the hyper-parameter optimisation.
 
-Per output c, the kernel K_c = Kse_c (+ sb2_c P) + sn2_c I, its Cholesky factor, K_c^-1 from
-the inverse factor, alpha = K_c^-1 y_c, and the gradient 0.5 tr((alpha alpha^T - K^-1) dK/dh)
-summed over the lower triangle. The same quantities as ``GaussianProcess._neg_lml_and_grad_numpy``
+Per output c, the kernel K_c = Kse_c (+ sb2_c P) + sn2_c I, its Cholesky factor L, the
+inverse factor X = L^-1 and K_c^-1 = X^T X (both by row updates over contiguous memory),
+alpha = K_c^-1 y_c, and the gradient 0.5 tr((alpha alpha^T - K^-1) dK/dh) summed over the
+lower triangle (reductions may be reassociated: ``fastmath`` reassoc and contract only, so
+NaN and infinity keep their meaning). The same quantities as ``GaussianProcess._neg_lml_and_grad_numpy``
 (equal to ~1e-15 relative; the tests compare both), without the per-output LAPACK calls and
 array temporaries, which dominate at the link models' sizes (n = 30-50 inputs, 3-6 outputs,
 ~20 evaluations per fit). Compiled on first use and cached on disk.
