@@ -207,9 +207,9 @@ def main(argv=None):
     add_output_arguments(ap, quick="3 repeats, n = 30 only, 2 seeds")
     a = ap.parse_args(argv)
     if a.repeats < 1 or a.seeds < 0:
-        raise SystemExit("--repeats must be >= 1 and --seeds >= 0")
+        ap.error("--repeats must be >= 1 and --seeds >= 0")
     if a.real_dir and not os.path.isdir(a.real_dir):
-        raise SystemExit(f"--real-dir: no such folder: {a.real_dir}")
+        ap.error(f"--real-dir: no such folder: {a.real_dir}")
     repeats, seeds = (3, min(a.seeds, 2)) if a.quick else (a.repeats, a.seeds)
     sides = {"new": (select_link_model, ObservationModel)}
     if a.baseline is not None:
