@@ -79,6 +79,11 @@ class LinkModel:
         parametrisation; articulation_geom._slot_rotations); None: from theta."""
         raise NotImplementedError
 
+    def _scores_batch(self, thetas: np.ndarray, d: _Data):
+        """(ep2, eo) of :meth:`_residuals_batch` (MLESAC scores the hypotheses by them; a
+        model may skip the configurations there)."""
+        return self._residuals_batch(thetas, d)[:2]
+
     def _rot_slots(self) -> list[int]:
         """Start indices of rotation-vector triples in theta."""
         return []
@@ -112,6 +117,7 @@ class LinkModel:
                 f"{self.name}: track too short ({d.n} observations; need at least "
                 f"{max(3, self.min_samples)})")
         self.fitted = False
+        self._range_jac_key = self._range_jac = None
         self.has_orientation = d.has_orientation
         self.obs_fit = self.obs.with_volume_from(d.P)
         self.n_train = d.n
@@ -129,9 +135,9 @@ class LinkModel:
                              "usable motion for this model)")
         log_out = self.obs_fit.log_outlier(d.has_orientation)
         w = self.obs_fit.map_weight(d.n)
-        ep2, eo, _ = self._residuals_batch(thetas, d)
+        ep2, eo = self._scores_batch(thetas, d)
         log_in = self.obs_fit.log_inlier(ep2, eo)
-        g, ll, _ = em_gamma(log_in, log_out, w, iters=15)
+        g, ll, _ = em_gamma(log_in, log_out, w, iters=15, responsibilities=False)
         score = ll + self.obs_fit.log_gamma_prior(g, d.n)
         best = int(np.argmax(score))
         theta, gamma = thetas[best].copy(), float(g[best])
@@ -161,7 +167,8 @@ class LinkModel:
         if cand is None or not np.all(np.isfinite(cand)):
             return theta, gamma
         ep2c, eoc, _ = self._residuals_batch(cand[None], d)
-        gc, llc, _ = em_gamma(obs.log_inlier(ep2c, eoc), log_out, w, gamma0=gamma, iters=15)
+        gc, llc, _ = em_gamma(obs.log_inlier(ep2c, eoc), log_out, w, gamma0=gamma, iters=15,
+                            responsibilities=False)
         if llc[0] + obs.log_gamma_prior(gc[0], d.n) > score:
             return cand, float(gc[0])
         return theta, gamma
@@ -201,6 +208,7 @@ class LinkModel:
         if self.dof:
             self.q_min = q[0][inl].min(axis=0)
             self.q_max = q[0][inl].max(axis=0)
+        self._keep_range_jacobians()
         self.log_likelihood_ = self._log_likelihood_from(ep2, eo, d.n, d.has_orientation, q=q)
         self.bic_ = -2.0 * self.log_likelihood_ + self.num_params(d.n) * np.log(d.n)
         self.avg_pos_error_ = float(np.sqrt(ep2[0][inl]).mean())
@@ -265,9 +273,25 @@ class LinkModel:
 
     def _range_jacobians(self, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
         """The model's Jacobian (16, 3 | 6, d) at 16 configurations evenly spread over
-        [lo, hi]."""
+        [lo, hi]. Over the model's own range the fit keeps them (``_keep_range_jacobians``:
+        the likelihood's configuration prior and the selection's identifiability test ask
+        for that range again and again); evaluation stores nothing."""
+        lo, hi = np.asarray(lo, float), np.asarray(hi, float)
+        if (getattr(self, "_range_jac_key", None) is not None
+                and self._range_jac_key == self._range_key(lo, hi)):
+            return self._range_jac.copy()
         qs = lo[None] + np.linspace(0.0, 1.0, 16)[:, None] * (hi - lo)[None]
         return self.jacobian(qs)
+
+    def _range_key(self, lo, hi):
+        return (lo.tobytes(), hi.tobytes(), np.asarray(self.theta, float).tobytes())
+
+    def _keep_range_jacobians(self):
+        """Compute and keep the Jacobians over [q_min, q_max] (end of the fit)."""
+        self._range_jac_key = self._range_jac = None
+        if self.dof:
+            J = self._range_jacobians(self.q_min, self.q_max)
+            self._range_jac_key, self._range_jac = self._range_key(self.q_min, self.q_max), J
 
     def _noise_speed(self, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
         """Mean length of a unit step in q, per DOF, in noise units:

@@ -5,10 +5,9 @@ models/articulation/base.py; public names in models/articulation/link.py."""
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from mmlearn.models.articulation.base import LinkModel
-from mmlearn.models.articulation.geom import _m2rv, _rot_err, _rv2m
+from mmlearn.models.articulation.geom import _chordal_mean, _m2rv, _rot_err, _rv2m
 
 __all__ = ["GPModel"]
 
@@ -72,12 +71,11 @@ class GPModel(LinkModel):
         return np.hstack([P, _m2rv(np.einsum("ba,nbc->nac", self.R_ref, R))])
 
     def _fit_impl(self, d, rng):
-        from mmlearn.models.common.gp import GaussianProcess
+        from mmlearn.models.common.gp import GaussianProcess, blas_single_thread
 
         if d.n < self.dof + 2:
             raise ValueError(f"gp: track too short ({d.n}) for d = {self.dof}")
-        self.R_ref = (Rotation.from_matrix(d.R).mean().as_matrix() if d.has_orientation
-                      else np.eye(3))
+        self.R_ref = _chordal_mean(d.R) if d.has_orientation else np.eye(3)
         Y = self._targets(d.P, d.R)
         F = self._features_from_targets(Y)
         self.f_mean = F.mean(axis=0)
@@ -112,8 +110,10 @@ class GPModel(LinkModel):
         hp = {"log_ell": np.tile(np.log(np.maximum(Q.std(axis=0), 1e-6)), (m_out, 1)),
               "log_sf2": np.log(Y.var(axis=0) + 1e-12),
               "log_sn2": np.log(np.maximum(sn2, noise_min))}
-        self.gp = GaussianProcess(ard=True).fit(Q, Y, noise_min=noise_min, hyperparameters=hp,
-                                                maxiter=self.gp_maxiter)
+        # one BLAS thread limit around the whole fit (the GP's own two nest inside it)
+        with blas_single_thread():
+            self.gp = GaussianProcess(ard=True).fit(Q, Y, noise_min=noise_min,
+                                                    hyperparameters=hp, maxiter=self.gp_maxiter)
         self.theta = np.zeros(0)
         self.gamma = 0.0  # provisional; EM in _finalize
 

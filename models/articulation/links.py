@@ -9,10 +9,13 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from mmlearn.models.articulation.base import LinkModel
-from mmlearn.models.articulation.geom import (_chordal_mean, _frame_with_z, _m2rv, _pair_mul, _rot_err,
+from mmlearn.models.articulation.geom import (_chordal_mean, _frame_with_z, _m2rv, _pair_mul,
                                               _rotz, _rv2m, _slot_rotations, _weighted_rotation_mean)
+from mmlearn.models.articulation.kernels import revolute_errors, rotation_errors
 
 __all__ = ["RigidModel", "PrismaticModel", "RevoluteModel"]
+
+_NO_ROT = np.zeros((0, 3, 3))  # the kernels' "no orientation"
 
 
 # --------------------------------------------------------------------------- rigid
@@ -55,7 +58,7 @@ class RigidModel(LinkModel):
         eo = None
         if d.has_orientation:
             Rh = _slot_rotations(thetas, 3, rots)
-            eo = _rot_err(_pair_mul(np.swapaxes(Rh, 1, 2), d.R))
+            eo = rotation_errors(np.ascontiguousarray(Rh), d.R)
         return ep2, eo, np.zeros((thetas.shape[0], d.n, 0))
 
     def forward(self, q=None):
@@ -151,7 +154,7 @@ class PrismaticModel(LinkModel):
         eo = None
         if has_o and d.has_orientation:
             Ra = _slot_rotations(thetas, 3, rots)
-            eo = _rot_err(_pair_mul(np.swapaxes(Ra, 1, 2), d.R))
+            eo = rotation_errors(np.ascontiguousarray(Ra), d.R)
         return ep2, eo, q[..., None]
 
     def _canonicalize(self, d, inl):
@@ -351,7 +354,34 @@ class RevoluteModel(LinkModel):
         q = np.arctan2(s, c)
         return q, pl, rp, Ml
 
+    def _kernel_errors(self, thetas, d, rots, vectors, want_q=True):
+        """The compiled form of :meth:`_errors` (models/articulation/kernels.py): q ((0, 0)
+        unless ``want_q``), ep2, eo (None position-only) and, with ``vectors``, the residual
+        vectors."""
+        has_o = thetas.shape[1] == 12 and d.has_orientation
+        Rc = np.ascontiguousarray(_slot_rotations(thetas, 3, rots))
+        Rr = np.ascontiguousarray(_slot_rotations(thetas, 9, rots)) if has_o else _NO_ROT
+        obs_fit = getattr(self, "obs_fit", self.obs)
+        q, ep2, eo, res = revolute_errors(
+            np.ascontiguousarray(thetas[:, :3]), Rc, np.ascontiguousarray(thetas[:, 6:9]), Rr,
+            d.P, d.R if has_o else _NO_ROT, self.obs.sigma_pos, self.obs.sigma_orient,
+            float(getattr(self, "q_center", 0.0)), vectors, obs_fit.sigma_pos,
+            obs_fit.sigma_orient, want_q)
+        return q, ep2, (eo if has_o else None), res
+
     def _residuals_batch(self, thetas, d, rots=None):
+        q, ep2, eo, _ = self._kernel_errors(thetas, d, rots, False)
+        return ep2, eo, q[..., None]
+
+    def _scores_batch(self, thetas, d):
+        return self._kernel_errors(thetas, d, None, False, want_q=False)[1:3]
+
+    def _residual_vectors(self, thetas, d, rots=None):
+        return self._kernel_errors(thetas, d, rots, True, want_q=False)[3]
+
+    def _residuals_batch_numpy(self, thetas, d, rots=None):
+        """:meth:`_residuals_batch` from the numpy :meth:`_errors` (the reference the tests
+        compare the compiled kernel with)."""
         q, ex, ey, ez, ov = self._errors(thetas, d, rots)
         ep2 = ex * ex + ey * ey + ez * ez
         eo = None
@@ -360,7 +390,8 @@ class RevoluteModel(LinkModel):
             eo = np.arctan2(0.5 * np.sqrt(vx * vx + vy * vy + vz * vz), 0.5 * (tr - 1.0))
         return ep2, eo, q[..., None]
 
-    def _residual_vectors(self, thetas, d, rots=None):
+    def _residual_vectors_numpy(self, thetas, d, rots=None):
+        """:meth:`_residual_vectors` from the numpy :meth:`_errors` (test reference)."""
         _, ex, ey, ez, ov = self._errors(thetas, d, rots)
         sp = self.obs_fit.sigma_pos
         parts = [ex / sp, ey / sp, ez / sp]
@@ -460,17 +491,21 @@ class RevoluteModel(LinkModel):
 
     def forward(self, q):
         q = self._check_q(q)[:, 0]
-        Rc = _rv2m(self.theta[3:6])
-        Rq = _rotz(q)
-        P = self.theta[:3] + np.einsum("ab,mbc,c->ma", Rc, Rq, self.theta[6:9])
+        Rc, Rq, P = self._forward_positions(q)
         if not self.has_orientation:
             return P
         R = np.einsum("ab,mbc,cd->mad", Rc, Rq, _rv2m(self.theta[9:12]))
         return np.hstack([P, Rotation.from_matrix(R).as_quat()])
 
+    def _forward_positions(self, q):
+        """(Rc, RotZ(q) (m, 3, 3), positions (m, 3)) of f(q) for angles q (m,)."""
+        Rc = _rv2m(self.theta[3:6])
+        Rq = _rotz(q)
+        return Rc, Rq, self.theta[:3] + np.einsum("ab,mbc,c->ma", Rc, Rq, self.theta[6:9])
+
     def jacobian(self, q):
         qq = self._check_q(q)
-        P = self.forward(qq)[:, :3]
+        P = self._forward_positions(qq[:, 0])[2]
         ax = self.axis
         J = np.zeros((qq.shape[0], 6 if self.has_orientation else 3, 1))
         J[:, :3, 0] = np.cross(ax, P - self.theta[:3])

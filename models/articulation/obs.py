@@ -11,11 +11,13 @@ likelihood (default ``"plugin"``: ML gamma by EM, -w gamma per observation),
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+import copy
+from dataclasses import dataclass
 
 import numpy as np
 
 from mmlearn.models.common.config import param, validate_fields
+from mmlearn.models.articulation.kernels import em_gamma_full
 
 __all__ = ["ObservationModel", "DEFAULT_GAMMA_WEIGHT", "GAMMA_PRIOR_MODES", "em_gamma"]
 
@@ -81,7 +83,11 @@ class ObservationModel:
         ext = float(np.max(np.ptp(positions, axis=0))) if len(positions) > 1 else 0.0
         side = ext + 6.0 * self.sigma_pos
         vol = max(side**3, self.min_outlier_volume_m3)
-        return replace(self, outlier_volume_m3=vol)
+        # a copy with the volume set (dataclasses.replace would validate every field again,
+        # once per candidate model; the volume is positive by construction)
+        out = copy.copy(self)
+        out.outlier_volume_m3 = float(vol)
+        return out
 
     def log_inlier(self, ep2: np.ndarray, eo: np.ndarray | None) -> np.ndarray:
         """log N for squared position errors ep2 (m^2) and orientation errors eo (rad)."""
@@ -125,35 +131,28 @@ def _obs_from_dict(d: dict) -> ObservationModel:
 
 
 def em_gamma(log_in: np.ndarray, log_out: float, w: float, *, iters: int = 30,
-             gamma0: float = 0.3, tol: float = 1e-7):
+             gamma0: float = 0.3, tol: float = 1e-7, responsibilities: bool = True):
     """EM for the outlier ratio, vectorised over hypotheses.
+
+    Fixed point: the outlier responsibilities g / ((1 - g) L + g) (L the inlier / outlier
+    likelihood ratio, clipped at exp(+-700): responsibilities saturate long before) summed,
+    then the MAP M-step (:func:`_gamma_map`), until no gamma moves by ``tol``; then the
+    mixture log-likelihood. Compiled (kernels.em_gamma_full).
 
     Args:
         log_in: (H, n) inlier log densities.
         log_out: outlier log density (scalar).
         w: weight of the prior p(gamma) ~ exp(-w gamma) in the M-step (the whole track's:
             ObservationModel.map_weight(n); 0 for maximum likelihood).
+        responsibilities: also return the responsibilities (else None in their place).
     Returns:
         gamma (H,), mixture log-likelihood sum (H,) (without the prior), inlier
         responsibilities (H, n).
     """
-    log_in = np.atleast_2d(log_in)
-    H, n = log_in.shape
-    g = np.full(H, float(gamma0))
-    # likelihood ratio inlier / outlier, clipped (responsibilities saturate long before)
-    L = np.exp(np.clip(log_in - log_out, -700.0, 700.0))
-    for _ in range(iters):
-        # outlier responsibility g / ((1 - g) L + g)
-        A = np.sum(g[:, None] / ((1.0 - g)[:, None] * L + g[:, None]), axis=1)
-        g_new = _gamma_map(A, n, w)
-        done = np.max(np.abs(g_new - g)) < tol
-        g = g_new
-        if done:
-            break
-    a = np.log1p(-g)[:, None] + log_in
-    b = np.log(g)[:, None] + log_out
-    lse = np.logaddexp(a, b)
-    return g, lse.sum(axis=1), np.exp(a - lse)
+    log_in = np.ascontiguousarray(np.atleast_2d(log_in), dtype=float)
+    g, ll, resp = em_gamma_full(log_in, float(log_out), float(gamma0), float(w), int(iters),
+                                float(tol), bool(responsibilities))
+    return g, ll, (resp if responsibilities else None)
 
 
 def _gamma_map(A, n: int, w: float):

@@ -127,7 +127,7 @@ def alternate_refinement(model, theta, gamma, d: _Data, minimise_fixed_gamma,
         theta = minimise_fixed_gamma(model, par, gamma, d)
         ep2, eo, _ = model._residuals_batch(theta[None], d)
         g, _, _ = em_gamma(obs.log_inlier(ep2, eo), log_out, obs.map_weight(d.n),
-                           gamma0=gamma, iters=30)
+                           gamma0=gamma, iters=30, responsibilities=False)
         new_gamma = float(g[0])
         if abs(new_gamma - gamma) < 0.01:
             gamma = new_gamma
