@@ -2,7 +2,7 @@
 prints a table, never fails on figures).
 
     python benchmarks/radius_error_causes.py [--objects left_door,right_door,dishwasher]
-        [--seeds 200,201,202] [--base-noise 1] [--json [FILE]]
+        [--seeds 200,201,202] [--base-noise 1] [--frame odometry|map] [--json [FILE]]
 
 Runs opening trials (``open_mechanism``'s diagram, the same seeds and defaults as
 ``operate_trials``) and samples, every 0.1 s of the pull, the handle bar's true centre (from
@@ -15,8 +15,9 @@ the true hinge direction (centre and radius free), and the learned model is comp
   radius" measures what the bar travels on);
 - ``contact``: circle fit of the true seat positions minus that of the bar centres (the bar
   does not stay where the seat assumes it: the hook's offset from the bar);
-- ``drift``: circle fit of the estimator's own track (believed world frame) minus that of the
-  true seat positions (base localisation and odometry error while pulling);
+- ``drift``: circle fit of the estimator's own track (the robot's believed frame: its
+  odometry, or with ``--frame map`` its localisation) minus that of the true seat positions
+  (the belief's drift while pulling);
 - ``fit``: the learned revolute model's radius minus the circle fit of the same track (the
   estimator's model selection and fit at its sigma_pos).
 
@@ -53,7 +54,7 @@ def circle_radius(P: np.ndarray, axis: np.ndarray) -> float:
     return float(abs(sol[2]))
 
 
-def trial(kind: str, seed: int, base_noise: float) -> dict:
+def trial(kind: str, seed: int, base_noise: float, frame: str = "odometry") -> dict:
     """One opening trial with the positions of the bar, the seat and the believed seat."""
     from pydrake.systems.analysis import Simulator
 
@@ -63,6 +64,7 @@ def trial(kind: str, seed: int, base_noise: float) -> dict:
 
     cfg = T._operate_config(kind=kind, seed=seed, max_time=60.0, sigma_pos=None, priors="",
                             mechanism_seed=None, base_noise=base_noise, perception="click")
+    cfg.frame = frame
     op = MakeOperateDiagram(cfg)
     d = op.diagram
     sim = Simulator(d)
@@ -88,7 +90,8 @@ def trial(kind: str, seed: int, base_noise: float) -> dict:
     rec = T._trial_record(op, cfg, run, build_seconds=0.0, save_track="")
     est = op.estimator.GetMyContextFromRoot(ctx).get_abstract_state(0).get_value()
     axis, _ = spec.axis_world()
-    out = {"object": kind, "seed": seed, "base_noise": base_noise, "success": rec["success"],
+    out = {"object": kind, "seed": seed, "base_noise": base_noise, "frame": frame,
+           "success": rec["success"],
            "opened_deg": rec["opened"], "learned_model": rec["learned_model"],
            "true_radius_m": rec["true_radius_m"], "radius_m": rec["radius_m"],
            "axis_error_deg": rec["axis_error_deg"]}
@@ -108,9 +111,11 @@ def main(argv=None):
     ap.add_argument("--objects", default="left_door,right_door,dishwasher")
     ap.add_argument("--seeds", default="200,201,202")
     ap.add_argument("--base-noise", type=float, default=1.0)
+    ap.add_argument("--frame", choices=("odometry", "map"), default="odometry",
+                    help="the frame the robot works in (default: odometry)")
     add_output_arguments(ap)
     a = ap.parse_args(argv)
-    rows = [trial(k, int(s), a.base_noise) for k in a.objects.split(",")
+    rows = [trial(k, int(s), a.base_noise, a.frame) for k in a.objects.split(",")
             for s in a.seeds.split(",")]
     done = [r for r in rows if "error_m" in r]
     parts = ("error_m", "metric_m", "contact_m", "drift_m", "fit_m")
