@@ -54,17 +54,25 @@ def circle_radius(P: np.ndarray, axis: np.ndarray) -> float:
     return float(abs(sol[2]))
 
 
-def trial(kind: str, seed: int, base_noise: float, frame: str = "odometry") -> dict:
-    """One opening trial with the positions of the bar, the seat and the believed seat."""
+def trial(kind: str, seed: int, base_noise: float, frame: str = "odometry",
+          model: str = "", joint: str = "") -> dict:
+    """One opening trial with the positions of the bar, the seat and the believed seat
+    (``model``, ``joint``: a user's model file and joint instead of ``kind``)."""
     from pydrake.systems.analysis import Simulator
 
     from mmlearn.diagrams.articulation import trials as T
     from mmlearn.diagrams.articulation.operate import MakeOperateDiagram
-    from mmlearn.systems.articulation.epc_controller import DONE, P_HOOK_GRIP, PULL
+    from mmlearn.systems.articulation.epc_controller import DONE, PULL
 
-    cfg = T._operate_config(kind=kind, seed=seed, max_time=60.0, sigma_pos=None, priors="",
+    cfg = T._operate_config(kind=kind if not model else "left_door", seed=seed, max_time=60.0, sigma_pos=None, priors="",
                             mechanism_seed=None, base_noise=base_noise, perception="click")
     cfg.frame = frame
+    if model:
+        from mmlearn.sdf.user_model import load_user_mechanism
+
+        cfg.mechanism = load_user_mechanism(model, joint)
+        cfg.kind = cfg.mechanism.kind
+        kind = cfg.mechanism.name
     op = MakeOperateDiagram(cfg)
     d = op.diagram
     sim = Simulator(d)
@@ -82,7 +90,8 @@ def trial(kind: str, seed: int, base_noise: float, frame: str = "odometry") -> d
         q = float(d.GetOutputPort("mechanism_state").Eval(ctx)[0])
         q_max = max(q_max, q)
         if phase == PULL and np.all(np.isfinite(d.GetOutputPort("hook_position").Eval(ctx))):
-            seat.append(plant.EvalBodyPoseInWorld(pctx, hook).multiply(P_HOOK_GRIP))
+            grip = op.controller._grip(op.controller.state(op.controller.GetMyContextFromRoot(ctx)))
+            seat.append(plant.EvalBodyPoseInWorld(pctx, hook).multiply(grip))
             bar.append(spec.handle_world(q)[0])
         if phase == DONE:
             break
@@ -111,11 +120,14 @@ def main(argv=None):
     ap.add_argument("--objects", default="left_door,right_door,dishwasher")
     ap.add_argument("--seeds", default="200,201,202")
     ap.add_argument("--base-noise", type=float, default=1.0)
+    ap.add_argument("--model", default="", help="a user's model file (instead of --objects)")
+    ap.add_argument("--joint", default="", help="the joint of --model to open")
     ap.add_argument("--frame", choices=("odometry", "map"), default="odometry",
                     help="the frame the robot works in (default: odometry)")
     add_output_arguments(ap)
     a = ap.parse_args(argv)
-    rows = [trial(k, int(s), a.base_noise, a.frame) for k in a.objects.split(",")
+    objects = ["model"] if a.model else a.objects.split(",")
+    rows = [trial(k, int(s), a.base_noise, a.frame, a.model, a.joint) for k in objects
             for s in a.seeds.split(",")]
     done = [r for r in rows if "error_m" in r]
     parts = ("error_m", "metric_m", "contact_m", "drift_m", "fit_m")

@@ -6,7 +6,8 @@ from mmlearn._lazy import lazy_exports
 _EXPORTS = {
     "jam_monitor": ["DynamicsMonitorConfig", "DynamicsMonitorState", "DynamicsMonitor", "GO", "JAMMED", "LOCKED", "HALT_NAMES", "estimate_dynamics"],
     "base_localization": ["BaseLocalization", "BaseLocalizationConfig"],
-    "epc_controller": ["EpcTask", "EpcConfig", "hook_rotation", "EpcController"],
+    "epc_config": ["EpcTask", "EpcConfig"],
+    "epc_controller": ["hook_rotation", "EpcController"],
     "epc_state": ["EpcState", "EpcInputs", "PHASE_NAMES"],
     "estimator": ["ArticulationEstimator", "ArticulationEstimatorState"],
     "model_visualizer": ["legend_entries", "LearnedModelVisualizer", "draw_link_model"],
