@@ -3,21 +3,25 @@ prints a table, never fails on figures).
 
     python benchmarks/radius_error_causes.py [--objects left_door,right_door,dishwasher]
         [--seeds 200,201,202] [--base-noise 1] [--frame odometry|map] [--json [FILE]]
+    python benchmarks/radius_error_causes.py --model FILE --joint NAME [--seeds ...]
 
 Runs opening trials (``open_mechanism``'s diagram, the same seeds and defaults as
 ``operate_trials``) and samples, every 0.1 s of the pull, the handle bar's true centre (from
-the mechanism's geometry at its true opening), the hook's seat in the true world frame (the
-plant's hook pose, ``P_HOOK_GRIP``) and the seat as the robot believes it (the estimator's
-input, through the base localisation). Each position set gets a geometric circle fit about
-the true hinge direction (centre and radius free), and the learned model is compared:
+the mechanism's geometry at its true opening), the hook's grip point in the true world frame
+(the plant's hook pose and the controller's grip point: its seat ``P_HOOK_GRIP``, or its
+finger's tip when it holds a knob there) and the grip point as the robot believes it (the
+estimator's input, through the base localisation). Each position set gets a geometric circle
+fit about the true hinge direction (centre and radius free), and the learned model is
+compared:
 
 - ``metric``: circle fit of the true bar centres minus the true radius (zero when "true
   radius" measures what the bar travels on);
-- ``contact``: circle fit of the true seat positions minus that of the bar centres (the bar
-  does not stay where the seat assumes it: the hook's offset from the bar);
+- ``contact``: circle fit of the true grip point positions minus that of the bar centres
+  (the bar does not stay where the grip point assumes it: the hook's offset from the bar);
 - ``drift``: circle fit of the estimator's own track (the robot's believed frame: its
   odometry, or with ``--frame map`` its localisation) minus that of the true seat positions
-  (the belief's drift while pulling);
+  (the belief's drift while pulling: with the default odometry frame the odometry's error
+  over the pull, with ``--frame map`` also the localisation's drift);
 - ``fit``: the learned revolute model's radius minus the circle fit of the same track (the
   estimator's model selection and fit at its sigma_pos).
 
@@ -64,8 +68,9 @@ def trial(kind: str, seed: int, base_noise: float, frame: str = "odometry",
     from mmlearn.diagrams.articulation.operate import MakeOperateDiagram
     from mmlearn.systems.articulation.epc_controller import DONE, PULL
 
-    cfg = T._operate_config(kind=kind if not model else "left_door", seed=seed, max_time=60.0, sigma_pos=None, priors="",
-                            mechanism_seed=None, base_noise=base_noise, perception="click")
+    cfg = T._operate_config(kind=kind if not model else "left_door", seed=seed,
+                            max_time=60.0, sigma_pos=None, priors="", mechanism_seed=None,
+                            base_noise=base_noise, perception="click")
     cfg.frame = frame
     if model:
         from mmlearn.sdf.user_model import load_user_mechanism
@@ -90,7 +95,8 @@ def trial(kind: str, seed: int, base_noise: float, frame: str = "odometry",
         q = float(d.GetOutputPort("mechanism_state").Eval(ctx)[0])
         q_max = max(q_max, q)
         if phase == PULL and np.all(np.isfinite(d.GetOutputPort("hook_position").Eval(ctx))):
-            grip = op.controller._grip(op.controller.state(op.controller.GetMyContextFromRoot(ctx)))
+            ctrl = op.controller
+            grip = ctrl._grip(ctrl.state(ctrl.GetMyContextFromRoot(ctx)))
             seat.append(plant.EvalBodyPoseInWorld(pctx, hook).multiply(grip))
             bar.append(spec.handle_world(q)[0])
         if phase == DONE:
