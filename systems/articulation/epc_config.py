@@ -47,9 +47,10 @@ class EpcTask:
 
 @dataclass
 class EpcConfig:
-    """Parameters of :class:`EpcController` (m, s, N, rad). Every field has its own entry
-    below (``tests/test_epc_controller.py`` checks it) and declares its unit and allowed
-    values with ``param`` (checked by :meth:`validate`).
+    """Parameters of :class:`~mmlearn.systems.articulation.epc_controller.EpcController`
+    (m, s, N, rad). Every field has its own entry below (``tests/test_epc_controller.py``
+    checks it) and declares its unit and allowed values with ``param`` (checked by
+    :meth:`validate`).
 
     Attributes:
         period: control period: the controller updates its equilibrium point this often,
@@ -249,7 +250,7 @@ class EpcConfig:
         """Raise ValueError naming the first field whose value would break the controller.
 
         Runs on construction; ``yaml_load_typed`` sets the fields of a default-constructed
-        config, so :class:`EpcController` validates its config again.
+        config, so the controller validates its config again.
         """
         validate_fields(self)
         if not self.release_slide_start < self.release_backoff_start:
