@@ -8,10 +8,12 @@ What the robot knows: its arm's joint angles and forward kinematics exactly (the
 position relative to its base has no error), the front's normal and the bar's direction,
 and the handle only as a click within 2 cm. Its base pose it knows only through a
 drifting localisation and odometry (``--base-noise``, see
-``mmlearn.systems.articulation.base_localization``): the hook trajectory the estimator learns from is in
-that believed world frame, so it carries the drift; the estimator assumes sigma_pos =
-0.05 m (the thesis' value) and has the GP candidate. ``--base-noise 0`` gives the robot its
-exact base pose.
+``mmlearn.systems.articulation.base_localization``). While it opens the mechanism it works
+in its odometry frame (anchored at its localisation's belief at the start): the hook
+trajectory the estimator learns from drifts only by the odometry's error over the pull
+(a few percent of the base's motion), not by the localisation's drift; the estimator
+assumes sigma_pos = 0.05 m (the thesis' value) and has the GP candidate. ``--base-noise 0``
+gives the robot its exact base pose.
 
 Success is the thesis' criterion on the largest opening reached: more than 60 deg or
 0.3 m (``final_opening`` is the opening after the hook let go; a dishwasher's

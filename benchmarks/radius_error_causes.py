@@ -2,21 +2,26 @@
 prints a table, never fails on figures).
 
     python benchmarks/radius_error_causes.py [--objects left_door,right_door,dishwasher]
-        [--seeds 200,201,202] [--base-noise 1] [--json [FILE]]
+        [--seeds 200,201,202] [--base-noise 1] [--frame odometry|map] [--json [FILE]]
+    python benchmarks/radius_error_causes.py --model FILE --joint NAME [--seeds ...]
 
 Runs opening trials (``open_mechanism``'s diagram, the same seeds and defaults as
 ``operate_trials``) and samples, every 0.1 s of the pull, the handle bar's true centre (from
-the mechanism's geometry at its true opening), the hook's seat in the true world frame (the
-plant's hook pose, ``P_HOOK_GRIP``) and the seat as the robot believes it (the estimator's
-input, through the base localisation). Each position set gets a geometric circle fit about
-the true hinge direction (centre and radius free), and the learned model is compared:
+the mechanism's geometry at its true opening), the hook's grip point in the true world frame
+(the plant's hook pose and the controller's grip point: its seat ``P_HOOK_GRIP``, or its
+finger's tip when it holds a knob there) and the grip point as the robot believes it (the
+estimator's input, through the base localisation). Each position set gets a geometric circle
+fit about the true hinge direction (centre and radius free), and the learned model is
+compared:
 
 - ``metric``: circle fit of the true bar centres minus the true radius (zero when "true
   radius" measures what the bar travels on);
-- ``contact``: circle fit of the true seat positions minus that of the bar centres (the bar
-  does not stay where the seat assumes it: the hook's offset from the bar);
-- ``drift``: circle fit of the estimator's own track (believed world frame) minus that of the
-  true seat positions (base localisation and odometry error while pulling);
+- ``contact``: circle fit of the true grip point positions minus that of the bar centres
+  (the bar does not stay where the grip point assumes it: the hook's offset from the bar);
+- ``drift``: circle fit of the estimator's own track (the robot's believed frame: its
+  odometry, or with ``--frame map`` its localisation) minus that of the true seat positions
+  (the belief's drift while pulling: with the default odometry frame the odometry's error
+  over the pull, with ``--frame map`` also the localisation's drift);
 - ``fit``: the learned revolute model's radius minus the circle fit of the same track (the
   estimator's model selection and fit at its sigma_pos).
 
@@ -53,16 +58,26 @@ def circle_radius(P: np.ndarray, axis: np.ndarray) -> float:
     return float(abs(sol[2]))
 
 
-def trial(kind: str, seed: int, base_noise: float) -> dict:
-    """One opening trial with the positions of the bar, the seat and the believed seat."""
+def trial(kind: str, seed: int, base_noise: float, frame: str = "odometry",
+          model: str = "", joint: str = "") -> dict:
+    """One opening trial with the positions of the bar, the seat and the believed seat
+    (``model``, ``joint``: a user's model file and joint instead of ``kind``)."""
     from pydrake.systems.analysis import Simulator
 
     from mmlearn.diagrams.articulation import trials as T
     from mmlearn.diagrams.articulation.operate import MakeOperateDiagram
-    from mmlearn.systems.articulation.epc_controller import DONE, P_HOOK_GRIP, PULL
+    from mmlearn.systems.articulation.epc_controller import DONE, PULL
 
-    cfg = T._operate_config(kind=kind, seed=seed, max_time=60.0, sigma_pos=None, priors="",
-                            mechanism_seed=None, base_noise=base_noise, perception="click")
+    cfg = T._operate_config(kind=kind if not model else "left_door", seed=seed,
+                            max_time=60.0, sigma_pos=None, priors="", mechanism_seed=None,
+                            base_noise=base_noise, perception="click")
+    cfg.frame = frame
+    if model:
+        from mmlearn.sdf.user_model import load_user_mechanism
+
+        cfg.mechanism = load_user_mechanism(model, joint)
+        cfg.kind = cfg.mechanism.kind
+        kind = cfg.mechanism.name
     op = MakeOperateDiagram(cfg)
     d = op.diagram
     sim = Simulator(d)
@@ -80,7 +95,9 @@ def trial(kind: str, seed: int, base_noise: float) -> dict:
         q = float(d.GetOutputPort("mechanism_state").Eval(ctx)[0])
         q_max = max(q_max, q)
         if phase == PULL and np.all(np.isfinite(d.GetOutputPort("hook_position").Eval(ctx))):
-            seat.append(plant.EvalBodyPoseInWorld(pctx, hook).multiply(P_HOOK_GRIP))
+            ctrl = op.controller
+            grip = ctrl._grip(ctrl.state(ctrl.GetMyContextFromRoot(ctx)))
+            seat.append(plant.EvalBodyPoseInWorld(pctx, hook).multiply(grip))
             bar.append(spec.handle_world(q)[0])
         if phase == DONE:
             break
@@ -88,7 +105,8 @@ def trial(kind: str, seed: int, base_noise: float) -> dict:
     rec = T._trial_record(op, cfg, run, build_seconds=0.0, save_track="")
     est = op.estimator.GetMyContextFromRoot(ctx).get_abstract_state(0).get_value()
     axis, _ = spec.axis_world()
-    out = {"object": kind, "seed": seed, "base_noise": base_noise, "success": rec["success"],
+    out = {"object": kind, "seed": seed, "base_noise": base_noise, "frame": frame,
+           "success": rec["success"],
            "opened_deg": rec["opened"], "learned_model": rec["learned_model"],
            "true_radius_m": rec["true_radius_m"], "radius_m": rec["radius_m"],
            "axis_error_deg": rec["axis_error_deg"]}
@@ -108,9 +126,14 @@ def main(argv=None):
     ap.add_argument("--objects", default="left_door,right_door,dishwasher")
     ap.add_argument("--seeds", default="200,201,202")
     ap.add_argument("--base-noise", type=float, default=1.0)
+    ap.add_argument("--model", default="", help="a user's model file (instead of --objects)")
+    ap.add_argument("--joint", default="", help="the joint of --model to open")
+    ap.add_argument("--frame", choices=("odometry", "map"), default="odometry",
+                    help="the frame the robot works in (default: odometry)")
     add_output_arguments(ap)
     a = ap.parse_args(argv)
-    rows = [trial(k, int(s), a.base_noise) for k in a.objects.split(",")
+    objects = ["model"] if a.model else a.objects.split(",")
+    rows = [trial(k, int(s), a.base_noise, a.frame, a.model, a.joint) for k in objects
             for s in a.seeds.split(",")]
     done = [r for r in rows if "error_m" in r]
     parts = ("error_m", "metric_m", "contact_m", "drift_m", "fit_m")

@@ -23,10 +23,10 @@ class _Ramp(LeafSystem):
         out.SetFromVector([self._v * context.get_time(), 0, 0, 0.3, 0, 0, 0, 0])
 
 
-def _errors(cfg, times, speed=0.0):
+def _errors(cfg, times, speed=0.0, frame="map"):
     """The error (x, y, yaw) at the given times, the base standing or driving."""
     b = DiagramBuilder()
-    loc = b.AddSystem(BaseLocalization(config=cfg, state_size=8,
+    loc = b.AddSystem(BaseLocalization(config=cfg, state_size=8, frame=frame,
                                        base_position_indices=[0, 1, 2], num_commands=4))
     src = b.AddSystem(_Ramp(speed) if speed else ConstantVectorSource(np.r_[1.0, 2.0, 0.5,
                                                                            np.zeros(5)]))
@@ -96,6 +96,26 @@ def test_odometry_error_grows_only_while_the_base_moves():
     assert 0.03 < rms < 0.1, rms
     np.testing.assert_allclose(ends[:, 1, 0], 2.0 * ends[:, 0, 0], rtol=0.03)
     np.testing.assert_allclose(ends[:, :, 1:], 0.0, atol=1e-12)
+
+
+def test_odometry_frame_drifts_only_with_the_base_motion():
+    cfg = BaseLocalizationConfig(seed=6)
+    # standing: the localisation drifts, the dead reckoning keeps its initial error
+    e, loc, lc = _errors(cfg, [0.0, 20.0], frame="odometry")
+    np.testing.assert_allclose(loc.odometry_error(lc), initial_error(cfg), atol=1e-15)
+    assert np.linalg.norm(loc.error(lc)[:2] - initial_error(cfg)[:2]) > 1e-3
+    np.testing.assert_allclose(loc.get_error_output_port().Eval(lc), initial_error(cfg))
+    np.testing.assert_allclose(loc.get_believed_robot_state_output_port().Eval(lc)[:3],
+                               np.r_[1.0, 2.0, 0.5] + initial_error(cfg))
+    # driving 2 m straight ahead: the odometry's scale error along the heading, never
+    # pulled back (a time constant that pulls the map frame's part back within seconds)
+    quick = BaseLocalizationConfig(sigma_xy=0.0, sigma_yaw=0.0, seed=2, time_constant=0.5)
+    _, loc, lc = _errors(quick, [4.0], speed=0.5, frame="odometry")
+    odo = loc.odometry_error(lc)
+    assert abs(odo[0]) > 0.01 and abs(loc.error(lc)[0]) < 0.2 * abs(odo[0])
+    with pytest.raises(ValueError, match="frame"):
+        BaseLocalization(state_size=8, base_position_indices=[0, 1, 2], num_commands=4,
+                         frame="world")
 
 
 def test_ports_apply_the_error_consistently():

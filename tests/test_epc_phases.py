@@ -128,6 +128,31 @@ def test_hook_touches_the_front_slides_behind_the_bar_and_starts_pulling(grip):
     np.testing.assert_allclose(s.direction, NORMAL)
 
 
+def test_a_slide_stopped_by_a_knob_stem_pulls_at_the_finger_tip(grip):
+    from mmlearn.systems.articulation.epc_controller import HOOK_FINGER_TIP, P_HOOK_GRIP
+
+    # the rod stops 4.4 cm short of the clicked handle, the hook lagging its slide: the
+    # finger's tip met the knob's stem; the reference point moves there
+    rig = Rig(grip - 0.044 * SIDE)
+    rig.force(2 * CFG.slide_contact_force * SIDE)
+    s = rig.step(phase=SLIDE, t_phase=-1.0)
+    assert s.phase == PULL
+    np.testing.assert_allclose(s.grip, [HOOK_FINGER_TIP + CFG.tip_handle_offset, 0.0,
+                                        P_HOOK_GRIP[2]])
+    ctx = rig.sim.get_mutable_context()
+    np.testing.assert_allclose(s.cep, rig.ctrl.measured_grip_pose(ctx).translation())
+    # (the rig's hook is not turned to the handle: the tip lies 4.4 cm along its finger)
+    assert np.linalg.norm(s.cep - rig.G) == pytest.approx(HOOK_FINGER_TIP + CFG.tip_handle_offset
+                                                          - P_HOOK_GRIP[0])
+    # stopped by the bar where it was clicked: the seat stays the reference point
+    rig = Rig(grip - 0.01 * SIDE)
+    rig.force(2 * CFG.slide_contact_force * SIDE)
+    s = rig.step(phase=SLIDE, t_phase=-1.0)
+    assert s.phase == PULL
+    np.testing.assert_allclose(s.grip, P_HOOK_GRIP)
+    np.testing.assert_allclose(s.cep, rig.G)
+
+
 @pytest.mark.parametrize("where, force, shift, backoff", [
     # a contact 2 cm in front of the clicked handle: the bar, not the front
     (0.02, True, CFG.retry_side_shift, CFG.retry_backoff),

@@ -17,8 +17,10 @@ from mmlearn.sdf.mechanisms import KINDS, MechanismSpec, sample_mechanism
 from mmlearn.sdf.user_model import UserMechanism
 from mmlearn.systems import MarkerSensorConfig
 from mmlearn.systems.articulation.estimator import ArticulationEstimator
-from mmlearn.systems.articulation.base_localization import (BaseLocalization, BaseLocalizationConfig,
-                                                            believed_from_true, initial_error, rotate_yaw)
+from mmlearn.systems.articulation.base_localization import (FRAMES, BaseLocalization,
+                                                            BaseLocalizationConfig,
+                                                            believed_from_true, initial_error,
+                                                            rotate_yaw)
 from mmlearn.systems.articulation.epc_controller import EpcConfig, EpcController, EpcTask
 from mmlearn.systems.articulation.jam_monitor import (DynamicsMonitor, DynamicsMonitorConfig,
                                                      HaltGate)
@@ -56,6 +58,11 @@ class OperateConfig:
             constant, plus odometry error; 0 = the robot knows its base pose exactly).
         base_localization: the error model's parameters before scaling (its seed is
             replaced by one drawn from ``seed`` and ``kind``).
+        frame: the frame the robot's software (controller, estimator, monitor) works in:
+            "odometry" (its dead reckoning since the start, anchored at its localisation's
+            belief then: the hook's track drifts only by the odometry's error over the
+            pull) or "map" (its localisation's belief, which drifts by centimetres over a
+            pull); see :mod:`~mmlearn.systems.articulation.base_localization`.
         epc: the controller's parameters.
         mechanism: the mechanism (None = drawn from kind and ``mechanism_seed``), or a
             :class:`~mmlearn.sdf.user_model.UserMechanism` (a user's model file; ``kind``
@@ -90,6 +97,7 @@ class OperateConfig:
     base_noise: float = param(1.0, ge=0)
     base_localization: BaseLocalizationConfig = param(default_factory=BaseLocalizationConfig,
                                                       nested=BaseLocalizationConfig)
+    frame: str = param("odometry", choices=FRAMES)
     epc: EpcConfig = param(default_factory=EpcConfig, nested=EpcConfig)
     mechanism: MechanismSpec | None = param(None, optional=True)
     mechanism_seed: int | None = param(None, optional=True, integer=True, ge=0)
@@ -187,7 +195,8 @@ def MakeOperateDiagram(config: OperateConfig | None = None, *, meshcat=None) -> 
     Exported outputs: ``mechanism_state``, ``robot_state`` (true), ``phase``, ``status``,
     ``hook_position`` (in the robot's believed world frame), ``force_W`` (true world frame),
     ``estimator_stats``, ``object_model`` (the model the controller uses), ``base_error``
-    (believed minus true base x, y, yaw: m, m, rad).
+    (believed minus true base x, y, yaw: m, m, rad, of the belief the robot works with:
+    ``frame``).
 
     With ``perception="depth"`` the robot first looks at the mechanism from its start
     (:func:`~mmlearn.diagrams.articulation.operate_perception.LookAtFront`) and is given the handle it
@@ -267,7 +276,7 @@ def MakeOperateDiagram(config: OperateConfig | None = None, *, meshcat=None) -> 
     loc = builder.AddNamedSystem("base_localization", BaseLocalization(
         config=loc_cfg, base_position_indices=base_idx,
         state_size=plant.num_positions(scene.robot) + plant.num_velocities(scene.robot),
-        num_commands=len(scene.command_names)))
+        num_commands=len(scene.command_names), frame=cfg.frame))
     builder.Connect(sd.GetOutputPort("robot_state"), loc.get_robot_state_input_port())
     builder.Connect(force.get_force_output_port(), loc.get_force_input_port())
     builder.Connect(loc.get_believed_robot_state_output_port(),

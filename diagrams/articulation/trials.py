@@ -327,7 +327,7 @@ def _save_track(path, track, *, kind, seed) -> None:
 
 def _trial_record(op, cfg, run: _Run, *, build_seconds, save_track) -> dict:
     """The record of a simulated trial (see :func:`open_mechanism`)."""
-    from mmlearn.systems.articulation.epc_controller import PHASE_NAMES
+    from mmlearn.systems.articulation.epc_controller import P_HOOK_GRIP, PHASE_NAMES
 
     ctx, spec = run.ctx, op.mechanism
     q = float(op.diagram.GetOutputPort("mechanism_state").Eval(ctx)[0])
@@ -374,6 +374,9 @@ def _trial_record(op, cfg, run: _Run, *, build_seconds, save_track) -> dict:
         result["track_saved"] = save_track
         _save_track(save_track, track, kind=cfg.kind, seed=cfg.seed)
     t, wall = float(ctx.get_time()), run.wall
+    # the point of the hook that held the handle: its seat, or its finger's tip on a knob
+    result["hook_grip"] = ("tip" if ctrl.grip.size == 3 and not np.allclose(ctrl.grip, P_HOOK_GRIP)
+                           else "seat")
     result.update({"estimated_opening": ctrl.opening, "track_length": int(track.shape[0]),
                    "sim_seconds": t, "wall_seconds": round(wall, 3),
                    "realtime_factor": round(float(ctx.get_time() / wall), 2),
@@ -399,7 +402,7 @@ def _priors_file(text: str) -> str:
     return _PRIORS_FILES[h]
 
 
-@register_trial("articulation.operate", version=2,
+@register_trial("articulation.operate", version=3,
                 record={"object": str, "seed": int, "success": bool, "opened": (float, None),
                         "unit": str, "outcome": str, "learned_model": (str, None)})
 def operate_trial(*, seed: int, kind: str, max_time: float = 60.0,

@@ -5,8 +5,9 @@ from mmlearn._lazy import lazy_exports
 #: submodule -> the public names it defines (imported on first use)
 _EXPORTS = {
     "jam_monitor": ["DynamicsMonitorConfig", "DynamicsMonitorState", "DynamicsMonitor", "GO", "JAMMED", "LOCKED", "HALT_NAMES", "estimate_dynamics"],
-    "base_localization": ["BaseLocalization", "BaseLocalizationConfig"],
-    "epc_controller": ["EpcTask", "EpcConfig", "hook_rotation", "EpcController"],
+    "base_localization": ["BaseLocalization", "BaseLocalizationConfig", "FRAMES"],
+    "epc_config": ["EpcTask", "EpcConfig"],
+    "epc_controller": ["hook_rotation", "EpcController"],
     "epc_state": ["EpcState", "EpcInputs", "PHASE_NAMES"],
     "estimator": ["ArticulationEstimator", "ArticulationEstimatorState"],
     "model_visualizer": ["legend_entries", "LearnedModelVisualizer", "draw_link_model"],
@@ -28,6 +29,7 @@ __all__ = [
     "EpcState",
     "EpcTask",
     "estimate_dynamics",
+    "FRAMES",
     "GO",
     "HALT_NAMES",
     "hook_rotation",

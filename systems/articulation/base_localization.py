@@ -24,6 +24,17 @@ are realised by a base controller that closes the loop on the believed pose, so 
 receives ``command - e``. The robot is thus self-consistent in its believed frame, and the
 world (handle, mechanism) appears to drift in it by e(t).
 
+The robot's software may work in either of two frames (``frame``):
+
+- ``"map"``: its belief is the localisation's, e = e_loc + e_odo as above;
+- ``"odometry"``: its belief is its dead reckoning since the start, anchored at the
+  localisation's belief at time 0: e = e(0) + the odometry error accumulated since (the
+  same scale errors, never pulled back, no localisation drift). Over the pull of one door
+  it changes only by the odometry's few percent of the base's motion, where the
+  localisation's error drifts by centimetres. The thesis' robot, too, moved its
+  equilibrium point "in a fixed world frame, attached to the initial location of the
+  handle" (Sec. 4.3) and sensed its hook through its arm's forward kinematics.
+
 All randomness is a deterministic function of (seed, update index); the error lives in the
 Context's discrete state.
 """
@@ -39,7 +50,10 @@ from pydrake.systems.framework import BasicVector, EventStatus, LeafSystem
 
 from mmlearn.models.common.config import param, validate_fields
 
-__all__ = ["BaseLocalization", "BaseLocalizationConfig"]
+__all__ = ["BaseLocalization", "BaseLocalizationConfig", "FRAMES"]
+
+#: the frames the robot's software can work in (see the module docstring)
+FRAMES = ("map", "odometry")
 
 
 @dataclass
@@ -85,8 +99,9 @@ class BaseLocalizationConfig:
         return max(self.sigma_xy, self.sigma_yaw, self.odometry_xy, self.odometry_yaw) == 0
 
 
-# discrete state layout
-_LOC, _ODO, _PREV, _K = slice(0, 3), slice(3, 6), slice(6, 9), 9
+# discrete state layout: localisation error, its odometry part (pulled back), previous true
+# base pose, update count, odometry error accumulated since the start (never pulled back)
+_LOC, _ODO, _PREV, _K, _RAW = slice(0, 3), slice(3, 6), slice(6, 9), 9, slice(10, 13)
 
 
 def initial_error(config: BaseLocalizationConfig) -> np.ndarray:
@@ -143,13 +158,21 @@ class BaseLocalization(LeafSystem):
     the same with the error taken off the base's entries, what the base controller makes
     the plant do. ``force_W`` / ``believed_force_W``: the wrist force in the true / believed
     world frame (rotated by the yaw error), N. ``error``: e = believed - true (m, m, rad).
+
+    ``frame``: "map" (the outputs are the localisation's belief, :meth:`error`) or
+    "odometry" (the robot's dead reckoning since the start, :meth:`odometry_error`; see the
+    module docstring); the ``error`` output is the error of the belief the outputs use.
     """
 
     def __init__(self, *, config: BaseLocalizationConfig | None = None, state_size: int,
-                 base_position_indices, num_commands: int):
+                 base_position_indices, num_commands: int, frame: str = "map"):
         super().__init__()
         cfg = config or BaseLocalizationConfig()
         cfg.validate()
+        if frame not in FRAMES:
+            raise ValueError(f"frame must be one of {', '.join(FRAMES)}, got {frame!r}")
+        self._frame = frame
+        self._e0 = initial_error(cfg)
         self._cfg = cfg
         idx = np.asarray(base_position_indices, int).reshape(-1)
         if idx.shape != (3,) or np.any(idx < 0) or np.any(idx >= state_size):
@@ -165,8 +188,8 @@ class BaseLocalization(LeafSystem):
         self._in_state = self.DeclareVectorInputPort("robot_state", state_size)
         self._in_cmd = self.DeclareVectorInputPort("command", num_commands)
         self._in_force = self.DeclareVectorInputPort("force_W", 3)
-        x0 = np.zeros(10)
-        x0[_LOC] = initial_error(cfg)
+        x0 = np.zeros(13)
+        x0[_LOC] = self._e0
         self._x = self.DeclareDiscreteState(x0)
         self.DeclareInitializationDiscreteUpdateEvent(self._initialize)
         self.DeclarePeriodicDiscreteUpdateEvent(cfg.period, 0.0, self._update)
@@ -208,10 +231,25 @@ class BaseLocalization(LeafSystem):
     def config(self) -> BaseLocalizationConfig:
         return replace(self._cfg)
 
+    def frame(self) -> str:
+        """The frame of the belief the outputs use ("map" or "odometry")."""
+        return self._frame
+
     def error(self, context) -> np.ndarray:
-        """e = believed - true base pose (x, y, yaw) in this context."""
+        """e = believed - true base pose (x, y, yaw) of the localisation (map frame) in
+        this context."""
         x = context.get_discrete_state(self._x).value()
         return x[_LOC] + x[_ODO]
+
+    def odometry_error(self, context) -> np.ndarray:
+        """e = believed - true base pose (x, y, yaw) of the dead reckoning since the start
+        (odometry frame, anchored at the localisation's belief at time 0)."""
+        return self._e0 + context.get_discrete_state(self._x).value()[_RAW]
+
+    def belief_error(self, context) -> np.ndarray:
+        """The error of the belief the outputs use (:meth:`error` or
+        :meth:`odometry_error`, by ``frame``)."""
+        return self.error(context) if self._frame == "map" else self.odometry_error(context)
 
     # ------------------------------------------------------------------ events
     def _true_base(self, context) -> np.ndarray:
@@ -239,6 +277,7 @@ class BaseLocalization(LeafSystem):
         odo = np.array([c * ea - s * ec, s * ea + c * ec, self._odo[2] * turn])
         x[_LOC] = self._a * x[_LOC] + self._b * w
         x[_ODO] = self._a * x[_ODO] + odo
+        x[_RAW] = x[_RAW] + odo
         x[_PREV] = base
         x[_K] = k
         discrete_state.set_value(self._x, x)
@@ -247,16 +286,17 @@ class BaseLocalization(LeafSystem):
     # ------------------------------------------------------------------ outputs
     def _calc_state(self, context, output):
         v = np.array(self._in_state.Eval(context), float)
-        v[self._idx] += self.error(context)
+        v[self._idx] += self.belief_error(context)
         output.SetFromVector(v)
 
     def _calc_cmd(self, context, output):
         v = np.array(self._in_cmd.Eval(context), float)
-        v[:3] -= self.error(context)
+        v[:3] -= self.belief_error(context)
         output.SetFromVector(v)
 
     def _calc_force(self, context, output):
-        output.SetFromVector(rotate_yaw(self._in_force.Eval(context), self.error(context)[2]))
+        output.SetFromVector(rotate_yaw(self._in_force.Eval(context),
+                                       self.belief_error(context)[2]))
 
     def _calc_err(self, context, output):
-        output.SetFromVector(self.error(context))
+        output.SetFromVector(self.belief_error(context))

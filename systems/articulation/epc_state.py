@@ -42,6 +42,9 @@ class EpcState:
         side_extra: the side offset's correction by retries, m.
         bar_depth: depth at which the bar was met (NaN: not yet), m.
         retries: retries of the hooking so far.
+        grip: the point of the hook that holds the handle, in the hook's body frame (m;
+            empty: the seat, ``P_HOOK_GRIP``; the finger's tip when the slide ended on a
+            knob's stem).
         outcome: why the pull ended ("" while it goes on).
     """
 
@@ -68,9 +71,10 @@ class EpcState:
     bar_depth: float = float("nan")
     retries: int = 0
     outcome: str = ""
+    grip: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     _ARRAYS = ("q_from", "q_to", "start", "R", "cep", "direction", "stall_G", "trail_G",
-               "motion", "last_G")
+               "motion", "last_G", "grip")
 
     def __post_init__(self):
         for k in self._ARRAYS:
