@@ -348,3 +348,28 @@ def test_taxel_visualizer_colours_cells_by_reading_at_the_pad():
         vis.get_taxels_input_port().FixValue(ctx, np.zeros(3))
     with pytest.raises(ValueError, match="no pads"):
         TaxelPadVisualizer(meshcat=mc, pads=[])
+
+
+def test_taxel_visualizer_redraws_a_recording_on_a_fitted_scale():
+    from pydrake.math import RigidTransform
+
+    from mmlearn.systems.tactile.sensor import PadSpec
+    from mmlearn.systems.tactile.taxel_visualizer import TaxelPadVisualizer
+
+    lay = PAD_PR2
+    n = lay.rows * lay.cols
+    mc = _FakeMeshcat()
+    vis = TaxelPadVisualizer(meshcat=mc, pads=[PadSpec("left", lay, 1, RigidTransform(), ())])
+    R = np.zeros((2, n))
+    R[1, 0], R[1, 1] = 0.27, 0.135  # a firm grasp reads far below saturation
+    assert vis.recolor_recording([0.0, 0.04], R) == pytest.approx(0.3)  # 0.27 rounded up
+    hot, t = mc.props[("taxels/left/r00c00", "color")]
+    assert t == pytest.approx(0.04) and hot[0] > 0.9 and hot[2] < 0.1  # red-orange, not blue
+    assert mc.props[("taxels/left/r00c00", "scale")][0][2] > 0.8 * 0.004
+    assert vis.recolor_recording([0.0, 0.04], R, full_scale=1.0) == 1.0
+    assert mc.props[("taxels/left/r00c00", "color")][0][2] > 0.5  # the sensor's scale: blue
+    with pytest.raises(ValueError, match="columns"):
+        vis.recolor_recording([0.0], np.zeros((1, 3)))
+    with pytest.raises(ValueError, match="full_scale"):
+        TaxelPadVisualizer(meshcat=mc, pads=[PadSpec("left", lay, 1, RigidTransform(), ())],
+                           full_scale=0.0)
