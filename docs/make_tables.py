@@ -43,8 +43,8 @@ COMMANDS = {
                                       "--sigma-pos 0.05 --seed 1 --json --no-progress",
     "operate.json": "python -m mmlearn.apps.operate_trials --trials 1 --objects left_door,drawer "
                     "--seed 1 --jobs 1 --results docs/results/operate.jsonl --json",
-    # the five objects x 8 trials of Sec. 4.4.2 (about 10 CPU minutes)
-    "operate_trials.json": "python -m mmlearn.apps.operate_trials --trials 8 --seed 1 --jobs 1 "
+    # the five objects of Sec. 4.4.2, 4 trials each (the thesis: 8; about 5 CPU minutes)
+    "operate_trials.json": "python -m mmlearn.apps.operate_trials --trials 4 --seed 1 --jobs 1 "
                            "--results docs/results/operate_trials.jsonl --json",
     "user_models.json": "python -m mmlearn.apps.operate_trials --model "
                         "tests/data/user_models/wall_cabinet.sdf --joint door_hinge --trials 5 "
@@ -58,21 +58,21 @@ COMMANDS = {
                              "--json docs/results/body_schema_7dof.json",
     "fronts.json": "python -m mmlearn.apps.track_fronts --object drawer --seed 1 --json",
     "perception_distance.json": "python -m mmlearn.apps.perception_experiments --only distance "
-                                "--objects drawer --distances 2.2 --seeds 5 --frames 60 --seed 1 "
+                                "--objects drawer --distances 2.2 --seeds 3 --frames 60 --seed 1 "
                                 "--jobs 1 --no-progress --out-dir build/perception "
                                 "--results docs/results/perception_distance.jsonl --json",
     "icub_state.json": "python -m mmlearn.apps.tactile_state --train tests/data/icub_grasp --folds 3 "
                        "--seed 1 --json",
-    "tactile_state_sim.json": "python -m mmlearn.apps.tactile_state --f-target 20 --trials 8 --seed 1 "
+    "tactile_state_sim.json": "python -m mmlearn.apps.tactile_state --f-target 20 --trials 4 --seed 1 "
                               "--jobs 1 --results docs/results/tactile_state_sim.jsonl --json",
-    "tactile_recognition.json": "python -m mmlearn.apps.tactile_recognition --grasps-per-class 10 "
+    "tactile_recognition.json": "python -m mmlearn.apps.tactile_recognition --grasps-per-class 4 "
                                 "--seed 1 --jobs 1 --results docs/results/tactile_recognition.jsonl "
                                 "--json",
     "lasa.json": "python -m mmlearn.apps.imitate_lasa --shapes Sshape,Leaf_1,GShape --json",
     "lasa_held_back.json": "python -m mmlearn.apps.imitate_lasa --shapes held-back --json",
     "imitate.json": "python -m mmlearn.apps.imitate --task pick_place --seed 1 --json",
     "imitation_experiments.json": "python -m mmlearn.apps.imitation_experiments --experiments "
-                                  "swap,u_obstacle --seeds 10 --seed 1 --jobs 1 "
+                                  "swap,u_obstacle --seeds 4 --seed 1 --jobs 1 "
                                   "--results docs/results/imitation_experiments.jsonl "
                                   "--out-dir build/imitation --json",
     # about an hour on two cores
@@ -423,7 +423,7 @@ def tactile_larger() -> str:
     d = _load("tactile_recognition.json")
     if d:
         out.append("**Objects by touch, 21 classes** (ch. 6; thesis 84.6 % with 40 grasps per "
-                   f"class): recognised {_fmt(100 * _objects_rate(d), 1, ' %')} with 10 grasps "
+                   f"class): recognised {_fmt(100 * _objects_rate(d), 1, ' %')} with 4 grasps "
                    f"per class. Made by {_cmd('tactile_recognition.json')}.")
     else:
         out.append(_missing("tactile_recognition.json"))

@@ -51,6 +51,21 @@ def test_every_leaf_system_documents_its_ports():
             assert str(port) in drawing
 
 
+def test_port_blocks_name_each_ports_accessor():
+    from mmlearn.systems import CameraMarkerSensor, MarkerSensor, WristForceSensor
+    ext = _ext()
+    assert ext._system_class("MarkerSensor", None) is MarkerSensor
+    assert ext.port_getters(MarkerSensor, ["body_poses", "query_object (optional)"],
+                            ["observations", "no_such_port"]) == (
+        ["get_body_poses_input_port", "get_query_object_input_port",
+         "get_observations_output_port"], ['GetOutputPort("no_such_port")'])
+    # a frame suffix and an index are not in the accessor's name
+    assert ext.port_getters(WristForceSensor, [], ["force_W"])[0] == ["get_force_output_port"]
+    assert ext.port_getters(CameraMarkerSensor, ["color_image_0", "...", "color_image_{k-1}"],
+                            [])[0] == ["get_color_image_input_port"]
+    assert ext.port_getters(None, ["a"], ["b"]) == ([], ['GetInputPort("a")', 'GetOutputPort("b")'])
+
+
 def test_port_diagram_puts_inputs_left_and_outputs_right():
     drawing = _ext().port_diagram("Sensor", ["a", "bb"], ["out"]).splitlines()
     assert drawing[1].index("a ->") < drawing[1].index("Sensor") < drawing[1].index("-> out")

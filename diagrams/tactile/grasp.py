@@ -58,6 +58,19 @@ _R_RIGHT = RotationMatrix(np.array([[0.0, 0.0, -1.0], [1.0, 0.0, 0.0], [0.0, -1.
 class TactileGraspConfig:
     """One grasp.
 
+    When things happen (the switching controller, ``mode="switching"``): the fingers start
+    fully open (``gripper.open_gap``, 0.09 m between the pads) and close at ``v_target``, so
+    the pads touch an object of width w after about ``(open_gap - w) / v_target`` s (a 7 cm
+    block at 0.02 m/s: 1.0 s; a few tens of ms later the pad force passes
+    ``contact_force`` and that finger switches to force control). The force then rises at
+    ``force_rate`` from ``contact_force`` to ``f_target`` ((20 - 1) / 40 = 0.5 s at the
+    defaults) and is held; ``hold_time`` s after *both* fingers switched, the gripper
+    releases and the readings fall back to 0. So read the sensor between (touch + rise) and
+    (touch + ``hold_time``) -- about 1.5-1.8 s for the 7 cm block at the defaults -- and keep
+    ``duration`` beyond the release if you want the whole grasp. The controller's ``grasp``
+    output's last entry is the phase (0 closing, 1 both fingers in force control, 2
+    releasing); :func:`simulate_grasp` returns the whole time series.
+
     Attributes:
         pad: taxel layout, "pr2" (ch. 7) or "ch6".
         f_target: probing force per finger, N.
