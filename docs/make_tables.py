@@ -468,8 +468,8 @@ def headlines() -> dict[str, str]:
     fits = [_load(f"fit_articulation_sigma{s}.json") for s in ("001", "002", "005")]
     if all(fits):
         counts = [_real_tracks(f) for f in fits]
-        h["articulation"] = ("model right on " + ", ".join(f"{a}/{n}" for a, n in counts) +
-                             " real tracks at sigma 0.01, 0.02, 0.05 m (every track)")
+        h["articulation"] = ("right kind on " + ", ".join(f"{a}/{n}" for a, n in counts) +
+                             " real tracks at sigma 0.01, 0.02, 0.05 m (all)")
     op = _load("operate_trials.json")
     if op:
         st = _operate_stats(op)
@@ -499,7 +499,7 @@ def headlines() -> dict[str, str]:
 #: capability table: (key, capability, thesis chapter, docs page, results files)
 CAPABILITIES = [
     ("articulation", "Articulated objects: rigid / prismatic / revolute / GP links, MLESAC, BIC, "
-                     "kinematic trees, priors", "ch. 4.1-4.2", "articulation",
+                     "trees, priors", "ch. 4.1-4.2", "articulation",
      "fit_articulation_sigma005"),
     ("operating", "Operating doors and drawers: hook, EPC along the learned model, drifting "
                   "base localisation", "ch. 4.3-4.4", "articulation", "operate_trials"),
@@ -536,16 +536,16 @@ def _beyond_results() -> dict[str, str]:
     fig = (d or {}).get("figures", d or {})
     dd, dr = fig.get("damping_drawer"), fig.get("damping_left_door")
     if dd and dr:
-        r["mechanism_dynamics"] = (f"damping within 25 %: drawer {dd['within_25pct']}/{dd['trials']}"
-                                   f", door {dr['within_25pct']}/{dr['trials']}")
+        r["mechanism_dynamics"] = (f"damping within 25 %: drawers {dd['within_25pct']}/"
+                                   f"{dd['trials']}, doors {dr['within_25pct']}/{dr['trials']}")
     d = _load("teaching.json")
     if d:
         by = {c["condition"]: c for c in d["conditions"]}
         i = by.get("pick_place interactive, swapped tables")
         b = by.get("pick_place 4 demos, swapped tables")
         if i and b:
-            r["teaching"] = (f"swapped tables: {i['successes']}/{i['trials']} with "
-                             f"{i['mean_demos']:.1f} demonstrations on average (4 in a batch: "
+            r["teaching"] = (f"swapped tables {i['successes']}/{i['trials']}, "
+                             f"{i['mean_demos']:.1f} demonstrations on average (a batch of 4: "
                              f"{b['successes']}/{b['trials']})")
     d = _load("structure_prior.json")
     if d:
@@ -558,13 +558,12 @@ def _beyond_results() -> dict[str, str]:
 BEYOND = [
     ("user_models", "open your own SDFormat / URDF furniture",
      "python -m mmlearn.apps.open_cabinet --model FILE --joint NAME", "user_models"),
-    ("mechanism_dynamics", "damping, friction and spring learned while opening; jams and "
-                           "latches recognised",
+    ("mechanism_dynamics", "damping, friction, spring learned while opening; jams, latches",
      "python -m mmlearn.apps.open_cabinet --object drawer --damping 20 --save-model d.sdf",
      "mechanism_damping"),
     ("teaching", "interactive teaching: the robot asks where it is unsure",
      "python -m mmlearn.apps.imitate --task pick_place --interactive --swap-tables", "teaching"),
-    ("structure_prior", "structure that knows furniture (fronts hang on the carcass)",
+    ("structure_prior", "structure that knows furniture",
      "python -m mmlearn.apps.fit_structure apps/examples/two_drawers_pulled_together.csv "
      "--furniture-prior", "structure_prior"),
 ]
@@ -574,9 +573,9 @@ def beyond_table() -> str:
     res = _beyond_results()
     rows = []
     for key, what, cmd, name in BEYOND:
-        rows.append([what, res.get(key) or f"(run `--only {name}`)", f"`{cmd}`",
-                     f"[{key.replace('_', ' ')}](docs/{key}.md)"])
-    return _table(["feature", "measured", "command", "docs"], rows)
+        rows.append([f"[{what}](docs/{key}.md)", res.get(key) or f"(run `--only {name}`)",
+                     f"`{cmd}`"])
+    return _table(["feature (docs)", "measured", "command"], rows)
 
 
 #: the README's quick tour: (capability, command, what you see); ``{out}`` is where the
