@@ -82,13 +82,16 @@ COMMANDS = {
     "structure_prior.json": "python benchmarks/bench_structure_prior.py --seeds 11-20 --json",
     # the CPU time of every quick-tour command of the README (about 3 CPU minutes)
     "quick_tour.json": "python docs/make_tables.py --time-tour",
+    # every speed benchmark in its quick mode (detector, link selection, ...): the tables of
+    # docs/performance.md between its speed-table markers (about 15 CPU minutes)
+    "speed.json": "python benchmarks/run_speed.py --json docs/results/speed.json",
 }
 
 #: the results files whose figures change with the door-radius, user-model, detector,
 #: mechanism-dynamics and teaching work: re-run them after such changes
 #: (``--run --only <stem>,...``)
 VOLATILE = ("operate", "operate_trials", "user_models", "mechanism_damping", "fronts",
-            "perception_distance", "teaching", "imitate", "quick_tour")
+            "perception_distance", "teaching", "imitate", "quick_tour", "speed")
 
 
 def _load(name: str):
@@ -691,6 +694,23 @@ def render_readme(text: str) -> str:
     return text
 
 
+def render_performance(text: str) -> str:
+    """docs/performance.md's ``text`` with its speed tables rewritten from
+    docs/results/speed.json (by benchmarks/make_performance_doc.py); unchanged without it."""
+    import importlib.util
+
+    doc = _load("speed.json")
+    if doc is None:
+        return text
+    spec = importlib.util.spec_from_file_location(
+        "make_performance_doc", ROOT / "benchmarks" / "make_performance_doc.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    head, rest = text.split(mod.START)
+    _, tail = rest.split(mod.END)
+    return f"{head}{mod.START}\n{mod.tables(doc)}\n{mod.END}{tail}"  # as that script writes it
+
+
 def _atomic_write(path: Path, text: str) -> None:
     tmp = path.with_name(path.name + ".tmp")
     tmp.write_text(text)
@@ -769,11 +789,16 @@ def main(argv=None) -> int:
     except ValueError as e:
         print(f"make_tables: {e}", file=sys.stderr)
         return 2
+    perf_path = ROOT / "docs" / "performance.md"
+    perf = perf_path.read_text() if perf_path.is_file() else None
+    new_perf = render_performance(perf) if perf is not None else None
     if args.check:
         stale = [f"docs/results/tables/{p}.md" for p, text in tables.items()
                  if not (TABLES / f"{p}.md").is_file() or (TABLES / f"{p}.md").read_text() != text]
         if new_readme != readme:
             stale.append("README.md")
+        if new_perf != perf:
+            stale.append("docs/performance.md")
         if stale:
             print("make_tables: out of date with docs/results/ (run python docs/make_tables.py): "
                   + ", ".join(stale), file=sys.stderr)
@@ -786,6 +811,9 @@ def main(argv=None) -> int:
     if new_readme != readme:
         _atomic_write(readme_path, new_readme)
         print(f"wrote {readme_path}")
+    if new_perf != perf:
+        _atomic_write(perf_path, new_perf)
+        print(f"wrote {perf_path}")
     return 0
 
 
