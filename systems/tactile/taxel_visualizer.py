@@ -11,6 +11,10 @@ from pydrake.systems.framework import LeafSystem
 
 __all__ = ["TaxelPadVisualizer", "taxel_colors"]
 
+#: the colour levels a cell is drawn in (readings as a fraction of the full scale; a cell
+#: shows the nearest level's colour)
+LEVELS = np.linspace(0.0, 1.0, 5)
+
 
 def taxel_colors(values: np.ndarray) -> np.ndarray:
     """RGBA (n, 4) of readings in [0, 1] (NaN and out-of-range values are clipped, NaN reads
@@ -35,7 +39,9 @@ class TaxelPadVisualizer(LeafSystem):
     outside [0, ``full_scale``] clipped, so a bad reading never stops a running simulation.
 
     Colour scale: a reading of 0 is dark blue, ``full_scale`` (default 1, the sensor's
-    saturation) red. A firm grasp reads far below saturation (0.2-0.3 at 20 N on the PR2
+    saturation) red, in the five steps of ``LEVELS`` (each cell holds one box per level
+    under ``<prefix>/<pad>/rRRcCC/<k>`` and shows the nearest level's: a Meshcat recording
+    replays visibility, not colour changes). A firm grasp reads far below saturation (0.2-0.3 at 20 N on the PR2
     pads), so with the default every cell looks alike; :meth:`recolor_recording` redraws a
     finished recording on a scale fitted to its readings (state the scale in the legend).
 
@@ -91,8 +97,12 @@ class TaxelPadVisualizer(LeafSystem):
             for r in range(L.rows):
                 for c in range(L.cols):
                     path = f"{self._prefix}/{pad.name}/r{r:02d}c{c:02d}"
-                    meshcat.SetObject(path, Box(cw * cell_fill, ch * cell_fill, 1.0),
-                                      Rgba(0.0, 0.0, 0.5, 1.0))
+                    # one box per colour level, only the reading's level visible: a
+                    # recording animates visibility (a colour change does not replay)
+                    for k, rgba in enumerate(taxel_colors(LEVELS)):
+                        meshcat.SetObject(f"{path}/{k}", Box(cw * cell_fill, ch * cell_fill, 1.0),
+                                          Rgba(*rgba))
+                        meshcat.SetProperty(f"{path}/{k}", "visible", k == 0)
                     paths.append(path)
                     centres.append((-L.width / 2 + (c + 0.5) * cw,
                                     L.length / 2 - (r + 0.5) * ch))
@@ -119,16 +129,21 @@ class TaxelPadVisualizer(LeafSystem):
         self._draw_cells(x, self._full_scale, rec)
 
     def _draw_cells(self, x, full_scale: float, rec: dict) -> None:
-        """Colour and raise every cell for the readings ``x`` (all pads) on ``full_scale``."""
+        """Show every cell's level and raise it for the readings ``x`` (all pads) on
+        ``full_scale``."""
         mc = self._meshcat
+        n_lev = len(LEVELS)
         for i in range(len(self._pads)):
-            vals = np.nan_to_num(x[self._offsets[i]:self._offsets[i + 1]], nan=0.0) / full_scale
-            h = self._bar * (0.05 + 0.95 * np.clip(vals, 0.0, 1.0))
+            vals = np.clip(np.nan_to_num(x[self._offsets[i]:self._offsets[i + 1]], nan=0.0)
+                           / full_scale, 0.0, 1.0)
+            h = self._bar * (0.05 + 0.95 * vals)
+            level = np.rint(vals * (n_lev - 1)).astype(int)
             paths, centres = self._cells[i]
-            for path, (cx, cy), hk, rgba in zip(paths, centres, h, taxel_colors(vals)):
+            for path, (cx, cy), hk, lev in zip(paths, centres, h, level):
                 mc.SetTransform(path, RigidTransform([cx, cy, -hk / 2]), **rec)
                 mc.SetProperty(path, "scale", [1.0, 1.0, float(hk)], **rec)
-                mc.SetProperty(path, "color", rgba.tolist(), **rec)
+                for k in range(n_lev):
+                    mc.SetProperty(f"{path}/{k}", "visible", bool(k == lev), **rec)
 
     def recolor_recording(self, times, readings, full_scale: float | None = None) -> float:
         """Redraw the cells of a Meshcat recording that is still open (before
