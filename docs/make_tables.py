@@ -351,6 +351,8 @@ def _container_rate(d):
 
 
 def _objects_rate(d):
+    if d.get("recognition_rate") is not None:
+        return d["recognition_rate"]
     r = (d.get("rates") or {}).get("all")
     if isinstance(r, dict):
         return r.get("rate", r.get("mean"))
@@ -419,15 +421,20 @@ def tactile_larger() -> str:
     d = _load("tactile_state_sim.json")
     if d:
         out.append("**Simulated grasps, containers x states at 20 N** (Sec. 7.2; thesis: "
-                   f"container 0.939): container recognised {_fmt(_container_rate(d), 3)}. "
+                   f"container 0.939): container recognised {_fmt(_container_rate(d), 3)}, "
+                   f"class and state together {_fmt(d.get('combined_rate'), 3)} "
+                   f"({d.get('n_grasps')} grasps, 10-fold CV). "
                    f"Made by {_cmd('tactile_state_sim.json')}.")
     else:
         out.append(_missing("tactile_state_sim.json"))
     d = _load("tactile_recognition.json")
     if d:
-        out.append("**Objects by touch, 21 classes** (ch. 6; thesis 84.6 % with 40 grasps per "
-                   f"class): recognised {_fmt(100 * _objects_rate(d), 1, ' %')} with 4 grasps "
-                   f"per class. Made by {_cmd('tactile_recognition.json')}.")
+        per = sorted((d.get("grasps_per_class") or {"-": None}).values(), key=str)[0]
+        out.append(f"**Objects by touch, {len(d.get('classes', []))} classes** (ch. 6; thesis "
+                   f"84.6 % with 40 grasps per class): recognised "
+                   f"{_fmt(100 * _objects_rate(d), 1, ' %')} with {per} grasps per class "
+                   f"({d.get('n_grasps')} grasps, 2-fold CV). "
+                   f"Made by {_cmd('tactile_recognition.json')}.")
     else:
         out.append(_missing("tactile_recognition.json"))
     return "\n\n".join(out)
@@ -536,7 +543,7 @@ def _beyond_results() -> dict[str, str]:
         st = _operate_stats(d)
         r["user_models"] = f"a wall cabinet's door (SDFormat) opened {st['opened']}/{st['total']}"
     d = _load("mechanism_damping.json")
-    fig = (d or {}).get("figures", d or {})
+    fig = (d or {}).get("summary", d or {})
     dd, dr = fig.get("damping_drawer"), fig.get("damping_left_door")
     if dd and dr:
         r["mechanism_dynamics"] = (f"damping within 25 %: drawers {dd['within_25pct']}/"
