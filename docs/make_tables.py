@@ -82,6 +82,8 @@ COMMANDS = {
     "structure_prior.json": "python benchmarks/bench_structure_prior.py --seeds 11-20 --json",
     # the CPU time of every quick-tour command of the README (about 3 CPU minutes)
     "quick_tour.json": "python docs/make_tables.py --time-tour",
+    # every program of examples/: its CPU time and what it printed (about 2 CPU minutes)
+    "examples.json": "python docs/make_tables.py --time-examples",
     # every speed benchmark in its quick mode (detector, link selection, ...): the tables of
     # docs/performance.md between its speed-table markers (about 15 CPU minutes)
     "speed.json": "python benchmarks/run_speed.py --json docs/results/speed.json",
@@ -655,8 +657,71 @@ def tour_table() -> str:
             "wall-clock time is several times longer."))
 
 
+#: the programs of examples/: (file, capability, what it uses, the start of its result line)
+EXAMPLES = [
+    ("fit_link_model.py", "articulation (ch. 4)", "`select_link_model`, `ObservationModel`",
+     "selected"),
+    ("door_markers.py", "articulation (ch. 4)", "`MarkerSensor`, `ArticulationEstimator`",
+     "door:"),
+    ("detect_fronts.py", "perception (ch. 5)", "`AddDepthCamera`, `FrontDetector`", "front at"),
+    ("tactile_grasp.py", "tactile (ch. 6-7)", "`MakeTactileGraspDiagram`, `TactileSensor`",
+     "pad forces"),
+    ("imitate_reach.py", "imitation (ch. 8)", "`record_demonstrations`, `learn_task`, "
+     "`MakeImitationDiagram` (`DbnReproducer`)", "hand"),
+]
+
+
+def _run_timed(argv: list[str]) -> dict:
+    """Run ``argv`` from the repository root; its CPU time (user + sys, s), wall time, exit
+    status and standard output."""
+    import resource
+    import time
+
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t0 = time.perf_counter()
+    p = subprocess.run(argv, cwd=ROOT, capture_output=True, text=True,
+                       env=dict(os.environ, OPENBLAS_NUM_THREADS="1"))
+    wall = time.perf_counter() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    return {"exit": p.returncode, "cpu_s": round(cpu, 1), "wall_s": round(wall, 1),
+            "stdout": p.stdout, "stderr_tail": p.stderr.strip().splitlines()[-1:]}
+
+
+def time_examples() -> dict:
+    """Run every program of examples/; CPU time and output of each."""
+    out = []
+    for name, *_ in EXAMPLES:
+        r = _run_timed([sys.executable, f"examples/{name}"])
+        out.append(dict(r, example=name))
+    return {"examples": out, "load_1min": round(os.getloadavg()[0], 1)}
+
+
+def examples_table() -> str:
+    d = _load("examples.json")
+    by = {r["example"]: r for r in (d or {}).get("examples", [])}
+    rows = []
+    for name, cap, uses, prefix in EXAMPLES:
+        r = by.get(name)
+        if r is None:
+            rows.append([f"`examples/{name}`", cap, uses, "-", "-"])
+            continue
+        lines = [ln.strip() for ln in r["stdout"].splitlines() if ln.strip().startswith(prefix)]
+        said = "; ".join(f"`{ln}`" for ln in lines[:2]) or f"(exit {r['exit']})"
+        rows.append([f"`examples/{name}`", cap, uses, f"{r['cpu_s']:.0f} s", said])
+    note = "" if d else (" (no `docs/results/examples.json` yet: `python docs/make_tables.py "
+                         "--run --only examples`)")
+    return (_table(["example", "capability", "what it uses", "CPU time", "what it printed"],
+                   rows) + "\n\n" +
+            _wrap("CPU time: user + sys of `python examples/<name>.py`, most of it importing "
+                  "Drake and building the diagram; made by `python docs/make_tables.py --run "
+                  f"--only examples`{note}."))
+
+
 #: generated blocks of README.md: name -> text
 README_BLOCKS = {"tour": tour_table, "capabilities": capability_table, "beyond": beyond_table}
+#: generated blocks of the docs pages: page -> {name -> text}
+PAGE_BLOCKS = {"docs/examples.md": {"examples": examples_table}}
 
 
 PAGES = {"articulation": articulation, "body_schema": body_schema, "perception": perception,
@@ -689,16 +754,21 @@ def _blocks(text: str) -> dict[str, tuple[int, int]]:
     return out
 
 
-def render_readme(text: str) -> str:
-    """``text`` (README.md) with every generated block rewritten from the results files."""
+def render_blocks(text: str, blocks: dict, where: str = "README.md") -> str:
+    """``text`` with every generated block rewritten by ``blocks`` (name -> function)."""
     spans = _blocks(text)
-    unknown = sorted(set(spans) - set(README_BLOCKS))
+    unknown = sorted(set(spans) - set(blocks))
     if unknown:
-        raise ValueError(f"README.md: unknown generated block(s) {', '.join(unknown)}")
+        raise ValueError(f"{where}: unknown generated block(s) {', '.join(unknown)}")
     for name in sorted(spans, key=lambda n: -spans[n][0]):  # from the end: offsets stay valid
         a, b = spans[name]
-        text = text[:a] + README_BLOCKS[name]() + "\n" + text[b:]
+        text = text[:a] + blocks[name]() + "\n" + text[b:]
     return text
+
+
+def render_readme(text: str) -> str:
+    """``text`` (README.md) with every generated block rewritten from the results files."""
+    return render_blocks(text, README_BLOCKS)
 
 
 def render_performance(text: str) -> str:
@@ -778,9 +848,15 @@ def main(argv=None) -> int:
                          "files; exit 1 if any differs")
     ap.add_argument("--time-tour", action="store_true",
                     help="run the README's quick-tour commands and print their CPU times as JSON")
+    ap.add_argument("--time-examples", action="store_true",
+                    help="run the programs of examples/ and print their CPU times and output "
+                         "as JSON")
     args = ap.parse_args(argv)
     if args.time_tour:
         print(json.dumps(time_tour(), indent=1))
+        return 0
+    if args.time_examples:
+        print(json.dumps(time_examples(), indent=1))
         return 0
     try:
         only = resolve([x.strip() for x in args.only.split(",") if x.strip()])
@@ -796,6 +872,16 @@ def main(argv=None) -> int:
     except ValueError as e:
         print(f"make_tables: {e}", file=sys.stderr)
         return 2
+    pages = {}  # path -> (old text, new text) of the pages with generated blocks
+    for rel, blocks in PAGE_BLOCKS.items():
+        path = ROOT / rel
+        if path.is_file():
+            old_text = path.read_text()
+            try:
+                pages[path] = (old_text, render_blocks(old_text, blocks, rel))
+            except ValueError as e:
+                print(f"make_tables: {e}", file=sys.stderr)
+                return 2
     perf_path = ROOT / "docs" / "performance.md"
     perf = perf_path.read_text() if perf_path.is_file() else None
     new_perf = render_performance(perf) if perf is not None else None
@@ -806,6 +892,7 @@ def main(argv=None) -> int:
             stale.append("README.md")
         if new_perf != perf:
             stale.append("docs/performance.md")
+        stale += [str(path.relative_to(ROOT)) for path, (a, b) in pages.items() if a != b]
         if stale:
             print("make_tables: out of date with docs/results/ (run python docs/make_tables.py): "
                   + ", ".join(stale), file=sys.stderr)
@@ -821,6 +908,10 @@ def main(argv=None) -> int:
     if new_perf != perf:
         _atomic_write(perf_path, new_perf)
         print(f"wrote {perf_path}")
+    for path, (a, b) in pages.items():
+        if a != b:
+            _atomic_write(path, b)
+            print(f"wrote {path}")
     return 0
 
 
