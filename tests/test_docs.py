@@ -138,6 +138,9 @@ def test_the_readme_figures_are_generated_and_checked(tmp_path, monkeypatch, cap
     readme = (tmp_path / "README.md").read_text()
     for name in mod.README_BLOCKS:
         assert f"<!-- generated:{name} -->" in readme and f"<!-- /generated:{name} -->" in readme
+    for page, blocks in mod.PAGE_BLOCKS.items():
+        text = (ROOT / page).read_text()
+        assert all(f"<!-- generated:{name} -->" in text for name in blocks), page
     d = json.loads((results / "structure_prior.json").read_text())
     right = sum(r["right_with_prior"] for r in d["rows"])
     d["rows"][0]["right_with_prior"] -= 1
