@@ -497,9 +497,10 @@ def headlines() -> dict[str, str]:
         h["perception"] = (f"drawer found in {_fmt(r.get('detection_rate_eligible'), 2)} of its "
                            "frames at 2.2 m (> 0.75)")
     a, b = _load("tactile_state_sim.json"), _load("tactile_recognition.json")
-    if a and b:
-        h["tactile"] = (f"container recognised {_fmt(_container_rate(a), 3)} (0.939), objects "
-                        f"{_fmt(100 * _objects_rate(b), 1, ' %')} (84.6 %)")
+    parts = ([f"container recognised {_fmt(_container_rate(a), 3)} (0.939)"] if a else []) + \
+        ([f"objects {_fmt(100 * _objects_rate(b), 1, ' %')} (84.6 %)"] if b else [])
+    if parts:
+        h["tactile"] = ", ".join(parts)
     a, b = _load("imitation_experiments.json"), _load("lasa_held_back.json")
     r = _swap_row(a) if a else None
     if r and b:
@@ -648,13 +649,16 @@ def tour_table() -> str:
         r = cpu.get(cmd.format(out=""))
         t = "-" if r is None else f"{r['cpu_s']:.0f} s" + ("" if r["exit"] in (0, 1) else " (failed)")
         rows.append([what, f"`{cmd.format(out='')}`", see, t])
-    note = ("" if d else " (no `docs/results/quick_tour.json` yet: `python docs/make_tables.py "
-                         "--run --only quick_tour`)")
-    return (_table(["capability", "command", "what you see", "CPU time"], rows) +
-            "\n\n" + _wrap(f"CPU time: user + sys of the whole run, Drake's start-up included "
-            f"(`python docs/make_tables.py --run --only quick_tour`; the 1-minute load average "
-            f"was {d.get('load_1min') if d else '-'} at the end){note}. On a shared machine the "
-            "wall-clock time is several times longer."))
+    if d:
+        note = (f"CPU time: user + sys of the whole run, Drake's start-up included (`python "
+                f"docs/make_tables.py --run --only quick_tour`; the 1-minute load average was "
+                f"{d.get('load_1min')} at the end). On a shared machine the wall-clock time is "
+                "several times longer.")
+    else:
+        note = ("CPU time: not measured in this checkout (`python docs/make_tables.py --run "
+                "--only quick_tour` measures it).")
+    return _table(["capability", "command", "what you see", "CPU time"], rows) + "\n\n" + \
+        _wrap(note)
 
 
 #: the programs of examples/: (file, capability, what it uses, the start of its result line)
