@@ -42,7 +42,7 @@ SHOTS = {
     "imitation": (["mmlearn.apps.imitate", "--task", "pick_place", "--demos", "4",
                    "--seed", "3"], 60000),
     "tactile": (["mmlearn.apps.tactile_state", "--f-target", "20", "--containers", "odwalla",
-                 "--trials", "2", "--folds", "2", "--seed", "3"], 1650),
+                 "--trials", "2", "--folds", "2", "--seed", "3"], 1000),
 }
 
 
