@@ -347,6 +347,7 @@ def _show_one(cls: str, *, seed: int, meshcat, html_out) -> dict:
 
     rec = object_grasp_trial(seed=seed, cls=cls, height=float(hs[len(hs) // 2]),
                                 meshcat=meshcat, on_diagram=hook)
+    _frame_and_legend(meshcat, rec)
     if "vis" in vis_holder:
         vis_holder["vis"].PublishRecording()
     if html_out:
@@ -354,6 +355,33 @@ def _show_one(cls: str, *, seed: int, meshcat, html_out) -> dict:
 
         save_html(meshcat, html_out)
     return rec
+
+
+def _frame_and_legend(meshcat, rec: dict) -> None:
+    """Frame the gripper and the object seen obliquely (the taxel displays sit on the
+    fingers' outer faces) and draw a legend naming what is drawn, with the grasp's numbers."""
+    from pydrake.geometry import Rgba
+
+    from mmlearn.systems.common.meshcat_view import draw_legend, frame_camera
+    from mmlearn.systems.tactile.taxel_visualizer import taxel_colors
+
+    h = float(rec["height"])
+    box = np.array([[x, y, z] for x in (-0.09, 0.09) for y in (-0.06, 0.06)
+                    for z in (0.0, h + 0.06)])
+    frame_camera(meshcat, box, view_from=(1.0, -0.6, 0.5), min_distance=0.1)
+    lo, mid, hi = (Rgba(*c) for c in taxel_colors(np.array([0.0, 0.5, 1.0])))
+    top = {side: float(np.max(rec[side])) for side in ("left", "right")}
+    rows = [(lo, "box", "taxel cell reading 0: each pad's 14 x 6 cells, on the finger's outer face"),
+            (mid, "box", "half the colour scale"),
+            (hi, "box", "the grasp's largest reading, rounded up to 0.05 (1 = saturated); "
+                        "a cell rises with its reading"),
+            (None, "", f"object {rec['object']} (class {rec['cls']}, group {rec['group']}), "
+                       f"grasped {1000 * h:.0f} mm above its base"),
+            (None, "", f"finger distance {1000 * float(rec['width']):.1f} mm, grasp force "
+                       f"{float(rec['force']):.1f} N; contact: {'yes' if rec['contact'] else 'no'}"),
+            (None, "", f"largest cell reading at the end: left {top['left']:.2f}, "
+                       f"right {top['right']:.2f}")]
+    draw_legend(meshcat, f"Tactile grasp for recognition: {rec['cls']}", rows)
 
 
 class TactileRecognition(Experiment):

@@ -31,7 +31,8 @@ SIZE = "1000,650"
 #: name -> (the app and its arguments, virtual time to play the recording, ms). The
 #: screenshot shows the recording at that time: the end of the motion; for the fronts the
 #: door half open (the 30 frames' point clouds make the page slow to play); mid-hold for
-#: the tactile grasp (the taxel readings are back to 0 after the release).
+#: the tactile grasp (the recording plays ahead of the virtual clock: 1000 ms shows about
+#: 1.7 s of the grasp, near its peak force; the readings are back to 0 after the release).
 SHOTS = {
     "door": (["mmlearn.apps.open_cabinet", "--object", "left_door", "--seed", "1"], 30000),
     "drawer": (["mmlearn.apps.open_cabinet", "--object", "drawer", "--seed", "1"], 30000),
@@ -42,7 +43,7 @@ SHOTS = {
     "imitation": (["mmlearn.apps.imitate", "--task", "pick_place", "--demos", "4",
                    "--seed", "3"], 60000),
     "tactile": (["mmlearn.apps.tactile_state", "--f-target", "20", "--containers", "odwalla",
-                 "--trials", "2", "--folds", "2", "--seed", "3"], 2200),
+                 "--trials", "2", "--folds", "2", "--seed", "3"], 1000),
 }
 
 

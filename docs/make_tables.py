@@ -1,15 +1,20 @@
-"""Generate the results tables of the docs from the results files in docs/results/.
+"""Generate every measured figure of the README and the docs from the results files in
+docs/results/.
 
-    python docs/make_tables.py          # results/*.json -> results/tables/<capability>.md
-    python docs/make_tables.py --run    # first re-run the experiments that make the files
-    python docs/make_tables.py --run --only operate.json   # only some of them
-    python docs/make_tables.py --check  # exit 1 if a committed table differs from its file
+    python docs/make_tables.py                 # results/*.json -> results/tables/<page>.md and
+                                               # the generated blocks of README.md
+    python docs/make_tables.py --run           # first re-run every experiment that makes a file
+    python docs/make_tables.py --run --only operate_trials,teaching   # only some of them
+    python docs/make_tables.py --check         # exit 1 if a table or a README block differs
+                                               # from what the results files give
 
-Every number in a table comes from a results file; the thesis' numbers beside them are the
-reference values of the thesis (chapter and figure named in the row). Each table names the
-command that produced its file, so a reader can re-run it. The runs are small (minutes on
-two cores), so the tables show what a user gets from those commands, not the full-size
-experiments that the pages name separately.
+Every number comes from a results file; the thesis' numbers beside them are the reference
+values of the thesis (chapter and figure named beside them). Each table names the command that
+produced its file, so a reader can re-run it. The small runs take minutes on two cores and
+show what a user gets from those commands; the larger runs (``operate_trials``,
+``body_schema_7dof``, ...) are the sizes that fit about 10-15 CPU minutes each, and every line
+that quotes them states that size and the command. In README.md the generated parts sit
+between ``<!-- generated:NAME -->`` and ``<!-- /generated:NAME -->``; do not edit them by hand.
 """
 
 from __future__ import annotations
@@ -26,26 +31,69 @@ ROOT = DOCS.parent
 RESULTS = DOCS / "results"
 TABLES = RESULTS / "tables"
 
-#: results file -> the command (run from the repository root) that writes it to stdout
+#: results file -> the command (run from the repository root) that writes it: to stdout, or,
+#: when the command names the file after ``--json``, itself. The name given to ``--only`` is
+#: the file's stem (``operate_trials``) or the file name.
 COMMANDS = {
     "fit_articulation_sigma001.json": "python -m mmlearn.apps.fit_articulation tests/data/articulation_logs "
                                       "--sigma-pos 0.01 --seed 1 --json --no-progress",
     "fit_articulation_sigma002.json": "python -m mmlearn.apps.fit_articulation tests/data/articulation_logs "
                                       "--sigma-pos 0.02 --seed 1 --json --no-progress",
+    "fit_articulation_sigma005.json": "python -m mmlearn.apps.fit_articulation tests/data/articulation_logs "
+                                      "--sigma-pos 0.05 --seed 1 --json --no-progress",
     "operate.json": "python -m mmlearn.apps.operate_trials --trials 1 --objects left_door,drawer "
                     "--seed 1 --jobs 1 --results docs/results/operate.jsonl --json",
+    # the five objects of Sec. 4.4.2, 4 trials each (the thesis: 8; about 5 CPU minutes)
+    "operate_trials.json": "python -m mmlearn.apps.operate_trials --trials 4 --seed 1 --jobs 1 "
+                           "--results docs/results/operate_trials.jsonl --json",
+    "user_models.json": "python -m mmlearn.apps.operate_trials --model "
+                        "tests/data/user_models/wall_cabinet.sdf --joint door_hinge --trials 5 "
+                        "--seed 0 --jobs 1 --results docs/results/user_models.jsonl --json",
+    "mechanism_damping.json": "python benchmarks/bench_mechanism.py --only damping --seed 300 "
+                              "--results docs/results/mechanism_damping.jsonl "
+                              "--json docs/results/mechanism_damping.json",
     "body_schema.json": "python -m mmlearn.apps.learn_body_schema --arm 2dof --samples 50 --seed 1 --json",
+    "body_schema_7dof.json": "python benchmarks/bench_body_schema_7dof.py --sigmas 0.044 --seeds 1-5 "
+                             "--extra --jobs 1 --results docs/results/body_schema_7dof.jsonl "
+                             "--json docs/results/body_schema_7dof.json",
     "fronts.json": "python -m mmlearn.apps.track_fronts --object drawer --seed 1 --json",
+    "perception_distance.json": "python -m mmlearn.apps.perception_experiments --only distance "
+                                "--objects drawer --distances 2.2 --seeds 3 --frames 60 --seed 1 "
+                                "--jobs 1 --no-progress --out-dir build/perception "
+                                "--results docs/results/perception_distance.jsonl --json",
     "icub_state.json": "python -m mmlearn.apps.tactile_state --train tests/data/icub_grasp --folds 3 "
                        "--seed 1 --json",
+    "tactile_state_sim.json": "python -m mmlearn.apps.tactile_state --f-target 20 --trials 4 --seed 1 "
+                              "--jobs 1 --results docs/results/tactile_state_sim.jsonl --json",
+    "tactile_recognition.json": "python -m mmlearn.apps.tactile_recognition --grasps-per-class 4 "
+                                "--seed 1 --jobs 1 --results docs/results/tactile_recognition.jsonl "
+                                "--json",
     "lasa.json": "python -m mmlearn.apps.imitate_lasa --shapes Sshape,Leaf_1,GShape --json",
+    "lasa_held_back.json": "python -m mmlearn.apps.imitate_lasa --shapes held-back --json",
     "imitate.json": "python -m mmlearn.apps.imitate --task pick_place --seed 1 --json",
+    "imitation_experiments.json": "python -m mmlearn.apps.imitation_experiments --experiments "
+                                  "swap,u_obstacle --seeds 4 --seed 1 --jobs 1 "
+                                  "--results docs/results/imitation_experiments.jsonl "
+                                  "--out-dir build/imitation --json",
     # about an hour on two cores
     "teaching.json": "python -m mmlearn.apps.imitation_experiments --experiments teaching --seeds 10 "
                      "--seed 100 --jobs 2 --results docs/results/teaching.jsonl "
                      "--out-dir build/teaching --json",
     "structure_prior.json": "python benchmarks/bench_structure_prior.py --seeds 11-20 --json",
+    # the CPU time of every quick-tour command of the README (about 3 CPU minutes)
+    "quick_tour.json": "python docs/make_tables.py --time-tour",
+    # every program of examples/: its CPU time and what it printed (about 2 CPU minutes)
+    "examples.json": "python docs/make_tables.py --time-examples",
+    # every speed benchmark in its quick mode (detector, link selection, ...): the tables of
+    # docs/performance.md between its speed-table markers (about 15 CPU minutes)
+    "speed.json": "python benchmarks/run_speed.py --json docs/results/speed.json",
 }
+
+#: the results files whose figures change with the door-radius, user-model, detector,
+#: mechanism-dynamics and teaching work: re-run them after such changes
+#: (``--run --only <stem>,...``)
+VOLATILE = ("operate", "operate_trials", "user_models", "mechanism_damping", "fronts",
+            "perception_distance", "teaching", "imitate", "quick_tour", "speed")
 
 
 def _load(name: str):
@@ -231,20 +279,539 @@ def structure_prior() -> str:
             + "\n\n" + _source("structure_prior.json"))
 
 
+# ----------------------------------------------------------------- the larger runs, headlines
+
+def _wrap(text: str) -> str:
+    """A paragraph broken into lines of at most 100 characters (README lines stay short)."""
+    import textwrap
+
+    return textwrap.fill(text, 100, break_long_words=False, break_on_hyphens=False)
+
+
+def _cmd(name: str) -> str:
+    return f"`{COMMANDS[name]}`"
+
+
+def _missing(name: str) -> str:
+    return f"(no `docs/results/{name}` yet: `python docs/make_tables.py --run --only {Path(name).stem}`)"
+
+
+def _real_tracks(d) -> tuple[int, int]:
+    """(right, total) over the recorded real tracks of a fit_articulation file (the synthetic
+    cosine tracks left out)."""
+    real = [t for t in d["tracks"] if "cosine" not in Path(t["path"]).name]
+    return sum(t["selected"] == _expected_kind(t["path"]) for t in real), len(real)
+
+
+def _operate_stats(d) -> dict:
+    """Opened, trials and the doors' mean radius error of an operate_trials file."""
+    per = d.get("per_object", {})
+    err = [(o["mean_radius_error_m"], o["radius_runs"]) for o in per.values()
+           if o.get("mean_radius_error_m") is not None and o.get("radius_runs")]
+    n = sum(k for _, k in err)
+    return {"opened": d.get("successes"), "total": d.get("total"),
+            "right_kind": d.get("right_kind"),
+            "radius_error_m": sum(e * k for e, k in err) / n if n else None}
+
+
+def _swap_row(d):
+    for r in d.get("conditions", []):
+        if r["condition"] == "pick_place 4 demos, swapped tables":
+            return r
+    return None
+
+
+def _lasa_gain(d) -> float | None:
+    """How far the method's mean rmse is below the baseline's, %."""
+    b = d.get("baseline", {}).get("mean_rmse_mm")
+    m = d.get("mean_rmse_mm")
+    return None if not b or m is None else 100.0 * (1.0 - m / b)
+
+
+def _seven_dof(d):
+    return d["sets"][0] if d and d.get("sets") else None
+
+
+def _eligible_at(d, obj="drawer"):
+    """The distance experiment's row of ``obj`` (the first distance run)."""
+    for key in ("distance", "rows", "table"):
+        rows = d.get(key)
+        if isinstance(rows, dict):
+            rows = rows.get(obj, rows.get("rows"))
+        if isinstance(rows, list):
+            for r in rows:
+                if r.get("object", obj) == obj:
+                    return r
+    return None
+
+
+def _container_rate(d):
+    for key in ("container_rate", "rate_container"):
+        if d.get(key) is not None:
+            return d[key]
+    return (d.get("rates") or {}).get("container")
+
+
+def _objects_rate(d):
+    if d.get("recognition_rate") is not None:
+        return d["recognition_rate"]
+    r = (d.get("rates") or {}).get("all")
+    if isinstance(r, dict):
+        return r.get("rate", r.get("mean"))
+    return r if r is not None else d.get("recognition_rate")
+
+
+def articulation_larger() -> str:
+    out = []
+    d = _load("operate_trials.json")
+    if d:
+        st = _operate_stats(d)
+        rows = []
+        for obj, o in d.get("per_object", {}).items():
+            unit = o.get("unit", "")
+            rows.append([obj, f"{o['successes']}/{o['trials']}", f"{o['right_kind']}/{o['trials']}",
+                         _fmt(o.get("mean_opened"), 1 if unit == "deg" else 3, f" {unit}"),
+                         _fmt(o.get("mean_radius_error_m"), 3, " m"),
+                         _fmt(o.get("mean_axis_error_deg"), 1, " deg")])
+        out.append("**The operating experiment of Sec. 4.4.2**: five objects x "
+                   f"{max(o['trials'] for o in d['per_object'].values())} trials, drifting base "
+                   f"localisation (x{d.get('base_noise')}), sigma_pos {d.get('sigma_pos')} m "
+                   f"(thesis: 37 of 40 opened; door radii within 0.02 m)\n\n" +
+                   _table(["object", "opened", "right kind", "opening (mean)", "radius error (mean)",
+                           "axis error (mean)"], rows) +
+                   f"\n\nOpened {st['opened']}/{st['total']}; doors' mean radius error "
+                   f"{_fmt(st['radius_error_m'], 3, ' m')}. Made by {_cmd('operate_trials.json')}.")
+    else:
+        out.append(_missing("operate_trials.json"))
+    fits = [(s, _load(f"fit_articulation_sigma{s}.json")) for s in ("001", "002", "005")]
+    if all(f for _, f in fits):
+        right = ", ".join(f"{a}/{n} at {int(s) / 100:g} m" for s, f in fits
+                          for a, n in [_real_tracks(f)])
+        out.append(f"Model selection on the five recorded real tracks: right kind {right} "
+                   "(thesis: right on every real track); made by `fit_articulation` as in the "
+                   "table above, and at 0.05 m by " + _cmd("fit_articulation_sigma005.json") + ".")
+    return "\n\n".join(out)
+
+
+def body_schema_larger() -> str:
+    s = _seven_dof(_load("body_schema_7dof.json"))
+    if not s:
+        return _missing("body_schema_7dof.json")
+    conv = ", ".join("-" if c is None else str(c) for c in s["converged_at"])
+    return ("**7-DOF arm, x4 occluded, 50 samples** (Sec. 3.4, Fig. 3.10; thesis: the structure "
+            f"right after about 10 samples): at marker noise {s['sigma']:g} m the structure was "
+            f"right within 12 samples in {s['within_12']} of {s['runs']} runs (seeds "
+            f"{s['label']}; right from sample {conv}); prediction error "
+            f"{_fmt(s['mean_pred_error_m'], 4, ' m')} against an observation noise of "
+            f"{_fmt(s['mean_obs_noise_m'], 4, ' m')}. Made by {_cmd('body_schema_7dof.json')}.")
+
+
+def perception_larger() -> str:
+    d = _load("perception_distance.json")
+    r = _eligible_at(d) if d else None
+    if not r:
+        return _missing("perception_distance.json")
+    return ("**The distance experiment at 2.2 m** (Sec. 5.2, Fig. 5.8; thesis: > 0.75 up to "
+            f"2.2 m, position error < 0.015 m): the drawer found in "
+            f"{_fmt(r.get('detection_rate_eligible'), 2)} of the frames where it is wholly in view "
+            f"({_fmt(r.get('detection_rate'), 2)} of all frames), position error "
+            f"{_fmt(r.get('pos_error_m'), 4, ' m')}. Made by {_cmd('perception_distance.json')}.")
+
+
+def tactile_larger() -> str:
+    out = []
+    d = _load("tactile_state_sim.json")
+    if d:
+        out.append("**Simulated grasps, containers x states at 20 N** (Sec. 7.2; thesis: "
+                   f"container 0.939): container recognised {_fmt(_container_rate(d), 3)}, "
+                   f"class and state together {_fmt(d.get('combined_rate'), 3)} "
+                   f"({d.get('n_grasps')} grasps, 10-fold CV). "
+                   f"Made by {_cmd('tactile_state_sim.json')}.")
+    else:
+        out.append(_missing("tactile_state_sim.json"))
+    d = _load("tactile_recognition.json")
+    if d:
+        per = sorted((d.get("grasps_per_class") or {"-": None}).values(), key=str)[0]
+        out.append(f"**Objects by touch, {len(d.get('classes', []))} classes** (ch. 6; thesis "
+                   f"84.6 % with 40 grasps per class): recognised "
+                   f"{_fmt(100 * _objects_rate(d), 1, ' %')} with {per} grasps per class "
+                   f"({d.get('n_grasps')} grasps, 2-fold CV). "
+                   f"Made by {_cmd('tactile_recognition.json')}.")
+    else:
+        out.append(_missing("tactile_recognition.json"))
+    return "\n\n".join(out)
+
+
+def imitation_larger() -> str:
+    out = []
+    d = _load("imitation_experiments.json")
+    if d:
+        rows = [[r["condition"], f"{r['successes']}/{r['trials']}",
+                 _fmt(r.get("median_place_error_m"), 3, " m")] for r in d["conditions"]]
+        out.append("**Reproduction in changed scenes** (Sec. 8.4; thesis: pick-and-place "
+                   "succeeds with swapped tables; the U obstacle needs the global plan)\n\n" +
+                   _table(["condition", "success", "median place error"], rows) +
+                   f"\n\nMade by {_cmd('imitation_experiments.json')}.")
+    else:
+        out.append(_missing("imitation_experiments.json"))
+    d = _load("lasa_held_back.json")
+    if d:
+        out.append(f"**LASA, the {d.get('n_shapes')} held-back shapes**: mean rmse "
+                   f"{_fmt(d.get('mean_rmse_mm'), 3, ' mm')} against the baseline's "
+                   f"{_fmt(d.get('baseline', {}).get('mean_rmse_mm'), 3, ' mm')} "
+                   f"({_fmt(_lasa_gain(d), 1, ' %')} below). Made by {_cmd('lasa_held_back.json')}.")
+    else:
+        out.append(_missing("lasa_held_back.json"))
+    return "\n\n".join(out)
+
+
+LARGER = {"articulation": articulation_larger, "body_schema": body_schema_larger,
+          "perception": perception_larger, "tactile": tactile_larger,
+          "imitation": imitation_larger}
+
+
+def _or(value, name: str, text) -> str:
+    return text(value) if value is not None else f"(run `--only {Path(name).stem}`)"
+
+
+def headlines() -> dict[str, str]:
+    """Capability -> its headline result against the thesis (thesis value in brackets)."""
+    h = {}
+    fits = [_load(f"fit_articulation_sigma{s}.json") for s in ("001", "002", "005")]
+    if all(fits):
+        counts = [_real_tracks(f) for f in fits]
+        h["articulation"] = ("right kind on " + ", ".join(f"{a}/{n}" for a, n in counts) +
+                             " real tracks at sigma 0.01, 0.02, 0.05 m (all)")
+    op = _load("operate_trials.json")
+    if op:
+        st = _operate_stats(op)
+        h["operating"] = (f"{st['opened']}/{st['total']} opened with base noise (37/40); door "
+                          f"radius error {_fmt(st['radius_error_m'], 3, ' m')} (< 0.02 m)")
+    s = _seven_dof(_load("body_schema_7dof.json"))
+    if s:
+        h["body_schema"] = (f"7-DOF structure within 12 samples in {s['within_12']}/{s['runs']} "
+                            "runs (about 10 samples)")
+    d = _load("perception_distance.json")
+    r = _eligible_at(d) if d else None
+    if r:
+        h["perception"] = (f"drawer found in {_fmt(r.get('detection_rate_eligible'), 2)} of its "
+                           "frames at 2.2 m (> 0.75)")
+    a, b = _load("tactile_state_sim.json"), _load("tactile_recognition.json")
+    parts = ([f"container recognised {_fmt(_container_rate(a), 3)} (0.939)"] if a else []) + \
+        ([f"objects {_fmt(100 * _objects_rate(b), 1, ' %')} (84.6 %)"] if b else [])
+    if parts:
+        h["tactile"] = ", ".join(parts)
+    a, b = _load("imitation_experiments.json"), _load("lasa_held_back.json")
+    r = _swap_row(a) if a else None
+    if r and b:
+        h["imitation"] = (f"pick-and-place with swapped tables {r['successes']}/{r['trials']} "
+                          f"(succeeds); LASA {_fmt(_lasa_gain(b), 1, ' %')} below a baseline")
+    return h
+
+
+#: capability table: (key, capability, thesis chapter, docs page, results files)
+CAPABILITIES = [
+    ("articulation", "Articulated objects: rigid / prismatic / revolute / GP links, MLESAC, BIC, "
+                     "trees, priors", "ch. 4.1-4.2", "articulation",
+     "fit_articulation_sigma005"),
+    ("operating", "Operating doors and drawers: hook, EPC along the learned model, drifting "
+                  "base localisation", "ch. 4.3-4.4", "articulation", "operate_trials"),
+    ("body_schema", "Body schema: local GP models, structure search, prediction, control, "
+                    "adaptation to failures", "ch. 3", "body_schema", "body_schema_7dof"),
+    ("perception", "Cabinet fronts in depth images: planes, rectangles, tracking, "
+                   "articulation", "ch. 5", "perception", "perception_distance"),
+    ("tactile", "Tactile recognition and state: tactile images, bag of features, grasp "
+                "dynamics, liquid", "ch. 6-7", "tactile", "tactile_state_sim,tactile_recognition"),
+    ("imitation", "Imitation learning: a DBN of constraints, incremental and global "
+                  "reproduction", "ch. 8", "imitation", "imitation_experiments,lasa_held_back"),
+]
+
+
+def capability_table() -> str:
+    h = headlines()
+    rows = []
+    for key, what, chapter, page, files in CAPABILITIES:
+        cell = h.get(key) or f"(run `python docs/make_tables.py --run --only {files}`)"
+        rows.append([what, chapter, cell, f"[{page.replace('_', ' ')}](docs/{page}.md)"])
+    return (_table(["capability", "thesis", "headline result (thesis)", "docs"], rows) +
+            "\n\n" + _wrap("Each result comes from a results file under `docs/results/`; the capability's "
+            "page names the command and the size of its run (most are smaller than the thesis' "
+            "experiments, to fit minutes of CPU)."))
+
+
+def _beyond_results() -> dict[str, str]:
+    r = {}
+    d = _load("user_models.json")
+    if d:
+        st = _operate_stats(d)
+        r["user_models"] = f"a wall cabinet's door (SDFormat) opened {st['opened']}/{st['total']}"
+    d = _load("mechanism_damping.json")
+    fig = (d or {}).get("summary", d or {})
+    dd, dr = fig.get("damping_drawer"), fig.get("damping_left_door")
+    if dd and dr:
+        r["mechanism_dynamics"] = (f"damping within 25 %: drawers {dd['within_25pct']}/"
+                                   f"{dd['trials']}, doors {dr['within_25pct']}/{dr['trials']}")
+    d = _load("teaching.json")
+    if d:
+        by = {c["condition"]: c for c in d["conditions"]}
+        i = by.get("pick_place interactive, swapped tables")
+        b = by.get("pick_place 4 demos, swapped tables")
+        if i and b:
+            r["teaching"] = (f"swapped tables {i['successes']}/{i['trials']}, "
+                             f"{i['mean_demos']:.1f} demonstrations on average (a batch of 4: "
+                             f"{b['successes']}/{b['trials']})")
+    d = _load("structure_prior.json")
+    if d:
+        n = len(d["seeds"]) * len(d["rows"])
+        r["structure_prior"] = (f"right structure {sum(x['right_with_prior'] for x in d['rows'])}/{n}"
+                                f" (BIC alone {sum(x['right_bic_alone'] for x in d['rows'])}/{n})")
+    return r
+
+
+BEYOND = [
+    ("user_models", "open your own SDFormat / URDF furniture",
+     "python -m mmlearn.apps.open_cabinet --model FILE --joint NAME", "user_models"),
+    ("mechanism_dynamics", "damping, friction, spring learned while opening; jams, latches",
+     "python -m mmlearn.apps.open_cabinet --object drawer --damping 20 --save-model d.sdf",
+     "mechanism_damping"),
+    ("teaching", "interactive teaching: the robot asks where it is unsure",
+     "python -m mmlearn.apps.imitate --task pick_place --interactive --swap-tables", "teaching"),
+    ("structure_prior", "structure that knows furniture",
+     "python -m mmlearn.apps.fit_structure apps/examples/two_drawers_pulled_together.csv "
+     "--furniture-prior", "structure_prior"),
+]
+
+
+def beyond_table() -> str:
+    res = _beyond_results()
+    rows = []
+    for key, what, cmd, name in BEYOND:
+        rows.append([f"[{what}](docs/{key}.md)", res.get(key) or f"(run `--only {name}`)",
+                     f"`{cmd}`"])
+    return _table(["feature (docs)", "measured", "command"], rows)
+
+
+#: the README's quick tour: (capability, command, what you see); ``{out}`` is where the
+#: command's file goes (the file name itself in the README)
+TOUR = [
+    ("operate a door", "python -m mmlearn.apps.open_cabinet --object left_door --seed 1 --html-out {out}door.html",
+     "`door.html`: the robot hooks and opens the door; learned axis, circle and range drawn in"),
+    ("operate a drawer", "python -m mmlearn.apps.open_cabinet --object drawer --seed 1 --html-out {out}drawer.html",
+     "`drawer.html`: the drawer pulled open along the learned prismatic axis"),
+    ("structure of a cabinet", "python -m mmlearn.apps.fit_structure apps/examples/two_drawer_cabinet.csv",
+     "the kinematic tree of a two-drawer cabinet and its degrees of freedom, printed"),
+    ("body schema", "python -m mmlearn.apps.learn_body_schema --arm 2dof --seed 1 --html-out {out}body_schema.html",
+     "an arm babbles, learns its kinematic structure from markers, then reaches targets with it"),
+    ("cabinet fronts in depth", "python -m mmlearn.apps.track_fronts --object drawer --seed 1 --html-out {out}fronts.html",
+     "a drawer detected as a rectangle in noisy depth images while it opens; its learned model"),
+    ("tactile state", "python -m mmlearn.apps.tactile_state --f-target 20 --trials 2 --containers odwalla "
+                      "--seed 1 --plot {out}tactile.png",
+     "grasps of a bottle, empty or full, and the classifier's rates; `tactile.png` the grasp profiles"),
+    ("imitation", "python -m mmlearn.apps.imitate --task pick_place --seed 1 --html-out {out}imitation.html",
+     "a teacher demonstrates pick-and-place four times; the arm reproduces it from the learned DBN"),
+    ("handwriting", "python -m mmlearn.apps.imitate_lasa --shapes Sshape --plot {out}lasa.png",
+     "LASA human handwriting demonstrations and their reproductions, scored against a baseline"),
+]
+
+
+def time_tour() -> dict:
+    """Run every quick-tour command (outputs into a temporary folder); the CPU time (user +
+    sys of the process and its children) and wall time of each, s."""
+    import resource
+    import tempfile
+    import time
+
+    out = []
+    with tempfile.TemporaryDirectory(prefix="mmlearn_tour_") as tmp:
+        for what, cmd, _ in TOUR:
+            argv = [sys.executable] + cmd.format(out=tmp + os.sep).split()[1:]
+            t0 = time.perf_counter()
+            p = subprocess.Popen(argv, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                                 text=True, env=dict(os.environ, OPENBLAS_NUM_THREADS="1"))
+            _, err = p.communicate()
+            wall = time.perf_counter() - t0
+            ru = resource.getrusage(resource.RUSAGE_CHILDREN)  # cumulative: take differences
+            out.append({"capability": what, "command": cmd.format(out=""), "exit": p.returncode,
+                        "cpu_total_s": ru.ru_utime + ru.ru_stime, "wall_s": round(wall, 1),
+                        "stderr_tail": err.strip().splitlines()[-1:] if p.returncode else []})
+    prev = 0.0
+    for r in out:
+        r["cpu_s"] = round(r.pop("cpu_total_s") - prev, 1)
+        prev += r["cpu_s"]
+    return {"commands": out, "load_1min": round(os.getloadavg()[0], 1)}
+
+
+def tour_table() -> str:
+    d = _load("quick_tour.json")
+    cpu = {r["command"]: r for r in (d or {}).get("commands", [])}
+    rows = []
+    for what, cmd, see in TOUR:
+        r = cpu.get(cmd.format(out=""))
+        t = "-" if r is None else f"{r['cpu_s']:.0f} s" + ("" if r["exit"] in (0, 1) else " (failed)")
+        rows.append([what, f"`{cmd.format(out='')}`", see, t])
+    if d:
+        note = (f"CPU time: user + sys of the whole run, Drake's start-up included (`python "
+                f"docs/make_tables.py --run --only quick_tour`; the 1-minute load average was "
+                f"{d.get('load_1min')} at the end). On a shared machine the wall-clock time is "
+                "several times longer.")
+    else:
+        note = ("CPU time: not measured in this checkout (`python docs/make_tables.py --run "
+                "--only quick_tour` measures it).")
+    return _table(["capability", "command", "what you see", "CPU time"], rows) + "\n\n" + \
+        _wrap(note)
+
+
+#: the programs of examples/: (file, capability, what it uses, the start of its result line)
+EXAMPLES = [
+    ("fit_link_model.py", "articulation (ch. 4)", "`select_link_model`, `ObservationModel`",
+     "selected"),
+    ("door_markers.py", "articulation (ch. 4)", "`MarkerSensor`, `ArticulationEstimator`",
+     "door:"),
+    ("detect_fronts.py", "perception (ch. 5)", "`AddDepthCamera`, `FrontDetector`", "front at"),
+    ("tactile_grasp.py", "tactile (ch. 6-7)", "`MakeTactileGraspDiagram`, `TactileSensor`",
+     "pad forces"),
+    ("imitate_reach.py", "imitation (ch. 8)", "`record_demonstrations`, `learn_task`, "
+     "`MakeImitationDiagram` (`DbnReproducer`)", "hand"),
+]
+
+
+def _run_timed(argv: list[str]) -> dict:
+    """Run ``argv`` from the repository root; its CPU time (user + sys, s), wall time, exit
+    status and standard output."""
+    import resource
+    import time
+
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t0 = time.perf_counter()
+    p = subprocess.run(argv, cwd=ROOT, capture_output=True, text=True,
+                       env=dict(os.environ, OPENBLAS_NUM_THREADS="1"))
+    wall = time.perf_counter() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    return {"exit": p.returncode, "cpu_s": round(cpu, 1), "wall_s": round(wall, 1),
+            "stdout": p.stdout, "stderr_tail": p.stderr.strip().splitlines()[-1:]}
+
+
+def time_examples() -> dict:
+    """Run every program of examples/; CPU time and output of each."""
+    out = []
+    for name, *_ in EXAMPLES:
+        r = _run_timed([sys.executable, f"examples/{name}"])
+        out.append(dict(r, example=name))
+    return {"examples": out, "load_1min": round(os.getloadavg()[0], 1)}
+
+
+def examples_table() -> str:
+    d = _load("examples.json")
+    by = {r["example"]: r for r in (d or {}).get("examples", [])}
+    rows = []
+    for name, cap, uses, prefix in EXAMPLES:
+        r = by.get(name)
+        if r is None:
+            rows.append([f"`examples/{name}`", cap, uses, "-", "-"])
+            continue
+        lines = [ln.strip() for ln in r["stdout"].splitlines() if ln.strip().startswith(prefix)]
+        said = "; ".join(f"`{ln}`" for ln in lines[:2]) or f"(exit {r['exit']})"
+        rows.append([f"`examples/{name}`", cap, uses, f"{r['cpu_s']:.0f} s", said])
+    note = "" if d else (" (no `docs/results/examples.json` yet: `python docs/make_tables.py "
+                         "--run --only examples`)")
+    return (_table(["example", "capability", "what it uses", "CPU time", "what it printed"],
+                   rows) + "\n\n" +
+            _wrap("CPU time: user + sys of `python examples/<name>.py`, most of it importing "
+                  "Drake and building the diagram; made by `python docs/make_tables.py --run "
+                  f"--only examples`{note}."))
+
+
+#: generated blocks of README.md: name -> text
+README_BLOCKS = {"tour": tour_table, "capabilities": capability_table, "beyond": beyond_table}
+#: generated blocks of the docs pages: page -> {name -> text}
+PAGE_BLOCKS = {"docs/examples.md": {"examples": examples_table}}
+
+
 PAGES = {"articulation": articulation, "body_schema": body_schema, "perception": perception,
          "tactile": tactile, "imitation": imitation, "teaching": teaching,
          "structure_prior": structure_prior}
 
 
 def render() -> dict[str, str]:
-    """Page name -> the generated markdown table(s)."""
+    """Page name -> the generated markdown: the small runs' tables, then the larger runs."""
     head = "<!-- generated by docs/make_tables.py from docs/results/; do not edit -->\n\n"
-    return {page: head + fn() + "\n" for page, fn in PAGES.items()}
+    out = {}
+    for page, fn in PAGES.items():
+        text = fn()
+        if page in LARGER:
+            text += "\n\n**Larger runs**\n\n" + LARGER[page]()
+        out[page] = head + text + "\n"
+    return out
+
+
+def _blocks(text: str) -> dict[str, tuple[int, int]]:
+    """name -> (start, end) of the body of every generated block in ``text``."""
+    import re
+
+    out = {}
+    for m in re.finditer(r"<!-- generated:(\w+) -->\n", text):
+        end = text.find(f"<!-- /generated:{m.group(1)} -->", m.end())
+        if end < 0:
+            raise ValueError(f"<!-- generated:{m.group(1)} --> has no closing marker")
+        out[m.group(1)] = (m.end(), end)
+    return out
+
+
+def render_blocks(text: str, blocks: dict, where: str = "README.md") -> str:
+    """``text`` with every generated block rewritten by ``blocks`` (name -> function)."""
+    spans = _blocks(text)
+    unknown = sorted(set(spans) - set(blocks))
+    if unknown:
+        raise ValueError(f"{where}: unknown generated block(s) {', '.join(unknown)}")
+    for name in sorted(spans, key=lambda n: -spans[n][0]):  # from the end: offsets stay valid
+        a, b = spans[name]
+        text = text[:a] + blocks[name]() + "\n" + text[b:]
+    return text
+
+
+def render_readme(text: str) -> str:
+    """``text`` (README.md) with every generated block rewritten from the results files."""
+    return render_blocks(text, README_BLOCKS)
+
+
+def render_performance(text: str) -> str:
+    """docs/performance.md's ``text`` with its speed tables rewritten from
+    docs/results/speed.json (by benchmarks/make_performance_doc.py); unchanged without it."""
+    import importlib.util
+
+    doc = _load("speed.json")
+    if doc is None:
+        return text
+    spec = importlib.util.spec_from_file_location(
+        "make_performance_doc", ROOT / "benchmarks" / "make_performance_doc.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    head, rest = text.split(mod.START)
+    _, tail = rest.split(mod.END)
+    return f"{head}{mod.START}\n{mod.tables(doc)}\n{mod.END}{tail}"  # as that script writes it
+
+
+def _atomic_write(path: Path, text: str) -> None:
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(text)
+    tmp.replace(path)
+
+
+def resolve(only: list[str]) -> list[str]:
+    """Results file names of ``--only`` (stems or file names); ValueError for unknown ones."""
+    names = [n if n.endswith(".json") else n + ".json" for n in only]
+    unknown = sorted(n for n in names if n not in COMMANDS)
+    if unknown:
+        raise ValueError(f"unknown results file(s) {', '.join(unknown)}; choose from "
+                         f"{', '.join(Path(c).stem for c in COMMANDS)}")
+    return names
 
 
 def run_experiments(only=None) -> None:
     """Re-run every command of COMMANDS (or the results files named in ``only``) and write
-    its JSON output to docs/results/."""
+    its JSON output to docs/results/ (a command that names its file after ``--json`` writes
+    it itself)."""
     env = dict(os.environ, OPENBLAS_NUM_THREADS="1")
     for name, cmd in COMMANDS.items():
         if only and name not in only:
@@ -252,48 +819,103 @@ def run_experiments(only=None) -> None:
         argv = [sys.executable] + cmd.split()[1:]
         if "--results" in argv:  # a fresh sweep: an old results file would only be resumed
             (ROOT / argv[argv.index("--results") + 1]).unlink(missing_ok=True)
+        itself = "--json" in argv and argv.index("--json") + 1 < len(argv) and \
+            argv[argv.index("--json") + 1].endswith(".json")
         print(f"+ {cmd}", flush=True)
         r = subprocess.run(argv, cwd=ROOT, env=env, capture_output=True, text=True)
+        text = (ROOT / argv[argv.index("--json") + 1]).read_text() if itself and \
+            (ROOT / argv[argv.index("--json") + 1]).is_file() else r.stdout
         try:
-            json.loads(r.stdout)
+            json.loads(text)
         except json.JSONDecodeError:
-            sys.exit(f"make_tables: {cmd!r} printed no JSON (exit {r.returncode}): "
+            sys.exit(f"make_tables: {cmd!r} gave no JSON (exit {r.returncode}): "
                      f"{r.stderr.strip().splitlines()[-1:]} ")
-        tmp = RESULTS / (name + ".tmp")
-        tmp.write_text(r.stdout)
-        tmp.replace(RESULTS / name)
+        if not itself:
+            _atomic_write(RESULTS / name, text)
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    stems = ", ".join(Path(c).stem for c in COMMANDS)
+    ap = argparse.ArgumentParser(
+        prog="python docs/make_tables.py", description=__doc__.split("\n\n")[0],
+        epilog=f"Results files (--only names): {stems}. After changes to the door-radius "
+               f"estimate, user models, the front detector, mechanism dynamics or interactive "
+               f"teaching re-run: --run --only {','.join(VOLATILE)}. The speed figures of the "
+               "performance pages come from benchmarks/run_speed.py and "
+               "benchmarks/make_performance_doc.py.")
     ap.add_argument("--run", action="store_true", help="re-run the experiments first")
-    ap.add_argument("--only", default="", metavar="FILES",
-                    help="with --run: only these results files (comma-separated, e.g. "
-                         "operate.json,fronts.json)")
+    ap.add_argument("--only", default="", metavar="NAMES",
+                    help="with --run: only these results files (comma-separated stems, e.g. "
+                         "operate_trials,fronts)")
     ap.add_argument("--check", action="store_true",
-                    help="only compare the committed tables with the results files")
+                    help="only compare the committed tables and README blocks with the results "
+                         "files; exit 1 if any differs")
+    ap.add_argument("--time-tour", action="store_true",
+                    help="run the README's quick-tour commands and print their CPU times as JSON")
+    ap.add_argument("--time-examples", action="store_true",
+                    help="run the programs of examples/ and print their CPU times and output "
+                         "as JSON")
     args = ap.parse_args(argv)
-    only = [x.strip() for x in args.only.split(",") if x.strip()]
-    unknown = sorted(set(only) - set(COMMANDS))
-    if unknown:
-        ap.error(f"--only: unknown results file(s) {', '.join(unknown)}; choose from "
-                 f"{', '.join(COMMANDS)}")
+    if args.time_tour:
+        print(json.dumps(time_tour(), indent=1))
+        return 0
+    if args.time_examples:
+        print(json.dumps(time_examples(), indent=1))
+        return 0
+    try:
+        only = resolve([x.strip() for x in args.only.split(",") if x.strip()])
+    except ValueError as e:
+        ap.error(f"--only: {e}")
     if args.run:
         run_experiments(only)
     tables = render()
+    readme_path = ROOT / "README.md"
+    readme = readme_path.read_text()
+    try:
+        new_readme = render_readme(readme)
+    except ValueError as e:
+        print(f"make_tables: {e}", file=sys.stderr)
+        return 2
+    pages = {}  # path -> (old text, new text) of the pages with generated blocks
+    for rel, blocks in PAGE_BLOCKS.items():
+        path = ROOT / rel
+        if path.is_file():
+            old_text = path.read_text()
+            try:
+                pages[path] = (old_text, render_blocks(old_text, blocks, rel))
+            except ValueError as e:
+                print(f"make_tables: {e}", file=sys.stderr)
+                return 2
+    perf_path = ROOT / "docs" / "performance.md"
+    perf = perf_path.read_text() if perf_path.is_file() else None
+    new_perf = render_performance(perf) if perf is not None else None
     if args.check:
-        stale = [p for p, text in tables.items()
+        stale = [f"docs/results/tables/{p}.md" for p, text in tables.items()
                  if not (TABLES / f"{p}.md").is_file() or (TABLES / f"{p}.md").read_text() != text]
+        if new_readme != readme:
+            stale.append("README.md")
+        if new_perf != perf:
+            stale.append("docs/performance.md")
+        stale += [str(path.relative_to(ROOT)) for path, (a, b) in pages.items() if a != b]
         if stale:
-            print("make_tables: stale tables: " + ", ".join(stale), file=sys.stderr)
+            print("make_tables: out of date with docs/results/ (run python docs/make_tables.py): "
+                  + ", ".join(stale), file=sys.stderr)
             return 1
         return 0
     TABLES.mkdir(parents=True, exist_ok=True)
     for page, text in tables.items():
-        tmp = TABLES / f"{page}.md.tmp"
-        tmp.write_text(text)
-        tmp.replace(TABLES / f"{page}.md")
+        _atomic_write(TABLES / f"{page}.md", text)
         print(f"wrote {TABLES / page}.md")
+    if new_readme != readme:
+        _atomic_write(readme_path, new_readme)
+        print(f"wrote {readme_path}")
+    if new_perf != perf:
+        _atomic_write(perf_path, new_perf)
+        print(f"wrote {perf_path}")
+    for path, (a, b) in pages.items():
+        if a != b:
+            _atomic_write(path, b)
+            print(f"wrote {path}")
     return 0
 
 

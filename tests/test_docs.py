@@ -51,6 +51,21 @@ def test_every_leaf_system_documents_its_ports():
             assert str(port) in drawing
 
 
+def test_port_blocks_name_each_ports_accessor():
+    from mmlearn.systems import CameraMarkerSensor, MarkerSensor, WristForceSensor
+    ext = _ext()
+    assert ext._system_class("MarkerSensor", None) is MarkerSensor
+    assert ext.port_getters(MarkerSensor, ["body_poses", "query_object (optional)"],
+                            ["observations", "no_such_port"]) == (
+        ["get_body_poses_input_port", "get_query_object_input_port",
+         "get_observations_output_port"], ['GetOutputPort("no_such_port")'])
+    # a frame suffix and an index are not in the accessor's name
+    assert ext.port_getters(WristForceSensor, [], ["force_W"])[0] == ["get_force_output_port"]
+    assert ext.port_getters(CameraMarkerSensor, ["color_image_0", "...", "color_image_{k-1}"],
+                            [])[0] == ["get_color_image_input_port"]
+    assert ext.port_getters(None, ["a"], ["b"]) == ([], ['GetInputPort("a")', 'GetOutputPort("b")'])
+
+
 def test_port_diagram_puts_inputs_left_and_outputs_right():
     drawing = _ext().port_diagram("Sensor", ["a", "bb"], ["out"]).splitlines()
     assert drawing[1].index("a ->") < drawing[1].index("Sensor") < drawing[1].index("-> out")
@@ -88,22 +103,57 @@ def test_results_tables_are_generated_from_the_results_files():
 
 
 
-def test_a_changed_results_file_makes_the_tables_stale(tmp_path, monkeypatch):
-    import json
+def _make_tables_in(tmp_path, monkeypatch):
+    """docs/make_tables.py working on a copy of docs/results/ and README.md in tmp_path."""
     import shutil
     spec = importlib.util.spec_from_file_location("make_tables", DOCS / "make_tables.py")
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
-    results = tmp_path / "results"
+    results = tmp_path / "docs" / "results"
     shutil.copytree(DOCS / "results", results)
+    shutil.copy(ROOT / "README.md", tmp_path / "README.md")
+    monkeypatch.setattr(mod, "ROOT", tmp_path)
     monkeypatch.setattr(mod, "RESULTS", results)
     monkeypatch.setattr(mod, "TABLES", results / "tables")
+    return mod, results
+
+
+def test_a_changed_results_file_makes_the_tables_stale(tmp_path, monkeypatch, capsys):
+    import json
+    mod, results = _make_tables_in(tmp_path, monkeypatch)
     assert mod.main(["--check"]) == 0
     lasa = json.loads((results / "lasa.json").read_text())
     lasa["shapes"][0]["rmse_mm"] += 1.0
     (results / "lasa.json").write_text(json.dumps(lasa))
     assert mod.main(["--check"]) == 1
+    assert "tables/imitation.md" in capsys.readouterr().err
     assert mod.main([]) == 0 and mod.main(["--check"]) == 0
+
+
+def test_the_readme_figures_are_generated_and_checked(tmp_path, monkeypatch, capsys):
+    """The README's capability and beyond-the-thesis tables come from the results files:
+    a changed file makes --check fail naming README.md; regenerating writes the new figure."""
+    import json
+    mod, results = _make_tables_in(tmp_path, monkeypatch)
+    readme = (tmp_path / "README.md").read_text()
+    for name in mod.README_BLOCKS:
+        assert f"<!-- generated:{name} -->" in readme and f"<!-- /generated:{name} -->" in readme
+    for page, blocks in mod.PAGE_BLOCKS.items():
+        text = (ROOT / page).read_text()
+        assert all(f"<!-- generated:{name} -->" in text for name in blocks), page
+    d = json.loads((results / "structure_prior.json").read_text())
+    right = sum(r["right_with_prior"] for r in d["rows"])
+    d["rows"][0]["right_with_prior"] -= 1
+    (results / "structure_prior.json").write_text(json.dumps(d))
+    assert mod.main(["--check"]) == 1
+    assert "README.md" in capsys.readouterr().err
+    assert mod.main([]) == 0 and mod.main(["--check"]) == 0
+    assert f"right structure {right - 1}/" in (tmp_path / "README.md").read_text()
+    (tmp_path / "README.md").write_text(readme + "<!-- generated:nosuch -->\n<!-- /generated:nosuch -->\n")
+    assert mod.main(["--check"]) == 2
+    assert mod.resolve(["operate_trials", "teaching.json"]) == ["operate_trials.json", "teaching.json"]
+    with pytest.raises(ValueError, match="nosuch"):
+        mod.resolve(["nosuch"])
 
 
 def test_articulation_page_model_snippet_runs(capsys):

@@ -41,13 +41,30 @@ def test_app_short_run_and_report_only(tmp_path, capsys):
 
 
 @pytest.mark.slow
-def test_one_grasp_recorded_as_meshcat_html(tmp_path):
+def test_one_grasp_recorded_as_meshcat_html(tmp_path, monkeypatch):
+    import numpy as np
+
+    import mmlearn.systems.common.meshcat_view as view
     from mmlearn.apps.common.cli import make_meshcat
     from mmlearn.apps.tactile_recognition import _show_one
 
+    framed = []
+    original = view.frame_camera
+    monkeypatch.setattr(view, "frame_camera",
+                        lambda mc, pts, **kw: framed.append(np.asarray(pts)) or original(mc, pts, **kw))
     html = tmp_path / "grasp.html"
     rec = _show_one("round_bar", seed=0, meshcat=make_meshcat(announce=False), html_out=html)
     assert rec["contact"] and html.stat().st_size > 100_000
+    import base64
+    import re
+    msgs = b"".join(base64.b64decode(m) for m in
+                    re.findall(r'base64,([A-Za-z0-9+/=]+)"', html.read_text()))
+    # a legend naming what is drawn, with the grasp's numbers, and a framing camera
+    assert b"# mmlearn legend: Tactile grasp for recognition: round_bar" in msgs
+    assert b"# taxel cell reading 0" in msgs and b"largest reading" in msgs
+    assert f"finger distance {1000 * rec['width']:.1f} mm".encode() in msgs
+    # the camera frames the gripper around the grasped part: the grasp height is in view
+    assert len(framed) == 1 and framed[0][:, 2].min() <= rec["height"] <= framed[0][:, 2].max()
 
 
 @pytest.mark.parametrize("argv, needles", [

@@ -297,6 +297,14 @@ def test_wrist_force_sensor_sees_the_fingers_weight():
 class _FakeMeshcat:
     """Records the calls a visualiser makes."""
 
+    def shown(self, cell):
+        """The colour (r, g, b, a) of the level box of ``cell`` that is visible, and its time."""
+        on = [(path, t) for (path, prop), (v, t) in self.props.items()
+              if prop == "visible" and path.rsplit("/", 1)[0] == cell and v]
+        assert len(on) == 1, on
+        c = self.objects[on[0][0]][1]
+        return np.array([c.r(), c.g(), c.b(), c.a()]), on[0][1]
+
     def __init__(self):
         self.objects, self.transforms, self.props = {}, {}, {}
 
@@ -323,7 +331,7 @@ def test_taxel_visualizer_colours_cells_by_reading_at_the_pad():
             PadSpec("right", lay, 1, RigidTransform([0.0, 0.0, -0.1]), ())]
     mc = _FakeMeshcat()
     vis = TaxelPadVisualizer(meshcat=mc, pads=pads, display_depth=0.01, bar_height=0.004)
-    assert len(mc.objects) == 2 * lay.rows * lay.cols
+    assert len(mc.objects) == 2 * lay.rows * lay.cols * 5  # a box per cell and colour level
     ctx = vis.CreateDefaultContext()
     x = np.zeros(2 * lay.rows * lay.cols)
     x[0] = 1.0  # left pad, row 0 (fingertip), column 0 saturated
@@ -334,17 +342,43 @@ def test_taxel_visualizer_colours_cells_by_reading_at_the_pad():
     vis.ForcedPublish(ctx)
     X, t = mc.transforms["taxels/left"]
     assert t == 0.4 and np.allclose(X.translation(), [1.0, 0.0, 0.09])  # body, pad, -depth
-    hot, t = mc.props[("taxels/left/r00c00", "color")]
+    hot, t = mc.shown("taxels/left/r00c00")
     assert np.allclose(hot, [0.5, 0.0, 0.0, 1.0]) and t == 0.4
-    assert np.allclose(mc.props[("taxels/left/r00c01", "color")][0], [0, 0, 0.5, 1])
+    assert np.allclose(mc.shown("taxels/left/r00c01")[0], [0, 0, 0.5, 1])
     assert mc.props[("taxels/left/r00c00", "scale")][0][2] == pytest.approx(0.004)
     X0 = mc.transforms["taxels/left/r00c00"][0].translation()  # cell centre in the pad
     assert np.allclose(X0[:2], [-lay.width / 2 + lay.width / 6, lay.length / 2 - lay.length / 10])
     r, c = divmod(7, lay.cols)
-    mid = mc.props[(f"taxels/right/r{r:02d}c{c:02d}", "color")][0]
+    mid = mc.shown(f"taxels/right/r{r:02d}c{c:02d}")[0]
     assert np.allclose(mid[:3], [0.5, 1.0, 0.5])
     # a wrong-sized vector is refused at the port, not inside the running display
     with pytest.raises(Exception):
         vis.get_taxels_input_port().FixValue(ctx, np.zeros(3))
     with pytest.raises(ValueError, match="no pads"):
         TaxelPadVisualizer(meshcat=mc, pads=[])
+
+
+def test_taxel_visualizer_redraws_a_recording_on_a_fitted_scale():
+    from pydrake.math import RigidTransform
+
+    from mmlearn.systems.tactile.sensor import PadSpec
+    from mmlearn.systems.tactile.taxel_visualizer import TaxelPadVisualizer
+
+    lay = PAD_PR2
+    n = lay.rows * lay.cols
+    mc = _FakeMeshcat()
+    vis = TaxelPadVisualizer(meshcat=mc, pads=[PadSpec("left", lay, 1, RigidTransform(), ())])
+    R = np.zeros((2, n))
+    R[1, 0], R[1, 1] = 0.27, 0.135  # a firm grasp reads far below saturation
+    assert vis.recolor_recording([0.0, 0.04], R) == pytest.approx(0.3)  # 0.27 rounded up
+    hot, t = mc.shown("taxels/left/r00c00")
+    assert t == pytest.approx(0.04) and hot[0] >= 0.5 and hot[2] < 0.1  # red, not blue
+    assert np.allclose(mc.shown("taxels/left/r00c01")[0][:3], [0.5, 1.0, 0.5])  # half: green
+    assert mc.props[("taxels/left/r00c00", "scale")][0][2] > 0.8 * 0.004
+    assert vis.recolor_recording([0.0, 0.04], R, full_scale=1.0) == 1.0
+    assert mc.shown("taxels/left/r00c00")[0][2] > 0.5  # on the sensor's scale: blue
+    with pytest.raises(ValueError, match="columns"):
+        vis.recolor_recording([0.0], np.zeros((1, 3)))
+    with pytest.raises(ValueError, match="full_scale"):
+        TaxelPadVisualizer(meshcat=mc, pads=[PadSpec("left", lay, 1, RigidTransform(), ())],
+                           full_scale=0.0)

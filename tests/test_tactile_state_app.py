@@ -119,6 +119,9 @@ def test_simulation_mode_small_run(tmp_path, capsys):
     legend = b"".join(msgs)
     assert b"# mmlearn legend: Tactile grasp of can/" in legend
     assert b"# controller: switching, 20 N per finger" in legend
+    # the colour scale is fitted to the grasp's readings (far below saturation) and stated
+    scale = float(re.search(rb"colour scale 0-([0-9.]+)", legend).group(1))
+    assert 0.05 <= scale < 1.0
     assert d["demo_grasp"]["container"] == "can" and d["demo_grasp"]["f_max_N"] > 20.0
     peaks = d["demo_grasp"]["impact_peak_N"]  # Fig. 7.5 vs 7.6 at 10 N
     assert peaks["switching"] < 10.5 < 12.0 < peaks["force"], peaks

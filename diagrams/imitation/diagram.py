@@ -150,7 +150,27 @@ class ImitationConfig:
 
 @dataclass
 class Imitation:
-    """The built diagram and its parts."""
+    """The built diagram and its parts (returned by :func:`MakeImitationDiagram`).
+
+    **Call** :meth:`set_start` **on the simulator's context before advancing it**: a new
+    context has every arm joint at 0 and the reproducer's held command at 0, not at the start
+    configuration the task model was reproduced from; without it the arm first swings from
+    the zero pose. Typical use::
+
+        im = MakeImitationDiagram(ImitationConfig(task="obstacle", seed=2), model=model)
+        context = im.diagram.CreateDefaultContext()
+        im.set_start(context)                    # the arm at its start configuration
+        simulator = Simulator(im.diagram, context)
+        simulator.AdvanceTo(im.reproducer.duration + 1.0)
+        hand = im.diagram.GetOutputPort("hand").Eval(context)
+
+    Attributes: ``diagram``; ``plant`` and ``scene_graph``; ``robot`` (the arm's model
+    instance); ``scene`` (the objects' model instances and poses); ``sensor`` (the
+    ``MarkerSensor`` watching the objects); ``reproducer`` (the ``DbnReproducer``);
+    ``grasp`` (the ``GraspAttachment`` when there is a cup, else None); ``start_command``
+    (q1..q6 and the finger angle, rad); ``tcp_body`` and ``p_tcp`` (the hand point on the
+    arm); ``visualizer`` (with Meshcat).
+    """
 
     diagram: object
     plant: object
@@ -261,6 +281,9 @@ def MakeImitationDiagram(config: ImitationConfig | None = None, *, model, meshca
 
     Exported outputs: ``robot_state``, ``command``, ``hand``, ``target_hand``, ``status``,
     ``attached`` (when there is a cup), ``observations``, ``query_object``, ``body_poses``.
+
+    Returns an :class:`Imitation`; call its ``set_start(context)`` on the simulator's
+    context before advancing (the arm's start configuration is not the context's default).
     """
     cfg = config or ImitationConfig()
     cfg.validate()

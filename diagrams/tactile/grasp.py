@@ -58,6 +58,19 @@ _R_RIGHT = RotationMatrix(np.array([[0.0, 0.0, -1.0], [1.0, 0.0, 0.0], [0.0, -1.
 class TactileGraspConfig:
     """One grasp.
 
+    When things happen (the switching controller, ``mode="switching"``): the fingers start
+    fully open (``gripper.open_gap``, 0.09 m between the pads) and close at ``v_target``, so
+    the pads touch an object of width w after about ``(open_gap - w) / v_target`` s (a 7 cm
+    block at 0.02 m/s: 1.0 s; a few tens of ms later the pad force passes
+    ``contact_force`` and that finger switches to force control). The force then rises at
+    ``force_rate`` from ``contact_force`` to ``f_target`` ((20 - 1) / 40 = 0.5 s at the
+    defaults) and is held; ``hold_time`` s after *both* fingers switched, the gripper
+    releases and the readings fall back to 0. So read the sensor between (touch + rise) and
+    (touch + ``hold_time``) -- about 1.5-1.8 s for the 7 cm block at the defaults -- and keep
+    ``duration`` beyond the release if you want the whole grasp. The controller's ``grasp``
+    output's last entry is the phase (0 closing, 1 both fingers in force control, 2
+    releasing); :func:`simulate_grasp` returns the whole time series.
+
     Attributes:
         pad: taxel layout, "pr2" (ch. 7) or "ch6".
         f_target: probing force per finger, N.
@@ -322,10 +335,16 @@ def simulate_grasp(config: TactileGraspConfig, *, container: ContainerInstance |
         vis.StartRecording(True)
     sim.Initialize()
     sim.AdvanceTo(config.duration)
+    ctx = sim.get_context()
+    full_scale = 1.0
     if vis is not None:
+        tl = parts["taxel_log"].FindLog(ctx)
+        # the recording drawn on a scale fitted to this grasp's readings (a firm grasp
+        # reads far below saturation: on the sensor's own scale every cell is dark blue)
+        full_scale = parts["taxel_visualizer"].recolor_recording(tl.sample_times(),
+                                                                 tl.data().T)
         vis.StopRecording()
         vis.PublishRecording()
-    ctx = sim.get_context()
     gl = parts["grasp_log"].FindLog(ctx)
     tl = parts["taxel_log"].FindLog(ctx)
     fl = parts["force_log"].FindLog(ctx)
@@ -346,11 +365,11 @@ def simulate_grasp(config: TactileGraspConfig, *, container: ContainerInstance |
                          pads={k: np.clip(v, 0.0, 1.0) for k, v in pads.items()},
                          height=config.grasp_height, **kw)
     if meshcat is not None:
-        _frame_and_legend(meshcat, parts, ctx, config, grasp)
+        _frame_and_legend(meshcat, parts, ctx, config, grasp, full_scale)
     return grasp
 
 
-def _frame_and_legend(meshcat, parts, root_context, config, grasp) -> None:
+def _frame_and_legend(meshcat, parts, root_context, config, grasp, full_scale) -> None:
     """Frame the gripper and the object (seen obliquely, so the taxel displays on the
     fingers' outer faces show); draw a legend with the grasp's numbers."""
     from pydrake.geometry import Rgba
@@ -367,12 +386,14 @@ def _frame_and_legend(meshcat, parts, root_context, config, grasp) -> None:
                         for z in (-0.05, 0.08)])
     frame_camera(meshcat, (origins[:, None, :] + corners[None]).reshape(-1, 3),
                  view_from=(1.0, -0.6, 0.5), min_distance=0.1)
-    lo, hi = (Rgba(*c) for c in taxel_colors(np.array([0.0, 1.0])))
+    lo, mid, hi = (Rgba(*c) for c in taxel_colors(np.array([0.0, 0.5, 1.0])))
     k = int(np.argmax(grasp.f))
     what = grasp.label or "the object"
-    rows = [(lo, "box", "taxel cell reading 0: each pad's 5 x 3 cells, on the finger's "
-                        "outer face"),
-            (hi, "box", "taxel cell reading 1 (saturated); a cell rises with its reading"),
+    rows = [(lo, "box", "taxel cell reading 0: each pad's cells, on the finger's outer face"),
+            (mid, "box", f"reading {full_scale / 2:.3g}"),
+            (hi, "box", f"reading {full_scale:.3g} or more (colour scale 0-{full_scale:.3g}: "
+                        "this grasp's largest reading, rounded up; 1 = saturated)"),
+            (None, "", "a cell rises with its reading"),
             (None, "", f"peak summed pad force {grasp.f[k]:.1f} N at t = {grasp.t[k]:.2f} s, "
                        f"fingers {1000 * grasp.p[k]:.1f} mm apart"),
             (None, "", "largest cell reading then: " + (", ".join(

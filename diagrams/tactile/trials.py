@@ -227,6 +227,9 @@ def _simulate_object_grasp(cfg, sdf, settle, max_time, meshcat, on_diagram):
     sim.set_monitor(monitor)
     sim.Initialize()
     sim.AdvanceTo(max_time)
+    if parts["taxel_visualizer"] is not None:  # drawn: on a scale fitted to the readings
+        tl = parts["taxel_log"].FindLog(sim.get_context())
+        parts["taxel_visualizer"].recolor_recording(tl.sample_times(), tl.data().T)
     return sim, ctrl, sensor, t_both
 
 

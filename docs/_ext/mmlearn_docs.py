@@ -3,8 +3,10 @@
 Two directives:
 
 ``.. pydrake_system::`` (the block every LeafSystem docstring carries, in Drake's own format)
-    renders the system's ports as a block diagram: inputs on the left, outputs on the right.
-    The content is YAML with ``name``, ``input_ports`` and ``output_ports``.
+    renders the system's ports as a block diagram: inputs on the left, outputs on the right,
+    and below it the class's accessor of each port (``get_<port>_input_port()``,
+    ``get_<port>_output_port()``) when it has one. The content is YAML with ``name``,
+    ``input_ports`` and ``output_ports``.
 
 ``.. screenshot:: NAME`` (in MyST: ````{screenshot} NAME````)
     shows ``docs/images/NAME.png`` when it exists; otherwise a line saying which recording it
@@ -40,6 +42,50 @@ def port_diagram(name: str, inputs: list[str], outputs: list[str]) -> str:
     return "\n".join(line.rstrip() for line in lines)
 
 
+def port_getters(cls, inputs: list[str], outputs: list[str]) -> tuple[list[str], list[str]]:
+    """The accessors of ``cls`` for its ports, in port order, and the ports without one.
+
+    An accessor is ``get_<port>_input_port`` / ``get_<port>_output_port``; a frame suffix
+    (``force_W`` -> ``get_force_input_port``) and an index (``color_image_0`` ->
+    ``get_color_image_input_port``, which takes the index) are dropped when the exact name has
+    none; ``name (optional)`` is ``name``; ``...`` lines are skipped. Ports without an
+    accessor are returned as ``GetInputPort("name")`` / ``GetOutputPort("name")``."""
+    import re
+
+    getters, missing = [], []
+    for ports, kind, by_name in ((inputs, "input", "GetInputPort"),
+                                 (outputs, "output", "GetOutputPort")):
+        for port in ports:
+            base = str(port).split()[0] if str(port).split() else ""
+            if not base or base.startswith("..."):
+                continue
+            for cand in (base, re.sub(r"_W$", "", base), re.sub(r"_(\d+|\{.*\})$", "", base)):
+                name = f"get_{cand}_{kind}_port"
+                if cls is not None and callable(getattr(cls, name, None)):
+                    if name not in getters:
+                        getters.append(name)
+                    break
+            else:
+                missing.append(f'{by_name}("{base}")')
+    return getters, missing
+
+
+def _system_class(name: str, module: str | None):
+    """The class ``name`` from ``module`` (the page's current module) or ``mmlearn.systems``."""
+    import importlib
+
+    for mod in (module, "mmlearn.systems"):
+        if not mod:
+            continue
+        try:
+            obj = getattr(importlib.import_module(mod), name, None)
+        except ImportError:
+            obj = None
+        if isinstance(obj, type):
+            return obj
+    return None
+
+
 class PydrakeSystem(Directive):
     """``.. pydrake_system::`` -> a literal block diagram of the ports."""
 
@@ -61,7 +107,25 @@ class PydrakeSystem(Directive):
         block["classes"].append("pydrake-system")
         title = nodes.paragraph()
         title += nodes.strong(text="Ports")
-        return [title, block]
+        env = getattr(self.state.document.settings, "env", None)
+        module = env.ref_context.get("py:module") if env is not None else None
+        getters, missing = port_getters(_system_class(str(spec["name"]), module), inputs, outputs)
+        if not getters:
+            return [title, block]
+        para = nodes.paragraph()
+        para += nodes.Text("Port accessors: ")
+        for i, g in enumerate(getters):
+            if i:
+                para += nodes.Text(", ")
+            para += nodes.literal(text=f"{g}()")
+        if missing:
+            para += nodes.Text("; by name: ")
+            for i, g in enumerate(missing):
+                if i:
+                    para += nodes.Text(", ")
+                para += nodes.literal(text=g)
+        para += nodes.Text(".")
+        return [title, block, para]
 
 
 class Screenshot(Directive):
