@@ -110,6 +110,9 @@ def test_one_real_round(capsys):
     assert rec["success"] == (r["outcome"] == "success")
     c = r["confidence"]
     assert c["threshold"] > c["reference_surprise"] > 0
+    # the final test ran in the situation a batch reproduction of seed 3 is tested in
+    assert rec["test"]["situation_seed"] == 3 and rec["test_success"] in (True, False)
+    assert rec["test"]["reach_error_m"] is not None
 
 
 def test_experiment_conditions_and_report():
