@@ -10,8 +10,10 @@
 task after the first demonstration and the teacher demonstrates again, in that situation,
 only when a reproduction fails or the robot flags it as unsure (its trajectory's surprise
 under the learned DBN far above the demonstrations', :mod:`mmlearn.models.imitation.confidence`),
-up to ``--max-demos``; the JSON has ``success``, ``demos_used`` and ``rounds`` (each round's
-outcome: success, failed or unsure).
+up to ``--max-demos``; then the taught robot is tested once in the situation ``--seed`` gives
+a batch reproduction. The JSON has ``success``, ``demos_used``, ``rounds`` (each round's
+outcome: success, failed or unsure), ``asked_before_failing``, ``failed_unflagged``, ``test``
+and ``test_success``.
 
 The reproduction is :func:`mmlearn.diagrams.imitation.trials.reproduce_task`, scored by
 :mod:`mmlearn.models.imitation.evaluation`. The teacher (a human-like arm with other link
@@ -116,6 +118,8 @@ def _interactive(ap, args) -> int:
         print(f"{'success':26s} {rec['success']}")
         print(f"{'demos_used':26s} {rec['demos_used']}")
         print(f"{'asked_before_failing':26s} {rec['asked_before_failing']}")
+        print(f"{'failed_unflagged':26s} {rec['failed_unflagged']}")
+        print(f"{'test_success':26s} {rec['test_success']}")
     return 0
 
 

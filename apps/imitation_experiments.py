@@ -14,8 +14,10 @@ Experiments (each trial is one reproduction on its own seed,
 * ``obstacle``: the reach with a box obstacle, incremental (Fig. 8.7);
 * ``u_obstacle``: the reach into a U-shaped obstacle, incremental and global (Fig. 8.10);
 * ``teaching``: pick_place with swapped tables, batch after 1, 2, 3 and 4 demonstrations
-  against interactive teaching (:func:`mmlearn.diagrams.imitation.teaching.teaching_trial`,
-  at most 6 demonstrations); the ``demos`` column is the mean number of demonstrations used.
+  (the thesis' learner), batch after 2 with the interactive learner's isotropic prior, and
+  interactive teaching (:func:`mmlearn.diagrams.imitation.teaching.teaching_trial`, at most 6
+  demonstrations, finally tested in batch learning's situation of the same seed); the
+  ``demos`` column is the mean number of demonstrations used.
 
 Trials run through the sweep runner (``mmlearn.apps.common.sweep``, the shared front-end of
 ``mmlearn.apps.common.experiment``) and are streamed to ``--results`` (re-running resumes);
@@ -32,7 +34,7 @@ from mmlearn.apps.common import experiment
 from mmlearn.apps.common.cli import check_out_dir, name_list, pos_int, save_figure
 from mmlearn.apps.common.experiment import Experiment
 from mmlearn.apps.common.sweep import TrialSpec, run_sweep
-from mmlearn.diagrams.imitation.teaching import teaching_trial
+from mmlearn.diagrams.imitation.teaching import TEACHING_PRIOR, teaching_trial
 from mmlearn.diagrams.imitation.trials import reproduction_plan, reproduction_trial
 from mmlearn.models.imitation.evaluation import condition_table
 
@@ -62,6 +64,9 @@ def conditions(experiments) -> list[tuple]:
         elif e == "teaching":
             out += [(f"pick_place {n} demo{'s' if n > 1 else ''}, swapped tables",
                      {"task": "pick_place", "demos": n, "swap_tables": True}) for n in (1, 2, 3, 4)]
+            out.append(("pick_place 2 demos, swapped tables, isotropic prior",
+                        {"task": "pick_place", "demos": 2, "swap_tables": True,
+                         "isotropic_prior": TEACHING_PRIOR}))
             out.append(("pick_place interactive, swapped tables",
                         {"task": "pick_place", "swap_tables": True,
                          "max_demos": TEACHING_MAX_DEMOS}, teaching_trial))

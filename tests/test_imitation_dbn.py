@@ -200,3 +200,45 @@ def test_bad_input_is_named():
     assert set(al[1].objects) == {"cup"}
 
 
+
+
+def _two_tables(shift_a):
+    """Two demonstrations of a hand that goes to table b; table a is elsewhere and moves
+    between them by ``shift_a`` (x, y), m."""
+    t = np.arange(0.0, 4.0 + 1e-9, 0.2)
+    out = []
+    for g, sh in enumerate(([0.0, 0.0], shift_a)):
+        b = np.array([0.5, -0.3 + 0.01 * g, 0.3])
+        a = np.array([0.5, 0.3, 0.3]) + np.r_[sh, 0.0]
+        hand = b + np.array([0.0, 0.0, 0.1]) + 0.002 * np.sin(t + g)[:, None]
+        out.append(Demonstration(t=t, hand=hand, objects={"table_a": np.tile(a, (len(t), 1)),
+                                                          "table_b": np.tile(b, (len(t), 1))}))
+    return out
+
+
+@pytest.mark.parametrize("full", [False, True])
+def test_isotropic_prior_pools_an_objects_spread_over_the_directions(full):
+    # table a moved 0.6 m along y between the demonstrations but not along x: unpooled,
+    # its x relation looks as certain as table b's and steers x; with the prior it does not
+    demos = _two_tables([0.0, 0.6])
+    plain = learn_task(demos, use_joints=False, align=False, full_covariance=full)
+    pooled = learn_task(demos, use_joints=False, align=False, full_covariance=full,
+                        isotropic_prior=1.0)
+    k = plain.S // 2
+    va, vb = plain.covariance("obj:table_a", k), plain.covariance("obj:table_b", k)
+    pa = pooled.covariance("obj:table_a", k)
+    assert va[0, 0] < 1e-3 < va[1, 1]
+    # posterior mean (nu * mean variance * I + G * Sigma) / (nu + G), nu = 1, G = 2
+    assert pa[0, 0] == pytest.approx((np.trace(va) / 3 + 2 * va[0, 0]) / 3, rel=1e-9)
+    assert np.trace(pa) == pytest.approx(np.trace(va), rel=1e-9)     # the spread is kept
+    assert pooled.meta["isotropic_prior"] == 1.0 and plain.meta["isotropic_prior"] == 0.0
+    assert np.allclose(plain.mean["obj:table_a"], pooled.mean["obj:table_a"])
+    # a new scene: table a 0.06 m further along x than table b. The hand's x target follows
+    # table a's x shift by its share of the x precision; the prior shrinks that share
+    objs = {"table_a": np.array([0.56, 0.3, 0.3]), "table_b": np.array([0.5, -0.3, 0.3])}
+    want = objs["table_b"] - plain.mean["obj:table_b"][k]
+    dx = [abs(constraint_step(m, k, hand=want, objects=objs, J=np.eye(3),
+                              use_joints=False).target_hand[0] - want[0]) for m in (plain, pooled)]
+    assert dx[0] > 0.01 and dx[1] < 0.2 * dx[0], dx
+    with pytest.raises(ImitationDataError, match="isotropic_prior"):
+        learn_task(demos, use_joints=False, align=False, isotropic_prior=-1.0)

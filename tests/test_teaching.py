@@ -19,6 +19,7 @@ def _script(monkeypatch, outcomes):
     def reproduce(**kw):
         o = next(it)
         seen["reproduce"].append((kw["seed"], len(kw["demonstrations"]), kw["stop_when_unsure"]))
+        seen.setdefault("prior", []).append(kw["isotropic_prior"])
         return {"success": o == "success", "place_error_m": 0.01,
                 "confidence": {"unsure": o == "unsure"}, "stopped_unsure": o == "unsure",
                 "objects_start": {}}
@@ -39,8 +40,12 @@ def test_teacher_demonstrates_only_where_the_robot_failed_or_asked(monkeypatch):
     assert rec["success"] is True and rec["demos_used"] == 3
     assert [r["outcome"] for r in rec["rounds"]] == ["unsure", "failed", "success"]
     assert rec["asked_before_failing"] == 1
-    # each round learns from all demonstrations so far, in a new situation
-    assert [(s, n) for s, n, _ in seen["reproduce"]] == [(701, 1), (702, 2), (703, 3)]
+    assert rec["failed_unflagged"] == 1
+    # each round learns from all demonstrations so far, in a new situation; then the
+    # taught robot is tested, without stopping, in batch learning's situation (seed 7)
+    assert seen["reproduce"] == [(701, 1, True), (702, 2, True), (703, 3, True), (7, 3, False)]
+    assert rec["test_success"] is True and rec["test"]["situation_seed"] == 7
+    assert set(seen["prior"]) == {teaching.TEACHING_PRIOR} and teaching.TEACHING_PRIOR > 0
     # the teacher shows the task in the situations that went wrong
     assert seen["demo"] == [(1, 701, True), (2, 702, True)]
     json.dumps(rec)
@@ -54,13 +59,23 @@ def test_teaching_stops_at_max_demos(monkeypatch):
 
 
 def test_first_success_needs_one_demo(monkeypatch):
-    _script(monkeypatch, ["success"])
-    rec = teaching.teach_interactively(task="whiteboard", seed=2, max_demos=3)
+    # teaching ended with a success, the final test in batch's situation failed: both told
+    seen = _script(monkeypatch, ["success", "failed"])
+    rec = teaching.teach_interactively(task="whiteboard", seed=2, max_demos=3,
+                                       isotropic_prior=0.0)
     assert rec["success"] and rec["demos_used"] == 1 and rec["rounds"][0]["demos"] == 1
+    assert rec["test_success"] is False and seen["prior"] == [0.0, 0.0]
+
+
+def test_without_final_test(monkeypatch):
+    seen = _script(monkeypatch, ["unsure", "success"])
+    rec = teaching.teach_interactively(seed=3, final_test=False)
+    assert rec["test"] is None and rec["test_success"] is None and len(seen["reproduce"]) == 2
 
 
 @pytest.mark.parametrize("kw, msg", [({"task": "juggle"}, "task"), ({"max_demos": 0}, "max_demos"),
-                                     ({"seed": -1}, "seed")])
+                                     ({"seed": -1}, "seed"),
+                                     ({"isotropic_prior": -1.0}, "isotropic_prior")])
 def test_bad_arguments(kw, msg):
     with pytest.raises(ValueError, match=msg):
         teaching.teach_interactively(**kw)
@@ -95,6 +110,9 @@ def test_one_real_round(capsys):
     assert rec["success"] == (r["outcome"] == "success")
     c = r["confidence"]
     assert c["threshold"] > c["reference_surprise"] > 0
+    # the final test ran in the situation a batch reproduction of seed 3 is tested in
+    assert rec["test"]["situation_seed"] == 3 and rec["test_success"] in (True, False)
+    assert rec["test"]["reach_error_m"] is not None
 
 
 def test_experiment_conditions_and_report():
@@ -103,14 +121,19 @@ def test_experiment_conditions_and_report():
     conds = conditions(["teaching"])
     assert [c[1].get("demos") for c in conds[:4]] == [1, 2, 3, 4]
     assert conds[-1][2] is teaching.teaching_trial and conds[-1][1]["swap_tables"]
-    lines = [{"key": f"k{i}", "spec": {"fn": "imitation.teach@1", "seed": i, "params": {},
+    # batch from 2 demonstrations with the interactive learner, side by side
+    assert conds[4][1] == {"task": "pick_place", "demos": 2, "swap_tables": True,
+                           "isotropic_prior": teaching.TEACHING_PRIOR}
+    lines = [{"key": f"k{i}", "spec": {"fn": "imitation.teach@2", "seed": i, "params": {},
                                        "label": f"pick_place interactive, swapped tables seed {i}"},
               "record": {"success": ok, "demos": n, "demos_used": n, "asked_before_failing": a,
-                         "place_error_m": 0.01},
+                         "failed_unflagged": f, "test_success": t, "place_error_m": 0.01},
               "error": None, "wall_s": 1.0}
-             for i, (ok, n, a) in enumerate([(True, 2, 1), (True, 3, 2), (False, 6, 0)])]
+             for i, (ok, n, a, f, t) in enumerate([(True, 2, 1, 0, True), (True, 3, 2, 1, False),
+                                                   (False, 6, 0, 5, False)])]
     res = report(lines)
     row = res["conditions"][0]
     assert row["successes"] == 2 and row["mean_demos"] == pytest.approx(11 / 3)
-    assert row["asked_before_failing"] == 3
+    assert row["asked_before_failing"] == 3 and row["failed_unflagged"] == 6
+    assert row["test_successes"] == 1 and row["demos_counts"] == {"2": 1, "3": 1, "6": 1}
     assert "3.7" in format_table(res)

@@ -6,6 +6,7 @@ from mmlearn._lazy import lazy_exports
 _EXPORTS = {
     "demonstrations": ["TeacherConfig", "TeacherDiagram", "MakeTeacherDiagram", "default_sensor_config", "observations_to_demonstration", "record_demonstration", "record_demonstrations", "draw_demonstrations", "TeacherIKError"],
     "diagram": ["task_scene", "ImitationConfig", "Imitation", "home_position", "hand_ik", "start_configuration", "object_positions", "MakeImitationDiagram"],
+    "teaching": ["teach_interactively", "teaching_trial", "OUTCOMES", "TEACHING_PRIOR"],
     "trials": ["reproduce_task", "reproduction_trial", "reproduction_plan", "record_demos", "PLACEMENT", "PARZEN_H", "PARZEN_H_DEFAULT", "SAMPLE_DT", "RELEASE_S", "MAX_TIME_FACTOR"],
 }
 
@@ -21,6 +22,7 @@ __all__ = [
     "MAX_TIME_FACTOR",
     "object_positions",
     "observations_to_demonstration",
+    "OUTCOMES",
     "PARZEN_H",
     "PARZEN_H_DEFAULT",
     "PLACEMENT",
@@ -34,9 +36,12 @@ __all__ = [
     "SAMPLE_DT",
     "start_configuration",
     "task_scene",
+    "teach_interactively",
     "TeacherConfig",
     "TeacherDiagram",
     "TeacherIKError",
+    "TEACHING_PRIOR",
+    "teaching_trial",
 ]
 
 __getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)

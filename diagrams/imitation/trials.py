@@ -200,7 +200,7 @@ def reproduce_task(*, task: str = "pick_place", demos: int = 4, seed: int = 0,
                    global_mode: bool = False, demos_file: str = "",
                    placement: float = PLACEMENT, meshcat=None, progress=None,
                    config=None, demonstrations=None, confidence=None,
-                   stop_when_unsure: bool = False) -> dict:
+                   stop_when_unsure: bool = False, isotropic_prior: float = 0.0) -> dict:
     """Record (or load from ``demos_file``) demonstrations, learn, reproduce in a new scene;
     returns the JSON-able record: the settings, ``learn_seconds``, ``reproduction_seconds``,
     ``simulated_seconds``, ``finished``, ``min_obstacle_clearance_m``, the reproducer's step
@@ -215,7 +215,8 @@ def reproduce_task(*, task: str = "pick_place", demos: int = 4, seed: int = 0,
     the reproduction's surprise under the learned model (record ``"confidence"``: reference,
     threshold, peak, ``unsure`` and ``unsure_at_s``); with ``stop_when_unsure`` the
     reproduction stops once it is unsure (``"stopped_unsure"``; the task is then scored where
-    it stopped)."""
+    it stopped). ``isotropic_prior`` is :func:`~mmlearn.models.imitation.dbn.learn_task`'s
+    (0 = the thesis' learner)."""
     from mmlearn.diagrams.imitation.diagram import ImitationConfig, MakeImitationDiagram, \
         object_positions
     from mmlearn.models.imitation.dbn import learn_task
@@ -225,7 +226,8 @@ def reproduce_task(*, task: str = "pick_place", demos: int = 4, seed: int = 0,
     if not demo_list:
         raise ValueError("reproduce_task: no demonstration given")
     t0 = time.perf_counter()
-    model = learn_task(demo_list, use_joints=False, h=PARZEN_H.get(task, PARZEN_H_DEFAULT))
+    model = learn_task(demo_list, use_joints=False, h=PARZEN_H.get(task, PARZEN_H_DEFAULT),
+                       isotropic_prior=isotropic_prior)
     learn_s = time.perf_counter() - t0
     monitor = None
     if confidence is not None or stop_when_unsure:
@@ -254,6 +256,7 @@ def reproduce_task(*, task: str = "pick_place", demos: int = 4, seed: int = 0,
     rec = {"task": task, "seed": seed, "demos": len(demo_list), "swap_tables": swap_tables,
            "placement": None if demos_file else placement,
            "board_scale": board_scale, "mode": cfg.reproducer.mode,
+           "isotropic_prior": float(isotropic_prior),
            "learn_seconds": learn_s, "reproduction_seconds": repro_s,
            "simulated_seconds": run["duration"], "finished": bool(run["finished"]),
            "min_obstacle_clearance_m": clearance,
@@ -327,11 +330,12 @@ def _frame_and_legend(meshcat, model, demos, objects, hand, rec) -> None:
                         "learn_seconds": float, "reproduction_seconds": float})
 def reproduction_trial(*, seed: int, task: str, demos: int = 4, swap_tables: bool = False,
                        board_scale: float = 1.0, global_mode: bool = False,
-                       shared=None) -> dict:
+                       isotropic_prior: float = 0.0, shared=None) -> dict:
     """One reproduction (:func:`reproduce_task`) for the sweep runner, without the objects'
     start positions."""
     rec = reproduce_task(task=task, demos=demos, seed=seed, swap_tables=swap_tables,
-                         board_scale=board_scale, global_mode=global_mode)
+                         board_scale=board_scale, global_mode=global_mode,
+                         isotropic_prior=isotropic_prior)
     rec.pop("objects_start", None)
     return rec
 

@@ -317,10 +317,22 @@ def parzen_weights(t_slices: np.ndarray, t_samples: np.ndarray, *, h: float, G: 
     return K / (G * K.sum(axis=1, keepdims=True))
 
 
+def _pool_isotropic(v: np.ndarray, nu: float, G: int) -> np.ndarray:
+    """Posterior mean covariance under an isotropic conjugate prior of ``nu`` pseudo
+    demonstrations (see :func:`learn_task`): ``v`` (S, D) variances or (S, D, D)
+    covariances of ``G`` demonstrations."""
+    D = v.shape[1]
+    if v.ndim == 2:
+        iso = np.repeat(v.mean(axis=1, keepdims=True), D, axis=1)
+    else:
+        iso = (np.trace(v, axis1=1, axis2=2) / D)[:, None, None] * np.eye(D)
+    return (nu * iso + G * v) / (nu + G)
+
+
 def learn_task(demos: Sequence[Demonstration], *, h: float = 0.2, dt: float | None = None,
                use_joints: bool = True, full_covariance: bool = False, min_var: float = 1e-6,
                reference: int | None = None, align: bool = True,
-               align_features: str = "both") -> TaskModel:
+               align_features: str = "both", isotropic_prior: float = 0.0) -> TaskModel:
     """Learn the task model (the DBN of Eq. 8.2, one slice per aligned sample) from demonstrations.
 
     For each slice ``t_k`` and constraint ``c`` with per-sample value ``v^{g}(t')`` (object minus
@@ -341,14 +353,28 @@ def learn_task(demos: Sequence[Demonstration], *, h: float = 0.2, dt: float | No
         reference: reference demonstration for the alignment (see :func:`align_demonstrations`).
         align: align first (True) or use the demonstrations' common time base as is.
         align_features: DTW features, see :func:`align_demonstrations`.
+        isotropic_prior: strength, in demonstrations, of a prior that an object's relation
+            to the hand spreads alike in every direction (0 = none, the thesis). Each
+            Cartesian constraint's covariance becomes the posterior mean
+            ``(nu * (tr(Sigma) / D) * I + G * Sigma) / (nu + G)`` (G demonstrations, ``nu =
+            isotropic_prior``), a conjugate (inverse-Wishart) prior centred on the
+            constraint's own mean variance. Relevance is a property of the object: from
+            two or three demonstrations an irrelevant object's relation often varies little
+            along one axis by chance (the tables moved alike along x), and the unpooled
+            variance then makes it steer that axis; the prior stops that, and its weight
+            fades as demonstrations accumulate. Joint and gripper constraints are left as
+            they are.
     Returns:
         The :class:`TaskModel` with ``t = k * dt`` and ``meta`` holding h, dt, the number of
-        demonstrations, the dimension D and the reference index.
+        demonstrations, the dimension D, the reference index and ``isotropic_prior``.
     """
     if not (np.isfinite(h) and h > 0):
         raise ImitationDataError(f"h must be a positive window width in seconds, got {h!r}")
     if not (np.isfinite(min_var) and min_var > 0):
         raise ImitationDataError(f"min_var must be positive, got {min_var!r}")
+    if not (np.isfinite(isotropic_prior) and isotropic_prior >= 0):
+        raise ImitationDataError(f"isotropic_prior must be a finite number >= 0 "
+                                 f"(demonstrations), got {isotropic_prior!r}")
     demos = _check_demos(demos)
     _check_period(dt, demos)
     if align:
@@ -401,10 +427,12 @@ def learn_task(demos: Sequence[Demonstration], *, h: float = 0.2, dt: float | No
         else:
             m2 = np.einsum("st,gtd->sd", W, vc * vc)
             var[c] = np.maximum((m2 - m1 * m1) / denom[:, None], min_var)
+        if isotropic_prior > 0 and c.startswith("obj:"):
+            var[c] = _pool_isotropic(var[c], isotropic_prior, G)
         mean[c] = m1 + c0
     meta = {"h": float(h), "dt": float(t[1] - t[0]) if len(t) > 1 else None, "n_demos": G,
             "D": al[0].D, "reference": al[0].meta.get("aligned_to"), "full_covariance": bool(full_covariance),
-            "min_var": float(min_var)}
+            "min_var": float(min_var), "isotropic_prior": float(isotropic_prior)}
     return TaskModel(t=t, constraints=list(series), mean=mean, var=var, meta=meta).validate()
 
 

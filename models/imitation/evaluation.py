@@ -176,5 +176,16 @@ def _condition_row(row: dict) -> dict:
             "positive_clearance": cl_pos, "clearance_runs": n_cl,
             "mean_coverage": cov, "mean_reach_error_m": reach,
             "mean_reproduction_seconds": rs, "mean_learn_seconds": ls,
-            "mean_demos": demos,
-            "asked_before_failing": sum(int(r.get("asked_before_failing") or 0) for r in recs)}
+            "mean_demos": demos, "demos_counts": _counts(r.get("demos") for r in recs),
+            "asked_before_failing": sum(int(r.get("asked_before_failing") or 0) for r in recs),
+            "failed_unflagged": sum(int(r.get("failed_unflagged") or 0) for r in recs),
+            # success in the situation batch learning is tested in (interactive teaching's
+            # final test; a batch reproduction's own)
+            "test_successes": sum(bool(r["test_success"] if r.get("test_success") is not None
+                                       else r.get("success")) for r in recs)}
+
+
+def _counts(values) -> dict:
+    """{value as text: how often} of the non-None ``values``, in increasing order."""
+    xs = sorted(int(v) for v in values if v is not None)
+    return {str(v): xs.count(v) for v in dict.fromkeys(xs)}
