@@ -564,10 +564,10 @@ def _beyond_results() -> dict[str, str]:
     if d:
         by = {c["condition"]: c for c in d["conditions"]}
         i = by.get("pick_place interactive, swapped tables")
-        b = by.get("pick_place 4 demos, swapped tables")
+        b = by.get("pick_place 2 demos, swapped tables")
         if i and b:
             r["teaching"] = (f"swapped tables {i['successes']}/{i['trials']}, "
-                             f"{i['mean_demos']:.1f} demonstrations on average (a batch of 4: "
+                             f"{i['mean_demos']:.1f} demonstrations on average (a batch of 2: "
                              f"{b['successes']}/{b['trials']})")
     d = _load("structure_prior.json")
     if d:
