@@ -136,7 +136,8 @@ def _grid_labels(rows, cols, sel, H, W):
 
 
 def _largest_region(sel, grid_rc, grid_shape):
-    """The points of ``sel`` (indices) in the largest 8-connected region on the sample grid."""
+    """The points of ``sel`` (indices) in the largest 8-connected region on the sample grid
+    (of equally large ones, the one whose first cell comes first in raster order)."""
     if len(sel) == 0:
         return sel
     lab = _components(sel, grid_rc, grid_shape)
