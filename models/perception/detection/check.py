@@ -4,11 +4,12 @@ accepted rectangle."""
 
 import math
 
+import numba
 import numpy as np
 
 from mmlearn.models.perception.detection.grid import _Grid
 from mmlearn.models.perception.detection.labels import IN_PLANE
-from mmlearn.models.perception.detection.planes import _plane_from_scatter, _scatter3
+from mmlearn.models.perception.detection.planes import _plane_from_scatter
 
 
 def _gap_bounded(g, x0, x1, y0, y1, out_cells=3, in_cells=1, share=0.5, line=0.7):
@@ -123,29 +124,52 @@ def _refit_plane(Pc, lab_img, center, e1, e2, w, h, K, n_old, L):
     r0, r1 = int(max(0, np.floor(v.min()))), int(min(K.height, np.ceil(v.max()) + 1))
     if c1 <= c0 or r1 <= r0:
         return None
-    P = Pc[r0:r1, c0:c1].reshape(-1, 3)
-    lab = lab_img[r0:r1, c0:c1].reshape(-1)
-    P = np.compress(lab == IN_PLANE, P, axis=0)  # (rows: 5x P[mask])
-    if len(P) < 10:
-        return None
-    # offsets to the centre as (3, k) rows (numpy's (k, 3) - (3,) broadcast and the 3 x 3
-    # products of (k, 3) columns are 5-10x slower; the same plane to ~1e-16); the rows made
-    # contiguous float64 first, then centred in place (the same values; subtracting from the
-    # strided transpose was ~100 us slower at 90000 points)
-    q = P.T.astype(np.float64, order="C")
-    q -= center[:, None]
-    sel = (np.abs(e1 @ q) <= 0.45 * w) & (np.abs(e2 @ q) <= 0.45 * h)
-    k = int(np.count_nonzero(sel))
+    # the in-plane pixels' offsets q to the centre inside the shrunk rectangle: their number,
+    # sum and sum of q q^T in one compiled pass over the box (nothing gathered)
+    sq, sqq = np.empty(3), np.empty((3, 3))
+    k = _rect_sums(Pc, lab_img, r0, r1, c0, c1, np.asarray(center, np.float64),
+                   np.asarray(e1, np.float64), np.asarray(e2, np.float64), 0.45 * w, 0.45 * h,
+                   sq, sqq)
     if k < 10:
         return None
-    # the scatter matrix of the selected points from their offsets to the centre (already at
-    # hand, and small: no cancellation to speak of) minus k times their mean's outer product
-    q = np.compress(sel, q, axis=1)
-    mq = (q @ np.ones(k)) * (1.0 / k)
-    n, d = _plane_from_scatter(center + mq, _scatter3(q) - k * np.outer(mq, mq))
+    # the scatter matrix from the offsets to the centre (small: no cancellation to speak of)
+    # minus k times their mean's outer product
+    mq = sq * (1.0 / k)
+    n, d = _plane_from_scatter(center + mq, sqq - k * np.outer(mq, mq))
     if n @ n_old < math.cos(math.radians(10.0)):
         return None
     return n, d
+
+
+@numba.njit(cache=True, nogil=True)
+def _rect_sums(Pc, lab, r0, r1, c0, c1, center, e1, e2, hw, hh, sq, sqq):
+    """Over the IN_PLANE pixels of rows r0:r1, columns c0:c1 whose point's offset q to
+    ``center`` lies within ``hw`` along ``e1`` and ``hh`` along ``e2``: ``sq`` = sum of q,
+    ``sqq`` = sum of q q^T (float64); returns their number."""
+    k = 0
+    sq[:] = 0.0
+    sqq[:] = 0.0
+    for r in range(r0, r1):
+        for c in range(c0, c1):
+            if lab[r, c] != IN_PLANE:
+                continue
+            q0 = np.float64(Pc[r, c, 0]) - center[0]
+            q1 = np.float64(Pc[r, c, 1]) - center[1]
+            q2 = np.float64(Pc[r, c, 2]) - center[2]
+            if (abs(e1[0] * q0 + e1[1] * q1 + e1[2] * q2) <= hw
+                    and abs(e2[0] * q0 + e2[1] * q1 + e2[2] * q2) <= hh):
+                k += 1
+                sq[0] += q0
+                sq[1] += q1
+                sq[2] += q2
+                sqq[0, 0] += q0 * q0
+                sqq[0, 1] += q0 * q1
+                sqq[0, 2] += q0 * q2
+                sqq[1, 1] += q1 * q1
+                sqq[1, 2] += q1 * q2
+                sqq[2, 2] += q2 * q2
+    sqq[1, 0], sqq[2, 0], sqq[2, 1] = sqq[0, 1], sqq[0, 2], sqq[1, 2]
+    return k
 
 
 def _suppress(cands, normal_of, cfg):

@@ -163,23 +163,35 @@ def _line_blocks(z, valid, var_scale, horizontal, Hc, Wc):
 def _bent_windows(A, N, nb, cfg):
     """Windows of ``nb`` blocks whose lines are not one surface (a step: an opened door in
     front of the cabinet's reveals): the middle block off the chord between the end blocks
-    (a plane's depth is close to linear along a line over 32 px); bool, as ``A``."""
-    with np.errstate(invalid="ignore", divide="ignore"):
-        B = A / N
-    h0, h1 = nb // 2, nb - 1 - nb // 2
-    bent = np.zeros(B.shape, bool)
-    if B.shape[1] > nb:  # (in place: the same float32 operations in the same order)
-        with np.errstate(invalid="ignore"):
-            chord = np.add(B[:, : B.shape[1] - nb + 1], B[:, nb - 1:])
-            chord *= np.float32(0.5)
-            zc = B[:, h0: B.shape[1] - h1]
-            tol_b = np.multiply(np.float32(cfg.gap_side_tolerance_per_m2), zc)
-            tol_b *= zc
-            np.maximum(np.float32(0.01), tol_b, out=tol_b)
-            np.subtract(zc, chord, out=chord)
-            np.abs(chord, out=chord)
-            np.greater(chord, tol_b, out=bent[:, h0: B.shape[1] - h1])
+    (a plane's depth is close to linear along a line over 32 px); bool, as ``A`` (one
+    compiled pass, :func:`_bent_kernel`)."""
+    bent = np.zeros(A.shape, bool)
+    _bent_kernel(A, N, int(nb), np.float32(cfg.gap_side_tolerance_per_m2), bent)
     return bent
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _bent_kernel(A, N, nb, tol_m2, bent):
+    """In place: ``bent[:, h0 + i]`` = |B[:, h0 + i] - (B[:, i] + B[:, i + nb - 1]) 0.5| >
+    max(0.01, tol_m2 z z) with B = A / N and z = B[:, h0 + i], h0 = nb // 2 (float32, the
+    array expression's operations in its order; NaN compares false)."""
+    n_rows, n = A.shape
+    h0 = nb // 2
+    if n <= nb:
+        return
+    half = np.float32(0.5)
+    tmin = np.float32(0.01)
+    B = np.empty(n, np.float32)
+    m = n - nb + 1
+    for r in range(n_rows):
+        for i in range(n):
+            B[i] = A[r, i] / N[r, i]
+        for i in range(m):
+            zc = B[h0 + i]
+            chord = (B[i] + B[i + nb - 1]) * half
+            t = (tol_m2 * zc) * zc
+            tol = t if t > tmin else tmin
+            bent[r, h0 + i] = (abs(zc - chord) > tol) & (t == t)
 
 
 def _window_means(A, N, V, nb, cfg):

@@ -235,21 +235,12 @@ def _surface_check(lab, S, Lm, win):
     # more than the surface distance and the check removed that half with its handle
     # (handle regression: 0.154 m)
     Sb = S[y0:y1, x0:x1]
-    vv, uu = np.nonzero(inpb[::4, ::4])  # every 4th pixel: enough for 3 numbers
-    if len(vv) >= 3:
-        A = np.column_stack([4.0 * uu, 4.0 * vv, np.ones(len(uu))])
-        b = Sb[4 * vv, 4 * uu].astype(np.float64)
-        lim = 2.0 * Lm[y0:y1, x0:x1][4 * vv, 4 * uu].astype(np.float64)
-        coef = _affine_lstsq(A, b)
-        # two trimmed refits on the pixels within twice the surface distance of the last
-        # fit: the other surfaces within L of the plane (a neighbour's face, a panel's edge
-        # face, the crossing strips) pulled the plain least-squares ramp of a door opened
-        # 60 deg 2 mm off, and the check then cut a wedge out of the door (measured)
-        for _ in range(2):
-            keep = np.abs(A @ coef - b) <= lim
-            if np.count_nonzero(keep) < 3:
-                break
-            coef = _affine_lstsq(np.compress(keep, A, axis=0), b[keep])
+    coef = np.empty(3)
+    state = _ramp_fit(Sb, m8b, Lm[y0:y1, x0:x1], coef)
+    if state < 0:  # (points on one line: the least-squares solution of the general case)
+        coef = _ramp_fit_lstsq(Sb, inpb, Lm[y0:y1, x0:x1])
+        state = 0 if coef is None else 1
+    if state > 0:
         ramp = (np.float32(coef[0]), np.float32(coef[1]), np.float32(coef[2]), True)
     else:
         ramp = (np.float32(0.0), np.float32(0.0), np.float32(0.0), False)
@@ -282,6 +273,83 @@ def _mark_off_surface(num, den, Lm, m8, lab):
         for x in range(num.shape[1]):
             if m8[r, x] and abs(num[r, x]) > den[r, x] * Lm[r, x]:
                 lab[r, x] |= np.uint8(OFF_SURFACE)
+
+
+def _ramp_fit_lstsq(Sb, inpb, Lmb):
+    """The ramp of :func:`_surface_check` by ``np.linalg.lstsq`` where needed (the points of
+    every 4th pixel on one line): coefficients (3,), or None with fewer than 3 points."""
+    vv, uu = np.nonzero(inpb[::4, ::4])  # every 4th pixel: enough for 3 numbers
+    if len(vv) < 3:
+        return None
+    A = np.column_stack([4.0 * uu, 4.0 * vv, np.ones(len(uu))])
+    b = Sb[4 * vv, 4 * uu].astype(np.float64)
+    lim = 2.0 * Lmb[4 * vv, 4 * uu].astype(np.float64)
+    coef = _affine_lstsq(A, b)
+    for _ in range(2):
+        keep = np.abs(A @ coef - b) <= lim
+        if np.count_nonzero(keep) < 3:
+            break
+        coef = _affine_lstsq(np.compress(keep, A, axis=0), b[keep])
+    return coef
+
+
+@numba.njit(cache=True, nogil=True)
+def _ramp_fit(Sb, m8, Lmb, coef):
+    """The ramp of :func:`_surface_check` in one compiled pass: the affine function
+    (a x + b y + c, ``coef``) of the pixel fitted by least squares to ``Sb`` on every 4th
+    in-plane pixel (``m8`` set) in rows and columns, then twice on those within 2 ``Lmb`` of
+    the last fit (a refit needs 3 points). Returns 1 (fitted), 0 (fewer than 3 points) or -1
+    (the points on one line: :func:`_ramp_fit_lstsq` decides)."""
+    H, W = Sb.shape
+    n = ((H + 3) // 4) * ((W + 3) // 4)
+    u = np.empty(n)
+    v = np.empty(n)
+    b = np.empty(n)
+    lim = np.empty(n)
+    k = 0
+    for y in range(0, H, 4):
+        for x in range(0, W, 4):
+            if m8[y, x]:
+                u[k], v[k], b[k] = x, y, Sb[y, x]
+                lim[k] = 2.0 * np.float64(Lmb[y, x])
+                k += 1
+    if k < 3:
+        return 0
+    keep = np.ones(k, np.bool_)
+    for it in range(3):
+        if it > 0:
+            m = 0
+            for i in range(k):
+                keep[i] = abs((u[i] * coef[0] + v[i] * coef[1]) + coef[2] - b[i]) <= lim[i]
+                m += keep[i]
+            if m < 3:
+                break
+        # the normal equations of the centred columns (:func:`_affine_lstsq`)
+        m = 0
+        su = sv = sb = 0.0
+        for i in range(k):
+            if keep[i]:
+                su += u[i]
+                sv += v[i]
+                sb += b[i]
+                m += 1
+        mu, mv, mb = su / m, sv / m, sb / m
+        suu = svv = suv = sub = svb = 0.0
+        for i in range(k):
+            if keep[i]:
+                du, dv, db = u[i] - mu, v[i] - mv, b[i] - mb
+                suu += du * du
+                svv += dv * dv
+                suv += du * dv
+                sub += du * db
+                svb += dv * db
+        det = suu * svv - suv * suv
+        if not det > 1e-9 * suu * svv:
+            return -1
+        a = (svv * sub - suv * svb) / det
+        c = (suu * svb - suv * sub) / det
+        coef[0], coef[1], coef[2] = a, c, mb - a * mu - c * mv
+    return 1
 
 
 def _affine_lstsq(A: np.ndarray, b: np.ndarray) -> np.ndarray:

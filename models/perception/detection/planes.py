@@ -9,7 +9,6 @@ full-resolution pixels near it (:func:`refine_plane_fullres`)."""
 import math
 from dataclasses import dataclass
 
-import cv2
 import numba
 import numpy as np
 
@@ -44,11 +43,37 @@ def _plane_from_scatter(c: np.ndarray, scatter: np.ndarray):
     return n, float(-n @ c)
 
 
-def _fit_plane(P: np.ndarray):
-    """Least-squares plane through points (k, 3): unit normal towards the camera and offset."""
-    c = P.mean(axis=0)
-    Q = P.T - c[:, None]  # (3, k): see _fit_plane_many
-    return _plane_from_scatter(c, _scatter3(Q))
+def _fit_plane(P: np.ndarray, idx: np.ndarray | None = None):
+    """Least-squares plane through points (k, 3) (with ``idx``: through ``P[idx]``, gathered
+    in the compiled pass): unit normal towards the camera and offset."""
+    if idx is None:
+        idx = np.arange(len(P))
+    c, scatter = np.empty(3), np.empty((3, 3))
+    _index_scatter(np.ascontiguousarray(P, np.float64), idx, c, scatter)
+    return _plane_from_scatter(c, scatter)
+
+
+@numba.njit(cache=True, nogil=True)
+def _index_scatter(P, idx, c, scatter):
+    """The centroid ``c`` (3,) of the points ``P[idx]`` and their scatter about it (3, 3), in
+    two passes (float64)."""
+    k = len(idx)
+    s0 = s1 = s2 = 0.0
+    for i in idx:
+        s0 += P[i, 0]
+        s1 += P[i, 1]
+        s2 += P[i, 2]
+    c[0], c[1], c[2] = s0 / k, s1 / k, s2 / k
+    scatter[:] = 0.0
+    for i in idx:
+        a, b, e = P[i, 0] - c[0], P[i, 1] - c[1], P[i, 2] - c[2]
+        scatter[0, 0] += a * a
+        scatter[0, 1] += a * b
+        scatter[0, 2] += a * e
+        scatter[1, 1] += b * b
+        scatter[1, 2] += b * e
+        scatter[2, 2] += e * e
+    scatter[1, 0], scatter[2, 0], scatter[2, 1] = scatter[0, 1], scatter[0, 2], scatter[1, 2]
 
 
 def _fit_plane_many(P: np.ndarray):
@@ -71,14 +96,48 @@ def _scatter3(Q: np.ndarray) -> np.ndarray:
 
 
 def _components(sel, grid_rc, grid_shape):
-    img = np.zeros(grid_shape, np.uint8)
-    img[grid_rc[sel, 0], grid_rc[sel, 1]] = 1
-    _, lab = cv2.connectedComponents(img, connectivity=8)
-    return lab[grid_rc[sel, 0], grid_rc[sel, 1]]
+    """The 8-connected region (1, 2, ... in the raster order of their first cell) of each
+    point of ``sel`` (indices) on the sample grid (each cell holds at most one point)."""
+    return _grid_labels(grid_rc[:, 0], grid_rc[:, 1], np.asarray(sel, np.int64),
+                        int(grid_shape[0]), int(grid_shape[1]))
+
+
+@numba.njit(cache=True, nogil=True)
+def _grid_labels(rows, cols, sel, H, W):
+    """8-connected regions of the grid cells ``(rows[sel], cols[sel])`` by a flood fill from
+    each unlabelled cell in raster order: the label of each point of ``sel``, from 1."""
+    img = np.full((H, W), -1, np.int64)
+    for j in range(len(sel)):
+        img[rows[sel[j]], cols[sel[j]]] = j
+    lab = np.zeros(len(sel), np.int64)
+    stack = np.empty(len(sel), np.int64)
+    nlab = 0
+    for r in range(H):
+        for c in range(W):
+            j0 = img[r, c]
+            if j0 < 0 or lab[j0] > 0:
+                continue
+            nlab += 1
+            lab[j0] = nlab
+            stack[0] = j0
+            top = 1
+            while top > 0:
+                top -= 1
+                j = stack[top]
+                rj, cj = rows[sel[j]], cols[sel[j]]
+                for r2 in range(max(0, rj - 1), min(H, rj + 2)):
+                    for c2 in range(max(0, cj - 1), min(W, cj + 2)):
+                        k = img[r2, c2]
+                        if k >= 0 and lab[k] == 0:
+                            lab[k] = nlab
+                            stack[top] = k
+                            top += 1
+    return lab
 
 
 def _largest_region(sel, grid_rc, grid_shape):
-    """The points of ``sel`` (indices) in the largest 8-connected region on the sample grid."""
+    """The points of ``sel`` (indices) in the largest 8-connected region on the sample grid
+    (of equally large ones, the one whose first cell comes first in raster order)."""
     if len(sel) == 0:
         return sel
     lab = _components(sel, grid_rc, grid_shape)
@@ -219,7 +278,7 @@ def find_planes(pts: np.ndarray, grid_rc: np.ndarray, grid_shape, cfg: FrontDete
         for shrink in (1.0, 0.5, 1.0):
             if len(inl) < 3:
                 break
-            n, d = _fit_plane(pts[inl])
+            n, d = _fit_plane(pts, inl)
             inl = _largest_region(idx[np.abs(Pa @ n + d) <= shrink * La], grid_rc, grid_shape)
         # The plane is its largest connected region of inliers (on the sample grid): other
         # surfaces crossing the infinite plane stay in the pool. The region's points within
@@ -246,29 +305,70 @@ def find_planes(pts: np.ndarray, grid_rc: np.ndarray, grid_shape, cfg: FrontDete
     return planes
 
 
+@numba.njit(cache=True, nogil=True)
+def _band_scatter(Pc, L, R0, R1, C0, C1, step, n, d, shrink, c, scatter):
+    """The centroid ``c`` (3,) and the scatter about it ``scatter`` (3, 3) of the measured
+    points ``Pc`` (H, W, 3) in rows ``R0:R1`` and columns ``C0:C1`` (every ``step``-th) within
+    ``shrink`` L of the plane ``n . p + d = 0`` (float64); returns their number. Two passes
+    over the crop, nothing gathered."""
+    H, W = Pc.shape[0], Pc.shape[1]
+    R1, C1 = min(R1, H), min(C1, W)
+    s0 = s1 = s2 = 0.0
+    k = 0
+    for r in range(R0, R1, step):
+        for q in range(C0, C1, step):
+            z = np.float64(Pc[r, q, 2])
+            if not np.isfinite(z):
+                continue
+            x, y = np.float64(Pc[r, q, 0]), np.float64(Pc[r, q, 1])
+            if abs(x * n[0] + y * n[1] + z * n[2] + d) <= shrink * np.float64(L[r, q]):
+                s0 += x
+                s1 += y
+                s2 += z
+                k += 1
+    scatter[:] = 0.0
+    if k == 0:
+        return 0
+    c[0], c[1], c[2] = s0 / k, s1 / k, s2 / k
+    for r in range(R0, R1, step):
+        for q in range(C0, C1, step):
+            z = np.float64(Pc[r, q, 2])
+            if not np.isfinite(z):
+                continue
+            x, y = np.float64(Pc[r, q, 0]), np.float64(Pc[r, q, 1])
+            if abs(x * n[0] + y * n[1] + z * n[2] + d) <= shrink * np.float64(L[r, q]):
+                a, b, e = x - c[0], y - c[1], z - c[2]
+                scatter[0, 0] += a * a
+                scatter[0, 1] += a * b
+                scatter[0, 2] += a * e
+                scatter[1, 1] += b * b
+                scatter[1, 2] += b * e
+                scatter[2, 2] += e * e
+    scatter[1, 0], scatter[2, 0], scatter[2, 1] = scatter[0, 1], scatter[0, 2], scatter[1, 2]
+    return k
+
+
 def refine_plane_fullres(pl: Plane, Pc, Lmap, stride, off, max_points=20000) -> Plane:
     """Least-squares refit of a plane on the full-resolution pixels within L of it inside the
     bounding box of its sampled region (every pixel for small planes, a regular subset of at
     most ``max_points`` for large ones); two rounds, the second on the pixels within L / 2 of
-    the first fit (keeps a handle or an edge strip from tilting a small front's plane)."""
+    the first fit (keeps a handle or an edge strip from tilting a small front's plane). The
+    centroid and scatter of the selected pixels are summed in one compiled pass per round
+    (:func:`_band_scatter`)."""
     r0, r1, c0, c1 = pl.bbox
+    H, W = Pc.shape[:2]
     R0, R1 = off + stride * r0 - stride, off + stride * r1 + stride
     C0, C1 = off + stride * c0 - stride, off + stride * c1 + stride
     R0, C0 = max(0, R0), max(0, C0)
-    crop = Pc[R0:R1, C0:C1]
-    Lc = Lmap[R0:R1, C0:C1]
-    step = max(1, int(math.ceil(math.sqrt(crop.shape[0] * crop.shape[1] / max_points))))
-    P = crop[::step, ::step].reshape(-1, 3)
-    L = Lc[::step, ::step].reshape(-1)
-    ok = np.isfinite(P[:, 2])
-    # np.compress: the rows of a boolean mask (numpy's P[mask] on (k, 3) rows is 5x slower)
-    P, L = np.compress(ok, P, axis=0).astype(np.float64), L[ok]
+    R1, C1 = min(R1, H), min(C1, W)
+    step = max(1, int(math.ceil(math.sqrt(max(0, R1 - R0) * max(0, C1 - C0) / max_points))))
     n, d = pl.n, pl.d
+    c, scatter = np.empty(3), np.empty((3, 3))
     for shrink in (1.0, 0.5):
-        sel = np.abs(P @ n + d) <= shrink * L
-        if np.count_nonzero(sel) < 10:
+        if _band_scatter(Pc, Lmap, R0, R1, C0, C1, step, np.asarray(n, float), float(d),
+                         shrink, c, scatter) < 10:
             return pl
-        n2, d2 = _fit_plane_many(np.compress(sel, P, axis=0))
+        n2, d2 = _plane_from_scatter(c, scatter)
         if n2 @ pl.n < math.cos(math.radians(10.0)):
             return pl
         n, d = n2, d2

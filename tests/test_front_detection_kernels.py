@@ -1,0 +1,181 @@
+"""The detector's compiled passes against the array code they replace: the same regions,
+planes, ramps, refits and bent-window tests (to rounding) on random inputs."""
+
+import math
+
+import cv2
+import numpy as np
+import pytest
+
+from mmlearn.models.perception.detection import Plane
+from mmlearn.models.perception.detection.check import _refit_plane
+from mmlearn.models.perception.detection.gaps import _bent_windows
+from mmlearn.models.perception.detection.labels import (_affine_lstsq, _ramp_fit,
+                                                        _ramp_fit_lstsq)
+from mmlearn.models.perception.detection.planes import (_components, _fit_plane,
+                                                        _largest_region, refine_plane_fullres)
+from mmlearn.models.common.camera import PinholeIntrinsics
+
+K = PinholeIntrinsics.from_fov(640, 480, 58.0)
+
+
+def _svd_plane(P):
+    """Least-squares plane of points (k, 3) by the SVD: unit normal towards the origin, offset."""
+    c = P.mean(axis=0)
+    n = np.linalg.svd(P - c, full_matrices=False)[2][-1]
+    if n @ c > 0:
+        n = -n
+    return n, -n @ c
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_grid_regions_are_opencv_s_8_connected_components(seed):
+    """The same partition as OpenCV's (numbered from 1 in the raster order of each region's
+    first cell); the largest region is the largest."""
+    rng = np.random.default_rng(seed)
+    H, W = 30, 40
+    rc = np.column_stack([a.ravel() for a in np.mgrid[0:H, 0:W]])
+    sel = np.flatnonzero(rng.random(len(rc)) < 0.45)
+    img = np.zeros((H, W), np.uint8)
+    img[rc[sel, 0], rc[sel, 1]] = 1
+    _, ref = cv2.connectedComponents(img, connectivity=8)
+    lab = _components(sel, rc, (H, W))
+    ref = ref[rc[sel, 0], rc[sel, 1]]
+    pairs = set(zip(lab.tolist(), ref.tolist()))
+    assert len(pairs) == len(set(lab.tolist())) == len(set(ref.tolist()))  # a bijection
+    first = [int(np.flatnonzero(lab == k)[0]) for k in range(1, lab.max() + 1)]
+    assert first == sorted(first)  # (sel is in raster order)
+    big = _largest_region(sel, rc, (H, W))
+    sizes = np.bincount(ref)
+    assert len(big) == sizes.max()
+
+
+def test_least_squares_planes_match_the_svd():
+    rng = np.random.default_rng(3)
+    n0 = np.array([0.1, -0.3, -1.0])
+    n0 /= np.linalg.norm(n0)
+    xy = rng.uniform(-0.5, 0.5, (500, 2))
+    z = (1.5 - n0[0] * xy[:, 0] - n0[1] * xy[:, 1]) / n0[2] * -1.0
+    P = np.column_stack([xy, z]) + rng.normal(0, 0.002, (500, 3))
+    idx = np.flatnonzero(rng.random(500) < 0.5)
+    n, d = _fit_plane(P, idx)
+    n_ref, d_ref = _svd_plane(P[idx])
+    assert np.allclose(n, n_ref, atol=1e-10) and abs(d - d_ref) < 1e-10
+
+
+def test_full_resolution_refit_matches_the_gathered_pixels():
+    """A tilted wall 2 m away with a box 10 cm in front of part of it: the refit uses the
+    pixels within L, then L / 2, of the fits, as the gathered-array version does."""
+    rng = np.random.default_rng(4)
+    v, u = np.mgrid[0:480, 0:640].astype(np.float64)
+    x, y = (u - K.cx) / K.fx, (v - K.cy) / K.fy
+    n_true = np.array([0.2, 0.05, -1.0]) / np.linalg.norm([0.2, 0.05, -1.0])
+    z = 2.0 / -(n_true[0] * x + n_true[1] * y + n_true[2])  # n . p + 2 = 0
+    z += rng.normal(0, 0.004, z.shape)
+    z[100:200, 300:420] -= 0.1
+    z[rng.random(z.shape) < 0.02] = np.nan
+    Pc = np.dstack([x * z, y * z, z]).astype(np.float32)
+    L = np.maximum(0.02, 0.004 * np.nan_to_num(z) ** 2).astype(np.float32)
+    start = Plane(n=n_true + np.array([0.01, 0.0, 0.0]), d=2.0, support=4000,
+                  bbox=(0, 60, 0, 80))
+    start.n = start.n / np.linalg.norm(start.n)
+    got = refine_plane_fullres(start, Pc, L, 8, 4, max_points=20000)
+    # the reference: the gathered pixels of the same regular subset
+    step = int(math.ceil(math.sqrt(480 * 640 / 20000)))
+    P = Pc[::step, ::step].reshape(-1, 3).astype(np.float64)
+    Ls = L[::step, ::step].reshape(-1).astype(np.float64)
+    ok = np.isfinite(P[:, 2])
+    P, Ls = P[ok], Ls[ok]
+    n, d = start.n, start.d
+    for shrink in (1.0, 0.5):
+        sel = np.abs(P @ n + d) <= shrink * Ls
+        n, d = _svd_plane(P[sel])
+    assert np.allclose(got.n, n, atol=1e-9) and abs(got.d - d) < 1e-9
+    assert math.degrees(math.acos(min(1.0, got.n @ n_true))) < 0.2
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_surface_ramp_fit_matches_the_array_fit(seed):
+    """The trimmed ramp of the surface check: the compiled fit equals the array code's on a
+    noisy ramp with a strip of outliers and holes; points on one line defer to lstsq."""
+    rng = np.random.default_rng(seed)
+    H, W = 90, 130
+    yy, xx = np.mgrid[0:H, 0:W]
+    S = (1e-4 * xx - 2e-4 * yy + 0.003 + rng.normal(0, 0.001, (H, W))).astype(np.float32)
+    S[:, 60:66] += 0.02
+    m8 = np.where(rng.random((H, W)) < 0.8, 255, 0).astype(np.uint8)
+    Lm = np.full((H, W), 0.003, np.float32)
+    coef = np.empty(3)
+    assert _ramp_fit(S, m8, Lm, coef) == 1
+    ref = _ramp_fit_lstsq(S, m8 > 0, Lm)
+    assert np.allclose(coef, ref, rtol=1e-9, atol=1e-13)
+    line = np.zeros((H, W), np.uint8)
+    line[8, :] = 255  # one row of samples: the 2 x 2 system is singular
+    assert _ramp_fit(S, line, Lm, coef) == -1
+    empty = np.zeros((H, W), np.uint8)
+    assert _ramp_fit(S, empty, Lm, coef) == 0
+
+
+def test_affine_lstsq_matches_numpy():
+    rng = np.random.default_rng(5)
+    A = np.column_stack([rng.uniform(0, 50, 40), rng.uniform(0, 50, 40), np.ones(40)])
+    b = A @ np.array([0.1, -0.2, 3.0]) + rng.normal(0, 0.01, 40)
+    assert np.allclose(_affine_lstsq(A, b), np.linalg.lstsq(A, b, rcond=None)[0], atol=1e-10)
+
+
+def test_rectangle_refit_uses_the_in_plane_pixels_inside_the_shrunk_rectangle():
+    """A front 1.2 m away, tilted 10 deg about the vertical, with a hole and a strip of
+    another label: the refit equals the SVD plane of the in-plane pixels whose offset to the
+    centre lies within 45 % of the width and height."""
+    rng = np.random.default_rng(6)
+    a = math.radians(10.0)
+    n_true = np.array([math.sin(a), 0.0, -math.cos(a)])
+    v, u = np.mgrid[0:480, 0:640].astype(np.float64)
+    x, y = (u - K.cx) / K.fx, (v - K.cy) / K.fy
+    z = 1.2 / -(n_true[0] * x + n_true[2])
+    z += rng.normal(0, 0.002, z.shape)
+    Pc = np.dstack([x * z, y * z, z]).astype(np.float32)
+    lab = np.zeros((480, 640), np.uint8)
+    lab[200:260, 280:300] = 3
+    center = -1.2 * n_true
+    e1 = np.cross([0.0, 1.0, 0.0], n_true)
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(n_true, e1)
+    w, h = 0.4, 0.3
+    got = _refit_plane(Pc, lab, center, e1, e2, w, h, K, n_true, 0.02)
+    P = Pc.reshape(-1, 3).astype(np.float64)[lab.reshape(-1) == 0]
+    q = P - center
+    P = P[(np.abs(q @ e1) <= 0.45 * w) & (np.abs(q @ e2) <= 0.45 * h)]
+    n, d = _svd_plane(P)
+    assert np.allclose(got[0], n, atol=1e-9) and abs(got[1] - d) < 1e-9
+    assert _refit_plane(Pc, np.full_like(lab, 3), center, e1, e2, w, h, K, n_true, 0.02) is None
+
+
+class _Cfg:
+    gap_side_tolerance_per_m2 = 0.004
+
+
+def _bent_reference(A, N, nb, tol_m2):
+    with np.errstate(invalid="ignore", divide="ignore"):
+        B = A / N
+        h0, h1 = nb // 2, nb - 1 - nb // 2
+        bent = np.zeros(B.shape, bool)
+        if B.shape[1] > nb:
+            chord = (B[:, : B.shape[1] - nb + 1] + B[:, nb - 1:]) * np.float32(0.5)
+            zc = B[:, h0: B.shape[1] - h1]
+            tol = np.maximum(np.float32(0.01), np.float32(tol_m2) * zc * zc)
+            bent[:, h0: B.shape[1] - h1] = np.abs(zc - chord) > tol
+    return bent
+
+
+@pytest.mark.parametrize("nb", [8, 32])
+def test_bent_windows_match_the_array_expression(nb):
+    """Lines with steps, unmeasured blocks (0 / 0) and steady ramps: the same bent windows."""
+    rng = np.random.default_rng(nb)
+    N = rng.integers(0, 5, (60, 160)).astype(np.float32)
+    z = np.linspace(1.0, 2.5, 160, dtype=np.float32)[None, :] + np.zeros((60, 1), np.float32)
+    z[:, 70:] += np.float32(0.05)  # a step
+    A = (z * N).astype(np.float32)
+    got = _bent_windows(A, N, nb, _Cfg)
+    assert np.array_equal(got, _bent_reference(A, N, nb, _Cfg.gap_side_tolerance_per_m2))
+    assert got[:, 70 - nb // 2:70 + nb // 2].any() and not got[:, :45].any()
