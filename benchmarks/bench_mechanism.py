@@ -2,15 +2,19 @@
 mechanisms (Drake trials of ``open_cabinet``; prints a table, never fails on a figure).
 
     python benchmarks/bench_mechanism.py [--only damping,jam,locked,sticky] [--seed 100]
-        [--trials 1] [--results FILE.jsonl] [--json [FILE]]
+        [--trials 1] [--repeats 5] [--jobs 1] [--base-noise S] [--results FILE.jsonl]
+        [--json [FILE]]
 
 Groups: ``damping`` (a door at 0.5-5 N m s/rad, a drawer at 5-50 N s/m: the learned damping
 against the true, in joint units and as the handle's N s/m, which does not depend on the
 learned radius), ``jam`` (a door jammed at 15-55 deg, a drawer at 0.05-0.25 m: recognised,
 ``jammed_at`` error, peak wrist force), ``locked`` (latched door and drawer) and ``sticky``
 (free but with 5-10 times the usual friction: must be opened). ``--trials`` trials per
-setting (seeds ``--seed`` on); locked and sticky: ``--repeats`` settings per kind. Each finished trial is appended to ``--results`` (default
-``bench_mechanism_results.jsonl``); a rerun skips the trials already there.
+setting, each setting on its own seeds (``--seed`` on: a door's damping values on different
+doors, so one door's learned radius does not bias them all alike); locked and sticky:
+``--repeats`` settings per kind. ``--jobs`` trials run at once. Each finished trial is
+appended to ``--results`` (default ``bench_mechanism_results.jsonl``); a rerun skips the
+trials already there.
 """
 
 from __future__ import annotations
@@ -33,8 +37,10 @@ LIMIT_N = 35.0  # the controller's force limit (EpcConfig.stop_force)
 JAM_TOL = {"left_door": 5.0, "drawer": 0.03}
 
 
-def trials(groups, seed: int, n: int, repeats: int = 5) -> list[dict]:
-    """The trials of the chosen groups: label, group, kind, seed, options, value."""
+def trials(groups, seed: int, n: int, repeats: int = 5,
+           base_noise: float | None = None) -> list[dict]:
+    """The trials of the chosen groups: label, group, kind, seed, options, value (and the
+    base-localisation error's scale, None = the default)."""
     out = []
     for g in groups:
         for kind in ("left_door", "drawer"):
@@ -49,9 +55,11 @@ def trials(groups, seed: int, n: int, repeats: int = 5) -> list[dict]:
                 settings = [({"friction": STICKY[kind]}, STICKY[kind])] * repeats
             for j, (opts, v) in enumerate(settings):
                 for i in range(n):
-                    s = seed + i + (j * n if g in ("locked", "sticky") else 0)
-                    out.append({"label": f"{g} {kind} {v} seed {s}", "group": g, "kind": kind,
-                                "seed": s, "options": opts, "value": v})
+                    s = seed + j * n + i  # every setting on its own mechanisms and starts
+                    noise = "" if base_noise is None else f" base noise {base_noise:g}"
+                    out.append({"label": f"{g} {kind} {v} seed {s}{noise}", "group": g,
+                                "kind": kind, "seed": s, "options": opts, "value": v,
+                                "base_noise": base_noise})
     return out
 
 
@@ -60,7 +68,7 @@ def run_trial(t: dict) -> dict:
 
     t0 = time.perf_counter()
     r = open_mechanism(kind=t["kind"], seed=t["seed"], show_progress=False,
-                       mechanism_options=t["options"])
+                       mechanism_options=t["options"], base_noise=t.get("base_noise"))
     d = r.get("dynamics") or {}
     learned = d if d.get("learned") else {}
     return {**{k: t[k] for k in ("label", "group", "kind", "seed", "value")},
@@ -136,13 +144,18 @@ def main(argv=None):
     ap.add_argument("--trials", type=int, default=1, help="trials per setting")
     ap.add_argument("--repeats", type=int, default=5,
                     help="locked and sticky trials per mechanism kind (x --trials)")
+    ap.add_argument("--jobs", type=int, default=1, help="trials run at once")
+    ap.add_argument("--base-noise", type=float, default=None,
+                    help="scale of the base-localisation error (0: the exact base pose; "
+                         "default: open_cabinet's)")
     ap.add_argument("--results", default="bench_mechanism_results.jsonl")
     add_output_arguments(ap)
     a = ap.parse_args(argv)
     groups = [g for g in a.only.split(",") if g]
     bad = [g for g in groups if g not in GROUPS]
-    if bad or a.trials < 1:
-        ap.error(f"--only: choose from {', '.join(GROUPS)}" if bad else "--trials must be >= 1")
+    if bad or a.trials < 1 or a.jobs < 1:
+        ap.error(f"--only: choose from {', '.join(GROUPS)}" if bad
+                 else "--trials and --jobs must be >= 1")
     table = a.json != "-"
     path = Path(a.results)
     done = {}
@@ -151,8 +164,19 @@ def main(argv=None):
             if line.strip():
                 r = json.loads(line)
                 done[r["label"]] = r
+    todo = trials(groups, a.seed, a.trials, a.repeats, a.base_noise)
+    new = [t for t in todo if t["label"] not in done]
+    if a.jobs > 1 and len(new) > 1:
+        from concurrent.futures import ProcessPoolExecutor, as_completed
+
+        with ProcessPoolExecutor(min(a.jobs, len(new))) as pool:
+            for fut in as_completed([pool.submit(run_trial, t) for t in new]):
+                r = fut.result()
+                done[r["label"]] = r
+                with path.open("a") as f:
+                    f.write(json.dumps(r) + "\n")
     rows = []
-    for t in trials(groups, a.seed, a.trials, a.repeats):
+    for t in todo:
         r = done.get(t["label"])
         if r is None:
             r = run_trial(t)
@@ -170,7 +194,8 @@ def main(argv=None):
     if table:
         for k, v in s.items():
             print(k, json.dumps(v))
-    emit_json(a.json, {"groups": groups, "seed": a.seed, "trials": a.trials, "summary": s,
+    emit_json(a.json, {"groups": groups, "seed": a.seed, "trials": a.trials,
+                       "base_noise": a.base_noise, "summary": s,
                        "rows": rows})
 
 

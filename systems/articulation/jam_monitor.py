@@ -319,8 +319,8 @@ class DynamicsMonitor(LeafSystem):
         limit = cfg.locked_force
         if s.dynamics is not None and travel >= cfg.locked_travel:
             limit = min(self._expected_force(s, link, s.G[-1]), cfg.block_force)
-        if not fast_block and pulls[-1] <= limit:
-            return s
+        if not fast_block and min(pulls[-2:]) <= limit:
+            return s  # (two samples: not one spike of the hook knocking on something)
         halt = JAMMED if travel >= cfg.locked_travel else LOCKED
         engage, onset = self._block_span(s, pulls_all)
         at = self.opening(link, s.G[engage:onset + 1])
