@@ -83,6 +83,9 @@ class DynamicsMonitorConfig:
         pull: the direction the robot was told to pull in (world; zero = not known): for
             a prismatic mechanism, progress and force are measured along it until the
             learned model gives its own direction.
+        track_length: for a revolute mechanism before its model is revolute, progress and
+            force are measured along the hook's track over its last this many metres (the
+            arm's force across the door, which holds the hook on the bar, is not a block), m.
         open_enough: a block beyond this opening (rad or m; 0 = none) is the end of the
             mechanism's range, not a jam: the monitor lets the controller's own end-of-range
             test end the pull.
@@ -105,6 +108,7 @@ class DynamicsMonitorConfig:
     block_force: float = param(25.0, unit="N", gt=0)
     fast_window: float = param(0.025, unit="s", gt=0)
     onset_margin: float = param(1.0, unit="N", ge=0)
+    track_length: float = param(0.03, unit="m", gt=0)
     locked_force: float = param(15.0, unit="N", gt=0)
     locked_travel: float = param(0.045, unit="m", gt=0)
     joint: str = param("", choices=("", "revolute", "prismatic"))
@@ -307,15 +311,19 @@ class DynamicsMonitor(LeafSystem):
         pulls = pulls_all[rising]
         rise = float(pulls[-1] - pulls.min())
         fast = s.t >= t_now - cfg.fast_window - 1e-9
-        fast_block = (fast.sum() >= 2
-                      and bool(np.all(np.linalg.norm(s.F[fast], axis=1) > cfg.block_force))
+        # a door's hook is also held on the bar across the door (radial surges of the
+        # arm's force are not a block): its fast test takes the force along the door
+        door = cfg.joint == "revolute" and d is not None
+        held = pulls_all[fast] if door else np.linalg.norm(s.F[fast], axis=1)
+        fast_block = (fast.sum() >= 2 and bool(np.all(held > cfg.block_force))
                       and progress(fast) < cfg.min_progress)
         if not fast_block and (progress(recent) >= cfg.min_progress or rise < cfg.min_rise):
             return s
         # how far the hook got: along the pull where it is known (a hook that slides
         # sideways on a latched handle has not opened it), else anywhere
-        travel = (float(np.linalg.norm(s.G[-1] - s.G[0])) if d is None
-                  else max(float(np.max((s.G - s.G[0]) @ d)), 0.0))
+        travel = (max(float(np.max((s.G - s.G[0]) @ d)), 0.0)
+                  if d is not None and cfg.joint == "prismatic"
+                  else float(np.linalg.norm(s.G[-1] - s.G[0])))
         limit = cfg.locked_force
         if s.dynamics is not None and travel >= cfg.locked_travel:
             limit = min(self._expected_force(s, link, s.G[-1]), cfg.block_force)
@@ -332,14 +340,22 @@ class DynamicsMonitor(LeafSystem):
     def _direction(self, link, G) -> np.ndarray | None:
         """Unit direction of the pull at the hook's last position: the learned model's
         tangent (oriented along the hook's track so far), else for a prismatic mechanism
-        the pulling direction the robot was given (``pull``); None otherwise."""
+        the pulling direction the robot was given (``pull``), for a revolute one the
+        direction of the hook's track over its last ``track_length``; None otherwise."""
         d = _tangent(link, G[-1])
-        if d is None:
-            pull = np.asarray(self._cfg.pull, float)
-            if self._cfg.joint != "prismatic" or not np.linalg.norm(pull) > 0:
-                return None
+        if d is not None:
+            return -d if float(d @ (G[-1] - G[0])) < 0 else d
+        cfg = self._cfg
+        pull = np.asarray(cfg.pull, float)
+        if cfg.joint == "prismatic" and np.linalg.norm(pull) > 0:
             return pull / np.linalg.norm(pull)
-        return -d if float(d @ (G[-1] - G[0])) < 0 else d
+        if cfg.joint == "revolute":
+            # the direction of the hook's track over its last ``track_length``
+            far = np.flatnonzero(np.linalg.norm(G - G[-1], axis=1) >= cfg.track_length)
+            if far.size:
+                step = G[-1] - G[far[-1]]
+                return step / np.linalg.norm(step)
+        return None
 
     def _block_span(self, s: DynamicsMonitorState, pulls: np.ndarray) -> tuple[int, int]:
         """Indices of the samples where the hook began to move the mechanism and where
