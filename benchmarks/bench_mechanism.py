@@ -75,6 +75,7 @@ def run_trial(t: dict) -> dict:
             "outcome": r["outcome"], "success": r["success"], "opened": r["opened"],
             "jammed_at": r.get("jammed_at"), "peak_force_N": r.get("peak_force_N"),
             "peak_force_impact_N": r.get("peak_force_impact_N"),
+            "block_force_N": r.get("block_force_N"),
             "true": r["dynamics"]["true"],
             "learned": {k: learned.get(k) for k in ("damping", "damping_std", "friction",
                                                      "friction_std", "stiffness",
@@ -123,6 +124,11 @@ def summary(rows: list[dict]) -> dict:
                 "max_position_error": float(np.max(errs)) if errs else None,
                 "below_limit": sum(p < LIMIT_N for p in peaks),
                 "max_peak_force_N": float(max(peaks)) if peaks else None,
+                "block_below_limit": sum(r.get("block_force_N") is not None
+                                         and r["block_force_N"] < LIMIT_N for r in hit),
+                "max_block_force_N": max((r["block_force_N"] for r in hit
+                                          if r.get("block_force_N") is not None),
+                                         default=None),
                 "max_impact_force_N": max((r["peak_force_impact_N"] for r in rs
                                            if r.get("peak_force_impact_N") is not None),
                                           default=None),
@@ -189,6 +195,8 @@ def main(argv=None):
                 f" damping {lr['damping']:.3g}+-{lr['damping_std']:.2g}"
             ja = "" if r["jammed_at"] is None else f" jammed_at {r['jammed_at']:.3g}"
             pk = "" if r["peak_force_N"] is None else f" peak {r['peak_force_N']:.1f} N"
+            if r.get("block_force_N") is not None:
+                pk += f" block {r['block_force_N']:.1f} N"
             print(f"{r['label']:36s} {r['outcome']:30s}{dm}{ja}{pk}", flush=True)
     s = summary(rows)
     if table:

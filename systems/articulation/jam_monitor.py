@@ -138,17 +138,21 @@ class DynamicsMonitorState:
         peak_force: largest wrist force sample while the hook held the handle, N.
     """
 
-    def held_peak_force(self, hold: float = 0.1) -> float:
+    def held_peak_force(self, hold: float = 0.1, since: float = -math.inf,
+                        until: float = math.inf) -> float:
         """The largest wrist force held for ``hold`` seconds (the largest over windows of
         that length of the smallest force in the window), N: the force the robot pulled
-        with, without the few-millisecond spike of an impact."""
-        if self.t.size == 0:
+        with, without the few-millisecond spike of an impact; over the samples from
+        ``since`` to ``until`` (s; default: all)."""
+        inside = (self.t >= since - 1e-9) & (self.t <= until + 1e-9)
+        t, F = self.t[inside], self.F[inside]
+        if t.size == 0:
             return 0.0
-        f = np.linalg.norm(self.F, axis=1)
+        f = np.linalg.norm(F, axis=1)
         best = 0.0
-        for i, t0 in enumerate(self.t):
-            m = (self.t >= t0) & (self.t <= t0 + hold + 1e-9)
-            if self.t[m][-1] - t0 >= hold - 1e-9:
+        for i, t0 in enumerate(t):
+            m = (t >= t0) & (t <= t0 + hold + 1e-9)
+            if t[m][-1] - t0 >= hold - 1e-9:
                 best = max(best, float(f[m].min()))
         return best
 
