@@ -88,7 +88,8 @@ class DynamicsMonitorConfig:
             arm's force across the door, which holds the hook on the bar, is not a block), m.
         open_enough: a block beyond this opening (rad or m; 0 = none) is the end of the
             mechanism's range, not a jam: the monitor lets the controller's own end-of-range
-            test end the pull.
+            test end the pull. Not for a door whose model is not yet revolute: the opening
+            guessed from the hook's track is too loose to let the arm pull on.
     """
 
     period: float = param(0.025, unit="s", gt=0)
@@ -336,8 +337,10 @@ class DynamicsMonitor(LeafSystem):
         halt = JAMMED if travel >= cfg.locked_travel else LOCKED
         engage, onset = self._block_span(s, pulls_all)
         at = self.opening(link, s.G[engage:onset + 1])
-        if halt == JAMMED and cfg.open_enough > 0 and at >= cfg.open_enough:
-            return s  # the end of its range
+        # the end of its range, unless a door's opening is only the hook track's guess
+        guessed = cfg.joint == "revolute" and getattr(link, "name", "") != "revolute"
+        if halt == JAMMED and cfg.open_enough > 0 and at >= cfg.open_enough and not guessed:
+            return s
         return replace(s, halt=halt, t_halt=float(t_now), travel=travel, blocked_at=at,
                        t_onset=float(s.t[onset]))
 
