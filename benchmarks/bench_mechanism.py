@@ -1,7 +1,8 @@
 """Benchmark: mechanism dynamics learned while opening, and jammed / locked / sticky
 mechanisms (Drake trials of ``open_cabinet``; prints a table, never fails on a figure).
 
-    python benchmarks/bench_mechanism.py [--only damping,jam,locked,sticky] [--seed 100]
+    python benchmarks/bench_mechanism.py [--only damping,jam,locked,sticky]
+        [--kinds left_door,drawer] [--seed 100]
         [--trials 1] [--repeats 5] [--jobs 1] [--base-noise S] [--results FILE.jsonl]
         [--json [FILE]]
 
@@ -30,6 +31,7 @@ import numpy as np
 from _common import add_output_arguments, emit_json
 
 GROUPS = ("damping", "jam", "locked", "sticky")
+KINDS = ("left_door", "drawer")
 DAMPING = {"left_door": (0.5, 1.0, 2.0, 3.0, 5.0), "drawer": (5.0, 10.0, 20.0, 30.0, 50.0)}
 JAMS = {"left_door": (15.0, 25.0, 35.0, 45.0, 55.0), "drawer": (0.05, 0.10, 0.15, 0.20, 0.25)}
 STICKY = {"left_door": 2.5, "drawer": 10.0}
@@ -38,12 +40,12 @@ JAM_TOL = {"left_door": 5.0, "drawer": 0.03}
 
 
 def trials(groups, seed: int, n: int, repeats: int = 5,
-           base_noise: float | None = None) -> list[dict]:
-    """The trials of the chosen groups: label, group, kind, seed, options, value (and the
-    base-localisation error's scale, None = the default)."""
+           base_noise: float | None = None, kinds=KINDS) -> list[dict]:
+    """The trials of the chosen groups and kinds: label, group, kind, seed, options, value
+    (and the base-localisation error's scale, None = the default)."""
     out = []
     for g in groups:
-        for kind in ("left_door", "drawer"):
+        for kind in kinds:
             rev = kind == "left_door"
             if g == "damping":
                 settings = [({"damping": v}, v) for v in DAMPING[kind]]
@@ -150,6 +152,7 @@ def main(argv=None):
     ap.add_argument("--trials", type=int, default=1, help="trials per setting")
     ap.add_argument("--repeats", type=int, default=5,
                     help="locked and sticky trials per mechanism kind (x --trials)")
+    ap.add_argument("--kinds", default=",".join(KINDS), help="mechanisms, comma-separated")
     ap.add_argument("--jobs", type=int, default=1, help="trials run at once")
     ap.add_argument("--base-noise", type=float, default=None,
                     help="scale of the base-localisation error (0: the exact base pose; "
@@ -158,7 +161,10 @@ def main(argv=None):
     add_output_arguments(ap)
     a = ap.parse_args(argv)
     groups = [g for g in a.only.split(",") if g]
+    kinds = [k for k in a.kinds.split(",") if k]
     bad = [g for g in groups if g not in GROUPS]
+    if not kinds or any(k not in KINDS for k in kinds):
+        ap.error(f"--kinds: choose from {', '.join(KINDS)}")
     if bad or a.trials < 1 or a.jobs < 1:
         ap.error(f"--only: choose from {', '.join(GROUPS)}" if bad
                  else "--trials and --jobs must be >= 1")
@@ -170,7 +176,7 @@ def main(argv=None):
             if line.strip():
                 r = json.loads(line)
                 done[r["label"]] = r
-    todo = trials(groups, a.seed, a.trials, a.repeats, a.base_noise)
+    todo = trials(groups, a.seed, a.trials, a.repeats, a.base_noise, kinds)
     new = [t for t in todo if t["label"] not in done]
     if a.jobs > 1 and len(new) > 1:
         from concurrent.futures import ProcessPoolExecutor, as_completed
