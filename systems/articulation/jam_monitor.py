@@ -348,7 +348,8 @@ class DynamicsMonitor(LeafSystem):
         """Unit direction of the pull at the hook's last position: the learned model's
         tangent (oriented along the hook's track so far), else for a prismatic mechanism
         the pulling direction the robot was given (``pull``), for a revolute one the
-        direction of the hook's track over its last ``track_length``; None otherwise."""
+        direction of the hook's track over its last ``track_length`` (turned to have a
+        positive component along ``pull``); None otherwise."""
         d = _tangent(link, G[-1])
         if d is not None:
             return -d if float(d @ (G[-1] - G[0])) < 0 else d
@@ -357,10 +358,13 @@ class DynamicsMonitor(LeafSystem):
         if cfg.joint == "prismatic" and np.linalg.norm(pull) > 0:
             return pull / np.linalg.norm(pull)
         if cfg.joint == "revolute":
-            # the direction of the hook's track over its last ``track_length``
+            # the direction of the hook's track over its last ``track_length``, turned to
+            # open the door (a hook that lost the bar and moves back is not opening it)
             far = np.flatnonzero(np.linalg.norm(G - G[-1], axis=1) >= cfg.track_length)
             if far.size:
                 step = G[-1] - G[far[-1]]
+                if float(step @ pull) < 0:
+                    step = -step
                 return step / np.linalg.norm(step)
         return None
 
