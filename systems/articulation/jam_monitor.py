@@ -4,12 +4,17 @@ when the mechanism no longer follows the model (jammed or locked; thesis outlook
 Every ``period`` it stores the hook position and the wrist force (while the controller
 reports the hook on the handle), refits the dynamics along the current learned model
 (:func:`mmlearn.models.articulation.dynamics.fit_dynamics`) and watches for a block: over
-the last ``window`` seconds the hook advanced less than ``min_progress`` along the model
-while the force pulling along it rose by ``min_rise`` (within ``rise_window``) to more
-than the learned dynamics predict (the prediction at the pulling rate seen so far, plus ``sigma_margin`` of its
-deviations and ``force_margin``; before any dynamics are learned, or against a mechanism
-that has not moved, ``locked_force``). It then tells the controller to stop: halt code 1
-(jammed: the mechanism had moved by ``locked_travel`` or more) or 2 (locked). The pulling
+the last ``window`` seconds the hook advanced less than ``min_progress`` along the pull
+(the model's tangent; before there is one, the given pulling direction of a prismatic
+mechanism or the hook's recent track on a door) while the force pulling along it rose by
+``min_rise`` (within ``rise_window``), on two samples, to more than the learned dynamics
+predict (the prediction at the pulling rate seen so far, plus ``sigma_margin`` of its
+deviations and ``force_margin``, at most ``block_force``; before any dynamics are learned,
+or against a mechanism that has not moved, ``locked_force``); or the force stayed beyond
+``block_force`` over ``fast_window`` without the hook advancing. It then tells the
+controller to stop: halt code 1 (jammed: the hook had advanced by ``locked_travel`` or
+more) or 2 (locked), and keeps where the block began (``blocked_at``: the opening from
+where the hook began to move the mechanism to where the force rose). The pulling
 speed is modulated (``excitation`` of the step, period ``excitation_period``) so that the
 rate varies and damping can be told from friction.
 
