@@ -197,8 +197,10 @@ def main(argv=None) -> int:
             print(json.dumps(r))
         where = (f" at {r['jammed_at']:.2f} {r['unit']}" if r.get("jammed_at") is not None
                  else "")
+        force = r.get("block_force_N")
+        force = r["peak_force_N"] if force is None else force
         print(f"{r['object']}: {r['outcome']}{where}; stopped pulling at a wrist force of "
-              f"{r['peak_force_N']:.1f} N", file=sys.stderr)
+              f"{force:.1f} N", file=sys.stderr)
         return 1
     if args.save_track and r["track_saved"] is None:
         print(f"--save-track: nothing written to {args.save_track}: the estimator received "

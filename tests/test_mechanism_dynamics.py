@@ -197,6 +197,63 @@ def test_monitor_halts_a_latched_pull_not_a_moving_one():
     assert mon.get_supervisor_output_port().Eval(ctx)[0] == pytest.approx(0.65 * 0.5)
 
 
+def _monitor_track(ts, G, F, **config):
+    """The monitor fed piecewise-linear hook positions G (k, 3) and wrist forces F (k, 3)
+    at times ts, with the given config; returns its final state."""
+    from pydrake.systems.analysis import Simulator
+    from pydrake.systems.framework import DiagramBuilder
+    from pydrake.systems.primitives import TrajectorySource
+    from pydrake.trajectories import PiecewisePolynomial
+
+    from mmlearn.systems.articulation.jam_monitor import DynamicsMonitor, DynamicsMonitorConfig
+
+    b = DiagramBuilder()
+    mon = b.AddSystem(DynamicsMonitor(DynamicsMonitorConfig(**config)))
+    for port, X in ((mon.get_hook_position_input_port(), G), (mon.get_force_input_port(), F)):
+        src = b.AddSystem(TrajectorySource(PiecewisePolynomial.FirstOrderHold(
+            list(ts), np.asarray(X, float).T)))
+        b.Connect(src.get_output_port(), port)
+    sim = Simulator(b.Build())
+    sim.AdvanceTo(ts[-1])
+    return mon.state(mon.GetMyContextFromRoot(sim.get_context()))
+
+
+def test_monitor_jammed_at_from_the_block_not_the_hook_slide():
+    """A drawer pulled at 5 cm/s (1.5 N) stops at 0.10 m; the hook slides 4 cm further on
+    its handle at 5 N, then the force jumps to 40 N within one period: the monitor halts at
+    once (fast test, two samples) and reports the opening where the force rose, not the
+    hook's travel."""
+    from mmlearn.systems.articulation.jam_monitor import JAMMED
+
+    x = [0.0, 0.02, 0.021, 0.12, 0.122, 0.16, 0.161, 0.162]  # the hook along the pull
+    ts = [0.0, 0.4, 0.42, 2.4, 2.45, 3.4, 3.425, 3.8]
+    f = [0.2, 0.2, 1.5, 1.5, 4.5, 5.0, 40.0, 40.0]         # 2 cm of slack at 0.2 N first
+    G = [[0.5 + xi, 0.0, 1.0] for xi in x]
+    F = [[-fi, 0.0, 0.0] for fi in f]
+    s = _monitor_track(ts, G, F, joint="prismatic", pull=[1.0, 0.0, 0.0])
+    assert s.halt == JAMMED
+    assert s.t_halt <= 3.425 + 0.05 + 1e-9             # within two samples of the jump
+    # the block began at 0.12 m of hook travel, of which 0.02 m was slack
+    assert s.blocked_at == pytest.approx(0.10, abs=0.012)
+    assert 2.3 <= s.t_onset <= 2.5
+    assert s.held_peak_force(since=s.t_onset, until=s.t_halt) < 35.0
+
+
+def test_monitor_ignores_a_door_hooks_force_across_its_track():
+    """Before a door's model is revolute the force is taken along the hook's track: a
+    surge of 20 N across it (the arm holding the hook on the bar) while the door sticks is
+    no block; the same force along the track is."""
+    from mmlearn.systems.articulation.jam_monitor import GO, JAMMED
+
+    ts = [0.0, 3.0, 3.5, 3.6, 4.2]
+    x = [0.0, 0.15, 0.152, 0.152, 0.152]
+    G = [[0.5 + xi, 0.0, 1.0] for xi in x]
+    across = [[-2, 0, 0], [-2, 0, 0], [-2, 0, 0], [-2, 20, 0], [-2, 20, 0]]
+    along = [[-2, 0, 0], [-2, 0, 0], [-2, 0, 0], [-20, 0, 0], [-20, 0, 0]]
+    assert _monitor_track(ts, G, across, joint="revolute").halt == GO
+    assert _monitor_track(ts, G, along, joint="revolute").halt == JAMMED
+
+
 def test_open_cabinet_dynamics_flags_bad_input(tmp_path, capsys):
     from mmlearn.apps.open_cabinet import main
 

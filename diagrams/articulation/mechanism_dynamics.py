@@ -81,7 +81,9 @@ def dynamics_record(op, ctx, to_unit, options: dict) -> dict:
     """The record's ``dynamics`` entry and the block's fields of a simulated trial ``op``
     at its root context ``ctx``: ``jammed_at``; ``peak_force_N``, the largest wrist force
     held for 0.1 s while the hook held the handle; ``peak_force_impact_N``, the largest
-    single sample, an impact's spike included. ``dynamics`` has the learned values
+    single sample, an impact's spike included; ``block_force_N``, the force held for 0.1 s
+    from the block's start (at the latest 0.5 s before the halt) until 0.25 s after the
+    halt (None without a halt). ``dynamics`` has the learned values
     (:meth:`MechanismDynamics.to_dict`, with ``prediction``: the force predicted for the
     second half of the pull from its first half, against the measured; all None when
     nothing was learned), ``learned`` (whether), ``units`` and ``true`` (the values
@@ -98,12 +100,18 @@ def dynamics_record(op, ctx, to_unit, options: dict) -> dict:
                                "stiffness", "stiffness_std", "spring_found", "profile",
                                "prediction")}
     out = {"dynamics": {**empty, "learned": False, "units": units, "true": true},
-           "jammed_at": None, "peak_force_N": None, "peak_force_impact_N": None}
+           "jammed_at": None, "peak_force_N": None, "peak_force_impact_N": None,
+           "block_force_N": None}
     if op.monitor is None:
         return out
     s = op.monitor.state(op.monitor.GetMyContextFromRoot(ctx))
     out["peak_force_N"] = s.held_peak_force()
     out["peak_force_impact_N"] = float(s.peak_force)
+    if math.isfinite(s.t_halt):
+        # from where the block began (at least the last 0.5 s before the halt: the rise)
+        # until the arm had let go
+        since = min(s.t_onset, s.t_halt - 0.5) if math.isfinite(s.t_onset) else -math.inf
+        out["block_force_N"] = s.held_peak_force(since=since, until=s.t_halt + 0.25)
     if s.halt == 1:
         out["jammed_at"] = to_unit(s.blocked_at) if math.isfinite(s.blocked_at) else None
     est = op.estimator.GetMyContextFromRoot(ctx).get_abstract_state(0).get_value()

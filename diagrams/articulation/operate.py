@@ -81,8 +81,9 @@ class OperateConfig:
             :func:`~mmlearn.diagrams.articulation.mechanism_dynamics.apply_mechanism_options`
             (damping, friction, spring, jam_at, locked; SI units, rad or m).
         monitor: the mechanism-dynamics monitor (learns damping, friction and spring while
-            pulling, stops a pull against a jammed or locked mechanism; its ``joint`` and
-            ``open_enough`` are set from ``kind``); None = no monitor.
+            pulling, stops a pull against a jammed or locked mechanism; its ``joint``,
+            ``open_enough`` and ``pull`` are set from ``kind`` and the task); None = no
+            monitor.
     """
 
     kind: str = param("left_door", choices=KINDS)
@@ -300,7 +301,8 @@ def MakeOperateDiagram(config: OperateConfig | None = None, *, meshcat=None) -> 
         revolute = spec.is_revolute
         monitor = builder.AddNamedSystem("dynamics_monitor", DynamicsMonitor(replace(
             cfg.monitor, joint="revolute" if revolute else "prismatic",
-            open_enough=SUCCESS_ANGLE if revolute else SUCCESS_DISTANCE)))
+            open_enough=SUCCESS_ANGLE if revolute else SUCCESS_DISTANCE,
+            pull=[float(x) for x in task.pull])))
         builder.Connect(epc.get_hook_position_output_port(),
                         monitor.get_hook_position_input_port())
         builder.Connect(loc.get_believed_force_output_port(), monitor.get_force_input_port())

@@ -4,12 +4,17 @@ when the mechanism no longer follows the model (jammed or locked; thesis outlook
 Every ``period`` it stores the hook position and the wrist force (while the controller
 reports the hook on the handle), refits the dynamics along the current learned model
 (:func:`mmlearn.models.articulation.dynamics.fit_dynamics`) and watches for a block: over
-the last ``window`` seconds the hook advanced less than ``min_progress`` along the model
-while the force pulling along it rose by ``min_rise`` (within ``rise_window``) to more
-than the learned dynamics predict (the prediction at the pulling rate seen so far, plus ``sigma_margin`` of its
-deviations and ``force_margin``; before any dynamics are learned, or against a mechanism
-that has not moved, ``locked_force``). It then tells the controller to stop: halt code 1
-(jammed: the mechanism had moved by ``locked_travel`` or more) or 2 (locked). The pulling
+the last ``window`` seconds the hook advanced less than ``min_progress`` along the pull
+(the model's tangent; before there is one, the given pulling direction of a prismatic
+mechanism or the hook's recent track on a door) while the force pulling along it rose by
+``min_rise`` (within ``rise_window``), on two samples, to more than the learned dynamics
+predict (the prediction at the pulling rate seen so far, plus ``sigma_margin`` of its
+deviations and ``force_margin``, at most ``block_force``; before any dynamics are learned,
+or against a mechanism that has not moved, ``locked_force``); or the force stayed beyond
+``block_force`` over ``fast_window`` without the hook advancing. It then tells the
+controller to stop: halt code 1 (jammed: the hook had advanced by ``locked_travel`` or
+more) or 2 (locked), and keeps where the block began (``blocked_at``: the opening from
+where the hook began to move the mechanism to where the force rose). The pulling
 speed is modulated (``excitation`` of the step, period ``excitation_period``) so that the
 rate varies and damping can be told from friction.
 
@@ -63,17 +68,33 @@ class DynamicsMonitorConfig:
         sigma_margin: ... plus this many of the prediction's standard deviations.
         block_force: a force above this without motion is a block whatever the learned
             dynamics predict (their prediction is loose after a short pull), N: below the
-            controller's ``stop_force``.
+            controller's ``stop_force``. Held above it over ``fast_window`` while the hook
+            advances less than ``min_progress`` is a block at once (a hook that takes up its
+            slack and hits a stop raises the force by tens of N within one period).
+        fast_window: the fast block test looks at the last this many seconds, s.
+        onset_margin: the block began after the last sample whose pulling force was at
+            most this above the free pull's level (see ``_block_span``), N: ``jammed_at``
+            is the opening from where the hook began to move the mechanism to there (after
+            a mechanism stops, the hook may slide on its handle by centimetres before the
+            force rises).
         locked_force: without learned dynamics (or a mechanism that has not moved) a
             force above this, not moving, is a block, N.
         locked_travel: a block before the hook travelled this far from its first sample
-            is a locked mechanism rather than a jammed one (the hook takes up ~3 cm of
+            (along the pull where its direction is known) is a locked mechanism rather than
+            a jammed one (the hook takes up ~3 cm of
             slack between its seat and the bar before it pulls), m.
         joint: the kind of mechanism the robot was sent to open ("revolute",
             "prismatic"; "" = not known): the unit of the opening at a block.
+        pull: the direction the robot was told to pull in (world; zero = not known): for
+            a prismatic mechanism, progress and force are measured along it until the
+            learned model gives its own direction.
+        track_length: for a revolute mechanism before its model is revolute, progress and
+            force are measured along the hook's track over its last this many metres (the
+            arm's force across the door, which holds the hook on the bar, is not a block), m.
         open_enough: a block beyond this opening (rad or m; 0 = none) is the end of the
             mechanism's range, not a jam: the monitor lets the controller's own end-of-range
-            test end the pull.
+            test end the pull. Not for a door whose model is not yet revolute: the opening
+            guessed from the hook's track is too loose to let the arm pull on.
     """
 
     period: float = param(0.025, unit="s", gt=0)
@@ -91,9 +112,14 @@ class DynamicsMonitorConfig:
     force_margin: float = param(4.0, unit="N", ge=0)
     sigma_margin: float = param(4.0, ge=0)
     block_force: float = param(25.0, unit="N", gt=0)
+    fast_window: float = param(0.025, unit="s", gt=0)
+    onset_margin: float = param(1.0, unit="N", ge=0)
+    track_length: float = param(0.03, unit="m", gt=0)
     locked_force: float = param(15.0, unit="N", gt=0)
     locked_travel: float = param(0.045, unit="m", gt=0)
     joint: str = param("", choices=("", "revolute", "prismatic"))
+    pull: list[float] = param([0.0, 0.0, 0.0], unit="world direction", length=3,
+                              elements=True, factory=True)
     open_enough: float = param(0.0, unit="rad or m", ge=0)
 
     def __post_init__(self):
@@ -111,23 +137,28 @@ class DynamicsMonitorState:
         last_fit: number of samples at the last fit.
         halt: GO, JAMMED or LOCKED.
         t_halt: time of the halt (NaN: none), s.
-        blocked_at: the opening by the learned model when the block was found (rad or m;
+        blocked_at: the opening by the learned model where the block began (rad or m;
             NaN: no model or no block).
+        t_onset: time the block began (the force rose from the free pull's level), s.
         travel: the hook's distance from its first sample at the block, m.
         peak_force: largest wrist force sample while the hook held the handle, N.
     """
 
-    def held_peak_force(self, hold: float = 0.1) -> float:
+    def held_peak_force(self, hold: float = 0.1, since: float = -math.inf,
+                        until: float = math.inf) -> float:
         """The largest wrist force held for ``hold`` seconds (the largest over windows of
         that length of the smallest force in the window), N: the force the robot pulled
-        with, without the few-millisecond spike of an impact."""
-        if self.t.size == 0:
+        with, without the few-millisecond spike of an impact; over the samples from
+        ``since`` to ``until`` (s; default: all)."""
+        inside = (self.t >= since - 1e-9) & (self.t <= until + 1e-9)
+        t, F = self.t[inside], self.F[inside]
+        if t.size == 0:
             return 0.0
-        f = np.linalg.norm(self.F, axis=1)
+        f = np.linalg.norm(F, axis=1)
         best = 0.0
-        for i, t0 in enumerate(self.t):
-            m = (self.t >= t0) & (self.t <= t0 + hold + 1e-9)
-            if self.t[m][-1] - t0 >= hold - 1e-9:
+        for i, t0 in enumerate(t):
+            m = (t >= t0) & (t <= t0 + hold + 1e-9)
+            if t[m][-1] - t0 >= hold - 1e-9:
                 best = max(best, float(f[m].min()))
         return best
 
@@ -140,6 +171,7 @@ class DynamicsMonitorState:
     halt: int = GO
     t_halt: float = float("nan")
     blocked_at: float = float("nan")
+    t_onset: float = float("nan")
     travel: float = 0.0
     peak_force: float = 0.0
 
@@ -267,38 +299,101 @@ class DynamicsMonitor(LeafSystem):
 
     def _check_block(self, s: DynamicsMonitorState, link) -> DynamicsMonitorState:
         """Halt when the hook has stopped advancing along the model while the force
-        pulling along it rose beyond what the learned dynamics predict."""
+        pulling along it rose beyond what the learned dynamics predict, or at once when the
+        wrist force (in any direction) stayed beyond ``block_force`` over ``fast_window``
+        without the hook advancing."""
         cfg = self._cfg
         t_now = s.t[-1]
         recent = s.t >= t_now - cfg.window - 1e-9
         if s.t[0] > t_now - max(cfg.window, cfg.settle) + 0.5 * cfg.period \
                 or recent.sum() < 3:
             return s
-        G0, G1 = s.G[recent][0], s.G[-1]
-        d = _tangent(link, G1)
+        d = self._direction(link, s.G)
+        # without a direction: any motion counts, and the force is the one the robot
+        # pulls with
+        pulls_all = np.linalg.norm(s.F, axis=1) if d is None else -s.F @ d
+
+        def progress(since):
+            step = s.G[-1] - s.G[since][0]
+            return float(np.linalg.norm(step)) if d is None else float(step @ d)
+
         rising = s.t >= t_now - cfg.rise_window - 1e-9
-        if d is None:
-            # no model along which to measure: any motion counts, and the force is the
-            # one the robot pulls with
-            progress = float(np.linalg.norm(G1 - G0))
-            pulls = np.linalg.norm(s.F[rising], axis=1)
-        else:
-            progress = float(np.dot(G1 - G0, d))
-            pulls = -s.F[rising] @ d
+        pulls = pulls_all[rising]
         rise = float(pulls[-1] - pulls.min())
-        if progress >= cfg.min_progress or rise < cfg.min_rise:
+        fast = s.t >= t_now - cfg.fast_window - 1e-9
+        # a door's hook is also held on the bar across the door (radial surges of the
+        # arm's force are not a block): its fast test takes the force along the door
+        door = cfg.joint == "revolute" and d is not None
+        held = pulls_all[fast] if door else np.linalg.norm(s.F[fast], axis=1)
+        fast_block = (fast.sum() >= 2 and bool(np.all(held > cfg.block_force))
+                      and progress(fast) < cfg.min_progress)
+        if not fast_block and (progress(recent) >= cfg.min_progress or rise < cfg.min_rise):
             return s
-        travel = float(np.linalg.norm(G1 - s.G[0]))
+        # how far the hook got: along the pull where it is known (a hook that slides
+        # sideways on a latched handle has not opened it), else anywhere
+        travel = (max(float(np.max((s.G - s.G[0]) @ d)), 0.0)
+                  if d is not None and cfg.joint == "prismatic"
+                  else float(np.linalg.norm(s.G[-1] - s.G[0])))
         limit = cfg.locked_force
         if s.dynamics is not None and travel >= cfg.locked_travel:
-            limit = min(self._expected_force(s, link, G1), cfg.block_force)
-        if pulls[-1] <= limit:
-            return s
+            limit = min(self._expected_force(s, link, s.G[-1]), cfg.block_force)
+        if not fast_block and min(pulls[-2:]) <= limit:
+            return s  # (two samples: not one spike of the hook knocking on something)
         halt = JAMMED if travel >= cfg.locked_travel else LOCKED
-        at = self.opening(link, s.G)
-        if halt == JAMMED and cfg.open_enough > 0 and at >= cfg.open_enough:
-            return s  # the end of its range
-        return replace(s, halt=halt, t_halt=float(t_now), travel=travel, blocked_at=at)
+        engage, onset = self._block_span(s, pulls_all)
+        at = self.opening(link, s.G[engage:onset + 1])
+        # the end of its range, unless a door's opening is only the hook track's guess
+        guessed = cfg.joint == "revolute" and getattr(link, "name", "") != "revolute"
+        if halt == JAMMED and cfg.open_enough > 0 and at >= cfg.open_enough and not guessed:
+            return s
+        return replace(s, halt=halt, t_halt=float(t_now), travel=travel, blocked_at=at,
+                       t_onset=float(s.t[onset]))
+
+    def _direction(self, link, G) -> np.ndarray | None:
+        """Unit direction of the pull at the hook's last position: the learned model's
+        tangent (oriented along the hook's track so far), else for a prismatic mechanism
+        the pulling direction the robot was given (``pull``), for a revolute one the
+        direction of the hook's track over its last ``track_length`` (turned to have a
+        positive component along ``pull``); None otherwise."""
+        d = _tangent(link, G[-1])
+        if d is not None:
+            return -d if float(d @ (G[-1] - G[0])) < 0 else d
+        cfg = self._cfg
+        pull = np.asarray(cfg.pull, float)
+        if cfg.joint == "prismatic" and np.linalg.norm(pull) > 0:
+            return pull / np.linalg.norm(pull)
+        if cfg.joint == "revolute":
+            # the direction of the hook's track over its last ``track_length``, turned to
+            # open the door (a hook that lost the bar and moves back is not opening it)
+            far = np.flatnonzero(np.linalg.norm(G - G[-1], axis=1) >= cfg.track_length)
+            if far.size:
+                step = G[-1] - G[far[-1]]
+                if float(step @ pull) < 0:
+                    step = -step
+                return step / np.linalg.norm(step)
+        return None
+
+    def _block_span(self, s: DynamicsMonitorState, pulls: np.ndarray) -> tuple[int, int]:
+        """Indices of the samples where the hook began to move the mechanism and where
+        the block began. The free pull is the one after ``settle`` and before the last
+        ``rise_window``; its level is the median of the pulling force (3-sample mean) and
+        its spread the scaled median absolute deviation. The block began after the last
+        sample before the halt at most ``onset_margin`` (or two spreads, when larger) above
+        that level; the hook began to move the mechanism at the first sample that reached
+        half the level (before it the hook takes up its slack on the handle)."""
+        cfg = self._cfg
+        n = pulls.size
+        f = np.convolve(pulls, np.ones(3) / 3, mode="same") if n >= 3 else pulls.copy()
+        f[-1] = pulls[-1]
+        free = (s.t >= s.t[0] + cfg.settle) & (s.t < s.t[-1] - cfg.rise_window)
+        if free.sum() < 5:
+            return 0, n - 1
+        level = float(np.median(f[free]))
+        spread = 1.4826 * float(np.median(np.abs(f[free] - level)))
+        low = np.flatnonzero(f[:n - 1] <= level + max(cfg.onset_margin, 2 * spread))
+        onset = int(low[-1]) if low.size else n - 1
+        up = np.flatnonzero(f[:onset] >= 0.5 * level) if level > 0 else np.zeros(0, int)
+        return (int(up[0]) if up.size else 0), onset
 
     def opening(self, link, G) -> float:
         """The opening along the hook's track G (rad or m): by the learned model when it
