@@ -50,6 +50,10 @@ class OperateConfig:
         models: the estimator's candidate link models (thesis: rigid, prismatic, revolute
             and GP).
         sigma_force: wrist force sensor noise, N.
+        time_step: the plant's discrete time step, s. 2 ms (the scene's default is 1 ms):
+            the trial's outcomes are those of 1 ms within their seed-to-seed spread, at
+            half the simulation's cost (docs/performance_articulation.md); every period of
+            the trial's systems is a multiple of it.
         base_noise: scale of the base-localisation and odometry error (see
             :class:`~mmlearn.systems.articulation.base_localization.BaseLocalizationConfig`; 1 = its
             defaults: 0.05 m RMS horizontal, 1.1 deg heading, drifting with a 60 s time
@@ -87,6 +91,7 @@ class OperateConfig:
     refit_every: int = param(10, integer=True, ge=1)
     models: list[str] = param(["rigid", "prismatic", "revolute", "gp"], factory=True)
     sigma_force: float = param(0.3, unit="N", ge=0)
+    time_step: float = param(0.002, unit="s", gt=0, le=0.01)
     base_noise: float = param(1.0, ge=0)
     base_localization: BaseLocalizationConfig = param(default_factory=BaseLocalizationConfig,
                                                       nested=BaseLocalizationConfig)
@@ -236,7 +241,7 @@ def MakeOperateDiagram(config: OperateConfig | None = None, *, meshcat=None) -> 
                    pull=rotate_yaw(seen_task.pull, e0[2]),
                    side=rotate_yaw(seen_task.side, e0[2]))
     scene_cfg = SceneConfig(arm="7dof", tool="hook", mobile_base=True, cabinet=False,
-                            mechanism=spec,
+                            mechanism=spec, time_step=cfg.time_step,
                             sensor=MarkerSensorConfig(rate_hz=5.0, cameras=[],
                                                       seed=cfg.seed))
     scene = MakeSceneDiagram(scene_cfg, meshcat=meshcat)
