@@ -15,7 +15,6 @@ from mmlearn.models.articulation.priors import PriorDatabase
 from mmlearn.models.common.config import param, validate_fields
 from mmlearn.sdf.mechanisms import KINDS, MechanismSpec, sample_mechanism
 from mmlearn.sdf.user_model import UserMechanism
-from mmlearn.systems import MarkerSensorConfig
 from mmlearn.systems.articulation.estimator import ArticulationEstimator
 from mmlearn.systems.articulation.base_localization import (BaseLocalization, BaseLocalizationConfig,
                                                             believed_from_true, initial_error, rotate_yaw)
@@ -242,8 +241,7 @@ def MakeOperateDiagram(config: OperateConfig | None = None, *, meshcat=None) -> 
                    side=rotate_yaw(seen_task.side, e0[2]))
     scene_cfg = SceneConfig(arm="7dof", tool="hook", mobile_base=True, cabinet=False,
                             mechanism=spec, time_step=cfg.time_step,
-                            sensor=MarkerSensorConfig(rate_hz=5.0, cameras=[],
-                                                      seed=cfg.seed))
+                            marker_sensor=False)
     scene = MakeSceneDiagram(scene_cfg, meshcat=meshcat)
     plant = scene.plant
     builder = DiagramBuilder()
