@@ -50,9 +50,10 @@ class OperateConfig:
             and GP).
         sigma_force: wrist force sensor noise, N.
         time_step: the plant's discrete time step, s. 2 ms (the scene's default is 1 ms):
-            the trial's outcomes are those of 1 ms within their seed-to-seed spread, at
-            half the simulation's cost (docs/performance_articulation.md); every period of
-            the trial's systems is a multiple of it.
+            half the simulation's cost, the trials' outcomes those of 1 ms within their
+            seed-to-seed spread (docs/performance_articulation.md). The periods of the
+            controller, the estimator, the localisation and the wrist sensor are multiples
+            of it (a step they are not multiples of adds simulator steps of its own).
         base_noise: scale of the base-localisation and odometry error (see
             :class:`~mmlearn.systems.articulation.base_localization.BaseLocalizationConfig`; 1 = its
             defaults: 0.05 m RMS horizontal, 1.1 deg heading, drifting with a 60 s time
