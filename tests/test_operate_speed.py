@@ -25,13 +25,25 @@ def _steps(cfg: OperateConfig, t_end: float) -> tuple[int, object]:
 
 def test_the_plant_steps_at_the_configured_time_step_and_no_event_falls_between_steps():
     n, op = _steps(OperateConfig(kind="drawer", seed=2), 0.3)
-    assert op.scene.plant.time_step() == OperateConfig().time_step == 0.002
+    assert op.scene.plant.time_step() == OperateConfig().time_step == 0.0025
     # the controller (0.1 s), estimator (0.03 s), localisation (0.05 s) and wrist sensor
     # (0.01 s) periods are multiples of the step: one simulator step per plant step
-    assert n <= round(0.3 / 0.002) + 1
+    assert n <= round(0.3 / 0.0025) + 1
     # a step they are not multiples of adds steps of its own
     n4, _ = _steps(OperateConfig(kind="drawer", seed=2, time_step=0.004), 0.3)
     assert n4 > round(0.3 / 0.004) + 1
+
+
+def test_the_dynamics_monitor_samples_on_the_plant_steps():
+    from mmlearn.systems.articulation.jam_monitor import DynamicsMonitorConfig
+
+    cfg = OperateConfig(kind="drawer", seed=2, monitor=DynamicsMonitorConfig())
+    assert cfg.monitor.period / cfg.time_step == pytest.approx(round(cfg.monitor.period
+                                                                     / cfg.time_step))
+    n, op = _steps(cfg, 0.3)
+    # (a sample time of 0.025 s and the step's multiple may differ in the last bit: a
+    # step of a few ulp now and then; a period off the steps would add 12 in 0.3 s)
+    assert op.monitor is not None and n <= round(0.3 / cfg.time_step) + 3
 
 
 def test_operate_config_rejects_a_coarse_time_step():
