@@ -300,29 +300,31 @@ def _simulate(op, *, max_time, realtime, show_progress, label) -> _Run:
     gc.collect()
     gc.freeze()
     t0, c0 = time.perf_counter(), time.process_time()
-    bar = progress_bar(int(max_time), label, unit="sim s", enabled=show_progress)
-    to_unit = math.degrees if op.mechanism.is_revolute else float
-    opening, model_port = d.GetOutputPort("mechanism_state"), d.GetOutputPort("object_model")
-    run = _Run(ctx=ctx, phase=0, q_max=0.0, model_log=[], base_err=[], wall=0.0)
-    while ctx.get_time() < max_time - 1e-9:
-        simulator.AdvanceTo(min(max_time, ctx.get_time() + 0.25))
-        bar.update(0.25)
-        bar.set_postfix_str(PHASE_NAMES[run.phase])
-        run.phase = int(d.GetOutputPort("phase").Eval(ctx)[0])
-        # the largest opening reached (the thesis: "opened it through ...")
-        run.q_max = max(run.q_max, float(opening.Eval(ctx)[0]))
-        run.base_err.append(float(np.hypot(*d.GetOutputPort("base_error").Eval(ctx)[:2])))
-        if run.phase >= PULL:
-            m = model_port.Eval(ctx)
-            run.model_log.append((round(float(ctx.get_time()), 3),
-                                  to_unit(float(opening.Eval(ctx)[0])),
-                                  m.edges[0].model.name if m is not None and m.edges
-                                  else None))
-        if run.phase == DONE:
-            break
-    bar.close()
+    try:
+        bar = progress_bar(int(max_time), label, unit="sim s", enabled=show_progress)
+        to_unit = math.degrees if op.mechanism.is_revolute else float
+        opening, model_port = d.GetOutputPort("mechanism_state"), d.GetOutputPort("object_model")
+        run = _Run(ctx=ctx, phase=0, q_max=0.0, model_log=[], base_err=[], wall=0.0)
+        while ctx.get_time() < max_time - 1e-9:
+            simulator.AdvanceTo(min(max_time, ctx.get_time() + 0.25))
+            bar.update(0.25)
+            bar.set_postfix_str(PHASE_NAMES[run.phase])
+            run.phase = int(d.GetOutputPort("phase").Eval(ctx)[0])
+            # the largest opening reached (the thesis: "opened it through ...")
+            run.q_max = max(run.q_max, float(opening.Eval(ctx)[0]))
+            run.base_err.append(float(np.hypot(*d.GetOutputPort("base_error").Eval(ctx)[:2])))
+            if run.phase >= PULL:
+                m = model_port.Eval(ctx)
+                run.model_log.append((round(float(ctx.get_time()), 3),
+                                      to_unit(float(opening.Eval(ctx)[0])),
+                                      m.edges[0].model.name if m is not None and m.edges
+                                      else None))
+            if run.phase == DONE:
+                break
+        bar.close()
+    finally:
+        gc.unfreeze()
     run.wall, run.cpu = time.perf_counter() - t0, time.process_time() - c0
-    gc.unfreeze()
     return run
 
 
