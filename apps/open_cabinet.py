@@ -238,7 +238,7 @@ def main(argv=None) -> int:
         if options or args.save_model or args.learn_dynamics:
             _print_dynamics(r)
         print(f"{r['sim_seconds']:.1f} s simulated in {r['wall_seconds']:.1f} s "
-              f"(real-time factor {r['realtime_factor']})")
+              f"(real-time factor {r['realtime_factor']}; {r['cpu_seconds']:.1f} s CPU)")
     finish_viewing(html_out=None if args.json else r["html_out"], live=args.meshcat)
     return 0 if r["success"] else 1
 

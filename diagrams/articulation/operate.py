@@ -15,7 +15,6 @@ from mmlearn.models.articulation.priors import PriorDatabase
 from mmlearn.models.common.config import param, validate_fields
 from mmlearn.sdf.mechanisms import KINDS, MechanismSpec, sample_mechanism
 from mmlearn.sdf.user_model import UserMechanism
-from mmlearn.systems import MarkerSensorConfig
 from mmlearn.systems.articulation.estimator import ArticulationEstimator
 from mmlearn.systems.articulation.base_localization import (FRAMES, BaseLocalization,
                                                             BaseLocalizationConfig,
@@ -52,6 +51,12 @@ class OperateConfig:
         models: the estimator's candidate link models (thesis: rigid, prismatic, revolute
             and GP).
         sigma_force: wrist force sensor noise, N.
+        time_step: the plant's discrete time step, s. 2.5 ms (the scene's default is
+            1 ms): 40 % of the simulation's steps, the trials' outcomes those of 1 ms within
+            their seed-to-seed spread (docs/performance_articulation.md). The periods of the
+            controller, the estimator, the localisation, the wrist sensor and the dynamics
+            monitor are multiples of it (a step they are not multiples of adds simulator
+            steps of its own).
         base_noise: scale of the base-localisation and odometry error (see
             :class:`~mmlearn.systems.articulation.base_localization.BaseLocalizationConfig`; 1 = its
             defaults: 0.05 m RMS horizontal, 1.1 deg heading, drifting with a 60 s time
@@ -95,6 +100,7 @@ class OperateConfig:
     refit_every: int = param(10, integer=True, ge=1)
     models: list[str] = param(["rigid", "prismatic", "revolute", "gp"], factory=True)
     sigma_force: float = param(0.3, unit="N", ge=0)
+    time_step: float = param(0.0025, unit="s", gt=0, le=0.01)
     base_noise: float = param(1.0, ge=0)
     base_localization: BaseLocalizationConfig = param(default_factory=BaseLocalizationConfig,
                                                       nested=BaseLocalizationConfig)
@@ -246,9 +252,8 @@ def MakeOperateDiagram(config: OperateConfig | None = None, *, meshcat=None) -> 
                    pull=rotate_yaw(seen_task.pull, e0[2]),
                    side=rotate_yaw(seen_task.side, e0[2]))
     scene_cfg = SceneConfig(arm="7dof", tool="hook", mobile_base=True, cabinet=False,
-                            mechanism=spec,
-                            sensor=MarkerSensorConfig(rate_hz=5.0, cameras=[],
-                                                      seed=cfg.seed))
+                            mechanism=spec, time_step=cfg.time_step,
+                            marker_sensor=False)
     scene = MakeSceneDiagram(scene_cfg, meshcat=meshcat)
     plant = scene.plant
     builder = DiagramBuilder()

@@ -47,6 +47,9 @@ class SceneConfig:
         kp_base, kd_base: PD gains of the mobile base joints.
         gravity_compensation: add feed-forward gravity compensation of the arm.
         sensor: the MarkerSensor's configuration (``bodies`` empty = every part of the arm).
+        marker_sensor: add the MarkerSensor (outputs ``observations`` and ``marker_stats``);
+            False for a scene whose markers nobody reads (``Scene.sensor`` is then None):
+            its 3 ms per frame are then not spent.
         camera_sensor: when set, the markers are read from rendered images instead: ArUco
             textures on the arm's marker squares, the configured RGB cameras and a
             :class:`~mmlearn.systems.common.camera_marker_sensor.CameraMarkerSensor` (same
@@ -75,6 +78,7 @@ class SceneConfig:
     kd_base: float = param(2000.0, ge=0)
     gravity_compensation: bool = param(True)
     sensor: MarkerSensorConfig = param(default_factory=MarkerSensorConfig)
+    marker_sensor: bool = param(True)
     camera_sensor: CameraMarkerSensorConfig | None = param(None, optional=True)
     failure_joints: bool = param(False)
 
@@ -100,7 +104,8 @@ class Scene:
     """What :func:`MakeSceneDiagram` built: the diagram and the parts a caller needs.
 
     ``sensor`` is a MarkerSensor, or a CameraMarkerSensor when the scene was built with
-    ``camera_sensor`` (then ``cameras`` holds its RgbdSensors).
+    ``camera_sensor`` (then ``cameras`` holds its RgbdSensors), or None when it was built
+    with ``marker_sensor=False``.
     ``command_names`` is the order of the diagram's ``command`` input port (commanded
     joint positions: the base's x, y, yaw first when there is a mobile base, then the arm's
     action signals q1, q2, ...); ``command_lower`` / ``command_upper`` are their limits.
@@ -112,7 +117,7 @@ class Scene:
     robot: object
     cabinet: object | None
     mechanism: object | None
-    sensor: MarkerSensor | CameraMarkerSensor
+    sensor: MarkerSensor | CameraMarkerSensor | None
     visualizer: object | None
     command_names: list[str]
     command_lower: np.ndarray
@@ -161,7 +166,9 @@ def MakeSceneDiagram(config: SceneConfig | None = None, *, meshcat=None):
     """Build the scene diagram.
 
     Exported ports: inputs ``command`` (commanded joint positions, see
-    :class:`Scene`) and ``applied_spatial_force`` (the plant's, optional); outputs ``observations`` (MarkerObservations), ``marker_stats``,
+    :class:`Scene`) and ``applied_spatial_force`` (the plant's, optional); outputs
+    ``observations`` (MarkerObservations) and ``marker_stats`` (unless ``marker_sensor`` is
+    False),
     ``robot_state``, ``cabinet_state`` / ``mechanism_state`` (when there is one),
     ``body_poses``, ``reaction_forces``, ``query_object``.
 
@@ -283,20 +290,21 @@ def MakeSceneDiagram(config: SceneConfig | None = None, *, meshcat=None):
         builder.Connect(friction.get_generalized_force_output_port(),
                         plant.get_applied_generalized_force_input_port())
 
-    cameras = []
+    cameras, sensor = [], None
     if markers is not None:
         from mmlearn.diagrams.common.marker_camera import AddCameraMarkerSensor
 
         sensor, cameras = AddCameraMarkerSensor(builder, scene_graph, markers=markers,
                                                 config=cfg.camera_sensor)
-    else:
+    elif cfg.marker_sensor:
         sensor = builder.AddNamedSystem("marker_sensor", MarkerSensor(
             plant=plant, config=cfg.sensor, model_instance=robot))
         builder.Connect(plant.get_body_poses_output_port(), sensor.get_body_poses_input_port())
         builder.Connect(scene_graph.get_query_output_port(),
                         sensor.get_query_object_input_port())
-    builder.ExportOutput(sensor.get_observations_output_port(), "observations")
-    builder.ExportOutput(sensor.get_stats_output_port(), "marker_stats")
+    if sensor is not None:
+        builder.ExportOutput(sensor.get_observations_output_port(), "observations")
+        builder.ExportOutput(sensor.get_stats_output_port(), "marker_stats")
     builder.ExportOutput(plant.get_state_output_port(robot), "robot_state")
     builder.ExportOutput(plant.get_body_poses_output_port(), "body_poses")
     builder.ExportOutput(plant.get_reaction_forces_output_port(), "reaction_forces")

@@ -101,6 +101,7 @@ class JointFriction(StateForceSystem):
             raise ValueError("JointFriction: v_stiction must be > 0")
         self._nq, self._nv = num_positions, num_velocities
         self._idx = np.array(list(joints.keys()), dtype=int)
+        self._state_idx = num_positions + self._idx  # the joints' velocities in [q; v]
         self._mu = np.array(list(joints.values()), dtype=float)
         if np.any(self._mu < 0):
             raise ValueError("JointFriction: friction coefficients must be >= 0")
@@ -108,7 +109,8 @@ class JointFriction(StateForceSystem):
         self._declare_state_force_ports(num_positions, num_velocities)
 
     def _calc(self, context, output):
-        v = self._state.Eval(context)[self._nq:]
-        tau = np.zeros(self._nv)
-        tau[self._idx] = -self._mu * np.tanh(v[self._idx] / self._vs)
-        output.SetFromVector(tau)
+        # evaluated at every plant step: write into the output's own vector
+        tau = output.get_mutable_value()
+        tau[:] = 0.0
+        tau[self._idx] = -self._mu * np.tanh(self._state.Eval(context)[self._state_idx]
+                                             / self._vs)

@@ -1,0 +1,85 @@
+"""What keeps the opening trial's simulation cheap: the plant's time step, no unread marker
+sensor, the garbage collector left alone during the simulation, the CPU time in the record
+(diagrams/articulation/operate.py, trials.py; docs/performance_articulation.md)."""
+
+import gc
+
+import numpy as np
+import pytest
+from pydrake.systems.analysis import Simulator
+
+from mmlearn.diagrams.articulation.operate import MakeOperateDiagram, OperateConfig
+from mmlearn.diagrams.articulation.trials import open_mechanism
+from mmlearn.diagrams.common.scene import MakeSceneDiagram, SceneConfig
+from mmlearn.systems import JointFriction
+
+
+def _steps(cfg: OperateConfig, t_end: float) -> tuple[int, object]:
+    op = MakeOperateDiagram(cfg)
+    sim = Simulator(op.diagram)
+    op.scene.set_joint_positions(sim.get_mutable_context(), op.start_command)
+    sim.Initialize()
+    sim.AdvanceTo(t_end)
+    return sim.get_num_steps_taken(), op
+
+
+def test_the_plant_steps_at_the_configured_time_step_and_no_event_falls_between_steps():
+    n, op = _steps(OperateConfig(kind="drawer", seed=2), 0.3)
+    assert op.scene.plant.time_step() == OperateConfig().time_step == 0.0025
+    # the controller (0.1 s), estimator (0.03 s), localisation (0.05 s) and wrist sensor
+    # (0.01 s) periods are multiples of the step: one simulator step per plant step
+    assert n <= round(0.3 / 0.0025) + 1
+    # a step they are not multiples of adds steps of its own
+    n4, _ = _steps(OperateConfig(kind="drawer", seed=2, time_step=0.004), 0.3)
+    assert n4 > round(0.3 / 0.004) + 1
+
+
+def test_the_dynamics_monitor_samples_on_the_plant_steps():
+    from mmlearn.systems.articulation.jam_monitor import DynamicsMonitorConfig
+
+    cfg = OperateConfig(kind="drawer", seed=2, monitor=DynamicsMonitorConfig())
+    assert cfg.monitor.period / cfg.time_step == pytest.approx(round(cfg.monitor.period
+                                                                     / cfg.time_step))
+    n, op = _steps(cfg, 0.3)
+    # (a sample time of 0.025 s and the step's multiple may differ in the last bit: a
+    # step of a few ulp now and then; a period off the steps would add 12 in 0.3 s)
+    assert op.monitor is not None and n <= round(0.3 / cfg.time_step) + 3
+
+
+def test_operate_config_rejects_a_coarse_time_step():
+    cfg = OperateConfig(time_step=0.02)
+    with pytest.raises(ValueError, match="time_step"):
+        cfg.validate()
+
+
+def test_the_opening_scene_has_no_marker_sensor_and_a_scene_can_leave_it_out():
+    op = MakeOperateDiagram(OperateConfig(kind="left_door", seed=0))
+    assert op.scene.sensor is None
+    scene = MakeSceneDiagram(SceneConfig(arm="2dof", cabinet=False, marker_sensor=False))
+    assert scene.sensor is None
+    assert not scene.diagram.HasOutputPort("observations")
+    assert not scene.diagram.HasOutputPort("marker_stats")
+    assert MakeSceneDiagram(SceneConfig(arm="2dof", cabinet=False)).diagram.HasOutputPort(
+        "observations")
+
+
+def test_a_trial_records_its_cpu_time_and_leaves_the_collector_as_it_was():
+    before = gc.get_freeze_count()
+    r = open_mechanism(kind="drawer", seed=0, max_time=0.2, show_progress=False)
+    assert gc.get_freeze_count() == before
+    assert r["sim_seconds"] == pytest.approx(0.2)
+    assert 0.0 < r["cpu_seconds"] < 60.0
+
+
+def test_joint_friction_output_is_the_same_float_values_as_the_formula():
+    rng = np.random.default_rng(3)
+    joints = {9: 1.3, 4: 0.2, 6: 0.0}
+    f = JointFriction(num_positions=10, num_velocities=10, joints=joints, v_stiction=0.02)
+    ctx = f.CreateDefaultContext()
+    idx, mu = np.array(list(joints)), np.array(list(joints.values()))
+    for _ in range(20):
+        x = rng.normal(0.0, 0.05, 20)
+        f.get_state_input_port().FixValue(ctx, x)
+        want = np.zeros(10)
+        want[idx] = -mu * np.tanh(x[10:][idx] / 0.02)
+        np.testing.assert_array_equal(f.get_generalized_force_output_port().Eval(ctx), want)
