@@ -9,7 +9,7 @@ import numpy as np
 
 from mmlearn.models.perception.detection.grid import _Grid
 from mmlearn.models.perception.detection.labels import IN_PLANE
-from mmlearn.models.perception.detection.planes import _plane_from_scatter
+from mmlearn.models.perception.detection.planes import _add_outer3, _mirror_upper3, _plane_from_scatter
 
 
 def _gap_bounded(g, x0, x1, y0, y1, out_cells=3, in_cells=1, share=0.5, line=0.7):
@@ -162,13 +162,8 @@ def _rect_sums(Pc, lab, r0, r1, c0, c1, center, e1, e2, hw, hh, sq, sqq):
                 sq[0] += q0
                 sq[1] += q1
                 sq[2] += q2
-                sqq[0, 0] += q0 * q0
-                sqq[0, 1] += q0 * q1
-                sqq[0, 2] += q0 * q2
-                sqq[1, 1] += q1 * q1
-                sqq[1, 2] += q1 * q2
-                sqq[2, 2] += q2 * q2
-    sqq[1, 0], sqq[2, 0], sqq[2, 1] = sqq[0, 1], sqq[0, 2], sqq[1, 2]
+                _add_outer3(sqq, q0, q1, q2)
+    _mirror_upper3(sqq)
     return k
 
 

@@ -53,6 +53,23 @@ def _fit_plane(P: np.ndarray, idx: np.ndarray | None = None):
     return _plane_from_scatter(c, scatter)
 
 
+@numba.njit(cache=True, nogil=True, inline="always")
+def _add_outer3(S, a, b, e):
+    """Add the upper triangle of the outer product of (a, b, e) to the 3x3 ``S``."""
+    S[0, 0] += a * a
+    S[0, 1] += a * b
+    S[0, 2] += a * e
+    S[1, 1] += b * b
+    S[1, 2] += b * e
+    S[2, 2] += e * e
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _mirror_upper3(S):
+    """Copy the upper triangle of the 3x3 ``S`` into its lower one."""
+    S[1, 0], S[2, 0], S[2, 1] = S[0, 1], S[0, 2], S[1, 2]
+
+
 @numba.njit(cache=True, nogil=True)
 def _index_scatter(P, idx, c, scatter):
     """The centroid ``c`` (3,) of the points ``P[idx]`` and their scatter about it (3, 3), in
@@ -66,14 +83,8 @@ def _index_scatter(P, idx, c, scatter):
     c[0], c[1], c[2] = s0 / k, s1 / k, s2 / k
     scatter[:] = 0.0
     for i in idx:
-        a, b, e = P[i, 0] - c[0], P[i, 1] - c[1], P[i, 2] - c[2]
-        scatter[0, 0] += a * a
-        scatter[0, 1] += a * b
-        scatter[0, 2] += a * e
-        scatter[1, 1] += b * b
-        scatter[1, 2] += b * e
-        scatter[2, 2] += e * e
-    scatter[1, 0], scatter[2, 0], scatter[2, 1] = scatter[0, 1], scatter[0, 2], scatter[1, 2]
+        _add_outer3(scatter, P[i, 0] - c[0], P[i, 1] - c[1], P[i, 2] - c[2])
+    _mirror_upper3(scatter)
 
 
 def _fit_plane_many(P: np.ndarray):
@@ -337,14 +348,8 @@ def _band_scatter(Pc, L, R0, R1, C0, C1, step, n, d, shrink, c, scatter):
                 continue
             x, y = np.float64(Pc[r, q, 0]), np.float64(Pc[r, q, 1])
             if abs(x * n[0] + y * n[1] + z * n[2] + d) <= shrink * np.float64(L[r, q]):
-                a, b, e = x - c[0], y - c[1], z - c[2]
-                scatter[0, 0] += a * a
-                scatter[0, 1] += a * b
-                scatter[0, 2] += a * e
-                scatter[1, 1] += b * b
-                scatter[1, 2] += b * e
-                scatter[2, 2] += e * e
-    scatter[1, 0], scatter[2, 0], scatter[2, 1] = scatter[0, 1], scatter[0, 2], scatter[1, 2]
+                _add_outer3(scatter, x - c[0], y - c[1], z - c[2])
+    _mirror_upper3(scatter)
     return k
 
 
