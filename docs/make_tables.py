@@ -49,7 +49,7 @@ COMMANDS = {
     "user_models.json": "python -m mmlearn.apps.operate_trials --model "
                         "tests/data/user_models/wall_cabinet.sdf --joint door_hinge --trials 5 "
                         "--seed 0 --jobs 1 --results docs/results/user_models.jsonl --json",
-    "mechanism_damping.json": "python benchmarks/bench_mechanism.py --only damping --seed 300 "
+    "mechanism_damping.json": "python benchmarks/bench_mechanism.py --only damping --seed 900 "
                               "--results docs/results/mechanism_damping.jsonl "
                               "--json docs/results/mechanism_damping.json",
     "body_schema.json": "python -m mmlearn.apps.learn_body_schema --arm 2dof --samples 50 --seed 1 --json",
