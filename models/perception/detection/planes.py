@@ -316,6 +316,16 @@ def find_planes(pts: np.ndarray, grid_rc: np.ndarray, grid_shape, cfg: FrontDete
     return planes
 
 
+@numba.njit(cache=True, nogil=True, inline="always")
+def _band_point(Pc, L, r, q, n, d, shrink):
+    """Whether pixel (r, q) of ``Pc`` is measured and within ``shrink`` L of the plane
+    ``n . p + d = 0``, and its point (float64)."""
+    x, y, z = np.float64(Pc[r, q, 0]), np.float64(Pc[r, q, 1]), np.float64(Pc[r, q, 2])
+    if not np.isfinite(z):
+        return False, x, y, z
+    return abs(x * n[0] + y * n[1] + z * n[2] + d) <= shrink * np.float64(L[r, q]), x, y, z
+
+
 @numba.njit(cache=True, nogil=True)
 def _band_scatter(Pc, L, R0, R1, C0, C1, step, n, d, shrink, c, scatter):
     """The centroid ``c`` (3,) and the scatter about it ``scatter`` (3, 3) of the measured
@@ -328,11 +338,8 @@ def _band_scatter(Pc, L, R0, R1, C0, C1, step, n, d, shrink, c, scatter):
     k = 0
     for r in range(R0, R1, step):
         for q in range(C0, C1, step):
-            z = np.float64(Pc[r, q, 2])
-            if not np.isfinite(z):
-                continue
-            x, y = np.float64(Pc[r, q, 0]), np.float64(Pc[r, q, 1])
-            if abs(x * n[0] + y * n[1] + z * n[2] + d) <= shrink * np.float64(L[r, q]):
+            inside, x, y, z = _band_point(Pc, L, r, q, n, d, shrink)
+            if inside:
                 s0 += x
                 s1 += y
                 s2 += z
@@ -343,11 +350,8 @@ def _band_scatter(Pc, L, R0, R1, C0, C1, step, n, d, shrink, c, scatter):
     c[0], c[1], c[2] = s0 / k, s1 / k, s2 / k
     for r in range(R0, R1, step):
         for q in range(C0, C1, step):
-            z = np.float64(Pc[r, q, 2])
-            if not np.isfinite(z):
-                continue
-            x, y = np.float64(Pc[r, q, 0]), np.float64(Pc[r, q, 1])
-            if abs(x * n[0] + y * n[1] + z * n[2] + d) <= shrink * np.float64(L[r, q]):
+            inside, x, y, z = _band_point(Pc, L, r, q, n, d, shrink)
+            if inside:
                 _add_outer3(scatter, x - c[0], y - c[1], z - c[2])
     _mirror_upper3(scatter)
     return k
