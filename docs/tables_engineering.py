@@ -50,6 +50,9 @@ COMMANDS = {
     # what two demonstrations teach about the place spot, with and without the prior
     "teaching_prior.json": "python benchmarks/bench_teaching_prior.py --seeds 200-209 "
                            "--priors 0,1,2,4 --json docs/results/teaching_prior.json",
+    # the impact force of the pure force controller against the switching one (Fig. 7.5-7.6)
+    "grasp_controller.json": "python benchmarks/bench_grasp_controller.py "
+                             "--json docs/results/grasp_controller.json",
 }
 
 #: the test models of tests/data/user_models: (file stem, joint, handle)
@@ -628,6 +631,59 @@ def page_blocks(load, cmd, load_runs, results_dir) -> dict:
             "opening_speed": lambda: opening_speed(load, cmd, results_dir())},
         "docs/body_schema.md": {"learner_share": b(learner_share)},
         "docs/imitation.md": {"imitation_cost": b(imitation_cost)},
-        "docs/tactile.md": {"tactile_cost": b(tactile_cost)},
         "docs/articulation.md": {"revolute_from": b(revolute_from)},
+        "docs/perception.md": {"detector_speed": b(detector_speed)},
+        "docs/tactile.md": {"tactile_cost": b(tactile_cost), "tactile_impact": b(tactile_impact),
+                            "tactile_state_given": b(tactile_state_given)},
     }
+
+
+def detector_speed(load, cmd) -> str:
+    """The front detector's CPU time per stage (speed.json's bench_front_detector) against
+    the targets."""
+    b, d = _speed(load, "bench_front_detector")
+    if not b:
+        return _missing("speed.json")
+    f = b["figures"]
+    rows = []
+    for stage, key, target in (("`planes`", "planes_cpu_ms", 5.0), ("`masks`", "masks_cpu_ms", 10.0),
+                               ("`sampling`", "sampling_cpu_ms", None),
+                               ("`optimisation`", "optimisation_cpu_ms", None),
+                               ("`check`", "check_cpu_ms", None),
+                               ("whole", "total_cpu_ms", 33.0)):
+        v = f.get(key)
+        rows.append([stage, _f(v, 1), "" if target is None else f"< {target:g}",
+                     "" if target is None or v is None else ("met" if v < target else "not met")])
+    return (_table(["stage", "CPU ms per frame", "target", "status"], rows)
+            + f"\n\nThe quick mode of `benchmarks/bench_front_detector.py` (synthetic 640 x 480 "
+              f"frames), detection rate {_f(f.get('detection_rate'), 2)}, load "
+              f"{b['load_start']:.1f}-{b['load_end']:.1f} on {d.get('cores')} cores; the whole "
+              "target is the camera's 30 Hz. Made by "
+              f"`{cmd('speed.json')}`.")
+
+
+def tactile_impact(load, cmd) -> str:
+    """The peak contact force above f_target, pure force control against switching."""
+    d = load("grasp_controller.json")
+    if not d:
+        return _missing("grasp_controller.json")
+    f = d["f_target_n"]
+    parts = [f"{r['object']}: {100 * (r['peak_n'] / f - 1):+.1f} % with the switching "
+             "controller" if r["controller"] == "switching" else
+             f"{100 * (r['peak_n'] / f - 1):+.1f} % with pure force control"
+             for r in d["rows"]]
+    return (f"- The switching controller has no impact spike: peak force above f_target "
+            f"({f:g} N) " + ", ".join(parts) + f" (`{cmd('grasp_controller.json')}`).")
+
+
+def tactile_state_given(load, cmd) -> str:
+    """The state rate given the container, simulated, against the thesis' bottles."""
+    d = load("tactile_state_sim.json")
+    if not d:
+        return _missing("tactile_state_sim.json")
+    r = d.get("state_rate_by_container", {})
+    here = ", ".join(f"{c} {_f(r.get(c), 2)}" for c in ("naked", "water") if c in r)
+    return ("- State given the container: the flimsy bottles' buckling is not modelled, so the "
+            f"Naked and water bottles' states are easier here ({here}; thesis 0.58 / 0.33; "
+            f"{d['settings']['trials']} grasps per state at {d['f_target']:g} N, "
+            f"`{cmd('tactile_state_sim.json')}`).")
