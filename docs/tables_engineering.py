@@ -53,6 +53,15 @@ COMMANDS = {
     # the impact force of the pure force controller against the switching one (Fig. 7.5-7.6)
     "grasp_controller.json": "python benchmarks/bench_grasp_controller.py "
                              "--json docs/results/grasp_controller.json",
+    # informed (expected information gain) against random grasp heights (ch. 6)
+    "tactile_informed.json": "python -m mmlearn.apps.tactile_recognition --grasps-per-class 4 "
+                             "--informed --informed-trials 20 --seed 1 --jobs 1 --results "
+                             "build/tactile_informed.jsonl --create-dirs --json",
+    # the model selected by n and by the assumed noise (Fig. 4.25-4.26), 2 runs per point
+    "articulation_bic.json": "python -m mmlearn.apps.articulation_experiments --only "
+                             "bic_n,bic_noise --runs 2 --seed 0 --jobs 1 --create-dirs "
+                             "--out-dir build/articulation_bic "
+                             "--results build/articulation_bic/results.jsonl --json",
 }
 
 #: the test models of tests/data/user_models: (file stem, joint, handle)
@@ -631,10 +640,13 @@ def page_blocks(load, cmd, load_runs, results_dir) -> dict:
             "opening_speed": lambda: opening_speed(load, cmd, results_dir())},
         "docs/body_schema.md": {"learner_share": b(learner_share)},
         "docs/imitation.md": {"imitation_cost": b(imitation_cost)},
-        "docs/articulation.md": {"revolute_from": b(revolute_from)},
+        "docs/articulation.md": {"revolute_from": b(revolute_from),
+                                 "selection_by_n_and_noise": b(selection_by_n_and_noise)},
         "docs/perception.md": {"detector_speed": b(detector_speed)},
         "docs/tactile.md": {"tactile_cost": b(tactile_cost), "tactile_impact": b(tactile_impact),
-                            "tactile_state_given": b(tactile_state_given)},
+                            "tactile_state_given": b(tactile_state_given),
+                            "icub_classifiers": b(icub_classifiers),
+                            "tactile_informed": b(tactile_informed)},
     }
 
 
@@ -687,3 +699,63 @@ def tactile_state_given(load, cmd) -> str:
             f"Naked and water bottles' states are easier here ({here}; thesis 0.58 / 0.33; "
             f"{d['settings']['trials']} grasps per state at {d['f_target']:g} N, "
             f"`{cmd('tactile_state_sim.json')}`).")
+
+
+def _runs_of(xs, labels, unit: str = "") -> str:
+    """'prismatic at 3-12, revolute at 15-21, ...': the selected model over a grid, as runs."""
+    out, start = [], 0
+    for i in range(1, len(labels) + 1):
+        if i == len(labels) or labels[i] != labels[start]:
+            a, b = xs[start], xs[i - 1]
+            out.append(f"{labels[start]} at {a:g}{unit}" if a == b else
+                       f"{labels[start]} at {a:g}-{b:g}{unit}")
+            start = i
+    return ", ".join(out)
+
+
+def selection_by_n_and_noise(load, cmd) -> str:
+    """Fig. 4.25 (the model selected by n) and Fig. 4.26 (by the assumed noise)."""
+    d = load("articulation_bic.json")
+    if not d:
+        return _missing("articulation_bic.json")
+    a, b = d["bic_n"], d["bic_noise"]
+    return ("- Configuration prior: Eq. 4.26's integral along the path instead of `n^-d`. "
+            f"Fig. 4.25 (the roll-up door, sigma {a['sigma_pos']:g} m), the model selected "
+            f"by n: {_runs_of(a['n'], a['selected'])} (thesis: revolute from n = 24-28). "
+            f"Fig. 4.26 (n = {b['n']}, true noise {b['true_sigma_pos']:g} m), by the assumed "
+            f"noise: {_runs_of(b['assumed_sigma_pos'], b['selected'], ' m')} (thesis: GP up to "
+            f"0.02 m, rigid above 0.2 m). {d['runs']} runs per point; "
+            f"`{cmd('articulation_bic.json')}`.")
+
+
+def icub_classifiers(load, cmd) -> str:
+    """The classifiers on the real iCub grasps shipped with the tests (icub_state.json)."""
+    d = load("icub_state.json")
+    if not d:
+        return _missing("icub_state.json")
+    rates = dict(d.get("compare", {}), **{d["classifier"]: d["rate"]})
+    return ("- Real iCub grasps: a random forest on the six features of Table 7.1 beside the "
+            "thesis' decision tree (thesis: 0.888 on the full data set); on the sample grasps "
+            f"of `tests/data/icub_grasp` ({d['n_test']} grasps, {d['evaluation']}): "
+            + ", ".join(f"{k} {_f(v, 3)}" for k, v in sorted(rates.items()))
+            + f" (`{cmd('icub_state.json')}`).")
+
+
+def tactile_informed(load, cmd) -> str:
+    """Informed against random grasp heights (tactile_informed.json)."""
+    d = load("tactile_informed.json")
+    if not d:
+        return ("- Informed grasp heights against random ones (thesis: +5.0 % on all objects, "
+                "+9.5 % on the industrial parts): " + _missing("tactile_informed.json"))
+    names = {"all": "all objects", "industrial": "the industrial parts"}
+    parts = []
+    for subset, what in names.items():
+        pt = ((d.get("informed") or {}).get(subset) or {}).get("paired_t", {}).get("informed")
+        if pt:
+            parts.append(f"{100 * pt['mean_difference']:+.1f} % on {what} (paired t p = "
+                         f"{pt['p']:.2g})")
+    return ("- Informed grasp heights against random ones (thesis: +5.0 % on all objects, "
+            f"+9.5 % on the industrial parts): {', '.join(parts) or 'not measured'}; "
+            f"{d['settings'].get('grasps_per_class')} grasps per class, "
+            f"{d['settings'].get('informed_trials')} recognitions per fold and strategy "
+            f"({d.get('n_grasps')} grasps; `{cmd('tactile_informed.json')}`).")
