@@ -640,6 +640,7 @@ def page_blocks(load, cmd, load_runs, results_dir) -> dict:
             "opening_speed": lambda: opening_speed(load, cmd, results_dir())},
         "docs/body_schema.md": {"learner_share": b(learner_share)},
         "docs/imitation.md": {"imitation_cost": b(imitation_cost)},
+        "docs/performance.md": {"peer_ripl_table": b(peer_ripl), "peer_gp": b(peer_gp)},
         "docs/articulation.md": {"revolute_from": b(revolute_from),
                                  "selection_by_n_and_noise": b(selection_by_n_and_noise)},
         "docs/perception.md": {"detector_speed": b(detector_speed)},
@@ -759,3 +760,17 @@ def tactile_informed(load, cmd) -> str:
             f"{d['settings'].get('grasps_per_class')} grasps per class, "
             f"{d['settings'].get('informed_trials')} recognitions per fold and strategy "
             f"({d.get('n_grasps')} grasps; `{cmd('tactile_informed.json')}`).")
+
+
+def peer_gp(load, cmd) -> str:
+    """mmlearn's GP against scikit-learn's on the same data (speed.json's bench_peer_gp)."""
+    b, d = _speed(load, "bench_peer_gp")
+    if not b:
+        return _missing("speed.json")
+    f = b["figures"]
+    return (_table(["", "CPU ms per fit (12 outputs, n = 30)"],
+                   [["mmlearn `GaussianProcess`", _f(f["gp_ms"], 1)],
+                    ["scikit-learn, one regressor per output", _f(f["sklearn_ms"], 1)]])
+            + f"\n\n{f['speedup']:.1f}x faster; the log marginal likelihoods reached differ by at "
+              f"most {f['lml_max_diff']:.1g} per output (`benchmarks/bench_peer_gp.py --quick`, "
+              f"load {b['load_start']:.1f}; made by `{cmd('speed.json')}`).")
