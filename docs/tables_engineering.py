@@ -80,7 +80,7 @@ def _f(x, digits: int = 3, unit: str = "", sign: bool = False) -> str:
     if isinstance(x, int):
         return f"{x}{unit}"
     if abs(x) < 0.5 * 10.0 ** -digits:
-        x = 0.0  # no "-0.000"
+        return f"{0.0:.{digits}f}{unit}"  # no "-0.000" / "+0.000"
     return f"{x:+.{digits}f}{unit}" if sign else f"{x:.{digits}f}{unit}"
 
 
