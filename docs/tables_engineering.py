@@ -356,30 +356,35 @@ def user_models_table(load, cmd) -> str:
         return _missing("user_models_seed10.json")
     head = ["model (joint)", "handle"]
     for s, d in sets:
-        head += [f"opened, right kind (SDF / URDF), seeds {d['seeds']}",
-                 f"radius error mean / max (SDF / URDF), seeds {d['seeds']}"]
-    rows, totals = [], []
+        head += [f"opened, seeds {d['seeds']} (SDF / URDF)", "right kind (SDF / URDF)",
+                 "radius error mean / max (SDF; URDF)"]
+    rows = []
+
+    def pair(ms, key):
+        return " / ".join("-" if ms.get(f) is None or "error" in ms[f] else
+                          f"{ms[f][key]}/{ms[f]['trials']}" for f in ("sdf", "urdf"))
+
+    def radius(m):
+        if m is None or "error" in m:
+            return "-"
+        if m.get("mean_radius_error_m") is None:
+            return ("-" if m.get("mean_opened") is None else
+                    f"- (opened {m['mean_opened']:.3f} {m.get('unit') or 'm'})")
+        return f"{m['mean_radius_error_m']:.3f} / {m['max_radius_error_m']:.3f} m"
     for stem, joint, handle in USER_MODELS:
         row = [f"{stem} ({joint})", handle]
         for _, d in sets:
             ms = {m["format"]: m for m in d["models"] if m["model"] == stem}
-            cells, errs = [], []
-            for fmt in ("sdf", "urdf"):
-                m = ms.get(fmt)
-                if m is None or "error" in m:
-                    cells.append("error" if m else "-")
-                    errs.append("-")
-                    continue
-                cells.append(f"{m['successes']}/{m['trials']}, {m['right_kind']}/{m['trials']}")
-                errs.append("-" if m.get("mean_radius_error_m") is None else
-                            f"{m['mean_radius_error_m']:.3f} / {m['max_radius_error_m']:.3f} m")
-            row += ["; ".join(cells), "; ".join(errs)]
+            row += [pair(ms, "successes"), pair(ms, "right_kind"),
+                    "; ".join(radius(ms.get(f)) for f in ("sdf", "urdf"))]
         rows.append(row)
     for _, d in sets:
         ok = [m for m in d["models"] if "error" not in m]
-        totals.append((sum(m["successes"] for m in ok), sum(m["right_kind"] for m in ok),
-                       sum(m["trials"] for m in ok)))
-    rows.append(["all", ""] + [c for o, r, n in totals for c in (f"{o}/{n}, {r}/{n}", "")])
+        n = sum(m["trials"] for m in ok)
+        rows_all = [f"{sum(m['successes'] for m in ok)}/{n}", f"{sum(m['right_kind'] for m in ok)}/{n}", ""]
+        if len(rows) == len(USER_MODELS):
+            rows.append(["all", ""])
+        rows[-1] += rows_all
     notes = []
     for s, d in sets:
         tip = [m for m in d["models"] if m.get("hook_grip", {}).get("tip")]
