@@ -202,6 +202,20 @@ def test_teaching_per_seed_comparison_counts_from_the_runs():
     assert c["mean_batch_fewest"] == pytest.approx(3.0)
 
 
+def test_the_peer_table_says_when_the_peer_was_absent():
+    """The ripl-articulation comparison still shows mmlearn's side without the peer."""
+    spec = importlib.util.spec_from_file_location("make_tables", DOCS / "make_tables.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    side = {"tracks": 10, "right": 9, "axis_err_mean_deg": 1.25, "axis_err_max_deg": 3.5,
+            "cpu_ms_median": 17.0}
+    doc = {"mmlearn": {"door": side}, "ripl": None, "ripl_skipped": "no --peer-python given"}
+    text = mod.ENGINEERING.peer_ripl(lambda name: doc, lambda name: "CMD")
+    assert "| door | 9/10 | 1.2 / 3.5 | 17.0 | - | - | - |" in text
+    assert "no --peer-python given" in text
+    assert "peer_ripl" in mod.ENGINEERING.peer_ripl(lambda name: None, lambda name: "CMD")
+
+
 def test_articulation_page_model_snippet_runs(capsys):
     """The articulation page's model example (no diagram) runs and finds the door revolute."""
     text = (DOCS / "articulation.md").read_text()
