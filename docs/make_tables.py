@@ -110,6 +110,7 @@ COMMANDS.update(ENGINEERING.COMMANDS)
 #: (``--run --only <stem>,...``)
 VOLATILE = ("operate", "operate_trials", "user_models", "mechanism_damping", "fronts",
             "perception_distance", "teaching", "imitate", "quick_tour", "speed")
+VOLATILE += ENGINEERING.VOLATILE
 
 
 def _load(name: str):
