@@ -90,7 +90,6 @@ COMMANDS = {
 }
 
 
-
 def _engineering():
     """docs/tables_engineering.py: the engineering pages' blocks and their results files."""
     import importlib.util
@@ -820,13 +819,16 @@ def examples_table() -> str:
 README_BLOCKS = {"tour": tour_table, "capabilities": capability_table, "beyond": beyond_table}
 #: generated blocks of the docs pages: page -> {name -> text}
 PAGE_BLOCKS = {"docs/examples.md": {"examples": examples_table}}
-PAGE_BLOCKS.update(ENGINEERING.page_blocks(_load, lambda name: COMMANDS[name], _teaching_runs,
-                                           lambda: RESULTS))
 
 
 PAGES = {"articulation": articulation, "body_schema": body_schema, "perception": perception,
          "tactile": tactile, "imitation": imitation, "teaching": teaching,
          "structure_prior": structure_prior}
+
+#: the engineering pages' blocks and the capability pages' measured lines
+#: (docs/tables_engineering.py)
+PAGE_BLOCKS.update(ENGINEERING.page_blocks(_load, lambda name: COMMANDS[name], _teaching_runs,
+                                           lambda: RESULTS))
 
 
 def render() -> dict[str, str]:
