@@ -89,11 +89,27 @@ COMMANDS = {
     "speed.json": "python benchmarks/run_speed.py --json docs/results/speed.json",
 }
 
+
+def _engineering():
+    """docs/tables_engineering.py: the engineering pages' blocks and their results files."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("tables_engineering",
+                                                  DOCS / "tables_engineering.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+ENGINEERING = _engineering()
+COMMANDS.update(ENGINEERING.COMMANDS)
+
 #: the results files whose figures change with the door-radius, user-model, detector,
 #: mechanism-dynamics and teaching work: re-run them after such changes
 #: (``--run --only <stem>,...``)
 VOLATILE = ("operate", "operate_trials", "user_models", "mechanism_damping", "fronts",
             "perception_distance", "teaching", "imitate", "quick_tour", "speed")
+VOLATILE += ENGINEERING.VOLATILE
 
 
 def _load(name: str):
@@ -273,7 +289,70 @@ def teaching() -> str:
             + _table(["learning", "success", "in batch's situation", "demonstrations (mean)",
                       "rounds asked before failing", "rounds failed unasked",
                       "median place error"], rows)
-            + "\n\n" + _source("teaching.json"))
+            + "\n\n" + _teaching_per_seed() + "\n\n" + _source("teaching.json"))
+
+
+def _teaching_runs(name: str = "teaching.jsonl") -> list[dict]:
+    """The records of a sweep's JSON Lines file that finished without an error, each with its
+    ``fn`` (``imitation.teach@...`` / ``imitation.reproduce@...``), ``params`` and ``seed``."""
+    path = RESULTS / name
+    if not path.is_file():
+        return []
+    out = []
+    for line in path.read_text().splitlines():
+        try:
+            r = json.loads(line)
+        except json.JSONDecodeError:
+            continue
+        if r.get("error") is None and r.get("record"):
+            out.append(dict(r["record"], fn=r["spec"]["fn"], params=r["spec"]["params"],
+                            seed=r["spec"]["seed"]))
+    return out
+
+
+def teaching_per_seed(runs: list[dict]) -> dict:
+    """Per seed: the fewest demonstrations (1-4) from which batch learning (the thesis'
+    learner) succeeded, None when none did, and the demonstrations interactive teaching used
+    (None when it did not end with a success); and the comparison over the seeds."""
+    batch, inter = {}, {}
+    for r in runs:
+        if r["fn"].startswith("imitation.teach"):
+            inter[r["seed"]] = r.get("demos_used") if r.get("success") else None
+        elif not r["params"].get("isotropic_prior") and r.get("success"):
+            n = r["params"].get("demos")
+            if n is not None and 1 <= n <= 4:
+                batch[r["seed"]] = min(n, batch.get(r["seed"], n))
+    seeds = sorted(inter)
+    fewest = {s: batch.get(s) for s in seeds}
+    with_batch = [s for s in seeds if fewest[s] is not None]
+    return {"seeds": seeds, "interactive": inter, "batch_fewest": fewest,
+            "no_more": sum(inter[s] is not None and inter[s] <= fewest[s] for s in with_batch),
+            "batch_never": [s for s in seeds if fewest[s] is None],
+            "mean_batch_fewest": (sum(fewest[s] for s in with_batch) / len(with_batch)
+                                  if with_batch else None),
+            "mean_interactive": (sum(inter[s] for s in with_batch if inter[s] is not None) /
+                                 max(1, sum(inter[s] is not None for s in with_batch)))}
+
+
+def _teaching_per_seed() -> str:
+    c = teaching_per_seed(_teaching_runs())
+    if not c["seeds"]:
+        return "(no interactive runs in `docs/results/teaching.jsonl`)"
+    rows = [[s, "-" if c["interactive"][s] is None else c["interactive"][s],
+             "never (1-4)" if c["batch_fewest"][s] is None else c["batch_fewest"][s]]
+            for s in c["seeds"]]
+    n = len(c["seeds"])
+    never = (f"; batch learning never succeeded with 1-4 demonstrations on seed(s) "
+             f"{', '.join(map(str, c['batch_never']))} (left out of the means and counted as "
+             "not compared)" if c["batch_never"] else "")
+    return ("**Per seed: interactive teaching against batch's fewest successful "
+            "demonstrations** (batch: the thesis' learner with 1, 2, 3, 4 demonstrations)\n\n"
+            + _table(["seed", "interactive: demonstrations used", "batch: fewest that succeed"],
+                     rows)
+            + f"\n\nInteractive teaching used no more demonstrations than batch's fewest "
+              f"successful in {c['no_more']}/{n} seeds; mean of batch's fewest "
+              f"{_fmt(c['mean_batch_fewest'], 1)} against interactive's "
+              f"{_fmt(c['mean_interactive'], 1)}{never}.")
 
 
 def structure_prior() -> str:
@@ -554,6 +633,11 @@ def _beyond_results() -> dict[str, str]:
     if d:
         st = _operate_stats(d)
         r["user_models"] = f"a wall cabinet's door (SDFormat) opened {st['opened']}/{st['total']}"
+    sets = [x for x in (_load("user_models_seed10.json"), _load("user_models_seed20.json")) if x]
+    ms = [m for x in sets for m in x["models"] if "error" not in m]
+    if ms:
+        r["user_models"] = (f"four test models, SDFormat and URDF, opened "
+                            f"{sum(m['successes'] for m in ms)}/{sum(m['trials'] for m in ms)}")
     d = _load("mechanism_damping.json")
     fig = (d or {}).get("summary", d or {})
     dd, dr = fig.get("damping_drawer"), fig.get("damping_left_door")
@@ -741,6 +825,11 @@ PAGES = {"articulation": articulation, "body_schema": body_schema, "perception":
          "tactile": tactile, "imitation": imitation, "teaching": teaching,
          "structure_prior": structure_prior}
 
+#: the engineering pages' blocks and the capability pages' measured lines
+#: (docs/tables_engineering.py)
+PAGE_BLOCKS.update(ENGINEERING.page_blocks(_load, lambda name: COMMANDS[name], _teaching_runs,
+                                           lambda: RESULTS))
+
 
 def render() -> dict[str, str]:
     """Page name -> the generated markdown: the small runs' tables, then the larger runs."""
@@ -864,7 +953,13 @@ def main(argv=None) -> int:
     ap.add_argument("--time-examples", action="store_true",
                     help="run the programs of examples/ and print their CPU times and output "
                          "as JSON")
+    ap.add_argument("--user-models", type=int, default=None, metavar="SEED",
+                    help="open every test model of tests/data/user_models (SDFormat and URDF, "
+                         "5 trials from SEED) and print the summary as JSON")
     args = ap.parse_args(argv)
+    if args.user_models is not None:
+        print(json.dumps(ENGINEERING.run_user_models(args.user_models, ROOT), indent=1))
+        return 0
     if args.time_tour:
         print(json.dumps(time_tour(), indent=1))
         return 0
@@ -888,7 +983,7 @@ def main(argv=None) -> int:
     pages = {}  # path -> (old text, new text) of the pages with generated blocks
     for rel, blocks in PAGE_BLOCKS.items():
         path = ROOT / rel
-        if path.is_file():
+        if path.is_file() and rel != "docs/performance.md":  # (below, with its speed tables)
             old_text = path.read_text()
             try:
                 pages[path] = (old_text, render_blocks(old_text, blocks, rel))
@@ -897,7 +992,12 @@ def main(argv=None) -> int:
                 return 2
     perf_path = ROOT / "docs" / "performance.md"
     perf = perf_path.read_text() if perf_path.is_file() else None
-    new_perf = render_performance(perf) if perf is not None else None
+    try:
+        new_perf = None if perf is None else render_performance(
+            render_blocks(perf, PAGE_BLOCKS.get("docs/performance.md", {}), "docs/performance.md"))
+    except ValueError as e:
+        print(f"make_tables: {e}", file=sys.stderr)
+        return 2
     if args.check:
         stale = [f"docs/results/tables/{p}.md" for p, text in tables.items()
                  if not (TABLES / f"{p}.md").is_file() or (TABLES / f"{p}.md").read_text() != text]

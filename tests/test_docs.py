@@ -156,6 +156,66 @@ def test_the_readme_figures_are_generated_and_checked(tmp_path, monkeypatch, cap
         mod.resolve(["nosuch"])
 
 
+def test_a_changed_results_file_changes_a_page_block(tmp_path, monkeypatch, capsys):
+    """docs/operating_accuracy.md's split table comes from radius_error_causes.json: a changed
+    file makes --check fail naming the page; regenerating writes the new figure into it."""
+    import json
+    import shutil
+    mod, results = _make_tables_in(tmp_path, monkeypatch)
+    page = tmp_path / "docs" / "operating_accuracy.md"
+    shutil.copy(DOCS / "operating_accuracy.md", page)
+    assert mod.main(["--check"]) == 0
+    d = json.loads((results / "radius_error_causes.json").read_text())
+    row = next(r for r in d["rows"] if "error_m" in r)
+    assert "+0.432" not in page.read_text()
+    row["error_m"], row["radius_m"] = 0.4321, row["true_radius_m"] + 0.4321
+    (results / "radius_error_causes.json").write_text(json.dumps(d))
+    assert mod.main(["--check"]) == 1
+    assert "docs/operating_accuracy.md" in capsys.readouterr().err
+    assert mod.main([]) == 0 and mod.main(["--check"]) == 0
+    assert "+0.432" in page.read_text()
+    (results / "radius_error_causes.json").unlink()
+    assert mod.main([]) == 0
+    assert "no `docs/results/radius_error_causes.json`" in page.read_text()
+
+
+def test_teaching_per_seed_comparison_counts_from_the_runs():
+    """Batch's fewest successful demonstrations per seed against interactive teaching's."""
+    spec = importlib.util.spec_from_file_location("make_tables", DOCS / "make_tables.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+
+    def batch(seed, n, ok, prior=None):
+        params = {"demos": n} if prior is None else {"demos": n, "isotropic_prior": prior}
+        return {"fn": "imitation.reproduce@1", "params": params, "seed": seed, "success": ok}
+
+    def teach(seed, used, ok=True):
+        return {"fn": "imitation.teach@2", "params": {}, "seed": seed, "success": ok,
+                "demos_used": used}
+    runs = [batch(1, 1, False), batch(1, 2, True), batch(1, 3, True), teach(1, 2),
+            batch(2, 1, False), batch(2, 2, False), batch(2, 3, True), teach(2, 4),
+            batch(3, 2, False), batch(3, 2, True, prior=1.0), teach(3, 3),
+            batch(4, 4, True), teach(4, 2, ok=False)]
+    c = mod.teaching_per_seed(runs)
+    assert c["batch_fewest"] == {1: 2, 2: 3, 3: None, 4: 4}
+    assert c["no_more"] == 1 and c["batch_never"] == [3]
+    assert c["mean_batch_fewest"] == pytest.approx(3.0)
+
+
+def test_the_peer_table_says_when_the_peer_was_absent():
+    """The ripl-articulation comparison still shows mmlearn's side without the peer."""
+    spec = importlib.util.spec_from_file_location("make_tables", DOCS / "make_tables.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    side = {"tracks": 10, "right": 9, "axis_err_mean_deg": 1.25, "axis_err_max_deg": 3.5,
+            "cpu_ms_median": 17.0}
+    doc = {"mmlearn": {"door": side}, "ripl": None, "ripl_skipped": "no --peer-python given"}
+    text = mod.ENGINEERING.peer_ripl(lambda name: doc, lambda name: "CMD")
+    assert "| door | 9/10 | 1.2 / 3.5 | 17.0 | - | - | - |" in text
+    assert "no --peer-python given" in text
+    assert "peer_ripl" in mod.ENGINEERING.peer_ripl(lambda name: None, lambda name: "CMD")
+
+
 def test_articulation_page_model_snippet_runs(capsys):
     """The articulation page's model example (no diagram) runs and finds the door revolute."""
     text = (DOCS / "articulation.md").read_text()
