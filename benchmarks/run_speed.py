@@ -7,7 +7,8 @@ never fails on time).
                                                           [--peer-python PYTHON]
 
 ``--peer-python``: the interpreter of an environment with ``ripl-articulation`` (see
-``bench_peer_ripl.py``), passed to that benchmark; without it the peer's column is skipped.
+``bench_peer_ripl.py``), passed to that benchmark (default: the environment variable
+``MMLEARN_PEER_PYTHON``); without either the peer's column is skipped.
 ``python benchmarks/make_performance_doc.py FILE`` writes docs/performance.md's table from the
 JSON.
 
@@ -142,8 +143,9 @@ def main(argv=None) -> int:
     ap.add_argument("--only", default=None, help="comma-separated benchmark names")
     ap.add_argument("--timeout", type=float, default=300.0, help="per benchmark, s")
     ap.add_argument("--list", action="store_true", help="list the speed benchmarks and exit")
-    ap.add_argument("--peer-python", default=None, metavar="PYTHON",
-                    help="interpreter with ripl-articulation, for bench_peer_ripl")
+    ap.add_argument("--peer-python", default=os.environ.get("MMLEARN_PEER_PYTHON") or None,
+                    metavar="PYTHON", help="interpreter with ripl-articulation, for "
+                    "bench_peer_ripl (default: $MMLEARN_PEER_PYTHON)")
     a = ap.parse_args(argv)
     if a.list:
         print("\n".join(SPEED))

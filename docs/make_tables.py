@@ -85,7 +85,9 @@ COMMANDS = {
     # every program of examples/: its CPU time and what it printed (about 2 CPU minutes)
     "examples.json": "python docs/make_tables.py --time-examples",
     # every speed benchmark in its quick mode (detector, link selection, ...): the tables of
-    # docs/performance.md between its speed-table markers (about 15 CPU minutes)
+    # docs/performance.md between its speed-table markers (about 15 CPU minutes); the peers'
+    # columns need MMLEARN_PEER_PYTHON set to the interpreter of an environment with
+    # ripl-articulation (benchmarks/bench_peer_ripl.py), else they stay empty
     "speed.json": "python benchmarks/run_speed.py --json docs/results/speed.json",
 }
 
