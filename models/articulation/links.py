@@ -11,7 +11,8 @@ from scipy.spatial.transform import Rotation
 from mmlearn.models.articulation.base import LinkModel
 from mmlearn.models.articulation.geom import (_chordal_mean, _frame_with_z, _m2rv, _pair_mul,
                                               _rotz, _rv2m, _slot_rotations, _weighted_rotation_mean)
-from mmlearn.models.articulation.kernels import revolute_errors, rotation_errors
+from mmlearn.models.articulation.kernels import (circle_hypotheses, prismatic_errors,
+                                                 revolute_errors, rotation_errors)
 
 __all__ = ["RigidModel", "PrismaticModel", "RevoluteModel"]
 
@@ -143,6 +144,17 @@ class PrismaticModel(LinkModel):
         return out
 
     def _residuals_batch(self, thetas, d, rots=None):
+        # compiled (kernels.prismatic_errors); _residuals_batch_numpy is the reference
+        has_o = thetas.shape[1] == 9 and d.has_orientation
+        e = thetas[:, 6:9] if thetas.shape[1] == 9 else thetas[:, 3:6]
+        Ra = np.ascontiguousarray(_slot_rotations(thetas, 3, rots)) if has_o else _NO_ROT
+        ep2, eo, q = prismatic_errors(np.ascontiguousarray(thetas[:, :3]),
+                                      np.ascontiguousarray(e), d.P, Ra,
+                                      d.R if has_o else _NO_ROT)
+        return ep2, (eo if has_o else None), q[..., None]
+
+    def _residuals_batch_numpy(self, thetas, d, rots=None):
+        """:meth:`_residuals_batch` in numpy (the tests' reference)."""
         has_o = thetas.shape[1] == 9
         a = thetas[:, :3]
         e = thetas[:, 6:9] if has_o else thetas[:, 3:6]
@@ -268,6 +280,22 @@ class RevoluteModel(LinkModel):
         return np.hstack([c, _m2rv(Rc), r_p, _m2rv(Rr)])
 
     def _point_hypotheses(self, d, rng, H):
+        """Circles through 3 observed positions (compiled: kernels.circle_hypotheses;
+        :meth:`_point_hypotheses_numpy` is the reference). Returns (h, 12 | 9)."""
+        n = d.n
+        idx = np.stack([rng.integers(0, n, H) for _ in range(3)], axis=1)
+        minsep = max(2.0 * self.obs.sigma_pos, 1e-9)
+        ok, center, Rc, r_p, Rr = circle_hypotheses(
+            d.P, d.R if d.has_orientation else _NO_ROT, idx, minsep)
+        if not ok.any():
+            return np.zeros((0, 12 if d.has_orientation else 9))
+        out = [center, _m2rv(Rc), r_p]
+        if d.has_orientation:
+            out.append(_m2rv(Rr))
+        return np.hstack(out)
+
+    def _point_hypotheses_numpy(self, d, rng, H):
+        """:meth:`_point_hypotheses` in numpy (the tests' reference)."""
         n = d.n
         idx = np.stack([rng.integers(0, n, H) for _ in range(3)], axis=1)
         p1, p2, p3 = d.P[idx[:, 0]], d.P[idx[:, 1]], d.P[idx[:, 2]]

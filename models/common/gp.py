@@ -601,7 +601,9 @@ class GaussianProcess:
         self._check_fitted()
         Xs = self._check_xs(Xs)
         Ks = self._kernel(self._geom(Xs, self.X), self.log_ell, self.log_sf2, self.log_sb2)
-        mean = np.einsum("ckn,cn->kc", Ks, self._alpha, optimize=True) + self.y_mean
+        # (a batched matrix-vector product; einsum's path search costs more than it at
+        # the link models' sizes)
+        mean = np.matmul(Ks, self._alpha[:, :, None])[:, :, 0].T + self.y_mean
         if not return_var:
             return mean
         V = np.linalg.solve(self._L, np.swapaxes(Ks, 1, 2))  # (m, n, k)
@@ -625,7 +627,7 @@ class GaussianProcess:
         inv_l2 = np.exp(-2.0 * np.broadcast_to(self.log_ell, (m, d)))
         diff = Xs[:, None, :] - self.X[None, :, :]  # (k, n, d)
         KA = Ks * self._alpha[:, None, :]  # (m, k, n)
-        J = -np.einsum("ckn,knd->kcd", KA, diff, optimize=True) * inv_l2[None, :, :]
+        J = -np.matmul(KA.transpose(1, 0, 2), diff) * inv_l2[None, :, :]  # (k, m, d)
         if self._has_rev(d):
             # d/dx_e prod_d (1 + cos(x_d - x'_d)) = -sin(x_e - x'_e) prod_{d != e} (...)
             C = 1.0 + np.cos(diff)  # (k, n, d)
