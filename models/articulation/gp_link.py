@@ -158,8 +158,8 @@ class GPModel(LinkModel):
             for k in range(self.dof):
                 dq = np.zeros(self.dof)
                 dq[k] = h
-                _, Rp = self._predict(q + dq)
-                _, Rm = self._predict(q - dq)
+                _, Rpm = self._predict(np.vstack([q + dq, q - dq]))  # one prediction
+                Rp, Rm = Rpm[:m], Rpm[m:]
                 J[:, 3:, k] = _m2rv(np.einsum("nab,ncb->nac", Rp, Rm)) / (2 * h)
         return J
 

@@ -462,6 +462,11 @@ class RevoluteModel(LinkModel):
             ov = (vx, vy, vz, tr)
         return q, ex, ey, ez, ov
 
+    def _angles_compiled(self, th, d):
+        """Configurations (n,) of the parameter vector th in [-pi, pi) (the first output of
+        :meth:`_angles`, by the compiled kernel; ``q_center`` must be 0)."""
+        return self._kernel_errors(th[None], d, None, False)[0][0]
+
     def _canonicalize(self, d, inl):
         th = self.theta
         Rc = _rv2m(th[3:6])
@@ -470,8 +475,7 @@ class RevoluteModel(LinkModel):
         th[:3] = th[:3] + h * Rc[:, 2]
         th[8] = 0.0
         self.q_center = 0.0
-        q, _, _, _ = self._angles(th[None], d)
-        q = q[0]
+        q = self._angles_compiled(th, d)
         inl_idx = np.flatnonzero(inl)
         first = inl_idx[0]
         # make q increase in the direction of motion: unwrap around the circular mean
@@ -485,14 +489,12 @@ class RevoluteModel(LinkModel):
             th[6:9] = F @ th[6:9]
             if self.has_orientation:
                 th[9:12] = _m2rv(F @ _rv2m(th[9:12]))
-            q, _, _, _ = self._angles(th[None], d)
-            q = q[0]
+            q = self._angles_compiled(th, d)
         # rotate c about z so that q = 0 at the first inlier observation
         q0 = q[first]
         Rc = _rv2m(th[3:6]) @ _rotz(np.array(q0))
         th[3:6] = _m2rv(Rc)
-        q, _, _, _ = self._angles(th[None], d)
-        q = q[0]
+        q = self._angles_compiled(th, d)
         mu = np.arctan2(np.sin(q[inl]).mean(), np.cos(q[inl]).mean())
         self.q_center = float(mu)
         self.theta = th

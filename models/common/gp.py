@@ -44,6 +44,7 @@ from scipy.linalg import lapack
 from scipy.optimize import _lbfgsb as _lbfgsb_module
 from scipy.optimize import minimize
 
+from mmlearn.models.common.gp_kernel import factorise as _factorise_kernel
 from mmlearn.models.common.gp_kernel import neg_lml_and_grad as _nlml_kernel
 
 _potrf = lapack.dpotrf
@@ -363,6 +364,19 @@ class GaussianProcess:
         n, m = self.Y.shape
         Kf = self._kernel(self._geom(self.X, self.X), self.log_ell, self.log_sf2, self.log_sb2)
         K = Kf + np.exp(self.log_sn2)[:, None, None] * np.eye(n)
+        # compiled (gp_kernel.factorise); where a K is not positive definite, with jitter
+        L, alpha, lml, ok = _factorise_kernel(np.ascontiguousarray(K),
+                                              np.ascontiguousarray(self.Y - self.y_mean))
+        if ok:
+            self._L, self._alpha, self._lml = L, alpha, lml
+            self._fitted = True
+            return
+        self._factorise_numpy(K)
+
+    def _factorise_numpy(self, K):
+        """:meth:`_factorise` of the kernel matrices K (m, n, n) in numpy (with growing
+        jitter where a K is not positive definite; the tests' reference)."""
+        n = K.shape[-1]
         self._L = _batched_cholesky(K)
         Yc = (self.Y - self.y_mean).T[:, :, None]  # (m, n, 1)
         z = np.linalg.solve(self._L, Yc)
