@@ -7,8 +7,9 @@ import math
 
 import numpy as np
 
-from mmlearn.models.articulation.kernels import (frame_with_z, log_rotations, rotvec_to_matrix,
-                                                 weighted_log_mean, weighted_rotation_mean)
+from mmlearn.models.articulation.kernels import (frame_with_z, log_rotations, rotation_vectors,
+                                                 rotvec_to_matrix, weighted_log_mean,
+                                                 weighted_rotation_mean)
 from mmlearn.models.common.se3 import as_pose_array, project_to_so3
 
 # --------------------------------------------------------------------------- track data
@@ -131,8 +132,18 @@ def _m2rv(M: np.ndarray) -> np.ndarray:
     ~1e-15, exact near pi as well: there the axis comes from the symmetric part)."""
     M = np.asarray(M, float)
     if M.shape == (3, 3):
-        return _m2rv(M[None])[0]
-    if M.ndim == 3:  # a batch: the compiled loop
+        return rotation_vectors(np.ascontiguousarray(M[None]))[0]
+    if M.ndim == 3:  # a batch: the compiled loop (near pi as well)
+        return rotation_vectors(np.ascontiguousarray(M))
+    return _m2rv_numpy(M)
+
+
+def _m2rv_numpy(M: np.ndarray) -> np.ndarray:
+    """:func:`_m2rv` in numpy for any stack shape (..., 3, 3) (the tests' reference)."""
+    M = np.asarray(M, float)
+    if M.ndim == 2:
+        return _m2rv_numpy(M[None])[0]
+    if M.ndim == 3:
         v, c = log_rotations(np.ascontiguousarray(M))
     else:
         v = _log_rot(M)

@@ -463,3 +463,37 @@ def weighted_rotation_mean(R, w):
     R0 = U @ Vt
     v = weighted_log_mean(R0, R, w)
     return R0 @ rotvec_to_matrix(v.reshape(1, 3))[0]
+
+
+@numba.njit(cache=True, nogil=True)
+def rotation_vectors(M):
+    """Rotation vectors (k, 3) (angle in [0, pi]) of rotation matrices M (k, 3, 3): geom._m2rv
+    one matrix at a time. :func:`log_rotations` where the angle's cosine is at least -0.99;
+    beyond it (near pi, where the skew part vanishes) the axis is the largest column of the
+    symmetric part minus cos(angle) I, signed like the skew part."""
+    v, c = log_rotations(M)
+    for i in range(M.shape[0]):
+        ci = c[i]
+        if not ci < -0.99:
+            continue
+        sx = M[i, 2, 1] - M[i, 1, 2]
+        sy = M[i, 0, 2] - M[i, 2, 0]
+        sz = M[i, 1, 0] - M[i, 0, 1]
+        ang = math.atan2(0.5 * math.sqrt(sx * sx + sy * sy + sz * sz), ci)
+        j = 0
+        best = M[i, 0, 0] - ci
+        for a in range(1, 3):
+            if M[i, a, a] - ci > best:  # (argmax: the first of equal ones)
+                best = M[i, a, a] - ci
+                j = a
+        col = np.empty(3)
+        for a in range(3):
+            col[a] = 0.5 * (M[i, a, j] + M[i, j, a]) - (ci if a == j else 0.0)
+        nc = math.sqrt(col[0] * col[0] + col[1] * col[1] + col[2] * col[2])
+        n0, n1, n2 = col[0] / nc, col[1] / nc, col[2] / nc
+        if n0 * sx + n1 * sy + n2 * sz < 0:
+            n0, n1, n2 = -n0, -n1, -n2
+        v[i, 0] = ang * n0
+        v[i, 1] = ang * n1
+        v[i, 2] = ang * n2
+    return v
