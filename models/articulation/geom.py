@@ -7,7 +7,8 @@ import math
 
 import numpy as np
 
-from mmlearn.models.articulation.kernels import (frame_with_z, log_rotations, rotation_vectors,
+from mmlearn.models.articulation.kernels import (frame_with_z, log_rotations, nearest_rotation,
+                                                 rotation_vectors,
                                                  rotvec_to_matrix, weighted_log_mean,
                                                  weighted_rotation_mean)
 from mmlearn.models.common.se3 import as_pose_array, project_to_so3
@@ -169,8 +170,9 @@ def _chordal_mean(R: np.ndarray) -> np.ndarray:
     """Chordal L2 mean of rotation matrices (n, 3, 3): the rotation nearest (Frobenius) to
     their sum, which is what scipy's ``Rotation.mean`` computes through quaternions (the
     largest eigenvector of sum q q^T maximises tr(sum_t R_t^T M)); the same values to
-    ~1e-15, without scipy's conversions."""
-    return project_to_so3(np.asarray(R, float).sum(axis=0))
+    ~1e-15, without scipy's conversions; the projection compiled:
+    kernels.nearest_rotation)."""
+    return nearest_rotation(np.ascontiguousarray(np.asarray(R, float).sum(axis=0)))
 
 
 def _weighted_rotation_mean(R: np.ndarray, w: np.ndarray) -> np.ndarray:

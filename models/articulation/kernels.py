@@ -447,6 +447,17 @@ def prismatic_errors(a, e, P, Ra, R):
 
 
 @numba.njit(cache=True, nogil=True)
+def nearest_rotation(M):
+    """The rotation nearest (Frobenius) to the 3 x 3 matrix M: se3._project_svd (SVD, the
+    determinant fixed to +1)."""
+    U, _, Vt = np.linalg.svd(M)
+    det = np.linalg.det(U @ Vt)
+    for i in range(3):
+        U[i, 2] *= det
+    return U @ Vt
+
+
+@numba.njit(cache=True, nogil=True)
 def weighted_rotation_mean(R, w):
     """geom._weighted_rotation_mean in one call: the nearest rotation R0 to the weighted sum
     sum_t w_t R_t (SVD, determinant fixed to +1), then R0 exp(weighted_log_mean(R0, R, w))
@@ -456,11 +467,7 @@ def weighted_rotation_mean(R, w):
         for i in range(3):
             for j in range(3):
                 M[i, j] += w[t] * R[t, i, j]
-    U, _, Vt = np.linalg.svd(M)
-    det = np.linalg.det(U @ Vt)
-    for i in range(3):
-        U[i, 2] *= det
-    R0 = U @ Vt
+    R0 = nearest_rotation(M)
     v = weighted_log_mean(R0, R, w)
     return R0 @ rotvec_to_matrix(v.reshape(1, 3))[0]
 

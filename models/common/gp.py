@@ -145,7 +145,7 @@ def _minimize_lbfgsb(fun, x0, args, bounds, maxiter: int, ftol: float, gtol: flo
     factr = ftol / np.finfo(float).eps
     iterations = evaluations = 0
     while True:
-        g = g.astype(np.float64)
+        g = np.asarray(g, dtype=np.float64)
         try:
             setulb(m, x, lo, hi, nbd, f, g, factr, gtol, wa, iwa, task, lsave, isave, dsave,
                    maxls, ln_task)
