@@ -19,6 +19,14 @@ __all__ = ["RigidModel", "PrismaticModel", "RevoluteModel"]
 _NO_ROT = np.zeros((0, 3, 3))  # the kernels' "no orientation"
 
 
+def _cross(a, b):
+    """np.cross(a, b) of a vector (3,) and vectors (3,) or (k, 3): the same products and
+    differences, without np.cross's broadcasting machinery."""
+    a0, a1, a2 = (float(x) for x in a)
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
+
+
 # --------------------------------------------------------------------------- rigid
 class RigidModel(LinkModel):
     """Fixed relative transform (Eq. 4.18). theta = [p (3), rotvec (3)] ([p] position-only)."""
@@ -334,7 +342,7 @@ class RevoluteModel(LinkModel):
         Rc_old = _rv2m(theta[3:6])
         nrm = Vt[2] if np.dot(Vt[2], Rc_old[:, 2]) >= 0 else -Vt[2]
         # Kasa circle fit in the plane
-        u, v = Vt[0], np.cross(nrm, Vt[0])
+        u, v = Vt[0], _cross(nrm, Vt[0])
         x = (X - mu) @ u
         y = (X - mu) @ v
         A = np.stack([2 * x, 2 * y, np.ones(m)], axis=1)
@@ -538,7 +546,7 @@ class RevoluteModel(LinkModel):
         P = self._forward_positions(qq[:, 0])[2]
         ax = self.axis
         J = np.zeros((qq.shape[0], 6 if self.has_orientation else 3, 1))
-        J[:, :3, 0] = np.cross(ax, P - self.theta[:3])
+        J[:, :3, 0] = _cross(ax, P - self.theta[:3])
         if self.has_orientation:
             J[:, 3:, 0] = ax
         return J
