@@ -156,7 +156,8 @@ def _minimize_lbfgsb(fun, x0, args, bounds, maxiter: int, ftol: float, gtol: flo
                             options={"maxiter": maxiter, "ftol": ftol, "gtol": gtol})
         if task[0] == 3:  # evaluate f and g at x
             f, g = fun(np.copy(x), *args)
-            g = np.atleast_1d(g)
+            if not (isinstance(g, np.ndarray) and g.ndim == 1):
+                g = np.atleast_1d(g)
             evaluations += 1
         elif task[0] == 1:  # a new iterate
             iterations += 1
@@ -295,6 +296,24 @@ class GaussianProcess:
         if ok:
             return f, g
         return self._neg_lml_and_grad_numpy(theta, G, Yc, d_ell)
+
+    def _objective(self, G, Yc, d_ell):
+        """theta -> :meth:`_neg_lml_and_grad` (theta, G, Yc, d_ell), with the arrays made
+        contiguous once for all the optimiser's evaluations (the same values)."""
+        D2, P = G
+        rev = P is not None
+        D2c, Ycc = np.ascontiguousarray(D2), np.ascontiguousarray(Yc)
+        Pc = np.ascontiguousarray(P) if rev else _NO_P
+        width, ard = self._width(d_ell, D2.shape[0]), bool(self.ard)
+
+        def fun(theta):
+            f, g, ok = _nlml_kernel(np.ascontiguousarray(theta, dtype=float), D2c, Pc, Ycc,
+                                    d_ell, width, ard, rev)
+            if ok:
+                return f, g
+            return self._neg_lml_and_grad_numpy(theta, G, Yc, d_ell)
+
+        return fun
 
     def _neg_lml_and_grad_numpy(self, theta, G, Yc, d_ell):
         """:meth:`_neg_lml_and_grad` in numpy and LAPACK (one Cholesky + inverse per output,
@@ -517,9 +536,9 @@ class GaussianProcess:
                     yvar * 10.0 ** (-4 - 2 * r), noise_min)), sb2_default if rev else None)
                 starts.append(np.clip(t.ravel(), bounds[:, 0], bounds[:, 1]))
             best, best_f = None, None
+            objective = self._objective(G, Yc, d_ell)
             for t0 in starts:
-                res = _minimize_lbfgsb(self._neg_lml_and_grad, t0, (G, Yc, d_ell), bounds,
-                                       maxiter, ftol, 1e-5)
+                res = _minimize_lbfgsb(objective, t0, (), bounds, maxiter, ftol, 1e-5)
                 if len(starts) == 1 and not (ell_starts and d_ell):
                     return res.x  # nothing to compare per output
                 f = self._per_output_nlml(res.x, G, Yc, d_ell)
