@@ -9,7 +9,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mmlearn.models.articulation.geom import _Data, _log_rot, _pair_mul, _rot_err, _rv2m
+from mmlearn.models.articulation.geom import (_Data, _frame_with_z, _frame_with_z_numpy, _log_rot,
+                                              _m2rv, _m2rv_numpy, _pair_mul, _rot_err, _rv2m,
+                                              _weighted_rotation_mean,
+                                              _weighted_rotation_mean_numpy)
 from mmlearn.models.articulation.kernels import rotation_errors, weighted_log_mean
 from mmlearn.models.articulation.link import ObservationModel, em_gamma, make_model
 from mmlearn.models.articulation.obs import _gamma_map
@@ -124,6 +127,52 @@ def test_gp_objective_falls_back_where_the_kernel_is_singular():
     f, g = gp._neg_lml_and_grad(th, G, Yc, 1)
     f0, g0 = gp._neg_lml_and_grad_numpy(th, G, Yc, 1)
     assert f == f0 and np.array_equal(g, g0)
+
+
+@pytest.mark.parametrize("position_only", [False, True])
+def test_hypotheses_and_prismatic_errors_match_numpy(position_only):
+    Z = simulate_link("microwave", 40, rng=3).Z
+    d = _Data(Z[:, :3] if position_only else Z)
+    rev = make_model("revolute", obs=OBS)
+    a = rev._point_hypotheses(d, np.random.default_rng(1), 100)
+    b = rev._point_hypotheses_numpy(d, np.random.default_rng(1), 100)
+    assert a.shape == b.shape and a.shape[0] > 50
+    assert np.allclose(a, b, rtol=1e-12, atol=1e-12)
+    pri = make_model("prismatic", obs=OBS).fit(d, rng=0)
+    th = pri._hypotheses(d, np.random.default_rng(2), 60)
+    for x, y in zip(pri._residuals_batch(th, d), pri._residuals_batch_numpy(th, d)):
+        assert (x is None and y is None) or np.allclose(x, y, rtol=1e-12, atol=1e-14)
+
+
+def test_rotation_helpers_match_numpy():
+    rng = np.random.default_rng(8)
+    rv = rng.normal(0.0, 1.0, (400, 3))
+    rv *= (rng.uniform(0.0, np.pi, 400) / np.linalg.norm(rv, axis=1))[:, None]
+    rv[:50] *= ((np.pi - rng.uniform(0.0, 1e-6, 50)) / np.linalg.norm(rv[:50], axis=1))[:, None]
+    M = _rv2m(rv)
+    M[0], M[1] = np.diag([1.0, -1.0, -1.0]), np.eye(3)  # exactly pi and 0
+    assert np.array_equal(_m2rv(M), _m2rv_numpy(M))
+    assert np.array_equal(_m2rv(M[7]), _m2rv_numpy(M[7]))
+    w = rng.uniform(0.0, 1.0, 400)
+    assert np.allclose(_weighted_rotation_mean(M[50:], w[50:]),
+                       _weighted_rotation_mean_numpy(M[50:], w[50:]), atol=1e-14)
+    axis, hint = rng.normal(size=(30, 3)), rng.normal(size=(30, 3))
+    hint[:3] = 2.0 * axis[:3]  # no perpendicular part: the fallback direction
+    axis[1] = [0.95, 0.1, 0.0]
+    assert np.allclose(_frame_with_z(axis, hint), _frame_with_z_numpy(axis, hint), atol=1e-15)
+
+
+def test_gp_factorisation_matches_numpy():
+    Z = simulate_link("microwave", 30, rng=1).Z
+    gp = make_model("gp", obs=OBS).fit(Z, rng=0).gp
+    L, alpha, lml = gp._L, gp._alpha, gp._lml
+    n = gp.X.shape[0]
+    K = gp._kernel(gp._geom(gp.X, gp.X), gp.log_ell, gp.log_sf2, gp.log_sb2)
+    gp._factorise_numpy(K + np.exp(gp.log_sn2)[:, None, None] * np.eye(n))
+    # (to rounding, amplified by the kernel matrices' conditioning: sn2 ~ sigma^2)
+    assert np.allclose(L, gp._L, rtol=0.0, atol=1e-11 * np.abs(L).max())
+    assert np.allclose(alpha, gp._alpha, rtol=0.0, atol=1e-8 * np.abs(alpha).max())
+    assert np.allclose(lml, gp._lml, rtol=1e-10)
 
 
 def test_range_jacobians_follow_a_refit():

@@ -107,11 +107,13 @@ class LinkModel:
         return d
 
     def fit(self, Z, *, rng=None) -> "LinkModel":
-        """Fit to a track of relative poses ((n, 7), (n, 4, 4) or (n, 3)) by MLESAC and
-        the model's refinement (``refinement``). ``rng``: numpy Generator or seed. Returns self."""
+        """Fit to a track of relative poses ((n, 7), (n, 4, 4) or (n, 3); or the track's
+        arrays, ``geom._Data``, which selection builds once for all its candidates) by MLESAC
+        and the model's refinement (``refinement``). ``rng``: numpy Generator or seed.
+        Returns self."""
         t0 = time.perf_counter()
         rng = np.random.default_rng(rng)
-        d = _Data(Z)
+        d = Z if isinstance(Z, _Data) else _Data(Z)
         if d.n < max(3, self.min_samples):
             raise ValueError(
                 f"{self.name}: track too short ({d.n} observations; need at least "
@@ -119,7 +121,7 @@ class LinkModel:
         self.fitted = False
         self._range_jac_key = self._range_jac = None
         self.has_orientation = d.has_orientation
-        self.obs_fit = self.obs.with_volume_from(d.P)
+        self.obs_fit = d.observation_model(self.obs)
         self.n_train = d.n
         self._fit_impl(d, rng)
         self.fitted = True

@@ -7,7 +7,10 @@ import math
 
 import numpy as np
 
-from mmlearn.models.articulation.kernels import log_rotations, rotvec_to_matrix, weighted_log_mean
+from mmlearn.models.articulation.kernels import (frame_with_z, log_rotations, nearest_rotation,
+                                                 rotation_vectors,
+                                                 rotvec_to_matrix, weighted_log_mean,
+                                                 weighted_rotation_mean)
 from mmlearn.models.common.se3 import as_pose_array, project_to_so3
 
 # --------------------------------------------------------------------------- track data
@@ -19,10 +22,19 @@ class _Data:
         self.P = np.ascontiguousarray(pa.positions, float)
         self.R = None if pa.rotations is None else pa.rotations.as_matrix()
         self.n = self.P.shape[0]
+        self._obs_fit = None
 
     @property
     def has_orientation(self):
         return self.R is not None
+
+    def observation_model(self, obs):
+        """``obs.with_volume_from(P)``, kept for the next model fitted to the same track
+        with the same ``obs`` (the candidates of one selection share it; it is never
+        modified)."""
+        if self._obs_fit is None or self._obs_fit[0] is not obs:
+            self._obs_fit = (obs, obs.with_volume_from(self.P))
+        return self._obs_fit[1]
 
 
 def _rot_err(M: np.ndarray) -> np.ndarray:
@@ -121,8 +133,18 @@ def _m2rv(M: np.ndarray) -> np.ndarray:
     ~1e-15, exact near pi as well: there the axis comes from the symmetric part)."""
     M = np.asarray(M, float)
     if M.shape == (3, 3):
-        return _m2rv(M[None])[0]
-    if M.ndim == 3:  # a batch: the compiled loop
+        return rotation_vectors(np.ascontiguousarray(M[None]))[0]
+    if M.ndim == 3:  # a batch: the compiled loop (near pi as well)
+        return rotation_vectors(np.ascontiguousarray(M))
+    return _m2rv_numpy(M)
+
+
+def _m2rv_numpy(M: np.ndarray) -> np.ndarray:
+    """:func:`_m2rv` in numpy for any stack shape (..., 3, 3) (the tests' reference)."""
+    M = np.asarray(M, float)
+    if M.ndim == 2:
+        return _m2rv_numpy(M[None])[0]
+    if M.ndim == 3:
         v, c = log_rotations(np.ascontiguousarray(M))
     else:
         v = _log_rot(M)
@@ -148,15 +170,24 @@ def _chordal_mean(R: np.ndarray) -> np.ndarray:
     """Chordal L2 mean of rotation matrices (n, 3, 3): the rotation nearest (Frobenius) to
     their sum, which is what scipy's ``Rotation.mean`` computes through quaternions (the
     largest eigenvector of sum q q^T maximises tr(sum_t R_t^T M)); the same values to
-    ~1e-15, without scipy's conversions."""
-    return project_to_so3(np.asarray(R, float).sum(axis=0))
+    ~1e-15, without scipy's conversions; the projection compiled:
+    kernels.nearest_rotation)."""
+    return nearest_rotation(np.ascontiguousarray(np.asarray(R, float).sum(axis=0)))
 
 
 def _weighted_rotation_mean(R: np.ndarray, w: np.ndarray) -> np.ndarray:
     """Weighted geodesic (Karcher) mean of rotations R (n, 3, 3) with weights w (n,): the
     minimiser of sum_t w_t angle(R^T R_t)^2, i.e. the exact M-step of the orientation noise
     model. Start from the weighted chordal mean (closed form), then one Gauss-Newton step on
-    the manifold (the two agree to second order in the spread)."""
+    the manifold (the two agree to second order in the spread). Compiled
+    (kernels.weighted_rotation_mean); :func:`_weighted_rotation_mean_numpy` is the
+    reference."""
+    return weighted_rotation_mean(np.ascontiguousarray(R, dtype=float),
+                                  np.ascontiguousarray(w, dtype=float))
+
+
+def _weighted_rotation_mean_numpy(R: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """:func:`_weighted_rotation_mean` in numpy (the tests' reference)."""
     R0 = project_to_so3(np.einsum("n,nij->ij", w, R))
     # sum_t w_t log(R0^T R_t) / sum_t w_t, compiled (kernels.weighted_log_mean)
     return R0 @ _rv2m(weighted_log_mean(np.ascontiguousarray(R0), R,
@@ -165,7 +196,16 @@ def _weighted_rotation_mean(R: np.ndarray, w: np.ndarray) -> np.ndarray:
 
 def _frame_with_z(axis: np.ndarray, xhint: np.ndarray) -> np.ndarray:
     """(H, 3, 3) rotation matrices whose z column is ``axis`` and x column lies along the
-    component of ``xhint`` perpendicular to it."""
+    component of ``xhint`` perpendicular to it (compiled for (H, 3) stacks:
+    kernels.frame_with_z)."""
+    if np.ndim(axis) == 2 and np.shape(axis) == np.shape(xhint):
+        return frame_with_z(np.ascontiguousarray(axis, dtype=float),
+                            np.ascontiguousarray(xhint, dtype=float))
+    return _frame_with_z_numpy(axis, xhint)
+
+
+def _frame_with_z_numpy(axis: np.ndarray, xhint: np.ndarray) -> np.ndarray:
+    """:func:`_frame_with_z` in numpy (any broadcastable shapes; the tests' reference)."""
     z = axis / np.linalg.norm(axis, axis=-1, keepdims=True)
     x = xhint - np.sum(xhint * z, axis=-1, keepdims=True) * z
     nx = np.linalg.norm(x, axis=-1, keepdims=True)

@@ -78,6 +78,7 @@ class GPModel(LinkModel):
         self.R_ref = _chordal_mean(d.R) if d.has_orientation else np.eye(3)
         Y = self._targets(d.P, d.R)
         F = self._features_from_targets(Y)
+        self._fit_features = (d, F)  # for _finalize's residuals on the same track
         self.f_mean = F.mean(axis=0)
         if self.reduction == "pca":
             _, S, Vt = np.linalg.svd(F - self.f_mean, full_matrices=False)
@@ -117,8 +118,15 @@ class GPModel(LinkModel):
         self.theta = np.zeros(0)
         self.gamma = 0.0  # provisional; EM in _finalize
 
+    def _finalize(self, d):
+        try:
+            super()._finalize(d)
+        finally:
+            self._fit_features = None
+
     def _inverse_raw(self, d):
-        F = self._features(d.P, d.R)
+        cached = getattr(self, "_fit_features", None)
+        F = cached[1] if cached is not None and cached[0] is d else self._features(d.P, d.R)
         if self._lle is None:
             return (F - self.f_mean) @ self.components.T
         return self._lle.transform(F)
@@ -158,8 +166,8 @@ class GPModel(LinkModel):
             for k in range(self.dof):
                 dq = np.zeros(self.dof)
                 dq[k] = h
-                _, Rp = self._predict(q + dq)
-                _, Rm = self._predict(q - dq)
+                _, Rpm = self._predict(np.vstack([q + dq, q - dq]))  # one prediction
+                Rp, Rm = Rpm[:m], Rpm[m:]
                 J[:, 3:, k] = _m2rv(np.einsum("nab,ncb->nac", Rp, Rm)) / (2 * h)
         return J
 

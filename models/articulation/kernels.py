@@ -332,3 +332,175 @@ def em_gamma_full(log_in, log_out, gamma0, w, iters, tol, want_resp):
                 resp[h, t] = math.exp(a - lse)
         ll[h] = s
     return g, ll, resp
+
+
+@numba.njit(cache=True, nogil=True)
+def frame_with_z(axis, xhint):
+    """geom._frame_with_z one frame at a time: (H, 3, 3) rotations whose z column is
+    ``axis`` (H, 3) normalised and whose x column lies along the part of ``xhint`` (H, 3)
+    perpendicular to it (along e_x or e_y made perpendicular where that part vanishes)."""
+    H = axis.shape[0]
+    out = np.empty((H, 3, 3))
+    for h in range(H):
+        nz = math.sqrt(axis[h, 0] * axis[h, 0] + axis[h, 1] * axis[h, 1]
+                       + axis[h, 2] * axis[h, 2])
+        z0, z1, z2 = axis[h, 0] / nz, axis[h, 1] / nz, axis[h, 2] / nz
+        dz = xhint[h, 0] * z0 + xhint[h, 1] * z1 + xhint[h, 2] * z2
+        x0, x1, x2 = xhint[h, 0] - dz * z0, xhint[h, 1] - dz * z1, xhint[h, 2] - dz * z2
+        nx = math.sqrt(x0 * x0 + x1 * x1 + x2 * x2)
+        if nx > 1e-12:
+            x0, x1, x2 = x0 / nx, x1 / nx, x2 / nx
+        else:
+            a0, a1 = (1.0, 0.0) if abs(z0) < 0.9 else (0.0, 1.0)
+            da = a0 * z0 + a1 * z1
+            x0, x1, x2 = a0 - da * z0, a1 - da * z1, -da * z2
+            na = math.sqrt(x0 * x0 + x1 * x1 + x2 * x2)
+            x0, x1, x2 = x0 / na, x1 / na, x2 / na
+        out[h, 0, 0], out[h, 1, 0], out[h, 2, 0] = x0, x1, x2
+        out[h, 0, 1] = z1 * x2 - z2 * x1
+        out[h, 1, 1] = z2 * x0 - z0 * x2
+        out[h, 2, 1] = z0 * x1 - z1 * x0
+        out[h, 0, 2], out[h, 1, 2], out[h, 2, 2] = z0, z1, z2
+    return out
+
+
+@numba.njit(cache=True, nogil=True)
+def circle_hypotheses(P, R, idx, minsep):
+    """The revolute model's 3-point hypotheses (links.RevoluteModel._point_hypotheses) for
+    the index triples idx (H, 3) into the positions P (n, 3): which triples give a circle
+    (the three points pairwise farther apart than ``minsep``, not collinear), and for
+    those, in order, the centre (k, 3), the centre frame Rc (k, 3, 3) (z along the
+    circle's normal, x towards the first point), the first point in that frame (k, 3) and,
+    when R (n, 3, 3) is not empty, the first orientation in it, Rc^T R (k, 3, 3)."""
+    H = idx.shape[0]
+    ok = np.zeros(H, np.bool_)
+    center = np.empty((H, 3))
+    axb = np.empty((H, 3))
+    rel = np.empty((H, 3))
+    k = 0
+    for h in range(H):
+        i1, i2, i3 = idx[h, 0], idx[h, 1], idx[h, 2]
+        a0, a1, a2 = P[i1, 0] - P[i3, 0], P[i1, 1] - P[i3, 1], P[i1, 2] - P[i3, 2]
+        b0, b1, b2 = P[i2, 0] - P[i3, 0], P[i2, 1] - P[i3, 1], P[i2, 2] - P[i3, 2]
+        c0, c1, c2 = a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
+        nn = c0 * c0 + c1 * c1 + c2 * c2
+        aa = a0 * a0 + a1 * a1 + a2 * a2
+        bb = b0 * b0 + b1 * b1 + b2 * b2
+        la, lb = math.sqrt(aa), math.sqrt(bb)
+        e0, e1, e2 = P[i1, 0] - P[i2, 0], P[i1, 1] - P[i2, 1], P[i1, 2] - P[i2, 2]
+        l12 = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
+        if not (nn > 1e-18 and la > minsep and lb > minsep and l12 > minsep
+                and math.sqrt(nn) > 1e-6 * la * lb):
+            continue
+        ok[h] = True
+        v0, v1, v2 = aa * b0 - bb * a0, aa * b1 - bb * a1, aa * b2 - bb * a2
+        n0, n1, n2 = v1 * c2 - v2 * c1, v2 * c0 - v0 * c2, v0 * c1 - v1 * c0
+        center[k, 0] = P[i3, 0] + n0 / (2 * nn)
+        center[k, 1] = P[i3, 1] + n1 / (2 * nn)
+        center[k, 2] = P[i3, 2] + n2 / (2 * nn)
+        axb[k, 0], axb[k, 1], axb[k, 2] = c0, c1, c2
+        for j in range(3):
+            rel[k, j] = P[i1, j] - center[k, j]
+        k += 1
+    Rc = frame_with_z(axb[:k], rel[:k])
+    r_p = np.empty((k, 3))
+    has_o = R.shape[0] > 0
+    Rr = np.empty((k if has_o else 0, 3, 3))
+    j = 0
+    for h in range(H):
+        if not ok[h]:
+            continue
+        for a in range(3):
+            r_p[j, a] = Rc[j, 0, a] * rel[j, 0] + Rc[j, 1, a] * rel[j, 1] + Rc[j, 2, a] * rel[j, 2]
+        if has_o:
+            i1 = idx[h, 0]
+            for a in range(3):
+                for c in range(3):
+                    Rr[j, a, c] = (Rc[j, 0, a] * R[i1, 0, c] + Rc[j, 1, a] * R[i1, 1, c]
+                                   + Rc[j, 2, a] * R[i1, 2, c])
+        j += 1
+    return ok, center[:k], Rc, r_p, Rr
+
+
+@numba.njit(cache=True, nogil=True)
+def prismatic_errors(a, e, P, Ra, R):
+    """Errors of the prismatic model (links.PrismaticModel._residuals_batch) for H
+    parameter sets: origins a (H, 3), axes e (H, 3) (normalised here), origin rotations
+    Ra (H, 3, 3) (ignored when R is empty), observations P (n, 3), R (n, 3, 3) or
+    (0, 3, 3). Returns the squared distances to the line (H, n), the orientation errors
+    (H, n) (zeros without R) and the configurations q (H, n)."""
+    H = a.shape[0]
+    n = P.shape[0]
+    ep2 = np.empty((H, n))
+    q = np.empty((H, n))
+    for h in range(H):
+        ne = math.sqrt(e[h, 0] * e[h, 0] + e[h, 1] * e[h, 1] + e[h, 2] * e[h, 2])
+        e0, e1, e2 = e[h, 0] / ne, e[h, 1] / ne, e[h, 2] / ne
+        for t in range(n):
+            d0, d1, d2 = P[t, 0] - a[h, 0], P[t, 1] - a[h, 1], P[t, 2] - a[h, 2]
+            qt = d0 * e0 + d1 * e1 + d2 * e2
+            p0, p1, p2 = d0 - qt * e0, d1 - qt * e1, d2 - qt * e2
+            q[h, t] = qt
+            ep2[h, t] = p0 * p0 + p1 * p1 + p2 * p2
+    eo = rotation_errors(Ra, R) if R.shape[0] > 0 else np.zeros((H, n))
+    return ep2, eo, q
+
+
+@numba.njit(cache=True, nogil=True)
+def nearest_rotation(M):
+    """The rotation nearest (Frobenius) to the 3 x 3 matrix M: se3._project_svd (SVD, the
+    determinant fixed to +1)."""
+    U, _, Vt = np.linalg.svd(M)
+    det = np.linalg.det(U @ Vt)
+    for i in range(3):
+        U[i, 2] *= det
+    return U @ Vt
+
+
+@numba.njit(cache=True, nogil=True)
+def weighted_rotation_mean(R, w):
+    """geom._weighted_rotation_mean in one call: the nearest rotation R0 to the weighted sum
+    sum_t w_t R_t (SVD, determinant fixed to +1), then R0 exp(weighted_log_mean(R0, R, w))
+    (Rodrigues). R (n, 3, 3), w (n,)."""
+    M = np.zeros((3, 3))
+    for t in range(R.shape[0]):
+        for i in range(3):
+            for j in range(3):
+                M[i, j] += w[t] * R[t, i, j]
+    R0 = nearest_rotation(M)
+    v = weighted_log_mean(R0, R, w)
+    return R0 @ rotvec_to_matrix(v.reshape(1, 3))[0]
+
+
+@numba.njit(cache=True, nogil=True)
+def rotation_vectors(M):
+    """Rotation vectors (k, 3) (angle in [0, pi]) of rotation matrices M (k, 3, 3): geom._m2rv
+    one matrix at a time. :func:`log_rotations` where the angle's cosine is at least -0.99;
+    beyond it (near pi, where the skew part vanishes) the axis is the largest column of the
+    symmetric part minus cos(angle) I, signed like the skew part."""
+    v, c = log_rotations(M)
+    for i in range(M.shape[0]):
+        ci = c[i]
+        if not ci < -0.99:
+            continue
+        sx = M[i, 2, 1] - M[i, 1, 2]
+        sy = M[i, 0, 2] - M[i, 2, 0]
+        sz = M[i, 1, 0] - M[i, 0, 1]
+        ang = math.atan2(0.5 * math.sqrt(sx * sx + sy * sy + sz * sz), ci)
+        j = 0
+        best = M[i, 0, 0] - ci
+        for a in range(1, 3):
+            if M[i, a, a] - ci > best:  # (argmax: the first of equal ones)
+                best = M[i, a, a] - ci
+                j = a
+        col = np.empty(3)
+        for a in range(3):
+            col[a] = 0.5 * (M[i, a, j] + M[i, j, a]) - (ci if a == j else 0.0)
+        nc = math.sqrt(col[0] * col[0] + col[1] * col[1] + col[2] * col[2])
+        n0, n1, n2 = col[0] / nc, col[1] / nc, col[2] / nc
+        if n0 * sx + n1 * sy + n2 * sz < 0:
+            n0, n1, n2 = -n0, -n1, -n2
+        v[i, 0] = ang * n0
+        v[i, 1] = ang * n1
+        v[i, 2] = ang * n2
+    return v

@@ -11,11 +11,20 @@ from scipy.spatial.transform import Rotation
 from mmlearn.models.articulation.base import LinkModel
 from mmlearn.models.articulation.geom import (_chordal_mean, _frame_with_z, _m2rv, _pair_mul,
                                               _rotz, _rv2m, _slot_rotations, _weighted_rotation_mean)
-from mmlearn.models.articulation.kernels import revolute_errors, rotation_errors
+from mmlearn.models.articulation.kernels import (circle_hypotheses, prismatic_errors,
+                                                 revolute_errors, rotation_errors)
 
 __all__ = ["RigidModel", "PrismaticModel", "RevoluteModel"]
 
 _NO_ROT = np.zeros((0, 3, 3))  # the kernels' "no orientation"
+
+
+def _cross(a, b):
+    """np.cross(a, b) of a vector (3,) and vectors (3,) or (k, 3): the same products and
+    differences, without np.cross's broadcasting machinery."""
+    a0, a1, a2 = (float(x) for x in a)
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
 
 
 # --------------------------------------------------------------------------- rigid
@@ -143,6 +152,17 @@ class PrismaticModel(LinkModel):
         return out
 
     def _residuals_batch(self, thetas, d, rots=None):
+        # compiled (kernels.prismatic_errors); _residuals_batch_numpy is the reference
+        has_o = thetas.shape[1] == 9 and d.has_orientation
+        e = thetas[:, 6:9] if thetas.shape[1] == 9 else thetas[:, 3:6]
+        Ra = np.ascontiguousarray(_slot_rotations(thetas, 3, rots)) if has_o else _NO_ROT
+        ep2, eo, q = prismatic_errors(np.ascontiguousarray(thetas[:, :3]),
+                                      np.ascontiguousarray(e), d.P, Ra,
+                                      d.R if has_o else _NO_ROT)
+        return ep2, (eo if has_o else None), q[..., None]
+
+    def _residuals_batch_numpy(self, thetas, d, rots=None):
+        """:meth:`_residuals_batch` in numpy (the tests' reference)."""
         has_o = thetas.shape[1] == 9
         a = thetas[:, :3]
         e = thetas[:, 6:9] if has_o else thetas[:, 3:6]
@@ -268,6 +288,22 @@ class RevoluteModel(LinkModel):
         return np.hstack([c, _m2rv(Rc), r_p, _m2rv(Rr)])
 
     def _point_hypotheses(self, d, rng, H):
+        """Circles through 3 observed positions (compiled: kernels.circle_hypotheses;
+        :meth:`_point_hypotheses_numpy` is the reference). Returns (h, 12 | 9)."""
+        n = d.n
+        idx = np.stack([rng.integers(0, n, H) for _ in range(3)], axis=1)
+        minsep = max(2.0 * self.obs.sigma_pos, 1e-9)
+        ok, center, Rc, r_p, Rr = circle_hypotheses(
+            d.P, d.R if d.has_orientation else _NO_ROT, idx, minsep)
+        if not ok.any():
+            return np.zeros((0, 12 if d.has_orientation else 9))
+        out = [center, _m2rv(Rc), r_p]
+        if d.has_orientation:
+            out.append(_m2rv(Rr))
+        return np.hstack(out)
+
+    def _point_hypotheses_numpy(self, d, rng, H):
+        """:meth:`_point_hypotheses` in numpy (the tests' reference)."""
         n = d.n
         idx = np.stack([rng.integers(0, n, H) for _ in range(3)], axis=1)
         p1, p2, p3 = d.P[idx[:, 0]], d.P[idx[:, 1]], d.P[idx[:, 2]]
@@ -306,7 +342,7 @@ class RevoluteModel(LinkModel):
         Rc_old = _rv2m(theta[3:6])
         nrm = Vt[2] if np.dot(Vt[2], Rc_old[:, 2]) >= 0 else -Vt[2]
         # Kasa circle fit in the plane
-        u, v = Vt[0], np.cross(nrm, Vt[0])
+        u, v = Vt[0], _cross(nrm, Vt[0])
         x = (X - mu) @ u
         y = (X - mu) @ v
         A = np.stack([2 * x, 2 * y, np.ones(m)], axis=1)
@@ -434,6 +470,11 @@ class RevoluteModel(LinkModel):
             ov = (vx, vy, vz, tr)
         return q, ex, ey, ez, ov
 
+    def _angles_compiled(self, th, d):
+        """Configurations (n,) of the parameter vector th in [-pi, pi) (the first output of
+        :meth:`_angles`, by the compiled kernel; ``q_center`` must be 0)."""
+        return self._kernel_errors(th[None], d, None, False)[0][0]
+
     def _canonicalize(self, d, inl):
         th = self.theta
         Rc = _rv2m(th[3:6])
@@ -442,8 +483,7 @@ class RevoluteModel(LinkModel):
         th[:3] = th[:3] + h * Rc[:, 2]
         th[8] = 0.0
         self.q_center = 0.0
-        q, _, _, _ = self._angles(th[None], d)
-        q = q[0]
+        q = self._angles_compiled(th, d)
         inl_idx = np.flatnonzero(inl)
         first = inl_idx[0]
         # make q increase in the direction of motion: unwrap around the circular mean
@@ -457,14 +497,12 @@ class RevoluteModel(LinkModel):
             th[6:9] = F @ th[6:9]
             if self.has_orientation:
                 th[9:12] = _m2rv(F @ _rv2m(th[9:12]))
-            q, _, _, _ = self._angles(th[None], d)
-            q = q[0]
+            q = self._angles_compiled(th, d)
         # rotate c about z so that q = 0 at the first inlier observation
         q0 = q[first]
         Rc = _rv2m(th[3:6]) @ _rotz(np.array(q0))
         th[3:6] = _m2rv(Rc)
-        q, _, _, _ = self._angles(th[None], d)
-        q = q[0]
+        q = self._angles_compiled(th, d)
         mu = np.arctan2(np.sin(q[inl]).mean(), np.cos(q[inl]).mean())
         self.q_center = float(mu)
         self.theta = th
@@ -508,7 +546,7 @@ class RevoluteModel(LinkModel):
         P = self._forward_positions(qq[:, 0])[2]
         ax = self.axis
         J = np.zeros((qq.shape[0], 6 if self.has_orientation else 3, 1))
-        J[:, :3, 0] = np.cross(ax, P - self.theta[:3])
+        J[:, :3, 0] = _cross(ax, P - self.theta[:3])
         if self.has_orientation:
             J[:, 3:, 0] = ax
         return J

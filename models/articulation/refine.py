@@ -55,7 +55,9 @@ class LocalParametrisation:
             self.scale[s:s + 3] = obs.sigma_orient if d.has_orientation else 0.05
         self.base = theta.copy()
         self.R_base = [_rv2m(theta[s:s + 3]) for s in self.slots]
-        self.free = np.setdiff1d(np.arange(p), model._frozen())
+        free = np.ones(p, bool)
+        free[model._frozen()] = False
+        self.free = np.flatnonzero(free)
         self.steps = np.zeros((self.free.size + 1, p))
         self.steps[np.arange(1, self.free.size + 1), self.free] = FD_STEP
 

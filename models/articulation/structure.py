@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from mmlearn.models.articulation.geom import _Data
 from mmlearn.models.articulation.link import LinkModel, ObservationModel, make_model
 from mmlearn.models.common.se3 import as_pose_array, relative_poses
 
@@ -76,14 +77,14 @@ def select_link_model(Z, *, models=DEFAULT_CANDIDATES, obs: ObservationModel | N
         models = [m for m in models.split(",") if m.strip()]
     if len(models) == 0:
         raise ValueError("select_link_model: empty candidate list")
-    pa = as_pose_array(Z)  # validates shape / NaN once
+    d = _Data(as_pose_array(Z))  # validates shape / NaN once; arrays shared by the candidates
     cands, bic, errs = {}, {}, {}
     for name in models:
         m = make_model(name, obs=obs, n_hypotheses=n_hypotheses)
         try:
-            m.fit(pa, rng=rng)
+            m.fit(d, rng=rng)
         except (ValueError, np.linalg.LinAlgError) as e:
-            if len(pa) < 3:
+            if d.n < 3:
                 raise
             errs[m.name] = str(e)
             bic[m.name] = float("inf")

@@ -44,6 +44,7 @@ from scipy.linalg import lapack
 from scipy.optimize import _lbfgsb as _lbfgsb_module
 from scipy.optimize import minimize
 
+from mmlearn.models.common.gp_kernel import factorise as _factorise_kernel
 from mmlearn.models.common.gp_kernel import neg_lml_and_grad as _nlml_kernel
 
 _potrf = lapack.dpotrf
@@ -144,7 +145,7 @@ def _minimize_lbfgsb(fun, x0, args, bounds, maxiter: int, ftol: float, gtol: flo
     factr = ftol / np.finfo(float).eps
     iterations = evaluations = 0
     while True:
-        g = g.astype(np.float64)
+        g = np.asarray(g, dtype=np.float64)
         try:
             setulb(m, x, lo, hi, nbd, f, g, factr, gtol, wa, iwa, task, lsave, isave, dsave,
                    maxls, ln_task)
@@ -155,7 +156,8 @@ def _minimize_lbfgsb(fun, x0, args, bounds, maxiter: int, ftol: float, gtol: flo
                             options={"maxiter": maxiter, "ftol": ftol, "gtol": gtol})
         if task[0] == 3:  # evaluate f and g at x
             f, g = fun(np.copy(x), *args)
-            g = np.atleast_1d(g)
+            if not (isinstance(g, np.ndarray) and g.ndim == 1):
+                g = np.atleast_1d(g)
             evaluations += 1
         elif task[0] == 1:  # a new iterate
             iterations += 1
@@ -295,6 +297,24 @@ class GaussianProcess:
             return f, g
         return self._neg_lml_and_grad_numpy(theta, G, Yc, d_ell)
 
+    def _objective(self, G, Yc, d_ell):
+        """theta -> :meth:`_neg_lml_and_grad` (theta, G, Yc, d_ell), with the arrays made
+        contiguous once for all the optimiser's evaluations (the same values)."""
+        D2, P = G
+        rev = P is not None
+        D2c, Ycc = np.ascontiguousarray(D2), np.ascontiguousarray(Yc)
+        Pc = np.ascontiguousarray(P) if rev else _NO_P
+        width, ard = self._width(d_ell, D2.shape[0]), bool(self.ard)
+
+        def fun(theta):
+            f, g, ok = _nlml_kernel(np.ascontiguousarray(theta, dtype=float), D2c, Pc, Ycc,
+                                    d_ell, width, ard, rev)
+            if ok:
+                return f, g
+            return self._neg_lml_and_grad_numpy(theta, G, Yc, d_ell)
+
+        return fun
+
     def _neg_lml_and_grad_numpy(self, theta, G, Yc, d_ell):
         """:meth:`_neg_lml_and_grad` in numpy and LAPACK (one Cholesky + inverse per output,
         the rest as products of flattened stacks; jitter where a kernel matrix is not
@@ -363,6 +383,19 @@ class GaussianProcess:
         n, m = self.Y.shape
         Kf = self._kernel(self._geom(self.X, self.X), self.log_ell, self.log_sf2, self.log_sb2)
         K = Kf + np.exp(self.log_sn2)[:, None, None] * np.eye(n)
+        # compiled (gp_kernel.factorise); where a K is not positive definite, with jitter
+        L, alpha, lml, ok = _factorise_kernel(np.ascontiguousarray(K),
+                                              np.ascontiguousarray(self.Y - self.y_mean))
+        if ok:
+            self._L, self._alpha, self._lml = L, alpha, lml
+            self._fitted = True
+            return
+        self._factorise_numpy(K)
+
+    def _factorise_numpy(self, K):
+        """:meth:`_factorise` of the kernel matrices K (m, n, n) in numpy (with growing
+        jitter where a K is not positive definite; the tests' reference)."""
+        n = K.shape[-1]
         self._L = _batched_cholesky(K)
         Yc = (self.Y - self.y_mean).T[:, :, None]  # (m, n, 1)
         z = np.linalg.solve(self._L, Yc)
@@ -503,9 +536,9 @@ class GaussianProcess:
                     yvar * 10.0 ** (-4 - 2 * r), noise_min)), sb2_default if rev else None)
                 starts.append(np.clip(t.ravel(), bounds[:, 0], bounds[:, 1]))
             best, best_f = None, None
+            objective = self._objective(G, Yc, d_ell)
             for t0 in starts:
-                res = _minimize_lbfgsb(self._neg_lml_and_grad, t0, (G, Yc, d_ell), bounds,
-                                       maxiter, ftol, 1e-5)
+                res = _minimize_lbfgsb(objective, t0, (), bounds, maxiter, ftol, 1e-5)
                 if len(starts) == 1 and not (ell_starts and d_ell):
                     return res.x  # nothing to compare per output
                 f = self._per_output_nlml(res.x, G, Yc, d_ell)
@@ -601,7 +634,9 @@ class GaussianProcess:
         self._check_fitted()
         Xs = self._check_xs(Xs)
         Ks = self._kernel(self._geom(Xs, self.X), self.log_ell, self.log_sf2, self.log_sb2)
-        mean = np.einsum("ckn,cn->kc", Ks, self._alpha, optimize=True) + self.y_mean
+        # (a batched matrix-vector product; einsum's path search costs more than it at
+        # the link models' sizes)
+        mean = np.matmul(Ks, self._alpha[:, :, None])[:, :, 0].T + self.y_mean
         if not return_var:
             return mean
         V = np.linalg.solve(self._L, np.swapaxes(Ks, 1, 2))  # (m, n, k)
@@ -625,7 +660,7 @@ class GaussianProcess:
         inv_l2 = np.exp(-2.0 * np.broadcast_to(self.log_ell, (m, d)))
         diff = Xs[:, None, :] - self.X[None, :, :]  # (k, n, d)
         KA = Ks * self._alpha[:, None, :]  # (m, k, n)
-        J = -np.einsum("ckn,knd->kcd", KA, diff, optimize=True) * inv_l2[None, :, :]
+        J = -np.matmul(KA.transpose(1, 0, 2), diff) * inv_l2[None, :, :]  # (k, m, d)
         if self._has_rev(d):
             # d/dx_e prod_d (1 + cos(x_d - x'_d)) = -sin(x_e - x'_e) prod_{d != e} (...)
             C = 1.0 + np.cos(diff)  # (k, n, d)

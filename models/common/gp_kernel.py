@@ -142,3 +142,47 @@ def neg_lml_and_grad(theta, D2, P, Yc, d_ell, width, ard, has_rev):
         if has_rev:
             g[o + d_ell + 2] = -0.5 * sb2 * gsb
     return f, g, True
+
+
+@numba.njit(cache=True, nogil=True)
+def factorise(K, Yc):
+    """Per output c: the Cholesky factor L_c of K[c] (m, n, n) (lower, zeros above the
+    diagonal), alpha_c = K_c^-1 y_c by forward and back substitution (Yc (n, m) the centred
+    targets) and the log marginal likelihood. Returns (L (m, n, n), alpha (m, n), lml (m,),
+    ok); ok is False when a K[c] is not positive definite (the caller then adds jitter)."""
+    m, n, _ = K.shape
+    L = np.zeros((m, n, n))
+    alpha = np.empty((m, n))
+    lml = np.empty(m)
+    z = np.empty(n)
+    for c in range(m):
+        Lc = L[c]
+        for j in range(n):
+            s = K[c, j, j]
+            for k in range(j):
+                s -= Lc[j, k] * Lc[j, k]
+            if not s > 0.0:
+                return L, alpha, lml, False
+            ljj = math.sqrt(s)
+            Lc[j, j] = ljj
+            for i in range(j + 1, n):
+                s = K[c, i, j]
+                for k in range(j):
+                    s -= Lc[i, k] * Lc[j, k]
+                Lc[i, j] = s / ljj
+        quad = 0.0
+        logdet_half = 0.0
+        for i in range(n):  # z = L^-1 y
+            s = Yc[i, c]
+            for k in range(i):
+                s -= Lc[i, k] * z[k]
+            z[i] = s / Lc[i, i]
+            quad += z[i] * z[i]
+            logdet_half += math.log(Lc[i, i])
+        for i in range(n - 1, -1, -1):  # alpha = L^-T z
+            s = z[i]
+            for k in range(i + 1, n):
+                s -= Lc[k, i] * alpha[c, k]
+            alpha[c, i] = s / Lc[i, i]
+        lml[c] = -0.5 * quad - logdet_half - 0.5 * n * _LOG_2PI
+    return L, alpha, lml, True
