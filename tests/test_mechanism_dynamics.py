@@ -47,6 +47,32 @@ def test_constant_speed_leaves_damping_uncertain():
     assert flat.damping_std > 5 * varied.damping_std
 
 
+def test_regularised_friction_is_not_read_as_damping():
+    """A drawer's regularised Coulomb friction, f tanh(v / 0.02 m/s), at 1-9 cm/s: an ideal
+    Coulomb term reads its growth with speed as damping; the regularised term does not, and
+    the learned dynamics keep the regularisation for their predictions."""
+    from mmlearn.models.articulation.dynamics import friction_shape
+
+    rng = np.random.default_rng(3)
+    t = np.linspace(0, 8, 320)
+    qd = 0.05 * (1 + 0.8 * np.sin(2 * np.pi * t / 2.0))
+    qdd = np.gradient(qd, t)
+    q = np.concatenate([[0], np.cumsum(0.5 * (qd[1:] + qd[:-1]) * np.diff(t))])
+    tau = 5.0 * qd + 1.5 * np.tanh(qd / 0.02) + 1.0 * qdd + rng.normal(0, 0.05, t.size)
+    ideal = fit_dynamics(q, qd, tau, qdd, joint="prismatic")
+    reg = fit_dynamics(q, qd, tau, qdd, joint="prismatic", friction_velocity=0.02)
+    assert ideal.damping > 1.3 * 5.0
+    assert reg.damping == pytest.approx(5.0, rel=0.1)
+    assert reg.friction == pytest.approx(1.5, abs=0.05)
+    m, _ = reg.predict(0.1, 0.01)
+    assert m == pytest.approx(0.05 + 1.5 * math.tanh(0.5) + 0.1 * reg.stiffness, abs=0.05)
+    back = MechanismDynamics.from_dict(json.loads(json.dumps(reg.to_dict())))
+    assert back.friction_velocity == 0.02 and back.to_dict() == reg.to_dict()
+    assert friction_shape([-1.0, 0.0, 2.0]).tolist() == [-1.0, 0.0, 1.0]
+    with pytest.raises(ValueError, match="friction_velocity"):
+        fit_dynamics(q, qd, tau, joint="prismatic", friction_velocity=-1.0)
+
+
 def test_outliers_rejected_and_too_few_samples():
     q, qd, qdd, tau = _pull(10.0, 2.0, 0.0)
     tau[-20:] += 80.0  # the end stop
