@@ -333,3 +333,38 @@ def test_open_cabinet_learns_a_drawer_and_stops_at_a_latch(tmp_path, capsys):
     # a slow run may add progress lines ("... elapsed") before the one-line message
     message = [line for line in err if "elapsed" not in line]
     assert len(message) == 1 and "locked" in message[0] and err[-1] == message[0]
+
+
+def test_page_status_generated_from_results(monkeypatch):
+    """docs/mechanism_dynamics.md's status table is made from the results files: a target is
+    met only when every damping value is within 25 % and >= 9/10 blocks are recognised."""
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "docs" / "make_tables.py"
+    spec = importlib.util.spec_from_file_location("make_tables_mech", path)
+    mt = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mt)
+
+    def row(kind, value, learned):
+        return {"group": "damping", "kind": kind, "seed": 1, "value": value,
+                "outcome": "target reached", "true": {"friction": 1.0},
+                "learned": {"damping": learned, "damping_std": 0.1}}
+
+    damp = {"rows": [row("left_door", v, 1.1 * v) for v in (0.5, 1, 2, 3, 5)]
+            + [row("drawer", v, v * (1.4 if v == 5 else 1.0)) for v in (5, 10, 20, 30, 50)]}
+    block = {"trials": 10, "recognised": 8, "within_tolerance": 8, "below_limit": 10,
+             "max_peak_force_N": 20.0, "outcomes": ["jammed"]}
+    faults = {"summary": {f"{g}_{k}": dict(block, recognised=10 if g == "locked" else 8)
+                          for g in ("jam", "locked") for k in ("left_door", "drawer")}
+              | {f"sticky_{k}": {"trials": 10, "opened": 10, "called_blocked": 0}
+                 for k in ("left_door", "drawer")}}
+    files = {"mechanism_damping.json": damp, "mechanism_faults.json": faults}
+    monkeypatch.setattr(mt, "_load", lambda name: files.get(name))
+    lines = mt.mechanism_status().splitlines()
+    status = {ln.split("|")[1].strip().split()[0]: ln.rsplit("|", 2)[1].strip()
+              for ln in lines[2:]}
+    assert status == {"door": "met", "drawer": "not met", "jams": "not met",
+                      "latches": "met", "sticky": "met"}
+    assert "4/5 (mean error 8 %, max 40 %)" in mt.mechanism_status()
+    assert "| drawer | 1 | 5 N s/m | 7 +- 0.1 | +40 % |" in mt.mechanism_measured()
