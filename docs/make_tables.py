@@ -564,12 +564,13 @@ def _beyond_results() -> dict[str, str]:
     if d:
         st = _operate_stats(d)
         r["user_models"] = f"a wall cabinet's door (SDFormat) opened {st['opened']}/{st['total']}"
-    d = _load("mechanism_damping.json")
-    fig = (d or {}).get("summary", d or {})
-    dd, dr = fig.get("damping_drawer"), fig.get("damping_left_door")
-    if dd and dr:
-        r["mechanism_dynamics"] = (f"damping within 25 %: drawers {dd['within_25pct']}/"
-                                   f"{dd['trials']}, doors {dr['within_25pct']}/{dr['trials']}")
+    figs = [(x or {}).get("summary", x or {}) for x in map(_load, _MECH_DAMPING)]
+    if all(f.get("damping_drawer") and f.get("damping_left_door") for f in figs):
+        def _per_set(key):
+            return " and ".join(f"{f[key]['within_25pct']}/{f[key]['trials']}" for f in figs)
+        r["mechanism_dynamics"] = (f"damping within 25 %: drawers {_per_set('damping_drawer')}, "
+                                   f"doors {_per_set('damping_left_door')} (two sets of "
+                                   "seeds)")
     d = _load("teaching.json")
     if d:
         by = {c["condition"]: c for c in d["conditions"]}
