@@ -52,6 +52,15 @@ COMMANDS = {
     "mechanism_damping.json": "python benchmarks/bench_mechanism.py --only damping --seed 900 "
                               "--results docs/results/mechanism_damping.jsonl "
                               "--json docs/results/mechanism_damping.json",
+    # the same on a second set of doors and drawers
+    "mechanism_damping_950.json": "python benchmarks/bench_mechanism.py --only damping --seed 950 "
+                                  "--results docs/results/mechanism_damping_950.jsonl "
+                                  "--json docs/results/mechanism_damping_950.json",
+    # jams at 5 positions, latches and sticky mechanisms, doors and drawers (about 30 CPU minutes)
+    "mechanism_faults.json": "python benchmarks/bench_mechanism.py --only jam,locked,sticky "
+                             "--kinds left_door,drawer --trials 2 --repeats 5 --seed 700 --jobs 2 "
+                             "--results docs/results/mechanism_faults.jsonl "
+                             "--json docs/results/mechanism_faults.json",
     "body_schema.json": "python -m mmlearn.apps.learn_body_schema --arm 2dof --samples 50 --seed 1 --json",
     "body_schema_7dof.json": "python benchmarks/bench_body_schema_7dof.py --sigmas 0.044 --seeds 1-5 "
                              "--extra --jobs 1 --results docs/results/body_schema_7dof.jsonl "
@@ -109,7 +118,8 @@ COMMANDS.update(ENGINEERING.COMMANDS)
 #: the results files whose figures change with the door-radius, user-model, detector,
 #: mechanism-dynamics and teaching work: re-run them after such changes
 #: (``--run --only <stem>,...``)
-VOLATILE = ("operate", "operate_trials", "user_models", "mechanism_damping", "fronts",
+VOLATILE = ("operate", "operate_trials", "user_models", "mechanism_damping",
+            "mechanism_damping_950", "mechanism_faults", "fronts",
             "perception_distance", "teaching", "imitate", "quick_tour", "speed")
 VOLATILE += ENGINEERING.VOLATILE
 
@@ -640,12 +650,13 @@ def _beyond_results() -> dict[str, str]:
     if ms:
         r["user_models"] = (f"four test models, SDFormat and URDF, opened "
                             f"{sum(m['successes'] for m in ms)}/{sum(m['trials'] for m in ms)}")
-    d = _load("mechanism_damping.json")
-    fig = (d or {}).get("summary", d or {})
-    dd, dr = fig.get("damping_drawer"), fig.get("damping_left_door")
-    if dd and dr:
-        r["mechanism_dynamics"] = (f"damping within 25 %: drawers {dd['within_25pct']}/"
-                                   f"{dd['trials']}, doors {dr['within_25pct']}/{dr['trials']}")
+    figs = [(x or {}).get("summary", x or {}) for x in map(_load, _MECH_DAMPING)]
+    if all(f.get("damping_drawer") and f.get("damping_left_door") for f in figs):
+        def _per_set(key):
+            return " and ".join(f"{f[key]['within_25pct']}/{f[key]['trials']}" for f in figs)
+        r["mechanism_dynamics"] = (f"damping within 25 %: drawers {_per_set('damping_drawer')}, "
+                                   f"doors {_per_set('damping_left_door')} (two sets of "
+                                   "seeds)")
     d = _load("teaching.json")
     if d:
         by = {c["condition"]: c for c in d["conditions"]}
@@ -817,10 +828,168 @@ def examples_table() -> str:
                   f"--only examples`{note}."))
 
 
+# ------------------------------------------------- docs/mechanism_dynamics.md's generated blocks
+_MECH_KINDS = (("left_door", "door", "N m s/rad", "deg", 5.0),
+               ("drawer", "drawer", "N s/m", "m", 0.03))
+
+
+def _mech_rows(d, group: str, kind: str) -> list[dict]:
+    return [r for r in (d or {}).get("rows", []) if r["group"] == group and r["kind"] == kind]
+
+
+def _mech_damping_figures(d) -> dict:
+    """kind -> (within 25 %, trials, mean and max relative error) of the damping rows."""
+    out = {}
+    for kind, *_ in _MECH_KINDS:
+        errs = [r["learned"]["damping"] / r["value"] - 1 for r in _mech_rows(d, "damping", kind)
+                if r["learned"]["damping"] is not None]
+        n = len(_mech_rows(d, "damping", kind))
+        if n:
+            out[kind] = (sum(abs(e) <= 0.25 for e in errs), n,
+                         max(map(abs, errs), default=None),
+                         sum(map(abs, errs)) / len(errs) if errs else None)
+    return out
+
+
+#: the damping sweeps: one results file per set of seeds
+_MECH_DAMPING = ("mechanism_damping.json", "mechanism_damping_950.json")
+
+
+def _mech_damping_table(file: str) -> str:
+    """One damping sweep's rows and figures (``file``: its results file)."""
+    d = _load(file)
+    if not d:
+        return _missing(file)
+    rows = []
+    for kind, name, unit, _, _ in _MECH_KINDS:
+        for r in _mech_rows(d, "damping", kind):
+            b, sd = r["learned"]["damping"], r["learned"]["damping_std"]
+            rows.append([name, r["seed"], f"{r['value']:g} {unit}",
+                         "-" if b is None else f"{b:.3g} +- {sd:.2g}",
+                         "-" if b is None else f"{100 * (b / r['value'] - 1):+.0f} %",
+                         f"{r['true']['friction']:.2f}", r["outcome"]])
+    fig = _mech_damping_figures(d)
+    said = "; ".join(f"{name}s {fig[k][0]}/{fig[k][1]} within 25 % (mean error "
+                     f"{100 * fig[k][3]:.0f} %, max {100 * fig[k][2]:.0f} %)"
+                     for k, name, *_ in _MECH_KINDS if k in fig and fig[k][2] is not None)
+    return (f"**Damping, seeds {d['seed']}-{d['seed'] + 4}** (`docs/results/{file}`; one "
+            "trial per value, each value on its own door or drawer; `friction` is the "
+            "mechanism's drawn Coulomb friction, N m or N)\n\n" +
+            _table(["mechanism", "seed", "true damping", "learned", "error", "friction",
+                    "outcome"], rows) + "\n\n" + _wrap(said + "."))
+
+
+def mechanism_measured() -> str:
+    """docs/mechanism_dynamics.md's measured figures: the damping sweeps
+    (mechanism_damping*.json) and the jams, latches and sticky mechanisms
+    (mechanism_faults.json), one row per trial."""
+    parts = [_mech_damping_table(name) for name in _MECH_DAMPING]
+    f = _load("mechanism_faults.json")
+    if f:
+        s = f["summary"]
+        for kind, name, _, punit, tol in _MECH_KINDS:
+            rs = _mech_rows(f, "jam", kind)
+            if not rs:
+                continue
+            rows = [[f"{r['value']:g} {punit}", r["seed"], r["outcome"],
+                     _fmt(r["jammed_at"], 1 if punit == "deg" else 3),
+                     "-" if r["jammed_at"] is None else
+                     _fmt(abs(r["jammed_at"] - r["value"]), 1 if punit == "deg" else 3),
+                     _fmt(r["peak_force_N"], 1), _fmt(r["block_force_N"], 1)] for r in rs]
+            j = s[f"jam_{kind}"]
+            err = "-" if j["max_position_error"] is None else \
+                f"{j['mean_position_error']:.{1 if punit == 'deg' else 3}f} / " \
+                f"{j['max_position_error']:.{1 if punit == 'deg' else 3}f} {punit}"
+            parts.append(
+                f"**Jammed {name}s** (`jammed_at` and its error in {punit}; `peak`: the largest "
+                "wrist force held for 0.1 s over the trial, `block`: the same from where the "
+                "block began, N)\n\n" +
+                _table(["jam at", "seed", "outcome", "jammed_at", "error", "peak", "block"],
+                       rows) + "\n\n" +
+                _wrap(f"{j['recognised']}/{j['trials']} recognised, {j['within_tolerance']}/"
+                      f"{j['trials']} within {tol:g} {punit} (mean / max error {err}), the "
+                      f"held force at most {_fmt(j['max_peak_force_N'], 1)} N (the controller's "
+                      f"limit is 35 N); the impact spike of a moving handle hitting the stop "
+                      f"reached {_fmt(j['max_impact_force_N'], 0)} N for a few ms."))
+        rows = []
+        for kind, name, unit, *_ in _MECH_KINDS:
+            lk, st = s.get(f"locked_{kind}"), s.get(f"sticky_{kind}")
+            if lk and lk["trials"]:
+                rows.append([f"latched {name}", f"{lk['recognised']}/{lk['trials']} called "
+                             "locked", ", ".join(lk["outcomes"]),
+                             f"{_fmt(lk['max_peak_force_N'], 1)} N", "-"])
+            srs = _mech_rows(f, "sticky", kind)
+            if st and st["trials"] and srs:
+                bs = [r["learned"]["damping"] for r in srs if r["learned"]["damping"] is not None]
+                drawn = [r["true"]["damping"] for r in srs]
+                rng = f"{min(bs):.3g}-{max(bs):.3g} (drawn {min(drawn):.2g}-{max(drawn):.2g}) " \
+                      f"{unit}" if bs else "-"
+                rows.append([f"sticky {name} ({srs[0]['value']:g} {unit.split()[0]}"
+                             f"{' m' if kind == 'left_door' else ''} of friction)",
+                             f"{st['opened']}/{st['trials']} opened, {st['called_blocked']} "
+                             "called blocked", ", ".join(st["outcomes"]),
+                             f"{_fmt(max(r['peak_force_N'] for r in srs), 1)} N", rng])
+        if rows:
+            parts.append("**Latched and sticky mechanisms** (`peak`: the largest wrist force "
+                         "held for 0.1 s; a sticky drawer's peak is its end stop)\n\n" +
+                         _table(["mechanism", "result", "outcomes", "peak", "learned damping"],
+                                rows))
+    else:
+        parts.append(_missing("mechanism_faults.json"))
+    return "\n\n".join(parts + [_source(*_MECH_DAMPING, "mechanism_faults.json")])
+
+
+def mechanism_status() -> str:
+    """docs/mechanism_dynamics.md's table of the targets against the results files."""
+    f = _load("mechanism_faults.json")
+    sets = [(_load(n), n) for n in _MECH_DAMPING]
+    rows = []
+    for kind, name, *_ in _MECH_KINDS:
+        said, met = [], 0
+        for d, file in sets:
+            fig = _mech_damping_figures(d)
+            if kind not in fig:
+                said.append(_missing(file))
+                continue
+            ok, n, mx, mean = fig[kind]
+            said.append(f"{ok}/{n} on seeds {d['seed']}-{d['seed'] + n - 1} (mean error "
+                        f"{100 * mean:.0f} %, max {100 * mx:.0f} %)")
+            met += n >= 5 and ok == n
+        rows.append([f"{name} damping within 25 %, 5 values over 10x", "; ".join(said),
+                     "met" if met == len(sets) else f"met on {met} of {len(sets)} seed sets"])
+    s = (f or {}).get("summary", {})
+    for g, what in (("jam", "jams recognised >= 9/10, `jammed_at` within 5 deg / 0.03 m, "
+                           "force below 35 N"),
+                    ("locked", "latches recognised >= 9/10, force below 35 N"),
+                    ("sticky", "sticky free mechanisms opened >= 9/10, never called blocked")):
+        said, met = [], bool(s)
+        for kind, name, _, punit, tol in _MECH_KINDS:
+            x = s.get(f"{g}_{kind}")
+            if not x or not x["trials"]:
+                met = False
+                continue
+            n = x["trials"]
+            if g == "sticky":
+                said.append(f"{name}s {x['opened']}/{n} opened, {x['called_blocked']} called "
+                            "blocked")
+                met &= x["opened"] >= 0.9 * n and x["called_blocked"] == 0
+                continue
+            within = f", {x['within_tolerance']}/{n} within {tol:g} {punit}" if g == "jam" else ""
+            said.append(f"{name}s {x['recognised']}/{n}{within}, <= "
+                        f"{_fmt(x['max_peak_force_N'], 1)} N")
+            met &= (x["recognised"] >= 0.9 * n and x["below_limit"] == n
+                    and (g != "jam" or x["within_tolerance"] >= 0.9 * n))
+        rows.append([what, "; ".join(said) or _missing("mechanism_faults.json"),
+                     "met" if met else "not met"])
+    return _table(["target", "measured", "status"], rows)
+
+
 #: generated blocks of README.md: name -> text
 README_BLOCKS = {"tour": tour_table, "capabilities": capability_table, "beyond": beyond_table}
 #: generated blocks of the docs pages: page -> {name -> text}
-PAGE_BLOCKS = {"docs/examples.md": {"examples": examples_table}}
+PAGE_BLOCKS = {"docs/examples.md": {"examples": examples_table},
+               "docs/mechanism_dynamics.md": {"mechanism_measured": mechanism_measured,
+                                              "mechanism_status": mechanism_status}}
 
 
 PAGES = {"articulation": articulation, "body_schema": body_schema, "perception": perception,

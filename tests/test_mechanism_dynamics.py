@@ -47,6 +47,32 @@ def test_constant_speed_leaves_damping_uncertain():
     assert flat.damping_std > 5 * varied.damping_std
 
 
+def test_regularised_friction_is_not_read_as_damping():
+    """A drawer's regularised Coulomb friction, f tanh(v / 0.02 m/s), at 1-9 cm/s: an ideal
+    Coulomb term reads its growth with speed as damping; the regularised term does not, and
+    the learned dynamics keep the regularisation for their predictions."""
+    from mmlearn.models.articulation.dynamics import friction_shape
+
+    rng = np.random.default_rng(3)
+    t = np.linspace(0, 8, 320)
+    qd = 0.05 * (1 + 0.8 * np.sin(2 * np.pi * t / 2.0))
+    qdd = np.gradient(qd, t)
+    q = np.concatenate([[0], np.cumsum(0.5 * (qd[1:] + qd[:-1]) * np.diff(t))])
+    tau = 5.0 * qd + 1.5 * np.tanh(qd / 0.02) + 1.0 * qdd + rng.normal(0, 0.05, t.size)
+    ideal = fit_dynamics(q, qd, tau, qdd, joint="prismatic")
+    reg = fit_dynamics(q, qd, tau, qdd, joint="prismatic", friction_velocity=0.02)
+    assert ideal.damping > 1.3 * 5.0
+    assert reg.damping == pytest.approx(5.0, rel=0.1)
+    assert reg.friction == pytest.approx(1.5, abs=0.05)
+    m, _ = reg.predict(0.1, 0.01)
+    assert m == pytest.approx(0.05 + 1.5 * math.tanh(0.5) + 0.1 * reg.stiffness, abs=0.05)
+    back = MechanismDynamics.from_dict(json.loads(json.dumps(reg.to_dict())))
+    assert back.friction_velocity == 0.02 and back.to_dict() == reg.to_dict()
+    assert friction_shape([-1.0, 0.0, 2.0]).tolist() == [-1.0, 0.0, 1.0]
+    with pytest.raises(ValueError, match="friction_velocity"):
+        fit_dynamics(q, qd, tau, joint="prismatic", friction_velocity=-1.0)
+
+
 def test_outliers_rejected_and_too_few_samples():
     q, qd, qdd, tau = _pull(10.0, 2.0, 0.0)
     tau[-20:] += 80.0  # the end stop
@@ -307,3 +333,44 @@ def test_open_cabinet_learns_a_drawer_and_stops_at_a_latch(tmp_path, capsys):
     # a slow run may add progress lines ("... elapsed") before the one-line message
     message = [line for line in err if "elapsed" not in line]
     assert len(message) == 1 and "locked" in message[0] and err[-1] == message[0]
+
+
+def test_page_status_generated_from_results(monkeypatch):
+    """docs/mechanism_dynamics.md's status table is made from the results files: a target is
+    met only when every damping value is within 25 % and >= 9/10 blocks are recognised."""
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "docs" / "make_tables.py"
+    spec = importlib.util.spec_from_file_location("make_tables_mech", path)
+    mt = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mt)
+
+    def row(kind, value, learned):
+        return {"group": "damping", "kind": kind, "seed": 1, "value": value,
+                "outcome": "target reached", "true": {"friction": 1.0},
+                "learned": {"damping": learned, "damping_std": 0.1}}
+
+    def sweep(seed, miss):
+        return {"seed": seed,
+                "rows": [row("left_door", v, 1.1 * v) for v in (0.5, 1, 2, 3, 5)]
+                + [row("drawer", v, v * (1.4 if v == miss else 1.0))
+                   for v in (5, 10, 20, 30, 50)]}
+
+    block = {"trials": 10, "recognised": 8, "within_tolerance": 8, "below_limit": 10,
+             "max_peak_force_N": 20.0, "outcomes": ["jammed"]}
+    faults = {"summary": {f"{g}_{k}": dict(block, recognised=10 if g == "locked" else 8)
+                          for g in ("jam", "locked") for k in ("left_door", "drawer")}
+              | {f"sticky_{k}": {"trials": 10, "opened": 10, "called_blocked": 0}
+                 for k in ("left_door", "drawer")}}
+    files = {"mechanism_damping.json": sweep(900, 5), "mechanism_damping_950.json": sweep(950, 0),
+             "mechanism_faults.json": faults}
+    monkeypatch.setattr(mt, "_load", lambda name: files.get(name))
+    lines = mt.mechanism_status().splitlines()
+    status = {ln.split("|")[1].strip().split()[0]: ln.rsplit("|", 2)[1].strip()
+              for ln in lines[2:]}
+    assert status == {"door": "met", "drawer": "met on 1 of 2 seed sets", "jams": "not met",
+                      "latches": "met", "sticky": "met"}
+    assert "4/5 on seeds 900-904 (mean error 8 %, max 40 %); 5/5 on seeds 950-954" in \
+        mt.mechanism_status()
+    assert "| drawer | 1 | 5 N s/m | 7 +- 0.1 | +40 % |" in mt.mechanism_measured()

@@ -55,7 +55,7 @@ def apply_mechanism_options(spec, *, damping=None, friction=None, spring=None, j
     return replace(spec, **changes)
 
 
-def _prediction(g, q_split) -> dict | None:
+def _prediction(g, q_split, friction_velocity: float = 0.0) -> dict | None:
     """Dynamics fitted on the samples before ``q_split`` predicting the generalised force
     over the rest of the pull, against the force measured there."""
     first = g["q"] <= q_split
@@ -63,7 +63,8 @@ def _prediction(g, q_split) -> dict | None:
     if first.sum() < 20 or rest.sum() < 10:
         return None
     dyn = fit_dynamics(g["q"][first], g["qdot"][first], g["tau"][first], g["qddot"][first],
-                       joint=g["joint"], radius=g["radius"])
+                       joint=g["joint"], radius=g["radius"],
+                       friction_velocity=friction_velocity)
     if dyn is None:
         return None
     pred, sd = dyn.predict(g["q"][rest], g["qdot"][rest], g["qddot"][rest])
@@ -123,12 +124,14 @@ def dynamics_record(op, ctx, to_unit, options: dict) -> dict:
     if math.isfinite(s.t_halt):
         keep = g["t"] < s.t_halt - 0.1
         g = {k: (v[keep] if isinstance(v, np.ndarray) else v) for k, v in g.items()}
+    fv = op.monitor.config.friction_velocity
     dyn = fit_dynamics(g["q"], g["qdot"], g["tau"], g["qddot"], joint=g["joint"],
-                       radius=g["radius"], q_offset=g["q_offset"], q_sign=g["q_sign"])
+                       radius=g["radius"], q_offset=g["q_offset"], q_sign=g["q_sign"],
+                       friction_velocity=fv)
     if dyn is None:
         return out
     learned = dyn.to_dict()
-    learned["prediction"] = _prediction(g, 0.5 * float(np.max(g["q"]))) \
+    learned["prediction"] = _prediction(g, 0.5 * float(np.max(g["q"])), fv) \
         if g["q"].size else None
     out["dynamics"].update(learned, learned=True, units=units)
     out["learned_dynamics"] = dyn  # not JSON: taken out by the caller

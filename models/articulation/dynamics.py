@@ -10,11 +10,17 @@ that tangent, tau = -F . dp/dq (F: force of the mechanism on the hook, world fra
 torque in N m for a revolute model (q in rad), a force in N for a prismatic one (q in m).
 Its rate and acceleration come from local quadratic fits of q(t). The mechanism's model is
 
-    tau = b qdot + f sign(qdot) + k (q - q_ref) + I qddot + noise,
+    tau = b qdot + f s(qdot) + k (q - q_ref) + I qddot + noise,
 
 with viscous damping b (N m s/rad or N s/m), Coulomb friction f (N m or N), a spring k
 (N m/rad or N/m) pulling towards the closed configuration q_ref (where the pull began) and
-the moving part's effective inertia I (kg m^2 or kg, a nuisance term). :func:`fit_dynamics`
+the moving part's effective inertia I (kg m^2 or kg, a nuisance term). The friction's shape
+s(qdot) is sign(qdot) (ideal Coulomb friction) or, with a regularisation speed v_f > 0,
+tanh(qdot / v_f): Coulomb friction that builds up over the first few v_f of speed, as the
+simulated joints' friction does (:class:`mmlearn.systems.common.JointFriction`, v_f =
+0.02 m/s or rad/s). With the ideal sign the growth of a regularised friction with speed reads
+as damping (a drawer's 1-2 N of friction growing from 76 % to 100 % between 2 and 8 cm/s
+adds 3-8 N s/m). :func:`fit_dynamics`
 is a Bayesian linear regression: independent zero-mean Gaussian priors on the coefficients,
 the noise level by empirical Bayes (residual variance), a robust start (Huber weights) and
 3-sigma outlier rejection (a hook that slips, the end stop). It returns :class:`MechanismDynamics`:
@@ -45,7 +51,7 @@ import numpy as np
 
 __all__ = ["MechanismDynamics", "fit_dynamics", "generalized_samples", "local_derivatives",
            "dynamics_units", "save_model_with_dynamics", "load_model_with_dynamics",
-           "sdf_with_dynamics", "path_opening", "COEFFICIENTS"]
+           "sdf_with_dynamics", "path_opening", "friction_shape", "COEFFICIENTS"]
 
 #: the regression's coefficients, in the order of its feature vector
 COEFFICIENTS = ("damping", "friction", "stiffness", "inertia")
@@ -53,6 +59,20 @@ COEFFICIENTS = ("damping", "friction", "stiffness", "inertia")
 #: prior standard deviations of the coefficients (revolute: N m s/rad, N m, N m/rad, kg m^2;
 #: prismatic: N s/m, N, N/m, kg): broad, a few times the largest household mechanism's
 _PRIOR_STD = {"revolute": (20.0, 20.0, 20.0, 2.0), "prismatic": (200.0, 100.0, 200.0, 20.0)}
+
+
+def friction_shape(qdot, friction_velocity: float = 0.0) -> np.ndarray:
+    """The Coulomb friction's dependence on the rate, between -1 and 1: sign(qdot) for
+    ``friction_velocity`` 0 (ideal Coulomb friction), else tanh(qdot / friction_velocity)
+    (regularised: the friction builds up over the first few ``friction_velocity`` of speed,
+    rad/s or m/s)."""
+    qdot = np.asarray(qdot, float)
+    if friction_velocity < 0 or not math.isfinite(friction_velocity):
+        raise ValueError(f"friction_velocity must be a finite number >= 0, got "
+                         f"{friction_velocity!r}")
+    if friction_velocity == 0:
+        return np.sign(qdot)
+    return np.tanh(qdot / friction_velocity)
 
 
 def dynamics_units(joint: str) -> dict:
@@ -87,6 +107,8 @@ class MechanismDynamics:
         q_offset, q_sign: the opening in the link model's own coordinate q_link:
             opening = q_sign * (q_link - q_offset) (the exported joint's coordinate is
             q_link: its spring reference is q_offset).
+        friction_velocity: the friction's regularisation speed the fit assumed
+            (:func:`friction_shape`; 0: ideal Coulomb friction), rad/s or m/s.
     """
 
     joint: str
@@ -107,9 +129,11 @@ class MechanismDynamics:
     radius: float | None = None
     q_offset: float = 0.0
     q_sign: float = 1.0
+    friction_velocity: float = 0.0
 
     def __post_init__(self):
         dynamics_units(self.joint)
+        friction_shape(0.0, self.friction_velocity)  # checks it
 
     @property
     def units(self) -> dict:
@@ -148,8 +172,9 @@ class MechanismDynamics:
         rates qdot (and accelerations qddot); the deviation includes the residual noise."""
         q, qdot, qddot = np.broadcast_arrays(*(np.atleast_1d(np.asarray(v, float))
                                                for v in (q, qdot, qddot)))
-        X = np.stack([qdot, np.sign(qdot), q - self.spring_reference, qddot], axis=-1)
-        mean = (self.damping * qdot + self.friction_at(q) * np.sign(qdot)
+        shape = friction_shape(qdot, self.friction_velocity)
+        X = np.stack([qdot, shape, q - self.spring_reference, qddot], axis=-1)
+        mean = (self.damping * qdot + self.friction_at(q) * shape
                 + self.stiffness * (q - self.spring_reference) + self.inertia * qddot)
         C = np.asarray(self.covariance, float) if self.covariance else np.zeros((4, 4))
         var = np.einsum("...i,ij,...j->...", X, C, X) + self.noise_std ** 2
@@ -184,6 +209,7 @@ class MechanismDynamics:
                             for b in self.profile],
                 "radius": None if self.radius is None else float(self.radius),
                 "q_offset": float(self.q_offset), "q_sign": float(self.q_sign),
+                "friction_velocity": float(self.friction_velocity),
                 "spring_found": bool(self.spring_found)}
 
     @classmethod
@@ -202,7 +228,7 @@ class MechanismDynamics:
                 raise ValueError(f"dynamics.{k}: expected a finite number, got {d[k]!r}")
         for k in ("spring_reference", "noise_std", "covariance", "n_samples", "q_range",
                   # spring_found is derived, not stored
-                  "profile", "radius", "q_offset", "q_sign"):
+                  "profile", "radius", "q_offset", "q_sign", "friction_velocity"):
             if k in d:
                 kw[k] = d[k]
         cov = kw.get("covariance", [])
@@ -257,12 +283,14 @@ def generalized_samples(link, t, G, F) -> dict | None:
 def fit_dynamics(q, qdot, tau, qddot=None, *, joint: str, min_rate: float | None = None,
                  prior_std=None, bins: int = 5, rejection_rounds: int = 2,
                  radius: float | None = None, q_offset: float = 0.0,
-                 q_sign: float = 1.0) -> MechanismDynamics | None:
+                 q_sign: float = 1.0,
+                 friction_velocity: float = 0.0) -> MechanismDynamics | None:
     """Bayesian linear regression of the generalised force on (qdot, sign(qdot), q, qddot)
     (see the module docstring). ``min_rate``: samples slower than this, or than a quarter
     of the median rate, are left out (default 0.02 rad/s or 0.008 m/s); ``prior_std``: the coefficients' prior standard
-    deviations (default: broad, by joint); ``bins``: bins of the friction profile.
-    Returns None with fewer than 8 usable samples."""
+    deviations (default: broad, by joint); ``bins``: bins of the friction profile;
+    ``friction_velocity``: the friction's regularisation speed (:func:`friction_shape`;
+    0: ideal Coulomb friction, sign(qdot)). Returns None with fewer than 8 usable samples."""
     dynamics_units(joint)  # checks joint
     q, qdot, tau = (np.asarray(a, float) for a in (q, qdot, tau))
     qddot = np.zeros_like(q) if qddot is None else np.asarray(qddot, float)
@@ -276,7 +304,8 @@ def fit_dynamics(q, qdot, tau, qddot=None, *, joint: str, min_rate: float | None
     use = finite & (np.abs(qdot) > max(rate, 0.25 * typical))
     if use.sum() < 8:
         return None
-    X_all = np.stack([qdot, np.sign(qdot), q, qddot], axis=1)
+    shape = friction_shape(qdot, friction_velocity)
+    X_all = np.stack([qdot, shape, q, qddot], axis=1)
     P = np.diag(1.0 / np.square(np.asarray(prior_std or _PRIOR_STD[joint], float)))
 
     def posterior(m, weights, s2):
@@ -311,20 +340,24 @@ def fit_dynamics(q, qdot, tau, qddot=None, *, joint: str, min_rate: float | None
     profile = []
     if bins >= 1 and qk.size:
         edges = np.linspace(qk.min(), qk.max(), bins + 1)
-        resid = (tau - X_all[:, [0, 2, 3]] @ w[[0, 2, 3]]) * np.sign(qdot)
+        # per bin the friction f_bin that fits the residual best: resid ~ f_bin s(qdot)
+        resid = tau - X_all[:, [0, 2, 3]] @ w[[0, 2, 3]]
         for a, b in zip(edges[:-1], edges[1:]):
             m = keep & (q >= a) & (q <= b)
-            if m.sum():
-                profile.append({"q": float(0.5 * (a + b)), "friction": float(resid[m].mean()),
-                                "std": float(resid[m].std() / math.sqrt(m.sum())),
-                                "n": int(m.sum())})
+            ss = float(np.sum(shape[m] ** 2))
+            if m.sum() and ss > 0:
+                f_bin = float(np.sum(resid[m] * shape[m]) / ss)
+                spread = float(np.std(resid[m] - f_bin * shape[m]))
+                profile.append({"q": float(0.5 * (a + b)), "friction": f_bin,
+                                "std": spread / math.sqrt(ss), "n": int(m.sum())})
     return MechanismDynamics(
         joint=joint, damping=float(w[0]), friction=float(w[1]), stiffness=float(w[2]),
         inertia=float(w[3]), damping_std=float(sd[0]), friction_std=float(sd[1]),
         stiffness_std=float(sd[2]), inertia_std=float(sd[3]), spring_reference=0.0,
         noise_std=math.sqrt(s2), covariance=cov.tolist(), n_samples=int(keep.sum()),
         q_range=[float(qk.min()), float(qk.max())], profile=profile, radius=radius,
-        q_offset=float(q_offset), q_sign=float(q_sign))
+        q_offset=float(q_offset), q_sign=float(q_sign),
+        friction_velocity=float(friction_velocity))
 
 
 # ---------------------------------------------------------------------- storage and export

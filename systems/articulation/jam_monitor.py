@@ -95,6 +95,11 @@ class DynamicsMonitorConfig:
             mechanism's range, not a jam: the monitor lets the controller's own end-of-range
             test end the pull. Not for a door whose model is not yet revolute: the opening
             guessed from the hook's track is too loose to let the arm pull on.
+        friction_velocity: the Coulomb friction's regularisation speed the dynamics are
+            fitted with (:func:`~mmlearn.models.articulation.dynamics.friction_shape`:
+            tanh(qdot / v); 0: ideal Coulomb friction), rad/s or m/s: the simulated
+            joints' friction builds up over its first few 0.02 (``JointFriction``), and at
+            a drawer's 2-8 cm/s an ideal Coulomb term would read that growth as damping.
     """
 
     period: float = param(0.025, unit="s", gt=0)
@@ -121,6 +126,7 @@ class DynamicsMonitorConfig:
     pull: list[float] = param([0.0, 0.0, 0.0], unit="world direction", length=3,
                               elements=True, factory=True)
     open_enough: float = param(0.0, unit="rad or m", ge=0)
+    friction_velocity: float = param(0.02, unit="rad/s or m/s", ge=0)
 
     def __post_init__(self):
         validate_fields(self)
@@ -235,6 +241,11 @@ class DynamicsMonitor(LeafSystem):
             "dynamics", lambda: AbstractValue.Make(None), self._calc_dynamics,
             prerequisites_of_calc={self.abstract_state_ticket(self._s)})
 
+    @property
+    def config(self) -> DynamicsMonitorConfig:
+        """The monitor's parameters."""
+        return self._cfg
+
     # ------------------------------------------------------------------ ports
     def get_hook_position_input_port(self):
         return self._in_G
@@ -295,7 +306,8 @@ class DynamicsMonitor(LeafSystem):
         n = s.t.size
         if n < cfg.min_samples or n - s.last_fit < cfg.refit_every:
             return s
-        return replace(s, dynamics=estimate_dynamics(link, s.t, s.G, s.F), last_fit=n)
+        return replace(s, dynamics=estimate_dynamics(link, s.t, s.G, s.F,
+                                                     cfg.friction_velocity), last_fit=n)
 
     def _check_block(self, s: DynamicsMonitorState, link) -> DynamicsMonitorState:
         """Halt when the hook has stopped advancing along the model while the force
@@ -421,14 +433,16 @@ class DynamicsMonitor(LeafSystem):
         return float(m[0] * scale + cfg.sigma_margin * sd[0] * scale + cfg.force_margin)
 
 
-def estimate_dynamics(link, t, G, F) -> MechanismDynamics | None:
+def estimate_dynamics(link, t, G, F, friction_velocity: float = 0.0) -> MechanismDynamics | None:
     """The dynamics along ``link`` from hook positions and wrist forces (None when the
-    model is not revolute or prismatic, or too few samples moved)."""
+    model is not revolute or prismatic, or too few samples moved); ``friction_velocity``:
+    see :func:`~mmlearn.models.articulation.dynamics.fit_dynamics`."""
     g = generalized_samples(link, t, G, F)
     if g is None:
         return None
     return fit_dynamics(g["q"], g["qdot"], g["tau"], g["qddot"], joint=g["joint"],
-                        radius=g["radius"], q_offset=g["q_offset"], q_sign=g["q_sign"])
+                        radius=g["radius"], q_offset=g["q_offset"], q_sign=g["q_sign"],
+                        friction_velocity=friction_velocity)
 
 
 def _tangent(link, G) -> np.ndarray | None:
