@@ -655,17 +655,20 @@ def _beyond_results() -> dict[str, str]:
         def _per_set(key):
             return " and ".join(f"{f[key]['within_25pct']}/{f[key]['trials']}" for f in figs)
         r["mechanism_dynamics"] = (f"damping within 25 %: drawers {_per_set('damping_drawer')}, "
-                                   f"doors {_per_set('damping_left_door')} (two sets of "
-                                   "seeds)")
+                                   f"doors {_per_set('damping_left_door')} (two seed sets)")
     d = _load("teaching.json")
     if d:
         by = {c["condition"]: c for c in d["conditions"]}
         i = by.get("pick_place interactive, swapped tables")
         b = by.get("pick_place 2 demos, swapped tables")
         if i and b:
-            r["teaching"] = (f"swapped tables {i['successes']}/{i['trials']}, "
-                             f"{i['mean_demos']:.1f} demonstrations on average (a batch of 2: "
+            c = teaching_per_seed(_teaching_runs())
+            r["teaching"] = (f"swapped tables {i['successes']}/{i['trials']} with "
+                             f"{i['mean_demos']:.1f} demonstrations (batch of 2: "
                              f"{b['successes']}/{b['trials']})")
+            if c["seeds"] and c["mean_batch_fewest"] is not None:
+                r["teaching"] += (f"; <= batch's fewest on {c['no_more']}/"
+                                  f"{len(c['seeds'])} seeds")
     d = _load("structure_prior.json")
     if d:
         n = len(d["seeds"]) * len(d["rows"])
@@ -677,10 +680,10 @@ def _beyond_results() -> dict[str, str]:
 BEYOND = [
     ("user_models", "open your own SDFormat / URDF furniture",
      "python -m mmlearn.apps.open_cabinet --model FILE --joint NAME", "user_models"),
-    ("mechanism_dynamics", "damping, friction, spring learned while opening; jams, latches",
+    ("mechanism_dynamics", "dynamics learned while opening; jams, latches",
      "python -m mmlearn.apps.open_cabinet --object drawer --damping 20 --save-model d.sdf",
      "mechanism_damping"),
-    ("teaching", "interactive teaching: the robot asks where it is unsure",
+    ("teaching", "interactive teaching, asking where unsure",
      "python -m mmlearn.apps.imitate --task pick_place --interactive --swap-tables", "teaching"),
     ("structure_prior", "structure that knows furniture",
      "python -m mmlearn.apps.fit_structure apps/examples/two_drawers_pulled_together.csv "
