@@ -330,29 +330,39 @@ def _band_point(Pc, L, r, q, n, d, shrink):
 def _band_scatter(Pc, L, R0, R1, C0, C1, step, n, d, shrink, c, scatter):
     """The centroid ``c`` (3,) and the scatter about it ``scatter`` (3, 3) of the measured
     points ``Pc`` (H, W, 3) in rows ``R0:R1`` and columns ``C0:C1`` (every ``step``-th) within
-    ``shrink`` L of the plane ``n . p + d = 0`` (float64); returns their number. Two passes
-    over the crop, nothing gathered."""
+    ``shrink`` L of the plane ``n . p + d = 0`` (float64); returns their number. One pass over
+    the crop, nothing gathered: the sums and products of the points relative to the first
+    point taken (near the others: no cancellation beyond ~1e-15 relative), centred at the
+    end."""
     H, W = Pc.shape[0], Pc.shape[1]
     R1, C1 = min(R1, H), min(C1, W)
     s0 = s1 = s2 = 0.0
+    x0 = y0 = z0 = 0.0
+    S = np.zeros((3, 3))
     k = 0
     for r in range(R0, R1, step):
         for q in range(C0, C1, step):
             inside, x, y, z = _band_point(Pc, L, r, q, n, d, shrink)
             if inside:
-                s0 += x
-                s1 += y
-                s2 += z
+                if k == 0:
+                    x0, y0, z0 = x, y, z
+                a, b, e = x - x0, y - y0, z - z0
+                s0 += a
+                s1 += b
+                s2 += e
+                _add_outer3(S, a, b, e)
                 k += 1
     scatter[:] = 0.0
     if k == 0:
         return 0
-    c[0], c[1], c[2] = s0 / k, s1 / k, s2 / k
-    for r in range(R0, R1, step):
-        for q in range(C0, C1, step):
-            inside, x, y, z = _band_point(Pc, L, r, q, n, d, shrink)
-            if inside:
-                _add_outer3(scatter, x - c[0], y - c[1], z - c[2])
+    m0, m1, m2 = s0 / k, s1 / k, s2 / k
+    c[0], c[1], c[2] = x0 + m0, y0 + m1, z0 + m2
+    scatter[0, 0] = S[0, 0] - s0 * m0
+    scatter[0, 1] = S[0, 1] - s0 * m1
+    scatter[0, 2] = S[0, 2] - s0 * m2
+    scatter[1, 1] = S[1, 1] - s1 * m1
+    scatter[1, 2] = S[1, 2] - s1 * m2
+    scatter[2, 2] = S[2, 2] - s2 * m2
     _mirror_upper3(scatter)
     return k
 
