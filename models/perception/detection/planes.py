@@ -198,22 +198,11 @@ def _hypotheses(pts, idx, lookup, flat_rc, r, Wp, N, rng):
     first = idx[rng.integers(0, len(idx), N)]
     T = 12
     off = rng.integers(-r, r + 1, (N, T, 2))
-    cand = lookup[flat_rc[first][:, None] + (off[..., 0] * Wp + off[..., 1])]
-    good = (cand >= 0) & ((off[..., 0] != 0) | (off[..., 1] != 0))
-    # the first two good offsets of each hypothesis (rows with fewer are not ok)
-    rows = np.arange(N)
-    i1 = good.argmax(axis=1)
-    g2 = good.copy()
-    g2[rows, i1] = False
-    i2 = g2.argmax(axis=1)
-    ok = g2[rows, i2]
-    other = np.column_stack([cand[rows, i1], cand[rows, i2]])
-    other[~ok] = 0
-    p1, p2, p3 = pts[first], pts[other[:, 0]], pts[other[:, 1]]
-    nrm = _cross_rows(p2 - p1, p3 - p1)
-    ln = np.linalg.norm(nrm, axis=1)
-    ok &= ln > 1e-9
-    if not ok.any():
+    nrm = np.empty((N, 3))
+    dd = np.empty(N)
+    ok = np.empty(N, np.bool_)
+    k = _local_hypotheses(pts, first, off, lookup, flat_rc, Wp, nrm, dd, ok)
+    if k == 0:
         # no local triple: fall back to global triples
         tri = idx[rng.integers(0, len(idx), (N, 3))]
         p1, p2, p3 = pts[tri[:, 0]], pts[tri[:, 1]], pts[tri[:, 2]]
@@ -222,8 +211,53 @@ def _hypotheses(pts, idx, lookup, flat_rc, r, Wp, N, rng):
         ok = ln > 1e-9
         if not ok.any():
             return None
-    nrm = nrm[ok] / ln[ok, None]
-    return nrm, -np.einsum("ij,ij->i", nrm, p1[ok])
+        nrm = nrm[ok] / ln[ok, None]
+        return nrm, -np.einsum("ij,ij->i", nrm, p1[ok])
+    return nrm[ok], dd[ok]
+
+
+@numba.njit(cache=True, nogil=True)
+def _local_hypotheses(pts, first, off, lookup, flat_rc, Wp, nrm, dd, ok):
+    """The local triples of :func:`_hypotheses` in one compiled pass: per hypothesis h the
+    first two of its offsets ``off[h]`` (rows, columns) that are not (0, 0) and land on an
+    active point; the unit normal ``nrm[h]`` of the triple with ``first[h]`` and its offset
+    ``dd[h]`` (the array code's float64 operations in its order), ``ok[h]`` when both exist
+    and the normal is not degenerate (cross product's norm > 1e-9). Returns the number ok."""
+    N, T = off.shape[0], off.shape[1]
+    nok = 0
+    for h in range(N):
+        f = first[h]
+        base = flat_rc[f]
+        j1 = j2 = -1
+        for t in range(T):
+            o0, o1 = off[h, t, 0], off[h, t, 1]
+            if o0 == 0 and o1 == 0:
+                continue
+            cnd = lookup[base + (o0 * Wp + o1)]
+            if cnd < 0:
+                continue
+            if j1 < 0:
+                j1 = cnd
+            else:
+                j2 = cnd
+                break
+        ok[h] = False
+        if j2 < 0:
+            continue
+        a0, a1, a2 = pts[j1, 0] - pts[f, 0], pts[j1, 1] - pts[f, 1], pts[j1, 2] - pts[f, 2]
+        b0, b1, b2 = pts[j2, 0] - pts[f, 0], pts[j2, 1] - pts[f, 1], pts[j2, 2] - pts[f, 2]
+        c0 = a1 * b2 - a2 * b1
+        c1 = a2 * b0 - a0 * b2
+        c2 = a0 * b1 - a1 * b0
+        ln = np.sqrt((c0 * c0 + c1 * c1) + c2 * c2)
+        if not ln > 1e-9:
+            continue
+        c0, c1, c2 = c0 / ln, c1 / ln, c2 / ln
+        nrm[h, 0], nrm[h, 1], nrm[h, 2] = c0, c1, c2
+        dd[h] = -((c0 * pts[f, 0] + c1 * pts[f, 1]) + c2 * pts[f, 2])
+        ok[h] = True
+        nok += 1
+    return nok
 
 
 @numba.njit(cache=True, nogil=True)
