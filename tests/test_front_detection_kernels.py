@@ -9,7 +9,7 @@ import pytest
 
 from mmlearn.models.perception.detection import Plane
 from mmlearn.models.perception.detection.check import _refit_plane
-from mmlearn.models.perception.detection.gaps import _bent_windows, _window_means
+from mmlearn.models.perception.detection.gaps import _bent_windows, _long_runs, _window_means
 from mmlearn.models.perception.detection.labels import (_affine_lstsq, _ramp_fit,
                                                         _ramp_fit_lstsq)
 from mmlearn.models.perception.detection.planes import (_components, _fit_plane,
@@ -220,3 +220,51 @@ def test_window_means_match_the_box_filters(nb):
         if v is not None:
             assert np.array_equal(got[3], ref[3])
         assert got[1].any() and got[2].any() and not got[2].all()
+
+
+def _long_runs_reference(g, zg, min_len_fx, floor):
+    """The array code of the reveal runs: OpenCV's 8-connected components with stats."""
+    n_lab, lab, stats, cent = cv2.connectedComponentsWithStats(g.view(np.uint8),
+                                                               connectivity=8, ltype=cv2.CV_32S)
+    if n_lab <= 1:
+        return None
+    length = 4 * stats[1:, cv2.CC_STAT_WIDTH].astype(np.float64)
+    cr = np.clip(np.round(cent[1:, 1]).astype(np.int64), 0, lab.shape[0] - 1)
+    cc = np.clip(np.round(cent[1:, 0]).astype(np.int64), 0, lab.shape[1] - 1)
+    zrun = zg[cr, cc].astype(np.float64)
+    off = np.flatnonzero(lab[cr, cc] != np.arange(1, n_lab))
+    if len(off):
+        on = np.flatnonzero(g)
+        zsum = np.bincount(lab.reshape(-1)[on], weights=zg.reshape(-1)[on],
+                           minlength=n_lab)[1:]
+        zrun[off] = zsum[off] / np.maximum(stats[1 + off, cv2.CC_STAT_AREA], 1)
+    min_px = min_len_fx / np.maximum(zrun, 1e-6)
+    if floor is not None:
+        min_px = np.maximum(min_px, np.float64(floor))
+    keep = np.concatenate([[False], length >= min_px])
+    if not keep.any():
+        return None
+    return keep[lab]
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_reveal_runs_match_opencv_s_components(seed):
+    """Random hits with long lines, bent runs (centroid off the run) and specks: the same kept
+    runs as with OpenCV's components and stats."""
+    rng = np.random.default_rng(seed)
+    g = rng.random((90, 160)) < 0.04
+    g[20, 10:120] = True
+    g[40, 5:60] = True
+    g[41:60, 59] = True  # an L: its centroid is off the run
+    zg = np.where(g, rng.uniform(0.8, 3.0, g.shape), 0.0).astype(np.float32)
+
+    class C:
+        gap_min_length = 0.2
+
+    for fx, floor in ((120.0, None), (120.0, 40.0), (30.0, None)):
+        got = _long_runs(g, zg, fx, C, floor)
+        ref = _long_runs_reference(g, zg, C.gap_min_length * fx, floor)
+        assert (got is None) == (ref is None)
+        if ref is not None:
+            assert np.array_equal(got, ref)
+    assert _long_runs(np.zeros((5, 5), bool), np.zeros((5, 5), np.float32), 1.0, C) is None
