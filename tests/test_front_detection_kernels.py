@@ -9,7 +9,7 @@ import pytest
 
 from mmlearn.models.perception.detection import Plane
 from mmlearn.models.perception.detection.check import _refit_plane
-from mmlearn.models.perception.detection.gaps import _bent_windows, _long_runs, _window_means
+from mmlearn.models.perception.detection.gaps import _bent_windows, _long_runs
 from mmlearn.models.perception.detection.labels import (_affine_lstsq, _ramp_fit,
                                                         _ramp_fit_lstsq)
 from mmlearn.models.perception.detection.planes import (_components, _fit_plane,
@@ -179,47 +179,6 @@ def test_bent_windows_match_the_array_expression(nb):
     got = _bent_windows(A, N, nb, _Cfg)
     assert np.array_equal(got, _bent_reference(A, N, nb, _Cfg.gap_side_tolerance_per_m2))
     assert got[:, 70 - nb // 2:70 + nb // 2].any() and not got[:, :45].any()
-
-
-def _window_means_reference(A, N, V, nb, bent):
-    """The array code of the window means: OpenCV's box filters and numpy's float32
-    expressions."""
-    Lw = nb * 4
-    A = cv2.boxFilter(A, -1, (nb, 1), normalize=False, borderType=cv2.BORDER_CONSTANT)
-    N = cv2.boxFilter(N, -1, (nb, 1), normalize=False, borderType=cv2.BORDER_CONSTANT)
-    A *= np.float32(4)
-    N *= np.float32(4)
-    if V is not None:
-        V = cv2.boxFilter(V, -1, (nb, 1), normalize=False, borderType=cv2.BORDER_CONSTANT)
-        V *= np.float32(4)
-        V = np.sqrt(np.minimum(V / np.maximum(N, np.float32(1.0)), np.float32(1.0)))
-    meas = N >= max(3.0, Lw / 3.0)
-    side_ok = (N >= 0.8 * Lw) & ~bent
-    m = A / np.maximum(N, np.float32(1.0))
-    m[~meas] = np.nan
-    return m, ~meas, side_ok, V
-
-
-@pytest.mark.parametrize("nb", [8, 32])
-def test_window_means_match_the_box_filters(nb):
-    """Depths with unmeasured blocks and a noise variance factor: the compiled window sums
-    give OpenCV's box filters' float32 values, and the same means and masks."""
-    rng = np.random.default_rng(10 + nb)
-    N = np.where(rng.random((70, 160)) < 0.85, 1.0,
-                 rng.integers(0, 4, (70, 160)) / 4.0).astype(np.float32)
-    N[:, 100:130] = 0.0  # an unmeasured band
-    A = (rng.uniform(0.8, 3.0, (70, 160)) * N).astype(np.float32)
-    V = rng.uniform(0.05, 1.0, (70, 160)).astype(np.float32)
-    cv2.setNumThreads(1)
-    for v in (None, V):
-        got = _window_means(A, N, v, nb, _Cfg)
-        ref = _window_means_reference(A, N, v, nb, _bent_windows(A, N, nb, _Cfg))
-        assert np.array_equal(got[0], ref[0], equal_nan=True)
-        assert np.array_equal(got[1], ref[1]) and np.array_equal(got[2], ref[2])
-        assert (got[3] is None) == (v is None)
-        if v is not None:
-            assert np.array_equal(got[3], ref[3])
-        assert got[1].any() and got[2].any() and not got[2].all()
 
 
 def _long_runs_reference(g, zg, min_len_fx, floor):

@@ -197,70 +197,23 @@ def _bent_kernel(A, N, nb, tol_m2, bent):
 def _window_means(A, N, V, nb, cfg):
     """The lines' means over windows of ``nb`` blocks: (mean depth, NaN where under a third
     measured; unmeasured; usable as a side line: >= 80 % measured and not bent; the line's
-    noise std over one frame's, or None). One compiled pass (:func:`_window_kernel`)."""
+    noise std over one frame's, or None)."""
     Lw = nb * _SUB
     bent = _bent_windows(A, N, nb, cfg)
-    m = np.empty(A.shape, np.float32)
-    unmeas = np.empty(A.shape, bool)
-    side_ok = np.empty(A.shape, bool)
-    Vo = np.empty(A.shape if V is not None else (1, 1), np.float32)
-    _window_kernel(A, N, V if V is not None else Vo, V is not None, int(nb),
-                   np.float32(max(3.0, Lw / 3.0)), np.float32(0.8 * Lw), bent, m, unmeas,
-                   side_ok, Vo)
-    return m, unmeas, side_ok, (Vo if V is not None else None)
-
-
-@numba.njit(cache=True, nogil=True, inline="always")
-def _row_box(S, r, nb, out):
-    """``out`` = the sums of ``nb`` consecutive elements of row ``r`` of ``S`` (anchor
-    ``nb // 2``, zeros beyond the ends): OpenCV's unnormalised box filter of a float32 row
-    with BORDER_CONSTANT (a running sum in float64, ``s += new - old``), in float64."""
-    n = S.shape[1]
-    a = nb // 2
-    s = 0.0
-    for i in range(nb):  # the first window: padded positions -a .. nb - 1 - a
-        j = i - a
-        if 0 <= j < n:
-            s += np.float64(S[r, j])
-    out[0] = s
-    for x in range(1, n):
-        jn = x - a + nb - 1
-        jo = x - a - 1
-        vn = np.float64(S[r, jn]) if 0 <= jn < n else 0.0
-        vo = np.float64(S[r, jo]) if 0 <= jo < n else 0.0
-        s += vn - vo
-        out[x] = s
-
-
-@numba.njit(cache=True, nogil=True)
-def _window_kernel(A, N, V, has_v, nb, meas_min, side_min, bent, m, unmeas, side_ok, Vo):
-    """:func:`_window_means` element by element: the window sums of ``A``, ``N`` (and ``V``)
-    over ``nb`` blocks (:func:`_row_box`, rounded to float32) times 4; measured where the
-    sum of ``N`` >= ``meas_min``, a side line where >= ``side_min`` and not ``bent``; ``m`` the
-    mean (sum of A over max(sum of N, 1)), NaN where not measured; ``Vo`` = sqrt(min(sum of V
-    over max(sum of N, 1), 1)) (float32, the array code's operations in its order)."""
-    n_rows, n = A.shape
-    four = np.float32(_SUB)
-    one = np.float32(1.0)
-    sa = np.empty(n)
-    sn = np.empty(n)
-    sv = np.empty(n)
-    for r in range(n_rows):
-        _row_box(A, r, nb, sa)
-        _row_box(N, r, nb, sn)
-        if has_v:
-            _row_box(V, r, nb, sv)
-        for x in range(n):
-            a4 = np.float32(sa[x]) * four
-            n4 = np.float32(sn[x]) * four
-            meas = n4 >= meas_min
-            unmeas[r, x] = not meas
-            side_ok[r, x] = (n4 >= side_min) and not bent[r, x]
-            den = n4 if n4 > one else one
-            m[r, x] = a4 / den if meas else np.float32(np.nan)
-            if has_v:
-                q = (np.float32(sv[x]) * four) / den
-                Vo[r, x] = np.sqrt(q if q < one else one)
+    A = cv2.boxFilter(A, -1, (nb, 1), normalize=False, borderType=cv2.BORDER_CONSTANT)
+    N = cv2.boxFilter(N, -1, (nb, 1), normalize=False, borderType=cv2.BORDER_CONSTANT)
+    A *= np.float32(_SUB)
+    N *= np.float32(_SUB)
+    if V is not None:  # the line's noise std over one frame's: sqrt(mean variance factor)
+        V = cv2.boxFilter(V, -1, (nb, 1), normalize=False, borderType=cv2.BORDER_CONSTANT)
+        V *= np.float32(_SUB)
+        V = np.sqrt(np.minimum(V / np.maximum(N, np.float32(1.0)), np.float32(1.0)))
+    meas = N >= max(3.0, Lw / 3.0)
+    # side lines: well measured and not bent (one array for both side tests)
+    side_ok = (N >= 0.8 * Lw) & ~bent
+    m = A / np.maximum(N, np.float32(1.0))
+    m[~meas] = np.nan
+    return m, ~meas, side_ok, V
 
 
 #: whether an unmeasured band counts its offsets in image pixels in a rectified view
