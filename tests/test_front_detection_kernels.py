@@ -12,7 +12,8 @@ from mmlearn.models.perception.detection.check import _refit_plane
 from mmlearn.models.perception.detection.gaps import _bent_windows, _long_runs
 from mmlearn.models.perception.detection.labels import (_affine_lstsq, _ramp_fit,
                                                         _ramp_fit_lstsq)
-from mmlearn.models.perception.detection.planes import (_components, _fit_plane,
+from mmlearn.models.perception.detection.planes import (_components, _fit_plane, _inlier_counts,
+                                                        _inliers_of,
                                                         _largest_region, refine_plane_fullres)
 from mmlearn.models.common.camera import PinholeIntrinsics
 
@@ -227,3 +228,28 @@ def test_reveal_runs_match_opencv_s_components(seed):
         if ref is not None:
             assert np.array_equal(got, ref)
     assert _long_runs(np.zeros((5, 5), bool), np.zeros((5, 5), np.float32), 1.0, C) is None
+
+
+def test_hypothesis_counts_match_the_matrix_product():
+    """RANSAC's counts without the (hypotheses, points) matrix: each point's distance within
+    a float32 rounding of the matrix product's, the same counts and inliers wherever no
+    point lies within that rounding of its bound."""
+    rng = np.random.default_rng(7)
+    N = rng.normal(size=(200, 3))
+    N32 = (N / np.linalg.norm(N, axis=1)[:, None]).astype(np.float32)
+    P32 = (rng.normal(size=(3000, 3)) * [1.0, 1.0, 0.5] + [0.0, 0.0, 2.0]).astype(np.float32)
+    dd = rng.uniform(-2.5, -1.5, 200).astype(np.float32)
+    L = rng.uniform(0.02, 0.05, 3000).astype(np.float32)
+    D = np.abs(N32 @ P32.T + dd[:, None])  # float32 matrix product
+    exact = np.abs(N32.astype(np.float64) @ P32.T.astype(np.float64) + dd[:, None])
+    assert np.abs(D - exact).max() < 1e-6
+    near = np.abs(exact - L[None, :]) < 1e-5  # within rounding of the bound: either way
+    counts = np.empty(200, np.int64)
+    _inlier_counts(N32, P32, dd, L, counts)
+    lo = ((exact <= L) & ~near).sum(axis=1)
+    assert np.all((lo <= counts) & (counts <= lo + near.sum(axis=1)))
+    assert counts.max() > 0
+    h = int(np.argmax(counts))
+    got = _inliers_of(N32[h], P32, dd[h], L)
+    assert np.array_equal(got[~near[h]], (exact[h] <= L)[~near[h]])
+    assert got.sum() == counts[h]

@@ -11,6 +11,9 @@ from dataclasses import dataclass
 
 import numba
 import numpy as np
+from llvmlite import ir as llvm_ir
+from numba import types
+from numba.extending import intrinsic
 
 from mmlearn.models.perception.detection.config import FrontDetectorConfig
 
@@ -260,17 +263,48 @@ def _local_hypotheses(pts, first, off, lookup, flat_rc, Wp, nrm, dd, ok):
     return nok
 
 
+@intrinsic
+def _fma32(typingctx, a, b, c):
+    """a b + c in float32 with one rounding (LLVM's ``llvm.fma``)."""
+    sig = types.float32(types.float32, types.float32, types.float32)
+
+    def codegen(context, builder, signature, args):
+        f32 = llvm_ir.FloatType()
+        fn = builder.module.declare_intrinsic("llvm.fma", [f32],
+                                              llvm_ir.FunctionType(f32, [f32] * 3))
+        return builder.call(fn, args)
+    return sig, codegen
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _dot3_f32(n, P, i):
+    """n . P[i] (float32): a0 x, then two fused multiply-adds, the operations of the
+    float32 matrix product ``N @ P.T`` of OpenBLAS' FMA kernels (bit for bit, tested)."""
+    return _fma32(n[2], P[i, 2], _fma32(n[1], P[i, 1], n[0] * P[i, 0]))
+
+
 @numba.njit(cache=True, nogil=True)
-def _inlier_counts(G, dd, L, out):
-    """``out[h]`` = the number of points ``i`` with |G[h, i] + dd[h]| <= L[i] (float32: the
-    sum, absolute value and comparison of the array expression)."""
-    for h in range(G.shape[0]):
+def _inlier_counts(N32, P32, dd, L, out):
+    """``out[h]`` = the number of points ``i`` with |n_h . p_i + dd[h]| <= L[i] (float32:
+    :func:`_dot3_f32`, then the sum, absolute value and comparison of the array
+    expression), the hypotheses' (N, m) products never stored."""
+    for h in range(N32.shape[0]):
         a = dd[h]
+        n = N32[h]
         k = 0
-        for i in range(G.shape[1]):
-            if abs(G[h, i] + a) <= L[i]:
+        for i in range(P32.shape[0]):
+            if abs(_dot3_f32(n, P32, i) + a) <= L[i]:
                 k += 1
         out[h] = k
+
+
+@numba.njit(cache=True, nogil=True)
+def _inliers_of(n, P32, a, L):
+    """Whether |n . p_i + a| <= L[i] for each point (float32, as :func:`_inlier_counts`)."""
+    out = np.empty(P32.shape[0], np.bool_)
+    for i in range(P32.shape[0]):
+        out[i] = abs(_dot3_f32(n, P32, i) + a) <= L[i]
+    return out
 
 
 def find_planes(pts: np.ndarray, grid_rc: np.ndarray, grid_shape, cfg: FrontDetectorConfig,
@@ -310,18 +344,19 @@ def find_planes(pts: np.ndarray, grid_rc: np.ndarray, grid_shape, cfg: FrontDete
         if hyp is None:
             break
         nrm, dd = hyp
-        # n . p of every active point for every hypothesis, (N, ma) float32 (a hypothesis'
-        # row is contiguous); |n . p + d| <= L counted per row in one compiled pass
-        G = nrm.astype(np.float32) @ P32[idx].T
+        # |n . p + d| <= L of every active point for every hypothesis, counted in one
+        # compiled pass (float32; the products of the matrix product N P^T)
+        N32 = nrm.astype(np.float32)
+        Pi = P32[idx]
         dd32 = dd.astype(np.float32)
         Li = Lp32[idx]
-        counts = np.empty(len(G), np.int64)
-        _inlier_counts(G, dd32, Li, counts)
+        counts = np.empty(len(N32), np.int64)
+        _inlier_counts(N32, Pi, dd32, Li, counts)
         best = int(np.argmax(counts))
         if counts[best] < cfg.min_plane_points:
             break
-        dist_best = np.abs(G[best] + dd32[best])
-        inl = _largest_region(idx[dist_best <= Li], grid_rc, grid_shape)
+        inl = _largest_region(idx[_inliers_of(N32[best], Pi, dd32[best], Li)], grid_rc,
+                              grid_shape)
         n, d = nrm[best], float(dd[best])
         # least-squares refinement on the inliers, then re-select them; the second round on
         # those within L / 2 (a drawer's sides, seen from above, span the few cm between its
