@@ -5,6 +5,7 @@ polish's returned tables are those of its best window made from scratch."""
 
 import math
 
+import cv2
 import numpy as np
 
 from mmlearn.models.perception.detection import FrontDetectorConfig
@@ -121,3 +122,42 @@ def test_polish_tables_are_its_best_window_made_again():
     assert np.array_equal(sat_cost, sc) and np.array_equal(sat_in, si)
     assert score == float(_objective(sc[None], 0, Rf, cfg.alpha))
     assert abs(float(e1 @ g.e1)) < math.cos(math.radians(0.25))  # it turned
+
+
+def _edge_angle_reference(inplane):
+    """The edge angle by the array code: float32 Sobel gradients, their magnitudes and
+    angles, the weighted sum of exp(4 i phi)."""
+    f = inplane.astype(np.float32)
+    gx = cv2.Sobel(f, cv2.CV_32F, 1, 0, ksize=3)
+    gy = cv2.Sobel(f, cv2.CV_32F, 0, 1, ksize=3)
+    sel = (gx != 0) | (gy != 0)
+    if np.count_nonzero(sel) < 8:
+        return 0.0
+    mag = np.hypot(gx[sel], gy[sel])
+    z = np.sum(mag * np.exp(4j * np.arctan2(gy[sel], gx[sel])))
+    if abs(z) < 1e-6 * mag.sum():
+        return 0.0
+    return float(np.angle(z) / 4.0)
+
+
+def test_edge_angle_by_table_equals_the_array_code():
+    """Rotated rectangles, random blobs, a grid without edges: the looked-up gradients give
+    the array code's angle exactly."""
+    from mmlearn.models.perception.detection.grid import _edge_angle
+
+    rng = np.random.default_rng(11)
+    grids = [np.zeros((30, 40), bool), np.ones((30, 40), bool)]
+    for deg in (0.0, 7.0, 20.0, -33.0):
+        img = np.zeros((120, 160), np.uint8)
+        box = cv2.boxPoints(((80, 60), (90, 50), deg))
+        cv2.fillPoly(img, [np.round(box).astype(np.int32)], 1)
+        grids.append(img.astype(bool))
+    for _ in range(40):
+        a = np.zeros((int(rng.integers(3, 90)), int(rng.integers(3, 90))), bool)
+        for _ in range(3):
+            r0, c0 = rng.integers(0, a.shape[0]), rng.integers(0, a.shape[1])
+            a[r0:r0 + int(rng.integers(1, 40)), c0:c0 + int(rng.integers(1, 40))] = True
+        grids.append(a)
+    got = [_edge_angle(g) for g in grids]
+    assert got == [_edge_angle_reference(g) for g in grids]
+    assert got[0] == 0.0 and 2.0 < abs(math.degrees(got[3])) < 10.0  # (7 deg, rasterised)

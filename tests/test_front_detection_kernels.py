@@ -9,10 +9,11 @@ import pytest
 
 from mmlearn.models.perception.detection import Plane
 from mmlearn.models.perception.detection.check import _refit_plane
-from mmlearn.models.perception.detection.gaps import _bent_windows
+from mmlearn.models.perception.detection.gaps import _bent_windows, _long_runs
 from mmlearn.models.perception.detection.labels import (_affine_lstsq, _ramp_fit,
                                                         _ramp_fit_lstsq)
-from mmlearn.models.perception.detection.planes import (_components, _fit_plane,
+from mmlearn.models.perception.detection.planes import (_components, _fit_plane, _inlier_counts,
+                                                        _inliers_of,
                                                         _largest_region, refine_plane_fullres)
 from mmlearn.models.common.camera import PinholeIntrinsics
 
@@ -179,3 +180,76 @@ def test_bent_windows_match_the_array_expression(nb):
     got = _bent_windows(A, N, nb, _Cfg)
     assert np.array_equal(got, _bent_reference(A, N, nb, _Cfg.gap_side_tolerance_per_m2))
     assert got[:, 70 - nb // 2:70 + nb // 2].any() and not got[:, :45].any()
+
+
+def _long_runs_reference(g, zg, min_len_fx, floor):
+    """The array code of the reveal runs: OpenCV's 8-connected components with stats."""
+    n_lab, lab, stats, cent = cv2.connectedComponentsWithStats(g.view(np.uint8),
+                                                               connectivity=8, ltype=cv2.CV_32S)
+    if n_lab <= 1:
+        return None
+    length = 4 * stats[1:, cv2.CC_STAT_WIDTH].astype(np.float64)
+    cr = np.clip(np.round(cent[1:, 1]).astype(np.int64), 0, lab.shape[0] - 1)
+    cc = np.clip(np.round(cent[1:, 0]).astype(np.int64), 0, lab.shape[1] - 1)
+    zrun = zg[cr, cc].astype(np.float64)
+    off = np.flatnonzero(lab[cr, cc] != np.arange(1, n_lab))
+    if len(off):
+        on = np.flatnonzero(g)
+        zsum = np.bincount(lab.reshape(-1)[on], weights=zg.reshape(-1)[on],
+                           minlength=n_lab)[1:]
+        zrun[off] = zsum[off] / np.maximum(stats[1 + off, cv2.CC_STAT_AREA], 1)
+    min_px = min_len_fx / np.maximum(zrun, 1e-6)
+    if floor is not None:
+        min_px = np.maximum(min_px, np.float64(floor))
+    keep = np.concatenate([[False], length >= min_px])
+    if not keep.any():
+        return None
+    return keep[lab]
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_reveal_runs_match_opencv_s_components(seed):
+    """Random hits with long lines, bent runs (centroid off the run) and specks: the same kept
+    runs as with OpenCV's components and stats."""
+    rng = np.random.default_rng(seed)
+    g = rng.random((90, 160)) < 0.04
+    g[20, 10:120] = True
+    g[40, 5:60] = True
+    g[41:60, 59] = True  # an L: its centroid is off the run
+    zg = np.where(g, rng.uniform(0.8, 3.0, g.shape), 0.0).astype(np.float32)
+
+    class C:
+        gap_min_length = 0.2
+
+    for fx, floor in ((120.0, None), (120.0, 40.0), (30.0, None)):
+        got = _long_runs(g, zg, fx, C, floor)
+        ref = _long_runs_reference(g, zg, C.gap_min_length * fx, floor)
+        assert (got is None) == (ref is None)
+        if ref is not None:
+            assert np.array_equal(got, ref)
+    assert _long_runs(np.zeros((5, 5), bool), np.zeros((5, 5), np.float32), 1.0, C) is None
+
+
+def test_hypothesis_counts_match_the_matrix_product():
+    """RANSAC's counts without the (hypotheses, points) matrix: each point's distance within
+    a float32 rounding of the matrix product's, the same counts and inliers wherever no
+    point lies within that rounding of its bound."""
+    rng = np.random.default_rng(7)
+    N = rng.normal(size=(200, 3))
+    N32 = (N / np.linalg.norm(N, axis=1)[:, None]).astype(np.float32)
+    P32 = (rng.normal(size=(3000, 3)) * [1.0, 1.0, 0.5] + [0.0, 0.0, 2.0]).astype(np.float32)
+    dd = rng.uniform(-2.5, -1.5, 200).astype(np.float32)
+    L = rng.uniform(0.02, 0.05, 3000).astype(np.float32)
+    D = np.abs(N32 @ P32.T + dd[:, None])  # float32 matrix product
+    exact = np.abs(N32.astype(np.float64) @ P32.T.astype(np.float64) + dd[:, None])
+    assert np.abs(D - exact).max() < 1e-6
+    near = np.abs(exact - L[None, :]) < 1e-5  # within rounding of the bound: either way
+    counts = np.empty(200, np.int64)
+    _inlier_counts(N32, P32, dd, L, counts)
+    lo = ((exact <= L) & ~near).sum(axis=1)
+    assert np.all((lo <= counts) & (counts <= lo + near.sum(axis=1)))
+    assert counts.max() > 0
+    h = int(np.argmax(counts))
+    got = _inliers_of(N32[h], P32, dd[h], L)
+    assert np.array_equal(got[~near[h]], (exact[h] <= L)[~near[h]])
+    assert got.sum() == counts[h]

@@ -329,34 +329,97 @@ def _line_hits(m, unmeas, side_ok, V, gd, gdz, fx, cfg, horizontal, to_image):
 
 def _long_runs(g, zg, fx, cfg, min_px_floor=None):
     """The runs of hit lines ``g`` at least ``gap_min_length`` long at their depth (and at
-    least ``min_px_floor`` px: one long window's scatter is not a line), or None if none."""
-    # (16-bit labels when they cannot overflow: OpenCV's stats pass is ~2.5x faster;
-    # 8-connected, at most one component per 2 x 2 pixels)
-    ltype = (cv2.CV_16U if ((g.shape[0] + 1) // 2) * ((g.shape[1] + 1) // 2) < 65535
-             else cv2.CV_32S)
-    n_lab, lab, stats, cent = cv2.connectedComponentsWithStats(g.view(np.uint8),
-                                                               connectivity=8, ltype=ltype)
-    if n_lab <= 1:
+    least ``min_px_floor`` px: one long window's scatter is not a line), or None if none.
+
+    A run is an 8-connected region of ``g``; its length is its extent along the lines, its
+    depth its side lines' depth ``zg`` at its centroid (a run is a thin line: the centroid is
+    on it), else the mean over the run (one compiled pass, :func:`_runs_kernel`)."""
+    out = np.zeros(g.shape, bool)
+    floor = -1.0 if min_px_floor is None else float(min_px_floor)
+    if not _runs_kernel(np.ascontiguousarray(g), np.ascontiguousarray(zg, np.float32),
+                        float(cfg.gap_min_length) * float(fx), floor, out):
         return None
-    length = _SUB * stats[1:, cv2.CC_STAT_WIDTH].astype(np.float64)
-    # depth of each run: its side lines' depth at its centroid (a run is a thin line: the
-    # centroid is on it), else the mean over the run
-    cr = np.clip(np.round(cent[1:, 1]).astype(np.int64), 0, lab.shape[0] - 1)
-    cc = np.clip(np.round(cent[1:, 0]).astype(np.int64), 0, lab.shape[1] - 1)
-    zrun = zg[cr, cc].astype(np.float64)
-    off = np.flatnonzero(lab[cr, cc] != np.arange(1, n_lab))
-    if len(off):  # (on the run pixels only: the same sums in the same order)
-        on = np.flatnonzero(g)
-        zsum = np.bincount(lab.reshape(-1)[on], weights=zg.reshape(-1)[on],
-                           minlength=n_lab)[1:]
-        zrun[off] = zsum[off] / np.maximum(stats[1 + off, cv2.CC_STAT_AREA], 1)
-    min_px = cfg.gap_min_length * fx / np.maximum(zrun, 1e-6)
-    if min_px_floor is not None:
-        min_px = np.maximum(min_px, np.float64(min_px_floor))
-    keep = np.concatenate([[False], length >= min_px])
-    if not keep.any():
-        return None
-    on = np.flatnonzero(g)  # (the kept runs' pixels: on the hits only)
-    g = np.zeros(g.shape, bool)
-    g.reshape(-1)[on] = keep[lab.reshape(-1)[on]]
-    return g
+    return out
+
+
+@numba.njit(cache=True, nogil=True)
+def _runs_kernel(g, zg, min_len_fx, floor, out):
+    """:func:`_long_runs`: each 8-connected region of ``g`` (a flood fill from its first
+    pixel in raster order) with its column extent, centroid (float64 sums of the pixel
+    coordinates over the area, rounded half to even) and depth: ``zg`` at the centroid when
+    the centroid's pixel is the region's, else the mean of ``zg`` over the region (summed in
+    raster order); kept (set in ``out``) when ``_SUB`` x extent >= max(min_len_fx /
+    max(depth, 1e-6), floor). Returns whether any was kept."""
+    H, W = g.shape
+    lab = np.zeros((H, W), np.int32)
+    stack = np.empty(H * W, np.int64)
+    # per region: first pixel, area, column extent, coordinate sums
+    first = np.empty(H * W, np.int64)
+    nl = 0
+    cmin = np.empty(H * W, np.int64)
+    cmax = np.empty(H * W, np.int64)
+    area = np.empty(H * W, np.int64)
+    sx = np.empty(H * W)
+    sy = np.empty(H * W)
+    for r in range(H):
+        for c in range(W):
+            if not g[r, c] or lab[r, c] != 0:
+                continue
+            nl += 1
+            k = nl - 1
+            first[k] = r * W + c
+            lab[r, c] = nl
+            stack[0] = r * W + c
+            top = 1
+            a = 0
+            x0 = x1 = c
+            tx = ty = 0.0
+            while top > 0:
+                top -= 1
+                p = stack[top]
+                pr, pc = p // W, p % W
+                a += 1
+                tx += pc
+                ty += pr
+                x0 = min(x0, pc)
+                x1 = max(x1, pc)
+                for r2 in range(max(0, pr - 1), min(H, pr + 2)):
+                    for c2 in range(max(0, pc - 1), min(W, pc + 2)):
+                        if g[r2, c2] and lab[r2, c2] == 0:
+                            lab[r2, c2] = nl
+                            stack[top] = r2 * W + c2
+                            top += 1
+            area[k], cmin[k], cmax[k], sx[k], sy[k] = a, x0, x1, tx, ty
+    if nl == 0:
+        return False
+    zrun = np.empty(nl)
+    need = np.zeros(nl, np.bool_)
+    for k in range(nl):
+        cr = min(max(int(np.round(sy[k] / area[k])), 0), H - 1)
+        cc = min(max(int(np.round(sx[k] / area[k])), 0), W - 1)
+        if lab[cr, cc] == k + 1:
+            zrun[k] = np.float64(zg[cr, cc])
+        else:
+            need[k] = True
+            zrun[k] = 0.0
+    for r in range(H):  # the regions whose centroid is off them: their mean depth
+        for c in range(W):
+            k = lab[r, c] - 1
+            if k >= 0 and need[k]:
+                zrun[k] += np.float64(zg[r, c])
+    keep = np.zeros(nl + 1, np.bool_)
+    anyk = False
+    for k in range(nl):
+        if need[k]:
+            zrun[k] = zrun[k] / max(area[k], 1)
+        min_px = min_len_fx / max(zrun[k], 1e-6)
+        if floor >= 0.0:
+            min_px = max(min_px, floor)
+        if _SUB * np.float64(cmax[k] - cmin[k] + 1) >= min_px:
+            keep[k + 1] = True
+            anyk = True
+    if anyk:
+        for r in range(H):
+            for c in range(W):
+                out[r, c] = keep[lab[r, c]]
+    return anyk

@@ -26,12 +26,24 @@ from mmlearn.models.perception.detection.search import (_component_starts, _gree
 from mmlearn.models.perception.fronts import FrontRectangle
 
 
-def _depth_bound(dzero: np.ndarray, base: float, per_m2: float) -> np.ndarray:
-    """max(base, per_m2 z^2) per pixel of the depth image ``dzero`` (m, 0 where invalid),
-    float32, in one buffer (m; m / m^2)."""
-    out = np.multiply(np.float32(per_m2), dzero)
-    out *= dzero
-    return np.maximum(out, np.float32(base), out=out)
+_VALID_CONFIGS: dict = {}  # the field values of configurations that passed validate()
+
+
+def _validated(cfg: FrontDetectorConfig) -> FrontDetectorConfig:
+    """``cfg.validate()``, once per set of field values (the check costs ~1 ms, a frame's
+    detection ~30 ms; a tracker passes the same configuration every frame)."""
+    try:
+        key = tuple((k, type(v), tuple((type(x), x) for x in v) if isinstance(v, list) else v)
+                    for k, v in vars(cfg).items())
+        hash(key)
+    except TypeError:  # (a field of an unhashable type: validate() names it)
+        return cfg.validate()
+    if key not in _VALID_CONFIGS:
+        cfg.validate()
+        if len(_VALID_CONFIGS) > 64:
+            _VALID_CONFIGS.clear()
+        _VALID_CONFIGS[key] = True
+    return cfg
 
 
 def _check_inputs(depth, K, X_WC):
@@ -72,7 +84,9 @@ class _Frame:
     rays' x / y per unit depth, ``Pc`` (H, W, 3) the camera-frame points (NaN where not
     measured), ``st`` / ``off`` the RANSAC sample grid's stride and offset, ``sample_pts`` the
     sampled points (m, 3), ``Limg`` the inlier distance L per pixel, ``var_scale`` the noise
-    variance factor (or None), ``down_C`` gravity in the camera frame."""
+    variance factor (or None), ``down_C`` gravity in the camera frame, ``surf`` the surface
+    check's distance per pixel and ``Lband`` L plus the removal band's noise part per pixel
+    (:func:`_offset_layers`)."""
 
     K: PinholeIntrinsics
     d: np.ndarray
@@ -89,13 +103,17 @@ class _Frame:
     Limg: np.ndarray
     var_scale: np.ndarray | None
     down_C: np.ndarray
+    surf: np.ndarray
+    Lband: np.ndarray
 
 
 @numba.njit(cache=True, nogil=True)
-def _frame_kernel(d, xs, ys, base, per_m2, valid, dzero, Pc, Limg):
+def _frame_kernel(d, xs, ys, base, per_m2, s_base, s_per_m2, band_per_m2, valid, dzero, Pc, Limg,
+                  surf, Lband):
     """One pass over a float32 depth image ``d``: ``valid`` (finite and > 0), ``dzero`` (0
-    where not valid), ``Pc`` the camera-frame points (x d, y d, d; NaN where not valid) and
-    ``Limg`` = max(base, per_m2 z^2) (:func:`_depth_bound`'s float32 operations)."""
+    where not valid), ``Pc`` the camera-frame points (x d, y d, d; NaN where not valid),
+    ``Limg`` = max(base, per_m2 z^2), ``surf`` = max(s_base, s_per_m2 z^2) and ``Lband`` =
+    max(0, band_per_m2 z^2) + Limg (float32: (per_m2 z) z, then the larger one)."""
     nan = np.float32(np.nan)
     zero = np.float32(0.0)
     for r in range(d.shape[0]):
@@ -112,29 +130,38 @@ def _frame_kernel(d, xs, ys, base, per_m2, valid, dzero, Pc, Limg):
             dzero[r, c] = z0
             b = per_m2 * z0
             b = b * z0
-            Limg[r, c] = b if b > base else base
+            lim = b if b > base else base
+            Limg[r, c] = lim
+            s = s_per_m2 * z0
+            s = s * z0
+            surf[r, c] = s if s > s_base else s_base
+            e = band_per_m2 * z0
+            e = e * z0
+            Lband[r, c] = (e if e > zero else zero) + lim
 
 
 def _frame_arrays(d, K, cfg):
     """The per-pixel arrays of a float32 depth image: (valid, dzero, xs (1, W), ys (H, 1),
-    Pc (H, W, 3), Limg), see :class:`_Frame` (in one compiled pass)."""
+    Pc (H, W, 3), Limg, surf, Lband), see :class:`_Frame` (in one compiled pass)."""
     fx, fy = np.float32(1.0 / K.fx), np.float32(1.0 / K.fy)
     xs = ((np.arange(K.width, dtype=np.float32) - np.float32(K.cx)) * fx)[None, :]
     ys = ((np.arange(K.height, dtype=np.float32) - np.float32(K.cy)) * fy)[:, None]
     valid = np.empty(d.shape, bool)
     dzero = np.empty(d.shape, np.float32)
     Pc = np.empty(d.shape + (3,), np.float32)  # (H, W, 3) float32, NaN where invalid
-    Limg = np.empty(d.shape, np.float32)
+    Limg, surf, Lband = (np.empty(d.shape, np.float32) for _ in range(3))
     _frame_kernel(np.ascontiguousarray(d, np.float32), xs[0], ys[:, 0],
                   np.float32(cfg.inlier_distance), np.float32(cfg.inlier_distance_per_m2),
-                  valid, dzero, Pc, Limg)
-    return valid, dzero, xs, ys, Pc, Limg
+                  np.float32(cfg.surface_distance), np.float32(cfg.surface_distance_per_m2),
+                  np.float32((cfg.removal_factor - 1.0) * cfg.inlier_distance_per_m2),
+                  valid, dzero, Pc, Limg, surf, Lband)
+    return valid, dzero, xs, ys, Pc, Limg, surf, Lband
 
 
 def _prepare_frame(d, arrays, K, X_WC, var_scale, cfg) -> _Frame:
     """The camera-frame points of every pixel and the RANSAC sample grid of a depth image
     (``arrays``: :func:`_frame_arrays`)."""
-    valid, dzero, xs, ys, Pc, Limg = arrays
+    valid, dzero, xs, ys, Pc, Limg, surf, Lband = arrays
     st = int(cfg.ransac_stride_px)
     off = st // 2
     sub_valid = valid[off::st, off::st] & (d[off::st, off::st] <= cfg.max_depth)
@@ -142,7 +169,7 @@ def _prepare_frame(d, arrays, K, X_WC, var_scale, cfg) -> _Frame:
     sample_pts = Pc[off::st, off::st][rr, cc].astype(np.float64)
     down_C = X_WC[:3, :3].T @ np.array([0.0, 0.0, -1.0])
     return _Frame(K, d, valid, dzero, xs, ys, Pc, st, off, sample_pts, np.column_stack([rr, cc]),
-                  sub_valid.shape, Limg, var_scale, down_C)
+                  sub_valid.shape, Limg, var_scale, down_C, surf, Lband)
 
 
 def _find_frame_planes(f: _Frame, cfg, rng) -> list[Plane]:
@@ -212,10 +239,7 @@ def _plane_labels(f: _Frame, planes, cfg, surface, gap):
             labels, S = _labels(f, planes, cfg, surface, gap, keep_distances=True)
     if cfg.layer_planes > 0 and cfg.layer_max_layers > 0:
         # fronts standing a few cm proud of a larger plane (_offset_layers)
-        Lband = _depth_bound(f.dzero, 0.0,
-                             (cfg.removal_factor - 1.0) * cfg.inlier_distance_per_m2)
-        Lband += f.Limg
-        layers = _offset_layers(planes, labels, S, f.Pc, f.Limg, Lband, f.K, cfg, f.st, f.off)
+        layers = _offset_layers(planes, labels, S, f.Pc, f.Limg, f.Lband, f.K, cfg, f.st, f.off)
         if layers:
             planes = planes + layers
             labels = _labels(f, planes, cfg, surface, gap)
@@ -387,8 +411,7 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
             any measurement gives no rectangles.
     """
     t_start = clock()
-    cfg = config or FrontDetectorConfig()
-    cfg.validate()
+    cfg = _validated(config or FrontDetectorConfig())
     d, X_WC = _check_inputs(depth, K, np.eye(4) if X_WC is None else X_WC)
     var_scale = _check_noise_scale(noise_scale, d.shape)
     rng = np.random.default_rng(rng)
@@ -412,8 +435,7 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
 
     t0 = clock()
     lut = _cost_table(cfg)
-    surface = (_depth_bound(f.dzero, cfg.surface_distance, cfg.surface_distance_per_m2),
-               int(cfg.surface_window_px))
+    surface = (f.surf, int(cfg.surface_window_px))
     gap, gap_thin = _reveals(f, planes, cfg)
     planes, lab_imgs = _plane_labels(f, planes, cfg, surface, gap)
     grids = _grids(f, planes, lab_imgs, cfg, lut)

@@ -11,6 +11,9 @@ from dataclasses import dataclass
 
 import numba
 import numpy as np
+from llvmlite import ir as llvm_ir
+from numba import types
+from numba.extending import intrinsic
 
 from mmlearn.models.perception.detection.config import FrontDetectorConfig
 
@@ -32,12 +35,20 @@ class Plane:
     region: tuple | None = None
 
 
+@numba.njit(cache=True, nogil=True)
+def _least_eigenvector(S):
+    """The eigenvector of the symmetric (3, 3) ``S`` of its least eigenvalue (LAPACK's
+    ``syevd`` as ``np.linalg.eigh``: the same vector, without numpy's ~20 us of call
+    overhead)."""
+    _, V = np.linalg.eigh(S)
+    return V[:, 0].copy()
+
+
 def _plane_from_scatter(c: np.ndarray, scatter: np.ndarray):
     """The plane through the centroid ``c`` (3,) whose normal is the least eigenvector of the
     (3, 3) ``scatter`` matrix of the points about it (fast at 3 x 3): unit normal towards
     the camera at the origin, and offset."""
-    _, V = np.linalg.eigh(scatter)
-    n = V[:, 0]
+    n = _least_eigenvector(np.ascontiguousarray(scatter, np.float64))
     if n @ c > 0:  # towards the camera at the origin
         n = -n
     return n, float(-n @ c)
@@ -190,22 +201,11 @@ def _hypotheses(pts, idx, lookup, flat_rc, r, Wp, N, rng):
     first = idx[rng.integers(0, len(idx), N)]
     T = 12
     off = rng.integers(-r, r + 1, (N, T, 2))
-    cand = lookup[flat_rc[first][:, None] + (off[..., 0] * Wp + off[..., 1])]
-    good = (cand >= 0) & ((off[..., 0] != 0) | (off[..., 1] != 0))
-    # the first two good offsets of each hypothesis (rows with fewer are not ok)
-    rows = np.arange(N)
-    i1 = good.argmax(axis=1)
-    g2 = good.copy()
-    g2[rows, i1] = False
-    i2 = g2.argmax(axis=1)
-    ok = g2[rows, i2]
-    other = np.column_stack([cand[rows, i1], cand[rows, i2]])
-    other[~ok] = 0
-    p1, p2, p3 = pts[first], pts[other[:, 0]], pts[other[:, 1]]
-    nrm = _cross_rows(p2 - p1, p3 - p1)
-    ln = np.linalg.norm(nrm, axis=1)
-    ok &= ln > 1e-9
-    if not ok.any():
+    nrm = np.empty((N, 3))
+    dd = np.empty(N)
+    ok = np.empty(N, np.bool_)
+    k = _local_hypotheses(pts, first, off, lookup, flat_rc, Wp, nrm, dd, ok)
+    if k == 0:
         # no local triple: fall back to global triples
         tri = idx[rng.integers(0, len(idx), (N, 3))]
         p1, p2, p3 = pts[tri[:, 0]], pts[tri[:, 1]], pts[tri[:, 2]]
@@ -214,21 +214,97 @@ def _hypotheses(pts, idx, lookup, flat_rc, r, Wp, N, rng):
         ok = ln > 1e-9
         if not ok.any():
             return None
-    nrm = nrm[ok] / ln[ok, None]
-    return nrm, -np.einsum("ij,ij->i", nrm, p1[ok])
+        nrm = nrm[ok] / ln[ok, None]
+        return nrm, -np.einsum("ij,ij->i", nrm, p1[ok])
+    return nrm[ok], dd[ok]
 
 
 @numba.njit(cache=True, nogil=True)
-def _inlier_counts(G, dd, L, out):
-    """``out[h]`` = the number of points ``i`` with |G[h, i] + dd[h]| <= L[i] (float32: the
-    sum, absolute value and comparison of the array expression)."""
-    for h in range(G.shape[0]):
+def _local_hypotheses(pts, first, off, lookup, flat_rc, Wp, nrm, dd, ok):
+    """The local triples of :func:`_hypotheses` in one compiled pass: per hypothesis h the
+    first two of its offsets ``off[h]`` (rows, columns) that are not (0, 0) and land on an
+    active point; the unit normal ``nrm[h]`` of the triple with ``first[h]`` and its offset
+    ``dd[h]`` (the array code's float64 operations in its order), ``ok[h]`` when both exist
+    and the normal is not degenerate (cross product's norm > 1e-9). Returns the number ok."""
+    N, T = off.shape[0], off.shape[1]
+    nok = 0
+    for h in range(N):
+        f = first[h]
+        base = flat_rc[f]
+        j1 = j2 = -1
+        for t in range(T):
+            o0, o1 = off[h, t, 0], off[h, t, 1]
+            if o0 == 0 and o1 == 0:
+                continue
+            cnd = lookup[base + (o0 * Wp + o1)]
+            if cnd < 0:
+                continue
+            if j1 < 0:
+                j1 = cnd
+            else:
+                j2 = cnd
+                break
+        ok[h] = False
+        if j2 < 0:
+            continue
+        a0, a1, a2 = pts[j1, 0] - pts[f, 0], pts[j1, 1] - pts[f, 1], pts[j1, 2] - pts[f, 2]
+        b0, b1, b2 = pts[j2, 0] - pts[f, 0], pts[j2, 1] - pts[f, 1], pts[j2, 2] - pts[f, 2]
+        c0 = a1 * b2 - a2 * b1
+        c1 = a2 * b0 - a0 * b2
+        c2 = a0 * b1 - a1 * b0
+        ln = np.sqrt((c0 * c0 + c1 * c1) + c2 * c2)
+        if not ln > 1e-9:
+            continue
+        c0, c1, c2 = c0 / ln, c1 / ln, c2 / ln
+        nrm[h, 0], nrm[h, 1], nrm[h, 2] = c0, c1, c2
+        dd[h] = -((c0 * pts[f, 0] + c1 * pts[f, 1]) + c2 * pts[f, 2])
+        ok[h] = True
+        nok += 1
+    return nok
+
+
+@intrinsic
+def _fma32(typingctx, a, b, c):
+    """a b + c in float32 with one rounding (LLVM's ``llvm.fma``)."""
+    sig = types.float32(types.float32, types.float32, types.float32)
+
+    def codegen(context, builder, signature, args):
+        f32 = llvm_ir.FloatType()
+        fn = builder.module.declare_intrinsic("llvm.fma", [f32],
+                                              llvm_ir.FunctionType(f32, [f32] * 3))
+        return builder.call(fn, args)
+    return sig, codegen
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _dot3_f32(n, P, i):
+    """n . P[i] (float32): a0 x, then two fused multiply-adds, the operations of the
+    float32 matrix product ``N @ P.T`` of OpenBLAS' FMA kernels (bit for bit, tested)."""
+    return _fma32(n[2], P[i, 2], _fma32(n[1], P[i, 1], n[0] * P[i, 0]))
+
+
+@numba.njit(cache=True, nogil=True)
+def _inlier_counts(N32, P32, dd, L, out):
+    """``out[h]`` = the number of points ``i`` with |n_h . p_i + dd[h]| <= L[i] (float32:
+    :func:`_dot3_f32`, then the sum, absolute value and comparison of the array
+    expression), the hypotheses' (N, m) products never stored."""
+    for h in range(N32.shape[0]):
         a = dd[h]
+        n = N32[h]
         k = 0
-        for i in range(G.shape[1]):
-            if abs(G[h, i] + a) <= L[i]:
+        for i in range(P32.shape[0]):
+            if abs(_dot3_f32(n, P32, i) + a) <= L[i]:
                 k += 1
         out[h] = k
+
+
+@numba.njit(cache=True, nogil=True)
+def _inliers_of(n, P32, a, L):
+    """Whether |n . p_i + a| <= L[i] for each point (float32, as :func:`_inlier_counts`)."""
+    out = np.empty(P32.shape[0], np.bool_)
+    for i in range(P32.shape[0]):
+        out[i] = abs(_dot3_f32(n, P32, i) + a) <= L[i]
+    return out
 
 
 def find_planes(pts: np.ndarray, grid_rc: np.ndarray, grid_shape, cfg: FrontDetectorConfig,
@@ -268,18 +344,19 @@ def find_planes(pts: np.ndarray, grid_rc: np.ndarray, grid_shape, cfg: FrontDete
         if hyp is None:
             break
         nrm, dd = hyp
-        # n . p of every active point for every hypothesis, (N, ma) float32 (a hypothesis'
-        # row is contiguous); |n . p + d| <= L counted per row in one compiled pass
-        G = nrm.astype(np.float32) @ P32[idx].T
+        # |n . p + d| <= L of every active point for every hypothesis, counted in one
+        # compiled pass (float32; the products of the matrix product N P^T)
+        N32 = nrm.astype(np.float32)
+        Pi = P32[idx]
         dd32 = dd.astype(np.float32)
         Li = Lp32[idx]
-        counts = np.empty(len(G), np.int64)
-        _inlier_counts(G, dd32, Li, counts)
+        counts = np.empty(len(N32), np.int64)
+        _inlier_counts(N32, Pi, dd32, Li, counts)
         best = int(np.argmax(counts))
         if counts[best] < cfg.min_plane_points:
             break
-        dist_best = np.abs(G[best] + dd32[best])
-        inl = _largest_region(idx[dist_best <= Li], grid_rc, grid_shape)
+        inl = _largest_region(idx[_inliers_of(N32[best], Pi, dd32[best], Li)], grid_rc,
+                              grid_shape)
         n, d = nrm[best], float(dd[best])
         # least-squares refinement on the inliers, then re-select them; the second round on
         # those within L / 2 (a drawer's sides, seen from above, span the few cm between its
@@ -330,29 +407,39 @@ def _band_point(Pc, L, r, q, n, d, shrink):
 def _band_scatter(Pc, L, R0, R1, C0, C1, step, n, d, shrink, c, scatter):
     """The centroid ``c`` (3,) and the scatter about it ``scatter`` (3, 3) of the measured
     points ``Pc`` (H, W, 3) in rows ``R0:R1`` and columns ``C0:C1`` (every ``step``-th) within
-    ``shrink`` L of the plane ``n . p + d = 0`` (float64); returns their number. Two passes
-    over the crop, nothing gathered."""
+    ``shrink`` L of the plane ``n . p + d = 0`` (float64); returns their number. One pass over
+    the crop, nothing gathered: the sums and products of the points relative to the first
+    point taken (near the others: no cancellation beyond ~1e-15 relative), centred at the
+    end."""
     H, W = Pc.shape[0], Pc.shape[1]
     R1, C1 = min(R1, H), min(C1, W)
     s0 = s1 = s2 = 0.0
+    x0 = y0 = z0 = 0.0
+    S = np.zeros((3, 3))
     k = 0
     for r in range(R0, R1, step):
         for q in range(C0, C1, step):
             inside, x, y, z = _band_point(Pc, L, r, q, n, d, shrink)
             if inside:
-                s0 += x
-                s1 += y
-                s2 += z
+                if k == 0:
+                    x0, y0, z0 = x, y, z
+                a, b, e = x - x0, y - y0, z - z0
+                s0 += a
+                s1 += b
+                s2 += e
+                _add_outer3(S, a, b, e)
                 k += 1
     scatter[:] = 0.0
     if k == 0:
         return 0
-    c[0], c[1], c[2] = s0 / k, s1 / k, s2 / k
-    for r in range(R0, R1, step):
-        for q in range(C0, C1, step):
-            inside, x, y, z = _band_point(Pc, L, r, q, n, d, shrink)
-            if inside:
-                _add_outer3(scatter, x - c[0], y - c[1], z - c[2])
+    m0, m1, m2 = s0 / k, s1 / k, s2 / k
+    c[0], c[1], c[2] = x0 + m0, y0 + m1, z0 + m2
+    scatter[0, 0] = S[0, 0] - s0 * m0
+    scatter[0, 1] = S[0, 1] - s0 * m1
+    scatter[0, 2] = S[0, 2] - s0 * m2
+    scatter[1, 1] = S[1, 1] - s1 * m1
+    scatter[1, 2] = S[1, 2] - s1 * m2
+    scatter[2, 2] = S[2, 2] - s2 * m2
     _mirror_upper3(scatter)
     return k
 
