@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.primitives import Adder
 
 from mmlearn.models.articulation.link import ObservationModel
 from mmlearn.models.articulation.priors import PriorDatabase
@@ -318,7 +319,12 @@ def MakeOperateDiagram(config: OperateConfig | None = None, *, meshcat=None) -> 
     builder.Connect(epc.get_hook_position_output_port(),
                     estimator.get_pose_input_port())
     builder.Connect(epc.get_command_output_port(), loc.get_command_input_port())
-    plant_command = loc.get_plant_command_output_port()
+    # the localisation's plant_command, added in C++: the offset changes only with the
+    # localisation's updates, the command at every plant step
+    to_plant = builder.AddNamedSystem("plant_command", Adder(2, len(scene.command_names)))
+    builder.Connect(epc.get_command_output_port(), to_plant.get_input_port(0))
+    builder.Connect(loc.get_command_offset_output_port(), to_plant.get_input_port(1))
+    plant_command = to_plant.get_output_port()
     if cfg.monitor is not None:
         # a halt relaxes the arm at once (the robot's measured joint positions as commands)
         cmd_idx = [robot_q_starts.index(plant.GetJointByName(nm, scene.robot).position_start())
