@@ -54,6 +54,12 @@ class SceneConfig:
             textures on the arm's marker squares, the configured RGB cameras and a
             :class:`~mmlearn.systems.common.camera_marker_sensor.CameraMarkerSensor` (same
             ``observations`` / ``marker_stats`` ports; ``sensor`` is then not used).
+        sampled_output_ports: the plant's output ports are sampled (Drake's default: every
+            step also computes and stores the reaction forces and contact results its
+            outputs report) or, False, live (computed from the current state when read;
+            the reaction forces read at time t are then those of the step from t, whose
+            contact solve the step itself reuses, instead of the step that ended at t).
+            Live ports spare the plant that work at the steps nobody reads them.
         failure_joints: add the arm's hidden failure joints (a bendable middle link and a
             tool part on hidden joints, see ``arm_sdf``); lock them with
             :class:`mmlearn.systems.body_schema.arm_failures.PlantFailures` before simulating.
@@ -80,6 +86,7 @@ class SceneConfig:
     sensor: MarkerSensorConfig = param(default_factory=MarkerSensorConfig)
     marker_sensor: bool = param(True)
     camera_sensor: CameraMarkerSensorConfig | None = param(None, optional=True)
+    sampled_output_ports: bool = param(True)
     failure_joints: bool = param(False)
 
     def validate(self) -> None:
@@ -182,6 +189,8 @@ def MakeSceneDiagram(config: SceneConfig | None = None, *, meshcat=None):
     builder = DiagramBuilder()
     plant, scene_graph = AddMultibodyPlantSceneGraph(builder, time_step=cfg.time_step)
     plant.set_name("plant")
+    if not cfg.sampled_output_ports:
+        plant.SetUseSampledOutputPorts(False)
     scene_graph.set_name("scene_graph")
     parser = Parser(plant)
     add_package(parser)
