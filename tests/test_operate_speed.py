@@ -125,3 +125,31 @@ def test_the_estimator_warm_up_loads_the_fit_kernels_and_leaves_no_trace():
     est.warm_up()
     assert kernels.em_gamma_full.signatures
     np.testing.assert_array_equal(est.GetOutputPort("stats").Eval(ctx), before)
+
+
+def test_a_revolute_mechanisms_friction_is_a_door_hinge_of_the_plant_with_the_same_law():
+    from pydrake.multibody.tree import MultibodyForces
+
+    from mmlearn.diagrams.common.scene import HINGE_STICTION_VELOCITY
+    from mmlearn.sdf.mechanisms import sample_mechanism
+
+    door = sample_mechanism("left_door", np.random.default_rng(4))
+    scene = MakeSceneDiagram(SceneConfig(arm="2dof", cabinet=False, mechanism=door))
+    assert not scene.diagram.HasSubsystemNamed("furniture_friction")
+    plant = scene.plant
+    joint = plant.GetJointByName("mechanism", scene.mechanism)
+    ctx = plant.CreateDefaultContext()
+    forces = MultibodyForces(plant)
+    for v in (-0.3, -0.01, 0.0, 0.004, 0.05, 1.2):
+        joint.set_angular_rate(ctx, v)
+        forces.SetZero()
+        plant.CalcForceElementsContribution(ctx, forces)
+        tau = forces.generalized_forces()[joint.velocity_start()]
+        # (with the joint's own viscous damping, which the plant adds here too)
+        want = (-door.friction * np.tanh(v / HINGE_STICTION_VELOCITY)
+                - joint.default_damping() * v)
+        assert tau == pytest.approx(want, rel=1e-14, abs=1e-15)
+    # a drawer's slide keeps the Python system (Drake has no prismatic friction element)
+    drawer = sample_mechanism("drawer", np.random.default_rng(4))
+    scene = MakeSceneDiagram(SceneConfig(arm="2dof", cabinet=False, mechanism=drawer))
+    assert scene.diagram.HasSubsystemNamed("furniture_friction")
