@@ -1,6 +1,8 @@
 """What keeps the opening trial's simulation cheap: the plant's time step, no unread marker
-sensor, the garbage collector left alone during the simulation, the CPU time in the record
-(diagrams/articulation/operate.py, trials.py; docs/performance_articulation.md)."""
+sensor, the hinge's friction in the plant, the localisation's command offset added in C++, the
+estimator's kernels loaded before the simulation, the garbage collector left alone during the
+simulation, the CPU time in the record (diagrams/articulation/operate.py, trials.py;
+docs/performance_articulation.md)."""
 
 import gc
 
@@ -83,3 +85,71 @@ def test_joint_friction_output_is_the_same_float_values_as_the_formula():
         want = np.zeros(10)
         want[idx] = -mu * np.tanh(x[10:][idx] / 0.02)
         np.testing.assert_array_equal(f.get_generalized_force_output_port().Eval(ctx), want)
+
+
+def test_the_plants_output_ports_are_sampled_unless_the_trial_asks_for_live_ones():
+    assert MakeOperateDiagram(OperateConfig(kind="drawer", seed=0)).scene.plant \
+        .has_sampled_output_ports()
+    assert MakeSceneDiagram(SceneConfig(arm="2dof", cabinet=False)).plant \
+        .has_sampled_output_ports()
+    live = MakeOperateDiagram(OperateConfig(kind="drawer", seed=0,
+                                            sampled_output_ports=False))
+    assert not live.scene.plant.has_sampled_output_ports()
+
+
+def test_the_plant_command_is_the_localisations_to_the_last_bit():
+    # the diagram adds the controller's command and the localisation's offset with an
+    # Adder: the same floats as the localisation's own plant_command
+    op = MakeOperateDiagram(OperateConfig(kind="left_door", seed=1))
+    sim = Simulator(op.diagram)
+    ctx = sim.get_mutable_context()
+    op.scene.set_joint_positions(ctx, op.start_command)
+    sim.Initialize()
+    loc = op.localization
+    for t in (0.1, 0.2375, 0.45):
+        sim.AdvanceTo(t)
+        lc = loc.GetMyContextFromRoot(ctx)
+        assert np.any(loc.error(lc) != 0.0)
+        adder = op.diagram.GetSubsystemByName("plant_command")
+        got = adder.get_output_port().Eval(adder.GetMyContextFromRoot(ctx))
+        np.testing.assert_array_equal(got, loc.get_plant_command_output_port().Eval(lc))
+
+
+def test_the_estimator_warm_up_loads_the_fit_kernels_and_leaves_no_trace():
+    from mmlearn.models.articulation import kernels
+    from mmlearn.systems.articulation.estimator import ArticulationEstimator
+
+    est = ArticulationEstimator(mode="pose", pose_size=3, models=("rigid", "revolute"))
+    ctx = est.CreateDefaultContext()
+    before = est.GetOutputPort("stats").Eval(ctx).copy()
+    est.warm_up()
+    assert kernels.em_gamma_full.signatures
+    np.testing.assert_array_equal(est.GetOutputPort("stats").Eval(ctx), before)
+
+
+def test_a_revolute_mechanisms_friction_is_a_door_hinge_of_the_plant_with_the_same_law():
+    from pydrake.multibody.tree import MultibodyForces
+
+    from mmlearn.diagrams.common.scene import HINGE_STICTION_VELOCITY
+    from mmlearn.sdf.mechanisms import sample_mechanism
+
+    door = sample_mechanism("left_door", np.random.default_rng(4))
+    scene = MakeSceneDiagram(SceneConfig(arm="2dof", cabinet=False, mechanism=door))
+    assert not scene.diagram.HasSubsystemNamed("furniture_friction")
+    plant = scene.plant
+    joint = plant.GetJointByName("mechanism", scene.mechanism)
+    ctx = plant.CreateDefaultContext()
+    forces = MultibodyForces(plant)
+    for v in (-0.3, -0.01, 0.0, 0.004, 0.05, 1.2):
+        joint.set_angular_rate(ctx, v)
+        forces.SetZero()
+        plant.CalcForceElementsContribution(ctx, forces)
+        tau = forces.generalized_forces()[joint.velocity_start()]
+        # (with the joint's own viscous damping, which the plant adds here too)
+        want = (-door.friction * np.tanh(v / HINGE_STICTION_VELOCITY)
+                - joint.default_damping() * v)
+        assert tau == pytest.approx(want, rel=1e-14, abs=1e-15)
+    # a drawer's slide keeps the Python system (Drake has no prismatic friction element)
+    drawer = sample_mechanism("drawer", np.random.default_rng(4))
+    scene = MakeSceneDiagram(SceneConfig(arm="2dof", cabinet=False, mechanism=drawer))
+    assert scene.diagram.HasSubsystemNamed("furniture_friction")

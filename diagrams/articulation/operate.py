@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.primitives import Adder
 
 from mmlearn.models.articulation.link import ObservationModel
 from mmlearn.models.articulation.priors import PriorDatabase
@@ -57,6 +58,13 @@ class OperateConfig:
             controller, the estimator, the localisation, the wrist sensor and the dynamics
             monitor are multiples of it (a step they are not multiples of adds simulator
             steps of its own).
+        sampled_output_ports: the plant's output ports sampled at every step (True, the
+            default) or live (False, see :class:`~mmlearn.diagrams.common.scene.SceneConfig`):
+            live, the wrist sensor reads at 100 Hz the reaction forces of the step that
+            starts at its sample instead of the step that ended there, and the plant does
+            not compute them at the other 3 of 4 steps: about 10 % less CPU, but the door
+            damping the robot learns moves (0.48 -> 0.29 N m s/rad for a true 0.5;
+            docs/performance_articulation.md), so it is not the default.
         base_noise: scale of the base-localisation and odometry error (see
             :class:`~mmlearn.systems.articulation.base_localization.BaseLocalizationConfig`; 1 = its
             defaults: 0.05 m RMS horizontal, 1.1 deg heading, drifting with a 60 s time
@@ -101,6 +109,7 @@ class OperateConfig:
     models: list[str] = param(["rigid", "prismatic", "revolute", "gp"], factory=True)
     sigma_force: float = param(0.3, unit="N", ge=0)
     time_step: float = param(0.0025, unit="s", gt=0, le=0.01)
+    sampled_output_ports: bool = param(True)
     base_noise: float = param(1.0, ge=0)
     base_localization: BaseLocalizationConfig = param(default_factory=BaseLocalizationConfig,
                                                       nested=BaseLocalizationConfig)
@@ -253,7 +262,8 @@ def MakeOperateDiagram(config: OperateConfig | None = None, *, meshcat=None) -> 
                    side=rotate_yaw(seen_task.side, e0[2]))
     scene_cfg = SceneConfig(arm="7dof", tool="hook", mobile_base=True, cabinet=False,
                             mechanism=spec, time_step=cfg.time_step,
-                            marker_sensor=False)
+                            marker_sensor=False,
+                            sampled_output_ports=cfg.sampled_output_ports)
     scene = MakeSceneDiagram(scene_cfg, meshcat=meshcat)
     plant = scene.plant
     builder = DiagramBuilder()
@@ -318,7 +328,12 @@ def MakeOperateDiagram(config: OperateConfig | None = None, *, meshcat=None) -> 
     builder.Connect(epc.get_hook_position_output_port(),
                     estimator.get_pose_input_port())
     builder.Connect(epc.get_command_output_port(), loc.get_command_input_port())
-    plant_command = loc.get_plant_command_output_port()
+    # the localisation's plant_command, added in C++: the offset changes only with the
+    # localisation's updates, the command at every plant step
+    to_plant = builder.AddNamedSystem("plant_command", Adder(2, len(scene.command_names)))
+    builder.Connect(epc.get_command_output_port(), to_plant.get_input_port(0))
+    builder.Connect(loc.get_command_offset_output_port(), to_plant.get_input_port(1))
+    plant_command = to_plant.get_output_port()
     if cfg.monitor is not None:
         # a halt relaxes the arm at once (the robot's measured joint positions as commands)
         cmd_idx = [robot_q_starts.index(plant.GetJointByName(nm, scene.robot).position_start())

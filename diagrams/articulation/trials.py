@@ -181,6 +181,9 @@ def open_mechanism(*, kind: str = "left_door", seed: int = 0, meshcat=None,
         op = MakeOperateDiagram(cfg, meshcat=meshcat)
     except NoFrontDetected as e:
         return _no_front_record(cfg, e.look)
+    # the process' one-time costs of the estimator's refits (loading their compiled
+    # kernels) are paid here, with the build, not by the simulation's first refit
+    op.estimator.warm_up()
     build_seconds = time.perf_counter() - t_build
     if meshcat is not None and op.look is not None:
         draw_look(meshcat, op.look)
@@ -413,7 +416,7 @@ def _priors_file(text: str) -> str:
     return _PRIORS_FILES[h]
 
 
-@register_trial("articulation.operate", version=4,
+@register_trial("articulation.operate", version=5,
                 record={"object": str, "seed": int, "success": bool, "opened": (float, None),
                         "unit": str, "outcome": str, "learned_model": (str, None)})
 def operate_trial(*, seed: int, kind: str, max_time: float = 60.0,

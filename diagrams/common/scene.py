@@ -40,7 +40,9 @@ class SceneConfig:
             its own pose (None = none); its joint is ``mechanism``. A
             :class:`~mmlearn.sdf.user_model.UserMechanism` adds the user's model file at
             its placement instead (``mechanism_state`` is then its joint's opening and
-            opening rate).
+            opening rate). A revolute mechanism's joint friction is a ``DoorHinge`` force
+            element of the plant, a prismatic one's a
+            :class:`~mmlearn.systems.JointFriction` (the same regularised Coulomb law).
         time_step: plant discrete time step, s.
         kp_revolute, kd_revolute: PD gains of the arm's revolute joints (N*m/rad, N*m*s/rad).
         kp_prismatic, kd_prismatic: PD gains of prismatic joints (fingers), N/m and N*s/m.
@@ -54,6 +56,12 @@ class SceneConfig:
             textures on the arm's marker squares, the configured RGB cameras and a
             :class:`~mmlearn.systems.common.camera_marker_sensor.CameraMarkerSensor` (same
             ``observations`` / ``marker_stats`` ports; ``sensor`` is then not used).
+        sampled_output_ports: the plant's output ports are sampled (Drake's default: every
+            step also computes and stores the reaction forces and contact results its
+            outputs report) or, False, live (computed from the current state when read;
+            the reaction forces read at time t are then those of the step from t, whose
+            contact solve the step itself reuses, instead of the step that ended at t).
+            Live ports spare the plant that work at the steps nobody reads them.
         failure_joints: add the arm's hidden failure joints (a bendable middle link and a
             tool part on hidden joints, see ``arm_sdf``); lock them with
             :class:`mmlearn.systems.body_schema.arm_failures.PlantFailures` before simulating.
@@ -80,6 +88,7 @@ class SceneConfig:
     sensor: MarkerSensorConfig = param(default_factory=MarkerSensorConfig)
     marker_sensor: bool = param(True)
     camera_sensor: CameraMarkerSensorConfig | None = param(None, optional=True)
+    sampled_output_ports: bool = param(True)
     failure_joints: bool = param(False)
 
     def validate(self) -> None:
@@ -162,6 +171,35 @@ def _export_user_opening(builder, plant, joint, mech) -> None:
     builder.ExportOutput(opening.get_output_port(), "mechanism_state")
 
 
+def _add_hinge_friction(plant, mechanism, spec) -> bool:
+    """The friction of a revolute mechanism's joint as Drake's ``DoorHinge`` force element
+    (dynamic friction only: tau = -friction * tanh(v / v_s), v_s = JointFriction's 0.02
+    rad/s; no spring, catch, static or viscous term: the joint's damping stays the SDFormat
+    joint's), computed inside the plant instead of by a Python system at every step. The
+    same formula as :class:`~mmlearn.systems.JointFriction` (C++'s ``tanh``, which differs
+    from numpy's in the last bit). Returns whether it added one (a prismatic joint keeps
+    ``JointFriction``: Drake has no friction element for it)."""
+    if mechanism is None:
+        return False
+    joint = plant.GetJointByName("mechanism", mechanism)
+    if joint.type_name() != "revolute":
+        return False
+    from pydrake.multibody.tree import DoorHinge, DoorHingeConfig
+
+    # catch_width only keeps the (zero) catch term finite
+    plant.AddForceElement(DoorHinge(joint, DoorHingeConfig(
+        spring_zero_angle_rad=0.0, spring_constant=0.0,
+        dynamic_friction_torque=float(spec.friction), static_friction_torque=0.0,
+        viscous_friction=0.0, catch_width=0.02, catch_torque=0.0,
+        motion_threshold=HINGE_STICTION_VELOCITY)))
+    return True
+
+
+#: the velocity scale of the regularised Coulomb friction of a mechanism's hinge, rad/s
+#: (:class:`~mmlearn.systems.JointFriction`'s default ``v_stiction``)
+HINGE_STICTION_VELOCITY = 0.02
+
+
 def MakeSceneDiagram(config: SceneConfig | None = None, *, meshcat=None):
     """Build the scene diagram.
 
@@ -182,6 +220,8 @@ def MakeSceneDiagram(config: SceneConfig | None = None, *, meshcat=None):
     builder = DiagramBuilder()
     plant, scene_graph = AddMultibodyPlantSceneGraph(builder, time_step=cfg.time_step)
     plant.set_name("plant")
+    if not cfg.sampled_output_ports:
+        plant.SetUseSampledOutputPorts(False)
     scene_graph.set_name("scene_graph")
     parser = Parser(plant)
     add_package(parser)
@@ -223,6 +263,8 @@ def MakeSceneDiagram(config: SceneConfig | None = None, *, meshcat=None):
         from mmlearn.diagrams.common.marker_camera import AddArucoMarkers
 
         markers = AddArucoMarkers(plant, config=cfg.camera_sensor, model_instance=robot)
+    hinge = _add_hinge_friction(plant, mechanism if user_joint is None else None,
+                                cfg.mechanism)
     plant.Finalize()
 
     # collisions: nothing within the robot or a piece of furniture, nothing with the floor
@@ -279,8 +321,9 @@ def MakeSceneDiagram(config: SceneConfig | None = None, *, meshcat=None):
     if user_joint is not None:
         _export_user_opening(builder, plant, user_joint, cfg.mechanism)
     elif mechanism is not None:
-        fr[plant.GetJointByName("mechanism", mechanism).velocity_start()] = \
-            cfg.mechanism.friction
+        if not hinge:
+            fr[plant.GetJointByName("mechanism", mechanism).velocity_start()] = \
+                cfg.mechanism.friction
         builder.ExportOutput(plant.get_state_output_port(mechanism), "mechanism_state")
     if fr:
         friction = builder.AddNamedSystem("furniture_friction", JointFriction(

@@ -151,6 +151,7 @@ class BaseLocalization(LeafSystem):
         - plant_command
         - believed_force_W
         - error
+        - command_offset
 
     ``robot_state``: the plant's (true) state of the robot instance; ``believed_robot_state``
     the same with the base's x, y, yaw positions offset by the error. ``command``: the
@@ -158,6 +159,10 @@ class BaseLocalization(LeafSystem):
     the same with the error taken off the base's entries, what the base controller makes
     the plant do. ``force_W`` / ``believed_force_W``: the wrist force in the true / believed
     world frame (rotated by the yaw error), N. ``error``: e = believed - true (m, m, rad).
+    ``command_offset``: what the base controller adds to ``command`` (-e on the base's
+    entries, 0 elsewhere): ``command + command_offset`` is ``plant_command`` to the last
+    bit, and a diagram that adds them with Drake's ``Adder`` evaluates no Python at every
+    plant step for it (this output changes only with the error's updates).
 
     ``frame``: "map" (the outputs are the localisation's belief, :meth:`error`) or
     "odometry" (the robot's dead reckoning since the start, :meth:`odometry_error`; see the
@@ -205,6 +210,8 @@ class BaseLocalization(LeafSystem):
             prerequisites_of_calc=st | {self._in_force.ticket()})
         self._out_err = self.DeclareVectorOutputPort("error", BasicVector(3), self._calc_err,
                                                      prerequisites_of_calc=st)
+        self._out_offset = self.DeclareVectorOutputPort(
+            "command_offset", num_commands, self._calc_offset, prerequisites_of_calc=st)
 
     # ------------------------------------------------------------------ ports
     def get_robot_state_input_port(self):
@@ -227,6 +234,9 @@ class BaseLocalization(LeafSystem):
 
     def get_error_output_port(self):
         return self._out_err
+
+    def get_command_offset_output_port(self):
+        return self._out_offset
 
     def config(self) -> BaseLocalizationConfig:
         return replace(self._cfg)
@@ -297,6 +307,13 @@ class BaseLocalization(LeafSystem):
     def _calc_force(self, context, output):
         output.SetFromVector(rotate_yaw(self._in_force.Eval(context),
                                        self.belief_error(context)[2]))
+
+    def _calc_offset(self, context, output):
+        # c + (-e) is c - e exactly, and c + (-0.0) is c: the Adder gives plant_command's
+        # floats
+        v = output.get_mutable_value()
+        v[:] = -0.0
+        v[:3] = -self.belief_error(context)
 
     def _calc_err(self, context, output):
         output.SetFromVector(self.belief_error(context))

@@ -290,6 +290,23 @@ class ArticulationEstimator(LeafSystem):
                                   part_names=self._part_ids, models=self._models,
                                   obs=self._obs, rng=rng, min_common=self._min_obs)
 
+    def warm_up(self) -> None:
+        """Fit the candidate models once to a short synthetic track (an arc of 24 points),
+        outside any simulation: the first refit of a simulation then does not pay the
+        one-time costs of the process (loading the compiled kernels of the fits from
+        numba's cache, the modules the fits import: about 1 s of CPU). Touches no context
+        and no random stream of the estimator; the result is thrown away."""
+        a = np.linspace(0.0, 1.2, 24)
+        P = np.stack([0.5 * np.cos(a), 0.5 * np.sin(a), 0.01 * a], axis=1)
+        if self._width == 7:
+            P = np.concatenate([P, np.tile([0.0, 0.0, 0.0, 1.0], (a.size, 1))], axis=1)
+        rng = np.random.default_rng(0)
+        P = P + np.pad(rng.normal(0.0, 0.002, (a.size, 3)), ((0, 0), (0, P.shape[1] - 3)))
+        try:
+            select_link_model(P, models=self._models, obs=self._obs, rng=rng)
+        except (ValueError, np.linalg.LinAlgError):
+            pass  # a candidate set that cannot fit this arc: its first refit loads them
+
     def _update(self, context, state):
         s = self._state(context)
         row, t = self._read(context)
