@@ -6,13 +6,11 @@ public API in ``__all__``; every one of those names is re-exported here (importe
 use), e.g. ``from mmlearn.systems import ...``.
 """
 
-from mmlearn._lazy import capability_exports, lazy_exports
+from mmlearn._lazy import capability_namespace
 
 CAPABILITIES = ("common", "articulation", "body_schema", "perception", "tactile", "imitation")
 
-#: capability subpackage -> the public names re-exported from it
-_EXPORTS = capability_exports(__name__, CAPABILITIES)
-
-__all__ = [name for names in _EXPORTS.values() for name in names]
-
-__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
+#: ``__all__`` (every capability's public names) and ``_EXPORTS`` (capability subpackage ->
+#: the public names re-exported from it) are computed on first use; a capability's modules
+#: are imported when one of its names is
+__getattr__, __dir__ = capability_namespace(__name__, CAPABILITIES)
