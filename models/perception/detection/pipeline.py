@@ -105,6 +105,7 @@ class _Frame:
     down_C: np.ndarray
     surf: np.ndarray
     Lband: np.ndarray
+    gravity: bool = True  # whether ``down_C`` is known (``detect_fronts`` was given X_WC)
 
 
 @numba.njit(cache=True, nogil=True)
@@ -239,17 +240,31 @@ def _plane_labels(f: _Frame, planes, cfg, surface, gap):
             labels, S = _labels(f, planes, cfg, surface, gap, keep_distances=True)
     if cfg.layer_planes > 0 and cfg.layer_max_layers > 0:
         # fronts standing a few cm proud of a larger plane (_offset_layers)
-        layers = _offset_layers(planes, labels, S, f.Pc, f.Limg, f.Lband, f.K, cfg, f.st, f.off)
+        layers = _offset_layers(planes, labels, S, f.Pc, f.Limg, f.Lband, f.K, cfg, f.st, f.off,
+                                _front_planes(f, planes, cfg))
         if layers:
             planes = planes + layers
             labels = _labels(f, planes, cfg, surface, gap)
     return planes, labels
 
 
+def _front_planes(f: _Frame, planes, cfg) -> list[bool]:
+    """Per plane, whether it can hold a front: its normal lies within ``front_max_tilt_deg``
+    of horizontal (the plane within that angle of vertical; every plane when gravity is not
+    known)."""
+    if not f.gravity or cfg.front_max_tilt_deg >= 90.0:
+        return [True] * len(planes)
+    lim = math.sin(math.radians(cfg.front_max_tilt_deg))
+    return [abs(float(pl.n @ f.down_C)) <= lim for pl in planes]
+
+
 def _grids(f: _Frame, planes, labels, cfg, lut) -> list[_Grid]:
-    """The rectified grid of every plane with in-plane cells."""
+    """The rectified grid of every plane that can hold a front (:func:`_front_planes`) with
+    in-plane cells."""
     grids = []
-    for k, (pl, lab) in enumerate(zip(planes, labels)):
+    for k, (pl, lab, ok) in enumerate(zip(planes, labels, _front_planes(f, planes, cfg))):
+        if not ok:
+            continue
         g = _make_grid(k, pl, lab, f.sample_pts, f.K, f.down_C, cfg, lut)
         if g is not None and (g.labels == IN_PLANE).any():
             grids.append(g)
@@ -389,8 +404,10 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
     Args:
         depth: (H, W) depth image, metres (NaN / 0 / inf = no measurement); (H, W, 1) accepted.
         K: the camera's intrinsics; the image must be ``(K.height, K.width)``.
-        X_WC: (4, 4) camera pose in the world (Drake camera frame); None = identity (the
-            rectangles are then in the camera frame and "up" is the image's up).
+        X_WC: (4, 4) camera pose in the world (Drake camera frame); its "down" selects the
+            planes searched for fronts (``front_max_tilt_deg``). None = identity (the
+            rectangles are then in the camera frame, "up" is the image's up, and every plane
+            is searched: gravity is not known).
         config: :class:`FrontDetectorConfig` (default values when None).
         rng: ``numpy.random.Generator`` or seed of the random starts and RANSAC samples.
         clock: the timer of the stage timings (seconds): wall-clock by default;
@@ -412,6 +429,7 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
     """
     t_start = clock()
     cfg = _validated(config or FrontDetectorConfig())
+    X_WC_given = X_WC is not None
     d, X_WC = _check_inputs(depth, K, np.eye(4) if X_WC is None else X_WC)
     var_scale = _check_noise_scale(noise_scale, d.shape)
     rng = np.random.default_rng(rng)
@@ -428,6 +446,7 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
         timings["planes"] = clock() - t0
         return finish()
     f = _prepare_frame(d, arrays, K, X_WC, var_scale, cfg)
+    f.gravity = X_WC_given
     planes = _find_frame_planes(f, cfg, rng)
     timings["planes"] = clock() - t0
     if not planes:
