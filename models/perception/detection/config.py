@@ -114,12 +114,12 @@ class FrontDetectorConfig:
         gap_rectify_max_tilt_deg: only planes within this angle of vertical (deg; "down"
             from ``X_WC``) get a rectified view: fronts are vertical, and the floor or a
             countertop seen from above took the views (and 10 ms per frame) from them.
-        front_max_tilt_deg: fronts are vertical: only planes within this angle of vertical
-            (deg; "down" from ``X_WC``; 90 = every plane) are looked at for offset layers
-            and get a rectified grid and the rectangle search. The others (the floor,
-            countertops, the tops of drawers) keep their label images (the crossings, the
-            own-pixel refit and the layers' test read them). Without ``X_WC`` every plane
-            is searched.
+        front_max_tilt_deg: fronts are vertical: only the rectangles of planes within this
+            angle of vertical (deg; "down" from ``X_WC``; 90 = every plane) are searched
+            (greedy moves, rotation polish, checks). The others (the floor, countertops, the
+            tops of drawers) are labelled and gridded as every plane, and their random starts
+            drawn, so the vertical planes' rectangles do not depend on this value. Without
+            ``X_WC`` every plane is searched.
         layer_planes: offset layers (:func:`_offset_layers`) are looked for on this many
             largest planes (0 = off): a front standing 5-40 mm proud of its cabinet's face
             (a drawer pulled out by its first centimetres) lies within L (or the removal

@@ -17,7 +17,7 @@ _SQUARE5 = np.ones((5, 5), np.uint8)
 _LAYER_MAX_RING = 0.35
 
 
-def _offset_layers(planes, labels, S, Pc, Lmap, Lband, K, cfg, st, off, searched=None):
+def _offset_layers(planes, labels, S, Pc, Lmap, Lband, K, cfg, st, off):
     """Planes for the *offset layers* of the ``cfg.layer_planes`` largest planes: connected
     regions of a plane's region that lie a few mm to a few cm in front of it, parallel to it.
     Returns the new planes (``parent`` = the plane they were split from; none when nothing
@@ -39,17 +39,14 @@ def _offset_layers(planes, labels, S, Pc, Lmap, Lband, K, cfg, st, off, searched
     distance, that is no other plane's front already and is a step rather than a ramp,
     becomes a plane. The pair then shares its pixels by the nearer-plane rule
     (:func:`_crossings`), so the face does not reach into the drawer's rectangle nor the
-    drawer into the face's.
-
-    ``searched``: per plane, whether it can hold a front (None: every plane); among the
-    largest planes only those are looked at (a layer is parallel to its plane)."""
+    drawer into the face's."""
     new: list[Plane] = []
     if cfg.layer_planes <= 0 or cfg.layer_max_layers <= 0 or not planes:
         return new
     H, W = labels[0].shape
     order = sorted(range(len(planes)), key=lambda i: -planes[i].support)
     for k in order[:int(cfg.layer_planes)]:
-        if planes[k].parent >= 0 or (searched is not None and not searched[k]):
+        if planes[k].parent >= 0:
             continue
         found = _candidate_regions(planes[k], labels[k], S[k], Pc, Lband, K, cfg, st, off)
         if found is None:

@@ -240,8 +240,7 @@ def _plane_labels(f: _Frame, planes, cfg, surface, gap):
             labels, S = _labels(f, planes, cfg, surface, gap, keep_distances=True)
     if cfg.layer_planes > 0 and cfg.layer_max_layers > 0:
         # fronts standing a few cm proud of a larger plane (_offset_layers)
-        layers = _offset_layers(planes, labels, S, f.Pc, f.Limg, f.Lband, f.K, cfg, f.st, f.off,
-                                _front_planes(f, planes, cfg))
+        layers = _offset_layers(planes, labels, S, f.Pc, f.Limg, f.Lband, f.K, cfg, f.st, f.off)
         if layers:
             planes = planes + layers
             labels = _labels(f, planes, cfg, surface, gap)
@@ -249,8 +248,8 @@ def _plane_labels(f: _Frame, planes, cfg, surface, gap):
 
 
 def _front_planes(f: _Frame, planes, cfg) -> list[bool]:
-    """Per plane, whether it can hold a front: its normal lies within ``front_max_tilt_deg``
-    of horizontal (the plane within that angle of vertical; every plane when gravity is not
+    """Per plane, whether it can hold a front: the plane lies within ``front_max_tilt_deg`` of
+    vertical (its normal within that angle of horizontal; every plane when gravity is not
     known)."""
     if not f.gravity or cfg.front_max_tilt_deg >= 90.0:
         return [True] * len(planes)
@@ -259,12 +258,9 @@ def _front_planes(f: _Frame, planes, cfg) -> list[bool]:
 
 
 def _grids(f: _Frame, planes, labels, cfg, lut) -> list[_Grid]:
-    """The rectified grid of every plane that can hold a front (:func:`_front_planes`) with
-    in-plane cells."""
+    """The rectified grid of every plane with in-plane cells."""
     grids = []
-    for k, (pl, lab, ok) in enumerate(zip(planes, labels, _front_planes(f, planes, cfg))):
-        if not ok:
-            continue
+    for k, (pl, lab) in enumerate(zip(planes, labels)):
         g = _make_grid(k, pl, lab, f.sample_pts, f.K, f.down_C, cfg, lut)
         if g is not None and (g.labels == IN_PLANE).any():
             grids.append(g)
@@ -464,6 +460,15 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
 
     t0 = clock()
     pid, R0, steps, min_cells = _starts(grids, cfg, rng)
+    # the starts of the planes that cannot hold a front are drawn (the others' draws follow
+    # them) but not searched
+    front = np.array(_front_planes(f, [planes[g.plane_index] for g in grids], cfg))
+    if not front.all():
+        keep = front[pid]
+        pid, R0, steps, min_cells = pid[keep], R0[keep], steps[keep], min_cells[keep]
+        if not keep.any():
+            timings["sampling"] = clock() - t0
+            return finish()
     dims = np.array([g.shape for g in grids], np.int64)
     SC = _stack([g.sat_cost for g in grids], [g.shape for g in grids])
     timings["sampling"] = clock() - t0
