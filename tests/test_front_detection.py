@@ -345,3 +345,20 @@ def test_closed_drawer_between_flush_neighbours_is_found_with_its_size(dist, see
 def test_gap_config_errors_name_the_field(kw):
     with pytest.raises(ValueError, match=next(iter(kw))):
         FrontDetectorConfig(**kw).validate()
+
+
+def test_only_vertical_planes_are_searched_for_fronts():
+    """Fronts are vertical: with the camera's pose known, the floor and the countertop get no
+    rectangle search (``front_max_tilt_deg``); at 90 deg every plane is searched and the
+    horizontal surfaces give rectangles of their own. The door is found either way."""
+    Xd = _front_pose(0.62 + 0.25, -0.3, 0.45)
+    depth, X_WC = _frame([(DOOR, Xd, 0.02)], 1.6, 10.0, [0.8, 0.0, 0.6], 4)
+    tilt = math.sin(math.radians(20.0))
+    for cfg, horizontal in ((FrontDetectorConfig(), False),
+                            (FrontDetectorConfig(front_max_tilt_deg=90.0), True)):
+        rects, _ = detect_fronts(depth, K, X_WC, cfg, rng=4)
+        assert _match(rects, Xd, DOOR) is not None
+        # the rectangle's normal (its z axis) against the world's vertical
+        assert any(abs(r.X_WR[2, 2]) > tilt for r in rects) == horizontal
+    with pytest.raises(ValueError, match="front_max_tilt_deg"):
+        FrontDetectorConfig(front_max_tilt_deg=91.0).validate()

@@ -149,7 +149,7 @@ def test_the_polish_cannot_reject_an_accepted_rectangle(monkeypatch):
     import mmlearn.models.perception.detection.pipeline as fd
     z, K, wall, _ = _synthetic(0.05)     # a box 5 cm proud: a front of its own
     z[:, :8] = np.nan                    # (its wall's edges not touching the border)
-    X_WC = np.eye(4)
+    X_WC = None                          # (camera frame, gravity unknown: every plane searched)
     base, _ = fd.detect_fronts(z, K, X_WC, rng=0)
     assert any(abs(r.width - 0.4) < 0.03 and abs(r.height - 0.13) < 0.03 for r in base)
     orig = fd._polish_rotations

@@ -130,7 +130,7 @@ class FrontDetector(LeafSystem):
             img = self._depth.Eval(context)
             depth = np.asarray(img.data, np.float32)
             X_WC = (self._X_WC.Eval(context).GetAsMatrix4() if self._X_WC.HasValue(context)
-                    else np.eye(4))
+                    else None)  # (camera frame: gravity unknown)
             scale = (np.asarray(self._scale.Eval(context).data, np.float32)
                      if self._scale.HasValue(context) else None)
             rects, timings = detect_fronts(depth, self._K, X_WC, self._cfg, rng,

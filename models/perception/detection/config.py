@@ -114,6 +114,12 @@ class FrontDetectorConfig:
         gap_rectify_max_tilt_deg: only planes within this angle of vertical (deg; "down"
             from ``X_WC``) get a rectified view: fronts are vertical, and the floor or a
             countertop seen from above took the views (and 10 ms per frame) from them.
+        front_max_tilt_deg: fronts are vertical: only the rectangles of planes within this
+            angle of vertical (deg; "down" from ``X_WC``; 90 = every plane) are searched
+            (greedy moves, rotation polish, checks). The others (the floor, countertops, the
+            tops of drawers) are labelled and gridded as every plane, and their random starts
+            drawn, so the vertical planes' rectangles do not depend on this value. Without
+            ``X_WC`` every plane is searched.
         layer_planes: offset layers (:func:`_offset_layers`) are looked for on this many
             largest planes (0 = off): a front standing 5-40 mm proud of its cabinet's face
             (a drawer pulled out by its first centimetres) lies within L (or the removal
@@ -184,6 +190,7 @@ class FrontDetectorConfig:
     gap_rectify_deg: float = param(8.0, unit="deg", ge=0, le=90)
     gap_rectify_max_scale: float = param(1.25, gt=0)
     gap_rectify_max_tilt_deg: float = param(20.0, unit="deg", ge=0, le=90)
+    front_max_tilt_deg: float = param(20.0, unit="deg", ge=0, le=90)
     layer_planes: int = param(3, integer=True, ge=0)
     layer_max_layers: int = param(4, integer=True, ge=0)
     layer_min_size: float = param(0.06, unit="m", ge=0)

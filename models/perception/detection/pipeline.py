@@ -105,6 +105,7 @@ class _Frame:
     down_C: np.ndarray
     surf: np.ndarray
     Lband: np.ndarray
+    gravity: bool = True  # whether ``down_C`` is known (``detect_fronts`` was given X_WC)
 
 
 @numba.njit(cache=True, nogil=True)
@@ -244,6 +245,16 @@ def _plane_labels(f: _Frame, planes, cfg, surface, gap):
             planes = planes + layers
             labels = _labels(f, planes, cfg, surface, gap)
     return planes, labels
+
+
+def _front_planes(f: _Frame, planes, cfg) -> list[bool]:
+    """Per plane, whether it can hold a front: the plane lies within ``front_max_tilt_deg`` of
+    vertical (its normal within that angle of horizontal; every plane when gravity is not
+    known)."""
+    if not f.gravity or cfg.front_max_tilt_deg >= 90.0:
+        return [True] * len(planes)
+    lim = math.sin(math.radians(cfg.front_max_tilt_deg))
+    return [abs(float(pl.n @ f.down_C)) <= lim for pl in planes]
 
 
 def _grids(f: _Frame, planes, labels, cfg, lut) -> list[_Grid]:
@@ -389,8 +400,10 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
     Args:
         depth: (H, W) depth image, metres (NaN / 0 / inf = no measurement); (H, W, 1) accepted.
         K: the camera's intrinsics; the image must be ``(K.height, K.width)``.
-        X_WC: (4, 4) camera pose in the world (Drake camera frame); None = identity (the
-            rectangles are then in the camera frame and "up" is the image's up).
+        X_WC: (4, 4) camera pose in the world (Drake camera frame); its "down" selects the
+            planes searched for fronts (``front_max_tilt_deg``). None = identity (the
+            rectangles are then in the camera frame, "up" is the image's up, and every plane
+            is searched: gravity is not known).
         config: :class:`FrontDetectorConfig` (default values when None).
         rng: ``numpy.random.Generator`` or seed of the random starts and RANSAC samples.
         clock: the timer of the stage timings (seconds): wall-clock by default;
@@ -412,6 +425,7 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
     """
     t_start = clock()
     cfg = _validated(config or FrontDetectorConfig())
+    X_WC_given = X_WC is not None
     d, X_WC = _check_inputs(depth, K, np.eye(4) if X_WC is None else X_WC)
     var_scale = _check_noise_scale(noise_scale, d.shape)
     rng = np.random.default_rng(rng)
@@ -428,6 +442,7 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
         timings["planes"] = clock() - t0
         return finish()
     f = _prepare_frame(d, arrays, K, X_WC, var_scale, cfg)
+    f.gravity = X_WC_given
     planes = _find_frame_planes(f, cfg, rng)
     timings["planes"] = clock() - t0
     if not planes:
@@ -445,6 +460,15 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
 
     t0 = clock()
     pid, R0, steps, min_cells = _starts(grids, cfg, rng)
+    # the starts of the planes that cannot hold a front are drawn (the others' draws follow
+    # them) but not searched
+    front = np.array(_front_planes(f, [planes[g.plane_index] for g in grids], cfg))
+    if not front.all():
+        keep = front[pid]
+        pid, R0, steps, min_cells = pid[keep], R0[keep], steps[keep], min_cells[keep]
+        if not keep.any():
+            timings["sampling"] = clock() - t0
+            return finish()
     dims = np.array([g.shape for g in grids], np.int64)
     SC = _stack([g.sat_cost for g in grids], [g.shape for g in grids])
     timings["sampling"] = clock() - t0
