@@ -57,9 +57,12 @@ _CPU = []  # process CPU times of the last _time call (robust to other users' lo
 
 
 def _time(fn, repeats):
+    """Median and minimum wall time of ``repeats`` calls of ``fn`` (their CPU times in
+    ``_CPU``) after one untimed call: the first call of a process loads the compiled kernels
+    (a one-off cost, not a selection's)."""
     ts = []
     _CPU.clear()
-    out = None
+    out = fn()
     for _ in range(repeats):
         t0 = time.perf_counter()
         c0 = time.process_time()

@@ -61,6 +61,16 @@ COMMANDS = {
                              "--kinds left_door,drawer --trials 2 --repeats 5 --seed 700 --jobs 2 "
                              "--results docs/results/mechanism_faults.jsonl "
                              "--json docs/results/mechanism_faults.json",
+    # single trials quoted on docs/mechanism_dynamics.md (about 1 CPU minute each)
+    "drawer_spring.json": "python -m mmlearn.apps.open_cabinet --object drawer --seed 8 "
+                          "--damping 20 --spring 10 --save-model build/drawer8.sdf --json",
+    "drawer_locked.json": "python -m mmlearn.apps.open_cabinet --object drawer --seed 7 --locked "
+                          "--json",
+    # where a door's damping goes: the torque followed through one trial (a few CPU minutes each)
+    "door_torque_map.json": "python benchmarks/bench_door_torque.py --seeds 710 --damping 3 "
+                            "--frame map --json docs/results/door_torque_map.json",
+    "door_torque_exact.json": "python benchmarks/bench_door_torque.py --seeds 710 --damping 3 "
+                              "--base-noise 0 --frame map --json docs/results/door_torque_exact.json",
     "body_schema.json": "python -m mmlearn.apps.learn_body_schema --arm 2dof --samples 50 --seed 1 --json",
     "body_schema_7dof.json": "python benchmarks/bench_body_schema_7dof.py --sigmas 0.044 --seeds 1-5 "
                              "--extra --jobs 1 --results docs/results/body_schema_7dof.jsonl "
@@ -882,6 +892,60 @@ def _mech_damping_table(file: str) -> str:
                     "outcome"], rows) + "\n\n" + _wrap(said + "."))
 
 
+def mechanism_examples() -> str:
+    """docs/mechanism_dynamics.md's single trials: a drawer with a spring (its learned
+    dynamics against the true ones) and a latched drawer (drawer_spring.json,
+    drawer_locked.json)."""
+    out = []
+    d = _load("drawer_spring.json")
+    if d:
+        dyn = d.get("dynamics") or {}
+        true, units = dyn.get("true", {}), dyn.get("units", {})
+        rows = [[k, f"{_fmt(dyn.get(k))} +- {_fmt(dyn.get(k + '_std'), 2)}",
+                 _fmt(true.get(k, 0.0)), units.get(k, "")]
+                for k in ("damping", "friction", "stiffness") if dyn.get(k) is not None]
+        out.append(f"**One drawer with a spring** (`{COMMANDS['drawer_spring.json']}`; "
+                   f"outcome: {d.get('outcome', '-')})\n\n"
+                   + _table(["", "learned", "true", "unit"], rows))
+    else:
+        out.append(_missing("drawer_spring.json"))
+    d = _load("drawer_locked.json")
+    if d:
+        force = d.get("peak_force_N")
+        out.append(f"**A latched drawer** (`{COMMANDS['drawer_locked.json']}`): outcome "
+                   f"`{d.get('outcome', '-')}`, the robot stopped pulling at a held wrist force "
+                   f"of {_fmt(force, 2, ' N')}.")
+    else:
+        out.append(_missing("drawer_locked.json"))
+    return "\n\n".join(out)
+
+
+def door_torque() -> str:
+    """The torque on one door followed through a trial, fitted with the dynamics regression
+    from each source (door_torque_map.json, door_torque_exact.json)."""
+    cols = [("contact", "contact torques"), ("generalized_contact_force", "generalised force"),
+            ("wrist_true_geometry", "wrist force, true lever and rate"),
+            ("wrist_true_q_local_rate", "wrist force, rates from local fits"),
+            ("pipeline", "the robot's estimate"), ("learned_radius_m", "learned radius (m)"),
+            ("true_radius_m", "true radius (m)"),
+            ("pipeline_over_radius_factor", "estimate / (learned radius / true radius)^2")]
+    rows = []
+    for name, label in (("door_torque_map.json", "base localisation as in the trials"),
+                        ("door_torque_exact.json", "exact base pose")):
+        d = _load(name)
+        if not d:
+            return _missing(name)
+        for r in d["results"]:
+            rows.append([label, r["seed"], _fmt(d["damping"])]
+                        + [_fmt(r.get(k)) for k, _ in cols]
+                        + [", ".join(r.get("bodies_touching_door", []))])
+    return ("Damping fitted from each source, N m s/rad (the hook tracked in the map frame)\n\n"
+            + _table(["run", "seed", "true"] + [lbl for _, lbl in cols] + ["bodies on the door"],
+                     rows)
+            + "\n\nMade by `" + COMMANDS["door_torque_map.json"] + "` and `"
+            + COMMANDS["door_torque_exact.json"] + "`.")
+
+
 def mechanism_measured() -> str:
     """docs/mechanism_dynamics.md's measured figures: the damping sweeps
     (mechanism_damping*.json) and the jams, latches and sticky mechanisms
@@ -992,7 +1056,9 @@ README_BLOCKS = {"tour": tour_table, "capabilities": capability_table, "beyond":
 #: generated blocks of the docs pages: page -> {name -> text}
 PAGE_BLOCKS = {"docs/examples.md": {"examples": examples_table},
                "docs/mechanism_dynamics.md": {"mechanism_measured": mechanism_measured,
-                                              "mechanism_status": mechanism_status}}
+                                              "mechanism_status": mechanism_status,
+                                              "mechanism_examples": mechanism_examples,
+                                              "door_torque": door_torque}}
 
 
 PAGES = {"articulation": articulation, "body_schema": body_schema, "perception": perception,
