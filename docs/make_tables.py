@@ -317,19 +317,10 @@ def teaching() -> str:
 def _teaching_runs(name: str = "teaching.jsonl") -> list[dict]:
     """The records of a sweep's JSON Lines file that finished without an error, each with its
     ``fn`` (``imitation.teach@...`` / ``imitation.reproduce@...``), ``params`` and ``seed``."""
-    path = RESULTS / name
-    if not path.is_file():
-        return []
-    out = []
-    for line in path.read_text().splitlines():
-        try:
-            r = json.loads(line)
-        except json.JSONDecodeError:
-            continue
-        if r.get("error") is None and r.get("record"):
-            out.append(dict(r["record"], fn=r["spec"]["fn"], params=r["spec"]["params"],
-                            seed=r["spec"]["seed"]))
-    return out
+    return [dict(r["record"], fn=r["spec"]["fn"], params=r["spec"]["params"],
+                 seed=r["spec"]["seed"])
+            for r in ENGINEERING.sweep_lines(RESULTS / name)
+            if r.get("error") is None and r.get("record")]
 
 
 def teaching_per_seed(runs: list[dict]) -> dict:

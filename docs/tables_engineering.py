@@ -234,21 +234,25 @@ def _operate_door_errors(d) -> list:
             if t.get("radius_error_m") is not None]
 
 
-def operate_trial_records(name: str, results_dir: Path) -> list:
-    """The trial records of an operate_trials JSON Lines file (the sweep's lines)."""
-    path = results_dir / name
+def sweep_lines(path: Path) -> list:
+    """The parsed lines of a sweep's JSON Lines file (unreadable lines skipped; [] when the
+    file is missing)."""
     if not path.is_file():
         return []
     out = []
     for line in path.read_text().splitlines():
         try:
-            r = json.loads(line)
+            out.append(json.loads(line))
         except json.JSONDecodeError:
             continue
-        rec = r.get("record") if isinstance(r, dict) and "record" in r else r
-        if isinstance(rec, dict) and rec.get("object"):
-            out.append(rec)
     return out
+
+
+def operate_trial_records(name: str, results_dir: Path) -> list:
+    """The trial records of an operate_trials JSON Lines file (the sweep's lines)."""
+    recs = (r.get("record") if isinstance(r, dict) and "record" in r else r
+            for r in sweep_lines(results_dir / name))
+    return [rec for rec in recs if isinstance(rec, dict) and rec.get("object")]
 
 
 def radius_targets(load, cmd) -> str:
