@@ -21,6 +21,7 @@ from mmlearn.sdf.user_model import UserMechanism, add_user_model
 from mmlearn.systems import GravityCompensation, JointFriction, MarkerSensor, \
     MarkerSensorConfig
 from mmlearn.systems.common.camera_marker_sensor import CameraMarkerSensor, CameraMarkerSensorConfig
+from mmlearn.systems.common.plant_helpers import STICTION_VELOCITY
 
 
 @dataclass
@@ -197,7 +198,7 @@ def _add_hinge_friction(plant, mechanism, spec) -> bool:
 
 #: the velocity scale of the regularised Coulomb friction of a mechanism's hinge, rad/s
 #: (:class:`~mmlearn.systems.JointFriction`'s default ``v_stiction``)
-HINGE_STICTION_VELOCITY = 0.02
+HINGE_STICTION_VELOCITY = STICTION_VELOCITY
 
 
 def MakeSceneDiagram(config: SceneConfig | None = None, *, meshcat=None):

@@ -35,6 +35,7 @@ from pydrake.systems.framework import BasicVector, EventStatus, LeafSystem
 from mmlearn.models.articulation.dynamics import (MechanismDynamics, fit_dynamics,
                                                   generalized_samples, path_opening)
 from mmlearn.models.common.config import param, validate_fields
+from mmlearn.systems.common.plant_helpers import STICTION_VELOCITY
 
 __all__ = ["DynamicsMonitorConfig", "DynamicsMonitorState", "DynamicsMonitor", "HaltGate", "GO",
            "JAMMED", "LOCKED", "HALT_NAMES", "estimate_dynamics"]
@@ -126,7 +127,7 @@ class DynamicsMonitorConfig:
     pull: list[float] = param([0.0, 0.0, 0.0], unit="world direction", length=3,
                               elements=True, factory=True)
     open_enough: float = param(0.0, unit="rad or m", ge=0)
-    friction_velocity: float = param(0.02, unit="rad/s or m/s", ge=0)
+    friction_velocity: float = param(STICTION_VELOCITY, unit="rad/s or m/s", ge=0)
 
     def __post_init__(self):
         validate_fields(self)
@@ -243,8 +244,8 @@ class DynamicsMonitor(LeafSystem):
 
     @property
     def config(self) -> DynamicsMonitorConfig:
-        """The monitor's parameters."""
-        return self._cfg
+        """A copy of the monitor's parameters."""
+        return replace(self._cfg)
 
     # ------------------------------------------------------------------ ports
     def get_hook_position_input_port(self):

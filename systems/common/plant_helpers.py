@@ -79,6 +79,12 @@ class StateForceSystem(LeafSystem):
         return self._out
 
 
+#: the speed over which the scenes' joint friction builds up (``tanh(v / STICTION_VELOCITY)``),
+#: m/s or rad/s: :class:`JointFriction`'s default, a revolute mechanism's ``DoorHinge`` and
+#: the dynamics monitor's model of it
+STICTION_VELOCITY = 0.02
+
+
 class JointFriction(StateForceSystem):
     """Regularised Coulomb friction on chosen joints, as generalized forces.
 
@@ -95,7 +101,7 @@ class JointFriction(StateForceSystem):
     """
 
     def __init__(self, *, num_positions: int, num_velocities: int, joints: dict[int, float],
-                 v_stiction: float = 0.02):
+                 v_stiction: float = STICTION_VELOCITY):
         super().__init__()
         if v_stiction <= 0:
             raise ValueError("JointFriction: v_stiction must be > 0")
