@@ -1,4 +1,5 @@
-"""Command-line pieces shared by the benchmarks: ``--json [FILE]`` and ``--quick``.
+"""Pieces shared by the benchmarks: ``--json [FILE]``, ``--quick`` and ``--baseline REV``
+(:func:`import_revision`).
 
 ``--json FILE`` writes the benchmark's figures as one JSON document to FILE and the table is
 printed as usual; ``--json`` alone (or ``--json -``) prints the JSON document instead of the
@@ -8,8 +9,16 @@ headline figures (the name carries the unit), read by ``run_speed.py``.
 
 from __future__ import annotations
 
+import atexit
+import importlib
+import io
 import json
 import math
+import shutil
+import subprocess
+import sys
+import tarfile
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -74,3 +83,33 @@ def emit_json(path: str | None, doc) -> bool:
 
     atomic_write_text(path, text + "\n")
     return False
+
+
+REPO = Path(__file__).resolve().parent.parent
+
+
+def import_revision(rev: str, paths: list[str], package_dir: str, name: str,
+                    rewrite: tuple[str, str]):
+    """Import ``package_dir`` of git revision ``rev`` of this repository as the top-level
+    package ``name``, for a side-by-side comparison with the checkout's code: ``paths``
+    (directories under the repository) are extracted into a temporary directory (removed at
+    exit), ``package_dir`` is renamed ``name`` (given an empty ``__init__.py`` when it has
+    none), and ``rewrite`` = (old, new) replaces the absolute imports of its modules. Raises
+    SystemExit with a one-line message when the revision cannot be extracted."""
+    try:
+        tar = subprocess.run(["git", "-C", str(REPO), "archive", rev, *paths],
+                             capture_output=True, check=True).stdout
+    except (OSError, subprocess.CalledProcessError) as e:
+        raise SystemExit(f"--baseline: cannot extract {' '.join(paths)} at {rev!r} ({e})")
+    root = Path(tempfile.mkdtemp(prefix=f"baseline{name}_"))
+    atexit.register(shutil.rmtree, root, ignore_errors=True)
+    with tarfile.open(fileobj=io.BytesIO(tar)) as t:
+        t.extractall(root, filter="data")
+    pkg = root / name
+    (root / package_dir).rename(pkg)
+    if not (pkg / "__init__.py").is_file():
+        (pkg / "__init__.py").write_text("")
+    for f in pkg.rglob("*.py"):
+        f.write_text(f.read_text().replace(*rewrite))
+    sys.path.insert(0, str(root))
+    return importlib.import_module(name)

@@ -57,23 +57,15 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("MKL_NUM_THREADS", "1")
 
 import argparse
-import atexit
 import glob
-import importlib
-import io
 import json
 import math
-import shutil
-import subprocess
-import sys
-import tarfile
-import tempfile
 import time
 
 import cv2
 import numpy as np
 
-from _common import add_output_arguments, emit_json
+from _common import add_output_arguments, emit_json, import_revision
 
 from mmlearn.models.perception.detection import STAGES, FrontDetectorConfig, detect_fronts
 from mmlearn.models.perception.synth import (DOOR_SIZE, DRAWER_SIZE, add_depth_noise, front_pose,
@@ -130,7 +122,6 @@ def errors(rect, X):
     return perr, best, nerr
 
 
-REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 PKG = "models/perception/detection"
 
 
@@ -138,24 +129,8 @@ def load_baseline(rev):
     """The detector package of git revision ``rev`` of this repository, imported as a package
     of its own (``_baseline_detection``, from a temporary directory): (detect_fronts,
     FrontDetectorConfig). Raises SystemExit with a one-line message when it cannot."""
-    try:
-        tar = subprocess.run(["git", "-C", REPO, "archive", rev, PKG], capture_output=True,
-                             check=True).stdout
-    except (OSError, subprocess.CalledProcessError) as e:
-        raise SystemExit(f"--baseline: cannot extract {PKG} at {rev!r} ({e})")
-    root = tempfile.mkdtemp(prefix="baseline_detector_")
-    atexit.register(shutil.rmtree, root, ignore_errors=True)
-    with tarfile.open(fileobj=io.BytesIO(tar)) as t:
-        t.extractall(root, filter="data")
-    src = os.path.join(root, PKG)
-    dst = os.path.join(root, "_baseline_detection")
-    os.rename(src, dst)
-    for f in glob.glob(os.path.join(dst, "*.py")):
-        text = open(f).read().replace("mmlearn.models.perception.detection",
-                                      "_baseline_detection")
-        open(f, "w").write(text)
-    sys.path.insert(0, root)
-    mod = importlib.import_module("_baseline_detection")
+    mod = import_revision(rev, [PKG], PKG, "_baseline_detection",
+                          ("mmlearn.models.perception.detection", "_baseline_detection"))
     return mod.detect_fronts, mod.FrontDetectorConfig
 
 

@@ -38,16 +38,10 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("MKL_NUM_THREADS", "1")
 
-import atexit
 import glob
 import importlib
-import io
 import math
-import shutil
-import subprocess
 import sys
-import tarfile
-import tempfile
 import time
 from pathlib import Path
 
@@ -58,7 +52,7 @@ from mmlearn.models.articulation.sim import simulate_link
 from mmlearn.models.articulation.structure import select_link_model
 from mmlearn.models.common.track_io import read_track
 
-from _common import add_output_arguments, emit_json
+from _common import add_output_arguments, emit_json, import_revision
 
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parent
@@ -73,22 +67,8 @@ def load_baseline(rev: str):
     """(select_link_model, ObservationModel) of git revision ``rev`` of this repository,
     imported from a temporary copy as the package ``_baseline_models``. Raises SystemExit
     with a one-line message when it cannot."""
-    try:
-        tar = subprocess.run(["git", "-C", str(REPO), "archive", rev, *PKGS],
-                             capture_output=True, check=True).stdout
-    except (OSError, subprocess.CalledProcessError) as e:
-        raise SystemExit(f"--baseline: cannot extract {' '.join(PKGS)} at {rev!r} ({e})")
-    root = tempfile.mkdtemp(prefix="baseline_selection_")
-    atexit.register(shutil.rmtree, root, ignore_errors=True)
-    with tarfile.open(fileobj=io.BytesIO(tar)) as t:
-        t.extractall(root, filter="data")
-    pkg = os.path.join(root, "_baseline_models")
-    os.rename(os.path.join(root, "models"), pkg)
-    Path(pkg, "__init__.py").write_text("")
-    for f in glob.glob(os.path.join(pkg, "*", "*.py")):
-        text = Path(f).read_text().replace("mmlearn.models.", "_baseline_models.")
-        Path(f).write_text(text)
-    sys.path.insert(0, root)
+    import_revision(rev, list(PKGS), "models", "_baseline_models",
+                    ("mmlearn.models.", "_baseline_models."))
     structure = importlib.import_module("_baseline_models.articulation.structure")
     link = importlib.import_module("_baseline_models.articulation.link")
     return structure.select_link_model, link.ObservationModel
