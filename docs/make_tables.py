@@ -111,19 +111,21 @@ COMMANDS = {
 }
 
 
-def _engineering():
-    """docs/tables_engineering.py: the engineering pages' blocks and their results files."""
+def _tables_module(name: str):
+    """docs/<name>.py (the engineering pages' or the perception page's blocks and their
+    results files)."""
     import importlib.util
 
-    spec = importlib.util.spec_from_file_location("tables_engineering",
-                                                  DOCS / "tables_engineering.py")
+    spec = importlib.util.spec_from_file_location(name, DOCS / f"{name}.py")
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
     return mod
 
 
-ENGINEERING = _engineering()
+ENGINEERING = _tables_module("tables_engineering")
+PERCEPTION = _tables_module("tables_perception")
 COMMANDS.update(ENGINEERING.COMMANDS)
+COMMANDS.update(PERCEPTION.COMMANDS)
 
 #: the results files whose figures change with the door-radius, user-model, detector,
 #: mechanism-dynamics and teaching work: re-run them after such changes
@@ -131,7 +133,7 @@ COMMANDS.update(ENGINEERING.COMMANDS)
 VOLATILE = ("operate", "operate_trials", "user_models", "mechanism_damping",
             "mechanism_damping_950", "mechanism_faults", "fronts",
             "perception_distance", "teaching", "imitate", "quick_tour", "speed")
-VOLATILE += ENGINEERING.VOLATILE
+VOLATILE += ENGINEERING.VOLATILE + PERCEPTION.VOLATILE
 
 
 def _load(name: str):
@@ -1057,9 +1059,12 @@ PAGES = {"articulation": articulation, "body_schema": body_schema, "perception":
          "structure_prior": structure_prior}
 
 #: the engineering pages' blocks and the capability pages' measured lines
-#: (docs/tables_engineering.py)
-PAGE_BLOCKS.update(ENGINEERING.page_blocks(_load, lambda name: COMMANDS[name], _teaching_runs,
-                                           lambda: RESULTS))
+#: (docs/tables_engineering.py), and the perception page's design notes and deviations
+#: (docs/tables_perception.py)
+for _page, _named in (*ENGINEERING.page_blocks(_load, lambda name: COMMANDS[name], _teaching_runs,
+                                               lambda: RESULTS).items(),
+                      *PERCEPTION.page_blocks(_load, lambda name: COMMANDS[name]).items()):
+    PAGE_BLOCKS.setdefault(_page, {}).update(_named)
 
 
 def render() -> dict[str, str]:

@@ -1,0 +1,104 @@
+"""The generated blocks of docs/perception.md's design notes and deviation list, and the
+results file they are made from.
+
+Imported by docs/make_tables.py like docs/tables_engineering.py: :data:`COMMANDS` is merged
+into its own, and the blocks of :func:`page_blocks` are written between
+``<!-- generated:NAME -->`` and ``<!-- /generated:NAME -->``. Every function takes ``load`` (a
+results file's name -> its JSON, None when missing) and ``cmd`` (a results file's name -> its
+command).
+"""
+
+from __future__ import annotations
+
+#: results file -> the command (from the repository root) that writes it
+COMMANDS = {
+    # the front detector with each departure from the thesis switched off in turn, on 90
+    # rendered frames of the kitchen (about 2 CPU minutes)
+    "detector_ablations.json": "python benchmarks/bench_detector_ablations.py --frames 15 "
+                               "--distances 1.5,2.2,2.8 --seed 1 "
+                               "--json docs/results/detector_ablations.json",
+}
+
+#: the results files here whose figures change with the detector's work
+VOLATILE = ("detector_ablations",)
+
+#: variant of the ablation benchmark -> the deviation it switches off, as the page names it
+ABLATIONS = (("thesis_costs", "Costs"), ("no_crossings", "Crossings"),
+             ("no_own_pixel_refit", "Own-pixel refit"), ("no_reveals", "Reveals"),
+             ("no_long_pass", "Reveals: the long pass"), ("no_region_starts", "Region starts"),
+             ("no_layers", "Offset layers"), ("coarse_rotation", "Rotation polish"))
+
+
+def _f(x, digits: int = 1) -> str:
+    return "-" if x is None else f"{x:.{digits}f}"
+
+
+def _missing(name: str) -> str:
+    stem = name.rsplit(".", 1)[0]
+    return f"(no `docs/results/{name}` yet: `python docs/make_tables.py --run --only {stem}`)"
+
+
+def _fields(fields: dict) -> str:
+    return ", ".join(f"`{k}: {v}`" for k, v in fields.items()) or "(the defaults)"
+
+
+def _frames(d) -> str:
+    s = d["settings"]
+    dist = ", ".join(f"{x:g}" for x in s["distances"])
+    return (f"{d['variants']['default']['frames']} rendered frames (a door and a drawer "
+            f"opening, {s['frames_per_front_and_distance']} frames each at {dist} m, the first "
+            "closed)")
+
+
+def detector_ablations(load, cmd) -> str:
+    """One row per departure from the thesis: the detector with it switched off against the
+    default configuration, on the same frames."""
+    d = load("detector_ablations.json")
+    if not d:
+        return _missing("detector_ablations.json")
+    v = d["variants"]
+    rows = []
+    for key, name in (("default", "none (the default configuration)"),) + ABLATIONS:
+        r = v.get(key)
+        if r is None:
+            continue
+        rows.append([name if key == "default" else f"{name}: {r['what']}",
+                     _fields(r["fields"]), f"{r['found']}/{r['frames']}",
+                     f"{r['closed_found']}/{r['closed_frames']}",
+                     f"{_f(r['width_err_mm_door'])} / {_f(r['width_err_mm_door_max'])}",
+                     f"{_f(r['width_err_mm_drawer'])} / {_f(r['width_err_mm_drawer_max'])}",
+                     _f(r["pos_err_mm"]), f"{r['same_as_default']}/{r['frames']}",
+                     _f(r["cpu_ms_median"])])
+    head = ["switched off", "configuration", "found", "closed fronts found",
+            "door width error mean / max (mm)", "drawer width error mean / max (mm)",
+            "position error (mm)", "same rectangles as the default", "CPU ms per frame"]
+    out = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    out += ["| " + " | ".join(row) + " |" for row in rows]
+    return ("\n".join(out) + f"\n\nOn {_frames(d)}, each configuration on every frame with "
+            "the same seed; a front is found when the nearest rectangle is within 0.1 m, "
+            "20 deg and 0.1 m of width and height of the true one; errors over the found "
+            "fronts; CPU time the median per frame, the configurations alternating frame by "
+            f"frame. Made by `{cmd('detector_ablations.json')}`.")
+
+
+def planes_searched(load, cmd) -> str:
+    """The rule "only vertical planes are searched" against every plane searched."""
+    d = load("detector_ablations.json")
+    if not d or "all_planes_searched" not in d["variants"]:
+        return _missing("detector_ablations.json")
+    a, b = d["variants"]["default"], d["variants"]["all_planes_searched"]
+    ratio = (b["cpu_ms_median"] / a["cpu_ms_median"]
+             if a["cpu_ms_median"] and b["cpu_ms_median"] else None)
+    return (f"On {_frames(d)}: the front found in {a['found']} frames with the rule and in "
+            f"{b['found']} with every plane searched (`front_max_tilt_deg: 90`), the "
+            f"rectangles on vertical planes the same on {b['same_as_default']} of "
+            f"{b['frames']} frames; CPU ms per frame (median) {_f(a['cpu_ms_median'])} with "
+            f"the rule against {_f(b['cpu_ms_median'])} without"
+            + ("" if ratio is None else f" ({ratio:.2f}x)")
+            + f". Made by `{cmd('detector_ablations.json')}`.")
+
+
+def page_blocks(load, cmd) -> dict:
+    """docs page -> {block name -> function of no arguments giving its text}."""
+    return {"docs/perception.md": {"detector_ablations": lambda: detector_ablations(load, cmd),
+                                   "planes_searched": lambda: planes_searched(load, cmd)}}
