@@ -1,5 +1,6 @@
-"""The generated blocks of docs/perception.md's design notes and deviation list, and the
-results file they are made from.
+"""The generated blocks of docs/perception.md's design notes and deviation list, and of the
+first-call costs of the compiled kernels (docs/perception.md, docs/performance_articulation.md),
+and the results files they are made from.
 
 Imported by docs/make_tables.py like docs/tables_engineering.py: :data:`COMMANDS` is merged
 into its own, and the blocks of :func:`page_blocks` are written between
@@ -17,10 +18,13 @@ COMMANDS = {
     "detector_ablations.json": "python benchmarks/bench_detector_ablations.py --frames 15 "
                                "--distances 1.5,2.2,2.8 --seed 1 "
                                "--json docs/results/detector_ablations.json",
+    # the first call of a process: compiling the detector's and the selection's kernels in a
+    # fresh environment, then loading them from the cache (about 1 CPU minute)
+    "first_call.json": "python benchmarks/bench_first_call.py --json docs/results/first_call.json",
 }
 
 #: the results files here whose figures change with the detector's work
-VOLATILE = ("detector_ablations",)
+VOLATILE = ("detector_ablations", "first_call")
 
 #: variant of the ablation benchmark -> the deviation it switches off, as the page names it
 ABLATIONS = (("thesis_costs", "Costs"), ("no_crossings", "Crossings"),
@@ -98,7 +102,39 @@ def planes_searched(load, cmd) -> str:
             + f". Made by `{cmd('detector_ablations.json')}`.")
 
 
+def _first_call(load, name):
+    d = load("first_call.json")
+    return None if not d else d["workloads"].get(name)
+
+
+def first_call_detector(load, cmd) -> str:
+    """The detector's first call: compiling its kernels, then loading them."""
+    r = _first_call(load, "detector")
+    if r is None:
+        return _missing("first_call.json")
+    return (f"The first call compiles them, once: {_f(r['compile_first_call_s'])} s of CPU for "
+            "one synthetic frame in a fresh environment; the first call of every later process "
+            f"loads them from the cache in the package's `__pycache__` "
+            f"({_f(r['cached_first_call_s'], 2)} s), the calls after it take "
+            f"{_f(1e3 * r['steady_call_s'])} ms (`{cmd('first_call.json')}`).")
+
+
+def first_call_selection(load, cmd) -> str:
+    """Link-model selection's first call: compiling its kernels, then loading them."""
+    r = _first_call(load, "selection")
+    if r is None:
+        return "- " + _missing("first_call.json")
+    return (f"- A fresh environment compiles the kernels on first use, once: the first "
+            f"selection (a microwave door, n = 30) took {_f(r['compile_first_call_s'])} s of "
+            f"CPU; the first selection of every later process loads them from the cache on "
+            f"disk ({_f(r['cached_first_call_s'], 2)} s), the next ones take "
+            f"{_f(1e3 * r['steady_call_s'])} ms (`{cmd('first_call.json')}`).")
+
+
 def page_blocks(load, cmd) -> dict:
     """docs page -> {block name -> function of no arguments giving its text}."""
     return {"docs/perception.md": {"detector_ablations": lambda: detector_ablations(load, cmd),
-                                   "planes_searched": lambda: planes_searched(load, cmd)}}
+                                   "planes_searched": lambda: planes_searched(load, cmd),
+                                   "first_call_detector": lambda: first_call_detector(load, cmd)},
+            "docs/performance_articulation.md": {
+                "first_call_selection": lambda: first_call_selection(load, cmd)}}
