@@ -112,8 +112,8 @@ COMMANDS = {
 
 
 def _tables_module(name: str):
-    """docs/<name>.py (the engineering pages' or the perception page's blocks and their
-    results files)."""
+    """docs/<name>.py (the engineering pages' blocks, or the design notes' measured lines,
+    and their results files)."""
     import importlib.util
 
     spec = importlib.util.spec_from_file_location(name, DOCS / f"{name}.py")
@@ -123,9 +123,9 @@ def _tables_module(name: str):
 
 
 ENGINEERING = _tables_module("tables_engineering")
-PERCEPTION = _tables_module("tables_perception")
+NOTES = _tables_module("tables_notes")
 COMMANDS.update(ENGINEERING.COMMANDS)
-COMMANDS.update(PERCEPTION.COMMANDS)
+COMMANDS.update(NOTES.COMMANDS)
 
 #: the results files whose figures change with the door-radius, user-model, detector,
 #: mechanism-dynamics and teaching work: re-run them after such changes
@@ -133,7 +133,7 @@ COMMANDS.update(PERCEPTION.COMMANDS)
 VOLATILE = ("operate", "operate_trials", "user_models", "mechanism_damping",
             "mechanism_damping_950", "mechanism_faults", "fronts",
             "perception_distance", "teaching", "imitate", "quick_tour", "speed")
-VOLATILE += ENGINEERING.VOLATILE + PERCEPTION.VOLATILE
+VOLATILE += ENGINEERING.VOLATILE + NOTES.VOLATILE
 
 
 def _load(name: str):
@@ -1059,11 +1059,11 @@ PAGES = {"articulation": articulation, "body_schema": body_schema, "perception":
          "structure_prior": structure_prior}
 
 #: the engineering pages' blocks and the capability pages' measured lines
-#: (docs/tables_engineering.py), and the perception page's design notes and deviations
-#: (docs/tables_perception.py)
+#: (docs/tables_engineering.py), and the measured lines of the design notes and deviation
+#: lists (docs/tables_notes.py)
 for _page, _named in (*ENGINEERING.page_blocks(_load, lambda name: COMMANDS[name], _teaching_runs,
                                                lambda: RESULTS).items(),
-                      *PERCEPTION.page_blocks(_load, lambda name: COMMANDS[name]).items()):
+                      *NOTES.page_blocks(_load, lambda name: COMMANDS[name]).items()):
     PAGE_BLOCKS.setdefault(_page, {}).update(_named)
 
 

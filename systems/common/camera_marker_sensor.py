@@ -85,11 +85,10 @@ class CameraMarkerSensorConfig:
         width, height: image size, pixels. 1920 x 1440: the arms' 0.04 m markers seen from
             the default cameras 2 m away are 20-28 pixels wide (3.5-4.5 px per module of a
             4x4 marker) at fov_y 55 degrees. On random 2-DOF arm poses a smaller image
-            gives much larger position errors per part and more flipped orientations, and
-            at 640 x 480 a single marker is mostly not found from 1.5 m on
-            (``benchmarks/bench_camera_marker_sensor.py --arm 2dof`` measures them). The
-            price: rendering a 1920 x 1440 image with CPU OpenGL takes far longer than
-            detecting its markers.
+            gives larger position errors per part, and at 640 x 480 a single marker is not
+            found from 1.5 m on; the price of the larger image is its rendering time (the
+            body-schema page's design notes give the figures per image size, made by
+            ``benchmarks/bench_camera_marker_sensor.py --arm 2dof``).
         near: near clipping distance, m.
         principal_point_shift_px: calibration of the rendered cameras: added to the
             principal point (cx, cy) of Drake's ``CameraInfo`` before detection, pixels.
