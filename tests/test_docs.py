@@ -340,3 +340,21 @@ def test_the_ablation_benchmark_runs_on_recorded_frames():
     bad = subprocess.run([sys.executable, str(script), "--variants", "nosuch"],
                          capture_output=True, text=True, timeout=120)
     assert bad.returncode == 2 and "nosuch" in bad.stderr
+
+
+@pytest.mark.slow
+def test_the_camera_marker_benchmark_writes_the_arm_errors(tmp_path):
+    """bench_camera_marker_sensor.py --arm writes its per-part errors to --json FILE (the
+    body-schema page's camera line is made from them); --json without a file is refused."""
+    import json
+    script = ROOT / "benchmarks" / "bench_camera_marker_sensor.py"
+    out = tmp_path / "arm.json"
+    subprocess.run([sys.executable, str(script), "--arm", "2dof", "--poses", "2", "--width",
+                    "640", "--json", str(out)], capture_output=True, text=True, timeout=300,
+                   check=True)
+    d = json.loads(out.read_text())
+    assert d["arm"] == "2dof" and d["poses"] == 2 and (d["width"], d["height"]) == (640, 480)
+    assert len(d["parts"]) == 4 and all(0 <= p["visible"] <= 1 for p in d["parts"])
+    bad = subprocess.run([sys.executable, str(script), "--arm", "2dof", "--json"],
+                         capture_output=True, text=True, timeout=120)
+    assert bad.returncode == 2 and "--json" in bad.stderr
