@@ -1,7 +1,8 @@
 """The measured lines of the design notes and deviation lists: the front detector's deviations
 and its vertical-plane rule (docs/perception.md), the first-call cost of the compiled kernels
-(docs/perception.md, docs/performance_articulation.md) and the camera marker sensor's image
-size (docs/body_schema.md), and the results files they are made from.
+(docs/perception.md, docs/performance_articulation.md), the camera marker sensor's image
+size (docs/body_schema.md) and DTW's features (docs/imitation.md), and the results files they
+are made from.
 
 Imported by docs/make_tables.py like docs/tables_engineering.py: :data:`COMMANDS` is merged
 into its own, and the blocks of :func:`page_blocks` are written between
@@ -30,6 +31,10 @@ COMMANDS = {
     "camera_markers_1920.json": "python benchmarks/bench_camera_marker_sensor.py --arm 2dof "
                                 "--poses 20 --width 1920 --seed 0 "
                                 "--json docs/results/camera_markers_1920.json",
+    # DTW's phase error with derivative, position or both features on simulated
+    # pick-and-place demonstrations (and the imitation model layer's quick timings; seconds)
+    "imitation_alignment.json": "python benchmarks/bench_imitation.py --quick "
+                                "--json docs/results/imitation_alignment.json",
     "camera_markers_640.json": "python benchmarks/bench_camera_marker_sensor.py --width 640 "
                                "--distances 1,1.5,2,2.5 --angles 0 --n 6 --seed 0 "
                                "--json docs/results/camera_markers_640.json",
@@ -181,6 +186,20 @@ def camera_markers(load, cmd) -> str:
             + ", ".join(f"`{cmd(n)}`" for n in names) + ".")
 
 
+def dtw_features(load, cmd) -> str:
+    """The imitation page's DTW deviation: the phase error per feature set."""
+    d = load("imitation_alignment.json")
+    if not d:
+        return "- DTW on derivative and position features. " + _missing("imitation_alignment.json")
+    e = {k: d.get(f"align_{k}", {}).get("mean_phase_error_segments")
+         for k in ("derivative", "position", "both")}
+    return ("- DTW on derivative and position features (derivative only is the thesis' choice): "
+            f"mean phase error {_f(e['both'], 3)} segments with both, {_f(e['derivative'], 3)} "
+            f"with the derivative only, {_f(e['position'], 3)} with the position only, on "
+            "simulated pick-and-place demonstrations with varied segment timing and placement "
+            f"(`{cmd('imitation_alignment.json')}`).")
+
+
 def page_blocks(load, cmd) -> dict:
     """docs page -> {block name -> function of no arguments giving its text}."""
     return {"docs/perception.md": {"detector_ablations": lambda: detector_ablations(load, cmd),
@@ -188,4 +207,5 @@ def page_blocks(load, cmd) -> dict:
                                    "first_call_detector": lambda: first_call_detector(load, cmd)},
             "docs/performance_articulation.md": {
                 "first_call_selection": lambda: first_call_selection(load, cmd)},
-            "docs/body_schema.md": {"camera_markers": lambda: camera_markers(load, cmd)}}
+            "docs/body_schema.md": {"camera_markers": lambda: camera_markers(load, cmd)},
+            "docs/imitation.md": {"dtw_features": lambda: dtw_features(load, cmd)}}
