@@ -322,6 +322,23 @@ def test_the_detector_ablation_table_comes_from_its_results_file(tmp_path, monke
     assert "detector_ablations.json" in mod.COMMANDS and "detector_ablations" in mod.VOLATILE
 
 
+def test_every_results_file_is_registered_with_its_command():
+    """Each results file under docs/results/ has the command that makes it (COMMANDS), and
+    every registered file is committed: a figure cannot come from a file nobody can re-make."""
+    spec = importlib.util.spec_from_file_location("make_tables", DOCS / "make_tables.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    files = {p.name for p in (DOCS / "results").glob("*.json")}
+    assert not files - set(mod.COMMANDS), "results files without a command"
+    assert not set(mod.COMMANDS) - files, "registered results files not committed"
+    for name, cmd in mod.COMMANDS.items():
+        argv = cmd.split()
+        assert argv[0] == "python" and len(argv) > 1, name
+        if "--json" in argv and argv.index("--json") + 1 < len(argv) and \
+                argv[argv.index("--json") + 1].endswith(".json"):
+            assert argv[argv.index("--json") + 1] == f"docs/results/{name}", name
+
+
 @pytest.mark.slow
 def test_the_ablation_benchmark_runs_on_recorded_frames():
     """benchmarks/bench_detector_ablations.py on the two recorded kitchen frames with two
