@@ -99,7 +99,8 @@ def detector_ablations(load, cmd) -> str:
             "20 deg and 0.1 m of width and height of the true one; errors over the found "
             "fronts; CPU time the median per frame, the configurations alternating frame by "
             "frame. A reveal must be longer than `gap_min_length`, so 100 m drops every one "
-            "(and with them the region starts). Made by "
+            "(and with them the region starts); with `crossing_angle_deg: 90` no two planes "
+            "cross, which also leaves the own-pixel refit nothing to refit. Made by "
             f"`{cmd('detector_ablations.json')}`.")
 
 
