@@ -111,19 +111,21 @@ COMMANDS = {
 }
 
 
-def _engineering():
-    """docs/tables_engineering.py: the engineering pages' blocks and their results files."""
+def _tables_module(name: str):
+    """docs/<name>.py (the engineering pages' blocks, or the design notes' measured lines,
+    and their results files)."""
     import importlib.util
 
-    spec = importlib.util.spec_from_file_location("tables_engineering",
-                                                  DOCS / "tables_engineering.py")
+    spec = importlib.util.spec_from_file_location(name, DOCS / f"{name}.py")
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
     return mod
 
 
-ENGINEERING = _engineering()
+ENGINEERING = _tables_module("tables_engineering")
+NOTES = _tables_module("tables_notes")
 COMMANDS.update(ENGINEERING.COMMANDS)
+COMMANDS.update(NOTES.COMMANDS)
 
 #: the results files whose figures change with the door-radius, user-model, detector,
 #: mechanism-dynamics and teaching work: re-run them after such changes
@@ -131,7 +133,7 @@ COMMANDS.update(ENGINEERING.COMMANDS)
 VOLATILE = ("operate", "operate_trials", "user_models", "mechanism_damping",
             "mechanism_damping_950", "mechanism_faults", "fronts",
             "perception_distance", "teaching", "imitate", "quick_tour", "speed")
-VOLATILE += ENGINEERING.VOLATILE
+VOLATILE += ENGINEERING.VOLATILE + NOTES.VOLATILE
 
 
 def _load(name: str):
@@ -1057,9 +1059,12 @@ PAGES = {"articulation": articulation, "body_schema": body_schema, "perception":
          "structure_prior": structure_prior}
 
 #: the engineering pages' blocks and the capability pages' measured lines
-#: (docs/tables_engineering.py)
-PAGE_BLOCKS.update(ENGINEERING.page_blocks(_load, lambda name: COMMANDS[name], _teaching_runs,
-                                           lambda: RESULTS))
+#: (docs/tables_engineering.py), and the measured lines of the design notes and deviation
+#: lists (docs/tables_notes.py)
+for _page, _named in (*ENGINEERING.page_blocks(_load, lambda name: COMMANDS[name], _teaching_runs,
+                                               lambda: RESULTS).items(),
+                      *NOTES.page_blocks(_load, lambda name: COMMANDS[name]).items()):
+    PAGE_BLOCKS.setdefault(_page, {}).update(_named)
 
 
 def render() -> dict[str, str]:

@@ -241,3 +241,137 @@ def test_articulation_page_system_snippet_learns_the_door(tmp_path):
     edge = summary["edges"][0]
     assert edge["model"] == "revolute"
     assert abs(edge["params"]["radius_m"] - 0.34) < 0.05
+
+
+#: a measured figure typed into a page: a number with a unit, a ratio, "n of m", "n/m"
+_TYPED_FIGURE = re.compile(r"(?<![\w.])\d+(?:\.\d+)?(?:e-?\d+)?\s?"
+                           r"(?:ms|us|s|%|x|deg|mm|cm|m|N|Hz)(?![\w])"
+                           r"|\b\d+ of \d+\b|(?<![\w.])\d+/\d+(?![\w./])")
+#: the lists of alternatives measured and not taken: they are not in the code any more, so
+#: their figures could not be re-run; they state their reasons without figures
+_NOT_TAKEN = re.compile(r"^(Measured and \*?not\*? taken|Looked at and left)\b")
+
+
+def _not_taken_lines(text: str) -> list[tuple[int, str]]:
+    """(line number, line) of every "Measured and not taken" / "Looked at and left" paragraph
+    and the list that follows it (up to the next paragraph that is not a list item), outside
+    generated blocks."""
+    text = re.sub(r"<!-- generated:(\w+) -->.*?<!-- /generated:\1 -->",
+                  lambda m: "\n" * m.group(0).count("\n"), text, flags=re.S)
+    lines = text.splitlines()
+    out, i = [], 0
+    while i < len(lines):
+        if not _NOT_TAKEN.match(lines[i]):
+            i += 1
+            continue
+        j = i
+        while j < len(lines) and lines[j].strip():  # the paragraph itself
+            out.append((j + 1, lines[j]))
+            j += 1
+        while j < len(lines):  # the list after it, blank lines between its items
+            line = lines[j]
+            if line.strip() and not (line.startswith("- ") or line.startswith("  ")):
+                break
+            out.append((j + 1, line))
+            j += 1
+        i = j
+    return out
+
+
+def test_the_not_taken_lists_carry_no_typed_figures():
+    """What was measured and not taken is said with its reason, not with one-off figures
+    (those alternatives are not in the code, so nothing re-runs them); figures a user can
+    re-run come from results files (generated blocks)."""
+    pages = [ROOT / "README.md", *sorted(DOCS.glob("*.md"))]
+    found = {p.name: _not_taken_lines(p.read_text()) for p in pages}
+    assert sum(map(len, found.values())) >= 20, "the not-taken lists were not found"
+    typed = [f"{name}:{n}: {line.strip()}" for name, lines in found.items()
+             for n, line in lines if _TYPED_FIGURE.search(line)]
+    assert not typed, "typed figures in a measured-and-not-taken list:\n" + "\n".join(typed)
+
+
+def test_the_typed_figure_rule_catches_figures():
+    text = ("Intro.\n\nMeasured and not taken:\n\n- a pass (0.56 vs 0.51 ms per call);\n"
+            "- another: 2.3x slower,\n  found in 3 of 5 frames.\n\nAfter the list: 12 ms.\n")
+    lines = _not_taken_lines(text)
+    assert [n for n, line in lines if _TYPED_FIGURE.search(line)] == [5, 6, 7]
+    assert all("After the list" not in line for _, line in lines)
+    for ok in ("every 10th sample", "seed 1", "`front_max_tilt_deg: 90`", "Eq. 5.3", "x4"):
+        assert not _TYPED_FIGURE.search(ok), ok
+    for bad in ("9/10", "1.4 s", "5 %", "1e-13 m", "0.445 m", "7-8 cm"):
+        assert _TYPED_FIGURE.search(bad), bad
+
+
+def test_the_detector_ablation_table_comes_from_its_results_file(tmp_path, monkeypatch, capsys):
+    """docs/perception.md's deviation table and vertical-plane line come from
+    detector_ablations.json: a changed file makes --check fail naming the page."""
+    import json
+    import shutil
+    mod, results = _make_tables_in(tmp_path, monkeypatch)
+    page = tmp_path / "docs" / "perception.md"
+    shutil.copy(DOCS / "perception.md", page)
+    assert mod.main(["--check"]) == 0
+    d = json.loads((results / "detector_ablations.json").read_text())
+    v = d["variants"]["no_reveals"]
+    v["closed_found"] = v["closed_frames"] - 1
+    (results / "detector_ablations.json").write_text(json.dumps(d))
+    assert mod.main(["--check"]) == 1
+    assert "docs/perception.md" in capsys.readouterr().err
+    assert mod.main([]) == 0
+    assert f"| {v['closed_frames'] - 1}/{v['closed_frames']} |" in page.read_text()
+    assert "detector_ablations.json" in mod.COMMANDS and "detector_ablations" in mod.VOLATILE
+
+
+def test_every_results_file_is_registered_with_its_command():
+    """Each results file under docs/results/ has the command that makes it (COMMANDS), and
+    every registered file is committed: a figure cannot come from a file nobody can re-make."""
+    spec = importlib.util.spec_from_file_location("make_tables", DOCS / "make_tables.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    files = {p.name for p in (DOCS / "results").glob("*.json")}
+    assert not files - set(mod.COMMANDS), "results files without a command"
+    assert not set(mod.COMMANDS) - files, "registered results files not committed"
+    for name, cmd in mod.COMMANDS.items():
+        argv = cmd.split()
+        assert argv[0] == "python" and len(argv) > 1, name
+        if "--json" in argv and argv.index("--json") + 1 < len(argv) and \
+                argv[argv.index("--json") + 1].endswith(".json"):
+            assert argv[argv.index("--json") + 1] == f"docs/results/{name}", name
+
+
+@pytest.mark.slow
+def test_the_ablation_benchmark_runs_on_recorded_frames():
+    """benchmarks/bench_detector_ablations.py on the two recorded kitchen frames with two
+    configurations: one JSON document, both fronts found by default."""
+    import json
+    script = ROOT / "benchmarks" / "bench_detector_ablations.py"
+    out = subprocess.run([sys.executable, str(script), "--frames-dir",
+                          str(ROOT / "tests" / "data" / "front_frames"), "--variants",
+                          "default,no_layers", "--json"], capture_output=True, text=True,
+                         timeout=300, check=True).stdout
+    v = json.loads(out)["variants"]
+    assert set(v) == {"default", "no_layers"}
+    assert v["default"]["frames"] == 2 and v["default"]["found"] == 2
+    assert v["default"]["same_as_default"] == 2 and v["default"]["lost"] == []
+    assert v["no_layers"]["fields"] == {"layer_planes": 0}
+    bad = subprocess.run([sys.executable, str(script), "--variants", "nosuch"],
+                         capture_output=True, text=True, timeout=120)
+    assert bad.returncode == 2 and "nosuch" in bad.stderr
+
+
+@pytest.mark.slow
+def test_the_camera_marker_benchmark_writes_the_arm_errors(tmp_path):
+    """bench_camera_marker_sensor.py --arm writes its per-part errors to --json FILE (the
+    body-schema page's camera line is made from them); --json without a file is refused."""
+    import json
+    script = ROOT / "benchmarks" / "bench_camera_marker_sensor.py"
+    out = tmp_path / "arm.json"
+    subprocess.run([sys.executable, str(script), "--arm", "2dof", "--poses", "2", "--width",
+                    "640", "--json", str(out)], capture_output=True, text=True, timeout=300,
+                   check=True)
+    d = json.loads(out.read_text())
+    assert d["arm"] == "2dof" and d["poses"] == 2 and (d["width"], d["height"]) == (640, 480)
+    assert len(d["parts"]) == 4 and all(0 <= p["visible"] <= 1 for p in d["parts"])
+    bad = subprocess.run([sys.executable, str(script), "--arm", "2dof", "--json"],
+                         capture_output=True, text=True, timeout=120)
+    assert bad.returncode == 2 and "--json" in bad.stderr

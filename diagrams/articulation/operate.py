@@ -62,9 +62,9 @@ class OperateConfig:
             default) or live (False, see :class:`~mmlearn.diagrams.common.scene.SceneConfig`):
             live, the wrist sensor reads at 100 Hz the reaction forces of the step that
             starts at its sample instead of the step that ended there, and the plant does
-            not compute them at the other 3 of 4 steps: about 10 % less CPU, but the door
-            damping the robot learns moves (0.48 -> 0.29 N m s/rad for a true 0.5;
-            docs/performance_articulation.md), so it is not the default.
+            not compute them at the other 3 of 4 steps: a little less CPU, but the door
+            damping the robot learns moves further from the true one
+            (docs/performance_articulation.md), so it is not the default.
         base_noise: scale of the base-localisation and odometry error (see
             :class:`~mmlearn.systems.articulation.base_localization.BaseLocalizationConfig`; 1 = its
             defaults: 0.05 m RMS horizontal, 1.1 deg heading, drifting with a 60 s time

@@ -81,7 +81,7 @@ class LookConfig:
             (``layer_planes=0``): they serve fronts seen while they open; here the robot
             looks at the closed front, and on this overlay drawer front (2.4 cm proud of
             its carcass, split by its handle) they made two partial layers, and the
-            handle came out 5 cm off (tests/test_operate_perception.py).
+            handle came out centimetres off (tests/test_operate_perception.py).
         retry_detector: when no frame found the front, the robot looks ``frames`` more
             frames with this detector configuration (default: L = 0.01 m, the original
             detector's, layers off as above; None = no second look).

@@ -52,7 +52,7 @@ class SceneConfig:
         sensor: the MarkerSensor's configuration (``bodies`` empty = every part of the arm).
         marker_sensor: add the MarkerSensor (outputs ``observations`` and ``marker_stats``);
             False for a scene whose markers nobody reads (``Scene.sensor`` is then None):
-            its 3 ms per frame are then not spent.
+            its time per frame is then not spent.
         camera_sensor: when set, the markers are read from rendered images instead: ArUco
             textures on the arm's marker squares, the configured RGB cameras and a
             :class:`~mmlearn.systems.common.camera_marker_sensor.CameraMarkerSensor` (same

@@ -114,10 +114,9 @@ class LiquidRollConfig:
         roll_axis_height: height of the roll axis above the pad centres, m.
         roll_kp, roll_kd: roll joint PD gains, N m/rad and N m s/rad.
         lift_kp, lift_kd: lift joint PD gains, N/m and N s/m.
-        time_step: plant time step, s (2 ms: twice as fast as 1 ms; the feature of one
-            half-full Odwalla trial differed by 3 % under the sine roll (earlier slosh
-            parameters, no taxel noise) and by 14 % under the sweep; 4 ms changed it by
-            20 % under the sine).
+        time_step: plant time step, s (2 ms: twice as fast as 1 ms, with the feature of a
+            half-full bottle's trial close to 1 ms's under the sine roll and further off
+            under the sweep; 4 ms changed it more).
         sensor_rate: taxel sampling rate, Hz (PR2: 24 Hz).
         taxel_noise: taxel noise, fraction of saturation (1e-4 = 1.4 mN per cell: the
             high-passed noise alone then gives a feature of ~0.001 N, the floor of the empty

@@ -116,8 +116,8 @@ def track_scale_problem(Z, sigma_pos: float) -> str | None:
     """Why the positions of the track ``Z`` ((n, 3) or (n, 7), m) cannot be fitted in a
     meaningful way with the position noise ``sigma_pos`` (m), or None. A track that spans
     more than :data:`MAX_TRACK_EXTENT_M` or more than :data:`MAX_EXTENT_NOISE_RATIO` times
-    ``sigma_pos`` (a door track scaled by 1e6 would otherwise be "fitted" as a 222 km
-    revolute with 99 % outliers)."""
+    ``sigma_pos`` (a door track scaled by 1e6 would otherwise be "fitted" as a revolute
+    kilometres across, nearly every pose an outlier)."""
     P = np.asarray(Z, float)
     if P.ndim != 2 or P.shape[1] < 3:
         return None

@@ -93,12 +93,12 @@ class SearchConfig:
             Both measured on the Drake 7-DOF arm, x4 occluded, sigma 0.01 m, 50 samples:
             the k = 2 GP x3-x5 on (q2, q3) ended in a local optimum of the marginal
             likelihood that explains q3's effect on a translation output as noise (its
-            length scale at the upper bound, the noise 11-13 mm instead of ~8 mm) in most
+            length scale at the upper bound, the noise above the observations') in most
             seeds: the 12 outputs are optimised jointly, and one output's line searches
-            carry another into that basin; and hyper-parameters fitted on 30 of ~40
+            carry another into that basin; and hyper-parameters fitted on a subset of the
             samples often prefer it. Per-output starts at 0.5 x the length scales plus
-            hyper-parameters on all samples: that GP's test error 14 -> 9 mm (seeds 1-9),
-            the schema's prediction error at 50 samples 13.4 -> 10.0 mm (seeds 1-10).
+            hyper-parameters on all samples lowered that GP's test error and the schema's
+            prediction error at 50 samples.
         warm_start: reuse the hyper-parameters of an earlier search (``learn_structure``
             ``warm_start``: the cache in ``StructureResult.hyperparameters``, which an online
             learner passes from one search to the next). Per candidate (i, j, Q) the earlier
@@ -109,10 +109,9 @@ class SearchConfig:
             (3) a k <= 1 candidate that fails the validity test gets the cold retry
             (data-scale and low-noise starts) only if it was valid before or its samples
             grew by refit_growth since its last cold retry (on the Drake 7-DOF arm, sigma
-            0.01 m, seed 1, 50 samples, none of 71 retries of a candidate invalid in the
-            previous search turned it valid; k >= 2 candidates, e.g. the bridge x3-x5 on
-            (q2, q3), are always retried: skipping theirs cost 3 mm of prediction error on
-            seed 6); (4) the final fit of a k <= 1 tree model whose hyper-parameters were
+            0.01 m, 50 samples, no retry of a candidate invalid in the previous search
+            turned it valid; k >= 2 candidates, e.g. the bridge x3-x5 on (q2, q3), are
+            always retried: skipping theirs raised the prediction error); (4) the final fit of a k <= 1 tree model whose hyper-parameters were
             optimised by an earlier final fit on at least 1 / refit_growth as many samples
             conditions on the pair's samples with them (k >= 2: always re-optimised).
             Changes the search's cost (``benchmarks/bench_learner_cost.py``); the optima it

@@ -37,8 +37,9 @@ class DetectorConfig:
             positions of the black border's outer edge, corners where they meet),
             "subpix" (``cv2.cornerSubPix`` on the corners only), "contour", "apriltag" or
             "none". OpenCV's own refinements leave the corners of small rendered markers
-            ~0.4 px inside the border (a 3 % scale error at 14-24 px, measured in
-            ``benchmarks/bench_camera_marker_sensor.py``); "edges" removes most of it.
+            a fraction of a pixel inside the border (a scale error of small markers,
+            measured by ``benchmarks/bench_camera_marker_sensor.py``); "edges" removes most
+            of it.
         refine_window_px: half size of the sub-pixel refinement window, pixels (OpenCV's
             ``cornerRefinementWinSize``); keep it below half a module of the smallest
             marker in the image.

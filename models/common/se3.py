@@ -202,7 +202,7 @@ def project_to_so3(M: np.ndarray) -> np.ndarray:
     determinant fixed to +1. The one SO(3) projection of the project.
 
     Stacks of at least ``_NEWTON_MIN`` matrices are computed by the scaled Newton iteration
-    for the orthogonal polar factor instead (same result to ~1e-15; several times faster
+    for the orthogonal polar factor instead (the same result to rounding; faster
     than numpy's batched 3 x 3 SVDs, which the structure search's screening projects
     thousands of at a time); matrices with det <= 0 (their nearest rotation is not the
     polar factor), nearly singular ones and any that do not converge go through the SVD."""

@@ -193,15 +193,13 @@ def align_demonstrations(demos: Sequence[Demonstration], *, reference: int | Non
     their root mean square over all demonstrations):
     ``"derivative"`` is the thesis' derivative DTW (Keogh and Pazzani's derivative estimate,
     :func:`derivative`); ``"position"`` plain DTW; ``"both"`` (default) the derivative and the
-    position columns side by side. Measured (``benchmarks/bench_imitation.py``, alignment
-    section): on 8 minimum-jerk
-    pick-and-place demonstrations with +-25 % segment timing and 5 cm placement variation the
-    mean phase error after alignment was 0.065 segments (derivative), 0.081 (position), 0.053
-    (both); on a smooth warp of a sinusoidal path (speed 0.62..1.38x) the mean hand error after
-    alignment was 0.0112 m (derivative), 0.0071 m (both), 0.0017 m (position) against 0.0212 m
-    with the durations scaled only. Derivatives scale with the local speed, which DTW cannot
-    undo, so the derivative alone aligns speed changes poorly; positions alone are biased by
-    object placements that differ between demonstrations; hence the default ``"both"``.
+    position columns side by side. On simulated pick-and-place demonstrations with varied
+    segment timing and placement, "both" aligns the phases best (the imitation page's
+    deviations give the phase errors, made by ``benchmarks/bench_imitation.py``); on a smooth
+    warp of one path, "position" aligns best and "derivative" worst. Derivatives scale with
+    the local speed, which DTW cannot undo, so the derivative alone aligns speed changes
+    poorly; positions alone are biased by object placements that differ between
+    demonstrations; hence the default ``"both"``.
 
     Args:
         demos: the demonstrations (gaps, different lengths and durations are legal).

@@ -289,9 +289,8 @@ def plan_global(model: TaskModel, *, q0, objects: dict, fk: Callable, jacobian: 
 
     Search: ``"scipy"`` (default) runs ``scipy.sparse.csgraph.dijkstra`` on the reduced costs
     ``w + h(v) - h(u)``, which is exactly A* with ``h`` and builds the graph with numpy;
-    ``"networkx"`` runs ``networkx.astar_path`` on the same graph (same optimum; measured on
-    the 21 s pick-and-place benchmark, building the networkx graph of 675 k edges alone took
-    5.2 s).
+    ``"networkx"`` runs ``networkx.astar_path`` on the same graph (the same optimum, far
+    slower: on the pick-and-place benchmark building the networkx graph alone takes seconds).
 
     Objects held in the hand (the model's gripper closed, < 0.5, and ``|mu_i| < carry_radius``
     at that slice) have their constraint skipped: they move with the hand.

@@ -247,8 +247,8 @@ class FrontTrackingConfig:
         min_side_m: rectangles whose shorter side is below this are ignored, m: a cabinet
             front is larger (the thesis' drawer is 0.125 m high), while the detector also
             returns slivers (gaps, edges, 3-6 cm wide in the kitchen scene) whose plane
-            estimate jumps between frames (measured: a 5.6 cm strip beside an opening
-            drawer turned 26 deg over 16 frames, which a revolute model explains).
+            estimate jumps between frames (a strip beside an opening drawer turned over
+            the frames, which a revolute model explains).
     """
 
     max_distance_m: float = param(0.10, unit="m", gt=0)

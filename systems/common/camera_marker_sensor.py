@@ -84,13 +84,11 @@ class CameraMarkerSensorConfig:
             ``fov_x_deg`` is not used; ``max_range`` is the far clipping distance, m.
         width, height: image size, pixels. 1920 x 1440: the arms' 0.04 m markers seen from
             the default cameras 2 m away are 20-28 pixels wide (3.5-4.5 px per module of a
-            4x4 marker) at fov_y 55 degrees. Measured on random 2-DOF arm poses
-            (``benchmarks/bench_camera_marker_sensor.py --arm 2dof``): at 1280 x 960 (~16 px,
-            20 poses) the median position error per part was 6-26 mm; at 1920 x 1440,
-            5-6 mm with 0-6 % of the orientations off by more than 20 degrees. At 640 x 480
-            a single marker was found in 3 of 6 poses at 1.5 m, 1 of 6 at 2 m, none at 2.5 m.
-            The price: 0.4-1.2 s to render one 1920 x 1440 image on the shared 2-core
-            development machine (CPU OpenGL, load 7-12), 0.05-0.3 s to detect.
+            4x4 marker) at fov_y 55 degrees. On random 2-DOF arm poses a smaller image
+            gives larger position errors per part, and at 640 x 480 a single marker is not
+            found from 1.5 m on; the price of the larger image is its rendering time (the
+            body-schema page's design notes give the figures per image size, made by
+            ``benchmarks/bench_camera_marker_sensor.py --arm 2dof``).
         near: near clipping distance, m.
         principal_point_shift_px: calibration of the rendered cameras: added to the
             principal point (cx, cy) of Drake's ``CameraInfo`` before detection, pixels.
@@ -117,12 +115,12 @@ class CameraMarkerSensorConfig:
             Drake's exact depth, but with a structured-light camera's noise (``depth_noise``)
             the fitted normal of a 0.04 m marker 2 m away leans 14-22 deg towards the
             line of sight (the noise lies along it), and on the 2-DOF arm's babbling frames
-            the gate let through 58 reports where the residual test made 160 (both 0 off by
-            > 20 deg; ``--babble 6 --seed 3``). Without a depth image (or False) the
-            rules below decide. Measured on the 2-DOF arm's babbling frames
-            (``benchmarks/bench_camera_marker_sensor.py --babble``): almost every detection
+            the gate let through far fewer reports than the residual test, neither with a
+            flipped orientation (``--babble 6 --seed 3``). Without a depth image (or False)
+            the rules below decide. On the 2-DOF arm's babbling frames
+            (``benchmarks/bench_camera_marker_sensor.py --babble``) almost every detection
             of the 0.04 m markers 2 m away is ambiguous by reprojection (the mirror solution
-            reprojects within 0.3 px in 97 % of them), and the mirror one won in 8-13 % of
+            reprojects within a fraction of a pixel), and the mirror one wins in some of
             the reports.
         depth_test: "residual" or "normal", see ``use_depth``.
         depth_max_angle_deg: see ``use_depth``, degrees.
@@ -146,10 +144,9 @@ class CameraMarkerSensorConfig:
             report is at most ``track_max_age_s`` old and the solution lies within
             ``track_max_angle_deg`` of it, else the marker is reported not visible (1 = the
             old behaviour: always the better solution). A weak guide, the fallback without
-            depth: on random 2-DOF arm poses (301 detections) 25 were mirror-flipped, 17
-            with ratios 1.1-2.2 (as were 25 % of the right ones), 8 with 2.5-17 (one in
-            babbling frames had 56); on babbling frames it lowered the flips from 13.5 % to 11.5 % of the reports
-            (``--babble``), the depth rule to 0 %.
+            depth: on random 2-DOF arm poses most mirror-flipped detections had ratios like
+            those of many right ones, a few larger; on babbling frames it lowered the flips
+            a little (``--babble``), the depth rule to none.
         track_max_age_s: how old the last report of a marker may be to resolve an
             ambiguous detection, seconds.
         track_max_angle_deg: an ambiguous detection's chosen solution must be within this
@@ -159,9 +156,8 @@ class CameraMarkerSensorConfig:
         detector: OpenCV detector settings and the filters of the detections. The
             mirror-ambiguity filter is off by default: on the 2-DOF arm (25 samples,
             ``learn_body_schema --sensor camera``) ``min_ambiguity_ratio=3`` lowered the
-            learned model's prediction error from 0.18 m to 0.09-0.14 m but always dropped
-            the static base marker x1 (seen 19 degrees off its normal), so the schema lost
-            its root part.
+            learned model's prediction error but always dropped the static base marker x1
+            (seen nearly face-on), so the schema lost its root part.
     """
 
     bodies: list[str] = param([], factory=True)

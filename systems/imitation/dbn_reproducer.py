@@ -75,8 +75,8 @@ class DbnReproducerConfig:
             ``carry_tolerance``. The thesis keeps it; the observed carried object then
             anchors the hand (its relation holds wherever the hand goes), so the hand
             moves towards the other constraints only by their share of the precision and
-            arrives late (measured: the cup released 10 cm short of the target table with
-            swapped tables). An object the grasp missed does not hold its relation and
+            arrives late (with swapped tables the cup was released short of the target
+            table). An object the grasp missed does not hold its relation and
             keeps its constraint (the hand goes back to it).
         carry_tolerance: largest deviation of a carried object's observed relation from
             the learned one for it to count as held, m.
@@ -85,30 +85,30 @@ class DbnReproducerConfig:
             (measured hand), so that the *held object* (not the hand) meets the relations
             the demonstrations showed: the grasp holds the cup where the fingers closed, up
             to ``carry_tolerance`` off the learned relation, and without this the cup lands
-            off the demonstrated spot by that much (measured on seeds 1-11, swapped tables:
-            0.4-1.3 cm of the horizontal place error). Horizontal (world x, y) only: when
+            off the demonstrated spot by that much (with swapped tables, a share of the
+            horizontal place error). Horizontal (world x, y) only: when
             the held object rests on a support its vertical offset is set by the contact,
-            and a vertical correction then winds up (measured: the hand pressed the cup
-            into the table, the reproduction slowed from 10.5 s to 18 s to the release and
-            the cup jumped 3-4 mm when let go). Thesis 8.1.2 has no such term (its
+            and a vertical correction then winds up (the hand pressed the cup into the
+            table, the reproduction slowed down to the release and the cup jumped when let
+            go). Thesis 8.1.2 has no such term (its
             carried-object constraint stays active; see ``skip_carried``).
         held_offset_filter: share (0, 1] of a step's newly observed correction taken into
             the applied one (first-order low-pass over steps): the observed offset carries
             the marker noise, which alone made the hand miss ``advance_tolerance`` and the
-            reproduction slow down (measured: the release 3-7 s later, unfiltered).
+            reproduction slow down (unfiltered, the release came seconds later).
         release_in_place: in incremental steps, the step at which the learned gripper
             opens only opens it: the arm command stays where the previous step put it. The
             thesis' step moves the hand towards the next slice while the fingers open, and
-            the grasp lets go half-way through that step (measured, seed 11 swapped
-            tables: the held-object correction of 1.4 cm was dropped on that step and the
-            cup landed 2.2 cm off the spot).
+            the grasp lets go half-way through that step (with swapped tables the
+            held-object correction was dropped on that step and the cup landed off the
+            spot).
         advance_tolerance: incremental mode moves on to the next time slice only when the
             commanded hand is within this distance of the current slice's fused target
             (or after ``max_slice_waits`` extra steps on it), m; 0 = one slice per step
             as in the thesis. A slowed-down arm (or a hand anchored by a carried object's
             constraint) then still arrives before, e.g., the gripper opens. Not used when
             there are obstacles: their attractors keep the hand off the fused target of the
-            other constraints on purpose (measured: the box-obstacle reach stalled).
+            other constraints on purpose (the box-obstacle reach stalled with it).
         max_slice_waits: largest number of extra steps spent on one slice.
         step_kwargs: further keyword arguments passed to ``constraint_step`` /
             ``plan_global`` unchanged.

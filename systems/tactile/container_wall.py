@@ -36,7 +36,7 @@ class ContainerWallForce(StateForceSystem):
     23 N (0.9 for the Odwalla bottle; measured over 20 instances per class and state), past
     the explicit limit for a free wall, but it only grows with the squeeze, i.e. while a
     finger presses the wall: simulated at 23 N the can's wall velocity changes sign once
-    (the impact) before the fingers release, largest step change 8.5 mm/s.
+    (the impact) before the fingers release, with small changes from step to step.
 
     Args:
         container: the instance (its ``closed``, ``gas_volume``, ``shell_compliance``,

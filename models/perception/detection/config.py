@@ -98,8 +98,8 @@ class FrontDetectorConfig:
         gap_long_window_px: a second pass averages the lines over this many pixels (rounded
             to a multiple of 4; 0 = no second pass) with the depth threshold's z^2 part
             scaled by sqrt(gap_window_px / gap_long_window_px) (its mean scatters that much
-            less): a reveal sampled at an unlucky pixel phase dips only ~3 mm (the closed
-            drawer at 2.2 m: 3.3 mm on the clean render, below 1 mm z^2 = 4.8 mm), px. It
+            less): a reveal sampled at an unlucky pixel phase dips less than the short
+            pass's threshold (a closed drawer's on the clean render), px. It
             runs on the rectified views only (below): on the image it splits closed fronts
             with false rows.
         gap_long_min_windows: a run of the long pass must be at least this many long windows
@@ -113,7 +113,7 @@ class FrontDetectorConfig:
             width and height (its focal length is reduced to fit).
         gap_rectify_max_tilt_deg: only planes within this angle of vertical (deg; "down"
             from ``X_WC``) get a rectified view: fronts are vertical, and the floor or a
-            countertop seen from above took the views (and 10 ms per frame) from them.
+            countertop seen from above took the views (and their time) from them.
         front_max_tilt_deg: fronts are vertical: only the rectangles of planes within this
             angle of vertical (deg; "down" from ``X_WC``; 90 = every plane) are searched
             (greedy moves, rotation polish, checks). The others (the floor, countertops, the

@@ -1,0 +1,213 @@
+"""The measured lines of the design notes and deviation lists: the front detector's deviations
+and its vertical-plane rule (docs/perception.md), the first-call cost of the compiled kernels
+(docs/perception.md, docs/performance_articulation.md), the camera marker sensor's image
+size (docs/body_schema.md) and DTW's features (docs/imitation.md), and the results files they
+are made from.
+
+Imported by docs/make_tables.py like docs/tables_engineering.py: :data:`COMMANDS` is merged
+into its own, and the blocks of :func:`page_blocks` are written between
+``<!-- generated:NAME -->`` and ``<!-- /generated:NAME -->``. Every function takes ``load`` (a
+results file's name -> its JSON, None when missing) and ``cmd`` (a results file's name -> its
+command).
+"""
+
+from __future__ import annotations
+
+#: results file -> the command (from the repository root) that writes it
+COMMANDS = {
+    # the front detector with each departure from the thesis switched off in turn, on 90
+    # rendered frames of the kitchen (about 2 CPU minutes)
+    "detector_ablations.json": "python benchmarks/bench_detector_ablations.py --frames 15 "
+                               "--distances 1.5,2.2,2.8 --seed 1 "
+                               "--json docs/results/detector_ablations.json",
+    # the first call of a process: compiling the detector's and the selection's kernels in a
+    # fresh environment, then loading them from the cache (about 1 CPU minute)
+    "first_call.json": "python benchmarks/bench_first_call.py --json docs/results/first_call.json",
+    # the camera marker sensor's errors on the 2-DOF arm at two image sizes, and one marker's
+    # detection against distance at 640 x 480 (about 1 CPU minute for the three)
+    "camera_markers_1280.json": "python benchmarks/bench_camera_marker_sensor.py --arm 2dof "
+                                "--poses 20 --width 1280 --seed 0 "
+                                "--json docs/results/camera_markers_1280.json",
+    "camera_markers_1920.json": "python benchmarks/bench_camera_marker_sensor.py --arm 2dof "
+                                "--poses 20 --width 1920 --seed 0 "
+                                "--json docs/results/camera_markers_1920.json",
+    # DTW's phase error with derivative, position or both features on simulated
+    # pick-and-place demonstrations (and the imitation model layer's quick timings; seconds)
+    "imitation_alignment.json": "python benchmarks/bench_imitation.py --quick "
+                                "--json docs/results/imitation_alignment.json",
+    "camera_markers_640.json": "python benchmarks/bench_camera_marker_sensor.py --width 640 "
+                               "--distances 1,1.5,2,2.5 --angles 0 --n 6 --seed 0 "
+                               "--json docs/results/camera_markers_640.json",
+}
+
+#: the results files here whose figures change with the detector's work
+VOLATILE = ("detector_ablations", "first_call")  # (the camera's figures do not change with them)
+
+#: variant of the ablation benchmark -> the deviation it switches off, as the page names it
+ABLATIONS = (("thesis_costs", "Costs"), ("no_crossings", "Crossings"),
+             ("no_own_pixel_refit", "Own-pixel refit"), ("no_reveals", "Reveals"),
+             ("no_long_pass", "Reveals: the long pass"), ("no_region_starts", "Region starts"),
+             ("no_layers", "Offset layers"), ("coarse_rotation", "Rotation polish"))
+
+
+def _f(x, digits: int = 1) -> str:
+    return "-" if x is None else f"{x:.{digits}f}"
+
+
+def _missing(name: str) -> str:
+    stem = name.rsplit(".", 1)[0]
+    return f"(no `docs/results/{name}` yet: `python docs/make_tables.py --run --only {stem}`)"
+
+
+def _fields(fields: dict) -> str:
+    return ", ".join(f"`{k}: {v}`" for k, v in fields.items()) or "(the defaults)"
+
+
+def _frames(d) -> str:
+    s = d["settings"]
+    dist = ", ".join(f"{x:g}" for x in s["distances"])
+    return (f"{d['variants']['default']['frames']} rendered frames (a door and a drawer "
+            f"opening, {s['frames_per_front_and_distance']} frames each at {dist} m, the first "
+            "closed)")
+
+
+def detector_ablations(load, cmd) -> str:
+    """One row per departure from the thesis: the detector with it switched off against the
+    default configuration, on the same frames."""
+    d = load("detector_ablations.json")
+    if not d:
+        return _missing("detector_ablations.json")
+    v = d["variants"]
+    rows = []
+    for key, name in (("default", "none (the default configuration)"),) + ABLATIONS:
+        r = v.get(key)
+        if r is None:
+            continue
+        rows.append([name, _fields(r["fields"]), f"{r['found']}/{r['frames']}",
+                     f"{r['closed_found']}/{r['closed_frames']}",
+                     f"{_f(r['width_err_mm_door'])} / {_f(r['width_err_mm_door_max'])}",
+                     f"{_f(r['width_err_mm_drawer'])} / {_f(r['width_err_mm_drawer_max'])}",
+                     _f(r["pos_err_mm"]), f"{r['same_as_default']}/{r['frames']}",
+                     _f(r["cpu_ms_median"])])
+    head = ["switched off", "configuration that switches it off", "found", "closed fronts found",
+            "door width error mean / max (mm)", "drawer width error mean / max (mm)",
+            "position error (mm)", "same rectangles as the default", "CPU ms per frame"]
+    out = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    out += ["| " + " | ".join(row) + " |" for row in rows]
+    return ("\n".join(out) + f"\n\nOn {_frames(d)}, each configuration on every frame with "
+            "the same seed; a front is found when the nearest rectangle is within 0.1 m, "
+            "20 deg and 0.1 m of width and height of the true one; errors over the found "
+            "fronts; CPU time the median per frame, the configurations alternating frame by "
+            "frame. A reveal must be longer than `gap_min_length`, so 100 m drops every one "
+            "(and with them the region starts); with `crossing_angle_deg: 90` no two planes "
+            "cross, which also leaves the own-pixel refit nothing to refit. Made by "
+            f"`{cmd('detector_ablations.json')}`.")
+
+
+def planes_searched(load, cmd) -> str:
+    """The rule "only vertical planes are searched" against every plane searched."""
+    d = load("detector_ablations.json")
+    if not d or "all_planes_searched" not in d["variants"]:
+        return _missing("detector_ablations.json")
+    a, b = d["variants"]["default"], d["variants"]["all_planes_searched"]
+    ratio = (b["cpu_ms_median"] / a["cpu_ms_median"]
+             if a["cpu_ms_median"] and b["cpu_ms_median"] else None)
+    return (f"On {_frames(d)}: the front found in {a['found']} frames with the rule and in "
+            f"{b['found']} with every plane searched (`front_max_tilt_deg: 90`), the "
+            f"rectangles on vertical planes the same on {b['same_as_default']} of "
+            f"{b['frames']} frames; CPU ms per frame (median) {_f(a['cpu_ms_median'])} with "
+            f"the rule against {_f(b['cpu_ms_median'])} without"
+            + ("" if ratio is None else f" ({ratio:.2f}x)")
+            + f". Made by `{cmd('detector_ablations.json')}`.")
+
+
+def _first_call(load, name):
+    d = load("first_call.json")
+    return None if not d else d["workloads"].get(name)
+
+
+def first_call_detector(load, cmd) -> str:
+    """The detector's first call: compiling its kernels, then loading them."""
+    r = _first_call(load, "detector")
+    if r is None:
+        return _missing("first_call.json")
+    return (f"The first call compiles them, once: {_f(r['compile_first_call_s'])} s of CPU for "
+            "one synthetic frame in a fresh environment; the first call of every later process "
+            f"loads them from the cache in the package's `__pycache__` "
+            f"({_f(r['cached_first_call_s'], 2)} s), the calls after it take "
+            f"{_f(1e3 * r['steady_call_s'])} ms (`{cmd('first_call.json')}`).")
+
+
+def first_call_selection(load, cmd) -> str:
+    """Link-model selection's first call: compiling its kernels, then loading them."""
+    r = _first_call(load, "selection")
+    if r is None:
+        return "- " + _missing("first_call.json")
+    return (f"- A fresh environment compiles the kernels on first use, once: the first "
+            f"selection (a microwave door, n = 30) took {_f(r['compile_first_call_s'])} s of "
+            f"CPU; the first selection of every later process loads them from the cache on "
+            f"disk ({_f(r['cached_first_call_s'], 2)} s), the next ones take "
+            f"{_f(1e3 * r['steady_call_s'])} ms (`{cmd('first_call.json')}`).")
+
+
+def _span(xs, scale=1.0, digits=0) -> str:
+    xs = [scale * x for x in xs if x is not None]
+    if not xs:
+        return "-"
+    lo, hi = min(xs), max(xs)
+    return _f(lo, digits) if round(lo, digits) == round(hi, digits) else \
+        f"{_f(lo, digits)}-{_f(hi, digits)}"
+
+
+def camera_markers(load, cmd) -> str:
+    """The camera marker sensor's errors per image size (the arm's parts), and one marker's
+    detection against distance at 640 x 480."""
+    names = ("camera_markers_1280.json", "camera_markers_1920.json", "camera_markers_640.json")
+    docs = [load(n) for n in names]
+    if not all(docs):
+        return "- " + " ".join(_missing(n) for n, d in zip(names, docs) if not d)
+    arms, one = docs[:2], docs[2]
+    sizes = []
+    for d in arms:
+        seen = [p for p in d["parts"] if p.get("visible")]
+        sizes.append(f"{d['width']} x {d['height']}: median position error per part "
+                     f"{_span([p['pos_med_m'] for p in seen], 1e3)} mm, orientations off by "
+                     f"more than 20 deg {_span([p['ang_over_20deg'] for p in seen], 100)} %, "
+                     f"{_f(d['wall_s_per_frame'], 2)} s per frame to render and detect")
+    single = ", ".join(f"{round(r['rate'] * one['n'])}/{one['n']} at {r['dist']:g} m"
+                       for r in one["rows"] if r["angle"] == 0)
+    a = arms[0]
+    return (f"- `CameraMarkerSensor`'s image size (`CameraMarkerSensorConfig.width`, "
+            f"`height`): on {a['poses']} random babbling poses of the "
+            f"{a['arm'].replace('dof', '-DOF')} arm, "
+            f"{a['cameras']} cameras, "
+            + "; ".join(sizes)
+            + f" (wall-clock on a shared machine). At {one['width']} x "
+              f"{one['width'] * 3 // 4} a single 0.04 m marker seen face-on was detected in "
+              f"{single}. Made by "
+            + ", ".join(f"`{cmd(n)}`" for n in names) + ".")
+
+
+def dtw_features(load, cmd) -> str:
+    """The imitation page's DTW deviation: the phase error per feature set."""
+    d = load("imitation_alignment.json")
+    if not d:
+        return "- DTW on derivative and position features. " + _missing("imitation_alignment.json")
+    e = {k: d.get(f"align_{k}", {}).get("mean_phase_error_segments")
+         for k in ("derivative", "position", "both")}
+    return ("- DTW on derivative and position features (derivative only is the thesis' choice): "
+            f"mean phase error {_f(e['both'], 3)} segments with both, {_f(e['derivative'], 3)} "
+            f"with the derivative only, {_f(e['position'], 3)} with the position only, on "
+            "simulated pick-and-place demonstrations with varied segment timing and placement "
+            f"(`{cmd('imitation_alignment.json')}`).")
+
+
+def page_blocks(load, cmd) -> dict:
+    """docs page -> {block name -> function of no arguments giving its text}."""
+    return {"docs/perception.md": {"detector_ablations": lambda: detector_ablations(load, cmd),
+                                   "planes_searched": lambda: planes_searched(load, cmd),
+                                   "first_call_detector": lambda: first_call_detector(load, cmd)},
+            "docs/performance_articulation.md": {
+                "first_call_selection": lambda: first_call_selection(load, cmd)},
+            "docs/body_schema.md": {"camera_markers": lambda: camera_markers(load, cmd)},
+            "docs/imitation.md": {"dtw_features": lambda: dtw_features(load, cmd)}}
