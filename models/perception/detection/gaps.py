@@ -243,34 +243,49 @@ def _stretch_at(Hi, r, c, sub, horizontal, across):
 def _line_hits_kernel(m, unmeas, side_ok, V, Hi, gd, gdz, tol_m2, near_z, offsets, horizontal,
                       has_v, has_h, stretch_across, g, zg):
     """The tests of :func:`_line_hits`, element by element in float32 (the same operations in
-    the same order as on arrays), offset after offset; writes ``g`` and ``zg``."""
+    the same order as on arrays), offset after offset; writes ``g`` and ``zg``. ``unmeas`` and
+    ``side_ok`` are 0 / 1 bytes."""
     n_rows, Wm = m.shape
     half = np.float32(0.5)
     tmin = np.float32(0.01)
-    cand = np.empty(Wm, np.bool_)
-    idx = np.empty(Wm, np.int64)
+    Wp = (Wm + 7) // 8 * 8
+    cand = np.zeros(Wp, np.uint8)
+    cand64 = cand.view(np.uint64)  # eight columns at a time: most are no candidate
+    idx = np.empty(Wp, np.int64)
     for o in offsets:
         if n_rows <= 4 * o:
             continue
         of = np.float32(o - 2)
         for r in range(2 * o, n_rows - 2 * o):
-            # the first tests on the whole row without branches (vectorised by the compiler)
+            # the tests that need no stretch, on the whole row without branches (vectorised by
+            # the compiler): both sides usable, behind by the threshold without its noise
+            # factor V <= 1 (then by the floor gd) and stretch s >= 1 (the full threshold is
+            # never smaller), or unmeasured, and the sides agreeing; the same float32
+            # operations as below, so a column failing here fails there
             mu, md, mc = m[r - o], m[r + o], m[r]
             su, sd, un = side_ok[r - o], side_ok[r + o], unmeas[r]
             for c in range(Wm):
-                cand[c] = su[c] & sd[c] & ((mc[c] - (mu[c] + md[c]) * half > gd) | un[c])
+                up, dn = mu[c], md[c]
+                ref = (up + dn) * half
+                z2 = ref * ref
+                thr = gd if has_v else max(gd, gdz * z2)
+                tol = max(tmin, tol_m2 * z2)
+                cand[c] = (su[c] & sd[c] & (np.uint8(mc[c] - ref > thr) | un[c])
+                           & np.uint8(abs(up - dn) < tol))
             # the few candidates' columns, without a conditional jump per column (a mispredicted
             # jump per candidate cost more than the remaining tests)
             nc = 0
-            for c in range(Wm):
-                idx[nc] = c
-                nc += cand[c]
+            for w in range(Wp // 8):
+                if cand64[w] != 0:
+                    for c in range(8 * w, 8 * w + 8):
+                        idx[nc] = c
+                        nc += cand[c]
             for j in range(nc):
                 c = idx[j]
                 up, dn, cv = mu[c], md[c], mc[c]
                 ref = (up + dn) * half
                 behind = cv - ref
-                unm = un[c]
+                unm = un[c] != 0
                 z2 = ref * ref
                 t = gdz * z2
                 if has_v:
@@ -319,7 +334,7 @@ def _line_hits(m, unmeas, side_ok, V, gd, gdz, fx, cfg, horizontal, to_image):
     zg = np.zeros(m.shape, np.float32)  # depth of the side lines where hit
     dummy = np.zeros((1, 1), np.float32)
     _line_hits_kernel(
-        m, unmeas, side_ok, dummy if V is None else V,
+        m, unmeas.view(np.uint8), side_ok.view(np.uint8), dummy if V is None else V,
         np.eye(3) if to_image is None else np.asarray(to_image, np.float64),
         np.float32(gd), np.float32(gdz), np.float32(cfg.gap_side_tolerance_per_m2),
         np.float32(0.01 * fx), np.asarray(cfg.gap_offsets_px, np.int64), bool(horizontal),
