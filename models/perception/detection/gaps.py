@@ -197,23 +197,72 @@ def _bent_kernel(A, N, nb, tol_m2, bent):
 def _window_means(A, N, V, nb, cfg):
     """The lines' means over windows of ``nb`` blocks: (mean depth, NaN where under a third
     measured; unmeasured; usable as a side line: >= 80 % measured and not bent; the line's
-    noise std over one frame's, or None)."""
+    noise std over one frame's, or None). One compiled pass (:func:`_window_kernel`) after
+    :func:`_bent_windows`."""
     Lw = nb * _SUB
     bent = _bent_windows(A, N, nb, cfg)
-    A = cv2.boxFilter(A, -1, (nb, 1), normalize=False, borderType=cv2.BORDER_CONSTANT)
-    N = cv2.boxFilter(N, -1, (nb, 1), normalize=False, borderType=cv2.BORDER_CONSTANT)
-    A *= np.float32(_SUB)
-    N *= np.float32(_SUB)
-    if V is not None:  # the line's noise std over one frame's: sqrt(mean variance factor)
-        V = cv2.boxFilter(V, -1, (nb, 1), normalize=False, borderType=cv2.BORDER_CONSTANT)
-        V *= np.float32(_SUB)
-        V = np.sqrt(np.minimum(V / np.maximum(N, np.float32(1.0)), np.float32(1.0)))
-    meas = N >= max(3.0, Lw / 3.0)
-    # side lines: well measured and not bent (one array for both side tests)
-    side_ok = (N >= 0.8 * Lw) & ~bent
-    m = A / np.maximum(N, np.float32(1.0))
-    m[~meas] = np.nan
-    return m, ~meas, side_ok, V
+    m = np.empty(A.shape, np.float32)
+    unmeas = np.empty(A.shape, bool)
+    side_ok = np.empty(A.shape, bool)
+    Vo = None if V is None else np.empty(A.shape, np.float32)
+    # (the thresholds as numpy compares a float32 array with a Python float: in float32)
+    _window_kernel(A, N, np.zeros((1, 1), np.float32) if V is None else V, V is not None,
+                   int(nb), np.float32(max(3.0, Lw / 3.0)), np.float32(0.8 * Lw), bent, m,
+                   unmeas, side_ok, np.zeros((1, 1), np.float32) if V is None else Vo)
+    return m, unmeas, side_ok, Vo
+
+
+@numba.njit(cache=True, nogil=True)
+def _box_row(x, nb, out):
+    """OpenCV's unnormalised (nb, 1) box filter (``cv2.boxFilter``, ``BORDER_CONSTANT``,
+    anchor nb // 2) of one float32 row: the running sum in float64 of the zero-padded row
+    (the first window summed, then plus the value entering minus the one leaving), rounded
+    to float32 (the same values)."""
+    n = x.shape[0]
+    a = nb // 2
+    s = 0.0
+    for i in range(nb):
+        c = i - a
+        if 0 <= c < n:
+            s += np.float64(x[c])
+    out[0] = np.float32(s)
+    for i in range(n - 1):
+        cin = i + nb - a
+        cout = i - a
+        vin = np.float64(x[cin]) if cin < n else 0.0
+        vout = np.float64(x[cout]) if cout >= 0 else 0.0
+        s += vin - vout
+        out[i + 1] = np.float32(s)
+
+
+@numba.njit(cache=True, nogil=True)
+def _window_kernel(A, N, V, has_v, nb, meas_min, side_min, bent, m, unmeas, side_ok, Vo):
+    """:func:`_window_means` per row: the window sums (:func:`_box_row`) times ``_SUB``,
+    ``unmeas`` = sum N < ``meas_min``, ``side_ok`` = sum N >= ``side_min`` and not ``bent``,
+    ``m`` = sum A / max(sum N, 1) (NaN where unmeasured), ``Vo`` = sqrt(min(sum V / max(sum
+    N, 1), 1)) (float32, the array expressions' operations in their order)."""
+    n_rows, n = A.shape
+    q = np.float32(_SUB)
+    one = np.float32(1.0)
+    nan = np.float32(np.nan)
+    sa = np.empty(n, np.float32)
+    sn = np.empty(n, np.float32)
+    sv = np.empty(n, np.float32)
+    for r in range(n_rows):
+        _box_row(A[r], nb, sa)
+        _box_row(N[r], nb, sn)
+        if has_v:
+            _box_row(V[r], nb, sv)
+        for c in range(n):
+            a = sa[c] * q
+            w = sn[c] * q
+            w1 = max(w, one)
+            meas = w >= meas_min
+            unmeas[r, c] = not meas
+            side_ok[r, c] = (w >= side_min) and not bent[r, c]
+            m[r, c] = a / w1 if meas else nan
+            if has_v:
+                Vo[r, c] = np.sqrt(min((sv[c] * q) / w1, one))
 
 
 #: whether an unmeasured band counts its offsets in image pixels in a rectified view
