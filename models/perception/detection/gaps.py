@@ -226,18 +226,92 @@ def _box_row(x, nb, out):
         if 0 <= c < n:
             s += np.float64(x[c])
     out[0] = np.float32(s)
-    for i in range(n - 1):
+    # output i + 1: x[i + nb - a] enters (0 past the end), x[i - a] leaves (0 before the
+    # start); the three ranges of i without a test per element
+    i0 = min(a, n - 1)                  # i < a: nothing leaves
+    i1 = max(i0, min(n - 1, n - nb + a))  # i + nb - a < n: something enters
+    for i in range(i0):
         cin = i + nb - a
-        cout = i - a
-        vin = np.float64(x[cin]) if cin < n else 0.0
-        vout = np.float64(x[cout]) if cout >= 0 else 0.0
-        s += vin - vout
+        s += (np.float64(x[cin]) if cin < n else 0.0) - 0.0
+        out[i + 1] = np.float32(s)
+    for i in range(i0, i1):
+        s += np.float64(x[i + nb - a]) - np.float64(x[i - a])
+        out[i + 1] = np.float32(s)
+    for i in range(i1, n - 1):
+        s += 0.0 - np.float64(x[i - a])
         out[i + 1] = np.float32(s)
 
 
 @numba.njit(cache=True, nogil=True)
+def _box_rows(X, nb, out):
+    """:func:`_box_row` of every row of ``X`` into ``out``, four rows at a time in lockstep
+    (four independent running sums: the same values, twice as fast)."""
+    n_rows, n = X.shape
+    a = nb // 2
+    i0 = min(a, n - 1)
+    i1 = max(i0, min(n - 1, n - nb + a))
+    r = 0
+    while r + 4 <= n_rows:
+        x0, x1, x2, x3 = X[r], X[r + 1], X[r + 2], X[r + 3]
+        o0, o1, o2, o3 = out[r], out[r + 1], out[r + 2], out[r + 3]
+        s0 = s1 = s2 = s3 = 0.0
+        for i in range(nb):
+            c = i - a
+            if 0 <= c < n:
+                s0 += np.float64(x0[c])
+                s1 += np.float64(x1[c])
+                s2 += np.float64(x2[c])
+                s3 += np.float64(x3[c])
+        o0[0] = np.float32(s0)
+        o1[0] = np.float32(s1)
+        o2[0] = np.float32(s2)
+        o3[0] = np.float32(s3)
+        for i in range(i0):
+            cin = i + nb - a
+            if cin < n:
+                s0 += np.float64(x0[cin]) - 0.0
+                s1 += np.float64(x1[cin]) - 0.0
+                s2 += np.float64(x2[cin]) - 0.0
+                s3 += np.float64(x3[cin]) - 0.0
+            else:  # (as the padded row's 0 - 0)
+                s0 += 0.0
+                s1 += 0.0
+                s2 += 0.0
+                s3 += 0.0
+            o0[i + 1] = np.float32(s0)
+            o1[i + 1] = np.float32(s1)
+            o2[i + 1] = np.float32(s2)
+            o3[i + 1] = np.float32(s3)
+        for i in range(i0, i1):
+            ci, co = i + nb - a, i - a
+            s0 += np.float64(x0[ci]) - np.float64(x0[co])
+            s1 += np.float64(x1[ci]) - np.float64(x1[co])
+            s2 += np.float64(x2[ci]) - np.float64(x2[co])
+            s3 += np.float64(x3[ci]) - np.float64(x3[co])
+            o0[i + 1] = np.float32(s0)
+            o1[i + 1] = np.float32(s1)
+            o2[i + 1] = np.float32(s2)
+            o3[i + 1] = np.float32(s3)
+        for i in range(i1, n - 1):
+            co = i - a
+            s0 += 0.0 - np.float64(x0[co])
+            s1 += 0.0 - np.float64(x1[co])
+            s2 += 0.0 - np.float64(x2[co])
+            s3 += 0.0 - np.float64(x3[co])
+            o0[i + 1] = np.float32(s0)
+            o1[i + 1] = np.float32(s1)
+            o2[i + 1] = np.float32(s2)
+            o3[i + 1] = np.float32(s3)
+        r += 4
+    while r < n_rows:
+        _box_row(X[r], nb, out[r])
+        r += 1
+
+
+
+@numba.njit(cache=True, nogil=True)
 def _window_kernel(A, N, V, has_v, nb, meas_min, side_min, bent, m, unmeas, side_ok, Vo):
-    """:func:`_window_means` per row: the window sums (:func:`_box_row`) times ``_SUB``,
+    """:func:`_window_means`: the window sums (:func:`_box_rows`) times ``_SUB``,
     ``unmeas`` = sum N < ``meas_min``, ``side_ok`` = sum N >= ``side_min`` and not ``bent``,
     ``m`` = sum A / max(sum N, 1) (NaN where unmeasured), ``Vo`` = sqrt(min(sum V / max(sum
     N, 1), 1)) (float32, the array expressions' operations in their order)."""
@@ -245,24 +319,24 @@ def _window_kernel(A, N, V, has_v, nb, meas_min, side_min, bent, m, unmeas, side
     q = np.float32(_SUB)
     one = np.float32(1.0)
     nan = np.float32(np.nan)
-    sa = np.empty(n, np.float32)
-    sn = np.empty(n, np.float32)
-    sv = np.empty(n, np.float32)
+    sa = np.empty((n_rows, n), np.float32)
+    sn = np.empty((n_rows, n), np.float32)
+    _box_rows(A, nb, sa)
+    _box_rows(N, nb, sn)
+    if has_v:
+        sv = np.empty((n_rows, n), np.float32)
+        _box_rows(V, nb, sv)
     for r in range(n_rows):
-        _box_row(A[r], nb, sa)
-        _box_row(N[r], nb, sn)
-        if has_v:
-            _box_row(V[r], nb, sv)
         for c in range(n):
-            a = sa[c] * q
-            w = sn[c] * q
+            w = sn[r, c] * q
             w1 = max(w, one)
             meas = w >= meas_min
             unmeas[r, c] = not meas
-            side_ok[r, c] = (w >= side_min) and not bent[r, c]
-            m[r, c] = a / w1 if meas else nan
+            side_ok[r, c] = (w >= side_min) & (not bent[r, c])
+            mv = (sa[r, c] * q) / w1
+            m[r, c] = mv if meas else nan
             if has_v:
-                Vo[r, c] = np.sqrt(min((sv[c] * q) / w1, one))
+                Vo[r, c] = np.sqrt(min((sv[r, c] * q) / w1, one))
 
 
 #: whether an unmeasured band counts its offsets in image pixels in a rectified view
