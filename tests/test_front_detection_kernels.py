@@ -1,5 +1,6 @@
 """The detector's compiled passes against the array code they replace: the same regions,
-planes, ramps, refits and bent-window tests (to rounding) on random inputs."""
+planes, ramps, refits, bent-window tests, window means and reveal lines (to rounding, or bit
+for bit) on random inputs."""
 
 import math
 
@@ -9,7 +10,8 @@ import pytest
 
 from mmlearn.models.perception.detection import Plane
 from mmlearn.models.perception.detection.check import _refit_plane
-from mmlearn.models.perception.detection.gaps import _bent_windows, _long_runs
+from mmlearn.models.perception.detection.gaps import (_bent_windows, _box_rows, _line_hits_kernel,
+                                                      _long_runs, _stretch_at, _window_means)
 from mmlearn.models.perception.detection.labels import (_affine_lstsq, _ramp_fit,
                                                         _ramp_fit_lstsq)
 from mmlearn.models.perception.detection.planes import (_components, _fit_plane, _inlier_counts,
@@ -253,3 +255,124 @@ def test_hypothesis_counts_match_the_matrix_product():
     got = _inliers_of(N32[h], P32, dd[h], L)
     assert np.array_equal(got[~near[h]], (exact[h] <= L)[~near[h]])
     assert got.sum() == counts[h]
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_window_sums_are_opencv_s_box_filter(seed):
+    """The window sums, four rows at a time, bit for bit those of ``cv2.boxFilter`` (zero
+    border), also for values over many orders of magnitude and windows longer than a row."""
+    rng = np.random.default_rng(seed)
+    for nb in (1, 2, 3, 8, 32, 200):
+        for shape in ((9, 160), (7, 5), (13, 1), (4, 33)):
+            X = (rng.standard_normal(shape)
+                 * 10.0 ** rng.uniform(-8, 8, (shape[0], 1))).astype(np.float32)
+            X[rng.random(shape) < 0.2] = 0.0
+            ref = cv2.boxFilter(X, -1, (nb, 1), normalize=False, borderType=cv2.BORDER_CONSTANT)
+            got = np.empty_like(X)
+            _box_rows(X, nb, got)
+            assert np.array_equal(got.view(np.int32), ref.view(np.int32)), (nb, shape)
+
+
+def _window_means_reference(A, N, V, nb):
+    """The array code of the window means (OpenCV's box filter, then numpy)."""
+    Lw = nb * 4
+    bent = _bent_windows(A, N, nb, _Cfg)
+    box = (lambda X: cv2.boxFilter(X, -1, (nb, 1), normalize=False,
+                                   borderType=cv2.BORDER_CONSTANT) * np.float32(4))
+    A, N = box(A), box(N)
+    if V is not None:
+        V = np.sqrt(np.minimum(box(V) / np.maximum(N, np.float32(1.0)), np.float32(1.0)))
+    meas = N >= max(3.0, Lw / 3.0)
+    m = A / np.maximum(N, np.float32(1.0))
+    m[~meas] = np.nan
+    return m, ~meas, (N >= 0.8 * Lw) & ~bent, V
+
+
+@pytest.mark.parametrize("nb", [8, 32])
+def test_window_means_match_the_array_code(nb):
+    """Block means with unmeasured runs, a step and a noise factor: the same means, masks and
+    noise factors, bit for bit."""
+    rng = np.random.default_rng(nb)
+    N = rng.choice(np.float32([0.0, 0.25, 0.5, 1.0]), (50, 150), p=[0.1, 0.1, 0.1, 0.7])
+    N[:, 60:80] = 0.0
+    z = rng.uniform(1.0, 2.5, (50, 150)).astype(np.float32)
+    z[:, 100:] += np.float32(0.05)
+    A = (z * N).astype(np.float32)
+    V = (rng.uniform(0.2, 1.0, A.shape) * N).astype(np.float32)
+    for v in (None, V):
+        got = _window_means(A, N, v, nb, _Cfg)
+        ref = _window_means_reference(A, N, v, nb)
+        for g, r in zip(got, ref):
+            assert (g is None) == (r is None)
+            if r is not None:
+                assert np.array_equal(g.view(np.uint8), r.view(np.uint8))
+        assert got[1].any() and got[2].any()
+
+
+class _GapCfg:
+    gap_side_tolerance_per_m2 = 0.004
+    gap_offsets_px = [2, 3, 4, 5, 7, 9]
+
+
+def _line_hits_reference(m, unmeas, side_ok, V, gd, gdz, near_z, Hi):
+    """Every test of the reveal lines on every line and offset, in float32 scalars (no
+    prefilter)."""
+    f = np.float32
+    half, tol_m2 = f(0.5), f(_GapCfg.gap_side_tolerance_per_m2)
+    g = np.zeros(m.shape, bool)
+    zg = np.zeros(m.shape, np.float32)
+    for o in _GapCfg.gap_offsets_px:
+        for r in range(2 * o, m.shape[0] - 2 * o):
+            for c in range(m.shape[1]):
+                if not (side_ok[r - o, c] and side_ok[r + o, c]):
+                    continue
+                up, dn, cv, unm = m[r - o, c], m[r + o, c], m[r, c], bool(unmeas[r, c])
+                ref = (up + dn) * half
+                z2 = ref * ref
+                t = f(gdz) * z2 * (V[r, c] if V is not None else f(1.0))
+                thr = max(f(gd), t)
+                if Hi is not None:
+                    thr = thr * np.sqrt(_stretch_at.py_func(Hi, r, c, 4, True, False))
+                if not (cv - ref > thr or unm) or not abs(up - dn) < max(f(0.01), tol_m2 * z2):
+                    continue
+                ext = (up + dn) - half * (m[r - 2 * o, c] + m[r + 2 * o, c])
+                if not (cv - ext > half * thr or unm):
+                    continue
+                if Hi is not None and unm:
+                    sv = _stretch_at.py_func(Hi, r, c, 4, True, True)
+                    near = o <= float(f(5.0) * sv) or float(ref) * (o - 2.0 * float(sv)) < near_z
+                else:
+                    near = o <= 5 or ref * f(o - 2) < f(near_z)
+                if near:
+                    g[r, c], zg[r, c] = True, ref
+    return g, zg
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_line_hits_match_every_test_on_every_line(seed):
+    """Reveals (behind, unmeasured), creases and noise, with and without a noise factor and a
+    view's homography: the compiled pass (whole-row tests first) hits the same lines at the
+    same depths as the tests run one by one."""
+    rng = np.random.default_rng(seed)
+    # at 2.5 m the threshold's z^2 part (6 mm) is above its floor (2.5 mm): the reveal at row 30
+    # is behind by more than the threshold where the noise factor lowers it, and not elsewhere
+    m = (rng.uniform(2.5, 2.6, (1, 24)) + rng.normal(0, 0.0005, (70, 24))).astype(np.float32)
+    m[30] += np.float32(0.004)       # a reveal behind its sides
+    m[45] = np.nan                   # a line without return
+    m[52:56] += np.float32(0.02)     # a band
+    unmeas = np.isnan(m)
+    side_ok = ~unmeas & (rng.random(m.shape) < 0.95)
+    V = rng.uniform(0.3, 1.0, m.shape).astype(np.float32)
+    Hi = np.array([[0.9, 0.05, 3.0], [0.02, 1.1, -2.0], [1e-4, 2e-4, 1.0]])
+    for v, h in ((None, None), (V, None), (None, Hi), (V, Hi)):
+        g = np.zeros(m.shape, bool)
+        zg = np.zeros(m.shape, np.float32)
+        _line_hits_kernel(m, unmeas.view(np.uint8), side_ok.view(np.uint8),
+                          np.zeros((1, 1), np.float32) if v is None else v,
+                          np.eye(3) if h is None else h, np.float32(0.0025), np.float32(0.001),
+                          np.float32(_GapCfg.gap_side_tolerance_per_m2), np.float32(5.25),
+                          np.asarray(_GapCfg.gap_offsets_px, np.int64), True, v is not None,
+                          h is not None, True, g, zg)
+        rg, rz = _line_hits_reference(m, unmeas, side_ok, v, 0.0025, 0.001, 5.25, h)
+        assert np.array_equal(g, rg) and np.array_equal(zg.view(np.int32), rz.view(np.int32))
+        assert g[45].any() and g[30].any() == (v is not None)

@@ -197,23 +197,146 @@ def _bent_kernel(A, N, nb, tol_m2, bent):
 def _window_means(A, N, V, nb, cfg):
     """The lines' means over windows of ``nb`` blocks: (mean depth, NaN where under a third
     measured; unmeasured; usable as a side line: >= 80 % measured and not bent; the line's
-    noise std over one frame's, or None)."""
+    noise std over one frame's, or None). One compiled pass (:func:`_window_kernel`) after
+    :func:`_bent_windows`."""
     Lw = nb * _SUB
     bent = _bent_windows(A, N, nb, cfg)
-    A = cv2.boxFilter(A, -1, (nb, 1), normalize=False, borderType=cv2.BORDER_CONSTANT)
-    N = cv2.boxFilter(N, -1, (nb, 1), normalize=False, borderType=cv2.BORDER_CONSTANT)
-    A *= np.float32(_SUB)
-    N *= np.float32(_SUB)
-    if V is not None:  # the line's noise std over one frame's: sqrt(mean variance factor)
-        V = cv2.boxFilter(V, -1, (nb, 1), normalize=False, borderType=cv2.BORDER_CONSTANT)
-        V *= np.float32(_SUB)
-        V = np.sqrt(np.minimum(V / np.maximum(N, np.float32(1.0)), np.float32(1.0)))
-    meas = N >= max(3.0, Lw / 3.0)
-    # side lines: well measured and not bent (one array for both side tests)
-    side_ok = (N >= 0.8 * Lw) & ~bent
-    m = A / np.maximum(N, np.float32(1.0))
-    m[~meas] = np.nan
-    return m, ~meas, side_ok, V
+    m = np.empty(A.shape, np.float32)
+    unmeas = np.empty(A.shape, bool)
+    side_ok = np.empty(A.shape, bool)
+    Vo = None if V is None else np.empty(A.shape, np.float32)
+    # (the thresholds as numpy compares a float32 array with a Python float: in float32)
+    _window_kernel(A, N, np.zeros((1, 1), np.float32) if V is None else V, V is not None,
+                   int(nb), np.float32(max(3.0, Lw / 3.0)), np.float32(0.8 * Lw), bent, m,
+                   unmeas, side_ok, np.zeros((1, 1), np.float32) if V is None else Vo)
+    return m, unmeas, side_ok, Vo
+
+
+@numba.njit(cache=True, nogil=True)
+def _box_row(x, nb, out):
+    """OpenCV's unnormalised (nb, 1) box filter (``cv2.boxFilter``, ``BORDER_CONSTANT``,
+    anchor nb // 2) of one float32 row: the running sum in float64 of the zero-padded row
+    (the first window summed, then plus the value entering minus the one leaving), rounded
+    to float32 (the same values)."""
+    n = x.shape[0]
+    a = nb // 2
+    s = 0.0
+    for i in range(nb):
+        c = i - a
+        if 0 <= c < n:
+            s += np.float64(x[c])
+    out[0] = np.float32(s)
+    # output i + 1: x[i + nb - a] enters (0 past the end), x[i - a] leaves (0 before the
+    # start); the three ranges of i without a test per element
+    i0 = min(a, n - 1)                  # i < a: nothing leaves
+    i1 = max(i0, min(n - 1, n - nb + a))  # i + nb - a < n: something enters
+    for i in range(i0):
+        cin = i + nb - a
+        s += (np.float64(x[cin]) if cin < n else 0.0) - 0.0
+        out[i + 1] = np.float32(s)
+    for i in range(i0, i1):
+        s += np.float64(x[i + nb - a]) - np.float64(x[i - a])
+        out[i + 1] = np.float32(s)
+    for i in range(i1, n - 1):
+        s += 0.0 - np.float64(x[i - a])
+        out[i + 1] = np.float32(s)
+
+
+@numba.njit(cache=True, nogil=True)
+def _box_rows(X, nb, out):
+    """:func:`_box_row` of every row of ``X`` into ``out``, four rows at a time in lockstep
+    (four independent running sums: the same values, twice as fast)."""
+    n_rows, n = X.shape
+    a = nb // 2
+    i0 = min(a, n - 1)
+    i1 = max(i0, min(n - 1, n - nb + a))
+    r = 0
+    while r + 4 <= n_rows:
+        x0, x1, x2, x3 = X[r], X[r + 1], X[r + 2], X[r + 3]
+        o0, o1, o2, o3 = out[r], out[r + 1], out[r + 2], out[r + 3]
+        s0 = s1 = s2 = s3 = 0.0
+        for i in range(nb):
+            c = i - a
+            if 0 <= c < n:
+                s0 += np.float64(x0[c])
+                s1 += np.float64(x1[c])
+                s2 += np.float64(x2[c])
+                s3 += np.float64(x3[c])
+        o0[0] = np.float32(s0)
+        o1[0] = np.float32(s1)
+        o2[0] = np.float32(s2)
+        o3[0] = np.float32(s3)
+        for i in range(i0):
+            cin = i + nb - a
+            if cin < n:
+                s0 += np.float64(x0[cin]) - 0.0
+                s1 += np.float64(x1[cin]) - 0.0
+                s2 += np.float64(x2[cin]) - 0.0
+                s3 += np.float64(x3[cin]) - 0.0
+            else:  # (as the padded row's 0 - 0)
+                s0 += 0.0
+                s1 += 0.0
+                s2 += 0.0
+                s3 += 0.0
+            o0[i + 1] = np.float32(s0)
+            o1[i + 1] = np.float32(s1)
+            o2[i + 1] = np.float32(s2)
+            o3[i + 1] = np.float32(s3)
+        for i in range(i0, i1):
+            ci, co = i + nb - a, i - a
+            s0 += np.float64(x0[ci]) - np.float64(x0[co])
+            s1 += np.float64(x1[ci]) - np.float64(x1[co])
+            s2 += np.float64(x2[ci]) - np.float64(x2[co])
+            s3 += np.float64(x3[ci]) - np.float64(x3[co])
+            o0[i + 1] = np.float32(s0)
+            o1[i + 1] = np.float32(s1)
+            o2[i + 1] = np.float32(s2)
+            o3[i + 1] = np.float32(s3)
+        for i in range(i1, n - 1):
+            co = i - a
+            s0 += 0.0 - np.float64(x0[co])
+            s1 += 0.0 - np.float64(x1[co])
+            s2 += 0.0 - np.float64(x2[co])
+            s3 += 0.0 - np.float64(x3[co])
+            o0[i + 1] = np.float32(s0)
+            o1[i + 1] = np.float32(s1)
+            o2[i + 1] = np.float32(s2)
+            o3[i + 1] = np.float32(s3)
+        r += 4
+    while r < n_rows:
+        _box_row(X[r], nb, out[r])
+        r += 1
+
+
+
+@numba.njit(cache=True, nogil=True)
+def _window_kernel(A, N, V, has_v, nb, meas_min, side_min, bent, m, unmeas, side_ok, Vo):
+    """:func:`_window_means`: the window sums (:func:`_box_rows`) times ``_SUB``,
+    ``unmeas`` = sum N < ``meas_min``, ``side_ok`` = sum N >= ``side_min`` and not ``bent``,
+    ``m`` = sum A / max(sum N, 1) (NaN where unmeasured), ``Vo`` = sqrt(min(sum V / max(sum
+    N, 1), 1)) (float32, the array expressions' operations in their order)."""
+    n_rows, n = A.shape
+    q = np.float32(_SUB)
+    one = np.float32(1.0)
+    nan = np.float32(np.nan)
+    sa = np.empty((n_rows, n), np.float32)
+    sn = np.empty((n_rows, n), np.float32)
+    _box_rows(A, nb, sa)
+    _box_rows(N, nb, sn)
+    if has_v:
+        sv = np.empty((n_rows, n), np.float32)
+        _box_rows(V, nb, sv)
+    for r in range(n_rows):
+        for c in range(n):
+            w = sn[r, c] * q
+            w1 = max(w, one)
+            meas = w >= meas_min
+            unmeas[r, c] = not meas
+            side_ok[r, c] = (w >= side_min) & (not bent[r, c])
+            mv = (sa[r, c] * q) / w1
+            m[r, c] = mv if meas else nan
+            if has_v:
+                Vo[r, c] = np.sqrt(min((sv[r, c] * q) / w1, one))
 
 
 #: whether an unmeasured band counts its offsets in image pixels in a rectified view
@@ -243,34 +366,49 @@ def _stretch_at(Hi, r, c, sub, horizontal, across):
 def _line_hits_kernel(m, unmeas, side_ok, V, Hi, gd, gdz, tol_m2, near_z, offsets, horizontal,
                       has_v, has_h, stretch_across, g, zg):
     """The tests of :func:`_line_hits`, element by element in float32 (the same operations in
-    the same order as on arrays), offset after offset; writes ``g`` and ``zg``."""
+    the same order as on arrays), offset after offset; writes ``g`` and ``zg``. ``unmeas`` and
+    ``side_ok`` are 0 / 1 bytes."""
     n_rows, Wm = m.shape
     half = np.float32(0.5)
     tmin = np.float32(0.01)
-    cand = np.empty(Wm, np.bool_)
-    idx = np.empty(Wm, np.int64)
+    Wp = (Wm + 7) // 8 * 8
+    cand = np.zeros(Wp, np.uint8)
+    cand64 = cand.view(np.uint64)  # eight columns at a time: most are no candidate
+    idx = np.empty(Wp, np.int64)
     for o in offsets:
         if n_rows <= 4 * o:
             continue
         of = np.float32(o - 2)
         for r in range(2 * o, n_rows - 2 * o):
-            # the first tests on the whole row without branches (vectorised by the compiler)
+            # the tests that need no stretch, on the whole row without branches (vectorised by
+            # the compiler): both sides usable, behind by the threshold without its noise
+            # factor V <= 1 (then by the floor gd) and stretch s >= 1 (the full threshold is
+            # never smaller), or unmeasured, and the sides agreeing; the same float32
+            # operations as below, so a column failing here fails there
             mu, md, mc = m[r - o], m[r + o], m[r]
             su, sd, un = side_ok[r - o], side_ok[r + o], unmeas[r]
             for c in range(Wm):
-                cand[c] = su[c] & sd[c] & ((mc[c] - (mu[c] + md[c]) * half > gd) | un[c])
+                up, dn = mu[c], md[c]
+                ref = (up + dn) * half
+                z2 = ref * ref
+                thr = gd if has_v else max(gd, gdz * z2)
+                tol = max(tmin, tol_m2 * z2)
+                cand[c] = (su[c] & sd[c] & (np.uint8(mc[c] - ref > thr) | un[c])
+                           & np.uint8(abs(up - dn) < tol))
             # the few candidates' columns, without a conditional jump per column (a mispredicted
             # jump per candidate cost more than the remaining tests)
             nc = 0
-            for c in range(Wm):
-                idx[nc] = c
-                nc += cand[c]
+            for w in range(Wp // 8):
+                if cand64[w] != 0:
+                    for c in range(8 * w, 8 * w + 8):
+                        idx[nc] = c
+                        nc += cand[c]
             for j in range(nc):
                 c = idx[j]
                 up, dn, cv = mu[c], md[c], mc[c]
                 ref = (up + dn) * half
                 behind = cv - ref
-                unm = un[c]
+                unm = un[c] != 0
                 z2 = ref * ref
                 t = gdz * z2
                 if has_v:
@@ -319,7 +457,7 @@ def _line_hits(m, unmeas, side_ok, V, gd, gdz, fx, cfg, horizontal, to_image):
     zg = np.zeros(m.shape, np.float32)  # depth of the side lines where hit
     dummy = np.zeros((1, 1), np.float32)
     _line_hits_kernel(
-        m, unmeas, side_ok, dummy if V is None else V,
+        m, unmeas.view(np.uint8), side_ok.view(np.uint8), dummy if V is None else V,
         np.eye(3) if to_image is None else np.asarray(to_image, np.float64),
         np.float32(gd), np.float32(gdz), np.float32(cfg.gap_side_tolerance_per_m2),
         np.float32(0.01 * fx), np.asarray(cfg.gap_offsets_px, np.int64), bool(horizontal),
