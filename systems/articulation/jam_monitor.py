@@ -17,8 +17,8 @@ more) or 2 (locked), and keeps where the block began (``blocked_at``: the openin
 where the hook began to move the mechanism to where the force rose). The pulling
 speed is modulated so that the rate varies and damping can be told from friction: for a
 door sinusoidally (``speed`` x (1 + ``excitation`` sin(2 pi t / ``excitation_period``)) of the
-step), for a drawer alternating between two speeds held for most of each half period and
-joined by half-cosine ramps (the ``prismatic_`` fields; :func:`speed_modulation`).
+step), for a drawer alternating between two speeds, each held for a while and joined by
+half-cosine ramps (the ``prismatic_`` fields; :func:`speed_modulation`).
 
 Its ports are listed on :class:`DynamicsMonitor`. :class:`HaltGate` relaxes the arm at once when the monitor halts (the controller reacts only
 at its next period): for ``hold`` seconds it commands the robot's measured joint positions,
@@ -67,7 +67,8 @@ class DynamicsMonitorConfig:
             and starts, at the slow speed, where the hook has travelled ``start_travel``.
         prismatic_speed, prismatic_excitation, prismatic_excitation_period,
             prismatic_excitation_ramp: the same for a prismatic mechanism (``joint``): a
-            drawer dwells at two speeds 1:3.4 apart (about 3 and 11 cm/s), where a drawer's
+            drawer dwells at two speeds 1:3.4 apart (3.4 and 11.6 cm/s at the controller's
+            default step; the hook follows at about 3.5 and 9.5 cm/s), where a drawer's
             small damping force is told from its friction and from the wrist sensor's
             noise; a door keeps the sinusoid (a light door swings ahead of the hook after a
             quick change of speed, and its rate already varies widely along the arc).
@@ -100,7 +101,8 @@ class DynamicsMonitorConfig:
             a jammed one (the hook takes up ~3 cm of
             slack between its seat and the bar before it pulls), m.
         joint: the kind of mechanism the robot was sent to open ("revolute",
-            "prismatic"; "" = not known): the unit of the opening at a block.
+            "prismatic"; "" = not known): the unit of the opening at a block and the
+            pulling speed's modulation (:meth:`modulation`).
         pull: the direction the robot was told to pull in (world; zero = not known): for
             a prismatic mechanism, progress and force are measured along it until the
             learned model gives its own direction.
