@@ -117,7 +117,7 @@ class DynamicsMonitorConfig:
             fitted with (:func:`~mmlearn.models.articulation.dynamics.friction_shape`:
             tanh(qdot / v); 0: ideal Coulomb friction), rad/s or m/s: the simulated
             joints' friction builds up over its first few 0.02 (``JointFriction``), and at
-            a drawer's 2-8 cm/s an ideal Coulomb term would read that growth as damping.
+            a drawer's few cm/s an ideal Coulomb term would read that growth as damping.
     """
 
     period: float = param(0.025, unit="s", gt=0)
