@@ -70,8 +70,8 @@ class DynamicsMonitorConfig:
             drawer dwells at two speeds 1:3.4 apart (3.4 and 11.6 cm/s at the controller's
             default step; the hook follows at about 3.5 and 9.5 cm/s), where a drawer's
             small damping force is told from its friction and from the wrist sensor's
-            noise; a door keeps the sinusoid (a light door swings ahead of the hook after a
-            quick change of speed, and its rate already varies widely along the arc).
+            noise; a door keeps the sinusoid (with two speeds a light door's damping came
+            out far off, and a door's rate already varies widely along its arc).
         start_travel: the first this far of the pull (the hook taking up the slack, the
             mechanism breaking free) go at the modulation's slowest speed, m.
         settle: the block test begins this long after the pull's first sample (the hook
