@@ -56,6 +56,10 @@ COMMANDS = {
     "mechanism_damping_950.json": "python benchmarks/bench_mechanism.py --only damping --seed 950 "
                                   "--results docs/results/mechanism_damping_950.jsonl "
                                   "--json docs/results/mechanism_damping_950.json",
+    # and on a third
+    "mechanism_damping_980.json": "python benchmarks/bench_mechanism.py --only damping --seed 980 "
+                                  "--results docs/results/mechanism_damping_980.jsonl "
+                                  "--json docs/results/mechanism_damping_980.json",
     # jams at 5 positions, latches and sticky mechanisms, doors and drawers (about 30 CPU minutes)
     "mechanism_faults.json": "python benchmarks/bench_mechanism.py --only jam,locked,sticky "
                              "--kinds left_door,drawer --trials 2 --repeats 5 --seed 700 --jobs 2 "
@@ -131,7 +135,7 @@ COMMANDS.update(NOTES.COMMANDS)
 #: mechanism-dynamics and teaching work: re-run them after such changes
 #: (``--run --only <stem>,...``)
 VOLATILE = ("operate", "operate_trials", "user_models", "mechanism_damping",
-            "mechanism_damping_950", "mechanism_faults", "fronts",
+            "mechanism_damping_950", "mechanism_damping_980", "mechanism_faults", "fronts",
             "perception_distance", "teaching", "imitate", "quick_tour", "speed")
 VOLATILE += ENGINEERING.VOLATILE + NOTES.VOLATILE
 
@@ -656,9 +660,11 @@ def _beyond_results() -> dict[str, str]:
     figs = [(x or {}).get("summary", x or {}) for x in map(_load, _MECH_DAMPING)]
     if all(f.get("damping_drawer") and f.get("damping_left_door") for f in figs):
         def _per_set(key):
-            return " and ".join(f"{f[key]['within_25pct']}/{f[key]['trials']}" for f in figs)
+            said = [f"{f[key]['within_25pct']}/{f[key]['trials']}" for f in figs]
+            return " and ".join([", ".join(said[:-1]), said[-1]] if len(said) > 1 else said)
         r["mechanism_dynamics"] = (f"damping within 25 %: drawers {_per_set('damping_drawer')}, "
-                                   f"doors {_per_set('damping_left_door')} (two seed sets)")
+                                   f"doors {_per_set('damping_left_door')} "
+                                   f"({_NUMBERS.get(len(figs), len(figs))} seed sets)")
     d = _load("teaching.json")
     if d:
         by = {c["condition"]: c for c in d["conditions"]}
@@ -857,8 +863,11 @@ def _mech_damping_figures(d) -> dict:
     return out
 
 
+_NUMBERS = {2: "two", 3: "three", 4: "four"}
+
 #: the damping sweeps: one results file per set of seeds
-_MECH_DAMPING = ("mechanism_damping.json", "mechanism_damping_950.json")
+_MECH_DAMPING = ("mechanism_damping.json", "mechanism_damping_950.json",
+                 "mechanism_damping_980.json")
 
 
 def _mech_damping_table(file: str) -> str:

@@ -15,8 +15,10 @@ or against a mechanism that has not moved, ``locked_force``); or the force staye
 controller to stop: halt code 1 (jammed: the hook had advanced by ``locked_travel`` or
 more) or 2 (locked), and keeps where the block began (``blocked_at``: the opening from
 where the hook began to move the mechanism to where the force rose). The pulling
-speed is modulated (``excitation`` of the step, period ``excitation_period``) so that the
-rate varies and damping can be told from friction.
+speed is modulated so that the rate varies and damping can be told from friction: for a
+door sinusoidally (``speed`` x (1 + ``excitation`` sin(2 pi t / ``excitation_period``)) of the
+step), for a drawer alternating between two speeds, each held for a while and joined by
+half-cosine ramps (the ``prismatic_`` fields; :func:`speed_modulation`).
 
 Its ports are listed on :class:`DynamicsMonitor`. :class:`HaltGate` relaxes the arm at once when the monitor halts (the controller reacts only
 at its next period): for ``hold`` seconds it commands the robot's measured joint positions,
@@ -38,7 +40,7 @@ from mmlearn.models.common.config import param, validate_fields
 from mmlearn.systems.common.plant_helpers import STICTION_VELOCITY
 
 __all__ = ["DynamicsMonitorConfig", "DynamicsMonitorState", "DynamicsMonitor", "HaltGate", "GO",
-           "JAMMED", "LOCKED", "HALT_NAMES", "estimate_dynamics"]
+           "JAMMED", "LOCKED", "HALT_NAMES", "estimate_dynamics", "speed_modulation"]
 
 GO, JAMMED, LOCKED = 0, 1, 2
 HALT_NAMES = {GO: "", JAMMED: "jammed", LOCKED: "locked"}
@@ -54,8 +56,22 @@ class DynamicsMonitorConfig:
         min_samples: samples before the first fit (count).
         speed: the pulling speed relative to the controller's step (its mean over the
             modulation), dimensionless: a slower pull meets a block with less force.
-        excitation: relative amplitude of the pulling speed's modulation (0: constant).
-        excitation_period: period of that modulation, s.
+        excitation: relative amplitude of the pulling speed's modulation (0: constant):
+            the pull alternates between ``speed`` x (1 - ``excitation``) and
+            ``speed`` x (1 + ``excitation``).
+        excitation_period: period of that modulation (one slow and one fast part), s.
+        excitation_ramp: each change between the two speeds is a half-cosine ramp of this
+            duration, s, at most half the period (:func:`speed_modulation`). Half the
+            period is a sinusoidal modulation, which runs from the pull's first sample; a
+            shorter ramp dwells at both speeds (a wider spread of rates for the regression)
+            and starts, at the slow speed, where the hook has travelled ``start_travel``.
+        prismatic_speed, prismatic_excitation, prismatic_excitation_period,
+            prismatic_excitation_ramp: the same for a prismatic mechanism (``joint``): a
+            drawer dwells at two speeds 1:3.4 apart (3.4 and 11.6 cm/s at the controller's
+            default step; the hook follows at about 3.5 and 9.5 cm/s), where a drawer's
+            small damping force is told from its friction and from the wrist sensor's
+            noise; a door keeps the sinusoid (with two speeds a light door's damping came
+            out far off, and a door's rate already varies widely along its arc).
         start_travel: the first this far of the pull (the hook taking up the slack, the
             mechanism breaking free) go at the modulation's slowest speed, m.
         settle: the block test begins this long after the pull's first sample (the hook
@@ -85,7 +101,8 @@ class DynamicsMonitorConfig:
             a jammed one (the hook takes up ~3 cm of
             slack between its seat and the bar before it pulls), m.
         joint: the kind of mechanism the robot was sent to open ("revolute",
-            "prismatic"; "" = not known): the unit of the opening at a block.
+            "prismatic"; "" = not known): the unit of the opening at a block and the
+            pulling speed's modulation (:meth:`modulation`).
         pull: the direction the robot was told to pull in (world; zero = not known): for
             a prismatic mechanism, progress and force are measured along it until the
             learned model gives its own direction.
@@ -100,7 +117,7 @@ class DynamicsMonitorConfig:
             fitted with (:func:`~mmlearn.models.articulation.dynamics.friction_shape`:
             tanh(qdot / v); 0: ideal Coulomb friction), rad/s or m/s: the simulated
             joints' friction builds up over its first few 0.02 (``JointFriction``), and at
-            a drawer's 2-8 cm/s an ideal Coulomb term would read that growth as damping.
+            a drawer's few cm/s an ideal Coulomb term would read that growth as damping.
     """
 
     period: float = param(0.025, unit="s", gt=0)
@@ -109,6 +126,11 @@ class DynamicsMonitorConfig:
     speed: float = param(0.65, gt=0, le=3)
     excitation: float = param(0.5, ge=0, lt=1)
     excitation_period: float = param(2.0, unit="s", gt=0)
+    excitation_ramp: float = param(1.0, unit="s", gt=0)
+    prismatic_speed: float = param(0.75, gt=0, le=3)
+    prismatic_excitation: float = param(0.55, ge=0, lt=1)
+    prismatic_excitation_period: float = param(4.0, unit="s", gt=0)
+    prismatic_excitation_ramp: float = param(1.0, unit="s", gt=0)
     start_travel: float = param(0.04, unit="m", ge=0)
     settle: float = param(0.3, unit="s", ge=0)
     window: float = param(0.1, unit="s", gt=0)
@@ -131,6 +153,36 @@ class DynamicsMonitorConfig:
 
     def __post_init__(self):
         validate_fields(self)
+        for pre in ("", "prismatic_"):
+            period, ramp = getattr(self, pre + "excitation_period"), \
+                getattr(self, pre + "excitation_ramp")
+            if ramp > 0.5 * period + 1e-12:
+                raise ValueError(f"DynamicsMonitorConfig.{pre}excitation_ramp must be at most "
+                                 f"half of {pre}excitation_period ({0.5 * period:g} s), got "
+                                 f"{ramp:g} s")
+
+    def modulation(self) -> tuple[float, float, float, float]:
+        """The pulling speed's modulation for this ``joint``: (speed, excitation, period,
+        ramp), the ``prismatic_`` fields for a prismatic mechanism, else the plain ones."""
+        pre = "prismatic_" if self.joint == "prismatic" else ""
+        return tuple(float(getattr(self, pre + k)) for k in
+                     ("speed", "excitation", "excitation_period", "excitation_ramp"))
+
+
+def speed_modulation(t, period: float, ramp: float) -> float:
+    """The pulling speed's modulation at time ``t`` (s) after it started, between -1 (the
+    slow speed) and 1 (the fast one): it starts slow, rises over ``ramp`` seconds (a
+    half-cosine), stays fast until half the ``period``, falls over ``ramp`` and stays slow
+    until the period's end. With ``ramp`` = ``period`` / 2 it is -cos(2 pi t / period)."""
+    x = math.fmod(max(float(t), 0.0), period)
+    half = 0.5 * period
+    if x < ramp:
+        return -math.cos(math.pi * x / ramp)
+    if x < half:
+        return 1.0
+    if x < half + ramp:
+        return math.cos(math.pi * (x - half) / ramp)
+    return -1.0
 
 
 @dataclass(frozen=True)
@@ -140,6 +192,8 @@ class DynamicsMonitorState:
     Attributes:
         t, G, F: stored sample times (s), hook positions and wrist forces (world, m, N).
         t_start: time of the first sample (the pull's start; NaN before), s.
+        t_excite: time the hook had travelled ``start_travel`` from its first sample: the
+            speed's modulation starts there (NaN before), s.
         dynamics: the latest fit (None before one).
         last_fit: number of samples at the last fit.
         halt: GO, JAMMED or LOCKED.
@@ -173,6 +227,7 @@ class DynamicsMonitorState:
     G: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     F: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     t_start: float = float("nan")
+    t_excite: float = float("nan")
     dynamics: MechanismDynamics | None = None
     last_fit: int = 0
     halt: int = GO
@@ -272,10 +327,18 @@ class DynamicsMonitor(LeafSystem):
     # ------------------------------------------------------------------ outputs
     def _calc_supervisor(self, context, output):
         s, cfg = self.state(context), self._cfg
-        scale = cfg.speed * (1.0 - cfg.excitation)
-        if math.isfinite(s.t_start) and np.linalg.norm(s.G[-1] - s.G[0]) >= cfg.start_travel:
-            phase = 2 * math.pi * (context.get_time() - s.t_start) / cfg.excitation_period
-            scale = cfg.speed * (1.0 + cfg.excitation * math.sin(phase))
+        speed, excitation, period, ramp = cfg.modulation()
+        scale = speed * (1.0 - excitation)
+        if ramp >= 0.5 * period:
+            # the sinusoid, from the pull's first sample once the hook is past start_travel
+            if math.isfinite(s.t_start) and \
+                    np.linalg.norm(s.G[-1] - s.G[0]) >= cfg.start_travel:
+                phase = 2 * math.pi * (context.get_time() - s.t_start) / period
+                scale = speed * (1.0 + excitation * math.sin(phase))
+        elif math.isfinite(s.t_excite):
+            # two speeds, from the slow one where the hook passed start_travel
+            scale = speed * (1.0 + excitation * speed_modulation(
+                context.get_time() - s.t_excite, period, ramp))
         output.SetFromVector([scale, float(s.halt)])
 
     def _calc_dynamics(self, context, value):
@@ -293,6 +356,9 @@ class DynamicsMonitor(LeafSystem):
         s = replace(s, t=np.append(s.t, t), G=np.vstack([s.G, G]), F=np.vstack([s.F, F]),
                     t_start=t if not math.isfinite(s.t_start) else s.t_start,
                     peak_force=max(s.peak_force, float(np.linalg.norm(F))))
+        if not math.isfinite(s.t_excite) and \
+                np.linalg.norm(s.G[-1] - s.G[0]) >= self._cfg.start_travel:
+            s = replace(s, t_excite=t)
         if s.halt != GO:
             state.get_mutable_abstract_state(self._s).set_value(s)
             return EventStatus.Succeeded()
