@@ -660,11 +660,10 @@ def _beyond_results() -> dict[str, str]:
     figs = [(x or {}).get("summary", x or {}) for x in map(_load, _MECH_DAMPING)]
     if all(f.get("damping_drawer") and f.get("damping_left_door") for f in figs):
         def _per_set(key):
-            said = [f"{f[key]['within_25pct']}/{f[key]['trials']}" for f in figs]
-            return " and ".join([", ".join(said[:-1]), said[-1]] if len(said) > 1 else said)
-        r["mechanism_dynamics"] = (f"damping within 25 %: drawers {_per_set('damping_drawer')}, "
-                                   f"doors {_per_set('damping_left_door')} "
-                                   f"({_NUMBERS.get(len(figs), len(figs))} seed sets)")
+            return ", ".join(f"{f[key]['within_25pct']}/{f[key]['trials']}" for f in figs)
+        r["mechanism_dynamics"] = (f"damping within 25 %, {len(figs)} seed sets: "
+                                   f"drawers {_per_set('damping_drawer')}; "
+                                   f"doors {_per_set('damping_left_door')}")
     d = _load("teaching.json")
     if d:
         by = {c["condition"]: c for c in d["conditions"]}
