@@ -171,6 +171,10 @@ class EpcController(LeafSystem):
         state_only = {self.abstract_state_ticket(self._s), self.time_ticket()}
         self._out_cmd = self.DeclareVectorOutputPort("command", BasicVector(n), self._calc_cmd,
                                                      prerequisites_of_calc=state_only)
+        # the command's segment alone: changes with the state only, not at every step
+        self._out_seg = self.DeclareVectorOutputPort(
+            "command_segment", BasicVector(2 * n + 1), self._calc_segment,
+            prerequisites_of_calc={self.abstract_state_ticket(self._s)})
         self._out_G = self.DeclareVectorOutputPort(
             "hook_position", BasicVector(3), self._calc_G,
             prerequisites_of_calc={self._kin.ticket(), self._in_force.ticket(),
@@ -183,6 +187,15 @@ class EpcController(LeafSystem):
     # ------------------------------------------------------------------ ports
     def get_command_output_port(self):
         return self._out_cmd
+
+    def get_command_segment_output_port(self):
+        """[q_from, q_to, t_cmd]: the segment the ``command`` output interpolates (see
+        :func:`CommandInterpolator`)."""
+        return self._out_seg
+
+    def period(self) -> float:
+        """The control period, s."""
+        return self._cfg.period
 
     def get_hook_position_output_port(self):
         return self._out_G
@@ -663,6 +676,10 @@ class EpcController(LeafSystem):
     def _calc_cmd(self, context, output):
         output.SetFromVector(self._current_cmd(self.state(context), context.get_time()))
 
+    def _calc_segment(self, context, output):
+        s = self.state(context)
+        output.SetFromVector(np.concatenate([s.q_from, s.q_to, [s.t_cmd]]))
+
     def _calc_G(self, context, output):
         # only the trajectory while the hook holds the handle is an observation of the
         # mechanism: outside the pull phase, or without contact force, the output is NaN
@@ -680,3 +697,21 @@ class EpcController(LeafSystem):
         s = self.state(context)
         output.SetFromVector([s.opening, s.q_hat, float(s.phase == DONE),
                               float(s.outcome == "target reached")])
+
+
+def CommandInterpolator(size: int, period: float):
+    """A Drake ``SymbolicVectorSystem`` (evaluated in C++) that turns an
+    :class:`EpcController`'s ``command_segment`` output ([q_from, q_to, t_cmd], ``size``
+    commands) into its ``command`` at time t: (1 - a) q_from + a q_to with
+    a = min(1, max(0, (t - t_cmd) / ``period``)), the same floats as the controller's own
+    ``command`` output. The plant reads the command at every step; the segment changes
+    once per control period."""
+    from pydrake.symbolic import MakeVectorVariable, Variable, max as smax, min as smin
+    from pydrake.systems.primitives import SymbolicVectorSystem
+
+    t = Variable("t")
+    u = MakeVectorVariable(2 * size + 1, "segment")
+    a = smin(1.0, smax(0.0, (t - u[2 * size]) / period))
+    return SymbolicVectorSystem(time=t, input=u,
+                                output=[(1 - a) * u[i] + a * u[size + i] for i in range(size)])
+
