@@ -103,6 +103,7 @@ class EpcController(LeafSystem):
         - supervisor (optional)
         output_ports:
         - command
+        - command_segment
         - hook_position
         - phase
         - status
@@ -111,7 +112,10 @@ class EpcController(LeafSystem):
     wrist force on the hook (world, N); ``object_model`` the ArticulationEstimator's
     ``object_model`` output (an ``ArticulatedObject`` whose first link is the handle's
     motion relative to the world, or None). ``command`` goes to the scene's ``command`` input
-    (base x, y, yaw, then q1..q6), ``hook_position`` (grip point from the robot's own forward
+    (base x, y, yaw, then q1..q6): each period's command interpolated linearly from the
+    last one over the next period; ``command_segment`` is that segment ([q_from, q_to,
+    t_cmd], changing only with the state), for :func:`CommandInterpolator` to interpolate
+    in C++. ``hook_position`` (grip point from the robot's own forward
     kinematics, world, m) feeds the estimator. ``status`` is [opening estimate (rad or m),
     configuration estimate, done flag, success-by-model flag].
 
