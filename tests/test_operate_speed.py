@@ -1,9 +1,9 @@
-"""What keeps the opening trial's simulation cheap: the plant's time step, no unread marker
-sensor, the hinge's friction in the plant, the localisation's command offset added and the
-controller's command interpolated in C++, live output ports with the wrist sensor reading the
-forces sampled ports would give it, the estimator's kernels loaded before the simulation, the
-garbage collector left alone during the simulation, the CPU time in the record (diagrams/articulation/operate.py, trials.py;
-docs/performance_articulation.md)."""
+"""What keeps the opening trial's simulation cheap: the plant's time step, no unread marker sensor,
+the hinge's friction in the plant, the localisation's command offset added and the controller's
+command interpolated in C++, live output ports with the wrist sensor reading the forces sampled
+ports would give it, the estimator's kernels loaded before the simulation, the garbage collector
+left alone during the simulation, the CPU time in the record (diagrams/articulation/operate.py,
+trials.py; docs/performance_articulation.md)."""
 
 import gc
 
