@@ -75,8 +75,7 @@ class OperateConfig:
             updates at the same instant instead of beside them: the localisation samples
             the base pose at the step's start rather than its end, and the plant sees a
             new command segment (whose first value is the old segment's last) or a halt at
-            the instant it is made. About 4 % less simulation CPU
-            (docs/performance_articulation.md).
+            the instant it is made (docs/performance_articulation.md).
         base_noise: scale of the base-localisation and odometry error (see
             :class:`~mmlearn.systems.articulation.base_localization.BaseLocalizationConfig`; 1 = its
             defaults: 0.05 m RMS horizontal, 1.1 deg heading, drifting with a 60 s time
