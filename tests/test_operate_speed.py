@@ -93,8 +93,17 @@ def test_joint_friction_output_is_the_same_float_values_as_the_formula():
 
 
 def test_the_plants_output_ports_are_live_unless_the_trial_asks_for_sampled_ones():
-    assert not MakeOperateDiagram(OperateConfig(kind="drawer", seed=0)).scene.plant \
-        .has_sampled_output_ports()
+    from mmlearn.diagrams.articulation.operate import WRIST_NOISE_SAMPLES
+    from mmlearn.systems.articulation.jam_monitor import DynamicsMonitorConfig
+
+    live = MakeOperateDiagram(OperateConfig(kind="drawer", seed=0))
+    assert not live.scene.plant.has_sampled_output_ports()
+    assert live.force_sensor._table.shape[0] == WRIST_NOISE_SAMPLES
+    # a trial with the dynamics monitor keeps sampled ports and per-sample noise
+    mon = MakeOperateDiagram(OperateConfig(kind="drawer", seed=0,
+                                           monitor=DynamicsMonitorConfig()))
+    assert mon.scene.plant.has_sampled_output_ports()
+    assert mon.force_sensor._table.shape[0] == 0
     assert MakeSceneDiagram(SceneConfig(arm="2dof", cabinet=False)).plant \
         .has_sampled_output_ports()
     sampled = MakeOperateDiagram(OperateConfig(kind="drawer", seed=0,

@@ -66,8 +66,12 @@ class OperateConfig:
             monitor are multiples of it (a step they are not multiples of adds simulator
             steps of its own).
         sampled_output_ports: the plant's output ports sampled at every step (True) or
-            live (False, the default; see
-            :class:`~mmlearn.diagrams.common.scene.SceneConfig`). Live, the plant computes
+            live (False; see :class:`~mmlearn.diagrams.common.scene.SceneConfig`). None (the
+            default): live without a dynamics ``monitor``, sampled with one (the damping the
+            monitor learns moves by tens of percent on one door with any change of the
+            wrist force's noise or of the order of the updates, so its trials keep the
+            sampled ports and per-sample noise their results were made with:
+            docs/performance_articulation.md). Live, the plant computes
             the reaction forces only at the steps the wrist sensor reads them (its
             ``plant_time_step``): the sensor's samples are the forces and instants that
             sampled ports give it. The plant's step is then a discrete update rather than
@@ -76,6 +80,11 @@ class OperateConfig:
             the base pose at the step's start rather than its end, and the plant sees a
             new command segment (whose first value is the old segment's last) or a halt at
             the instant it is made (docs/performance_articulation.md).
+        wrist_noise_samples: the wrist sensor's samples whose noise is drawn when the
+            trial is built (``WristForceSensor(noise_samples=...)``, a table instead of a
+            new random generator per sample); None (the default): :data:`WRIST_NOISE_SAMPLES`
+            without a dynamics ``monitor``, 0 (every sample's noise drawn from (seed,
+            sample index)) with one.
         base_noise: scale of the base-localisation and odometry error (see
             :class:`~mmlearn.systems.articulation.base_localization.BaseLocalizationConfig`; 1 = its
             defaults: 0.05 m RMS horizontal, 1.1 deg heading, drifting with a 60 s time
@@ -120,7 +129,8 @@ class OperateConfig:
     models: list[str] = param(["rigid", "prismatic", "revolute", "gp"], factory=True)
     sigma_force: float = param(0.3, unit="N", ge=0)
     time_step: float = param(0.0025, unit="s", gt=0, le=0.01)
-    sampled_output_ports: bool = param(False)
+    sampled_output_ports: bool | None = param(None, optional=True)
+    wrist_noise_samples: int | None = param(None, optional=True, integer=True, ge=0)
     base_noise: float = param(1.0, ge=0)
     base_localization: BaseLocalizationConfig = param(default_factory=BaseLocalizationConfig,
                                                       nested=BaseLocalizationConfig)
@@ -141,11 +151,25 @@ class OperateConfig:
         if self.priors and not Path(self.priors).is_file():
             raise ValueError(f"OperateConfig: priors: prior database not found: {self.priors}")
         steps = WRIST_PERIOD / self.time_step
-        if not self.sampled_output_ports and (abs(steps - round(steps)) > 1e-6
+        if not self.sampled_ports() and (abs(steps - round(steps)) > 1e-6
                                               or round(steps) < 2):
             raise ValueError(f"OperateConfig: time_step {self.time_step:g} s must divide the "
                              f"wrist sensor's {WRIST_PERIOD:g} s period into 2 or more steps "
                              f"with live output ports (sampled_output_ports=False)")
+
+
+    def sampled_ports(self) -> bool:
+        """Whether the plant's output ports are sampled (``sampled_output_ports``, or by
+        default whether there is a dynamics monitor)."""
+        if self.sampled_output_ports is None:
+            return self.monitor is not None
+        return bool(self.sampled_output_ports)
+
+    def noise_samples(self) -> int:
+        """The wrist sensor's ``noise_samples`` (``wrist_noise_samples``, or its default)."""
+        if self.wrist_noise_samples is None:
+            return 0 if self.monitor is not None else WRIST_NOISE_SAMPLES
+        return int(self.wrist_noise_samples)
 
 
 @dataclass
@@ -280,7 +304,7 @@ def MakeOperateDiagram(config: OperateConfig | None = None, *, meshcat=None) -> 
     scene_cfg = SceneConfig(arm="7dof", tool="hook", mobile_base=True, cabinet=False,
                             mechanism=spec, time_step=cfg.time_step,
                             marker_sensor=False,
-                            sampled_output_ports=cfg.sampled_output_ports)
+                            sampled_output_ports=cfg.sampled_ports())
     scene = MakeSceneDiagram(scene_cfg, meshcat=meshcat)
     plant = scene.plant
     builder = DiagramBuilder()
@@ -288,8 +312,8 @@ def MakeOperateDiagram(config: OperateConfig | None = None, *, meshcat=None) -> 
     force = builder.AddNamedSystem("wrist_force_sensor", WristForceSensor(
         plant=plant, mount_joint=plant.GetJointByName("hook_mount", scene.robot),
         sigma_force=cfg.sigma_force, rate_hz=1.0 / WRIST_PERIOD, seed=cfg.seed,
-        plant_time_step=0.0 if cfg.sampled_output_ports else cfg.time_step,
-        noise_samples=WRIST_NOISE_SAMPLES))
+        plant_time_step=0.0 if cfg.sampled_ports() else cfg.time_step,
+        noise_samples=cfg.noise_samples()))
     builder.Connect(sd.GetOutputPort("reaction_forces"), force.get_reaction_forces_input_port())
     builder.Connect(sd.GetOutputPort("body_poses"), force.get_body_poses_input_port())
     force_port = force.get_force_output_port()
