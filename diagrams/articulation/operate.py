@@ -68,7 +68,7 @@ class OperateConfig:
         sampled_output_ports: the plant's output ports sampled at every step (True) or
             live (False; see :class:`~mmlearn.diagrams.common.scene.SceneConfig`). None (the
             default): live without a dynamics ``monitor``, sampled with one (the damping the
-            monitor learns moves by tens of percent on one door with any change of the
+            monitor learns on one door moves markedly with any change of the
             wrist force's noise or of the order of the updates, so its trials keep the
             sampled ports and per-sample noise their results were made with:
             docs/performance_articulation.md). Live, the plant computes
