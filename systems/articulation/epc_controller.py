@@ -165,6 +165,13 @@ class EpcController(LeafSystem):
             ValueProducer(allocate=lambda: AbstractValue.Make(plant.CreateDefaultContext()),
                           calc=self._calc_measured_context),
             {self._in_state.ticket()})
+        # the IK's plant context: scratch space of this system's context (never evaluated,
+        # so never up to date; no prerequisites)
+        self._ik_scratch = self.DeclareCacheEntry(
+            "ik_scratch_plant_context",
+            ValueProducer(allocate=lambda: AbstractValue.Make(plant.CreateDefaultContext()),
+                          calc=lambda context, value: None),
+            {self.nothing_ticket()})
         init = EpcState(q_from=np.zeros(n), q_to=np.zeros(n))
         self._s = self.DeclareAbstractState(AbstractValue.Make(init))
         self.DeclareInitializationUnrestrictedUpdateEvent(self._initialize)
@@ -264,7 +271,8 @@ class EpcController(LeafSystem):
         self._set(plant_context, q)
         return self._grip_pose_in(plant_context)
 
-    def _ik(self, q0, p_des, R_des, *, base: bool, grip=P_HOOK_GRIP) -> np.ndarray:
+    def _ik(self, context, q0, p_des, R_des, *, base: bool,
+            grip=P_HOOK_GRIP) -> np.ndarray:
         """Damped least squares on the robot's kinematics towards grip pose (p, R).
 
         Kept instead of Drake's DifferentialInverseKinematics / InverseKinematics, measured
@@ -279,7 +287,9 @@ class EpcController(LeafSystem):
         ``p_des``.
         """
         cfg = self._cfg
-        plant_context = self._plant.CreateDefaultContext()  # scratch, per call (0.2 ms)
+        # scratch: only the commanded joints' positions are ever set in it, each before use
+        plant_context = self._ik_scratch.get_mutable_cache_entry_value(
+            context).GetMutableValueOrThrow()
         q = np.array(q0, float)
         w = np.ones(q.size)
         w[:3] = cfg.base_weight if base else 1e6  # base fixed (a huge cost) unless allowed
@@ -398,17 +408,17 @@ class EpcController(LeafSystem):
         goal = self._side_goal(s, cfg.prehook_distance)
         a = min(1.0, now.elapsed / cfg.approach_time)
         p = (1 - a) * s.start + a * goal
-        q_cmd = self._ik(q_cmd, p, self._R_hook0, base=False)
+        q_cmd = self._ik(context, q_cmd, p, self._R_hook0, base=False)
         if now.elapsed >= cfg.approach_time + cfg.approach_settle_time:
             s = self._next_phase(s, DEPTH, now.t, goal)
         return q_cmd, s
 
-    def _retry(self, s: EpcState, now: EpcInputs, q_cmd, *, side_shift: float,
+    def _retry(self, context, s: EpcState, now: EpcInputs, q_cmd, *, side_shift: float,
                backoff: float, **changes):
         """Start the hooking over: back out ``backoff`` along the normal and approach again
         with the side offset corrected by ``side_shift``."""
         back = now.G + backoff * self._task.normal
-        q_cmd = self._ik(q_cmd, back, self._R_hook0, base=False)
+        q_cmd = self._ik(context, q_cmd, back, self._R_hook0, base=False)
         return q_cmd, self._next_phase(s, PREHOOK, now.t, back, retries=s.retries + 1,
                                        side_extra=s.side_extra + side_shift, **changes)
 
@@ -438,19 +448,19 @@ class EpcController(LeafSystem):
         if touching and on_bar and retry:
             # hit something in front of the front: the bar itself (the click was off
             # sideways). Back out and come in again further to the side.
-            return self._retry(s, now, q_cmd, side_shift=cfg.retry_side_shift,
+            return self._retry(context, s, now, q_cmd, side_shift=cfg.retry_side_shift,
                                backoff=cfg.retry_backoff)
         if not touching and depth < -cfg.edge_depth - margin and retry:
             # deeper than the front without touching it: the finger passed the front's
             # free edge. Back out and come in again closer to the bar.
-            return self._retry(s, now, q_cmd, side_shift=-cfg.retry_side_shift,
+            return self._retry(context, s, now, q_cmd, side_shift=-cfg.retry_side_shift,
                                backoff=cfg.edge_retry_backoff + margin)
         if touching or now.elapsed >= T:
             # back off from the front so the finger clears it and the bar
             p = now.G + cfg.front_backoff * task.normal
-            return self._ik(q_cmd, p, self._R_hook0, base=False), \
+            return self._ik(context, q_cmd, p, self._R_hook0, base=False), \
                 self._next_phase(s, SLIDE, now.t, p)
-        return self._ik(q_cmd, p, self._R_hook0, base=False), s
+        return self._ik(context, q_cmd, p, self._R_hook0, base=False), s
 
     def _slide(self, context, s: EpcState, now: EpcInputs, q_cmd):
         """SLIDE: guarded sideways move until the rod touches the bar (then PULL); a slide
@@ -475,7 +485,7 @@ class EpcController(LeafSystem):
         near = abs(np.dot(G - task.handle, task.side)) < cfg.slide_near_bar
         blocked = np.dot(G - p, task.side) > cfg.slide_blocked_lag
         contact = np.dot(now.F, task.side) > cfg.slide_contact_force and (near or blocked)
-        q_cmd = self._ik(q_cmd, p, self._R_hook0, base=False)
+        q_cmd = self._ik(context, q_cmd, p, self._R_hook0, base=False)
         reached = abs(np.dot(G - goal, task.side)) < cfg.slide_reached_tolerance
         settled = now.elapsed >= T + cfg.slide_settle_time
         if (not contact and settled and reached and s.retries < cfg.max_retries
@@ -484,7 +494,7 @@ class EpcController(LeafSystem):
             # (the contact was the bar, not the front). Back out and come in again
             # further to the side, taking contacts at this depth for the bar.
             bar_depth = float(np.dot(s.start - task.handle, task.normal)) - cfg.front_backoff
-            return self._retry(s, now, q_cmd, side_shift=cfg.retry_side_shift,
+            return self._retry(context, s, now, q_cmd, side_shift=cfg.retry_side_shift,
                                backoff=cfg.retry_backoff, bar_depth=bar_depth)
         if contact or settled:
             grip = P_HOOK_GRIP
@@ -514,7 +524,7 @@ class EpcController(LeafSystem):
         p = (s.start - cfg.release_unload * min(1.0, a / a1) * s.motion
              + cfg.release_slide * float(np.clip((a - a1) / (a2 - a1), 0, 1)) * side
              + cfg.release_backoff * float(np.clip((a - a2) / (1.0 - a2), 0, 1)) * normal)
-        q_cmd = self._ik(q_cmd, p, s.R, base=False, grip=self._grip(s))
+        q_cmd = self._ik(context, q_cmd, p, s.R, base=False, grip=self._grip(s))
         if now.elapsed >= cfg.release_time:
             s = self._next_phase(s, DONE, now.t, now.G)
         return q_cmd, s
@@ -653,7 +663,7 @@ class EpcController(LeafSystem):
         scale, halt = self._supervisor(context)
         if halt in (1, 2):  # the mechanism is blocked: stop pulling, let go
             s = replace(s, cep=G)
-            q_cmd = self._ik(q_cmd, G, s.R, base=True, grip=self._grip(s))
+            q_cmd = self._ik(context, q_cmd, G, s.R, base=True, grip=self._grip(s))
             return q_cmd, self._next_phase(s, RELEASE, now.t, G,
                                            outcome="jammed" if halt == 1 else "locked")
         s = replace(s, **self._follow_model(s, self._link_model(context), G))
@@ -661,7 +671,7 @@ class EpcController(LeafSystem):
         # direction of the handle's most recent >= motion_window of motion
         if np.linalg.norm(G - s.trail_G) >= self._cfg.motion_window:
             s = replace(s, motion=_unit(G - s.trail_G), trail_G=G)
-        q_cmd = self._ik(q_cmd, s.cep, s.R, base=True, grip=self._grip(s))
+        q_cmd = self._ik(context, q_cmd, s.cep, s.R, base=True, grip=self._grip(s))
         changes, done = self._stop_reason(s, now)
         s = replace(s, **changes)
         if done:
