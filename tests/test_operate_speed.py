@@ -1,8 +1,9 @@
-"""What keeps the opening trial's simulation cheap: the plant's time step, no unread marker
-sensor, the hinge's friction in the plant, the localisation's command offset added in C++, the
-estimator's kernels loaded before the simulation, the garbage collector left alone during the
-simulation, the CPU time in the record (diagrams/articulation/operate.py, trials.py;
-docs/performance_articulation.md)."""
+"""What keeps the opening trial's simulation cheap: the plant's time step, no unread marker sensor,
+the hinge's friction in the plant, the localisation's command offset added and the controller's
+command interpolated in C++, live output ports with the wrist sensor reading the forces sampled
+ports would give it, the estimator's kernels loaded before the simulation, the garbage collector
+left alone during the simulation, the CPU time in the record (diagrams/articulation/operate.py,
+trials.py; docs/performance_articulation.md)."""
 
 import gc
 
@@ -32,8 +33,12 @@ def test_the_plant_steps_at_the_configured_time_step_and_no_event_falls_between_
     # (0.01 s) periods are multiples of the step: one simulator step per plant step
     assert n <= round(0.3 / 0.0025) + 1
     # a step they are not multiples of adds steps of its own
-    n4, _ = _steps(OperateConfig(kind="drawer", seed=2, time_step=0.004), 0.3)
+    n4, _ = _steps(OperateConfig(kind="drawer", seed=2, time_step=0.004,
+                                 sampled_output_ports=True), 0.3)
     assert n4 > round(0.3 / 0.004) + 1
+    # live output ports: the wrist sensor reads at the plant's steps
+    with pytest.raises(ValueError, match="time_step 0.004 s must divide"):
+        OperateConfig(kind="drawer", seed=2, time_step=0.004).validate()
 
 
 def test_the_dynamics_monitor_samples_on_the_plant_steps():
@@ -87,14 +92,51 @@ def test_joint_friction_output_is_the_same_float_values_as_the_formula():
         np.testing.assert_array_equal(f.get_generalized_force_output_port().Eval(ctx), want)
 
 
-def test_the_plants_output_ports_are_sampled_unless_the_trial_asks_for_live_ones():
-    assert MakeOperateDiagram(OperateConfig(kind="drawer", seed=0)).scene.plant \
-        .has_sampled_output_ports()
+def test_the_plants_output_ports_are_live_unless_the_trial_asks_for_sampled_ones():
+    from mmlearn.diagrams.articulation.operate import WRIST_NOISE_SAMPLES
+    from mmlearn.systems.articulation.jam_monitor import DynamicsMonitorConfig
+
+    live = MakeOperateDiagram(OperateConfig(kind="drawer", seed=0))
+    assert not live.scene.plant.has_sampled_output_ports()
+    assert live.force_sensor._table.shape[0] == WRIST_NOISE_SAMPLES
+    # a trial with the dynamics monitor keeps sampled ports and per-sample noise
+    mon = MakeOperateDiagram(OperateConfig(kind="drawer", seed=0,
+                                           monitor=DynamicsMonitorConfig()))
+    assert mon.scene.plant.has_sampled_output_ports()
+    assert mon.force_sensor._table.shape[0] == 0
     assert MakeSceneDiagram(SceneConfig(arm="2dof", cabinet=False)).plant \
         .has_sampled_output_ports()
-    live = MakeOperateDiagram(OperateConfig(kind="drawer", seed=0,
-                                            sampled_output_ports=False))
-    assert not live.scene.plant.has_sampled_output_ports()
+    sampled = MakeOperateDiagram(OperateConfig(kind="drawer", seed=0,
+                                               sampled_output_ports=True))
+    assert sampled.scene.plant.has_sampled_output_ports()
+
+
+def _force_track(sampled: bool, times) -> tuple[np.ndarray, int]:
+    op = MakeOperateDiagram(OperateConfig(kind="drawer", seed=2, sampled_output_ports=sampled))
+    sim = Simulator(op.diagram)
+    ctx = sim.get_mutable_context()
+    op.scene.set_joint_positions(ctx, op.start_command)
+    sim.Initialize()
+    out = []
+    for t in times:
+        sim.AdvanceTo(t)
+        out.append(op.diagram.GetOutputPort("force_W").Eval(ctx).copy())
+    return np.array(out), sim.get_num_steps_taken()
+
+
+def test_with_live_ports_the_wrist_sensor_reads_the_forces_sampled_ports_give_it():
+    # at the sample instants (10 ms apart) the held forces are those of sampled ports, to
+    # the last bit while both trials are the same (until the base starts moving at
+    # 0.2 s: the localisation then samples the base a plant step apart), and no event
+    # adds a simulator step
+    times = np.arange(1, 31) * 0.01
+    (sampled, n_sampled), (live, n_live) = _force_track(True, times), _force_track(False, times)
+    assert n_live == n_sampled <= round(0.3 / 0.0025) + 1
+    early = times <= 0.2 + 1e-9
+    assert np.abs(sampled[early]).max() > 0.1
+    np.testing.assert_array_equal(live[early], sampled[early])
+    # a sample a plant step off would differ by ~0.01 N here
+    np.testing.assert_allclose(live[~early], sampled[~early], atol=1e-4)
 
 
 def test_the_plant_command_is_the_localisations_to_the_last_bit():
@@ -113,6 +155,24 @@ def test_the_plant_command_is_the_localisations_to_the_last_bit():
         adder = op.diagram.GetSubsystemByName("plant_command")
         got = adder.get_output_port().Eval(adder.GetMyContextFromRoot(ctx))
         np.testing.assert_array_equal(got, loc.get_plant_command_output_port().Eval(lc))
+
+
+def test_the_plant_command_is_the_controllers_interpolated_in_cpp_to_the_last_bit():
+    op = MakeOperateDiagram(OperateConfig(kind="left_door", seed=1))
+    sim = Simulator(op.diagram)
+    ctx = sim.get_mutable_context()
+    op.scene.set_joint_positions(ctx, op.start_command)
+    sim.Initialize()
+    interp = op.diagram.GetSubsystemByName("command_interpolator")
+    epc = op.controller
+    moved = 0
+    for t in (0.1, 0.2375, 0.45, 0.6125):
+        sim.AdvanceTo(t)
+        got = interp.get_output_port().Eval(interp.GetMyContextFromRoot(ctx))
+        want = epc.get_command_output_port().Eval(epc.GetMyContextFromRoot(ctx))
+        np.testing.assert_array_equal(got, want)
+        moved += not np.array_equal(got, op.start_command)
+    assert moved
 
 
 def test_the_estimator_warm_up_loads_the_fit_kernels_and_leaves_no_trace():

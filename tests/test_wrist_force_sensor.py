@@ -57,3 +57,40 @@ def test_noise_and_bad_config():
     assert np.linalg.norm(f1) > 0.05
     with pytest.raises(ValueError, match="sigma_force"):
         WristForceSensor(plant=None, mount_joint=None, sigma_force=-1.0)
+
+
+def _sensor(**kw):
+    scene = MakeSceneDiagram(SceneConfig(arm="7dof", tool="hook", mobile_base=True,
+                                         cabinet=False, marker_sensor=False))
+    return WristForceSensor(plant=scene.plant,
+                            mount_joint=scene.plant.GetJointByName("hook_mount", scene.robot),
+                            **kw)
+
+
+def test_the_noise_is_a_function_of_seed_and_sample_and_a_table_serves_the_first_samples():
+    a = _sensor(sigma_force=0.5, seed=4, noise_samples=2000)
+    b = _sensor(sigma_force=0.5, seed=4, noise_samples=2000)
+    c = _sensor(sigma_force=0.5, seed=5, noise_samples=2000)
+    per_sample = _sensor(sigma_force=0.5, seed=4)
+    first = np.array([a.noise(k) for k in range(2000)])
+    np.testing.assert_array_equal(first, [b.noise(k) for k in range(2000)])
+    assert not np.allclose(first[:10], [c.noise(k) for k in range(10)])
+    assert abs(first.std() - 0.5) < 0.03 and abs(first.mean()) < 0.03
+    # beyond the table, and without one: a generator seeded by (seed, sample index)
+    for k in (0, 7, 2000, 2345):
+        want = np.random.default_rng([4, k]).normal(0.0, 0.5, 3)
+        np.testing.assert_array_equal(per_sample.noise(k), want)
+        if k >= 2000:
+            np.testing.assert_array_equal(a.noise(k), want)
+    assert not np.allclose(a.noise(7), per_sample.noise(7))
+
+
+def test_bad_plant_time_step_and_noise_samples():
+    for dt in (0.003, 0.01, -0.001, float("nan")):
+        with pytest.raises(ValueError, match="plant_time_step"):
+            _sensor(plant_time_step=dt)
+    with pytest.raises(ValueError, match="noise_samples"):
+        _sensor(noise_samples=-1)
+    with pytest.raises(ValueError, match="noise_samples"):
+        _sensor(noise_samples=2.5)
+    _sensor(plant_time_step=0.005)  # two steps a sample

@@ -5,7 +5,7 @@ from mmlearn._lazy import lazy_exports
 #: submodule -> the public names it defines (imported on first use)
 _EXPORTS = {
     "operate": ["OperateConfig", "Operate", "make_task", "task_from_look", "MakeOperateDiagram",
-                "HANDLE_HEIGHTS", "check_reach"],
+                "HANDLE_HEIGHTS", "check_reach", "WRIST_PERIOD", "WRIST_NOISE_SAMPLES"],
     "mechanism_dynamics": ["LATCH_PLAY", "apply_mechanism_options", "dynamics_record", "save_learned_model", "MODEL_SUFFIXES"],
     "operate_perception": ["LookConfig", "LookResult", "LookAtFront", "NoFrontDetected", "front_centre"],
     "trials": ["open_mechanism", "operate_trial", "scene_points", "draw_look", "SENSORS", "observe", "exp_cabinet", "exp_table", "exp_car", "exp_garage", "yardstick_row", "dof_progress", "search_vs_n_row", "STRUCTURE_RUNNERS", "structure_trial"],
@@ -43,6 +43,8 @@ __all__ = [
     "STRUCTURE_RUNNERS",
     "structure_trial",
     "task_from_look",
+    "WRIST_NOISE_SAMPLES",
+    "WRIST_PERIOD",
     "yardstick_row",
 ]
 

@@ -21,7 +21,8 @@ from mmlearn.systems.articulation.base_localization import (FRAMES, BaseLocaliza
                                                             BaseLocalizationConfig,
                                                             believed_from_true, initial_error,
                                                             rotate_yaw)
-from mmlearn.systems.articulation.epc_controller import EpcConfig, EpcController, EpcTask
+from mmlearn.systems.articulation.epc_controller import (CommandInterpolator, EpcConfig,
+                                                        EpcController, EpcTask)
 from mmlearn.systems.articulation.jam_monitor import (DynamicsMonitor, DynamicsMonitorConfig,
                                                      HaltGate)
 from mmlearn.systems.articulation.model_visualizer import LearnedModelVisualizer
@@ -33,6 +34,12 @@ from mmlearn.diagrams.common.scene import MakeSceneDiagram, SceneConfig
 
 PERCEPTIONS = ("click", "depth")
 ARM_START = (0.0, 0.3, 0.0, 1.2, 0.0, 0.0)  # the arm's joint commands at the start, rad
+#: the wrist force sensor's sample period, s (its 100 Hz)
+WRIST_PERIOD = 0.01
+#: the wrist force sensor's samples whose noise is drawn when the trial is built (164 s at
+#: its 100 Hz, longer than a trial's 60 s default): a table read instead of a new random
+#: generator per sample
+WRIST_NOISE_SAMPLES = 1 << 14
 
 
 @dataclass
@@ -58,13 +65,26 @@ class OperateConfig:
             controller, the estimator, the localisation, the wrist sensor and the dynamics
             monitor are multiples of it (a step they are not multiples of adds simulator
             steps of its own).
-        sampled_output_ports: the plant's output ports sampled at every step (True, the
-            default) or live (False, see :class:`~mmlearn.diagrams.common.scene.SceneConfig`):
-            live, the wrist sensor reads at 100 Hz the reaction forces of the step that
-            starts at its sample instead of the step that ended there, and the plant does
-            not compute them at the other 3 of 4 steps: a little less CPU, but the door
-            damping the robot learns moves further from the true one
-            (docs/performance_articulation.md), so it is not the default.
+        sampled_output_ports: the plant's output ports sampled at every step (True) or
+            live (False; see :class:`~mmlearn.diagrams.common.scene.SceneConfig`). None (the
+            default): live without a dynamics ``monitor``, sampled with one (the damping the
+            monitor learns on one door moves markedly with any change of the
+            wrist force's noise or of the order of the updates, so its trials keep the
+            sampled ports and per-sample noise their results were made with:
+            docs/performance_articulation.md). Live, the plant computes
+            the reaction forces only at the steps the wrist sensor reads them (its
+            ``plant_time_step``): the sensor's samples are the forces and instants that
+            sampled ports give it. The plant's step is then a discrete update rather than
+            an unrestricted one, so it runs after the controller's and the estimator's
+            updates at the same instant instead of beside them: the localisation samples
+            the base pose at the step's start rather than its end, and the plant sees a
+            new command segment (whose first value is the old segment's last) or a halt at
+            the instant it is made (docs/performance_articulation.md).
+        wrist_noise_samples: the wrist sensor's samples whose noise is drawn when the
+            trial is built (``WristForceSensor(noise_samples=...)``, a table instead of a
+            new random generator per sample); None (the default): :data:`WRIST_NOISE_SAMPLES`
+            without a dynamics ``monitor``, 0 (every sample's noise drawn from (seed,
+            sample index)) with one.
         base_noise: scale of the base-localisation and odometry error (see
             :class:`~mmlearn.systems.articulation.base_localization.BaseLocalizationConfig`; 1 = its
             defaults: 0.05 m RMS horizontal, 1.1 deg heading, drifting with a 60 s time
@@ -109,7 +129,8 @@ class OperateConfig:
     models: list[str] = param(["rigid", "prismatic", "revolute", "gp"], factory=True)
     sigma_force: float = param(0.3, unit="N", ge=0)
     time_step: float = param(0.0025, unit="s", gt=0, le=0.01)
-    sampled_output_ports: bool = param(True)
+    sampled_output_ports: bool | None = param(None, optional=True)
+    wrist_noise_samples: int | None = param(None, optional=True, integer=True, ge=0)
     base_noise: float = param(1.0, ge=0)
     base_localization: BaseLocalizationConfig = param(default_factory=BaseLocalizationConfig,
                                                       nested=BaseLocalizationConfig)
@@ -129,6 +150,26 @@ class OperateConfig:
             self.look.validate()
         if self.priors and not Path(self.priors).is_file():
             raise ValueError(f"OperateConfig: priors: prior database not found: {self.priors}")
+        steps = WRIST_PERIOD / self.time_step
+        if not self.sampled_ports() and (abs(steps - round(steps)) > 1e-6
+                                              or round(steps) < 2):
+            raise ValueError(f"OperateConfig: time_step {self.time_step:g} s must divide the "
+                             f"wrist sensor's {WRIST_PERIOD:g} s period into 2 or more steps "
+                             f"with live output ports (sampled_output_ports=False)")
+
+
+    def sampled_ports(self) -> bool:
+        """Whether the plant's output ports are sampled (``sampled_output_ports``, or by
+        default whether there is a dynamics monitor)."""
+        if self.sampled_output_ports is None:
+            return self.monitor is not None
+        return bool(self.sampled_output_ports)
+
+    def noise_samples(self) -> int:
+        """The wrist sensor's ``noise_samples`` (``wrist_noise_samples``, or its default)."""
+        if self.wrist_noise_samples is None:
+            return 0 if self.monitor is not None else WRIST_NOISE_SAMPLES
+        return int(self.wrist_noise_samples)
 
 
 @dataclass
@@ -263,16 +304,19 @@ def MakeOperateDiagram(config: OperateConfig | None = None, *, meshcat=None) -> 
     scene_cfg = SceneConfig(arm="7dof", tool="hook", mobile_base=True, cabinet=False,
                             mechanism=spec, time_step=cfg.time_step,
                             marker_sensor=False,
-                            sampled_output_ports=cfg.sampled_output_ports)
+                            sampled_output_ports=cfg.sampled_ports())
     scene = MakeSceneDiagram(scene_cfg, meshcat=meshcat)
     plant = scene.plant
     builder = DiagramBuilder()
     sd = builder.AddNamedSystem("scene", scene.diagram)
     force = builder.AddNamedSystem("wrist_force_sensor", WristForceSensor(
         plant=plant, mount_joint=plant.GetJointByName("hook_mount", scene.robot),
-        sigma_force=cfg.sigma_force, seed=cfg.seed))
+        sigma_force=cfg.sigma_force, rate_hz=1.0 / WRIST_PERIOD, seed=cfg.seed,
+        plant_time_step=0.0 if cfg.sampled_ports() else cfg.time_step,
+        noise_samples=cfg.noise_samples()))
     builder.Connect(sd.GetOutputPort("reaction_forces"), force.get_reaction_forces_input_port())
     builder.Connect(sd.GetOutputPort("body_poses"), force.get_body_poses_input_port())
+    force_port = force.get_force_output_port()
     estimator = builder.AddNamedSystem("articulation_estimator", ArticulationEstimator(
         mode="pose", pose_size=3, period=cfg.estimator_period, refit_every=cfg.refit_every,
         min_observations=10, max_observations=400,
@@ -294,7 +338,7 @@ def MakeOperateDiagram(config: OperateConfig | None = None, *, meshcat=None) -> 
         state_size=plant.num_positions(scene.robot) + plant.num_velocities(scene.robot),
         num_commands=len(scene.command_names), frame=cfg.frame))
     builder.Connect(sd.GetOutputPort("robot_state"), loc.get_robot_state_input_port())
-    builder.Connect(force.get_force_output_port(), loc.get_force_input_port())
+    builder.Connect(force_port, loc.get_force_input_port())
     builder.Connect(loc.get_believed_robot_state_output_port(),
                     epc.get_robot_state_input_port())
     builder.Connect(loc.get_believed_force_output_port(), epc.get_force_input_port())
@@ -327,11 +371,17 @@ def MakeOperateDiagram(config: OperateConfig | None = None, *, meshcat=None) -> 
         builder.ExportOutput(monitor.get_dynamics_output_port(), "dynamics")
     builder.Connect(epc.get_hook_position_output_port(),
                     estimator.get_pose_input_port())
-    builder.Connect(epc.get_command_output_port(), loc.get_command_input_port())
+    # the controller's command interpolated in C++ (the same floats as its own command
+    # output): the plant reads it at every step, the segment changes once a period
+    interp = builder.AddNamedSystem("command_interpolator", CommandInterpolator(
+        len(scene.command_names), epc.period()))
+    builder.Connect(epc.get_command_segment_output_port(), interp.get_input_port())
+    command = interp.get_output_port()
+    builder.Connect(command, loc.get_command_input_port())
     # the localisation's plant_command, added in C++: the offset changes only with the
     # localisation's updates, the command at every plant step
     to_plant = builder.AddNamedSystem("plant_command", Adder(2, len(scene.command_names)))
-    builder.Connect(epc.get_command_output_port(), to_plant.get_input_port(0))
+    builder.Connect(command, to_plant.get_input_port(0))
     builder.Connect(loc.get_command_offset_output_port(), to_plant.get_input_port(1))
     plant_command = to_plant.get_output_port()
     if cfg.monitor is not None:
@@ -356,7 +406,7 @@ def MakeOperateDiagram(config: OperateConfig | None = None, *, meshcat=None) -> 
     builder.ExportOutput(epc.GetOutputPort("phase"), "phase")
     builder.ExportOutput(epc.GetOutputPort("status"), "status")
     builder.ExportOutput(epc.get_hook_position_output_port(), "hook_position")
-    builder.ExportOutput(force.get_force_output_port(), "force_W")
+    builder.ExportOutput(force_port, "force_W")
     builder.ExportOutput(estimator.get_stats_output_port(), "estimator_stats")
     builder.ExportOutput(model_port, "object_model")
     builder.ExportOutput(loc.get_error_output_port(), "base_error")

@@ -59,10 +59,11 @@ class SceneConfig:
             ``observations`` / ``marker_stats`` ports; ``sensor`` is then not used).
         sampled_output_ports: the plant's output ports are sampled (Drake's default: every
             step also computes and stores the reaction forces and contact results its
-            outputs report) or, False, live (computed from the current state when read;
-            the reaction forces read at time t are then those of the step from t, whose
-            contact solve the step itself reuses, instead of the step that ended at t).
-            Live ports spare the plant that work at the steps nobody reads them.
+            outputs report; the plant then steps in an unrestricted update) or, False, live
+            (computed from the current state when read: the reaction forces read at time t
+            are those of the step from t, whose contact solve the step itself reuses; the
+            plant steps in a discrete update). Live ports spare the plant that work at the
+            steps nobody reads them.
         failure_joints: add the arm's hidden failure joints (a bendable middle link and a
             tool part on hidden joints, see ``arm_sdf``); lock them with
             :class:`mmlearn.systems.body_schema.arm_failures.PlantFailures` before simulating.

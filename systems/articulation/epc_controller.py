@@ -103,6 +103,7 @@ class EpcController(LeafSystem):
         - supervisor (optional)
         output_ports:
         - command
+        - command_segment
         - hook_position
         - phase
         - status
@@ -111,7 +112,10 @@ class EpcController(LeafSystem):
     wrist force on the hook (world, N); ``object_model`` the ArticulationEstimator's
     ``object_model`` output (an ``ArticulatedObject`` whose first link is the handle's
     motion relative to the world, or None). ``command`` goes to the scene's ``command`` input
-    (base x, y, yaw, then q1..q6), ``hook_position`` (grip point from the robot's own forward
+    (base x, y, yaw, then q1..q6): each period's command interpolated linearly from the
+    last one over the next period; ``command_segment`` is that segment ([q_from, q_to,
+    t_cmd], changing only with the state), for :func:`CommandInterpolator` to interpolate
+    in C++. ``hook_position`` (grip point from the robot's own forward
     kinematics, world, m) feeds the estimator. ``status`` is [opening estimate (rad or m),
     configuration estimate, done flag, success-by-model flag].
 
@@ -161,6 +165,13 @@ class EpcController(LeafSystem):
             ValueProducer(allocate=lambda: AbstractValue.Make(plant.CreateDefaultContext()),
                           calc=self._calc_measured_context),
             {self._in_state.ticket()})
+        # the IK's plant context: scratch space of this system's context (never evaluated,
+        # so never up to date; no prerequisites)
+        self._ik_scratch = self.DeclareCacheEntry(
+            "ik_scratch_plant_context",
+            ValueProducer(allocate=lambda: AbstractValue.Make(plant.CreateDefaultContext()),
+                          calc=lambda context, value: None),
+            {self.nothing_ticket()})
         init = EpcState(q_from=np.zeros(n), q_to=np.zeros(n))
         self._s = self.DeclareAbstractState(AbstractValue.Make(init))
         self.DeclareInitializationUnrestrictedUpdateEvent(self._initialize)
@@ -171,6 +182,10 @@ class EpcController(LeafSystem):
         state_only = {self.abstract_state_ticket(self._s), self.time_ticket()}
         self._out_cmd = self.DeclareVectorOutputPort("command", BasicVector(n), self._calc_cmd,
                                                      prerequisites_of_calc=state_only)
+        # the command's segment alone: changes with the state only, not at every step
+        self._out_seg = self.DeclareVectorOutputPort(
+            "command_segment", BasicVector(2 * n + 1), self._calc_segment,
+            prerequisites_of_calc={self.abstract_state_ticket(self._s)})
         self._out_G = self.DeclareVectorOutputPort(
             "hook_position", BasicVector(3), self._calc_G,
             prerequisites_of_calc={self._kin.ticket(), self._in_force.ticket(),
@@ -183,6 +198,15 @@ class EpcController(LeafSystem):
     # ------------------------------------------------------------------ ports
     def get_command_output_port(self):
         return self._out_cmd
+
+    def get_command_segment_output_port(self):
+        """[q_from, q_to, t_cmd]: the segment the ``command`` output interpolates (see
+        :func:`CommandInterpolator`)."""
+        return self._out_seg
+
+    def period(self) -> float:
+        """The control period, s."""
+        return self._cfg.period
 
     def get_hook_position_output_port(self):
         return self._out_G
@@ -247,7 +271,8 @@ class EpcController(LeafSystem):
         self._set(plant_context, q)
         return self._grip_pose_in(plant_context)
 
-    def _ik(self, q0, p_des, R_des, *, base: bool, grip=P_HOOK_GRIP) -> np.ndarray:
+    def _ik(self, context, q0, p_des, R_des, *, base: bool,
+            grip=P_HOOK_GRIP) -> np.ndarray:
         """Damped least squares on the robot's kinematics towards grip pose (p, R).
 
         Kept instead of Drake's DifferentialInverseKinematics / InverseKinematics, measured
@@ -262,7 +287,9 @@ class EpcController(LeafSystem):
         ``p_des``.
         """
         cfg = self._cfg
-        plant_context = self._plant.CreateDefaultContext()  # scratch, per call (0.2 ms)
+        # scratch: only the commanded joints' positions are ever set in it, each before use
+        plant_context = self._ik_scratch.get_mutable_cache_entry_value(
+            context).GetMutableValueOrThrow()
         q = np.array(q0, float)
         w = np.ones(q.size)
         w[:3] = cfg.base_weight if base else 1e6  # base fixed (a huge cost) unless allowed
@@ -381,17 +408,17 @@ class EpcController(LeafSystem):
         goal = self._side_goal(s, cfg.prehook_distance)
         a = min(1.0, now.elapsed / cfg.approach_time)
         p = (1 - a) * s.start + a * goal
-        q_cmd = self._ik(q_cmd, p, self._R_hook0, base=False)
+        q_cmd = self._ik(context, q_cmd, p, self._R_hook0, base=False)
         if now.elapsed >= cfg.approach_time + cfg.approach_settle_time:
             s = self._next_phase(s, DEPTH, now.t, goal)
         return q_cmd, s
 
-    def _retry(self, s: EpcState, now: EpcInputs, q_cmd, *, side_shift: float,
+    def _retry(self, context, s: EpcState, now: EpcInputs, q_cmd, *, side_shift: float,
                backoff: float, **changes):
         """Start the hooking over: back out ``backoff`` along the normal and approach again
         with the side offset corrected by ``side_shift``."""
         back = now.G + backoff * self._task.normal
-        q_cmd = self._ik(q_cmd, back, self._R_hook0, base=False)
+        q_cmd = self._ik(context, q_cmd, back, self._R_hook0, base=False)
         return q_cmd, self._next_phase(s, PREHOOK, now.t, back, retries=s.retries + 1,
                                        side_extra=s.side_extra + side_shift, **changes)
 
@@ -421,19 +448,19 @@ class EpcController(LeafSystem):
         if touching and on_bar and retry:
             # hit something in front of the front: the bar itself (the click was off
             # sideways). Back out and come in again further to the side.
-            return self._retry(s, now, q_cmd, side_shift=cfg.retry_side_shift,
+            return self._retry(context, s, now, q_cmd, side_shift=cfg.retry_side_shift,
                                backoff=cfg.retry_backoff)
         if not touching and depth < -cfg.edge_depth - margin and retry:
             # deeper than the front without touching it: the finger passed the front's
             # free edge. Back out and come in again closer to the bar.
-            return self._retry(s, now, q_cmd, side_shift=-cfg.retry_side_shift,
+            return self._retry(context, s, now, q_cmd, side_shift=-cfg.retry_side_shift,
                                backoff=cfg.edge_retry_backoff + margin)
         if touching or now.elapsed >= T:
             # back off from the front so the finger clears it and the bar
             p = now.G + cfg.front_backoff * task.normal
-            return self._ik(q_cmd, p, self._R_hook0, base=False), \
+            return self._ik(context, q_cmd, p, self._R_hook0, base=False), \
                 self._next_phase(s, SLIDE, now.t, p)
-        return self._ik(q_cmd, p, self._R_hook0, base=False), s
+        return self._ik(context, q_cmd, p, self._R_hook0, base=False), s
 
     def _slide(self, context, s: EpcState, now: EpcInputs, q_cmd):
         """SLIDE: guarded sideways move until the rod touches the bar (then PULL); a slide
@@ -458,7 +485,7 @@ class EpcController(LeafSystem):
         near = abs(np.dot(G - task.handle, task.side)) < cfg.slide_near_bar
         blocked = np.dot(G - p, task.side) > cfg.slide_blocked_lag
         contact = np.dot(now.F, task.side) > cfg.slide_contact_force and (near or blocked)
-        q_cmd = self._ik(q_cmd, p, self._R_hook0, base=False)
+        q_cmd = self._ik(context, q_cmd, p, self._R_hook0, base=False)
         reached = abs(np.dot(G - goal, task.side)) < cfg.slide_reached_tolerance
         settled = now.elapsed >= T + cfg.slide_settle_time
         if (not contact and settled and reached and s.retries < cfg.max_retries
@@ -467,7 +494,7 @@ class EpcController(LeafSystem):
             # (the contact was the bar, not the front). Back out and come in again
             # further to the side, taking contacts at this depth for the bar.
             bar_depth = float(np.dot(s.start - task.handle, task.normal)) - cfg.front_backoff
-            return self._retry(s, now, q_cmd, side_shift=cfg.retry_side_shift,
+            return self._retry(context, s, now, q_cmd, side_shift=cfg.retry_side_shift,
                                backoff=cfg.retry_backoff, bar_depth=bar_depth)
         if contact or settled:
             grip = P_HOOK_GRIP
@@ -497,7 +524,7 @@ class EpcController(LeafSystem):
         p = (s.start - cfg.release_unload * min(1.0, a / a1) * s.motion
              + cfg.release_slide * float(np.clip((a - a1) / (a2 - a1), 0, 1)) * side
              + cfg.release_backoff * float(np.clip((a - a2) / (1.0 - a2), 0, 1)) * normal)
-        q_cmd = self._ik(q_cmd, p, s.R, base=False, grip=self._grip(s))
+        q_cmd = self._ik(context, q_cmd, p, s.R, base=False, grip=self._grip(s))
         if now.elapsed >= cfg.release_time:
             s = self._next_phase(s, DONE, now.t, now.G)
         return q_cmd, s
@@ -636,7 +663,7 @@ class EpcController(LeafSystem):
         scale, halt = self._supervisor(context)
         if halt in (1, 2):  # the mechanism is blocked: stop pulling, let go
             s = replace(s, cep=G)
-            q_cmd = self._ik(q_cmd, G, s.R, base=True, grip=self._grip(s))
+            q_cmd = self._ik(context, q_cmd, G, s.R, base=True, grip=self._grip(s))
             return q_cmd, self._next_phase(s, RELEASE, now.t, G,
                                            outcome="jammed" if halt == 1 else "locked")
         s = replace(s, **self._follow_model(s, self._link_model(context), G))
@@ -644,7 +671,7 @@ class EpcController(LeafSystem):
         # direction of the handle's most recent >= motion_window of motion
         if np.linalg.norm(G - s.trail_G) >= self._cfg.motion_window:
             s = replace(s, motion=_unit(G - s.trail_G), trail_G=G)
-        q_cmd = self._ik(q_cmd, s.cep, s.R, base=True, grip=self._grip(s))
+        q_cmd = self._ik(context, q_cmd, s.cep, s.R, base=True, grip=self._grip(s))
         changes, done = self._stop_reason(s, now)
         s = replace(s, **changes)
         if done:
@@ -663,6 +690,10 @@ class EpcController(LeafSystem):
     def _calc_cmd(self, context, output):
         output.SetFromVector(self._current_cmd(self.state(context), context.get_time()))
 
+    def _calc_segment(self, context, output):
+        s = self.state(context)
+        output.SetFromVector(np.concatenate([s.q_from, s.q_to, [s.t_cmd]]))
+
     def _calc_G(self, context, output):
         # only the trajectory while the hook holds the handle is an observation of the
         # mechanism: outside the pull phase, or without contact force, the output is NaN
@@ -680,3 +711,21 @@ class EpcController(LeafSystem):
         s = self.state(context)
         output.SetFromVector([s.opening, s.q_hat, float(s.phase == DONE),
                               float(s.outcome == "target reached")])
+
+
+def CommandInterpolator(size: int, period: float):
+    """A Drake ``SymbolicVectorSystem`` (evaluated in C++) that turns an
+    :class:`EpcController`'s ``command_segment`` output ([q_from, q_to, t_cmd], ``size``
+    commands) into its ``command`` at time t: (1 - a) q_from + a q_to with
+    a = min(1, max(0, (t - t_cmd) / ``period``)), the same floats as the controller's own
+    ``command`` output. The plant reads the command at every step; the segment changes
+    once per control period."""
+    from pydrake.symbolic import MakeVectorVariable, Variable, max as smax, min as smin
+    from pydrake.systems.primitives import SymbolicVectorSystem
+
+    t = Variable("t")
+    u = MakeVectorVariable(2 * size + 1, "segment")
+    a = smin(1.0, smax(0.0, (t - u[2 * size]) / period))
+    return SymbolicVectorSystem(time=t, input=u,
+                                output=[(1 - a) * u[i] + a * u[size + i] for i in range(size)])
+
