@@ -71,3 +71,22 @@ def test_performance_page_tables_come_from_the_json(tmp_path):
     bad = subprocess.run([sys.executable, str(BENCH / "make_performance_doc.py"), str(js),
                           "--doc", str(page)], capture_output=True, text=True)
     assert bad.returncode == 2 and "speed-table" in bad.stderr
+
+
+def test_demo_benchmark_refuses_no_runs():
+    r = subprocess.run([sys.executable, str(BENCH / "bench_demo.py"), "--runs", "0"],
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 2 and "--runs must be >= 1" in r.stderr
+
+
+@pytest.mark.slow
+def test_demo_benchmark_times_the_readme_demo(tmp_path):
+    f = tmp_path / "demo.json"
+    r = subprocess.run([sys.executable, str(BENCH / "bench_demo.py"), "--quick", "--json", str(f)],
+                       capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stdout + r.stderr
+    doc = json.loads(f.read_text())
+    fig = doc["figures"]
+    assert doc["runs"] == 1 and fig["success"] == 1.0
+    assert fig["simulated_s"] > 5 and fig["simulation_cpu_s"] > 0
+    assert abs(fig["realtime_factor_cpu"] - fig["simulated_s"] / fig["simulation_cpu_s"]) < 1e-9
