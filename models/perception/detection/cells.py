@@ -25,21 +25,22 @@ import numpy as np
 
 from mmlearn.models.perception.detection.config import FrontDetectorConfig
 from mmlearn.models.perception.detection.planes import (
-    Plane, _fit_plane, _largest_region, _plane_from_scatter, _regions_touching)
+    Plane, _least_eigenvector, _plane_from_scatter)
 
 
 @numba.njit(cache=True, nogil=True)
-def _cell_sums(Pc, max_depth, st, Hc, Wc):
+def _cell_sums(Pc, max_depth, st, Hc, Wc, step):
     """(Hc, Wc, 10) float64 per cell ``[st i, st i + st) x [st j, st j + st)`` of the
-    measured points ``Pc`` (H, W, 3) nearer than ``max_depth``: count, x, y, z, xx, xy, xz,
-    yy, yz, zz summed (one pass, a row of a cell summed in locals)."""
+    measured points ``Pc`` (H, W, 3) nearer than ``max_depth`` in every ``step``-th row and
+    column: count, x, y, z, xx, xy, xz, yy, yz, zz summed (one pass, a row of a cell summed
+    in locals)."""
     S = np.zeros((Hc, Wc, 10))
     H, W = Pc.shape[0], Pc.shape[1]
-    for r in range(min(H, Hc * st)):
+    for r in range(0, min(H, Hc * st), step):
         i = r // st
         for j in range(Wc):
             n = sx = sy = sz = sxx = sxy = sxz = syy = syz = szz = 0.0
-            for q in range(j * st, min(W, j * st + st)):
+            for q in range(j * st, min(W, j * st + st), step):
                 z = np.float64(Pc[r, q, 2])
                 if not (z <= max_depth):  # NaN (not measured) fails too
                     continue
@@ -172,7 +173,8 @@ def _grow_regions(B, cen, nrm, Lc, planar, order, cos_max):
     """Region labels (Hc, Wc; 0 = none, regions 1, 2, ... in the order of their seeds) grown
     from the planar cells in ``order`` (flat indices) over 8-neighbours: a planar, unlabelled
     cell joins when its normal is within ``acos(cos_max)`` of the region's plane and its
-    centroid within its L of it; the plane is refitted after each cell joins, from the sums
+    centroid within its L of it; the plane is refitted as the region grows (at 2, 4, 8, ...
+    cells, then every 32), from the sums
     of the region's cells' blocks ``B`` (a few far cells' own sums leave the normal to the
     noise)."""
     Hc, Wc = planar.shape
@@ -187,6 +189,7 @@ def _grow_regions(B, cen, nrm, Lc, planar, order, cos_max):
         nlab += 1
         lab[i0, j0] = nlab
         acc[:] = B[i0, j0]
+        size = 1
         nx, ny, nz = nrm[i0, j0, 0], nrm[i0, j0, 1], nrm[i0, j0, 2]
         d = -(nx * cen[i0, j0, 0] + ny * cen[i0, j0, 1] + nz * cen[i0, j0, 2])
         stack[0] = f
@@ -207,20 +210,12 @@ def _grow_regions(B, cen, nrm, Lc, planar, order, cos_max):
                         continue
                     lab[i2, j2] = nlab
                     acc += B[i2, j2]
-                    _, _, _, nx, ny, nz, d, _ = _fit_sums(acc)
+                    size += 1
+                    if size & (size - 1) == 0 or size % 32 == 0:  # 2, 4, 8, ..., every 32
+                        _, _, _, nx, ny, nz, d, _ = _fit_sums(acc)
                     stack[top] = i2 * Wc + j2
                     top += 1
     return lab
-
-
-def _cell_rms2(S, n, d):
-    """The mean squared distance to the plane ``n . p + d = 0`` of the points summed in
-    each row of ``S`` (k, 10)."""
-    a, b, c = n
-    q = (a * a * S[:, 4] + b * b * S[:, 7] + c * c * S[:, 9]
-         + 2.0 * (a * b * S[:, 5] + a * c * S[:, 6] + b * c * S[:, 8])
-         + 2.0 * d * (a * S[:, 1] + b * S[:, 2] + c * S[:, 3]) + d * d * S[:, 0])
-    return q / S[:, 0]
 
 
 def _sums_plane(S):
@@ -233,6 +228,136 @@ def _sums_plane(S):
     return _plane_from_scatter(c, M - np.outer(s[1:4], c))
 
 
+@numba.njit(cache=True, nogil=True)
+def _regions_of(mask, img, rows, cols):
+    """8-connected regions of the points ``mask`` (bool, m) on the grid ``img`` (the point
+    at each cell, -1: none) by flood fills in raster order: labels (m, 0 = not in ``mask``)
+    and their number."""
+    Hc, Wc = img.shape
+    lab = np.zeros(len(mask), np.int64)
+    stack = np.empty(len(mask), np.int64)
+    nlab = 0
+    for r in range(Hc):
+        for c in range(Wc):
+            j0 = img[r, c]
+            if j0 < 0 or not mask[j0] or lab[j0] > 0:
+                continue
+            nlab += 1
+            lab[j0] = nlab
+            stack[0] = j0
+            top = 1
+            while top > 0:
+                top -= 1
+                j = stack[top]
+                for r2 in range(max(0, rows[j] - 1), min(Hc, rows[j] + 2)):
+                    for c2 in range(max(0, cols[j] - 1), min(Wc, cols[j] + 2)):
+                        k = img[r2, c2]
+                        if k >= 0 and mask[k] and lab[k] == 0:
+                            lab[k] = nlab
+                            stack[top] = k
+                            top += 1
+    return lab, nlab
+
+
+@numba.njit(cache=True, nogil=True)
+def _largest(mask, img, rows, cols):
+    """The largest 8-connected region of ``mask`` (of equally large ones the first in
+    raster order), as a mask."""
+    lab, nlab = _regions_of(mask, img, rows, cols)
+    cnt = np.zeros(nlab + 1, np.int64)
+    for j in range(len(lab)):
+        cnt[lab[j]] += 1
+    best = 0
+    for q in range(1, nlab + 1):
+        if best == 0 or cnt[q] > cnt[best]:
+            best = q
+    return lab == best if best > 0 else np.zeros(len(mask), np.bool_)
+
+
+@numba.njit(cache=True, nogil=True)
+def _near_sums_plane(S, inl, n, d, thr2):
+    """The summed points (10,) of the cells of ``inl`` whose pixels' mean squared distance
+    to ``n . p + d = 0`` is at most ``thr2``, and how many cells."""
+    acc = np.zeros(10)
+    k = 0
+    a, b, c = n[0], n[1], n[2]
+    for j in range(len(inl)):
+        if not inl[j]:
+            continue
+        s = S[j]
+        q = (a * a * s[4] + b * b * s[7] + c * c * s[9]
+             + 2.0 * (a * b * s[5] + a * c * s[6] + b * c * s[8])
+             + 2.0 * d * (a * s[1] + b * s[2] + c * s[3]) + d * d * s[0])
+        if q <= thr2[j] * s[0]:
+            acc += s
+            k += 1
+    return acc, k
+
+
+@numba.njit(cache=True, nogil=True)
+def _cell_round(pts, S, Lp, Lr, thr2, active, img, rows, cols, n, d):
+    """One round of :func:`find_cell_planes` from the plane ``n . p + d = 0``: twice the
+    largest 8-connected region of the active cells whose centroid ``pts`` is within ``Lp``
+    and the least-squares plane of those of its cells that lie near the plane as a whole
+    (``thr2``: the largest mean squared distance; the centroids' plane when fewer than 3);
+    then the active cells within ``Lr`` in regions touching it leave ``active``. Returns
+    the plane and its region (mask)."""
+    m = len(pts)
+    sel = np.zeros(m, np.bool_)
+    inl = np.zeros(m, np.bool_)
+    c = np.empty(3)
+    M = np.empty((3, 3))
+    for _ in range(2):
+        for j in range(m):
+            sel[j] = active[j] and abs(pts[j, 0] * n[0] + pts[j, 1] * n[1]
+                                       + pts[j, 2] * n[2] + d) <= Lp[j]
+        inl = _largest(sel, img, rows, cols)
+        acc, k = _near_sums_plane(S, inl, n, d, thr2)
+        if k < 3:
+            acc[:] = 0.0
+            for j in range(m):
+                if inl[j]:
+                    x, y, z = pts[j, 0], pts[j, 1], pts[j, 2]
+                    acc[0] += 1.0
+                    acc[1] += x
+                    acc[2] += y
+                    acc[3] += z
+                    acc[4] += x * x
+                    acc[5] += x * y
+                    acc[6] += x * z
+                    acc[7] += y * y
+                    acc[8] += y * z
+                    acc[9] += z * z
+            if acc[0] < 3:
+                break
+        k = acc[0]
+        for t in range(3):
+            c[t] = acc[1 + t] / k
+        M[0, 0] = acc[4] - acc[1] * c[0]
+        M[0, 1] = M[1, 0] = acc[5] - acc[1] * c[1]
+        M[0, 2] = M[2, 0] = acc[6] - acc[1] * c[2]
+        M[1, 1] = acc[7] - acc[2] * c[1]
+        M[1, 2] = M[2, 1] = acc[8] - acc[2] * c[2]
+        M[2, 2] = acc[9] - acc[3] * c[2]
+        v = _least_eigenvector(M)
+        if v[0] * c[0] + v[1] * c[1] + v[2] * c[2] > 0:
+            v = -v
+        n = v
+        d = -(n[0] * c[0] + n[1] * c[1] + n[2] * c[2])
+    for j in range(m):
+        sel[j] = active[j] and abs(pts[j, 0] * n[0] + pts[j, 1] * n[1]
+                                   + pts[j, 2] * n[2] + d) <= Lr[j]
+    lab, nlab = _regions_of(sel, img, rows, cols)
+    touch = np.zeros(nlab + 1, np.bool_)
+    for j in range(m):
+        if inl[j]:
+            touch[lab[j]] = True
+    for j in range(m):
+        if inl[j] or (lab[j] > 0 and touch[lab[j]]):
+            active[j] = False
+    return n, d, inl
+
+
 def find_cell_planes(Pc: np.ndarray, st: int, cfg: FrontDetectorConfig) -> tuple[list[Plane], int]:
     """Up to ``cfg.max_planes`` planes of the camera-frame points ``Pc`` (H, W, 3; NaN where
     not measured) on the cell grid of stride ``st`` (module docstring); also returns the
@@ -240,10 +365,11 @@ def find_cell_planes(Pc: np.ndarray, st: int, cfg: FrontDetectorConfig) -> tuple
     H, W = Pc.shape[:2]
     off = st // 2
     Hc, Wc = len(range(off, H, st)), len(range(off, W, st))
-    S = _cell_sums(Pc, float(cfg.max_depth), st, Hc, Wc)
+    step = int(cfg.cell_pixel_step)
+    S = _cell_sums(Pc, float(cfg.max_depth), st, Hc, Wc, step)
     B = _block_sums(S)
     base, per_m2 = float(cfg.inlier_distance), float(cfg.inlier_distance_per_m2)
-    cen, nrm, G, Lc, planar, mse = _cell_fits(S, B, 2.0 * st * st, base, per_m2,
+    cen, nrm, G, Lc, planar, mse = _cell_fits(S, B, 2.0 * len(range(0, st, step)) ** 2, base, per_m2,
                                            float(cfg.cell_planarity))
     order = np.flatnonzero(planar.ravel())
     order = order[np.argsort(mse.ravel()[order], kind="stable")]
@@ -261,44 +387,33 @@ def find_cell_planes(Pc: np.ndarray, st: int, cfg: FrontDetectorConfig) -> tuple
     z2 = pts[:, 2] ** 2
     Lp = fd * np.maximum(base, per_m2 * z2)
     Lr = Lp + fd * (cfg.removal_factor - 1.0) * per_m2 * z2
-    planarity = float(cfg.cell_planarity)
-    Lc_p = Lc.ravel()[cells]
     lab_p = lab.ravel()[cells]
     sizes = np.bincount(lab_p)
     sizes[0] = 0
     active = np.ones(len(cells), bool)
     # regions largest first, each one round of RANSAC's (its best hypothesis: the region's
-    # plane); a region too small to be a plane (below min_plane_points planar cells: a drawer
-    # front 4 cells high has few whole planar blocks) may still gather enough inliers
+    # plane); a region down to half min_plane_points planar cells may still gather enough
+    # inliers
     rounds = 0
+    least = max(3, int(cfg.min_plane_points) // 2)
+    img = np.full((Hc, Wc), -1, np.int64)
+    img[grid_rc[:, 0], grid_rc[:, 1]] = np.arange(len(cells))
+    S_p = np.ascontiguousarray(S_flat[cells])
+    thr2 = (float(cfg.cell_planarity) * Lc.ravel()[cells]) ** 2
+    rows, cols = grid_rc[:, 0].copy(), grid_rc[:, 1].copy()
     for region in np.argsort(-sizes, kind="stable"):
         if (len(planes) >= int(cfg.max_planes) or rounds >= 2 * int(cfg.max_planes)
-                or sizes[region] < 3):
+                or sizes[region] < least):
             break
         seed = np.flatnonzero((lab_p == region) & active)
-        if len(seed) < 3:
+        if len(seed) < least:
             continue
         rounds += 1
-        idx = np.flatnonzero(active)
-        n, d = _sums_plane(S_flat[cells[seed]])
-        Pa, La = pts[idx], Lp[idx]
-        inl = seed
-        for _ in range(2):
-            sel = idx[np.abs(Pa @ n + d) <= La]
-            inl = _largest_region(sel, grid_rc, (Hc, Wc))
-            if len(inl) < 3:
-                break
-            # least squares on the pixels of the inlier cells that lie near the plane as a
-            # whole (not only their centroid: a cell across a front's edge does not)
-            own = S_flat[cells[inl]]
-            near = _cell_rms2(own, n, d) <= (planarity * Lc_p[inl]) ** 2
-            if near.sum() >= 3:
-                n, d = _sums_plane(own[near])
-            else:
-                n, d = _fit_plane(pts, inl)
-        loose = idx[np.abs(Pa @ n + d) <= Lr[idx]]
-        gone = np.concatenate([_regions_touching(loose, inl, grid_rc, (Hc, Wc)), inl, seed])
-        active[gone] = False
+        n, d = _sums_plane(S_p[seed])
+        n, d, inl_m = _cell_round(pts, S_p, Lp, Lr, thr2, active, img, rows, cols,
+                                  np.asarray(n, np.float64), float(d))
+        active[seed] = False
+        inl = np.flatnonzero(inl_m)
         if len(inl) < cfg.min_plane_points:
             continue
         Lq = max(base, per_m2 * d * d)

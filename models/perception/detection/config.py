@@ -38,6 +38,7 @@ class FrontDetectorConfig:
             ~64 pixels: ~1/8 of a pixel's noise) are tested against a plane at this many L
             (and removal bands): a front standing 2 cm proud of its carcass stays a region
             of its own, unitless.
+        cell_pixel_step: ... summing every n-th pixel of a cell in rows and columns, px.
         cell_normal_deg: ... and joins a region when its normal is within this angle of the
             region's plane (and its centroid within L of it), deg.
         min_plane_points: a plane needs at least this many inliers among the sampled pixels.
@@ -157,6 +158,7 @@ class FrontDetectorConfig:
     plane_method: str = param("ransac", choices=("ransac", "cells"))
     cell_planarity: float = param(0.5, gt=0)
     cell_distance: float = param(0.5, gt=0, le=1)
+    cell_pixel_step: int = param(2, unit="px", integer=True, gt=0)
     cell_normal_deg: float = param(15.0, unit="deg", gt=0, le=90)
     min_plane_points: int = param(20, integer=True, gt=0)
     max_depth: float = param(5.0, unit="m", gt=0)
