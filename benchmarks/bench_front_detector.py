@@ -275,14 +275,18 @@ def sweep(seeds):
     return out
 
 
-def _setting(text):
-    """A ``FIELD=VALUE`` override of the detector's configuration (VALUE parsed as YAML)."""
+def _config(settings) -> FrontDetectorConfig:
+    """The detector's configuration with the ``FIELD=VALUE`` overrides ``settings`` (VALUE
+    parsed as YAML); raises ValueError naming a bad one."""
     import yaml
-    key, sep, value = text.partition("=")
-    if not sep or key not in FrontDetectorConfig.__dataclass_fields__:
-        raise SystemExit(f"--set: expected FIELD=VALUE with a FrontDetectorConfig field, got "
-                         f"{text!r}")
-    return key, yaml.safe_load(value)
+    kw = {}
+    for text in settings:
+        key, sep, value = text.partition("=")
+        if not sep or key not in FrontDetectorConfig.__dataclass_fields__:
+            raise ValueError(f"expected FIELD=VALUE with a FrontDetectorConfig field, got "
+                             f"{text!r}")
+        kw[key] = yaml.safe_load(value)
+    return FrontDetectorConfig(**kw).validate()
 
 
 def main(argv=None):
@@ -319,7 +323,10 @@ def main(argv=None):
                   f"{1e3 * r['pos_err_max']:5.1f} mm  orientation mean "
                   f"{r['orient_err_mean']:.2f} max {r['orient_err_max']:.2f} deg")
         return
-    cfg = FrontDetectorConfig(**dict(_setting(a) for a in args.set)).validate()
+    try:
+        cfg = _config(args.set)
+    except ValueError as e:
+        ap.error(f"--set: {e}")
     sets = {"synthetic": synthetic_frames(args.synthetic, args.seed)}
     if args.frames_dir and os.path.isdir(args.frames_dir):
         sets["shared"] = shared_frames(args.frames_dir)

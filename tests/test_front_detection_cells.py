@@ -104,3 +104,18 @@ def test_plane_method_is_validated():
         FrontDetectorConfig(plane_method="octree").validate()
     with pytest.raises(ValueError, match="cell_pixel_step"):
         FrontDetectorConfig(cell_pixel_step=0).validate()
+
+
+def test_benchmark_set_overrides_the_config_and_names_a_bad_field():
+    import importlib.util
+    from pathlib import Path
+    path = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_front_detector.py"
+    spec = importlib.util.spec_from_file_location("_bench_front_detector", path)
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    cfg = bench._config(["plane_method=cells", "cell_distance=0.25"])
+    assert cfg.plane_method == "cells" and cfg.cell_distance == 0.25
+    with pytest.raises(ValueError, match="nofield"):
+        bench._config(["nofield=1"])
+    with pytest.raises(ValueError, match="plane_method"):
+        bench._config(["plane_method=octree"])
