@@ -106,10 +106,11 @@ def test_plane_method_is_validated():
         FrontDetectorConfig(cell_pixel_step=0).validate()
 
 
-def test_benchmark_set_overrides_the_config_and_names_a_bad_field():
+def test_benchmark_set_overrides_the_config_and_names_a_bad_field(monkeypatch):
     import importlib.util
     from pathlib import Path
     path = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_front_detector.py"
+    monkeypatch.syspath_prepend(str(path.parent))
     spec = importlib.util.spec_from_file_location("_bench_front_detector", path)
     bench = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(bench)
