@@ -2,16 +2,19 @@
 
 The image is cut into square cells aligned with the RANSAC sample grid (one
 ``ransac_stride_px`` cell per sample, centred on it). One pass sums, per cell, the number of
-measured pixels, their x, y, z and the six products (:func:`_cell_sums`), so that the plane
-of any set of cells is a sum of cells. A cell is planar when it holds at least half its
-pixels and their RMS distance to their own least-squares plane is at most
-``cell_planarity`` L (:func:`_cell_fits`). Regions are grown over the 8-neighbours of planar
-cells whose normals agree with the region's plane within ``cell_normal_deg`` and whose
-centroids lie within L of it, the region's plane refitted from its cells' sums as it grows
-(:func:`_grow_regions`). The regions, largest first, replace RANSAC's best hypotheses: the
-refinement rounds (L, L / 2, L), the largest 8-connected region of inliers and the removal
-band of :func:`~mmlearn.models.perception.detection.planes.find_planes` run unchanged on
-the cells' centroids, the least-squares planes are taken from the inlier cells' sums.
+measured pixels, their x, y, z and the six products (:func:`_cell_sums`, every
+``cell_pixel_step``-th pixel), so that the plane of any set of cells is a sum of cells. A
+cell is planar when one of the 2 x 2 blocks of cells that contain it holds at least half
+its pixels and their RMS distance to the block's plane is at most ``cell_planarity`` L; its
+normal is that block's (:func:`_cell_fits`). Regions are grown over the 8-neighbours of
+planar cells whose normals agree with the region's plane within ``cell_normal_deg`` and
+whose centroids lie within ``cell_distance`` L of it, the region's plane refitted from its
+blocks' sums as it grows (:func:`_grow_regions`). The regions, largest first, replace
+RANSAC's best hypotheses (:func:`_cell_round`): twice the largest 8-connected region of the
+active cells whose centroid lies within ``cell_distance`` L and the least-squares plane from
+the sums of those of its cells that lie near the plane as a whole, then the removal band
+(times ``cell_distance``) and the copy test of
+:func:`~mmlearn.models.perception.detection.planes.find_planes`.
 
 Each :class:`~mmlearn.models.perception.detection.planes.Plane` keeps ``support`` (inlier
 cells: the sample grid's points) and ``bbox`` (on the sample grid), so that the later stages

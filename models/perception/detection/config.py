@@ -33,7 +33,9 @@ class FrontDetectorConfig:
             image and region growing over the cells, :mod:`.cells`: faster, the planes differ
             by the cells' fits; see ``docs/perception.md``).
         cell_planarity: with ``plane_method = "cells"``, a cell is planar when the RMS
-            distance of its points to their own plane is at most this many L, unitless.
+            distance of the points of a 2 x 2 block of cells containing it to the block's
+            plane is at most this many L (and a cell's pixels lie near a plane when their
+            RMS distance to it is), unitless.
         cell_distance: with ``plane_method = "cells"``, the cells' centroids (the mean of
             ~64 pixels: ~1/8 of a pixel's noise) are tested against a plane at this many L
             (and removal bands): a front standing 2 cm proud of its carcass stays a region
