@@ -67,9 +67,11 @@ ANGLE_DISTANCE = 1.5
 
 def trial_specs(*, only=EXPERIMENTS, quick: bool = False, seed: int = 1000, seeds: int = 10,
                 frames: int = 60, objects=OBJECTS, distances=None, angles=None,
-                temporal_filter: bool = True, camera_rate_hz: float = 30.0) -> list:
+                temporal_filter: bool = True, camera_rate_hz: float = 30.0,
+                plane_method: str = "ransac") -> list:
     """One spec per (experiment, object, distance or angle, seed); ``distances`` (m) and
-    ``angles`` (deg, at 1.5 m) replace the default grids when given."""
+    ``angles`` (deg, at 1.5 m) replace the default grids when given; ``plane_method``: the
+    detector's plane stage (``FrontDetectorConfig.plane_method``)."""
     fn = fronts_trial
     specs = []
     for exp in only:
@@ -90,7 +92,9 @@ def trial_specs(*, only=EXPERIMENTS, quick: bool = False, seed: int = 1000, seed
                         params={"experiment": exp, "object": obj, "distance": float(d),
                                 "angle": float(a), "frames": int(frames),
                                 **({"camera_rate_hz": float(camera_rate_hz)} if temporal_filter
-                                   else {"temporal_filter": False})}))
+                                   else {"temporal_filter": False}),
+                                **({} if plane_method == "ransac"
+                                   else {"plane_method": plane_method})}))
     return specs
 
 
@@ -291,14 +295,15 @@ def run(*, only=EXPERIMENTS, quick: bool = False, seed: int = 1000, seeds: int =
         frames: int = 60, objects=OBJECTS, distances=None, angles=None, out: str | None = None,
         progress: bool = True, results: str | None = None, executor: str = "local",
         jobs: int | None = None, ray_address: str | None = None, temporal_filter: bool = True,
-        camera_rate_hz: float = 30.0) -> dict:
+        camera_rate_hz: float = 30.0, plane_method: str = "ransac") -> dict:
     """Run the experiments through the sweep runner; returns the report's results (plus
     "plots" written to ``out`` and "sweep"). Bad settings raise ``ValueError``."""
     args = argparse.Namespace(
         only=only if isinstance(only, str) else ",".join(only), objects=list(objects),
         quick=quick, seed=seed, seeds=seeds, frames=frames, distances=distances,
         angles=angles, out_dir=out, no_progress=not progress,
-        no_temporal_filter=not temporal_filter, camera_rate=camera_rate_hz, report_only=None)
+        no_temporal_filter=not temporal_filter, camera_rate=camera_rate_hz,
+        plane_method=plane_method, report_only=None)
     app = PerceptionExperiments()
     app.check(args)
     return experiment.run_experiment(app, args, results=results, executor=executor, jobs=jobs,
@@ -336,6 +341,10 @@ class PerceptionExperiments(Experiment):
         ap.add_argument("--camera-rate", type=float, default=30.0,
                         help="camera frames per second with the temporal filter, Hz (default "
                              "30; 0 = one frame per detector period, as before)")
+        ap.add_argument("--plane-method", choices=("ransac", "cells"), default="ransac",
+                        help="the detector's plane stage: sequential RANSAC (default) or the "
+                             "cell grid of the organised image (FrontDetectorConfig."
+                             "plane_method)")
         ap.add_argument("--distances", type=float_list, default=None,
                         help="comma-separated camera distances of the distance experiment, m "
                              "(default 0.8,1.3,1.8,2.3,2.8)")
@@ -376,7 +385,7 @@ class PerceptionExperiments(Experiment):
                            seeds=seeds, frames=frames, objects=args.objects,
                            distances=args.distances, angles=args.angles,
                            temporal_filter=not args.no_temporal_filter,
-                           camera_rate_hz=args.camera_rate)
+                           camera_rate_hz=args.camera_rate, plane_method=args.plane_method)
 
     def show_progress(self, args) -> bool:
         return not args.no_progress

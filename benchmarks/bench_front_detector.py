@@ -275,10 +275,27 @@ def sweep(seeds):
     return out
 
 
+def _config(settings) -> FrontDetectorConfig:
+    """The detector's configuration with the ``FIELD=VALUE`` overrides ``settings`` (VALUE
+    parsed as YAML); raises ValueError naming a bad one."""
+    import yaml
+    kw = {}
+    for text in settings:
+        key, sep, value = text.partition("=")
+        if not sep or key not in FrontDetectorConfig.__dataclass_fields__:
+            raise ValueError(f"expected FIELD=VALUE with a FrontDetectorConfig field, got "
+                             f"{text!r}")
+        kw[key] = yaml.safe_load(value)
+    return FrontDetectorConfig(**kw).validate()
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--frames-dir", default="/work/shared-frames",
                     help="directory of *.json + *_depth.npy frames (skipped when missing)")
+    ap.add_argument("--set", action="append", default=[], metavar="FIELD=VALUE",
+                    help="a FrontDetectorConfig field of the timed detector (repeatable; the "
+                         "--baseline revision keeps its defaults)")
     ap.add_argument("--synthetic", type=int, default=12, help="number of synthetic frames")
     ap.add_argument("--repeats", type=int, default=3, help="detector runs per frame")
     ap.add_argument("--seed", type=int, default=0)
@@ -306,7 +323,10 @@ def main(argv=None):
                   f"{1e3 * r['pos_err_max']:5.1f} mm  orientation mean "
                   f"{r['orient_err_mean']:.2f} max {r['orient_err_max']:.2f} deg")
         return
-    cfg = FrontDetectorConfig()
+    try:
+        cfg = _config(args.set)
+    except ValueError as e:
+        ap.error(f"--set: {e}")
     sets = {"synthetic": synthetic_frames(args.synthetic, args.seed)}
     if args.frames_dir and os.path.isdir(args.frames_dir):
         sets["shared"] = shared_frames(args.frames_dir)

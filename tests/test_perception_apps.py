@@ -223,6 +223,11 @@ def test_perception_experiments_distances_and_angles(capsys):
     _bad(main, ["--distances", "1.0,far"], capsys, "--distances")
     _bad(main, ["--distances", "nan"], capsys, "--distances")
     _bad(main, ["--angles=10,95"], capsys, "--angles")
+    # the cell-grid plane stage is part of a spec; the default (RANSAC) keeps the old keys
+    assert all("plane_method" not in s.params for s in specs)
+    assert {s.params["plane_method"] for s in trial_specs(only=["distance"], seeds=1,
+                                                          plane_method="cells")} == {"cells"}
+    _bad(main, ["--plane-method", "octree"], capsys, "--plane-method")
 
 
 def test_track_fronts_summary_leaves_out_an_unmeasured_cpu_time():

@@ -394,15 +394,18 @@ def track_fronts(config: TrackFrontsConfig, *, meshcat=None, progress=None) -> d
 @register_trial("perception.fronts", record={"experiment": str, "frame_found": list})
 def fronts_trial(*, seed: int, experiment: str, object: str, distance: float,
                  angle: float = 0.0, frames: int = 60, temporal_filter: bool = True,
-                 camera_rate_hz: float = 0.0, shared=None) -> dict:
+                 camera_rate_hz: float = 0.0, plane_method: str = "ransac", shared=None) -> dict:
     """One :func:`track_fronts` run; returns its scores without the per-frame list (plus the
     per-frame found / eligible flags and errors, compact). ``temporal_filter``: the
     DepthTemporalFilter between camera and detector; ``camera_rate_hz``: the camera's frame
-    rate with it (0 = one frame per detector period)."""
+    rate with it (0 = one frame per detector period); ``plane_method``: the detector's plane
+    stage (``FrontDetectorConfig.plane_method``)."""
     r = track_fronts(TrackFrontsConfig(object=object, distance=float(distance),
                                        angle_deg=float(angle), frames=int(frames),
                                        seed=int(seed), temporal_filter=bool(temporal_filter),
-                                       camera_rate_hz=float(camera_rate_hz)))
+                                       camera_rate_hz=float(camera_rate_hz),
+                                       detector=FrontDetectorConfig(
+                                           plane_method=str(plane_method)).validate()))
     pf = r.pop("per_frame")
     r["frame_found"] = [bool(f["found"]) for f in pf]
     r["frame_eligible"] = [bool(f["eligible"]) for f in pf]

@@ -28,6 +28,21 @@ class FrontDetectorConfig:
             inlier_distance_per_m2 x z^2 of an extracted plane (connected to it) leave the
             pool of points later planes are drawn from: the noise tails of a far plane,
             unitless (>= 1).
+        plane_method: how the planes are found: ``"ransac"`` (sequential RANSAC on the
+            sample grid, :mod:`.planes`) or ``"cells"`` (plane fits per cell of the organised
+            image and region growing over the cells, :mod:`.cells`: faster, the planes differ
+            by the cells' fits; see ``docs/perception.md``).
+        cell_planarity: with ``plane_method = "cells"``, a cell is planar when the RMS
+            distance of the points of a 2 x 2 block of cells containing it to the block's
+            plane is at most this many L (and a cell's pixels lie near a plane when their
+            RMS distance to it is), unitless.
+        cell_distance: with ``plane_method = "cells"``, the cells' centroids (the mean of
+            ~64 pixels: ~1/8 of a pixel's noise) are tested against a plane at this many L
+            (and removal bands): a front standing 2 cm proud of its carcass stays a region
+            of its own, unitless.
+        cell_pixel_step: ... summing every n-th pixel of a cell in rows and columns, px.
+        cell_normal_deg: ... and joins a region when its normal is within this angle of the
+            region's plane (and its centroid within L of it), deg.
         min_plane_points: a plane needs at least this many inliers among the sampled pixels.
         max_depth: pixels farther than this are not used to find planes, m.
         crossing_angle_deg: where two planes at more than this angle cross, a pixel within L of
@@ -142,6 +157,11 @@ class FrontDetectorConfig:
     surface_distance: float = param(0.003, unit="m", ge=0)
     surface_distance_per_m2: float = param(0.0015, unit="m / m^2", ge=0)
     surface_window_px: int = param(5, unit="px, odd", integer=True, ge=1)
+    plane_method: str = param("ransac", choices=("ransac", "cells"))
+    cell_planarity: float = param(0.5, gt=0)
+    cell_distance: float = param(0.5, gt=0, le=1)
+    cell_pixel_step: int = param(2, unit="px", integer=True, gt=0)
+    cell_normal_deg: float = param(15.0, unit="deg", gt=0, le=90)
     min_plane_points: int = param(20, integer=True, gt=0)
     max_depth: float = param(5.0, unit="m", gt=0)
     cost_in_plane: float = param(0.0, ge=0, le=1)

@@ -19,6 +19,7 @@ from mmlearn.models.perception.detection.grid import _cross3, _Grid, _make_grid,
 from mmlearn.models.perception.detection.labels import (_label_images, _refit_on_own_pixels, GAP,
                                                         IN_PLANE)
 from mmlearn.models.perception.detection.layers import _offset_layers
+from mmlearn.models.perception.detection.cells import find_cell_planes
 from mmlearn.models.perception.detection.planes import Plane, find_planes, refine_plane_fullres
 from mmlearn.models.perception.detection.rectify import _gap_mask_rectified, _rectified_view
 from mmlearn.models.perception.detection.search import (_component_starts, _greedy, _in_plane_cells,
@@ -174,8 +175,12 @@ def _prepare_frame(d, arrays, K, X_WC, var_scale, cfg) -> _Frame:
 
 
 def _find_frame_planes(f: _Frame, cfg, rng) -> list[Plane]:
-    """Stage ``planes``: RANSAC on the sample grid, each plane refitted at full resolution."""
-    planes = find_planes(f.sample_pts, f.grid_rc, f.grid_shape, cfg, rng)
+    """Stage ``planes``: RANSAC on the sample grid (or region growing on the cell grid,
+    ``cfg.plane_method``), each plane refitted at full resolution."""
+    if cfg.plane_method == "cells":
+        planes, _ = find_cell_planes(f.Pc, f.st, cfg)
+    else:
+        planes = find_planes(f.sample_pts, f.grid_rc, f.grid_shape, cfg, rng)
     return [refine_plane_fullres(pl, f.Pc, f.Limg, f.st, f.off) for pl in planes]
 
 
