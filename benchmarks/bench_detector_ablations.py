@@ -63,6 +63,8 @@ VARIANTS = {
                         "rotation polish in 2 and 4 deg steps instead of 0.5 and 1 deg"),
     "all_planes_searched": ({"front_max_tilt_deg": 90.0},
                             "every plane searched, not only the vertical ones"),
+    "cell_planes": ({"plane_method": "cells"},
+                    "planes from the cell grid of the organised image instead of RANSAC"),
 }
 
 

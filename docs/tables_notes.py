@@ -47,7 +47,8 @@ VOLATILE = ("detector_ablations", "first_call")  # (the camera's figures do not 
 ABLATIONS = (("thesis_costs", "Costs"), ("no_crossings", "Crossings"),
              ("no_own_pixel_refit", "Own-pixel refit"), ("no_reveals", "Reveals"),
              ("no_long_pass", "Reveals: the long pass"), ("no_region_starts", "Region starts"),
-             ("no_layers", "Offset layers"), ("coarse_rotation", "Rotation polish"))
+             ("no_layers", "Offset layers"), ("coarse_rotation", "Rotation polish"),
+             ("cell_planes", "RANSAC planes (the cell grid's instead)"))
 
 
 def _f(x, digits: int = 1) -> str:
