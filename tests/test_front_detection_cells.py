@@ -120,3 +120,24 @@ def test_benchmark_set_overrides_the_config_and_names_a_bad_field(monkeypatch):
         bench._config(["nofield=1"])
     with pytest.raises(ValueError, match="plane_method"):
         bench._config(["plane_method=octree"])
+
+
+def test_cell_regions_are_scipy_8_connected_labels_in_raster_order():
+    from scipy import ndimage
+
+    from mmlearn.models.perception.detection import cells
+
+    rng = np.random.default_rng(3)
+    for _ in range(50):
+        H, W = (int(v) for v in rng.integers(1, 25, 2))
+        rr, cc = np.nonzero(rng.random((H, W)) < 0.7)
+        img = np.full((H, W), -1, np.int64)
+        img[rr, cc] = np.arange(len(rr))
+        mask = rng.random(len(rr)) < 0.6
+        lab, n = cells._regions_of(mask, img, rr.astype(np.int64), cc.astype(np.int64))
+        grid = np.zeros((H, W), bool)
+        grid[rr[mask], cc[mask]] = True
+        ref, n_ref = ndimage.label(grid, structure=np.ones((3, 3)))
+        got = np.zeros((H, W), np.int64)
+        got[rr, cc] = lab
+        assert n == n_ref and np.array_equal(got, ref)

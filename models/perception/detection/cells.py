@@ -28,7 +28,7 @@ import numpy as np
 
 from mmlearn.models.perception.detection.config import FrontDetectorConfig
 from mmlearn.models.perception.detection.planes import (
-    Plane, _least_eigenvector, _plane_from_scatter)
+    Plane, _grid_labels, _least_eigenvector, _plane_from_scatter)
 
 
 @numba.njit(cache=True, nogil=True)
@@ -234,32 +234,16 @@ def _sums_plane(S):
 @numba.njit(cache=True, nogil=True)
 def _regions_of(mask, img, rows, cols):
     """8-connected regions of the points ``mask`` (bool, m) on the grid ``img`` (the point
-    at each cell, -1: none) by flood fills in raster order: labels (m, 0 = not in ``mask``)
-    and their number."""
+    at each cell, -1: none) in the raster order of their first cell
+    (:func:`~mmlearn.models.perception.detection.planes._grid_labels`): labels (m, 0 = not in
+    ``mask``) and their number."""
     Hc, Wc = img.shape
+    sel = np.flatnonzero(mask).astype(np.int64)
     lab = np.zeros(len(mask), np.int64)
-    stack = np.empty(len(mask), np.int64)
-    nlab = 0
-    for r in range(Hc):
-        for c in range(Wc):
-            j0 = img[r, c]
-            if j0 < 0 or not mask[j0] or lab[j0] > 0:
-                continue
-            nlab += 1
-            lab[j0] = nlab
-            stack[0] = j0
-            top = 1
-            while top > 0:
-                top -= 1
-                j = stack[top]
-                for r2 in range(max(0, rows[j] - 1), min(Hc, rows[j] + 2)):
-                    for c2 in range(max(0, cols[j] - 1), min(Wc, cols[j] + 2)):
-                        k = img[r2, c2]
-                        if k >= 0 and mask[k] and lab[k] == 0:
-                            lab[k] = nlab
-                            stack[top] = k
-                            top += 1
-    return lab, nlab
+    if len(sel) == 0:
+        return lab, 0
+    lab[sel] = _grid_labels(rows, cols, sel, Hc, Wc)
+    return lab, int(lab.max())
 
 
 @numba.njit(cache=True, nogil=True)
