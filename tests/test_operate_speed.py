@@ -17,11 +17,19 @@ from mmlearn.diagrams.common.scene import MakeSceneDiagram, SceneConfig
 from mmlearn.systems import JointFriction
 
 
-def _steps(cfg: OperateConfig, t_end: float) -> tuple[int, object]:
+def _started(cfg: OperateConfig):
+    """The opening trial's diagram for ``cfg``, its simulator and root context, initialised at
+    the start command."""
     op = MakeOperateDiagram(cfg)
     sim = Simulator(op.diagram)
-    op.scene.set_joint_positions(sim.get_mutable_context(), op.start_command)
+    ctx = sim.get_mutable_context()
+    op.scene.set_joint_positions(ctx, op.start_command)
     sim.Initialize()
+    return op, sim, ctx
+
+
+def _steps(cfg: OperateConfig, t_end: float) -> tuple[int, object]:
+    op, sim, _ = _started(cfg)
     sim.AdvanceTo(t_end)
     return sim.get_num_steps_taken(), op
 
@@ -112,11 +120,7 @@ def test_the_plants_output_ports_are_live_unless_the_trial_asks_for_sampled_ones
 
 
 def _force_track(sampled: bool, times) -> tuple[np.ndarray, int]:
-    op = MakeOperateDiagram(OperateConfig(kind="drawer", seed=2, sampled_output_ports=sampled))
-    sim = Simulator(op.diagram)
-    ctx = sim.get_mutable_context()
-    op.scene.set_joint_positions(ctx, op.start_command)
-    sim.Initialize()
+    op, sim, ctx = _started(OperateConfig(kind="drawer", seed=2, sampled_output_ports=sampled))
     out = []
     for t in times:
         sim.AdvanceTo(t)
@@ -142,11 +146,7 @@ def test_with_live_ports_the_wrist_sensor_reads_the_forces_sampled_ports_give_it
 def test_the_plant_command_is_the_localisations_to_the_last_bit():
     # the diagram adds the controller's command and the localisation's offset with an
     # Adder: the same floats as the localisation's own plant_command
-    op = MakeOperateDiagram(OperateConfig(kind="left_door", seed=1))
-    sim = Simulator(op.diagram)
-    ctx = sim.get_mutable_context()
-    op.scene.set_joint_positions(ctx, op.start_command)
-    sim.Initialize()
+    op, sim, ctx = _started(OperateConfig(kind="left_door", seed=1))
     loc = op.localization
     for t in (0.1, 0.2375, 0.45):
         sim.AdvanceTo(t)
@@ -158,11 +158,7 @@ def test_the_plant_command_is_the_localisations_to_the_last_bit():
 
 
 def test_the_plant_command_is_the_controllers_interpolated_in_cpp_to_the_last_bit():
-    op = MakeOperateDiagram(OperateConfig(kind="left_door", seed=1))
-    sim = Simulator(op.diagram)
-    ctx = sim.get_mutable_context()
-    op.scene.set_joint_positions(ctx, op.start_command)
-    sim.Initialize()
+    op, sim, ctx = _started(OperateConfig(kind="left_door", seed=1))
     interp = op.diagram.GetSubsystemByName("command_interpolator")
     epc = op.controller
     moved = 0
