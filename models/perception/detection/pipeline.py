@@ -424,7 +424,9 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
             rectangles are then in the camera frame, "up" is the image's up, and every plane
             is searched: gravity is not known).
         config: :class:`FrontDetectorConfig` (default values when None).
-        rng: ``numpy.random.Generator`` or seed of the random starts and RANSAC samples.
+        rng: ``numpy.random.Generator`` or seed of the RANSAC samples and the random starts
+            (each plane's starts from a stream of its own, keyed by one draw after the plane
+            stage and the plane's index: :func:`_plane_stream`).
         clock: the timer of the stage timings (seconds): wall-clock by default;
             ``time.thread_time`` gives the CPU time of the calling thread (what a benchmark on
             a shared machine should compare).
