@@ -362,3 +362,67 @@ def test_only_vertical_planes_are_searched_for_fronts():
         assert any(abs(r.X_WR[2, 2]) > tilt for r in rects) == horizontal
     with pytest.raises(ValueError, match="front_max_tilt_deg"):
         FrontDetectorConfig(front_max_tilt_deg=91.0).validate()
+
+
+def _frame_grids(depth, X_WC, cfg):
+    """The grids of a frame's planes (the pipeline's stages up to the masks)."""
+    from mmlearn.models.perception.detection import pipeline as P
+    d, X = P._check_inputs(depth, K, X_WC)
+    f = P._prepare_frame(d, P._frame_arrays(d, K, cfg), K, X, None, cfg)
+    planes = P._find_frame_planes(f, cfg, np.random.default_rng(4))
+    gap, _ = P._reveals(f, planes, cfg)
+    planes, labs = P._plane_labels(f, planes, cfg, (f.surf, int(cfg.surface_window_px)), gap)
+    return planes, P._grids(f, planes, labs, cfg, P._cost_table(cfg))
+
+
+def test_each_plane_draws_its_starts_from_its_own_stream():
+    """A plane's random starts depend on the frame's key and the plane only: they stay the
+    same when other planes are left out, added or reordered; another key moves them."""
+    from mmlearn.models.perception.detection.pipeline import _starts
+    depth, X_WC = _frame([(DOOR, _front_pose(0.87, -0.3, 0.45), 0.02)], 1.6, 10.0,
+                         [0.8, 0.0, 0.6], 4)
+    cfg = FrontDetectorConfig(front_max_tilt_deg=90.0)
+    _, grids = _frame_grids(depth, X_WC, cfg)
+    assert len(grids) >= 3
+
+    def starts_of(gs, key):
+        pid, R0, _, _ = _starts(gs, cfg, key)
+        return {gs[i].plane_index: R0[pid == i] for i in range(len(gs))}
+
+    every = starts_of(grids, 7)
+    for gs in (grids[1:], grids[:1], grids[::-1], [grids[-1]]):
+        for k, R in starts_of(gs, 7).items():
+            np.testing.assert_array_equal(R, every[k])
+    other = starts_of(grids, 8)
+    assert any(not np.array_equal(other[k], every[k]) for k in every)
+
+
+def test_planes_that_cannot_hold_a_front_get_no_grid_and_leave_the_others_unchanged():
+    """With the camera's pose known, the floor and the countertop get no grid (no starts,
+    no search); the vertical planes' grids and rectangles are those found when every plane
+    is searched."""
+    depth, X_WC = _frame([(DOOR, _front_pose(0.87, -0.3, 0.45), 0.02)], 1.6, 10.0,
+                         [0.8, 0.0, 0.6], 4)
+    planes, every = _frame_grids(depth, X_WC, FrontDetectorConfig(front_max_tilt_deg=90.0))
+    planes_v, vertical = _frame_grids(depth, X_WC, FrontDetectorConfig())
+    assert len(planes_v) == len(planes)
+    down = X_WC[:3, :3].T @ np.array([0.0, 0.0, -1.0])
+    upright = [g.plane_index for g in every
+               if abs(float(planes[g.plane_index].n @ down)) <= math.sin(math.radians(20.0))]
+    assert 0 < len(upright) < len(every)
+    assert [g.plane_index for g in vertical] == upright
+    for g in vertical:
+        h = next(e for e in every if e.plane_index == g.plane_index)
+        np.testing.assert_array_equal(g.sat_cost, h.sat_cost)
+    tilt = math.sin(math.radians(20.0))
+
+    def upright_rects(cfg):
+        rects, _ = detect_fronts(depth, K, X_WC, cfg, rng=4)
+        return [(r.X_WR, r.width, r.height) for r in rects if abs(r.X_WR[2, 2]) <= tilt]
+
+    got, ref = upright_rects(FrontDetectorConfig()), upright_rects(
+        FrontDetectorConfig(front_max_tilt_deg=90.0))
+    assert len(got) == len(ref) > 0
+    for (X, w, h), (Xr, wr, hr) in zip(got, ref):
+        np.testing.assert_allclose(X, Xr, atol=1e-12)
+        assert (w, h) == (wr, hr)

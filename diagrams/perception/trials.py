@@ -391,7 +391,7 @@ def track_fronts(config: TrackFrontsConfig, *, meshcat=None, progress=None) -> d
     }
 
 
-@register_trial("perception.fronts", record={"experiment": str, "frame_found": list})
+@register_trial("perception.fronts", version=2, record={"experiment": str, "frame_found": list})
 def fronts_trial(*, seed: int, experiment: str, object: str, distance: float,
                  angle: float = 0.0, frames: int = 60, temporal_filter: bool = True,
                  camera_rate_hz: float = 0.0, plane_method: str = "ransac", shared=None) -> dict:

@@ -263,9 +263,14 @@ def _front_planes(f: _Frame, planes, cfg) -> list[bool]:
 
 
 def _grids(f: _Frame, planes, labels, cfg, lut) -> list[_Grid]:
-    """The rectified grid of every plane with in-plane cells."""
+    """The rectified grid of every plane that can hold a front (:func:`_front_planes`) with
+    in-plane cells; the others get none (their label images stay: the other planes' crossings,
+    refits and offset layers read them)."""
     grids = []
+    front = _front_planes(f, planes, cfg)
     for k, (pl, lab) in enumerate(zip(planes, labels)):
+        if not front[k]:
+            continue
         g = _make_grid(k, pl, lab, f.sample_pts, f.K, f.down_C, cfg, lut)
         if g is not None and (g.labels == IN_PLANE).any():
             grids.append(g)
@@ -291,13 +296,22 @@ def _random_starts(g: _Grid, cfg, rng):
     return R, mc
 
 
-def _starts(grids, cfg, rng):
+def _plane_stream(key: int, plane_index: int) -> np.random.Generator:
+    """The random stream of one plane's starts: derived from the frame's ``key`` and the
+    plane's index among the frame's planes only, so a plane's draws do not depend on how many
+    draws the other planes took, nor on which other planes are searched."""
+    return np.random.Generator(np.random.PCG64(
+        np.random.SeedSequence(key, spawn_key=(int(plane_index),))))
+
+
+def _starts(grids, cfg, key: int):
     """Stage ``sampling``: the starts of all planes, stacked for one greedy run: plane of each
-    start, rectangles (S, 4), move sizes in cells (S, k), least size in cells (S,)."""
+    start, rectangles (S, 4), move sizes in cells (S, k), least size in cells (S,). Each
+    plane's starts are drawn from its own stream (:func:`_plane_stream` of ``key``)."""
     pid, R0, steps, min_cells = [], [], [], []
     step_m = np.asarray(sorted(set(int(f) for f in cfg.step_factors)), float) * cfg.step_size
     for gi, g in enumerate(grids):
-        R, mc = _random_starts(g, cfg, rng)
+        R, mc = _random_starts(g, cfg, _plane_stream(key, g.plane_index))
         m = len(R)
         pid.append(np.full(m, gi))
         R0.append(R)
@@ -410,7 +424,9 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
             rectangles are then in the camera frame, "up" is the image's up, and every plane
             is searched: gravity is not known).
         config: :class:`FrontDetectorConfig` (default values when None).
-        rng: ``numpy.random.Generator`` or seed of the random starts and RANSAC samples.
+        rng: ``numpy.random.Generator`` or seed of the RANSAC samples and the random starts
+            (each plane's starts from a stream of its own, keyed by one draw after the plane
+            stage and the plane's index: :func:`_plane_stream`).
         clock: the timer of the stage timings (seconds): wall-clock by default;
             ``time.thread_time`` gives the CPU time of the calling thread (what a benchmark on
             a shared machine should compare).
@@ -449,6 +465,8 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
     f = _prepare_frame(d, arrays, K, X_WC, var_scale, cfg)
     f.gravity = X_WC_given
     planes = _find_frame_planes(f, cfg, rng)
+    # the key of the planes' own streams of starts (:func:`_plane_stream`)
+    key = int(rng.integers(0, 2 ** 63 - 1))
     timings["planes"] = clock() - t0
     if not planes:
         return finish()
@@ -464,16 +482,7 @@ def detect_fronts(depth, K: PinholeIntrinsics, X_WC=None, config: FrontDetectorC
         return finish()
 
     t0 = clock()
-    pid, R0, steps, min_cells = _starts(grids, cfg, rng)
-    # the starts of the planes that cannot hold a front are drawn (the others' draws follow
-    # them) but not searched
-    front = np.array(_front_planes(f, [planes[g.plane_index] for g in grids], cfg))
-    if not front.all():
-        keep = front[pid]
-        pid, R0, steps, min_cells = pid[keep], R0[keep], steps[keep], min_cells[keep]
-        if not keep.any():
-            timings["sampling"] = clock() - t0
-            return finish()
+    pid, R0, steps, min_cells = _starts(grids, cfg, key)
     dims = np.array([g.shape for g in grids], np.int64)
     SC = _stack([g.sat_cost for g in grids], [g.shape for g in grids])
     timings["sampling"] = clock() - t0
