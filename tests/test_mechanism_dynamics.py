@@ -311,6 +311,52 @@ def _monitor_track(ts, G, F, **config):
     return mon.state(mon.GetMyContextFromRoot(sim.get_context()))
 
 
+def test_drawer_monitor_averages_every_wrist_sample_for_the_regression():
+    """A prismatic monitor reads the wrist force at the sensor's rate and keeps the mean of
+    the readings over each of its periods (``F_mean``, what the regression uses) beside the
+    force at the sample instant (``F``, what the block tests use); a door's monitor keeps
+    the instants' force for both."""
+    from pydrake.systems.analysis import Simulator
+    from pydrake.systems.framework import DiagramBuilder
+    from pydrake.systems.primitives import TrajectorySource
+    from pydrake.trajectories import PiecewisePolynomial
+
+    from mmlearn.systems.articulation.jam_monitor import DynamicsMonitor, DynamicsMonitorConfig
+
+    T, dt = 0.5, 0.01
+    breaks = np.arange(0.0, T + dt / 2, dt)
+    values = np.arange(breaks.size, dtype=float) ** 1.5   # a new value every sensor sample
+    states = {}
+    for joint in ("prismatic", "revolute"):
+        cfg = DynamicsMonitorConfig(joint=joint, pull=[1.0, 0.0, 0.0])
+        b = DiagramBuilder()
+        mon = b.AddSystem(DynamicsMonitor(cfg))
+        G = b.AddSystem(TrajectorySource(PiecewisePolynomial.FirstOrderHold(
+            [0.0, T], np.array([[0.5, 0.52], [0, 0], [1, 1]]))))
+        F = b.AddSystem(TrajectorySource(PiecewisePolynomial.ZeroOrderHold(
+            list(breaks), np.stack([-values, 0 * values, 0 * values]))))
+        b.Connect(G.get_output_port(), mon.get_hook_position_input_port())
+        b.Connect(F.get_output_port(), mon.get_force_input_port())
+        sim = Simulator(b.Build())
+        sim.AdvanceTo(T)
+        states[joint] = mon.state(mon.GetMyContextFromRoot(sim.get_context()))
+    s = states["prismatic"]
+    assert s.t.size >= 20
+    held = values[np.floor(s.t / dt + 1e-9).astype(int)]
+    assert np.allclose(-s.F[:, 0], held)                   # the force at each instant
+    readings = 0.75 * dt + dt * np.arange(int(T / dt))      # every sensor sample once
+    for i in range(1, s.t.size):
+        inside = (readings > s.t[i - 1]) & (readings <= s.t[i])
+        assert inside.sum() in (2, 3)
+        expect = values[np.floor(readings[inside] / dt).astype(int)].mean()
+        assert -s.F_mean[i, 0] == pytest.approx(expect)
+    assert not np.allclose(s.F_mean, s.F)
+    door = states["revolute"]
+    assert np.array_equal(door.F_mean, door.F)
+    with pytest.raises(ValueError, match="prismatic_force_period"):
+        DynamicsMonitorConfig(prismatic_force_period=0.05)
+
+
 def test_monitor_jammed_at_from_the_block_not_the_hook_slide():
     """A drawer pulled at 5 cm/s (1.5 N) stops at 0.10 m; the hook slides 4 cm further on
     its handle at 5 N, then the force jumps to 40 N within one period: the monitor halts at
