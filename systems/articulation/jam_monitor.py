@@ -14,7 +14,9 @@ or against a mechanism that has not moved, ``locked_force``); or the force staye
 ``block_force`` over ``fast_window`` without the hook advancing. It then tells the
 controller to stop: halt code 1 (jammed: the hook had advanced by ``locked_travel`` or
 more) or 2 (locked), and keeps where the block began (``blocked_at``: the opening from
-where the hook began to move the mechanism to where the force rose). The pulling
+where the hook began to move the mechanism to where the force rose). For a prismatic
+mechanism the regression's force is the mean of every wrist-sensor sample over the period
+(``prismatic_force_period``; the block tests keep the force at the sample instant). The pulling
 speed is modulated so that the rate varies and damping can be told from friction: for a
 door sinusoidally (``speed`` x (1 + ``excitation`` sin(2 pi t / ``excitation_period``)) of the
 step), for a drawer alternating between two speeds, each held for a while and joined by
