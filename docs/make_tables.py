@@ -664,11 +664,12 @@ def _beyond_results() -> dict[str, str]:
                             f"{sum(m['successes'] for m in ms)}/{sum(m['trials'] for m in ms)}")
     figs = [(x or {}).get("summary", x or {}) for x in map(_load, _MECH_DAMPING)]
     if all(f.get("damping_drawer") and f.get("damping_left_door") for f in figs):
-        def _per_set(key):
-            return ", ".join(f"{f[key]['within_25pct']}/{f[key]['trials']}" for f in figs)
+        def _total(key):
+            return (f"{sum(f[key]['within_25pct'] for f in figs)}/"
+                    f"{sum(f[key]['trials'] for f in figs)}")
         r["mechanism_dynamics"] = (f"damping within 25 %, {len(figs)} seed sets: "
-                                   f"drawers {_per_set('damping_drawer')}; "
-                                   f"doors {_per_set('damping_left_door')}")
+                                   f"drawers {_total('damping_drawer')}, "
+                                   f"doors {_total('damping_left_door')}")
     d = _load("teaching.json")
     if d:
         by = {c["condition"]: c for c in d["conditions"]}
