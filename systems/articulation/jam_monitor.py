@@ -64,8 +64,9 @@ class DynamicsMonitorConfig:
             sensor's sample period, so every sensor sample is read once and the regression's
             force noise is the sensor's over the square root of the 2.5 samples averaged
             (a drawer's damping force is a few tenths of a newton beside it); the block
-            tests keep the force read at the sample instant. The readings fall three
-            quarters of this period after its multiples (after the sensor's new sample).
+            tests keep the force read at the sample instant. The readings fall on this
+            period's multiples, the sensor's own sample instants, and read the sample held
+            until then (no simulator step of their own).
         refit_every: the dynamics are refitted after this many new samples (count).
         min_samples: samples before the first fit (count).
         speed: the pulling speed relative to the controller's step (its mean over the
@@ -322,7 +323,7 @@ class DynamicsMonitor(LeafSystem):
         self._sum = self.DeclareDiscreteState(4)
         every = cfg.averaging_period()
         if every > 0:
-            self.DeclarePeriodicDiscreteUpdateEvent(every, 0.75 * every, self._accumulate)
+            self.DeclarePeriodicDiscreteUpdateEvent(every, 0.0, self._accumulate)
         self.DeclarePeriodicUnrestrictedUpdateEvent(cfg.period, 0.0, self._update)
         deps = {self.abstract_state_ticket(self._s), self.time_ticket()}
         self._out_sup = self.DeclareVectorOutputPort("supervisor", BasicVector(2),
