@@ -60,6 +60,10 @@ COMMANDS = {
     "mechanism_damping_980.json": "python benchmarks/bench_mechanism.py --only damping --seed 980 "
                                   "--results docs/results/mechanism_damping_980.jsonl "
                                   "--json docs/results/mechanism_damping_980.json",
+    # and on a fourth
+    "mechanism_damping_1010.json": "python benchmarks/bench_mechanism.py --only damping "
+                                   "--seed 1010 --results docs/results/mechanism_damping_1010.jsonl "
+                                   "--json docs/results/mechanism_damping_1010.json",
     # jams at 5 positions, latches and sticky mechanisms, doors and drawers (about 30 CPU minutes)
     "mechanism_faults.json": "python benchmarks/bench_mechanism.py --only jam,locked,sticky "
                              "--kinds left_door,drawer --trials 2 --repeats 5 --seed 700 --jobs 2 "
@@ -135,7 +139,8 @@ COMMANDS.update(NOTES.COMMANDS)
 #: mechanism-dynamics and teaching work: re-run them after such changes
 #: (``--run --only <stem>,...``)
 VOLATILE = ("operate", "operate_trials", "user_models", "mechanism_damping",
-            "mechanism_damping_950", "mechanism_damping_980", "mechanism_faults", "fronts",
+            "mechanism_damping_950", "mechanism_damping_980", "mechanism_damping_1010",
+            "mechanism_faults", "fronts",
             "perception_distance", "teaching", "imitate", "quick_tour", "speed")
 VOLATILE += ENGINEERING.VOLATILE + NOTES.VOLATILE
 
@@ -659,11 +664,12 @@ def _beyond_results() -> dict[str, str]:
                             f"{sum(m['successes'] for m in ms)}/{sum(m['trials'] for m in ms)}")
     figs = [(x or {}).get("summary", x or {}) for x in map(_load, _MECH_DAMPING)]
     if all(f.get("damping_drawer") and f.get("damping_left_door") for f in figs):
-        def _per_set(key):
-            return ", ".join(f"{f[key]['within_25pct']}/{f[key]['trials']}" for f in figs)
+        def _total(key):
+            return (f"{sum(f[key]['within_25pct'] for f in figs)}/"
+                    f"{sum(f[key]['trials'] for f in figs)}")
         r["mechanism_dynamics"] = (f"damping within 25 %, {len(figs)} seed sets: "
-                                   f"drawers {_per_set('damping_drawer')}; "
-                                   f"doors {_per_set('damping_left_door')}")
+                                   f"drawers {_total('damping_drawer')}, "
+                                   f"doors {_total('damping_left_door')}")
     d = _load("teaching.json")
     if d:
         by = {c["condition"]: c for c in d["conditions"]}
@@ -866,7 +872,7 @@ _NUMBERS = {2: "two", 3: "three", 4: "four"}
 
 #: the damping sweeps: one results file per set of seeds
 _MECH_DAMPING = ("mechanism_damping.json", "mechanism_damping_950.json",
-                 "mechanism_damping_980.json")
+                 "mechanism_damping_980.json", "mechanism_damping_1010.json")
 
 
 def _mech_damping_table(file: str) -> str:

@@ -117,7 +117,7 @@ def dynamics_record(op, ctx, to_unit, options: dict) -> dict:
         out["jammed_at"] = to_unit(s.blocked_at) if math.isfinite(s.blocked_at) else None
     est = op.estimator.GetMyContextFromRoot(ctx).get_abstract_state(0).get_value()
     link = est.model.edges[0].model if est.model is not None and est.model.edges else None
-    g = generalized_samples(link, s.t, s.G, s.F)
+    g = generalized_samples(link, s.t, s.G, s.F_mean)
     if g is None:
         return out
     # the samples up to the block (after it the hook lets go)
