@@ -516,6 +516,21 @@ def _speed(load, name):
     return None, d
 
 
+def demo_speed(load, cmd) -> str:
+    """The README demo's simulation speed (speed.json's bench_demo) against the 6x target."""
+    b, d = _speed(load, "bench_demo")
+    if not b:
+        return _missing("speed.json")
+    f = b["figures"]
+    rtf = f["realtime_factor_cpu"]
+    return (f"The README's demo (`open_cabinet --object left_door --seed 1`): "
+            f"{f['simulated_s']:.2f} s simulated in {f['simulation_cpu_s']:.2f} s of simulation "
+            f"CPU, {rtf:.2f}x real time on the CPU clock (target >= 6x: "
+            f"{'met' if rtf >= 6 else 'not met'}; load {b['load_start']:.1f}-{b['load_end']:.1f}; "
+            f"`benchmarks/bench_demo.py --quick`, made by `{cmd('speed.json')}`). From run to "
+            "run on a shared machine this figure moves by several per cent either way.")
+
+
 def selection_speed(load, cmd) -> str:
     """Link-model selection's CPU time (speed.json's bench_articulation) against the targets."""
     b, d = _speed(load, "bench_articulation")
@@ -651,7 +666,8 @@ def page_blocks(load, cmd, load_runs, results_dir) -> dict:
                              "teaching_findings": lambda: teaching_findings(load_runs, cmd)},
         "docs/performance_articulation.md": {
             "selection_speed": b(selection_speed), "peer_ripl": b(peer_ripl),
-            "opening_speed": lambda: opening_speed(load, cmd, results_dir())},
+            "opening_speed": lambda: opening_speed(load, cmd, results_dir()),
+            "demo_speed": b(demo_speed)},
         "docs/body_schema.md": {"learner_share": b(learner_share)},
         "docs/imitation.md": {"imitation_cost": b(imitation_cost)},
         "docs/performance.md": {"peer_ripl_table": b(peer_ripl), "peer_gp": b(peer_gp)},
