@@ -33,19 +33,19 @@ Model fitting (deviations in the optimiser and the kernel; the model is the thes
   0.5 x the length scales and fits the hyper-parameters on all the pair's samples
   (``SearchConfig.refit_ell_starts``, ``refit_max_opt``): from a single start the GP that
   bridges the occluded part (x3-x5 on (q2, q3)) ended in a local optimum that explains q3's
-  effect as noise (fitted noise 11-13 mm against ~8 mm per axis).
+  effect as noise (a fitted noise well above the markers' own).
 * The local GPs' kernel has the term ``sb2 prod_d (1 + cos(q_d - q'_d))`` besides the
   squared exponential (``SearchConfig.kernel``): it spans the relative transforms of
   revolute chains, so the bridge GP no longer reverts to its mean away from its samples
-  (prediction error at 50 samples, sigma 0.01 m: 0.0155 -> 0.0086 m on 10 seeds).
+  (its prediction error is the lower for it).
 * Consecutive searches reuse each candidate's hyper-parameters (``warm_start``,
   ``refit_growth``; kept in the schema, i.e. in this system's state).
 
 Cost: the structure search's arithmetic (none of its decisions) is vectorised: the k = 0 GPs
 get their marginal-likelihood optimum in closed form, the screening of a layer runs once for
-all pairs, SO(3) projections use the Newton polar iteration. The learner takes 16 % of the
-7-DOF simulation's CPU time (``OPENBLAS_NUM_THREADS=1 python benchmarks/bench_learner_cost.py
---arm 7dof``: ``learner_share``).
+all pairs, SO(3) projections use the Newton polar iteration. The learner's share of the 7-DOF
+simulation's CPU time is measured by ``benchmarks/bench_learner_cost.py`` (``learner_share``;
+docs/body_schema.md gives it from the speed results).
 """
 
 from __future__ import annotations

@@ -383,8 +383,8 @@ def _refit_on_own_pixels(planes, labels, Pc, Lmap, min_change_deg, crossing_angl
     no plane's normal turns by ``min_change_deg`` (deg) or more (and less than
     ``max_change_deg``); else the list with every such plane replaced. Planes of fewer than
     ``min_support`` RANSAC samples (a few rows of the sample grid) are left alone: their own
-    pixels are too few for a refit that is not mostly noise (two such planes of 29-31 samples
-    turned by 0.6-1.7 deg and lost a drawer at 2.3 m, measured).
+    pixels are too few for a refit that is not mostly noise (such a refit turns a small
+    plane by its noise and can lose the front on it).
 
     Why: RANSAC and :func:`refine_plane_fullres` count every pixel within L (then L / 2) of a
     plane. A door opened by a few degrees crosses the cabinet's face at that angle, so the
