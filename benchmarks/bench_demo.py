@@ -1,9 +1,9 @@
 """The README's demo as a speed benchmark: ``open_cabinet --object left_door --seed 1`` (the
 robot drives to the door, hooks its handle and opens it while learning its model), timed by
 its own record: the simulation's CPU seconds (``Simulator.AdvanceTo`` only, not the trial's
-build) and its real-time factor on the CPU clock (simulated seconds / CPU seconds). The
-trial is built once untimed first, so the compiled kernels' cache load is not counted. Prints
-figures; never fails on time.
+build) and its real-time factor on the CPU clock (simulated seconds / CPU seconds). One
+whole trial runs untimed first, so loading the compiled kernels and the modules the trial
+imports is not counted. Prints figures; never fails on time.
 
     python benchmarks/bench_demo.py [--runs N] [--quick] [--json [FILE]]
 """
