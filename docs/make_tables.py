@@ -126,10 +126,13 @@ def _tables_module(name: str):
 
     spec = importlib.util.spec_from_file_location(name, DOCS / f"{name}.py")
     mod = importlib.util.module_from_spec(spec)
+    sys.modules[name] = mod  # (the other docs/ modules import docs/tables_common.py by name)
     spec.loader.exec_module(mod)
     return mod
 
 
+COMMON = _tables_module("tables_common")
+_fmt, _table, _missing = COMMON.fmt, COMMON.table, COMMON.missing
 ENGINEERING = _tables_module("tables_engineering")
 NOTES = _tables_module("tables_notes")
 COMMANDS.update(ENGINEERING.COMMANDS)
@@ -150,24 +153,6 @@ def _load(name: str):
     if not path.is_file():
         return None
     return json.loads(path.read_text())
-
-
-def _fmt(x, digits: int = 3, unit: str = "") -> str:
-    if x is None:
-        return "-"
-    if isinstance(x, bool):
-        return "yes" if x else "no"
-    if isinstance(x, int):
-        return f"{x}{unit}"
-    if isinstance(x, float):
-        return f"{x:.{digits}f}{unit}"
-    return str(x)
-
-
-def _table(header: list[str], rows: list[list[str]]) -> str:
-    out = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    out += ["| " + " | ".join(str(c) for c in row) + " |" for row in rows]
-    return "\n".join(out)
 
 
 def _source(*names: str) -> str:
@@ -402,10 +387,6 @@ def _wrap(text: str) -> str:
 
 def _cmd(name: str) -> str:
     return f"`{COMMANDS[name]}`"
-
-
-def _missing(name: str) -> str:
-    return f"(no `docs/results/{name}` yet: `python docs/make_tables.py --run --only {Path(name).stem}`)"
 
 
 def _real_tracks(d) -> tuple[int, int]:

@@ -19,6 +19,8 @@ import sys
 import tempfile
 from pathlib import Path
 
+from tables_common import fmt as _f, missing as _missing, table as _table
+
 #: results file -> the command (from the repository root) that writes it
 COMMANDS = {
     # where the door radius' error comes from (docs/operating_accuracy.md), about 15 CPU
@@ -76,29 +78,6 @@ USER_MODEL_TRIALS = 5
 
 
 # ------------------------------------------------------------------------------ helpers
-
-def _f(x, digits: int = 3, unit: str = "", sign: bool = False) -> str:
-    if x is None:
-        return "-"
-    if isinstance(x, bool):
-        return "yes" if x else "no"
-    if isinstance(x, int):
-        return f"{x}{unit}"
-    if abs(x) < 0.5 * 10.0 ** -digits:
-        return f"{0.0:.{digits}f}{unit}"  # no "-0.000" / "+0.000"
-    return f"{x:+.{digits}f}{unit}" if sign else f"{x:.{digits}f}{unit}"
-
-
-def _table(header, rows) -> str:
-    out = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    out += ["| " + " | ".join(str(c) for c in row) + " |" for row in rows]
-    return "\n".join(out)
-
-
-def _missing(name: str) -> str:
-    return (f"(no `docs/results/{name}` in this checkout: `python docs/make_tables.py --run "
-            f"--only {Path(name).stem}` makes it)")
-
 
 def _mean(xs):
     xs = [x for x in xs if x is not None]

@@ -13,6 +13,8 @@ command).
 
 from __future__ import annotations
 
+from tables_common import missing as _missing
+
 #: results file -> the command (from the repository root) that writes it
 COMMANDS = {
     # the front detector with each departure from the thesis switched off in turn, on 90
@@ -53,11 +55,6 @@ ABLATIONS = (("thesis_costs", "Costs"), ("no_crossings", "Crossings"),
 
 def _f(x, digits: int = 1) -> str:
     return "-" if x is None else f"{x:.{digits}f}"
-
-
-def _missing(name: str) -> str:
-    stem = name.rsplit(".", 1)[0]
-    return f"(no `docs/results/{name}` yet: `python docs/make_tables.py --run --only {stem}`)"
 
 
 def _fields(fields: dict) -> str:
