@@ -143,7 +143,7 @@ COMMANDS.update(NOTES.COMMANDS)
 #: (``--run --only <stem>,...``)
 VOLATILE = ("operate", "operate_trials", "user_models", "mechanism_damping",
             "mechanism_damping_950", "mechanism_damping_980", "mechanism_damping_1010",
-            "mechanism_faults", "fronts",
+            "mechanism_faults", "door_damping_sources", "fronts",
             "perception_distance", "teaching", "imitate", "quick_tour", "speed")
 VOLATILE += ENGINEERING.VOLATILE + NOTES.VOLATILE
 

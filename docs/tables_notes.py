@@ -1,8 +1,8 @@
 """The measured lines of the design notes and deviation lists: the front detector's deviations
 and its vertical-plane rule (docs/perception.md), the first-call cost of the compiled kernels
 (docs/perception.md, docs/performance_articulation.md), the camera marker sensor's image
-size (docs/body_schema.md) and DTW's features (docs/imitation.md), and the results files they
-are made from.
+size (docs/body_schema.md), DTW's features (docs/imitation.md) and what limits a door's
+learned damping (docs/mechanism_dynamics.md), and the results files they are made from.
 
 Imported by docs/make_tables.py like docs/tables_engineering.py: :data:`COMMANDS` is merged
 into its own, and the blocks of :func:`page_blocks` are written between
@@ -40,6 +40,11 @@ COMMANDS = {
     "camera_markers_640.json": "python benchmarks/bench_camera_marker_sensor.py --width 640 "
                                "--distances 1,1.5,2,2.5 --angles 0 --n 6 --seed 0 "
                                "--json docs/results/camera_markers_640.json",
+    # a door's damping fitted from sources one step apart, from the simulator's truth to the
+    # robot's estimate, over 24 door trials (about 5 CPU minutes)
+    "door_damping_sources.json": "python benchmarks/bench_door_damping_sources.py --seed 600 "
+                                 "--doors 24 --jobs 2 "
+                                 "--json docs/results/door_damping_sources.json",
 }
 
 #: the results files here whose figures change with the detector's work
@@ -200,6 +205,50 @@ def dtw_features(load, cmd) -> str:
             f"(`{cmd('imitation_alignment.json')}`).")
 
 
+#: the door-damping sources, in the benchmark's order, as the mechanism page names them
+DOOR_SOURCES = (("ideal", "noise-free wrist force, true lever arm, the door's own angle, rate "
+                 "and acceleration"),
+                ("sensor", "the sensor's readings instead"),
+                ("sensor_aligned", "each reading paired with the door's state one sensor "
+                 "sample earlier"),
+                ("learned_tangent", "the torque from the learned model's tangent"),
+                ("learned_tangent_leak", "the same with the force across the door as a "
+                 "nuisance term"),
+                ("learned_kinematics", "the opening, rate and acceleration from the hook's "
+                 "track along the learned model"),
+                ("robot", "the robot's estimate (its 25 ms samples)"))
+
+
+def door_damping_sources(load, cmd) -> str:
+    """The mechanism page's table of what limits a door's damping: per source, the doors
+    within 25 % and the mean signed and absolute errors, light doors and the rest."""
+    d = load("door_damping_sources.json")
+    if not d:
+        return _missing("door_damping_sources.json")
+    s = d["summary"]
+    rows = []
+    for key, label in DOOR_SOURCES:
+        cells = []
+        for group in ("light", "heavier"):
+            x = s[f"{key}_{group}"]
+            cells.append("-" if not x["doors"] else
+                         f"{x['within_25pct']}/{x['doors']} ({x['mean_error'] * 100:+.0f} %, "
+                         f"{x['mean_abs_error'] * 100:.0f} %)")
+        rows.append(f"| {label} | {cells[0]} | {cells[1]} |")
+    light = f"{s['light_damping']:g}"
+    heavier = ", ".join(f"{v:g}" for v in sorted(set(d["damping"])) if v != s["light_damping"])
+    lo, hi = s["opening_scale"] or (None, None)
+    rlo, rhi = s["radius_ratio"] or (None, None)
+    return (f"**A door's damping from each source** ({d['doors']} door trials, seeds "
+            f"{d['seed']}-{d['seed'] + d['doors'] - 1}; within 25 % of the true value (mean "
+            "signed error, mean absolute error))\n\n"
+            f"| source | doors at {light} N m s/rad | doors at {heavier} N m s/rad |\n"
+            "|---|---|---|\n" + "\n".join(rows) + "\n\n"
+            f"The learned opening grows {_f(lo, 3)}-{_f(hi, 3)} times as fast as the door's "
+            f"angle; the learned radius is {_f(rlo, 3)}-{_f(rhi, 3)} of the true one. "
+            f"Made by `{cmd('door_damping_sources.json')}`.")
+
+
 def page_blocks(load, cmd) -> dict:
     """docs page -> {block name -> function of no arguments giving its text}."""
     return {"docs/perception.md": {"detector_ablations": lambda: detector_ablations(load, cmd),
@@ -208,4 +257,6 @@ def page_blocks(load, cmd) -> dict:
             "docs/performance_articulation.md": {
                 "first_call_selection": lambda: first_call_selection(load, cmd)},
             "docs/body_schema.md": {"camera_markers": lambda: camera_markers(load, cmd)},
-            "docs/imitation.md": {"dtw_features": lambda: dtw_features(load, cmd)}}
+            "docs/imitation.md": {"dtw_features": lambda: dtw_features(load, cmd)},
+            "docs/mechanism_dynamics.md": {
+                "door_damping_sources": lambda: door_damping_sources(load, cmd)}}

@@ -73,6 +73,23 @@ def test_regularised_friction_is_not_read_as_damping():
         fit_dynamics(q, qd, tau, joint="prismatic", friction_velocity=-1.0)
 
 
+def test_nuisance_regressor_takes_up_a_leak_correlated_with_the_rate():
+    """A force across the door that grows with the rate and leaks into the torque (a tangent
+    a few degrees off) reads as damping; given as a nuisance regressor it is fitted beside
+    the four coefficients and marginalised out."""
+    q, qd, qdd, tau = _pull(0.5, 0.3, 0.0, noise=0.02, seed=4)
+    across = 2.0 + 20.0 * qd + np.random.default_rng(5).normal(0, 3.0, q.size)  # N m
+    leaked = tau + 0.05 * across
+    plain = fit_dynamics(q, qd, leaked, qdd, joint="revolute")
+    fixed = fit_dynamics(q, qd, leaked, qdd, joint="revolute", nuisance=across[:, None])
+    assert plain.damping > 0.5 + 0.5 * 0.05 * 20.0
+    assert fixed.damping == pytest.approx(0.5, abs=max(0.05, 3 * fixed.damping_std))
+    assert fixed.friction == pytest.approx(0.3, abs=0.05)
+    assert np.asarray(fixed.covariance).shape == (4, 4)
+    with pytest.raises(ValueError, match="nuisance_std"):
+        fit_dynamics(q, qd, leaked, qdd, joint="revolute", nuisance=across, nuisance_std=0.0)
+
+
 def test_outliers_rejected_and_too_few_samples():
     q, qd, qdd, tau = _pull(10.0, 2.0, 0.0)
     tau[-20:] += 80.0  # the end stop

@@ -284,13 +284,20 @@ def fit_dynamics(q, qdot, tau, qddot=None, *, joint: str, min_rate: float | None
                  prior_std=None, bins: int = 5, rejection_rounds: int = 2,
                  radius: float | None = None, q_offset: float = 0.0,
                  q_sign: float = 1.0,
-                 friction_velocity: float = 0.0) -> MechanismDynamics | None:
+                 friction_velocity: float = 0.0, nuisance=None,
+                 nuisance_std: float = 1.0) -> MechanismDynamics | None:
     """Bayesian linear regression of the generalised force on (qdot, sign(qdot), q, qddot)
     (see the module docstring). ``min_rate``: samples slower than this, or than a quarter
     of the median rate, are left out (default 0.02 rad/s or 0.008 m/s); ``prior_std``: the coefficients' prior standard
     deviations (default: broad, by joint); ``bins``: bins of the friction profile;
     ``friction_velocity``: the friction's regularisation speed (:func:`friction_shape`;
-    0: ideal Coulomb friction, sign(qdot)). Returns None with fewer than 8 usable samples."""
+    0: ideal Coulomb friction, sign(qdot)). ``nuisance``: further regressors (k, m), in the
+    generalised force's unit per unit coefficient, fitted beside the four with zero-mean
+    Gaussian priors of deviation ``nuisance_std`` and marginalised out (the result's
+    coefficients, deviations and covariance are the four's; the friction profile removes
+    them too): a known disturbance of unknown size, such as the force across a door that
+    leaks into the torque through the learned tangent's direction error. Returns None with
+    fewer than 8 usable samples."""
     dynamics_units(joint)  # checks joint
     q, qdot, tau = (np.asarray(a, float) for a in (q, qdot, tau))
     qddot = np.zeros_like(q) if qddot is None else np.asarray(qddot, float)
@@ -306,7 +313,17 @@ def fit_dynamics(q, qdot, tau, qddot=None, *, joint: str, min_rate: float | None
         return None
     shape = friction_shape(qdot, friction_velocity)
     X_all = np.stack([qdot, shape, q, qddot], axis=1)
-    P = np.diag(1.0 / np.square(np.asarray(prior_std or _PRIOR_STD[joint], float)))
+    prior = list(prior_std or _PRIOR_STD[joint])
+    if nuisance is not None:
+        extra = np.asarray(nuisance, float).reshape(q.size, -1)
+        if not (nuisance_std > 0 and math.isfinite(nuisance_std)):
+            raise ValueError(f"nuisance_std must be a finite number > 0, got {nuisance_std!r}")
+        use &= np.all(np.isfinite(extra), axis=1)
+        if use.sum() < 8:
+            return None
+        X_all = np.hstack([X_all, np.where(np.isfinite(extra), extra, 0.0)])
+        prior += [nuisance_std] * extra.shape[1]
+    P = np.diag(1.0 / np.square(np.asarray(prior, float)))
 
     def posterior(m, weights, s2):
         X, y = X_all[m] * weights[:, None], tau[m] * weights
@@ -335,13 +352,15 @@ def fit_dynamics(q, qdot, tau, qddot=None, *, joint: str, min_rate: float | None
             w, cov = posterior(keep, np.ones(int(keep.sum())), s2)
             s2 = max(float(np.mean((tau[keep] - X_all[keep] @ w) ** 2)), 1e-8)
         w, cov = posterior(keep, np.ones(int(keep.sum())), s2)
+    cov = cov[:4, :4]   # the nuisance terms marginalised out
     sd = np.sqrt(np.diag(cov))
     qk = q[keep]
     profile = []
     if bins >= 1 and qk.size:
         edges = np.linspace(qk.min(), qk.max(), bins + 1)
         # per bin the friction f_bin that fits the residual best: resid ~ f_bin s(qdot)
-        resid = tau - X_all[:, [0, 2, 3]] @ w[[0, 2, 3]]
+        others = [0, 2, 3, *range(4, w.size)]
+        resid = tau - X_all[:, others] @ w[others]
         for a, b in zip(edges[:-1], edges[1:]):
             m = keep & (q >= a) & (q <= b)
             ss = float(np.sum(shape[m] ** 2))

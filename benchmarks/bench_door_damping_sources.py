@@ -1,0 +1,252 @@
+"""Diagnostic: what limits a door's learned damping, step by step, over many door trials
+(prints a table, never fails on a figure).
+
+    python benchmarks/bench_door_damping_sources.py [--seed 600] [--doors 20]
+        [--damping 0.5,0.5,1,2,3,5] [--jobs 1] [--json [FILE]]
+
+Door ``i`` is seed ``--seed`` + i with the ``i``-th value of ``--damping`` (cycled), each an
+``open_cabinet`` door trial with the dynamics monitor. Every 5 ms the simulator's door angle
+and rate are recorded; at every wrist-sensor sample (10 ms) the sensor's reading, its
+noise-free force and the hook position the monitor is given. The damping is then fitted with
+the monitor's regression (:func:`~mmlearn.models.articulation.dynamics.fit_dynamics`, the
+samples of the pull the monitor kept) from sources that go one step at a time from the
+simulator's truth to what the robot has:
+
+1. ``ideal``: the noise-free wrist force times the true lever arm at the handle, against the
+   door's true angle, rate and acceleration;
+2. ``sensor``: the sensor's reading instead (its noise, and its sample lag: a reading
+   describes the force of up to one sample period before);
+3. ``sensor_aligned``: each reading paired with the door's state at the previous sensor
+   sample, the lag taken out;
+4. ``learned_tangent``: as 3, the torque from the learned model's tangent instead of the true
+   lever arm (the learned radius, and the force across the door leaking in through the
+   tangent's direction error);
+5. ``learned_tangent_leak``: as 4 with the leak as a nuisance term of the regression (the
+   force across the door times the learned radius, of unknown size);
+6. ``learned_kinematics``: as 5, with the opening, rate and acceleration from the hook's
+   track along the learned model (local quadratic fits over +-0.2 s) instead of the door's;
+7. ``robot``: the robot's own estimate (the monitor's 25 ms samples, as the trial reports it).
+
+It also reports how fast the learned opening grows against the door's angle
+(``opening_scale``) and the learned radius over the true one. The summary gives, per source,
+the doors within 25 %, the mean signed error and the mean absolute error, for the doors at
+the smallest damping and for the rest.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import time
+
+import numpy as np
+
+from _common import add_output_arguments, emit_json
+
+SOURCES = ("ideal", "sensor", "sensor_aligned", "learned_tangent", "learned_tangent_leak",
+           "learned_kinematics", "robot")
+
+
+def record(seed: int, damping: float) -> dict:
+    """Simulate one door trial with the dynamics monitor (see the module docstring)."""
+    from pydrake.systems.analysis import Simulator
+
+    from mmlearn.diagrams.articulation.operate import MakeOperateDiagram, OperateConfig
+    from mmlearn.systems.articulation.epc_controller import DONE
+    from mmlearn.systems.articulation.jam_monitor import DynamicsMonitorConfig
+
+    op = MakeOperateDiagram(OperateConfig(kind="left_door", seed=seed,
+                                          mechanism_options={"damping": damping},
+                                          monitor=DynamicsMonitorConfig()))
+    sim = Simulator(op.diagram)
+    ctx = sim.get_mutable_context()
+    op.scene.set_joint_positions(ctx, op.start_command)
+    sim.Initialize()
+    plant, mech = op.scene.plant, op.scene.mechanism
+    pctx = plant.GetMyContextFromRoot(ctx)
+    mon = op.monitor
+    mctx = mon.GetMyContextFromRoot(ctx)
+    sctx = op.force_sensor.GetMyContextFromRoot(ctx)
+    phase = op.diagram.GetOutputPort("phase")
+    door, sensor = [], []
+    k = 0
+    while ctx.get_time() < 60.0:
+        k += 1
+        sim.AdvanceTo(0.005 * k)
+        door.append((ctx.get_time(), plant.GetPositions(pctx, mech)[0],
+                     plant.GetVelocities(pctx, mech)[0]))
+        if k % 2 == 0:
+            sensor.append((ctx.get_time(), *mon.get_hook_position_input_port().Eval(mctx),
+                           *mon.get_force_input_port().Eval(mctx),
+                           *op.force_sensor.true_force(sctx)))
+        if int(phase.Eval(ctx)[0]) == DONE:
+            break
+    s = mon.state(mctx)
+    est = op.estimator.GetMyContextFromRoot(ctx).get_abstract_state(0).get_value()
+    link = est.model.edges[0].model if est.model is not None and est.model.edges else None
+    spec = op.mechanism
+    axis, p_axis = spec.axis_world()
+    return {"seed": seed, "damping": damping, "door": np.array(door),
+            "sensor": np.array(sensor), "monitor": s, "link": link, "spec": spec,
+            "axis": axis, "p_axis": p_axis,
+            "friction_velocity": mon.config.friction_velocity}
+
+
+def radial_leak(link, G, F) -> np.ndarray:
+    """The force across the door times the learned radius (N m): minus the wrist force along
+    the learned model's outward radius at each hook position, times that radius. A tangent
+    turned by a small angle e from the true one adds e times this to the torque."""
+    q = np.asarray(link.inverse(G), float)[:, :1]
+    h = 1e-3
+    radial = -(np.asarray(link.jacobian(q + h), float)[:, :3, 0]
+               - np.asarray(link.jacobian(q - h), float)[:, :3, 0]) / (2 * h)
+    r = np.linalg.norm(radial, axis=1)
+    return -np.sum(F * radial / r[:, None], axis=1) * r
+
+
+def analyse(rec: dict) -> dict:
+    """The damping from each source (see the module docstring), relative errors."""
+    from mmlearn.models.articulation.dynamics import (fit_dynamics, generalized_samples,
+                                                      local_derivatives)
+
+    b_true, s, link, spec = rec["damping"], rec["monitor"], rec["link"], rec["spec"]
+    out = {"seed": rec["seed"], "true_damping": b_true, "learned": {}}
+    if link is None or link.name != "revolute":
+        out["model"] = None if link is None else link.name
+        return out
+    fv = rec["friction_velocity"]
+    door, sen = rec["door"], rec["sensor"]
+    t_end = s.t_halt - 0.1 if math.isfinite(s.t_halt) else s.t[-1]
+    # the sensor samples of the pull: those within one monitor period of a kept sample
+    ts = sen[:, 0]
+    near = np.zeros(ts.size, bool)
+    idx = np.searchsorted(s.t, ts)
+    for j in (idx - 1, idx):
+        jj = np.clip(j, 0, s.t.size - 1)
+        near |= np.abs(s.t[jj] - ts) < 0.026
+    pick = np.flatnonzero(near & (ts >= s.t[0] - 1e-9) & (ts <= t_end + 1e-9)
+                          & np.all(np.isfinite(sen[:, 1:]), axis=1))
+    prev = np.maximum(pick - 1, 0)   # the previous sensor sample
+    G, F, F0 = sen[pick, 1:4], sen[pick, 4:7], sen[pick, 7:10]
+    acc = np.gradient(door[:, 2], door[:, 0])
+
+    def truth(at):
+        return (np.interp(at, door[:, 0], door[:, 1]), np.interp(at, door[:, 0], door[:, 2]),
+                np.interp(at, door[:, 0], acc))
+
+    def lever(q):
+        from scipy.spatial.transform import Rotation
+
+        h0 = spec.handle_world(0.0)[0] - rec["p_axis"]
+        rot = Rotation.from_rotvec(np.outer(q, rec["axis"]))
+        return np.cross(rec["axis"], rot.apply(h0))
+
+    def fit(q, qd, tau, qdd, nuisance=None):
+        d = fit_dynamics(q - q[0], qd, tau, qdd, joint="revolute", friction_velocity=fv,
+                         nuisance=nuisance)
+        return None if d is None else float(d.damping)
+
+    q, v, a = truth(ts[pick])
+    qp, vp, ap = truth(ts[prev])
+    out["learned"]["ideal"] = fit(q, v, -np.sum(F0 * lever(q), axis=1), a)
+    out["learned"]["sensor"] = fit(q, v, -np.sum(F * lever(q), axis=1), a)
+    # the reading at sample k describes the force at sample k - 1
+    keep = (pick > 0) & np.all(np.isfinite(sen[prev, 1:]), axis=1)
+    out["learned"]["sensor_aligned"] = fit(qp[keep], vp[keep],
+                                           -np.sum(F[keep] * lever(qp[keep]), axis=1), ap[keep])
+    Gp = sen[prev, 1:4]
+    g = generalized_samples(link, ts[prev][keep], Gp[keep], F[keep])
+    leak = radial_leak(link, Gp[keep], F[keep]) if g is not None else None
+    if g is not None:
+        out["learned"]["learned_tangent"] = fit(qp[keep], vp[keep], g["tau"], ap[keep])
+        out["learned"]["learned_tangent_leak"] = fit(qp[keep], vp[keep], g["tau"], ap[keep],
+                                                     leak[:, None])
+        qd, qdd = local_derivatives(g["t"], g["q"])
+        out["learned"]["learned_kinematics"] = fit(g["q"], qd, g["tau"], qdd, leak[:, None])
+        out["opening_scale"] = float(np.polyfit(qp[keep] - qp[keep][0], g["q"], 1)[0])
+        r_true = float(np.linalg.norm(lever(np.zeros(1))[0]))
+        out["radius_ratio"] = g["radius"] / r_true
+    gm = generalized_samples(link, s.t, s.G, s.F_mean)
+    if gm is not None:
+        k = gm["t"] < t_end + 1e-9
+        out["learned"]["robot"] = fit(gm["q"][k], gm["qdot"][k], gm["tau"][k], gm["qddot"][k])
+    out["error"] = {k: (None if b is None else b / b_true - 1) for k, b in out["learned"].items()}
+    return out
+
+
+def run_door(job: tuple) -> dict:
+    seed, damping = job
+    t0 = time.perf_counter()
+    r = analyse(record(seed, damping))
+    r["wall_s"] = round(time.perf_counter() - t0, 1)
+    return r
+
+
+def summary(results: list[dict]) -> dict:
+    """Per source: doors within 25 %, mean signed and mean absolute error, for the doors at
+    the smallest damping (``light``) and the rest (``heavier``)."""
+    small = min(r["true_damping"] for r in results)
+    out = {}
+    for src in SOURCES:
+        for group, pick in (("light", lambda r: r["true_damping"] == small),
+                            ("heavier", lambda r: r["true_damping"] != small)):
+            e = [r["error"][src] for r in results
+                 if pick(r) and r.get("error", {}).get(src) is not None]
+            out[f"{src}_{group}"] = {
+                "doors": len(e), "within_25pct": int(sum(abs(x) <= 0.25 for x in e)),
+                "mean_error": float(np.mean(e)) if e else None,
+                "mean_abs_error": float(np.mean(np.abs(e))) if e else None}
+    scales = [r["opening_scale"] for r in results if "opening_scale" in r]
+    radii = [r["radius_ratio"] for r in results if "radius_ratio" in r]
+    out["light_damping"] = small
+    out["opening_scale"] = [float(min(scales)), float(max(scales))] if scales else None
+    out["radius_ratio"] = [float(min(radii)), float(max(radii))] if radii else None
+    return out
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--seed", type=int, default=600, help="seed of the first door")
+    ap.add_argument("--doors", type=int, default=20, help="door trials")
+    ap.add_argument("--damping", default="0.5,0.5,1,2,3,5",
+                    help="true dampings (N m s/rad), comma-separated, cycled over the doors")
+    ap.add_argument("--jobs", type=int, default=1, help="trials run at once")
+    add_output_arguments(ap)
+    a = ap.parse_args(argv)
+    try:
+        values = [float(x) for x in a.damping.split(",") if x.strip()]
+    except ValueError:
+        ap.error(f"--damping: expected numbers separated by commas, got {a.damping!r}")
+    if not values or not all(math.isfinite(v) and v > 0 for v in values):
+        ap.error("--damping must name values > 0")
+    if a.doors < 1 or a.jobs < 1:
+        ap.error("--doors and --jobs must be >= 1")
+    jobs = [(a.seed + i, values[i % len(values)]) for i in range(a.doors)]
+    table = a.json != "-"
+    if a.jobs > 1:
+        from concurrent.futures import ProcessPoolExecutor
+
+        with ProcessPoolExecutor(min(a.jobs, len(jobs))) as pool:
+            results = list(pool.map(run_door, jobs))
+    else:
+        results = [run_door(j) for j in jobs]
+    if table:
+        for r in results:
+            errs = " ".join(f"{k} {'-' if e is None else f'{e:+.2f}'}"
+                            for k, e in r.get("error", {}).items())
+            print(f"seed {r['seed']} damping {r['true_damping']:g}: {errs}", flush=True)
+    s = summary(results)
+    if table:
+        for src in SOURCES:
+            for group in ("light", "heavier"):
+                x = s[f"{src}_{group}"]
+                if x["doors"]:
+                    print(f"{src:22s} {group:8s} {x['within_25pct']}/{x['doors']} within 25 %, "
+                          f"mean error {x['mean_error']:+.3f}, mean |error| "
+                          f"{x['mean_abs_error']:.3f}")
+    emit_json(a.json, {"seed": a.seed, "doors": a.doors, "damping": values, "summary": s,
+                       "results": results})
+
+
+if __name__ == "__main__":
+    main()
