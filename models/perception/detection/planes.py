@@ -128,56 +128,79 @@ def _components(sel, grid_rc, grid_shape):
 def _grid_labels(rows, cols, sel, H, W):
     """8-connected regions of the grid cells ``(rows[sel], cols[sel])`` by a flood fill from
     each unlabelled cell in raster order: the label of each point of ``sel``, from 1."""
-    img = np.full((H, W), -1, np.int64)
-    for j in range(len(sel)):
-        img[rows[sel[j]], cols[sel[j]]] = j
     lab = np.zeros(len(sel), np.int64)
-    stack = np.empty(len(sel), np.int64)
-    nlab = 0
-    for r in range(H):
-        for c in range(W):
-            j0 = img[r, c]
-            if j0 < 0 or lab[j0] > 0:
-                continue
-            nlab += 1
-            lab[j0] = nlab
-            stack[0] = j0
-            top = 1
-            while top > 0:
-                top -= 1
-                j = stack[top]
-                rj, cj = rows[sel[j]], cols[sel[j]]
-                for r2 in range(max(0, rj - 1), min(H, rj + 2)):
-                    for c2 in range(max(0, cj - 1), min(W, cj + 2)):
-                        k = img[r2, c2]
-                        if k >= 0 and lab[k] == 0:
-                            lab[k] = nlab
-                            stack[top] = k
-                            top += 1
+    _label_cells(rows, cols, sel, H, W, np.full(H * W, -1, np.int64), lab,
+                 np.empty(len(sel), np.int64))
     return lab
+
+
+@numba.njit(cache=True, nogil=True)
+def _label_cells(rows, cols, sel, H, W, img, lab, stack):
+    """:func:`_grid_labels` into given buffers: ``lab[:len(sel)]`` the labels; ``img`` (H W,)
+    the flat grid, -1 everywhere on entry and again on return; ``stack`` at least
+    ``len(sel)`` long. Returns the number of regions."""
+    n = len(sel)
+    for j in range(n):
+        img[rows[sel[j]] * W + cols[sel[j]]] = j
+        lab[j] = 0
+    nlab = 0
+    for cell in range(H * W):
+        j0 = img[cell]
+        if j0 < 0 or lab[j0] > 0:
+            continue
+        nlab += 1
+        lab[j0] = nlab
+        stack[0] = j0
+        top = 1
+        while top > 0:
+            top -= 1
+            j = stack[top]
+            rj, cj = rows[sel[j]], cols[sel[j]]
+            for r2 in range(max(0, rj - 1), min(H, rj + 2)):
+                for c2 in range(max(0, cj - 1), min(W, cj + 2)):
+                    k = img[r2 * W + c2]
+                    if k >= 0 and lab[k] == 0:
+                        lab[k] = nlab
+                        stack[top] = k
+                        top += 1
+    for j in range(n):
+        img[rows[sel[j]] * W + cols[sel[j]]] = -1
+    return nlab
+
+
+@numba.njit(cache=True, nogil=True)
+def _largest_cells(sel, rows, cols, H, W, img, lab, stack):
+    """The points of ``sel`` in its largest 8-connected region (of equally large ones, the
+    one whose first cell comes first in raster order), in the order of ``sel``
+    (:func:`_label_cells`' buffers)."""
+    n = len(sel)
+    if n == 0:
+        return sel[:0].copy()
+    nlab = _label_cells(rows, cols, sel, H, W, img, lab, stack)
+    size = np.zeros(nlab + 1, np.int64)
+    for j in range(n):
+        size[lab[j]] += 1
+    best = 1
+    for q in range(2, nlab + 1):
+        if size[q] > size[best]:
+            best = q
+    out = np.empty(size[best], np.int64)
+    k = 0
+    for j in range(n):
+        if lab[j] == best:
+            out[k] = sel[j]
+            k += 1
+    return out
 
 
 def _largest_region(sel, grid_rc, grid_shape):
     """The points of ``sel`` (indices) in the largest 8-connected region on the sample grid
     (of equally large ones, the one whose first cell comes first in raster order)."""
-    if len(sel) == 0:
-        return sel
-    lab = _components(sel, grid_rc, grid_shape)
-    return sel[lab == np.argmax(np.bincount(lab))]
-
-
-def _regions_touching(sel, region, grid_rc, grid_shape):
-    """The points of ``sel`` in the 8-connected regions (of ``sel``) that contain a point of
-    ``region`` (a subset of ``sel``)."""
-    if len(sel) == 0 or len(region) == 0:
-        return sel[:0]
-    lab = _components(sel, grid_rc, grid_shape)
-    keep = np.zeros(lab.max() + 1, bool)
-    # sel's points that are in region: a lookup table of the point indices (np.isin sorts)
-    mark = np.zeros(max(int(sel.max()), int(region.max())) + 1, bool)
-    mark[region] = True
-    keep[lab[mark[sel]]] = True
-    return sel[keep[lab]]
+    H, W = int(grid_shape[0]), int(grid_shape[1])
+    sel = np.asarray(sel, np.int64)
+    return _largest_cells(sel, grid_rc[:, 0], grid_rc[:, 1], H, W,
+                          np.full(H * W, -1, np.int64), np.empty(len(sel), np.int64),
+                          np.empty(len(sel), np.int64))
 
 
 def _cross_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -276,42 +299,140 @@ def _fma32(typingctx, a, b, c):
     return sig, codegen
 
 
+@intrinsic
+def _fma64(typingctx, a, b, c):
+    """a b + c in float64 with one rounding (LLVM's ``llvm.fma``)."""
+    sig = types.float64(types.float64, types.float64, types.float64)
+
+    def codegen(context, builder, signature, args):
+        f64 = llvm_ir.DoubleType()
+        fn = builder.module.declare_intrinsic("llvm.fma", [f64],
+                                              llvm_ir.FunctionType(f64, [f64] * 3))
+        return builder.call(fn, args)
+    return sig, codegen
+
+
 @numba.njit(cache=True, nogil=True, inline="always")
-def _dot3_f32(n, P, i):
-    """n . P[i] (float32): a0 x, then two fused multiply-adds, the operations of the
-    float32 matrix product ``N @ P.T`` of OpenBLAS' FMA kernels (bit for bit, tested)."""
-    return _fma32(n[2], P[i, 2], _fma32(n[1], P[i, 1], n[0] * P[i, 0]))
+def _dist32(n0, n1, n2, a, x, y, z):
+    """n . p + a (float32): n0 x, then two fused multiply-adds, then the sum: the operations
+    of the float32 matrix product ``N @ P.T`` of OpenBLAS' FMA kernels, plus ``a``."""
+    return _fma32(n2, z, _fma32(n1, y, n0 * x)) + a
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _dist64(P, i, n, d):
+    """n . P[i] + d (float64) by the operations of numpy's matrix-vector product ``P @ n``
+    here (OpenBLAS' FMA kernel for three columns: y n1, then x n0 and z n2 fused in), plus
+    ``d``: the same values bit for bit wherever that kernel is the one numpy calls, to
+    rounding elsewhere."""
+    return _fma64(P[i, 2], n[2], _fma64(P[i, 0], n[0], P[i, 1] * n[1])) + d
 
 
 @numba.njit(cache=True, nogil=True)
-def _inlier_counts(N32, P32, dd, L, out):
-    """``out[h]`` = the number of points ``i`` with |n_h . p_i + dd[h]| <= L[i] (float32:
-    :func:`_dot3_f32`, then the sum, absolute value and comparison of the array
-    expression), the hypotheses' (N, m) products never stored."""
+def _inlier_counts(N32, dd, X, Y, Z, L, out):
+    """``out[h]`` = the number of points ``i`` with |n_h . p_i + dd[h]| <= L[i] (float32,
+    :func:`_dist32`; the points' coordinates as three arrays ``X``, ``Y``, ``Z``, which the
+    compiler turns into vector operations), the hypotheses' (N, m) products never stored.
+    Returns the first hypothesis with the most."""
+    best = 0
     for h in range(N32.shape[0]):
-        a = dd[h]
-        n = N32[h]
+        n0, n1, n2, a = N32[h, 0], N32[h, 1], N32[h, 2], dd[h]
         k = 0
-        for i in range(P32.shape[0]):
-            if abs(_dot3_f32(n, P32, i) + a) <= L[i]:
-                k += 1
+        for i in range(X.shape[0]):
+            k += 1 if abs(_dist32(n0, n1, n2, a, X[i], Y[i], Z[i])) <= L[i] else 0
         out[h] = k
+        if k > out[best]:
+            best = h
+    return best
 
 
 @numba.njit(cache=True, nogil=True)
-def _inliers_of(n, P32, a, L):
-    """Whether |n . p_i + a| <= L[i] for each point (float32, as :func:`_inlier_counts`)."""
-    out = np.empty(P32.shape[0], np.bool_)
-    for i in range(P32.shape[0]):
-        out[i] = abs(_dot3_f32(n, P32, i) + a) <= L[i]
-    return out
+def _pick(idx, P, n, d, L, scale):
+    """The points of ``idx`` with |n . P[i] + d| <= scale L[i] (float64, :func:`_dist64`)."""
+    out = np.empty(len(idx), np.int64)
+    k = 0
+    for i in idx:
+        if abs(_dist64(P, i, n, d)) <= scale * L[i]:
+            out[k] = i
+            k += 1
+    return out[:k]
+
+
+@numba.njit(cache=True, nogil=True)
+def _ransac_round(pts, XYZ32, Lp, Lp32, Lr, idx, nrm, dd, rows, cols, H, W, min_points,
+                  active, lookup, flat_rc, img, lab, stack, mark):
+    """One round of :func:`find_planes` after its hypotheses ``nrm`` (k, 3), ``dd`` (k,):
+    the best hypothesis on the active points ``idx`` (counted in float32 on ``XYZ32`` (3, m),
+    ``Lp32``), its inliers' largest region, three least-squares refinements (L, L / 2, L),
+    and the pool's update: the regions of the points within the removal band ``Lr`` that
+    touch the plane's region, and that region, leave ``active`` and ``lookup`` (at their
+    cells ``flat_rc``). Returns (found, n, d, the region's points); found is False (and the
+    pool untouched) when the best hypothesis has fewer than ``min_points`` inliers. ``img``
+    / ``lab`` / ``stack`` are :func:`_label_cells`' buffers, ``mark`` (m,) all False (and
+    again on return)."""
+    k = len(idx)
+    X, Y, Z = np.empty(k, np.float32), np.empty(k, np.float32), np.empty(k, np.float32)
+    Li = np.empty(k, np.float32)
+    for j in range(k):
+        i = idx[j]
+        X[j], Y[j], Z[j], Li[j] = XYZ32[0, i], XYZ32[1, i], XYZ32[2, i], Lp32[i]
+    N32 = nrm.astype(np.float32)
+    dd32 = dd.astype(np.float32)
+    counts = np.empty(len(N32), np.int64)
+    best = _inlier_counts(N32, dd32, X, Y, Z, Li, counts)
+    n = nrm[best].copy()
+    if counts[best] < min_points:
+        return False, n, 0.0, idx[:0]
+    n0, n1, n2, a = N32[best, 0], N32[best, 1], N32[best, 2], dd32[best]
+    sel = np.empty(k, np.int64)
+    m = 0
+    for j in range(k):
+        if abs(_dist32(n0, n1, n2, a, X[j], Y[j], Z[j])) <= Li[j]:
+            sel[m] = idx[j]
+            m += 1
+    inl = _largest_cells(sel[:m], rows, cols, H, W, img, lab, stack)
+    d = dd[best]
+    c, S = np.empty(3), np.empty((3, 3))
+    for it in range(3):
+        # least squares on the region, then its points within L (L / 2 in the second round)
+        if len(inl) < 3:
+            break
+        _index_scatter(pts, inl, c, S)
+        n = _least_eigenvector(S)
+        if (n[0] * c[0] + n[1] * c[1]) + n[2] * c[2] > 0:  # towards the camera at the origin
+            n = -n
+        d = -((n[0] * c[0] + n[1] * c[1]) + n[2] * c[2])
+        inl = _largest_cells(_pick(idx, pts, n, d, Lp, 0.5 if it == 1 else 1.0), rows, cols,
+                             H, W, img, lab, stack)
+    # the pool's update: the removal band's regions that touch the plane's region
+    loose = _pick(idx, pts, n, d, Lr, 1.0)
+    nl = _label_cells(rows, cols, loose, H, W, img, lab, stack)
+    keep = np.zeros(nl + 1, np.bool_)
+    for i in inl:
+        mark[i] = True
+    for j in range(len(loose)):
+        if mark[loose[j]]:
+            keep[lab[j]] = True
+    for i in inl:
+        mark[i] = False
+        active[i] = False
+        lookup[flat_rc[i]] = -1
+    for j in range(len(loose)):
+        if keep[lab[j]]:
+            active[loose[j]] = False
+            lookup[flat_rc[loose[j]]] = -1
+    return True, n, d, inl
 
 
 def find_planes(pts: np.ndarray, grid_rc: np.ndarray, grid_shape, cfg: FrontDetectorConfig,
                 rng: np.random.Generator) -> list[Plane]:
     """Sequential RANSAC (5.1.1) on sampled points ``pts`` (m, 3) whose sample-grid positions
     are ``grid_rc`` (m, 2) in a grid of ``grid_shape``; returns up to ``cfg.max_planes``
-    planes."""
+    planes.
+
+    Each round draws its hypotheses (:func:`_hypotheses`), then scores them, selects,
+    refines and removes in one compiled pass (:func:`_ransac_round`)."""
+    pts = np.ascontiguousarray(pts, np.float64)
     Lp = np.maximum(cfg.inlier_distance, cfg.inlier_distance_per_m2 * pts[:, 2] ** 2)
     # removal band: L plus (removal_factor - 1) times the noise part of L (a fixed multiple
     # of L would also take a front standing 2 cm proud of its carcass, L = 0.01-0.015 m)
@@ -329,8 +450,14 @@ def find_planes(pts: np.ndarray, grid_rc: np.ndarray, grid_shape, cfg: FrontDete
     flat_rc = (grid_rc[:, 0] + r) * Wp + (grid_rc[:, 1] + r)
     lookup[flat_rc] = np.arange(m)
     N = int(cfg.ransac_hypotheses)
-    P32 = pts.astype(np.float32)
+    XYZ32 = np.ascontiguousarray(pts.T, np.float32)  # (3, m): the counts' vector operations
     Lp32 = Lp.astype(np.float32)
+    H, W = int(grid_shape[0]), int(grid_shape[1])
+    rows = np.ascontiguousarray(grid_rc[:, 0], np.int64)
+    cols = np.ascontiguousarray(grid_rc[:, 1], np.int64)
+    img = np.full(H * W, -1, np.int64)
+    lab, stack, mark = np.empty(m, np.int64), np.empty(m, np.int64), np.zeros(m, bool)
+    cos5 = math.cos(math.radians(5.0))
     # max_planes counts the planes kept; rounds that only clear the pool (a copy of an earlier
     # plane, a region below min_plane_points) do not take a kept plane's turn, up to
     # 2 x max_planes rounds in all
@@ -343,51 +470,28 @@ def find_planes(pts: np.ndarray, grid_rc: np.ndarray, grid_shape, cfg: FrontDete
         hyp = _hypotheses(pts, idx, lookup, flat_rc, r, Wp, N, rng)
         if hyp is None:
             break
-        nrm, dd = hyp
-        # |n . p + d| <= L of every active point for every hypothesis, counted in one
-        # compiled pass (float32; the products of the matrix product N P^T)
-        N32 = nrm.astype(np.float32)
-        Pi = P32[idx]
-        dd32 = dd.astype(np.float32)
-        Li = Lp32[idx]
-        counts = np.empty(len(N32), np.int64)
-        _inlier_counts(N32, Pi, dd32, Li, counts)
-        best = int(np.argmax(counts))
-        if counts[best] < cfg.min_plane_points:
+        # the best hypothesis' largest connected region of inliers (on the sample grid: other
+        # surfaces crossing the infinite plane stay in the pool), refined by least squares,
+        # then again on those within L / 2 (a drawer's sides, seen from above, span the few
+        # cm between its front and the cabinet face: with them the face's plane tilts towards
+        # the front and then takes the front's points out of the pool), then within L. The
+        # region's points within the removal band Lr (so that the noise tails of a far plane
+        # do not come back as a second copy of it) leave the pool of sampling points.
+        found, n, d, inl = _ransac_round(pts, XYZ32, Lp, Lp32, Lr, idx, hyp[0], hyp[1], rows,
+                                         cols, H, W, int(cfg.min_plane_points), active,
+                                         lookup, flat_rc, img, lab, stack, mark)
+        if not found:
             break
-        inl = _largest_region(idx[_inliers_of(N32[best], Pi, dd32[best], Li)], grid_rc,
-                              grid_shape)
-        n, d = nrm[best], float(dd[best])
-        # least-squares refinement on the inliers, then re-select them; the second round on
-        # those within L / 2 (a drawer's sides, seen from above, span the few cm between its
-        # front and the cabinet face: with them the face's plane tilts towards the front and
-        # then takes the front's points out of the pool)
-        Pa, La = pts[idx], Lp[idx]  # the active points (gathered once)
-        for shrink in (1.0, 0.5, 1.0):
-            if len(inl) < 3:
-                break
-            n, d = _fit_plane(pts, inl)
-            inl = _largest_region(idx[np.abs(Pa @ n + d) <= shrink * La], grid_rc, grid_shape)
-        # The plane is its largest connected region of inliers (on the sample grid): other
-        # surfaces crossing the infinite plane stay in the pool. The region's points within
-        # the removal band Lr (so that the noise tails of a far plane do not come back as a
-        # second copy of it) leave the pool of sampling points.
-        loose = idx[np.abs(Pa @ n + d) <= Lr[idx]]
-        gone = np.concatenate([_regions_touching(loose, inl, grid_rc, grid_shape), inl])
-        active[gone] = False
-        lookup[flat_rc[gone]] = -1
         if len(inl) < cfg.min_plane_points:
             continue
         Lq = max(cfg.inlier_distance, cfg.inlier_distance_per_m2 * d * d)
         # a copy: (nearly) the same normal and its inliers' centroid within L of an earlier
         # plane (a front standing 2 cm proud of its carcass, L = 0.01 m, is not a copy)
         cen = pts[inl].mean(axis=0)
-        dup = any(abs(q.n @ n) > math.cos(math.radians(5.0)) and abs(q.n @ cen + q.d) < Lq
-                  for q in planes)
-        if dup:  # masks cover every pixel of a plane: a second copy adds nothing
-            continue
+        if any(abs(q.n @ n) > cos5 and abs(q.n @ cen + q.d) < Lq for q in planes):
+            continue  # masks cover every pixel of a plane: a second copy adds nothing
         rc = grid_rc[inl]
-        planes.append(Plane(n=n, d=d, support=len(inl),
+        planes.append(Plane(n=n, d=float(d), support=len(inl),
                             bbox=(int(rc[:, 0].min()), int(rc[:, 0].max()) + 1,
                                   int(rc[:, 1].min()), int(rc[:, 1].max()) + 1)))
     return planes
