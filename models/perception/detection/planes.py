@@ -126,57 +126,93 @@ def _components(sel, grid_rc, grid_shape):
 
 @numba.njit(cache=True, nogil=True)
 def _grid_labels(rows, cols, sel, H, W):
-    """8-connected regions of the grid cells ``(rows[sel], cols[sel])`` by a flood fill from
-    each unlabelled cell in raster order: the label of each point of ``sel``, from 1."""
-    lab = np.zeros(len(sel), np.int64)
-    _label_cells(rows, cols, sel, H, W, np.full(H * W, -1, np.int64), lab,
-                 np.empty(len(sel), np.int64))
-    return lab
+    """8-connected regions of the grid cells ``(rows[sel], cols[sel])``, numbered from 1 in
+    the raster order of each region's first cell: the label of each point of ``sel``."""
+    Hp, Wp = H + 2, W + 2
+    pcell = (rows + 1) * Wp + (cols + 1)
+    lab = np.empty(len(sel), np.int32)
+    _label_cells(pcell, sel, Hp, Wp, np.full(Hp * Wp, -1, np.int32),
+                 np.empty(Hp * Wp, np.int32), np.empty(len(sel) + 1, np.int32), lab)
+    return lab.astype(np.int64)
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _root(parent, a):
+    """The root of ``a`` in the union-find forest ``parent`` (halving the path)."""
+    while parent[a] != a:
+        parent[a] = parent[parent[a]]
+        a = parent[a]
+    return a
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _union(parent, a, b):
+    """Join the sets of ``a`` and ``b``: the smaller root stays the root."""
+    a, b = _root(parent, a), _root(parent, b)
+    if a < b:
+        parent[b] = a
+    elif b < a:
+        parent[a] = b
 
 
 @numba.njit(cache=True, nogil=True)
-def _label_cells(rows, cols, sel, H, W, img, lab, stack):
-    """:func:`_grid_labels` into given buffers: ``lab[:len(sel)]`` the labels; ``img`` (H W,)
-    the flat grid, -1 everywhere on entry and again on return; ``stack`` at least
-    ``len(sel)`` long. Returns the number of regions."""
+def _label_cells(pcell, sel, Hp, Wp, img, prov, parent, lab):
+    """The 8-connected regions of the points ``sel`` on a grid padded by one cell on every
+    side (``Hp`` x ``Wp``; ``pcell`` each point's flat padded cell, at most one point per
+    cell): ``lab[:len(sel)]`` their labels from 1 in the raster order of each region's first
+    cell; returns the number of regions. Two passes: provisional labels from the four cells
+    before each cell in raster order, joined in a union-find forest whose roots are the
+    smallest labels (the labels of the regions' first cells), then numbered in order.
+    Buffers: ``img`` (Hp Wp,) -1 everywhere on entry and again on return, ``prov`` (Hp Wp,),
+    ``parent`` at least ``len(sel)`` long."""
     n = len(sel)
     for j in range(n):
-        img[rows[sel[j]] * W + cols[sel[j]]] = j
-        lab[j] = 0
-    nlab = 0
-    for cell in range(H * W):
-        j0 = img[cell]
-        if j0 < 0 or lab[j0] > 0:
+        img[pcell[sel[j]]] = j
+    nprov = 0
+    for p in range(Wp + 1, (Hp - 1) * Wp - 1):
+        if img[p] < 0:
             continue
-        nlab += 1
-        lab[j0] = nlab
-        stack[0] = j0
-        top = 1
-        while top > 0:
-            top -= 1
-            j = stack[top]
-            rj, cj = rows[sel[j]], cols[sel[j]]
-            for r2 in range(max(0, rj - 1), min(H, rj + 2)):
-                for c2 in range(max(0, cj - 1), min(W, cj + 2)):
-                    k = img[r2 * W + c2]
-                    if k >= 0 and lab[k] == 0:
-                        lab[k] = nlab
-                        stack[top] = k
-                        top += 1
+        # the cell above touches the other three: its label already joins theirs
+        if img[p - Wp] >= 0:
+            q = prov[p - Wp]
+        elif img[p - 1] >= 0:
+            q = prov[p - 1]
+            if img[p - Wp + 1] >= 0:
+                _union(parent, q, prov[p - Wp + 1])
+        elif img[p - Wp - 1] >= 0:
+            q = prov[p - Wp - 1]
+            if img[p - Wp + 1] >= 0:
+                _union(parent, q, prov[p - Wp + 1])
+        elif img[p - Wp + 1] >= 0:
+            q = prov[p - Wp + 1]
+        else:
+            q = nprov
+            parent[q] = q
+            nprov += 1
+        prov[p] = q
+    nlab = 0
+    for q in range(nprov):  # (parent[q] < q for every q not a root: numbered before q)
+        if parent[q] == q:
+            nlab += 1
+            parent[q] = -nlab
+        else:
+            parent[q] = parent[parent[q]]
     for j in range(n):
-        img[rows[sel[j]] * W + cols[sel[j]]] = -1
+        c = pcell[sel[j]]
+        lab[j] = -parent[prov[c]]
+        img[c] = -1
     return nlab
 
 
 @numba.njit(cache=True, nogil=True)
-def _largest_cells(sel, rows, cols, H, W, img, lab, stack):
+def _largest_cells(sel, pcell, Hp, Wp, img, prov, parent, lab):
     """The points of ``sel`` in its largest 8-connected region (of equally large ones, the
     one whose first cell comes first in raster order), in the order of ``sel``
-    (:func:`_label_cells`' buffers)."""
+    (:func:`_label_cells` and its buffers)."""
     n = len(sel)
     if n == 0:
         return sel[:0].copy()
-    nlab = _label_cells(rows, cols, sel, H, W, img, lab, stack)
+    nlab = _label_cells(pcell, sel, Hp, Wp, img, prov, parent, lab)
     size = np.zeros(nlab + 1, np.int64)
     for j in range(n):
         size[lab[j]] += 1
@@ -193,14 +229,28 @@ def _largest_cells(sel, rows, cols, H, W, img, lab, stack):
     return out
 
 
+class _GridBuffers:
+    """The labelling buffers of a sample grid of ``grid_shape`` with ``m`` points at
+    ``grid_rc`` (:func:`_label_cells`), made once per frame."""
+
+    def __init__(self, grid_rc, grid_shape, m):
+        self.Hp, self.Wp = int(grid_shape[0]) + 2, int(grid_shape[1]) + 2
+        self.pcell = np.ascontiguousarray((grid_rc[:, 0] + 1) * self.Wp + (grid_rc[:, 1] + 1),
+                                          np.int64)
+        self.img = np.full(self.Hp * self.Wp, -1, np.int32)
+        self.prov = np.empty(self.Hp * self.Wp, np.int32)
+        self.parent = np.empty(m + 1, np.int32)
+        self.lab = np.empty(m, np.int32)
+
+    def args(self):
+        return self.pcell, self.Hp, self.Wp, self.img, self.prov, self.parent, self.lab
+
+
 def _largest_region(sel, grid_rc, grid_shape):
     """The points of ``sel`` (indices) in the largest 8-connected region on the sample grid
     (of equally large ones, the one whose first cell comes first in raster order)."""
-    H, W = int(grid_shape[0]), int(grid_shape[1])
     sel = np.asarray(sel, np.int64)
-    return _largest_cells(sel, grid_rc[:, 0], grid_rc[:, 1], H, W,
-                          np.full(H * W, -1, np.int64), np.empty(len(sel), np.int64),
-                          np.empty(len(sel), np.int64))
+    return _largest_cells(sel, *_GridBuffers(grid_rc, grid_shape, len(grid_rc)).args())
 
 
 def _cross_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -359,17 +409,17 @@ def _pick(idx, P, n, d, L, scale):
 
 
 @numba.njit(cache=True, nogil=True)
-def _ransac_round(pts, XYZ32, Lp, Lp32, Lr, idx, nrm, dd, rows, cols, H, W, min_points,
-                  active, lookup, flat_rc, img, lab, stack, mark):
+def _ransac_round(pts, XYZ32, Lp, Lp32, Lr, idx, nrm, dd, min_points, active, lookup, flat_rc,
+                  mark, pcell, Hp, Wp, img, prov, parent, lab):
     """One round of :func:`find_planes` after its hypotheses ``nrm`` (k, 3), ``dd`` (k,):
     the best hypothesis on the active points ``idx`` (counted in float32 on ``XYZ32`` (3, m),
     ``Lp32``), its inliers' largest region, three least-squares refinements (L, L / 2, L),
     and the pool's update: the regions of the points within the removal band ``Lr`` that
     touch the plane's region, and that region, leave ``active`` and ``lookup`` (at their
     cells ``flat_rc``). Returns (found, n, d, the region's points); found is False (and the
-    pool untouched) when the best hypothesis has fewer than ``min_points`` inliers. ``img``
-    / ``lab`` / ``stack`` are :func:`_label_cells`' buffers, ``mark`` (m,) all False (and
-    again on return)."""
+    pool untouched) when the best hypothesis has fewer than ``min_points`` inliers. ``mark``
+    (m,) is all False (and again on return); ``pcell`` ... ``lab``: the grid and buffers of
+    :func:`_label_cells` (:class:`_GridBuffers`)."""
     k = len(idx)
     X, Y, Z = np.empty(k, np.float32), np.empty(k, np.float32), np.empty(k, np.float32)
     Li = np.empty(k, np.float32)
@@ -390,7 +440,7 @@ def _ransac_round(pts, XYZ32, Lp, Lp32, Lr, idx, nrm, dd, rows, cols, H, W, min_
         if abs(_dist32(n0, n1, n2, a, X[j], Y[j], Z[j])) <= Li[j]:
             sel[m] = idx[j]
             m += 1
-    inl = _largest_cells(sel[:m], rows, cols, H, W, img, lab, stack)
+    inl = _largest_cells(sel[:m], pcell, Hp, Wp, img, prov, parent, lab)
     d = dd[best]
     c, S = np.empty(3), np.empty((3, 3))
     for it in range(3):
@@ -402,11 +452,11 @@ def _ransac_round(pts, XYZ32, Lp, Lp32, Lr, idx, nrm, dd, rows, cols, H, W, min_
         if (n[0] * c[0] + n[1] * c[1]) + n[2] * c[2] > 0:  # towards the camera at the origin
             n = -n
         d = -((n[0] * c[0] + n[1] * c[1]) + n[2] * c[2])
-        inl = _largest_cells(_pick(idx, pts, n, d, Lp, 0.5 if it == 1 else 1.0), rows, cols,
-                             H, W, img, lab, stack)
+        inl = _largest_cells(_pick(idx, pts, n, d, Lp, 0.5 if it == 1 else 1.0), pcell, Hp,
+                             Wp, img, prov, parent, lab)
     # the pool's update: the removal band's regions that touch the plane's region
     loose = _pick(idx, pts, n, d, Lr, 1.0)
-    nl = _label_cells(rows, cols, loose, H, W, img, lab, stack)
+    nl = _label_cells(pcell, loose, Hp, Wp, img, prov, parent, lab)
     keep = np.zeros(nl + 1, np.bool_)
     for i in inl:
         mark[i] = True
@@ -452,11 +502,8 @@ def find_planes(pts: np.ndarray, grid_rc: np.ndarray, grid_shape, cfg: FrontDete
     N = int(cfg.ransac_hypotheses)
     XYZ32 = np.ascontiguousarray(pts.T, np.float32)  # (3, m): the counts' vector operations
     Lp32 = Lp.astype(np.float32)
-    H, W = int(grid_shape[0]), int(grid_shape[1])
-    rows = np.ascontiguousarray(grid_rc[:, 0], np.int64)
-    cols = np.ascontiguousarray(grid_rc[:, 1], np.int64)
-    img = np.full(H * W, -1, np.int64)
-    lab, stack, mark = np.empty(m, np.int64), np.empty(m, np.int64), np.zeros(m, bool)
+    grid = _GridBuffers(grid_rc, grid_shape, m).args()
+    mark = np.zeros(m, bool)
     cos5 = math.cos(math.radians(5.0))
     # max_planes counts the planes kept; rounds that only clear the pool (a copy of an earlier
     # plane, a region below min_plane_points) do not take a kept plane's turn, up to
@@ -477,9 +524,9 @@ def find_planes(pts: np.ndarray, grid_rc: np.ndarray, grid_shape, cfg: FrontDete
         # the front and then takes the front's points out of the pool), then within L. The
         # region's points within the removal band Lr (so that the noise tails of a far plane
         # do not come back as a second copy of it) leave the pool of sampling points.
-        found, n, d, inl = _ransac_round(pts, XYZ32, Lp, Lp32, Lr, idx, hyp[0], hyp[1], rows,
-                                         cols, H, W, int(cfg.min_plane_points), active,
-                                         lookup, flat_rc, img, lab, stack, mark)
+        found, n, d, inl = _ransac_round(pts, XYZ32, Lp, Lp32, Lr, idx, hyp[0], hyp[1],
+                                         int(cfg.min_plane_points), active, lookup, flat_rc,
+                                         mark, *grid)
         if not found:
             break
         if len(inl) < cfg.min_plane_points:
