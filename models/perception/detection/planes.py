@@ -271,25 +271,35 @@ def _hypotheses(pts, idx, lookup, flat_rc, r, Wp, N, rng):
     grid cells that land on active points (``lookup``: the active point at each padded grid
     cell, rows of ``Wp``; ``flat_rc`` each point's cell); global triples when no local one
     is found; None when there is no triple at all."""
-    first = idx[rng.integers(0, len(idx), N)]
-    T = 12
-    off = rng.integers(-r, r + 1, (N, T, 2))
+    first, off = _local_draws(idx, r, N, rng)
     nrm = np.empty((N, 3))
     dd = np.empty(N)
     ok = np.empty(N, np.bool_)
-    k = _local_hypotheses(pts, first, off, lookup, flat_rc, Wp, nrm, dd, ok)
-    if k == 0:
-        # no local triple: fall back to global triples
-        tri = idx[rng.integers(0, len(idx), (N, 3))]
-        p1, p2, p3 = pts[tri[:, 0]], pts[tri[:, 1]], pts[tri[:, 2]]
-        nrm = _cross_rows(p2 - p1, p3 - p1)
-        ln = np.linalg.norm(nrm, axis=1)
-        ok = ln > 1e-9
-        if not ok.any():
-            return None
-        nrm = nrm[ok] / ln[ok, None]
-        return nrm, -np.einsum("ij,ij->i", nrm, p1[ok])
+    if _local_hypotheses(pts, first, off, lookup, flat_rc, Wp, nrm, dd, ok) == 0:
+        return _global_hypotheses(pts, idx, N, rng)
     return nrm[ok], dd[ok]
+
+
+def _local_draws(idx, r, N, rng):
+    """The random draws of ``N`` local hypotheses: a first active point (of ``idx``) each,
+    and 12 (row, column) offsets within ``r`` grid cells each."""
+    first = idx[rng.integers(0, len(idx), N)]
+    return first, rng.integers(-r, r + 1, (N, 12, 2))
+
+
+def _global_hypotheses(pts, idx, N, rng):
+    """``N`` hypotheses through random triples of the active points ``idx`` (when no local
+    triple was found): unit normals (k, 3) and offsets (k,) of the non-degenerate ones, or
+    None."""
+    tri = idx[rng.integers(0, len(idx), (N, 3))]
+    p1, p2, p3 = pts[tri[:, 0]], pts[tri[:, 1]], pts[tri[:, 2]]
+    nrm = _cross_rows(p2 - p1, p3 - p1)
+    ln = np.linalg.norm(nrm, axis=1)
+    ok = ln > 1e-9
+    if not ok.any():
+        return None
+    nrm = nrm[ok] / ln[ok, None]
+    return nrm, -np.einsum("ij,ij->i", nrm, p1[ok])
 
 
 @numba.njit(cache=True, nogil=True)
@@ -409,30 +419,32 @@ def _pick(idx, P, n, d, L, scale):
 
 
 @numba.njit(cache=True, nogil=True)
-def _ransac_round(pts, XYZ32, Lp, Lp32, Lr, idx, nrm, dd, min_points, active, lookup, flat_rc,
+def _ransac_round(pts, XYZ32, Lp, Lp32, Lr, idx, hn, hd, min_points, active, lookup, flat_rc,
                   mark, pcell, Hp, Wp, img, prov, parent, lab):
-    """One round of :func:`find_planes` after its hypotheses ``nrm`` (k, 3), ``dd`` (k,):
-    the best hypothesis on the active points ``idx`` (counted in float32 on ``XYZ32`` (3, m),
+    """One round of :func:`find_planes` after its hypotheses ``hn`` (k, 3), ``hd`` (k,): the
+    best hypothesis on the active points ``idx`` (counted in float32 on ``XYZ32`` (3, m),
     ``Lp32``), its inliers' largest region, three least-squares refinements (L, L / 2, L),
     and the pool's update: the regions of the points within the removal band ``Lr`` that
     touch the plane's region, and that region, leave ``active`` and ``lookup`` (at their
-    cells ``flat_rc``). Returns (found, n, d, the region's points); found is False (and the
+    cells ``flat_rc``). Returns (found, n, d, the region's points, their centroid, their
+    bounding box (row0, row1, col0, col1) on the sample grid); found is False (and the
     pool untouched) when the best hypothesis has fewer than ``min_points`` inliers. ``mark``
     (m,) is all False (and again on return); ``pcell`` ... ``lab``: the grid and buffers of
     :func:`_label_cells` (:class:`_GridBuffers`)."""
+    cen, box = np.zeros(3), np.zeros(4, np.int64)
     k = len(idx)
     X, Y, Z = np.empty(k, np.float32), np.empty(k, np.float32), np.empty(k, np.float32)
     Li = np.empty(k, np.float32)
     for j in range(k):
         i = idx[j]
         X[j], Y[j], Z[j], Li[j] = XYZ32[0, i], XYZ32[1, i], XYZ32[2, i], Lp32[i]
-    N32 = nrm.astype(np.float32)
-    dd32 = dd.astype(np.float32)
+    N32 = hn.astype(np.float32)
+    dd32 = hd.astype(np.float32)
     counts = np.empty(len(N32), np.int64)
     best = _inlier_counts(N32, dd32, X, Y, Z, Li, counts)
-    n = nrm[best].copy()
+    n = hn[best].copy()
     if counts[best] < min_points:
-        return False, n, 0.0, idx[:0]
+        return False, n, 0.0, idx[:0].copy(), cen, box
     n0, n1, n2, a = N32[best, 0], N32[best, 1], N32[best, 2], dd32[best]
     sel = np.empty(k, np.int64)
     m = 0
@@ -441,7 +453,7 @@ def _ransac_round(pts, XYZ32, Lp, Lp32, Lr, idx, nrm, dd, min_points, active, lo
             sel[m] = idx[j]
             m += 1
     inl = _largest_cells(sel[:m], pcell, Hp, Wp, img, prov, parent, lab)
-    d = dd[best]
+    d = hd[best]
     c, S = np.empty(3), np.empty((3, 3))
     for it in range(3):
         # least squares on the region, then its points within L (L / 2 in the second round)
@@ -471,7 +483,18 @@ def _ransac_round(pts, XYZ32, Lp, Lp32, Lr, idx, nrm, dd, min_points, active, lo
         if keep[lab[j]]:
             active[loose[j]] = False
             lookup[flat_rc[loose[j]]] = -1
-    return True, n, d, inl
+    if len(inl) > 0:  # the region's centroid (the sums in order) and bounding box
+        box[0], box[2] = (pcell[inl[0]] // Wp) - 1, Wp
+        box[1], box[3] = box[0] + 1, 0
+        for i in inl:
+            cen[0] += pts[i, 0]
+            cen[1] += pts[i, 1]
+            cen[2] += pts[i, 2]
+            rr, cc = pcell[i] // Wp - 1, pcell[i] % Wp - 1
+            box[0], box[1] = min(box[0], rr), max(box[1], rr + 1)
+            box[2], box[3] = min(box[2], cc), max(box[3], cc + 1)
+        cen /= len(inl)
+    return True, n, d, inl, cen, box
 
 
 def find_planes(pts: np.ndarray, grid_rc: np.ndarray, grid_shape, cfg: FrontDetectorConfig,
@@ -504,6 +527,7 @@ def find_planes(pts: np.ndarray, grid_rc: np.ndarray, grid_shape, cfg: FrontDete
     Lp32 = Lp.astype(np.float32)
     grid = _GridBuffers(grid_rc, grid_shape, m).args()
     mark = np.zeros(m, bool)
+    min_points = int(cfg.min_plane_points)
     cos5 = math.cos(math.radians(5.0))
     # max_planes counts the planes kept; rounds that only clear the pool (a copy of an earlier
     # plane, a region below min_plane_points) do not take a kept plane's turn, up to
@@ -524,9 +548,9 @@ def find_planes(pts: np.ndarray, grid_rc: np.ndarray, grid_shape, cfg: FrontDete
         # the front and then takes the front's points out of the pool), then within L. The
         # region's points within the removal band Lr (so that the noise tails of a far plane
         # do not come back as a second copy of it) leave the pool of sampling points.
-        found, n, d, inl = _ransac_round(pts, XYZ32, Lp, Lp32, Lr, idx, hyp[0], hyp[1],
-                                         int(cfg.min_plane_points), active, lookup, flat_rc,
-                                         mark, *grid)
+        found, n, d, inl, cen, box = _ransac_round(pts, XYZ32, Lp, Lp32, Lr, idx, hyp[0], hyp[1],
+                                                   min_points, active, lookup, flat_rc, mark,
+                                                   *grid)
         if not found:
             break
         if len(inl) < cfg.min_plane_points:
@@ -534,13 +558,9 @@ def find_planes(pts: np.ndarray, grid_rc: np.ndarray, grid_shape, cfg: FrontDete
         Lq = max(cfg.inlier_distance, cfg.inlier_distance_per_m2 * d * d)
         # a copy: (nearly) the same normal and its inliers' centroid within L of an earlier
         # plane (a front standing 2 cm proud of its carcass, L = 0.01 m, is not a copy)
-        cen = pts[inl].mean(axis=0)
         if any(abs(q.n @ n) > cos5 and abs(q.n @ cen + q.d) < Lq for q in planes):
             continue  # masks cover every pixel of a plane: a second copy adds nothing
-        rc = grid_rc[inl]
-        planes.append(Plane(n=n, d=float(d), support=len(inl),
-                            bbox=(int(rc[:, 0].min()), int(rc[:, 0].max()) + 1,
-                                  int(rc[:, 1].min()), int(rc[:, 1].max()) + 1)))
+        planes.append(Plane(n=n, d=float(d), support=len(inl), bbox=tuple(box.tolist())))
     return planes
 
 
