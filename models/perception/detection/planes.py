@@ -574,43 +574,64 @@ def _band_point(Pc, L, r, q, n, d, shrink):
     return abs(x * n[0] + y * n[1] + z * n[2] + d) <= shrink * np.float64(L[r, q]), x, y, z
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, fastmath={"reassoc", "nsz"})
 def _band_scatter(Pc, L, R0, R1, C0, C1, step, n, d, shrink, c, scatter):
     """The centroid ``c`` (3,) and the scatter about it ``scatter`` (3, 3) of the measured
     points ``Pc`` (H, W, 3) in rows ``R0:R1`` and columns ``C0:C1`` (every ``step``-th) within
     ``shrink`` L of the plane ``n . p + d = 0`` (float64); returns their number. One pass over
     the crop, nothing gathered: the sums and products of the points relative to the first
     point taken (near the others: no cancellation beyond ~1e-15 relative), centred at the
-    end."""
+    end. Every pixel adds its terms, zero when it is not taken, and the sums may be
+    reassociated (the compiler's vector operations): the sums of the points in raster order
+    to rounding (~1e-16 relative), also the distance of a point within rounding of the band's
+    edge."""
     H, W = Pc.shape[0], Pc.shape[1]
     R1, C1 = min(R1, H), min(C1, W)
-    s0 = s1 = s2 = 0.0
-    x0 = y0 = z0 = 0.0
-    S = np.zeros((3, 3))
-    k = 0
-    for r in range(R0, R1, step):
-        for q in range(C0, C1, step):
-            inside, x, y, z = _band_point(Pc, L, r, q, n, d, shrink)
-            if inside:
-                if k == 0:
-                    x0, y0, z0 = x, y, z
-                a, b, e = x - x0, y - y0, z - z0
-                s0 += a
-                s1 += b
-                s2 += e
-                _add_outer3(S, a, b, e)
-                k += 1
+    nq = max(0, (C1 - C0 + step - 1) // step)
     scatter[:] = 0.0
-    if k == 0:
+    r0 = -1  # the row of the first point taken
+    x0 = y0 = z0 = 0.0
+    for r in range(R0, R1, step):
+        for t in range(nq):
+            inside, x, y, z = _band_point(Pc, L, r, C0 + t * step, n, d, shrink)
+            if inside:
+                r0, x0, y0, z0 = r, x, y, z
+                break
+        if r0 >= 0:
+            break
+    if r0 < 0:
         return 0
+    s0 = s1 = s2 = 0.0
+    S00 = S01 = S02 = S11 = S12 = S22 = 0.0
+    k = 0
+    n0, n1, n2 = n[0], n[1], n[2]
+    for r in range(r0, R1, step):
+        for t in range(nq):
+            q = C0 + t * step
+            x, y, z = np.float64(Pc[r, q, 0]), np.float64(Pc[r, q, 1]), np.float64(Pc[r, q, 2])
+            # (an unmeasured pixel's NaN fails the test)
+            inside = abs(x * n0 + y * n1 + z * n2 + d) <= shrink * np.float64(L[r, q])
+            a = x - x0 if inside else 0.0
+            b = y - y0 if inside else 0.0
+            e = z - z0 if inside else 0.0
+            s0 += a
+            s1 += b
+            s2 += e
+            S00 += a * a
+            S01 += a * b
+            S02 += a * e
+            S11 += b * b
+            S12 += b * e
+            S22 += e * e
+            k += 1 if inside else 0
     m0, m1, m2 = s0 / k, s1 / k, s2 / k
     c[0], c[1], c[2] = x0 + m0, y0 + m1, z0 + m2
-    scatter[0, 0] = S[0, 0] - s0 * m0
-    scatter[0, 1] = S[0, 1] - s0 * m1
-    scatter[0, 2] = S[0, 2] - s0 * m2
-    scatter[1, 1] = S[1, 1] - s1 * m1
-    scatter[1, 2] = S[1, 2] - s1 * m2
-    scatter[2, 2] = S[2, 2] - s2 * m2
+    scatter[0, 0] = S00 - s0 * m0
+    scatter[0, 1] = S01 - s0 * m1
+    scatter[0, 2] = S02 - s0 * m2
+    scatter[1, 1] = S11 - s1 * m1
+    scatter[1, 2] = S12 - s1 * m2
+    scatter[2, 2] = S22 - s2 * m2
     _mirror_upper3(scatter)
     return k
 
