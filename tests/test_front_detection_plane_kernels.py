@@ -195,3 +195,43 @@ def test_ransac_rounds_match_numpy_and_opencv_rounds(seed):
     for p, (n, dd, support, bbox) in zip(got, ref):
         assert p.support == support and p.bbox == tuple(int(v) for v in bbox)
         assert np.allclose(p.n, n, atol=1e-9) and abs(p.d - dd) < 1e-9
+
+
+def test_refits_of_many_planes_in_one_call_are_the_refits_one_by_one():
+    """A wall with a box in front of part of it: the wall, the box's face, a plane that no
+    pixel lies near (stays as it was) and one turned 20 deg from the wall (its refit would
+    turn it back by more than 10 deg: stays), refitted together and one by one; the wall's
+    refit against the SVD plane of its pixels within L, then L / 2."""
+    from mmlearn.models.perception.detection.planes import (Plane, refine_plane_fullres,
+                                                            refine_planes_fullres)
+    rng = np.random.default_rng(8)
+    Kf = PinholeIntrinsics.from_fov(320, 240, 58.0)
+    v, u = np.mgrid[0:240, 0:320].astype(np.float64)
+    x, y = (u - Kf.cx) / Kf.fx, (v - Kf.cy) / Kf.fy
+    n_wall = np.array([0.15, -0.05, -1.0]) / np.linalg.norm([0.15, -0.05, -1.0])
+    z = 2.0 / -(n_wall[0] * x + n_wall[1] * y + n_wall[2]) + rng.normal(0, 0.003, x.shape)
+    z[60:140, 100:220] -= 0.15
+    z[rng.random(z.shape) < 0.02] = np.nan
+    Pc = np.dstack([x * z, y * z, z]).astype(np.float32)
+    L = np.maximum(0.02, 0.004 * np.nan_to_num(z) ** 2).astype(np.float32)
+    a = np.radians(20.0)
+    turned = np.array([np.sin(a), 0.0, -np.cos(a)])
+    planes = [Plane(n=n_wall, d=2.0, support=900, bbox=(0, 30, 0, 40)),
+              Plane(n=n_wall, d=1.85, support=150, bbox=(8, 17, 12, 27)),
+              Plane(n=np.array([0.0, 0.0, -1.0]), d=9.0, support=30, bbox=(0, 5, 0, 5)),
+              Plane(n=turned, d=2.0, support=40, bbox=(0, 30, 0, 40))]
+    together = refine_planes_fullres(planes, Pc, L, 8, 4, max_points=5000)
+    for pl, got in zip(planes, together):
+        one = refine_plane_fullres(pl, Pc, L, 8, 4, max_points=5000)
+        assert np.array_equal(got.n, one.n) and got.d == one.d and got.bbox == pl.bbox
+    assert together[2] is planes[2] and together[3] is planes[3]
+    assert together[0] is not planes[0] and together[1] is not planes[1]
+    step = int(math.ceil(math.sqrt(240 * 320 / 5000)))
+    P3 = Pc[::step, ::step].reshape(-1, 3).astype(np.float64)
+    Ls = L[::step, ::step].reshape(-1).astype(np.float64)
+    P3, Ls = P3[np.isfinite(P3[:, 2])], Ls[np.isfinite(P3[:, 2])]
+    n, d = n_wall, 2.0
+    for shrink in (1.0, 0.5):
+        n, d = _svd_fit(P3[np.abs(P3 @ n + d) <= shrink * Ls])
+    assert np.allclose(together[0].n, n, atol=1e-9) and abs(together[0].d - d) < 1e-9
+    assert refine_planes_fullres([], Pc, L, 8, 4) == []

@@ -20,7 +20,7 @@ from mmlearn.models.perception.detection.labels import (_label_images, _refit_on
                                                         IN_PLANE)
 from mmlearn.models.perception.detection.layers import _offset_layers
 from mmlearn.models.perception.detection.cells import find_cell_planes
-from mmlearn.models.perception.detection.planes import Plane, find_planes, refine_plane_fullres
+from mmlearn.models.perception.detection.planes import Plane, find_planes, refine_planes_fullres
 from mmlearn.models.perception.detection.rectify import _gap_mask_rectified, _rectified_view
 from mmlearn.models.perception.detection.search import (_component_starts, _greedy, _in_plane_cells,
                                                         _polish_rotations, _stack)
@@ -213,7 +213,7 @@ def _find_frame_planes(f: _Frame, cfg, rng) -> list[Plane]:
         planes, _ = find_cell_planes(f.Pc, f.st, cfg)
     else:
         planes = find_planes(f.sample_pts, f.grid_rc, f.grid_shape, cfg, rng)
-    return [refine_plane_fullres(pl, f.Pc, f.Limg, f.st, f.off) for pl in planes]
+    return refine_planes_fullres(planes, f.Pc, f.Limg, f.st, f.off)
 
 
 def _cost_table(cfg) -> np.ndarray:

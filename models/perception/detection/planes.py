@@ -642,22 +642,59 @@ def refine_plane_fullres(pl: Plane, Pc, Lmap, stride, off, max_points=20000) -> 
     most ``max_points`` for large ones); two rounds, the second on the pixels within L / 2 of
     the first fit (keeps a handle or an edge strip from tilting a small front's plane). The
     centroid and scatter of the selected pixels are summed in one compiled pass per round
-    (:func:`_band_scatter`)."""
-    r0, r1, c0, c1 = pl.bbox
-    H, W = Pc.shape[:2]
-    R0, R1 = off + stride * r0 - stride, off + stride * r1 + stride
-    C0, C1 = off + stride * c0 - stride, off + stride * c1 + stride
-    R0, C0 = max(0, R0), max(0, C0)
-    R1, C1 = min(R1, H), min(C1, W)
-    step = max(1, int(math.ceil(math.sqrt(max(0, R1 - R0) * max(0, C1 - C0) / max_points))))
-    n, d = pl.n, pl.d
-    c, scatter = np.empty(3), np.empty((3, 3))
-    for shrink in (1.0, 0.5):
-        if _band_scatter(Pc, Lmap, R0, R1, C0, C1, step, np.asarray(n, float), float(d),
-                         shrink, c, scatter) < 10:
-            return pl
-        n2, d2 = _plane_from_scatter(c, scatter)
-        if n2 @ pl.n < math.cos(math.radians(10.0)):
-            return pl
-        n, d = n2, d2
-    return Plane(n=n, d=d, support=pl.support, bbox=pl.bbox)
+    (:func:`_band_scatter`). The plane itself when a round keeps fewer than 10 pixels or
+    turns the normal by more than 10 deg. One plane of :func:`refine_planes_fullres`."""
+    return refine_planes_fullres([pl], Pc, Lmap, stride, off, max_points)[0]
+
+
+def refine_planes_fullres(planes, Pc, Lmap, stride, off, max_points=20000) -> list[Plane]:
+    """:func:`refine_plane_fullres` of every plane of ``planes``, all in one compiled call
+    (:func:`_refine_kernel`)."""
+    k = len(planes)
+    if k == 0:
+        return []
+    N0 = np.array([pl.n for pl in planes], np.float64).reshape(k, 3)
+    D0 = np.array([pl.d for pl in planes], np.float64)
+    boxes = np.array([pl.bbox for pl in planes], np.int64).reshape(k, 4)
+    N, D = np.empty((k, 3)), np.empty(k)
+    moved = _refine_kernel(Pc, Lmap, boxes, int(stride), int(off), float(max_points), N0, D0,
+                           math.cos(math.radians(10.0)), N, D)
+    return [Plane(n=N[i].copy(), d=float(D[i]), support=pl.support, bbox=pl.bbox)
+            if moved[i] else pl for i, pl in enumerate(planes)]
+
+
+@numba.njit(cache=True, nogil=True)
+def _refine_kernel(Pc, L, boxes, stride, off, max_points, N0, D0, cos_lim, N, D):
+    """The two refit rounds of :func:`refine_plane_fullres` for each plane (normals ``N0``,
+    offsets ``D0``, sample-grid boxes ``boxes``): the refitted planes into ``N``, ``D``;
+    returns per plane whether it was refitted (else it stays as it was). The crop, its step
+    and the tests of the array code, the same float operations."""
+    H, W = Pc.shape[0], Pc.shape[1]
+    k = len(D0)
+    moved = np.zeros(k, np.bool_)
+    c, S = np.empty(3), np.empty((3, 3))
+    for p in range(k):
+        r0, r1, c0, c1 = boxes[p, 0], boxes[p, 1], boxes[p, 2], boxes[p, 3]
+        R0, R1 = max(0, off + stride * r0 - stride), min(off + stride * r1 + stride, H)
+        C0, C1 = max(0, off + stride * c0 - stride), min(off + stride * c1 + stride, W)
+        area = max(0, R1 - R0) * max(0, C1 - C0)
+        step = max(1, int(math.ceil(math.sqrt(area / max_points))))
+        n0 = N0[p]
+        n, d = n0.copy(), D0[p]
+        ok = True
+        for shrink in (1.0, 0.5):
+            if _band_scatter(Pc, L, R0, R1, C0, C1, step, n, d, shrink, c, S) < 10:
+                ok = False
+                break
+            v = _least_eigenvector(S)
+            if (v[0] * c[0] + v[1] * c[1]) + v[2] * c[2] > 0:  # towards the camera
+                v = -v
+            d2 = -((v[0] * c[0] + v[1] * c[1]) + v[2] * c[2])
+            if (v[0] * n0[0] + v[1] * n0[1]) + v[2] * n0[2] < cos_lim:
+                ok = False
+                break
+            n, d = v, d2
+        if ok:
+            N[p, 0], N[p, 1], N[p, 2], D[p] = n[0], n[1], n[2], d
+            moved[p] = True
+    return moved
