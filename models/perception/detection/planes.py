@@ -275,9 +275,10 @@ def _hypotheses(pts, idx, lookup, flat_rc, r, Wp, N, rng):
     nrm = np.empty((N, 3))
     dd = np.empty(N)
     ok = np.empty(N, np.bool_)
-    if _local_hypotheses(pts, first, off, lookup, flat_rc, Wp, nrm, dd, ok) == 0:
+    k = _local_hypotheses(pts, first, off, lookup, flat_rc, Wp, nrm, dd, ok)
+    if k == 0:
         return _global_hypotheses(pts, idx, N, rng)
-    return nrm[ok], dd[ok]
+    return (nrm, dd) if k == N else (nrm[ok], dd[ok])
 
 
 def _local_draws(idx, r, N, rng):
