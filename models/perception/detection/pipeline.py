@@ -20,7 +20,7 @@ from mmlearn.models.perception.detection.labels import (_label_images, _refit_on
                                                         IN_PLANE)
 from mmlearn.models.perception.detection.layers import _offset_layers
 from mmlearn.models.perception.detection.cells import find_cell_planes
-from mmlearn.models.perception.detection.planes import Plane, find_planes, refine_plane_fullres
+from mmlearn.models.perception.detection.planes import Plane, find_planes, refine_planes_fullres
 from mmlearn.models.perception.detection.rectify import _gap_mask_rectified, _rectified_view
 from mmlearn.models.perception.detection.search import (_component_starts, _greedy, _in_plane_cells,
                                                         _polish_rotations, _stack)
@@ -112,34 +112,44 @@ class _Frame:
 @numba.njit(cache=True, nogil=True)
 def _frame_kernel(d, xs, ys, base, per_m2, s_base, s_per_m2, band_per_m2, valid, dzero, Pc, Limg,
                   surf, Lband):
-    """One pass over a float32 depth image ``d``: ``valid`` (finite and > 0), ``dzero`` (0
-    where not valid), ``Pc`` the camera-frame points (x d, y d, d; NaN where not valid),
-    ``Limg`` = max(base, per_m2 z^2), ``surf`` = max(s_base, s_per_m2 z^2) and ``Lband`` =
-    max(0, band_per_m2 z^2) + Limg (float32: (per_m2 z) z, then the larger one)."""
-    nan = np.float32(np.nan)
-    zero = np.float32(0.0)
+    """One pass over the rows of a float32 depth image ``d``: ``valid`` (finite and > 0),
+    ``dzero`` (0 where not valid), ``Pc`` the camera-frame points (x d, y d, d; NaN where not
+    valid), ``Limg`` = max(base, per_m2 z^2), ``surf`` = max(s_base, s_per_m2 z^2) and
+    ``Lband`` = max(0, band_per_m2 z^2) + Limg (float32: (per_m2 z) z, then the larger one).
+    Each row in four loops of few arrays each, which the compiler turns into vector
+    operations (one loop writing all seven arrays stays scalar)."""
+    nan, zero, inf = np.float32(np.nan), np.float32(0.0), np.float32(np.inf)
+    W = d.shape[1]
     for r in range(d.shape[0]):
-        y = ys[r]
-        for c in range(d.shape[1]):
-            v = d[r, c]
-            ok = np.isfinite(v) and v > zero
-            valid[r, c] = ok
-            dz = v if ok else nan
-            Pc[r, c, 0] = xs[c] * dz
-            Pc[r, c, 1] = y * dz
-            Pc[r, c, 2] = dz
-            z0 = v if ok else zero
-            dzero[r, c] = z0
+        dr, vr, zr = d[r], valid[r], dzero[r]
+        for c in range(W):
+            v = dr[c]
+            ok = (v > zero) & (v < inf)  # (finite and > 0: NaN fails both)
+            vr[c] = ok
+            zr[c] = v if ok else zero
+        Lr, br = Limg[r], Lband[r]
+        for c in range(W):
+            z0 = zr[c]
             b = per_m2 * z0
             b = b * z0
             lim = b if b > base else base
-            Limg[r, c] = lim
-            s = s_per_m2 * z0
-            s = s * z0
-            surf[r, c] = s if s > s_base else s_base
+            Lr[c] = lim
             e = band_per_m2 * z0
             e = e * z0
-            Lband[r, c] = (e if e > zero else zero) + lim
+            br[c] = (e if e > zero else zero) + lim
+        sr = surf[r]
+        for c in range(W):
+            z0 = zr[c]
+            s = s_per_m2 * z0
+            s = s * z0
+            sr[c] = s if s > s_base else s_base
+        Pf, y = Pc[r].reshape(3 * W), ys[r]
+        for c in range(W):
+            v = dr[c]
+            dz = v if (v > zero) & (v < inf) else nan
+            Pf[3 * c] = xs[c] * dz
+            Pf[3 * c + 1] = y * dz
+            Pf[3 * c + 2] = dz
 
 
 def _frame_arrays(d, K, cfg):
@@ -160,18 +170,40 @@ def _frame_arrays(d, K, cfg):
     return valid, dzero, xs, ys, Pc, Limg, surf, Lband
 
 
+@numba.njit(cache=True, nogil=True)
+def _sample_grid(valid, d, Pc, st, off, max_depth):
+    """The RANSAC sample grid (every ``st``-th pixel from ``off`` in rows and columns): its
+    shape, and in raster order its measured pixels no farther than ``max_depth`` (float32):
+    their points (m, 3) float64 and grid (row, column) (m, 2)."""
+    H, W = d.shape
+    Hs, Ws = max(0, (H - off + st - 1) // st), max(0, (W - off + st - 1) // st)
+    m = 0
+    for i in range(Hs):
+        for j in range(Ws):
+            r, c = off + i * st, off + j * st
+            m += 1 if valid[r, c] and d[r, c] <= max_depth else 0
+    pts, rc = np.empty((m, 3)), np.empty((m, 2), np.int64)
+    k = 0
+    for i in range(Hs):
+        for j in range(Ws):
+            r, c = off + i * st, off + j * st
+            if valid[r, c] and d[r, c] <= max_depth:
+                pts[k, 0], pts[k, 1], pts[k, 2] = Pc[r, c, 0], Pc[r, c, 1], Pc[r, c, 2]
+                rc[k, 0], rc[k, 1] = i, j
+                k += 1
+    return (Hs, Ws), pts, rc
+
+
 def _prepare_frame(d, arrays, K, X_WC, var_scale, cfg) -> _Frame:
     """The camera-frame points of every pixel and the RANSAC sample grid of a depth image
-    (``arrays``: :func:`_frame_arrays`)."""
+    (``arrays``: :func:`_frame_arrays`; the grid in one compiled pass, :func:`_sample_grid`)."""
     valid, dzero, xs, ys, Pc, Limg, surf, Lband = arrays
     st = int(cfg.ransac_stride_px)
     off = st // 2
-    sub_valid = valid[off::st, off::st] & (d[off::st, off::st] <= cfg.max_depth)
-    rr, cc = np.nonzero(sub_valid)
-    sample_pts = Pc[off::st, off::st][rr, cc].astype(np.float64)
+    shape, sample_pts, grid_rc = _sample_grid(valid, d, Pc, st, off, np.float32(cfg.max_depth))
     down_C = X_WC[:3, :3].T @ np.array([0.0, 0.0, -1.0])
-    return _Frame(K, d, valid, dzero, xs, ys, Pc, st, off, sample_pts, np.column_stack([rr, cc]),
-                  sub_valid.shape, Limg, var_scale, down_C, surf, Lband)
+    return _Frame(K, d, valid, dzero, xs, ys, Pc, st, off, sample_pts, grid_rc, shape, Limg,
+                  var_scale, down_C, surf, Lband)
 
 
 def _find_frame_planes(f: _Frame, cfg, rng) -> list[Plane]:
@@ -181,7 +213,7 @@ def _find_frame_planes(f: _Frame, cfg, rng) -> list[Plane]:
         planes, _ = find_cell_planes(f.Pc, f.st, cfg)
     else:
         planes = find_planes(f.sample_pts, f.grid_rc, f.grid_shape, cfg, rng)
-    return [refine_plane_fullres(pl, f.Pc, f.Limg, f.st, f.off) for pl in planes]
+    return refine_planes_fullres(planes, f.Pc, f.Limg, f.st, f.off)
 
 
 def _cost_table(cfg) -> np.ndarray:
