@@ -171,7 +171,6 @@ def _crossings(labs, S, planes, valid, crossing_angle_deg, smooth_px):
     r = smooth_px // 2
     take = np.zeros(near_sh.shape, bool)  # [k, i]: shared pixel i is nearer another plane
     take_layer = np.zeros(near_sh.shape, bool) if layer.any() else None
-    mark = np.zeros((H, W), np.uint8)  # (the pair's pixels, set and cleared per pair)
     for k in range(P):
         for j in range(k + 1, P):
             if not (crossing[k, j] or crossing[j, k]):
@@ -183,9 +182,13 @@ def _crossings(labs, S, planes, valid, crossing_angle_deg, smooth_px):
             # the pair's pixels' bounding box with the window's margin
             y0, y1 = max(0, int(by.min()) - r), min(H, int(by.max()) + r + 1)
             x0, x1 = max(0, int(bx.min()) - r), min(W, int(bx.max()) + r + 1)
-            ak = np.empty(len(both), np.float32)
-            aj = np.empty(len(both), np.float32)
-            _pair_window_sums(S[k], S[j], by, bx, y0, y1, x0, x1, r, mark, ak, aj)
+            by, bx = by - y0, bx - x0
+            w = np.zeros((y1 - y0, x1 - x0), np.float32)
+            w[by, bx] = 1.0
+            ak = np.abs(cv2.boxFilter(S[k][y0:y1, x0:x1] * w, -1, (smooth_px, smooth_px),
+                                      normalize=False)[by, bx])
+            aj = np.abs(cv2.boxFilter(S[j][y0:y1, x0:x1] * w, -1, (smooth_px, smooth_px),
+                                      normalize=False)[by, bx])
             if layer[k, j]:  # (a layer pair: both directions, sign-dependent labels)
                 # (only in the layer's region: outside it the layer has no in-plane pixels)
                 take_layer[k, both] |= aj < ak
@@ -216,44 +219,6 @@ def _reflect101(p, n):
     while p < 0 or p >= n:
         p = -p if p < 0 else 2 * n - 2 - p
     return p
-
-
-@numba.njit(cache=True, nogil=True)
-def _pair_window_sums(Sk, Sj, by, bx, y0, y1, x0, x1, r, mark, ak, aj):
-    """|sum| of ``Sk`` and of ``Sj`` over the pixels ``(by, bx)`` within the (2 r + 1)^2
-    square around each of them (``ak``, ``aj``; float32): the values of
-    ``cv2.boxFilter(S[y0:y1, x0:x1] * w, -1, (2r + 1, 2r + 1), normalize=False)`` at those
-    pixels, with ``w`` 1 on them and 0 elsewhere (the sums of float32 values in float64,
-    rounded to float32; the window reflected at the crop's border as OpenCV's default).
-    ``mark``: a zero uint8 image of the image's shape (left zero)."""
-    n = by.shape[0]
-    for i in range(n):
-        mark[by[i], bx[i]] = 1
-    h, w = y1 - y0, x1 - x0
-    for i in range(n):
-        yc, xc = by[i] - y0, bx[i] - x0
-        sk = 0.0
-        sj = 0.0
-        if r <= yc < h - r and r <= xc < w - r:  # (inside the crop: no reflection)
-            for yy in range(by[i] - r, by[i] + r + 1):
-                for xx in range(bx[i] - r, bx[i] + r + 1):
-                    if mark[yy, xx]:
-                        sk += np.float64(Sk[yy, xx])
-                        sj += np.float64(Sj[yy, xx])
-            ak[i] = abs(np.float32(sk))
-            aj[i] = abs(np.float32(sj))
-            continue
-        for dy in range(-r, r + 1):
-            yy = y0 + _reflect101(yc + dy, h)
-            for dx in range(-r, r + 1):
-                xx = x0 + _reflect101(xc + dx, w)
-                if mark[yy, xx]:
-                    sk += np.float64(Sk[yy, xx])
-                    sj += np.float64(Sj[yy, xx])
-        ak[i] = abs(np.float32(sk))
-        aj[i] = abs(np.float32(sj))
-    for i in range(n):
-        mark[by[i], bx[i]] = 0
 
 
 def _surface_check(lab, S, Lm, win):
