@@ -210,30 +210,14 @@ def _crossings(labs, S, planes, valid, crossing_angle_deg, smooth_px):
             flat[px] = np.where(S[k].reshape(-1)[px] > 0, np.uint8(OCCLUDED), np.uint8(FREE))
 
 
-@numba.njit(cache=True, nogil=True)
-def _reflect101(p, n):
-    """Index ``p`` reflected into 0..n-1 about the end pixels (OpenCV's
-    ``BORDER_REFLECT_101``, the default border of ``cv2.boxFilter``)."""
-    if n == 1:
-        return 0
-    while p < 0 or p >= n:
-        p = -p if p < 0 else 2 * n - 2 - p
-    return p
-
-
 def _surface_check(lab, S, Lm, win):
     """In place: an in-plane pixel whose in-plane neighbours (a ``win`` x ``win`` square) lie
     on average farther than ``Lm`` from the plane refitted to the in-plane pixels' distances
-    (not from the detected plane, whose fit may be tilted) becomes OFF_SURFACE. Single pixels
-    of a plane scatter around it by the camera's noise (their mean within a fraction of it);
-    the side face of a panel seen around its edge (a door's 19 mm edge) lies within L of the
-    panel's face too, but wholly behind it, and would otherwise widen the front by up to
-    thickness x tan(incidence) (measured: 2 cm at 69 deg).
-
-    Works on the in-plane pixels' bounding box (with the window's margin): with box filters
-    over the box, or, where the in-plane pixels are sparse in it (a plane's few pixels
-    scattered over the image where other surfaces cross it), pixel by pixel
-    (:func:`_surface_mark_sparse`, the same sums)."""
+    (not from the detected plane, whose fit may be tilted) becomes UNKNOWN. Single pixels of a plane
+    scatter around it by the camera's noise (their mean within a fraction of it); the side
+    face of a panel seen around its edge (a door's 19 mm edge) lies within L of the panel's
+    face too, but wholly behind it, and would otherwise widen the front by up to
+    thickness x tan(incidence) (measured: 2 cm at 69 deg)."""
     m8 = cv2.compare(lab, IN_PLANE, cv2.CMP_EQ)
     x, y, w, h = cv2.boundingRect(m8)  # work on the in-plane pixels' bounding box only
     if w == 0 or h == 0:
@@ -242,7 +226,9 @@ def _surface_check(lab, S, Lm, win):
     y0, y1, x0, x1 = max(0, y - r), min(lab.shape[0], y + h + r), max(0, x - r), min(
         lab.shape[1], x + w + r)
     m8b = m8[y0:y1, x0:x1]
-    n_in = cv2.countNonZero(m8b)
+    inpb = m8b > 0
+    # in-plane neighbours of each pixel (exact integers, from the 0/1 bytes)
+    den = cv2.boxFilter(inpb.view(np.uint8), cv2.CV_32F, (win, win), normalize=False)
     # relative to the plane refitted to the in-plane pixels' distances (an affine function
     # of the pixel, least squares), not to the fitted plane: a plane 1-2 deg off (a sliding
     # panel 4.6 cm in front of its cabinet's face) departs from one side of a 0.5 m panel by
@@ -252,18 +238,12 @@ def _surface_check(lab, S, Lm, win):
     coef = np.empty(3)
     state = _ramp_fit(Sb, m8b, Lm[y0:y1, x0:x1], coef)
     if state < 0:  # (points on one line: the least-squares solution of the general case)
-        coef = _ramp_fit_lstsq(Sb, m8b > 0, Lm[y0:y1, x0:x1])
+        coef = _ramp_fit_lstsq(Sb, inpb, Lm[y0:y1, x0:x1])
         state = 0 if coef is None else 1
     if state > 0:
         ramp = (np.float32(coef[0]), np.float32(coef[1]), np.float32(coef[2]), True)
     else:
         ramp = (np.float32(0.0), np.float32(0.0), np.float32(0.0), False)
-    if n_in * win * win < m8b.size:  # sparse: each in-plane pixel's square on its own
-        pts = cv2.findNonZero(m8b).reshape(-1, 2)
-        _surface_mark_sparse(S, lab, Lm, y0, y1, x0, x1, pts, *ramp, int(win))
-        return
-    # in-plane neighbours of each pixel (exact integers, from the 0/1 bytes)
-    den = cv2.boxFilter((m8b > 0).view(np.uint8), cv2.CV_32F, (win, win), normalize=False)
     # (Sb - ramp) on the in-plane pixels, 0 elsewhere; the ramp is (a x + b y) + c, float32
     dev = np.empty(Sb.shape, np.float32)
     _surface_deviation(Sb, m8b, *ramp, dev)
@@ -293,51 +273,6 @@ def _mark_off_surface(num, den, Lm, m8, lab):
         for x in range(num.shape[1]):
             if m8[r, x] and abs(num[r, x]) > den[r, x] * Lm[r, x]:
                 lab[r, x] |= np.uint8(OFF_SURFACE)
-
-
-@numba.njit(cache=True, nogil=True)
-def _surface_mark_sparse(S, lab, Lm, y0, y1, x0, x1, pts, a, b, c, with_ramp, win):
-    """:func:`_surface_check`'s test pixel by pixel, on the box rows y0:y1, columns x0:x1
-    of the images: OFF_SURFACE or-ed into ``lab`` at each in-plane pixel where |num| > den
-    Lm (float32), num and den the sums over the in-plane pixels of the ``win`` x ``win``
-    square around it of dev = S - ((a x + b y) + c) (x, y from the box's corner; without
-    ``with_ramp``: S; float32, the array expression's operations in its order) and of 1:
-    the values of ``cv2.boxFilter(.., normalize=False)`` on the box (float32 summed in
-    float64, rounded to float32; the square reflected at the box's border as OpenCV's
-    default). ``pts``: the in-plane pixels (x, y) in the box (int32, ``cv2.findNonZero``),
-    those before any is marked."""
-    h, w = y1 - y0, x1 - x0
-    r = win // 2
-    n = pts.shape[0]
-    off = np.zeros(n, np.bool_)
-    acc = np.empty(win)  # per column of the square: independent sums, added up at the end
-    accn = np.empty(win, np.float32)
-    for i in range(n):
-        xc, yc = pts[i, 0], pts[i, 1]
-        acc[:] = 0.0
-        accn[:] = 0.0
-        for dy in range(-r, r + 1):
-            yy = yc + dy if 0 <= yc + dy < h else _reflect101(yc + dy, h)
-            by = b * np.float32(yy)
-            for j in range(win):
-                xx = xc + j - r
-                xx = xx if 0 <= xx < w else _reflect101(xx, w)
-                # (without a jump: the in-plane neighbours of a sparse plane are irregular)
-                mq = np.float32(lab[y0 + yy, x0 + xx] == IN_PLANE)
-                v = S[y0 + yy, x0 + xx]
-                if with_ramp:
-                    v = v - ((a * np.float32(xx) + by) + c)
-                acc[j] += np.float64(v * mq)
-                accn[j] += mq
-        t = 0.0
-        cnt = np.float32(0.0)
-        for j in range(win):
-            t += acc[j]
-            cnt += accn[j]
-        off[i] = abs(np.float32(t)) > cnt * Lm[y0 + yc, x0 + xc]
-    for i in range(n):
-        if off[i]:
-            lab[y0 + pts[i, 1], x0 + pts[i, 0]] |= np.uint8(OFF_SURFACE)
 
 
 def _ramp_fit_lstsq(Sb, inpb, Lmb):
