@@ -10,6 +10,7 @@ import numba
 import numpy as np
 
 from mmlearn.models.common.camera import PinholeIntrinsics, as_depth_image
+from mmlearn.models.common.gp import blas_single_thread
 from mmlearn.models.perception.detection.check import (_gap_bounded, _inside_border,
                                                        _precision_recall, _refit_plane, _suppress)
 from mmlearn.models.perception.detection.config import FrontDetectorConfig, STAGES
@@ -235,7 +236,14 @@ def _labels(f: _Frame, planes, cfg, surface, gap, keep_distances=False):
 def _plane_labels(f: _Frame, planes, cfg, surface, gap):
     """The label image of every plane (Eq. 5.2 with crossings, surface check and reveals),
     after the planes tilted by a shallow crossing are refitted on their own pixels and the
-    offset layers are added: (planes, labels)."""
+    offset layers are added: (planes, labels). BLAS runs on one thread here
+    (:func:`blas_single_thread`): the refits' products are small, and a BLAS thread pool
+    on a busy machine made them ten times slower."""
+    with blas_single_thread():
+        return _plane_labels_1(f, planes, cfg, surface, gap)
+
+
+def _plane_labels_1(f: _Frame, planes, cfg, surface, gap):
     labels, S = _labels(f, planes, cfg, surface, gap, keep_distances=True)
     if cfg.own_pixel_refit_deg > 0:  # planes tilted by a neighbour they cross at a shallow angle
         moved = _refit_on_own_pixels(planes, labels, f.Pc, f.Limg, cfg.own_pixel_refit_deg,
@@ -268,12 +276,13 @@ def _grids(f: _Frame, planes, labels, cfg, lut) -> list[_Grid]:
     refits and offset layers read them)."""
     grids = []
     front = _front_planes(f, planes, cfg)
-    for k, (pl, lab) in enumerate(zip(planes, labels)):
-        if not front[k]:
-            continue
-        g = _make_grid(k, pl, lab, f.sample_pts, f.K, f.down_C, cfg, lut)
-        if g is not None and (g.labels == IN_PLANE).any():
-            grids.append(g)
+    with blas_single_thread():  # (small products: see _plane_labels)
+        for k, (pl, lab) in enumerate(zip(planes, labels)):
+            if not front[k]:
+                continue
+            g = _make_grid(k, pl, lab, f.sample_pts, f.K, f.down_C, cfg, lut)
+            if g is not None and (g.labels == IN_PLANE).any():
+                grids.append(g)
     return grids
 
 
