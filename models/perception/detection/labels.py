@@ -65,7 +65,7 @@ def _broadcast_rows(a, shape):
 
 
 def _label_images(d, valid, ray_x, ray_y, planes, L, crossing_angle_deg,
-                  smooth_px=5, surface=None, gap=None, keep_distances=False):
+                  smooth_px=5, surface=None, gap=None, keep_distances=False, previous=None):
     """Eq. 5.2 labels of every pixel for every plane n . p + dpl = 0. The signed distance of
     the pixel's point p = depth * (ray_x, ray_y, 1) is depth * (n . ray) + dpl (separable in
     rows and columns). A pixel within L of two planes that cross at more than
@@ -77,7 +77,15 @@ def _label_images(d, valid, ray_x, ray_y, planes, L, crossing_angle_deg,
     OCCLUDED for a plane it lies in front of and FREE for one it lies behind.
     Otherwise pixels belong to every plane they are within L of (5.1.1).
     Returns the label images (a list, one uint8 image per plane), and with
-    ``keep_distances`` also the (planes, H, W) float32 signed distances."""
+    ``keep_distances`` also the (planes, H, W) float32 signed distances.
+
+    ``previous``: (planes, label images) of an earlier call on the same image with the same
+    other arguments, whose planes this call's list holds unchanged (the same objects) where
+    it was not refitted, followed by new ones (offset layers): the images of the planes
+    that neither changed nor cross a changed or new plane (before or now) are the same, and
+    are taken from it (:func:`_unchanged_planes`); the crossings are then decided only for
+    the pairs with another plane, and the surface check and the reveals applied only to the
+    others' images."""
     P = len(planes)
     S = np.empty((P,) + d.shape, np.float32)
     L = np.broadcast_to(np.asarray(L, np.float32), d.shape).copy() if np.ndim(L) == 0 else L
@@ -101,15 +109,19 @@ def _label_images(d, valid, ray_x, ray_y, planes, L, crossing_angle_deg,
             lab[lab == IN_PLANE] = FREE
             lab[r0:r1, c0:c1] = keep
         labs.append(lab)
-    _crossings(labs, S, planes, valid, crossing_angle_deg, smooth_px)
+    same = (np.zeros(P, bool) if previous is None
+            else _unchanged_planes(previous[0], planes, crossing_angle_deg))
+    _crossings(labs, S, planes, valid, crossing_angle_deg, smooth_px, need=~same)
+    for k in np.flatnonzero(same):
+        labs[k] = previous[1][k]
     if surface is not None:  # after the crossings: their strips would bias the means
-        for k in range(P):
+        for k in np.flatnonzero(~same):
             _surface_check(labs[k], S[k], *surface)
     if gap is not None:  # reveals (_gap_mask): GAP unless something is in front
         gi = np.flatnonzero(gap.reshape(-1))
         if len(gi):
-            for lab in labs:
-                flat = lab.reshape(-1)
+            for k in np.flatnonzero(~same):
+                flat = labs[k].reshape(-1)
                 sub = flat[gi]
                 flat[gi] = np.where(sub == OCCLUDED, sub, np.uint8(GAP))
     return (labs, S) if keep_distances else labs
@@ -118,19 +130,11 @@ def _label_images(d, valid, ray_x, ray_y, planes, L, crossing_angle_deg,
 _CROSSING_MIN_SHARE = 0.1
 
 
-def _crossings(labs, S, planes, valid, crossing_angle_deg, smooth_px):
-    """In place: where two crossing planes are both within L of a pixel, the pixel stays
-    in-plane only for the nearer one (see :func:`_label_images` and below)."""
+def _crossing_pairs(planes, crossing_angle_deg):
+    """:func:`_crossings`' pairs: (crossing, layer), bool (planes, planes); ``crossing[k,
+    j]``: plane j may take pixels from plane k (layer pairs included), ``layer``: an offset
+    layer and its parent."""
     P = len(planes)
-    if P < 2:
-        return
-    count = np.zeros(valid.shape, np.uint8)
-    for lab in labs:
-        count += (lab == IN_PLANE).view(np.uint8)  # (bytes + bytes: no per-element cast)
-    shared = np.flatnonzero(count > 1)
-    if len(shared) == 0:
-        return
-    near_sh = np.array([lab.reshape(-1)[shared] == IN_PLANE for lab in labs])
     N = np.array([pl.n for pl in planes])
     sup = np.array([pl.support for pl in planes])
     # [k, j]: j may take pixels from k. Planes crossing at less than 30 deg share a wide strip
@@ -156,6 +160,43 @@ def _crossings(labs, S, planes, valid, crossing_angle_deg, smooth_px):
         if 0 <= pl.parent < P:
             layer[pl.parent, j] = layer[j, pl.parent] = True
     crossing |= layer
+    return crossing, layer
+
+
+def _unchanged_planes(old, planes, crossing_angle_deg):
+    """Per plane of ``planes``, whether its label image equals the one it had among ``old``
+    (:func:`_label_images`' ``previous``): the same plane object at the same index, crossing
+    (:func:`_crossing_pairs`, either way) no plane that changed or is new, neither among
+    ``old`` nor among ``planes``."""
+    P, P0 = len(planes), len(old)
+    changed = np.array([k >= P0 or planes[k] is not old[k] for k in range(P)])
+    same = ~changed
+    if not changed.any() or not same.any():
+        return same
+    for pls, ch in ((old, changed[:P0]), (planes, changed)):
+        c, _ = _crossing_pairs(pls, crossing_angle_deg)
+        pair = c | c.T
+        n = len(pls)
+        same[:n] &= ~pair[:, ch].any(axis=1)
+    return same
+
+
+def _crossings(labs, S, planes, valid, crossing_angle_deg, smooth_px, need=None):
+    """In place: where two crossing planes are both within L of a pixel, the pixel stays
+    in-plane only for the nearer one (see :func:`_label_images` and below). ``need``: per
+    plane, whether its image is wanted (bool; None: all): the pairs of two planes that are
+    not are skipped (their images are left as they are)."""
+    P = len(planes)
+    if P < 2:
+        return
+    count = np.zeros(valid.shape, np.uint8)
+    for lab in labs:
+        count += (lab == IN_PLANE).view(np.uint8)  # (bytes + bytes: no per-element cast)
+    shared = np.flatnonzero(count > 1)
+    if len(shared) == 0:
+        return
+    near_sh = np.array([lab.reshape(-1)[shared] == IN_PLANE for lab in labs])
+    crossing, layer = _crossing_pairs(planes, crossing_angle_deg)
     if not crossing.any():
         return
     # Which plane is nearer is decided on the two planes' signed distances, each summed over
@@ -174,6 +215,8 @@ def _crossings(labs, S, planes, valid, crossing_angle_deg, smooth_px):
     for k in range(P):
         for j in range(k + 1, P):
             if not (crossing[k, j] or crossing[j, k]):
+                continue
+            if need is not None and not (need[k] or need[j]):
                 continue
             both = np.flatnonzero(near_sh[k] & near_sh[j])
             if len(both) == 0:

@@ -228,9 +228,10 @@ def _reveals(f: _Frame, planes, cfg):
     return gap, gap_thin
 
 
-def _labels(f: _Frame, planes, cfg, surface, gap, keep_distances=False):
+def _labels(f: _Frame, planes, cfg, surface, gap, keep_distances=False, previous=None):
     return _label_images(f.dzero, f.valid, f.xs, f.ys, planes, f.Limg, cfg.crossing_angle_deg,
-                         int(cfg.crossing_smooth_px), surface, gap, keep_distances=keep_distances)
+                         int(cfg.crossing_smooth_px), surface, gap, keep_distances=keep_distances,
+                         previous=previous)
 
 
 def _plane_labels(f: _Frame, planes, cfg, surface, gap):
@@ -245,18 +246,21 @@ def _plane_labels(f: _Frame, planes, cfg, surface, gap):
 
 def _plane_labels_1(f: _Frame, planes, cfg, surface, gap):
     labels, S = _labels(f, planes, cfg, surface, gap, keep_distances=True)
+    # (each relabelling takes the images of the planes that neither moved nor cross a moved
+    # or new plane from the one before: _label_images' previous)
     if cfg.own_pixel_refit_deg > 0:  # planes tilted by a neighbour they cross at a shallow angle
         moved = _refit_on_own_pixels(planes, labels, f.Pc, f.Limg, cfg.own_pixel_refit_deg,
                                      cfg.crossing_angle_deg)
         if moved is not None:
+            labels, S = _labels(f, moved, cfg, surface, gap, keep_distances=True,
+                                previous=(planes, labels))
             planes = moved
-            labels, S = _labels(f, planes, cfg, surface, gap, keep_distances=True)
     if cfg.layer_planes > 0 and cfg.layer_max_layers > 0:
         # fronts standing a few cm proud of a larger plane (_offset_layers)
         layers = _offset_layers(planes, labels, S, f.Pc, f.Limg, f.Lband, f.K, cfg, f.st, f.off)
         if layers:
+            labels = _labels(f, planes + layers, cfg, surface, gap, previous=(planes, labels))
             planes = planes + layers
-            labels = _labels(f, planes, cfg, surface, gap)
     return planes, labels
 
 
