@@ -239,12 +239,14 @@ def _plane_labels(f: _Frame, planes, cfg, surface, gap):
     after the planes tilted by a shallow crossing are refitted on their own pixels and the
     offset layers are added: (planes, labels). BLAS runs on one thread here
     (:func:`blas_single_thread`): the refits' products are small, and a BLAS thread pool
-    on a busy machine made them ten times slower."""
+    on a busy machine made them many times slower."""
     with blas_single_thread():
-        return _plane_labels_1(f, planes, cfg, surface, gap)
+        return _labels_refits_layers(f, planes, cfg, surface, gap)
 
 
-def _plane_labels_1(f: _Frame, planes, cfg, surface, gap):
+def _labels_refits_layers(f: _Frame, planes, cfg, surface, gap):
+    """:func:`_plane_labels`' work: the labels, the own-pixel refit and the offset layers,
+    each relabelling after them from the labels before."""
     labels, S = _labels(f, planes, cfg, surface, gap, keep_distances=True)
     # (each relabelling takes the images of the planes that neither moved nor cross a moved
     # or new plane from the one before: _label_images' previous)
