@@ -12,9 +12,11 @@ from mmlearn.models.perception.detection import Plane
 from mmlearn.models.perception.detection.check import _refit_plane
 from mmlearn.models.perception.detection.gaps import (_bent_windows, _box_rows, _line_hits_kernel,
                                                       _long_runs, _stretch_at, _window_means)
-from mmlearn.models.perception.detection.labels import (_affine_lstsq, _ramp_fit,
-                                                        _ramp_fit_lstsq)
+from mmlearn.models.perception.detection.labels import (IN_PLANE, OCCLUDED, _affine_lstsq,
+                                                        _ramp_fit, _ramp_fit_lstsq,
+                                                        _refit_on_own_pixels)
 from mmlearn.models.perception.detection.planes import (_components, _fit_plane, _inlier_counts,
+                                                        _fit_plane_many,
                                                         _largest_region, refine_plane_fullres)
 from mmlearn.models.common.camera import PinholeIntrinsics
 
@@ -373,3 +375,78 @@ def test_line_hits_match_every_test_on_every_line(seed):
         rg, rz = _line_hits_reference(m, unmeas, side_ok, v, 0.0025, 0.001, 5.25, h)
         assert np.array_equal(g, rg) and np.array_equal(zg.view(np.int32), rz.view(np.int32))
         assert g[45].any() and g[30].any() == (v is not None)
+
+
+def _refit_reference(planes, labels, Pc, Lmap, min_change_deg, crossing_angle_deg, rounds=3,
+                     max_points=40000, max_change_deg=5.0, min_support=100):
+    """The own-pixel refit as array code: every sampled pixel's distance to every plane,
+    the partners' nearest within L by masked minima."""
+    N0 = np.array([pl.n for pl in planes])
+    cosang = np.abs(N0 @ N0.T)
+    partners = ((cosang < math.cos(math.radians(crossing_angle_deg)))
+                & (cosang > math.cos(math.radians(30.0))))
+    H, W = labels[0].shape
+    step = max(1, int(math.ceil(math.sqrt(H * W / max_points))))
+    P = Pc[::step, ::step].reshape(-1, 3).astype(np.float64)
+    L = Lmap[::step, ::step].reshape(-1).astype(np.float64)
+    own0 = np.array([lab[::step, ::step].reshape(-1) == IN_PLANE for lab in labels])
+    ok = np.isfinite(P[:, 2]) & own0.any(axis=0)
+    P, L, own0 = P[ok], L[ok], own0[:, ok]
+    refit = [k for k, pl in enumerate(planes) if partners[k].any() and pl.support >= min_support]
+    cur = list(planes)
+    for _ in range(rounds):
+        A = np.abs(P @ np.array([pl.n for pl in cur]).T + np.array([pl.d for pl in cur])).T
+        Ain = np.where(A <= L, A, np.inf)
+        nxt = list(cur)
+        for k in refit:
+            sel = own0[k] & (A[k] <= 0.5 * L) & (A[k] <= Ain[partners[k]].min(axis=0))
+            if sel.sum() < 10:
+                continue
+            n, d = _fit_plane_many(P[sel])
+            if n @ planes[k].n >= math.cos(math.radians(10.0)):
+                nxt[k] = Plane(n=n, d=d, support=cur[k].support, bbox=cur[k].bbox)
+        cur = nxt
+    cmin, cmax = (math.cos(math.radians(a)) for a in (min_change_deg, max_change_deg))
+    return [b if cmax <= float(a.n @ b.n) < cmin else a for a, b in zip(planes, cur)]
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_own_pixel_refit_matches_the_array_code(seed):
+    """A wall and a door crossing it at 6 deg, the door's fit tilted towards the wall by 1.5
+    deg, a few pixels without a measurement and a third plane far away: the compiled
+    selection of each plane's own pixels gives the array code's refitted planes bit for bit,
+    and the door turns back towards its own surface."""
+    rng = np.random.default_rng(seed)
+    H, W = 120, 160
+    ys, xs = np.mgrid[0:H, 0:W].astype(np.float64)
+    ray = np.stack([(xs - W / 2) / 150.0, (ys - H / 2) / 150.0, np.ones((H, W))], axis=-1)
+
+    def plane(deg, d):
+        a = math.radians(deg)
+        return np.array([math.sin(a), 0.0, -math.cos(a)]), d
+
+    n_wall, d_wall = plane(0.0, 2.0)
+    n_door, d_door = plane(6.0, 1.9)
+    # each pixel on the nearer surface (the door left of its crossing with the wall)
+    z_wall = -d_wall / (ray @ n_wall)
+    z_door = -d_door / (ray @ n_door)
+    z = np.where(xs < W // 2, z_door, z_wall) + rng.normal(0, 0.002, (H, W))
+    z[rng.random((H, W)) < 0.02] = np.nan
+    Pc = (ray * z[..., None]).astype(np.float32)
+    Lmap = np.full((H, W), 0.02, np.float32)
+    tilt = plane(7.5, 1.9)
+    planes = [Plane(n=n_wall, d=d_wall, support=900, bbox=(0, 15, 0, 20)),
+              Plane(n=tilt[0], d=tilt[1], support=500, bbox=(0, 15, 0, 10)),
+              Plane(n=np.array([0.0, -1.0, 0.0]), d=0.5, support=300, bbox=(0, 2, 0, 20))]
+    labels = []
+    for pl in planes:
+        s = np.abs(Pc.astype(np.float64) @ pl.n + pl.d)
+        labels.append(np.where(s <= 0.02, IN_PLANE, OCCLUDED).astype(np.uint8))
+    labels[0][:, : W // 2 - 3] = OCCLUDED  # the crossing's strip stays with both
+    for min_change in (0.0, 0.5):
+        got = _refit_on_own_pixels(planes, labels, Pc, Lmap, min_change, 3.0)
+        ref = _refit_reference(planes, labels, Pc, Lmap, min_change, 3.0)
+        assert got is not None
+        assert all(np.array_equal(a.n, b.n) and a.d == b.d for a, b in zip(got, ref))
+    # the door's refit is nearer its true normal than the tilted fit it started from
+    assert got[1].n @ n_door > tilt[0] @ n_door

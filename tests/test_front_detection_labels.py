@@ -39,3 +39,49 @@ def test_surface_check_tolerates_a_tilted_plane_fit_but_removes_a_step():
     ramp[10:-10, 10:190] = True
     assert gone[ramp].mean() < 0.01, gone[ramp].mean()
     assert gone[strip].mean() > 0.8, gone[strip].mean()
+
+
+def test_relabelling_takes_only_the_unchanged_planes_images():
+    """A wall, a door crossing it at 8 deg, a panel parallel to the door, a back wall
+    parallel to the wall and the floor: with the door refitted (a new plane object), and
+    with an offset layer of the wall added, the images made with the previous call's are
+    those of a call from scratch; only the images of planes that neither changed nor cross
+    a changed or new plane are taken over (the panel, then the back wall)."""
+    rng = np.random.default_rng(3)
+    H, W = 96, 128
+    ys, xs = np.mgrid[0:H, 0:W].astype(np.float32)
+    rx, ry = (xs - W / 2) / 120.0, (ys - H / 2) / 120.0
+    ray = np.stack([rx, ry, np.ones_like(rx)], -1).astype(np.float64)
+
+    def turned(deg):
+        a = np.radians(deg)
+        return np.array([np.sin(a), 0.0, -np.cos(a)])
+
+    n_wall, n_floor = turned(0.0), np.array([0.0, -1.0, 0.0])
+    z = np.where(ys < 60, -2.0 / (ray @ n_wall), 0.6 / np.maximum(ray[..., 1], 1e-3))
+    z = np.where((xs < 50) & (ys < 60), -1.95 / (ray @ turned(8.0)), z)
+    z = (z + rng.normal(0, 0.003, z.shape)).astype(np.float32)
+    valid = rng.random(z.shape) > 0.02
+    d = np.where(valid, z, np.float32(0.0))
+    L = np.full(z.shape, 0.02, np.float32)
+    surface = (np.full(z.shape, 0.003, np.float32), 5)
+    gap = np.zeros(z.shape, bool)
+    gap[:, 70] = True
+    wall = Plane(n=n_wall, d=2.0, support=800, bbox=(0, 8, 0, 16))
+    door = Plane(n=turned(8.0), d=1.95, support=300, bbox=(0, 8, 0, 7))
+    panel = Plane(n=turned(8.0), d=2.3, support=200, bbox=(0, 8, 0, 7))
+    back = Plane(n=n_wall, d=2.6, support=100, bbox=(0, 8, 0, 16))
+    floor = Plane(n=n_floor, d=0.6, support=500, bbox=(8, 12, 0, 16))
+    planes = [wall, door, panel, back, floor]
+    args = (d, valid, rx[:1], ry[:, :1])
+    rest = (L, 3.0, 5, surface, gap)
+    first = _label_images(*args, planes, *rest)
+    door2 = Plane(n=turned(7.0), d=1.96, support=300, bbox=door.bbox)
+    layer = Plane(n=n_wall, d=1.99, support=40, bbox=(0, 4, 10, 14), parent=0,
+                  region=(0, 40, 70, 110))
+    for new, kept in (([wall, door2, panel, back, floor], [2]),
+                      (planes + [layer], [3])):
+        got = _label_images(*args, new, *rest, previous=(planes, first))
+        ref = _label_images(*args, new, *rest)
+        assert all(np.array_equal(g, r) for g, r in zip(got, ref))
+        assert [k for k in range(len(planes)) if got[k] is first[k]] == kept

@@ -65,7 +65,7 @@ def _broadcast_rows(a, shape):
 
 
 def _label_images(d, valid, ray_x, ray_y, planes, L, crossing_angle_deg,
-                  smooth_px=5, surface=None, gap=None, keep_distances=False):
+                  smooth_px=5, surface=None, gap=None, keep_distances=False, previous=None):
     """Eq. 5.2 labels of every pixel for every plane n . p + dpl = 0. The signed distance of
     the pixel's point p = depth * (ray_x, ray_y, 1) is depth * (n . ray) + dpl (separable in
     rows and columns). A pixel within L of two planes that cross at more than
@@ -77,7 +77,15 @@ def _label_images(d, valid, ray_x, ray_y, planes, L, crossing_angle_deg,
     OCCLUDED for a plane it lies in front of and FREE for one it lies behind.
     Otherwise pixels belong to every plane they are within L of (5.1.1).
     Returns the label images (a list, one uint8 image per plane), and with
-    ``keep_distances`` also the (planes, H, W) float32 signed distances."""
+    ``keep_distances`` also the (planes, H, W) float32 signed distances.
+
+    ``previous``: (planes, label images) of an earlier call on the same image with the same
+    other arguments, whose planes this call's list holds unchanged (the same objects) where
+    it was not refitted, followed by new ones (offset layers): the images of the planes
+    that neither changed nor cross a changed or new plane (before or now) are the same, and
+    are taken from it (:func:`_unchanged_planes`); the crossings are then decided only for
+    the pairs with another plane, and the surface check and the reveals applied only to the
+    others' images."""
     P = len(planes)
     S = np.empty((P,) + d.shape, np.float32)
     L = np.broadcast_to(np.asarray(L, np.float32), d.shape).copy() if np.ndim(L) == 0 else L
@@ -101,15 +109,19 @@ def _label_images(d, valid, ray_x, ray_y, planes, L, crossing_angle_deg,
             lab[lab == IN_PLANE] = FREE
             lab[r0:r1, c0:c1] = keep
         labs.append(lab)
-    _crossings(labs, S, planes, valid, crossing_angle_deg, smooth_px)
+    same = (np.zeros(P, bool) if previous is None
+            else _unchanged_planes(previous[0], planes, crossing_angle_deg))
+    _crossings(labs, S, planes, valid, crossing_angle_deg, smooth_px, need=~same)
+    for k in np.flatnonzero(same):
+        labs[k] = previous[1][k]
     if surface is not None:  # after the crossings: their strips would bias the means
-        for k in range(P):
+        for k in np.flatnonzero(~same):
             _surface_check(labs[k], S[k], *surface)
     if gap is not None:  # reveals (_gap_mask): GAP unless something is in front
         gi = np.flatnonzero(gap.reshape(-1))
         if len(gi):
-            for lab in labs:
-                flat = lab.reshape(-1)
+            for k in np.flatnonzero(~same):
+                flat = labs[k].reshape(-1)
                 sub = flat[gi]
                 flat[gi] = np.where(sub == OCCLUDED, sub, np.uint8(GAP))
     return (labs, S) if keep_distances else labs
@@ -118,19 +130,11 @@ def _label_images(d, valid, ray_x, ray_y, planes, L, crossing_angle_deg,
 _CROSSING_MIN_SHARE = 0.1
 
 
-def _crossings(labs, S, planes, valid, crossing_angle_deg, smooth_px):
-    """In place: where two crossing planes are both within L of a pixel, the pixel stays
-    in-plane only for the nearer one (see :func:`_label_images` and below)."""
+def _crossing_pairs(planes, crossing_angle_deg):
+    """:func:`_crossings`' pairs: (crossing, layer), bool (planes, planes); ``crossing[k,
+    j]``: plane j may take pixels from plane k (layer pairs included), ``layer``: an offset
+    layer and its parent."""
     P = len(planes)
-    if P < 2:
-        return
-    count = np.zeros(valid.shape, np.uint8)
-    for lab in labs:
-        count += (lab == IN_PLANE).view(np.uint8)  # (bytes + bytes: no per-element cast)
-    shared = np.flatnonzero(count > 1)
-    if len(shared) == 0:
-        return
-    near_sh = np.array([lab.reshape(-1)[shared] == IN_PLANE for lab in labs])
     N = np.array([pl.n for pl in planes])
     sup = np.array([pl.support for pl in planes])
     # [k, j]: j may take pixels from k. Planes crossing at less than 30 deg share a wide strip
@@ -156,6 +160,43 @@ def _crossings(labs, S, planes, valid, crossing_angle_deg, smooth_px):
         if 0 <= pl.parent < P:
             layer[pl.parent, j] = layer[j, pl.parent] = True
     crossing |= layer
+    return crossing, layer
+
+
+def _unchanged_planes(old, planes, crossing_angle_deg):
+    """Per plane of ``planes``, whether its label image equals the one it had among ``old``
+    (:func:`_label_images`' ``previous``): the same plane object at the same index, crossing
+    (:func:`_crossing_pairs`, either way) no plane that changed or is new, neither among
+    ``old`` nor among ``planes``."""
+    P, P0 = len(planes), len(old)
+    changed = np.array([k >= P0 or planes[k] is not old[k] for k in range(P)])
+    same = ~changed
+    if not changed.any() or not same.any():
+        return same
+    for pls, ch in ((old, changed[:P0]), (planes, changed)):
+        c, _ = _crossing_pairs(pls, crossing_angle_deg)
+        pair = c | c.T
+        n = len(pls)
+        same[:n] &= ~pair[:, ch].any(axis=1)
+    return same
+
+
+def _crossings(labs, S, planes, valid, crossing_angle_deg, smooth_px, need=None):
+    """In place: where two crossing planes are both within L of a pixel, the pixel stays
+    in-plane only for the nearer one (see :func:`_label_images` and below). ``need``: per
+    plane, whether its image is wanted (bool; None: all): the pairs of two planes that are
+    not are skipped (their images are left as they are)."""
+    P = len(planes)
+    if P < 2:
+        return
+    count = np.zeros(valid.shape, np.uint8)
+    for lab in labs:
+        count += (lab == IN_PLANE).view(np.uint8)  # (bytes + bytes: no per-element cast)
+    shared = np.flatnonzero(count > 1)
+    if len(shared) == 0:
+        return
+    near_sh = np.array([lab.reshape(-1)[shared] == IN_PLANE for lab in labs])
+    crossing, layer = _crossing_pairs(planes, crossing_angle_deg)
     if not crossing.any():
         return
     # Which plane is nearer is decided on the two planes' signed distances, each summed over
@@ -174,6 +215,8 @@ def _crossings(labs, S, planes, valid, crossing_angle_deg, smooth_px):
     for k in range(P):
         for j in range(k + 1, P):
             if not (crossing[k, j] or crossing[j, k]):
+                continue
+            if need is not None and not (need[k] or need[j]):
                 continue
             both = np.flatnonzero(near_sh[k] & near_sh[j])
             if len(both) == 0:
@@ -405,13 +448,10 @@ def _refit_on_own_pixels(planes, labels, Pc, Lmap, min_change_deg, crossing_angl
         return None
     H, W = labels[0].shape
     step = max(1, int(math.ceil(math.sqrt(H * W / max_points))))
-    P = Pc[::step, ::step].reshape(-1, 3).astype(np.float64)
-    L = Lmap[::step, ::step].reshape(-1).astype(np.float64)
     own0 = np.array([lab[::step, ::step].reshape(-1) == IN_PLANE for lab in labels])
-    ok = np.isfinite(P[:, 2]) & own0.any(axis=0)
-    # (np.compress: the same rows as boolean indexing, ~5x faster on 2-D arrays)
-    P, L, own0 = (np.compress(ok, P, axis=0), np.compress(ok, L),
-                  np.compress(ok, own0, axis=1))
+    # the sampled pixels with a measurement that are in-plane for some plane: their points
+    # (float64), L and own0 columns, in one compiled pass
+    P, L, own0 = _sampled_own(Pc, Lmap, own0, step)
     cur = list(planes)
     cos10 = math.cos(math.radians(10.0))
     # the distances are needed to the refitted planes and their partners only: those rows of
@@ -422,19 +462,25 @@ def _refit_on_own_pixels(planes, labels, Pc, Lmap, min_change_deg, crossing_angl
     if not refit:
         return None
     halfL = 0.5 * L
+    refit_rows = np.array([row_of[k] for k in refit], np.int64)
+    refit_idx = np.array(refit, np.int64)
+    part = [[row_of[j] for j in np.flatnonzero(partners[k])] for k in refit]
+    part_ptr = np.cumsum([0] + [len(q) for q in part]).astype(np.int64)
+    part_rows = np.array([j for q in part for j in q], np.int64)
     for _ in range(rounds):
         N = np.array([pl.n for pl in cur])
         D = np.array([pl.d for pl in cur])
-        A = (P @ N.T).T[rows]                        # (planes, pixels) distances, m
+        A = N[rows] @ P.T                            # (planes, pixels) distances, m
         A += D[rows, None]
         np.abs(A, out=A)
-        Ain = np.where(A <= L, A, np.inf)
+        # each refitted plane's own pixels, all in one compiled pass
+        sel_all = np.empty((len(refit), A.shape[1]), bool)
+        n_sel = _own_pixels(A, L, halfL, own0, refit_rows, refit_idx, part_ptr, part_rows,
+                            sel_all)
         nxt = list(cur)
-        for k in refit:
-            near = Ain[[row_of[j] for j in np.flatnonzero(partners[k])]].min(axis=0)
-            ak = A[row_of[k]]
-            sel = own0[k] & (ak <= halfL) & (ak <= near)
-            if sel.sum() < 10:
+        for t, k in enumerate(refit):
+            sel = sel_all[t]
+            if n_sel[t] < 10:
                 continue
             n, d = _fit_plane_many(np.compress(sel, P, axis=0))
             if n @ planes[k].n < cos10:
@@ -447,3 +493,65 @@ def _refit_on_own_pixels(planes, labels, Pc, Lmap, min_change_deg, crossing_angl
     cmin, cmax = (math.cos(math.radians(a)) for a in (min_change_deg, max_change_deg))
     keep = [b if cmax <= float(a.n @ b.n) < cmin else a for a, b in zip(planes, cur)]
     return None if all(a is b for a, b in zip(planes, keep)) else keep
+
+
+@numba.njit(cache=True, nogil=True)
+def _own_pixels(A, L, halfL, own0, refit_rows, refit_idx, part_ptr, part_rows, sel):
+    """:func:`_refit_on_own_pixels`' pixels of each refitted plane t (``sel[t]``): those
+    in-plane for it (``own0[refit_idx[t]]``), within ``halfL`` of it (its distances: row
+    ``refit_rows[t]`` of ``A``) and no farther from it than from any partner plane within
+    ``L`` of the pixel (rows ``part_rows[part_ptr[t]:part_ptr[t + 1]]``). Returns their
+    counts."""
+    n_t = refit_rows.shape[0]
+    n = A.shape[1]
+    counts = np.zeros(n_t, np.int64)
+    for t in range(n_t):
+        ak_row = A[refit_rows[t]]
+        own = own0[refit_idx[t]]
+        out = sel[t]
+        c = 0
+        for i in range(n):
+            near = np.inf
+            li = L[i]
+            for q in range(part_ptr[t], part_ptr[t + 1]):
+                a = A[part_rows[q], i]
+                if a <= li and a < near:
+                    near = a
+            ak = ak_row[i]
+            v = own[i] and ak <= halfL[i] and ak <= near
+            out[i] = v
+            c += v
+        counts[t] = c
+    return counts
+
+
+@numba.njit(cache=True, nogil=True)
+def _sampled_own(Pc, Lmap, own0, step):
+    """The pixels of every ``step``-th row and column (row-major) whose point is measured and
+    that are in-plane for some plane (a column of ``own0`` (planes, sampled pixels) set):
+    their points (k, 3) float64, ``Lmap`` (k,) float64 and ``own0`` columns (planes, k)."""
+    nP, n = own0.shape
+    Ws = (Pc.shape[1] + step - 1) // step
+    keep = np.zeros(n, np.bool_)
+    k = 0
+    for i in range(n):
+        r, c = (i // Ws) * step, (i % Ws) * step
+        if np.isfinite(Pc[r, c, 2]):
+            for q in range(nP):
+                if own0[q, i]:
+                    keep[i] = True
+                    k += 1
+                    break
+    P = np.empty((k, 3))
+    L = np.empty(k)
+    own = np.empty((nP, k), np.bool_)
+    j = 0
+    for i in range(n):
+        if keep[i]:
+            r, c = (i // Ws) * step, (i % Ws) * step
+            P[j, 0], P[j, 1], P[j, 2] = Pc[r, c, 0], Pc[r, c, 1], Pc[r, c, 2]
+            L[j] = Lmap[r, c]
+            for q in range(nP):
+                own[q, j] = own0[q, i]
+            j += 1
+    return P, L, own

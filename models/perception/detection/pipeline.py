@@ -10,6 +10,7 @@ import numba
 import numpy as np
 
 from mmlearn.models.common.camera import PinholeIntrinsics, as_depth_image
+from mmlearn.models.common.gp import blas_single_thread
 from mmlearn.models.perception.detection.check import (_gap_bounded, _inside_border,
                                                        _precision_recall, _refit_plane, _suppress)
 from mmlearn.models.perception.detection.config import FrontDetectorConfig, STAGES
@@ -259,28 +260,41 @@ def _reveals(f: _Frame, planes, cfg):
     return gap, gap_thin
 
 
-def _labels(f: _Frame, planes, cfg, surface, gap, keep_distances=False):
+def _labels(f: _Frame, planes, cfg, surface, gap, keep_distances=False, previous=None):
     return _label_images(f.dzero, f.valid, f.xs, f.ys, planes, f.Limg, cfg.crossing_angle_deg,
-                         int(cfg.crossing_smooth_px), surface, gap, keep_distances=keep_distances)
+                         int(cfg.crossing_smooth_px), surface, gap, keep_distances=keep_distances,
+                         previous=previous)
 
 
 def _plane_labels(f: _Frame, planes, cfg, surface, gap):
     """The label image of every plane (Eq. 5.2 with crossings, surface check and reveals),
     after the planes tilted by a shallow crossing are refitted on their own pixels and the
-    offset layers are added: (planes, labels)."""
+    offset layers are added: (planes, labels). BLAS runs on one thread here
+    (:func:`blas_single_thread`): the refits' products are small, and a BLAS thread pool
+    on a busy machine made them many times slower."""
+    with blas_single_thread():
+        return _labels_refits_layers(f, planes, cfg, surface, gap)
+
+
+def _labels_refits_layers(f: _Frame, planes, cfg, surface, gap):
+    """:func:`_plane_labels`' work: the labels, the own-pixel refit and the offset layers,
+    each relabelling after them from the labels before."""
     labels, S = _labels(f, planes, cfg, surface, gap, keep_distances=True)
+    # (each relabelling takes the images of the planes that neither moved nor cross a moved
+    # or new plane from the one before: _label_images' previous)
     if cfg.own_pixel_refit_deg > 0:  # planes tilted by a neighbour they cross at a shallow angle
         moved = _refit_on_own_pixels(planes, labels, f.Pc, f.Limg, cfg.own_pixel_refit_deg,
                                      cfg.crossing_angle_deg)
         if moved is not None:
+            labels, S = _labels(f, moved, cfg, surface, gap, keep_distances=True,
+                                previous=(planes, labels))
             planes = moved
-            labels, S = _labels(f, planes, cfg, surface, gap, keep_distances=True)
     if cfg.layer_planes > 0 and cfg.layer_max_layers > 0:
         # fronts standing a few cm proud of a larger plane (_offset_layers)
         layers = _offset_layers(planes, labels, S, f.Pc, f.Limg, f.Lband, f.K, cfg, f.st, f.off)
         if layers:
+            labels = _labels(f, planes + layers, cfg, surface, gap, previous=(planes, labels))
             planes = planes + layers
-            labels = _labels(f, planes, cfg, surface, gap)
     return planes, labels
 
 
@@ -300,12 +314,13 @@ def _grids(f: _Frame, planes, labels, cfg, lut) -> list[_Grid]:
     refits and offset layers read them)."""
     grids = []
     front = _front_planes(f, planes, cfg)
-    for k, (pl, lab) in enumerate(zip(planes, labels)):
-        if not front[k]:
-            continue
-        g = _make_grid(k, pl, lab, f.sample_pts, f.K, f.down_C, cfg, lut)
-        if g is not None and (g.labels == IN_PLANE).any():
-            grids.append(g)
+    with blas_single_thread():  # (small products: see _plane_labels)
+        for k, (pl, lab) in enumerate(zip(planes, labels)):
+            if not front[k]:
+                continue
+            g = _make_grid(k, pl, lab, f.sample_pts, f.K, f.down_C, cfg, lut)
+            if g is not None and (g.labels == IN_PLANE).any():
+                grids.append(g)
     return grids
 
 
