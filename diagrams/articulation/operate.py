@@ -56,6 +56,9 @@ class OperateConfig:
             errors).
         estimator_period: hook positions are sampled at this period, s.
         refit_every: the estimator refits after this many new samples.
+        refit_fraction: ... and, on a longer track, after this fraction of the samples it
+            fitted last (``ArticulationEstimator(refit_fraction=...)``): a refit's cost grows
+            with the track while a few more samples change a long track's model little.
         models: the estimator's candidate link models (thesis: rigid, prismatic, revolute
             and GP).
         sigma_force: wrist force sensor noise, N.
@@ -126,6 +129,7 @@ class OperateConfig:
     sigma_pos: float = param(0.05, unit="m", gt=0)
     estimator_period: float = param(0.03, unit="s", gt=0)
     refit_every: int = param(10, integer=True, ge=1)
+    refit_fraction: float = param(0.1, ge=0, le=1)
     models: list[str] = param(["rigid", "prismatic", "revolute", "gp"], factory=True)
     sigma_force: float = param(0.3, unit="N", ge=0)
     time_step: float = param(0.0025, unit="s", gt=0, le=0.01)
@@ -321,7 +325,7 @@ def MakeOperateDiagram(config: OperateConfig | None = None, *, meshcat=None) -> 
         mode="pose", pose_size=3, period=cfg.estimator_period, refit_every=cfg.refit_every,
         min_observations=10, max_observations=400,
         obs=ObservationModel(sigma_pos=cfg.sigma_pos), models=tuple(cfg.models),
-        seed=cfg.seed))
+        seed=cfg.seed, refit_fraction=cfg.refit_fraction))
     epc = builder.AddNamedSystem("epc_controller", EpcController(
         plant=plant, robot=scene.robot, task=task, config=cfg.epc,
         command_names=scene.command_names))
