@@ -119,6 +119,22 @@ def test_the_plants_output_ports_are_live_unless_the_trial_asks_for_sampled_ones
     assert sampled.scene.plant.has_sampled_output_ports()
 
 
+def test_the_estimator_refits_a_long_track_less_often_unless_the_trial_has_a_monitor():
+    from mmlearn.diagrams.articulation.operate import REFIT_FRACTION
+    from mmlearn.systems.articulation.jam_monitor import DynamicsMonitorConfig
+
+    assert 0.0 < REFIT_FRACTION < 1.0
+    assert OperateConfig().estimator_refit_fraction() == REFIT_FRACTION
+    # the monitor's regression reads the model: its trials keep a refit every 10 samples
+    assert OperateConfig(monitor=DynamicsMonitorConfig()).estimator_refit_fraction() == 0.0
+    assert OperateConfig(monitor=DynamicsMonitorConfig(),
+                         refit_fraction=0.2).estimator_refit_fraction() == 0.2
+    with pytest.raises(ValueError, match="refit_fraction"):
+        OperateConfig(refit_fraction=1.5).validate()
+    est = MakeOperateDiagram(OperateConfig(kind="drawer", seed=0)).estimator
+    assert est._refit_interval(10) == 10 and est._refit_interval(300) == 30
+
+
 def _force_track(sampled: bool, times) -> tuple[np.ndarray, int]:
     op, sim, ctx = _started(OperateConfig(kind="drawer", seed=2, sampled_output_ports=sampled))
     out = []

@@ -40,6 +40,9 @@ WRIST_PERIOD = 0.01
 #: its 100 Hz, longer than a trial's 60 s default): a table read instead of a new random
 #: generator per sample
 WRIST_NOISE_SAMPLES = 1 << 14
+#: the estimator's refit interval on a long track, as a fraction of the samples it fitted
+#: last (``OperateConfig.refit_fraction``'s default without a dynamics monitor)
+REFIT_FRACTION = 0.1
 
 
 @dataclass
@@ -56,9 +59,13 @@ class OperateConfig:
             errors).
         estimator_period: hook positions are sampled at this period, s.
         refit_every: the estimator refits after this many new samples.
-        refit_fraction: ... and, on a longer track, after this fraction of the samples it
-            fitted last (``ArticulationEstimator(refit_fraction=...)``): a refit's cost grows
-            with the track while a few more samples change a long track's model little.
+        refit_fraction: on a longer track the estimator waits instead for this fraction of
+            the samples it fitted last, and refits once more when the track ends
+            (``ArticulationEstimator(refit_fraction=...)``): a refit's cost grows with the
+            track while a few more samples change a long track's model little. None (the
+            default): :data:`REFIT_FRACTION` without a dynamics ``monitor``, 0 (every
+            ``refit_every`` samples) with one (the monitor's regression reads the model, and
+            the damping it learns moves with the times the model changes).
         models: the estimator's candidate link models (thesis: rigid, prismatic, revolute
             and GP).
         sigma_force: wrist force sensor noise, N.
@@ -129,7 +136,7 @@ class OperateConfig:
     sigma_pos: float = param(0.05, unit="m", gt=0)
     estimator_period: float = param(0.03, unit="s", gt=0)
     refit_every: int = param(10, integer=True, ge=1)
-    refit_fraction: float = param(0.1, ge=0, le=1)
+    refit_fraction: float | None = param(None, optional=True, ge=0, le=1)
     models: list[str] = param(["rigid", "prismatic", "revolute", "gp"], factory=True)
     sigma_force: float = param(0.3, unit="N", ge=0)
     time_step: float = param(0.0025, unit="s", gt=0, le=0.01)
@@ -168,6 +175,12 @@ class OperateConfig:
         if self.sampled_output_ports is None:
             return self.monitor is not None
         return bool(self.sampled_output_ports)
+
+    def estimator_refit_fraction(self) -> float:
+        """The estimator's ``refit_fraction`` (``refit_fraction``, or its default)."""
+        if self.refit_fraction is None:
+            return 0.0 if self.monitor is not None else REFIT_FRACTION
+        return float(self.refit_fraction)
 
     def noise_samples(self) -> int:
         """The wrist sensor's ``noise_samples`` (``wrist_noise_samples``, or its default)."""
@@ -325,7 +338,7 @@ def MakeOperateDiagram(config: OperateConfig | None = None, *, meshcat=None) -> 
         mode="pose", pose_size=3, period=cfg.estimator_period, refit_every=cfg.refit_every,
         min_observations=10, max_observations=400,
         obs=ObservationModel(sigma_pos=cfg.sigma_pos), models=tuple(cfg.models),
-        seed=cfg.seed, refit_fraction=cfg.refit_fraction))
+        seed=cfg.seed, refit_fraction=cfg.estimator_refit_fraction()))
     epc = builder.AddNamedSystem("epc_controller", EpcController(
         plant=plant, robot=scene.robot, task=task, config=cfg.epc,
         command_names=scene.command_names))
