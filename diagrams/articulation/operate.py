@@ -82,9 +82,10 @@ class OperateConfig:
             wrist force's noise or of the order of the updates, so its trials keep the
             sampled ports and per-sample noise their results were made with:
             docs/performance_articulation.md). Live, the plant computes
-            the reaction forces only at the steps the wrist sensor reads them (its
-            ``plant_time_step``): the sensor's samples are the forces and instants that
-            sampled ports give it. The plant's step is then a discrete update rather than
+            the reaction forces only at the steps the wrist sensor reads them: at its
+            sample instants, one event per sample, the forces of the step that starts there
+            (those sampled ports give it) turned with the tool's pose at the step's start
+            (sampled ports: its end). The plant's step is then a discrete update rather than
             an unrestricted one, so it runs after the controller's and the estimator's
             updates at the same instant instead of beside them: the localisation samples
             the base pose at the step's start rather than its end, and the plant sees a
@@ -163,10 +164,12 @@ class OperateConfig:
             raise ValueError(f"OperateConfig: priors: prior database not found: {self.priors}")
         steps = WRIST_PERIOD / self.time_step
         if not self.sampled_ports() and (abs(steps - round(steps)) > 1e-6
-                                              or round(steps) < 2):
+                                              or round(steps) < 1):
+            # live ports: the sensor's instants must be the plant's steps (a reading between
+            # them would make the plant solve a step it never takes)
             raise ValueError(f"OperateConfig: time_step {self.time_step:g} s must divide the "
-                             f"wrist sensor's {WRIST_PERIOD:g} s period into 2 or more steps "
-                             f"with live output ports (sampled_output_ports=False)")
+                             f"wrist sensor's {WRIST_PERIOD:g} s period with live output "
+                             f"ports (sampled_output_ports=False)")
 
 
     def sampled_ports(self) -> bool:
@@ -329,7 +332,6 @@ def MakeOperateDiagram(config: OperateConfig | None = None, *, meshcat=None) -> 
     force = builder.AddNamedSystem("wrist_force_sensor", WristForceSensor(
         plant=plant, mount_joint=plant.GetJointByName("hook_mount", scene.robot),
         sigma_force=cfg.sigma_force, rate_hz=1.0 / WRIST_PERIOD, seed=cfg.seed,
-        plant_time_step=0.0 if cfg.sampled_ports() else cfg.time_step,
         noise_samples=cfg.noise_samples()))
     builder.Connect(sd.GetOutputPort("reaction_forces"), force.get_reaction_forces_input_port())
     builder.Connect(sd.GetOutputPort("body_poses"), force.get_body_poses_input_port())
