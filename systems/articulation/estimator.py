@@ -98,8 +98,8 @@ class ArticulationEstimator(LeafSystem):
     few samples change least, is refitted at a rate that falls with its length; the model is
     then also refitted when the track ends (``refit_every`` periods without an observation
     after observations it has not seen), so it holds the whole track (0, the default: every
-    ``refit_every``, nothing at the track's end). A bad observation (NaN / inf, wrong size, zero quaternion,
-    wrong type) never raises: it is dropped and counted.
+    ``refit_every``, nothing at the track's end). A bad observation (NaN / inf, wrong size,
+    zero quaternion, wrong type) never raises: it is dropped and counted.
 
     .. pydrake_system::
 
