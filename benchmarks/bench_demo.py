@@ -5,17 +5,105 @@ build) and its real-time factor on the CPU clock (simulated seconds / CPU second
 whole trial runs untimed first, so loading the compiled kernels and the modules the trial
 imports is not counted. Prints figures; never fails on time.
 
-    python benchmarks/bench_demo.py [--runs N] [--quick] [--json [FILE]]
+``--baseline-python PY``: the same trials side by side with another checkout's code, run by
+that checkout's interpreter (e.g. the ``.venv/bin/python`` of a ``git worktree`` of the
+revision to compare with): two worker processes, one per interpreter, each warmed up by an
+untimed trial, run one timed trial in turn, ``--runs`` each; the table gives both sides and
+the ratio of their CPU times per simulated second, run by run (on a shared machine the
+ratio of trials run one after the other holds better than either side's figure).
+
+    python benchmarks/bench_demo.py [--runs N] [--quick] [--max-time S] [--json [FILE]]
+    python benchmarks/bench_demo.py --baseline-python OTHER/.venv/bin/python [--runs N]
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import statistics
+import subprocess
+import sys
 
 from _common import add_output_arguments, emit_json
 
+#: a worker: one untimed trial, then one timed trial per line read, its figures as a JSON line
+_WORKER = """
+import json, sys
 from mmlearn.diagrams.articulation.trials import open_mechanism
+kind, seed, max_time = sys.argv[1], int(sys.argv[2]), float(sys.argv[3])
+open_mechanism(kind=kind, seed=seed, max_time=max_time, show_progress=False)
+print("ready", flush=True)
+for _ in sys.stdin:
+    r = open_mechanism(kind=kind, seed=seed, max_time=max_time, show_progress=False)
+    print(json.dumps({"cpu_seconds": r["cpu_seconds"], "sim_seconds": r["sim_seconds"],
+                      "success": bool(r["success"])}), flush=True)
+"""
+
+
+class _Worker:
+    """A process of ``python`` running :data:`_WORKER` (its own checkout's code)."""
+
+    def __init__(self, python: str, kind: str, seed: int, max_time: float):
+        self.python = python
+        try:
+            # -I: the worker imports its own checkout's package, whatever the directory
+            self._p = subprocess.Popen([python, "-I", "-c", _WORKER, kind, str(seed),
+                                        str(max_time)],
+                                       stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                       text=True)
+        except OSError as e:
+            raise SystemExit(f"--baseline-python: cannot run {python!r} ({e})") from None
+        if self._p.stdout.readline().strip() != "ready":
+            self._p.kill()
+            raise SystemExit(f"--baseline-python: {python} could not run the demo (see its "
+                             f"error above)")
+
+    def run(self) -> dict:
+        self._p.stdin.write("run\n")
+        self._p.stdin.flush()
+        line = self._p.stdout.readline()
+        if not line:
+            raise SystemExit(f"the worker of {self.python} stopped (see its error above)")
+        return json.loads(line)
+
+    def close(self):
+        self._p.stdin.close()
+        self._p.wait()
+
+
+def _side_by_side(args) -> None:
+    """``--runs`` trials of this checkout and of ``--baseline-python``'s, in turn."""
+    ours, theirs = (_Worker(sys.executable, args.object, args.seed, args.max_time),
+                    _Worker(args.baseline_python, args.object, args.seed, args.max_time))
+    a, b = [], []
+    try:
+        for i in range(args.runs):
+            # alternate which side goes first, so neither always runs after the other
+            order = ((ours, a), (theirs, b)) if i % 2 == 0 else ((theirs, b), (ours, a))
+            for worker, out in order:
+                out.append(worker.run())
+    finally:
+        ours.close()
+        theirs.close()
+    per_s = [[r["cpu_seconds"] / r["sim_seconds"] for r in side] for side in (a, b)]
+    ratios = [y / x for x, y in zip(*per_s)]
+    figures = {"realtime_factor_cpu": 1.0 / statistics.median(per_s[0]),
+               "baseline_realtime_factor_cpu": 1.0 / statistics.median(per_s[1]),
+               "speedup_vs_baseline": statistics.median(ratios),
+               "success": float(all(r["success"] for r in a))}
+    if emit_json(args.json, {"object": args.object, "seed": args.seed, "runs": args.runs,
+                             "baseline_python": args.baseline_python, "figures": figures,
+                             "runs_this": a, "runs_baseline": b}):
+        return
+    print(f"{args.object} seed {args.seed}, {args.runs} trials each, in turn:")
+    for name, side, ps in (("this checkout", a, per_s[0]), ("baseline", b, per_s[1])):
+        print(f"  {name:13s}: {side[0]['sim_seconds']:.2f} s simulated; simulation CPU "
+              + ", ".join(f"{r['cpu_seconds']:.2f}" for r in side)
+              + f" s; real-time factor (CPU) {1.0 / statistics.median(ps):.2f}; opened "
+              f"{sum(r['success'] for r in side)}/{len(side)}")
+    print(f"  baseline / this checkout, CPU per simulated second, trial by trial: "
+          f"median {figures['speedup_vs_baseline']:.3f} (range {min(ratios):.3f}-"
+          f"{max(ratios):.3f}); baseline: {args.baseline_python}")
 
 
 def main():
@@ -23,14 +111,35 @@ def main():
     ap.add_argument("--object", default="left_door", help="the mechanism (default left_door)")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--runs", type=int, default=3, help="timed trials (default 3)")
+    ap.add_argument("--max-time", type=float, default=60.0,
+                    help="simulated seconds at most (default 60: the whole demo)")
+    ap.add_argument("--baseline-python", default=None, metavar="PYTHON",
+                    help="the interpreter of another checkout: its trials side by side "
+                         "with this checkout's (--runs each, in turn)")
     add_output_arguments(ap, quick="one timed trial")
     args = ap.parse_args()
     if args.runs < 1:
         ap.error(f"--runs must be >= 1, got {args.runs}")
+    if not 0 < args.max_time < float("inf"):
+        ap.error(f"--max-time must be a number of seconds > 0, got {args.max_time}")
+    if args.baseline_python is not None:
+        import os
+        import shutil
+
+        found = shutil.which(args.baseline_python)
+        if found is None or not os.access(found, os.X_OK):
+            ap.error(f"--baseline-python: no interpreter at {args.baseline_python!r}")
+        if args.quick:
+            ap.error("--quick times one trial: a side-by-side run needs --runs")
+        _side_by_side(args)
+        return
+    from mmlearn.diagrams.articulation.trials import open_mechanism
+
     runs = 1 if args.quick else args.runs
-    open_mechanism(kind=args.object, seed=args.seed, show_progress=False)
-    records = [open_mechanism(kind=args.object, seed=args.seed, show_progress=False)
-               for _ in range(runs)]
+    open_mechanism(kind=args.object, seed=args.seed, max_time=args.max_time,
+                   show_progress=False)
+    records = [open_mechanism(kind=args.object, seed=args.seed, max_time=args.max_time,
+                              show_progress=False) for _ in range(runs)]
     cpu = statistics.median(r["cpu_seconds"] for r in records)
     sim = records[0]["sim_seconds"]
     figures = {"simulation_cpu_s": cpu, "simulated_s": sim,

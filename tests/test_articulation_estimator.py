@@ -137,3 +137,53 @@ def test_port_accessors_follow_the_sensor_pattern_and_old_name_is_deprecated():
         pose.get_observations_input_port()
     with pytest.raises(RuntimeError, match="get_observations_input_port"):
         markers.get_pose_input_port()
+
+
+class _ArcThenNothing(LeafSystem):
+    """A hook on a door's arc (x y z) until ``t_end``, NaN (nothing held) after it."""
+
+    def __init__(self, t_end):
+        super().__init__()
+        self._t_end = t_end
+        self.DeclareVectorOutputPort("p", 3, self._calc, {self.time_ticket()})
+
+    def _calc(self, context, out):
+        t = context.get_time()
+        _, p, _ = door_pose(t)
+        out.SetFromVector(p if t <= self._t_end + 1e-9 else np.full(3, np.nan))
+
+
+def _refit_counts(refit_fraction, t_end=5.0, t_stop=6.0):
+    """The observation counts at which a pose-mode estimator refitted (every 0.05 s) and its
+    final state."""
+    b = DiagramBuilder()
+    src = b.AddSystem(_ArcThenNothing(t_end))
+    est = b.AddSystem(ArticulationEstimator(
+        mode="pose", pose_size=3, period=0.05, refit_every=5, min_observations=10,
+        obs=ObservationModel(0.003), models=("rigid", "revolute"), seed=0,
+        refit_fraction=refit_fraction))
+    b.Connect(src.get_output_port(0), est.get_pose_input_port())
+    sim = Simulator(b.Build())
+    ctx = est.GetMyContextFromRoot(sim.get_context())
+    counts = []
+    for k in range(1, int(round(t_stop / 0.05)) + 1):
+        sim.AdvanceTo(k * 0.05)
+        last = ctx.get_abstract_state(0).get_value().last_fit_count
+        if last and (not counts or counts[-1] != last):
+            counts.append(last)
+    return counts, ctx.get_abstract_state(0).get_value()
+
+
+def test_a_refit_fraction_spaces_the_refits_with_the_track_and_refits_at_its_end():
+    every, _ = _refit_counts(0.0)
+    grown, s = _refit_counts(0.25)
+    # refit_every alone: every 5 observations, the track's last one left out of the model
+    assert every == list(range(10, 101, 5))
+    # a quarter of the track fitted last, at least 5; then the whole track, refit_every
+    # periods (0.25 s) after it ended
+    assert grown == [10, 15, 20, 25, 32, 40, 50, 63, 79, 99, 101]
+    assert s.total == s.last_fit_count == 101
+    assert s.model.edges[0].model.name == "revolute"
+    for bad in (-0.1, 1.5, float("nan"), True):
+        with pytest.raises(ValueError, match="refit_fraction"):
+            ArticulationEstimator(mode="pose", pose_size=3, refit_fraction=bad)

@@ -79,6 +79,29 @@ def test_demo_benchmark_refuses_no_runs():
     assert r.returncode == 2 and "--runs must be >= 1" in r.stderr
 
 
+def test_demo_benchmark_refuses_a_missing_baseline_interpreter(tmp_path):
+    r = subprocess.run([sys.executable, str(BENCH / "bench_demo.py"), "--baseline-python",
+                        str(tmp_path / "no_python")], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 2 and "--baseline-python: no interpreter" in r.stderr
+
+
+@pytest.mark.slow
+def test_demo_benchmark_runs_two_interpreters_in_turn(tmp_path):
+    f = tmp_path / "side.json"
+    r = subprocess.run([sys.executable, str(BENCH / "bench_demo.py"), "--baseline-python",
+                        sys.executable, "--runs", "1", "--max-time", "3", "--json", str(f)],
+                       capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stdout + r.stderr
+    doc = json.loads(f.read_text())
+    assert len(doc["runs_this"]) == len(doc["runs_baseline"]) == 1
+    this, base = doc["runs_this"][0], doc["runs_baseline"][0]
+    assert this["sim_seconds"] == base["sim_seconds"] == pytest.approx(3.0)
+    fig = doc["figures"]
+    assert fig["speedup_vs_baseline"] == pytest.approx(
+        (base["cpu_seconds"] / base["sim_seconds"]) / (this["cpu_seconds"] / this["sim_seconds"]))
+    assert "this checkout" in r.stdout and "baseline / this checkout" in r.stdout
+
+
 @pytest.mark.slow
 def test_demo_benchmark_times_the_readme_demo(tmp_path):
     f = tmp_path / "demo.json"

@@ -87,7 +87,16 @@ def test_the_state_is_immutable_and_shared_not_copied():
         s.cep[0] = 5.0  # read-only arrays
     assert copy.deepcopy(s) is s
     t = dataclasses.replace(s, phase=PULL)
-    assert t.phase == PULL and s.phase == DRIVE and t.cep is not s.cep
+    # a replace shares the old state's read-only arrays, and copies the arrays it is given
+    assert t.phase == PULL and s.phase == DRIVE and t.cep is s.cep
+    given = np.array([4.0, 5.0, 6.0])
+    u = dataclasses.replace(t, cep=given)
+    given[0] = -1.0
+    np.testing.assert_array_equal(u.cep, [4.0, 5.0, 6.0])
+    assert u.q_from is s.q_from and not u.cep.flags.writeable
+    view = np.zeros(3)[:]  # a read-only view of a writeable array is copied too
+    view.setflags(write=False)
+    assert dataclasses.replace(t, cep=view).cep is not view
 
 
 def test_drive_ends_at_the_stance_then_approach(grip):

@@ -9,16 +9,21 @@ from mmlearn.diagrams import MakeSceneDiagram, SceneConfig
 from mmlearn.systems import MarkerSensorConfig, WristForceSensor
 
 
-def _rig(push=None, sigma=0.0):
+def _rig(push=None, sigma=0.0, *, live=False, times=(1.5,)):
+    """The sensor's output at ``times`` on a hook pushed by ``push`` (N, world frame; None:
+    not pushed); ``live``: the plant's output ports live and the sensor given its step
+    (plant_time_step), else sampled ports (Drake's default)."""
+    dt = 0.0025
     scene = MakeSceneDiagram(SceneConfig(arm="7dof", tool="hook", mobile_base=True,
-                                         cabinet=False,
+                                         cabinet=False, time_step=dt,
+                                         sampled_output_ports=not live,
                                          sensor=MarkerSensorConfig(cameras=[])))
     plant = scene.plant
     b = DiagramBuilder()
     sd = b.AddSystem(scene.diagram)
     sensor = b.AddSystem(WristForceSensor(
         plant=plant, mount_joint=plant.GetJointByName("hook_mount", scene.robot),
-        sigma_force=sigma, seed=3))
+        sigma_force=sigma, seed=3, plant_time_step=dt if live else 0.0))
     b.Connect(sd.GetOutputPort("reaction_forces"), sensor.get_reaction_forces_input_port())
     b.Connect(sd.GetOutputPort("body_poses"), sensor.get_body_poses_input_port())
     d = b.Build()
@@ -37,8 +42,11 @@ def _rig(push=None, sigma=0.0):
     sd.GetInputPort("applied_spatial_force").FixValue(sd.GetMyMutableContextFromRoot(ctx),
                                                        forces)
     sim = Simulator(d, ctx)
-    sim.AdvanceTo(1.5)
-    return sensor.get_force_output_port().Eval(sensor.GetMyContextFromRoot(ctx))
+    out = []
+    for t in times:
+        sim.AdvanceTo(t)
+        out.append(sensor.get_force_output_port().Eval(sensor.GetMyContextFromRoot(ctx)).copy())
+    return out[0] if len(times) == 1 else (np.array(out), sim.get_num_steps_taken())
 
 
 def test_free_hook_reads_no_force():
@@ -94,3 +102,15 @@ def test_bad_plant_time_step_and_noise_samples():
     with pytest.raises(ValueError, match="noise_samples"):
         _sensor(noise_samples=2.5)
     _sensor(plant_time_step=0.005)  # two steps a sample
+
+
+def test_with_live_ports_and_its_step_the_sensor_gives_the_samples_of_sampled_ports():
+    # plant_time_step: the reaction forces read at each sample instant, turned with the
+    # tool's pose a plant step later: the samples of sampled ports, to the last bit, with
+    # no simulator step of its own
+    times = np.arange(1, 41) * 0.01
+    sampled, n_sampled = _rig(push=[8.0, -5.0, 3.0], sigma=0.5, times=times)
+    live, n_live = _rig(push=[8.0, -5.0, 3.0], sigma=0.5, live=True, times=times)
+    assert np.abs(sampled).max() > 1.0
+    np.testing.assert_array_equal(live, sampled)
+    assert n_live == n_sampled <= round(0.4 / 0.0025) + 1

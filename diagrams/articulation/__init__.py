@@ -5,7 +5,8 @@ from mmlearn._lazy import lazy_exports
 #: submodule -> the public names it defines (imported on first use)
 _EXPORTS = {
     "operate": ["OperateConfig", "Operate", "make_task", "task_from_look", "MakeOperateDiagram",
-                "HANDLE_HEIGHTS", "check_reach", "WRIST_PERIOD", "WRIST_NOISE_SAMPLES"],
+                "HANDLE_HEIGHTS", "check_reach", "WRIST_PERIOD", "WRIST_NOISE_SAMPLES",
+                "REFIT_FRACTION"],
     "mechanism_dynamics": ["LATCH_PLAY", "apply_mechanism_options", "dynamics_record", "save_learned_model", "MODEL_SUFFIXES"],
     "operate_perception": ["LookConfig", "LookResult", "LookAtFront", "NoFrontDetected", "front_centre"],
     "trials": ["open_mechanism", "operate_trial", "scene_points", "draw_look", "SENSORS", "observe", "exp_cabinet", "exp_table", "exp_car", "exp_garage", "yardstick_row", "dof_progress", "search_vs_n_row", "STRUCTURE_RUNNERS", "structure_trial"],
@@ -36,6 +37,7 @@ __all__ = [
     "Operate",
     "operate_trial",
     "OperateConfig",
+    "REFIT_FRACTION",
     "save_learned_model",
     "scene_points",
     "search_vs_n_row",

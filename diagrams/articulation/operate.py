@@ -40,6 +40,9 @@ WRIST_PERIOD = 0.01
 #: its 100 Hz, longer than a trial's 60 s default): a table read instead of a new random
 #: generator per sample
 WRIST_NOISE_SAMPLES = 1 << 14
+#: the estimator's refit interval on a long track, as a fraction of the samples it fitted
+#: last (``OperateConfig.refit_fraction``'s default without a dynamics monitor)
+REFIT_FRACTION = 0.1
 
 
 @dataclass
@@ -56,6 +59,13 @@ class OperateConfig:
             errors).
         estimator_period: hook positions are sampled at this period, s.
         refit_every: the estimator refits after this many new samples.
+        refit_fraction: on a longer track the estimator waits instead for this fraction of
+            the samples it fitted last, and refits once more when the track ends
+            (``ArticulationEstimator(refit_fraction=...)``): a refit's cost grows with the
+            track while a few more samples change a long track's model little. None (the
+            default): :data:`REFIT_FRACTION` without a dynamics ``monitor``, 0 (every
+            ``refit_every`` samples) with one (the monitor's regression reads the model, and
+            the damping it learns moves with the times the model changes).
         models: the estimator's candidate link models (thesis: rigid, prismatic, revolute
             and GP).
         sigma_force: wrist force sensor noise, N.
@@ -72,9 +82,10 @@ class OperateConfig:
             wrist force's noise or of the order of the updates, so its trials keep the
             sampled ports and per-sample noise their results were made with:
             docs/performance_articulation.md). Live, the plant computes
-            the reaction forces only at the steps the wrist sensor reads them (its
-            ``plant_time_step``): the sensor's samples are the forces and instants that
-            sampled ports give it. The plant's step is then a discrete update rather than
+            the reaction forces only at the steps the wrist sensor reads them: at its
+            sample instants, one event per sample, the forces of the step that starts there
+            (those sampled ports give it) turned with the tool's pose at the step's start
+            (sampled ports: its end). The plant's step is then a discrete update rather than
             an unrestricted one, so it runs after the controller's and the estimator's
             updates at the same instant instead of beside them: the localisation samples
             the base pose at the step's start rather than its end, and the plant sees a
@@ -126,6 +137,7 @@ class OperateConfig:
     sigma_pos: float = param(0.05, unit="m", gt=0)
     estimator_period: float = param(0.03, unit="s", gt=0)
     refit_every: int = param(10, integer=True, ge=1)
+    refit_fraction: float | None = param(None, optional=True, ge=0, le=1)
     models: list[str] = param(["rigid", "prismatic", "revolute", "gp"], factory=True)
     sigma_force: float = param(0.3, unit="N", ge=0)
     time_step: float = param(0.0025, unit="s", gt=0, le=0.01)
@@ -152,10 +164,12 @@ class OperateConfig:
             raise ValueError(f"OperateConfig: priors: prior database not found: {self.priors}")
         steps = WRIST_PERIOD / self.time_step
         if not self.sampled_ports() and (abs(steps - round(steps)) > 1e-6
-                                              or round(steps) < 2):
+                                              or round(steps) < 1):
+            # live ports: the sensor's instants must be the plant's steps (a reading between
+            # them would make the plant solve a step it never takes)
             raise ValueError(f"OperateConfig: time_step {self.time_step:g} s must divide the "
-                             f"wrist sensor's {WRIST_PERIOD:g} s period into 2 or more steps "
-                             f"with live output ports (sampled_output_ports=False)")
+                             f"wrist sensor's {WRIST_PERIOD:g} s period with live output "
+                             f"ports (sampled_output_ports=False)")
 
 
     def sampled_ports(self) -> bool:
@@ -164,6 +178,12 @@ class OperateConfig:
         if self.sampled_output_ports is None:
             return self.monitor is not None
         return bool(self.sampled_output_ports)
+
+    def estimator_refit_fraction(self) -> float:
+        """The estimator's ``refit_fraction`` (``refit_fraction``, or its default)."""
+        if self.refit_fraction is None:
+            return 0.0 if self.monitor is not None else REFIT_FRACTION
+        return float(self.refit_fraction)
 
     def noise_samples(self) -> int:
         """The wrist sensor's ``noise_samples`` (``wrist_noise_samples``, or its default)."""
@@ -312,7 +332,6 @@ def MakeOperateDiagram(config: OperateConfig | None = None, *, meshcat=None) -> 
     force = builder.AddNamedSystem("wrist_force_sensor", WristForceSensor(
         plant=plant, mount_joint=plant.GetJointByName("hook_mount", scene.robot),
         sigma_force=cfg.sigma_force, rate_hz=1.0 / WRIST_PERIOD, seed=cfg.seed,
-        plant_time_step=0.0 if cfg.sampled_ports() else cfg.time_step,
         noise_samples=cfg.noise_samples()))
     builder.Connect(sd.GetOutputPort("reaction_forces"), force.get_reaction_forces_input_port())
     builder.Connect(sd.GetOutputPort("body_poses"), force.get_body_poses_input_port())
@@ -321,7 +340,7 @@ def MakeOperateDiagram(config: OperateConfig | None = None, *, meshcat=None) -> 
         mode="pose", pose_size=3, period=cfg.estimator_period, refit_every=cfg.refit_every,
         min_observations=10, max_observations=400,
         obs=ObservationModel(sigma_pos=cfg.sigma_pos), models=tuple(cfg.models),
-        seed=cfg.seed))
+        seed=cfg.seed, refit_fraction=cfg.estimator_refit_fraction()))
     epc = builder.AddNamedSystem("epc_controller", EpcController(
         plant=plant, robot=scene.robot, task=task, config=cfg.epc,
         command_names=scene.command_names))

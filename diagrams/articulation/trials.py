@@ -416,7 +416,7 @@ def _priors_file(text: str) -> str:
     return _PRIORS_FILES[h]
 
 
-@register_trial("articulation.operate", version=6,
+@register_trial("articulation.operate", version=7,
                 record={"object": str, "seed": int, "success": bool, "opened": (float, None),
                         "unit": str, "outcome": str, "learned_model": (str, None)})
 def operate_trial(*, seed: int, kind: str, max_time: float = 60.0,

@@ -19,8 +19,9 @@ PHASE_NAMES = ["drive", "prehook", "depth", "slide", "pull", "release", "done"]
 @dataclass(frozen=True)
 class EpcState:
     """The controller's state (its abstract state), immutable: every update makes a new one
-    with :func:`dataclasses.replace`; its arrays are read-only copies. Drake may therefore
-    share it between contexts instead of copying it.
+    with :func:`dataclasses.replace`; its arrays are read-only copies (of the arrays it is
+    given; a replace shares the old state's own). Drake may therefore share it between
+    contexts instead of copying it.
 
     Attributes:
         phase: the current phase (DRIVE .. DONE).
@@ -78,7 +79,11 @@ class EpcState:
 
     def __post_init__(self):
         for k in self._ARRAYS:
-            v = np.array(getattr(self, k), dtype=float)
+            v = getattr(self, k)
+            if (isinstance(v, np.ndarray) and v.dtype == np.float64 and v.flags.owndata
+                    and not v.flags.writeable):
+                continue  # a state's own read-only copy (kept by ``replace``): shared as is
+            v = np.array(v, dtype=float)
             v.setflags(write=False)
             object.__setattr__(self, k, v)
 

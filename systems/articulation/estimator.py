@@ -5,6 +5,7 @@ Wraps models/articulation*.py (thesis Sec. 4.1) in a LeafSystem.
 
 from __future__ import annotations
 
+import math
 import warnings
 from dataclasses import dataclass, field
 
@@ -91,8 +92,14 @@ class ArticulationEstimator(LeafSystem):
 
     Every ``period`` seconds the input is sampled and stored (at most ``max_observations``,
     oldest dropped); every ``refit_every`` stored observations (once ``min_observations`` are
-    there) the model is re-fitted. A bad observation (NaN / inf, wrong size, zero quaternion,
-    wrong type) never raises: it is dropped and counted.
+    there) the model is re-fitted. With ``refit_fraction`` > 0 the interval grows with the
+    buffer: a refit waits for ``max(refit_every, ceil(refit_fraction * n))`` new observations
+    (n stored at the last refit), so a long track, whose refit costs most and whose model a
+    few samples change least, is refitted at a rate that falls with its length; the model is
+    then also refitted when the track ends (``refit_every`` periods without an observation
+    after observations it has not seen), so it holds the whole track (0, the default: every
+    ``refit_every``, nothing at the track's end). A bad observation (NaN / inf, wrong size,
+    zero quaternion, wrong type) never raises: it is dropped and counted.
 
     .. pydrake_system::
 
@@ -123,7 +130,7 @@ class ArticulationEstimator(LeafSystem):
                  period: float = 0.05, refit_every: int = 20, min_observations: int = 10,
                  max_observations: int = 500, max_dof: int | None = None,
                  obs: ObservationModel | None = None, models=DEFAULT_CANDIDATES,
-                 seed: int = 0):
+                 seed: int = 0, refit_fraction: float = 0.0):
         super().__init__()
         if mode not in ("markers", "pose"):
             raise ValueError(f"mode must be 'markers' or 'pose', got {mode!r}")
@@ -139,6 +146,11 @@ class ArticulationEstimator(LeafSystem):
                              "max_observations >= min_observations")
         if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
             raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
+        if (isinstance(refit_fraction, bool)
+                or not isinstance(refit_fraction, (int, float, np.integer, np.floating))
+                or not 0.0 <= refit_fraction <= 1.0):
+            raise ValueError(f"refit_fraction must be a number in [0, 1], got "
+                             f"{refit_fraction!r}")
         models = _checked_models(models)
         self._mode = mode
         if mode == "markers":
@@ -160,6 +172,8 @@ class ArticulationEstimator(LeafSystem):
         self._models = models
         self._seed = int(seed)
         self._refit_every = int(refit_every)
+        self._refit_fraction = float(refit_fraction)
+        self._period = float(period)
         self._min_obs = int(min_observations)
         self._max_obs = int(max_observations)
         init = ArticulationEstimatorState(poses=np.zeros((0, p, self._width)))
@@ -311,32 +325,60 @@ class ArticulationEstimator(LeafSystem):
         s = self._state(context)
         row, t = self._read(context)
         if row is None:
-            new = ArticulationEstimatorState(s.poses, s.times, s.num_dropped + 1,
-                                             s.num_fit_failures, s.model, s.last_fit_count,
-                                             s.total)
+            model, fails, last = self._refit_at_track_end(s, t)
+            new = ArticulationEstimatorState(s.poses, s.times, s.num_dropped + 1, fails, model,
+                                             last, s.total)
             state.get_mutable_abstract_state(self._state_index).set_value(new)
             return
-        if np.all(np.isnan(row[:, 0])) or (s.times.size and self._mode == "markers"
-                                           and t == s.times[-1]):
-            return  # nothing seen / same frame again: not an observation, not an error
+        if s.times.size and self._mode == "markers" and t == s.times[-1]:
+            return  # the same frame again: not an observation, not an error
+        if np.all(np.isnan(row[:, 0])):  # nothing seen: not an observation, not an error
+            model, fails, last = self._refit_at_track_end(s, t)
+            if last != s.last_fit_count:
+                state.get_mutable_abstract_state(self._state_index).set_value(
+                    ArticulationEstimatorState(s.poses, s.times, s.num_dropped, fails, model,
+                                               last, s.total))
+            return
         poses = np.concatenate([s.poses, row[None]], axis=0)[-self._max_obs:]
         times = np.concatenate([s.times, [t]])[-self._max_obs:]
         model, fails, last = s.model, s.num_fit_failures, s.last_fit_count
         total = s.total + 1
         if poses.shape[0] >= self._min_obs and (
                 (model is None and total - last >= min(self._refit_every, 5))
-                or total - last >= self._refit_every):
-            rng = np.random.default_rng(self._seed + total)
-            try:
-                model = self._fit(poses, rng)
-            except Exception as e:  # noqa: BLE001 - never stop the simulation; keep the old model
-                fails += 1
-                warnings.warn(f"ArticulationEstimator: the fit at observation {total} failed "
-                              f"({type(e).__name__}: {e}); keeping the previous model",
-                              RuntimeWarning, stacklevel=2)
-            last = total
+                or total - last >= self._refit_interval(poses.shape[0] - (total - last))):
+            model, fails, last = self._refit(poses, model, fails, total)
         new = ArticulationEstimatorState(poses, times, s.num_dropped, fails, model, last, total)
         state.get_mutable_abstract_state(self._state_index).set_value(new)
+
+    def _refit(self, poses, model, fails: int, total: int):
+        """The model fitted to ``poses`` (the old ``model`` kept when the fit fails), the
+        failure count and the new last-fit count (``total``)."""
+        rng = np.random.default_rng(self._seed + total)
+        try:
+            model = self._fit(poses, rng)
+        except Exception as e:  # noqa: BLE001 - never stop the simulation; keep the old model
+            fails += 1
+            warnings.warn(f"ArticulationEstimator: the fit at observation {total} failed "
+                          f"({type(e).__name__}: {e}); keeping the previous model",
+                          RuntimeWarning, stacklevel=3)
+        return model, fails, total
+
+    def _refit_at_track_end(self, s: ArticulationEstimatorState, t: float):
+        """With ``refit_fraction`` > 0: the refit of a track that has ended, once no
+        observation came for ``refit_every`` periods after some the model has not seen
+        (a growing interval would otherwise leave up to that fraction of the track's end
+        out of its model). Returns (model, failures, last-fit count), unchanged otherwise."""
+        if (self._refit_fraction > 0.0 and s.total > s.last_fit_count
+                and s.poses.shape[0] >= self._min_obs
+                and t - s.times[-1] >= self._refit_every * self._period - 1e-9):
+            return self._refit(s.poses, s.model, s.num_fit_failures, s.total)
+        return s.model, s.num_fit_failures, s.last_fit_count
+
+    def _refit_interval(self, n_fitted: int) -> int:
+        """New observations a refit waits for after one on ``n_fitted`` observations."""
+        if self._refit_fraction <= 0.0:
+            return self._refit_every
+        return max(self._refit_every, math.ceil(self._refit_fraction * n_fitted))
 
     def _estimate(self, context):
         s = self._state(context)

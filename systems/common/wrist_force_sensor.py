@@ -23,7 +23,9 @@ class WristForceSensor(LeafSystem):
     Keywords beyond the noise and the rate:
 
     - ``plant_time_step``: 0 (the default) reads the inputs at each sample instant
-      k / ``rate_hz``. A plant with sampled output ports steps in an unrestricted update,
+      k / ``rate_hz``, one event per sample (with a plant whose output ports are live: the
+      reaction forces of the step that starts at the instant and the tool's pose at its
+      start). A plant with sampled output ports steps in an unrestricted update,
       before this sensor's discrete one: the sample is then the reaction forces of the
       step that starts at the instant, turned into the world frame with the tool's pose
       at that step's end. For a plant whose output ports are live (computed from the
