@@ -128,6 +128,18 @@ class DynamicsMonitorConfig:
             mechanism's range, not a jam: the monitor lets the controller's own end-of-range
             test end the pull. Not for a door whose model is not yet revolute: the opening
             guessed from the hook's track is too loose to let the arm pull on.
+        force_lag_period: for a revolute mechanism (``joint``), the wrist sensor's sample
+            period, s: a force reading describes the force at the sensor's last sample
+            before the monitor's sample, so the regression pairs it with the door's opening,
+            rate and acceleration that long before (from the local fits of the hook's track);
+            0: at the sample instant. A door swings against the compliant arm at a few hertz
+            and its inertia force in that swing is several times a light door's damping
+            force: a force read late by a fraction of that period reads partly as damping.
+        across_term: for a revolute mechanism, the force across the door (along the learned
+            radius) times the learned radius is a further regressor of unknown size
+            (:func:`~mmlearn.models.articulation.dynamics.fit_dynamics`' ``nuisance``): the
+            arm holds the hook on the bar with several newtons across the door, and a
+            learned tangent a little off the door's leaks part of it into the torque.
         friction_velocity: the Coulomb friction's regularisation speed the dynamics are
             fitted with (:func:`~mmlearn.models.articulation.dynamics.friction_shape`:
             tanh(qdot / v); 0: ideal Coulomb friction), rad/s or m/s: the simulated
@@ -166,6 +178,8 @@ class DynamicsMonitorConfig:
     pull: list[float] = param([0.0, 0.0, 0.0], unit="world direction", length=3,
                               elements=True, factory=True)
     open_enough: float = param(0.0, unit="rad or m", ge=0)
+    force_lag_period: float = param(0.0, unit="s", ge=0)
+    across_term: bool = param(False)
     friction_velocity: float = param(STICTION_VELOCITY, unit="rad/s or m/s", ge=0)
 
     def __post_init__(self):
@@ -189,6 +203,33 @@ class DynamicsMonitorConfig:
         0: no mean), s."""
         return float(self.prismatic_force_period if self.joint == "prismatic"
                      else self.force_period)
+
+    def force_lags(self, t) -> np.ndarray:
+        """How much older the force read at each of the times ``t`` (s) is than the hook
+        position read with it, s: the age of the wrist sensor's last sample before ``t``
+        (``force_lag_period``, sampling from time 0) for a revolute mechanism, else 0."""
+        t = np.asarray(t, float)
+        p = self.force_lag_period
+        if p <= 0 or self.joint != "revolute":
+            return np.zeros(t.shape)
+        return t - p * (np.ceil(t / p - 1e-6) - 1.0)
+
+    def regression_samples(self, link, t, G, F) -> dict | None:
+        """The samples the dynamics are fitted to
+        (:func:`~mmlearn.models.articulation.dynamics.generalized_samples` with this
+        configuration's force lag)."""
+        return generalized_samples(link, t, G, F, force_lag=self.force_lags(t))
+
+    def fit(self, g: dict | None) -> MechanismDynamics | None:
+        """The dynamics fitted to :meth:`regression_samples`' output (None for None), with
+        the force across a revolute mechanism as a nuisance term when ``across_term``."""
+        if g is None:
+            return None
+        across = g.get("across") if self.across_term and self.joint == "revolute" else None
+        return fit_dynamics(g["q"], g["qdot"], g["tau"], g["qddot"], joint=g["joint"],
+                            radius=g["radius"], q_offset=g["q_offset"], q_sign=g["q_sign"],
+                            friction_velocity=self.friction_velocity,
+                            nuisance=None if across is None else across[:, None])
 
     def modulation(self) -> tuple[float, float, float, float]:
         """The pulling speed's modulation for this ``joint``: (speed, excitation, period,
@@ -428,8 +469,8 @@ class DynamicsMonitor(LeafSystem):
         n = s.t.size
         if n < cfg.min_samples or n - s.last_fit < cfg.refit_every:
             return s
-        return replace(s, dynamics=estimate_dynamics(link, s.t, s.G, s.F_mean,
-                                                     cfg.friction_velocity), last_fit=n)
+        return replace(s, dynamics=cfg.fit(cfg.regression_samples(link, s.t, s.G, s.F_mean)),
+                       last_fit=n)
 
     def _check_block(self, s: DynamicsMonitorState, link) -> DynamicsMonitorState:
         """Halt when the hook has stopped advancing along the model while the force
