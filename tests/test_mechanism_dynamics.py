@@ -535,7 +535,7 @@ def test_door_force_read_late_is_paired_with_the_earlier_state():
     P = np.stack([0.4 * np.cos(a_hook), 0.4 * np.sin(a_hook), 0.5 + 0 * t], axis=1)
     tangent = np.stack([-np.sin(a_force), np.cos(a_force), 0 * t], axis=1)
     F = -(tau / 0.4)[:, None] * tangent
-    off = DynamicsMonitorConfig(joint="revolute")
+    off = DynamicsMonitorConfig(joint="revolute", force_lag_period=0.0)
     late = off.fit(off.regression_samples(link, t, P, F))
     paired = on.fit(on.regression_samples(link, t, P, F))
     assert late.damping > 1.25 * b
@@ -544,6 +544,11 @@ def test_door_force_read_late_is_paired_with_the_earlier_state():
     inside = (t > 0.3) & (t < 5.2)
     assert q[inside] == pytest.approx(a_force[inside], abs=2e-3)
     assert qd[inside] == pytest.approx(rate(ts)[inside], abs=0.02)
+    # the local fits' window: a narrower one follows the swing more closely
+    narrow = DynamicsMonitorConfig(joint="revolute", rate_window=0.1)
+    err = [np.nanmax(np.abs(c.regression_samples(link, t, P, F)["qdot"] - rate(t))[inside])
+           for c in (narrow, off)]
+    assert err[0] < 0.5 * err[1]
     radial = np.stack([np.cos(a_hook), np.sin(a_hook), 0 * t], axis=1)
     g = generalized_samples(link, t, P, -6.0 * radial)          # the arm holds the hook on
     assert g["across"] == pytest.approx(np.full(t.size, 6.0 * 0.4), rel=0.05)

@@ -263,7 +263,8 @@ def local_state(t, q, shift=0.0, half_window: float = 0.2) -> tuple[np.ndarray, 
     return tuple(np.interp(at, t, x) for x in (q, qd, qdd))
 
 
-def generalized_samples(link, t, G, F, *, force_lag=0.0) -> dict | None:
+def generalized_samples(link, t, G, F, *, force_lag=0.0,
+                        half_window: float = 0.2) -> dict | None:
     """The mechanism's configuration, rate, acceleration and the generalised force the
     robot applies along it, from hook positions G (k, 3) and wrist forces F (k, 3, force of
     the mechanism on the hook) at times t, by the learned link model. The configuration is
@@ -273,8 +274,9 @@ def generalized_samples(link, t, G, F, *, force_lag=0.0) -> dict | None:
     the force's time (from the local quadratic fits of q(t)). For a revolute model the
     result also has ``across``: the force across the mechanism (along the learned outward
     radius, away from the axis) times the learned radius, N m: a tangent turned by a small
-    angle e from the true one adds about e times it to the torque. None when the model is
-    not revolute or prismatic or there are fewer than 10 samples."""
+    angle e from the true one adds about e times it to the torque. ``half_window``: of the
+    local fits (:func:`local_derivatives`), s. None when the model is not revolute or
+    prismatic or there are fewer than 10 samples."""
     if link is None or getattr(link, "name", "") not in ("revolute", "prismatic"):
         return None
     t, G, F = (np.asarray(a, float) for a in (t, G, F))
@@ -291,11 +293,11 @@ def generalized_samples(link, t, G, F, *, force_lag=0.0) -> dict | None:
         sign = -1.0
     offset = float(q[0])
     if np.any(lag != 0):
-        q_raw, qd, qdd = local_state(t, q, -lag)
+        q_raw, qd, qdd = local_state(t, q, -lag, half_window)
         q_raw = np.where(np.isfinite(q_raw), q_raw, q)
     else:
         q_raw = q
-        qd, qdd = local_derivatives(t, q)
+        qd, qdd = local_derivatives(t, q, half_window)
     J = np.asarray(link.jacobian(q_raw[:, None]), float)[:, :3, 0]
     tau = -np.sum(F * J, axis=1)
     q, tau, qd, qdd = sign * (q_raw - offset), sign * tau, sign * qd, sign * qdd
