@@ -2,7 +2,8 @@
 (prints a table, never fails on a figure).
 
     python benchmarks/bench_door_damping_sources.py [--seed 600] [--doors 20]
-        [--damping 0.5,0.5,1,2,3,5] [--jobs 1] [--json [FILE]]
+        [--damping 0.5,0.5,1,2,3,5] [--jobs 1] [--monitor NAME=VALUE,...] [--keep DIR]
+        [--json [FILE]]
 
 Door ``i`` is seed ``--seed`` + i with the ``i``-th value of ``--damping`` (cycled), each an
 ``open_cabinet`` door trial with the dynamics monitor. Every 5 ms the simulator's door angle
