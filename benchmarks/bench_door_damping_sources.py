@@ -2,7 +2,8 @@
 (prints a table, never fails on a figure).
 
     python benchmarks/bench_door_damping_sources.py [--seed 600] [--doors 20]
-        [--damping 0.5,0.5,1,2,3,5] [--jobs 1] [--json [FILE]]
+        [--damping 0.5,0.5,1,2,3,5] [--jobs 1] [--monitor NAME=VALUE,...] [--keep DIR]
+        [--json [FILE]]
 
 Door ``i`` is seed ``--seed`` + i with the ``i``-th value of ``--damping`` (cycled), each an
 ``open_cabinet`` door trial with the dynamics monitor. Every 5 ms the simulator's door angle
@@ -25,7 +26,12 @@ simulator's truth to what the robot has:
    force across the door times the learned radius, of unknown size);
 6. ``learned_kinematics``: as 5, with the opening, rate and acceleration from the hook's
    track along the learned model (local quadratic fits over +-0.2 s) instead of the door's;
-7. ``robot``: the robot's own estimate (the monitor's 25 ms samples, as the trial reports it).
+7. ``robot``: the robot's own estimate (the monitor's 25 ms samples, as the trial reports it);
+8. ``robot_lag``: the monitor's samples, each force paired with the door's opening, rate
+   and acceleration (from the hook's track) at the sensor's sample before
+   (``DynamicsMonitorConfig.force_lag_period`` 0.01 s);
+9. ``robot_lag_across``: as 8 with the force across the door as a nuisance term
+   (``across_term``).
 
 It also reports how fast the learned opening grows against the door's angle
 (``opening_scale``) and the learned radius over the true one. The summary gives, per source,
@@ -44,11 +50,12 @@ import numpy as np
 from _common import add_output_arguments, emit_json
 
 SOURCES = ("ideal", "sensor", "sensor_aligned", "learned_tangent", "learned_tangent_leak",
-           "learned_kinematics", "robot")
+           "learned_kinematics", "robot", "robot_lag", "robot_lag_across")
 
 
-def record(seed: int, damping: float) -> dict:
-    """Simulate one door trial with the dynamics monitor (see the module docstring)."""
+def record(seed: int, damping: float, monitor: dict | None = None) -> dict:
+    """Simulate one door trial with the dynamics monitor (see the module docstring);
+    ``monitor``: fields of its ``DynamicsMonitorConfig`` other than the defaults."""
     from pydrake.systems.analysis import Simulator
 
     from mmlearn.diagrams.articulation.operate import MakeOperateDiagram, OperateConfig
@@ -57,7 +64,7 @@ def record(seed: int, damping: float) -> dict:
 
     op = MakeOperateDiagram(OperateConfig(kind="left_door", seed=seed,
                                           mechanism_options={"damping": damping},
-                                          monitor=DynamicsMonitorConfig()))
+                                          monitor=DynamicsMonitorConfig(**(monitor or {}))))
     sim = Simulator(op.diagram)
     ctx = sim.get_mutable_context()
     op.scene.set_joint_positions(ctx, op.start_command)
@@ -89,7 +96,7 @@ def record(seed: int, damping: float) -> dict:
     return {"seed": seed, "damping": damping, "door": np.array(door),
             "sensor": np.array(sensor), "monitor": s, "link": link, "spec": spec,
             "axis": axis, "p_axis": p_axis,
-            "friction_velocity": mon.config.friction_velocity}
+            "friction_velocity": mon.config.friction_velocity, "config": mon.config}
 
 
 def radial_leak(link, G, F) -> np.ndarray:
@@ -166,18 +173,39 @@ def analyse(rec: dict) -> dict:
         out["opening_scale"] = float(np.polyfit(qp[keep] - qp[keep][0], g["q"], 1)[0])
         r_true = float(np.linalg.norm(lever(np.zeros(1))[0]))
         out["radius_ratio"] = g["radius"] / r_true
-    gm = generalized_samples(link, s.t, s.G, s.F_mean)
+    cfg = rec["config"]
+    gm = cfg.regression_samples(link, s.t, s.G, s.F_mean)
     if gm is not None:
         k = gm["t"] < t_end + 1e-9
-        out["learned"]["robot"] = fit(gm["q"][k], gm["qdot"][k], gm["tau"][k], gm["qddot"][k])
+        d = cfg.fit({key: (v[k] if isinstance(v, np.ndarray) else v) for key, v in gm.items()})
+        out["learned"]["robot"] = None if d is None else float(d.damping)
+    # the monitor's own samples with each correction, whatever the trial's configuration
+    from dataclasses import replace
+
+    for name, lag, across in (("robot_lag", 0.01, False), ("robot_lag_across", 0.01, True)):
+        c = replace(cfg, force_lag_period=lag, across_term=across)
+        gc = c.regression_samples(link, s.t, s.G, s.F_mean)
+        if gc is None:
+            continue
+        k = gc["t"] < t_end + 1e-9
+        d = c.fit({key: (v[k] if isinstance(v, np.ndarray) else v) for key, v in gc.items()})
+        out["learned"][name] = None if d is None else float(d.damping)
     out["error"] = {k: (None if b is None else b / b_true - 1) for k, b in out["learned"].items()}
     return out
 
 
 def run_door(job: tuple) -> dict:
-    seed, damping = job
+    seed, damping, monitor, keep = job
     t0 = time.perf_counter()
-    r = analyse(record(seed, damping))
+    rec = record(seed, damping, monitor)
+    if keep:
+        import pickle
+        from pathlib import Path
+
+        Path(keep).mkdir(parents=True, exist_ok=True)
+        with open(Path(keep) / f"door_{seed}.pkl", "wb") as fh:
+            pickle.dump({k: v for k, v in rec.items() if k != "spec"}, fh)
+    r = analyse(rec)
     r["wall_s"] = round(time.perf_counter() - t0, 1)
     return r
 
@@ -211,8 +239,27 @@ def main(argv=None):
     ap.add_argument("--damping", default="0.5,0.5,1,2,3,5",
                     help="true dampings (N m s/rad), comma-separated, cycled over the doors")
     ap.add_argument("--jobs", type=int, default=1, help="trials run at once")
+    ap.add_argument("--monitor", default="",
+                    help="the dynamics monitor's fields other than the defaults, as "
+                         "name=value pairs separated by commas (e.g. excitation_ramp=0.5)")
+    ap.add_argument("--keep", default="",
+                    help="a folder to keep each trial's recording in (door_SEED.pkl)")
     add_output_arguments(ap)
     a = ap.parse_args(argv)
+    monitor = {}
+    for item in filter(None, (x.strip() for x in a.monitor.split(","))):
+        name, _, value = item.partition("=")
+        try:
+            v = value.strip().lower()
+            monitor[name.strip()] = v == "true" if v in ("true", "false") else float(v)
+        except ValueError:
+            ap.error(f"--monitor: expected name=number, got {item!r}")
+    try:
+        from mmlearn.systems.articulation.jam_monitor import DynamicsMonitorConfig
+
+        DynamicsMonitorConfig(**monitor)
+    except (TypeError, ValueError) as e:
+        ap.error(f"--monitor: {e}")
     try:
         values = [float(x) for x in a.damping.split(",") if x.strip()]
     except ValueError:
@@ -221,7 +268,7 @@ def main(argv=None):
         ap.error("--damping must name values > 0")
     if a.doors < 1 or a.jobs < 1:
         ap.error("--doors and --jobs must be >= 1")
-    jobs = [(a.seed + i, values[i % len(values)]) for i in range(a.doors)]
+    jobs = [(a.seed + i, values[i % len(values)], monitor, a.keep) for i in range(a.doors)]
     table = a.json != "-"
     if a.jobs > 1:
         from concurrent.futures import ProcessPoolExecutor
@@ -244,7 +291,8 @@ def main(argv=None):
                     print(f"{src:22s} {group:8s} {x['within_25pct']}/{x['doors']} within 25 %, "
                           f"mean error {x['mean_error']:+.3f}, mean |error| "
                           f"{x['mean_abs_error']:.3f}")
-    emit_json(a.json, {"seed": a.seed, "doors": a.doors, "damping": values, "summary": s,
+    emit_json(a.json, {"seed": a.seed, "doors": a.doors, "damping": values, "monitor": monitor,
+                       "summary": s,
                        "results": results})
 
 

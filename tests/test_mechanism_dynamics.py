@@ -507,3 +507,52 @@ def test_page_status_generated_from_results(monkeypatch):
     assert "4/5 on seeds 900-904 (mean error 8 %, max 40 %); 5/5 on seeds 950-954" in \
         mt.mechanism_status()
     assert "| drawer | 1 | 5 N s/m | 7 +- 0.1 | +40 % |" in mt.mechanism_measured()
+
+
+def test_door_force_read_late_is_paired_with_the_earlier_state():
+    """A door swinging on the arm: a torque read one sensor sample late reads partly as
+    damping (its inertia force is in phase with the rate after the lag); paired with the
+    opening, rate and acceleration at the sensor's sample it describes, the damping is
+    right. A force straight across the door enters ``across``, not the torque."""
+    from mmlearn.models.articulation.dynamics import local_state
+    from mmlearn.systems.articulation.jam_monitor import DynamicsMonitorConfig
+
+    link, *_ = _revolute_link()
+    t = np.arange(0.0, 5.5, 0.025)
+    w = 2 * np.pi * 0.5
+    angle = lambda s: 0.2 * s + 0.06 * np.sin(w * s)            # noqa: E731
+    rate = lambda s: 0.2 + 0.06 * w * np.cos(w * s)              # noqa: E731
+    acc = lambda s: -0.06 * w * w * np.sin(w * s)                # noqa: E731
+    b, f, inertia = 0.5, 0.3, 2.0
+    assert set(np.round(DynamicsMonitorConfig(joint="revolute", force_lag_period=0.01)
+                        .force_lags(t), 4)) == {0.005, 0.01}
+    on = DynamicsMonitorConfig(joint="revolute", force_lag_period=0.04)   # a slow sensor
+    lag = on.force_lags(t)
+    assert lag.min() > 0 and lag.max() <= 0.04 + 1e-9
+    ts = t - lag                                                # when each force was sensed
+    tau = b * rate(ts) + f * np.tanh(rate(ts) / 0.02) + inertia * acc(ts)
+    a_hook, a_force = angle(t), angle(ts)
+    P = np.stack([0.4 * np.cos(a_hook), 0.4 * np.sin(a_hook), 0.5 + 0 * t], axis=1)
+    tangent = np.stack([-np.sin(a_force), np.cos(a_force), 0 * t], axis=1)
+    F = -(tau / 0.4)[:, None] * tangent
+    off = DynamicsMonitorConfig(joint="revolute", force_lag_period=0.0)
+    late = off.fit(off.regression_samples(link, t, P, F))
+    paired = on.fit(on.regression_samples(link, t, P, F))
+    assert late.damping > 1.25 * b
+    assert paired.damping == pytest.approx(b, rel=0.1)
+    q, qd, qdd = local_state(t, a_hook, -lag)
+    inside = (t > 0.3) & (t < 5.2)
+    assert q[inside] == pytest.approx(a_force[inside], abs=2e-3)
+    assert qd[inside] == pytest.approx(rate(ts)[inside], abs=0.02)
+    # the local fits' window: a narrower one follows the swing more closely
+    narrow = DynamicsMonitorConfig(joint="revolute", rate_window=0.1)
+    err = [np.nanmax(np.abs(c.regression_samples(link, t, P, F)["qdot"] - rate(t))[inside])
+           for c in (narrow, off)]
+    assert err[0] < 0.5 * err[1]
+    radial = np.stack([np.cos(a_hook), np.sin(a_hook), 0 * t], axis=1)
+    g = generalized_samples(link, t, P, -6.0 * radial)          # the arm holds the hook on
+    assert g["across"] == pytest.approx(np.full(t.size, 6.0 * 0.4), rel=0.05)
+    assert np.abs(g["tau"]).max() < 0.1
+    # a drawer's force is not shifted
+    assert not np.any(DynamicsMonitorConfig(joint="prismatic", force_lag_period=0.01)
+                      .force_lags(t))

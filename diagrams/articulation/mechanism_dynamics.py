@@ -16,7 +16,6 @@ from pathlib import Path
 import numpy as np
 
 from mmlearn.models.articulation.dynamics import (dynamics_units, fit_dynamics,
-                                                  generalized_samples,
                                                   save_model_with_dynamics, sdf_with_dynamics)
 from mmlearn.models.common.fileio import atomic_write_text
 
@@ -117,17 +116,16 @@ def dynamics_record(op, ctx, to_unit, options: dict) -> dict:
         out["jammed_at"] = to_unit(s.blocked_at) if math.isfinite(s.blocked_at) else None
     est = op.estimator.GetMyContextFromRoot(ctx).get_abstract_state(0).get_value()
     link = est.model.edges[0].model if est.model is not None and est.model.edges else None
-    g = generalized_samples(link, s.t, s.G, s.F_mean)
+    cfg = op.monitor.config
+    g = cfg.regression_samples(link, s.t, s.G, s.F_mean)
     if g is None:
         return out
     # the samples up to the block (after it the hook lets go)
     if math.isfinite(s.t_halt):
         keep = g["t"] < s.t_halt - 0.1
         g = {k: (v[keep] if isinstance(v, np.ndarray) else v) for k, v in g.items()}
-    fv = op.monitor.config.friction_velocity
-    dyn = fit_dynamics(g["q"], g["qdot"], g["tau"], g["qddot"], joint=g["joint"],
-                       radius=g["radius"], q_offset=g["q_offset"], q_sign=g["q_sign"],
-                       friction_velocity=fv)
+    fv = cfg.friction_velocity
+    dyn = cfg.fit(g)
     if dyn is None:
         return out
     learned = dyn.to_dict()

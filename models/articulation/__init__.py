@@ -4,7 +4,7 @@ from mmlearn._lazy import lazy_exports
 
 #: submodule -> the public names it defines (imported on first use)
 _EXPORTS = {
-    "dynamics": ["MechanismDynamics", "fit_dynamics", "generalized_samples", "local_derivatives", "dynamics_units", "save_model_with_dynamics", "load_model_with_dynamics", "sdf_with_dynamics", "path_opening", "friction_shape", "COEFFICIENTS"],
+    "dynamics": ["MechanismDynamics", "fit_dynamics", "generalized_samples", "local_derivatives", "local_state", "dynamics_units", "save_model_with_dynamics", "load_model_with_dynamics", "sdf_with_dynamics", "path_opening", "friction_shape", "COEFFICIENTS"],
     "base": ["distinguishable_configurations", "LinkModel"],
     "evaluation": ["SUCCESS_ANGLE", "SUCCESS_DISTANCE", "evaluate_model", "right_kind", "operate_error_record", "operate_records", "summarize_operate", "operate_report", "LINK_EXPERIMENTS", "LINK_MODELS", "SELECTION_VARIANTS", "SELECTION_SIGMAS", "GROUND_TRUTH", "TABLE_OBJECTS", "link_grid", "noise_point", "outliers_point", "size_point", "time_point", "bic_run", "table_object", "default_track_dir", "selection_tracks", "selection_variant", "link_experiment_trial", "tracks_sha1", "link_experiments_report", "sensor_stats", "sensor_line", "STRUCTURE_EXPERIMENTS", "STRUCTURE_SCENARIOS", "yardstick_summary", "dof_progress_summary", "search_vs_n_summary", "structure_report"],
     "gp_link": ["GPModel"],
@@ -67,6 +67,7 @@ __all__ = [
     "load_model",
     "load_model_with_dynamics",
     "local_derivatives",
+    "local_state",
     "LocalParametrisation",
     "make_model",
     "MAX_EXTENT_NOISE_RATIO",

@@ -50,6 +50,7 @@ from pathlib import Path
 import numpy as np
 
 __all__ = ["MechanismDynamics", "fit_dynamics", "generalized_samples", "local_derivatives",
+           "local_state",
            "dynamics_units", "save_model_with_dynamics", "load_model_with_dynamics",
            "sdf_with_dynamics", "path_opening", "friction_shape", "COEFFICIENTS"]
 
@@ -251,33 +252,65 @@ def local_derivatives(t, q, half_window: float = 0.2) -> tuple[np.ndarray, np.nd
     return qd, qdd
 
 
-def generalized_samples(link, t, G, F) -> dict | None:
+def local_state(t, q, shift=0.0, half_window: float = 0.2) -> tuple[np.ndarray, ...]:
+    """q, its rate and its acceleration at the times t + ``shift`` (s; a number or one
+    per sample, within the samples' span): the rate and acceleration of
+    :func:`local_derivatives` at the samples, each of the three interpolated linearly to
+    the shifted times (NaN where a neighbour's is)."""
+    t, q = np.asarray(t, float), np.asarray(q, float)
+    at = t + np.broadcast_to(np.asarray(shift, float), t.shape)
+    qd, qdd = local_derivatives(t, q, half_window)
+    return tuple(np.interp(at, t, x) for x in (q, qd, qdd))
+
+
+def generalized_samples(link, t, G, F, *, force_lag=0.0,
+                        half_window: float = 0.2) -> dict | None:
     """The mechanism's configuration, rate, acceleration and the generalised force the
     robot applies along it, from hook positions G (k, 3) and wrist forces F (k, 3, force of
     the mechanism on the hook) at times t, by the learned link model. The configuration is
-    the opening: it grows along the pull and starts at 0 at the first sample. None when the
-    model is not revolute or prismatic or there are fewer than 10 samples."""
+    the opening: it grows along the pull and starts at 0 at the first sample.
+    ``force_lag``: how much older each force reading is than its hook position (s; a
+    number or one per sample): the configuration, rate and acceleration are then taken at
+    the force's time (from the local quadratic fits of q(t)). For a revolute model the
+    result also has ``across``: the force across the mechanism (along the learned outward
+    radius, away from the axis) times the learned radius, N m: a tangent turned by a small
+    angle e from the true one adds about e times it to the torque. ``half_window``: of the
+    local fits (:func:`local_derivatives`), s. None when the model is not revolute or
+    prismatic or there are fewer than 10 samples."""
     if link is None or getattr(link, "name", "") not in ("revolute", "prismatic"):
         return None
     t, G, F = (np.asarray(a, float) for a in (t, G, F))
-    ok = np.all(np.isfinite(G), axis=1) & np.all(np.isfinite(F), axis=1)
-    t, G, F = t[ok], G[ok], F[ok]
+    lag = np.broadcast_to(np.asarray(force_lag, float), t.shape)
+    ok = np.all(np.isfinite(G), axis=1) & np.all(np.isfinite(F), axis=1) & np.isfinite(lag)
+    t, G, F, lag = t[ok], G[ok], F[ok], lag[ok]
     if t.size < 10:
         return None
     q = np.asarray(link.inverse(G), float)[:, 0]
     if link.name == "revolute":
         q = np.unwrap(q)
-    J = np.asarray(link.jacobian(q[:, None]), float)[:, :3, 0]
-    tau = -np.sum(F * J, axis=1)
     sign = 1.0
     if q[-1] < q[0]:  # the model's coordinate runs against the opening
         sign = -1.0
     offset = float(q[0])
-    q, tau = sign * (q - offset), sign * tau
-    qd, qdd = local_derivatives(t, q)
-    radius = float(np.median(np.linalg.norm(J, axis=1))) if link.name == "revolute" else None
-    return {"joint": link.name, "t": t, "q": q, "qdot": qd, "qddot": qdd, "tau": tau,
-            "radius": radius, "q_offset": offset, "q_sign": sign}
+    if np.any(lag != 0):
+        q_raw, qd, qdd = local_state(t, q, -lag, half_window)
+        q_raw = np.where(np.isfinite(q_raw), q_raw, q)
+    else:
+        q_raw = q
+        qd, qdd = local_derivatives(t, q, half_window)
+    J = np.asarray(link.jacobian(q_raw[:, None]), float)[:, :3, 0]
+    tau = -np.sum(F * J, axis=1)
+    q, tau, qd, qdd = sign * (q_raw - offset), sign * tau, sign * qd, sign * qdd
+    out = {"joint": link.name, "t": t, "q": q, "qdot": qd, "qddot": qdd, "tau": tau,
+           "radius": None, "q_offset": offset, "q_sign": sign}
+    if link.name == "revolute":
+        out["radius"] = float(np.median(np.linalg.norm(J, axis=1)))
+        h = 1e-3
+        outward = -(np.asarray(link.jacobian(q_raw[:, None] + h), float)[:, :3, 0]
+                    - np.asarray(link.jacobian(q_raw[:, None] - h), float)[:, :3, 0]) / (2 * h)
+        r = np.maximum(np.linalg.norm(outward, axis=1), 1e-9)
+        out["across"] = -np.sum(F * outward / r[:, None], axis=1) * r
+    return out
 
 
 def fit_dynamics(q, qdot, tau, qddot=None, *, joint: str, min_rate: float | None = None,

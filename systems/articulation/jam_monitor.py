@@ -85,8 +85,9 @@ class DynamicsMonitorConfig:
             drawer dwells at two speeds 1:3.4 apart (3.4 and 11.6 cm/s at the controller's
             default step; the hook follows at about 3.5 and 9.5 cm/s), where a drawer's
             small damping force is told from its friction and from the wrist sensor's
-            noise; a door keeps the sinusoid (with two speeds a light door's damping came
-            out far off, and a door's rate already varies widely along its arc).
+            noise; a door keeps the sinusoid (with two speeds, even with the force lag and
+            the across term below, a light door's damping was no more often within 25 %,
+            and heavier doors' less often: docs/mechanism_dynamics.md).
         start_travel: the first this far of the pull (the hook taking up the slack, the
             mechanism breaking free) go at the modulation's slowest speed, m.
         settle: the block test begins this long after the pull's first sample (the hook
@@ -128,6 +129,22 @@ class DynamicsMonitorConfig:
             mechanism's range, not a jam: the monitor lets the controller's own end-of-range
             test end the pull. Not for a door whose model is not yet revolute: the opening
             guessed from the hook's track is too loose to let the arm pull on.
+        force_lag_period: for a revolute mechanism (``joint``), the wrist sensor's sample
+            period, s: a force reading describes the force at the sensor's last sample
+            before the monitor's sample, so the regression pairs it with the door's opening,
+            rate and acceleration that long before (from the local fits of the hook's track);
+            0 (the default): at the sample instant. A door swings against the compliant arm at a few hertz
+            and its inertia force in that swing is several times a light door's damping
+            force: a force read late by a fraction of that period reads partly as damping.
+        rate_window, prismatic_rate_window: the half-width of the local quadratic fits that
+            give the regression its rates and accelerations from the hook's track, for a
+            revolute (or not known) and for a prismatic mechanism, s.
+        across_term: for a revolute mechanism, the force across the door (along the learned
+            radius) times the learned radius is a further regressor of unknown size
+            (:func:`~mmlearn.models.articulation.dynamics.fit_dynamics`' ``nuisance``): the
+            arm holds the hook on the bar with several newtons across the door, and a
+            learned tangent a little off the door's leaks part of it into the torque (off by
+            default).
         friction_velocity: the Coulomb friction's regularisation speed the dynamics are
             fitted with (:func:`~mmlearn.models.articulation.dynamics.friction_shape`:
             tanh(qdot / v); 0: ideal Coulomb friction), rad/s or m/s: the simulated
@@ -166,6 +183,10 @@ class DynamicsMonitorConfig:
     pull: list[float] = param([0.0, 0.0, 0.0], unit="world direction", length=3,
                               elements=True, factory=True)
     open_enough: float = param(0.0, unit="rad or m", ge=0)
+    force_lag_period: float = param(0.0, unit="s", ge=0)
+    across_term: bool = param(False)
+    rate_window: float = param(0.2, unit="s", gt=0)
+    prismatic_rate_window: float = param(0.2, unit="s", gt=0)
     friction_velocity: float = param(STICTION_VELOCITY, unit="rad/s or m/s", ge=0)
 
     def __post_init__(self):
@@ -189,6 +210,35 @@ class DynamicsMonitorConfig:
         0: no mean), s."""
         return float(self.prismatic_force_period if self.joint == "prismatic"
                      else self.force_period)
+
+    def force_lags(self, t) -> np.ndarray:
+        """How much older the force read at each of the times ``t`` (s) is than the hook
+        position read with it, s: the age of the wrist sensor's last sample before ``t``
+        (``force_lag_period``, sampling from time 0) for a revolute mechanism, else 0."""
+        t = np.asarray(t, float)
+        p = self.force_lag_period
+        if p <= 0 or self.joint != "revolute":
+            return np.zeros(t.shape)
+        return t - p * (np.ceil(t / p - 1e-6) - 1.0)
+
+    def regression_samples(self, link, t, G, F) -> dict | None:
+        """The samples the dynamics are fitted to
+        (:func:`~mmlearn.models.articulation.dynamics.generalized_samples` with this
+        configuration's force lag and window of the local fits)."""
+        window = self.prismatic_rate_window if self.joint == "prismatic" else self.rate_window
+        return generalized_samples(link, t, G, F, force_lag=self.force_lags(t),
+                                   half_window=window)
+
+    def fit(self, g: dict | None) -> MechanismDynamics | None:
+        """The dynamics fitted to :meth:`regression_samples`' output (None for None), with
+        the force across a revolute mechanism as a nuisance term when ``across_term``."""
+        if g is None:
+            return None
+        across = g.get("across") if self.across_term and self.joint == "revolute" else None
+        return fit_dynamics(g["q"], g["qdot"], g["tau"], g["qddot"], joint=g["joint"],
+                            radius=g["radius"], q_offset=g["q_offset"], q_sign=g["q_sign"],
+                            friction_velocity=self.friction_velocity,
+                            nuisance=None if across is None else across[:, None])
 
     def modulation(self) -> tuple[float, float, float, float]:
         """The pulling speed's modulation for this ``joint``: (speed, excitation, period,
@@ -428,8 +478,8 @@ class DynamicsMonitor(LeafSystem):
         n = s.t.size
         if n < cfg.min_samples or n - s.last_fit < cfg.refit_every:
             return s
-        return replace(s, dynamics=estimate_dynamics(link, s.t, s.G, s.F_mean,
-                                                     cfg.friction_velocity), last_fit=n)
+        return replace(s, dynamics=cfg.fit(cfg.regression_samples(link, s.t, s.G, s.F_mean)),
+                       last_fit=n)
 
     def _check_block(self, s: DynamicsMonitorState, link) -> DynamicsMonitorState:
         """Halt when the hook has stopped advancing along the model while the force
