@@ -6,7 +6,7 @@ whole trial runs untimed first, so loading the compiled kernels and the modules 
 imports is not counted. Prints figures; never fails on time.
 
 ``--baseline-python PY``: the same trials side by side with another checkout's code, run by
-that checkout's interpreter (e.g. the ``.venv/bin/python`` of a ``git worktree`` of the
+that checkout's interpreter (e.g. the ``.venv/bin/python`` of a second checkout of the
 revision to compare with): two worker processes, one per interpreter, each warmed up by an
 untimed trial, run one timed trial in turn, ``--runs`` each; the table gives both sides and
 the ratio of their CPU times per simulated second, run by run (on a shared machine the
