@@ -12,9 +12,11 @@ from mmlearn.models.perception.detection import Plane
 from mmlearn.models.perception.detection.check import _refit_plane
 from mmlearn.models.perception.detection.gaps import (_bent_windows, _box_rows, _line_hits_kernel,
                                                       _long_runs, _stretch_at, _window_means)
-from mmlearn.models.perception.detection.labels import (IN_PLANE, OCCLUDED, _affine_lstsq,
+from mmlearn.models.perception.detection.labels import (IN_PLANE, OCCLUDED, OFF_SURFACE,
+                                                        _affine_lstsq, _mark_off_surface,
                                                         _ramp_fit, _ramp_fit_lstsq,
-                                                        _refit_on_own_pixels)
+                                                        _refit_on_own_pixels,
+                                                        _surface_deviation)
 from mmlearn.models.perception.detection.planes import (_components, _fit_plane, _inlier_counts,
                                                         _fit_plane_many,
                                                         _largest_region, refine_plane_fullres)
@@ -118,6 +120,35 @@ def test_surface_ramp_fit_matches_the_array_fit(seed):
     assert _ramp_fit(S, line, Lm, coef) == -1
     empty = np.zeros((H, W), np.uint8)
     assert _ramp_fit(S, empty, Lm, coef) == 0
+
+
+@pytest.mark.parametrize("with_ramp", [True, False])
+def test_surface_deviation_and_marks_match_the_array_expressions(with_ramp):
+    """The surface check's deviation from the ramp and its OFF_SURFACE marks, on a box of
+    the images at an offset: bit for bit the float32 array expressions (and nothing written
+    outside the box)."""
+    rng = np.random.default_rng(3)
+    H, W, y0, x0, h, w = 70, 90, 5, 7, 50, 61
+    S = rng.normal(0, 0.01, (H, W)).astype(np.float32)
+    m8 = np.where(rng.random((H, W)) < 0.7, 255, 0).astype(np.uint8)
+    a, b, c = np.float32(3e-4), np.float32(-2e-4), np.float32(0.002)
+    dev = np.empty((h, w), np.float32)
+    _surface_deviation(S, m8, y0, x0, a, b, c, with_ramp, dev)
+    Sb, mb = S[y0:y0 + h, x0:x0 + w], m8[y0:y0 + h, x0:x0 + w] > 0
+    yy, xx = np.mgrid[0:h, 0:w].astype(np.float32)
+    ramp = (a * xx + b * yy) + c if with_ramp else np.float32(0.0)
+    ref = (Sb - ramp) * mb.astype(np.float32)
+    assert np.array_equal(dev, ref)
+    num = cv2.boxFilter(dev, -1, (5, 5), normalize=False)
+    den = cv2.boxFilter(mb.view(np.uint8), cv2.CV_32F, (5, 5), normalize=False)
+    Lm = rng.uniform(0.002, 0.02, (H, W)).astype(np.float32)
+    lab = rng.integers(0, 4, (H, W)).astype(np.uint8)
+    want = lab.copy()
+    hit = mb & (np.abs(num) > den * Lm[y0:y0 + h, x0:x0 + w])
+    assert hit.any() and not hit.all()
+    want[y0:y0 + h, x0:x0 + w][hit] |= np.uint8(OFF_SURFACE)
+    _mark_off_surface(num, den, Lm, m8, y0, x0, lab)
+    assert np.array_equal(lab, want)
 
 
 def test_affine_lstsq_matches_numpy():

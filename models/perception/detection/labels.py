@@ -289,33 +289,50 @@ def _surface_check(lab, S, Lm, win):
         ramp = (np.float32(0.0), np.float32(0.0), np.float32(0.0), False)
     # (Sb - ramp) on the in-plane pixels, 0 elsewhere; the ramp is (a x + b y) + c, float32
     dev = np.empty(Sb.shape, np.float32)
-    _surface_deviation(Sb, m8b, *ramp, dev)
+    # (the kernels read the whole contiguous images at the box's offset: the compiler makes
+    # vector operations of contiguous rows, not of a strided box view)
+    S = np.ascontiguousarray(S)
+    _surface_deviation(S, m8, y0, x0, *ramp, dev)
     num = cv2.boxFilter(dev, -1, (win, win), normalize=False)
     # den >= 1 at every in-plane pixel (its own): max(den, 1) = den where it matters
-    _mark_off_surface(num, den, Lm[y0:y1, x0:x1], m8b, lab[y0:y1, x0:x1])
+    _mark_off_surface(num, den, np.ascontiguousarray(Lm), m8, y0, x0, lab)
 
 
 @numba.njit(cache=True, nogil=True)
-def _surface_deviation(Sb, m8, a, b, c, with_ramp, dev):
+def _surface_deviation(S, m8, y0, x0, a, b, c, with_ramp, dev):
     """``dev`` = (Sb - ((a x + b y) + c)) m (float32, the array expression's operations in
-    its order; without ``with_ramp`` Sb m), m = 1 where ``m8`` is set, else 0."""
-    for r in range(Sb.shape[0]):
-        by = b * np.float32(r)
-        for x in range(Sb.shape[1]):
-            v = Sb[r, x]
-            if with_ramp:
-                v = v - ((a * np.float32(x) + by) + c)
-            dev[r, x] = v * (np.float32(1.0) if m8[r, x] else np.float32(0.0))
+    its order; without ``with_ramp`` Sb m) on the box of ``dev``'s shape at (``y0``, ``x0``)
+    of the image ``S`` (x, y counted from the box's corner), m = 1 where ``m8`` is set, else
+    0. Rows without a test per pixel (a select), so the compiler makes vector operations."""
+    h, w = dev.shape
+    one, zero = np.float32(1.0), np.float32(0.0)
+    xf = np.arange(w).astype(np.float32)  # (x as float32, read rather than converted)
+    for r in range(h):
+        # (rows sliced from the box's first column: contiguous, indexed from 0)
+        Sr, mr, dr = S[y0 + r, x0:x0 + w], m8[y0 + r, x0:x0 + w], dev[r]
+        if with_ramp:
+            by = b * np.float32(r)
+            for x in range(w):
+                v = Sr[x] - ((a * xf[x] + by) + c)
+                dr[x] = v * (one if mr[x] != 0 else zero)
+        else:
+            for x in range(w):
+                dr[x] = Sr[x] * (one if mr[x] != 0 else zero)
 
 
 @numba.njit(cache=True, nogil=True)
-def _mark_off_surface(num, den, Lm, m8, lab):
+def _mark_off_surface(num, den, Lm, m8, y0, x0, lab):
     """In place: OFF_SURFACE or-ed into ``lab`` where ``m8`` is set and |num| > den Lm
-    (float32)."""
-    for r in range(num.shape[0]):
-        for x in range(num.shape[1]):
-            if m8[r, x] and abs(num[r, x]) > den[r, x] * Lm[r, x]:
-                lab[r, x] |= np.uint8(OFF_SURFACE)
+    (float32) on the box of ``num``'s shape at (``y0``, ``x0``) of the images ``Lm``, ``m8``
+    and ``lab`` (every pixel of the box written, unchanged where not marked)."""
+    h, w = num.shape
+    flag = np.uint8(OFF_SURFACE)
+    for r in range(h):
+        nr, dr = num[r], den[r]
+        Lr, mr, lr = Lm[y0 + r, x0:x0 + w], m8[y0 + r, x0:x0 + w], lab[y0 + r, x0:x0 + w]
+        for x in range(w):
+            hit = (mr[x] != 0) & (abs(nr[x]) > dr[x] * Lr[x])
+            lr[x] = lr[x] | (flag if hit else np.uint8(0))
 
 
 def _ramp_fit_lstsq(Sb, inpb, Lmb):
