@@ -13,7 +13,8 @@ from mmlearn.models.perception.detection.check import _refit_plane
 from mmlearn.models.perception.detection.gaps import (_bent_windows, _box_rows, _line_hits_kernel,
                                                       _long_runs, _stretch_at, _window_means)
 from mmlearn.models.perception.detection.labels import (IN_PLANE, OCCLUDED, OFF_SURFACE,
-                                                        _affine_lstsq, _mark_off_surface,
+                                                        _affine_lstsq, _broadcast_rows,
+                                                        _mark_off_surface, _plane_label_kernel,
                                                         _ramp_fit, _ramp_fit_lstsq,
                                                         _refit_on_own_pixels,
                                                         _surface_deviation)
@@ -149,6 +150,33 @@ def test_surface_deviation_and_marks_match_the_array_expressions(with_ramp):
     want[y0:y0 + h, x0:x0 + w][hit] |= np.uint8(OFF_SURFACE)
     _mark_off_surface(num, den, Lm, m8, y0, x0, lab)
     assert np.array_equal(lab, want)
+
+
+@pytest.mark.parametrize("full_rows", [False, True])
+def test_plane_labels_match_the_array_expression(full_rows):
+    """A plane's signed distances (n . ray) d + dpl and Eq. 5.2 labels: bit for bit the
+    float32 array expressions, with n1 y given per row or per pixel."""
+    from mmlearn.models.perception.detection.labels import FREE, UNKNOWN
+    rng = np.random.default_rng(4)
+    H, W = 37, 53
+    valid = rng.random((H, W)) < 0.9
+    d = np.where(valid, rng.uniform(0.5, 3.0, (H, W)), 0.0).astype(np.float32)
+    L = rng.uniform(0.005, 0.03, (H, W)).astype(np.float32)
+    xs = np.linspace(-0.5, 0.5, W, dtype=np.float32)[None, :]
+    ys = np.linspace(-0.4, 0.4, H, dtype=np.float32)[:, None]
+    n, dpl = np.array([0.1, -0.2, -0.97], np.float32), np.float32(1.6)
+    ax = _broadcast_rows(n[0] * xs + n[2], d.shape)
+    by = _broadcast_rows((n[1] * ys).T, d.shape[::-1]).T
+    if full_rows:
+        by = np.ascontiguousarray(np.broadcast_to(by, (H, W)))
+    S = np.empty((H, W), np.float32)
+    lab = np.empty((H, W), np.uint8)
+    _plane_label_kernel(ax, by, d, valid, L, dpl, S, lab)
+    ref = (ax + by) * d + dpl
+    assert np.array_equal(S, ref)
+    want = np.where(ref < -L, FREE, np.where(ref > L, OCCLUDED, IN_PLANE))
+    want = np.where(valid, want, UNKNOWN).astype(np.uint8)
+    assert len(np.unique(want)) == 4 and np.array_equal(lab, want)
 
 
 def test_affine_lstsq_matches_numpy():

@@ -41,20 +41,27 @@ def _plane_label_kernel(ax, by, d, valid, L, dpl, S, lab):
     UNKNOWN where not ``valid`` (else IN_PLANE)."""
     H, W = S.shape
     for r in range(H):
-        ra = r if ax.shape[0] > 1 else 0
-        for c in range(W):
-            s = (ax[ra, c] + (by[r, c] if by.shape[1] > 1 else by[r, 0])) * d[r, c]
-            s = s + dpl
-            S[r, c] = s
-            lr = L[r, c]
-            v = np.uint8(0)
-            if s < -lr:
-                v = np.uint8(FREE)
-            elif s > lr:
-                v = np.uint8(OCCLUDED)
-            if not valid[r, c]:
-                v = np.uint8(UNKNOWN)
-            lab[r, c] = v
+        axr = ax[r if ax.shape[0] > 1 else 0]
+        dr, vr, Lr, Sr, lr = d[r], valid[r], L[r], S[r], lab[r]
+        if by.shape[1] > 1:
+            byr = by[r]
+            for c in range(W):
+                _label_pixel(axr[c] + byr[c], dr[c], dpl, Lr[c], vr[c], Sr, lr, c)
+        else:  # (one value per row: rows of selects that the compiler makes vector operations)
+            b0 = by[r, 0]
+            for c in range(W):
+                _label_pixel(axr[c] + b0, dr[c], dpl, Lr[c], vr[c], Sr, lr, c)
+
+
+@numba.njit(cache=True, nogil=True)
+def _label_pixel(nray, dv, dpl, Lv, ok, Sr, lr, c):
+    """:func:`_plane_label_kernel` at one pixel: ``Sr[c]`` = n . ray d + dpl and its label
+    (selects, no jumps)."""
+    s = nray * dv
+    s = s + dpl
+    Sr[c] = s
+    v = np.uint8(FREE) if s < -Lv else (np.uint8(OCCLUDED) if s > Lv else np.uint8(0))
+    lr[c] = v if ok else np.uint8(UNKNOWN)
 
 
 def _broadcast_rows(a, shape):
