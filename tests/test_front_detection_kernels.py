@@ -10,7 +10,8 @@ import pytest
 
 from mmlearn.models.perception.detection import Plane
 from mmlearn.models.perception.detection.check import _refit_plane
-from mmlearn.models.perception.detection.gaps import (_bent_windows, _box_rows, _line_hits_kernel,
+from mmlearn.models.perception.detection.gaps import (_bent_windows, _box_rows, _line_blocks,
+                                                      _line_hits_kernel,
                                                       _long_runs, _stretch_at, _window_means)
 from mmlearn.models.perception.detection.labels import (IN_PLANE, OCCLUDED, OFF_SURFACE,
                                                         _affine_lstsq, _broadcast_rows,
@@ -177,6 +178,27 @@ def test_plane_labels_match_the_array_expression(full_rows):
     want = np.where(ref < -L, FREE, np.where(ref > L, OCCLUDED, IN_PLANE))
     want = np.where(valid, want, UNKNOWN).astype(np.uint8)
     assert len(np.unique(want)) == 4 and np.array_equal(lab, want)
+
+
+@pytest.mark.parametrize("horizontal", [True, False])
+def test_line_blocks_are_opencv_s_area_resize(horizontal):
+    """The reveals' block means of 4 pixels along the lines (rows or columns; a number of
+    blocks that is no multiple of the column tiles): bit for bit OpenCV's INTER_AREA resize
+    by 4 of the depth and of the measured share, rows across the lines."""
+    rng = np.random.default_rng(5)
+    H, W = 150, 93
+    valid = rng.random((H, W)) < 0.8
+    z = np.where(valid, rng.uniform(0.5, 3.0, (H, W)), 0.0).astype(np.float32)
+    Hc, Wc = H - H % 4, W - W % 4
+    A, N, V = _line_blocks(z, valid, None, horizontal, Hc, Wc)
+    assert V is None
+    vf = valid.astype(np.float32)
+    if horizontal:
+        ref = [cv2.resize(x[:, :Wc], (Wc // 4, H), interpolation=cv2.INTER_AREA) for x in (z, vf)]
+    else:
+        ref = [cv2.resize(x[:Hc], (W, Hc // 4), interpolation=cv2.INTER_AREA).T for x in (z, vf)]
+    assert A.shape == ref[0].shape and np.array_equal(A, ref[0])
+    assert np.array_equal(N, ref[1])
 
 
 def test_affine_lstsq_matches_numpy():

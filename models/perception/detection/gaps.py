@@ -107,6 +107,9 @@ def _or_lines(g, horizontal, out, thin):
                     thin[p, r] = True
 
 
+_TILE = 16  # block rows per tile in _block_means_kernel's columns
+
+
 @numba.njit(cache=True, nogil=True)
 def _block_means_kernel(z, valid, horizontal, A, N):
     """Means of 4 pixels along the lines of ``z`` (float32) and of ``valid`` (as 0 / 1) into
@@ -127,17 +130,32 @@ def _block_means_kernel(z, valid, horizontal, A, N):
                 n += np.float32(valid[r, j + 3])
                 N[r, c] = n * q
     else:
-        for b in range(A.shape[1]):
-            i = _SUB * b
-            for c in range(A.shape[0]):
-                s = z[i, c] + z[i + 1, c]
-                s += z[i + 2, c]
-                s += z[i + 3, c]
-                A[c, b] = s * q
-                n = np.float32(valid[i, c]) + np.float32(valid[i + 1, c])
-                n += np.float32(valid[i + 2, c])
-                n += np.float32(valid[i + 3, c])
-                N[c, b] = n * q
+        # _TILE blocks down the columns at a time, along the image rows into a small tile,
+        # then each column's _TILE values written together (writing the transpose one
+        # element at a time touched a new cache line per element)
+        W, nbk = A.shape
+        TA = np.empty((_TILE, W), np.float32)
+        TN = np.empty((_TILE, W), np.float32)
+        for b0 in range(0, nbk, _TILE):
+            nt = min(_TILE, nbk - b0)
+            for t in range(nt):
+                i = _SUB * (b0 + t)
+                z0, z1, z2, z3 = z[i], z[i + 1], z[i + 2], z[i + 3]
+                v0, v1, v2, v3 = valid[i], valid[i + 1], valid[i + 2], valid[i + 3]
+                ta, tn = TA[t], TN[t]
+                for c in range(W):
+                    s = z0[c] + z1[c]
+                    s += z2[c]
+                    s += z3[c]
+                    ta[c] = s * q
+                    n = np.float32(v0[c]) + np.float32(v1[c])
+                    n += np.float32(v2[c])
+                    n += np.float32(v3[c])
+                    tn[c] = n * q
+            for c in range(W):
+                for t in range(nt):
+                    A[c, b0 + t] = TA[t, c]
+                    N[c, b0 + t] = TN[t, c]
 
 
 def _line_blocks(z, valid, var_scale, horizontal, Hc, Wc):
