@@ -202,14 +202,17 @@ def _bent_kernel(A, N, nb, tol_m2, bent):
     B = np.empty(n, np.float32)
     m = n - nb + 1
     for r in range(n_rows):
+        Ar, Nr = A[r], N[r]
         for i in range(n):
-            B[i] = A[r, i] / N[r, i]
+            B[i] = Ar[i] / Nr[i]
+        # (the shifted rows as slices indexed from 0: the compiler makes vector operations)
+        Bc, Be, bo = B[h0:h0 + m], B[nb - 1:nb - 1 + m], bent[r, h0:h0 + m]
         for i in range(m):
-            zc = B[h0 + i]
-            chord = (B[i] + B[i + nb - 1]) * half
+            zc = Bc[i]
+            chord = (B[i] + Be[i]) * half
             t = (tol_m2 * zc) * zc
             tol = t if t > tmin else tmin
-            bent[r, h0 + i] = (abs(zc - chord) > tol) & (t == t)
+            bo[i] = (abs(zc - chord) > tol) & (t == t)
 
 
 def _window_means(A, N, V, nb, cfg):
