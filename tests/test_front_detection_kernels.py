@@ -18,7 +18,7 @@ from mmlearn.models.perception.detection.labels import (IN_PLANE, OCCLUDED, OFF_
                                                         _mark_off_surface, _plane_label_kernel,
                                                         _ramp_fit, _ramp_fit_lstsq,
                                                         _refit_on_own_pixels,
-                                                        _surface_deviation)
+                                                        _shared_in_plane, _surface_deviation)
 from mmlearn.models.perception.detection.planes import (_components, _fit_plane, _inlier_counts,
                                                         _fit_plane_many,
                                                         _largest_region, refine_plane_fullres)
@@ -199,6 +199,23 @@ def test_line_blocks_are_opencv_s_area_resize(horizontal):
         ref = [cv2.resize(x[:Hc], (W, Hc // 4), interpolation=cv2.INTER_AREA).T for x in (z, vf)]
     assert A.shape == ref[0].shape and np.array_equal(A, ref[0])
     assert np.array_equal(N, ref[1])
+
+
+@pytest.mark.parametrize("P", [3, 20])
+def test_shared_in_plane_pixels_match_the_array_code(P):
+    """The pixels in-plane for several planes and each plane's in-plane flags there: the
+    flat indices of the in-plane counts above 1 and the images gathered at them (bits of
+    16 and of 64 bits)."""
+    rng = np.random.default_rng(P)
+    stack = rng.choice(np.uint8([IN_PLANE, 1, OCCLUDED, 3]), (P, 31, 47),
+                       p=[1.5 / P, 0.5, 0.5 - 1.5 / P, 0.0])
+    bits = np.empty(31 * 47, np.uint16 if P <= 16 else np.uint64)
+    pows = (np.uint64(1) << np.arange(P, dtype=np.uint64)).astype(bits.dtype)
+    shared, near = _shared_in_plane(stack.reshape(P, -1), pows, bits)
+    count = (stack == IN_PLANE).sum(axis=0).reshape(-1)
+    want = np.flatnonzero(count > 1)
+    assert len(want) > 5 and np.array_equal(shared, want)
+    assert np.array_equal(near, stack.reshape(P, -1)[:, want] == IN_PLANE)
 
 
 def test_affine_lstsq_matches_numpy():

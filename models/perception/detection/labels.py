@@ -101,9 +101,10 @@ def _label_images(d, valid, ray_x, ray_y, planes, L, crossing_angle_deg,
     valid = np.ascontiguousarray(valid, bool)
     ray_x, ray_y = np.asarray(ray_x, np.float32), np.asarray(ray_y, np.float32)
     labs = []
+    stack = np.empty((P,) + d.shape, np.uint8)  # (the images side by side: _crossings)
     for k, pl in enumerate(planes):
         n = pl.n
-        lab = np.empty(d.shape, np.uint8)
+        lab = stack[k]
         # n . ray, times the depth, plus the offset (S[k]), and its label, in one pass
         ax = _broadcast_rows(np.float32(n[0]) * ray_x + np.float32(n[2]), d.shape)
         by = _broadcast_rows((np.float32(n[1]) * ray_y).T, d.shape[::-1]).T
@@ -118,7 +119,7 @@ def _label_images(d, valid, ray_x, ray_y, planes, L, crossing_angle_deg,
         labs.append(lab)
     same = (np.zeros(P, bool) if previous is None
             else _unchanged_planes(previous[0], planes, crossing_angle_deg))
-    _crossings(labs, S, planes, valid, crossing_angle_deg, smooth_px, need=~same)
+    _crossings(labs, S, planes, valid, crossing_angle_deg, smooth_px, need=~same, stack=stack)
     for k in np.flatnonzero(same):
         labs[k] = previous[1][k]
     if surface is not None:  # after the crossings: their strips would bias the means
@@ -188,21 +189,28 @@ def _unchanged_planes(old, planes, crossing_angle_deg):
     return same
 
 
-def _crossings(labs, S, planes, valid, crossing_angle_deg, smooth_px, need=None):
+def _crossings(labs, S, planes, valid, crossing_angle_deg, smooth_px, need=None, stack=None):
     """In place: where two crossing planes are both within L of a pixel, the pixel stays
     in-plane only for the nearer one (see :func:`_label_images` and below). ``need``: per
     plane, whether its image is wanted (bool; None: all): the pairs of two planes that are
-    not are skipped (their images are left as they are)."""
+    not are skipped (their images are left as they are). ``stack``: the images as one
+    (planes, H, W) array whose planes ``labs`` are, if at hand: the pixels in-plane for
+    several planes are then found in one compiled pass (:func:`_shared_in_plane`)."""
     P = len(planes)
     if P < 2:
         return
-    count = np.zeros(valid.shape, np.uint8)
-    for lab in labs:
-        count += (lab == IN_PLANE).view(np.uint8)  # (bytes + bytes: no per-element cast)
-    shared = np.flatnonzero(count > 1)
+    if stack is not None and P <= 64:  # (one compiled pass)
+        bits = np.empty(valid.size, np.uint16 if P <= 16 else np.uint64)
+        pows = (np.uint64(1) << np.arange(P, dtype=np.uint64)).astype(bits.dtype)
+        shared, near_sh = _shared_in_plane(stack.reshape(P, -1), pows, bits)
+    else:
+        count = np.zeros(valid.shape, np.uint8)
+        for lab in labs:
+            count += (lab == IN_PLANE).view(np.uint8)  # (bytes + bytes: no per-element cast)
+        shared = np.flatnonzero(count > 1)
+        near_sh = np.array([lab.reshape(-1)[shared] == IN_PLANE for lab in labs])
     if len(shared) == 0:
         return
-    near_sh = np.array([lab.reshape(-1)[shared] == IN_PLANE for lab in labs])
     crossing, layer = _crossing_pairs(planes, crossing_angle_deg)
     if not crossing.any():
         return
@@ -258,6 +266,36 @@ def _crossings(labs, S, planes, valid, crossing_angle_deg, smooth_px, need=None)
             px = shared[take_layer[k] & ~take[k]]
             flat = labs[k].reshape(-1)
             flat[px] = np.where(S[k].reshape(-1)[px] > 0, np.uint8(OCCLUDED), np.uint8(FREE))
+
+
+@numba.njit(cache=True, nogil=True)
+def _shared_in_plane(stack, pows, bits):
+    """The pixels in-plane for more than one plane of the label images ``stack`` (planes,
+    pixels): (their flat indices in increasing order, (planes, those) bool: in-plane for each
+    plane), as ``np.flatnonzero`` of the in-plane counts above 1 and the images at them.
+    ``pows``: 2^k for each plane k, of ``bits``' integer type (pixels, scratch): each pixel's
+    in-plane planes as the bits of one integer, set plane by plane in vector operations."""
+    P, n = stack.shape
+    zero = pows[0] - pows[0]
+    for i in range(n):
+        bits[i] = zero
+    for k in range(P):
+        row, pw = stack[k], pows[k]
+        for i in range(n):
+            bits[i] = bits[i] | (pw if row[i] == IN_PLANE else zero)
+    idx = np.empty(n, np.int64)
+    ns = 0
+    for i in range(n):  # (without a conditional jump per pixel)
+        b = bits[i]
+        idx[ns] = i
+        ns += (b & (b - pows[0])) != zero
+    shared = idx[:ns].copy()
+    near = np.empty((P, ns), np.bool_)
+    for j in range(ns):
+        b = bits[shared[j]]
+        for k in range(P):
+            near[k, j] = (b & pows[k]) != zero
+    return shared, near
 
 
 def _surface_check(lab, S, Lm, win):
