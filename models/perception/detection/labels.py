@@ -237,25 +237,31 @@ def _crossings(labs, S, planes, valid, crossing_angle_deg, smooth_px, need=None,
             if len(both) == 0:
                 continue
             by, bx = ys[both], xs[both]
-            # the pair's pixels' bounding box with the window's margin
-            y0, y1 = max(0, int(by.min()) - r), min(H, int(by.max()) + r + 1)
+            # the pair's pixels' bounding box with the window's margin (``shared`` is
+            # increasing, so its rows are: the first and last are the least and largest)
+            y0, y1 = max(0, int(by[0]) - r), min(H, int(by[-1]) + r + 1)
             x0, x1 = max(0, int(bx.min()) - r), min(W, int(bx.max()) + r + 1)
-            by, bx = by - y0, bx - x0
-            w = np.zeros((y1 - y0, x1 - x0), np.float32)
-            w[by, bx] = 1.0
-            ak = np.abs(cv2.boxFilter(S[k][y0:y1, x0:x1] * w, -1, (smooth_px, smooth_px),
-                                      normalize=False)[by, bx])
-            aj = np.abs(cv2.boxFilter(S[j][y0:y1, x0:x1] * w, -1, (smooth_px, smooth_px),
-                                      normalize=False)[by, bx])
+            bw = x1 - x0
+            fi = (by - y0) * bw + (bx - x0)  # (flat indices in the box: one gather each)
+            w = np.zeros((y1 - y0) * bw, np.float32)
+            w[fi] = 1.0
+            w = w.reshape(y1 - y0, bw)
+            box = (smooth_px, smooth_px)
+            ak = np.abs(cv2.boxFilter(S[k][y0:y1, x0:x1] * w, -1, box,
+                                      normalize=False).reshape(-1)[fi])
+            aj = np.abs(cv2.boxFilter(S[j][y0:y1, x0:x1] * w, -1, box,
+                                      normalize=False).reshape(-1)[fi])
             if layer[k, j]:  # (a layer pair: both directions, sign-dependent labels)
                 # (only in the layer's region: outside it the layer has no in-plane pixels)
                 take_layer[k, both] |= aj < ak
                 take_layer[j, both] |= ak < aj
                 continue
             if crossing[k, j]:
-                take[k, both] |= aj < ak
+                tk = take[k]
+                tk[both] |= aj < ak
             if crossing[j, k]:
-                take[j, both] |= ak < aj
+                tj = take[j]
+                tj[both] |= ak < aj
     for k in range(P):
         if take[k].any():
             flat = labs[k].reshape(-1)
