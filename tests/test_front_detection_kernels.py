@@ -218,6 +218,19 @@ def test_shared_in_plane_pixels_match_the_array_code(P):
     assert np.array_equal(near, stack.reshape(P, -1)[:, want] == IN_PLANE)
 
 
+def test_median_is_numpy_s_median():
+    """The one-partition median of the grids and offset layers: np.median's value for float32
+    and float64 arrays of odd and even length, strided columns too."""
+    from mmlearn.models.perception.detection.grid import _median
+    rng = np.random.default_rng(6)
+    for dtype in (np.float32, np.float64):
+        for n in (1, 2, 5, 6, 999, 1000):
+            a = rng.uniform(0.5, 3.0, (n, 3)).astype(dtype)
+            for x in (a[:, 0], np.ascontiguousarray(a[:, 2])):
+                got, want = _median(x), np.median(x)
+                assert got == want and np.asarray(got).dtype == np.asarray(want).dtype
+
+
 def test_affine_lstsq_matches_numpy():
     rng = np.random.default_rng(5)
     A = np.column_stack([rng.uniform(0, 50, 40), rng.uniform(0, 50, 40), np.ones(40)])
