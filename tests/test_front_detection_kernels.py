@@ -231,6 +231,15 @@ def test_median_is_numpy_s_median():
                 assert got == want and np.asarray(got).dtype == np.asarray(want).dtype
 
 
+def test_grid_origin_mean_is_numpy_s_mean():
+    """The grids' origin: the inlier points' column means, bit for bit ``mean(axis=0)``."""
+    from mmlearn.models.perception.detection.grid import _column_means
+    rng = np.random.default_rng(7)
+    for n in (1, 3, 1000, 4097):
+        a = rng.normal(0.0, 2.0, (n, 3)) + rng.normal(0.0, 3.0, 3)
+        assert np.array_equal(_column_means(a), a.mean(axis=0))
+
+
 def test_affine_lstsq_matches_numpy():
     rng = np.random.default_rng(5)
     A = np.column_stack([rng.uniform(0, 50, 40), rng.uniform(0, 50, 40), np.ones(40)])

@@ -7,6 +7,7 @@ import math
 from dataclasses import dataclass
 
 import cv2
+import numba
 import numpy as np
 
 from mmlearn.models.common.camera import PinholeIntrinsics
@@ -201,13 +202,25 @@ def _median(a: np.ndarray) -> float:
     return (p[h - 1] + p[h]) / 2.0
 
 
+@numba.njit(cache=True, nogil=True)
+def _column_means(a):
+    """``a.mean(axis=0)`` of a (n, 3) float64 array (the same values: numpy sums the rows one
+    after another along that axis, then divides by n) without its overhead (~40 us)."""
+    n, m = a.shape
+    s = np.zeros(m)
+    for i in range(n):
+        for j in range(m):
+            s[j] += a[i, j]
+    return s / n
+
+
 def _make_grid(k, plane: Plane, lab_img, sample_pts, K, down_C, cfg, lut) -> _Grid | None:
     n, d = plane.n, plane.d
     Lp = np.maximum(cfg.inlier_distance, cfg.inlier_distance_per_m2 * sample_pts[:, 2] ** 2)
     inl = np.compress(np.abs(sample_pts @ n + d) <= Lp, sample_pts, axis=0)  # (5x P[mask])
     if len(inl) < 3:
         return None
-    o = inl.mean(axis=0)
+    o = _column_means(inl)
     o = o - (o @ n + d) * n
     e1, e2 = _plane_axes(n, down_C)
     rel = inl - o  # (the same for both extents)
