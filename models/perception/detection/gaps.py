@@ -507,7 +507,8 @@ def _runs_kernel(g, zg, min_len_fx, floor, out):
     pixel in raster order) with its column extent, centroid (float64 sums of the pixel
     coordinates over the area, rounded half to even) and depth: ``zg`` at the centroid when
     the centroid's pixel is the region's, else the mean of ``zg`` over the region (summed in
-    raster order); kept (set in ``out``) when ``_SUB`` x extent >= max(min_len_fx /
+    raster order); kept (set in ``out``, all False on entry: only the regions' pixels are
+    written, in the order visited) when ``_SUB`` x extent >= max(min_len_fx /
     max(depth, 1e-6), floor). Returns whether any was kept."""
     H, W = g.shape
     lab = np.zeros((H, W), np.int32)
@@ -520,6 +521,8 @@ def _runs_kernel(g, zg, min_len_fx, floor, out):
     area = np.empty(H * W, np.int64)
     sx = np.empty(H * W)
     sy = np.empty(H * W)
+    order = np.empty(H * W, np.int64)  # the regions' pixels as visited
+    nvis = 0
     for r in range(H):
         for c in range(W):
             if not g[r, c] or lab[r, c] != 0:
@@ -536,6 +539,8 @@ def _runs_kernel(g, zg, min_len_fx, floor, out):
             while top > 0:
                 top -= 1
                 p = stack[top]
+                order[nvis] = p
+                nvis += 1
                 pr, pc = p // W, p % W
                 a += 1
                 tx += pc
@@ -577,8 +582,9 @@ def _runs_kernel(g, zg, min_len_fx, floor, out):
         if _SUB * np.float64(cmax[k] - cmin[k] + 1) >= min_px:
             keep[k + 1] = True
             anyk = True
-    if anyk:
-        for r in range(H):
-            for c in range(W):
-                out[r, c] = keep[lab[r, c]]
+    if anyk:  # (``out`` is all False: only the regions' pixels to set)
+        for i in range(nvis):
+            p = order[i]
+            r, c = p // W, p % W
+            out[r, c] = keep[lab[r, c]]
     return anyk
