@@ -573,20 +573,24 @@ def _own_pixels(A, L, halfL, own0, refit_rows, refit_idx, part_ptr, part_rows, s
     n_t = refit_rows.shape[0]
     n = A.shape[1]
     counts = np.zeros(n_t, np.int64)
+    near = np.empty(n)
     for t in range(n_t):
         ak_row = A[refit_rows[t]]
         own = own0[refit_idx[t]]
         out = sel[t]
+        # the least distance to a partner within L, partner after partner over all pixels
+        # (selects without jumps: vector operations; a least value in any order)
+        for i in range(n):
+            near[i] = np.inf
+        for q in range(part_ptr[t], part_ptr[t + 1]):
+            row = A[part_rows[q]]
+            for i in range(n):
+                a, m = row[i], near[i]
+                near[i] = a if (a <= L[i]) & (a < m) else m
         c = 0
         for i in range(n):
-            near = np.inf
-            li = L[i]
-            for q in range(part_ptr[t], part_ptr[t + 1]):
-                a = A[part_rows[q], i]
-                if a <= li and a < near:
-                    near = a
             ak = ak_row[i]
-            v = own[i] and ak <= halfL[i] and ak <= near
+            v = own[i] & (ak <= halfL[i]) & (ak <= near[i])
             out[i] = v
             c += v
         counts[t] = c
