@@ -161,3 +161,20 @@ def test_edge_angle_by_table_equals_the_array_code():
     got = [_edge_angle(g) for g in grids]
     assert got == [_edge_angle_reference(g) for g in grids]
     assert got[0] == 0.0 and 2.0 < abs(math.degrees(got[3])) < 10.0  # (7 deg, rasterised)
+
+
+def test_edge_codes_are_opencv_s_sobel_gradients():
+    """The edge cells' codes (gx + 4) 9 + (gy + 4) in raster order: those of OpenCV's 3 x 3
+    Sobel gradients with its default border, thin and tiny grids included."""
+    from mmlearn.models.perception.detection.grid import _edge_codes
+
+    rng = np.random.default_rng(12)
+    for shape in [(1, 1), (1, 6), (5, 1), (2, 2), (2, 7), (3, 3), (17, 23), (40, 31)]:
+        for p in (0.2, 0.5):
+            u8 = (rng.random(shape) < p).astype(np.uint8)
+            gx = cv2.Sobel(u8, cv2.CV_16S, 1, 0, ksize=3).astype(np.int64)
+            gy = cv2.Sobel(u8, cv2.CV_16S, 0, 1, ksize=3).astype(np.int64)
+            want = ((gx + 4) * 9 + gy + 4).reshape(-1)[((gx != 0) | (gy != 0)).reshape(-1)]
+            code = np.empty(u8.size, np.int64)
+            n = _edge_codes(u8, code)
+            assert n == len(want) and np.array_equal(code[:n], want)

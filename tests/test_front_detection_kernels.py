@@ -10,11 +10,15 @@ import pytest
 
 from mmlearn.models.perception.detection import Plane
 from mmlearn.models.perception.detection.check import _refit_plane
-from mmlearn.models.perception.detection.gaps import (_bent_windows, _box_rows, _line_hits_kernel,
+from mmlearn.models.perception.detection.gaps import (_bent_windows, _box_rows, _line_blocks,
+                                                      _line_hits_kernel,
                                                       _long_runs, _stretch_at, _window_means)
-from mmlearn.models.perception.detection.labels import (IN_PLANE, OCCLUDED, _affine_lstsq,
+from mmlearn.models.perception.detection.labels import (IN_PLANE, OCCLUDED, OFF_SURFACE,
+                                                        _affine_lstsq, _broadcast_rows,
+                                                        _mark_off_surface, _plane_label_kernel,
                                                         _ramp_fit, _ramp_fit_lstsq,
-                                                        _refit_on_own_pixels)
+                                                        _refit_on_own_pixels,
+                                                        _shared_in_plane, _surface_deviation)
 from mmlearn.models.perception.detection.planes import (_components, _fit_plane, _inlier_counts,
                                                         _fit_plane_many,
                                                         _largest_region, refine_plane_fullres)
@@ -118,6 +122,122 @@ def test_surface_ramp_fit_matches_the_array_fit(seed):
     assert _ramp_fit(S, line, Lm, coef) == -1
     empty = np.zeros((H, W), np.uint8)
     assert _ramp_fit(S, empty, Lm, coef) == 0
+
+
+@pytest.mark.parametrize("with_ramp", [True, False])
+def test_surface_deviation_and_marks_match_the_array_expressions(with_ramp):
+    """The surface check's deviation from the ramp and its OFF_SURFACE marks, on a box of
+    the images at an offset: bit for bit the float32 array expressions (and nothing written
+    outside the box)."""
+    rng = np.random.default_rng(3)
+    H, W, y0, x0, h, w = 70, 90, 5, 7, 50, 61
+    S = rng.normal(0, 0.01, (H, W)).astype(np.float32)
+    m8 = np.where(rng.random((H, W)) < 0.7, 255, 0).astype(np.uint8)
+    a, b, c = np.float32(3e-4), np.float32(-2e-4), np.float32(0.002)
+    dev = np.empty((h, w), np.float32)
+    _surface_deviation(S, m8, y0, x0, a, b, c, with_ramp, dev)
+    Sb, mb = S[y0:y0 + h, x0:x0 + w], m8[y0:y0 + h, x0:x0 + w] > 0
+    yy, xx = np.mgrid[0:h, 0:w].astype(np.float32)
+    ramp = (a * xx + b * yy) + c if with_ramp else np.float32(0.0)
+    ref = (Sb - ramp) * mb.astype(np.float32)
+    assert np.array_equal(dev, ref)
+    num = cv2.boxFilter(dev, -1, (5, 5), normalize=False)
+    den = cv2.boxFilter(mb.view(np.uint8), cv2.CV_32F, (5, 5), normalize=False)
+    Lm = rng.uniform(0.002, 0.02, (H, W)).astype(np.float32)
+    lab = rng.integers(0, 4, (H, W)).astype(np.uint8)
+    want = lab.copy()
+    hit = mb & (np.abs(num) > den * Lm[y0:y0 + h, x0:x0 + w])
+    assert hit.any() and not hit.all()
+    want[y0:y0 + h, x0:x0 + w][hit] |= np.uint8(OFF_SURFACE)
+    _mark_off_surface(num, den, Lm, m8, y0, x0, lab)
+    assert np.array_equal(lab, want)
+
+
+@pytest.mark.parametrize("full_rows", [False, True])
+def test_plane_labels_match_the_array_expression(full_rows):
+    """A plane's signed distances (n . ray) d + dpl and Eq. 5.2 labels: bit for bit the
+    float32 array expressions, with n1 y given per row or per pixel."""
+    from mmlearn.models.perception.detection.labels import FREE, UNKNOWN
+    rng = np.random.default_rng(4)
+    H, W = 37, 53
+    valid = rng.random((H, W)) < 0.9
+    d = np.where(valid, rng.uniform(0.5, 3.0, (H, W)), 0.0).astype(np.float32)
+    L = rng.uniform(0.005, 0.03, (H, W)).astype(np.float32)
+    xs = np.linspace(-0.5, 0.5, W, dtype=np.float32)[None, :]
+    ys = np.linspace(-0.4, 0.4, H, dtype=np.float32)[:, None]
+    n, dpl = np.array([0.1, -0.2, -0.97], np.float32), np.float32(1.6)
+    ax = _broadcast_rows(n[0] * xs + n[2], d.shape)
+    by = _broadcast_rows((n[1] * ys).T, d.shape[::-1]).T
+    if full_rows:
+        by = np.ascontiguousarray(np.broadcast_to(by, (H, W)))
+    S = np.empty((H, W), np.float32)
+    lab = np.empty((H, W), np.uint8)
+    _plane_label_kernel(ax, by, d, valid, L, dpl, S, lab)
+    ref = (ax + by) * d + dpl
+    assert np.array_equal(S, ref)
+    want = np.where(ref < -L, FREE, np.where(ref > L, OCCLUDED, IN_PLANE))
+    want = np.where(valid, want, UNKNOWN).astype(np.uint8)
+    assert len(np.unique(want)) == 4 and np.array_equal(lab, want)
+
+
+@pytest.mark.parametrize("horizontal", [True, False])
+def test_line_blocks_are_opencv_s_area_resize(horizontal):
+    """The reveals' block means of 4 pixels along the lines (rows or columns; a number of
+    blocks that is no multiple of the column tiles): bit for bit OpenCV's INTER_AREA resize
+    by 4 of the depth and of the measured share, rows across the lines."""
+    rng = np.random.default_rng(5)
+    H, W = 150, 93
+    valid = rng.random((H, W)) < 0.8
+    z = np.where(valid, rng.uniform(0.5, 3.0, (H, W)), 0.0).astype(np.float32)
+    Hc, Wc = H - H % 4, W - W % 4
+    A, N, V = _line_blocks(z, valid, None, horizontal, Hc, Wc)
+    assert V is None
+    vf = valid.astype(np.float32)
+    if horizontal:
+        ref = [cv2.resize(x[:, :Wc], (Wc // 4, H), interpolation=cv2.INTER_AREA) for x in (z, vf)]
+    else:
+        ref = [cv2.resize(x[:Hc], (W, Hc // 4), interpolation=cv2.INTER_AREA).T for x in (z, vf)]
+    assert A.shape == ref[0].shape and np.array_equal(A, ref[0])
+    assert np.array_equal(N, ref[1])
+
+
+@pytest.mark.parametrize("P", [3, 20])
+def test_shared_in_plane_pixels_match_the_array_code(P):
+    """The pixels in-plane for several planes and each plane's in-plane flags there: the
+    flat indices of the in-plane counts above 1 and the images gathered at them (bits of
+    16 and of 64 bits)."""
+    rng = np.random.default_rng(P)
+    stack = rng.choice(np.uint8([IN_PLANE, 1, OCCLUDED, 3]), (P, 31, 47),
+                       p=[1.5 / P, 0.5, 0.5 - 1.5 / P, 0.0])
+    bits = np.empty(31 * 47, np.uint16 if P <= 16 else np.uint64)
+    pows = (np.uint64(1) << np.arange(P, dtype=np.uint64)).astype(bits.dtype)
+    shared, near = _shared_in_plane(stack.reshape(P, -1), pows, bits)
+    count = (stack == IN_PLANE).sum(axis=0).reshape(-1)
+    want = np.flatnonzero(count > 1)
+    assert len(want) > 5 and np.array_equal(shared, want)
+    assert np.array_equal(near, stack.reshape(P, -1)[:, want] == IN_PLANE)
+
+
+def test_median_is_numpy_s_median():
+    """The one-partition median of the grids and offset layers: np.median's value for float32
+    and float64 arrays of odd and even length, strided columns too."""
+    from mmlearn.models.perception.detection.grid import _median
+    rng = np.random.default_rng(6)
+    for dtype in (np.float32, np.float64):
+        for n in (1, 2, 5, 6, 999, 1000):
+            a = rng.uniform(0.5, 3.0, (n, 3)).astype(dtype)
+            for x in (a[:, 0], np.ascontiguousarray(a[:, 2])):
+                got, want = _median(x), np.median(x)
+                assert got == want and np.asarray(got).dtype == np.asarray(want).dtype
+
+
+def test_grid_origin_mean_is_numpy_s_mean():
+    """The grids' origin: the inlier points' column means, bit for bit ``mean(axis=0)``."""
+    from mmlearn.models.perception.detection.grid import _column_means
+    rng = np.random.default_rng(7)
+    for n in (1, 3, 1000, 4097):
+        a = rng.normal(0.0, 2.0, (n, 3)) + rng.normal(0.0, 3.0, 3)
+        assert np.array_equal(_column_means(a), a.mean(axis=0))
 
 
 def test_affine_lstsq_matches_numpy():

@@ -97,3 +97,21 @@ def test_gap_mask_rectified_packed_warp_back_is_two_warps():
     size = (K.width, K.height)
     assert np.array_equal(wide, cv2.warpPerspective(gw.view(np.uint8), Hm, size, **back) > 0)
     assert np.array_equal(thin, cv2.warpPerspective(gt.view(np.uint8), Hm, size, **back) > 0)
+
+
+def test_view_depth_is_the_array_expression_on_its_box():
+    """A rectified view's depth z' = ((a x + c) + b y) d on the footprint's box, bit for bit
+    the float32 array expression there, and untouched (0) outside it."""
+    from mmlearn.models.perception.detection.rectify import _view_depth
+
+    rng = np.random.default_rng(8)
+    H, W, y0, y1, x0, x1 = 40, 60, 5, 33, 7, 51
+    xs = np.linspace(-0.5, 0.5, W).astype(np.float32)
+    ys = np.linspace(-0.4, 0.4, H).astype(np.float32)
+    dz = np.where(rng.random((H, W)) < 0.9, rng.uniform(0.5, 3.0, (H, W)), 0.0).astype(np.float32)
+    a, b, c = np.float32(0.3), np.float32(-0.2), np.float32(-0.9)
+    zv = np.zeros((H, W), np.float32)
+    _view_depth(xs, ys, dz, a, b, c, y0, y1, x0, x1, zv)
+    want = np.zeros((H, W), np.float32)
+    want[y0:y1, x0:x1] = ((a * xs[None, x0:x1] + c) + b * ys[y0:y1, None]) * dz[y0:y1, x0:x1]
+    assert np.array_equal(zv, want) and zv[y0:y1, x0:x1].any()

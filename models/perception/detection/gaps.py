@@ -107,6 +107,9 @@ def _or_lines(g, horizontal, out, thin):
                     thin[p, r] = True
 
 
+_TILE = 16  # block rows per tile in _block_means_kernel's columns
+
+
 @numba.njit(cache=True, nogil=True)
 def _block_means_kernel(z, valid, horizontal, A, N):
     """Means of 4 pixels along the lines of ``z`` (float32) and of ``valid`` (as 0 / 1) into
@@ -127,17 +130,32 @@ def _block_means_kernel(z, valid, horizontal, A, N):
                 n += np.float32(valid[r, j + 3])
                 N[r, c] = n * q
     else:
-        for b in range(A.shape[1]):
-            i = _SUB * b
-            for c in range(A.shape[0]):
-                s = z[i, c] + z[i + 1, c]
-                s += z[i + 2, c]
-                s += z[i + 3, c]
-                A[c, b] = s * q
-                n = np.float32(valid[i, c]) + np.float32(valid[i + 1, c])
-                n += np.float32(valid[i + 2, c])
-                n += np.float32(valid[i + 3, c])
-                N[c, b] = n * q
+        # _TILE blocks down the columns at a time, along the image rows into a small tile,
+        # then each column's _TILE values written together (writing the transpose one
+        # element at a time touched a new cache line per element)
+        W, nbk = A.shape
+        TA = np.empty((_TILE, W), np.float32)
+        TN = np.empty((_TILE, W), np.float32)
+        for b0 in range(0, nbk, _TILE):
+            nt = min(_TILE, nbk - b0)
+            for t in range(nt):
+                i = _SUB * (b0 + t)
+                z0, z1, z2, z3 = z[i], z[i + 1], z[i + 2], z[i + 3]
+                v0, v1, v2, v3 = valid[i], valid[i + 1], valid[i + 2], valid[i + 3]
+                ta, tn = TA[t], TN[t]
+                for c in range(W):
+                    s = z0[c] + z1[c]
+                    s += z2[c]
+                    s += z3[c]
+                    ta[c] = s * q
+                    n = np.float32(v0[c]) + np.float32(v1[c])
+                    n += np.float32(v2[c])
+                    n += np.float32(v3[c])
+                    tn[c] = n * q
+            for c in range(W):
+                for t in range(nt):
+                    A[c, b0 + t] = TA[t, c]
+                    N[c, b0 + t] = TN[t, c]
 
 
 def _line_blocks(z, valid, var_scale, horizontal, Hc, Wc):
@@ -184,14 +202,17 @@ def _bent_kernel(A, N, nb, tol_m2, bent):
     B = np.empty(n, np.float32)
     m = n - nb + 1
     for r in range(n_rows):
+        Ar, Nr = A[r], N[r]
         for i in range(n):
-            B[i] = A[r, i] / N[r, i]
+            B[i] = Ar[i] / Nr[i]
+        # (the shifted rows as slices indexed from 0: the compiler makes vector operations)
+        Bc, Be, bo = B[h0:h0 + m], B[nb - 1:nb - 1 + m], bent[r, h0:h0 + m]
         for i in range(m):
-            zc = B[h0 + i]
-            chord = (B[i] + B[i + nb - 1]) * half
+            zc = Bc[i]
+            chord = (B[i] + Be[i]) * half
             t = (tol_m2 * zc) * zc
             tol = t if t > tmin else tmin
-            bent[r, h0 + i] = (abs(zc - chord) > tol) & (t == t)
+            bo[i] = (abs(zc - chord) > tol) & (t == t)
 
 
 def _window_means(A, N, V, nb, cfg):
@@ -486,7 +507,8 @@ def _runs_kernel(g, zg, min_len_fx, floor, out):
     pixel in raster order) with its column extent, centroid (float64 sums of the pixel
     coordinates over the area, rounded half to even) and depth: ``zg`` at the centroid when
     the centroid's pixel is the region's, else the mean of ``zg`` over the region (summed in
-    raster order); kept (set in ``out``) when ``_SUB`` x extent >= max(min_len_fx /
+    raster order); kept (set in ``out``, all False on entry: only the regions' pixels are
+    written, in the order visited) when ``_SUB`` x extent >= max(min_len_fx /
     max(depth, 1e-6), floor). Returns whether any was kept."""
     H, W = g.shape
     lab = np.zeros((H, W), np.int32)
@@ -499,6 +521,8 @@ def _runs_kernel(g, zg, min_len_fx, floor, out):
     area = np.empty(H * W, np.int64)
     sx = np.empty(H * W)
     sy = np.empty(H * W)
+    order = np.empty(H * W, np.int64)  # the regions' pixels as visited
+    nvis = 0
     for r in range(H):
         for c in range(W):
             if not g[r, c] or lab[r, c] != 0:
@@ -515,6 +539,8 @@ def _runs_kernel(g, zg, min_len_fx, floor, out):
             while top > 0:
                 top -= 1
                 p = stack[top]
+                order[nvis] = p
+                nvis += 1
                 pr, pc = p // W, p % W
                 a += 1
                 tx += pc
@@ -556,8 +582,9 @@ def _runs_kernel(g, zg, min_len_fx, floor, out):
         if _SUB * np.float64(cmax[k] - cmin[k] + 1) >= min_px:
             keep[k + 1] = True
             anyk = True
-    if anyk:
-        for r in range(H):
-            for c in range(W):
-                out[r, c] = keep[lab[r, c]]
+    if anyk:  # (``out`` is all False: only the regions' pixels to set)
+        for i in range(nvis):
+            p = order[i]
+            r, c = p // W, p % W
+            out[r, c] = keep[lab[r, c]]
     return anyk

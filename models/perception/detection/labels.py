@@ -41,20 +41,27 @@ def _plane_label_kernel(ax, by, d, valid, L, dpl, S, lab):
     UNKNOWN where not ``valid`` (else IN_PLANE)."""
     H, W = S.shape
     for r in range(H):
-        ra = r if ax.shape[0] > 1 else 0
-        for c in range(W):
-            s = (ax[ra, c] + (by[r, c] if by.shape[1] > 1 else by[r, 0])) * d[r, c]
-            s = s + dpl
-            S[r, c] = s
-            lr = L[r, c]
-            v = np.uint8(0)
-            if s < -lr:
-                v = np.uint8(FREE)
-            elif s > lr:
-                v = np.uint8(OCCLUDED)
-            if not valid[r, c]:
-                v = np.uint8(UNKNOWN)
-            lab[r, c] = v
+        axr = ax[r if ax.shape[0] > 1 else 0]
+        dr, vr, Lr, Sr, lr = d[r], valid[r], L[r], S[r], lab[r]
+        if by.shape[1] > 1:
+            byr = by[r]
+            for c in range(W):
+                _label_pixel(axr[c] + byr[c], dr[c], dpl, Lr[c], vr[c], Sr, lr, c)
+        else:  # (one value per row: rows of selects that the compiler makes vector operations)
+            b0 = by[r, 0]
+            for c in range(W):
+                _label_pixel(axr[c] + b0, dr[c], dpl, Lr[c], vr[c], Sr, lr, c)
+
+
+@numba.njit(cache=True, nogil=True)
+def _label_pixel(nray, dv, dpl, Lv, ok, Sr, lr, c):
+    """:func:`_plane_label_kernel` at one pixel: ``Sr[c]`` = n . ray d + dpl and its label
+    (selects, no jumps)."""
+    s = nray * dv
+    s = s + dpl
+    Sr[c] = s
+    v = np.uint8(FREE) if s < -Lv else (np.uint8(OCCLUDED) if s > Lv else np.uint8(0))
+    lr[c] = v if ok else np.uint8(UNKNOWN)
 
 
 def _broadcast_rows(a, shape):
@@ -94,9 +101,10 @@ def _label_images(d, valid, ray_x, ray_y, planes, L, crossing_angle_deg,
     valid = np.ascontiguousarray(valid, bool)
     ray_x, ray_y = np.asarray(ray_x, np.float32), np.asarray(ray_y, np.float32)
     labs = []
+    stack = np.empty((P,) + d.shape, np.uint8)  # (the images side by side: _crossings)
     for k, pl in enumerate(planes):
         n = pl.n
-        lab = np.empty(d.shape, np.uint8)
+        lab = stack[k]
         # n . ray, times the depth, plus the offset (S[k]), and its label, in one pass
         ax = _broadcast_rows(np.float32(n[0]) * ray_x + np.float32(n[2]), d.shape)
         by = _broadcast_rows((np.float32(n[1]) * ray_y).T, d.shape[::-1]).T
@@ -111,7 +119,7 @@ def _label_images(d, valid, ray_x, ray_y, planes, L, crossing_angle_deg,
         labs.append(lab)
     same = (np.zeros(P, bool) if previous is None
             else _unchanged_planes(previous[0], planes, crossing_angle_deg))
-    _crossings(labs, S, planes, valid, crossing_angle_deg, smooth_px, need=~same)
+    _crossings(labs, S, planes, valid, crossing_angle_deg, smooth_px, need=~same, stack=stack)
     for k in np.flatnonzero(same):
         labs[k] = previous[1][k]
     if surface is not None:  # after the crossings: their strips would bias the means
@@ -181,21 +189,28 @@ def _unchanged_planes(old, planes, crossing_angle_deg):
     return same
 
 
-def _crossings(labs, S, planes, valid, crossing_angle_deg, smooth_px, need=None):
+def _crossings(labs, S, planes, valid, crossing_angle_deg, smooth_px, need=None, stack=None):
     """In place: where two crossing planes are both within L of a pixel, the pixel stays
     in-plane only for the nearer one (see :func:`_label_images` and below). ``need``: per
     plane, whether its image is wanted (bool; None: all): the pairs of two planes that are
-    not are skipped (their images are left as they are)."""
+    not are skipped (their images are left as they are). ``stack``: the images as one
+    (planes, H, W) array whose planes ``labs`` are, if at hand: the pixels in-plane for
+    several planes are then found in one compiled pass (:func:`_shared_in_plane`)."""
     P = len(planes)
     if P < 2:
         return
-    count = np.zeros(valid.shape, np.uint8)
-    for lab in labs:
-        count += (lab == IN_PLANE).view(np.uint8)  # (bytes + bytes: no per-element cast)
-    shared = np.flatnonzero(count > 1)
+    if stack is not None and P <= 64:  # (one compiled pass)
+        bits = np.empty(valid.size, np.uint16 if P <= 16 else np.uint64)
+        pows = (np.uint64(1) << np.arange(P, dtype=np.uint64)).astype(bits.dtype)
+        shared, near_sh = _shared_in_plane(stack.reshape(P, -1), pows, bits)
+    else:
+        count = np.zeros(valid.shape, np.uint8)
+        for lab in labs:
+            count += (lab == IN_PLANE).view(np.uint8)  # (bytes + bytes: no per-element cast)
+        shared = np.flatnonzero(count > 1)
+        near_sh = np.array([lab.reshape(-1)[shared] == IN_PLANE for lab in labs])
     if len(shared) == 0:
         return
-    near_sh = np.array([lab.reshape(-1)[shared] == IN_PLANE for lab in labs])
     crossing, layer = _crossing_pairs(planes, crossing_angle_deg)
     if not crossing.any():
         return
@@ -222,25 +237,31 @@ def _crossings(labs, S, planes, valid, crossing_angle_deg, smooth_px, need=None)
             if len(both) == 0:
                 continue
             by, bx = ys[both], xs[both]
-            # the pair's pixels' bounding box with the window's margin
-            y0, y1 = max(0, int(by.min()) - r), min(H, int(by.max()) + r + 1)
+            # the pair's pixels' bounding box with the window's margin (``shared`` is
+            # increasing, so its rows are: the first and last are the least and largest)
+            y0, y1 = max(0, int(by[0]) - r), min(H, int(by[-1]) + r + 1)
             x0, x1 = max(0, int(bx.min()) - r), min(W, int(bx.max()) + r + 1)
-            by, bx = by - y0, bx - x0
-            w = np.zeros((y1 - y0, x1 - x0), np.float32)
-            w[by, bx] = 1.0
-            ak = np.abs(cv2.boxFilter(S[k][y0:y1, x0:x1] * w, -1, (smooth_px, smooth_px),
-                                      normalize=False)[by, bx])
-            aj = np.abs(cv2.boxFilter(S[j][y0:y1, x0:x1] * w, -1, (smooth_px, smooth_px),
-                                      normalize=False)[by, bx])
+            bw = x1 - x0
+            fi = (by - y0) * bw + (bx - x0)  # (flat indices in the box: one gather each)
+            w = np.zeros((y1 - y0) * bw, np.float32)
+            w[fi] = 1.0
+            w = w.reshape(y1 - y0, bw)
+            box = (smooth_px, smooth_px)
+            ak = np.abs(cv2.boxFilter(S[k][y0:y1, x0:x1] * w, -1, box,
+                                      normalize=False).reshape(-1)[fi])
+            aj = np.abs(cv2.boxFilter(S[j][y0:y1, x0:x1] * w, -1, box,
+                                      normalize=False).reshape(-1)[fi])
             if layer[k, j]:  # (a layer pair: both directions, sign-dependent labels)
                 # (only in the layer's region: outside it the layer has no in-plane pixels)
                 take_layer[k, both] |= aj < ak
                 take_layer[j, both] |= ak < aj
                 continue
             if crossing[k, j]:
-                take[k, both] |= aj < ak
+                tk = take[k]
+                tk[both] |= aj < ak
             if crossing[j, k]:
-                take[j, both] |= ak < aj
+                tj = take[j]
+                tj[both] |= ak < aj
     for k in range(P):
         if take[k].any():
             flat = labs[k].reshape(-1)
@@ -251,6 +272,36 @@ def _crossings(labs, S, planes, valid, crossing_angle_deg, smooth_px, need=None)
             px = shared[take_layer[k] & ~take[k]]
             flat = labs[k].reshape(-1)
             flat[px] = np.where(S[k].reshape(-1)[px] > 0, np.uint8(OCCLUDED), np.uint8(FREE))
+
+
+@numba.njit(cache=True, nogil=True)
+def _shared_in_plane(stack, pows, bits):
+    """The pixels in-plane for more than one plane of the label images ``stack`` (planes,
+    pixels): (their flat indices in increasing order, (planes, those) bool: in-plane for each
+    plane), as ``np.flatnonzero`` of the in-plane counts above 1 and the images at them.
+    ``pows``: 2^k for each plane k, of ``bits``' integer type (pixels, scratch): each pixel's
+    in-plane planes as the bits of one integer, set plane by plane in vector operations."""
+    P, n = stack.shape
+    zero = pows[0] - pows[0]
+    for i in range(n):
+        bits[i] = zero
+    for k in range(P):
+        row, pw = stack[k], pows[k]
+        for i in range(n):
+            bits[i] = bits[i] | (pw if row[i] == IN_PLANE else zero)
+    idx = np.empty(n, np.int64)
+    ns = 0
+    for i in range(n):  # (without a conditional jump per pixel)
+        b = bits[i]
+        idx[ns] = i
+        ns += (b & (b - pows[0])) != zero
+    shared = idx[:ns].copy()
+    near = np.empty((P, ns), np.bool_)
+    for j in range(ns):
+        b = bits[shared[j]]
+        for k in range(P):
+            near[k, j] = (b & pows[k]) != zero
+    return shared, near
 
 
 def _surface_check(lab, S, Lm, win):
@@ -289,33 +340,50 @@ def _surface_check(lab, S, Lm, win):
         ramp = (np.float32(0.0), np.float32(0.0), np.float32(0.0), False)
     # (Sb - ramp) on the in-plane pixels, 0 elsewhere; the ramp is (a x + b y) + c, float32
     dev = np.empty(Sb.shape, np.float32)
-    _surface_deviation(Sb, m8b, *ramp, dev)
+    # (the kernels read the whole contiguous images at the box's offset: the compiler makes
+    # vector operations of contiguous rows, not of a strided box view)
+    S = np.ascontiguousarray(S)
+    _surface_deviation(S, m8, y0, x0, *ramp, dev)
     num = cv2.boxFilter(dev, -1, (win, win), normalize=False)
     # den >= 1 at every in-plane pixel (its own): max(den, 1) = den where it matters
-    _mark_off_surface(num, den, Lm[y0:y1, x0:x1], m8b, lab[y0:y1, x0:x1])
+    _mark_off_surface(num, den, np.ascontiguousarray(Lm), m8, y0, x0, lab)
 
 
 @numba.njit(cache=True, nogil=True)
-def _surface_deviation(Sb, m8, a, b, c, with_ramp, dev):
+def _surface_deviation(S, m8, y0, x0, a, b, c, with_ramp, dev):
     """``dev`` = (Sb - ((a x + b y) + c)) m (float32, the array expression's operations in
-    its order; without ``with_ramp`` Sb m), m = 1 where ``m8`` is set, else 0."""
-    for r in range(Sb.shape[0]):
-        by = b * np.float32(r)
-        for x in range(Sb.shape[1]):
-            v = Sb[r, x]
-            if with_ramp:
-                v = v - ((a * np.float32(x) + by) + c)
-            dev[r, x] = v * (np.float32(1.0) if m8[r, x] else np.float32(0.0))
+    its order; without ``with_ramp`` Sb m) on the box of ``dev``'s shape at (``y0``, ``x0``)
+    of the image ``S`` (x, y counted from the box's corner), m = 1 where ``m8`` is set, else
+    0. Rows without a test per pixel (a select), so the compiler makes vector operations."""
+    h, w = dev.shape
+    one, zero = np.float32(1.0), np.float32(0.0)
+    xf = np.arange(w).astype(np.float32)  # (x as float32, read rather than converted)
+    for r in range(h):
+        # (rows sliced from the box's first column: contiguous, indexed from 0)
+        Sr, mr, dr = S[y0 + r, x0:x0 + w], m8[y0 + r, x0:x0 + w], dev[r]
+        if with_ramp:
+            by = b * np.float32(r)
+            for x in range(w):
+                v = Sr[x] - ((a * xf[x] + by) + c)
+                dr[x] = v * (one if mr[x] != 0 else zero)
+        else:
+            for x in range(w):
+                dr[x] = Sr[x] * (one if mr[x] != 0 else zero)
 
 
 @numba.njit(cache=True, nogil=True)
-def _mark_off_surface(num, den, Lm, m8, lab):
+def _mark_off_surface(num, den, Lm, m8, y0, x0, lab):
     """In place: OFF_SURFACE or-ed into ``lab`` where ``m8`` is set and |num| > den Lm
-    (float32)."""
-    for r in range(num.shape[0]):
-        for x in range(num.shape[1]):
-            if m8[r, x] and abs(num[r, x]) > den[r, x] * Lm[r, x]:
-                lab[r, x] |= np.uint8(OFF_SURFACE)
+    (float32) on the box of ``num``'s shape at (``y0``, ``x0``) of the images ``Lm``, ``m8``
+    and ``lab`` (every pixel of the box written, unchanged where not marked)."""
+    h, w = num.shape
+    flag = np.uint8(OFF_SURFACE)
+    for r in range(h):
+        nr, dr = num[r], den[r]
+        Lr, mr, lr = Lm[y0 + r, x0:x0 + w], m8[y0 + r, x0:x0 + w], lab[y0 + r, x0:x0 + w]
+        for x in range(w):
+            hit = (mr[x] != 0) & (abs(nr[x]) > dr[x] * Lr[x])
+            lr[x] = lr[x] | (flag if hit else np.uint8(0))
 
 
 def _ramp_fit_lstsq(Sb, inpb, Lmb):
@@ -505,20 +573,24 @@ def _own_pixels(A, L, halfL, own0, refit_rows, refit_idx, part_ptr, part_rows, s
     n_t = refit_rows.shape[0]
     n = A.shape[1]
     counts = np.zeros(n_t, np.int64)
+    near = np.empty(n)
     for t in range(n_t):
         ak_row = A[refit_rows[t]]
         own = own0[refit_idx[t]]
         out = sel[t]
+        # the least distance to a partner within L, partner after partner over all pixels
+        # (selects without jumps: vector operations; a least value in any order)
+        for i in range(n):
+            near[i] = np.inf
+        for q in range(part_ptr[t], part_ptr[t + 1]):
+            row = A[part_rows[q]]
+            for i in range(n):
+                a, m = row[i], near[i]
+                near[i] = a if (a <= L[i]) & (a < m) else m
         c = 0
         for i in range(n):
-            near = np.inf
-            li = L[i]
-            for q in range(part_ptr[t], part_ptr[t + 1]):
-                a = A[part_rows[q], i]
-                if a <= li and a < near:
-                    near = a
             ak = ak_row[i]
-            v = own[i] and ak <= halfL[i] and ak <= near
+            v = own[i] & (ak <= halfL[i]) & (ak <= near[i])
             out[i] = v
             c += v
         counts[t] = c

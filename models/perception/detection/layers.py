@@ -7,6 +7,7 @@ import math
 import cv2
 import numpy as np
 
+from mmlearn.models.perception.detection.grid import _median
 from mmlearn.models.perception.detection.labels import GAP, IN_PLANE, OCCLUDED, OFF_SURFACE, UNKNOWN
 from mmlearn.models.perception.detection.planes import _fit_plane_many, Plane
 
@@ -100,7 +101,7 @@ def _candidate_regions(pl, lab_full, S_full, Pc, Lband, K, cfg, st, off):
     zs = zs[np.isfinite(zs)]
     if len(zs) == 0:
         return None
-    zc = max(float(np.median(zs)), 0.1)
+    zc = max(float(_median(zs)), 0.1)
     # (an odd side: OpenCV dilates with the kernel unreflected, so an even square's opening
     # is shifted by a pixel and not a subset)
     ko = min(max(1, int(round(1.0 / 3.0 * cfg.layer_min_size * K.fx / zc))), 50) * 2 + 1
@@ -126,7 +127,7 @@ def _fit_parallel_start(pl, P, Lp):
     it: 5.2 deg at 2.3 m came out 3.2 deg after two rounds). (n, d, the last round's points)
     or None when fewer than 40 % of the points are within L / 2 or it turns beyond 10 deg."""
     cos10 = math.cos(math.radians(10.0))
-    n, d = pl.n, pl.d - float(np.median(P @ pl.n + pl.d))
+    n, d = pl.n, pl.d - float(_median(P @ pl.n + pl.d))
     for _ in range(3):
         sel = np.abs(P @ n + d) <= 0.5 * Lp
         if np.count_nonzero(sel) < 0.4 * len(P):
@@ -150,7 +151,7 @@ def _layer_plane(k, planes, labels, new, box, sub, Pc, Lmap, K, cfg, st, off):
     Lp = Lmap[y0:y1, x0:x1][sub].astype(np.float64)
     if len(P) < 3:
         return None
-    z = float(np.median(P[:, 2]))
+    z = float(_median(P[:, 2]))
     if min(w * z / K.fx, h * z / K.fy) < cfg.layer_min_size:
         return None
     fit = _fit_parallel_start(pl, P, Lp)

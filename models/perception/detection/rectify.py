@@ -106,10 +106,13 @@ def _view_footprint(Hm, Wv: int, Hv: int, shape, pad: int = 2):
 def _view_depth(xs, ys, dzero, a, b, c, y0, y1, x0, x1, zv):
     """``zv`` = ((a x + c) + b y) dzero on rows y0:y1, columns x0:x1 (float32, the array
     expression's operations in its order)."""
+    xr = xs[x0:x1]
     for r in range(y0, y1):
         by = b * ys[r]
-        for col in range(x0, x1):
-            zv[r, col] = ((a * xs[col] + c) + by) * dzero[r, col]
+        # (row slices indexed from 0: vector operations)
+        zr, dr = zv[r, x0:x1], dzero[r, x0:x1]
+        for col in range(x1 - x0):
+            zr[col] = ((a * xr[col] + c) + by) * dr[col]
 
 
 @numba.njit(cache=True, nogil=True)
