@@ -648,16 +648,14 @@ def _beyond_results() -> dict[str, str]:
         def _total(key):
             return (f"{sum(f[key]['within_25pct'] for f in figs)}/"
                     f"{sum(f[key]['trials'] for f in figs)}")
-        r["mechanism_dynamics"] = (f"damping within 25 %, {len(figs)} seed sets: "
-                                   f"drawers {_total('damping_drawer')}, "
+        r["mechanism_dynamics"] = (f"damping within 25 %: drawers {_total('damping_drawer')}, "
                                    f"doors {_total('damping_left_door')}")
         src = (_load("door_damping_sources.json") or {}).get("summary", {})
         lt, hv = src.get("robot_light"), src.get("robot_heavier")
         if lt and hv:  # the doors of the source-by-source benchmark, as the robot learns them
             r["mechanism_dynamics"] += (
-                f"; {hv['doors'] + lt['doors']} more doors: "
-                f"{hv['within_25pct'] + lt['within_25pct']}/{hv['doors'] + lt['doors']}, "
-                f"the lightest {lt['within_25pct']}/{lt['doors']}")
+                f" and {hv['within_25pct'] + lt['within_25pct']}/"
+                f"{hv['doors'] + lt['doors']} more (lightest {lt['within_25pct']}/{lt['doors']})")
     d = _load("teaching.json")
     if d:
         by = {c["condition"]: c for c in d["conditions"]}
