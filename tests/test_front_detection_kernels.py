@@ -7,6 +7,7 @@ import math
 import cv2
 import numpy as np
 import pytest
+from plane_reference import svd_plane
 
 from mmlearn.models.perception.detection import Plane
 from mmlearn.models.perception.detection.check import _refit_plane
@@ -26,14 +27,6 @@ from mmlearn.models.common.camera import PinholeIntrinsics
 
 K = PinholeIntrinsics.from_fov(640, 480, 58.0)
 
-
-def _svd_plane(P):
-    """Least-squares plane of points (k, 3) by the SVD: unit normal towards the origin, offset."""
-    c = P.mean(axis=0)
-    n = np.linalg.svd(P - c, full_matrices=False)[2][-1]
-    if n @ c > 0:
-        n = -n
-    return n, -n @ c
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
@@ -67,7 +60,7 @@ def test_least_squares_planes_match_the_svd():
     P = np.column_stack([xy, z]) + rng.normal(0, 0.002, (500, 3))
     idx = np.flatnonzero(rng.random(500) < 0.5)
     n, d = _fit_plane(P, idx)
-    n_ref, d_ref = _svd_plane(P[idx])
+    n_ref, d_ref = svd_plane(P[idx])
     assert np.allclose(n, n_ref, atol=1e-10) and abs(d - d_ref) < 1e-10
 
 
@@ -97,7 +90,7 @@ def test_full_resolution_refit_matches_the_gathered_pixels():
     n, d = start.n, start.d
     for shrink in (1.0, 0.5):
         sel = np.abs(P @ n + d) <= shrink * Ls
-        n, d = _svd_plane(P[sel])
+        n, d = svd_plane(P[sel])
     assert np.allclose(got.n, n, atol=1e-9) and abs(got.d - d) < 1e-9
     assert math.degrees(math.acos(min(1.0, got.n @ n_true))) < 0.2
 
@@ -270,7 +263,7 @@ def test_rectangle_refit_uses_the_in_plane_pixels_inside_the_shrunk_rectangle():
     P = Pc.reshape(-1, 3).astype(np.float64)[lab.reshape(-1) == 0]
     q = P - center
     P = P[(np.abs(q @ e1) <= 0.45 * w) & (np.abs(q @ e2) <= 0.45 * h)]
-    n, d = _svd_plane(P)
+    n, d = svd_plane(P)
     assert np.allclose(got[0], n, atol=1e-9) and abs(got[1] - d) < 1e-9
     assert _refit_plane(Pc, np.full_like(lab, 3), center, e1, e2, w, h, K, n_true, 0.02) is None
 

@@ -7,6 +7,7 @@ import math
 import cv2
 import numpy as np
 import pytest
+from plane_reference import svd_plane
 
 from mmlearn.models.common.camera import PinholeIntrinsics
 from mmlearn.models.perception.detection import FrontDetectorConfig
@@ -108,13 +109,6 @@ def _largest_reference(sel, rc, shape):
     return sel[lab == k]
 
 
-def _svd_fit(P):
-    c = P.mean(axis=0)
-    n = np.linalg.svd(P - c, full_matrices=False)[2][-1]
-    if n @ c > 0:
-        n = -n
-    return n, -n @ c
-
 
 def _find_planes_reference(pts, rc, shape, cfg, rng):
     """Sequential RANSAC written with numpy and OpenCV: counts by the float32 matrix product,
@@ -149,7 +143,7 @@ def _find_planes_reference(pts, rc, shape, cfg, rng):
         for shrink in (1.0, 0.5, 1.0):
             if len(inl) < 3:
                 break
-            n, d = _svd_fit(pts[inl])
+            n, d = svd_plane(pts[inl])
             inl = _largest_reference(idx[np.abs(pts[idx] @ n + d) <= shrink * Lp[idx]], rc,
                                      shape)
         loose = idx[np.abs(pts[idx] @ n + d) <= Lr[idx]]
@@ -232,6 +226,6 @@ def test_refits_of_many_planes_in_one_call_are_the_refits_one_by_one():
     P3, Ls = P3[np.isfinite(P3[:, 2])], Ls[np.isfinite(P3[:, 2])]
     n, d = n_wall, 2.0
     for shrink in (1.0, 0.5):
-        n, d = _svd_fit(P3[np.abs(P3 @ n + d) <= shrink * Ls])
+        n, d = svd_plane(P3[np.abs(P3 @ n + d) <= shrink * Ls])
     assert np.allclose(together[0].n, n, atol=1e-9) and abs(together[0].d - d) < 1e-9
     assert refine_planes_fullres([], Pc, L, 8, 4) == []
