@@ -608,13 +608,10 @@ class DynamicsMonitor(LeafSystem):
 def estimate_dynamics(link, t, G, F, friction_velocity: float = 0.0) -> MechanismDynamics | None:
     """The dynamics along ``link`` from hook positions and wrist forces (None when the
     model is not revolute or prismatic, or too few samples moved); ``friction_velocity``:
-    see :func:`~mmlearn.models.articulation.dynamics.fit_dynamics`."""
-    g = generalized_samples(link, t, G, F)
-    if g is None:
-        return None
-    return fit_dynamics(g["q"], g["qdot"], g["tau"], g["qddot"], joint=g["joint"],
-                        radius=g["radius"], q_offset=g["q_offset"], q_sign=g["q_sign"],
-                        friction_velocity=friction_velocity)
+    see :func:`~mmlearn.models.articulation.dynamics.fit_dynamics`. The monitor's fit at
+    its default settings (:meth:`DynamicsMonitorConfig.fit`)."""
+    return DynamicsMonitorConfig(friction_velocity=friction_velocity).fit(
+        generalized_samples(link, t, G, F))
 
 
 def _tangent(link, G) -> np.ndarray | None:
