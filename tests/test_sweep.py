@@ -92,11 +92,14 @@ def test_bad_specs_and_arguments_are_refused(tmp_path):
 
 
 _SCRIPT = textwrap.dedent("""
-    import sys
+    import signal, sys
     from mmlearn.apps.common.sweep import TrialSpec, probe_trial, run_sweep
     specs = [TrialSpec(fn=probe_trial, seed=i,
                        params={"sleep_s": 1.0}, label=f"probe {i}") for i in range(12)]
     if __name__ == "__main__":
+        # Ctrl-C as in a terminal, also when this test runs under a parent that ignores SIGINT
+        # (a background job), whose disposition the interpreter would otherwise inherit
+        signal.signal(signal.SIGINT, signal.default_int_handler)
         res = run_sweep(specs, results=sys.argv[1], jobs=2, show_progress=False,
                         executor=sys.argv[2])
         sys.exit(130 if res.interrupted else 0)

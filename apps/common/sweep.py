@@ -613,8 +613,13 @@ def _run_ray(todo: list[dict], *, jobs: int, address: str | None, shared,
                 for ref in done:
                     yield ray.get(ref)
         except BaseException:
-            for ref in pending:
-                ray.cancel(ref, force=True)
+            # A local instance's workers end with ``ray.shutdown`` below. A forced cancel of a
+            # task that is finishing at that moment crashes Ray's task manager (a failed check,
+            # exit status 1), so tasks are cancelled only on a cluster, where they would outlive
+            # the sweep, and there without force (the worker gets a KeyboardInterrupt).
+            if not started:
+                for ref in pending:
+                    ray.cancel(ref, force=False)
             raise
     finally:
         if started:
