@@ -400,6 +400,10 @@ def _line_hits_kernel(m, unmeas, side_ok, V, Hi, gd, gdz, tol_m2, near_z, offset
     cand = np.zeros(Wp, np.uint8)
     cand64 = cand.view(np.uint64)  # eight columns at a time: most are no candidate
     idx = np.empty(Wp, np.int64)
+    zero = np.float32(0.0)
+    # the candidates' threshold: gd with the noise factor (V <= 1 only lowers the z^2 part:
+    # tested below), else max(gd, gdz z^2)
+    gdz_c = zero if has_v else gdz
     for o in offsets:
         if n_rows <= 4 * o:
             continue
@@ -410,16 +414,22 @@ def _line_hits_kernel(m, unmeas, side_ok, V, Hi, gd, gdz, tol_m2, near_z, offset
             # factor V <= 1 (then by the floor gd) and stretch s >= 1 (the full threshold is
             # never smaller), or unmeasured, and the sides agreeing; the same float32
             # operations as below, so a column failing here fails there
+            # (selects rather than max() and abs(), the noise factor's case outside the loop:
+            # vector operations of the same values; a NaN makes both compares false either way)
             mu, md, mc = m[r - o], m[r + o], m[r]
             su, sd, un = side_ok[r - o], side_ok[r + o], unmeas[r]
             for c in range(Wm):
                 up, dn = mu[c], md[c]
                 ref = (up + dn) * half
                 z2 = ref * ref
-                thr = gd if has_v else max(gd, gdz * z2)
-                tol = max(tmin, tol_m2 * z2)
+                t1 = gdz_c * z2
+                thr = t1 if t1 > gd else gd
+                t2 = tol_m2 * z2
+                tol = t2 if t2 > tmin else tmin
+                dd = up - dn
+                ad = dd if dd >= zero else -dd
                 cand[c] = (su[c] & sd[c] & (np.uint8(mc[c] - ref > thr) | un[c])
-                           & np.uint8(abs(up - dn) < tol))
+                           & np.uint8(ad < tol))
             # the few candidates' columns, without a conditional jump per column (a mispredicted
             # jump per candidate cost more than the remaining tests)
             nc = 0
