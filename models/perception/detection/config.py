@@ -131,7 +131,7 @@ class FrontDetectorConfig:
             small plane seen at grazing incidence gets a view larger than the image, which
             costs the masks stage more than the image's own reveal pass. 4 cut the stage's
             median on the synthetic frames by a sixth, but moved a door seen opened wide
-            (2 of 90 rendered frames, one of 12 perception runs by 0.05 mm), so it is off.
+            (4 of 90 rendered frames; one of 12 perception runs by 0.05 mm), so it is off.
         gap_rectify_max_tilt_deg: only planes within this angle of vertical (deg; "down"
             from ``X_WC``) get a rectified view: fronts are vertical, and the floor or a
             countertop seen from above took the views (and their time) from them.
