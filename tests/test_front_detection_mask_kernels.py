@@ -38,3 +38,18 @@ def test_layer_candidates_match_opencv_s_compares(seed):
     ref2 &= cv2.compare(lb, GAP, cv2.CMP_NE)
     _drop_unknown_gap(lab, R0, C0, got)
     assert np.array_equal(got, ref2)
+
+
+def test_grid_tables_are_opencv_s_integrals():
+    """The cost and in-plane summed-area tables of a label grid in one pass: OpenCV's
+    integrals of the looked-up costs and of the in-plane indicator, bit for bit."""
+    from mmlearn.models.perception.detection.grid import _sats
+    rng = np.random.default_rng(5)
+    lut = rng.integers(0, 256, 256).astype(np.uint8)
+    for shape in ((1, 1), (7, 3), (90, 130)):
+        lab = rng.integers(0, 7, shape).astype(np.uint8)
+        sc, si = _sats(lab, lut)
+        assert np.array_equal(sc, cv2.integral(cv2.LUT(lab, lut), sdepth=cv2.CV_32S))
+        assert np.array_equal(si, cv2.integral((lab == IN_PLANE).view(np.uint8),
+                                               sdepth=cv2.CV_32S))
+        assert sc.dtype == si.dtype == np.int32
