@@ -191,20 +191,10 @@ def _edge_angle(inplane: np.ndarray) -> float:
     return float(np.angle(z) / 4.0)
 
 
-def _sat_cost(labels: np.ndarray, lut: np.ndarray):
-    """Summed-area table (int32) of the cost x 255 of every cell (``lut``: label -> cost x 255,
-    uint8; costs are quantised to 1/255 as in the original code)."""
-    return cv2.integral(cv2.LUT(labels, lut), sdepth=cv2.CV_32S)
-
-
-def _sat_in(labels: np.ndarray):
-    """Summed-area table (int32) of the in-plane indicator."""
-    return cv2.integral((labels == IN_PLANE).view(np.uint8), sdepth=cv2.CV_32S)
-
-
 def _sats(labels: np.ndarray, lut: np.ndarray):
-    """(:func:`_sat_cost`, :func:`_sat_in`) of a label grid, both in one compiled pass
-    (:func:`_sats_kernel`: the same int32 tables)."""
+    """The summed-area tables (int32) of a label grid's cost x 255 (``lut``: label -> cost x
+    255, uint8; costs are quantised to 1/255 as in the original code) and of its in-plane
+    indicator, both in one compiled pass (:func:`_sats_kernel`: OpenCV's integrals' values)."""
     H, W = labels.shape
     sc = np.empty((H + 1, W + 1), np.int32)
     si = np.empty((H + 1, W + 1), np.int32)
