@@ -85,3 +85,31 @@ def test_relabelling_takes_only_the_unchanged_planes_images():
         ref = _label_images(*args, new, *rest)
         assert all(np.array_equal(g, r) for g, r in zip(got, ref))
         assert [k for k in range(len(planes)) if got[k] is first[k]] == kept
+
+
+def test_scratch_arrays_are_kept_per_name_and_give_the_same_labels():
+    """The label images and distances written into a thread's scratch arrays (kept from one
+    call to the next) are those of fresh arrays, also when the scratch memory holds another
+    frame's values, and each name keeps its own memory."""
+    from mmlearn.models.perception.detection.scratch import scratch
+    a = scratch("test_a", (3, 4), np.float32)
+    assert scratch("test_a", (2, 5), np.float32).base is a.base      # smaller: the same memory
+    assert scratch("test_b", (3, 4), np.float32).base is not a.base  # another name
+    big = scratch("test_a", (5, 5), np.float32)                      # larger: new memory
+    assert big.shape == (5, 5) and big.base is not a.base
+    rng = np.random.default_rng(3)
+    H, W = 40, 60
+    d = rng.uniform(1.9, 2.1, (H, W)).astype(np.float32)
+    valid = rng.random((H, W)) > 0.05
+    d[~valid] = 0.0
+    ray = np.zeros((1, W), np.float32), np.zeros((H, 1), np.float32)
+    planes = [Plane(n=np.array([0, 0, -1.0]), d=2.0, support=10),
+              Plane(n=np.array([0.1, 0, -0.995]), d=2.0, support=8)]
+    rest = (np.full((H, W), 0.02, np.float32), 3.0, 5, (np.full((H, W), 0.003, np.float32), 5),
+            None)
+    ref, S_ref = _label_images(d, valid, *ray, planes, *rest, keep_distances=True)
+    scratch("labels9", (4, H, W), np.uint8)[:] = 77  # another frame's values
+    for _ in range(2):
+        got, S = _label_images(d, valid, *ray, planes, *rest, keep_distances=True, slot=9)
+        assert all(np.array_equal(g, r) for g, r in zip(got, ref))
+        assert np.array_equal(S, S_ref)

@@ -115,3 +115,28 @@ def test_view_depth_is_the_array_expression_on_its_box():
     want = np.zeros((H, W), np.float32)
     want[y0:y1, x0:x1] = ((a * xs[None, x0:x1] + c) + b * ys[y0:y1, None]) * dz[y0:y1, x0:x1]
     assert np.array_equal(zv, want) and zv[y0:y1, x0:x1].any()
+
+
+def test_view_upsampling_limit_shrinks_a_grazing_strip_s_view_only():
+    """A narrow strip of a plane seen 80 deg off its normal gets a view far larger than its
+    image pixels; ``gap_rectify_max_upsample`` k caps the view at about k view pixels per
+    region pixel (the same axes, a lower focal length), and leaves the view of a large
+    region seen 50 deg off its normal (3.5 view pixels per region pixel) as it was."""
+    a = math.radians(80.0)
+    strip = Plane(n=np.array([math.sin(a), 0.0, -math.cos(a)]), d=0.4, support=40,
+                  bbox=(10, 40, 30, 33))
+    region_px = (8 * 4) * (8 * 31)
+    free = _rectified_view(K, strip, DOWN, FrontDetectorConfig(gap_rectify_max_upsample=0.0),
+                           8, 4)
+    capped = _rectified_view(K, strip, DOWN, FrontDetectorConfig(gap_rectify_max_upsample=4.0),
+                             8, 4)
+    assert free[3] * free[4] > 8 * region_px
+    assert capped[3] * capped[4] <= 4 * region_px + 16 * (capped[3] + capped[4]) + 256
+    assert capped[2] < free[2]
+    np.testing.assert_array_equal(capped[1], free[1])
+    b = math.radians(50.0)
+    wide = Plane(n=np.array([math.sin(b), 0.0, -math.cos(b)]), d=1.5, support=900,
+                 bbox=(0, 20, 10, 70))
+    v0, v4 = (_rectified_view(K, wide, DOWN, FrontDetectorConfig(gap_rectify_max_upsample=k),
+                              8, 4) for k in (0.0, 4.0))
+    assert v0 is not None and v0[2] == v4[2] and (v0[3], v0[4]) == (v4[3], v4[4])

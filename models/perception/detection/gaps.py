@@ -335,29 +335,33 @@ def _window_kernel(A, N, V, has_v, nb, meas_min, side_min, bent, m, unmeas, side
     """:func:`_window_means`: the window sums (:func:`_box_rows`) times ``_SUB``,
     ``unmeas`` = sum N < ``meas_min``, ``side_ok`` = sum N >= ``side_min`` and not ``bent``,
     ``m`` = sum A / max(sum N, 1) (NaN where unmeasured), ``Vo`` = sqrt(min(sum V / max(sum
-    N, 1), 1)) (float32, the array expressions' operations in their order)."""
+    N, 1), 1)) (float32, the array expressions' operations in their order). Four rows at a
+    time through small buffers (whole-array sums were fresh memory on every call)."""
     n_rows, n = A.shape
     q = np.float32(_SUB)
     one = np.float32(1.0)
     nan = np.float32(np.nan)
-    sa = np.empty((n_rows, n), np.float32)
-    sn = np.empty((n_rows, n), np.float32)
-    _box_rows(A, nb, sa)
-    _box_rows(N, nb, sn)
-    if has_v:
-        sv = np.empty((n_rows, n), np.float32)
-        _box_rows(V, nb, sv)
-    for r in range(n_rows):
-        for c in range(n):
-            w = sn[r, c] * q
-            w1 = max(w, one)
-            meas = w >= meas_min
-            unmeas[r, c] = not meas
-            side_ok[r, c] = (w >= side_min) & (not bent[r, c])
-            mv = (sa[r, c] * q) / w1
-            m[r, c] = mv if meas else nan
-            if has_v:
-                Vo[r, c] = np.sqrt(min((sv[r, c] * q) / w1, one))
+    sa = np.empty((4, n), np.float32)
+    sn = np.empty((4, n), np.float32)
+    sv = np.empty((4, n), np.float32)
+    for r0 in range(0, n_rows, 4):
+        r1 = min(n_rows, r0 + 4)
+        _box_rows(A[r0:r1], nb, sa[:r1 - r0])
+        _box_rows(N[r0:r1], nb, sn[:r1 - r0])
+        if has_v:
+            _box_rows(V[r0:r1], nb, sv[:r1 - r0])
+        for r in range(r0, r1):
+            i = r - r0
+            for c in range(n):
+                w = sn[i, c] * q
+                w1 = max(w, one)
+                meas = w >= meas_min
+                unmeas[r, c] = not meas
+                side_ok[r, c] = (w >= side_min) & (not bent[r, c])
+                mv = (sa[i, c] * q) / w1
+                m[r, c] = mv if meas else nan
+                if has_v:
+                    Vo[r, c] = np.sqrt(min((sv[i, c] * q) / w1, one))
 
 
 #: whether an unmeasured band counts its offsets in image pixels in a rectified view
@@ -396,6 +400,10 @@ def _line_hits_kernel(m, unmeas, side_ok, V, Hi, gd, gdz, tol_m2, near_z, offset
     cand = np.zeros(Wp, np.uint8)
     cand64 = cand.view(np.uint64)  # eight columns at a time: most are no candidate
     idx = np.empty(Wp, np.int64)
+    zero = np.float32(0.0)
+    # the candidates' threshold: gd with the noise factor (V <= 1 only lowers the z^2 part:
+    # tested below), else max(gd, gdz z^2)
+    gdz_c = zero if has_v else gdz
     for o in offsets:
         if n_rows <= 4 * o:
             continue
@@ -406,16 +414,22 @@ def _line_hits_kernel(m, unmeas, side_ok, V, Hi, gd, gdz, tol_m2, near_z, offset
             # factor V <= 1 (then by the floor gd) and stretch s >= 1 (the full threshold is
             # never smaller), or unmeasured, and the sides agreeing; the same float32
             # operations as below, so a column failing here fails there
+            # (selects rather than max() and abs(), the noise factor's case outside the loop:
+            # vector operations of the same values; a NaN makes both compares false either way)
             mu, md, mc = m[r - o], m[r + o], m[r]
             su, sd, un = side_ok[r - o], side_ok[r + o], unmeas[r]
             for c in range(Wm):
                 up, dn = mu[c], md[c]
                 ref = (up + dn) * half
                 z2 = ref * ref
-                thr = gd if has_v else max(gd, gdz * z2)
-                tol = max(tmin, tol_m2 * z2)
+                t1 = gdz_c * z2
+                thr = t1 if t1 > gd else gd
+                t2 = tol_m2 * z2
+                tol = t2 if t2 > tmin else tmin
+                dd = up - dn
+                ad = dd if dd >= zero else -dd
                 cand[c] = (su[c] & sd[c] & (np.uint8(mc[c] - ref > thr) | un[c])
-                           & np.uint8(abs(up - dn) < tol))
+                           & np.uint8(ad < tol))
             # the few candidates' columns, without a conditional jump per column (a mispredicted
             # jump per candidate cost more than the remaining tests)
             nc = 0
@@ -511,17 +525,23 @@ def _runs_kernel(g, zg, min_len_fx, floor, out):
     written, in the order visited) when ``_SUB`` x extent >= max(min_len_fx /
     max(depth, 1e-6), floor). Returns whether any was kept."""
     H, W = g.shape
+    npx = 0  # (the set pixels bound the regions and the stack: arrays of that size)
+    for r in range(H):
+        for c in range(W):
+            npx += 1 if g[r, c] else 0
+    if npx == 0:
+        return False
     lab = np.zeros((H, W), np.int32)
-    stack = np.empty(H * W, np.int64)
+    stack = np.empty(npx, np.int64)
     # per region: first pixel, area, column extent, coordinate sums
-    first = np.empty(H * W, np.int64)
+    first = np.empty(npx, np.int64)
     nl = 0
-    cmin = np.empty(H * W, np.int64)
-    cmax = np.empty(H * W, np.int64)
-    area = np.empty(H * W, np.int64)
-    sx = np.empty(H * W)
-    sy = np.empty(H * W)
-    order = np.empty(H * W, np.int64)  # the regions' pixels as visited
+    cmin = np.empty(npx, np.int64)
+    cmax = np.empty(npx, np.int64)
+    area = np.empty(npx, np.int64)
+    sx = np.empty(npx)
+    sy = np.empty(npx)
+    order = np.empty(npx, np.int64)  # the regions' pixels as visited
     nvis = 0
     for r in range(H):
         for c in range(W):

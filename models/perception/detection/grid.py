@@ -191,19 +191,39 @@ def _edge_angle(inplane: np.ndarray) -> float:
     return float(np.angle(z) / 4.0)
 
 
-def _sat_cost(labels: np.ndarray, lut: np.ndarray):
-    """Summed-area table (int32) of the cost x 255 of every cell (``lut``: label -> cost x 255,
-    uint8; costs are quantised to 1/255 as in the original code)."""
-    return cv2.integral(cv2.LUT(labels, lut), sdepth=cv2.CV_32S)
-
-
-def _sat_in(labels: np.ndarray):
-    """Summed-area table (int32) of the in-plane indicator."""
-    return cv2.integral((labels == IN_PLANE).view(np.uint8), sdepth=cv2.CV_32S)
-
-
 def _sats(labels: np.ndarray, lut: np.ndarray):
-    return _sat_cost(labels, lut), _sat_in(labels)
+    """The summed-area tables (int32) of a label grid's cost x 255 (``lut``: label -> cost x
+    255, uint8; costs are quantised to 1/255 as in the original code) and of its in-plane
+    indicator, both in one compiled pass (:func:`_sats_kernel`: OpenCV's integrals' values)."""
+    H, W = labels.shape
+    sc = np.empty((H + 1, W + 1), np.int32)
+    si = np.empty((H + 1, W + 1), np.int32)
+    _sats_kernel(np.ascontiguousarray(labels, np.uint8), np.ascontiguousarray(lut, np.uint8),
+                 sc, si)
+    return sc, si
+
+
+@numba.njit(cache=True, nogil=True)
+def _sats_kernel(labels, lut, sc, si):
+    """The summed-area tables (int32, a zero first row and column, as ``cv2.integral``) of
+    ``lut[labels]`` into ``sc`` and of the IN_PLANE indicator into ``si``: each row's running
+    sums added to the row above (exact integers)."""
+    H, W = labels.shape
+    for c in range(W + 1):
+        sc[0, c] = 0
+        si[0, c] = 0
+    for r in range(H):
+        lr, up_c, up_i, oc, oi = labels[r], sc[r], si[r], sc[r + 1], si[r + 1]
+        oc[0] = 0
+        oi[0] = 0
+        a = np.int32(0)
+        b = np.int32(0)
+        for c in range(W):
+            v = lr[c]
+            a += np.int32(lut[v])
+            b += np.int32(v == IN_PLANE)
+            oc[c + 1] = up_c[c + 1] + a
+            oi[c + 1] = up_i[c + 1] + b
 
 
 def _sats_gap(labels):

@@ -15,6 +15,7 @@ import numba
 import numpy as np
 
 from mmlearn.models.perception.detection.planes import _fit_plane_many, Plane
+from mmlearn.models.perception.detection.scratch import scratch
 
 
 # mask labels (Eq. 5.2), plus cells of the rectified grid that the camera does not see
@@ -72,7 +73,8 @@ def _broadcast_rows(a, shape):
 
 
 def _label_images(d, valid, ray_x, ray_y, planes, L, crossing_angle_deg,
-                  smooth_px=5, surface=None, gap=None, keep_distances=False, previous=None):
+                  smooth_px=5, surface=None, gap=None, keep_distances=False, previous=None,
+                  slot=None):
     """Eq. 5.2 labels of every pixel for every plane n . p + dpl = 0. The signed distance of
     the pixel's point p = depth * (ray_x, ray_y, 1) is depth * (n . ray) + dpl (separable in
     rows and columns). A pixel within L of two planes that cross at more than
@@ -92,16 +94,24 @@ def _label_images(d, valid, ray_x, ray_y, planes, L, crossing_angle_deg,
     that neither changed nor cross a changed or new plane (before or now) are the same, and
     are taken from it (:func:`_unchanged_planes`); the crossings are then decided only for
     the pairs with another plane, and the surface check and the reveals applied only to the
-    others' images."""
+    others' images.
+
+    ``slot``: None (fresh arrays), or a name under which the distances and label images are
+    this thread's scratch arrays (:func:`scratch`: kept from frame to frame; they are
+    overwritten by the next call with the same ``slot`` in the thread)."""
     P = len(planes)
-    S = np.empty((P,) + d.shape, np.float32)
+    if slot is None:
+        S = np.empty((P,) + d.shape, np.float32)
+        stack = np.empty((P,) + d.shape, np.uint8)  # (the images side by side: _crossings)
+    else:
+        S = scratch(f"distances{slot}", (P,) + d.shape, np.float32)
+        stack = scratch(f"labels{slot}", (P,) + d.shape, np.uint8)
     L = np.broadcast_to(np.asarray(L, np.float32), d.shape).copy() if np.ndim(L) == 0 else L
     L32 = np.ascontiguousarray(L, np.float32)
     d32 = np.ascontiguousarray(d, np.float32)
     valid = np.ascontiguousarray(valid, bool)
     ray_x, ray_y = np.asarray(ray_x, np.float32), np.asarray(ray_y, np.float32)
     labs = []
-    stack = np.empty((P,) + d.shape, np.uint8)  # (the images side by side: _crossings)
     for k, pl in enumerate(planes):
         n = pl.n
         lab = stack[k]

@@ -5,6 +5,7 @@ parallel plane (a drawer pulled out by its first centimetres) gets a plane of it
 import math
 
 import cv2
+import numba
 import numpy as np
 
 from mmlearn.models.perception.detection.grid import _median
@@ -79,18 +80,12 @@ def _candidate_regions(pl, lab_full, S_full, Pc, Lband, K, cfg, st, off):
     C0, C1 = max(0, off + st * c0 - st), min(W, off + st * c1 + st)
     if R1 - R0 < 3 or C1 - C0 < 3:
         return None
-    lab = lab_full[R0:R1, C0:C1]
     # only in front of the plane (s > 0, towards the camera): a front pulled out of its
     # carcass stands proud of the face. (Behind it were a cabinet's bottom rail 1-2 cm behind
     # its door and the far part of a plane fitted across both: the layer split the door, and
     # the robot took its handle 7 cm off.)
-    Sk = S_full[R0:R1, C0:C1]
-    cand = cv2.compare(Sk, Lband[R0:R1, C0:C1], cv2.CMP_LE)
-    cand &= cv2.compare(Sk, 0.0, cv2.CMP_GT)
-    off_or_occ = cv2.compare(lab, OCCLUDED, cv2.CMP_EQ)
-    off_or_occ |= cv2.compare(lab, OFF_SURFACE, cv2.CMP_EQ)
-    cand &= off_or_occ
-    if cv2.countNonZero(cand) < cfg.layer_min_pixels:
+    cand = np.empty((R1 - R0, C1 - C0), np.uint8)
+    if _band_candidates(S_full, Lband, lab_full, R0, C0, cand) < cfg.layer_min_pixels:
         return None
     # opened by a square of 2/3 layer_min_size at the region's median depth (of the crop's
     # sampled pixels: a plane's own depth on a ray can be anything for a plane seen
@@ -109,14 +104,51 @@ def _candidate_regions(pl, lab_full, S_full, Pc, Lband, K, cfg, st, off):
     # holes, and one hole in the opening's square takes its centre away
     cand = cv2.morphologyEx(cand, cv2.MORPH_CLOSE, _SQUARE5)
     # (but not across a reveal or a pixel without a measurement)
-    cand &= cv2.compare(lab, UNKNOWN, cv2.CMP_NE)
-    cand &= cv2.compare(lab, GAP, cv2.CMP_NE)
+    _drop_unknown_gap(lab_full, R0, C0, cand)
     cand = cv2.morphologyEx(cand, cv2.MORPH_OPEN, np.ones((ko, ko), np.uint8))
     if cv2.countNonZero(cand) < cfg.layer_min_pixels:
         return None
     # (the components on the candidates' bounding box only)
     bx, by, bw, bh = cv2.boundingRect(cand)
     return cand[by:by + bh, bx:bx + bw], R0 + by, C0 + bx
+
+
+@numba.njit(cache=True, nogil=True)
+def _band_candidates(S, Lband, lab, R0, C0, cand):
+    """``cand`` (uint8, 255 / 0, the crop of its shape at (``R0``, ``C0``) of the images) =
+    0 < ``S`` <= ``Lband`` (float32 compares: NaN fails) and ``lab`` OCCLUDED or
+    OFF_SURFACE, as OpenCV's compares and their bitwise and; returns the candidates'
+    number."""
+    h, w = cand.shape
+    zero = np.float32(0.0)
+    occ, off = np.uint8(OCCLUDED), np.uint8(OFF_SURFACE)
+    n = 0
+    for r in range(h):
+        Sr, Lr = S[R0 + r, C0:C0 + w], Lband[R0 + r, C0:C0 + w]
+        lr, cr = lab[R0 + r, C0:C0 + w], cand[r]
+        # (0 - 1 = 255 in bytes, no selects: vector operations)
+        for c in range(w):
+            s, v = Sr[c], lr[c]
+            ok = (s <= Lr[c]) & (s > zero) & ((v == occ) | (v == off))
+            cr[c] = np.uint8(0) - np.uint8(ok)
+        for c in range(w):
+            n += cr[c] & np.uint8(1)
+    return n
+
+
+@numba.njit(cache=True, nogil=True)
+def _drop_unknown_gap(lab, R0, C0, cand):
+    """In place: ``cand`` (uint8) set to 0 where the image ``lab``'s crop of its shape at
+    (``R0``, ``C0``) is UNKNOWN or GAP (as OpenCV's ``cand &= compare(lab, UNKNOWN,
+    CMP_NE)`` and the same for GAP)."""
+    h, w = cand.shape
+    unk, gap = np.uint8(UNKNOWN), np.uint8(GAP)
+    for r in range(h):
+        lr, cr = lab[R0 + r, C0:C0 + w], cand[r]
+        for c in range(w):
+            v = lr[c]
+            keep = np.uint8((v != unk) & (v != gap))
+            cr[c] = cr[c] & (np.uint8(0) - keep)  # (and with 255 or 0: vector operations)
 
 
 def _fit_parallel_start(pl, P, Lp):

@@ -260,10 +260,12 @@ def _reveals(f: _Frame, planes, cfg):
     return gap, gap_thin
 
 
-def _labels(f: _Frame, planes, cfg, surface, gap, keep_distances=False, previous=None):
+def _labels(f: _Frame, planes, cfg, surface, gap, slot, keep_distances=False, previous=None):
+    """:func:`_label_images` of the frame, into the scratch arrays of ``slot`` (the label
+    images live until the next frame's call with that slot)."""
     return _label_images(f.dzero, f.valid, f.xs, f.ys, planes, f.Limg, cfg.crossing_angle_deg,
                          int(cfg.crossing_smooth_px), surface, gap, keep_distances=keep_distances,
-                         previous=previous)
+                         previous=previous, slot=slot)
 
 
 def _plane_labels(f: _Frame, planes, cfg, surface, gap):
@@ -279,21 +281,23 @@ def _plane_labels(f: _Frame, planes, cfg, surface, gap):
 def _labels_refits_layers(f: _Frame, planes, cfg, surface, gap):
     """:func:`_plane_labels`' work: the labels, the own-pixel refit and the offset layers,
     each relabelling after them from the labels before."""
-    labels, S = _labels(f, planes, cfg, surface, gap, keep_distances=True)
+    # (each call its own scratch slot: a relabelling reads the labels before it)
+    labels, S = _labels(f, planes, cfg, surface, gap, 0, keep_distances=True)
     # (each relabelling takes the images of the planes that neither moved nor cross a moved
     # or new plane from the one before: _label_images' previous)
     if cfg.own_pixel_refit_deg > 0:  # planes tilted by a neighbour they cross at a shallow angle
         moved = _refit_on_own_pixels(planes, labels, f.Pc, f.Limg, cfg.own_pixel_refit_deg,
                                      cfg.crossing_angle_deg)
         if moved is not None:
-            labels, S = _labels(f, moved, cfg, surface, gap, keep_distances=True,
+            labels, S = _labels(f, moved, cfg, surface, gap, 1, keep_distances=True,
                                 previous=(planes, labels))
             planes = moved
     if cfg.layer_planes > 0 and cfg.layer_max_layers > 0:
         # fronts standing a few cm proud of a larger plane (_offset_layers)
         layers = _offset_layers(planes, labels, S, f.Pc, f.Limg, f.Lband, f.K, cfg, f.st, f.off)
         if layers:
-            labels = _labels(f, planes + layers, cfg, surface, gap, previous=(planes, labels))
+            labels = _labels(f, planes + layers, cfg, surface, gap, 2,
+                             previous=(planes, labels))
             planes = planes + layers
     return planes, labels
 

@@ -29,7 +29,9 @@ def _rectified_view(K: PinholeIntrinsics, pl: Plane, down_C, cfg, stride: int, o
     sees the plane's sides along its rows and columns and the plane at constant depth z'
     (z' = d (r3 . ray)); the reveals are found there on z' with the same tests, and mapped back
     (nearest pixel). The view covers the plane's region (``Plane.bbox``), with its focal
-    length reduced so that it is at most ``gap_rectify_max_scale`` times the image's size."""
+    length reduced so that it is at most ``gap_rectify_max_scale`` times the image's size
+    and holds at most ``gap_rectify_max_upsample`` view pixels per image pixel of the region
+    (0: no such limit)."""
     n = np.asarray(pl.n, float)
     if down_C is not None and abs(float(n @ down_C)) > math.sin(
             math.radians(cfg.gap_rectify_max_tilt_deg)):
@@ -68,7 +70,16 @@ def _rectified_view(K: PinholeIntrinsics, pl: Plane, down_C, cfg, stride: int, o
     smax = cfg.gap_rectify_max_scale * np.array([K.width, K.height], float)
     # a coarser virtual focal length when the region would be larger than that (seen
     # obliquely, its far side is stretched in the rotated view)
-    f = K.fx * min(1.0, float(np.min(smax / np.maximum(size, 1.0))))
+    scale = min(1.0, float(np.min(smax / np.maximum(size, 1.0))))
+    if cfg.gap_rectify_max_upsample > 0:
+        # and when the view would hold more than gap_rectify_max_upsample pixels per image
+        # pixel of the region (a small plane seen at grazing incidence: a strip of 20-40
+        # image columns became a view larger than the image, whose line tests cost as
+        # much as the image's twice)
+        region_px = (stride * (c1 + 1 - c0)) * (stride * (r1 + 1 - r0))
+        scale = min(scale, math.sqrt(cfg.gap_rectify_max_upsample * region_px
+                                     / max(float(size[0] * size[1]), 1.0)))
+    f = K.fx * scale
     uv = f * q[:, :2] / q[:, 2:3]
     lo, hi = uv.min(axis=0) - 8.0, uv.max(axis=0) + 8.0
     size = hi - lo
