@@ -278,6 +278,12 @@ class EpcController(LeafSystem):
         once it holds a knob there."""
         return self._grip_pose_in(self._kin.Eval(context), self._grip(self.state(context)))
 
+    def _measured_grip_point(self, context) -> np.ndarray:
+        """``measured_grip_pose(context).translation()`` (the same floats, X @ grip),
+        without making the pose."""
+        X = self._plant.CalcRelativeTransform(self._kin.Eval(context), self._world, self._hook)
+        return X @ self._grip(self.state(context))
+
     def grip_pose(self, q) -> RigidTransform:
         """World pose of the grip point frame (hook orientation) for commands q."""
         plant_context = self._plant.CreateDefaultContext()
@@ -343,7 +349,7 @@ class EpcController(LeafSystem):
         q = self._measured_q(context)
         s = EpcState(phase=DRIVE, t_phase=context.get_time(), q_from=q, q_to=q,
                      t_cmd=context.get_time(), start=q,
-                     last_G=self.measured_grip_pose(context).translation())
+                     last_G=self._measured_grip_point(context))
         state.get_mutable_abstract_state(self._s).set_value(s)
         return EventStatus.Succeeded()
 
@@ -380,7 +386,7 @@ class EpcController(LeafSystem):
             F = np.zeros(3)
         t = context.get_time()
         return EpcInputs(t=t, elapsed=t - s.t_phase, F=F,
-                    G=self.measured_grip_pose(context).translation())
+                    G=self._measured_grip_point(context))
 
     def _step(self, context, s: EpcState) -> EpcState:
         """One control period: the phase's own step (:attr:`_PHASES`) computes the command
@@ -715,11 +721,14 @@ class EpcController(LeafSystem):
         # only the trajectory while the hook holds the handle is an observation of the
         # mechanism: outside the pull phase, or without contact force, the output is NaN
         # (the estimator drops it)
-        if self.state(context).phase != PULL or np.linalg.norm(
-                self._in_force.Eval(context)) < self._cfg.contact_force:
+        if self.state(context).phase != PULL:
             output.SetFromVector(np.full(3, np.nan))
             return
-        output.SetFromVector(self.measured_grip_pose(context).translation())
+        F = self._in_force.Eval(context)
+        if math.sqrt(F.dot(F)) < self._cfg.contact_force:  # (numpy's norm of a vector)
+            output.SetFromVector(np.full(3, np.nan))
+            return
+        output.SetFromVector(self._measured_grip_point(context))
 
     def _calc_phase(self, context, output):
         output.SetFromVector([self.state(context).phase])
