@@ -12,8 +12,17 @@ untimed trial, run one timed trial in turn, ``--runs`` each; the table gives bot
 the ratio of their CPU times per simulated second, run by run (on a shared machine the
 ratio of trials run one after the other holds better than either side's figure).
 
+``--plant-only``: what the plant alone costs in the trial: one trial runs with the plant's
+command recorded after every simulator step, then the scene alone (the plant, SceneGraph,
+the gravity compensation and the command's mapping to the PD targets, no Python system)
+is driven through the recorded commands (linear between the steps) and timed, ``--runs``
+times; the table gives its CPU seconds and real-time factor beside the trial's, and how far
+the replay's final opening is from the trial's (it follows the trial closely, not to the
+last bit: the command is recorded at the end of each step).
+
     python benchmarks/bench_demo.py [--runs N] [--quick] [--max-time S] [--json [FILE]]
     python benchmarks/bench_demo.py --baseline-python OTHER/.venv/bin/python [--runs N]
+    python benchmarks/bench_demo.py --plant-only [--runs N]
 """
 
 from __future__ import annotations
@@ -106,6 +115,87 @@ def _side_by_side(args) -> None:
           f"{max(ratios):.3f}); baseline: {args.baseline_python}")
 
 
+def _plant_only(args) -> None:
+    """``--plant-only``: the trial's plant driven by its recorded commands (see the module
+    docstring), against the trial itself."""
+    import time
+
+    import numpy as np
+    from pydrake.systems.analysis import Simulator
+    from pydrake.systems.framework import DiagramBuilder, EventStatus
+    from pydrake.systems.primitives import TrajectorySource
+    from pydrake.trajectories import PiecewisePolynomial
+
+    from mmlearn.diagrams.articulation.operate import MakeOperateDiagram, OperateConfig
+    from mmlearn.diagrams.articulation.trials import open_mechanism
+    from mmlearn.diagrams.common.scene import MakeSceneDiagram, SceneConfig
+    from mmlearn.systems.articulation.epc_controller import DONE
+
+    trials = [open_mechanism(kind=args.object, seed=args.seed, max_time=args.max_time,
+                             show_progress=False) for _ in range(args.runs + 1)][1:]
+    cfg = OperateConfig(kind=args.object, seed=args.seed)
+    op = MakeOperateDiagram(cfg)
+    d, sd = op.diagram, op.scene.diagram
+    sim = Simulator(d)
+    ctx = sim.get_mutable_context()
+    op.scene.set_joint_positions(ctx, op.start_command)
+    sim.Initialize()
+    times, commands = [], []
+
+    def record(root):
+        times.append(root.get_time())
+        commands.append(sd.GetInputPort("command").Eval(sd.GetMyContextFromRoot(root)).copy())
+        return EventStatus.Succeeded()
+
+    sim.set_monitor(record)
+    while ctx.get_time() < args.max_time - 1e-9:
+        sim.AdvanceTo(min(args.max_time, ctx.get_time() + 0.25))
+        if int(d.GetOutputPort("phase").Eval(ctx)[0]) == DONE:
+            break
+    opening = float(d.GetOutputPort("mechanism_state").Eval(ctx)[0])
+    t = np.round(np.array(times), 9)
+    keep = np.r_[t[1:] != t[:-1], True]  # the last command of each instant
+    commands = PiecewisePolynomial.FirstOrderHold(t[keep], np.array(commands)[keep].T)
+    cpu, replayed = [], None
+    for _ in range(args.runs):
+        scene = MakeSceneDiagram(SceneConfig(
+            arm="7dof", tool="hook", mobile_base=True, cabinet=False, mechanism=op.mechanism,
+            time_step=cfg.time_step, marker_sensor=False,
+            sampled_output_ports=cfg.sampled_ports()))
+        b = DiagramBuilder()
+        s = b.AddSystem(scene.diagram)
+        src = b.AddSystem(TrajectorySource(commands))
+        b.Connect(src.get_output_port(), s.GetInputPort("command"))
+        replay = b.Build()
+        rsim = Simulator(replay)
+        rctx = rsim.get_mutable_context()
+        scene.set_joint_positions(rctx, op.start_command)
+        rsim.Initialize()
+        c0 = time.process_time()
+        rsim.AdvanceTo(float(t[-1]))
+        cpu.append(time.process_time() - c0)
+        replayed = float(scene.diagram.GetOutputPort("mechanism_state").Eval(
+            scene.diagram.GetMyContextFromRoot(rctx))[0])
+    sim_s = float(t[-1])
+    trial_cpu = statistics.median(r["cpu_seconds"] for r in trials)
+    figures = {"plant_only_cpu_s": statistics.median(cpu),
+               "plant_only_realtime_factor_cpu": sim_s / statistics.median(cpu),
+               "trial_cpu_s": trial_cpu, "realtime_factor_cpu": sim_s / trial_cpu,
+               "replay_opening_difference": abs(replayed - opening)}
+    if emit_json(args.json, {"object": args.object, "seed": args.seed, "runs": args.runs,
+                             "figures": figures}):
+        return
+    print(f"{args.object} seed {args.seed}, {sim_s:.2f} s simulated, {args.runs} runs each:")
+    print(f"  the trial       : simulation CPU "
+          + ", ".join(f"{r['cpu_seconds']:.2f}" for r in trials)
+          + f" s; real-time factor (CPU) {figures['realtime_factor_cpu']:.2f}")
+    print(f"  the plant alone : simulation CPU " + ", ".join(f"{c:.2f}" for c in cpu)
+          + f" s; real-time factor (CPU) {figures['plant_only_realtime_factor_cpu']:.2f} "
+          f"(final opening {abs(replayed - opening):.1e} from the trial's)")
+    print(f"  not the plant   : {trial_cpu - figures['plant_only_cpu_s']:.2f} s of CPU "
+          f"(medians), {1 - figures['plant_only_cpu_s'] / trial_cpu:.0%} of the trial's")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--object", default="left_door", help="the mechanism (default left_door)")
@@ -116,12 +206,20 @@ def main():
     ap.add_argument("--baseline-python", default=None, metavar="PYTHON",
                     help="the interpreter of another checkout: its trials side by side "
                          "with this checkout's (--runs each, in turn)")
+    ap.add_argument("--plant-only", action="store_true",
+                    help="time the scene alone driven by the trial's recorded commands, "
+                         "beside the trial (--runs each)")
     add_output_arguments(ap, quick="one timed trial")
     args = ap.parse_args()
     if args.runs < 1:
         ap.error(f"--runs must be >= 1, got {args.runs}")
     if not 0 < args.max_time < float("inf"):
         ap.error(f"--max-time must be a number of seconds > 0, got {args.max_time}")
+    if args.plant_only:
+        if args.quick or args.baseline_python is not None:
+            ap.error("--plant-only runs on its own (not with --quick or --baseline-python)")
+        _plant_only(args)
+        return
     if args.baseline_python is not None:
         import os
         import shutil

@@ -176,3 +176,48 @@ def test_operate_diagram_sees_the_hook_in_the_believed_frame():
     np.testing.assert_allclose(G_believed, believed_from_true(G_true, xb, e), atol=1e-9)
     # the task the robot is told is the true one seen through its belief at time 0
     assert np.linalg.norm(op.task.handle - op.true_task.handle) > 1e-3
+
+
+def _update_reference(loc, cfg, x, base):
+    """One update of the documented recursion in numpy arrays: the error's AR(1) step, the
+    odometry's scale errors on the base's motion since the last update."""
+    x = np.array(x, float)
+    k = int(x[9]) + 1
+    w = np.random.default_rng([cfg.seed, k]).normal(size=3)
+    prev = x[6:9].copy()
+    d = base[:2] - prev[:2]
+    turn = math.remainder(float(base[2] - prev[2]), 2 * math.pi)
+    c, s = math.cos(base[2]), math.sin(base[2])
+    along, across = c * d[0] + s * d[1], -s * d[0] + c * d[1]
+    odo_scale = loc._odo
+    ea, ec = odo_scale[0] * along, odo_scale[1] * across
+    odo = np.array([c * ea - s * ec, s * ea + c * ec, odo_scale[2] * turn])
+    x[0:3] = loc._a * x[0:3] + loc._b * w
+    x[3:6] = loc._a * x[3:6] + odo
+    x[10:13] = x[10:13] + odo
+    x[6:9] = base
+    x[9] = k
+    return x
+
+
+def test_the_update_is_the_recursion_to_the_last_bit():
+    """The periodic update (scalar arithmetic) gives the array recursion's floats exactly,
+    on a base that drives and turns."""
+    cfg = BaseLocalizationConfig(seed=5).scaled(2.0)
+    loc = BaseLocalization(config=cfg, state_size=8, base_position_indices=[0, 1, 2],
+                           num_commands=4)
+    ctx = loc.CreateDefaultContext()
+    loc.get_command_input_port().FixValue(ctx, np.zeros(4))
+    loc.get_force_input_port().FixValue(ctx, np.zeros(3))
+    rng = np.random.default_rng(0)
+    base = np.array([1.0, 2.0, 3.1])
+    x = ctx.get_discrete_state(0).value().copy()
+    for i in range(30):
+        base = base + rng.normal(0.0, 0.05, 3)  # the yaw wraps past pi
+        loc.get_robot_state_input_port().FixValue(ctx, np.r_[base, np.zeros(5)])
+        ctx.SetTime(0.05 * (i + 1))
+        x_new = loc.EvalUniquePeriodicDiscreteUpdate(ctx).get_vector(0).value()
+        np.testing.assert_array_equal(x_new, _update_reference(loc, cfg, x, base))
+        ctx.SetDiscreteState(0, x_new)
+        x = x_new.copy()
+    assert abs(x[12]) > 0 and x[9] == 30

@@ -85,6 +85,28 @@ def test_demo_benchmark_refuses_a_missing_baseline_interpreter(tmp_path):
     assert r.returncode == 2 and "--baseline-python: no interpreter" in r.stderr
 
 
+def test_demo_benchmark_plant_only_runs_on_its_own():
+    r = subprocess.run([sys.executable, str(BENCH / "bench_demo.py"), "--plant-only", "--quick"],
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 2 and "--plant-only runs on its own" in r.stderr
+
+
+@pytest.mark.slow
+def test_demo_benchmark_times_the_plant_alone_on_the_trials_commands(tmp_path):
+    f = tmp_path / "plant.json"
+    r = subprocess.run([sys.executable, str(BENCH / "bench_demo.py"), "--plant-only", "--runs",
+                        "1", "--max-time", "2", "--json", str(f)],
+                       capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stdout + r.stderr
+    fig = json.loads(f.read_text())["figures"]
+    # the replay follows the trial; both figures are of the same simulated span
+    assert fig["replay_opening_difference"] < 1e-6
+    assert fig["plant_only_cpu_s"] > 0 and fig["trial_cpu_s"] > 0
+    assert fig["plant_only_realtime_factor_cpu"] * fig["plant_only_cpu_s"] == pytest.approx(
+        fig["realtime_factor_cpu"] * fig["trial_cpu_s"])
+    assert "the plant alone" in r.stdout and "not the plant" in r.stdout
+
+
 @pytest.mark.slow
 def test_demo_benchmark_runs_two_interpreters_in_turn(tmp_path):
     f = tmp_path / "side.json"

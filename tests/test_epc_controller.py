@@ -203,3 +203,74 @@ def test_epc_config_bad_values():
 def test_ready_arm_q_must_match_the_arm():
     with pytest.raises(ValueError, match=r"EpcConfig\.ready_arm_q needs 6"):
         MakeOperateDiagram(OperateConfig(epc=EpcConfig(ready_arm_q=[0.0] * 5)))
+
+
+def _ik_reference(ctrl, plant_context, q0, p_des, R_des, *, base, grip):
+    """The controller's damped least squares written with the plant's full position vector
+    and numpy's norm and clip (the reference its IK must give to the last bit)."""
+    from pydrake.math import RotationMatrix
+    from pydrake.multibody.tree import JacobianWrtVariable
+
+    cfg, plant = ctrl._cfg, ctrl._plant
+    q = np.array(q0, float)
+    w = np.ones(q.size)
+    w[:3] = cfg.base_weight if base else 1e6
+    Winv = 1.0 / w
+    wr = cfg.ik_rotation_weight
+    for _ in range(cfg.ik_iterations):
+        full = plant.GetPositions(plant_context)
+        full[ctrl._qidx] = q
+        plant.SetPositions(plant_context, full)
+        X = plant.CalcRelativeTransform(plant_context, plant.world_frame(), ctrl._hook)
+        p, R = X @ grip, X.rotation().matrix()
+        e_p = p_des - p
+        e_R = RotationMatrix(R_des @ R.T).ToAngleAxis()
+        e = np.concatenate([wr * (e_R.axis() * e_R.angle()), e_p])
+        if (np.linalg.norm(e_p) < cfg.ik_position_tolerance
+                and e_R.angle() < cfg.ik_angle_tolerance):
+            break
+        J = plant.CalcJacobianSpatialVelocity(
+            plant_context, JacobianWrtVariable.kQDot, ctrl._hook, grip, plant.world_frame(),
+            plant.world_frame())[:, ctrl._qidx]
+        J[:3] *= wr
+        JW = J * Winv
+        lam = cfg.ik_damping
+        dq = JW.T @ np.linalg.solve(JW @ J.T + lam * lam * np.eye(6), e)
+        n = np.linalg.norm(dq[3:])
+        if n > cfg.ik_max_step:
+            dq *= cfg.ik_max_step / n
+        q = np.clip(q + dq, ctrl._lo, ctrl._hi)
+    return q
+
+
+def test_kinematics_give_the_full_vector_reference_to_the_last_bit():
+    """The controller's IK and measured grip point (the robot's positions set in one call)
+    equal the reference with the plant's whole position vector, bit for bit."""
+    from pydrake.systems.analysis import Simulator
+
+    from mmlearn.systems.articulation.epc_controller import P_HOOK_GRIP
+
+    op = MakeOperateDiagram(OperateConfig(kind="left_door", seed=2))
+    sim = Simulator(op.diagram)
+    ctx = sim.get_mutable_context()
+    op.scene.set_joint_positions(ctx, op.start_command)
+    sim.Initialize()
+    sim.AdvanceTo(0.3)
+    ctrl = op.controller
+    cc = ctrl.GetMyContextFromRoot(ctx)
+    assert ctrl._all_commanded
+    np.testing.assert_array_equal(ctrl._measured_grip_point(cc),
+                                  ctrl.measured_grip_pose(cc).translation())
+    plant = op.scene.plant
+    ref_context = plant.CreateDefaultContext()
+    q0 = ctrl._measured_q(cc)
+    G = ctrl.measured_grip_pose(cc)
+    rng = np.random.default_rng(1)
+    grip_tip = np.array([0.07, 0.0, P_HOOK_GRIP[2]])
+    for base, grip in ((False, P_HOOK_GRIP), (True, P_HOOK_GRIP), (True, grip_tip)):
+        p_des = G.translation() + rng.normal(0.0, 0.05, 3)
+        R_des = hook_rotation(op.task.normal, op.task.side)
+        q = ctrl._ik(cc, q0, p_des, R_des, base=base, grip=grip)
+        ref = _ik_reference(ctrl, ref_context, q0, p_des, R_des, base=base, grip=grip)
+        assert np.abs(q - q0).max() > 1e-3
+        np.testing.assert_array_equal(q, ref)

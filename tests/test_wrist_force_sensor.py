@@ -114,3 +114,39 @@ def test_with_live_ports_and_its_step_the_sensor_gives_the_samples_of_sampled_po
     assert np.abs(sampled).max() > 1.0
     np.testing.assert_array_equal(live, sampled)
     assert n_live == n_sampled <= round(0.4 / 0.0025) + 1
+
+
+def test_a_sample_is_the_true_force_plus_its_noise_to_the_last_bit():
+    """One event per sample (live ports, no plant_time_step): the sample at instant k is
+    true_force (the reaction force turned into the world frame, the tool's weight taken
+    off) plus noise(k), the same floats, on a pushed hook."""
+    dt = 0.0025
+    scene = MakeSceneDiagram(SceneConfig(arm="7dof", tool="hook", mobile_base=True,
+                                         cabinet=False, time_step=dt, marker_sensor=False,
+                                         sampled_output_ports=False))
+    plant = scene.plant
+    b = DiagramBuilder()
+    sd = b.AddSystem(scene.diagram)
+    sensor = b.AddSystem(WristForceSensor(
+        plant=plant, mount_joint=plant.GetJointByName("hook_mount", scene.robot),
+        sigma_force=0.5, seed=3, noise_samples=50))
+    b.Connect(sd.GetOutputPort("reaction_forces"), sensor.get_reaction_forces_input_port())
+    b.Connect(sd.GetOutputPort("body_poses"), sensor.get_body_poses_input_port())
+    d = b.Build()
+    ctx = d.CreateDefaultContext()
+    cmd = np.zeros(len(scene.command_names))
+    cmd[3:] = [0.0, 0.5, 0.0, 1.2, 0.0, 0.4]
+    sd.GetInputPort("command").FixValue(sd.GetMyMutableContextFromRoot(ctx), cmd)
+    scene.set_joint_positions(ctx, cmd)
+    f = ExternallyAppliedSpatialForce()
+    f.body_index = plant.GetBodyByName("hook", scene.robot).index()
+    f.p_BoBq_B = np.zeros(3)
+    f.F_Bq_W = SpatialForce(np.zeros(3), np.array([8.0, -5.0, 3.0]))
+    sd.GetInputPort("applied_spatial_force").FixValue(sd.GetMyMutableContextFromRoot(ctx), [f])
+    sim = Simulator(d, ctx)
+    sc = sensor.GetMyContextFromRoot(ctx)
+    for k in (20, 49, 60):  # a table's noise and a generator's
+        sim.AdvanceTo(k * 0.01)
+        sample = sensor.EvalUniquePeriodicDiscreteUpdate(sc).get_vector(0).value()
+        assert np.abs(sample).max() > 1.0
+        np.testing.assert_array_equal(sample, sensor.true_force(sc) + sensor.noise(k))

@@ -190,6 +190,9 @@ class BaseLocalization(LeafSystem):
         self._a = a
         self._b = math.sqrt(1.0 - a * a) * np.array([cfg.sigma_xy, cfg.sigma_xy, cfg.sigma_yaw])
         self._odo = odometry_scale_errors(cfg)
+        # the same numbers as Python floats, for the update's scalar arithmetic
+        self._b_f = tuple(float(v) for v in self._b)
+        self._odo_f = tuple(float(v) for v in self._odo)
         self._in_state = self.DeclareVectorInputPort("robot_state", state_size)
         self._in_cmd = self.DeclareVectorInputPort("command", num_commands)
         self._in_force = self.DeclareVectorInputPort("force_W", 3)
@@ -272,25 +275,28 @@ class BaseLocalization(LeafSystem):
         return EventStatus.Succeeded()
 
     def _update(self, context, discrete_state):
-        cfg = self._cfg
-        x = np.array(context.get_discrete_state(self._x).value())
+        # in Python floats (the same IEEE operations as the arrays': one period's few
+        # scalars cost less than the arrays' calls)
+        x = context.get_discrete_state(self._x).value().tolist()
         k = int(x[_K]) + 1
-        w = np.random.default_rng([cfg.seed, k]).normal(size=3)
-        base = self._true_base(context)
-        if not np.all(np.isfinite(base)):
-            base = x[_PREV]
-        d = base[:2] - x[_PREV][:2]
-        turn = math.remainder(float(base[2] - x[_PREV][2]), 2 * math.pi)
-        c, s = math.cos(base[2]), math.sin(base[2])
-        along, across = c * d[0] + s * d[1], -s * d[0] + c * d[1]
-        ea, ec = self._odo[0] * along, self._odo[1] * across
-        odo = np.array([c * ea - s * ec, s * ea + c * ec, self._odo[2] * turn])
-        x[_LOC] = self._a * x[_LOC] + self._b * w
-        x[_ODO] = self._a * x[_ODO] + odo
-        x[_RAW] = x[_RAW] + odo
-        x[_PREV] = base
-        x[_K] = k
-        discrete_state.set_value(self._x, x)
+        w0, w1, w2 = np.random.default_rng([self._cfg.seed, k]).normal(size=3).tolist()
+        px, py, pyaw = x[6], x[7], x[8]
+        bx, by, byaw = np.asarray(self._in_state.Eval(context), float)[self._idx].tolist()
+        if not (math.isfinite(bx) and math.isfinite(by) and math.isfinite(byaw)):
+            bx, by, byaw = px, py, pyaw
+        d0, d1 = bx - px, by - py
+        turn = math.remainder(byaw - pyaw, 2 * math.pi)
+        c, s = math.cos(byaw), math.sin(byaw)
+        along, across = c * d0 + s * d1, -s * d0 + c * d1
+        o0, o1, o2 = self._odo_f
+        ea, ec = o0 * along, o1 * across
+        odo = (c * ea - s * ec, s * ea + c * ec, o2 * turn)
+        a = self._a
+        b0, b1, b2 = self._b_f
+        discrete_state.set_value(self._x, np.array([
+            a * x[0] + b0 * w0, a * x[1] + b1 * w1, a * x[2] + b2 * w2,
+            a * x[3] + odo[0], a * x[4] + odo[1], a * x[5] + odo[2],
+            bx, by, byaw, k, x[10] + odo[0], x[11] + odo[1], x[12] + odo[2]]))
         return EventStatus.Succeeded()
 
     # ------------------------------------------------------------------ outputs

@@ -152,6 +152,11 @@ class EpcController(LeafSystem):
                                 for j in plant.GetJointIndices(robot)
                                 if plant.get_joint(j).num_positions() == 1)
         self._robot_local = np.array([robot_q_starts.index(i) for i in self._qidx])
+        # the commands are all of the robot's positions (the mobile hook arm): a plant
+        # context's robot positions are then set in one call, without reading the rest
+        self._all_commanded = (sorted(self._robot_local.tolist())
+                               == list(range(self._nq_robot)))
+        self._world = plant.world_frame()
         n = len(self._names)
         self._in_state = self.DeclareVectorInputPort(
             "robot_state", plant.num_positions(robot) + plant.num_velocities(robot))
@@ -241,16 +246,24 @@ class EpcController(LeafSystem):
         return x[: self._nq_robot][self._robot_local]
 
     def _set(self, plant_context, q):
+        if self._all_commanded:
+            q_robot = np.empty(self._nq_robot)
+            q_robot[self._robot_local] = q
+            self._plant.SetPositions(plant_context, self._robot, q_robot)
+            return
         full = self._plant.GetPositions(plant_context)
         full[self._qidx] = q
         self._plant.SetPositions(plant_context, full)
 
     def _calc_measured_context(self, context, value):
+        if self._all_commanded:  # the commanded positions are the robot's, in its order
+            self._plant.SetPositions(value.get_mutable_value(), self._robot,
+                                     self._in_state.Eval(context)[: self._nq_robot])
+            return
         self._set(value.get_mutable_value(), self._measured_q(context))
 
     def _grip_pose_in(self, plant_context, grip=P_HOOK_GRIP) -> RigidTransform:
-        X = self._plant.CalcRelativeTransform(plant_context, self._plant.world_frame(),
-                                              self._hook)
+        X = self._plant.CalcRelativeTransform(plant_context, self._world, self._hook)
         return RigidTransform(X.rotation(), X @ grip)
 
     @staticmethod
@@ -264,6 +277,12 @@ class EpcController(LeafSystem):
         this system's context); the grip point is the hook's seat, or its finger's tip
         once it holds a knob there."""
         return self._grip_pose_in(self._kin.Eval(context), self._grip(self.state(context)))
+
+    def _measured_grip_point(self, context) -> np.ndarray:
+        """``measured_grip_pose(context).translation()`` (the same floats, X @ grip),
+        without making the pose."""
+        X = self._plant.CalcRelativeTransform(self._kin.Eval(context), self._world, self._hook)
+        return X @ self._grip(self.state(context))
 
     def grip_pose(self, q) -> RigidTransform:
         """World pose of the grip point frame (hook orientation) for commands q."""
@@ -295,30 +314,34 @@ class EpcController(LeafSystem):
         w[:3] = cfg.base_weight if base else 1e6  # base fixed (a huge cost) unless allowed
         Winv = 1.0 / w
         wr = cfg.ik_rotation_weight
+        lam = cfg.ik_damping
+        damping = lam * lam * np.eye(6)
+        plant, world = self._plant, self._world
+        # (norms as sqrt(v . v): numpy's norm of a vector, without its dispatch; the clip as
+        # minimum(maximum()): np.clip's values, NaN included)
         for _ in range(cfg.ik_iterations):
             self._set(plant_context, q)
-            X = self._plant.CalcRelativeTransform(plant_context, self._plant.world_frame(),
-                                                  self._hook)
+            X = plant.CalcRelativeTransform(plant_context, world, self._hook)
             p = X @ grip
             R = X.rotation().matrix()
             e_p = p_des - p
             e_R = RotationMatrix(R_des @ R.T).ToAngleAxis()
-            e_r = e_R.axis() * e_R.angle()
-            e = np.concatenate([wr * e_r, e_p])  # rotation error weighted: 1 rad ~ wr m
-            if (np.linalg.norm(e_p) < cfg.ik_position_tolerance
-                    and e_R.angle() < cfg.ik_angle_tolerance):
+            angle = e_R.angle()
+            e = np.concatenate([wr * (e_R.axis() * angle), e_p])  # 1 rad ~ wr m
+            if (math.sqrt(e_p.dot(e_p)) < cfg.ik_position_tolerance
+                    and angle < cfg.ik_angle_tolerance):
                 break
-            J = self._plant.CalcJacobianSpatialVelocity(
+            J = plant.CalcJacobianSpatialVelocity(
                 plant_context, JacobianWrtVariable.kQDot, self._hook, grip,
-                self._plant.world_frame(), self._plant.world_frame())[:, self._qidx]
+                world, world)[:, self._qidx]
             J[:3] *= wr
             JW = J * Winv
-            lam = cfg.ik_damping
-            dq = JW.T @ np.linalg.solve(JW @ J.T + lam * lam * np.eye(6), e)
-            n = np.linalg.norm(dq[3:])
+            dq = JW.T @ np.linalg.solve(JW @ J.T + damping, e)
+            step = dq[3:]
+            n = math.sqrt(step.dot(step))
             if n > cfg.ik_max_step:
                 dq *= cfg.ik_max_step / n
-            q = np.clip(q + dq, self._lo, self._hi)
+            q = np.minimum(np.maximum(q + dq, self._lo), self._hi)
         return q
 
     # ------------------------------------------------------------------ events
@@ -326,7 +349,7 @@ class EpcController(LeafSystem):
         q = self._measured_q(context)
         s = EpcState(phase=DRIVE, t_phase=context.get_time(), q_from=q, q_to=q,
                      t_cmd=context.get_time(), start=q,
-                     last_G=self.measured_grip_pose(context).translation())
+                     last_G=self._measured_grip_point(context))
         state.get_mutable_abstract_state(self._s).set_value(s)
         return EventStatus.Succeeded()
 
@@ -363,7 +386,7 @@ class EpcController(LeafSystem):
             F = np.zeros(3)
         t = context.get_time()
         return EpcInputs(t=t, elapsed=t - s.t_phase, F=F,
-                    G=self.measured_grip_pose(context).translation())
+                    G=self._measured_grip_point(context))
 
     def _step(self, context, s: EpcState) -> EpcState:
         """One control period: the phase's own step (:attr:`_PHASES`) computes the command
@@ -698,11 +721,14 @@ class EpcController(LeafSystem):
         # only the trajectory while the hook holds the handle is an observation of the
         # mechanism: outside the pull phase, or without contact force, the output is NaN
         # (the estimator drops it)
-        if self.state(context).phase != PULL or np.linalg.norm(
-                self._in_force.Eval(context)) < self._cfg.contact_force:
+        if self.state(context).phase != PULL:
             output.SetFromVector(np.full(3, np.nan))
             return
-        output.SetFromVector(self.measured_grip_pose(context).translation())
+        F = self._in_force.Eval(context)
+        if math.sqrt(F.dot(F)) < self._cfg.contact_force:  # (numpy's norm of a vector)
+            output.SetFromVector(np.full(3, np.nan))
+            return
+        output.SetFromVector(self._measured_grip_point(context))
 
     def _calc_phase(self, context, output):
         output.SetFromVector([self.state(context).phase])
