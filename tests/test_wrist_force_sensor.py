@@ -9,11 +9,10 @@ from mmlearn.diagrams import MakeSceneDiagram, SceneConfig
 from mmlearn.systems import MarkerSensorConfig, WristForceSensor
 
 
-def _rig(push=None, sigma=0.0, *, live=False, times=(1.5,)):
-    """The sensor's output at ``times`` on a hook pushed by ``push`` (N, world frame; None:
-    not pushed); ``live``: the plant's output ports live and the sensor given its step
-    (plant_time_step), else sampled ports (Drake's default)."""
-    dt = 0.0025
+def _pushed_hook(push=None, *, live=False, dt=0.0025, **sensor_kw):
+    """A hook arm (plant step ``dt``) with the wrist sensor, held at one command and pushed by
+    ``push`` (N, world frame; None: not pushed); ``live``: the plant's output ports live
+    instead of sampled. Returns (sensor, simulator)."""
     scene = MakeSceneDiagram(SceneConfig(arm="7dof", tool="hook", mobile_base=True,
                                          cabinet=False, time_step=dt,
                                          sampled_output_ports=not live,
@@ -22,8 +21,7 @@ def _rig(push=None, sigma=0.0, *, live=False, times=(1.5,)):
     b = DiagramBuilder()
     sd = b.AddSystem(scene.diagram)
     sensor = b.AddSystem(WristForceSensor(
-        plant=plant, mount_joint=plant.GetJointByName("hook_mount", scene.robot),
-        sigma_force=sigma, seed=3, plant_time_step=dt if live else 0.0))
+        plant=plant, mount_joint=plant.GetJointByName("hook_mount", scene.robot), **sensor_kw))
     b.Connect(sd.GetOutputPort("reaction_forces"), sensor.get_reaction_forces_input_port())
     b.Connect(sd.GetOutputPort("body_poses"), sensor.get_body_poses_input_port())
     d = b.Build()
@@ -41,7 +39,17 @@ def _rig(push=None, sigma=0.0, *, live=False, times=(1.5,)):
         forces = [f]
     sd.GetInputPort("applied_spatial_force").FixValue(sd.GetMyMutableContextFromRoot(ctx),
                                                        forces)
-    sim = Simulator(d, ctx)
+    return sensor, Simulator(d, ctx)
+
+
+def _rig(push=None, sigma=0.0, *, live=False, times=(1.5,)):
+    """The sensor's output at ``times`` on a hook pushed by ``push`` (N, world frame; None:
+    not pushed); ``live``: the plant's output ports live and the sensor given its step
+    (plant_time_step), else sampled ports (Drake's default)."""
+    dt = 0.0025
+    sensor, sim = _pushed_hook(push, live=live, dt=dt, sigma_force=sigma, seed=3,
+                               plant_time_step=dt if live else 0.0)
+    ctx = sim.get_context()
     out = []
     for t in times:
         sim.AdvanceTo(t)
@@ -120,31 +128,9 @@ def test_a_sample_is_the_true_force_plus_its_noise_to_the_last_bit():
     """One event per sample (live ports, no plant_time_step): the sample at instant k is
     true_force (the reaction force turned into the world frame, the tool's weight taken
     off) plus noise(k), the same floats, on a pushed hook."""
-    dt = 0.0025
-    scene = MakeSceneDiagram(SceneConfig(arm="7dof", tool="hook", mobile_base=True,
-                                         cabinet=False, time_step=dt, marker_sensor=False,
-                                         sampled_output_ports=False))
-    plant = scene.plant
-    b = DiagramBuilder()
-    sd = b.AddSystem(scene.diagram)
-    sensor = b.AddSystem(WristForceSensor(
-        plant=plant, mount_joint=plant.GetJointByName("hook_mount", scene.robot),
-        sigma_force=0.5, seed=3, noise_samples=50))
-    b.Connect(sd.GetOutputPort("reaction_forces"), sensor.get_reaction_forces_input_port())
-    b.Connect(sd.GetOutputPort("body_poses"), sensor.get_body_poses_input_port())
-    d = b.Build()
-    ctx = d.CreateDefaultContext()
-    cmd = np.zeros(len(scene.command_names))
-    cmd[3:] = [0.0, 0.5, 0.0, 1.2, 0.0, 0.4]
-    sd.GetInputPort("command").FixValue(sd.GetMyMutableContextFromRoot(ctx), cmd)
-    scene.set_joint_positions(ctx, cmd)
-    f = ExternallyAppliedSpatialForce()
-    f.body_index = plant.GetBodyByName("hook", scene.robot).index()
-    f.p_BoBq_B = np.zeros(3)
-    f.F_Bq_W = SpatialForce(np.zeros(3), np.array([8.0, -5.0, 3.0]))
-    sd.GetInputPort("applied_spatial_force").FixValue(sd.GetMyMutableContextFromRoot(ctx), [f])
-    sim = Simulator(d, ctx)
-    sc = sensor.GetMyContextFromRoot(ctx)
+    sensor, sim = _pushed_hook([8.0, -5.0, 3.0], live=True, sigma_force=0.5, seed=3,
+                               noise_samples=50)
+    sc = sensor.GetMyContextFromRoot(sim.get_context())
     for k in (20, 49, 60):  # a table's noise and a generator's
         sim.AdvanceTo(k * 0.01)
         sample = sensor.EvalUniquePeriodicDiscreteUpdate(sc).get_vector(0).value()
