@@ -128,7 +128,7 @@ def _plant_only(args) -> None:
 
     from mmlearn.diagrams.articulation.operate import MakeOperateDiagram, OperateConfig
     from mmlearn.diagrams.articulation.trials import open_mechanism
-    from mmlearn.diagrams.common.scene import MakeSceneDiagram, SceneConfig
+    from mmlearn.diagrams.common.scene import MakeSceneDiagram
     from mmlearn.systems.articulation.epc_controller import DONE
 
     trials = [open_mechanism(kind=args.object, seed=args.seed, max_time=args.max_time,
@@ -158,10 +158,7 @@ def _plant_only(args) -> None:
     commands = PiecewisePolynomial.FirstOrderHold(t[keep], np.array(commands)[keep].T)
     cpu, replayed = [], None
     for _ in range(args.runs):
-        scene = MakeSceneDiagram(SceneConfig(
-            arm="7dof", tool="hook", mobile_base=True, cabinet=False, mechanism=op.mechanism,
-            time_step=cfg.time_step, marker_sensor=False,
-            sampled_output_ports=cfg.sampled_ports()))
+        scene = MakeSceneDiagram(cfg.scene_config(op.mechanism))
         b = DiagramBuilder()
         s = b.AddSystem(scene.diagram)
         src = b.AddSystem(TrajectorySource(commands))

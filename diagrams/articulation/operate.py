@@ -179,6 +179,13 @@ class OperateConfig:
             return self.monitor is not None
         return bool(self.sampled_output_ports)
 
+    def scene_config(self, mechanism) -> SceneConfig:
+        """The scene of the trial: the mobile hook arm before ``mechanism`` (a mechanism
+        spec), at this configuration's plant step and output ports."""
+        return SceneConfig(arm="7dof", tool="hook", mobile_base=True, cabinet=False,
+                           mechanism=mechanism, time_step=self.time_step,
+                           marker_sensor=False, sampled_output_ports=self.sampled_ports())
+
     def estimator_refit_fraction(self) -> float:
         """The estimator's ``refit_fraction`` (``refit_fraction``, or its default)."""
         if self.refit_fraction is None:
@@ -321,11 +328,7 @@ def MakeOperateDiagram(config: OperateConfig | None = None, *, meshcat=None) -> 
                    bar=rotate_yaw(seen_task.bar, e0[2]),
                    pull=rotate_yaw(seen_task.pull, e0[2]),
                    side=rotate_yaw(seen_task.side, e0[2]))
-    scene_cfg = SceneConfig(arm="7dof", tool="hook", mobile_base=True, cabinet=False,
-                            mechanism=spec, time_step=cfg.time_step,
-                            marker_sensor=False,
-                            sampled_output_ports=cfg.sampled_ports())
-    scene = MakeSceneDiagram(scene_cfg, meshcat=meshcat)
+    scene = MakeSceneDiagram(cfg.scene_config(spec), meshcat=meshcat)
     plant = scene.plant
     builder = DiagramBuilder()
     sd = builder.AddNamedSystem("scene", scene.diagram)

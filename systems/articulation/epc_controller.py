@@ -256,10 +256,6 @@ class EpcController(LeafSystem):
         self._plant.SetPositions(plant_context, full)
 
     def _calc_measured_context(self, context, value):
-        if self._all_commanded:  # the commanded positions are the robot's, in its order
-            self._plant.SetPositions(value.get_mutable_value(), self._robot,
-                                     self._in_state.Eval(context)[: self._nq_robot])
-            return
         self._set(value.get_mutable_value(), self._measured_q(context))
 
     def _grip_pose_in(self, plant_context, grip=P_HOOK_GRIP) -> RigidTransform:

@@ -150,16 +150,8 @@ class WristForceSensor(LeafSystem):
             return None
 
     def _update(self, context, discrete_state):
-        # _sample(_read(...)) inlined (one event per sample: its calls are most of its cost)
         k = int(round(context.get_time() * self._rate))
-        try:
-            F_Jc = self._reaction.Eval(context)[self._joint_index].translational()
-            R_WT = self._poses.Eval(context)[self._tool_index].rotation().matrix()
-        except (RuntimeError, ValueError):
-            discrete_state.set_value(np.zeros(3))
-            return
-        f = -((R_WT @ self._R_TJ) @ F_Jc) - self._weight_W + self.noise(k)
-        discrete_state.set_value(f if math.isfinite(f[0] + f[1] + f[2]) else np.zeros(3))
+        discrete_state.set_value(self._sample(self._read(context), context, k))
 
     def _plant_step(self, context, discrete_state):
         m = int(round(context.get_time() / self._dt))
