@@ -14,6 +14,7 @@ import cv2
 import numba
 import numpy as np
 
+from mmlearn.models.perception.detection.boxsum import BOX, pair_window_sums, surface_marks
 from mmlearn.models.perception.detection.planes import _fit_plane_many, Plane
 from mmlearn.models.perception.detection.scratch import scratch
 
@@ -251,16 +252,13 @@ def _crossings(labs, S, planes, valid, crossing_angle_deg, smooth_px, need=None,
             # increasing, so its rows are: the first and last are the least and largest)
             y0, y1 = max(0, int(by[0]) - r), min(H, int(by[-1]) + r + 1)
             x0, x1 = max(0, int(bx.min()) - r), min(W, int(bx.max()) + r + 1)
-            bw = x1 - x0
-            fi = (by - y0) * bw + (bx - x0)  # (flat indices in the box: one gather each)
-            w = np.zeros((y1 - y0) * bw, np.float32)
-            w[fi] = 1.0
-            w = w.reshape(y1 - y0, bw)
-            box = (smooth_px, smooth_px)
-            ak = np.abs(cv2.boxFilter(S[k][y0:y1, x0:x1] * w, -1, box,
-                                      normalize=False).reshape(-1)[fi])
-            aj = np.abs(cv2.boxFilter(S[j][y0:y1, x0:x1] * w, -1, box,
-                                      normalize=False).reshape(-1)[fi])
+            if smooth_px == BOX and min(y1 - y0, x1 - x0) >= 3:
+                # (both sums in one compiled pass, boxsum.py: OpenCV's box filter's values)
+                ak = np.empty(len(both), np.float32)
+                aj = np.empty(len(both), np.float32)
+                pair_window_sums(S[k], S[j], y0, y1, x0, x1, by, bx, ak, aj)
+            else:
+                ak, aj = _pair_window_sums_cv(S[k], S[j], y0, y1, x0, x1, by, bx, smooth_px)
             if layer[k, j]:  # (a layer pair: both directions, sign-dependent labels)
                 # (only in the layer's region: outside it the layer has no in-plane pixels)
                 take_layer[k, both] |= aj < ak
@@ -282,6 +280,20 @@ def _crossings(labs, S, planes, valid, crossing_angle_deg, smooth_px, need=None,
             px = shared[take_layer[k] & ~take[k]]
             flat = labs[k].reshape(-1)
             flat[px] = np.where(S[k].reshape(-1)[px] > 0, np.uint8(OCCLUDED), np.uint8(FREE))
+
+
+def _pair_window_sums_cv(Sk, Sj, y0, y1, x0, x1, by, bx, smooth_px):
+    """:func:`boxsum.pair_window_sums` with OpenCV's box filter (any window side, any box):
+    (ak, aj) at the pixels (``by``, ``bx``)."""
+    bw = x1 - x0
+    fi = (by - y0) * bw + (bx - x0)  # (flat indices in the box: one gather each)
+    w = np.zeros((y1 - y0) * bw, np.float32)
+    w[fi] = 1.0
+    w = w.reshape(y1 - y0, bw)
+    box = (smooth_px, smooth_px)
+    ak = np.abs(cv2.boxFilter(Sk[y0:y1, x0:x1] * w, -1, box, normalize=False).reshape(-1)[fi])
+    aj = np.abs(cv2.boxFilter(Sj[y0:y1, x0:x1] * w, -1, box, normalize=False).reshape(-1)[fi])
+    return ak, aj
 
 
 @numba.njit(cache=True, nogil=True)
@@ -331,8 +343,6 @@ def _surface_check(lab, S, Lm, win):
         lab.shape[1], x + w + r)
     m8b = m8[y0:y1, x0:x1]
     inpb = m8b > 0
-    # in-plane neighbours of each pixel (exact integers, from the 0/1 bytes)
-    den = cv2.boxFilter(inpb.view(np.uint8), cv2.CV_32F, (win, win), normalize=False)
     # relative to the plane refitted to the in-plane pixels' distances (an affine function
     # of the pixel, least squares), not to the fitted plane: a plane 1-2 deg off (a sliding
     # panel 4.6 cm in front of its cabinet's face) departs from one side of a 0.5 m panel by
@@ -348,15 +358,23 @@ def _surface_check(lab, S, Lm, win):
         ramp = (np.float32(coef[0]), np.float32(coef[1]), np.float32(coef[2]), True)
     else:
         ramp = (np.float32(0.0), np.float32(0.0), np.float32(0.0), False)
-    # (Sb - ramp) on the in-plane pixels, 0 elsewhere; the ramp is (a x + b y) + c, float32
-    dev = np.empty(Sb.shape, np.float32)
     # (the kernels read the whole contiguous images at the box's offset: the compiler makes
     # vector operations of contiguous rows, not of a strided box view)
     S = np.ascontiguousarray(S)
+    Lm = np.ascontiguousarray(Lm)
+    if win == BOX and min(y1 - y0, x1 - x0) >= 3:
+        # the deviations, both window sums and the marks in one pass (boxsum.py: OpenCV's
+        # box filter's values)
+        surface_marks(S, m8, Lm, y0, y1, x0, x1, *ramp, lab)
+        return
+    # in-plane neighbours of each pixel (exact integers, from the 0/1 bytes)
+    den = cv2.boxFilter(inpb.view(np.uint8), cv2.CV_32F, (win, win), normalize=False)
+    # (Sb - ramp) on the in-plane pixels, 0 elsewhere; the ramp is (a x + b y) + c, float32
+    dev = np.empty(Sb.shape, np.float32)
     _surface_deviation(S, m8, y0, x0, *ramp, dev)
     num = cv2.boxFilter(dev, -1, (win, win), normalize=False)
     # den >= 1 at every in-plane pixel (its own): max(den, 1) = den where it matters
-    _mark_off_surface(num, den, np.ascontiguousarray(Lm), m8, y0, x0, lab)
+    _mark_off_surface(num, den, Lm, m8, y0, x0, lab)
 
 
 @numba.njit(cache=True, nogil=True)
