@@ -238,38 +238,34 @@ def _crossings(labs, S, planes, valid, crossing_angle_deg, smooth_px, need=None,
     r = smooth_px // 2
     take = np.zeros(near_sh.shape, bool)  # [k, i]: shared pixel i is nearer another plane
     take_layer = np.zeros(near_sh.shape, bool) if layer.any() else None
-    for k in range(P):
-        for j in range(k + 1, P):
-            if not (crossing[k, j] or crossing[j, k]):
-                continue
-            if need is not None and not (need[k] or need[j]):
-                continue
-            both = np.flatnonzero(near_sh[k] & near_sh[j])
-            if len(both) == 0:
-                continue
-            by, bx = ys[both], xs[both]
-            # the pair's pixels' bounding box with the window's margin (``shared`` is
-            # increasing, so its rows are: the first and last are the least and largest)
-            y0, y1 = max(0, int(by[0]) - r), min(H, int(by[-1]) + r + 1)
-            x0, x1 = max(0, int(bx.min()) - r), min(W, int(bx.max()) + r + 1)
-            if smooth_px == BOX and min(y1 - y0, x1 - x0) >= 3:
-                # (both sums in one compiled pass, boxsum.py: OpenCV's box filter's values)
-                ak = np.empty(len(both), np.float32)
-                aj = np.empty(len(both), np.float32)
-                pair_window_sums(S[k], S[j], y0, y1, x0, x1, by, bx, ak, aj)
-            else:
-                ak, aj = _pair_window_sums_cv(S[k], S[j], y0, y1, x0, x1, by, bx, smooth_px)
-            if layer[k, j]:  # (a layer pair: both directions, sign-dependent labels)
-                # (only in the layer's region: outside it the layer has no in-plane pixels)
-                take_layer[k, both] |= aj < ak
-                take_layer[j, both] |= ak < aj
-                continue
-            if crossing[k, j]:
-                tk = take[k]
-                tk[both] |= aj < ak
-            if crossing[j, k]:
-                tj = take[j]
-                tj[both] |= ak < aj
+    pairs = [(k, j) for k in range(P) for j in range(k + 1, P)
+             if (crossing[k, j] or crossing[j, k]) and (need is None or need[k] or need[j])]
+    if smooth_px == BOX and H >= 3 and W >= 3 and pairs:
+        # every pair in one compiled pass (:func:`_pair_takes`; its boxes are >= 3 x 3)
+        _pair_takes(S, near_sh, ys, xs, np.array(pairs, np.int64), crossing, layer, r, take,
+                    np.zeros((1, 1), bool) if take_layer is None else take_layer)
+        pairs = []
+    for k, j in pairs:
+        both = np.flatnonzero(near_sh[k] & near_sh[j])
+        if len(both) == 0:
+            continue
+        by, bx = ys[both], xs[both]
+        # the pair's pixels' bounding box with the window's margin (``shared`` is
+        # increasing, so its rows are: the first and last are the least and largest)
+        y0, y1 = max(0, int(by[0]) - r), min(H, int(by[-1]) + r + 1)
+        x0, x1 = max(0, int(bx.min()) - r), min(W, int(bx.max()) + r + 1)
+        ak, aj = _pair_window_sums_cv(S[k], S[j], y0, y1, x0, x1, by, bx, smooth_px)
+        if layer[k, j]:  # (a layer pair: both directions, sign-dependent labels)
+            # (only in the layer's region: outside it the layer has no in-plane pixels)
+            take_layer[k, both] |= aj < ak
+            take_layer[j, both] |= ak < aj
+            continue
+        if crossing[k, j]:
+            tk = take[k]
+            tk[both] |= aj < ak
+        if crossing[j, k]:
+            tj = take[j]
+            tj[both] |= ak < aj
     for k in range(P):
         if take[k].any():
             flat = labs[k].reshape(-1)
@@ -280,6 +276,45 @@ def _crossings(labs, S, planes, valid, crossing_angle_deg, smooth_px, need=None,
             px = shared[take_layer[k] & ~take[k]]
             flat = labs[k].reshape(-1)
             flat[px] = np.where(S[k].reshape(-1)[px] > 0, np.uint8(OCCLUDED), np.uint8(FREE))
+
+
+@numba.njit(cache=True, nogil=True)
+def _pair_takes(S, near_sh, ys, xs, pairs, crossing, layer, r, take, take_layer):
+    """:func:`_crossings`' pairs (``pairs``: (k, j) rows) in one compiled pass, the window
+    sums by :func:`boxsum.pair_window_sums` (5 x 5): for each pair, its shared pixels (in-plane
+    for both, ``near_sh``; image rows ``ys`` and columns ``xs``) on their bounding box with
+    the margin ``r``; ``take_layer`` both ways for a layer pair, else ``take`` for the plane
+    that the crossing lets the other take pixels from (as the loop it replaces)."""
+    H, W = S.shape[1], S.shape[2]
+    ns = near_sh.shape[1]
+    idx = np.empty(ns, np.int64)
+    for t in range(pairs.shape[0]):
+        k, j = pairs[t, 0], pairs[t, 1]
+        nk, nj = near_sh[k], near_sh[j]
+        m = 0
+        for i in range(ns):  # (without a conditional jump per pixel)
+            idx[m] = i
+            m += nk[i] & nj[i]
+        if m == 0:
+            continue
+        both = idx[:m]
+        by, bx = ys[both], xs[both]
+        y0, y1 = max(0, by[0] - r), min(H, by[m - 1] + r + 1)
+        x0, x1 = max(0, bx.min() - r), min(W, bx.max() + r + 1)
+        ak = np.empty(m, np.float32)
+        aj = np.empty(m, np.float32)
+        pair_window_sums(S[k], S[j], y0, y1, x0, x1, by, bx, ak, aj)
+        if layer[k, j]:
+            for q in range(m):
+                take_layer[k, both[q]] |= aj[q] < ak[q]
+                take_layer[j, both[q]] |= ak[q] < aj[q]
+            continue
+        if crossing[k, j]:
+            for q in range(m):
+                take[k, both[q]] |= aj[q] < ak[q]
+        if crossing[j, k]:
+            for q in range(m):
+                take[j, both[q]] |= ak[q] < aj[q]
 
 
 def _pair_window_sums_cv(Sk, Sj, y0, y1, x0, x1, by, bx, smooth_px):
