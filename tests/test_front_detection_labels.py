@@ -41,12 +41,11 @@ def test_surface_check_tolerates_a_tilted_plane_fit_but_removes_a_step():
     assert gone[strip].mean() > 0.8, gone[strip].mean()
 
 
-def test_relabelling_takes_only_the_unchanged_planes_images():
-    """A wall, a door crossing it at 8 deg, a panel parallel to the door, a back wall
-    parallel to the wall and the floor: with the door refitted (a new plane object), and
-    with an offset layer of the wall added, the images made with the previous call's are
-    those of a call from scratch; only the images of planes that neither changed nor cross
-    a changed or new plane are taken over (the panel, then the back wall)."""
+def _crossing_scene():
+    """A wall, a door crossing it at 8 deg, a panel parallel to the door, a back wall parallel
+    to the wall and the floor, with noise, drop-outs and a reveal column: (the image
+    arguments of :func:`_label_images`, planes, the arguments after them, a door refitted,
+    an offset layer of the wall)."""
     rng = np.random.default_rng(3)
     H, W = 96, 128
     ys, xs = np.mgrid[0:H, 0:W].astype(np.float32)
@@ -72,19 +71,42 @@ def test_relabelling_takes_only_the_unchanged_planes_images():
     panel = Plane(n=turned(8.0), d=2.3, support=200, bbox=(0, 8, 0, 7))
     back = Plane(n=n_wall, d=2.6, support=100, bbox=(0, 8, 0, 16))
     floor = Plane(n=n_floor, d=0.6, support=500, bbox=(8, 12, 0, 16))
-    planes = [wall, door, panel, back, floor]
-    args = (d, valid, rx[:1], ry[:, :1])
-    rest = (L, 3.0, 5, surface, gap)
-    first = _label_images(*args, planes, *rest)
     door2 = Plane(n=turned(7.0), d=1.96, support=300, bbox=door.bbox)
     layer = Plane(n=n_wall, d=1.99, support=40, bbox=(0, 4, 10, 14), parent=0,
                   region=(0, 40, 70, 110))
+    return ((d, valid, rx[:1], ry[:, :1]), [wall, door, panel, back, floor],
+            (L, 3.0, 5, surface, gap), door2, layer)
+
+
+def test_relabelling_takes_only_the_unchanged_planes_images():
+    """With the door refitted (a new plane object), and with an offset layer of the wall
+    added, the images made with the previous call's are those of a call from scratch; only
+    the images of planes that neither changed nor cross a changed or new plane are taken over
+    (the panel, then the back wall)."""
+    args, planes, rest, door2, layer = _crossing_scene()
+    wall, door, panel, back, floor = planes
+    first = _label_images(*args, planes, *rest)
     for new, kept in (([wall, door2, panel, back, floor], [2]),
                       (planes + [layer], [3])):
         got = _label_images(*args, new, *rest, previous=(planes, first))
         ref = _label_images(*args, new, *rest)
         assert all(np.array_equal(g, r) for g, r in zip(got, ref))
         assert [k for k in range(len(planes)) if got[k] is first[k]] == kept
+
+
+def test_compiled_window_sums_give_the_box_filter_s_labels(monkeypatch):
+    """The crossings (a layer pair among them) and the surface check with their compiled 5 x 5
+    window sums give the label images of OpenCV's box filter (the path taken for other window
+    sides), and the crossings and the check change some pixels."""
+    from mmlearn.models.perception.detection import labels
+    args, planes, rest, _, layer = _crossing_scene()
+    got = _label_images(*args, planes + [layer], *rest)
+    plain = _label_images(*args, planes + [layer], rest[0], 90.0, 5)
+    monkeypatch.setattr(labels, "BOX", -1)  # (no window side is -1: OpenCV everywhere)
+    ref = _label_images(*args, planes + [layer], *rest)
+    assert all(np.array_equal(g, r) for g, r in zip(got, ref))
+    assert any((g == OFF_SURFACE).any() for g in got)
+    assert any(((g == FREE) & (p == IN_PLANE)).any() for g, p in zip(got, plain))
 
 
 def test_scratch_arrays_are_kept_per_name_and_give_the_same_labels():

@@ -14,6 +14,7 @@ import cv2
 import numba
 import numpy as np
 
+from mmlearn.models.perception.detection.boxsum import BOX, pair_window_sums, surface_marks
 from mmlearn.models.perception.detection.planes import _fit_plane_many, Plane
 from mmlearn.models.perception.detection.scratch import scratch
 
@@ -237,41 +238,34 @@ def _crossings(labs, S, planes, valid, crossing_angle_deg, smooth_px, need=None,
     r = smooth_px // 2
     take = np.zeros(near_sh.shape, bool)  # [k, i]: shared pixel i is nearer another plane
     take_layer = np.zeros(near_sh.shape, bool) if layer.any() else None
-    for k in range(P):
-        for j in range(k + 1, P):
-            if not (crossing[k, j] or crossing[j, k]):
-                continue
-            if need is not None and not (need[k] or need[j]):
-                continue
-            both = np.flatnonzero(near_sh[k] & near_sh[j])
-            if len(both) == 0:
-                continue
-            by, bx = ys[both], xs[both]
-            # the pair's pixels' bounding box with the window's margin (``shared`` is
-            # increasing, so its rows are: the first and last are the least and largest)
-            y0, y1 = max(0, int(by[0]) - r), min(H, int(by[-1]) + r + 1)
-            x0, x1 = max(0, int(bx.min()) - r), min(W, int(bx.max()) + r + 1)
-            bw = x1 - x0
-            fi = (by - y0) * bw + (bx - x0)  # (flat indices in the box: one gather each)
-            w = np.zeros((y1 - y0) * bw, np.float32)
-            w[fi] = 1.0
-            w = w.reshape(y1 - y0, bw)
-            box = (smooth_px, smooth_px)
-            ak = np.abs(cv2.boxFilter(S[k][y0:y1, x0:x1] * w, -1, box,
-                                      normalize=False).reshape(-1)[fi])
-            aj = np.abs(cv2.boxFilter(S[j][y0:y1, x0:x1] * w, -1, box,
-                                      normalize=False).reshape(-1)[fi])
-            if layer[k, j]:  # (a layer pair: both directions, sign-dependent labels)
-                # (only in the layer's region: outside it the layer has no in-plane pixels)
-                take_layer[k, both] |= aj < ak
-                take_layer[j, both] |= ak < aj
-                continue
-            if crossing[k, j]:
-                tk = take[k]
-                tk[both] |= aj < ak
-            if crossing[j, k]:
-                tj = take[j]
-                tj[both] |= ak < aj
+    pairs = [(k, j) for k in range(P) for j in range(k + 1, P)
+             if (crossing[k, j] or crossing[j, k]) and (need is None or need[k] or need[j])]
+    if smooth_px == BOX and H >= 3 and W >= 3 and pairs:
+        # every pair in one compiled pass (:func:`_pair_takes`; its boxes are >= 3 x 3)
+        _pair_takes(S, near_sh, ys, xs, np.array(pairs, np.int64), crossing, layer, r, take,
+                    np.zeros((1, 1), bool) if take_layer is None else take_layer)
+        pairs = []
+    for k, j in pairs:
+        both = np.flatnonzero(near_sh[k] & near_sh[j])
+        if len(both) == 0:
+            continue
+        by, bx = ys[both], xs[both]
+        # the pair's pixels' bounding box with the window's margin (``shared`` is
+        # increasing, so its rows are: the first and last are the least and largest)
+        y0, y1 = max(0, int(by[0]) - r), min(H, int(by[-1]) + r + 1)
+        x0, x1 = max(0, int(bx.min()) - r), min(W, int(bx.max()) + r + 1)
+        ak, aj = _pair_window_sums_cv(S[k], S[j], y0, y1, x0, x1, by, bx, smooth_px)
+        if layer[k, j]:  # (a layer pair: both directions, sign-dependent labels)
+            # (only in the layer's region: outside it the layer has no in-plane pixels)
+            take_layer[k, both] |= aj < ak
+            take_layer[j, both] |= ak < aj
+            continue
+        if crossing[k, j]:
+            tk = take[k]
+            tk[both] |= aj < ak
+        if crossing[j, k]:
+            tj = take[j]
+            tj[both] |= ak < aj
     for k in range(P):
         if take[k].any():
             flat = labs[k].reshape(-1)
@@ -282,6 +276,59 @@ def _crossings(labs, S, planes, valid, crossing_angle_deg, smooth_px, need=None,
             px = shared[take_layer[k] & ~take[k]]
             flat = labs[k].reshape(-1)
             flat[px] = np.where(S[k].reshape(-1)[px] > 0, np.uint8(OCCLUDED), np.uint8(FREE))
+
+
+@numba.njit(cache=True, nogil=True)
+def _pair_takes(S, near_sh, ys, xs, pairs, crossing, layer, r, take, take_layer):
+    """:func:`_crossings`' pairs (``pairs``: (k, j) rows) in one compiled pass, the window
+    sums by :func:`boxsum.pair_window_sums` (5 x 5): for each pair, its shared pixels (in-plane
+    for both, ``near_sh``; image rows ``ys`` and columns ``xs``) on their bounding box with
+    the margin ``r``; ``take_layer`` both ways for a layer pair, else ``take`` for the plane
+    that the crossing lets the other take pixels from (as the loop it replaces)."""
+    H, W = S.shape[1], S.shape[2]
+    ns = near_sh.shape[1]
+    idx = np.empty(ns, np.int64)
+    for t in range(pairs.shape[0]):
+        k, j = pairs[t, 0], pairs[t, 1]
+        nk, nj = near_sh[k], near_sh[j]
+        m = 0
+        for i in range(ns):  # (without a conditional jump per pixel)
+            idx[m] = i
+            m += nk[i] & nj[i]
+        if m == 0:
+            continue
+        both = idx[:m]
+        by, bx = ys[both], xs[both]
+        y0, y1 = max(0, by[0] - r), min(H, by[m - 1] + r + 1)
+        x0, x1 = max(0, bx.min() - r), min(W, bx.max() + r + 1)
+        ak = np.empty(m, np.float32)
+        aj = np.empty(m, np.float32)
+        pair_window_sums(S[k], S[j], y0, y1, x0, x1, by, bx, ak, aj)
+        if layer[k, j]:
+            for q in range(m):
+                take_layer[k, both[q]] |= aj[q] < ak[q]
+                take_layer[j, both[q]] |= ak[q] < aj[q]
+            continue
+        if crossing[k, j]:
+            for q in range(m):
+                take[k, both[q]] |= aj[q] < ak[q]
+        if crossing[j, k]:
+            for q in range(m):
+                take[j, both[q]] |= ak[q] < aj[q]
+
+
+def _pair_window_sums_cv(Sk, Sj, y0, y1, x0, x1, by, bx, smooth_px):
+    """:func:`boxsum.pair_window_sums` with OpenCV's box filter (any window side, any box):
+    (ak, aj) at the pixels (``by``, ``bx``)."""
+    bw = x1 - x0
+    fi = (by - y0) * bw + (bx - x0)  # (flat indices in the box: one gather each)
+    w = np.zeros((y1 - y0) * bw, np.float32)
+    w[fi] = 1.0
+    w = w.reshape(y1 - y0, bw)
+    box = (smooth_px, smooth_px)
+    ak = np.abs(cv2.boxFilter(Sk[y0:y1, x0:x1] * w, -1, box, normalize=False).reshape(-1)[fi])
+    aj = np.abs(cv2.boxFilter(Sj[y0:y1, x0:x1] * w, -1, box, normalize=False).reshape(-1)[fi])
+    return ak, aj
 
 
 @numba.njit(cache=True, nogil=True)
@@ -331,8 +378,6 @@ def _surface_check(lab, S, Lm, win):
         lab.shape[1], x + w + r)
     m8b = m8[y0:y1, x0:x1]
     inpb = m8b > 0
-    # in-plane neighbours of each pixel (exact integers, from the 0/1 bytes)
-    den = cv2.boxFilter(inpb.view(np.uint8), cv2.CV_32F, (win, win), normalize=False)
     # relative to the plane refitted to the in-plane pixels' distances (an affine function
     # of the pixel, least squares), not to the fitted plane: a plane 1-2 deg off (a sliding
     # panel 4.6 cm in front of its cabinet's face) departs from one side of a 0.5 m panel by
@@ -348,15 +393,23 @@ def _surface_check(lab, S, Lm, win):
         ramp = (np.float32(coef[0]), np.float32(coef[1]), np.float32(coef[2]), True)
     else:
         ramp = (np.float32(0.0), np.float32(0.0), np.float32(0.0), False)
-    # (Sb - ramp) on the in-plane pixels, 0 elsewhere; the ramp is (a x + b y) + c, float32
-    dev = np.empty(Sb.shape, np.float32)
     # (the kernels read the whole contiguous images at the box's offset: the compiler makes
     # vector operations of contiguous rows, not of a strided box view)
     S = np.ascontiguousarray(S)
+    Lm = np.ascontiguousarray(Lm)
+    if win == BOX and min(y1 - y0, x1 - x0) >= 3:
+        # the deviations, both window sums and the marks in one pass (boxsum.py: OpenCV's
+        # box filter's values)
+        surface_marks(S, m8, Lm, y0, y1, x0, x1, *ramp, lab)
+        return
+    # in-plane neighbours of each pixel (exact integers, from the 0/1 bytes)
+    den = cv2.boxFilter(inpb.view(np.uint8), cv2.CV_32F, (win, win), normalize=False)
+    # (Sb - ramp) on the in-plane pixels, 0 elsewhere; the ramp is (a x + b y) + c, float32
+    dev = np.empty(Sb.shape, np.float32)
     _surface_deviation(S, m8, y0, x0, *ramp, dev)
     num = cv2.boxFilter(dev, -1, (win, win), normalize=False)
     # den >= 1 at every in-plane pixel (its own): max(den, 1) = den where it matters
-    _mark_off_surface(num, den, np.ascontiguousarray(Lm), m8, y0, x0, lab)
+    _mark_off_surface(num, den, Lm, m8, y0, x0, lab)
 
 
 @numba.njit(cache=True, nogil=True)
