@@ -26,7 +26,9 @@ simulator's truth to what the robot has:
    force across the door times the learned radius, of unknown size);
 6. ``learned_kinematics``: as 5, with the opening, rate and acceleration from the hook's
    track along the learned model (local quadratic fits over +-0.2 s) instead of the door's;
-7. ``robot``: the robot's own estimate (the monitor's 25 ms samples, as the trial reports it);
+7. ``robot``: the robot's own estimate (the monitor's regression samples: its 25 ms samples,
+   or its own readings with ``DynamicsMonitorConfig.regression_period``; as the trial
+   reports it);
 8. ``robot_lag``: the monitor's samples, each force paired with the door's opening, rate
    and acceleration (from the hook's track) at the sensor's sample before
    (``DynamicsMonitorConfig.force_lag_period`` 0.01 s);
@@ -89,12 +91,14 @@ def record(seed: int, damping: float, monitor: dict | None = None) -> dict:
         if int(phase.Eval(ctx)[0]) == DONE:
             break
     s = mon.state(mctx)
+    regression = mon.regression_input(mctx)
     est = op.estimator.GetMyContextFromRoot(ctx).get_abstract_state(0).get_value()
     link = est.model.edges[0].model if est.model is not None and est.model.edges else None
     spec = op.mechanism
     axis, p_axis = spec.axis_world()
     return {"seed": seed, "damping": damping, "door": np.array(door),
-            "sensor": np.array(sensor), "monitor": s, "link": link, "spec": spec,
+            "sensor": np.array(sensor), "monitor": s, "regression": regression,
+            "link": link, "spec": spec,
             "axis": axis, "p_axis": p_axis,
             "friction_velocity": mon.config.friction_velocity, "config": mon.config}
 
@@ -174,7 +178,7 @@ def analyse(rec: dict) -> dict:
         r_true = float(np.linalg.norm(lever(np.zeros(1))[0]))
         out["radius_ratio"] = g["radius"] / r_true
     cfg = rec["config"]
-    gm = cfg.regression_samples(link, s.t, s.G, s.F_mean)
+    gm = cfg.regression_samples(link, *rec.get("regression", (s.t, s.G, s.F_mean)))
     if gm is not None:
         k = gm["t"] < t_end + 1e-9
         d = cfg.fit({key: (v[k] if isinstance(v, np.ndarray) else v) for key, v in gm.items()})
