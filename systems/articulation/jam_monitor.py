@@ -538,7 +538,9 @@ class DynamicsMonitor(LeafSystem):
             state.get_mutable_abstract_state(self._s).set_value(s)
             return EventStatus.Succeeded()
         obj = self._in_model.Eval(context) if self._in_model.HasValue(context) else None
-        s = self._refit(s, _link(obj), self.regression_input(context))
+        own = self._cfg.own_regression_samples()
+        s = self._refit(s, _link(obj), self.regression_input(context) if own
+                        else (s.t, s.G, s.F_mean))
         s = self._check_block(s, _link(obj))
         state.get_mutable_abstract_state(self._s).set_value(s)
         return EventStatus.Succeeded()
