@@ -3,7 +3,7 @@
 
     python benchmarks/bench_door_damping_sources.py [--seed 600] [--doors 20]
         [--damping 0.5,0.5,1,2,3,5] [--jobs 1] [--monitor NAME=VALUE,...] [--keep DIR]
-        [--json [FILE]]
+        [--recordings DIR] [--json [FILE]]
 
 Door ``i`` is seed ``--seed`` + i with the ``i``-th value of ``--damping`` (cycled), each an
 ``open_cabinet`` door trial with the dynamics monitor. Every 5 ms the simulator's door angle
@@ -26,12 +26,20 @@ simulator's truth to what the robot has:
    force across the door times the learned radius, of unknown size);
 6. ``learned_kinematics``: as 5, with the opening, rate and acceleration from the hook's
    track along the learned model (local quadratic fits over +-0.2 s) instead of the door's;
-7. ``robot``: the robot's own estimate (the monitor's 25 ms samples, as the trial reports it);
+7. ``robot``: the robot's own estimate (the monitor's regression samples: its 25 ms samples,
+   or its own readings with ``DynamicsMonitorConfig.regression_period``; as the trial
+   reports it);
 8. ``robot_lag``: the monitor's samples, each force paired with the door's opening, rate
    and acceleration (from the hook's track) at the sensor's sample before
    (``DynamicsMonitorConfig.force_lag_period`` 0.01 s);
 9. ``robot_lag_across``: as 8 with the force across the door as a nuisance term
    (``across_term``).
+
+``--keep DIR`` keeps each trial's recording (``door_SEED.pkl``); ``--recordings DIR`` fits
+the kept recordings again instead of simulating (seconds instead of minutes): ``--monitor``
+may then change only the regression's fields (:data:`REFIT_FIELDS`), as the pull itself is
+the recorded one. With ``regression_period`` on a recording made without it, the robot's
+rows use the recorded readings of every sensor sample (those the monitor reads itself).
 
 It also reports how fast the learned opening grows against the door's angle
 (``opening_scale``) and the learned radius over the true one. The summary gives, per source,
@@ -48,6 +56,10 @@ import time
 import numpy as np
 
 from _common import add_output_arguments, emit_json
+
+#: the monitor's fields that change only the regression, not the pull (``--recordings``)
+REFIT_FIELDS = ("force_lag_period", "across_term", "rate_window", "regression_period",
+                "friction_velocity")
 
 SOURCES = ("ideal", "sensor", "sensor_aligned", "learned_tangent", "learned_tangent_leak",
            "learned_kinematics", "robot", "robot_lag", "robot_lag_across")
@@ -89,12 +101,14 @@ def record(seed: int, damping: float, monitor: dict | None = None) -> dict:
         if int(phase.Eval(ctx)[0]) == DONE:
             break
     s = mon.state(mctx)
+    regression = mon.regression_input(mctx)
     est = op.estimator.GetMyContextFromRoot(ctx).get_abstract_state(0).get_value()
     link = est.model.edges[0].model if est.model is not None and est.model.edges else None
     spec = op.mechanism
     axis, p_axis = spec.axis_world()
     return {"seed": seed, "damping": damping, "door": np.array(door),
-            "sensor": np.array(sensor), "monitor": s, "link": link, "spec": spec,
+            "sensor": np.array(sensor), "monitor": s, "regression": regression,
+            "link": link, "handle_offset": spec.handle_world(0.0)[0] - p_axis,
             "axis": axis, "p_axis": p_axis,
             "friction_velocity": mon.config.friction_velocity, "config": mon.config}
 
@@ -116,7 +130,7 @@ def analyse(rec: dict) -> dict:
     from mmlearn.models.articulation.dynamics import (fit_dynamics, generalized_samples,
                                                       local_derivatives)
 
-    b_true, s, link, spec = rec["damping"], rec["monitor"], rec["link"], rec["spec"]
+    b_true, s, link = rec["damping"], rec["monitor"], rec["link"]
     out = {"seed": rec["seed"], "true_damping": b_true, "learned": {}}
     if link is None or link.name != "revolute":
         out["model"] = None if link is None else link.name
@@ -144,7 +158,7 @@ def analyse(rec: dict) -> dict:
     def lever(q):
         from scipy.spatial.transform import Rotation
 
-        h0 = spec.handle_world(0.0)[0] - rec["p_axis"]
+        h0 = rec["handle_offset"]
         rot = Rotation.from_rotvec(np.outer(q, rec["axis"]))
         return np.cross(rec["axis"], rot.apply(h0))
 
@@ -174,7 +188,7 @@ def analyse(rec: dict) -> dict:
         r_true = float(np.linalg.norm(lever(np.zeros(1))[0]))
         out["radius_ratio"] = g["radius"] / r_true
     cfg = rec["config"]
-    gm = cfg.regression_samples(link, s.t, s.G, s.F_mean)
+    gm = cfg.regression_samples(link, *rec.get("regression", (s.t, s.G, s.F_mean)))
     if gm is not None:
         k = gm["t"] < t_end + 1e-9
         d = cfg.fit({key: (v[k] if isinstance(v, np.ndarray) else v) for key, v in gm.items()})
@@ -194,9 +208,37 @@ def analyse(rec: dict) -> dict:
     return out
 
 
+def load_recording(path, monitor: dict | None = None) -> dict:
+    """A recording kept by ``--keep``, with the monitor's regression fields in ``monitor``
+    (:data:`REFIT_FIELDS`) changed. With ``regression_period`` on a recording whose
+    monitor had none, its regression readings are the recorded sensor readings of the pull
+    (hook on the handle, from the monitor's first sample on)."""
+    import pickle
+    from dataclasses import replace
+
+    with open(path, "rb") as fh:
+        rec = pickle.load(fh)
+    if "handle_offset" not in rec:
+        raise ValueError(f"{path}: not a recording of this benchmark")
+    cfg = replace(rec["config"], **(monitor or {}))
+    if cfg.own_regression_samples() and not rec["config"].own_regression_samples():
+        sen, s = rec["sensor"], rec["monitor"]
+        ok = np.all(np.isfinite(sen[:, 1:7]), axis=1) & (sen[:, 0] >= s.t[0] - cfg.period)
+        rec["regression"] = (sen[ok, 0], sen[ok, 1:4], sen[ok, 4:7])
+    elif not cfg.own_regression_samples():
+        s = rec["monitor"]
+        rec["regression"] = (s.t, s.G, s.F_mean)
+    rec["config"] = cfg
+    return rec
+
+
 def run_door(job: tuple) -> dict:
     seed, damping, monitor, keep = job
     t0 = time.perf_counter()
+    if isinstance(seed, str):       # a kept recording
+        r = analyse(load_recording(seed, monitor))
+        r["wall_s"] = round(time.perf_counter() - t0, 1)
+        return r
     rec = record(seed, damping, monitor)
     if keep:
         import pickle
@@ -204,7 +246,7 @@ def run_door(job: tuple) -> dict:
 
         Path(keep).mkdir(parents=True, exist_ok=True)
         with open(Path(keep) / f"door_{seed}.pkl", "wb") as fh:
-            pickle.dump({k: v for k, v in rec.items() if k != "spec"}, fh)
+            pickle.dump(rec, fh)
     r = analyse(rec)
     r["wall_s"] = round(time.perf_counter() - t0, 1)
     return r
@@ -244,6 +286,9 @@ def main(argv=None):
                          "name=value pairs separated by commas (e.g. excitation_ramp=0.5)")
     ap.add_argument("--keep", default="",
                     help="a folder to keep each trial's recording in (door_SEED.pkl)")
+    ap.add_argument("--recordings", default="",
+                    help="fit the recordings kept in this folder again instead of simulating "
+                         "(--monitor: only " + ", ".join(REFIT_FIELDS) + ")")
     add_output_arguments(ap)
     a = ap.parse_args(argv)
     monitor = {}
@@ -268,7 +313,21 @@ def main(argv=None):
         ap.error("--damping must name values > 0")
     if a.doors < 1 or a.jobs < 1:
         ap.error("--doors and --jobs must be >= 1")
-    jobs = [(a.seed + i, values[i % len(values)], monitor, a.keep) for i in range(a.doors)]
+    if a.recordings:
+        from pathlib import Path
+
+        paths = sorted(Path(a.recordings).glob("door_*.pkl"),
+                       key=lambda f: int(f.stem.split("_")[-1]))
+        if not paths:
+            ap.error(f"--recordings: no door_SEED.pkl in {a.recordings}")
+        other = sorted(set(monitor) - set(REFIT_FIELDS))
+        if other:
+            ap.error(f"--recordings: the pull is the recorded one; --monitor may set only "
+                     f"{', '.join(REFIT_FIELDS)}, not {', '.join(other)}")
+        jobs = [(str(f), None, monitor, "") for f in paths]
+    else:
+        jobs = [(a.seed + i, values[i % len(values)], monitor, a.keep)
+                for i in range(a.doors)]
     table = a.json != "-"
     if a.jobs > 1:
         from concurrent.futures import ProcessPoolExecutor

@@ -556,3 +556,59 @@ def test_door_force_read_late_is_paired_with_the_earlier_state():
     # a drawer's force is not shifted
     assert not np.any(DynamicsMonitorConfig(joint="prismatic", force_lag_period=0.01)
                       .force_lags(t))
+
+
+def test_door_monitor_reads_every_sensor_sample_for_its_regression():
+    """With ``regression_period`` a door's monitor reads the hook position and the wrist
+    force at every wrist-sensor sample instant and fits its dynamics to those readings (the
+    block tests keep the monitor's 25 ms samples); a drawer's monitor does not. On a door
+    pulled with a noisy torque, 2.5 times as many readings narrow the damping's deviation."""
+    from pydrake.systems.analysis import Simulator
+    from pydrake.systems.framework import DiagramBuilder
+    from pydrake.systems.primitives import TrajectorySource
+    from pydrake.trajectories import PiecewisePolynomial
+
+    from mmlearn.systems.articulation.jam_monitor import DynamicsMonitor, DynamicsMonitorConfig
+
+    T = 0.6
+    ts = np.linspace(0.0, T, 61)
+    G = np.stack([0.5 + 0.05 * ts, 0 * ts, 1 + 0 * ts])
+    F = np.stack([-1 - ts ** 2, 0 * ts, 0 * ts])
+    runs = {}
+    for joint in ("revolute", "prismatic"):
+        cfg = DynamicsMonitorConfig(joint=joint, regression_period=0.01)
+        b = DiagramBuilder()
+        mon = b.AddSystem(DynamicsMonitor(cfg))
+        for port, X in ((mon.get_hook_position_input_port(), G),
+                        (mon.get_force_input_port(), F)):
+            src = b.AddSystem(TrajectorySource(PiecewisePolynomial.FirstOrderHold(list(ts), X)))
+            b.Connect(src.get_output_port(), port)
+        sim = Simulator(b.Build())
+        sim.AdvanceTo(T)
+        ctx = mon.GetMyContextFromRoot(sim.get_context())
+        runs[joint] = (mon.state(ctx), mon.regression_input(ctx))
+    s, (t, Gr, Fr) = runs["revolute"]
+    assert t.size >= 2.2 * s.t.size and np.allclose(np.diff(t), 0.01)
+    assert np.allclose(Gr[:, 0], 0.5 + 0.05 * t) and np.allclose(Fr[:, 0], -1 - t ** 2)
+    s, (t, Gr, Fr) = runs["prismatic"]
+    assert np.array_equal(t, s.t) and np.array_equal(Fr, s.F_mean)
+    with pytest.raises(ValueError, match="regression_period"):
+        DynamicsMonitorConfig(regression_period=0.05)
+    # the same noisy door pull read every 10 ms and every 25 ms
+    link, *_ = _revolute_link()
+    cfg = DynamicsMonitorConfig(joint="revolute", regression_period=0.01)
+    rng = np.random.default_rng(5)
+    std = {}
+    for dt in (0.01, 0.025):
+        t = np.arange(0.0, 5.5, dt)
+        w = 2 * np.pi * 0.5
+        a = 0.2 * t + 0.06 * np.sin(w * t)
+        rate = 0.2 + 0.06 * w * np.cos(w * t)
+        tau = 0.5 * rate + 0.3 * np.tanh(rate / 0.02) - 0.5 * 0.06 * w * w * np.sin(w * t)
+        tau += rng.normal(0.0, 0.1, t.size)
+        P = np.stack([0.4 * np.cos(a), 0.4 * np.sin(a), 0.5 + 0 * t], axis=1)
+        tangent = np.stack([-np.sin(a), np.cos(a), 0 * t], axis=1)
+        d = cfg.fit(cfg.regression_samples(link, t, P, -(tau / 0.4)[:, None] * tangent))
+        assert d.damping == pytest.approx(0.5, abs=4 * d.damping_std)
+        std[dt] = d.damping_std
+    assert std[0.01] < 0.8 * std[0.025]

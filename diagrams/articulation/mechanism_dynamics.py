@@ -117,7 +117,8 @@ def dynamics_record(op, ctx, to_unit, options: dict) -> dict:
     est = op.estimator.GetMyContextFromRoot(ctx).get_abstract_state(0).get_value()
     link = est.model.edges[0].model if est.model is not None and est.model.edges else None
     cfg = op.monitor.config
-    g = cfg.regression_samples(link, s.t, s.G, s.F_mean)
+    g = cfg.regression_samples(link, *op.monitor.regression_input(
+        op.monitor.GetMyContextFromRoot(ctx)))
     if g is None:
         return out
     # the samples up to the block (after it the hook lets go)

@@ -4,7 +4,7 @@ from mmlearn._lazy import lazy_exports
 
 #: submodule -> the public names it defines (imported on first use)
 _EXPORTS = {
-    "jam_monitor": ["DynamicsMonitorConfig", "DynamicsMonitorState", "DynamicsMonitor", "GO", "JAMMED", "LOCKED", "HALT_NAMES", "estimate_dynamics", "speed_modulation"],
+    "jam_monitor": ["DynamicsMonitorConfig", "DynamicsMonitorState", "DynamicsMonitor", "RegressionSamples", "GO", "JAMMED", "LOCKED", "HALT_NAMES", "estimate_dynamics", "speed_modulation"],
     "base_localization": ["BaseLocalization", "BaseLocalizationConfig", "FRAMES"],
     "epc_config": ["EpcTask", "EpcConfig"],
     "epc_controller": ["hook_rotation", "EpcController", "CommandInterpolator"],
@@ -40,6 +40,7 @@ __all__ = [
     "LOCKED",
     "PHASE_NAMES",
     "PriorModelSelector",
+    "RegressionSamples",
     "ShiftedLinkModel",
     "speed_modulation",
 ]

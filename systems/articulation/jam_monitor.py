@@ -42,6 +42,7 @@ from mmlearn.models.common.config import param, validate_fields
 from mmlearn.systems.common.plant_helpers import STICTION_VELOCITY
 
 __all__ = ["DynamicsMonitorConfig", "DynamicsMonitorState", "DynamicsMonitor", "HaltGate", "GO",
+           "RegressionSamples",
            "JAMMED", "LOCKED", "HALT_NAMES", "estimate_dynamics", "speed_modulation"]
 
 GO, JAMMED, LOCKED = 0, 1, 2
@@ -136,6 +137,14 @@ class DynamicsMonitorConfig:
             0 (the default): at the sample instant. A door swings against the compliant arm at a few hertz
             and its inertia force in that swing is several times a light door's damping
             force: a force read late by a fraction of that period reads partly as damping.
+        regression_period: for a revolute mechanism (``joint``), the hook position and the
+            wrist force are also read every this many seconds, at the wrist sensor's own
+            sample instants (its multiples), and the dynamics are fitted to these readings
+            instead of the monitor's ``period`` samples (the block tests keep those); 0 (the
+            default): the monitor's samples. At 0.01 s every sensor sample is one regression
+            sample (2.5 times as many as at ``period``); give ``force_lag_period`` the same
+            value, as each reading then describes the force one sensor sample before its
+            hook position. s.
         rate_window, prismatic_rate_window: the half-width of the local quadratic fits that
             give the regression its rates and accelerations from the hook's track, for a
             revolute (or not known) and for a prismatic mechanism, s.
@@ -184,6 +193,7 @@ class DynamicsMonitorConfig:
                               elements=True, factory=True)
     open_enough: float = param(0.0, unit="rad or m", ge=0)
     force_lag_period: float = param(0.0, unit="s", ge=0)
+    regression_period: float = param(0.0, unit="s", ge=0)
     across_term: bool = param(False)
     rate_window: float = param(0.2, unit="s", gt=0)
     prismatic_rate_window: float = param(0.2, unit="s", gt=0)
@@ -196,6 +206,9 @@ class DynamicsMonitorConfig:
             if value > self.period:
                 raise ValueError(f"DynamicsMonitorConfig.{pre}force_period must be at most "
                                  f"period ({self.period:g} s), got {value:g} s")
+        if self.regression_period > self.period:
+            raise ValueError(f"DynamicsMonitorConfig.regression_period must be at most period "
+                             f"({self.period:g} s), got {self.regression_period:g} s")
         for pre in ("", "prismatic_"):
             period, ramp = getattr(self, pre + "excitation_period"), \
                 getattr(self, pre + "excitation_ramp")
@@ -210,6 +223,11 @@ class DynamicsMonitorConfig:
         0: no mean), s."""
         return float(self.prismatic_force_period if self.joint == "prismatic"
                      else self.force_period)
+
+    def own_regression_samples(self) -> bool:
+        """Whether the dynamics are fitted to samples of their own
+        (``regression_period``, a revolute mechanism) rather than the monitor's."""
+        return self.regression_period > 0 and self.joint == "revolute"
 
     def force_lags(self, t) -> np.ndarray:
         """How much older the force read at each of the times ``t`` (s) is than the hook
@@ -330,6 +348,29 @@ class DynamicsMonitorState:
         return self
 
 
+@dataclass(frozen=True)
+class RegressionSamples:
+    """The readings the dynamics are fitted to when they have their own sampling
+    (:attr:`DynamicsMonitorConfig.regression_period`; the monitor's second abstract state,
+    replaced on every reading).
+
+    Attributes:
+        t, G, F: reading times (s), hook positions and wrist forces (world, m, N), while
+            the hook held the handle.
+    """
+
+    t: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    G: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    F: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+
+    def __post_init__(self):
+        for k in ("t", "G", "F"):
+            getattr(self, k).setflags(write=False)
+
+    def __deepcopy__(self, memo):
+        return self
+
+
 def _link(obj):
     if obj is None or not getattr(obj, "edges", None):
         return None
@@ -375,6 +416,12 @@ class DynamicsMonitor(LeafSystem):
         if every > 0:
             self.DeclarePeriodicDiscreteUpdateEvent(every, 0.0, self._accumulate)
         self.DeclarePeriodicUnrestrictedUpdateEvent(cfg.period, 0.0, self._update)
+        # the regression's own readings (a second abstract state: the two updates may fall
+        # on the same instant, and each replaces only its own state)
+        self._reg = self.DeclareAbstractState(AbstractValue.Make(RegressionSamples()))
+        if cfg.own_regression_samples():
+            self.DeclarePeriodicUnrestrictedUpdateEvent(cfg.regression_period, 0.0,
+                                                        self._read_regression)
         deps = {self.abstract_state_ticket(self._s), self.time_ticket()}
         self._out_sup = self.DeclareVectorOutputPort("supervisor", BasicVector(2),
                                                      self._calc_supervisor,
@@ -414,6 +461,17 @@ class DynamicsMonitor(LeafSystem):
     def state(self, context) -> DynamicsMonitorState:
         return context.get_abstract_state(self._s).get_value()
 
+    def regression_input(self, context) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The times, hook positions and wrist forces the dynamics are fitted to: the
+        readings of their own (:class:`RegressionSamples`) when
+        :meth:`DynamicsMonitorConfig.own_regression_samples`, else the monitor's samples with
+        the force the regression uses (``F_mean``)."""
+        if self._cfg.own_regression_samples():
+            r = context.get_abstract_state(self._reg).get_value()
+            return r.t, r.G, r.F
+        s = self.state(context)
+        return s.t, s.G, s.F_mean
+
     # ------------------------------------------------------------------ outputs
     def _calc_supervisor(self, context, output):
         s, cfg = self.state(context), self._cfg
@@ -444,6 +502,18 @@ class DynamicsMonitor(LeafSystem):
             total + np.append(F, 1.0))
         return EventStatus.Succeeded()
 
+    def _read_regression(self, context, state):
+        G = np.asarray(self._in_G.Eval(context), float)
+        F = np.asarray(self._in_F.Eval(context), float)
+        if not (np.all(np.isfinite(G)) and np.all(np.isfinite(F))) or \
+                self.state(context).halt != GO:
+            return EventStatus.DidNothing()
+        r = context.get_abstract_state(self._reg).get_value()
+        state.get_mutable_abstract_state(self._reg).set_value(RegressionSamples(
+            t=np.append(r.t, context.get_time()), G=np.vstack([r.G, G]),
+            F=np.vstack([r.F, F])))
+        return EventStatus.Succeeded()
+
     def _update(self, context, state):
         s = self.state(context)
         G = np.asarray(self._in_G.Eval(context), float)
@@ -468,18 +538,21 @@ class DynamicsMonitor(LeafSystem):
             state.get_mutable_abstract_state(self._s).set_value(s)
             return EventStatus.Succeeded()
         obj = self._in_model.Eval(context) if self._in_model.HasValue(context) else None
-        s = self._refit(s, _link(obj))
+        own = self._cfg.own_regression_samples()
+        s = self._refit(s, _link(obj), self.regression_input(context) if own
+                        else (s.t, s.G, s.F_mean))
         s = self._check_block(s, _link(obj))
         state.get_mutable_abstract_state(self._s).set_value(s)
         return EventStatus.Succeeded()
 
-    def _refit(self, s: DynamicsMonitorState, link) -> DynamicsMonitorState:
+    def _refit(self, s: DynamicsMonitorState, link, data) -> DynamicsMonitorState:
+        """Refit every ``refit_every`` of the monitor's samples; ``data``: the regression's
+        (t, G, F) (:meth:`regression_input`)."""
         cfg = self._cfg
         n = s.t.size
         if n < cfg.min_samples or n - s.last_fit < cfg.refit_every:
             return s
-        return replace(s, dynamics=cfg.fit(cfg.regression_samples(link, s.t, s.G, s.F_mean)),
-                       last_fit=n)
+        return replace(s, dynamics=cfg.fit(cfg.regression_samples(link, *data)), last_fit=n)
 
     def _check_block(self, s: DynamicsMonitorState, link) -> DynamicsMonitorState:
         """Halt when the hook has stopped advancing along the model while the force
