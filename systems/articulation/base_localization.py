@@ -280,7 +280,7 @@ class BaseLocalization(LeafSystem):
         x = context.get_discrete_state(self._x).value().tolist()
         k = int(x[_K]) + 1
         w0, w1, w2 = np.random.default_rng([self._cfg.seed, k]).normal(size=3).tolist()
-        px, py, pyaw = x[6], x[7], x[8]
+        px, py, pyaw = x[_PREV]
         bx, by, byaw = np.asarray(self._in_state.Eval(context), float)[self._idx].tolist()
         if not (math.isfinite(bx) and math.isfinite(by) and math.isfinite(byaw)):
             bx, by, byaw = px, py, pyaw
@@ -293,10 +293,13 @@ class BaseLocalization(LeafSystem):
         odo = (c * ea - s * ec, s * ea + c * ec, o2 * turn)
         a = self._a
         b0, b1, b2 = self._b_f
-        discrete_state.set_value(self._x, np.array([
-            a * x[0] + b0 * w0, a * x[1] + b1 * w1, a * x[2] + b2 * w2,
-            a * x[3] + odo[0], a * x[4] + odo[1], a * x[5] + odo[2],
-            bx, by, byaw, k, x[10] + odo[0], x[11] + odo[1], x[12] + odo[2]]))
+        loc, od, raw = x[_LOC], x[_ODO], x[_RAW]
+        x[_LOC] = [a * loc[0] + b0 * w0, a * loc[1] + b1 * w1, a * loc[2] + b2 * w2]
+        x[_ODO] = [a * od[0] + odo[0], a * od[1] + odo[1], a * od[2] + odo[2]]
+        x[_RAW] = [raw[0] + odo[0], raw[1] + odo[1], raw[2] + odo[2]]
+        x[_PREV] = [bx, by, byaw]
+        x[_K] = k
+        discrete_state.set_value(self._x, np.array(x))
         return EventStatus.Succeeded()
 
     # ------------------------------------------------------------------ outputs
