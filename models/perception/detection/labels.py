@@ -377,7 +377,6 @@ def _surface_check(lab, S, Lm, win):
     y0, y1, x0, x1 = max(0, y - r), min(lab.shape[0], y + h + r), max(0, x - r), min(
         lab.shape[1], x + w + r)
     m8b = m8[y0:y1, x0:x1]
-    inpb = m8b > 0
     # relative to the plane refitted to the in-plane pixels' distances (an affine function
     # of the pixel, least squares), not to the fitted plane: a plane 1-2 deg off (a sliding
     # panel 4.6 cm in front of its cabinet's face) departs from one side of a 0.5 m panel by
@@ -387,7 +386,7 @@ def _surface_check(lab, S, Lm, win):
     coef = np.empty(3)
     state = _ramp_fit(Sb, m8b, Lm[y0:y1, x0:x1], coef)
     if state < 0:  # (points on one line: the least-squares solution of the general case)
-        coef = _ramp_fit_lstsq(Sb, inpb, Lm[y0:y1, x0:x1])
+        coef = _ramp_fit_lstsq(Sb, m8b > 0, Lm[y0:y1, x0:x1])
         state = 0 if coef is None else 1
     if state > 0:
         ramp = (np.float32(coef[0]), np.float32(coef[1]), np.float32(coef[2]), True)
@@ -403,7 +402,7 @@ def _surface_check(lab, S, Lm, win):
         surface_marks(S, m8, Lm, y0, y1, x0, x1, *ramp, lab)
         return
     # in-plane neighbours of each pixel (exact integers, from the 0/1 bytes)
-    den = cv2.boxFilter(inpb.view(np.uint8), cv2.CV_32F, (win, win), normalize=False)
+    den = cv2.boxFilter((m8b > 0).view(np.uint8), cv2.CV_32F, (win, win), normalize=False)
     # (Sb - ramp) on the in-plane pixels, 0 elsewhere; the ramp is (a x + b y) + c, float32
     dev = np.empty(Sb.shape, np.float32)
     _surface_deviation(S, m8, y0, x0, *ramp, dev)
