@@ -91,6 +91,30 @@ def _add_rows(acc, R, p, q, sign):
             a[t] = a[t] - b[t]
 
 
+@numba.njit(cache=True, nogil=True, inline="always")
+def _push_rows(e1, e2, R1, R2, acc1, acc2, ext, k, w, l, u):
+    """Two extended rows entering the window (``e1``, ``e2``: their values on the columns
+    l..u, 0 elsewhere): their window sums into the ring's rows ``R1[k]``, ``R2[k]`` (on the
+    columns ``ext[k]`` where they are not 0) and added to the column sums ``acc1``,
+    ``acc2``; the rows' values set back to 0."""
+    p, q = _sparse_row_sums(e1, w, l, u, R1[k])
+    _sparse_row_sums(e2, w, l, u, R2[k])
+    z1, z2 = e1[l + 2:u + 3], e2[l + 2:u + 3]
+    for t in range(u + 1 - l):
+        z1[t] = 0
+        z2[t] = 0
+    ext[k, 0], ext[k, 1] = p, q
+    _add_rows(acc1, R1[k], p, q, 1)
+    _add_rows(acc2, R2[k], p, q, 1)
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _pop_rows(R1, R2, acc1, acc2, ext, old):
+    """The ring's rows ``old`` leaving the window: subtracted from the column sums."""
+    _add_rows(acc1, R1[old], ext[old, 0], ext[old, 1], -1)
+    _add_rows(acc2, R2[old], ext[old, 0], ext[old, 1], -1)
+
+
 @numba.njit(cache=True, nogil=True)
 def surface_marks(S, m8, Lm, y0, y1, x0, x1, a, b, c, with_ramp, lab):
     """The surface check's marks on the box rows y0:y1, columns x0:x1 (at least 3 x 3) of the
@@ -134,14 +158,7 @@ def surface_marks(S, m8, Lm, y0, y1, x0, x1, a, b, c, with_ramp, lab):
                     f = one if ms[t] != 0 else zero
                     es[t] = np.float64(Ss[t] * f)
                     eis[t] = f
-            p, q = _sparse_row_sums(e, w, l, u, R[k])
-            _sparse_row_sums(ei, w, l, u, Rn[k])
-            for t in range(n):
-                es[t] = 0.0
-                eis[t] = zero
-            ext[k, 0], ext[k, 1] = p, q
-            _add_rows(acc, R[k], p, q, 1)
-            _add_rows(accn, Rn[k], p, q, 1)
+            _push_rows(e, ei, R, Rn, acc, accn, ext, k, w, l, u)
         if re < BOX - 1:
             continue
         y = re - (BOX - 1)  # (its sums are acc, accn now)
@@ -152,9 +169,7 @@ def surface_marks(S, m8, Lm, y0, y1, x0, x1, a, b, c, with_ramp, lab):
             for t in range(uy - ly):
                 hit = (m8r[t] != 0) & (abs(np.float32(ac[t])) > an[t] * Lr[t])
                 lr[t] = lr[t] | (flag if hit else np.uint8(0))
-        old = (re + 1) % BOX  # (the row leaving the window: re - 4)
-        _add_rows(acc, R[old], ext[old, 0], ext[old, 1], -1)
-        _add_rows(accn, Rn[old], ext[old, 0], ext[old, 1], -1)
+        _pop_rows(R, Rn, acc, accn, ext, (re + 1) % BOX)  # (the row re - 4)
 
 
 @numba.njit(cache=True, nogil=True)
@@ -192,14 +207,7 @@ def pair_window_sums(Sk, Sj, y0, y1, x0, x1, rows, cols, ak, aj):
                 f = one if ws[t] != 0 else zero
                 eks[t] = np.float64(Sks[t] * f)
                 ejs[t] = np.float64(Sjs[t] * f)
-            p, q = _sparse_row_sums(ek, w, l, u, Rk[k])
-            _sparse_row_sums(ej, w, l, u, Rj[k])
-            for t in range(m):
-                eks[t] = 0.0
-                ejs[t] = 0.0
-            ext[k, 0], ext[k, 1] = p, q
-            _add_rows(acck, Rk[k], p, q, 1)
-            _add_rows(accj, Rj[k], p, q, 1)
+            _push_rows(ek, ej, Rk, Rj, acck, accj, ext, k, w, l, u)
         if re < BOX - 1:
             continue
         y = re - (BOX - 1)
@@ -209,9 +217,7 @@ def pair_window_sums(Sk, Sj, y0, y1, x0, x1, rows, cols, ak, aj):
             ak[i] = abs(np.float32(acck[x]))
             aj[i] = abs(np.float32(accj[x]))
             i += 1
-        old = (re + 1) % BOX
-        _add_rows(acck, Rk[old], ext[old, 0], ext[old, 1], -1)
-        _add_rows(accj, Rj[old], ext[old, 0], ext[old, 1], -1)
+        _pop_rows(Rk, Rj, acck, accj, ext, (re + 1) % BOX)
 
 
 @numba.njit(cache=True, nogil=True)
