@@ -7,33 +7,40 @@
 
 Door ``i`` is seed ``--seed`` + i with the ``i``-th value of ``--damping`` (cycled), each an
 ``open_cabinet`` door trial with the dynamics monitor. Every 5 ms the simulator's door angle
-and rate are recorded; at every wrist-sensor sample (10 ms) the sensor's reading, its
+and rate, the contact torque on the door's joint and where the hook touches the door are
+recorded; at every wrist-sensor sample (10 ms) the sensor's reading, its
 noise-free force and the hook position the monitor is given. The damping is then fitted with
 the monitor's regression (:func:`~mmlearn.models.articulation.dynamics.fit_dynamics`, the
 samples of the pull the monitor kept) from sources that go one step at a time from the
 simulator's truth to what the robot has:
 
-1. ``ideal``: the noise-free wrist force times the true lever arm at the handle, against the
-   door's true angle, rate and acceleration;
-2. ``sensor``: the sensor's reading instead (its noise, and its sample lag: a reading
+1. ``contact``: the simulator's own generalised contact torque on the door's joint (every
+   contact on the door, at its own point), against the door's true angle, rate and
+   acceleration: the regression on the simulated physics alone;
+2. ``contact_point``: the noise-free wrist force at the point where the hook touches the
+   handle (the simulator's contact point; what a wrist torque sensor would add) about the
+   true axis, against the door's true motion;
+3. ``ideal``: the noise-free wrist force times the true lever arm at the handle bar's
+   centre, against the door's true angle, rate and acceleration;
+4. ``sensor``: the sensor's reading instead (its noise, and its sample lag: a reading
    describes the force of up to one sample period before);
-3. ``sensor_aligned``: each reading paired with the door's state at the previous sensor
+5. ``sensor_aligned``: each reading paired with the door's state at the previous sensor
    sample, the lag taken out;
-4. ``learned_tangent``: as 3, the torque from the learned model's tangent instead of the true
+6. ``learned_tangent``: as 5, the torque from the learned model's tangent instead of the true
    lever arm (the learned radius, and the force across the door leaking in through the
    tangent's direction error);
-5. ``learned_tangent_leak``: as 4 with the leak as a nuisance term of the regression (the
+7. ``learned_tangent_leak``: as 6 with the leak as a nuisance term of the regression (the
    force across the door times the learned radius, of unknown size);
-6. ``learned_kinematics``: as 5, with the opening, rate and acceleration from the hook's
+8. ``learned_kinematics``: as 7, with the opening, rate and acceleration from the hook's
    track along the learned model (local quadratic fits over +-0.2 s) instead of the door's;
-7. ``robot``: the robot's own estimate (the monitor's regression samples: its 25 ms samples,
+9. ``robot``: the robot's own estimate (the monitor's regression samples: its 25 ms samples,
    or its own readings with ``DynamicsMonitorConfig.regression_period``; as the trial
    reports it);
-8. ``robot_lag``: the monitor's samples, each force paired with the door's opening, rate
-   and acceleration (from the hook's track) at the sensor's sample before
-   (``DynamicsMonitorConfig.force_lag_period`` 0.01 s);
-9. ``robot_lag_across``: as 8 with the force across the door as a nuisance term
-   (``across_term``).
+10. ``robot_lag``: the monitor's samples, each force paired with the door's opening, rate
+    and acceleration (from the hook's track) at the sensor's sample before
+    (``DynamicsMonitorConfig.force_lag_period`` 0.01 s);
+11. ``robot_lag_across``: as 10 with the force across the door as a nuisance term
+    (``across_term``).
 
 ``--keep DIR`` keeps each trial's recording (``door_SEED.pkl``); ``--recordings DIR`` fits
 the kept recordings again instead of simulating (seconds instead of minutes): ``--monitor``
@@ -61,7 +68,7 @@ from _common import add_output_arguments, emit_json
 REFIT_FIELDS = ("force_lag_period", "across_term", "rate_window", "regression_period",
                 "friction_velocity")
 
-SOURCES = ("ideal", "sensor", "sensor_aligned", "learned_tangent", "learned_tangent_leak",
+SOURCES = ("contact", "contact_point", "ideal", "sensor", "sensor_aligned", "learned_tangent", "learned_tangent_leak",
            "learned_kinematics", "robot", "robot_lag", "robot_lag_across")
 
 
@@ -87,13 +94,17 @@ def record(seed: int, damping: float, monitor: dict | None = None) -> dict:
     mctx = mon.GetMyContextFromRoot(ctx)
     sctx = op.force_sensor.GetMyContextFromRoot(ctx)
     phase = op.diagram.GetOutputPort("phase")
+    contact_torque = plant.get_generalized_contact_forces_output_port(mech)
+    contacts = plant.get_contact_results_output_port()
+    door_bodies = set(plant.GetBodyIndices(mech))
     door, sensor = [], []
     k = 0
     while ctx.get_time() < 60.0:
         k += 1
         sim.AdvanceTo(0.005 * k)
         door.append((ctx.get_time(), plant.GetPositions(pctx, mech)[0],
-                     plant.GetVelocities(pctx, mech)[0]))
+                     plant.GetVelocities(pctx, mech)[0], contact_torque.Eval(pctx)[0],
+                     *_contact_point(contacts.Eval(pctx), door_bodies)))
         if k % 2 == 0:
             sensor.append((ctx.get_time(), *mon.get_hook_position_input_port().Eval(mctx),
                            *mon.get_force_input_port().Eval(mctx),
@@ -111,6 +122,35 @@ def record(seed: int, damping: float, monitor: dict | None = None) -> dict:
             "link": link, "handle_offset": spec.handle_world(0.0)[0] - p_axis,
             "axis": axis, "p_axis": p_axis,
             "friction_velocity": mon.config.friction_velocity, "config": mon.config}
+
+
+def _contact_point(results, bodies) -> np.ndarray:
+    """The point where the door is touched: the mean of its point contacts' points weighted
+    by their force magnitudes (NaN without a point contact)."""
+    total, weight = np.zeros(3), 0.0
+    for i in range(results.num_point_pair_contacts()):
+        info = results.point_pair_contact_info(i)
+        if info.bodyA_index() in bodies or info.bodyB_index() in bodies:
+            w = float(np.linalg.norm(info.contact_force()))
+            total += w * np.asarray(info.contact_point())
+            weight += w
+    return total / weight if weight > 0 else np.full(3, np.nan)
+
+
+def contact_spread(c, q, rec) -> list[float]:
+    """How far the hook's contact point moves on the door while pulling: the 5-95 % range
+    (mm) of its position in the door's frame along the handle's path (the tangent of the
+    handle's circle: the pull's direction) and towards the axis (radially), from contact
+    points ``c`` (k, 3) at door angles ``q``."""
+    from scipy.spatial.transform import Rotation
+
+    axis = np.asarray(rec["axis"], float)
+    local = Rotation.from_rotvec(-np.outer(q, axis)).apply(c - rec["p_axis"])
+    h0 = np.asarray(rec["handle_offset"], float)
+    radial = h0 - (h0 @ axis) * axis
+    radial /= np.linalg.norm(radial)
+    tangent = np.cross(axis, radial)
+    return [float(np.ptp(np.percentile(local @ e, [5, 95])) * 1e3) for e in (tangent, radial)]
 
 
 def radial_leak(link, G, F) -> np.ndarray:
@@ -169,6 +209,13 @@ def analyse(rec: dict) -> dict:
 
     q, v, a = truth(ts[pick])
     qp, vp, ap = truth(ts[prev])
+    if door.shape[1] >= 7:  # (recordings made before the contacts were recorded: without)
+        out["learned"]["contact"] = fit(q, v, np.interp(ts[pick], door[:, 0], door[:, 3]), a)
+        c = np.column_stack([np.interp(ts[pick], door[:, 0], door[:, j]) for j in (4, 5, 6)])
+        ok = np.all(np.isfinite(c), axis=1)
+        tau_c = np.cross(c - rec["p_axis"], -F0) @ rec["axis"]
+        out["learned"]["contact_point"] = fit(q[ok], v[ok], tau_c[ok], a[ok])
+        out["contact_spread_mm"] = contact_spread(c[ok], q[ok], rec)
     out["learned"]["ideal"] = fit(q, v, -np.sum(F0 * lever(q), axis=1), a)
     out["learned"]["sensor"] = fit(q, v, -np.sum(F * lever(q), axis=1), a)
     # the reading at sample k describes the force at sample k - 1
@@ -268,6 +315,9 @@ def summary(results: list[dict]) -> dict:
                 "mean_abs_error": float(np.mean(np.abs(e))) if e else None}
     scales = [r["opening_scale"] for r in results if "opening_scale" in r]
     radii = [r["radius_ratio"] for r in results if "radius_ratio" in r]
+    spread = [r["contact_spread_mm"] for r in results if "contact_spread_mm" in r]
+    out["contact_spread_mm"] = ([float(max(x[0] for x in spread)), float(max(x[1] for x in spread))]
+                                if spread else None)
     out["light_damping"] = small
     out["opening_scale"] = [float(min(scales)), float(max(scales))] if scales else None
     out["radius_ratio"] = [float(min(radii)), float(max(radii))] if radii else None

@@ -206,8 +206,11 @@ def dtw_features(load, cmd) -> str:
 
 
 #: the door-damping sources, in the benchmark's order, as the mechanism page names them
-DOOR_SOURCES = (("ideal", "noise-free wrist force, true lever arm, the door's own angle, rate "
-                 "and acceleration"),
+DOOR_SOURCES = (("contact", "the simulator's contact torque on the door, the door's own angle, "
+                 "rate and acceleration"),
+                ("contact_point", "noise-free wrist force at the hook's contact point on the "
+                 "handle, true axis"),
+                ("ideal", "noise-free wrist force, true lever arm at the handle bar's centre"),
                 ("sensor", "the sensor's readings instead"),
                 ("sensor_aligned", "each reading paired with the door's state one sensor "
                  "sample earlier"),
@@ -239,6 +242,11 @@ def door_damping_sources(load, cmd) -> str:
     heavier = ", ".join(f"{v:g}" for v in sorted(set(d["damping"])) if v != s["light_damping"])
     lo, hi = s["opening_scale"] or (None, None)
     rlo, rhi = s["radius_ratio"] or (None, None)
+    spread = s.get("contact_spread_mm")
+    moves = ("" if not spread else
+             f"While pulled, the point where the hook touches the handle moves on the door by "
+             f"up to {spread[0]:.0f} mm along the handle's path and {spread[1]:.0f} mm towards "
+             "the hinge (5-95 % range, the largest over the doors). ")
     return (f"**A door's damping from each source** ({d['doors']} door trials, seeds "
             f"{d['seed']}-{d['seed'] + d['doors'] - 1}; within 25 % of the true value (mean "
             "signed error, mean absolute error))\n\n"
@@ -246,7 +254,7 @@ def door_damping_sources(load, cmd) -> str:
             "|---|---|---|\n" + "\n".join(rows) + "\n\n"
             f"The learned opening grows {_f(lo, 3)}-{_f(hi, 3)} times as fast as the door's "
             f"angle; the learned radius is {_f(rlo, 3)}-{_f(rhi, 3)} of the true one. "
-            f"Made by `{cmd('door_damping_sources.json')}`.")
+            f"{moves}Made by `{cmd('door_damping_sources.json')}`.")
 
 
 def page_blocks(load, cmd) -> dict:
