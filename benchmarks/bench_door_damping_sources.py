@@ -33,13 +33,17 @@ simulator's truth to what the robot has:
    force across the door times the learned radius, of unknown size);
 8. ``learned_kinematics``: as 7, with the opening, rate and acceleration from the hook's
    track along the learned model (local quadratic fits over +-0.2 s) instead of the door's;
-9. ``robot``: the robot's own estimate (the monitor's regression samples: its 25 ms samples,
-   or its own readings with ``DynamicsMonitorConfig.regression_period``; as the trial
-   reports it);
-10. ``robot_lag``: the monitor's samples, each force paired with the door's opening, rate
+9. ``contact_point_track``: the reading at the hook's contact point about the learned axis
+   (what a wrist torque sensor would add), with the force's two components across the axis
+   as nuisance terms (they take out an offset of the learned axis), and the opening, rate
+   and acceleration from the hook's track as in 8;
+10. ``robot``: the robot's own estimate (the monitor's regression samples: its 25 ms
+    samples, or its own readings with ``DynamicsMonitorConfig.regression_period``; as the
+    trial reports it);
+11. ``robot_lag``: the monitor's samples, each force paired with the door's opening, rate
     and acceleration (from the hook's track) at the sensor's sample before
     (``DynamicsMonitorConfig.force_lag_period`` 0.01 s);
-11. ``robot_lag_across``: as 10 with the force across the door as a nuisance term
+12. ``robot_lag_across``: as 11 with the force across the door as a nuisance term
     (``across_term``).
 
 ``--keep DIR`` keeps each trial's recording (``door_SEED.pkl``); ``--recordings DIR`` fits
@@ -69,7 +73,8 @@ REFIT_FIELDS = ("force_lag_period", "across_term", "rate_window", "regression_pe
                 "friction_velocity")
 
 SOURCES = ("contact", "contact_point", "ideal", "sensor", "sensor_aligned", "learned_tangent", "learned_tangent_leak",
-           "learned_kinematics", "robot", "robot_lag", "robot_lag_across")
+           "learned_kinematics", "contact_point_track", "robot", "robot_lag",
+           "robot_lag_across")
 
 
 def record(seed: int, damping: float, monitor: dict | None = None) -> dict:
@@ -231,6 +236,21 @@ def analyse(rec: dict) -> dict:
                                                      leak[:, None])
         qd, qdd = local_derivatives(g["t"], g["q"])
         out["learned"]["learned_kinematics"] = fit(g["q"], qd, g["tau"], qdd, leak[:, None])
+        if door.shape[1] >= 7 and g["t"].size == int(keep.sum()):
+            # the reading at the contact point (what a wrist torque sensor adds) about the
+            # learned axis, with the hook's track; the force's two components across the
+            # axis as nuisance terms take out any offset of the learned axis exactly
+            tk = ts[prev][keep]
+            ck = np.column_stack([np.interp(tk, door[:, 0], door[:, j]) for j in (4, 5, 6)])
+            axis_l = g["q_sign"] * np.asarray(link.axis, float)
+            Fk = F[keep]
+            tau_w = np.cross(ck - np.asarray(link.center, float), -Fk) @ axis_l
+            u1 = np.cross(axis_l, [1.0, 0.0, 0.0] if abs(axis_l[0]) < 0.9 else [0.0, 1.0, 0.0])
+            u1 /= np.linalg.norm(u1)
+            u2 = np.cross(axis_l, u1)
+            fin = np.all(np.isfinite(ck), axis=1)
+            out["learned"]["contact_point_track"] = fit(
+                g["q"][fin], qd[fin], tau_w[fin], qdd[fin], np.column_stack([Fk @ u1, Fk @ u2])[fin])
         out["opening_scale"] = float(np.polyfit(qp[keep] - qp[keep][0], g["q"], 1)[0])
         r_true = float(np.linalg.norm(lever(np.zeros(1))[0]))
         out["radius_ratio"] = g["radius"] / r_true

@@ -219,6 +219,9 @@ DOOR_SOURCES = (("contact", "the simulator's contact torque on the door, the doo
                  "nuisance term"),
                 ("learned_kinematics", "the opening, rate and acceleration from the hook's "
                  "track along the learned model"),
+                ("contact_point_track", "the reading at the contact point (a wrist torque "
+                 "sensor) about the learned axis, the axis' offset as nuisance terms, the "
+                 "hook's track"),
                 ("robot", "the robot's estimate (its 25 ms samples)"))
 
 
