@@ -72,9 +72,9 @@ from _common import add_output_arguments, emit_json
 REFIT_FIELDS = ("force_lag_period", "across_term", "rate_window", "regression_period",
                 "friction_velocity")
 
-SOURCES = ("contact", "contact_point", "ideal", "sensor", "sensor_aligned", "learned_tangent", "learned_tangent_leak",
-           "learned_kinematics", "contact_point_track", "robot", "robot_lag",
-           "robot_lag_across")
+SOURCES = ("contact", "contact_point", "ideal", "sensor", "sensor_aligned", "learned_tangent",
+           "learned_tangent_leak", "learned_kinematics", "contact_point_track", "robot",
+           "robot_lag", "robot_lag_across")
 
 
 def record(seed: int, damping: float, monitor: dict | None = None) -> dict:
@@ -249,8 +249,9 @@ def analyse(rec: dict) -> dict:
             u1 /= np.linalg.norm(u1)
             u2 = np.cross(axis_l, u1)
             fin = np.all(np.isfinite(ck), axis=1)
-            out["learned"]["contact_point_track"] = fit(
-                g["q"][fin], qd[fin], tau_w[fin], qdd[fin], np.column_stack([Fk @ u1, Fk @ u2])[fin])
+            across = np.column_stack([Fk @ u1, Fk @ u2])
+            out["learned"]["contact_point_track"] = fit(g["q"][fin], qd[fin], tau_w[fin],
+                                                        qdd[fin], across[fin])
         out["opening_scale"] = float(np.polyfit(qp[keep] - qp[keep][0], g["q"], 1)[0])
         r_true = float(np.linalg.norm(lever(np.zeros(1))[0]))
         out["radius_ratio"] = g["radius"] / r_true
@@ -336,8 +337,8 @@ def summary(results: list[dict]) -> dict:
     scales = [r["opening_scale"] for r in results if "opening_scale" in r]
     radii = [r["radius_ratio"] for r in results if "radius_ratio" in r]
     spread = [r["contact_spread_mm"] for r in results if "contact_spread_mm" in r]
-    out["contact_spread_mm"] = ([float(max(x[0] for x in spread)), float(max(x[1] for x in spread))]
-                                if spread else None)
+    out["contact_spread_mm"] = ([float(max(x[0] for x in spread)),
+                                 float(max(x[1] for x in spread))] if spread else None)
     out["light_damping"] = small
     out["opening_scale"] = [float(min(scales)), float(max(scales))] if scales else None
     out["radius_ratio"] = [float(min(radii)), float(max(radii))] if radii else None
