@@ -200,6 +200,9 @@ def analyse(rec: dict) -> dict:
         return (np.interp(at, door[:, 0], door[:, 1]), np.interp(at, door[:, 0], door[:, 2]),
                 np.interp(at, door[:, 0], acc))
 
+    def contact_at(at):  # the point where the door was touched (recorded every 5 ms)
+        return np.column_stack([np.interp(at, door[:, 0], door[:, j]) for j in (4, 5, 6)])
+
     def lever(q):
         from scipy.spatial.transform import Rotation
 
@@ -216,7 +219,7 @@ def analyse(rec: dict) -> dict:
     qp, vp, ap = truth(ts[prev])
     if door.shape[1] >= 7:  # (recordings made before the contacts were recorded: without)
         out["learned"]["contact"] = fit(q, v, np.interp(ts[pick], door[:, 0], door[:, 3]), a)
-        c = np.column_stack([np.interp(ts[pick], door[:, 0], door[:, j]) for j in (4, 5, 6)])
+        c = contact_at(ts[pick])
         ok = np.all(np.isfinite(c), axis=1)
         tau_c = np.cross(c - rec["p_axis"], -F0) @ rec["axis"]
         out["learned"]["contact_point"] = fit(q[ok], v[ok], tau_c[ok], a[ok])
@@ -241,7 +244,7 @@ def analyse(rec: dict) -> dict:
             # learned axis, with the hook's track; the force's two components across the
             # axis as nuisance terms take out any offset of the learned axis exactly
             tk = ts[prev][keep]
-            ck = np.column_stack([np.interp(tk, door[:, 0], door[:, j]) for j in (4, 5, 6)])
+            ck = contact_at(tk)
             axis_l = g["q_sign"] * np.asarray(link.axis, float)
             Fk = F[keep]
             tau_w = np.cross(ck - np.asarray(link.center, float), -Fk) @ axis_l
