@@ -104,7 +104,8 @@ def dynamics_record(op, ctx, to_unit, options: dict) -> dict:
            "block_force_N": None}
     if op.monitor is None:
         return out
-    s = op.monitor.state(op.monitor.GetMyContextFromRoot(ctx))
+    mctx = op.monitor.GetMyContextFromRoot(ctx)
+    s = op.monitor.state(mctx)
     out["peak_force_N"] = s.held_peak_force()
     out["peak_force_impact_N"] = float(s.peak_force)
     if math.isfinite(s.t_halt):
@@ -117,8 +118,7 @@ def dynamics_record(op, ctx, to_unit, options: dict) -> dict:
     est = op.estimator.GetMyContextFromRoot(ctx).get_abstract_state(0).get_value()
     link = est.model.edges[0].model if est.model is not None and est.model.edges else None
     cfg = op.monitor.config
-    g = cfg.regression_samples(link, *op.monitor.regression_input(
-        op.monitor.GetMyContextFromRoot(ctx)))
+    g = cfg.regression_samples(link, *op.monitor.regression_input(mctx))
     if g is None:
         return out
     # the samples up to the block (after it the hook lets go)

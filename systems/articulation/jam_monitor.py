@@ -461,15 +461,17 @@ class DynamicsMonitor(LeafSystem):
     def state(self, context) -> DynamicsMonitorState:
         return context.get_abstract_state(self._s).get_value()
 
-    def regression_input(self, context) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def regression_input(self, context, s: DynamicsMonitorState | None = None
+                         ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The times, hook positions and wrist forces the dynamics are fitted to: the
         readings of their own (:class:`RegressionSamples`) when
         :meth:`DynamicsMonitorConfig.own_regression_samples`, else the monitor's samples with
-        the force the regression uses (``F_mean``)."""
+        the force the regression uses (``F_mean``), of ``s`` if given (a state an update is
+        building, with its newest sample), else of the context's state."""
         if self._cfg.own_regression_samples():
             r = context.get_abstract_state(self._reg).get_value()
             return r.t, r.G, r.F
-        s = self.state(context)
+        s = self.state(context) if s is None else s
         return s.t, s.G, s.F_mean
 
     # ------------------------------------------------------------------ outputs
@@ -538,9 +540,7 @@ class DynamicsMonitor(LeafSystem):
             state.get_mutable_abstract_state(self._s).set_value(s)
             return EventStatus.Succeeded()
         obj = self._in_model.Eval(context) if self._in_model.HasValue(context) else None
-        own = self._cfg.own_regression_samples()
-        s = self._refit(s, _link(obj), self.regression_input(context) if own
-                        else (s.t, s.G, s.F_mean))
+        s = self._refit(s, _link(obj), self.regression_input(context, s))
         s = self._check_block(s, _link(obj))
         state.get_mutable_abstract_state(self._s).set_value(s)
         return EventStatus.Succeeded()
